@@ -1,0 +1,101 @@
+"""Errors raised by frcontrol.
+
+Every failure caused by the user's input is a subclass of :class:`FrcontrolError` carrying the
+data that explains it, so that the command line can print one clear line and a program can react
+to the cause. Results that are legitimately negative (an empty domain, an infeasible LP, Lemke's
+method ending on a ray) are *results*, not exceptions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+
+class FrcontrolError(Exception):
+    """Base class of every error frcontrol raises on purpose."""
+
+
+class SceneError(FrcontrolError):
+    """A scene file is missing, unreadable, malformed or physically invalid.
+
+    Attributes:
+        path: the scene file (or URDF) concerned.
+        field: the offending field, dotted (``contacts[1].mu``), or ``""`` for the whole file.
+        reason: what is wrong and what was expected.
+    """
+
+    def __init__(self, path: str, field: str, reason: str) -> None:
+        self.path = str(path)
+        self.field = field
+        self.reason = reason
+        where = f"{self.path}: {field}: " if field else f"{self.path}: "
+        super().__init__(where + reason)
+
+
+class RobotModelError(FrcontrolError):
+    """A URDF could not be turned into a planar Pinocchio model."""
+
+    def __init__(self, path: str, reason: str) -> None:
+        self.path = str(path)
+        self.reason = reason
+        super().__init__(f"{self.path}: {reason}")
+
+
+class FrameNotFound(FrcontrolError):
+    """A link or frame name does not exist in the robot model."""
+
+    def __init__(self, name: str, available: Sequence[str]) -> None:
+        self.name = name
+        self.available = list(available)
+        super().__init__(f"unknown link {name!r}; the robot has: {', '.join(self.available)}")
+
+
+class CoordinateNotFound(FrcontrolError):
+    """A coordinate name does not exist (inputs, disturbances, command-line ``--input``)."""
+
+    def __init__(self, name: str, available: Sequence[str]) -> None:
+        self.name = name
+        self.available = list(available)
+        super().__init__(
+            f"unknown coordinate {name!r}; the coordinates are: {', '.join(self.available)}"
+        )
+
+
+class InputError(FrcontrolError):
+    """A value handed to a library function is malformed (shape, NaN, outside its limits)."""
+
+
+class IllConditioned(FrcontrolError):
+    """A matrix is too ill-conditioned to trust the answer at the stated tolerance."""
+
+    def __init__(self, matrix_name: str, condition_number: float, tolerance: float) -> None:
+        self.matrix_name = matrix_name
+        self.condition_number = float(condition_number)
+        self.tolerance = float(tolerance)
+        super().__init__(
+            f"{matrix_name} is ill-conditioned: condition number {condition_number:.3g} "
+            f"exceeds 1/tolerance = {1.0 / tolerance:.3g}"
+        )
+
+
+class ImpactState(FrcontrolError):
+    """A contact moves into its surface (v_n < 0): an impact, not an acceleration problem."""
+
+    def __init__(self, contact: str, normal_velocity: float) -> None:
+        self.contact = contact
+        self.normal_velocity = float(normal_velocity)
+        super().__init__(
+            f"contact {contact!r} moves into its surface (v_n = {normal_velocity:.6g} m/s < 0): "
+            "this is an impact, not an acceleration-level problem; resolve the impact first"
+        )
+
+
+class SolverNotFound(FrcontrolError):
+    """The requested LP/QP back-end is unknown or not installed."""
+
+    def __init__(self, name: str, available: Sequence[str]) -> None:
+        self.name = name
+        self.available = list(available)
+        super().__init__(
+            f"solver {name!r} is not available; installed back-ends: {', '.join(self.available)}"
+        )
