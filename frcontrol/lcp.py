@@ -1,0 +1,907 @@
+r"""Linear complementarity problems (LCP) and the 2-D frictional contact problem as an LCP.
+
+The LCP
+-------
+Given a dense square matrix :math:`M \in \mathbb{R}^{n \times n}` and :math:`q \in \mathbb{R}^n`,
+find :math:`z` such that
+
+.. math::
+
+    z \ge 0, \qquad w = M z + q \ge 0, \qquad z^\top w = 0 .
+
+A candidate :math:`z` is judged by the *natural-map residual*
+
+.. math::
+
+    \rho(z) = \max_i \lvert \min(z_i, w_i) \rvert ,
+
+which is zero exactly when :math:`z` solves the LCP (a negative :math:`z_i` or :math:`w_i` and a
+product :math:`z_i w_i \neq 0` all make it positive). A solution is reported as *found* only when
+:math:`\rho(z)` is at most the absolute tolerance :math:`\tau = \text{LCP\_TOLERANCE} \cdot s`,
+with the scale :math:`s = \max(\lVert q \rVert_\infty, \max_{ij}\lvert M_{ij}\rvert \,
+\lVert z \rVert_\infty)`, the size of the terms that make up :math:`w`. Both :math:`\rho` and
+:math:`\tau` are reported on every :class:`LCPSolution`.
+
+Solvers
+-------
+* **Lemke** (``method="lemke"``): complementary pivoting on the tableau of
+  :math:`w - M z - e z_0 = q` with covering vector :math:`e = (1, \dots, 1)` and artificial
+  variable :math:`z_0`. Starting from the basis :math:`w`, :math:`z_0` enters and the most
+  negative :math:`q_i` leaves; thereafter the complement of the variable that just left enters.
+  The leaving row is chosen by the *lexicographic* minimum-ratio rule on the rows of
+  :math:`[B^{-1} q,\ B^{-1}] / d_i` (:math:`d` the entering column), which keeps every basis
+  lexicographically feasible and so cannot cycle on degenerate problems. :math:`B^{-1}` is
+  never formed with an explicit inverse: it is the block of the pivoted tableau under the
+  original :math:`w` columns. The run ends when :math:`z_0` leaves the basis (a solution,
+  recomputed by an LU solve with the final basis matrix and verified), when the entering
+  column has no positive entry (a *secondary ray*: no solution was found, which for some
+  matrix classes proves none exists, but in general is not a proof), or after ``max_pivots``
+  pivots.
+* **Enumeration** (``method="enumerate"``): every complementary support
+  :math:`\alpha \subseteq \{1..n\}` (smallest supports first) gives the candidate
+  :math:`z_\alpha = -M_{\alpha\alpha}^{+} q_\alpha`, :math:`z_{\bar\alpha} = 0`, solved by an
+  SVD-based least-squares solve so that singular principal blocks (non-isolated solutions)
+  yield their minimum-norm representative; the candidate is kept if it verifies. The search
+  is exhaustive (:math:`2^n` supports), so it is exact in the sense that an empty answer proves
+  that no solution exists up to the tolerance, but it is limited to
+  ``n <= ENUMERATION_MAX_SIZE``.
+
+2-D frictional contact
+----------------------
+For contacts :math:`i = 1..n_c` with local reaction :math:`r_i = (r_{n,i}, r_{t,i})` and local
+velocity :math:`u = W r + q` (interleaved, two entries per contact), the Coulomb problem is
+
+.. math::
+
+    0 \le r_n \perp u_n \ge 0, \qquad \lvert r_t \rvert \le \mu r_n, \qquad
+    u_t \ne 0 \Rightarrow r_t = -\mu r_n \operatorname{sign}(u_t) .
+
+Writing :math:`r_t = r_t^+ - r_t^-` and introducing the slip-speed multiplier :math:`\lambda`,
+it is the LCP in :math:`z = (r_n, r_t^+, r_t^-, \lambda)` (each a block of :math:`n_c`
+entries)
+
+.. math::
+
+    \begin{aligned}
+    0 \le r_n &\perp u_n \ge 0, \\
+    0 \le r_t^+ &\perp u_t + \lambda \ge 0, \\
+    0 \le r_t^- &\perp -u_t + \lambda \ge 0, \\
+    0 \le \lambda &\perp \mu r_n - r_t^+ - r_t^- \ge 0 .
+    \end{aligned}
+
+The reaction found is checked with Siconos' 2-D error (De Saxcé's natural map
+:math:`r - \Pi_K(r - \hat u)` with :math:`\hat u = (u_n + \mu \lvert u_t\rvert, u_t)` and
+:math:`K` the friction cone, 2-norm over all contacts) divided by :math:`\lVert q \rVert_2`,
+accepted at ``FC2D_TOLERANCE``.
+
+Files
+-----
+:func:`read_siconos_lcp` and :func:`read_siconos_fc2d` read the text formats of the Siconos
+numerics test suite: dense matrices (storage 0, column-major, one column per text line) and
+sparse-block matrices (storage 1, Siconos' ``SparseBlockStructuredMatrix`` dump).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from frcontrol.errors import InputError
+
+__all__ = [
+    "ENUMERATION_MAX_SIZE",
+    "FC2D_TOLERANCE",
+    "LCP_TOLERANCE",
+    "PIVOT_TOLERANCE",
+    "TIE_TOLERANCE",
+    "FC2DSolution",
+    "FrictionContact2D",
+    "LCPSolution",
+    "enumerate_lcp_solutions",
+    "fc2d_error",
+    "fc2d_to_lcp",
+    "lcp_residual",
+    "lcp_tolerance",
+    "read_siconos_fc2d",
+    "read_siconos_lcp",
+    "siconos_lcp_error",
+    "solve_fc2d",
+    "solve_lcp",
+]
+
+LCP_TOLERANCE: float = 1e-9
+"""Relative bound on the natural-map residual ``max|min(z, w)|`` of an accepted LCP solution.
+
+Dimensionless: the absolute bound is ``LCP_TOLERANCE * max(||q||_inf, max|M_ij| * ||z||_inf)``
+(the units of ``w``), computed by :func:`lcp_tolerance` and reported as
+``LCPSolution.tolerance``. Enumeration also uses the same absolute bound to accept slightly
+negative ``z`` and ``w`` entries (``>= -tolerance``) from round-off.
+"""
+
+PIVOT_TOLERANCE: float = 1e-12
+"""Relative threshold below which an entry of Lemke's entering column is not a pivot.
+
+Dimensionless: entry ``d_i`` is eligible for the ratio test only if
+``d_i > PIVOT_TOLERANCE * max_k |d_k|``. If no entry is eligible the run ends on a ray.
+"""
+
+TIE_TOLERANCE: float = 1e-12
+"""Relative width of a tie in Lemke's lexicographic minimum-ratio test.
+
+Dimensionless: in each column of the ratio rows ``[B^-1 q, B^-1] / d_i`` the candidates within
+``TIE_TOLERANCE * max|ratio|`` of the minimum are kept as tied and compared on the next column.
+"""
+
+ENUMERATION_MAX_SIZE: int = 16
+"""Largest ``n`` that enumeration accepts by default (``2**16 = 65536`` supports).
+
+Each support costs one small SVD least-squares solve (tens of microseconds), so ``n = 16``
+takes a few seconds and every extra unit of ``n`` doubles it. Larger problems raise
+:class:`~frcontrol.errors.InputError` unless ``max_size`` is raised explicitly.
+"""
+
+FC2D_TOLERANCE: float = 1e-5
+"""Bound on Siconos' 2-D frictional contact error divided by ``||q||_2`` (dimensionless).
+
+This is the acceptance threshold of the Siconos test suite for 2-D friction problems; it is
+reported as ``FC2DSolution.tolerance``.
+"""
+
+_STATUSES = ("solved", "ray", "max_pivots", "infeasible", "singular", "inaccurate")
+
+
+@dataclass(frozen=True)
+class LCPSolution:
+    """Outcome of an LCP solve.
+
+    Attributes:
+        found: True iff a solution was found and its residual is at most ``tolerance``.
+        z: the candidate ``z`` (None when the run produced none: ray, max_pivots, infeasible).
+        w: ``M z + q`` for that candidate (None when ``z`` is None).
+        status: ``"solved"``; ``"ray"`` (Lemke's secondary ray: no solution found, not a wrong
+            answer); ``"max_pivots"``; ``"infeasible"`` (enumeration proved none exists);
+            ``"singular"`` (Lemke's final basis matrix could not be factorised);
+            ``"inaccurate"`` (a candidate was produced but its residual exceeds the tolerance).
+        method: ``"lemke"`` or ``"enumerate"``.
+        pivots: pivots performed (Lemke, including the first ``z0`` pivot) or complementary
+            supports tried (enumeration).
+        residual: natural-map residual ``max|min(z, w)|``; ``inf`` when there is no ``z``.
+        tolerance: the absolute tolerance the residual was checked against.
+        solve_time: wall-clock seconds spent.
+        note: extra information, e.g. that an enumerated solution came from a singular principal
+            block (one representative of a non-isolated solution set).
+    """
+
+    found: bool
+    z: np.ndarray | None
+    w: np.ndarray | None
+    status: str
+    method: str
+    pivots: int
+    residual: float
+    tolerance: float
+    solve_time: float
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class FrictionContact2D:
+    """A 2-D frictional contact problem in local form ``u = W r + q``.
+
+    Attributes:
+        W: the ``(2 nc, 2 nc)`` Delassus matrix; rows and columns interleave ``(n, t)`` per
+            contact.
+        q: the ``(2 nc,)`` free local velocity.
+        mu: the ``(nc,)`` friction coefficients.
+        number_of_contacts: ``nc``.
+    """
+
+    W: np.ndarray
+    q: np.ndarray
+    mu: np.ndarray
+    number_of_contacts: int
+
+    def __post_init__(self) -> None:
+        nc = self.number_of_contacts
+        if not isinstance(nc, int | np.integer) or nc < 1:
+            raise InputError(f"number_of_contacts must be a positive integer, got {nc!r}")
+        if self.W.shape != (2 * nc, 2 * nc):
+            raise InputError(f"W must have shape {(2 * nc, 2 * nc)}, got {self.W.shape}")
+        if self.q.shape != (2 * nc,):
+            raise InputError(f"q must have shape {(2 * nc,)}, got {self.q.shape}")
+        if self.mu.shape != (nc,):
+            raise InputError(f"mu must have shape {(nc,)}, got {self.mu.shape}")
+        for name, value in (("W", self.W), ("q", self.q), ("mu", self.mu)):
+            if not np.all(np.isfinite(value)):
+                raise InputError(f"{name} contains NaN or infinite entries")
+        if np.any(self.mu < 0):
+            raise InputError("friction coefficients mu must be non-negative")
+
+
+@dataclass(frozen=True)
+class FC2DSolution:
+    """Outcome of a 2-D frictional contact solve.
+
+    Attributes:
+        found: True iff the LCP solve found a solution and ``residual <= tolerance``.
+        r: reactions, two per contact ``(r_n, r_t)`` (None when no LCP solution was produced).
+        u: local velocities ``W r + q`` (None with ``r``).
+        status: the status of the underlying LCP solve (see :class:`LCPSolution`).
+        residual: Siconos' 2-D error divided by ``||q||_2`` (see :func:`fc2d_error`); ``inf``
+            when there is no ``r``.
+        tolerance: the bound the residual was checked against (``FC2D_TOLERANCE``).
+        method: ``"lemke"`` or ``"enumerate"``.
+        lcp: the full result of the underlying LCP solve.
+    """
+
+    found: bool
+    r: np.ndarray | None
+    u: np.ndarray | None
+    status: str
+    residual: float
+    tolerance: float
+    method: str
+    lcp: LCPSolution
+
+
+# --------------------------------------------------------------------------------------------
+# Validation and residuals
+# --------------------------------------------------------------------------------------------
+
+
+def _as_lcp(M: object, q: object) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``(M, q)`` as float arrays, raising InputError if they are malformed."""
+    try:
+        M_arr = np.array(M, dtype=float)
+        q_arr = np.array(q, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"M and q must be numeric arrays: {exc}") from exc
+    if M_arr.ndim != 2 or M_arr.shape[0] != M_arr.shape[1]:
+        raise InputError(f"M must be a square matrix, got shape {M_arr.shape}")
+    n = M_arr.shape[0]
+    if n == 0:
+        raise InputError("the LCP is empty (M is 0 x 0)")
+    if q_arr.shape != (n,):
+        raise InputError(f"q must have shape ({n},) to match M {M_arr.shape}, got {q_arr.shape}")
+    if not np.all(np.isfinite(M_arr)):
+        raise InputError("M contains NaN or infinite entries")
+    if not np.all(np.isfinite(q_arr)):
+        raise InputError("q contains NaN or infinite entries")
+    return M_arr, q_arr
+
+
+def _check_tolerance(tolerance: float) -> float:
+    if not (isinstance(tolerance, int | float) and math.isfinite(tolerance) and tolerance > 0):
+        raise InputError(f"tolerance must be a positive finite number, got {tolerance!r}")
+    return float(tolerance)
+
+
+def lcp_residual(M: np.ndarray, q: np.ndarray, z: np.ndarray) -> float:
+    """Natural-map residual ``max_i |min(z_i, (M z + q)_i)|`` of a candidate ``z``.
+
+    Args:
+        M: the ``(n, n)`` matrix.
+        q: the ``(n,)`` vector.
+        z: the ``(n,)`` candidate.
+
+    Returns:
+        The residual, in the units of ``w``; zero exactly for a solution.
+
+    Raises:
+        InputError: if the shapes do not match or an entry is not finite.
+    """
+    M_arr, q_arr = _as_lcp(M, q)
+    z_arr = np.asarray(z, dtype=float)
+    if z_arr.shape != q_arr.shape:
+        raise InputError(f"z must have shape {q_arr.shape}, got {z_arr.shape}")
+    if not np.all(np.isfinite(z_arr)):
+        return math.inf
+    w = M_arr @ z_arr + q_arr
+    return float(np.max(np.abs(np.minimum(z_arr, w))))
+
+
+def lcp_tolerance(
+    M: np.ndarray, q: np.ndarray, z: np.ndarray | None, tolerance: float = LCP_TOLERANCE
+) -> float:
+    """Absolute residual bound for a candidate: ``tolerance * max(||q||, max|M| * ||z||)``.
+
+    Args:
+        M: the ``(n, n)`` matrix.
+        q: the ``(n,)`` vector.
+        z: the candidate, or None (then only ``||q||_inf`` sets the scale).
+        tolerance: the relative tolerance.
+
+    Returns:
+        The absolute bound in the units of ``w``.
+    """
+    scale = float(np.max(np.abs(q)))
+    if z is not None and z.size:
+        scale = max(scale, float(np.max(np.abs(M))) * float(np.max(np.abs(z))))
+    return tolerance * scale
+
+
+def siconos_lcp_error(M: np.ndarray, q: np.ndarray, z: np.ndarray) -> float:
+    """Siconos' relative LCP error ``||z - max(0, z - w)||_2 / ||q||_2``.
+
+    ``z - max(0, z - w) = min(z, w)``, so this is the 2-norm of the natural map over
+    ``||q||_2`` (not divided when ``||q||_2`` is below machine epsilon). Siconos' test suite
+    accepts a solution when it is at most ``1e-5``.
+
+    Args:
+        M: the ``(n, n)`` matrix.
+        q: the ``(n,)`` vector.
+        z: the candidate.
+
+    Returns:
+        The relative error.
+    """
+    M_arr, q_arr = _as_lcp(M, q)
+    z_arr = np.asarray(z, dtype=float)
+    error = float(np.linalg.norm(np.minimum(z_arr, M_arr @ z_arr + q_arr)))
+    norm_q = float(np.linalg.norm(q_arr))
+    return error / norm_q if norm_q > np.finfo(float).eps else error
+
+
+def _verified(
+    M: np.ndarray,
+    q: np.ndarray,
+    z: np.ndarray | None,
+    status: str,
+    method: str,
+    pivots: int,
+    tolerance: float,
+    start: float,
+    note: str = "",
+) -> LCPSolution:
+    """Build an LCPSolution, computing ``w``, the residual and ``found`` from ``z``."""
+    if z is None:
+        return LCPSolution(
+            found=False,
+            z=None,
+            w=None,
+            status=status,
+            method=method,
+            pivots=pivots,
+            residual=math.inf,
+            tolerance=lcp_tolerance(M, q, None, tolerance),
+            solve_time=time.perf_counter() - start,
+            note=note,
+        )
+    w = M @ z + q
+    residual = float(np.max(np.abs(np.minimum(z, w))))
+    bound = lcp_tolerance(M, q, z, tolerance)
+    found = status == "solved" and residual <= bound
+    if status == "solved" and not found:
+        status = "inaccurate"
+    return LCPSolution(
+        found=found,
+        z=z,
+        w=w,
+        status=status,
+        method=method,
+        pivots=pivots,
+        residual=residual,
+        tolerance=bound,
+        solve_time=time.perf_counter() - start,
+        note=note,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Lemke
+# --------------------------------------------------------------------------------------------
+
+
+def _lexicographic_min_row(keys: np.ndarray, rows: np.ndarray, preferred: int | None) -> int:
+    """Row of ``keys`` (restricted to ``rows``) that is lexicographically smallest.
+
+    Args:
+        keys: ``(n, k)`` ratio rows ``[B^-1 q, B^-1] / d``.
+        rows: indices of the eligible rows.
+        preferred: a row to choose whenever it ties on the first column (the row of ``z0``).
+
+    Returns:
+        The index of the chosen row.
+    """
+    for column in range(keys.shape[1]):
+        values = keys[rows, column]
+        scale = float(np.max(np.abs(values)))
+        rows = rows[values <= values.min() + TIE_TOLERANCE * scale]
+        if column == 0 and preferred is not None and preferred in rows:
+            return preferred
+        if rows.size == 1:
+            break
+    return int(rows[0])
+
+
+def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> LCPSolution:
+    """Lexicographic Lemke's method; see the module docstring."""
+    start = time.perf_counter()
+    n = q.size
+    if np.all(q >= 0):
+        return _verified(M, q, np.zeros(n), "solved", "lemke", 0, tolerance, start)
+
+    # Tableau columns: w (0..n-1), z (n..2n-1), z0 (2n), right-hand side (2n+1).
+    z0, rhs = 2 * n, 2 * n + 1
+    A = np.hstack([np.eye(n), -M, -np.ones((n, 1))])
+    tableau = np.hstack([A, q[:, None]])
+    basis = np.arange(n)
+
+    def pivot(row: int, column: int) -> None:
+        tableau[row] /= tableau[row, column]
+        factors = tableau[:, column].copy()
+        factors[row] = 0.0
+        tableau[:] -= np.outer(factors, tableau[row])
+        basis[row] = column
+
+    def ratio_keys(divisor: np.ndarray) -> np.ndarray:
+        # Rows of [B^-1 q, B^-1]: B^-1 sits under the original (identity) w columns.
+        return np.hstack([tableau[:, rhs : rhs + 1], tableau[:, :n]]) / divisor[:, None]
+
+    # First pivot: z0 enters at the value that makes every w_i = q_i + z0 non-negative.
+    row = _lexicographic_min_row(ratio_keys(np.ones(n)), np.arange(n), None)
+    leaving = int(basis[row])
+    pivot(row, z0)
+    pivots = 1
+    while True:
+        entering = leaving + n if leaving < n else leaving - n
+        column = tableau[:, entering]
+        largest = float(np.max(np.abs(column)))
+        eligible = np.flatnonzero(column > PIVOT_TOLERANCE * largest) if largest > 0 else []
+        if len(eligible) == 0:
+            return _verified(M, q, None, "ray", "lemke", pivots, tolerance, start)
+        if pivots >= max_pivots:
+            return _verified(M, q, None, "max_pivots", "lemke", pivots, tolerance, start)
+        z0_rows = np.flatnonzero(basis == z0)
+        preferred = int(z0_rows[0]) if z0_rows.size else None
+        safe = np.where(column > 0, column, 1.0)
+        row = _lexicographic_min_row(ratio_keys(safe), eligible, preferred)
+        leaving = int(basis[row])
+        pivot(row, entering)
+        pivots += 1
+        if leaving == z0:
+            break
+
+    # Recompute the basic variables from the final basis with an LU solve (fresh, instead of
+    # the accumulated tableau), falling back on the tableau if the basis is singular.
+    values = np.zeros(2 * n + 1)
+    try:
+        values[basis] = np.linalg.solve(A[:, basis], q)
+    except np.linalg.LinAlgError:
+        values[basis] = tableau[:, rhs]
+        z = values[n : 2 * n].copy()
+        result = _verified(M, q, z, "solved", "lemke", pivots, tolerance, start)
+        if result.found:
+            return result
+        return _verified(M, q, z, "singular", "lemke", pivots, tolerance, start)
+    return _verified(M, q, values[n : 2 * n].copy(), "solved", "lemke", pivots, tolerance, start)
+
+
+# --------------------------------------------------------------------------------------------
+# Enumeration
+# --------------------------------------------------------------------------------------------
+
+
+def _check_enumeration_size(n: int, max_size: int | None) -> None:
+    limit = ENUMERATION_MAX_SIZE if max_size is None else max_size
+    if n > limit:
+        raise InputError(
+            f"LCP of size n = {n} is too large to enumerate: 2**{n} complementary supports "
+            f"exceed the limit n <= {limit} (raise max_size to override)"
+        )
+
+
+def _iter_solutions(
+    M: np.ndarray, q: np.ndarray, tolerance: float
+) -> Iterator[tuple[int, np.ndarray, str]]:
+    """Yield ``(supports tried so far, z, note)`` for each verified, not yet seen solution."""
+    n = q.size
+    tried = 0
+    seen: list[np.ndarray] = []
+    for size in range(n + 1):
+        for support in itertools.combinations(range(n), size):
+            tried += 1
+            z = np.zeros(n)
+            note = ""
+            if size:
+                alpha = list(support)
+                block = M[np.ix_(alpha, alpha)]
+                z_alpha, _, rank, _ = np.linalg.lstsq(block, -q[alpha], rcond=None)
+                z[alpha] = z_alpha
+                if rank < size:
+                    note = (
+                        f"singular principal block on support {support} (rank {rank}): "
+                        "minimum-norm representative of a non-isolated solution set"
+                    )
+            w = M @ z + q
+            bound = lcp_tolerance(M, q, z, tolerance)
+            if np.any(z < -bound) or np.any(w < -bound):
+                continue
+            if float(np.max(np.abs(np.minimum(z, w)))) > bound:
+                continue
+            if any(float(np.max(np.abs(z - other))) <= bound for other in seen):
+                continue
+            seen.append(z)
+            yield tried, z, note
+
+
+def enumerate_lcp_solutions(
+    M: np.ndarray,
+    q: np.ndarray,
+    *,
+    tolerance: float = LCP_TOLERANCE,
+    max_size: int | None = None,
+) -> list[LCPSolution]:
+    """All solutions of the LCP, one per complementary support that yields a verified solution.
+
+    Supports are visited by increasing size (then lexicographically). For each support
+    ``alpha`` the block system ``M[alpha, alpha] z_alpha = -q_alpha`` is solved by SVD least
+    squares; the candidate is kept if ``z >= -tol``, ``w >= -tol`` and its natural-map
+    residual is at most ``tol``. Identical solutions (within ``tol``) from different supports
+    are reported once. A singular principal block yields only its minimum-norm candidate,
+    noted in ``LCPSolution.note``: a non-isolated solution set is represented, not listed.
+
+    Args:
+        M: the ``(n, n)`` matrix.
+        q: the ``(n,)`` vector.
+        tolerance: relative tolerance (see ``LCP_TOLERANCE``).
+        max_size: largest ``n`` to accept (default ``ENUMERATION_MAX_SIZE``).
+
+    Returns:
+        The solutions found (empty if none exists); ``pivots`` of each is the number of
+        supports tried up to and including its own.
+
+    Raises:
+        InputError: if the input is malformed or ``n`` exceeds the size limit.
+    """
+    M, q = _as_lcp(M, q)
+    tolerance = _check_tolerance(tolerance)
+    _check_enumeration_size(q.size, max_size)
+    start = time.perf_counter()
+    return [
+        _verified(M, q, z, "solved", "enumerate", tried, tolerance, start, note)
+        for tried, z, note in _iter_solutions(M, q, tolerance)
+    ]
+
+
+def _enumerate_first(
+    M: np.ndarray, q: np.ndarray, tolerance: float, max_size: int | None
+) -> LCPSolution:
+    _check_enumeration_size(q.size, max_size)
+    start = time.perf_counter()
+    for tried, z, note in _iter_solutions(M, q, tolerance):
+        return _verified(M, q, z, "solved", "enumerate", tried, tolerance, start, note)
+    return _verified(M, q, None, "infeasible", "enumerate", 2**q.size, tolerance, start)
+
+
+def solve_lcp(
+    M: np.ndarray,
+    q: np.ndarray,
+    method: str = "lemke",
+    *,
+    tolerance: float = LCP_TOLERANCE,
+    max_pivots: int | None = None,
+    max_size: int | None = None,
+) -> LCPSolution:
+    """Solve the LCP ``z >= 0, w = M z + q >= 0, z^T w = 0``.
+
+    Args:
+        M: the ``(n, n)`` matrix.
+        q: the ``(n,)`` vector.
+        method: ``"lemke"`` (lexicographic Lemke) or ``"enumerate"`` (the first solution in
+            the enumeration order of :func:`enumerate_lcp_solutions`, i.e. one of smallest
+            support; status ``"infeasible"`` when there is none).
+        tolerance: relative tolerance (see ``LCP_TOLERANCE``).
+        max_pivots: Lemke's pivot limit (default ``50 n + 100``).
+        max_size: enumeration size limit (default ``ENUMERATION_MAX_SIZE``).
+
+    Returns:
+        The result; ``found`` is True only for a verified solution.
+
+    Raises:
+        InputError: malformed input, unknown method, or enumeration over the size limit.
+    """
+    M, q = _as_lcp(M, q)
+    tolerance = _check_tolerance(tolerance)
+    if method == "lemke":
+        limit = 50 * q.size + 100 if max_pivots is None else max_pivots
+        if not isinstance(limit, int | np.integer) or limit < 1:
+            raise InputError(f"max_pivots must be a positive integer, got {max_pivots!r}")
+        return _lemke(M, q, tolerance, int(limit))
+    if method == "enumerate":
+        return _enumerate_first(M, q, tolerance, max_size)
+    raise InputError(f"unknown LCP method {method!r}; use 'lemke' or 'enumerate'")
+
+
+# --------------------------------------------------------------------------------------------
+# 2-D frictional contact
+# --------------------------------------------------------------------------------------------
+
+
+def fc2d_to_lcp(problem: FrictionContact2D) -> tuple[np.ndarray, np.ndarray]:
+    """The LCP ``(M, q)`` in ``z = (r_n, r_t+, r_t-, lambda)`` equivalent to the problem.
+
+    Args:
+        problem: the 2-D frictional contact problem.
+
+    Returns:
+        ``M`` of shape ``(4 nc, 4 nc)`` and ``q`` of shape ``(4 nc,)``.
+    """
+    nc = problem.number_of_contacts
+    normal, tangent = slice(0, None, 2), slice(1, None, 2)
+    W, qf = problem.W, problem.q
+    Wnn, Wnt = W[normal, normal], W[normal, tangent]
+    Wtn, Wtt = W[tangent, normal], W[tangent, tangent]
+    eye, zero = np.eye(nc), np.zeros((nc, nc))
+    M = np.block(
+        [
+            [Wnn, Wnt, -Wnt, zero],
+            [Wtn, Wtt, -Wtt, eye],
+            [-Wtn, -Wtt, Wtt, eye],
+            [np.diag(problem.mu), -eye, -eye, zero],
+        ]
+    )
+    q = np.concatenate([qf[normal], qf[tangent], -qf[tangent], np.zeros(nc)])
+    return M, q
+
+
+def fc2d_error(problem: FrictionContact2D, r: np.ndarray) -> float:
+    """Siconos' 2-D frictional contact error of reactions ``r``, divided by ``||q||_2``.
+
+    Per contact, with ``u = W r + q`` and De Saxcé's modified velocity
+    ``(u_n + mu |u_t|, u_t)``, the error term is ``r - Pi_K(r - u_hat)`` with ``K`` the cone
+    ``|r_t| <= mu r_n``; the terms are summed in 2-norm and divided by ``||q||_2`` (unless that
+    is below machine epsilon). It is zero exactly for a solution of the Coulomb problem.
+
+    Args:
+        problem: the problem.
+        r: reactions, ``(r_n, r_t)`` per contact.
+
+    Returns:
+        The relative error.
+    """
+    r = np.asarray(r, dtype=float)
+    u = problem.W @ r + problem.q
+    total = 0.0
+    for i, mu in enumerate(problem.mu):
+        rn, rt, un, ut = r[2 * i], r[2 * i + 1], u[2 * i], u[2 * i + 1]
+        xn, xt = rn - (un + mu * abs(ut)), rt - ut
+        if mu * abs(xt) <= -xn:  # in the polar cone: projects to the apex
+            pn, pt = 0.0, 0.0
+        elif abs(xt) > mu * xn:  # outside the cone: project onto its boundary
+            pn = (mu * abs(xt) + xn) / (mu * mu + 1.0)
+            pt = mu * pn * np.sign(xt)
+        else:  # inside the cone
+            pn, pt = xn, xt
+        total += (rn - pn) ** 2 + (rt - pt) ** 2
+    error = math.sqrt(total)
+    norm_q = float(np.linalg.norm(problem.q))
+    return error / norm_q if norm_q > np.finfo(float).eps else error
+
+
+def solve_fc2d(problem: FrictionContact2D, method: str = "lemke") -> FC2DSolution:
+    """Solve a 2-D frictional contact problem through its LCP reformulation.
+
+    Args:
+        problem: the problem.
+        method: ``"lemke"`` or ``"enumerate"`` (the LCP has ``4 nc`` unknowns, so enumeration
+            is limited to ``4 nc <= ENUMERATION_MAX_SIZE``).
+
+    Returns:
+        The result; ``found`` requires a verified LCP solution and a Siconos error at most
+        ``FC2D_TOLERANCE``.
+
+    Raises:
+        InputError: unknown method, or enumeration over the size limit.
+    """
+    M, q = fc2d_to_lcp(problem)
+    lcp = solve_lcp(M, q, method)
+    if lcp.z is None:
+        return FC2DSolution(
+            found=False,
+            r=None,
+            u=None,
+            status=lcp.status,
+            residual=math.inf,
+            tolerance=FC2D_TOLERANCE,
+            method=method,
+            lcp=lcp,
+        )
+    nc = problem.number_of_contacts
+    r = np.empty(2 * nc)
+    r[0::2] = lcp.z[:nc]
+    r[1::2] = lcp.z[nc : 2 * nc] - lcp.z[2 * nc : 3 * nc]
+    residual = fc2d_error(problem, r)
+    return FC2DSolution(
+        found=lcp.found and residual <= FC2D_TOLERANCE,
+        r=r,
+        u=problem.W @ r + problem.q,
+        status=lcp.status,
+        residual=residual,
+        tolerance=FC2D_TOLERANCE,
+        method=method,
+        lcp=lcp,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Siconos files
+# --------------------------------------------------------------------------------------------
+
+
+class _Tokens:
+    """Whitespace-separated tokens of a text file, each with its line number."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        try:
+            text = path.read_text()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise InputError(f"{path}: cannot read the file: {exc}") from exc
+        self.items = [
+            (token, number)
+            for number, line in enumerate(text.splitlines(), start=1)
+            for token in line.split()
+        ]
+        self.position = 0
+        self.last_line = text.count("\n") + 1
+
+    def error(self, line: int, message: str) -> InputError:
+        return InputError(f"{self.path}, line {line}: {message}")
+
+    def _next(self, what: str) -> tuple[str, int]:
+        if self.position >= len(self.items):
+            raise self.error(self.last_line, f"unexpected end of file, expected {what}")
+        item = self.items[self.position]
+        self.position += 1
+        return item
+
+    def integer(self, what: str, minimum: int = 0) -> int:
+        token, line = self._next(what)
+        try:
+            value = int(token)
+        except ValueError:
+            raise self.error(line, f"expected {what} (an integer), found {token!r}") from None
+        if value < minimum:
+            raise self.error(line, f"{what} must be at least {minimum}, found {value}")
+        return value
+
+    def expect(self, value: int, what: str) -> None:
+        token, line = self._next(what)
+        if token != str(value):
+            raise self.error(line, f"expected {what} = {value}, found {token!r}")
+
+    def floats(self, count: int, what: str) -> np.ndarray:
+        values = np.empty(count)
+        for k in range(count):
+            token, line = self._next(f"{what} (entry {k + 1} of {count})")
+            try:
+                values[k] = float(token)
+            except ValueError:
+                raise self.error(
+                    line, f"expected {what} (entry {k + 1} of {count}), found {token!r}"
+                ) from None
+            if not math.isfinite(values[k]):
+                raise self.error(line, f"{what} entry {k + 1} is not finite: {token!r}")
+        return values
+
+
+def _read_block_sizes(tokens: _Tokens, count: int, total: int, what: str) -> list[int]:
+    """Cumulative block sizes (strictly increasing, ending at ``total``) as offsets from 0."""
+    offsets = [0]
+    for k in range(count):
+        line = tokens.items[tokens.position][1] if tokens.position < len(tokens.items) else 0
+        value = tokens.integer(f"{what} {k + 1}", minimum=offsets[-1] + 1)
+        offsets.append(value)
+    if offsets[-1] != total:
+        raise tokens.error(line, f"{what} end at {offsets[-1]}, expected {total}")
+    return offsets
+
+
+def _read_sparse_block(tokens: _Tokens, rows: int, cols: int) -> np.ndarray:
+    """Siconos ``SparseBlockStructuredMatrix`` dump (storage 1) into a dense array."""
+    matrix = np.zeros((rows, cols))
+    blocks = tokens.integer("number of blocks")
+    if blocks == 0:
+        return matrix
+    block_rows = tokens.integer("number of block rows", minimum=1)
+    block_cols = tokens.integer("number of block columns", minimum=1)
+    row_offsets = _read_block_sizes(tokens, block_rows, rows, "cumulative block row sizes")
+    col_offsets = _read_block_sizes(tokens, block_cols, cols, "cumulative block column sizes")
+    tokens.expect(block_rows + 1, "filled1 (number of block rows + 1)")
+    tokens.expect(blocks, "filled2 (number of blocks)")
+    row_start = [tokens.integer(f"block row pointer {k + 1}") for k in range(block_rows + 1)]
+    col_index = [tokens.integer(f"block column index {k + 1}") for k in range(blocks)]
+    if row_start[0] != 0 or row_start[-1] != blocks or row_start != sorted(row_start):
+        raise tokens.error(
+            tokens.items[tokens.position - 1][1],
+            f"block row pointers {row_start} are not non-decreasing from 0 to {blocks}",
+        )
+    if any(c >= block_cols for c in col_index):
+        raise tokens.error(
+            tokens.items[tokens.position - 1][1],
+            f"block column index out of range in {col_index} (block columns: {block_cols})",
+        )
+    for block_row in range(block_rows):
+        r0, r1 = row_offsets[block_row], row_offsets[block_row + 1]
+        for number in range(row_start[block_row], row_start[block_row + 1]):
+            tokens.expect(number, "block number")
+            c0, c1 = col_offsets[col_index[number]], col_offsets[col_index[number] + 1]
+            values = tokens.floats((r1 - r0) * (c1 - c0), f"block {number}")
+            matrix[r0:r1, c0:c1] = values.reshape(c1 - c0, r1 - r0).T  # column-major
+    return matrix
+
+
+def _read_numerics_matrix(tokens: _Tokens) -> np.ndarray:
+    """A Siconos ``NumericsMatrix`` dump: storage type, sizes, then dense or sparse-block data."""
+    token_line = tokens.items[tokens.position][1] if tokens.position < len(tokens.items) else 0
+    storage = tokens.integer("matrix storage type")
+    rows = tokens.integer("matrix row count", minimum=1)
+    cols = tokens.integer("matrix column count", minimum=1)
+    if storage == 0:
+        tokens.expect(rows, "dense matrix row count (repeated)")
+        tokens.expect(cols, "dense matrix column count (repeated)")
+        values = tokens.floats(rows * cols, "dense matrix")
+        return values.reshape(cols, rows).T  # stored column-major
+    if storage == 1:
+        return _read_sparse_block(tokens, rows, cols)
+    raise tokens.error(
+        token_line, f"unsupported matrix storage type {storage} (0 = dense, 1 = sparse block)"
+    )
+
+
+def read_siconos_lcp(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read a Siconos LCP file: ``n``, the matrix (dense or sparse-block), then ``q``.
+
+    Anything after the ``n`` entries of ``q`` (comments in some files) is ignored.
+
+    Args:
+        path: the ``.dat`` file.
+
+    Returns:
+        ``(M, q)`` as dense float arrays.
+
+    Raises:
+        InputError: if the file cannot be read or is malformed (naming the file and line).
+    """
+    tokens = _Tokens(Path(path))
+    n = tokens.integer("problem size n", minimum=1)
+    M = _read_numerics_matrix(tokens)
+    if M.shape != (n, n):
+        raise tokens.error(1, f"problem size {n} does not match matrix shape {M.shape}")
+    q = tokens.floats(n, "vector q")
+    return M, q
+
+
+def read_siconos_fc2d(path: str | Path) -> FrictionContact2D:
+    """Read a Siconos FrictionContactProblem file of dimension 2.
+
+    Layout: dimension (2), number of contacts ``nc``, the ``2 nc x 2 nc`` matrix ``W`` (dense
+    or sparse-block), ``q`` (``2 nc``), ``mu`` (``nc``); a trailing flag is ignored.
+
+    Args:
+        path: the ``.dat`` file.
+
+    Returns:
+        The problem.
+
+    Raises:
+        InputError: if the file cannot be read or is malformed (naming the file and line).
+    """
+    tokens = _Tokens(Path(path))
+    tokens.expect(2, "problem dimension")
+    nc = tokens.integer("number of contacts", minimum=1)
+    W = _read_numerics_matrix(tokens)
+    if W.shape != (2 * nc, 2 * nc):
+        raise tokens.error(2, f"{nc} contacts need a {2 * nc} x {2 * nc} matrix, got {W.shape}")
+    q = tokens.floats(2 * nc, "vector q")
+    mu = tokens.floats(nc, "friction coefficients mu")
+    if np.any(mu < 0):
+        raise tokens.error(tokens.items[tokens.position - 1][1], "negative friction coefficient")
+    return FrictionContact2D(W=W, q=q, mu=mu, number_of_contacts=nc)

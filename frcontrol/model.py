@@ -1,0 +1,394 @@
+"""The planar multi-rigid-body model on Pinocchio, and contact kinematics at a state.
+
+One :class:`PlanarRobot` owns a Pinocchio model and its data, built from a URDF whose links move in
+the world's x-y plane (y up, revolute axes along z) on either a floating planar base or a fixed
+base. Its coordinates are *minimal*: ``q = [x, y, theta, joints...]`` for a planar base (theta
+counter-clockwise), ``q = [joints...]`` for a fixed one, and ``v = dq/dt``. The equations of motion
+(METHOD §1) are::
+
+    M(q) dv + h(q, v) = S^T u + J_N^T lam_N + J_T^T lam_T
+
+Contact ``i`` is a point ``p_i`` fixed in a link, against a fixed line with unit normal ``n_i``
+(pointing at the robot) and tangent ``t_i = (n_y, -n_x)``. Its gap is ``phi_i = n_i . (p_i - s_i)``
+with ``s_i`` a point of the line; its rows are ``J_N,i = n_i^T J_p,i`` and ``J_T,i = t_i^T J_p,i``
+and its contact accelerations ``a_N = J_N dv + dJ_N v``, ``a_T = J_T dv + dJ_T v``, where the drift
+``dJ v`` is the classical acceleration of the point at ``dv = 0``.
+
+The planar base is three one-degree-of-freedom joints (prismatic x, prismatic y, revolute z) in a
+Pinocchio composite joint, so that Pinocchio's velocity equals ``dq/dt`` in the world (a
+``JointModelPlanar`` would express it in the body frame). URDF ``continuous`` joints are stored by
+Pinocchio as ``(cos, sin)`` pairs; the minimal joint angle is mapped onto them here.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import FrameNotFound, InputError, RobotModelError
+
+BASE_COORDINATES = ("x", "y", "theta")
+"""Names of the planar base's coordinates: position [m] of the root link's frame and its angle
+[rad], counter-clockwise from the world x axis."""
+
+PLANE_AXIS_TOLERANCE = 1e-9
+"""How far [unit vector components] a revolute axis may lean off the world z axis, or a prismatic
+axis out of the x-y plane, before the URDF is rejected as non-planar."""
+
+
+@dataclass(frozen=True)
+class ContactPoint:
+    """A point of a link that may touch a fixed line of the world.
+
+    Attributes:
+        name: the contact's name (unique in a scene).
+        link: the URDF link the point is fixed in.
+        point_in_link: the point [m] in that link's frame (x, y).
+        normal_in_world: unit normal [-] of the surface line, pointing at the robot.
+        surface_point_in_world: a point [m] of the surface line.
+        mu: Coulomb friction coefficient [-], >= 0.
+    """
+
+    name: str
+    link: str
+    point_in_link: np.ndarray
+    normal_in_world: np.ndarray
+    surface_point_in_world: np.ndarray
+    mu: float
+
+    @property
+    def tangent_in_world(self) -> np.ndarray:
+        """Unit tangent ``t = (n_y, -n_x)`` [-]: sliding "right" (mode R) is along +t."""
+        n = self.normal_in_world
+        return np.array([n[1], -n[0]])
+
+
+@dataclass(frozen=True)
+class RobotState:
+    """Dynamics and contact kinematics of a robot at one state (q, v).
+
+    Arrays over contacts follow the order of the ``contacts`` argument that produced them.
+
+    Attributes:
+        q: minimal configuration [m, rad], shape (n,).
+        v: minimal velocity [m/s, rad/s], shape (n,).
+        mass_matrix: M(q) [kg, kg m, kg m^2], shape (n, n), symmetric positive semi-definite.
+        bias: h(q, v) = gravity + Coriolis/centrifugal generalized forces [N, N m], shape (n,).
+        contact_points: world positions p_i [m], shape (k, 2).
+        gaps: phi_i [m], shape (k,).
+        normal_velocities: v_N,i = J_N,i v [m/s], shape (k,).
+        tangential_velocities: v_T,i = J_T,i v [m/s], shape (k,).
+        jacobian_normal: rows J_N,i, shape (k, n).
+        jacobian_tangent: rows J_T,i, shape (k, n).
+        drift_normal: dJ_N,i v [m/s^2], shape (k,).
+        drift_tangent: dJ_T,i v [m/s^2], shape (k,).
+    """
+
+    q: np.ndarray
+    v: np.ndarray
+    mass_matrix: np.ndarray
+    bias: np.ndarray
+    contact_points: np.ndarray
+    gaps: np.ndarray
+    normal_velocities: np.ndarray
+    tangential_velocities: np.ndarray
+    jacobian_normal: np.ndarray
+    jacobian_tangent: np.ndarray
+    drift_normal: np.ndarray
+    drift_tangent: np.ndarray
+
+
+def _movable_joints_in_document_order(urdf_path: Path) -> list[tuple[str, str, np.ndarray]]:
+    """(name, type, axis) of the URDF's non-fixed joints, in the order the file lists them."""
+    try:
+        root = ET.parse(urdf_path).getroot()
+    except (ET.ParseError, OSError) as err:
+        raise RobotModelError(str(urdf_path), f"cannot read URDF: {err}") from err
+    if root.tag != "robot":
+        raise RobotModelError(str(urdf_path), f"root element is <{root.tag}>, expected <robot>")
+    joints = []
+    for joint in root.findall("joint"):
+        kind = joint.get("type", "")
+        name = joint.get("name", "")
+        if kind == "fixed":
+            continue
+        axis_el = joint.find("axis")
+        text = axis_el.get("xyz", "1 0 0") if axis_el is not None else "1 0 0"
+        try:
+            axis = np.array([float(s) for s in text.split()], dtype=float)
+        except ValueError as err:
+            raise RobotModelError(str(urdf_path), f"joint {name!r}: bad axis {text!r}") from err
+        if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) == 0.0:
+            raise RobotModelError(str(urdf_path), f"joint {name!r}: bad axis {text!r}")
+        joints.append((name, kind, axis / np.linalg.norm(axis)))
+    return joints
+
+
+class PlanarRobot:
+    """A planar robot: one Pinocchio model and data, on a planar or fixed base.
+
+    Args:
+        urdf_path: the robot's URDF. Links move in the x-y plane: revolute and continuous joints
+            about z, prismatic joints along an in-plane axis.
+        base: ``"planar"`` (floating x, y, theta) or ``"fixed"`` (root link bolted to the world).
+        gravity: gravitational acceleration [m/s^2] along -y, >= 0.
+        contacts: the contact points to evaluate; each becomes an operational frame of this
+            object's own Pinocchio model.
+
+    Raises:
+        RobotModelError: the URDF cannot be read, or is not planar.
+        FrameNotFound: a contact names a link the robot does not have.
+    """
+
+    def __init__(
+        self,
+        urdf_path: str | Path,
+        base: str = "planar",
+        gravity: float = 9.81,
+        contacts: Sequence[ContactPoint] = (),
+    ) -> None:
+        self.urdf_path = Path(urdf_path)
+        if base not in ("planar", "fixed"):
+            raise RobotModelError(str(urdf_path), f"base must be 'planar' or 'fixed', got {base!r}")
+        self.base = base
+        joints = _movable_joints_in_document_order(self.urdf_path)
+        for name, kind, axis in joints:
+            if kind in ("revolute", "continuous"):
+                if abs(abs(axis[2]) - 1.0) > PLANE_AXIS_TOLERANCE:
+                    raise RobotModelError(
+                        str(urdf_path), f"joint {name!r}: a planar revolute axis is along z, got {axis}"
+                    )
+            elif kind == "prismatic":
+                if abs(axis[2]) > PLANE_AXIS_TOLERANCE:
+                    raise RobotModelError(
+                        str(urdf_path), f"joint {name!r}: a planar prismatic axis lies in x-y, got {axis}"
+                    )
+            else:
+                raise RobotModelError(
+                    str(urdf_path),
+                    f"joint {name!r} of type {kind!r} is not planar: use revolute, continuous, "
+                    "prismatic or fixed joints and a planar base",
+                )
+        try:
+            if base == "planar":
+                root = pin.JointModelComposite(3)
+                root.addJoint(pin.JointModelPX())
+                root.addJoint(pin.JointModelPY())
+                root.addJoint(pin.JointModelRZ())
+                model = pin.buildModelFromUrdf(str(self.urdf_path), root)
+            else:
+                model = pin.buildModelFromUrdf(str(self.urdf_path))
+        except (ValueError, RuntimeError) as err:
+            raise RobotModelError(str(urdf_path), f"Pinocchio cannot build the model: {err}") from err
+        model.gravity.linear[:] = [0.0, -float(gravity), 0.0]
+        self.gravity = float(gravity)
+
+        # Minimal coordinates <-> Pinocchio (q, v): one velocity per coordinate; continuous joints
+        # are (cos, sin) pairs in Pinocchio's q. Coordinate order: base, then URDF document order.
+        joint_names = [name for name, _, _ in joints]
+        self.joint_names: tuple[str, ...] = tuple(joint_names)
+        self.coordinate_names: tuple[str, ...] = (
+            (BASE_COORDINATES if base == "planar" else ()) + self.joint_names
+        )
+        n = len(self.coordinate_names)
+        if model.nv != n:
+            raise RobotModelError(str(urdf_path), f"expected {n} velocities, Pinocchio has {model.nv}")
+        v_index = np.empty(n, dtype=int)  # v_index[i]: Pinocchio velocity index of coordinate i
+        linear_q_src, linear_q_dst, unbounded_src, unbounded_dst = [], [], [], []
+        offset = 0
+        if base == "planar":
+            root_id = model.getJointId("root_joint")
+            idx_q, idx_v = model.joints[root_id].idx_q, model.joints[root_id].idx_v
+            v_index[:3] = idx_v + np.arange(3)
+            linear_q_src += [0, 1, 2]
+            linear_q_dst += [idx_q, idx_q + 1, idx_q + 2]
+            offset = 3
+        for i, name in enumerate(joint_names):
+            jid = model.getJointId(name)
+            jm = model.joints[jid]
+            v_index[offset + i] = jm.idx_v
+            if jm.nq == 2:
+                unbounded_src.append(offset + i)
+                unbounded_dst.append(jm.idx_q)
+            else:
+                linear_q_src.append(offset + i)
+                linear_q_dst.append(jm.idx_q)
+        self._q_linear_src = np.array(linear_q_src, dtype=int)
+        self._q_linear_dst = np.array(linear_q_dst, dtype=int)
+        self._q_unbounded_src = np.array(unbounded_src, dtype=int)
+        self._q_unbounded_dst = np.array(unbounded_dst, dtype=int)
+        self._identity_order = bool(np.array_equal(v_index, np.arange(n)))
+        self._v_index = v_index
+        # Pinocchio velocity vector from a minimal one: v_pin[v_index] = v.
+        self.link_names: tuple[str, ...] = tuple(
+            f.name for f in model.frames if f.type == pin.FrameType.BODY
+        )
+
+        self.contacts: tuple[ContactPoint, ...] = tuple(contacts)
+        frame_ids = []
+        for contact in self.contacts:
+            frame_ids.append(self._add_point_frame(model, contact.name, contact.link, contact.point_in_link))
+        self._contact_frames = frame_ids
+        self._normals = np.array([c.normal_in_world for c in self.contacts], dtype=float).reshape(-1, 2)
+        self._tangents = np.array([c.tangent_in_world for c in self.contacts], dtype=float).reshape(-1, 2)
+        self._surface_points = np.array(
+            [c.surface_point_in_world for c in self.contacts], dtype=float
+        ).reshape(-1, 2)
+        self.model = model
+        self.data = model.createData()
+
+    # ------------------------------------------------------------------ construction helpers
+    def _add_point_frame(self, model: pin.Model, name: str, link: str, point: np.ndarray) -> int:
+        if link not in self.link_names:
+            raise FrameNotFound(link, self.link_names)
+        body = model.frames[model.getFrameId(link, pin.FrameType.BODY)]
+        placement = body.placement * pin.SE3(np.eye(3), np.array([point[0], point[1], 0.0]))
+        frame = pin.Frame(
+            f"contact:{name}", body.parentJoint, model.getFrameId(link, pin.FrameType.BODY),
+            placement, pin.FrameType.OP_FRAME,
+        )
+        return int(model.addFrame(frame, False))
+
+    def set_surface_points(self, surface_points: Sequence[np.ndarray]) -> None:
+        """Set the surface point [m] of every contact line (the scene loader's gap-0 default)."""
+        self._surface_points = np.array(surface_points, dtype=float).reshape(-1, 2)
+        self.contacts = tuple(
+            ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world, s.copy(), c.mu)
+            for c, s in zip(self.contacts, self._surface_points, strict=True)
+        )
+
+    @property
+    def nv(self) -> int:
+        """Number of minimal coordinates n."""
+        return len(self.coordinate_names)
+
+    # ------------------------------------------------------------------ conversions
+    def pinocchio_q_from_minimal(self, q: np.ndarray) -> np.ndarray:
+        """Pinocchio's configuration vector for the minimal coordinates ``q``."""
+        q_pin = np.empty(self.model.nq)
+        q_pin[self._q_linear_dst] = q[self._q_linear_src]
+        if self._q_unbounded_src.size:
+            angles = q[self._q_unbounded_src]
+            q_pin[self._q_unbounded_dst] = np.cos(angles)
+            q_pin[self._q_unbounded_dst + 1] = np.sin(angles)
+        return q_pin
+
+    def pinocchio_v_from_minimal(self, v: np.ndarray) -> np.ndarray:
+        """Pinocchio's velocity vector for the minimal velocity ``v``."""
+        if self._identity_order:
+            return v
+        v_pin = np.empty(self.nv)
+        v_pin[self._v_index] = v
+        return v_pin
+
+    def check_state(self, q: Sequence[float], v: Sequence[float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Validate a state; return ``(q, v)`` as float64 arrays (v defaults to zeros).
+
+        Raises:
+            InputError: wrong length, or a NaN or infinite entry.
+        """
+        q_arr = np.asarray(q, dtype=float).reshape(-1)
+        v_arr = np.zeros(self.nv) if v is None else np.asarray(v, dtype=float).reshape(-1)
+        for label, arr in (("q", q_arr), ("v", v_arr)):
+            if arr.shape != (self.nv,):
+                raise InputError(
+                    f"{label} has {arr.size} entries, expected {self.nv} "
+                    f"({', '.join(self.coordinate_names)})"
+                )
+            if not np.all(np.isfinite(arr)):
+                raise InputError(f"{label} has a NaN or infinite entry: {arr.tolist()}")
+        return q_arr, v_arr
+
+    # ------------------------------------------------------------------ evaluation
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        """M(q) [kg, kg m, kg m^2] in minimal coordinates (full symmetric matrix)."""
+        q_pin = self.pinocchio_q_from_minimal(np.asarray(q, dtype=float))
+        pin.crba(self.model, self.data, q_pin)
+        return self._symmetric_minimal(self.data.M)
+
+    def _symmetric_minimal(self, upper: np.ndarray) -> np.ndarray:
+        iu = np.triu_indices(self.nv, 1)
+        full = upper.copy()
+        full[(iu[1], iu[0])] = upper[iu]
+        if self._identity_order:
+            return full
+        return full[np.ix_(self._v_index, self._v_index)]
+
+    def state(
+        self, q: np.ndarray, v: np.ndarray, contacts: Sequence[int] | None = None
+    ) -> RobotState:
+        """Everything the contact-dynamics layers need at ``(q, v)``.
+
+        Args:
+            q: minimal configuration, shape (n,) (not validated here: see :meth:`check_state`).
+            v: minimal velocity, shape (n,).
+            contacts: indices into ``self.contacts`` to evaluate (default: all), in that order.
+        """
+        model, data = self.model, self.data
+        q_pin = self.pinocchio_q_from_minimal(q)
+        v_pin = self.pinocchio_v_from_minimal(v)
+        # One pass: CRBA (upper triangle), nonlinear effects, joint Jacobians and the kinematics
+        # at (q, v, a = 0), from which the frames' classical accelerations are the drifts.
+        pin.computeAllTerms(model, data, q_pin, v_pin)
+        mass = self._symmetric_minimal(data.M)
+        bias = data.nle if self._identity_order else data.nle[self._v_index]
+        indices = range(len(self.contacts)) if contacts is None else contacts
+        k = len(indices)
+        n = self.nv
+        points = np.empty((k, 2))
+        jac = np.empty((k, 2, n))
+        drift = np.empty((k, 2))
+        lwa = pin.LOCAL_WORLD_ALIGNED
+        for row, i in enumerate(indices):
+            fid = self._contact_frames[i]
+            placement = pin.updateFramePlacement(model, data, fid)
+            points[row] = placement.translation[:2]
+            jac[row] = pin.getFrameJacobian(model, data, fid, lwa)[:2]
+            drift[row] = pin.getFrameClassicalAcceleration(model, data, fid, lwa).linear[:2]
+        if not self._identity_order:
+            jac = jac[:, :, self._v_index]
+        idx = np.fromiter(indices, dtype=int, count=k)
+        normals, tangents = self._normals[idx], self._tangents[idx]
+        jn = np.einsum("kj,kjn->kn", normals, jac)
+        jt = np.einsum("kj,kjn->kn", tangents, jac)
+        return RobotState(
+            q=q,
+            v=v,
+            mass_matrix=mass,
+            bias=np.array(bias, copy=True),
+            contact_points=points,
+            gaps=np.einsum("kj,kj->k", normals, points - self._surface_points[idx]),
+            normal_velocities=jn @ v,
+            tangential_velocities=jt @ v,
+            jacobian_normal=jn,
+            jacobian_tangent=jt,
+            drift_normal=np.einsum("kj,kj->k", normals, drift),
+            drift_tangent=np.einsum("kj,kj->k", tangents, drift),
+        )
+
+    def contact_points_in_world(self, q: np.ndarray) -> np.ndarray:
+        """World positions [m] of every contact point at ``q``, shape (k, 2)."""
+        pin.framesForwardKinematics(self.model, self.data, self.pinocchio_q_from_minimal(q))
+        return np.array(
+            [self.data.oMf[fid].translation[:2] for fid in self._contact_frames]
+        ).reshape(-1, 2)
+
+    def link_poses(self, q: np.ndarray) -> dict[str, tuple[np.ndarray, float]]:
+        """World pose of every link at ``q``: name -> (origin [m], angle [rad])."""
+        pin.framesForwardKinematics(self.model, self.data, self.pinocchio_q_from_minimal(q))
+        poses = {}
+        for name in self.link_names:
+            placement = self.data.oMf[self.model.getFrameId(name, pin.FrameType.BODY)]
+            rot = placement.rotation
+            poses[name] = (placement.translation[:2].copy(), math.atan2(rot[1, 0], rot[0, 0]))
+        return poses
+
+    def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """``q + dq`` in minimal coordinates (all of them are additive: angles are not wrapped)."""
+        return np.asarray(q, dtype=float) + np.asarray(dq, dtype=float)

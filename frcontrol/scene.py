@@ -1,0 +1,390 @@
+"""Scene files: the one door for user input, where every field is validated.
+
+A scene is a TOML file naming a robot (URDF), its base, a state, contact points against fixed lines
+and the control inputs (see the README for the format). :func:`load_scene` reads it, builds the
+robot model and returns a :class:`Scene`, or raises :class:`~frcontrol.errors.SceneError` naming the
+file, the field and what is wrong.
+
+A contact whose gap at the scene's state exceeds :data:`GAP_TOLERANCE` is *inactive*: it is kept in
+``Scene.contacts`` (and reported) but not in ``Scene.active_contacts``, so the contact layers model
+only what the scene needs. A contact penetrating deeper than the tolerance is an error.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import FrameNotFound, FrcontrolError, InputError, RobotModelError, SceneError
+from .model import ContactPoint, PlanarRobot, RobotState
+
+GAP_TOLERANCE = 1e-6
+"""[m] A contact with gap <= this is active (touching); a gap < -this is a penetration error."""
+
+DEFAULT_GRAVITY = 9.81
+"""[m/s^2] Gravity along -y when the scene does not say."""
+
+KNOWN_TOP_LEVEL = {"name", "robot", "base", "gravity", "state", "contacts", "inputs", "gap_tolerance",
+                   "description", "model", "disturbances", "task"}
+
+
+@dataclass(frozen=True)
+class Contact:
+    """A contact of a scene, as loaded, with its situation at the scene's state.
+
+    Attributes:
+        point: the contact point's geometry (link, point, surface, mu).
+        gap: [m] the gap at the scene's state.
+        active: whether the contact touches at the scene's state (|gap| <= tolerance).
+    """
+
+    point: ContactPoint
+    gap: float
+    active: bool
+
+    @property
+    def name(self) -> str:
+        """The contact's name."""
+        return self.point.name
+
+    @property
+    def mu(self) -> float:
+        """Coulomb coefficient [-]."""
+        return self.point.mu
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """Control inputs u: generalized forces on named coordinates, with optional box limits.
+
+    Attributes:
+        coordinates: the coordinates u acts on, in order.
+        indices: their indices in the minimal coordinates.
+        lower: lower limits [N or N m] (``-inf`` where absent).
+        upper: upper limits [N or N m] (``+inf`` where absent).
+    """
+
+    coordinates: tuple[str, ...]
+    indices: tuple[int, ...]
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @property
+    def count(self) -> int:
+        """Number of inputs m."""
+        return len(self.coordinates)
+
+    def selection_transpose(self, n: int) -> np.ndarray:
+        """S^T (n x m): maps inputs to generalized forces."""
+        st = np.zeros((n, self.count))
+        st[list(self.indices), np.arange(self.count)] = 1.0
+        return st
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A validated scene: robot model, state, contacts and inputs.
+
+    Attributes:
+        path: the scene file.
+        name: a human-readable name.
+        robot: the robot model (owns the Pinocchio model and data).
+        q: the state's minimal configuration [m, rad].
+        v: the state's minimal velocity [m/s, rad/s].
+        contacts: every contact of the file, in file order.
+        inputs: the control inputs.
+        gap_tolerance: [m] the activity tolerance used.
+        raw: the parsed TOML, for fields later layers read (``model``, ``disturbances``...).
+    """
+
+    path: Path
+    name: str
+    robot: PlanarRobot
+    q: np.ndarray
+    v: np.ndarray
+    contacts: tuple[Contact, ...]
+    inputs: Inputs
+    gap_tolerance: float = GAP_TOLERANCE
+    raw: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def coordinate_names(self) -> tuple[str, ...]:
+        """Names of the minimal coordinates."""
+        return self.robot.coordinate_names
+
+    @property
+    def active_contacts(self) -> tuple[Contact, ...]:
+        """The contacts that touch at the scene's state, in file order."""
+        return tuple(c for c in self.contacts if c.active)
+
+    @property
+    def active_indices(self) -> tuple[int, ...]:
+        """Indices (into ``contacts``) of the active contacts."""
+        return tuple(i for i, c in enumerate(self.contacts) if c.active)
+
+    def state(self, q: np.ndarray | None = None, v: np.ndarray | None = None) -> RobotState:
+        """The robot state with the active contacts' kinematics (default: the scene's state)."""
+        return self.robot.state(
+            self.q if q is None else q, self.v if v is None else v, self.active_indices
+        )
+
+
+def shipped_robots_dir() -> Path:
+    """The folder of robots and scenes shipped with frcontrol."""
+    return Path(str(resources.files("frcontrol.robots")))
+
+
+def resolve_scene_path(name_or_path: str | Path) -> Path:
+    """A scene file by path, or by the name of a shipped scene (``rhex_flip``, ``rhex_flip.toml``)."""
+    path = Path(name_or_path)
+    if path.exists():
+        return path
+    scenes = shipped_robots_dir() / "scenes"
+    for candidate in (scenes / path.name, scenes / f"{path.name}.toml"):
+        if candidate.exists():
+            return candidate
+    return path
+
+
+class _Reader:
+    """Typed access to a parsed TOML table, raising SceneError with the field's dotted name."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def fail(self, field_name: str, reason: str) -> SceneError:
+        return SceneError(str(self.path), field_name, reason)
+
+    def number(self, value: Any, field_name: str) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.fail(field_name, f"expected a number, got {value!r}")
+        x = float(value)
+        if not math.isfinite(x):
+            raise self.fail(field_name, f"expected a finite number, got {value!r}")
+        return x
+
+    def vector(self, value: Any, field_name: str, length: int | None = None) -> np.ndarray:
+        if not isinstance(value, list):
+            raise self.fail(field_name, f"expected a list of numbers, got {value!r}")
+        arr = np.array([self.number(x, f"{field_name}[{i}]") for i, x in enumerate(value)], dtype=float)
+        if length is not None and arr.size != length:
+            raise self.fail(field_name, f"expected {length} numbers, got {arr.size}")
+        return arr
+
+    def string(self, value: Any, field_name: str) -> str:
+        if not isinstance(value, str) or not value:
+            raise self.fail(field_name, f"expected a non-empty string, got {value!r}")
+        return value
+
+
+def _resolve_robot(reader: _Reader, scene_path: Path, robot: str) -> Path:
+    candidate = (scene_path.parent / robot).resolve()
+    if candidate.is_file():
+        return candidate
+    shipped = shipped_robots_dir() / robot
+    if shipped.is_file():
+        return shipped
+    raise reader.fail(
+        "robot", f"no URDF {robot!r} next to the scene nor among the shipped robots "
+        f"({', '.join(sorted(p.name for p in shipped_robots_dir().glob('*.urdf')))})"
+    )
+
+
+def load_scene(path: str | Path, *, gap_tolerance: float | None = None) -> Scene:
+    """Read and validate a scene file.
+
+    Args:
+        path: the TOML file, or the name of a shipped scene.
+        gap_tolerance: [m] overrides the scene's ``gap_tolerance`` (default :data:`GAP_TOLERANCE`).
+
+    Returns:
+        The validated scene.
+
+    Raises:
+        SceneError: the file is missing or unreadable, the TOML or URDF is malformed, or a field is
+            wrong (unknown link or coordinate, wrong length, NaN, negative mu, zero normal,
+            lower > upper, a penetrating contact...). The message names the file and the field.
+    """
+    scene_path = resolve_scene_path(path)
+    reader = _Reader(scene_path)
+    try:
+        text = scene_path.read_text(encoding="utf-8")
+    except FileNotFoundError as err:
+        raise reader.fail("", "no such file") from err
+    except (OSError, UnicodeDecodeError) as err:
+        raise reader.fail("", f"cannot read the file: {err}") from err
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise reader.fail("", f"malformed TOML: {err}") from err
+
+    unknown = sorted(set(raw) - KNOWN_TOP_LEVEL)
+    if unknown:
+        raise reader.fail(unknown[0], f"unknown field; known fields: {', '.join(sorted(KNOWN_TOP_LEVEL))}")
+    if "robot" not in raw:
+        raise reader.fail("robot", "missing: the URDF file of the robot")
+    name = reader.string(raw.get("name", scene_path.stem), "name")
+    robot_file = _resolve_robot(reader, scene_path, reader.string(raw["robot"], "robot"))
+    base = raw.get("base", "planar")
+    if base not in ("planar", "fixed"):
+        raise reader.fail("base", f"expected 'planar' or 'fixed', got {base!r}")
+    gravity = reader.number(raw.get("gravity", DEFAULT_GRAVITY), "gravity")
+    if gravity < 0:
+        raise reader.fail("gravity", f"expected >= 0 [m/s^2] (it acts along -y), got {gravity}")
+    tol = reader.number(raw.get("gap_tolerance", GAP_TOLERANCE), "gap_tolerance")
+    if gap_tolerance is not None:
+        tol = float(gap_tolerance)
+    if tol <= 0:
+        raise reader.fail("gap_tolerance", f"expected > 0 [m], got {tol}")
+
+    try:
+        bare = PlanarRobot(robot_file, base=base, gravity=gravity)
+    except RobotModelError as err:
+        raise SceneError(str(scene_path), "robot", f"{robot_file.name}: {err.reason}") from err
+    n = bare.nv
+    coords = bare.coordinate_names
+
+    state = raw.get("state")
+    if not isinstance(state, dict) or "q" not in state:
+        raise reader.fail("state.q", f"missing: {n} numbers ({', '.join(coords)})")
+    q = reader.vector(state["q"], "state.q")
+    if q.size != n:
+        raise reader.fail("state.q", f"expected {n} numbers ({', '.join(coords)}), got {q.size}")
+    v = reader.vector(state["v"], "state.v") if "v" in state else np.zeros(n)
+    if v.size != n:
+        raise reader.fail("state.v", f"expected {n} numbers ({', '.join(coords)}), got {v.size}")
+
+    contact_tables = raw.get("contacts", [])
+    if not isinstance(contact_tables, list):
+        raise reader.fail("contacts", "expected an array of tables [[contacts]]")
+    points: list[ContactPoint] = []
+    pending_surface: list[bool] = []
+    seen: set[str] = set()
+    for i, table in enumerate(contact_tables):
+        where = f"contacts[{i}]"
+        if not isinstance(table, dict):
+            raise reader.fail(where, "expected a table")
+        cname = reader.string(table.get("name", f"c{i}"), f"{where}.name")
+        if cname in seen:
+            raise reader.fail(f"{where}.name", f"duplicate contact name {cname!r}")
+        seen.add(cname)
+        for key in ("link", "point", "normal", "mu"):
+            if key not in table:
+                raise reader.fail(f"{where}.{key}", "missing")
+        link = reader.string(table["link"], f"{where}.link")
+        if link not in bare.link_names:
+            raise reader.fail(f"{where}.link", str(FrameNotFound(link, bare.link_names)))
+        point = reader.vector(table["point"], f"{where}.point", 2)
+        normal = reader.vector(table["normal"], f"{where}.normal", 2)
+        norm = float(np.linalg.norm(normal))
+        if norm < 1e-12:
+            raise reader.fail(f"{where}.normal", f"the normal must be non-zero, got {normal.tolist()}")
+        mu = reader.number(table["mu"], f"{where}.mu")
+        if mu < 0:
+            raise reader.fail(f"{where}.mu", f"friction coefficient must be >= 0, got {mu}")
+        has_surface = "surface_point" in table
+        surface = (
+            reader.vector(table["surface_point"], f"{where}.surface_point", 2)
+            if has_surface else np.zeros(2)
+        )
+        points.append(ContactPoint(cname, link, point, normal / norm, surface, mu))
+        pending_surface.append(not has_surface)
+
+    # Surfaces not given pass through the contact point at the scene's state (gap 0).
+    robot = PlanarRobot(robot_file, base=base, gravity=gravity, contacts=points)
+    world = robot.contact_points_in_world(q)
+    points = [
+        ContactPoint(p.name, p.link, p.point_in_link, p.normal_in_world, world[i].copy(), p.mu)
+        if pending_surface[i] else p
+        for i, p in enumerate(points)
+    ]
+    robot.set_surface_points([p.surface_point_in_world for p in points])
+
+    contacts = []
+    gaps = np.einsum("kj,kj->k", np.array([p.normal_in_world for p in points]).reshape(-1, 2),
+                     world - np.array([p.surface_point_in_world for p in points]).reshape(-1, 2))
+    for i, (p, gap) in enumerate(zip(points, gaps, strict=True)):
+        if gap < -tol:
+            raise reader.fail(
+                f"contacts[{i}]", f"contact {p.name!r} penetrates its surface by {-gap:.3g} m "
+                f"(tolerance {tol:.3g} m): fix the state or the surface_point"
+            )
+        contacts.append(Contact(p, float(gap), bool(gap <= tol)))
+
+    inputs = _read_inputs(reader, raw.get("inputs"), coords)
+    return Scene(scene_path, name, robot, q, v, tuple(contacts), inputs, tol, raw)
+
+
+def _read_inputs(reader: _Reader, table: Any, coords: Sequence[str]) -> Inputs:
+    if table is None:
+        return Inputs((), (), np.zeros(0), np.zeros(0))
+    if not isinstance(table, dict):
+        raise reader.fail("inputs", "expected a table [inputs]")
+    names = table.get("coordinates")
+    if not isinstance(names, list) or not all(isinstance(s, str) for s in names):
+        raise reader.fail("inputs.coordinates", f"expected a list of coordinate names from {list(coords)}")
+    indices = []
+    for i, s in enumerate(names):
+        if s not in coords:
+            raise reader.fail(f"inputs.coordinates[{i}]",
+                              f"unknown coordinate {s!r}; the coordinates are: {', '.join(coords)}")
+        indices.append(coords.index(s))
+    if len(set(names)) != len(names):
+        raise reader.fail("inputs.coordinates", "a coordinate is listed twice")
+    m = len(names)
+    lower = reader.vector(table["lower"], "inputs.lower", m) if "lower" in table else np.full(m, -np.inf)
+    upper = reader.vector(table["upper"], "inputs.upper", m) if "upper" in table else np.full(m, np.inf)
+    bad = np.nonzero(lower > upper)[0]
+    if bad.size:
+        j = int(bad[0])
+        raise reader.fail(f"inputs.lower[{j}]", f"lower limit {lower[j]} exceeds upper limit {upper[j]} "
+                          f"for {names[j]!r}")
+    return Inputs(tuple(names), tuple(indices), lower, upper)
+
+
+def parse_input_assignments(scene: Scene, assignments: Mapping[str, float]) -> np.ndarray:
+    """The input vector u for named values; inputs not named are 0.
+
+    Raises:
+        CoordinateNotFound: a name is not one of the scene's inputs.
+        InputError: a value is NaN or infinite, or outside the input's limits.
+    """
+    from .errors import CoordinateNotFound
+
+    u = np.zeros(scene.inputs.count)
+    for key, value in assignments.items():
+        if key not in scene.inputs.coordinates:
+            raise CoordinateNotFound(key, scene.inputs.coordinates)
+        x = float(value)
+        if not math.isfinite(x):
+            raise InputError(f"input {key!r} must be finite, got {value!r}")
+        u[scene.inputs.coordinates.index(key)] = x
+    lo, hi = scene.inputs.lower, scene.inputs.upper
+    bad = np.nonzero((u < lo) | (u > hi))[0]
+    if bad.size:
+        j = int(bad[0])
+        raise InputError(
+            f"input {scene.inputs.coordinates[j]!r} = {u[j]:g} is outside its limits "
+            f"[{lo[j]:g}, {hi[j]:g}]"
+        )
+    return u
+
+
+__all__ = [
+    "GAP_TOLERANCE",
+    "Contact",
+    "FrcontrolError",
+    "Inputs",
+    "Scene",
+    "load_scene",
+    "parse_input_assignments",
+    "resolve_scene_path",
+    "shipped_robots_dir",
+]
