@@ -1,0 +1,1 @@
+"""The ``frc`` command line: parse, call the library, render. No algorithms live here."""

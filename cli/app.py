@@ -1,0 +1,22 @@
+"""The ``frc`` application: one Typer app, one module per command group."""
+
+from __future__ import annotations
+
+import typer
+
+from . import model_cmds
+
+app = typer.Typer(
+    name="frc",
+    help="frcontrol: contact modes, mode domains, ambiguity and planning for planar robots in contact.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+app.command("robots")(model_cmds.robots)
+app.command("show")(model_cmds.show)
+
+
+def main() -> None:
+    """Entry point of the ``frc`` and ``frcontrol`` console scripts."""
+    app()

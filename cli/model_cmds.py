@@ -1,0 +1,90 @@
+"""``frc robots`` and ``frc show``: what ships, and the model at a scene's state."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from frcontrol.scene import load_scene, shipped_robots_dir
+
+from .common import console, handle_errors, print_json
+
+SceneArg = Annotated[str, typer.Argument(help="A scene file, or the name of a shipped scene.")]
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
+
+
+@handle_errors
+def robots() -> None:
+    """List the robots and scenes that ship with frcontrol."""
+    root = shipped_robots_dir()
+    table = Table(title=f"shipped with frcontrol ({root})")
+    table.add_column("kind")
+    table.add_column("name")
+    for path in sorted(root.glob("*.urdf")):
+        table.add_row("robot", path.name)
+    for path in sorted((root / "scenes").glob("*.toml")):
+        table.add_row("scene", path.stem)
+    console.print(table)
+
+
+def show_payload(scene_file: str | Path) -> dict:
+    """The ``frc show --json`` document for a scene."""
+    scene = load_scene(scene_file)
+    state = scene.robot.state(scene.q, scene.v)
+    contacts = {}
+    for i, contact in enumerate(scene.contacts):
+        contacts[contact.name] = {
+            "gap": state.gaps[i],
+            "v_n": state.normal_velocities[i],
+            "v_t": state.tangential_velocities[i],
+            "jacobian_n": state.jacobian_normal[i],
+            "jacobian_t": state.jacobian_tangent[i],
+            "drift_n": state.drift_normal[i],
+            "drift_t": state.drift_tangent[i],
+            "active": contact.active,
+            "point": state.contact_points[i],
+        }
+    return {
+        "scene": scene.name,
+        "coordinates": list(scene.coordinate_names),
+        "q": scene.q,
+        "v": scene.v,
+        "mass_matrix": state.mass_matrix,
+        "bias": state.bias,
+        "contacts": contacts,
+        "inputs": list(scene.inputs.coordinates),
+        "gap_tolerance": scene.gap_tolerance,
+    }
+
+
+@handle_errors
+def show(scene: SceneArg, json: JsonOpt = False) -> None:
+    """Print the coordinates, M(q), h(q, v) and every contact's gap, velocities and rows."""
+    payload = show_payload(scene)
+    if json:
+        print_json(payload)
+        return
+    names = payload["coordinates"]
+    console.print(f"[bold]{payload['scene']}[/bold]  coordinates: {', '.join(names)}")
+    mass = Table(title="mass matrix M(q) and bias h(q, v)")
+    mass.add_column("")
+    for name in names:
+        mass.add_column(name, justify="right")
+    mass.add_column("h", justify="right")
+    for i, name in enumerate(names):
+        mass.add_row(name, *[f"{x:.4g}" for x in payload["mass_matrix"][i]], f"{payload['bias'][i]:.4g}")
+    console.print(mass)
+    rows = Table(title="contacts (rows J_N, J_T over the coordinates)")
+    for col in ("contact", "active", "gap [m]", "v_n", "v_t", "J_N", "J_T"):
+        rows.add_column(col)
+    for name, c in payload["contacts"].items():
+        rows.add_row(
+            name, "yes" if c["active"] else "no", f"{c['gap']:.3g}", f"{c['v_n']:.3g}",
+            f"{c['v_t']:.3g}", np.array2string(np.asarray(c["jacobian_n"]), precision=3),
+            np.array2string(np.asarray(c["jacobian_t"]), precision=3),
+        )
+    console.print(rows)
