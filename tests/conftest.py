@@ -1,0 +1,74 @@
+"""Shared fixtures: scene files written on the fly from small dictionaries."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from frcontrol.scene import shipped_robots_dir
+
+ROBOTS = shipped_robots_dir()
+
+
+def toml_value(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace('"', '\\"') + '"'
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(float(value))
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    return str(value)
+
+
+def toml_text(scene: dict) -> str:
+    """A minimal TOML writer for scene dictionaries (tables and arrays of tables)."""
+    lines = [f"{k} = {toml_value(v)}" for k, v in scene.items() if not isinstance(v, (dict, list))
+             or (isinstance(v, list) and (not v or not isinstance(v[0], dict)))]
+    for key, value in scene.items():
+        if isinstance(value, dict):
+            lines.append(f"[{key}]")
+            lines += [f"{k} = {toml_value(v)}" for k, v in value.items()]
+        elif isinstance(value, list) and value and isinstance(value[0], dict):
+            for table in value:
+                lines.append(f"[[{key}]]")
+                lines += [f"{k} = {toml_value(v)}" for k, v in table.items()]
+    return "\n".join(lines) + "\n"
+
+
+def rod_scene(**overrides) -> dict:
+    """The README's rod-on-a-table scene as a dictionary (robot by absolute path)."""
+    scene = {
+        "name": "rod on a table",
+        "robot": str(ROBOTS / "rod.urdf"),
+        "base": "planar",
+        "gravity": 9.81,
+        "state": {"q": [0.0, 0.453, 2.007], "v": [0.0, 0.0, 0.0]},
+        "contacts": [
+            {"name": "tip", "link": "rod", "point": [-0.5, 0.0], "normal": [0.0, 1.0], "mu": 1.4}
+        ],
+        "inputs": {"coordinates": ["x", "y", "theta"], "lower": [-50.0, -50.0, -50.0],
+                   "upper": [50.0, 50.0, 50.0]},
+    }
+    scene.update(overrides)
+    return scene
+
+
+@pytest.fixture
+def write_scene(tmp_path: Path):
+    """Write a scene dictionary (or raw text) to a file and return its path."""
+    counter = iter(range(10_000))
+
+    def write(scene: dict | str, name: str | None = None) -> Path:
+        path = tmp_path / (name or f"scene{next(counter)}.toml")
+        path.write_text(scene if isinstance(scene, str) else toml_text(scene))
+        return path
+
+    return write

@@ -1,0 +1,70 @@
+"""The frc command line: output shapes and one-line errors with exit code 1."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from conftest import rod_scene
+from frcontrol.cli.app import app
+from frcontrol.scene import load_scene
+
+runner = CliRunner()
+
+
+def test_help_and_robots():
+    result = runner.invoke(app, ["--help"])
+    assert result.exit_code == 0 and "show" in result.stdout
+    result = runner.invoke(app, ["robots"])
+    assert result.exit_code == 0
+    for name in ("rhex_planar.urdf", "snake_planar.urdf", "rod.urdf", "rhex_flip", "snake_climb"):
+        assert name in result.stdout
+
+
+def test_show_json_contract():
+    result = runner.invoke(app, ["show", "rhex_flip", "--json"])
+    assert result.exit_code == 0, result.stderr
+    doc = json.loads(result.stdout)
+    assert doc["coordinates"] == ["x", "y", "theta", "hip_front", "hip_middle", "hip_rear"]
+    mass = np.array(doc["mass_matrix"])
+    assert mass.shape == (6, 6) and len(doc["bias"]) == 6
+    scene = load_scene("rhex_flip")
+    state = scene.state()
+    np.testing.assert_allclose(mass, state.mass_matrix)
+    assert list(doc["contacts"]) == [c.name for c in scene.contacts]
+    for i, (name, c) in enumerate(doc["contacts"].items()):
+        assert set(c) >= {"gap", "v_n", "v_t", "jacobian_n", "jacobian_t"}
+        np.testing.assert_allclose(c["jacobian_n"], state.jacobian_normal[i])
+        np.testing.assert_allclose(c["jacobian_t"], state.jacobian_tangent[i])
+
+
+def test_show_table():
+    result = runner.invoke(app, ["show", "rod_on_table"])
+    assert result.exit_code == 0
+    assert "tip" in result.stdout and "mass matrix" in result.stdout
+
+
+@pytest.mark.parametrize("overrides", [
+    {"contacts": [{"name": "tip", "link": "nose", "point": [0, 0], "normal": [0, 1], "mu": 1}]},
+    {"state": {"q": [0.0, 1.0]}},
+    {"gravity": float("nan")},
+    {"contacts": [{"name": "tip", "link": "rod", "point": [-0.5, 0.0], "normal": [0, 1], "mu": -1.0}]},
+])
+def test_bad_scene_is_one_line_and_exit_1(overrides, write_scene):
+    path = write_scene(rod_scene(**overrides))
+    result = runner.invoke(app, ["show", str(path)])
+    assert result.exit_code == 1
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(path) in lines[0]
+    assert "Traceback" not in result.output
+
+
+def test_missing_file_and_malformed_toml(write_scene, tmp_path):
+    result = runner.invoke(app, ["show", str(tmp_path / "nothing.toml")])
+    assert result.exit_code == 1 and "no such file" in result.stderr
+    result = runner.invoke(app, ["show", str(write_scene("robot = [\n"))])
+    assert result.exit_code == 1 and "malformed TOML" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1

@@ -1,0 +1,210 @@
+"""The model layer against Pinocchio's own algorithms, finite differences and closed forms."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from frcontrol.errors import FrameNotFound, RobotModelError
+from frcontrol.model import ContactPoint, PlanarRobot
+from frcontrol.scene import load_scene, shipped_robots_dir
+
+ROBOTS = shipped_robots_dir()
+EPS = 1e-6  # finite-difference step [m or rad]
+FD_TOL = 1e-6  # agreement of central differences (error O(EPS^2) times curvature, plus rounding)
+
+
+def point(name: str, link: str, p, n=(0.0, 1.0), s=(0.0, 0.0), mu=0.5) -> ContactPoint:
+    n = np.asarray(n, float) / np.linalg.norm(n)
+    return ContactPoint(name, link, np.asarray(p, float), n, np.asarray(s, float), mu)
+
+
+def rhex(massive_legs: bool = False, tmp_path: Path | None = None) -> PlanarRobot:
+    urdf = ROBOTS / "rhex_planar.urdf"
+    if massive_legs:
+        text = urdf.read_text().replace(
+            '<mass value="0.0"/>\n      <inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>',
+            '<mass value="0.1"/>\n      <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/>',
+        )
+        assert text != urdf.read_text()
+        urdf = tmp_path / "rhex_massive.urdf"
+        urdf.write_text(text)
+    contacts = [point(f"toe_{leg}", f"leg_{leg}", (0.0, -0.17), n=(0.3, 1.0))
+                for leg in ("front", "middle", "rear")]
+    contacts += [point("corner", "body", (0.25, 0.065), n=(-0.2, 1.0))]
+    return PlanarRobot(urdf, "planar", 9.81, contacts)
+
+
+def snake(base: str = "planar") -> PlanarRobot:
+    contacts = [point("tail", "link0", (0.0, 0.0), n=(1.0, 0.0)),
+                point("head", "link8", (0.2, 0.0), n=(0.0, 1.0))]
+    return PlanarRobot(ROBOTS / "snake_planar.urdf", base, 9.81, contacts)
+
+
+def random_state(robot: PlanarRobot, rng: np.random.Generator):
+    return rng.uniform(-np.pi, np.pi, robot.nv), rng.normal(size=robot.nv)
+
+
+def rnea_minimal(robot: PlanarRobot, q, v, a) -> np.ndarray:
+    """Inverse dynamics in minimal coordinates through Pinocchio's RNEA."""
+    data = robot.model.createData()
+    tau = pin.rnea(robot.model, data, robot.pinocchio_q_from_minimal(q),
+                   robot.pinocchio_v_from_minimal(v), robot.pinocchio_v_from_minimal(a))
+    out = np.empty(robot.nv)
+    out[:] = tau[robot._v_index]
+    return out
+
+
+@pytest.mark.parametrize("make", [lambda tp: rhex(True, tp), lambda tp: rhex(False), lambda tp: snake(),
+                                  lambda tp: snake("fixed")])
+def test_mass_matrix_and_bias_against_rnea(make, tmp_path):
+    robot = make(tmp_path)
+    rng = np.random.default_rng(1)
+    for _ in range(3):
+        q, v = random_state(robot, rng)
+        state = robot.state(q, v)
+        zero = np.zeros(robot.nv)
+        np.testing.assert_allclose(state.bias, rnea_minimal(robot, q, v, zero), atol=1e-10)
+        gravity_only = rnea_minimal(robot, q, zero, zero)
+        for j in range(robot.nv):
+            column = rnea_minimal(robot, q, zero, np.eye(robot.nv)[j]) - gravity_only
+            np.testing.assert_allclose(state.mass_matrix[:, j], column, atol=1e-10)
+        np.testing.assert_array_equal(state.mass_matrix, state.mass_matrix.T)
+
+
+def contact_points_from_pin_q(robot: PlanarRobot, q_pin: np.ndarray) -> np.ndarray:
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, q_pin)
+    return np.array([data.oMf[f].translation[:2] for f in robot._contact_frames])
+
+
+@pytest.mark.parametrize("make", [lambda tp: rhex(True, tp), lambda tp: snake(), lambda tp: snake("fixed")])
+def test_rows_and_drift_against_finite_differences_through_integrate(make, tmp_path):
+    robot = make(tmp_path)
+    rng = np.random.default_rng(2)
+    q, v = random_state(robot, rng)
+    state = robot.state(q, v)
+    q_pin = robot.pinocchio_q_from_minimal(q)
+    normals = np.array([c.normal_in_world for c in robot.contacts])
+    tangents = np.array([c.tangent_in_world for c in robot.contacts])
+    for j in range(robot.nv):
+        dv_pin = np.zeros(robot.model.nv)
+        dv_pin[robot._v_index[j]] = EPS
+        plus = contact_points_from_pin_q(robot, pin.integrate(robot.model, q_pin, dv_pin))
+        minus = contact_points_from_pin_q(robot, pin.integrate(robot.model, q_pin, -dv_pin))
+        column = (plus - minus) / (2 * EPS)
+        np.testing.assert_allclose(state.jacobian_normal[:, j], np.sum(normals * column, 1), atol=FD_TOL)
+        np.testing.assert_allclose(state.jacobian_tangent[:, j], np.sum(tangents * column, 1), atol=FD_TOL)
+    # drift dJ v = d/dt (J(q(t)) v) along q(t) = q + t v
+    v_pin = robot.pinocchio_v_from_minimal(v)
+    ahead = robot.state(q + EPS * v, v)
+    behind = robot.state(q - EPS * v, v)
+    for rows, drift, label in (("jacobian_normal", "drift_normal", "n"), ("jacobian_tangent", "drift_tangent", "t")):
+        fd = (getattr(ahead, rows) - getattr(behind, rows)) @ v / (2 * EPS)
+        np.testing.assert_allclose(getattr(state, drift), fd, atol=1e-5, err_msg=label)
+    # the integrate path and the minimal path agree on configuration
+    np.testing.assert_allclose(
+        contact_points_from_pin_q(robot, pin.integrate(robot.model, q_pin, EPS * v_pin)),
+        robot.contact_points_in_world(q + EPS * v), atol=1e-12,
+    )
+
+
+@pytest.mark.parametrize("theta", [2.007, 0.3, -1.2, np.pi / 2])
+@pytest.mark.parametrize("distance", [0.5, 0.2])
+def test_rod_rows_closed_form(theta, distance):
+    robot = PlanarRobot(ROBOTS / "rod.urdf", "planar", 9.81,
+                        [point("c", "rod", (-distance, 0.0), n=(0.0, 1.0))])
+    omega = 0.7
+    state = robot.state(np.array([0.1, 0.4, theta]), np.array([0.0, 0.0, omega]))
+    np.testing.assert_allclose(state.jacobian_normal[0], [0.0, 1.0, -distance * np.cos(theta)], atol=1e-14)
+    np.testing.assert_allclose(state.jacobian_tangent[0], [1.0, 0.0, distance * np.sin(theta)], atol=1e-14)
+    # p = c + R(theta)(-l, 0): centripetal drift w^2 l (cos, sin)
+    np.testing.assert_allclose(
+        [state.drift_tangent[0], state.drift_normal[0]],
+        omega**2 * distance * np.array([np.cos(theta), np.sin(theta)]), atol=1e-14,
+    )
+    np.testing.assert_allclose(state.mass_matrix, np.diag([1.0, 1.0, 1.0 / 12]), atol=1e-9)
+    np.testing.assert_allclose(state.bias, [0.0, 9.81, 0.0], atol=1e-12)
+
+
+def test_massless_legs_give_a_singular_mass_matrix_with_the_body_block_exact():
+    robot = rhex(False)
+    state = robot.state(np.array([0.0, 0.1, 0.3, 0.5, -1.0, 2.0]), np.zeros(6))
+    np.testing.assert_array_equal(state.mass_matrix[3:, :], 0.0)
+    np.testing.assert_array_equal(state.mass_matrix[:, 3:], 0.0)
+    inertia = 7.5 * (0.5**2 + 0.13**2) / 12
+    np.testing.assert_allclose(state.mass_matrix[:3, :3], np.diag([7.5, 7.5, inertia]), atol=1e-12)
+    assert np.linalg.matrix_rank(state.mass_matrix) == 3
+    assert np.all(np.isfinite(state.jacobian_normal))
+
+
+def test_fixed_base_equals_the_joint_block_of_the_planar_base_at_the_origin():
+    planar, fixed = snake("planar"), snake("fixed")
+    rng = np.random.default_rng(3)
+    joints = rng.uniform(-1, 1, 8)
+    jv = rng.normal(size=8)
+    sp = planar.state(np.r_[0.0, 0.0, 0.0, joints], np.r_[0.0, 0.0, 0.0, jv])
+    sf = fixed.state(joints, jv)
+    assert fixed.coordinate_names == tuple(f"j{i}" for i in range(1, 9))
+    np.testing.assert_allclose(sf.mass_matrix, sp.mass_matrix[3:, 3:], atol=1e-12)
+    np.testing.assert_allclose(sf.bias, sp.bias[3:], atol=1e-12)
+    np.testing.assert_allclose(sf.jacobian_normal, sp.jacobian_normal[:, 3:], atol=1e-12)
+    np.testing.assert_allclose(sf.drift_normal, sp.drift_normal, atol=1e-12)
+
+
+def test_continuous_joints_map_to_cos_sin():
+    robot = rhex(False)
+    q = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6])
+    q_pin = robot.pinocchio_q_from_minimal(q)
+    assert robot.model.nq == 9
+    np.testing.assert_allclose(pin.difference(robot.model, robot.pinocchio_q_from_minimal(np.zeros(6)), q_pin)[robot._v_index], q)
+
+
+def test_joint_order_follows_the_urdf_document(tmp_path):
+    # joints listed j2 before j1: Pinocchio orders by the tree (j1 first), frcontrol by the file
+    text = (ROBOTS / "snake_planar.urdf").read_text()
+    start = text.index('  <joint name="j1"')
+    end = text.index("</joint>", start) + len("</joint>\n")
+    j1 = text[start:end]
+    text = text[:start] + text[end:]
+    text = text.replace("</robot>", j1 + "</robot>")
+    urdf = tmp_path / "reordered.urdf"
+    urdf.write_text(text)
+    robot = PlanarRobot(urdf, "planar", 9.81, [point("head", "link8", (0.2, 0.0))])
+    assert robot.coordinate_names == ("x", "y", "theta", "j2", "j3", "j4", "j5", "j6", "j7", "j8", "j1")
+    reference = snake("planar")
+    rng = np.random.default_rng(4)
+    q, v = random_state(reference, rng)
+    perm = [0, 1, 2, 4, 5, 6, 7, 8, 9, 10, 3]  # reordered coordinate i is reference coordinate perm[i]
+    a, b = robot.state(q[perm], v[perm]), reference.state(q, v, [1])
+    np.testing.assert_allclose(a.mass_matrix, b.mass_matrix[np.ix_(perm, perm)], atol=1e-12)
+    np.testing.assert_allclose(a.jacobian_normal, b.jacobian_normal[:, perm], atol=1e-12)
+    np.testing.assert_allclose(a.drift_normal, b.drift_normal, atol=1e-12)
+    np.testing.assert_allclose(a.bias, b.bias[perm], atol=1e-12)
+
+
+def test_unknown_link_and_non_planar_urdf(tmp_path):
+    with pytest.raises(FrameNotFound, match="unknown link 'nose'"):
+        PlanarRobot(ROBOTS / "rod.urdf", "planar", 9.81, [point("c", "nose", (0, 0))])
+    text = (ROBOTS / "snake_planar.urdf").read_text().replace('<axis xyz="0 0 1"/>', '<axis xyz="1 0 0"/>', 1)
+    urdf = tmp_path / "tilted.urdf"
+    urdf.write_text(text)
+    with pytest.raises(RobotModelError, match="revolute axis is along z"):
+        PlanarRobot(urdf)
+    bad = tmp_path / "bad.urdf"
+    bad.write_text("<robot name='x'><link name='a'></robot>")
+    with pytest.raises(RobotModelError, match="cannot read URDF"):
+        PlanarRobot(bad)
+
+
+def test_shipped_scenes_touch_at_zero_gap():
+    for name in ("rod_on_table", "box_on_ground", "box_on_slope", "table_on_ground", "disk_in_wedge",
+                 "rhex_flip", "snake_climb"):
+        scene = load_scene(name)
+        state = scene.state()
+        assert scene.active_contacts, name
+        np.testing.assert_allclose(state.gaps, 0.0, atol=1e-9, err_msg=name)
+        assert np.linalg.eigvalsh(state.mass_matrix).min() >= -1e-12

@@ -1,0 +1,130 @@
+"""Scene loading: the format, defaults, activity of contacts and every bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import ROBOTS, rod_scene
+from frcontrol.errors import CoordinateNotFound, InputError, SceneError
+from frcontrol.scene import load_scene, parse_input_assignments
+
+
+def test_readme_scene_loads_with_defaults(write_scene):
+    scene_dict = rod_scene()
+    del scene_dict["gravity"]
+    del scene_dict["state"]["v"]
+    scene = load_scene(write_scene(scene_dict))
+    assert scene.coordinate_names == ("x", "y", "theta")
+    assert scene.robot.gravity == 9.81
+    np.testing.assert_array_equal(scene.v, 0.0)
+    (tip,) = scene.contacts
+    assert tip.active and tip.gap == 0.0 and tip.mu == 1.4
+    assert scene.inputs.coordinates == ("x", "y", "theta")
+
+
+def test_robot_relative_to_the_scene_then_shipped(write_scene, tmp_path):
+    (tmp_path / "my_rod.urdf").write_text((ROBOTS / "rod.urdf").read_text())
+    assert load_scene(write_scene(rod_scene(robot="my_rod.urdf"))).robot.urdf_path.name == "my_rod.urdf"
+    assert load_scene(write_scene(rod_scene(robot="rod.urdf"))).robot.urdf_path == ROBOTS / "rod.urdf"
+
+
+def test_normal_is_normalised_and_surface_point_sets_the_gap(write_scene):
+    contact = {"name": "tip", "link": "rod", "point": [-0.5, 0.0], "normal": [0.0, 3.0], "mu": 0.5,
+               "surface_point": [0.0, -0.25]}
+    scene = load_scene(write_scene(rod_scene(contacts=[contact])))
+    (tip,) = scene.contacts
+    np.testing.assert_allclose(tip.point.normal_in_world, [0.0, 1.0])
+    tip_y = 0.453 - 0.5 * np.sin(2.007)
+    assert tip.gap == pytest.approx(tip_y + 0.25)
+    assert not tip.active and scene.active_contacts == ()
+    assert scene.state().jacobian_normal.shape == (0, 3)
+
+
+def test_gap_tolerance_decides_activity(write_scene):
+    contact = {"name": "tip", "link": "rod", "point": [-0.5, 0.0], "normal": [0.0, 1.0], "mu": 0.5,
+               "surface_point": [0.0, 0.453 - 0.5 * np.sin(2.007) - 5e-7]}
+    assert load_scene(write_scene(rod_scene(contacts=[contact]))).contacts[0].active
+    assert not load_scene(write_scene(rod_scene(contacts=[contact])), gap_tolerance=1e-7).contacts[0].active
+
+
+def bad(**overrides):
+    return rod_scene(**overrides)
+
+
+def contact(**overrides):
+    c = {"name": "tip", "link": "rod", "point": [-0.5, 0.0], "normal": [0.0, 1.0], "mu": 1.4}
+    c.update(overrides)
+    return [c]
+
+
+BAD_SCENES = {
+    "unknown link": (bad(contacts=contact(link="nose")), "contacts[0].link", "unknown link 'nose'"),
+    "unknown input coordinate": (
+        bad(inputs={"coordinates": ["x", "phi"]}), "inputs.coordinates[1]", "unknown coordinate 'phi'"),
+    "short q": (bad(state={"q": [0.0, 0.453]}), "state.q", "expected 3 numbers"),
+    "long v": (bad(state={"q": [0.0, 0.453, 2.007], "v": [0.0] * 4}), "state.v", "expected 3 numbers"),
+    "short limits": (bad(inputs={"coordinates": ["x", "y"], "lower": [0.0]}), "inputs.lower", "expected 2"),
+    "nan in q": (bad(state={"q": [0.0, float("nan"), 2.007]}), "state.q[1]", "finite"),
+    "inf mu": (bad(contacts=contact(mu=float("inf"))), "contacts[0].mu", "finite"),
+    "negative mu": (bad(contacts=contact(mu=-0.1)), "contacts[0].mu", ">= 0"),
+    "zero normal": (bad(contacts=contact(normal=[0.0, 0.0])), "contacts[0].normal", "non-zero"),
+    "lower above upper": (
+        bad(inputs={"coordinates": ["x"], "lower": [1.0], "upper": [-1.0]}), "inputs.lower[0]", "exceeds"),
+    "penetration": (bad(contacts=contact(surface_point=[0.0, 0.1])), "contacts[0]", "penetrates"),
+    "missing robot": ({"name": "x", "state": {"q": [0.0]}}, "robot", "missing"),
+    "unknown robot": (bad(robot="nothere.urdf"), "robot", "no URDF"),
+    "bad base": (bad(base="floating"), "base", "'planar' or 'fixed'"),
+    "negative gravity": (bad(gravity=-9.81), "gravity", ">= 0"),
+    "unknown field": (bad(colour="red"), "colour", "unknown field"),
+    "duplicate contact": (bad(contacts=contact() + contact()), "contacts[1].name", "duplicate"),
+    "string number": (bad(gravity="9.81"), "gravity", "expected a number"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_SCENES))
+def test_bad_scene_names_file_and_field(case, write_scene):
+    scene_dict, field, reason = BAD_SCENES[case]
+    path = write_scene(scene_dict)
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert info.value.field == field
+    assert reason in info.value.reason
+    assert str(path) in str(info.value)
+
+
+def test_missing_unreadable_and_malformed_files(write_scene, tmp_path):
+    with pytest.raises(SceneError, match="no such file"):
+        load_scene(tmp_path / "missing.toml")
+    (tmp_path / "dir.toml").mkdir()
+    with pytest.raises(SceneError, match="cannot read"):
+        load_scene(tmp_path / "dir.toml")
+    with pytest.raises(SceneError, match="malformed TOML"):
+        load_scene(write_scene('name = "x"\nrobot = \n'))
+    (tmp_path / "broken.urdf").write_text("<robot name='b'><link name='a'>")
+    with pytest.raises(SceneError, match="cannot read URDF") as info:
+        load_scene(write_scene(bad(robot="broken.urdf")))
+    assert info.value.field == "robot"
+
+
+def test_input_assignments(write_scene):
+    scene = load_scene(write_scene(rod_scene()))
+    np.testing.assert_array_equal(parse_input_assignments(scene, {"theta": 2.0}), [0.0, 0.0, 2.0])
+    with pytest.raises(CoordinateNotFound, match="'phi'"):
+        parse_input_assignments(scene, {"phi": 1.0})
+    with pytest.raises(InputError, match="outside its limits"):
+        parse_input_assignments(scene, {"x": 51.0})
+    with pytest.raises(InputError, match="finite"):
+        parse_input_assignments(scene, {"x": float("nan")})
+
+
+def test_fixed_base_scene(write_scene):
+    scene = load_scene(write_scene({
+        "robot": "snake_planar.urdf", "base": "fixed",
+        "state": {"q": [0.1] * 8},
+        "contacts": [{"name": "head", "link": "link8", "point": [0.2, 0.0], "normal": [0.0, 1.0], "mu": 0.5}],
+        "inputs": {"coordinates": ["j1", "j8"]},
+    }))
+    assert scene.coordinate_names[0] == "j1" and len(scene.q) == 8
+    assert np.all(np.isinf(scene.inputs.upper))
+    np.testing.assert_array_equal(scene.inputs.selection_transpose(8)[[0, 7], [0, 1]], 1.0)
