@@ -287,7 +287,9 @@ class PlanarRobot:
         v_pin[self._v_index] = v
         return v_pin
 
-    def check_state(self, q: Sequence[float], v: Sequence[float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def check_state(
+        self, q: Sequence[float], v: Sequence[float] | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Validate a state; return ``(q, v)`` as float64 arrays (v defaults to zeros).
 
         Raises:

@@ -6,10 +6,10 @@ import json
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
-
 from conftest import rod_scene
 from frcontrol.cli.app import app
+from typer.testing import CliRunner
+
 from frcontrol.scene import load_scene
 
 runner = CliRunner()
@@ -35,7 +35,7 @@ def test_show_json_contract():
     state = scene.state()
     np.testing.assert_allclose(mass, state.mass_matrix)
     assert list(doc["contacts"]) == [c.name for c in scene.contacts]
-    for i, (name, c) in enumerate(doc["contacts"].items()):
+    for i, c in enumerate(doc["contacts"].values()):
         assert set(c) >= {"gap", "v_n", "v_t", "jacobian_n", "jacobian_t"}
         np.testing.assert_allclose(c["jacobian_n"], state.jacobian_normal[i])
         np.testing.assert_allclose(c["jacobian_t"], state.jacobian_tangent[i])

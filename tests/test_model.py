@@ -27,7 +27,8 @@ def rhex(massive_legs: bool = False, tmp_path: Path | None = None) -> PlanarRobo
     if massive_legs:
         text = urdf.read_text().replace(
             '<mass value="0.0"/>\n      <inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>',
-            '<mass value="0.1"/>\n      <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/>',
+            '<mass value="0.1"/>\n      '
+            '<inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/>',
         )
         assert text != urdf.read_text()
         urdf = tmp_path / "rhex_massive.urdf"
@@ -58,8 +59,8 @@ def rnea_minimal(robot: PlanarRobot, q, v, a) -> np.ndarray:
     return out
 
 
-@pytest.mark.parametrize("make", [lambda tp: rhex(True, tp), lambda tp: rhex(False), lambda tp: snake(),
-                                  lambda tp: snake("fixed")])
+@pytest.mark.parametrize("make", [lambda tp: rhex(True, tp), lambda tp: rhex(False),
+                                  lambda tp: snake(), lambda tp: snake("fixed")])
 def test_mass_matrix_and_bias_against_rnea(make, tmp_path):
     robot = make(tmp_path)
     rng = np.random.default_rng(1)
@@ -81,7 +82,9 @@ def contact_points_from_pin_q(robot: PlanarRobot, q_pin: np.ndarray) -> np.ndarr
     return np.array([data.oMf[f].translation[:2] for f in robot._contact_frames])
 
 
-@pytest.mark.parametrize("make", [lambda tp: rhex(True, tp), lambda tp: snake(), lambda tp: snake("fixed")])
+@pytest.mark.parametrize(
+    "make", [lambda tp: rhex(True, tp), lambda tp: snake(), lambda tp: snake("fixed")]
+)
 def test_rows_and_drift_against_finite_differences_through_integrate(make, tmp_path):
     robot = make(tmp_path)
     rng = np.random.default_rng(2)
@@ -102,7 +105,8 @@ def test_rows_and_drift_against_finite_differences_through_integrate(make, tmp_p
     v_pin = robot.pinocchio_v_from_minimal(v)
     ahead = robot.state(q + EPS * v, v)
     behind = robot.state(q - EPS * v, v)
-    for rows, drift, label in (("jacobian_normal", "drift_normal", "n"), ("jacobian_tangent", "drift_tangent", "t")):
+    pairs = (("jacobian_normal", "drift_normal", "n"), ("jacobian_tangent", "drift_tangent", "t"))
+    for rows, drift, label in pairs:
         fd = (getattr(ahead, rows) - getattr(behind, rows)) @ v / (2 * EPS)
         np.testing.assert_allclose(getattr(state, drift), fd, atol=1e-5, err_msg=label)
     # the integrate path and the minimal path agree on configuration
@@ -160,7 +164,8 @@ def test_continuous_joints_map_to_cos_sin():
     q = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6])
     q_pin = robot.pinocchio_q_from_minimal(q)
     assert robot.model.nq == 9
-    np.testing.assert_allclose(pin.difference(robot.model, robot.pinocchio_q_from_minimal(np.zeros(6)), q_pin)[robot._v_index], q)
+    origin = robot.pinocchio_q_from_minimal(np.zeros(6))
+    np.testing.assert_allclose(pin.difference(robot.model, origin, q_pin)[robot._v_index], q)
 
 
 def test_joint_order_follows_the_urdf_document(tmp_path):

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import ROBOTS, rod_scene
+
 from frcontrol.errors import CoordinateNotFound, InputError, SceneError
 from frcontrol.scene import load_scene, parse_input_assignments
 
