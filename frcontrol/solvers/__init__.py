@@ -1,0 +1,411 @@
+r"""One door for linear programs and small quadratic programs, several back-ends.
+
+.. math::
+
+    \text{LP:}\quad \min_x c^\top x \qquad
+    \text{QP:}\quad \min_x \tfrac12 x^\top P x + q^\top x \qquad
+    \text{s.t.}\quad A_{ub} x \le b_{ub},\; A_{eq} x = b_{eq},\; lb \le x \le ub.
+
+:func:`solve_lp` and :func:`solve_qp` validate the arrays once (shapes, NaN, infinities; a
+malformed input raises :class:`~frcontrol.errors.InputError`), convert every one of them to a
+C-contiguous ``float64`` array (DAQP silently solves another problem when handed a strided
+vector, see :mod:`frcontrol.solvers.daqp_`), call the back-end's adapter, and build a frozen
+result. The door never trusts a success flag alone: it computes the primal residual of every
+answer (:func:`primal_residual`) and downgrades an "optimal" answer whose residual exceeds
+:data:`FEASIBILITY_TOLERANCE` (relative, see there) to ``status="error"``.
+
+An infeasible or unbounded problem is a *result* (``found=False``), not an exception. An unknown or
+uninstalled back-end raises :class:`~frcontrol.errors.SolverNotFound`.
+
+Back-ends (registered at import when their package imports, qpsolvers-style):
+
+======================  ===========================================================================
+``"daqp"`` (default)    DAQP, dual active set; 7-40 us per small dense LP here, no failure seen.
+``"highs"`` (reference) HiGHS through ``highspy``; 0.3-1.6 ms per small LP; robust.
+``"proxsuite"``         ProxQP dense; made for QPs. On LPs it needs tight settings (the adapter's
+                        defaults); with ProxQP's own it falsely reports infeasibility on many
+                        feasible LPs. See :mod:`frcontrol.solvers.proxsuite_`.
+======================  ===========================================================================
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any, cast
+
+import numpy as np
+
+from frcontrol.errors import FrcontrolError, InputError, SolverNotFound
+
+from ._common import LinearProgram, QPAdapter, QuadraticProgram, RawSolution, Status
+
+__all__ = [
+    "DEFAULT_LP_SOLVER",
+    "FEASIBILITY_TOLERANCE",
+    "KNOWN_SOLVERS",
+    "LinearProgram",
+    "QuadraticProgram",
+    "RawSolution",
+    "LPResult",
+    "QPResult",
+    "REFERENCE_LP_SOLVER",
+    "SolverFailed",
+    "Status",
+    "available_solvers",
+    "primal_residual",
+    "solve_lp",
+    "solve_qp",
+]
+
+DEFAULT_LP_SOLVER = "daqp"
+"""Back-end used when none is named: the fastest on small dense LPs, with no failure measured."""
+
+REFERENCE_LP_SOLVER = "highs"
+"""Back-end used as the reference in tests and as the fallback of the polytope module."""
+
+KNOWN_SOLVERS = ("daqp", "highs", "proxsuite")
+"""Every back-end the door has an adapter for (installed or not)."""
+
+FEASIBILITY_TOLERANCE = 1e-6
+r"""Largest accepted primal residual of an "optimal" answer, relative to the size of the terms.
+
+The answer ``x`` is accepted when ``primal_residual <= FEASIBILITY_TOLERANCE * scale`` with
+:math:`\text{scale} = 1 + \max_i |r_i| + \max_i \|a_i\|_1 \|x\|_\infty` over the finite
+right-hand sides ``r`` (``b_ub``, ``b_eq``, ``lb``, ``ub``) and the constraint rows ``a_i``.
+Default ``1e-6``, DAQP's own primal tolerance. The value used is reported on every result
+(``residual_tolerance``).
+"""
+
+_SYMMETRY_TOLERANCE = 1e-9
+"""Relative asymmetry ``max|P - P^T| / (1 + max|P|)`` above which a Hessian is rejected."""
+
+_CONVEXITY_TOLERANCE = 1e-9
+"""Relative negative eigenvalue ``-min eig(P) / (1 + max|eig(P)|)`` above which a Hessian is
+rejected as non-convex."""
+
+
+class SolverFailed(FrcontrolError):
+    """Every back-end tried failed on a problem that should be solvable (numerical trouble)."""
+
+    def __init__(self, what: str, statuses: dict[str, str]) -> None:
+        self.what = what
+        self.statuses = dict(statuses)
+        details = "; ".join(f"{name}: {status}" for name, status in self.statuses.items())
+        super().__init__(f"{what} failed with every back-end tried ({details})")
+
+
+@dataclass(frozen=True, eq=False)
+class LPResult:
+    """Outcome of :func:`solve_lp`.
+
+    Attributes:
+        found: ``True`` iff ``status == "optimal"``: ``x`` is an optimum whose primal residual
+            passed the door's check.
+        status: ``"optimal"``, ``"infeasible"``, ``"unbounded"`` or ``"error"`` (the back-end
+            failed, or claimed an optimum the door rejected).
+        x: the optimum, shape ``(n,)``, or ``None`` when not found.
+        objective: ``c @ x`` at the optimum; ``+inf`` if infeasible, ``-inf`` if unbounded,
+            ``nan`` on error.
+        solver: name of the back-end.
+        solve_time: wall-clock time of the back-end call (set-up and solve) [s].
+        raw_status: the back-end's own status, verbatim, plus the door's verdict if it overrode it.
+        primal_residual: largest constraint violation at the point the back-end returned
+            (``nan`` if it returned none), in the units of the constraints.
+        residual_tolerance: the absolute residual the door accepted for this problem (see
+            :data:`FEASIBILITY_TOLERANCE`).
+    """
+
+    found: bool
+    status: Status
+    x: np.ndarray | None
+    objective: float
+    solver: str
+    solve_time: float
+    raw_status: str
+    primal_residual: float
+    residual_tolerance: float
+
+
+@dataclass(frozen=True, eq=False)
+class QPResult(LPResult):
+    r"""Outcome of :func:`solve_qp`.
+
+    As :class:`LPResult`, with ``objective`` :math:`= \tfrac12 x^\top P x + q^\top x`.
+    """
+
+
+_LP_SOLVERS: dict[str, QPAdapter] = {}
+_QP_SOLVERS: dict[str, QPAdapter] = {}
+
+try:
+    from . import daqp_
+
+    _LP_SOLVERS["daqp"] = daqp_.solve_lp
+    _QP_SOLVERS["daqp"] = daqp_.solve_qp
+except ImportError:  # pragma: no cover - depends on the environment
+    pass
+
+try:
+    from . import highs_
+
+    _LP_SOLVERS["highs"] = highs_.solve_lp
+    _QP_SOLVERS["highs"] = highs_.solve_qp
+except ImportError:  # pragma: no cover
+    pass
+
+try:
+    from . import proxsuite_
+
+    _LP_SOLVERS["proxsuite"] = proxsuite_.solve_lp
+    _QP_SOLVERS["proxsuite"] = proxsuite_.solve_qp
+except ImportError:  # pragma: no cover
+    pass
+
+
+def available_solvers() -> list[str]:
+    """Names of the installed back-ends, in the order of :data:`KNOWN_SOLVERS`."""
+    return [name for name in KNOWN_SOLVERS if name in _LP_SOLVERS]
+
+
+# ---------------------------------------------------------------------------------------------
+# validation
+
+
+def _array(name: str, value: Any, ndim: int) -> np.ndarray:
+    try:
+        array = np.ascontiguousarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise InputError(f"{name} is not an array of numbers: {error}") from error
+    if array.ndim != ndim:
+        raise InputError(f"{name} must be {ndim}-D, got shape {array.shape}")
+    if np.isnan(array).any():
+        raise InputError(f"{name} contains NaN")
+    return array
+
+
+def _block(name: str, A: Any, b: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
+    if A is None and b is None:
+        return np.zeros((0, n)), np.zeros(0)
+    if A is None or b is None:
+        raise InputError(f"A_{name} and b_{name} must be given together")
+    A = _array(f"A_{name}", A, 2)
+    b = _array(f"b_{name}", b, 1)
+    if A.shape[1] != n or A.shape[0] != b.shape[0]:
+        raise InputError(
+            f"A_{name} has shape {A.shape} and b_{name} shape {b.shape}; expected ({b.shape[0]}, "
+            f"{n}) and ({A.shape[0]},) for {n} variables"
+        )
+    if not (np.isfinite(A).all() and np.isfinite(b).all()):
+        raise InputError(f"A_{name} and b_{name} must be finite")
+    return A, b
+
+
+def _bound(name: str, value: Any, n: int, default: float) -> np.ndarray:
+    if value is None:
+        return np.full(n, default)
+    if np.ndim(value) == 0:
+        value = np.full(n, _array(name, [value], 1)[0])
+    bound = _array(name, value, 1)
+    if bound.shape != (n,):
+        raise InputError(f"{name} must be a scalar or have shape ({n},), got {bound.shape}")
+    if (bound == -default).any():
+        raise InputError(f"{name} contains {-default}")
+    return bound
+
+
+def _validate_lp(c: Any, A_ub: Any, b_ub: Any, A_eq: Any, b_eq: Any, lb: Any, ub: Any) -> LinearProgram:
+    c = _array("c", c, 1)
+    n = c.shape[0]
+    if n == 0 or not np.isfinite(c).all():
+        raise InputError("c must be a non-empty finite vector")
+    A_ub, b_ub = _block("ub", A_ub, b_ub, n)
+    A_eq, b_eq = _block("eq", A_eq, b_eq, n)
+    lb = _bound("lb", lb, n, -np.inf)
+    ub = _bound("ub", ub, n, np.inf)
+    return LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub)
+
+
+def _validate_qp(P: Any, problem: LinearProgram) -> np.ndarray:
+    n = problem.n
+    P = _array("P", P, 2)
+    if P.shape != (n, n) or not np.isfinite(P).all():
+        raise InputError(f"P must be a finite ({n}, {n}) matrix, got shape {P.shape}")
+    size = 1.0 + np.max(np.abs(P))
+    if np.max(np.abs(P - P.T)) > _SYMMETRY_TOLERANCE * size:
+        raise InputError("P is not symmetric")
+    P = np.ascontiguousarray(0.5 * (P + P.T))
+    eigenvalues = np.linalg.eigvalsh(P)
+    if eigenvalues[0] < -_CONVEXITY_TOLERANCE * (1.0 + np.max(np.abs(eigenvalues))):
+        raise InputError(f"P is not positive semi-definite (eigenvalue {eigenvalues[0]:.3g})")
+    return P
+
+
+def primal_residual(problem: LinearProgram, x: np.ndarray) -> float:
+    r"""Largest violation of the constraints of ``problem`` at ``x`` (0 if ``x`` is feasible).
+
+    .. math::
+
+        \max\big(0,\ \max(A_{ub}x - b_{ub}),\ \max|A_{eq}x - b_{eq}|,\
+        \max(lb - x),\ \max(x - ub)\big)
+    """
+    residual = 0.0
+    if problem.A_ub.shape[0]:
+        residual = max(residual, float(np.max(problem.A_ub @ x - problem.b_ub)))
+    if problem.A_eq.shape[0]:
+        residual = max(residual, float(np.max(np.abs(problem.A_eq @ x - problem.b_eq))))
+    residual = max(residual, float(np.max(problem.lb - x)), float(np.max(x - problem.ub)))
+    return residual
+
+
+def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
+    rhs = np.concatenate([problem.b_ub, problem.b_eq, problem.lb, problem.ub])
+    rhs = rhs[np.isfinite(rhs)]
+    scale = 1.0 + (float(np.max(np.abs(rhs))) if rhs.size else 0.0)
+    A = np.vstack([problem.A_ub, problem.A_eq])
+    if x is not None and A.shape[0]:
+        scale += float(np.max(np.sum(np.abs(A), axis=1))) * float(np.max(np.abs(x)))
+    return FEASIBILITY_TOLERANCE * scale
+
+
+def _adapter(registry: dict[str, QPAdapter], solver: str) -> QPAdapter:
+    if solver not in registry:
+        raise SolverNotFound(solver, available_solvers())
+    return registry[solver]
+
+
+def _finish(
+    result_type: type[LPResult],
+    problem: LinearProgram,
+    raw: RawSolution,
+    solver: str,
+    solve_time: float,
+    P: np.ndarray | None,
+) -> LPResult:
+    status, raw_status, x = raw.status, raw.raw_status, raw.x
+    residual = float("nan")
+    if x is not None:
+        x = np.asarray(x, dtype=np.float64).reshape(-1)
+        if x.shape != (problem.n,) or not np.isfinite(x).all():
+            status, raw_status, x = "error", raw_status + "; door: x malformed or not finite", None
+        else:
+            residual = primal_residual(problem, x)
+    tolerance = _residual_tolerance(problem, x)
+    if status == "optimal" and not residual <= tolerance:
+        status = "error"
+        raw_status += f"; door: primal residual {residual:.3g} > {tolerance:.3g}, rejected"
+    if status != "optimal":
+        x = None
+    objective = {"infeasible": np.inf, "unbounded": -np.inf, "error": np.nan}.get(status)
+    if x is not None:
+        objective = float(problem.c @ x)
+        if P is not None:
+            objective += 0.5 * float(x @ P @ x)
+    return result_type(
+        found=status == "optimal",
+        status=status,
+        x=x,
+        objective=float(objective),
+        solver=solver,
+        solve_time=solve_time,
+        raw_status=raw_status,
+        primal_residual=residual,
+        residual_tolerance=tolerance,
+    )
+
+
+def _bounds_crossed(problem: LinearProgram) -> RawSolution | None:
+    if (problem.lb > problem.ub).any():
+        return RawSolution("infeasible", None, "door: lb > ub")
+    return None
+
+
+# ---------------------------------------------------------------------------------------------
+# the door
+
+
+def solve_lp(
+    c: Any,
+    A_ub: Any = None,
+    b_ub: Any = None,
+    A_eq: Any = None,
+    b_eq: Any = None,
+    lb: Any = None,
+    ub: Any = None,
+    *,
+    solver: str = DEFAULT_LP_SOLVER,
+    **options: Any,
+) -> LPResult:
+    r"""Solve a linear program through the chosen back-end.
+
+    minimise :math:`c^\top x` s.t. :math:`A_{ub}x \le b_{ub}`, :math:`A_{eq}x = b_{eq}`,
+    :math:`lb \le x \le ub`.
+
+    Args:
+        c: cost, shape ``(n,)``.
+        A_ub: inequality matrix, shape ``(m_ub, n)``, or ``None``.
+        b_ub: inequality right-hand side, shape ``(m_ub,)``, or ``None``.
+        A_eq: equality matrix, shape ``(m_eq, n)``, or ``None``.
+        b_eq: equality right-hand side, shape ``(m_eq,)``, or ``None``.
+        lb: lower bounds, a scalar or shape ``(n,)``, ``-inf`` allowed; ``None`` = no bound.
+        ub: upper bounds, a scalar or shape ``(n,)``, ``+inf`` allowed; ``None`` = no bound.
+        solver: back-end name (see :func:`available_solvers`).
+        **options: back-end settings, passed on verbatim (e.g. ``primal_tol`` for DAQP).
+
+    Returns:
+        The result; an infeasible or unbounded LP gives ``found=False`` and the status.
+
+    Raises:
+        InputError: malformed arrays (shapes, NaN, infinite entries in matrices) or options.
+        SolverNotFound: ``solver`` is unknown or not installed.
+    """
+    adapter = _adapter(_LP_SOLVERS, solver)
+    problem = _validate_lp(c, A_ub, b_ub, A_eq, b_eq, lb, ub)
+    start = time.perf_counter()
+    raw = _bounds_crossed(problem) or adapter(problem, **options)
+    elapsed = time.perf_counter() - start
+    return _finish(LPResult, problem, raw, solver, elapsed, None)
+
+
+def solve_qp(
+    P: Any,
+    q: Any,
+    A_ub: Any = None,
+    b_ub: Any = None,
+    A_eq: Any = None,
+    b_eq: Any = None,
+    lb: Any = None,
+    ub: Any = None,
+    *,
+    solver: str = DEFAULT_LP_SOLVER,
+    **options: Any,
+) -> QPResult:
+    r"""Minimise :math:`\tfrac12 x^\top P x + q^\top x` under the constraints of :func:`solve_lp`.
+
+    Args:
+        P: symmetric positive semi-definite Hessian, shape ``(n, n)``.
+        q: linear cost, shape ``(n,)``.
+        A_ub: inequality matrix, shape ``(m_ub, n)``, or ``None``.
+        b_ub: inequality right-hand side, or ``None``.
+        A_eq: equality matrix, shape ``(m_eq, n)``, or ``None``.
+        b_eq: equality right-hand side, or ``None``.
+        lb: lower bounds (scalar or ``(n,)``), or ``None``.
+        ub: upper bounds (scalar or ``(n,)``), or ``None``.
+        solver: back-end name (see :func:`available_solvers`).
+        **options: back-end settings, passed on verbatim.
+
+    Returns:
+        The result (``found=False`` with the status if infeasible or unbounded).
+
+    Raises:
+        InputError: malformed arrays, a non-symmetric or non-convex ``P``, bad options.
+        SolverNotFound: ``solver`` is unknown or not installed.
+    """
+    adapter = _adapter(_QP_SOLVERS, solver)
+    lp = _validate_lp(q, A_ub, b_ub, A_eq, b_eq, lb, ub)
+    P = _validate_qp(P, lp)
+    problem = QuadraticProgram(lp.c, lp.A_ub, lp.b_ub, lp.A_eq, lp.b_eq, lp.lb, lp.ub, P=P)
+    start = time.perf_counter()
+    raw = _bounds_crossed(problem) or adapter(problem, **options)
+    elapsed = time.perf_counter() - start
+    return cast(QPResult, _finish(QPResult, problem, raw, solver, elapsed, P))

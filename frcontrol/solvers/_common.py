@@ -1,0 +1,94 @@
+"""Problem containers shared by the door (:mod:`frcontrol.solvers`) and the back-end adapters.
+
+The door validates the user's arrays once and hands every adapter the same normalised problem:
+C-contiguous ``float64`` arrays, absent blocks replaced by arrays with zero rows, and simple
+bounds always present (``-inf`` / ``+inf`` where there is none). An adapter never sees ``None``
+and never has to copy for contiguity.
+
+An adapter is a function ``adapter(problem, **options) -> RawSolution``. It maps the back-end's
+own status onto the four statuses of the door and returns the primal point when it has one. The
+door times the call, computes the objective and the primal residual, and builds the result.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+Status = Literal["optimal", "infeasible", "unbounded", "error"]
+"""Outcome of a solve, common to every back-end."""
+
+
+@dataclass(frozen=True, eq=False)
+class LinearProgram:
+    r"""A validated linear program, as every adapter receives it.
+
+    minimise :math:`c^\top x` subject to :math:`A_{ub} x \le b_{ub}`, :math:`A_{eq} x = b_{eq}`,
+    :math:`lb \le x \le ub`.
+
+    Attributes:
+        c: cost, shape ``(n,)``.
+        A_ub: inequality matrix, shape ``(m_ub, n)`` (``m_ub`` may be 0).
+        b_ub: inequality right-hand side, shape ``(m_ub,)``, finite.
+        A_eq: equality matrix, shape ``(m_eq, n)`` (``m_eq`` may be 0).
+        b_eq: equality right-hand side, shape ``(m_eq,)``, finite.
+        lb: lower bounds, shape ``(n,)``, entries in ``[-inf, +inf)``.
+        ub: upper bounds, shape ``(n,)``, entries in ``(-inf, +inf]``, ``lb <= ub``.
+    """
+
+    c: np.ndarray
+    A_ub: np.ndarray
+    b_ub: np.ndarray
+    A_eq: np.ndarray
+    b_eq: np.ndarray
+    lb: np.ndarray
+    ub: np.ndarray
+
+    @property
+    def n(self) -> int:
+        """Number of variables."""
+        return int(self.c.shape[0])
+
+    @property
+    def has_bounds(self) -> bool:
+        """Whether at least one simple bound is finite."""
+        return bool(np.isfinite(self.lb).any() or np.isfinite(self.ub).any())
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class QuadraticProgram(LinearProgram):
+    r"""A validated convex quadratic program, as every adapter receives it.
+
+    minimise :math:`\tfrac12 x^\top P x + c^\top x` under the constraints of
+    :class:`LinearProgram`.
+
+    Attributes:
+        P: symmetric positive semi-definite Hessian, shape ``(n, n)``.
+    """
+
+    P: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class RawSolution:
+    """What an adapter returns to the door.
+
+    Attributes:
+        status: the back-end's outcome mapped onto the door's four statuses.
+        x: the primal point the back-end returned (``None`` if it returned none).
+        raw_status: the back-end's own status, verbatim (e.g. ``"exitflag=1"``).
+    """
+
+    status: Status
+    x: np.ndarray | None
+    raw_status: str
+
+
+LPAdapter = Callable[..., RawSolution]
+"""Signature of an adapter: ``adapter(problem: LinearProgram, **options) -> RawSolution``."""
+
+QPAdapter = Callable[..., RawSolution]
+"""Signature of an adapter: ``adapter(problem: QuadraticProgram, **options) -> RawSolution``."""
