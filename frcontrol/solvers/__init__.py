@@ -71,8 +71,9 @@ FEASIBILITY_TOLERANCE = 1e-6
 r"""Largest accepted primal residual of an "optimal" answer, relative to the size of the terms.
 
 The answer ``x`` is accepted when ``primal_residual <= FEASIBILITY_TOLERANCE * scale`` with
-:math:`\text{scale} = 1 + \max_i |r_i| + \max_i \|a_i\|_1 \|x\|_\infty` over the finite
-right-hand sides ``r`` (``b_ub``, ``b_eq``, ``lb``, ``ub``) and the constraint rows ``a_i``.
+:math:`\text{scale} = 1 + \max_i |r_i| + (\max_i \|a^{ub}_i\|_1 + \max_j \|a^{eq}_j\|_1)
+\|x\|_\infty` over the finite right-hand sides ``r`` (``b_ub``, ``b_eq``, ``lb``, ``ub``) and
+the constraint rows (the size of the terms of :math:`a^\top x - r`).
 Default ``1e-6``, DAQP's own primal tolerance. The value used is reported on every result
 (``residual_tolerance``).
 """
@@ -172,14 +173,17 @@ def available_solvers() -> list[str]:
 # validation
 
 
-def _array(name: str, value: Any, ndim: int) -> np.ndarray:
+def _array(name: str, value: Any, ndim: int, finite: bool) -> np.ndarray:
+    """``value`` as a C-contiguous float64 array of ``ndim`` dimensions, without NaN."""
     try:
         array = np.ascontiguousarray(value, dtype=np.float64)
     except (TypeError, ValueError) as error:
         raise InputError(f"{name} is not an array of numbers: {error}") from error
     if array.ndim != ndim:
         raise InputError(f"{name} must be {ndim}-D, got shape {array.shape}")
-    if np.isnan(array).any():
+    if finite and not np.isfinite(array).all():
+        raise InputError(f"{name} must be finite (no NaN or inf)")
+    if not finite and np.isnan(array).any():
         raise InputError(f"{name} contains NaN")
     return array
 
@@ -189,15 +193,13 @@ def _block(name: str, A: Any, b: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros((0, n)), np.zeros(0)
     if A is None or b is None:
         raise InputError(f"A_{name} and b_{name} must be given together")
-    A = _array(f"A_{name}", A, 2)
-    b = _array(f"b_{name}", b, 1)
+    A = _array(f"A_{name}", A, 2, finite=True)
+    b = _array(f"b_{name}", b, 1, finite=True)
     if A.shape[1] != n or A.shape[0] != b.shape[0]:
         raise InputError(
             f"A_{name} has shape {A.shape} and b_{name} shape {b.shape}; expected ({b.shape[0]}, "
             f"{n}) and ({A.shape[0]},) for {n} variables"
         )
-    if not (np.isfinite(A).all() and np.isfinite(b).all()):
-        raise InputError(f"A_{name} and b_{name} must be finite")
     return A, b
 
 
@@ -205,8 +207,14 @@ def _bound(name: str, value: Any, n: int, default: float) -> np.ndarray:
     if value is None:
         return np.full(n, default)
     if np.ndim(value) == 0:
-        value = np.full(n, _array(name, [value], 1)[0])
-    bound = _array(name, value, 1)
+        try:
+            scalar = float(value)
+        except (TypeError, ValueError) as error:
+            raise InputError(f"{name} is not a number: {error}") from error
+        if scalar != scalar or scalar == -default:
+            raise InputError(f"{name} is {scalar}")
+        return np.full(n, scalar)
+    bound = _array(name, value, 1, finite=False)
     if bound.shape != (n,):
         raise InputError(f"{name} must be a scalar or have shape ({n},), got {bound.shape}")
     if (bound == -default).any():
@@ -214,11 +222,13 @@ def _bound(name: str, value: Any, n: int, default: float) -> np.ndarray:
     return bound
 
 
-def _validate_lp(c: Any, A_ub: Any, b_ub: Any, A_eq: Any, b_eq: Any, lb: Any, ub: Any) -> LinearProgram:
-    c = _array("c", c, 1)
+def _validate_lp(
+    c: Any, A_ub: Any, b_ub: Any, A_eq: Any, b_eq: Any, lb: Any, ub: Any
+) -> LinearProgram:
+    c = _array("c", c, 1, finite=True)
     n = c.shape[0]
-    if n == 0 or not np.isfinite(c).all():
-        raise InputError("c must be a non-empty finite vector")
+    if n == 0:
+        raise InputError("c must not be empty")
     A_ub, b_ub = _block("ub", A_ub, b_ub, n)
     A_eq, b_eq = _block("eq", A_eq, b_eq, n)
     lb = _bound("lb", lb, n, -np.inf)
@@ -228,8 +238,8 @@ def _validate_lp(c: Any, A_ub: Any, b_ub: Any, A_eq: Any, b_eq: Any, lb: Any, ub
 
 def _validate_qp(P: Any, problem: LinearProgram) -> np.ndarray:
     n = problem.n
-    P = _array("P", P, 2)
-    if P.shape != (n, n) or not np.isfinite(P).all():
+    P = _array("P", P, 2, finite=True)
+    if P.shape != (n, n):
         raise InputError(f"P must be a finite ({n}, {n}) matrix, got shape {P.shape}")
     size = 1.0 + np.max(np.abs(P))
     if np.max(np.abs(P - P.T)) > _SYMMETRY_TOLERANCE * size:
@@ -249,22 +259,22 @@ def primal_residual(problem: LinearProgram, x: np.ndarray) -> float:
         \max\big(0,\ \max(A_{ub}x - b_{ub}),\ \max|A_{eq}x - b_{eq}|,\
         \max(lb - x),\ \max(x - ub)\big)
     """
-    residual = 0.0
+    violations = [problem.lb - x, x - problem.ub]
     if problem.A_ub.shape[0]:
-        residual = max(residual, float(np.max(problem.A_ub @ x - problem.b_ub)))
+        violations.append(problem.A_ub @ x - problem.b_ub)
     if problem.A_eq.shape[0]:
-        residual = max(residual, float(np.max(np.abs(problem.A_eq @ x - problem.b_eq))))
-    residual = max(residual, float(np.max(problem.lb - x)), float(np.max(x - problem.ub)))
-    return residual
+        violations.append(np.abs(problem.A_eq @ x - problem.b_eq))
+    return max(0.0, float(np.max(np.concatenate(violations))))
 
 
 def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
     rhs = np.concatenate([problem.b_ub, problem.b_eq, problem.lb, problem.ub])
-    rhs = rhs[np.isfinite(rhs)]
-    scale = 1.0 + (float(np.max(np.abs(rhs))) if rhs.size else 0.0)
-    A = np.vstack([problem.A_ub, problem.A_eq])
-    if x is not None and A.shape[0]:
-        scale += float(np.max(np.sum(np.abs(A), axis=1))) * float(np.max(np.abs(x)))
+    np.abs(rhs, out=rhs)
+    scale = 1.0 + float(rhs[rhs < np.inf].max(initial=0.0))
+    if x is not None:
+        for A in (problem.A_ub, problem.A_eq):
+            if A.shape[0]:
+                scale += float(np.abs(A).sum(1).max()) * float(np.abs(x).max())
     return FEASIBILITY_TOLERANCE * scale
 
 

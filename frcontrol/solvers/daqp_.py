@@ -107,24 +107,28 @@ def _stack(
     """
     n = problem.n
     m_s = n if problem.has_bounds else 0
-    if equalities_as_pairs:
-        A_ub = np.vstack([problem.A_ub, problem.A_eq, -problem.A_eq])
-        b_ub = np.concatenate([problem.b_ub, problem.b_eq, -problem.b_eq])
-        A_eq, b_eq = problem.A_eq[:0], problem.b_eq[:0]
-    else:
-        A_ub, b_ub, A_eq, b_eq = problem.A_ub, problem.b_ub, problem.A_eq, problem.b_eq
-    m_ub, m_eq = A_ub.shape[0], A_eq.shape[0]
-    A = np.ascontiguousarray(np.vstack([A_ub, A_eq]))
-    bupper = np.empty(m_s + m_ub + m_eq)
-    blower = np.full(m_s + m_ub + m_eq, -DAQP_INF)
-    sense = np.full(m_s + m_ub + m_eq, SENSE_INEQUALITY, dtype=np.intc)
+    m_ub, m_eq = problem.A_ub.shape[0], problem.A_eq.shape[0]
+    pairs = equalities_as_pairs and m_eq > 0
+    rows = m_ub + (2 * m_eq if pairs else m_eq)
+    A = np.empty((rows, n))
+    bupper = np.empty(m_s + rows)
+    blower = np.full(m_s + rows, -DAQP_INF)
+    sense = np.full(m_s + rows, SENSE_INEQUALITY, dtype=np.intc)
     if m_s:
-        bupper[:m_s] = np.minimum(problem.ub, DAQP_INF)
-        blower[:m_s] = np.maximum(problem.lb, -DAQP_INF)
-    bupper[m_s : m_s + m_ub] = b_ub
-    bupper[m_s + m_ub :] = b_eq
-    blower[m_s + m_ub :] = b_eq
-    sense[m_s + m_ub :] = SENSE_EQUALITY
+        np.minimum(problem.ub, DAQP_INF, out=bupper[:m_s])
+        np.maximum(problem.lb, -DAQP_INF, out=blower[:m_s])
+    A[:m_ub] = problem.A_ub
+    bupper[m_s : m_s + m_ub] = problem.b_ub
+    if pairs:
+        A[m_ub : m_ub + m_eq] = problem.A_eq
+        A[m_ub + m_eq :] = -problem.A_eq
+        bupper[m_s + m_ub : m_s + m_ub + m_eq] = problem.b_eq
+        bupper[m_s + m_ub + m_eq :] = -problem.b_eq
+    elif m_eq:
+        A[m_ub:] = problem.A_eq
+        bupper[m_s + m_ub :] = problem.b_eq
+        blower[m_s + m_ub :] = problem.b_eq
+        sense[m_s + m_ub :] = SENSE_EQUALITY
     return A, bupper, blower, sense
 
 

@@ -1,0 +1,923 @@
+r"""H-polytopes: emptiness, Chebyshev balls, minimal representations, projection, set difference.
+
+A :class:`Polytope` is the set
+
+.. math::
+
+    P = \{x \in \mathbb{R}^d : A x \le b,\ A_{eq} x = b_{eq}\},
+
+bounded or not (the name is kept for brevity: every function here works on polyhedra, and says so
+where boundedness matters). Every LP goes through the door :func:`frcontrol.solvers.solve_lp`,
+by default with DAQP; an LP on which the chosen back-end fails (status ``"error"``) is solved
+again with the reference back-end (HiGHS), and :class:`~frcontrol.solvers.SolverFailed` is raised
+only if that fails too.
+
+**Scale.** The tolerances below are absolute *distances* in the units of ``x``: every row is
+normalised to unit Euclidean norm (within the affine hull of the equalities) before a tolerance
+is applied to it. Problems whose coordinates have wildly different units should be scaled first.
+
+**Empty sets.** An empty set is represented canonically by :meth:`Polytope.empty_set`: the single
+row ``0 . x <= -1`` and no equality. :attr:`Polytope.empty` recognises that representation (any
+row ``0 . x <= b`` with ``b < 0``); it is a syntactic test, exact on everything this module
+returns (:func:`minimal_representation`, :func:`project`, :func:`set_difference` return the
+canonical empty set when the set is empty). For an arbitrary polytope use :func:`is_empty`
+(one LP).
+
+**Implicit equalities.** An equality written as two opposite inequalities is recognised by
+:func:`minimal_representation` and turned into an equality. Equalities implied only by several
+rows together are not detected: such a set keeps its inequalities and has Chebyshev radius 0.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+
+from frcontrol.errors import InputError
+from frcontrol.solvers import (
+    DEFAULT_LP_SOLVER,
+    REFERENCE_LP_SOLVER,
+    LPResult,
+    SolverFailed,
+    solve_lp,
+)
+
+try:  # daqp.minrep exists in daqp >= 0.5 (checked: 0.11); the module works without it
+    from daqp import minrep as _daqp_minrep
+except ImportError:  # pragma: no cover - depends on the environment
+    _daqp_minrep = None
+
+__all__ = [
+    "CHEBYSHEV_RADIUS_CAP",
+    "CONTAINMENT_TOLERANCE",
+    "DUPLICATE_TOLERANCE",
+    "EQUALITY_TOLERANCE",
+    "INTERIOR_TOLERANCE",
+    "RANK_TOLERANCE",
+    "REDUNDANCY_TOLERANCE",
+    "ZERO_TOLERANCE",
+    "ChebyshevBall",
+    "Polytope",
+    "chebyshev_ball",
+    "contains",
+    "interiors_intersect",
+    "intersect",
+    "is_empty",
+    "minimal_representation",
+    "project",
+    "set_difference",
+    "support",
+]
+
+# ---------------------------------------------------------------------------------------------
+# tolerances
+
+RANK_TOLERANCE = 1e-10
+"""Relative rank threshold: a singular value (or QR/elimination pivot) of a matrix of unit rows
+counts as zero when it is below ``RANK_TOLERANCE`` times the largest one. Dimensionless. Default
+``1e-10``. Decides which equalities are linearly independent and the affine hull's dimension."""
+
+EQUALITY_TOLERANCE = 1e-9
+"""Largest residual of unit-norm equalities ``|a x0 - b|`` at their least-squares solution for
+which they are declared consistent [units of ``x``]. Default ``1e-9``."""
+
+ZERO_TOLERANCE = 1e-12
+"""A row (or a coefficient of a unit row) is zero when its norm is below ``ZERO_TOLERANCE`` times
+the norm of the row it came from [dimensionless]. Default ``1e-12``."""
+
+DUPLICATE_TOLERANCE = 1e-9
+"""Two unit rows ``a, a'`` are duplicates when ``a . a' >= 1 - DUPLICATE_TOLERANCE`` (angle below
+about ``sqrt(2e-9) = 4.5e-5`` rad), opposite when ``a . a' <= -1 + DUPLICATE_TOLERANCE``
+[dimensionless]. Default ``1e-9``."""
+
+REDUNDANCY_TOLERANCE = 1e-9
+"""A unit row ``a x <= b`` is redundant when ``max a x`` over the other rows is at most
+``b + REDUNDANCY_TOLERANCE`` [units of ``x``]. Default ``1e-9``. Also the slack within which two
+opposite rows ``a x <= b``, ``-a x <= b'`` with ``b + b' <= REDUNDANCY_TOLERANCE`` make an
+equality (or, below ``-REDUNDANCY_TOLERANCE``, an empty set)."""
+
+INTERIOR_TOLERANCE = 1e-8
+"""A set is full-dimensional (in the affine hull of its equalities) when its Chebyshev radius
+exceeds ``INTERIOR_TOLERANCE`` [units of ``x``]. Default ``1e-8``; used by
+:func:`interiors_intersect` and :func:`set_difference` to drop pieces of zero volume."""
+
+CHEBYSHEV_RADIUS_CAP = 1.0
+"""Upper bound imposed on the Chebyshev radius [units of ``x``], so that the Chebyshev LP is never
+unbounded (a half-space has no largest ball). A set containing a ball of radius 1 reports radius
+1 (flag ``ChebyshevBall.capped``). Default ``1.0``."""
+
+CONTAINMENT_TOLERANCE = 1e-9
+"""Largest violation of a unit-norm row accepted by :func:`contains` and in emptiness tests of
+zero rows [units of ``x``]. Default ``1e-9``."""
+
+
+# ---------------------------------------------------------------------------------------------
+# the polytope
+
+
+def _matrix(name: str, value: Any, columns: int | None) -> np.ndarray:
+    try:
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise InputError(f"{name} is not an array of numbers: {error}") from error
+    if array.ndim != 2 or (columns is not None and array.shape[1] != columns):
+        expected = f"(m, {columns})" if columns is not None else "(m, d)"
+        raise InputError(f"{name} must have shape {expected}, got {array.shape}")
+    if not np.isfinite(array).all():
+        raise InputError(f"{name} must be finite (no NaN or inf)")
+    return array
+
+
+def _vector(name: str, value: Any, length: int) -> np.ndarray:
+    try:
+        array = np.array(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError) as error:
+        raise InputError(f"{name} is not an array of numbers: {error}") from error
+    if array.shape != (length,):
+        raise InputError(f"{name} must have shape ({length},), got {array.shape}")
+    if not np.isfinite(array).all():
+        raise InputError(f"{name} must be finite (no NaN or inf)")
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class Polytope:
+    r"""The set :math:`\{x \in \mathbb{R}^d : A x \le b,\ A_{eq} x = b_{eq}\}`.
+
+    The arrays are copied, validated (shapes, finite) and made read-only.
+
+    Attributes:
+        A: inequality rows, shape ``(m, d)`` (``m`` may be 0).
+        b: inequality right-hand side, shape ``(m,)``.
+        A_eq: equality rows, shape ``(m_eq, d)``; ``None`` means no equality (0 rows).
+        b_eq: equality right-hand side, shape ``(m_eq,)``; ``None`` with ``A_eq``.
+    """
+
+    A: np.ndarray
+    b: np.ndarray
+    A_eq: np.ndarray = None  # type: ignore[assignment]  # replaced by a (0, d) array
+    b_eq: np.ndarray = None  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        A = _matrix("A", self.A, None)
+        d = A.shape[1]
+        if d == 0:
+            raise InputError("a polytope needs at least one coordinate")
+        b = _vector("b", self.b, A.shape[0])
+        if self.A_eq is None and self.b_eq is None:
+            A_eq, b_eq = np.zeros((0, d)), np.zeros(0)
+        elif self.A_eq is None or self.b_eq is None:
+            raise InputError("A_eq and b_eq must be given together")
+        else:
+            A_eq = _matrix("A_eq", self.A_eq, d)
+            b_eq = _vector("b_eq", self.b_eq, A_eq.shape[0])
+        for name, array in (("A", A), ("b", b), ("A_eq", A_eq), ("b_eq", b_eq)):
+            array.setflags(write=False)
+            object.__setattr__(self, name, array)
+
+    @property
+    def dim(self) -> int:
+        """Dimension ``d`` of the ambient space."""
+        return int(self.A.shape[1])
+
+    @property
+    def empty(self) -> bool:
+        """Whether the representation is syntactically empty (a row ``0 . x <= b < 0``).
+
+        Exact on the results of this module (which return :meth:`empty_set` for empty sets);
+        use :func:`is_empty` for an arbitrary representation.
+        """
+        zero_rows = ~np.any(self.A, axis=1)
+        return bool(np.any(self.b[zero_rows] < 0))
+
+    @classmethod
+    def empty_set(cls, dim: int) -> Polytope:
+        """The canonical empty set of ``R^dim``: the single row ``0 . x <= -1``."""
+        return cls(np.zeros((1, dim)), np.array([-1.0]))
+
+    @classmethod
+    def from_box(cls, lower: Any, upper: Any) -> Polytope:
+        """The box ``lower <= x <= upper`` (rows ``x_i <= upper_i`` then ``-x_i <= -lower_i``)."""
+        lower = np.atleast_1d(np.array(lower, dtype=np.float64))
+        upper = np.atleast_1d(np.array(upper, dtype=np.float64))
+        if lower.shape != upper.shape or lower.ndim != 1:
+            raise InputError(f"box bounds of shapes {lower.shape} and {upper.shape}")
+        d = lower.shape[0]
+        return cls(np.vstack([np.eye(d), -np.eye(d)]), np.concatenate([upper, -lower]))
+
+    def __repr__(self) -> str:
+        return (
+            f"Polytope(dim={self.dim}, inequalities={self.A.shape[0]}, "
+            f"equalities={self.A_eq.shape[0]}{', empty' if self.empty else ''})"
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class ChebyshevBall:
+    """The largest ball inside a polytope, within the affine hull of its equalities.
+
+    Attributes:
+        found: whether the polytope is non-empty (``False``: ``center`` is ``None``).
+        center: the centre, shape ``(d,)``, a point of the polytope.
+        radius: the radius in ``[0, radius_cap]`` (0 if the hull is a point); ``nan`` if empty.
+        full_dimensional: ``radius > tolerance``: the set has an interior in its affine hull.
+        affine_dimension: dimension of the affine hull of the equalities (``d`` without any).
+        capped: the radius reached ``radius_cap`` (the set may hold a larger ball).
+        radius_cap: the cap imposed on the radius (:data:`CHEBYSHEV_RADIUS_CAP`).
+        tolerance: the threshold of ``full_dimensional`` (:data:`INTERIOR_TOLERANCE`).
+        solver: the back-end that solved the LP (``""`` when none was needed).
+    """
+
+    found: bool
+    center: np.ndarray | None
+    radius: float
+    full_dimensional: bool
+    affine_dimension: int
+    capped: bool
+    radius_cap: float
+    tolerance: float
+    solver: str
+
+
+# ---------------------------------------------------------------------------------------------
+# helpers
+
+
+def _lp(
+    solver: str,
+    c: np.ndarray,
+    A_ub: np.ndarray,
+    b_ub: np.ndarray,
+    *,
+    bounded: bool = False,
+    **kwargs: Any,
+) -> LPResult:
+    """Solve an LP through the door, with the reference back-end as a second opinion.
+
+    The reference (HiGHS) solves the LP again when ``solver`` returns ``"error"``, or
+    ``"unbounded"`` (DAQP 0.11 reported a bounded, very degenerate LP of 951 rows as unbounded).
+    ``bounded=True`` declares the LP bounded: an ``"unbounded"`` answer then counts as a failure.
+
+    Raises:
+        SolverFailed: no usable answer from either back-end.
+    """
+    result = solve_lp(c, A_ub, b_ub, solver=solver, **kwargs)
+    if result.status in ("optimal", "infeasible"):
+        return result
+    statuses = {solver: result.raw_status}
+    if solver != REFERENCE_LP_SOLVER:
+        result = solve_lp(c, A_ub, b_ub, solver=REFERENCE_LP_SOLVER, **kwargs)
+        if result.status in ("optimal", "infeasible") or (
+            result.status == "unbounded" and not bounded
+        ):
+            return result
+        statuses[REFERENCE_LP_SOLVER] = result.raw_status
+    elif result.status == "unbounded" and not bounded:
+        return result
+    raise SolverFailed("an LP of the polytope module", statuses)
+
+
+@dataclass(frozen=True, eq=False)
+class _Hull:
+    """The affine hull ``{x0 + N z}`` of consistent equalities (``N`` orthonormal, ``d x k``)."""
+
+    x0: np.ndarray
+    N: np.ndarray
+
+
+def _affine_hull(A_eq: np.ndarray, b_eq: np.ndarray, d: int) -> _Hull | None:
+    """Parametrise ``A_eq x = b_eq`` as ``x = x0 + N z`` by an SVD; ``None`` if inconsistent."""
+    if A_eq.shape[0] == 0:
+        return _Hull(np.zeros(d), np.eye(d))
+    norms = np.linalg.norm(A_eq, axis=1)
+    zero = norms <= 0.0
+    if np.any(np.abs(b_eq[zero]) > EQUALITY_TOLERANCE):
+        return None
+    A_unit = A_eq[~zero] / norms[~zero, None]
+    b_unit = b_eq[~zero] / norms[~zero]
+    if A_unit.shape[0] == 0:
+        return _Hull(np.zeros(d), np.eye(d))
+    U, s, Vt = np.linalg.svd(A_unit)
+    rank = int(np.sum(s > RANK_TOLERANCE * s[0]))
+    x0 = Vt[:rank].T @ ((U[:, :rank].T @ b_unit) / s[:rank])
+    if np.max(np.abs(A_unit @ x0 - b_unit)) > EQUALITY_TOLERANCE:
+        return None
+    return _Hull(x0, np.ascontiguousarray(Vt[rank:].T))
+
+
+def _independent_equalities(A_eq: np.ndarray, b_eq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit-norm, linearly independent equality rows (QR with column pivoting on ``A_eq^T``)."""
+    norms = np.linalg.norm(A_eq, axis=1)
+    nonzero = norms > 0.0
+    A_unit = A_eq[nonzero] / norms[nonzero, None]
+    b_unit = b_eq[nonzero] / norms[nonzero]
+    if A_unit.shape[0] == 0:
+        return A_unit, b_unit
+    _, R, pivots = scipy.linalg.qr(A_unit.T, mode="economic", pivoting=True)
+    diagonal = np.abs(np.diag(R))
+    rank = int(np.sum(diagonal > RANK_TOLERANCE * diagonal[0]))
+    rows = np.sort(pivots[:rank])
+    return A_unit[rows], b_unit[rows]
+
+
+def _check_same_dim(P: Polytope, Q: Polytope) -> None:
+    if P.dim != Q.dim:
+        raise InputError(f"polytopes of dimensions {P.dim} and {Q.dim}")
+
+
+# ---------------------------------------------------------------------------------------------
+# queries
+
+
+def chebyshev_ball(P: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> ChebyshevBall:
+    r"""Largest ball inside ``P`` within the affine hull of its equalities.
+
+    The equalities are parametrised as :math:`x = x_0 + N z` (SVD; :math:`N` an orthonormal basis
+    of the null space of :math:`A_{eq}`, rank threshold :data:`RANK_TOLERANCE`). With
+    :math:`g_i = N^\top a_i` and :math:`h_i = b_i - a_i^\top x_0`, the LP is
+
+    .. math::
+
+        \max_{z, r}\ r \quad\text{s.t.}\quad \frac{g_i^\top z + \|g_i\| r}{\|g_i\|}
+        \le \frac{h_i}{\|g_i\|},\quad 0 \le r \le r_{cap} = \texttt{CHEBYSHEV\_RADIUS\_CAP}.
+
+    The cap keeps the LP bounded on unbounded sets. Rows with :math:`g_i = 0` (constant on the
+    hull) are checked directly: :math:`h_i < -\texttt{CONTAINMENT\_TOLERANCE}\,\|a_i\|` means
+    ``P`` is empty. A hull of dimension 0 (a point) gives radius 0.
+
+    Args:
+        P: the polytope.
+        solver: LP back-end.
+
+    Returns:
+        The ball; ``found=False`` if ``P`` is empty.
+    """
+    d = P.dim
+    not_found = ChebyshevBall(
+        False, None, float("nan"), False, d, False, CHEBYSHEV_RADIUS_CAP, INTERIOR_TOLERANCE, ""
+    )
+    hull = _affine_hull(P.A_eq, P.b_eq, d)
+    if hull is None:
+        return not_found
+    k = hull.N.shape[1]
+    not_found = ChebyshevBall(
+        False, None, float("nan"), False, k, False, CHEBYSHEV_RADIUS_CAP, INTERIOR_TOLERANCE, ""
+    )
+    G = P.A @ hull.N
+    h = P.b - P.A @ hull.x0
+    row_norms = np.linalg.norm(P.A, axis=1)
+    g_norms = np.linalg.norm(G, axis=1)
+    flat = g_norms <= ZERO_TOLERANCE * row_norms
+    if np.any(h[flat] < -CONTAINMENT_TOLERANCE * np.maximum(row_norms[flat], 1e-300)):
+        return not_found
+    G, h, g_norms = G[~flat], h[~flat], g_norms[~flat]
+    if k == 0 or G.shape[0] == 0:
+        radius = 0.0 if k == 0 else CHEBYSHEV_RADIUS_CAP
+        return ChebyshevBall(
+            True, hull.x0, radius, radius > INTERIOR_TOLERANCE, k, k > 0,
+            CHEBYSHEV_RADIUS_CAP, INTERIOR_TOLERANCE, "",
+        )  # fmt: skip
+    A_lp = np.hstack([G / g_norms[:, None], np.ones((G.shape[0], 1))])
+    cost = np.zeros(k + 1)
+    cost[-1] = -1.0
+    lb = np.full(k + 1, -np.inf)
+    ub = np.full(k + 1, np.inf)
+    lb[-1], ub[-1] = 0.0, CHEBYSHEV_RADIUS_CAP
+    result = _lp(solver, cost, A_lp, h / g_norms, bounded=True, lb=lb, ub=ub)
+    if result.status == "infeasible":
+        return not_found
+    radius = float(min(max(result.x[-1], 0.0), CHEBYSHEV_RADIUS_CAP))
+    return ChebyshevBall(
+        found=True,
+        center=hull.x0 + hull.N @ result.x[:-1],
+        radius=radius,
+        full_dimensional=radius > INTERIOR_TOLERANCE,
+        affine_dimension=k,
+        capped=radius >= CHEBYSHEV_RADIUS_CAP * (1.0 - 1e-12),
+        radius_cap=CHEBYSHEV_RADIUS_CAP,
+        tolerance=INTERIOR_TOLERANCE,
+        solver=result.solver,
+    )
+
+
+def is_empty(P: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> bool:
+    """Whether ``P`` is empty (one Chebyshev LP; see :func:`chebyshev_ball`)."""
+    return P.empty or not chebyshev_ball(P, solver=solver).found
+
+
+def support(P: Polytope, direction: Any, *, solver: str = DEFAULT_LP_SOLVER) -> float:
+    r"""Support function :math:`h_P(c) = \max_{x \in P} c^\top x`.
+
+    Args:
+        P: the polytope.
+        direction: ``c``, shape ``(d,)``.
+        solver: LP back-end.
+
+    Returns:
+        The maximum; ``+inf`` if ``P`` is unbounded in ``c``, ``-inf`` if ``P`` is empty.
+    """
+    c = _vector("direction", direction, P.dim)
+    A_eq = P.A_eq if P.A_eq.shape[0] else None
+    b_eq = P.b_eq if P.A_eq.shape[0] else None
+    result = _lp(solver, -c, P.A, P.b, A_eq=A_eq, b_eq=b_eq)
+    if result.status == "infeasible":
+        return -np.inf
+    if result.status == "unbounded":
+        return np.inf
+    return -result.objective
+
+
+def contains(P: Polytope, x: Any, tolerance: float = CONTAINMENT_TOLERANCE) -> bool:
+    r"""Whether ``x`` lies in ``P``, up to ``tolerance``.
+
+    Row ``i`` may be violated by ``tolerance`` times its norm:
+    :math:`a_i^\top x - b_i \le \text{tol}\,\|a_i\|` and
+    :math:`|a_{eq,j}^\top x - b_{eq,j}| \le \text{tol}\,\|a_{eq,j}\|` (a distance in the units of
+    ``x`` when the row is not zero).
+
+    Args:
+        P: the polytope.
+        x: the point, shape ``(d,)``.
+        tolerance: slack [units of ``x``]; default :data:`CONTAINMENT_TOLERANCE`.
+    """
+    point = _vector("x", x, P.dim)
+    slack = tolerance * np.linalg.norm(P.A, axis=1)
+    if np.any(P.A @ point - P.b > slack):
+        return False
+    slack_eq = tolerance * np.linalg.norm(P.A_eq, axis=1)
+    return bool(np.all(np.abs(P.A_eq @ point - P.b_eq) <= slack_eq))
+
+
+def intersect(P: Polytope, Q: Polytope) -> Polytope:
+    """``P ∩ Q``: the rows of both, stacked (not reduced; see :func:`minimal_representation`)."""
+    _check_same_dim(P, Q)
+    return Polytope(
+        np.vstack([P.A, Q.A]),
+        np.concatenate([P.b, Q.b]),
+        np.vstack([P.A_eq, Q.A_eq]),
+        np.concatenate([P.b_eq, Q.b_eq]),
+    )
+
+
+def interiors_intersect(P: Polytope, Q: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> bool:
+    """Whether ``P ∩ Q`` holds a ball of radius > :data:`INTERIOR_TOLERANCE` in its affine hull.
+
+    The hull is the one of both sets' equalities together: two segments of the same line have
+    intersecting interiors when they overlap on a length, not when they merely touch.
+    """
+    return chebyshev_ball(intersect(P, Q), solver=solver).full_dimensional
+
+
+# ---------------------------------------------------------------------------------------------
+# minimal representation
+
+
+_DUPLICATE_GRID = 1e-6
+"""Grid on which unit rows are rounded to find candidate duplicates (then checked exactly)."""
+
+
+def _near_pairs(unit: np.ndarray, threshold: float, sign: float) -> np.ndarray:
+    """Pairs ``(p, q)``, ``p < q``, of unit rows with ``sign * (u_p . u_q) >= threshold``.
+
+    Candidates are the rows whose coordinates, rounded to :data:`_DUPLICATE_GRID`, coincide (for
+    ``sign = -1``: coincide with the other row negated); each candidate pair is then checked
+    exactly. Found by sorting, in O(m log m): two near-duplicates rounded to different grid
+    points are missed, which is harmless (the redundancy LPs drop one of them later; an implicit
+    equality then stays as two inequalities).
+    """
+    keys = np.round(unit / _DUPLICATE_GRID).astype(np.int64)
+    if sign < 0:
+        keys = np.vstack([keys, -keys])  # row p + m stands for -u_p
+    _, group = np.unique(keys, axis=0, return_inverse=True)
+    group = group.reshape(-1)
+    order = np.argsort(group, kind="stable")
+    boundaries = np.flatnonzero(np.diff(group[order])) + 1
+    m = unit.shape[0]
+    pairs = []
+    for members in np.split(order, boundaries):
+        if members.size < 2:
+            continue
+        for position, p in enumerate(members):
+            for q in members[position + 1 :]:
+                i, j = int(p) % m, int(q) % m
+                if i != j and sign * float(unit[i] @ unit[j]) >= threshold:
+                    pairs.append((min(i, j), max(i, j)))
+    return np.unique(np.array(pairs, dtype=int).reshape(-1, 2), axis=0)
+
+
+def _normalise_and_merge(
+    G: np.ndarray, h: np.ndarray, row_norms: np.ndarray, tolerance: float
+) -> tuple[np.ndarray | None, list[tuple[int, int]]]:
+    """Unit rows, zero rows dropped, duplicates merged; opposite pairs that make equalities.
+
+    Args:
+        G: the rows in hull coordinates.
+        h: their right-hand sides.
+        row_norms: norms of the original rows (the scale of "zero").
+        tolerance: redundancy tolerance [units of x].
+
+    Returns:
+        ``(kept, pairs)``: indices of the rows kept (``None`` if a row proves the set empty),
+        and the pairs ``(i, j)`` of kept opposite rows that make an equality.
+    """
+    g_norms = np.linalg.norm(G, axis=1)
+    zero = g_norms <= ZERO_TOLERANCE * row_norms
+    if np.any(h[zero] < -CONTAINMENT_TOLERANCE * np.maximum(row_norms[zero], 1e-300)):
+        return None, []
+    candidates = np.flatnonzero(~zero)
+    if candidates.size == 0:
+        return candidates, []
+    unit = G[candidates] / g_norms[candidates, None]
+    offsets = h[candidates] / g_norms[candidates]
+    keep = np.ones(candidates.size, dtype=bool)
+    duplicates = _near_pairs(unit, 1.0 - DUPLICATE_TOLERANCE, 1.0)
+    if duplicates.shape[0]:
+        neighbours: dict[int, list[int]] = {}
+        for p, q in duplicates:
+            neighbours.setdefault(int(p), []).append(int(q))
+            neighbours.setdefault(int(q), []).append(int(p))
+        rank = np.empty(candidates.size, dtype=int)
+        rank[np.argsort(offsets, kind="stable")] = np.arange(candidates.size)
+        for i in sorted(neighbours, key=lambda i: rank[i]):  # tightest first: it wins
+            if any(keep[j] and rank[j] < rank[i] for j in neighbours[i]):
+                keep[i] = False
+    pairs: list[tuple[int, int]] = []
+    paired: set[int] = set()
+    for p, q in _near_pairs(unit, 1.0 - DUPLICATE_TOLERANCE, -1.0):
+        if not (keep[p] and keep[q]) or p in paired or q in paired:
+            continue
+        gap = offsets[p] + offsets[q]  # width of the slab between the two rows
+        if gap < -tolerance:
+            return None, []
+        if gap <= tolerance:
+            pairs.append((int(candidates[p]), int(candidates[q])))
+            paired.update((int(p), int(q)))
+    return candidates[keep], pairs
+
+
+def _is_redundant(
+    unit: np.ndarray, offsets: np.ndarray, i: int, others: np.ndarray, tolerance: float,
+    solver: str,
+) -> tuple[bool, LPResult]:
+    r"""Whether row ``i`` is implied by the rows ``others`` (a mask), by one LP.
+
+    :math:`\max g_i z` s.t. :math:`g_j z \le h_j` (``j`` in ``others``) and
+    :math:`g_i z \le h_i + 1` (so that the LP is bounded); redundant iff the maximum is at most
+    :math:`h_i + \text{tolerance}`.
+    """
+    A_ub = np.vstack([unit[others], unit[i]])
+    b_ub = np.append(offsets[others], offsets[i] + 1.0)
+    result = _lp(solver, -unit[i], A_ub, b_ub, bounded=True)
+    if not result.found:  # infeasible: impossible for a non-empty set, numerically broken
+        raise SolverFailed("a redundancy LP", {result.solver: result.raw_status})
+    return bool(-result.objective <= offsets[i] + tolerance), result
+
+
+def _irredundant_rows(
+    unit: np.ndarray,
+    offsets: np.ndarray,
+    center: np.ndarray | None,
+    tolerance: float,
+    solver: str,
+) -> np.ndarray:
+    r"""Mask of the irredundant rows of :math:`\{z : g_i z \le h_i\}` (unit rows, non-empty).
+
+    With an interior point ``center`` (Clarkson's method): row :math:`i` is tested by an LP over
+    the rows *already known* irredundant only (few, so the LPs are small). If it is redundant
+    for them, it is redundant. Otherwise the LP optimum :math:`z^*` lies outside the set, and the
+    ray from ``center`` to :math:`z^*` leaves the set through a facet: the first row it crosses
+    is irredundant (if it is the only one crossed there); it joins the known rows and row
+    :math:`i` is tested again. At most (rows + facets) LPs. When the ray meets several rows at
+    once (a lower-dimensional face) or without an interior point, row :math:`i` is tested
+    against all the rows not yet found redundant (sequential removal: of two weakly redundant
+    rows one stays).
+    """
+    m = unit.shape[0]
+    status = np.zeros(m, dtype=np.int8)  # 0 unknown, 1 irredundant, -1 redundant
+
+    def against_all_others(i: int) -> int:
+        others = status != -1
+        others[i] = False
+        return -1 if _is_redundant(unit, offsets, i, others, tolerance, solver)[0] else 1
+
+    if center is None:
+        for i in range(m):
+            status[i] = against_all_others(i)
+        return status == 1
+    slack = offsets - unit @ center
+    for i in range(m):
+        while status[i] == 0:
+            redundant, result = _is_redundant(unit, offsets, i, status == 1, tolerance, solver)
+            if redundant:
+                status[i] = -1
+                break
+            speeds = unit @ (result.x - center)
+            exits = np.full(m, np.inf)
+            ahead = (speeds > 0) & (status != -1)
+            exits[ahead] = slack[ahead] / speeds[ahead]
+            j = int(np.argmin(exits))
+            second = np.partition(exits, 1)[1] if m > 1 else np.inf
+            if status[j] == 1 or second <= exits[j] * (1.0 + 1e-9) + 1e-15:
+                status[i] = against_all_others(i)  # the ray meets a lower-dimensional face
+            else:
+                status[j] = 1
+    return status == 1
+
+
+def minimal_representation(
+    P: Polytope,
+    *,
+    tolerance: float = REDUNDANCY_TOLERANCE,
+    solver: str = DEFAULT_LP_SOLVER,
+    use_minrep: bool = True,
+) -> Polytope:
+    r"""An irredundant representation of ``P`` (the same set, no redundant row).
+
+    Stages, cheapest first:
+
+    1. Equalities: the linearly independent ones (QR with column pivoting, threshold
+       :data:`RANK_TOLERANCE`), unit norm. Inconsistent equalities: the empty set.
+    2. Emptiness: one Chebyshev LP (:func:`chebyshev_ball`); empty: :meth:`Polytope.empty_set`.
+    3. In the affine hull :math:`x = x_0 + N z` of the equalities: rows :math:`g_i = N^\top a_i`
+       normalised to unit norm; zero rows dropped (or, if violated, the set is empty); duplicate
+       rows merged, keeping the tightest (:data:`DUPLICATE_TOLERANCE`); two opposite rows
+       enclosing a slab of width :math:`\le` ``tolerance`` become one equality (and stage 1 is
+       run again with it).
+    4. ``daqp.minrep``: drops the strictly redundant rows (the hyperplane :math:`g_i z = h_i`
+       misses the set). It keeps weakly redundant rows and misbehaves on empty sets (it calls a
+       row of an empty set redundant), so its drops are trusted only after stage 2, and its keeps
+       are checked by:
+    5. One LP per surviving row: row :math:`i` is redundant iff
+       :math:`\max\{g_i z : g_j z \le h_j\ (j \ne i \text{ kept}),\ g_i z \le h_i + 1\}
+       \le h_i + \text{tolerance}`; redundant rows are removed as they are found. With the
+       Chebyshev centre as interior point, Clarkson's method keeps these LPs small (only the rows
+       already known irredundant, see :func:`_irredundant_rows`).
+
+    The inequality rows of the result are expressed in the affine hull: unit norm, orthogonal
+    to the equality rows (:math:`a_i' = N g_i / \|g_i\|`). An empty ``P`` gives
+    :meth:`Polytope.empty_set`.
+
+    Args:
+        P: the polytope.
+        tolerance: redundancy slack [units of x]; default :data:`REDUNDANCY_TOLERANCE`.
+        solver: LP back-end.
+        use_minrep: run stage 4 (when ``daqp.minrep`` is installed).
+
+    Returns:
+        The irredundant representation.
+    """
+    d = P.dim
+    if P.empty:
+        return Polytope.empty_set(d)
+    A_eq, b_eq = _independent_equalities(P.A_eq, P.b_eq)
+    hull = _affine_hull(A_eq, b_eq, d)
+    ball = chebyshev_ball(P, solver=solver)
+    if hull is None or not ball.found:
+        return Polytope.empty_set(d)
+    G = P.A @ hull.N
+    h = P.b - P.A @ hull.x0
+    kept, pairs = _normalise_and_merge(G, h, np.linalg.norm(P.A, axis=1), tolerance)
+    if kept is None:
+        return Polytope.empty_set(d)
+    if pairs:  # new equalities: start again with them
+        first = [i for i, _ in pairs]
+        paired = {i for pair in pairs for i in pair}
+        rest = [i for i in range(P.A.shape[0]) if i not in paired]
+        reduced = Polytope(
+            P.A[rest], P.b[rest], np.vstack([A_eq, P.A[first]]), np.concatenate([b_eq, P.b[first]])
+        )
+        return minimal_representation(
+            reduced, tolerance=tolerance, solver=solver, use_minrep=use_minrep
+        )
+    g_norms = np.linalg.norm(G[kept], axis=1)
+    unit = np.ascontiguousarray(G[kept] / g_norms[:, None])
+    offsets = np.ascontiguousarray(h[kept] / g_norms)
+    if use_minrep and _daqp_minrep is not None and unit.shape[0] > 1 and unit.shape[1] > 0:
+        strictly_redundant = np.asarray(_daqp_minrep(unit, offsets)) == 1
+        unit, offsets = unit[~strictly_redundant], offsets[~strictly_redundant]
+    if unit.shape[0] > 1:
+        center = hull.N.T @ (ball.center - hull.x0) if ball.full_dimensional else None
+        keep = _irredundant_rows(unit, offsets, center, tolerance, solver)
+        unit, offsets = unit[keep], offsets[keep]
+    A_out = unit @ hull.N.T
+    A_out[np.abs(A_out) < ZERO_TOLERANCE] = 0.0  # round-off of the change of coordinates
+    b_out = offsets + A_out @ hull.x0
+    return Polytope(A_out, b_out, A_eq, b_eq)
+
+
+# ---------------------------------------------------------------------------------------------
+# projection
+
+
+def _keep_indices(keep: int | Sequence[int], d: int) -> list[int]:
+    if isinstance(keep, (int, np.integer)):
+        if not 1 <= int(keep) <= d:
+            raise InputError(f"keep={keep}: must keep between 1 and {d} coordinates")
+        return list(range(int(keep)))
+    indices = [int(i) for i in keep]
+    if not indices or len(set(indices)) != len(indices) or not all(0 <= i < d for i in indices):
+        raise InputError(f"keep={list(keep)}: distinct coordinates in [0, {d}) expected")
+    return indices
+
+
+def _eliminate_with_equalities(
+    A: np.ndarray, b: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarray, n_keep: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    r"""Gaussian elimination of the columns ``n_keep:`` that the equalities can express.
+
+    Pivot: the largest ``|A_eq[r, j]|`` over the equality rows (unit norm) and the eliminated
+    columns; once it is below :data:`RANK_TOLERANCE`, the remaining equalities do not involve
+    the eliminated columns (their coefficients there are set to 0). Column ``j`` is substituted
+    out of every row, :math:`x_j = (b_r - \sum_{k \ne j} a_{rk} x_k) / a_{rj}`, and dropped.
+
+    Returns:
+        The reduced ``(A, b, A_eq, b_eq)`` (eliminated columns still last), or ``None`` if the
+        equalities reduce to a violated ``0 = b``.
+    """
+    while A_eq.shape[0]:
+        norms = np.linalg.norm(A_eq, axis=1)
+        zero = norms <= ZERO_TOLERANCE
+        if np.any(np.abs(b_eq[zero]) > EQUALITY_TOLERANCE):
+            return None
+        A_eq, b_eq = A_eq[~zero] / norms[~zero, None], b_eq[~zero] / norms[~zero]
+        if A_eq.shape[0] == 0 or A.shape[1] == n_keep:
+            break
+        block = np.abs(A_eq[:, n_keep:])
+        r, j = np.unravel_index(np.argmax(block), block.shape)
+        if block[r, j] <= RANK_TOLERANCE:
+            A_eq = A_eq.copy()
+            A_eq[:, n_keep:] = 0.0
+            break
+        j = int(j) + n_keep
+        pivot_row, pivot_b = A_eq[r] / A_eq[r, j], b_eq[r] / A_eq[r, j]
+        others = np.arange(A_eq.shape[0]) != r
+        A, b = A - np.outer(A[:, j], pivot_row), b - A[:, j] * pivot_b
+        A_eq, b_eq = A_eq[others], b_eq[others]
+        A_eq, b_eq = A_eq - np.outer(A_eq[:, j], pivot_row), b_eq - A_eq[:, j] * pivot_b
+        A, A_eq = np.delete(A, j, axis=1), np.delete(A_eq, j, axis=1)
+    return A, b, A_eq, b_eq
+
+
+def _fourier_motzkin_step(
+    A: np.ndarray, b: np.ndarray, n_keep: int
+) -> tuple[np.ndarray, np.ndarray, int]:
+    r"""Eliminate one of the columns ``n_keep:`` of ``A x <= b``.
+
+    Rows are first scaled to unit norm. The column eliminated is the one giving the fewest new
+    rows: the smallest product of its positive and negative counts. Each pair of a row with
+    :math:`a_{pj} > 0` and one with :math:`a_{nj} < 0` gives
+    :math:`a_p / a_{pj} + a_n / |a_{nj}| \le b_p / a_{pj} + b_n / |a_{nj}|` (the :math:`x_j`
+    terms cancel); rows with :math:`a_j = 0` are kept as they are. Coefficients below
+    :data:`ZERO_TOLERANCE` count as zero.
+
+    Returns:
+        ``(A', b', j)``: the new rows without column ``j``, and ``j``.
+    """
+    norms = np.linalg.norm(A, axis=1)
+    norms[norms == 0.0] = 1.0
+    A, b = A / norms[:, None], b / norms
+    coefficients = A[:, n_keep:]
+    positive = coefficients > ZERO_TOLERANCE
+    negative = coefficients < -ZERO_TOLERANCE
+    scores = positive.sum(axis=0) * negative.sum(axis=0)
+    j = n_keep + int(np.argmin(scores))
+    pos, neg = positive[:, j - n_keep], negative[:, j - n_keep]
+    zero = ~(pos | neg)
+    scale_p = 1.0 / A[pos, j]
+    scale_n = -1.0 / A[neg, j]
+    rows_p, rhs_p = A[pos] * scale_p[:, None], b[pos] * scale_p
+    rows_n, rhs_n = A[neg] * scale_n[:, None], b[neg] * scale_n
+    combined = (rows_p[:, None, :] + rows_n[None, :, :]).reshape(-1, A.shape[1])
+    combined_rhs = (rhs_p[:, None] + rhs_n[None, :]).reshape(-1)
+    new_A = np.vstack([A[zero], combined])
+    return np.delete(new_A, j, axis=1), np.concatenate([b[zero], combined_rhs]), j
+
+
+def project(
+    P: Polytope,
+    keep: int | Sequence[int],
+    *,
+    method: str = "fourier_motzkin",
+    tolerance: float = REDUNDANCY_TOLERANCE,
+    solver: str = DEFAULT_LP_SOLVER,
+) -> Polytope:
+    r"""Projection :math:`\{y : \exists x \in P,\ y = (x_k)_{k \in 	ext{keep}}\}`.
+
+    The other coordinates are eliminated, equalities first: Gaussian elimination pivoting on the
+    largest coefficient (:func:`_eliminate_with_equalities`), then Fourier-Motzkin one variable
+    at a time (the one with the smallest product of positive and negative counts). After every
+    step the rows are pruned by :func:`minimal_representation` (unit rows, duplicates merged,
+    redundant rows dropped by LP, opposite pairs turned into equalities, which are eliminated in
+    turn). Works for unbounded polyhedra too.
+
+    Args:
+        P: the polytope.
+        keep: the coordinates kept, in that order (an ``int`` ``k`` keeps the first ``k``).
+        method: ``"fourier_motzkin"`` (the only one implemented).
+        tolerance: redundancy slack of the pruning [units of x].
+        solver: LP back-end of the pruning.
+
+    Returns:
+        The projection, in minimal representation, in ``R^len(keep)``; the canonical empty set if
+        ``P`` is empty.
+
+    Raises:
+        InputError: bad ``keep`` or an unknown ``method``.
+    """
+    if method != "fourier_motzkin":
+        raise InputError(f"unknown projection method {method!r}; known: 'fourier_motzkin'")
+    kept = _keep_indices(keep, P.dim)
+    n_keep = len(kept)
+    order = kept + [i for i in range(P.dim) if i not in kept]
+    current = minimal_representation(
+        Polytope(P.A[:, order], P.b, P.A_eq[:, order], P.b_eq), tolerance=tolerance, solver=solver
+    )
+    while True:
+        if current.empty:
+            return Polytope.empty_set(n_keep)
+        reduced = _eliminate_with_equalities(
+            current.A, current.b, current.A_eq, current.b_eq, n_keep
+        )
+        if reduced is None:
+            return Polytope.empty_set(n_keep)
+        A, b, A_eq, b_eq = reduced
+        if A.shape[1] == n_keep:
+            return minimal_representation(
+                Polytope(A, b, A_eq, b_eq), tolerance=tolerance, solver=solver
+            )
+        A, b, j = _fourier_motzkin_step(A, b, n_keep)
+        A_eq = np.delete(A_eq, j, axis=1)  # zero in the eliminated columns
+        current = minimal_representation(
+            Polytope(A, b, A_eq, b_eq), tolerance=tolerance, solver=solver
+        )
+        if current.dim == n_keep:
+            return current
+
+
+# ---------------------------------------------------------------------------------------------
+# set difference
+
+
+def _subtract(R: Polytope, Q: Polytope, solver: str) -> list[Polytope]:
+    r"""``R`` minus ``Q`` (both in minimal representation, ``R`` full-dimensional in its hull).
+
+    If ``R ∩ Q`` has no interior in ``R``'s affine hull, ``R`` is returned whole. Otherwise, for
+    the rows :math:`q_k x \le \beta_k` of ``Q``, piece ``k`` is
+    :math:`R \cap \{q_k x \ge \beta_k\} \cap \{q_j x \le \beta_j,\ j < k\}`; the pieces
+    cover :math:`R \setminus Q`, have disjoint interiors, and the ones with no interior are dropped.
+    """
+    common = chebyshev_ball(intersect(R, Q), solver=solver)
+    own = chebyshev_ball(R, solver=solver)
+    if not common.full_dimensional or common.affine_dimension < own.affine_dimension:
+        return [R]
+    pieces: list[Polytope] = []
+    A, b = R.A, R.b
+    for row, rhs in zip(Q.A, Q.b, strict=True):
+        piece = Polytope(np.vstack([A, -row]), np.append(b, -rhs), R.A_eq, R.b_eq)
+        if chebyshev_ball(piece, solver=solver).full_dimensional:
+            pieces.append(minimal_representation(piece, solver=solver))
+        A, b = np.vstack([A, row]), np.append(b, rhs)
+    return pieces
+
+
+def set_difference(
+    P: Polytope, others: Sequence[Polytope], *, solver: str = DEFAULT_LP_SOLVER
+) -> list[Polytope]:
+    r"""``P`` minus the union of ``others``, as convex pieces with non-empty interior.
+
+    The standard recursive region difference: the pieces of :math:`P \setminus Q_1` are computed
+    facet by facet of :math:`Q_1` (:func:`_subtract`), then each piece minus :math:`Q_2`, and so
+    on. Interiors are taken in the affine hull of ``P``'s equalities, and pieces whose Chebyshev
+    radius is at most :data:`INTERIOR_TOLERANCE` (zero volume) are dropped.
+
+    The pieces are **closed**: a piece and an ``others[i]`` may share a boundary, and two pieces
+    may share a facet. Up to those boundaries (a set of zero volume), every point of ``P`` that
+    lies in no ``others[i]`` lies in exactly one piece, and no point of an ``others[i]`` lies in
+    the interior of a piece. A ``Q`` of lower dimension than ``P`` removes nothing.
+
+    Args:
+        P: the polytope.
+        others: the polytopes to remove (same dimension).
+        solver: LP back-end.
+
+    Returns:
+        The pieces, each in minimal representation; ``[]`` if nothing of positive volume is left.
+    """
+    for Q in others:
+        _check_same_dim(P, Q)
+    start = minimal_representation(P, solver=solver)
+    if start.empty or not chebyshev_ball(start, solver=solver).full_dimensional:
+        return []
+    pieces = [start]
+    for Q in others:
+        reduced = minimal_representation(Q, solver=solver)
+        if reduced.empty:
+            continue
+        pieces = [piece for R in pieces for piece in _subtract(R, reduced, solver)]
+        if not pieces:
+            break
+    return pieces
