@@ -8,9 +8,9 @@ A :class:`Polytope` is the set
 
 bounded or not (the name is kept for brevity: every function here works on polyhedra, and says so
 where boundedness matters). Every LP goes through the door :func:`frcontrol.solvers.solve_lp`,
-by default with DAQP; an LP on which the chosen back-end fails (status ``"error"``) is solved
-again with the reference back-end (HiGHS), and :class:`~frcontrol.solvers.SolverFailed` is raised
-only if that fails too.
+by default with DAQP; an LP on which the chosen back-end fails (``"error"``) or that it calls
+unbounded is solved again by a second back-end (HiGHS, or DAQP when HiGHS was chosen), and
+:class:`~frcontrol.solvers.SolverFailed` is raised only when neither gives a usable answer.
 
 **Scale.** The tolerances below are absolute *distances* in the units of ``x``: every row is
 normalised to unit Euclidean norm (within the affine hull of the equalities) before a tolerance
@@ -256,11 +256,13 @@ def _lp(
     bounded: bool = False,
     **kwargs: Any,
 ) -> LPResult:
-    """Solve an LP through the door, with the reference back-end as a second opinion.
+    """Solve an LP through the door, with a second back-end as a second opinion.
 
-    The reference (HiGHS) solves the LP again when ``solver`` returns ``"error"``, or
-    ``"unbounded"`` (DAQP 0.11 reported a bounded, very degenerate LP of 951 rows as unbounded).
-    ``bounded=True`` declares the LP bounded: an ``"unbounded"`` answer then counts as a failure.
+    The second back-end (HiGHS, or DAQP when ``solver`` is HiGHS) solves the LP again when
+    ``solver`` returns ``"error"`` or ``"unbounded"`` (DAQP 0.11 reported a bounded, very
+    degenerate LP of 951 rows as unbounded). ``bounded=True`` declares the LP bounded: an
+    ``"unbounded"`` answer then counts as a failure. ``"infeasible"`` is trusted (no false
+    verdict seen from DAQP; HiGHS's are confirmed without presolve by its adapter).
 
     Raises:
         SolverFailed: no usable answer from either back-end.
@@ -268,16 +270,17 @@ def _lp(
     result = solve_lp(c, A_ub, b_ub, solver=solver, **kwargs)
     if result.status in ("optimal", "infeasible"):
         return result
+    first = result
     statuses = {solver: result.raw_status}
-    if solver != REFERENCE_LP_SOLVER:
-        result = solve_lp(c, A_ub, b_ub, solver=REFERENCE_LP_SOLVER, **kwargs)
-        if result.status in ("optimal", "infeasible") or (
-            result.status == "unbounded" and not bounded
-        ):
-            return result
-        statuses[REFERENCE_LP_SOLVER] = result.raw_status
-    elif result.status == "unbounded" and not bounded:
-        return result
+    second = REFERENCE_LP_SOLVER if solver != REFERENCE_LP_SOLVER else DEFAULT_LP_SOLVER
+    if second != solver:
+        result = solve_lp(c, A_ub, b_ub, solver=second, **kwargs)
+        statuses[second] = result.raw_status
+    for candidate in (result, first):
+        if candidate.status in ("optimal", "infeasible"):
+            return candidate
+        if candidate.status == "unbounded" and not bounded:
+            return candidate
     raise SolverFailed("an LP of the polytope module", statuses)
 
 
@@ -378,9 +381,16 @@ def chebyshev_ball(P: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> Chebyshev
     if k == 0 or G.shape[0] == 0:
         radius = 0.0 if k == 0 else CHEBYSHEV_RADIUS_CAP
         return ChebyshevBall(
-            True, hull.x0, radius, radius > INTERIOR_TOLERANCE, k, k > 0,
-            CHEBYSHEV_RADIUS_CAP, INTERIOR_TOLERANCE, "",
-        )  # fmt: skip
+            found=True,
+            center=hull.x0,
+            radius=radius,
+            full_dimensional=radius > INTERIOR_TOLERANCE,
+            affine_dimension=k,
+            capped=k > 0,
+            radius_cap=CHEBYSHEV_RADIUS_CAP,
+            tolerance=INTERIOR_TOLERANCE,
+            solver="",
+        )
     A_lp = np.hstack([G / g_norms[:, None], np.ones((G.shape[0], 1))])
     cost = np.zeros(k + 1)
     cost[-1] = -1.0
@@ -559,6 +569,14 @@ def _normalise_and_merge(
     return candidates[keep], pairs
 
 
+class _EmptySet(Exception):
+    """Raised inside :func:`minimal_representation` when a redundancy LP is infeasible.
+
+    The Chebyshev LP found the set non-empty, within its tolerance; a redundancy LP (rows of
+    unit norm, one of them relaxed) then found it empty: the set is numerically empty.
+    """
+
+
 def _is_redundant(
     unit: np.ndarray, offsets: np.ndarray, i: int, others: np.ndarray, tolerance: float,
     solver: str,
@@ -572,8 +590,8 @@ def _is_redundant(
     A_ub = np.vstack([unit[others], unit[i]])
     b_ub = np.append(offsets[others], offsets[i] + 1.0)
     result = _lp(solver, -unit[i], A_ub, b_ub, bounded=True)
-    if not result.found:  # infeasible: impossible for a non-empty set, numerically broken
-        raise SolverFailed("a redundancy LP", {result.solver: result.raw_status})
+    if not result.found:  # only "infeasible" is left: the set is empty after all
+        raise _EmptySet
     return bool(-result.objective <= offsets[i] + tolerance), result
 
 
@@ -701,7 +719,10 @@ def minimal_representation(
         unit, offsets = unit[~strictly_redundant], offsets[~strictly_redundant]
     if unit.shape[0] > 1:
         center = hull.N.T @ (ball.center - hull.x0) if ball.full_dimensional else None
-        keep = _irredundant_rows(unit, offsets, center, tolerance, solver)
+        try:
+            keep = _irredundant_rows(unit, offsets, center, tolerance, solver)
+        except _EmptySet:
+            return Polytope.empty_set(d)
         unit, offsets = unit[keep], offsets[keep]
     A_out = unit @ hull.N.T
     A_out[np.abs(A_out) < ZERO_TOLERANCE] = 0.0  # round-off of the change of coordinates

@@ -33,16 +33,16 @@ def random_feasible_lp(rng, d, m, m_eq=0, box=1.0):
     A_eq = rng.standard_normal((m_eq, d))
     b_eq = A_eq @ x0
     c = rng.standard_normal(d)
-    return dict(
-        c=c, A_ub=A, b_ub=b, A_eq=A_eq if m_eq else None, b_eq=b_eq if m_eq else None, lb=-box, ub=box
-    )
+    equalities = dict(A_eq=A_eq, b_eq=b_eq) if m_eq else {}
+    return dict(c=c, A_ub=A, b_ub=b, lb=-box, ub=box, **equalities)
 
 
 def check_against_reference(result: LPResult, reference: LPResult):
     assert reference.found
     assert result.found, result.raw_status
     assert result.primal_residual <= result.residual_tolerance
-    assert abs(result.objective - reference.objective) <= OPTIMUM_TOLERANCE * (1 + abs(reference.objective))
+    gap = abs(result.objective - reference.objective)
+    assert gap <= OPTIMUM_TOLERANCE * (1 + abs(reference.objective))
 
 
 SIZES = [(6, 20), (8, 50), (12, 100), (12, 200)]
@@ -300,3 +300,75 @@ def test_results_are_frozen_and_timed():
     assert result.solver == "daqp" and result.solve_time > 0
     with pytest.raises(dataclasses.FrozenInstanceError):
         result.found = False  # type: ignore[misc]
+
+
+# A 15 x 7 LP (a support LP of the polytope tests, rounded to 8 decimals) on which HiGHS 1.15.1
+# ends on model status 'Unknown' with its default dual simplex.
+HIGHS_UNKNOWN_A = np.array(
+    [
+        [-1.61375452, 1.28732203, 0.93792083, 1.39527898, -0.17381991, 0.1313778, 0.11774588],
+        [1.13320388, 0.78088852, -0.20136859, 0.31030503, -1.44042589, -0.85417375, 0.06477487],
+        [-0.49023851, -0.09606526, -0.00181217, -1.74090572, 0.38129305, 0.624584, 0.73938148],
+        [-0.22082162, -0.39198346, -0.17775596, 0.02424163, 0.34682347, -0.41332076, 0.1872628],
+        [-0.76817714, 0.61506523, -1.02089813, -0.34081039, 0.72372725, -0.426038, 1.53821458],
+        [-0.05209102, 0.58973385, 0.56654766, 0.61741513, 0.76550342, 0.72547106, 1.54873936],
+        [-1.14071881, 1.30205421, 0.14782775, 1.56504929, -0.144401, 0.40641099, -1.11286936],
+        [1.65464325, 1.6454381, -0.13610803, -0.25558714, 1.42900174, -0.54929771, -0.04707432],
+        [-0.8032538, 0.51317942, 3.01826768, -0.02370864, 0.05929969, -0.05630197, 1.65136562],
+        [-0.0451117, 0.33509683, -1.00547701, 0.17807703, -0.32857838, -0.48318716, -0.94789686],
+        [0.95784381, -2.10928603, 0.68646214, -1.05123732, -0.61914284, 0.0081589, 1.49215787],
+        [-1.75800605, 1.72502123, 2.0447216, -1.78794933, -1.32110725, 0.47466822, -0.66463077],
+        [-1.08892816, -1.53193002, 0.36082577, 0.84461092, 0.05858684, 0.88361354, 0.01636288],
+        [0.86757452, 0.79029807, 0.34283715, -1.20853875, -2.27493503, 0.77858483, 0.01676237],
+        [3.56210867, -0.56574081, 1.67800281, 1.67374364, 3.49541313, -0.03684236, -0.39863129],
+    ]
+)
+HIGHS_UNKNOWN_B = np.array(
+    [
+        -6.82425775, 3.05266685, 1.86742686, -0.98113896, -2.80425264,
+        -4.12692357, -2.89242176, 7.64552346, -7.47328365, 3.36904597,
+        -0.30529279, 1.21667769, -5.99938403, 6.61685554, 6.18327019,
+    ]
+)
+HIGHS_UNKNOWN_C = np.array(
+    [
+        -0.51512398, -0.3549709, 0.09153674, -0.14105631,
+        0.65477883, 0.38828439, -0.02944491,
+    ]
+)
+
+
+@pytest.mark.skipif("highs" not in BACKENDS, reason="highspy not installed")
+def test_highs_unknown_status_is_retried():
+    """HiGHS's dual simplex ends on 'Unknown' here; the adapter retries with another algorithm."""
+    reference = solve_lp(HIGHS_UNKNOWN_C, HIGHS_UNKNOWN_A, HIGHS_UNKNOWN_B, solver="highs")
+    assert reference.found, reference.raw_status
+    for solver in OTHERS:
+        check_against_reference(
+            solve_lp(HIGHS_UNKNOWN_C, HIGHS_UNKNOWN_A, HIGHS_UNKNOWN_B, solver=solver), reference
+        )
+
+
+# A feasible, unbounded LP (5 rows, 3 free variables, from the polytope tests) that HiGHS
+# 1.15.1's presolve declares infeasible.
+PRESOLVE_A = np.array(
+    [
+        [0.0157, 0.4096, 0.9121],
+        [0.8851, -0.4639, 0.0381],
+        [-0.4617, -0.5875, 0.6646],
+        [0.5037, 0.5988, 0.6227],
+        [0.4938, 0.5984, -0.631],
+    ]
+)
+PRESOLVE_B = np.array([1.0004, 1.3768, -0.9178, 2.1635, 1.5652])
+PRESOLVE_C = np.array([0.5188, -0.6042, 0.6048])
+
+
+@pytest.mark.skipif("highs" not in BACKENDS, reason="highspy not installed")
+def test_highs_infeasible_verdict_is_confirmed_without_presolve():
+    feasible = solve_lp(np.zeros(3), PRESOLVE_A, PRESOLVE_B, solver="highs")
+    assert feasible.found  # the rows are consistent
+    result = solve_lp(PRESOLVE_C, PRESOLVE_A, PRESOLVE_B, solver="highs")
+    assert result.status == "unbounded", result.raw_status
+    for solver in OTHERS:
+        assert solve_lp(PRESOLVE_C, PRESOLVE_A, PRESOLVE_B, solver=solver).status == "unbounded"

@@ -13,7 +13,16 @@ its lower triangle, column-wise (``HessianFormat.kTriangular``).
 
 HiGHS is the reference back-end (:data:`frcontrol.solvers.REFERENCE_LP_SOLVER`): slower than DAQP
 on small dense problems (0.3-1.6 ms against 7-40 us on this machine) but robust. When presolve
-can only tell "infeasible or unbounded", we solve again without presolve to get which.
+can only tell "infeasible or unbounded", we solve again without presolve to get which; when it
+ends on another status ("Unknown"...), we retry with other algorithms (:data:`RETRIES`).
+
+An "Infeasible" verdict is confirmed without presolve: HiGHS 1.15.1's presolve declared the
+feasible, unbounded LP ``max a.x`` over 5 rows in 3 free variables (from the polytope tests)
+infeasible (simplex and IPM alike); without presolve it answers "Unbounded". Infeasible LPs
+therefore cost two solves with HiGHS.
+
+The HiGHS option named ``solver`` cannot be passed through the door (the name is the door's);
+the other options are passed by name.
 """
 
 from __future__ import annotations
@@ -74,7 +83,14 @@ def _hessian(P: np.ndarray) -> highspy.HighsHessian:
     return hessian
 
 
-def _run(model: highspy.HighsLp | highspy.HighsModel, options: dict) -> RawSolution:
+RETRIES: tuple[dict[str, object], ...] = ({"simplex_strategy": 4}, {"solver": "ipm"})
+"""Settings tried in turn when HiGHS ends on a status that is not optimal, infeasible or
+unbounded (skipped if the caller set the same option). HiGHS 1.15.1's default dual simplex ends
+on model status "Unknown" on some small well-scaled LPs (one 15 x 7 support LP of the polytope
+tests); its primal simplex (``simplex_strategy=4``) and its IPM solve them."""
+
+
+def _attempt(model: highspy.HighsLp | highspy.HighsModel, options: dict) -> tuple:
     highs = highspy.Highs()
     highs.setOptionValue("output_flag", False)
     for name, value in options.items():
@@ -87,7 +103,20 @@ def _run(model: highspy.HighsLp | highspy.HighsModel, options: dict) -> RawSolut
         highs.setOptionValue("presolve", "off")
         highs.run()
         model_status = highs.getModelStatus()
+    return highs, model_status
+
+
+def _run(model: highspy.HighsLp | highspy.HighsModel, options: dict) -> RawSolution:
+    highs, model_status = _attempt(model, options)
     raw = highs.modelStatusToString(model_status)
+    if model_status == highspy.HighsModelStatus.kInfeasible and "presolve" not in options:
+        highs, model_status = _attempt(model, {**options, "presolve": "off"})
+        raw += f"; without presolve: {highs.modelStatusToString(model_status)}"
+    for retry in RETRIES:
+        if model_status in _STATUS or set(retry) & set(options):
+            continue
+        highs, model_status = _attempt(model, {**options, **retry})
+        raw += f"; with {retry}: {highs.modelStatusToString(model_status)}"
     status = _STATUS.get(model_status, "error")
     x = np.array(highs.getSolution().col_value, dtype=float) if status == "optimal" else None
     return RawSolution(status, x, raw)
