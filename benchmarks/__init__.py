@@ -1,0 +1,1 @@
+"""Benchmarks of frcontrol (run as modules from the repository root)."""
