@@ -32,19 +32,23 @@ Solvers
   :math:`[B^{-1} q,\ B^{-1}] / d_i` (:math:`d` the entering column), which keeps every basis
   lexicographically feasible and so cannot cycle on degenerate problems. :math:`B^{-1}` is
   never formed with an explicit inverse: it is the block of the pivoted tableau under the
-  original :math:`w` columns. The run ends when :math:`z_0` leaves the basis (a solution,
+  original :math:`w` columns. When the row of :math:`z_0` ties for the minimum ratio it is
+  chosen, ending the run. The run ends when :math:`z_0` leaves the basis (a solution,
   recomputed by an LU solve with the final basis matrix and verified), when the entering
   column has no positive entry (a *secondary ray*: no solution was found, which for some
   matrix classes proves none exists, but in general is not a proof), or after ``max_pivots``
-  pivots.
+  pivots. If a ray or the pivot limit is met while :math:`z_0` is already zero to within the
+  tolerance, the current almost-complementary point is a solution and is returned if it
+  verifies (this happens on near-degenerate data whose ``q`` has round-off-sized entries).
 * **Enumeration** (``method="enumerate"``): every complementary support
   :math:`\alpha \subseteq \{1..n\}` (smallest supports first) gives the candidate
   :math:`z_\alpha = -M_{\alpha\alpha}^{+} q_\alpha`, :math:`z_{\bar\alpha} = 0`, solved by an
-  SVD-based least-squares solve so that singular principal blocks (non-isolated solutions)
-  yield their minimum-norm representative; the candidate is kept if it verifies. The search
-  is exhaustive (:math:`2^n` supports), so it is exact in the sense that an empty answer proves
-  that no solution exists up to the tolerance, but it is limited to
-  ``n <= ENUMERATION_MAX_SIZE``.
+  SVD-based least-squares solve; the candidate is kept if it verifies. A singular principal
+  block (non-isolated solutions) yields its minimum-norm point or, when that point is not
+  feasible, a vertex of :math:`\{z_\alpha \ge 0,\ M_{\alpha\alpha} z_\alpha = -q_\alpha,\
+  w_{\bar\alpha} \ge 0\}` found by a linear program. Every support is decided, so the search
+  is exhaustive (:math:`2^n` supports) and an empty answer proves that no solution exists up to
+  the tolerance; it is limited to ``n <= ENUMERATION_MAX_SIZE``.
 
 2-D frictional contact
 ----------------------
@@ -87,10 +91,11 @@ import itertools
 import math
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+from scipy.optimize import linprog
 
 from frcontrol.errors import InputError
 
@@ -134,8 +139,11 @@ Dimensionless: entry ``d_i`` is eligible for the ratio test only if
 TIE_TOLERANCE: float = 1e-12
 """Relative width of a tie in Lemke's lexicographic minimum-ratio test.
 
-Dimensionless: in each column of the ratio rows ``[B^-1 q, B^-1] / d_i`` the candidates within
-``TIE_TOLERANCE * max|ratio|`` of the minimum are kept as tied and compared on the next column.
+Dimensionless. The ratio rows are ``[B^-1 q, B^-1] / d_i``; an entry ``(B^-1 q)_i`` carries
+round-off proportional to ``(|B^-1| |q|)_i`` (units of ``q``) and an entry of ``B^-1`` to the
+largest magnitude in its row (dimensionless). Two entries of a column are tied when they differ
+by at most ``TIE_TOLERANCE`` times the larger of their two such scales (divided by ``d_i``);
+tied rows are compared on the next column.
 """
 
 ENUMERATION_MAX_SIZE: int = 16
@@ -153,8 +161,6 @@ This is the acceptance threshold of the Siconos test suite for 2-D friction prob
 reported as ``FC2DSolution.tolerance``.
 """
 
-_STATUSES = ("solved", "ray", "max_pivots", "infeasible", "singular", "inaccurate")
-
 
 @dataclass(frozen=True)
 class LCPSolution:
@@ -166,7 +172,8 @@ class LCPSolution:
         w: ``M z + q`` for that candidate (None when ``z`` is None).
         status: ``"solved"``; ``"ray"`` (Lemke's secondary ray: no solution found, not a wrong
             answer); ``"max_pivots"``; ``"infeasible"`` (enumeration proved none exists);
-            ``"singular"`` (Lemke's final basis matrix could not be factorised);
+            ``"singular"`` (Lemke's final basis matrix could not be factorised and the
+            tableau's values do not verify);
             ``"inaccurate"`` (a candidate was produced but its residual exceeds the tolerance).
         method: ``"lemke"`` or ``"enumerate"``.
         pivots: pivots performed (Lemke, including the first ``z0`` pivot) or complementary
@@ -291,10 +298,11 @@ def lcp_residual(M: np.ndarray, q: np.ndarray, z: np.ndarray) -> float:
         z: the ``(n,)`` candidate.
 
     Returns:
-        The residual, in the units of ``w``; zero exactly for a solution.
+        The residual, in the units of ``w``; zero exactly for a solution, ``inf`` if ``z`` has
+        a non-finite entry.
 
     Raises:
-        InputError: if the shapes do not match or an entry is not finite.
+        InputError: if ``M`` or ``q`` is malformed or ``z`` does not match their size.
     """
     M_arr, q_arr = _as_lcp(M, q)
     z_arr = np.asarray(z, dtype=float)
@@ -398,11 +406,16 @@ def _verified(
 # --------------------------------------------------------------------------------------------
 
 
-def _lexicographic_min_row(keys: np.ndarray, rows: np.ndarray, preferred: int | None) -> int:
+def _lexicographic_min_row(
+    keys: np.ndarray, widths: np.ndarray, rows: np.ndarray, preferred: int | None
+) -> int:
     """Row of ``keys`` (restricted to ``rows``) that is lexicographically smallest.
 
     Args:
-        keys: ``(n, k)`` ratio rows ``[B^-1 q, B^-1] / d``.
+        keys: ``(n, 1 + n)`` ratio rows ``[B^-1 q, B^-1] / d``.
+        widths: ``(n, 2)`` tie widths of each row: column 0 for the ``B^-1 q`` entry, column 1
+            for the ``B^-1`` entries. Two entries are tied when they differ by at most the
+            larger of their two widths.
         rows: indices of the eligible rows.
         preferred: a row to choose whenever it ties on the first column (the row of ``z0``).
 
@@ -411,8 +424,9 @@ def _lexicographic_min_row(keys: np.ndarray, rows: np.ndarray, preferred: int | 
     """
     for column in range(keys.shape[1]):
         values = keys[rows, column]
-        scale = float(np.max(np.abs(values)))
-        rows = rows[values <= values.min() + TIE_TOLERANCE * scale]
+        width = widths[rows, min(column, 1)]
+        best = int(np.argmin(values))
+        rows = rows[values <= values[best] + np.maximum(width, width[best])]
         if column == 0 and preferred is not None and preferred in rows:
             return preferred
         if rows.size == 1:
@@ -440,47 +454,63 @@ def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> L
         tableau[:] -= np.outer(factors, tableau[row])
         basis[row] = column
 
-    def ratio_keys(divisor: np.ndarray) -> np.ndarray:
-        # Rows of [B^-1 q, B^-1]: B^-1 sits under the original (identity) w columns.
-        return np.hstack([tableau[:, rhs : rhs + 1], tableau[:, :n]]) / divisor[:, None]
+    def choose_row(divisor: np.ndarray, rows: np.ndarray, preferred: int | None) -> int:
+        # Ratio rows [B^-1 q, B^-1] / d: B^-1 sits under the original (identity) w columns.
+        # Round-off in (B^-1 q)_i scales with (|B^-1| |q|)_i, in B^-1 with max_k |B^-1_ik|.
+        inverse = tableau[:, :n]
+        keys = np.hstack([tableau[:, rhs : rhs + 1], inverse]) / divisor[:, None]
+        scales = np.column_stack([np.abs(inverse) @ np.abs(q), np.max(np.abs(inverse), axis=1)])
+        widths = TIE_TOLERANCE * scales / divisor[:, None]
+        return _lexicographic_min_row(keys, widths, rows, preferred)
+
+    def basic_point() -> tuple[np.ndarray, bool]:
+        # Values of (w, z, z0) at the current basis, recomputed by an LU solve with the basis
+        # matrix (fresher than the accumulated tableau); the tableau if the basis is singular.
+        values = np.zeros(2 * n + 1)
+        try:
+            values[basis] = np.linalg.solve(A[:, basis], q)
+        except np.linalg.LinAlgError:
+            values[basis] = tableau[:, rhs]
+            return values, True
+        return values, False
+
+    def stopped(status: str) -> LCPSolution:
+        # A ray or the pivot limit with z0 already at zero (within the tolerance) leaves an
+        # almost-complementary point that is itself a solution: accept it if it verifies.
+        values, _ = basic_point()
+        z = values[n : 2 * n].copy()
+        if abs(values[z0]) <= lcp_tolerance(M, q, z, tolerance):
+            note = f"{status} met with z0 = {values[z0]:.3g}: the current point is a solution"
+            result = _verified(M, q, z, "solved", "lemke", pivots, tolerance, start, note)
+            if result.found:
+                return result
+        return _verified(M, q, None, status, "lemke", pivots, tolerance, start)
 
     # First pivot: z0 enters at the value that makes every w_i = q_i + z0 non-negative.
-    row = _lexicographic_min_row(ratio_keys(np.ones(n)), np.arange(n), None)
+    row = choose_row(np.ones(n), np.arange(n), None)
     leaving = int(basis[row])
     pivot(row, z0)
     pivots = 1
-    while True:
+    while leaving != z0:
         entering = leaving + n if leaving < n else leaving - n
         column = tableau[:, entering]
         largest = float(np.max(np.abs(column)))
         eligible = np.flatnonzero(column > PIVOT_TOLERANCE * largest) if largest > 0 else []
         if len(eligible) == 0:
-            return _verified(M, q, None, "ray", "lemke", pivots, tolerance, start)
+            return stopped("ray")
         if pivots >= max_pivots:
-            return _verified(M, q, None, "max_pivots", "lemke", pivots, tolerance, start)
+            return stopped("max_pivots")
         z0_rows = np.flatnonzero(basis == z0)
         preferred = int(z0_rows[0]) if z0_rows.size else None
-        safe = np.where(column > 0, column, 1.0)
-        row = _lexicographic_min_row(ratio_keys(safe), eligible, preferred)
+        row = choose_row(np.where(column > 0, column, 1.0), eligible, preferred)
         leaving = int(basis[row])
         pivot(row, entering)
         pivots += 1
-        if leaving == z0:
-            break
-
-    # Recompute the basic variables from the final basis with an LU solve (fresh, instead of
-    # the accumulated tableau), falling back on the tableau if the basis is singular.
-    values = np.zeros(2 * n + 1)
-    try:
-        values[basis] = np.linalg.solve(A[:, basis], q)
-    except np.linalg.LinAlgError:
-        values[basis] = tableau[:, rhs]
-        z = values[n : 2 * n].copy()
-        result = _verified(M, q, z, "solved", "lemke", pivots, tolerance, start)
-        if result.found:
-            return result
-        return _verified(M, q, z, "singular", "lemke", pivots, tolerance, start)
-    return _verified(M, q, values[n : 2 * n].copy(), "solved", "lemke", pivots, tolerance, start)
+    values, singular = basic_point()
+    result = _verified(M, q, values[n : 2 * n].copy(), "solved", "lemke", pivots, tolerance, start)
+    if singular and not result.found:
+        return replace(result, status="singular")
+    return result
 
 
 # --------------------------------------------------------------------------------------------
@@ -497,6 +527,53 @@ def _check_enumeration_size(n: int, max_size: int | None) -> None:
         )
 
 
+def _verifies(M: np.ndarray, q: np.ndarray, z: np.ndarray, tolerance: float) -> bool:
+    """Whether ``z`` passes the enumeration check: ``z, w >= -tol`` and residual ``<= tol``."""
+    w = M @ z + q
+    bound = lcp_tolerance(M, q, z, tolerance)
+    return bool(
+        np.all(z >= -bound) and np.all(w >= -bound) and np.max(np.abs(np.minimum(z, w))) <= bound
+    )
+
+
+def _support_candidate(
+    M: np.ndarray, q: np.ndarray, support: tuple[int, ...], tolerance: float
+) -> tuple[np.ndarray, str]:
+    """Candidate ``z`` with ``z_i = 0`` off ``support`` and ``w_i = 0`` on it, and a note.
+
+    A nonsingular principal block gives the unique candidate. A singular block gives an affine
+    set of them: its minimum-norm point is tried first and, if it fails the check, a linear
+    program looks for any point of the set with ``z >= 0`` and ``w >= 0``, so that no solution
+    is missed.
+    """
+    n = q.size
+    z = np.zeros(n)
+    if not support:
+        return z, ""
+    alpha = list(support)
+    block = M[np.ix_(alpha, alpha)]
+    z[alpha], _, rank, _ = np.linalg.lstsq(block, -q[alpha], rcond=None)
+    if rank == len(alpha):
+        return z, ""
+    note = f"singular principal block on support {support} (rank {rank}): "
+    if _verifies(M, q, z, tolerance):
+        return z, note + "minimum-norm representative of a non-isolated solution set"
+    others = [i for i in range(n) if i not in support]
+    lp = linprog(
+        np.zeros(len(alpha)),
+        A_ub=-M[np.ix_(others, alpha)] if others else None,
+        b_ub=q[others] if others else None,
+        A_eq=block,
+        b_eq=-q[alpha],
+        bounds=(0, None),
+        method="highs",
+    )
+    if lp.status == 0:
+        z[alpha] = lp.x
+        return z, note + "vertex found by linear programming (minimum-norm point infeasible)"
+    return z, note + "no feasible point"
+
+
 def _iter_solutions(
     M: np.ndarray, q: np.ndarray, tolerance: float
 ) -> Iterator[tuple[int, np.ndarray, str]]:
@@ -507,24 +584,10 @@ def _iter_solutions(
     for size in range(n + 1):
         for support in itertools.combinations(range(n), size):
             tried += 1
-            z = np.zeros(n)
-            note = ""
-            if size:
-                alpha = list(support)
-                block = M[np.ix_(alpha, alpha)]
-                z_alpha, _, rank, _ = np.linalg.lstsq(block, -q[alpha], rcond=None)
-                z[alpha] = z_alpha
-                if rank < size:
-                    note = (
-                        f"singular principal block on support {support} (rank {rank}): "
-                        "minimum-norm representative of a non-isolated solution set"
-                    )
-            w = M @ z + q
+            z, note = _support_candidate(M, q, support, tolerance)
+            if not _verifies(M, q, z, tolerance):
+                continue
             bound = lcp_tolerance(M, q, z, tolerance)
-            if np.any(z < -bound) or np.any(w < -bound):
-                continue
-            if float(np.max(np.abs(np.minimum(z, w)))) > bound:
-                continue
             if any(float(np.max(np.abs(z - other))) <= bound for other in seen):
                 continue
             seen.append(z)
@@ -544,8 +607,11 @@ def enumerate_lcp_solutions(
     ``alpha`` the block system ``M[alpha, alpha] z_alpha = -q_alpha`` is solved by SVD least
     squares; the candidate is kept if ``z >= -tol``, ``w >= -tol`` and its natural-map
     residual is at most ``tol``. Identical solutions (within ``tol``) from different supports
-    are reported once. A singular principal block yields only its minimum-norm candidate,
-    noted in ``LCPSolution.note``: a non-isolated solution set is represented, not listed.
+    are reported once. A singular principal block yields one representative of its solution
+    set (the minimum-norm point, or a vertex found by a linear program when that point is not
+    feasible), noted in ``LCPSolution.note``: a non-isolated solution set is represented, not
+    listed. Every support is decided, so an empty list means no solution exists (up to the
+    tolerance).
 
     Args:
         M: the ``(n, n)`` matrix.
@@ -625,7 +691,7 @@ def solve_lcp(
 
 
 def fc2d_to_lcp(problem: FrictionContact2D) -> tuple[np.ndarray, np.ndarray]:
-    """The LCP ``(M, q)`` in ``z = (r_n, r_t+, r_t-, lambda)`` equivalent to the problem.
+    """Build the LCP ``(M, q)`` in ``z = (r_n, r_t+, r_t-, lambda)`` equivalent to the problem.
 
     Args:
         problem: the 2-D frictional contact problem.
@@ -744,13 +810,17 @@ class _Tokens:
             text = path.read_text()
         except (OSError, UnicodeDecodeError) as exc:
             raise InputError(f"{path}: cannot read the file: {exc}") from exc
+        lines = text.splitlines()
         self.items = [
-            (token, number)
-            for number, line in enumerate(text.splitlines(), start=1)
-            for token in line.split()
+            (token, number) for number, line in enumerate(lines, start=1) for token in line.split()
         ]
         self.position = 0
-        self.last_line = text.count("\n") + 1
+        self.last_line = max(1, len(lines))
+
+    @property
+    def line(self) -> int:
+        """Line of the last token read (1 before any)."""
+        return self.items[self.position - 1][1] if self.position else 1
 
     def error(self, line: int, message: str) -> InputError:
         return InputError(f"{self.path}, line {line}: {message}")
@@ -793,19 +863,25 @@ class _Tokens:
 
 
 def _read_block_sizes(tokens: _Tokens, count: int, total: int, what: str) -> list[int]:
-    """Cumulative block sizes (strictly increasing, ending at ``total``) as offsets from 0."""
+    """Cumulative block sizes (strictly increasing, ending at ``total``), prefixed with 0."""
     offsets = [0]
     for k in range(count):
-        line = tokens.items[tokens.position][1] if tokens.position < len(tokens.items) else 0
-        value = tokens.integer(f"{what} {k + 1}", minimum=offsets[-1] + 1)
-        offsets.append(value)
+        offsets.append(tokens.integer(f"{what} {k + 1}", minimum=offsets[-1] + 1))
     if offsets[-1] != total:
-        raise tokens.error(line, f"{what} end at {offsets[-1]}, expected {total}")
+        raise tokens.error(tokens.line, f"{what} end at {offsets[-1]}, expected {total}")
     return offsets
 
 
 def _read_sparse_block(tokens: _Tokens, rows: int, cols: int) -> np.ndarray:
-    """Siconos ``SparseBlockStructuredMatrix`` dump (storage 1) into a dense array."""
+    """Read a Siconos ``SparseBlockStructuredMatrix`` dump (storage 1) into a dense array.
+
+    After the storage type and the sizes: the number of blocks ``nb`` (0: a zero matrix, nothing
+    follows), the numbers of block rows and block columns, the cumulative block row sizes, the
+    cumulative block column sizes, ``filled1`` (block rows + 1) and ``filled2`` (``nb``), the
+    block-row pointers (CSR, ``filled1`` entries), the block-column index of each block
+    (``filled2`` entries), then for each block in order its number followed by its entries,
+    column-major.
+    """
     matrix = np.zeros((rows, cols))
     blocks = tokens.integer("number of blocks")
     if blocks == 0:
@@ -820,12 +896,12 @@ def _read_sparse_block(tokens: _Tokens, rows: int, cols: int) -> np.ndarray:
     col_index = [tokens.integer(f"block column index {k + 1}") for k in range(blocks)]
     if row_start[0] != 0 or row_start[-1] != blocks or row_start != sorted(row_start):
         raise tokens.error(
-            tokens.items[tokens.position - 1][1],
+            tokens.line,
             f"block row pointers {row_start} are not non-decreasing from 0 to {blocks}",
         )
     if any(c >= block_cols for c in col_index):
         raise tokens.error(
-            tokens.items[tokens.position - 1][1],
+            tokens.line,
             f"block column index out of range in {col_index} (block columns: {block_cols})",
         )
     for block_row in range(block_rows):
@@ -839,9 +915,9 @@ def _read_sparse_block(tokens: _Tokens, rows: int, cols: int) -> np.ndarray:
 
 
 def _read_numerics_matrix(tokens: _Tokens) -> np.ndarray:
-    """A Siconos ``NumericsMatrix`` dump: storage type, sizes, then dense or sparse-block data."""
-    token_line = tokens.items[tokens.position][1] if tokens.position < len(tokens.items) else 0
+    """Read a Siconos ``NumericsMatrix`` dump: storage type, sizes, dense or sparse-block data."""
     storage = tokens.integer("matrix storage type")
+    storage_line = tokens.line
     rows = tokens.integer("matrix row count", minimum=1)
     cols = tokens.integer("matrix column count", minimum=1)
     if storage == 0:
@@ -852,7 +928,7 @@ def _read_numerics_matrix(tokens: _Tokens) -> np.ndarray:
     if storage == 1:
         return _read_sparse_block(tokens, rows, cols)
     raise tokens.error(
-        token_line, f"unsupported matrix storage type {storage} (0 = dense, 1 = sparse block)"
+        storage_line, f"unsupported matrix storage type {storage} (0 = dense, 1 = sparse block)"
     )
 
 
@@ -903,5 +979,5 @@ def read_siconos_fc2d(path: str | Path) -> FrictionContact2D:
     q = tokens.floats(2 * nc, "vector q")
     mu = tokens.floats(nc, "friction coefficients mu")
     if np.any(mu < 0):
-        raise tokens.error(tokens.items[tokens.position - 1][1], "negative friction coefficient")
+        raise tokens.error(tokens.line, "negative friction coefficient")
     return FrictionContact2D(W=W, q=q, mu=mu, number_of_contacts=nc)
