@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import typer
 
-from . import model_cmds
+from . import analyze_cmd, model_cmds
 
 app = typer.Typer(
     name="frc",
@@ -15,6 +15,7 @@ app = typer.Typer(
 )
 app.command("robots")(model_cmds.robots)
 app.command("show")(model_cmds.show)
+app.command("analyze")(analyze_cmd.analyze_command)
 
 
 def main() -> None:

@@ -1,0 +1,157 @@
+"""``frc analyze``: every contact mode, its domain and the ambiguity; the solutions at an input."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from frcontrol.engine import DynamicResponse, RigidSolution, analyze, solutions_at
+from frcontrol.errors import InputError
+from frcontrol.scene import load_scene
+
+from .common import console, handle_errors, print_json
+from .model_cmds import JsonOpt, SceneArg
+
+InputOpt = Annotated[
+    list[str] | None,
+    typer.Option("--input", "-i", help="An input value NAME=VALUE (repeatable); inputs not named are 0."),
+]
+
+
+def parse_assignments(pairs: list[str] | None) -> dict[str, float]:
+    """``["hip_rear=2.5", ...]`` -> ``{"hip_rear": 2.5}``.
+
+    Raises:
+        InputError: a pair is not NAME=VALUE with a number, or a name repeats.
+    """
+    out: dict[str, float] = {}
+    for pair in pairs or []:
+        name, sep, value = pair.partition("=")
+        if not sep or not name.strip():
+            raise InputError(f"--input expects NAME=VALUE, got {pair!r}")
+        try:
+            number = float(value)
+        except ValueError as err:
+            raise InputError(f"--input {pair!r}: {value!r} is not a number") from err
+        if name.strip() in out:
+            raise InputError(f"--input names {name.strip()!r} twice")
+        out[name.strip()] = number
+    return out
+
+
+def solution_payload(solution: RigidSolution, contacts: tuple[str, ...]) -> dict[str, Any]:
+    """One rigid-body solution as JSON."""
+    return {
+        "mode": solution.mode,
+        "dv": solution.dv,
+        "contacts": {
+            name: {"lambda_n": solution.lambda_n[i], "lambda_t": solution.lambda_t[i],
+                   "a_n": solution.a_n[i], "a_t": solution.a_t[i]}
+            for i, name in enumerate(contacts)
+        },
+        "ambiguity_dim": solution.ambiguity_dim,
+        "ambiguous_outputs": solution.ambiguous_outputs,
+        "w": solution.w,
+        "equality_residual": solution.equality_residual,
+    }
+
+
+def analysis_payload(result: DynamicResponse, inactive: list[str]) -> dict[str, Any]:
+    """The ``frc analyze --json`` document (without solutions)."""
+    problem = result.problem
+    e = result.enumeration
+    modes = []
+    for m in result.modes:
+        modes.append({
+            "mode": m.mode,
+            "feasible": m.feasible,
+            "full_dimensional": m.full_dimensional,
+            "ambiguity_dim": m.ambiguity_dim,
+            "ambiguous_outputs": m.ambiguous_outputs,
+            "halfspaces": m.halfspaces,
+            "rank_case": m.response.case,
+            "rank": m.response.rank,
+            "consistency_constraints": int(m.response.E.shape[0]),
+            "chebyshev_radius": m.chebyshev_radius,
+            "inputs_full_dimensional": m.inputs_full_dimensional,
+            "input_halfspaces": 0 if m.input_domain is None else int(m.input_domain.A.shape[0]),
+            "overlaps": list(result.overlapping(m.mode)),
+            "unambiguous_pieces": len(result.unambiguous.get(m.mode, ())),
+            "pruned": m.pruned,
+        })
+    return {
+        "coordinates": list(problem.coordinates),
+        "contacts": list(problem.contacts),
+        "inactive_contacts": inactive,
+        "inputs": list(problem.inputs),
+        "modes": modes,
+        "overlaps": [list(o.modes) for o in result.overlaps],
+        "enumeration": {
+            "total": e.total, "pruned_velocity": e.pruned_velocity, "after_velocity": e.after_velocity,
+            "partial_checks": e.partial_checks, "evaluated": e.evaluated, "feasible": e.feasible,
+            "pruned_freedom": e.pruned_freedom, "pruned_infeasible": e.pruned_infeasible,
+        },
+        "timings": dict(result.timings),
+        "tolerances": dict(result.tolerances),
+    }
+
+
+@handle_errors
+def analyze_command(
+    scene: SceneArg,
+    inputs: InputOpt = None,
+    json: JsonOpt = False,
+) -> None:
+    """Every contact mode at the scene's state: response, domain, ambiguity; with --input, the solutions."""
+    loaded = load_scene(scene)
+    assignments = parse_assignments(inputs)
+    progress_console = Console(stderr=True)
+    with progress_console.status("analysing contact modes...") as status:
+        result = analyze(loaded, progress=lambda mode: status.update(f"analysing mode {mode}"))
+        solutions = solutions_at(loaded, assignments) if inputs else None
+    inactive = [c.name for c in loaded.contacts if not c.active]
+    payload = analysis_payload(result, inactive)
+    if solutions is not None:
+        payload["solutions"] = [solution_payload(s, result.problem.contacts) for s in solutions]
+    if json:
+        print_json(payload)
+        return
+    render(payload)
+
+
+def render(payload: dict[str, Any]) -> None:
+    """The analysis as rich tables."""
+    e = payload["enumeration"]
+    console.print(
+        f"contacts: {', '.join(payload['contacts']) or '(none active)'}"
+        + (f"  (inactive: {', '.join(payload['inactive_contacts'])})" if payload["inactive_contacts"] else "")
+    )
+    console.print(
+        f"modes: {e['total']} in all, {e['pruned_velocity']} pruned by velocity, {e['evaluated']} evaluated, "
+        f"{e['feasible']} feasible; pruned: {e['pruned_freedom']} freedom, {e['pruned_infeasible']} infeasible"
+    )
+    table = Table(title="feasible modes")
+    for col in ("mode", "rank case", "w", "ambiguous", "full-dim", "half-spaces", "overlaps with"):
+        table.add_column(col)
+    for m in payload["modes"]:
+        if not m["feasible"]:
+            continue
+        table.add_row(m["mode"], m["rank_case"], str(m["ambiguity_dim"]), m["ambiguous_outputs"],
+                      "yes" if m["full_dimensional"] else "no", str(m["halfspaces"]),
+                      ", ".join(m["overlaps"]) or "-")
+    console.print(table)
+    if "solutions" in payload:
+        sols = Table(title="rigid-body solutions at the input")
+        for col in ("mode", "dv", "lambda_n", "lambda_t", "w"):
+            sols.add_column(col)
+        for s in payload["solutions"]:
+            cs = s["contacts"].values()
+            sols.add_row(s["mode"], " ".join(f"{x:.4g}" for x in s["dv"]),
+                         " ".join(f"{c['lambda_n']:.4g}" for c in cs),
+                         " ".join(f"{c['lambda_t']:.4g}" for c in cs), str(s["ambiguity_dim"]))
+        console.print(sols if payload["solutions"] else "no rigid-body solution at this input")
+    t = payload["timings"]
+    console.print(f"time: {1e3 * t['total']:.1f} ms")

@@ -1,0 +1,189 @@
+"""The acceleration-level contact problem as a linear complementarity problem (METHOD §7).
+
+Independent of the mode enumeration, this formulates the same rigid-body problem at one input as
+``w = W z + b >= 0, z >= 0, z^T w = 0`` and solves it with :mod:`frcontrol.lcp` (Lemke's method, or
+the enumeration of every solution). It needs a positive-definite mass matrix (the forces are
+mapped to accelerations by ``dv = M^-1 (S^T u - h + J^T lam)``, computed with a Cholesky
+factorisation, never an explicit inverse); with massless links use the mode enumeration.
+
+Per active contact with ``v_N = 0``:
+
+- if ``v_T = 0`` (it may stick), the unknowns are ``z = (lam_N, lam_T+, lam_T-, beta)`` with
+  ``lam_T = lam_T+ - lam_T-`` and the complementary slacks
+  ``(a_N, beta + a_T, beta - a_T, mu lam_N - lam_T+ - lam_T-)``;
+- if ``v_T != 0`` (it slides), ``lam_T = -sign(v_T) mu lam_N`` and only ``lam_N`` ⟂ ``a_N``.
+
+A contact with ``v_N > 0`` separates: it carries no force and takes no part.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from .errors import IllConditioned, InputError
+from .lcp import LCPSolution, enumerate_lcp_solutions, solve_lcp
+from .modes import ContactProblem, mode_outputs
+
+MASS_CHOLESKY_TOLERANCE = 1e-12
+"""The LCP form needs M positive definite: its smallest eigenvalue over its largest must exceed
+this, else :class:`~frcontrol.errors.IllConditioned` is raised (use the mode enumeration)."""
+
+CLASSIFY_TOLERANCE = 1e-7
+"""[N or m/s^2] A force or contact acceleration at most this in magnitude counts as zero when an
+LCP solution is named by its mode."""
+
+
+@dataclass(frozen=True)
+class ContactLCP:
+    """The LCP of a contact problem at one input, and how to read its solutions back.
+
+    Attributes:
+        W: (N, N) LCP matrix; b: (N,) LCP vector.
+        sticking: indices of the contacts that may stick (v_T = 0, v_N = 0).
+        sliding: indices of the sliding contacts, with ``sign`` their v_T signs.
+        separating: indices of contacts with v_N > 0.
+    """
+
+    problem: ContactProblem
+    u: np.ndarray
+    W: np.ndarray
+    b: np.ndarray
+    sticking: np.ndarray
+    sliding: np.ndarray
+    sign: np.ndarray
+    separating: np.ndarray
+    factor: tuple[np.ndarray, bool]
+
+    def unknowns_from(self, z: np.ndarray) -> np.ndarray:
+        """``x = (dv, lam_N, lam_T)`` from an LCP solution z."""
+        p = self.problem
+        k = p.k
+        normal = np.concatenate([self.sticking, self.sliding])
+        ns = len(self.sticking)
+        nn = len(normal)
+        lam_n = np.zeros(k)
+        lam_t = np.zeros(k)
+        lam_n[normal] = z[:nn]
+        lam_t[self.sticking] = z[nn:nn + ns] - z[nn + ns:nn + 2 * ns]
+        mu = p.mu
+        lam_t[self.sliding] = -self.sign * mu[self.sliding] * lam_n[self.sliding]
+        force = p.input_map @ self.u - p.bias + p.jacobian_normal.T @ lam_n + p.jacobian_tangent.T @ lam_t
+        dv = scipy.linalg.cho_solve(self.factor, force)
+        return np.concatenate([dv, lam_n, lam_t])
+
+
+def build_contact_lcp(problem: ContactProblem, u: np.ndarray) -> ContactLCP:
+    """Assemble the LCP at input ``u``.
+
+    Raises:
+        IllConditioned: M is not numerically positive definite (e.g. massless links).
+        ImpactState: a contact moves into its surface.
+    """
+    u = np.asarray(u, dtype=float).reshape(-1)
+    if u.shape != (problem.m,):
+        raise InputError(f"expected {problem.m} inputs, got {u.size}")
+    M = problem.mass_matrix
+    eig = np.linalg.eigvalsh(M)
+    if eig[0] <= MASS_CHOLESKY_TOLERANCE * max(eig[-1], 1e-300):
+        raise IllConditioned("the mass matrix (the LCP form needs it positive definite)",
+                             eig[-1] / max(eig[0], 1e-300), MASS_CHOLESKY_TOLERANCE)
+    factor = scipy.linalg.cho_factor(M)
+    allowed = problem.allowed_modes()  # raises ImpactState
+    sticking = np.array([i for i, a in enumerate(allowed) if a == "SLRF"], dtype=int)
+    sliding = np.array([i for i, a in enumerate(allowed) if a in ("SR", "SL")], dtype=int)
+    sign = np.array([1.0 if allowed[i] == "SR" else -1.0 for i in sliding])
+    separating = np.array([i for i, a in enumerate(allowed) if a == "S"], dtype=int)
+    jn, jt, mu = problem.jacobian_normal, problem.jacobian_tangent, problem.mu
+    normal = np.concatenate([sticking, sliding])
+    # generalized force of a unit normal force, including the sliding friction it drags along
+    normal_cols = jn[normal].T.copy()
+    if sliding.size:
+        normal_cols[:, len(sticking):] -= (jt[sliding] * (sign * mu[sliding])[:, None]).T
+    tangent_cols = jt[sticking].T
+    K_n = scipy.linalg.cho_solve(factor, normal_cols)
+    K_t = scipy.linalg.cho_solve(factor, tangent_cols)
+    K_f = scipy.linalg.cho_solve(factor, problem.input_map @ u - problem.bias)
+    nn, ns = len(normal), len(sticking)
+    size = nn + 3 * ns
+    W = np.zeros((size, size))
+    b = np.zeros(size)
+    JN, JT = jn[normal], jt[sticking]
+    # a_N rows
+    W[:nn, :nn] = JN @ K_n
+    W[:nn, nn:nn + ns] = JN @ K_t
+    W[:nn, nn + ns:nn + 2 * ns] = -JN @ K_t
+    b[:nn] = JN @ K_f + problem.drift_normal[normal]
+    # beta + a_T and beta - a_T rows
+    a_t_n, a_t_t, a_t_0 = JT @ K_n, JT @ K_t, JT @ K_f + problem.drift_tangent[sticking]
+    beta = nn + 2 * ns
+    rows_p = slice(nn, nn + ns)
+    rows_m = slice(nn + ns, nn + 2 * ns)
+    W[rows_p, :nn] = a_t_n
+    W[rows_p, nn:nn + ns] = a_t_t
+    W[rows_p, nn + ns:nn + 2 * ns] = -a_t_t
+    W[rows_p, beta:] = np.eye(ns)
+    b[rows_p] = a_t_0
+    W[rows_m, :nn] = -a_t_n
+    W[rows_m, nn:nn + ns] = -a_t_t
+    W[rows_m, nn + ns:nn + 2 * ns] = a_t_t
+    W[rows_m, beta:] = np.eye(ns)
+    b[rows_m] = -a_t_0
+    # friction cone slack: mu lam_N - lam_T+ - lam_T-
+    W[beta:, :ns] = np.diag(mu[sticking])
+    W[beta:, nn:nn + ns] = -np.eye(ns)
+    W[beta:, nn + ns:nn + 2 * ns] = -np.eye(ns)
+    return ContactLCP(problem, u, W, b, sticking, sliding, sign, separating, factor)
+
+
+def classify(problem: ContactProblem, x: np.ndarray, *, tolerance: float = CLASSIFY_TOLERANCE) -> str:
+    """The mode letters of a solution ``x = (dv, lam_N, lam_T)`` (S when lam_N is zero)."""
+    out = mode_outputs(problem, x)
+    letters = []
+    for i in range(problem.k):
+        if out["lambda_n"][i] <= tolerance:
+            letters.append("S")
+        elif abs(problem.tangential_velocities[i]) > problem.velocity_tolerance:
+            letters.append("R" if problem.tangential_velocities[i] > 0 else "L")
+        elif out["a_t"][i] > tolerance:
+            letters.append("R")
+        elif out["a_t"][i] < -tolerance:
+            letters.append("L")
+        else:
+            letters.append("F")
+    return "".join(letters)
+
+
+@dataclass(frozen=True)
+class LCPContactSolution:
+    """A solution of the contact LCP, read back as accelerations and forces."""
+
+    mode: str
+    x: np.ndarray
+    lcp: LCPSolution
+
+
+def solve_contact_lcp(problem: ContactProblem, u: np.ndarray, method: str = "lemke") -> LCPContactSolution | LCPSolution:
+    """One solution by Lemke's method (or the first of the enumeration).
+
+    Returns the read-back solution, or the raw :class:`~frcontrol.lcp.LCPSolution` when none was
+    found (``status`` says why: ``"ray"``, ``"infeasible"``...).
+    """
+    lcp = build_contact_lcp(problem, u)
+    result = solve_lcp(lcp.W, lcp.b, method=method)
+    if not result.found:
+        return result
+    x = lcp.unknowns_from(result.z)
+    return LCPContactSolution(classify(problem, x), x, result)
+
+
+def all_contact_lcp_solutions(problem: ContactProblem, u: np.ndarray) -> list[LCPContactSolution]:
+    """Every solution of the contact LCP (exhaustive enumeration of complementary supports)."""
+    lcp = build_contact_lcp(problem, u)
+    out = []
+    for sol in enumerate_lcp_solutions(lcp.W, lcp.b):
+        x = lcp.unknowns_from(sol.z)
+        out.append(LCPContactSolution(classify(problem, x), x, sol))
+    return out

@@ -1,0 +1,187 @@
+"""The affine response of one contact mode: the four rank cases (METHOD §3).
+
+A mode's equalities ``A x = B u + c`` are solved with a rank-revealing factorisation (an SVD of
+the row- and column-equilibrated ``A``; nothing is ever inverted, so a singular mass matrix from
+massless links is fine). With ``r`` the numerical rank::
+
+    x = X_u u + X_w w + x_0        for every w, wherever   E u = e
+
+- ``X_w`` spans null(A): the ambiguity variables w (within-mode ambiguity), empty if A has full
+  column rank;
+- ``E u = e`` are the consistency conditions from the left null space of A (empty if A has full
+  row rank after removing rows that are trivially satisfied);
+- a left null vector that annihilates B but not c makes the mode inconsistent for every input:
+  the mode is pruned ("freedom pruning").
+
+The four cases (full row rank?, full column rank?) are reported as ``"unique"`` (both),
+``"ambiguous"`` (w only), ``"constrained"`` (E only) and ``"ambiguous_constrained"`` (both). A
+contact mode's system is square (n + 2k rows and columns), so there "constrained" alone cannot
+occur: a rank drop always brings both a null space and a left null space, and the left one is
+either trivially satisfied (e.g. a table on two legs: "ambiguous") or a real condition on the
+inputs (e.g. a massless leg in the air: its torque must vanish, "ambiguous_constrained").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import IllConditioned
+
+RANK_TOLERANCE = 1e-10
+"""Singular values of the equilibrated A at most this times the largest are taken as zero."""
+
+ILL_CONDITIONED_BAND = 1e-8
+"""A singular value between ``RANK_TOLERANCE`` and this (times the largest) is too close to the
+rank threshold to decide the rank: :class:`~frcontrol.errors.IllConditioned` is raised."""
+
+CONSISTENCY_TOLERANCE = 1e-9
+"""A consistency row ``E_i u = e_i`` whose ``E_i`` has norm at most this times the scale of
+``[B c]`` is void; it is inconsistent if ``|e_i|`` also exceeds this times that scale."""
+
+OUTPUT_TOLERANCE = 1e-9
+"""An output depends on w if its row of ``X_w`` exceeds this times the largest entry of X_w."""
+
+
+@dataclass(frozen=True)
+class AffineSolution:
+    """All solutions of ``A x = B u + c``: ``x = X_u u + X_w w + x_0`` where ``E u = e``.
+
+    Attributes:
+        X_u: (nx, m); X_w: (nx, p), a basis of null(A); x_0: (nx,).
+        E: (r_e, m) with orthonormal rows; e: (r_e,).
+        consistent: False if no input satisfies the equalities (then the rest is meaningless).
+        rank: numerical rank of A; shape: A's shape.
+        singular_values: of the equilibrated A, descending.
+        condition_number: largest over smallest kept singular value.
+        rank_tolerance: the relative tolerance used.
+    """
+
+    X_u: np.ndarray
+    X_w: np.ndarray
+    x_0: np.ndarray
+    E: np.ndarray
+    e: np.ndarray
+    consistent: bool
+    rank: int
+    shape: tuple[int, int]
+    singular_values: np.ndarray
+    condition_number: float
+    rank_tolerance: float
+
+    @property
+    def ambiguity_dim(self) -> int:
+        """Number of ambiguity variables p."""
+        return self.X_w.shape[1]
+
+    @property
+    def case(self) -> str:
+        """The rank case: unique, ambiguous, constrained or ambiguous_constrained."""
+        ambiguous = self.ambiguity_dim > 0
+        constrained = self.E.shape[0] > 0
+        if ambiguous and constrained:
+            return "ambiguous_constrained"
+        if ambiguous:
+            return "ambiguous"
+        if constrained:
+            return "constrained"
+        return "unique"
+
+
+def _equilibrate(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Row and column scalings (powers of two) making each row and column's max-abs about 1."""
+    def scale(vec: np.ndarray) -> np.ndarray:
+        out = np.ones_like(vec)
+        nz = vec > 0
+        out[nz] = np.exp2(-np.round(np.log2(vec[nz])))
+        return out
+
+    rows = scale(np.max(np.abs(A), axis=1)) if A.size else np.ones(A.shape[0])
+    cols = scale(np.max(np.abs(A * rows[:, None]), axis=0)) if A.size else np.ones(A.shape[1])
+    return rows, cols
+
+
+def solve_affine(
+    A: np.ndarray,
+    B: np.ndarray,
+    c: np.ndarray,
+    *,
+    rank_tolerance: float = RANK_TOLERANCE,
+    name: str = "A",
+) -> AffineSolution:
+    """Every solution of ``A x = B u + c`` as an affine map of (u, w), with its consistency set.
+
+    Args:
+        A: (rows, nx); B: (rows, m); c: (rows,).
+        rank_tolerance: relative singular-value threshold for the rank decision.
+        name: what A is called in an :class:`IllConditioned` error.
+
+    Raises:
+        IllConditioned: a singular value lies in the band where the rank cannot be decided.
+    """
+    rows, nx = A.shape
+    r_scale, c_scale = _equilibrate(A)
+    A_hat = A * r_scale[:, None] * c_scale[None, :]
+    U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
+    s_max = s[0] if s.size else 0.0
+    if s_max == 0.0:
+        rank = 0
+    else:
+        rank = int(np.sum(s > rank_tolerance * s_max))
+        band = (s > rank_tolerance * s_max) & (s <= ILL_CONDITIONED_BAND * s_max)
+        if np.any(band):
+            raise IllConditioned(name, s_max / s[band].min(), ILL_CONDITIONED_BAND)
+    condition = float(s_max / s[rank - 1]) if rank else float("inf")
+    Bs = B * r_scale[:, None]
+    cs = c * r_scale
+    U1, U2 = U[:, :rank], U[:, rank:]
+    V1 = Vt[:rank].T
+    inv_s = 1.0 / s[:rank]
+    # y = V1 diag(1/s) U1^T (B u + c); x = diag(c_scale) y
+    X_u = c_scale[:, None] * (V1 @ (inv_s[:, None] * (U1.T @ Bs)))
+    x_0 = c_scale * (V1 @ (inv_s * (U1.T @ cs)))
+    X_w = c_scale[:, None] * Vt[rank:].T
+
+    # consistency: U2^T (B u + c) = 0  ->  E u = e
+    E_raw = U2.T @ Bs
+    e_raw = -(U2.T @ cs)
+    scale = max(1.0, float(np.max(np.abs(Bs), initial=0.0)), float(np.max(np.abs(cs), initial=0.0)))
+    consistent = True
+    if E_raw.shape[0]:
+        if E_raw.shape[1]:
+            Ue, se, Vte = np.linalg.svd(E_raw, full_matrices=True)
+            kept = int(np.sum(se > CONSISTENCY_TOLERANCE * scale))
+        else:
+            Ue, se, Vte = np.eye(E_raw.shape[0]), np.zeros(0), np.zeros((0, 0))
+            kept = 0
+        e_rot = Ue.T @ e_raw
+        if np.any(np.abs(e_rot[kept:]) > CONSISTENCY_TOLERANCE * scale):
+            consistent = False
+        # Ue^T E_raw = diag(se) Vte: the kept rows, divided by their singular values, are orthonormal
+        E = Vte[:kept] if kept else np.zeros((0, B.shape[1]))
+        e = e_rot[:kept] / se[:kept]
+    else:
+        E, e = np.zeros((0, B.shape[1])), np.zeros(0)
+    return AffineSolution(
+        X_u=X_u, X_w=X_w, x_0=x_0, E=E, e=e, consistent=consistent, rank=rank,
+        shape=(rows, nx), singular_values=s, condition_number=condition, rank_tolerance=rank_tolerance,
+    )
+
+
+def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> str:
+    """Which outputs of ``x = (dv, lam)`` depend on w: ``"none"``, ``"forces"`` or ``"accelerations"``.
+
+    ``"accelerations"`` means the motion itself is ambiguous (forces usually too); ``"forces"``
+    means a statically indeterminate mode with determined accelerations.
+    """
+    X_w = solution.X_w
+    if X_w.shape[1] == 0:
+        return "none"
+    mags = np.max(np.abs(X_w), axis=1)
+    threshold = OUTPUT_TOLERANCE * max(float(mags.max()), 1e-300)
+    if np.any(mags[:n_coordinates] > threshold):
+        return "accelerations"
+    if np.any(mags[n_coordinates:] > threshold):
+        return "forces"
+    return "none"
