@@ -1,0 +1,586 @@
+r"""Compliant-contact simulation: Kelvin–Voigt contacts with a Coulomb slider (METHOD §7).
+
+The model
+---------
+Each modelled contact i (by default the scene's *active* contacts; ``contacts="all"`` models every
+contact) is a Kelvin–Voigt element, as in Kraus, Kumar and Dupont (eq. 4-5, 8). With the gap
+``phi_i(q)``, the penetration ``delta_i = -phi_i`` and ``d delta_i / dt = -v_N,i = -J_N,i v``:
+
+Normal (no pulling force)::
+
+    lam_N,i = max(0, k_N,i delta_i + b_N,i d delta_i/dt)    if delta_i > 0,   else 0
+
+Tangential: a spring-damper ``(k_T,i, b_T,i)`` *in series with a Coulomb slider*. Its stretch
+``s_i`` [m] (the displacement of the contact point from the slider's anchor along t_i) is a state
+variable. With ``v_T,i = J_T,i v``, the limit ``L_i = mu_i lam_N,i`` and the force the element would
+transmit if the anchor held, ``F_i = k_T,i s_i + b_T,i v_T,i``::
+
+    stick  (|F_i| <= L_i):  lam_T,i = -F_i,              ds_i/dt = v_T,i
+    slip   (|F_i| >  L_i):  lam_T,i = -L_i sign(F_i),    ds_i/dt = (L_i sign(F_i) - k_T,i s_i) / b_T,i
+
+In slip the anchor slides so that the spring-damper carries exactly the Coulomb force. Both
+``lam_T`` and ``ds/dt`` are continuous across the switch (at ``|F| = L`` the two branches agree), so
+the right-hand side is Lipschitz in the tangential state; an open contact (``L = 0``) relaxes its
+stretch to 0 at the rate ``k_T / b_T`` (the "reset"). ``b_T > 0`` is required (with ``b_T = 0`` the
+slider's rate is undefined: an index-2 problem).
+
+Dynamics (M with the armature of massless coordinates, see :mod:`.options`)::
+
+    M(q) dv/dt = S^T u - h(q, v) + J_N^T lam_N + J_T^T lam_T,     dq/dt = v
+
+Forward dynamics is unique: the state is ``y = (q, v, s)`` (``2 n + c`` entries for c modelled
+contacts). Stiffness ``k_N`` [N/m] and damping ``b_N`` [N s/m] come from the arguments, else the
+scene's ``[model]`` table, else :data:`~.options.DEFAULT_STIFFNESS` and critical damping
+``b = 2 zeta sqrt(k m_eff)`` for each contact's effective mass at the initial state
+(:mod:`.options`); ``k_T`` defaults to ``k_N`` and ``b_T`` to critical damping for the tangential
+effective mass.
+
+Integration
+-----------
+``integrator`` picks a SciPy ODE solver with error control and step-size adaptation
+(``"radau"``, ``"bdf"``: implicit, for stiff contacts; ``"lsoda"``: switching; ``"rk45"``,
+``"dop853"``: explicit) or ``"euler"``: fixed-step semi-implicit (symplectic) Euler with step
+``dt`` (``v += dt a(q, v, s); q += dt v; s += dt ds/dt``), explicit and so stable only for
+``dt < 2 / omega_max`` (``omega_max = max_i sqrt(k_i / m_eff,i)`` at the initial state, reported
+as ``info["explicit_stability_limit"]``; a larger ``dt`` is refused). Samples are taken every
+``dt`` from the solvers' dense output; a callable input is held constant over each sample
+interval (zero-order hold). The adaptive solvers' step is at most ``max_step`` (default ``dt``)
+so that no contact onset is stepped over. A solver that fails (step size underflow, a NaN) or
+exceeds ``max_steps`` ends the simulation: ``info["status"] = "failed"`` with the time and the
+reason, and the trajectory up to there is returned.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.integrate
+import scipy.linalg
+
+from ..errors import InputError
+from ..scene import Scene
+from .options import (
+    Armature,
+    ContactParameters,
+    InputSchedule,
+    check_simulation_times,
+    input_schedule,
+    mass_factor,
+    massless_armature,
+    model_options,
+    potential_energy,
+)
+from .rigid import IMPACT_VELOCITY
+from .trajectory import ContactEvent, Trajectory
+
+INTEGRATORS = ("radau", "bdf", "lsoda", "rk45", "dop853", "euler")
+"""The integrators :func:`simulate_compliant` accepts."""
+
+_SCIPY_SOLVERS = {"radau": "Radau", "bdf": "BDF", "lsoda": "LSODA", "rk45": "RK45", "dop853": "DOP853"}
+
+DEFAULT_RTOL = 1e-6
+"""[-] Relative error tolerance of the adaptive integrators."""
+
+DEFAULT_ATOL = 1e-9
+"""[m, m/s] Absolute error tolerance of the adaptive integrators (penetrations are ~ m g / k)."""
+
+MAX_STEPS = 500_000
+"""Integrator steps per simulation at most (then ``status = "failed"``)."""
+
+DIVERGENCE_VELOCITY = 1e4
+"""[m/s or rad/s] A velocity above this is taken as divergence (e.g. ``euler`` above its
+stability limit) and ends the simulation as failed."""
+
+
+@dataclass(frozen=True)
+class CompliantContacts:
+    """The modelled contacts and their resolved parameters (arrays over the c modelled contacts).
+
+    Attributes:
+        names: contact names; indices: their indices in ``scene.contacts``.
+        mu: friction coefficients [-].
+        stiffness: k_N [N/m]; damping: b_N [N s/m].
+        tangential_stiffness: k_T [N/m]; tangential_damping: b_T [N s/m].
+        effective_mass_normal: m_N = 1 / (J_N M^-1 J_N^T) [kg] at the initial state.
+        effective_mass_tangent: m_T = 1 / (J_T M^-1 J_T^T) [kg] at the initial state.
+        damping_ratio: zeta [-] used for the damping that was not given.
+    """
+
+    names: tuple[str, ...]
+    indices: tuple[int, ...]
+    mu: np.ndarray
+    stiffness: np.ndarray
+    damping: np.ndarray
+    tangential_stiffness: np.ndarray
+    tangential_damping: np.ndarray
+    effective_mass_normal: np.ndarray
+    effective_mass_tangent: np.ndarray
+    damping_ratio: np.ndarray
+
+    @property
+    def count(self) -> int:
+        """Number of modelled contacts c."""
+        return len(self.names)
+
+    def report(self) -> dict:
+        """The ``info["contacts"]`` entry: parameters per contact."""
+        return {
+            name: {"stiffness": self.stiffness[i], "damping": self.damping[i],
+                   "tangential_stiffness": self.tangential_stiffness[i],
+                   "tangential_damping": self.tangential_damping[i],
+                   "effective_mass_normal": self.effective_mass_normal[i],
+                   "effective_mass_tangent": self.effective_mass_tangent[i], "mu": self.mu[i]}
+            for i, name in enumerate(self.names)
+        }
+
+
+def contact_forces(
+    contacts: CompliantContacts,
+    gaps: np.ndarray,
+    normal_velocities: np.ndarray,
+    tangential_velocities: np.ndarray,
+    stretch: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The Kelvin–Voigt forces and the stretch rates (module docstring's equations).
+
+    Args:
+        contacts: the modelled contacts.
+        gaps: phi [m].
+        normal_velocities: v_N [m/s].
+        tangential_velocities: v_T [m/s].
+        stretch: s [m], the tangential springs' stretches.
+
+    Returns:
+        ``(lam_N, lam_T, ds/dt, status)`` with status per contact 0 = open (no normal force),
+        1 = stick, 2 = slip.
+    """
+    delta = -gaps
+    lam_n = np.where(delta > 0.0,
+                     np.maximum(0.0, contacts.stiffness * delta - contacts.damping * normal_velocities), 0.0)
+    limit = contacts.mu * lam_n
+    trial = contacts.tangential_stiffness * stretch + contacts.tangential_damping * tangential_velocities
+    stick = np.abs(trial) <= limit
+    sign = np.sign(trial)
+    lam_t = np.where(stick, -trial, -limit * sign)
+    rate = np.where(stick, tangential_velocities,
+                    (limit * sign - contacts.tangential_stiffness * stretch) / contacts.tangential_damping)
+    status = np.where(lam_n > 0.0, np.where(stick, 1, 2), 0)
+    return lam_n, lam_t, rate, status
+
+
+def _positive(value: float | None, label: str, *, allow_zero: bool = False) -> float | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(f"{label} must be a finite number, got {value!r}")
+    if value < 0 or (value == 0 and not allow_zero):
+        raise InputError(f"{label} must be {'>= 0' if allow_zero else '> 0'}, got {value}")
+    return float(value)
+
+
+def compliant_contacts(
+    scene: Scene,
+    mass_matrix: np.ndarray,
+    jacobian_normal: np.ndarray,
+    jacobian_tangent: np.ndarray,
+    *,
+    contacts: str = "active",
+    stiffness: float | None = None,
+    damping: float | None = None,
+    damping_ratio: float | None = None,
+    tangential_stiffness: float | None = None,
+    tangential_damping: float | None = None,
+) -> CompliantContacts:
+    """Resolve the modelled contacts' parameters (arguments > scene ``[model]`` > defaults).
+
+    Args:
+        scene: the scene.
+        mass_matrix: the (regularised, positive-definite) M at the initial state.
+        jacobian_normal: J_N of ALL the scene's contacts at the initial state, (k, n).
+        jacobian_tangent: J_T of all the scene's contacts, (k, n).
+        contacts: ``"active"`` (the scene's active contacts) or ``"all"``.
+        stiffness: k_N [N/m] for every contact (overrides the scene).
+        damping: b_N [N s/m] for every contact (overrides the scene).
+        damping_ratio: zeta [-] for the damping not given.
+        tangential_stiffness: k_T [N/m] for every contact.
+        tangential_damping: b_T [N s/m] for every contact.
+
+    Raises:
+        InputError: a non-positive stiffness, damping ratio or tangential damping, a negative
+            damping, an unknown ``contacts`` choice.
+        SceneError: a bad ``[model]`` table.
+    """
+    if contacts not in ("active", "all"):
+        raise InputError(f"contacts must be 'active' or 'all', got {contacts!r}")
+    stiffness = _positive(stiffness, "the contact stiffness [N/m]")
+    damping = _positive(damping, "the contact damping [N s/m]", allow_zero=True)
+    damping_ratio = _positive(damping_ratio, "the damping ratio")
+    tangential_stiffness = _positive(tangential_stiffness, "the tangential stiffness [N/m]")
+    if tangential_damping is not None and tangential_damping == 0:
+        raise InputError("the tangential damping must be > 0 [N s/m]: the spring-damper in series with "
+                         "the Coulomb slider needs it (it sets how fast the slider's anchor follows)")
+    tangential_damping = _positive(tangential_damping, "the tangential damping [N s/m]")
+    options = model_options(scene)
+    indices = scene.active_indices if contacts == "active" else tuple(range(len(scene.contacts)))
+    factor = scipy.linalg.cho_factor(mass_matrix)
+    rows = {}
+    for i in indices:
+        base: ContactParameters = options.parameters(scene.contacts[i].name)
+        k_n = stiffness if stiffness is not None else base.stiffness
+        k_t = tangential_stiffness if tangential_stiffness is not None else (
+            base.tangential_stiffness if base.tangential_stiffness is not None else k_n)
+        zeta = damping_ratio if damping_ratio is not None else base.damping_ratio
+        masses = []
+        heaviest = float(np.max(np.diag(mass_matrix)))
+        for row in (jacobian_normal[i], jacobian_tangent[i]):
+            w = float(row @ scipy.linalg.cho_solve(factor, row))  # 1 / effective mass [1/kg]
+            # a row that cannot move the robot (w ~ 0) gets the heaviest coordinate's mass
+            masses.append(1.0 / w if w * heaviest > 1e-12 else heaviest)
+        b_n = damping if damping is not None else (
+            base.damping if base.damping is not None else 2.0 * zeta * math.sqrt(k_n * masses[0]))
+        b_t = tangential_damping if tangential_damping is not None else (
+            base.tangential_damping if base.tangential_damping is not None
+            else 2.0 * zeta * math.sqrt(k_t * masses[1]))
+        rows[i] = (k_n, b_n, k_t, b_t, masses[0], masses[1], zeta)
+    arr = np.array([rows[i] for i in indices], dtype=float).reshape(-1, 7)
+    return CompliantContacts(
+        names=tuple(scene.contacts[i].name for i in indices),
+        indices=tuple(indices),
+        mu=np.array([scene.contacts[i].mu for i in indices], dtype=float),
+        stiffness=arr[:, 0], damping=arr[:, 1], tangential_stiffness=arr[:, 2],
+        tangential_damping=arr[:, 3], effective_mass_normal=arr[:, 4],
+        effective_mass_tangent=arr[:, 5], damping_ratio=arr[:, 6],
+    )
+
+
+@dataclass(frozen=True)
+class _Dynamics:
+    """The right-hand side ``dy/dt = f(y; u)`` of the compliant model at one held input."""
+
+    scene: Scene
+    contacts: CompliantContacts
+    armature: Armature
+    input_map: np.ndarray
+
+    def evaluate(self, y: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, tuple]:
+        n = self.scene.robot.nv
+        q, v, s = y[:n], y[n:2 * n], y[2 * n:]
+        state = self.scene.robot.state(q, v, self.contacts.indices)
+        lam_n, lam_t, rate, status = contact_forces(
+            self.contacts, state.gaps, state.normal_velocities, state.tangential_velocities, s)
+        force = self.input_map @ u - state.bias + state.jacobian_normal.T @ lam_n \
+            + state.jacobian_tangent.T @ lam_t
+        factor = mass_factor(self.armature.apply(state.mass_matrix), self.armature)
+        dv = scipy.linalg.cho_solve(factor, force, check_finite=False)
+        return np.concatenate([v, dv, rate]), (state, lam_n, lam_t, status)
+
+
+def simulate_compliant(
+    scene: Scene,
+    inputs: Mapping[str, float] | Sequence[float] | np.ndarray | InputSchedule | None = None,
+    duration: float = 1.0,
+    dt: float = 1e-3,
+    *,
+    integrator: str = "radau",
+    stiffness: float | None = None,
+    damping: float | None = None,
+    damping_ratio: float | None = None,
+    tangential_stiffness: float | None = None,
+    tangential_damping: float | None = None,
+    contacts: str = "active",
+    q0: Sequence[float] | np.ndarray | None = None,
+    v0: Sequence[float] | np.ndarray | None = None,
+    initial_stretch: Sequence[float] | np.ndarray | None = None,
+    rtol: float = DEFAULT_RTOL,
+    atol: float = DEFAULT_ATOL,
+    max_step: float | None = None,
+    max_steps: int = MAX_STEPS,
+    armature: float | None = None,
+    impact_velocity: float = IMPACT_VELOCITY,
+) -> Trajectory:
+    """Simulate the scene with compliant (Kelvin–Voigt + Coulomb slider) contacts.
+
+    Args:
+        scene: the scene.
+        inputs: a constant input vector, ``{name: value}`` (others 0), or ``(t, q, v) -> u``
+            held constant over each sample interval; None: zero inputs.
+        duration: [s] simulated time, > 0.
+        dt: [s] sample interval (and control period, and the ``euler`` step), in (0, duration].
+        integrator: one of :data:`INTEGRATORS`.
+        stiffness: k_N [N/m] of every modelled contact (default: the scene's ``[model]``).
+        damping: b_N [N s/m] (default: the scene's, else critical for the effective mass).
+        damping_ratio: zeta [-] for damping that is not given.
+        tangential_stiffness: k_T [N/m] (default: k_N).
+        tangential_damping: b_T [N s/m], > 0 (default: critical).
+        contacts: ``"active"`` (the scene's active contacts only: inactive ones add no state and
+            no force) or ``"all"``.
+        q0: initial configuration (default: the scene's).
+        v0: initial velocity (default: the scene's).
+        initial_stretch: s at t = 0 [m], one per modelled contact (default 0).
+        rtol: relative tolerance of the adaptive integrators.
+        atol: absolute tolerance of the adaptive integrators.
+        max_step: [s] largest step of the adaptive integrators (default ``dt``).
+        max_steps: integrator steps at most.
+        armature: rotor inertia for massless coordinates (default: the scene's ``[model]``).
+        impact_velocity: [m/s] a contact closing faster than this is an ``impact`` event.
+
+    Returns:
+        The trajectory, sampled every ``dt``; ``info`` holds ``model``, ``integrator``, the step
+        sizes (``steps``, ``min_step``, ``max_step_taken``, ``mean_step``), ``rhs_evaluations``,
+        ``energy`` [J] (kinetic + gravitational), ``elastic_energy`` [J] (springs),
+        ``max_penetration`` [m] per sample, the contacts' parameters, ``armature``,
+        ``state_size``, ``status`` and ``failure`` (time and reason, or None).
+
+    Raises:
+        InputError: a bad duration or ``dt`` (<= 0, > duration, or above the explicit stability
+            limit with ``euler``), stiffness (<= 0), damping (< 0), tangential damping (<= 0),
+            tolerance, unknown integrator, bad state, input or stretch.
+        SceneError: a bad ``[model]`` table.
+        IllConditioned: M is singular even with the armature.
+    """
+    duration, dt = check_simulation_times(duration, dt)
+    if integrator not in INTEGRATORS:
+        raise InputError(f"unknown integrator {integrator!r}; choose one of: {', '.join(INTEGRATORS)}")
+    for label, value in (("rtol", rtol), ("atol", atol)):
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise InputError(f"{label} must be a positive number, got {value!r}")
+    if max_step is not None and not (math.isfinite(max_step) and max_step > 0):
+        raise InputError(f"max_step must be a positive number [s], got {max_step!r}")
+    if not (isinstance(max_steps, int) and max_steps > 0):
+        raise InputError(f"max_steps must be a positive integer, got {max_steps!r}")
+    options = model_options(scene)
+    robot = scene.robot
+    n = robot.nv
+    q, v = robot.check_state(scene.q if q0 is None else q0, scene.v if v0 is None else v0)
+    schedule, constant = input_schedule(scene, inputs)
+    k_all = len(scene.contacts)
+    all_idx = list(range(k_all))
+    state0 = robot.state(q, v, all_idx)
+    arm = massless_armature(scene, state0.mass_matrix, options.armature if armature is None else armature)
+    mass0 = arm.apply(state0.mass_matrix)
+    mass_factor(mass0, arm)  # raises IllConditioned early
+    params = compliant_contacts(
+        scene, mass0, state0.jacobian_normal, state0.jacobian_tangent, contacts=contacts,
+        stiffness=stiffness, damping=damping, damping_ratio=damping_ratio,
+        tangential_stiffness=tangential_stiffness, tangential_damping=tangential_damping)
+    c = params.count
+    if initial_stretch is None:
+        s0 = np.zeros(c)
+    else:
+        s0 = np.asarray(initial_stretch, dtype=float).reshape(-1)
+        if s0.shape != (c,) or not np.all(np.isfinite(s0)):
+            raise InputError(f"initial_stretch needs {c} finite values (contacts {', '.join(params.names)}), "
+                             f"got {s0.tolist()}")
+    dynamics = _Dynamics(scene, params, arm, scene.inputs.selection_transpose(n))
+    omega = np.sqrt(np.concatenate([params.stiffness / params.effective_mass_normal,
+                                    params.tangential_stiffness / params.effective_mass_tangent]))
+    stability_limit = float(2.0 / np.max(omega)) if omega.size else math.inf
+    if integrator == "euler" and dt >= stability_limit:
+        raise InputError(f"the explicit 'euler' step dt = {dt:.3g} s is not below its stability limit "
+                         f"2/omega_max = {stability_limit:.3g} s (omega_max = sqrt(k / m_eff) of the "
+                         "stiffest contact): use a smaller dt or an implicit integrator ('radau', 'bdf')")
+    counter = {"rhs": 0}
+    steps_taken: list[float] = []
+
+    sample_count = max(1, int(np.ceil(duration / dt - 1e-9)))
+    sample_times = np.minimum(np.arange(sample_count + 1) * dt, duration)
+    y = np.concatenate([q, v, s0])
+    samples_y = [y.copy()]
+    samples_u: list[np.ndarray] = []
+    events: list[ContactEvent] = []
+    status, failure = "completed", None
+    _, (st0, _, _, prev_status) = dynamics.evaluate(y, np.zeros(scene.inputs.count))
+    prev_status = _event_status(prev_status, st0.gaps, scene.gap_tolerance)
+    start_wall = time.perf_counter()
+
+    def record_events(t: float, y_now: np.ndarray, u: np.ndarray, vn_before: np.ndarray) -> np.ndarray:
+        """Compare each contact's status with the previous step's; return v_N now."""
+        nonlocal prev_status
+        _, (st, _, _, stat) = dynamics.evaluate(y_now, u)
+        stat = _event_status(stat, st.gaps, scene.gap_tolerance)
+        for j in np.nonzero(stat != prev_status)[0]:
+            name, before, now = params.names[j], prev_status[j], stat[j]
+            if before == 0:
+                kind = "impact" if vn_before[j] < -impact_velocity else "close"
+                how = {1: "sticks", 2: "slides", 3: "no load"}[int(now)]
+                detail = f"v_N = {vn_before[j]:.4g} m/s; {how}"
+            elif now == 0:
+                kind, detail = "open", f"v_N = {st.normal_velocities[j]:.4g} m/s"
+            elif now == 3 or before == 3:
+                continue  # loading or unloading while touching: no event
+            else:
+                kind = "stick" if now == 1 else "slip"
+                detail = f"v_T = {st.tangential_velocities[j]:.4g} m/s" if kind == "slip" else ""
+            events.append(ContactEvent(t, name, kind, detail))
+        prev_status = stat.copy()
+        return st.normal_velocities.copy()
+
+    t_seg = 0.0
+    next_sample = 1
+    hold_segments = constant is False
+    u_const = schedule(0.0, q, v)
+    last_vn = st0.normal_velocities.copy()
+    while next_sample <= sample_count and status == "completed":
+        u = u_const if not hold_segments else schedule(t_seg, y[:n], y[n:2 * n])
+        t_end = float(sample_times[next_sample]) if hold_segments else duration
+
+        def fun(t: float, yy: np.ndarray, u: np.ndarray = u) -> np.ndarray:
+            counter["rhs"] += 1
+            return dynamics.evaluate(yy, u)[0]
+
+        if integrator == "euler":
+            while t_seg < t_end - 1e-12 * duration:
+                h = min(dt, t_end - t_seg)
+                counter["rhs"] += 1
+                ydot, (st_now, _, _, _) = dynamics.evaluate(y, u)
+                y_new = y.copy()
+                y_new[n:2 * n] = y[n:2 * n] + h * ydot[n:2 * n]
+                y_new[:n] = y[:n] + h * y_new[n:2 * n]
+                y_new[2 * n:] = y[2 * n:] + h * ydot[2 * n:]
+                steps_taken.append(h)
+                y, t_seg = y_new, t_seg + h
+                if not np.all(np.isfinite(y)) or np.max(np.abs(y[n:2 * n])) > DIVERGENCE_VELOCITY:
+                    status = "failed"
+                    failure = {"time": t_seg, "reason": (
+                        f"the state diverged: the explicit step dt = {dt:.3g} s exceeds the stability "
+                        f"limit 2/omega_max = {stability_limit:.3g} s" if dt > stability_limit
+                        else "the state diverged (NaN or a velocity above "
+                        f"{DIVERGENCE_VELOCITY:g})")}
+                    break
+                record_events(t_seg, y, u, st_now.normal_velocities)
+                while next_sample <= sample_count and sample_times[next_sample] <= t_seg + 1e-12 * duration:
+                    samples_y.append(y.copy())
+                    samples_u.append(u.copy())
+                    next_sample += 1
+                if len(steps_taken) >= max_steps:
+                    status, failure = "failed", {"time": t_seg, "reason": f"more than {max_steps} steps"}
+                    break
+            continue
+
+        solver_cls = getattr(scipy.integrate, _SCIPY_SOLVERS[integrator])
+        solver = solver_cls(fun, t_seg, y, t_end, rtol=rtol, atol=atol,
+                            max_step=dt if max_step is None else max_step)
+        while solver.status == "running":
+            message = solver.step()
+            if solver.status == "failed":
+                status = "failed"
+                failure = {"time": float(solver.t), "reason": f"{integrator}: {message}"}
+                break
+            t_now = float(solver.t)
+            steps_taken.append(t_now - float(solver.t_old))
+            y_now = solver.y
+            if not np.all(np.isfinite(y_now)) or np.max(np.abs(y_now[n:2 * n])) > DIVERGENCE_VELOCITY:
+                status = "failed"
+                failure = {"time": t_now, "reason": "the state diverged (NaN or a velocity above "
+                           f"{DIVERGENCE_VELOCITY:g})"}
+                break
+            last_vn = record_events(t_now, y_now, u, last_vn)
+            if next_sample <= sample_count and sample_times[next_sample] <= t_now + 1e-12 * duration:
+                dense = solver.dense_output()
+                while next_sample <= sample_count and sample_times[next_sample] <= t_now + 1e-12 * duration:
+                    ts = float(sample_times[next_sample])
+                    samples_y.append(y_now.copy() if ts >= t_now else dense(ts))
+                    samples_u.append(u.copy())
+                    next_sample += 1
+            if len(steps_taken) >= max_steps:
+                status, failure = "failed", {"time": t_now, "reason": f"more than {max_steps} steps"}
+                break
+        y = solver.y.copy()
+        t_seg = float(solver.t)
+
+    wall = time.perf_counter() - start_wall
+    return _trajectory(scene, dynamics, params, arm, sample_times[:len(samples_y)], samples_y, samples_u,
+                       events, {
+                           "model": "compliant",
+                           "integrator": integrator,
+                           "dt": dt,
+                           "rtol": rtol,
+                           "atol": atol,
+                           "max_step": dt if max_step is None else max_step,
+                           "steps": len(steps_taken),
+                           "min_step": float(min(steps_taken)) if steps_taken else 0.0,
+                           "max_step_taken": float(max(steps_taken)) if steps_taken else 0.0,
+                           "mean_step": float(np.mean(steps_taken)) if steps_taken else 0.0,
+                           "rhs_evaluations": counter["rhs"],
+                           "explicit_stability_limit": stability_limit,
+                           "contacts": params.report(),
+                           "contacts_modelled": contacts,
+                           "state_size": 2 * n + c,
+                           "armature": arm.report(),
+                           "impact_velocity": impact_velocity,
+                           "status": status,
+                           "failure": failure,
+                           "wall_time": wall,
+                       })
+
+
+def _event_status(status: np.ndarray, gaps: np.ndarray, gap_tolerance: float) -> np.ndarray:
+    """Per contact: 0 open, 1 stick, 2 slip, 3 touching (|gap| <= tolerance) without load."""
+    return np.where((status == 0) & (np.abs(gaps) <= gap_tolerance), 3, status)
+
+
+def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, arm: Armature,
+                times: np.ndarray, samples_y: list[np.ndarray], samples_u: list[np.ndarray],
+                events: list[ContactEvent], info: dict) -> Trajectory:
+    robot = scene.robot
+    n = robot.nv
+    k_all = len(scene.contacts)
+    ys = np.array(samples_y)
+    inputs = np.vstack([samples_u[0]] + samples_u) if samples_u else np.zeros((1, scene.inputs.count))
+    forces = np.zeros((len(ys), k_all, 2))
+    points = np.zeros((len(ys), k_all, 2))
+    kinetic, potential, elastic, penetration = [], [], [], []
+    for j, y in enumerate(ys):
+        u = inputs[j]
+        _, (st, lam_n, lam_t, _) = dynamics.evaluate(y, u)
+        idx = list(params.indices)
+        forces[j, idx, 0] = lam_n
+        forces[j, idx, 1] = lam_t
+        full = robot.state(y[:n], y[n:2 * n], list(range(k_all)))
+        points[j] = full.contact_points
+        mass = arm.apply(full.mass_matrix)
+        kinetic.append(0.5 * float(y[n:2 * n] @ mass @ y[n:2 * n]))
+        potential.append(potential_energy(scene, y[:n]))
+        delta = np.maximum(0.0, -st.gaps)
+        s = y[2 * n:]
+        elastic.append(float(0.5 * np.sum(params.stiffness * delta**2)
+                             + 0.5 * np.sum(params.tangential_stiffness * s**2)))
+        penetration.append(max(0.0, -float(np.min(full.gaps, initial=np.inf))))
+    info.update({
+        "energy": np.array(kinetic) + np.array(potential),
+        "kinetic_energy": np.array(kinetic),
+        "potential_energy": np.array(potential),
+        "elastic_energy": np.array(elastic),
+        "max_penetration": np.array(penetration),
+        "stretch": ys[:, 2 * n:],
+        "modelled_contacts": list(params.names),
+    })
+    return Trajectory(
+        scene_name=scene.name,
+        coordinates=scene.coordinate_names,
+        contacts=tuple(c.name for c in scene.contacts),
+        times=np.asarray(times, dtype=float),
+        q=ys[:, :n],
+        v=ys[:, n:2 * n],
+        inputs=inputs,
+        input_names=scene.inputs.coordinates,
+        contact_forces=forces,
+        contact_points=points,
+        events=tuple(events),
+        info=info,
+    )
+
+
+__all__ = [
+    "DEFAULT_ATOL",
+    "DEFAULT_RTOL",
+    "INTEGRATORS",
+    "CompliantContacts",
+    "compliant_contacts",
+    "contact_forces",
+    "simulate_compliant",
+]
