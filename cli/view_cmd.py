@@ -1,0 +1,74 @@
+"""``frc view``: a scene's state as a meshcat page, a live meshcat viewer, or a 2-D picture."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from frcontrol.scene import load_scene
+
+from .common import fail, handle_errors
+from .model_cmds import SceneArg
+
+HtmlOpt = Annotated[
+    Path | None,
+    typer.Option("--html", metavar="FILE",
+                 help="Write a self-contained HTML page (meshcat) that shows the scene offline."),
+]
+ViewOpt = Annotated[
+    bool,
+    typer.Option("--view", help="Serve the scene on a local meshcat server and print its URL; wait "
+                 "for Enter or Ctrl-C (when stdin is not a terminal, return at once: the server "
+                 "stops as frc exits)."),
+]
+PortOpt = Annotated[
+    int | None,
+    typer.Option("--port", min=1, max=65535,
+                 help="Port of the --view server (default: the first free port from 7000)."),
+]
+PlotOpt = Annotated[
+    Path | None,
+    typer.Option("--plot", metavar="FILE", help="Write a 2-D picture of the scene (PNG, or PDF/SVG "
+                 "by the file's suffix)."),
+]
+
+
+@handle_errors
+def view_command(
+    scene: SceneArg,
+    html: HtmlOpt = None,
+    view: ViewOpt = False,
+    port: PortOpt = None,
+    plot: PlotOpt = None,
+) -> None:
+    """Show a scene's state: robot, contacts, surfaces and friction cones."""
+    if port is not None and not view:
+        raise fail("--port needs --view")
+    if html is None and plot is None and not view:
+        raise fail("nothing to do: give --html FILE, --plot FILE and/or --view")
+    loaded = load_scene(scene)
+    if html is not None:
+        from frcontrol.viz.meshcat_view import write_html
+
+        typer.echo(f"wrote {write_html(loaded, None, html)}")
+    if plot is not None:
+        from frcontrol.viz.plots import plot_scene
+
+        plot_scene(loaded, plot)
+        typer.echo(f"wrote {plot}")
+    if view:
+        from frcontrol.viz.meshcat_view import serve, stop_server
+
+        url = serve(loaded, None, port)
+        typer.echo(f"meshcat viewer: {url}")
+        if not sys.stdin.isatty():
+            return
+        try:
+            input("press Enter (or Ctrl-C) to stop the viewer ")
+        except (KeyboardInterrupt, EOFError):
+            typer.echo("")
+        finally:
+            stop_server(url)

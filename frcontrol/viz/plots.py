@@ -1,0 +1,488 @@
+"""2-D figures for reports: trajectories over time, a scene in its plane, input-space polygons.
+
+matplotlib is imported inside the functions, and figures are made with
+:class:`matplotlib.figure.Figure` directly (Agg canvas, no pyplot, no global state), so plotting
+works headless and changes nothing for a program that uses pyplot itself. Every function takes
+an optional ``path`` (the file to write; the format follows its suffix: ``.png``, ``.pdf``,
+``.svg``...) and, where a single panel is drawn, an optional ``ax`` to draw into an existing
+figure (planners overlay their own marks).
+
+- :func:`plot_trajectory`: chosen coordinates, and the contact forces (normal and tangential),
+  over time.
+- :func:`plot_scene`: the robot at a configuration, its contact points, surfaces and friction
+  cones (and optionally the contact forces as arrows).
+- :func:`plot_polygons`: 2-D H-polytopes ``A x <= b`` clipped to a box, filled, hatched and
+  labelled; their vertices come from :func:`polygon_from_halfplanes`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from frcontrol.errors import CoordinateNotFound, InputError
+from frcontrol.scene import Scene
+from frcontrol.simulation.trajectory import Trajectory
+
+from . import (
+    CONE_COLOR,
+    CONTACT_COLOR,
+    FORCE_COLOR,
+    INACTIVE_CONTACT_COLOR,
+    SURFACE_COLOR,
+    OutputFileError,
+    friction_cone_directions,
+    link_visuals,
+    pose_matrix,
+    rgba_hex,
+    surface_lines,
+    surface_segments,
+    visual_depth,
+    visual_outline,
+)
+
+__all__ = [
+    "HALFPLANE_TOLERANCE",
+    "plot_polygons",
+    "plot_scene",
+    "plot_trajectory",
+    "polygon_from_halfplanes",
+]
+
+HALFPLANE_TOLERANCE = 1e-9
+"""[units of x] A vertex within this distance of a half-plane's boundary counts as on it, and
+vertices closer than this to each other are merged (rows are normalised first)."""
+
+_DEFAULT_BOX_HALF_WIDTH = 1e6
+"""Half width of the clipping box when none is given: a set reaching it is unbounded."""
+
+
+def _figure(**kwargs: Any) -> Any:
+    from matplotlib.figure import Figure
+
+    return Figure(**kwargs)
+
+
+def _save(figure: Any, path: str | Path) -> Path:
+    target = Path(path)
+    try:
+        figure.savefig(target, dpi=120, bbox_inches="tight")
+    except (OSError, ValueError) as err:  # ValueError: an unknown format suffix
+        raise OutputFileError(target, str(err)) from err
+    return target
+
+
+# ----------------------------------------------------------------------------- trajectories
+
+
+def plot_trajectory(
+    trajectory: Trajectory,
+    path: str | Path,
+    coordinates: Sequence[str] = ("theta",),
+    title: str | None = None,
+) -> Path:
+    """Two panels over time: chosen coordinates (top) and contact forces (bottom).
+
+    The force panel shows, per contact, the normal force ``lambda_n`` (solid) and the tangential
+    force ``lambda_t`` (dashed) [N], in one colour per contact; contact events are dotted
+    vertical lines on both panels.
+
+    Args:
+        trajectory: the motion.
+        path: the file to write.
+        coordinates: names of the coordinates to plot [m or rad].
+        title: the figure's title (default: the scene's name).
+
+    Returns:
+        The path written.
+
+    Raises:
+        CoordinateNotFound: a name is not one of the trajectory's coordinates.
+        InputError: the trajectory's arrays have inconsistent shapes.
+        OutputFileError: the file cannot be written.
+    """
+    names = list(coordinates)
+    for name in names:
+        if name not in trajectory.coordinates:
+            raise CoordinateNotFound(name, trajectory.coordinates)
+    times = np.asarray(trajectory.times, dtype=float)
+    q = np.asarray(trajectory.q, dtype=float)
+    forces = np.asarray(trajectory.contact_forces, dtype=float)
+    k = len(trajectory.contacts)
+    if q.shape != (len(times), len(trajectory.coordinates)) or forces.shape != (len(times), k, 2):
+        raise InputError(f"inconsistent trajectory: times {times.shape}, q {q.shape}, "
+                         f"contact_forces {forces.shape} for {k} contacts")
+    marker = "o" if len(times) < 2 else None
+    figure = _figure(figsize=(8.0, 6.0), layout="constrained")
+    top, bottom = figure.subplots(2, 1, sharex=True)
+    for name in names:
+        top.plot(times, q[:, trajectory.coordinates.index(name)], marker=marker, label=name)
+    top.set_ylabel("coordinate [m or rad]")
+    if names:
+        top.legend(loc="best", fontsize="small")
+    colors = [f"C{i % 10}" for i in range(k)]
+    for j, name in enumerate(trajectory.contacts):
+        bottom.plot(times, forces[:, j, 0], color=colors[j], marker=marker, label=f"{name} $\\lambda_n$")
+        bottom.plot(times, forces[:, j, 1], color=colors[j], linestyle="--", marker=marker,
+                    label=f"{name} $\\lambda_t$")
+    bottom.axhline(0.0, color="0.6", linewidth=0.8)
+    bottom.set_ylabel("contact force [N]")
+    bottom.set_xlabel("time [s]")
+    if k:
+        bottom.legend(loc="best", fontsize="x-small", ncol=2)
+    for event in trajectory.events:
+        for ax in (top, bottom):
+            ax.axvline(event.time, color="0.5", linestyle=":", linewidth=0.8)
+    for ax in (top, bottom):
+        ax.grid(True, alpha=0.3)
+    figure.suptitle(title if title is not None else trajectory.scene_name)
+    return _save(figure, path)
+
+
+# ---------------------------------------------------------------------------------- scenes
+
+
+def plot_scene(
+    scene: Scene,
+    path: str | Path | None = None,
+    ax: Any = None,
+    *,
+    q: Any = None,
+    contact_forces: Any = None,
+    force_scale: float | None = None,
+    title: str | None = None,
+    labels: bool = True,
+) -> Any:
+    """The robot in its plane: links, contact points, surfaces and friction cones.
+
+    Links are filled with their URDF colours (their outlines projected onto the plane, nearest
+    to the viewer on top); surfaces are drawn as lines hatched on the obstacle side (cut where
+    they meet, see :func:`frcontrol.viz.surface_segments`); every contact that touches its
+    surface at ``q`` gets its friction cone (half angle atan(mu)) and an amber dot, the others a
+    grey ring.
+
+    Args:
+        scene: the scene.
+        path: the file to write (None: do not write).
+        ax: matplotlib Axes to draw into (default: a new figure).
+        q: the configuration (default: the scene's).
+        contact_forces: (lambda_n, lambda_t) per contact [N], shape (k, 2), drawn as arrows.
+        force_scale: [m/N] arrow length per newton (default: the largest is 30 % of the robot).
+        title: the panel's title (default: the scene's name).
+        labels: write the contacts' names.
+
+    Returns:
+        The Axes drawn into.
+
+    Raises:
+        InputError: ``q`` or ``contact_forces`` has the wrong shape or non-finite values.
+        OutputFileError: the file cannot be written.
+    """
+    from matplotlib.patches import Polygon as PolygonPatch
+
+    robot = scene.robot
+    n, k = len(scene.coordinate_names), len(scene.contacts)
+    config = np.asarray(scene.q if q is None else q, dtype=float)
+    if config.shape != (n,) or not np.all(np.isfinite(config)):
+        raise InputError(f"q must be {n} finite numbers ({', '.join(scene.coordinate_names)}), "
+                         f"got shape {config.shape}")
+    forces = None
+    if contact_forces is not None:
+        forces = np.asarray(contact_forces, dtype=float)
+        if forces.shape != (k, 2) or not np.all(np.isfinite(forces)):
+            raise InputError(f"contact_forces must have shape ({k}, 2) and be finite, got {forces.shape}")
+    if ax is None:
+        figure = _figure(figsize=(7.0, 5.0), layout="constrained")
+        ax = figure.add_subplot()
+    points = [c.point for c in scene.contacts]
+    world = robot.contact_points_in_world(config).reshape(-1, 2)
+    normals = np.array([p.normal_in_world for p in points]).reshape(-1, 2)
+    surfaces = np.array([p.surface_point_in_world for p in points]).reshape(-1, 2)
+    touching = np.einsum("kj,kj->k", normals, world - surfaces) <= scene.gap_tolerance
+
+    poses = robot.link_poses(config)
+    shapes = []
+    for link, visuals in link_visuals(robot, points).items():
+        origin, angle = poses[link]
+        for visual in visuals:
+            outline = visual_outline(visual, pose_matrix(origin, angle))
+            shapes.append((visual_depth(visual)[1], outline, visual))
+    outlines = [s[1] for s in shapes] + [world]
+    lines = surface_lines(points)
+    outlines += [np.array([line.foot(p) for p in world]) for line in lines if len(world)]
+    xy = np.vstack([o for o in outlines if len(o)]) if any(len(o) for o in outlines) else np.zeros((1, 2))
+    lower, upper = xy.min(axis=0), xy.max(axis=0)
+    size = max(float(np.max(upper - lower)), 0.1)
+
+    arrows = None
+    if forces is not None:
+        tangents = np.array([p.tangent_in_world for p in points]).reshape(-1, 2)
+        arrows = forces[:, :1] * normals + forces[:, 1:] * tangents
+        peak = float(np.max(np.hypot(arrows[:, 0], arrows[:, 1]), initial=0.0))
+        if force_scale is None:
+            force_scale = 0.3 * size / peak if peak > 0 else 0.0
+        elif not (math.isfinite(force_scale) and force_scale > 0):
+            raise InputError(f"force_scale must be a positive number of metres per newton, got {force_scale}")
+        tips = world + force_scale * arrows
+        lower, upper = np.minimum(lower, tips.min(axis=0)), np.maximum(upper, tips.max(axis=0))
+    margin = 0.08 * max(float(np.max(upper - lower)), 0.1)
+    lower, upper = lower - margin, upper + margin
+    center = (lower + upper) / 2
+
+    # Surfaces: a line, hatched on the obstacle side, cut to the view.
+    reach = float(np.hypot(*(upper - lower)))
+    band = 0.03 * size
+    for line, (start, end) in zip(lines, surface_segments(lines, center, reach), strict=True):
+        behind = -band * line.normal
+        strip = np.array([start, end, end + behind, start + behind])
+        ax.add_patch(PolygonPatch(strip, closed=True, facecolor="none", edgecolor=SURFACE_COLOR,
+                                  hatch="////", linewidth=0.0, zorder=1))
+        ax.plot([start[0], end[0]], [start[1], end[1]], color=SURFACE_COLOR, linewidth=2.0, zorder=1.5)
+
+    for depth_rank, (_, outline, visual) in enumerate(sorted(shapes, key=lambda s: s[0])):
+        if len(outline) >= 3:
+            ax.add_patch(PolygonPatch(outline, closed=True, facecolor=rgba_hex(visual.rgba),
+                                      edgecolor="0.15", linewidth=0.6, alpha=max(0.3, visual.rgba[3]),
+                                      zorder=2 + 0.01 * depth_rank))
+        else:
+            ax.plot(outline[:, 0], outline[:, 1], color=rgba_hex(visual.rgba), zorder=2)
+
+    cone_length = 0.12 * size
+    for j, point in enumerate(points):
+        p = world[j]
+        if touching[j]:
+            e1, e2 = friction_cone_directions(point.normal_in_world, point.mu)
+            ax.add_patch(PolygonPatch(np.array([p, p + cone_length * e1, p + cone_length * e2]),
+                                      closed=True, facecolor=CONE_COLOR, edgecolor="#2171b5",
+                                      alpha=0.35, linewidth=0.8, zorder=3))
+            ax.plot(*p, marker="o", markersize=5, color=CONTACT_COLOR, markeredgecolor="0.2", zorder=5)
+        else:
+            ax.plot(*p, marker="o", markersize=5, markerfacecolor="none",
+                    markeredgecolor=INACTIVE_CONTACT_COLOR, zorder=5)
+        if labels:
+            ax.annotate(point.name, p, xytext=(4, -10), textcoords="offset points", fontsize=7,
+                        color="0.25", zorder=6)
+    if arrows is not None and force_scale:
+        for j in range(k):
+            if np.hypot(*arrows[j]) > 0:
+                ax.annotate("", xy=world[j] + force_scale * arrows[j], xytext=world[j], zorder=4,
+                            arrowprops={"arrowstyle": "-|>", "color": FORCE_COLOR, "linewidth": 1.5})
+        ax.text(0.01, 0.01, f"forces: {force_scale:.3g} m/N", transform=ax.transAxes, fontsize=7,
+                color=FORCE_COLOR)
+
+    ax.set_xlim(lower[0], upper[0])
+    ax.set_ylim(lower[1], upper[1])
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(title if title is not None else scene.name)
+    if path is not None:
+        _save(ax.figure, path)
+    return ax
+
+
+# -------------------------------------------------------------------------------- polygons
+
+
+def polygon_from_halfplanes(
+    A: Any, b: Any, box: Sequence[float], tolerance: float = HALFPLANE_TOLERANCE
+) -> np.ndarray:
+    """Vertices of ``{x in R^2 : A x <= b}`` inside a box, counter-clockwise.
+
+    The box ``(xmin, xmax, ymin, ymax)`` is clipped by each half-plane in turn
+    (Sutherland-Hodgman on a convex polygon): exact up to ``tolerance``, with no LP and no
+    external package. Rows are normalised first; a zero row ``0 . x <= b_i`` empties the set if
+    ``b_i < -tolerance`` and is ignored otherwise. Vertices closer than ``tolerance`` are merged.
+
+    Args:
+        A: rows, shape (m, 2).
+        b: right-hand side, shape (m,).
+        box: the clipping window (xmin, xmax, ymin, ymax).
+        tolerance: see :data:`HALFPLANE_TOLERANCE`.
+
+    Returns:
+        The vertices, shape (V, 2): V = 0 for an empty set, 1 or 2 for a point or a segment
+        (a set of empty interior), 3 or more for a polygon.
+
+    Raises:
+        InputError: wrong shapes, non-finite values, or an empty or inverted box.
+    """
+    A = np.asarray(A, dtype=float)
+    b = np.asarray(b, dtype=float).reshape(-1)
+    if A.ndim != 2 or A.shape[1] != 2 or b.shape != (A.shape[0],):
+        raise InputError(f"expected A of shape (m, 2) and b of shape (m,), got {A.shape} and {b.shape}")
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+        raise InputError("A and b must be finite")
+    xmin, xmax, ymin, ymax = (float(v) for v in box)
+    if not (xmin < xmax and ymin < ymax) or not all(map(math.isfinite, (xmin, xmax, ymin, ymax))):
+        raise InputError(f"box must be (xmin, xmax, ymin, ymax) with min < max, got {tuple(box)}")
+    polygon = [np.array(v) for v in ((xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax))]
+    norms = np.linalg.norm(A, axis=1)
+    for row, rhs, norm in zip(A, b, norms, strict=True):
+        if norm <= tolerance:
+            if rhs < -tolerance:
+                return np.zeros((0, 2))
+            continue
+        a, c = row / norm, rhs / norm
+        clipped: list[np.ndarray] = []
+        for i, current in enumerate(polygon):
+            previous = polygon[i - 1]
+            s_cur, s_prev = float(a @ current) - c, float(a @ previous) - c
+            cur_in, prev_in = s_cur <= tolerance, s_prev <= tolerance
+            if cur_in != prev_in:
+                crossing = previous + (s_prev / (s_prev - s_cur)) * (current - previous)
+                clipped.append(crossing)
+            if cur_in:
+                clipped.append(current)
+        polygon = _merge_close(clipped, tolerance)
+        if not polygon:
+            return np.zeros((0, 2))
+    return np.array(polygon).reshape(-1, 2)
+
+
+def _merge_close(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
+    """Drop vertices within ``tolerance`` of the previous one kept (cyclically)."""
+    kept: list[np.ndarray] = []
+    for v in vertices:
+        if not kept or np.linalg.norm(v - kept[-1]) > tolerance:
+            kept.append(v)
+    while len(kept) > 1 and np.linalg.norm(kept[0] - kept[-1]) <= tolerance:
+        kept.pop()
+    return kept
+
+
+def _halfplanes(item: Any, index: int) -> tuple[np.ndarray, np.ndarray]:
+    """(A, b) of one polygon given as (A, b) or as an object with A, b (and A_eq, b_eq)."""
+    if hasattr(item, "A") and hasattr(item, "b"):
+        A, b = np.asarray(item.A, dtype=float), np.asarray(item.b, dtype=float)
+        A_eq = getattr(item, "A_eq", None)
+        if A_eq is not None and np.asarray(A_eq).size:
+            A_eq, b_eq = np.asarray(A_eq, dtype=float), np.asarray(item.b_eq, dtype=float)
+            A, b = np.vstack([A, A_eq, -A_eq]), np.concatenate([b, b_eq, -b_eq])
+        return A, b
+    try:
+        A, b = item
+    except (TypeError, ValueError) as err:
+        raise InputError(f"polygons[{index}]: expected (A, b) or an object with A and b") from err
+    return np.asarray(A, dtype=float), np.asarray(b, dtype=float)
+
+
+def plot_polygons(
+    polygons: Sequence[Any],
+    path: str | Path | None = None,
+    ax: Any = None,
+    *,
+    labels: Sequence[str | None] | None = None,
+    hatches: Sequence[str | None] | None = None,
+    colors: Sequence[str | None] | None = None,
+    box: Sequence[float] | None = None,
+    axis_labels: tuple[str, str] = ("$u_1$", "$u_2$"),
+    title: str | None = None,
+    alpha: float = 0.35,
+    points: Any = None,
+) -> Any:
+    """Draw 2-D H-polytopes ``A x <= b`` (e.g. input-space slices of mode domains).
+
+    Each set is clipped to ``box`` (:func:`polygon_from_halfplanes`) and drawn filled and
+    outlined; a set of empty interior is drawn as a thick segment or a point, an empty set is
+    listed in the legend as "(empty)". Labels are written at the polygons' centroids and in the
+    legend.
+
+    Args:
+        polygons: each an ``(A, b)`` pair (A of shape (m, 2)) or an object with ``A`` and ``b``
+            (and optionally ``A_eq``, ``b_eq``), such as :class:`frcontrol.polytope.Polytope`.
+        path: the file to write (None: do not write).
+        ax: matplotlib Axes to draw into (default: a new figure).
+        labels: one label per polygon (None entries: unlabelled).
+        hatches: one matplotlib hatch pattern per polygon (``"//"``, ``"xx"``...; None: none).
+        colors: one colour per polygon (default: matplotlib's cycle).
+        box: the window (xmin, xmax, ymin, ymax); default: the sets' extent plus 10 %, in which
+            case every set must be bounded.
+        axis_labels: the axes' names (with units).
+        title: the panel's title.
+        alpha: the fills' opacity.
+        points: optional points (N, 2) to mark (e.g. an optimum).
+
+    Returns:
+        The Axes drawn into.
+
+    Raises:
+        InputError: malformed sets or options, or an unbounded set with no ``box``.
+        OutputFileError: the file cannot be written.
+    """
+    from matplotlib.patches import Polygon as PolygonPatch
+
+    count = len(polygons)
+    for name, values in (("labels", labels), ("hatches", hatches), ("colors", colors)):
+        if values is not None and len(values) != count:
+            raise InputError(f"{name} has {len(values)} entries for {count} polygons")
+    sets = [_halfplanes(item, i) for i, item in enumerate(polygons)]
+    if box is None:
+        big = _DEFAULT_BOX_HALF_WIDTH
+        window = (-big, big, -big, big)
+        vertices = [polygon_from_halfplanes(A, b, window) for A, b in sets]
+        for i, v in enumerate(vertices):
+            if len(v) and np.max(np.abs(v)) >= big * (1 - 1e-9):
+                raise InputError(f"polygons[{i}] is unbounded: pass box=(xmin, xmax, ymin, ymax)")
+        stacked = np.vstack([v for v in vertices if len(v)] or [np.zeros((1, 2))])
+        low, high = stacked.min(axis=0), stacked.max(axis=0)
+        pad = 0.1 * np.maximum(high - low, 1e-3) + np.where(high - low > 0, 0.0, 0.5)
+        window = (low[0] - pad[0], high[0] + pad[0], low[1] - pad[1], high[1] + pad[1])
+    else:
+        window = tuple(float(v) for v in box)
+        vertices = [polygon_from_halfplanes(A, b, window) for A, b in sets]
+    if ax is None:
+        figure = _figure(figsize=(6.0, 5.0), layout="constrained")
+        ax = figure.add_subplot()
+    for i, v in enumerate(vertices):
+        color = (colors[i] if colors is not None and colors[i] is not None else f"C{i % 10}")
+        hatch = hatches[i] if hatches is not None else None
+        label = labels[i] if labels is not None else None
+        if len(v) >= 3:
+            ax.add_patch(PolygonPatch(v, closed=True, facecolor=color, alpha=alpha, hatch=hatch,
+                                      edgecolor=color, linewidth=0.0, label=label, zorder=2))
+            ax.add_patch(PolygonPatch(v, closed=True, fill=False, edgecolor=color, linewidth=1.2, zorder=3))
+            centroid = _centroid(v)
+        elif len(v) >= 1:
+            ax.plot(v[:, 0], v[:, 1], color=color, linewidth=3.0, marker="o" if len(v) == 1 else None,
+                    label=label, zorder=3)
+            centroid = v.mean(axis=0)
+        else:
+            if label is not None:
+                ax.plot([], [], color=color, label=f"{label} (empty)")
+            continue
+        if label is not None:
+            ax.annotate(label, centroid, ha="center", va="center", fontsize=8, zorder=5,
+                        bbox={"boxstyle": "round,pad=0.2", "facecolor": "white", "alpha": 0.7,
+                              "linewidth": 0})
+    if points is not None:
+        marks = np.asarray(points, dtype=float).reshape(-1, 2)
+        ax.plot(marks[:, 0], marks[:, 1], linestyle="none", marker="*", markersize=10, color="black",
+                zorder=6)
+    ax.set_xlim(window[0], window[1])
+    ax.set_ylim(window[2], window[3])
+    ax.set_xlabel(axis_labels[0])
+    ax.set_ylabel(axis_labels[1])
+    if title is not None:
+        ax.set_title(title)
+    if labels is not None and any(label is not None for label in labels):
+        ax.legend(loc="best", fontsize="small")
+    ax.grid(True, alpha=0.3)
+    if path is not None:
+        _save(ax.figure, path)
+    return ax
+
+
+def _centroid(vertices: np.ndarray) -> np.ndarray:
+    """Area centroid of a simple polygon (its vertex mean if the area vanishes)."""
+    x, y = vertices[:, 0], vertices[:, 1]
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    cross = x * yn - xn * y
+    area = cross.sum() / 2
+    if abs(area) < 1e-15:
+        return vertices.mean(axis=0)
+    return np.array([((x + xn) * cross).sum(), ((y + yn) * cross).sum()]) / (6 * area)

@@ -1,0 +1,649 @@
+"""Seeing it: the meshcat page in a real headless Chromium, the server, the plots and `frc view`.
+
+The browser test drives Debian's Chromium over the DevTools protocol (a websocket on localhost,
+spoken with tornado, which meshcat already depends on): it collects every uncaught exception
+(``Runtime.exceptionThrown``), every ``console.error`` and every browser log entry of level
+"error" (failed resource loads...), reads the animation the page loaded, and takes a screenshot
+whose pixels are checked. Negative controls show each check can fail: a page that throws and
+logs errors is caught, a blank page fails the "something was drawn" test.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import io
+import json
+import math
+import os
+import re
+import shutil
+import socket
+import subprocess
+import tempfile
+import time
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+import typer
+from conftest import rod_scene
+from frcontrol.cli.view_cmd import view_command
+from typer.testing import CliRunner
+
+from frcontrol.errors import CoordinateNotFound, InputError
+from frcontrol.scene import load_scene
+from frcontrol.simulation.trajectory import Trajectory
+from frcontrol.viz import (
+    OutputFileError,
+    PortInUse,
+    friction_cone_directions,
+    link_visuals,
+    plots,
+    surface_lines,
+    surface_segments,
+    visual_outline,
+)
+from frcontrol.viz import meshcat_view as mv
+
+# ------------------------------------------------------------------------------------ helpers
+
+
+def rhex_trajectory(samples: int = 4, duration: float = 0.3) -> tuple:
+    """rhex_flip with a short synthetic motion (the body pitches a little) and non-zero forces:
+    large (40 N normal, 10 N tangential) at the touching contacts right of x = 0, small (5 N) at
+    the other touching ones, none at the contacts in the air."""
+    scene = load_scene("rhex_flip")
+    times = np.linspace(0.0, duration, samples)
+    q = np.repeat(scene.q[None, :], samples, axis=0)
+    q[:, 2] = math.pi - np.linspace(0.0, 0.1, samples)
+    q[:, 1] = scene.q[1] + np.linspace(0.0, 0.02, samples)
+    points = np.array([scene.robot.contact_points_in_world(qi) for qi in q])
+    k = len(scene.contacts)
+    forces = np.zeros((samples, k, 2))
+    right = points[0, :, 0] > 0
+    touching = np.array([c.active for c in scene.contacts])
+    forces[:, right & touching] = [40.0, 10.0]
+    forces[:, ~right & touching] = [5.0, 0.0]
+    trajectory = Trajectory(
+        scene_name=scene.name, coordinates=scene.coordinate_names,
+        contacts=tuple(c.name for c in scene.contacts), times=times, q=q, v=np.zeros_like(q),
+        inputs=np.zeros((samples, scene.inputs.count)), input_names=scene.inputs.coordinates,
+        contact_forces=forces, contact_points=points,
+    )
+    return scene, trajectory
+
+
+def page_commands(page: str) -> list[dict]:
+    """The meshcat commands embedded in a static page (base64 msgpack in data: URLs)."""
+    import umsgpack
+
+    blobs = re.findall(r'fetch\("data:application/octet-binary;base64,([A-Za-z0-9+/=]+)"\)', page)
+    return [umsgpack.unpackb(base64.b64decode(blob)) for blob in blobs]
+
+
+def read_png(data_or_path) -> np.ndarray:
+    """An RGB image as floats in [0, 1], shape (H, W, 3)."""
+    import matplotlib.image
+
+    source = io.BytesIO(data_or_path) if isinstance(data_or_path, bytes) else str(data_or_path)
+    image = matplotlib.image.imread(source, format="png")
+    return np.asarray(image, dtype=float)[..., :3]
+
+
+def ink_fraction(image: np.ndarray) -> float:
+    """Fraction of pixels that are not (nearly) white."""
+    return float(np.mean(np.any(image < 0.95, axis=-1)))
+
+
+# ------------------------------------------------------------------------ the plane mapping
+
+
+def test_meshcat_from_plane_maps_up_to_up():
+    np.testing.assert_allclose(mv.meshcat_from_plane([1.0, 2.0]), [1.0, 0.0, 2.0])
+    np.testing.assert_allclose(mv.meshcat_from_plane([0.0, 1.0, 0.0]), [0.0, 0.0, 1.0])  # up is up
+    np.testing.assert_allclose(mv.meshcat_from_plane([0.0, 0.0, 1.0]), [0.0, -1.0, 0.0])  # viewer
+    np.testing.assert_allclose(mv.meshcat_from_plane(np.ones((4, 5, 2))).shape, (4, 5, 3))
+    rotation = mv.MESHCAT_FROM_PLANE[:3, :3]
+    np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-15)
+    assert np.linalg.det(rotation) == pytest.approx(1.0)  # a rotation: counter-clockwise stays so
+    with pytest.raises(InputError, match=r"shape \(\.\.\., 2\)"):
+        mv.meshcat_from_plane([1.0, 2.0, 3.0, 4.0])
+
+
+# ------------------------------------------------------------------------ the static page
+
+
+def test_html_holds_the_scene_and_the_animation(tmp_path):
+    scene, trajectory = rhex_trajectory()
+    path = mv.write_html(scene, trajectory, tmp_path / "rhex.html", fps=30)
+    page = path.read_text(encoding="utf-8")
+    assert 500_000 < len(page) < 3_000_000  # the viewer's JavaScript is inside
+    assert "<script src" not in page and "http://" not in page.split("<script>")[0]
+    commands = page_commands(page)
+    by_path = {}
+    for command in commands:
+        by_path.setdefault(command["path"], []).append(command)
+    objects = {c["path"] for c in commands if c["type"] == "set_object"}
+    for link in scene.robot.link_names:
+        assert f"/meshcat/frcontrol/robot/{link}/visual0" in objects
+    for contact in scene.contacts:
+        assert f"/meshcat/frcontrol/robot/{contact.point.link}/contact_{contact.name}" in objects
+        assert f"/meshcat/frcontrol/forces/{contact.name}/shaft" in objects
+        assert f"/meshcat/frcontrol/cones/{contact.name}/fan" in objects
+    assert "/meshcat/frcontrol/surfaces/line0" in objects  # five contacts on one merged line
+    assert "/meshcat/frcontrol/surfaces/line1" not in objects
+
+    # The root node maps the plane to meshcat, centred at the drawing's middle.
+    _, drawing = mv.scene_html(scene, trajectory)
+    root = [c for c in by_path["/meshcat/frcontrol"] if c["type"] == "set_transform"][-1]
+    np.testing.assert_allclose(np.reshape(root["matrix"], (4, 4)).T, drawing.root_transform, atol=1e-12)
+
+    # The animation: one key per sample, at the sample's time, for every link and arrow.
+    animations = [c for c in commands if c["type"] == "set_animation"]
+    assert len(animations) == 1 and animations[0]["options"]["play"] is True
+    clips = {a["path"]: a["clip"] for a in animations[0]["animations"]}
+    body = clips["/meshcat/frcontrol/robot/body"]
+    assert body["fps"] == 30
+    tracks = {t["name"]: t for t in body["tracks"]}
+    times = [key["time"] / body["fps"] for key in tracks[".position"]["keys"]]
+    np.testing.assert_allclose(times, trajectory.times, atol=1e-12)
+    positions = np.array([key["value"] for key in tracks[".position"]["keys"]])
+    np.testing.assert_allclose(positions[:, :2], trajectory.q[:, :2], atol=1e-12)  # plane coordinates
+    for contact in scene.contacts:
+        assert f"/meshcat/frcontrol/forces/{contact.name}/shaft" in clips
+    # Arrow length (shaft, then head): force_scale [m/N] times |f|, as the legend says.
+    name = scene.contacts[1].name
+    shaft = {t["name"]: t for t in clips[f"/meshcat/frcontrol/forces/{name}/shaft"]["tracks"]}
+    head = {t["name"]: t for t in clips[f"/meshcat/frcontrol/forces/{name}/head"]["tracks"]}
+    shaft_length = shaft[".scale"]["keys"][0]["value"][1]
+    head_middle = head[".position"]["keys"][0]["value"][1]
+    total = shaft_length + 2 * (head_middle - shaft_length)
+    force = np.hypot(*trajectory.contact_forces[0, 1])
+    assert total == pytest.approx(drawing.force_scale * force, rel=1e-9)
+    assert f"{drawing.force_scale:.3g} m/N" in page
+
+
+def test_still_scene_has_no_animation_and_modes_are_checked(tmp_path):
+    scene = load_scene("snake_climb")
+    page, drawing = mv.scene_html(scene)
+    assert not drawing.animated
+    commands = page_commands(page)
+    assert not [c for c in commands if c["type"] == "set_animation"]
+    assert {c["path"] for c in commands if c["type"] == "set_object"} >= {
+        "/meshcat/frcontrol/surfaces/line0", "/meshcat/frcontrol/surfaces/line1"}  # two walls
+    rhex, trajectory = rhex_trajectory()
+    page, drawing = mv.scene_html(rhex, trajectory, modes=["FFFFF", "FFRFF", "SFRFF", "SSRLF"])
+    objects = {c["path"] for c in page_commands(page) if c["type"] == "set_object"}
+    assert "/meshcat/frcontrol/forces/front_toe_R/shaft" in objects
+    assert "/meshcat/frcontrol/forces/front_toe_F/shaft" in objects
+    assert "/meshcat/frcontrol/forces/rear_toe_L/shaft" not in objects
+    with pytest.raises(InputError, match="one mode string per sample"):
+        mv.scene_html(rhex, trajectory, modes=["FFFFF"])
+    with pytest.raises(InputError, match="letters from S, L, R, F"):
+        mv.scene_html(rhex, trajectory, modes=["FFFFX"] * 4)
+    with pytest.raises(InputError, match="fps"):
+        mv.scene_html(rhex, trajectory, fps=0)
+    with pytest.raises(InputError, match="force_scale"):
+        mv.scene_html(rhex, trajectory, force_scale=-1.0)
+
+
+def test_trajectory_must_match_the_scene(tmp_path):
+    rhex, trajectory = rhex_trajectory()
+    with pytest.raises(InputError, match="coordinates"):
+        mv.write_html(load_scene("snake_climb"), trajectory, tmp_path / "x.html")
+    bad = Trajectory(**{**trajectory.__dict__, "times": trajectory.times[::-1].copy()})
+    with pytest.raises(InputError, match="increase"):
+        mv.check_trajectory(rhex, bad)
+    bad = Trajectory(**{**trajectory.__dict__, "contact_forces": trajectory.contact_forces[:, :2]})
+    with pytest.raises(InputError, match="contact_forces has shape"):
+        mv.check_trajectory(rhex, bad)
+    with pytest.raises(OutputFileError, match="cannot write"):
+        mv.write_html(rhex, None, tmp_path / "no" / "such" / "folder.html")
+    still = mv.trajectory_from_scene(rhex)
+    mv.check_trajectory(rhex, still)
+    assert still.q.shape == (1, len(rhex.coordinate_names)) and not np.any(still.contact_forces)
+
+
+def test_thinning_keeps_first_and_last_sample():
+    times = np.linspace(0.0, 1.0, 1001)
+    kept = mv._frame_indices(times, 30.0)
+    assert kept[0] == 0 and kept[-1] == 1000
+    assert np.all(np.diff(times[kept]) >= 1 / 30 - 1e-12)
+    assert 28 <= len(kept) <= 32
+
+
+# -------------------------------------------------------------------------------- geometry
+
+
+def test_surfaces_are_merged_and_cut_where_they_meet():
+    rhex = load_scene("rhex_flip")
+    lines = surface_lines([c.point for c in rhex.contacts])
+    assert len(lines) == 1 and len(lines[0].contacts) == 5
+    wedge = load_scene("disk_in_wedge")
+    lines = surface_lines([c.point for c in wedge.contacts])
+    assert len(lines) == 2
+    segments = surface_segments(lines, [0.0, 0.1], 1.0)
+    for (start, end), line in zip(segments, lines, strict=True):
+        ends = [start, end]
+        assert min(np.linalg.norm(p) for p in ends) < 1e-9  # each wall ends at the vertex
+        assert max(p[1] for p in ends) > 0.5  # and rises from it
+        assert abs(line.normal @ (start - line.point)) < 1e-12
+    channel = surface_lines([c.point for c in load_scene("snake_climb").contacts])
+    assert len(channel) == 2  # parallel walls: nothing cut
+    for start, end in surface_segments(channel, [0.0, 0.5], 2.0):
+        assert np.linalg.norm(end - start) == pytest.approx(4.0)
+
+
+def test_friction_cone_opening_angle():
+    e1, e2 = friction_cone_directions([0.0, 1.0], 0.5)
+    for e in (e1, e2):
+        assert np.linalg.norm(e) == pytest.approx(1.0)
+        assert math.atan2(abs(e[0]), e[1]) == pytest.approx(math.atan(0.5))
+    assert e1[0] < 0 < e2[0]  # t = (1, 0): first edge toward -t
+
+
+def test_fallback_and_mesh_visuals(tmp_path, write_scene):
+    (tmp_path / "tet.obj").write_text("v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\n"
+                                      "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    (tmp_path / "arm.urdf").write_text("""<?xml version="1.0"?>
+<robot name="arm">
+  <link name="a"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0"
+    izz="0.01"/></inertial></link>
+  <link name="b"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0"
+    izz="0.01"/></inertial>
+    <visual><geometry><mesh filename="tet.obj" scale="2 2 2"/></geometry></visual></link>
+  <link name="c"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0"
+    izz="0.01"/></inertial></link>
+  <joint name="j1" type="revolute"><parent link="a"/><child link="b"/><origin xyz="0.3 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="10"/></joint>
+  <joint name="j2" type="revolute"><parent link="b"/><child link="c"/><origin xyz="0.2 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="10"/></joint>
+</robot>
+""")
+    path = write_scene({
+        "name": "arm", "robot": str(tmp_path / "arm.urdf"), "base": "planar",
+        "state": {"q": [0.0, 0.0, 0.0, 0.0, 0.0]},
+        "contacts": [{"name": "tip", "link": "c", "point": [0.0, -0.25], "normal": [0.0, 1.0],
+                      "mu": 0.5, "surface_point": [0.2, -0.25]}],
+    })
+    scene = load_scene(path)
+    visuals = link_visuals(scene.robot, [c.point for c in scene.contacts])
+    (a,), (b,), (c,) = visuals["a"], visuals["b"], visuals["c"]
+    assert a.fallback and a.size[0] == pytest.approx(0.3)  # to the child joint
+    assert c.fallback and c.size[0] == pytest.approx(0.25)  # to the contact point
+    np.testing.assert_allclose(visual_outline(c)[:, 1].min(), -0.25, atol=0.02)
+    assert b.shape == "mesh" and not b.fallback
+    np.testing.assert_allclose(np.ptp(visual_outline(b), axis=0), [0.2, 0.2])  # scale 2
+    page, _ = mv.scene_html(scene)
+    assert any(c["path"] == "/meshcat/frcontrol/robot/b/visual0" and
+               c["object"]["geometries"][0]["type"] == "BufferGeometry"
+               for c in page_commands(page) if c["type"] == "set_object")
+
+
+# -------------------------------------------------------------------------------- servers
+
+
+def test_serve_a_scene_and_refuse_a_taken_port():
+    scene = load_scene("rhex_flip")
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        with pytest.raises(PortInUse, match=f"port {port} on 127.0.0.1 is already in use") as info:
+            mv.serve(scene, port=port)
+        assert info.value.port == port
+    with pytest.raises(InputError, match="port must be an integer"):
+        mv.serve(scene, port=70_000)
+    url = mv.serve(scene)
+    try:
+        assert url.startswith("http://127.0.0.1:") and url.endswith("/static/")
+        with urllib.request.urlopen(url, timeout=10) as response:
+            assert response.status == 200 and b"meshcat" in response.read().lower()
+    finally:
+        mv.stop_server(url)
+    with pytest.raises(OSError):
+        urllib.request.urlopen(url, timeout=5)
+
+
+def test_page_is_what_the_server_would_give():
+    """The page recorder runs meshcat's own server code: same drawing, same bytes."""
+    import meshcat
+
+    class Tee:
+        def __init__(self, *windows):
+            self.windows = windows
+
+        def send(self, command):
+            for window in self.windows:
+                window.send(command)
+
+    scene, trajectory = rhex_trajectory()
+    server = mv.start_server()
+    try:
+        recorder = mv._PageRecorder()
+        vis = meshcat.Visualizer(window=Tee(recorder, server.visualizer().window))
+        mv.draw(vis, scene, trajectory)
+        assert recorder.get_scene() == server.static_html()
+    finally:
+        server.stop()
+
+
+# ---------------------------------------------------------------------------------- plots
+
+
+def test_plots_are_written_and_not_blank(tmp_path):
+    scene, trajectory = rhex_trajectory()
+    path = plots.plot_trajectory(trajectory, tmp_path / "traj.png", coordinates=("theta", "y"))
+    image = read_png(path)
+    assert image.shape[0] > 300 and image.shape[1] > 400 and ink_fraction(image) > 0.03
+    with pytest.raises(CoordinateNotFound, match="'psi'"):
+        plots.plot_trajectory(trajectory, tmp_path / "x.png", coordinates=("psi",))
+    forces = trajectory.contact_forces[0]
+    ax = plots.plot_scene(scene, tmp_path / "scene.png", contact_forces=forces)
+    assert ink_fraction(read_png(tmp_path / "scene.png")) > 0.05
+    # the surface, one outline per link visual, one friction cone per touching contact
+    assert len(ax.patches) == 1 + len(scene.robot.link_names) + len(scene.active_contacts)
+    with pytest.raises(OutputFileError, match="cannot write"):
+        plots.plot_scene(scene, tmp_path / "scene.unknown-format")
+    with pytest.raises(InputError, match="contact_forces must have shape"):
+        plots.plot_scene(scene, contact_forces=np.zeros((2, 2)))
+    square = (np.vstack([np.eye(2), -np.eye(2)]), np.ones(4))
+    half = (np.array([[1.0, 1.0]]), np.array([0.0]))
+    ax = plots.plot_polygons([square, half], tmp_path / "poly.png", labels=["F", "S"],
+                             hatches=[None, "//"], box=(-2, 2, -2, 2))
+    assert ink_fraction(read_png(tmp_path / "poly.png")) > 0.05
+    assert [t.get_text() for t in ax.texts] == ["F", "S"]
+    with pytest.raises(InputError, match="unbounded"):
+        plots.plot_polygons([half])
+
+
+def test_polygon_from_halfplanes_against_qhull():
+    from scipy.optimize import linprog
+    from scipy.spatial import ConvexHull, HalfspaceIntersection
+
+    box = (-3.0, 3.0, -3.0, 3.0)
+    square = plots.polygon_from_halfplanes(np.vstack([np.eye(2), -np.eye(2)]), np.ones(4), box)
+    assert len(square) == 4 and ConvexHull(square).volume == pytest.approx(4.0)
+    assert len(plots.polygon_from_halfplanes([[1.0, 0.0], [-1.0, 0.0]], [0.0, -1.0], box)) == 0
+    assert len(plots.polygon_from_halfplanes([[0.0, 0.0]], [-1.0], box)) == 0
+    segment = plots.polygon_from_halfplanes([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]],
+                                            [0.5, -0.5, 1.0, 1.0], box)
+    np.testing.assert_allclose(sorted(map(tuple, segment)), [(0.5, -1.0), (0.5, 1.0)], atol=1e-9)
+    with pytest.raises(InputError, match="box"):
+        plots.polygon_from_halfplanes(np.eye(2), np.ones(2), (1.0, 0.0, 0.0, 1.0))
+
+    rng = np.random.default_rng(7)
+    box_rows = np.vstack([np.eye(2), -np.eye(2)])
+    for _ in range(40):
+        m = int(rng.integers(3, 9))
+        A = rng.normal(size=(m, 2))
+        b = rng.uniform(-0.5, 1.5, size=m)
+        vertices = plots.polygon_from_halfplanes(A, b, box)
+        full_A, full_b = np.vstack([A, box_rows]), np.concatenate([b, [3.0, 3.0, 3.0, 3.0]])
+        # Chebyshev centre: the oracle needs an interior point.
+        norms = np.linalg.norm(full_A, axis=1)
+        lp = linprog([0, 0, -1], A_ub=np.column_stack([full_A, norms]), b_ub=full_b,
+                     bounds=[(None, None), (None, None), (0, None)])
+        if len(vertices):
+            assert np.all(full_A @ vertices.T <= full_b[:, None] + 1e-9)
+        if lp.status != 0 or lp.x[2] < 1e-6:
+            assert len(vertices) < 3 or ConvexHull(vertices).volume < 1e-9
+            continue
+        oracle = HalfspaceIntersection(np.column_stack([full_A, -full_b]), lp.x[:2])
+        assert ConvexHull(vertices).volume == pytest.approx(ConvexHull(oracle.intersections).volume,
+                                                            rel=1e-9, abs=1e-12)
+
+
+# -------------------------------------------------------------------------------- the CLI
+
+runner = CliRunner()
+view_app = typer.Typer()
+view_app.command()(view_command)
+
+
+def test_cli_view_writes_files_and_fails_cleanly(tmp_path, write_scene):
+    result = runner.invoke(view_app, ["rhex_flip", "--html", str(tmp_path / "v.html"),
+                                      "--plot", str(tmp_path / "v.png")])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "v.html").stat().st_size > 500_000
+    assert ink_fraction(read_png(tmp_path / "v.png")) > 0.05
+    bad = write_scene(rod_scene(state={"q": [0.0, 0.453]}))
+    for args, message in (
+        ([str(tmp_path / "missing.toml"), "--html", str(tmp_path / "m.html")], "no such file"),
+        ([str(bad), "--html", str(tmp_path / "b.html")], "state.q"),
+        (["rhex_flip"], "nothing to do"),
+        (["rhex_flip", "--html", str(tmp_path / "p.html"), "--port", "7000"], "--port needs --view"),
+        (["rhex_flip", "--html", str(tmp_path / "no" / "dir.html")], "cannot write"),
+    ):
+        result = runner.invoke(view_app, args)
+        assert result.exit_code == 1, (args, result.output)
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("frc: error:") and message in lines[0], lines
+        assert "Traceback" not in result.output
+
+
+def test_cli_view_serves_and_returns_without_a_terminal():
+    try:
+        result = runner.invoke(view_app, ["rhex_flip", "--view"])  # CliRunner's stdin is no TTY
+        assert result.exit_code == 0, result.output
+        url = re.search(r"meshcat viewer: (http://127\.0\.0\.1:\d+/static/)", result.stdout).group(1)
+        with urllib.request.urlopen(url, timeout=10) as response:
+            assert response.status == 200
+    finally:
+        mv.stop_server()
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        result = runner.invoke(view_app, ["rhex_flip", "--view", "--port", str(port)])
+        assert result.exit_code == 1 and "already in use" in result.stderr
+
+
+# ------------------------------------------------------------------ a real headless browser
+
+CHROMIUM_FLAGS = [
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+    "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+    "--window-size=800,600", "--remote-debugging-address=127.0.0.1", "--remote-debugging-port=0",
+]
+
+
+def find_chromium() -> str | None:
+    """Chromium or Chrome: $FRC_CHROMIUM, else the first on PATH."""
+    explicit = os.environ.get("FRC_CHROMIUM")
+    if explicit:
+        return explicit
+    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
+        found = shutil.which(name)
+        if found:
+            return found
+    return None
+
+
+class HeadlessChromium:
+    """One headless Chromium, pages loaded and inspected over the DevTools protocol."""
+
+    def __init__(self, executable: str) -> None:
+        self.profile = tempfile.mkdtemp(prefix="frc-chromium-")
+        self.process = subprocess.Popen(
+            [executable, *CHROMIUM_FLAGS, f"--user-data-dir={self.profile}", "about:blank"],
+            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )
+        active = Path(self.profile) / "DevToolsActivePort"
+        deadline = time.monotonic() + 30
+        while not (active.exists() and active.read_text().strip()):
+            if self.process.poll() is not None or time.monotonic() > deadline:
+                self.close()
+                raise RuntimeError("chromium did not open its DevTools port")
+            time.sleep(0.05)
+        self.port = int(active.read_text().split()[0])
+
+    def close(self) -> None:
+        self.process.terminate()
+        try:
+            self.process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait(timeout=10)
+        shutil.rmtree(self.profile, ignore_errors=True)
+
+    def load(self, url: str, expression: str | None = None) -> tuple[bytes, list[str], object]:
+        """Open ``url`` in a new tab, let it render (and finish a meshcat animation).
+
+        Returns:
+            (screenshot PNG, JavaScript errors, the value of ``expression`` evaluated at the end).
+        """
+        return asyncio.run(self._load(url, expression))
+
+    async def _load(self, url: str, expression: str | None) -> tuple[bytes, list[str], object]:
+        from tornado.websocket import websocket_connect
+
+        request = urllib.request.Request(f"http://127.0.0.1:{self.port}/json/new?about:blank", method="PUT")
+        with urllib.request.urlopen(request, timeout=10) as response:
+            target = json.load(response)
+        connection = await websocket_connect(target["webSocketDebuggerUrl"], max_message_size=1 << 26)
+        errors: list[str] = []
+        events: set[str] = set()
+        ids = iter(range(1, 1 << 30))
+
+        def record(message: dict) -> None:
+            method, params = message.get("method"), message.get("params", {})
+            if method == "Runtime.exceptionThrown":
+                details = params["exceptionDetails"]
+                errors.append("uncaught: " + str(details.get("exception", {}).get("description")
+                                                 or details.get("text")))
+            elif method == "Runtime.consoleAPICalled" and params["type"] in ("error", "assert"):
+                errors.append("console.error: " + " ".join(
+                    str(a.get("value", a.get("description", ""))) for a in params["args"]))
+            elif method == "Log.entryAdded" and params["entry"]["level"] == "error":
+                entry = params["entry"]
+                # A page served over HTTP asks for /favicon.ico, which meshcat's server lacks.
+                if not entry.get("url", "").endswith("/favicon.ico"):
+                    errors.append(f"log: {entry['text']} {entry.get('url', '')}".rstrip())
+            elif method:
+                events.add(method)
+
+        async def call(method: str, **params):
+            number = next(ids)
+            connection.write_message(json.dumps({"id": number, "method": method, "params": params}))
+            while True:
+                raw = await asyncio.wait_for(connection.read_message(), timeout=30)
+                if raw is None:
+                    raise RuntimeError("the DevTools connection closed")
+                message = json.loads(raw)
+                record(message)
+                if message.get("id") == number:
+                    if "error" in message:
+                        raise RuntimeError(f"{method}: {message['error']}")
+                    return message["result"]
+
+        async def evaluate(source: str):
+            result = await call("Runtime.evaluate", expression=source, awaitPromise=True,
+                                returnByValue=True)
+            return result["result"].get("value")
+
+        try:
+            for domain in ("Runtime", "Log", "Page"):
+                await call(f"{domain}.enable")
+            await call("Page.navigate", url=url)
+            deadline = time.monotonic() + 30
+            while "Page.loadEventFired" not in events and time.monotonic() < deadline:
+                await asyncio.sleep(0.05)
+                await evaluate("1")
+            # Wait for a meshcat animation to finish (pages without one pass at once).
+            while time.monotonic() < deadline and await evaluate(
+                    "typeof viewer !== 'undefined' && viewer.animator.playing"):
+                await asyncio.sleep(0.1)
+            await asyncio.sleep(0.3)
+            await evaluate("new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
+            value = await evaluate(expression) if expression else None
+            shot = await call("Page.captureScreenshot", format="png")
+        finally:
+            connection.close()
+            with urllib.request.urlopen(f"http://127.0.0.1:{self.port}/json/close/{target['id']}",
+                                        timeout=10):
+                pass
+        return base64.b64decode(shot["data"]), errors, value
+
+
+@pytest.fixture(scope="module")
+def chromium():
+    executable = find_chromium()
+    if executable is None:
+        pytest.skip("chromium is not installed: apt-get install chromium (Debian), or set "
+                    "FRC_CHROMIUM to a Chromium/Chrome executable")
+    browser = HeadlessChromium(executable)
+    yield browser
+    browser.close()
+
+
+def drawn(image: np.ndarray, top: int = 60) -> np.ndarray:
+    """Pixels (below the page's caption and meshcat's control bar) that are not white."""
+    return np.any(image[top:] < 0.9, axis=-1)
+
+
+def test_page_renders_in_chromium_without_errors(chromium, tmp_path):
+    scene, trajectory = rhex_trajectory()
+    path = mv.write_html(scene, trajectory, tmp_path / "rhex_flip.html")
+    png, errors, animation = chromium.load(
+        path.as_uri(), "[viewer.animator.duration, viewer.animator.actions.length]")
+    (tmp_path / "rhex_flip.png").write_bytes(png)
+    assert errors == []
+    assert animation[0] == pytest.approx(trajectory.duration, rel=1e-6)  # loaded and played
+    assert animation[1] >= len(scene.robot.link_names)
+    image = read_png(png)
+    height, width = image.shape[:2]
+    assert (height, width) >= (400, 700)
+    mask = drawn(image)
+    assert not mask[-40:, :40].any(), "the stage is not white (meshcat's own background?)"
+    assert mask.mean() > 0.03, "the scene was not drawn"
+    # The ground slab is wider than the view: its rows are (almost) fully inked.
+    ground_rows = np.nonzero(mask.mean(axis=1) > 0.95)[0]
+    assert len(ground_rows) >= 3
+    # The robot is framed: it neither fills the view nor touches its sides.
+    robot = mask.copy()
+    robot[ground_rows] = False
+    columns = np.nonzero(robot.any(axis=0))[0]
+    assert 0.4 * width < columns.max() - columns.min() < width - 10
+    # Up looks up: the force arrows (red) stand above the ground; +x is to the right: the
+    # large forces are on the contacts right of x = 0 (the middle of the drawing).
+    pixels = image[60:]
+    red = (pixels[..., 0] > 0.6) & (pixels[..., 1] < 0.35) & (pixels[..., 2] < 0.35)
+    rows, cols = np.nonzero(red)
+    assert len(rows) > 200
+    assert rows.mean() < ground_rows.mean()
+    assert cols.mean() > width / 2
+
+
+def test_browser_checks_catch_errors_and_blank_pages(chromium, tmp_path):
+    """Negative controls: the same checks fail on a broken page and on a blank one."""
+    broken = tmp_path / "broken.html"
+    broken.write_text("<!DOCTYPE html><html><body><script>console.error('drawn wrong');"
+                      "undefinedFunction();</script><script>Promise.reject(new Error('no fetch'));"
+                      "</script><img src='missing.png'></body></html>")
+    _, errors, _ = chromium.load(broken.as_uri())
+    text = "\n".join(errors)
+    assert "undefinedFunction is not defined" in text
+    assert "no fetch" in text  # an unhandled rejection, as a failed fetch() in a meshcat page
+    assert "drawn wrong" in text
+    assert "ERR_FILE_NOT_FOUND" in text
+    blank = tmp_path / "blank.html"
+    blank.write_text("<!DOCTYPE html><html><body></body></html>")
+    png, errors, _ = chromium.load(blank.as_uri())
+    assert errors == []
+    assert drawn(read_png(png)).mean() < 0.001
+
+
+def test_served_viewer_draws_in_chromium(chromium):
+    scene, trajectory = rhex_trajectory()
+    url = mv.serve(scene, trajectory)
+    try:
+        png, errors, animation = chromium.load(url, "viewer.animator.duration")
+    finally:
+        mv.stop_server(url)
+    assert errors == []
+    assert animation == pytest.approx(trajectory.duration, rel=1e-6)
+    assert drawn(read_png(png)).mean() > 0.03
