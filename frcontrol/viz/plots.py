@@ -5,7 +5,8 @@ matplotlib is imported inside the functions, and figures are made with
 works headless and changes nothing for a program that uses pyplot itself. Every function takes
 an optional ``path`` (the file to write; the format follows its suffix: ``.png``, ``.pdf``,
 ``.svg``...) and, where a single panel is drawn, an optional ``ax`` to draw into an existing
-figure (planners overlay their own marks).
+figure (planners overlay their own marks). Every function raises
+:class:`~frcontrol.viz.VizError` when matplotlib is not installed (``pip install 'frcontrol[plot]'``).
 
 - :func:`plot_trajectory`: chosen coordinates, and the contact forces (normal and tangential),
   over time.
@@ -35,6 +36,7 @@ from . import (
     INACTIVE_CONTACT_COLOR,
     SURFACE_COLOR,
     OutputFileError,
+    VizError,
     friction_cone_directions,
     link_visuals,
     pose_matrix,
@@ -62,9 +64,19 @@ _DEFAULT_BOX_HALF_WIDTH = 1e6
 
 
 def _figure(**kwargs: Any) -> Any:
-    from matplotlib.figure import Figure
-
+    try:
+        from matplotlib.figure import Figure
+    except ImportError as err:
+        raise VizError("plotting needs matplotlib: pip install 'frcontrol[plot]'") from err
     return Figure(**kwargs)
+
+
+def _polygon_patch() -> Any:
+    try:
+        from matplotlib.patches import Polygon
+    except ImportError as err:
+        raise VizError("plotting needs matplotlib: pip install 'frcontrol[plot]'") from err
+    return Polygon
 
 
 def _save(figure: Any, path: str | Path) -> Path:
@@ -182,8 +194,7 @@ def plot_scene(
         InputError: ``q`` or ``contact_forces`` has the wrong shape or non-finite values.
         OutputFileError: the file cannot be written.
     """
-    from matplotlib.patches import Polygon as PolygonPatch
-
+    PolygonPatch = _polygon_patch()
     robot = scene.robot
     n, k = len(scene.coordinate_names), len(scene.contacts)
     config = np.asarray(scene.q if q is None else q, dtype=float)
@@ -414,8 +425,7 @@ def plot_polygons(
         InputError: malformed sets or options, or an unbounded set with no ``box``.
         OutputFileError: the file cannot be written.
     """
-    from matplotlib.patches import Polygon as PolygonPatch
-
+    PolygonPatch = _polygon_patch()
     count = len(polygons)
     for name, values in (("labels", labels), ("hatches", hatches), ("colors", colors)):
         if values is not None and len(values) != count:
