@@ -1,0 +1,375 @@
+r"""The stability of a rigid-body solution under contact compliance (METHOD §7; Kraus, Kumar, Dupont).
+
+Make every contact a stiff Kelvin–Voigt element (stiffness ``k/eps``, damping ``b/sqrt(eps)``).
+As ``eps -> 0`` the motion splits into the rigid (slow) dynamics and a fast *boundary layer* of the
+contact deformations ``y`` (time ``tau = t / sqrt(eps)``)::
+
+    y'' + b D y' + k D y = 0,        D = J_r M^-1 J_c^T                      (KKD eq. 9-10)
+
+The rows ``J_r`` are the constraints the mode holds: ``J_N,i`` for every contact in F, L or R and
+``J_T,i`` for every contact in F (rolling/sticking). The columns ``J_c`` are the same rows, except
+that a sliding contact's normal column carries its friction: ``J_N,i - mu_i J_T,i`` for R (sliding
+toward +t, ``lam_T = -mu lam_N``) and ``J_N,i + mu_i J_T,i`` for L (KKD eq. 3). Contacts in S hold
+nothing. For an eigenvalue d of D the boundary layer's roots solve ``s^2 + b d s + k d = 0``:
+
+- d real and positive: both roots in the left half-plane for every ``k, b > 0``: **stable**; the
+  compliant solution converges to the rigid one as the stiffness grows;
+- ``Re d < 0``: a root in the right half-plane for every ``k, b > 0`` (the product or the sum of the
+  roots says so): **unstable**; the compliant solution leaves the rigid one, faster as k grows;
+- d complex with ``Re d > 0``: stable for enough damping, ``b^2 / k >= beta*(d)`` [kg]; the verdict
+  is stable and ``critical_damping`` reports ``max beta*`` (pass ``stiffness`` and ``damping`` to
+  check the roots themselves);
+- ``Re d ~ 0``: **not analysable** (``stable = None``).
+
+Also not analysable (None, with the reason): a held contact with ``lam_N = 0`` (impending
+separation), a sticking contact on its friction cone's edge ``|lam_T| = mu lam_N`` (impending
+slip), a contact that starts sliding from rest with ``a_T = 0``, a separating contact with
+``v_N = 0, a_N = 0`` (impending contact).
+
+Dependent rows (statically indeterminate modes, e.g. a box resting on two corners) give D zero
+eigenvalues whose eigenvectors are self-equilibrated internal forces: they do not move the robot
+and the boundary layer leaves them where they are. KKD's change of coordinates needs independent
+rows, so here D is restricted to the row space of ``J_r`` (an SVD with a relative rank tolerance):
+``D_rho = U^T J_r M^-1 J_c^T U``, whose eigenvalues are D's minus these ``r - rho`` zeros, which
+are counted in ``indeterminate_modes``. The verdict is then about the motion; the internal forces
+of the compliant model stay whatever its history made them.
+
+Singular M (massless links) is never inverted. If M is positive definite, ``D = J_r X`` with
+``M X = J_c^T`` solved by Cholesky. Otherwise D's eigenvalues are those of the pencil::
+
+    [ M    -J_c^T ] [x]       [ 0  0 ] [x]
+    [ J_r   0     ] [v]  = d  [ 0  I ] [v]          (M x = J_c^T v, J_r x = d v)
+
+(QZ; ``eig(A, B)``): its finite eigenvalues are D's. An eigenvalue of D that is infinite at zero
+mass (a contact on a massless link: its effective mass is 0) behaves as ``c / eps`` for a small
+rotor inertia ``eps``; its sign, which decides stability, is that of the nonzero eigenvalues c of
+``J_r N N^T J_c^T`` (N an orthonormal basis of null(M)), reported as ``massless_eigenvalues``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+import scipy.linalg
+
+from .errors import InputError
+from .modes import ContactProblem, check_mode
+
+if TYPE_CHECKING:
+    from .engine import RigidSolution
+
+FORCE_TOLERANCE = 1e-9
+"""[-] A force is zero, or on the friction cone's edge, within this times the force scale
+``max(1 N, max |lam|, |M| g)``."""
+
+ACCELERATION_TOLERANCE = 1e-9
+"""[-] A contact acceleration is zero within this times ``max(1, |a|, |dv|)`` [m/s^2]."""
+
+EIGENVALUE_TOLERANCE = 1e-9
+"""[-] An eigenvalue of D has a zero real part within this times D's natural scale
+``max|J|^2 / max|M|`` [1/kg]."""
+
+RANK_TOLERANCE = 1e-10
+"""[-] Singular values of J_r (or eigenvalues of M) at most this times the largest are zero."""
+
+FINITE_TOLERANCE = 1e-10
+"""[-] A pencil eigenvalue ``alpha / beta`` is infinite when ``|beta| <= this * |alpha|``."""
+
+
+@dataclass(frozen=True)
+class Stability:
+    """The singular-perturbation verdict on one rigid-body solution.
+
+    Attributes:
+        mode: the solution's mode (one letter per active contact).
+        stable: True (stable), False (unstable) or None (not analysable: see ``reason``).
+        eigenvalues: the eigenvalues of D [1/kg] (complex; restricted to the row space of J_r;
+            without the infinite ones of massless directions), sorted by real part.
+        reason: why, in words.
+        rows: the constrained rows, e.g. ``("tip: N",)`` or ``("left: N", "left: T")``.
+        delassus: D (r x r) [1/kg] when M is positive definite, else None.
+        indeterminate_modes: zero eigenvalues of D removed because J_r's rows are dependent.
+        massless_eigenvalues: leading coefficients c of the eigenvalues c/eps that grow without
+            bound as a massless link's inertia eps -> 0 (their sign decides).
+        critical_damping: ``max beta*`` [kg]: with complex eigenvalues the boundary layer is
+            stable iff ``b^2 / k >= beta*``; None when every eigenvalue is real.
+        boundary_layer_roots: the roots s [1/s] of ``s^2 + b d s + k d`` when ``stiffness`` and
+            ``damping`` were given, else None.
+        method: ``"cholesky"`` (M positive definite) or ``"pencil"`` (QZ on the pencil).
+        tolerances: the tolerances used.
+    """
+
+    mode: str
+    stable: bool | None
+    eigenvalues: np.ndarray
+    reason: str
+    rows: tuple[str, ...] = ()
+    delassus: np.ndarray | None = None
+    indeterminate_modes: int = 0
+    massless_eigenvalues: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    critical_damping: float | None = None
+    boundary_layer_roots: np.ndarray | None = None
+    method: str = "cholesky"
+    tolerances: dict = field(default_factory=dict)
+
+
+def boundary_layer_roots(eigenvalues: Sequence[complex] | np.ndarray, stiffness: float,
+                         damping: float) -> np.ndarray:
+    """The roots s [1/s] of ``s^2 + b d s + k d = 0`` for each eigenvalue d of D, two per d.
+
+    Raises:
+        InputError: a non-positive stiffness or a negative damping.
+    """
+    if not (math.isfinite(stiffness) and stiffness > 0):
+        raise InputError(f"the stiffness must be > 0 [N/m], got {stiffness}")
+    if not (math.isfinite(damping) and damping >= 0):
+        raise InputError(f"the damping must be >= 0 [N s/m], got {damping}")
+    roots = [np.roots([1.0, damping * d, stiffness * d]) for d in np.asarray(eigenvalues, dtype=complex)]
+    return np.concatenate(roots) if roots else np.zeros(0, dtype=complex)
+
+
+def critical_damping(eigenvalue: complex) -> float:
+    """``beta*`` [kg]: the boundary layer of eigenvalue d is stable iff ``b^2 / k >= beta*``.
+
+    With ``s = sqrt(k) x`` the roots solve ``x^2 + sqrt(beta) d x + d = 0`` (``beta = b^2/k``), so
+    ``beta*`` depends on d alone; found by bisection on ``log(beta)``. 0 for a real positive d,
+    ``inf`` when ``Re d <= 0``.
+    """
+    d = complex(eigenvalue)
+    if d.real <= 0:
+        return math.inf
+    if d.imag == 0:
+        return 0.0
+
+    def stable(beta: float) -> bool:
+        return bool(np.all(np.roots([1.0, math.sqrt(beta) * d, d]).real < 0))
+
+    lo, hi = -40.0, 40.0  # log10 of beta [kg]
+    if stable(10**lo):
+        return 0.0
+    if not stable(10**hi):
+        return math.inf
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if stable(10**mid) else (mid, hi)
+        if hi - lo < 1e-12:
+            break
+    return float(10**hi)
+
+
+def _constraint_rows(problem: ContactProblem, solution: RigidSolution, force_tol: float, accel_tol: float,
+                     ) -> tuple[list[np.ndarray], list[np.ndarray], list[str], str | None, list[str]]:
+    """Rows J_r, columns J_c and labels of the mode; a reason when it is not analysable."""
+    rows: list[np.ndarray] = []
+    cols: list[np.ndarray] = []
+    labels: list[str] = []
+    notes: list[str] = []
+    jn, jt, mu = problem.jacobian_normal, problem.jacobian_tangent, problem.mu
+    vtol = problem.velocity_tolerance
+    for i, letter in enumerate(solution.mode):
+        name = problem.contacts[i]
+        lam_n, lam_t = solution.lambda_n[i], solution.lambda_t[i]
+        if letter == "S":
+            if abs(problem.normal_velocities[i]) <= vtol and abs(solution.a_n[i]) <= accel_tol:
+                return rows, cols, labels, (f"impending contact at {name!r}: it separates with v_N = 0 and "
+                                            f"a_N = {solution.a_n[i]:.3g} ~ 0"), notes
+            continue
+        if lam_n <= force_tol:
+            return rows, cols, labels, (f"impending separation at {name!r}: it is held ({letter}) with "
+                                        f"lam_N = {lam_n:.3g} ~ 0"), notes
+        if letter == "F":
+            if abs(lam_t) >= mu[i] * lam_n - force_tol:
+                return rows, cols, labels, (f"impending slip at {name!r}: it sticks with |lam_T| = "
+                                            f"{abs(lam_t):.6g} = mu lam_N = {mu[i] * lam_n:.6g}"), notes
+            rows += [jn[i], jt[i]]
+            cols += [jn[i], jt[i]]
+            labels += [f"{name}: N", f"{name}: T"]
+            continue
+        sign = 1.0 if letter == "R" else -1.0  # R: lam_T = -mu lam_N
+        if abs(problem.tangential_velocities[i]) <= vtol:
+            if abs(solution.a_t[i]) <= accel_tol:
+                return rows, cols, labels, (f"impending slip at {name!r}: {letter} from rest (v_T = 0) with "
+                                            f"a_T = {solution.a_t[i]:.3g} ~ 0"), notes
+            notes.append(f"{name!r} starts sliding from rest ({letter}, a_T = {solution.a_t[i]:.3g})")
+        rows.append(jn[i])
+        cols.append(jn[i] - sign * mu[i] * jt[i])
+        labels.append(f"{name}: N ({letter}, column J_N {'-' if sign > 0 else '+'} mu J_T)")
+    return rows, cols, labels, None, notes
+
+
+def stability_of(
+    problem: ContactProblem,
+    solution: RigidSolution,
+    *,
+    stiffness: float | None = None,
+    damping: float | None = None,
+) -> Stability:
+    """Classify a rigid-body solution as stable, unstable or not analysable (module docstring).
+
+    Args:
+        problem: the contact problem the solution belongs to (its state, M, rows).
+        solution: a rigid-body solution (e.g. from :func:`frcontrol.engine.solutions_at`).
+        stiffness: k [N/m]; with ``damping`` [N s/m], also the boundary layer's roots for that
+            (k, b) (one value for every contact, as in KKD).
+        damping: b [N s/m].
+
+    Raises:
+        InputError: the solution's mode does not fit the problem, only one of stiffness and
+            damping is given, or they are out of range.
+    """
+    mode = check_mode(problem, solution.mode)
+    if (stiffness is None) != (damping is None):
+        raise InputError("give both stiffness and damping (or neither) for the boundary layer's roots")
+    M = np.asarray(problem.mass_matrix, dtype=float)
+    n = problem.n
+    forces = np.concatenate([np.abs(solution.lambda_n), np.abs(solution.lambda_t)])
+    force_scale = max(1.0, float(np.max(forces, initial=0.0)),
+                      float(np.max(np.abs(problem.bias), initial=0.0)))
+    force_tol = FORCE_TOLERANCE * force_scale
+    accel_scale = max(1.0, float(np.max(np.abs(solution.dv), initial=0.0)),
+                      float(np.max(np.abs(np.concatenate([solution.a_n, solution.a_t])), initial=0.0)))
+    accel_tol = ACCELERATION_TOLERANCE * accel_scale
+    tolerances = {"force": force_tol, "acceleration": accel_tol, "rank": RANK_TOLERANCE,
+                  "finite": FINITE_TOLERANCE}
+    rows, cols, labels, impending, notes = _constraint_rows(problem, solution, force_tol, accel_tol)
+    empty = np.zeros(0, dtype=complex)
+    if impending is not None:
+        return Stability(mode, None, empty, impending + ": not analysable", tuple(labels),
+                         tolerances=tolerances)
+    if not rows:
+        return Stability(mode, True, empty, "no contact is held (every contact separates): no boundary layer",
+                         tolerances=tolerances)
+
+    J_r, J_c = np.array(rows), np.array(cols)
+    m_scale = max(float(np.max(np.abs(M))), 1e-300)
+    j_scale = max(float(np.max(np.abs(J_r))), float(np.max(np.abs(J_c))), 1e-300)
+    d_scale = j_scale**2 / m_scale
+    eig_tol = EIGENVALUE_TOLERANCE * d_scale
+    tolerances["eigenvalue"] = eig_tol
+    # Restrict to the row space of J_r: dependent rows are internal (indeterminate) forces.
+    U, sv, _ = np.linalg.svd(J_r / j_scale)
+    rho = int(np.sum(sv > RANK_TOLERANCE * sv[0])) if sv.size else 0
+    U = U[:, :rho]
+    indeterminate = len(rows) - rho
+    Jr, Jc = U.T @ J_r, U.T @ J_c
+
+    # A massless coordinate that no held row involves (a free massless leg) is decoupled from the
+    # boundary layer: drop it (its acceleration is the rigid model's within-mode ambiguity).
+    m_abs = float(np.max(np.abs(M)))
+    coupled = [j for j in range(n)
+               if np.max(np.abs(M[j]), initial=0.0) > RANK_TOLERANCE * m_abs
+               or np.max(np.abs(Jr[:, j]), initial=0.0) > RANK_TOLERANCE * j_scale
+               or np.max(np.abs(Jc[:, j]), initial=0.0) > RANK_TOLERANCE * j_scale]
+    decoupled = n - len(coupled)
+    if decoupled:
+        M = M[np.ix_(coupled, coupled)]
+        Jr, Jc, J_r, J_c = Jr[:, coupled], Jc[:, coupled], J_r[:, coupled], J_c[:, coupled]
+        n = len(coupled)
+    m_eig, m_vec = np.linalg.eigh(M)
+    positive_definite = m_eig[0] > RANK_TOLERANCE * m_eig[-1]
+    delassus = None
+    massless = np.zeros(0)
+    if positive_definite:
+        method = "cholesky"
+        factor = scipy.linalg.cho_factor(M)
+        D_rho = Jr @ scipy.linalg.cho_solve(factor, Jc.T)
+        eigenvalues = np.linalg.eigvals(D_rho)
+        delassus = J_r @ scipy.linalg.cho_solve(factor, J_c.T)
+    else:
+        method = "pencil"
+        A = np.block([[M / m_scale, -Jc.T / j_scale], [Jr / j_scale, np.zeros((rho, rho))]])
+        B = np.zeros_like(A)
+        B[n:, n:] = np.eye(rho)
+        (alpha, beta) = scipy.linalg.eig(A, B, right=False, homogeneous_eigvals=True)
+        if np.any((np.abs(alpha) <= FINITE_TOLERANCE) & (np.abs(beta) <= FINITE_TOLERANCE)):
+            return Stability(mode, None, empty, "the pencil (M, J_r, J_c) is singular: the mode's "
+                             "constraints do not determine the massless coordinates: not analysable",
+                             tuple(labels),
+                             indeterminate_modes=indeterminate, method=method, tolerances=tolerances)
+        finite = np.abs(beta) > FINITE_TOLERANCE * np.abs(alpha)
+        eigenvalues = alpha[finite] / beta[finite] * d_scale
+        infinite_count = rho - int(np.sum(finite))
+        if infinite_count:
+            N = m_vec[:, m_eig <= RANK_TOLERANCE * m_eig[-1]]
+            lead = np.linalg.eigvals(Jr @ N @ N.T @ Jc.T)
+            lead = lead[np.abs(lead) > RANK_TOLERANCE * max(1.0, float(np.max(np.abs(lead), initial=0.0)))]
+            if lead.size != infinite_count:
+                return Stability(mode, None, np.sort_complex(eigenvalues),
+                                 f"{infinite_count} eigenvalue(s) of D are infinite (massless directions) "
+                                 f"but their limit has {lead.size} nonzero coefficient(s): not analysable",
+                                 tuple(labels), indeterminate_modes=indeterminate, method=method,
+                                 tolerances=tolerances)
+            massless = lead
+    eigenvalues = np.asarray(eigenvalues, dtype=complex)
+    eigenvalues = eigenvalues[np.argsort(eigenvalues.real, kind="stable")]
+    roots = None
+    if stiffness is not None and damping is not None:
+        roots = boundary_layer_roots(eigenvalues, stiffness, damping)
+    complex_ones = [d for d in eigenvalues if abs(d.imag) > eig_tol and d.real > eig_tol]
+    crit = max((critical_damping(d) for d in complex_ones), default=None)
+    suffix = ""
+    if indeterminate:
+        suffix += (f"; statically indeterminate: {indeterminate} internal-force mode(s) (zero eigenvalues "
+                   "of D) left out, the verdict is about the motion")
+    if decoupled:
+        suffix += f"; {decoupled} free massless coordinate(s) left out (no held row involves them)"
+    if massless.size:
+        suffix += f"; {massless.size} massless direction(s) (eigenvalue -> infinity) with leading " \
+                  f"coefficient(s) {_fmt(massless)}"
+    if notes:
+        suffix += "; " + "; ".join(notes)
+    common = {"rows": tuple(labels), "delassus": delassus, "indeterminate_modes": indeterminate,
+              "massless_eigenvalues": massless, "critical_damping": crit, "boundary_layer_roots": roots,
+              "method": method, "tolerances": tolerances}
+
+    negative = [d for d in eigenvalues if d.real < -eig_tol] + [c for c in massless if c.real < 0]
+    if negative:
+        return Stability(mode, False, eigenvalues,
+                         f"unstable: D has eigenvalue(s) with negative real part {_fmt(negative)}: the "
+                         "boundary layer diverges, the compliant solution leaves this one" + suffix, **common)
+    zero = [d for d in eigenvalues if abs(d.real) <= eig_tol]
+    if zero:
+        return Stability(mode, None, eigenvalues,
+                         f"D has eigenvalue(s) with zero real part {_fmt(zero)}: not analysable" + suffix,
+                         **common)
+    if roots is not None and np.any(roots.real >= 0):
+        return Stability(mode, False, eigenvalues,
+                         f"unstable for b^2/k = {damping**2 / stiffness:.4g} kg: complex eigenvalues "
+                         f"{_fmt(complex_ones)} need b^2/k >= {crit:.4g} kg" + suffix, **common)
+    reason = f"stable: every eigenvalue of D has a positive real part {_fmt(eigenvalues)}"
+    if complex_ones:
+        reason += f" (complex ones need damping b^2/k >= {crit:.4g} kg)"
+    return Stability(mode, True, eigenvalues, reason + suffix, **common)
+
+
+def _fmt(values: Sequence[complex] | np.ndarray) -> str:
+    out = []
+    for x in values:
+        x = complex(x)
+        real = abs(x.imag) <= 1e-12 * max(1.0, abs(x.real))
+        out.append(f"{x.real:.4g}" if real else f"{x.real:.4g}{x.imag:+.4g}j")
+    return "[" + ", ".join(out) + "]"
+
+
+def classify_solutions(problem: ContactProblem, solutions: Sequence[RigidSolution], *,
+                       stiffness: float | None = None, damping: float | None = None) -> list[Stability]:
+    """:func:`stability_of` for each solution (e.g. every solution at one input)."""
+    return [stability_of(problem, s, stiffness=stiffness, damping=damping) for s in solutions]
+
+
+__all__ = [
+    "ACCELERATION_TOLERANCE",
+    "EIGENVALUE_TOLERANCE",
+    "FINITE_TOLERANCE",
+    "FORCE_TOLERANCE",
+    "RANK_TOLERANCE",
+    "Stability",
+    "boundary_layer_roots",
+    "classify_solutions",
+    "critical_damping",
+    "stability_of",
+]

@@ -1,0 +1,256 @@
+"""Stability of rigid solutions (singular perturbation, KKD) checked against the compliant model."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import rod_scene
+
+from frcontrol.engine import solutions_at
+from frcontrol.errors import InputError
+from frcontrol.modes import ContactProblem
+from frcontrol.scene import load_scene
+from frcontrol.simulation.compliant import simulate_compliant
+from frcontrol.stability import boundary_layer_roots, critical_damping, stability_of
+
+G = 9.81
+THETA, MU, LAM = 2.0, 1.4, 10.0  # Painleve's rod: 1 m, 1 kg, I = 1/12 kg m^2
+
+
+def painleve_d(theta: float, mu: float, sliding: float) -> float:
+    """D = J_N M^-1 (J_N -+ mu J_T)^T for the rod's lower end; sliding = +1 (R) or -1 (L).
+
+    J_N = [0, 1, -cos(theta)/2], J_T = [1, 0, sin(theta)/2], M = diag(1, 1, 1/12) (the URDF's
+    0.08333333333 differs from 1/12 by 4e-12, hence relative tolerances of 1e-8).
+    """
+    return 1.0 + 3.0 * math.cos(theta) ** 2 + sliding * 3.0 * mu * math.sin(theta) * math.cos(theta)
+
+
+def painleve_rod(write_scene, sliding: float, lam: float = LAM):
+    """The rod sliding steadily at v_T = sliding m/s with its lower end on the table.
+
+    The input (forces on x, y, theta) is chosen so that the sliding mode (R for +1, L for -1) has
+    dv = 0 and lam_N = lam: the slow dynamics stand still (a pure translation), so the compliant
+    model's deviation from the rigid solution is exactly KKD's boundary layer.
+    """
+    contact = {"name": "tip", "link": "rod", "point": [-0.5, 0.0], "normal": [0.0, 1.0], "mu": MU,
+               "surface_point": [0.0, 0.0]}
+    scene = load_scene(write_scene(rod_scene(contacts=[contact],
+                                             state={"q": [0.0, 0.5 * math.sin(THETA), THETA]})))
+    v = np.array([sliding, 0.0, 0.0])
+    problem = ContactProblem.from_scene(scene, scene.q, v)
+    jn, jt = problem.jacobian_normal[0], problem.jacobian_tangent[0]
+    u = problem.bias - (jn - sliding * MU * jt) * lam
+    return scene, problem, v, u
+
+
+def deviation_run(scene, problem, v, u, sliding, stiffness, perturbation, duration, samples=50):
+    """Start the compliant model at the rigid solution's penetration lam / k times (1 + perturbation)."""
+    q0 = scene.q - np.array([0.0, (1.0 + perturbation) * LAM / stiffness, 0.0])
+    return simulate_compliant(scene, u, duration, duration / samples, stiffness=stiffness, q0=q0, v0=v,
+                              initial_stretch=[sliding * MU * LAM / stiffness], rtol=1e-10, atol=1e-14)
+
+
+def penetration(scene, traj) -> np.ndarray:
+    """The rod end's penetration [m] at every sample."""
+    return -np.array([scene.robot.state(q, w, [0]).gaps[0] for q, w in zip(traj.q, traj.v, strict=True)])
+
+
+def boundary_layer_prediction(roots, y0, t):
+    """y(t) of y'' + b D y' + k D y = 0 with y(0) = y0, y'(0) = 0 (two real roots s1 < s2)."""
+    s1, s2 = np.sort(np.real(roots))
+    return y0 * (s2 * np.exp(s1 * t) - s1 * np.exp(s2 * t)) / (s2 - s1)
+
+
+# ---------------------------------------------------------------------------------------- Painleve
+def test_painleve_rod_has_two_solutions_separating_stable_sliding_unstable(write_scene):
+    scene, problem, v, u = painleve_rod(write_scene, +1.0)
+    solutions = {s.mode: s for s in solutions_at(problem, u)}
+    assert sorted(solutions) == ["R", "S"]
+    assert solutions["R"].lambda_n[0] == pytest.approx(LAM)
+    np.testing.assert_allclose(solutions["R"].dv, 0.0, atol=1e-9)
+    separate = stability_of(problem, solutions["S"])
+    assert separate.stable is True and separate.eigenvalues.size == 0
+    assert "no contact is held" in separate.reason
+    sliding = stability_of(problem, solutions["R"])
+    # D = 1 + 3 cos^2 + 3 mu sin cos = -0.0698 < 0 at theta = 2, mu = 1.4
+    assert sliding.stable is False and "negative real part" in sliding.reason
+    np.testing.assert_allclose(sliding.eigenvalues, [painleve_d(THETA, MU, +1.0)], rtol=1e-8)
+    assert sliding.eigenvalues[0].real == pytest.approx(-0.0697507, abs=1e-6)
+    assert sliding.rows == ("tip: N (R, column J_N - mu J_T)",)
+    np.testing.assert_allclose(sliding.delassus, [[painleve_d(THETA, MU, +1.0)]])
+
+
+def test_painleve_verdict_holds_for_the_classic_unforced_rod(write_scene):
+    # no input: the rod spins at 6 rad/s while its end slides right; S and R again, same D
+    scene, _, _, _ = painleve_rod(write_scene, +1.0)
+    omega = 6.0
+    v = np.array([1.0 - 0.5 * math.sin(THETA) * omega, 0.5 * math.cos(THETA) * omega, omega])
+    problem = ContactProblem.from_scene(scene, scene.q, v)
+    verdicts = {s.mode: stability_of(problem, s) for s in solutions_at(problem, np.zeros(3))}
+    assert verdicts["S"].stable is True and verdicts["R"].stable is False
+    assert verdicts["R"].eigenvalues[0].real == pytest.approx(painleve_d(THETA, MU, +1.0), rel=1e-8)
+
+
+def test_unstable_sliding_is_left_by_the_compliant_model_as_the_boundary_layer_predicts(write_scene):
+    scene, problem, v, u = painleve_rod(write_scene, +1.0)
+    rigid = next(s for s in solutions_at(problem, u) if s.mode == "R")
+    verdict = stability_of(problem, rigid)
+    m_normal = 1.0 / painleve_d(THETA, 0.0, 0.0)  # the critical damping's mass: 1 / (J_N M^-1 J_N^T)
+    ratios = {}
+    for k in (1e5, 1e6, 1e7):
+        b = 2.0 * math.sqrt(k * m_normal)  # the compliant model's default damping
+        roots = boundary_layer_roots(verdict.eigenvalues, k, b)
+        growth = float(np.max(roots.real))  # 103, 327, 1033 1/s: grows as sqrt(k)
+        assert growth > 0
+        duration = (math.log(30.0) + 0.2) / growth  # until the linear prediction is about 30 %
+        for perturbation in (+0.01, -0.01):
+            traj = deviation_run(scene, problem, v, u, +1.0, k, perturbation, duration)
+            depth = penetration(scene, traj)
+            predicted = boundary_layer_prediction(roots, perturbation * LAM / k, traj.times)
+            ratios[k, perturbation] = (depth[-1] - LAM / k) / predicted[-1]
+    # measured: 1.11 and 1.14 at 1e5, 1.01 at 1e6, 1.001 at 1e7: KKD's boundary layer, better as k grows
+    for k, tol in ((1e5, 0.2), (1e6, 0.03), (1e7, 0.005)):
+        for perturbation in (+0.01, -0.01):
+            assert ratios[k, perturbation] == pytest.approx(1.0, abs=tol)
+    # and it leaves: pressed 1 % too hard it digs in, 1 % too lightly it lifts off (the S solution)
+    growth = float(np.max(boundary_layer_roots(verdict.eigenvalues, 1e6, 2 * math.sqrt(1e6 * m_normal)).real))
+    deeper = deviation_run(scene, problem, v, u, +1.0, 1e6, +0.01, 7.0 / growth)
+    assert np.max(deeper.contact_forces[:, 0, 0]) > 1.5 * LAM
+    lighter = deviation_run(scene, problem, v, u, +1.0, 1e6, -0.01, 7.0 / growth)
+    assert lighter.contact_forces[-1, 0, 0] == 0.0 and any(e.kind == "open" for e in lighter.events)
+
+
+def test_stable_sliding_is_approached_by_the_compliant_model(write_scene):
+    scene, problem, v, u = painleve_rod(write_scene, -1.0)
+    solutions = solutions_at(problem, u)
+    assert [s.mode for s in solutions] == ["L"]  # unique
+    verdict = stability_of(problem, solutions[0])
+    assert verdict.stable is True
+    np.testing.assert_allclose(verdict.eigenvalues, [painleve_d(THETA, MU, -1.0)], rtol=1e-8)  # 3.109
+    m_normal = 1.0 / painleve_d(THETA, 0.0, 0.0)
+    errors = []
+    for k in (1e3, 1e4, 1e5):
+        roots = boundary_layer_roots(verdict.eigenvalues, k, 2.0 * math.sqrt(k * m_normal))
+        assert np.all(roots.real < 0)
+        duration = 3.0 / float(np.max(np.abs(roots.real)))
+        for perturbation in (+0.01, -0.01):
+            traj = deviation_run(scene, problem, v, u, -1.0, k, perturbation, duration)
+            depth = penetration(scene, traj)
+            predicted = boundary_layer_prediction(roots, perturbation * LAM / k, traj.times)
+            # measured: 0.9998, 1.0000, 1.0000
+            assert (depth[-1] - LAM / k) / predicted[-1] == pytest.approx(1.0, abs=1e-3)
+        # the compliant force at a fixed time converges to the rigid one as k grows
+        traj = deviation_run(scene, problem, v, u, -1.0, k, 0.01, 0.05, samples=10)
+        errors.append(abs(traj.contact_forces[-1, 0, 0] - LAM))
+        assert traj.contact_forces[-1, 0, 1] == pytest.approx(MU * traj.contact_forces[-1, 0, 0])
+    assert errors[0] > errors[1] > errors[2] and errors[2] < 1e-6 * LAM
+
+
+# ---------------------------------------------------------------------------------------- resting box
+def test_resting_box_sticking_is_stable_with_one_internal_force_mode():
+    scene = load_scene("box_on_ground")
+    problem = ContactProblem.from_scene(scene)
+    verdicts = {s.mode: stability_of(problem, s) for s in solutions_at(problem, np.zeros(3))}
+    stick = verdicts["FF"]
+    assert stick.stable is True and stick.indeterminate_modes == 1
+    # rows J_N, J_T of both corners: the nonzero eigenvalues of M^-1 J^T J = [[2, 0, .5], [0, 2, 0],
+    # [4.8, 0, 6]] (I = 5/48): 2 and 4 -+ sqrt(6.4)
+    expected = sorted([4 - math.sqrt(6.4), 2.0, 4 + math.sqrt(6.4)])
+    np.testing.assert_allclose(stick.eigenvalues.real, expected, rtol=1e-9)
+    assert np.all(stick.eigenvalues.imag == 0)
+    assert "statically indeterminate" in stick.reason
+    # every other resting mode sits on a cone edge or slides from rest with a_T = 0
+    for mode, verdict in verdicts.items():
+        if mode != "FF":
+            assert verdict.stable is None and "impending slip" in verdict.reason, mode
+
+
+def test_resting_box_compliant_forces_converge_to_the_rigid_ones():
+    scene = load_scene("box_on_ground")
+    errors = []
+    for k in (1e3, 1e4, 1e5):
+        traj = simulate_compliant(scene, None, 0.2, 0.01, stiffness=k)
+        errors.append(float(np.max(np.abs(traj.contact_forces[-1, :, 0] - G / 2))))
+        assert np.max(np.abs(traj.v[-1])) < 1e-3  # rung down
+    assert errors[2] < errors[1] < errors[0] and errors[2] < 1e-6
+
+
+# ---------------------------------------------------------------------------------------- massless legs
+def massless_leg_problem(phi: float, v_t: float = 0.0) -> ContactProblem:
+    """A 1 kg body translating in the plane (x, y) with a massless leg (angle phi, length 0.2 m).
+
+    The toe is at (x + l sin(phi), y - l cos(phi)) on the ground: J_N = [0, 1, l sin(phi)] and
+    J_T = [1, 0, l cos(phi)]; M = diag(1, 1, 0): the leg's coordinate has no inertia.
+    """
+    length = 0.2
+    return ContactProblem(
+        coordinates=("x", "y", "phi"), contacts=("toe",), inputs=("phi",),
+        mass_matrix=np.diag([1.0, 1.0, 0.0]), bias=np.array([0.0, G, 0.0]),
+        input_map=np.array([[0.0], [0.0], [1.0]]),
+        jacobian_normal=np.array([[0.0, 1.0, length * math.sin(phi)]]),
+        jacobian_tangent=np.array([[1.0, 0.0, length * math.cos(phi)]]),
+        drift_normal=np.zeros(1), drift_tangent=np.zeros(1),
+        normal_velocities=np.zeros(1), tangential_velocities=np.array([v_t]),
+        mu=np.array([0.5]), lower=np.array([-50.0]), upper=np.array([50.0]),
+    )
+
+
+def test_massless_leg_sticking_has_one_finite_and_one_infinite_eigenvalue():
+    phi, length = 0.6, 0.2
+    problem = massless_leg_problem(phi)
+    # torque -l g sin(phi) leaves the toe without friction: lam_N = m g, lam_T = 0
+    stick = next(s for s in solutions_at(problem, np.array([-length * G * math.sin(phi)])) if s.mode == "F")
+    assert stick.lambda_n[0] == pytest.approx(G) and stick.lambda_t[0] == pytest.approx(0.0, abs=1e-9)
+    verdict = stability_of(problem, stick)
+    # with a rotor inertia eps: D = I / m + v v^T / eps, v = l (sin, cos): eigenvalues 1 and 1 + l^2/eps
+    assert verdict.method == "pencil" and verdict.stable is True
+    np.testing.assert_allclose(verdict.eigenvalues, [1.0], rtol=1e-9)
+    np.testing.assert_allclose(verdict.massless_eigenvalues, [length**2], rtol=1e-9)
+    assert verdict.delassus is None
+
+
+@pytest.mark.parametrize("phi, stable", [(0.3, False), (1.2, True)])
+def test_massless_leg_dragged_jams_when_tan_phi_below_mu(phi, stable):
+    # sliding right (R): column J_N - mu J_T, leading coefficient l^2 sin(phi) (sin(phi) - mu cos(phi))
+    length, mu = 0.2, 0.5
+    problem = massless_leg_problem(phi, v_t=1.0)
+    torque = -1.0 if math.tan(phi) > mu else 1.0  # the sign that presses the toe down
+    sliding = [s for s in solutions_at(problem, np.array([torque])) if s.mode == "R"]
+    assert len(sliding) == 1 and sliding[0].lambda_n[0] > 0
+    verdict = stability_of(problem, sliding[0])
+    lead = length**2 * math.sin(phi) * (math.sin(phi) - mu * math.cos(phi))
+    np.testing.assert_allclose(verdict.massless_eigenvalues, [lead], rtol=1e-9)
+    assert verdict.eigenvalues.size == 0 and verdict.stable is stable
+
+
+# ---------------------------------------------------------------------------------------- helpers
+def test_boundary_layer_roots_and_critical_damping():
+    roots = boundary_layer_roots([2.0], 100.0, 1.0)  # s^2 + 2 s + 200
+    np.testing.assert_allclose(sorted(roots, key=lambda r: r.imag), [-1 - math.sqrt(199) * 1j,
+                                                                      -1 + math.sqrt(199) * 1j])
+    assert critical_damping(2.0) == 0.0 and critical_damping(-1.0) == math.inf
+    # a complex d with Re d > 0 needs enough damping: check both sides of beta*
+    d = 1.0 + 3.0j
+    beta = critical_damping(d)
+    assert 0 < beta < math.inf
+    assert np.all(boundary_layer_roots([d], 1.0, math.sqrt(beta * 1.01)).real < 0)
+    assert np.any(boundary_layer_roots([d], 1.0, math.sqrt(beta * 0.99)).real > 0)
+    with pytest.raises(InputError, match="stiffness must be > 0"):
+        boundary_layer_roots([1.0], 0.0, 1.0)
+
+
+def test_stability_rejects_mismatched_input(write_scene):
+    scene, problem, v, u = painleve_rod(write_scene, +1.0)
+    rigid = next(s for s in solutions_at(problem, u) if s.mode == "R")
+    with pytest.raises(InputError, match="give both stiffness and damping"):
+        stability_of(problem, rigid, stiffness=1e5)
+    box = ContactProblem.from_scene(load_scene("box_on_ground"))
+    with pytest.raises(InputError, match="mode 'R' has 1 letters"):
+        stability_of(box, rigid)
+    verdict = stability_of(problem, rigid, stiffness=1e5, damping=100.0)
+    d = painleve_d(THETA, MU, +1.0)
+    np.testing.assert_allclose(sorted(verdict.boundary_layer_roots.real),
+                               sorted(np.roots([1.0, 100.0 * d, 1e5 * d]).real))
