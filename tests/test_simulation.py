@@ -315,7 +315,8 @@ def test_resting_box_is_not_called_ambiguous(write_scene):
     scene = load_scene(write_scene(box_scene([0.0, 0.25, 0.0])))
     traj = simulate_rigid(scene, None, 0.01, 1e-3)
     check = traj.info["ambiguity_checks"][0]
-    assert len(check["modes"]) > 1 and check["distinct_motions"] == 1  # indeterminate forces only
+    # one motion (rest) with indeterminate forces: the engine reports it once, as FF
+    assert list(check["modes"]) == ["FF"] and check["distinct_motions"] == 1
     assert "FF" in check["summary"].split("=") and traj.events == ()
 
 
@@ -478,3 +479,58 @@ def test_contact_forces_law():
     at_limit = np.array([5.0 / 2e4, 0.0, 0.0])
     _, lt, rt, _ = contact_forces(contacts, gaps, np.zeros(3), np.zeros(3), at_limit)
     assert lt[0] == pytest.approx(-5.0) and rt[0] == pytest.approx(0.0, abs=1e-15)
+
+
+# ---------------------------------------------------------------------------------------- command line
+def cli_app():
+    import typer
+    from frcontrol.cli.simulate_cmd import simulate_command
+
+    app = typer.Typer()
+    app.command("simulate")(simulate_command)
+    app.command("other")(lambda: None)  # two commands: the app then dispatches by name, like frc
+    return app
+
+
+def test_cli_simulate_json_summary_and_samples():
+    import json
+
+    from typer.testing import CliRunner
+
+    result = CliRunner().invoke(cli_app(), ["simulate", "rod_on_table", "--duration", "0.05", "--json"])
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    summary, samples = payload["summary"], payload["samples"]
+    assert summary["model"] == "rigid" and summary["status"] == "completed" and summary["steps"] == 50
+    assert len(samples["times"]) == 51 and len(samples["q"][0]) == 3 and len(samples["energy"]) == 51
+    assert summary["final_q"] == samples["q"][-1]
+    assert summary["energy"]["largest_increase"] <= summary["stabilization_work"] + 1e-12
+    assert summary["events"] == [] and summary["max_penetration"] < 1e-4
+
+
+def test_cli_simulate_compliant_table_and_errors(tmp_path):
+    from typer.testing import CliRunner
+
+    runner = CliRunner()
+    result = runner.invoke(cli_app(), ["simulate", "box_on_ground", "--model", "compliant", "-k", "1e4",
+                                       "--duration", "0.05", "--dt", "0.01", "-i", "x=1"])
+    assert result.exit_code == 0, result.output
+    assert "compliant model" in result.stdout and "final state" in result.stdout
+    bad = runner.invoke(cli_app(), ["simulate", "box_on_ground", "--dt", "0"])
+    assert bad.exit_code == 1 and "dt must be > 0" in bad.stderr
+    bad = runner.invoke(cli_app(), ["simulate", "box_on_ground", "-k", "1e4"])
+    assert bad.exit_code == 1 and "add --model compliant" in bad.stderr
+    bad = runner.invoke(cli_app(), ["simulate", "box_on_ground", "--model", "compliant", "--integrator", "x"])
+    assert bad.exit_code == 1 and "unknown integrator 'x'" in bad.stderr
+    failed = runner.invoke(cli_app(), ["simulate", "box_on_ground", "-i", "x=99"])
+    assert failed.exit_code == 1 and "outside its limits" in failed.stderr
+
+
+def test_cli_simulate_writes_the_html_replay(tmp_path):
+    from typer.testing import CliRunner
+
+    page = tmp_path / "replay.html"
+    result = CliRunner().invoke(cli_app(), ["simulate", "box_on_ground", "--duration", "0.02",
+                                            "--html", str(page)])
+    assert result.exit_code == 0, result.output
+    assert page.stat().st_size > 1000 and "<html" in page.read_text()[:2000].lower()

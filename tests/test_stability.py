@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -162,10 +163,18 @@ def test_resting_box_sticking_is_stable_with_one_internal_force_mode():
     np.testing.assert_allclose(stick.eigenvalues.real, expected, rtol=1e-9)
     assert np.all(stick.eigenvalues.imag == 0)
     assert "statically indeterminate" in stick.reason
-    # every other resting mode sits on a cone edge or slides from rest with a_T = 0
-    for mode, verdict in verdicts.items():
-        if mode != "FF":
-            assert verdict.stable is None and "impending slip" in verdict.reason, mode
+    # the same rest with the friction on its cone's edge, or "sliding" from rest with a_T = 0, is the
+    # boundary of sticking: not analysable; so are a held contact without load and an unloaded one
+    rest = next(s for s in solutions_at(problem, np.zeros(3)) if s.mode == "FF")
+    edge = replace(rest, lambda_t=np.array([0.5, -0.5]) * rest.lambda_n)
+    verdict = stability_of(problem, edge)
+    assert verdict.stable is None and "impending slip at 'left': it sticks with |lam_T|" in verdict.reason
+    verdict = stability_of(problem, replace(edge, mode="LR"))
+    assert verdict.stable is None and "impending slip at 'left': L from rest (v_T = 0)" in verdict.reason
+    verdict = stability_of(problem, replace(rest, lambda_n=np.array([0.0, G])))
+    assert verdict.stable is None and "impending separation at 'left'" in verdict.reason
+    verdict = stability_of(problem, replace(rest, mode="SF", lambda_n=np.array([0.0, G])))
+    assert verdict.stable is None and "impending contact at 'left'" in verdict.reason
 
 
 def test_resting_box_compliant_forces_converge_to_the_rigid_ones():

@@ -1,0 +1,179 @@
+"""``frc simulate``: a trajectory on the rigid or the compliant contact model."""
+
+from __future__ import annotations
+
+from enum import StrEnum
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from frcontrol.scene import load_scene
+from frcontrol.simulation.compliant import INTEGRATORS, simulate_compliant
+from frcontrol.simulation.options import model_options
+from frcontrol.simulation.rigid import simulate_rigid
+from frcontrol.simulation.trajectory import Trajectory
+
+from .analyze_cmd import InputOpt, parse_assignments
+from .common import console, fail, handle_errors, print_json
+from .model_cmds import JsonOpt, SceneArg
+
+MAX_EVENTS_SHOWN = 40
+"""Events listed in the table (all of them are in ``--json``)."""
+
+
+class ContactModel(StrEnum):
+    """The contact models."""
+
+    rigid = "rigid"
+    compliant = "compliant"
+
+
+ModelOpt = Annotated[
+    ContactModel | None,
+    typer.Option("--model", "-m", help="Contact model (default: the scene's [model] contact, else rigid)."),
+]
+StiffnessOpt = Annotated[
+    float | None,
+    typer.Option("--stiffness", "-k", help="Compliant contact stiffness k [N/m] for every contact "
+                 "(default: the scene's [model], else 1e5)."),
+]
+DampingOpt = Annotated[
+    float | None,
+    typer.Option("--damping", help="Compliant contact damping b [N s/m] (default: critical for each "
+                 "contact's effective mass)."),
+]
+DtOpt = Annotated[
+    float,
+    typer.Option("--dt", help="Rigid: the time step [s]. Compliant: the sample interval and control "
+                 "period [s] (the integrator adapts its own steps)."),
+]
+DurationOpt = Annotated[float, typer.Option("--duration", "-T", help="Simulated time [s].")]
+IntegratorOpt = Annotated[
+    str,
+    typer.Option("--integrator", help=f"Compliant model's integrator: {', '.join(INTEGRATORS)}."),
+]
+HtmlOpt = Annotated[
+    Path | None,
+    typer.Option("--html", metavar="FILE", help="Write a self-contained HTML page (meshcat) that "
+                 "replays the trajectory offline."),
+]
+
+
+def trajectory_payload(traj: Trajectory) -> dict[str, Any]:
+    """The ``frc simulate --json`` document: a summary and the samples."""
+    info = traj.info
+    energy = np.asarray(info["energy"])
+    penetration = np.asarray(info["max_penetration"])
+    summary = {
+        "scene": traj.scene_name,
+        "model": info["model"],
+        "status": info["status"],
+        "failure": info["failure"],
+        "steps": info["steps"],
+        "dt": info["dt"],
+        "duration": traj.duration,
+        "coordinates": list(traj.coordinates),
+        "contacts": list(traj.contacts),
+        "inputs": list(traj.input_names),
+        "final_q": traj.q[-1],
+        "final_v": traj.v[-1],
+        "events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
+                   for e in traj.events],
+        "energy": {"initial": energy[0], "final": energy[-1],
+                   "largest_increase": float(np.max(np.diff(energy), initial=0.0))},
+        "max_penetration": float(np.max(penetration)),
+        "armature": info["armature"],
+        "wall_time": info["wall_time"],
+    }
+    if info["model"] == "rigid":
+        summary["lcp"] = info["lcp"]
+        summary["tolerances"] = info["tolerances"]
+        summary["ambiguity_checks"] = info["ambiguity_checks"]
+        summary["stabilization_work"] = float(info["stabilization_work"][-1])
+    else:
+        summary.update({key: info[key] for key in ("integrator", "rtol", "atol", "min_step", "max_step_taken",
+                                                   "mean_step", "rhs_evaluations", "state_size",
+                                                   "contacts_modelled", "explicit_stability_limit")})
+        summary["contact_parameters"] = info["contacts"]
+        summary["elastic_energy_final"] = float(info["elastic_energy"][-1])
+    if not np.isfinite(summary.get("explicit_stability_limit", 0.0)):
+        summary["explicit_stability_limit"] = None
+    return {
+        "summary": summary,
+        "samples": {"times": traj.times, "q": traj.q, "energy": energy, "max_penetration": penetration},
+    }
+
+
+@handle_errors
+def simulate_command(
+    scene: SceneArg,
+    model: ModelOpt = None,
+    stiffness: StiffnessOpt = None,
+    damping: DampingOpt = None,
+    dt: DtOpt = 1e-3,
+    duration: DurationOpt = 1.0,
+    inputs: InputOpt = None,
+    integrator: IntegratorOpt = "radau",
+    json: JsonOpt = False,
+    html: HtmlOpt = None,
+) -> None:
+    """Simulate a scene: contact events, energy and constraint drift over time."""
+    loaded = load_scene(scene)
+    chosen = model.value if model is not None else model_options(loaded).contact
+    if chosen == "rigid" and (stiffness is not None or damping is not None):
+        raise fail("--stiffness and --damping belong to the compliant model: add --model compliant")
+    assignments = parse_assignments(inputs)
+    with Console(stderr=True).status(f"simulating {duration:g} s on the {chosen} model..."):
+        if chosen == "rigid":
+            traj = simulate_rigid(loaded, assignments, duration, dt)
+        else:
+            traj = simulate_compliant(loaded, assignments, duration, dt, integrator=integrator,
+                                      stiffness=stiffness, damping=damping)
+    if html is not None:
+        from frcontrol.viz.meshcat_view import write_html
+
+        written = write_html(loaded, traj, html)
+        if not json:
+            console.print(f"wrote {written}")
+    payload = trajectory_payload(traj)
+    if json:
+        print_json(payload)
+    else:
+        render(payload)
+    failure = traj.info["failure"]
+    if failure is not None:
+        raise fail(f"the simulation stopped at t = {failure['time']:.6g} s: {failure['reason']}")
+
+
+def render(payload: dict[str, Any]) -> None:
+    """The summary as text and tables."""
+    s = payload["summary"]
+    console.print(f"[bold]{s['scene']}[/bold]: {s['model']} model, {s['duration']:.6g} s in {s['steps']} "
+                  f"steps ({s['wall_time']:.2f} s), status {s['status']}")
+    if s["armature"]["coordinates"]:
+        massless = ", ".join(s["armature"]["coordinates"])
+        console.print(f"armature {s['armature']['value']:g} on massless {massless}")
+    final = Table(title="final state")
+    for col in ("coordinate", "q", "v"):
+        final.add_column(col)
+    for i, name in enumerate(s["coordinates"]):
+        final.add_row(name, f"{s['final_q'][i]:.6g}", f"{s['final_v'][i]:.6g}")
+    console.print(final)
+    e = s["energy"]
+    console.print(f"energy: {e['initial']:.6g} J -> {e['final']:.6g} J (largest step increase "
+                  f"{e['largest_increase']:.3g} J); max penetration {s['max_penetration']:.3g} m")
+    if s["events"]:
+        events = Table(title=f"contact events ({len(s['events'])})")
+        for col in ("time [s]", "contact", "kind", "detail"):
+            events.add_column(col)
+        for ev in s["events"][:MAX_EVENTS_SHOWN]:
+            events.add_row(f"{ev['time']:.4f}", ev["contact"], ev["kind"], ev["detail"])
+        console.print(events)
+        if len(s["events"]) > MAX_EVENTS_SHOWN:
+            console.print(f"... {len(s['events']) - MAX_EVENTS_SHOWN} more (see --json)")
+    else:
+        console.print("no contact events")
