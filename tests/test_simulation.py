@@ -289,6 +289,11 @@ def test_callable_input_is_held_per_step_push_then_coast(write_scene):
     assert moving[-1] == pytest.approx(stop, abs=1e-3)
     assert traj.inputs.shape == (301, 3) and traj.inputs[k, 0] == 10.0 and traj.inputs[-1, 0] == 0.0
     assert {e.kind for e in traj.events} == {"slip", "stick"}
+    # the compliant model holds the callable's value over each sample interval too
+    compliant = simulate_compliant(scene, push, 0.3, 1e-3, stiffness=1e5)
+    assert compliant.v[k, 0] == pytest.approx(speed, rel=1e-4)
+    sticks = [e.time for e in compliant.events if e.kind == "stick"]
+    assert sticks and sticks[0] == pytest.approx(stop, abs=1e-4)
     by_name = simulate_rigid(scene, {"x": 10.0}, 0.01, 1e-3)
     by_vector = simulate_rigid(scene, [10.0, 0.0, 0.0], 0.01, 1e-3)
     np.testing.assert_array_equal(by_name.q, by_vector.q)

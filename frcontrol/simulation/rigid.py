@@ -30,10 +30,11 @@ h)`` (Cholesky solves, never an inverse) gives an LCP in ``z = (p_N, p_T^+, p_T^
 *Why an LCP and not a QP*: Anitescu's convex (QP/CCP) relaxation replaces the normal
 complementarity by ``J_N v+ >= -mu |J_T v+|``, so sliding bodies drift off their surface by
 ``mu |v_T| h`` per step; the box on a slope then would not slide on the slope. The LCP keeps
-Coulomb's law exact in the plane, and Lemke's method solves it (the matrix is copositive-plus
-for positive-definite ``M``; if it ever ends on a ray the step is retried with a tiny
-regularisation of ``W``, then by enumeration when small, else the simulation stops with
-``info["status"] = "failed"`` and the trajectory up to there).
+Coulomb's law exact in the plane, and Lemke's method solves it (Anitescu and Potra showed that
+this LCP always has a solution that Lemke's method finds, for positive-definite ``M``; should it
+ever end on a ray here, the step is retried with a tiny regularisation of ``W``, then by
+enumeration when small, else the simulation stops with ``info["status"] = "failed"`` and the
+trajectory up to there).
 
 Impacts are *inelastic* (restitution 0): a closing contact's normal velocity after the step is
 ``-phi~/h >= ...`` i.e. ~0, with the complementarity above; the kinetic energy of the approach is
@@ -51,7 +52,10 @@ contact has ``|v_N| <= AMBIGUITY_VELOCITY_TOLERANCE``, :func:`frcontrol.engine.s
 lists every rigid-body solution at that state and input (``info["ambiguity_checks"]``); when they
 hold two or more distinct motions, the event says which modes and which one the step took
 (``detail="modes FF, SS; the step took FF"``; modes with the same accelerations, differing only in
-indeterminate forces, are joined by ``=``).
+indeterminate forces, are joined by ``=``). The check uses the stepper's model: M with the
+armature, touching contacts' ``v_N`` set to 0 and ``|v_T| <= slip_velocity_tolerance`` set to 0.
+The step's mode is read from its impulses: S without load, else F if ``|v_T+|`` is within the slip
+tolerance, else R or L by the sign of ``v_T+``.
 """
 
 from __future__ import annotations
@@ -69,6 +73,7 @@ from ..modes import ContactProblem
 from ..scene import Scene
 from .options import (
     DEFAULT_ARMATURE,
+    Armature,
     InputSchedule,
     check_simulation_times,
     input_schedule,
@@ -475,7 +480,7 @@ def simulate_rigid(
 
 
 def _ambiguity_check(scene: Scene, q: np.ndarray, v: np.ndarray, u: np.ndarray, touching: list[int],
-                     arm, slip_tol: float, taken: str, t: float) -> dict:
+                     arm: Armature, slip_tol: float, taken: str, t: float) -> dict:
     """Every rigid solution at this state (touching contacts, v_N taken as 0), and the step's mode."""
     from ..engine import solutions_at  # the engine is heavy; import on first use
 
