@@ -79,7 +79,6 @@ def analysis_payload(result: DynamicResponse, inactive: list[str]) -> dict[str, 
             "inputs_full_dimensional": m.inputs_full_dimensional,
             "input_halfspaces": 0 if m.input_domain is None else int(m.input_domain.A.shape[0]),
             "overlaps": list(result.overlapping(m.mode)),
-            "unambiguous_pieces": len(result.unambiguous.get(m.mode, ())),
             "pruned": m.pruned,
         })
     return {
@@ -131,7 +130,8 @@ def render(payload: dict[str, Any]) -> None:
     )
     console.print(
         f"modes: {e['total']} in all, {e['pruned_velocity']} pruned by velocity, {e['evaluated']} evaluated, "
-        f"{e['feasible']} feasible; pruned: {e['pruned_freedom']} freedom, {e['pruned_infeasible']} infeasible"
+        f"{e['feasible']} feasible; pruned: {e['pruned_freedom']} freedom, "
+        f"{e['pruned_infeasible']} infeasible"
     )
     table = Table(title="feasible modes")
     for col in ("mode", "rank case", "w", "ambiguous", "full-dim", "half-spaces", "overlaps with"):

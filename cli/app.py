@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import typer
 
-from . import analyze_cmd, model_cmds
+from . import analyze_cmd, model_cmds, statics_cmd, view_cmd
 
 app = typer.Typer(
     name="frc",
@@ -16,6 +16,8 @@ app = typer.Typer(
 app.command("robots")(model_cmds.robots)
 app.command("show")(model_cmds.show)
 app.command("analyze")(analyze_cmd.analyze_command)
+app.command("statics")(statics_cmd.statics_command)
+app.command("view")(view_cmd.view_command)
 
 
 def main() -> None:

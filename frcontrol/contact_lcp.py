@@ -165,7 +165,9 @@ class LCPContactSolution:
     lcp: LCPSolution
 
 
-def solve_contact_lcp(problem: ContactProblem, u: np.ndarray, method: str = "lemke") -> LCPContactSolution | LCPSolution:
+def solve_contact_lcp(
+    problem: ContactProblem, u: np.ndarray, method: str = "lemke"
+) -> LCPContactSolution | LCPSolution:
     """One solution by Lemke's method (or the first of the enumeration).
 
     Returns the read-back solution, or the raw :class:`~frcontrol.lcp.LCPSolution` when none was

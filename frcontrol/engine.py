@@ -4,8 +4,14 @@
 
 1. Modes are grown contact by contact (depth first, letters in S, L, R, F order). Velocity pruning
    removes letters a contact's velocity forbids; a *partial* assignment (the first j contacts) is a
-   relaxation of every mode completing it, so when its equalities are inconsistent ("freedom") or
-   its domain is empty ("infeasible") the whole subtree is dropped without enumerating it.
+   relaxation of every mode completing it, so when it fails the test below the whole subtree is
+   dropped without enumerating it. One LP (:func:`motion_margin`) per assignment: is its domain
+   empty ("infeasible"), or can no solution of it move as the mode says ("freedom": its equalities
+   admit no solution, or every solution has a sliding contact with zero sliding acceleration or a
+   separating contact with zero normal acceleration, e.g. one rigid body sliding two contacts in
+   opposite directions)? A degenerate solution of that kind is also a solution of the mode with
+   those letters replaced (L, R -> F; S -> F, L or R), so nothing is lost: every rigid-body solution
+   is reported once, under the mode that describes its motion.
 2. Each surviving mode's affine response ``x = X_u u + X_w w + x_0`` on ``E u = e``
    (:mod:`frcontrol.response`).
 3. Its domain ``D_c = {(u, w): G (X_u u + X_w w + x_0) <= g, input limits, E u = e}`` in minimal
@@ -31,12 +37,24 @@ from .errors import InputError
 from .modes import ContactProblem, ModeSystem, build_mode_system, mode_outputs
 from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, solve_affine
 from .scene import Scene, parse_input_assignments
-from .solvers import DEFAULT_LP_SOLVER, solve_lp
+from .solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, solve_lp
 
 DOMAIN_TOLERANCE = 1e-7
 """Membership: an input (u, w) is in a domain if no normalised half-space of it is violated by
 more than this distance [units of u: N or N m]; also the radius below which a Chebyshev ball
 counts as empty interior."""
+
+
+ZERO_ROW_TOLERANCE = 1e-9
+"""A row of a domain whose coefficients' norm is at most this times the largest row norm is a
+constant row: it is judged by its right-hand side alone (normalising it would inflate round-off)."""
+
+
+def _row_norms(H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Row norms, and the mask of numerically constant rows (see :data:`ZERO_ROW_TOLERANCE`)."""
+    norms = np.sqrt(np.sum(H * H, axis=1))
+    constant = norms <= ZERO_ROW_TOLERANCE * max(1.0, float(np.max(norms, initial=0.0)))
+    return norms, constant
 
 
 @dataclass(frozen=True)
@@ -121,15 +139,19 @@ class Overlap:
 
 @dataclass(frozen=True)
 class DynamicResponse:
-    """The dynamic response of a scene at one state: every mode, its domain and the ambiguity."""
+    """The dynamic response of a scene at one state: every mode, its domain and the ambiguity.
+
+    Unambiguous sets are computed on demand (:meth:`unambiguous_set`) and cached.
+    """
 
     problem: ContactProblem
     modes: tuple[ModeAnalysis, ...]
     enumeration: Enumeration
     overlaps: tuple[Overlap, ...]
-    unambiguous: Mapping[str, tuple[poly.Polytope, ...]]
     timings: Mapping[str, float]
+    solver: str = DEFAULT_LP_SOLVER
     tolerances: Mapping[str, float] = field(default_factory=dict)
+    _unambiguous: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def feasible_modes(self) -> tuple[ModeAnalysis, ...]:
@@ -155,10 +177,32 @@ class DynamicResponse:
                 out.append(o.modes[1] if o.modes[0] == name else o.modes[0])
         return tuple(out)
 
+    def unambiguous_set(self, name: str) -> tuple[poly.Polytope, ...]:
+        """T_c of mode ``name`` minus every other mode's T_j, as closed convex pieces.
+
+        Lower-dimensional T_j remove nothing here (they have no volume): see
+        :meth:`lower_dimensional_modes` for the inputs where such a mode also holds.
+        """
+        if name not in self._unambiguous:
+            mode = self.mode(name)
+            if not mode.inputs_full_dimensional:
+                self._unambiguous[name] = ()
+            else:
+                others = [self.mode(other).input_domain for other in self.overlapping(name)]
+                self._unambiguous[name] = tuple(
+                    poly.set_difference(mode.input_domain, others, solver=self.solver))
+        return self._unambiguous[name]
+
+    def lower_dimensional_modes(self) -> tuple[ModeAnalysis, ...]:
+        """Feasible modes whose T_c has no interior (e.g. consistency conditions E u = e)."""
+        return tuple(m for m in self.feasible_modes if not m.inputs_full_dimensional)
+
 
 # ---------------------------------------------------------------------------- domain assembly
-def domain_polytope(problem: ContactProblem, system: ModeSystem, response: AffineSolution) -> poly.Polytope:
-    """D_c over z = (u, w): the mode's inequalities after substituting its response."""
+def domain_polytope(
+    problem: ContactProblem, system: ModeSystem, response: AffineSolution
+) -> tuple[poly.Polytope, np.ndarray]:
+    """D_c over z = (u, w) after substituting the mode's response, and its motion-row mask."""
     m, p = problem.m, response.ambiguity_dim
     G, g = system.G, system.g
     H = np.hstack([G @ response.X_u, G @ response.X_w])
@@ -166,8 +210,53 @@ def domain_polytope(problem: ContactProblem, system: ModeSystem, response: Affin
     C, d = problem.input_bound_rows()
     H = np.vstack([H, np.hstack([C, np.zeros((C.shape[0], p))])])
     h = np.concatenate([h, d])
+    motion = np.concatenate([system.motion, np.zeros(C.shape[0], dtype=bool)])
     A_eq = np.hstack([response.E, np.zeros((response.E.shape[0], p))])
-    return poly.Polytope(H.reshape(-1, m + p), h, A_eq.reshape(-1, m + p), response.e.copy())
+    return poly.Polytope(H.reshape(-1, m + p), h, A_eq.reshape(-1, m + p), response.e.copy()), motion
+
+
+def motion_margin(
+    H: np.ndarray,
+    h: np.ndarray,
+    motion: np.ndarray,
+    A_eq: np.ndarray,
+    b_eq: np.ndarray,
+    *,
+    solver: str = DEFAULT_LP_SOLVER,
+) -> tuple[str, np.ndarray | None]:
+    """Test ``{z: H z <= h, A_eq z = b_eq}`` and the strictness of its motion rows.
+
+    One LP: maximise ``t`` in [0, 1] subject to the rows, the motion rows tightened by ``t`` times
+    their norm (so t is a distance [units of z]). Returns ``("infeasible", None)`` if the set is
+    empty, ``("freedom", z)`` if no point satisfies every motion row strictly (t* <=
+    :data:`DOMAIN_TOLERANCE`; a motion row with zero coefficients counts by its constant), else
+    ``("ok", z)`` with a point whose motion margin is t*.
+    """
+    d = H.shape[1]
+    norms, zero = _row_norms(H)
+    constant = motion & zero
+    if np.any(h[constant] < -DOMAIN_TOLERANCE):
+        return "infeasible", None
+    degenerate_constant = bool(np.any(h[constant] <= DOMAIN_TOLERANCE))
+    tighten = np.where(motion & ~constant, norms, 0.0)
+    A_ub = np.hstack([H, tighten[:, None]])
+    c = np.zeros(d + 1)
+    c[-1] = -1.0
+    A = np.hstack([A_eq, np.zeros((A_eq.shape[0], 1))]) if A_eq.shape[0] else None
+    b = b_eq if A_eq.shape[0] else None
+    lb = np.full(d + 1, -np.inf)
+    ub = np.full(d + 1, np.inf)
+    lb[-1], ub[-1] = 0.0, 1.0
+    result = solve_lp(c, A_ub, h, A, b, lb, ub, solver=solver)
+    if result.status in ("error", "unbounded") and solver != REFERENCE_LP_SOLVER:
+        result = solve_lp(c, A_ub, h, A, b, lb, ub, solver=REFERENCE_LP_SOLVER)
+    if not result.found:
+        return "infeasible", None
+    z = result.x[:d]
+    has_motion = bool(np.any(motion & ~constant))
+    if degenerate_constant or (has_motion and result.x[-1] <= DOMAIN_TOLERANCE):
+        return "freedom", z
+    return "ok", z
 
 
 def _subtree_size(allowed: Sequence[str], depth: int) -> int:
@@ -202,8 +291,8 @@ def analyze(
         ImpactState: a contact moves into its surface.
         IllConditioned: a mode's system is too ill-conditioned to decide its rank.
     """
-    timings = {"model": 0.0, "response": 0.0, "domain": 0.0, "projection": 0.0,
-               "partial": 0.0, "ambiguity": 0.0}
+    timings = {"model": 0.0, "response": 0.0, "feasibility": 0.0, "domain": 0.0, "projection": 0.0,
+               "ambiguity": 0.0}
     start = time.perf_counter()
     problem = scene if isinstance(scene, ContactProblem) else ContactProblem.from_scene(scene)
     timings["model"] = time.perf_counter() - start
@@ -211,46 +300,46 @@ def analyze(
     counts = {"freedom": 0, "infeasible": 0, "partial": 0, "evaluated": 0}
     analyses: list[ModeAnalysis] = []
 
-    def evaluate(mode: str) -> None:
+    def test(mode: str) -> tuple[str, ModeSystem, AffineSolution, poly.Polytope | None]:
+        """Build and solve a (partial) mode: 'ok', 'freedom' or 'infeasible'."""
         t0 = time.perf_counter()
-        counts["evaluated"] += 1
-        if progress is not None:
-            progress(mode)
         system = build_mode_system(problem, mode)
         response = solve_affine(system.A, system.B, system.c, rank_tolerance=rank_tolerance,
                                 name=f"the system of mode {mode}")
         t1 = time.perf_counter()
         timings["response"] += t1 - t0
-        outputs = ambiguous_outputs(response, problem.n)
+        if not response.consistent:
+            return "freedom", system, response, None
+        domain, motion = domain_polytope(problem, system, response)
+        verdict, _ = motion_margin(domain.A, domain.b, motion, domain.A_eq, domain.b_eq, solver=solver)
+        timings["feasibility"] += time.perf_counter() - t1
+        return verdict, system, response, domain
 
-        def infeasible(reason: str) -> None:
-            counts[reason] += 1
+    def evaluate(mode: str) -> None:
+        counts["evaluated"] += 1
+        if progress is not None:
+            progress(mode)
+        verdict, system, response, domain = test(mode)
+        outputs = ambiguous_outputs(response, problem.n)
+        if verdict != "ok":
+            counts[verdict] += 1
             analyses.append(ModeAnalysis(
                 mode=mode, system=system, response=response, ambiguous_outputs=outputs,
                 feasible=False, full_dimensional=False, chebyshev_radius=0.0, domain=None,
-                input_domain=None, inputs_full_dimensional=False, pruned=reason))
-
-        if not response.consistent:
-            infeasible("freedom")
+                input_domain=None, inputs_full_dimensional=False, pruned=verdict))
             return
-        domain = domain_polytope(problem, system, response)
+        t0 = time.perf_counter()
         minimal = poly.minimal_representation(domain, solver=solver)
-        t2 = time.perf_counter()
-        timings["domain"] += t2 - t1
-        if poly.is_empty(minimal):
-            infeasible("infeasible")
-            return
         ball = poly.chebyshev_ball(minimal, solver=solver)
         full = bool(ball.found and ball.radius > DOMAIN_TOLERANCE and minimal.A_eq.shape[0] == 0)
-        t3 = time.perf_counter()
-        timings["domain"] += t3 - t2
+        t1 = time.perf_counter()
+        timings["domain"] += t1 - t0
         if response.ambiguity_dim:
-            inputs = poly.minimal_representation(
-                poly.project(minimal, range(problem.m)), solver=solver)
+            inputs = poly.project(minimal, range(problem.m), solver=solver)
+            input_ball = poly.chebyshev_ball(inputs, solver=solver)
         else:
-            inputs = minimal
-        input_ball = poly.chebyshev_ball(inputs, solver=solver)
-        timings["projection"] += time.perf_counter() - t3
+            inputs, input_ball = minimal, ball
+        timings["projection"] += time.perf_counter() - t1
         analyses.append(ModeAnalysis(
             mode=mode, system=system, response=response, ambiguous_outputs=outputs, feasible=True,
             full_dimensional=full, chebyshev_radius=float(ball.radius) if ball.found else 0.0,
@@ -258,21 +347,6 @@ def analyze(
             inputs_full_dimensional=bool(input_ball.found and input_ball.radius > DOMAIN_TOLERANCE
                                          and inputs.A_eq.shape[0] == 0),
         ))
-
-    def partial_feasible(prefix: str) -> str | None:
-        """None if the partial assignment may be completed, else why not."""
-        t0 = time.perf_counter()
-        counts["partial"] += 1
-        system = build_mode_system(problem, prefix)
-        response = solve_affine(system.A, system.B, system.c, rank_tolerance=rank_tolerance,
-                                name=f"the system of the partial mode {prefix}")
-        reason = None
-        if not response.consistent:
-            reason = "freedom"
-        elif poly.is_empty(domain_polytope(problem, system, response), solver=solver):
-            reason = "infeasible"
-        timings["partial"] += time.perf_counter() - t0
-        return reason
 
     def grow(prefix: str) -> None:
         depth = len(prefix)
@@ -282,9 +356,10 @@ def analyze(
         for letter in allowed[depth]:
             child = prefix + letter
             if prune_partial and depth + 1 < problem.k:
-                reason = partial_feasible(child)
-                if reason is not None:
-                    counts[reason] += _subtree_size(allowed, depth + 1)
+                counts["partial"] += 1
+                verdict = test(child)[0]
+                if verdict != "ok":
+                    counts[verdict] += _subtree_size(allowed, depth + 1)
                     continue
             grow(child)
 
@@ -297,40 +372,43 @@ def analyze(
         partial_checks=counts["partial"],
     )
     overlaps: list[Overlap] = []
-    unambiguous: dict[str, tuple[poly.Polytope, ...]] = {}
     if ambiguity:
         t0 = time.perf_counter()
-        overlaps, unambiguous = _ambiguity(feasible, solver)
+        overlaps = _overlaps(feasible, solver)
         timings["ambiguity"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - start
     return DynamicResponse(
         problem=problem, modes=tuple(analyses), enumeration=enumeration, overlaps=tuple(overlaps),
-        unambiguous=unambiguous, timings=timings,
+        timings=timings, solver=solver,
         tolerances={"rank": rank_tolerance, "domain": DOMAIN_TOLERANCE,
                     "velocity": problem.velocity_tolerance},
     )
 
 
-def _ambiguity(
-    feasible: Sequence[ModeAnalysis], solver: str
-) -> tuple[list[Overlap], dict[str, tuple[poly.Polytope, ...]]]:
-    """Pairwise interior overlaps of the T_c, and each mode's unambiguous pieces."""
+def _bounding_box(P: poly.Polytope, solver: str) -> tuple[np.ndarray, np.ndarray]:
+    """Coordinate bounds of a polytope (2 d support LPs)."""
+    eye = np.eye(P.dim)
+    upper = np.array([poly.support(P, eye[i], solver=solver) for i in range(P.dim)])
+    lower = -np.array([poly.support(P, -eye[i], solver=solver) for i in range(P.dim)])
+    return lower, upper
+
+
+def _overlaps(feasible: Sequence[ModeAnalysis], solver: str) -> list[Overlap]:
+    """Pairs of full-dimensional T_c whose interiors intersect (bounding boxes first)."""
     candidates = [a for a in feasible if a.inputs_full_dimensional]
+    boxes = [_bounding_box(a.input_domain, solver) for a in candidates]
     overlaps: list[Overlap] = []
-    partners: dict[str, list[poly.Polytope]] = {a.mode: [] for a in candidates}
     for i, a in enumerate(candidates):
-        for b in candidates[i + 1:]:
-            both = poly.intersect(a.input_domain, b.input_domain)
-            ball = poly.chebyshev_ball(both, solver=solver)
+        for j in range(i + 1, len(candidates)):
+            lo = np.maximum(boxes[i][0], boxes[j][0])
+            hi = np.minimum(boxes[i][1], boxes[j][1])
+            if np.any(hi - lo <= 2 * DOMAIN_TOLERANCE):
+                continue
+            b = candidates[j]
+            ball = poly.chebyshev_ball(poly.intersect(a.input_domain, b.input_domain), solver=solver)
             if ball.found and ball.radius > DOMAIN_TOLERANCE:
                 overlaps.append(Overlap((a.mode, b.mode), float(ball.radius), ball.center))
-                partners[a.mode].append(b.input_domain)
-                partners[b.mode].append(a.input_domain)
-    unambiguous = {
-        a.mode: tuple(poly.set_difference(a.input_domain, partners[a.mode], solver=solver))
-        for a in candidates
-    }
-    return overlaps, unambiguous
+    return overlaps
 
 
 # ---------------------------------------------------------------------------- one input
@@ -386,23 +464,57 @@ def _slice_in_w(system: ModeSystem, response: AffineSolution, u: np.ndarray) -> 
     H_u = G @ response.X_u
     H_w = G @ response.X_w
     h = system.g - G @ response.x_0 - H_u @ u
-    norms = np.sqrt(np.sum(H_u**2, axis=1) + np.sum(H_w**2, axis=1))
-    norms[norms == 0.0] = 1.0
-    return H_w / norms[:, None], h / norms
+    norms, constant = _row_norms(np.hstack([H_u, H_w]))
+    norms[constant] = 1.0
+    H_w = H_w / norms[:, None]
+    H_w[constant] = 0.0
+    return H_w, h / norms
 
 
-def _representative_w(H_w: np.ndarray, h_w: np.ndarray, solver: str) -> np.ndarray | None:
-    """A w inside the slice (its Chebyshev centre), or None if the slice is empty."""
+def _admissible_w(
+    system: ModeSystem, response: AffineSolution, u: np.ndarray, solver: str
+) -> np.ndarray | None:
+    """A representative w with (u, w) in the mode's domain, moving as the mode says; else None.
+
+    The representative is the Chebyshev centre of the admissible w (the most central internal
+    forces), or the motion LP's point when the admissible set has no interior.
+    """
+    if not response.consistent:
+        return None
+    if response.E.shape[0] and np.max(np.abs(response.E @ u - response.e)) > DOMAIN_TOLERANCE:
+        return None
+    H_w, h_w = _slice_in_w(system, response, u)
+    motion = system.motion
     p = H_w.shape[1]
     if p == 0:
-        return np.zeros(0) if np.all(h_w >= -DOMAIN_TOLERANCE) else None
-    ball = poly.chebyshev_ball(poly.Polytope(H_w, h_w + DOMAIN_TOLERANCE, np.zeros((0, p)), np.zeros(0)),
-                               solver=solver)
-    return ball.center if ball.found else None
+        if np.any(h_w[~motion] < -DOMAIN_TOLERANCE) or np.any(h_w[motion] <= DOMAIN_TOLERANCE):
+            return None
+        return np.zeros(0)
+    verdict, z = motion_margin(H_w, h_w + np.where(motion, 0.0, DOMAIN_TOLERANCE), motion,
+                               np.zeros((0, p)), np.zeros(0), solver=solver)
+    if verdict != "ok":
+        return None
+    ball = poly.chebyshev_ball(poly.Polytope(H_w, h_w + DOMAIN_TOLERANCE), solver=solver)
+    if ball.found and ball.radius > DOMAIN_TOLERANCE:
+        return ball.center
+    return z
+
+
+def _solution(problem: ContactProblem, system: ModeSystem, response: AffineSolution, u: np.ndarray,
+              w: np.ndarray) -> RigidSolution:
+    x = response.X_u @ u + response.X_w @ w + response.x_0
+    out = mode_outputs(problem, x)
+    return RigidSolution(
+        mode=system.mode, dv=out["dv"], lambda_n=out["lambda_n"], lambda_t=out["lambda_t"],
+        a_n=out["a_n"], a_t=out["a_t"], ambiguity_dim=response.ambiguity_dim,
+        ambiguous_outputs=ambiguous_outputs(response, problem.n), w=w,
+        equality_residual=float(np.max(np.abs(system.A @ x - system.B @ u - system.c), initial=0.0)),
+        inequality_violation=float(np.max(system.G @ x - system.g, initial=0.0)),
+    )
 
 
 def solutions_at(
-    scene: Scene | ContactProblem,
+    scene: Scene | ContactProblem | DynamicResponse,
     inputs: Mapping[str, float] | Sequence[float] | np.ndarray,
     *,
     solver: str = DEFAULT_LP_SOLVER,
@@ -410,26 +522,33 @@ def solutions_at(
 ) -> list[RigidSolution]:
     """Every rigid-body solution at one input: all modes whose domain holds it.
 
+    Each solution is reported once, under the mode that describes its motion (see
+    :func:`analyze` on degenerate modes).
+
     Args:
-        scene: a scene (at its state) or a prepared problem.
+        scene: a scene (at its state), a prepared problem, or a finished analysis (fastest: only
+            its feasible modes are tested).
         inputs: ``{name: value}`` (names not given are 0) or the full input vector.
+        solver: the LP back-end.
+        rank_tolerance: relative singular-value threshold of the rank decisions.
 
     Raises:
         CoordinateNotFound / InputError: unknown input names, wrong length, NaN, outside limits.
         ImpactState: a contact moves into its surface.
     """
+    if isinstance(scene, DynamicResponse):
+        problem = scene.problem
+        u = _input_vector(problem, None, inputs)
+        found = []
+        for mode in scene.feasible_modes:
+            w = _admissible_w(mode.system, mode.response, u, solver)
+            if w is not None:
+                found.append(_solution(problem, mode.system, mode.response, u, w))
+        return found
     problem = scene if isinstance(scene, ContactProblem) else ContactProblem.from_scene(scene)
     u = _input_vector(problem, scene if isinstance(scene, Scene) else None, inputs)
     allowed = problem.allowed_modes()
     found: list[RigidSolution] = []
-
-    def admissible(system: ModeSystem, response: AffineSolution) -> np.ndarray | None:
-        if not response.consistent:
-            return None
-        if response.E.shape[0] and np.max(np.abs(response.E @ u - response.e)) > DOMAIN_TOLERANCE:
-            return None
-        H_w, h_w = _slice_in_w(system, response, u)
-        return _representative_w(H_w, h_w, solver)
 
     def grow(prefix: str) -> None:
         depth = len(prefix)
@@ -438,34 +557,18 @@ def solutions_at(
             system = build_mode_system(problem, mode)
             response = solve_affine(system.A, system.B, system.c, rank_tolerance=rank_tolerance,
                                     name=f"the system of mode {mode}")
-            w = admissible(system, response)
+            w = _admissible_w(system, response, u, solver)
             if w is None:
                 continue
             if depth + 1 < problem.k:
                 grow(mode)
-                continue
-            x = response.X_u @ u + response.X_w @ w + response.x_0
-            out = mode_outputs(problem, x)
-            violation = system.G @ x - system.g
-            found.append(RigidSolution(
-                mode=mode, dv=out["dv"], lambda_n=out["lambda_n"], lambda_t=out["lambda_t"],
-                a_n=out["a_n"], a_t=out["a_t"], ambiguity_dim=response.ambiguity_dim,
-                ambiguous_outputs=ambiguous_outputs(response, problem.n), w=w,
-                equality_residual=float(np.max(np.abs(system.A @ x - system.B @ u - system.c),
-                                               initial=0.0)),
-                inequality_violation=float(np.max(violation, initial=0.0)),
-            ))
+            else:
+                found.append(_solution(problem, system, response, u, w))
 
     if problem.k == 0:
         system = build_mode_system(problem, "")
         response = solve_affine(system.A, system.B, system.c, rank_tolerance=rank_tolerance)
-        if admissible(system, response) is not None:
-            x = response.X_u @ u + response.x_0
-            out = mode_outputs(problem, x)
-            found.append(RigidSolution("", out["dv"], out["lambda_n"], out["lambda_t"], out["a_n"],
-                                       out["a_t"], response.ambiguity_dim,
-                                       ambiguous_outputs(response, problem.n), np.zeros(0),
-                                       float(np.max(np.abs(system.A @ x - system.B @ u - system.c))), 0.0))
-        return found
+        w = _admissible_w(system, response, u, solver)
+        return [] if w is None else [_solution(problem, system, response, u, w)]
     grow("")
     return found

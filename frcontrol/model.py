@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -140,6 +140,8 @@ class PlanarRobot:
         gravity: gravitational acceleration [m/s^2] along -y, >= 0.
         contacts: the contact points to evaluate; each becomes an operational frame of this
             object's own Pinocchio model.
+        locked: joints held at the given angle [rad] (or position [m]): they are welded into their
+            parent (Pinocchio's reduced model) and add no coordinate.
 
     Raises:
         RobotModelError: the URDF cannot be read, or is not planar.
@@ -152,6 +154,7 @@ class PlanarRobot:
         base: str = "planar",
         gravity: float = 9.81,
         contacts: Sequence[ContactPoint] = (),
+        locked: Mapping[str, float] | None = None,
     ) -> None:
         self.urdf_path = Path(urdf_path)
         if base not in ("planar", "fixed"):
@@ -186,6 +189,11 @@ class PlanarRobot:
                 model = pin.buildModelFromUrdf(str(self.urdf_path))
         except (ValueError, RuntimeError) as err:
             raise RobotModelError(str(urdf_path), f"Pinocchio cannot build the model: {err}") from err
+        locked = dict(locked or {})
+        if locked:
+            model = self._lock_joints(model, locked, [name for name, _, _ in joints])
+            joints = [j for j in joints if j[0] not in locked]
+        self.locked: dict[str, float] = locked
         model.gravity.linear[:] = [0.0, -float(gravity), 0.0]
         self.gravity = float(gravity)
 
@@ -244,6 +252,23 @@ class PlanarRobot:
         self.data = model.createData()
 
     # ------------------------------------------------------------------ construction helpers
+    def _lock_joints(self, model: pin.Model, locked: Mapping[str, float], names: Sequence[str]) -> pin.Model:
+        """The reduced model with the ``locked`` joints welded at their given values."""
+        unknown = [name for name in locked if name not in names]
+        if unknown:
+            raise RobotModelError(str(self.urdf_path), f"cannot lock unknown joint {unknown[0]!r}; "
+                                  f"the joints are: {', '.join(names)}")
+        reference = pin.neutral(model)
+        ids = []
+        for name, value in locked.items():
+            joint = model.joints[model.getJointId(name)]
+            if joint.nq == 2:
+                reference[joint.idx_q:joint.idx_q + 2] = [math.cos(value), math.sin(value)]
+            else:
+                reference[joint.idx_q] = value
+            ids.append(model.getJointId(name))
+        return pin.buildReducedModel(model, ids, reference)
+
     def _add_point_frame(self, model: pin.Model, name: str, link: str, point: np.ndarray) -> int:
         if link not in self.link_names:
             raise FrameNotFound(link, self.link_names)

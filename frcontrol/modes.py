@@ -163,7 +163,9 @@ class ModeSystem:
     """The linear system of one (possibly partial) contact mode: ``A x = B u + c``, ``G x <= g``.
 
     ``x = (dv, lam_N, lam_T)``. Rows of ``G`` carry a label each (``"tip: lam_N >= 0"``) so that
-    reports can say which physical condition bounds a domain.
+    reports can say which physical condition bounds a domain, and a flag ``motion``: True for the
+    rows that state the mode's motion (``a_N >= 0`` of S, ``a_T >= 0`` / ``<= 0`` of R / L), which
+    a non-degenerate solution of the mode satisfies strictly.
     """
 
     mode: str
@@ -173,6 +175,7 @@ class ModeSystem:
     G: np.ndarray
     g: np.ndarray
     labels: tuple[str, ...]
+    motion: np.ndarray
 
 
 def check_mode(problem: ContactProblem, mode: str, *, partial: bool = False) -> str:
@@ -207,6 +210,7 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
     ineq_rows: list[np.ndarray] = []
     ineq_rhs: list[float] = []
     labels: list[str] = []
+    motion: list[bool] = []
 
     def unit(index: int) -> np.ndarray:
         row = np.zeros(nx)
@@ -228,6 +232,7 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
                 ineq_rows.append(-accel_row(jn[i]))  # a_N >= 0
                 ineq_rhs.append(dn[i])
                 labels.append(f"{name}: a_N >= 0")
+                motion.append(True)
         else:
             normal = accel_row(jn[i])  # a_N = 0
             if letter == "F":
@@ -242,6 +247,7 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
             ineq_rows.append(-unit(i_n))
             ineq_rhs.append(0.0)
             labels.append(f"{name}: lam_N >= 0")
+            motion.append(False)
             if letter == "F":
                 cone_hi = unit(i_t)
                 cone_hi[i_n] = -mu
@@ -250,11 +256,13 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
                 ineq_rows += [cone_hi, cone_lo]
                 ineq_rhs += [0.0, 0.0]
                 labels += [f"{name}: lam_T <= mu lam_N", f"{name}: -lam_T <= mu lam_N"]
+                motion += [False, False]
             elif abs(problem.tangential_velocities[i]) <= tol:
                 sign = 1.0 if letter == "R" else -1.0  # R: a_T >= 0; L: a_T <= 0
                 ineq_rows.append(-sign * accel_row(jt[i]))
                 ineq_rhs.append(sign * dt[i])
                 labels.append(f"{name}: a_T {'>=' if letter == 'R' else '<='} 0")
+                motion.append(True)
         eq_rows.append(np.vstack(pair))
         eq_rhs.append(np.array(pair_rhs))
         eq_input.append(np.zeros((2, problem.m)))
@@ -269,6 +277,7 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
         G=G,
         g=np.array(ineq_rhs, dtype=float),
         labels=tuple(labels),
+        motion=np.array(motion, dtype=bool),
     )
 
 

@@ -113,7 +113,9 @@ def solve_affine(
     """Every solution of ``A x = B u + c`` as an affine map of (u, w), with its consistency set.
 
     Args:
-        A: (rows, nx); B: (rows, m); c: (rows,).
+        A: the system matrix, (rows, nx).
+        B: the input matrix, (rows, m).
+        c: the constant term, (rows,).
         rank_tolerance: relative singular-value threshold for the rank decision.
         name: what A is called in an :class:`IllConditioned` error.
 

@@ -32,7 +32,7 @@ DEFAULT_GRAVITY = 9.81
 """[m/s^2] Gravity along -y when the scene does not say."""
 
 KNOWN_TOP_LEVEL = {"name", "robot", "base", "gravity", "state", "contacts", "inputs", "gap_tolerance",
-                   "description", "model", "disturbances", "task"}
+                   "locked_joints", "description", "model", "disturbances", "task"}
 
 
 @dataclass(frozen=True)
@@ -261,6 +261,25 @@ def load_scene(path: str | Path, *, gap_tolerance: float | None = None) -> Scene
     if v.size != n:
         raise reader.fail("state.v", f"expected {n} numbers ({', '.join(coords)}), got {v.size}")
 
+    # Locked joints: held at their state value, welded into the model (no coordinate).
+    locked_names = raw.get("locked_joints", [])
+    if not isinstance(locked_names, list) or not all(isinstance(x, str) for x in locked_names):
+        raise reader.fail("locked_joints", f"expected a list of joint names from {list(bare.joint_names)}")
+    locked: dict[str, float] = {}
+    for i, joint in enumerate(locked_names):
+        if joint not in bare.joint_names:
+            raise reader.fail(f"locked_joints[{i}]", f"unknown joint {joint!r}; the joints are: "
+                              f"{', '.join(bare.joint_names)}")
+        j = coords.index(joint)
+        if v[j] != 0.0:
+            raise reader.fail("state.v", f"locked joint {joint!r} must have zero velocity, got {v[j]}")
+        locked[joint] = float(q[j])
+    if locked:
+        keep = [j for j, name in enumerate(coords) if name not in locked]
+        q, v = q[keep], v[keep]
+        bare = PlanarRobot(robot_file, base=base, gravity=gravity, locked=locked)
+        coords = bare.coordinate_names
+
     contact_tables = raw.get("contacts", [])
     if not isinstance(contact_tables, list):
         raise reader.fail("contacts", "expected an array of tables [[contacts]]")
@@ -298,7 +317,7 @@ def load_scene(path: str | Path, *, gap_tolerance: float | None = None) -> Scene
         pending_surface.append(not has_surface)
 
     # Surfaces not given pass through the contact point at the scene's state (gap 0).
-    robot = PlanarRobot(robot_file, base=base, gravity=gravity, contacts=points)
+    robot = PlanarRobot(robot_file, base=base, gravity=gravity, contacts=points, locked=locked)
     world = robot.contact_points_in_world(q)
     points = [
         ContactPoint(p.name, p.link, p.point_in_link, p.normal_in_world, world[i].copy(), p.mu)
@@ -318,11 +337,11 @@ def load_scene(path: str | Path, *, gap_tolerance: float | None = None) -> Scene
             )
         contacts.append(Contact(p, float(gap), bool(gap <= tol)))
 
-    inputs = _read_inputs(reader, raw.get("inputs"), coords)
+    inputs = _read_inputs(reader, raw.get("inputs"), coords, locked)
     return Scene(scene_path, name, robot, q, v, tuple(contacts), inputs, tol, raw)
 
 
-def _read_inputs(reader: _Reader, table: Any, coords: Sequence[str]) -> Inputs:
+def _read_inputs(reader: _Reader, table: Any, coords: Sequence[str], locked: Mapping[str, float]) -> Inputs:
     if table is None:
         return Inputs((), (), np.zeros(0), np.zeros(0))
     if not isinstance(table, dict):
@@ -332,6 +351,9 @@ def _read_inputs(reader: _Reader, table: Any, coords: Sequence[str]) -> Inputs:
         raise reader.fail("inputs.coordinates", f"expected a list of coordinate names from {list(coords)}")
     indices = []
     for i, s in enumerate(names):
+        if s in locked:
+            raise reader.fail(f"inputs.coordinates[{i}]", f"joint {s!r} is locked (locked_joints): "
+                              "it cannot take an input")
         if s not in coords:
             raise reader.fail(f"inputs.coordinates[{i}]",
                               f"unknown coordinate {s!r}; the coordinates are: {', '.join(coords)}")

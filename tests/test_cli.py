@@ -28,13 +28,15 @@ def test_show_json_contract():
     result = runner.invoke(app, ["show", "rhex_flip", "--json"])
     assert result.exit_code == 0, result.stderr
     doc = json.loads(result.stdout)
-    assert doc["coordinates"] == ["x", "y", "theta", "hip_front", "hip_middle", "hip_rear"]
+    # hip_front is locked in this scene: no coordinate
+    assert doc["coordinates"] == ["x", "y", "theta", "hip_middle", "hip_rear"]
     mass = np.array(doc["mass_matrix"])
-    assert mass.shape == (6, 6) and len(doc["bias"]) == 6
+    assert mass.shape == (5, 5) and len(doc["bias"]) == 5
     scene = load_scene("rhex_flip")
-    state = scene.state()
+    state = scene.robot.state(scene.q, scene.v)  # every contact, the inactive front toe too
     np.testing.assert_allclose(mass, state.mass_matrix)
     assert list(doc["contacts"]) == [c.name for c in scene.contacts]
+    assert [c["active"] for c in doc["contacts"].values()] == [True, True, False, True, True]
     for i, c in enumerate(doc["contacts"].values()):
         assert set(c) >= {"gap", "v_n", "v_t", "jacobian_n", "jacobian_t"}
         np.testing.assert_allclose(c["jacobian_n"], state.jacobian_normal[i])

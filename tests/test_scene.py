@@ -128,3 +128,40 @@ def test_fixed_base_scene(write_scene):
     assert scene.coordinate_names[0] == "j1" and len(scene.q) == 8
     assert np.all(np.isinf(scene.inputs.upper))
     np.testing.assert_array_equal(scene.inputs.selection_transpose(8)[[0, 7], [0, 1]], 1.0)
+
+
+def rhex_scene(**overrides):
+    scene = {
+        "robot": "rhex_planar.urdf",
+        "state": {"q": [0.0, 0.3, 0.0, 0.1, 0.2, 0.3]},
+        "locked_joints": ["hip_front"],
+        "contacts": [{"name": "toe", "link": "leg_rear", "point": [0.0, -0.17], "normal": [0.0, 1.0],
+                      "mu": 0.5}],
+        "inputs": {"coordinates": ["hip_rear"]},
+    }
+    scene.update(overrides)
+    return scene
+
+
+def test_locked_joints_add_no_coordinate_and_keep_the_kinematics(write_scene):
+    locked = load_scene(write_scene(rhex_scene()))
+    free = load_scene(write_scene(rhex_scene(locked_joints=[])))
+    assert locked.coordinate_names == ("x", "y", "theta", "hip_middle", "hip_rear")
+    np.testing.assert_array_equal(locked.q, [0.0, 0.3, 0.0, 0.2, 0.3])
+    a, b = locked.state(), free.state()
+    np.testing.assert_allclose(a.contact_points, b.contact_points, atol=1e-14)
+    keep = [0, 1, 2, 4, 5]
+    np.testing.assert_allclose(a.jacobian_normal, b.jacobian_normal[:, keep], atol=1e-14)
+
+
+@pytest.mark.parametrize("overrides, field, reason", [
+    ({"locked_joints": ["hip_side"]}, "locked_joints[0]", "unknown joint"),
+    ({"locked_joints": "hip_front"}, "locked_joints", "expected a list"),
+    ({"inputs": {"coordinates": ["hip_front"]}}, "inputs.coordinates[0]", "locked"),
+    ({"state": {"q": [0.0, 0.3, 0.0, 0.1, 0.2, 0.3], "v": [0.0, 0.0, 0.0, 1.0, 0.0, 0.0]}}, "state.v",
+     "zero velocity"),
+])
+def test_bad_locked_joints(write_scene, overrides, field, reason):
+    with pytest.raises(SceneError) as info:
+        load_scene(write_scene(rhex_scene(**overrides)))
+    assert info.value.field == field and reason in info.value.reason

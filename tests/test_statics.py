@@ -154,7 +154,7 @@ def test_a_locked_robot_is_one_body_with_pinocchios_mass_and_centre_of_mass():
     com = pin.centerOfMass(model, data, scene.robot.pinocchio_q_from_minimal(scene.q))[:2]
     np.testing.assert_allclose(body.com, com, atol=1e-12)
     # five contacts on flat ground, all able to carry force: the force set has dimension 2k - 3
-    assert static_equilibrium(body, force_ranges=False).dimension == 2 * 5 - 3
+    assert static_equilibrium(body, force_ranges=False).dimension == 2 * len(body.contact_names) - 3
 
 
 # ---------------------------------------------------------------------------------------------
@@ -568,8 +568,11 @@ def test_rod_jammed_between_walls_is_weakly_but_never_strongly_stable(write_scen
     inside = load_scene(write_scene(jammed_rod(limit * 0.98, mu)))
     report = analyze_statics(inside, force_ranges=False)
     assert report.weakly_stable and report.equilibrium.exists and not report.strongly_stable
-    falls = [s for s in report.strong.solutions if s.mode == "SS"]
-    assert falls and falls[0].max_abs_dv == pytest.approx(G)
+    # free fall straight down between vertical walls: zero normal acceleration and zero force, so
+    # the engine names it by its motion: sliding along both walls (R on the left wall, whose
+    # tangent points down; L on the right one)
+    falls = [s for s in report.strong.solutions if not s.at_rest]
+    assert falls and falls[0].max_abs_dv == pytest.approx(G) and falls[0].mode == "RL"
     assert any(s.at_rest for s in report.strong.solutions)  # and it may stay
     outside = load_scene(write_scene(jammed_rod(limit * 1.02, mu)))
     assert not weak_stability(outside).weakly_stable

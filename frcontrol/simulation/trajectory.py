@@ -9,8 +9,11 @@ import numpy as np
 
 @dataclass(frozen=True)
 class ContactEvent:
-    """Something that happened at a contact: ``kind`` is ``"open"``, ``"close"``, ``"impact"``,
-    ``"stick"``, ``"slip"`` or ``"ambiguous"`` (several rigid solutions existed at that instant)."""
+    """Something that happened at a contact.
+
+    ``kind`` is ``"open"``, ``"close"``, ``"impact"``, ``"stick"``, ``"slip"`` or ``"ambiguous"``
+    (several rigid solutions existed at that instant).
+    """
 
     time: float
     contact: str

@@ -1,0 +1,1 @@
+"""Planners on the mode-domain engine: the RHex flip and the snake climb."""
