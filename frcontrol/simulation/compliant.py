@@ -24,6 +24,10 @@ the right-hand side is Lipschitz in the tangential state; an open contact (``L =
 stretch to 0 at the rate ``k_T / b_T`` (the "reset"). ``b_T > 0`` is required (with ``b_T = 0`` the
 slider's rate is undefined: an index-2 problem).
 
+Impacts are not inelastic here: a Kelvin–Voigt contact lets go while still compressed (its force
+reaches 0 with ``k delta = -b d delta/dt``), so even critical damping returns some speed (a box
+dropped flat at 1.98 m/s leaves at 0.37 m/s with zeta = 1), unlike the rigid model's restitution 0.
+
 Dynamics (M with the armature of massless coordinates, see :mod:`.options`)::
 
     M(q) dv/dt = S^T u - h(q, v) + J_N^T lam_N + J_T^T lam_T,     dq/dt = v
