@@ -29,6 +29,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -63,17 +64,23 @@ class ModeAnalysis:
 
     Attributes:
         mode: one letter per active contact.
-        response: the affine response (None if never computed).
+        system: the mode's linear system (equalities and inequalities over x).
+        response: the affine response.
         ambiguous_outputs: ``"none"``, ``"forces"`` or ``"accelerations"``.
-        feasible: D_c is non-empty.
+        feasible: D_c is non-empty (and some solution moves as the mode says).
         full_dimensional: D_c has an interior in (u, w) space (no consistency equalities and a
             Chebyshev radius above :data:`DOMAIN_TOLERANCE`).
-        chebyshev_radius: the radius of D_c's Chebyshev ball within its affine hull.
+        chebyshev_radius: the radius of D_c's Chebyshev ball within its affine hull (capped at
+            :data:`frcontrol.polytope.CHEBYSHEV_RADIUS_CAP`).
         domain: D_c over (u, w), minimal (None if infeasible).
-        input_domain: T_c over u, minimal (None if infeasible).
         inputs_full_dimensional: T_c has an interior in input space.
         pruned: why an infeasible mode is infeasible: ``"freedom"`` (its equalities admit no
-            solution for any input) or ``"infeasible"`` (its domain is empty); None if feasible.
+            solution, or no solution moves as the mode says) or ``"infeasible"`` (its domain is
+            empty); None if feasible.
+        m: the number of inputs (the first m coordinates of D_c).
+
+    ``input_domain`` (T_c, the projection of D_c onto the inputs, minimal) is computed on first
+    use and cached: projection is the costliest stage and most questions do not need it.
     """
 
     mode: str
@@ -84,9 +91,11 @@ class ModeAnalysis:
     full_dimensional: bool
     chebyshev_radius: float
     domain: poly.Polytope | None
-    input_domain: poly.Polytope | None
     inputs_full_dimensional: bool
     pruned: str | None = None
+    m: int = 0
+    solver: str = DEFAULT_LP_SOLVER
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def ambiguity_dim(self) -> int:
@@ -97,6 +106,21 @@ class ModeAnalysis:
     def halfspaces(self) -> int:
         """Half-spaces of D_c's minimal representation (0 if infeasible)."""
         return 0 if self.domain is None else int(self.domain.A.shape[0])
+
+    @property
+    def input_domain(self) -> poly.Polytope | None:
+        """T_c: the inputs u for which some w puts (u, w) in D_c (minimal; None if infeasible)."""
+        if self.domain is None:
+            return None
+        if "input_domain" not in self._cache:
+            t0 = time.perf_counter()
+            if self.ambiguity_dim:
+                projected = poly.project(self.domain, range(self.m), solver=self.solver)
+            else:
+                projected = self.domain
+            self._cache["input_domain"] = projected
+            self._cache["projection_time"] = time.perf_counter() - t0
+        return self._cache["input_domain"]
 
 
 @dataclass(frozen=True)
@@ -223,14 +247,16 @@ def motion_margin(
     b_eq: np.ndarray,
     *,
     solver: str = DEFAULT_LP_SOLVER,
-) -> tuple[str, np.ndarray | None]:
+    return_margin: bool = False,
+) -> tuple[str, Any]:
     """Test ``{z: H z <= h, A_eq z = b_eq}`` and the strictness of its motion rows.
 
     One LP: maximise ``t`` in [0, 1] subject to the rows, the motion rows tightened by ``t`` times
     their norm (so t is a distance [units of z]). Returns ``("infeasible", None)`` if the set is
     empty, ``("freedom", z)`` if no point satisfies every motion row strictly (t* <=
     :data:`DOMAIN_TOLERANCE`; a motion row with zero coefficients counts by its constant), else
-    ``("ok", z)`` with a point whose motion margin is t*.
+    ``("ok", z)`` with a point whose motion margin is t*. With ``return_margin`` the second item
+    is ``(t*, z)``.
     """
     d = H.shape[1]
     norms, zero = _row_norms(H)
@@ -253,10 +279,11 @@ def motion_margin(
     if not result.found:
         return "infeasible", None
     z = result.x[:d]
+    out = (float(result.x[-1]), z) if return_margin else z
     has_motion = bool(np.any(motion & ~constant))
     if degenerate_constant or (has_motion and result.x[-1] <= DOMAIN_TOLERANCE):
-        return "freedom", z
-    return "ok", z
+        return "freedom", out
+    return "ok", out
 
 
 def _subtree_size(allowed: Sequence[str], depth: int) -> int:
@@ -326,27 +353,26 @@ def analyze(
             analyses.append(ModeAnalysis(
                 mode=mode, system=system, response=response, ambiguous_outputs=outputs,
                 feasible=False, full_dimensional=False, chebyshev_radius=0.0, domain=None,
-                input_domain=None, inputs_full_dimensional=False, pruned=verdict))
+                inputs_full_dimensional=False, pruned=verdict, m=problem.m, solver=solver))
             return
         t0 = time.perf_counter()
         minimal = poly.minimal_representation(domain, solver=solver)
         ball = poly.chebyshev_ball(minimal, solver=solver)
         full = bool(ball.found and ball.radius > DOMAIN_TOLERANCE and minimal.A_eq.shape[0] == 0)
-        t1 = time.perf_counter()
-        timings["domain"] += t1 - t0
-        if response.ambiguity_dim:
-            inputs = poly.project(minimal, range(problem.m), solver=solver)
-            input_ball = poly.chebyshev_ball(inputs, solver=solver)
-        else:
-            inputs, input_ball = minimal, ball
-        timings["projection"] += time.perf_counter() - t1
-        analyses.append(ModeAnalysis(
+        timings["domain"] += time.perf_counter() - t0
+        analysis = ModeAnalysis(
             mode=mode, system=system, response=response, ambiguous_outputs=outputs, feasible=True,
             full_dimensional=full, chebyshev_radius=float(ball.radius) if ball.found else 0.0,
-            domain=minimal, input_domain=inputs,
-            inputs_full_dimensional=bool(input_ball.found and input_ball.radius > DOMAIN_TOLERANCE
-                                         and inputs.A_eq.shape[0] == 0),
-        ))
+            domain=minimal, inputs_full_dimensional=full, m=problem.m, solver=solver,
+        )
+        if not full and minimal.A_eq.shape[0] == 0 and response.ambiguity_dim:
+            # D_c flat in (u, w) without input equalities: its projection may still have volume
+            t1 = time.perf_counter()
+            input_ball = poly.chebyshev_ball(analysis.input_domain, solver=solver)
+            timings["projection"] += time.perf_counter() - t1
+            object.__setattr__(analysis, "inputs_full_dimensional",
+                               bool(input_ball.found and input_ball.radius > DOMAIN_TOLERANCE))
+        analyses.append(analysis)
 
     def grow(prefix: str) -> None:
         depth = len(prefix)
@@ -385,18 +411,52 @@ def analyze(
     )
 
 
-def _bounding_box(P: poly.Polytope, solver: str) -> tuple[np.ndarray, np.ndarray]:
-    """Coordinate bounds of a polytope (2 d support LPs)."""
-    eye = np.eye(P.dim)
-    upper = np.array([poly.support(P, eye[i], solver=solver) for i in range(P.dim)])
-    lower = -np.array([poly.support(P, -eye[i], solver=solver) for i in range(P.dim)])
+def _input_rows(mode: ModeAnalysis) -> tuple[np.ndarray, np.ndarray, int]:
+    """Rows (H, h) over (u, w) whose projection is T_c with an interior.
+
+    D_c itself when it is full-dimensional, else T_c (projected) with no w.
+    """
+    if mode.full_dimensional:
+        return mode.domain.A, mode.domain.b, mode.ambiguity_dim
+    return mode.input_domain.A, mode.input_domain.b, 0
+
+
+def _input_box(mode: ModeAnalysis, solver: str) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of T_c per input: support LPs on D_c in the input directions (no projection)."""
+    H, h, p = _input_rows(mode)
+    P = poly.Polytope(H, h)
+    eye = np.eye(mode.m + p)[: mode.m]
+    upper = np.array([poly.support(P, eye[i], solver=solver) for i in range(mode.m)])
+    lower = -np.array([poly.support(P, -eye[i], solver=solver) for i in range(mode.m)])
     return lower, upper
+
+
+def _interiors_meet(a: ModeAnalysis, b: ModeAnalysis, solver: str) -> tuple[float, np.ndarray | None]:
+    """Whether int(T_a) and int(T_b) meet: one LP in the lifted space (u, w_a, w_b).
+
+    maximise t <= 1 s.t. every row of D_a and of D_b tightened by t times its norm. For
+    full-dimensional D, int(T) is the projection of int(D), so t* > 0 iff the interiors meet; t* is
+    a lower bound of the radius of a ball of inputs in both. Returns (t*, a common input).
+    """
+    Ha, ha, pa = _input_rows(a)
+    Hb, hb, pb = _input_rows(b)
+    m = a.m
+    rows_a = np.hstack([Ha[:, :m], Ha[:, m:], np.zeros((Ha.shape[0], pb))])
+    rows_b = np.hstack([Hb[:, :m], np.zeros((Hb.shape[0], pa)), Hb[:, m:]])
+    H = np.vstack([rows_a, rows_b])
+    h = np.concatenate([ha, hb])
+    verdict, z = motion_margin(H, h, np.ones(H.shape[0], dtype=bool), np.zeros((0, H.shape[1])),
+                               np.zeros(0), solver=solver, return_margin=True)
+    if verdict == "infeasible":
+        return 0.0, None
+    margin, point = z
+    return margin, point[:m]
 
 
 def _overlaps(feasible: Sequence[ModeAnalysis], solver: str) -> list[Overlap]:
     """Pairs of full-dimensional T_c whose interiors intersect (bounding boxes first)."""
     candidates = [a for a in feasible if a.inputs_full_dimensional]
-    boxes = [_bounding_box(a.input_domain, solver) for a in candidates]
+    boxes = [_input_box(a, solver) for a in candidates]
     overlaps: list[Overlap] = []
     for i, a in enumerate(candidates):
         for j in range(i + 1, len(candidates)):
@@ -405,9 +465,9 @@ def _overlaps(feasible: Sequence[ModeAnalysis], solver: str) -> list[Overlap]:
             if np.any(hi - lo <= 2 * DOMAIN_TOLERANCE):
                 continue
             b = candidates[j]
-            ball = poly.chebyshev_ball(poly.intersect(a.input_domain, b.input_domain), solver=solver)
-            if ball.found and ball.radius > DOMAIN_TOLERANCE:
-                overlaps.append(Overlap((a.mode, b.mode), float(ball.radius), ball.center))
+            margin, center = _interiors_meet(a, b, solver)
+            if margin > DOMAIN_TOLERANCE:
+                overlaps.append(Overlap((a.mode, b.mode), float(margin), center))
     return overlaps
 
 

@@ -250,6 +250,7 @@ class PlanarRobot:
         ).reshape(-1, 2)
         self.model = model
         self.data = model.createData()
+        self._upper_indices = np.triu_indices(self.nv, 1)
 
     # ------------------------------------------------------------------ construction helpers
     def _lock_joints(self, model: pin.Model, locked: Mapping[str, float], names: Sequence[str]) -> pin.Model:
@@ -340,7 +341,7 @@ class PlanarRobot:
         return self._symmetric_minimal(self.data.M)
 
     def _symmetric_minimal(self, upper: np.ndarray) -> np.ndarray:
-        iu = np.triu_indices(self.nv, 1)
+        iu = self._upper_indices
         full = upper.copy()
         full[(iu[1], iu[0])] = upper[iu]
         if self._identity_order:
