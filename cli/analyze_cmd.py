@@ -10,7 +10,10 @@ from rich.table import Table
 
 from frcontrol.engine import DynamicResponse, RigidSolution, analyze, solutions_at
 from frcontrol.errors import InputError
+from frcontrol.modes import ContactProblem
+from frcontrol.stability import stability_of
 from frcontrol.scene import load_scene
+from frcontrol.scene import parse_input_assignments as parse_input_vector
 
 from .common import console, handle_errors, print_json
 from .model_cmds import JsonOpt, SceneArg
@@ -42,8 +45,10 @@ def parse_assignments(pairs: list[str] | None) -> dict[str, float]:
     return out
 
 
-def solution_payload(solution: RigidSolution, contacts: tuple[str, ...]) -> dict[str, Any]:
-    """One rigid-body solution as JSON."""
+def solution_payload(solution: RigidSolution, problem: ContactProblem) -> dict[str, Any]:
+    """One rigid-body solution as JSON, with its singular-perturbation stability."""
+    contacts = problem.contacts
+    stability = stability_of(problem, solution)
     return {
         "mode": solution.mode,
         "dv": solution.dv,
@@ -56,6 +61,8 @@ def solution_payload(solution: RigidSolution, contacts: tuple[str, ...]) -> dict
         "ambiguous_outputs": solution.ambiguous_outputs,
         "w": solution.w,
         "equality_residual": solution.equality_residual,
+        "stable": stability.stable,
+        "stability_reason": stability.reason,
     }
 
 
@@ -110,11 +117,11 @@ def analyze_command(
     progress_console = Console(stderr=True)
     with progress_console.status("analysing contact modes...") as status:
         result = analyze(loaded, progress=lambda mode: status.update(f"analysing mode {mode}"))
-        solutions = solutions_at(loaded, assignments) if inputs else None
+        solutions = solutions_at(result, parse_input_vector(loaded, assignments)) if inputs else None
     inactive = [c.name for c in loaded.contacts if not c.active]
     payload = analysis_payload(result, inactive)
     if solutions is not None:
-        payload["solutions"] = [solution_payload(s, result.problem.contacts) for s in solutions]
+        payload["solutions"] = [solution_payload(s, result.problem) for s in solutions]
     if json:
         print_json(payload)
         return
@@ -145,13 +152,14 @@ def render(payload: dict[str, Any]) -> None:
     console.print(table)
     if "solutions" in payload:
         sols = Table(title="rigid-body solutions at the input")
-        for col in ("mode", "dv", "lambda_n", "lambda_t", "w"):
+        for col in ("mode", "dv", "lambda_n", "lambda_t", "w", "stable"):
             sols.add_column(col)
         for s in payload["solutions"]:
             cs = s["contacts"].values()
             sols.add_row(s["mode"], " ".join(f"{x:.4g}" for x in s["dv"]),
                          " ".join(f"{c['lambda_n']:.4g}" for c in cs),
-                         " ".join(f"{c['lambda_t']:.4g}" for c in cs), str(s["ambiguity_dim"]))
+                         " ".join(f"{c['lambda_t']:.4g}" for c in cs), str(s["ambiguity_dim"]),
+                         {True: "stable", False: "unstable", None: "not analysable"}[s["stable"]])
         console.print(sols if payload["solutions"] else "no rigid-body solution at this input")
     t = payload["timings"]
     console.print(f"time: {1e3 * t['total']:.1f} ms")

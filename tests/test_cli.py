@@ -36,7 +36,7 @@ def test_show_json_contract():
     state = scene.robot.state(scene.q, scene.v)  # every contact, the inactive front toe too
     np.testing.assert_allclose(mass, state.mass_matrix)
     assert list(doc["contacts"]) == [c.name for c in scene.contacts]
-    assert [c["active"] for c in doc["contacts"].values()] == [True, True, False, True, True]
+    assert [c["active"] for c in doc["contacts"].values()] == [True, False, False, True, True]
     for i, c in enumerate(doc["contacts"].values()):
         assert set(c) >= {"gap", "v_n", "v_t", "jacobian_n", "jacobian_t"}
         np.testing.assert_allclose(c["jacobian_n"], state.jacobian_normal[i])
@@ -70,3 +70,34 @@ def test_missing_file_and_malformed_toml(write_scene, tmp_path):
     result = runner.invoke(app, ["show", str(write_scene("robot = [\n"))])
     assert result.exit_code == 1 and "malformed TOML" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_analyze_json_contract():
+    result = runner.invoke(app, ["analyze", "rod_on_table", "--json", "--input", "y=-2.0"])
+    assert result.exit_code == 0, result.stderr
+    doc = json.loads(result.stdout)
+    assert doc["coordinates"] == ["x", "y", "theta"] and doc["contacts"] == ["tip"]
+    modes = {m["mode"]: m for m in doc["modes"]}
+    assert set(modes) == set("SLRF")
+    for m in modes.values():
+        assert set(m) >= {"mode", "feasible", "full_dimensional", "ambiguity_dim", "ambiguous_outputs",
+                          "halfspaces"}
+        assert m["ambiguous_outputs"] in ("none", "forces", "accelerations")
+    (sol,) = doc["solutions"]
+    assert sol["mode"] == "F" and len(sol["dv"]) == 3
+    assert set(sol["contacts"]["tip"]) >= {"lambda_n", "lambda_t", "a_n", "a_t"}
+    assert sol["ambiguity_dim"] == 0 and sol["stable"] in (True, False, None)
+    assert set(doc["timings"]) >= {"total", "response", "domain"}
+    # without inputs there are no solutions
+    doc = json.loads(runner.invoke(app, ["analyze", "rod_on_table", "--json"]).stdout)
+    assert "solutions" not in doc
+
+
+def test_analyze_table_and_bad_inputs():
+    result = runner.invoke(app, ["analyze", "table_on_ground", "--input", "x=5"])
+    assert result.exit_code == 0 and "FF" in result.stdout
+    for args, message in ((["--input", "phi=1"], "unknown coordinate"), (["--input", "x"], "NAME=VALUE"),
+                          (["--input", "x=abc"], "not a number"), (["--input", "x=1e9"], "outside")):
+        result = runner.invoke(app, ["analyze", "table_on_ground", *args])
+        assert result.exit_code == 1, args
+        assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1
