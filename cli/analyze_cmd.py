@@ -11,9 +11,9 @@ from rich.table import Table
 from frcontrol.engine import DynamicResponse, RigidSolution, analyze, solutions_at
 from frcontrol.errors import InputError
 from frcontrol.modes import ContactProblem
-from frcontrol.stability import stability_of
 from frcontrol.scene import load_scene
 from frcontrol.scene import parse_input_assignments as parse_input_vector
+from frcontrol.stability import stability_of
 
 from .common import console, handle_errors, print_json
 from .model_cmds import JsonOpt, SceneArg

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -128,6 +128,24 @@ class Scene:
     def active_indices(self) -> tuple[int, ...]:
         """Indices (into ``contacts``) of the active contacts."""
         return tuple(i for i, c in enumerate(self.contacts) if c.active)
+
+    def at(self, q: np.ndarray, v: np.ndarray | None = None) -> Scene:
+        """The same scene at another state: gaps and activity recomputed (e.g. along a simulation).
+
+        A contact is active when its gap is at most the tolerance (a penetration, which a time
+        stepper may leave, counts as touching rather than as an error here).
+
+        Raises:
+            InputError: q or v has the wrong length or a non-finite entry.
+        """
+        q, v = self.robot.check_state(q, v)
+        points = self.robot.contact_points_in_world(q)
+        contacts = []
+        for contact, point in zip(self.contacts, points, strict=True):
+            p = contact.point
+            gap = float(p.normal_in_world @ (point - p.surface_point_in_world))
+            contacts.append(Contact(p, gap, gap <= self.gap_tolerance))
+        return replace(self, q=q, v=v, contacts=tuple(contacts))
 
     def state(self, q: np.ndarray | None = None, v: np.ndarray | None = None) -> RobotState:
         """The robot state with the active contacts' kinematics (default: the scene's state)."""

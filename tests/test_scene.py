@@ -165,3 +165,14 @@ def test_bad_locked_joints(write_scene, overrides, field, reason):
     with pytest.raises(SceneError) as info:
         load_scene(write_scene(rhex_scene(**overrides)))
     assert info.value.field == field and reason in info.value.reason
+
+
+def test_scene_at_another_state_recomputes_activity():
+    scene = load_scene("rhex_flip")
+    assert [c.active for c in scene.contacts] == [True, False, False, True, True]
+    lifted = scene.at(scene.q + np.array([0.0, 0.01, 0.0, 0.0, 0.0]))
+    assert [c.active for c in lifted.contacts] == [False] * 5
+    np.testing.assert_allclose([c.gap for c in lifted.contacts],
+                               [c.gap + 0.01 for c in scene.contacts], atol=1e-12)
+    with pytest.raises(InputError, match="entries"):
+        scene.at(np.zeros(3))
