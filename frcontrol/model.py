@@ -251,6 +251,7 @@ class PlanarRobot:
         self.model = model
         self.data = model.createData()
         self._upper_indices = np.triu_indices(self.nv, 1)
+        self._layouts: dict = {}  # contact subsets -> (frames, normals, tangents, surface points)
 
     # ------------------------------------------------------------------ construction helpers
     def _lock_joints(self, model: pin.Model, locked: Mapping[str, float], names: Sequence[str]) -> pin.Model:
@@ -284,6 +285,7 @@ class PlanarRobot:
     def set_surface_points(self, surface_points: Sequence[np.ndarray]) -> None:
         """Set the surface point [m] of every contact line (the scene loader's gap-0 default)."""
         self._surface_points = np.array(surface_points, dtype=float).reshape(-1, 2)
+        self._layouts = {}
         self.contacts = tuple(
             ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world, s.copy(), c.mu)
             for c, s in zip(self.contacts, self._surface_points, strict=True)
@@ -365,39 +367,46 @@ class PlanarRobot:
         # at (q, v, a = 0), from which the frames' classical accelerations are the drifts.
         pin.computeAllTerms(model, data, q_pin, v_pin)
         mass = self._symmetric_minimal(data.M)
-        bias = data.nle if self._identity_order else data.nle[self._v_index]
-        indices = range(len(self.contacts)) if contacts is None else contacts
-        k = len(indices)
-        n = self.nv
+        bias = data.nle.copy() if self._identity_order else data.nle[self._v_index]
+        key = None if contacts is None else tuple(contacts)
+        layout = self._layouts.get(key)
+        if layout is None:
+            indices = tuple(range(len(self.contacts))) if key is None else key
+            idx = np.array(indices, dtype=int)
+            layout = (
+                tuple(self._contact_frames[i] for i in indices),
+                self._normals[idx], self._tangents[idx], self._surface_points[idx],
+            )
+            self._layouts[key] = layout
+        frames, normals, tangents, surfaces = layout
+        k, n = len(frames), self.nv
         points = np.empty((k, 2))
         jac = np.empty((k, 2, n))
         drift = np.empty((k, 2))
         lwa = pin.LOCAL_WORLD_ALIGNED
-        for row, i in enumerate(indices):
-            fid = self._contact_frames[i]
-            placement = pin.updateFramePlacement(model, data, fid)
-            points[row] = placement.translation[:2]
+        for row, fid in enumerate(frames):
+            points[row] = pin.updateFramePlacement(model, data, fid).translation[:2]
             jac[row] = pin.getFrameJacobian(model, data, fid, lwa)[:2]
             drift[row] = pin.getFrameClassicalAcceleration(model, data, fid, lwa).linear[:2]
         if not self._identity_order:
             jac = jac[:, :, self._v_index]
-        idx = np.fromiter(indices, dtype=int, count=k)
-        normals, tangents = self._normals[idx], self._tangents[idx]
-        jn = np.einsum("kj,kjn->kn", normals, jac)
-        jt = np.einsum("kj,kjn->kn", tangents, jac)
+        # project on the contact frames: rows n^T J and t^T J, drifts n^T a and t^T a
+        jn = normals[:, 0:1] * jac[:, 0] + normals[:, 1:2] * jac[:, 1]
+        jt = tangents[:, 0:1] * jac[:, 0] + tangents[:, 1:2] * jac[:, 1]
+        rel = points - surfaces
         return RobotState(
             q=q,
             v=v,
             mass_matrix=mass,
-            bias=np.array(bias, copy=True),
+            bias=bias,
             contact_points=points,
-            gaps=np.einsum("kj,kj->k", normals, points - self._surface_points[idx]),
+            gaps=normals[:, 0] * rel[:, 0] + normals[:, 1] * rel[:, 1],
             normal_velocities=jn @ v,
             tangential_velocities=jt @ v,
             jacobian_normal=jn,
             jacobian_tangent=jt,
-            drift_normal=np.einsum("kj,kj->k", normals, drift),
-            drift_tangent=np.einsum("kj,kj->k", tangents, drift),
+            drift_normal=normals[:, 0] * drift[:, 0] + normals[:, 1] * drift[:, 1],
+            drift_tangent=tangents[:, 0] * drift[:, 0] + tangents[:, 1] * drift[:, 1],
         )
 
     def contact_points_in_world(self, q: np.ndarray) -> np.ndarray:

@@ -7,8 +7,9 @@ A :class:`Polytope` is the set
     P = \{x \in \mathbb{R}^d : A x \le b,\ A_{eq} x = b_{eq}\},
 
 bounded or not (the name is kept for brevity: every function here works on polyhedra, and says so
-where boundedness matters). Every LP goes through the door :func:`frcontrol.solvers.solve_lp`,
-by default with DAQP; an LP on which the chosen back-end fails (``"error"``) or that it calls
+where boundedness matters). Every LP goes through the door (its internal path
+:func:`frcontrol.solvers.solve_lp_prepared`, which skips re-validating arrays built here but keeps
+the residual check), by default with DAQP; an LP on which the chosen back-end fails (``"error"``) or that it calls
 unbounded is solved again by a second back-end (HiGHS, or DAQP when HiGHS was chosen), and
 :class:`~frcontrol.solvers.SolverFailed` is raised only when neither gives a usable answer.
 
@@ -43,7 +44,7 @@ from frcontrol.solvers import (
     REFERENCE_LP_SOLVER,
     LPResult,
     SolverFailed,
-    solve_lp,
+    solve_lp_prepared,
 )
 
 try:  # daqp.minrep exists in daqp >= 0.5 (checked: 0.11); the module works without it
@@ -267,14 +268,14 @@ def _lp(
     Raises:
         SolverFailed: no usable answer from either back-end.
     """
-    result = solve_lp(c, A_ub, b_ub, solver=solver, **kwargs)
+    result = solve_lp_prepared(c, A_ub, b_ub, solver=solver, **kwargs)
     if result.status in ("optimal", "infeasible"):
         return result
     first = result
     statuses = {solver: result.raw_status}
     second = REFERENCE_LP_SOLVER if solver != REFERENCE_LP_SOLVER else DEFAULT_LP_SOLVER
     if second != solver:
-        result = solve_lp(c, A_ub, b_ub, solver=second, **kwargs)
+        result = solve_lp_prepared(c, A_ub, b_ub, solver=second, **kwargs)
         statuses[second] = result.raw_status
     for candidate in (result, first):
         if candidate.status in ("optimal", "infeasible"):

@@ -469,7 +469,7 @@ def test_lp_second_opinion_on_a_false_unbounded(monkeypatch):
     """An 'unbounded' from the default back-end is checked with HiGHS (DAQP 0.11 gave one)."""
     import frcontrol.polytope as polytope_module
 
-    real = polytope_module.solve_lp
+    real = polytope_module.solve_lp_prepared
 
     def pessimist(*args, solver, **kwargs):
         result = real(*args, solver=solver, **kwargs)
@@ -477,7 +477,7 @@ def test_lp_second_opinion_on_a_false_unbounded(monkeypatch):
             return dataclasses.replace(result, found=False, status="unbounded", x=None)
         return result
 
-    monkeypatch.setattr(polytope_module, "solve_lp", pessimist)
+    monkeypatch.setattr(polytope_module, "solve_lp_prepared", pessimist)
     box = Polytope.from_box([0.0, 0.0], [0.4, 1.0])
     assert support(box, [1.0, 1.0]) == pytest.approx(1.4)
     assert chebyshev_ball(box).radius == pytest.approx(0.2)

@@ -55,6 +55,7 @@ __all__ = [
     "available_solvers",
     "primal_residual",
     "solve_lp",
+    "solve_lp_prepared",
     "solve_qp",
 ]
 
@@ -270,7 +271,7 @@ def primal_residual(problem: LinearProgram, x: np.ndarray) -> float:
 def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
     rhs = np.concatenate([problem.b_ub, problem.b_eq, problem.lb, problem.ub])
     np.abs(rhs, out=rhs)
-    scale = 1.0 + float(rhs[rhs < np.inf].max(initial=0.0))
+    scale = 1.0 + float(np.max(rhs, initial=0.0, where=rhs < np.inf))
     if x is not None:
         for A in (problem.A_ub, problem.A_eq):
             if A.shape[0]:
@@ -371,6 +372,44 @@ def solve_lp(
     """
     adapter = _adapter(_LP_SOLVERS, solver)
     problem = _validate_lp(c, A_ub, b_ub, A_eq, b_eq, lb, ub)
+    start = time.perf_counter()
+    raw = _bounds_crossed(problem) or adapter(problem, **options)
+    elapsed = time.perf_counter() - start
+    return _finish(LPResult, problem, raw, solver, elapsed, None)
+
+
+def solve_lp_prepared(
+    c: np.ndarray,
+    A_ub: np.ndarray | None = None,
+    b_ub: np.ndarray | None = None,
+    A_eq: np.ndarray | None = None,
+    b_eq: np.ndarray | None = None,
+    lb: np.ndarray | None = None,
+    ub: np.ndarray | None = None,
+    *,
+    solver: str = DEFAULT_LP_SOLVER,
+    **options: Any,
+) -> LPResult:
+    """:func:`solve_lp` for arrays frcontrol built itself, without re-validating them.
+
+    The caller guarantees float64 arrays of consistent shapes with no NaN (bounds may be
+    infinite); they are made C-contiguous (DAQP needs it) but not checked. Everything after the
+    back-end's answer is the door's usual work: the primal residual is computed and an "optimal"
+    answer above :data:`FEASIBILITY_TOLERANCE` is rejected. Internal hot paths (domains,
+    projections, overlaps) use this; user-facing calls go through :func:`solve_lp`.
+    """
+    adapter = _adapter(_LP_SOLVERS, solver)
+    n = c.shape[0]
+    contiguous = np.ascontiguousarray
+    problem = LinearProgram(
+        contiguous(c),
+        contiguous(A_ub) if A_ub is not None else np.zeros((0, n)),
+        contiguous(b_ub) if b_ub is not None else np.zeros(0),
+        contiguous(A_eq) if A_eq is not None else np.zeros((0, n)),
+        contiguous(b_eq) if b_eq is not None else np.zeros(0),
+        contiguous(lb) if lb is not None else np.full(n, -np.inf),
+        contiguous(ub) if ub is not None else np.full(n, np.inf),
+    )
     start = time.perf_counter()
     raw = _bounds_crossed(problem) or adapter(problem, **options)
     elapsed = time.perf_counter() - start
