@@ -34,10 +34,10 @@ from typing import Any
 import numpy as np
 
 from . import polytope as poly
-from .errors import InputError
+from .errors import CoordinateNotFound, InputError
 from .modes import ContactProblem, ModeSystem, build_mode_system, mode_outputs
 from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, solve_affine
-from .scene import Scene, parse_input_assignments
+from .scene import Scene
 from .solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, solve_lp_prepared
 
 DOMAIN_TOLERANCE = 1e-7
@@ -501,20 +501,27 @@ class RigidSolution:
     inequality_violation: float
 
 
-def _input_vector(problem: ContactProblem, scene: Scene | None, inputs) -> np.ndarray:
+def _input_vector(problem: ContactProblem, inputs: Mapping[str, float] | Sequence[float] | np.ndarray
+                  ) -> np.ndarray:
+    """The input vector from ``{name: value}`` (others 0) or a full vector, checked against limits."""
     if isinstance(inputs, Mapping):
-        if scene is None:
-            raise InputError("named inputs need a scene; pass an input vector instead")
-        return parse_input_assignments(scene, inputs)
-    u = np.asarray(inputs, dtype=float).reshape(-1)
-    if u.shape != (problem.m,):
-        raise InputError(f"the input vector has {u.size} entries; the scene has {problem.m} inputs "
-                         f"({', '.join(problem.inputs)})")
+        u = np.zeros(problem.m)
+        for name, value in inputs.items():
+            if name not in problem.inputs:
+                raise CoordinateNotFound(name, problem.inputs)
+            u[problem.inputs.index(name)] = float(value)
+    else:
+        u = np.asarray(inputs, dtype=float).reshape(-1)
+        if u.shape != (problem.m,):
+            raise InputError(f"the input vector has {u.size} entries; the scene has {problem.m} inputs "
+                             f"({', '.join(problem.inputs)})")
     if not np.all(np.isfinite(u)):
-        raise InputError(f"the input vector has a NaN or infinite entry: {u.tolist()}")
-    if np.any(u < problem.lower - DOMAIN_TOLERANCE) or np.any(u > problem.upper + DOMAIN_TOLERANCE):
-        raise InputError(f"the input {u.tolist()} is outside the limits [{problem.lower.tolist()}, "
-                         f"{problem.upper.tolist()}]")
+        raise InputError(f"the input has a NaN or infinite entry: {u.tolist()}")
+    bad = np.nonzero((u < problem.lower - DOMAIN_TOLERANCE) | (u > problem.upper + DOMAIN_TOLERANCE))[0]
+    if bad.size:
+        j = int(bad[0])
+        raise InputError(f"input {problem.inputs[j]!r} = {u[j]:g} is outside its limits "
+                         f"[{problem.lower[j]:g}, {problem.upper[j]:g}]")
     return u
 
 
@@ -598,7 +605,7 @@ def solutions_at(
     """
     if isinstance(scene, DynamicResponse):
         problem = scene.problem
-        u = _input_vector(problem, None, inputs)
+        u = _input_vector(problem, inputs)
         found = []
         for mode in scene.feasible_modes:
             w = _admissible_w(mode.system, mode.response, u, solver)
@@ -606,7 +613,7 @@ def solutions_at(
                 found.append(_solution(problem, mode.system, mode.response, u, w))
         return found
     problem = scene if isinstance(scene, ContactProblem) else ContactProblem.from_scene(scene)
-    u = _input_vector(problem, scene if isinstance(scene, Scene) else None, inputs)
+    u = _input_vector(problem, inputs)
     allowed = problem.allowed_modes()
     found: list[RigidSolution] = []
 
