@@ -1,0 +1,212 @@
+"""``frc climb``: torques that hold a snake's brace in mode F for every disturbance of a polytope."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from frcontrol.planning.climb import (
+    DEFAULT_DURATION,
+    DEFAULT_MARGIN,
+    ClimbPlan,
+    ClimbResult,
+    plan_climb,
+    simulate_climb,
+)
+from frcontrol.scene import load_scene
+
+from .common import console, fail, handle_errors, print_json
+from .model_cmds import JsonOpt
+
+ClimbSceneArg = Annotated[
+    str, typer.Argument(help="A scene file with \\[\\[disturbances]], or the name of a shipped scene.")
+]
+HtmlOpt = Annotated[
+    Path | None,
+    typer.Option("--html", metavar="FILE",
+                 help="Write a self-contained HTML page (meshcat) replaying the simulated climb."),
+]
+ViewOpt = Annotated[
+    bool,
+    typer.Option("--view", help="Replay the simulated climb on a local meshcat server and print its URL; "
+                 "wait for Enter or Ctrl-C (when stdin is not a terminal, return at once)."),
+]
+PortOpt = Annotated[
+    int | None,
+    typer.Option("--port", min=1, max=65535,
+                 help="Port of the --view server (default: the first free port from 7000)."),
+]
+PlotOpt = Annotated[
+    Path | None,
+    typer.Option("--plot", metavar="FILE", help="Write, per disturbance, its polytope, the largest scale "
+                 "found and the robust region at the planned torques (PNG, or PDF/SVG by suffix)."),
+]
+MarginOpt = Annotated[
+    float,
+    typer.Option("--margin", min=0.0,
+                 help="Required robustness radius \\[N m or N] in the lifted (u, d) space."),
+]
+DurationOpt = Annotated[
+    float,
+    typer.Option("--duration", min=0.0, help="Simulated time \\[s] of the check under sampled disturbances."),
+]
+SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of the sampled disturbances.")]
+
+
+def _number(x: float) -> float | None:
+    """A finite float, or None (JSON has no infinity or NaN)."""
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def climb_payload(plan: ClimbPlan, result: ClimbResult | None) -> dict[str, Any]:
+    """The ``frc climb --json`` document.
+
+    ``mode``, ``torques``, ``max_disturbance_scale``, ``robust`` and ``simulation`` (``brace_held``,
+    ``max_slip``, ``upper_rise``) are the contract; the rest reports how the plan was found.
+    """
+    closest = plan.closest_mode
+    payload: dict[str, Any] = {
+        "found": plan.found,
+        "mode": plan.mode,
+        "torques": dict(plan.torques),
+        "max_disturbance_scale": plan.max_disturbance_scale,
+        "robust": plan.robust,
+        "simulation": None,
+        "scale": plan.scale,
+        "nominal_feasible": plan.nominal_feasible,
+        "scale_bracket": list(plan.scale_bracket),
+        "scale_bound": plan.scale_bound,
+        "scale_capped": plan.scale_capped,
+        "max_scale_torques": dict(plan.max_scale_torques),
+        "margin": plan.margin,
+        "robustness_radius": _number(plan.robustness_radius),
+        "head_acceleration": _number(plan.head_acceleration),
+        "head_sideways_acceleration": _number(plan.head_sideways_acceleration),
+        "worst_head_acceleration": _number(plan.worst_head_acceleration),
+        "min_head_acceleration": plan.min_head_acceleration,
+        "free_accelerations": dict(plan.free_accelerations),
+        "closest_mode": (None if closest is None
+                         else {"mode": closest.mode, "margin": _number(closest.margin)}),
+        "modes_excluded": sum(not e.held for e in plan.exclusions),
+        "pieces": plan.pieces,
+        "bisection": [[s, ok] for s, ok in plan.bisection],
+        "disturbances": [
+            {"name": d.name, "link": d.link, "point": d.point_in_link, "vertices": d.vertices}
+            for d in plan.disturbances.items
+        ],
+        "reason": plan.reason,
+        "solver": plan.solver,
+        "timings": dict(plan.timings),
+        "tolerances": dict(plan.tolerances),
+    }
+    if result is not None:
+        payload["simulation"] = {
+            "brace_held": result.brace_held,
+            "max_slip": result.max_slip,
+            "upper_rise": result.upper_rise,
+            "max_upper_rise": result.max_upper_rise,
+            "max_opening": result.max_opening,
+            "duration": result.duration,
+            "seed": result.seed,
+            "status": result.status,
+            "slip_tolerance": result.slip_tolerance,
+            "brace_events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
+                             for e in result.brace_events],
+        }
+    return payload
+
+
+@handle_errors
+def climb_command(
+    scene: ClimbSceneArg = "snake_climb",
+    json: JsonOpt = False,
+    html: HtmlOpt = None,
+    view: ViewOpt = False,
+    port: PortOpt = None,
+    plot: PlotOpt = None,
+    margin: MarginOpt = DEFAULT_MARGIN,
+    duration: DurationOpt = DEFAULT_DURATION,
+    seed: SeedOpt = 0,
+) -> None:
+    """Plan the snake climb: torques holding the brace in mode F for every disturbance.
+
+    One set of joint torques keeps the brace contacts sticking, unambiguously, for every
+    disturbance of the scene's polytope while the head accelerates upward; also the largest
+    disturbance scale for which such torques exist, and a simulation under sampled disturbances.
+    """
+    if port is not None and not view:
+        raise fail("--port needs --view")
+    loaded = load_scene(scene)
+    status_console = Console(stderr=True)
+    with status_console.status("planning the climb..."):
+        plan = plan_climb(loaded, margin=margin)
+    if not plan.found:
+        if json:
+            print_json(climb_payload(plan, None))
+        raise fail(f"{loaded.path}: no climb plan: {plan.reason}")
+    with status_console.status("simulating the climb..."):
+        result = simulate_climb(loaded, plan, duration=duration, seed=seed) if duration > 0 else None
+    payload = climb_payload(plan, result)
+    if json:
+        print_json(payload)
+    else:
+        render(payload)
+    note = sys.stderr.write if json else (lambda text: typer.echo(text, nl=False))
+    if plot is not None:
+        from frcontrol.planning.climb import plot_climb
+
+        plot_climb(plan, plot)
+        note(f"wrote {plot}\n")
+    trajectory = None if result is None else result.trajectory
+    if html is not None:
+        from frcontrol.viz.meshcat_view import write_html
+
+        note(f"wrote {write_html(loaded, trajectory, html)}\n")
+    if view:
+        from frcontrol.viz.meshcat_view import serve, stop_server
+
+        url = serve(loaded, trajectory, port)
+        note(f"meshcat viewer: {url}\n")
+        if not sys.stdin.isatty():
+            return
+        try:
+            input("press Enter (or Ctrl-C) to stop the viewer ")
+        except (KeyboardInterrupt, EOFError):
+            typer.echo("")
+        finally:
+            stop_server(url)
+
+
+def render(payload: dict[str, Any]) -> None:
+    """The plan as rich text and a table."""
+    console.print(f"mode {payload['mode']} at the zero disturbance; robust: "
+                  f"{'yes' if payload['robust'] else 'NO'} ({payload['reason']})")
+    table = Table(title=f"joint torques [N m] (scale {payload['scale']:.4g})")
+    for name in payload["torques"]:
+        table.add_column(name)
+    table.add_row(*[f"{x:.{3}f}" for x in payload["torques"].values()])
+    console.print(table)
+    console.print(f"largest disturbance scale: {payload['max_disturbance_scale']:.4g} "
+                  f"(bracket {payload['scale_bracket'][0]:.4g} .. {payload['scale_bracket'][1]:.4g}, "
+                  f"{len(payload['bisection'])} LP step(s))")
+    closest = payload["closest_mode"]
+    console.print(f"robustness radius {payload['robustness_radius']:.4g} (margin {payload['margin']:g}); "
+                  f"other modes excluded: {payload['modes_excluded']}"
+                  + (f", closest {closest['mode']} at {closest['margin']:.4g}" if closest and
+                     closest["margin"] is not None else ""))
+    console.print(f"head acceleration {payload['head_acceleration']:.4g} m/s^2 up at the zero disturbance, "
+                  f">= {payload['worst_head_acceleration']:.4g} over the polytope "
+                  f"(required {payload['min_head_acceleration']:g})")
+    sim = payload["simulation"]
+    if sim is not None:
+        console.print(f"simulation ({sim['duration']:g} s, rigid, sampled disturbances): brace "
+                      f"{'held' if sim['brace_held'] else 'NOT held'}; max slip {sim['max_slip']:.3g} m; "
+                      f"head rise {sim['upper_rise']:.4g} m (max {sim['max_upper_rise']:.4g} m)")
+    console.print(f"time: {1e3 * payload['timings']['total']:.1f} ms")

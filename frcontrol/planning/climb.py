@@ -1,0 +1,1464 @@
+r"""The snake climb: one set of joint torques that holds a brace in mode F for every disturbance.
+
+The task (METHOD §6; Greenfield's talk, slides 23-25): a planar snake braces its lower part in a
+vertical channel at three contacts. Find joint torques ``u`` such that, for every disturbance
+force ``d`` in a given polytope, the only rigid-body solution is the brace sticking (mode ``FFF``:
+one ``F`` per brace contact) while the upper part accelerates upward; report the largest
+disturbance scale for which such torques exist.
+
+Disturbances (the ``[[disturbances]]`` tables of a scene)
+---------------------------------------------------------
+This format is a contract::
+
+    [[disturbances]]
+    name = "head_push"        # unique; components are named "head_push.fx", "head_push.fy"
+    link = "link8"            # a URDF link
+    point = [0.2, 0.0]        # [m] point of application, in that link's frame
+    lower = [-3.0, -3.0]      # [N] a box of forces (fx, fy), world frame ...
+    upper = [3.0, 3.0]
+    # vertices = [[fx, fy], ...]   # [N] ... or a convex polygon (its convex hull is taken:
+    #                              # one point, a segment or a polygon), world frame
+
+Give either ``lower`` and ``upper`` or ``vertices``. The disturbance polytope ``P`` is the product
+of the tables' polygons. A force ``d_i`` at point ``p_i`` enters the dynamics as ``J_i^T d_i``
+with ``J_i`` the point's linear Jacobian (2 x n, world x-y). Bad tables raise
+:class:`~frcontrol.errors.SceneError` naming the field: missing, empty (``lower > upper``, no
+vertex), unbounded (an infinite bound), NaN, unknown link or key, a duplicate name.
+
+The ``[task]`` table (all optional)::
+
+    [task]
+    brace_contacts = ["tail", "tip", "top"]   # must be exactly the active contacts (default)
+    head_link = "link8"                        # the point whose upward acceleration is required
+    head_point = [0.2, 0.0]                    # [m] in head_link's frame (default: the origin)
+    min_head_acceleration = 1.0                # [m/s^2] a_min (default DEFAULT_MIN_HEAD_ACCELERATION)
+
+Without ``head_link`` the last link of the URDF is used.
+
+The lifted problem
+------------------
+Disturbances act like extra inputs: the *augmented* contact problem has the inputs ``z = (u, d)``
+and the input map ``[S^T, J_d^T]`` (:func:`augmented_problem`). Mode ``FFF`` of it has the affine
+response ``x = X z + x_0`` (unique: six brace rows on six brace coordinates set the squeeze;
+a brace mode with ambiguity variables or consistency conditions is refused, see below) and the
+domain ``T_F = {z : G (X z + x_0) <= g}`` (forces: ``lam_N >= 0``, friction cones), a polytope of
+``(u, d)``. The head's vertical acceleration is affine too: ``a_y(z) = c^T z + c_0``.
+
+Robustness, exactly
+-------------------
+Let ``V_s`` be the vertices of ``s P`` together with the zero disturbance (the nominal; it is
+added only when ``0`` is not in ``P``), so that the robust set ``conv(V_s)`` grows with ``s``.
+
+1. *Membership.* ``T_F`` is convex, so ``(u, d) in T_F`` for every ``d in conv(V_s)`` iff it
+   holds at every point of ``V_s`` (vertex enumeration is exact).
+2. *No other mode.* Being outside every other mode's domain at the vertices does not exclude it in
+   between. The unambiguous set of ``FFF`` in the lifted space, ``U = T_F minus the union of
+   every other T_j`` (:meth:`~frcontrol.engine.DynamicResponse.unambiguous_set` of the
+   augmented analysis), is a union of convex pieces ``Q_k``; ``u`` is accepted when
+   ``{u} x conv(V_s)`` lies in one piece, i.e. (again by convexity) when every ``(u, v)``,
+   ``v in V_s``, is in ``Q_k``: one LP per piece (the robust counterpart). The pieces are
+   computed in a box of disturbances that contains every ``s P`` the bisection visits.
+3. *Verification.* For the chosen ``u`` and every other mode ``j`` (all 4^k - 1 letter strings,
+   not only those feasible in the box), one LP decides whether *some* ``d in conv(V_s)`` and some
+   ``w`` put ``(u, d, w)`` in ``D_j`` with the engine's membership rule (the mode's force rows
+   within :data:`~frcontrol.engine.DOMAIN_TOLERANCE`, its motion rows strictly, by more than that
+   tolerance, and its consistency rows): maximise ``t`` subject to those rows, the motion rows
+   tightened by ``t``. The mode holds somewhere iff ``t* > DOMAIN_TOLERANCE``
+   (:func:`mode_exclusions`). A candidate that fails counts as infeasible. This also catches
+   lower-dimensional modes, which a set difference cannot remove.
+
+So a plan reported ``robust`` gives, at every ``d in conv(V_s)``, exactly one rigid-body solution,
+``FFF``, in :func:`~frcontrol.engine.solutions_at` of the augmented problem.
+
+Margin and objective
+--------------------
+Rows are normalised by their norm over ``z = (u, d)``, so slacks are distances [N m or N] in the
+lifted space. The plan at scale ``s`` on a piece ``Q_k = {z : A z <= b}`` must satisfy, for every
+``v in V_s``:
+
+- ``A (u, v) + t |A| <= b`` with ``t >= margin`` (the torque limits are rows of ``Q_k`` and
+  shrink by ``t`` too; the box in which the pieces were computed does not). ``t`` is the
+  *robustness radius*: every ``(u', d')`` within ``t`` of some ``(u, v)`` stays in the piece;
+- ``a_y(u, v) >= a_min + margin |c|``: the head rises, with the same kind of margin;
+- ``a_x(u, 0) = 0``: at the nominal (zero) disturbance the head accelerates *straight* up.
+
+Among those torques, two LPs choose (objective, in this order):
+
+1. *gentlest*: minimise ``alpha = sum_f |ddq_f(u, 0)|``, the 1-norm of the nominal accelerations
+   of the *free* coordinates, those that no brace contact row involves (the upper body: j4..j8 on
+   the snake);
+2. *most robust*: maximise ``t`` keeping ``alpha <= (1 + ACCELERATION_SLACK) alpha*`` (plus
+   :data:`ACCELERATION_FLOOR`): the squeeze of the brace joints is then as robust as it gets.
+
+Why not simply "most robust" or "fastest head": the plan is one constant torque vector, valid at
+the instant, and the upper chain is a multi-link inverted pendulum. The brace carries the upper
+part's reaction, so torques that whip the upper body (which those objectives pick: the reaction of
+an accelerating upper body presses the top contact, and in the snake's state, with links 5-8
+vertical above j5, the head's vertical acceleration needs large joint accelerations) change the
+brace's load within milliseconds; a sideways head acceleration topples the column. With the
+conditions and objectives above the simulated brace holds (see :func:`simulate_climb`); without
+``a_x = 0`` it slips within 0.1 s.
+
+The torques are rounded to ``decimals`` (the printed values) and the rounded torques are verified
+again by 1-3 above (``robust``): rounding moves ``u`` by at most ``sqrt(m) 10^-decimals / 2``,
+well inside ``margin``.
+
+The largest scale
+-----------------
+``s_bound``: one LP over ``(u, s)`` (the membership and head conditions at ``s V`` are linear in
+``(u, s)``) without the exclusion of other modes: an upper bound. Then bisection on ``s`` in
+``[0, s_bound]`` (scaled about the zero disturbance), each step the robustness LP of every piece
+plus the verification 3, until the bracket is narrower than ``scale_tolerance * s_bound``; the
+feasible end is reported. When ``s_bound`` itself is feasible (one piece, nothing lower
+dimensional) it is the answer at once. The plan is made at the nominal scale (``scale``, default
+1), or at the largest feasible scale if that is smaller (``nominal_feasible = False``).
+
+Simulation
+----------
+:func:`simulate_climb` runs the rigid time stepper with the planned torques plus disturbance
+forces ``J_d(q)^T d(t)``, ``d`` drawn from ``conv(V_s)`` and held for ``hold`` seconds (half the
+draws a random vertex, half a random convex combination of the vertices), and reports whether the
+brace held (every brace contact loaded and sticking throughout, tangential slip at most
+``slip_tolerance``), the largest slip and the head's rise.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..engine import DOMAIN_TOLERANCE, DynamicResponse, analyze
+from ..errors import FrameNotFound, InputError, SceneError
+from ..model import ContactPoint, PlanarRobot
+from ..modes import ContactProblem, ModeSystem, all_modes, build_mode_system
+from ..polytope import Polytope
+from ..response import AffineSolution, solve_affine
+from ..scene import Inputs, Scene
+from ..solvers import DEFAULT_LP_SOLVER, solve_lp
+
+__all__ = [
+    "ANALYSIS_BOX_GROWTH",
+    "BRACE_SLIP_TOLERANCE",
+    "DEFAULT_MARGIN",
+    "DEFAULT_MIN_HEAD_ACCELERATION",
+    "ACCELERATION_FLOOR",
+    "ACCELERATION_SLACK",
+    "SCALE_CAP",
+    "SCALE_TOLERANCE",
+    "TORQUE_DECIMALS",
+    "ClimbPlan",
+    "ClimbProblem",
+    "ClimbResult",
+    "ClimbTask",
+    "Disturbance",
+    "DisturbanceSet",
+    "ModeExclusion",
+    "ScaleCheck",
+    "augmented_problem",
+    "build_climb",
+    "check_scale",
+    "load_climb_task",
+    "load_disturbances",
+    "mode_exclusions",
+    "plan_climb",
+    "plot_climb",
+    "robust_region",
+    "simulate_climb",
+]
+
+DEFAULT_MARGIN = 0.05
+"""[N m or N] Required robustness radius: every ``(u, v)``, ``v`` a point of ``V_s``, keeps at
+least this distance (in the lifted ``(u, d)`` space, rows normalised) from the boundary of the
+brace mode's unambiguous piece, and the head's acceleration row is tightened by it."""
+
+DEFAULT_MIN_HEAD_ACCELERATION = 1.0
+"""[m/s^2] a_min, the head's required upward acceleration when ``[task]`` does not say."""
+
+SCALE_TOLERANCE = 1e-3
+"""[-] The bisection stops when its bracket is narrower than this times the scale bound."""
+
+SCALE_CAP = 1e3
+"""[-] Largest disturbance scale searched (a disturbance that changes nothing has no largest
+scale: it is then reported as this cap, with ``scale_capped``)."""
+
+TORQUE_DECIMALS = 3
+"""Decimals of the reported torques [N m]; the rounded torques are the ones verified."""
+
+ANALYSIS_BOX_GROWTH = 0.1
+"""[-] The lifted analysis bounds the disturbances by the box of ``conv(0, s_bound P)`` grown on
+every side by this fraction of ``max(s_bound, 1)`` times P's extent, plus the margin."""
+
+ACCELERATION_SLACK = 0.1
+"""[-] The robustness LP lets the free coordinates' nominal accelerations exceed the gentlest
+plan's ``alpha*`` by this fraction (room for a more robust squeeze)."""
+
+ACCELERATION_FLOOR = 1e-3
+"""[rad/s^2 or m/s^2] Added to the acceleration bound of the robustness LP (keeps it feasible when
+``alpha* = 0``, against the LP's own tolerance)."""
+
+ROBUSTNESS_CAP = 1e3
+"""[N m or N] Upper bound on the robustness variable t (keeps the LP bounded)."""
+
+BRACE_SLIP_TOLERANCE = 1e-4
+"""[m] Largest tangential displacement of a brace contact for which the brace counts as held."""
+
+DEFAULT_DURATION = 0.1
+"""[s] Simulated time of :func:`simulate_climb`."""
+
+DEFAULT_HOLD = 0.05
+"""[s] How long each sampled disturbance is held in :func:`simulate_climb`."""
+
+_DISTURBANCE_KEYS = {"name", "link", "point", "lower", "upper", "vertices"}
+_TASK_KEYS = {"brace_contacts", "head_link", "head_point", "min_head_acceleration"}
+
+
+# ============================================================================ disturbances
+@dataclass(frozen=True)
+class Disturbance:
+    """One disturbance force: a point of a link and a convex polygon of forces.
+
+    Attributes:
+        name: the table's name.
+        link: the URDF link the force acts on.
+        point_in_link: the point of application [m] in the link's frame.
+        vertices: the polygon's vertices [N] (fx, fy in the world), counter-clockwise, shape
+            (k, 2) with k = 1 (a point), 2 (a segment) or >= 3.
+    """
+
+    name: str
+    link: str
+    point_in_link: np.ndarray
+    vertices: np.ndarray
+
+    @property
+    def lower(self) -> np.ndarray:
+        """[N] Componentwise lower bound of the polygon (its bounding box)."""
+        return self.vertices.min(axis=0)
+
+    @property
+    def upper(self) -> np.ndarray:
+        """[N] Componentwise upper bound of the polygon."""
+        return self.vertices.max(axis=0)
+
+    def contains_zero(self) -> bool:
+        """Whether the zero force is in the polygon (to :data:`DOMAIN_TOLERANCE` [N])."""
+        A, b, A_eq, b_eq = _polygon_rows(self.vertices)
+        return bool(np.all(b >= -DOMAIN_TOLERANCE) and np.all(np.abs(b_eq) <= DOMAIN_TOLERANCE))
+
+    def polytope(self, scale: float = 1.0) -> Polytope:
+        """The polygon scaled by ``scale`` about the zero force, as a 2-D H-polytope."""
+        A, b, A_eq, b_eq = _polygon_rows(scale * self.vertices)
+        return Polytope(A, b, A_eq, b_eq)
+
+
+@dataclass(frozen=True)
+class DisturbanceSet:
+    """The disturbance polytope P: the product of the disturbances' polygons.
+
+    Attributes:
+        items: the disturbances, in file order.
+    """
+
+    items: tuple[Disturbance, ...]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The components' names, two per disturbance: ``"<name>.fx"``, ``"<name>.fy"``."""
+        return tuple(f"{d.name}.{axis}" for d in self.items for axis in ("fx", "fy"))
+
+    @property
+    def dim(self) -> int:
+        """Number of components (2 per disturbance)."""
+        return 2 * len(self.items)
+
+    @property
+    def lower(self) -> np.ndarray:
+        """[N] Lower corner of P's bounding box."""
+        return np.concatenate([d.lower for d in self.items]) if self.items else np.zeros(0)
+
+    @property
+    def upper(self) -> np.ndarray:
+        """[N] Upper corner of P's bounding box."""
+        return np.concatenate([d.upper for d in self.items]) if self.items else np.zeros(0)
+
+    def contains_zero(self) -> bool:
+        """Whether the zero disturbance is in P."""
+        return all(d.contains_zero() for d in self.items)
+
+    def vertices(self, scale: float = 1.0) -> np.ndarray:
+        """The vertices of ``scale P`` (every combination of the polygons' vertices), (N, dim)."""
+        combos = itertools.product(*[d.vertices for d in self.items])
+        return scale * np.array([np.concatenate(c) for c in combos]).reshape(-1, self.dim)
+
+    def robust_points(self, scale: float = 1.0) -> np.ndarray:
+        """``V_s``: the vertices of ``scale P``, plus the zero disturbance if P does not hold it."""
+        points = self.vertices(scale)
+        if not self.contains_zero():
+            points = np.vstack([np.zeros((1, self.dim)), points])
+        return points
+
+
+def _hull(points: np.ndarray) -> np.ndarray:
+    """Extreme points of a finite 2-D set, counter-clockwise (Andrew's monotone chain).
+
+    One point, or the two ends of a segment, when the set is degenerate.
+    """
+    unique = np.unique(np.round(points, 12), axis=0)
+    if len(unique) <= 2:
+        return unique
+
+    def cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+        return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
+
+    scale = float(np.max(np.abs(unique))) or 1.0
+    tol = 1e-12 * scale * scale
+    lower: list[np.ndarray] = []
+    for p in unique:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= tol:
+            lower.pop()
+        lower.append(p)
+    upper: list[np.ndarray] = []
+    for p in unique[::-1]:
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= tol:
+            upper.pop()
+        upper.append(p)
+    chain = lower[:-1] + upper[:-1]
+    if len(chain) < 3:  # collinear: the two ends
+        return np.array([unique[0], unique[-1]])
+    return np.array(chain)
+
+
+def _polygon_rows(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, b, A_eq, b_eq)`` of the hull of ``vertices`` (k, 2), rows of unit norm.
+
+    The slack form: a point x is in the set iff ``A x <= b`` and ``A_eq x = b_eq``; with x = 0 the
+    slacks are ``b`` and ``-b_eq``.
+    """
+    k = len(vertices)
+    if k == 1:
+        return np.zeros((0, 2)), np.zeros(0), np.eye(2), vertices[0].copy()
+    if k == 2:
+        a, b = vertices
+        direction = (b - a) / np.linalg.norm(b - a)
+        normal = np.array([-direction[1], direction[0]])
+        A = np.vstack([direction, -direction])
+        return A, np.array([direction @ b, -direction @ a]), normal[None, :], np.array([normal @ a])
+    rows, rhs = [], []
+    for i in range(k):
+        p, q = vertices[i], vertices[(i + 1) % k]
+        edge = q - p
+        normal = np.array([edge[1], -edge[0]]) / np.linalg.norm(edge)  # outward for ccw order
+        rows.append(normal)
+        rhs.append(normal @ p)
+    return np.array(rows), np.array(rhs), np.zeros((0, 2)), np.zeros(0)
+
+
+def _finite_pair(value: Any, path: Path, where: str) -> np.ndarray:
+    if not isinstance(value, list) or len(value) != 2:
+        raise SceneError(str(path), where, f"expected two numbers [fx, fy] or [x, y], got {value!r}")
+    out = []
+    for i, x in enumerate(value):
+        if isinstance(x, bool) or not isinstance(x, (int, float)):
+            raise SceneError(str(path), f"{where}[{i}]", f"expected a number, got {x!r}")
+        if math.isnan(x):
+            raise SceneError(str(path), f"{where}[{i}]", "got NaN; expected a finite number")
+        if math.isinf(x):
+            raise SceneError(str(path), f"{where}[{i}]", f"got {x}: the disturbance polytope would be "
+                             "unbounded; give finite bounds or vertices")
+        out.append(float(x))
+    return np.array(out)
+
+
+def load_disturbances(scene: Scene, *, required: bool = True) -> DisturbanceSet:
+    """Read and validate the scene's ``[[disturbances]]`` tables (format: module docstring).
+
+    Args:
+        scene: the loaded scene (its ``raw`` TOML holds the tables).
+        required: raise if the scene has none (the climb needs a disturbance polytope).
+
+    Raises:
+        SceneError: missing tables (with ``required``), a table that is not a table, an unknown
+            key, a missing or duplicate name, an unknown link, a bad point, both or neither of
+            bounds and vertices, an empty polytope (``lower > upper``, no vertex), an unbounded
+            one (infinite bound or vertex) or a NaN.
+    """
+    path = scene.path
+    tables = scene.raw.get("disturbances")
+    if tables is None:
+        if required:
+            raise SceneError(str(path), "disturbances", "missing: the climb needs at least one "
+                             "[[disturbances]] table (name, link, point, lower/upper or vertices)")
+        return DisturbanceSet(())
+    if not isinstance(tables, list) or not tables:
+        raise SceneError(str(path), "disturbances", "expected a non-empty array of tables [[disturbances]]")
+    items: list[Disturbance] = []
+    seen: set[str] = set()
+    links = scene.robot.link_names
+    for i, table in enumerate(tables):
+        where = f"disturbances[{i}]"
+        if not isinstance(table, dict):
+            raise SceneError(str(path), where, f"expected a table, got {table!r}")
+        unknown = sorted(set(table) - _DISTURBANCE_KEYS)
+        if unknown:
+            raise SceneError(str(path), f"{where}.{unknown[0]}",
+                             f"unknown key; known keys: {', '.join(sorted(_DISTURBANCE_KEYS))}")
+        name = table.get("name")
+        if not isinstance(name, str) or not name:
+            raise SceneError(str(path), f"{where}.name", f"expected a non-empty string, got {name!r}")
+        if name in seen:
+            raise SceneError(str(path), f"{where}.name", f"duplicate disturbance name {name!r}")
+        seen.add(name)
+        link = table.get("link")
+        if not isinstance(link, str) or not link:
+            raise SceneError(str(path), f"{where}.link", f"expected a link name, got {link!r}")
+        if link not in links:
+            raise SceneError(str(path), f"{where}.link", str(FrameNotFound(link, links)))
+        if "point" not in table:
+            raise SceneError(str(path), f"{where}.point", "missing: the point of application [x, y] "
+                             "[m] in the link's frame")
+        point = _finite_pair(table["point"], path, f"{where}.point")
+        has_box = "lower" in table or "upper" in table
+        if has_box and "vertices" in table:
+            raise SceneError(str(path), f"{where}.vertices", "give either lower/upper (a box) or "
+                             "vertices (a polygon), not both")
+        if has_box:
+            for key in ("lower", "upper"):
+                if key not in table:
+                    raise SceneError(str(path), f"{where}.{key}", "missing: a box needs both lower and upper")
+            lower = _finite_pair(table["lower"], path, f"{where}.lower")
+            upper = _finite_pair(table["upper"], path, f"{where}.upper")
+            bad = np.nonzero(lower > upper)[0]
+            if bad.size:
+                j = int(bad[0])
+                raise SceneError(str(path), f"{where}.lower[{j}]", f"the disturbance polytope is empty: "
+                                 f"lower {lower[j]} exceeds upper {upper[j]}")
+            corners = np.array([[x, y] for x in (lower[0], upper[0]) for y in (lower[1], upper[1])])
+        elif "vertices" in table:
+            raw = table["vertices"]
+            if not isinstance(raw, list):
+                raise SceneError(str(path), f"{where}.vertices", f"expected a list of [fx, fy], got {raw!r}")
+            if not raw:
+                raise SceneError(str(path), f"{where}.vertices", "the disturbance polytope is empty: "
+                                 "give at least one vertex [fx, fy]")
+            corners = np.array([_finite_pair(v, path, f"{where}.vertices[{j}]") for j, v in enumerate(raw)])
+        else:
+            raise SceneError(str(path), where, "missing: the forces, as lower = [fx, fy] and upper = "
+                             "[fx, fy] (a box, [N]) or vertices = [[fx, fy], ...] (a polygon, [N])")
+        items.append(Disturbance(name, link, point, _hull(corners)))
+    return DisturbanceSet(tuple(items))
+
+
+# ============================================================================ task
+@dataclass(frozen=True)
+class ClimbTask:
+    """What the climb planner needs to know of a scene (its ``[task]`` table).
+
+    Attributes:
+        brace_contacts: the contacts held in mode F (all the active contacts).
+        head_link: the link of the point that must accelerate upward.
+        head_point: that point [m] in the link's frame.
+        min_head_acceleration: a_min [m/s^2].
+    """
+
+    brace_contacts: tuple[str, ...]
+    head_link: str
+    head_point: np.ndarray
+    min_head_acceleration: float
+
+
+def load_climb_task(scene: Scene) -> ClimbTask:
+    """Read the ``[task]`` table (every key optional; see the module docstring).
+
+    Raises:
+        SceneError: an unknown key, an unknown or inactive brace contact, brace contacts that are
+            not all the active contacts, an unknown head link, a bad point or acceleration.
+    """
+    path = str(scene.path)
+    table = scene.raw.get("task", {})
+    if not isinstance(table, dict):
+        raise SceneError(path, "task", f"expected a table [task], got {table!r}")
+    unknown = sorted(set(table) - _TASK_KEYS - {"body_contacts", "pitch"})
+    if unknown:
+        raise SceneError(path, f"task.{unknown[0]}",
+                         f"unknown key; the climb reads: {', '.join(sorted(_TASK_KEYS))}")
+    active = tuple(c.name for c in scene.active_contacts)
+    names = tuple(c.name for c in scene.contacts)
+    brace = table.get("brace_contacts", list(active))
+    if not isinstance(brace, list) or not all(isinstance(b, str) for b in brace):
+        raise SceneError(path, "task.brace_contacts", f"expected a list of contact names, got {brace!r}")
+    for i, b in enumerate(brace):
+        if b not in names:
+            raise SceneError(path, f"task.brace_contacts[{i}]", f"unknown contact {b!r}; the contacts "
+                             f"are: {', '.join(names)}")
+        if b not in active:
+            raise SceneError(path, f"task.brace_contacts[{i}]", f"contact {b!r} does not touch at the "
+                             "scene's state: a brace contact must be active")
+    if set(brace) != set(active) or len(brace) != len(set(brace)):
+        raise SceneError(path, "task.brace_contacts", f"expected every active contact once "
+                         f"({', '.join(active)}): the climb holds each in mode F; got {brace}")
+    links = scene.robot.link_names
+    head_link = table.get("head_link", links[-1] if links else "")
+    if not isinstance(head_link, str) or head_link not in links:
+        raise SceneError(path, "task.head_link", str(FrameNotFound(str(head_link), links)))
+    head_point = (_finite_pair(table["head_point"], scene.path, "task.head_point")
+                  if "head_point" in table else np.zeros(2))
+    a_min = table.get("min_head_acceleration", DEFAULT_MIN_HEAD_ACCELERATION)
+    if isinstance(a_min, bool) or not isinstance(a_min, (int, float)) or not math.isfinite(a_min):
+        raise SceneError(path, "task.min_head_acceleration",
+                         f"expected a finite number [m/s^2], got {a_min!r}")
+    ordered = tuple(c for c in active if c in brace)
+    return ClimbTask(ordered, head_link, head_point, float(a_min))
+
+
+# ============================================================================ kinematics
+class _PointKinematics:
+    """World Jacobians of a few points of the robot, by a second robot model with those points.
+
+    Each point becomes two "contacts" with normals (1, 0) and (0, 1): their ``jacobian_normal``
+    rows are the point's J_x and J_y, their ``drift_normal`` its classical acceleration at dv = 0.
+    """
+
+    def __init__(self, scene: Scene, points: Sequence[tuple[str, str, np.ndarray]]) -> None:
+        robot = scene.robot
+        contacts = []
+        for name, link, point in points:
+            for axis, normal in (("x", (1.0, 0.0)), ("y", (0.0, 1.0))):
+                contacts.append(ContactPoint(f"{name}:{axis}", link, np.asarray(point, dtype=float),
+                                             np.array(normal), np.zeros(2), 0.0))
+        self.robot = PlanarRobot(robot.urdf_path, base=robot.base, gravity=robot.gravity,
+                                 contacts=contacts, locked=robot.locked)
+
+    def evaluate(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The points' Jacobians, drifts and positions at ``(q, v)``.
+
+        Returns:
+            ``(J, drift, positions)``: J (2p, n), rows x then y per point; drift (2p,) [m/s^2];
+            positions (p, 2) [m].
+        """
+        state = self.robot.state(q, v)
+        return state.jacobian_normal, state.drift_normal, state.contact_points[::2]
+
+    def positions(self, q: np.ndarray) -> np.ndarray:
+        """World positions [m] of the points at ``q``, shape (p, 2)."""
+        return self.robot.contact_points_in_world(q)[::2]
+
+
+def augmented_problem(
+    scene: Scene,
+    disturbances: DisturbanceSet,
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
+) -> ContactProblem:
+    """The scene's contact problem with the disturbance components as extra inputs.
+
+    Inputs ``z = (u, d)``, input map ``[S^T, J_d^T]`` (J_d: the points' world x-y Jacobians at the
+    scene's state), limits: the scene's input limits, then ``lower <= d <= upper`` (default: the
+    bounding box of ``conv(0, P)``).
+    """
+    base = ContactProblem.from_scene(scene)
+    kin = _PointKinematics(scene, [(d.name, d.link, d.point_in_link) for d in disturbances.items])
+    jac, _, _ = kin.evaluate(scene.q, scene.v)
+    if lower is None:
+        lower = np.minimum(0.0, disturbances.lower)
+    if upper is None:
+        upper = np.maximum(0.0, disturbances.upper)
+    return replace(
+        base,
+        inputs=base.inputs + disturbances.names,
+        input_map=np.hstack([base.input_map, jac.T]),
+        lower=np.concatenate([base.lower, np.asarray(lower, dtype=float)]),
+        upper=np.concatenate([base.upper, np.asarray(upper, dtype=float)]),
+    )
+
+
+# ============================================================================ exclusion
+@dataclass(frozen=True)
+class ModeExclusion:
+    """Whether another mode holds somewhere on ``{u} x conv(V_s)``.
+
+    Attributes:
+        mode: the mode.
+        held: some disturbance of the robust set (and some w) puts ``(u, d, w)`` in the mode's
+            domain, the motion rows strictly: the plan would be ambiguous.
+        margin: [N m or N] the LP's ``t*``: the largest margin of the mode's motion rows with its
+            force rows held (negative: the distance, in the lifted space, by which the mode misses
+            the plan); ``-inf`` when even the force rows cannot hold (or the mode is inconsistent,
+            or it misses by more than :data:`ROBUSTNESS_CAP`).
+        disturbance: the witness d (when held), else None.
+    """
+
+    mode: str
+    held: bool
+    margin: float
+    disturbance: np.ndarray | None = None
+
+
+def _normalised_rows(
+    system: ModeSystem, response: AffineSolution
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The mode's inequalities over ``(z, w)`` as unit rows ``H [z; w] <= h`` (constant rows: 0)."""
+    G = system.G
+    H = np.hstack([G @ response.X_u, G @ response.X_w])
+    h = system.g - G @ response.x_0
+    norms = np.sqrt(np.sum(H * H, axis=1))
+    constant = norms <= 1e-9 * max(1.0, float(np.max(norms, initial=0.0)))
+    norms[constant] = 1.0
+    H = H / norms[:, None]
+    H[constant] = 0.0
+    return H, h / norms, constant
+
+
+def mode_exclusions(
+    problem: ContactProblem,
+    target: str,
+    torques: np.ndarray,
+    points: np.ndarray,
+    *,
+    systems: Sequence[tuple[ModeSystem, AffineSolution]] | None = None,
+    solver: str = DEFAULT_LP_SOLVER,
+) -> tuple[ModeExclusion, ...]:
+    """For every mode but ``target``: does it hold for some ``d in conv(points)``? One LP each.
+
+    With ``d = points^T lam`` (``lam`` in the simplex), maximise ``t`` in [-cap, 1] subject to the
+    mode's normalised rows at ``(torques, d, w)``: force rows ``<= h + tol``, motion rows
+    ``+ t <= h``, consistency rows ``|E z - e| <= tol`` (tol = :data:`DOMAIN_TOLERANCE`). The
+    mode holds somewhere iff ``t* > tol``, the membership rule of
+    :func:`~frcontrol.engine.solutions_at`.
+
+    Args:
+        problem: the augmented problem (inputs ``(u, d)``).
+        target: the planned mode (skipped).
+        torques: u, shape (m_u,), the first inputs of the problem.
+        points: the robust points V_s, shape (N, dim d).
+        systems: prebuilt ``(system, response)`` of every mode (default: built here).
+        solver: the LP back-end.
+    """
+    u = np.asarray(torques, dtype=float)
+    m_u = u.size
+    pts = np.asarray(points, dtype=float).reshape(-1, problem.m - m_u)
+    if systems is None:
+        systems = _mode_systems(problem)
+    tol = DOMAIN_TOLERANCE
+    out = []
+    for system, response in systems:
+        if system.mode == target:
+            continue
+        if not response.consistent:
+            out.append(ModeExclusion(system.mode, False, -math.inf))
+            continue
+        H, h, _ = _normalised_rows(system, response)
+        p = response.ambiguity_dim
+        Hu, Hd, Hw = H[:, :m_u], H[:, m_u:problem.m], H[:, problem.m:]
+        rhs = h - Hu @ u
+        n_lam = pts.shape[0]
+        motion = system.motion.astype(float)
+        # variables (lam, w, t)
+        A_ub = np.hstack([Hd @ pts.T, Hw, motion[:, None]])
+        b_ub = rhs + np.where(system.motion, 0.0, tol)
+        E, e = response.E, response.e
+        if E.shape[0]:
+            Ez = np.hstack([E[:, m_u:] @ pts.T, np.zeros((E.shape[0], p + 1))])
+            target_e = e - E[:, :m_u] @ u
+            A_ub = np.vstack([A_ub, Ez, -Ez])
+            b_ub = np.concatenate([b_ub, target_e + tol, -target_e + tol])
+        A_eq = np.concatenate([np.ones(n_lam), np.zeros(p + 1)])[None, :]
+        lb = np.concatenate([np.zeros(n_lam), np.full(p, -np.inf), [-ROBUSTNESS_CAP]])
+        ub = np.concatenate([np.full(n_lam, np.inf), np.full(p, np.inf), [1.0]])
+        c = np.zeros(n_lam + p + 1)
+        c[-1] = -1.0
+        result = solve_lp(c, A_ub, b_ub, A_eq, np.ones(1), lb, ub, solver=solver)
+        if result.status == "error":
+            result = solve_lp(c, A_ub, b_ub, A_eq, np.ones(1), lb, ub, solver="highs")
+        if not result.found:
+            out.append(ModeExclusion(system.mode, False, -math.inf))
+            continue
+        t = float(result.x[-1])
+        held = t > tol
+        out.append(ModeExclusion(system.mode, held, t, pts.T @ result.x[:n_lam] if held else None))
+    return tuple(out)
+
+
+def _mode_systems(problem: ContactProblem) -> tuple[tuple[ModeSystem, AffineSolution], ...]:
+    """Every mode velocity pruning allows, with its system and affine response."""
+    out = []
+    for mode in all_modes(problem.allowed_modes()):
+        system = build_mode_system(problem, mode)
+        response = solve_affine(system.A, system.B, system.c, name=f"the system of mode {mode}")
+        out.append((system, response))
+    return tuple(out)
+
+
+# ============================================================================ build
+@dataclass(frozen=True, eq=False)
+class ClimbProblem:
+    """Everything the climb LPs need, built once.
+
+    Attributes:
+        scene: the scene.
+        task: its ``[task]``.
+        disturbances: the polytope P.
+        problem: the augmented contact problem (inputs u then d), with the analysis box as the
+            disturbances' limits.
+        mode: the brace mode (``"F"`` per brace contact).
+        m_u: number of torques.
+        domain_rows: ``(H, h)`` of ``T_F`` over ``z = (u, d)`` (force rows of the brace mode and
+            the torque limits), unnormalised.
+        head_row: ``(c, c_0)``: the head's upward acceleration ``a_y = c^T z + c_0`` [m/s^2].
+        head_sideways_row: ``(c_x, c_x0)``: its sideways one, ``a_x = c_x^T z + c_x0`` [m/s^2].
+        free_coordinates: the coordinates no brace contact row involves (the upper body).
+        free_rows: ``(B, b_0)``: their accelerations ``ddq_f = B z + b_0`` [rad/s^2 or m/s^2].
+        pieces: the convex pieces of the brace mode's unambiguous set in the lifted space (within
+            the analysis box).
+        box: ``(lower, upper)`` [N] of the disturbances in the analysis.
+        scale_bound: the one-LP upper bound on the scale (``s_bound``); 0 if none is feasible.
+        scale_capped: the bound reached :data:`SCALE_CAP`.
+        systems: every mode's ``(system, response)`` on the augmented problem.
+        analysis: the engine's analysis of the augmented problem (None when not reached).
+        obstacle: why no plan can exist (None if the LPs may proceed).
+        margin: [N m or N] the required robustness radius.
+        min_head_acceleration: a_min [m/s^2].
+        timings: [s] per stage.
+    """
+
+    scene: Scene
+    task: ClimbTask
+    disturbances: DisturbanceSet
+    problem: ContactProblem
+    mode: str
+    m_u: int
+    domain_rows: tuple[np.ndarray, np.ndarray]
+    head_row: tuple[np.ndarray, float]
+    head_sideways_row: tuple[np.ndarray, float]
+    free_coordinates: tuple[str, ...]
+    free_rows: tuple[np.ndarray, np.ndarray]
+    pieces: tuple[Polytope, ...]
+    box: tuple[np.ndarray, np.ndarray]
+    scale_bound: float
+    scale_capped: bool
+    systems: tuple[tuple[ModeSystem, AffineSolution], ...]
+    analysis: DynamicResponse | None
+    obstacle: str | None
+    margin: float
+    min_head_acceleration: float
+    solver: str
+    timings: Mapping[str, float] = field(default_factory=dict)
+
+    def robust_points(self, scale: float) -> np.ndarray:
+        """V_s (see :meth:`DisturbanceSet.robust_points`)."""
+        return self.disturbances.robust_points(scale)
+
+
+def _unit(H: np.ndarray) -> np.ndarray:
+    norms = np.sqrt(np.sum(H * H, axis=1))
+    return np.where(norms > 0, norms, 1.0)
+
+
+def _scale_bound(domain: tuple[np.ndarray, np.ndarray], head: tuple[np.ndarray, float],
+                 sideways: tuple[np.ndarray, float], points: np.ndarray, m_u: int, margin: float,
+                 a_min: float, solver: str) -> tuple[float, bool]:
+    """The largest scale s for which some u keeps every ``(u, s v)`` in T_F shrunk by the margin.
+
+    With the head's ``a_y >= a_min + margin |c|`` at every ``s v`` and ``a_x(u, 0) = 0``. Returns
+    ``(s*, capped)``; ``s* = -1`` when even ``s = 0`` is infeasible.
+    """
+    H, h = domain
+    c, c0 = head
+    norms = _unit(H)
+    c_norm = float(np.linalg.norm(c)) or 1.0
+    rows, rhs = [], []
+    for v in points:
+        rows.append(np.hstack([H[:, :m_u], (H[:, m_u:] @ v)[:, None]]))
+        rhs.append(h - margin * norms)
+        rows.append(np.hstack([-c[None, :m_u], [[-(c[m_u:] @ v)]]]))
+        rhs.append(np.array([c0 - a_min - margin * c_norm]))
+    A = np.vstack(rows)
+    b = np.concatenate(rhs)
+    cost = np.zeros(m_u + 1)
+    cost[-1] = -1.0
+    lb = np.concatenate([np.full(m_u, -np.inf), [0.0]])
+    ub = np.concatenate([np.full(m_u, np.inf), [SCALE_CAP]])
+    A_eq = np.concatenate([sideways[0][:m_u], [0.0]])[None, :]
+    b_eq = np.array([-sideways[1]])
+    result = solve_lp(cost, A, b, A_eq, b_eq, lb, ub, solver=solver)
+    if result.status in ("error", "unbounded") and solver != "highs":
+        result = solve_lp(cost, A, b, A_eq, b_eq, lb, ub, solver="highs")
+    if not result.found:
+        return -1.0, False
+    s = float(result.x[-1])
+    return s, s >= SCALE_CAP * (1 - 1e-9)
+
+
+def build_climb(
+    scene: Scene,
+    *,
+    margin: float = DEFAULT_MARGIN,
+    min_head_acceleration: float | None = None,
+    solver: str = DEFAULT_LP_SOLVER,
+) -> ClimbProblem:
+    """Assemble the climb: disturbances, task, the brace mode's rows, the scale bound, the pieces.
+
+    Raises:
+        SceneError: bad ``[[disturbances]]`` or ``[task]`` tables.
+        InputError: a negative or non-finite margin or acceleration.
+    """
+    if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin >= 0):
+        raise InputError(f"margin must be a finite number >= 0 [N m or N], got {margin!r}")
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    task = load_climb_task(scene)
+    dist = load_disturbances(scene)
+    a_min = task.min_head_acceleration if min_head_acceleration is None else float(min_head_acceleration)
+    if not math.isfinite(a_min):
+        raise InputError(f"min_head_acceleration must be finite [m/s^2], got {min_head_acceleration!r}")
+    base = augmented_problem(scene, dist)
+    m_u = scene.inputs.count
+    mode = "F" * base.k
+    points = dist.robust_points(1.0)
+
+    def result(**kw: Any) -> ClimbProblem:
+        timings["build"] = time.perf_counter() - t0
+        defaults = {"pieces": (), "box": (base.lower[m_u:], base.upper[m_u:]), "scale_bound": -1.0,
+                    "scale_capped": False, "systems": (), "analysis": None, "obstacle": None,
+                    "domain_rows": (np.zeros((0, base.m)), np.zeros(0)), "head_row": (np.zeros(base.m), 0.0),
+                    "head_sideways_row": (np.zeros(base.m), 0.0),
+                    "free_coordinates": (), "free_rows": (np.zeros((0, base.m)), np.zeros(0))}
+        defaults.update(kw)
+        return ClimbProblem(scene=scene, task=task, disturbances=dist, mode=mode, m_u=m_u,
+                            margin=float(margin), min_head_acceleration=a_min, solver=solver,
+                            timings=timings, problem=defaults.pop("problem", base), **defaults)
+
+    if base.k == 0:
+        return result(obstacle="the scene has no active contact: there is no brace to hold")
+    allowed = base.allowed_modes()
+    moving = [c for c, letters in zip(base.contacts, allowed, strict=True) if "F" not in letters]
+    if moving:
+        return result(obstacle=f"brace contact(s) {', '.join(moving)} move at the scene's state: mode F "
+                      "is not possible (velocity pruning)")
+    system = build_mode_system(base, mode)
+    response = solve_affine(system.A, system.B, system.c, name=f"the system of mode {mode}")
+    if not response.consistent or response.ambiguity_dim or response.E.shape[0]:
+        return result(obstacle=(
+            f"mode {mode} has {response.ambiguity_dim} ambiguity variable(s) and "
+            f"{response.E.shape[0]} consistency condition(s): the brace's squeeze is not set by the "
+            "torques (fewer brace coordinates than brace rows), so no torque can certify it for every "
+            "squeeze; give the brace at least as many coordinates as contact rows (METHOD §6)"))
+    n = base.n
+    G = system.G
+    C, d = base.input_bound_rows()
+    torque_rows = np.abs(C[:, m_u:]).sum(axis=1) == 0
+    H = np.vstack([G @ response.X_u, C[torque_rows]])
+    h = np.concatenate([system.g - G @ response.x_0, d[torque_rows]])
+    kin = _PointKinematics(scene, [("head", task.head_link, task.head_point)])
+    jac, drift, _ = kin.evaluate(scene.q, scene.v)
+    c = jac[1] @ response.X_u[:n]
+    c0 = float(jac[1] @ response.x_0[:n] + drift[1])
+    sideways = (jac[0] @ response.X_u[:n], float(jac[0] @ response.x_0[:n] + drift[0]))
+    brace_rows = np.abs(np.vstack([base.jacobian_normal, base.jacobian_tangent]))
+    free = np.nonzero(np.all(brace_rows <= 1e-12 * max(1.0, float(brace_rows.max())), axis=0))[0]
+    free_rows = (response.X_u[free], response.x_0[free])
+    timings["rows"] = time.perf_counter() - t0
+
+    t1 = time.perf_counter()
+    s_bound, capped = _scale_bound((H, h), (c, c0), sideways, points, m_u, margin, a_min, solver)
+    timings["scale_bound"] = time.perf_counter() - t1
+    common = {"domain_rows": (H, h), "head_row": (c, c0), "head_sideways_row": sideways,
+              "free_rows": free_rows,
+              "free_coordinates": tuple(base.coordinates[i] for i in free)}
+    if s_bound < 0:
+        return result(**common, scale_bound=-1.0, obstacle=(
+            f"no torques within the limits keep mode {mode} with margin {margin:g} and the head "
+            f"accelerating upward at >= {a_min:g} m/s^2, even without disturbance: widen the torque "
+            "limits, lower min_head_acceleration or the margin"))
+
+    # The lifted analysis, in a box holding every s P the bisection visits.
+    extent = dist.upper - dist.lower
+    pad = ANALYSIS_BOX_GROWTH * max(s_bound, 1.0) * extent + margin + DOMAIN_TOLERANCE * 10
+    lower = np.minimum(0.0, s_bound * dist.lower) - pad
+    upper = np.maximum(0.0, s_bound * dist.upper) + pad
+    boxed = augmented_problem(scene, dist, lower, upper)
+    t1 = time.perf_counter()
+    analysis = analyze(boxed, solver=solver)
+    pieces: tuple[Polytope, ...] = ()
+    obstacle = None
+    try:
+        target = analysis.mode(mode)
+    except InputError:
+        target = None
+    if target is None or not target.feasible:
+        obstacle = f"mode {mode} is infeasible at the scene's state (empty domain)"
+    else:
+        pieces = analysis.unambiguous_set(mode)
+        if not pieces:
+            obstacle = f"mode {mode} has no unambiguous inputs: other modes cover its whole domain"
+    timings["analysis"] = time.perf_counter() - t1
+    t1 = time.perf_counter()
+    systems = _mode_systems(boxed)
+    timings["mode_systems"] = time.perf_counter() - t1
+    return result(**common, problem=boxed, pieces=tuple(pieces), box=(lower, upper), scale_bound=s_bound,
+                  scale_capped=capped, systems=systems, analysis=analysis, obstacle=obstacle)
+
+
+# ============================================================================ the LPs
+def _piece_rows(piece: Polytope, m_u: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A piece's rows, and per row the norm by which t shrinks it (0 for the analysis-box rows)."""
+    A, b = np.asarray(piece.A), np.asarray(piece.b)
+    if piece.A_eq.shape[0]:
+        A = np.vstack([A, piece.A_eq, -piece.A_eq])
+        b = np.concatenate([b, piece.b_eq, -piece.b_eq])
+    norms = np.sqrt(np.sum(A * A, axis=1))
+    nonzero = np.abs(A) > 1e-12 * np.maximum(norms, 1e-300)[:, None]
+    box_row = (nonzero.sum(axis=1) == 1) & ~np.any(nonzero[:, :m_u], axis=1)
+    shrink = np.where(box_row, 0.0, norms)
+    return A, b, shrink
+
+
+def _plan_lp(
+    cp: ClimbProblem, piece: Polytope, scale: float, objective: str, *,
+    alpha_cap: float = math.inf, solver: str | None = None,
+) -> tuple[float, float, np.ndarray | None]:
+    """One plan LP on a piece at a scale, over ``(u, t, e)`` (module docstring).
+
+    ``e`` bounds the free coordinates' nominal accelerations, ``|B_u u + b_0| <= e``, and
+    ``alpha = sum(e)``.
+
+    Args:
+        cp: the built climb.
+        piece: a convex piece of the unambiguous set.
+        scale: the disturbance scale s (V_s).
+        objective: ``"robust"`` (maximise t) or ``"gentle"`` (minimise alpha).
+        alpha_cap: upper bound on alpha [rad/s^2 or m/s^2].
+        solver: the LP back-end (default: the problem's).
+
+    Returns:
+        ``(t, alpha, u)`` at the optimum; u None when infeasible.
+    """
+    solver = solver or cp.solver
+    m_u = cp.m_u
+    A, b, shrink = _piece_rows(piece, m_u)
+    c, c0 = cp.head_row
+    c_norm = float(np.linalg.norm(c)) or 1.0
+    head_rhs = c0 - cp.min_head_acceleration - cp.margin * c_norm
+    B, b0 = cp.free_rows
+    f = B.shape[0]
+    nvar = m_u + 1 + f
+    rows, rhs = [], []
+    for v in cp.robust_points(scale):
+        rows.append(np.hstack([A[:, :m_u], shrink[:, None], np.zeros((A.shape[0], f))]))
+        rhs.append(b - A[:, m_u:] @ v)
+        rows.append(np.hstack([-c[None, :m_u], np.zeros((1, 1 + f))]))
+        rhs.append(np.array([head_rhs + c[m_u:] @ v]))
+    if f:
+        eye = np.eye(f)
+        rows += [np.hstack([B[:, :m_u], np.zeros((f, 1)), -eye]),
+                 np.hstack([-B[:, :m_u], np.zeros((f, 1)), -eye])]
+        rhs += [-b0, b0]
+        if math.isfinite(alpha_cap):
+            rows.append(np.concatenate([np.zeros(m_u + 1), np.ones(f)])[None, :])
+            rhs.append(np.array([alpha_cap]))
+    cost = np.zeros(nvar)
+    if objective == "robust":
+        cost[m_u] = -1.0
+    else:
+        cost[m_u + 1:] = 1.0
+    lb = np.concatenate([cp.scene.inputs.lower, [cp.margin], np.zeros(f)])
+    ub = np.concatenate([cp.scene.inputs.upper, [ROBUSTNESS_CAP], np.full(f, np.inf)])
+    A_ub, b_ub = np.vstack(rows), np.concatenate(rhs)
+    cx, cx0 = cp.head_sideways_row
+    A_eq = np.concatenate([cx[:m_u], np.zeros(1 + f)])[None, :]
+    b_eq = np.array([-cx0])
+    result = solve_lp(cost, A_ub, b_ub, A_eq, b_eq, lb, ub, solver=solver)
+    if result.status in ("error", "unbounded") and solver != "highs":
+        result = solve_lp(cost, A_ub, b_ub, A_eq, b_eq, lb, ub, solver="highs")
+    if not result.found:
+        return -math.inf, math.inf, None
+    u = result.x[:m_u]
+    alpha = float(np.sum(np.abs(B[:, :m_u] @ u + b0))) if f else 0.0
+    return float(result.x[m_u]), alpha, u
+
+
+def _best_piece(
+    cp: ClimbProblem, scale: float, solver: str | None = None
+) -> tuple[int, float, np.ndarray | None]:
+    """The piece with the largest robustness radius at ``scale``: ``(index, t*, u)``."""
+    best: tuple[int, float, np.ndarray | None] = (-1, -math.inf, None)
+    for i, piece in enumerate(cp.pieces):
+        t, _, u = _plan_lp(cp, piece, scale, "robust", solver=solver)
+        if u is not None and t > best[1]:
+            best = (i, t, u)
+    return best
+
+
+def _gentle_plan(cp: ClimbProblem, scale: float) -> tuple[int, float, float, np.ndarray | None]:
+    """Objectives 1 then 2 on every piece: ``(index, t, alpha*, u)`` of the gentlest piece."""
+    best: tuple[int, float, float, np.ndarray | None] = (-1, -math.inf, math.inf, None)
+    for i, piece in enumerate(cp.pieces):
+        _, alpha, u = _plan_lp(cp, piece, scale, "gentle")
+        if u is None or alpha >= best[2]:
+            continue
+        cap = (1.0 + ACCELERATION_SLACK) * alpha + ACCELERATION_FLOOR
+        t, _, u_robust = _plan_lp(cp, piece, scale, "robust", alpha_cap=cap)
+        best = (i, t, alpha, u_robust) if u_robust is not None else (i, cp.margin, alpha, u)
+    return best
+
+
+@dataclass(frozen=True, eq=False)
+class ScaleCheck:
+    """One bisection step: whether robust torques exist at a disturbance scale.
+
+    Attributes:
+        scale: the scale s.
+        lp_feasible: the robustness LP of some piece is feasible (t >= margin).
+        robust: that, and the exact exclusion of every other mode at its torques.
+        torques: the most robust torques [N m] (None when the LP is infeasible).
+        radius: their robustness radius t* [N m or N] (-inf when infeasible).
+        piece: the index of the piece (-1 when infeasible).
+        exclusions: the exclusion LPs at the torques (empty when infeasible).
+    """
+
+    scale: float
+    lp_feasible: bool
+    robust: bool
+    torques: np.ndarray | None
+    radius: float
+    piece: int
+    exclusions: tuple[ModeExclusion, ...]
+
+
+def check_scale(cp: ClimbProblem, scale: float, *, solver: str | None = None) -> ScaleCheck:
+    """The robustness LP of every piece at ``scale`` (best radius), then the exact exclusion.
+
+    Args:
+        cp: the built climb (:func:`build_climb`), without obstacle.
+        scale: the disturbance scale s >= 0 (V_s).
+        solver: the LP back-end (default: the problem's).
+    """
+    solver = solver or cp.solver
+    index, radius, u = _best_piece(cp, scale, solver=solver)
+    if u is None:
+        return ScaleCheck(float(scale), False, False, None, -math.inf, -1, ())
+    exclusions = mode_exclusions(cp.problem, cp.mode, u, cp.robust_points(scale), systems=cp.systems,
+                                 solver=solver)
+    robust = not any(e.held for e in exclusions)
+    return ScaleCheck(float(scale), True, robust, u, radius, index, exclusions)
+
+
+# ============================================================================ the plan
+@dataclass(frozen=True, eq=False)
+class ClimbPlan:
+    """The climb plan: torques that hold the brace for every disturbance of ``conv(V_s)``.
+
+    Attributes:
+        found: whether torques were found (else ``reason`` says why; the rest is empty).
+        mode: the brace mode at the nominal (zero) disturbance, e.g. ``"FFF"``.
+        torques: ``{input: value}`` [N m], rounded to ``decimals``: the verified torques.
+        scale: the scale the torques are planned for (1, or the largest feasible if smaller).
+        nominal_feasible: the nominal scale is feasible.
+        max_disturbance_scale: the largest feasible scale found by bisection (within
+            ``scale_tolerance * scale_bound``).
+        scale_bracket: ``(feasible, infeasible-or-bound)`` ends of the final bisection bracket.
+        scale_bound: the one-LP upper bound (without the exclusion of other modes).
+        scale_capped: the bound reached :data:`SCALE_CAP`.
+        max_scale_torques: the torques [N m] found at the largest scale (unrounded).
+        robust: the rounded torques verified exactly: in the brace mode's domain at every point of
+            V_s with the head's acceleration >= a_min, and no other mode holds anywhere on
+            ``{u} x conv(V_s)``.
+        robustness_radius: [N m or N] the rounded torques' smallest normalised slack over the
+            brace mode's rows and the torque limits at the points of V_s (>= margin, up to rounding).
+        margin: [N m or N] the required robustness radius.
+        head_acceleration: [m/s^2] the head's upward acceleration at the zero disturbance.
+        head_sideways_acceleration: [m/s^2] its sideways one there (0 up to the rounding).
+        free_accelerations: ``{coordinate: ddq}`` [rad/s^2 or m/s^2] of the free (upper)
+            coordinates at the zero disturbance.
+        worst_head_acceleration: [m/s^2] its minimum over V_s.
+        min_head_acceleration: a_min [m/s^2].
+        exclusions: the verification of every other mode at the rounded torques.
+        pieces: number of convex pieces of the unambiguous set; piece: the one used.
+        bisection: the scales tried and their verdicts, in order.
+        disturbances: the polytope P.
+        decimals: decimals of the torques.
+        reason: a sentence on the outcome.
+        timings: [s] per stage and ``total``.
+        tolerances: every tolerance that shaped the plan.
+        solver: the LP back-end.
+        problem: the built problem (for plots and checks).
+    """
+
+    found: bool
+    mode: str
+    torques: Mapping[str, float]
+    scale: float
+    nominal_feasible: bool
+    max_disturbance_scale: float
+    scale_bracket: tuple[float, float]
+    scale_bound: float
+    scale_capped: bool
+    max_scale_torques: Mapping[str, float]
+    robust: bool
+    robustness_radius: float
+    margin: float
+    head_acceleration: float
+    head_sideways_acceleration: float
+    free_accelerations: Mapping[str, float]
+    worst_head_acceleration: float
+    min_head_acceleration: float
+    exclusions: tuple[ModeExclusion, ...]
+    pieces: int
+    piece: int
+    bisection: tuple[tuple[float, bool], ...]
+    disturbances: DisturbanceSet
+    decimals: int
+    reason: str
+    timings: Mapping[str, float]
+    tolerances: Mapping[str, float]
+    solver: str
+    problem: ClimbProblem = field(repr=False)
+
+    @property
+    def closest_mode(self) -> ModeExclusion | None:
+        """The other mode that comes closest to holding at the plan (largest margin)."""
+        return max(self.exclusions, key=lambda e: e.margin, default=None)
+
+    @property
+    def torque_vector(self) -> np.ndarray:
+        """The rounded torques as a vector in the scene's input order [N m]."""
+        return np.array(list(self.torques.values()), dtype=float)
+
+
+def _verify(cp: ClimbProblem, u: np.ndarray, scale: float) -> dict[str, Any]:
+    """The exact checks 1-3 at ``u``, with the raw domain rows (independent of the pieces)."""
+    H, h = cp.domain_rows
+    norms = _unit(H)
+    c, c0 = cp.head_row
+    points = cp.robust_points(scale)
+    slacks, accels = [], []
+    for v in points:
+        z = np.concatenate([u, v])
+        slacks.append(np.min((h - H @ z) / norms))
+        accels.append(float(c @ z + c0))
+    exclusions = mode_exclusions(cp.problem, cp.mode, u, points, systems=cp.systems, solver=cp.solver)
+    radius = float(min(slacks))
+    worst = float(min(accels))
+    zero = float(c[:cp.m_u] @ u + c0)
+    cx, cx0 = cp.head_sideways_row
+    B, b0 = cp.free_rows
+    free = dict(zip(cp.free_coordinates, (B[:, :cp.m_u] @ u + b0).tolist(), strict=True))
+    robust = radius > 0 and worst >= cp.min_head_acceleration and not any(e.held for e in exclusions)
+    return {"radius": radius, "worst": worst, "zero": zero, "exclusions": exclusions, "robust": robust,
+            "sideways": float(cx[:cp.m_u] @ u + cx0), "free": free}
+
+
+def plan_climb(
+    scene: Scene,
+    *,
+    margin: float = DEFAULT_MARGIN,
+    scale: float = 1.0,
+    solver: str = DEFAULT_LP_SOLVER,
+    min_head_acceleration: float | None = None,
+    scale_tolerance: float = SCALE_TOLERANCE,
+    decimals: int = TORQUE_DECIMALS,
+) -> ClimbPlan:
+    """Plan the climb's torques and find the largest disturbance scale (module docstring).
+
+    Args:
+        scene: a scene with ``[[disturbances]]`` (and optionally ``[task]``).
+        margin: [N m or N] required robustness radius (see :data:`DEFAULT_MARGIN`).
+        scale: the nominal disturbance scale the torques are planned for (>= 0).
+        solver: the LP back-end of every LP.
+        min_head_acceleration: a_min [m/s^2], overriding the ``[task]`` value.
+        scale_tolerance: relative width of the final bisection bracket (> 0).
+        decimals: decimals of the reported (and verified) torques.
+
+    Returns:
+        The plan; ``found=False`` with a ``reason`` when no torques exist (an infeasible LP is a
+        result, not an error).
+
+    Raises:
+        SceneError: bad ``[[disturbances]]`` or ``[task]`` tables.
+        InputError: a bad margin, scale, tolerance or decimals.
+    """
+    start = time.perf_counter()
+    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale >= 0):
+        raise InputError(f"scale must be a finite number >= 0, got {scale!r}")
+    if not (isinstance(scale_tolerance, (int, float)) and 0 < scale_tolerance < 1):
+        raise InputError(f"scale_tolerance must be in (0, 1), got {scale_tolerance!r}")
+    if not isinstance(decimals, int) or decimals < 0:
+        raise InputError(f"decimals must be an integer >= 0, got {decimals!r}")
+    cp = build_climb(scene, margin=margin, min_head_acceleration=min_head_acceleration, solver=solver)
+    timings = dict(cp.timings)
+    tolerances = {"margin": cp.margin, "scale_tolerance": scale_tolerance, "domain": DOMAIN_TOLERANCE,
+                  "acceleration_slack": ACCELERATION_SLACK,
+                  "acceleration_floor": ACCELERATION_FLOOR, "analysis_box_growth": ANALYSIS_BOX_GROWTH,
+                  "scale_cap": SCALE_CAP, "torque_rounding": 0.5 * 10.0 ** -decimals}
+    names = scene.inputs.coordinates
+
+    def failure(reason: str, bisection: Sequence[tuple[float, bool]] = ()) -> ClimbPlan:
+        timings["total"] = time.perf_counter() - start
+        return ClimbPlan(
+            found=False, mode=cp.mode, torques={}, scale=float(scale), nominal_feasible=False,
+            max_disturbance_scale=0.0, scale_bracket=(0.0, 0.0), scale_bound=max(cp.scale_bound, 0.0),
+            scale_capped=cp.scale_capped, max_scale_torques={}, robust=False, robustness_radius=-math.inf,
+            margin=cp.margin, head_acceleration=math.nan, head_sideways_acceleration=math.nan,
+            free_accelerations={}, worst_head_acceleration=math.nan,
+            min_head_acceleration=cp.min_head_acceleration, exclusions=(), pieces=len(cp.pieces), piece=-1,
+            bisection=tuple(bisection), disturbances=cp.disturbances, decimals=decimals, reason=reason,
+            timings=timings, tolerances=tolerances, solver=solver, problem=cp)
+
+    if cp.obstacle is not None:
+        return failure(cp.obstacle)
+
+    # Bisection on the scale in [0, s_bound].
+    t0 = time.perf_counter()
+    steps: list[tuple[float, bool]] = []
+    top = check_scale(cp, cp.scale_bound)
+    steps.append((cp.scale_bound, top.robust))
+    if top.robust:
+        lo, hi, u_lo = cp.scale_bound, cp.scale_bound, top.torques
+    else:
+        bottom = check_scale(cp, 0.0)
+        steps.append((0.0, bottom.robust))
+        if not bottom.robust:
+            return failure(f"no torques keep mode {cp.mode} unambiguous with margin {cp.margin:g} even at "
+                           "the zero disturbance (another mode holds there)", steps)
+        lo, hi, u_lo = 0.0, cp.scale_bound, bottom.torques
+        width = scale_tolerance * max(cp.scale_bound, 1e-12)
+        while hi - lo > width:
+            mid = 0.5 * (lo + hi)
+            step = check_scale(cp, mid)
+            steps.append((mid, step.robust))
+            if step.robust:
+                lo, u_lo = mid, step.torques
+            else:
+                hi = mid
+    timings["bisection"] = time.perf_counter() - t0
+
+    # The plan at the nominal scale (or the largest feasible one).
+    t0 = time.perf_counter()
+    nominal_feasible = scale <= lo
+    plan_scale = float(scale) if nominal_feasible else lo
+    index, _, _, u = _gentle_plan(cp, plan_scale)
+    if u is None:  # only when the nominal scale sits at the bisection's edge: use its solution
+        plan_scale = lo
+        index, _, _, u = _gentle_plan(cp, lo)
+    if u is None:
+        u, index = u_lo, 0
+    rounded = np.round(u, decimals) + 0.0
+    check = _verify(cp, rounded, plan_scale)
+    timings["plan"] = time.perf_counter() - t0
+    timings["total"] = time.perf_counter() - start
+    held = [e.mode for e in check["exclusions"] if e.held]
+    if check["robust"]:
+        reason = (f"mode {cp.mode} holds, unambiguously, for every disturbance in "
+                  f"{'P' if plan_scale == 1.0 else f'{plan_scale:.4g} P'}; largest scale {lo:.4g}")
+        if not nominal_feasible:
+            reason += f" (the nominal scale {scale:g} is infeasible: planned at the largest scale)"
+    else:
+        reason = ("the rounded torques failed the verification: "
+                  + (f"mode(s) {', '.join(held)} also hold" if held else
+                     f"radius {check['radius']:.3g}, worst head acceleration {check['worst']:.3g} m/s^2"))
+    return ClimbPlan(
+        found=True, mode=cp.mode, torques={name: float(x) for name, x in zip(names, rounded, strict=True)},
+        scale=plan_scale, nominal_feasible=nominal_feasible, max_disturbance_scale=lo,
+        scale_bracket=(lo, hi), scale_bound=cp.scale_bound, scale_capped=cp.scale_capped,
+        max_scale_torques={name: float(x) for name, x in zip(names, u_lo, strict=True)},
+        robust=check["robust"], robustness_radius=check["radius"], margin=cp.margin,
+        head_acceleration=check["zero"], head_sideways_acceleration=check["sideways"],
+        free_accelerations=check["free"], worst_head_acceleration=check["worst"],
+        min_head_acceleration=cp.min_head_acceleration, exclusions=check["exclusions"],
+        pieces=len(cp.pieces), piece=index, bisection=tuple(steps), disturbances=cp.disturbances,
+        decimals=decimals, reason=reason, timings=timings, tolerances=tolerances, solver=solver, problem=cp)
+
+
+# ============================================================================ simulation
+@dataclass(frozen=True, eq=False)
+class ClimbResult:
+    """A simulation of the planned torques under sampled disturbances.
+
+    Attributes:
+        trajectory: the rigid simulation (its inputs are the generalized forces on every
+            coordinate: ``S^T u + J_d^T d``).
+        brace_held: every brace contact stayed closed, loaded and sticking throughout, with
+            tangential slip at most ``slip_tolerance``.
+        max_slip: [m] the largest tangential displacement of a brace contact point.
+        max_opening: [m] the largest normal displacement away from its wall.
+        upper_rise: [m] the head's rise over the simulation (its height at the end minus at the
+            start).
+        max_upper_rise: [m] the head's largest rise at any sample.
+        brace_events: the contact events of the brace contacts (open, slip...).
+        disturbance_times: [s] the start of each held disturbance; disturbance_samples: [N] the
+            values, shape (K, dim).
+        status: the simulator's status (``"completed"`` or ``"failed"``).
+        slip_tolerance: [m] the threshold used.
+        seed: the random seed of the samples.
+    """
+
+    trajectory: Any
+    brace_held: bool
+    max_slip: float
+    max_opening: float
+    upper_rise: float
+    max_upper_rise: float
+    duration: float
+    brace_events: tuple
+    disturbance_times: np.ndarray
+    disturbance_samples: np.ndarray
+    status: str
+    slip_tolerance: float
+    seed: int
+
+
+def _sample_disturbances(points: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
+    """Half the draws a random point of ``points``, half a random convex combination of them."""
+    samples = []
+    for k in range(count):
+        if k % 2 == 0:
+            samples.append(points[rng.integers(len(points))])
+        else:
+            samples.append(rng.dirichlet(np.ones(len(points))) @ points)
+    return np.array(samples).reshape(count, points.shape[1])
+
+
+def simulate_climb(
+    scene: Scene,
+    plan: ClimbPlan,
+    *,
+    duration: float = DEFAULT_DURATION,
+    dt: float = 1e-3,
+    hold: float = DEFAULT_HOLD,
+    seed: int = 0,
+    scale: float | None = None,
+    slip_tolerance: float = BRACE_SLIP_TOLERANCE,
+) -> ClimbResult:
+    """Simulate the planned torques with disturbances sampled from ``conv(V_s)`` (rigid contact).
+
+    Args:
+        scene: the planned scene.
+        plan: a found plan.
+        duration: [s] simulated time.
+        dt: [s] time step.
+        hold: [s] each sampled disturbance is held this long (zero-order hold).
+        seed: the random generator's seed.
+        scale: the disturbance scale (default: the plan's).
+        slip_tolerance: [m] see :data:`BRACE_SLIP_TOLERANCE`.
+
+    Raises:
+        InputError: the plan was not found, or a bad duration, step, hold or scale.
+    """
+    from ..simulation import simulate_rigid
+
+    if not plan.found:
+        raise InputError(f"the climb plan was not found ({plan.reason}): nothing to simulate")
+    if not (isinstance(hold, (int, float)) and math.isfinite(hold) and hold > 0):
+        raise InputError(f"hold must be a finite number > 0 [s], got {hold!r}")
+    s = plan.scale if scale is None else float(scale)
+    if not (math.isfinite(s) and s >= 0):
+        raise InputError(f"scale must be a finite number >= 0, got {scale!r}")
+    dist = plan.disturbances
+    n = scene.robot.nv
+    rng = np.random.default_rng(seed)
+    count = max(1, int(math.ceil(duration / hold)))
+    samples = _sample_disturbances(dist.robust_points(s), count, rng)
+    kin = _PointKinematics(scene, [(d.name, d.link, d.point_in_link) for d in dist.items]
+                           + [("head", plan.problem.task.head_link, plan.problem.task.head_point)])
+    torque_force = scene.inputs.selection_transpose(n) @ plan.torque_vector
+    n_d = dist.dim
+
+    def generalized_force(t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        k = min(int(t / hold + 1e-9), count - 1)
+        jac, _, _ = kin.evaluate(q, v)
+        return torque_force + jac[:n_d].T @ samples[k]
+
+    every = Inputs(scene.coordinate_names, tuple(range(n)), np.full(n, -np.inf), np.full(n, np.inf))
+    trajectory = simulate_rigid(replace(scene, inputs=every), generalized_force, duration, dt,
+                                max_ambiguity_checks=0)
+    brace = plan.problem.task.brace_contacts
+    index = [trajectory.contacts.index(b) for b in brace]
+    points = trajectory.contact_points[:, index, :]
+    moved = points - points[0]
+    normals = np.array([scene.contacts[i].point.normal_in_world for i in index])
+    tangents = np.array([scene.contacts[i].point.tangent_in_world for i in index])
+    slip = np.abs(np.einsum("tkj,kj->tk", moved, tangents))
+    opening = np.einsum("tkj,kj->tk", moved, normals)
+    loaded = trajectory.contact_forces[1:, index, 0] > 0.0
+    events = tuple(e for e in trajectory.events if e.contact in brace)
+    bad_events = [e for e in events if e.kind in ("open", "slip")]
+    max_slip = float(np.max(slip, initial=0.0))
+    completed = trajectory.info.get("status") == "completed"
+    held = bool(completed and np.all(loaded) and not bad_events and max_slip <= slip_tolerance)
+    head = np.array([kin.positions(q)[-1] for q in trajectory.q])
+    return ClimbResult(
+        trajectory=trajectory, brace_held=held, max_slip=max_slip,
+        max_opening=float(np.max(opening, initial=0.0)), upper_rise=float(head[-1, 1] - head[0, 1]),
+        max_upper_rise=float(np.max(head[:, 1]) - head[0, 1]), duration=float(trajectory.duration),
+        brace_events=events, disturbance_times=hold * np.arange(count), disturbance_samples=samples,
+        status=str(trajectory.info.get("status")), slip_tolerance=slip_tolerance, seed=seed)
+
+
+# ============================================================================ plot
+def robust_region(plan: ClimbPlan, index: int) -> Polytope:
+    """The forces of one disturbance for which the plan's torques stay in their piece.
+
+    With the head's acceleration >= a_min too, for every vertex of the other disturbances (at the
+    plan's scale): a 2-D polytope over (fx, fy) of disturbance ``index``, bounded by the analysis
+    box.
+    """
+    cp = plan.problem
+    m_u = cp.m_u
+    A, b, _ = _piece_rows(cp.pieces[plan.piece], m_u)
+    c, c0 = cp.head_row
+    u = plan.torque_vector
+    cols = m_u + 2 * index + np.arange(2)
+    others = [d for i, d in enumerate(cp.disturbances.items) if i != index]
+    other_cols = [m_u + 2 * i + j for i in range(len(cp.disturbances.items)) if i != index for j in range(2)]
+    combos = list(itertools.product(*[plan.scale * d.vertices for d in others])) or [()]
+    rows, rhs = [], []
+    for combo in combos:
+        d_other = np.concatenate(combo) if combo else np.zeros(0)
+        rows.append(A[:, cols])
+        rhs.append(b - A[:, :m_u] @ u - A[:, other_cols] @ d_other)
+        rows.append(-c[None, cols])
+        rhs.append(np.array([c[:m_u] @ u + c[other_cols] @ d_other + c0 - cp.min_head_acceleration]))
+    return Polytope(np.vstack(rows), np.concatenate(rhs))
+
+
+def plot_climb(plan: ClimbPlan, path: str | Path | None = None) -> Any:
+    """One panel per disturbance: P, the largest scale's ``s P`` and the plan's robust region.
+
+    The robust region (:func:`robust_region`) is the set of forces of that disturbance that keep
+    the planned torques in the brace mode's unambiguous piece with the head rising, whatever the
+    other disturbances do in their polygons; it contains ``P`` when the plan is robust.
+
+    Raises:
+        InputError: the plan was not found.
+        VizError: matplotlib is missing. OutputFileError: the file cannot be written.
+    """
+    from ..viz.plots import _figure, _save, plot_polygons
+
+    if not plan.found:
+        raise InputError(f"the climb plan was not found ({plan.reason}): nothing to plot")
+    items = plan.disturbances.items
+    figure = _figure(figsize=(5.5 * len(items), 5.0), layout="constrained")
+    s_max = plan.max_disturbance_scale
+    for i, dist in enumerate(items):
+        ax = figure.add_subplot(1, len(items), i + 1)
+        nominal = dist.polytope(plan.scale)
+        reach = np.vstack([max(s_max, 1.0) * dist.vertices, plan.scale * dist.vertices, np.zeros((1, 2))])
+        low, high = reach.min(axis=0), reach.max(axis=0)
+        pad = 0.25 * np.maximum(high - low, 1.0)
+        box = (low[0] - pad[0], high[0] + pad[0], low[1] - pad[1], high[1] + pad[1])
+        sets = [robust_region(plan, i), dist.polytope(s_max), nominal]
+        labels = ["robust region at the planned torques", f"largest scale s = {s_max:.3g} (its own torques)",
+                  f"P (scale {plan.scale:.3g})"]
+        plot_polygons(sets, ax=ax, labels=labels, colors=["tab:green", "tab:orange", "tab:blue"],
+                      hatches=[None, "//", None], box=box, points=np.zeros((1, 2)),
+                      axis_labels=(f"{dist.name}: $f_x$ [N]", f"{dist.name}: $f_y$ [N]"),
+                      title=f"{dist.name} on {dist.link} ({'robust' if plan.robust else 'NOT robust'})")
+    if path is not None:
+        _save(figure, path)
+    return figure
