@@ -1,0 +1,1236 @@
+r"""The RHex flip: hip torques that pitch the body up without a body contact separating (METHOD §6).
+
+**The task.** A robot lies on its back; its body touches the ground at some *body contacts* (the
+scene's ``[task] body_contacts``, default: the contacts on the root link) and its hips can push its
+toes into the ground. Choose the inputs u (within the scene's limits) that maximise the body's
+pitch acceleration, the row ``p`` of ``dv`` that belongs to the ``[task] pitch`` coordinate
+(default ``theta``)::
+
+    pitch acceleration  =  e_p^T dv  =  c_u^T u + c_w^T w + c_0,
+    (c_u, c_w, c_0) = row p of (X_u, X_w, x_0)        (the mode's affine response, METHOD §3)
+
+subject to: the contact mode keeps every active body contact loaded (F, L or R, never S), and u is
+*unambiguous*: the rigid model predicts that mode and no other.
+
+**Candidates.** Every feasible mode whose input domain T_c has an interior and whose body contacts
+are not S (a mode whose T_c is flat needs its inputs on a hyperplane: rounding breaks it).
+
+**The unambiguous set, shrunk by a margin.** An LP optimum sits on the boundary of its region,
+where the mode meets another: there the model predicts both, and rounding the printed torques may
+land in the other. The plan therefore keeps a distance ``margin`` [N m] (a Euclidean distance in
+input space) from every set of inputs where another mode also holds::
+
+    U_c(margin) = { u : B(u, margin) ⊂ T_c  and  B(u, margin) ∩ T_j = ∅ for every j in O_c },
+
+with B(u, r) the ball of radius r and O_c the modes whose T_j meets T_c in more than a boundary:
+the modes that *overlap* T_c (interiors meet, :attr:`DynamicResponse.overlaps`) and the
+*lower-dimensional* modes (T_j flat, e.g. a massless leg whose toe separates forces its hip torque
+to 0: ``E u = e``). A full-dimensional mode that does not overlap T_c is separated from it by a
+hyperplane, so the first condition already keeps B(u, margin) out of it. Polyhedrally:
+
+- ``B(u, m) ⊂ T_c``: every row ``a^T u <= b`` of T_c tightened to ``a^T u <= b - m |a|``, except
+  the rows that are input limits (no mode lies beyond a limit: a torque at its limit stays there
+  when rounded, so the limits are not shrunk);
+- ``B(u, m) ∩ T_j = ∅``: u violates some row of T_j by at least m, ``a^T u >= b + m |a|`` (an
+  equality row ``E_r u = e_r`` counts as the two rows ``±(E_r u - e_r) <= 0``: one side or the
+  other). This union of half-spaces is the complement of T_j grown by m row by row; it is exact
+  away from T_j's corners and conservative near them (where the grown polytope has corners and
+  the ball's sum is round).
+
+U_c(m) is built as a union of convex pieces by the region difference (METHOD §5; the same
+recursion as :func:`frcontrol.polytope.set_difference`): starting from the shrunk T_c, each piece
+R that meets the grown T_j with an interior is replaced by the pieces
+``R ∩ {row k of T_j violated by >= m} ∩ {rows i < k violated by <= m}`` (disjoint interiors,
+same union); pieces without an interior (Chebyshev radius <= ``INTERIOR_TOLERANCE``) are dropped.
+At ``margin = 0`` the pieces cover the engine's unambiguous set (:meth:`unambiguous_set`) with the
+lower-dimensional sets cut out; a piece boundary *inside* U_c never shrinks anything (the pieces are
+not shrunk one by one), which is why the pieces are built here rather than by shrinking the
+engine's pieces (shrinking those would also pull in from their shared facets).
+
+**The maximisation.** Per piece P: if the pitch does not depend on w, one LP
+``max c_u^T u + c_0 over P``. If it does (``c_w != 0``: the motion itself is ambiguous within the
+mode), the plan maximises the worst case ``c_u^T u + c_0 + min { c_w^T w : (u, w) in D_c }``. The
+inner minimum is an LP whose right-hand side depends on u; its value ``g(u)`` is *convex* in u
+(the value of an LP is convex in its right-hand side), so the outer problem maximises a convex
+function: no LP (and no LP duality: the dual's objective is bilinear in u and the multipliers),
+but its maximum over a polytope is attained at a vertex. The vertices of P are enumerated (every
+choice of m active rows, :data:`MAX_VERTEX_CANDIDATES` at most) and the worst case is evaluated at
+each by one LP over w: exact. The best piece over all candidates wins; ties keep the first found.
+
+**Rounding and verification.** The optimum is rounded to :data:`TORQUE_ROUNDING` [N m] (and kept
+within the limits); the plan is *verified* by :func:`frcontrol.engine.solutions_at` at the
+rounded torques: exactly one rigid solution, in the planned mode, with the planned pitch
+acceleration (to :data:`PITCH_TOLERANCE`; for a worst-case plan, the solution's pitch is at least
+the worst case). A piece whose optimum fails the check is reported and the next best is tried.
+
+**Inputs the model forces to zero.** An input on a coordinate with no inertia, no bias and no
+active contact (a massless leg in the air) is forced to 0 by its dynamics row in every mode
+(``0 = u_j``); every T_c is then flat and nothing is a candidate. The planner fixes such inputs at
+0, plans over the others and reports them (``forced_inputs``).
+
+**Closed loop.** :func:`simulate_flip` re-plans every ``replan_every`` steps at the simulated state
+(:meth:`Scene.at`) and applies the plan's rounded torques to the rigid time-stepping simulation
+(:func:`frcontrol.simulation.simulate_rigid`: contacts open and close, inelastic impacts) until the
+pitch passes vertical or ``max_time``. See there for the re-planning model and the definition of
+"body contact kept".
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from .. import polytope as poly
+from ..engine import DynamicResponse, ModeAnalysis, analyze, solutions_at
+from ..errors import FrcontrolError, ImpactState, InputError, SceneError
+from ..modes import VELOCITY_TOLERANCE, ContactProblem
+from ..response import OUTPUT_TOLERANCE
+from ..scene import Scene
+from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
+from ..solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, SolverFailed, solve_lp, solve_lp_prepared
+
+__all__ = [
+    "DEFAULT_MARGIN",
+    "FLIP_ARMATURE",
+
+    "INPUT_LIMIT_TOLERANCE",
+    "MAX_VERTEX_CANDIDATES",
+    "PITCH_TOLERANCE",
+    "REPLAN_GAP_TOLERANCE",
+    "REPLAN_VELOCITY_TOLERANCE",
+    "SEPARATION_GAP",
+    "TORQUE_ROUNDING",
+    "FlipPiece",
+    "FlipPlan",
+    "FlipResult",
+    "FlipTask",
+    "flip_task",
+    "margin_pieces",
+    "maximise_pitch",
+    "shrunk_input_domain",
+    "plan_flip",
+    "sample_modes",
+    "simulate_flip",
+    "worst_case_pitch",
+]
+
+# ---------------------------------------------------------------------------------------------
+# tolerances and defaults
+
+DEFAULT_MARGIN = 0.05
+"""[N m] Default distance (in input space) between the plan and every input where another mode
+also holds: 500 times :data:`TORQUE_ROUNDING`, and small against RHex's 10 N m hip limits."""
+
+TORQUE_ROUNDING = 1e-4
+"""[N m] The plan's torques are rounded to multiples of this (as printed) before verification."""
+
+PITCH_TOLERANCE = 1e-9
+"""[rad/s^2] Relative agreement (times ``1 + |pitch|``) required between the planned pitch
+acceleration and the one :func:`~frcontrol.engine.solutions_at` reports at the rounded torques."""
+
+INPUT_LIMIT_TOLERANCE = 1e-9
+"""[-] A unit row of T_c is an input-limit row (not shrunk by the margin) when it equals
+``±e_i`` and its right-hand side equals the limit to this (relative to ``1 + |limit|``)."""
+
+MAX_VERTEX_CANDIDATES = 200_000
+"""Most row subsets tried to enumerate a piece's vertices in the worst-case (w-dependent) plan."""
+
+REPLAN_VELOCITY_TOLERANCE = 1e-3
+"""[m/s] In the closed loop, a contact velocity (normal or tangential) of at most this counts as
+zero when re-planning. The time stepper leaves touching contacts with small normal velocities (it
+removes penetrations over a step, ``v_N = -phi / dt``: 1e-5 m/s for a 1e-8 m penetration at 1 ms)
+and resting contacts with slip speeds below its own tolerance."""
+
+REPLAN_GAP_TOLERANCE = 1e-5
+"""[m] In the closed loop, a contact with gap at most this is active when re-planning (the time
+stepper keeps closed contacts within about ``g dt^2`` = 1e-5 m of their surface)."""
+
+SEPARATION_GAP = 1e-4
+"""[m] A body contact *touches* at a sample when its gap is at most this; once touching, a gap
+above it is a separation. One step of chatter (a resting contact opening for one step, about
+``g dt^2`` = 1e-5 m at 1 ms) stays below it."""
+
+FLIP_ARMATURE = 2e-3
+r"""[kg m^2] Default rotor inertia of each massless hip coordinate in the flip's simulation (when
+the scene's ``[model]`` gives none). RHex (Saranli, Buehler and Koditschek 2001) drives each leg
+with a Maxon 20 W motor (rotor inertia about 1e-6 kg m^2) through a 33:1 gearhead: reflected,
+33^2 x 1e-6 = 1.1e-3 kg m^2 per motor, and each planar hip stands for a pair of legs (two motors).
+The simulator's default (1e-4 kg m^2) lets a free leg spin ten times faster than this."""
+
+
+# ---------------------------------------------------------------------------------------------
+# the task
+
+
+@dataclass(frozen=True)
+class FlipTask:
+    """What the flip planner reads from the scene's ``[task]`` table.
+
+    Attributes:
+        body_contacts: names of the body's contacts (none may separate), in scene order.
+        pitch: the pitch coordinate's name.
+        pitch_index: its index in the minimal coordinates.
+        initial_pitch: [rad] its value at the scene's state.
+        vertical: [rad] the first pitch above ``initial_pitch`` at which the body stands vertical
+            (``pi/2 + k pi``): the flip is done when the pitch passes it.
+    """
+
+    body_contacts: tuple[str, ...]
+    pitch: str
+    pitch_index: int
+    initial_pitch: float
+    vertical: float
+
+
+def flip_task(scene: Scene) -> FlipTask:
+    """The flip task of a scene: its ``[task]`` table, validated, with the defaults.
+
+    ``body_contacts`` defaults to the contacts on the robot's root link; ``pitch`` to ``theta``.
+
+    Raises:
+        SceneError: ``[task]`` is malformed, names an unknown contact or coordinate, or the scene
+            has no body contact.
+    """
+    raw = scene.raw.get("task", {}) if isinstance(scene.raw, Mapping) else {}
+    path = str(scene.path)
+    if not isinstance(raw, Mapping):
+        raise SceneError(path, "task", f"expected a table [task], got {raw!r}")
+    names = [c.name for c in scene.contacts]
+    if "body_contacts" in raw:
+        body = raw["body_contacts"]
+        if not isinstance(body, list) or not all(isinstance(x, str) for x in body) or not body:
+            raise SceneError(path, "task.body_contacts", f"expected a non-empty list of contact names "
+                             f"from {names}, got {body!r}")
+        for i, name in enumerate(body):
+            if name not in names:
+                raise SceneError(path, f"task.body_contacts[{i}]",
+                                 f"unknown contact {name!r}; the contacts are: {', '.join(names)}")
+        chosen = set(body)
+    else:
+        root = scene.robot.link_names[0] if scene.robot.link_names else ""
+        chosen = {c.name for c in scene.contacts if c.point.link == root}
+        if not chosen:
+            raise SceneError(path, "task.body_contacts", f"missing, and no contact is on the root link "
+                             f"{root!r}: name the body's contacts")
+    pitch = raw.get("pitch", "theta")
+    coords = scene.coordinate_names
+    if not isinstance(pitch, str) or pitch not in coords:
+        raise SceneError(path, "task.pitch", f"expected a coordinate name from {list(coords)}, got {pitch!r}")
+    index = coords.index(pitch)
+    initial = float(scene.q[index])
+    vertical = math.pi / 2 + math.pi * (math.floor((initial - math.pi / 2) / math.pi) + 1)
+    return FlipTask(tuple(n for n in names if n in chosen), pitch, index, initial, vertical)
+
+
+# ---------------------------------------------------------------------------------------------
+# results
+
+
+@dataclass(frozen=True)
+class FlipPiece:
+    """One convex piece of a candidate's unambiguous set shrunk by the margin, and its optimum.
+
+    Attributes:
+        mode: the candidate mode.
+        region: the piece, over the planned inputs (``FlipPlan.planned_inputs``).
+        pitch_acceleration: [rad/s^2] the best (worst-case, if ``worst_case``) pitch acceleration
+            on the piece, at the unrounded optimum; ``-inf`` if the LP failed.
+        optimum: the unrounded optimum (None if the LP failed).
+        worst_case: the pitch depends on the mode's ambiguity variables w.
+    """
+
+    mode: str
+    region: poly.Polytope
+    pitch_acceleration: float
+    optimum: np.ndarray | None
+    worst_case: bool
+
+
+@dataclass(frozen=True)
+class FlipPlan:
+    """A flip plan at one state: the mode, the torques and what was checked.
+
+    Attributes:
+        found: a verified plan exists (then every field below describes it).
+        mode: the planned mode, one letter per active contact (of ``contacts``).
+        torques: [N m] the rounded input per scene input name (forced inputs at 0).
+        pitch_acceleration: [rad/s^2] at the rounded torques (the worst case over w if
+            ``worst_case``).
+        worst_case: the pitch acceleration depended on w and its worst case was maximised.
+        unambiguous: ``solutions_at`` at the rounded torques gives exactly one solution, in
+            ``mode``, with that pitch acceleration.
+        margin: [N m] the distance kept from every other mode's input set.
+        rounding: [N m] the quantum the torques were rounded to.
+        candidates: the candidate modes considered.
+        bounds: [rad/s^2] per candidate, the best pitch acceleration on its shrunk T_c (an upper
+            bound of its pieces'; ``inf`` for a worst-case mode, ``-inf`` if the shrunk T_c is empty).
+        explored: the candidates whose pieces were built (in order of decreasing bound; the others
+            could not beat the plan).
+        pieces: the convex pieces built, with their optima, best first.
+        rejected: pieces whose optimum failed the verification (mode and why), in the order tried.
+        forced_inputs: [N m] inputs the rigid model forces at this state, with their value (a
+            massless leg in the air or lifting off: 0); not planned, applied as they are.
+        planned_inputs: the inputs planned over (the scene's, minus the forced ones).
+        contacts: the active contacts, in mode-letter order.
+        body_contacts: the active body contacts.
+        pitch: the pitch coordinate.
+        reason: why no plan was found (None when found).
+        timings: [s] ``analysis``, ``unambiguous_sets`` (the margin pieces, with the projections
+            they need), ``lps`` (the maximisation), ``verification``, ``total``.
+        tolerances: the named tolerances used.
+        analysis: the engine's analysis the plan was made on (over ``planned_inputs``).
+    """
+
+    found: bool
+    mode: str | None
+    torques: Mapping[str, float]
+    pitch_acceleration: float | None
+    worst_case: bool
+    unambiguous: bool
+    margin: float
+    rounding: float
+    candidates: tuple[str, ...]
+    bounds: Mapping[str, float]
+    explored: tuple[str, ...]
+    pieces: tuple[FlipPiece, ...]
+    rejected: tuple[tuple[str, str], ...]
+    forced_inputs: Mapping[str, float]
+    planned_inputs: tuple[str, ...]
+    contacts: tuple[str, ...]
+    body_contacts: tuple[str, ...]
+    pitch: str
+    reason: str | None
+    timings: Mapping[str, float]
+    tolerances: Mapping[str, float]
+    analysis: DynamicResponse | None = field(default=None, repr=False, compare=False)
+
+    def input_vector(self, inputs: Sequence[str]) -> np.ndarray:
+        """The torques as a vector in the order of ``inputs`` (the scene's input names)."""
+        return np.array([float(self.torques.get(name, 0.0)) for name in inputs])
+
+
+@dataclass(frozen=True)
+class FlipResult:
+    """The closed-loop flip: the first plan, the simulated motion and the verdict.
+
+    Attributes:
+        plan: the plan at the scene's state (the torques of the first step).
+        trajectory: the simulated motion (None when no first plan was found).
+        flipped: the pitch passed ``vertical`` within ``max_time``.
+        time_to_vertical: [s] when it did (linear interpolation between samples), else None.
+        body_contact_kept: no body contact separated up to the flip (or the end): see
+            :func:`simulate_flip`.
+        separation: the first separation of a body contact touching at the start
+            ``(time [s], contact)``, or None.
+        body_events: every touch-down and separation of a body contact up to the flip (or the
+            end): ``(time [s], contact, "touchdown" | "separation")``.
+        steps: time steps simulated.
+        replans: plans made after the first one.
+        held: re-planning points at which no plan was made and the torques were held, with why.
+        plans: ``(time [s], mode or None, torques)`` of every plan applied, in time order.
+        modes: per sample, one letter per scene contact (S when not loaded), for the viewers.
+        reason: why the robot did not flip (None if it did).
+        vertical: [rad] the pitch to pass.
+        dt: [s] the time step; max_time: [s] the simulated time limit.
+        armature: [kg m^2] the rotor inertia given to the massless hips.
+        timings: [s] ``first_plan``, ``simulation``, ``replanning``, ``total``.
+    """
+
+    plan: FlipPlan
+    trajectory: Any
+    flipped: bool
+    time_to_vertical: float | None
+    body_contact_kept: bool | None
+    separation: tuple[float, str] | None
+    body_events: tuple[tuple[float, str, str], ...]
+    steps: int
+    replans: int
+    held: tuple[tuple[float, str], ...]
+    plans: tuple[tuple[float, str | None, Mapping[str, float]], ...]
+    modes: tuple[str, ...]
+    reason: str | None
+    vertical: float
+    dt: float
+    max_time: float
+    armature: float
+    timings: Mapping[str, float]
+
+
+# ---------------------------------------------------------------------------------------------
+# building blocks
+
+
+def _unit_rows(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows scaled to unit norm (zero rows kept as they are)."""
+    norms = np.linalg.norm(A, axis=1)
+    scale = np.where(norms > 0, norms, 1.0)
+    return A / scale[:, None], b / scale
+
+
+def _as_halfspaces(P: poly.Polytope) -> tuple[np.ndarray, np.ndarray]:
+    """Unit rows ``a u <= b`` of P, an equality ``E u = e`` written as ``E u <= e, -E u <= -e``."""
+    A = np.vstack([P.A_eq, -P.A_eq, P.A])
+    b = np.concatenate([P.b_eq, -P.b_eq, P.b])
+    return _unit_rows(A, b)
+
+
+def _limit_rows(A: np.ndarray, b: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Mask of the unit rows that are input limits ``u_i <= upper_i`` or ``-u_i <= -lower_i``."""
+    mask = np.zeros(A.shape[0], dtype=bool)
+    for r, (row, rhs) in enumerate(zip(A, b, strict=True)):
+        i = int(np.argmax(np.abs(row)))
+        if abs(abs(row[i]) - 1.0) > INPUT_LIMIT_TOLERANCE:
+            continue
+        limit = upper[i] if row[i] > 0 else -lower[i]
+        if math.isfinite(limit) and abs(rhs - limit) <= INPUT_LIMIT_TOLERANCE * (1.0 + abs(limit)):
+            mask[r] = True
+    return mask
+
+
+def _has_interior(A: np.ndarray, b: np.ndarray, solver: str) -> bool:
+    """Whether ``{u : A u <= b}`` (unit rows) holds a ball of radius > ``INTERIOR_TOLERANCE``.
+
+    One Chebyshev LP, ``max r`` s.t. ``A u + r <= b``, ``0 <= r <= CHEBYSHEV_RADIUS_CAP``, built
+    here on unit rows (the hot loop of :func:`margin_pieces`; :func:`frcontrol.polytope.chebyshev_ball`
+    answers the same for general rows). Zero rows are judged by their right-hand side.
+    """
+    zero = ~np.any(A, axis=1)
+    if np.any(b[zero] < -poly.CONTAINMENT_TOLERANCE):
+        return False
+    A, b = A[~zero], b[~zero]
+    d = A.shape[1]
+    cost = np.zeros(d + 1)
+    cost[-1] = -1.0
+    A_lp = np.hstack([A, np.ones((A.shape[0], 1))])
+    lb = np.full(d + 1, -np.inf)
+    ub = np.full(d + 1, np.inf)
+    lb[-1], ub[-1] = 0.0, poly.CHEBYSHEV_RADIUS_CAP
+    result = solve_lp_prepared(cost, A_lp, b, lb=lb, ub=ub, solver=solver)
+    if result.status not in ("optimal", "infeasible") and solver != REFERENCE_LP_SOLVER:
+        result = solve_lp_prepared(cost, A_lp, b, lb=lb, ub=ub, solver=REFERENCE_LP_SOLVER)
+    if result.status == "infeasible":
+        return False
+    if not result.found:
+        raise SolverFailed("an interior test of the flip planner", {solver: result.raw_status})
+    return bool(result.x[-1] > poly.INTERIOR_TOLERANCE)
+
+
+def shrunk_input_domain(
+    analysis: DynamicResponse, mode: str, margin: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """T_c of ``mode`` with every row but the input limits pulled in by ``margin``: ``(A, b)``, unit rows.
+
+    ``{u : a_i^T u <= b_i - margin}`` for the mode boundaries, ``a_i^T u <= b_i`` for the limits:
+    the inputs whose ball of radius ``margin`` lies in T_c (within the limits).
+    """
+    problem = analysis.problem
+    A, b = _as_halfspaces(analysis.mode(mode).input_domain)
+    limits = _limit_rows(A, b, problem.lower, problem.upper)
+    return A, b - margin * (~limits)
+
+
+def margin_pieces(
+    analysis: DynamicResponse,
+    mode: str,
+    margin: float,
+    *,
+    solver: str = DEFAULT_LP_SOLVER,
+) -> list[poly.Polytope]:
+    """The unambiguous inputs of ``mode`` kept ``margin`` away from every other mode, as pieces.
+
+    See the module's docstring: ``U_c(margin)`` from T_c shrunk (input limits excepted,
+    :func:`shrunk_input_domain`) by the region difference against the overlapping and the
+    lower-dimensional modes, each grown by ``margin`` row by row. A lower-dimensional T_j lies in
+    its affine hull ``E_j u = e_j``; when the band ``|E_j u - e_j| <= margin`` misses a piece's
+    interior, T_j is not needed there (and its projection is not computed).
+
+    Args:
+        analysis: the engine's analysis (with its overlaps).
+        mode: a feasible mode whose T_c has an interior.
+        margin: [units of u] the distance to keep, >= 0.
+        solver: LP back-end.
+
+    Returns:
+        Convex pieces with disjoint interiors, each with an interior (unit rows, not minimal).
+    """
+    if not analysis.mode(mode).inputs_full_dimensional:
+        return []
+    A, start_b = shrunk_input_domain(analysis, mode, margin)
+    if not _has_interior(A, start_b, solver):
+        return []
+    others = [analysis.mode(name) for name in analysis.overlapping(mode)]
+    others += [m for m in analysis.lower_dimensional_modes() if m.mode != mode]
+    pieces: list[tuple[np.ndarray, np.ndarray]] = [(A, start_b)]
+    for other in others:
+        hull = _hull_band(other, margin)
+        rows: tuple[np.ndarray, np.ndarray] | None = None
+        next_pieces: list[tuple[np.ndarray, np.ndarray]] = []
+        for R_A, R_b in pieces:
+            if hull is not None and not _has_interior(np.vstack([R_A, hull[0]]),
+                                                      np.concatenate([R_b, hull[1]]), solver):
+                next_pieces.append((R_A, R_b))  # T_j's hull is margin away from this piece
+                continue
+            if rows is None:
+                A_j, b_j = _as_halfspaces(other.input_domain)
+                rows = (A_j, b_j + margin)
+            A_j, grown = rows
+            if not _has_interior(np.vstack([R_A, A_j]), np.concatenate([R_b, grown]), solver):
+                next_pieces.append((R_A, R_b))  # already margin away from T_j
+                continue
+            kept_A, kept_b = R_A, R_b
+            for row, rhs in zip(A_j, grown, strict=True):
+                child_A = np.vstack([kept_A, -row])
+                child_b = np.append(kept_b, -rhs)
+                if _has_interior(child_A, child_b, solver):
+                    next_pieces.append((child_A, child_b))
+                kept_A, kept_b = np.vstack([kept_A, row]), np.append(kept_b, rhs)
+        pieces = next_pieces
+        if not pieces:
+            break
+    return [poly.Polytope(P_A, P_b) for P_A, P_b in pieces]
+
+
+def _hull_band(mode: ModeAnalysis, margin: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """``|E u - e| <= margin`` (unit rows) around a mode's consistency hull, or None if it has none."""
+    E, e = mode.response.E, mode.response.e
+    if E.shape[0] == 0:
+        return None
+    A, b = _unit_rows(np.vstack([E, -E]), np.concatenate([e, -e]))
+    return A, b + margin
+
+
+def _pitch_row(mode: ModeAnalysis, pitch_index: int) -> tuple[np.ndarray, np.ndarray, float, bool]:
+    """``(c_u, c_w, c_0, depends_on_w)``: the pitch row of the mode's response."""
+    r = mode.response
+    c_u = r.X_u[pitch_index].copy()
+    c_w = r.X_w[pitch_index].copy()
+    c_0 = float(r.x_0[pitch_index])
+    depends = False
+    if r.X_w.size:
+        scale = float(np.max(np.abs(r.X_w)))
+        depends = bool(np.max(np.abs(c_w)) > OUTPUT_TOLERANCE * max(scale, 1e-300))
+    if not depends:
+        c_w = np.zeros_like(c_w)
+    return c_u, c_w, c_0, depends
+
+
+def _solve_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, solver: str, **kwargs: Any):
+    result = solve_lp(c, A, b, solver=solver, **kwargs)
+    if result.status in ("error", "unbounded") and solver != REFERENCE_LP_SOLVER:
+        result = solve_lp(c, A, b, solver=REFERENCE_LP_SOLVER, **kwargs)
+    return result
+
+
+def worst_case_pitch(
+    mode: ModeAnalysis, pitch_index: int, u: np.ndarray, *, solver: str = DEFAULT_LP_SOLVER
+) -> float:
+    """``c_u^T u + c_0 + min { c_w^T w : (u, w) in D_c }``: the least pitch acceleration at u.
+
+    One LP over w on the slice of the mode's domain D_c at u; ``-inf`` if u is outside T_c.
+    """
+    c_u, c_w, c_0, depends = _pitch_row(mode, pitch_index)
+    base = float(c_u @ u) + c_0
+    if not depends:
+        return base
+    D = mode.domain
+    m = mode.m
+    H_u, H_w = D.A[:, :m], D.A[:, m:]
+    result = _solve_lp(c_w, H_w, D.b - H_u @ u, solver)
+    if not result.found:
+        return -math.inf
+    return base + float(result.objective)
+
+
+def _vertices(A: np.ndarray, b: np.ndarray, tolerance: float = 1e-9) -> np.ndarray:
+    """Vertices of the bounded polytope ``A u <= b`` (every choice of m active rows)."""
+    count, m = A.shape
+    if math.comb(count, m) > MAX_VERTEX_CANDIDATES:
+        raise InputError(f"a piece with {count} rows in {m} inputs has too many vertex candidates "
+                         f"({math.comb(count, m)} > {MAX_VERTEX_CANDIDATES}) for the worst-case plan")
+    found: list[np.ndarray] = []
+    for rows in itertools.combinations(range(count), m):
+        sub = A[list(rows)]
+        if abs(np.linalg.det(sub)) < 1e-12:
+            continue
+        point = np.linalg.solve(sub, b[list(rows)])
+        if np.all(A @ point <= b + tolerance) and not any(np.allclose(point, v) for v in found):
+            found.append(point)
+    return np.array(found).reshape(-1, m)
+
+
+def maximise_pitch(mode: ModeAnalysis, piece: poly.Polytope, pitch_index: int,
+                   solver: str = DEFAULT_LP_SOLVER) -> FlipPiece:
+    """The best pitch acceleration of ``mode`` on one piece of inputs.
+
+    ``max c_u^T u + c_0`` over the piece by one LP when the pitch row does not depend on w; else the
+    worst case ``c_u^T u + c_0 + g(u)``, ``g(u) = min {c_w^T w : (u, w) in D_c}`` (convex in u), at
+    the best vertex of the piece (see the module's docstring).
+
+    Args:
+        mode: the mode's analysis (its response ``X_u, X_w, x_0``, its domain D_c over (u, w)).
+        piece: a bounded polytope of inputs inside T_c.
+        pitch_index: the pitch coordinate's index in ``dv``.
+        solver: LP back-end.
+    """
+    c_u, _, c_0, depends = _pitch_row(mode, pitch_index)
+    if not depends:
+        result = _solve_lp(-c_u, piece.A, piece.b, solver)
+        if not result.found:
+            return FlipPiece(mode.mode, piece, -math.inf, None, False)
+        return FlipPiece(mode.mode, piece, float(c_u @ result.x) + c_0, result.x.copy(), False)
+    reduced = poly.minimal_representation(piece, solver=solver)
+    best, best_u = -math.inf, None
+    for vertex in _vertices(reduced.A, reduced.b):
+        value = worst_case_pitch(mode, pitch_index, vertex, solver=solver)
+        if value > best:
+            best, best_u = value, vertex
+    return FlipPiece(mode.mode, piece, best, best_u, True)
+
+
+def _round_inputs(u: np.ndarray, lower: np.ndarray, upper: np.ndarray, quantum: float) -> np.ndarray:
+    """Round to multiples of ``quantum`` and keep within the limits."""
+    rounded = np.round(u / quantum) * quantum if quantum > 0 else u.copy()
+    rounded = np.minimum(np.maximum(rounded, lower), upper)
+    return rounded + 0.0  # no negative zeros
+
+
+FORCED_INPUT_TOLERANCE = 1e-9
+"""[-] Relative tolerance of the forced-input tests: a zero row or column of the dynamics, and an
+input direction ``e_i`` lying in the row space of a mode's consistency rows ``E`` (``1 - |E e_i|^2``
+at most this), with the same value in every feasible mode (to this times ``1 + |value|``)."""
+
+
+def _structurally_forced(problem: ContactProblem) -> dict[int, float]:
+    """Inputs whose coordinate has no inertia, no bias and no active contact: forced to 0.
+
+    Row j of the dynamics reads ``M_j dv + h_j = u_j + J_N,j^T lam_N + J_T,j^T lam_T``; with
+    ``M_j = 0``, ``h_j = 0`` and zero contact columns, every solution has ``u_j = 0``.
+    """
+    M = problem.mass_matrix
+    tol = FORCED_INPUT_TOLERANCE
+    scale = max(1.0, float(np.max(np.abs(M), initial=0.0)))
+    jac = np.vstack([problem.jacobian_normal, problem.jacobian_tangent]).reshape(-1, problem.n)
+    forced = {}
+    for i in range(problem.m):
+        j = int(np.argmax(np.abs(problem.input_map[:, i])))
+        if (np.max(np.abs(M[j]), initial=0.0) <= tol * scale and abs(problem.bias[j]) <= tol * scale
+                and np.max(np.abs(jac[:, j]), initial=0.0) <= tol):
+            forced[i] = 0.0
+    return forced
+
+
+def _forced_by_every_mode(analysis: DynamicResponse) -> dict[int, float]:
+    """Inputs that every feasible mode's consistency rows ``E u = e`` fix, at one common value.
+
+    E.g. a massless leg whose toe is lifting off (``v_N > 0``: S only): its hip torque is 0 in
+    every mode. ``E`` has orthonormal rows, so ``e_i`` lies in its row space when
+    ``|E e_i| = 1``, and then ``u_i = (E e_i)^T e``.
+    """
+    modes = analysis.feasible_modes
+    if not modes or any(m.response.E.shape[0] == 0 for m in modes):
+        return {}
+    tol = FORCED_INPUT_TOLERANCE
+    forced = {}
+    for i in range(analysis.problem.m):
+        values = []
+        for mode in modes:
+            column = mode.response.E[:, i]
+            if 1.0 - float(column @ column) > tol:
+                break
+            values.append(float(column @ mode.response.e))
+        else:
+            if max(values) - min(values) <= tol * (1.0 + max(abs(v) for v in values)):
+                forced[i] = float(np.mean(values)) if abs(np.mean(values)) > tol else 0.0
+    return forced
+
+
+def _fix_inputs(problem: ContactProblem, fixed: Mapping[int, float]) -> ContactProblem:
+    """The problem with the inputs ``fixed`` (index -> value) moved into the bias: ``h - S_i^T u_i``."""
+    keep = [i for i in range(problem.m) if i not in fixed]
+    idx = list(fixed)
+    bias = problem.bias - problem.input_map[:, idx] @ np.array([fixed[i] for i in idx])
+    return replace(problem, inputs=tuple(problem.inputs[i] for i in keep), bias=bias,
+                   input_map=problem.input_map[:, keep], lower=problem.lower[keep],
+                   upper=problem.upper[keep])
+
+
+def _check_inputs(scene: Scene) -> None:
+    inputs = scene.inputs
+    if inputs.count == 0:
+        raise InputError(f"scene {scene.name!r} ({scene.path}) has no inputs: the flip needs hip torques "
+                         "to choose; add an [inputs] table naming the hip joints and their limits")
+    for name, lo, hi in zip(inputs.coordinates, inputs.lower, inputs.upper, strict=True):
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise InputError(f"input {name!r} has an infinite limit [{lo:g}, {hi:g}]: the flip planner "
+                             "maximises over the torque limits; give finite [inputs] lower and upper")
+        if hi - lo <= 0.0:
+            raise InputError(f"input {name!r} has the limits [{lo:g}, {hi:g}], an interval without "
+                             "interior: no torque is unambiguous with a margin; widen the limits")
+
+
+def _not_found(reason: str, **fields: Any) -> FlipPlan:
+    base: dict[str, Any] = {
+        "found": False, "mode": None, "torques": {}, "pitch_acceleration": None, "worst_case": False,
+        "unambiguous": False, "margin": 0.0, "rounding": TORQUE_ROUNDING, "candidates": (),
+        "bounds": {}, "explored": (), "pieces": (), "rejected": (), "forced_inputs": {},
+        "planned_inputs": (), "contacts": (), "body_contacts": (), "pitch": "", "reason": reason,
+        "timings": {}, "tolerances": {},
+    }
+    base.update(fields)
+    return FlipPlan(**base)
+
+
+# ---------------------------------------------------------------------------------------------
+# the plan
+
+
+def plan_flip(
+    scene: Scene,
+    *,
+    margin: float = DEFAULT_MARGIN,
+    analysis: DynamicResponse | None = None,
+    solver: str = DEFAULT_LP_SOLVER,
+    rounding: float = TORQUE_ROUNDING,
+    min_pitch_acceleration: float | None = 0.0,
+    velocity_tolerance: float = VELOCITY_TOLERANCE,
+    exhaustive: bool = False,
+    problem: ContactProblem | None = None,
+) -> FlipPlan:
+    """The hip torques that maximise the body's pitch acceleration, unambiguously, at the state.
+
+    See the module's docstring for the maths.
+
+    Args:
+        scene: the scene at the state to plan at (``scene.at(q, v)`` along a motion).
+        margin: [N m] the distance kept from every input where another mode also holds, >= 0.
+        analysis: the engine's analysis of this scene at this state (computed if None).
+        solver: LP back-end.
+        rounding: [N m] the torques are rounded to multiples of this, >= 0.
+        min_pitch_acceleration: [rad/s^2] a plan must exceed this by more than
+            :data:`PITCH_TOLERANCE` (default 0: it must pitch the body up; a mode that holds the
+            body still, with a pitch acceleration of round-off size, does not); None accepts the
+            best plan whatever its sign (re-planning mid-flip).
+        velocity_tolerance: [m/s] contact velocities at most this count as zero (velocity pruning).
+        exhaustive: build the pieces of every candidate (default: only of the candidates whose
+            bound, the LP over their shrunk T_c, exceeds the best verified plan so far: the same
+            plan, found faster).
+        problem: the contact problem to plan on (default: the scene's at its state, with
+            ``velocity_tolerance``); ignored when ``analysis`` is given.
+
+    Returns:
+        The plan; ``found=False`` with a ``reason`` when no candidate, piece or verified optimum
+        exists, or the best pitch acceleration does not exceed ``min_pitch_acceleration``.
+
+    Raises:
+        InputError: the scene has no inputs, an infinite or empty torque interval, a negative or
+            non-finite margin or rounding, or no rigid-body solution at all within the limits.
+        SceneError: a malformed ``[task]`` table.
+        ImpactState: a contact moves into its surface.
+    """
+    start = time.perf_counter()
+    if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin >= 0):
+        raise InputError(f"the margin must be a finite number >= 0 [N m], got {margin!r}")
+    if not (isinstance(rounding, (int, float)) and math.isfinite(rounding) and rounding >= 0):
+        raise InputError(f"the rounding must be a finite number >= 0 [N m], got {rounding!r}")
+    _check_inputs(scene)
+    task = flip_task(scene)
+    timings = {"analysis": 0.0, "unambiguous_sets": 0.0, "lps": 0.0, "verification": 0.0}
+    tolerances = {"rounding": rounding, "pitch": PITCH_TOLERANCE, "velocity": velocity_tolerance,
+                  "interior": poly.INTERIOR_TOLERANCE, "input_limit": INPUT_LIMIT_TOLERANCE}
+
+    t0 = time.perf_counter()
+    if analysis is not None:
+        full = analysis.problem
+    elif problem is not None:
+        full = problem
+    else:
+        full = ContactProblem.from_scene(scene, velocity_tolerance=velocity_tolerance)
+    forced = _structurally_forced(full)
+    problem = _fix_inputs(full, forced) if forced else full
+    if forced:
+        analysis = None
+    if problem.m and analysis is None:
+        analysis = analyze(problem, solver=solver)
+    if analysis is not None and not any(m.inputs_full_dimensional for m in analysis.feasible_modes):
+        more = _forced_by_every_mode(analysis)
+        if more:
+            names_left = problem.inputs
+            forced.update({full.inputs.index(names_left[i]): value for i, value in more.items()})
+            problem = _fix_inputs(full, forced)
+            analysis = analyze(problem, solver=solver) if problem.m else None
+    timings["analysis"] = time.perf_counter() - t0
+    forced_values = {full.inputs[i]: forced[i] for i in sorted(forced)}
+    common = {"margin": float(margin), "rounding": rounding, "forced_inputs": forced_values,
+              "planned_inputs": problem.inputs, "contacts": problem.contacts, "pitch": task.pitch,
+              "tolerances": tolerances, "analysis": analysis}
+    active_body = tuple(c for c in problem.contacts if c in task.body_contacts)
+    common["body_contacts"] = active_body
+    bad = [name for name, value in forced_values.items()
+           if not full.lower[full.inputs.index(name)] <= value <= full.upper[full.inputs.index(name)]]
+    if bad:
+        timings["total"] = time.perf_counter() - start
+        return _not_found(f"the rigid model forces {', '.join(bad)} to a value outside its limits "
+                          f"({_torque_text({n: forced_values[n] for n in bad})})", timings=timings, **common)
+    if problem.m == 0:
+        timings["total"] = time.perf_counter() - start
+        return _not_found(f"every input is forced at this state ({_torque_text(forced_values)}: e.g. "
+                          "massless legs without ground contact)", timings=timings, **common)
+    if not analysis.feasible_modes:
+        raise InputError(f"no input within the torque limits gives a rigid-body solution of scene "
+                         f"{scene.name!r} at this state (every contact mode's domain is empty): check "
+                         "the [inputs] limits")
+    if not active_body:
+        timings["total"] = time.perf_counter() - start
+        return _not_found(f"no body contact ({', '.join(task.body_contacts)}) touches the ground",
+                          timings=timings, **common)
+    body_index = [problem.contacts.index(c) for c in active_body]
+    candidates = tuple(
+        m.mode for m in analysis.feasible_modes
+        if m.inputs_full_dimensional and all(m.mode[i] != "S" for i in body_index)
+    )
+    common["candidates"] = candidates
+    if not candidates:
+        timings["total"] = time.perf_counter() - start
+        return _not_found("no contact mode with a full-dimensional input domain keeps every body "
+                          f"contact ({', '.join(active_body)}) loaded", timings=timings, **common)
+
+    # Branch and bound over the candidates: the LP over the shrunk T_c bounds every piece of it.
+    t0 = time.perf_counter()
+    bounds: dict[str, float] = {}
+    for name in candidates:
+        c_u, _, c_0, depends = _pitch_row(analysis.mode(name), task.pitch_index)
+        if depends:
+            bounds[name] = math.inf
+            continue
+        A, b = shrunk_input_domain(analysis, name, margin)
+        result = _solve_lp(-c_u, A, b, solver)
+        bounds[name] = float(c_u @ result.x) + c_0 if result.found else -math.inf
+    timings["lps"] += time.perf_counter() - t0
+    common["bounds"] = bounds
+    pieces: list[FlipPiece] = []
+    explored: list[str] = []
+    rejected: list[tuple[str, str]] = []
+    chosen: tuple[FlipPiece, np.ndarray, float] | None = None
+    for name in sorted(candidates, key=lambda c: -bounds[c]):
+        if bounds[name] == -math.inf:
+            break
+        if chosen is not None and not exhaustive and bounds[name] <= chosen[0].pitch_acceleration:
+            break
+        explored.append(name)
+        t0 = time.perf_counter()
+        regions = margin_pieces(analysis, name, margin, solver=solver)
+        t1 = time.perf_counter()
+        found = sorted((maximise_pitch(analysis.mode(name), piece, task.pitch_index, solver)
+                        for piece in regions), key=lambda p: -p.pitch_acceleration)
+        t2 = time.perf_counter()
+        timings["unambiguous_sets"] += t1 - t0
+        timings["lps"] += t2 - t1
+        pieces += found
+        for piece in found:
+            if chosen is not None and piece.pitch_acceleration <= chosen[0].pitch_acceleration:
+                break
+            if piece.optimum is None:
+                rejected.append((piece.mode, "the LP found no optimum"))
+                continue
+            u = _round_inputs(piece.optimum, problem.lower, problem.upper, rounding)
+            verdict, pitch = _verify(analysis, piece, u, task.pitch_index, solver)
+            if verdict is None:
+                chosen = (piece, u, pitch)
+                break
+            rejected.append((piece.mode, verdict))
+        timings["verification"] += time.perf_counter() - t2
+    pieces.sort(key=lambda p: -p.pitch_acceleration)
+    common.update({"pieces": tuple(pieces), "explored": tuple(explored), "rejected": tuple(rejected)})
+    timings["total"] = time.perf_counter() - start
+    if not pieces:
+        return _not_found(f"no candidate mode ({', '.join(candidates)}) has an unambiguous input "
+                          f"{margin:g} N m away from every other mode", timings=timings, **common)
+    if chosen is None:
+        return _not_found("no piece's optimum gives exactly one rigid solution once rounded "
+                          f"(tried {len(rejected)})", timings=timings, **common)
+    piece, u, pitch = chosen
+    torques = {name: forced_values.get(name, 0.0) for name in scene.inputs.coordinates}
+    torques.update({name: float(value) for name, value in zip(problem.inputs, u, strict=True)})
+    plan = FlipPlan(found=True, mode=piece.mode, torques=torques, pitch_acceleration=pitch,
+                    worst_case=piece.worst_case, unambiguous=True, reason=None, timings=timings,
+                    **common)
+    if min_pitch_acceleration is not None and not (
+            pitch > min_pitch_acceleration + PITCH_TOLERANCE * (1.0 + abs(pitch))):
+        return replace(plan, found=False, reason=(
+            f"the best unambiguous torques ({_torque_text(torques)}, mode {piece.mode}) give a pitch "
+            f"acceleration of {pitch:.6g} rad/s^2, not above {min_pitch_acceleration:g}: no torque "
+            "within the limits starts the flip"))
+    return plan
+
+
+def _torque_text(torques: Mapping[str, float]) -> str:
+    return ", ".join(f"{name} = {value:.4f} N m" for name, value in torques.items())
+
+
+def _verify(analysis: DynamicResponse, piece: FlipPiece, u: np.ndarray, pitch_index: int,
+            solver: str) -> tuple[str | None, float]:
+    """``(None, pitch)`` if exactly one rigid solution holds at u, in the piece's mode, else why."""
+    mode = analysis.mode(piece.mode)
+    pitch = worst_case_pitch(mode, pitch_index, u, solver=solver)
+    solutions = solutions_at(analysis, u, solver=solver)
+    modes = [s.mode for s in solutions]
+    if modes != [piece.mode]:
+        return f"solutions at the rounded torques: {', '.join(modes) or 'none'}", pitch
+    found = float(solutions[0].dv[pitch_index])
+    if piece.worst_case:
+        if found < pitch - PITCH_TOLERANCE * (1.0 + abs(pitch)):
+            return f"the solution's pitch {found:.9g} is below the worst case {pitch:.9g}", pitch
+    elif abs(found - pitch) > PITCH_TOLERANCE * (1.0 + abs(pitch)):
+        return f"the solution's pitch {found:.12g} differs from the plan's {pitch:.12g}", pitch
+    return None, pitch
+
+
+# ---------------------------------------------------------------------------------------------
+# the closed loop
+
+
+def _weight(scene: Scene) -> float:
+    """The robot's weight [N] (1 N without gravity): the scale of contact-force thresholds."""
+    robot = scene.robot
+    weight = float(sum(inertia.mass for inertia in robot.model.inertias)) * robot.gravity
+    return weight if weight > 0 else 1.0
+
+
+def sample_modes(scene: Scene, trajectory: Any, *, slip_tolerance: float = SLIP_VELOCITY_TOLERANCE,
+                 force_tolerance: float = CONTACT_FORCE_TOLERANCE) -> tuple[str, ...]:
+    """Per sample, one letter per scene contact: S (no load), F, R or L (by the slip velocity).
+
+    A contact is loaded when its normal force exceeds ``force_tolerance`` times the robot's weight;
+    it then sticks (F) if ``|v_T| <= slip_tolerance`` [m/s], else slides R (+t) or L (-t).
+    """
+    robot = scene.robot
+    threshold = force_tolerance * _weight(scene)
+    indices = list(range(len(scene.contacts)))
+    out = []
+    for q, v, forces in zip(trajectory.q, trajectory.v, trajectory.contact_forces, strict=True):
+        vt = robot.state(q, v, indices).tangential_velocities
+        letters = []
+        for i in indices:
+            if forces[i, 0] <= threshold:
+                letters.append("S")
+            elif vt[i] > slip_tolerance:
+                letters.append("R")
+            elif vt[i] < -slip_tolerance:
+                letters.append("L")
+            else:
+                letters.append("F")
+        out.append("".join(letters))
+    return tuple(out)
+
+
+def _concatenate(scene: Scene, chunks: Sequence[Any], info: dict) -> Any:
+    """One trajectory from consecutive chunks (each chunk's first sample is the previous last).
+
+    Each chunk's simulator starts by deciding which contacts are closed from their gaps alone, so a
+    contact that was loaded at the end of the previous chunk can be reported as closing again in
+    the first step of the next: those "close" events are dropped.
+    """
+    from ..simulation.trajectory import ContactEvent, Trajectory
+
+    times, q, v, inputs, forces, points, events = [], [], [], [], [], [], []
+    offset = 0.0
+    names = [c.name for c in scene.contacts]
+    loaded_before = np.zeros(len(names), dtype=bool)
+    force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
+    for i, chunk in enumerate(chunks):
+        skip = 0 if i == 0 else 1
+        times.append(chunk.times[skip:] + offset)
+        q.append(chunk.q[skip:])
+        v.append(chunk.v[skip:])
+        inputs.append(chunk.inputs[skip:] if i else chunk.inputs)
+        forces.append(chunk.contact_forces[skip:])
+        points.append(chunk.contact_points[skip:])
+        first_step = float(chunk.times[1]) if len(chunk.times) > 1 else 0.0
+        for e in chunk.events:
+            if (i and e.kind == "close" and e.time <= first_step + 1e-12
+                    and loaded_before[names.index(e.contact)]):
+                continue
+            events.append(ContactEvent(e.time + offset, e.contact, e.kind, e.detail))
+        loaded_before = chunk.contact_forces[-1, :, 0] > force_tolerance
+        offset += float(chunk.times[-1])
+    return Trajectory(
+        scene_name=scene.name, coordinates=scene.coordinate_names,
+        contacts=tuple(names), times=np.concatenate(times),
+        q=np.vstack(q), v=np.vstack(v), inputs=np.vstack(inputs), input_names=scene.inputs.coordinates,
+        contact_forces=np.concatenate(forces), contact_points=np.concatenate(points),
+        events=tuple(events), info=info,
+    )
+
+
+def _armature(scene: Scene, armature: float | None) -> float:
+    if armature is not None:
+        return float(armature)
+    raw = scene.raw.get("model") if isinstance(scene.raw, Mapping) else None
+    if isinstance(raw, Mapping) and "armature" in raw:
+        from ..simulation.options import model_options
+
+        return model_options(scene).armature
+    return FLIP_ARMATURE
+
+
+def simulate_flip(
+    scene: Scene,
+    *,
+    dt: float = 1e-3,
+    max_time: float = 2.0,
+    replan_every: int = 10,
+    margin: float = DEFAULT_MARGIN,
+    armature: float | None = None,
+    solver: str = DEFAULT_LP_SOLVER,
+    plan: FlipPlan | None = None,
+    progress: Callable[[float, float], None] | None = None,
+) -> FlipResult:
+    """Plan, then re-plan along a rigid simulation until the body pitches past vertical.
+
+    The loop: plan at the scene's state (:func:`plan_flip`); apply the plan's rounded torques for
+    ``replan_every`` steps of :func:`~frcontrol.simulation.simulate_rigid` (velocity-level time
+    stepping, contacts open and close, inelastic impacts; the massless hips get the rotor inertia
+    ``armature``); re-plan at the state reached, and so on, until the pitch passes the task's
+    vertical (``FlipTask.vertical``) or ``max_time``.
+
+    Re-planning model: the scene at the simulated state (:meth:`Scene.at`) with the contacts
+    within :data:`REPLAN_GAP_TOLERANCE` of their surface or loaded by the last step (a loaded
+    contact's normal velocity taken as 0, see :func:`_replan`), velocities of at most
+    :data:`REPLAN_VELOCITY_TOLERANCE` taken as zero, and any sign of pitch acceleration accepted.
+    When no plan is made the torques are *held* (the reason is recorded in ``held``): at an impact
+    (a contact moving into its surface: the acceleration-level model does not apply), or when no
+    candidate or piece exists; inputs the model forces are set to their forced value.
+
+    Legs in the air: the rigid model forces the torque of a massless leg without ground contact
+    (or lifting off) to 0, and between plans the loop applies that at every step: an input on a
+    massless coordinate whose contacts are all more than :data:`SEPARATION_GAP` off their surface
+    gets 0. With its rotor inertia the leg then coasts at the speed it left the ground with, swings
+    round and may touch down again (no swing controller is modelled).
+
+    Body contact kept: every body contact that touches at the start (gap <= :data:`SEPARATION_GAP`)
+    touches at every sample up to the first sample at or past vertical (or the end). A body contact
+    that touches down later (the rear corner when the body falls back) does not count, but its
+    touch-downs and separations are listed in ``body_events``.
+
+    Args:
+        scene: the scene (RHex on its back).
+        dt: [s] the time step.
+        max_time: [s] the longest simulated time.
+        replan_every: steps between plans, >= 1.
+        margin: [N m] the plans' margin.
+        armature: [kg m^2] rotor inertia of the massless hips (default: the scene's ``[model]``
+            armature, else :data:`FLIP_ARMATURE`).
+        solver: LP back-end of the plans.
+        plan: the first plan, if already made at the scene's state.
+        progress: called with (simulated time, max_time) after every chunk.
+
+    Returns:
+        The result; with no first plan, ``trajectory=None`` and ``flipped=False`` with the reason.
+
+    Raises:
+        InputError: a bad step, time, count or armature; see :func:`plan_flip`.
+    """
+    from ..simulation.options import check_simulation_times
+    from ..simulation.rigid import simulate_rigid
+
+    start = time.perf_counter()
+    max_time, dt = check_simulation_times(max_time, dt)
+    if isinstance(replan_every, bool) or not isinstance(replan_every, int) or replan_every < 1:
+        raise InputError(f"replan_every must be an integer >= 1 (steps), got {replan_every!r}")
+    arm = _armature(scene, armature)
+    if not (math.isfinite(arm) and arm > 0):
+        raise InputError(f"the armature must be a positive rotor inertia [kg m^2], got {arm!r}")
+    task = flip_task(scene)
+    t0 = time.perf_counter()
+    first = plan if plan is not None else plan_flip(scene, margin=margin, solver=solver)
+    timings = {"first_plan": time.perf_counter() - t0, "simulation": 0.0, "replanning": 0.0}
+    common = {"vertical": task.vertical, "dt": dt, "max_time": max_time, "armature": arm}
+    if not first.found:
+        timings["total"] = time.perf_counter() - start
+        return FlipResult(plan=first, trajectory=None, flipped=False, time_to_vertical=None,
+                          body_contact_kept=None, separation=None, body_events=(), steps=0,
+                          replans=0, held=(),
+                          plans=(), modes=(), reason=first.reason, timings=timings, **common)
+
+    names = scene.inputs.coordinates
+    replan_scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
+    force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
+    legs = _massless_legs(scene)
+    loaded = np.zeros(len(scene.contacts), dtype=bool)
+    command = first.input_vector(names)
+    plans: list[tuple[float, str | None, Mapping[str, float]]] = [(0.0, first.mode, dict(first.torques))]
+    held: list[tuple[float, str]] = []
+    chunks = []
+    q, v, t = scene.q.copy(), scene.v.copy(), 0.0
+    replans = 0
+    crossed = False
+    failure = None
+    while t < max_time - 1e-12:
+        if chunks:
+            t1 = time.perf_counter()
+            result = _replan(replan_scene, q, v, loaded, margin, solver)
+            replans += 1
+            mode = None
+            if isinstance(result, str):
+                held.append((t, f"{result}: torques held"))
+            elif result.found:
+                command = result.input_vector(names)
+                mode = result.mode
+            else:
+                held.append((t, f"no plan ({result.reason}): torques held"))
+                command = command.copy()
+                for name, value in result.forced_inputs.items():
+                    command[names.index(name)] = value
+            plans.append((t, mode, dict(zip(names, command.tolist(), strict=True))))
+            timings["replanning"] += time.perf_counter() - t1
+        duration = min(replan_every * dt, max_time - t)
+
+        def schedule(_t: float, q_now: np.ndarray, _v: np.ndarray, held_command: np.ndarray = command
+                     ) -> np.ndarray:
+            if not legs:
+                return held_command
+            gaps = _gaps(scene, q_now)
+            free = [i for i, toes in legs.items() if not np.any(gaps[toes] <= SEPARATION_GAP)]
+            if not free:
+                return held_command
+            out = held_command.copy()
+            out[free] = 0.0
+            return out
+
+        t1 = time.perf_counter()
+        chunk = simulate_rigid(replan_scene, schedule, duration, min(dt, duration), q0=q, v0=v, armature=arm,
+                               max_ambiguity_checks=0)
+        timings["simulation"] += time.perf_counter() - t1
+        chunks.append(chunk)
+        q, v = chunk.q[-1].copy(), chunk.v[-1].copy()
+        loaded = chunk.contact_forces[-1, :, 0] > force_tolerance
+        t += float(chunk.times[-1])
+        if progress is not None:
+            progress(t, max_time)
+        if chunk.info["status"] != "completed":
+            failure = chunk.info["failure"]
+            break
+        if np.any(chunk.q[:, task.pitch_index] >= task.vertical):
+            crossed = True
+            break
+
+    info = {"model": "rigid", "dt": dt, "steps": 0, "armature": {"value": arm},
+            "status": "failed" if failure else "completed", "failure": failure, "source": "simulate_flip"}
+    trajectory = _concatenate(scene, chunks, info)
+    pitch = trajectory.q[:, task.pitch_index]
+    time_to_vertical = None
+    end = len(pitch) - 1
+    if crossed:
+        end = int(np.argmax(pitch >= task.vertical))
+        if end > 0:
+            t_a, t_b = trajectory.times[end - 1], trajectory.times[end]
+            p_a, p_b = pitch[end - 1], pitch[end]
+            time_to_vertical = float(t_a + (task.vertical - p_a) / (p_b - p_a) * (t_b - t_a))
+        else:
+            time_to_vertical = 0.0
+    trajectory.info["steps"] = len(trajectory.times) - 1
+    separation, body_events = _body_contacts(scene, trajectory, task.body_contacts, end)
+    modes = sample_modes(scene, trajectory)
+    trajectory.info["modes"] = list(modes)
+    if crossed:
+        reason = None
+    elif failure is not None:
+        reason = f"the simulation failed at t = {failure['time']:.4g} s: {failure['reason']}"
+    else:
+        reason = (f"the pitch reached {float(np.max(pitch)):.4f} rad within {max_time:g} s, short of "
+                  f"vertical ({task.vertical:.4f} rad)")
+    timings["total"] = time.perf_counter() - start
+    return FlipResult(
+        plan=first, trajectory=trajectory, flipped=crossed, time_to_vertical=time_to_vertical,
+        body_contact_kept=separation is None, separation=separation, body_events=body_events,
+        steps=len(trajectory.times) - 1, replans=replans, held=tuple(held), plans=tuple(plans),
+        modes=modes, reason=reason, timings=timings, **common,
+    )
+
+
+def _massless_legs(scene: Scene) -> dict[int, list[int]]:
+    """Inputs on massless coordinates (zero row of M at the scene's state) -> the contacts they move.
+
+    Such an input is free (its torque cannot act on the body) whenever none of its contacts touches.
+    """
+    state = scene.robot.state(scene.q, scene.v)
+    M = state.mass_matrix
+    scale = max(1.0, float(np.max(np.abs(M))))
+    jac = np.vstack([state.jacobian_normal, state.jacobian_tangent])
+    k = len(scene.contacts)
+    legs = {}
+    for i, j in enumerate(scene.inputs.indices):
+        if np.max(np.abs(M[j])) <= FORCED_INPUT_TOLERANCE * scale:
+            rows = np.nonzero(np.abs(jac[:, j]) > FORCED_INPUT_TOLERANCE)[0]
+            legs[i] = sorted({int(r % k) for r in rows})
+    return legs
+
+
+def _gaps(scene: Scene, q: np.ndarray) -> np.ndarray:
+    """Every contact's gap [m] at q."""
+    points = scene.robot.contact_points_in_world(q)
+    return np.array([c.point.normal_in_world @ (p - c.point.surface_point_in_world)
+                     for c, p in zip(scene.contacts, points, strict=True)])
+
+
+def _replan(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarray, margin: float,
+            solver: str) -> FlipPlan | str:
+    """The plan at the simulated state, or why none could be made (an impact, an error).
+
+    The contacts planned with are those within :data:`REPLAN_GAP_TOLERANCE` of their surface and
+    those the last step loaded (``loaded``, one flag per scene contact). A loaded contact's normal
+    velocity is taken as 0, as the simulator's own ambiguity check does: the velocity-level
+    stepper holds ``J_N v+ = -phi / dt`` with the Jacobian of the step's start, so a loaded
+    contact on a turning leg ends a step with a normal velocity of order ``dt`` times its
+    centripetal acceleration (mm/s here), and a penetration is removed with ``-phi / dt``: both
+    would make a pushing toe look separating to the acceleration-level model.
+    """
+    from ..scene import Contact
+
+    here = scene.at(q, v)
+    contacts = tuple(Contact(c.point, c.gap, bool(c.active or loaded[i]))
+                     for i, c in enumerate(here.contacts))
+    here = replace(here, contacts=contacts)
+    try:
+        problem = ContactProblem.from_scene(here, velocity_tolerance=REPLAN_VELOCITY_TOLERANCE)
+        held_down = np.array([bool(loaded[i]) for i, c in enumerate(contacts) if c.active], dtype=bool)
+        if held_down.size:
+            problem = replace(problem, normal_velocities=np.where(held_down, 0.0, problem.normal_velocities))
+        return plan_flip(here, margin=margin, solver=solver, min_pitch_acceleration=None, problem=problem)
+    except ImpactState as err:
+        return f"impact at {err.contact} (v_N = {err.normal_velocity:.3g} m/s)"
+    except FrcontrolError as err:
+        return f"no plan ({err})"
+
+
+def _body_contacts(
+    scene: Scene, trajectory: Any, body: Sequence[str], end: int
+) -> tuple[tuple[float, str] | None, tuple[tuple[float, str, str], ...]]:
+    """The first separation of a body contact touching at the start, and every body contact event.
+
+    Up to sample ``end``; the events are ``(time, contact, "touchdown" | "separation")``.
+    """
+    contacts = [c.name for c in scene.contacts]
+    idx = [contacts.index(name) for name in body]
+    points = trajectory.contact_points[: end + 1, idx]
+    normals = np.array([scene.contacts[i].point.normal_in_world for i in idx]).reshape(-1, 2)
+    surfaces = np.array([scene.contacts[i].point.surface_point_in_world for i in idx]).reshape(-1, 2)
+    touching = np.einsum("kj,tkj->tk", normals, points - surfaces[None]) <= SEPARATION_GAP
+    events = []
+    for s in range(1, touching.shape[0]):
+        for j in np.nonzero(touching[s] != touching[s - 1])[0]:
+            kind = "touchdown" if touching[s, j] else "separation"
+            events.append((float(trajectory.times[s]), body[int(j)], kind))
+    first = None
+    lost = np.nonzero(touching[0] & ~np.all(touching, axis=0))[0]
+    if lost.size:
+        when = [int(np.argmax(~touching[:, j])) for j in lost]
+        j = int(np.argmin(when))
+        first = (float(trajectory.times[when[j]]), body[int(lost[j])])
+    return first, tuple(events)
