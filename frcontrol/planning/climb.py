@@ -33,16 +33,21 @@ The ``[task]`` table (all optional)::
     head_point = [0.2, 0.0]                    # [m] in head_link's frame (default: the origin)
     min_head_acceleration = 1.0                # [m/s^2] a_min (default DEFAULT_MIN_HEAD_ACCELERATION)
 
-Without ``head_link`` the last link of the URDF is used.
+Without ``head_link`` the last link of the URDF is used. Other keys of ``[task]`` (read by other
+planners) are ignored.
 
 The lifted problem
 ------------------
 Disturbances act like extra inputs: the *augmented* contact problem has the inputs ``z = (u, d)``
 and the input map ``[S^T, J_d^T]`` (:func:`augmented_problem`). Mode ``FFF`` of it has the affine
-response ``x = X z + x_0`` (unique: six brace rows on six brace coordinates set the squeeze;
-a brace mode with ambiguity variables or consistency conditions is refused, see below) and the
+response ``x = X z + x_0`` (unique: six brace rows on six brace coordinates set the squeeze) and the
 domain ``T_F = {z : G (X z + x_0) <= g}`` (forces: ``lam_N >= 0``, friction cones), a polytope of
 ``(u, d)``. The head's vertical acceleration is affine too: ``a_y(z) = c^T z + c_0``.
+
+A brace mode with ambiguity variables (fewer brace coordinates than brace rows: the squeeze is
+statically indeterminate, METHOD §6) or consistency conditions is refused (``found = False`` with
+the reason): the rigid model cannot say which squeeze the brace carries, and this planner only
+certifies a brace whose squeeze the torques set.
 
 Robustness, exactly
 -------------------
@@ -88,7 +93,10 @@ Among those torques, two LPs choose (objective, in this order):
    of the *free* coordinates, those that no brace contact row involves (the upper body: j4..j8 on
    the snake);
 2. *most robust*: maximise ``t`` keeping ``alpha <= (1 + ACCELERATION_SLACK) alpha*`` (plus
-   :data:`ACCELERATION_FLOOR`): the squeeze of the brace joints is then as robust as it gets.
+   :data:`ACCELERATION_FLOOR`): the squeeze of the brace joints is then as robust as it gets;
+3. *least effort* (a tie-break): minimise ``sum_i |u_i|`` keeping both, with
+   ``t >= t* - OPTIMALITY_SLACK (1 + t*)``. The optimum of 2 is rarely unique (on the snake, j1
+   enters only the tail's rows); this makes the plan independent of the LP back-end.
 
 Why not simply "most robust" or "fastest head": the plan is one constant torque vector, valid at
 the instant, and the upper chain is a multi-link inverted pendulum. The brace carries the upper
@@ -97,7 +105,7 @@ an accelerating upper body presses the top contact, and in the snake's state, wi
 vertical above j5, the head's vertical acceleration needs large joint accelerations) change the
 brace's load within milliseconds; a sideways head acceleration topples the column. With the
 conditions and objectives above the simulated brace holds (see :func:`simulate_climb`); without
-``a_x = 0`` it slips within 0.1 s.
+``a_x = 0`` the top contact slips after about 0.1 s.
 
 The torques are rounded to ``decimals`` (the printed values) and the rounded torques are verified
 again by 1-3 above (``robust``): rounding moves ``u`` by at most ``sqrt(m) 10^-decimals / 2``,
@@ -119,7 +127,10 @@ Simulation
 forces ``J_d(q)^T d(t)``, ``d`` drawn from ``conv(V_s)`` and held for ``hold`` seconds (half the
 draws a random vertex, half a random convex combination of the vertices), and reports whether the
 brace held (every brace contact loaded and sticking throughout, tangential slip at most
-``slip_tolerance``), the largest slip and the head's rise.
+``slip_tolerance``), the largest slip and the head's rise. The default horizon,
+:data:`DEFAULT_DURATION` = 0.1 s, is the plan's own time scale: the torques are constant and the
+plan is made for the instant; on the snake the head rises for about 0.12 s, then the open-loop
+upper column (an inverted pendulum) tips over, while the brace keeps holding to about 0.4 s.
 """
 
 from __future__ import annotations
@@ -141,7 +152,7 @@ from ..modes import ContactProblem, ModeSystem, all_modes, build_mode_system
 from ..polytope import Polytope
 from ..response import AffineSolution, solve_affine
 from ..scene import Inputs, Scene
-from ..solvers import DEFAULT_LP_SOLVER, solve_lp
+from ..solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, solve_lp
 
 __all__ = [
     "ANALYSIS_BOX_GROWTH",
@@ -150,6 +161,7 @@ __all__ = [
     "DEFAULT_MIN_HEAD_ACCELERATION",
     "ACCELERATION_FLOOR",
     "ACCELERATION_SLACK",
+    "OPTIMALITY_SLACK",
     "SCALE_CAP",
     "SCALE_TOLERANCE",
     "TORQUE_DECIMALS",
@@ -203,6 +215,9 @@ ACCELERATION_FLOOR = 1e-3
 """[rad/s^2 or m/s^2] Added to the acceleration bound of the robustness LP (keeps it feasible when
 ``alpha* = 0``, against the LP's own tolerance)."""
 
+OPTIMALITY_SLACK = 1e-6
+"""[-] The least-effort LP keeps ``t >= t* - OPTIMALITY_SLACK (1 + t*)``."""
+
 ROBUSTNESS_CAP = 1e3
 """[N m or N] Upper bound on the robustness variable t (keeps the LP bounded)."""
 
@@ -210,13 +225,12 @@ BRACE_SLIP_TOLERANCE = 1e-4
 """[m] Largest tangential displacement of a brace contact for which the brace counts as held."""
 
 DEFAULT_DURATION = 0.1
-"""[s] Simulated time of :func:`simulate_climb`."""
+"""[s] Simulated time of :func:`simulate_climb` (the constant torques are an instantaneous plan)."""
 
 DEFAULT_HOLD = 0.05
 """[s] How long each sampled disturbance is held in :func:`simulate_climb`."""
 
 _DISTURBANCE_KEYS = {"name", "link", "point", "lower", "upper", "vertices"}
-_TASK_KEYS = {"brace_contacts", "head_link", "head_point", "min_head_acceleration"}
 
 
 # ============================================================================ disturbances
@@ -476,18 +490,16 @@ class ClimbTask:
 def load_climb_task(scene: Scene) -> ClimbTask:
     """Read the ``[task]`` table (every key optional; see the module docstring).
 
+    The table is shared by the planners: keys the climb does not read are ignored.
+
     Raises:
-        SceneError: an unknown key, an unknown or inactive brace contact, brace contacts that are
-            not all the active contacts, an unknown head link, a bad point or acceleration.
+        SceneError: an unknown or inactive brace contact, brace contacts that are not all the
+            active contacts, an unknown head link, a bad point or acceleration.
     """
     path = str(scene.path)
     table = scene.raw.get("task", {})
     if not isinstance(table, dict):
         raise SceneError(path, "task", f"expected a table [task], got {table!r}")
-    unknown = sorted(set(table) - _TASK_KEYS - {"body_contacts", "pitch"})
-    if unknown:
-        raise SceneError(path, f"task.{unknown[0]}",
-                         f"unknown key; the climb reads: {', '.join(sorted(_TASK_KEYS))}")
     active = tuple(c.name for c in scene.active_contacts)
     names = tuple(c.name for c in scene.contacts)
     brace = table.get("brace_contacts", list(active))
@@ -579,6 +591,21 @@ def augmented_problem(
 
 
 # ============================================================================ exclusion
+def _solve(c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, A_eq: np.ndarray | None,
+           b_eq: np.ndarray | None, lb: np.ndarray, ub: np.ndarray, solver: str, confirm: bool) -> Any:
+    """:func:`~frcontrol.solvers.solve_lp`, with a second opinion from the reference back-end.
+
+    An error or an unbounded answer is always solved again by :data:`REFERENCE_LP_SOLVER`; with
+    ``confirm``, so is an infeasible one (a false "infeasible" would drop a plan, or claim that a
+    mode is excluded).
+    """
+    result = solve_lp(c, A_ub, b_ub, A_eq, b_eq, lb, ub, solver=solver)
+    retry = ("error", "unbounded", "infeasible") if confirm else ("error", "unbounded")
+    if result.status in retry and solver != REFERENCE_LP_SOLVER:
+        result = solve_lp(c, A_ub, b_ub, A_eq, b_eq, lb, ub, solver=REFERENCE_LP_SOLVER)
+    return result
+
+
 @dataclass(frozen=True)
 class ModeExclusion:
     """Whether another mode holds somewhere on ``{u} x conv(V_s)``.
@@ -623,6 +650,7 @@ def mode_exclusions(
     *,
     systems: Sequence[tuple[ModeSystem, AffineSolution]] | None = None,
     solver: str = DEFAULT_LP_SOLVER,
+    confirm: bool = False,
 ) -> tuple[ModeExclusion, ...]:
     """For every mode but ``target``: does it hold for some ``d in conv(points)``? One LP each.
 
@@ -639,6 +667,8 @@ def mode_exclusions(
         points: the robust points V_s, shape (N, dim d).
         systems: prebuilt ``(system, response)`` of every mode (default: built here).
         solver: the LP back-end.
+        confirm: have every "infeasible" (mode excluded) confirmed by the reference back-end
+            (HiGHS) when ``solver`` is another one.
     """
     u = np.asarray(torques, dtype=float)
     m_u = u.size
@@ -673,9 +703,7 @@ def mode_exclusions(
         ub = np.concatenate([np.full(n_lam, np.inf), np.full(p, np.inf), [1.0]])
         c = np.zeros(n_lam + p + 1)
         c[-1] = -1.0
-        result = solve_lp(c, A_ub, b_ub, A_eq, np.ones(1), lb, ub, solver=solver)
-        if result.status == "error":
-            result = solve_lp(c, A_ub, b_ub, A_eq, np.ones(1), lb, ub, solver="highs")
+        result = _solve(c, A_ub, b_ub, A_eq, np.ones(1), lb, ub, solver, confirm)
         if not result.found:
             out.append(ModeExclusion(system.mode, False, -math.inf))
             continue
@@ -786,9 +814,7 @@ def _scale_bound(domain: tuple[np.ndarray, np.ndarray], head: tuple[np.ndarray, 
     ub = np.concatenate([np.full(m_u, np.inf), [SCALE_CAP]])
     A_eq = np.concatenate([sideways[0][:m_u], [0.0]])[None, :]
     b_eq = np.array([-sideways[1]])
-    result = solve_lp(cost, A, b, A_eq, b_eq, lb, ub, solver=solver)
-    if result.status in ("error", "unbounded") and solver != "highs":
-        result = solve_lp(cost, A, b, A_eq, b_eq, lb, ub, solver="highs")
+    result = _solve(cost, A, b, A_eq, b_eq, lb, ub, solver, True)
     if not result.found:
         return -1.0, False
     s = float(result.x[-1])
@@ -921,19 +947,21 @@ def _piece_rows(piece: Polytope, m_u: int) -> tuple[np.ndarray, np.ndarray, np.n
 
 def _plan_lp(
     cp: ClimbProblem, piece: Polytope, scale: float, objective: str, *,
-    alpha_cap: float = math.inf, solver: str | None = None,
+    alpha_cap: float = math.inf, t_min: float | None = None, solver: str | None = None,
 ) -> tuple[float, float, np.ndarray | None]:
-    """One plan LP on a piece at a scale, over ``(u, t, e)`` (module docstring).
+    """One plan LP on a piece at a scale, over ``(u, t, e_f, e_u)`` (module docstring).
 
-    ``e`` bounds the free coordinates' nominal accelerations, ``|B_u u + b_0| <= e``, and
-    ``alpha = sum(e)``.
+    ``e_f`` bounds the free coordinates' nominal accelerations, ``|B_u u + b_0| <= e_f``, with
+    ``alpha = sum(e_f)``; ``e_u`` bounds the torques, ``|u| <= e_u``.
 
     Args:
         cp: the built climb.
         piece: a convex piece of the unambiguous set.
         scale: the disturbance scale s (V_s).
-        objective: ``"robust"`` (maximise t) or ``"gentle"`` (minimise alpha).
+        objective: ``"robust"`` (maximise t), ``"gentle"`` (minimise alpha) or ``"effort"``
+            (minimise ``sum(e_u)``).
         alpha_cap: upper bound on alpha [rad/s^2 or m/s^2].
+        t_min: lower bound on t (default: the margin).
         solver: the LP back-end (default: the problem's).
 
     Returns:
@@ -947,35 +975,47 @@ def _plan_lp(
     head_rhs = c0 - cp.min_head_acceleration - cp.margin * c_norm
     B, b0 = cp.free_rows
     f = B.shape[0]
-    nvar = m_u + 1 + f
+    nvar = m_u + 1 + f + m_u
     rows, rhs = [], []
+
+    def row(u_part: np.ndarray, t_part: Any = 0.0, f_part: Any = 0.0, e_part: Any = 0.0) -> np.ndarray:
+        count = np.atleast_2d(u_part).shape[0]
+        out = np.zeros((count, nvar))
+        out[:, :m_u] = u_part
+        out[:, m_u] = np.ravel(t_part) if np.ndim(t_part) else t_part
+        out[:, m_u + 1:m_u + 1 + f] = f_part
+        out[:, m_u + 1 + f:] = e_part
+        return out
+
     for v in cp.robust_points(scale):
-        rows.append(np.hstack([A[:, :m_u], shrink[:, None], np.zeros((A.shape[0], f))]))
+        rows.append(row(A[:, :m_u], shrink))
         rhs.append(b - A[:, m_u:] @ v)
-        rows.append(np.hstack([-c[None, :m_u], np.zeros((1, 1 + f))]))
+        rows.append(row(-c[None, :m_u]))
         rhs.append(np.array([head_rhs + c[m_u:] @ v]))
     if f:
-        eye = np.eye(f)
-        rows += [np.hstack([B[:, :m_u], np.zeros((f, 1)), -eye]),
-                 np.hstack([-B[:, :m_u], np.zeros((f, 1)), -eye])]
+        rows += [row(B[:, :m_u], f_part=-np.eye(f)), row(-B[:, :m_u], f_part=-np.eye(f))]
         rhs += [-b0, b0]
         if math.isfinite(alpha_cap):
-            rows.append(np.concatenate([np.zeros(m_u + 1), np.ones(f)])[None, :])
+            rows.append(row(np.zeros((1, m_u)), f_part=np.ones((1, f))))
             rhs.append(np.array([alpha_cap]))
+    eye = np.eye(m_u)
+    rows += [row(eye, e_part=-eye), row(-eye, e_part=-eye)]
+    rhs += [np.zeros(m_u), np.zeros(m_u)]
     cost = np.zeros(nvar)
     if objective == "robust":
         cost[m_u] = -1.0
+    elif objective == "gentle":
+        cost[m_u + 1:m_u + 1 + f] = 1.0
     else:
-        cost[m_u + 1:] = 1.0
-    lb = np.concatenate([cp.scene.inputs.lower, [cp.margin], np.zeros(f)])
-    ub = np.concatenate([cp.scene.inputs.upper, [ROBUSTNESS_CAP], np.full(f, np.inf)])
+        cost[m_u + 1 + f:] = 1.0
+    lower_t = cp.margin if t_min is None else max(cp.margin, t_min)
+    lb = np.concatenate([cp.scene.inputs.lower, [lower_t], np.zeros(f + m_u)])
+    ub = np.concatenate([cp.scene.inputs.upper, [ROBUSTNESS_CAP], np.full(f + m_u, np.inf)])
     A_ub, b_ub = np.vstack(rows), np.concatenate(rhs)
     cx, cx0 = cp.head_sideways_row
-    A_eq = np.concatenate([cx[:m_u], np.zeros(1 + f)])[None, :]
+    A_eq = np.concatenate([cx[:m_u], np.zeros(nvar - m_u)])[None, :]
     b_eq = np.array([-cx0])
-    result = solve_lp(cost, A_ub, b_ub, A_eq, b_eq, lb, ub, solver=solver)
-    if result.status in ("error", "unbounded") and solver != "highs":
-        result = solve_lp(cost, A_ub, b_ub, A_eq, b_eq, lb, ub, solver="highs")
+    result = _solve(cost, A_ub, b_ub, A_eq, b_eq, lb, ub, solver, True)
     if not result.found:
         return -math.inf, math.inf, None
     u = result.x[:m_u]
@@ -996,7 +1036,7 @@ def _best_piece(
 
 
 def _gentle_plan(cp: ClimbProblem, scale: float) -> tuple[int, float, float, np.ndarray | None]:
-    """Objectives 1 then 2 on every piece: ``(index, t, alpha*, u)`` of the gentlest piece."""
+    """Objectives 1, 2 and 3 on every piece: ``(index, t, alpha*, u)`` of the gentlest piece."""
     best: tuple[int, float, float, np.ndarray | None] = (-1, -math.inf, math.inf, None)
     for i, piece in enumerate(cp.pieces):
         _, alpha, u = _plan_lp(cp, piece, scale, "gentle")
@@ -1004,7 +1044,12 @@ def _gentle_plan(cp: ClimbProblem, scale: float) -> tuple[int, float, float, np.
             continue
         cap = (1.0 + ACCELERATION_SLACK) * alpha + ACCELERATION_FLOOR
         t, _, u_robust = _plan_lp(cp, piece, scale, "robust", alpha_cap=cap)
-        best = (i, t, alpha, u_robust) if u_robust is not None else (i, cp.margin, alpha, u)
+        if u_robust is None:
+            best = (i, cp.margin, alpha, u)
+            continue
+        keep = t - OPTIMALITY_SLACK * (1.0 + abs(t))
+        _, _, u_least = _plan_lp(cp, piece, scale, "effort", alpha_cap=cap, t_min=keep)
+        best = (i, t, alpha, u_robust if u_least is None else u_least)
     return best
 
 
@@ -1142,7 +1187,8 @@ def _verify(cp: ClimbProblem, u: np.ndarray, scale: float) -> dict[str, Any]:
         z = np.concatenate([u, v])
         slacks.append(np.min((h - H @ z) / norms))
         accels.append(float(c @ z + c0))
-    exclusions = mode_exclusions(cp.problem, cp.mode, u, points, systems=cp.systems, solver=cp.solver)
+    exclusions = mode_exclusions(cp.problem, cp.mode, u, points, systems=cp.systems, solver=cp.solver,
+                                 confirm=True)
     radius = float(min(slacks))
     worst = float(min(accels))
     zero = float(c[:cp.m_u] @ u + c0)
@@ -1194,6 +1240,7 @@ def plan_climb(
     timings = dict(cp.timings)
     tolerances = {"margin": cp.margin, "scale_tolerance": scale_tolerance, "domain": DOMAIN_TOLERANCE,
                   "acceleration_slack": ACCELERATION_SLACK,
+                  "optimality_slack": OPTIMALITY_SLACK,
                   "acceleration_floor": ACCELERATION_FLOOR, "analysis_box_growth": ANALYSIS_BOX_GROWTH,
                   "scale_cap": SCALE_CAP, "torque_rounding": 0.5 * 10.0 ** -decimals}
     names = scene.inputs.coordinates
