@@ -1490,22 +1490,28 @@ def plot_climb(plan: ClimbPlan, path: str | Path | None = None) -> Any:
     if not plan.found:
         raise InputError(f"the climb plan was not found ({plan.reason}): nothing to plot")
     items = plan.disturbances.items
-    figure = _figure(figsize=(5.5 * len(items), 5.0), layout="constrained")
+    figure = _figure(figsize=(5.5 * len(items), 5.0), layout="constrained")  # VizError without matplotlib
+    from matplotlib.patches import Patch
+
     s_max = plan.max_disturbance_scale
+    colors = ["tab:green", "tab:orange", "tab:blue"]
+    hatches = [None, "//", None]
+    labels = ["robust region at the planned torques", f"largest scale s = {s_max:.3g} (its own torques)",
+              f"P (scale {plan.scale:.3g})"]
     for i, dist in enumerate(items):
         ax = figure.add_subplot(1, len(items), i + 1)
-        nominal = dist.polytope(plan.scale)
         reach = np.vstack([max(s_max, 1.0) * dist.vertices, plan.scale * dist.vertices, np.zeros((1, 2))])
         low, high = reach.min(axis=0), reach.max(axis=0)
-        pad = 0.25 * np.maximum(high - low, 1.0)
+        # inside the analysis box (grown by ANALYSIS_BOX_GROWTH), whose edges are no physics
+        pad = 0.5 * ANALYSIS_BOX_GROWTH * np.maximum(high - low, 1e-3) + 0.5 * plan.margin
         box = (low[0] - pad[0], high[0] + pad[0], low[1] - pad[1], high[1] + pad[1])
-        sets = [robust_region(plan, i), dist.polytope(s_max), nominal]
-        labels = ["robust region at the planned torques", f"largest scale s = {s_max:.3g} (its own torques)",
-                  f"P (scale {plan.scale:.3g})"]
-        plot_polygons(sets, ax=ax, labels=labels, colors=["tab:green", "tab:orange", "tab:blue"],
-                      hatches=[None, "//", None], box=box, points=np.zeros((1, 2)),
+        sets = [robust_region(plan, i), dist.polytope(s_max), dist.polytope(plan.scale)]
+        plot_polygons(sets, ax=ax, colors=colors, hatches=hatches, box=box, points=np.zeros((1, 2)),
                       axis_labels=(f"{dist.name}: $f_x$ [N]", f"{dist.name}: $f_y$ [N]"),
                       title=f"{dist.name} on {dist.link} ({'robust' if plan.robust else 'NOT robust'})")
+        ax.legend(handles=[Patch(facecolor=c, alpha=0.35, hatch=h, edgecolor=c, label=label)
+                           for c, h, label in zip(colors, hatches, labels, strict=True)],
+                  loc="best", fontsize="small")
     if path is not None:
         _save(figure, path)
     return figure
