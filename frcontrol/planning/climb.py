@@ -745,7 +745,7 @@ class ClimbProblem:
         pieces: the convex pieces of the brace mode's unambiguous set in the lifted space (within
             the analysis box).
         box: ``(lower, upper)`` [N] of the disturbances in the analysis.
-        scale_bound: the one-LP upper bound on the scale (``s_bound``); 0 if none is feasible.
+        scale_bound: the one-LP upper bound on the scale (``s_bound``); -1 if even s = 0 is infeasible.
         scale_capped: the bound reached :data:`SCALE_CAP`.
         systems: every mode's ``(system, response)`` on the augmented problem.
         analysis: the engine's analysis of the augmented problem (None when not reached).
