@@ -372,3 +372,20 @@ def test_highs_infeasible_verdict_is_confirmed_without_presolve():
     assert result.status == "unbounded", result.raw_status
     for solver in OTHERS:
         assert solve_lp(PRESOLVE_C, PRESOLVE_A, PRESOLVE_B, solver=solver).status == "unbounded"
+
+
+def test_highs_writes_nothing_on_stdout():
+    """HiGHS's postsolve prints debug lines to the C-level stdout; the adapter silences them
+    (seen on the lifted climb LPs: a duplicate column undone in postsolve)."""
+    import subprocess
+    import sys
+
+    code = (
+        "from frcontrol.scene import load_scene\n"
+        "from frcontrol.planning.climb import plan_climb\n"
+        "plan = plan_climb(load_scene('snake_climb'), solver='highs')\n"
+        "assert plan.found\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout == ""

@@ -27,6 +27,11 @@ the other options are passed by name.
 
 from __future__ import annotations
 
+import contextlib
+import os
+import sys
+from collections.abc import Iterator
+
 import highspy
 import numpy as np
 
@@ -90,6 +95,32 @@ on model status "Unknown" on some small well-scaled LPs (one 15 x 7 support LP o
 tests); its primal simplex (``simplex_strategy=4``) and its IPM solve them."""
 
 
+@contextlib.contextmanager
+def _quiet_stdout() -> Iterator[None]:
+    """Point file descriptor 1 at /dev/null while HiGHS runs.
+
+    HiGHS 1.15.1's postsolve writes debug lines (``HighsPostsolveStack::DuplicateColumn::undo
+    ...``) straight to the C-level stdout even with ``output_flag`` off, which would corrupt a
+    ``--json`` document on stdout. The redirection is process-wide while it lasts (a thread
+    printing at that moment would be silenced too); HiGHS is the reference back-end, not the
+    default one.
+    """
+    try:
+        sys.stdout.flush()
+        saved = os.dup(1)
+    except (OSError, ValueError):  # no usable stdout (closed, or replaced by a non-file)
+        yield
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
+
+
 def _attempt(model: highspy.HighsLp | highspy.HighsModel, options: dict) -> tuple:
     highs = highspy.Highs()
     highs.setOptionValue("output_flag", False)
@@ -97,11 +128,13 @@ def _attempt(model: highspy.HighsLp | highspy.HighsModel, options: dict) -> tupl
         if highs.setOptionValue(name, value) != highspy.HighsStatus.kOk:
             raise InputError(f"HiGHS rejected option {name}={value!r}")
     highs.passModel(model)
-    highs.run()
+    with _quiet_stdout():
+        highs.run()
     model_status = highs.getModelStatus()
     if model_status == highspy.HighsModelStatus.kUnboundedOrInfeasible:
         highs.setOptionValue("presolve", "off")
-        highs.run()
+        with _quiet_stdout():
+            highs.run()
         model_status = highs.getModelStatus()
     return highs, model_status
 
