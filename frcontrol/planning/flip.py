@@ -321,7 +321,8 @@ class FlipResult:
 
     Attributes:
         plan: the plan at the scene's state (the torques of the first step).
-        trajectory: the simulated motion (None when no first plan was found).
+        trajectory: the simulated motion, up to the first sample at or past vertical (None when no
+            first plan was found).
         flipped: the pitch passed ``vertical`` within ``max_time``.
         time_to_vertical: [s] when it did (linear interpolation between samples), else None.
         body_contact_kept: no body contact separated up to the flip (or the end): see
@@ -594,8 +595,19 @@ def maximise_pitch(mode: ModeAnalysis, piece: poly.Polytope, pitch_index: int,
 
 
 def _round_inputs(u: np.ndarray, lower: np.ndarray, upper: np.ndarray, quantum: float) -> np.ndarray:
-    """Round to multiples of ``quantum`` and keep within the limits."""
-    rounded = np.round(u / quantum) * quantum if quantum > 0 else u.copy()
+    """Round to multiples of ``quantum`` and keep within the limits.
+
+    A quantum of ``10^-k`` rounds to ``k`` decimals, giving the double nearest to the printed
+    decimal (``-1.3072``, not ``-1.3072000000000001``): what a user types back is what was checked.
+    """
+    if quantum <= 0:
+        rounded = u.copy()
+    else:
+        digits = -math.log10(quantum)
+        if abs(digits - round(digits)) < 1e-12 and digits >= 0:
+            rounded = np.array([round(float(x), int(round(digits))) for x in u])
+        else:
+            rounded = np.round(u / quantum) * quantum
     rounded = np.minimum(np.maximum(rounded, lower), upper)
     return rounded + 0.0  # no negative zeros
 
@@ -968,6 +980,17 @@ def _concatenate(scene: Scene, chunks: Sequence[Any], info: dict) -> Any:
     )
 
 
+def _truncate(trajectory: Any, end: int) -> Any:
+    """The trajectory up to and including sample ``end`` (its events up to that time)."""
+    t_end = float(trajectory.times[end])
+    return replace(
+        trajectory, times=trajectory.times[: end + 1], q=trajectory.q[: end + 1], v=trajectory.v[: end + 1],
+        inputs=trajectory.inputs[: end + 1], contact_forces=trajectory.contact_forces[: end + 1],
+        contact_points=trajectory.contact_points[: end + 1],
+        events=tuple(e for e in trajectory.events if e.time <= t_end + 1e-12),
+    )
+
+
 def _armature(scene: Scene, armature: float | None) -> float:
     if armature is not None:
         return float(armature)
@@ -1134,6 +1157,8 @@ def simulate_flip(
             time_to_vertical = float(t_a + (task.vertical - p_a) / (p_b - p_a) * (t_b - t_a))
         else:
             time_to_vertical = 0.0
+    if crossed and end < len(pitch) - 1:
+        trajectory = _truncate(trajectory, end)
     trajectory.info["steps"] = len(trajectory.times) - 1
     separation, body_events = _body_contacts(scene, trajectory, task.body_contacts, end)
     modes = sample_modes(scene, trajectory)

@@ -1,0 +1,243 @@
+"""``frc flip``: hip torques that pitch RHex up from its back, unambiguously; then the closed loop."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from frcontrol.planning.flip import DEFAULT_MARGIN, FlipPlan, FlipResult, plan_flip, simulate_flip
+from frcontrol.scene import load_scene
+
+from .common import console, fail, handle_errors, print_json
+from .model_cmds import JsonOpt
+
+FlipSceneArg = Annotated[
+    str, typer.Argument(help="A scene file with a robot on its back, or the name of a shipped scene.")
+]
+HtmlOpt = Annotated[
+    Path | None,
+    typer.Option("--html", metavar="FILE",
+                 help="Write a self-contained HTML page (meshcat) replaying the simulated flip."),
+]
+ViewOpt = Annotated[
+    bool,
+    typer.Option("--view", help="Replay the simulated flip on a local meshcat server and print its URL; "
+                 "wait for Enter or Ctrl-C (when stdin is not a terminal, return at once: the server "
+                 "stops as frc exits)."),
+]
+PortOpt = Annotated[
+    int | None,
+    typer.Option("--port", min=1, max=65535,
+                 help="Port of the --view server (default: the first free port from 7000)."),
+]
+PlotOpt = Annotated[
+    Path | None,
+    typer.Option("--plot", metavar="FILE", help="Write the input space (every mode's domain, the "
+                 "ambiguous overlaps hatched, the plan) and the pitch and contact forces over the "
+                 "simulated time (PNG, or PDF/SVG by suffix)."),
+]
+MarginOpt = Annotated[
+    float,
+    typer.Option("--margin", min=0.0, help="Distance \\[N m] kept between the plan and every input "
+                 "where another contact mode also holds."),
+]
+MaxTimeOpt = Annotated[
+    float,
+    typer.Option("--max-time", "-T", min=0.0,
+                 help="Longest simulated time \\[s] of the closed loop (0: plan only, no simulation)."),
+]
+DtOpt = Annotated[float, typer.Option("--dt", min=1e-6, help="Time step \\[s] of the simulation.")]
+ReplanOpt = Annotated[int, typer.Option("--replan-every", min=1, help="Steps between two plans.")]
+
+
+def _number(x: float | None) -> float | None:
+    """A finite float, or None (JSON has no infinity or NaN)."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def flip_payload(plan: FlipPlan, result: FlipResult | None) -> dict[str, Any]:
+    """The ``frc flip --json`` document.
+
+    ``mode``, ``torques``, ``pitch_acceleration``, ``unambiguous``, ``margin`` and ``simulation``
+    (``flipped``, ``time_to_vertical``, ``body_contact_kept``, ``steps``) are the contract; the rest
+    reports how the plan was found. Without a plan ``mode`` and ``torques`` are null and
+    ``simulation.flipped`` is false, with the reason.
+    """
+    payload: dict[str, Any] = {
+        "found": plan.found,
+        "mode": plan.mode if plan.found else None,
+        "torques": dict(plan.torques) if plan.found else None,
+        "pitch_acceleration": _number(plan.pitch_acceleration) if plan.found else None,
+        "unambiguous": plan.unambiguous,
+        "margin": plan.margin,
+        "worst_case": plan.worst_case,
+        "reason": plan.reason,
+        "pitch": plan.pitch,
+        "contacts": list(plan.contacts),
+        "body_contacts": list(plan.body_contacts),
+        "planned_inputs": list(plan.planned_inputs),
+        "forced_inputs": dict(plan.forced_inputs),
+        "candidates": list(plan.candidates),
+        "bounds": {name: _number(value) for name, value in plan.bounds.items()},
+        "explored": list(plan.explored),
+        "pieces": len(plan.pieces),
+        "rejected": [{"mode": mode, "why": why} for mode, why in plan.rejected],
+        "rounding": plan.rounding,
+        "timings": dict(plan.timings),
+        "tolerances": dict(plan.tolerances),
+    }
+    if not plan.found and plan.mode is not None:
+        payload["best"] = {"mode": plan.mode, "torques": dict(plan.torques),
+                           "pitch_acceleration": _number(plan.pitch_acceleration)}
+    if result is None or result.trajectory is None:
+        payload["simulation"] = {
+            "flipped": False, "time_to_vertical": None, "body_contact_kept": None, "steps": 0,
+            "replans": 0, "simulated": False,
+            "reason": plan.reason if not plan.found else "not simulated (--max-time 0)",
+        }
+        return payload
+    traj = result.trajectory
+    payload["simulation"] = {
+        "flipped": result.flipped,
+        "time_to_vertical": _number(result.time_to_vertical),
+        "body_contact_kept": result.body_contact_kept,
+        "steps": result.steps,
+        "replans": result.replans,
+        "simulated": True,
+        "reason": result.reason,
+        "separation": (None if result.separation is None
+                       else {"time": result.separation[0], "contact": result.separation[1]}),
+        "body_events": [{"time": t, "contact": c, "kind": k} for t, c, k in result.body_events],
+        "held": len(result.held),
+        "max_pitch": float(traj.coordinate(plan.pitch).max()),
+        "vertical": result.vertical,
+        "dt": result.dt,
+        "max_time": result.max_time,
+        "armature": result.armature,
+        "duration": traj.duration,
+        "status": traj.info.get("status"),
+        "events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
+                   for e in traj.events],
+        "timings": dict(result.timings),
+    }
+    return payload
+
+
+@handle_errors
+def flip_command(
+    scene: FlipSceneArg = "rhex_flip",
+    json: JsonOpt = False,
+    html: HtmlOpt = None,
+    view: ViewOpt = False,
+    port: PortOpt = None,
+    plot: PlotOpt = None,
+    margin: MarginOpt = DEFAULT_MARGIN,
+    max_time: MaxTimeOpt = 2.0,
+    dt: DtOpt = 1e-3,
+    replan_every: ReplanOpt = 10,
+) -> None:
+    """Plan the flip: hip torques maximising the body's pitch acceleration, unambiguously.
+
+    The torques keep every body contact loaded (F, L or R) and lie at least --margin from every
+    input where another contact mode also holds; they are checked at their printed values. Then a
+    rigid simulation re-plans along the motion until the body pitches past vertical. No feasible
+    flip is a result (exit 0, "flipped": false and the reason), not an error.
+    """
+    if port is not None and not view:
+        raise fail("--port needs --view")
+    from frcontrol.viz.meshcat_view import stop_server
+
+    loaded = load_scene(scene)
+    server = None
+    if view:  # fail on a taken port before the work, not after it
+        from frcontrol.viz.meshcat_view import start_server
+
+        server = start_server(port)
+    try:
+        status_console = Console(stderr=True)
+        with status_console.status("planning the flip...") as status:
+            plan = plan_flip(loaded, margin=margin)
+            result = None
+            if plan.found and max_time > 0:
+                status.update(f"simulating the flip (up to {max_time:g} s)...")
+                result = simulate_flip(
+                    loaded, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin, plan=plan,
+                    progress=lambda t, total: status.update(f"simulating the flip: {t:.3f} / {total:g} s"))
+        payload = flip_payload(plan, result)
+        if json:
+            print_json(payload)
+        else:
+            render(payload)
+        note = sys.stderr.write if json else (lambda text: typer.echo(text, nl=False))
+        if plot is not None:
+            from frcontrol.planning.plots import plot_flip
+
+            note(f"wrote {plot_flip(result if result is not None else plan, plot)}\n")
+        trajectory = None if result is None else result.trajectory
+        modes = None if result is None else list(result.modes)
+        if html is not None:
+            from frcontrol.viz.meshcat_view import write_html
+
+            note(f"wrote {write_html(loaded, trajectory, html, modes=modes)}\n")
+        if server is not None:
+            from frcontrol.viz.meshcat_view import draw
+
+            draw(server.visualizer(), loaded, trajectory, modes=modes)
+            note(f"meshcat viewer: {server.url}\n")
+            if sys.stdin.isatty():
+                try:
+                    input("press Enter (or Ctrl-C) to stop the viewer ")
+                except (KeyboardInterrupt, EOFError):
+                    typer.echo("")
+                finally:
+                    stop_server(server.url)
+    except BaseException:
+        if server is not None:
+            stop_server(server.url)
+        raise
+
+
+def render(payload: dict[str, Any]) -> None:
+    """The plan and the closed loop as rich text and a table."""
+    sim = payload["simulation"]
+    if not payload["found"]:
+        console.print(f"[bold]no flip plan[/bold]: {payload['reason']}")
+        console.print(f"flipped: no ({sim['reason']})")
+        return
+    check = "yes (one rigid solution at the printed torques)" if payload["unambiguous"] else "NO"
+    console.print(f"mode [bold]{payload['mode']}[/bold] (contacts {', '.join(payload['contacts'])}); "
+                  f"unambiguous: {check}; margin {payload['margin']:g} N m")
+    table = Table(title="hip torques [N m]")
+    for name in payload["torques"]:
+        table.add_column(name)
+    table.add_row(*[f"{x:.4f}" for x in payload["torques"].values()])
+    console.print(table)
+    worst = " (worst case over the mode's ambiguity)" if payload["worst_case"] else ""
+    console.print(f"pitch acceleration ({payload['pitch']}): {payload['pitch_acceleration']:.6g} "
+                  f"rad/s^2{worst}")
+    console.print(f"candidates {', '.join(payload['candidates'])}; explored "
+                  f"{', '.join(payload['explored'])}; {payload['pieces']} piece(s); plan in "
+                  f"{1e3 * payload['timings']['total']:.1f} ms")
+    if payload["forced_inputs"]:
+        console.print("forced by the model: " + ", ".join(f"{k} = {v:g}" for k, v in
+                                                         payload["forced_inputs"].items()))
+    if not sim["simulated"]:
+        console.print(sim["reason"])
+        return
+    if sim["flipped"]:
+        console.print(f"flipped: yes, vertical at {sim['time_to_vertical']:.4f} s")
+    else:
+        console.print(f"flipped: no ({sim['reason']})")
+    kept = "yes" if sim["body_contact_kept"] else (
+        f"no ({sim['separation']['contact']} separates at {sim['separation']['time']:.4f} s)")
+    console.print(f"body contact kept: {kept}; {sim['steps']} steps, {sim['replans']} re-plans "
+                  f"({sim['held']} held), {sim['timings']['total']:.2f} s")
