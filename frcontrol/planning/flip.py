@@ -63,10 +63,12 @@ rounded torques: exactly one rigid solution, in the planned mode, with the plann
 acceleration (to :data:`PITCH_TOLERANCE`; for a worst-case plan, the solution's pitch is at least
 the worst case). A piece whose optimum fails the check is reported and the next best is tried.
 
-**Inputs the model forces to zero.** An input on a coordinate with no inertia, no bias and no
-active contact (a massless leg in the air) is forced to 0 by its dynamics row in every mode
-(``0 = u_j``); every T_c is then flat and nothing is a candidate. The planner fixes such inputs at
-0, plans over the others and reports them (``forced_inputs``).
+**Inputs the model forces.** An input on a coordinate with no inertia, no bias and no active
+contact (a massless leg in the air) is forced to 0 by its dynamics row in every mode
+(``0 = u_j``); so is the hip of a leg whose toe is lifting off (``v_N > 0``: S only, every mode's
+consistency rows ``E u = e`` fix it). Every T_c is then flat and nothing is a candidate. The
+planner fixes such inputs at their forced value (moved into the bias, ``h - S_j^T u_j``), analyses
+and plans over the others, and reports them (``forced_inputs``).
 
 **Closed loop.** :func:`simulate_flip` re-plans every ``replan_every`` steps at the simulated state
 (:meth:`Scene.at`) and applies the plan's rounded torques to the rigid time-stepping simulation
@@ -98,7 +100,7 @@ from ..solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, SolverFailed, solv
 __all__ = [
     "DEFAULT_MARGIN",
     "FLIP_ARMATURE",
-
+    "FORCED_INPUT_TOLERANCE",
     "INPUT_LIMIT_TOLERANCE",
     "MAX_VERTEX_CANDIDATES",
     "PITCH_TOLERANCE",
@@ -113,9 +115,9 @@ __all__ = [
     "flip_task",
     "margin_pieces",
     "maximise_pitch",
-    "shrunk_input_domain",
     "plan_flip",
     "sample_modes",
+    "shrunk_input_domain",
     "simulate_flip",
     "worst_case_pitch",
 ]
@@ -143,9 +145,8 @@ MAX_VERTEX_CANDIDATES = 200_000
 
 REPLAN_VELOCITY_TOLERANCE = 1e-3
 """[m/s] In the closed loop, a contact velocity (normal or tangential) of at most this counts as
-zero when re-planning. The time stepper leaves touching contacts with small normal velocities (it
-removes penetrations over a step, ``v_N = -phi / dt``: 1e-5 m/s for a 1e-8 m penetration at 1 ms)
-and resting contacts with slip speeds below its own tolerance."""
+zero when re-planning (the normal velocity of a contact the last step loaded is taken as 0 in any
+case, see :func:`simulate_flip`)."""
 
 REPLAN_GAP_TOLERANCE = 1e-5
 """[m] In the closed loop, a contact with gap at most this is active when re-planning (the time
@@ -159,9 +160,10 @@ above it is a separation. One step of chatter (a resting contact opening for one
 FLIP_ARMATURE = 2e-3
 r"""[kg m^2] Default rotor inertia of each massless hip coordinate in the flip's simulation (when
 the scene's ``[model]`` gives none). RHex (Saranli, Buehler and Koditschek 2001) drives each leg
-with a Maxon 20 W motor (rotor inertia about 1e-6 kg m^2) through a 33:1 gearhead: reflected,
-33^2 x 1e-6 = 1.1e-3 kg m^2 per motor, and each planar hip stands for a pair of legs (two motors).
-The simulator's default (1e-4 kg m^2) lets a free leg spin ten times faster than this."""
+with a Maxon 20 W motor (rotor inertia of the order of 1e-6 kg m^2) through a 33:1 gearhead:
+reflected, 33^2 x 1e-6 = 1.1e-3 kg m^2 per motor, and each planar hip stands for a pair of legs
+(two motors). The simulator's default (1e-4 kg m^2) would let a torque spin a free leg up twenty
+times faster."""
 
 
 # ---------------------------------------------------------------------------------------------
