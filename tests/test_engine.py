@@ -290,7 +290,7 @@ def test_rhex_analysis_is_complete_and_consistent():
     assert {m.mode for m in fast.feasible_modes} == {m.mode for m in naive.feasible_modes}
     e = fast.enumeration
     assert e.total == 4**3 and e.after_velocity == 4**3
-    assert e.evaluated < naive.enumeration.evaluated == 4**3
+    assert e.evaluated <= naive.enumeration.evaluated == 4**3
     assert e.feasible + e.pruned_freedom + e.pruned_infeasible == e.after_velocity
     pivot_kept = [m for m in fast.feasible_modes if m.mode[0] != "S" and m.inputs_full_dimensional]
     assert pivot_kept, "some mode keeps the front corner on the ground"
@@ -302,6 +302,24 @@ def test_rhex_analysis_is_complete_and_consistent():
         a = {s.mode: s.dv for s in solutions_at(fast, u)}
         b = {s.mode: s.dv for s in solutions_at(scene, u)}
         assert a.keys() == b.keys()
+
+
+def test_partial_pruning_drops_subtrees_and_loses_no_mode(write_scene):
+    """The straight snake lying on the ground, touching at 4 points: lifting any subset of points
+    is possible, but two touching neighbours cannot slide apart: subtrees are dropped early."""
+    contacts = [{"name": f"c{i}", "link": f"link{i}", "point": [0.0, 0.0], "normal": [0.0, 1.0],
+                 "mu": 0.5, "surface_point": [0.0, 0.0]} for i in range(4)]
+    scene = load_scene(write_scene({
+        "robot": str(ROBOTS / "snake_planar.urdf"), "state": {"q": [0.0] * 11}, "contacts": contacts,
+        "inputs": {"coordinates": [f"j{i}" for i in range(1, 9)], "lower": [-5.0] * 8, "upper": [5.0] * 8},
+    }))
+    fast = analyze(scene, ambiguity=False)
+    naive = analyze(scene, prune_partial=False, ambiguity=False)
+    assert fast.enumeration.evaluated < naive.enumeration.evaluated == 4**4
+    assert fast.enumeration.partial_checks > 0
+    assert {m.mode for m in fast.feasible_modes} == {m.mode for m in naive.feasible_modes}
+    e = fast.enumeration
+    assert e.feasible + e.pruned_freedom + e.pruned_infeasible == e.after_velocity
 
 
 # ----------------------------------------------------------------------------- LCP agreement

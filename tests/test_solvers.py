@@ -374,7 +374,7 @@ def test_highs_infeasible_verdict_is_confirmed_without_presolve():
         assert solve_lp(PRESOLVE_C, PRESOLVE_A, PRESOLVE_B, solver=solver).status == "unbounded"
 
 
-def test_highs_writes_nothing_on_stdout():
+def test_highs_writes_nothing_on_stdout(tmp_path):
     """HiGHS's postsolve prints debug lines to the C-level stdout; the adapter silences them
     (seen on the lifted climb LPs: a duplicate column undone in postsolve)."""
     import subprocess
@@ -386,6 +386,8 @@ def test_highs_writes_nothing_on_stdout():
         "plan = plan_climb(load_scene('snake_climb'), solver='highs')\n"
         "assert plan.found\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    # run outside the source tree, so that the installed package is the one imported
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                         cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert out.stdout == ""
