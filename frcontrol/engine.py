@@ -72,15 +72,17 @@ class ModeAnalysis:
             Chebyshev radius above :data:`DOMAIN_TOLERANCE`).
         chebyshev_radius: the radius of D_c's Chebyshev ball within its affine hull (capped at
             :data:`frcontrol.polytope.CHEBYSHEV_RADIUS_CAP`).
-        domain: D_c over (u, w), minimal (None if infeasible).
+        raw_domain: D_c over (u, w) as assembled: every row of the mode's inequalities and the
+            input limits, redundant ones included (None if infeasible).
         inputs_full_dimensional: T_c has an interior in input space.
         pruned: why an infeasible mode is infeasible: ``"freedom"`` (its equalities admit no
             solution, or no solution moves as the mode says) or ``"infeasible"`` (its domain is
             empty); None if feasible.
         m: the number of inputs (the first m coordinates of D_c).
 
-    ``input_domain`` (T_c, the projection of D_c onto the inputs, minimal) is computed on first
-    use and cached: projection is the costliest stage and most questions do not need it.
+    ``domain`` (D_c in minimal form) and ``input_domain`` (T_c, its projection onto the inputs)
+    are computed on first use and cached: reducing and projecting are the costliest stages, and
+    feasibility, full-dimensionality, overlaps and the solutions at an input do not need them.
     """
 
     mode: str
@@ -90,7 +92,7 @@ class ModeAnalysis:
     feasible: bool
     full_dimensional: bool
     chebyshev_radius: float
-    domain: poly.Polytope | None
+    raw_domain: poly.Polytope | None
     inputs_full_dimensional: bool
     pruned: str | None = None
     m: int = 0
@@ -106,6 +108,17 @@ class ModeAnalysis:
     def halfspaces(self) -> int:
         """Half-spaces of D_c's minimal representation (0 if infeasible)."""
         return 0 if self.domain is None else int(self.domain.A.shape[0])
+
+    @property
+    def domain(self) -> poly.Polytope | None:
+        """D_c over (u, w) in minimal form (None if infeasible)."""
+        if self.raw_domain is None:
+            return None
+        if "domain" not in self._cache:
+            t0 = time.perf_counter()
+            self._cache["domain"] = poly.minimal_representation(self.raw_domain, solver=self.solver)
+            self._cache["reduction_time"] = time.perf_counter() - t0
+        return self._cache["domain"]
 
     @property
     def input_domain(self) -> poly.Polytope | None:
@@ -352,20 +365,19 @@ def analyze(
             counts[verdict] += 1
             analyses.append(ModeAnalysis(
                 mode=mode, system=system, response=response, ambiguous_outputs=outputs,
-                feasible=False, full_dimensional=False, chebyshev_radius=0.0, domain=None,
+                feasible=False, full_dimensional=False, chebyshev_radius=0.0, raw_domain=None,
                 inputs_full_dimensional=False, pruned=verdict, m=problem.m, solver=solver))
             return
         t0 = time.perf_counter()
-        minimal = poly.minimal_representation(domain, solver=solver)
-        ball = poly.chebyshev_ball(minimal, solver=solver)
-        full = bool(ball.found and ball.radius > DOMAIN_TOLERANCE and minimal.A_eq.shape[0] == 0)
+        ball = poly.chebyshev_ball(domain, solver=solver)
+        full = bool(ball.found and ball.radius > DOMAIN_TOLERANCE and domain.A_eq.shape[0] == 0)
         timings["domain"] += time.perf_counter() - t0
         analysis = ModeAnalysis(
             mode=mode, system=system, response=response, ambiguous_outputs=outputs, feasible=True,
             full_dimensional=full, chebyshev_radius=float(ball.radius) if ball.found else 0.0,
-            domain=minimal, inputs_full_dimensional=full, m=problem.m, solver=solver,
+            raw_domain=domain, inputs_full_dimensional=full, m=problem.m, solver=solver,
         )
-        if not full and minimal.A_eq.shape[0] == 0 and response.ambiguity_dim:
+        if not full and domain.A_eq.shape[0] == 0 and response.ambiguity_dim:
             # D_c flat in (u, w) without input equalities: its projection may still have volume
             t1 = time.perf_counter()
             input_ball = poly.chebyshev_ball(analysis.input_domain, solver=solver)
@@ -417,8 +429,11 @@ def _input_rows(mode: ModeAnalysis) -> tuple[np.ndarray, np.ndarray, int]:
     D_c itself when it is full-dimensional, else T_c (projected) with no w.
     """
     if mode.full_dimensional:
-        return mode.domain.A, mode.domain.b, mode.ambiguity_dim
-    return mode.input_domain.A, mode.input_domain.b, 0
+        H, h, p = mode.raw_domain.A, mode.raw_domain.b, mode.ambiguity_dim
+    else:
+        H, h, p = mode.input_domain.A, mode.input_domain.b, 0
+    _, constant = _row_norms(H)  # rows 0 <= h (h >= 0 in a feasible mode) cut nothing
+    return H[~constant], h[~constant], p
 
 
 def _input_box(mode: ModeAnalysis, solver: str) -> tuple[np.ndarray, np.ndarray]:
