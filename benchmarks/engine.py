@@ -206,11 +206,12 @@ def main(argv: list[str] | None = None) -> dict:
           f"{1e3 * scratch:.2f} ms from scratch, {1e3 * fast:.2f} ms from the analysis")
 
     assembly = {}
+    n_calls = 2000
     for name in ("rhex_flip", "snake_climb"):
         scene = load_scene(name)
-        n_calls = 2000
+        bare_calls = bare_pinocchio(scene)
         ours, _ = median_time(lambda s=scene: [s.state() for _ in range(n_calls)], runs)
-        bare, _ = median_time(lambda f=bare_pinocchio(scene): [f() for _ in range(n_calls)], runs)
+        bare, _ = median_time(lambda f=bare_calls: [f() for _ in range(n_calls)], runs)
         assembly[name] = {"state_us": 1e6 * ours / n_calls, "bare_us": 1e6 * bare / n_calls,
                           "ratio": ours / bare}
         print(f"model assembly {name}: {1e6 * ours / n_calls:.1f} us vs bare Pinocchio "
