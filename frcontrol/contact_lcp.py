@@ -27,9 +27,12 @@ from .errors import IllConditioned, InputError
 from .lcp import LCPSolution, enumerate_lcp_solutions, solve_lcp
 from .modes import ContactProblem, mode_outputs
 
-MASS_CHOLESKY_TOLERANCE = 1e-12
-"""The LCP form needs M positive definite: its smallest eigenvalue over its largest must exceed
-this, else :class:`~frcontrol.errors.IllConditioned` is raised (use the mode enumeration)."""
+MASS_CHOLESKY_TOLERANCE = 1e-8
+"""The LCP form needs M positive definite and well conditioned: its smallest eigenvalue over its
+largest must exceed this, else :class:`~frcontrol.errors.IllConditioned` is raised (use the mode
+enumeration, which never inverts M). At 1e-12 a leg of 1e-9 of the body's mass passed and the
+Delassus matrix lost 11 digits (a wrong mode at some inputs); 1e-8 matches the engine's
+ill-conditioned band."""
 
 CLASSIFY_TOLERANCE = 1e-7
 """[N or m/s^2] A force or contact acceleration at most this in magnitude counts as zero when an

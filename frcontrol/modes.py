@@ -244,7 +244,10 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
                 friction[i_n] = sign * mu
                 pair = [normal, friction]
                 pair_rhs = [-dn[i], 0.0]
-            ineq_rows.append(-unit(i_n))
+            # lam_N >= 0; for a sliding contact measured as the friction force it implies,
+            # -max(1, mu) lam_N <= 0 (the same half-space): with mu ~ 1e9 the plain row, after the
+            # response is substituted, has coefficients of order 1/mu and would read as a constant
+            ineq_rows.append(-(1.0 if letter == "F" else max(1.0, mu)) * unit(i_n))
             ineq_rhs.append(0.0)
             labels.append(f"{name}: lam_N >= 0")
             motion.append(False)

@@ -429,7 +429,7 @@ def friction_cases() -> list[Case]:
         cases.append(Case(
             f"rod-engine-mu{mu:g}", "friction",
             f"beyond the list: the leaning rod at rest, mu = {mu:g}: solutions_at, analyze",
-            "one solution, F, the closed form", _rod_engine(mu), known_failure=LARGE_MU_ENGINE))
+            "one solution, F, the closed form", _rod_engine(mu)))
         cases.append(Case(
             f"rod-lcp-mu{mu:g}", "friction",
             f"beyond the list: the same rod, mu = {mu:g}: contact LCP by Lemke and by enumeration",
@@ -541,12 +541,12 @@ def stiffness_cases() -> list[Case]:
         "box-euler-near-limit", "stiffness",
         "explicit euler at 0.9 x the reported stability limit (k = 1e6 N/m), resting box, 0.2 s",
         "settles at lam_N = m g / 2 (to 1e-3), or InputError: dt above the true limit",
-        _euler_near_limit, known_failure=EULER_LIMIT))
+        _euler_near_limit))
     cases.append(Case(
         "rhex-radau-tight", "stiffness",
         "RHex pitching up (RFL input), compliant radau at k = 1e8 N/m, rtol 1e-7, atol 3e-14",
         "completes, or status failed with a reason; never an untyped exception",
-        _radau_tight, known_failure=NUM_JAC_OVERFLOW))
+        _radau_tight))
     cases.append(Case(
         "box-boundary-layer-k1e12", "stiffness",
         "stability of the resting box's FF at k = 1e12 N/m, critical damping",
@@ -665,7 +665,7 @@ def mass_ratio_cases() -> list[Case]:
             f"RHex with legs of {ratio:g} x the body's mass: contact LCP (Lemke) at the RFL input",
             "the engine's RFL solution, or IllConditioned naming the condition number (M not positive "
             "definite)",
-            _rhex_lcp(ratio), known_failure=LCP_MASS_CONDITION if ratio == 1e-9 else None))
+            _rhex_lcp(ratio)))
     for ratio in (0.0, 1e-9):
         cases.append(Case(
             f"rhex-compliant-ratio{ratio:g}", "mass ratio",

@@ -45,8 +45,10 @@ Integration
 (``"radau"``, ``"bdf"``: implicit, for stiff contacts; ``"lsoda"``: switching; ``"rk45"``,
 ``"dop853"``: explicit) or ``"euler"``: fixed-step semi-implicit (symplectic) Euler with step
 ``dt`` (``v += dt a(q, v, s); q += dt v; s += dt ds/dt``), explicit and so stable only for
-``dt < 2 / omega_max`` (``omega_max = max_i sqrt(k_i / m_eff,i)`` at the initial state, reported
-as ``info["explicit_stability_limit"]``; a larger ``dt`` is refused). Samples are taken every
+``dt < min_i 2 (sqrt(1 + zeta_i^2) - zeta_i) / omega_i`` (``omega_i = sqrt(k_i / m_eff,i)`` and
+``zeta_i`` the damping ratio of contact direction i at the initial state: the explicit damper
+shrinks the undamped limit ``2 / omega``; reported as ``info["explicit_stability_limit"]``; a
+larger ``dt`` is refused). Samples are taken every
 ``dt`` from the solvers' dense output; a callable input is held constant over each sample
 interval (zero-order hold). The adaptive solvers' step is at most ``max_step`` (default ``dt``)
 so that no contact onset is stepped over. A solver that fails (step size underflow, a NaN) or
@@ -381,13 +383,20 @@ def simulate_compliant(
             raise InputError(f"initial_stretch needs {c} finite values (contacts {', '.join(params.names)}), "
                              f"got {s0.tolist()}")
     dynamics = _Dynamics(scene, params, arm, scene.inputs.selection_transpose(n))
-    omega = np.sqrt(np.concatenate([params.stiffness / params.effective_mass_normal,
-                                    params.tangential_stiffness / params.effective_mass_tangent]))
-    stability_limit = float(2.0 / np.max(omega)) if omega.size else math.inf
+    # Semi-implicit Euler on x'' + 2 zeta w x' + w^2 x = 0 with the damper explicit is stable for
+    # h w < 2 (sqrt(1 + zeta^2) - zeta) (2 / w without damping); the smallest over the contacts.
+    stiffness_all = np.concatenate([params.stiffness, params.tangential_stiffness])
+    mass_all = np.concatenate([params.effective_mass_normal, params.effective_mass_tangent])
+    damping_all = np.concatenate([params.damping, params.tangential_damping])
+    omega = np.sqrt(stiffness_all / mass_all)
+    zeta = damping_all / (2.0 * np.sqrt(stiffness_all * mass_all))
+    limits = 2.0 * (np.sqrt(1.0 + zeta**2) - zeta) / omega
+    stability_limit = float(np.min(limits)) if limits.size else math.inf
     if integrator == "euler" and dt >= stability_limit:
         raise InputError(f"the explicit 'euler' step dt = {dt:.3g} s is not below its stability limit "
-                         f"2/omega_max = {stability_limit:.3g} s (omega_max = sqrt(k / m_eff) of the "
-                         "stiffest contact): use a smaller dt or an implicit integrator ('radau', 'bdf')")
+                         f"2 (sqrt(1 + zeta^2) - zeta) / omega = {stability_limit:.3g} s (omega = "
+                         "sqrt(k / m_eff), zeta the damping ratio, of the most restrictive contact): use "
+                         "a smaller dt or an implicit integrator ('radau', 'bdf')")
     counter = {"rhs": 0}
     steps_taken: list[float] = []
 
@@ -468,7 +477,15 @@ def simulate_compliant(
         solver = solver_cls(fun, t_seg, y, t_end, rtol=rtol, atol=atol,
                             max_step=dt if max_step is None else max_step)
         while solver.status == "running":
-            message = solver.step()
+            try:
+                message = solver.step()
+            except (ValueError, np.linalg.LinAlgError, FloatingPointError) as err:
+                # SciPy's Radau/BDF difference their Jacobian with a factor that grows without bound
+                # on a column that never changes (e.g. the horizontal position): it can overflow
+                # into inf and the LU factorisation raises. Report it as a failure, keep the samples.
+                status = "failed"
+                failure = {"time": float(solver.t), "reason": f"{integrator}: {err}"}
+                break
             if solver.status == "failed":
                 status = "failed"
                 failure = {"time": float(solver.t), "reason": f"{integrator}: {message}"}
