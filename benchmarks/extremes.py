@@ -72,8 +72,8 @@ def render(results: list[dict]) -> str:
         "",
         f"{len(results)} cases: **{counts['pass']} pass**, **{counts['typed error']} typed error** "
         f"(accepted: the message names the cause, and the condition number where one is met), "
-        f"**{counts['FAIL']} fail** ({len(known)} known library bugs, xfail in the tests with the "
-        f"diagnosis below; {len(new)} new).",
+        f"**{counts['FAIL']} fail** ({len(known)} known library bug{'s' if len(known) != 1 else ''}, "
+        f"xfail in the tests with the diagnosis below; {len(new)} new).",
         "",
     ]
     if unexpected_pass:

@@ -2,8 +2,9 @@
 
 Run from the repository root::
 
-    python -m benchmarks.trade            # the full sweep (about half an hour on two cores)
-    python -m benchmarks.trade --quick    # fewer knobs, one run per point (a few minutes)
+    python -m benchmarks.trade            # the full sweep (about 45 minutes here)
+    python -m benchmarks.trade --quick    # fewer knobs (a few minutes)
+    python -m benchmarks.trade --replot   # redraw the figures from the JSON
 
 Writes ``benchmarks/results/trade.json``, one figure per scene ``benchmarks/results/trade_<scene>.png``
 (error against wall time, log-log, the Pareto front marked) and prints a short table.
@@ -118,8 +119,7 @@ from frcontrol.errors import FrcontrolError
 from frcontrol.modes import ContactProblem, build_mode_system
 from frcontrol.response import solve_affine
 from frcontrol.scene import Scene, load_scene, shipped_robots_dir
-from frcontrol.simulation.compliant import compliant_contacts, simulate_compliant
-from frcontrol.simulation.options import massless_armature, model_options
+from frcontrol.simulation.compliant import simulate_compliant
 from frcontrol.solvers import available_solvers
 from frcontrol.stability import stability_of
 
@@ -139,6 +139,9 @@ MAX_TRAJECTORY_STEPS = 30_000
 
 MAX_EULER_STEPS = 20_000
 """A fixed-step configuration predicted to need more steps is skipped (recorded as such)."""
+
+PROBE_DURATION = 1e-9
+"""[s] Length of the probe run that reads the explicit stability limit."""
 
 RIGID_RUNS = 20
 """Repetitions of each rigid answer (median)."""
@@ -323,16 +326,13 @@ def rigid_points(ref: Reference, runs: int = RIGID_RUNS) -> list[dict]:
 
 # ------------------------------------------------------------------------------------ compliant
 def euler_limit(ref: Reference, stiffness: float) -> float:
-    """The explicit stability limit ``2 / omega_max`` [s] that simulate_compliant reports."""
-    scene = ref.scene
-    state = scene.robot.state(scene.q, scene.v, list(range(len(scene.contacts))))
-    armature = massless_armature(scene, state.mass_matrix, model_options(scene).armature)
-    mass = armature.apply(state.mass_matrix)
-    params = compliant_contacts(scene, mass, state.jacobian_normal, state.jacobian_tangent,
-                                stiffness=stiffness)
-    omega = np.sqrt(np.concatenate([params.stiffness / params.effective_mass_normal,
-                                    params.tangential_stiffness / params.effective_mass_tangent]))
-    return float(2.0 / np.max(omega))
+    """The explicit stability limit [s] that simulate_compliant reports at this stiffness.
+
+    Read from a one-step probe run (``info["explicit_stability_limit"]``), so that the fractions of
+    the ``euler`` sweep follow the library's own limit.
+    """
+    probe = simulate_compliant(ref.scene, ref.u, PROBE_DURATION, PROBE_DURATION, stiffness=stiffness)
+    return float(probe.info["explicit_stability_limit"])
 
 
 def compliant_run(ref: Reference, config: dict, duration: float, dt: float,
@@ -626,7 +626,9 @@ def plot_scene(name: str, rigid: list[dict], forces: list[dict], trajectories: l
     axes[0].axhline(TARGET_FORCE_ERROR, color="r", ls="--", lw=0.8, label="target 1e-3")
     for ax in axes:
         ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
-    fig.suptitle(f"{name}: error against time (marker size grows with the stiffness 1e2..1e10 N/m)")
+    fig.suptitle(f"{name}: error against time (marker size grows with the stiffness 1e2..1e10 N/m; "
+                 f"errors below {ERROR_FLOOR:g}, e.g. the rigid answers' 0, drawn at {ERROR_FLOOR:g})",
+                 fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -739,7 +741,13 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="fewer knobs and runs")
     parser.add_argument("--runs", type=int, default=None, help="runs per re-timed point (median)")
     parser.add_argument("--scenes", nargs="*", default=None, help="a subset of the scenes")
+    parser.add_argument("--replot", action="store_true", help="redraw the figures from trade.json only")
     args = parser.parse_args()
+    if args.replot:
+        for result in json.loads((RESULTS / "trade.json").read_text())["scenes"]:
+            plot_scene(result["scene"], result["rigid"], result["force_sweep"], result["trajectory_sweep"],
+                       RESULTS / f"trade_{result['scene']}.png")
+        return
     sweep = QUICK if args.quick else FULL
     if args.runs is not None:
         sweep = Sweep(**{**sweep.__dict__, "runs": args.runs})
