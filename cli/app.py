@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import typer
 
-from . import analyze_cmd, climb_cmd, flip_cmd, model_cmds, simulate_cmd, statics_cmd, view_cmd
+from . import analyze_cmd, climb_cmd, flip_cmd, model_cmds, scene_cmds, simulate_cmd, statics_cmd, view_cmd
 
 app = typer.Typer(
     name="frc",
@@ -21,6 +21,8 @@ app.command("view")(view_cmd.view_command)
 app.command("simulate")(simulate_cmd.simulate_command)
 app.command("flip")(flip_cmd.flip_command)
 app.command("climb")(climb_cmd.climb_command)
+app.command("schema")(scene_cmds.schema_command)
+app.command("validate")(scene_cmds.validate_command)
 
 
 def main() -> None:

@@ -272,7 +272,7 @@ def plot_statics(scene: Scene, report: StaticsReport, path: Path) -> None:
         from matplotlib.patches import Circle, Polygon, Rectangle
     except ImportError as err:
         raise FrcontrolError(
-            f"--plot needs matplotlib ({err}); install it with: pip install 'frcontrol[plot]'"
+            f"--plot needs matplotlib ({err}); install it with: pip install matplotlib"
         ) from err
 
     body = report.body

@@ -24,6 +24,7 @@ import numpy as np
 
 from .errors import FrameNotFound, FrcontrolError, InputError, RobotModelError, SceneError
 from .model import ContactPoint, PlanarRobot, RobotState
+from .scene_schema import SchemaProblem, nearest, reference_problems, schema_problems
 
 GAP_TOLERANCE = 1e-6
 """[m] A contact with gap <= this is active (touching); a gap < -this is a penetration error."""
@@ -31,8 +32,6 @@ GAP_TOLERANCE = 1e-6
 DEFAULT_GRAVITY = 9.81
 """[m/s^2] Gravity along -y when the scene does not say."""
 
-KNOWN_TOP_LEVEL = {"name", "robot", "base", "gravity", "state", "contacts", "inputs", "gap_tolerance",
-                   "locked_joints", "description", "model", "disturbances", "task"}
 
 
 @dataclass(frozen=True)
@@ -159,16 +158,31 @@ def shipped_robots_dir() -> Path:
     return Path(str(resources.files("frcontrol.robots")))
 
 
+def shipped_scene_names() -> list[str]:
+    """The names of the scenes shipped with frcontrol (``rhex_flip``, ...), sorted."""
+    return sorted(p.stem for p in (shipped_robots_dir() / "scenes").glob("*.toml"))
+
+
 def resolve_scene_path(name_or_path: str | Path) -> Path:
-    """A scene file by path, or by the name of a shipped scene (``rhex_flip``, ``rhex_flip.toml``)."""
+    """A scene file by path, or by the name of a shipped scene (``rhex_flip``, ``rhex_flip.toml``).
+
+    Raises:
+        SceneError: neither a file of that path nor a shipped scene of that name exists; the
+            message lists the shipped scenes with the nearest name first.
+    """
     path = Path(name_or_path)
     if path.exists():
         return path
     scenes = shipped_robots_dir() / "scenes"
-    for candidate in (scenes / path.name, scenes / f"{path.name}.toml"):
-        if candidate.exists():
-            return candidate
-    return path
+    if len(path.parts) == 1:
+        for candidate in (scenes / path.name, scenes / f"{path.name}.toml"):
+            if candidate.exists():
+                return candidate
+    names = shipped_scene_names()
+    guess = nearest(path.stem, names)
+    hint = f"did you mean {guess!r}? " if guess else ""
+    raise SceneError(str(path), "", f"no such file, and no shipped scene of that name; {hint}"
+                     f"shipped scenes: {', '.join(names)}")
 
 
 class _Reader:
@@ -215,6 +229,32 @@ def _resolve_robot(reader: _Reader, scene_path: Path, robot: str) -> Path:
     )
 
 
+def read_scene_document(path: Path) -> dict[str, Any]:
+    """The parsed TOML of a scene file, unchecked.
+
+    Raises:
+        SceneError: the file is missing, a directory, unreadable, not UTF-8 or not TOML (one line,
+            no errno dump).
+    """
+    reader = _Reader(path)
+    if path.is_dir():
+        raise reader.fail("", "cannot read: it is a directory, not a scene file")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError as err:
+        raise reader.fail("", "no such file") from err
+    except PermissionError as err:
+        raise reader.fail("", "cannot read the file: permission denied") from err
+    except UnicodeDecodeError as err:
+        raise reader.fail("", f"cannot read the file: not UTF-8 text (byte {err.start})") from err
+    except OSError as err:
+        raise reader.fail("", f"cannot read the file: {err.strerror or err}") from err
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise reader.fail("", f"malformed TOML: {err}") from err
+
+
 def load_scene(path: str | Path, *, gap_tolerance: float | None = None) -> Scene:
     """Read and validate a scene file.
 
@@ -227,27 +267,18 @@ def load_scene(path: str | Path, *, gap_tolerance: float | None = None) -> Scene
 
     Raises:
         SceneError: the file is missing or unreadable, the TOML or URDF is malformed, or a field is
-            wrong (unknown link or coordinate, wrong length, NaN, negative mu, zero normal,
-            lower > upper, a penetrating contact...). The message names the file and the field.
+            wrong: an unknown key in any table (with the nearest valid key), a wrong type, an
+            out-of-range value (:data:`~frcontrol.scene_schema.SCENE_SCHEMA`), an unknown link,
+            joint, coordinate or contact (also in ``[model]``, ``[task]`` and
+            ``[[disturbances]]``), a wrong length, NaN, a zero normal, lower > upper, a
+            penetrating contact... The message names the file and the field.
     """
     scene_path = resolve_scene_path(path)
     reader = _Reader(scene_path)
-    try:
-        text = scene_path.read_text(encoding="utf-8")
-    except FileNotFoundError as err:
-        raise reader.fail("", "no such file") from err
-    except (OSError, UnicodeDecodeError) as err:
-        raise reader.fail("", f"cannot read the file: {err}") from err
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise reader.fail("", f"malformed TOML: {err}") from err
-
-    unknown = sorted(set(raw) - KNOWN_TOP_LEVEL)
-    if unknown:
-        raise reader.fail(unknown[0], f"unknown field; known fields: {', '.join(sorted(KNOWN_TOP_LEVEL))}")
-    if "robot" not in raw:
-        raise reader.fail("robot", "missing: the URDF file of the robot")
+    raw = read_scene_document(scene_path)
+    problems = schema_problems(raw)
+    if problems:
+        raise reader.fail(problems[0].field, problems[0].reason)
     name = reader.string(raw.get("name", scene_path.stem), "name")
     robot_file = _resolve_robot(reader, scene_path, reader.string(raw["robot"], "robot"))
     base = raw.get("base", "planar")
@@ -356,7 +387,30 @@ def load_scene(path: str | Path, *, gap_tolerance: float | None = None) -> Scene
         contacts.append(Contact(p, float(gap), bool(gap <= tol)))
 
     inputs = _read_inputs(reader, raw.get("inputs"), coords, locked)
+    references = reference_problems(raw, {
+        "link": robot.link_names, "contact": [p.name for p in points], "coordinate": coords,
+    })
+    if references:
+        raise reader.fail(references[0].field, references[0].reason)
     return Scene(scene_path, name, robot, q, v, tuple(contacts), inputs, tol, raw)
+
+
+def scene_problems(path: str | Path) -> list[SchemaProblem]:
+    """Every problem of a scene file, for ``frc validate``: an empty list when it loads.
+
+    Every schema problem (unknown keys, types, ranges) is listed; when there is none, the scene is
+    loaded, and the first problem found against the robot (a link, a length, a penetration) is
+    listed.
+    """
+    try:
+        scene_path = resolve_scene_path(path)
+        problems = schema_problems(read_scene_document(scene_path))
+        if problems:
+            return problems
+        load_scene(scene_path)
+    except SceneError as err:
+        return [SchemaProblem(err.field, err.reason)]
+    return []
 
 
 def _read_inputs(reader: _Reader, table: Any, coords: Sequence[str], locked: Mapping[str, float]) -> Inputs:
@@ -425,6 +479,9 @@ __all__ = [
     "Scene",
     "load_scene",
     "parse_input_assignments",
+    "read_scene_document",
     "resolve_scene_path",
+    "scene_problems",
     "shipped_robots_dir",
+    "shipped_scene_names",
 ]

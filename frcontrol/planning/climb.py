@@ -25,16 +25,16 @@ with ``J_i`` the point's linear Jacobian (2 x n, world x-y). Bad tables raise
 :class:`~frcontrol.errors.SceneError` naming the field: missing, empty (``lower > upper``, no
 vertex), unbounded (an infinite bound), NaN, unknown link or key, a duplicate name.
 
-The ``[task]`` table (all optional)::
+The ``[task]`` table (``head_link`` and ``head_point`` required)::
 
     [task]
     brace_contacts = ["tail", "tip", "top"]   # must be exactly the active contacts (default)
     head_link = "link8"                        # the point whose upward acceleration is required
-    head_point = [0.2, 0.0]                    # [m] in head_link's frame (default: the origin)
+    head_point = [0.2, 0.0]                    # [m] in head_link's frame
     min_head_acceleration = 1.0                # [m/s^2] a_min (default DEFAULT_MIN_HEAD_ACCELERATION)
 
-Without ``head_link`` the last link of the URDF is used. Other keys of ``[task]`` (read by other
-planners) are ignored.
+A scene without ``head_link`` or ``head_point`` is not a climb scene: the planner refuses it,
+naming the missing field. Other keys of ``[task]`` (read by other planners) are ignored.
 
 The lifted problem
 ------------------
@@ -488,13 +488,14 @@ class ClimbTask:
 
 
 def load_climb_task(scene: Scene) -> ClimbTask:
-    """Read the ``[task]`` table (every key optional; see the module docstring).
+    """Read the ``[task]`` table (see the module docstring).
 
     The table is shared by the planners: keys the climb does not read are ignored.
 
     Raises:
-        SceneError: an unknown or inactive brace contact, brace contacts that are not all the
-            active contacts, an unknown head link, a bad point or acceleration.
+        SceneError: a missing ``head_link`` or ``head_point``, an unknown or inactive brace
+            contact, brace contacts that are not all the active contacts, an unknown head link, a
+            bad point or acceleration.
     """
     path = str(scene.path)
     table = scene.raw.get("task", {})
@@ -515,12 +516,15 @@ def load_climb_task(scene: Scene) -> ClimbTask:
     if set(brace) != set(active) or len(brace) != len(set(brace)):
         raise SceneError(path, "task.brace_contacts", f"expected every active contact once "
                          f"({', '.join(active)}): the climb holds each in mode F; got {brace}")
+    for key, what in (("head_link", "the link of the point that must rise"),
+                      ("head_point", "that point [m] in the link's frame")):
+        if key not in table:
+            raise SceneError(path, f"task.{key}", f"missing: the climb needs [task] {key}, {what}")
     links = scene.robot.link_names
-    head_link = table.get("head_link", links[-1] if links else "")
+    head_link = table["head_link"]
     if not isinstance(head_link, str) or head_link not in links:
         raise SceneError(path, "task.head_link", str(FrameNotFound(str(head_link), links)))
-    head_point = (_finite_pair(table["head_point"], scene.path, "task.head_point")
-                  if "head_point" in table else np.zeros(2))
+    head_point = _finite_pair(table["head_point"], scene.path, "task.head_point")
     a_min = table.get("min_head_acceleration", DEFAULT_MIN_HEAD_ACCELERATION)
     if isinstance(a_min, bool) or not isinstance(a_min, (int, float)) or not math.isfinite(a_min):
         raise SceneError(path, "task.min_head_acceleration",

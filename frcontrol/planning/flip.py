@@ -191,35 +191,33 @@ class FlipTask:
 
 
 def flip_task(scene: Scene) -> FlipTask:
-    """The flip task of a scene: its ``[task]`` table, validated, with the defaults.
+    """The flip task of a scene: its ``[task]`` table, validated.
 
-    ``body_contacts`` defaults to the contacts on the robot's root link; ``pitch`` to ``theta``.
+    ``body_contacts`` is required: a scene without it is not a flip scene (the planner would
+    otherwise "flip" whatever touches the ground). ``pitch`` defaults to ``theta``.
 
     Raises:
-        SceneError: ``[task]`` is malformed, names an unknown contact or coordinate, or the scene
-            has no body contact.
+        SceneError: ``[task]`` or ``task.body_contacts`` is missing, or ``[task]`` is malformed,
+            names an unknown contact or coordinate.
     """
     raw = scene.raw.get("task", {}) if isinstance(scene.raw, Mapping) else {}
     path = str(scene.path)
     if not isinstance(raw, Mapping):
         raise SceneError(path, "task", f"expected a table [task], got {raw!r}")
     names = [c.name for c in scene.contacts]
-    if "body_contacts" in raw:
-        body = raw["body_contacts"]
-        if not isinstance(body, list) or not all(isinstance(x, str) for x in body) or not body:
-            raise SceneError(path, "task.body_contacts", f"expected a non-empty list of contact names "
-                             f"from {names}, got {body!r}")
-        for i, name in enumerate(body):
-            if name not in names:
-                raise SceneError(path, f"task.body_contacts[{i}]",
-                                 f"unknown contact {name!r}; the contacts are: {', '.join(names)}")
-        chosen = set(body)
-    else:
-        root = scene.robot.link_names[0] if scene.robot.link_names else ""
-        chosen = {c.name for c in scene.contacts if c.point.link == root}
-        if not chosen:
-            raise SceneError(path, "task.body_contacts", f"missing, and no contact is on the root link "
-                             f"{root!r}: name the body's contacts")
+    if "body_contacts" not in raw:
+        raise SceneError(path, "task.body_contacts", "missing: the flip needs [task] body_contacts, "
+                         f"the body's contacts (from {', '.join(names) or 'no contact'}), and "
+                         "optionally pitch, the body's pitch coordinate")
+    body = raw["body_contacts"]
+    if not isinstance(body, list) or not all(isinstance(x, str) for x in body) or not body:
+        raise SceneError(path, "task.body_contacts", f"expected a non-empty list of contact names "
+                         f"from {names}, got {body!r}")
+    for i, name in enumerate(body):
+        if name not in names:
+            raise SceneError(path, f"task.body_contacts[{i}]",
+                             f"unknown contact {name!r}; the contacts are: {', '.join(names)}")
+    chosen = set(body)
     pitch = raw.get("pitch", "theta")
     coords = scene.coordinate_names
     if not isinstance(pitch, str) or pitch not in coords:

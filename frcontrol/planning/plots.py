@@ -50,7 +50,7 @@ def _figure(**kwargs: Any) -> Any:
     try:
         from matplotlib.figure import Figure
     except ImportError as err:
-        raise VizError("plotting needs matplotlib: pip install 'frcontrol[plot]'") from err
+        raise VizError("plotting needs matplotlib (a dependency): pip install matplotlib") from err
     return Figure(**kwargs)
 
 

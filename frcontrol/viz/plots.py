@@ -6,7 +6,8 @@ works headless and changes nothing for a program that uses pyplot itself. Every 
 an optional ``path`` (the file to write; the format follows its suffix: ``.png``, ``.pdf``,
 ``.svg``...) and, where a single panel is drawn, an optional ``ax`` to draw into an existing
 figure (planners overlay their own marks). Every function raises
-:class:`~frcontrol.viz.VizError` when matplotlib is not installed (``pip install 'frcontrol[plot]'``).
+:class:`~frcontrol.viz.VizError` when matplotlib is not installed (a dependency of frcontrol:
+``pip install matplotlib``).
 
 - :func:`plot_trajectory`: chosen coordinates, and the contact forces (normal and tangential),
   over time.
@@ -67,7 +68,7 @@ def _figure(**kwargs: Any) -> Any:
     try:
         from matplotlib.figure import Figure
     except ImportError as err:
-        raise VizError("plotting needs matplotlib: pip install 'frcontrol[plot]'") from err
+        raise VizError("plotting needs matplotlib (a dependency): pip install matplotlib") from err
     return Figure(**kwargs)
 
 
@@ -75,7 +76,7 @@ def _polygon_patch() -> Any:
     try:
         from matplotlib.patches import Polygon
     except ImportError as err:
-        raise VizError("plotting needs matplotlib: pip install 'frcontrol[plot]'") from err
+        raise VizError("plotting needs matplotlib (a dependency): pip install matplotlib") from err
     return Polygon
 
 

@@ -1,0 +1,357 @@
+"""The scene format as a JSON Schema, and the strict check every scene passes when it is loaded.
+
+:data:`SCENE_SCHEMA` is the published format (``frc schema`` prints it; the same document ships as
+``frcontrol/robots/scene.schema.json``). It is the one place that lists every table and key of a
+scene, including the late-read ``[model]``, ``[task]`` and ``[[disturbances]]``. A scene is a TOML
+file; the schema describes the document TOML parses to.
+
+:func:`schema_problems` checks a parsed document against it: unknown keys (with the nearest valid
+key), wrong types, out-of-range values, missing required keys and non-finite numbers (TOML has
+``nan`` and ``inf``; JSON Schema cannot say "finite", so every number here must be finite unless
+the key says otherwise). It returns every problem, in document order, so ``frc validate`` can list
+them all; :func:`~frcontrol.scene.load_scene` raises the first as a
+:class:`~frcontrol.errors.SceneError`.
+
+Checks that need the robot (a link's name, the number of coordinates, a contact named in
+``[task]``) are done by :func:`~frcontrol.scene.load_scene` after the robot is built. Keys marked
+``"x-refers"`` in the schema name a ``link``, ``joint``, ``coordinate`` or ``contact``;
+:func:`reference_problems` checks them once the names are known.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = [
+    "NEAREST_KEY_CUTOFF",
+    "SCENE_SCHEMA",
+    "SchemaProblem",
+    "nearest",
+    "reference_problems",
+    "schema_problems",
+]
+
+NEAREST_KEY_CUTOFF = 0.5
+"""[-] Least ``difflib`` similarity ratio for a valid name to be offered as "did you mean"."""
+
+_NUMBER = {"type": "number"}
+_PAIR = {"type": "array", "items": _NUMBER, "minItems": 2, "maxItems": 2}
+_NUMBERS = {"type": "array", "items": _NUMBER}
+_NAMES = {"type": "array", "items": {"type": "string", "minLength": 1}}
+
+
+def _number(description: str, **bounds: float) -> dict[str, Any]:
+    return {"type": "number", "description": description, **bounds}
+
+
+_CONTACT_PARAMETERS: dict[str, Any] = {
+    "stiffness": _number("k_N [N/m], normal contact stiffness", exclusiveMinimum=0),
+    "damping": _number("b_N [N s/m]; absent: critical for each contact's effective mass", minimum=0),
+    "damping_ratio": _number("zeta [-], used when damping is absent", exclusiveMinimum=0),
+    "tangential_stiffness": _number("k_T [N/m]; absent: = stiffness", exclusiveMinimum=0),
+    "tangential_damping": _number("b_T [N s/m]; absent: critical", exclusiveMinimum=0),
+}
+
+SCENE_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "$id": "frcontrol-scene.schema.json",
+    "title": "frcontrol scene",
+    "description": "A planar robot in contact: robot, base, state, contacts against fixed lines, inputs; "
+                   "optionally the simulation model, a planner's task and disturbances. Every number "
+                   "must be finite.",
+    "type": "object",
+    "additionalProperties": False,
+    "required": ["robot", "state"],
+    "properties": {
+        "name": {"type": "string", "minLength": 1, "description": "a human-readable name"},
+        "description": {"type": "string", "description": "free text"},
+        "robot": {"type": "string", "minLength": 1,
+                  "description": "URDF file, relative to the scene, else a shipped robot's name"},
+        "base": {"enum": ["planar", "fixed"], "default": "planar",
+                 "description": "planar: floating x, y, theta; fixed: bolted to the world"},
+        "gravity": _number("[m/s^2] along -y", minimum=0, default=9.81),
+        "gap_tolerance": _number("[m] a contact with a larger gap is inactive", exclusiveMinimum=0,
+                                 default=1e-6),
+        "locked_joints": {**_NAMES, "x-refers": "joint",
+                          "description": "joints welded at their state value (no coordinate)"},
+        "state": {
+            "type": "object",
+            "additionalProperties": False,
+            "required": ["q"],
+            "properties": {
+                "q": {**_NUMBERS, "description": "[m, rad] minimal coordinates: base, then joints"},
+                "v": {**_NUMBERS, "description": "[m/s, rad/s] minimal velocities; absent: zeros"},
+            },
+        },
+        "contacts": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "additionalProperties": False,
+                "required": ["link", "point", "normal", "mu"],
+                "properties": {
+                    "name": {"type": "string", "minLength": 1, "description": "unique; absent: c<i>"},
+                    "link": {"type": "string", "minLength": 1, "x-refers": "link"},
+                    "point": {**_PAIR, "description": "[m] in the link's frame"},
+                    "normal": {**_PAIR, "description": "surface normal in the world, towards the robot"},
+                    "mu": _number("Coulomb coefficient [-]", minimum=0),
+                    "surface_point": {**_PAIR, "description": "[m] a point of the surface line; "
+                                      "absent: the contact point at the scene's state (gap 0)"},
+                },
+            },
+        },
+        "inputs": {
+            "type": "object",
+            "additionalProperties": False,
+            "required": ["coordinates"],
+            "properties": {
+                "coordinates": {**_NAMES, "x-refers": "coordinate",
+                                "description": "the coordinates u acts on (generalized forces)"},
+                "lower": {**_NUMBERS, "description": "[N or N m] lower limits, same order"},
+                "upper": {**_NUMBERS, "description": "[N or N m] upper limits, same order"},
+            },
+        },
+        "model": {
+            "type": "object",
+            "additionalProperties": False,
+            "description": "the contact model for simulation",
+            "properties": {
+                "contact": {"enum": ["rigid", "compliant"], "default": "rigid"},
+                **_CONTACT_PARAMETERS,
+                "armature": _number("[kg m^2 or kg] rotor inertia added to massless coordinates",
+                                    minimum=0),
+                "contacts": {
+                    "type": "object",
+                    "description": "per-contact overrides, by contact name",
+                    "x-refers-keys": "contact",
+                    "additionalProperties": {
+                        "type": "object",
+                        "additionalProperties": False,
+                        "properties": dict(_CONTACT_PARAMETERS),
+                    },
+                },
+            },
+        },
+        "task": {
+            "type": "object",
+            "additionalProperties": False,
+            "description": "what the planners need; each planner reads its own keys",
+            "properties": {
+                "body_contacts": {**_NAMES, "minItems": 1, "x-refers": "contact",
+                                  "description": "flip: the body's contacts"},
+                "pitch": {"type": "string", "x-refers": "coordinate",
+                          "description": "flip: the body's pitch coordinate"},
+                "brace_contacts": {**_NAMES, "minItems": 1, "x-refers": "contact",
+                                   "description": "climb: the contacts held in mode F"},
+                "head_link": {"type": "string", "x-refers": "link",
+                              "description": "climb: the link of the point that must rise"},
+                "head_point": {**_PAIR, "description": "climb: [m] that point, in the link's frame"},
+                "min_head_acceleration": _number("climb: [m/s^2] least upward acceleration of the head"),
+            },
+        },
+        "disturbances": {
+            "type": "array",
+            "minItems": 1,
+            "description": "the climb planner's disturbance forces: a box (lower/upper) or a polygon",
+            "items": {
+                "type": "object",
+                "additionalProperties": False,
+                "required": ["name", "link", "point"],
+                "properties": {
+                    "name": {"type": "string", "minLength": 1},
+                    "link": {"type": "string", "minLength": 1, "x-refers": "link"},
+                    "point": {**_PAIR, "description": "[m] in the link's frame"},
+                    "lower": {**_PAIR, "description": "[N] (fx, fy) in the world"},
+                    "upper": {**_PAIR, "description": "[N] (fx, fy) in the world"},
+                    "vertices": {"type": "array", "items": _PAIR, "minItems": 1,
+                                 "description": "[N] polygon vertices (fx, fy)"},
+                },
+            },
+        },
+    },
+}
+
+
+@dataclass(frozen=True)
+class SchemaProblem:
+    """One way a scene document breaks the format.
+
+    Attributes:
+        field: the dotted path of the offending field (``contacts[0].muu``), ``""`` for the document.
+        reason: what is wrong, what was expected and, for an unknown key, the nearest valid one.
+    """
+
+    field: str
+    reason: str
+
+
+def nearest(name: str, valid: Sequence[str]) -> str | None:
+    """The valid name closest to ``name`` (:data:`NEAREST_KEY_CUTOFF`), or None."""
+    match = difflib.get_close_matches(name, list(valid), n=1, cutoff=NEAREST_KEY_CUTOFF)
+    return match[0] if match else None
+
+
+def _unknown(kind: str, name: str, where: str, valid: Sequence[str]) -> str:
+    guess = nearest(name, valid)
+    hint = f"did you mean {guess!r}? " if guess else ""
+    return f"unknown {kind} {name!r}{where}; {hint}valid: {', '.join(valid) or '(none)'}"
+
+
+def _table_label(path: str, doc: Any) -> str:
+    """How a message names a table: ``[inputs]``, ``[[contacts]] 'tip'``, ``[model.contacts.x]``."""
+    if not path:
+        return ""
+    head = path.split("[")[0].split(".")[0]
+    if path.endswith("]") and head in ("contacts", "disturbances"):
+        name = doc.get("name") if isinstance(doc, Mapping) else None
+        return f" in [[{head}]]" + (f" {name!r}" if isinstance(name, str) else f" {path[len(head):]}")
+    return f" in [{path}]"
+
+
+def _type_name(value: Any) -> str:
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, (int, float)):
+        return "a number"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, Mapping):
+        return "a table"
+    return type(value).__name__
+
+
+def _check(doc: Any, schema: Mapping[str, Any], path: str, out: list[SchemaProblem]) -> None:
+    def fail(reason: str, where: str = path) -> None:
+        out.append(SchemaProblem(where, reason))
+
+    if "enum" in schema:
+        if doc not in schema["enum"]:
+            options = [repr(x) for x in schema["enum"]]
+            choice = " or ".join(options) if len(options) == 2 else "one of " + ", ".join(options)
+            fail(f"expected {choice}, got {doc!r}")
+        return
+    kind = schema.get("type")
+    if kind == "number":
+        if isinstance(doc, bool) or not isinstance(doc, (int, float)):
+            fail(f"expected a number, got {_type_name(doc)} ({doc!r})")
+        elif not math.isfinite(doc):
+            fail(f"expected a finite number, got {doc!r}")
+        elif "minimum" in schema and doc < schema["minimum"]:
+            fail(f"expected >= {schema['minimum']:g}, got {doc!r}")
+        elif "exclusiveMinimum" in schema and doc <= schema["exclusiveMinimum"]:
+            fail(f"expected > {schema['exclusiveMinimum']:g}, got {doc!r}")
+    elif kind == "string":
+        if not isinstance(doc, str):
+            fail(f"expected a string, got {_type_name(doc)} ({doc!r})")
+        elif len(doc) < schema.get("minLength", 0):
+            fail("expected a non-empty string")
+    elif kind == "array":
+        if not isinstance(doc, list):
+            fail(f"expected a list, got {_type_name(doc)} ({doc!r})")
+            return
+        if "minItems" in schema and len(doc) < schema["minItems"]:
+            fail(f"expected at least {schema['minItems']} item(s), got {len(doc)}")
+        if "maxItems" in schema and len(doc) > schema["maxItems"]:
+            fail(f"expected at most {schema['maxItems']} items, got {len(doc)}")
+        for i, item in enumerate(doc):
+            _check(item, schema["items"], f"{path}[{i}]", out)
+    elif kind == "object":
+        if not isinstance(doc, Mapping):
+            fail(f"expected a table, got {_type_name(doc)} ({doc!r})")
+            return
+        properties = schema.get("properties", {})
+        extra = schema.get("additionalProperties", True)
+        for key, value in doc.items():
+            where = f"{path}.{key}" if path else str(key)
+            if key in properties:
+                _check(value, properties[key], where, out)
+            elif isinstance(extra, Mapping):
+                _check(value, extra, where, out)
+            elif extra is False:
+                kind_name = "field" if not path else "key"
+                fail(_unknown(kind_name, str(key), _table_label(path, doc), list(properties)), where)
+        for key in schema.get("required", []):
+            if key not in doc:
+                where = f"{path}.{key}" if path else key
+                about = properties[key].get("description")
+                fail(f"missing{_table_label(path, doc)}" + (f": {about}" if about else ""), where)
+
+
+def schema_problems(doc: Any) -> list[SchemaProblem]:
+    """Every way the parsed scene ``doc`` breaks :data:`SCENE_SCHEMA`, in document order."""
+    out: list[SchemaProblem] = []
+    _check(doc, SCENE_SCHEMA, "", out)
+    if isinstance(doc, Mapping) and isinstance(doc.get("disturbances"), list):
+        for i, table in enumerate(doc["disturbances"]):
+            if isinstance(table, Mapping):
+                out.extend(_disturbance_shape(table, f"disturbances[{i}]"))
+    return out
+
+
+def _disturbance_shape(table: Mapping[str, Any], where: str) -> list[SchemaProblem]:
+    """A disturbance is a box (lower and upper, lower <= upper) or a polygon (vertices), not both."""
+    has_box = "lower" in table or "upper" in table
+    if has_box and "vertices" in table:
+        return [SchemaProblem(f"{where}.vertices", "give either lower/upper (a box) or vertices "
+                              "(a polygon), not both")]
+    if not has_box and "vertices" not in table:
+        return [SchemaProblem(where, "missing: the forces, as lower = [fx, fy] and upper = [fx, fy] "
+                              "(a box, [N]) or vertices = [[fx, fy], ...] (a polygon, [N])")]
+    if has_box:
+        for key in ("lower", "upper"):
+            if key not in table:
+                return [SchemaProblem(f"{where}.{key}", "missing: a box needs both lower and upper")]
+        lower, upper = table["lower"], table["upper"]
+        try:
+            for j in range(2):
+                if lower[j] > upper[j]:
+                    return [SchemaProblem(f"{where}.lower[{j}]", f"the disturbance polytope is empty: "
+                                          f"lower {lower[j]} exceeds upper {upper[j]}")]
+        except (TypeError, IndexError, KeyError):
+            pass  # a malformed pair: reported by the schema check
+    return []
+
+
+def _references(doc: Any, schema: Mapping[str, Any], path: str, names: Mapping[str, Sequence[str]],
+                out: list[SchemaProblem]) -> None:
+    refers = schema.get("x-refers")
+    if refers in names:
+        values = doc if isinstance(doc, list) else [doc]
+        for i, value in enumerate(values):
+            if isinstance(value, str) and value not in names[refers]:
+                where = f"{path}[{i}]" if isinstance(doc, list) else path
+                out.append(SchemaProblem(where, _unknown(refers, value, "", list(names[refers]))))
+        return
+    if schema.get("type") == "array" and isinstance(doc, list) and "items" in schema:
+        for i, item in enumerate(doc):
+            _references(item, schema["items"], f"{path}[{i}]", names, out)
+    elif schema.get("type") == "object" and isinstance(doc, Mapping):
+        keys_refer = schema.get("x-refers-keys")
+        properties = schema.get("properties", {})
+        extra = schema.get("additionalProperties")
+        for key, value in doc.items():
+            where = f"{path}.{key}" if path else str(key)
+            if keys_refer in names and key not in names[keys_refer]:
+                out.append(SchemaProblem(where, _unknown(keys_refer, str(key), "", list(names[keys_refer]))))
+                continue
+            sub = properties.get(key, extra if isinstance(extra, Mapping) else None)
+            if sub is not None:
+                _references(value, sub, where, names, out)
+
+
+def reference_problems(doc: Any, names: Mapping[str, Sequence[str]]) -> list[SchemaProblem]:
+    """Names in ``doc`` that refer to no ``link``, ``joint``, ``coordinate`` or ``contact``.
+
+    Args:
+        doc: a parsed scene that passed :func:`schema_problems`.
+        names: the valid names of each kind (kinds absent from it are not checked).
+    """
+    out: list[SchemaProblem] = []
+    _references(doc, SCENE_SCHEMA, "", names, out)
+    return out
