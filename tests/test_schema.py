@@ -1,0 +1,184 @@
+"""Strict scenes: the published JSON Schema, every shipped scene valid, broken scenes named exactly.
+
+Each broken scene below is a shipped scene with one mistake a user makes (a typo, a wrong type, a
+value out of range, a name that refers to nothing). Loading it must raise a SceneError naming the
+exact field and, for a typo, the nearest valid key; ``frc validate`` and every command must exit 1
+with one line on stderr.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+import tomllib
+
+import jsonschema
+import pytest
+from conftest import ROBOTS, toml_text
+from frcontrol.cli.app import app
+from typer.testing import CliRunner
+
+from frcontrol.errors import SceneError
+from frcontrol.scene import load_scene, scene_problems, shipped_scene_names
+from frcontrol.scene_schema import SCENE_SCHEMA, schema_problems
+
+SHIPPED = shipped_scene_names()
+runner = CliRunner()
+
+
+def shipped(name: str) -> dict:
+    return tomllib.loads((ROBOTS / "scenes" / f"{name}.toml").read_text())
+
+
+def test_the_published_schema_is_a_valid_json_schema_and_ships_verbatim():
+    jsonschema.Draft202012Validator.check_schema(SCENE_SCHEMA)
+    assert json.loads((ROBOTS / "scene.schema.json").read_text()) == SCENE_SCHEMA
+    result = runner.invoke(app, ["schema"])
+    assert result.exit_code == 0 and json.loads(result.stdout) == SCENE_SCHEMA
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_every_shipped_scene_is_valid(name):
+    doc = shipped(name)
+    jsonschema.Draft202012Validator(SCENE_SCHEMA).validate(doc)
+    assert schema_problems(doc) == []
+    assert scene_problems(name) == []
+
+
+def edit(name: str, path: str, value=None, *, rename: str | None = None, delete: bool = False) -> dict:
+    """A shipped scene with one change at a dotted path (``contacts[0].mu``, ``task.pitch``)."""
+    doc = shipped(name)
+    keys = [int(k) if k.isdigit() else k for k in re.findall(r"[^.\[\]]+", path)]
+    parent = doc
+    for key in keys[:-1]:
+        parent = parent.setdefault(key, {}) if isinstance(key, str) else parent[key]
+    last = keys[-1]
+    if rename is not None:
+        parent[rename] = parent.pop(last)
+    elif delete:
+        del parent[last]
+    else:
+        parent[last] = value
+    return doc
+
+
+# name -> (scene document, the field named, text the reason must hold, jsonschema also rejects it)
+BROKEN = {
+    "typo in [inputs]": (edit("rod_on_table", "inputs.upper", rename="uper"), "inputs.uper",
+                         "did you mean 'upper'?", True),
+    "typo in [[contacts]] mu": (edit("rod_on_table", "contacts[0].mu", rename="muu"), "contacts[0].muu",
+                                "in [[contacts]] 'tip'; did you mean 'mu'?", True),
+    "typo in [[contacts]] surface_point": (
+        edit("box_on_ground", "contacts[1].surface_point", rename="surface_piont"),
+        "contacts[1].surface_piont", "in [[contacts]] 'right'; did you mean 'surface_point'?", True),
+    "typo in [state]": (edit("rod_on_table", "state.v", rename="vel"), "state.vel",
+                        "did you mean 'v'?", True),
+    "typo in [task]": (edit("rhex_flip", "task.pitch", rename="pitchh"), "task.pitchh",
+                       "did you mean 'pitch'?", True),
+    "typo in [model]": (edit("rod_on_table", "model.stifness", 1e5), "model.stifness",
+                        "did you mean 'stiffness'?", True),
+    "typo in [model.contacts.NAME]": (edit("rod_on_table", "model.contacts.tip.dampnig", 3.0),
+                                      "model.contacts.tip.dampnig", "did you mean 'damping'?", True),
+    "typo in [[disturbances]]": (edit("snake_climb", "disturbances[1].vertices", rename="vertice"),
+                                 "disturbances[1].vertice", "did you mean 'vertices'?", True),
+    "typo at the top level": (edit("rod_on_table", "gravity", rename="gravty"), "gravty",
+                              "did you mean 'gravity'?", True),
+    "string for a number": (edit("rod_on_table", "contacts[0].mu", "0.5"), "contacts[0].mu",
+                            "expected a number", True),
+    "negative mu": (edit("rod_on_table", "contacts[0].mu", -0.5), "contacts[0].mu", ">= 0", True),
+    "zero stiffness": (edit("rod_on_table", "model.stiffness", 0.0), "model.stiffness", "> 0", True),
+    "negative armature": (edit("rhex_flip", "model.armature", -1e-4), "model.armature", ">= 0", True),
+    "unknown contact model": (edit("rod_on_table", "model.contact", "soft"), "model.contact",
+                              "'rigid' or 'compliant'", True),
+    "nan in state": (edit("rod_on_table", "state.q[1]", float("nan")), "state.q[1]", "finite", False),
+    "short point": (edit("rod_on_table", "contacts[0].point", [0.5]), "contacts[0].point",
+                    "at least 2", True),
+    "task is not a table": (edit("rhex_flip", "task", "flip"), "task", "expected a table", True),
+    "override of an unknown contact": (edit("rod_on_table", "model.contacts.tipp.stiffness", 1e5),
+                                       "model.contacts.tipp", "did you mean 'tip'?", False),
+    "unknown body contact": (edit("rhex_flip", "task.body_contacts[0]", "front_croner"),
+                             "task.body_contacts[0]", "did you mean 'front_corner'?", False),
+    "unknown pitch coordinate": (edit("rhex_flip", "task.pitch", "thetaa"), "task.pitch",
+                                 "did you mean 'theta'?", False),
+    "unknown head link": (edit("snake_climb", "task.head_link", "link9"), "task.head_link",
+                          "unknown link 'link9'", False),
+    "unknown disturbance link": (edit("snake_climb", "disturbances[0].link", "lnk8"), "disturbances[0].link",
+                                 "did you mean 'link8'?", False),
+    "empty disturbance box": (edit("snake_climb", "disturbances[0].lower", [4.0, -3.0]),
+                              "disturbances[0].lower[0]", "exceeds upper", False),
+    "both box and polygon": (edit("snake_climb", "disturbances[0].vertices", [[0.0, 0.0]]),
+                             "disturbances[0].vertices", "not both", False),
+    "missing q": (edit("rod_on_table", "state.q", delete=True), "state.q", "missing", True),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BROKEN))
+def test_a_broken_scene_names_the_exact_field(case, write_scene):
+    doc, field, reason, schema_rejects = BROKEN[case]
+    path = write_scene(toml_text(doc) if not isinstance(doc, str) else doc)
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert info.value.field == field, info.value
+    assert reason in info.value.reason, info.value
+    assert str(path) in str(info.value)
+    problems = scene_problems(path)
+    assert problems and problems[0].field == field
+    if schema_rejects:  # the published schema, read by a third-party validator, agrees
+        assert not jsonschema.Draft202012Validator(SCENE_SCHEMA).is_valid(tomllib.loads(path.read_text()))
+
+
+def test_every_problem_is_listed_not_only_the_first(write_scene):
+    doc = edit("rod_on_table", "inputs.upper", rename="uper")
+    doc["contacts"][0]["muu"] = doc["contacts"][0].pop("mu")
+    fields = [p.field for p in scene_problems(write_scene(toml_text(doc)))]
+    assert fields == ["contacts[0].muu", "contacts[0].mu", "inputs.uper"]
+
+
+def test_frc_validate_exit_codes_and_lines(write_scene):
+    good = runner.invoke(app, ["validate", "rod_on_table", "snake_climb"])
+    assert good.exit_code == 0, good.stderr
+    broken = write_scene(toml_text(BROKEN["typo in [inputs]"][0]))
+    result = runner.invoke(app, ["validate", "rod_on_table", str(broken), "--json"])
+    assert result.exit_code == 1
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "inputs.uper" in lines[0] and "did you mean 'upper'?" in lines[0]
+    doc = json.loads(result.stdout)
+    assert doc["valid"] is False and [f["valid"] for f in doc["files"]] == [True, False]
+    assert doc["files"][1]["problems"][0]["field"] == "inputs.uper"
+
+
+def test_missing_scene_lists_the_shipped_ones_with_the_nearest(tmp_path):
+    with pytest.raises(SceneError) as info:
+        load_scene("rod_on_tabel")
+    assert "did you mean 'rod_on_table'?" in info.value.reason
+    assert all(name in info.value.reason for name in SHIPPED)
+    with pytest.raises(SceneError) as info:
+        load_scene(tmp_path)
+    assert info.value.reason == "cannot read: it is a directory, not a scene file"
+    (tmp_path / "latin1.toml").write_bytes(b'name = "caf\xe9"\n')
+    with pytest.raises(SceneError, match="not UTF-8"):
+        load_scene(tmp_path / "latin1.toml")
+
+
+@pytest.mark.parametrize("args, field", [
+    (["flip", "rod_on_table"], "task.body_contacts"),
+    (["flip", "snake_climb"], "task.body_contacts"),
+    (["climb", "rhex_flip"], "task.head_link"),
+])
+def test_planners_refuse_a_scene_without_their_task(args, field):
+    result = runner.invoke(app, args + ["--json"])
+    assert result.exit_code == 1 and result.stdout == ""
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and f": {field}: missing" in lines[0]
+
+
+def test_a_typo_on_the_command_line_is_one_line_and_exit_1(write_scene, tmp_path):
+    """As a user meets it: the installed `frc`, a real process, a scene with a typo."""
+    path = write_scene(toml_text(BROKEN["typo in [[contacts]] mu"][0]))
+    out = subprocess.run([sys.executable, "-m", "frcontrol.cli", "analyze", str(path), "--json"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert out.returncode == 1 and out.stdout == ""
+    assert out.stderr.count("\n") == 1 and "Traceback" not in out.stderr
+    assert "contacts[0].muu" in out.stderr and "did you mean 'mu'?" in out.stderr
