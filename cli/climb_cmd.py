@@ -21,7 +21,7 @@ from frcontrol.planning.climb import (
 )
 from frcontrol.scene import load_scene
 
-from .common import console, fail, handle_errors, print_json
+from .common import check_output_files, console, fail, handle_errors, print_json
 from .model_cmds import JsonOpt
 
 ClimbSceneArg = Annotated[
@@ -143,6 +143,7 @@ def climb_command(
     """
     if port is not None and not view:
         raise fail("--port needs --view")
+    check_output_files(plot=plot, html=html)
     loaded = load_scene(scene)
     status_console = Console(stderr=True)
     with status_console.status("planning the climb..."):

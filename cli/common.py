@@ -4,16 +4,18 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 from collections.abc import Callable
 from functools import wraps
+from pathlib import Path
 from typing import Any, ParamSpec, TypeVar
 
 import numpy as np
 import typer
 from rich.console import Console
 
-from frcontrol.errors import FrcontrolError
+from frcontrol.errors import FrcontrolError, InputError
 
 console = Console()
 P = ParamSpec("P")
@@ -37,6 +39,25 @@ def handle_errors(func: Callable[P, R]) -> Callable[P, R]:
             raise fail(str(err)) from None
 
     return wrapper
+
+
+def check_output_files(**files: Path | None) -> None:
+    """Refuse, before any work, an output file that cannot be written (``plot=path, html=path``).
+
+    Raises:
+        InputError: the path is a directory, its folder does not exist or is not writable.
+    """
+    for option, path in files.items():
+        if path is None:
+            continue
+        flag = "--" + option.replace("_", "-")
+        folder = path.parent if str(path.parent) else Path(".")
+        if path.is_dir():
+            raise InputError(f"{flag} {str(path)!r}: is a directory, expected a file name")
+        if not folder.is_dir():
+            raise InputError(f"{flag} {str(path)!r}: the folder {str(folder)!r} does not exist")
+        if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+            raise InputError(f"{flag} {str(path)!r}: permission denied")
 
 
 def to_jsonable(value: Any) -> Any:

@@ -14,7 +14,7 @@ from rich.table import Table
 from frcontrol.planning.flip import DEFAULT_MARGIN, FlipPlan, FlipResult, plan_flip, simulate_flip
 from frcontrol.scene import load_scene
 
-from .common import console, fail, handle_errors, print_json
+from .common import check_output_files, console, fail, handle_errors, print_json
 from .model_cmds import JsonOpt
 
 FlipSceneArg = Annotated[
@@ -154,6 +154,7 @@ def flip_command(
     """
     if port is not None and not view:
         raise fail("--port needs --view")
+    check_output_files(plot=plot, html=html)
     from frcontrol.viz.meshcat_view import stop_server
 
     loaded = load_scene(scene)

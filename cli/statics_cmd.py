@@ -11,11 +11,11 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from frcontrol.errors import FrcontrolError, InputError
+from frcontrol.errors import FrcontrolError, InputError, reason_from_exception
 from frcontrol.scene import Scene, load_scene
 from frcontrol.statics import StaticsReport, analyze_statics
 
-from .common import console, handle_errors, print_json
+from .common import check_output_files, console, handle_errors, print_json
 from .model_cmds import JsonOpt, SceneArg
 
 InputOpt = Annotated[
@@ -155,6 +155,7 @@ def statics_command(
     no_strong: WeakOnlyOpt = False,
 ) -> None:
     """Form and force closure, static equilibrium, support region, weak and strong stability at rest."""
+    check_output_files(plot=plot)
     loaded = load_scene(scene)
     report = analyze_statics(loaded, parse_input_pairs(inputs), lateral_acceleration=lateral_acceleration,
                              strong=not no_strong)
@@ -350,6 +351,6 @@ def plot_statics(scene: Scene, report: StaticsReport, path: Path) -> None:
     try:
         fig.savefig(path, dpi=120)
     except (OSError, ValueError) as err:
-        raise InputError(f"cannot write the plot to {str(path)!r}: {err}") from err
+        raise InputError(f"cannot write the plot to {str(path)!r}: {reason_from_exception(err)}") from err
     finally:
         plt.close(fig)

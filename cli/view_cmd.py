@@ -10,7 +10,7 @@ import typer
 
 from frcontrol.scene import load_scene
 
-from .common import fail, handle_errors
+from .common import check_output_files, fail, handle_errors
 from .model_cmds import SceneArg
 
 HtmlOpt = Annotated[
@@ -49,6 +49,7 @@ def view_command(
         raise fail("--port needs --view")
     if html is None and plot is None and not view:
         raise fail("nothing to do: give --html FILE, --plot FILE and/or --view")
+    check_output_files(plot=plot, html=html)
     loaded = load_scene(scene)
     if html is not None:
         from frcontrol.viz.meshcat_view import write_html

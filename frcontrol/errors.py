@@ -15,6 +15,16 @@ class FrcontrolError(Exception):
     """Base class of every error frcontrol raises on purpose."""
 
 
+def reason_from_exception(err: BaseException) -> str:
+    """One line saying why a file operation failed, without an errno dump.
+
+    An ``OSError`` gives its ``strerror`` ("No such file or directory"); anything else its message.
+    """
+    if isinstance(err, OSError) and err.strerror:
+        return err.strerror[0].lower() + err.strerror[1:]
+    return str(err).splitlines()[0] if str(err) else type(err).__name__
+
+
 class SceneError(FrcontrolError):
     """A scene file is missing, unreadable, malformed or physically invalid.
 

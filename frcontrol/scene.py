@@ -22,7 +22,14 @@ from typing import Any
 
 import numpy as np
 
-from .errors import FrameNotFound, FrcontrolError, InputError, RobotModelError, SceneError
+from .errors import (
+    FrameNotFound,
+    FrcontrolError,
+    InputError,
+    RobotModelError,
+    SceneError,
+    reason_from_exception,
+)
 from .model import ContactPoint, PlanarRobot, RobotState
 from .scene_schema import SchemaProblem, nearest, reference_problems, schema_problems
 
@@ -248,7 +255,7 @@ def read_scene_document(path: Path) -> dict[str, Any]:
     except UnicodeDecodeError as err:
         raise reader.fail("", f"cannot read the file: not UTF-8 text (byte {err.start})") from err
     except OSError as err:
-        raise reader.fail("", f"cannot read the file: {err.strerror or err}") from err
+        raise reader.fail("", f"cannot read the file: {reason_from_exception(err)}") from err
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:

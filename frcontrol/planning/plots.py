@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, reason_from_exception
 from ..polytope import Polytope
 from .flip import FlipPlan, FlipResult
 
@@ -61,7 +61,7 @@ def _save(figure: Any, path: str | Path) -> Path:
     try:
         figure.savefig(target, dpi=120, bbox_inches="tight")
     except (OSError, ValueError) as err:  # ValueError: an unknown format suffix
-        raise OutputFileError(target, str(err)) from err
+        raise OutputFileError(target, reason_from_exception(err)) from err
     return target
 
 

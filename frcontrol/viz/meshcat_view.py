@@ -50,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from frcontrol.errors import InputError
+from frcontrol.errors import InputError, reason_from_exception
 from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
@@ -688,7 +688,7 @@ def write_html(scene: Scene, trajectory: Trajectory | None, path: str | Path, **
     try:
         target.write_text(page, encoding="utf-8")
     except OSError as err:
-        raise OutputFileError(target, err.strerror or str(err)) from err
+        raise OutputFileError(target, reason_from_exception(err)) from err
     return target
 
 

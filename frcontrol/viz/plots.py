@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from frcontrol.errors import CoordinateNotFound, InputError
+from frcontrol.errors import CoordinateNotFound, InputError, reason_from_exception
 from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
@@ -85,7 +85,7 @@ def _save(figure: Any, path: str | Path) -> Path:
     try:
         figure.savefig(target, dpi=120, bbox_inches="tight")
     except (OSError, ValueError) as err:  # ValueError: an unknown format suffix
-        raise OutputFileError(target, str(err)) from err
+        raise OutputFileError(target, reason_from_exception(err)) from err
     return target
 
 
