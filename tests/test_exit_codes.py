@@ -1,0 +1,59 @@
+"""One exit-code rule for every command (README, "Exit codes"): 0 answered, 1 bad input, 2 usage."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from frcontrol.cli.app import app
+from typer.testing import CliRunner
+
+runner = CliRunner()
+
+
+def one_error_line(result) -> str:
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("frc: error: "), result.stderr
+    assert "Traceback" not in result.stderr
+    return lines[0]
+
+
+@pytest.mark.parametrize("args", [
+    ["analyze"],                                   # a missing argument
+    ["analyze", "rod_on_table", "--bogus"],        # an unknown option
+    ["flip", "--margin", "-1"],                    # an option out of its range
+    ["simulate", "rod_on_table", "--model", "soft"],
+    ["nonsense"],                                  # an unknown command
+])
+def test_usage_errors_exit_2(args):
+    assert runner.invoke(app, args).exit_code == 2
+
+
+@pytest.mark.parametrize("args, text", [
+    (["analyze", "rod_on_tabel", "--json"], "did you mean 'rod_on_table'?"),
+    (["analyze", "rod_on_table", "--input", "phi=1", "--json"], "unknown coordinate 'phi'"),
+    (["analyze", "rod_on_table", "--input", "x=1e9", "--json"], "outside its limits"),
+    (["flip", "--plot", "/nonexistent-folder/flip.png", "--json"], "'/nonexistent-folder' does not exist"),
+    (["climb", "--html", "/nonexistent-folder/climb.html", "--json"], "does not exist"),
+    (["statics", "rod_on_table", "--plot", "/nonexistent-folder/s.png", "--json"], "does not exist"),
+    (["flip", "rod_on_table", "--json"], "task.body_contacts: missing"),
+])
+def test_bad_input_exits_1_with_one_line_and_nothing_on_stdout(args, text):
+    result = runner.invoke(app, args)
+    assert result.exit_code == 1 and result.stdout == ""
+    assert text in one_error_line(result)
+
+
+def test_an_output_path_that_is_a_folder_is_refused(tmp_path):
+    result = runner.invoke(app, ["view", "rod_on_table", "--html", str(tmp_path)])
+    assert result.exit_code == 1 and "is a directory" in one_error_line(result)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_negative_answer_is_an_answer_exit_0():
+    """No unambiguous flip 100 N m away from every other mode: exit 0, and the JSON says why."""
+    result = runner.invoke(app, ["flip", "--margin", "100", "--json"])
+    assert result.exit_code == 0, result.stderr
+    doc = json.loads(result.stdout)
+    assert doc["found"] is False and doc["simulation"]["flipped"] is False
+    assert "100 N m" in doc["simulation"]["reason"]
