@@ -53,11 +53,11 @@ def check_output_files(**files: Path | None) -> None:
         flag = "--" + option.replace("_", "-")
         folder = path.parent if str(path.parent) else Path(".")
         if path.is_dir():
-            raise InputError(f"{flag} {str(path)!r}: is a directory, expected a file name")
+            raise InputError(f"{flag} {str(path)!r}: cannot write: it is a directory, expected a file name")
         if not folder.is_dir():
-            raise InputError(f"{flag} {str(path)!r}: the folder {str(folder)!r} does not exist")
+            raise InputError(f"{flag} {str(path)!r}: cannot write: the folder {str(folder)!r} does not exist")
         if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
-            raise InputError(f"{flag} {str(path)!r}: permission denied")
+            raise InputError(f"{flag} {str(path)!r}: cannot write: permission denied")
 
 
 def to_jsonable(value: Any) -> Any:
