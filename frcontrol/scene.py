@@ -31,7 +31,7 @@ from .errors import (
     reason_from_exception,
 )
 from .model import ContactPoint, PlanarRobot, RobotState
-from .scene_schema import SchemaProblem, nearest, reference_problems, schema_problems
+from .scene_schema import SchemaProblem, apply_override, nearest, reference_problems, schema_problems
 
 GAP_TOLERANCE = 1e-6
 """[m] A contact with gap <= this is active (touching); a gap < -this is a penetration error."""
@@ -262,12 +262,20 @@ def read_scene_document(path: Path) -> dict[str, Any]:
         raise reader.fail("", f"malformed TOML: {err}") from err
 
 
-def load_scene(path: str | Path, *, gap_tolerance: float | None = None) -> Scene:
+def load_scene(
+    path: str | Path,
+    *,
+    gap_tolerance: float | None = None,
+    overrides: Mapping[str, Any] | None = None,
+) -> Scene:
     """Read and validate a scene file.
 
     Args:
         path: the TOML file, or the name of a shipped scene.
         gap_tolerance: [m] overrides the scene's ``gap_tolerance`` (default :data:`GAP_TOLERANCE`).
+        overrides: values to set before validation, by dotted path (``{"contacts.tip.mu": 0.5,
+            "gravity": 3.7}``; see :func:`~frcontrol.scene_schema.apply_override`), checked exactly
+            like the file's own values.
 
     Returns:
         The validated scene.
@@ -283,6 +291,9 @@ def load_scene(path: str | Path, *, gap_tolerance: float | None = None) -> Scene
     scene_path = resolve_scene_path(path)
     reader = _Reader(scene_path)
     raw = read_scene_document(scene_path)
+    for key, value in (overrides or {}).items():
+        for problem in apply_override(raw, key, value):
+            raise reader.fail(problem.field, problem.reason)
     problems = schema_problems(raw)
     if problems:
         raise reader.fail(problems[0].field, problems[0].reason)

@@ -28,6 +28,8 @@ from typing import Any
 
 __all__ = [
     "NEAREST_KEY_CUTOFF",
+    "apply_override",
+    "parse_override",
     "SCENE_SCHEMA",
     "SchemaProblem",
     "nearest",
@@ -355,3 +357,94 @@ def reference_problems(doc: Any, names: Mapping[str, Sequence[str]]) -> list[Sch
     out: list[SchemaProblem] = []
     _references(doc, SCENE_SCHEMA, "", names, out)
     return out
+
+
+# ---------------------------------------------------------------------------------------- overrides
+def parse_override(assignment: str) -> tuple[str, Any]:
+    """Split ``PATH=VALUE`` (the ``--set`` grammar): VALUE is read as TOML, else as a bare string.
+
+    ``contacts.tip.mu=0.5`` gives ``("contacts.tip.mu", 0.5)``; ``state.q=[0, 0.45, 2.0]`` a list;
+    ``model.contact=compliant`` the string ``"compliant"`` (TOML would need the quotes).
+
+    Raises:
+        ValueError: no ``=``, or an empty path.
+    """
+    import tomllib
+
+    path, sep, text = assignment.partition("=")
+    path = path.strip()
+    if not sep or not path:
+        raise ValueError(f"expected PATH=VALUE, got {assignment!r}")
+    try:
+        value = tomllib.loads(f"value = {text.strip()}")["value"]
+    except tomllib.TOMLDecodeError:
+        value = text.strip()
+    return path, value
+
+
+def _segments(path: str) -> list[str]:
+    return path.replace("[", ".").replace("]", "").split(".")
+
+
+def apply_override(doc: dict[str, Any], path: str, value: Any) -> list[SchemaProblem]:
+    """Set the field at a dotted ``path`` of a parsed scene to ``value``, in place.
+
+    Tables are addressed by key (``model.stiffness``, ``state.q``), entries of ``[[contacts]]`` and
+    ``[[disturbances]]`` by name or by index (``contacts.tip.mu``, ``contacts[0].mu``), items of a
+    list by index (``state.q[1]``). A path the schema does not know, or a name no entry has, is a
+    problem naming the nearest valid one; the value itself is checked afterwards like the file's.
+
+    Returns:
+        The problems (empty when the value was set).
+    """
+    parts = _segments(path)
+    if any(not p for p in parts):
+        return [SchemaProblem(path, "malformed path: empty segment")]
+    node: Any = doc
+    schema: Mapping[str, Any] = SCENE_SCHEMA
+    walked: list[str] = []
+    for depth, part in enumerate(parts):
+        last = depth == len(parts) - 1
+        where = ".".join(walked) or "the scene"
+        kind = schema.get("type")
+        if kind == "object":
+            properties = schema.get("properties", {})
+            extra = schema.get("additionalProperties", True)
+            if part in properties:
+                sub = properties[part]
+            elif isinstance(extra, Mapping):
+                sub = extra
+            else:
+                return [SchemaProblem(path, _unknown("field" if not walked else "key", part,
+                                                     f" in {where}", list(properties)))]
+            if last:
+                node[part] = value
+                return []
+            default: Any = [] if sub.get("type") == "array" else {}
+            if not isinstance(node.get(part, default), (dict, list)):
+                return [SchemaProblem(path, f"{'.'.join(walked + [part])} is not a table or a list")]
+            node = node.setdefault(part, default)
+        elif kind == "array":
+            if not isinstance(node, list):
+                return [SchemaProblem(path, f"{where} is not a list")]
+            sub = schema["items"]
+            if part.isdigit():
+                index = int(part)
+            else:
+                names = [e.get("name") for e in node if isinstance(e, Mapping)]
+                if part not in names:
+                    return [SchemaProblem(path, _unknown("entry", part, f" in {where}",
+                                                         [str(n) for n in names if n is not None]))]
+                index = names.index(part)
+            if index >= len(node):
+                return [SchemaProblem(path, f"index {index} is out of range: {where} has "
+                                      f"{len(node)} entries")]
+            if last:
+                node[index] = value
+                return []
+            node = node[index]
+        else:
+            return [SchemaProblem(path, f"{'.'.join(walked)} is a value, not a table or a list")]
+        schema = sub
+        walked.append(part)
+    return []

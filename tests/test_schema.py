@@ -182,3 +182,52 @@ def test_a_typo_on_the_command_line_is_one_line_and_exit_1(write_scene, tmp_path
     assert out.returncode == 1 and out.stdout == ""
     assert out.stderr.count("\n") == 1 and "Traceback" not in out.stderr
     assert "contacts[0].muu" in out.stderr and "did you mean 'mu'?" in out.stderr
+
+
+# ---------------------------------------------------------------------------------- overrides
+def test_overrides_set_values_and_are_checked_like_the_file(write_scene):
+    from frcontrol.scene_schema import parse_override
+
+    sets = dict(parse_override(a) for a in ["contacts.tip.mu=0.5", "gravity=3.7", "state.q=[0,0.45,2.0]",
+                                            "model.stiffness=1e6", "model.contact=compliant"])
+    scene = load_scene("rod_on_table", overrides=sets)
+    assert scene.contacts[0].mu == 0.5 and scene.robot.gravity == 3.7
+    assert scene.q.tolist() == [0.0, 0.45, 2.0]
+    assert scene.raw["model"] == {"stiffness": 1e6, "contact": "compliant"}
+    # the same scene written with those values: the same model at the same state
+    doc = shipped("rod_on_table")
+    doc["contacts"][0]["mu"], doc["gravity"], doc["state"]["q"] = 0.5, 3.7, [0.0, 0.45, 2.0]
+    doc["robot"] = str(ROBOTS / doc["robot"])
+    written = load_scene(write_scene(toml_text(doc)))
+    assert written.state().bias.tolist() == scene.state().bias.tolist()
+    assert written.contacts[0].point.surface_point_in_world.tolist() == \
+        scene.contacts[0].point.surface_point_in_world.tolist()
+    assert load_scene("rod_on_table").contacts[0].mu == 1.4  # the file is untouched
+
+
+@pytest.mark.parametrize("assignment, field, reason", [
+    ("contacts.tipp.mu=1", "contacts.tipp.mu", "did you mean 'tip'?"),
+    ("contacts.tip.muu=1", "contacts.tip.muu", "did you mean 'mu'?"),
+    ("gravty=1", "gravty", "did you mean 'gravity'?"),
+    ("state.q[5]=1", "state.q[5]", "out of range"),
+    ("contacts.tip.mu=-1", "contacts[0].mu", ">= 0"),
+    ("model.contacts.tipp.stiffness=3", "model.contacts.tipp", "did you mean 'tip'?"),
+    ("gravity.x=1", "gravity.x", "not a table"),
+    ("state.q=abc", "state.q", "expected a list"),
+])
+def test_a_bad_override_names_its_path(assignment, field, reason):
+    from frcontrol.scene_schema import parse_override
+
+    with pytest.raises(SceneError) as info:
+        load_scene("rod_on_table", overrides=dict([parse_override(assignment)]))
+    assert info.value.field == field and reason in info.value.reason
+
+
+def test_override_grammar():
+    from frcontrol.scene_schema import parse_override
+
+    assert parse_override("a.b=[1, 2.5]") == ("a.b", [1, 2.5])
+    assert parse_override(" model.contact = compliant ") == ("model.contact", "compliant")
+    assert parse_override('name="x=y"') == ("name", "x=y")
+    with pytest.raises(ValueError):
+        parse_override("gravity")
