@@ -17,6 +17,7 @@ from frcontrol.stability import stability_of
 
 from .common import console, handle_errors, print_json
 from .model_cmds import JsonOpt, SceneArg
+from .options import SetOpt, scene_overrides
 
 InputOpt = Annotated[
     list[str] | None,
@@ -110,9 +111,10 @@ def analyze_command(
     scene: SceneArg,
     inputs: InputOpt = None,
     json: JsonOpt = False,
+    sets: SetOpt = None,
 ) -> None:
     """Every contact mode at the scene's state: response, domain, ambiguity; with --input, the solutions."""
-    loaded = load_scene(scene)
+    loaded = load_scene(scene, overrides=scene_overrides(sets))
     assignments = parse_assignments(inputs)
     progress_console = Console(stderr=True)
     with progress_console.status("analysing contact modes...") as status:

@@ -12,7 +12,27 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    context_settings={"help_option_names": ["-h", "--help"]},
 )
+
+
+def _version(value: bool) -> None:
+    if value:
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            typer.echo(f"frcontrol {version('frcontrol')}")
+        except PackageNotFoundError:  # run from a source tree that is not installed
+            typer.echo("frcontrol (not installed)")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    show_version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                      help="Print the version and exit."),
+) -> None:
+    """frcontrol: contact modes, mode domains, ambiguity and planning for planar robots in contact."""
 app.command("robots")(model_cmds.robots)
 app.command("show")(model_cmds.show)
 app.command("analyze")(analyze_cmd.analyze_command)

@@ -23,6 +23,7 @@ from frcontrol.scene import load_scene
 
 from .common import check_output_files, console, fail, handle_errors, print_json
 from .model_cmds import JsonOpt
+from .options import SetOpt, scene_overrides
 
 ClimbSceneArg = Annotated[
     str, typer.Argument(help="A scene file with \\[\\[disturbances]], or the name of a shipped scene.")
@@ -134,6 +135,7 @@ def climb_command(
     margin: MarginOpt = DEFAULT_MARGIN,
     duration: DurationOpt = DEFAULT_DURATION,
     seed: SeedOpt = 0,
+    sets: SetOpt = None,
 ) -> None:
     """Plan the snake climb: torques holding the brace in mode F for every disturbance.
 
@@ -144,7 +146,7 @@ def climb_command(
     if port is not None and not view:
         raise fail("--port needs --view")
     check_output_files(plot=plot, html=html)
-    loaded = load_scene(scene)
+    loaded = load_scene(scene, overrides=scene_overrides(sets))
     status_console = Console(stderr=True)
     with status_console.status("planning the climb..."):
         plan = plan_climb(loaded, margin=margin)

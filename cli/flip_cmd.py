@@ -16,6 +16,7 @@ from frcontrol.scene import load_scene
 
 from .common import check_output_files, console, fail, handle_errors, print_json
 from .model_cmds import JsonOpt
+from .options import SetOpt, scene_overrides
 
 FlipSceneArg = Annotated[
     str, typer.Argument(help="A scene file with a robot on its back, or the name of a shipped scene.")
@@ -144,6 +145,7 @@ def flip_command(
     max_time: MaxTimeOpt = 2.0,
     dt: DtOpt = 1e-3,
     replan_every: ReplanOpt = 10,
+    sets: SetOpt = None,
 ) -> None:
     """Plan the flip: hip torques maximising the body's pitch acceleration, unambiguously.
 
@@ -157,7 +159,7 @@ def flip_command(
     check_output_files(plot=plot, html=html)
     from frcontrol.viz.meshcat_view import stop_server
 
-    loaded = load_scene(scene)
+    loaded = load_scene(scene, overrides=scene_overrides(sets))
     server = None
     if view:  # fail on a taken port before the work, not after it
         from frcontrol.viz.meshcat_view import start_server

@@ -12,6 +12,7 @@ from rich.table import Table
 from frcontrol.scene import load_scene, shipped_robots_dir
 
 from .common import console, handle_errors, print_json
+from .options import SetOpt, scene_overrides
 
 SceneArg = Annotated[str, typer.Argument(help="A scene file, or the name of a shipped scene.")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
@@ -31,9 +32,9 @@ def robots() -> None:
     console.print(table)
 
 
-def show_payload(scene_file: str | Path) -> dict:
+def show_payload(scene_file: str | Path, overrides: dict | None = None) -> dict:
     """The ``frc show --json`` document for a scene."""
-    scene = load_scene(scene_file)
+    scene = load_scene(scene_file, overrides=overrides)
     state = scene.robot.state(scene.q, scene.v)
     contacts = {}
     for i, contact in enumerate(scene.contacts):
@@ -62,9 +63,9 @@ def show_payload(scene_file: str | Path) -> dict:
 
 
 @handle_errors
-def show(scene: SceneArg, json: JsonOpt = False) -> None:
+def show(scene: SceneArg, json: JsonOpt = False, sets: SetOpt = None) -> None:
     """Print the coordinates, M(q), h(q, v) and every contact's gap, velocities and rows."""
-    payload = show_payload(scene)
+    payload = show_payload(scene, scene_overrides(sets))
     if json:
         print_json(payload)
         return

@@ -17,6 +17,7 @@ from frcontrol.statics import StaticsReport, analyze_statics
 
 from .common import check_output_files, console, handle_errors, print_json
 from .model_cmds import JsonOpt, SceneArg
+from .options import SetOpt, scene_overrides
 
 InputOpt = Annotated[
     list[str] | None,
@@ -153,10 +154,11 @@ def statics_command(
     inputs: InputOpt = None,
     lateral_acceleration: LateralOpt = 0.0,
     no_strong: WeakOnlyOpt = False,
+    sets: SetOpt = None,
 ) -> None:
     """Form and force closure, static equilibrium, support region, weak and strong stability at rest."""
     check_output_files(plot=plot)
-    loaded = load_scene(scene)
+    loaded = load_scene(scene, overrides=scene_overrides(sets))
     report = analyze_statics(loaded, parse_input_pairs(inputs), lateral_acceleration=lateral_acceleration,
                              strong=not no_strong)
     if plot is not None:

@@ -12,6 +12,7 @@ from frcontrol.scene import load_scene
 
 from .common import check_output_files, fail, handle_errors
 from .model_cmds import SceneArg
+from .options import SetOpt, scene_overrides
 
 HtmlOpt = Annotated[
     Path | None,
@@ -43,6 +44,7 @@ def view_command(
     view: ViewOpt = False,
     port: PortOpt = None,
     plot: PlotOpt = None,
+    sets: SetOpt = None,
 ) -> None:
     """Show a scene's state: robot, contacts, surfaces and friction cones."""
     if port is not None and not view:
@@ -50,7 +52,7 @@ def view_command(
     if html is None and plot is None and not view:
         raise fail("nothing to do: give --html FILE, --plot FILE and/or --view")
     check_output_files(plot=plot, html=html)
-    loaded = load_scene(scene)
+    loaded = load_scene(scene, overrides=scene_overrides(sets))
     if html is not None:
         from frcontrol.viz.meshcat_view import write_html
 

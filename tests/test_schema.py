@@ -231,3 +231,37 @@ def test_override_grammar():
     assert parse_override('name="x=y"') == ("name", "x=y")
     with pytest.raises(ValueError):
         parse_override("gravity")
+
+
+@pytest.mark.parametrize("command", [["show"], ["analyze"], ["statics"], ["view", "--html", "x.html"]])
+def test_every_scene_command_takes_set_and_refuses_a_bad_path(command):
+    args = [command[0], "rod_on_table", *command[1:], "--set", "contacts.tip.muu=0.5"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 1 and result.stdout == ""
+    assert "contacts.tip.muu" in result.stderr and "did you mean 'mu'?" in result.stderr
+
+
+def test_set_changes_the_answer_as_editing_the_file_would(write_scene):
+    """At mu = 0.1 the rod's tip slides (R) under a push where at mu = 1.4 it holds (F)."""
+    def modes(extra):
+        result = runner.invoke(app, ["analyze", "rod_on_table", "--input", "x=1", "--json", *extra])
+        assert result.exit_code == 0, result.stderr
+        return [s["mode"] for s in json.loads(result.stdout)["solutions"]]
+
+    doc = shipped("rod_on_table")
+    doc["contacts"][0]["mu"] = 0.1
+    doc["robot"] = str(ROBOTS / doc["robot"])
+    edited = write_scene(toml_text(doc))
+    edited_modes = runner.invoke(app, ["analyze", str(edited), "--input", "x=1", "--json"])
+    assert modes(["--set", "contacts.tip.mu=0.1"]) == [
+        s["mode"] for s in json.loads(edited_modes.stdout)["solutions"]]
+    assert modes(["--set", "contacts.tip.mu=0.1"]) != modes([])
+
+
+def test_version_and_short_help():
+    from importlib.metadata import version
+
+    result = runner.invoke(app, ["--version"])
+    assert result.exit_code == 0 and result.stdout.strip() == f"frcontrol {version('frcontrol')}"
+    assert runner.invoke(app, ["-h"]).stdout == runner.invoke(app, ["--help"]).stdout
+    assert runner.invoke(app, ["analyze", "-h"]).exit_code == 0
