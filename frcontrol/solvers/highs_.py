@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+import threading
 from collections.abc import Iterator
 
 import highspy
@@ -95,47 +96,55 @@ on model status "Unknown" on some small well-scaled LPs (one 15 x 7 support LP o
 tests); its primal simplex (``simplex_strategy=4``) and its IPM solve them."""
 
 
+_SILENCE_LOCK = threading.RLock()
+
+
 @contextlib.contextmanager
 def _quiet_stdout() -> Iterator[None]:
-    """Point file descriptor 1 at /dev/null while HiGHS runs.
+    """Point file descriptors 1 and 2 at /dev/null while HiGHS is constructed and runs.
 
-    HiGHS 1.15.1's postsolve writes debug lines (``HighsPostsolveStack::DuplicateColumn::undo
-    ...``) straight to the C-level stdout even with ``output_flag`` off, which would corrupt a
-    ``--json`` document on stdout. The redirection is process-wide while it lasts (a thread
-    printing at that moment would be silenced too); HiGHS is the reference back-end, not the
-    default one.
+    HiGHS writes from C, past Python's ``sys.stdout``: 1.16 prints its banner ("Running HiGHS
+    1.16.0 ... Copyright") when ``highspy.Highs()`` is constructed, before any option can be set,
+    and 1.15.1's postsolve writes debug lines (``HighsPostsolveStack::DuplicateColumn::undo ...``)
+    even with ``output_flag`` off. Either would corrupt a ``--json`` document on stdout. The
+    redirection is process-wide while it lasts (a thread printing at that moment would be silenced
+    too, hence the lock); HiGHS is the reference back-end, not the default one.
     """
-    try:
-        sys.stdout.flush()
-        saved = os.dup(1)
-    except (OSError, ValueError):  # no usable stdout (closed, or replaced by a non-file)
-        yield
-        return
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, 1)
-        yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
-        os.close(devnull)
+    with _SILENCE_LOCK:
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            saved = (os.dup(1), os.dup(2))
+        except (OSError, ValueError):  # no usable stdout (closed, or replaced by a non-file)
+            yield
+            return
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, 1)
+            os.dup2(devnull, 2)
+            yield
+        finally:
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            os.close(saved[0])
+            os.close(saved[1])
+            os.close(devnull)
 
 
 def _attempt(model: highspy.HighsLp | highspy.HighsModel, options: dict) -> tuple:
-    highs = highspy.Highs()
-    highs.setOptionValue("output_flag", False)
-    for name, value in options.items():
-        if highs.setOptionValue(name, value) != highspy.HighsStatus.kOk:
-            raise InputError(f"HiGHS rejected option {name}={value!r}")
-    highs.passModel(model)
     with _quiet_stdout():
+        highs = highspy.Highs()
+        highs.setOptionValue("output_flag", False)
+        for name, value in options.items():
+            if highs.setOptionValue(name, value) != highspy.HighsStatus.kOk:
+                raise InputError(f"HiGHS rejected option {name}={value!r}")
+        highs.passModel(model)
         highs.run()
-    model_status = highs.getModelStatus()
-    if model_status == highspy.HighsModelStatus.kUnboundedOrInfeasible:
-        highs.setOptionValue("presolve", "off")
-        with _quiet_stdout():
-            highs.run()
         model_status = highs.getModelStatus()
+        if model_status == highspy.HighsModelStatus.kUnboundedOrInfeasible:
+            highs.setOptionValue("presolve", "off")
+            highs.run()
+            model_status = highs.getModelStatus()
     return highs, model_status
 
 
