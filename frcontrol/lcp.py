@@ -102,6 +102,7 @@ from frcontrol.errors import InputError
 __all__ = [
     "ENUMERATION_MAX_SIZE",
     "FC2D_TOLERANCE",
+    "DUPLICATE_TOLERANCE",
     "LCP_TOLERANCE",
     "PIVOT_TOLERANCE",
     "TIE_TOLERANCE",
@@ -112,6 +113,7 @@ __all__ = [
     "fc2d_error",
     "fc2d_to_lcp",
     "lcp_residual",
+    "lcp_row_tolerances",
     "lcp_tolerance",
     "read_siconos_fc2d",
     "read_siconos_lcp",
@@ -121,13 +123,21 @@ __all__ = [
 ]
 
 LCP_TOLERANCE: float = 1e-9
-"""Relative bound on the natural-map residual ``max|min(z, w)|`` of an accepted LCP solution.
+"""Relative bound on the natural-map residual ``|min(z_i, w_i)|`` of an accepted LCP solution.
 
-Dimensionless: the absolute bound is ``LCP_TOLERANCE * max(||q||_inf, max|M_ij| * ||z||_inf)``
-(the units of ``w``), computed by :func:`lcp_tolerance` and reported as
-``LCPSolution.tolerance``. Enumeration also uses the same absolute bound to accept slightly
-negative ``z`` and ``w`` entries (``>= -tolerance``) from round-off.
+Dimensionless, and applied **row by row**: row ``i`` of ``w = M z + q`` is accepted when
+``|min(z_i, w_i)| <= tau_i`` with ``tau_i = LCP_TOLERANCE * max((|M| |z|)_i, ||q||_inf)``
+(:func:`lcp_row_tolerances`), the size of the terms that row sums, floored by ``||q||_inf``. The
+bound of one row does not grow with another row's entries: a friction-cone row carrying
+``mu = 1e10`` no longer loosens the check of the sliding-acceleration rows (with one scalar bound
+``max|M| ||z||`` it did, and the enumeration accepted frictionless sliding for a rod at rest).
+Enumeration uses the same per-row bounds to accept slightly negative ``z`` and ``w`` entries from
+round-off. The largest row bound is reported as ``LCPSolution.tolerance``.
 """
+
+DUPLICATE_TOLERANCE: float = 1e-9
+"""Relative distance under which two enumerated solutions are one: ``||z - z'||_inf <=
+DUPLICATE_TOLERANCE * max(||q||_inf, ||z||_inf)`` (the size of the solution itself, not of ``M``)."""
 
 PIVOT_TOLERANCE: float = 1e-12
 """Relative threshold below which an entry of Lemke's entering column is not a pivot.
@@ -314,10 +324,30 @@ def lcp_residual(M: np.ndarray, q: np.ndarray, z: np.ndarray) -> float:
     return float(np.max(np.abs(np.minimum(z_arr, w))))
 
 
+def lcp_row_tolerances(
+    M: np.ndarray, q: np.ndarray, z: np.ndarray | None, tolerance: float = LCP_TOLERANCE
+) -> np.ndarray:
+    """Absolute residual bound of each row: ``tolerance * max((|M| |z|)_i, ||q||_inf)``.
+
+    Args:
+        M: the ``(n, n)`` matrix.
+        q: the ``(n,)`` vector.
+        z: the candidate, or None (then only ``||q||_inf`` sets the scale).
+        tolerance: the relative tolerance (see :data:`LCP_TOLERANCE`).
+
+    Returns:
+        The ``(n,)`` bounds in the units of ``w``.
+    """
+    floor = float(np.max(np.abs(q))) if q.size else 0.0
+    if z is None or not z.size:
+        return np.full(q.size, tolerance * floor)
+    return tolerance * np.maximum(np.abs(M) @ np.abs(z), floor)
+
+
 def lcp_tolerance(
     M: np.ndarray, q: np.ndarray, z: np.ndarray | None, tolerance: float = LCP_TOLERANCE
 ) -> float:
-    """Absolute residual bound for a candidate: ``tolerance * max(||q||, max|M| * ||z||)``.
+    """The largest row bound of :func:`lcp_row_tolerances` (0 for an LCP of size 0).
 
     Args:
         M: the ``(n, n)`` matrix.
@@ -328,10 +358,8 @@ def lcp_tolerance(
     Returns:
         The absolute bound in the units of ``w``.
     """
-    scale = float(np.max(np.abs(q)))
-    if z is not None and z.size:
-        scale = max(scale, float(np.max(np.abs(M))) * float(np.max(np.abs(z))))
-    return tolerance * scale
+    bounds = lcp_row_tolerances(M, q, z, tolerance)
+    return float(np.max(bounds)) if bounds.size else 0.0
 
 
 def siconos_lcp_error(M: np.ndarray, q: np.ndarray, z: np.ndarray) -> float:
@@ -382,9 +410,11 @@ def _verified(
             note=note,
         )
     w = M @ z + q
-    residual = float(np.max(np.abs(np.minimum(z, w))))
-    bound = lcp_tolerance(M, q, z, tolerance)
-    found = status == "solved" and residual <= bound
+    natural = np.abs(np.minimum(z, w))
+    residual = float(np.max(natural)) if natural.size else 0.0
+    bounds = lcp_row_tolerances(M, q, z, tolerance)
+    bound = float(np.max(bounds)) if bounds.size else 0.0
+    found = status == "solved" and bool(np.all(natural <= bounds))
     if status == "solved" and not found:
         status = "inaccurate"
     return LCPSolution(
@@ -528,11 +558,14 @@ def _check_enumeration_size(n: int, max_size: int | None) -> None:
 
 
 def _verifies(M: np.ndarray, q: np.ndarray, z: np.ndarray, tolerance: float) -> bool:
-    """Whether ``z`` passes the enumeration check: ``z, w >= -tol`` and residual ``<= tol``."""
+    """Whether ``z`` passes the enumeration check, row by row (:func:`lcp_row_tolerances`).
+
+    Every row needs ``z_i, w_i >= -tau_i`` and ``|min(z_i, w_i)| <= tau_i``.
+    """
     w = M @ z + q
-    bound = lcp_tolerance(M, q, z, tolerance)
+    bounds = lcp_row_tolerances(M, q, z, tolerance)
     return bool(
-        np.all(z >= -bound) and np.all(w >= -bound) and np.max(np.abs(np.minimum(z, w))) <= bound
+        np.all(z >= -bounds) and np.all(w >= -bounds) and np.all(np.abs(np.minimum(z, w)) <= bounds)
     )
 
 
@@ -543,8 +576,11 @@ def _support_candidate(
 
     A nonsingular principal block gives the unique candidate. A singular block gives an affine
     set of them: its minimum-norm point is tried first and, if it fails the check, a linear
-    program looks for any point of the set with ``z >= 0`` and ``w >= 0``, so that no solution
-    is missed.
+    program looks for the point of the set with ``z >= 0`` and ``w >= 0`` of least ``sum(z)``, so
+    that no solution is missed. The least sum picks the representative without a cancelling
+    split: a sticking contact's ``(lam_T+, lam_T-)`` enter ``lam_T`` as a difference, and any
+    other vertex (up to ``lam_T+ + lam_T- = mu lam_N``, 8.5e8 N at ``mu = 1e8``) loses ``lam_T``'s
+    digits in that difference.
     """
     n = q.size
     z = np.zeros(n)
@@ -560,7 +596,7 @@ def _support_candidate(
         return z, note + "minimum-norm representative of a non-isolated solution set"
     others = [i for i in range(n) if i not in support]
     lp = linprog(
-        np.zeros(len(alpha)),
+        np.ones(len(alpha)),  # the least sum(z): no spurious split lam_T+ + lam_T- = mu lam_N
         A_ub=-M[np.ix_(others, alpha)] if others else None,
         b_ub=q[others] if others else None,
         A_eq=block,
@@ -587,7 +623,8 @@ def _iter_solutions(
             z, note = _support_candidate(M, q, support, tolerance)
             if not _verifies(M, q, z, tolerance):
                 continue
-            bound = lcp_tolerance(M, q, z, tolerance)
+            bound = DUPLICATE_TOLERANCE * max(float(np.max(np.abs(q))) if n else 0.0,
+                                              float(np.max(np.abs(z))) if n else 0.0)
             if any(float(np.max(np.abs(z - other))) <= bound for other in seen):
                 continue
             seen.append(z)

@@ -70,7 +70,7 @@ FRICTION_VALUES = (0.0, 1e-12, 1e-6, 1.0, 1e3, 1e8)
 
 BEYOND_FRICTION_VALUES = (1e10,)
 """Friction coefficients past the list (the engine answered a spurious R there before the sliding
-rows were scaled by mu; the LCP enumeration still fails: a known failure)."""
+rows were scaled by mu; the LCP enumeration did before its residual bound was taken row by row)."""
 
 
 # ------------------------------------------------------------------------------------ outcomes
@@ -373,22 +373,6 @@ def _slope_compliant(mu: float) -> Callable[[Path], Outcome]:
     return run
 
 
-LARGE_MU_LCP = (
-    "frcontrol/lcp.py lcp_tolerance (used by _verifies, _verified and the duplicate test of "
-    "_iter_solutions): one scalar bound 1e-9 max(|q|_inf, max|M| |z|_inf) for every row, and the "
-    "friction-cone row puts mu = 1e10 in max|M|: the bound is 64, so the candidate z = (6.39, 0, 0, 0) "
-    "(frictionless sliding) whose row beta + a_T is -7.3 is accepted, and the true solution F is then "
-    "dropped as its 'duplicate' (|z_F - z_R| = 2.8 < 85). The enumeration returns only R, x off by 1.4. "
-    "Fix: a bound per row, tau_i = LCP_TOLERANCE max((|M| |z|)_i, |q|_inf), in _verifies (and the same "
-    "in _verified, for Lemke: at mu = 1e12 it ends on the same wrong R) (|q|_inf stays as a floor: with "
-    "|q_i| alone the mu = 1e-12 rod loses its solution), and the duplicate test of _iter_solutions at "
-    "LCP_TOLERANCE max(|q|_inf, |z|_inf) (not max|M|); checked by patching _verifies and "
-    "_iter_solutions: this case passes and tests/test_lcp.py, test_engine.py, test_simulation.py still "
-    "do. (At mu = 1e8, on the shipped rod_on_table geometry, "
-    "the same enumeration also lists a second copy of F, the LP vertex of _support_candidate with the "
-    "friction split lam_T+ + lam_T- = mu lam_N = 8.5e8 N, whose lam_T keeps 8 digits and is labelled L "
-    "by classify(): deduplicating all_contact_lcp_solutions by x, or an LP objective sum(z) in "
-    "_support_candidate, removes it.)")
 
 
 def friction_cases() -> list[Case]:
@@ -428,7 +412,7 @@ def friction_cases() -> list[Case]:
         cases.append(Case(
             f"rod-lcp-mu{mu:g}", "friction",
             f"beyond the list: the same rod, mu = {mu:g}: contact LCP by Lemke and by enumeration",
-            "every LCP solution is the closed form (F)", _rod_lcp(mu), known_failure=LARGE_MU_LCP))
+            "every LCP solution is the closed form (F)", _rod_lcp(mu)))
     return cases
 
 
