@@ -38,6 +38,10 @@ CLASSIFY_TOLERANCE = 1e-7
 """[N or m/s^2] A force or contact acceleration at most this in magnitude counts as zero when an
 LCP solution is named by its mode."""
 
+SAME_SOLUTION_TOLERANCE = 1e-8
+"""[-] Two enumerated LCP solutions whose ``x = (dv, lambda)`` differ by at most this times
+``max(1, ||x||_inf)`` are one physical solution (listed once by :func:`all_contact_lcp_solutions`)."""
+
 
 @dataclass(frozen=True)
 class ContactLCP:
@@ -185,10 +189,19 @@ def solve_contact_lcp(
 
 
 def all_contact_lcp_solutions(problem: ContactProblem, u: np.ndarray) -> list[LCPContactSolution]:
-    """Every solution of the contact LCP (exhaustive enumeration of complementary supports)."""
+    """Every solution of the contact LCP (exhaustive enumeration of complementary supports).
+
+    Each physical solution ``x = (dv, lambda)`` is listed once: two LCP solutions ``z`` may differ
+    only in variables that do not reach ``x`` (a sticking contact's friction split and its
+    multiplier), and those within :data:`SAME_SOLUTION_TOLERANCE` of one already listed (relative
+    to ``max(1, ||x||_inf)``) are dropped.
+    """
     lcp = build_contact_lcp(problem, u)
-    out = []
+    out: list[LCPContactSolution] = []
     for sol in enumerate_lcp_solutions(lcp.W, lcp.b):
         x = lcp.unknowns_from(sol.z)
+        scale = SAME_SOLUTION_TOLERANCE * max(1.0, float(np.max(np.abs(x))) if x.size else 0.0)
+        if any(float(np.max(np.abs(x - kept.x), initial=0.0)) <= scale for kept in out):
+            continue
         out.append(LCPContactSolution(classify(problem, x), x, sol))
     return out
