@@ -150,10 +150,12 @@ def climb_command(
     status_console = Console(stderr=True)
     with status_console.status("planning the climb..."):
         plan = plan_climb(loaded, margin=margin)
-    if not plan.found:
+    if not plan.found:  # an answer, not an error (exit 0): the JSON says why
         if json:
             print_json(climb_payload(plan, None))
-        raise fail(f"{loaded.path}: no climb plan: {plan.reason}")
+        else:
+            console.print(f"no climb plan: {plan.reason}")
+        return
     with status_console.status("simulating the climb..."):
         result = simulate_climb(loaded, plan, duration=duration, seed=seed) if duration > 0 else None
     payload = climb_payload(plan, result)

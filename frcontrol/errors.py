@@ -103,9 +103,10 @@ class ImpactState(FrcontrolError):
 class SolverNotFound(FrcontrolError):
     """The requested LP/QP back-end is unknown or not installed."""
 
-    def __init__(self, name: str, available: Sequence[str]) -> None:
+    def __init__(self, name: str, available: Sequence[str], source: str = "") -> None:
         self.name = name
         self.available = list(available)
+        origin = f" (from {source})" if source else ""
         super().__init__(
-            f"solver {name!r} is not available; installed back-ends: {', '.join(self.available)}"
+            f"solver {name!r}{origin} is not available; installed back-ends: {', '.join(self.available)}"
         )

@@ -297,8 +297,10 @@ def test_torque_limits_that_leave_nothing_feasible(write_scene):
     plan = plan_climb(load_scene(path))
     assert not plan.found and not plan.robust and not plan.torques
     assert "torque limits" in plan.reason
-    result = runner.invoke(climb_app(), ["climb", str(path)])
-    assert result.exit_code == 1 and "torque limits" in result.stderr
+    result = runner.invoke(climb_app(), ["climb", str(path)])  # no plan is an answer: exit 0
+    assert result.exit_code == 0 and "no climb plan" in result.stdout and "torque limits" in result.stdout
+    result = runner.invoke(climb_app(), ["climb", str(path), "--json"])
+    assert result.exit_code == 0 and "torque limits" in json.loads(result.stdout)["reason"]
 
 
 def test_a_brace_with_an_indeterminate_squeeze_is_refused(write_scene):

@@ -30,6 +30,7 @@ Back-ends (registered at import when their package imports, qpsolvers-style):
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass
 from typing import Any, cast
@@ -44,6 +45,7 @@ __all__ = [
     "DEFAULT_LP_SOLVER",
     "FEASIBILITY_TOLERANCE",
     "KNOWN_SOLVERS",
+    "LP_SOLVER_ENVIRONMENT_VARIABLE",
     "LinearProgram",
     "QuadraticProgram",
     "RawSolution",
@@ -59,8 +61,14 @@ __all__ = [
     "solve_qp",
 ]
 
-DEFAULT_LP_SOLVER = "daqp"
-"""Back-end used when none is named: the fastest on small dense LPs, with no failure measured."""
+LP_SOLVER_ENVIRONMENT_VARIABLE = "FRC_LP_SOLVER"
+"""Name of the environment variable that, when set, replaces :data:`DEFAULT_LP_SOLVER` for the whole
+process (read once, at import): ``FRC_LP_SOLVER=highs frc analyze rhex_flip`` runs every default
+LP on HiGHS. An unknown name raises :class:`~frcontrol.errors.SolverNotFound` at the first LP."""
+
+DEFAULT_LP_SOLVER = os.environ.get(LP_SOLVER_ENVIRONMENT_VARIABLE, "").strip().lower() or "daqp"
+"""Back-end used when none is named: DAQP, the fastest on small dense LPs, with no failure
+measured; or the value of :data:`LP_SOLVER_ENVIRONMENT_VARIABLE` when it is set."""
 
 REFERENCE_LP_SOLVER = "highs"
 """Back-end used as the reference in tests and as the fallback of the polytope module."""
@@ -281,6 +289,8 @@ def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
 
 def _adapter(registry: dict[str, QPAdapter], solver: str) -> QPAdapter:
     if solver not in registry:
+        if solver == os.environ.get(LP_SOLVER_ENVIRONMENT_VARIABLE, "").strip().lower():
+            raise SolverNotFound(solver, available_solvers(), LP_SOLVER_ENVIRONMENT_VARIABLE)
         raise SolverNotFound(solver, available_solvers())
     return registry[solver]
 
