@@ -249,7 +249,9 @@ def domain_polytope(
     h = np.concatenate([h, d])
     motion = np.concatenate([system.motion, np.zeros(C.shape[0], dtype=bool)])
     A_eq = np.hstack([response.E, np.zeros((response.E.shape[0], p))])
-    return poly.Polytope(H.reshape(-1, m + p), h, A_eq.reshape(-1, m + p), response.e.copy()), motion
+    # explicit row counts: with no input and no ambiguity (m + p = 0) the domain lives in R^0
+    return poly.Polytope(H.reshape(h.size, m + p), h, A_eq.reshape(response.e.size, m + p),
+                         response.e.copy()), motion
 
 
 def motion_margin(

@@ -282,8 +282,6 @@ def _as_lcp(M: object, q: object) -> tuple[np.ndarray, np.ndarray]:
     if M_arr.ndim != 2 or M_arr.shape[0] != M_arr.shape[1]:
         raise InputError(f"M must be a square matrix, got shape {M_arr.shape}")
     n = M_arr.shape[0]
-    if n == 0:
-        raise InputError("the LCP is empty (M is 0 x 0)")
     if q_arr.shape != (n,):
         raise InputError(f"q must have shape ({n},) to match M {M_arr.shape}, got {q_arr.shape}")
     if not np.all(np.isfinite(M_arr)):
@@ -712,6 +710,8 @@ def solve_lcp(
     """
     M, q = _as_lcp(M, q)
     tolerance = _check_tolerance(tolerance)
+    if method in ("lemke", "enumerate") and q.size == 0:  # size 0: z = () solves it, trivially
+        return _verified(M, q, np.zeros(0), "solved", method, 0, tolerance, time.perf_counter())
     if method == "lemke":
         limit = 50 * q.size + 100 if max_pivots is None else max_pivots
         if not isinstance(limit, int | np.integer) or limit < 1:

@@ -153,8 +153,10 @@ class ContactProblem:
         eye = np.eye(m)
         up = np.isfinite(self.upper)
         lo = np.isfinite(self.lower)
-        rows = np.vstack([eye[up], -eye[lo]]) if m else np.zeros((0, 0))
-        rhs = np.concatenate([self.upper[up], -self.lower[lo]]) if m else np.zeros(0)
+        if not m:  # a robot with no inputs: no rows over an empty u
+            return np.zeros((0, 0)), np.zeros(0)
+        rows = np.vstack([eye[up], -eye[lo]])
+        rhs = np.concatenate([self.upper[up], -self.lower[lo]])
         return rows.reshape(-1, m), rhs
 
 

@@ -166,9 +166,7 @@ class Polytope:
 
     def __post_init__(self) -> None:
         A = _matrix("A", self.A, None)
-        d = A.shape[1]
-        if d == 0:
-            raise InputError("a polytope needs at least one coordinate")
+        d = A.shape[1]  # d = 0 is R^0, the one point: the domain of a mode with no input and no w
         b = _vector("b", self.b, A.shape[0])
         if self.A_eq is None and self.b_eq is None:
             A_eq, b_eq = np.zeros((0, d)), np.zeros(0)
@@ -329,6 +327,20 @@ def _independent_equalities(A_eq: np.ndarray, b_eq: np.ndarray) -> tuple[np.ndar
     return A_unit[rows], b_unit[rows]
 
 
+def _r0(empty: bool) -> Polytope:
+    """``R^0`` (no row) or its empty set."""
+    return Polytope.empty_set(0) if empty else Polytope(np.zeros((0, 0)), np.zeros(0))
+
+
+def _holds_in_r0(P: Polytope) -> bool:
+    """Whether the point of ``R^0`` satisfies ``P``: ``0 <= b`` and ``0 = b_eq``, within tolerance.
+
+    The tolerance is :data:`CONTAINMENT_TOLERANCE`, as for a point of any other dimension.
+    """
+    tol = CONTAINMENT_TOLERANCE
+    return bool(np.all(P.b >= -tol) and np.all(np.abs(P.b_eq) <= tol))
+
+
 def _check_same_dim(P: Polytope, Q: Polytope) -> None:
     if P.dim != Q.dim:
         raise InputError(f"polytopes of dimensions {P.dim} and {Q.dim}")
@@ -365,6 +377,11 @@ def chebyshev_ball(P: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> Chebyshev
     not_found = ChebyshevBall(
         False, None, float("nan"), False, d, False, CHEBYSHEV_RADIUS_CAP, INTERIOR_TOLERANCE, ""
     )
+    if d == 0:  # R^0: the point, if every (constant) row holds; it is its own interior
+        if _holds_in_r0(P):
+            return ChebyshevBall(True, np.zeros(0), CHEBYSHEV_RADIUS_CAP, True, 0, True,
+                                 CHEBYSHEV_RADIUS_CAP, INTERIOR_TOLERANCE, "")
+        return not_found
     hull = _affine_hull(P.A_eq, P.b_eq, d)
     if hull is None:
         return not_found
@@ -690,6 +707,8 @@ def minimal_representation(
     Returns:
         The irredundant representation.
     """
+    if P.dim == 0:
+        return _r0(not _holds_in_r0(P))
     d = P.dim
     if P.empty:
         return Polytope.empty_set(d)
@@ -738,11 +757,11 @@ def minimal_representation(
 
 def _keep_indices(keep: int | Sequence[int], d: int) -> list[int]:
     if isinstance(keep, (int, np.integer)):
-        if not 1 <= int(keep) <= d:
-            raise InputError(f"keep={keep}: must keep between 1 and {d} coordinates")
+        if not 0 <= int(keep) <= d:
+            raise InputError(f"keep={keep}: must keep between 0 and {d} coordinates")
         return list(range(int(keep)))
     indices = [int(i) for i in keep]
-    if not indices or len(set(indices)) != len(indices) or not all(0 <= i < d for i in indices):
+    if len(set(indices)) != len(indices) or not all(0 <= i < d for i in indices):
         raise InputError(f"keep={list(keep)}: distinct coordinates in [0, {d}) expected")
     return indices
 
@@ -855,6 +874,8 @@ def project(
         raise InputError(f"unknown projection method {method!r}; known: 'fourier_motzkin'")
     kept = _keep_indices(keep, P.dim)
     n_keep = len(kept)
+    if n_keep == 0:  # onto R^0: the point if P is non-empty
+        return _r0(not chebyshev_ball(P, solver=solver).found)
     order = kept + [i for i in range(P.dim) if i not in kept]
     current = minimal_representation(
         Polytope(P.A[:, order], P.b, P.A_eq[:, order], P.b_eq), tolerance=tolerance, solver=solver
@@ -932,6 +953,9 @@ def set_difference(
     """
     for Q in others:
         _check_same_dim(P, Q)
+    if P.dim == 0:  # the point minus any set that holds it
+        whole = _holds_in_r0(P) and not any(_holds_in_r0(Q) for Q in others)
+        return [_r0(False)] if whole else []
     start = minimal_representation(P, solver=solver)
     if start.empty or not chebyshev_ball(start, solver=solver).full_dimensional:
         return []

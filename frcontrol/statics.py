@@ -304,15 +304,15 @@ def static_body(
         names: contact names (default ``c0, c1, ...``).
 
     Raises:
-        InputError: no contact, wrong shapes, NaN or infinite entries, a zero normal, a negative
+        InputError: wrong shapes, NaN or infinite entries, a zero normal, a negative
             friction coefficient, mass or length, repeated names.
     """
     pts = _finite_array("points", points, ())
     if pts.ndim != 2 or pts.shape[1] != 2:
         raise InputError(f"points must have shape (k, 2), got {pts.shape}")
     k = pts.shape[0]
-    if k == 0:
-        raise InputError("statics needs at least one contact; got none")
+    if k == 0:  # no contact: the free body (no closure, no support; equilibrium only if unloaded)
+        normals = np.zeros((0, 2))
     nrm = _finite_array("normals", normals, (k, 2))
     lengths = np.linalg.norm(nrm, axis=1)
     if np.any(lengths < 1e-12):
@@ -369,10 +369,6 @@ def _check_statics_scene(scene: Scene) -> None:
             f"scene {scene.name!r} has a fixed base: statics analyses one free body (the robot locked "
             "at its configuration) and needs base = \"planar\" in the scene file"
         )
-    if not scene.active_contacts:
-        inactive = ", ".join(c.name for c in scene.contacts) or "none"
-        raise InputError(f"scene {scene.name!r} has no active (touching) contact (contacts: {inactive}); "
-                         "statics needs at least one")
 
 
 def static_body_from_scene(
@@ -394,7 +390,8 @@ def static_body_from_scene(
         characteristic_length: overrides ``L`` [m].
 
     Raises:
-        InputError: a fixed base, no active contact, bad inputs (length, NaN, outside limits).
+        InputError: a fixed base, bad inputs (length, NaN, outside limits). No active contact is
+            an ordinary case: the free body.
         CoordinateNotFound: an unknown input name.
     """
     _check_statics_scene(scene)
@@ -412,7 +409,7 @@ def static_body_from_scene(
         raise InputError(f"scene {scene.name!r}: the robot has no mass; statics needs m > 0")
     return static_body(
         state.contact_points,
-        np.array([c.point.normal_in_world for c in active]),
+        np.array([c.point.normal_in_world for c in active]).reshape(-1, 2),
         np.array([c.mu for c in active]),
         mass,
         com,

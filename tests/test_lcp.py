@@ -583,7 +583,6 @@ def test_fc2d_sparse_block_file() -> None:
         ([[1.0, 2.0], [3.0, 4.0]], [1.0], "shape"),
         ([[1.0, np.nan], [3.0, 4.0]], [1.0, 2.0], "NaN"),
         ([[1.0, 0.0], [0.0, 1.0]], [np.inf, 2.0], "NaN or infinite"),
-        (np.zeros((0, 0)), np.zeros(0), "empty"),
         ([[1.0, "a"], [0.0, 1.0]], [1.0, 1.0], "numeric"),
     ],
 )

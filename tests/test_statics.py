@@ -423,7 +423,6 @@ def test_collinear_contacts(write_scene):
     ("kwargs", "match"),
     [
         ({"points": [[0.0, float("nan")]]}, "finite"),
-        ({"points": np.zeros((0, 2)), "normals": np.zeros((0, 2))}, "at least one contact"),
         ({"normals": [[0.0, 0.0]]}, "non-zero"),
         ({"mu": -0.1}, ">= 0"),
         ({"mass": 0.0}, "> 0"),
@@ -446,11 +445,10 @@ def test_scene_level_errors(write_scene):
                            "mu": 0.5}]}
     with pytest.raises(InputError, match="fixed base"):
         analyze_statics(load_scene(write_scene(fixed)))
-    lifted = incline(0.0, 0.5)
+    lifted = incline(0.0, 0.5)  # no active contact: an ordinary case (tests/test_degenerate.py)
     for contact in lifted["contacts"]:
         contact["surface_point"] = [0.0, -0.1]
-    with pytest.raises(InputError, match="no active"):
-        static_body_from_scene(load_scene(write_scene(lifted)))
+    assert static_body_from_scene(load_scene(write_scene(lifted))).normals.shape == (0, 2)
     scene = load_scene("box_on_ground")
     with pytest.raises(CoordinateNotFound):
         analyze_statics(scene, {"hip": 1.0})
