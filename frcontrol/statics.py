@@ -919,7 +919,7 @@ def weak_stability(
     phase-one residual is relative.
 
     Raises:
-        InputError: a fixed base, no active contact, bad inputs.
+        InputError: a fixed base, bad inputs.
     """
     _check_statics_scene(scene)
     u = _scene_inputs(scene, inputs)
@@ -1026,7 +1026,7 @@ def strong_stability(
         solver: LP back-end.
 
     Raises:
-        InputError: a fixed base, no active contact, bad inputs.
+        InputError: a fixed base, bad inputs.
     """
     from .engine import solutions_at
     from .modes import ContactProblem
@@ -1114,7 +1114,7 @@ def analyze_statics(
         solver: LP back-end.
 
     Raises:
-        InputError: a fixed base, no active contact, bad inputs or lateral acceleration.
+        InputError: a fixed base, bad inputs or lateral acceleration.
         CoordinateNotFound: an unknown input name.
     """
     timings: dict[str, float] = {}
