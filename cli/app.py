@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import typer
 
 from . import analyze_cmd, climb_cmd, flip_cmd, model_cmds, scene_cmds, simulate_cmd, statics_cmd, view_cmd
@@ -33,6 +35,9 @@ def _root(
                                       help="Print the version and exit."),
 ) -> None:
     """frcontrol: contact modes, mode domains, ambiguity and planning for planar robots in contact."""
+    # Floating-point warnings (overflow in a run that diverges) would add lines to stderr: the
+    # library reports what they mean (a diverged status, a warning with its time and detail).
+    warnings.filterwarnings("ignore", category=RuntimeWarning)
 app.command("robots")(model_cmds.robots)
 app.command("show")(model_cmds.show)
 app.command("analyze")(analyze_cmd.analyze_command)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Any
@@ -18,8 +19,9 @@ from frcontrol.simulation.rigid import simulate_rigid
 from frcontrol.simulation.trajectory import Trajectory
 
 from .analyze_cmd import InputOpt, parse_assignments
-from .common import console, fail, handle_errors, print_json
+from .common import check_output_files, console, fail, handle_errors, print_json
 from .model_cmds import JsonOpt, SceneArg
+from .options import SetOpt, scene_overrides
 
 MAX_EVENTS_SHOWN = 40
 """Events listed in the table (all of them are in ``--json``)."""
@@ -102,9 +104,11 @@ def trajectory_payload(traj: Trajectory) -> dict[str, Any]:
         summary["elastic_energy_final"] = float(info["elastic_energy"][-1])
     if not np.isfinite(summary.get("explicit_stability_limit", 0.0)):
         summary["explicit_stability_limit"] = None
+    summary["validity"] = info.get("validity")
     return {
         "summary": summary,
         "samples": {"times": traj.times, "q": traj.q, "energy": energy, "max_penetration": penetration},
+        "warnings": [w.to_dict() for w in traj.warnings],
     }
 
 
@@ -120,9 +124,17 @@ def simulate_command(
     integrator: IntegratorOpt = "radau",
     json: JsonOpt = False,
     html: HtmlOpt = None,
+    sets: SetOpt = None,
 ) -> None:
-    """Simulate a scene: contact events, energy and constraint drift over time."""
-    loaded = load_scene(scene)
+    """Simulate a scene: contact events, energy and constraint drift over time.
+
+    Every run is checked against its model's validity (frcontrol.simulation.validity): a NaN or
+    an energy blow-up ends it as "diverged" (exit 1, with the time, the reason and a hint); energy
+    growth beyond the inputs' work, deep penetration or implausible contact speeds are warnings,
+    one line each on stderr and in the JSON's "warnings".
+    """
+    check_output_files(html=html)
+    loaded = load_scene(scene, overrides=scene_overrides(sets))
     chosen = model.value if model is not None else model_options(loaded).contact
     if chosen == "rigid" and (stiffness is not None or damping is not None):
         raise fail("--stiffness and --damping belong to the compliant model: add --model compliant")
@@ -133,6 +145,13 @@ def simulate_command(
         else:
             traj = simulate_compliant(loaded, assignments, duration, dt, integrator=integrator,
                                       stiffness=stiffness, damping=damping)
+    for warning in traj.warnings:
+        sys.stderr.write(f"frc: warning: t = {warning.time:.6g} s: {warning.kind}: {warning.detail}\n")
+    failure = traj.info["failure"]
+    if failure is not None:
+        hint = f"; {failure['hint']}" if failure.get("hint") else ""
+        raise fail(f"the simulation {traj.info['status']} at t = {failure['time']:.6g} s: "
+                   f"{failure['reason']}{hint}")
     if html is not None:
         from frcontrol.viz.meshcat_view import write_html
 
@@ -144,9 +163,6 @@ def simulate_command(
         print_json(payload)
     else:
         render(payload)
-    failure = traj.info["failure"]
-    if failure is not None:
-        raise fail(f"the simulation stopped at t = {failure['time']:.6g} s: {failure['reason']}")
 
 
 def render(payload: dict[str, Any]) -> None:

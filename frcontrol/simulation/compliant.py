@@ -82,6 +82,8 @@ from .options import (
 )
 from .rigid import IMPACT_VELOCITY
 from .trajectory import ContactEvent, Trajectory
+from .validity import HINT as VALIDITY_HINT
+from .validity import assess
 
 INTEGRATORS = ("radau", "bdf", "lsoda", "rk45", "dop853", "euler")
 """The integrators :func:`simulate_compliant` accepts."""
@@ -458,10 +460,11 @@ def simulate_compliant(
                 steps_taken.append(h)
                 y, t_seg = y_new, t_seg + h
                 if not np.all(np.isfinite(y)) or np.max(np.abs(y[n:2 * n])) > DIVERGENCE_VELOCITY:
-                    status = "failed"
+                    status = "diverged"
                     failure = {"time": t_seg, "reason": (
-                        f"the state diverged (NaN or a velocity above {DIVERGENCE_VELOCITY:g}); the explicit "
-                        f"step's stability limit was {stability_limit:.3g} s at the start: try a smaller dt")}
+                        f"the state became NaN or a velocity exceeded {DIVERGENCE_VELOCITY:g}; the explicit "
+                        f"step's stability limit was {stability_limit:.3g} s at the start"),
+                        "hint": VALIDITY_HINT}
                     break
                 record_events(t_seg, y, u, st_now.normal_velocities)
                 while next_sample <= sample_count and sample_times[next_sample] <= t_seg + 1e-12 * duration:
@@ -483,8 +486,11 @@ def simulate_compliant(
                 # SciPy's Radau/BDF difference their Jacobian with a factor that grows without bound
                 # on a column that never changes (e.g. the horizontal position): it can overflow
                 # into inf and the LU factorisation raises. Report it as a failure, keep the samples.
-                status = "failed"
+                diverged = not np.all(np.isfinite(solver.y)) or "inf" in str(err) or "NaN" in str(err)
+                status = "diverged" if diverged else "failed"
                 failure = {"time": float(solver.t), "reason": f"{integrator}: {err}"}
+                if diverged:
+                    failure["hint"] = VALIDITY_HINT
                 break
             if solver.status == "failed":
                 status = "failed"
@@ -494,9 +500,9 @@ def simulate_compliant(
             steps_taken.append(t_now - float(solver.t_old))
             y_now = solver.y
             if not np.all(np.isfinite(y_now)) or np.max(np.abs(y_now[n:2 * n])) > DIVERGENCE_VELOCITY:
-                status = "failed"
-                failure = {"time": t_now, "reason": "the state diverged (NaN or a velocity above "
-                           f"{DIVERGENCE_VELOCITY:g})"}
+                status = "diverged"
+                failure = {"time": t_now, "reason": "the state became NaN or a velocity exceeded "
+                           f"{DIVERGENCE_VELOCITY:g}", "hint": VALIDITY_HINT}
                 break
             last_vn = record_events(t_now, y_now, u, last_vn)
             if next_sample <= sample_count and sample_times[next_sample] <= t_now + 1e-12 * duration:
@@ -579,7 +585,7 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
         "stretch": ys[:, 2 * n:],
         "modelled_contacts": list(params.names),
     })
-    return Trajectory(
+    trajectory = Trajectory(
         scene_name=scene.name,
         coordinates=scene.coordinate_names,
         contacts=tuple(c.name for c in scene.contacts),
@@ -593,6 +599,9 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
         events=tuple(events),
         info=info,
     )
+    softest = float(np.min(params.stiffness)) if params.count else None
+    return assess(scene, trajectory, energy=info["energy"] + info["elastic_energy"],
+                  penetration=info["max_penetration"], stiffness=softest, dt=float(info["dt"]))
 
 
 __all__ = [

@@ -83,6 +83,8 @@ from .options import (
     potential_energy,
 )
 from .trajectory import ContactEvent, Trajectory
+from .validity import HINT as VALIDITY_HINT
+from .validity import assess
 
 ACTIVATION_DISTANCE = 1e-3
 """[m] A contact takes part in a step when its gap is at most this (plus twice its approach
@@ -264,7 +266,9 @@ def simulate_rigid(
         ``energy`` [J] (kinetic with the armature + gravitational) and its parts,
         ``max_penetration`` [m] per sample, ``stabilization_work`` [J] (cumulative), ``lcp``
         statistics, ``armature``, ``ambiguity_checks``, the tolerances, ``status``
-        (``"completed"`` or ``"failed"``) and ``failure`` (time and reason, or None).
+        (``"completed"``, ``"failed"`` or ``"diverged"``, see :mod:`~frcontrol.simulation.validity`)
+        and ``failure`` (time, reason and, when it diverged, a hint; or None). ``warnings`` on the
+        trajectory say where the run left its model's validity.
 
     Raises:
         InputError: a bad duration, step, state, input (length, NaN, outside limits),
@@ -354,7 +358,8 @@ def simulate_rigid(
             v_next = v_free
             stab_work.append(stab_work[-1])
         if not np.all(np.isfinite(v_next)):
-            status, failure = "failed", {"time": t, "reason": "the velocity became NaN or infinite"}
+            status, failure = "diverged", {"time": t, "reason": "the velocity became NaN or infinite",
+                                           "hint": VALIDITY_HINT}
             stab_work.pop()
             break
 
@@ -463,7 +468,7 @@ def simulate_rigid(
         "failure": failure,
         "wall_time": time.perf_counter() - start_wall,
     }
-    return Trajectory(
+    trajectory = Trajectory(
         scene_name=scene.name,
         coordinates=scene.coordinate_names,
         contacts=names,
@@ -477,6 +482,8 @@ def simulate_rigid(
         events=tuple(events),
         info=info,
     )
+    return assess(scene, trajectory, energy=energy, penetration=info["max_penetration"], stiffness=None,
+                  dt=dt, extra_work=info["stabilization_work"])
 
 
 def _ambiguity_check(scene: Scene, q: np.ndarray, v: np.ndarray, u: np.ndarray, touching: list[int],

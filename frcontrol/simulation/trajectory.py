@@ -22,6 +22,25 @@ class ContactEvent:
 
 
 @dataclass(frozen=True)
+class SimulationWarning:
+    """A run left its model's validity without diverging (:mod:`frcontrol.simulation.validity`).
+
+    Attributes:
+        time: [s] when it first happened.
+        kind: ``"energy"``, ``"penetration"`` or ``"speed"``.
+        detail: what was seen and the limit, in one line.
+    """
+
+    time: float
+    kind: str
+    detail: str
+
+    def to_dict(self) -> dict:
+        """The warning as JSON: ``{"time", "kind", "detail"}``."""
+        return {"time": self.time, "kind": self.kind, "detail": self.detail}
+
+
+@dataclass(frozen=True)
 class Trajectory:
     """Samples of a motion of a scene's robot.
 
@@ -40,6 +59,7 @@ class Trajectory:
         contact_points: world position of each contact point [m], shape (T, k, 2).
         events: contact events in time order.
         info: anything else the producer reports (model, step sizes, energy, drift, status...).
+        warnings: where the run left its model's validity without diverging, in time order.
     """
 
     scene_name: str
@@ -54,6 +74,7 @@ class Trajectory:
     contact_points: np.ndarray
     events: tuple[ContactEvent, ...] = ()
     info: dict = field(default_factory=dict)
+    warnings: tuple[SimulationWarning, ...] = ()
 
     @property
     def duration(self) -> float:

@@ -1,0 +1,132 @@
+"""Simulations say when they leave the model's validity (frcontrol.simulation.validity).
+
+Real scenes and real simulators. A calm run has no warning; the run of the issue (constant hip
+torques on RHex's nearly massless legs) warns of its speeds and its penetration; NaN and energy
+from nowhere end a run as "diverged"; the CLI reports each on stderr, in the JSON, and by its exit
+code.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from frcontrol.cli.app import app
+from typer.testing import CliRunner
+
+from frcontrol.scene import load_scene
+from frcontrol.simulation import simulate_compliant, simulate_rigid
+from frcontrol.simulation.validity import (
+    DIVERGENCE_FACTOR,
+    ENERGY_TOLERANCE,
+    SPEED_FACTOR,
+    assess,
+    validity_limits,
+)
+
+runner = CliRunner()
+FREE_ROD = 'robot = "rod.urdf"\n[state]\nq = [0.0, 1.0, 0.3]\n[inputs]\ncoordinates = ["x"]\n'
+
+
+@pytest.mark.parametrize("name", ["rod_on_table", "box_on_slope", "table_on_ground", "rhex_flip"])
+@pytest.mark.parametrize("simulate", [simulate_rigid, simulate_compliant])
+def test_a_calm_run_has_no_warning(name, simulate):
+    trajectory = simulate(load_scene(name), None, 0.2, 0.002)
+    assert trajectory.info["status"] == "completed" and trajectory.warnings == ()
+    limits = trajectory.info["validity"]
+    assert limits["max_speed"] > 0 and limits["max_penetration"] > 0
+
+
+def test_the_limits_follow_the_scene():
+    """L is the spread of the base origin and the contact points; speeds scale with sqrt(2 g L)."""
+    scene = load_scene("rod_on_table")
+    run = simulate_rigid(scene, None, 0.01, 0.001)
+    limits = validity_limits(scene, run, stiffness=None, dt=0.001)
+    assert limits.length == pytest.approx(0.5, rel=1e-9)  # centre to tip of the 1 m rod
+    assert limits.max_speed == pytest.approx(SPEED_FACTOR * np.sqrt(2 * 9.81 * 0.5), rel=1e-12)
+    soft = validity_limits(scene, run, stiffness=1e4, dt=0.001)
+    stiff = validity_limits(scene, run, stiffness=1e6, dt=0.001)
+    assert soft.max_penetration > 50 * stiff.max_penetration  # F / k, plus the gap tolerance
+
+
+def test_constant_torques_on_massless_legs_are_reported():
+    """The issue's run: hips beyond 10^4 rad/s, toes striking at hundreds of m/s, centimetres deep."""
+    scene = load_scene("rhex_flip")
+    run = simulate_compliant(scene, {"hip_middle": 10.0, "hip_rear": 10.0}, 0.5, 0.001)
+    kinds = {w.kind for w in run.warnings}
+    assert run.info["status"] == "completed"  # the energy is the inputs' work: no blow-up
+    assert {"speed", "penetration"} <= kinds
+    assert "energy" not in kinds
+    work = run.info["input_work"][-1]
+    energy = run.info["energy"] + run.info["elastic_energy"]
+    # where the energy went: the inputs did the work (contacts and dampers dissipated some of it)
+    assert 0.5 * work < energy[-1] - energy[0] <= (1 + ENERGY_TOLERANCE) * work
+    speed = next(w for w in run.warnings if w.kind == "speed")
+    assert speed.time < 0.05 and "m/s" in speed.detail
+
+
+def test_nan_ends_the_run_as_diverged_where_it_happened():
+    scene = load_scene("rod_on_table")
+    run = simulate_rigid(scene, None, 0.05, 0.001)
+    q = run.q.copy()
+    q[20, 1] = np.nan
+    broken = assess(scene, replace(run, q=q, warnings=()), energy=run.info["energy"],
+                    penetration=run.info["max_penetration"], stiffness=None, dt=0.001)
+    assert broken.info["status"] == "diverged"
+    assert broken.info["failure"]["time"] == pytest.approx(run.times[20])
+    assert "NaN" in broken.info["failure"]["reason"] and broken.info["failure"]["hint"]
+    assert len(broken.times) == 20 and np.all(np.isfinite(broken.q))
+
+
+def test_energy_from_nowhere_warns_then_diverges():
+    scene = load_scene("box_on_slope")
+    run = simulate_rigid(scene, None, 0.05, 0.001)
+    energy = run.info["energy"].copy()
+    scale = validity_limits(scene, run, stiffness=None, dt=0.001).energy_scale
+
+    def check(extra):
+        return assess(scene, replace(run, warnings=()), energy=energy + extra,
+                      penetration=run.info["max_penetration"], stiffness=None, dt=0.001)
+
+    ramp = np.linspace(0.0, 1.0, len(energy))
+    warned = check(0.5 * scale * ramp)  # half of m g L, from no input
+    assert warned.info["status"] == "completed"
+    assert [w.kind for w in warned.warnings] == ["energy"]
+    blown = check(2 * DIVERGENCE_FACTOR * (abs(energy[0]) + scale) * ramp)
+    assert blown.info["status"] == "diverged" and "blow-up" in blown.info["failure"]["reason"]
+    assert check(0.0 * ramp).warnings == ()
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # numpy's overflow, which the run reports
+def test_a_run_that_overflows_diverges_on_both_models(write_scene):
+    path = write_scene(FREE_ROD)
+    for simulate in (simulate_rigid, simulate_compliant):
+        run = simulate(load_scene(path), {"x": 1e306}, 0.05, 0.001)
+        assert run.info["status"] == "diverged", simulate.__name__
+        assert run.info["failure"]["hint"]
+
+
+def test_the_cli_exits_1_on_divergence_with_one_line(write_scene):
+    path = write_scene(FREE_ROD)
+    for model in ("rigid", "compliant"):
+        result = runner.invoke(app, ["simulate", str(path), "--model", model, "--input", "x=1e306",
+                                     "--duration", "0.05", "--json"])
+        assert result.exit_code == 1 and result.stdout == ""
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1 and "diverged at t = " in lines[0] and "try a smaller --dt" in lines[0]
+
+
+def test_the_cli_reports_warnings_in_the_json_and_on_stderr():
+    result = runner.invoke(app, ["simulate", "rhex_flip", "--model", "compliant", "--duration", "0.1",
+                                 "--input", "hip_middle=10", "--input", "hip_rear=10", "--json"])
+    assert result.exit_code == 0, result.stderr
+    doc = json.loads(result.stdout)
+    assert doc["summary"]["status"] == "completed" and doc["summary"]["validity"]["max_speed"] > 0
+    kinds = [w["kind"] for w in doc["warnings"]]
+    assert "speed" in kinds and all(set(w) == {"time", "kind", "detail"} for w in doc["warnings"])
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == len(doc["warnings"]) and all(line.startswith("frc: warning: t = ") for line in lines)
+    calm = runner.invoke(app, ["simulate", "rod_on_table", "--duration", "0.05", "--json"])
+    assert calm.exit_code == 0 and json.loads(calm.stdout)["warnings"] == [] and calm.stderr == ""
