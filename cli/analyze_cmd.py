@@ -165,3 +165,12 @@ def render(payload: dict[str, Any]) -> None:
         console.print(sols if payload["solutions"] else "no rigid-body solution at this input")
     t = payload["timings"]
     console.print(f"time: {1e3 * t['total']:.1f} ms")
+
+
+__all__ = [
+    "analysis_payload",
+    "analyze_command",
+    "parse_assignments",
+    "render",
+    "solution_payload",
+]

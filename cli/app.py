@@ -15,6 +15,7 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
     context_settings={"help_option_names": ["-h", "--help"]},
+    rich_markup_mode=None,  # help texts say [s], [N m], [model]: literal text, not markup
 )
 
 
@@ -53,3 +54,9 @@ app.command("validate")(scene_cmds.validate_command)
 def main() -> None:
     """Entry point of the ``frc`` and ``frcontrol`` console scripts."""
     app()
+
+
+__all__ = [
+    "app",
+    "main",
+]

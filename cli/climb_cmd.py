@@ -26,7 +26,7 @@ from .model_cmds import JsonOpt
 from .options import SetOpt, scene_overrides
 
 ClimbSceneArg = Annotated[
-    str, typer.Argument(help="A scene file with \\[\\[disturbances]], or the name of a shipped scene.")
+    str, typer.Argument(help="A scene file with [[disturbances]], or the name of a shipped scene.")
 ]
 HtmlOpt = Annotated[
     Path | None,
@@ -51,11 +51,11 @@ PlotOpt = Annotated[
 MarginOpt = Annotated[
     float,
     typer.Option("--margin", min=0.0,
-                 help="Required robustness radius \\[N m or N] in the lifted (u, d) space."),
+                 help="Required robustness radius [N m or N] in the lifted (u, d) space."),
 ]
 DurationOpt = Annotated[
     float,
-    typer.Option("--duration", min=0.0, help="Simulated time \\[s] of the check under sampled disturbances."),
+    typer.Option("--duration", min=0.0, help="Simulated time [s] of the check under sampled disturbances."),
 ]
 SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of the sampled disturbances.")]
 
@@ -215,3 +215,10 @@ def render(payload: dict[str, Any]) -> None:
                       f"{'held' if sim['brace_held'] else 'NOT held'}; max slip {sim['max_slip']:.3g} m; "
                       f"head rise {sim['upper_rise']:.4g} m (max {sim['max_upper_rise']:.4g} m)")
     console.print(f"time: {1e3 * payload['timings']['total']:.1f} ms")
+
+
+__all__ = [
+    "climb_command",
+    "climb_payload",
+    "render",
+]

@@ -83,3 +83,12 @@ def to_jsonable(value: Any) -> Any:
 def print_json(payload: dict[str, Any]) -> None:
     """Write a JSON document on stdout."""
     sys.stdout.write(json.dumps(to_jsonable(payload), indent=2) + "\n")
+
+
+__all__ = [
+    "check_output_files",
+    "fail",
+    "handle_errors",
+    "print_json",
+    "to_jsonable",
+]

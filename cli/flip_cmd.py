@@ -45,15 +45,15 @@ PlotOpt = Annotated[
 ]
 MarginOpt = Annotated[
     float,
-    typer.Option("--margin", min=0.0, help="Distance \\[N m] kept between the plan and every input "
+    typer.Option("--margin", min=0.0, help="Distance [N m] kept between the plan and every input "
                  "where another contact mode also holds."),
 ]
 MaxTimeOpt = Annotated[
     float,
     typer.Option("--max-time", "-T", min=0.0,
-                 help="Longest simulated time \\[s] of the closed loop (0: plan only, no simulation)."),
+                 help="Longest simulated time [s] of the closed loop (0: plan only, no simulation)."),
 ]
-DtOpt = Annotated[float, typer.Option("--dt", min=1e-6, help="Time step \\[s] of the simulation.")]
+DtOpt = Annotated[float, typer.Option("--dt", min=1e-6, help="Time step [s] of the simulation.")]
 ReplanOpt = Annotated[int, typer.Option("--replan-every", min=1, help="Steps between two plans.")]
 
 
@@ -244,3 +244,10 @@ def render(payload: dict[str, Any]) -> None:
         f"no ({sim['separation']['contact']} separates at {sim['separation']['time']:.4f} s)")
     console.print(f"body contact kept: {kept}; {sim['steps']} steps, {sim['replans']} re-plans "
                   f"({sim['held']} held), {sim['timings']['total']:.2f} s")
+
+
+__all__ = [
+    "flip_command",
+    "flip_payload",
+    "render",
+]

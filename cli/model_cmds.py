@@ -89,3 +89,10 @@ def show(scene: SceneArg, json: JsonOpt = False, sets: SetOpt = None) -> None:
             np.array2string(np.asarray(c["jacobian_t"]), precision=3),
         )
     console.print(rows)
+
+
+__all__ = [
+    "robots",
+    "show",
+    "show_payload",
+]

@@ -193,3 +193,12 @@ def render(payload: dict[str, Any]) -> None:
             console.print(f"... {len(s['events']) - MAX_EVENTS_SHOWN} more (see --json)")
     else:
         console.print("no contact events")
+
+
+__all__ = [
+    "ContactModel",
+    "MAX_EVENTS_SHOWN",
+    "render",
+    "simulate_command",
+    "trajectory_payload",
+]

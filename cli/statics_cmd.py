@@ -356,3 +356,12 @@ def plot_statics(scene: Scene, report: StaticsReport, path: Path) -> None:
         raise InputError(f"cannot write the plot to {str(path)!r}: {reason_from_exception(err)}") from err
     finally:
         plt.close(fig)
+
+
+__all__ = [
+    "parse_input_pairs",
+    "plot_statics",
+    "render",
+    "statics_command",
+    "statics_payload",
+]

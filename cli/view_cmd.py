@@ -75,3 +75,8 @@ def view_command(
             typer.echo("")
         finally:
             stop_server(url)
+
+
+__all__ = [
+    "view_command",
+]

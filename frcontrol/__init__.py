@@ -22,6 +22,35 @@ from .scene import Contact, Inputs, Scene, load_scene
 
 __version__ = "0.1.0"
 
+# The main calls, imported on first use so that ``import frcontrol`` stays light (the engine, the
+# planners and SciPy load only when asked for).
+_LAZY = {
+    "analyze": "frcontrol.engine",
+    "solutions_at": "frcontrol.engine",
+    "analyze_statics": "frcontrol.statics",
+    "simulate": "frcontrol.simulation",
+    "simulate_rigid": "frcontrol.simulation",
+    "simulate_compliant": "frcontrol.simulation",
+    "plan_flip": "frcontrol.planning.flip",
+    "plan_climb": "frcontrol.planning.climb",
+}
+
+
+def __getattr__(name: str):
+    """``frcontrol.analyze`` and the other main calls of :data:`_LAZY`, imported on first use."""
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'frcontrol' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
+
 __all__ = [
     "Contact",
     "ContactPoint",
@@ -39,5 +68,13 @@ __all__ = [
     "SceneError",
     "SolverNotFound",
     "__version__",
+    "analyze",
+    "analyze_statics",
     "load_scene",
+    "plan_climb",
+    "plan_flip",
+    "simulate",
+    "simulate_compliant",
+    "simulate_rigid",
+    "solutions_at",
 ]

@@ -205,3 +205,16 @@ def all_contact_lcp_solutions(problem: ContactProblem, u: np.ndarray) -> list[LC
             continue
         out.append(LCPContactSolution(classify(problem, x), x, sol))
     return out
+
+
+__all__ = [
+    "all_contact_lcp_solutions",
+    "build_contact_lcp",
+    "classify",
+    "CLASSIFY_TOLERANCE",
+    "ContactLCP",
+    "LCPContactSolution",
+    "MASS_CHOLESKY_TOLERANCE",
+    "SAME_SOLUTION_TOLERANCE",
+    "solve_contact_lcp",
+]

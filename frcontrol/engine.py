@@ -656,3 +656,18 @@ def solutions_at(
         return [] if w is None else [_solution(problem, system, response, u, w)]
     grow("")
     return found
+
+
+__all__ = [
+    "analyze",
+    "domain_polytope",
+    "DOMAIN_TOLERANCE",
+    "DynamicResponse",
+    "Enumeration",
+    "ModeAnalysis",
+    "motion_margin",
+    "Overlap",
+    "RigidSolution",
+    "solutions_at",
+    "ZERO_ROW_TOLERANCE",
+]

@@ -110,3 +110,17 @@ class SolverNotFound(FrcontrolError):
         super().__init__(
             f"solver {name!r}{origin} is not available; installed back-ends: {', '.join(self.available)}"
         )
+
+
+__all__ = [
+    "CoordinateNotFound",
+    "FrameNotFound",
+    "FrcontrolError",
+    "IllConditioned",
+    "ImpactState",
+    "InputError",
+    "reason_from_exception",
+    "RobotModelError",
+    "SceneError",
+    "SolverNotFound",
+]

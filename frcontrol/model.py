@@ -429,3 +429,12 @@ class PlanarRobot:
     def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """``q + dq`` in minimal coordinates (all of them are additive: angles are not wrapped)."""
         return np.asarray(q, dtype=float) + np.asarray(dq, dtype=float)
+
+
+__all__ = [
+    "BASE_COORDINATES",
+    "ContactPoint",
+    "PlanarRobot",
+    "PLANE_AXIS_TOLERANCE",
+    "RobotState",
+]

@@ -305,3 +305,15 @@ def all_modes(allowed: Sequence[str]) -> list[str]:
     for letters in allowed:
         modes = [m + ch for m in modes for ch in letters]
     return modes
+
+
+__all__ = [
+    "all_modes",
+    "build_mode_system",
+    "check_mode",
+    "ContactProblem",
+    "MODE_LETTERS",
+    "mode_outputs",
+    "ModeSystem",
+    "VELOCITY_TOLERANCE",
+]

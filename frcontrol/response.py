@@ -187,3 +187,14 @@ def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> str:
     if np.any(mags[n_coordinates:] > threshold):
         return "forces"
     return "none"
+
+
+__all__ = [
+    "AffineSolution",
+    "ambiguous_outputs",
+    "CONSISTENCY_TOLERANCE",
+    "ILL_CONDITIONED_BAND",
+    "OUTPUT_TOLERANCE",
+    "RANK_TOLERANCE",
+    "solve_affine",
+]

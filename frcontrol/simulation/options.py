@@ -344,3 +344,22 @@ def check_simulation_times(duration: float, dt: float, dt_name: str = "dt") -> t
     if dt > duration:
         raise InputError(f"{dt_name} = {dt} s exceeds the duration {duration} s: use a smaller step")
     return float(duration), float(dt)
+
+
+__all__ = [
+    "Armature",
+    "check_simulation_times",
+    "CONTACT_MODELS",
+    "ContactParameters",
+    "DEFAULT_ARMATURE",
+    "DEFAULT_DAMPING_RATIO",
+    "DEFAULT_STIFFNESS",
+    "INPUT_LIMIT_TOLERANCE",
+    "input_schedule",
+    "mass_factor",
+    "massless_armature",
+    "MASSLESS_TOLERANCE",
+    "model_options",
+    "ModelOptions",
+    "potential_energy",
+]

@@ -84,3 +84,10 @@ class Trajectory:
     def coordinate(self, name: str) -> np.ndarray:
         """The samples of one coordinate."""
         return self.q[:, self.coordinates.index(name)]
+
+
+__all__ = [
+    "ContactEvent",
+    "SimulationWarning",
+    "Trajectory",
+]

@@ -92,3 +92,10 @@ LPAdapter = Callable[..., RawSolution]
 
 QPAdapter = Callable[..., RawSolution]
 """Signature of an adapter: ``adapter(problem: QuadraticProgram, **options) -> RawSolution``."""
+
+
+__all__ = [
+    "LinearProgram",
+    "QuadraticProgram",
+    "RawSolution",
+]

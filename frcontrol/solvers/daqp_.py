@@ -194,3 +194,15 @@ def solve_qp(problem: QuadraticProgram, **options: object) -> RawSolution:
         InputError: an option DAQP does not know.
     """
     return _solve(problem.P, problem, options)
+
+
+__all__ = [
+    "DAQP_INF",
+    "EQUALITY_CONSISTENCY_TOLERANCE",
+    "EXIT_FLAGS",
+    "SENSE_EQUALITY",
+    "SENSE_INEQUALITY",
+    "SETTINGS",
+    "solve_lp",
+    "solve_qp",
+]

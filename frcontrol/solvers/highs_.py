@@ -197,3 +197,10 @@ def solve_qp(problem: QuadraticProgram, **options: object) -> RawSolution:
     model.lp_ = _build_lp(problem)
     model.hessian_ = _hessian(problem.P)
     return _run(model, options)
+
+
+__all__ = [
+    "RETRIES",
+    "solve_lp",
+    "solve_qp",
+]

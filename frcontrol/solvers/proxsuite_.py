@@ -129,3 +129,12 @@ def solve_qp(problem: QuadraticProgram, **options: object) -> RawSolution:
         InputError: a setting ProxQP does not have.
     """
     return _solve(problem.P, problem, options)
+
+
+__all__ = [
+    "DEFAULT_SETTINGS",
+    "DUALITY_GAP_TOLERANCE",
+    "PROXQP_INF",
+    "solve_lp",
+    "solve_qp",
+]

@@ -1,0 +1,61 @@
+"""The library's front door: the main calls at the top level, light to import, every module's __all__."""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+import subprocess
+import sys
+
+import pytest
+
+import frcontrol
+from frcontrol.scene import load_scene
+
+
+def test_the_main_calls_are_at_the_top_level():
+    from frcontrol.engine import analyze, solutions_at
+    from frcontrol.planning.climb import plan_climb
+    from frcontrol.planning.flip import plan_flip
+    from frcontrol.simulation import simulate
+    from frcontrol.statics import analyze_statics
+
+    assert frcontrol.analyze is analyze and frcontrol.solutions_at is solutions_at
+    assert frcontrol.analyze_statics is analyze_statics and frcontrol.simulate is simulate
+    assert frcontrol.plan_flip is plan_flip and frcontrol.plan_climb is plan_climb
+    assert set(frcontrol.__all__) <= set(dir(frcontrol))
+    with pytest.raises(AttributeError, match="no attribute 'analyse'"):
+        frcontrol.analyse  # noqa: B018
+
+
+def test_import_frcontrol_stays_light(tmp_path):
+    code = ("import sys, frcontrol\n"
+            "heavy = [m for m in ('frcontrol.engine', 'frcontrol.planning.flip', 'scipy', 'matplotlib', "
+            "'meshcat') if m in sys.modules]\n"
+            "print(','.join(heavy))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
+                         timeout=60)
+    assert out.returncode == 0 and out.stdout.strip() == "", out.stdout + out.stderr
+
+
+def test_simulate_follows_the_scene_model():
+    rigid = frcontrol.simulate(load_scene("rod_on_table"), None, 0.01, 0.005)
+    compliant = frcontrol.simulate(load_scene("rod_on_table", overrides={"model.contact": "compliant"}),
+                                   None, 0.01, 0.005)
+    assert rigid.info["model"] == "rigid" and compliant.info["model"] == "compliant"
+
+
+def every_module():
+    names = ["frcontrol"]
+    for info in pkgutil.walk_packages(frcontrol.__path__, "frcontrol."):
+        if not info.name.endswith("__main__"):
+            names.append(info.name)
+    return names
+
+
+@pytest.mark.parametrize("name", every_module())
+def test_every_module_declares_what_it_exports(name):
+    module = importlib.import_module(name)
+    assert hasattr(module, "__all__"), f"{name} has no __all__"
+    missing = [n for n in module.__all__ if not hasattr(module, n)]
+    assert not missing, f"{name}.__all__ names what it does not define: {missing}"
