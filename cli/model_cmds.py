@@ -19,9 +19,14 @@ JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JS
 
 
 @handle_errors
-def robots() -> None:
+def robots(json: JsonOpt = False) -> None:
     """List the robots and scenes that ship with frcontrol."""
     root = shipped_robots_dir()
+    if json:
+        print_json({"folder": str(root),
+                    "robots": [p.name for p in sorted(root.glob("*.urdf"))],
+                    "scenes": [p.stem for p in sorted((root / "scenes").glob("*.toml"))]})
+        return
     table = Table(title=f"shipped with frcontrol ({root})")
     table.add_column("kind")
     table.add_column("name")

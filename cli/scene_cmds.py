@@ -18,7 +18,10 @@ JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JS
 
 
 @handle_errors
-def schema_command() -> None:
+def schema_command(
+    json_output: Annotated[bool, typer.Option("--json", help="Accepted for uniformity: the schema is JSON.")]
+    = False,
+) -> None:
     """Print the scene format as a JSON Schema (draft 2020-12)."""
     sys.stdout.write(json.dumps(SCENE_SCHEMA, indent=2) + "\n")
 

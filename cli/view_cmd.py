@@ -10,8 +10,8 @@ import typer
 
 from frcontrol.scene import load_scene
 
-from .common import check_output_files, fail, handle_errors
-from .model_cmds import SceneArg
+from .common import check_output_files, fail, handle_errors, print_json
+from .model_cmds import JsonOpt, SceneArg
 from .options import SetOpt, scene_overrides
 
 HtmlOpt = Annotated[
@@ -44,29 +44,42 @@ def view_command(
     view: ViewOpt = False,
     port: PortOpt = None,
     plot: PlotOpt = None,
+    json: JsonOpt = False,
     sets: SetOpt = None,
 ) -> None:
-    """Show a scene's state: robot, contacts, surfaces and friction cones."""
+    """Show a scene's state: robot, contacts, surfaces and friction cones.
+
+    With no --html, --plot or --view, writes SCENE_NAME.html (a self-contained meshcat page) in the
+    current folder and says where.
+    """
     if port is not None and not view:
         raise fail("--port needs --view")
     if html is None and plot is None and not view:
-        raise fail("nothing to do: give --html FILE, --plot FILE and/or --view")
+        html = Path(f"{Path(scene).stem}.html")
     check_output_files(plot=plot, html=html)
     loaded = load_scene(scene, overrides=scene_overrides(sets))
+    written: dict[str, str | None] = {"html": None, "plot": None, "url": None}
+    say = (lambda text: sys.stderr.write(text + "\n")) if json else typer.echo
     if html is not None:
         from frcontrol.viz.meshcat_view import write_html
 
-        typer.echo(f"wrote {write_html(loaded, None, html)}")
+        written["html"] = str(Path(write_html(loaded, None, html)).resolve())
+        say(f"wrote {written['html']}")
     if plot is not None:
         from frcontrol.viz.plots import plot_scene
 
         plot_scene(loaded, plot)
-        typer.echo(f"wrote {plot}")
+        written["plot"] = str(plot)
+        say(f"wrote {plot}")
     if view:
         from frcontrol.viz.meshcat_view import serve, stop_server
 
         url = serve(loaded, None, port)
-        typer.echo(f"meshcat viewer: {url}")
+        written["url"] = url
+        if json:
+            print_json({"scene": loaded.name, **written})
+        else:
+            typer.echo(f"meshcat viewer: {url}")
         if not sys.stdin.isatty():
             return
         try:
@@ -75,7 +88,9 @@ def view_command(
             typer.echo("")
         finally:
             stop_server(url)
-
+        return
+    if json:
+        print_json({"scene": loaded.name, **written})
 
 __all__ = [
     "view_command",

@@ -38,6 +38,7 @@ def per_scene(scene: str) -> list[list[str]]:
         ["validate", scene],
         ["flip", scene, "--max-time", "0.05"],
         ["climb", scene, "--duration", "0.02"],
+        ["view", scene],  # no flag: writes SCENE.html in the run's folder, says so on stderr
     ]
 
 
@@ -56,11 +57,12 @@ FALLBACKS = [  # paths that reach HiGHS even with DAQP as the default (its secon
     ["climb", "--margin", "100"],
     ["analyze", "rod_on_table", "--input", "x=1", "--input", "theta=0.5"],
 ]
+WHOLE = [["robots"], ["schema"]]  # commands that read no scene
 
 RUNS: list[tuple[str | None, tuple[str, ...]]] = (
     [(None, tuple(args)) for scene in SCENES for args in per_scene(scene)]
     + [(backend, tuple(args)) for backend in BACKENDS for scene in SCENES for args in lp_commands(scene)]
-    + [(None, tuple(args)) for args in FALLBACKS]
+    + [(None, tuple(args)) for args in FALLBACKS + WHOLE]
 )
 
 

@@ -415,7 +415,6 @@ def test_cli_view_writes_files_and_fails_cleanly(tmp_path, write_scene):
     for args, message in (
         ([str(tmp_path / "missing.toml"), "--html", str(tmp_path / "m.html")], "no such file"),
         ([str(bad), "--html", str(tmp_path / "b.html")], "state.q"),
-        (["rhex_flip"], "nothing to do"),
         (["rhex_flip", "--html", str(tmp_path / "p.html"), "--port", "7000"], "--port needs --view"),
         (["rhex_flip", "--html", str(tmp_path / "no" / "dir.html")], "cannot write"),
     ):
@@ -424,6 +423,14 @@ def test_cli_view_writes_files_and_fails_cleanly(tmp_path, write_scene):
         lines = result.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("frc: error:") and message in lines[0], lines
         assert "Traceback" not in result.output
+
+
+def test_cli_view_with_no_flag_writes_the_page_and_says_where(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(view_app, ["rhex_flip"])
+    assert result.exit_code == 0, result.output
+    page = tmp_path / "rhex_flip.html"
+    assert page.stat().st_size > 500_000 and result.stdout.strip() == f"wrote {page.resolve()}"
 
 
 def test_cli_view_serves_and_returns_without_a_terminal():
