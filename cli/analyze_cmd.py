@@ -2,18 +2,19 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
-from frcontrol.engine import DynamicResponse, RigidSolution, analyze, solutions_at
 from frcontrol.errors import InputError
-from frcontrol.modes import ContactProblem
 from frcontrol.scene import load_scene
 from frcontrol.scene import parse_input_assignments as parse_input_vector
-from frcontrol.stability import stability_of
+
+if TYPE_CHECKING:  # the engine loads when a command runs, not for --help
+    from frcontrol.engine import DynamicResponse, RigidSolution
+    from frcontrol.modes import ContactProblem
 
 from .common import console, handle_errors, print_json
 from .model_cmds import JsonOpt, SceneArg
@@ -49,6 +50,8 @@ def parse_assignments(pairs: list[str] | None) -> dict[str, float]:
 def solution_payload(solution: RigidSolution, problem: ContactProblem) -> dict[str, Any]:
     """One rigid-body solution as JSON, with its singular-perturbation stability."""
     contacts = problem.contacts
+    from frcontrol.stability import stability_of
+
     stability = stability_of(problem, solution)
     return {
         "mode": solution.mode,
@@ -114,6 +117,8 @@ def analyze_command(
     sets: SetOpt = None,
 ) -> None:
     """Every contact mode at the scene's state: response, domain, ambiguity; with --input, the solutions."""
+    from frcontrol.engine import analyze, solutions_at
+
     loaded = load_scene(scene, overrides=scene_overrides(sets))
     assignments = parse_assignments(inputs)
     progress_console = Console(stderr=True)

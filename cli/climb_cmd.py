@@ -5,21 +5,18 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
-from frcontrol.planning.climb import (
-    DEFAULT_DURATION,
-    DEFAULT_MARGIN,
-    ClimbPlan,
-    ClimbResult,
-    plan_climb,
-    simulate_climb,
-)
+from frcontrol.planning import DEFAULT_CLIMB_DURATION as DEFAULT_DURATION
+from frcontrol.planning import DEFAULT_CLIMB_MARGIN as DEFAULT_MARGIN
 from frcontrol.scene import load_scene
+
+if TYPE_CHECKING:  # the planner loads when the command runs, not for --help
+    from frcontrol.planning.climb import ClimbPlan, ClimbResult
 
 from .common import check_output_files, console, fail, handle_errors, print_json
 from .model_cmds import JsonOpt
@@ -143,6 +140,8 @@ def climb_command(
     disturbance of the scene's polytope while the head accelerates upward; also the largest
     disturbance scale for which such torques exist, and a simulation under sampled disturbances.
     """
+    from frcontrol.planning.climb import plan_climb, simulate_climb
+
     if port is not None and not view:
         raise fail("--port needs --view")
     check_output_files(plot=plot, html=html)

@@ -5,14 +5,17 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
-from frcontrol.planning.flip import DEFAULT_MARGIN, FlipPlan, FlipResult, plan_flip, simulate_flip
+from frcontrol.planning import DEFAULT_FLIP_MARGIN as DEFAULT_MARGIN
 from frcontrol.scene import load_scene
+
+if TYPE_CHECKING:  # the planner loads when the command runs, not for --help
+    from frcontrol.planning.flip import FlipPlan, FlipResult
 
 from .common import check_output_files, console, fail, handle_errors, print_json
 from .model_cmds import JsonOpt
@@ -154,6 +157,8 @@ def flip_command(
     rigid simulation re-plans along the motion until the body pitches past vertical. No feasible
     flip is a result (exit 0, "flipped": false and the reason), not an error.
     """
+    from frcontrol.planning.flip import plan_flip, simulate_flip
+
     if port is not None and not view:
         raise fail("--port needs --view")
     check_output_files(plot=plot, html=html)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
@@ -13,10 +13,10 @@ from rich.console import Console
 from rich.table import Table
 
 from frcontrol.scene import load_scene
-from frcontrol.simulation.compliant import INTEGRATORS, simulate_compliant
-from frcontrol.simulation.options import model_options
-from frcontrol.simulation.rigid import simulate_rigid
-from frcontrol.simulation.trajectory import Trajectory
+from frcontrol.simulation import INTEGRATORS
+
+if TYPE_CHECKING:  # the simulators load when the command runs, not for --help
+    from frcontrol.simulation.trajectory import Trajectory
 
 from .analyze_cmd import InputOpt, parse_assignments
 from .common import check_output_files, console, fail, handle_errors, print_json
@@ -133,6 +133,10 @@ def simulate_command(
     growth beyond the inputs' work, deep penetration or implausible contact speeds are warnings,
     one line each on stderr and in the JSON's "warnings".
     """
+    from frcontrol.simulation.compliant import simulate_compliant
+    from frcontrol.simulation.options import model_options
+    from frcontrol.simulation.rigid import simulate_rigid
+
     check_output_files(html=html)
     loaded = load_scene(scene, overrides=scene_overrides(sets))
     chosen = model.value if model is not None else model_options(loaded).contact

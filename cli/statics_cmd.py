@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
@@ -13,7 +13,9 @@ from rich.table import Table
 
 from frcontrol.errors import FrcontrolError, InputError, reason_from_exception
 from frcontrol.scene import Scene, load_scene
-from frcontrol.statics import StaticsReport, analyze_statics
+
+if TYPE_CHECKING:  # the statics load when the command runs, not for --help
+    from frcontrol.statics import StaticsReport
 
 from .common import check_output_files, console, handle_errors, print_json
 from .model_cmds import JsonOpt, SceneArg
@@ -157,6 +159,8 @@ def statics_command(
     sets: SetOpt = None,
 ) -> None:
     """Form and force closure, static equilibrium, support region, weak and strong stability at rest."""
+    from frcontrol.statics import analyze_statics
+
     check_output_files(plot=plot)
     loaded = load_scene(scene, overrides=scene_overrides(sets))
     report = analyze_statics(loaded, parse_input_pairs(inputs), lateral_acceleration=lateral_acceleration,

@@ -153,6 +153,7 @@ from ..polytope import Polytope
 from ..response import AffineSolution, solve_affine
 from ..scene import Inputs, Scene
 from ..solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, solve_lp
+from . import DEFAULT_CLIMB_DURATION, DEFAULT_CLIMB_MARGIN
 
 __all__ = [
     "ANALYSIS_BOX_GROWTH",
@@ -185,7 +186,7 @@ __all__ = [
     "simulate_climb",
 ]
 
-DEFAULT_MARGIN = 0.05
+DEFAULT_MARGIN = DEFAULT_CLIMB_MARGIN
 """[N m or N] Required robustness radius: every ``(u, v)``, ``v`` a point of ``V_s``, keeps at
 least this distance (in the lifted ``(u, d)`` space, rows normalised) from the boundary of the
 brace mode's unambiguous piece, and the head's acceleration row is tightened by it."""
@@ -224,7 +225,7 @@ ROBUSTNESS_CAP = 1e3
 BRACE_SLIP_TOLERANCE = 1e-4
 """[m] Largest tangential displacement of a brace contact for which the brace counts as held."""
 
-DEFAULT_DURATION = 0.1
+DEFAULT_DURATION = DEFAULT_CLIMB_DURATION
 """[s] Simulated time of :func:`simulate_climb` (the constant torques are an instantaneous plan)."""
 
 DEFAULT_HOLD = 0.05

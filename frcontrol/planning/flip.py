@@ -96,6 +96,7 @@ from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
 from ..solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, SolverFailed, solve_lp, solve_lp_prepared
+from . import DEFAULT_FLIP_MARGIN
 
 __all__ = [
     "DEFAULT_MARGIN",
@@ -125,7 +126,7 @@ __all__ = [
 # ---------------------------------------------------------------------------------------------
 # tolerances and defaults
 
-DEFAULT_MARGIN = 0.05
+DEFAULT_MARGIN = DEFAULT_FLIP_MARGIN
 """[N m] Default distance (in input space) between the plan and every input where another mode
 also holds: 500 times :data:`TORQUE_ROUNDING`, and small against RHex's 10 N m hip limits."""
 

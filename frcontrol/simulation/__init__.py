@@ -1,12 +1,40 @@
-"""Simulation: rigid time stepping and compliant contact, producing :class:`Trajectory` objects."""
+"""Simulation: rigid time stepping and compliant contact, producing :class:`Trajectory` objects.
 
-from typing import Any
+The simulators load on first use (``frcontrol.simulation.simulate_rigid``...), so that this package
+and :data:`INTEGRATORS` import without SciPy.
+"""
 
-from ..scene import Scene
-from .compliant import INTEGRATORS, simulate_compliant
-from .options import ContactParameters, ModelOptions, model_options
-from .rigid import simulate_rigid
-from .trajectory import ContactEvent, SimulationWarning, Trajectory
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ..scene import Scene
+    from .trajectory import Trajectory
+
+INTEGRATORS = ("radau", "bdf", "lsoda", "rk45", "dop853", "euler")
+"""The integrators :func:`simulate_compliant` accepts."""
+
+_LAZY = {
+    "simulate_compliant": ".compliant",
+    "simulate_rigid": ".rigid",
+    "ContactParameters": ".options",
+    "ModelOptions": ".options",
+    "model_options": ".options",
+    "ContactEvent": ".trajectory",
+    "SimulationWarning": ".trajectory",
+    "Trajectory": ".trajectory",
+}
+
+
+def __getattr__(name: str) -> Any:
+    """The simulators and their types, imported on first use."""
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def simulate(scene: Scene, inputs: Any = None, duration: float = 1.0, dt: float = 1e-3,
@@ -23,6 +51,10 @@ def simulate(scene: Scene, inputs: Any = None, duration: float = 1.0, dt: float 
     Returns:
         The trajectory (its ``info["model"]`` says which model ran).
     """
+    from .compliant import simulate_compliant
+    from .options import model_options
+    from .rigid import simulate_rigid
+
     if model_options(scene).contact == "compliant":
         return simulate_compliant(scene, inputs, duration, dt, **options)
     return simulate_rigid(scene, inputs, duration, dt, **options)

@@ -69,6 +69,7 @@ import scipy.linalg
 
 from ..errors import InputError
 from ..scene import Scene
+from . import INTEGRATORS
 from .options import (
     Armature,
     ContactParameters,
@@ -84,9 +85,6 @@ from .rigid import IMPACT_VELOCITY
 from .trajectory import ContactEvent, Trajectory
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
-
-INTEGRATORS = ("radau", "bdf", "lsoda", "rk45", "dop853", "euler")
-"""The integrators :func:`simulate_compliant` accepts."""
 
 _SCIPY_SOLVERS = {"radau": "Radau", "bdf": "BDF", "lsoda": "LSODA", "rk45": "RK45", "dop853": "DOP853"}
 
