@@ -5,7 +5,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
 from frcontrol.errors import InputError
@@ -16,9 +15,9 @@ if TYPE_CHECKING:  # the engine loads when a command runs, not for --help
     from frcontrol.engine import DynamicResponse, RigidSolution
     from frcontrol.modes import ContactProblem
 
-from .common import console, handle_errors, print_json
+from .common import console, handle_errors, print_json, progress, set_quiet
 from .model_cmds import JsonOpt, SceneArg
-from .options import SetOpt, scene_overrides
+from .options import QuietOpt, SetOpt, scene_overrides
 
 InputOpt = Annotated[
     list[str] | None,
@@ -115,14 +114,15 @@ def analyze_command(
     inputs: InputOpt = None,
     json: JsonOpt = False,
     sets: SetOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Every contact mode at the scene's state: response, domain, ambiguity; with --input, the solutions."""
+    set_quiet(quiet)
     from frcontrol.engine import analyze, solutions_at
 
     loaded = load_scene(scene, overrides=scene_overrides(sets))
     assignments = parse_assignments(inputs)
-    progress_console = Console(stderr=True)
-    with progress_console.status("analysing contact modes...") as status:
+    with progress("analysing contact modes...") as status:
         result = analyze(loaded, progress=lambda mode: status.update(f"analysing mode {mode}"))
         solutions = solutions_at(result, parse_input_vector(loaded, assignments)) if inputs else None
     inactive = [c.name for c in loaded.contacts if not c.active]

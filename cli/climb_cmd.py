@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
 from frcontrol.planning import DEFAULT_CLIMB_DURATION as DEFAULT_DURATION
@@ -18,9 +17,19 @@ from frcontrol.scene import load_scene
 if TYPE_CHECKING:  # the planner loads when the command runs, not for --help
     from frcontrol.planning.climb import ClimbPlan, ClimbResult
 
-from .common import check_output_files, console, fail, handle_errors, print_json
+from .common import (
+    check_output_files,
+    console,
+    fail,
+    handle_errors,
+    note,
+    print_json,
+    progress,
+    set_quiet,
+    tell,
+)
 from .model_cmds import JsonOpt
-from .options import SetOpt, scene_overrides
+from .options import QuietOpt, SetOpt, scene_overrides
 
 ClimbSceneArg = Annotated[
     str, typer.Argument(help="A scene file with [[disturbances]], or the name of a shipped scene.")
@@ -133,6 +142,7 @@ def climb_command(
     duration: DurationOpt = DEFAULT_DURATION,
     seed: SeedOpt = 0,
     sets: SetOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Plan the snake climb: torques holding the brace in mode F for every disturbance.
 
@@ -140,14 +150,14 @@ def climb_command(
     disturbance of the scene's polytope while the head accelerates upward; also the largest
     disturbance scale for which such torques exist, and a simulation under sampled disturbances.
     """
+    set_quiet(quiet)
     from frcontrol.planning.climb import plan_climb, simulate_climb
 
     if port is not None and not view:
         raise fail("--port needs --view")
     check_output_files(plot=plot, html=html)
     loaded = load_scene(scene, overrides=scene_overrides(sets))
-    status_console = Console(stderr=True)
-    with status_console.status("planning the climb..."):
+    with progress("planning the climb..."):
         plan = plan_climb(loaded, margin=margin)
     if not plan.found:  # an answer, not an error (exit 0): the JSON says why
         if json:
@@ -155,29 +165,28 @@ def climb_command(
         else:
             console.print(f"no climb plan: {plan.reason}")
         return
-    with status_console.status("simulating the climb..."):
+    with progress("simulating the climb..."):
         result = simulate_climb(loaded, plan, duration=duration, seed=seed) if duration > 0 else None
     payload = climb_payload(plan, result)
     if json:
         print_json(payload)
     else:
         render(payload)
-    note = sys.stderr.write if json else (lambda text: typer.echo(text, nl=False))
     if plot is not None:
         from frcontrol.planning.climb import plot_climb
 
         plot_climb(plan, plot)
-        note(f"wrote {plot}\n")
+        note(f"wrote {plot}", to_stderr=json)
     trajectory = None if result is None else result.trajectory
     if html is not None:
         from frcontrol.viz.meshcat_view import write_html
 
-        note(f"wrote {write_html(loaded, trajectory, html)}\n")
+        note(f"wrote {write_html(loaded, trajectory, html)}", to_stderr=json)
     if view:
         from frcontrol.viz.meshcat_view import serve, stop_server
 
         url = serve(loaded, trajectory, port)
-        note(f"meshcat viewer: {url}\n")
+        tell(f"meshcat viewer: {url}", to_stderr=json)
         if not sys.stdin.isatty():
             return
         try:

@@ -22,6 +22,47 @@ P = ParamSpec("P")
 R = TypeVar("R")
 
 
+_quiet = False
+
+
+def set_quiet(quiet: bool) -> None:
+    """Set by a command's ``--quiet``: no progress display and no notes for the rest of the run."""
+    global _quiet
+    _quiet = bool(quiet)
+
+
+class _Silent:
+    """A stand-in for a progress display under ``--quiet``."""
+
+    def __enter__(self) -> _Silent:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def update(self, *args: object, **kwargs: object) -> None:
+        """Nothing to update."""
+
+
+def progress(message: str) -> Any:
+    """A progress display on stderr (a spinner with ``update(text)``), or nothing under ``--quiet``."""
+    return _Silent() if _quiet else Console(stderr=True).status(message)
+
+
+def note(text: str, *, to_stderr: bool = False) -> None:
+    """An informational line ("wrote FILE"): on stdout, or stderr when stdout holds JSON; none if quiet."""
+    if not _quiet:
+        tell(text, to_stderr=to_stderr)
+
+
+def tell(text: str, *, to_stderr: bool = False) -> None:
+    """A line the user needs even under ``--quiet`` (a viewer's URL): stdout, or stderr beside JSON."""
+    if to_stderr:
+        sys.stderr.write(text.rstrip("\n") + "\n")
+    else:
+        typer.echo(text.rstrip("\n"))
+
+
 def fail(message: str) -> typer.Exit:
     """Print one line on stderr and return the exit (code 1) to raise."""
     sys.stderr.write(f"frc: error: {message}\n")
@@ -88,6 +129,10 @@ def print_json(payload: dict[str, Any]) -> None:
 __all__ = [
     "check_output_files",
     "fail",
+    "note",
+    "progress",
+    "set_quiet",
+    "tell",
     "handle_errors",
     "print_json",
     "to_jsonable",

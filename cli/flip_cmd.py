@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
 from frcontrol.planning import DEFAULT_FLIP_MARGIN as DEFAULT_MARGIN
@@ -17,9 +16,19 @@ from frcontrol.scene import load_scene
 if TYPE_CHECKING:  # the planner loads when the command runs, not for --help
     from frcontrol.planning.flip import FlipPlan, FlipResult
 
-from .common import check_output_files, console, fail, handle_errors, print_json
+from .common import (
+    check_output_files,
+    console,
+    fail,
+    handle_errors,
+    note,
+    print_json,
+    progress,
+    set_quiet,
+    tell,
+)
 from .model_cmds import JsonOpt
-from .options import SetOpt, scene_overrides
+from .options import QuietOpt, SetOpt, scene_overrides
 
 FlipSceneArg = Annotated[
     str, typer.Argument(help="A scene file with a robot on its back, or the name of a shipped scene.")
@@ -149,6 +158,7 @@ def flip_command(
     dt: DtOpt = 1e-3,
     replan_every: ReplanOpt = 10,
     sets: SetOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Plan the flip: hip torques maximising the body's pitch acceleration, unambiguously.
 
@@ -157,6 +167,7 @@ def flip_command(
     rigid simulation re-plans along the motion until the body pitches past vertical. No feasible
     flip is a result (exit 0, "flipped": false and the reason), not an error.
     """
+    set_quiet(quiet)
     from frcontrol.planning.flip import plan_flip, simulate_flip
 
     if port is not None and not view:
@@ -171,8 +182,7 @@ def flip_command(
 
         server = start_server(port)
     try:
-        status_console = Console(stderr=True)
-        with status_console.status("planning the flip...") as status:
+        with progress("planning the flip...") as status:
             plan = plan_flip(loaded, margin=margin)
             result = None
             if plan.found and max_time > 0:
@@ -185,22 +195,21 @@ def flip_command(
             print_json(payload)
         else:
             render(payload)
-        note = sys.stderr.write if json else (lambda text: typer.echo(text, nl=False))
         if plot is not None:
             from frcontrol.planning.plots import plot_flip
 
-            note(f"wrote {plot_flip(result if result is not None else plan, plot)}\n")
+            note(f"wrote {plot_flip(result if result is not None else plan, plot)}", to_stderr=json)
         trajectory = None if result is None else result.trajectory
         modes = None if result is None else list(result.modes)
         if html is not None:
             from frcontrol.viz.meshcat_view import write_html
 
-            note(f"wrote {write_html(loaded, trajectory, html, modes=modes)}\n")
+            note(f"wrote {write_html(loaded, trajectory, html, modes=modes)}", to_stderr=json)
         if server is not None:
             from frcontrol.viz.meshcat_view import draw
 
             draw(server.visualizer(), loaded, trajectory, modes=modes)
-            note(f"meshcat viewer: {server.url}\n")
+            tell(f"meshcat viewer: {server.url}", to_stderr=json)
             if sys.stdin.isatty():
                 try:
                     input("press Enter (or Ctrl-C) to stop the viewer ")

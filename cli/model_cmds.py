@@ -11,16 +11,17 @@ from rich.table import Table
 
 from frcontrol.scene import load_scene, shipped_robots_dir
 
-from .common import console, handle_errors, print_json
-from .options import SetOpt, scene_overrides
+from .common import console, handle_errors, print_json, set_quiet
+from .options import QuietOpt, SetOpt, scene_overrides
 
 SceneArg = Annotated[str, typer.Argument(help="A scene file, or the name of a shipped scene.")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
 
 
 @handle_errors
-def robots(json: JsonOpt = False) -> None:
+def robots(json: JsonOpt = False, quiet: QuietOpt = False) -> None:
     """List the robots and scenes that ship with frcontrol."""
+    set_quiet(quiet)
     root = shipped_robots_dir()
     if json:
         print_json({"folder": str(root),
@@ -68,8 +69,9 @@ def show_payload(scene_file: str | Path, overrides: dict | None = None) -> dict:
 
 
 @handle_errors
-def show(scene: SceneArg, json: JsonOpt = False, sets: SetOpt = None) -> None:
+def show(scene: SceneArg, json: JsonOpt = False, sets: SetOpt = None, quiet: QuietOpt = False) -> None:
     """Print the coordinates, M(q), h(q, v) and every contact's gap, velocities and rows."""
+    set_quiet(quiet)
     payload = show_payload(scene, scene_overrides(sets))
     if json:
         print_json(payload)

@@ -20,6 +20,13 @@ SetOpt = Annotated[
 ]
 
 
+QuietOpt = Annotated[
+    bool,
+    typer.Option("--quiet", "-q", help="Print only the answer: no progress display and no notes such as "
+                 "'wrote FILE' (errors and the simulation's validity warnings still go to stderr)."),
+]
+
+
 def scene_overrides(assignments: list[str] | None) -> dict[str, Any]:
     """The ``--set`` assignments as ``{path: value}`` (the last one wins for a repeated path).
 
@@ -36,4 +43,4 @@ def scene_overrides(assignments: list[str] | None) -> dict[str, Any]:
     return out
 
 
-__all__ = ["SetOpt", "scene_overrides"]
+__all__ = ["QuietOpt", "SetOpt", "scene_overrides"]

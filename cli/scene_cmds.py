@@ -12,7 +12,8 @@ from frcontrol.errors import SceneError
 from frcontrol.scene import resolve_scene_path, scene_problems
 from frcontrol.scene_schema import SCENE_SCHEMA
 
-from .common import console, handle_errors, print_json
+from .common import handle_errors, note, print_json, set_quiet
+from .options import QuietOpt
 
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
 
@@ -21,8 +22,10 @@ JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JS
 def schema_command(
     json_output: Annotated[bool, typer.Option("--json", help="Accepted for uniformity: the schema is JSON.")]
     = False,
+    quiet: QuietOpt = False,
 ) -> None:
     """Print the scene format as a JSON Schema (draft 2020-12)."""
+    set_quiet(quiet)
     sys.stdout.write(json.dumps(SCENE_SCHEMA, indent=2) + "\n")
 
 
@@ -30,8 +33,10 @@ def schema_command(
 def validate_command(
     files: Annotated[list[str], typer.Argument(help="Scene files, or names of shipped scenes.")],
     json_output: JsonOpt = False,
+    quiet: QuietOpt = False,
 ) -> None:
     """Check scene files: exit 0 when all are valid, else 1 with one line per problem on stderr."""
+    set_quiet(quiet)
     reports = []
     for name in files:
         problems = scene_problems(name)
@@ -49,7 +54,7 @@ def validate_command(
     else:
         for r in reports:
             if r["valid"]:
-                console.print(f"{r['file']}: valid")
+                note(f"{r['file']}: valid")
     if not all(r["valid"] for r in reports):
         raise typer.Exit(code=1)
 

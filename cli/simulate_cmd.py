@@ -9,7 +9,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
-from rich.console import Console
 from rich.table import Table
 
 from frcontrol.scene import load_scene
@@ -19,9 +18,9 @@ if TYPE_CHECKING:  # the simulators load when the command runs, not for --help
     from frcontrol.simulation.trajectory import Trajectory
 
 from .analyze_cmd import InputOpt, parse_assignments
-from .common import check_output_files, console, fail, handle_errors, print_json
+from .common import check_output_files, console, fail, handle_errors, note, print_json, progress, set_quiet
 from .model_cmds import JsonOpt, SceneArg
-from .options import SetOpt, scene_overrides
+from .options import QuietOpt, SetOpt, scene_overrides
 
 MAX_EVENTS_SHOWN = 40
 """Events listed in the table (all of them are in ``--json``)."""
@@ -125,6 +124,7 @@ def simulate_command(
     json: JsonOpt = False,
     html: HtmlOpt = None,
     sets: SetOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Simulate a scene: contact events, energy and constraint drift over time.
 
@@ -133,6 +133,7 @@ def simulate_command(
     growth beyond the inputs' work, deep penetration or implausible contact speeds are warnings,
     one line each on stderr and in the JSON's "warnings".
     """
+    set_quiet(quiet)
     from frcontrol.simulation.compliant import simulate_compliant
     from frcontrol.simulation.options import model_options
     from frcontrol.simulation.rigid import simulate_rigid
@@ -143,7 +144,7 @@ def simulate_command(
     if chosen == "rigid" and (stiffness is not None or damping is not None):
         raise fail("--stiffness and --damping belong to the compliant model: add --model compliant")
     assignments = parse_assignments(inputs)
-    with Console(stderr=True).status(f"simulating {duration:g} s on the {chosen} model..."):
+    with progress(f"simulating {duration:g} s on the {chosen} model..."):
         if chosen == "rigid":
             traj = simulate_rigid(loaded, assignments, duration, dt)
         else:
@@ -161,7 +162,7 @@ def simulate_command(
 
         written = write_html(loaded, traj, html)
         if not json:
-            console.print(f"wrote {written}")
+            note(f"wrote {written}")
     payload = trajectory_payload(traj)
     if json:
         print_json(payload)

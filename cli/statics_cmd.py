@@ -17,9 +17,9 @@ from frcontrol.scene import Scene, load_scene
 if TYPE_CHECKING:  # the statics load when the command runs, not for --help
     from frcontrol.statics import StaticsReport
 
-from .common import check_output_files, console, handle_errors, print_json
+from .common import check_output_files, console, handle_errors, note, print_json, set_quiet
 from .model_cmds import JsonOpt, SceneArg
-from .options import SetOpt, scene_overrides
+from .options import QuietOpt, SetOpt, scene_overrides
 
 InputOpt = Annotated[
     list[str] | None,
@@ -157,8 +157,10 @@ def statics_command(
     lateral_acceleration: LateralOpt = 0.0,
     no_strong: WeakOnlyOpt = False,
     sets: SetOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Form and force closure, static equilibrium, support region, weak and strong stability at rest."""
+    set_quiet(quiet)
     from frcontrol.statics import analyze_statics
 
     check_output_files(plot=plot)
@@ -173,7 +175,7 @@ def statics_command(
         return
     render(payload)
     if plot is not None:
-        console.print(f"plot written to {plot}")
+        note(f"wrote {plot}")
 
 
 def _yes(flag: bool | None) -> str:

@@ -10,9 +10,9 @@ import typer
 
 from frcontrol.scene import load_scene
 
-from .common import check_output_files, fail, handle_errors, print_json
+from .common import check_output_files, fail, handle_errors, note, print_json, set_quiet
 from .model_cmds import JsonOpt, SceneArg
-from .options import SetOpt, scene_overrides
+from .options import QuietOpt, SetOpt, scene_overrides
 
 HtmlOpt = Annotated[
     Path | None,
@@ -46,12 +46,14 @@ def view_command(
     plot: PlotOpt = None,
     json: JsonOpt = False,
     sets: SetOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Show a scene's state: robot, contacts, surfaces and friction cones.
 
     With no --html, --plot or --view, writes SCENE_NAME.html (a self-contained meshcat page) in the
     current folder and says where.
     """
+    set_quiet(quiet)
     if port is not None and not view:
         raise fail("--port needs --view")
     if html is None and plot is None and not view:
@@ -59,18 +61,17 @@ def view_command(
     check_output_files(plot=plot, html=html)
     loaded = load_scene(scene, overrides=scene_overrides(sets))
     written: dict[str, str | None] = {"html": None, "plot": None, "url": None}
-    say = (lambda text: sys.stderr.write(text + "\n")) if json else typer.echo
     if html is not None:
         from frcontrol.viz.meshcat_view import write_html
 
         written["html"] = str(Path(write_html(loaded, None, html)).resolve())
-        say(f"wrote {written['html']}")
+        note(f"wrote {written['html']}", to_stderr=json)
     if plot is not None:
         from frcontrol.viz.plots import plot_scene
 
         plot_scene(loaded, plot)
         written["plot"] = str(plot)
-        say(f"wrote {plot}")
+        note(f"wrote {plot}", to_stderr=json)
     if view:
         from frcontrol.viz.meshcat_view import serve, stop_server
 

@@ -1,0 +1,36 @@
+"""The CLI's conventions hold for every command: --json, --quiet, -h; --set where a scene is read."""
+
+from __future__ import annotations
+
+import pytest
+import typer
+from frcontrol.cli.app import app
+from typer.testing import CliRunner
+
+runner = CliRunner()
+COMMANDS = typer.main.get_command(app).commands
+READS_A_SCENE = {"show", "analyze", "statics", "simulate", "flip", "climb", "view"}
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_every_command_has_the_shared_options(name):
+    options = {opt for param in COMMANDS[name].params for opt in param.opts}
+    assert {"--json", "--quiet", "-q"} <= options, options
+    assert ("--set" in options) == (name in READS_A_SCENE)
+    result = runner.invoke(app, [name, "-h"])
+    assert result.exit_code == 0 and "--quiet" in result.stdout
+
+
+def test_every_command_is_registered():
+    assert set(COMMANDS) == READS_A_SCENE | {"robots", "schema", "validate"}
+
+
+def test_quiet_keeps_the_answer_and_drops_the_notes(tmp_path):
+    page = tmp_path / "rod.html"
+    loud = runner.invoke(app, ["view", "rod_on_table", "--html", str(page)])
+    assert loud.exit_code == 0 and loud.stdout.strip() == f"wrote {page}"
+    quiet = runner.invoke(app, ["view", "rod_on_table", "--html", str(page), "-q"])
+    assert quiet.exit_code == 0 and quiet.stdout == "" and page.stat().st_size > 100_000
+    answer = runner.invoke(app, ["analyze", "rod_on_table", "--input", "x=1", "-q"])
+    assert answer.exit_code == 0 and "mode" in answer.stdout
+    assert runner.invoke(app, ["validate", "rod_on_table", "-q"]).stdout == ""
