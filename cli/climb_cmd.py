@@ -29,7 +29,7 @@ from .common import (
     tell,
 )
 from .model_cmds import JsonOpt
-from .options import QuietOpt, SetOpt, scene_overrides
+from .options import OutOpt, QuietOpt, SetOpt, check_out_suffix, scene_overrides
 
 ClimbSceneArg = Annotated[
     str, typer.Argument(help="A scene file with [[disturbances]], or the name of a shipped scene.")
@@ -135,6 +135,7 @@ def climb_command(
     scene: ClimbSceneArg = "snake_climb",
     json: JsonOpt = False,
     html: HtmlOpt = None,
+    out: OutOpt = None,
     view: ViewOpt = False,
     port: PortOpt = None,
     plot: PlotOpt = None,
@@ -155,7 +156,8 @@ def climb_command(
 
     if port is not None and not view:
         raise fail("--port needs --view")
-    check_output_files(plot=plot, html=html)
+    check_output_files(plot=plot, html=html, out=out)
+    check_out_suffix(out)
     loaded = load_scene(scene, overrides=scene_overrides(sets))
     with progress("planning the climb..."):
         plan = plan_climb(loaded, margin=margin)
@@ -182,6 +184,13 @@ def climb_command(
         from frcontrol.viz.meshcat_view import write_html
 
         note(f"wrote {write_html(loaded, trajectory, html)}", to_stderr=json)
+    if out is not None:
+        if trajectory is None:
+            note("no trajectory (nothing was simulated): --out not written", to_stderr=True)
+        else:
+            from frcontrol.simulation.export import save_trajectory
+
+            note(f"wrote {save_trajectory(loaded, trajectory, out)}", to_stderr=json)
     if view:
         from frcontrol.viz.meshcat_view import serve, stop_server
 

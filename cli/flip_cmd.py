@@ -28,7 +28,7 @@ from .common import (
     tell,
 )
 from .model_cmds import JsonOpt
-from .options import QuietOpt, SetOpt, scene_overrides
+from .options import OutOpt, QuietOpt, SetOpt, check_out_suffix, scene_overrides
 
 FlipSceneArg = Annotated[
     str, typer.Argument(help="A scene file with a robot on its back, or the name of a shipped scene.")
@@ -150,6 +150,7 @@ def flip_command(
     scene: FlipSceneArg = "rhex_flip",
     json: JsonOpt = False,
     html: HtmlOpt = None,
+    out: OutOpt = None,
     view: ViewOpt = False,
     port: PortOpt = None,
     plot: PlotOpt = None,
@@ -172,7 +173,8 @@ def flip_command(
 
     if port is not None and not view:
         raise fail("--port needs --view")
-    check_output_files(plot=plot, html=html)
+    check_output_files(plot=plot, html=html, out=out)
+    check_out_suffix(out)
     from frcontrol.viz.meshcat_view import stop_server
 
     loaded = load_scene(scene, overrides=scene_overrides(sets))
@@ -205,6 +207,13 @@ def flip_command(
             from frcontrol.viz.meshcat_view import write_html
 
             note(f"wrote {write_html(loaded, trajectory, html, modes=modes)}", to_stderr=json)
+        if out is not None:
+            if trajectory is None:
+                note("no trajectory (nothing was simulated): --out not written", to_stderr=True)
+            else:
+                from frcontrol.simulation.export import save_trajectory
+
+                note(f"wrote {save_trajectory(loaded, trajectory, out)}", to_stderr=json)
         if server is not None:
             from frcontrol.viz.meshcat_view import draw
 

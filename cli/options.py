@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated, Any
 
 import typer
@@ -27,6 +28,25 @@ QuietOpt = Annotated[
 ]
 
 
+OutOpt = Annotated[
+    Path | None,
+    typer.Option("--out", metavar="FILE", help="Export the trajectory: FILE.npz (arrays times, q, v, "
+                 "inputs, forces, modes) or FILE.csv (a row per sample)."),
+]
+
+
+def check_out_suffix(out: Path | None) -> None:
+    """Refuse, before any work, an ``--out`` file that is neither ``.npz`` nor ``.csv``.
+
+    Raises:
+        InputError: another suffix.
+    """
+    from frcontrol.simulation import TRAJECTORY_FORMATS
+
+    if out is not None and out.suffix.lower() not in TRAJECTORY_FORMATS:
+        raise InputError(f"--out {str(out)!r}: the suffix must be one of {', '.join(TRAJECTORY_FORMATS)}")
+
+
 def scene_overrides(assignments: list[str] | None) -> dict[str, Any]:
     """The ``--set`` assignments as ``{path: value}`` (the last one wins for a repeated path).
 
@@ -43,4 +63,4 @@ def scene_overrides(assignments: list[str] | None) -> dict[str, Any]:
     return out
 
 
-__all__ = ["QuietOpt", "SetOpt", "scene_overrides"]
+__all__ = ["OutOpt", "QuietOpt", "SetOpt", "check_out_suffix", "scene_overrides"]

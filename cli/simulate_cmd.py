@@ -15,12 +15,13 @@ from frcontrol.scene import load_scene
 from frcontrol.simulation import INTEGRATORS
 
 if TYPE_CHECKING:  # the simulators load when the command runs, not for --help
+    from frcontrol.scene import Scene
     from frcontrol.simulation.trajectory import Trajectory
 
 from .analyze_cmd import InputOpt, parse_assignments
 from .common import check_output_files, console, fail, handle_errors, note, print_json, progress, set_quiet
 from .model_cmds import JsonOpt, SceneArg
-from .options import QuietOpt, SetOpt, scene_overrides
+from .options import OutOpt, QuietOpt, SetOpt, check_out_suffix, scene_overrides
 
 MAX_EVENTS_SHOWN = 40
 """Events listed in the table (all of them are in ``--json``)."""
@@ -64,8 +65,12 @@ HtmlOpt = Annotated[
 ]
 
 
-def trajectory_payload(traj: Trajectory) -> dict[str, Any]:
-    """The ``frc simulate --json`` document: a summary and the samples."""
+def trajectory_payload(traj: Trajectory, scene: Scene | None = None) -> dict[str, Any]:
+    """The ``frc simulate --json`` document: a summary and the samples.
+
+    With the scene, the samples carry every contact's mode and the events the mode each contact
+    left and entered (``from``, ``to``: the letters of the samples before and at the event).
+    """
     info = traj.info
     energy = np.asarray(info["energy"])
     penetration = np.asarray(info["max_penetration"])
@@ -104,11 +109,19 @@ def trajectory_payload(traj: Trajectory) -> dict[str, Any]:
     if not np.isfinite(summary.get("explicit_stability_limit", 0.0)):
         summary["explicit_stability_limit"] = None
     summary["validity"] = info.get("validity")
-    return {
-        "summary": summary,
-        "samples": {"times": traj.times, "q": traj.q, "energy": energy, "max_penetration": penetration},
-        "warnings": [w.to_dict() for w in traj.warnings],
-    }
+    samples: dict[str, Any] = {"times": traj.times, "q": traj.q, "v": traj.v, "inputs": traj.inputs,
+                               "forces": traj.contact_forces, "energy": energy,
+                               "max_penetration": penetration}
+    if scene is not None:
+        from frcontrol.simulation.export import sample_modes
+
+        modes = sample_modes(scene, traj)
+        samples["modes"] = list(modes)
+        for event in summary["events"]:
+            at = min(int(np.searchsorted(traj.times, event["time"] - 1e-12)), len(modes) - 1)
+            i = traj.contacts.index(event["contact"])
+            event["from"], event["to"] = modes[max(at - 1, 0)][i], modes[at][i]
+    return {"summary": summary, "samples": samples, "warnings": [w.to_dict() for w in traj.warnings]}
 
 
 @handle_errors
@@ -123,6 +136,7 @@ def simulate_command(
     integrator: IntegratorOpt = "radau",
     json: JsonOpt = False,
     html: HtmlOpt = None,
+    out: OutOpt = None,
     sets: SetOpt = None,
     quiet: QuietOpt = False,
 ) -> None:
@@ -138,7 +152,8 @@ def simulate_command(
     from frcontrol.simulation.options import model_options
     from frcontrol.simulation.rigid import simulate_rigid
 
-    check_output_files(html=html)
+    check_output_files(html=html, out=out)
+    check_out_suffix(out)
     loaded = load_scene(scene, overrides=scene_overrides(sets))
     chosen = model.value if model is not None else model_options(loaded).contact
     if chosen == "rigid" and (stiffness is not None or damping is not None):
@@ -160,10 +175,12 @@ def simulate_command(
     if html is not None:
         from frcontrol.viz.meshcat_view import write_html
 
-        written = write_html(loaded, traj, html)
-        if not json:
-            note(f"wrote {written}")
-    payload = trajectory_payload(traj)
+        note(f"wrote {write_html(loaded, traj, html)}", to_stderr=json)
+    if out is not None:
+        from frcontrol.simulation.export import save_trajectory
+
+        note(f"wrote {save_trajectory(loaded, traj, out)}", to_stderr=json)
+    payload = trajectory_payload(traj, loaded)
     if json:
         print_json(payload)
     else:

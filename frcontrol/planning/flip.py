@@ -94,7 +94,8 @@ from ..errors import FrcontrolError, ImpactState, InputError, SceneError
 from ..modes import VELOCITY_TOLERANCE, ContactProblem
 from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
-from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
+from ..simulation.export import sample_modes
+from ..simulation.rigid import CONTACT_FORCE_TOLERANCE
 from ..solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, SolverFailed, solve_lp, solve_lp_prepared
 from . import DEFAULT_FLIP_MARGIN
 
@@ -913,33 +914,6 @@ def _weight(scene: Scene) -> float:
     robot = scene.robot
     weight = float(sum(inertia.mass for inertia in robot.model.inertias)) * robot.gravity
     return weight if weight > 0 else 1.0
-
-
-def sample_modes(scene: Scene, trajectory: Any, *, slip_tolerance: float = SLIP_VELOCITY_TOLERANCE,
-                 force_tolerance: float = CONTACT_FORCE_TOLERANCE) -> tuple[str, ...]:
-    """Per sample, one letter per scene contact: S (no load), F, R or L (by the slip velocity).
-
-    A contact is loaded when its normal force exceeds ``force_tolerance`` times the robot's weight;
-    it then sticks (F) if ``|v_T| <= slip_tolerance`` [m/s], else slides R (+t) or L (-t).
-    """
-    robot = scene.robot
-    threshold = force_tolerance * _weight(scene)
-    indices = list(range(len(scene.contacts)))
-    out = []
-    for q, v, forces in zip(trajectory.q, trajectory.v, trajectory.contact_forces, strict=True):
-        vt = robot.state(q, v, indices).tangential_velocities
-        letters = []
-        for i in indices:
-            if forces[i, 0] <= threshold:
-                letters.append("S")
-            elif vt[i] > slip_tolerance:
-                letters.append("R")
-            elif vt[i] < -slip_tolerance:
-                letters.append("L")
-            else:
-                letters.append("F")
-        out.append("".join(letters))
-    return tuple(out)
 
 
 def _concatenate(scene: Scene, chunks: Sequence[Any], info: dict) -> Any:

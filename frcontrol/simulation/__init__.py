@@ -16,12 +16,17 @@ if TYPE_CHECKING:
 INTEGRATORS = ("radau", "bdf", "lsoda", "rk45", "dop853", "euler")
 """The integrators :func:`simulate_compliant` accepts."""
 
+TRAJECTORY_FORMATS = (".npz", ".csv")
+"""The file suffixes :func:`save_trajectory` writes."""
+
 _LAZY = {
     "simulate_compliant": ".compliant",
     "simulate_rigid": ".rigid",
     "ContactParameters": ".options",
     "ModelOptions": ".options",
     "model_options": ".options",
+    "sample_modes": ".export",
+    "save_trajectory": ".export",
     "ContactEvent": ".trajectory",
     "SimulationWarning": ".trajectory",
     "Trajectory": ".trajectory",
@@ -62,12 +67,15 @@ def simulate(scene: Scene, inputs: Any = None, duration: float = 1.0, dt: float 
 
 __all__ = [
     "INTEGRATORS",
+    "TRAJECTORY_FORMATS",
     "ContactEvent",
     "ContactParameters",
     "ModelOptions",
     "SimulationWarning",
     "Trajectory",
     "model_options",
+    "sample_modes",
+    "save_trajectory",
     "simulate",
     "simulate_compliant",
     "simulate_rigid",

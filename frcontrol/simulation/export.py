@@ -1,0 +1,121 @@
+"""A trajectory's contact modes per sample, and its export to NPZ or CSV.
+
+:func:`sample_modes` names each sample's motion with one letter per scene contact (S, L, R, F),
+from the sample's normal force and the contact point's tangential velocity:
+
+- **S** when the normal force is at most ``force_tolerance`` times the robot's weight (1 N
+  without gravity);
+- else **F** when ``|v_T| <= slip_tolerance`` [m/s], **R** when ``v_T > slip_tolerance`` (along
+  +t) and **L** when ``v_T < -slip_tolerance``.
+
+The defaults are the rigid stepper's :data:`~frcontrol.simulation.rigid.CONTACT_FORCE_TOLERANCE`
+and :data:`~frcontrol.simulation.rigid.SLIP_VELOCITY_TOLERANCE`.
+
+:func:`save_trajectory` writes ``times``, ``q``, ``v``, ``inputs``, ``forces`` (every contact's
+``(lambda_n, lambda_t)``) and ``modes`` (one letter per contact and sample): in an ``.npz`` file as
+arrays of those names (with ``coordinates``, ``contacts`` and ``input_names``), in a ``.csv`` file
+as one row per sample with a header naming every column.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, reason_from_exception
+from ..scene import Scene
+from . import TRAJECTORY_FORMATS
+from .rigid import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
+from .trajectory import Trajectory
+
+__all__ = ["TRAJECTORY_FORMATS", "sample_modes", "save_trajectory", "trajectory_arrays"]
+
+
+
+def _weight(scene: Scene) -> float:
+    """The robot's weight [N] (1 N without gravity): the scale of the contact-force threshold."""
+    robot = scene.robot
+    weight = float(sum(inertia.mass for inertia in robot.model.inertias)) * robot.gravity
+    return weight if weight > 0 else 1.0
+
+
+def sample_modes(scene: Scene, trajectory: Trajectory, *, slip_tolerance: float = SLIP_VELOCITY_TOLERANCE,
+                 force_tolerance: float = CONTACT_FORCE_TOLERANCE) -> tuple[str, ...]:
+    """Per sample, one letter per scene contact: S (no load), F, R or L (module docstring)."""
+    robot = scene.robot
+    threshold = force_tolerance * _weight(scene)
+    indices = list(range(len(scene.contacts)))
+    out = []
+    for q, v, forces in zip(trajectory.q, trajectory.v, trajectory.contact_forces, strict=True):
+        vt = robot.state(q, v, indices).tangential_velocities
+        letters = []
+        for i in indices:
+            if forces[i, 0] <= threshold:
+                letters.append("S")
+            elif vt[i] > slip_tolerance:
+                letters.append("R")
+            elif vt[i] < -slip_tolerance:
+                letters.append("L")
+            else:
+                letters.append("F")
+        out.append("".join(letters))
+    return tuple(out)
+
+
+def trajectory_arrays(scene: Scene, trajectory: Trajectory) -> dict[str, np.ndarray]:
+    """The arrays :func:`save_trajectory` writes, by name."""
+    modes = sample_modes(scene, trajectory)
+    k = len(trajectory.contacts)
+    return {
+        "times": np.asarray(trajectory.times, dtype=float),
+        "q": np.asarray(trajectory.q, dtype=float),
+        "v": np.asarray(trajectory.v, dtype=float),
+        "inputs": np.asarray(trajectory.inputs, dtype=float).reshape(len(trajectory.times), -1),
+        "forces": np.asarray(trajectory.contact_forces, dtype=float).reshape(len(trajectory.times), k, 2),
+        "modes": np.array([list(m) for m in modes], dtype="<U1").reshape(len(trajectory.times), k),
+        "coordinates": np.array(trajectory.coordinates, dtype=str),
+        "contacts": np.array(trajectory.contacts, dtype=str),
+        "input_names": np.array(trajectory.input_names, dtype=str),
+    }
+
+
+def save_trajectory(scene: Scene, trajectory: Trajectory, path: str | Path) -> Path:
+    """Write a trajectory as ``.npz`` (arrays by name) or ``.csv`` (a row per sample).
+
+    Raises:
+        InputError: another suffix, or the file cannot be written.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in TRAJECTORY_FORMATS:
+        raise InputError(f"cannot write a trajectory to {str(path)!r}: the suffix must be one of "
+                         f"{', '.join(TRAJECTORY_FORMATS)}")
+    arrays = trajectory_arrays(scene, trajectory)
+    try:
+        if suffix == ".npz":
+            np.savez(path, **arrays)
+        else:
+            _write_csv(path, arrays)
+    except OSError as err:
+        raise InputError(f"cannot write {str(path)!r}: {reason_from_exception(err)}") from err
+    return path
+
+
+def _write_csv(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    coords, contacts, inputs = arrays["coordinates"], arrays["contacts"], arrays["input_names"]
+    header = (["time"] + [f"q_{c}" for c in coords] + [f"v_{c}" for c in coords]
+              + [f"u_{u}" for u in inputs]
+              + [f"{c}_{part}" for c in contacts for part in ("lambda_n", "lambda_t", "mode")])
+    with path.open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(header)
+        for j, t in enumerate(arrays["times"]):
+            row: list[object] = [repr(float(t))]
+            row += [repr(float(x)) for x in arrays["q"][j]] + [repr(float(x)) for x in arrays["v"][j]]
+            row += [repr(float(x)) for x in arrays["inputs"][j]]
+            for i in range(len(contacts)):
+                row += [repr(float(arrays["forces"][j, i, 0])), repr(float(arrays["forces"][j, i, 1])),
+                        str(arrays["modes"][j, i])]
+            writer.writerow(row)
