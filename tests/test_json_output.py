@@ -44,7 +44,8 @@ def per_scene(scene: str) -> list[list[str]]:
 
 def lp_commands(scene: str) -> list[list[str]]:
     """The commands on one scene whose answer goes through the LP door."""
-    out = [["analyze", scene], ["statics", scene]]
+    out = [["analyze", scene], ["statics", scene],  # the rigid stepper checks ambiguity with the engine
+           ["simulate", scene, "--duration", "0.02", "--dt", "0.002"]]
     if scene in PLANNER_SCENE.values():
         command = "flip" if scene == "rhex_flip" else "climb"
         short = ["--max-time", "0.05"] if command == "flip" else ["--duration", "0.02"]
