@@ -125,7 +125,7 @@ def test_rod_sliding_painleve(write_scene, slide):
     theta = 2.007 if slide > 0 else np.pi - 2.007
     scene = rod_problem(write_scene, theta=theta, slide=slide)
     problem = ContactProblem.from_scene(scene)
-    assert problem.allowed_modes() == ("SR",) if slide > 0 else ("SL",)
+    assert problem.allowed_modes() == (("SR",) if slide > 0 else ("SL",))
     letter = "R" if slide > 0 else "L"
     rng = np.random.default_rng(8)
     counts = set()
