@@ -1,15 +1,16 @@
 """The engine, the LCP solvers, the statics and the compliant model at the extremes.
 
 The cases live in ``extreme_cases.py`` (shared with ``benchmarks/extremes.py``, which writes the
-table ``benchmarks/extremes.md``). Each returns the right answer to its stated tolerance or a typed
-error that names the cause; a case exposing a known library bug is ``xfail(strict=True)`` with the
-diagnosis, so that the fix flips it.
+table ``benchmarks/extremes.md``). Each returns the right answer to its stated tolerance, or, for the
+cases listed in ``TYPED_ERROR_CASES``, the typed error named there (a message that names the cause);
+a case exposing a known library bug is ``xfail(strict=True)`` with the diagnosis, so that the fix
+flips it.
 """
 
 from __future__ import annotations
 
 import pytest
-from extreme_cases import CASES, Case, Outcome
+from extreme_cases import CASES, TYPED_ERROR_CASES, Case, Outcome
 
 
 def _param(case: Case):
@@ -21,7 +22,11 @@ def _param(case: Case):
 def test_extreme_case(case: Case, tmp_path):
     outcome = case.run(tmp_path)
     assert isinstance(outcome, Outcome)
-    assert outcome.kind in ("pass", "typed error"), outcome
+    if case.id in TYPED_ERROR_CASES:
+        assert outcome.kind == "typed error", outcome
+        assert outcome.detail.startswith(TYPED_ERROR_CASES[case.id]), outcome
+    else:
+        assert outcome.kind == "pass", outcome
     assert outcome.detail
 
 
