@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 import os
 import sys
 from collections.abc import Callable
@@ -11,11 +10,11 @@ from functools import wraps
 from pathlib import Path
 from typing import Any, ParamSpec, TypeVar
 
-import numpy as np
 import typer
 from rich.console import Console
 
 from frcontrol.errors import FrcontrolError, InputError
+from frcontrol.jsonable import to_jsonable
 
 console = Console()
 P = ParamSpec("P")
@@ -99,26 +98,6 @@ def check_output_files(**files: Path | None) -> None:
             raise InputError(f"{flag} {str(path)!r}: cannot write: the folder {str(folder)!r} does not exist")
         if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
             raise InputError(f"{flag} {str(path)!r}: cannot write: permission denied")
-
-
-def to_jsonable(value: Any) -> Any:
-    """Convert numpy arrays and scalars to plain JSON types; refuse NaN and infinities."""
-    if isinstance(value, dict):
-        return {str(k): to_jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [to_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return to_jsonable(value.tolist())
-    if isinstance(value, (np.bool_, bool)):
-        return bool(value)
-    if isinstance(value, (np.integer, int)):
-        return int(value)
-    if isinstance(value, (np.floating, float)):
-        x = float(value)
-        if not math.isfinite(x):
-            raise FrcontrolError(f"internal error: a non-finite number ({x}) reached the output")
-        return x
-    return value
 
 
 def print_json(payload: dict[str, Any]) -> None:

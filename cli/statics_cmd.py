@@ -65,87 +65,9 @@ def parse_input_pairs(pairs: list[str] | None) -> dict[str, float]:
     return out
 
 
-def _num(x: float) -> float | None:
-    """A finite float, or None (JSON null) for an infinite or undefined one."""
-    x = float(x)
-    return x if math.isfinite(x) else None
-
-
-def _pairs(array: np.ndarray | None) -> list[list[float | None]] | None:
-    return None if array is None else [[_num(lo), _num(hi)] for lo, hi in array]
-
-
 def statics_payload(report: StaticsReport) -> dict[str, Any]:
-    """The ``frc statics --json`` document (infinite bounds are ``null``)."""
-    body = report.body
-    eq = report.equilibrium
-    sup = report.support
-    names = list(body.contact_names)
-    forces = None
-    if eq.lambda_n is not None and eq.lambda_t is not None:
-        forces = {name: {"lambda_n": eq.lambda_n[i], "lambda_t": eq.lambda_t[i]}
-                  for i, name in enumerate(names)}
-    ranges = None
-    n_range, t_range = _pairs(eq.lambda_n_range), _pairs(eq.lambda_t_range)
-    if n_range is not None and t_range is not None:
-        ranges = {name: {"lambda_n": n_range[i], "lambda_t": t_range[i]} for i, name in enumerate(names)}
-
-    def closure(c: Any) -> dict[str, Any]:
-        return {"closed": c.closed, "margin": c.margin, "rank": c.rank,
-                "min_coefficient": _num(c.min_coefficient),
-                "weakest_direction": None if c.weakest_direction is None else c.weakest_direction}
-
-    strong = report.strong
-    return {
-        "scene": report.scene_name,
-        "form_closure": report.form_closure.closed,
-        "form_closure_margin": report.form_closure.margin,
-        "force_closure": report.force_closure.closed,
-        "force_closure_margin": report.force_closure.margin,
-        "static_equilibrium": eq.exists,
-        "weakly_stable": report.weakly_stable,
-        "strongly_stable": report.strongly_stable,
-        "support_region": {
-            "x_min": _num(sup.x_min),
-            "x_max": _num(sup.x_max),
-            "com": sup.com,
-            "contains_com": sup.contains_com,
-            "lateral_acceleration": sup.lateral_acceleration,
-            "method": sup.method,
-            "empty": bool(sup.region.empty),
-            "bounded": sup.bounded,
-            "region_contains_com": sup.region_contains_com,
-            "halfplanes": {"A": np.asarray(sup.region.A), "b": np.asarray(sup.region.b)},
-            "vertices": sup.vertices,
-        },
-        "contacts": names,
-        "inactive_contacts": list(report.inactive_contacts),
-        "inputs": report.inputs,
-        "body": {"mass": body.mass, "com": body.com, "gravity": body.gravity,
-                 "characteristic_length": body.characteristic_length,
-                 "length_source": body.length_source},
-        "closure": {"form": closure(report.form_closure), "force": closure(report.force_closure)},
-        "equilibrium": {
-            "exists": eq.exists,
-            "residual": eq.residual,
-            "load": eq.load,
-            "forces": forces,
-            "cone_slack": eq.cone_slack,
-            "dimension": eq.dimension,
-            "statically_indeterminate": eq.statically_indeterminate,
-            "tight": list(eq.tight),
-            "ranges": ranges,
-        },
-        "weak_stability": {"weakly_stable": report.weakly_stable, "residual": report.weak.residual},
-        "strong_stability": None if strong is None else {
-            "strongly_stable": strong.strongly_stable,
-            "moving_modes": list(strong.moving_modes),
-            "solutions": [{"mode": s.mode, "max_abs_dv": _num(s.max_abs_dv), "at_rest": s.at_rest,
-                           "ambiguous_outputs": s.ambiguous_outputs} for s in strong.solutions],
-        },
-        "timings": dict(report.timings),
-        "tolerances": dict(report.tolerances),
-    }
+    """The ``frc statics --json`` document: :meth:`~frcontrol.statics.StaticsReport.to_dict`."""
+    return report.to_dict()
 
 
 @handle_errors

@@ -99,6 +99,7 @@ import scipy.spatial
 
 from . import polytope as poly
 from .errors import InputError
+from .jsonable import finite_or_none, to_jsonable
 from .scene import Scene, parse_input_assignments
 from .solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, LPResult, SolverFailed, solve_lp
 
@@ -1050,6 +1051,11 @@ def strong_stability(
 # everything at once
 
 
+def _bound_pairs(array: np.ndarray | None) -> list[list[float | None]] | None:
+    """``(lower, upper)`` rows with infinite bounds as None."""
+    return None if array is None else [[finite_or_none(lo), finite_or_none(hi)] for lo, hi in array]
+
+
 @dataclass(frozen=True, eq=False)
 class StaticsReport:
     """All the statics of a scene at its configuration.
@@ -1085,6 +1091,80 @@ class StaticsReport:
     def weakly_stable(self) -> bool:
         """Some equilibrium forces exist (the robot with its joints, under the inputs)."""
         return self.weak.weakly_stable
+
+    def to_dict(self) -> dict[str, Any]:
+        """The report as JSON values (the ``frc statics --json`` document; infinite bounds are null)."""
+        report = self
+        body = report.body
+        eq = report.equilibrium
+        sup = report.support
+        names = list(body.contact_names)
+        forces = None
+        if eq.lambda_n is not None and eq.lambda_t is not None:
+            forces = {name: {"lambda_n": eq.lambda_n[i], "lambda_t": eq.lambda_t[i]}
+                      for i, name in enumerate(names)}
+        ranges = None
+        n_range, t_range = _bound_pairs(eq.lambda_n_range), _bound_pairs(eq.lambda_t_range)
+        if n_range is not None and t_range is not None:
+            ranges = {name: {"lambda_n": n_range[i], "lambda_t": t_range[i]} for i, name in enumerate(names)}
+
+        def closure(c: Any) -> dict[str, Any]:
+            return {"closed": c.closed, "margin": c.margin, "rank": c.rank,
+                    "min_coefficient": finite_or_none(c.min_coefficient),
+                    "weakest_direction": None if c.weakest_direction is None else c.weakest_direction}
+
+        strong = report.strong
+        return to_jsonable({
+            "scene": report.scene_name,
+            "form_closure": report.form_closure.closed,
+            "form_closure_margin": report.form_closure.margin,
+            "force_closure": report.force_closure.closed,
+            "force_closure_margin": report.force_closure.margin,
+            "static_equilibrium": eq.exists,
+            "weakly_stable": report.weakly_stable,
+            "strongly_stable": report.strongly_stable,
+            "support_region": {
+                "x_min": finite_or_none(sup.x_min),
+                "x_max": finite_or_none(sup.x_max),
+                "com": sup.com,
+                "contains_com": sup.contains_com,
+                "lateral_acceleration": sup.lateral_acceleration,
+                "method": sup.method,
+                "empty": bool(sup.region.empty),
+                "bounded": sup.bounded,
+                "region_contains_com": sup.region_contains_com,
+                "halfplanes": {"A": np.asarray(sup.region.A), "b": np.asarray(sup.region.b)},
+                "vertices": sup.vertices,
+            },
+            "contacts": names,
+            "inactive_contacts": list(report.inactive_contacts),
+            "inputs": report.inputs,
+            "body": {"mass": body.mass, "com": body.com, "gravity": body.gravity,
+                     "characteristic_length": body.characteristic_length,
+                     "length_source": body.length_source},
+            "closure": {"form": closure(report.form_closure), "force": closure(report.force_closure)},
+            "equilibrium": {
+                "exists": eq.exists,
+                "residual": eq.residual,
+                "load": eq.load,
+                "forces": forces,
+                "cone_slack": eq.cone_slack,
+                "dimension": eq.dimension,
+                "statically_indeterminate": eq.statically_indeterminate,
+                "tight": list(eq.tight),
+                "ranges": ranges,
+            },
+            "weak_stability": {"weakly_stable": report.weakly_stable, "residual": report.weak.residual},
+            "strong_stability": None if strong is None else {
+                "strongly_stable": strong.strongly_stable,
+                "moving_modes": list(strong.moving_modes),
+                "solutions": [{"mode": s.mode, "max_abs_dv": finite_or_none(s.max_abs_dv),
+                               "at_rest": s.at_rest, "ambiguous_outputs": s.ambiguous_outputs}
+                              for s in strong.solutions],
+            },
+            "timings": dict(report.timings),
+            "tolerances": dict(report.tolerances),
+        })
 
     @property
     def strongly_stable(self) -> bool | None:
