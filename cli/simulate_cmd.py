@@ -7,7 +7,6 @@ from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
-import numpy as np
 import typer
 from rich.table import Table
 
@@ -66,62 +65,8 @@ HtmlOpt = Annotated[
 
 
 def trajectory_payload(traj: Trajectory, scene: Scene | None = None) -> dict[str, Any]:
-    """The ``frc simulate --json`` document: a summary and the samples.
-
-    With the scene, the samples carry every contact's mode and the events the mode each contact
-    left and entered (``from``, ``to``: the letters of the samples before and at the event).
-    """
-    info = traj.info
-    energy = np.asarray(info["energy"])
-    penetration = np.asarray(info["max_penetration"])
-    summary = {
-        "scene": traj.scene_name,
-        "model": info["model"],
-        "status": info["status"],
-        "failure": info["failure"],
-        "steps": info["steps"],
-        "dt": info["dt"],
-        "duration": traj.duration,
-        "coordinates": list(traj.coordinates),
-        "contacts": list(traj.contacts),
-        "inputs": list(traj.input_names),
-        "final_q": traj.q[-1],
-        "final_v": traj.v[-1],
-        "events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
-                   for e in traj.events],
-        "energy": {"initial": energy[0], "final": energy[-1],
-                   "largest_increase": float(np.max(np.diff(energy), initial=0.0))},
-        "max_penetration": float(np.max(penetration)),
-        "armature": info["armature"],
-        "wall_time": info["wall_time"],
-    }
-    if info["model"] == "rigid":
-        summary["lcp"] = info["lcp"]
-        summary["tolerances"] = info["tolerances"]
-        summary["ambiguity_checks"] = info["ambiguity_checks"]
-        summary["stabilization_work"] = float(info["stabilization_work"][-1])
-    else:
-        summary.update({key: info[key] for key in ("integrator", "rtol", "atol", "min_step", "max_step_taken",
-                                                   "mean_step", "rhs_evaluations", "state_size",
-                                                   "contacts_modelled", "explicit_stability_limit")})
-        summary["contact_parameters"] = info["contacts"]
-        summary["elastic_energy_final"] = float(info["elastic_energy"][-1])
-    if not np.isfinite(summary.get("explicit_stability_limit", 0.0)):
-        summary["explicit_stability_limit"] = None
-    summary["validity"] = info.get("validity")
-    samples: dict[str, Any] = {"times": traj.times, "q": traj.q, "v": traj.v, "inputs": traj.inputs,
-                               "forces": traj.contact_forces, "energy": energy,
-                               "max_penetration": penetration}
-    if scene is not None:
-        from frcontrol.simulation.export import sample_modes
-
-        modes = sample_modes(scene, traj)
-        samples["modes"] = list(modes)
-        for event in summary["events"]:
-            at = min(int(np.searchsorted(traj.times, event["time"] - 1e-12)), len(modes) - 1)
-            i = traj.contacts.index(event["contact"])
-            event["from"], event["to"] = modes[max(at - 1, 0)][i], modes[at][i]
-    return {"summary": summary, "samples": samples, "warnings": [w.to_dict() for w in traj.warnings]}
+    """The ``frc simulate --json`` document: :meth:`~frcontrol.simulation.Trajectory.to_dict`."""
+    return traj.to_dict(scene)
 
 
 @handle_errors

@@ -11,6 +11,7 @@ import pytest
 from frcontrol.cli.app import app
 from typer.testing import CliRunner
 
+import frcontrol
 from frcontrol.errors import InputError
 from frcontrol.scene import load_scene
 from frcontrol.simulation import sample_modes, save_trajectory, simulate_rigid
@@ -84,3 +85,16 @@ def test_the_cli_exports_and_its_json_carries_the_modes(tmp_path):
         assert {"time", "contact", "kind", "from", "to"} <= set(event)
         assert event["from"] in "SLRF" and event["to"] in "SLRF"
     assert f"wrote {out}" in result.stderr
+
+
+def test_every_trajectory_converts_to_json():
+    """A planner's trajectory (no energy reported) converts too; a simulator's has every field."""
+    scene = load_scene("rhex_flip")
+    from frcontrol.planning.flip import simulate_flip
+
+    planned = simulate_flip(scene, max_time=0.05).trajectory.to_dict(scene)
+    json.dumps(planned)
+    assert planned["summary"]["energy"] is None and len(planned["samples"]["modes"]) == len(
+        planned["samples"]["times"])
+    simulated = simulate_rigid(scene, None, 0.01, 0.001).to_dict()
+    assert simulated["summary"]["energy"]["initial"] > 0 and "modes" not in simulated["samples"]

@@ -3,8 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from ..jsonable import to_jsonable
+
+if TYPE_CHECKING:
+    from ..scene import Scene
 
 
 @dataclass(frozen=True)
@@ -84,6 +90,71 @@ class Trajectory:
     def coordinate(self, name: str) -> np.ndarray:
         """The samples of one coordinate."""
         return self.q[:, self.coordinates.index(name)]
+
+    def to_dict(self, scene: Scene | None = None) -> dict[str, Any]:
+        """The run as JSON values: the ``frc simulate --json`` document.
+
+        Its parts are ``summary``, ``samples`` (times, q, v, inputs, forces, energy,
+        max_penetration) and ``warnings``.
+
+        With the scene, the samples also carry every contact's mode per sample
+        (:func:`~frcontrol.simulation.export.sample_modes`) and each event the mode its contact left
+        and entered (``from``, ``to``: the letters of the samples before and at the event). Fields a
+        producer did not report (a planner's trajectory has no energy) are null.
+        """
+        info = self.info
+        energy = np.asarray(info["energy"]) if "energy" in info else None
+        penetration = np.asarray(info["max_penetration"]) if "max_penetration" in info else None
+        summary: dict[str, Any] = {
+            "scene": self.scene_name,
+            "model": info.get("model"),
+            "status": info.get("status"),
+            "failure": info.get("failure"),
+            "steps": info.get("steps"),
+            "dt": info.get("dt"),
+            "duration": self.duration,
+            "coordinates": list(self.coordinates),
+            "contacts": list(self.contacts),
+            "inputs": list(self.input_names),
+            "final_q": self.q[-1],
+            "final_v": self.v[-1],
+            "events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
+                       for e in self.events],
+            "energy": None if energy is None else {
+                "initial": energy[0], "final": energy[-1],
+                "largest_increase": float(np.max(np.diff(energy), initial=0.0))},
+            "max_penetration": None if penetration is None else float(np.max(penetration)),
+            "armature": info.get("armature"),
+            "wall_time": info.get("wall_time"),
+        }
+        if info.get("model") == "rigid" and "lcp" in info:  # the rigid stepper's own report
+            summary["lcp"] = info["lcp"]
+            summary["tolerances"] = info["tolerances"]
+            summary["ambiguity_checks"] = info["ambiguity_checks"]
+            summary["stabilization_work"] = float(info["stabilization_work"][-1])
+        elif info.get("model") == "compliant" and "integrator" in info:
+            summary.update({key: info[key] for key in (
+                "integrator", "rtol", "atol", "min_step", "max_step_taken", "mean_step", "rhs_evaluations",
+                "state_size", "contacts_modelled", "explicit_stability_limit")})
+            summary["contact_parameters"] = info["contacts"]
+            summary["elastic_energy_final"] = float(info["elastic_energy"][-1])
+        if not np.isfinite(summary.get("explicit_stability_limit", 0.0)):
+            summary["explicit_stability_limit"] = None
+        summary["validity"] = info.get("validity")
+        samples: dict[str, Any] = {"times": self.times, "q": self.q, "v": self.v, "inputs": self.inputs,
+                                   "forces": self.contact_forces, "energy": energy,
+                                   "max_penetration": penetration}
+        if scene is not None:
+            from .export import sample_modes
+
+            modes = sample_modes(scene, self)
+            samples["modes"] = list(modes)
+            for event in summary["events"]:
+                at = min(int(np.searchsorted(self.times, event["time"] - 1e-12)), len(modes) - 1)
+                i = self.contacts.index(event["contact"])
+                event["from"], event["to"] = modes[max(at - 1, 0)][i], modes[at][i]
+        return to_jsonable({"summary": summary, "samples": samples,
+                            "warnings": [w.to_dict() for w in self.warnings]})
 
 
 __all__ = [
