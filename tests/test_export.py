@@ -11,7 +11,6 @@ import pytest
 from frcontrol.cli.app import app
 from typer.testing import CliRunner
 
-import frcontrol
 from frcontrol.errors import InputError
 from frcontrol.scene import load_scene
 from frcontrol.simulation import sample_modes, save_trajectory, simulate_rigid
