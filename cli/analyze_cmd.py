@@ -47,65 +47,15 @@ def parse_assignments(pairs: list[str] | None) -> dict[str, float]:
 
 
 def solution_payload(solution: RigidSolution, problem: ContactProblem) -> dict[str, Any]:
-    """One rigid-body solution as JSON, with its singular-perturbation stability."""
-    contacts = problem.contacts
-    from frcontrol.stability import stability_of
+    """One rigid-body solution as JSON, with its stability: :func:`frcontrol.stability.solution_report`."""
+    from frcontrol.stability import solution_report
 
-    stability = stability_of(problem, solution)
-    return {
-        "mode": solution.mode,
-        "dv": solution.dv,
-        "contacts": {
-            name: {"lambda_n": solution.lambda_n[i], "lambda_t": solution.lambda_t[i],
-                   "a_n": solution.a_n[i], "a_t": solution.a_t[i]}
-            for i, name in enumerate(contacts)
-        },
-        "ambiguity_dim": solution.ambiguity_dim,
-        "ambiguous_outputs": solution.ambiguous_outputs,
-        "w": solution.w,
-        "equality_residual": solution.equality_residual,
-        "stable": stability.stable,
-        "stability_reason": stability.reason,
-    }
+    return solution_report(problem, solution)
 
 
 def analysis_payload(result: DynamicResponse, inactive: list[str]) -> dict[str, Any]:
-    """The ``frc analyze --json`` document (without solutions)."""
-    problem = result.problem
-    e = result.enumeration
-    modes = []
-    for m in result.modes:
-        modes.append({
-            "mode": m.mode,
-            "feasible": m.feasible,
-            "full_dimensional": m.full_dimensional,
-            "ambiguity_dim": m.ambiguity_dim,
-            "ambiguous_outputs": m.ambiguous_outputs,
-            "halfspaces": m.halfspaces,
-            "rank_case": m.response.case,
-            "rank": m.response.rank,
-            "consistency_constraints": int(m.response.E.shape[0]),
-            "chebyshev_radius": m.chebyshev_radius,
-            "inputs_full_dimensional": m.inputs_full_dimensional,
-            "input_halfspaces": 0 if m.input_domain is None else int(m.input_domain.A.shape[0]),
-            "overlaps": list(result.overlapping(m.mode)),
-            "pruned": m.pruned,
-        })
-    return {
-        "coordinates": list(problem.coordinates),
-        "contacts": list(problem.contacts),
-        "inactive_contacts": inactive,
-        "inputs": list(problem.inputs),
-        "modes": modes,
-        "overlaps": [list(o.modes) for o in result.overlaps],
-        "enumeration": {
-            "total": e.total, "pruned_velocity": e.pruned_velocity, "after_velocity": e.after_velocity,
-            "partial_checks": e.partial_checks, "evaluated": e.evaluated, "feasible": e.feasible,
-            "pruned_freedom": e.pruned_freedom, "pruned_infeasible": e.pruned_infeasible,
-        },
-        "timings": dict(result.timings),
-        "tolerances": dict(result.tolerances),
-    }
+    """The ``frc analyze --json`` document (without solutions): ``DynamicResponse.to_dict``."""
+    return result.to_dict(inactive)
 
 
 @handle_errors

@@ -35,6 +35,7 @@ import numpy as np
 
 from . import polytope as poly
 from .errors import CoordinateNotFound, InputError
+from .jsonable import to_jsonable
 from .modes import ContactProblem, ModeSystem, build_mode_system, mode_outputs
 from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, solve_affine
 from .scene import Scene
@@ -189,6 +190,46 @@ class DynamicResponse:
     solver: str = DEFAULT_LP_SOLVER
     tolerances: Mapping[str, float] = field(default_factory=dict)
     _unambiguous: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def to_dict(self, inactive_contacts: Sequence[str] = ()) -> dict[str, Any]:
+        """The analysis as JSON values (the ``frc analyze --json`` document, without solutions).
+
+        Args:
+            inactive_contacts: the scene's contacts that do not touch (reported, not modelled).
+        """
+        problem = self.problem
+        e = self.enumeration
+        modes = [{
+            "mode": m.mode,
+            "feasible": m.feasible,
+            "full_dimensional": m.full_dimensional,
+            "ambiguity_dim": m.ambiguity_dim,
+            "ambiguous_outputs": m.ambiguous_outputs,
+            "halfspaces": m.halfspaces,
+            "rank_case": m.response.case,
+            "rank": m.response.rank,
+            "consistency_constraints": int(m.response.E.shape[0]),
+            "chebyshev_radius": m.chebyshev_radius,
+            "inputs_full_dimensional": m.inputs_full_dimensional,
+            "input_halfspaces": 0 if m.input_domain is None else int(m.input_domain.A.shape[0]),
+            "overlaps": list(self.overlapping(m.mode)),
+            "pruned": m.pruned,
+        } for m in self.modes]
+        return to_jsonable({
+            "coordinates": list(problem.coordinates),
+            "contacts": list(problem.contacts),
+            "inactive_contacts": list(inactive_contacts),
+            "inputs": list(problem.inputs),
+            "modes": modes,
+            "overlaps": [list(o.modes) for o in self.overlaps],
+            "enumeration": {
+                "total": e.total, "pruned_velocity": e.pruned_velocity, "after_velocity": e.after_velocity,
+                "partial_checks": e.partial_checks, "evaluated": e.evaluated, "feasible": e.feasible,
+                "pruned_freedom": e.pruned_freedom, "pruned_infeasible": e.pruned_infeasible,
+            },
+            "timings": dict(self.timings),
+            "tolerances": dict(self.tolerances),
+        })
 
     @property
     def feasible_modes(self) -> tuple[ModeAnalysis, ...]:
@@ -516,6 +557,26 @@ class RigidSolution:
     w: np.ndarray
     equality_residual: float
     inequality_violation: float
+
+    def to_dict(self, contacts: Sequence[str]) -> dict[str, Any]:
+        """The solution as JSON values, its forces and accelerations by contact name.
+
+        Args:
+            contacts: the active contacts' names, in the order of the solution's rows.
+        """
+        return to_jsonable({
+            "mode": self.mode,
+            "dv": self.dv,
+            "contacts": {
+                name: {"lambda_n": self.lambda_n[i], "lambda_t": self.lambda_t[i],
+                       "a_n": self.a_n[i], "a_t": self.a_t[i]}
+                for i, name in enumerate(contacts)
+            },
+            "ambiguity_dim": self.ambiguity_dim,
+            "ambiguous_outputs": self.ambiguous_outputs,
+            "w": self.w,
+            "equality_residual": self.equality_residual,
+        })
 
 
 def _input_vector(problem: ContactProblem, inputs: Mapping[str, float] | Sequence[float] | np.ndarray

@@ -51,7 +51,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.linalg
@@ -361,6 +361,18 @@ def classify_solutions(problem: ContactProblem, solutions: Sequence[RigidSolutio
     return [stability_of(problem, s, stiffness=stiffness, damping=damping) for s in solutions]
 
 
+def solution_report(problem: ContactProblem, solution: RigidSolution, *, stiffness: float | None = None,
+                    damping: float | None = None) -> dict[str, Any]:
+    """A rigid solution as JSON values with its stability under compliance (``frc analyze --json``).
+
+    :meth:`RigidSolution.to_dict <frcontrol.engine.RigidSolution.to_dict>` plus ``stable`` and
+    ``stability_reason`` from :func:`stability_of`.
+    """
+    stability = stability_of(problem, solution, stiffness=stiffness, damping=damping)
+    stable = None if stability.stable is None else bool(stability.stable)  # None: not analysable
+    return {**solution.to_dict(problem.contacts), "stable": stable, "stability_reason": stability.reason}
+
+
 __all__ = [
     "ACCELERATION_TOLERANCE",
     "EIGENVALUE_TOLERANCE",
@@ -371,5 +383,6 @@ __all__ = [
     "boundary_layer_roots",
     "classify_solutions",
     "critical_damping",
+    "solution_report",
     "stability_of",
 ]
