@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -66,68 +65,9 @@ DurationOpt = Annotated[
 SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of the sampled disturbances.")]
 
 
-def _number(x: float) -> float | None:
-    """A finite float, or None (JSON has no infinity or NaN)."""
-    x = float(x)
-    return x if math.isfinite(x) else None
-
-
 def climb_payload(plan: ClimbPlan, result: ClimbResult | None) -> dict[str, Any]:
-    """The ``frc climb --json`` document.
-
-    ``mode``, ``torques``, ``max_disturbance_scale``, ``robust`` and ``simulation`` (``brace_held``,
-    ``max_slip``, ``upper_rise``) are the contract; the rest reports how the plan was found.
-    """
-    closest = plan.closest_mode
-    payload: dict[str, Any] = {
-        "found": plan.found,
-        "mode": plan.mode,
-        "torques": dict(plan.torques),
-        "max_disturbance_scale": plan.max_disturbance_scale,
-        "robust": plan.robust,
-        "simulation": None,
-        "scale": plan.scale,
-        "nominal_feasible": plan.nominal_feasible,
-        "scale_bracket": list(plan.scale_bracket),
-        "scale_bound": plan.scale_bound,
-        "scale_capped": plan.scale_capped,
-        "max_scale_torques": dict(plan.max_scale_torques),
-        "margin": plan.margin,
-        "robustness_radius": _number(plan.robustness_radius),
-        "head_acceleration": _number(plan.head_acceleration),
-        "head_sideways_acceleration": _number(plan.head_sideways_acceleration),
-        "worst_head_acceleration": _number(plan.worst_head_acceleration),
-        "min_head_acceleration": plan.min_head_acceleration,
-        "free_accelerations": dict(plan.free_accelerations),
-        "closest_mode": (None if closest is None
-                         else {"mode": closest.mode, "margin": _number(closest.margin)}),
-        "modes_excluded": sum(not e.held for e in plan.exclusions),
-        "pieces": plan.pieces,
-        "bisection": [[s, ok] for s, ok in plan.bisection],
-        "disturbances": [
-            {"name": d.name, "link": d.link, "point": d.point_in_link, "vertices": d.vertices}
-            for d in plan.disturbances.items
-        ],
-        "reason": plan.reason,
-        "solver": plan.solver,
-        "timings": dict(plan.timings),
-        "tolerances": dict(plan.tolerances),
-    }
-    if result is not None:
-        payload["simulation"] = {
-            "brace_held": result.brace_held,
-            "max_slip": result.max_slip,
-            "upper_rise": result.upper_rise,
-            "max_upper_rise": result.max_upper_rise,
-            "max_opening": result.max_opening,
-            "duration": result.duration,
-            "seed": result.seed,
-            "status": result.status,
-            "slip_tolerance": result.slip_tolerance,
-            "brace_events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
-                             for e in result.brace_events],
-        }
-    return payload
+    """The ``frc climb --json`` document: ``ClimbPlan.to_dict(result)``."""
+    return plan.to_dict(result)
 
 
 @handle_errors

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -69,80 +68,9 @@ DtOpt = Annotated[float, typer.Option("--dt", min=1e-6, help="Time step [s] of t
 ReplanOpt = Annotated[int, typer.Option("--replan-every", min=1, help="Steps between two plans.")]
 
 
-def _number(x: float | None) -> float | None:
-    """A finite float, or None (JSON has no infinity or NaN)."""
-    if x is None:
-        return None
-    x = float(x)
-    return x if math.isfinite(x) else None
-
-
 def flip_payload(plan: FlipPlan, result: FlipResult | None) -> dict[str, Any]:
-    """The ``frc flip --json`` document.
-
-    ``mode``, ``torques``, ``pitch_acceleration``, ``unambiguous``, ``margin`` and ``simulation``
-    (``flipped``, ``time_to_vertical``, ``body_contact_kept``, ``steps``) are the contract; the rest
-    reports how the plan was found. Without a plan ``mode`` and ``torques`` are null and
-    ``simulation.flipped`` is false, with the reason.
-    """
-    payload: dict[str, Any] = {
-        "found": plan.found,
-        "mode": plan.mode if plan.found else None,
-        "torques": dict(plan.torques) if plan.found else None,
-        "pitch_acceleration": _number(plan.pitch_acceleration) if plan.found else None,
-        "unambiguous": plan.unambiguous,
-        "margin": plan.margin,
-        "worst_case": plan.worst_case,
-        "reason": plan.reason,
-        "pitch": plan.pitch,
-        "contacts": list(plan.contacts),
-        "body_contacts": list(plan.body_contacts),
-        "planned_inputs": list(plan.planned_inputs),
-        "forced_inputs": dict(plan.forced_inputs),
-        "candidates": list(plan.candidates),
-        "bounds": {name: _number(value) for name, value in plan.bounds.items()},
-        "explored": list(plan.explored),
-        "pieces": len(plan.pieces),
-        "rejected": [{"mode": mode, "why": why} for mode, why in plan.rejected],
-        "rounding": plan.rounding,
-        "timings": dict(plan.timings),
-        "tolerances": dict(plan.tolerances),
-    }
-    if not plan.found and plan.mode is not None:
-        payload["best"] = {"mode": plan.mode, "torques": dict(plan.torques),
-                           "pitch_acceleration": _number(plan.pitch_acceleration)}
-    if result is None or result.trajectory is None:
-        payload["simulation"] = {
-            "flipped": False, "time_to_vertical": None, "body_contact_kept": None, "steps": 0,
-            "replans": 0, "simulated": False,
-            "reason": plan.reason if not plan.found else "not simulated (--max-time 0)",
-        }
-        return payload
-    traj = result.trajectory
-    payload["simulation"] = {
-        "flipped": result.flipped,
-        "time_to_vertical": _number(result.time_to_vertical),
-        "body_contact_kept": result.body_contact_kept,
-        "steps": result.steps,
-        "replans": result.replans,
-        "simulated": True,
-        "reason": result.reason,
-        "separation": (None if result.separation is None
-                       else {"time": result.separation[0], "contact": result.separation[1]}),
-        "body_events": [{"time": t, "contact": c, "kind": k} for t, c, k in result.body_events],
-        "held": len(result.held),
-        "max_pitch": float(traj.coordinate(plan.pitch).max()),
-        "vertical": result.vertical,
-        "dt": result.dt,
-        "max_time": result.max_time,
-        "armature": result.armature,
-        "duration": traj.duration,
-        "status": traj.info.get("status"),
-        "events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
-                   for e in traj.events],
-        "timings": dict(result.timings),
-    }
-    return payload
+    """The ``frc flip --json`` document: ``FlipPlan.to_dict(result)``."""
+    return plan.to_dict(result)
 
 
 @handle_errors

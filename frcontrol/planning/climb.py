@@ -147,6 +147,7 @@ import numpy as np
 
 from ..engine import DOMAIN_TOLERANCE, DynamicResponse, analyze
 from ..errors import FrameNotFound, InputError, SceneError
+from ..jsonable import finite_or_none, to_jsonable
 from ..model import ContactPoint, PlanarRobot
 from ..modes import ContactProblem, ModeSystem, all_modes, build_mode_system
 from ..polytope import Polytope
@@ -1179,6 +1180,64 @@ class ClimbPlan:
     def torque_vector(self) -> np.ndarray:
         """The rounded torques as a vector in the scene's input order [N m]."""
         return np.array(list(self.torques.values()), dtype=float)
+
+    def to_dict(self, result: ClimbResult | None = None) -> dict[str, Any]:
+        """The ``frc climb --json`` document.
+
+        ``mode``, ``torques``, ``max_disturbance_scale``, ``robust`` and ``simulation`` (``brace_held``,
+        ``max_slip``, ``upper_rise``) are the contract; the rest reports how the plan was found.
+        """
+        plan = self
+        closest = plan.closest_mode
+        payload: dict[str, Any] = {
+            "found": plan.found,
+            "mode": plan.mode,
+            "torques": dict(plan.torques),
+            "max_disturbance_scale": plan.max_disturbance_scale,
+            "robust": plan.robust,
+            "simulation": None,
+            "scale": plan.scale,
+            "nominal_feasible": plan.nominal_feasible,
+            "scale_bracket": list(plan.scale_bracket),
+            "scale_bound": plan.scale_bound,
+            "scale_capped": plan.scale_capped,
+            "max_scale_torques": dict(plan.max_scale_torques),
+            "margin": plan.margin,
+            "robustness_radius": finite_or_none(plan.robustness_radius),
+            "head_acceleration": finite_or_none(plan.head_acceleration),
+            "head_sideways_acceleration": finite_or_none(plan.head_sideways_acceleration),
+            "worst_head_acceleration": finite_or_none(plan.worst_head_acceleration),
+            "min_head_acceleration": plan.min_head_acceleration,
+            "free_accelerations": dict(plan.free_accelerations),
+            "closest_mode": (None if closest is None
+                             else {"mode": closest.mode, "margin": finite_or_none(closest.margin)}),
+            "modes_excluded": sum(not e.held for e in plan.exclusions),
+            "pieces": plan.pieces,
+            "bisection": [[s, ok] for s, ok in plan.bisection],
+            "disturbances": [
+                {"name": d.name, "link": d.link, "point": d.point_in_link, "vertices": d.vertices}
+                for d in plan.disturbances.items
+            ],
+            "reason": plan.reason,
+            "solver": plan.solver,
+            "timings": dict(plan.timings),
+            "tolerances": dict(plan.tolerances),
+        }
+        if result is not None:
+            payload["simulation"] = {
+                "brace_held": result.brace_held,
+                "max_slip": result.max_slip,
+                "upper_rise": result.upper_rise,
+                "max_upper_rise": result.max_upper_rise,
+                "max_opening": result.max_opening,
+                "duration": result.duration,
+                "seed": result.seed,
+                "status": result.status,
+                "slip_tolerance": result.slip_tolerance,
+                "brace_events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
+                                 for e in result.brace_events],
+            }
+        return to_jsonable(payload)
 
 
 def _verify(cp: ClimbProblem, u: np.ndarray, scale: float) -> dict[str, Any]:

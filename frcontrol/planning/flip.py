@@ -91,6 +91,7 @@ import numpy as np
 from .. import polytope as poly
 from ..engine import DynamicResponse, ModeAnalysis, analyze, solutions_at
 from ..errors import FrcontrolError, ImpactState, InputError, SceneError
+from ..jsonable import finite_or_none, to_jsonable
 from ..modes import VELOCITY_TOLERANCE, ContactProblem
 from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
@@ -315,6 +316,74 @@ class FlipPlan:
     def input_vector(self, inputs: Sequence[str]) -> np.ndarray:
         """The torques as a vector in the order of ``inputs`` (the scene's input names)."""
         return np.array([float(self.torques.get(name, 0.0)) for name in inputs])
+
+    def to_dict(self, result: FlipResult | None = None) -> dict[str, Any]:
+        """The ``frc flip --json`` document.
+
+        ``mode``, ``torques``, ``pitch_acceleration``, ``unambiguous``, ``margin`` and ``simulation``
+        (``flipped``, ``time_to_vertical``, ``body_contact_kept``, ``steps``) are the contract; the rest
+        reports how the plan was found. Without a plan ``mode`` and ``torques`` are null and
+        ``simulation.flipped`` is false, with the reason.
+        """
+        plan = self
+        payload: dict[str, Any] = {
+            "found": plan.found,
+            "mode": plan.mode if plan.found else None,
+            "torques": dict(plan.torques) if plan.found else None,
+            "pitch_acceleration": finite_or_none(plan.pitch_acceleration) if plan.found else None,
+            "unambiguous": plan.unambiguous,
+            "margin": plan.margin,
+            "worst_case": plan.worst_case,
+            "reason": plan.reason,
+            "pitch": plan.pitch,
+            "contacts": list(plan.contacts),
+            "body_contacts": list(plan.body_contacts),
+            "planned_inputs": list(plan.planned_inputs),
+            "forced_inputs": dict(plan.forced_inputs),
+            "candidates": list(plan.candidates),
+            "bounds": {name: finite_or_none(value) for name, value in plan.bounds.items()},
+            "explored": list(plan.explored),
+            "pieces": len(plan.pieces),
+            "rejected": [{"mode": mode, "why": why} for mode, why in plan.rejected],
+            "rounding": plan.rounding,
+            "timings": dict(plan.timings),
+            "tolerances": dict(plan.tolerances),
+        }
+        if not plan.found and plan.mode is not None:
+            payload["best"] = {"mode": plan.mode, "torques": dict(plan.torques),
+                               "pitch_acceleration": finite_or_none(plan.pitch_acceleration)}
+        if result is None or result.trajectory is None:
+            payload["simulation"] = {
+                "flipped": False, "time_to_vertical": None, "body_contact_kept": None, "steps": 0,
+                "replans": 0, "simulated": False,
+                "reason": plan.reason if not plan.found else "not simulated (--max-time 0)",
+            }
+            return to_jsonable(payload)
+        traj = result.trajectory
+        payload["simulation"] = {
+            "flipped": result.flipped,
+            "time_to_vertical": finite_or_none(result.time_to_vertical),
+            "body_contact_kept": result.body_contact_kept,
+            "steps": result.steps,
+            "replans": result.replans,
+            "simulated": True,
+            "reason": result.reason,
+            "separation": (None if result.separation is None
+                           else {"time": result.separation[0], "contact": result.separation[1]}),
+            "body_events": [{"time": t, "contact": c, "kind": k} for t, c, k in result.body_events],
+            "held": len(result.held),
+            "max_pitch": float(traj.coordinate(plan.pitch).max()),
+            "vertical": result.vertical,
+            "dt": result.dt,
+            "max_time": result.max_time,
+            "armature": result.armature,
+            "duration": traj.duration,
+            "status": traj.info.get("status"),
+            "events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
+                       for e in traj.events],
+            "timings": dict(result.timings),
+        }
+        return to_jsonable(payload)
 
 
 @dataclass(frozen=True)
