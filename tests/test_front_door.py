@@ -59,3 +59,36 @@ def test_every_module_declares_what_it_exports(name):
     assert hasattr(module, "__all__"), f"{name} has no __all__"
     missing = [n for n in module.__all__ if not hasattr(module, n)]
     assert not missing, f"{name}.__all__ names what it does not define: {missing}"
+
+
+def _without_timings(doc):
+    if isinstance(doc, dict):
+        return {k: _without_timings(v) for k, v in doc.items() if k not in ("timings", "wall_time")}
+    if isinstance(doc, list):
+        return [_without_timings(v) for v in doc]
+    return doc
+
+
+@pytest.mark.parametrize("command", ["analyze", "statics", "simulate"])
+def test_the_cli_json_is_the_result_to_dict(command):
+    """The CLI has no JSON of its own: its document is the library result's to_dict()."""
+    import json
+
+    from frcontrol.cli.app import app
+    from typer.testing import CliRunner
+
+    scene = load_scene("box_on_slope")
+    if command == "analyze":
+        result = frcontrol.analyze(scene)
+        want = result.to_dict([c.name for c in scene.contacts if not c.active])
+        args = ["analyze", "box_on_slope"]
+    elif command == "statics":
+        want = frcontrol.analyze_statics(scene).to_dict()
+        args = ["statics", "box_on_slope"]
+    else:
+        want = frcontrol.simulate_rigid(scene, None, 0.02, 0.001).to_dict(scene)
+        args = ["simulate", "box_on_slope", "--duration", "0.02", "--dt", "0.001"]
+    out = CliRunner().invoke(app, [*args, "--json"])
+    assert out.exit_code == 0, out.stderr
+    got = json.loads(out.stdout)
+    assert _without_timings(got) == _without_timings(json.loads(json.dumps(want)))
