@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Any
 
-import typer
 from rich.table import Table
 
-from frcontrol.errors import InputError
 from frcontrol.scene import load_scene
 from frcontrol.scene import parse_input_assignments as parse_input_vector
 
@@ -17,33 +15,7 @@ if TYPE_CHECKING:  # the engine loads when a command runs, not for --help
 
 from .common import console, handle_errors, print_json, progress, set_quiet
 from .model_cmds import JsonOpt, SceneArg
-from .options import QuietOpt, SetOpt, scene_overrides
-
-InputOpt = Annotated[
-    list[str] | None,
-    typer.Option("--input", "-i", help="An input value NAME=VALUE (repeatable); inputs not named are 0."),
-]
-
-
-def parse_assignments(pairs: list[str] | None) -> dict[str, float]:
-    """``["hip_rear=2.5", ...]`` -> ``{"hip_rear": 2.5}``.
-
-    Raises:
-        InputError: a pair is not NAME=VALUE with a number, or a name repeats.
-    """
-    out: dict[str, float] = {}
-    for pair in pairs or []:
-        name, sep, value = pair.partition("=")
-        if not sep or not name.strip():
-            raise InputError(f"--input expects NAME=VALUE, got {pair!r}")
-        try:
-            number = float(value)
-        except ValueError as err:
-            raise InputError(f"--input {pair!r}: {value!r} is not a number") from err
-        if name.strip() in out:
-            raise InputError(f"--input names {name.strip()!r} twice")
-        out[name.strip()] = number
-    return out
+from .options import InputOpt, QuietOpt, SetOpt, parse_inputs, scene_overrides
 
 
 def solution_payload(solution: RigidSolution, problem: ContactProblem) -> dict[str, Any]:
@@ -71,7 +43,7 @@ def analyze_command(
     from frcontrol.engine import analyze, solutions_at
 
     loaded = load_scene(scene, overrides=scene_overrides(sets))
-    assignments = parse_assignments(inputs)
+    assignments = parse_inputs(inputs)
     with progress("analysing contact modes...") as status:
         result = analyze(loaded, progress=lambda mode: status.update(f"analysing mode {mode}"))
         solutions = solutions_at(result, parse_input_vector(loaded, assignments)) if inputs else None
@@ -125,7 +97,6 @@ def render(payload: dict[str, Any]) -> None:
 __all__ = [
     "analysis_payload",
     "analyze_command",
-    "parse_assignments",
     "render",
     "solution_payload",
 ]

@@ -60,7 +60,8 @@ MarginOpt = Annotated[
 ]
 DurationOpt = Annotated[
     float,
-    typer.Option("--duration", min=0.0, help="Simulated time [s] of the check under sampled disturbances."),
+    typer.Option("--duration", "-T", min=0.0,
+                 help="Simulated time [s] of the check under sampled disturbances."),
 ]
 SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of the sampled disturbances.")]
 

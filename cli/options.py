@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -19,6 +20,36 @@ SetOpt = Annotated[
              "TOML; repeatable). Checked exactly like the file: an unknown path names the nearest one.",
     ),
 ]
+
+
+InputOpt = Annotated[
+    list[str] | None,
+    typer.Option("--input", "-i", help="An input value NAME=VALUE (repeatable); inputs not named are 0."),
+]
+
+
+def parse_inputs(pairs: list[str] | None) -> dict[str, float]:
+    """``["x=2.5", ...]`` -> ``{"x": 2.5}`` (the ``--input`` grammar of every command).
+
+    Raises:
+        InputError: a pair is not NAME=VALUE with a finite number, or a name repeats.
+    """
+    out: dict[str, float] = {}
+    for pair in pairs or []:
+        name, sep, value = pair.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise InputError(f"--input expects NAME=VALUE, got {pair!r}")
+        try:
+            number = float(value)
+        except ValueError as err:
+            raise InputError(f"--input {pair!r}: {value!r} is not a number") from err
+        if not math.isfinite(number):
+            raise InputError(f"--input {pair!r}: the value must be finite")
+        if name in out:
+            raise InputError(f"--input names {name!r} twice")
+        out[name] = number
+    return out
 
 
 QuietOpt = Annotated[
@@ -63,4 +94,4 @@ def scene_overrides(assignments: list[str] | None) -> dict[str, Any]:
     return out
 
 
-__all__ = ["OutOpt", "QuietOpt", "SetOpt", "check_out_suffix", "scene_overrides"]
+__all__ = ["InputOpt", "OutOpt", "QuietOpt", "SetOpt", "check_out_suffix", "parse_inputs", "scene_overrides"]

@@ -17,10 +17,9 @@ if TYPE_CHECKING:  # the simulators load when the command runs, not for --help
     from frcontrol.scene import Scene
     from frcontrol.simulation.trajectory import Trajectory
 
-from .analyze_cmd import InputOpt, parse_assignments
 from .common import check_output_files, console, fail, handle_errors, note, print_json, progress, set_quiet
 from .model_cmds import JsonOpt, SceneArg
-from .options import OutOpt, QuietOpt, SetOpt, check_out_suffix, scene_overrides
+from .options import InputOpt, OutOpt, QuietOpt, SetOpt, check_out_suffix, parse_inputs, scene_overrides
 
 MAX_EVENTS_SHOWN = 40
 """Events listed in the table (all of them are in ``--json``)."""
@@ -103,7 +102,7 @@ def simulate_command(
     chosen = model.value if model is not None else model_options(loaded).contact
     if chosen == "rigid" and (stiffness is not None or damping is not None):
         raise fail("--stiffness and --damping belong to the compliant model: add --model compliant")
-    assignments = parse_assignments(inputs)
+    assignments = parse_inputs(inputs)
     with progress(f"simulating {duration:g} s on the {chosen} model..."):
         if chosen == "rigid":
             traj = simulate_rigid(loaded, assignments, duration, dt)

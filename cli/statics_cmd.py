@@ -19,12 +19,8 @@ if TYPE_CHECKING:  # the statics load when the command runs, not for --help
 
 from .common import check_output_files, console, handle_errors, note, print_json, set_quiet
 from .model_cmds import JsonOpt, SceneArg
-from .options import QuietOpt, SetOpt, scene_overrides
+from .options import InputOpt, QuietOpt, SetOpt, parse_inputs, scene_overrides
 
-InputOpt = Annotated[
-    list[str] | None,
-    typer.Option("--input", "-i", help="An input value NAME=VALUE (repeatable); inputs not named are 0."),
-]
 PlotOpt = Annotated[
     Path | None,
     typer.Option("--plot", help="Write a PNG of the body, contacts, friction cones and support region."),
@@ -39,30 +35,6 @@ WeakOnlyOpt = Annotated[
     bool,
     typer.Option("--no-strong", help="Skip the strong-stability test (the mode-domain engine)."),
 ]
-
-
-def parse_input_pairs(pairs: list[str] | None) -> dict[str, float]:
-    """``["x=2.5", ...]`` -> ``{"x": 2.5}``.
-
-    Raises:
-        InputError: a pair is not NAME=VALUE with a finite number, or a name repeats.
-    """
-    out: dict[str, float] = {}
-    for pair in pairs or []:
-        name, sep, value = pair.partition("=")
-        name = name.strip()
-        if not sep or not name:
-            raise InputError(f"--input expects NAME=VALUE, got {pair!r}")
-        try:
-            number = float(value)
-        except ValueError as err:
-            raise InputError(f"--input {pair!r}: {value!r} is not a number") from err
-        if not math.isfinite(number):
-            raise InputError(f"--input {pair!r}: the value must be finite")
-        if name in out:
-            raise InputError(f"--input names {name!r} twice")
-        out[name] = number
-    return out
 
 
 def statics_payload(report: StaticsReport) -> dict[str, Any]:
@@ -87,7 +59,7 @@ def statics_command(
 
     check_output_files(plot=plot)
     loaded = load_scene(scene, overrides=scene_overrides(sets))
-    report = analyze_statics(loaded, parse_input_pairs(inputs), lateral_acceleration=lateral_acceleration,
+    report = analyze_statics(loaded, parse_inputs(inputs), lateral_acceleration=lateral_acceleration,
                              strong=not no_strong)
     if plot is not None:
         plot_statics(loaded, report, plot)
@@ -287,7 +259,6 @@ def plot_statics(scene: Scene, report: StaticsReport, path: Path) -> None:
 
 
 __all__ = [
-    "parse_input_pairs",
     "plot_statics",
     "render",
     "statics_command",

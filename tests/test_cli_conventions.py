@@ -34,3 +34,15 @@ def test_quiet_keeps_the_answer_and_drops_the_notes(tmp_path):
     answer = runner.invoke(app, ["analyze", "rod_on_table", "--input", "x=1", "-q"])
     assert answer.exit_code == 0 and "mode" in answer.stdout
     assert runner.invoke(app, ["validate", "rod_on_table", "-q"]).stdout == ""
+
+
+def test_a_short_option_means_the_same_everywhere():
+    """-T is the simulated time, -i an input, -q quiet, -h help: wherever they exist."""
+    meaning = {"-T": "imulated time", "-i": "NAME=VALUE", "-q": "Print only the answer"}
+    seen = {}
+    for name, command in COMMANDS.items():
+        for param in command.params:
+            for short in set(param.opts + param.secondary_opts) & set(meaning):
+                assert meaning[short] in (param.help or ""), (name, short, param.help)
+                seen.setdefault(short, set()).add(name)
+    assert {"simulate", "flip", "climb"} <= seen["-T"] and {"analyze", "statics", "simulate"} <= seen["-i"]
