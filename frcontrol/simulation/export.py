@@ -28,7 +28,7 @@ from ..errors import InputError, reason_from_exception
 from ..scene import Scene
 from . import TRAJECTORY_FORMATS
 from .rigid import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
-from .trajectory import Trajectory
+from .trajectory import Trajectory, contact_mode_letter
 
 __all__ = ["TRAJECTORY_FORMATS", "sample_modes", "save_trajectory", "trajectory_arrays"]
 
@@ -50,17 +50,8 @@ def sample_modes(scene: Scene, trajectory: Trajectory, *, slip_tolerance: float 
     out = []
     for q, v, forces in zip(trajectory.q, trajectory.v, trajectory.contact_forces, strict=True):
         vt = robot.state(q, v, indices).tangential_velocities
-        letters = []
-        for i in indices:
-            if forces[i, 0] <= threshold:
-                letters.append("S")
-            elif vt[i] > slip_tolerance:
-                letters.append("R")
-            elif vt[i] < -slip_tolerance:
-                letters.append("L")
-            else:
-                letters.append("F")
-        out.append("".join(letters))
+        out.append("".join(contact_mode_letter(forces[i, 0], vt[i], threshold, slip_tolerance)
+                           for i in indices))
     return tuple(out)
 
 

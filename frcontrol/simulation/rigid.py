@@ -82,7 +82,7 @@ from .options import (
     model_options,
     potential_energy,
 )
-from .trajectory import ContactEvent, Trajectory
+from .trajectory import ContactEvent, Trajectory, contact_mode_letter
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
 
@@ -212,17 +212,7 @@ def _sliding_phrase(sliding: str | None, v_t: float) -> str:
 
 def _taken_mode(closed: Sequence[bool], p_n: np.ndarray, v_t: np.ndarray, force_tol: float,
                 dt: float, slip_tol: float) -> str:
-    letters = []
-    for i, _ in enumerate(closed):
-        if p_n[i] / dt <= force_tol:
-            letters.append("S")
-        elif v_t[i] > slip_tol:
-            letters.append("R")
-        elif v_t[i] < -slip_tol:
-            letters.append("L")
-        else:
-            letters.append("F")
-    return "".join(letters)
+    return "".join(contact_mode_letter(p_n[i] / dt, v_t[i], force_tol, slip_tol) for i in range(len(closed)))
 
 
 def simulate_rigid(
