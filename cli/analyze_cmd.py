@@ -71,7 +71,7 @@ def render(payload: dict[str, Any]) -> None:
     )
     table = Table(title="feasible modes")
     for col in ("mode", "rank case", "w", "ambiguous", "full-dim", "half-spaces", "overlaps with"):
-        table.add_column(col)
+        table.add_column(col, overflow="fold")
     for m in payload["modes"]:
         if not m["feasible"]:
             continue
@@ -82,7 +82,7 @@ def render(payload: dict[str, Any]) -> None:
     if "solutions" in payload:
         sols = Table(title="rigid-body solutions at the input")
         for col in ("mode", "dv", "lambda_n", "lambda_t", "w", "stable"):
-            sols.add_column(col)
+            sols.add_column(col, overflow="fold")
         for s in payload["solutions"]:
             cs = s["contacts"].values()
             sols.add_row(s["mode"], " ".join(f"{x:.4g}" for x in s["dv"]),

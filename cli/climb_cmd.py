@@ -153,7 +153,7 @@ def render(payload: dict[str, Any]) -> None:
                   f"{'yes' if payload['robust'] else 'NO'} ({payload['reason']})")
     table = Table(title=f"joint torques [N m] (scale {payload['scale']:.4g})")
     for name in payload["torques"]:
-        table.add_column(name)
+        table.add_column(name, overflow="fold")
     table.add_row(*[f"{x:.{3}f}" for x in payload["torques"].values()])
     console.print(table)
     console.print(f"largest disturbance scale: {payload['max_disturbance_scale']:.4g} "

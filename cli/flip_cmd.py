@@ -172,7 +172,7 @@ def render(payload: dict[str, Any]) -> None:
                   f"unambiguous: {check}; margin {payload['margin']:g} N m")
     table = Table(title="hip torques [N m]")
     for name in payload["torques"]:
-        table.add_column(name)
+        table.add_column(name, overflow="fold")
     table.add_row(*[f"{x:.4f}" for x in payload["torques"].values()])
     console.print(table)
     worst = " (worst case over the mode's ambiguity)" if payload["worst_case"] else ""

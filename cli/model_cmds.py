@@ -29,8 +29,8 @@ def robots(json: JsonOpt = False, quiet: QuietOpt = False) -> None:
                     "scenes": [p.stem for p in sorted((root / "scenes").glob("*.toml"))]})
         return
     table = Table(title=f"shipped with frcontrol ({root})")
-    table.add_column("kind")
-    table.add_column("name")
+    table.add_column("kind", overflow="fold")
+    table.add_column("name", overflow="fold")
     for path in sorted(root.glob("*.urdf")):
         table.add_row("robot", path.name)
     for path in sorted((root / "scenes").glob("*.toml")):
@@ -79,16 +79,16 @@ def show(scene: SceneArg, json: JsonOpt = False, sets: SetOpt = None, quiet: Qui
     names = payload["coordinates"]
     console.print(f"[bold]{payload['scene']}[/bold]  coordinates: {', '.join(names)}")
     mass = Table(title="mass matrix M(q) and bias h(q, v)")
-    mass.add_column("")
+    mass.add_column("", overflow="fold")
     for name in names:
-        mass.add_column(name, justify="right")
-    mass.add_column("h", justify="right")
+        mass.add_column(name, justify="right", overflow="fold")
+    mass.add_column("h", justify="right", overflow="fold")
     for i, name in enumerate(names):
         mass.add_row(name, *[f"{x:.4g}" for x in payload["mass_matrix"][i]], f"{payload['bias'][i]:.4g}")
     console.print(mass)
     rows = Table(title="contacts (rows J_N, J_T over the coordinates)")
     for col in ("contact", "active", "gap [m]", "v_n", "v_t", "J_N", "J_T"):
-        rows.add_column(col)
+        rows.add_column(col, overflow="fold")
     for name, c in payload["contacts"].items():
         rows.add_row(
             name, "yes" if c["active"] else "no", f"{c['gap']:.3g}", f"{c['v_n']:.3g}",

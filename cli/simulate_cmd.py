@@ -141,7 +141,7 @@ def render(payload: dict[str, Any]) -> None:
         console.print(f"armature {s['armature']['value']:g} on massless {massless}")
     final = Table(title="final state")
     for col in ("coordinate", "q", "v"):
-        final.add_column(col)
+        final.add_column(col, overflow="fold")
     for i, name in enumerate(s["coordinates"]):
         final.add_row(name, f"{s['final_q'][i]:.6g}", f"{s['final_v'][i]:.6g}")
     console.print(final)
@@ -151,7 +151,7 @@ def render(payload: dict[str, Any]) -> None:
     if s["events"]:
         events = Table(title=f"contact events ({len(s['events'])})")
         for col in ("time [s]", "contact", "kind", "detail"):
-            events.add_column(col)
+            events.add_column(col, overflow="fold")
         for ev in s["events"][:MAX_EVENTS_SHOWN]:
             events.add_row(f"{ev['time']:.4f}", ev["contact"], ev["kind"], ev["detail"])
         console.print(events)

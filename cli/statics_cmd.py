@@ -84,7 +84,7 @@ def render(payload: dict[str, Any]) -> None:
                   f"L = {body['characteristic_length']:.4g} m ({body['length_source']})")
     verdicts = Table(title="statics")
     for col in ("question", "answer", "detail"):
-        verdicts.add_column(col)
+        verdicts.add_column(col, overflow="fold")
     for kind in ("form", "force"):
         verdicts.add_row(f"{kind} closure", _yes(payload[f"{kind}_closure"]),
                          f"margin {payload[f'{kind}_closure_margin']:.4g}, "
@@ -111,7 +111,7 @@ def render(payload: dict[str, Any]) -> None:
     if eq["forces"]:
         forces = Table(title="an interior equilibrium force set [N]")
         for col in ("contact", "lambda_n", "lambda_t", "lambda_n range", "lambda_t range"):
-            forces.add_column(col)
+            forces.add_column(col, overflow="fold")
         for name, f in eq["forces"].items():
             rng = (eq["ranges"] or {}).get(name)
 

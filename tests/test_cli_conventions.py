@@ -46,3 +46,23 @@ def test_a_short_option_means_the_same_everywhere():
                 assert meaning[short] in (param.help or ""), (name, short, param.help)
                 seen.setdefault(short, set()).add(name)
     assert {"simulate", "flip", "climb"} <= seen["-T"] and {"analyze", "statics", "simulate"} <= seen["-i"]
+
+
+@pytest.mark.parametrize("args", [
+    ["analyze", "rhex_flip", "--input", "hip_middle=-5"],
+    ["show", "snake_climb"],
+    ["statics", "rhex_flip"],
+    ["simulate", "rhex_flip", "--duration", "0.02"],
+    ["flip", "--max-time", "0.02"],
+])
+def test_tables_wrap_rather_than_truncate_at_80_columns(args, tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "COLUMNS": "80"}
+    out = subprocess.run([sys.executable, "-m", "frcontrol", *args], capture_output=True, text=True,
+                         cwd=tmp_path, env=env, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "…" not in out.stdout
+    assert max(len(line) for line in out.stdout.splitlines()) <= 80
