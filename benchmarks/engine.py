@@ -135,7 +135,7 @@ def degenerate(problem: ContactProblem, mode: str) -> bool:
     system = build_mode_system(problem, mode)
     response = solve_affine(system.A, system.B, system.c)
     domain, motion = domain_polytope(problem, system, response)
-    return motion_margin(domain.A, domain.b, motion, domain.A_eq, domain.b_eq)[0] == "freedom"
+    return motion_margin(domain.A, domain.b, motion, domain.A_eq, domain.b_eq).verdict == "freedom"
 
 
 # ------------------------------------------------------------------------------- model assembly

@@ -295,6 +295,22 @@ def domain_polytope(
                          response.e.copy()), motion
 
 
+@dataclass(frozen=True)
+class MotionMargin:
+    """The answer of :func:`motion_margin`.
+
+    Attributes:
+        verdict: ``"infeasible"`` (the set is empty), ``"freedom"`` (no point satisfies every
+            motion row strictly) or ``"ok"``.
+        point: a point of the set with the largest motion margin (None when infeasible).
+        margin: that margin t* [units of z] (None when infeasible).
+    """
+
+    verdict: str
+    point: np.ndarray | None
+    margin: float | None
+
+
 def motion_margin(
     H: np.ndarray,
     h: np.ndarray,
@@ -303,22 +319,20 @@ def motion_margin(
     b_eq: np.ndarray,
     *,
     solver: str = DEFAULT_LP_SOLVER,
-    return_margin: bool = False,
-) -> tuple[str, Any]:
+) -> MotionMargin:
     """Test ``{z: H z <= h, A_eq z = b_eq}`` and the strictness of its motion rows.
 
     One LP: maximise ``t`` in [0, 1] subject to the rows, the motion rows tightened by ``t`` times
-    their norm (so t is a distance [units of z]). Returns ``("infeasible", None)`` if the set is
-    empty, ``("freedom", z)`` if no point satisfies every motion row strictly (t* <=
+    their norm (so t is a distance [units of z]). The verdict is ``"infeasible"`` if the set is
+    empty, ``"freedom"`` if no point satisfies every motion row strictly (t* <=
     :data:`DOMAIN_TOLERANCE`; a motion row with zero coefficients counts by its constant), else
-    ``("ok", z)`` with a point whose motion margin is t*. With ``return_margin`` the second item
-    is ``(t*, z)``.
+    ``"ok"``, with a point whose motion margin is t*.
     """
     d = H.shape[1]
     norms, zero = _row_norms(H)
     constant = motion & zero
     if np.any(h[constant] < -DOMAIN_TOLERANCE):
-        return "infeasible", None
+        return MotionMargin("infeasible", None, None)
     degenerate_constant = bool(np.any(h[constant] <= DOMAIN_TOLERANCE))
     tighten = np.where(motion & ~constant, norms, 0.0)
     A_ub = np.hstack([H, tighten[:, None]])
@@ -333,13 +347,12 @@ def motion_margin(
     if result.status in ("error", "unbounded") and solver != REFERENCE_LP_SOLVER:
         result = solve_lp_prepared(c, A_ub, h, A, b, lb, ub, solver=REFERENCE_LP_SOLVER)
     if not result.found:
-        return "infeasible", None
-    z = result.x[:d]
-    out = (float(result.x[-1]), z) if return_margin else z
+        return MotionMargin("infeasible", None, None)
+    z, t = result.x[:d], float(result.x[-1])
     has_motion = bool(np.any(motion & ~constant))
-    if degenerate_constant or (has_motion and result.x[-1] <= DOMAIN_TOLERANCE):
-        return "freedom", out
-    return "ok", out
+    if degenerate_constant or (has_motion and t <= DOMAIN_TOLERANCE):
+        return MotionMargin("freedom", z, t)
+    return MotionMargin("ok", z, t)
 
 
 def _subtree_size(allowed: Sequence[str], depth: int) -> int:
@@ -394,7 +407,7 @@ def analyze(
         if not response.consistent:
             return "freedom", system, response, None
         domain, motion = domain_polytope(problem, system, response)
-        verdict, _ = motion_margin(domain.A, domain.b, motion, domain.A_eq, domain.b_eq, solver=solver)
+        verdict = motion_margin(domain.A, domain.b, motion, domain.A_eq, domain.b_eq, solver=solver).verdict
         timings["feasibility"] += time.perf_counter() - t1
         return verdict, system, response, domain
 
@@ -503,12 +516,11 @@ def _interiors_meet(a: ModeAnalysis, b: ModeAnalysis, solver: str) -> tuple[floa
     rows_b = np.hstack([Hb[:, :m], np.zeros((Hb.shape[0], pa)), Hb[:, m:]])
     H = np.vstack([rows_a, rows_b])
     h = np.concatenate([ha, hb])
-    verdict, z = motion_margin(H, h, np.ones(H.shape[0], dtype=bool), np.zeros((0, H.shape[1])),
-                               np.zeros(0), solver=solver, return_margin=True)
-    if verdict == "infeasible":
+    found = motion_margin(H, h, np.ones(H.shape[0], dtype=bool), np.zeros((0, H.shape[1])),
+                          np.zeros(0), solver=solver)
+    if found.verdict == "infeasible":
         return 0.0, None
-    margin, point = z
-    return margin, point[:m]
+    return found.margin, found.point[:m]
 
 
 def _overlaps(feasible: Sequence[ModeAnalysis], solver: str) -> list[Overlap]:
@@ -635,10 +647,11 @@ def _admissible_w(
         if np.any(h_w[~motion] < -DOMAIN_TOLERANCE) or np.any(h_w[motion] <= DOMAIN_TOLERANCE):
             return None
         return np.zeros(0)
-    verdict, z = motion_margin(H_w, h_w + np.where(motion, 0.0, DOMAIN_TOLERANCE), motion,
-                               np.zeros((0, p)), np.zeros(0), solver=solver)
-    if verdict != "ok":
+    found = motion_margin(H_w, h_w + np.where(motion, 0.0, DOMAIN_TOLERANCE), motion,
+                          np.zeros((0, p)), np.zeros(0), solver=solver)
+    if found.verdict != "ok":
         return None
+    z = found.point
     ball = poly.chebyshev_ball(poly.Polytope(H_w, h_w + DOMAIN_TOLERANCE), solver=solver)
     if ball.found and ball.radius > DOMAIN_TOLERANCE:
         return ball.center
@@ -720,6 +733,7 @@ def solutions_at(
 
 
 __all__ = [
+    "MotionMargin",
     "analyze",
     "domain_polytope",
     "DOMAIN_TOLERANCE",
