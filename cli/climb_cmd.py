@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -24,6 +23,7 @@ from .common import (
     note,
     print_json,
     progress,
+    serve_until_stopped,
     set_quiet,
     tell,
 )
@@ -41,7 +41,7 @@ HtmlOpt = Annotated[
 ViewOpt = Annotated[
     bool,
     typer.Option("--view", help="Replay the simulated climb on a local meshcat server and print its URL; "
-                 "wait for Enter or Ctrl-C (when stdin is not a terminal, return at once)."),
+                 "serve until Ctrl-C or SIGTERM, then shut the server down."),
 ]
 PortOpt = Annotated[
     int | None,
@@ -133,18 +133,11 @@ def climb_command(
 
             note(f"wrote {save_trajectory(loaded, trajectory, out)}", to_stderr=json)
     if view:
-        from frcontrol.viz.meshcat_view import serve, stop_server
+        from frcontrol.viz.meshcat_view import serve
 
         url = serve(loaded, trajectory, port)
         tell(f"meshcat viewer: {url}", to_stderr=json)
-        if not sys.stdin.isatty():
-            return
-        try:
-            input("press Enter (or Ctrl-C) to stop the viewer ")
-        except (KeyboardInterrupt, EOFError):
-            typer.echo("")
-        finally:
-            stop_server(url)
+        serve_until_stopped(url)
 
 
 def render(payload: dict[str, Any]) -> None:

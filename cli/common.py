@@ -62,6 +62,31 @@ def tell(text: str, *, to_stderr: bool = False) -> None:
         typer.echo(text.rstrip("\n"))
 
 
+def serve_until_stopped(url: str) -> None:
+    """Keep the meshcat server at ``url`` until Ctrl-C (SIGINT) or SIGTERM, then shut it down.
+
+    The signals end the wait, not the process: the server is stopped before frc exits, so no
+    server is left behind on its port.
+    """
+    import signal
+    import threading
+
+    from frcontrol.viz.meshcat_view import stop_server
+
+    stop = threading.Event()
+    handlers = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        handlers[sig] = signal.signal(sig, lambda signum, frame: stop.set())
+    note("serving; Ctrl-C (or SIGTERM) stops the viewer", to_stderr=True)
+    try:
+        while not stop.wait(0.2):
+            pass
+    finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
+        stop_server(url)
+
+
 def fail(message: str) -> typer.Exit:
     """Print one line on stderr and return the exit (code 1) to raise."""
     sys.stderr.write(f"frc: error: {message}\n")
@@ -110,6 +135,7 @@ __all__ = [
     "fail",
     "note",
     "progress",
+    "serve_until_stopped",
     "set_quiet",
     "tell",
     "handle_errors",

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -23,6 +22,7 @@ from .common import (
     note,
     print_json,
     progress,
+    serve_until_stopped,
     set_quiet,
     tell,
 )
@@ -40,8 +40,7 @@ HtmlOpt = Annotated[
 ViewOpt = Annotated[
     bool,
     typer.Option("--view", help="Replay the simulated flip on a local meshcat server and print its URL; "
-                 "wait for Enter or Ctrl-C (when stdin is not a terminal, return at once: the server "
-                 "stops as frc exits)."),
+                 "serve until Ctrl-C or SIGTERM, then shut the server down."),
 ]
 PortOpt = Annotated[
     int | None,
@@ -147,13 +146,7 @@ def flip_command(
 
             draw(server.visualizer(), loaded, trajectory, modes=modes)
             tell(f"meshcat viewer: {server.url}", to_stderr=json)
-            if sys.stdin.isatty():
-                try:
-                    input("press Enter (or Ctrl-C) to stop the viewer ")
-                except (KeyboardInterrupt, EOFError):
-                    typer.echo("")
-                finally:
-                    stop_server(server.url)
+            serve_until_stopped(server.url)
     except BaseException:
         if server is not None:
             stop_server(server.url)

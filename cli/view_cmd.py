@@ -10,7 +10,7 @@ import typer
 
 from frcontrol.scene import load_scene
 
-from .common import check_output_files, fail, handle_errors, note, print_json, set_quiet
+from .common import check_output_files, fail, handle_errors, note, print_json, serve_until_stopped, set_quiet
 from .model_cmds import JsonOpt, SceneArg
 from .options import QuietOpt, SetOpt, scene_overrides
 
@@ -21,9 +21,8 @@ HtmlOpt = Annotated[
 ]
 ViewOpt = Annotated[
     bool,
-    typer.Option("--view", help="Serve the scene on a local meshcat server and print its URL; wait "
-                 "for Enter or Ctrl-C (when stdin is not a terminal, return at once: the server "
-                 "stops as frc exits)."),
+    typer.Option("--view", help="Serve the scene on a local meshcat server and print its URL; serve "
+                 "until Ctrl-C or SIGTERM, then shut the server down."),
 ]
 PortOpt = Annotated[
     int | None,
@@ -73,7 +72,7 @@ def view_command(
         written["plot"] = str(plot)
         note(f"wrote {plot}", to_stderr=json)
     if view:
-        from frcontrol.viz.meshcat_view import serve, stop_server
+        from frcontrol.viz.meshcat_view import serve
 
         url = serve(loaded, None, port)
         written["url"] = url
@@ -81,14 +80,8 @@ def view_command(
             print_json({"scene": loaded.name, **written})
         else:
             typer.echo(f"meshcat viewer: {url}")
-        if not sys.stdin.isatty():
-            return
-        try:
-            input("press Enter (or Ctrl-C) to stop the viewer ")
-        except (KeyboardInterrupt, EOFError):
-            typer.echo("")
-        finally:
-            stop_server(url)
+        sys.stdout.flush()
+        serve_until_stopped(url)
         return
     if json:
         print_json({"scene": loaded.name, **written})

@@ -18,8 +18,10 @@ import math
 import os
 import re
 import shutil
+import signal
 import socket
 import subprocess
+import sys
 import tempfile
 import time
 import urllib.request
@@ -433,15 +435,43 @@ def test_cli_view_with_no_flag_writes_the_page_and_says_where(tmp_path, monkeypa
     assert page.stat().st_size > 500_000 and result.stdout.strip() == f"wrote {page.resolve()}"
 
 
-def test_cli_view_serves_and_returns_without_a_terminal():
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def port_is_free(port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        return probe.connect_ex(("127.0.0.1", port)) != 0
+
+
+def test_cli_view_serves_until_sigterm_then_stops_the_server(tmp_path):
+    """As a user's script runs it: a real process, no terminal; SIGTERM ends it and its server."""
+    port = free_port()
+    process = subprocess.Popen([sys.executable, "-m", "frcontrol", "view", "rhex_flip", "--view", "--port",
+                                str(port)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               cwd=tmp_path, stdin=subprocess.DEVNULL)
     try:
-        result = runner.invoke(view_app, ["rhex_flip", "--view"])  # CliRunner's stdin is no TTY
-        assert result.exit_code == 0, result.output
-        url = re.search(r"meshcat viewer: (http://127\.0\.0\.1:\d+/static/)", result.stdout).group(1)
+        line = process.stdout.readline()
+        url = re.search(r"meshcat viewer: (http://127\.0\.0\.1:\d+/static/)", line).group(1)
+        assert f":{port}/" in url
         with urllib.request.urlopen(url, timeout=10) as response:
             assert response.status == 200
+        time.sleep(0.5)
+        assert process.poll() is None  # still serving
+        process.send_signal(signal.SIGTERM)
+        assert process.wait(timeout=20) == 0
+        deadline = time.monotonic() + 10
+        while not port_is_free(port) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert port_is_free(port), f"a server was left behind on port {port}"
     finally:
-        mv.stop_server()
+        if process.poll() is None:
+            process.kill()
+
+
+def test_cli_view_refuses_a_taken_port():
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as taken:
         taken.bind(("127.0.0.1", 0))
         taken.listen()
