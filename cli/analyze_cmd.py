@@ -38,7 +38,14 @@ def analyze_command(
     sets: SetOpt = None,
     quiet: QuietOpt = False,
 ) -> None:
-    """Every contact mode at the scene's state: response, domain, ambiguity; with --input, the solutions."""
+    """Every contact mode at the scene's state: response, domain, ambiguity; with --input, the solutions.
+
+    \b
+    Examples:
+      frc analyze rod_on_table
+      frc analyze rod_on_table --input x=1 --input theta=0.5 --json
+      frc analyze rod_on_table --set contacts.tip.mu=0.3 --input x=1
+    """
     set_quiet(quiet)
     from frcontrol.engine import analyze, solutions_at
 

@@ -91,6 +91,11 @@ def climb_command(
     One set of joint torques keeps the brace contacts sticking, unambiguously, for every
     disturbance of the scene's polytope while the head accelerates upward; also the largest
     disturbance scale for which such torques exist, and a simulation under sampled disturbances.
+
+    \b
+    Examples:
+      frc climb --plot climb.png
+      frc climb --margin 0.2 --json
     """
     set_quiet(quiet)
     from frcontrol.planning.climb import plan_climb, simulate_climb

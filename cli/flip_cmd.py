@@ -94,6 +94,12 @@ def flip_command(
     input where another contact mode also holds; they are checked at their printed values. Then a
     rigid simulation re-plans along the motion until the body pitches past vertical. No feasible
     flip is a result (exit 0, "flipped": false and the reason), not an error.
+
+    \b
+    Examples:
+      frc flip --html flip.html --plot flip.png
+      frc flip --margin 0.5 --json
+      frc flip --set contacts.front_corner.mu=0.5 --out flip.csv
     """
     set_quiet(quiet)
     from frcontrol.planning.flip import plan_flip, simulate_flip

@@ -20,7 +20,12 @@ JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JS
 
 @handle_errors
 def robots(json: JsonOpt = False, quiet: QuietOpt = False) -> None:
-    """List the robots and scenes that ship with frcontrol."""
+    """List the robots and scenes that ship with frcontrol.
+
+    \b
+    Example:
+      frc robots --json
+    """
     set_quiet(quiet)
     root = shipped_robots_dir()
     if json:
@@ -70,7 +75,13 @@ def show_payload(scene_file: str | Path, overrides: dict | None = None) -> dict:
 
 @handle_errors
 def show(scene: SceneArg, json: JsonOpt = False, sets: SetOpt = None, quiet: QuietOpt = False) -> None:
-    """Print the coordinates, M(q), h(q, v) and every contact's gap, velocities and rows."""
+    """Print the coordinates, M(q), h(q, v) and every contact's gap, velocities and rows.
+
+    \b
+    Examples:
+      frc show rhex_flip
+      frc show rod_on_table --set state.q=[0,0.45,2.0] --json
+    """
     set_quiet(quiet)
     payload = show_payload(scene, scene_overrides(sets))
     if json:

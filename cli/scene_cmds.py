@@ -24,7 +24,12 @@ def schema_command(
     = False,
     quiet: QuietOpt = False,
 ) -> None:
-    """Print the scene format as a JSON Schema (draft 2020-12)."""
+    """Print the scene format as a JSON Schema (draft 2020-12).
+
+    \b
+    Example:
+      frc schema --json
+    """
     set_quiet(quiet)
     sys.stdout.write(json.dumps(SCENE_SCHEMA, indent=2) + "\n")
 
@@ -35,7 +40,13 @@ def validate_command(
     json_output: JsonOpt = False,
     quiet: QuietOpt = False,
 ) -> None:
-    """Check scene files: exit 0 when all are valid, else 1 with one line per problem on stderr."""
+    """Check scene files: exit 0 when all are valid, else 1 with one line per problem on stderr.
+
+    \b
+    Examples:
+      frc validate rod_on_table rhex_flip
+      frc validate snake_climb --json
+    """
     set_quiet(quiet)
     reports = []
     for name in files:

@@ -90,6 +90,12 @@ def simulate_command(
     an energy blow-up ends it as "diverged" (exit 1, with the time, the reason and a hint); energy
     growth beyond the inputs' work, deep penetration or implausible contact speeds are warnings,
     one line each on stderr and in the JSON's "warnings".
+
+    \b
+    Examples:
+      frc simulate rod_on_table --duration 0.5
+      frc simulate box_on_slope --model compliant --stiffness 1e6 --json
+      frc simulate rhex_flip --input hip_rear=5 -T 0.2 --out run.npz --html run.html
     """
     set_quiet(quiet)
     from frcontrol.simulation.compliant import simulate_compliant

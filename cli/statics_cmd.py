@@ -53,7 +53,13 @@ def statics_command(
     sets: SetOpt = None,
     quiet: QuietOpt = False,
 ) -> None:
-    """Form and force closure, static equilibrium, support region, weak and strong stability at rest."""
+    """Form and force closure, static equilibrium, support region, weak and strong stability at rest.
+
+    \b
+    Examples:
+      frc statics box_on_slope
+      frc statics snake_climb --lateral-acceleration 2 --plot statics.png
+    """
     set_quiet(quiet)
     from frcontrol.statics import analyze_statics
 

@@ -51,6 +51,12 @@ def view_command(
 
     With no --html, --plot or --view, writes SCENE_NAME.html (a self-contained meshcat page) in the
     current folder and says where.
+
+    \b
+    Examples:
+      frc view rhex_flip
+      frc view rhex_flip --plot rhex.png
+      frc view rhex_flip --view --port 7000
     """
     set_quiet(quiet)
     if port is not None and not view:

@@ -66,3 +66,30 @@ def test_tables_wrap_rather_than_truncate_at_80_columns(args, tmp_path):
     assert out.returncode == 0, out.stderr
     assert "…" not in out.stdout
     assert max(len(line) for line in out.stdout.splitlines()) <= 80
+
+
+def help_examples():
+    """Every example command in every command's --help (served viewers left out: they wait)."""
+    out = []
+    for name in sorted(COMMANDS):
+        text = runner.invoke(app, [name, "--help"]).stdout
+        block = text.split("Examples:" if "Examples:" in text else "Example:")
+        assert len(block) == 2, f"frc {name} --help has no example"
+        for line in block[1].splitlines():
+            line = line.strip()
+            if not line.startswith("frc "):
+                if line == "" or line.startswith("frc"):
+                    continue
+                break
+            if "--view" not in line:
+                out.append(line)
+    return out
+
+
+@pytest.mark.parametrize("example", help_examples())
+def test_every_help_example_runs(example, tmp_path, monkeypatch):
+    import shlex
+
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(app, shlex.split(example)[1:])
+    assert result.exit_code == 0, (example, result.stderr[-500:])
