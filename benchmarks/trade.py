@@ -389,11 +389,11 @@ def force_point(ref: Reference, config: dict, runs: int = 1) -> dict:
         seconds, times, trajectory = median_time(lambda: compliant_run(ref, config, t_r, dt), runs)
     except (FrcontrolError, ValueError, np.linalg.LinAlgError) as err:
         return {**point, "valid": False, "reason": f"raised {type(err).__name__}: {str(err)[:160]}"}
-    status = trajectory.info["status"]
+    status = trajectory.status
     forces = readout_forces(ref, trajectory)
     if status != "completed" or not np.all(np.isfinite(forces)):
-        failure = trajectory.info.get("failure") or {}
-        return {**point, "valid": False, "reason": f"{status}: {failure.get('reason', 'non-finite forces')}"}
+        reason = trajectory.failure.reason if trajectory.failure else "non-finite forces"
+        return {**point, "valid": False, "reason": f"{status}: {reason}"}
     return {**point, "valid": True, "time": seconds, "runs": len(times),
             "error": force_error(ref, forces), "steps": trajectory.info["steps"],
             "rhs_evaluations": trajectory.info["rhs_evaluations"]}
@@ -418,7 +418,7 @@ def trajectory_reference(ref: Reference, stiffness: float) -> tuple[np.ndarray |
                                        max_steps=MAX_TRAJECTORY_STEPS)
         except (FrcontrolError, ValueError, np.linalg.LinAlgError):
             continue
-        if trajectory.info["status"] == "completed":
+        if trajectory.completed:
             return link_origins(ref.scene, trajectory.q), f"{integrator} rtol {rtol:g}"
     return None, "none: every reference integrator failed"
 
@@ -440,8 +440,8 @@ def trajectory_point(ref: Reference, config: dict, reference: np.ndarray, runs: 
             runs)
     except (FrcontrolError, ValueError, np.linalg.LinAlgError) as err:
         return {**point, "valid": False, "reason": f"raised {type(err).__name__}: {str(err)[:160]}"}
-    if trajectory.info["status"] != "completed":
-        return {**point, "valid": False, "reason": f"failed: {trajectory.info['failure']}"}
+    if not trajectory.completed:
+        return {**point, "valid": False, "reason": f"{trajectory.status}: {trajectory.failure.reason}"}
     origins = link_origins(ref.scene, trajectory.q[::per_sample])
     if origins.shape != reference.shape or not np.all(np.isfinite(origins)):
         return {**point, "valid": False, "reason": "samples do not match the reference's"}

@@ -117,11 +117,10 @@ def simulate_command(
                                       stiffness=stiffness, damping=damping)
     for warning in traj.warnings:
         sys.stderr.write(f"frc: warning: t = {warning.time:.6g} s: {warning.kind}: {warning.detail}\n")
-    failure = traj.info["failure"]
+    failure = traj.failure
     if failure is not None:
-        hint = f"; {failure['hint']}" if failure.get("hint") else ""
-        raise fail(f"the simulation {traj.info['status']} at t = {failure['time']:.6g} s: "
-                   f"{failure['reason']}{hint}")
+        hint = f"; {failure.hint}" if failure.hint else ""
+        raise fail(f"the simulation {traj.status} at t = {failure.time:.6g} s: {failure.reason}{hint}")
     if html is not None:
         from frcontrol.viz.meshcat_view import write_html
 

@@ -372,7 +372,7 @@ def _slope_compliant(mu: float) -> Callable[[Path], Outcome]:
         scene = slope_box(folder, "slope", mu)
         duration = 0.2
         traj = simulate_compliant(scene, None, duration, 0.01)
-        check(traj.info["status"] == "completed", f"status {traj.info['status']}: {traj.info['failure']}")
+        check(traj.completed, f"status {traj.status}: {traj.failure}")
         finite("trajectory", traj.q, traj.v, traj.contact_forces)
         up = np.array([math.cos(SLOPE), math.sin(SLOPE)])
         along = float(traj.v[-1, :2] @ up)
@@ -436,10 +436,10 @@ def _resting_box_compliant(stiffness: float, integrator: str) -> Callable[[Path]
     def run(folder: Path) -> Outcome:
         scene = load_scene("box_on_ground")
         traj = simulate_compliant(scene, None, 0.05, 0.01, stiffness=stiffness, integrator=integrator)
-        status = traj.info["status"]
+        status = traj.status
         finite("trajectory", traj.q, traj.v, traj.contact_forces)
         if status != "completed":
-            reason = (traj.info["failure"] or {}).get("reason", "")
+            reason = traj.failure.reason if traj.failure else ""
             check(bool(reason), "failed without a reason")
             return Outcome("typed error", f"status failed: {reason}")
         close("lam_N", traj.contact_forces[-1, :, 0], [G / 2, G / 2], COMPLIANT_RTOL)
@@ -478,8 +478,8 @@ def _radau_tight(folder: Path) -> Outcome:
         traj = simulate_compliant(scene, RHEX_MOVING_INPUT, 0.0034, 0.0034, stiffness=1e8, rtol=1e-7,
                                   atol=3e-14)
     finite("trajectory", traj.q, traj.v)
-    if traj.info["status"] != "completed":
-        return Outcome("typed error", f"status failed: {traj.info['failure']['reason']}")
+    if not traj.completed:
+        return Outcome("typed error", f"status {traj.status}: {traj.failure.reason}")
     return passed(f"completed in {traj.info['steps']} steps")
 
 
@@ -575,7 +575,7 @@ def _rhex_compliant(ratio: float) -> Callable[[Path], Outcome]:
         # frequency at the default stiffness): 0.5 s to settle to 1e-3
         traj = simulate_compliant(scene, RHEX_STATIC_INPUT, 0.5, 0.25)
         finite("trajectory", traj.q, traj.v, traj.contact_forces)
-        check(traj.info["status"] == "completed", f"status {traj.info['status']}: {traj.info['failure']}")
+        check(traj.completed, f"status {traj.status}: {traj.failure}")
         total = traj.contact_forces[-1, :, 0].sum()
         close("total normal force", total, 7.5 * (1.0 + 3.0 * ratio) * G, COMPLIANT_RTOL)
         check(float(np.max(np.abs(traj.v[-1, :3]))) < SETTLED_VELOCITY,
@@ -780,7 +780,7 @@ def _snake_compliant(folder: Path) -> Outcome:
     scene = snake_lying(folder)
     traj = simulate_compliant(scene, None, 0.01, 0.01)
     finite("trajectory", traj.q, traj.v, traj.contact_forces)
-    check(traj.info["status"] == "completed", f"status {traj.info['status']}")
+    check(traj.completed, f"status {traj.status}")
     close("lam_N of the first 7 contacts", traj.contact_forces[-1, :7, 0], np.full(7, 0.2 * G), 0.05)
     return passed(f"8 springs carry ~0.2 g each after 0.01 s ({traj.info['steps']} steps)")
 
@@ -854,7 +854,7 @@ def _scaled_rod_compliant(length: float) -> Callable[[Path], Outcome]:
         traj = simulate_compliant(scaled, None, duration, duration / 2, stiffness=1e5 / length,
                                   atol=1e-9 * length)
         finite("trajectory", traj.q, traj.v, traj.contact_forces)
-        check(traj.info["status"] == "completed", f"status {traj.info['status']}: {traj.info['failure']}")
+        check(traj.completed, f"status {traj.status}: {traj.failure}")
         close("lam_N", traj.contact_forces[-1, 0, 0], G, COMPLIANT_RTOL)
         return passed(f"standing rod: lam_N = {traj.contact_forces[-1, 0, 0]:.6g} N (k = 1e5 / L)")
     return run

@@ -42,7 +42,7 @@ def test_simulate_follows_the_scene_model():
     rigid = frcontrol.simulate(load_scene("rod_on_table"), None, 0.01, 0.005)
     compliant = frcontrol.simulate(load_scene("rod_on_table", overrides={"model.contact": "compliant"}),
                                    None, 0.01, 0.005)
-    assert rigid.info["model"] == "rigid" and compliant.info["model"] == "compliant"
+    assert rigid.model == "rigid" and compliant.model == "compliant"
 
 
 def every_module():

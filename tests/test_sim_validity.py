@@ -34,7 +34,7 @@ FREE_ROD = 'robot = "rod.urdf"\n[state]\nq = [0.0, 1.0, 0.3]\n[inputs]\ncoordina
 @pytest.mark.parametrize("simulate", [simulate_rigid, simulate_compliant])
 def test_a_calm_run_has_no_warning(name, simulate):
     trajectory = simulate(load_scene(name), None, 0.2, 0.002)
-    assert trajectory.info["status"] == "completed" and trajectory.warnings == ()
+    assert trajectory.status == "completed" and trajectory.warnings == ()
     limits = trajectory.info["validity"]
     assert limits["max_speed"] > 0 and limits["max_penetration"] > 0
 
@@ -56,7 +56,7 @@ def test_constant_torques_on_massless_legs_are_reported():
     scene = load_scene("rhex_flip")
     run = simulate_compliant(scene, {"hip_middle": 10.0, "hip_rear": 10.0}, 0.5, 0.001)
     kinds = {w.kind for w in run.warnings}
-    assert run.info["status"] == "completed"  # the energy is the inputs' work: no blow-up
+    assert run.status == "completed"  # the energy is the inputs' work: no blow-up
     assert {"speed", "penetration"} <= kinds
     assert "energy" not in kinds
     work = run.info["input_work"][-1]
@@ -74,9 +74,9 @@ def test_nan_ends_the_run_as_diverged_where_it_happened():
     q[20, 1] = np.nan
     broken = assess(scene, replace(run, q=q, warnings=()), energy=run.info["energy"],
                     penetration=run.info["max_penetration"], stiffness=None, dt=0.001)
-    assert broken.info["status"] == "diverged"
-    assert broken.info["failure"]["time"] == pytest.approx(run.times[20])
-    assert "NaN" in broken.info["failure"]["reason"] and broken.info["failure"]["hint"]
+    assert broken.status == "diverged"
+    assert broken.failure.time == pytest.approx(run.times[20])
+    assert "NaN" in broken.failure.reason and broken.failure.hint
     assert len(broken.times) == 20 and np.all(np.isfinite(broken.q))
 
 
@@ -92,10 +92,10 @@ def test_energy_from_nowhere_warns_then_diverges():
 
     ramp = np.linspace(0.0, 1.0, len(energy))
     warned = check(0.5 * scale * ramp)  # half of m g L, from no input
-    assert warned.info["status"] == "completed"
+    assert warned.status == "completed"
     assert [w.kind for w in warned.warnings] == ["energy"]
     blown = check(2 * DIVERGENCE_FACTOR * (abs(energy[0]) + scale) * ramp)
-    assert blown.info["status"] == "diverged" and "blow-up" in blown.info["failure"]["reason"]
+    assert blown.status == "diverged" and "blow-up" in blown.failure.reason
     assert check(0.0 * ramp).warnings == ()
 
 
@@ -106,8 +106,8 @@ def test_a_run_that_overflows_diverges_on_both_models(write_scene):
     path = write_scene(FREE_ROD)
     for simulate, push in ((simulate_rigid, 1e306), (simulate_compliant, 1e30)):
         run = simulate(load_scene(path), {"x": push}, 0.05, 0.001)
-        assert run.info["status"] == "diverged", simulate.__name__
-        assert run.info["failure"]["hint"]
+        assert run.status == "diverged", simulate.__name__
+        assert run.failure.hint
 
 
 def test_the_cli_exits_1_on_divergence_with_one_line(write_scene):
@@ -132,3 +132,22 @@ def test_the_cli_reports_warnings_in_the_json_and_on_stderr():
     assert len(lines) == len(doc["warnings"]) and all(line.startswith("frc: warning: t = ") for line in lines)
     calm = runner.invoke(app, ["simulate", "rod_on_table", "--duration", "0.05", "--json"])
     assert calm.exit_code == 0 and json.loads(calm.stdout)["warnings"] == [] and calm.stderr == ""
+
+
+def test_status_and_failure_are_typed_fields_that_agree():
+    """A run's status is a field, never a dict entry; a completed run has no failure, others have one."""
+    from frcontrol.errors import InputError
+    from frcontrol.simulation.trajectory import SimulationFailure
+
+    run = simulate_rigid(load_scene("rod_on_table"), None, 0.01, 0.001)
+    assert run.completed and run.failure is None and run.model == "rigid"
+    assert not {"status", "failure", "model", "modes"} & set(run.info)
+    with pytest.raises(InputError, match="must not carry a failure"):
+        replace(run, failure=SimulationFailure(0.0, "nothing"))
+    with pytest.raises(InputError, match="must carry a failure"):
+        replace(run, status="failed")
+    with pytest.raises(InputError, match="status must be one of"):
+        replace(run, status="done")
+    failed = replace(run, status="failed", failure=SimulationFailure(0.005, "why", ""))
+    summary = failed.to_dict()["summary"]
+    assert summary["status"] == "failed" and summary["failure"] == {"time": 0.005, "reason": "why"}

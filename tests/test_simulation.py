@@ -69,7 +69,7 @@ def test_rigid_free_fall_is_semi_implicit_euler_exactly(write_scene):
     assert traj.q.shape == (steps + 1, 3) and traj.events == ()
     # each step loses exactly m g^2 dt^2 / 2 of energy (the scheme's dissipation in free fall)
     np.testing.assert_allclose(np.diff(traj.info["energy"]), -0.5 * G**2 * dt**2, atol=1e-12)
-    assert traj.info["status"] == "completed" and traj.info["lcp"]["solves"] == 0
+    assert traj.status == "completed" and traj.info["lcp"]["solves"] == 0
 
 
 @pytest.mark.parametrize("integrator, tol", [("radau", 1e-9), ("rk45", 1e-9), ("dop853", 1e-9),
@@ -130,7 +130,7 @@ def test_compliant_box_on_the_slope_converges_to_the_rigid_one(write_scene):
     errors = []
     for k in (1e3, 1e4, 1e5):
         traj = simulate_compliant(scene, None, T, 1e-3, stiffness=k)
-        assert traj.info["status"] == "completed"
+        assert traj.status == "completed"
         assert (traj.v[-1, :2] @ UP_SLOPE) / T == pytest.approx(-acc, rel=1e-4)
         shift = traj.q[-1, :2] - traj.q[0, :2]
         # the normal sink is the static penetration m g cos a / (2 k) of the two springs
@@ -345,7 +345,7 @@ def test_massless_legs_get_the_reported_armature_like_pinocchio():
     with pytest.raises(IllConditioned, match="armature"):
         simulate_rigid(scene, None, 0.01, 1e-3, armature=0.0)
     compliant = simulate_compliant(scene, push, 0.005, 1e-3, armature=1e-3)
-    assert compliant.info["armature"]["value"] == 1e-3 and compliant.info["status"] == "completed"
+    assert compliant.info["armature"]["value"] == 1e-3 and compliant.status == "completed"
 
 
 # ---------------------------------------------------------------------------------------- [model] table
@@ -453,10 +453,10 @@ def test_bad_rigid_parameters_and_unknown_input_name(write_scene):
 def test_integrator_failure_keeps_the_trajectory_and_reports_time_and_reason(write_scene):
     scene = load_scene(write_scene(box_scene([0.0, 0.45, 0.0])))
     traj = simulate_compliant(scene, None, 0.5, 1e-3, max_steps=50)
-    assert traj.info["status"] == "failed"
-    failure = traj.info["failure"]
-    assert "more than 50 steps" in failure["reason"] and 0.0 < failure["time"] < 0.5
-    assert traj.times[-1] <= failure["time"] and len(traj.times) == len(traj.q) > 1
+    assert traj.status == "failed"
+    failure = traj.failure
+    assert "more than 50 steps" in failure.reason and 0.0 < failure.time < 0.5
+    assert traj.times[-1] <= failure.time and len(traj.times) == len(traj.q) > 1
     # an explicit step above the stability limit is refused (it would gain energy): with the
     # critical damper explicit, 2 (sqrt(2) - 1) / omega = 0.414 x the undamped 2 / omega = 1.08 ms
     resting = load_scene(write_scene(box_scene([0.0, 0.25, 0.0])))

@@ -1500,7 +1500,7 @@ def simulate_climb(
     events = tuple(e for e in trajectory.events if e.contact in brace)
     bad_events = [e for e in events if e.kind in ("open", "slip")]
     max_slip = float(np.max(slip, initial=0.0))
-    completed = trajectory.info.get("status") == "completed"
+    completed = trajectory.completed
     held = bool(completed and np.all(loaded) and not bad_events and max_slip <= slip_tolerance)
     head = np.array([kin.positions(q)[-1] for q in trajectory.q])
     return ClimbResult(
@@ -1508,7 +1508,7 @@ def simulate_climb(
         max_opening=float(np.max(opening, initial=0.0)), upper_rise=float(head[-1, 1] - head[0, 1]),
         max_upper_rise=float(np.max(head[:, 1]) - head[0, 1]), duration=float(trajectory.duration),
         brace_events=events, disturbance_times=hold * np.arange(count), disturbance_samples=samples,
-        status=str(trajectory.info.get("status")), slip_tolerance=slip_tolerance, seed=seed)
+        status=trajectory.status, slip_tolerance=slip_tolerance, seed=seed)
 
 
 # ============================================================================ plot

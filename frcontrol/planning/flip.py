@@ -97,6 +97,7 @@ from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
 from ..simulation.export import sample_modes
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE
+from ..simulation.trajectory import ContactEvent, SimulationFailure, Trajectory
 from ..solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, SolverFailed, solve_lp, solve_lp_prepared
 from . import DEFAULT_FLIP_MARGIN
 
@@ -378,7 +379,7 @@ class FlipPlan:
             "max_time": result.max_time,
             "armature": result.armature,
             "duration": traj.duration,
-            "status": traj.info.get("status"),
+            "status": traj.status,
             "events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
                        for e in traj.events],
             "timings": dict(result.timings),
@@ -985,15 +986,14 @@ def _weight(scene: Scene) -> float:
     return weight if weight > 0 else 1.0
 
 
-def _concatenate(scene: Scene, chunks: Sequence[Any], info: dict) -> Any:
+def _concatenate(scene: Scene, chunks: Sequence[Any], info: dict, failure: SimulationFailure | None
+                 ) -> Trajectory:
     """One trajectory from consecutive chunks (each chunk's first sample is the previous last).
 
     Each chunk's simulator starts by deciding which contacts are closed from their gaps alone, so a
     contact that was loaded at the end of the previous chunk can be reported as closing again in
     the first step of the next: those "close" events are dropped.
     """
-    from ..simulation.trajectory import ContactEvent, Trajectory
-
     times, q, v, inputs, forces, points, events = [], [], [], [], [], [], []
     offset = 0.0
     names = [c.name for c in scene.contacts]
@@ -1020,7 +1020,8 @@ def _concatenate(scene: Scene, chunks: Sequence[Any], info: dict) -> Any:
         contacts=tuple(names), times=np.concatenate(times),
         q=np.vstack(q), v=np.vstack(v), inputs=np.vstack(inputs), input_names=scene.inputs.coordinates,
         contact_forces=np.concatenate(forces), contact_points=np.concatenate(points),
-        events=tuple(events), info=info,
+        events=tuple(events), info=info, model="rigid",
+        status="completed" if failure is None else chunks[-1].status, failure=failure,
     )
 
 
@@ -1180,16 +1181,15 @@ def simulate_flip(
         t += float(chunk.times[-1])
         if progress is not None:
             progress(t, max_time)
-        if chunk.info["status"] != "completed":
-            failure = chunk.info["failure"]
+        if chunk.failure is not None:  # its time counted from the flip's start, not the chunk's
+            failure = replace(chunk.failure, time=t - float(chunk.times[-1]) + chunk.failure.time)
             break
         if np.any(chunk.q[:, task.pitch_index] >= task.vertical):
             crossed = True
             break
 
-    info = {"model": "rigid", "dt": dt, "steps": 0, "armature": {"value": arm},
-            "status": "failed" if failure else "completed", "failure": failure, "source": "simulate_flip"}
-    trajectory = _concatenate(scene, chunks, info)
+    info = {"dt": dt, "armature": {"value": arm}, "source": "simulate_flip"}
+    trajectory = _concatenate(scene, chunks, info, failure)
     pitch = trajectory.q[:, task.pitch_index]
     time_to_vertical = None
     end = len(pitch) - 1
@@ -1203,14 +1203,14 @@ def simulate_flip(
             time_to_vertical = 0.0
     if crossed and end < len(pitch) - 1:
         trajectory = _truncate(trajectory, end)
-    trajectory.info["steps"] = len(trajectory.times) - 1
     separation, body_events = _body_contacts(scene, trajectory, task.body_contacts, end)
     modes = sample_modes(scene, trajectory)
-    trajectory.info["modes"] = list(modes)
+    trajectory = replace(trajectory, info={**trajectory.info, "steps": len(trajectory.times) - 1},
+                         modes=tuple(modes))
     if crossed:
         reason = None
     elif failure is not None:
-        reason = f"the simulation failed at t = {failure['time']:.4g} s: {failure['reason']}"
+        reason = f"the simulation {trajectory.status} at t = {failure.time:.4g} s: {failure.reason}"
     else:
         reason = (f"the pitch reached {float(np.max(pitch)):.4f} rad within {max_time:g} s, short of "
                   f"vertical ({task.vertical:.4f} rad)")

@@ -54,7 +54,7 @@ def simulate(scene: Scene, inputs: Any = None, duration: float = 1.0, dt: float 
         **options: passed to :func:`simulate_rigid` or :func:`simulate_compliant`.
 
     Returns:
-        The trajectory (its ``info["model"]`` says which model ran).
+        The trajectory (its ``model`` says which model ran).
     """
     from .compliant import simulate_compliant
     from .options import model_options

@@ -52,7 +52,7 @@ larger ``dt`` is refused). Samples are taken every
 ``dt`` from the solvers' dense output; a callable input is held constant over each sample
 interval (zero-order hold). The adaptive solvers' step is at most ``max_step`` (default ``dt``)
 so that no contact onset is stepped over. A solver that fails (step size underflow, a NaN) or
-exceeds ``max_steps`` ends the simulation: ``info["status"] = "failed"`` with the time and the
+exceeds ``max_steps`` ends the simulation: ``status = "failed"`` with the time and the
 reason, and the trajectory up to there is returned.
 """
 
@@ -82,7 +82,7 @@ from .options import (
     potential_energy,
 )
 from .rigid import IMPACT_VELOCITY
-from .trajectory import ContactEvent, Trajectory
+from .trajectory import ContactEvent, SimulationFailure, Trajectory
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
 
@@ -336,11 +336,12 @@ def simulate_compliant(
         impact_velocity: [m/s] a contact closing faster than this is an ``impact`` event.
 
     Returns:
-        The trajectory, sampled every ``dt``; ``info`` holds ``model``, ``integrator``, the step
+        The trajectory (``model = "compliant"``, its ``status`` and ``failure``: time and reason,
+        or None), sampled every ``dt``; ``info`` holds the ``integrator``, the step
         sizes (``steps``, ``min_step``, ``max_step_taken``, ``mean_step``), ``rhs_evaluations``,
         ``energy`` [J] (kinetic + gravitational), ``elastic_energy`` [J] (springs),
         ``max_penetration`` [m] per sample, the contacts' parameters, ``armature``,
-        ``state_size``, ``status`` and ``failure`` (time and reason, or None).
+        and ``state_size``.
 
     Raises:
         InputError: a bad duration or ``dt`` (<= 0, > duration, or above the explicit stability
@@ -520,8 +521,7 @@ def simulate_compliant(
 
     wall = time.perf_counter() - start_wall
     return _trajectory(scene, dynamics, params, arm, sample_times[:len(samples_y)], samples_y, samples_u,
-                       events, {
-                           "model": "compliant",
+                       events, status, failure, {
                            "integrator": integrator,
                            "dt": dt,
                            "rtol": rtol,
@@ -538,8 +538,6 @@ def simulate_compliant(
                            "state_size": 2 * n + c,
                            "armature": arm.report(),
                            "impact_velocity": impact_velocity,
-                           "status": status,
-                           "failure": failure,
                            "wall_time": wall,
                        })
 
@@ -551,7 +549,7 @@ def _event_status(status: np.ndarray, gaps: np.ndarray, gap_tolerance: float) ->
 
 def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, arm: Armature,
                 times: np.ndarray, samples_y: list[np.ndarray], samples_u: list[np.ndarray],
-                events: list[ContactEvent], info: dict) -> Trajectory:
+                events: list[ContactEvent], status: str, failure: dict | None, info: dict) -> Trajectory:
     robot = scene.robot
     n = robot.nv
     k_all = len(scene.contacts)
@@ -598,6 +596,9 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
         contact_points=points,
         events=tuple(events),
         info=info,
+        model="compliant",
+        status=status,
+        failure=None if failure is None else SimulationFailure(**failure),
     )
     softest = float(np.min(params.stiffness)) if params.count else None
     return assess(scene, trajectory, energy=info["energy"] + info["elastic_energy"],

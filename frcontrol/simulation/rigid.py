@@ -33,7 +33,7 @@ complementarity by ``J_N v+ >= -mu |J_T v+|``, so sliding bodies drift off their
 Coulomb's law exact in the plane, and Lemke's method solves it (Anitescu and Potra showed that
 this LCP always has a solution that Lemke's method finds, for positive-definite ``M``; should it
 ever end on a ray here, the step is retried with a tiny regularisation of ``W``, then by
-enumeration when small, else the simulation stops with ``info["status"] = "failed"`` and the
+enumeration when small, else the simulation stops with ``status = "failed"`` and the
 trajectory up to there).
 
 Impacts are *inelastic* (restitution 0): a closing contact's normal velocity after the step is
@@ -82,7 +82,7 @@ from .options import (
     model_options,
     potential_energy,
 )
-from .trajectory import ContactEvent, Trajectory, contact_mode_letter
+from .trajectory import ContactEvent, SimulationFailure, Trajectory, contact_mode_letter
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
 
@@ -252,12 +252,12 @@ def simulate_rigid(
             (0: none).
 
     Returns:
-        The trajectory: one sample per step; ``info`` holds ``model``, ``dt``, ``steps``,
+        The trajectory (``model = "rigid"``; its ``status``, ``"completed"``, ``"failed"`` or
+        ``"diverged"`` (see :mod:`~frcontrol.simulation.validity`), and ``failure``: time, reason
+        and, when it diverged, a hint; or None): one sample per step; ``info`` holds ``dt``, ``steps``,
         ``energy`` [J] (kinetic with the armature + gravitational) and its parts,
         ``max_penetration`` [m] per sample, ``stabilization_work`` [J] (cumulative), ``lcp``
-        statistics, ``armature``, ``ambiguity_checks``, the tolerances, ``status``
-        (``"completed"``, ``"failed"`` or ``"diverged"``, see :mod:`~frcontrol.simulation.validity`)
-        and ``failure`` (time, reason and, when it diverged, a hint; or None). ``warnings`` on the
+        statistics, ``armature``, ``ambiguity_checks`` and the tolerances. ``warnings`` on the
         trajectory say where the run left its model's validity.
 
     Raises:
@@ -430,7 +430,6 @@ def simulate_rigid(
         inputs_arr = np.zeros((1, scene.inputs.count))
     energy = np.array(kinetic) + np.array(potential)
     info = {
-        "model": "rigid",
         "scheme": "velocity-level time stepping (Stewart-Trinkle), exact 2-D Coulomb law, LCP by "
                   f"{lcp_method}, inelastic impacts",
         "dt": dt,
@@ -454,8 +453,6 @@ def simulate_rigid(
             "ambiguity_velocity": AMBIGUITY_VELOCITY_TOLERANCE,
             "gap": scene.gap_tolerance,
         },
-        "status": status,
-        "failure": failure,
         "wall_time": time.perf_counter() - start_wall,
     }
     trajectory = Trajectory(
@@ -471,6 +468,9 @@ def simulate_rigid(
         contact_points=np.array(points),
         events=tuple(events),
         info=info,
+        model="rigid",
+        status=status,
+        failure=None if failure is None else SimulationFailure(**failure),
     )
     return assess(scene, trajectory, energy=energy, penetration=info["max_penetration"], stiffness=None,
                   dt=dt, extra_work=info["stabilization_work"])

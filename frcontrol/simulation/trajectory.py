@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..errors import InputError
 from ..jsonable import to_jsonable
 
 if TYPE_CHECKING:
@@ -63,6 +64,32 @@ class SimulationWarning:
 
 
 @dataclass(frozen=True)
+class SimulationFailure:
+    """Why a run ended before its duration (:attr:`Trajectory.failure`).
+
+    Attributes:
+        time: [s] when it happened (the trajectory is cut at the last good sample).
+        reason: what went wrong, in one line.
+        hint: what to change (smaller step, stiffer integrator...), or "" when there is none.
+    """
+
+    time: float
+    reason: str
+    hint: str = ""
+
+    def to_dict(self) -> dict:
+        """The failure as JSON: ``{"time", "reason"}``, plus ``"hint"`` when there is one."""
+        out: dict[str, Any] = {"time": self.time, "reason": self.reason}
+        if self.hint:
+            out["hint"] = self.hint
+        return out
+
+
+TRAJECTORY_STATUSES = ("completed", "failed", "diverged")
+"""The values of :attr:`Trajectory.status`."""
+
+
+@dataclass(frozen=True)
 class Trajectory:
     """Samples of a motion of a scene's robot.
 
@@ -80,8 +107,16 @@ class Trajectory:
             For impulse-based time stepping, the step's impulse divided by its duration.
         contact_points: world position of each contact point [m], shape (T, k, 2).
         events: contact events in time order.
-        info: anything else the producer reports (model, step sizes, energy, drift, status...).
+        info: the producer's own report: its settings, step counts and per-sample diagnostics
+            (energies, penetration...), read by :meth:`to_dict`. Never a status: see below.
         warnings: where the run left its model's validity without diverging, in time order.
+        model: the model that produced the run, ``"rigid"`` or ``"compliant"``; None for a
+            motion that no simulator produced (a scene's still state).
+        status: ``"completed"``, ``"failed"`` (the solver gave up) or ``"diverged"`` (the state
+            left the numbers or its energy blew up): one of :data:`TRAJECTORY_STATUSES`.
+        failure: why the run ended early; None when it completed.
+        modes: per sample, one contact-mode letter (S, L, R, F) per contact, when the producer
+            knows them (a planner's closed loop); None otherwise.
     """
 
     scene_name: str
@@ -97,6 +132,22 @@ class Trajectory:
     events: tuple[ContactEvent, ...] = ()
     info: dict = field(default_factory=dict)
     warnings: tuple[SimulationWarning, ...] = ()
+    model: str | None = None
+    status: str = "completed"
+    failure: SimulationFailure | None = None
+    modes: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        if self.status not in TRAJECTORY_STATUSES:
+            raise InputError(f"status must be one of {', '.join(TRAJECTORY_STATUSES)}, got {self.status!r}")
+        if (self.failure is None) != (self.status == "completed"):
+            raise InputError(f"a {self.status} run must {'not ' if self.status == 'completed' else ''}"
+                             "carry a failure")
+
+    @property
+    def completed(self) -> bool:
+        """Whether the run reached its duration."""
+        return self.status == "completed"
 
     @property
     def duration(self) -> float:
@@ -123,9 +174,9 @@ class Trajectory:
         penetration = np.asarray(info["max_penetration"]) if "max_penetration" in info else None
         summary: dict[str, Any] = {
             "scene": self.scene_name,
-            "model": info.get("model"),
-            "status": info.get("status"),
-            "failure": info.get("failure"),
+            "model": self.model,
+            "status": self.status,
+            "failure": None if self.failure is None else self.failure.to_dict(),
             "steps": info.get("steps"),
             "dt": info.get("dt"),
             "duration": self.duration,
@@ -143,12 +194,12 @@ class Trajectory:
             "armature": info.get("armature"),
             "wall_time": info.get("wall_time"),
         }
-        if info.get("model") == "rigid" and "lcp" in info:  # the rigid stepper's own report
+        if self.model == "rigid" and "lcp" in info:  # the rigid stepper's own report
             summary["lcp"] = info["lcp"]
             summary["tolerances"] = info["tolerances"]
             summary["ambiguity_checks"] = info["ambiguity_checks"]
             summary["stabilization_work"] = float(info["stabilization_work"][-1])
-        elif info.get("model") == "compliant" and "integrator" in info:
+        elif self.model == "compliant" and "integrator" in info:
             summary.update({key: info[key] for key in (
                 "integrator", "rtol", "atol", "min_step", "max_step_taken", "mean_step", "rhs_evaluations",
                 "state_size", "contacts_modelled", "explicit_stability_limit")})
@@ -176,6 +227,8 @@ class Trajectory:
 __all__ = [
     "contact_mode_letter",
     "ContactEvent",
+    "SimulationFailure",
     "SimulationWarning",
+    "TRAJECTORY_STATUSES",
     "Trajectory",
 ]

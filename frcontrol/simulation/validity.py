@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from ..scene import Scene
-from .trajectory import SimulationWarning, Trajectory
+from .trajectory import SimulationFailure, SimulationWarning, Trajectory
 
 __all__ = [
     "DIVERGENCE_FACTOR",
@@ -188,7 +188,7 @@ def assess(
 
     Returns:
         The trajectory with ``warnings``, ``info["validity"]`` and, if it diverged, cut at the
-        last good sample with ``info["status"] = "diverged"`` and ``info["failure"]``.
+        last good sample with ``status = "diverged"`` and a ``failure``.
     """
     limits = validity_limits(scene, trajectory, stiffness=stiffness, dt=dt)
     times = trajectory.times
@@ -255,8 +255,6 @@ def assess(
 
     if bad is None:
         return replace(trajectory, info=info, warnings=tuple(warnings))
-    info["status"] = "diverged"
-    info["failure"] = {"time": float(times[bad]), "reason": reason, "hint": HINT}
     info["input_work"] = work[:end]
     for key, value in list(info.items()):
         if isinstance(value, np.ndarray) and value.shape[:1] == (T,):
@@ -266,4 +264,6 @@ def assess(
         inputs=trajectory.inputs[:end], contact_forces=trajectory.contact_forces[:end],
         contact_points=trajectory.contact_points[:end],
         events=tuple(e for e in trajectory.events if e.time <= times[end - 1]),
-        info=info, warnings=tuple(warnings))
+        modes=None if trajectory.modes is None else trajectory.modes[:end],
+        info=info, warnings=tuple(warnings), status="diverged",
+        failure=SimulationFailure(float(times[bad]), str(reason), HINT))

@@ -219,7 +219,7 @@ def check_trajectory(scene: Scene, trajectory: Trajectory) -> None:
 
 def _check_modes(modes: Sequence[str] | None, trajectory: Trajectory) -> list[str] | None:
     if modes is None:
-        modes = trajectory.info.get("modes") if isinstance(trajectory.info, dict) else None
+        modes = trajectory.modes
         if modes is None:
             return None
     modes = list(modes)
@@ -372,7 +372,7 @@ def draw(
             :data:`FORCE_ARROW_FRACTION` of the robot's size.
         modes: one string per sample with one letter S, L, R or F per contact of the trajectory
             (all contacts, in scene order), to colour the forces by mode; default:
-            ``trajectory.info["modes"]`` if present, else every force is red.
+            ``trajectory.modes`` if present, else every force is red.
         fps: [frames/s] the animation's frame rate (samples closer than 1/fps are thinned out).
         cones: draw the friction cones.
 
