@@ -426,6 +426,25 @@ class PlanarRobot:
             poses[name] = (placement.translation[:2].copy(), math.atan2(rot[1, 0], rot[0, 0]))
         return poses
 
+    @property
+    def total_mass(self) -> float:
+        """The robot's mass [kg]: every link's (Pinocchio's ``computeTotalMass``)."""
+        return float(pin.computeTotalMass(self.model))
+
+    def weight_scale(self) -> float:
+        """The robot's weight m g [N], or 1 N when it is zero: the scale of force thresholds."""
+        weight = self.total_mass * self.gravity
+        return weight if weight > 0 else 1.0
+
+    def center_of_mass(self, q: np.ndarray) -> np.ndarray:
+        """World position [m] of the robot's centre of mass at ``q``, shape (2,)."""
+        q_pin = self.pinocchio_q_from_minimal(q)
+        return np.array(pin.centerOfMass(self.model, self.data, q_pin), dtype=float)[:2]
+
+    def potential_energy(self, q: np.ndarray) -> float:
+        """Gravitational potential energy [J] at ``q`` (zero at y = 0)."""
+        return float(pin.computePotentialEnergy(self.model, self.data, self.pinocchio_q_from_minimal(q)))
+
     def integrate(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
         """``q + dq`` in minimal coordinates (all of them are additive: angles are not wrapped)."""
         return np.asarray(q, dtype=float) + np.asarray(dq, dtype=float)

@@ -94,7 +94,6 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 import scipy.spatial
 
 from . import polytope as poly
@@ -398,9 +397,8 @@ def static_body_from_scene(
     _check_statics_scene(scene)
     u = _scene_inputs(scene, inputs)
     robot = scene.robot
-    q_pin = robot.pinocchio_q_from_minimal(scene.q)
-    mass = float(pin.computeTotalMass(robot.model))
-    com = np.array(pin.centerOfMass(robot.model, robot.data, q_pin), dtype=float)[:2]
+    mass = robot.total_mass
+    com = robot.center_of_mass(scene.q)
     state = scene.state(scene.q, np.zeros(robot.nv))
     origin = scene.q[:2].astype(float)
     inertia = float(state.mass_matrix[2, 2]) - mass * float(np.sum((com - origin) ** 2))

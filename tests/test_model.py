@@ -213,3 +213,28 @@ def test_shipped_scenes_touch_at_zero_gap():
         assert scene.active_contacts, name
         np.testing.assert_allclose(state.gaps, 0.0, atol=1e-9, err_msg=name)
         assert np.linalg.eigvalsh(state.mass_matrix).min() >= -1e-12
+
+
+@pytest.mark.parametrize("make", ["rhex_massive", "snake"])
+def test_mass_centre_of_mass_and_potential_energy(make, tmp_path):
+    """m is the URDF's masses summed; V = m g y_com; dV/dq is the bias at v = 0 (gravity alone)."""
+    import xml.etree.ElementTree as ET
+
+    robot = rhex(True, tmp_path) if make == "rhex_massive" else snake()
+    masses = [float(m.get("value")) for m in ET.parse(robot.urdf_path).getroot().iter("mass")]
+    assert robot.total_mass == pytest.approx(sum(masses), rel=1e-12)
+    assert robot.weight_scale() == pytest.approx(sum(masses) * 9.81, rel=1e-12)
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        q, _ = random_state(robot, rng)
+        com = robot.center_of_mass(q)
+        energy = robot.potential_energy(q)
+        assert energy == pytest.approx(robot.total_mass * 9.81 * com[1], rel=1e-10, abs=1e-12)
+        gradient = np.array([(robot.potential_energy(q + EPS * e) - robot.potential_energy(q - EPS * e))
+                             / (2 * EPS) for e in np.eye(robot.nv)])
+        gravity = robot.state(q, np.zeros(robot.nv)).bias
+        np.testing.assert_allclose(gradient, gravity, atol=FD_TOL * max(1.0, np.abs(gravity).max()))
+        # the base's horizontal move shifts the centre of mass by as much
+        moved = q.copy()
+        moved[0] += 0.3
+        np.testing.assert_allclose(robot.center_of_mass(moved) - com, [0.3, 0.0], atol=1e-12)

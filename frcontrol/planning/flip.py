@@ -981,9 +981,7 @@ def _verify(analysis: DynamicResponse, piece: FlipPiece, u: np.ndarray, pitch_in
 
 def _weight(scene: Scene) -> float:
     """The robot's weight [N] (1 N without gravity): the scale of contact-force thresholds."""
-    robot = scene.robot
-    weight = float(sum(inertia.mass for inertia in robot.model.inertias)) * robot.gravity
-    return weight if weight > 0 else 1.0
+    return scene.robot.weight_scale()
 
 
 def _concatenate(scene: Scene, chunks: Sequence[Any], info: dict, failure: SimulationFailure | None

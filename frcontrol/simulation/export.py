@@ -36,9 +36,7 @@ __all__ = ["TRAJECTORY_FORMATS", "sample_modes", "save_trajectory", "trajectory_
 
 def _weight(scene: Scene) -> float:
     """The robot's weight [N] (1 N without gravity): the scale of the contact-force threshold."""
-    robot = scene.robot
-    weight = float(sum(inertia.mass for inertia in robot.model.inertias)) * robot.gravity
-    return weight if weight > 0 else 1.0
+    return scene.robot.weight_scale()
 
 
 def sample_modes(scene: Scene, trajectory: Trajectory, *, slip_tolerance: float = SLIP_VELOCITY_TOLERANCE,

@@ -58,7 +58,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 import scipy.linalg
 
 from ..errors import IllConditioned, InputError, SceneError
@@ -325,8 +324,7 @@ def mass_factor(mass_matrix: np.ndarray, armature: Armature) -> tuple[np.ndarray
 
 def potential_energy(scene: Scene, q: np.ndarray) -> float:
     """Gravitational potential energy [J] at ``q`` (zero at y = 0)."""
-    robot = scene.robot
-    return float(pin.computePotentialEnergy(robot.model, robot.data, robot.pinocchio_q_from_minimal(q)))
+    return scene.robot.potential_energy(q)
 
 
 def check_simulation_times(duration: float, dt: float, dt_name: str = "dt") -> tuple[float, float]:

@@ -289,8 +289,7 @@ def simulate_rigid(
     state = robot.state(q, v, all_idx)
     arm = massless_armature(scene, state.mass_matrix,
                             options.armature if armature is None else armature)
-    total_mass = float(sum(inertia.mass for inertia in robot.model.inertias))
-    force_scale = total_mass * robot.gravity if total_mass * robot.gravity > 0 else 1.0
+    force_scale = robot.weight_scale()
     force_tol = CONTACT_FORCE_TOLERANCE * force_scale
 
     steps = max(1, int(np.ceil(duration / dt - 1e-9)))
