@@ -62,28 +62,43 @@ def tell(text: str, *, to_stderr: bool = False) -> None:
         typer.echo(text.rstrip("\n"))
 
 
-def serve_until_stopped(url: str) -> None:
-    """Keep the meshcat server at ``url`` until Ctrl-C (SIGINT) or SIGTERM, then shut it down.
+WAIT_INTERVAL = 0.2
+"""[s] How often a waiting command wakes up (to stop on a signal, or to poll watched files)."""
 
-    The signals end the wait, not the process: the server is stopped before frc exits, so no
-    server is left behind on its port.
+
+def wait_until_stopped(tick: Callable[[], None] | None = None) -> None:
+    """Wait until Ctrl-C (SIGINT) or SIGTERM, calling ``tick`` every :data:`WAIT_INTERVAL`.
+
+    The signals end the wait, not the process, so the caller cleans up before frc exits.
     """
     import signal
     import threading
-
-    from frcontrol.viz.meshcat_view import stop_server
 
     stop = threading.Event()
     handlers = {}
     for sig in (signal.SIGINT, signal.SIGTERM):
         handlers[sig] = signal.signal(sig, lambda signum, frame: stop.set())
-    note("serving; Ctrl-C (or SIGTERM) stops the viewer", to_stderr=True)
     try:
-        while not stop.wait(0.2):
-            pass
+        while not stop.wait(WAIT_INTERVAL):
+            if tick is not None:
+                tick()
     finally:
         for sig, handler in handlers.items():
             signal.signal(sig, handler)
+
+
+def serve_until_stopped(url: str, tick: Callable[[], None] | None = None) -> None:
+    """Keep the meshcat server at ``url`` until Ctrl-C (SIGINT) or SIGTERM, then shut it down.
+
+    The signals end the wait, not the process: the server is stopped before frc exits, so no
+    server is left behind on its port. ``tick`` runs every :data:`WAIT_INTERVAL` meanwhile.
+    """
+    from frcontrol.viz.meshcat_view import stop_server
+
+    note("serving; Ctrl-C (or SIGTERM) stops the viewer", to_stderr=True)
+    try:
+        wait_until_stopped(tick)
+    finally:
         stop_server(url)
 
 
@@ -136,6 +151,7 @@ __all__ = [
     "note",
     "progress",
     "serve_until_stopped",
+    "wait_until_stopped",
     "set_quiet",
     "tell",
     "handle_errors",

@@ -3,14 +3,25 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from frcontrol.scene import load_scene
+from frcontrol.errors import FrcontrolError
+from frcontrol.scene import Scene, load_scene
 
-from .common import check_output_files, fail, handle_errors, note, print_json, serve_until_stopped, set_quiet
+from .common import (
+    check_output_files,
+    fail,
+    handle_errors,
+    note,
+    print_json,
+    serve_until_stopped,
+    set_quiet,
+    wait_until_stopped,
+)
 from .model_cmds import JsonOpt, SceneArg
 from .options import QuietOpt, SetOpt, scene_overrides
 
@@ -29,6 +40,12 @@ PortOpt = Annotated[
     typer.Option("--port", min=1, max=65535,
                  help="Port of the --view server (default: the first free port from 7000)."),
 ]
+WatchOpt = Annotated[
+    bool,
+    typer.Option("--watch", help="Reload the scene when its file (or its robot's URDF) changes: redraw "
+                 "the --view server and rewrite --html. A scene that no longer loads is reported on "
+                 "stderr and the last good one stays. Runs until Ctrl-C or SIGTERM."),
+]
 PlotOpt = Annotated[
     Path | None,
     typer.Option("--plot", metavar="FILE", help="Write a 2-D picture of the scene (PNG, or PDF/SVG "
@@ -43,6 +60,7 @@ def view_command(
     view: ViewOpt = False,
     port: PortOpt = None,
     plot: PlotOpt = None,
+    watch: WatchOpt = False,
     json: JsonOpt = False,
     sets: SetOpt = None,
     quiet: QuietOpt = False,
@@ -57,6 +75,7 @@ def view_command(
       frc view rhex_flip
       frc view rhex_flip --plot rhex.png
       frc view rhex_flip --view --port 7000
+      frc view my_scene.toml --view --watch
     """
     set_quiet(quiet)
     if port is not None and not view:
@@ -64,33 +83,84 @@ def view_command(
     if html is None and plot is None and not view:
         html = Path(f"{Path(scene).stem}.html")
     check_output_files(plot=plot, html=html)
-    loaded = load_scene(scene, overrides=scene_overrides(sets))
-    written: dict[str, str | None] = {"html": None, "plot": None, "url": None}
-    if html is not None:
-        from frcontrol.viz.meshcat_view import write_html
+    overrides = scene_overrides(sets)
+    loaded = load_scene(scene, overrides=overrides)
+    written: dict[str, str | None] = {"html": None, "plot": None, "url": None, "zmq_url": None}
 
-        written["html"] = str(Path(write_html(loaded, None, html)).resolve())
-        note(f"wrote {written['html']}", to_stderr=json)
-    if plot is not None:
-        from frcontrol.viz.plots import plot_scene
+    def show(current: Scene) -> None:
+        """Write the files asked for, and draw into the server if one runs."""
+        if html is not None:
+            from frcontrol.viz.meshcat_view import write_html
 
-        plot_scene(loaded, plot)
-        written["plot"] = str(plot)
-        note(f"wrote {plot}", to_stderr=json)
+            written["html"] = str(Path(write_html(current, None, html)).resolve())
+            note(f"wrote {written['html']}", to_stderr=json)
+        if plot is not None:
+            from frcontrol.viz.plots import plot_scene
+
+            plot_scene(current, plot)
+            written["plot"] = str(plot)
+            note(f"wrote {plot}", to_stderr=json)
+        if written["url"] is not None:
+            from frcontrol.viz.meshcat_view import redraw
+
+            redraw(written["url"], current)
+
+    show(loaded)
     if view:
-        from frcontrol.viz.meshcat_view import serve
+        from frcontrol.viz.meshcat_view import serve, server_at
 
-        url = serve(loaded, None, port)
-        written["url"] = url
-        if json:
-            print_json({"scene": loaded.name, **written})
-        else:
-            typer.echo(f"meshcat viewer: {url}")
-        sys.stdout.flush()
-        serve_until_stopped(url)
-        return
+        written["url"] = url = serve(loaded, None, port)
+        written["zmq_url"] = server_at(url).zmq_url
     if json:
         print_json({"scene": loaded.name, **written})
+    elif view:
+        typer.echo(f"meshcat viewer: {written['url']}")
+    sys.stdout.flush()
+    tick = _watcher(scene, overrides, loaded, show) if watch else None
+    if view:
+        serve_until_stopped(str(written["url"]), tick)
+    elif watch:
+        note("watching; Ctrl-C (or SIGTERM) stops", to_stderr=True)
+        wait_until_stopped(tick)
+
+
+def _watcher(scene: str, overrides: dict | None, loaded: Scene, show: Callable[[Scene], None]
+             ) -> Callable[[], None]:
+    """A tick that reloads the scene and shows it again when its file or its URDF changes."""
+
+    def files_of(current: Scene) -> list[Path]:
+        return [Path(current.path), Path(current.robot.urdf_path)]
+
+    def stamp(paths: list[Path]) -> tuple:
+        out = []
+        for path in paths:
+            try:
+                info = path.stat()
+                out.append((info.st_mtime_ns, info.st_size))
+            except OSError:
+                out.append(None)
+        return tuple(out)
+
+    watched = {"files": files_of(loaded)}
+    watched["stamp"] = stamp(watched["files"])
+
+    def tick() -> None:
+        now = stamp(watched["files"])
+        if now == watched["stamp"]:
+            return
+        watched["stamp"] = now
+        try:
+            current = load_scene(scene, overrides=overrides)
+            show(current)
+        except FrcontrolError as err:
+            sys.stderr.write(f"frc: error: {err} (still watching)\n")
+            return
+        watched["files"] = files_of(current)
+        watched["stamp"] = stamp(watched["files"])
+        note(f"reloaded {current.path}", to_stderr=True)
+
+    return tick
+
 
 __all__ = [
     "view_command",

@@ -74,3 +74,28 @@ def write_scene(tmp_path: Path):
         return path
 
     return write
+
+
+# ----------------------------------------------------------- the browser tests, counted for CI
+
+def pytest_collection_modifyitems(config, items):
+    """Mark every test that drives the real Chromium (it uses the ``chromium`` fixture)."""
+    for item in items:
+        if "chromium" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.browser)
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    """One line CI's log can be read for: how many browser tests ran, passed, failed or skipped."""
+    outcomes = {"passed": 0, "failed": 0, "skipped": 0}
+    for kind in ("passed", "failed", "error", "skipped"):
+        for report in terminalreporter.stats.get(kind, []):
+            if "browser" not in getattr(report, "keywords", {}):
+                continue
+            if kind == "passed" and report.when != "call":
+                continue
+            outcomes["failed" if kind == "error" else kind] += 1
+    ran = outcomes["passed"] + outcomes["failed"]
+    terminalreporter.write_line(
+        f"browser tests (real Chromium): {ran} ran, {outcomes['passed']} passed, "
+        f"{outcomes['failed']} failed, {outcomes['skipped']} skipped")

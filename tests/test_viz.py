@@ -471,6 +471,78 @@ def test_cli_view_serves_until_sigterm_then_stops_the_server(tmp_path):
             process.kill()
 
 
+def test_cli_view_watch_reloads_the_scene_and_survives_a_bad_edit(tmp_path, write_scene):
+    """A real `frc view FILE --view --watch --html`: an edit of the file moves the robot in the
+    served viewer and in the page; an edit that breaks the scene is one stderr line, and the
+    viewer keeps the last good scene; SIGTERM ends it with its server."""
+    import contextlib
+    import threading
+
+    from conftest import toml_text
+
+    def rod_x(page: str) -> float:
+        moves = [c for c in page_commands(page) if c["type"] == "set_transform"
+                 and c["path"] == "/meshcat/frcontrol/robot/rod"]
+        return float(np.reshape(moves[-1]["matrix"], (4, 4)).T[0, 3])
+
+    path = write_scene(rod_scene(), "watched.toml")
+    page_path = tmp_path / "watched.html"
+    port = free_port()
+    process = subprocess.Popen(
+        [sys.executable, "-m", "frcontrol", "view", str(path), "--view", "--watch", "--json", "--port",
+         str(port), "--html", str(page_path)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path, stdin=subprocess.DEVNULL)
+    errors: list[str] = []
+    threading.Thread(target=lambda: errors.extend(process.stderr), daemon=True).start()
+    try:
+        text = ""
+        while True:
+            line = process.stdout.readline()
+            assert line, f"frc exited: {errors}"
+            text += line
+            with contextlib.suppress(json.JSONDecodeError):
+                document = json.loads(text)
+                break
+        assert f":{port}/" in document["url"] and document["html"] == str(page_path.resolve())
+        with contextlib.redirect_stdout(io.StringIO()):
+            probe = mv._import_meshcat().Visualizer(zmq_url=document["zmq_url"])
+        assert rod_x(probe.static_html()) == pytest.approx(0.0, abs=1e-12)
+        assert rod_x(page_path.read_text()) == pytest.approx(0.0, abs=1e-12)
+
+        time.sleep(0.05)  # a new modification time even on coarse clocks
+        path.write_text(toml_text(rod_scene(state={"q": [0.25, 0.453, 2.007], "v": [0.0, 0.0, 0.0]})))
+        deadline = time.monotonic() + 20
+        while rod_x(probe.static_html()) != pytest.approx(0.25, abs=1e-12):
+            assert time.monotonic() < deadline, f"the viewer did not reload: {errors}"
+            time.sleep(0.1)
+        deadline = time.monotonic() + 5
+        while rod_x(page_path.read_text()) != pytest.approx(0.25, abs=1e-12):
+            assert time.monotonic() < deadline, "the page was not rewritten"
+            time.sleep(0.1)
+
+        bad = toml_text(rod_scene()).replace("mu = ", "muu = ")
+        path.write_text(bad)
+        deadline = time.monotonic() + 20
+        while not any("still watching" in e for e in errors):
+            assert time.monotonic() < deadline and process.poll() is None, errors
+            time.sleep(0.1)
+        complaint = next(e for e in errors if "still watching" in e)
+        assert "muu" in complaint and "'mu'" in complaint and complaint.count("\n") == 1
+        assert process.poll() is None
+        assert rod_x(probe.static_html()) == pytest.approx(0.25, abs=1e-12)  # the last good scene
+        probe.window.zmq_socket.close(linger=0)
+
+        process.send_signal(signal.SIGTERM)
+        assert process.wait(timeout=20) == 0
+        deadline = time.monotonic() + 10
+        while not port_is_free(port) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert port_is_free(port), f"a server was left behind on port {port}"
+    finally:
+        if process.poll() is None:
+            process.kill()
+
+
 def test_cli_view_refuses_a_taken_port():
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as taken:
         taken.bind(("127.0.0.1", 0))
@@ -622,7 +694,11 @@ def chromium():
     browser.close()
 
 
-def drawn(image: np.ndarray, top: int = 60) -> np.ndarray:
+CAPTION_ROWS = 85
+"""Screenshot rows taken by the page's caption and controls (and meshcat's control bar)."""
+
+
+def drawn(image: np.ndarray, top: int = CAPTION_ROWS) -> np.ndarray:
     """Pixels (below the page's caption and meshcat's control bar) that are not white."""
     return np.any(image[top:] < 0.9, axis=-1)
 
@@ -640,7 +716,7 @@ def test_page_renders_in_chromium_without_errors(chromium, tmp_path):
     height, width = image.shape[:2]
     assert (height, width) >= (400, 700)
     mask = drawn(image)
-    assert not mask[-40:, :40].any(), "the stage is not white (meshcat's own background?)"
+    assert not mask[-12:].any(), "the stage is not white (meshcat's own background?)"
     assert mask.mean() > 0.03, "the scene was not drawn"
     # The ground slab is wider than the view: its rows are (almost) fully inked.
     ground_rows = np.nonzero(mask.mean(axis=1) > 0.95)[0]
@@ -652,7 +728,7 @@ def test_page_renders_in_chromium_without_errors(chromium, tmp_path):
     assert 0.4 * width < columns.max() - columns.min() < width - 10
     # Up looks up: the force arrows (red) stand above the ground; +x is to the right: the
     # large forces are on the contacts right of x = 0 (the middle of the drawing).
-    pixels = image[60:]
+    pixels = image[CAPTION_ROWS:]
     red = (pixels[..., 0] > 0.6) & (pixels[..., 1] < 0.35) & (pixels[..., 2] < 0.35)
     rows, cols = np.nonzero(red)
     assert len(rows) > 200
@@ -689,3 +765,86 @@ def test_served_viewer_draws_in_chromium(chromium):
     assert errors == []
     assert animation == pytest.approx(trajectory.duration, rel=1e-6)
     assert drawn(read_png(png)).mean() > 0.03
+
+
+@pytest.fixture(scope="module")
+def flip_page(tmp_path_factory):
+    """The page of the real flip (planned and simulated): the body ends upright, right of its start."""
+    from frcontrol.planning.flip import plan_flip, simulate_flip
+
+    scene = load_scene("rhex_flip")
+    result = simulate_flip(scene, plan=plan_flip(scene))
+    assert result.flipped
+    page, drawing = mv.scene_html(scene, result.trajectory)
+    path = tmp_path_factory.mktemp("flip") / "flip.html"
+    path.write_text(page, encoding="utf-8")
+    return scene, result.trajectory, drawing, path
+
+
+def robot_box(image: np.ndarray) -> tuple[float, float, float, float]:
+    """(left, right, top, bottom) [px] of what is drawn below the caption, the ground rows left out."""
+    mask = drawn(image)
+    ground = mask.mean(axis=1) > 0.95
+    mask[ground] = False
+    rows, columns = np.nonzero(mask)
+    return (columns.min(), columns.max(), rows.min() + CAPTION_ROWS, rows.max() + CAPTION_ROWS)
+
+
+SEEK = """(async () => {
+  const frames = () => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)));
+  const slider = document.getElementById("frcontrol-time");
+  slider.value = %r;
+  slider.dispatchEvent(new Event("input"));
+  await frames();
+  const body = viewer.scene_tree.find(["meshcat", "frcontrol", "robot", "body"]).object;
+  const seen = {x: body.position.x, y: body.position.y, angle: body.rotation.z,
+                text: document.getElementById("frcontrol-readout").textContent,
+                playingAfterSeek: viewer.animator.playing, max: parseFloat(slider.max)};
+  %s
+  return seen;
+})()"""
+
+
+@pytest.mark.parametrize("moment", ["end", "middle"])
+def test_the_page_frames_the_robot_in_the_centre(chromium, flip_page, moment):
+    """The camera follows the robot: at the end of the flip (body upright, 0.3 m right of its
+    start) and halfway, the robot's box on screen is centred in the view below the caption."""
+    scene, trajectory, drawing, path = flip_page
+    seek = None if moment == "end" else SEEK % (float((drawing.times[-1] - drawing.times[0]) / 2), "")
+    png, errors, _ = chromium.load(path.as_uri(), seek)
+    assert errors == []
+    image = read_png(png)
+    height, width = image.shape[:2]
+    left, right, top, bottom = robot_box(image)
+    view_top = mv.CAPTION_FRACTION * height
+    assert abs((left + right) / 2 - width / 2) < 0.1 * width, (left, right, width)
+    assert abs((top + bottom) / 2 - (view_top + height) / 2) < 0.12 * height, (top, bottom, height)
+    assert right - left < 0.9 * width and bottom - top < 0.9 * (height - view_top)
+    assert drawing.centers[-1, 0] - drawing.centers[0, 0] > 0.1  # the robot did move right
+
+
+def test_the_page_has_play_pause_a_time_slider_and_shows_time_and_mode(chromium, flip_page):
+    """Seeking with the slider poses the robot as the trajectory's sample at that time, and the
+    text shows that time and that sample's contact mode; the button plays and pauses."""
+    scene, trajectory, drawing, path = flip_page
+    j = len(drawing.samples) // 2
+    t = float(drawing.times[j] - drawing.times[0])
+    clicks = """const button = document.getElementById("frcontrol-play");
+  button.click(); await frames();
+  seen.playingAfterClick = viewer.animator.playing; seen.label = button.textContent;
+  button.click(); await frames();
+  seen.playingAfterSecondClick = viewer.animator.playing;"""
+    _, errors, seen = chromium.load(path.as_uri(), SEEK % (t, clicks))
+    assert errors == []
+    origin, angle = scene.robot.link_poses(trajectory.q[drawing.samples[j]])["body"]
+    assert seen["x"] == pytest.approx(origin[0], abs=1e-5)
+    assert seen["y"] == pytest.approx(origin[1], abs=1e-5)
+    assert math.cos(seen["angle"] - angle) == pytest.approx(1.0, abs=1e-8)
+    mode = trajectory.modes[drawing.samples[j]]
+    assert drawing.sample_modes[j] == mode
+    assert f"t = {drawing.times[j]:.3f} s of {drawing.times[-1]:.3f} s" in seen["text"]
+    assert seen["text"].endswith(f"mode {mode}")
+    assert seen["max"] == pytest.approx(drawing.times[-1] - drawing.times[0])
+    assert not seen["playingAfterSeek"]
+    assert seen["playingAfterClick"] and seen["label"] == "pause"
+    assert not seen["playingAfterSecondClick"]

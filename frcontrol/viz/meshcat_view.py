@@ -89,7 +89,9 @@ __all__ = [
     "draw",
     "meshcat_from_plane",
     "scene_html",
+    "redraw",
     "serve",
+    "server_at",
     "start_server",
     "stop_server",
     "trajectory_from_scene",
@@ -123,6 +125,10 @@ CAMERA_ASPECT = 4.0 / 3.0
 
 CAMERA_MARGIN = 1.15
 """The camera frames the drawing's box enlarged by this factor."""
+
+CAPTION_FRACTION = 0.16
+"""Fraction of the view's height, at its top, kept free for the page's caption and controls: the
+robot is framed in the part below."""
 
 _HIDDEN = 1e-6
 """Scale of a hidden part (a zero force, a cone of an open contact): three.js needs scale != 0."""
@@ -258,13 +264,22 @@ class Drawing:
 
     Attributes:
         force_scale: [m/N] arrow length per newton of contact force.
-        center: [m] the plane point drawn at meshcat's origin (the camera's target).
-        lower: [m] lower corner of the plane box that the camera frames.
+        center: [m] the middle of the robot's box at the first drawn sample (the framed point).
+        lower: [m] lower corner of the plane box that the camera frames at the first sample.
         upper: [m] upper corner of that box.
-        root_transform: 4x4 transform of the node ``/meshcat/frcontrol`` (plane -> meshcat):
-            ``MESHCAT_FROM_PLANE @ translation(-center)``.
+        centers: [m] the framed point at each drawn sample, shape (S, 2): the camera follows the
+            robot along x (its centre of mass, offset to its box's middle); y stays fixed.
+        targets: [m] the plane point drawn at meshcat's origin (the camera's target) at each drawn
+            sample, shape (S, 2): ``centers`` raised so that the robot sits in the part of the view
+            below the page's caption (:data:`CAPTION_FRACTION`).
+        root_transform: 4x4 transform of the node ``/meshcat/frcontrol`` (plane -> meshcat) at
+            the first sample: ``MESHCAT_FROM_PLANE @ translation(-targets[0])``.
         camera_distance: [m] from the camera to its target, along meshcat's -y.
         samples: indices of the trajectory's samples drawn (one: a still picture).
+        times: [s] the drawn samples' times, shape (S,).
+        sample_modes: the contact mode (one letter per contact) at each drawn sample: the given
+            modes, else the trajectory's, else :func:`~frcontrol.simulation.export.sample_modes`
+            for an animation; None for a still picture.
         fps: [frames/s] the animation's frame rate.
         modes: whether forces are coloured by contact mode.
     """
@@ -273,9 +288,13 @@ class Drawing:
     center: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
+    centers: np.ndarray
+    targets: np.ndarray
     root_transform: np.ndarray
     camera_distance: float
     samples: tuple[int, ...]
+    times: np.ndarray
+    sample_modes: tuple[str, ...] | None
     fps: float
     modes: bool
 
@@ -412,35 +431,19 @@ def draw(
     visuals = link_visuals(robot, points)
     poses = [robot.link_poses(trajectory.q[i]) for i in samples]
 
-    # The robot's extent over the drawn samples, its contacts and their surfaces' feet.
-    outline = [np.zeros((0, 2))]
-    for pose in poses:
-        for link, shapes in visuals.items():
-            origin, angle = pose[link]
-            outline += [visual_outline(v, pose_matrix(origin, angle)) for v in shapes]
-    outline.append(contact_xy[samples].reshape(-1, 2))
+    framing = _frame(scene, trajectory, samples, poses, visuals, contact_xy, forces, force_scale)
+    force_scale, size = framing.force_scale, framing.size
+    center, half = framing.centers[0], framing.half
+    lower, upper = framing.lower, framing.upper
     lines = surface_lines(points)
-    outline += [np.array([line.foot(p) for p in contact_xy[0]]) for line in lines
-                if len(contact_xy[0])]
-    xy = np.vstack(outline)
-    lower, upper = xy.min(axis=0), xy.max(axis=0)
-    size = max(float(np.max(upper - lower)), 0.1)
-
-    peak = float(np.max(np.hypot(forces[samples, :, 0], forces[samples, :, 1]), initial=0.0))
-    if force_scale is None:
-        force_scale = FORCE_ARROW_FRACTION * size / peak if peak > 0 else 0.01
-    tips = (contact_xy[samples] + force_scale * forces[samples]).reshape(-1, 2)
-    if len(tips):
-        lower, upper = np.minimum(lower, tips.min(axis=0)), np.maximum(upper, tips.max(axis=0))
-    center = (lower + upper) / 2
-    half = (upper - lower) / 2
 
     depths = [visual_depth(v) for shapes in visuals.values() for v in shapes]
     z_back = min([d[0] for d in depths], default=-0.02)
     z_front = max([d[1] for d in depths], default=0.02) + 0.01 * size
     tan_half = math.tan(math.radians(CAMERA_FOV) / 2)
-    distance = (CAMERA_MARGIN * max(half[1], half[0] / CAMERA_ASPECT, 0.05) / tan_half) + z_front
-    root_transform = MESHCAT_FROM_PLANE @ _translation(-center[0], -center[1], 0.0)
+    distance = framing.view_half_height / tan_half + z_front
+    root_transforms = [MESHCAT_FROM_PLANE @ _translation(-c[0], -c[1], 0.0) for c in framing.targets]
+    root_transform = root_transforms[0]
 
     # ---- the stage: no background (the page's white shows through), no grid or axes, the
     # camera on meshcat's -y axis.
@@ -460,7 +463,7 @@ def draw(
 
     # ---- surfaces: slabs on the far side of each line, through the drawing.
     thickness = 0.03 * size
-    reach = 2.0 * max(float(np.max(upper - lower)), size)
+    reach = 2.0 * max(float(np.max(upper - lower)), size) + framing.travel
     for i, (line, (start, end)) in enumerate(zip(lines, surface_segments(lines, center, reach),
                                                  strict=True)):
         t = line.tangent
@@ -549,9 +552,11 @@ def draw(
 
     if len(samples) > 1:
         animation = Animation(default_framerate=float(fps))
-        for i in samples:
+        for number, i in enumerate(samples):
             frame_number = (times[i] - times[samples[0]]) * float(fps)
             with animation.at_frame(vis, frame_number) as frame:
+                if framing.travel > 0:  # the camera follows the robot along x
+                    frame["frcontrol"].set_transform(root_transforms[number])
                 for path, (transform, scale) in state_at(i).items():
                     frame[f"frcontrol/{path}"].set_transform(transform)
                     if scale is not None:
@@ -563,12 +568,89 @@ def draw(
         center=center,
         lower=center - CAMERA_MARGIN * half,
         upper=center + CAMERA_MARGIN * half,
+        centers=framing.centers,
+        targets=framing.targets,
         root_transform=root_transform,
         camera_distance=float(distance),
         samples=tuple(samples),
+        times=times[samples],
+        sample_modes=_drawn_modes(scene, trajectory, modes_list, samples),
         fps=float(fps),
         modes=modes_list is not None,
     )
+
+
+def _drawn_modes(scene: Scene, trajectory: Trajectory, modes: list[str] | None,
+                 samples: Sequence[int]) -> tuple[str, ...] | None:
+    """The contact modes at the drawn samples of an animation (None for a still picture)."""
+    if len(samples) < 2:
+        return None
+    if modes is None:
+        from frcontrol.simulation.export import sample_modes
+
+        modes = list(sample_modes(scene, trajectory))
+    return tuple(modes[i] for i in samples)
+
+
+@dataclass(frozen=True)
+class _Framing:
+    force_scale: float  # [m/N]
+    size: float  # [m] the larger side of the box around every drawn pose
+    centers: np.ndarray  # (S, 2) the framed point per drawn sample
+    targets: np.ndarray  # (S, 2) the camera's target per drawn sample
+    half: np.ndarray  # [m] half sides of the box framed around each centre
+    lower: np.ndarray  # [m] the box around every drawn pose, contact and surface foot
+    upper: np.ndarray
+    travel: float  # [m] how far the framed point moves along x
+    view_half_height: float  # [m] half the height the camera shows at the drawing's plane
+
+
+def _frame(scene: Scene, trajectory: Trajectory, samples: Sequence[int], poses: Sequence[dict],
+           visuals: dict, contact_xy: np.ndarray, forces: np.ndarray, force_scale: float | None) -> _Framing:
+    """Where the camera looks at each drawn sample, and how far it stands.
+
+    Each drawn sample's box holds the robot's link outlines, its contact points and the tips of its
+    force arrows. Along x the camera follows the robot: the framed point is the centre of mass
+    plus the median offset from it to the box's middle (smooth, unlike the box's middle when a leg
+    swings; a massless robot follows its box). Along y the framed point stays at the middle of the
+    box around every sample and the surfaces' feet under the first sample's contact points. The
+    camera's half-height covers the widest box around its framed point and that height, enlarged by
+    :data:`CAMERA_MARGIN`, in the view below the caption (:data:`CAPTION_FRACTION`).
+    """
+    boxes = []
+    for i, pose in zip(samples, poses, strict=True):
+        outline = [np.zeros((0, 2)), contact_xy[i].reshape(-1, 2)]
+        for link, shapes in visuals.items():
+            origin, angle = pose[link]
+            outline += [visual_outline(v, pose_matrix(origin, angle)) for v in shapes]
+        boxes.append(np.vstack(outline))
+    points = [c.point for c in scene.contacts]
+    feet = [np.array([line.foot(p) for p in contact_xy[samples[0]]]).reshape(-1, 2)
+            for line in surface_lines(points)]
+    everything = np.vstack(boxes + feet)
+    size = max(float(np.max(everything.max(axis=0) - everything.min(axis=0))), 0.1)
+    peak = float(np.max(np.hypot(forces[samples, :, 0], forces[samples, :, 1]), initial=0.0))
+    if force_scale is None:
+        force_scale = FORCE_ARROW_FRACTION * size / peak if peak > 0 else 0.01
+    boxes = [np.vstack([box, (contact_xy[i] + force_scale * forces[i]).reshape(-1, 2)])
+             for i, box in zip(samples, boxes, strict=True)]
+    everything = np.vstack(boxes + feet)
+    lower, upper = everything.min(axis=0), everything.max(axis=0)
+    middles = np.array([(box.min(axis=0)[0] + box.max(axis=0)[0]) / 2 for box in boxes])
+    if scene.robot.total_mass > 0:
+        com_x = np.array([scene.robot.center_of_mass(trajectory.q[i])[0] for i in samples])
+        x = com_x + float(np.median(middles - com_x))
+    else:
+        x = middles
+    y = (lower[1] + upper[1]) / 2
+    centers = np.column_stack([x, np.full(len(x), y)])
+    half_x = max(float(max(np.max(box[:, 0]) - c, c - np.min(box[:, 0])))
+                 for box, c in zip(boxes, x, strict=True))
+    half = np.array([half_x, (upper[1] - lower[1]) / 2])
+    view = CAMERA_MARGIN * max(half[1] / (1.0 - CAPTION_FRACTION), half[0] / CAMERA_ASPECT, 0.05)
+    targets = centers + np.array([0.0, CAPTION_FRACTION * view])
+    return _Framing(float(force_scale), size, centers, targets, half, lower, upper,
+                    float(np.max(x) - np.min(x)), view)
 
 
 # ------------------------------------------------------------------------------ static pages
@@ -618,8 +700,8 @@ class _PageRecorder:
         return self._reply.decode("utf-8")
 
 
-def _legend(scene: Scene, drawing: Drawing) -> str:
-    """A small caption for the page: scene, force scale, colours."""
+def _legend(scene: Scene, drawing: Drawing, contacts: Sequence[str]) -> str:
+    """A small caption for the page: scene, force scale, colours; for an animation, its controls."""
     force = f"forces: {drawing.force_scale * 1000:.3g} mm per N ({drawing.force_scale:.3g} m/N)"
     if drawing.modes:
         swatches = " ".join(f'<span style="color:{color}">&#9632;</span>&nbsp;{letter}'
@@ -627,14 +709,80 @@ def _legend(scene: Scene, drawing: Drawing) -> str:
         force += f" &middot; modes: {swatches}"
     else:
         force = f'<span style="color:{FORCE_COLOR}">&#9632;</span> ' + force
-    motion = (f"animation: {len(drawing.samples)} frames, replay from Open Controls &gt; Animations"
-              if drawing.animated else "still: the scene's state")
+    if drawing.animated:
+        order = ", ".join(html_lib.escape(name) for name in contacts)
+        motion = f"mode letters per contact: {order}" if contacts else "no contacts"
+    else:
+        motion = "still: the scene's state"
     return (
         '<div id="frcontrol-legend" style="position:absolute;left:8px;top:8px;'
         'font:12px sans-serif;color:#222;background:rgba(255,255,255,0.8);padding:4px 6px;">'
         f"<b>{html_lib.escape(scene.name)}</b><br>{force}<br>"
         f'<span style="color:{CONE_COLOR}">&#9650;</span> friction cones &middot; '
-        f'<span style="color:{CONTACT_COLOR}">&#9679;</span> contacts &middot; {motion}</div>'
+        f'<span style="color:{CONTACT_COLOR}">&#9679;</span> contacts &middot; {motion}'
+        f"{_controls(drawing) if drawing.animated else ''}</div>"
+    )
+
+
+_CONTROLS_SCRIPT = """
+(function () {
+  const data = %s;
+  const button = document.getElementById("frcontrol-play");
+  const slider = document.getElementById("frcontrol-time");
+  const readout = document.getElementById("frcontrol-readout");
+  const animator = () => (typeof viewer !== "undefined" ? viewer.animator : null);
+  function modeAt(t) {
+    let i = 0;
+    while (i + 1 < data.times.length && data.times[i + 1] <= t + 1e-9) i++;
+    return data.modes ? data.modes[i] : null;
+  }
+  button.addEventListener("click", () => {
+    const a = animator();
+    if (!a) return;
+    if (a.playing) { a.pause(); return; }
+    if (a.time >= a.duration - 1e-9) a.reset();
+    a.play();
+  });
+  slider.addEventListener("input", () => {
+    const a = animator();
+    if (!a) return;
+    const t = parseFloat(slider.value);
+    if (a.playing) a.pause();
+    a.seek(t);
+    a.display_progress(t);
+  });
+  function tick() {
+    const a = animator();
+    if (a) {
+      const t = Math.min(Math.max(a.time, 0), data.duration);
+      const mode = modeAt(t);
+      button.textContent = a.playing ? "pause" : "play";
+      if (document.activeElement !== slider) slider.value = t;
+      readout.textContent = "t = " + (data.start + t).toFixed(3) + " s of " +
+        (data.start + data.duration).toFixed(3) + " s" + (mode === null ? "" : " \u00b7 mode " + mode);
+    }
+    requestAnimationFrame(tick);
+  }
+  requestAnimationFrame(tick);
+})();
+"""
+
+
+def _controls(drawing: Drawing) -> str:
+    """Play/pause, a time slider, and the time and contact mode as text (reads meshcat's animator)."""
+    import json
+
+    times = drawing.times - drawing.times[0]
+    data = {"times": times.tolist(), "start": float(drawing.times[0]), "duration": float(times[-1]),
+            "modes": None if drawing.sample_modes is None else list(drawing.sample_modes)}
+    script = _CONTROLS_SCRIPT % json.dumps(data).replace("</", "<\\/")
+    return (
+        '<div id="frcontrol-controls" style="margin-top:4px;display:flex;align-items:center;gap:6px;">'
+        '<button id="frcontrol-play" type="button" style="width:52px;">pause</button>'
+        f'<input id="frcontrol-time" type="range" min="0" max="{float(times[-1])!r}" step="any" value="0" '
+        'style="width:200px;" aria-label="time">'
+        '<span id="frcontrol-readout" style="font-family:monospace;"></span></div>'
+        f"<script>{script}</script>"
     )
 
 
@@ -663,7 +811,8 @@ def scene_html(
     page = recorder.get_scene()
     if legend:
         end = page.rfind("</body>")
-        page = page[:end] + _legend(scene, drawing) + page[end:]
+        contacts = trajectory.contacts if trajectory is not None else ()
+        page = page[:end] + _legend(scene, drawing, contacts) + page[end:]
     return page, drawing
 
 
@@ -896,6 +1045,30 @@ def serve(
         stop_server(server.url)
         raise
     return server.url
+
+
+def redraw(url: str, scene: Scene, trajectory: Trajectory | None = None, **options: Any) -> Drawing:
+    """Draw a scene again into the server at ``url`` (started here), replacing what it showed.
+
+    This is what ``frc view --view --watch`` does when the scene file changes.
+
+    Raises:
+        ViewerServerError: no server started here has that URL.
+        InputError: see :func:`draw`.
+    """
+    return draw(server_at(url).visualizer(), scene, trajectory, **options)
+
+
+def server_at(url: str) -> ViewerServer:
+    """The running server started here whose page is at ``url``.
+
+    Raises:
+        ViewerServerError: no server started here has that URL, or it has stopped.
+    """
+    server = _SERVERS.get(url)
+    if server is None or not server.running:
+        raise ViewerServerError(f"no running viewer server started here at {url}")
+    return server
 
 
 def stop_server(url: str | None = None) -> None:
