@@ -121,7 +121,7 @@ def climb_command(
     else:
         render(payload)
     if plot is not None:
-        from frcontrol.planning.climb import plot_climb
+        from frcontrol.viz.figures import plot_climb
 
         plot_climb(plan, plot)
         note(f"wrote {plot}", to_stderr=json)

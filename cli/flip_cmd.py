@@ -131,7 +131,7 @@ def flip_command(
         else:
             render(payload)
         if plot is not None:
-            from frcontrol.planning.plots import plot_flip
+            from frcontrol.viz.figures import plot_flip
 
             note(f"wrote {plot_flip(result if result is not None else plan, plot)}", to_stderr=json)
         trajectory = None if result is None else result.trajectory

@@ -78,15 +78,23 @@ def write_scene(tmp_path: Path):
 
 # ----------------------------------------------------------- the browser tests, counted for CI
 
+_BROWSER_TESTS = {"collected": 0}
+
+
 def pytest_collection_modifyitems(config, items):
     """Mark every test that drives the real Chromium (it uses the ``chromium`` fixture)."""
     for item in items:
         if "chromium" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.browser)
+            _BROWSER_TESTS["collected"] += 1
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
     """One line CI's log can be read for: how many browser tests ran, passed, failed or skipped."""
+    import os
+
+    if not _BROWSER_TESTS["collected"] and not os.environ.get("CI"):
+        return
     outcomes = {"passed": 0, "failed": 0, "skipped": 0}
     for kind in ("passed", "failed", "error", "skipped"):
         for report in terminalreporter.stats.get(kind, []):

@@ -182,7 +182,6 @@ __all__ = [
     "load_disturbances",
     "mode_exclusions",
     "plan_climb",
-    "plot_climb",
     "robust_region",
     "simulate_climb",
 ]
@@ -1511,7 +1510,7 @@ def simulate_climb(
         status=trajectory.status, slip_tolerance=slip_tolerance, seed=seed)
 
 
-# ============================================================================ plot
+# ==================================================================== robust region (figures)
 def robust_region(plan: ClimbPlan, index: int) -> Polytope:
     """The forces of one disturbance for which the plan's torques stay in their piece.
 
@@ -1536,46 +1535,3 @@ def robust_region(plan: ClimbPlan, index: int) -> Polytope:
         rows.append(-c[None, cols])
         rhs.append(np.array([c[:m_u] @ u + c[other_cols] @ d_other + c0 - cp.min_head_acceleration]))
     return Polytope(np.vstack(rows), np.concatenate(rhs))
-
-
-def plot_climb(plan: ClimbPlan, path: str | Path | None = None) -> Any:
-    """One panel per disturbance: P, the largest scale's ``s P`` and the plan's robust region.
-
-    The robust region (:func:`robust_region`) is the set of forces of that disturbance that keep
-    the planned torques in the brace mode's unambiguous piece with the head rising, whatever the
-    other disturbances do in their polygons; it contains ``P`` when the plan is robust.
-
-    Raises:
-        InputError: the plan was not found.
-        VizError: matplotlib is missing. OutputFileError: the file cannot be written.
-    """
-    from ..viz.plots import _figure, _save, plot_polygons
-
-    if not plan.found:
-        raise InputError(f"the climb plan was not found ({plan.reason}): nothing to plot")
-    items = plan.disturbances.items
-    figure = _figure(figsize=(5.5 * len(items), 5.0), layout="constrained")  # VizError without matplotlib
-    from matplotlib.patches import Patch
-
-    s_max = plan.max_disturbance_scale
-    colors = ["tab:green", "tab:orange", "tab:blue"]
-    hatches = [None, "//", None]
-    labels = ["robust region at the planned torques", f"largest scale s = {s_max:.3g} (its own torques)",
-              f"P (scale {plan.scale:.3g})"]
-    for i, dist in enumerate(items):
-        ax = figure.add_subplot(1, len(items), i + 1)
-        reach = np.vstack([max(s_max, 1.0) * dist.vertices, plan.scale * dist.vertices, np.zeros((1, 2))])
-        low, high = reach.min(axis=0), reach.max(axis=0)
-        # inside the analysis box (grown by ANALYSIS_BOX_GROWTH), whose edges are no physics
-        pad = 0.5 * ANALYSIS_BOX_GROWTH * np.maximum(high - low, 1e-3) + 0.5 * plan.margin
-        box = (low[0] - pad[0], high[0] + pad[0], low[1] - pad[1], high[1] + pad[1])
-        sets = [robust_region(plan, i), dist.polytope(s_max), dist.polytope(plan.scale)]
-        plot_polygons(sets, ax=ax, colors=colors, hatches=hatches, box=box, points=np.zeros((1, 2)),
-                      axis_labels=(f"{dist.name}: $f_x$ [N]", f"{dist.name}: $f_y$ [N]"),
-                      title=f"{dist.name} on {dist.link} ({'robust' if plan.robust else 'NOT robust'})")
-        ax.legend(handles=[Patch(facecolor=c, alpha=0.35, hatch=h, edgecolor=c, label=label)
-                           for c, h, label in zip(colors, hatches, labels, strict=True)],
-                  loc="best", fontsize="small")
-    if path is not None:
-        _save(figure, path)
-    return figure

@@ -50,6 +50,12 @@ from . import (
 
 __all__ = [
     "HALFPLANE_TOLERANCE",
+    "new_figure",
+    "save_figure",
+    "text_overlaps",
+    "LABEL_CLEARANCE",
+    "REGION_LABEL_STYLE",
+    "place_labels",
     "plot_polygons",
     "plot_scene",
     "plot_trajectory",
@@ -64,7 +70,12 @@ _DEFAULT_BOX_HALF_WIDTH = 1e6
 """Half width of the clipping box when none is given: a set reaching it is unbounded."""
 
 
-def _figure(**kwargs: Any) -> Any:
+def new_figure(**kwargs: Any) -> Any:
+    """A matplotlib :class:`~matplotlib.figure.Figure` (no pyplot); ``kwargs`` go to it.
+
+    Raises:
+        VizError: matplotlib is not installed.
+    """
     try:
         from matplotlib.figure import Figure
     except ImportError as err:
@@ -80,13 +91,128 @@ def _polygon_patch() -> Any:
     return Polygon
 
 
-def _save(figure: Any, path: str | Path) -> Path:
+def save_figure(figure: Any, path: str | Path) -> Path:
+    """Write a figure (its format by the file's suffix) at 120 dpi, cropped to what is drawn.
+
+    Raises:
+        OutputFileError: the file cannot be written, or its suffix is no format matplotlib knows.
+    """
     target = Path(path)
     try:
         figure.savefig(target, dpi=120, bbox_inches="tight")
     except (OSError, ValueError) as err:  # ValueError: an unknown format suffix
         raise OutputFileError(target, reason_from_exception(err)) from err
     return target
+
+
+# ------------------------------------------------------------------------------ text layout
+
+LABEL_CLEARANCE = 1.0
+"""[px] Two texts whose boxes come closer than this overlap (:func:`text_overlaps`)."""
+
+
+def _drawn_texts(figure: Any) -> list[tuple[str, Any, Any]]:
+    """(what, Text, window box) of every visible, non-empty text of the laid-out figure.
+
+    Titles, axis labels, the tick labels inside the view, annotations and legend entries.
+    """
+    figure.draw_without_rendering()
+    renderer = figure._get_renderer()
+    found: list[tuple[str, Any]] = []
+    if figure._suptitle is not None:
+        found.append(("suptitle", figure._suptitle))
+    for i, ax in enumerate(figure.axes):
+        if not ax.get_visible() or not ax.axison and not ax.texts:
+            continue
+        found += [(f"axes{i} title", t) for t in (ax.title, ax._left_title, ax._right_title)]
+        found += [(f"axes{i} xlabel", ax.xaxis.label), (f"axes{i} ylabel", ax.yaxis.label)]
+        for name, axis, (low, high) in (("x", ax.xaxis, ax.get_xlim()), ("y", ax.yaxis, ax.get_ylim())):
+            low, high = min(low, high), max(low, high)
+            span = high - low
+            for tick in axis.get_major_ticks():
+                at = tick.get_loc()
+                if low - 1e-9 * span <= at <= high + 1e-9 * span:
+                    found += [(f"axes{i} {name}tick {tick.label1.get_text()}", tick.label1)]
+        found += [(f"axes{i} text {t.get_text()!r}", t) for t in ax.texts]
+        legend = ax.get_legend()
+        if legend is not None:
+            found += [(f"axes{i} legend {t.get_text()!r}", t) for t in legend.get_texts()]
+    for legend in figure.legends:
+        found += [(f"figure legend {t.get_text()!r}", t) for t in legend.get_texts()]
+    out = []
+    for what, text in found:
+        if text.get_visible() and text.get_text().strip():
+            out.append((what, text, text.get_window_extent(renderer)))
+    return out
+
+
+def text_overlaps(figure: Any, clearance: float = LABEL_CLEARANCE) -> list[tuple[str, str]]:
+    """Pairs of a figure's texts that overlap once it is laid out (or that a legend covers).
+
+    Checks titles, axis labels, the tick labels in view, annotations and legend entries, through
+    matplotlib's text extents (``Text.get_window_extent``) with the layout the saved file gets.
+
+    Returns:
+        ``(first, second)`` descriptions of each overlapping pair (empty: none).
+    """
+    texts = _drawn_texts(figure)
+    pairs = []
+    for i, (what_a, _, box_a) in enumerate(texts):
+        for what_b, _, box_b in texts[i + 1:]:
+            if (box_a.x0 < box_b.x1 - clearance and box_b.x0 < box_a.x1 - clearance
+                    and box_a.y0 < box_b.y1 - clearance and box_b.y0 < box_a.y1 - clearance):
+                pairs.append((what_a, what_b))
+    renderer = figure._get_renderer()
+    for ax in figure.axes:
+        legend = ax.get_legend()
+        if legend is None:
+            continue
+        frame = legend.get_window_extent(renderer)
+        for what, text, box in texts:
+            if text in ax.texts and frame.overlaps(box):
+                pairs.append((what, "its axes' legend"))
+    return pairs
+
+
+REGION_LABEL_STYLE = {"fontsize": 8, "zorder": 5,
+                      "bbox": {"boxstyle": "round,pad=0.2", "facecolor": "white", "alpha": 0.7,
+                               "linewidth": 0}}
+"""How :func:`plot_polygons` writes a region's label."""
+
+
+def place_labels(ax: Any, labels: Sequence[tuple[str, np.ndarray, float]], **style: Any) -> list[str]:
+    """Write labels at points of an Axes, most important first, leaving out colliding ones.
+
+    A label that would overlap a text already there, or leave the Axes, is not written.
+
+    Args:
+        ax: the Axes (its figure is laid out to measure the texts).
+        labels: ``(text, point in data coordinates, importance)``, e.g. a region's area.
+        **style: passed to :meth:`matplotlib.axes.Axes.annotate`.
+
+    Returns:
+        The labels written, in the given order (they are added to the Axes in that order).
+    """
+    figure = ax.figure
+    taken = [box for _, _, box in _drawn_texts(figure)]
+    renderer = figure._get_renderer()
+    inside = ax.get_window_extent(renderer)
+    kept: set[int] = set()
+    for index in sorted(range(len(labels)), key=lambda i: -labels[i][2]):
+        text, point, _ = labels[index]
+        label = ax.annotate(text, point, ha="center", va="center", **style)
+        box = label.get_window_extent(renderer)
+        label.remove()
+        grown = box.expanded(1.0 + 2 * LABEL_CLEARANCE / max(box.width, 1.0),
+                             1.0 + 2 * LABEL_CLEARANCE / max(box.height, 1.0))
+        if (inside.x0 <= box.x0 and box.x1 <= inside.x1 and inside.y0 <= box.y0 and box.y1 <= inside.y1
+                and not any(grown.overlaps(other) for other in taken)):
+            taken.append(box)
+            kept.add(index)
+    written = [labels[i][0] for i in range(len(labels)) if i in kept]  # in the given order
+    for i in sorted(kept):
+        ax.annotate(labels[i][0], labels[i][1], ha="center", va="center", **style)
+    return written
 
 
 # ----------------------------------------------------------------------------- trajectories
@@ -130,7 +256,7 @@ def plot_trajectory(
         raise InputError(f"inconsistent trajectory: times {times.shape}, q {q.shape}, "
                          f"contact_forces {forces.shape} for {k} contacts")
     marker = "o" if len(times) < 2 else None
-    figure = _figure(figsize=(8.0, 6.0), layout="constrained")
+    figure = new_figure(figsize=(8.0, 6.0), layout="constrained")
     top, bottom = figure.subplots(2, 1, sharex=True)
     for name in names:
         top.plot(times, q[:, trajectory.coordinates.index(name)], marker=marker, label=name)
@@ -153,7 +279,7 @@ def plot_trajectory(
     for ax in (top, bottom):
         ax.grid(True, alpha=0.3)
     figure.suptitle(title if title is not None else trajectory.scene_name)
-    return _save(figure, path)
+    return save_figure(figure, path)
 
 
 # ---------------------------------------------------------------------------------- scenes
@@ -208,7 +334,7 @@ def plot_scene(
         if forces.shape != (k, 2) or not np.all(np.isfinite(forces)):
             raise InputError(f"contact_forces must have shape ({k}, 2) and be finite, got {forces.shape}")
     if ax is None:
-        figure = _figure(figsize=(7.0, 5.0), layout="constrained")
+        figure = new_figure(figsize=(7.0, 5.0), layout="constrained")
         ax = figure.add_subplot()
     points = [c.point for c in scene.contacts]
     world = robot.contact_points_in_world(config).reshape(-1, 2)
@@ -293,7 +419,7 @@ def plot_scene(
     ax.set_ylabel("y [m]")
     ax.set_title(title if title is not None else scene.name)
     if path is not None:
-        _save(ax.figure, path)
+        save_figure(ax.figure, path)
     return ax
 
 
@@ -396,13 +522,15 @@ def plot_polygons(
     title: str | None = None,
     alpha: float = 0.35,
     points: Any = None,
+    legend: bool = True,
+    label_regions: bool = True,
 ) -> Any:
     """Draw 2-D H-polytopes ``A x <= b`` (e.g. input-space slices of mode domains).
 
     Each set is clipped to ``box`` (:func:`polygon_from_halfplanes`) and drawn filled and
     outlined; a set of empty interior is drawn as a thick segment or a point, an empty set is
-    listed in the legend as "(empty)". Labels are written at the polygons' centroids and in the
-    legend.
+    listed in the legend as "(empty)". Labels are in the legend, and written at the polygons'
+    centroids, the largest first, where they collide with no other text (:func:`place_labels`).
 
     Args:
         polygons: each an ``(A, b)`` pair (A of shape (m, 2)) or an object with ``A`` and ``b``
@@ -418,6 +546,10 @@ def plot_polygons(
         title: the panel's title.
         alpha: the fills' opacity.
         points: optional points (N, 2) to mark (e.g. an optimum).
+        legend: add the Axes' legend (False: the caller makes its own).
+        label_regions: write the labels in the regions now (False: the caller places them with
+            :func:`place_labels` once its figure is laid out; they are kept as
+            ``(label, centroid, area)`` in the Axes' ``_frcontrol_region_labels``).
 
     Returns:
         The Axes drawn into.
@@ -447,8 +579,9 @@ def plot_polygons(
         window = tuple(float(v) for v in box)
         vertices = [polygon_from_halfplanes(A, b, window) for A, b in sets]
     if ax is None:
-        figure = _figure(figsize=(6.0, 5.0), layout="constrained")
+        figure = new_figure(figsize=(6.0, 5.0), layout="constrained")
         ax = figure.add_subplot()
+    to_label: list[tuple[str, np.ndarray, float]] = []
     for i, v in enumerate(vertices):
         color = (colors[i] if colors is not None and colors[i] is not None else f"C{i % 10}")
         hatch = hatches[i] if hatches is not None else None
@@ -467,9 +600,8 @@ def plot_polygons(
                 ax.plot([], [], color=color, label=f"{label} (empty)")
             continue
         if label is not None:
-            ax.annotate(label, centroid, ha="center", va="center", fontsize=8, zorder=5,
-                        bbox={"boxstyle": "round,pad=0.2", "facecolor": "white", "alpha": 0.7,
-                              "linewidth": 0})
+            area = _area(v) if len(v) >= 3 else 0.0
+            to_label.append((label, centroid, area))
     if points is not None:
         marks = np.asarray(points, dtype=float).reshape(-1, 2)
         ax.plot(marks[:, 0], marks[:, 1], linestyle="none", marker="*", markersize=10, color="black",
@@ -480,12 +612,21 @@ def plot_polygons(
     ax.set_ylabel(axis_labels[1])
     if title is not None:
         ax.set_title(title)
-    if labels is not None and any(label is not None for label in labels):
+    if labels is not None and any(label is not None for label in labels) and legend:
         ax.legend(loc="best", fontsize="small")
     ax.grid(True, alpha=0.3)
+    if to_label and label_regions:
+        place_labels(ax, to_label, **REGION_LABEL_STYLE)
+    ax._frcontrol_region_labels = to_label  # for a caller that places them once its figure is laid out
     if path is not None:
-        _save(ax.figure, path)
+        save_figure(ax.figure, path)
     return ax
+
+
+def _area(vertices: np.ndarray) -> float:
+    """Area of a simple polygon (shoelace)."""
+    x, y = vertices[:, 0], vertices[:, 1]
+    return float(abs(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)) / 2)
 
 
 def _centroid(vertices: np.ndarray) -> np.ndarray:

@@ -1,0 +1,156 @@
+"""The result figures: no text collides with another, regions are bounded and say so, geometry and
+force planes keep equal aspect, and the flip's white means what its legend says.
+
+Overlaps are measured through matplotlib's text extents after the figure is laid out as it is
+saved (:func:`frcontrol.viz.plots.text_overlaps`); negative controls show the check can fail.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from frcontrol.engine import solutions_at
+from frcontrol.planning.climb import plan_climb
+from frcontrol.planning.flip import plan_flip, simulate_flip
+from frcontrol.polytope import contains
+from frcontrol.scene import load_scene, shipped_scene_names
+from frcontrol.statics import analyze_statics
+from frcontrol.viz import figures
+from frcontrol.viz.plots import new_figure, plot_polygons, save_figure, text_overlaps
+
+
+@pytest.fixture(scope="module")
+def flip():
+    scene = load_scene("rhex_flip")
+    plan = plan_flip(scene)
+    return scene, plan, simulate_flip(scene, plan=plan)
+
+
+@pytest.fixture(scope="module")
+def climb():
+    return plan_climb(load_scene("snake_climb"))
+
+
+# ------------------------------------------------------------------------ the check itself
+
+
+def test_text_overlaps_catches_colliding_labels_and_crowded_ticks():
+    figure = new_figure(figsize=(4, 3), layout="constrained")
+    ax = figure.add_subplot()
+    ax.annotate("first label", (0.5, 0.5))
+    ax.annotate("second label", (0.52, 0.51))
+    ax.annotate("far away", (0.05, 0.9))
+    pairs = text_overlaps(figure)
+    assert any("first label" in a and "second label" in b for a, b in pairs)
+    assert not any("far away" in a or "far away" in b for a, b in pairs)
+
+    crowded = new_figure(figsize=(3, 3), layout="constrained")
+    ax = crowded.add_subplot()
+    ax.set_xlim(-1000.0, 1000.0)
+    ax.set_xticks(np.linspace(-1000, 1000, 21))
+    assert any("xtick" in a and "xtick" in b for a, b in text_overlaps(crowded))
+
+    covered = new_figure(figsize=(4, 3), layout="constrained")
+    ax = covered.add_subplot()
+    ax.plot([0, 1], [0, 1], label="a line with a long legend entry")
+    ax.legend(loc="center")
+    ax.annotate("under the legend", (0.45, 0.5))
+    assert any("under the legend" in a and b == "its axes' legend" for a, b in text_overlaps(covered))
+
+
+def test_region_labels_skip_the_ones_that_would_collide(tmp_path):
+    """Two tiny squares side by side and a big one: the big one's label is written, and of the
+    tiny ones only what fits; no label collides."""
+    def square(x, y, h):
+        A = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+        return A, np.array([x + h, -(x - h), y + h, -(y - h)])
+
+    ax = plot_polygons([square(0, 0, 5), square(8, 8, 0.05), square(8.1, 8.05, 0.05)],
+                       labels=["BIG", "TINY1", "TINY2"], box=(-10, 10, -10, 10))
+    written = [t.get_text() for t in ax.texts]
+    assert "BIG" in written and not {"TINY1", "TINY2"} <= set(written)
+    assert text_overlaps(ax.figure) == []
+    save_figure(ax.figure, tmp_path / "labels.png")
+
+
+# ---------------------------------------------------------------------------------- the flip
+
+
+def test_flip_figure_has_no_overlap_and_explains_every_colour(flip):
+    scene, plan, result = flip
+    for figure in (figures.flip_figure(result), figures.flip_figure(plan)):
+        assert text_overlaps(figure) == []
+        left = figure.axes[0]
+        entries = [t.get_text() for t in left.get_legend().get_texts()]
+        assert figures.NO_MODE_LABEL in entries and "two modes (ambiguous)" in entries
+        assert left.get_aspect() == 1.0  # two torques in N m: one scale
+        written = [t.get_text() for t in left.texts]
+        assert plan.mode in written  # the plan's (largest) region is labelled
+        modes = {m.mode for m in plan.analysis.feasible_modes}
+        assert set(written) <= modes and all(w in entries for w in written)
+
+
+def test_white_in_the_flip_figure_is_where_the_rigid_model_has_no_solution(flip):
+    """The legend calls the white 'no mode: no rigid solution': inputs outside every feasible
+    mode's T_c have no rigid solution, inputs inside have one (sampled over the input box)."""
+    scene, plan, _ = flip
+    analysis = plan.analysis
+    names = analysis.problem.inputs
+    rng = np.random.default_rng(3)
+    outside = inside = 0
+    for u in rng.uniform(analysis.problem.lower, analysis.problem.upper, size=(80, len(names))):
+        covered = any(contains(mode.input_domain, u) for mode in analysis.feasible_modes)
+        solutions = solutions_at(scene, dict(zip(names, u, strict=True)))
+        assert covered == bool(solutions), (u, [s.mode for s in solutions])
+        outside += not covered
+        inside += covered
+    assert outside > 10 and inside > 10  # both colours were sampled
+
+
+# --------------------------------------------------------------------------------- the climb
+
+
+def test_climb_figure_is_bounded_equal_aspect_and_has_no_overlap(climb):
+    figure = figures.plot_climb(climb)
+    assert text_overlaps(figure) == []
+    lower, upper = climb.problem.box
+    for i, ax in enumerate(figure.axes):
+        assert ax.get_aspect() == 1.0
+        x0, x1 = ax.get_xlim()
+        y0, y1 = ax.get_ylim()
+        # the analysis box, which bounds the robust region, is inside the view with room around it
+        assert x0 < lower[2 * i] and upper[2 * i] < x1 and y0 < lower[2 * i + 1] and upper[2 * i + 1] < y1
+        for patch in ax.patches:
+            vertices = patch.get_xy() if hasattr(patch, "get_xy") else None
+            if isinstance(vertices, np.ndarray) and vertices.ndim == 2:
+                assert np.all(vertices[:, 0] >= x0 - 1e-9) and np.all(vertices[:, 0] <= x1 + 1e-9)
+    entries = [t.get_text() for t in figure.legends[0].get_texts()]
+    assert "analysis box (cuts the region)" in entries
+
+
+# ------------------------------------------------------------------------------- statics
+
+
+STATICS_CASES = [(name, a) for name in shipped_scene_names() for a in (0.0, 2.0)]
+
+
+@pytest.mark.parametrize(("name", "lateral"), STATICS_CASES)
+def test_statics_figures_have_no_overlap_and_say_what_is_cut(name, lateral, tmp_path):
+    scene = load_scene(name)
+    report = analyze_statics(scene, lateral_acceleration=lateral)
+    figure = figures.plot_statics(scene, report, tmp_path / f"{name}.png")
+    assert text_overlaps(figure) == []
+    ax = figure.axes[0]
+    assert ax.get_aspect() == 1.0
+    x0, x1 = ax.get_xlim()
+    support = report.support
+    legend = ax.get_legend()
+    if support.feasible:
+        entries = [t.get_text() for t in legend.get_texts()]
+        interval = next(e for e in entries if e.startswith("support interval"))
+        assert ("unbounded" in interval) == (not np.isfinite(support.x_min) or not np.isfinite(support.x_max))
+        bar = next(line for line in ax.get_lines() if line.get_label() == interval)
+        assert x0 <= min(bar.get_xdata()) and max(bar.get_xdata()) <= x1  # cut at the view
+        if not support.bounded and lateral and support.region is not None and report.support.feasible:
+            assert any("cut at the view" in e for e in entries if e.startswith("support region"))
