@@ -14,8 +14,8 @@ if TYPE_CHECKING:  # the engine loads when a command runs, not for --help
     from frcontrol.modes import ContactProblem
 
 from .common import console, handle_errors, print_json, progress, set_quiet
-from .model_cmds import JsonOpt, SceneArg
-from .options import InputOpt, QuietOpt, SetOpt, parse_inputs, scene_overrides
+from .model_cmds import SceneArg
+from .options import InputOpt, JsonOpt, QuietOpt, SetOpt, parse_inputs, scene_overrides
 
 
 def solution_payload(solution: RigidSolution, problem: ContactProblem) -> dict[str, Any]:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
@@ -27,32 +26,27 @@ from .common import (
     set_quiet,
     tell,
 )
-from .model_cmds import JsonOpt
-from .options import OutOpt, QuietOpt, SetOpt, check_out_suffix, scene_overrides
+from .options import (
+    JsonOpt,
+    OutOpt,
+    PortOpt,
+    QuietOpt,
+    SetOpt,
+    check_out_suffix,
+    html_option,
+    plot_option,
+    scene_overrides,
+    view_option,
+)
 
 ClimbSceneArg = Annotated[
     str, typer.Argument(help="A scene file with [[disturbances]], or the name of a shipped scene.")
 ]
-HtmlOpt = Annotated[
-    Path | None,
-    typer.Option("--html", metavar="FILE",
-                 help="Write a self-contained HTML page (meshcat) replaying the simulated climb."),
-]
-ViewOpt = Annotated[
-    bool,
-    typer.Option("--view", help="Replay the simulated climb on a local meshcat server and print its URL; "
-                 "serve until Ctrl-C or SIGTERM, then shut the server down."),
-]
-PortOpt = Annotated[
-    int | None,
-    typer.Option("--port", min=1, max=65535,
-                 help="Port of the --view server (default: the first free port from 7000)."),
-]
-PlotOpt = Annotated[
-    Path | None,
-    typer.Option("--plot", metavar="FILE", help="Write, per disturbance, its polytope, the largest scale "
-                 "found and the robust region at the planned torques (PNG, or PDF/SVG by suffix)."),
-]
+HtmlOpt = html_option("the simulated climb")
+ViewOpt = view_option("the simulated climb")
+
+PlotOpt = plot_option("per disturbance, its polytope, the largest scale found and the robust "
+                      "region at the planned torques")
 MarginOpt = Annotated[
     float,
     typer.Option("--margin", min=0.0,

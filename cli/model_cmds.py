@@ -12,10 +12,9 @@ from rich.table import Table
 from frcontrol.scene import load_scene, shipped_robots_dir
 
 from .common import console, handle_errors, print_json, set_quiet
-from .options import QuietOpt, SetOpt, scene_overrides
+from .options import JsonOpt, QuietOpt, SetOpt, scene_overrides
 
 SceneArg = Annotated[str, typer.Argument(help="A scene file, or the name of a shipped scene.")]
-JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
 
 
 @handle_errors

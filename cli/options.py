@@ -94,4 +94,54 @@ def scene_overrides(assignments: list[str] | None) -> dict[str, Any]:
     return out
 
 
-__all__ = ["InputOpt", "OutOpt", "QuietOpt", "SetOpt", "check_out_suffix", "parse_inputs", "scene_overrides"]
+def plot_option(what: str) -> Any:
+    """The ``--plot FILE`` option of a command, ``what`` saying what its figure shows."""
+    return Annotated[
+        Path | None,
+        typer.Option("--plot", metavar="FILE",
+                     help=f"Write a figure: {what} (PNG, or PDF/SVG... by the file's suffix)."),
+    ]
+
+
+def html_option(what: str) -> Any:
+    """The ``--html FILE`` option of a command, ``what`` saying what its page shows."""
+    return Annotated[
+        Path | None,
+        typer.Option("--html", metavar="FILE",
+                     help=f"Write a self-contained HTML page (meshcat, works offline) of {what}; an "
+                          "animation has play/pause, a time slider, and the time and contact mode as text."),
+    ]
+
+
+def view_option(what: str) -> Any:
+    """The ``--view`` option of a command, ``what`` saying what it serves."""
+    return Annotated[
+        bool,
+        typer.Option("--view", help=f"Serve {what} on a local meshcat server and print its URL; serve "
+                     "until Ctrl-C or SIGTERM, then shut the server down."),
+    ]
+
+
+PortOpt = Annotated[
+    int | None,
+    typer.Option("--port", min=1, max=65535,
+                 help="Port of the --view server (default: the first free port from 7000)."),
+]
+
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
+
+
+__all__ = [
+    "InputOpt",
+    "JsonOpt",
+    "OutOpt",
+    "PortOpt",
+    "QuietOpt",
+    "SetOpt",
+    "check_out_suffix",
+    "html_option",
+    "parse_inputs",
+    "plot_option",
+    "scene_overrides",
+    "view_option",
+]

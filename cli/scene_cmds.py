@@ -13,9 +13,7 @@ from frcontrol.scene import resolve_scene_path, scene_problems
 from frcontrol.scene_schema import SCENE_SCHEMA
 
 from .common import handle_errors, note, print_json, set_quiet
-from .options import QuietOpt
-
-JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
+from .options import JsonOpt, QuietOpt
 
 
 @handle_errors

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import sys
 from enum import StrEnum
-from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
@@ -18,8 +17,19 @@ if TYPE_CHECKING:  # the simulators load when the command runs, not for --help
     from frcontrol.simulation.trajectory import Trajectory
 
 from .common import check_output_files, console, fail, handle_errors, note, print_json, progress, set_quiet
-from .model_cmds import JsonOpt, SceneArg
-from .options import InputOpt, OutOpt, QuietOpt, SetOpt, check_out_suffix, parse_inputs, scene_overrides
+from .model_cmds import SceneArg
+from .options import (
+    InputOpt,
+    JsonOpt,
+    OutOpt,
+    QuietOpt,
+    SetOpt,
+    check_out_suffix,
+    html_option,
+    parse_inputs,
+    plot_option,
+    scene_overrides,
+)
 
 MAX_EVENTS_SHOWN = 40
 """Events listed in the table (all of them are in ``--json``)."""
@@ -56,11 +66,8 @@ IntegratorOpt = Annotated[
     str,
     typer.Option("--integrator", help=f"Compliant model's integrator: {', '.join(INTEGRATORS)}."),
 ]
-HtmlOpt = Annotated[
-    Path | None,
-    typer.Option("--html", metavar="FILE", help="Write a self-contained HTML page (meshcat) that "
-                 "replays the trajectory offline."),
-]
+HtmlOpt = html_option("the trajectory")
+PlotOpt = plot_option("every coordinate and the contact forces over time, contact events marked")
 
 
 def trajectory_payload(traj: Trajectory, scene: Scene | None = None) -> dict[str, Any]:
@@ -80,6 +87,7 @@ def simulate_command(
     integrator: IntegratorOpt = "radau",
     json: JsonOpt = False,
     html: HtmlOpt = None,
+    plot: PlotOpt = None,
     out: OutOpt = None,
     sets: SetOpt = None,
     quiet: QuietOpt = False,
@@ -96,13 +104,14 @@ def simulate_command(
       frc simulate rod_on_table --duration 0.5
       frc simulate box_on_slope --model compliant --stiffness 1e6 --json
       frc simulate rhex_flip --input hip_rear=5 -T 0.2 --out run.npz --html run.html
+      frc simulate rod_on_table -T 0.3 --plot rod.png
     """
     set_quiet(quiet)
     from frcontrol.simulation.compliant import simulate_compliant
     from frcontrol.simulation.options import model_options
     from frcontrol.simulation.rigid import simulate_rigid
 
-    check_output_files(html=html, out=out)
+    check_output_files(html=html, plot=plot, out=out)
     check_out_suffix(out)
     loaded = load_scene(scene, overrides=scene_overrides(sets))
     chosen = model.value if model is not None else model_options(loaded).contact
@@ -125,6 +134,10 @@ def simulate_command(
         from frcontrol.viz.meshcat_view import write_html
 
         note(f"wrote {write_html(loaded, traj, html)}", to_stderr=json)
+    if plot is not None:
+        from frcontrol.viz.plots import plot_trajectory
+
+        note(f"wrote {plot_trajectory(traj, plot, coordinates=traj.coordinates)}", to_stderr=json)
     if out is not None:
         from frcontrol.simulation.export import save_trajectory
 

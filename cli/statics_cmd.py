@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
@@ -14,13 +13,21 @@ if TYPE_CHECKING:  # the statics load when the command runs, not for --help
     from frcontrol.statics import StaticsReport
 
 from .common import check_output_files, console, handle_errors, note, print_json, set_quiet
-from .model_cmds import JsonOpt, SceneArg
-from .options import InputOpt, QuietOpt, SetOpt, parse_inputs, scene_overrides
+from .model_cmds import SceneArg
+from .options import (
+    InputOpt,
+    JsonOpt,
+    QuietOpt,
+    SetOpt,
+    html_option,
+    parse_inputs,
+    plot_option,
+    scene_overrides,
+)
 
-PlotOpt = Annotated[
-    Path | None,
-    typer.Option("--plot", help="Write a PNG of the body, contacts, friction cones and support region."),
-]
+HtmlOpt = html_option("the body at rest with its equilibrium contact forces")
+PlotOpt = plot_option("the body, its contacts, friction cones and equilibrium forces, and the "
+                      "support interval and region")
 LateralOpt = Annotated[
     float,
     typer.Option("--lateral-acceleration", min=0.0,
@@ -43,6 +50,7 @@ def statics_command(
     scene: SceneArg,
     json: JsonOpt = False,
     plot: PlotOpt = None,
+    html: HtmlOpt = None,
     inputs: InputOpt = None,
     lateral_acceleration: LateralOpt = 0.0,
     no_strong: WeakOnlyOpt = False,
@@ -55,11 +63,12 @@ def statics_command(
     Examples:
       frc statics box_on_slope
       frc statics snake_climb --lateral-acceleration 2 --plot statics.png
+      frc statics disk_in_wedge --html disk.html
     """
     set_quiet(quiet)
     from frcontrol.statics import analyze_statics
 
-    check_output_files(plot=plot)
+    check_output_files(plot=plot, html=html)
     loaded = load_scene(scene, overrides=scene_overrides(sets))
     report = analyze_statics(loaded, parse_inputs(inputs), lateral_acceleration=lateral_acceleration,
                              strong=not no_strong)
@@ -67,13 +76,22 @@ def statics_command(
         from frcontrol.viz.figures import plot_statics
 
         plot_statics(loaded, report, plot)
+    if html is not None:
+        from frcontrol.viz.meshcat_view import trajectory_from_scene, write_html
+
+        equilibrium = report.equilibrium
+        forces = ({} if equilibrium.lambda_n is None else
+                  {name: (equilibrium.lambda_n[i], equilibrium.lambda_t[i])
+                   for i, name in enumerate(report.body.contact_names)})
+        write_html(loaded, trajectory_from_scene(loaded, forces), html)
     payload = statics_payload(report)
     if json:
         print_json(payload)
         return
     render(payload)
-    if plot is not None:
-        note(f"wrote {plot}")
+    for written in (plot, html):
+        if written is not None:
+            note(f"wrote {written}")
 
 
 def _yes(flag: bool | None) -> str:

@@ -22,35 +22,28 @@ from .common import (
     set_quiet,
     wait_until_stopped,
 )
-from .model_cmds import JsonOpt, SceneArg
-from .options import QuietOpt, SetOpt, scene_overrides
+from .model_cmds import SceneArg
+from .options import (
+    JsonOpt,
+    PortOpt,
+    QuietOpt,
+    SetOpt,
+    html_option,
+    plot_option,
+    scene_overrides,
+    view_option,
+)
 
-HtmlOpt = Annotated[
-    Path | None,
-    typer.Option("--html", metavar="FILE",
-                 help="Write a self-contained HTML page (meshcat) that shows the scene offline."),
-]
-ViewOpt = Annotated[
-    bool,
-    typer.Option("--view", help="Serve the scene on a local meshcat server and print its URL; serve "
-                 "until Ctrl-C or SIGTERM, then shut the server down."),
-]
-PortOpt = Annotated[
-    int | None,
-    typer.Option("--port", min=1, max=65535,
-                 help="Port of the --view server (default: the first free port from 7000)."),
-]
+HtmlOpt = html_option("the scene")
+ViewOpt = view_option("the scene")
+
 WatchOpt = Annotated[
     bool,
     typer.Option("--watch", help="Reload the scene when its file (or its robot's URDF) changes: redraw "
                  "the --view server and rewrite --html. A scene that no longer loads is reported on "
                  "stderr and the last good one stays. Runs until Ctrl-C or SIGTERM."),
 ]
-PlotOpt = Annotated[
-    Path | None,
-    typer.Option("--plot", metavar="FILE", help="Write a 2-D picture of the scene (PNG, or PDF/SVG "
-                 "by the file's suffix)."),
-]
+PlotOpt = plot_option("a 2-D picture of the scene")
 
 
 @handle_errors

@@ -36,6 +36,26 @@ def test_quiet_keeps_the_answer_and_drops_the_notes(tmp_path):
     assert runner.invoke(app, ["validate", "rod_on_table", "-q"]).stdout == ""
 
 
+TRAJECTORY_OUTPUTS = {"--plot", "--html", "--out"}
+OUTPUTS = {"simulate": TRAJECTORY_OUTPUTS, "flip": TRAJECTORY_OUTPUTS, "climb": TRAJECTORY_OUTPUTS,
+           "statics": {"--plot", "--html"}, "view": {"--plot", "--html"}}
+"""Commands that produce a trajectory (all three outputs) or a figure and a page."""
+
+
+@pytest.mark.parametrize("name", sorted(OUTPUTS))
+def test_output_options_are_on_every_producing_command_and_worded_once(name):
+    """--plot, --html and --out come from cli/options.py: the same metavar and shared wording."""
+    params = {opt: param for param in COMMANDS[name].params for opt in param.opts}
+    assert OUTPUTS[name] <= set(params), set(params)
+    shared = {"--plot": "Write a figure:", "--html": "Write a self-contained HTML page (meshcat, works "
+              "offline)", "--out": "Export the trajectory: FILE.npz"}
+    for option in OUTPUTS[name]:
+        assert params[option].metavar == "FILE"
+        assert params[option].help.startswith(shared[option]), (name, option, params[option].help)
+    if "--view" in params:
+        assert "until Ctrl-C or SIGTERM" in params["--view"].help and "--port" in params
+
+
 def test_a_short_option_means_the_same_everywhere():
     """-T is the simulated time, -i an input, -q quiet, -h help: wherever they exist."""
     meaning = {"-T": "imulated time", "-i": "NAME=VALUE", "-q": "Print only the answer"}

@@ -43,7 +43,7 @@ import sys
 import tempfile
 import threading
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -175,9 +175,28 @@ def meshcat_from_plane(points: Any) -> np.ndarray:
 # --------------------------------------------------------------------------------- trajectories
 
 
-def trajectory_from_scene(scene: Scene) -> Trajectory:
-    """The scene's state as a one-sample trajectory (zero forces and inputs): a still picture."""
+def trajectory_from_scene(scene: Scene, contact_forces: Mapping[str, Sequence[float]] | None = None
+                          ) -> Trajectory:
+    """The scene's state as a one-sample trajectory (zero inputs): a still picture.
+
+    Args:
+        scene: the scene.
+        contact_forces: ``(lambda_n, lambda_t)`` [N] by contact name (e.g. a statics equilibrium);
+            contacts not named carry no force.
+
+    Raises:
+        InputError: an unknown contact name, or a force that is not two finite numbers.
+    """
     k = len(scene.contacts)
+    forces = np.zeros((1, k, 2))
+    names = [c.name for c in scene.contacts]
+    for name, force in (contact_forces or {}).items():
+        if name not in names:
+            raise InputError(f"no contact named {name!r} (contacts: {', '.join(names)})")
+        value = np.asarray(force, dtype=float)
+        if value.shape != (2,) or not np.all(np.isfinite(value)):
+            raise InputError(f"the force of contact {name!r} must be two finite numbers (lambda_n, lambda_t)")
+        forces[0, names.index(name)] = value
     return Trajectory(
         scene_name=scene.name,
         coordinates=tuple(scene.coordinate_names),
@@ -187,7 +206,7 @@ def trajectory_from_scene(scene: Scene) -> Trajectory:
         v=np.asarray(scene.v, dtype=float)[None, :].copy(),
         inputs=np.zeros((1, scene.inputs.count)),
         input_names=tuple(scene.inputs.coordinates),
-        contact_forces=np.zeros((1, k, 2)),
+        contact_forces=forces,
         contact_points=scene.robot.contact_points_in_world(scene.q).reshape(1, k, 2),
         info={"source": "scene state"},
     )
