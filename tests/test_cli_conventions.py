@@ -113,3 +113,25 @@ def test_every_help_example_runs(example, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     result = runner.invoke(app, shlex.split(example)[1:])
     assert result.exit_code == 0, (example, result.stderr[-500:])
+
+
+def readme_examples():
+    """The README's per-command examples (served viewers left out: they wait)."""
+    from pathlib import Path
+
+    readme = Path(__file__).resolve().parents[1] / "README.md"
+    text = readme.read_text(encoding="utf-8")
+    block = text.split("One example per command", 1)[1].split("```bash", 1)[1].split("```", 1)[0]
+    lines = [line.strip() for line in block.splitlines() if line.strip()]
+    assert len(lines) >= len(COMMANDS), "the README should show every command"
+    assert {line.split()[1] for line in lines} == set(COMMANDS)
+    return [line for line in lines if "--view" not in line]
+
+
+@pytest.mark.parametrize("example", readme_examples())
+def test_every_readme_example_runs(example, tmp_path, monkeypatch):
+    import shlex
+
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(app, shlex.split(example)[1:])
+    assert result.exit_code == 0, (example, result.stderr[-500:])
