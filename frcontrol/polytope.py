@@ -32,6 +32,8 @@ rows together are not detected: such a set keeps its inequalities and has Chebys
 
 from __future__ import annotations
 
+import itertools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -69,10 +71,14 @@ __all__ = [
     "interiors_intersect",
     "intersect",
     "is_empty",
+    "VERTEX_TOLERANCE",
+    "clip_polygon",
+    "hull_from_points",
     "minimal_representation",
     "project",
     "set_difference",
     "support",
+    "vertices_from_halfspaces",
 ]
 
 # ---------------------------------------------------------------------------------------------
@@ -968,3 +974,151 @@ def set_difference(
         if not pieces:
             break
     return pieces
+
+
+# ---------------------------------------------------------------------------------------------
+# vertices and hulls: the one home of this geometry (planners, statics and figures use it)
+
+VERTEX_TOLERANCE = 1e-9
+"""A candidate vertex of ``A x <= b`` is kept when every unit row is violated by at most this
+[units of x]; vertices closer than this (relative to the set's scale) are one. Default ``1e-9``."""
+
+
+def vertices_from_halfspaces(A: Any, b: Any, *, tolerance: float = VERTEX_TOLERANCE,
+                             max_candidates: int | None = None) -> np.ndarray:
+    """The vertices of the bounded polytope ``{x in R^d : A x <= b}``.
+
+    Every choice of d rows whose matrix is regular (``|det| > ZERO_TOLERANCE`` of the unit rows)
+    gives a candidate, kept when it satisfies every row up to ``tolerance``; duplicates are merged.
+    In 2-D the vertices come counter-clockwise.
+
+    Args:
+        A: rows, shape (m, d).
+        b: right-hand sides, shape (m,).
+        tolerance: see :data:`VERTEX_TOLERANCE`.
+        max_candidates: refuse more than this many choices of d rows (None: no limit).
+
+    Returns:
+        The vertices, shape (V, d) (V = 0 for an empty set).
+
+    Raises:
+        InputError: bad shapes, or more candidates than ``max_candidates``.
+    """
+    A = np.asarray(A, dtype=float)
+    b = np.asarray(b, dtype=float).reshape(-1)
+    if A.ndim != 2 or b.shape != (A.shape[0],):
+        raise InputError(f"expected A of shape (m, d) and b of shape (m,), got {A.shape} and {b.shape}")
+    count, d = A.shape
+    if max_candidates is not None and math.comb(count, d) > max_candidates:
+        raise InputError(f"{count} rows in {d} dimensions give {math.comb(count, d)} vertex candidates, "
+                         f"more than {max_candidates}")
+    norms = np.linalg.norm(A, axis=1)
+    keep = norms > 0
+    unit_A = np.divide(A, norms[:, None], out=np.zeros_like(A), where=keep[:, None])
+    unit_b = np.divide(b, norms, out=np.zeros_like(b), where=keep)
+    if np.any(~keep & (b < -tolerance)):
+        return np.zeros((0, d))
+    found: list[np.ndarray] = []
+    for rows in itertools.combinations(np.nonzero(keep)[0], d):
+        sub = unit_A[list(rows)]
+        if abs(np.linalg.det(sub)) <= ZERO_TOLERANCE:
+            continue
+        point = np.linalg.solve(sub, unit_b[list(rows)])
+        if np.all(unit_A @ point <= unit_b + tolerance):
+            scale = max(1.0, float(np.max(np.abs(point))))
+            point[np.abs(point) <= ZERO_TOLERANCE * scale] = 0.0  # no 1e-16 noise around zero
+            if not any(np.max(np.abs(point - v)) <= tolerance * scale for v in found):
+                found.append(point)
+    vertices = np.array(found).reshape(-1, d)
+    if d == 2 and len(vertices) >= 3:
+        centre = vertices.mean(axis=0)
+        vertices = vertices[np.argsort(np.arctan2(vertices[:, 1] - centre[1], vertices[:, 0] - centre[0]))]
+    return vertices
+
+
+def hull_from_points(points: Any) -> np.ndarray:
+    """Convex hull of 2-D points, counter-clockwise, without repeated or collinear vertices.
+
+    Andrew's monotone chain, with points equal to 12 digits merged and turns smaller than
+    ``1e-12 scale^2`` (scale: the largest coordinate) counted as straight. Degenerate input gives
+    one point, or the two ends of a segment.
+    """
+    unique = np.unique(np.round(np.asarray(points, dtype=float).reshape(-1, 2), 12), axis=0)
+    if len(unique) <= 2:
+        return unique
+    scale = float(np.max(np.abs(unique))) or 1.0
+    tol = 1e-12 * scale * scale
+
+    def cross(o: np.ndarray, a: np.ndarray, c: np.ndarray) -> float:
+        return float((a[0] - o[0]) * (c[1] - o[1]) - (a[1] - o[1]) * (c[0] - o[0]))
+
+    def chain(sequence: Any) -> list[np.ndarray]:
+        out: list[np.ndarray] = []
+        for p in sequence:
+            while len(out) >= 2 and cross(out[-2], out[-1], p) <= tol:
+                out.pop()
+            out.append(p)
+        return out
+
+    lower, upper = chain(unique), chain(unique[::-1])
+    hull = lower[:-1] + upper[:-1]
+    if len(hull) < 3:  # collinear: the two ends
+        return np.array([unique[0], unique[-1]])
+    return np.array(hull)
+
+
+def clip_polygon(A: Any, b: Any, box: Any, tolerance: float = VERTEX_TOLERANCE) -> np.ndarray:
+    """Vertices of ``{x in R^2 : A x <= b}`` inside a box ``(xmin, xmax, ymin, ymax)``, counter-clockwise.
+
+    The box is clipped by each half-plane in turn (Sutherland-Hodgman on a convex polygon): exact
+    up to ``tolerance``, no LP. Rows are normalised first; a zero row ``0 . x <= b_i`` empties the
+    set if ``b_i < -tolerance`` and is ignored otherwise. Vertices closer than ``tolerance`` merge.
+
+    Returns:
+        The vertices, shape (V, 2): V = 0 for an empty set, 1 or 2 for a point or a segment
+        (a set of empty interior), 3 or more for a polygon.
+
+    Raises:
+        InputError: wrong shapes, non-finite values, or an empty or inverted box.
+    """
+    A = np.asarray(A, dtype=float)
+    b = np.asarray(b, dtype=float).reshape(-1)
+    if A.ndim != 2 or A.shape[1] != 2 or b.shape != (A.shape[0],):
+        raise InputError(f"expected A of shape (m, 2) and b of shape (m,), got {A.shape} and {b.shape}")
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+        raise InputError("A and b must be finite")
+    xmin, xmax, ymin, ymax = (float(v) for v in box)
+    if not (xmin < xmax and ymin < ymax) or not all(map(math.isfinite, (xmin, xmax, ymin, ymax))):
+        raise InputError(f"box must be (xmin, xmax, ymin, ymax) with min < max, got {tuple(box)}")
+    polygon = [np.array(v) for v in ((xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax))]
+    norms = np.linalg.norm(A, axis=1)
+    for row, rhs, norm in zip(A, b, norms, strict=True):
+        if norm <= tolerance:
+            if rhs < -tolerance:
+                return np.zeros((0, 2))
+            continue
+        a, c = row / norm, rhs / norm
+        clipped: list[np.ndarray] = []
+        for i, current in enumerate(polygon):
+            previous = polygon[i - 1]
+            s_cur, s_prev = float(a @ current) - c, float(a @ previous) - c
+            cur_in, prev_in = s_cur <= tolerance, s_prev <= tolerance
+            if cur_in != prev_in:
+                clipped.append(previous + (s_prev / (s_prev - s_cur)) * (current - previous))
+            if cur_in:
+                clipped.append(current)
+        polygon = _merge_close(clipped, tolerance)
+        if not polygon:
+            return np.zeros((0, 2))
+    return np.array(polygon).reshape(-1, 2)
+
+
+def _merge_close(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
+    """Drop vertices within ``tolerance`` of the previous one kept (cyclically)."""
+    kept: list[np.ndarray] = []
+    for v in vertices:
+        if not kept or np.linalg.norm(v - kept[-1]) > tolerance:
+            kept.append(v)
+    while len(kept) > 1 and np.linalg.norm(kept[0] - kept[-1]) <= tolerance:
+        kept.pop()
+    return kept

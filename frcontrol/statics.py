@@ -797,26 +797,6 @@ def _moved_com_system(
     return A, -w_fixed, C_full
 
 
-def _polygon_vertices(P: poly.Polytope) -> np.ndarray:
-    """Vertices of a bounded 2-D polytope, counter-clockwise (pairwise line intersections)."""
-    A, b = np.asarray(P.A), np.asarray(P.b)
-    points = []
-    for i in range(A.shape[0]):
-        for j in range(i + 1, A.shape[0]):
-            M = A[[i, j]]
-            if abs(np.linalg.det(M)) < 1e-12:
-                continue
-            x = np.linalg.solve(M, b[[i, j]])
-            if poly.contains(P, x, tolerance=1e-9):
-                points.append(x)
-    if not points:
-        return np.zeros((0, 2))
-    pts = np.unique(np.round(np.array(points), 12), axis=0)
-    centre = pts.mean(axis=0)
-    order = np.argsort(np.arctan2(pts[:, 1] - centre[1], pts[:, 0] - centre[0]))
-    return pts[order]
-
-
 def support_region(
     body: StaticBody, *, lateral_acceleration: float = 0.0, solver: str = DEFAULT_LP_SOLVER
 ) -> SupportRegion:
@@ -879,7 +859,8 @@ def support_region(
                              True, None, "fourier_motzkin")
     bounded = all(math.isfinite(poly.support(region, d, solver=solver))
                   for d in ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)))
-    vertices = _polygon_vertices(region) if bounded and region.A_eq.shape[0] == 0 else None
+    planar = bounded and region.A_eq.shape[0] == 0
+    vertices = poly.vertices_from_halfspaces(region.A, region.b) if planar else None
     return SupportRegion(True, float(x_min), float(x_max), c0.copy(), contains, a, region,
                          poly.contains(region, c0, tolerance=1e-9), bounded, vertices, "fourier_motzkin")
 

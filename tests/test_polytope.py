@@ -482,3 +482,64 @@ def test_lp_second_opinion_on_a_false_unbounded(monkeypatch):
     assert support(box, [1.0, 1.0]) == pytest.approx(1.4)
     assert chebyshev_ball(box).radius == pytest.approx(0.2)
     assert minimal_representation(box).A.shape[0] == 4
+
+
+# ------------------------------------------------------------- vertices and hulls (one home)
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_vertices_from_halfspaces_match_qhull_on_random_polytopes(d):
+    """Random bounded polytopes (a box and random cuts through a point inside): the vertices
+    equal scipy's HalfspaceIntersection's, as sets, and none is missed or spurious."""
+    import scipy.spatial
+
+    from frcontrol.polytope import vertices_from_halfspaces
+
+    rng = np.random.default_rng(11 + d)
+    for _ in range(20):
+        rows = np.vstack([np.eye(d), -np.eye(d), rng.normal(size=(4, d))])
+        rhs = np.concatenate([np.ones(2 * d), rng.uniform(0.2, 1.0, 4)])
+        ours = vertices_from_halfspaces(rows, rhs)
+        qhull = scipy.spatial.HalfspaceIntersection(np.hstack([rows, -rhs[:, None]]), np.zeros(d))
+        theirs = np.unique(np.round(qhull.intersections, 9), axis=0)
+        assert len(ours) == len(theirs) > d
+        for v in theirs:
+            assert np.min(np.max(np.abs(ours - v), axis=1)) < 1e-8
+        if d == 2:  # counter-clockwise: positive signed area
+            x, y = ours[:, 0], ours[:, 1]
+            assert np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) > 0
+
+
+def test_vertices_from_halfspaces_edge_cases():
+    from frcontrol.errors import InputError
+    from frcontrol.polytope import vertices_from_halfspaces
+
+    empty = vertices_from_halfspaces(np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]),
+                                     np.array([-1.0, 0.0, 1.0, 1.0]))  # x <= -1 and x >= 0
+    assert empty.shape == (0, 2)
+    point = vertices_from_halfspaces(np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]),
+                                     np.array([0.0, 0.0, 0.0, 0.0]))
+    np.testing.assert_allclose(point, [[0.0, 0.0]], atol=1e-12)
+    scaled = vertices_from_halfspaces(1e6 * np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]),
+                                      1e6 * np.ones(4))
+    assert len(scaled) == 4  # row scaling does not matter
+    with pytest.raises(InputError, match="vertex candidates"):
+        vertices_from_halfspaces(np.ones((30, 3)), np.ones(30), max_candidates=100)
+
+
+def test_hull_from_points_against_qhull_and_on_degenerate_sets():
+    import scipy.spatial
+
+    from frcontrol.polytope import hull_from_points
+
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        points = rng.normal(size=(40, 2)) * rng.uniform(1e-3, 1e3)
+        ours = hull_from_points(points)
+        theirs = points[scipy.spatial.ConvexHull(points).vertices]
+        assert len(ours) == len(theirs)
+        for v in theirs:
+            assert np.min(np.linalg.norm(ours - v, axis=1)) < 1e-9 * np.max(np.abs(points))
+    np.testing.assert_allclose(hull_from_points([[1.0, 2.0]] * 3), [[1.0, 2.0]])
+    segment = hull_from_points([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [0.5, 0.5]])
+    np.testing.assert_allclose(segment, [[0.0, 0.0], [2.0, 2.0]])

@@ -150,7 +150,7 @@ from ..errors import FrameNotFound, InputError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
 from ..model import ContactPoint, PlanarRobot
 from ..modes import ContactProblem, ModeSystem, all_modes, build_mode_system
-from ..polytope import Polytope
+from ..polytope import Polytope, hull_from_points
 from ..response import AffineSolution, solve_affine
 from ..scene import Inputs, Scene
 from ..solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, solve_lp
@@ -320,36 +320,6 @@ class DisturbanceSet:
         return points
 
 
-def _hull(points: np.ndarray) -> np.ndarray:
-    """Extreme points of a finite 2-D set, counter-clockwise (Andrew's monotone chain).
-
-    One point, or the two ends of a segment, when the set is degenerate.
-    """
-    unique = np.unique(np.round(points, 12), axis=0)
-    if len(unique) <= 2:
-        return unique
-
-    def cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-        return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
-
-    scale = float(np.max(np.abs(unique))) or 1.0
-    tol = 1e-12 * scale * scale
-    lower: list[np.ndarray] = []
-    for p in unique:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= tol:
-            lower.pop()
-        lower.append(p)
-    upper: list[np.ndarray] = []
-    for p in unique[::-1]:
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= tol:
-            upper.pop()
-        upper.append(p)
-    chain = lower[:-1] + upper[:-1]
-    if len(chain) < 3:  # collinear: the two ends
-        return np.array([unique[0], unique[-1]])
-    return np.array(chain)
-
-
 def _polygon_rows(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(A, b, A_eq, b_eq)`` of the hull of ``vertices`` (k, 2), rows of unit norm.
 
@@ -466,7 +436,7 @@ def load_disturbances(scene: Scene, *, required: bool = True) -> DisturbanceSet:
         else:
             raise SceneError(str(path), where, "missing: the forces, as lower = [fx, fy] and upper = "
                              "[fx, fy] (a box, [N]) or vertices = [[fx, fy], ...] (a polygon, [N])")
-        items.append(Disturbance(name, link, point, _hull(corners)))
+        items.append(Disturbance(name, link, point, hull_from_points(corners)))
     return DisturbanceSet(tuple(items))
 
 

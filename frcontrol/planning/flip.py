@@ -79,7 +79,6 @@ pitch passes vertical or ``max_time``. See there for the re-planning model and t
 
 from __future__ import annotations
 
-import itertools
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -620,23 +619,6 @@ def worst_case_pitch(
     return base + float(result.objective)
 
 
-def _vertices(A: np.ndarray, b: np.ndarray, tolerance: float = 1e-9) -> np.ndarray:
-    """Vertices of the bounded polytope ``A u <= b`` (every choice of m active rows)."""
-    count, m = A.shape
-    if math.comb(count, m) > MAX_VERTEX_CANDIDATES:
-        raise InputError(f"a piece with {count} rows in {m} inputs has too many vertex candidates "
-                         f"({math.comb(count, m)} > {MAX_VERTEX_CANDIDATES}) for the worst-case plan")
-    found: list[np.ndarray] = []
-    for rows in itertools.combinations(range(count), m):
-        sub = A[list(rows)]
-        if abs(np.linalg.det(sub)) < 1e-12:
-            continue
-        point = np.linalg.solve(sub, b[list(rows)])
-        if np.all(A @ point <= b + tolerance) and not any(np.allclose(point, v) for v in found):
-            found.append(point)
-    return np.array(found).reshape(-1, m)
-
-
 def maximise_pitch(mode: ModeAnalysis, piece: poly.Polytope, pitch_index: int,
                    solver: str = DEFAULT_LP_SOLVER) -> FlipPiece:
     """The best pitch acceleration of ``mode`` on one piece of inputs.
@@ -659,7 +641,7 @@ def maximise_pitch(mode: ModeAnalysis, piece: poly.Polytope, pitch_index: int,
         return FlipPiece(mode.mode, piece, float(c_u @ result.x) + c_0, result.x.copy(), False)
     reduced = poly.minimal_representation(piece, solver=solver)
     best, best_u = -math.inf, None
-    for vertex in _vertices(reduced.A, reduced.b):
+    for vertex in poly.vertices_from_halfspaces(reduced.A, reduced.b, max_candidates=MAX_VERTEX_CANDIDATES):
         value = worst_case_pitch(mode, pitch_index, vertex, solver=solver)
         if value > best:
             best, best_u = value, vertex

@@ -345,28 +345,10 @@ def visual_depth(visual: LinkVisual) -> tuple[float, float]:
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Convex hull of 2-D points, counter-clockwise, without repeated or collinear vertices.
+    """Convex hull of 2-D points, counter-clockwise: :func:`frcontrol.polytope.hull_from_points`."""
+    from frcontrol.polytope import hull_from_points
 
-    Andrew's monotone chain: exact on degenerate input (one point, collinear points: the result
-    then has 1 or 2 vertices).
-    """
-    pts = np.unique(np.asarray(points, dtype=float).reshape(-1, 2), axis=0)
-    if len(pts) <= 2:
-        return pts
-
-    def cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-        return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
-
-    def chain(sequence: Iterable[np.ndarray]) -> list[np.ndarray]:
-        out: list[np.ndarray] = []
-        for p in sequence:
-            while len(out) >= 2 and cross(out[-2], out[-1], p) <= 0.0:
-                out.pop()
-            out.append(p)
-        return out
-
-    lower, upper = chain(pts), chain(pts[::-1])
-    return np.array(lower[:-1] + upper[:-1])
+    return hull_from_points(points)
 
 
 @dataclass(frozen=True)

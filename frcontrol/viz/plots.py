@@ -429,7 +429,7 @@ def plot_scene(
 def polygon_from_halfplanes(
     A: Any, b: Any, box: Sequence[float], tolerance: float = HALFPLANE_TOLERANCE
 ) -> np.ndarray:
-    """Vertices of ``{x in R^2 : A x <= b}`` inside a box, counter-clockwise.
+    """Vertices of ``{x in R^2 : A x <= b}`` inside a box: :func:`frcontrol.polytope.clip_polygon`.
 
     The box ``(xmin, xmax, ymin, ymax)`` is clipped by each half-plane in turn
     (Sutherland-Hodgman on a convex polygon): exact up to ``tolerance``, with no LP and no
@@ -449,48 +449,9 @@ def polygon_from_halfplanes(
     Raises:
         InputError: wrong shapes, non-finite values, or an empty or inverted box.
     """
-    A = np.asarray(A, dtype=float)
-    b = np.asarray(b, dtype=float).reshape(-1)
-    if A.ndim != 2 or A.shape[1] != 2 or b.shape != (A.shape[0],):
-        raise InputError(f"expected A of shape (m, 2) and b of shape (m,), got {A.shape} and {b.shape}")
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
-        raise InputError("A and b must be finite")
-    xmin, xmax, ymin, ymax = (float(v) for v in box)
-    if not (xmin < xmax and ymin < ymax) or not all(map(math.isfinite, (xmin, xmax, ymin, ymax))):
-        raise InputError(f"box must be (xmin, xmax, ymin, ymax) with min < max, got {tuple(box)}")
-    polygon = [np.array(v) for v in ((xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax))]
-    norms = np.linalg.norm(A, axis=1)
-    for row, rhs, norm in zip(A, b, norms, strict=True):
-        if norm <= tolerance:
-            if rhs < -tolerance:
-                return np.zeros((0, 2))
-            continue
-        a, c = row / norm, rhs / norm
-        clipped: list[np.ndarray] = []
-        for i, current in enumerate(polygon):
-            previous = polygon[i - 1]
-            s_cur, s_prev = float(a @ current) - c, float(a @ previous) - c
-            cur_in, prev_in = s_cur <= tolerance, s_prev <= tolerance
-            if cur_in != prev_in:
-                crossing = previous + (s_prev / (s_prev - s_cur)) * (current - previous)
-                clipped.append(crossing)
-            if cur_in:
-                clipped.append(current)
-        polygon = _merge_close(clipped, tolerance)
-        if not polygon:
-            return np.zeros((0, 2))
-    return np.array(polygon).reshape(-1, 2)
+    from frcontrol.polytope import clip_polygon
 
-
-def _merge_close(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
-    """Drop vertices within ``tolerance`` of the previous one kept (cyclically)."""
-    kept: list[np.ndarray] = []
-    for v in vertices:
-        if not kept or np.linalg.norm(v - kept[-1]) > tolerance:
-            kept.append(v)
-    while len(kept) > 1 and np.linalg.norm(kept[0] - kept[-1]) <= tolerance:
-        kept.pop()
-    return kept
+    return clip_polygon(A, b, box, tolerance)
 
 
 def _halfplanes(item: Any, index: int) -> tuple[np.ndarray, np.ndarray]:
