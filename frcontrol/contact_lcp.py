@@ -25,7 +25,7 @@ import scipy.linalg
 
 from .errors import IllConditioned, InputError
 from .lcp import LCPSolution, enumerate_lcp_solutions, solve_lcp
-from .modes import ContactProblem, mode_outputs
+from .modes import ContactProblem, contact_mode_letter, mode_outputs
 
 MASS_CHOLESKY_TOLERANCE = 1e-8
 """The LCP form needs M positive definite and well conditioned: its smallest eigenvalue over its
@@ -148,19 +148,10 @@ def build_contact_lcp(problem: ContactProblem, u: np.ndarray) -> ContactLCP:
 def classify(problem: ContactProblem, x: np.ndarray, *, tolerance: float = CLASSIFY_TOLERANCE) -> str:
     """The mode letters of a solution ``x = (dv, lam_N, lam_T)`` (S when lam_N is zero)."""
     out = mode_outputs(problem, x)
-    letters = []
-    for i in range(problem.k):
-        if out["lambda_n"][i] <= tolerance:
-            letters.append("S")
-        elif abs(problem.tangential_velocities[i]) > problem.velocity_tolerance:
-            letters.append("R" if problem.tangential_velocities[i] > 0 else "L")
-        elif out["a_t"][i] > tolerance:
-            letters.append("R")
-        elif out["a_t"][i] < -tolerance:
-            letters.append("L")
-        else:
-            letters.append("F")
-    return "".join(letters)
+    return "".join(
+        contact_mode_letter(out["lambda_n"][i], problem.tangential_velocities[i], tolerance,
+                            problem.velocity_tolerance, out["a_t"][i], tolerance)
+        for i in range(problem.k))
 
 
 @dataclass(frozen=True)

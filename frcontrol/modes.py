@@ -307,8 +307,32 @@ def all_modes(allowed: Sequence[str]) -> list[str]:
     return modes
 
 
+def contact_mode_letter(normal_force: float, tangential_velocity: float, force_tolerance: float,
+                        slip_tolerance: float, tangential_acceleration: float = 0.0,
+                        acceleration_tolerance: float = float("inf")) -> str:
+    """The mode a contact is in: S, L, R or F. The one rule every part of frcontrol uses.
+
+    S when the normal force [N] is at most ``force_tolerance`` [N]; else R (along +t) or L when
+    ``|v_T|`` exceeds ``slip_tolerance`` [m/s]; else, at the acceleration level, R or L when
+    ``|a_T|`` exceeds ``acceleration_tolerance`` [m/s^2] (a sticking contact that starts to slip;
+    infinite by default: a sampled motion has no acceleration); else F.
+    """
+    if normal_force <= force_tolerance:
+        return "S"
+    if tangential_velocity > slip_tolerance:
+        return "R"
+    if tangential_velocity < -slip_tolerance:
+        return "L"
+    if tangential_acceleration > acceleration_tolerance:
+        return "R"
+    if tangential_acceleration < -acceleration_tolerance:
+        return "L"
+    return "F"
+
+
 __all__ = [
     "all_modes",
+    "contact_mode_letter",
     "build_mode_system",
     "check_mode",
     "ContactProblem",

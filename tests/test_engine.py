@@ -439,3 +439,19 @@ def test_bad_inputs_are_typed_errors(write_scene):
     with pytest.raises(ImpactState):
         solutions_at(moving_in, {})
     assert DOMAIN_TOLERANCE > 0
+
+
+@pytest.mark.parametrize(("args", "letter"), [
+    ((0.0, 5.0, 1e-9, 1e-6), "S"),               # no load: separate, whatever it slides
+    ((1.0, 2e-6, 1e-9, 1e-6), "R"),              # slides along +t
+    ((1.0, -2e-6, 1e-9, 1e-6), "L"),
+    ((1.0, 5e-7, 1e-9, 1e-6), "F"),              # within the slip tolerance: sticks
+    ((1.0, 0.0, 1e-9, 1e-6, 0.5, 1e-9), "R"),    # sticking but accelerating along +t: starts to slip
+    ((1.0, 0.0, 1e-9, 1e-6, -0.5, 1e-9), "L"),
+    ((1.0, 0.0, 1e-9, 1e-6, 0.5), "F"),          # a sampled motion has no acceleration level
+    ((1.0, -1.0, 1e-9, 1e-6, 0.5, 1e-9), "L"),   # velocity decides before acceleration
+])
+def test_one_contact_mode_rule(args, letter):
+    from frcontrol.modes import contact_mode_letter
+
+    assert contact_mode_letter(*args) == letter

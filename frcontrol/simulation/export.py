@@ -25,10 +25,11 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, reason_from_exception
+from ..modes import contact_mode_letter
 from ..scene import Scene
 from . import TRAJECTORY_FORMATS
 from .rigid import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
-from .trajectory import Trajectory, contact_mode_letter
+from .trajectory import Trajectory
 
 __all__ = ["TRAJECTORY_FORMATS", "sample_modes", "save_trajectory", "trajectory_arrays"]
 

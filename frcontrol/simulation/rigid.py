@@ -69,7 +69,7 @@ import scipy.linalg
 
 from ..errors import FrcontrolError, InputError
 from ..lcp import ENUMERATION_MAX_SIZE, solve_lcp
-from ..modes import ContactProblem
+from ..modes import ContactProblem, contact_mode_letter
 from ..scene import Scene
 from .options import (
     DEFAULT_ARMATURE,
@@ -82,7 +82,7 @@ from .options import (
     model_options,
     potential_energy,
 )
-from .trajectory import ContactEvent, SimulationFailure, Trajectory, contact_mode_letter
+from .trajectory import ContactEvent, SimulationFailure, Trajectory
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
 

@@ -28,22 +28,6 @@ class ContactEvent:
     detail: str = ""
 
 
-def contact_mode_letter(normal_force: float, tangential_velocity: float, force_tolerance: float,
-                        slip_tolerance: float) -> str:
-    """The mode a contact is in at a sample: S, F, R or L.
-
-    S when the normal force [N] is at most ``force_tolerance`` [N]; else F when
-    ``|v_T| <= slip_tolerance`` [m/s], R when ``v_T`` is above it (along +t), L when below minus it.
-    """
-    if normal_force <= force_tolerance:
-        return "S"
-    if tangential_velocity > slip_tolerance:
-        return "R"
-    if tangential_velocity < -slip_tolerance:
-        return "L"
-    return "F"
-
-
 @dataclass(frozen=True)
 class SimulationWarning:
     """A run left its model's validity without diverging (:mod:`frcontrol.simulation.validity`).
@@ -225,7 +209,6 @@ class Trajectory:
 
 
 __all__ = [
-    "contact_mode_letter",
     "ContactEvent",
     "SimulationFailure",
     "SimulationWarning",
