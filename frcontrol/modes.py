@@ -101,11 +101,22 @@ class ContactProblem:
         q: np.ndarray | None = None,
         v: np.ndarray | None = None,
         *,
+        contacts: Sequence[int] | None = None,
         velocity_tolerance: float = VELOCITY_TOLERANCE,
     ) -> ContactProblem:
-        """The problem at the scene's state (or at ``q``, ``v``) with the scene's active contacts."""
-        state = scene.state(q, v)
-        active = scene.active_contacts
+        """The problem at the scene's state (or at ``q``, ``v``).
+
+        Args:
+            scene: the scene.
+            q: configuration (default: the scene's).
+            v: velocity (default: the scene's).
+            contacts: indices into ``scene.contacts`` of the contacts that take part (default: the
+                scene's active contacts), e.g. those a simulator finds touching.
+            velocity_tolerance: [m/s] |v| at most this is zero (see :data:`VELOCITY_TOLERANCE`).
+        """
+        indices = list(scene.active_indices if contacts is None else contacts)
+        state = scene.robot.state(scene.q if q is None else q, scene.v if v is None else v, indices)
+        active = [scene.contacts[i] for i in indices]
         return cls(
             coordinates=scene.coordinate_names,
             contacts=tuple(c.name for c in active),

@@ -62,7 +62,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg
@@ -480,27 +480,11 @@ def _ambiguity_check(scene: Scene, q: np.ndarray, v: np.ndarray, u: np.ndarray, 
     """Every rigid solution at this state (touching contacts, v_N taken as 0), and the step's mode."""
     from ..engine import solutions_at  # the engine is heavy; import on first use
 
-    state = scene.robot.state(q, v, touching)
-    vt = state.tangential_velocities.copy()
+    at_state = ContactProblem.from_scene(scene, q, v, contacts=touching, velocity_tolerance=slip_tol)
+    vt = at_state.tangential_velocities.copy()
     vt[np.abs(vt) <= slip_tol] = 0.0
-    problem = ContactProblem(
-        coordinates=scene.coordinate_names,
-        contacts=tuple(scene.contacts[i].name for i in touching),
-        inputs=scene.inputs.coordinates,
-        mass_matrix=arm.apply(state.mass_matrix),
-        bias=state.bias,
-        input_map=scene.inputs.selection_transpose(scene.robot.nv),
-        jacobian_normal=state.jacobian_normal,
-        jacobian_tangent=state.jacobian_tangent,
-        drift_normal=state.drift_normal,
-        drift_tangent=state.drift_tangent,
-        normal_velocities=np.zeros(len(touching)),
-        tangential_velocities=vt,
-        mu=np.array([scene.contacts[i].mu for i in touching], dtype=float),
-        lower=scene.inputs.lower,
-        upper=scene.inputs.upper,
-        velocity_tolerance=slip_tol,
-    )
+    problem = replace(at_state, mass_matrix=arm.apply(at_state.mass_matrix),
+                      normal_velocities=np.zeros(len(touching)), tangential_velocities=vt)
     entry: dict = {"time": t, "contacts": list(problem.contacts), "taken": taken}
     try:
         solutions = solutions_at(problem, u)
