@@ -125,7 +125,8 @@ def check_output_files(**files: Path | None) -> None:
     """Refuse, before any work, an output file that cannot be written (``plot=path, html=path``).
 
     Raises:
-        InputError: the path is a directory, its folder does not exist or is not writable.
+        InputError: the path is a directory, its folder does not exist or is not writable, or a
+            ``--plot`` file's suffix is no image format matplotlib writes.
     """
     for option, path in files.items():
         if path is None:
@@ -138,6 +139,13 @@ def check_output_files(**files: Path | None) -> None:
             raise InputError(f"{flag} {str(path)!r}: cannot write: the folder {str(folder)!r} does not exist")
         if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
             raise InputError(f"{flag} {str(path)!r}: cannot write: permission denied")
+        if option == "plot":
+            from matplotlib.backend_bases import FigureCanvasBase
+
+            formats = FigureCanvasBase.get_supported_filetypes()
+            if path.suffix.lower().lstrip(".") not in formats:
+                raise InputError(f"{flag} {str(path)!r}: the suffix must name an image format "
+                                 f"({', '.join('.' + f for f in sorted(formats))})")
 
 
 def print_json(payload: dict[str, Any]) -> None:

@@ -37,6 +37,8 @@ def test_usage_errors_exit_2(args):
     (["climb", "--html", "/nonexistent-folder/climb.html", "--json"], "does not exist"),
     (["statics", "rod_on_table", "--plot", "/nonexistent-folder/s.png", "--json"], "does not exist"),
     (["flip", "rod_on_table", "--json"], "task.body_contacts: missing"),
+    (["simulate", "rod_on_table", "--plot", "run.txt", "--json"], "must name an image format"),
+    (["statics", "rod_on_table", "--plot", "s.unknown", "--json"], "must name an image format"),
 ])
 def test_bad_input_exits_1_with_one_line_and_nothing_on_stdout(args, text):
     result = runner.invoke(app, args)
