@@ -20,12 +20,11 @@ from frcontrol.lcp import (
     enumerate_lcp_solutions,
     fc2d_error,
     lcp_residual,
-    read_siconos_fc2d,
-    read_siconos_lcp,
     siconos_lcp_error,
     solve_fc2d,
     solve_lcp,
 )
+from frcontrol.siconos import read_siconos_fc2d, read_siconos_lcp
 
 DATA = Path(__file__).parent / "data" / "siconos"
 LCP_DIR = DATA / "siconos_lcp"
