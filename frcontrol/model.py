@@ -23,7 +23,6 @@ Pinocchio as ``(cos, sin)`` pairs; the minimal joint angle is mapped onto them h
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import FrameNotFound, InputError, RobotModelError
+from .urdf import read_urdf
 
 BASE_COORDINATES = ("x", "y", "theta")
 """Names of the planar base's coordinates: position [m] of the root link's frame and its angle
@@ -104,32 +104,6 @@ class RobotState:
     drift_tangent: np.ndarray
 
 
-def _movable_joints_in_document_order(urdf_path: Path) -> list[tuple[str, str, np.ndarray]]:
-    """(name, type, axis) of the URDF's non-fixed joints, in the order the file lists them."""
-    try:
-        root = ET.parse(urdf_path).getroot()
-    except (ET.ParseError, OSError) as err:
-        raise RobotModelError(str(urdf_path), f"cannot read URDF: {err}") from err
-    if root.tag != "robot":
-        raise RobotModelError(str(urdf_path), f"root element is <{root.tag}>, expected <robot>")
-    joints = []
-    for joint in root.findall("joint"):
-        kind = joint.get("type", "")
-        name = joint.get("name", "")
-        if kind == "fixed":
-            continue
-        axis_el = joint.find("axis")
-        text = axis_el.get("xyz", "1 0 0") if axis_el is not None else "1 0 0"
-        try:
-            axis = np.array([float(s) for s in text.split()], dtype=float)
-        except ValueError as err:
-            raise RobotModelError(str(urdf_path), f"joint {name!r}: bad axis {text!r}") from err
-        if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) == 0.0:
-            raise RobotModelError(str(urdf_path), f"joint {name!r}: bad axis {text!r}")
-        joints.append((name, kind, axis / np.linalg.norm(axis)))
-    return joints
-
-
 class PlanarRobot:
     """A planar robot: one Pinocchio model and data, on a planar or fixed base.
 
@@ -160,7 +134,7 @@ class PlanarRobot:
         if base not in ("planar", "fixed"):
             raise RobotModelError(str(urdf_path), f"base must be 'planar' or 'fixed', got {base!r}")
         self.base = base
-        joints = _movable_joints_in_document_order(self.urdf_path)
+        joints = [(j.name, j.kind, j.axis) for j in read_urdf(self.urdf_path).movable_joints]
         for name, kind, axis in joints:
             if kind in ("revolute", "continuous"):
                 if abs(abs(axis[2]) - 1.0) > PLANE_AXIS_TOLERANCE:

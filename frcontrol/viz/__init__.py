@@ -19,7 +19,6 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -198,64 +197,38 @@ def _resolve_mesh(filename: str, urdf_dir: Path) -> Path | None:
     return candidate if candidate.is_file() else None
 
 
-@lru_cache(maxsize=32)
-def _urdf_visuals(urdf_path: str, mtime: float) -> tuple[dict, dict]:
-    """(visuals by link, child joint origins by link) read with yourdfpy; cached per file version."""
-    import yourdfpy
+def _urdf_visuals(urdf_path: Path) -> tuple[dict, dict]:
+    """(visuals by link, child joint origins by link) from :func:`frcontrol.urdf.read_urdf`."""
+    from frcontrol.errors import RobotModelError
+    from frcontrol.urdf import read_urdf
 
     try:
-        urdf = yourdfpy.URDF.load(
-            urdf_path, build_scene_graph=False, load_meshes=False,
-            build_collision_scene_graph=False, load_collision_meshes=False,
-        )
-    except Exception as err:  # yourdfpy raises many kinds on a malformed file
-        raise VizError(f"{urdf_path}: yourdfpy cannot read the URDF: {err}") from err
-    named = {m.name: m for m in urdf.robot.materials if m.name}
-    urdf_dir = Path(urdf_path).parent
+        document = read_urdf(urdf_path)
+    except RobotModelError as err:
+        raise VizError(str(err)) from err
+    urdf_dir = Path(document.path).parent
     visuals: dict[str, list[LinkVisual]] = {}
-    for link in urdf.robot.links:
-        shapes = []
-        for visual in link.visuals:
-            origin = np.eye(4) if visual.origin is None else np.array(visual.origin, dtype=float)
-            material = visual.material
-            color = None
-            if material is not None:
-                color = material.color
-                if color is None and material.name in named:
-                    color = named[material.name].color
-            rgba = tuple(float(c) for c in color.rgba) if color is not None else DEFAULT_VISUAL_COLOR
-            geometry = visual.geometry
-            if geometry is None:
-                continue
-            if geometry.box is not None:
-                shapes.append(LinkVisual(link.name, "box", tuple(map(float, geometry.box.size)),
-                                         origin, rgba))
-            elif geometry.cylinder is not None:
-                shapes.append(LinkVisual(link.name, "cylinder", (float(geometry.cylinder.radius),
-                                         float(geometry.cylinder.length)), origin, rgba))
-            elif geometry.sphere is not None:
-                shapes.append(LinkVisual(link.name, "sphere", (float(geometry.sphere.radius),),
-                                         origin, rgba))
-            elif geometry.mesh is not None:
-                path = _resolve_mesh(geometry.mesh.filename, urdf_dir)
-                if path is None:
+    for link, shapes in document.visuals.items():
+        kept = []
+        for visual in shapes:
+            rgba = visual.rgba if visual.rgba is not None else DEFAULT_VISUAL_COLOR
+            mesh_path = None
+            if visual.shape == "mesh":
+                mesh_path = _resolve_mesh(visual.mesh_filename, urdf_dir)
+                if mesh_path is None:
                     continue  # unusable: the link falls back to a thin box if nothing else is left
-                scale = geometry.mesh.scale
-                scale3 = (1.0, 1.0, 1.0) if scale is None else tuple(
-                    float(s) for s in np.broadcast_to(np.asarray(scale, dtype=float), (3,)))
-                shapes.append(LinkVisual(link.name, "mesh", scale3, origin, rgba, mesh_path=path))
-        visuals[link.name] = shapes
+            kept.append(LinkVisual(link, visual.shape, visual.size, visual.origin, rgba, mesh_path=mesh_path))
+        visuals[link] = kept
     children: dict[str, list[np.ndarray]] = {}
-    for joint in urdf.robot.joints:
-        origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=float)
-        children.setdefault(joint.parent, []).append(origin[:2, 3].copy())
+    for joint in document.joints:
+        children.setdefault(joint.parent, []).append(joint.origin[:2, 3].copy())
     return visuals, children
 
 
 def link_visuals(
     robot: PlanarRobot, contacts: Iterable[ContactPoint] = ()
 ) -> dict[str, tuple[LinkVisual, ...]]:
-    """The visual shapes of every link of ``robot``, read from its URDF with yourdfpy.
+    """The visual shapes of every link of ``robot``, from its URDF (:func:`frcontrol.urdf.read_urdf`).
 
     Boxes, cylinders, spheres and meshes (resolved relative to the URDF; ``package://`` paths are
     looked up in the URDF's folder and its parents) are kept as the URDF gives them. A link with
@@ -270,10 +243,9 @@ def link_visuals(
         link name -> its shapes, for every link of ``robot.link_names``.
 
     Raises:
-        VizError: yourdfpy cannot read the URDF.
+        VizError: the URDF cannot be read.
     """
-    path = Path(robot.urdf_path).resolve()
-    visuals, children = _urdf_visuals(str(path), path.stat().st_mtime)
+    visuals, children = _urdf_visuals(Path(robot.urdf_path))
     contact_points: dict[str, list[np.ndarray]] = {}
     for contact in contacts:
         contact_points.setdefault(contact.link, []).append(np.asarray(contact.point_in_link, float))
