@@ -104,6 +104,21 @@ class RobotState:
     drift_tangent: np.ndarray
 
 
+@dataclass(frozen=True)
+class PointKinematics:
+    """Points fixed on links, at one state (:meth:`PlanarRobot.point_kinematics`).
+
+    Attributes:
+        positions: world positions [m], shape (p, 2).
+        jacobians: world x-y Jacobians, shape (p, 2, n): ``d position / dt = J v``.
+        drifts: classical accelerations at ``dv = 0`` [m/s^2], shape (p, 2).
+    """
+
+    positions: np.ndarray
+    jacobians: np.ndarray
+    drifts: np.ndarray
+
+
 class PlanarRobot:
     """A planar robot: one Pinocchio model and data, on a planar or fixed base.
 
@@ -400,6 +415,49 @@ class PlanarRobot:
             poses[name] = (placement.translation[:2].copy(), math.atan2(rot[1, 0], rot[0, 0]))
         return poses
 
+    def point_kinematics(self, q: np.ndarray, v: np.ndarray,
+                         points: Sequence[tuple[str, Sequence[float]]]) -> PointKinematics:
+        """World positions, Jacobians and drifts of points fixed on links, at ``(q, v)``.
+
+        A point ``p`` (link frame) of a link whose frame has world origin ``o``, rotation ``R``,
+        linear Jacobian ``J_o`` and angular row ``J_w`` (z) moves with ``J = J_o + perp(R p) J_w``,
+        ``perp(r) = (-r_y, r_x)``; its classical acceleration at ``dv = 0`` is
+        ``a_o + alpha perp(R p) - omega^2 R p``.
+
+        Args:
+            q: configuration (minimal coordinates).
+            v: velocity.
+            points: ``(link name, point in the link frame [m])`` for each point.
+
+        Raises:
+            FrameNotFound: an unknown link.
+        """
+        model, data = self.model, self.data
+        q_pin = self.pinocchio_q_from_minimal(q)
+        v_pin = self.pinocchio_v_from_minimal(v)
+        pin.forwardKinematics(model, data, q_pin, v_pin, np.zeros(model.nv))
+        pin.computeJointJacobians(model, data, q_pin)
+        lwa = pin.LOCAL_WORLD_ALIGNED
+        count, n = len(points), self.nv
+        positions, jacobians, drifts = np.empty((count, 2)), np.empty((count, 2, n)), np.empty((count, 2))
+        for row, (link, point) in enumerate(points):
+            if link not in self.link_names:
+                raise FrameNotFound(link, self.link_names)
+            fid = model.getFrameId(link, pin.FrameType.BODY)
+            placement = pin.updateFramePlacement(model, data, fid)
+            r = placement.rotation[:2, :2] @ np.asarray(point, dtype=float)[:2]
+            perp = np.array([-r[1], r[0]])
+            jac = pin.getFrameJacobian(model, data, fid, lwa)
+            omega = float(pin.getFrameVelocity(model, data, fid, lwa).angular[2])
+            alpha = float(pin.getFrameAcceleration(model, data, fid, lwa).angular[2])
+            origin_acc = pin.getFrameClassicalAcceleration(model, data, fid, lwa).linear[:2]
+            positions[row] = placement.translation[:2] + r
+            jacobians[row] = jac[:2] + np.outer(perp, jac[5])
+            drifts[row] = origin_acc + alpha * perp - omega**2 * r
+        if not self._identity_order:
+            jacobians = jacobians[:, :, self._v_index]
+        return PointKinematics(positions, jacobians, drifts)
+
     @property
     def total_mass(self) -> float:
         """The robot's mass [kg]: every link's (Pinocchio's ``computeTotalMass``)."""
@@ -429,5 +487,6 @@ __all__ = [
     "ContactPoint",
     "PlanarRobot",
     "PLANE_AXIS_TOLERANCE",
+    "PointKinematics",
     "RobotState",
 ]

@@ -238,3 +238,25 @@ def test_mass_centre_of_mass_and_potential_energy(make, tmp_path):
         moved = q.copy()
         moved[0] += 0.3
         np.testing.assert_allclose(robot.center_of_mass(moved) - com, [0.3, 0.0], atol=1e-12)
+
+
+@pytest.mark.parametrize("make", ["rhex_massive", "snake"])
+def test_point_kinematics_against_finite_differences(make, tmp_path):
+    """Positions move with J v; J's columns are d position / dq; the drift is d(J v)/dt - J dv at
+    dv = 0, i.e. (J(q + eps v) - J(q - eps v)) v / (2 eps)."""
+    robot = rhex(True, tmp_path) if make == "rhex_massive" else snake()
+    links = robot.link_names[1:3]
+    points = [(links[0], (0.07, -0.02)), (links[1], (-0.03, 0.11))]
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        q, v = random_state(robot, rng)
+        kin = robot.point_kinematics(q, v, points)
+        for j, e in enumerate(np.eye(robot.nv)):
+            moved = (robot.point_kinematics(q + EPS * e, v, points).positions
+                     - robot.point_kinematics(q - EPS * e, v, points).positions) / (2 * EPS)
+            np.testing.assert_allclose(kin.jacobians[:, :, j], moved, atol=FD_TOL)
+        ahead = robot.point_kinematics(q + EPS * v, v, points).jacobians
+        behind = robot.point_kinematics(q - EPS * v, v, points).jacobians
+        np.testing.assert_allclose(kin.drifts, (ahead - behind) @ v / (2 * EPS), atol=1e-5)
+    with pytest.raises(FrameNotFound):
+        robot.point_kinematics(q, v, [("no_such_link", (0.0, 0.0))])

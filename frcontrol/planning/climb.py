@@ -148,7 +148,6 @@ import numpy as np
 from ..engine import DOMAIN_TOLERANCE, DynamicResponse, analyze
 from ..errors import FrameNotFound, InputError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
-from ..model import ContactPoint, PlanarRobot
 from ..modes import ContactProblem, ModeSystem, all_modes, build_mode_system
 from ..polytope import Polytope, hull_from_points
 from ..response import AffineSolution, solve_affine
@@ -506,21 +505,14 @@ def load_climb_task(scene: Scene) -> ClimbTask:
 
 # ============================================================================ kinematics
 class _PointKinematics:
-    """World Jacobians of a few points of the robot, by a second robot model with those points.
-
-    Each point becomes two "contacts" with normals (1, 0) and (0, 1): their ``jacobian_normal``
-    rows are the point's J_x and J_y, their ``drift_normal`` its classical acceleration at dv = 0.
-    """
+    """World Jacobians of a few points of the robot, by :meth:`PlanarRobot.point_kinematics`."""
 
     def __init__(self, scene: Scene, points: Sequence[tuple[str, str, np.ndarray]]) -> None:
-        robot = scene.robot
-        contacts = []
-        for name, link, point in points:
-            for axis, normal in (("x", (1.0, 0.0)), ("y", (0.0, 1.0))):
-                contacts.append(ContactPoint(f"{name}:{axis}", link, np.asarray(point, dtype=float),
-                                             np.array(normal), np.zeros(2), 0.0))
-        self.robot = PlanarRobot(robot.urdf_path, base=robot.base, gravity=robot.gravity,
-                                 contacts=contacts, locked=robot.locked)
+        self.robot = scene.robot
+        self.points = [(link, np.asarray(point, dtype=float)) for _, link, point in points]
+        for link, _ in self.points:
+            if link not in self.robot.link_names:
+                raise FrameNotFound(link, self.robot.link_names)
 
     def evaluate(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The points' Jacobians, drifts and positions at ``(q, v)``.
@@ -529,12 +521,12 @@ class _PointKinematics:
             ``(J, drift, positions)``: J (2p, n), rows x then y per point; drift (2p,) [m/s^2];
             positions (p, 2) [m].
         """
-        state = self.robot.state(q, v)
-        return state.jacobian_normal, state.drift_normal, state.contact_points[::2]
+        kin = self.robot.point_kinematics(q, v, self.points)
+        return kin.jacobians.reshape(-1, self.robot.nv), kin.drifts.reshape(-1), kin.positions
 
     def positions(self, q: np.ndarray) -> np.ndarray:
         """World positions [m] of the points at ``q``, shape (p, 2)."""
-        return self.robot.contact_points_in_world(q)[::2]
+        return self.evaluate(q, np.zeros(self.robot.nv))[2]
 
 
 def augmented_problem(
