@@ -111,6 +111,98 @@ def bench_lps(n_lps: int, repeats: int, family=random_lp) -> list[dict]:
     return rows
 
 
+def _stdout_bytes(function) -> tuple[int, object]:
+    """(bytes the call wrote to file descriptor 1, its result)."""
+    import os
+    import sys
+    import tempfile
+
+    sys.stdout.flush()
+    saved = os.dup(1)
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 1)
+        try:
+            result = function()
+        finally:
+            sys.stdout.flush()
+            os.dup2(saved, 1)
+            os.close(saved)
+        return sink.seek(0, 2), result
+
+
+def bench_qpsolvers(n_lps: int, repeats: int) -> list[dict]:
+    """The same LPs through qpsolvers (as QPs with P = 0) and through frcontrol's door.
+
+    Reports per back-end: the median time of ``qpsolvers.solve_problem`` and of the door's
+    :func:`~frcontrol.solvers.solve_lp_prepared` (no validation, residual check kept), wrong
+    optima, whether an infeasible and an unbounded LP can be told apart from the answer (the
+    door's ``status``; qpsolvers' ``Solution`` has ``found`` only), and the bytes each writes to
+    stdout. Needs qpsolvers (the ``dev`` extra); skipped, and said so, without it.
+    """
+    try:
+        import warnings
+
+        import qpsolvers
+    except ImportError:
+        print("qpsolvers is not installed (pip install '.[dev]'): no comparison")
+        return []
+    from frcontrol.solvers import lp_problem, solve
+
+    names = {"daqp": "daqp", "highs": "highs", "proxqp": "proxsuite"}
+    rows = []
+    d, m = 8, 50
+    rng = np.random.default_rng(8050)
+    lps = [random_lp(rng, d, m) for _ in range(n_lps)]
+    references = [solve_lp(**lp, solver=REFERENCE_LP_SOLVER) for lp in lps]
+    infeasible = dict(c=np.ones(2), A_ub=np.array([[1.0, 0.0], [-1.0, 0.0]]), b_ub=np.array([-1.0, 0.0]))
+    unbounded = dict(c=np.ones(2), A_ub=np.array([[0.0, 1.0]]), b_ub=np.array([1.0]))
+    for theirs, ours in names.items():
+        if theirs not in qpsolvers.available_solvers or ours not in available_solvers():
+            continue
+
+        def through_qpsolvers(lp, name=theirs):
+            n = len(lp["c"])
+            lb = np.full(n, float(lp.get("lb", -np.inf)))
+            ub = np.full(n, float(lp.get("ub", np.inf)))
+            problem = qpsolvers.Problem(np.zeros((n, n)), lp["c"], lp["A_ub"], lp["b_ub"],
+                                        lb=None if np.all(np.isinf(lb)) else lb,
+                                        ub=None if np.all(np.isinf(ub)) else ub)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return qpsolvers.solve_problem(problem, solver=name)
+
+        theirs_times, ours_times, wrong, printed = [], [], 0, 0
+        for lp, reference in zip(lps, references, strict=True):
+            problem = lp_problem(**lp)
+            for _ in range(repeats):
+                start = time.perf_counter()
+                written, solution = _stdout_bytes(lambda lp=lp: through_qpsolvers(lp))
+                theirs_times.append(time.perf_counter() - start)
+                printed += written
+                start = time.perf_counter()
+                solve(problem, solver=ours)
+                ours_times.append(time.perf_counter() - start)
+            if not solution.found or abs(float(lp["c"] @ solution.x) - reference.objective) > 1e-6 * (
+                    1 + abs(reference.objective)):
+                wrong += 1
+        _, on_infeasible = _stdout_bytes(lambda: through_qpsolvers(infeasible))
+        _, on_unbounded = _stdout_bytes(lambda: through_qpsolvers(unbounded))
+        door_infeasible = solve_lp(**infeasible, solver=ours).status
+        door_unbounded = solve_lp(**unbounded, solver=ours).status
+        rows.append(dict(
+            backend=ours, d=d, m=m, lps=n_lps,
+            qpsolvers_us=float(np.median(theirs_times) * 1e6),
+            door_prepared_us=float(np.median(ours_times) * 1e6),
+            qpsolvers_wrong=wrong,
+            qpsolvers_tells_infeasible_from_unbounded=bool(
+                (on_infeasible.found, on_infeasible.x is None)
+                != (on_unbounded.found, on_unbounded.x is None)),
+            door_statuses=[door_infeasible, door_unbounded],
+            qpsolvers_stdout_bytes=printed,
+        ))
+    return rows
+
+
 def redundant_polytope(rng: np.random.Generator, d: int, m: int) -> Polytope:
     """m rows around the origin, offsets in [0.2, 3]: many rows are redundant."""
     A = rng.standard_normal((m, d))
@@ -200,6 +292,7 @@ def main() -> None:
     scaled_rows = bench_lps(n_lps, 1, family=badly_scaled_lp)
     minrep_rows = bench_minimal_representation(repeats)
     projection_rows = bench_projection(max(1, repeats // 2))
+    qpsolvers_rows = bench_qpsolvers(n_lps, repeats)
 
     RESULTS.mkdir(parents=True, exist_ok=True)
     results = dict(
@@ -212,6 +305,7 @@ def main() -> None:
                          for r in scaled_rows],
         minimal_representation=minrep_rows,
         projection=projection_rows,
+        qpsolvers=qpsolvers_rows,
     )
     (RESULTS / "solvers.json").write_text(json.dumps(results, indent=2) + "\n")
     plot(lp_rows, RESULTS / "solvers.png")
@@ -238,6 +332,13 @@ def main() -> None:
     for r in projection_rows:
         print(f"{'':26s} {r['d']:3d} {r['m']:4d} {r['eliminated']:5d} {r['ms']:9.2f} "
               f"{r['rows_out']:5d}")
+    print("\nthe same LPs (d = 8, m = 50) through qpsolvers (P = 0) and through the door (prepared):")
+    for r in qpsolvers_rows:
+        print(f"  {r['backend']:10s} qpsolvers {r['qpsolvers_us']:8.1f} us, "
+              f"door {r['door_prepared_us']:8.1f} us; "
+              f"wrong {r['qpsolvers_wrong']}; infeasible vs unbounded told apart: "
+              f"{r['qpsolvers_tells_infeasible_from_unbounded']} (door: {r['door_statuses']}); "
+              f"stdout bytes {r['qpsolvers_stdout_bytes']}")
     print(f"\nwrote {RESULTS / 'solvers.json'} and {RESULTS / 'solvers.png'}")
 
 

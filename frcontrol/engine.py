@@ -39,7 +39,7 @@ from .jsonable import to_jsonable
 from .modes import ContactProblem, ModeSystem, build_mode_system, mode_outputs
 from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, solve_affine
 from .scene import Scene
-from .solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, solve_lp_prepared
+from .solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp_prepared
 
 DOMAIN_TOLERANCE = 1e-7
 """Membership: an input (u, w) is in a domain if no normalised half-space of it is violated by
@@ -343,9 +343,7 @@ def motion_margin(
     lb = np.full(d + 1, -np.inf)
     ub = np.full(d + 1, np.inf)
     lb[-1], ub[-1] = 0.0, 1.0
-    result = solve_lp_prepared(c, A_ub, h, A, b, lb, ub, solver=solver)
-    if result.status in ("error", "unbounded") and solver != REFERENCE_LP_SOLVER:
-        result = solve_lp_prepared(c, A_ub, h, A, b, lb, ub, solver=REFERENCE_LP_SOLVER)
+    result = solve_lp_prepared(c, A_ub, h, A, b, lb, ub, solver=solver, fallback=RETRY_ERRORS)
     if not result.found:
         return MotionMargin("infeasible", None, None)
     z, t = result.x[:d], float(result.x[-1])

@@ -44,9 +44,8 @@ import scipy.linalg
 from frcontrol.errors import InputError
 from frcontrol.solvers import (
     DEFAULT_LP_SOLVER,
-    REFERENCE_LP_SOLVER,
     LPResult,
-    SolverFailed,
+    must_solve,
     solve_lp_prepared,
 )
 
@@ -273,21 +272,8 @@ def _lp(
     Raises:
         SolverFailed: no usable answer from either back-end.
     """
-    result = solve_lp_prepared(c, A_ub, b_ub, solver=solver, **kwargs)
-    if result.status in ("optimal", "infeasible"):
-        return result
-    first = result
-    statuses = {solver: result.raw_status}
-    second = REFERENCE_LP_SOLVER if solver != REFERENCE_LP_SOLVER else DEFAULT_LP_SOLVER
-    if second != solver:
-        result = solve_lp_prepared(c, A_ub, b_ub, solver=second, **kwargs)
-        statuses[second] = result.raw_status
-    for candidate in (result, first):
-        if candidate.status in ("optimal", "infeasible"):
-            return candidate
-        if candidate.status == "unbounded" and not bounded:
-            return candidate
-    raise SolverFailed("an LP of the polytope module", statuses)
+    return solve_lp_prepared(c, A_ub, b_ub, solver=solver, **kwargs,
+                             fallback=must_solve("an LP of the polytope module", bounded=bounded))
 
 
 @dataclass(frozen=True, eq=False)

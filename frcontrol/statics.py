@@ -100,7 +100,7 @@ from . import polytope as poly
 from .errors import InputError
 from .jsonable import finite_or_none, to_jsonable
 from .scene import Scene, parse_input_assignments
-from .solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, LPResult, SolverFailed, solve_lp
+from .solvers import DEFAULT_LP_SOLVER, LPResult, SolverFailed, must_solve, solve_lp
 
 __all__ = [
     "ACCELERATION_TOLERANCE",
@@ -492,16 +492,8 @@ def _lp(c: np.ndarray, solver: str, **kwargs: Any) -> LPResult:
     DAQP gets ``primal_tol = DAQP_PRIMAL_TOLERANCE``.
     """
     options = {"primal_tol": DAQP_PRIMAL_TOLERANCE} if solver == "daqp" else {}
-    result = solve_lp(c, solver=solver, **kwargs, **options)
-    if result.status != "error":
-        return result
-    statuses = {solver: result.raw_status}
-    if solver != REFERENCE_LP_SOLVER:
-        result = solve_lp(c, solver=REFERENCE_LP_SOLVER, **kwargs)
-        if result.status != "error":
-            return result
-        statuses[REFERENCE_LP_SOLVER] = result.raw_status
-    raise SolverFailed("a statics LP", statuses)
+    return solve_lp(c, solver=solver, **kwargs, **options,
+                    fallback=must_solve("a statics LP", bounded=False, retry_unbounded=False))
 
 
 def _rank(matrix: np.ndarray, *, normalise_rows: bool = False) -> int:

@@ -467,17 +467,13 @@ def test_lower_dimensional_set_without_explicit_equality():
 
 def test_lp_second_opinion_on_a_false_unbounded(monkeypatch):
     """An 'unbounded' from the default back-end is checked with HiGHS (DAQP 0.11 gave one)."""
-    import frcontrol.polytope as polytope_module
+    import frcontrol.solvers as door
+    from frcontrol.solvers import RawSolution
 
-    real = polytope_module.solve_lp_prepared
+    def pessimist(problem, **options):  # DAQP's adapter, answering as DAQP 0.11 once did
+        return RawSolution("unbounded", None, "exitflag=-3 (unbounded, as DAQP 0.11 once said)")
 
-    def pessimist(*args, solver, **kwargs):
-        result = real(*args, solver=solver, **kwargs)
-        if solver == "daqp":
-            return dataclasses.replace(result, found=False, status="unbounded", x=None)
-        return result
-
-    monkeypatch.setattr(polytope_module, "solve_lp_prepared", pessimist)
+    monkeypatch.setitem(door._LP_SOLVERS, "daqp", pessimist)
     box = Polytope.from_box([0.0, 0.0], [0.4, 1.0])
     assert support(box, [1.0, 1.0]) == pytest.approx(1.4)
     assert chebyshev_ball(box).radius == pytest.approx(0.2)

@@ -391,3 +391,52 @@ def test_highs_writes_nothing_on_stdout(tmp_path):
                          cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert out.stdout == ""
+
+
+# ------------------------------------------------------------------ the fallback policy of the door
+
+
+def _lp(seed: int = 0):
+    rng = np.random.default_rng(seed)
+    return rng.normal(size=8), rng.normal(size=(40, 8)), rng.uniform(0.5, 1.0, 40)
+
+
+def test_fallback_asks_the_other_back_end_after_a_real_failure():
+    """DAQP stopped after one iteration fails for real; the policy sends the LP to HiGHS, whose
+    answer matches an undisturbed DAQP's. Options go to the first back-end only."""
+    from frcontrol.solvers import NO_FALLBACK, RETRY_ERRORS
+
+    c, A, b = _lp()
+    failed = solve_lp(c, A, b, solver="daqp", iter_limit=1, fallback=NO_FALLBACK)
+    assert failed.status == "error" and failed.solver == "daqp"
+    rescued = solve_lp(c, A, b, solver="daqp", iter_limit=1, fallback=RETRY_ERRORS)
+    assert rescued.status == "optimal" and rescued.solver == "highs"
+    reference = solve_lp(c, A, b, solver="daqp")
+    np.testing.assert_allclose(rescued.x, reference.x, atol=1e-7)
+    assert rescued.primal_residual <= rescued.residual_tolerance
+
+
+def test_must_solve_raises_naming_the_computation_and_every_status():
+    """An infeasible LP is no answer for a policy that accepts only optima: both back-ends are
+    asked, and the error names the computation and each back-end's own status."""
+    from frcontrol.solvers import Fallback, SolverFailed, must_solve
+
+    c, A, b = _lp(1)
+    x_le_minus_1_and_x_ge_0 = (np.vstack([A, np.eye(8)[0], -np.eye(8)[0]]), np.concatenate([b, [-1.0, 0.0]]))
+    only_optima = Fallback(retry_on=frozenset({"infeasible"}), accept=frozenset({"optimal"}),
+                           failure="the test LP")
+    with pytest.raises(SolverFailed, match=r"the test LP failed with every back-end tried") as info:
+        solve_lp(c, *x_le_minus_1_and_x_ge_0, solver="daqp", fallback=only_optima)
+    assert set(info.value.statuses) == {"daqp", "highs"}
+    answer = solve_lp(c, A, b, solver="daqp", iter_limit=1, fallback=must_solve("the test LP"))
+    assert answer.found and answer.solver == "highs"
+
+
+def test_the_reference_back_end_falls_back_to_the_default():
+    from frcontrol.solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, RETRY_ERRORS
+
+    c, A, b = _lp(2)
+    failed = solve_lp(c, A, b, solver=REFERENCE_LP_SOLVER, time_limit=0.0)
+    assert failed.status == "error"
+    rescued = solve_lp(c, A, b, solver=REFERENCE_LP_SOLVER, time_limit=0.0, fallback=RETRY_ERRORS)
+    assert rescued.found and rescued.solver == DEFAULT_LP_SOLVER

@@ -28,9 +28,10 @@ def arm_urdf(rng: np.random.Generator) -> str:
     <material name="steel"/></visual></link>
   <link name="b">{INERTIAL}<visual>{origin()}<geometry><cylinder radius="0.05" length="0.4"/></geometry>
     <material name="red"><color rgba="1 0 0 0.5"/></material></visual>
-    <visual>{origin()}<geometry><sphere radius="0.07"/></geometry></visual></link>
-  <link name="c">{INERTIAL}<visual>{origin()}<geometry><mesh filename="m.obj" scale="2 2 2"/></geometry></visual>
-  </link>
+    <visual>{origin()}<geometry><sphere radius="0.07"/></geometry>
+    </visual></link>
+  <link name="c">{INERTIAL}<visual>{origin()}<geometry><mesh filename="m.obj" scale="2 2 2"/>
+    </geometry></visual></link>
   <joint name="j2" type="revolute"><parent link="b"/><child link="c"/>{origin()}
     <axis xyz="0 0 2"/><limit lower="-3" upper="3" effort="10" velocity="10"/></joint>
   <joint name="j1" type="revolute"><parent link="a"/><child link="b"/>{origin()}

@@ -152,7 +152,7 @@ from ..modes import ContactProblem, ModeSystem, all_modes, build_mode_system
 from ..polytope import Polytope, hull_from_points
 from ..response import AffineSolution, solve_affine
 from ..scene import Inputs, Scene
-from ..solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, solve_lp
+from ..solvers import CONFIRM_INFEASIBLE, DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
 from . import DEFAULT_CLIMB_DURATION, DEFAULT_CLIMB_MARGIN
 
 __all__ = [
@@ -566,11 +566,8 @@ def _solve(c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, A_eq: np.ndarray |
     ``confirm``, so is an infeasible one (a false "infeasible" would drop a plan, or claim that a
     mode is excluded).
     """
-    result = solve_lp(c, A_ub, b_ub, A_eq, b_eq, lb, ub, solver=solver)
-    retry = ("error", "unbounded", "infeasible") if confirm else ("error", "unbounded")
-    if result.status in retry and solver != REFERENCE_LP_SOLVER:
-        result = solve_lp(c, A_ub, b_ub, A_eq, b_eq, lb, ub, solver=REFERENCE_LP_SOLVER)
-    return result
+    return solve_lp(c, A_ub, b_ub, A_eq, b_eq, lb, ub, solver=solver,
+                    fallback=CONFIRM_INFEASIBLE if confirm else RETRY_ERRORS)
 
 
 @dataclass(frozen=True)

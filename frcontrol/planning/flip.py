@@ -97,7 +97,7 @@ from ..scene import Scene
 from ..simulation.export import sample_modes
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE
 from ..simulation.trajectory import ContactEvent, SimulationFailure, Trajectory
-from ..solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, SolverFailed, solve_lp, solve_lp_prepared
+from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, must_solve, solve_lp, solve_lp_prepared
 from . import DEFAULT_FLIP_MARGIN
 
 __all__ = [
@@ -483,13 +483,10 @@ def _has_interior(A: np.ndarray, b: np.ndarray, solver: str) -> bool:
     lb = np.full(d + 1, -np.inf)
     ub = np.full(d + 1, np.inf)
     lb[-1], ub[-1] = 0.0, poly.CHEBYSHEV_RADIUS_CAP
-    result = solve_lp_prepared(cost, A_lp, b, lb=lb, ub=ub, solver=solver)
-    if result.status not in ("optimal", "infeasible") and solver != REFERENCE_LP_SOLVER:
-        result = solve_lp_prepared(cost, A_lp, b, lb=lb, ub=ub, solver=REFERENCE_LP_SOLVER)
+    result = solve_lp_prepared(cost, A_lp, b, lb=lb, ub=ub, solver=solver,
+                               fallback=must_solve("an interior test of the flip planner"))
     if result.status == "infeasible":
         return False
-    if not result.found:
-        raise SolverFailed("an interior test of the flip planner", {solver: result.raw_status})
     return bool(result.x[-1] > poly.INTERIOR_TOLERANCE)
 
 
@@ -593,10 +590,7 @@ def _pitch_row(mode: ModeAnalysis, pitch_index: int) -> tuple[np.ndarray, np.nda
 
 
 def _solve_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, solver: str, **kwargs: Any):
-    result = solve_lp(c, A, b, solver=solver, **kwargs)
-    if result.status in ("error", "unbounded") and solver != REFERENCE_LP_SOLVER:
-        result = solve_lp(c, A, b, solver=REFERENCE_LP_SOLVER, **kwargs)
-    return result
+    return solve_lp(c, A, b, solver=solver, fallback=RETRY_ERRORS, **kwargs)
 
 
 def worst_case_pitch(

@@ -42,11 +42,15 @@ from frcontrol.errors import FrcontrolError, InputError, SolverNotFound
 from ._common import LinearProgram, QPAdapter, QuadraticProgram, RawSolution, Status
 
 __all__ = [
+    "CONFIRM_INFEASIBLE",
     "DEFAULT_LP_SOLVER",
     "FEASIBILITY_TOLERANCE",
     "KNOWN_SOLVERS",
     "LP_SOLVER_ENVIRONMENT_VARIABLE",
+    "Fallback",
     "LinearProgram",
+    "NO_FALLBACK",
+    "RETRY_ERRORS",
     "QuadraticProgram",
     "RawSolution",
     "LPResult",
@@ -55,7 +59,10 @@ __all__ = [
     "SolverFailed",
     "Status",
     "available_solvers",
+    "lp_problem",
+    "must_solve",
     "primal_residual",
+    "solve",
     "solve_lp",
     "solve_lp_prepared",
     "solve_qp",
@@ -345,6 +352,134 @@ def _bounds_crossed(problem: LinearProgram) -> RawSolution | None:
 # the door
 
 
+@dataclass(frozen=True)
+class Fallback:
+    """What the door does when the chosen back-end's answer is not usable.
+
+    One policy object, instead of a "retry with HiGHS" wrapper per module.
+
+    Attributes:
+        retry_on: statuses of the first answer that send the problem to the second back-end:
+            :data:`REFERENCE_LP_SOLVER`, or :data:`DEFAULT_LP_SOLVER` when the first one was the
+            reference (two opinions, never the same back-end twice).
+        accept: statuses that count as an answer. The second back-end's answer is preferred
+            when it counts, then the first's.
+        failure: when neither answer counts: raise :class:`SolverFailed` naming this
+            computation; None returns the last answer as it is.
+    """
+
+    retry_on: frozenset[str] = frozenset()
+    accept: frozenset[str] = frozenset({"optimal", "infeasible", "unbounded", "error"})
+    failure: str | None = None
+
+
+NO_FALLBACK = Fallback()
+"""The first back-end's answer, whatever it is."""
+
+RETRY_ERRORS = Fallback(retry_on=frozenset({"error", "unbounded"}))
+"""An error or an "unbounded" answer (DAQP 0.11 called a bounded, very degenerate LP of 951 rows
+unbounded) is solved again by the other back-end, whose answer is returned."""
+
+CONFIRM_INFEASIBLE = Fallback(retry_on=frozenset({"error", "unbounded", "infeasible"}))
+"""As :data:`RETRY_ERRORS`, and an "infeasible" verdict is confirmed too (where a false one
+would drop a plan or claim that a mode is excluded)."""
+
+
+def must_solve(what: str, *, bounded: bool = True, retry_unbounded: bool = True) -> Fallback:
+    """A policy for an LP that must have an answer, or :class:`SolverFailed` naming ``what``.
+
+    Errors (and "unbounded", when ``bounded``) are not answers; the other back-end is asked.
+
+    Args:
+        what: the computation, for the error message.
+        bounded: the LP is known to be bounded, so "unbounded" is a failure.
+        retry_unbounded: ask the other back-end after an "unbounded" answer too.
+    """
+    accept = {"optimal", "infeasible"} | (set() if bounded else {"unbounded"})
+    retry = {"error"} | ({"unbounded"} if retry_unbounded else set())
+    return Fallback(retry_on=frozenset(retry), accept=frozenset(accept), failure=what)
+
+
+def lp_problem(
+    c: Any,
+    A_ub: Any = None,
+    b_ub: Any = None,
+    A_eq: Any = None,
+    b_eq: Any = None,
+    lb: Any = None,
+    ub: Any = None,
+    *,
+    validate: bool = True,
+) -> LinearProgram:
+    """The door's problem object for an LP (see :func:`solve_lp` for its form).
+
+    Args:
+        c: cost, shape ``(n,)``.
+        A_ub: inequality matrix, shape ``(m_ub, n)``, or ``None``.
+        b_ub: inequality right-hand side, shape ``(m_ub,)``, or ``None``.
+        A_eq: equality matrix, shape ``(m_eq, n)``, or ``None``.
+        b_eq: equality right-hand side, shape ``(m_eq,)``, or ``None``.
+        lb: lower bounds, a scalar or shape ``(n,)``, ``-inf`` allowed; ``None`` = no bound.
+        ub: upper bounds, a scalar or shape ``(n,)``, ``+inf`` allowed; ``None`` = no bound.
+        validate: check shapes and values (False: arrays frcontrol built itself, float64 of
+            consistent shapes with no NaN; they are only made C-contiguous, which DAQP needs).
+
+    Raises:
+        InputError: malformed arrays (shapes, NaN, infinite entries in matrices), when validated.
+    """
+    if validate:
+        return _validate_lp(c, A_ub, b_ub, A_eq, b_eq, lb, ub)
+    n = c.shape[0]
+    contiguous = np.ascontiguousarray
+    return LinearProgram(
+        contiguous(c),
+        contiguous(A_ub) if A_ub is not None else np.zeros((0, n)),
+        contiguous(b_ub) if b_ub is not None else np.zeros(0),
+        contiguous(A_eq) if A_eq is not None else np.zeros((0, n)),
+        contiguous(b_eq) if b_eq is not None else np.zeros(0),
+        contiguous(lb) if lb is not None else np.full(n, -np.inf),
+        contiguous(ub) if ub is not None else np.full(n, np.inf),
+    )
+
+
+def solve(problem: LinearProgram, *, solver: str = DEFAULT_LP_SOLVER, fallback: Fallback = NO_FALLBACK,
+          **options: Any) -> LPResult:
+    """The door: solve an LP with the chosen back-end, then as ``fallback`` says.
+
+    Every answer's primal residual is checked (an "optimal" answer above
+    :data:`FEASIBILITY_TOLERANCE` becomes ``"error"``). ``options`` go to the chosen back-end
+    only; the second one runs with its defaults.
+
+    Raises:
+        SolverNotFound: ``solver`` is unknown or not installed.
+        SolverFailed: no answer counts and ``fallback.failure`` names the computation.
+    """
+    first = _solve_once(problem, solver, options)
+    if first.status not in fallback.retry_on:
+        if first.status in fallback.accept or fallback.failure is None:
+            return first
+        raise SolverFailed(fallback.failure, {solver: first.raw_status})
+    second_name = REFERENCE_LP_SOLVER if solver != REFERENCE_LP_SOLVER else DEFAULT_LP_SOLVER
+    if second_name == solver or second_name not in _LP_SOLVERS:
+        answers = [first]
+    else:
+        answers = [_solve_once(problem, second_name, {}), first]
+    for answer in answers:
+        if answer.status in fallback.accept:
+            return answer
+    if fallback.failure is None:
+        return answers[0]
+    raise SolverFailed(fallback.failure, {a.solver: a.raw_status for a in reversed(answers)})
+
+
+def _solve_once(problem: LinearProgram, solver: str, options: dict[str, Any]) -> LPResult:
+    adapter = _adapter(_LP_SOLVERS, solver)
+    start = time.perf_counter()
+    raw = _bounds_crossed(problem) or adapter(problem, **options)
+    elapsed = time.perf_counter() - start
+    return _finish(LPResult, problem, raw, solver, elapsed, None)
+
+
 def solve_lp(
     c: Any,
     A_ub: Any = None,
@@ -355,9 +490,10 @@ def solve_lp(
     ub: Any = None,
     *,
     solver: str = DEFAULT_LP_SOLVER,
+    fallback: Fallback = NO_FALLBACK,
     **options: Any,
 ) -> LPResult:
-    r"""Solve a linear program through the chosen back-end.
+    r"""Solve a linear program: :func:`solve` of :func:`lp_problem` (validated).
 
     minimise :math:`c^\top x` s.t. :math:`A_{ub}x \le b_{ub}`, :math:`A_{eq}x = b_{eq}`,
     :math:`lb \le x \le ub`.
@@ -371,6 +507,7 @@ def solve_lp(
         lb: lower bounds, a scalar or shape ``(n,)``, ``-inf`` allowed; ``None`` = no bound.
         ub: upper bounds, a scalar or shape ``(n,)``, ``+inf`` allowed; ``None`` = no bound.
         solver: back-end name (see :func:`available_solvers`).
+        fallback: what to do when the answer is not usable (:class:`Fallback`).
         **options: back-end settings, passed on verbatim (e.g. ``primal_tol`` for DAQP).
 
     Returns:
@@ -379,13 +516,9 @@ def solve_lp(
     Raises:
         InputError: malformed arrays (shapes, NaN, infinite entries in matrices) or options.
         SolverNotFound: ``solver`` is unknown or not installed.
+        SolverFailed: see :func:`solve`.
     """
-    adapter = _adapter(_LP_SOLVERS, solver)
-    problem = _validate_lp(c, A_ub, b_ub, A_eq, b_eq, lb, ub)
-    start = time.perf_counter()
-    raw = _bounds_crossed(problem) or adapter(problem, **options)
-    elapsed = time.perf_counter() - start
-    return _finish(LPResult, problem, raw, solver, elapsed, None)
+    return solve(lp_problem(c, A_ub, b_ub, A_eq, b_eq, lb, ub), solver=solver, fallback=fallback, **options)
 
 
 def solve_lp_prepared(
@@ -398,32 +531,16 @@ def solve_lp_prepared(
     ub: np.ndarray | None = None,
     *,
     solver: str = DEFAULT_LP_SOLVER,
+    fallback: Fallback = NO_FALLBACK,
     **options: Any,
 ) -> LPResult:
-    """:func:`solve_lp` for arrays frcontrol built itself, without re-validating them.
+    """:func:`solve_lp` for arrays frcontrol built itself: ``lp_problem(..., validate=False)``.
 
-    The caller guarantees float64 arrays of consistent shapes with no NaN (bounds may be
-    infinite); they are made C-contiguous (DAQP needs it) but not checked. Everything after the
-    back-end's answer is the door's usual work: the primal residual is computed and an "optimal"
-    answer above :data:`FEASIBILITY_TOLERANCE` is rejected. Internal hot paths (domains,
-    projections, overlaps) use this; user-facing calls go through :func:`solve_lp`.
+    Internal hot paths (domains, projections, overlaps) use this; user-facing calls go through
+    :func:`solve_lp`. The residual check is the door's usual one.
     """
-    adapter = _adapter(_LP_SOLVERS, solver)
-    n = c.shape[0]
-    contiguous = np.ascontiguousarray
-    problem = LinearProgram(
-        contiguous(c),
-        contiguous(A_ub) if A_ub is not None else np.zeros((0, n)),
-        contiguous(b_ub) if b_ub is not None else np.zeros(0),
-        contiguous(A_eq) if A_eq is not None else np.zeros((0, n)),
-        contiguous(b_eq) if b_eq is not None else np.zeros(0),
-        contiguous(lb) if lb is not None else np.full(n, -np.inf),
-        contiguous(ub) if ub is not None else np.full(n, np.inf),
-    )
-    start = time.perf_counter()
-    raw = _bounds_crossed(problem) or adapter(problem, **options)
-    elapsed = time.perf_counter() - start
-    return _finish(LPResult, problem, raw, solver, elapsed, None)
+    problem = lp_problem(c, A_ub, b_ub, A_eq, b_eq, lb, ub, validate=False)
+    return solve(problem, solver=solver, fallback=fallback, **options)
 
 
 def solve_qp(
