@@ -173,7 +173,7 @@ def solve_contact_lcp(
     """
     lcp = build_contact_lcp(problem, u)
     result = solve_lcp(lcp.W, lcp.b, method=method)
-    if not result.found:
+    if not result.found or result.z is None:
         return result
     x = lcp.unknowns_from(result.z)
     return LCPContactSolution(classify(problem, x), x, result)
@@ -190,6 +190,7 @@ def all_contact_lcp_solutions(problem: ContactProblem, u: np.ndarray) -> list[LC
     lcp = build_contact_lcp(problem, u)
     out: list[LCPContactSolution] = []
     for sol in enumerate_lcp_solutions(lcp.W, lcp.b):
+        assert sol.z is not None  # enumerated solutions are found ones
         x = lcp.unknowns_from(sol.z)
         scale = SAME_SOLUTION_TOLERANCE * max(1.0, float(np.max(np.abs(x))) if x.size else 0.0)
         if any(float(np.max(np.abs(x - kept.x), initial=0.0)) <= scale for kept in out):

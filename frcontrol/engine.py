@@ -136,6 +136,29 @@ class ModeAnalysis:
             self._cache["projection_time"] = time.perf_counter() - t0
         return self._cache["input_domain"]
 
+    @property
+    def feasible_domain(self) -> poly.Polytope:
+        """D_c of a feasible mode (:attr:`domain`, which is None for an infeasible one).
+
+        Raises:
+            InputError: the mode is infeasible.
+        """
+        if self.domain is None:
+            raise InputError(f"mode {self.mode} is infeasible: it has no domain")
+        return self.domain
+
+    @property
+    def feasible_input_domain(self) -> poly.Polytope:
+        """T_c of a feasible mode (:attr:`input_domain`, which is None for an infeasible one).
+
+        Raises:
+            InputError: the mode is infeasible.
+        """
+        domain = self.input_domain
+        if domain is None:
+            raise InputError(f"mode {self.mode} is infeasible: it has no input domain")
+        return domain
+
 
 @dataclass(frozen=True)
 class Enumeration:
@@ -266,9 +289,9 @@ class DynamicResponse:
             if not mode.inputs_full_dimensional:
                 self._unambiguous[name] = ()
             else:
-                others = [self.mode(other).input_domain for other in self.overlapping(name)]
+                others = [self.mode(other).feasible_input_domain for other in self.overlapping(name)]
                 self._unambiguous[name] = tuple(
-                    poly.set_difference(mode.input_domain, others, solver=self.solver))
+                    poly.set_difference(mode.feasible_input_domain, others, solver=self.solver))
         return self._unambiguous[name]
 
     def lower_dimensional_modes(self) -> tuple[ModeAnalysis, ...]:
@@ -344,7 +367,7 @@ def motion_margin(
     ub = np.full(d + 1, np.inf)
     lb[-1], ub[-1] = 0.0, 1.0
     result = solve_lp_prepared(c, A_ub, h, A, b, lb, ub, solver=solver, fallback=RETRY_ERRORS)
-    if not result.found:
+    if not result.found or result.x is None:
         return MotionMargin("infeasible", None, None)
     z, t = result.x[:d], float(result.x[-1])
     has_motion = bool(np.any(motion & ~constant))
@@ -415,7 +438,7 @@ def analyze(
             progress(mode)
         verdict, system, response, domain = test(mode)
         outputs = ambiguous_outputs(response, problem.n)
-        if verdict != "ok":
+        if verdict != "ok" or domain is None:
             counts[verdict] += 1
             analyses.append(ModeAnalysis(
                 mode=mode, system=system, response=response, ambiguous_outputs=outputs,
@@ -434,7 +457,7 @@ def analyze(
         if not full and domain.A_eq.shape[0] == 0 and response.ambiguity_dim:
             # D_c flat in (u, w) without input equalities: its projection may still have volume
             t1 = time.perf_counter()
-            input_ball = poly.chebyshev_ball(analysis.input_domain, solver=solver)
+            input_ball = poly.chebyshev_ball(analysis.feasible_input_domain, solver=solver)
             timings["projection"] += time.perf_counter() - t1
             object.__setattr__(analysis, "inputs_full_dimensional",
                                bool(input_ball.found and input_ball.radius > DOMAIN_TOLERANCE))
@@ -482,10 +505,11 @@ def _input_rows(mode: ModeAnalysis) -> tuple[np.ndarray, np.ndarray, int]:
 
     D_c itself when it is full-dimensional, else T_c (projected) with no w.
     """
-    if mode.full_dimensional:
+    if mode.full_dimensional and mode.raw_domain is not None:
         H, h, p = mode.raw_domain.A, mode.raw_domain.b, mode.ambiguity_dim
     else:
-        H, h, p = mode.input_domain.A, mode.input_domain.b, 0
+        T = mode.feasible_input_domain
+        H, h, p = T.A, T.b, 0
     _, constant = _row_norms(H)  # rows 0 <= h (h >= 0 in a feasible mode) cut nothing
     return H[~constant], h[~constant], p
 
@@ -516,7 +540,7 @@ def _interiors_meet(a: ModeAnalysis, b: ModeAnalysis, solver: str) -> tuple[floa
     h = np.concatenate([ha, hb])
     found = motion_margin(H, h, np.ones(H.shape[0], dtype=bool), np.zeros((0, H.shape[1])),
                           np.zeros(0), solver=solver)
-    if found.verdict == "infeasible":
+    if found.verdict == "infeasible" or found.margin is None or found.point is None:
         return 0.0, None
     return found.margin, found.point[:m]
 
@@ -534,7 +558,7 @@ def _overlaps(feasible: Sequence[ModeAnalysis], solver: str) -> list[Overlap]:
                 continue
             b = candidates[j]
             margin, center = _interiors_meet(a, b, solver)
-            if margin > DOMAIN_TOLERANCE:
+            if margin > DOMAIN_TOLERANCE and center is not None:
                 overlaps.append(Overlap((a.mode, b.mode), float(margin), center))
     return overlaps
 
@@ -695,12 +719,12 @@ def solutions_at(
     if isinstance(scene, DynamicResponse):
         problem = scene.problem
         u = _input_vector(problem, inputs)
-        found = []
+        listed = []
         for mode in scene.feasible_modes:
             w = _admissible_w(mode.system, mode.response, u, solver)
             if w is not None:
-                found.append(_solution(problem, mode.system, mode.response, u, w))
-        return found
+                listed.append(_solution(problem, mode.system, mode.response, u, w))
+        return listed
     problem = scene if isinstance(scene, ContactProblem) else ContactProblem.from_scene(scene)
     u = _input_vector(problem, inputs)
     allowed = problem.allowed_modes()

@@ -520,7 +520,8 @@ def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> L
         entering = leaving + n if leaving < n else leaving - n
         column = tableau[:, entering]
         largest = float(np.max(np.abs(column)))
-        eligible = np.flatnonzero(column > PIVOT_TOLERANCE * largest) if largest > 0 else []
+        eligible = (np.flatnonzero(column > PIVOT_TOLERANCE * largest) if largest > 0
+                    else np.zeros(0, dtype=int))
         if len(eligible) == 0:
             return stopped("ray")
         if pivots >= max_pivots:

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from numpy.typing import ArrayLike
 
 from .errors import FrameNotFound, InputError, RobotModelError
 from .urdf import read_urdf
@@ -305,7 +306,7 @@ class PlanarRobot:
         return v_pin
 
     def check_state(
-        self, q: Sequence[float], v: Sequence[float] | None = None
+        self, q: ArrayLike, v: ArrayLike | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """Validate a state; return ``(q, v)`` as float64 arrays (v defaults to zeros).
 
@@ -416,7 +417,7 @@ class PlanarRobot:
         return poses
 
     def point_kinematics(self, q: np.ndarray, v: np.ndarray,
-                         points: Sequence[tuple[str, Sequence[float]]]) -> PointKinematics:
+                         points: Sequence[tuple[str, ArrayLike]]) -> PointKinematics:
         """World positions, Jacobians and drifts of points fixed on links, at ``(q, v)``.
 
         A point ``p`` (link frame) of a link whose frame has world origin ``o``, rotation ``R``,

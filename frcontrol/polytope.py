@@ -409,7 +409,7 @@ def chebyshev_ball(P: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> Chebyshev
     ub = np.full(k + 1, np.inf)
     lb[-1], ub[-1] = 0.0, CHEBYSHEV_RADIUS_CAP
     result = _lp(solver, cost, A_lp, h / g_norms, bounded=True, lb=lb, ub=ub)
-    if result.status == "infeasible":
+    if result.status == "infeasible" or result.x is None:
         return not_found
     radius = float(min(max(result.x[-1], 0.0), CHEBYSHEV_RADIUS_CAP))
     return ChebyshevBall(
@@ -786,13 +786,13 @@ def _eliminate_with_equalities(
             A_eq = A_eq.copy()
             A_eq[:, n_keep:] = 0.0
             break
-        j = int(j) + n_keep
-        pivot_row, pivot_b = A_eq[r] / A_eq[r, j], b_eq[r] / A_eq[r, j]
+        c = int(j) + n_keep
+        pivot_row, pivot_b = A_eq[r] / A_eq[r, c], b_eq[r] / A_eq[r, c]
         others = np.arange(A_eq.shape[0]) != r
-        A, b = A - np.outer(A[:, j], pivot_row), b - A[:, j] * pivot_b
+        A, b = A - np.outer(A[:, c], pivot_row), b - A[:, c] * pivot_b
         A_eq, b_eq = A_eq[others], b_eq[others]
-        A_eq, b_eq = A_eq - np.outer(A_eq[:, j], pivot_row), b_eq - A_eq[:, j] * pivot_b
-        A, A_eq = np.delete(A, j, axis=1), np.delete(A_eq, j, axis=1)
+        A_eq, b_eq = A_eq - np.outer(A_eq[:, c], pivot_row), b_eq - A_eq[:, c] * pivot_b
+        A, A_eq = np.delete(A, c, axis=1), np.delete(A_eq, c, axis=1)
     return A, b, A_eq, b_eq
 
 

@@ -323,7 +323,7 @@ def _disturbance_shape(table: Mapping[str, Any], where: str) -> list[SchemaProbl
 def _references(doc: Any, schema: Mapping[str, Any], path: str, names: Mapping[str, Sequence[str]],
                 out: list[SchemaProblem]) -> None:
     refers = schema.get("x-refers")
-    if refers in names:
+    if isinstance(refers, str) and refers in names:
         values = doc if isinstance(doc, list) else [doc]
         for i, value in enumerate(values):
             if isinstance(value, str) and value not in names[refers]:
@@ -339,7 +339,7 @@ def _references(doc: Any, schema: Mapping[str, Any], path: str, names: Mapping[s
         extra = schema.get("additionalProperties")
         for key, value in doc.items():
             where = f"{path}.{key}" if path else str(key)
-            if keys_refer in names and key not in names[keys_refer]:
+            if isinstance(keys_refer, str) and keys_refer in names and key not in names[keys_refer]:
                 out.append(SchemaProblem(where, _unknown(keys_refer, str(key), "", list(names[keys_refer]))))
                 continue
             sub = properties.get(key, extra if isinstance(extra, Mapping) else None)

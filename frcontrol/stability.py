@@ -322,7 +322,8 @@ def stability_of(
                   f"coefficient(s) {_fmt(massless)}"
     if notes:
         suffix += "; " + "; ".join(notes)
-    common = {"rows": tuple(labels), "delassus": delassus, "indeterminate_modes": indeterminate,
+    common: dict[str, Any] = {
+        "rows": tuple(labels), "delassus": delassus, "indeterminate_modes": indeterminate,
               "massless_eigenvalues": massless, "critical_damping": crit, "boundary_layer_roots": roots,
               "method": method, "tolerances": tolerances}
 
@@ -336,7 +337,7 @@ def stability_of(
         return Stability(mode, None, eigenvalues,
                          f"D has eigenvalue(s) with zero real part {_fmt(zero)}: not analysable" + suffix,
                          **common)
-    if roots is not None and np.any(roots.real >= 0):
+    if roots is not None and stiffness is not None and damping is not None and np.any(roots.real >= 0):
         return Stability(mode, False, eigenvalues,
                          f"unstable for b^2/k = {damping**2 / stiffness:.4g} kg: complex eigenvalues "
                          f"{_fmt(complex_ones)} need b^2/k >= {crit:.4g} kg" + suffix, **common)

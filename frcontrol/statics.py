@@ -557,7 +557,7 @@ def _closure(body: StaticBody, kind: str, solver: str) -> Closure:
     lb = np.concatenate([np.zeros(p), [-np.inf]])
     ub = np.concatenate([np.full(p, np.inf), [1.0]])
     result = _lp(cost, solver, A_ub=A_ub, b_ub=np.zeros(p), A_eq=A_eq, b_eq=b_eq, lb=lb, ub=ub)
-    s_star = float(result.x[-1]) if result.found else float("nan")
+    s_star = float(result.x[-1]) if result.x is not None else float("nan")
     closed = bool(rank == 3 and result.found and s_star > CLOSURE_TOLERANCE)
     margin, direction = 0.0, None
     if closed:
@@ -644,7 +644,7 @@ def _phase_one(A: np.ndarray, b: np.ndarray, C: np.ndarray, solver: str) -> tupl
     b_ub = np.concatenate([b, -b, np.zeros(C.shape[0])])
     lb = np.concatenate([np.full(nv, -np.inf), [0.0]])
     result = _lp(cost, solver, A_ub=A_ub, b_ub=b_ub, lb=lb)
-    if not result.found:
+    if result.x is None:
         raise SolverFailed("the equilibrium phase-one LP", {result.solver: result.raw_status})
     return max(float(result.x[-1]), 0.0), result.x[:-1]
 
@@ -682,7 +682,7 @@ def static_equilibrium(
     lb = np.concatenate([np.full(nv, -np.inf), [1.0], np.zeros(m)])
     ub = np.concatenate([np.full(nv + 1, np.inf), np.ones(m)])
     frt = _lp(cost, solver, A_ub=A_ub, b_ub=np.zeros(m), A_eq=A_eq, b_eq=np.zeros(3), lb=lb, ub=ub)
-    if frt.found:
+    if frt.x is not None:
         strict = frt.x[nv + 1:] > IMPLICIT_SLACK_THRESHOLD
     else:  # on the boundary of existence (r* within tolerance): treat every row as tight
         strict = np.zeros(m, dtype=bool)
@@ -697,7 +697,7 @@ def static_equilibrium(
     ub = np.concatenate([np.full(nv, np.inf), [1.0]])
     interior = _lp(cost, solver, A_ub=A_ub, b_ub=np.zeros(m), A_eq=np.hstack([G, np.zeros((3, 1))]),
                    b_eq=-w, lb=lb, ub=ub)
-    if interior.found:
+    if interior.x is not None:
         lam = interior.x[:nv]
         slack = float(interior.x[-1]) * force_scale if np.any(strict) else 0.0
     else:

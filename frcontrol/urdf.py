@@ -173,7 +173,9 @@ def _origin(element: ET.Element | None, shown: str, where: str) -> np.ndarray:
 
 
 def _color(material: ET.Element | None, shown: str) -> tuple[float, float, float, float] | None:
-    color = None if material is None else material.find("color")
+    if material is None:
+        return None
+    color = material.find("color")
     if color is None or color.get("rgba") is None:
         return None
     text = color.get("rgba", "")
@@ -204,9 +206,8 @@ def _visual(link: str, element: ET.Element, materials: dict, shown: str) -> Urdf
         return UrdfVisual(link, "sphere", (float(radius[0]),), origin, rgba)
     if (mesh := geometry.find("mesh")) is not None:
         text = mesh.get("scale")
-        if text is None:
-            scale = (1.0, 1.0, 1.0)
-        else:
+        scale: tuple[float, ...] = (1.0, 1.0, 1.0)
+        if text is not None:
             values = [float(v) for v in _numbers(text, len(text.split()), shown, f"{where}: bad mesh scale")]
             if len(values) not in (1, 3):
                 raise RobotModelError(shown, f"{where}: bad mesh scale {text!r}")

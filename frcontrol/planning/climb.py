@@ -814,7 +814,8 @@ def build_climb(
 
     def result(**kw: Any) -> ClimbProblem:
         timings["build"] = time.perf_counter() - t0
-        defaults = {"pieces": (), "box": (base.lower[m_u:], base.upper[m_u:]), "scale_bound": -1.0,
+        defaults: dict[str, Any] = {
+            "pieces": (), "box": (base.lower[m_u:], base.upper[m_u:]), "scale_bound": -1.0,
                     "scale_capped": False, "systems": (), "analysis": None, "obstacle": None,
                     "domain_rows": (np.zeros((0, base.m)), np.zeros(0)), "head_row": (np.zeros(base.m), 0.0),
                     "head_sideways_row": (np.zeros(base.m), 0.0),
@@ -1317,6 +1318,8 @@ def plan_climb(
         index, _, _, u = _gentle_plan(cp, lo)
     if u is None:
         u, index = u_lo, 0
+    if u is None or u_lo is None:  # the bisection starts from a robust zero-disturbance plan
+        return failure("no torques found at any disturbance scale", steps)
     rounded = np.round(u, decimals) + 0.0
     check = _verify(cp, rounded, plan_scale)
     timings["plan"] = time.perf_counter() - t0

@@ -485,7 +485,7 @@ def _has_interior(A: np.ndarray, b: np.ndarray, solver: str) -> bool:
     lb[-1], ub[-1] = 0.0, poly.CHEBYSHEV_RADIUS_CAP
     result = solve_lp_prepared(cost, A_lp, b, lb=lb, ub=ub, solver=solver,
                                fallback=must_solve("an interior test of the flip planner"))
-    if result.status == "infeasible":
+    if result.status == "infeasible" or result.x is None:
         return False
     return bool(result.x[-1] > poly.INTERIOR_TOLERANCE)
 
@@ -499,7 +499,7 @@ def shrunk_input_domain(
     the inputs whose ball of radius ``margin`` lies in T_c (within the limits).
     """
     problem = analysis.problem
-    A, b = _as_halfspaces(analysis.mode(mode).input_domain)
+    A, b = _as_halfspaces(analysis.mode(mode).feasible_input_domain)
     limits = _limit_rows(A, b, problem.lower, problem.upper)
     return A, b - margin * (~limits)
 
@@ -546,7 +546,7 @@ def margin_pieces(
                 next_pieces.append((R_A, R_b))  # T_j's hull is margin away from this piece
                 continue
             if rows is None:
-                A_j, b_j = _as_halfspaces(other.input_domain)
+                A_j, b_j = _as_halfspaces(other.feasible_input_domain)
                 rows = (A_j, b_j + margin)
             A_j, grown = rows
             if not _has_interior(np.vstack([R_A, A_j]), np.concatenate([R_b, grown]), solver):
@@ -605,6 +605,8 @@ def worst_case_pitch(
     if not depends:
         return base
     D = mode.domain
+    if D is None:  # an infeasible mode: no u is in T_c
+        return -math.inf
     m = mode.m
     H_u, H_w = D.A[:, :m], D.A[:, m:]
     result = _solve_lp(c_w, H_w, D.b - H_u @ u, solver)
@@ -837,7 +839,7 @@ def plan_flip(
         timings["total"] = time.perf_counter() - start
         return _not_found(f"the rigid model forces {', '.join(bad)} to a value outside its limits "
                           f"({_torque_text({n: forced_values[n] for n in bad})})", timings=timings, **common)
-    if problem.m == 0:
+    if problem.m == 0 or analysis is None:  # the analysis exists whenever an input is planned
         timings["total"] = time.perf_counter() - start
         return _not_found(f"every input is forced at this state ({_torque_text(forced_values)}: e.g. "
                           "massless legs without ground contact)", timings=timings, **common)
@@ -919,7 +921,7 @@ def plan_flip(
     torques.update({name: float(value) for name, value in zip(problem.inputs, u, strict=True)})
     plan = FlipPlan(found=True, mode=piece.mode, torques=torques, pitch_acceleration=pitch,
                     worst_case=piece.worst_case, unambiguous=True, reason=None, timings=timings,
-                    **common)
+                    **common)  # type: ignore[arg-type]  # common: the plan's shared fields
     if min_pitch_acceleration is not None and not (
             pitch > min_pitch_acceleration + PITCH_TOLERANCE * (1.0 + abs(pitch))):
         return replace(plan, found=False, reason=(
@@ -1108,7 +1110,7 @@ def simulate_flip(
     command = first.input_vector(names)
     plans: list[tuple[float, str | None, Mapping[str, float]]] = [(0.0, first.mode, dict(first.torques))]
     held: list[tuple[float, str]] = []
-    chunks = []
+    chunks: list[Trajectory] = []
     q, v, t = scene.q.copy(), scene.v.copy(), 0.0
     replans = 0
     crossed = False
@@ -1274,6 +1276,6 @@ def _body_contacts(
     lost = np.nonzero(touching[0] & ~np.all(touching, axis=0))[0]
     if lost.size:
         when = [int(np.argmax(~touching[:, j])) for j in lost]
-        j = int(np.argmin(when))
-        first = (float(trajectory.times[when[j]]), body[int(lost[j])])
+        earliest = int(np.argmin(when))
+        first = (float(trajectory.times[when[earliest]]), body[int(lost[earliest])])
     return first, tuple(events)

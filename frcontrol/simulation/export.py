@@ -85,7 +85,7 @@ def save_trajectory(scene: Scene, trajectory: Trajectory, path: str | Path) -> P
     arrays = trajectory_arrays(scene, trajectory)
     try:
         if suffix == ".npz":
-            np.savez(path, **arrays)
+            np.savez(path, **arrays)  # type: ignore[arg-type]  # numpy's stub types **kwds poorly
         else:
             _write_csv(path, arrays)
     except OSError as err:

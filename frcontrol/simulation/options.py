@@ -246,10 +246,7 @@ def input_schedule(
             return _check_input_vector(scene, func(t, q, v), f"the input at t = {t:.6g} s")
 
         return schedule, False
-    if isinstance(inputs, Mapping):
-        u = parse_input_assignments(scene, inputs)
-    else:
-        u = inputs
+    u: Any = parse_input_assignments(scene, inputs) if isinstance(inputs, Mapping) else inputs
     constant = _check_input_vector(scene, u, "the constant input")
     constant.setflags(write=False)
     return (lambda t, q, v: constant), True

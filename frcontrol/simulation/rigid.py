@@ -194,7 +194,7 @@ def _solve_step(
     statuses = []
     for how, eps in attempts:
         result = solve_lcp(lcp_matrix(eps), q_lcp, method=how)
-        if result.found:
+        if result.found and result.z is not None:
             z = result.z
             p_n = m_ref * z[:c]
             p_t = m_ref * (z[c:2 * c] - z[2 * c:3 * c])
@@ -210,9 +210,9 @@ def _sliding_phrase(sliding: str | None, v_t: float) -> str:
     return "sticks" if sliding == "stick" else "no load"
 
 
-def _taken_mode(closed: Sequence[bool], p_n: np.ndarray, v_t: np.ndarray, force_tol: float,
-                dt: float, slip_tol: float) -> str:
-    return "".join(contact_mode_letter(p_n[i] / dt, v_t[i], force_tol, slip_tol) for i in range(len(closed)))
+def _taken_mode(p_n: np.ndarray, v_t: np.ndarray, force_tol: float, dt: float, slip_tol: float) -> str:
+    """The step's mode: one letter per contact from its impulse over the step and its slip."""
+    return "".join(contact_mode_letter(p_n[i] / dt, v_t[i], force_tol, slip_tol) for i in range(len(p_n)))
 
 
 def simulate_rigid(
@@ -304,7 +304,8 @@ def simulate_rigid(
     events: list[ContactEvent] = []
     checks: list[dict] = []
     lcp_stats = {"solves": 0, "max_unknowns": 0, "regularised_or_fallback": 0, "max_residual": 0.0}
-    status, failure = "completed", None
+    status = "completed"
+    failure: SimulationFailure | None = None
 
     touching = np.abs(state.gaps) <= scene.gap_tolerance
     closed = touching.copy()
@@ -332,7 +333,7 @@ def simulate_rigid(
                 res = _solve_step(factor, v_free, state.jacobian_normal[cand], state.jacobian_tangent[cand],
                                   gaps[cand], mu_all[cand], h, stabilization, lcp_method)
             except _StepFailure as err:
-                status, failure = "failed", {"time": t, "reason": str(err)}
+                status, failure = "failed", SimulationFailure(t, str(err))
                 break
             v_next = res.v_next
             p_n_all[cand] = res.impulse_n
@@ -347,8 +348,8 @@ def simulate_rigid(
             v_next = v_free
             stab_work.append(stab_work[-1])
         if not np.all(np.isfinite(v_next)):
-            status, failure = "diverged", {"time": t, "reason": "the velocity became NaN or infinite",
-                                           "hint": VALIDITY_HINT}
+            status = "diverged"
+            failure = SimulationFailure(t, "the velocity became NaN or infinite", VALIDITY_HINT)
             stab_work.pop()
             break
 
@@ -364,8 +365,8 @@ def simulate_rigid(
             touching_idx = [i for i in range(k_all) if closed[i]]
             if touching_idx and np.all(np.abs(vn[touching_idx]) <= AMBIGUITY_VELOCITY_TOLERANCE):
                 check_pending = False
-                taken = _taken_mode(touching_idx, p_n_all[touching_idx], vt_next[touching_idx], force_tol,
-                                    h, slip_velocity_tolerance)
+                taken = _taken_mode(p_n_all[touching_idx], vt_next[touching_idx], force_tol, h,
+                                    slip_velocity_tolerance)
                 checks.append(_ambiguity_check(scene, q, v, u, touching_idx, arm, slip_velocity_tolerance,
                                                taken, t))
                 entry = checks[-1]
@@ -469,7 +470,7 @@ def simulate_rigid(
         info=info,
         model="rigid",
         status=status,
-        failure=None if failure is None else SimulationFailure(**failure),
+        failure=failure,
     )
     return assess(scene, trajectory, energy=energy, penetration=info["max_penetration"], stiffness=None,
                   dt=dt, extra_work=info["stabilization_work"])

@@ -324,7 +324,7 @@ def _finish(
         raw_status += f"; door: primal residual {residual:.3g} > {tolerance:.3g}, rejected"
     if status != "optimal":
         x = None
-    objective = {"infeasible": np.inf, "unbounded": -np.inf, "error": np.nan}.get(status)
+    objective = {"infeasible": np.inf, "unbounded": -np.inf}.get(status, np.nan)
     if x is not None:
         objective = float(problem.c @ x)
         if P is not None:

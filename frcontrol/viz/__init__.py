@@ -20,8 +20,10 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from frcontrol.errors import FrcontrolError
 from frcontrol.model import ContactPoint, PlanarRobot
@@ -142,7 +144,7 @@ def rgba_hex(rgba: Sequence[float]) -> str:
 # ------------------------------------------------------------------------------------ geometry
 
 
-def pose_matrix(origin: Sequence[float], angle: float, z: float = 0.0) -> np.ndarray:
+def pose_matrix(origin: ArrayLike, angle: float, z: float = 0.0) -> np.ndarray:
     """The 4x4 homogeneous transform of a planar pose.
 
     A rotation by ``angle`` [rad] about z, then the translation ``(origin[0], origin[1], z)`` [m].
@@ -150,7 +152,8 @@ def pose_matrix(origin: Sequence[float], angle: float, z: float = 0.0) -> np.nda
     c, s = math.cos(angle), math.sin(angle)
     matrix = np.eye(4)
     matrix[:2, :2] = [[c, -s], [s, c]]
-    matrix[:3, 3] = [origin[0], origin[1], z]
+    x, y = np.asarray(origin, dtype=float)[:2]
+    matrix[:3, 3] = [x, y, z]
     return matrix
 
 
@@ -289,7 +292,7 @@ def _shape_points(visual: LinkVisual, segments: int = 32) -> np.ndarray:
         import trimesh
 
         try:
-            mesh = trimesh.load(visual.mesh_path, force="mesh")
+            mesh: Any = trimesh.load(visual.mesh_path, force="mesh")
             return np.asarray(mesh.vertices, dtype=float) * np.asarray(visual.size)
         except Exception as err:  # trimesh raises many kinds on unreadable files
             raise VizError(f"cannot read the mesh {visual.mesh_path}: {err}") from err
@@ -400,7 +403,7 @@ def surface_segments(
     return segments
 
 
-def friction_cone_directions(normal: Sequence[float], mu: float) -> tuple[np.ndarray, np.ndarray]:
+def friction_cone_directions(normal: ArrayLike, mu: float) -> tuple[np.ndarray, np.ndarray]:
     """The two unit edge directions of a planar friction cone.
 
     They are ``n cos(a) -+ t sin(a)``, with ``a = atan(mu)`` the half opening angle [rad] and

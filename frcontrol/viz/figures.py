@@ -118,16 +118,16 @@ def plot_flip_inputs(
     full = [mode for mode in analysis.feasible_modes if mode.inputs_full_dimensional]
     flat = [mode for mode in analysis.feasible_modes if not mode.inputs_full_dimensional]
     labels = (f"{names[axes[0]]} [N m]", f"{names[axes[1]]} [N m]")
-    sets = [input_slice(mode.input_domain, axes, through) for mode in full]
+    sets = [input_slice(mode.feasible_input_domain, axes, through) for mode in full]
     plot_polygons(sets, ax=ax, labels=[mode.mode for mode in full], box=box, alpha=0.25,
                   axis_labels=labels, legend=False, label_regions=False)
     region_labels = ax._frcontrol_region_labels
     if flat:
-        plot_polygons([input_slice(mode.input_domain, axes, through) for mode in flat], ax=ax,
+        plot_polygons([input_slice(mode.feasible_input_domain, axes, through) for mode in flat], ax=ax,
                       colors=["0.35"] * len(flat), box=box, alpha=0.0, axis_labels=labels)
     overlaps = []
     for overlap in analysis.overlaps:
-        first, second = (analysis.mode(name).input_domain for name in overlap.modes)
+        first, second = (analysis.mode(name).feasible_input_domain for name in overlap.modes)
         A1, b1 = input_slice(first, axes, through)
         A2, b2 = input_slice(second, axes, through)
         overlaps.append((np.vstack([A1, A2]), np.concatenate([b1, b2])))
@@ -237,7 +237,7 @@ def flip_figure(result: FlipResult | FlipPlan, *, axes: tuple[int, int] = (0, 1)
     simulated = isinstance(result, FlipResult) and result.trajectory is not None
     figure = _figure(figsize=(13.0 if simulated else 7.0, 6.0), layout="constrained")
     figure.suptitle(f"{_scene_name(result)}: the flip plan", fontsize="medium")
-    if simulated:
+    if isinstance(result, FlipResult) and result.trajectory is not None:
         grid = figure.add_gridspec(2, 2, width_ratios=[1.0, 1.1])
         left = figure.add_subplot(grid[:, 0])
         top = figure.add_subplot(grid[0, 1])
@@ -383,7 +383,7 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
                              closed=True, facecolor="#fdd0a2", edgecolor="#e6550d", alpha=0.6, zorder=3))
         ax.plot(*p, "o", color="#e6550d", zorder=4)
         names.append((name, p - 0.08 * span * n, 1.0))  # on the surface's side, off the cone
-        if force_scale > 0:
+        if force_scale > 0 and eq.lambda_n is not None and eq.lambda_t is not None:
             f = eq.lambda_n[i] * n + eq.lambda_t[i] * t
             ax.annotate("", p + force_scale * f, p, zorder=5,
                         arrowprops={"arrowstyle": "->", "color": "#31a354", "lw": 2})

@@ -358,7 +358,7 @@ def _visual_object(visual: LinkVisual) -> tuple[Any, np.ndarray]:
     import trimesh
 
     try:
-        mesh = trimesh.load(visual.mesh_path, force="mesh")
+        mesh: Any = trimesh.load(visual.mesh_path, force="mesh")
     except Exception as err:  # trimesh raises many kinds on unreadable files
         raise InputError(f"cannot read the mesh {visual.mesh_path}: {err}") from err
     geometry = mg.TriangularMeshGeometry(np.asarray(mesh.vertices, dtype=np.float32),
@@ -533,11 +533,12 @@ def draw(
         for letter in letters:
             path_name = _node(point.name) + (f"_{letter}" if letter else "")
             arrow = _Arrow(path_name, j, letter)
-            color = hex_color(MODE_COLORS[letter] if letter else FORCE_COLOR)
+            arrow_color = hex_color(MODE_COLORS[letter] if letter else FORCE_COLOR)
             node = root["forces"][path_name]
-            node["shaft"].set_object(mg.Cylinder(1.0, shaft_radius), mg.MeshLambertMaterial(color=color))
+            material = mg.MeshLambertMaterial(color=arrow_color)
+            node["shaft"].set_object(mg.Cylinder(1.0, shaft_radius), material)
             node["head"].set_object(mg.Cylinder(head, radiusTop=0.0, radiusBottom=2.5 * shaft_radius),
-                                    mg.MeshLambertMaterial(color=color))
+                                    mg.MeshLambertMaterial(color=arrow_color))
             arrows.append(arrow)
 
     def state_at(i: int) -> dict[str, tuple[np.ndarray, np.ndarray | None]]:

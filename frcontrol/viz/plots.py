@@ -537,7 +537,8 @@ def plot_polygons(
         pad = 0.1 * np.maximum(high - low, 1e-3) + np.where(high - low > 0, 0.0, 0.5)
         window = (low[0] - pad[0], high[0] + pad[0], low[1] - pad[1], high[1] + pad[1])
     else:
-        window = tuple(float(v) for v in box)
+        x0, x1, y0, y1 = (float(v) for v in box)
+        window = (x0, x1, y0, y1)
         vertices = [polygon_from_halfplanes(A, b, window) for A, b in sets]
     if ax is None:
         figure = new_figure(figsize=(6.0, 5.0), layout="constrained")
