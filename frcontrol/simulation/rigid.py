@@ -267,213 +267,275 @@ def simulate_rigid(
         IllConditioned: M is singular even with the armature.
     """
     duration, dt = check_simulation_times(duration, dt)
-    if not 0.0 <= stabilization <= 1.0:
-        raise InputError(f"stabilization must be in [0, 1] (fraction of a penetration removed per step), "
-                         f"got {stabilization}")
-    for label, value in (("activation_distance", activation_distance), ("impact_velocity", impact_velocity),
-                         ("slip_velocity_tolerance", slip_velocity_tolerance)):
-        if not np.isfinite(value) or value < 0:
-            raise InputError(f"{label} must be a finite number >= 0, got {value}")
-    if lcp_method not in ("lemke", "enumerate"):
-        raise InputError(f"unknown LCP method {lcp_method!r}; use 'lemke' or 'enumerate'")
-    options = model_options(scene)
-    robot = scene.robot
-    q, v = robot.check_state(scene.q if q0 is None else q0, scene.v if v0 is None else v0)
+    settings = RigidSettings(activation_distance, stabilization, impact_velocity, slip_velocity_tolerance,
+                             lcp_method, max_ambiguity_checks)
     schedule, _ = input_schedule(scene, inputs)
-    n = robot.nv
-    names = tuple(c.name for c in scene.contacts)
-    k_all = len(names)
-    all_idx = list(range(k_all))
-    mu_all = np.array([c.mu for c in scene.contacts], dtype=float)
-    input_map = scene.inputs.selection_transpose(n)
-    state = robot.state(q, v, all_idx)
-    arm = massless_armature(scene, state.mass_matrix,
-                            options.armature if armature is None else armature)
-    force_scale = robot.weight_scale()
-    force_tol = CONTACT_FORCE_TOLERANCE * force_scale
-
+    stepper = RigidStepper(scene, settings, q0=q0, v0=v0, armature=armature)
     steps = max(1, int(np.ceil(duration / dt - 1e-9)))
-    times = [0.0]
-    qs, vs = [q.copy()], [v.copy()]
-    us: list[np.ndarray] = []
-    forces = [np.zeros((k_all, 2))]
-    points = [state.contact_points.copy()]
-    kinetic, potential = [], []
-    penetration = [max(0.0, -float(np.min(state.gaps, initial=np.inf)))]
-    stab_work = [0.0]
-    events: list[ContactEvent] = []
-    checks: list[dict] = []
-    lcp_stats = {"solves": 0, "max_unknowns": 0, "regularised_or_fallback": 0, "max_residual": 0.0}
-    status = "completed"
-    failure: SimulationFailure | None = None
-
-    touching = np.abs(state.gaps) <= scene.gap_tolerance
-    closed = touching.copy()
-    sliding: list[str | None] = [
-        ("slip" if abs(state.tangential_velocities[i]) > slip_velocity_tolerance else "stick")
-        if closed[i] else None for i in range(k_all)
-    ]
-    check_pending = True
-    start_wall = time.perf_counter()
-    t = 0.0
     for step in range(steps):
-        h = min(dt, duration - t) if step == steps - 1 else dt
-        mass = arm.apply(state.mass_matrix)
-        kinetic.append(0.5 * float(v @ mass @ v))
-        potential.append(potential_energy(scene, q))
-        u = schedule(t, q, v)
-        factor = mass_factor(mass, arm)
-        v_free = v + h * scipy.linalg.cho_solve(factor, input_map @ u - state.bias, check_finite=False)
-        gaps, vn = state.gaps, state.normal_velocities
-        cand = np.nonzero(gaps <= activation_distance + 2.0 * h * np.maximum(0.0, -vn))[0]
-        p_n_all = np.zeros(k_all)
-        p_t_all = np.zeros(k_all)
-        if cand.size:
-            try:
-                res = _solve_step(factor, v_free, state.jacobian_normal[cand], state.jacobian_tangent[cand],
-                                  gaps[cand], mu_all[cand], h, stabilization, lcp_method)
-            except _StepFailure as err:
-                status, failure = "failed", SimulationFailure(t, str(err))
-                break
-            v_next = res.v_next
-            p_n_all[cand] = res.impulse_n
-            p_t_all[cand] = res.impulse_t
-            lcp_stats["solves"] += 1
-            lcp_stats["max_unknowns"] = max(lcp_stats["max_unknowns"], res.lcp_size)
-            lcp_stats["regularised_or_fallback"] += int(res.regularized)
-            lcp_stats["max_residual"] = max(lcp_stats["max_residual"], res.residual)
-            shifted = np.where(gaps[cand] >= 0, gaps[cand], stabilization * gaps[cand])
-            stab_work.append(stab_work[-1] + float(np.sum(res.impulse_n * np.maximum(0.0, -shifted))) / h)
-        else:
-            v_next = v_free
-            stab_work.append(stab_work[-1])
-        if not np.all(np.isfinite(v_next)):
-            status = "diverged"
-            failure = SimulationFailure(t, "the velocity became NaN or infinite", VALIDITY_HINT)
-            stab_work.pop()
+        h = min(dt, duration - stepper.t) if step == steps - 1 else dt
+        if not stepper.step(schedule(stepper.t, stepper.q, stepper.v), h):
             break
+    return stepper.trajectory(dt)
 
-        vn_next = state.jacobian_normal @ v_next
-        vt_next = state.jacobian_tangent @ v_next
-        loaded = p_n_all / h > force_tol
-        in_cand = np.zeros(k_all, dtype=bool)
+
+@dataclass(frozen=True)
+class RigidSettings:
+    """The rigid stepper's settings (see :func:`simulate_rigid` for each), validated.
+
+    Raises:
+        InputError: stabilization outside [0, 1], a negative or non-finite distance or tolerance,
+            an unknown LCP method or a negative number of ambiguity checks.
+    """
+
+    activation_distance: float = ACTIVATION_DISTANCE
+    stabilization: float = DEFAULT_STABILIZATION
+    impact_velocity: float = IMPACT_VELOCITY
+    slip_velocity_tolerance: float = SLIP_VELOCITY_TOLERANCE
+    lcp_method: str = "lemke"
+    max_ambiguity_checks: int = MAX_AMBIGUITY_CHECKS
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.stabilization <= 1.0:
+            raise InputError(f"stabilization must be in [0, 1] (fraction of a penetration removed per step), "
+                             f"got {self.stabilization}")
+        for label in ("activation_distance", "impact_velocity", "slip_velocity_tolerance"):
+            value = getattr(self, label)
+            if not np.isfinite(value) or value < 0:
+                raise InputError(f"{label} must be a finite number >= 0, got {value}")
+        if self.lcp_method not in ("lemke", "enumerate"):
+            raise InputError(f"unknown LCP method {self.lcp_method!r}; use 'lemke' or 'enumerate'")
+
+
+class RigidStepper:
+    """The rigid model's time stepper: one velocity-level step at a time, with its records.
+
+    :func:`simulate_rigid` runs it over a schedule; a closed loop (the flip's re-planning) calls
+    :meth:`step` with the inputs it chooses, reads :attr:`q`, :attr:`v`, :attr:`t` and
+    :attr:`last_forces`, and ends with :meth:`trajectory`. Each step: the free velocity, the LCP
+    of the candidate contacts (:func:`_solve_step`), the contact events and, while the model may
+    be ambiguous there, the check against every rigid solution.
+    """
+
+    def __init__(self, scene: Scene, settings: RigidSettings | None = None, *,
+                 q0: Sequence[float] | np.ndarray | None = None,
+                 v0: Sequence[float] | np.ndarray | None = None,
+                 armature: float | None = None) -> None:
+        self.scene = scene
+        self.settings = settings or RigidSettings()
+        robot = scene.robot
+        self.q, self.v = robot.check_state(scene.q if q0 is None else q0, scene.v if v0 is None else v0)
+        self.t = 0.0
+        self.names = tuple(c.name for c in scene.contacts)
+        self._all = list(range(len(self.names)))
+        self._mu = np.array([c.mu for c in scene.contacts], dtype=float)
+        self._input_map = scene.inputs.selection_transpose(robot.nv)
+        self.state = robot.state(self.q, self.v, self._all)
+        options = model_options(scene)
+        self.armature = massless_armature(scene, self.state.mass_matrix,
+                                          options.armature if armature is None else armature)
+        self.force_tolerance = CONTACT_FORCE_TOLERANCE * robot.weight_scale()
+        self.status = "completed"
+        self.failure: SimulationFailure | None = None
+        k = len(self.names)
+        self.last_forces = np.zeros((k, 2))
+        self._times, self._qs, self._vs = [0.0], [self.q.copy()], [self.v.copy()]
+        self._us: list[np.ndarray] = []
+        self._forces = [np.zeros((k, 2))]
+        self._points = [self.state.contact_points.copy()]
+        self._kinetic: list[float] = []
+        self._potential: list[float] = []
+        self._penetration = [max(0.0, -float(np.min(self.state.gaps, initial=np.inf)))]
+        self._stab_work = [0.0]
+        self.events: list[ContactEvent] = []
+        self.checks: list[dict] = []
+        self.lcp_stats = {"solves": 0, "max_unknowns": 0, "regularised_or_fallback": 0, "max_residual": 0.0}
+        slip = self.settings.slip_velocity_tolerance
+        self._closed = np.abs(self.state.gaps) <= scene.gap_tolerance
+        self._sliding: list[str | None] = [
+            ("slip" if abs(self.state.tangential_velocities[i]) > slip else "stick")
+            if self._closed[i] else None
+            for i in range(k)]
+        self._check_pending = True
+        self._start_wall = time.perf_counter()
+
+    def step(self, u: np.ndarray, h: float) -> bool:
+        """Advance by ``h`` [s] with the inputs ``u`` held.
+
+        Returns:
+            False when the run cannot go on (the LCP failed, or the velocity left the numbers):
+            :attr:`status` and :attr:`failure` say why, and no sample was added.
+        """
+        mass = self.armature.apply(self.state.mass_matrix)
+        self._kinetic.append(0.5 * float(self.v @ mass @ self.v))
+        self._potential.append(potential_energy(self.scene, self.q))
+        try:
+            v_next, p_n, p_t, candidates = self._impulses(mass, u, h)
+        except _StepFailure as err:
+            self.status, self.failure = "failed", SimulationFailure(self.t, str(err))
+            return False
+        if not np.all(np.isfinite(v_next)):
+            self.status = "diverged"
+            self.failure = SimulationFailure(self.t, "the velocity became NaN or infinite", VALIDITY_HINT)
+            self._stab_work.pop()
+            return False
+        self._contact_bookkeeping(u, h, v_next, p_n, candidates)
+        self._advance(u, h, v_next, p_n, p_t)
+        return True
+
+    def _impulses(self, mass: np.ndarray, u: np.ndarray, h: float
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(v_next, normal and tangential impulses per contact, the candidates' mask) of a step."""
+        st, cfg = self.state, self.settings
+        factor = mass_factor(mass, self.armature)
+        accel = scipy.linalg.cho_solve(factor, self._input_map @ u - st.bias, check_finite=False)
+        v_free = self.v + h * accel
+        gaps, vn = st.gaps, st.normal_velocities
+        cand = np.nonzero(gaps <= cfg.activation_distance + 2.0 * h * np.maximum(0.0, -vn))[0]
+        k = len(self.names)
+        p_n, p_t = np.zeros(k), np.zeros(k)
+        in_cand = np.zeros(k, dtype=bool)
         in_cand[cand] = True
-        closed_next = loaded | (in_cand & (gaps + h * vn_next <= scene.gap_tolerance))
+        if not cand.size:
+            self._stab_work.append(self._stab_work[-1])
+            return v_free, p_n, p_t, in_cand
+        res = _solve_step(factor, v_free, st.jacobian_normal[cand], st.jacobian_tangent[cand], gaps[cand],
+                          self._mu[cand], h, cfg.stabilization, cfg.lcp_method)
+        p_n[cand], p_t[cand] = res.impulse_n, res.impulse_t
+        stats = self.lcp_stats
+        stats["solves"] += 1
+        stats["max_unknowns"] = max(stats["max_unknowns"], res.lcp_size)
+        stats["regularised_or_fallback"] += int(res.regularized)
+        stats["max_residual"] = max(stats["max_residual"], res.residual)
+        shifted = np.where(gaps[cand] >= 0, gaps[cand], cfg.stabilization * gaps[cand])
+        work = float(np.sum(res.impulse_n * np.maximum(0.0, -shifted))) / h
+        self._stab_work.append(self._stab_work[-1] + work)
+        return res.v_next, p_n, p_t, in_cand
 
-        # Is the rigid model ambiguous at this state? Compare with what the step took.
-        if check_pending and len(checks) < max_ambiguity_checks:
-            touching_idx = [i for i in range(k_all) if closed[i]]
-            if touching_idx and np.all(np.abs(vn[touching_idx]) <= AMBIGUITY_VELOCITY_TOLERANCE):
-                check_pending = False
-                taken = _taken_mode(p_n_all[touching_idx], vt_next[touching_idx], force_tol, h,
-                                    slip_velocity_tolerance)
-                checks.append(_ambiguity_check(scene, q, v, u, touching_idx, arm, slip_velocity_tolerance,
-                                               taken, t))
-                entry = checks[-1]
-                if entry["distinct_motions"] > 1:
-                    events.append(ContactEvent(t, ",".join(entry["contacts"]), "ambiguous",
-                                               f"modes {entry['summary']}; the step took {taken}"))
-            elif not touching_idx:
-                check_pending = False
-
-        t_next = t + h
+    def _contact_bookkeeping(self, u: np.ndarray, h: float, v_next: np.ndarray, p_n: np.ndarray,
+                             candidates: np.ndarray) -> None:
+        """Which contacts close, open, stick or slip in this step (events), and the ambiguity check."""
+        st, cfg = self.state, self.settings
+        vn, vn_next, vt_next = st.normal_velocities, st.jacobian_normal @ v_next, st.jacobian_tangent @ v_next
+        loaded = p_n / h > self.force_tolerance
+        closed_next = loaded | (candidates & (st.gaps + h * vn_next <= self.scene.gap_tolerance))
+        self._maybe_check_ambiguity(u, h, p_n, vn, vt_next)
+        t_next = self.t + h
         had_event = False
-        for i in range(k_all):
+        for i, name in enumerate(self.names):
             new_sliding: str | None = None
             if closed_next[i] and loaded[i]:
-                new_sliding = "slip" if abs(vt_next[i]) > slip_velocity_tolerance else "stick"
-            if closed_next[i] and not closed[i]:
+                new_sliding = "slip" if abs(vt_next[i]) > cfg.slip_velocity_tolerance else "stick"
+            if closed_next[i] and not self._closed[i]:
                 had_event = True
                 how = _sliding_phrase(new_sliding, vt_next[i])
-                if vn[i] < -impact_velocity:
-                    events.append(ContactEvent(t_next, names[i], "impact",
-                                               f"v_N = {vn[i]:.4g} m/s, impulse {p_n_all[i]:.4g} N s; {how}"))
+                if vn[i] < -cfg.impact_velocity:
+                    detail = f"v_N = {vn[i]:.4g} m/s, impulse {p_n[i]:.4g} N s; {how}"
+                    self.events.append(ContactEvent(t_next, name, "impact", detail))
                 else:
-                    events.append(ContactEvent(t_next, names[i], "close", how))
-            elif closed[i] and not closed_next[i]:
+                    self.events.append(ContactEvent(t_next, name, "close", how))
+            elif self._closed[i] and not closed_next[i]:
                 had_event = True
-                events.append(ContactEvent(t_next, names[i], "open", f"v_N = {vn_next[i]:.4g} m/s"))
-            elif closed_next[i] and new_sliding is not None and sliding[i] is not None \
-                    and new_sliding != sliding[i]:
+                self.events.append(ContactEvent(t_next, name, "open", f"v_N = {vn_next[i]:.4g} m/s"))
+            elif closed_next[i] and new_sliding is not None and self._sliding[i] is not None \
+                    and new_sliding != self._sliding[i]:
                 had_event = True
                 detail = f"v_T = {vt_next[i]:.4g} m/s" if new_sliding == "slip" else ""
-                events.append(ContactEvent(t_next, names[i], new_sliding, detail))
+                self.events.append(ContactEvent(t_next, name, new_sliding, detail))
             if closed_next[i]:
-                sliding[i] = new_sliding if new_sliding is not None else sliding[i]
+                self._sliding[i] = new_sliding if new_sliding is not None else self._sliding[i]
             else:
-                sliding[i] = None
+                self._sliding[i] = None
         if had_event:
-            check_pending = True
-        closed = closed_next
+            self._check_pending = True
+        self._closed = closed_next
 
-        q = robot.integrate(q, h * v_next)
-        v = v_next
-        t = t_next
-        state = robot.state(q, v, all_idx)
-        times.append(t)
-        qs.append(q.copy())
-        vs.append(v.copy())
-        us.append(u.copy())
-        f = np.zeros((k_all, 2))
-        f[:, 0] = p_n_all / h
-        f[:, 1] = p_t_all / h
-        forces.append(f)
-        points.append(state.contact_points.copy())
-        penetration.append(max(0.0, -float(np.min(state.gaps, initial=np.inf))))
+    def _maybe_check_ambiguity(self, u: np.ndarray, h: float, p_n: np.ndarray, vn: np.ndarray,
+                               vt_next: np.ndarray) -> None:
+        """Is the rigid model ambiguous at this state? Compare with what the step took."""
+        cfg = self.settings
+        if not self._check_pending or len(self.checks) >= cfg.max_ambiguity_checks:
+            return
+        touching = [i for i in range(len(self.names)) if self._closed[i]]
+        if not touching:
+            self._check_pending = False
+            return
+        if not np.all(np.abs(vn[touching]) <= AMBIGUITY_VELOCITY_TOLERANCE):
+            return
+        self._check_pending = False
+        taken = _taken_mode(p_n[touching], vt_next[touching], self.force_tolerance, h,
+                            cfg.slip_velocity_tolerance)
+        entry = _ambiguity_check(self.scene, self.q, self.v, u, touching, self.armature,
+                                 cfg.slip_velocity_tolerance, taken, self.t)
+        self.checks.append(entry)
+        if entry["distinct_motions"] > 1:
+            self.events.append(ContactEvent(self.t, ",".join(entry["contacts"]), "ambiguous",
+                                            f"modes {entry['summary']}; the step took {taken}"))
 
-    mass = arm.apply(state.mass_matrix)
-    kinetic.append(0.5 * float(v @ mass @ v))
-    potential.append(potential_energy(scene, q))
-    if us:
-        inputs_arr = np.vstack([us[0]] + us)
-    else:
-        inputs_arr = np.zeros((1, scene.inputs.count))
-    energy = np.array(kinetic) + np.array(potential)
-    info = {
-        "scheme": "velocity-level time stepping (Stewart-Trinkle), exact 2-D Coulomb law, LCP by "
-                  f"{lcp_method}, inelastic impacts",
-        "dt": dt,
-        "steps": len(times) - 1,
-        "duration": float(times[-1]),
-        "energy": energy,
-        "kinetic_energy": np.array(kinetic),
-        "potential_energy": np.array(potential),
-        "max_penetration": np.array(penetration),
-        "stabilization_work": np.array(stab_work),
-        "lcp": lcp_stats,
-        "armature": arm.report(),
-        "ambiguity_checks": checks,
-        "ambiguity_checks_limit": max_ambiguity_checks,
-        "tolerances": {
-            "activation_distance": activation_distance,
-            "stabilization": stabilization,
-            "impact_velocity": impact_velocity,
-            "slip_velocity": slip_velocity_tolerance,
-            "contact_force": force_tol,
-            "ambiguity_velocity": AMBIGUITY_VELOCITY_TOLERANCE,
-            "gap": scene.gap_tolerance,
-        },
-        "wall_time": time.perf_counter() - start_wall,
-    }
-    trajectory = Trajectory(
-        scene_name=scene.name,
-        coordinates=scene.coordinate_names,
-        contacts=names,
-        times=np.array(times),
-        q=np.array(qs),
-        v=np.array(vs),
-        inputs=inputs_arr,
-        input_names=scene.inputs.coordinates,
-        contact_forces=np.array(forces),
-        contact_points=np.array(points),
-        events=tuple(events),
-        info=info,
-        model="rigid",
-        status=status,
-        failure=failure,
-    )
-    return assess(scene, trajectory, energy=energy, penetration=info["max_penetration"], stiffness=None,
-                  dt=dt, extra_work=info["stabilization_work"])
+    def _advance(self, u: np.ndarray, h: float, v_next: np.ndarray, p_n: np.ndarray, p_t: np.ndarray) -> None:
+        """Move the state to the end of the step and record the sample."""
+        robot = self.scene.robot
+        self.q = robot.integrate(self.q, h * v_next)
+        self.v = v_next
+        self.t = self.t + h
+        self.state = robot.state(self.q, self.v, self._all)
+        self.last_forces = np.column_stack([p_n / h, p_t / h])
+        self._times.append(self.t)
+        self._qs.append(self.q.copy())
+        self._vs.append(self.v.copy())
+        self._us.append(np.asarray(u, dtype=float).copy())
+        self._forces.append(self.last_forces)
+        self._points.append(self.state.contact_points.copy())
+        self._penetration.append(max(0.0, -float(np.min(self.state.gaps, initial=np.inf))))
+
+    def trajectory(self, dt: float) -> Trajectory:
+        """The run so far, checked against the model's validity (:func:`.validity.assess`).
+
+        Args:
+            dt: [s] the nominal step, reported (the last step may have been shorter).
+        """
+        cfg, scene = self.settings, self.scene
+        mass = self.armature.apply(self.state.mass_matrix)
+        kinetic = np.array(self._kinetic + [0.5 * float(self.v @ mass @ self.v)])
+        potential = np.array(self._potential + [potential_energy(scene, self.q)])
+        us = self._us
+        inputs_arr = np.vstack([us[0]] + us) if us else np.zeros((1, scene.inputs.count))
+        energy = kinetic + potential
+        info = {
+            "scheme": "velocity-level time stepping (Stewart-Trinkle), exact 2-D Coulomb law, LCP by "
+                      f"{cfg.lcp_method}, inelastic impacts",
+            "dt": dt,
+            "steps": len(self._times) - 1,
+            "duration": float(self._times[-1]),
+            "energy": energy,
+            "kinetic_energy": kinetic,
+            "potential_energy": potential,
+            "max_penetration": np.array(self._penetration),
+            "stabilization_work": np.array(self._stab_work),
+            "lcp": dict(self.lcp_stats),
+            "armature": self.armature.report(),
+            "ambiguity_checks": list(self.checks),
+            "ambiguity_checks_limit": cfg.max_ambiguity_checks,
+            "tolerances": {
+                "activation_distance": cfg.activation_distance,
+                "stabilization": cfg.stabilization,
+                "impact_velocity": cfg.impact_velocity,
+                "slip_velocity": cfg.slip_velocity_tolerance,
+                "contact_force": self.force_tolerance,
+                "ambiguity_velocity": AMBIGUITY_VELOCITY_TOLERANCE,
+                "gap": scene.gap_tolerance,
+            },
+            "wall_time": time.perf_counter() - self._start_wall,
+        }
+        trajectory = Trajectory(
+            scene_name=scene.name, coordinates=scene.coordinate_names, contacts=self.names,
+            times=np.array(self._times), q=np.array(self._qs), v=np.array(self._vs), inputs=inputs_arr,
+            input_names=scene.inputs.coordinates, contact_forces=np.array(self._forces),
+            contact_points=np.array(self._points), events=tuple(self.events), info=info, model="rigid",
+            status=self.status, failure=self.failure,
+        )
+        return assess(scene, trajectory, energy=energy, penetration=info["max_penetration"], stiffness=None,
+                      dt=dt, extra_work=info["stabilization_work"])
 
 
 def _ambiguity_check(scene: Scene, q: np.ndarray, v: np.ndarray, u: np.ndarray, touching: list[int],
@@ -510,6 +572,8 @@ def _ambiguity_check(scene: Scene, q: np.ndarray, v: np.ndarray, u: np.ndarray, 
 
 
 __all__ = [
+    "RigidSettings",
+    "RigidStepper",
     "ACTIVATION_DISTANCE",
     "AMBIGUITY_ACCELERATION_TOLERANCE",
     "AMBIGUITY_VELOCITY_TOLERANCE",
