@@ -87,13 +87,19 @@ def test_the_cli_exports_and_its_json_carries_the_modes(tmp_path):
 
 
 def test_every_trajectory_converts_to_json():
-    """A planner's trajectory (no energy reported) converts too; a simulator's has every field."""
+    """A motion no simulator produced (no energy reported) converts too; a simulator's has every
+    field; the flip's closed loop runs on the rigid stepper, so it reports its energy as well."""
     scene = load_scene("rhex_flip")
     from frcontrol.planning.flip import simulate_flip
+    from frcontrol.viz.meshcat_view import trajectory_from_scene
 
+    still = trajectory_from_scene(scene).to_dict(scene)
+    json.dumps(still)
+    assert still["summary"]["energy"] is None and len(still["samples"]["modes"]) == len(
+        still["samples"]["times"])
     planned = simulate_flip(scene, max_time=0.05).trajectory.to_dict(scene)
     json.dumps(planned)
-    assert planned["summary"]["energy"] is None and len(planned["samples"]["modes"]) == len(
-        planned["samples"]["times"])
+    assert planned["summary"]["energy"]["initial"] > 0 and planned["summary"]["model"] == "rigid"
+    assert len(planned["samples"]["modes"]) == len(planned["samples"]["times"])
     simulated = simulate_rigid(scene, None, 0.01, 0.001).to_dict()
     assert simulated["summary"]["energy"]["initial"] > 0 and "modes" not in simulated["samples"]

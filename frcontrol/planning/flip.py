@@ -96,7 +96,6 @@ from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
 from ..simulation.export import sample_modes
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE
-from ..simulation.trajectory import ContactEvent, SimulationFailure, Trajectory
 from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, must_solve, solve_lp, solve_lp_prepared
 from . import DEFAULT_FLIP_MARGIN
 
@@ -962,56 +961,6 @@ def _weight(scene: Scene) -> float:
     return scene.robot.weight_scale()
 
 
-def _concatenate(scene: Scene, chunks: Sequence[Any], info: dict, failure: SimulationFailure | None
-                 ) -> Trajectory:
-    """One trajectory from consecutive chunks (each chunk's first sample is the previous last).
-
-    Each chunk's simulator starts by deciding which contacts are closed from their gaps alone, so a
-    contact that was loaded at the end of the previous chunk can be reported as closing again in
-    the first step of the next: those "close" events are dropped.
-    """
-    times, q, v, inputs, forces, points, events = [], [], [], [], [], [], []
-    offset = 0.0
-    names = [c.name for c in scene.contacts]
-    loaded_before = np.zeros(len(names), dtype=bool)
-    force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
-    for i, chunk in enumerate(chunks):
-        skip = 0 if i == 0 else 1
-        times.append(chunk.times[skip:] + offset)
-        q.append(chunk.q[skip:])
-        v.append(chunk.v[skip:])
-        inputs.append(chunk.inputs[skip:] if i else chunk.inputs)
-        forces.append(chunk.contact_forces[skip:])
-        points.append(chunk.contact_points[skip:])
-        first_step = float(chunk.times[1]) if len(chunk.times) > 1 else 0.0
-        for e in chunk.events:
-            if (i and e.kind == "close" and e.time <= first_step + 1e-12
-                    and loaded_before[names.index(e.contact)]):
-                continue
-            events.append(ContactEvent(e.time + offset, e.contact, e.kind, e.detail))
-        loaded_before = chunk.contact_forces[-1, :, 0] > force_tolerance
-        offset += float(chunk.times[-1])
-    return Trajectory(
-        scene_name=scene.name, coordinates=scene.coordinate_names,
-        contacts=tuple(names), times=np.concatenate(times),
-        q=np.vstack(q), v=np.vstack(v), inputs=np.vstack(inputs), input_names=scene.inputs.coordinates,
-        contact_forces=np.concatenate(forces), contact_points=np.concatenate(points),
-        events=tuple(events), info=info, model="rigid",
-        status="completed" if failure is None else chunks[-1].status, failure=failure,
-    )
-
-
-def _truncate(trajectory: Any, end: int) -> Any:
-    """The trajectory up to and including sample ``end`` (its events up to that time)."""
-    t_end = float(trajectory.times[end])
-    return replace(
-        trajectory, times=trajectory.times[: end + 1], q=trajectory.q[: end + 1], v=trajectory.v[: end + 1],
-        inputs=trajectory.inputs[: end + 1], contact_forces=trajectory.contact_forces[: end + 1],
-        contact_points=trajectory.contact_points[: end + 1],
-        events=tuple(e for e in trajectory.events if e.time <= t_end + 1e-12),
-    )
-
-
 def _armature(scene: Scene, armature: float | None) -> float:
     if armature is not None:
         return float(armature)
@@ -1038,10 +987,11 @@ def simulate_flip(
     """Plan, then re-plan along a rigid simulation until the body pitches past vertical.
 
     The loop: plan at the scene's state (:func:`plan_flip`); apply the plan's rounded torques for
-    ``replan_every`` steps of :func:`~frcontrol.simulation.simulate_rigid` (velocity-level time
-    stepping, contacts open and close, inelastic impacts; the massless hips get the rotor inertia
-    ``armature``); re-plan at the state reached, and so on, until the pitch passes the task's
-    vertical (``FlipTask.vertical``) or ``max_time``.
+    ``replan_every`` steps of one :class:`~frcontrol.simulation.rigid.RigidStepper` (velocity-level
+    time stepping, contacts open and close, inelastic impacts; the massless hips get the rotor
+    inertia ``armature``); re-plan at the state reached, and so on, until the pitch passes the
+    task's vertical (``FlipTask.vertical``) or ``max_time``. The run is one trajectory, checked
+    for validity like any rigid simulation (energy, warnings).
 
     Re-planning model: the scene at the simulated state (:meth:`Scene.at`) with the contacts
     within :data:`REPLAN_GAP_TOLERANCE` of their surface or loaded by the last step (a loaded
@@ -1072,7 +1022,7 @@ def simulate_flip(
             armature, else :data:`FLIP_ARMATURE`).
         solver: LP back-end of the plans.
         plan: the first plan, if already made at the scene's state.
-        progress: called with (simulated time, max_time) after every chunk.
+        progress: called with (simulated time, max_time) every ``replan_every`` steps.
 
     Returns:
         The result; with no first plan, ``trajectory=None`` and ``flipped=False`` with the reason.
@@ -1081,7 +1031,7 @@ def simulate_flip(
         InputError: a bad step, time, count or armature; see :func:`plan_flip`.
     """
     from ..simulation.options import check_simulation_times
-    from ..simulation.rigid import simulate_rigid
+    from ..simulation.rigid import RigidSettings, RigidStepper
 
     start = time.perf_counter()
     max_time, dt = check_simulation_times(max_time, dt)
@@ -1106,79 +1056,49 @@ def simulate_flip(
     replan_scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
     force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
     legs = _massless_legs(scene)
-    loaded = np.zeros(len(scene.contacts), dtype=bool)
     command = first.input_vector(names)
     plans: list[tuple[float, str | None, Mapping[str, float]]] = [(0.0, first.mode, dict(first.torques))]
     held: list[tuple[float, str]] = []
-    chunks: list[Trajectory] = []
-    q, v, t = scene.q.copy(), scene.v.copy(), 0.0
+    stepper = RigidStepper(replan_scene, RigidSettings(max_ambiguity_checks=0), armature=arm)
     replans = 0
     crossed = False
-    failure = None
-    while t < max_time - 1e-12:
-        if chunks:
+    step = 0
+    while stepper.t < max_time - 1e-12:
+        if step and step % replan_every == 0:
             t1 = time.perf_counter()
-            result = _replan(replan_scene, q, v, loaded, margin, solver)
+            loaded = stepper.last_forces[:, 0] > force_tolerance
+            command, mode, why = _replanned(replan_scene, stepper, loaded, margin, solver, command, names)
             replans += 1
-            mode = None
-            if isinstance(result, str):
-                held.append((t, f"{result}: torques held"))
-            elif result.found:
-                command = result.input_vector(names)
-                mode = result.mode
-            else:
-                held.append((t, f"no plan ({result.reason}): torques held"))
-                command = command.copy()
-                for name, value in result.forced_inputs.items():
-                    command[names.index(name)] = value
-            plans.append((t, mode, dict(zip(names, command.tolist(), strict=True))))
+            if why is not None:
+                held.append((stepper.t, why))
+            plans.append((stepper.t, mode, dict(zip(names, command.tolist(), strict=True))))
             timings["replanning"] += time.perf_counter() - t1
-        duration = min(replan_every * dt, max_time - t)
-
-        def schedule(_t: float, q_now: np.ndarray, _v: np.ndarray, held_command: np.ndarray = command
-                     ) -> np.ndarray:
-            if not legs:
-                return held_command
-            gaps = _gaps(scene, q_now)
-            free = [i for i, toes in legs.items() if not np.any(gaps[toes] <= SEPARATION_GAP)]
-            if not free:
-                return held_command
-            out = held_command.copy()
-            out[free] = 0.0
-            return out
-
         t1 = time.perf_counter()
-        chunk = simulate_rigid(replan_scene, schedule, duration, min(dt, duration), q0=q, v0=v, armature=arm,
-                               max_ambiguity_checks=0)
+        u = _free_legs_idle(scene, legs, command, stepper.q)
+        advanced = stepper.step(u, min(dt, max_time - stepper.t))
         timings["simulation"] += time.perf_counter() - t1
-        chunks.append(chunk)
-        q, v = chunk.q[-1].copy(), chunk.v[-1].copy()
-        loaded = chunk.contact_forces[-1, :, 0] > force_tolerance
-        t += float(chunk.times[-1])
-        if progress is not None:
-            progress(t, max_time)
-        if chunk.failure is not None:  # its time counted from the flip's start, not the chunk's
-            failure = replace(chunk.failure, time=t - float(chunk.times[-1]) + chunk.failure.time)
+        step += 1
+        if progress is not None and (step % replan_every == 0 or not advanced):
+            progress(stepper.t, max_time)
+        if not advanced:
             break
-        if np.any(chunk.q[:, task.pitch_index] >= task.vertical):
+        if stepper.q[task.pitch_index] >= task.vertical:
             crossed = True
             break
 
-    info = {"dt": dt, "armature": {"value": arm}, "source": "simulate_flip"}
-    trajectory = _concatenate(scene, chunks, info, failure)
+    trajectory = stepper.trajectory(dt)
+    trajectory = replace(trajectory, info={**trajectory.info, "source": "simulate_flip"})
+    failure = trajectory.failure
     pitch = trajectory.q[:, task.pitch_index]
     time_to_vertical = None
     end = len(pitch) - 1
     if crossed:
-        end = int(np.argmax(pitch >= task.vertical))
         if end > 0:
             t_a, t_b = trajectory.times[end - 1], trajectory.times[end]
             p_a, p_b = pitch[end - 1], pitch[end]
             time_to_vertical = float(t_a + (task.vertical - p_a) / (p_b - p_a) * (t_b - t_a))
         else:
             time_to_vertical = 0.0
-    if crossed and end < len(pitch) - 1:
-        trajectory = _truncate(trajectory, end)
     separation, body_events = _body_contacts(scene, trajectory, task.body_contacts, end)
     modes = sample_modes(scene, trajectory)
     trajectory = replace(trajectory, info={**trajectory.info, "steps": len(trajectory.times) - 1},
@@ -1197,6 +1117,42 @@ def simulate_flip(
         steps=len(trajectory.times) - 1, replans=replans, held=tuple(held), plans=tuple(plans),
         modes=modes, reason=reason, timings=timings, **common,
     )
+
+
+def _replanned(replan_scene: Scene, stepper: Any, loaded: np.ndarray, margin: float, solver: str,
+               command: np.ndarray, names: Sequence[str]) -> tuple[np.ndarray, str | None, str | None]:
+    """A re-plan at the stepper's state.
+
+    Returns:
+        (the command to apply, the plan's mode or None, why the torques are held or None).
+    """
+    result = _replan(replan_scene, stepper.q, stepper.v, loaded, margin, solver)
+    if isinstance(result, str):
+        return command, None, f"{result}: torques held"
+    if result.found:
+        return result.input_vector(names), result.mode, None
+    held = command.copy()
+    for name, value in result.forced_inputs.items():
+        held[list(names).index(name)] = value
+    return held, None, f"no plan ({result.reason}): torques held"
+
+
+def _free_legs_idle(scene: Scene, legs: dict[int, list[int]], command: np.ndarray,
+                    q: np.ndarray) -> np.ndarray:
+    """The command with 0 on every massless leg in the air.
+
+    A leg is in the air when none of its contacts is within :data:`SEPARATION_GAP` of its
+    surface: the rigid model forces its torque to 0.
+    """
+    if not legs:
+        return command
+    gaps = _gaps(scene, q)
+    free = [i for i, toes in legs.items() if not np.any(gaps[toes] <= SEPARATION_GAP)]
+    if not free:
+        return command
+    out = command.copy()
+    out[free] = 0.0
+    return out
 
 
 def _massless_legs(scene: Scene) -> dict[int, list[int]]:
