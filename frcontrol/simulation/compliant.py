@@ -62,6 +62,7 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.integrate
@@ -351,6 +352,68 @@ def simulate_compliant(
         IllConditioned: M is singular even with the armature.
     """
     duration, dt = check_simulation_times(duration, dt)
+    _check_integrator_options(integrator, rtol, atol, max_step, max_steps)
+    options = model_options(scene)
+    robot = scene.robot
+    n = robot.nv
+    q, v = robot.check_state(scene.q if q0 is None else q0, scene.v if v0 is None else v0)
+    schedule, constant = input_schedule(scene, inputs)
+    state0 = robot.state(q, v, list(range(len(scene.contacts))))
+    arm = massless_armature(scene, state0.mass_matrix, options.armature if armature is None else armature)
+    mass0 = arm.apply(state0.mass_matrix)
+    mass_factor(mass0, arm)  # raises IllConditioned early
+    params = compliant_contacts(
+        scene, mass0, state0.jacobian_normal, state0.jacobian_tangent, contacts=contacts,
+        stiffness=stiffness, damping=damping, damping_ratio=damping_ratio,
+        tangential_stiffness=tangential_stiffness, tangential_damping=tangential_damping)
+    s0 = _initial_stretch(initial_stretch, params)
+    stability_limit = explicit_stability_limit(params)
+    if integrator == "euler" and dt >= stability_limit:
+        raise InputError(f"the explicit 'euler' step dt = {dt:.3g} s is not below its stability limit "
+                         f"2 (sqrt(1 + zeta^2) - zeta) / omega = {stability_limit:.3g} s (omega = "
+                         "sqrt(k / m_eff), zeta the damping ratio, of the most restrictive contact): use "
+                         "a smaller dt or an implicit integrator ('radau', 'bdf')")
+    dynamics = _Dynamics(scene, params, arm, scene.inputs.selection_transpose(n))
+    run = _CompliantRun(scene, dynamics, params, duration, dt, max_steps, impact_velocity,
+                        np.concatenate([q, v, s0]))
+    hold_segments = constant is False
+    u_const = schedule(0.0, q, v)
+    y, t_seg = run.samples_y[0].copy(), 0.0
+    while run.next_sample <= run.sample_count and run.status == "completed":
+        u = u_const if not hold_segments else schedule(t_seg, y[:n], y[n:2 * n])
+        t_end = float(run.sample_times[run.next_sample]) if hold_segments else duration
+        if integrator == "euler":
+            y, t_seg = run.euler_segment(y, t_seg, t_end, u, stability_limit)
+        else:
+            y, t_seg = run.scipy_segment(integrator, y, t_seg, t_end, u, rtol=rtol, atol=atol,
+                                         max_step=dt if max_step is None else max_step)
+
+    steps_taken = run.steps_taken
+    return _trajectory(scene, dynamics, params, arm, run.sample_times[:len(run.samples_y)], run.samples_y,
+                       run.samples_u, run.events, run.status, run.failure, {
+                           "integrator": integrator,
+                           "dt": dt,
+                           "rtol": rtol,
+                           "atol": atol,
+                           "max_step": dt if max_step is None else max_step,
+                           "steps": len(steps_taken),
+                           "min_step": float(min(steps_taken)) if steps_taken else 0.0,
+                           "max_step_taken": float(max(steps_taken)) if steps_taken else 0.0,
+                           "mean_step": float(np.mean(steps_taken)) if steps_taken else 0.0,
+                           "rhs_evaluations": run.rhs_evaluations,
+                           "explicit_stability_limit": stability_limit,
+                           "contacts": params.report(),
+                           "contacts_modelled": contacts,
+                           "state_size": 2 * n + params.count,
+                           "armature": arm.report(),
+                           "impact_velocity": impact_velocity,
+                           "wall_time": time.perf_counter() - run.start_wall,
+                       })
+
+
+def _check_integrator_options(integrator: str, rtol: float, atol: float, max_step: float | None,
+                              max_steps: int) -> None:
+    """Raises InputError for an unknown integrator or a bad tolerance, step or step count."""
     if integrator not in INTEGRATORS:
         raise InputError(f"unknown integrator {integrator!r}; choose one of: {', '.join(INTEGRATORS)}")
     for label, value in (("rtol", rtol), ("atol", atol)):
@@ -360,67 +423,75 @@ def simulate_compliant(
         raise InputError(f"max_step must be a positive number [s], got {max_step!r}")
     if not (isinstance(max_steps, int) and max_steps > 0):
         raise InputError(f"max_steps must be a positive integer, got {max_steps!r}")
-    options = model_options(scene)
-    robot = scene.robot
-    n = robot.nv
-    q, v = robot.check_state(scene.q if q0 is None else q0, scene.v if v0 is None else v0)
-    schedule, constant = input_schedule(scene, inputs)
-    k_all = len(scene.contacts)
-    all_idx = list(range(k_all))
-    state0 = robot.state(q, v, all_idx)
-    arm = massless_armature(scene, state0.mass_matrix, options.armature if armature is None else armature)
-    mass0 = arm.apply(state0.mass_matrix)
-    mass_factor(mass0, arm)  # raises IllConditioned early
-    params = compliant_contacts(
-        scene, mass0, state0.jacobian_normal, state0.jacobian_tangent, contacts=contacts,
-        stiffness=stiffness, damping=damping, damping_ratio=damping_ratio,
-        tangential_stiffness=tangential_stiffness, tangential_damping=tangential_damping)
+
+
+def _initial_stretch(initial_stretch: Sequence[float] | np.ndarray | None, params: CompliantContacts
+                     ) -> np.ndarray:
+    """The springs' stretch at t = 0, one per modelled contact (default 0)."""
     c = params.count
     if initial_stretch is None:
-        s0 = np.zeros(c)
-    else:
-        s0 = np.asarray(initial_stretch, dtype=float).reshape(-1)
-        if s0.shape != (c,) or not np.all(np.isfinite(s0)):
-            raise InputError(f"initial_stretch needs {c} finite values (contacts {', '.join(params.names)}), "
-                             f"got {s0.tolist()}")
-    dynamics = _Dynamics(scene, params, arm, scene.inputs.selection_transpose(n))
-    # Semi-implicit Euler on x'' + 2 zeta w x' + w^2 x = 0 with the damper explicit is stable for
-    # h w < 2 (sqrt(1 + zeta^2) - zeta) (2 / w without damping); the smallest over the contacts.
+        return np.zeros(c)
+    s0 = np.asarray(initial_stretch, dtype=float).reshape(-1)
+    if s0.shape != (c,) or not np.all(np.isfinite(s0)):
+        raise InputError(f"initial_stretch needs {c} finite values (contacts {', '.join(params.names)}), "
+                         f"got {s0.tolist()}")
+    return s0
+
+
+def explicit_stability_limit(params: CompliantContacts) -> float:
+    """[s] The largest stable semi-implicit Euler step over the modelled contacts (inf without any).
+
+    On ``x'' + 2 zeta w x' + w^2 x = 0`` with the damper explicit the step is stable for
+    ``h w < 2 (sqrt(1 + zeta^2) - zeta)`` (``2 / w`` without damping).
+    """
     stiffness_all = np.concatenate([params.stiffness, params.tangential_stiffness])
     mass_all = np.concatenate([params.effective_mass_normal, params.effective_mass_tangent])
     damping_all = np.concatenate([params.damping, params.tangential_damping])
     omega = np.sqrt(stiffness_all / mass_all)
     zeta = damping_all / (2.0 * np.sqrt(stiffness_all * mass_all))
     limits = 2.0 * (np.sqrt(1.0 + zeta**2) - zeta) / omega
-    stability_limit = float(np.min(limits)) if limits.size else math.inf
-    if integrator == "euler" and dt >= stability_limit:
-        raise InputError(f"the explicit 'euler' step dt = {dt:.3g} s is not below its stability limit "
-                         f"2 (sqrt(1 + zeta^2) - zeta) / omega = {stability_limit:.3g} s (omega = "
-                         "sqrt(k / m_eff), zeta the damping ratio, of the most restrictive contact): use "
-                         "a smaller dt or an implicit integrator ('radau', 'bdf')")
-    counter = {"rhs": 0}
-    steps_taken: list[float] = []
+    return float(np.min(limits)) if limits.size else math.inf
 
-    sample_count = max(1, int(np.ceil(duration / dt - 1e-9)))
-    sample_times = np.minimum(np.arange(sample_count + 1) * dt, duration)
-    y = np.concatenate([q, v, s0])
-    samples_y = [y.copy()]
-    samples_u: list[np.ndarray] = []
-    events: list[ContactEvent] = []
-    status, failure = "completed", None
-    _, (st0, _, _, prev_status) = dynamics.evaluate(y, np.zeros(scene.inputs.count))
-    prev_status = _event_status(prev_status, st0.gaps, scene.gap_tolerance)
-    start_wall = time.perf_counter()
 
-    def record_events(t: float, y_now: np.ndarray, u: np.ndarray, vn_before: np.ndarray) -> np.ndarray:
+class _CompliantRun:
+    """One compliant run's integration: segments of constant input, samples, events and failures."""
+
+    def __init__(self, scene: Scene, dynamics: _Dynamics, params: CompliantContacts, duration: float,
+                 dt: float, max_steps: int, impact_velocity: float, y0: np.ndarray) -> None:
+        self.scene, self.dynamics, self.params = scene, dynamics, params
+        self.n = scene.robot.nv
+        self.duration, self.max_steps, self.impact_velocity = duration, max_steps, impact_velocity
+        self._dt = dt
+        self.sample_count = max(1, int(np.ceil(duration / dt - 1e-9)))
+        self.sample_times = np.minimum(np.arange(self.sample_count + 1) * dt, duration)
+        self.next_sample = 1
+        self.samples_y = [y0.copy()]
+        self.samples_u: list[np.ndarray] = []
+        self.events: list[ContactEvent] = []
+        self.status = "completed"
+        self.failure: dict[str, Any] | None = None
+        self.steps_taken: list[float] = []
+        self.rhs_evaluations = 0
+        _, (st0, _, _, status0) = dynamics.evaluate(y0, np.zeros(scene.inputs.count))
+        self.contact_status = _event_status(status0, st0.gaps, scene.gap_tolerance)
+        self.last_vn = st0.normal_velocities.copy()
+        self.start_wall = time.perf_counter()
+
+    def fail(self, status: str, t: float, reason: str, hint: bool = False) -> None:
+        """End the run: ``failed`` or ``diverged`` at ``t`` (with the validity hint when diverged)."""
+        self.status = status
+        self.failure = {"time": t, "reason": reason}
+        if hint:
+            self.failure["hint"] = VALIDITY_HINT
+
+    def record_events(self, t: float, y_now: np.ndarray, u: np.ndarray, vn_before: np.ndarray) -> np.ndarray:
         """Compare each contact's status with the previous step's; return v_N now."""
-        nonlocal prev_status
-        _, (st, _, _, stat) = dynamics.evaluate(y_now, u)
-        stat = _event_status(stat, st.gaps, scene.gap_tolerance)
-        for j in np.nonzero(stat != prev_status)[0]:
-            name, before, now = params.names[j], prev_status[j], stat[j]
+        _, (st, _, _, stat) = self.dynamics.evaluate(y_now, u)
+        stat = _event_status(stat, st.gaps, self.scene.gap_tolerance)
+        for j in np.nonzero(stat != self.contact_status)[0]:
+            name, before, now = self.params.names[j], self.contact_status[j], stat[j]
             if before == 0:
-                kind = "impact" if vn_before[j] < -impact_velocity else "close"
+                kind = "impact" if vn_before[j] < -self.impact_velocity else "close"
                 how = {1: "sticks", 2: "slides", 3: "no load"}[int(now)]
                 detail = f"v_N = {vn_before[j]:.4g} m/s; {how}"
             elif now == 0:
@@ -430,54 +501,54 @@ def simulate_compliant(
             else:
                 kind = "stick" if now == 1 else "slip"
                 detail = f"v_T = {st.tangential_velocities[j]:.4g} m/s" if kind == "slip" else ""
-            events.append(ContactEvent(t, name, kind, detail))
-        prev_status = stat.copy()
+            self.events.append(ContactEvent(t, name, kind, detail))
+        self.contact_status = stat.copy()
         return st.normal_velocities.copy()
 
-    t_seg = 0.0
-    next_sample = 1
-    hold_segments = constant is False
-    u_const = schedule(0.0, q, v)
-    last_vn = st0.normal_velocities.copy()
-    while next_sample <= sample_count and status == "completed":
-        u = u_const if not hold_segments else schedule(t_seg, y[:n], y[n:2 * n])
-        t_end = float(sample_times[next_sample]) if hold_segments else duration
+    def _due(self, t: float) -> bool:
+        return self.next_sample <= self.sample_count and \
+            self.sample_times[self.next_sample] <= t + 1e-12 * self.duration
 
-        def fun(t: float, yy: np.ndarray, u: np.ndarray = u) -> np.ndarray:
-            counter["rhs"] += 1
-            return dynamics.evaluate(yy, u)[0]
+    def euler_segment(self, y: np.ndarray, t_seg: float, t_end: float, u: np.ndarray,
+                      stability_limit: float) -> tuple[np.ndarray, float]:
+        """Semi-implicit Euler steps of at most dt from ``t_seg`` to ``t_end``."""
+        n = self.n
+        while t_seg < t_end - 1e-12 * self.duration:
+            h = min(self._dt, t_end - t_seg)
+            self.rhs_evaluations += 1
+            ydot, (st_now, _, _, _) = self.dynamics.evaluate(y, u)
+            y_new = y.copy()
+            y_new[n:2 * n] = y[n:2 * n] + h * ydot[n:2 * n]
+            y_new[:n] = y[:n] + h * y_new[n:2 * n]
+            y_new[2 * n:] = y[2 * n:] + h * ydot[2 * n:]
+            self.steps_taken.append(h)
+            y, t_seg = y_new, t_seg + h
+            if not np.all(np.isfinite(y)) or np.max(np.abs(y[n:2 * n])) > DIVERGENCE_VELOCITY:
+                self.fail("diverged", t_seg, f"the state became NaN or a velocity exceeded "
+                          f"{DIVERGENCE_VELOCITY:g}; the explicit step's stability limit was "
+                          f"{stability_limit:.3g} s at the start", hint=True)
+                break
+            self.record_events(t_seg, y, u, st_now.normal_velocities)
+            while self._due(t_seg):
+                self.samples_y.append(y.copy())
+                self.samples_u.append(u.copy())
+                self.next_sample += 1
+            if len(self.steps_taken) >= self.max_steps:
+                self.fail("failed", t_seg, f"more than {self.max_steps} steps")
+                break
+        return y, t_seg
 
-        if integrator == "euler":
-            while t_seg < t_end - 1e-12 * duration:
-                h = min(dt, t_end - t_seg)
-                counter["rhs"] += 1
-                ydot, (st_now, _, _, _) = dynamics.evaluate(y, u)
-                y_new = y.copy()
-                y_new[n:2 * n] = y[n:2 * n] + h * ydot[n:2 * n]
-                y_new[:n] = y[:n] + h * y_new[n:2 * n]
-                y_new[2 * n:] = y[2 * n:] + h * ydot[2 * n:]
-                steps_taken.append(h)
-                y, t_seg = y_new, t_seg + h
-                if not np.all(np.isfinite(y)) or np.max(np.abs(y[n:2 * n])) > DIVERGENCE_VELOCITY:
-                    status = "diverged"
-                    failure = {"time": t_seg, "reason": (
-                        f"the state became NaN or a velocity exceeded {DIVERGENCE_VELOCITY:g}; the explicit "
-                        f"step's stability limit was {stability_limit:.3g} s at the start"),
-                        "hint": VALIDITY_HINT}
-                    break
-                record_events(t_seg, y, u, st_now.normal_velocities)
-                while next_sample <= sample_count and sample_times[next_sample] <= t_seg + 1e-12 * duration:
-                    samples_y.append(y.copy())
-                    samples_u.append(u.copy())
-                    next_sample += 1
-                if len(steps_taken) >= max_steps:
-                    status, failure = "failed", {"time": t_seg, "reason": f"more than {max_steps} steps"}
-                    break
-            continue
+    def scipy_segment(self, integrator: str, y: np.ndarray, t_seg: float, t_end: float, u: np.ndarray,
+                      *, rtol: float, atol: float, max_step: float) -> tuple[np.ndarray, float]:
+        """SciPy's adaptive integrator from ``t_seg`` to ``t_end``, sampled by its dense output."""
+        n = self.n
+
+        def fun(t: float, yy: np.ndarray) -> np.ndarray:
+            self.rhs_evaluations += 1
+            return self.dynamics.evaluate(yy, u)[0]
 
         solver_cls = getattr(scipy.integrate, _SCIPY_SOLVERS[integrator])
-        solver = solver_cls(fun, t_seg, y, t_end, rtol=rtol, atol=atol,
-                            max_step=dt if max_step is None else max_step)
+        solver = solver_cls(fun, t_seg, y, t_end, rtol=rtol, atol=atol, max_step=max_step)
         while solver.status == "running":
             try:
                 message = solver.step()
@@ -488,58 +559,31 @@ def simulate_compliant(
                 # diverged only if the state itself left the numbers; a finite state whose
                 # Jacobian differencing overflowed is the integrator's failure, not the model's
                 diverged = not np.all(np.isfinite(solver.y))
-                status = "diverged" if diverged else "failed"
-                failure = {"time": float(solver.t), "reason": f"{integrator}: {err}"}
-                if diverged:
-                    failure["hint"] = VALIDITY_HINT
+                self.fail("diverged" if diverged else "failed", float(solver.t), f"{integrator}: {err}",
+                          hint=diverged)
                 break
             if solver.status == "failed":
-                status = "failed"
-                failure = {"time": float(solver.t), "reason": f"{integrator}: {message}"}
+                self.fail("failed", float(solver.t), f"{integrator}: {message}")
                 break
             t_now = float(solver.t)
-            steps_taken.append(t_now - float(solver.t_old))
+            self.steps_taken.append(t_now - float(solver.t_old))
             y_now = solver.y
             if not np.all(np.isfinite(y_now)) or np.max(np.abs(y_now[n:2 * n])) > DIVERGENCE_VELOCITY:
-                status = "diverged"
-                failure = {"time": t_now, "reason": "the state became NaN or a velocity exceeded "
-                           f"{DIVERGENCE_VELOCITY:g}", "hint": VALIDITY_HINT}
+                self.fail("diverged", t_now, "the state became NaN or a velocity exceeded "
+                          f"{DIVERGENCE_VELOCITY:g}", hint=True)
                 break
-            last_vn = record_events(t_now, y_now, u, last_vn)
-            if next_sample <= sample_count and sample_times[next_sample] <= t_now + 1e-12 * duration:
+            self.last_vn = self.record_events(t_now, y_now, u, self.last_vn)
+            if self._due(t_now):
                 dense = solver.dense_output()
-                while next_sample <= sample_count and sample_times[next_sample] <= t_now + 1e-12 * duration:
-                    ts = float(sample_times[next_sample])
-                    samples_y.append(y_now.copy() if ts >= t_now else dense(ts))
-                    samples_u.append(u.copy())
-                    next_sample += 1
-            if len(steps_taken) >= max_steps:
-                status, failure = "failed", {"time": t_now, "reason": f"more than {max_steps} steps"}
+                while self._due(t_now):
+                    ts = float(self.sample_times[self.next_sample])
+                    self.samples_y.append(y_now.copy() if ts >= t_now else dense(ts))
+                    self.samples_u.append(u.copy())
+                    self.next_sample += 1
+            if len(self.steps_taken) >= self.max_steps:
+                self.fail("failed", t_now, f"more than {self.max_steps} steps")
                 break
-        y = solver.y.copy()
-        t_seg = float(solver.t)
-
-    wall = time.perf_counter() - start_wall
-    return _trajectory(scene, dynamics, params, arm, sample_times[:len(samples_y)], samples_y, samples_u,
-                       events, status, failure, {
-                           "integrator": integrator,
-                           "dt": dt,
-                           "rtol": rtol,
-                           "atol": atol,
-                           "max_step": dt if max_step is None else max_step,
-                           "steps": len(steps_taken),
-                           "min_step": float(min(steps_taken)) if steps_taken else 0.0,
-                           "max_step_taken": float(max(steps_taken)) if steps_taken else 0.0,
-                           "mean_step": float(np.mean(steps_taken)) if steps_taken else 0.0,
-                           "rhs_evaluations": counter["rhs"],
-                           "explicit_stability_limit": stability_limit,
-                           "contacts": params.report(),
-                           "contacts_modelled": contacts,
-                           "state_size": 2 * n + c,
-                           "armature": arm.report(),
-                           "impact_velocity": impact_velocity,
-                           "wall_time": wall,
-                       })
+        return solver.y.copy(), float(solver.t)
 
 
 def _event_status(status: np.ndarray, gaps: np.ndarray, gap_tolerance: float) -> np.ndarray:
