@@ -422,9 +422,6 @@ def draw(
             ``force_scale``/``fps`` is not positive and finite.
     """
     _import_meshcat()
-    import meshcat.geometry as mg
-    from meshcat.animation import Animation
-
     trajectory = trajectory_from_scene(scene) if trajectory is None else trajectory
     check_trajectory(scene, trajectory)
     modes_list = _check_modes(modes, trajectory)
@@ -433,88 +430,130 @@ def draw(
     if force_scale is not None and not (math.isfinite(force_scale) and force_scale > 0):
         raise InputError(f"force_scale must be a positive number of metres per newton, got {force_scale!r}")
 
-    robot = scene.robot
-    points = [c.point for c in scene.contacts]
-    times = np.asarray(trajectory.times, dtype=float)
-    samples = _frame_indices(times, float(fps))
-    forces_nt = np.asarray(trajectory.contact_forces, dtype=float)
-    contact_xy = np.asarray(trajectory.contact_points, dtype=float)
-    normals = np.array([p.normal_in_world for p in points]).reshape(-1, 2)
-    tangents = np.array([p.tangent_in_world for p in points]).reshape(-1, 2)
-    surfaces = np.array([p.surface_point_in_world for p in points]).reshape(-1, 2)
-    # World force of contact j at sample i: lambda_n n_j + lambda_t t_j.
-    forces = forces_nt[..., :1] * normals[None] + forces_nt[..., 1:] * tangents[None]
-    gaps = np.einsum("kj,tkj->tk", normals, contact_xy - surfaces[None])
-    touching = gaps <= scene.gap_tolerance
-
-    visuals = link_visuals(robot, points)
-    poses = [robot.link_poses(trajectory.q[i]) for i in samples]
-
-    framing = _frame(scene, trajectory, samples, poses, visuals, contact_xy, forces, force_scale)
-    force_scale, size = framing.force_scale, framing.size
-    center, half = framing.centers[0], framing.half
-    lower, upper = framing.lower, framing.upper
-    lines = surface_lines(points)
-
-    depths = [visual_depth(v) for shapes in visuals.values() for v in shapes]
-    z_back = min([d[0] for d in depths], default=-0.02)
-    z_front = max([d[1] for d in depths], default=0.02) + 0.01 * size
-    tan_half = math.tan(math.radians(CAMERA_FOV) / 2)
-    distance = framing.view_half_height / tan_half + z_front
-    root_transforms = [MESHCAT_FROM_PLANE @ _translation(-c[0], -c[1], 0.0) for c in framing.targets]
-    root_transform = root_transforms[0]
-
-    # ---- the stage: no background (the page's white shows through), no grid or axes, the
-    # camera on meshcat's -y axis.
-    vis["/Background"].set_property("visible", False)
-    vis["/Grid"].set_property("visible", False)
-    vis["/Axes"].set_property("visible", False)
-    camera = vis["/Cameras/default/rotated/<object>"]
-    camera.set_property("fov", CAMERA_FOV)
-    camera.set_property("near", max(1e-3, distance / 1000))
-    camera.set_property("far", max(100.0, 10 * distance))
-    # The camera's parent undoes meshcat's z-up rotation: (0, 0, d) there is meshcat's (0, -d, 0).
-    camera.set_property("position", [0.0, 0.0, distance])
-
-    root = vis["frcontrol"]
-    root.delete()
-    root.set_transform(root_transform)
-
-    # ---- surfaces: slabs on the far side of each line, through the drawing.
-    thickness = 0.03 * size
-    reach = 2.0 * max(float(np.max(upper - lower)), size) + framing.travel
-    for i, (line, (start, end)) in enumerate(zip(lines, surface_segments(lines, center, reach),
-                                                 strict=True)):
-        t = line.tangent
-        slab = root["surfaces"][f"line{i}"]
-        slab.set_object(mg.Box([float(np.hypot(*(end - start))), thickness, z_front - z_back]),
-                        mg.MeshLambertMaterial(color=hex_color(SURFACE_COLOR)))
-        slab.set_transform(pose_matrix((start + end) / 2, math.atan2(t[1], t[0]))
-                           @ _translation(0.0, -thickness / 2, (z_front + z_back) / 2))
-
-    # ---- links and their contact points.
-    radius = 0.012 * size
-    for link, shapes in visuals.items():
-        node = root["robot"][_node(link)]
-        for i, visual in enumerate(shapes):
-            geometry, transform = _visual_object(visual)
-            material = mg.MeshLambertMaterial(color=hex_color(rgba_hex(visual.rgba)),
-                                              opacity=float(visual.rgba[3]))
-            node[f"visual{i}"].set_object(geometry, material)
-            node[f"visual{i}"].set_transform(transform)
-    for point, contact in zip(points, scene.contacts, strict=True):
-        node = root["robot"][_node(point.link)][f"contact_{_node(point.name)}"]
-        color = CONTACT_COLOR if contact.active else INACTIVE_CONTACT_COLOR
-        node.set_object(mg.Sphere(radius), mg.MeshLambertMaterial(color=hex_color(color)))
-        node.set_transform(_translation(point.point_in_link[0], point.point_in_link[1], z_front))
-
-    # ---- friction cones: apex at the contact point, fixed in the world.
-    cone_length = 0.12 * size
+    layers = _Layers(vis, scene, trajectory, _frame_indices(np.asarray(trajectory.times, float), float(fps)),
+                     force_scale, modes_list, cones)
+    framing, samples = layers.framing, layers.samples
+    layers.stage()
+    layers.surfaces()
+    layers.links()
     if cones:
-        for point in points:
+        layers.cones()
+    layers.arrows()
+    for path, (transform, scale) in layers.transforms_at(samples[0]).items():
+        layers.root[path].set_transform(transform if scale is None else transform @ _scale(*scale))
+    if len(samples) > 1:
+        layers.animate(float(fps))
+    center, half = framing.centers[0], framing.half
+    return Drawing(
+        force_scale=float(framing.force_scale),
+        center=center,
+        lower=center - CAMERA_MARGIN * half,
+        upper=center + CAMERA_MARGIN * half,
+        centers=framing.centers,
+        targets=framing.targets,
+        root_transform=layers.root_transforms[0],
+        camera_distance=float(layers.distance),
+        samples=tuple(samples),
+        times=layers.times[samples],
+        sample_modes=_drawn_modes(scene, trajectory, modes_list, samples),
+        fps=float(fps),
+        modes=modes_list is not None,
+    )
+
+
+class _Layers:
+    """What :func:`draw` puts into meshcat, layer by layer, in plane coordinates under the root."""
+
+    def __init__(self, vis: Any, scene: Scene, trajectory: Trajectory, samples: list[int],
+                 force_scale: float | None, modes: list[str] | None, cones: bool) -> None:
+        import meshcat.geometry as mg
+
+        self.mg, self.vis, self.scene, self.trajectory = mg, vis, scene, trajectory
+        self.samples, self.modes, self.with_cones = samples, modes, cones
+        robot = scene.robot
+        self.points = [c.point for c in scene.contacts]
+        self.times = np.asarray(trajectory.times, dtype=float)
+        self.contact_xy = np.asarray(trajectory.contact_points, dtype=float)
+        normals = np.array([p.normal_in_world for p in self.points]).reshape(-1, 2)
+        tangents = np.array([p.tangent_in_world for p in self.points]).reshape(-1, 2)
+        surfaces = np.array([p.surface_point_in_world for p in self.points]).reshape(-1, 2)
+        forces_nt = np.asarray(trajectory.contact_forces, dtype=float)
+        # World force of contact j at sample i: lambda_n n_j + lambda_t t_j.
+        self.forces = forces_nt[..., :1] * normals[None] + forces_nt[..., 1:] * tangents[None]
+        gaps = np.einsum("kj,tkj->tk", normals, self.contact_xy - surfaces[None])
+        self.touching = gaps <= scene.gap_tolerance
+        self.visuals = link_visuals(robot, self.points)
+        poses = [robot.link_poses(trajectory.q[i]) for i in samples]
+        self.framing = _frame(scene, trajectory, samples, poses, self.visuals, self.contact_xy, self.forces,
+                              force_scale)
+        self.size = self.framing.size
+        depths = [visual_depth(v) for shapes in self.visuals.values() for v in shapes]
+        self.z_back = min([d[0] for d in depths], default=-0.02)
+        self.z_front = max([d[1] for d in depths], default=0.02) + 0.01 * self.size
+        tan_half = math.tan(math.radians(CAMERA_FOV) / 2)
+        self.distance = self.framing.view_half_height / tan_half + self.z_front
+        self.root_transforms = [MESHCAT_FROM_PLANE @ _translation(-c[0], -c[1], 0.0)
+                                for c in self.framing.targets]
+        self.root = vis["frcontrol"]
+        self.head = 0.06 * self.size
+        self.arrow_list: list[_Arrow] = []
+
+    def stage(self) -> None:
+        """No background (the page's white shows through), no grid or axes, the camera on -y."""
+        vis, distance = self.vis, self.distance
+        vis["/Background"].set_property("visible", False)
+        vis["/Grid"].set_property("visible", False)
+        vis["/Axes"].set_property("visible", False)
+        camera = vis["/Cameras/default/rotated/<object>"]
+        camera.set_property("fov", CAMERA_FOV)
+        camera.set_property("near", max(1e-3, distance / 1000))
+        camera.set_property("far", max(100.0, 10 * distance))
+        # The camera's parent undoes meshcat's z-up rotation: (0, 0, d) there is meshcat's (0, -d, 0).
+        camera.set_property("position", [0.0, 0.0, distance])
+        self.root.delete()
+        self.root.set_transform(self.root_transforms[0])
+
+    def surfaces(self) -> None:
+        """Slabs on the far side of each surface line, through the drawing."""
+        mg, framing, size = self.mg, self.framing, self.size
+        lines = surface_lines(self.points)
+        thickness = 0.03 * size
+        reach = 2.0 * max(float(np.max(framing.upper - framing.lower)), size) + framing.travel
+        segments = surface_segments(lines, framing.centers[0], reach)
+        for i, (line, (start, end)) in enumerate(zip(lines, segments, strict=True)):
+            t = line.tangent
+            slab = self.root["surfaces"][f"line{i}"]
+            slab.set_object(mg.Box([float(np.hypot(*(end - start))), thickness, self.z_front - self.z_back]),
+                            mg.MeshLambertMaterial(color=hex_color(SURFACE_COLOR)))
+            slab.set_transform(pose_matrix((start + end) / 2, math.atan2(t[1], t[0]))
+                               @ _translation(0.0, -thickness / 2, (self.z_front + self.z_back) / 2))
+
+    def links(self) -> None:
+        """Every link's visuals, and each contact point as a small sphere on its link."""
+        mg = self.mg
+        for link, shapes in self.visuals.items():
+            node = self.root["robot"][_node(link)]
+            for i, visual in enumerate(shapes):
+                geometry, transform = _visual_object(visual)
+                material = mg.MeshLambertMaterial(color=hex_color(rgba_hex(visual.rgba)),
+                                                  opacity=float(visual.rgba[3]))
+                node[f"visual{i}"].set_object(geometry, material)
+                node[f"visual{i}"].set_transform(transform)
+        radius = 0.012 * self.size
+        for point, contact in zip(self.points, self.scene.contacts, strict=True):
+            node = self.root["robot"][_node(point.link)][f"contact_{_node(point.name)}"]
+            color = CONTACT_COLOR if contact.active else INACTIVE_CONTACT_COLOR
+            node.set_object(mg.Sphere(radius), mg.MeshLambertMaterial(color=hex_color(color)))
+            node.set_transform(_translation(point.point_in_link[0], point.point_in_link[1], self.z_front))
+
+    def cones(self) -> None:
+        """Friction cones: apex at the contact point, fixed in the world."""
+        mg = self.mg
+        cone_length = 0.12 * self.size
+        for point in self.points:
             e1, e2 = friction_cone_directions(point.normal_in_world, point.mu)
             vertices = np.array([[0.0, 0.0, 0.0], [*(cone_length * e1), 0.0], [*(cone_length * e2), 0.0]])
-            node = root["cones"][_node(point.name)]
+            node = self.root["cones"][_node(point.name)]
             node["fan"].set_object(
                 mg.TriangularMeshGeometry(vertices.astype(np.float32), np.array([[0, 1, 2]], np.uint32)),
                 mg.MeshBasicMaterial(color=hex_color(CONE_COLOR), opacity=0.3),
@@ -524,80 +563,60 @@ def draw(
                 mg.LineBasicMaterial(color=hex_color("#2171b5")),
             ))
 
-    # ---- force arrows: one per contact, or one per contact and mode letter that occurs.
-    shaft_radius = 0.008 * size
-    head = 0.06 * size
-    arrows: list[_Arrow] = []
-    for j, point in enumerate(points):
-        letters = [""] if modes_list is None else sorted({modes_list[i][j] for i in samples})
-        for letter in letters:
-            path_name = _node(point.name) + (f"_{letter}" if letter else "")
-            arrow = _Arrow(path_name, j, letter)
-            arrow_color = hex_color(MODE_COLORS[letter] if letter else FORCE_COLOR)
-            node = root["forces"][path_name]
-            material = mg.MeshLambertMaterial(color=arrow_color)
-            node["shaft"].set_object(mg.Cylinder(1.0, shaft_radius), material)
-            node["head"].set_object(mg.Cylinder(head, radiusTop=0.0, radiusBottom=2.5 * shaft_radius),
-                                    mg.MeshLambertMaterial(color=arrow_color))
-            arrows.append(arrow)
+    def arrows(self) -> None:
+        """Force arrows: one per contact, or one per contact and mode letter that occurs."""
+        mg = self.mg
+        shaft_radius = 0.008 * self.size
+        for j, point in enumerate(self.points):
+            letters = [""] if self.modes is None else sorted({self.modes[i][j] for i in self.samples})
+            for letter in letters:
+                path_name = _node(point.name) + (f"_{letter}" if letter else "")
+                arrow_color = hex_color(MODE_COLORS[letter] if letter else FORCE_COLOR)
+                node = self.root["forces"][path_name]
+                material = mg.MeshLambertMaterial(color=arrow_color)
+                node["shaft"].set_object(mg.Cylinder(1.0, shaft_radius), material)
+                cone = mg.Cylinder(self.head, radiusTop=0.0, radiusBottom=2.5 * shaft_radius)
+                node["head"].set_object(cone, mg.MeshLambertMaterial(color=arrow_color))
+                self.arrow_list.append(_Arrow(path_name, j, letter))
 
-    def state_at(i: int) -> dict[str, tuple[np.ndarray, np.ndarray | None]]:
+    def transforms_at(self, i: int) -> dict[str, tuple[np.ndarray, np.ndarray | None]]:
         """Node path -> (transform, scale or None) at sample i."""
         out: dict[str, tuple[np.ndarray, np.ndarray | None]] = {}
-        pose = robot.link_poses(trajectory.q[i])
-        for link in visuals:
+        pose = self.scene.robot.link_poses(self.trajectory.q[i])
+        for link in self.visuals:
             origin, angle = pose[link]
             out[f"robot/{_node(link)}"] = (pose_matrix(origin, angle), None)
-        if cones:
-            for j, point in enumerate(points):
-                shown = 1.0 if touching[i, j] else _HIDDEN
-                out[f"cones/{_node(point.name)}"] = (
-                    _translation(contact_xy[i, j, 0], contact_xy[i, j, 1], z_front - 0.005 * size),
-                    np.full(3, shown),
-                )
-        for arrow in arrows:
+        xy = self.contact_xy
+        if self.with_cones:
+            for j, point in enumerate(self.points):
+                shown = 1.0 if self.touching[i, j] else _HIDDEN
+                apex = _translation(xy[i, j, 0], xy[i, j, 1], self.z_front - 0.005 * self.size)
+                out[f"cones/{_node(point.name)}"] = (apex, np.full(3, shown))
+        for arrow in self.arrow_list:
             j = arrow.contact
-            shown = modes_list is None or modes_list[i][j] == arrow.letter
-            force = forces[i, j] if shown else np.zeros(2)
-            angle, shaft, tip = _arrow_parts(force, force_scale, head)
-            base = pose_matrix(contact_xy[i, j], angle, z_front)
-            out[f"forces/{arrow.path}"] = (base, None)
+            shown = self.modes is None or self.modes[i][j] == arrow.letter
+            force = self.forces[i, j] if shown else np.zeros(2)
+            angle, shaft, tip = _arrow_parts(force, self.framing.force_scale, self.head)
+            out[f"forces/{arrow.path}"] = (pose_matrix(xy[i, j], angle, self.z_front), None)
             out[f"forces/{arrow.path}/shaft"] = (_translation(*shaft[:3, 3]), np.diag(shaft)[:3])
             out[f"forces/{arrow.path}/head"] = (_translation(*tip[:3, 3]), np.diag(tip)[:3])
         return out
 
-    for path, (transform, scale) in state_at(samples[0]).items():
-        matrix = transform if scale is None else transform @ _scale(*scale)
-        root[path].set_transform(matrix)
+    def animate(self, fps: float) -> None:
+        """One key frame per drawn sample at its time; the camera follows the robot along x."""
+        from meshcat.animation import Animation
 
-    if len(samples) > 1:
-        animation = Animation(default_framerate=float(fps))
-        for number, i in enumerate(samples):
-            frame_number = (times[i] - times[samples[0]]) * float(fps)
-            with animation.at_frame(vis, frame_number) as frame:
-                if framing.travel > 0:  # the camera follows the robot along x
-                    frame["frcontrol"].set_transform(root_transforms[number])
-                for path, (transform, scale) in state_at(i).items():
+        animation = Animation(default_framerate=fps)
+        first = self.times[self.samples[0]]
+        for number, i in enumerate(self.samples):
+            with animation.at_frame(self.vis, (self.times[i] - first) * fps) as frame:
+                if self.framing.travel > 0:
+                    frame["frcontrol"].set_transform(self.root_transforms[number])
+                for path, (transform, scale) in self.transforms_at(i).items():
                     frame[f"frcontrol/{path}"].set_transform(transform)
                     if scale is not None:
                         frame[f"frcontrol/{path}"].set_property("scale", "vector3", [float(s) for s in scale])
-        vis.set_animation(animation, play=True, repetitions=1)
-
-    return Drawing(
-        force_scale=float(force_scale),
-        center=center,
-        lower=center - CAMERA_MARGIN * half,
-        upper=center + CAMERA_MARGIN * half,
-        centers=framing.centers,
-        targets=framing.targets,
-        root_transform=root_transform,
-        camera_distance=float(distance),
-        samples=tuple(samples),
-        times=times[samples],
-        sample_modes=_drawn_modes(scene, trajectory, modes_list, samples),
-        fps=float(fps),
-        modes=modes_list is not None,
-    )
+        self.vis.set_animation(animation, play=True, repetitions=1)
 
 
 def _drawn_modes(scene: Scene, trajectory: Trajectory, modes: list[str] | None,
