@@ -299,6 +299,39 @@ def load_scene(
         raise reader.fail(problems[0].field, problems[0].reason)
     name = reader.string(raw.get("name", scene_path.stem), "name")
     robot_file = _resolve_robot(reader, scene_path, reader.string(raw["robot"], "robot"))
+    base, gravity, tol = _read_model_settings(reader, raw, gap_tolerance)
+    try:
+        bare = PlanarRobot(robot_file, base=base, gravity=gravity)
+    except RobotModelError as err:
+        raise SceneError(str(scene_path), "robot", f"{robot_file.name}: {err.reason}") from err
+    q, v = _read_state(reader, raw, bare)
+    locked, q, v = _read_locked_joints(reader, raw, bare, q, v)
+    if locked:
+        bare = PlanarRobot(robot_file, base=base, gravity=gravity, locked=locked)
+    coords = bare.coordinate_names
+    points, pending_surface = _read_contact_points(reader, raw, bare)
+    # Surfaces not given pass through the contact point at the scene's state (gap 0).
+    robot = PlanarRobot(robot_file, base=base, gravity=gravity, contacts=points, locked=locked)
+    world = robot.contact_points_in_world(q)
+    points = [
+        ContactPoint(p.name, p.link, p.point_in_link, p.normal_in_world, world[i].copy(), p.mu)
+        if pending_surface[i] else p
+        for i, p in enumerate(points)
+    ]
+    robot.set_surface_points([p.surface_point_in_world for p in points])
+    contacts = _contacts_at_state(reader, points, world, tol)
+    inputs = _read_inputs(reader, raw.get("inputs"), coords, locked)
+    references = reference_problems(raw, {
+        "link": robot.link_names, "contact": [p.name for p in points], "coordinate": coords,
+    })
+    if references:
+        raise reader.fail(references[0].field, references[0].reason)
+    return Scene(scene_path, name, robot, q, v, tuple(contacts), inputs, tol, raw)
+
+
+def _read_model_settings(reader: _Reader, raw: Mapping[str, Any], gap_tolerance: float | None
+                         ) -> tuple[str, float, float]:
+    """(base, gravity [m/s^2], gap tolerance [m]) of a scene document."""
     base = raw.get("base", "planar")
     if base not in ("planar", "fixed"):
         raise reader.fail("base", f"expected 'planar' or 'fixed', got {base!r}")
@@ -310,14 +343,12 @@ def load_scene(
         tol = float(gap_tolerance)
     if tol <= 0:
         raise reader.fail("gap_tolerance", f"expected > 0 [m], got {tol}")
+    return str(base), gravity, tol
 
-    try:
-        bare = PlanarRobot(robot_file, base=base, gravity=gravity)
-    except RobotModelError as err:
-        raise SceneError(str(scene_path), "robot", f"{robot_file.name}: {err.reason}") from err
-    n = bare.nv
-    coords = bare.coordinate_names
 
+def _read_state(reader: _Reader, raw: Mapping[str, Any], bare: PlanarRobot) -> tuple[np.ndarray, np.ndarray]:
+    """The ``[state]``'s q and v (v defaults to zeros), one entry per coordinate of ``bare``."""
+    n, coords = bare.nv, bare.coordinate_names
     state = raw.get("state")
     if not isinstance(state, dict) or "q" not in state:
         raise reader.fail("state.q", f"missing: {n} numbers ({', '.join(coords)})")
@@ -327,8 +358,17 @@ def load_scene(
     v = reader.vector(state["v"], "state.v") if "v" in state else np.zeros(n)
     if v.size != n:
         raise reader.fail("state.v", f"expected {n} numbers ({', '.join(coords)}), got {v.size}")
+    return q, v
 
-    # Locked joints: held at their state value, welded into the model (no coordinate).
+
+def _read_locked_joints(reader: _Reader, raw: Mapping[str, Any], bare: PlanarRobot, q: np.ndarray,
+                        v: np.ndarray) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
+    """Locked joints, held at their state value (welded into the model: no coordinate).
+
+    Returns:
+        (joint -> its value, q and v without the locked coordinates).
+    """
+    coords = bare.coordinate_names
     locked_names = raw.get("locked_joints", [])
     if not isinstance(locked_names, list) or not all(isinstance(x, str) for x in locked_names):
         raise reader.fail("locked_joints", f"expected a list of joint names from {list(bare.joint_names)}")
@@ -341,12 +381,18 @@ def load_scene(
         if v[j] != 0.0:
             raise reader.fail("state.v", f"locked joint {joint!r} must have zero velocity, got {v[j]}")
         locked[joint] = float(q[j])
-    if locked:
-        keep = [j for j, name in enumerate(coords) if name not in locked]
-        q, v = q[keep], v[keep]
-        bare = PlanarRobot(robot_file, base=base, gravity=gravity, locked=locked)
-        coords = bare.coordinate_names
+    if not locked:
+        return locked, q, v
+    keep = [j for j, name in enumerate(coords) if name not in locked]
+    return locked, q[keep], v[keep]
 
+
+def _read_contact_points(reader: _Reader, raw: Mapping[str, Any], bare: PlanarRobot
+                         ) -> tuple[list[ContactPoint], list[bool]]:
+    """The ``[[contacts]]`` as contact points, and for each whether its surface is still to place.
+
+    A contact without ``surface_point`` gets its surface through the contact point at the state.
+    """
     contact_tables = raw.get("contacts", [])
     if not isinstance(contact_tables, list):
         raise reader.fail("contacts", "expected an array of tables [[contacts]]")
@@ -382,17 +428,16 @@ def load_scene(
         )
         points.append(ContactPoint(cname, link, point, normal / norm, surface, mu))
         pending_surface.append(not has_surface)
+    return points, pending_surface
 
-    # Surfaces not given pass through the contact point at the scene's state (gap 0).
-    robot = PlanarRobot(robot_file, base=base, gravity=gravity, contacts=points, locked=locked)
-    world = robot.contact_points_in_world(q)
-    points = [
-        ContactPoint(p.name, p.link, p.point_in_link, p.normal_in_world, world[i].copy(), p.mu)
-        if pending_surface[i] else p
-        for i, p in enumerate(points)
-    ]
-    robot.set_surface_points([p.surface_point_in_world for p in points])
 
+def _contacts_at_state(reader: _Reader, points: list[ContactPoint], world: np.ndarray, tol: float
+                       ) -> list[Contact]:
+    """Each contact with its gap at the state and whether it is active (gap within ``tol``).
+
+    Raises:
+        SceneError: a contact penetrates its surface by more than ``tol``.
+    """
     contacts = []
     gaps = np.einsum("kj,kj->k", np.array([p.normal_in_world for p in points]).reshape(-1, 2),
                      world - np.array([p.surface_point_in_world for p in points]).reshape(-1, 2))
@@ -403,14 +448,7 @@ def load_scene(
                 f"(tolerance {tol:.3g} m): fix the state or the surface_point"
             )
         contacts.append(Contact(p, float(gap), bool(gap <= tol)))
-
-    inputs = _read_inputs(reader, raw.get("inputs"), coords, locked)
-    references = reference_problems(raw, {
-        "link": robot.link_names, "contact": [p.name for p in points], "coordinate": coords,
-    })
-    if references:
-        raise reader.fail(references[0].field, references[0].reason)
-    return Scene(scene_path, name, robot, q, v, tuple(contacts), inputs, tol, raw)
+    return contacts
 
 
 def scene_problems(path: str | Path) -> list[SchemaProblem]:
