@@ -806,25 +806,8 @@ def plan_flip(
                   "interior": poly.INTERIOR_TOLERANCE, "input_limit": INPUT_LIMIT_TOLERANCE}
 
     t0 = time.perf_counter()
-    if analysis is not None:
-        full = analysis.problem
-    elif problem is not None:
-        full = problem
-    else:
-        full = ContactProblem.from_scene(scene, velocity_tolerance=velocity_tolerance)
-    forced = _structurally_forced(full)
-    problem = _fix_inputs(full, forced) if forced else full
-    if forced:
-        analysis = None
-    if problem.m and analysis is None:
-        analysis = analyze(problem, solver=solver)
-    if analysis is not None and not any(m.inputs_full_dimensional for m in analysis.feasible_modes):
-        more = _forced_by_every_mode(analysis)
-        if more:
-            names_left = problem.inputs
-            forced.update({full.inputs.index(names_left[i]): value for i, value in more.items()})
-            problem = _fix_inputs(full, forced)
-            analysis = analyze(problem, solver=solver) if problem.m else None
+    full, problem, forced, analysis = _planning_analysis(scene, analysis, problem, velocity_tolerance,
+                                                         solver)
     timings["analysis"] = time.perf_counter() - t0
     forced_values = {full.inputs[i]: forced[i] for i in sorted(forced)}
     common = {"margin": float(margin), "rounding": rounding, "forced_inputs": forced_values,
@@ -863,49 +846,12 @@ def plan_flip(
 
     # Branch and bound over the candidates: the LP over the shrunk T_c bounds every piece of it.
     t0 = time.perf_counter()
-    bounds: dict[str, float] = {}
-    for name in candidates:
-        c_u, _, c_0, depends = _pitch_row(analysis.mode(name), task.pitch_index)
-        if depends:
-            bounds[name] = math.inf
-            continue
-        A, b = shrunk_input_domain(analysis, name, margin)
-        result = _solve_lp(-c_u, A, b, solver)
-        bounds[name] = float(c_u @ result.x) + c_0 if result.found else -math.inf
+    bounds = _candidate_bounds(analysis, candidates, task.pitch_index, margin, solver)
     timings["lps"] += time.perf_counter() - t0
     common["bounds"] = bounds
-    pieces: list[FlipPiece] = []
-    explored: list[str] = []
-    rejected: list[tuple[str, str]] = []
-    chosen: tuple[FlipPiece, np.ndarray, float] | None = None
-    for name in sorted(candidates, key=lambda c: -bounds[c]):
-        if bounds[name] == -math.inf:
-            break
-        if chosen is not None and not exhaustive and bounds[name] <= chosen[0].pitch_acceleration:
-            break
-        explored.append(name)
-        t0 = time.perf_counter()
-        regions = margin_pieces(analysis, name, margin, solver=solver)
-        t1 = time.perf_counter()
-        found = sorted((maximise_pitch(analysis.mode(name), piece, task.pitch_index, solver)
-                        for piece in regions), key=lambda p: -p.pitch_acceleration)
-        t2 = time.perf_counter()
-        timings["unambiguous_sets"] += t1 - t0
-        timings["lps"] += t2 - t1
-        pieces += found
-        for piece in found:
-            if chosen is not None and piece.pitch_acceleration <= chosen[0].pitch_acceleration:
-                break
-            if piece.optimum is None:
-                rejected.append((piece.mode, "the LP found no optimum"))
-                continue
-            u = _round_inputs(piece.optimum, problem.lower, problem.upper, rounding)
-            verdict, pitch = _verify(analysis, piece, u, task.pitch_index, solver)
-            if verdict is None:
-                chosen = (piece, u, pitch)
-                break
-            rejected.append((piece.mode, verdict))
-        timings["verification"] += time.perf_counter() - t2
+    pieces, explored, rejected, chosen = _branch_and_bound(
+        analysis, problem, candidates, bounds, task.pitch_index, margin, rounding, exhaustive, solver,
+        timings)
     pieces.sort(key=lambda p: -p.pitch_acceleration)
     common.update({"pieces": tuple(pieces), "explored": tuple(explored), "rejected": tuple(rejected)})
     timings["total"] = time.perf_counter() - start
@@ -928,6 +874,101 @@ def plan_flip(
             f"acceleration of {pitch:.6g} rad/s^2, not above {min_pitch_acceleration:g}: no torque "
             "within the limits starts the flip"))
     return plan
+
+
+def _planning_analysis(scene: Scene, analysis: DynamicResponse | None, problem: ContactProblem | None,
+                       velocity_tolerance: float, solver: str
+                       ) -> tuple[ContactProblem, ContactProblem, dict[int, float], DynamicResponse | None]:
+    """The problem to plan on and its analysis, with the inputs the rigid model forces fixed.
+
+    Returns:
+        (the full problem, the one without the forced inputs, forced input index -> value, its
+        analysis or None when every input is forced).
+    """
+    if analysis is not None:
+        full = analysis.problem
+    elif problem is not None:
+        full = problem
+    else:
+        full = ContactProblem.from_scene(scene, velocity_tolerance=velocity_tolerance)
+    forced = _structurally_forced(full)
+    planned = _fix_inputs(full, forced) if forced else full
+    if forced:
+        analysis = None
+    if planned.m and analysis is None:
+        analysis = analyze(planned, solver=solver)
+    if analysis is not None and not any(m.inputs_full_dimensional for m in analysis.feasible_modes):
+        more = _forced_by_every_mode(analysis)
+        if more:
+            names_left = planned.inputs
+            forced.update({full.inputs.index(names_left[i]): value for i, value in more.items()})
+            planned = _fix_inputs(full, forced)
+            analysis = analyze(planned, solver=solver) if planned.m else None
+    return full, planned, forced, analysis
+
+
+def _candidate_bounds(analysis: DynamicResponse, candidates: Sequence[str], pitch_index: int, margin: float,
+                      solver: str) -> dict[str, float]:
+    """Per candidate mode, an upper bound of its pitch acceleration over its shrunk T_c (one LP).
+
+    ``inf`` when the pitch row depends on w (no cheap bound), ``-inf`` when the shrunk T_c is empty.
+    """
+    bounds: dict[str, float] = {}
+    for name in candidates:
+        c_u, _, c_0, depends = _pitch_row(analysis.mode(name), pitch_index)
+        if depends:
+            bounds[name] = math.inf
+            continue
+        A, b = shrunk_input_domain(analysis, name, margin)
+        result = _solve_lp(-c_u, A, b, solver)
+        bounds[name] = float(c_u @ result.x) + c_0 if result.x is not None else -math.inf
+    return bounds
+
+
+def _branch_and_bound(analysis: DynamicResponse, problem: ContactProblem, candidates: Sequence[str],
+                      bounds: Mapping[str, float], pitch_index: int, margin: float, rounding: float,
+                      exhaustive: bool, solver: str, timings: dict[str, float]
+                      ) -> tuple[list[FlipPiece], list[str], list[tuple[str, str]],
+                                 tuple[FlipPiece, np.ndarray, float] | None]:
+    """The best verified piece, exploring candidates by decreasing bound.
+
+    Returns:
+        (every piece found, the modes explored, the rejected optima with why, the chosen
+        (piece, rounded inputs, pitch acceleration) or None).
+    """
+    pieces: list[FlipPiece] = []
+    explored: list[str] = []
+    rejected: list[tuple[str, str]] = []
+    chosen: tuple[FlipPiece, np.ndarray, float] | None = None
+    for name in sorted(candidates, key=lambda c: -bounds[c]):
+        if bounds[name] == -math.inf:
+            break
+        if chosen is not None and not exhaustive and bounds[name] <= chosen[0].pitch_acceleration:
+            break
+        explored.append(name)
+        t0 = time.perf_counter()
+        regions = margin_pieces(analysis, name, margin, solver=solver)
+        t1 = time.perf_counter()
+        found = sorted((maximise_pitch(analysis.mode(name), piece, pitch_index, solver)
+                        for piece in regions), key=lambda p: -p.pitch_acceleration)
+        t2 = time.perf_counter()
+        timings["unambiguous_sets"] += t1 - t0
+        timings["lps"] += t2 - t1
+        pieces += found
+        for piece in found:
+            if chosen is not None and piece.pitch_acceleration <= chosen[0].pitch_acceleration:
+                break
+            if piece.optimum is None:
+                rejected.append((piece.mode, "the LP found no optimum"))
+                continue
+            u = _round_inputs(piece.optimum, problem.lower, problem.upper, rounding)
+            verdict, pitch = _verify(analysis, piece, u, pitch_index, solver)
+            if verdict is None:
+                chosen = (piece, u, pitch)
+                break
+            rejected.append((piece.mode, verdict))
+        timings["verification"] += time.perf_counter() - t2
+    return pieces, explored, rejected, chosen
 
 
 def _torque_text(torques: Mapping[str, float]) -> str:
