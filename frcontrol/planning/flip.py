@@ -96,6 +96,7 @@ from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
 from ..simulation.export import sample_modes
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE
+from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, must_solve, solve_lp, solve_lp_prepared
 from . import DEFAULT_FLIP_MARGIN
 
@@ -1128,29 +1129,20 @@ def simulate_flip(
             break
 
     trajectory = stepper.trajectory(dt)
-    trajectory = replace(trajectory, info={**trajectory.info, "source": "simulate_flip"})
-    failure = trajectory.failure
-    pitch = trajectory.q[:, task.pitch_index]
-    time_to_vertical = None
-    end = len(pitch) - 1
-    if crossed:
-        if end > 0:
-            t_a, t_b = trajectory.times[end - 1], trajectory.times[end]
-            p_a, p_b = pitch[end - 1], pitch[end]
-            time_to_vertical = float(t_a + (task.vertical - p_a) / (p_b - p_a) * (t_b - t_a))
-        else:
-            time_to_vertical = 0.0
-    separation, body_events = _body_contacts(scene, trajectory, task.body_contacts, end)
+    trajectory = replace(trajectory, info={**trajectory.info, "source": "simulate_flip",
+                                           "steps": len(trajectory.times) - 1})
+    time_to_vertical = _time_to_vertical(trajectory, task) if crossed else None
+    separation, body_events = _body_contacts(scene, trajectory, task.body_contacts, len(trajectory.times) - 1)
     modes = sample_modes(scene, trajectory)
-    trajectory = replace(trajectory, info={**trajectory.info, "steps": len(trajectory.times) - 1},
-                         modes=tuple(modes))
+    trajectory = replace(trajectory, modes=tuple(modes))
+    failure = trajectory.failure
     if crossed:
         reason = None
     elif failure is not None:
         reason = f"the simulation {trajectory.status} at t = {failure.time:.4g} s: {failure.reason}"
     else:
-        reason = (f"the pitch reached {float(np.max(pitch)):.4f} rad within {max_time:g} s, short of "
-                  f"vertical ({task.vertical:.4f} rad)")
+        reason = (f"the pitch reached {float(np.max(trajectory.q[:, task.pitch_index])):.4f} rad within "
+                  f"{max_time:g} s, short of vertical ({task.vertical:.4f} rad)")
     timings["total"] = time.perf_counter() - start
     return FlipResult(
         plan=first, trajectory=trajectory, flipped=crossed, time_to_vertical=time_to_vertical,
@@ -1158,6 +1150,20 @@ def simulate_flip(
         steps=len(trajectory.times) - 1, replans=replans, held=tuple(held), plans=tuple(plans),
         modes=modes, reason=reason, timings=timings, **common,
     )
+
+
+def _time_to_vertical(trajectory: Trajectory, task: FlipTask) -> float:
+    """[s] When the pitch crossed vertical, linear between the last two samples.
+
+    The run stops at the first sample at or past vertical.
+    """
+    pitch = trajectory.q[:, task.pitch_index]
+    end = len(pitch) - 1
+    if end == 0:
+        return 0.0
+    t_a, t_b = trajectory.times[end - 1], trajectory.times[end]
+    p_a, p_b = pitch[end - 1], pitch[end]
+    return float(t_a + (task.vertical - p_a) / (p_b - p_a) * (t_b - t_a))
 
 
 def _replanned(replan_scene: Scene, stepper: Any, loaded: np.ndarray, margin: float, solver: str,
