@@ -250,60 +250,14 @@ def stability_of(
     d_scale = j_scale**2 / m_scale
     eig_tol = EIGENVALUE_TOLERANCE * d_scale
     tolerances["eigenvalue"] = eig_tol
-    # Restrict to the row space of J_r: dependent rows are internal (indeterminate) forces.
-    U, sv, _ = np.linalg.svd(J_r / j_scale)
-    rho = int(np.sum(sv > RANK_TOLERANCE * sv[0])) if sv.size else 0
-    U = U[:, :rho]
-    indeterminate = len(rows) - rho
-    Jr, Jc = U.T @ J_r, U.T @ J_c
-
-    # A massless coordinate that no held row involves (a free massless leg) is decoupled from the
-    # boundary layer: drop it (its acceleration is the rigid model's within-mode ambiguity).
-    m_abs = float(np.max(np.abs(M)))
-    coupled = [j for j in range(n)
-               if np.max(np.abs(M[j]), initial=0.0) > RANK_TOLERANCE * m_abs
-               or np.max(np.abs(Jr[:, j]), initial=0.0) > RANK_TOLERANCE * j_scale
-               or np.max(np.abs(Jc[:, j]), initial=0.0) > RANK_TOLERANCE * j_scale]
-    decoupled = n - len(coupled)
-    if decoupled:
-        M = M[np.ix_(coupled, coupled)]
-        Jr, Jc, J_r, J_c = Jr[:, coupled], Jc[:, coupled], J_r[:, coupled], J_c[:, coupled]
-        n = len(coupled)
-    m_eig, m_vec = np.linalg.eigh(M)
-    positive_definite = m_eig[0] > RANK_TOLERANCE * m_eig[-1]
-    delassus = None
-    massless = np.zeros(0)
-    if positive_definite:
-        method = "cholesky"
-        factor = scipy.linalg.cho_factor(M)
-        D_rho = Jr @ scipy.linalg.cho_solve(factor, Jc.T)
-        eigenvalues = np.linalg.eigvals(D_rho)
-        delassus = J_r @ scipy.linalg.cho_solve(factor, J_c.T)
-    else:
-        method = "pencil"
-        A = np.block([[M / m_scale, -Jc.T / j_scale], [Jr / j_scale, np.zeros((rho, rho))]])
-        B = np.zeros_like(A)
-        B[n:, n:] = np.eye(rho)
-        (alpha, beta) = scipy.linalg.eig(A, B, right=False, homogeneous_eigvals=True)
-        if np.any((np.abs(alpha) <= FINITE_TOLERANCE) & (np.abs(beta) <= FINITE_TOLERANCE)):
-            return Stability(mode, None, empty, "the pencil (M, J_r, J_c) is singular: the mode's "
-                             "constraints do not determine the massless coordinates: not analysable",
-                             tuple(labels),
-                             indeterminate_modes=indeterminate, method=method, tolerances=tolerances)
-        finite = np.abs(beta) > FINITE_TOLERANCE * np.abs(alpha)
-        eigenvalues = alpha[finite] / beta[finite] * d_scale
-        infinite_count = rho - int(np.sum(finite))
-        if infinite_count:
-            N = m_vec[:, m_eig <= RANK_TOLERANCE * m_eig[-1]]
-            lead = np.linalg.eigvals(Jr @ N @ N.T @ Jc.T)
-            lead = lead[np.abs(lead) > RANK_TOLERANCE * max(1.0, float(np.max(np.abs(lead), initial=0.0)))]
-            if lead.size != infinite_count:
-                return Stability(mode, None, np.sort_complex(eigenvalues),
-                                 f"{infinite_count} eigenvalue(s) of D are infinite (massless directions) "
-                                 f"but their limit has {lead.size} nonzero coefficient(s): not analysable",
-                                 tuple(labels), indeterminate_modes=indeterminate, method=method,
-                                 tolerances=tolerances)
-            massless = lead
+    reduced = _reduced_rows(M, J_r, J_c, j_scale)
+    indeterminate, decoupled = len(rows) - reduced.rho, n - reduced.M.shape[0]
+    spectrum = _spectrum(reduced, m_scale, j_scale, d_scale)
+    if spectrum.problem is not None:
+        return Stability(mode, None, spectrum.eigenvalues, spectrum.problem, tuple(labels),
+                         indeterminate_modes=indeterminate, method=spectrum.method, tolerances=tolerances)
+    eigenvalues, massless, delassus, method = (spectrum.eigenvalues, spectrum.massless, spectrum.delassus,
+                                               spectrum.method)
     eigenvalues = np.asarray(eigenvalues, dtype=complex)
     eigenvalues = eigenvalues[np.argsort(eigenvalues.real, kind="stable")]
     roots = None
@@ -345,6 +299,86 @@ def stability_of(
     if complex_ones:
         reason += f" (complex ones need damping b^2/k >= {crit:.4g} kg)"
     return Stability(mode, True, eigenvalues, reason + suffix, **common)
+
+
+@dataclass(frozen=True)
+class _Rows:
+    """The held rows restricted to their row space, without decoupled massless coordinates."""
+
+    M: np.ndarray  # mass matrix of the coupled coordinates
+    Jr: np.ndarray  # (rho, n) rows of the held contacts' velocities, in the row space
+    Jc: np.ndarray  # (rho, n) their force directions
+    J_r: np.ndarray  # the original rows (coupled coordinates)
+    J_c: np.ndarray
+    rho: int  # rank of the held rows
+
+
+def _reduced_rows(M: np.ndarray, J_r: np.ndarray, J_c: np.ndarray, j_scale: float) -> _Rows:
+    """The held rows on the row space of J_r, without the coordinates they do not couple.
+
+    Dependent rows are internal (indeterminate) forces. A massless coordinate that no held row
+    involves (a free massless leg) is decoupled from the boundary layer: it is dropped (its
+    acceleration is the rigid model's within-mode ambiguity).
+    """
+    U, sv, _ = np.linalg.svd(J_r / j_scale)
+    rho = int(np.sum(sv > RANK_TOLERANCE * sv[0])) if sv.size else 0
+    U = U[:, :rho]
+    Jr, Jc = U.T @ J_r, U.T @ J_c
+    m_abs = float(np.max(np.abs(M)))
+    coupled = [j for j in range(M.shape[0])
+               if np.max(np.abs(M[j]), initial=0.0) > RANK_TOLERANCE * m_abs
+               or np.max(np.abs(Jr[:, j]), initial=0.0) > RANK_TOLERANCE * j_scale
+               or np.max(np.abs(Jc[:, j]), initial=0.0) > RANK_TOLERANCE * j_scale]
+    if len(coupled) < M.shape[0]:
+        return _Rows(M[np.ix_(coupled, coupled)], Jr[:, coupled], Jc[:, coupled], J_r[:, coupled],
+                     J_c[:, coupled], rho)
+    return _Rows(M, Jr, Jc, J_r, J_c, rho)
+
+
+@dataclass(frozen=True)
+class _Spectrum:
+    method: str  # "cholesky" (M positive definite) or "pencil"
+    eigenvalues: np.ndarray  # D's finite eigenvalues
+    massless: np.ndarray  # leading coefficients of the infinite ones (massless directions)
+    delassus: np.ndarray | None
+    problem: str | None = None  # why it is not analysable
+
+
+def _spectrum(rows: _Rows, m_scale: float, j_scale: float, d_scale: float) -> _Spectrum:
+    """The eigenvalues of D = J_r M^-1 J_c^T on the row space.
+
+    By Cholesky when M is positive definite, else as the generalised eigenvalues of the pencil
+    (M, J_r, J_c), with the leading coefficients of the infinite ones (massless directions).
+    """
+    M, Jr, Jc, rho = rows.M, rows.Jr, rows.Jc, rows.rho
+    n = M.shape[0]
+    m_eig, m_vec = np.linalg.eigh(M)
+    if m_eig[0] > RANK_TOLERANCE * m_eig[-1]:
+        factor = scipy.linalg.cho_factor(M)
+        eigenvalues = np.linalg.eigvals(Jr @ scipy.linalg.cho_solve(factor, Jc.T))
+        return _Spectrum("cholesky", eigenvalues, np.zeros(0),
+                         rows.J_r @ scipy.linalg.cho_solve(factor, rows.J_c.T))
+    A = np.block([[M / m_scale, -Jc.T / j_scale], [Jr / j_scale, np.zeros((rho, rho))]])
+    B = np.zeros_like(A)
+    B[n:, n:] = np.eye(rho)
+    (alpha, beta) = scipy.linalg.eig(A, B, right=False, homogeneous_eigvals=True)
+    if np.any((np.abs(alpha) <= FINITE_TOLERANCE) & (np.abs(beta) <= FINITE_TOLERANCE)):
+        return _Spectrum("pencil", np.zeros(0, dtype=complex), np.zeros(0), None,
+                         "the pencil (M, J_r, J_c) is singular: the mode's constraints do not determine "
+                         "the massless coordinates: not analysable")
+    finite = np.abs(beta) > FINITE_TOLERANCE * np.abs(alpha)
+    eigenvalues = alpha[finite] / beta[finite] * d_scale
+    infinite_count = rho - int(np.sum(finite))
+    if not infinite_count:
+        return _Spectrum("pencil", eigenvalues, np.zeros(0), None)
+    N = m_vec[:, m_eig <= RANK_TOLERANCE * m_eig[-1]]
+    lead = np.linalg.eigvals(Jr @ N @ N.T @ Jc.T)
+    lead = lead[np.abs(lead) > RANK_TOLERANCE * max(1.0, float(np.max(np.abs(lead), initial=0.0)))]
+    if lead.size != infinite_count:
+        return _Spectrum("pencil", np.sort_complex(eigenvalues), np.zeros(0), None,
+                         f"{infinite_count} eigenvalue(s) of D are infinite (massless directions) but their "
+                         f"limit has {lead.size} nonzero coefficient(s): not analysable")
+    return _Spectrum("pencil", eigenvalues, lead, None)
 
 
 def _fmt(values: Sequence[complex] | np.ndarray) -> str:
