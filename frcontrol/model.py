@@ -105,6 +105,62 @@ class RobotState:
     drift_tangent: np.ndarray
 
 
+def _check_planar_joints(urdf: str, joints: Sequence[tuple[str, str, np.ndarray]]) -> None:
+    """Revolute and continuous axes along z, prismatic axes in x-y, no other movable joint.
+
+    Raises:
+        RobotModelError: a joint that does not move in the plane.
+    """
+    for name, kind, axis in joints:
+        if kind in ("revolute", "continuous"):
+            if abs(abs(axis[2]) - 1.0) > PLANE_AXIS_TOLERANCE:
+                raise RobotModelError(urdf, f"joint {name!r}: a planar revolute axis is along z, got {axis}")
+        elif kind == "prismatic":
+            if abs(axis[2]) > PLANE_AXIS_TOLERANCE:
+                raise RobotModelError(urdf, f"joint {name!r}: a planar prismatic axis lies in x-y, "
+                                            f"got {axis}")
+        else:
+            raise RobotModelError(
+                urdf,
+                f"joint {name!r} of type {kind!r} is not planar: use revolute, continuous, "
+                "prismatic or fixed joints and a planar base",
+            )
+
+
+def _coordinate_maps(model: pin.Model, base: str, joint_names: Sequence[str]
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Minimal coordinates <-> Pinocchio (q, v).
+
+    One velocity per coordinate; continuous joints are (cos, sin) pairs in Pinocchio's q.
+
+    Returns:
+        (linear q sources, their Pinocchio q indices, continuous q sources, their first Pinocchio
+        q index, v_index: the Pinocchio velocity index of each coordinate).
+    """
+    n = (3 if base == "planar" else 0) + len(joint_names)
+    v_index = np.empty(n, dtype=int)
+    linear_q_src, linear_q_dst, unbounded_src, unbounded_dst = [], [], [], []
+    offset = 0
+    if base == "planar":
+        root_id = model.getJointId("root_joint")
+        idx_q, idx_v = model.joints[root_id].idx_q, model.joints[root_id].idx_v
+        v_index[:3] = idx_v + np.arange(3)
+        linear_q_src += [0, 1, 2]
+        linear_q_dst += [idx_q, idx_q + 1, idx_q + 2]
+        offset = 3
+    for i, name in enumerate(joint_names):
+        jm = model.joints[model.getJointId(name)]
+        v_index[offset + i] = jm.idx_v
+        if jm.nq == 2:
+            unbounded_src.append(offset + i)
+            unbounded_dst.append(jm.idx_q)
+        else:
+            linear_q_src.append(offset + i)
+            linear_q_dst.append(jm.idx_q)
+    as_int = [np.array(x, dtype=int) for x in (linear_q_src, linear_q_dst, unbounded_src, unbounded_dst)]
+    return as_int[0], as_int[1], as_int[2], as_int[3], v_index
+
+
 @dataclass(frozen=True)
 class PointKinematics:
     """Points fixed on links, at one state (:meth:`PlanarRobot.point_kinematics`).
@@ -151,23 +207,7 @@ class PlanarRobot:
             raise RobotModelError(str(urdf_path), f"base must be 'planar' or 'fixed', got {base!r}")
         self.base = base
         joints = [(j.name, j.kind, j.axis) for j in read_urdf(self.urdf_path).movable_joints]
-        for name, kind, axis in joints:
-            if kind in ("revolute", "continuous"):
-                if abs(abs(axis[2]) - 1.0) > PLANE_AXIS_TOLERANCE:
-                    raise RobotModelError(
-                        str(urdf_path), f"joint {name!r}: a planar revolute axis is along z, got {axis}"
-                    )
-            elif kind == "prismatic":
-                if abs(axis[2]) > PLANE_AXIS_TOLERANCE:
-                    raise RobotModelError(
-                        str(urdf_path), f"joint {name!r}: a planar prismatic axis lies in x-y, got {axis}"
-                    )
-            else:
-                raise RobotModelError(
-                    str(urdf_path),
-                    f"joint {name!r} of type {kind!r} is not planar: use revolute, continuous, "
-                    "prismatic or fixed joints and a planar base",
-                )
+        _check_planar_joints(str(urdf_path), joints)
         try:
             if base == "planar":
                 root = pin.JointModelComposite(3)
@@ -197,30 +237,8 @@ class PlanarRobot:
         n = len(self.coordinate_names)
         if model.nv != n:
             raise RobotModelError(str(urdf_path), f"expected {n} velocities, Pinocchio has {model.nv}")
-        v_index = np.empty(n, dtype=int)  # v_index[i]: Pinocchio velocity index of coordinate i
-        linear_q_src, linear_q_dst, unbounded_src, unbounded_dst = [], [], [], []
-        offset = 0
-        if base == "planar":
-            root_id = model.getJointId("root_joint")
-            idx_q, idx_v = model.joints[root_id].idx_q, model.joints[root_id].idx_v
-            v_index[:3] = idx_v + np.arange(3)
-            linear_q_src += [0, 1, 2]
-            linear_q_dst += [idx_q, idx_q + 1, idx_q + 2]
-            offset = 3
-        for i, name in enumerate(joint_names):
-            jid = model.getJointId(name)
-            jm = model.joints[jid]
-            v_index[offset + i] = jm.idx_v
-            if jm.nq == 2:
-                unbounded_src.append(offset + i)
-                unbounded_dst.append(jm.idx_q)
-            else:
-                linear_q_src.append(offset + i)
-                linear_q_dst.append(jm.idx_q)
-        self._q_linear_src = np.array(linear_q_src, dtype=int)
-        self._q_linear_dst = np.array(linear_q_dst, dtype=int)
-        self._q_unbounded_src = np.array(unbounded_src, dtype=int)
-        self._q_unbounded_dst = np.array(unbounded_dst, dtype=int)
+        maps = _coordinate_maps(model, base, joint_names)
+        self._q_linear_src, self._q_linear_dst, self._q_unbounded_src, self._q_unbounded_dst, v_index = maps
         self._identity_order = bool(np.array_equal(v_index, np.arange(n)))
         self._v_index = v_index
         # Pinocchio velocity vector from a minimal one: v_pin[v_index] = v.
