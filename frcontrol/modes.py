@@ -214,9 +214,6 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
     n, k = problem.n, problem.k
     nx = n + 2 * k
     jn, jt = problem.jacobian_normal, problem.jacobian_tangent
-    dn, dt = problem.drift_normal, problem.drift_tangent
-    tol = problem.velocity_tolerance
-
     eq_rows = [np.hstack([problem.mass_matrix, -jn.T, -jt.T])]
     eq_rhs = [-problem.bias]
     eq_input = [problem.input_map]
@@ -224,6 +221,46 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
     ineq_rhs: list[float] = []
     labels: list[str] = []
     motion: list[bool] = []
+    for i, letter in enumerate(mode):
+        rows = _contact_rows(problem, i, letter)
+        eq_rows.append(np.vstack(rows.pair))
+        eq_rhs.append(np.array(rows.pair_rhs))
+        eq_input.append(np.zeros((2, problem.m)))
+        ineq_rows += rows.inequalities
+        ineq_rhs += rows.inequality_rhs
+        labels += rows.labels
+        motion += rows.motion
+    G = np.vstack(ineq_rows) if ineq_rows else np.zeros((0, nx))
+    return ModeSystem(
+        mode=mode,
+        A=np.vstack(eq_rows),
+        B=np.vstack(eq_input),
+        c=np.concatenate(eq_rhs),
+        G=G,
+        g=np.array(ineq_rhs, dtype=float),
+        labels=tuple(labels),
+        motion=np.array(motion, dtype=bool),
+    )
+
+
+@dataclass
+class _ContactRows:
+    pair: list[np.ndarray]  # two equalities (the contact's mode law)
+    pair_rhs: list[float]
+    inequalities: list[np.ndarray]
+    inequality_rhs: list[float]
+    labels: list[str]
+    motion: list[bool]  # whether each inequality bounds a motion (an acceleration) or a force
+
+
+def _contact_rows(problem: ContactProblem, i: int, letter: str) -> _ContactRows:
+    """The rows contact ``i`` adds in mode ``letter`` over x = (dv, lam_N, lam_T)."""
+    n, k, tol = problem.n, problem.k, problem.velocity_tolerance
+    nx = n + 2 * k
+    jn, jt, dn, dt = (problem.jacobian_normal[i], problem.jacobian_tangent[i], problem.drift_normal[i],
+                      problem.drift_tangent[i])
+    name, mu = problem.contacts[i], problem.mu[i]
+    i_n, i_t = n + i, n + k + i
 
     def unit(index: int) -> np.ndarray:
         row = np.zeros(nx)
@@ -235,66 +272,46 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
         row[:n] = jac_row
         return row
 
-    for i, letter in enumerate(mode):
-        name, mu = problem.contacts[i], problem.mu[i]
-        i_n, i_t = n + i, n + k + i
-        if letter == "S":
-            pair = [unit(i_n), unit(i_t)]
-            pair_rhs = [0.0, 0.0]
-            if abs(problem.normal_velocities[i]) <= tol:
-                ineq_rows.append(-accel_row(jn[i]))  # a_N >= 0
-                ineq_rhs.append(dn[i])
-                labels.append(f"{name}: a_N >= 0")
-                motion.append(True)
-        else:
-            normal = accel_row(jn[i])  # a_N = 0
-            if letter == "F":
-                pair = [normal, accel_row(jt[i])]
-                pair_rhs = [-dn[i], -dt[i]]
-            else:
-                sign = 1.0 if letter == "R" else -1.0  # R: lam_T = -mu lam_N; L: lam_T = +mu lam_N
-                friction = unit(i_t)
-                friction[i_n] = sign * mu
-                pair = [normal, friction]
-                pair_rhs = [-dn[i], 0.0]
-            # lam_N >= 0; for a sliding contact measured as the friction force it implies,
-            # -max(1, mu) lam_N <= 0 (the same half-space): with mu ~ 1e9 the plain row, after the
-            # response is substituted, has coefficients of order 1/mu and would read as a constant
-            ineq_rows.append(-(1.0 if letter == "F" else max(1.0, mu)) * unit(i_n))
-            ineq_rhs.append(0.0)
-            labels.append(f"{name}: lam_N >= 0")
-            motion.append(False)
-            if letter == "F":
-                cone_hi = unit(i_t)
-                cone_hi[i_n] = -mu
-                cone_lo = -unit(i_t)
-                cone_lo[i_n] = -mu
-                ineq_rows += [cone_hi, cone_lo]
-                ineq_rhs += [0.0, 0.0]
-                labels += [f"{name}: lam_T <= mu lam_N", f"{name}: -lam_T <= mu lam_N"]
-                motion += [False, False]
-            elif abs(problem.tangential_velocities[i]) <= tol:
-                sign = 1.0 if letter == "R" else -1.0  # R: a_T >= 0; L: a_T <= 0
-                ineq_rows.append(-sign * accel_row(jt[i]))
-                ineq_rhs.append(sign * dt[i])
-                labels.append(f"{name}: a_T {'>=' if letter == 'R' else '<='} 0")
-                motion.append(True)
-        eq_rows.append(np.vstack(pair))
-        eq_rhs.append(np.array(pair_rhs))
-        eq_input.append(np.zeros((2, problem.m)))
-
-    A = np.vstack(eq_rows)
-    G = np.vstack(ineq_rows) if ineq_rows else np.zeros((0, nx))
-    return ModeSystem(
-        mode=mode,
-        A=A,
-        B=np.vstack(eq_input),
-        c=np.concatenate(eq_rhs),
-        G=G,
-        g=np.array(ineq_rhs, dtype=float),
-        labels=tuple(labels),
-        motion=np.array(motion, dtype=bool),
-    )
+    out = _ContactRows([], [], [], [], [], [])
+    if letter == "S":
+        out.pair, out.pair_rhs = [unit(i_n), unit(i_t)], [0.0, 0.0]
+        if abs(problem.normal_velocities[i]) <= tol:
+            out.inequalities.append(-accel_row(jn))  # a_N >= 0
+            out.inequality_rhs.append(dn)
+            out.labels.append(f"{name}: a_N >= 0")
+            out.motion.append(True)
+        return out
+    normal = accel_row(jn)  # a_N = 0
+    if letter == "F":
+        out.pair, out.pair_rhs = [normal, accel_row(jt)], [-dn, -dt]
+    else:
+        sign = 1.0 if letter == "R" else -1.0  # R: lam_T = -mu lam_N; L: lam_T = +mu lam_N
+        friction = unit(i_t)
+        friction[i_n] = sign * mu
+        out.pair, out.pair_rhs = [normal, friction], [-dn, 0.0]
+    # lam_N >= 0; for a sliding contact measured as the friction force it implies,
+    # -max(1, mu) lam_N <= 0 (the same half-space): with mu ~ 1e9 the plain row, after the
+    # response is substituted, has coefficients of order 1/mu and would read as a constant
+    out.inequalities.append(-(1.0 if letter == "F" else max(1.0, mu)) * unit(i_n))
+    out.inequality_rhs.append(0.0)
+    out.labels.append(f"{name}: lam_N >= 0")
+    out.motion.append(False)
+    if letter == "F":
+        cone_hi = unit(i_t)
+        cone_hi[i_n] = -mu
+        cone_lo = -unit(i_t)
+        cone_lo[i_n] = -mu
+        out.inequalities += [cone_hi, cone_lo]
+        out.inequality_rhs += [0.0, 0.0]
+        out.labels += [f"{name}: lam_T <= mu lam_N", f"{name}: -lam_T <= mu lam_N"]
+        out.motion += [False, False]
+    elif abs(problem.tangential_velocities[i]) <= tol:
+        sign = 1.0 if letter == "R" else -1.0  # R: a_T >= 0; L: a_T <= 0
+        out.inequalities.append(-sign * accel_row(jt))
+        out.inequality_rhs.append(sign * dt)
+        out.labels.append(f"{name}: a_T {'>=' if letter == 'R' else '<='} 0")
+        out.motion.append(True)
+    return out
 
 
 def mode_outputs(problem: ContactProblem, x: np.ndarray) -> dict[str, np.ndarray]:
