@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -413,34 +413,68 @@ def analyze(
     start = time.perf_counter()
     problem = scene if isinstance(scene, ContactProblem) else ContactProblem.from_scene(scene)
     timings["model"] = time.perf_counter() - start
-    allowed = problem.allowed_modes()
-    counts = {"freedom": 0, "infeasible": 0, "partial": 0, "evaluated": 0}
-    analyses: list[ModeAnalysis] = []
+    enumerator = _ModeEnumerator(problem, solver, rank_tolerance, prune_partial, progress, timings)
+    enumerator.grow("")
+    counts, analyses = enumerator.counts, enumerator.analyses
+    feasible = [a for a in analyses if a.feasible]
+    enumeration = Enumeration(
+        total=4 ** problem.k, after_velocity=_subtree_size(enumerator.allowed, 0),
+        evaluated=counts["evaluated"],
+        feasible=len(feasible), pruned_freedom=counts["freedom"], pruned_infeasible=counts["infeasible"],
+        partial_checks=counts["partial"],
+    )
+    overlaps: list[Overlap] = []
+    if ambiguity:
+        t0 = time.perf_counter()
+        overlaps = _overlaps(feasible, solver)
+        timings["ambiguity"] = time.perf_counter() - t0
+    timings["total"] = time.perf_counter() - start
+    return DynamicResponse(
+        problem=problem, modes=tuple(analyses), enumeration=enumeration, overlaps=tuple(overlaps),
+        timings=timings, solver=solver,
+        tolerances={"rank": rank_tolerance, "domain": DOMAIN_TOLERANCE,
+                    "velocity": problem.velocity_tolerance},
+    )
 
-    def test(mode: str) -> tuple[str, ModeSystem, AffineSolution, poly.Polytope | None]:
+
+class _ModeEnumerator:
+    """The tree of modes: letters contact by contact, partial modes pruned, full ones analysed."""
+
+    def __init__(self, problem: ContactProblem, solver: str, rank_tolerance: float, prune_partial: bool,
+                 progress: Callable[[str], None] | None, timings: dict[str, float]) -> None:
+        self.problem, self.solver, self.rank_tolerance = problem, solver, rank_tolerance
+        self.prune_partial, self.progress, self.timings = prune_partial, progress, timings
+        self.allowed = problem.allowed_modes()
+        self.counts = {"freedom": 0, "infeasible": 0, "partial": 0, "evaluated": 0}
+        self.analyses: list[ModeAnalysis] = []
+
+    def test(self, mode: str) -> tuple[str, ModeSystem, AffineSolution, poly.Polytope | None]:
         """Build and solve a (partial) mode: 'ok', 'freedom' or 'infeasible'."""
         t0 = time.perf_counter()
-        system = build_mode_system(problem, mode)
-        response = solve_affine(system.A, system.B, system.c, rank_tolerance=rank_tolerance,
+        system = build_mode_system(self.problem, mode)
+        response = solve_affine(system.A, system.B, system.c, rank_tolerance=self.rank_tolerance,
                                 name=f"the system of mode {mode}")
         t1 = time.perf_counter()
-        timings["response"] += t1 - t0
+        self.timings["response"] += t1 - t0
         if not response.consistent:
             return "freedom", system, response, None
-        domain, motion = domain_polytope(problem, system, response)
-        verdict = motion_margin(domain.A, domain.b, motion, domain.A_eq, domain.b_eq, solver=solver).verdict
-        timings["feasibility"] += time.perf_counter() - t1
+        domain, motion = domain_polytope(self.problem, system, response)
+        verdict = motion_margin(domain.A, domain.b, motion, domain.A_eq, domain.b_eq,
+                                solver=self.solver).verdict
+        self.timings["feasibility"] += time.perf_counter() - t1
         return verdict, system, response, domain
 
-    def evaluate(mode: str) -> None:
-        counts["evaluated"] += 1
-        if progress is not None:
-            progress(mode)
-        verdict, system, response, domain = test(mode)
+    def evaluate(self, mode: str) -> None:
+        """Analyse a full mode: its response, domain, and whether its T_c has an interior."""
+        problem, solver, timings = self.problem, self.solver, self.timings
+        self.counts["evaluated"] += 1
+        if self.progress is not None:
+            self.progress(mode)
+        verdict, system, response, domain = self.test(mode)
         outputs = ambiguous_outputs(response, problem.n)
         if verdict != "ok" or domain is None:
-            counts[verdict] += 1
-            analyses.append(ModeAnalysis(
+            self.counts[verdict] += 1
+            self.analyses.append(ModeAnalysis(
                 mode=mode, system=system, response=response, ambiguous_outputs=outputs,
                 feasible=False, full_dimensional=False, chebyshev_radius=0.0, raw_domain=None,
                 inputs_full_dimensional=False, pruned=verdict, m=problem.m, solver=solver))
@@ -459,45 +493,25 @@ def analyze(
             t1 = time.perf_counter()
             input_ball = poly.chebyshev_ball(analysis.feasible_input_domain, solver=solver)
             timings["projection"] += time.perf_counter() - t1
-            object.__setattr__(analysis, "inputs_full_dimensional",
-                               bool(input_ball.found and input_ball.radius > DOMAIN_TOLERANCE))
-        analyses.append(analysis)
+            analysis = replace(analysis, inputs_full_dimensional=bool(
+                input_ball.found and input_ball.radius > DOMAIN_TOLERANCE))  # keeps the projection cached
+        self.analyses.append(analysis)
 
-    def grow(prefix: str) -> None:
+    def grow(self, prefix: str) -> None:
+        """Every mode below ``prefix``, depth first; a partial mode that fails prunes its subtree."""
         depth = len(prefix)
-        if depth == problem.k:
-            evaluate(prefix)
+        if depth == self.problem.k:
+            self.evaluate(prefix)
             return
-        for letter in allowed[depth]:
+        for letter in self.allowed[depth]:
             child = prefix + letter
-            if prune_partial and depth + 1 < problem.k:
-                counts["partial"] += 1
-                verdict = test(child)[0]
+            if self.prune_partial and depth + 1 < self.problem.k:
+                self.counts["partial"] += 1
+                verdict = self.test(child)[0]
                 if verdict != "ok":
-                    counts[verdict] += _subtree_size(allowed, depth + 1)
+                    self.counts[verdict] += _subtree_size(self.allowed, depth + 1)
                     continue
-            grow(child)
-
-    grow("")
-    after_velocity = _subtree_size(allowed, 0)
-    feasible = [a for a in analyses if a.feasible]
-    enumeration = Enumeration(
-        total=4 ** problem.k, after_velocity=after_velocity, evaluated=counts["evaluated"],
-        feasible=len(feasible), pruned_freedom=counts["freedom"], pruned_infeasible=counts["infeasible"],
-        partial_checks=counts["partial"],
-    )
-    overlaps: list[Overlap] = []
-    if ambiguity:
-        t0 = time.perf_counter()
-        overlaps = _overlaps(feasible, solver)
-        timings["ambiguity"] = time.perf_counter() - t0
-    timings["total"] = time.perf_counter() - start
-    return DynamicResponse(
-        problem=problem, modes=tuple(analyses), enumeration=enumeration, overlaps=tuple(overlaps),
-        timings=timings, solver=solver,
-        tolerances={"rank": rank_tolerance, "domain": DOMAIN_TOLERANCE,
-                    "velocity": problem.velocity_tolerance},
-    )
+            self.grow(child)
 
 
 def _input_rows(mode: ModeAnalysis) -> tuple[np.ndarray, np.ndarray, int]:
