@@ -375,7 +375,7 @@ def surface_lines(
 
 
 def surface_segments(
-    lines: Sequence[SurfaceLine], center: Sequence[float], half_length: float
+    lines: Sequence[SurfaceLine], center: ArrayLike, half_length: float
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """The part of each surface line to draw: a segment (start, end) [m] along its tangent.
 

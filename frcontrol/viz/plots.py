@@ -321,7 +321,6 @@ def plot_scene(
         InputError: ``q`` or ``contact_forces`` has the wrong shape or non-finite values.
         OutputFileError: the file cannot be written.
     """
-    PolygonPatch = _polygon_patch()
     robot = scene.robot
     n, k = len(scene.coordinate_names), len(scene.contacts)
     config = np.asarray(scene.q if q is None else q, dtype=float)
@@ -371,39 +370,9 @@ def plot_scene(
     lower, upper = lower - margin, upper + margin
     center = (lower + upper) / 2
 
-    # Surfaces: a line, hatched on the obstacle side, cut to the view.
-    reach = float(np.hypot(*(upper - lower)))
-    band = 0.03 * size
-    for line, (start, end) in zip(lines, surface_segments(lines, center, reach), strict=True):
-        behind = -band * line.normal
-        strip = np.array([start, end, end + behind, start + behind])
-        ax.add_patch(PolygonPatch(strip, closed=True, facecolor="none", edgecolor=SURFACE_COLOR,
-                                  hatch="////", linewidth=0.0, zorder=1))
-        ax.plot([start[0], end[0]], [start[1], end[1]], color=SURFACE_COLOR, linewidth=2.0, zorder=1.5)
-
-    for depth_rank, (_, outline, visual) in enumerate(sorted(shapes, key=lambda s: s[0])):
-        if len(outline) >= 3:
-            ax.add_patch(PolygonPatch(outline, closed=True, facecolor=rgba_hex(visual.rgba),
-                                      edgecolor="0.15", linewidth=0.6, alpha=max(0.3, visual.rgba[3]),
-                                      zorder=2 + 0.01 * depth_rank))
-        else:
-            ax.plot(outline[:, 0], outline[:, 1], color=rgba_hex(visual.rgba), zorder=2)
-
-    cone_length = 0.12 * size
-    for j, point in enumerate(points):
-        p = world[j]
-        if touching[j]:
-            e1, e2 = friction_cone_directions(point.normal_in_world, point.mu)
-            ax.add_patch(PolygonPatch(np.array([p, p + cone_length * e1, p + cone_length * e2]),
-                                      closed=True, facecolor=CONE_COLOR, edgecolor="#2171b5",
-                                      alpha=0.35, linewidth=0.8, zorder=3))
-            ax.plot(*p, marker="o", markersize=5, color=CONTACT_COLOR, markeredgecolor="0.2", zorder=5)
-        else:
-            ax.plot(*p, marker="o", markersize=5, markerfacecolor="none",
-                    markeredgecolor=INACTIVE_CONTACT_COLOR, zorder=5)
-        if labels:
-            ax.annotate(point.name, p, xytext=(4, -10), textcoords="offset points", fontsize=7,
-                        color="0.25", zorder=6)
+    _draw_surface_lines(ax, lines, center, float(np.hypot(*(upper - lower))), 0.03 * size)
+    _draw_link_outlines(ax, shapes)
+    _draw_contact_points(ax, points, world, touching, 0.12 * size, labels)
     if arrows is not None and force_scale:
         for j in range(k):
             if np.hypot(*arrows[j]) > 0:
@@ -421,6 +390,49 @@ def plot_scene(
     if path is not None:
         save_figure(ax.figure, path)
     return ax
+
+
+def _draw_surface_lines(ax: Any, lines: Sequence[Any], center: np.ndarray, reach: float, band: float) -> None:
+    """Each surface as a line, hatched on the obstacle side, cut to ``reach`` around ``center``."""
+    PolygonPatch = _polygon_patch()
+    for line, (start, end) in zip(lines, surface_segments(lines, center, reach), strict=True):
+        behind = -band * line.normal
+        strip = np.array([start, end, end + behind, start + behind])
+        ax.add_patch(PolygonPatch(strip, closed=True, facecolor="none", edgecolor=SURFACE_COLOR,
+                                  hatch="////", linewidth=0.0, zorder=1))
+        ax.plot([start[0], end[0]], [start[1], end[1]], color=SURFACE_COLOR, linewidth=2.0, zorder=1.5)
+
+
+def _draw_link_outlines(ax: Any, shapes: Sequence[tuple[float, np.ndarray, Any]]) -> None:
+    """Link visuals ``(front depth, outline, visual)``, the ones nearer the viewer on top."""
+    PolygonPatch = _polygon_patch()
+    for depth_rank, (_, outline, visual) in enumerate(sorted(shapes, key=lambda s: s[0])):
+        if len(outline) >= 3:
+            ax.add_patch(PolygonPatch(outline, closed=True, facecolor=rgba_hex(visual.rgba),
+                                      edgecolor="0.15", linewidth=0.6, alpha=max(0.3, visual.rgba[3]),
+                                      zorder=2 + 0.01 * depth_rank))
+        else:
+            ax.plot(outline[:, 0], outline[:, 1], color=rgba_hex(visual.rgba), zorder=2)
+
+
+def _draw_contact_points(ax: Any, points: Sequence[Any], world: np.ndarray, touching: np.ndarray,
+                         cone_length: float, labels: bool) -> None:
+    """Contact points (filled when touching, with their friction cone), and their names."""
+    PolygonPatch = _polygon_patch()
+    for j, point in enumerate(points):
+        p = world[j]
+        if touching[j]:
+            e1, e2 = friction_cone_directions(point.normal_in_world, point.mu)
+            ax.add_patch(PolygonPatch(np.array([p, p + cone_length * e1, p + cone_length * e2]),
+                                      closed=True, facecolor=CONE_COLOR, edgecolor="#2171b5",
+                                      alpha=0.35, linewidth=0.8, zorder=3))
+            ax.plot(*p, marker="o", markersize=5, color=CONTACT_COLOR, markeredgecolor="0.2", zorder=5)
+        else:
+            ax.plot(*p, marker="o", markersize=5, markerfacecolor="none",
+                    markeredgecolor=INACTIVE_CONTACT_COLOR, zorder=5)
+        if labels:
+            ax.annotate(point.name, p, xytext=(4, -10), textcoords="offset points", fontsize=7,
+                        color="0.25", zorder=6)
 
 
 # -------------------------------------------------------------------------------- polygons
