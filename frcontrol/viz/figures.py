@@ -351,7 +351,6 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
     from matplotlib.patches import Polygon
 
     from . import link_visuals, pose_matrix, visual_outline
-    from .plots import polygon_from_halfplanes
 
     body = report.body
     figure = _figure(figsize=(7.0, 6.4), layout="constrained")
@@ -394,29 +393,7 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
                     arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5}, zorder=6)
     sup = report.support
     if sup.feasible:
-        x0, x1 = max(sup.x_min, lo[0]), min(sup.x_max, hi[0])
-        open_ends = [side for side, value in (("left", sup.x_min), ("right", sup.x_max))
-                     if not math.isfinite(value)]
-        label = "support interval of the CoM's x" + (
-            f" (unbounded {' and '.join(open_ends)})" if open_ends else "")
-        ax.plot([x0, x1], [c[1], c[1]], color="#31a354", lw=6, alpha=0.45, solid_capstyle="butt",
-                zorder=2.5, label=label)
-        for side in open_ends:
-            end, step = (x0, -1.0) if side == "left" else (x1, 1.0)
-            ax.annotate("", (end, c[1]), (end - step * 0.06 * span, c[1]), zorder=2.5,
-                        arrowprops={"arrowstyle": "-|>", "color": "#31a354", "lw": 1.5})
-        if sup.lateral_acceleration != 0.0 and sup.region is not None:
-            window = (lo[0], hi[0], lo[1], hi[1])
-            region = polygon_from_halfplanes(sup.region.A, sup.region.b, window)
-            if len(region) >= 3:
-                edge = 1e-9 * span
-                on_window = np.zeros(len(region), dtype=bool)
-                for axis, bound in ((0, lo[0]), (0, hi[0]), (1, lo[1]), (1, hi[1])):
-                    on_window |= np.isclose(region[:, axis], bound, atol=edge)
-                cut = ", cut at the view" if np.any(on_window) else ""
-                label = f"support region, |a| <= {sup.lateral_acceleration:g} m/s$^2${cut}"
-                ax.add_patch(Polygon(region, closed=True, facecolor="none", edgecolor="#006d2c", hatch="..",
-                                     lw=1.5, zorder=1, label=label))
+        _draw_support(ax, sup, c, lo, hi, span)
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal", adjustable="box")
@@ -436,6 +413,41 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
     if path is not None:
         _save(figure, path)
     return figure
+
+
+def _draw_support(ax: Any, sup: Any, c: np.ndarray, lo: np.ndarray, hi: np.ndarray, span: float) -> None:
+    """The support interval and region of a statics report, cut at the view ``lo``..``hi``.
+
+    The interval of the CoM's x is a bar at the CoM's height (arrows where unbounded); the planar
+    region under a lateral acceleration is hatched, and its legend entry says when it is cut.
+    """
+    from matplotlib.patches import Polygon
+
+    from .plots import polygon_from_halfplanes
+
+    x0, x1 = max(sup.x_min, lo[0]), min(sup.x_max, hi[0])
+    open_ends = [side for side, value in (("left", sup.x_min), ("right", sup.x_max))
+                 if not math.isfinite(value)]
+    label = "support interval of the CoM's x" + (
+        f" (unbounded {' and '.join(open_ends)})" if open_ends else "")
+    ax.plot([x0, x1], [c[1], c[1]], color="#31a354", lw=6, alpha=0.45, solid_capstyle="butt",
+            zorder=2.5, label=label)
+    for side in open_ends:
+        end, step = (x0, -1.0) if side == "left" else (x1, 1.0)
+        ax.annotate("", (end, c[1]), (end - step * 0.06 * span, c[1]), zorder=2.5,
+                    arrowprops={"arrowstyle": "-|>", "color": "#31a354", "lw": 1.5})
+    if sup.lateral_acceleration != 0.0 and sup.region is not None:
+        window = (lo[0], hi[0], lo[1], hi[1])
+        region = polygon_from_halfplanes(sup.region.A, sup.region.b, window)
+        if len(region) >= 3:
+            edge = 1e-9 * span
+            on_window = np.zeros(len(region), dtype=bool)
+            for axis, bound in ((0, lo[0]), (0, hi[0]), (1, lo[1]), (1, hi[1])):
+                on_window |= np.isclose(region[:, axis], bound, atol=edge)
+            cut = ", cut at the view" if np.any(on_window) else ""
+            label = f"support region, |a| <= {sup.lateral_acceleration:g} m/s$^2${cut}"
+            ax.add_patch(Polygon(region, closed=True, facecolor="none", edgecolor="#006d2c", hatch="..",
+                                 lw=1.5, zorder=1, label=label))
 
 
 def _yes(flag: bool | None) -> str:
