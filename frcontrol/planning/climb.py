@@ -816,10 +816,10 @@ def build_climb(
         timings["build"] = time.perf_counter() - t0
         defaults: dict[str, Any] = {
             "pieces": (), "box": (base.lower[m_u:], base.upper[m_u:]), "scale_bound": -1.0,
-                    "scale_capped": False, "systems": (), "analysis": None, "obstacle": None,
-                    "domain_rows": (np.zeros((0, base.m)), np.zeros(0)), "head_row": (np.zeros(base.m), 0.0),
-                    "head_sideways_row": (np.zeros(base.m), 0.0),
-                    "free_coordinates": (), "free_rows": (np.zeros((0, base.m)), np.zeros(0))}
+            "scale_capped": False, "systems": (), "analysis": None, "obstacle": None,
+            "domain_rows": (np.zeros((0, base.m)), np.zeros(0)), "head_row": (np.zeros(base.m), 0.0),
+            "head_sideways_row": (np.zeros(base.m), 0.0),
+            "free_coordinates": (), "free_rows": (np.zeros((0, base.m)), np.zeros(0))}
         defaults.update(kw)
         return ClimbProblem(scene=scene, task=task, disturbances=dist, mode=mode, m_u=m_u,
                             margin=float(margin), min_head_acceleration=a_min, solver=solver,
@@ -840,6 +840,38 @@ def build_climb(
             f"{response.E.shape[0]} consistency condition(s): the brace's squeeze is not set by the "
             "torques (fewer brace coordinates than brace rows), so no torque can certify it for every "
             "squeeze; give the brace at least as many coordinates as contact rows (METHOD §6)"))
+    common = _brace_rows(scene, base, system, response, task, m_u)
+    timings["rows"] = time.perf_counter() - t0
+    (H, h), (c, c0), sideways = common["domain_rows"], common["head_row"], common["head_sideways_row"]
+    t1 = time.perf_counter()
+    s_bound, capped = _scale_bound((H, h), (c, c0), sideways, points, m_u, margin, a_min, solver)
+    timings["scale_bound"] = time.perf_counter() - t1
+    if s_bound < 0:
+        return result(**common, scale_bound=-1.0, obstacle=(
+            f"no torques within the limits keep mode {mode} with margin {margin:g} and the head "
+            f"accelerating upward at >= {a_min:g} m/s^2, even without disturbance: widen the torque "
+            "limits, lower min_head_acceleration or the margin"))
+
+    t1 = time.perf_counter()
+    boxed, analysis, pieces, obstacle, (lower, upper) = _lifted_analysis(scene, dist, s_bound, margin, mode,
+                                                                         solver)
+    timings["analysis"] = time.perf_counter() - t1
+    t1 = time.perf_counter()
+    systems = _mode_systems(boxed)
+    timings["mode_systems"] = time.perf_counter() - t1
+    return result(**common, problem=boxed, pieces=tuple(pieces), box=(lower, upper), scale_bound=s_bound,
+                  scale_capped=capped, systems=systems, analysis=analysis, obstacle=obstacle)
+
+
+def _brace_rows(scene: Scene, base: ContactProblem, system: ModeSystem, response: AffineSolution,
+                task: ClimbTask, m_u: int) -> dict[str, Any]:
+    """The brace mode's rows over the torques and disturbances, and the head's acceleration rows.
+
+    Returns:
+        ``domain_rows`` (H, h): the mode's inequalities and the torque limits; ``head_row`` and
+        ``head_sideways_row`` (c, c0): the head's vertical and horizontal acceleration
+        ``c z + c0``; ``free_rows`` and ``free_coordinates``: coordinates no brace row involves.
+    """
     n = base.n
     G = system.G
     C, d = base.input_bound_rows()
@@ -853,28 +885,25 @@ def build_climb(
     sideways = (jac[0] @ response.X_u[:n], float(jac[0] @ response.x_0[:n] + drift[0]))
     brace_rows = np.abs(np.vstack([base.jacobian_normal, base.jacobian_tangent]))
     free = np.nonzero(np.all(brace_rows <= 1e-12 * max(1.0, float(brace_rows.max())), axis=0))[0]
-    free_rows = (response.X_u[free], response.x_0[free])
-    timings["rows"] = time.perf_counter() - t0
+    return {"domain_rows": (H, h), "head_row": (c, c0), "head_sideways_row": sideways,
+            "free_rows": (response.X_u[free], response.x_0[free]),
+            "free_coordinates": tuple(base.coordinates[i] for i in free)}
 
-    t1 = time.perf_counter()
-    s_bound, capped = _scale_bound((H, h), (c, c0), sideways, points, m_u, margin, a_min, solver)
-    timings["scale_bound"] = time.perf_counter() - t1
-    common = {"domain_rows": (H, h), "head_row": (c, c0), "head_sideways_row": sideways,
-              "free_rows": free_rows,
-              "free_coordinates": tuple(base.coordinates[i] for i in free)}
-    if s_bound < 0:
-        return result(**common, scale_bound=-1.0, obstacle=(
-            f"no torques within the limits keep mode {mode} with margin {margin:g} and the head "
-            f"accelerating upward at >= {a_min:g} m/s^2, even without disturbance: widen the torque "
-            "limits, lower min_head_acceleration or the margin"))
 
-    # The lifted analysis, in a box holding every s P the bisection visits.
+def _lifted_analysis(scene: Scene, dist: DisturbanceSet, s_bound: float, margin: float, mode: str,
+                     solver: str) -> tuple[ContactProblem, DynamicResponse, tuple[Polytope, ...], str | None,
+                                       tuple[np.ndarray, np.ndarray]]:
+    """The analysis over (torques, disturbances), in a box holding every s P the bisection visits.
+
+    Returns:
+        (the boxed problem, its analysis, the brace mode's unambiguous pieces, why there is no
+        plan or None, the box (lower, upper)).
+    """
     extent = dist.upper - dist.lower
     pad = ANALYSIS_BOX_GROWTH * max(s_bound, 1.0) * extent + margin + DOMAIN_TOLERANCE * 10
     lower = np.minimum(0.0, s_bound * dist.lower) - pad
     upper = np.maximum(0.0, s_bound * dist.upper) + pad
     boxed = augmented_problem(scene, dist, lower, upper)
-    t1 = time.perf_counter()
     analysis = analyze(boxed, solver=solver)
     pieces: tuple[Polytope, ...] = ()
     obstacle = None
@@ -888,12 +917,7 @@ def build_climb(
         pieces = analysis.unambiguous_set(mode)
         if not pieces:
             obstacle = f"mode {mode} has no unambiguous inputs: other modes cover its whole domain"
-    timings["analysis"] = time.perf_counter() - t1
-    t1 = time.perf_counter()
-    systems = _mode_systems(boxed)
-    timings["mode_systems"] = time.perf_counter() - t1
-    return result(**common, problem=boxed, pieces=tuple(pieces), box=(lower, upper), scale_bound=s_bound,
-                  scale_capped=capped, systems=systems, analysis=analysis, obstacle=obstacle)
+    return boxed, analysis, tuple(pieces), obstacle, (lower, upper)
 
 
 # ============================================================================ the LPs
