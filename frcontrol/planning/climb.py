@@ -1309,27 +1309,10 @@ def plan_climb(
 
     # Bisection on the scale in [0, s_bound].
     t0 = time.perf_counter()
-    steps: list[tuple[float, bool]] = []
-    top = check_scale(cp, cp.scale_bound)
-    steps.append((cp.scale_bound, top.robust))
-    if top.robust:
-        lo, hi, u_lo = cp.scale_bound, cp.scale_bound, top.torques
-    else:
-        bottom = check_scale(cp, 0.0)
-        steps.append((0.0, bottom.robust))
-        if not bottom.robust:
-            return failure(f"no torques keep mode {cp.mode} unambiguous with margin {cp.margin:g} even at "
-                           "the zero disturbance (another mode holds there)", steps)
-        lo, hi, u_lo = 0.0, cp.scale_bound, bottom.torques
-        width = scale_tolerance * max(cp.scale_bound, 1e-12)
-        while hi - lo > width:
-            mid = 0.5 * (lo + hi)
-            step = check_scale(cp, mid)
-            steps.append((mid, step.robust))
-            if step.robust:
-                lo, u_lo = mid, step.torques
-            else:
-                hi = mid
+    lo, hi, u_lo, steps = _bisect_scale(cp, scale_tolerance)
+    if u_lo is None:
+        return failure(f"no torques keep mode {cp.mode} unambiguous with margin {cp.margin:g} even at "
+                       "the zero disturbance (another mode holds there)", steps)
     timings["bisection"] = time.perf_counter() - t0
 
     # The plan at the nominal scale (or the largest feasible one).
@@ -1369,6 +1352,36 @@ def plan_climb(
         min_head_acceleration=cp.min_head_acceleration, exclusions=check["exclusions"],
         pieces=len(cp.pieces), piece=index, bisection=tuple(steps), disturbances=cp.disturbances,
         decimals=decimals, reason=reason, timings=timings, tolerances=tolerances, solver=solver, problem=cp)
+
+
+def _bisect_scale(cp: ClimbProblem, scale_tolerance: float
+                  ) -> tuple[float, float, np.ndarray | None, list[tuple[float, bool]]]:
+    """The largest robust disturbance scale in [0, s_bound], by bisection.
+
+    Returns:
+        (lo, hi): the bracket (lo robust); the torques at lo (None when not even the zero
+        disturbance is robust); every scale tried with its verdict.
+    """
+    steps: list[tuple[float, bool]] = []
+    top = check_scale(cp, cp.scale_bound)
+    steps.append((cp.scale_bound, top.robust))
+    if top.robust:
+        return cp.scale_bound, cp.scale_bound, top.torques, steps
+    bottom = check_scale(cp, 0.0)
+    steps.append((0.0, bottom.robust))
+    if not bottom.robust:
+        return 0.0, 0.0, None, steps
+    lo, hi, u_lo = 0.0, cp.scale_bound, bottom.torques
+    width = scale_tolerance * max(cp.scale_bound, 1e-12)
+    while hi - lo > width:
+        mid = 0.5 * (lo + hi)
+        step = check_scale(cp, mid)
+        steps.append((mid, step.robust))
+        if step.robust:
+            lo, u_lo = mid, step.torques
+        else:
+            hi = mid
+    return lo, hi, u_lo, steps
 
 
 # ============================================================================ simulation
