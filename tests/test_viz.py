@@ -446,6 +446,16 @@ def port_is_free(port: int) -> bool:
         return probe.connect_ex(("127.0.0.1", port)) != 0
 
 
+def stop_and_check_the_port(process: subprocess.Popen, port: int) -> None:
+    """SIGTERM ends a serving `frc` with exit 0, and no server is left behind on its port."""
+    process.send_signal(signal.SIGTERM)
+    assert process.wait(timeout=20) == 0
+    deadline = time.monotonic() + 10
+    while not port_is_free(port) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert port_is_free(port), f"a server was left behind on port {port}"
+
+
 def test_cli_view_serves_until_sigterm_then_stops_the_server(tmp_path):
     """As a user's script runs it: a real process, no terminal; SIGTERM ends it and its server."""
     port = free_port()
@@ -460,12 +470,7 @@ def test_cli_view_serves_until_sigterm_then_stops_the_server(tmp_path):
             assert response.status == 200
         time.sleep(0.5)
         assert process.poll() is None  # still serving
-        process.send_signal(signal.SIGTERM)
-        assert process.wait(timeout=20) == 0
-        deadline = time.monotonic() + 10
-        while not port_is_free(port) and time.monotonic() < deadline:
-            time.sleep(0.1)
-        assert port_is_free(port), f"a server was left behind on port {port}"
+        stop_and_check_the_port(process, port)
     finally:
         if process.poll() is None:
             process.kill()
@@ -532,12 +537,7 @@ def test_cli_view_watch_reloads_the_scene_and_survives_a_bad_edit(tmp_path, writ
         assert rod_x(probe.static_html()) == pytest.approx(0.25, abs=1e-12)  # the last good scene
         probe.window.zmq_socket.close(linger=0)
 
-        process.send_signal(signal.SIGTERM)
-        assert process.wait(timeout=20) == 0
-        deadline = time.monotonic() + 10
-        while not port_is_free(port) and time.monotonic() < deadline:
-            time.sleep(0.1)
-        assert port_is_free(port), f"a server was left behind on port {port}"
+        stop_and_check_the_port(process, port)
     finally:
         if process.poll() is None:
             process.kill()
