@@ -108,7 +108,7 @@ def simulate_command(
     """
     set_quiet(quiet)
     from frcontrol.simulation.compliant import simulate_compliant
-    from frcontrol.simulation.options import model_options
+    from frcontrol.simulation.model_table import model_options
     from frcontrol.simulation.rigid import simulate_rigid
 
     check_output_files(html=html, plot=plot, out=out)

@@ -14,7 +14,7 @@ from frcontrol.errors import CoordinateNotFound, IllConditioned, InputError, Sce
 from frcontrol.modes import ContactProblem
 from frcontrol.scene import load_scene
 from frcontrol.simulation.compliant import contact_forces, simulate_compliant
-from frcontrol.simulation.options import model_options
+from frcontrol.simulation.model_table import model_options
 from frcontrol.simulation.rigid import simulate_rigid
 
 G = 9.81

@@ -1008,7 +1008,7 @@ def _armature(scene: Scene, armature: float | None) -> float:
         return float(armature)
     raw = scene.raw.get("model") if isinstance(scene.raw, Mapping) else None
     if isinstance(raw, Mapping) and "armature" in raw:
-        from ..simulation.options import model_options
+        from ..simulation.model_table import model_options
 
         return model_options(scene).armature
     return FLIP_ARMATURE
@@ -1072,7 +1072,7 @@ def simulate_flip(
     Raises:
         InputError: a bad step, time, count or armature; see :func:`plan_flip`.
     """
-    from ..simulation.options import check_simulation_times
+    from ..simulation.inputs import check_simulation_times
     from ..simulation.rigid import RigidSettings, RigidStepper
 
     start = time.perf_counter()

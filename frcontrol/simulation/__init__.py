@@ -22,9 +22,9 @@ TRAJECTORY_FORMATS = (".npz", ".csv")
 _LAZY = {
     "simulate_compliant": ".compliant",
     "simulate_rigid": ".rigid",
-    "ContactParameters": ".options",
-    "ModelOptions": ".options",
-    "model_options": ".options",
+    "ContactParameters": ".model_table",
+    "ModelOptions": ".model_table",
+    "model_options": ".model_table",
     "sample_modes": ".export",
     "save_trajectory": ".export",
     "ContactEvent": ".trajectory",
@@ -57,7 +57,7 @@ def simulate(scene: Scene, inputs: Any = None, duration: float = 1.0, dt: float 
         The trajectory (its ``model`` says which model ran).
     """
     from .compliant import simulate_compliant
-    from .options import model_options
+    from .model_table import model_options
     from .rigid import simulate_rigid
 
     if model_options(scene).contact == "compliant":

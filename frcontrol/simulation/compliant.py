@@ -71,17 +71,9 @@ import scipy.linalg
 from ..errors import InputError
 from ..scene import Scene
 from . import INTEGRATORS
-from .options import (
-    Armature,
-    ContactParameters,
-    InputSchedule,
-    check_simulation_times,
-    input_schedule,
-    mass_factor,
-    massless_armature,
-    model_options,
-    potential_energy,
-)
+from .armature import Armature, mass_factor, massless_armature
+from .inputs import InputSchedule, check_simulation_times, input_schedule
+from .model_table import ContactParameters, model_options
 from .rigid import IMPACT_VELOCITY
 from .trajectory import ContactEvent, SimulationFailure, Trajectory
 from .validity import HINT as VALIDITY_HINT
@@ -612,7 +604,7 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
         points[j] = full.contact_points
         mass = arm.apply(full.mass_matrix)
         kinetic.append(0.5 * float(y[n:2 * n] @ mass @ y[n:2 * n]))
-        potential.append(potential_energy(scene, y[:n]))
+        potential.append(scene.robot.potential_energy(y[:n]))
         delta = np.maximum(0.0, -st.gaps)
         s = y[2 * n:]
         elastic.append(float(0.5 * np.sum(params.stiffness * delta**2)

@@ -43,7 +43,7 @@ changes the mechanical energy by ``-1/2 |v+ - v|_M^2 + p_T . J_T v+ - sum_i p_N,
 never positive except for the stabilisation term of penetrations, which is reported
 (``info["stabilization_work"]``).
 
-Massless links get a joint armature (see :mod:`frcontrol.simulation.options`).
+Massless links get a joint armature (see :mod:`frcontrol.simulation.armature`).
 
 Events (``Trajectory.events``): ``close`` / ``impact`` (a contact starts carrying force, with
 approach speed above ``impact_velocity`` for an impact), ``open``, ``stick``, ``slip``, and
@@ -71,17 +71,9 @@ from ..errors import FrcontrolError, InputError
 from ..lcp import ENUMERATION_MAX_SIZE, solve_lcp
 from ..modes import ContactProblem, contact_mode_letter
 from ..scene import Scene
-from .options import (
-    DEFAULT_ARMATURE,
-    Armature,
-    InputSchedule,
-    check_simulation_times,
-    input_schedule,
-    mass_factor,
-    massless_armature,
-    model_options,
-    potential_energy,
-)
+from .armature import DEFAULT_ARMATURE, Armature, mass_factor, massless_armature
+from .inputs import InputSchedule, check_simulation_times, input_schedule
+from .model_table import model_options
 from .trajectory import ContactEvent, SimulationFailure, Trajectory
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
@@ -246,7 +238,7 @@ def simulate_rigid(
         impact_velocity: [m/s] see :data:`IMPACT_VELOCITY`.
         slip_velocity_tolerance: [m/s] see :data:`SLIP_VELOCITY_TOLERANCE`.
         armature: rotor inertia for massless coordinates (default: the scene's ``[model]``
-            armature, else :data:`~frcontrol.simulation.options.DEFAULT_ARMATURE`).
+            armature, else :data:`~frcontrol.simulation.armature.DEFAULT_ARMATURE`).
         lcp_method: ``"lemke"`` or ``"enumerate"``.
         max_ambiguity_checks: at most this many :func:`~frcontrol.engine.solutions_at` calls
             (0: none).
@@ -368,7 +360,7 @@ class RigidStepper:
         """
         mass = self.armature.apply(self.state.mass_matrix)
         self._kinetic.append(0.5 * float(self.v @ mass @ self.v))
-        self._potential.append(potential_energy(self.scene, self.q))
+        self._potential.append(self.scene.robot.potential_energy(self.q))
         try:
             v_next, p_n, p_t, candidates = self._impulses(mass, u, h)
         except _StepFailure as err:
@@ -497,7 +489,7 @@ class RigidStepper:
         cfg, scene = self.settings, self.scene
         mass = self.armature.apply(self.state.mass_matrix)
         kinetic = np.array(self._kinetic + [0.5 * float(self.v @ mass @ self.v)])
-        potential = np.array(self._potential + [potential_energy(scene, self.q)])
+        potential = np.array(self._potential + [scene.robot.potential_energy(self.q)])
         us = self._us
         inputs_arr = np.vstack([us[0]] + us) if us else np.zeros((1, scene.inputs.count))
         energy = kinetic + potential
