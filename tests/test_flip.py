@@ -445,3 +445,24 @@ def test_cli_writes_the_html_and_the_plot(tmp_path):
     assert "meshcat" in page.lower() and len(page) > 100_000
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "mode RLL" in result.stdout and "hip torques" in result.stdout
+
+
+def test_build_flip_is_the_formulation_and_needs_no_solver(monkeypatch):
+    """build_flip assembles the task, the contact problem and the forced inputs with no LP: with
+    every LP back-end removed it still works, and the planner on its result plans as before."""
+    import frcontrol.solvers as door
+    from frcontrol.errors import SolverNotFound
+    from frcontrol.planning.flip import build_flip, plan_flip
+
+    scene = load_scene("rhex_flip")
+    with monkeypatch.context() as patch:
+        patch.setattr(door, "_LP_SOLVERS", {})
+        built = build_flip(scene)
+        with pytest.raises(SolverNotFound):
+            plan_flip(scene)  # the planner does need one: the removal is real
+    assert built.task.pitch == "theta" and set(built.body_contacts) <= set(built.task.body_contacts)
+    assert built.problem.inputs == tuple(i for k, i in enumerate(built.full.inputs) if k not in built.forced)
+    assert built.full.inputs == scene.inputs.coordinates
+    plan = plan_flip(scene)
+    assert plan.found and plan.planned_inputs == built.problem.inputs
+    assert plan.body_contacts == built.body_contacts

@@ -114,7 +114,9 @@ __all__ = [
     "FlipPiece",
     "FlipPlan",
     "FlipResult",
+    "FlipProblem",
     "FlipTask",
+    "build_flip",
     "flip_task",
     "margin_pieces",
     "maximise_pitch",
@@ -752,6 +754,45 @@ def _not_found(reason: str, **fields: Any) -> FlipPlan:
 # the plan
 
 
+@dataclass(frozen=True)
+class FlipProblem:
+    """The flip's formulation at a state, before any solver runs (:func:`build_flip`).
+
+    Attributes:
+        task: the scene's ``[task]`` (body contacts, pitch coordinate, vertical).
+        full: the contact problem with every input.
+        problem: the same with the structurally forced inputs fixed (the inputs to plan).
+        forced: index into ``full.inputs`` -> the value the rigid model forces it to (a massless
+            coordinate with no contact: 0).
+        body_contacts: the task's body contacts that are active at the state.
+    """
+
+    task: FlipTask
+    full: ContactProblem
+    problem: ContactProblem
+    forced: Mapping[int, float]
+    body_contacts: tuple[str, ...]
+
+
+def build_flip(scene: Scene, *, velocity_tolerance: float = VELOCITY_TOLERANCE,
+               problem: ContactProblem | None = None) -> FlipProblem:
+    """The flip's formulation: the task, the contact problem and the inputs the model forces.
+
+    No LP is solved: a test can check it without a solver back-end.
+
+    Raises:
+        SceneError: a bad ``[task]`` table. InputError: no inputs, or limits without interior.
+    """
+    _check_inputs(scene)
+    task = flip_task(scene)
+    full = problem if problem is not None else ContactProblem.from_scene(
+        scene, velocity_tolerance=velocity_tolerance)
+    forced = _structurally_forced(full)
+    planned = _fix_inputs(full, forced) if forced else full
+    return FlipProblem(task, full, planned, forced,
+                       tuple(c for c in planned.contacts if c in task.body_contacts))
+
+
 def plan_flip(
     scene: Scene,
     *,
@@ -800,15 +841,15 @@ def plan_flip(
         raise InputError(f"the margin must be a finite number >= 0 [N m], got {margin!r}")
     if not (isinstance(rounding, (int, float)) and math.isfinite(rounding) and rounding >= 0):
         raise InputError(f"the rounding must be a finite number >= 0 [N m], got {rounding!r}")
-    _check_inputs(scene)
-    task = flip_task(scene)
     timings = {"analysis": 0.0, "unambiguous_sets": 0.0, "lps": 0.0, "verification": 0.0}
     tolerances = {"rounding": rounding, "pitch": PITCH_TOLERANCE, "velocity": velocity_tolerance,
                   "interior": poly.INTERIOR_TOLERANCE, "input_limit": INPUT_LIMIT_TOLERANCE}
 
     t0 = time.perf_counter()
-    full, problem, forced, analysis = _planning_analysis(scene, analysis, problem, velocity_tolerance,
-                                                         solver)
+    built = build_flip(scene, velocity_tolerance=velocity_tolerance,
+                       problem=analysis.problem if analysis is not None else problem)
+    task = built.task
+    full, problem, forced, analysis = _planning_analysis(built, analysis, solver)
     timings["analysis"] = time.perf_counter() - t0
     forced_values = {full.inputs[i]: forced[i] for i in sorted(forced)}
     common = {"margin": float(margin), "rounding": rounding, "forced_inputs": forced_values,
@@ -877,23 +918,15 @@ def plan_flip(
     return plan
 
 
-def _planning_analysis(scene: Scene, analysis: DynamicResponse | None, problem: ContactProblem | None,
-                       velocity_tolerance: float, solver: str
+def _planning_analysis(built: FlipProblem, analysis: DynamicResponse | None, solver: str
                        ) -> tuple[ContactProblem, ContactProblem, dict[int, float], DynamicResponse | None]:
-    """The problem to plan on and its analysis, with the inputs the rigid model forces fixed.
+    """The problem to plan on and its analysis, with every input the rigid model forces fixed.
 
     Returns:
         (the full problem, the one without the forced inputs, forced input index -> value, its
         analysis or None when every input is forced).
     """
-    if analysis is not None:
-        full = analysis.problem
-    elif problem is not None:
-        full = problem
-    else:
-        full = ContactProblem.from_scene(scene, velocity_tolerance=velocity_tolerance)
-    forced = _structurally_forced(full)
-    planned = _fix_inputs(full, forced) if forced else full
+    full, planned, forced = built.full, built.problem, dict(built.forced)
     if forced:
         analysis = None
     if planned.m and analysis is None:
