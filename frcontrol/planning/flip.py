@@ -71,10 +71,28 @@ planner fixes such inputs at their forced value (moved into the bias, ``h - S_j^
 and plans over the others, and reports them (``forced_inputs``).
 
 **Closed loop.** :func:`simulate_flip` re-plans every ``replan_every`` steps at the simulated state
-(:meth:`Scene.at`) and applies the plan's rounded torques to the rigid time-stepping simulation
-(:func:`frcontrol.simulation.simulate_rigid`: contacts open and close, inelastic impacts) until the
-pitch passes vertical or ``max_time``. See there for the re-planning model and the definition of
-"body contact kept".
+(:meth:`Scene.at`) and applies the plan's rounded torques to one rigid time stepper
+(:class:`frcontrol.simulation.rigid.RigidStepper`: contacts open and close, inelastic impacts)
+until the pitch passes vertical or ``max_time``.
+
+*Re-planning model:* the scene at the simulated state (:meth:`Scene.at`) with the contacts
+within :data:`REPLAN_GAP_TOLERANCE` of their surface or loaded by the last step (a loaded
+contact's normal velocity taken as 0, see :func:`_replan`), velocities of at most
+:data:`REPLAN_VELOCITY_TOLERANCE` taken as zero, and any sign of pitch acceleration accepted.
+When no plan is made the torques are *held* (the reason is recorded in ``held``): at an impact
+(a contact moving into its surface: the acceleration-level model does not apply), or when no
+candidate or piece exists; inputs the model forces are set to their forced value.
+
+*Legs in the air:* the rigid model forces the torque of a massless leg without ground contact
+(or lifting off) to 0, and between plans the loop applies that at every step: an input on a
+massless coordinate whose contacts are all more than :data:`SEPARATION_GAP` off their surface
+gets 0. With its rotor inertia the leg then coasts at the speed it left the ground with, swings
+round and may touch down again (no swing controller is modelled).
+
+*Body contact kept:* every body contact that touches at the start (gap <= :data:`SEPARATION_GAP`)
+touches at every sample up to the first sample at or past vertical (or the end). A body contact
+that touches down later (the rear corner when the body falls back) does not count, but its
+touch-downs and separations are listed in ``body_events``.
 """
 
 from __future__ import annotations
@@ -1068,24 +1086,8 @@ def simulate_flip(
     task's vertical (``FlipTask.vertical``) or ``max_time``. The run is one trajectory, checked
     for validity like any rigid simulation (energy, warnings).
 
-    Re-planning model: the scene at the simulated state (:meth:`Scene.at`) with the contacts
-    within :data:`REPLAN_GAP_TOLERANCE` of their surface or loaded by the last step (a loaded
-    contact's normal velocity taken as 0, see :func:`_replan`), velocities of at most
-    :data:`REPLAN_VELOCITY_TOLERANCE` taken as zero, and any sign of pitch acceleration accepted.
-    When no plan is made the torques are *held* (the reason is recorded in ``held``): at an impact
-    (a contact moving into its surface: the acceleration-level model does not apply), or when no
-    candidate or piece exists; inputs the model forces are set to their forced value.
-
-    Legs in the air: the rigid model forces the torque of a massless leg without ground contact
-    (or lifting off) to 0, and between plans the loop applies that at every step: an input on a
-    massless coordinate whose contacts are all more than :data:`SEPARATION_GAP` off their surface
-    gets 0. With its rotor inertia the leg then coasts at the speed it left the ground with, swings
-    round and may touch down again (no swing controller is modelled).
-
-    Body contact kept: every body contact that touches at the start (gap <= :data:`SEPARATION_GAP`)
-    touches at every sample up to the first sample at or past vertical (or the end). A body contact
-    that touches down later (the rear corner when the body falls back) does not count, but its
-    touch-downs and separations are listed in ``body_events``.
+    The re-planning model, the legs in the air and "body contact kept" are defined in the
+    module's docstring (**Closed loop**).
 
     Args:
         scene: the scene (RHex on its back).
@@ -1106,7 +1108,6 @@ def simulate_flip(
         InputError: a bad step, time, count or armature; see :func:`plan_flip`.
     """
     from ..simulation.inputs import check_simulation_times
-    from ..simulation.rigid import RigidSettings, RigidStepper
 
     start = time.perf_counter()
     max_time, dt = check_simulation_times(max_time, dt)
@@ -1127,40 +1128,9 @@ def simulate_flip(
                           replans=0, held=(),
                           plans=(), modes=(), reason=first.reason, timings=timings, **common)
 
-    names = scene.inputs.coordinates
-    replan_scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
-    force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
-    legs = _massless_legs(scene)
-    command = first.input_vector(names)
-    plans: list[tuple[float, str | None, Mapping[str, float]]] = [(0.0, first.mode, dict(first.torques))]
-    held: list[tuple[float, str]] = []
-    stepper = RigidStepper(replan_scene, RigidSettings(max_ambiguity_checks=0), armature=arm)
-    replans = 0
-    crossed = False
-    step = 0
-    while stepper.t < max_time - 1e-12:
-        if step and step % replan_every == 0:
-            t1 = time.perf_counter()
-            loaded = stepper.last_forces[:, 0] > force_tolerance
-            command, mode, why = _replanned(replan_scene, stepper, loaded, margin, solver, command, names)
-            replans += 1
-            if why is not None:
-                held.append((stepper.t, why))
-            plans.append((stepper.t, mode, dict(zip(names, command.tolist(), strict=True))))
-            timings["replanning"] += time.perf_counter() - t1
-        t1 = time.perf_counter()
-        u = _free_legs_idle(scene, legs, command, stepper.q)
-        advanced = stepper.step(u, min(dt, max_time - stepper.t))
-        timings["simulation"] += time.perf_counter() - t1
-        step += 1
-        if progress is not None and (step % replan_every == 0 or not advanced):
-            progress(stepper.t, max_time)
-        if not advanced:
-            break
-        if stepper.q[task.pitch_index] >= task.vertical:
-            crossed = True
-            break
-
+    loop = _closed_loop(scene, first, task, dt=dt, max_time=max_time, replan_every=replan_every,
+                        margin=margin, armature=arm, solver=solver, progress=progress, timings=timings)
+    stepper, plans, held, replans, crossed = loop
     trajectory = stepper.trajectory(dt)
     trajectory = replace(trajectory, info={**trajectory.info, "source": "simulate_flip",
                                            "steps": len(trajectory.times) - 1})
@@ -1197,6 +1167,56 @@ def _time_to_vertical(trajectory: Trajectory, task: FlipTask) -> float:
     t_a, t_b = trajectory.times[end - 1], trajectory.times[end]
     p_a, p_b = pitch[end - 1], pitch[end]
     return float(t_a + (task.vertical - p_a) / (p_b - p_a) * (t_b - t_a))
+
+
+def _closed_loop(scene: Scene, first: FlipPlan, task: FlipTask, *, dt: float, max_time: float,
+                 replan_every: int, margin: float, armature: float, solver: str,
+                 progress: Callable[[float, float], None] | None, timings: dict[str, float]
+                 ) -> tuple[Any, list[tuple[float, str | None, Mapping[str, float]]], list[tuple[float, str]],
+                            int, bool]:
+    """Step the rigid model, re-planning every ``replan_every`` steps, until vertical or ``max_time``.
+
+    Returns:
+        (the stepper, the plans applied (time, mode, torques), the holds (time, why), the number of
+        re-plans, whether the pitch crossed vertical).
+    """
+    from ..simulation.rigid import RigidSettings, RigidStepper
+
+    arm = armature
+    names = scene.inputs.coordinates
+    replan_scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
+    force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
+    legs = _massless_legs(scene)
+    command = first.input_vector(names)
+    plans: list[tuple[float, str | None, Mapping[str, float]]] = [(0.0, first.mode, dict(first.torques))]
+    held: list[tuple[float, str]] = []
+    stepper = RigidStepper(replan_scene, RigidSettings(max_ambiguity_checks=0), armature=arm)
+    replans = 0
+    crossed = False
+    step = 0
+    while stepper.t < max_time - 1e-12:
+        if step and step % replan_every == 0:
+            t1 = time.perf_counter()
+            loaded = stepper.last_forces[:, 0] > force_tolerance
+            command, mode, why = _replanned(replan_scene, stepper, loaded, margin, solver, command, names)
+            replans += 1
+            if why is not None:
+                held.append((stepper.t, why))
+            plans.append((stepper.t, mode, dict(zip(names, command.tolist(), strict=True))))
+            timings["replanning"] += time.perf_counter() - t1
+        t1 = time.perf_counter()
+        u = _free_legs_idle(scene, legs, command, stepper.q)
+        advanced = stepper.step(u, min(dt, max_time - stepper.t))
+        timings["simulation"] += time.perf_counter() - t1
+        step += 1
+        if progress is not None and (step % replan_every == 0 or not advanced):
+            progress(stepper.t, max_time)
+        if not advanced:
+            break
+        if stepper.q[task.pitch_index] >= task.vertical:
+            crossed = True
+            break
+    return stepper, plans, held, replans, crossed
 
 
 def _replanned(replan_scene: Scene, stepper: Any, loaded: np.ndarray, margin: float, solver: str,
