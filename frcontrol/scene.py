@@ -32,6 +32,14 @@ from .errors import (
 )
 from .model import ContactPoint, PlanarRobot, RobotState
 from .scene_schema import SchemaProblem, apply_override, nearest, reference_problems, schema_problems
+from .scene_tables import (
+    DisturbanceTable,
+    ModelOptions,
+    TaskTable,
+    read_disturbances,
+    read_model,
+    read_task,
+)
 
 GAP_TOLERANCE = 1e-6
 """[m] A contact with gap <= this is active (touching); a gap < -this is a penetration error."""
@@ -107,7 +115,10 @@ class Scene:
         contacts: every contact of the file, in file order.
         inputs: the control inputs.
         gap_tolerance: [m] the activity tolerance used.
-        raw: the parsed TOML, for fields later layers read (``model``, ``disturbances``...).
+        raw: the parsed TOML, as read (after ``--set`` overrides).
+        model: the ``[model]`` table (defaults when absent).
+        task: the ``[task]`` table (empty when absent).
+        disturbances: the ``[[disturbances]]`` tables (none when absent).
     """
 
     path: Path
@@ -119,6 +130,9 @@ class Scene:
     inputs: Inputs
     gap_tolerance: float = GAP_TOLERANCE
     raw: Mapping[str, Any] = field(default_factory=dict)
+    model: ModelOptions = field(default_factory=ModelOptions)
+    task: TaskTable = field(default_factory=TaskTable)
+    disturbances: tuple[DisturbanceTable, ...] = ()
 
     @property
     def coordinate_names(self) -> tuple[str, ...]:
@@ -326,7 +340,11 @@ def load_scene(
     })
     if references:
         raise reader.fail(references[0].field, references[0].reason)
-    return Scene(scene_path, name, robot, q, v, tuple(contacts), inputs, tol, raw)
+    path_text = str(scene_path)
+    return Scene(scene_path, name, robot, q, v, tuple(contacts), inputs, tol, raw,
+                 model=read_model(path_text, raw.get("model"), [p.name for p in points]),
+                 task=read_task(path_text, raw.get("task")),
+                 disturbances=read_disturbances(path_text, raw.get("disturbances"), robot.link_names))
 
 
 def _read_model_settings(reader: _Reader, raw: Mapping[str, Any], gap_tolerance: float | None

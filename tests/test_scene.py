@@ -176,3 +176,28 @@ def test_scene_at_another_state_recomputes_activity():
                                [c.gap + 0.01 for c in scene.contacts], atol=1e-12)
     with pytest.raises(InputError, match="entries"):
         scene.at(np.zeros(3))
+
+
+def test_model_task_and_disturbances_are_typed_when_the_scene_is_loaded(write_scene):
+    """[model], [task] and [[disturbances]] are records on the scene, checked at load: a planner or
+    a simulator reads them, never the raw TOML."""
+    from frcontrol.errors import SceneError
+    from frcontrol.scene_tables import DisturbanceTable, ModelOptions, TaskTable
+
+    climb = load_scene("snake_climb")
+    assert isinstance(climb.task, TaskTable) and climb.task.head_link == "link8"
+    assert climb.task.head_point is not None and climb.task.head_point.shape == (2,)
+    assert all(isinstance(d, DisturbanceTable) and d.corners.shape[1] == 2 for d in climb.disturbances)
+    assert [d.name for d in climb.disturbances] == [t["name"] for t in climb.raw["disturbances"]]
+    flip = load_scene("rhex_flip")
+    assert flip.task.body_contacts == tuple(flip.raw["task"]["body_contacts"])
+    assert flip.disturbances == () and isinstance(flip.model, ModelOptions)
+    plain = load_scene("rod_on_table")
+    assert plain.task == TaskTable() and plain.model.contact == "rigid" and not plain.model.armature_given
+    with pytest.raises(SceneError) as bad_box:
+        load_scene(write_scene(rod_scene(disturbances=[
+            {"name": "push", "link": "rod", "point": [0.0, 0.0], "lower": [1.0, 0.0], "upper": [0.0, 1.0]}])))
+    assert bad_box.value.field == "disturbances[0].lower[0]"
+    with pytest.raises(SceneError) as bad_model:
+        load_scene(write_scene(rod_scene(model={"stiffness": -1.0})))
+    assert bad_model.value.field == "model.stiffness"

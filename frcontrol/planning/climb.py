@@ -140,7 +140,6 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -229,9 +228,6 @@ DEFAULT_DURATION = DEFAULT_CLIMB_DURATION
 
 DEFAULT_HOLD = 0.05
 """[s] How long each sampled disturbance is held in :func:`simulate_climb`."""
-
-_DISTURBANCE_KEYS = {"name", "link", "point", "lower", "upper", "vertices"}
-
 
 # ============================================================================ disturbances
 @dataclass(frozen=True)
@@ -344,27 +340,11 @@ def _polygon_rows(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     return np.array(rows), np.array(rhs), np.zeros((0, 2)), np.zeros(0)
 
 
-def _finite_pair(value: Any, path: Path, where: str) -> np.ndarray:
-    if not isinstance(value, list) or len(value) != 2:
-        raise SceneError(str(path), where, f"expected two numbers [fx, fy] or [x, y], got {value!r}")
-    out = []
-    for i, x in enumerate(value):
-        if isinstance(x, bool) or not isinstance(x, (int, float)):
-            raise SceneError(str(path), f"{where}[{i}]", f"expected a number, got {x!r}")
-        if math.isnan(x):
-            raise SceneError(str(path), f"{where}[{i}]", "got NaN; expected a finite number")
-        if math.isinf(x):
-            raise SceneError(str(path), f"{where}[{i}]", f"got {x}: the disturbance polytope would be "
-                             "unbounded; give finite bounds or vertices")
-        out.append(float(x))
-    return np.array(out)
-
-
 def load_disturbances(scene: Scene, *, required: bool = True) -> DisturbanceSet:
     """Read and validate the scene's ``[[disturbances]]`` tables (format: module docstring).
 
     Args:
-        scene: the loaded scene (its ``raw`` TOML holds the tables).
+        scene: the loaded scene (its ``disturbances``, read at load).
         required: raise if the scene has none (the climb needs a disturbance polytope).
 
     Raises:
@@ -373,70 +353,13 @@ def load_disturbances(scene: Scene, *, required: bool = True) -> DisturbanceSet:
             bounds and vertices, an empty polytope (``lower > upper``, no vertex), an unbounded
             one (infinite bound or vertex) or a NaN.
     """
-    path = scene.path
-    tables = scene.raw.get("disturbances")
-    if tables is None:
+    if not scene.disturbances:
         if required:
-            raise SceneError(str(path), "disturbances", "missing: the climb needs at least one "
+            raise SceneError(str(scene.path), "disturbances", "missing: the climb needs at least one "
                              "[[disturbances]] table (name, link, point, lower/upper or vertices)")
         return DisturbanceSet(())
-    if not isinstance(tables, list) or not tables:
-        raise SceneError(str(path), "disturbances", "expected a non-empty array of tables [[disturbances]]")
-    items: list[Disturbance] = []
-    seen: set[str] = set()
-    links = scene.robot.link_names
-    for i, table in enumerate(tables):
-        where = f"disturbances[{i}]"
-        if not isinstance(table, dict):
-            raise SceneError(str(path), where, f"expected a table, got {table!r}")
-        unknown = sorted(set(table) - _DISTURBANCE_KEYS)
-        if unknown:
-            raise SceneError(str(path), f"{where}.{unknown[0]}",
-                             f"unknown key; known keys: {', '.join(sorted(_DISTURBANCE_KEYS))}")
-        name = table.get("name")
-        if not isinstance(name, str) or not name:
-            raise SceneError(str(path), f"{where}.name", f"expected a non-empty string, got {name!r}")
-        if name in seen:
-            raise SceneError(str(path), f"{where}.name", f"duplicate disturbance name {name!r}")
-        seen.add(name)
-        link = table.get("link")
-        if not isinstance(link, str) or not link:
-            raise SceneError(str(path), f"{where}.link", f"expected a link name, got {link!r}")
-        if link not in links:
-            raise SceneError(str(path), f"{where}.link", str(FrameNotFound(link, links)))
-        if "point" not in table:
-            raise SceneError(str(path), f"{where}.point", "missing: the point of application [x, y] "
-                             "[m] in the link's frame")
-        point = _finite_pair(table["point"], path, f"{where}.point")
-        has_box = "lower" in table or "upper" in table
-        if has_box and "vertices" in table:
-            raise SceneError(str(path), f"{where}.vertices", "give either lower/upper (a box) or "
-                             "vertices (a polygon), not both")
-        if has_box:
-            for key in ("lower", "upper"):
-                if key not in table:
-                    raise SceneError(str(path), f"{where}.{key}", "missing: a box needs both lower and upper")
-            lower = _finite_pair(table["lower"], path, f"{where}.lower")
-            upper = _finite_pair(table["upper"], path, f"{where}.upper")
-            bad = np.nonzero(lower > upper)[0]
-            if bad.size:
-                j = int(bad[0])
-                raise SceneError(str(path), f"{where}.lower[{j}]", f"the disturbance polytope is empty: "
-                                 f"lower {lower[j]} exceeds upper {upper[j]}")
-            corners = np.array([[x, y] for x in (lower[0], upper[0]) for y in (lower[1], upper[1])])
-        elif "vertices" in table:
-            raw = table["vertices"]
-            if not isinstance(raw, list):
-                raise SceneError(str(path), f"{where}.vertices", f"expected a list of [fx, fy], got {raw!r}")
-            if not raw:
-                raise SceneError(str(path), f"{where}.vertices", "the disturbance polytope is empty: "
-                                 "give at least one vertex [fx, fy]")
-            corners = np.array([_finite_pair(v, path, f"{where}.vertices[{j}]") for j, v in enumerate(raw)])
-        else:
-            raise SceneError(str(path), where, "missing: the forces, as lower = [fx, fy] and upper = "
-                             "[fx, fy] (a box, [N]) or vertices = [[fx, fy], ...] (a polygon, [N])")
-        items.append(Disturbance(name, link, point, hull_from_points(corners)))
-    return DisturbanceSet(tuple(items))
+    return DisturbanceSet(tuple(Disturbance(d.name, d.link, d.point, hull_from_points(d.corners))
+                                for d in scene.disturbances))
 
 
 # ============================================================================ task
@@ -468,14 +391,10 @@ def load_climb_task(scene: Scene) -> ClimbTask:
             bad point or acceleration.
     """
     path = str(scene.path)
-    table = scene.raw.get("task", {})
-    if not isinstance(table, dict):
-        raise SceneError(path, "task", f"expected a table [task], got {table!r}")
+    task = scene.task
     active = tuple(c.name for c in scene.active_contacts)
     names = tuple(c.name for c in scene.contacts)
-    brace = table.get("brace_contacts", list(active))
-    if not isinstance(brace, list) or not all(isinstance(b, str) for b in brace):
-        raise SceneError(path, "task.brace_contacts", f"expected a list of contact names, got {brace!r}")
+    brace = list(task.brace_contacts) if task.brace_contacts is not None else list(active)
     for i, b in enumerate(brace):
         if b not in names:
             raise SceneError(path, f"task.brace_contacts[{i}]", f"unknown contact {b!r}; the contacts "
@@ -488,17 +407,16 @@ def load_climb_task(scene: Scene) -> ClimbTask:
                          f"({', '.join(active)}): the climb holds each in mode F; got {brace}")
     for key, what in (("head_link", "the link of the point that must rise"),
                       ("head_point", "that point [m] in the link's frame")):
-        if key not in table:
+        if getattr(task, key) is None:
             raise SceneError(path, f"task.{key}", f"missing: the climb needs [task] {key}, {what}")
     links = scene.robot.link_names
-    head_link = table["head_link"]
-    if not isinstance(head_link, str) or head_link not in links:
-        raise SceneError(path, "task.head_link", str(FrameNotFound(str(head_link), links)))
-    head_point = _finite_pair(table["head_point"], scene.path, "task.head_point")
-    a_min = table.get("min_head_acceleration", DEFAULT_MIN_HEAD_ACCELERATION)
-    if isinstance(a_min, bool) or not isinstance(a_min, (int, float)) or not math.isfinite(a_min):
-        raise SceneError(path, "task.min_head_acceleration",
-                         f"expected a finite number [m/s^2], got {a_min!r}")
+    head_link = str(task.head_link)
+    if head_link not in links:
+        raise SceneError(path, "task.head_link", str(FrameNotFound(head_link, links)))
+    head_point = task.head_point
+    assert head_point is not None  # checked above
+    a_min = (task.min_head_acceleration if task.min_head_acceleration is not None
+             else DEFAULT_MIN_HEAD_ACCELERATION)
     ordered = tuple(c for c in active if c in brace)
     return ClimbTask(ordered, head_link, head_point, float(a_min))
 

@@ -223,17 +223,15 @@ def flip_task(scene: Scene) -> FlipTask:
         SceneError: ``[task]`` or ``task.body_contacts`` is missing, or ``[task]`` is malformed,
             names an unknown contact or coordinate.
     """
-    raw = scene.raw.get("task", {}) if isinstance(scene.raw, Mapping) else {}
+    task = scene.task
     path = str(scene.path)
-    if not isinstance(raw, Mapping):
-        raise SceneError(path, "task", f"expected a table [task], got {raw!r}")
     names = [c.name for c in scene.contacts]
-    if "body_contacts" not in raw:
+    if task.body_contacts is None:
         raise SceneError(path, "task.body_contacts", "missing: the flip needs [task] body_contacts, "
                          f"the body's contacts (from {', '.join(names) or 'no contact'}), and "
                          "optionally pitch, the body's pitch coordinate")
-    body = raw["body_contacts"]
-    if not isinstance(body, list) or not all(isinstance(x, str) for x in body) or not body:
+    body = list(task.body_contacts)
+    if not body:
         raise SceneError(path, "task.body_contacts", f"expected a non-empty list of contact names "
                          f"from {names}, got {body!r}")
     for i, name in enumerate(body):
@@ -241,7 +239,7 @@ def flip_task(scene: Scene) -> FlipTask:
             raise SceneError(path, f"task.body_contacts[{i}]",
                              f"unknown contact {name!r}; the contacts are: {', '.join(names)}")
     chosen = set(body)
-    pitch = raw.get("pitch", "theta")
+    pitch = task.pitch if task.pitch is not None else "theta"
     coords = scene.coordinate_names
     if not isinstance(pitch, str) or pitch not in coords:
         raise SceneError(path, "task.pitch", f"expected a coordinate name from {list(coords)}, got {pitch!r}")
@@ -1057,11 +1055,8 @@ def _weight(scene: Scene) -> float:
 def _armature(scene: Scene, armature: float | None) -> float:
     if armature is not None:
         return float(armature)
-    raw = scene.raw.get("model") if isinstance(scene.raw, Mapping) else None
-    if isinstance(raw, Mapping) and "armature" in raw:
-        from ..simulation.model_table import model_options
-
-        return model_options(scene).armature
+    if scene.model.armature_given:
+        return scene.model.armature
     return FLIP_ARMATURE
 
 

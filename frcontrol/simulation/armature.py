@@ -20,9 +20,7 @@ import scipy.linalg
 
 from ..errors import IllConditioned, InputError
 from ..scene import Scene
-
-DEFAULT_ARMATURE = 1e-4
-"""[kg m^2 for revolute, kg for prismatic coordinates] Default rotor inertia for massless ones."""
+from ..scene_tables import DEFAULT_ARMATURE
 
 MASSLESS_TOLERANCE = 1e-9
 """[-] A coordinate whose diagonal of M is at most this times the largest diagonal is massless."""
