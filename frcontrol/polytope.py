@@ -389,19 +389,10 @@ def chebyshev_ball(P: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> Chebyshev
     if np.any(h[flat] < -CONTAINMENT_TOLERANCE * np.maximum(row_norms[flat], 1e-300)):
         return not_found
     G, h, g_norms = G[~flat], h[~flat], g_norms[~flat]
-    if k == 0 or G.shape[0] == 0:
+    if k == 0 or G.shape[0] == 0:  # a point, or the whole hull
         radius = 0.0 if k == 0 else CHEBYSHEV_RADIUS_CAP
-        return ChebyshevBall(
-            found=True,
-            center=hull.x0,
-            radius=radius,
-            full_dimensional=radius > INTERIOR_TOLERANCE,
-            affine_dimension=k,
-            capped=k > 0,
-            radius_cap=CHEBYSHEV_RADIUS_CAP,
-            tolerance=INTERIOR_TOLERANCE,
-            solver="",
-        )
+        return ChebyshevBall(True, hull.x0, radius, radius > INTERIOR_TOLERANCE, k, k > 0,
+                             CHEBYSHEV_RADIUS_CAP, INTERIOR_TOLERANCE, "")
     A_lp = np.hstack([G / g_norms[:, None], np.ones((G.shape[0], 1))])
     cost = np.zeros(k + 1)
     cost[-1] = -1.0
@@ -715,15 +706,8 @@ def minimal_representation(
     if kept is None:
         return Polytope.empty_set(d)
     if pairs:  # new equalities: start again with them
-        first = [i for i, _ in pairs]
-        paired = {i for pair in pairs for i in pair}
-        rest = [i for i in range(P.A.shape[0]) if i not in paired]
-        reduced = Polytope(
-            P.A[rest], P.b[rest], np.vstack([A_eq, P.A[first]]), np.concatenate([b_eq, P.b[first]])
-        )
-        return minimal_representation(
-            reduced, tolerance=tolerance, solver=solver, use_minrep=use_minrep
-        )
+        return minimal_representation(_slabs_as_equalities(P, A_eq, b_eq, pairs), tolerance=tolerance,
+                                      solver=solver, use_minrep=use_minrep)
     g_norms = np.linalg.norm(G[kept], axis=1)
     unit = np.ascontiguousarray(G[kept] / g_norms[:, None])
     offsets = np.ascontiguousarray(h[kept] / g_norms)
@@ -741,6 +725,15 @@ def minimal_representation(
     A_out[np.abs(A_out) < ZERO_TOLERANCE] = 0.0  # round-off of the change of coordinates
     b_out = offsets + A_out @ hull.x0
     return Polytope(A_out, b_out, A_eq, b_eq)
+
+
+def _slabs_as_equalities(P: Polytope, A_eq: np.ndarray, b_eq: np.ndarray,
+                         pairs: Sequence[tuple[int, int]]) -> Polytope:
+    """``P`` with each pair of opposite rows enclosing a thin slab replaced by one equality."""
+    first = [i for i, _ in pairs]
+    paired = {i for pair in pairs for i in pair}
+    rest = [i for i in range(P.A.shape[0]) if i not in paired]
+    return Polytope(P.A[rest], P.b[rest], np.vstack([A_eq, P.A[first]]), np.concatenate([b_eq, P.b[first]]))
 
 
 # ---------------------------------------------------------------------------------------------
