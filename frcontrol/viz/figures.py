@@ -122,6 +122,36 @@ def plot_flip_inputs(
     plot_polygons(sets, ax=ax, labels=[mode.mode for mode in full], box=box, alpha=0.25,
                   axis_labels=labels, legend=False, label_regions=False)
     region_labels = ax._frcontrol_region_labels
+    _draw_flat_overlapping_and_chosen(ax, plan, flat, axes, through, box, labels)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize="x-small", ncol=4)
+    ax.set_aspect("equal", adjustable="box")
+    ax.xaxis.set_major_locator(_locator())
+    ax.yaxis.set_major_locator(_locator())
+    status = (f"plan: {plan.mode}, pitch acceleration {plan.pitch_acceleration:.4g} rad/s$^2$"
+              if plan.found else f"no flip plan{f' (best: {plan.mode})' if plan.mode else ''}")
+    others = [k for k in range(m) if k not in axes]
+    sliced = ("; slice at " + ", ".join(f"{names[k]} = {through[k]:.4g}" for k in others)) if others else ""
+    ax.set_title(f"input domains T_c (hatched: two modes), margin {plan.margin:g} N m\n{status}{sliced}",
+                 fontsize="small")
+    # last: the layout is final, so labels are measured where they will be
+    place_labels(ax, region_labels, **REGION_LABEL_STYLE)
+    if path is not None:
+        _save(ax.figure, path)
+    return ax
+
+
+def _draw_flat_overlapping_and_chosen(ax: Any, plan: FlipPlan, flat: Sequence[Any], axes: tuple[int, int],
+                                      through: np.ndarray, box: tuple[float, float, float, float],
+                                      labels: tuple[str, str]) -> None:
+    """On the input space: flat T_c, overlaps, the chosen pieces, the plan, and their legend.
+
+    Flat T_c are thick grey, two modes' overlaps hatched, the chosen pieces outlined, the plan a
+    star; the legend also explains the white.
+    """
+    from .plots import plot_polygons
+
+    analysis = plan.analysis
+    assert analysis is not None  # checked by the caller
     if flat:
         plot_polygons([input_slice(mode.feasible_input_domain, axes, through) for mode in flat], ax=ax,
                       colors=["0.35"] * len(flat), box=box, alpha=0.0, axis_labels=labels)
@@ -148,21 +178,6 @@ def plot_flip_inputs(
     ax.fill([], [], facecolor="white", edgecolor="0.5", label=NO_MODE_LABEL)
     if chosen:
         ax.plot([], [], color="black", linewidth=1.2, label=f"pieces of {plan.mode} (unambiguous)")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize="x-small", ncol=4)
-    ax.set_aspect("equal", adjustable="box")
-    ax.xaxis.set_major_locator(_locator())
-    ax.yaxis.set_major_locator(_locator())
-    status = (f"plan: {plan.mode}, pitch acceleration {plan.pitch_acceleration:.4g} rad/s$^2$"
-              if plan.found else f"no flip plan{f' (best: {plan.mode})' if plan.mode else ''}")
-    others = [k for k in range(m) if k not in axes]
-    sliced = ("; slice at " + ", ".join(f"{names[k]} = {through[k]:.4g}" for k in others)) if others else ""
-    ax.set_title(f"input domains T_c (hatched: two modes), margin {plan.margin:g} N m\n{status}{sliced}",
-                 fontsize="small")
-    # last: the layout is final, so labels are measured where they will be
-    place_labels(ax, region_labels, **REGION_LABEL_STYLE)
-    if path is not None:
-        _save(ax.figure, path)
-    return ax
 
 
 def plot_flip_motion(result: FlipResult, axes: Sequence[Any]) -> None:
