@@ -265,6 +265,17 @@ def stability_of(
         roots = boundary_layer_roots(eigenvalues, stiffness, damping)
     complex_ones = [d for d in eigenvalues if abs(d.imag) > eig_tol and d.real > eig_tol]
     crit = max((critical_damping(d) for d in complex_ones), default=None)
+    suffix = _notes_suffix(indeterminate, decoupled, massless, notes)
+    common: dict[str, Any] = {
+        "rows": tuple(labels), "delassus": delassus, "indeterminate_modes": indeterminate,
+        "massless_eigenvalues": massless, "critical_damping": crit, "boundary_layer_roots": roots,
+        "method": method, "tolerances": tolerances}
+    return _verdict(mode, eigenvalues, massless, eig_tol, roots, complex_ones, crit, stiffness, damping,
+                    suffix, common)
+
+
+def _notes_suffix(indeterminate: int, decoupled: int, massless: np.ndarray, notes: Sequence[str]) -> str:
+    """What the verdict leaves out or assumes, as a suffix of its reason."""
     suffix = ""
     if indeterminate:
         suffix += (f"; statically indeterminate: {indeterminate} internal-force mode(s) (zero eigenvalues "
@@ -272,15 +283,18 @@ def stability_of(
     if decoupled:
         suffix += f"; {decoupled} free massless coordinate(s) left out (no held row involves them)"
     if massless.size:
-        suffix += f"; {massless.size} massless direction(s) (eigenvalue -> infinity) with leading " \
-                  f"coefficient(s) {_fmt(massless)}"
+        suffix += (f"; {massless.size} massless direction(s) (eigenvalue -> infinity) with leading "
+                   f"coefficient(s) {_fmt(massless)}")
     if notes:
         suffix += "; " + "; ".join(notes)
-    common: dict[str, Any] = {
-        "rows": tuple(labels), "delassus": delassus, "indeterminate_modes": indeterminate,
-              "massless_eigenvalues": massless, "critical_damping": crit, "boundary_layer_roots": roots,
-              "method": method, "tolerances": tolerances}
+    return suffix
 
+
+def _verdict(mode: str, eigenvalues: np.ndarray, massless: np.ndarray, eig_tol: float,
+             roots: np.ndarray | None, complex_ones: Sequence[complex], crit: float | None,
+             stiffness: float | None, damping: float | None, suffix: str, common: dict[str, Any]
+             ) -> Stability:
+    """Stable, unstable or not analysable, from D's spectrum (and the boundary layer's roots)."""
     negative = [d for d in eigenvalues if d.real < -eig_tol] + [c for c in massless if c.real < 0]
     if negative:
         return Stability(mode, False, eigenvalues,
