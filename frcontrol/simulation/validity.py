@@ -164,6 +164,43 @@ def _first(mask: np.ndarray) -> int | None:
     return int(hits[0]) if hits.size else None
 
 
+def _warnings(trajectory: Trajectory, limits: ValidityLimits, energy: np.ndarray, penetration: np.ndarray,
+              work: np.ndarray, excess: np.ndarray, allowed: np.ndarray, finite: np.ndarray,
+              end: int) -> list[SimulationWarning]:
+    """The first energy, penetration and speed violation before sample ``end``, in time order."""
+    times = trajectory.times
+    T = len(times)
+    warnings: list[SimulationWarning] = []
+
+    def warn(index: int | None, kind: str, detail: str) -> None:
+        if index is not None and index < end:
+            warnings.append(SimulationWarning(float(times[index]), kind, detail))
+
+    with np.errstate(invalid="ignore"):
+        i = _first((excess > allowed) & finite)
+    if i is not None and i < end:
+        warn(i, "energy", f"the energy rose {excess[i]:.4g} J beyond the inputs' work ({work[i]:.4g} J); "
+             f"tolerated {allowed[i]:.4g} J")
+    i = _first(penetration > limits.max_penetration)
+    if i is not None and i < end:
+        deepest = int(np.nanargmax(np.where(np.isfinite(penetration[:end]), penetration[:end], -np.inf)))
+        warn(i, "penetration", f"a contact sank {penetration[deepest] * 100:.3g} cm (at t = "
+             f"{times[deepest]:.4g} s), beyond {limits.max_penetration * 100:.3g} cm")
+    if T >= 2 and trajectory.contact_points.size:
+        step = np.diff(trajectory.contact_points, axis=0) / np.diff(times)[:, None, None]
+        speed = np.linalg.norm(step, axis=2)  # (T-1, k)
+        fastest = np.max(np.where(np.isfinite(speed), speed, 0.0), axis=1)
+        i = _first(fastest > limits.max_speed)
+        if i is not None and i + 1 < end:
+            top = int(np.argmax(fastest[: end - 1]))
+            contact = trajectory.contacts[int(np.argmax(speed[top]))]
+            warn(i + 1, "speed", f"contact {contact!r} moved at {fastest[top]:.4g} m/s (at t = "
+                 f"{times[top + 1]:.4g} s), beyond {limits.max_speed:.4g} m/s, {SPEED_FACTOR:g} x "
+                 f"the free-fall speed over the scene's {limits.length:.3g} m")
+    warnings.sort(key=lambda w: w.time)
+    return warnings
+
+
 def assess(
     scene: Scene,
     trajectory: Trajectory,
@@ -224,34 +261,7 @@ def assess(
         reason = "the state became NaN or infinite"
     end = T if bad is None else max(bad, 1)
 
-    warnings: list[SimulationWarning] = []
-
-    def warn(index: int | None, kind: str, detail: str) -> None:
-        if index is not None and index < end:
-            warnings.append(SimulationWarning(float(times[index]), kind, detail))
-
-    with np.errstate(invalid="ignore"):
-        i = _first((excess > allowed) & finite)
-    if i is not None and i < end:
-        warn(i, "energy", f"the energy rose {excess[i]:.4g} J beyond the inputs' work ({work[i]:.4g} J); "
-             f"tolerated {allowed[i]:.4g} J")
-    i = _first(penetration > limits.max_penetration)
-    if i is not None and i < end:
-        deepest = int(np.nanargmax(np.where(np.isfinite(penetration[:end]), penetration[:end], -np.inf)))
-        warn(i, "penetration", f"a contact sank {penetration[deepest] * 100:.3g} cm (at t = "
-             f"{times[deepest]:.4g} s), beyond {limits.max_penetration * 100:.3g} cm")
-    if T >= 2 and trajectory.contact_points.size:
-        step = np.diff(trajectory.contact_points, axis=0) / np.diff(times)[:, None, None]
-        speed = np.linalg.norm(step, axis=2)  # (T-1, k)
-        fastest = np.max(np.where(np.isfinite(speed), speed, 0.0), axis=1)
-        i = _first(fastest > limits.max_speed)
-        if i is not None and i + 1 < end:
-            top = int(np.argmax(fastest[: end - 1]))
-            contact = trajectory.contacts[int(np.argmax(speed[top]))]
-            warn(i + 1, "speed", f"contact {contact!r} moved at {fastest[top]:.4g} m/s (at t = "
-                 f"{times[top + 1]:.4g} s), beyond {limits.max_speed:.4g} m/s, {SPEED_FACTOR:g} x "
-                 f"the free-fall speed over the scene's {limits.length:.3g} m")
-    warnings.sort(key=lambda w: w.time)
+    warnings = _warnings(trajectory, limits, energy, penetration, work, excess, allowed, finite, end)
 
     if bad is None:
         return replace(trajectory, info=info, warnings=tuple(warnings))
