@@ -322,16 +322,7 @@ def plot_scene(
         OutputFileError: the file cannot be written.
     """
     robot = scene.robot
-    n, k = len(scene.coordinate_names), len(scene.contacts)
-    config = np.asarray(scene.q if q is None else q, dtype=float)
-    if config.shape != (n,) or not np.all(np.isfinite(config)):
-        raise InputError(f"q must be {n} finite numbers ({', '.join(scene.coordinate_names)}), "
-                         f"got shape {config.shape}")
-    forces = None
-    if contact_forces is not None:
-        forces = np.asarray(contact_forces, dtype=float)
-        if forces.shape != (k, 2) or not np.all(np.isfinite(forces)):
-            raise InputError(f"contact_forces must have shape ({k}, 2) and be finite, got {forces.shape}")
+    config, forces = _checked_state_and_forces(scene, q, contact_forces)
     if ax is None:
         figure = new_figure(figsize=(7.0, 5.0), layout="constrained")
         ax = figure.add_subplot()
@@ -341,15 +332,9 @@ def plot_scene(
     surfaces = np.array([p.surface_point_in_world for p in points]).reshape(-1, 2)
     touching = np.einsum("kj,kj->k", normals, world - surfaces) <= scene.gap_tolerance
 
-    poses = robot.link_poses(config)
-    shapes = []
-    for link, visuals in link_visuals(robot, points).items():
-        origin, angle = poses[link]
-        for visual in visuals:
-            outline = visual_outline(visual, pose_matrix(origin, angle))
-            shapes.append((visual_depth(visual)[1], outline, visual))
-    outlines = [s[1] for s in shapes] + [world]
+    shapes = _link_shapes(scene, config)
     lines = surface_lines(points)
+    outlines = [s[1] for s in shapes] + [world]
     outlines += [np.array([line.foot(p) for p in world]) for line in lines if len(world)]
     xy = np.vstack([o for o in outlines if len(o)]) if any(len(o) for o in outlines) else np.zeros((1, 2))
     lower, upper = xy.min(axis=0), xy.max(axis=0)
@@ -374,12 +359,7 @@ def plot_scene(
     _draw_link_outlines(ax, shapes)
     _draw_contact_points(ax, points, world, touching, 0.12 * size, labels)
     if arrows is not None and force_scale:
-        for j in range(k):
-            if np.hypot(*arrows[j]) > 0:
-                ax.annotate("", xy=world[j] + force_scale * arrows[j], xytext=world[j], zorder=4,
-                            arrowprops={"arrowstyle": "-|>", "color": FORCE_COLOR, "linewidth": 1.5})
-        ax.text(0.01, 0.01, f"forces: {force_scale:.3g} m/N", transform=ax.transAxes, fontsize=7,
-                color=FORCE_COLOR)
+        _draw_force_arrows(ax, world, arrows, force_scale)
 
     ax.set_xlim(lower[0], upper[0])
     ax.set_ylim(lower[1], upper[1])
@@ -390,6 +370,48 @@ def plot_scene(
     if path is not None:
         save_figure(ax.figure, path)
     return ax
+
+
+def _checked_state_and_forces(scene: Scene, q: Any, contact_forces: Any
+                              ) -> tuple[np.ndarray, np.ndarray | None]:
+    """The configuration (default: the scene's) and the contact forces, checked.
+
+    Raises:
+        InputError: ``q`` or ``contact_forces`` has the wrong shape or non-finite values.
+    """
+    n, k = len(scene.coordinate_names), len(scene.contacts)
+    config = np.asarray(scene.q if q is None else q, dtype=float)
+    if config.shape != (n,) or not np.all(np.isfinite(config)):
+        raise InputError(f"q must be {n} finite numbers ({', '.join(scene.coordinate_names)}), "
+                         f"got shape {config.shape}")
+    if contact_forces is None:
+        return config, None
+    forces = np.asarray(contact_forces, dtype=float)
+    if forces.shape != (k, 2) or not np.all(np.isfinite(forces)):
+        raise InputError(f"contact_forces must have shape ({k}, 2) and be finite, got {forces.shape}")
+    return config, forces
+
+
+def _link_shapes(scene: Scene, config: np.ndarray) -> list[tuple[float, np.ndarray, Any]]:
+    """Each link visual at ``config``: (its front depth, its outline in the plane, the visual)."""
+    poses = scene.robot.link_poses(config)
+    shapes = []
+    for link, visuals in link_visuals(scene.robot, [c.point for c in scene.contacts]).items():
+        origin, angle = poses[link]
+        for visual in visuals:
+            outline = visual_outline(visual, pose_matrix(origin, angle))
+            shapes.append((visual_depth(visual)[1], outline, visual))
+    return shapes
+
+
+def _draw_force_arrows(ax: Any, world: np.ndarray, arrows: np.ndarray, force_scale: float) -> None:
+    """Each contact force as an arrow from its point, ``force_scale`` [m/N], and the scale as text."""
+    for j in range(len(world)):
+        if np.hypot(*arrows[j]) > 0:
+            ax.annotate("", xy=world[j] + force_scale * arrows[j], xytext=world[j], zorder=4,
+                        arrowprops={"arrowstyle": "-|>", "color": FORCE_COLOR, "linewidth": 1.5})
+    ax.text(0.01, 0.01, f"forces: {force_scale:.3g} m/N", transform=ax.transAxes, fontsize=7,
+            color=FORCE_COLOR)
 
 
 def _draw_surface_lines(ax: Any, lines: Sequence[Any], center: np.ndarray, reach: float, band: float) -> None:
