@@ -40,7 +40,16 @@ LCP solution is named by its mode."""
 
 SAME_SOLUTION_TOLERANCE = 1e-8
 """[-] Two enumerated LCP solutions whose ``x = (dv, lambda)`` differ by at most this times
-``max(1, ||x||_inf)`` are one physical solution (listed once by :func:`all_contact_lcp_solutions`)."""
+``max(1, ||x||_inf)``, plus their cancellation round-off (:data:`CANCELLATION_ROUNDOFF`), are one
+physical solution (listed once by :func:`all_contact_lcp_solutions`)."""
+
+CANCELLATION_ROUNDOFF = 1e-13
+"""[-] Relative round-off of a cancelling friction split. An LCP solution may carry friction
+``lam_T = lam_T+ - lam_T-`` with both parts positive (then ``beta = a_T = 0``: it sticks, and the
+split is not unique). Up to ``lam_T+ + lam_T- = mu lam_N`` (at mu = 1e8, 1e9 N for a 9 N load), so
+``lam_T`` and ``x`` carry an absolute error of about ``eps * cond * min(lam_T+, lam_T-)``; this
+factor (about 500 machine epsilons) times the cancelled part bounds that error when two solutions
+are compared, and the solution with the smaller cancellation is the one kept."""
 
 
 @dataclass(frozen=True)
@@ -80,6 +89,16 @@ class ContactLCP:
         force = p.input_map @ self.u - p.bias + p.jacobian_normal.T @ lam_n + p.jacobian_tangent.T @ lam_t
         dv = scipy.linalg.cho_solve(self.factor, force)
         return np.concatenate([dv, lam_n, lam_t])
+
+    def cancelled(self, z: np.ndarray) -> float:
+        """[N] The largest friction that cancels in a sticking contact's split: ``min(lam_T+, lam_T-)``.
+
+        Zero for a canonical solution; see :data:`CANCELLATION_ROUNDOFF`.
+        """
+        nn, ns = len(self.sticking) + len(self.sliding), len(self.sticking)
+        if ns == 0:
+            return 0.0
+        return float(np.max(np.minimum(z[nn:nn + ns], z[nn + ns:nn + 2 * ns]).clip(min=0.0)))
 
 
 def build_contact_lcp(problem: ContactProblem, u: np.ndarray) -> ContactLCP:
@@ -188,20 +207,30 @@ def all_contact_lcp_solutions(problem: ContactProblem, u: np.ndarray) -> list[LC
     to ``max(1, ||x||_inf)``) are dropped.
     """
     lcp = build_contact_lcp(problem, u)
-    out: list[LCPContactSolution] = []
+    found = []
     for sol in enumerate_lcp_solutions(lcp.W, lcp.b):
-        assert sol.z is not None  # enumerated solutions are found ones
+        if sol.z is None:  # pragma: no cover - enumerated solutions are found ones
+            continue
         x = lcp.unknowns_from(sol.z)
+        found.append((lcp.cancelled(sol.z), x, sol))
+    found.sort(key=lambda item: item[0])  # stable: the most precise representative first
+    out: list[LCPContactSolution] = []
+    kept_cancelled: list[float] = []
+    for cancelled, x, sol in found:
         scale = SAME_SOLUTION_TOLERANCE * max(1.0, float(np.max(np.abs(x))) if x.size else 0.0)
-        if any(float(np.max(np.abs(x - kept.x), initial=0.0)) <= scale for kept in out):
+        if any(float(np.max(np.abs(x - kept.x), initial=0.0))
+               <= scale + CANCELLATION_ROUNDOFF * (cancelled + other)
+               for kept, other in zip(out, kept_cancelled, strict=True)):
             continue
         out.append(LCPContactSolution(classify(problem, x), x, sol))
+        kept_cancelled.append(cancelled)
     return out
 
 
 __all__ = [
     "all_contact_lcp_solutions",
     "build_contact_lcp",
+    "CANCELLATION_ROUNDOFF",
     "classify",
     "CLASSIFY_TOLERANCE",
     "ContactLCP",

@@ -456,3 +456,29 @@ def test_one_contact_mode_rule(args, letter):
     from frcontrol.modes import contact_mode_letter
 
     assert contact_mode_letter(*args) == letter
+
+
+def test_lcp_cancelling_friction_split_is_one_solution(write_scene):
+    """A sticking contact's split lam_T+ - lam_T- with both parts positive is the same solution.
+
+    It is an LCP solution too (then beta = a_T = 0), and at a huge mu its x differs from the
+    canonical one by round-off of the cancelled part only: listed once, under F.
+    """
+    contact = {"name": "tip", "link": "rod", "point": [-0.5, 0.0], "normal": [0.0, 1.0], "mu": 1e8}
+    scene = load_scene(write_scene(rod_scene(contacts=[contact])))
+    problem = ContactProblem.from_scene(scene)
+    u = np.zeros(problem.m)
+    from frcontrol.contact_lcp import build_contact_lcp
+    lcp = build_contact_lcp(problem, u)
+    canonical = solve_contact_lcp(problem, u)
+    z = canonical.lcp.z.copy()
+    ns = len(lcp.sticking)
+    nn = ns + len(lcp.sliding)
+    shift = 1e8  # the same friction, split as (lam_T+ + shift) - (lam_T- + shift)
+    z[nn:nn + ns] += shift
+    z[nn + ns:nn + 2 * ns] += shift
+    assert lcp.cancelled(z) == pytest.approx(shift + min(canonical.lcp.z[nn], canonical.lcp.z[nn + ns]))
+    assert lcp.cancelled(canonical.lcp.z) == 0.0
+    np.testing.assert_allclose(lcp.unknowns_from(z), canonical.x, rtol=0, atol=1e-6)
+    every = all_contact_lcp_solutions(problem, u)
+    assert [s.mode for s in every] == ["F"]
