@@ -36,6 +36,7 @@ import numpy as np
 from . import polytope as poly
 from .errors import CoordinateNotFound, InputError
 from .jsonable import to_jsonable
+from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
 from .modes import ContactProblem, ModeSystem, build_mode_system, mode_outputs
 from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, solve_affine
 from .scene import Scene
@@ -665,24 +666,38 @@ def _slice_in_w(system: ModeSystem, response: AffineSolution, u: np.ndarray) -> 
 
 
 def _admissible_w(
-    system: ModeSystem, response: AffineSolution, u: np.ndarray, solver: str
+    system: ModeSystem, response: AffineSolution, u: np.ndarray, solver: str, closed_form: bool = True
 ) -> np.ndarray | None:
     """A representative w with (u, w) in the mode's domain, moving as the mode says; else None.
 
-    The representative is the Chebyshev centre of the admissible w (the most central internal
-    forces), or the motion LP's point when the admissible set has no interior.
+    See :func:`_admissible_in_w`.
     """
     if not response.consistent:
         return None
     if response.E.shape[0] and np.max(np.abs(response.E @ u - response.e)) > DOMAIN_TOLERANCE:
         return None
     H_w, h_w = _slice_in_w(system, response, u)
-    motion = system.motion
+    return _admissible_in_w(H_w, h_w, system.motion, solver, closed_form)
+
+
+def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, solver: str,
+                     closed_form: bool = True) -> np.ndarray | None:
+    """A representative w of ``{w: H_w w <= h_w}`` (rows normalised in (u, w)) moving as the mode says.
+
+    Non-motion rows hold to :data:`DOMAIN_TOLERANCE`, motion rows strictly (:func:`motion_margin`).
+    The representative is the Chebyshev centre of the admissible w (the most central internal
+    forces), or the motion LP's point when the admissible set has no interior. With one ambiguity
+    variable and ``closed_form``, both are decided on the interval of admissible w without an LP
+    (:func:`frcontrol.mode_batch.interval_admissible`); the reference path sets it False.
+    """
     p = H_w.shape[1]
     if p == 0:
         if np.any(h_w[~motion] < -DOMAIN_TOLERANCE) or np.any(h_w[motion] <= DOMAIN_TOLERANCE):
             return None
         return np.zeros(0)
+    if p == 1 and closed_form:
+        return interval_admissible(H_w, h_w, motion, DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE,
+                                   poly.CHEBYSHEV_RADIUS_CAP)
     found = motion_margin(H_w, h_w + np.where(motion, 0.0, DOMAIN_TOLERANCE), motion,
                           np.zeros((0, p)), np.zeros(0), solver=solver)
     if found.verdict != "ok":
@@ -707,12 +722,20 @@ def _solution(problem: ContactProblem, system: ModeSystem, response: AffineSolut
     )
 
 
+SOLUTION_METHODS = ("auto", "batch", "reference")
+"""How :func:`solutions_at` decides the modes: ``"batch"`` stacks every full mode and decides them
+together (:mod:`frcontrol.mode_batch`; at most :data:`~frcontrol.mode_batch.BATCH_MAX_MODES`);
+``"reference"`` grows modes contact by contact with an LP per (partial) mode; ``"auto"`` (the
+default) takes the batch when the modes fit in it."""
+
+
 def solutions_at(
     scene: Scene | ContactProblem | DynamicResponse,
     inputs: Mapping[str, float] | Sequence[float] | np.ndarray,
     *,
     solver: str = DEFAULT_LP_SOLVER,
     rank_tolerance: float = RANK_TOLERANCE,
+    method: str = "auto",
 ) -> list[RigidSolution]:
     """Every rigid-body solution at one input: all modes whose domain holds it.
 
@@ -720,27 +743,72 @@ def solutions_at(
     :func:`analyze` on degenerate modes).
 
     Args:
-        scene: a scene (at its state), a prepared problem, or a finished analysis (fastest: only
-            its feasible modes are tested).
+        scene: a scene (at its state), a prepared problem, or a finished analysis (only its
+            feasible modes are tested).
         inputs: ``{name: value}`` (names not given are 0) or the full input vector.
-        solver: the LP back-end.
+        solver: the LP back-end (for modes with two or more ambiguity variables).
         rank_tolerance: relative singular-value threshold of the rank decisions.
+        method: one of :data:`SOLUTION_METHODS`; every method gives the same solutions.
 
     Raises:
-        CoordinateNotFound / InputError: unknown input names, wrong length, NaN, outside limits.
+        CoordinateNotFound / InputError: unknown input names, wrong length, NaN, outside limits,
+            an unknown method.
         ImpactState: a contact moves into its surface.
+        IllConditioned: a mode's rank cannot be decided.
     """
+    if method not in SOLUTION_METHODS:
+        raise InputError(f"unknown solution method {method!r}; valid: {', '.join(SOLUTION_METHODS)}")
+    closed_form = method != "reference"
     if isinstance(scene, DynamicResponse):
         problem = scene.problem
         u = _input_vector(problem, inputs)
         listed = []
         for mode in scene.feasible_modes:
-            w = _admissible_w(mode.system, mode.response, u, solver)
+            w = _admissible_w(mode.system, mode.response, u, solver, closed_form)
             if w is not None:
                 listed.append(_solution(problem, mode.system, mode.response, u, w))
         return listed
     problem = scene if isinstance(scene, ContactProblem) else ContactProblem.from_scene(scene)
     u = _input_vector(problem, inputs)
+    if method != "reference" and _mode_count(problem) <= BATCH_MAX_MODES:
+        found = _batch_solutions(problem, u, solver, rank_tolerance)
+        if found is not None:
+            return found
+    return _tree_solutions(problem, u, solver, rank_tolerance, closed_form)
+
+
+def _mode_count(problem: ContactProblem) -> int:
+    count = 1
+    for letters in problem.allowed_modes():
+        count *= len(letters)
+    return count
+
+
+def _batch_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_tolerance: float
+                     ) -> list[RigidSolution] | None:
+    """The batch path; None when a mode's rank is undecidable (the reference path then decides)."""
+    batch = decide_modes(problem, u, lambda H, h, motion: _admissible_in_w(H, h, motion, solver),
+                         rank_tolerance=rank_tolerance, domain_tolerance=DOMAIN_TOLERANCE,
+                         zero_row_tolerance=ZERO_ROW_TOLERANCE)
+    if batch.ill_conditioned:
+        return None
+    n, k = problem.n, problem.k
+    found = []
+    for sol in batch.solutions:
+        x = sol.x
+        dv = x[:n]
+        found.append(RigidSolution(
+            mode=sol.mode, dv=dv, lambda_n=x[n:n + k], lambda_t=x[n + k:],
+            a_n=problem.jacobian_normal @ dv + problem.drift_normal,
+            a_t=problem.jacobian_tangent @ dv + problem.drift_tangent,
+            ambiguity_dim=sol.w.size, ambiguous_outputs=sol.ambiguous_outputs, w=sol.w,
+            equality_residual=sol.equality_residual, inequality_violation=sol.inequality_violation))
+    return found
+
+
+def _tree_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_tolerance: float,
+                    closed_form: bool) -> list[RigidSolution]:
+    """The reference path: modes grown contact by contact, a partial mode pruning its subtree."""
     allowed = problem.allowed_modes()
     found: list[RigidSolution] = []
 
@@ -751,7 +819,7 @@ def solutions_at(
             system = build_mode_system(problem, mode)
             response = solve_affine(system.A, system.B, system.c, rank_tolerance=rank_tolerance,
                                     name=f"the system of mode {mode}")
-            w = _admissible_w(system, response, u, solver)
+            w = _admissible_w(system, response, u, solver, closed_form)
             if w is None:
                 continue
             if depth + 1 < problem.k:
@@ -762,7 +830,7 @@ def solutions_at(
     if problem.k == 0:
         system = build_mode_system(problem, "")
         response = solve_affine(system.A, system.B, system.c, rank_tolerance=rank_tolerance)
-        w = _admissible_w(system, response, u, solver)
+        w = _admissible_w(system, response, u, solver, closed_form)
         return [] if w is None else [_solution(problem, system, response, u, w)]
     grow("")
     return found
@@ -779,6 +847,7 @@ __all__ = [
     "motion_margin",
     "Overlap",
     "RigidSolution",
+    "SOLUTION_METHODS",
     "solutions_at",
     "ZERO_ROW_TOLERANCE",
 ]

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -136,6 +137,16 @@ class ContactProblem:
             velocity_tolerance=velocity_tolerance,
         )
 
+    @cached_property
+    def row_table(self) -> ContactRowTable:
+        """Every contact's rows in every mode letter (:func:`contact_row_table`), built once."""
+        return contact_row_table(self)
+
+    @cached_property
+    def dynamics(self) -> np.ndarray:
+        """The dynamics' rows of every mode's ``A`` (:func:`dynamics_rows`), built once."""
+        return dynamics_rows(self)
+
     def allowed_modes(self) -> tuple[str, ...]:
         """Per contact, the modes its velocity allows (velocity pruning), in S, L, R, F order.
 
@@ -208,110 +219,128 @@ def check_mode(problem: ContactProblem, mode: str, *, partial: bool = False) -> 
 def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
     """Assemble the equalities and inequalities of ``mode`` (a prefix of letters is allowed).
 
-    Contacts beyond ``len(mode)`` are unassigned: no rows for them.
+    Contacts beyond ``len(mode)`` are unassigned: no rows for them. The rows are those of
+    :func:`contact_row_table`, in contact order.
     """
     check_mode(problem, mode, partial=True)
     n, k = problem.n, problem.k
     nx = n + 2 * k
-    jn, jt = problem.jacobian_normal, problem.jacobian_tangent
-    eq_rows = [np.hstack([problem.mass_matrix, -jn.T, -jt.T])]
-    eq_rhs = [-problem.bias]
-    eq_input = [problem.input_map]
-    ineq_rows: list[np.ndarray] = []
-    ineq_rhs: list[float] = []
-    labels: list[str] = []
-    motion: list[bool] = []
-    for i, letter in enumerate(mode):
-        rows = _contact_rows(problem, i, letter)
-        eq_rows.append(np.vstack(rows.pair))
-        eq_rhs.append(np.array(rows.pair_rhs))
-        eq_input.append(np.zeros((2, problem.m)))
-        ineq_rows += rows.inequalities
-        ineq_rhs += rows.inequality_rhs
-        labels += rows.labels
-        motion += rows.motion
-    G = np.vstack(ineq_rows) if ineq_rows else np.zeros((0, nx))
+    table = problem.row_table
+    contacts = np.arange(len(mode), dtype=int)
+    letters = np.array([MODE_LETTERS.index(ch) for ch in mode], dtype=int)
+    valid = table.valid[contacts, letters].reshape(-1)
+    A = np.vstack([problem.dynamics, table.equalities[contacts, letters].reshape(-1, nx)])
+    B = np.vstack([problem.input_map, np.zeros((2 * len(mode), problem.m))])
+    c = np.concatenate([-problem.bias, table.equality_rhs[contacts, letters].reshape(-1)])
+    labels = [f"{problem.contacts[i]}: {_ROW_LABELS[letter][j]}"
+              for i, letter in zip(contacts, letters, strict=True)
+              for j in range(ROWS_PER_CONTACT) if table.valid[i, letter, j]]
     return ModeSystem(
         mode=mode,
-        A=np.vstack(eq_rows),
-        B=np.vstack(eq_input),
-        c=np.concatenate(eq_rhs),
-        G=G,
-        g=np.array(ineq_rhs, dtype=float),
+        A=A,
+        B=B,
+        c=c,
+        G=table.inequalities[contacts, letters].reshape(-1, nx)[valid],
+        g=table.inequality_rhs[contacts, letters].reshape(-1)[valid],
         labels=tuple(labels),
-        motion=np.array(motion, dtype=bool),
+        motion=table.motion[contacts, letters].reshape(-1)[valid],
     )
 
 
-@dataclass
-class _ContactRows:
-    pair: list[np.ndarray]  # two equalities (the contact's mode law)
-    pair_rhs: list[float]
-    inequalities: list[np.ndarray]
-    inequality_rhs: list[float]
-    labels: list[str]
-    motion: list[bool]  # whether each inequality bounds a motion (an acceleration) or a force
+ROWS_PER_CONTACT = 3
+"""The most inequality rows one contact adds in one mode (F: lam_N >= 0 and the two cone sides)."""
+
+_ROW_LABELS = (
+    ("a_N >= 0", "", ""),
+    ("lam_N >= 0", "a_T <= 0", ""),
+    ("lam_N >= 0", "a_T >= 0", ""),
+    ("lam_N >= 0", "lam_T <= mu lam_N", "-lam_T <= mu lam_N"),
+)
+"""Each inequality row's label, per letter (S, L, R, F) and row."""
 
 
-def _contact_rows(problem: ContactProblem, i: int, letter: str) -> _ContactRows:
-    """The rows contact ``i`` adds in mode ``letter`` over x = (dv, lam_N, lam_T)."""
+@dataclass(frozen=True)
+class ContactRowTable:
+    """Every contact's rows in every mode letter, over ``x = (dv, lam_N, lam_T)``: one table.
+
+    Indexed ``[contact, letter, row]`` with letters in S, L, R, F order (:data:`MODE_LETTERS`):
+
+    | letter | equalities (2 rows) | inequalities (up to 3 rows) |
+    | --- | --- | --- |
+    | S | lam_N = 0, lam_T = 0 | a_N >= 0 (only if v_N = 0; a motion row) |
+    | F | a_N = 0, a_T = 0 | lam_N >= 0, lam_T <= mu lam_N, -lam_T <= mu lam_N |
+    | R | a_N = 0, lam_T + mu lam_N = 0 | -max(1, mu) lam_N <= 0, a_T >= 0 (only if v_T = 0; motion) |
+    | L | a_N = 0, lam_T - mu lam_N = 0 | -max(1, mu) lam_N <= 0, a_T <= 0 (only if v_T = 0; motion) |
+
+    A sliding contact's ``lam_N >= 0`` is scaled by ``max(1, mu)``: the same half-space, measured
+    as the friction force it implies (with mu ~ 1e9 the plain row, after the response is
+    substituted, has coefficients of order 1/mu and would read as a constant).
+
+    Attributes:
+        equalities: (k, 4, 2, nx); equality_rhs: (k, 4, 2).
+        inequalities: (k, 4, 3, nx) as ``G x <= g``; inequality_rhs: (k, 4, 3).
+        valid: (k, 4, 3) which inequality rows exist; motion: (k, 4, 3) which state a motion.
+    """
+
+    equalities: np.ndarray
+    equality_rhs: np.ndarray
+    inequalities: np.ndarray
+    inequality_rhs: np.ndarray
+    valid: np.ndarray
+    motion: np.ndarray
+
+
+def dynamics_rows(problem: ContactProblem) -> np.ndarray:
+    """The dynamics' rows ``[M, -J_N^T, -J_T^T]`` of every mode's ``A`` (right side ``S^T u - h``)."""
+    return np.hstack([problem.mass_matrix, -problem.jacobian_normal.T, -problem.jacobian_tangent.T])
+
+
+def contact_row_table(problem: ContactProblem) -> ContactRowTable:
+    """Build :class:`ContactRowTable` for the problem's contacts (no solving)."""
     n, k, tol = problem.n, problem.k, problem.velocity_tolerance
     nx = n + 2 * k
-    jn, jt, dn, dt = (problem.jacobian_normal[i], problem.jacobian_tangent[i], problem.drift_normal[i],
-                      problem.drift_tangent[i])
-    name, mu = problem.contacts[i], problem.mu[i]
-    i_n, i_t = n + i, n + k + i
-
-    def unit(index: int) -> np.ndarray:
-        row = np.zeros(nx)
-        row[index] = 1.0
-        return row
-
-    def accel_row(jac_row: np.ndarray) -> np.ndarray:
-        row = np.zeros(nx)
-        row[:n] = jac_row
-        return row
-
-    out = _ContactRows([], [], [], [], [], [])
-    if letter == "S":
-        out.pair, out.pair_rhs = [unit(i_n), unit(i_t)], [0.0, 0.0]
-        if abs(problem.normal_velocities[i]) <= tol:
-            out.inequalities.append(-accel_row(jn))  # a_N >= 0
-            out.inequality_rhs.append(dn)
-            out.labels.append(f"{name}: a_N >= 0")
-            out.motion.append(True)
-        return out
-    normal = accel_row(jn)  # a_N = 0
-    if letter == "F":
-        out.pair, out.pair_rhs = [normal, accel_row(jt)], [-dn, -dt]
-    else:
-        sign = 1.0 if letter == "R" else -1.0  # R: lam_T = -mu lam_N; L: lam_T = +mu lam_N
-        friction = unit(i_t)
-        friction[i_n] = sign * mu
-        out.pair, out.pair_rhs = [normal, friction], [-dn, 0.0]
-    # lam_N >= 0; for a sliding contact measured as the friction force it implies,
-    # -max(1, mu) lam_N <= 0 (the same half-space): with mu ~ 1e9 the plain row, after the
-    # response is substituted, has coefficients of order 1/mu and would read as a constant
-    out.inequalities.append(-(1.0 if letter == "F" else max(1.0, mu)) * unit(i_n))
-    out.inequality_rhs.append(0.0)
-    out.labels.append(f"{name}: lam_N >= 0")
-    out.motion.append(False)
-    if letter == "F":
-        cone_hi = unit(i_t)
-        cone_hi[i_n] = -mu
-        cone_lo = -unit(i_t)
-        cone_lo[i_n] = -mu
-        out.inequalities += [cone_hi, cone_lo]
-        out.inequality_rhs += [0.0, 0.0]
-        out.labels += [f"{name}: lam_T <= mu lam_N", f"{name}: -lam_T <= mu lam_N"]
-        out.motion += [False, False]
-    elif abs(problem.tangential_velocities[i]) <= tol:
-        sign = 1.0 if letter == "R" else -1.0  # R: a_T >= 0; L: a_T <= 0
-        out.inequalities.append(-sign * accel_row(jt))
-        out.inequality_rhs.append(sign * dt)
-        out.labels.append(f"{name}: a_T {'>=' if letter == 'R' else '<='} 0")
-        out.motion.append(True)
-    return out
+    S, L, R, F = range(4)
+    idx = np.arange(k)
+    i_n, i_t = n + idx, n + k + idx
+    jn, jt, dn, dt, mu = (problem.jacobian_normal, problem.jacobian_tangent, problem.drift_normal,
+                          problem.drift_tangent, problem.mu)
+    eq = np.zeros((k, 4, 2, nx))
+    eq_rhs = np.zeros((k, 4, 2))
+    eq[idx, S, 0, i_n] = 1.0
+    eq[idx, S, 1, i_t] = 1.0
+    eq[:, 1:, 0, :n] = jn[:, None, :]  # a_N = 0 in L, R, F
+    eq_rhs[:, 1:, 0] = -dn[:, None]
+    eq[:, F, 1, :n] = jt
+    eq_rhs[:, F, 1] = -dt
+    eq[idx, R, 1, i_t] = 1.0
+    eq[idx, R, 1, i_n] = mu  # R: lam_T = -mu lam_N
+    eq[idx, L, 1, i_t] = 1.0
+    eq[idx, L, 1, i_n] = -mu  # L: lam_T = +mu lam_N
+    ineq = np.zeros((k, 4, ROWS_PER_CONTACT, nx))
+    ineq_rhs = np.zeros((k, 4, ROWS_PER_CONTACT))
+    valid = np.zeros((k, 4, ROWS_PER_CONTACT), dtype=bool)
+    motion = np.zeros((k, 4, ROWS_PER_CONTACT), dtype=bool)
+    resting = np.abs(problem.normal_velocities) <= tol
+    ineq[:, S, 0, :n] = -jn  # a_N >= 0
+    ineq_rhs[:, S, 0] = dn
+    valid[:, S, 0] = motion[:, S, 0] = resting
+    scale = np.maximum(1.0, mu)
+    ineq[idx, L, 0, i_n] = ineq[idx, R, 0, i_n] = -scale  # lam_N >= 0
+    ineq[idx, F, 0, i_n] = -1.0
+    valid[:, 1:, 0] = True
+    sticking = np.abs(problem.tangential_velocities) <= tol
+    ineq[:, R, 1, :n] = -jt  # a_T >= 0
+    ineq_rhs[:, R, 1] = dt
+    ineq[:, L, 1, :n] = jt  # a_T <= 0
+    ineq_rhs[:, L, 1] = -dt
+    for letter in (L, R):
+        valid[:, letter, 1] = motion[:, letter, 1] = sticking
+    ineq[idx, F, 1, i_t] = 1.0  # lam_T - mu lam_N <= 0
+    ineq[idx, F, 1, i_n] = -mu
+    ineq[idx, F, 2, i_t] = -1.0  # -lam_T - mu lam_N <= 0
+    ineq[idx, F, 2, i_n] = -mu
+    valid[:, F, 1:] = True
+    return ContactRowTable(eq, eq_rhs, ineq, ineq_rhs, valid, motion)
 
 
 def mode_outputs(problem: ContactProblem, x: np.ndarray) -> dict[str, np.ndarray]:
@@ -363,9 +392,13 @@ __all__ = [
     "contact_mode_letter",
     "build_mode_system",
     "check_mode",
+    "contact_row_table",
     "ContactProblem",
+    "ContactRowTable",
+    "dynamics_rows",
     "MODE_LETTERS",
     "mode_outputs",
     "ModeSystem",
+    "ROWS_PER_CONTACT",
     "VELOCITY_TOLERANCE",
 ]

@@ -177,7 +177,11 @@ def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> str:
     ``"accelerations"`` means the motion itself is ambiguous (forces usually too); ``"forces"``
     means a statically indeterminate mode with determined accelerations.
     """
-    X_w = solution.X_w
+    return outputs_moved_by(solution.X_w, n_coordinates)
+
+
+def outputs_moved_by(X_w: np.ndarray, n_coordinates: int) -> str:
+    """What the ambiguity directions ``X_w`` (nx, p) move: see :func:`ambiguous_outputs`."""
     if X_w.shape[1] == 0:
         return "none"
     mags = np.max(np.abs(X_w), axis=1)
@@ -195,6 +199,7 @@ __all__ = [
     "CONSISTENCY_TOLERANCE",
     "ILL_CONDITIONED_BAND",
     "OUTPUT_TOLERANCE",
+    "outputs_moved_by",
     "RANK_TOLERANCE",
     "solve_affine",
 ]

@@ -1,0 +1,339 @@
+"""Every full contact mode at one input, in one vectorised pass (the fast path of ``solutions_at``).
+
+The engine's reference path grows modes contact by contact and decides each (partial) mode with
+linear programs. At one input ``u`` most of that work has a closed form, and a small problem's
+modes (4^k at most, 64 for RHex) fit in one stack of matrices:
+
+1. Every full mode's ``A`` (the dynamics rows, then two rows per contact from the contact row
+   table) is stacked into one ``(modes, nx, nx)`` array, equilibrated by powers of two exactly as
+   :func:`frcontrol.response.solve_affine` does, and factorised by one batched SVD.
+2. Modes are grouped by rank. Each group's responses ``x = X_u u + X_w w + x_0`` and consistency
+   conditions ``E u = e`` come from the SVD by the formulas of ``solve_affine``, for the whole
+   group at once, and its inequalities are sliced at ``u`` by the engine's rule (rows normalised
+   by their norm in (u, w)).
+3. A mode of full rank (the common case: nothing ambiguous) is decided there, all at once:
+   non-motion rows to :data:`~frcontrol.engine.DOMAIN_TOLERANCE`, motion rows strictly. A mode with
+   ambiguity variables w is decided by the engine's rule for w, one mode at a time: with one
+   variable (p = 1) the admissible set is an interval, decided in closed form by
+   :func:`interval_admissible` instead of two LPs; with more, by the engine's LPs.
+
+Nothing here decides differently from the reference: the same rows, the same equilibration, the
+same rank rule (a singular value in the ill-conditioned band sends the whole problem back to the
+reference path, which raises only where it meets that mode) and the same tolerances. The tests
+cross-check both paths on random scenes and inputs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .modes import MODE_LETTERS, ContactProblem
+from .response import CONSISTENCY_TOLERANCE, ILL_CONDITIONED_BAND, outputs_moved_by
+
+BATCH_MAX_MODES = 1024
+"""The fast path stacks every full mode when there are at most this many (4^5); larger problems
+(the snake with 8 contacts: 65 536 modes) keep the reference path, whose pruning of partial modes
+pays off there."""
+
+
+WDecider = Callable[[np.ndarray, np.ndarray, np.ndarray], "np.ndarray | None"]
+"""``decide(H_w, h_w, motion) -> w or None``: the engine's admissible ambiguity variables at one
+input, from the mode's inequalities in w (rows normalised in (u, w))."""
+
+
+@dataclass(frozen=True)
+class BatchSolution:
+    """One mode admissible at the input: ``x = (dv, lam_N, lam_T)`` at the representative ``w``.
+
+    Attributes:
+        mode: the mode string; x: (nx,); w: (p,) the ambiguity variables chosen.
+        ambiguous_outputs: ``"none"``, ``"forces"`` or ``"accelerations"`` (what w moves).
+        equality_residual: ``max |A x - B u - c|``; inequality_violation: ``max(G x - g, 0)``.
+    """
+
+    mode: str
+    x: np.ndarray
+    w: np.ndarray
+    ambiguous_outputs: str
+    equality_residual: float
+    inequality_violation: float
+
+
+@dataclass(frozen=True)
+class ModeBatch:
+    """The full modes of a problem at one input, decided together.
+
+    Attributes:
+        modes: every full mode, in the reference path's order (letters S, L, R, F, contact by
+            contact).
+        solutions: the admissible ones, in that order.
+        ill_conditioned: some mode has a singular value in the ill-conditioned band (then nothing
+            was decided: the reference path decides, and raises where it meets that mode).
+    """
+
+    modes: tuple[str, ...]
+    solutions: tuple[BatchSolution, ...]
+    ill_conditioned: bool
+
+
+def full_modes(allowed: tuple[str, ...]) -> tuple[tuple[str, ...], np.ndarray]:
+    """Every full mode from per-contact allowed letters, and their letter indices (modes, k)."""
+    k = len(allowed)
+    if k == 0:
+        return ("",), np.zeros((1, 0), dtype=int)
+    grids = np.meshgrid(*[np.array([MODE_LETTERS.index(ch) for ch in letters]) for letters in allowed],
+                        indexing="ij")
+    letters = np.stack([g.reshape(-1) for g in grids], axis=1)
+    modes = tuple("".join(MODE_LETTERS[j] for j in row) for row in letters.tolist())
+    return modes, letters
+
+
+def _equilibrate(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Row and column scalings of a stack, as :func:`frcontrol.response._equilibrate` per matrix."""
+
+    def scale(vec: np.ndarray) -> np.ndarray:
+        out = np.ones_like(vec)
+        nz = vec > 0
+        out[nz] = np.exp2(-np.round(np.log2(vec[nz])))
+        return out
+
+    rows = scale(np.max(np.abs(A), axis=2))
+    cols = scale(np.max(np.abs(A * rows[:, :, None]), axis=1))
+    return rows, cols
+
+
+@dataclass(frozen=True)
+class _Stack:
+    """Every full mode's system at one input, stacked: ``A x = B u + c``, ``G x <= g``."""
+
+    A: np.ndarray  # (modes, nx, nx)
+    B: np.ndarray  # (modes, nx, m)
+    c: np.ndarray  # (modes, nx)
+    rhs: np.ndarray  # (modes, nx): B u + c
+    G: np.ndarray  # (modes, rows, nx), rows = ROWS_PER_CONTACT k, padded
+    g: np.ndarray  # (modes, rows)
+    valid: np.ndarray  # (modes, rows): which padded rows exist
+    motion: np.ndarray  # (modes, rows)
+
+
+def _stack(problem: ContactProblem, letters: np.ndarray, u: np.ndarray) -> _Stack:
+    n, k, m = problem.n, problem.k, problem.m
+    nx, count = n + 2 * k, letters.shape[0]
+    table = problem.row_table
+    contacts = np.arange(k)
+    A = np.empty((count, nx, nx))
+    A[:, :n] = problem.dynamics
+    A[:, n:] = table.equalities[contacts, letters].reshape(count, 2 * k, nx)
+    B = np.zeros((count, nx, m))
+    B[:, :n] = problem.input_map
+    c = np.empty((count, nx))
+    c[:, :n] = -problem.bias
+    c[:, n:] = table.equality_rhs[contacts, letters].reshape(count, 2 * k)
+    rhs = c.copy()
+    rhs[:, :n] += problem.input_map @ u
+    return _Stack(A, B, c, rhs,
+                  table.inequalities[contacts, letters].reshape(count, -1, nx),
+                  table.inequality_rhs[contacts, letters].reshape(count, -1),
+                  table.valid[contacts, letters].reshape(count, -1),
+                  table.motion[contacts, letters].reshape(count, -1))
+
+
+def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, rank_tolerance: float,
+                 domain_tolerance: float, zero_row_tolerance: float) -> ModeBatch:
+    """Stack, factorise and decide every full mode at ``u`` (see the module docstring).
+
+    Args:
+        problem: the contact problem.
+        u: the input (m,), already checked.
+        decide_w: how a mode with ambiguity variables picks its w (the engine's rule).
+        rank_tolerance: relative singular-value threshold of the rank decisions.
+        domain_tolerance: the engine's membership distance.
+        zero_row_tolerance: the engine's constant-row threshold.
+    """
+    modes, letters = full_modes(problem.allowed_modes())
+    st = _stack(problem, letters, u)
+    r_scale, c_scale = _equilibrate(st.A)
+    U, s, Vt = np.linalg.svd(st.A * r_scale[:, :, None] * c_scale[:, None, :])
+    s_max = s[:, :1]
+    kept = s > rank_tolerance * s_max
+    if np.any(kept & (s <= ILL_CONDITIONED_BAND * s_max)):
+        return ModeBatch(modes, (), True)
+    rank = np.where(s_max[:, 0] > 0.0, np.sum(kept, axis=1), 0)
+    scaled = _Scaled(U, s, Vt, r_scale, c_scale, st.B * r_scale[:, :, None], st.c * r_scale)
+    found: dict[int, BatchSolution] = {}
+    for r in np.unique(rank):
+        group = np.nonzero(rank == r)[0]
+        found.update(_decide_rank_group(problem, modes, st, scaled, group, int(r), u, decide_w,
+                                        domain_tolerance, zero_row_tolerance))
+    return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+
+
+@dataclass(frozen=True)
+class _Scaled:
+    """The equilibrated stack's SVD ``diag(r) A diag(c) = U diag(s) V^T`` and the scaled B, c."""
+
+    U: np.ndarray
+    s: np.ndarray
+    Vt: np.ndarray
+    r_scale: np.ndarray
+    c_scale: np.ndarray
+    Bs: np.ndarray
+    cs: np.ndarray
+
+
+def _decide_rank_group(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, sc: _Scaled,
+                       group: np.ndarray, r: int, u: np.ndarray, decide_w: WDecider,
+                       domain_tolerance: float, zero_row_tolerance: float) -> dict[int, BatchSolution]:
+    """The modes of one rank r: responses ``x = X_u u + X_w w + x_0`` on ``E u = e``, then their domains.
+
+    The same formulas as :func:`frcontrol.response.solve_affine`, for the whole group at once.
+    """
+    U, Vt = sc.U[group], sc.Vt[group]
+    inv_s = 1.0 / sc.s[group][:, :r]
+    c_scale, Bs, cs = sc.c_scale[group], sc.Bs[group], sc.cs[group]
+    U1, V1t = U[:, :, :r], Vt[:, :r]
+    X_u = c_scale[:, :, None] * np.einsum("gri,grk->gik", V1t, inv_s[:, :, None]
+                                          * np.einsum("gjr,gjk->grk", U1, Bs))
+    x_0 = c_scale * np.einsum("gri,gr->gi", V1t, inv_s * np.einsum("gjr,gj->gr", U1, cs))
+    X_w = c_scale[:, :, None] * np.transpose(Vt[:, r:], (0, 2, 1))
+    ok = _consistent_at(np.einsum("gjq,gjk->gqk", U[:, :, r:], Bs), -np.einsum("gjq,gj->gq", U[:, :, r:], cs),
+                        _scale_of(Bs, cs), u, domain_tolerance)
+    G, valid, motion = st.G[group], st.valid[group], st.motion[group]
+    H_u = np.einsum("grx,gxk->grk", G, X_u)
+    H_w = np.einsum("grx,gxq->grq", G, X_w)
+    h = st.g[group] - np.einsum("grx,gx->gr", G, x_0) - H_u @ u
+    norms = np.sqrt(np.sum(H_u * H_u, axis=2) + np.sum(H_w * H_w, axis=2))
+    largest = np.max(np.where(valid, norms, 0.0), axis=1, initial=0.0)
+    constant = norms <= zero_row_tolerance * np.maximum(1.0, largest)[:, None]
+    norms = np.where(constant, 1.0, norms)
+    H_w = np.where(constant[:, :, None], 0.0, H_w / norms[:, :, None])
+    h = h / norms
+    p = X_w.shape[2]
+    if p == 0:
+        ok &= np.all(np.where(motion, h > domain_tolerance, h >= -domain_tolerance) | ~valid, axis=1)
+    out = {}
+    for j in np.nonzero(ok)[0]:
+        rows = valid[j]
+        w = np.zeros(0) if p == 0 else decide_w(H_w[j][rows], h[j][rows], motion[j][rows])
+        if w is None:
+            continue
+        i = int(group[j])
+        x = X_u[j] @ u + X_w[j] @ w + x_0[j]
+        out[i] = BatchSolution(
+            mode=modes[i], x=x, w=w, ambiguous_outputs=outputs_moved_by(X_w[j], problem.n),
+            equality_residual=float(np.max(np.abs(st.A[i] @ x - st.rhs[i]), initial=0.0)),
+            inequality_violation=float(np.max(st.G[i][rows] @ x - st.g[i][rows], initial=0.0)))
+    return out
+
+
+def _scale_of(Bs: np.ndarray, cs: np.ndarray) -> np.ndarray:
+    """Per mode, the scale of ``[B c]`` that :data:`~frcontrol.response.CONSISTENCY_TOLERANCE` is relative to."""
+    top_b = np.max(np.abs(Bs), axis=(1, 2), initial=0.0)
+    top_c = np.max(np.abs(cs), axis=1, initial=0.0)
+    return np.maximum(1.0, np.maximum(top_b, top_c))
+
+
+def _consistent_at(E_raw: np.ndarray, e_raw: np.ndarray, scale: np.ndarray, u: np.ndarray,
+                   domain_tolerance: float) -> np.ndarray:
+    """Per mode: its equalities are consistent and ``|E u - e| <= domain_tolerance`` (as solve_affine + the engine)."""
+    count, p, m = E_raw.shape
+    if p == 0:
+        return np.ones(count, dtype=bool)
+    if m == 0:
+        return ~np.any(np.abs(e_raw) > CONSISTENCY_TOLERANCE * scale[:, None], axis=1)
+    Ue, se, Vte = np.linalg.svd(E_raw, full_matrices=True)
+    q = se.shape[1]
+    padded = np.zeros((count, p))
+    padded[:, :q] = se
+    kept = padded > CONSISTENCY_TOLERANCE * scale[:, None]
+    e_rot = np.einsum("gqj,gq->gj", Ue, e_raw)
+    consistent = ~np.any(~kept & (np.abs(e_rot) > CONSISTENCY_TOLERANCE * scale[:, None]), axis=1)
+    miss = np.einsum("gjk,k->gj", Vte[:, :q], u) - e_rot[:, :q] / np.where(kept[:, :q], se, 1.0)
+    return consistent & ~np.any(kept[:, :q] & (np.abs(miss) > domain_tolerance), axis=1)
+
+
+def interval_admissible(H: np.ndarray, h: np.ndarray, motion: np.ndarray, domain_tolerance: float,
+                        zero_row_tolerance: float, radius_cap: float) -> np.ndarray | None:
+    """The engine's admissible ``w`` for one ambiguity variable, in closed form; None if none.
+
+    With ``H w <= h`` (one column, rows normalised in (u, w)) this is what the engine's two LPs
+    decide, on an interval:
+
+    1. the motion test (:func:`frcontrol.engine.motion_margin`): non-motion rows relaxed by
+       ``domain_tolerance``; a constant motion row must hold by more than it; the largest margin
+       ``t`` (capped at 1) by which the motion rows can hold must exceed it, else no solution moves
+       as the mode says;
+    2. the representative: the midpoint of the interval with every row relaxed by
+       ``domain_tolerance`` (its Chebyshev centre), or, when it is thinner than
+       ``2 domain_tolerance``, the motion test's point. A side without a bound is replaced by the
+       other bound moved by the radius cap (as the capped Chebyshev LP does).
+    """
+    a = H[:, 0]
+    scale = np.abs(a)
+    zero = scale <= zero_row_tolerance * max(1.0, float(np.max(scale, initial=0.0)))
+    relaxed = h + np.where(motion, 0.0, domain_tolerance)
+    if np.any(relaxed[zero & ~motion] < 0.0) or np.any(h[zero & motion] <= domain_tolerance):
+        return None
+    lo, hi = _interval(a, relaxed, ~zero & ~motion)
+    if lo > hi:
+        return None
+    moving = ~zero & motion
+    if np.any(moving):
+        w, margin = _best_margin(a[moving], relaxed[moving], lo, hi)
+        if margin is None or margin <= domain_tolerance:
+            return None
+    else:
+        w = min(max(0.0, lo), hi)
+    lo_ball, hi_ball = _interval(a, h + domain_tolerance, ~zero)
+    if np.isfinite(lo_ball) and np.isfinite(hi_ball):
+        if hi_ball - lo_ball > 2.0 * domain_tolerance:
+            return np.array([0.5 * (lo_ball + hi_ball)])
+        return np.array([w])
+    if np.isfinite(lo_ball):
+        return np.array([lo_ball + radius_cap])
+    if np.isfinite(hi_ball):
+        return np.array([hi_ball - radius_cap])
+    return np.array([w])
+
+
+def _interval(a: np.ndarray, b: np.ndarray, rows: np.ndarray) -> tuple[float, float]:
+    """``{w: a_i w <= b_i}`` over the chosen rows (none zero), as ``(lo, hi)``."""
+    up, down = rows & (a > 0), rows & (a < 0)
+    hi = float(np.min(b[up] / a[up])) if np.any(up) else np.inf
+    lo = float(np.max(b[down] / a[down])) if np.any(down) else -np.inf
+    return lo, hi
+
+
+def _best_margin(a: np.ndarray, b: np.ndarray, lo: float, hi: float) -> tuple[float, float | None]:
+    """Maximise ``t = min(1, min_i (b_i - a_i w) / |a_i|)`` over ``w`` in ``[lo, hi]``.
+
+    Returns ``(w, t)``; ``t`` is None when no ``w`` of the interval has ``t >= 0``.
+    """
+    ends = b / a
+    upper = float(np.min(ends[a > 0])) if np.any(a > 0) else np.inf  # w <= upper - t
+    lower = float(np.max(ends[a < 0])) if np.any(a < 0) else -np.inf  # w >= lower + t
+    if np.isfinite(upper) and np.isfinite(lower):
+        w = 0.5 * (upper + lower)
+    elif np.isfinite(upper):
+        w = upper - 1.0
+    elif np.isfinite(lower):
+        w = lower + 1.0
+    else:
+        w = 0.0
+    w = min(max(w, lo), hi)
+    t = min(1.0, upper - w, w - lower)
+    return w, (t if t >= 0.0 else None)
+
+
+__all__ = [
+    "BATCH_MAX_MODES",
+    "BatchSolution",
+    "decide_modes",
+    "full_modes",
+    "interval_admissible",
+    "ModeBatch",
+    "WDecider",
+]

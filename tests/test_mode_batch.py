@@ -1,0 +1,152 @@
+"""The batch path of solutions_at against the reference path (an LP per partial mode).
+
+Random contact problems (random mass matrices, singular ones included, Jacobians, drifts,
+velocities, friction and inputs), the shipped scenes at random inputs, and the closed-form interval
+rule against the engine's two LPs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from frcontrol import polytope as poly
+from frcontrol.engine import DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE, _admissible_in_w, solutions_at
+from frcontrol.errors import InputError
+from frcontrol.mode_batch import full_modes, interval_admissible
+from frcontrol.modes import ContactProblem, all_modes, build_mode_system
+from frcontrol.scene import load_scene
+
+SCENES = ["rod_on_table", "box_on_ground", "box_on_slope", "table_on_ground", "disk_in_wedge",
+          "rhex_flip", "snake_climb"]
+
+
+def random_problem(rng: np.random.Generator) -> ContactProblem:
+    """A planar-sized contact problem with random data; some structure repeated to make ranks drop."""
+    n = int(rng.integers(1, 6))
+    k = int(rng.integers(1, 4))
+    m = int(rng.integers(0, n + 1))
+    L = rng.normal(size=(n, n))
+    M = L @ L.T + 0.1 * np.eye(n)
+    if rng.random() < 0.3:  # a massless coordinate: M singular
+        j = int(rng.integers(n))
+        M[j, :] = 0.0
+        M[:, j] = 0.0
+    jn = rng.normal(size=(k, n))
+    jt = rng.normal(size=(k, n))
+    dn, dt = rng.normal(size=k), rng.normal(size=k)
+    if k > 1 and rng.random() < 0.4:  # two contacts on the same point: forces indeterminate
+        jn[1], jt[1], dn[1], dt[1] = jn[0], jt[0], dn[0], dt[0]
+    def velocity() -> float:
+        return float(rng.choice([0.0, 0.0, 0.5, -0.5]))
+    vt = np.array([velocity() for _ in range(k)])
+    vn = np.array([abs(velocity()) if rng.random() < 0.2 else 0.0 for _ in range(k)])
+    columns = rng.choice(n, size=m, replace=False) if m else np.zeros(0, dtype=int)
+    input_map = np.zeros((n, m))
+    input_map[columns, np.arange(m)] = 1.0
+    return ContactProblem(
+        coordinates=tuple(f"q{i}" for i in range(n)), contacts=tuple(f"c{i}" for i in range(k)),
+        inputs=tuple(f"q{i}" for i in columns), mass_matrix=M, bias=rng.normal(size=n) * 5.0,
+        input_map=input_map, jacobian_normal=jn, jacobian_tangent=jt,
+        drift_normal=dn, drift_tangent=dt,
+        normal_velocities=vn, tangential_velocities=vt,
+        mu=rng.choice([0.0, 0.3, 1.0, 5.0], size=k), lower=np.full(m, -np.inf), upper=np.full(m, np.inf))
+
+
+def assert_same_solutions(problem: ContactProblem, u: np.ndarray) -> int:
+    """Both paths list the same modes, the same motion, and valid, equally central forces."""
+    fast = solutions_at(problem, u, method="batch")
+    reference = solutions_at(problem, u, method="reference")
+    assert [s.mode for s in fast] == [s.mode for s in reference]
+    for a, b in zip(fast, reference, strict=True):
+        scale = 1.0 + float(np.max(np.abs(np.concatenate([b.dv, b.lambda_n, b.lambda_t]))))
+        assert a.ambiguity_dim == b.ambiguity_dim and a.ambiguous_outputs == b.ambiguous_outputs
+        if a.ambiguous_outputs != "accelerations":
+            np.testing.assert_allclose(a.dv, b.dv, rtol=0, atol=1e-8 * scale)
+        if a.ambiguity_dim == 0:
+            np.testing.assert_allclose(a.lambda_n, b.lambda_n, rtol=0, atol=1e-8 * scale)
+            np.testing.assert_allclose(a.lambda_t, b.lambda_t, rtol=0, atol=1e-8 * scale)
+        # the batch's answer is a solution of its mode, whatever its w
+        system = build_mode_system(problem, a.mode)
+        x = np.concatenate([a.dv, a.lambda_n, a.lambda_t])
+        assert np.abs(system.A @ x - system.B @ u - system.c).max(initial=0.0) <= 1e-8 * scale
+        assert (system.G @ x - system.g).max(initial=0.0) <= 1e-6 * scale
+        assert a.equality_residual <= 1e-8 * scale
+    return len(fast)
+
+
+def test_random_problems_agree_with_the_reference_path():
+    rng = np.random.default_rng(20261125)
+    solved = ambiguous = 0
+    for _ in range(250):
+        problem = random_problem(rng)
+        u = rng.normal(size=problem.m) * 5.0
+        solved += assert_same_solutions(problem, u)
+        ambiguous += sum(s.ambiguity_dim > 0 for s in solutions_at(problem, u))
+    assert solved > 100 and ambiguous > 5  # the comparison saw answers, ambiguous ones too
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
+@given(name=st.sampled_from(SCENES), data=st.data())
+def test_shipped_scenes_agree_with_the_reference_path(name, data):
+    problem = ContactProblem.from_scene(load_scene(name))
+    u = np.array([data.draw(st.floats(lo, hi)) for lo, hi in zip(problem.lower, problem.upper, strict=True)])
+    assume(assert_same_solutions(problem, u) > 0)  # an input with no solution compares nothing
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_shipped_scenes_at_zero_input(name):
+    problem = ContactProblem.from_scene(load_scene(name))
+    u = np.clip(np.zeros(problem.m), problem.lower, problem.upper)
+    assert_same_solutions(problem, u)
+
+
+def test_the_default_takes_the_batch_and_says_so_in_nothing_but_speed():
+    scene = load_scene("rhex_flip")
+    auto = solutions_at(scene, {})
+    batch = solutions_at(scene, {}, method="batch")
+    assert [s.mode for s in auto] == [s.mode for s in batch] and len(auto) == 8
+
+
+def test_unknown_method_is_an_input_error():
+    with pytest.raises(InputError, match="unknown solution method 'fast'.*auto, batch, reference"):
+        solutions_at(load_scene("rod_on_table"), {}, method="fast")
+
+
+def test_full_modes_are_the_reference_order():
+    allowed = ("SLRF", "SR", "S", "SLRF")
+    modes, letters = full_modes(allowed)
+    assert list(modes) == all_modes(allowed)
+    assert letters.shape == (len(modes), 4)
+
+
+# ------------------------------------------------------------------ the interval rule, p = 1
+def _chebyshev_radius(H: np.ndarray, h: np.ndarray, w: np.ndarray) -> float:
+    a = H[:, 0]
+    live = np.abs(a) > 0
+    return float(np.min((h[live] + DOMAIN_TOLERANCE - a[live] * w[0]) / np.abs(a[live]), initial=np.inf))
+
+
+@settings(max_examples=300, deadline=None)
+@given(data=st.data())
+def test_interval_rule_matches_the_two_lps(data):
+    rows = data.draw(st.integers(1, 6))
+    coefficient = st.one_of(st.just(0.0), st.floats(-1.0, 1.0).filter(lambda x: abs(x) > 1e-3))
+    H = np.array([[data.draw(coefficient)] for _ in range(rows)])
+    magnitude = st.floats(1e-3, 2.0)  # away from the tolerance, where the LPs' own tolerance decides
+    h = np.array([data.draw(magnitude) * data.draw(st.sampled_from([-1.0, 1.0])) for _ in range(rows)])
+    motion = np.array([data.draw(st.booleans()) for _ in range(rows)])
+    closed = interval_admissible(H, h, motion, DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE, poly.CHEBYSHEV_RADIUS_CAP)
+    lps = _admissible_in_w(H, h, motion, "highs", closed_form=False)
+    # two interval ends within the LPs' own tolerance of each other may go either way: skipped
+    live = H[:, 0] != 0
+    ends = np.sort(np.concatenate([h[live], h[live] + DOMAIN_TOLERANCE]) / np.tile(H[live, 0], 2))
+    assume(ends.size < 2 or bool(np.all(np.diff(ends) > 1e-5)))
+    assert (closed is None) == (lps is None)
+    if closed is not None:
+        assert np.all(H[:, 0] * closed[0] <= h + np.where(motion, 0.0, DOMAIN_TOLERANCE) + 1e-12)
+        # as central as the Chebyshev LP's centre (radius capped at CHEBYSHEV_RADIUS_CAP)
+        cap = poly.CHEBYSHEV_RADIUS_CAP
+        assert min(_chebyshev_radius(H, h, closed), cap) >= min(_chebyshev_radius(H, h, lps), cap) - 1e-7
