@@ -230,7 +230,7 @@ def _decide_rank_group(problem: ContactProblem, modes: tuple[str, ...], st: _Sta
 
 
 def _scale_of(Bs: np.ndarray, cs: np.ndarray) -> np.ndarray:
-    """Per mode, the scale of ``[B c]`` that :data:`~frcontrol.response.CONSISTENCY_TOLERANCE` is relative to."""
+    """Per mode, the scale of ``[B c]`` (what ``CONSISTENCY_TOLERANCE`` is relative to)."""
     top_b = np.max(np.abs(Bs), axis=(1, 2), initial=0.0)
     top_c = np.max(np.abs(cs), axis=1, initial=0.0)
     return np.maximum(1.0, np.maximum(top_b, top_c))
@@ -238,7 +238,7 @@ def _scale_of(Bs: np.ndarray, cs: np.ndarray) -> np.ndarray:
 
 def _consistent_at(E_raw: np.ndarray, e_raw: np.ndarray, scale: np.ndarray, u: np.ndarray,
                    domain_tolerance: float) -> np.ndarray:
-    """Per mode: its equalities are consistent and ``|E u - e| <= domain_tolerance`` (as solve_affine + the engine)."""
+    """Per mode: consistent equalities with ``|E u - e| <= domain_tolerance`` (solve_affine's rule)."""
     count, p, m = E_raw.shape
     if p == 0:
         return np.ones(count, dtype=bool)

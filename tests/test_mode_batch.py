@@ -138,7 +138,8 @@ def test_interval_rule_matches_the_two_lps(data):
     magnitude = st.floats(1e-3, 2.0)  # away from the tolerance, where the LPs' own tolerance decides
     h = np.array([data.draw(magnitude) * data.draw(st.sampled_from([-1.0, 1.0])) for _ in range(rows)])
     motion = np.array([data.draw(st.booleans()) for _ in range(rows)])
-    closed = interval_admissible(H, h, motion, DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE, poly.CHEBYSHEV_RADIUS_CAP)
+    cap = poly.CHEBYSHEV_RADIUS_CAP
+    closed = interval_admissible(H, h, motion, DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE, cap)
     lps = _admissible_in_w(H, h, motion, "highs", closed_form=False)
     # two interval ends within the LPs' own tolerance of each other may go either way: skipped
     live = H[:, 0] != 0
@@ -148,5 +149,4 @@ def test_interval_rule_matches_the_two_lps(data):
     if closed is not None:
         assert np.all(H[:, 0] * closed[0] <= h + np.where(motion, 0.0, DOMAIN_TOLERANCE) + 1e-12)
         # as central as the Chebyshev LP's centre (radius capped at CHEBYSHEV_RADIUS_CAP)
-        cap = poly.CHEBYSHEV_RADIUS_CAP
         assert min(_chebyshev_radius(H, h, closed), cap) >= min(_chebyshev_radius(H, h, lps), cap) - 1e-7
