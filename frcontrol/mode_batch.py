@@ -27,11 +27,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
 from .modes import MODE_LETTERS, ContactProblem
-from .response import CONSISTENCY_TOLERANCE, ILL_CONDITIONED_BAND, outputs_moved_by
+from .response import CONSISTENCY_TOLERANCE, ILL_CONDITIONED_BAND, outputs_moved_by, power_of_two_scale
 
 BATCH_MAX_MODES = 1024
 """The fast path stacks every full mode when there are at most this many (4^5); larger problems
@@ -79,29 +80,27 @@ class ModeBatch:
     ill_conditioned: bool
 
 
+@lru_cache(maxsize=256)
 def full_modes(allowed: tuple[str, ...]) -> tuple[tuple[str, ...], np.ndarray]:
-    """Every full mode from per-contact allowed letters, and their letter indices (modes, k)."""
+    """Every full mode from per-contact allowed letters, and their letter indices (modes, k).
+
+    Cached: the result is shared, do not modify the array.
+    """
     k = len(allowed)
     if k == 0:
         return ("",), np.zeros((1, 0), dtype=int)
     grids = np.meshgrid(*[np.array([MODE_LETTERS.index(ch) for ch in letters]) for letters in allowed],
                         indexing="ij")
     letters = np.stack([g.reshape(-1) for g in grids], axis=1)
+    letters.setflags(write=False)
     modes = tuple("".join(MODE_LETTERS[j] for j in row) for row in letters.tolist())
     return modes, letters
 
 
 def _equilibrate(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Row and column scalings of a stack, as :func:`frcontrol.response._equilibrate` per matrix."""
-
-    def scale(vec: np.ndarray) -> np.ndarray:
-        out = np.ones_like(vec)
-        nz = vec > 0
-        out[nz] = np.exp2(-np.round(np.log2(vec[nz])))
-        return out
-
-    rows = scale(np.max(np.abs(A), axis=2))
-    cols = scale(np.max(np.abs(A * rows[:, :, None]), axis=1))
+    rows = power_of_two_scale(np.abs(A).max(axis=2))
+    cols = power_of_two_scale(np.abs(A * rows[:, :, None]).max(axis=1))
     return rows, cols
 
 
@@ -159,16 +158,56 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
     U, s, Vt = np.linalg.svd(st.A * r_scale[:, :, None] * c_scale[:, None, :])
     s_max = s[:, :1]
     kept = s > rank_tolerance * s_max
-    if np.any(kept & (s <= ILL_CONDITIONED_BAND * s_max)):
+    if (kept & (s <= ILL_CONDITIONED_BAND * s_max)).any():
         return ModeBatch(modes, (), True)
-    rank = np.where(s_max[:, 0] > 0.0, np.sum(kept, axis=1), 0)
+    rank = np.where(s_max[:, 0] > 0.0, kept.sum(axis=1), 0)
     scaled = _Scaled(U, s, Vt, r_scale, c_scale, st.B * r_scale[:, :, None], st.c * r_scale)
-    found: dict[int, BatchSolution] = {}
-    for r in np.unique(rank):
+    full = rank == st.A.shape[1]
+    found = _decide_full_rank(problem, modes, st, scaled, full, u, domain_tolerance, zero_row_tolerance)
+    for r in (np.unique(rank[~full]) if not full.all() else ()):
         group = np.nonzero(rank == r)[0]
         found.update(_decide_rank_group(problem, modes, st, scaled, group, int(r), u, decide_w,
                                         domain_tolerance, zero_row_tolerance))
     return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+
+
+def _decide_full_rank(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, sc: _Scaled,
+                      full: np.ndarray, u: np.ndarray, domain_tolerance: float,
+                      zero_row_tolerance: float) -> dict[int, BatchSolution]:
+    """The modes of full rank: ``x = A^+ (B u + c)`` (by the SVD), each inequality row at ``u``.
+
+    A lean form of :func:`_decide_rank_group` for ``p = 0``: rows normalised by their norm in u
+    alone, non-motion rows to ``domain_tolerance``, motion rows strictly.
+    """
+    sel = slice(None) if full.all() else np.nonzero(full)[0]
+    U, s, Vt, r_scale, c_scale = sc.U[sel], sc.s[sel], sc.Vt[sel], sc.r_scale[sel], sc.c_scale[sel]
+    if U.shape[0] == 0:
+        return {}
+    n = problem.n
+    # U^T (diag(r) b) / s, then x = diag(c) V (...): for b = B u + c, and for B's columns (rows < n)
+    coeff = np.matmul((st.rhs[sel] * r_scale)[:, None, :], U)[:, 0] / s
+    x = c_scale * np.matmul(coeff[:, None, :], Vt)[:, 0]
+    coeff_u = np.matmul(np.transpose(U[:, :n], (0, 2, 1)), problem.input_map * r_scale[:, :n, None])
+    X_u = c_scale[:, :, None] * np.matmul(np.transpose(Vt, (0, 2, 1)), coeff_u / s[:, :, None])
+    G, g, valid, motion = st.G[sel], st.g[sel], st.valid[sel], st.motion[sel]
+    H_u = np.matmul(G, X_u)
+    norms = np.sqrt((H_u * H_u).sum(axis=2))
+    largest = np.where(valid, norms, 0.0).max(axis=1, initial=0.0)
+    constant = norms <= zero_row_tolerance * np.maximum(1.0, largest)[:, None]
+    norms = np.where(constant, 1.0, norms)
+    violation = np.matmul(G, x[:, :, None])[:, :, 0] - g
+    slack = -violation / norms
+    holds = np.where(motion, slack > domain_tolerance, slack >= -domain_tolerance) | ~valid
+    admissible = np.nonzero(holds.all(axis=1))[0]
+    if admissible.size == 0:
+        return {}
+    index = np.arange(len(modes))[sel][admissible]
+    xs = x[admissible]
+    residual = np.max(np.abs(np.matmul(st.A[index], xs[:, :, None])[:, :, 0] - st.rhs[index]), axis=1)
+    worst = np.max(np.where(valid[admissible], violation[admissible], 0.0), axis=1, initial=0.0)
+    empty = np.zeros(0)
+    return {int(i): BatchSolution(modes[i], x_i, empty, "none", float(res), float(bad))
+            for i, x_i, res, bad in zip(index, xs, residual, worst, strict=True)}
 
 
 @dataclass(frozen=True)

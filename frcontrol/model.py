@@ -71,6 +71,15 @@ class ContactPoint:
 
 
 @dataclass(frozen=True)
+class _ContactLayout:
+    """A subset of the contacts, laid out once: frame ids, (n, t) rows (2, k, 2), surface points."""
+
+    frames: tuple[int, ...]
+    basis: np.ndarray
+    surface_points: np.ndarray
+
+
+@dataclass(frozen=True)
 class RobotState:
     """Dynamics and contact kinematics of a robot at one state (q, v).
 
@@ -258,8 +267,11 @@ class PlanarRobot:
         ).reshape(-1, 2)
         self.model = model
         self.data = model.createData()
-        self._upper_indices = np.triu_indices(self.nv, 1)
-        self._layouts: dict = {}  # contact subsets -> (frames, normals, tangents, surface points)
+        # M in minimal order from Pinocchio's upper triangle (CRBA fills only that): one gather of
+        # flat indices, entry (i, j) from (min, max) of the Pinocchio indices of coordinates i, j
+        pi, pj = np.meshgrid(v_index, v_index, indexing="ij")
+        self._mass_gather = (np.minimum(pi, pj) * n + np.maximum(pi, pj)).ravel()
+        self._layouts: dict = {}  # contact subsets -> _ContactLayout
 
     # ------------------------------------------------------------------ construction helpers
     def _lock_joints(self, model: pin.Model, locked: Mapping[str, float], names: Sequence[str]) -> pin.Model:
@@ -351,12 +363,21 @@ class PlanarRobot:
         return self._symmetric_minimal(self.data.M)
 
     def _symmetric_minimal(self, upper: np.ndarray) -> np.ndarray:
-        iu = self._upper_indices
-        full = upper.copy()
-        full[(iu[1], iu[0])] = upper[iu]
-        if self._identity_order:
-            return full
-        return full[np.ix_(self._v_index, self._v_index)]
+        """The full symmetric M in minimal order from Pinocchio's upper triangle."""
+        return upper.ravel()[self._mass_gather].reshape(self.nv, self.nv)
+
+    def _layout(self, contacts: Sequence[int] | None) -> _ContactLayout:
+        key = None if contacts is None else tuple(contacts)
+        layout = self._layouts.get(key)
+        if layout is None:
+            indices = tuple(range(len(self.contacts))) if key is None else key
+            idx = np.array(indices, dtype=int)
+            # rows n^T and t^T of each contact's frame, stacked as (2, k, 2)
+            basis = np.stack([self._normals[idx], self._tangents[idx]])
+            layout = _ContactLayout(tuple(self._contact_frames[i] for i in indices), basis,
+                                    self._surface_points[idx])
+            self._layouts[key] = layout
+        return layout
 
     def state(
         self, q: np.ndarray, v: np.ndarray, contacts: Sequence[int] | None = None
@@ -369,52 +390,39 @@ class PlanarRobot:
             contacts: indices into ``self.contacts`` to evaluate (default: all), in that order.
         """
         model, data = self.model, self.data
-        q_pin = self.pinocchio_q_from_minimal(q)
-        v_pin = self.pinocchio_v_from_minimal(v)
         # One pass: CRBA (upper triangle), nonlinear effects, joint Jacobians and the kinematics
         # at (q, v, a = 0), from which the frames' classical accelerations are the drifts.
-        pin.computeAllTerms(model, data, q_pin, v_pin)
-        mass = self._symmetric_minimal(data.M)
-        bias = data.nle.copy() if self._identity_order else data.nle[self._v_index]
-        key = None if contacts is None else tuple(contacts)
-        layout = self._layouts.get(key)
-        if layout is None:
-            indices = tuple(range(len(self.contacts))) if key is None else key
-            idx = np.array(indices, dtype=int)
-            layout = (
-                tuple(self._contact_frames[i] for i in indices),
-                self._normals[idx], self._tangents[idx], self._surface_points[idx],
-            )
-            self._layouts[key] = layout
-        frames, normals, tangents, surfaces = layout
-        k, n = len(frames), self.nv
+        pin.computeAllTerms(model, data, self.pinocchio_q_from_minimal(q), self.pinocchio_v_from_minimal(v))
+        layout = self._layout(contacts)
+        k, n = len(layout.frames), self.nv
         points = np.empty((k, 2))
-        jac = np.empty((k, 2, n))
+        jac = np.empty((2, k, n))  # world x and y rows of every contact point's Jacobian
         drift = np.empty((k, 2))
         lwa = pin.LOCAL_WORLD_ALIGNED
-        for row, fid in enumerate(frames):
+        for row, fid in enumerate(layout.frames):
             points[row] = pin.updateFramePlacement(model, data, fid).translation[:2]
-            jac[row] = pin.getFrameJacobian(model, data, fid, lwa)[:2]
+            jac[:, row] = pin.getFrameJacobian(model, data, fid, lwa)[:2]
             drift[row] = pin.getFrameClassicalAcceleration(model, data, fid, lwa).linear[:2]
         if not self._identity_order:
             jac = jac[:, :, self._v_index]
-        # project on the contact frames: rows n^T J and t^T J, drifts n^T a and t^T a
-        jn = normals[:, 0:1] * jac[:, 0] + normals[:, 1:2] * jac[:, 1]
-        jt = tangents[:, 0:1] * jac[:, 0] + tangents[:, 1:2] * jac[:, 1]
-        rel = points - surfaces
+        # project on the contact frames: rows n^T J and t^T J (as (2, k, n)), drifts n^T a and t^T a
+        basis = layout.basis
+        rows = basis[:, :, 0, None] * jac[0] + basis[:, :, 1, None] * jac[1]
+        drifts = (basis * drift).sum(axis=2)
+        velocities = rows @ v
         return RobotState(
             q=q,
             v=v,
-            mass_matrix=mass,
-            bias=bias,
+            mass_matrix=data.M.ravel()[self._mass_gather].reshape(n, n),
+            bias=data.nle[self._v_index],
             contact_points=points,
-            gaps=normals[:, 0] * rel[:, 0] + normals[:, 1] * rel[:, 1],
-            normal_velocities=jn @ v,
-            tangential_velocities=jt @ v,
-            jacobian_normal=jn,
-            jacobian_tangent=jt,
-            drift_normal=normals[:, 0] * drift[:, 0] + normals[:, 1] * drift[:, 1],
-            drift_tangent=tangents[:, 0] * drift[:, 0] + tangents[:, 1] * drift[:, 1],
+            gaps=(basis[0] * (points - layout.surface_points)).sum(axis=1),
+            normal_velocities=velocities[0],
+            tangential_velocities=velocities[1],
+            jacobian_normal=rows[0],
+            jacobian_tangent=rows[1],
+            drift_normal=drifts[0],
+            drift_tangent=drifts[1],
         )
 
     def contact_points_in_world(self, q: np.ndarray) -> np.ndarray:

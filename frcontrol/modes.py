@@ -27,7 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -296,51 +296,86 @@ def dynamics_rows(problem: ContactProblem) -> np.ndarray:
 
 
 def contact_row_table(problem: ContactProblem) -> ContactRowTable:
-    """Build :class:`ContactRowTable` for the problem's contacts (no solving)."""
+    """Build :class:`ContactRowTable` for the problem's contacts (no solving).
+
+    Every entry is one of the problem's numbers (a Jacobian entry, a drift, mu...), its negative,
+    or 0, 1, -1: the table is one gather from those values through :func:`_row_template`, the one
+    place where the rows are written down.
+    """
     n, k, tol = problem.n, problem.k, problem.velocity_tolerance
+    jn, jt, dn, dt, mu = (problem.jacobian_normal, problem.jacobian_tangent, problem.drift_normal,
+                          problem.drift_tangent, problem.mu)
+    values = np.concatenate([(0.0, 1.0, -1.0), jn.ravel(), -jn.ravel(), jt.ravel(), -jt.ravel(), dn, -dn,
+                             dt, -dt, mu, -mu, -np.maximum(1.0, mu)])
+    template = _row_template(n, k)
+    resting = np.abs(problem.normal_velocities) <= tol
+    sticking = np.abs(problem.tangential_velocities) <= tol
+    valid = np.empty((k, 4, ROWS_PER_CONTACT), dtype=bool)
+    valid[:] = template.always
+    valid[:, 0, 0] = resting
+    valid[:, 1:3, 1] = sticking[:, None]
+    return ContactRowTable(values[template.equalities], values[template.equality_rhs],
+                           values[template.inequalities], values[template.inequality_rhs], valid,
+                           valid & template.motion)
+
+
+@dataclass(frozen=True)
+class _RowTemplate:
+    """Where each entry of a :class:`ContactRowTable` comes from: indices into the value vector
+    ``(0, 1, -1, J_N, -J_N, J_T, -J_T, d_N, -d_N, d_T, -d_T, mu, -mu, -max(1, mu))``."""
+
+    equalities: np.ndarray
+    equality_rhs: np.ndarray
+    inequalities: np.ndarray
+    inequality_rhs: np.ndarray
+    always: np.ndarray  # rows that exist whatever the velocities
+    motion: np.ndarray  # rows that state a motion (they exist only at zero velocity)
+
+
+@lru_cache(maxsize=64)
+def _row_template(n: int, k: int) -> _RowTemplate:
+    """The rows of the table in :class:`ContactRowTable`'s docstring, for n coordinates, k contacts."""
     nx = n + 2 * k
     S, L, R, F = range(4)
     idx = np.arange(k)
     i_n, i_t = n + idx, n + k + idx
-    jn, jt, dn, dt, mu = (problem.jacobian_normal, problem.jacobian_tangent, problem.drift_normal,
-                          problem.drift_tangent, problem.mu)
-    eq = np.zeros((k, 4, 2, nx))
-    eq_rhs = np.zeros((k, 4, 2))
-    eq[idx, S, 0, i_n] = 1.0
-    eq[idx, S, 1, i_t] = 1.0
+    ZERO, ONE, MINUS = 0, 1, 2
+    start = np.cumsum([3, k * n, k * n, k * n, k * n, k, k, k, k, k, k])
+    jn, neg_jn, jt, neg_jt = (start[j] + np.arange(k * n).reshape(k, n) for j in range(4))
+    dn, neg_dn, dt, neg_dt, mu, neg_mu, neg_scale = (start[j] + idx for j in range(4, 11))
+    eq = np.full((k, 4, 2, nx), ZERO)
+    eq_rhs = np.full((k, 4, 2), ZERO)
+    eq[idx, S, 0, i_n] = ONE  # S: lam_N = 0, lam_T = 0
+    eq[idx, S, 1, i_t] = ONE
     eq[:, 1:, 0, :n] = jn[:, None, :]  # a_N = 0 in L, R, F
-    eq_rhs[:, 1:, 0] = -dn[:, None]
-    eq[:, F, 1, :n] = jt
-    eq_rhs[:, F, 1] = -dt
-    eq[idx, R, 1, i_t] = 1.0
-    eq[idx, R, 1, i_n] = mu  # R: lam_T = -mu lam_N
-    eq[idx, L, 1, i_t] = 1.0
-    eq[idx, L, 1, i_n] = -mu  # L: lam_T = +mu lam_N
-    ineq = np.zeros((k, 4, ROWS_PER_CONTACT, nx))
-    ineq_rhs = np.zeros((k, 4, ROWS_PER_CONTACT))
-    valid = np.zeros((k, 4, ROWS_PER_CONTACT), dtype=bool)
-    motion = np.zeros((k, 4, ROWS_PER_CONTACT), dtype=bool)
-    resting = np.abs(problem.normal_velocities) <= tol
-    ineq[:, S, 0, :n] = -jn  # a_N >= 0
+    eq_rhs[:, 1:, 0] = neg_dn[:, None]
+    eq[:, F, 1, :n] = jt  # F: a_T = 0
+    eq_rhs[:, F, 1] = neg_dt
+    eq[idx, R, 1, i_t] = ONE  # R: lam_T + mu lam_N = 0
+    eq[idx, R, 1, i_n] = mu
+    eq[idx, L, 1, i_t] = ONE  # L: lam_T - mu lam_N = 0
+    eq[idx, L, 1, i_n] = neg_mu
+    ineq = np.full((k, 4, ROWS_PER_CONTACT, nx), ZERO)
+    ineq_rhs = np.full((k, 4, ROWS_PER_CONTACT), ZERO)
+    always = np.zeros((4, ROWS_PER_CONTACT), dtype=bool)
+    motion = np.zeros((4, ROWS_PER_CONTACT), dtype=bool)
+    ineq[:, S, 0, :n] = neg_jn  # S: a_N >= 0 (at v_N = 0)
     ineq_rhs[:, S, 0] = dn
-    valid[:, S, 0] = motion[:, S, 0] = resting
-    scale = np.maximum(1.0, mu)
-    ineq[idx, L, 0, i_n] = ineq[idx, R, 0, i_n] = -scale  # lam_N >= 0
-    ineq[idx, F, 0, i_n] = -1.0
-    valid[:, 1:, 0] = True
-    sticking = np.abs(problem.tangential_velocities) <= tol
-    ineq[:, R, 1, :n] = -jt  # a_T >= 0
+    motion[S, 0] = True
+    ineq[idx, L, 0, i_n] = ineq[idx, R, 0, i_n] = neg_scale  # L, R: -max(1, mu) lam_N <= 0
+    ineq[idx, F, 0, i_n] = MINUS  # F: lam_N >= 0
+    always[1:, 0] = True
+    ineq[:, R, 1, :n] = neg_jt  # R: a_T >= 0 (at v_T = 0)
     ineq_rhs[:, R, 1] = dt
-    ineq[:, L, 1, :n] = jt  # a_T <= 0
-    ineq_rhs[:, L, 1] = -dt
-    for letter in (L, R):
-        valid[:, letter, 1] = motion[:, letter, 1] = sticking
-    ineq[idx, F, 1, i_t] = 1.0  # lam_T - mu lam_N <= 0
-    ineq[idx, F, 1, i_n] = -mu
-    ineq[idx, F, 2, i_t] = -1.0  # -lam_T - mu lam_N <= 0
-    ineq[idx, F, 2, i_n] = -mu
-    valid[:, F, 1:] = True
-    return ContactRowTable(eq, eq_rhs, ineq, ineq_rhs, valid, motion)
+    ineq[:, L, 1, :n] = jt  # L: a_T <= 0 (at v_T = 0)
+    ineq_rhs[:, L, 1] = neg_dt
+    motion[L, 1] = motion[R, 1] = True
+    ineq[idx, F, 1, i_t] = ONE  # F: lam_T - mu lam_N <= 0
+    ineq[idx, F, 1, i_n] = neg_mu
+    ineq[idx, F, 2, i_t] = MINUS  # F: -lam_T - mu lam_N <= 0
+    ineq[idx, F, 2, i_n] = neg_mu
+    always[F, 1:] = True
+    return _RowTemplate(eq, eq_rhs, ineq, ineq_rhs, always, motion)
 
 
 def mode_outputs(problem: ContactProblem, x: np.ndarray) -> dict[str, np.ndarray]:

@@ -89,16 +89,15 @@ class AffineSolution:
         return "unique"
 
 
+def power_of_two_scale(top: np.ndarray) -> np.ndarray:
+    """``2^-round(log2 t)`` of each largest magnitude ``t`` (1 where ``t`` is 0): exact scalings."""
+    return np.exp2(-np.round(np.log2(np.where(top > 0, top, 1.0))))
+
+
 def _equilibrate(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Row and column scalings (powers of two) making each row and column's max-abs about 1."""
-    def scale(vec: np.ndarray) -> np.ndarray:
-        out = np.ones_like(vec)
-        nz = vec > 0
-        out[nz] = np.exp2(-np.round(np.log2(vec[nz])))
-        return out
-
-    rows = scale(np.max(np.abs(A), axis=1)) if A.size else np.ones(A.shape[0])
-    cols = scale(np.max(np.abs(A * rows[:, None]), axis=0)) if A.size else np.ones(A.shape[1])
+    rows = power_of_two_scale(np.max(np.abs(A), axis=1)) if A.size else np.ones(A.shape[0])
+    cols = power_of_two_scale(np.max(np.abs(A * rows[:, None]), axis=0)) if A.size else np.ones(A.shape[1])
     return rows, cols
 
 
@@ -200,6 +199,7 @@ __all__ = [
     "ILL_CONDITIONED_BAND",
     "OUTPUT_TOLERANCE",
     "outputs_moved_by",
+    "power_of_two_scale",
     "RANK_TOLERANCE",
     "solve_affine",
 ]

@@ -16,6 +16,7 @@ import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -96,10 +97,16 @@ class Inputs:
         return len(self.coordinates)
 
     def selection_transpose(self, n: int) -> np.ndarray:
-        """S^T (n x m): maps inputs to generalized forces."""
-        st = np.zeros((n, self.count))
-        st[list(self.indices), np.arange(self.count)] = 1.0
-        return st
+        """S^T (n x m): maps inputs to generalized forces (a shared, read-only array)."""
+        return _selection_transpose(self.indices, n)
+
+
+@lru_cache(maxsize=256)
+def _selection_transpose(indices: tuple[int, ...], n: int) -> np.ndarray:
+    st = np.zeros((n, len(indices)))
+    st[list(indices), np.arange(len(indices))] = 1.0
+    st.setflags(write=False)
+    return st
 
 
 @dataclass(frozen=True, eq=False)
