@@ -321,8 +321,11 @@ def contact_row_table(problem: ContactProblem) -> ContactRowTable:
 
 @dataclass(frozen=True)
 class _RowTemplate:
-    """Where each entry of a :class:`ContactRowTable` comes from: indices into the value vector
-    ``(0, 1, -1, J_N, -J_N, J_T, -J_T, d_N, -d_N, d_T, -d_T, mu, -mu, -max(1, mu))``."""
+    """Where each entry of a :class:`ContactRowTable` comes from.
+
+    Indices into the value vector ``(0, 1, -1, J_N, -J_N, J_T, -J_T, d_N, -d_N, d_T, -d_T, mu, -mu,
+    -max(1, mu))``.
+    """
 
     equalities: np.ndarray
     equality_rhs: np.ndarray
