@@ -53,9 +53,12 @@ What each point is
 - **Drake**: one discrete step of the ``MultibodyPlant`` from the state
   (``CalcForcedDiscreteVariableUpdate`` and its contact results; ``use_sampled_output_ports`` off, so
   the results are those of that step). Settings: the discrete contact approximation (``tamsi``,
-  ``sap``, ``lagged``), the time step and the point stiffness (both geometries get ``2 k``: Drake
-  combines them in series). The defaults are ``MultibodyPlantConfig()``'s (1 ms, ``lagged``,
-  stiffness from the 1 mm penetration allowance, stiction tolerance 1e-4 m/s) with point contact.
+  ``sap``, ``lagged``), the time step, the point stiffness (both geometries get ``2 k``: Drake
+  combines them in series) and, for the SAP family, ``sap_near_rigid_threshold`` 0 besides its
+  default 1 (at 1, SAP saturates a stiffness beyond its near-rigid limit: a softer contact,
+  which Drake's documentation suggests lifting with 0). The defaults are
+  ``MultibodyPlantConfig()``'s (1 ms, ``lagged``, stiffness from the 1 mm penetration allowance,
+  stiction tolerance 1e-4 m/s) with point contact.
 - **frcontrol rigid**: ``solutions_at(scene, {})`` from scratch, and on an existing ``analyze``
   result (the analysis not timed).
 - **frcontrol compliant**: ``frcontrol.simulate`` on the scene loaded with
@@ -173,6 +176,7 @@ class DrakeSetting:
     approximation: str = "lagged"
     time_step: float = 1e-3             # [s]
     stiffness: float | None = None      # [N/m] effective point stiffness; None: from the allowance
+    near_rigid_threshold: float = 1.0   # SAP's sap_near_rigid_threshold (0: the stiffness as given)
 
 
 @dataclass(frozen=True)
@@ -218,14 +222,18 @@ def mujoco_grid(steps: tuple[float, ...], impedances: tuple[float, ...],
 
 def drake_grid(approximations: tuple[str, ...], steps: tuple[float, ...],
                stiffnesses: tuple[float | None, ...]) -> tuple[DrakeSetting, ...]:
-    """Every approximation, step and stiffness (the defaults are among them)."""
+    """Every approximation, step and stiffness (the defaults are among them); the SAP family
+    (``sap``, ``lagged``) also without its near-rigid regime at every given stiffness."""
     out = []
     for a in approximations:
         for h in steps:
             for k in stiffnesses:
-                setting = DrakeSetting(
-                    f"{a}, h {h:g}, k {'default' if k is None else f'{k:.0e}'}", a, h, k)
-                out.append(DRAKE_DEFAULTS if setting == DrakeSetting(setting.label) else setting)
+                thresholds = (1.0, 0.0) if a != "tamsi" and k is not None else (1.0,)
+                for threshold in thresholds:
+                    label = f"{a}, h {h:g}, k {'default' if k is None else f'{k:.0e}'}"
+                    label += ", near-rigid 0" if threshold == 0.0 else ""
+                    setting = DrakeSetting(label, a, h, k, threshold)
+                    out.append(DRAKE_DEFAULTS if setting == DrakeSetting(setting.label) else setting)
     return tuple(out)
 
 
@@ -504,7 +512,8 @@ class DrakeRun:
         builder = DiagramBuilder()
         config = MultibodyPlantConfig(time_step=setting.time_step, contact_model="point",
                                       discrete_contact_approximation=setting.approximation,
-                                      use_sampled_output_ports=False)
+                                      use_sampled_output_ports=False,
+                                      sap_near_rigid_threshold=setting.near_rigid_threshold)
         plant, _ = AddMultibodyPlant(config, builder)
         com = np.array([body.com_in_link[0], body.com_in_link[1], 0.0])
         link = plant.AddRigidBody("body", SpatialInertia.MakeFromCentralInertia(
@@ -850,28 +859,38 @@ def plot_problem(result: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(11, 6.2))
+    fig, ax = plt.subplots(figsize=(12.5, 7.6))
     points = [p for p in result["points"] if p.get("valid")]
     for simulator, (color, marker, size) in STYLE.items():
+        if simulator == "frcontrol rigid":
+            continue
         for after in (False, True):
             chosen = [p for p in points
                       if p["simulator"] == simulator and p["kind"].startswith("after") == after]
-            if not chosen:
-                continue
-            label = simulator + (f" ({chosen[0]['kind']}, a longer run)" if after else "")
-            ax.scatter([p["time"] for p in chosen], [max(p["error"], ERROR_FLOOR) for p in chosen], s=size,
-                       marker=marker, label=label, alpha=0.8, zorder=3,
-                       facecolors="none" if after else color, edgecolors=color)
+            if chosen:
+                ax.scatter([p["time"] for p in chosen], [max(p["error"], ERROR_FLOOR) for p in chosen],
+                           s=size, marker=marker, alpha=0.8, zorder=3, edgecolors=color,
+                           facecolors="none" if after else color,
+                           label=simulator + (f" ({chosen[0]['kind']}, a longer run)" if after else ""))
     notes = []
+    for p in points:
+        if p["simulator"] == "frcontrol rigid":
+            shade = "k" if "scratch" in p["setting"] else "0.55"
+            ax.scatter([p["time"]], [max(p["error"], ERROR_FLOOR)], marker="*", s=220, zorder=4, color=shade,
+                       label=f"frcontrol rigid, {p['setting']}")
+            notes.append((p["time"], max(p["error"], ERROR_FLOOR),
+                          f"frcontrol rigid, {p['setting']} (exact)"))
     for simulator, entry in result["summary"].items():
+        if simulator == "frcontrol rigid":
+            continue
         if entry.get("time_to_target") is not None:
-            notes.append((entry["time_to_target"], entry["error"], f"{simulator}: {entry['setting']}"))
-        if "defaults_one_step" in entry and simulator != "frcontrol rigid":
+            kind = "" if entry["kind"] == "one step" or entry["kind"].startswith("window") \
+                else f" ({entry['kind']})"
+            notes.append((entry["time_to_target"], entry["error"],
+                          f"{simulator}, cheapest to {TARGET_FORCE_ERROR:g}: {entry['setting']}{kind}"))
+        if "defaults_one_step" in entry:
             d = entry["defaults_one_step"]
-            notes.append((d["time"], d["error"], f"{simulator} defaults"))
-    rigid = [p for p in points if p["simulator"] == "frcontrol rigid"]
-    for p in rigid:
-        notes.append((p["time"], max(p["error"], ERROR_FLOOR), f"frcontrol {p['setting']}"))
+            notes.append((d["time"], d["error"], f"{simulator} defaults ({d['kind']})"))
     notes.sort(key=lambda n: (-n[1], n[0]))
     offsets_y = np.linspace(0.95, 0.05, max(len(notes), 2))
     for (x, y, text), oy in zip(notes, offsets_y, strict=False):
@@ -884,11 +903,11 @@ def plot_problem(result: dict, path: Path) -> None:
     ax.set_xlabel("compute time per answer [s] (median; one step, one simulation window or one call)")
     ax.set_ylabel("relative contact-force error [-]")
     ax.grid(True, which="both", alpha=0.2)
-    ax.legend(fontsize=7, loc="lower left")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3)
     ax.set_title(f"{result['problem']}: force error against compute time (errors below {ERROR_FLOOR:g} drawn "
                  f"at {ERROR_FLOOR:g}; frcontrol rigid is exact)", fontsize=9)
     fig.tight_layout()
-    fig.subplots_adjust(right=0.62)
+    fig.subplots_adjust(right=0.6, bottom=0.24)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -917,7 +936,9 @@ def readme_tables(payload: dict) -> str:
                 cells.append("; ".join(f"{fmt_time(p['time'])} ({p['setting'].replace('solutions_at ', '')}, "
                                        f"x{p['ratio']:.2g})" for p in rigid))
             elif e.get("time_to_target") is not None:
-                cells.append(f"{fmt_time(e['time_to_target'])} (x{e['ratio']:.2g}): {e['setting']}")
+                kind = "" if e["kind"] in ("one step", "exact") or e["kind"].startswith("window") \
+                    else f", {e['kind']}"
+                cells.append(f"{fmt_time(e['time_to_target'])} (x{e['ratio']:.2g}): {e['setting']}{kind}")
             else:
                 cells.append(f"not reached (best {e.get('best_error', float('nan')):.1e})")
         for r in problems:
@@ -953,7 +974,10 @@ def readme_tables(payload: dict) -> str:
         for (simulator, setting), speed in shown.items():
             lines.append(f"| {simulator} | {setting} | {speed:.1e} |")
     versions = payload["versions"]
-    lines += ["", f"MuJoCo {versions.get('mujoco')}, Drake {versions.get('drake')}, "
+    lines += ["", "x: the time over frcontrol's rigid `solutions_at` from scratch in the same run. "
+              "Defaults: each simulator's own, one step of its default size (frcontrol compliant: its "
+              "first 1 ms sample); a row without defaults is not its simulator's default (Drake's is "
+              "`lagged`).", "", f"MuJoCo {versions.get('mujoco')}, Drake {versions.get('drake')}, "
               f"{payload['cpu_count']} cores (shared), medians of {payload['grid']['runs']} runs; "
               f"`python -m benchmarks.peers`."]
     return "\n".join(lines)
