@@ -121,6 +121,7 @@ from frcontrol.scene import Scene, load_scene
 from frcontrol.simulation import simulate, simulate_rigid
 
 RESULTS = Path(__file__).resolve().parent / "results"
+README = Path(__file__).resolve().parents[1] / "README.md"
 
 PROBLEMS = ("rod_on_table", "box_on_slope")
 """The shipped scenes compared (their mode and input: :data:`benchmarks.trade.SCENARIOS`)."""
@@ -961,31 +962,89 @@ def readme_tables(payload: dict) -> str:
         lines.append("| " + " | ".join(cells) + " |")
     creep_data = payload.get("creep")
     if creep_data:
+        box = next((r for r in problems if r["problem"] == creep_data["problem"]), None)
+        tuned = {name: e.get("setting") for name, e in (box["summary"] if box else {}).items()}
         lines += ["", f"Creep: the box on the slope at mu = {creep_data['mu']:g}, speed along the slope "
-                  "after "
-                  f"{creep_data['duration']:g} s from rest:", "",
+                  f"after {creep_data['duration']:g} s from rest (each simulator at its defaults and at its "
+                  f"cheapest setting reaching {payload['target_force_error']:g} on the box):", "",
                   "| simulator | setting | speed [m/s] |", "| --- | --- | --- |"]
-        shown = {}
         for p in creep_data["points"]:
-            if "speed" not in p:
-                continue
-            key = p["simulator"]
-            keep = (p["simulator"].startswith("frcontrol") or p["setting"].startswith("defaults")
-                    or "noslip" in p["setting"])
-            tuned = next((r["summary"].get(key, {}).get("setting") for r in problems
-                          if r["problem"] == creep_data["problem"]), None)
-            if keep or p["setting"] == tuned:
-                shown[(key, p["setting"])] = p["speed"]
-        for (simulator, setting), speed in shown.items():
-            lines.append(f"| {simulator} | {setting} | {speed:.1e} |")
+            best = tuned.get(p["simulator"])
+            shown = (p["simulator"].startswith("frcontrol") or p["setting"].startswith("defaults")
+                     or p["setting"] in (best, f"{best}, noslip {NOSLIP_ITERATIONS}"))
+            if "speed" in p and shown:
+                lines.append(f"| {p['simulator']} | {p['setting']} | {p['speed']:.1e} |")
     versions = payload["versions"]
     lines += ["", "x: the time over frcontrol's rigid `solutions_at` from scratch in the same run. "
               "Defaults: each simulator's own, one step of its default size (frcontrol compliant: its "
               "first 1 ms sample); a row without defaults is not its simulator's default (Drake's is "
-              "`lagged`).", "", f"MuJoCo {versions.get('mujoco')}, Drake {versions.get('drake')}, "
-              f"{payload['cpu_count']} cores (shared), medians of {payload['grid']['runs']} runs; "
-              f"`python -m benchmarks.peers`."]
+              "`lagged`).", "", *conclusions(payload), "",
+              f"MuJoCo {versions.get('mujoco')}, Drake {versions.get('drake')}, "
+              f"{payload['cpu_count']} cores (shared with other work), medians of {payload['grid']['runs']} "
+              f"runs, the whole run {payload['wall_time_s']:.0f} s; `{payload['command']}`."]
     return "\n".join(lines)
+
+
+def conclusions(payload: dict) -> list[str]:
+    """The comparison in words: how much slower frcontrol is than the fastest peers, and the creep."""
+    lines = []
+    for r in payload["problems"]:
+        rigid = {p["setting"]: p["time"] for p in r["points"]
+                 if p["simulator"] == "frcontrol rigid" and p.get("valid")}
+        scratch = rigid.get("solutions_at from scratch")
+        on_analysis = rigid.get("solutions_at on an analysis")
+        reached = {name: e for name, e in r["summary"].items()
+                   if not name.startswith("frcontrol") and e.get("time_to_target") is not None}
+        if scratch is None or on_analysis is None or not reached:
+            continue
+        text = (f"- {r['problem']}: frcontrol's exact answer takes {fmt_time(scratch)} from scratch, "
+                f"{fmt_time(on_analysis)} on an analysis.")
+        for family in ("MuJoCo", "Drake"):
+            found = {n: e for n, e in reached.items() if n.startswith(family)}
+            if found:
+                name, e = min(found.items(), key=lambda item: item[1]["time_to_target"])
+                t = e["time_to_target"]
+                text += (f" The fastest {family} answer within {payload['target_force_error']:g} "
+                         f"({name}: {e['setting']}, {fmt_time(t)}) is {scratch / t:.0f}x faster than it "
+                         f"from scratch, "
+                         f"{on_analysis / t:.1f}x faster than it on an analysis.")
+        compliant = r["summary"].get("frcontrol compliant", {}).get("time_to_target")
+        if compliant is not None:
+            fastest = min(e["time_to_target"] for e in reached.values())
+            text += (f" frcontrol's compliant model needs {fmt_time(compliant)}, "
+                     f"{compliant / fastest:.0f}x the fastest peer.")
+        lines.append(text)
+    creep_data = payload.get("creep")
+    if creep_data:
+        speeds: dict[str, list[float]] = {}
+        for p in creep_data["points"]:
+            if "speed" in p and not p["setting"].endswith(f"noslip {NOSLIP_ITERATIONS}"):
+                speeds.setdefault(p["simulator"].split(" ")[0] if p["simulator"].startswith("Drake")
+                                  else p["simulator"], []).append(p["speed"])
+        parts = [f"{name} {min(v):.0e}" + (f"-{max(v):.0e}" if max(v) > 2 * min(v) else "") + " m/s"
+                 for name, v in speeds.items()]
+        lines.append(f"- Creep after {creep_data['duration']:g} s at mu = {creep_data['mu']:g} over every "
+                     f"setting run: {', '.join(parts)} (MuJoCo's noslip iterations excluded).")
+    return lines
+
+
+README_BEGIN = ("<!-- generated by `python -m benchmarks.peers --readme` from benchmarks/results/peers.json; "
+                "`python -m benchmarks.peers --write-readme` re-runs and rewrites it -->")
+README_END = "<!-- end of the generated peers tables -->"
+
+
+def write_readme(payload: dict, readme: Path) -> None:
+    """Replace the generated block of the README (between its markers) by the tables of ``payload``.
+
+    Raises:
+        ValueError: the README has not exactly one pair of markers.
+    """
+    text = readme.read_text()
+    if text.count(README_BEGIN) != 1 or text.count(README_END) != 1:
+        raise ValueError(f"{readme}: expected one '{README_BEGIN}' and one '{README_END}'")
+    head, rest = text.split(README_BEGIN)
+    _, tail = rest.split(README_END)
+    readme.write_text(f"{head}{README_BEGIN}\n{readme_tables(payload)}\n{README_END}{tail}")
 
 
 # ------------------------------------------------------------------------------------ driver
@@ -1018,6 +1077,9 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=None, help="the results folder")
     parser.add_argument("--readme", action="store_true", help="print the README's tables from peers.json")
     parser.add_argument("--replot", action="store_true", help="redraw the figures from peers.json")
+    parser.add_argument("--write-readme", action="store_true",
+                        help="rewrite the README's generated tables from the results (after the run, "
+                             "or from peers.json with --readme)")
     parser.add_argument("--peers", nargs="*", default=["mujoco", "drake"], choices=["mujoco", "drake"])
     args = parser.parse_args()
     out = args.out or (Path(tempfile.mkdtemp(prefix="peers-")) if args.quick else RESULTS)
@@ -1025,6 +1087,8 @@ def main() -> None:
         payload = json.loads((out / "peers.json").read_text())
         if args.readme:
             print(readme_tables(payload))
+            if args.write_readme:
+                write_readme(payload, README)
         if args.replot:
             for result in payload["problems"]:
                 plot_problem(result, out / f"peers_{result['problem']}.png")
@@ -1066,7 +1130,9 @@ def main() -> None:
     for result in results:
         plot_problem(result, out / f"peers_{result['problem']}.png")
     print(readme_tables(payload))
-    print(f"\nwritten to {out}")
+    if args.write_readme and not args.quick:
+        write_readme(payload, README)
+    print(f"\nwritten to {out}" + (f" and {README}" if args.write_readme and not args.quick else ""))
 
 
 if __name__ == "__main__":
