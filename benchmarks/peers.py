@@ -86,6 +86,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.metadata
+import importlib.util
 import json
 import logging
 import math
@@ -122,6 +123,8 @@ from frcontrol.simulation import simulate, simulate_rigid
 
 RESULTS = Path(__file__).resolve().parent / "results"
 README = Path(__file__).resolve().parents[1] / "README.md"
+PEER_MODULES = {"mujoco": "mujoco", "drake": "pydrake"}
+"""The module each peer is imported as."""
 
 PROBLEMS = ("rod_on_table", "box_on_slope")
 """The shipped scenes compared (their mode and input: :data:`benchmarks.trade.SCENARIOS`)."""
@@ -1093,6 +1096,10 @@ def main() -> None:
             for result in payload["problems"]:
                 plot_problem(result, out / f"peers_{result['problem']}.png")
         return
+    missing = [peer for peer in args.peers if importlib.util.find_spec(PEER_MODULES[peer]) is None]
+    if missing:
+        parser.error(f"{' and '.join(missing)} not installed: pip install \".[peers]\" "
+                     f"(or leave them out with --peers)")
     grid = QUICK if args.quick else FULL
     if args.runs is not None:
         grid = Grid(**{**grid.__dict__, "runs": args.runs})
