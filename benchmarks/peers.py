@@ -87,6 +87,7 @@ from __future__ import annotations
 import argparse
 import importlib.metadata
 import importlib.util
+import inspect
 import json
 import logging
 import math
@@ -134,8 +135,14 @@ SPHERE_RADIUS = 1e-3
 
 INITIAL_PENETRATION = 1e-12
 """[m] Depth of the peers' spheres in their surface at the start: at an exact zero distance
-neither MuJoCo nor Drake reports the contact. Its spring force, k * 1e-12 m, is below 1e-4 N for
-every stiffness swept (<= 1e10 N/m \u00d7 2 in series)."""
+neither MuJoCo nor Drake reports the contact. What it adds to a step's force: in Drake, about
+``min(k, m / h^2) * 1e-12 m`` (a stiff contact removes a penetration within the step), below 1e-6 N
+for every stiffness swept at m = 1 kg, h >= 1e-3 s, against reference forces of 3-9 N; in MuJoCo, a
+reference acceleration of solref's stiffness (<= 1e6 /s^2 at the smallest time constant swept) times
+1e-12 m, below 1e-5 m/s^2."""
+
+DEFAULT_SAMPLE = inspect.signature(simulate).parameters["dt"].default
+"""[s] ``frcontrol.simulate``'s default sample interval: the compliant defaults are read after it."""
 
 CREEP_DURATION = 1.0
 """[s] Simulated time of the creep runs and of the box's "after 1 s" force errors."""
@@ -635,7 +642,7 @@ def compliant_call(ref: Reference, setting: CompliantSetting, scene: Scene, dura
     """The ``simulate`` call of a setting (duration: its window, or the given one), or why not."""
     options: dict[str, Any] = {"integrator": setting.integrator}
     if setting.window is None:
-        window, dt = 1e-3, 1e-3
+        window, dt = DEFAULT_SAMPLE, DEFAULT_SAMPLE
     else:
         k = setting.stiffness if setting.stiffness is not None else scene.model.defaults.stiffness
         window = setting.window / math.sqrt(k * ref.slowest_eigenvalue)
@@ -673,7 +680,8 @@ def compliant_point(ref: Reference, setting: CompliantSetting, runs: int) -> dic
     """One compliant setting: its readout's error and time."""
     scene = compliant_scene(ref.scenario.name, setting.stiffness)
     call, skipped = compliant_call(ref, setting, scene)
-    kind = "one sample (1 ms)" if setting.window is None else f"window {setting.window:g}/omega_min"
+    kind = (f"one sample ({1e3 * DEFAULT_SAMPLE:g} ms)" if setting.window is None
+            else f"window {setting.window:g}/omega_min")
     base = {"simulator": "frcontrol compliant", "setting": setting.label, "settings": asdict(setting),
             "kind": kind}
     if skipped:
@@ -751,7 +759,7 @@ def summary(points: list[dict], reference_time: float) -> dict[str, dict]:
             entry.update(time_to_target=p["time"], setting=p["setting"], kind=p["kind"], error=p["error"],
                          ratio=p["time"] / reference_time)
         if p["setting"] == "defaults":
-            key = "defaults_one_step" if p["kind"] in ("one step", "one sample (1 ms)") else "defaults_after"
+            key = "defaults_after" if p["kind"].startswith("after") else "defaults_one_step"
             entry[key] = {"error": p["error"], "time": p["time"], "kind": p["kind"],
                           "ratio": p["time"] / reference_time}
     for p in points:  # the best error reached by a simulator that never reached the target
@@ -980,8 +988,8 @@ def readme_tables(payload: dict) -> str:
     versions = payload["versions"]
     lines += ["", "x: the time over frcontrol's rigid `solutions_at` from scratch in the same run. "
               "Defaults: each simulator's own, one step of its default size (frcontrol compliant: its "
-              "first 1 ms sample); a row without defaults is not its simulator's default (Drake's is "
-              "`lagged`).", "", *conclusions(payload), "",
+              f"first {1e3 * DEFAULT_SAMPLE:g} ms sample); a row without defaults is not its simulator's "
+              "default (Drake's is `lagged`).", "", *conclusions(payload), "",
               f"MuJoCo {versions.get('mujoco')}, Drake {versions.get('drake')}, "
               f"{payload['cpu_count']} cores (shared with other work), medians of {payload['grid']['runs']} "
               f"runs, the whole run {payload['wall_time_s']:.0f} s; `{payload['command']}`."]
