@@ -492,15 +492,30 @@ _DUPLICATE_GRID = 1e-6
 """Grid on which unit rows are rounded to find candidate duplicates (then checked exactly)."""
 
 
+_DENSE_PAIRS_MAX_ROWS = 512
+"""Up to this many rows, near pairs are found from all dot products at once (exact; m^2 numbers);
+beyond it, by sorting rows rounded to :data:`_DUPLICATE_GRID`."""
+
+
 def _near_pairs(unit: np.ndarray, threshold: float, sign: float) -> np.ndarray:
     """Pairs ``(p, q)``, ``p < q``, of unit rows with ``sign * (u_p . u_q) >= threshold``.
 
-    Candidates are the rows whose coordinates, rounded to :data:`_DUPLICATE_GRID`, coincide (for
+    Up to :data:`_DENSE_PAIRS_MAX_ROWS` rows every pair is checked (one matrix product). Beyond,
+    candidates are the rows whose coordinates, rounded to :data:`_DUPLICATE_GRID`, coincide (for
     ``sign = -1``: coincide with the other row negated); each candidate pair is then checked
     exactly. Found by sorting, in O(m log m): two near-duplicates rounded to different grid
     points are missed, which is harmless (the redundancy LPs drop one of them later; an implicit
     equality then stays as two inequalities).
     """
+    m = unit.shape[0]
+    if m <= _DENSE_PAIRS_MAX_ROWS:
+        close = np.triu(sign * (unit @ unit.T) >= threshold, 1)
+        return np.argwhere(close).reshape(-1, 2)
+    return _near_pairs_sorted(unit, threshold, sign)
+
+
+def _near_pairs_sorted(unit: np.ndarray, threshold: float, sign: float) -> np.ndarray:
+    """:func:`_near_pairs` for many rows, by sorting rounded rows."""
     keys = np.round(unit / _DUPLICATE_GRID).astype(np.int64)
     if sign < 0:
         keys = np.vstack([keys, -keys])  # row p + m stands for -u_p
@@ -629,6 +644,7 @@ def _irredundant_rows(
             status[i] = against_all_others(i)
         return status == 1
     slack = offsets - unit @ center
+    status[_facets_hit_along_normals(unit, slack, tolerance)] = 1
     for i in range(m):
         while status[i] == 0:
             redundant, result = _is_redundant(unit, offsets, i, status == 1, tolerance, solver)
@@ -646,6 +662,29 @@ def _irredundant_rows(
             else:
                 status[j] = 1
     return status == 1
+
+
+def _facets_hit_along_normals(unit: np.ndarray, slack: np.ndarray, tolerance: float) -> np.ndarray:
+    """Rows certified irredundant without an LP: the first hit by a ray from an interior point.
+
+    From the interior point (``slack > 0`` on every row), the ray along each row's normal leaves
+    the set through the row ``j`` it meets first. If the next row is met only a distance ``gap``
+    farther along the ray, removing row ``j`` lets the set grow by at least ``gap`` times the
+    ray's speed towards row ``j`` in that row's normal direction: more than ``tolerance`` means
+    the redundancy LP of :func:`_is_redundant` would find row ``j`` irredundant, so it is marked
+    so here. One matrix product tests every normal; Clarkson's loop then spends LPs on the rest.
+    """
+    speeds = unit @ unit.T  # [ray i, row j]: how fast the ray along normal i approaches row j
+    with np.errstate(divide="ignore", invalid="ignore"):
+        exits = np.where(speeds > 0, slack[None, :] / speeds, np.inf)
+    rays = np.arange(unit.shape[0])
+    first = np.argmin(exits, axis=1)
+    two = np.partition(exits, 1, axis=1)[:, :2]
+    growth = (two[:, 1] - two[:, 0]) * speeds[rays, first]
+    alone = np.isfinite(two[:, 0]) & (growth > tolerance)
+    hit = np.zeros(unit.shape[0], dtype=bool)
+    hit[first[alone]] = True
+    return hit
 
 
 def minimal_representation(
