@@ -140,9 +140,19 @@ def _stack(problem: ContactProblem, letters: np.ndarray, u: np.ndarray) -> _Stac
                   table.motion[contacts, letters].reshape(count, -1))
 
 
+CERTIFIED_MARGIN = 10.0
+"""A mode skips the SVD when ``||A||_F ||A^-1||_F`` (of the equilibrated A, a bound on its 2-norm
+condition number) is below ``1 / (CERTIFIED_MARGIN max(rank_tolerance, ILL_CONDITIONED_BAND))``:
+its smallest singular value is then certainly above both thresholds, so the SVD would find full
+rank outside the ill-conditioned band, and an LU solve gives the same unique response."""
+
+
 def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, rank_tolerance: float,
                  domain_tolerance: float, zero_row_tolerance: float) -> ModeBatch:
     """Stack, factorise and decide every full mode at ``u`` (see the module docstring).
+
+    Well-conditioned modes are certified by a cheap bound (:data:`CERTIFIED_MARGIN`) and solved
+    by LU; the others get the SVD and its rank rule.
 
     Args:
         problem: the contact problem.
@@ -155,40 +165,70 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
     modes, letters = full_modes(problem.allowed_modes())
     st = _stack(problem, letters, u)
     r_scale, c_scale = _equilibrate(st.A)
-    U, s, Vt = np.linalg.svd(st.A * r_scale[:, :, None] * c_scale[:, None, :])
+    A_hat = st.A * r_scale[:, :, None] * c_scale[:, None, :]
+    certified, x, X_u = _certified_responses(problem, st, A_hat, r_scale, c_scale, rank_tolerance)
+    found = _decide_full_rank(problem, modes, st, certified, x, X_u, u, domain_tolerance,
+                              zero_row_tolerance)
+    rest = np.nonzero(~certified)[0]
+    if rest.size == 0:
+        return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+    U, s, Vt = np.linalg.svd(A_hat[rest])
     s_max = s[:, :1]
     kept = s > rank_tolerance * s_max
     if (kept & (s <= ILL_CONDITIONED_BAND * s_max)).any():
         return ModeBatch(modes, (), True)
     rank = np.where(s_max[:, 0] > 0.0, kept.sum(axis=1), 0)
-    scaled = _Scaled(U, s, Vt, r_scale, c_scale, st.B * r_scale[:, :, None], st.c * r_scale)
-    full = rank == st.A.shape[1]
-    found = _decide_full_rank(problem, modes, st, scaled, full, u, domain_tolerance, zero_row_tolerance)
-    for r in (np.unique(rank[~full]) if not full.all() else ()):
+    scaled = _Scaled(U, s, Vt, r_scale[rest], c_scale[rest], st.B[rest] * r_scale[rest, :, None],
+                     st.c[rest] * r_scale[rest])
+    for r in np.unique(rank):
         group = np.nonzero(rank == r)[0]
-        found.update(_decide_rank_group(problem, modes, st, scaled, group, int(r), u, decide_w,
+        found.update(_decide_rank_group(problem, modes, st, scaled, rest, group, int(r), u, decide_w,
                                         domain_tolerance, zero_row_tolerance))
     return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
 
 
-def _decide_full_rank(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, sc: _Scaled,
-                      full: np.ndarray, u: np.ndarray, domain_tolerance: float,
+def _certified_responses(problem: ContactProblem, st: _Stack, A_hat: np.ndarray, r_scale: np.ndarray,
+                         c_scale: np.ndarray, rank_tolerance: float
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which modes are certified well conditioned, with their ``x`` and ``X_u`` (by one LU solve).
+
+    ``A_hat y = [I, diag(r) B, diag(r) (B u + c)]``: the identity's columns give ``A_hat^-1`` for
+    the condition bound only (see :data:`CERTIFIED_MARGIN`); ``x = diag(c) y``.
+    """
+    count, nx, _ = A_hat.shape
+    n, m = problem.n, problem.m
+    certified = np.zeros(count, dtype=bool)
+    x = np.zeros((count, nx))
+    X_u = np.zeros((count, nx, m))
+    nonsingular = np.nonzero(np.linalg.det(A_hat) != 0.0)[0]  # LU never meets a zero pivot there
+    if nonsingular.size == 0:
+        return certified, x, X_u
+    rhs = np.zeros((nonsingular.size, nx, nx + m + 1))
+    rhs[:, :, :nx] = np.eye(nx)
+    rhs[:, :n, nx:nx + m] = problem.input_map * r_scale[nonsingular, :n, None]
+    rhs[:, :, -1] = st.rhs[nonsingular] * r_scale[nonsingular]
+    y = np.linalg.solve(A_hat[nonsingular], rhs)
+    bound = np.sqrt((A_hat[nonsingular] ** 2).sum(axis=(1, 2)) * (y[:, :, :nx] ** 2).sum(axis=(1, 2)))
+    good = bound * CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND) < 1.0
+    chosen = nonsingular[good]
+    certified[chosen] = True
+    x[chosen] = c_scale[chosen] * y[good, :, -1]
+    X_u[chosen] = c_scale[chosen, :, None] * y[good, :, nx:nx + m]
+    return certified, x, X_u
+
+
+def _decide_full_rank(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, full: np.ndarray,
+                      x: np.ndarray, X_u: np.ndarray, u: np.ndarray, domain_tolerance: float,
                       zero_row_tolerance: float) -> dict[int, BatchSolution]:
-    """The modes of full rank: ``x = A^+ (B u + c)`` (by the SVD), each inequality row at ``u``.
+    """The certified modes (unique response ``x``, ``X_u``): each inequality row at ``u``.
 
     A lean form of :func:`_decide_rank_group` for ``p = 0``: rows normalised by their norm in u
     alone, non-motion rows to ``domain_tolerance``, motion rows strictly.
     """
     sel = slice(None) if full.all() else np.nonzero(full)[0]
-    U, s, Vt, r_scale, c_scale = sc.U[sel], sc.s[sel], sc.Vt[sel], sc.r_scale[sel], sc.c_scale[sel]
-    if U.shape[0] == 0:
+    x, X_u = x[sel], X_u[sel]
+    if x.shape[0] == 0:
         return {}
-    n = problem.n
-    # U^T (diag(r) b) / s, then x = diag(c) V (...): for b = B u + c, and for B's columns (rows < n)
-    coeff = np.matmul((st.rhs[sel] * r_scale)[:, None, :], U)[:, 0] / s
-    x = c_scale * np.matmul(coeff[:, None, :], Vt)[:, 0]
-    coeff_u = np.matmul(np.transpose(U[:, :n], (0, 2, 1)), problem.input_map * r_scale[:, :n, None])
-    X_u = c_scale[:, :, None] * np.matmul(np.transpose(Vt, (0, 2, 1)), coeff_u / s[:, :, None])
     G, g, valid, motion = st.G[sel], st.g[sel], st.valid[sel], st.motion[sel]
     H_u = np.matmul(G, X_u)
     norms = np.sqrt((H_u * H_u).sum(axis=2))
@@ -224,28 +264,31 @@ class _Scaled:
 
 
 def _decide_rank_group(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, sc: _Scaled,
-                       group: np.ndarray, r: int, u: np.ndarray, decide_w: WDecider,
+                       rest: np.ndarray, group: np.ndarray, r: int, u: np.ndarray, decide_w: WDecider,
                        domain_tolerance: float, zero_row_tolerance: float) -> dict[int, BatchSolution]:
     """The modes of one rank r: responses ``x = X_u u + X_w w + x_0`` on ``E u = e``, then their domains.
 
     The same formulas as :func:`frcontrol.response.solve_affine`, for the whole group at once.
     """
+    index = rest[group]  # the group's modes (``group`` indexes the SVD's modes, ``rest``)
     U, Vt = sc.U[group], sc.Vt[group]
     inv_s = 1.0 / sc.s[group][:, :r]
     c_scale, Bs, cs = sc.c_scale[group], sc.Bs[group], sc.cs[group]
     U1, V1t = U[:, :, :r], Vt[:, :r]
-    X_u = c_scale[:, :, None] * np.einsum("gri,grk->gik", V1t, inv_s[:, :, None]
-                                          * np.einsum("gjr,gjk->grk", U1, Bs))
-    x_0 = c_scale * np.einsum("gri,gr->gi", V1t, inv_s * np.einsum("gjr,gj->gr", U1, cs))
+    # with Bc = [B c] scaled: U1^T Bc / s, then diag(c) V1 (...): X_u and x_0 side by side
+    Bc = np.concatenate([Bs, cs[:, :, None]], axis=2)
+    Xc = c_scale[:, :, None] * np.matmul(np.transpose(V1t, (0, 2, 1)),
+                                         inv_s[:, :, None] * np.matmul(np.transpose(U1, (0, 2, 1)), Bc))
+    X_u, x_0 = Xc[:, :, :-1], Xc[:, :, -1]
     X_w = c_scale[:, :, None] * np.transpose(Vt[:, r:], (0, 2, 1))
-    ok = _consistent_at(np.einsum("gjq,gjk->gqk", U[:, :, r:], Bs), -np.einsum("gjq,gj->gq", U[:, :, r:], cs),
-                        _scale_of(Bs, cs), u, domain_tolerance)
-    G, valid, motion = st.G[group], st.valid[group], st.motion[group]
-    H_u = np.einsum("grx,gxk->grk", G, X_u)
-    H_w = np.einsum("grx,gxq->grq", G, X_w)
-    h = st.g[group] - np.einsum("grx,gx->gr", G, x_0) - H_u @ u
-    norms = np.sqrt(np.sum(H_u * H_u, axis=2) + np.sum(H_w * H_w, axis=2))
-    largest = np.max(np.where(valid, norms, 0.0), axis=1, initial=0.0)
+    left = np.matmul(np.transpose(U[:, :, r:], (0, 2, 1)), Bc)  # U2^T [B c]
+    ok = _consistent_at(left[:, :, :-1], -left[:, :, -1], _scale_of(Bs, cs), u, domain_tolerance)
+    G, valid, motion = st.G[index], st.valid[index], st.motion[index]
+    H_u = np.matmul(G, X_u)
+    H_w = np.matmul(G, X_w)
+    h = st.g[index] - np.matmul(G, x_0[:, :, None])[:, :, 0] - H_u @ u
+    norms = np.sqrt((H_u * H_u).sum(axis=2) + (H_w * H_w).sum(axis=2))
+    largest = np.where(valid, norms, 0.0).max(axis=1, initial=0.0)
     constant = norms <= zero_row_tolerance * np.maximum(1.0, largest)[:, None]
     norms = np.where(constant, 1.0, norms)
     H_w = np.where(constant[:, :, None], 0.0, H_w / norms[:, :, None])
@@ -259,7 +302,7 @@ def _decide_rank_group(problem: ContactProblem, modes: tuple[str, ...], st: _Sta
         w = np.zeros(0) if p == 0 else decide_w(H_w[j][rows], h[j][rows], motion[j][rows])
         if w is None:
             continue
-        i = int(group[j])
+        i = int(index[j])
         x = X_u[j] @ u + X_w[j] @ w + x_0[j]
         out[i] = BatchSolution(
             mode=modes[i], x=x, w=w, ambiguous_outputs=outputs_moved_by(X_w[j], problem.n),
@@ -283,6 +326,11 @@ def _consistent_at(E_raw: np.ndarray, e_raw: np.ndarray, scale: np.ndarray, u: n
         return np.ones(count, dtype=bool)
     if m == 0:
         return ~np.any(np.abs(e_raw) > CONSISTENCY_TOLERANCE * scale[:, None], axis=1)
+    if p == 1:  # one condition: its SVD is its norm (the sign cancels in |E u - e|)
+        norm = np.sqrt((E_raw[:, 0] ** 2).sum(axis=1))
+        kept = norm > CONSISTENCY_TOLERANCE * scale
+        miss = np.abs(E_raw[:, 0] @ u - e_raw[:, 0]) / np.where(kept, norm, 1.0)
+        return np.where(kept, miss <= domain_tolerance, np.abs(e_raw[:, 0]) <= CONSISTENCY_TOLERANCE * scale)
     Ue, se, Vte = np.linalg.svd(E_raw, full_matrices=True)
     q = se.shape[1]
     padded = np.zeros((count, p))
