@@ -207,9 +207,10 @@ def _certified_responses(problem: ContactProblem, st: _Stack, A_hat: np.ndarray,
     rhs[:, :, :nx] = np.eye(nx)
     rhs[:, :n, nx:nx + m] = problem.input_map * r_scale[nonsingular, :n, None]
     rhs[:, :, -1] = st.rhs[nonsingular] * r_scale[nonsingular]
-    y = np.linalg.solve(A_hat[nonsingular], rhs)
-    bound = np.sqrt((A_hat[nonsingular] ** 2).sum(axis=(1, 2)) * (y[:, :, :nx] ** 2).sum(axis=(1, 2)))
-    good = bound * CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND) < 1.0
+    with np.errstate(over="ignore", invalid="ignore"):  # a nearly singular A: not certified
+        y = np.linalg.solve(A_hat[nonsingular], rhs)
+        bound = np.sqrt((A_hat[nonsingular] ** 2).sum(axis=(1, 2)) * (y[:, :, :nx] ** 2).sum(axis=(1, 2)))
+        good = bound * CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND) < 1.0
     chosen = nonsingular[good]
     certified[chosen] = True
     x[chosen] = c_scale[chosen] * y[good, :, -1]

@@ -150,3 +150,27 @@ def test_interval_rule_matches_the_two_lps(data):
         assert np.all(H[:, 0] * closed[0] <= h + np.where(motion, 0.0, DOMAIN_TOLERANCE) + 1e-12)
         # as central as the Chebyshev LP's centre (radius capped at CHEBYSHEV_RADIUS_CAP)
         assert min(_chebyshev_radius(H, h, closed), cap) >= min(_chebyshev_radius(H, h, lps), cap) - 1e-7
+
+
+def test_nearly_singular_modes_take_the_svd_and_agree(write_scene):
+    """Two contacts a hair apart: the certificate must refuse them, the SVD decides, both paths agree."""
+    from conftest import rod_scene
+
+    contacts = [{"name": "a", "link": "rod", "point": [-0.5, 0.0], "normal": [0.0, 1.0], "mu": 0.8},
+                {"name": "b", "link": "rod", "point": [-0.5, 1e-12], "normal": [0.0, 1.0], "mu": 0.8}]
+    problem = ContactProblem.from_scene(load_scene(write_scene(rod_scene(contacts=contacts))))
+    from frcontrol.mode_batch import CERTIFIED_MARGIN, _certified_responses, _equilibrate, _stack
+
+    modes, letters = full_modes(problem.allowed_modes())
+    st = _stack(problem, letters, np.zeros(problem.m))
+    r, c = _equilibrate(st.A)
+    A_hat = st.A * r[:, :, None] * c[:, None, :]
+    certified = _certified_responses(problem, st, A_hat, r, c, 1e-10)[0]
+    s = np.linalg.svd(A_hat, compute_uv=False)
+    condition = s[:, 0] / np.where(s[:, -1] > 0, s[:, -1], 1e-300)
+    # certified only where the SVD itself finds the condition far below the band
+    assert np.all(condition[certified] < 1.0 / (CERTIFIED_MARGIN * 1e-8))
+    assert not certified[modes.index("FF")]
+    assert assert_same_solutions(problem, np.zeros(problem.m)) == 1
+    (only,) = solutions_at(problem, np.zeros(problem.m))
+    assert only.mode == "FF" and only.ambiguity_dim == 2  # the two contacts' forces: one point's
