@@ -5,17 +5,21 @@ linear programs. At one input ``u`` most of that work has a closed form, and a s
 modes (4^k at most, 64 for RHex) fit in one stack of matrices:
 
 1. Every full mode's ``A`` (the dynamics rows, then two rows per contact from the contact row
-   table) is stacked into one ``(modes, nx, nx)`` array, equilibrated by powers of two exactly as
-   :func:`frcontrol.response.solve_affine` does, and factorised by one batched SVD.
-2. Modes are grouped by rank. Each group's responses ``x = X_u u + X_w w + x_0`` and consistency
-   conditions ``E u = e`` come from the SVD by the formulas of ``solve_affine``, for the whole
-   group at once, and its inequalities are sliced at ``u`` by the engine's rule (rows normalised
-   by their norm in (u, w)).
-3. A mode of full rank (the common case: nothing ambiguous) is decided there, all at once:
-   non-motion rows to :data:`~frcontrol.engine.DOMAIN_TOLERANCE`, motion rows strictly. A mode with
-   ambiguity variables w is decided by the engine's rule for w, one mode at a time: with one
-   variable (p = 1) the admissible set is an interval, decided in closed form by
-   :func:`interval_admissible` instead of two LPs; with more, by the engine's LPs.
+   table) is stacked into one ``(modes, nx, nx)`` array and equilibrated by powers of two exactly
+   as :func:`frcontrol.response.solve_affine` does.
+2. A mode whose equilibrated ``A`` is certified well conditioned (``||A||_F ||A^-1||_F`` a margin
+   below the rank thresholds, :data:`CERTIFIED_MARGIN`: the SVD would find full rank outside the
+   ill-conditioned band) is solved by one stacked LU: its unique response ``x = X_u u + x_0`` is
+   checked against its inequalities at ``u``, all such modes at once (rows normalised by their
+   norm in u; non-motion rows to :data:`~frcontrol.engine.DOMAIN_TOLERANCE`, motion rows
+   strictly).
+3. The other modes get one batched SVD and the rank rule of ``solve_affine``, grouped by rank:
+   each group's responses ``x = X_u u + X_w w + x_0`` and consistency conditions ``E u = e`` by
+   the formulas of ``solve_affine``, for the whole group at once, their inequalities sliced at
+   ``u`` (rows normalised in (u, w)). A mode with ambiguity variables w is decided by the engine's
+   rule for w, one mode at a time: with one variable the admissible set is an interval, decided
+   in closed form by :func:`interval_admissible` instead of two LPs; with more, by the engine's
+   LPs.
 
 Nothing here decides differently from the reference: the same rows, the same equilibration, the
 same rank rule (a singular value in the ill-conditioned band sends the whole problem back to the
