@@ -112,8 +112,9 @@ from ..jsonable import finite_or_none, to_jsonable
 from ..modes import VELOCITY_TOLERANCE, ContactProblem
 from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
+from ..simulation.closed_loop import ClosedLoopRun, run_closed_loop
 from ..simulation.export import sample_modes
-from ..simulation.rigid import CONTACT_FORCE_TOLERANCE
+from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, must_solve, solve_lp, solve_lp_prepared
 from . import DEFAULT_FLIP_MARGIN
@@ -1102,15 +1103,8 @@ def simulate_flip(
     Raises:
         InputError: a bad step, time, count or armature; see :func:`plan_flip`.
     """
-    from ..simulation.inputs import check_simulation_times
-
     start = time.perf_counter()
-    max_time, dt = check_simulation_times(max_time, dt)
-    if isinstance(replan_every, bool) or not isinstance(replan_every, int) or replan_every < 1:
-        raise InputError(f"replan_every must be an integer >= 1 (steps), got {replan_every!r}")
-    arm = _armature(scene, armature)
-    if not (math.isfinite(arm) and arm > 0):
-        raise InputError(f"the armature must be a positive rotor inertia [kg m^2], got {arm!r}")
+    max_time, dt, arm = _loop_options(scene, dt, max_time, replan_every, armature)
     task = flip_task(scene)
     t0 = time.perf_counter()
     first = plan if plan is not None else plan_flip(scene, margin=margin, solver=solver)
@@ -1123,31 +1117,54 @@ def simulate_flip(
                           replans=0, held=(),
                           plans=(), modes=(), reason=first.reason, timings=timings, **common)
 
-    loop = _closed_loop(scene, first, task, dt=dt, max_time=max_time, replan_every=replan_every,
-                        margin=margin, armature=arm, solver=solver, progress=progress, timings=timings)
-    stepper, plans, held, replans, crossed = loop
-    trajectory = stepper.trajectory(dt)
-    trajectory = replace(trajectory, info={**trajectory.info, "source": "simulate_flip",
-                                           "steps": len(trajectory.times) - 1})
-    time_to_vertical = _time_to_vertical(trajectory, task) if crossed else None
+    policy = _Replanner(scene, first, margin, solver)
+    run = _closed_loop(scene, policy, task, dt=dt, max_time=max_time, replan_every=replan_every,
+                       armature=arm, progress=progress)
+    timings["simulation"] += run.timings["simulation"]
+    timings["replanning"] += run.timings["policy"]
+    trajectory = replace(run.trajectory, info={**run.trajectory.info, "source": "simulate_flip",
+                                               "steps": len(run.trajectory.times) - 1})
     separation, body_events = _body_contacts(scene, trajectory, task.body_contacts, len(trajectory.times) - 1)
     modes = sample_modes(scene, trajectory)
     trajectory = replace(trajectory, modes=tuple(modes))
-    failure = trajectory.failure
-    if crossed:
-        reason = None
-    elif failure is not None:
-        reason = f"the simulation {trajectory.status} at t = {failure.time:.4g} s: {failure.reason}"
-    else:
-        reason = (f"the pitch reached {float(np.max(trajectory.q[:, task.pitch_index])):.4f} rad within "
-                  f"{max_time:g} s, short of vertical ({task.vertical:.4f} rad)")
     timings["total"] = time.perf_counter() - start
     return FlipResult(
-        plan=first, trajectory=trajectory, flipped=crossed, time_to_vertical=time_to_vertical,
+        plan=first, trajectory=trajectory, flipped=run.stopped,
+        time_to_vertical=_time_to_vertical(trajectory, task) if run.stopped else None,
         body_contact_kept=separation is None, separation=separation, body_events=body_events,
-        steps=len(trajectory.times) - 1, replans=replans, held=tuple(held), plans=tuple(plans),
-        modes=modes, reason=reason, timings=timings, **common,
+        steps=len(trajectory.times) - 1, replans=run.decisions, held=tuple(policy.held),
+        plans=tuple(policy.plans), modes=modes,
+        reason=_not_flipped_reason(trajectory, task, run.stopped, max_time), timings=timings, **common,
     )
+
+
+def _loop_options(scene: Scene, dt: float, max_time: float, replan_every: int, armature: float | None
+                  ) -> tuple[float, float, float]:
+    """``(max_time, dt, armature)`` of the closed loop, checked before any plan is made.
+
+    Raises:
+        InputError: a bad step, time, count or armature.
+    """
+    from ..simulation.inputs import check_simulation_times
+
+    max_time, dt = check_simulation_times(max_time, dt)
+    if isinstance(replan_every, bool) or not isinstance(replan_every, int) or replan_every < 1:
+        raise InputError(f"replan_every must be an integer >= 1 (steps), got {replan_every!r}")
+    arm = _armature(scene, armature)
+    if not (math.isfinite(arm) and arm > 0):
+        raise InputError(f"the armature must be a positive rotor inertia [kg m^2], got {arm!r}")
+    return max_time, dt, arm
+
+
+def _not_flipped_reason(trajectory: Trajectory, task: FlipTask, crossed: bool, max_time: float) -> str | None:
+    """Why the run did not pass vertical (None when it did)."""
+    failure = trajectory.failure
+    if crossed:
+        return None
+    if failure is not None:
+        return f"the simulation {trajectory.status} at t = {failure.time:.4g} s: {failure.reason}"
+    return (f"the pitch reached {float(np.max(trajectory.q[:, task.pitch_index])):.4f} rad within "
+            f"{max_time:g} s, short of vertical ({task.vertical:.4f} rad)")
 
 
 def _time_to_vertical(trajectory: Trajectory, task: FlipTask) -> float:
@@ -1164,57 +1181,50 @@ def _time_to_vertical(trajectory: Trajectory, task: FlipTask) -> float:
     return float(t_a + (task.vertical - p_a) / (p_b - p_a) * (t_b - t_a))
 
 
-def _closed_loop(scene: Scene, first: FlipPlan, task: FlipTask, *, dt: float, max_time: float,
-                 replan_every: int, margin: float, armature: float, solver: str,
-                 progress: Callable[[float, float], None] | None, timings: dict[str, float]
-                 ) -> tuple[Any, list[tuple[float, str | None, Mapping[str, float]]], list[tuple[float, str]],
-                            int, bool]:
-    """Step the rigid model, re-planning every ``replan_every`` steps, until vertical or ``max_time``.
+class _Replanner:
+    """The flip's policy: a plan at the state reached; the torques held when none can be made.
 
-    Returns:
-        (the stepper, the plans applied (time, mode, torques), the holds (time, why), the number of
-        re-plans, whether the pitch crossed vertical).
+    It keeps every plan applied ``(time, mode or None, torques)`` and every hold ``(time, why)``.
     """
-    from ..simulation.rigid import RigidSettings, RigidStepper
 
-    arm = armature
-    names = scene.inputs.coordinates
-    replan_scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
-    force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
+    def __init__(self, scene: Scene, first: FlipPlan, margin: float, solver: str) -> None:
+        self.names = scene.inputs.coordinates
+        self.scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
+        self.force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
+        self.margin, self.solver = margin, solver
+        self.command = first.input_vector(self.names)
+        self.plans: list[tuple[float, str | None, Mapping[str, float]]] = [
+            (0.0, first.mode, dict(first.torques))]
+        self.held: list[tuple[float, str]] = []
+
+    def __call__(self, stepper: RigidStepper) -> np.ndarray:
+        """The command from the stepper's state on (a contact the last step loaded is planned with)."""
+        loaded = stepper.last_forces[:, 0] > self.force_tolerance
+        self.command, mode, why = _replanned(self.scene, stepper, loaded, self.margin, self.solver,
+                                             self.command, self.names)
+        if why is not None:
+            self.held.append((stepper.t, why))
+        self.plans.append((stepper.t, mode, dict(zip(self.names, self.command.tolist(), strict=True))))
+        return self.command
+
+
+def _closed_loop(scene: Scene, policy: _Replanner, task: FlipTask, *, dt: float, max_time: float,
+                 replan_every: int, armature: float, progress: Callable[[float, float], None] | None
+                 ) -> ClosedLoopRun:
+    """One rigid stepper re-planned every ``replan_every`` steps, until vertical or ``max_time``.
+
+    The stepper runs on the re-planning model's scene (its gap tolerance); a massless leg in the
+    air gets no torque (:func:`_free_legs_idle`).
+    """
     legs = _massless_legs(scene)
-    command = first.input_vector(names)
-    plans: list[tuple[float, str | None, Mapping[str, float]]] = [(0.0, first.mode, dict(first.torques))]
-    held: list[tuple[float, str]] = []
-    stepper = RigidStepper(replan_scene, RigidSettings(max_ambiguity_checks=0), armature=arm)
-    replans = 0
-    crossed = False
-    step = 0
-    while stepper.t < max_time - 1e-12:
-        if step and step % replan_every == 0:
-            t1 = time.perf_counter()
-            loaded = stepper.last_forces[:, 0] > force_tolerance
-            command, mode, why = _replanned(replan_scene, stepper, loaded, margin, solver, command, names)
-            replans += 1
-            if why is not None:
-                held.append((stepper.t, why))
-            plans.append((stepper.t, mode, dict(zip(names, command.tolist(), strict=True))))
-            timings["replanning"] += time.perf_counter() - t1
-        t1 = time.perf_counter()
-        u = _free_legs_idle(scene, legs, command, stepper.q)
-        advanced = stepper.step(u, min(dt, max_time - stepper.t))
-        timings["simulation"] += time.perf_counter() - t1
-        step += 1
-        if progress is not None and (step % replan_every == 0 or not advanced):
-            progress(stepper.t, max_time)
-        if not advanced:
-            break
-        if stepper.q[task.pitch_index] >= task.vertical:
-            crossed = True
-            break
-    return stepper, plans, held, replans, crossed
+    stepper = RigidStepper(policy.scene, RigidSettings(max_ambiguity_checks=0), armature=armature)
+    return run_closed_loop(
+        stepper, policy, max_time, dt, every=replan_every, command=policy.command,
+        actuate=lambda command, at: _free_legs_idle(scene, legs, command, at.q),
+        stop=lambda at: bool(at.q[task.pitch_index] >= task.vertical), progress=progress)
 
 
-def _replanned(replan_scene: Scene, stepper: Any, loaded: np.ndarray, margin: float, solver: str,
+def _replanned(replan_scene: Scene, stepper: RigidStepper, loaded: np.ndarray, margin: float, solver: str,
                command: np.ndarray, names: Sequence[str]) -> tuple[np.ndarray, str | None, str | None]:
     """A re-plan at the stepper's state.
 
