@@ -151,6 +151,10 @@ from ..modes import ContactProblem, ModeSystem, all_modes, build_mode_system
 from ..polytope import Polytope, hull_from_points
 from ..response import AffineSolution, solve_affine
 from ..scene import Inputs, Scene
+from ..simulation.closed_loop import Policy, run_closed_loop
+from ..simulation.inputs import check_simulation_times
+from ..simulation.rigid import RigidSettings, RigidStepper
+from ..simulation.trajectory import Trajectory
 from ..solvers import CONFIRM_INFEASIBLE, DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
 from . import DEFAULT_CLIMB_DURATION, DEFAULT_CLIMB_MARGIN
 
@@ -159,6 +163,7 @@ __all__ = [
     "BRACE_SLIP_TOLERANCE",
     "DEFAULT_MARGIN",
     "DEFAULT_MIN_HEAD_ACCELERATION",
+    "HOLD_INDEX_ROUNDOFF",
     "ACCELERATION_FLOOR",
     "ACCELERATION_SLACK",
     "OPTIMALITY_SLACK",
@@ -228,6 +233,10 @@ DEFAULT_DURATION = DEFAULT_CLIMB_DURATION
 
 DEFAULT_HOLD = 0.05
 """[s] How long each sampled disturbance is held in :func:`simulate_climb`."""
+
+HOLD_INDEX_ROUNDOFF = 1e-9
+"""[-] In :func:`simulate_climb`, a step starting within this many holds of a hold's end starts the
+next hold (``t / hold`` is rounded up over round-off)."""
 
 # ============================================================================ disturbances
 @dataclass(frozen=True)
@@ -1377,37 +1386,66 @@ def simulate_climb(
     Raises:
         InputError: the plan was not found, or a bad duration, step, hold or scale.
     """
-    from ..simulation import simulate_rigid
+    s = _check_simulation_request(plan, duration, dt, hold, scale)
+    count = max(1, int(math.ceil(duration / hold)))
+    samples = _sample_disturbances(plan.disturbances.robust_points(s), count, np.random.default_rng(seed))
+    kin = _PointKinematics(scene, [(d.name, d.link, d.point_in_link) for d in plan.disturbances.items]
+                           + [("head", plan.problem.task.head_link, plan.problem.task.head_point)])
+    n = scene.robot.nv
+    every = Inputs(scene.coordinate_names, tuple(range(n)), np.full(n, -np.inf), np.full(n, np.inf))
+    stepper = RigidStepper(replace(scene, inputs=every), RigidSettings(max_ambiguity_checks=0))
+    run = run_closed_loop(stepper, _disturbed_torques(scene, plan, kin, samples, hold), duration, dt)
+    return _brace_outcome(scene, plan, run.trajectory, kin, slip_tolerance,
+                          disturbance_times=hold * np.arange(count), disturbance_samples=samples, seed=seed)
 
+
+def _check_simulation_request(plan: ClimbPlan, duration: float, dt: float, hold: float,
+                              scale: float | None) -> float:
+    """The disturbance scale to simulate, once the plan and the times are checked.
+
+    Raises:
+        InputError: the plan was not found, or a bad duration, step, hold or scale.
+    """
     if not plan.found:
         raise InputError(f"the climb plan was not found ({plan.reason}): nothing to simulate")
+    check_simulation_times(duration, dt)
     if not (isinstance(hold, (int, float)) and math.isfinite(hold) and hold > 0):
         raise InputError(f"hold must be a finite number > 0 [s], got {hold!r}")
     s = plan.scale if scale is None else float(scale)
     if not (math.isfinite(s) and s >= 0):
         raise InputError(f"scale must be a finite number >= 0, got {scale!r}")
-    dist = plan.disturbances
-    n = scene.robot.nv
-    rng = np.random.default_rng(seed)
-    count = max(1, int(math.ceil(duration / hold)))
-    samples = _sample_disturbances(dist.robust_points(s), count, rng)
-    kin = _PointKinematics(scene, [(d.name, d.link, d.point_in_link) for d in dist.items]
-                           + [("head", plan.problem.task.head_link, plan.problem.task.head_point)])
-    torque_force = scene.inputs.selection_transpose(n) @ plan.torque_vector
-    n_d = dist.dim
+    return s
 
-    def generalized_force(t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        k = min(int(t / hold + 1e-9), count - 1)
-        jac, _, _ = kin.evaluate(q, v)
+
+def _disturbed_torques(scene: Scene, plan: ClimbPlan, kin: _PointKinematics, samples: np.ndarray,
+                       hold: float) -> Policy:
+    """The policy of the climb's run: the plan's torques plus the held disturbance sample.
+
+    Its command is the generalized force on every coordinate, ``S^T u + J_d^T d_k`` with ``d_k``
+    the sample held at the step's time (sample ``k`` from ``k hold`` on) and ``J_d`` the
+    disturbances' point Jacobians at the step's state.
+    """
+    torque_force = scene.inputs.selection_transpose(scene.robot.nv) @ plan.torque_vector
+    n_d = plan.disturbances.dim
+    last = len(samples) - 1
+
+    def generalized_force(stepper: RigidStepper) -> np.ndarray:
+        k = min(int(stepper.t / hold + HOLD_INDEX_ROUNDOFF), last)
+        jac, _, _ = kin.evaluate(stepper.q, stepper.v)
         return torque_force + jac[:n_d].T @ samples[k]
 
-    every = Inputs(scene.coordinate_names, tuple(range(n)), np.full(n, -np.inf), np.full(n, np.inf))
-    trajectory = simulate_rigid(replace(scene, inputs=every), generalized_force, duration, dt,
-                                max_ambiguity_checks=0)
+    return generalized_force
+
+
+def _brace_outcome(scene: Scene, plan: ClimbPlan, trajectory: Trajectory, kin: _PointKinematics,
+                   slip_tolerance: float, **record: Any) -> ClimbResult:
+    """The brace's verdict on a run: slip, opening, load and events of the brace contacts; the rise.
+
+    ``record``: the run's disturbance times, samples and seed, passed through.
+    """
     brace = plan.problem.task.brace_contacts
     index = [trajectory.contacts.index(b) for b in brace]
-    points = trajectory.contact_points[:, index, :]
-    moved = points - points[0]
+    moved = trajectory.contact_points[:, index, :] - trajectory.contact_points[0, index, :]
     normals = np.array([scene.contacts[i].point.normal_in_world for i in index])
     tangents = np.array([scene.contacts[i].point.tangent_in_world for i in index])
     slip = np.abs(np.einsum("tkj,kj->tk", moved, tangents))
@@ -1416,15 +1454,13 @@ def simulate_climb(
     events = tuple(e for e in trajectory.events if e.contact in brace)
     bad_events = [e for e in events if e.kind in ("open", "slip")]
     max_slip = float(np.max(slip, initial=0.0))
-    completed = trajectory.completed
-    held = bool(completed and np.all(loaded) and not bad_events and max_slip <= slip_tolerance)
+    held = bool(trajectory.completed and np.all(loaded) and not bad_events and max_slip <= slip_tolerance)
     head = np.array([kin.positions(q)[-1] for q in trajectory.q])
     return ClimbResult(
         trajectory=trajectory, brace_held=held, max_slip=max_slip,
         max_opening=float(np.max(opening, initial=0.0)), upper_rise=float(head[-1, 1] - head[0, 1]),
         max_upper_rise=float(np.max(head[:, 1]) - head[0, 1]), duration=float(trajectory.duration),
-        brace_events=events, disturbance_times=hold * np.arange(count), disturbance_samples=samples,
-        status=trajectory.status, slip_tolerance=slip_tolerance, seed=seed)
+        brace_events=events, status=trajectory.status, slip_tolerance=slip_tolerance, **record)
 
 
 # ==================================================================== robust region (figures)
