@@ -854,14 +854,8 @@ def plan_flip(
         ImpactState: a contact moves into its surface.
     """
     start = time.perf_counter()
-    if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin >= 0):
-        raise InputError(f"the margin must be a finite number >= 0 [N m], got {margin!r}")
-    if not (isinstance(rounding, (int, float)) and math.isfinite(rounding) and rounding >= 0):
-        raise InputError(f"the rounding must be a finite number >= 0 [N m], got {rounding!r}")
+    _check_plan_options(margin, rounding)
     timings = {"analysis": 0.0, "unambiguous_sets": 0.0, "lps": 0.0, "verification": 0.0}
-    tolerances = {"rounding": rounding, "pitch": PITCH_TOLERANCE, "velocity": velocity_tolerance,
-                  "interior": poly.INTERIOR_TOLERANCE, "input_limit": INPUT_LIMIT_TOLERANCE}
-
     t0 = time.perf_counter()
     built = build_flip(scene, velocity_tolerance=velocity_tolerance,
                        problem=analysis.problem if analysis is not None else problem)
@@ -869,39 +863,14 @@ def plan_flip(
     full, problem, forced, analysis = _planning_analysis(built, analysis, solver)
     timings["analysis"] = time.perf_counter() - t0
     forced_values = {full.inputs[i]: forced[i] for i in sorted(forced)}
-    common = {"margin": float(margin), "rounding": rounding, "forced_inputs": forced_values,
-              "planned_inputs": problem.inputs, "contacts": problem.contacts, "pitch": task.pitch,
-              "tolerances": tolerances, "analysis": analysis}
-    active_body = tuple(c for c in problem.contacts if c in task.body_contacts)
-    common["body_contacts"] = active_body
-    bad = [name for name, value in forced_values.items()
-           if not full.lower[full.inputs.index(name)] <= value <= full.upper[full.inputs.index(name)]]
-    if bad:
+    common = _plan_fields(task, problem, forced_values, analysis, margin=margin, rounding=rounding,
+                          velocity_tolerance=velocity_tolerance)
+    ready = _candidates(scene, task, full, problem, forced_values, analysis, common["body_contacts"])
+    if isinstance(ready, str):
         timings["total"] = time.perf_counter() - start
-        return _not_found(f"the rigid model forces {', '.join(bad)} to a value outside its limits "
-                          f"({_torque_text({n: forced_values[n] for n in bad})})", timings=timings, **common)
-    if problem.m == 0 or analysis is None:  # the analysis exists whenever an input is planned
-        timings["total"] = time.perf_counter() - start
-        return _not_found(f"every input is forced at this state ({_torque_text(forced_values)}: e.g. "
-                          "massless legs without ground contact)", timings=timings, **common)
-    if not analysis.feasible_modes:
-        raise InputError(f"no input within the torque limits gives a rigid-body solution of scene "
-                         f"{scene.name!r} at this state (every contact mode's domain is empty): check "
-                         "the [inputs] limits")
-    if not active_body:
-        timings["total"] = time.perf_counter() - start
-        return _not_found(f"no body contact ({', '.join(task.body_contacts)}) touches the ground",
-                          timings=timings, **common)
-    body_index = [problem.contacts.index(c) for c in active_body]
-    candidates = tuple(
-        m.mode for m in analysis.feasible_modes
-        if m.inputs_full_dimensional and all(m.mode[i] != "S" for i in body_index)
-    )
+        return _not_found(ready, timings=timings, **common)
+    analysis, candidates = ready
     common["candidates"] = candidates
-    if not candidates:
-        timings["total"] = time.perf_counter() - start
-        return _not_found("no contact mode with a full-dimensional input domain keeps every body "
-                          f"contact ({', '.join(active_body)}) loaded", timings=timings, **common)
 
     # Branch and bound over the candidates: the LP over the shrunk T_c bounds every piece of it.
     t0 = time.perf_counter()
@@ -914,18 +883,86 @@ def plan_flip(
     pieces.sort(key=lambda p: -p.pitch_acceleration)
     common.update({"pieces": tuple(pieces), "explored": tuple(explored), "rejected": tuple(rejected)})
     timings["total"] = time.perf_counter() - start
-    if not pieces:
-        return _not_found(f"no candidate mode ({', '.join(candidates)}) has an unambiguous input "
-                          f"{margin:g} N m away from every other mode", timings=timings, **common)
+    return _chosen_plan(scene, chosen, problem.inputs, forced_values, min_pitch_acceleration, timings, common)
+
+
+def _plan_fields(task: FlipTask, problem: ContactProblem, forced_values: Mapping[str, float],
+                 analysis: DynamicResponse | None, *, margin: float, rounding: float,
+                 velocity_tolerance: float) -> dict[str, Any]:
+    """The fields of every plan at this state, found or not (the tolerances used included)."""
+    return {"margin": float(margin), "rounding": rounding, "forced_inputs": forced_values,
+            "planned_inputs": problem.inputs, "contacts": problem.contacts, "pitch": task.pitch,
+            "tolerances": {"rounding": rounding, "pitch": PITCH_TOLERANCE, "velocity": velocity_tolerance,
+                           "interior": poly.INTERIOR_TOLERANCE, "input_limit": INPUT_LIMIT_TOLERANCE},
+            "analysis": analysis,
+            "body_contacts": tuple(c for c in problem.contacts if c in task.body_contacts)}
+
+
+def _check_plan_options(margin: float, rounding: float) -> None:
+    """Raises InputError for a negative or non-finite margin or rounding [N m]."""
+    if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin >= 0):
+        raise InputError(f"the margin must be a finite number >= 0 [N m], got {margin!r}")
+    if not (isinstance(rounding, (int, float)) and math.isfinite(rounding) and rounding >= 0):
+        raise InputError(f"the rounding must be a finite number >= 0 [N m], got {rounding!r}")
+
+
+def _candidates(scene: Scene, task: FlipTask, full: ContactProblem, problem: ContactProblem,
+                forced_values: Mapping[str, float], analysis: DynamicResponse | None,
+                active_body: tuple[str, ...]) -> tuple[DynamicResponse, tuple[str, ...]] | str:
+    """The analysis and the candidate modes to plan in, or why there is nothing to plan.
+
+    The candidates: the feasible modes with a full-dimensional input domain that keep every active
+    body contact loaded (not S).
+
+    Raises:
+        InputError: no input within the limits gives a rigid-body solution.
+    """
+    bad = [name for name, value in forced_values.items()
+           if not full.lower[full.inputs.index(name)] <= value <= full.upper[full.inputs.index(name)]]
+    if bad:
+        return (f"the rigid model forces {', '.join(bad)} to a value outside its limits "
+                f"({_torque_text({n: forced_values[n] for n in bad})})")
+    if problem.m == 0 or analysis is None:  # the analysis exists whenever an input is planned
+        return (f"every input is forced at this state ({_torque_text(dict(forced_values))}: e.g. "
+                "massless legs without ground contact)")
+    if not analysis.feasible_modes:
+        raise InputError(f"no input within the torque limits gives a rigid-body solution of scene "
+                         f"{scene.name!r} at this state (every contact mode's domain is empty): check "
+                         "the [inputs] limits")
+    if not active_body:
+        return f"no body contact ({', '.join(task.body_contacts)}) touches the ground"
+    body_index = [problem.contacts.index(c) for c in active_body]
+    candidates = tuple(
+        m.mode for m in analysis.feasible_modes
+        if m.inputs_full_dimensional and all(m.mode[i] != "S" for i in body_index)
+    )
+    if not candidates:
+        return ("no contact mode with a full-dimensional input domain keeps every body "
+                f"contact ({', '.join(active_body)}) loaded")
+    return analysis, candidates
+
+
+def _chosen_plan(scene: Scene, chosen: tuple[FlipPiece, np.ndarray, float] | None,
+                 planned_inputs: Sequence[str], forced_values: Mapping[str, float],
+                 min_pitch_acceleration: float | None, timings: dict[str, float],
+                 common: dict[str, Any]) -> FlipPlan:
+    """The plan of the chosen piece's rounded torques.
+
+    Not found without pieces, without a verified optimum, or when the best does not start the flip.
+    """
+    if not common["pieces"]:
+        return _not_found(f"no candidate mode ({', '.join(common['candidates'])}) has an unambiguous "
+                          f"input {common['margin']:g} N m away from every other mode", timings=timings,
+                          **common)
     if chosen is None:
         return _not_found("no piece's optimum gives exactly one rigid solution once rounded "
-                          f"(tried {len(rejected)})", timings=timings, **common)
+                          f"(tried {len(common['rejected'])})", timings=timings, **common)
     piece, u, pitch = chosen
     torques = {name: forced_values.get(name, 0.0) for name in scene.inputs.coordinates}
-    torques.update({name: float(value) for name, value in zip(problem.inputs, u, strict=True)})
+    torques.update({name: float(value) for name, value in zip(planned_inputs, u, strict=True)})
     plan = FlipPlan(found=True, mode=piece.mode, torques=torques, pitch_acceleration=pitch,
                     worst_case=piece.worst_case, unambiguous=True, reason=None, timings=timings,
-                    **common)  # type: ignore[arg-type]  # common: the plan's shared fields
+                    **common)
     if min_pitch_acceleration is not None and not (
             pitch > min_pitch_acceleration + PITCH_TOLERANCE * (1.0 + abs(pitch))):
         return replace(plan, found=False, reason=(
@@ -1113,9 +1150,8 @@ def simulate_flip(
     if not first.found:
         timings["total"] = time.perf_counter() - start
         return FlipResult(plan=first, trajectory=None, flipped=False, time_to_vertical=None,
-                          body_contact_kept=None, separation=None, body_events=(), steps=0,
-                          replans=0, held=(),
-                          plans=(), modes=(), reason=first.reason, timings=timings, **common)
+                          body_contact_kept=None, separation=None, body_events=(), steps=0, replans=0,
+                          held=(), plans=(), modes=(), reason=first.reason, timings=timings, **common)
 
     policy = _Replanner(scene, first, margin, solver)
     run = _closed_loop(scene, policy, task, dt=dt, max_time=max_time, replan_every=replan_every,
