@@ -1204,70 +1204,34 @@ def plan_climb(
         InputError: a bad margin, scale, tolerance or decimals.
     """
     start = time.perf_counter()
-    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale >= 0):
-        raise InputError(f"scale must be a finite number >= 0, got {scale!r}")
-    if not (isinstance(scale_tolerance, (int, float)) and 0 < scale_tolerance < 1):
-        raise InputError(f"scale_tolerance must be in (0, 1), got {scale_tolerance!r}")
-    if not isinstance(decimals, int) or decimals < 0:
-        raise InputError(f"decimals must be an integer >= 0, got {decimals!r}")
+    _check_plan_options(scale, scale_tolerance, decimals)
     cp = build_climb(scene, margin=margin, min_head_acceleration=min_head_acceleration, solver=solver)
     timings = dict(cp.timings)
-    tolerances = {"margin": cp.margin, "scale_tolerance": scale_tolerance, "domain": DOMAIN_TOLERANCE,
-                  "acceleration_slack": ACCELERATION_SLACK,
-                  "optimality_slack": OPTIMALITY_SLACK,
-                  "acceleration_floor": ACCELERATION_FLOOR, "analysis_box_growth": ANALYSIS_BOX_GROWTH,
-                  "scale_cap": SCALE_CAP, "torque_rounding": 0.5 * 10.0 ** -decimals}
-    names = scene.inputs.coordinates
-
-    def failure(reason: str, bisection: Sequence[tuple[float, bool]] = ()) -> ClimbPlan:
-        timings["total"] = time.perf_counter() - start
-        return ClimbPlan(
-            found=False, mode=cp.mode, torques={}, scale=float(scale), nominal_feasible=False,
-            max_disturbance_scale=0.0, scale_bracket=(0.0, 0.0), scale_bound=max(cp.scale_bound, 0.0),
-            scale_capped=cp.scale_capped, max_scale_torques={}, robust=False, robustness_radius=-math.inf,
-            margin=cp.margin, head_acceleration=math.nan, head_sideways_acceleration=math.nan,
-            free_accelerations={}, worst_head_acceleration=math.nan,
-            min_head_acceleration=cp.min_head_acceleration, exclusions=(), pieces=len(cp.pieces), piece=-1,
-            bisection=tuple(bisection), disturbances=cp.disturbances, decimals=decimals, reason=reason,
-            timings=timings, tolerances=tolerances, solver=solver, problem=cp)
-
+    record: dict[str, Any] = {"decimals": decimals, "timings": timings, "solver": solver, "problem": cp,
+                              "tolerances": _plan_tolerances(cp, scale_tolerance, decimals)}
     if cp.obstacle is not None:
-        return failure(cp.obstacle)
+        timings["total"] = time.perf_counter() - start
+        return _not_planned(cp, cp.obstacle, float(scale), (), **record)
 
     # Bisection on the scale in [0, s_bound].
     t0 = time.perf_counter()
     lo, hi, u_lo, steps = _bisect_scale(cp, scale_tolerance)
     if u_lo is None:
-        return failure(f"no torques keep mode {cp.mode} unambiguous with margin {cp.margin:g} even at "
-                       "the zero disturbance (another mode holds there)", steps)
+        timings["total"] = time.perf_counter() - start
+        reason = (f"no torques keep mode {cp.mode} unambiguous with margin {cp.margin:g} even at the zero "
+                  "disturbance (another mode holds there)")
+        return _not_planned(cp, reason, float(scale), steps, **record)
     timings["bisection"] = time.perf_counter() - t0
 
     # The plan at the nominal scale (or the largest feasible one).
     t0 = time.perf_counter()
     nominal_feasible = scale <= lo
-    plan_scale = float(scale) if nominal_feasible else lo
-    index, _, _, u = _gentle_plan(cp, plan_scale)
-    if u is None:  # only when the nominal scale sits at the bisection's edge: use its solution
-        plan_scale = lo
-        index, _, _, u = _gentle_plan(cp, lo)
-    if u is None:
-        u, index = u_lo, 0
-    if u is None or u_lo is None:  # the bisection starts from a robust zero-disturbance plan
-        return failure("no torques found at any disturbance scale", steps)
+    plan_scale, index, u = _planned_torques(cp, float(scale) if nominal_feasible else lo, lo, u_lo)
     rounded = np.round(u, decimals) + 0.0
     check = _verify(cp, rounded, plan_scale)
     timings["plan"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - start
-    held = [e.mode for e in check["exclusions"] if e.held]
-    if check["robust"]:
-        reason = (f"mode {cp.mode} holds, unambiguously, for every disturbance in "
-                  f"{'P' if plan_scale == 1.0 else f'{plan_scale:.4g} P'}; largest scale {lo:.4g}")
-        if not nominal_feasible:
-            reason += f" (the nominal scale {scale:g} is infeasible: planned at the largest scale)"
-    else:
-        reason = ("the rounded torques failed the verification: "
-                  + (f"mode(s) {', '.join(held)} also hold" if held else
-                     f"radius {check['radius']:.3g}, worst head acceleration {check['worst']:.3g} m/s^2"))
+    names = scene.inputs.coordinates
     return ClimbPlan(
         found=True, mode=cp.mode, torques={name: float(x) for name, x in zip(names, rounded, strict=True)},
         scale=plan_scale, nominal_feasible=nominal_feasible, max_disturbance_scale=lo,
@@ -1278,7 +1242,70 @@ def plan_climb(
         free_accelerations=check["free"], worst_head_acceleration=check["worst"],
         min_head_acceleration=cp.min_head_acceleration, exclusions=check["exclusions"],
         pieces=len(cp.pieces), piece=index, bisection=tuple(steps), disturbances=cp.disturbances,
-        decimals=decimals, reason=reason, timings=timings, tolerances=tolerances, solver=solver, problem=cp)
+        reason=_plan_reason(cp, check, plan_scale, lo, scale, nominal_feasible), **record)
+
+
+def _check_plan_options(scale: float, scale_tolerance: float, decimals: int) -> None:
+    """Raises InputError for a bad nominal scale, bisection tolerance or number of decimals."""
+    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale >= 0):
+        raise InputError(f"scale must be a finite number >= 0, got {scale!r}")
+    if not (isinstance(scale_tolerance, (int, float)) and 0 < scale_tolerance < 1):
+        raise InputError(f"scale_tolerance must be in (0, 1), got {scale_tolerance!r}")
+    if not isinstance(decimals, int) or decimals < 0:
+        raise InputError(f"decimals must be an integer >= 0, got {decimals!r}")
+
+
+def _plan_tolerances(cp: ClimbProblem, scale_tolerance: float, decimals: int) -> dict[str, float]:
+    """The tolerances a plan used, as reported."""
+    return {"margin": cp.margin, "scale_tolerance": scale_tolerance, "domain": DOMAIN_TOLERANCE,
+            "acceleration_slack": ACCELERATION_SLACK,
+            "optimality_slack": OPTIMALITY_SLACK,
+            "acceleration_floor": ACCELERATION_FLOOR, "analysis_box_growth": ANALYSIS_BOX_GROWTH,
+            "scale_cap": SCALE_CAP, "torque_rounding": 0.5 * 10.0 ** -decimals}
+
+
+def _not_planned(cp: ClimbProblem, reason: str, scale: float, bisection: Sequence[tuple[float, bool]],
+                 **record: Any) -> ClimbPlan:
+    """A plan not found, with why; ``record``: decimals, timings, tolerances, solver and problem."""
+    return ClimbPlan(
+        found=False, mode=cp.mode, torques={}, scale=scale, nominal_feasible=False,
+        max_disturbance_scale=0.0, scale_bracket=(0.0, 0.0), scale_bound=max(cp.scale_bound, 0.0),
+        scale_capped=cp.scale_capped, max_scale_torques={}, robust=False, robustness_radius=-math.inf,
+        margin=cp.margin, head_acceleration=math.nan, head_sideways_acceleration=math.nan,
+        free_accelerations={}, worst_head_acceleration=math.nan,
+        min_head_acceleration=cp.min_head_acceleration, exclusions=(), pieces=len(cp.pieces), piece=-1,
+        bisection=tuple(bisection), disturbances=cp.disturbances, reason=reason, **record)
+
+
+def _planned_torques(cp: ClimbProblem, plan_scale: float, lo: float, u_lo: np.ndarray
+                     ) -> tuple[float, int, np.ndarray]:
+    """``(scale, piece, torques)`` of the gentlest plan at ``plan_scale``.
+
+    Only when the nominal scale sits at the bisection's edge is there none: then the plan at the
+    largest robust scale ``lo``, else the bisection's own torques there (``u_lo``, piece 0).
+    """
+    index, _, _, u = _gentle_plan(cp, plan_scale)
+    if u is None:
+        plan_scale = lo
+        index, _, _, u = _gentle_plan(cp, lo)
+    if u is None:
+        return plan_scale, 0, u_lo
+    return plan_scale, index, u
+
+
+def _plan_reason(cp: ClimbProblem, check: Mapping[str, Any], plan_scale: float, lo: float, scale: float,
+                 nominal_feasible: bool) -> str:
+    """What the verified plan guarantees, or why its rounded torques failed the verification."""
+    if check["robust"]:
+        reason = (f"mode {cp.mode} holds, unambiguously, for every disturbance in "
+                  f"{'P' if plan_scale == 1.0 else f'{plan_scale:.4g} P'}; largest scale {lo:.4g}")
+        if not nominal_feasible:
+            reason += f" (the nominal scale {scale:g} is infeasible: planned at the largest scale)"
+        return reason
+    held = [e.mode for e in check["exclusions"] if e.held]
+    return ("the rounded torques failed the verification: "
+            + (f"mode(s) {', '.join(held)} also hold" if held else
+               f"radius {check['radius']:.3g}, worst head acceleration {check['worst']:.3g} m/s^2"))
 
 
 def _bisect_scale(cp: ClimbProblem, scale_tolerance: float
