@@ -1144,8 +1144,7 @@ class ClimbPlan:
                 "seed": result.seed,
                 "status": result.status,
                 "slip_tolerance": result.slip_tolerance,
-                "brace_events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
-                                 for e in result.brace_events],
+                "brace_events": [e.to_dict() for e in result.brace_events],
             }
         return to_jsonable(payload)
 

@@ -398,8 +398,7 @@ class FlipPlan:
             "armature": result.armature,
             "duration": traj.duration,
             "status": traj.status,
-            "events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
-                       for e in traj.events],
+            "events": [e.to_dict() for e in traj.events],
             "timings": dict(result.timings),
         }
         return to_jsonable(payload)
