@@ -752,22 +752,10 @@ def build_climb(
                             margin=float(margin), min_head_acceleration=a_min, solver=solver,
                             timings=timings, problem=defaults.pop("problem", base), **defaults)
 
-    if base.k == 0:
-        return result(obstacle="the scene has no active contact: there is no brace to hold")
-    allowed = base.allowed_modes()
-    moving = [c for c, letters in zip(base.contacts, allowed, strict=True) if "F" not in letters]
-    if moving:
-        return result(obstacle=f"brace contact(s) {', '.join(moving)} move at the scene's state: mode F "
-                      "is not possible (velocity pruning)")
-    system = build_mode_system(base, mode)
-    response = solve_affine(system.A, system.B, system.c, name=f"the system of mode {mode}")
-    if not response.consistent or response.ambiguity_dim or response.E.shape[0]:
-        return result(obstacle=(
-            f"mode {mode} has {response.ambiguity_dim} ambiguity variable(s) and "
-            f"{response.E.shape[0]} consistency condition(s): the brace's squeeze is not set by the "
-            "torques (fewer brace coordinates than brace rows), so no torque can certify it for every "
-            "squeeze; give the brace at least as many coordinates as contact rows (METHOD §6)"))
-    common = _brace_rows(scene, base, system, response, task, m_u)
+    brace = _brace_mode(base, mode)
+    if isinstance(brace, str):
+        return result(obstacle=brace)
+    common = _brace_rows(scene, base, *brace, task, m_u)
     timings["rows"] = time.perf_counter() - t0
     (H, h), (c, c0), sideways = common["domain_rows"], common["head_row"], common["head_sideways_row"]
     t1 = time.perf_counter()
@@ -788,6 +776,25 @@ def build_climb(
     timings["mode_systems"] = time.perf_counter() - t1
     return result(**common, problem=boxed, pieces=tuple(pieces), box=(lower, upper), scale_bound=s_bound,
                   scale_capped=capped, systems=systems, analysis=analysis, obstacle=obstacle)
+
+
+def _brace_mode(base: ContactProblem, mode: str) -> tuple[ModeSystem, AffineSolution] | str:
+    """The brace mode's system and its unique response, or why the brace cannot be certified."""
+    if base.k == 0:
+        return "the scene has no active contact: there is no brace to hold"
+    allowed = base.allowed_modes()
+    moving = [c for c, letters in zip(base.contacts, allowed, strict=True) if "F" not in letters]
+    if moving:
+        return (f"brace contact(s) {', '.join(moving)} move at the scene's state: mode F "
+                "is not possible (velocity pruning)")
+    system = build_mode_system(base, mode)
+    response = solve_affine(system.A, system.B, system.c, name=f"the system of mode {mode}")
+    if not response.consistent or response.ambiguity_dim or response.E.shape[0]:
+        return (f"mode {mode} has {response.ambiguity_dim} ambiguity variable(s) and "
+                f"{response.E.shape[0]} consistency condition(s): the brace's squeeze is not set by the "
+                "torques (fewer brace coordinates than brace rows), so no torque can certify it for every "
+                "squeeze; give the brace at least as many coordinates as contact rows (METHOD §6)")
+    return system, response
 
 
 def _brace_rows(scene: Scene, base: ContactProblem, system: ModeSystem, response: AffineSolution,
@@ -885,6 +892,40 @@ def _plan_lp(
     """
     solver = solver or cp.solver
     m_u = cp.m_u
+    B, b0 = cp.free_rows
+    f = B.shape[0]
+    nvar = m_u + 1 + f + m_u
+    A_ub, b_ub = _plan_lp_rows(cp, piece, scale, alpha_cap)
+    cost = np.zeros(nvar)
+    if objective == "robust":
+        cost[m_u] = -1.0
+    elif objective == "gentle":
+        cost[m_u + 1:m_u + 1 + f] = 1.0
+    else:
+        cost[m_u + 1 + f:] = 1.0
+    lower_t = cp.margin if t_min is None else max(cp.margin, t_min)
+    lb = np.concatenate([cp.scene.inputs.lower, [lower_t], np.zeros(f + m_u)])
+    ub = np.concatenate([cp.scene.inputs.upper, [ROBUSTNESS_CAP], np.full(f + m_u, np.inf)])
+    cx, cx0 = cp.head_sideways_row
+    A_eq = np.concatenate([cx[:m_u], np.zeros(nvar - m_u)])[None, :]
+    b_eq = np.array([-cx0])
+    result = _solve(cost, A_ub, b_ub, A_eq, b_eq, lb, ub, solver, True)
+    if not result.found:
+        return -math.inf, math.inf, None
+    u = result.x[:m_u]
+    alpha = float(np.sum(np.abs(B[:, :m_u] @ u + b0))) if f else 0.0
+    return float(result.x[m_u]), alpha, u
+
+
+def _plan_lp_rows(cp: ClimbProblem, piece: Polytope, scale: float, alpha_cap: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The plan LP's inequalities over ``(u, t, e_f, e_u)``.
+
+    Per point of V_s: the piece's rows shrunk by t and the head's acceleration; then the free
+    accelerations' bounds ``|B_u u + b_0| <= e_f`` (and ``sum(e_f) <= alpha_cap``) and the
+    torques' ``|u| <= e_u``.
+    """
+    m_u = cp.m_u
     A, b, shrink = _piece_rows(piece, m_u)
     c, c0 = cp.head_row
     c_norm = float(np.linalg.norm(c)) or 1.0
@@ -917,26 +958,7 @@ def _plan_lp(
     eye = np.eye(m_u)
     rows += [row(eye, e_part=-eye), row(-eye, e_part=-eye)]
     rhs += [np.zeros(m_u), np.zeros(m_u)]
-    cost = np.zeros(nvar)
-    if objective == "robust":
-        cost[m_u] = -1.0
-    elif objective == "gentle":
-        cost[m_u + 1:m_u + 1 + f] = 1.0
-    else:
-        cost[m_u + 1 + f:] = 1.0
-    lower_t = cp.margin if t_min is None else max(cp.margin, t_min)
-    lb = np.concatenate([cp.scene.inputs.lower, [lower_t], np.zeros(f + m_u)])
-    ub = np.concatenate([cp.scene.inputs.upper, [ROBUSTNESS_CAP], np.full(f + m_u, np.inf)])
-    A_ub, b_ub = np.vstack(rows), np.concatenate(rhs)
-    cx, cx0 = cp.head_sideways_row
-    A_eq = np.concatenate([cx[:m_u], np.zeros(nvar - m_u)])[None, :]
-    b_eq = np.array([-cx0])
-    result = _solve(cost, A_ub, b_ub, A_eq, b_eq, lb, ub, solver, True)
-    if not result.found:
-        return -math.inf, math.inf, None
-    u = result.x[:m_u]
-    alpha = float(np.sum(np.abs(B[:, :m_u] @ u + b0))) if f else 0.0
-    return float(result.x[m_u]), alpha, u
+    return np.vstack(rows), np.concatenate(rhs)
 
 
 def _best_piece(
