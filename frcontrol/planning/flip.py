@@ -72,8 +72,10 @@ and plans over the others, and reports them (``forced_inputs``).
 
 **Closed loop.** :func:`simulate_flip` re-plans every ``replan_every`` steps at the simulated state
 (:meth:`Scene.at`) and applies the plan's rounded torques to one rigid time stepper
-(:class:`frcontrol.simulation.rigid.RigidStepper`: contacts open and close, inelastic impacts)
-until the pitch passes vertical or ``max_time``.
+(:class:`frcontrol.simulation.rigid.RigidStepper`: velocity-level time stepping, contacts open and
+close, inelastic impacts) until the pitch passes vertical or ``max_time``: the re-planning is the
+policy of :func:`frcontrol.simulation.closed_loop.run_closed_loop`, which holds the torques between
+plans. The run is one trajectory, checked for validity like any rigid simulation.
 
 *Re-planning model:* the scene at the simulated state (:meth:`Scene.at`) with the contacts
 within :data:`REPLAN_GAP_TOLERANCE` of their surface or loaded by the last step (a loaded
@@ -1111,15 +1113,10 @@ def simulate_flip(
 ) -> FlipResult:
     """Plan, then re-plan along a rigid simulation until the body pitches past vertical.
 
-    The loop: plan at the scene's state (:func:`plan_flip`); apply the plan's rounded torques for
-    ``replan_every`` steps of one :class:`~frcontrol.simulation.rigid.RigidStepper` (velocity-level
-    time stepping, contacts open and close, inelastic impacts; the massless hips get the rotor
-    inertia ``armature``); re-plan at the state reached, and so on, until the pitch passes the
-    task's vertical (``FlipTask.vertical``) or ``max_time``. The run is one trajectory, checked
-    for validity like any rigid simulation (energy, warnings).
-
-    The re-planning model, the legs in the air and "body contact kept" are defined in the
-    module's docstring (**Closed loop**).
+    The loop, the re-planning model, the legs in the air and "body contact kept" are defined in
+    the module's docstring (**Closed loop**); it runs on
+    :func:`~frcontrol.simulation.closed_loop.run_closed_loop` (the massless hips get the rotor
+    inertia ``armature``) until the pitch passes ``FlipTask.vertical`` or ``max_time``.
 
     Args:
         scene: the scene (RHex on its back).
