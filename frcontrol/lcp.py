@@ -391,39 +391,20 @@ def _verified(
     note: str = "",
 ) -> LCPSolution:
     """Build an LCPSolution, computing ``w``, the residual and ``found`` from ``z``."""
+    w: np.ndarray | None = None
     if z is None:
-        return LCPSolution(
-            found=False,
-            z=None,
-            w=None,
-            status=status,
-            method=method,
-            pivots=pivots,
-            residual=math.inf,
-            tolerance=lcp_tolerance(M, q, None, tolerance),
-            solve_time=time.perf_counter() - start,
-            note=note,
-        )
-    w = M @ z + q
-    natural = np.abs(np.minimum(z, w))
-    residual = float(np.max(natural)) if natural.size else 0.0
-    bounds = lcp_row_tolerances(M, q, z, tolerance)
-    bound = float(np.max(bounds)) if bounds.size else 0.0
-    found = status == "solved" and bool(np.all(natural <= bounds))
-    if status == "solved" and not found:
-        status = "inaccurate"
-    return LCPSolution(
-        found=found,
-        z=z,
-        w=w,
-        status=status,
-        method=method,
-        pivots=pivots,
-        residual=residual,
-        tolerance=bound,
-        solve_time=time.perf_counter() - start,
-        note=note,
-    )
+        found, residual, bound = False, math.inf, lcp_tolerance(M, q, None, tolerance)
+    else:
+        w = M @ z + q
+        natural = np.abs(np.minimum(z, w))
+        residual = float(np.max(natural)) if natural.size else 0.0
+        bounds = lcp_row_tolerances(M, q, z, tolerance)
+        bound = float(np.max(bounds)) if bounds.size else 0.0
+        found = status == "solved" and bool(np.all(natural <= bounds))
+        if status == "solved" and not found:
+            status = "inaccurate"
+    return LCPSolution(found=found, z=z, w=w, status=status, method=method, pivots=pivots, residual=residual,
+                       tolerance=bound, solve_time=time.perf_counter() - start, note=note)
 
 
 # --------------------------------------------------------------------------------------------
@@ -459,84 +440,107 @@ def _lexicographic_min_row(
     return int(rows[0])
 
 
+class _LemkeTableau:
+    """Lemke's tableau ``[I, -M, -1 | q]`` and its basis.
+
+    Columns: w (0..n-1), z (n..2n-1), z0 (2n), then the right-hand side (2n+1); ``basis[i]`` is
+    the column basic in row i.
+    """
+
+    def __init__(self, M: np.ndarray, q: np.ndarray) -> None:
+        n = q.size
+        self.n, self.q = n, q
+        self.z0, self.rhs = 2 * n, 2 * n + 1
+        self.A = np.hstack([np.eye(n), -M, -np.ones((n, 1))])
+        self.table = np.hstack([self.A, q[:, None]])
+        self.basis = np.arange(n)
+
+    def pivot(self, row: int, column: int) -> None:
+        """Make ``column`` basic in ``row``."""
+        table = self.table
+        table[row] /= table[row, column]
+        factors = table[:, column].copy()
+        factors[row] = 0.0
+        table[:] -= np.outer(factors, table[row])
+        self.basis[row] = column
+
+    def choose_row(self, divisor: np.ndarray, rows: np.ndarray, preferred: int | None) -> int:
+        """The lexicographic ratio test's row (:func:`_lexicographic_min_row`).
+
+        Ratio rows [B^-1 q, B^-1] / d: B^-1 sits under the original (identity) w columns.
+        Round-off in (B^-1 q)_i scales with (|B^-1| |q|)_i, in B^-1 with max_k |B^-1_ik|.
+        """
+        inverse = self.table[:, :self.n]
+        keys = np.hstack([self.table[:, self.rhs : self.rhs + 1], inverse]) / divisor[:, None]
+        scales = np.column_stack([np.abs(inverse) @ np.abs(self.q), np.max(np.abs(inverse), axis=1)])
+        widths = TIE_TOLERANCE * scales / divisor[:, None]
+        return _lexicographic_min_row(keys, widths, rows, preferred)
+
+    def basic_point(self) -> tuple[np.ndarray, bool]:
+        """``(w, z, z0)`` at the current basis, and whether the basis matrix was singular.
+
+        Recomputed by an LU solve with the basis matrix (fresher than the accumulated tableau);
+        the tableau's values if the basis is singular.
+        """
+        values = np.zeros(2 * self.n + 1)
+        try:
+            values[self.basis] = np.linalg.solve(self.A[:, self.basis], self.q)
+        except np.linalg.LinAlgError:
+            values[self.basis] = self.table[:, self.rhs]
+            return values, True
+        return values, False
+
+
 def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> LCPSolution:
     """Lexicographic Lemke's method; see the module docstring."""
     start = time.perf_counter()
     n = q.size
     if np.all(q >= 0):
         return _verified(M, q, np.zeros(n), "solved", "lemke", 0, tolerance, start)
-
-    # Tableau columns: w (0..n-1), z (n..2n-1), z0 (2n), right-hand side (2n+1).
-    z0, rhs = 2 * n, 2 * n + 1
-    A = np.hstack([np.eye(n), -M, -np.ones((n, 1))])
-    tableau = np.hstack([A, q[:, None]])
-    basis = np.arange(n)
-
-    def pivot(row: int, column: int) -> None:
-        tableau[row] /= tableau[row, column]
-        factors = tableau[:, column].copy()
-        factors[row] = 0.0
-        tableau[:] -= np.outer(factors, tableau[row])
-        basis[row] = column
-
-    def choose_row(divisor: np.ndarray, rows: np.ndarray, preferred: int | None) -> int:
-        # Ratio rows [B^-1 q, B^-1] / d: B^-1 sits under the original (identity) w columns.
-        # Round-off in (B^-1 q)_i scales with (|B^-1| |q|)_i, in B^-1 with max_k |B^-1_ik|.
-        inverse = tableau[:, :n]
-        keys = np.hstack([tableau[:, rhs : rhs + 1], inverse]) / divisor[:, None]
-        scales = np.column_stack([np.abs(inverse) @ np.abs(q), np.max(np.abs(inverse), axis=1)])
-        widths = TIE_TOLERANCE * scales / divisor[:, None]
-        return _lexicographic_min_row(keys, widths, rows, preferred)
-
-    def basic_point() -> tuple[np.ndarray, bool]:
-        # Values of (w, z, z0) at the current basis, recomputed by an LU solve with the basis
-        # matrix (fresher than the accumulated tableau); the tableau if the basis is singular.
-        values = np.zeros(2 * n + 1)
-        try:
-            values[basis] = np.linalg.solve(A[:, basis], q)
-        except np.linalg.LinAlgError:
-            values[basis] = tableau[:, rhs]
-            return values, True
-        return values, False
-
-    def stopped(status: str) -> LCPSolution:
-        # A ray or the pivot limit with z0 already at zero (within the tolerance) leaves an
-        # almost-complementary point that is itself a solution: accept it if it verifies.
-        values, _ = basic_point()
-        z = values[n : 2 * n].copy()
-        if abs(values[z0]) <= lcp_tolerance(M, q, z, tolerance):
-            note = f"{status} met with z0 = {values[z0]:.3g}: the current point is a solution"
-            result = _verified(M, q, z, "solved", "lemke", pivots, tolerance, start, note)
-            if result.found:
-                return result
-        return _verified(M, q, None, status, "lemke", pivots, tolerance, start)
-
+    tab = _LemkeTableau(M, q)
     # First pivot: z0 enters at the value that makes every w_i = q_i + z0 non-negative.
-    row = choose_row(np.ones(n), np.arange(n), None)
-    leaving = int(basis[row])
-    pivot(row, z0)
+    row = tab.choose_row(np.ones(n), np.arange(n), None)
+    leaving = int(tab.basis[row])
+    tab.pivot(row, tab.z0)
     pivots = 1
-    while leaving != z0:
+    while leaving != tab.z0:
         entering = leaving + n if leaving < n else leaving - n
-        column = tableau[:, entering]
+        column = tab.table[:, entering]
         largest = float(np.max(np.abs(column)))
         eligible = (np.flatnonzero(column > PIVOT_TOLERANCE * largest) if largest > 0
                     else np.zeros(0, dtype=int))
         if len(eligible) == 0:
-            return stopped("ray")
+            return _lemke_stopped(M, q, tab, "ray", pivots, tolerance, start)
         if pivots >= max_pivots:
-            return stopped("max_pivots")
-        z0_rows = np.flatnonzero(basis == z0)
+            return _lemke_stopped(M, q, tab, "max_pivots", pivots, tolerance, start)
+        z0_rows = np.flatnonzero(tab.basis == tab.z0)
         preferred = int(z0_rows[0]) if z0_rows.size else None
-        row = choose_row(np.where(column > 0, column, 1.0), eligible, preferred)
-        leaving = int(basis[row])
-        pivot(row, entering)
+        row = tab.choose_row(np.where(column > 0, column, 1.0), eligible, preferred)
+        leaving = int(tab.basis[row])
+        tab.pivot(row, entering)
         pivots += 1
-    values, singular = basic_point()
+    values, singular = tab.basic_point()
     result = _verified(M, q, values[n : 2 * n].copy(), "solved", "lemke", pivots, tolerance, start)
     if singular and not result.found:
         return replace(result, status="singular")
     return result
+
+
+def _lemke_stopped(M: np.ndarray, q: np.ndarray, tab: _LemkeTableau, status: str, pivots: int,
+                   tolerance: float, start: float) -> LCPSolution:
+    """Lemke's method ended on a ray or the pivot limit.
+
+    With z0 already at zero (within the tolerance) the almost-complementary point is itself a
+    solution: it is accepted if it verifies.
+    """
+    values, _ = tab.basic_point()
+    z = values[tab.n : 2 * tab.n].copy()
+    if abs(values[tab.z0]) <= lcp_tolerance(M, q, z, tolerance):
+        note = f"{status} met with z0 = {values[tab.z0]:.3g}: the current point is a solution"
+        result = _verified(M, q, z, "solved", "lemke", pivots, tolerance, start, note)
+        if result.found:
+            return result
+    return _verified(M, q, None, status, "lemke", pivots, tolerance, start)
 
 
 # --------------------------------------------------------------------------------------------

@@ -366,42 +366,48 @@ def chebyshev_ball(P: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> Chebyshev
         The ball; ``found=False`` if ``P`` is empty.
     """
     d = P.dim
-    not_found = ChebyshevBall(
-        False, None, float("nan"), False, d, False, CHEBYSHEV_RADIUS_CAP, INTERIOR_TOLERANCE, ""
-    )
     if d == 0:  # R^0: the point, if every (constant) row holds; it is its own interior
         if _holds_in_r0(P):
             return ChebyshevBall(True, np.zeros(0), CHEBYSHEV_RADIUS_CAP, True, 0, True,
                                  CHEBYSHEV_RADIUS_CAP, INTERIOR_TOLERANCE, "")
-        return not_found
+        return _no_ball(d)
     hull = _affine_hull(P.A_eq, P.b_eq, d)
     if hull is None:
-        return not_found
+        return _no_ball(d)
     k = hull.N.shape[1]
-    not_found = ChebyshevBall(
-        False, None, float("nan"), False, k, False, CHEBYSHEV_RADIUS_CAP, INTERIOR_TOLERANCE, ""
-    )
     G = P.A @ hull.N
     h = P.b - P.A @ hull.x0
     row_norms = np.linalg.norm(P.A, axis=1)
     g_norms = np.linalg.norm(G, axis=1)
     flat = g_norms <= ZERO_TOLERANCE * row_norms
     if np.any(h[flat] < -CONTAINMENT_TOLERANCE * np.maximum(row_norms[flat], 1e-300)):
-        return not_found
+        return _no_ball(k)
     G, h, g_norms = G[~flat], h[~flat], g_norms[~flat]
     if k == 0 or G.shape[0] == 0:  # a point, or the whole hull
         radius = 0.0 if k == 0 else CHEBYSHEV_RADIUS_CAP
         return ChebyshevBall(True, hull.x0, radius, radius > INTERIOR_TOLERANCE, k, k > 0,
                              CHEBYSHEV_RADIUS_CAP, INTERIOR_TOLERANCE, "")
-    A_lp = np.hstack([G / g_norms[:, None], np.ones((G.shape[0], 1))])
+    return _ball_in_hull(G / g_norms[:, None], h / g_norms, hull, solver)
+
+
+def _no_ball(dimension: int) -> ChebyshevBall:
+    """The answer for an empty set (``dimension``: of the space, or of the equalities' hull)."""
+    return ChebyshevBall(False, None, float("nan"), False, dimension, False, CHEBYSHEV_RADIUS_CAP,
+                         INTERIOR_TOLERANCE, "")
+
+
+def _ball_in_hull(G: np.ndarray, h: np.ndarray, hull: _Hull, solver: str) -> ChebyshevBall:
+    """The Chebyshev LP of :func:`chebyshev_ball` on unit rows ``G z <= h`` in the hull's coordinates."""
+    k = G.shape[1]
+    A_lp = np.hstack([G, np.ones((G.shape[0], 1))])
     cost = np.zeros(k + 1)
     cost[-1] = -1.0
     lb = np.full(k + 1, -np.inf)
     ub = np.full(k + 1, np.inf)
     lb[-1], ub[-1] = 0.0, CHEBYSHEV_RADIUS_CAP
-    result = _lp(solver, cost, A_lp, h / g_norms, bounded=True, lb=lb, ub=ub)
+    result = _lp(solver, cost, A_lp, h, bounded=True, lb=lb, ub=ub)
     if result.status == "infeasible" or result.x is None:
-        return not_found
+        return _no_ball(k)
     radius = float(min(max(result.x[-1], 0.0), CHEBYSHEV_RADIUS_CAP))
     return ChebyshevBall(
         found=True,
@@ -750,20 +756,34 @@ def minimal_representation(
     g_norms = np.linalg.norm(G[kept], axis=1)
     unit = np.ascontiguousarray(G[kept] / g_norms[:, None])
     offsets = np.ascontiguousarray(h[kept] / g_norms)
-    if use_minrep and _daqp_minrep is not None and unit.shape[0] > 1 and unit.shape[1] > 0:
-        strictly_redundant = np.asarray(_daqp_minrep(unit, offsets)) == 1
-        unit, offsets = unit[~strictly_redundant], offsets[~strictly_redundant]
-    if unit.shape[0] > 1:
-        center = hull.N.T @ (ball.center - hull.x0) if ball.full_dimensional else None
-        try:
-            keep = _irredundant_rows(unit, offsets, center, tolerance, solver)
-        except _EmptySet:
-            return Polytope.empty_set(d)
-        unit, offsets = unit[keep], offsets[keep]
+    center = hull.N.T @ (ball.center - hull.x0) if ball.full_dimensional else None
+    try:
+        unit, offsets = _without_redundant_rows(unit, offsets, center, tolerance, solver, use_minrep)
+    except _EmptySet:
+        return Polytope.empty_set(d)
     A_out = unit @ hull.N.T
     A_out[np.abs(A_out) < ZERO_TOLERANCE] = 0.0  # round-off of the change of coordinates
     b_out = offsets + A_out @ hull.x0
     return Polytope(A_out, b_out, A_eq, b_eq)
+
+
+def _without_redundant_rows(unit: np.ndarray, offsets: np.ndarray, center: np.ndarray | None,
+                            tolerance: float, solver: str, use_minrep: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Stages 4 and 5 of :func:`minimal_representation` on unit rows ``unit z <= offsets``.
+
+    ``daqp.minrep``'s drops (strictly redundant rows), then one LP per surviving row
+    (:func:`_irredundant_rows`, from the interior point ``center`` when there is one).
+
+    Raises:
+        _EmptySet: an LP found the set empty.
+    """
+    if use_minrep and _daqp_minrep is not None and unit.shape[0] > 1 and unit.shape[1] > 0:
+        strictly_redundant = np.asarray(_daqp_minrep(unit, offsets)) == 1
+        unit, offsets = unit[~strictly_redundant], offsets[~strictly_redundant]
+    if unit.shape[0] > 1:
+        keep = _irredundant_rows(unit, offsets, center, tolerance, solver)
+        unit, offsets = unit[keep], offsets[keep]
+    return unit, offsets
 
 
 def _slabs_as_equalities(P: Polytope, A_eq: np.ndarray, b_eq: np.ndarray,

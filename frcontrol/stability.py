@@ -226,16 +226,9 @@ def stability_of(
         raise InputError("give both stiffness and damping (or neither) for the boundary layer's roots")
     M = np.asarray(problem.mass_matrix, dtype=float)
     n = problem.n
-    forces = np.concatenate([np.abs(solution.lambda_n), np.abs(solution.lambda_t)])
-    force_scale = max(1.0, float(np.max(forces, initial=0.0)),
-                      float(np.max(np.abs(problem.bias), initial=0.0)))
-    force_tol = FORCE_TOLERANCE * force_scale
-    accel_scale = max(1.0, float(np.max(np.abs(solution.dv), initial=0.0)),
-                      float(np.max(np.abs(np.concatenate([solution.a_n, solution.a_t])), initial=0.0)))
-    accel_tol = ACCELERATION_TOLERANCE * accel_scale
-    tolerances = {"force": force_tol, "acceleration": accel_tol, "rank": RANK_TOLERANCE,
-                  "finite": FINITE_TOLERANCE}
-    rows, cols, labels, impending, notes = _constraint_rows(problem, solution, force_tol, accel_tol)
+    tolerances = _solution_tolerances(problem, solution)
+    rows, cols, labels, impending, notes = _constraint_rows(problem, solution, tolerances["force"],
+                                                            tolerances["acceleration"])
     empty = np.zeros(0, dtype=complex)
     if impending is not None:
         return Stability(mode, None, empty, impending + ": not analysable", tuple(labels),
@@ -272,6 +265,21 @@ def stability_of(
         "method": method, "tolerances": tolerances}
     return _verdict(mode, eigenvalues, massless, eig_tol, roots, complex_ones, crit, stiffness, damping,
                     suffix, common)
+
+
+def _solution_tolerances(problem: ContactProblem, solution: RigidSolution) -> dict[str, float]:
+    """The absolute tolerances of one solution's analysis.
+
+    Forces [N] relative to its forces and the bias, accelerations relative to its accelerations
+    (each scale at least 1).
+    """
+    forces = np.concatenate([np.abs(solution.lambda_n), np.abs(solution.lambda_t)])
+    force_scale = max(1.0, float(np.max(forces, initial=0.0)),
+                      float(np.max(np.abs(problem.bias), initial=0.0)))
+    accel_scale = max(1.0, float(np.max(np.abs(solution.dv), initial=0.0)),
+                      float(np.max(np.abs(np.concatenate([solution.a_n, solution.a_t])), initial=0.0)))
+    return {"force": FORCE_TOLERANCE * force_scale, "acceleration": ACCELERATION_TOLERANCE * accel_scale,
+            "rank": RANK_TOLERANCE, "finite": FINITE_TOLERANCE}
 
 
 def _notes_suffix(indeterminate: int, decoupled: int, massless: np.ndarray, notes: Sequence[str]) -> str:

@@ -674,18 +674,8 @@ def static_equilibrium(
         return Equilibrium(False, r_star, load, None, None, 0.0, -1, (), None, None, float("nan"),
                            body.characteristic_length, tolerances)
 
-    # Freund-Roundy-Todd: max sum s  s.t.  G lam + w tau = 0, C lam + F s <= 0, tau >= 1, 0 <= s <= 1
     m = C.shape[0]
-    cost = np.concatenate([np.zeros(nv + 1), -np.ones(m)])
-    A_eq = np.hstack([G, w[:, None], np.zeros((3, m))])
-    A_ub = np.hstack([C, np.zeros((m, 1)), force_scale * np.eye(m)])
-    lb = np.concatenate([np.full(nv, -np.inf), [1.0], np.zeros(m)])
-    ub = np.concatenate([np.full(nv + 1, np.inf), np.ones(m)])
-    frt = _lp(cost, solver, A_ub=A_ub, b_ub=np.zeros(m), A_eq=A_eq, b_eq=np.zeros(3), lb=lb, ub=ub)
-    if frt.x is not None:
-        strict = frt.x[nv + 1:] > IMPLICIT_SLACK_THRESHOLD
-    else:  # on the boundary of existence (r* within tolerance): treat every row as tight
-        strict = np.zeros(m, dtype=bool)
+    strict = _strict_cone_rows(G, w, C, force_scale, solver)
     tight = tuple(label for label, s in zip(labels, strict, strict=True) if not s)
     dimension = nv - _rank(np.vstack([G, C[~strict]]), normalise_rows=True)
 
@@ -705,18 +695,7 @@ def static_equilibrium(
 
     n_range = t_range = None
     if force_ranges and interior.found:
-        bounds = np.empty((nv, 2))
-        for j in range(nv):
-            for side, sign in ((0, 1.0), (1, -1.0)):
-                cost = np.zeros(nv)
-                cost[j] = sign
-                res = _lp(cost, solver, A_ub=C, b_ub=np.zeros(m), A_eq=G, b_eq=-w)
-                if res.status == "unbounded":
-                    bounds[j, side] = -sign * np.inf
-                elif res.found:
-                    bounds[j, side] = sign * res.objective
-                else:
-                    bounds[j, side] = lam[j]
+        bounds = _force_ranges(G, w, C, lam, solver)
         n_range, t_range = bounds[:k], bounds[k:]
     return Equilibrium(
         exists=True, residual=r_star, load=load, lambda_n=lam[:k].copy(), lambda_t=lam[k:].copy(),
@@ -724,6 +703,47 @@ def static_equilibrium(
         lambda_t_range=t_range, balance_residual=float(np.max(np.abs(G @ lam + w))),
         characteristic_length=body.characteristic_length, tolerances=tolerances,
     )
+
+
+def _strict_cone_rows(G: np.ndarray, w: np.ndarray, C: np.ndarray, force_scale: float, solver: str
+                      ) -> np.ndarray:
+    """Per cone row, whether some equilibrium force set holds it strictly (Freund-Roundy-Todd).
+
+    One LP: max sum s  s.t.  G lam + w tau = 0, C lam + F s <= 0, tau >= 1, 0 <= s <= 1 (F the
+    force scale); a row is strict when its s exceeds :data:`IMPLICIT_SLACK_THRESHOLD`. Without an
+    answer (equilibrium on the boundary of existence, r* within tolerance) every row is tight.
+    """
+    nv, m = G.shape[1], C.shape[0]
+    cost = np.concatenate([np.zeros(nv + 1), -np.ones(m)])
+    A_eq = np.hstack([G, w[:, None], np.zeros((3, m))])
+    A_ub = np.hstack([C, np.zeros((m, 1)), force_scale * np.eye(m)])
+    lb = np.concatenate([np.full(nv, -np.inf), [1.0], np.zeros(m)])
+    ub = np.concatenate([np.full(nv + 1, np.inf), np.ones(m)])
+    frt = _lp(cost, solver, A_ub=A_ub, b_ub=np.zeros(m), A_eq=A_eq, b_eq=np.zeros(3), lb=lb, ub=ub)
+    if frt.x is not None:
+        return frt.x[nv + 1:] > IMPLICIT_SLACK_THRESHOLD
+    return np.zeros(m, dtype=bool)
+
+
+def _force_ranges(G: np.ndarray, w: np.ndarray, C: np.ndarray, lam: np.ndarray, solver: str) -> np.ndarray:
+    """``(2k, 2)``: the least and largest value of every force component over the equilibria.
+
+    Two LPs per component; an unbounded side is infinite, one without an answer keeps ``lam``'s.
+    """
+    nv, m = G.shape[1], C.shape[0]
+    bounds = np.empty((nv, 2))
+    for j in range(nv):
+        for side, sign in ((0, 1.0), (1, -1.0)):
+            cost = np.zeros(nv)
+            cost[j] = sign
+            res = _lp(cost, solver, A_ub=C, b_ub=np.zeros(m), A_eq=G, b_eq=-w)
+            if res.status == "unbounded":
+                bounds[j, side] = -sign * np.inf
+            elif res.found:
+                bounds[j, side] = sign * res.objective
+            else:
+                bounds[j, side] = lam[j]
+    return bounds
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1027,6 +1047,36 @@ def _bound_pairs(array: np.ndarray | None) -> list[list[float | None]] | None:
     return None if array is None else [[finite_or_none(lo), finite_or_none(hi)] for lo, hi in array]
 
 
+def _closure_dict(c: Any) -> dict[str, Any]:
+    """A closure test as JSON values (``frc statics --json``'s ``closure.form`` and ``.force``)."""
+    return {"closed": c.closed, "margin": c.margin, "rank": c.rank,
+            "min_coefficient": finite_or_none(c.min_coefficient),
+            "weakest_direction": None if c.weakest_direction is None else c.weakest_direction}
+
+
+def _equilibrium_dict(eq: Equilibrium, names: list[str]) -> dict[str, Any]:
+    """The equilibrium as JSON values, its forces and ranges per contact (``names``; null if none)."""
+    forces = None
+    if eq.lambda_n is not None and eq.lambda_t is not None:
+        forces = {name: {"lambda_n": eq.lambda_n[i], "lambda_t": eq.lambda_t[i]}
+                  for i, name in enumerate(names)}
+    ranges = None
+    n_range, t_range = _bound_pairs(eq.lambda_n_range), _bound_pairs(eq.lambda_t_range)
+    if n_range is not None and t_range is not None:
+        ranges = {name: {"lambda_n": n_range[i], "lambda_t": t_range[i]} for i, name in enumerate(names)}
+    return {
+        "exists": eq.exists,
+        "residual": eq.residual,
+        "load": eq.load,
+        "forces": forces,
+        "cone_slack": eq.cone_slack,
+        "dimension": eq.dimension,
+        "statically_indeterminate": eq.statically_indeterminate,
+        "tight": list(eq.tight),
+        "ranges": ranges,
+    }
+
+
 @dataclass(frozen=True, eq=False)
 class StaticsReport:
     """All the statics of a scene at its configuration.
@@ -1069,21 +1119,6 @@ class StaticsReport:
         body = report.body
         eq = report.equilibrium
         sup = report.support
-        names = list(body.contact_names)
-        forces = None
-        if eq.lambda_n is not None and eq.lambda_t is not None:
-            forces = {name: {"lambda_n": eq.lambda_n[i], "lambda_t": eq.lambda_t[i]}
-                      for i, name in enumerate(names)}
-        ranges = None
-        n_range, t_range = _bound_pairs(eq.lambda_n_range), _bound_pairs(eq.lambda_t_range)
-        if n_range is not None and t_range is not None:
-            ranges = {name: {"lambda_n": n_range[i], "lambda_t": t_range[i]} for i, name in enumerate(names)}
-
-        def closure(c: Any) -> dict[str, Any]:
-            return {"closed": c.closed, "margin": c.margin, "rank": c.rank,
-                    "min_coefficient": finite_or_none(c.min_coefficient),
-                    "weakest_direction": None if c.weakest_direction is None else c.weakest_direction}
-
         strong = report.strong
         return to_jsonable({
             "scene": report.scene_name,
@@ -1107,24 +1142,15 @@ class StaticsReport:
                 "halfplanes": {"A": np.asarray(sup.region.A), "b": np.asarray(sup.region.b)},
                 "vertices": sup.vertices,
             },
-            "contacts": names,
+            "contacts": list(body.contact_names),
             "inactive_contacts": list(report.inactive_contacts),
             "inputs": report.inputs,
             "body": {"mass": body.mass, "com": body.com, "gravity": body.gravity,
                      "characteristic_length": body.characteristic_length,
                      "length_source": body.length_source},
-            "closure": {"form": closure(report.form_closure), "force": closure(report.force_closure)},
-            "equilibrium": {
-                "exists": eq.exists,
-                "residual": eq.residual,
-                "load": eq.load,
-                "forces": forces,
-                "cone_slack": eq.cone_slack,
-                "dimension": eq.dimension,
-                "statically_indeterminate": eq.statically_indeterminate,
-                "tight": list(eq.tight),
-                "ranges": ranges,
-            },
+            "closure": {"form": _closure_dict(report.form_closure),
+                        "force": _closure_dict(report.force_closure)},
+            "equilibrium": _equilibrium_dict(eq, list(body.contact_names)),
             "weak_stability": {"weakly_stable": report.weakly_stable, "residual": report.weak.residual},
             "strong_stability": None if strong is None else {
                 "strongly_stable": strong.strongly_stable,

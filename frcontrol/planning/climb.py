@@ -151,6 +151,10 @@ from ..modes import ContactProblem, ModeSystem, all_modes, build_mode_system
 from ..polytope import Polytope, hull_from_points
 from ..response import AffineSolution, solve_affine
 from ..scene import Inputs, Scene
+from ..simulation.closed_loop import Policy, run_closed_loop
+from ..simulation.inputs import check_simulation_times
+from ..simulation.rigid import RigidSettings, RigidStepper
+from ..simulation.trajectory import Trajectory
 from ..solvers import CONFIRM_INFEASIBLE, DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
 from . import DEFAULT_CLIMB_DURATION, DEFAULT_CLIMB_MARGIN
 
@@ -159,6 +163,7 @@ __all__ = [
     "BRACE_SLIP_TOLERANCE",
     "DEFAULT_MARGIN",
     "DEFAULT_MIN_HEAD_ACCELERATION",
+    "HOLD_INDEX_ROUNDOFF",
     "ACCELERATION_FLOOR",
     "ACCELERATION_SLACK",
     "OPTIMALITY_SLACK",
@@ -228,6 +233,10 @@ DEFAULT_DURATION = DEFAULT_CLIMB_DURATION
 
 DEFAULT_HOLD = 0.05
 """[s] How long each sampled disturbance is held in :func:`simulate_climb`."""
+
+HOLD_INDEX_ROUNDOFF = 1e-9
+"""[-] In :func:`simulate_climb`, a step starting within this many holds of a hold's end starts the
+next hold (``t / hold`` is rounded up over round-off)."""
 
 # ============================================================================ disturbances
 @dataclass(frozen=True)
@@ -743,22 +752,10 @@ def build_climb(
                             margin=float(margin), min_head_acceleration=a_min, solver=solver,
                             timings=timings, problem=defaults.pop("problem", base), **defaults)
 
-    if base.k == 0:
-        return result(obstacle="the scene has no active contact: there is no brace to hold")
-    allowed = base.allowed_modes()
-    moving = [c for c, letters in zip(base.contacts, allowed, strict=True) if "F" not in letters]
-    if moving:
-        return result(obstacle=f"brace contact(s) {', '.join(moving)} move at the scene's state: mode F "
-                      "is not possible (velocity pruning)")
-    system = build_mode_system(base, mode)
-    response = solve_affine(system.A, system.B, system.c, name=f"the system of mode {mode}")
-    if not response.consistent or response.ambiguity_dim or response.E.shape[0]:
-        return result(obstacle=(
-            f"mode {mode} has {response.ambiguity_dim} ambiguity variable(s) and "
-            f"{response.E.shape[0]} consistency condition(s): the brace's squeeze is not set by the "
-            "torques (fewer brace coordinates than brace rows), so no torque can certify it for every "
-            "squeeze; give the brace at least as many coordinates as contact rows (METHOD §6)"))
-    common = _brace_rows(scene, base, system, response, task, m_u)
+    brace = _brace_mode(base, mode)
+    if isinstance(brace, str):
+        return result(obstacle=brace)
+    common = _brace_rows(scene, base, *brace, task, m_u)
     timings["rows"] = time.perf_counter() - t0
     (H, h), (c, c0), sideways = common["domain_rows"], common["head_row"], common["head_sideways_row"]
     t1 = time.perf_counter()
@@ -779,6 +776,25 @@ def build_climb(
     timings["mode_systems"] = time.perf_counter() - t1
     return result(**common, problem=boxed, pieces=tuple(pieces), box=(lower, upper), scale_bound=s_bound,
                   scale_capped=capped, systems=systems, analysis=analysis, obstacle=obstacle)
+
+
+def _brace_mode(base: ContactProblem, mode: str) -> tuple[ModeSystem, AffineSolution] | str:
+    """The brace mode's system and its unique response, or why the brace cannot be certified."""
+    if base.k == 0:
+        return "the scene has no active contact: there is no brace to hold"
+    allowed = base.allowed_modes()
+    moving = [c for c, letters in zip(base.contacts, allowed, strict=True) if "F" not in letters]
+    if moving:
+        return (f"brace contact(s) {', '.join(moving)} move at the scene's state: mode F "
+                "is not possible (velocity pruning)")
+    system = build_mode_system(base, mode)
+    response = solve_affine(system.A, system.B, system.c, name=f"the system of mode {mode}")
+    if not response.consistent or response.ambiguity_dim or response.E.shape[0]:
+        return (f"mode {mode} has {response.ambiguity_dim} ambiguity variable(s) and "
+                f"{response.E.shape[0]} consistency condition(s): the brace's squeeze is not set by the "
+                "torques (fewer brace coordinates than brace rows), so no torque can certify it for every "
+                "squeeze; give the brace at least as many coordinates as contact rows (METHOD §6)")
+    return system, response
 
 
 def _brace_rows(scene: Scene, base: ContactProblem, system: ModeSystem, response: AffineSolution,
@@ -876,6 +892,40 @@ def _plan_lp(
     """
     solver = solver or cp.solver
     m_u = cp.m_u
+    B, b0 = cp.free_rows
+    f = B.shape[0]
+    nvar = m_u + 1 + f + m_u
+    A_ub, b_ub = _plan_lp_rows(cp, piece, scale, alpha_cap)
+    cost = np.zeros(nvar)
+    if objective == "robust":
+        cost[m_u] = -1.0
+    elif objective == "gentle":
+        cost[m_u + 1:m_u + 1 + f] = 1.0
+    else:
+        cost[m_u + 1 + f:] = 1.0
+    lower_t = cp.margin if t_min is None else max(cp.margin, t_min)
+    lb = np.concatenate([cp.scene.inputs.lower, [lower_t], np.zeros(f + m_u)])
+    ub = np.concatenate([cp.scene.inputs.upper, [ROBUSTNESS_CAP], np.full(f + m_u, np.inf)])
+    cx, cx0 = cp.head_sideways_row
+    A_eq = np.concatenate([cx[:m_u], np.zeros(nvar - m_u)])[None, :]
+    b_eq = np.array([-cx0])
+    result = _solve(cost, A_ub, b_ub, A_eq, b_eq, lb, ub, solver, True)
+    if not result.found:
+        return -math.inf, math.inf, None
+    u = result.x[:m_u]
+    alpha = float(np.sum(np.abs(B[:, :m_u] @ u + b0))) if f else 0.0
+    return float(result.x[m_u]), alpha, u
+
+
+def _plan_lp_rows(cp: ClimbProblem, piece: Polytope, scale: float, alpha_cap: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The plan LP's inequalities over ``(u, t, e_f, e_u)``.
+
+    Per point of V_s: the piece's rows shrunk by t and the head's acceleration; then the free
+    accelerations' bounds ``|B_u u + b_0| <= e_f`` (and ``sum(e_f) <= alpha_cap``) and the
+    torques' ``|u| <= e_u``.
+    """
+    m_u = cp.m_u
     A, b, shrink = _piece_rows(piece, m_u)
     c, c0 = cp.head_row
     c_norm = float(np.linalg.norm(c)) or 1.0
@@ -908,26 +958,7 @@ def _plan_lp(
     eye = np.eye(m_u)
     rows += [row(eye, e_part=-eye), row(-eye, e_part=-eye)]
     rhs += [np.zeros(m_u), np.zeros(m_u)]
-    cost = np.zeros(nvar)
-    if objective == "robust":
-        cost[m_u] = -1.0
-    elif objective == "gentle":
-        cost[m_u + 1:m_u + 1 + f] = 1.0
-    else:
-        cost[m_u + 1 + f:] = 1.0
-    lower_t = cp.margin if t_min is None else max(cp.margin, t_min)
-    lb = np.concatenate([cp.scene.inputs.lower, [lower_t], np.zeros(f + m_u)])
-    ub = np.concatenate([cp.scene.inputs.upper, [ROBUSTNESS_CAP], np.full(f + m_u, np.inf)])
-    A_ub, b_ub = np.vstack(rows), np.concatenate(rhs)
-    cx, cx0 = cp.head_sideways_row
-    A_eq = np.concatenate([cx[:m_u], np.zeros(nvar - m_u)])[None, :]
-    b_eq = np.array([-cx0])
-    result = _solve(cost, A_ub, b_ub, A_eq, b_eq, lb, ub, solver, True)
-    if not result.found:
-        return -math.inf, math.inf, None
-    u = result.x[:m_u]
-    alpha = float(np.sum(np.abs(B[:, :m_u] @ u + b0))) if f else 0.0
-    return float(result.x[m_u]), alpha, u
+    return np.vstack(rows), np.concatenate(rhs)
 
 
 def _best_piece(
@@ -1135,8 +1166,7 @@ class ClimbPlan:
                 "seed": result.seed,
                 "status": result.status,
                 "slip_tolerance": result.slip_tolerance,
-                "brace_events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
-                                 for e in result.brace_events],
+                "brace_events": [e.to_dict() for e in result.brace_events],
             }
         return to_jsonable(payload)
 
@@ -1195,70 +1225,34 @@ def plan_climb(
         InputError: a bad margin, scale, tolerance or decimals.
     """
     start = time.perf_counter()
-    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale >= 0):
-        raise InputError(f"scale must be a finite number >= 0, got {scale!r}")
-    if not (isinstance(scale_tolerance, (int, float)) and 0 < scale_tolerance < 1):
-        raise InputError(f"scale_tolerance must be in (0, 1), got {scale_tolerance!r}")
-    if not isinstance(decimals, int) or decimals < 0:
-        raise InputError(f"decimals must be an integer >= 0, got {decimals!r}")
+    _check_plan_options(scale, scale_tolerance, decimals)
     cp = build_climb(scene, margin=margin, min_head_acceleration=min_head_acceleration, solver=solver)
     timings = dict(cp.timings)
-    tolerances = {"margin": cp.margin, "scale_tolerance": scale_tolerance, "domain": DOMAIN_TOLERANCE,
-                  "acceleration_slack": ACCELERATION_SLACK,
-                  "optimality_slack": OPTIMALITY_SLACK,
-                  "acceleration_floor": ACCELERATION_FLOOR, "analysis_box_growth": ANALYSIS_BOX_GROWTH,
-                  "scale_cap": SCALE_CAP, "torque_rounding": 0.5 * 10.0 ** -decimals}
-    names = scene.inputs.coordinates
-
-    def failure(reason: str, bisection: Sequence[tuple[float, bool]] = ()) -> ClimbPlan:
-        timings["total"] = time.perf_counter() - start
-        return ClimbPlan(
-            found=False, mode=cp.mode, torques={}, scale=float(scale), nominal_feasible=False,
-            max_disturbance_scale=0.0, scale_bracket=(0.0, 0.0), scale_bound=max(cp.scale_bound, 0.0),
-            scale_capped=cp.scale_capped, max_scale_torques={}, robust=False, robustness_radius=-math.inf,
-            margin=cp.margin, head_acceleration=math.nan, head_sideways_acceleration=math.nan,
-            free_accelerations={}, worst_head_acceleration=math.nan,
-            min_head_acceleration=cp.min_head_acceleration, exclusions=(), pieces=len(cp.pieces), piece=-1,
-            bisection=tuple(bisection), disturbances=cp.disturbances, decimals=decimals, reason=reason,
-            timings=timings, tolerances=tolerances, solver=solver, problem=cp)
-
+    record: dict[str, Any] = {"decimals": decimals, "timings": timings, "solver": solver, "problem": cp,
+                              "tolerances": _plan_tolerances(cp, scale_tolerance, decimals)}
     if cp.obstacle is not None:
-        return failure(cp.obstacle)
+        timings["total"] = time.perf_counter() - start
+        return _not_planned(cp, cp.obstacle, float(scale), (), **record)
 
     # Bisection on the scale in [0, s_bound].
     t0 = time.perf_counter()
     lo, hi, u_lo, steps = _bisect_scale(cp, scale_tolerance)
     if u_lo is None:
-        return failure(f"no torques keep mode {cp.mode} unambiguous with margin {cp.margin:g} even at "
-                       "the zero disturbance (another mode holds there)", steps)
+        timings["total"] = time.perf_counter() - start
+        reason = (f"no torques keep mode {cp.mode} unambiguous with margin {cp.margin:g} even at the zero "
+                  "disturbance (another mode holds there)")
+        return _not_planned(cp, reason, float(scale), steps, **record)
     timings["bisection"] = time.perf_counter() - t0
 
     # The plan at the nominal scale (or the largest feasible one).
     t0 = time.perf_counter()
     nominal_feasible = scale <= lo
-    plan_scale = float(scale) if nominal_feasible else lo
-    index, _, _, u = _gentle_plan(cp, plan_scale)
-    if u is None:  # only when the nominal scale sits at the bisection's edge: use its solution
-        plan_scale = lo
-        index, _, _, u = _gentle_plan(cp, lo)
-    if u is None:
-        u, index = u_lo, 0
-    if u is None or u_lo is None:  # the bisection starts from a robust zero-disturbance plan
-        return failure("no torques found at any disturbance scale", steps)
+    plan_scale, index, u = _planned_torques(cp, float(scale) if nominal_feasible else lo, lo, u_lo)
     rounded = np.round(u, decimals) + 0.0
     check = _verify(cp, rounded, plan_scale)
     timings["plan"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - start
-    held = [e.mode for e in check["exclusions"] if e.held]
-    if check["robust"]:
-        reason = (f"mode {cp.mode} holds, unambiguously, for every disturbance in "
-                  f"{'P' if plan_scale == 1.0 else f'{plan_scale:.4g} P'}; largest scale {lo:.4g}")
-        if not nominal_feasible:
-            reason += f" (the nominal scale {scale:g} is infeasible: planned at the largest scale)"
-    else:
-        reason = ("the rounded torques failed the verification: "
-                  + (f"mode(s) {', '.join(held)} also hold" if held else
-                     f"radius {check['radius']:.3g}, worst head acceleration {check['worst']:.3g} m/s^2"))
+    names = scene.inputs.coordinates
     return ClimbPlan(
         found=True, mode=cp.mode, torques={name: float(x) for name, x in zip(names, rounded, strict=True)},
         scale=plan_scale, nominal_feasible=nominal_feasible, max_disturbance_scale=lo,
@@ -1269,7 +1263,70 @@ def plan_climb(
         free_accelerations=check["free"], worst_head_acceleration=check["worst"],
         min_head_acceleration=cp.min_head_acceleration, exclusions=check["exclusions"],
         pieces=len(cp.pieces), piece=index, bisection=tuple(steps), disturbances=cp.disturbances,
-        decimals=decimals, reason=reason, timings=timings, tolerances=tolerances, solver=solver, problem=cp)
+        reason=_plan_reason(cp, check, plan_scale, lo, scale, nominal_feasible), **record)
+
+
+def _check_plan_options(scale: float, scale_tolerance: float, decimals: int) -> None:
+    """Raises InputError for a bad nominal scale, bisection tolerance or number of decimals."""
+    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale >= 0):
+        raise InputError(f"scale must be a finite number >= 0, got {scale!r}")
+    if not (isinstance(scale_tolerance, (int, float)) and 0 < scale_tolerance < 1):
+        raise InputError(f"scale_tolerance must be in (0, 1), got {scale_tolerance!r}")
+    if not isinstance(decimals, int) or decimals < 0:
+        raise InputError(f"decimals must be an integer >= 0, got {decimals!r}")
+
+
+def _plan_tolerances(cp: ClimbProblem, scale_tolerance: float, decimals: int) -> dict[str, float]:
+    """The tolerances a plan used, as reported."""
+    return {"margin": cp.margin, "scale_tolerance": scale_tolerance, "domain": DOMAIN_TOLERANCE,
+            "acceleration_slack": ACCELERATION_SLACK,
+            "optimality_slack": OPTIMALITY_SLACK,
+            "acceleration_floor": ACCELERATION_FLOOR, "analysis_box_growth": ANALYSIS_BOX_GROWTH,
+            "scale_cap": SCALE_CAP, "torque_rounding": 0.5 * 10.0 ** -decimals}
+
+
+def _not_planned(cp: ClimbProblem, reason: str, scale: float, bisection: Sequence[tuple[float, bool]],
+                 **record: Any) -> ClimbPlan:
+    """A plan not found, with why; ``record``: decimals, timings, tolerances, solver and problem."""
+    return ClimbPlan(
+        found=False, mode=cp.mode, torques={}, scale=scale, nominal_feasible=False,
+        max_disturbance_scale=0.0, scale_bracket=(0.0, 0.0), scale_bound=max(cp.scale_bound, 0.0),
+        scale_capped=cp.scale_capped, max_scale_torques={}, robust=False, robustness_radius=-math.inf,
+        margin=cp.margin, head_acceleration=math.nan, head_sideways_acceleration=math.nan,
+        free_accelerations={}, worst_head_acceleration=math.nan,
+        min_head_acceleration=cp.min_head_acceleration, exclusions=(), pieces=len(cp.pieces), piece=-1,
+        bisection=tuple(bisection), disturbances=cp.disturbances, reason=reason, **record)
+
+
+def _planned_torques(cp: ClimbProblem, plan_scale: float, lo: float, u_lo: np.ndarray
+                     ) -> tuple[float, int, np.ndarray]:
+    """``(scale, piece, torques)`` of the gentlest plan at ``plan_scale``.
+
+    Only when the nominal scale sits at the bisection's edge is there none: then the plan at the
+    largest robust scale ``lo``, else the bisection's own torques there (``u_lo``, piece 0).
+    """
+    index, _, _, u = _gentle_plan(cp, plan_scale)
+    if u is None:
+        plan_scale = lo
+        index, _, _, u = _gentle_plan(cp, lo)
+    if u is None:
+        return plan_scale, 0, u_lo
+    return plan_scale, index, u
+
+
+def _plan_reason(cp: ClimbProblem, check: Mapping[str, Any], plan_scale: float, lo: float, scale: float,
+                 nominal_feasible: bool) -> str:
+    """What the verified plan guarantees, or why its rounded torques failed the verification."""
+    if check["robust"]:
+        reason = (f"mode {cp.mode} holds, unambiguously, for every disturbance in "
+                  f"{'P' if plan_scale == 1.0 else f'{plan_scale:.4g} P'}; largest scale {lo:.4g}")
+        if not nominal_feasible:
+            reason += f" (the nominal scale {scale:g} is infeasible: planned at the largest scale)"
+        return reason
+    held = [e.mode for e in check["exclusions"] if e.held]
+    return ("the rounded torques failed the verification: "
+            + (f"mode(s) {', '.join(held)} also hold" if held else
+               f"radius {check['radius']:.3g}, worst head acceleration {check['worst']:.3g} m/s^2"))
 
 
 def _bisect_scale(cp: ClimbProblem, scale_tolerance: float
@@ -1377,37 +1434,66 @@ def simulate_climb(
     Raises:
         InputError: the plan was not found, or a bad duration, step, hold or scale.
     """
-    from ..simulation import simulate_rigid
+    s = _check_simulation_request(plan, duration, dt, hold, scale)
+    count = max(1, int(math.ceil(duration / hold)))
+    samples = _sample_disturbances(plan.disturbances.robust_points(s), count, np.random.default_rng(seed))
+    kin = _PointKinematics(scene, [(d.name, d.link, d.point_in_link) for d in plan.disturbances.items]
+                           + [("head", plan.problem.task.head_link, plan.problem.task.head_point)])
+    n = scene.robot.nv
+    every = Inputs(scene.coordinate_names, tuple(range(n)), np.full(n, -np.inf), np.full(n, np.inf))
+    stepper = RigidStepper(replace(scene, inputs=every), RigidSettings(max_ambiguity_checks=0))
+    run = run_closed_loop(stepper, _disturbed_torques(scene, plan, kin, samples, hold), duration, dt)
+    return _brace_outcome(scene, plan, run.trajectory, kin, slip_tolerance,
+                          disturbance_times=hold * np.arange(count), disturbance_samples=samples, seed=seed)
 
+
+def _check_simulation_request(plan: ClimbPlan, duration: float, dt: float, hold: float,
+                              scale: float | None) -> float:
+    """The disturbance scale to simulate, once the plan and the times are checked.
+
+    Raises:
+        InputError: the plan was not found, or a bad duration, step, hold or scale.
+    """
     if not plan.found:
         raise InputError(f"the climb plan was not found ({plan.reason}): nothing to simulate")
+    check_simulation_times(duration, dt)
     if not (isinstance(hold, (int, float)) and math.isfinite(hold) and hold > 0):
         raise InputError(f"hold must be a finite number > 0 [s], got {hold!r}")
     s = plan.scale if scale is None else float(scale)
     if not (math.isfinite(s) and s >= 0):
         raise InputError(f"scale must be a finite number >= 0, got {scale!r}")
-    dist = plan.disturbances
-    n = scene.robot.nv
-    rng = np.random.default_rng(seed)
-    count = max(1, int(math.ceil(duration / hold)))
-    samples = _sample_disturbances(dist.robust_points(s), count, rng)
-    kin = _PointKinematics(scene, [(d.name, d.link, d.point_in_link) for d in dist.items]
-                           + [("head", plan.problem.task.head_link, plan.problem.task.head_point)])
-    torque_force = scene.inputs.selection_transpose(n) @ plan.torque_vector
-    n_d = dist.dim
+    return s
 
-    def generalized_force(t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        k = min(int(t / hold + 1e-9), count - 1)
-        jac, _, _ = kin.evaluate(q, v)
+
+def _disturbed_torques(scene: Scene, plan: ClimbPlan, kin: _PointKinematics, samples: np.ndarray,
+                       hold: float) -> Policy:
+    """The policy of the climb's run: the plan's torques plus the held disturbance sample.
+
+    Its command is the generalized force on every coordinate, ``S^T u + J_d^T d_k`` with ``d_k``
+    the sample held at the step's time (sample ``k`` from ``k hold`` on) and ``J_d`` the
+    disturbances' point Jacobians at the step's state.
+    """
+    torque_force = scene.inputs.selection_transpose(scene.robot.nv) @ plan.torque_vector
+    n_d = plan.disturbances.dim
+    last = len(samples) - 1
+
+    def generalized_force(stepper: RigidStepper) -> np.ndarray:
+        k = min(int(stepper.t / hold + HOLD_INDEX_ROUNDOFF), last)
+        jac, _, _ = kin.evaluate(stepper.q, stepper.v)
         return torque_force + jac[:n_d].T @ samples[k]
 
-    every = Inputs(scene.coordinate_names, tuple(range(n)), np.full(n, -np.inf), np.full(n, np.inf))
-    trajectory = simulate_rigid(replace(scene, inputs=every), generalized_force, duration, dt,
-                                max_ambiguity_checks=0)
+    return generalized_force
+
+
+def _brace_outcome(scene: Scene, plan: ClimbPlan, trajectory: Trajectory, kin: _PointKinematics,
+                   slip_tolerance: float, **record: Any) -> ClimbResult:
+    """The brace's verdict on a run: slip, opening, load and events of the brace contacts; the rise.
+
+    ``record``: the run's disturbance times, samples and seed, passed through.
+    """
     brace = plan.problem.task.brace_contacts
     index = [trajectory.contacts.index(b) for b in brace]
-    points = trajectory.contact_points[:, index, :]
-    moved = points - points[0]
+    moved = trajectory.contact_points[:, index, :] - trajectory.contact_points[0, index, :]
     normals = np.array([scene.contacts[i].point.normal_in_world for i in index])
     tangents = np.array([scene.contacts[i].point.tangent_in_world for i in index])
     slip = np.abs(np.einsum("tkj,kj->tk", moved, tangents))
@@ -1416,15 +1502,13 @@ def simulate_climb(
     events = tuple(e for e in trajectory.events if e.contact in brace)
     bad_events = [e for e in events if e.kind in ("open", "slip")]
     max_slip = float(np.max(slip, initial=0.0))
-    completed = trajectory.completed
-    held = bool(completed and np.all(loaded) and not bad_events and max_slip <= slip_tolerance)
+    held = bool(trajectory.completed and np.all(loaded) and not bad_events and max_slip <= slip_tolerance)
     head = np.array([kin.positions(q)[-1] for q in trajectory.q])
     return ClimbResult(
         trajectory=trajectory, brace_held=held, max_slip=max_slip,
         max_opening=float(np.max(opening, initial=0.0)), upper_rise=float(head[-1, 1] - head[0, 1]),
         max_upper_rise=float(np.max(head[:, 1]) - head[0, 1]), duration=float(trajectory.duration),
-        brace_events=events, disturbance_times=hold * np.arange(count), disturbance_samples=samples,
-        status=trajectory.status, slip_tolerance=slip_tolerance, seed=seed)
+        brace_events=events, status=trajectory.status, slip_tolerance=slip_tolerance, **record)
 
 
 # ==================================================================== robust region (figures)

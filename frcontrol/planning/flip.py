@@ -72,8 +72,10 @@ and plans over the others, and reports them (``forced_inputs``).
 
 **Closed loop.** :func:`simulate_flip` re-plans every ``replan_every`` steps at the simulated state
 (:meth:`Scene.at`) and applies the plan's rounded torques to one rigid time stepper
-(:class:`frcontrol.simulation.rigid.RigidStepper`: contacts open and close, inelastic impacts)
-until the pitch passes vertical or ``max_time``.
+(:class:`frcontrol.simulation.rigid.RigidStepper`: velocity-level time stepping, contacts open and
+close, inelastic impacts) until the pitch passes vertical or ``max_time``: the re-planning is the
+policy of :func:`frcontrol.simulation.closed_loop.run_closed_loop`, which holds the torques between
+plans. The run is one trajectory, checked for validity like any rigid simulation.
 
 *Re-planning model:* the scene at the simulated state (:meth:`Scene.at`) with the contacts
 within :data:`REPLAN_GAP_TOLERANCE` of their surface or loaded by the last step (a loaded
@@ -112,8 +114,9 @@ from ..jsonable import finite_or_none, to_jsonable
 from ..modes import VELOCITY_TOLERANCE, ContactProblem
 from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
+from ..simulation.closed_loop import ClosedLoopRun, run_closed_loop
 from ..simulation.export import sample_modes
-from ..simulation.rigid import CONTACT_FORCE_TOLERANCE
+from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, must_solve, solve_lp, solve_lp_prepared
 from . import DEFAULT_FLIP_MARGIN
@@ -397,8 +400,7 @@ class FlipPlan:
             "armature": result.armature,
             "duration": traj.duration,
             "status": traj.status,
-            "events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
-                       for e in traj.events],
+            "events": [e.to_dict() for e in traj.events],
             "timings": dict(result.timings),
         }
         return to_jsonable(payload)
@@ -853,14 +855,8 @@ def plan_flip(
         ImpactState: a contact moves into its surface.
     """
     start = time.perf_counter()
-    if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin >= 0):
-        raise InputError(f"the margin must be a finite number >= 0 [N m], got {margin!r}")
-    if not (isinstance(rounding, (int, float)) and math.isfinite(rounding) and rounding >= 0):
-        raise InputError(f"the rounding must be a finite number >= 0 [N m], got {rounding!r}")
+    _check_plan_options(margin, rounding)
     timings = {"analysis": 0.0, "unambiguous_sets": 0.0, "lps": 0.0, "verification": 0.0}
-    tolerances = {"rounding": rounding, "pitch": PITCH_TOLERANCE, "velocity": velocity_tolerance,
-                  "interior": poly.INTERIOR_TOLERANCE, "input_limit": INPUT_LIMIT_TOLERANCE}
-
     t0 = time.perf_counter()
     built = build_flip(scene, velocity_tolerance=velocity_tolerance,
                        problem=analysis.problem if analysis is not None else problem)
@@ -868,39 +864,14 @@ def plan_flip(
     full, problem, forced, analysis = _planning_analysis(built, analysis, solver)
     timings["analysis"] = time.perf_counter() - t0
     forced_values = {full.inputs[i]: forced[i] for i in sorted(forced)}
-    common = {"margin": float(margin), "rounding": rounding, "forced_inputs": forced_values,
-              "planned_inputs": problem.inputs, "contacts": problem.contacts, "pitch": task.pitch,
-              "tolerances": tolerances, "analysis": analysis}
-    active_body = tuple(c for c in problem.contacts if c in task.body_contacts)
-    common["body_contacts"] = active_body
-    bad = [name for name, value in forced_values.items()
-           if not full.lower[full.inputs.index(name)] <= value <= full.upper[full.inputs.index(name)]]
-    if bad:
+    common = _plan_fields(task, problem, forced_values, analysis, margin=margin, rounding=rounding,
+                          velocity_tolerance=velocity_tolerance)
+    ready = _candidates(scene, task, full, problem, forced_values, analysis, common["body_contacts"])
+    if isinstance(ready, str):
         timings["total"] = time.perf_counter() - start
-        return _not_found(f"the rigid model forces {', '.join(bad)} to a value outside its limits "
-                          f"({_torque_text({n: forced_values[n] for n in bad})})", timings=timings, **common)
-    if problem.m == 0 or analysis is None:  # the analysis exists whenever an input is planned
-        timings["total"] = time.perf_counter() - start
-        return _not_found(f"every input is forced at this state ({_torque_text(forced_values)}: e.g. "
-                          "massless legs without ground contact)", timings=timings, **common)
-    if not analysis.feasible_modes:
-        raise InputError(f"no input within the torque limits gives a rigid-body solution of scene "
-                         f"{scene.name!r} at this state (every contact mode's domain is empty): check "
-                         "the [inputs] limits")
-    if not active_body:
-        timings["total"] = time.perf_counter() - start
-        return _not_found(f"no body contact ({', '.join(task.body_contacts)}) touches the ground",
-                          timings=timings, **common)
-    body_index = [problem.contacts.index(c) for c in active_body]
-    candidates = tuple(
-        m.mode for m in analysis.feasible_modes
-        if m.inputs_full_dimensional and all(m.mode[i] != "S" for i in body_index)
-    )
+        return _not_found(ready, timings=timings, **common)
+    analysis, candidates = ready
     common["candidates"] = candidates
-    if not candidates:
-        timings["total"] = time.perf_counter() - start
-        return _not_found("no contact mode with a full-dimensional input domain keeps every body "
-                          f"contact ({', '.join(active_body)}) loaded", timings=timings, **common)
 
     # Branch and bound over the candidates: the LP over the shrunk T_c bounds every piece of it.
     t0 = time.perf_counter()
@@ -913,18 +884,86 @@ def plan_flip(
     pieces.sort(key=lambda p: -p.pitch_acceleration)
     common.update({"pieces": tuple(pieces), "explored": tuple(explored), "rejected": tuple(rejected)})
     timings["total"] = time.perf_counter() - start
-    if not pieces:
-        return _not_found(f"no candidate mode ({', '.join(candidates)}) has an unambiguous input "
-                          f"{margin:g} N m away from every other mode", timings=timings, **common)
+    return _chosen_plan(scene, chosen, problem.inputs, forced_values, min_pitch_acceleration, timings, common)
+
+
+def _plan_fields(task: FlipTask, problem: ContactProblem, forced_values: Mapping[str, float],
+                 analysis: DynamicResponse | None, *, margin: float, rounding: float,
+                 velocity_tolerance: float) -> dict[str, Any]:
+    """The fields of every plan at this state, found or not (the tolerances used included)."""
+    return {"margin": float(margin), "rounding": rounding, "forced_inputs": forced_values,
+            "planned_inputs": problem.inputs, "contacts": problem.contacts, "pitch": task.pitch,
+            "tolerances": {"rounding": rounding, "pitch": PITCH_TOLERANCE, "velocity": velocity_tolerance,
+                           "interior": poly.INTERIOR_TOLERANCE, "input_limit": INPUT_LIMIT_TOLERANCE},
+            "analysis": analysis,
+            "body_contacts": tuple(c for c in problem.contacts if c in task.body_contacts)}
+
+
+def _check_plan_options(margin: float, rounding: float) -> None:
+    """Raises InputError for a negative or non-finite margin or rounding [N m]."""
+    if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin >= 0):
+        raise InputError(f"the margin must be a finite number >= 0 [N m], got {margin!r}")
+    if not (isinstance(rounding, (int, float)) and math.isfinite(rounding) and rounding >= 0):
+        raise InputError(f"the rounding must be a finite number >= 0 [N m], got {rounding!r}")
+
+
+def _candidates(scene: Scene, task: FlipTask, full: ContactProblem, problem: ContactProblem,
+                forced_values: Mapping[str, float], analysis: DynamicResponse | None,
+                active_body: tuple[str, ...]) -> tuple[DynamicResponse, tuple[str, ...]] | str:
+    """The analysis and the candidate modes to plan in, or why there is nothing to plan.
+
+    The candidates: the feasible modes with a full-dimensional input domain that keep every active
+    body contact loaded (not S).
+
+    Raises:
+        InputError: no input within the limits gives a rigid-body solution.
+    """
+    bad = [name for name, value in forced_values.items()
+           if not full.lower[full.inputs.index(name)] <= value <= full.upper[full.inputs.index(name)]]
+    if bad:
+        return (f"the rigid model forces {', '.join(bad)} to a value outside its limits "
+                f"({_torque_text({n: forced_values[n] for n in bad})})")
+    if problem.m == 0 or analysis is None:  # the analysis exists whenever an input is planned
+        return (f"every input is forced at this state ({_torque_text(dict(forced_values))}: e.g. "
+                "massless legs without ground contact)")
+    if not analysis.feasible_modes:
+        raise InputError(f"no input within the torque limits gives a rigid-body solution of scene "
+                         f"{scene.name!r} at this state (every contact mode's domain is empty): check "
+                         "the [inputs] limits")
+    if not active_body:
+        return f"no body contact ({', '.join(task.body_contacts)}) touches the ground"
+    body_index = [problem.contacts.index(c) for c in active_body]
+    candidates = tuple(
+        m.mode for m in analysis.feasible_modes
+        if m.inputs_full_dimensional and all(m.mode[i] != "S" for i in body_index)
+    )
+    if not candidates:
+        return ("no contact mode with a full-dimensional input domain keeps every body "
+                f"contact ({', '.join(active_body)}) loaded")
+    return analysis, candidates
+
+
+def _chosen_plan(scene: Scene, chosen: tuple[FlipPiece, np.ndarray, float] | None,
+                 planned_inputs: Sequence[str], forced_values: Mapping[str, float],
+                 min_pitch_acceleration: float | None, timings: dict[str, float],
+                 common: dict[str, Any]) -> FlipPlan:
+    """The plan of the chosen piece's rounded torques.
+
+    Not found without pieces, without a verified optimum, or when the best does not start the flip.
+    """
+    if not common["pieces"]:
+        return _not_found(f"no candidate mode ({', '.join(common['candidates'])}) has an unambiguous "
+                          f"input {common['margin']:g} N m away from every other mode", timings=timings,
+                          **common)
     if chosen is None:
         return _not_found("no piece's optimum gives exactly one rigid solution once rounded "
-                          f"(tried {len(rejected)})", timings=timings, **common)
+                          f"(tried {len(common['rejected'])})", timings=timings, **common)
     piece, u, pitch = chosen
     torques = {name: forced_values.get(name, 0.0) for name in scene.inputs.coordinates}
-    torques.update({name: float(value) for name, value in zip(problem.inputs, u, strict=True)})
+    torques.update({name: float(value) for name, value in zip(planned_inputs, u, strict=True)})
     plan = FlipPlan(found=True, mode=piece.mode, torques=torques, pitch_acceleration=pitch,
                     worst_case=piece.worst_case, unambiguous=True, reason=None, timings=timings,
-                    **common)  # type: ignore[arg-type]  # common: the plan's shared fields
+                    **common)
     if min_pitch_acceleration is not None and not (
             pitch > min_pitch_acceleration + PITCH_TOLERANCE * (1.0 + abs(pitch))):
         return replace(plan, found=False, reason=(
@@ -1074,15 +1113,10 @@ def simulate_flip(
 ) -> FlipResult:
     """Plan, then re-plan along a rigid simulation until the body pitches past vertical.
 
-    The loop: plan at the scene's state (:func:`plan_flip`); apply the plan's rounded torques for
-    ``replan_every`` steps of one :class:`~frcontrol.simulation.rigid.RigidStepper` (velocity-level
-    time stepping, contacts open and close, inelastic impacts; the massless hips get the rotor
-    inertia ``armature``); re-plan at the state reached, and so on, until the pitch passes the
-    task's vertical (``FlipTask.vertical``) or ``max_time``. The run is one trajectory, checked
-    for validity like any rigid simulation (energy, warnings).
-
-    The re-planning model, the legs in the air and "body contact kept" are defined in the
-    module's docstring (**Closed loop**).
+    The loop, the re-planning model, the legs in the air and "body contact kept" are defined in
+    the module's docstring (**Closed loop**); it runs on
+    :func:`~frcontrol.simulation.closed_loop.run_closed_loop` (the massless hips get the rotor
+    inertia ``armature``) until the pitch passes ``FlipTask.vertical`` or ``max_time``.
 
     Args:
         scene: the scene (RHex on its back).
@@ -1102,15 +1136,8 @@ def simulate_flip(
     Raises:
         InputError: a bad step, time, count or armature; see :func:`plan_flip`.
     """
-    from ..simulation.inputs import check_simulation_times
-
     start = time.perf_counter()
-    max_time, dt = check_simulation_times(max_time, dt)
-    if isinstance(replan_every, bool) or not isinstance(replan_every, int) or replan_every < 1:
-        raise InputError(f"replan_every must be an integer >= 1 (steps), got {replan_every!r}")
-    arm = _armature(scene, armature)
-    if not (math.isfinite(arm) and arm > 0):
-        raise InputError(f"the armature must be a positive rotor inertia [kg m^2], got {arm!r}")
+    max_time, dt, arm = _loop_options(scene, dt, max_time, replan_every, armature)
     task = flip_task(scene)
     t0 = time.perf_counter()
     first = plan if plan is not None else plan_flip(scene, margin=margin, solver=solver)
@@ -1119,35 +1146,57 @@ def simulate_flip(
     if not first.found:
         timings["total"] = time.perf_counter() - start
         return FlipResult(plan=first, trajectory=None, flipped=False, time_to_vertical=None,
-                          body_contact_kept=None, separation=None, body_events=(), steps=0,
-                          replans=0, held=(),
-                          plans=(), modes=(), reason=first.reason, timings=timings, **common)
+                          body_contact_kept=None, separation=None, body_events=(), steps=0, replans=0,
+                          held=(), plans=(), modes=(), reason=first.reason, timings=timings, **common)
 
-    loop = _closed_loop(scene, first, task, dt=dt, max_time=max_time, replan_every=replan_every,
-                        margin=margin, armature=arm, solver=solver, progress=progress, timings=timings)
-    stepper, plans, held, replans, crossed = loop
-    trajectory = stepper.trajectory(dt)
-    trajectory = replace(trajectory, info={**trajectory.info, "source": "simulate_flip",
-                                           "steps": len(trajectory.times) - 1})
-    time_to_vertical = _time_to_vertical(trajectory, task) if crossed else None
+    policy = _Replanner(scene, first, margin, solver)
+    run = _closed_loop(scene, policy, task, dt=dt, max_time=max_time, replan_every=replan_every,
+                       armature=arm, progress=progress)
+    timings["simulation"] += run.timings["simulation"]
+    timings["replanning"] += run.timings["policy"]
+    trajectory = replace(run.trajectory, info={**run.trajectory.info, "source": "simulate_flip",
+                                               "steps": len(run.trajectory.times) - 1})
     separation, body_events = _body_contacts(scene, trajectory, task.body_contacts, len(trajectory.times) - 1)
     modes = sample_modes(scene, trajectory)
     trajectory = replace(trajectory, modes=tuple(modes))
-    failure = trajectory.failure
-    if crossed:
-        reason = None
-    elif failure is not None:
-        reason = f"the simulation {trajectory.status} at t = {failure.time:.4g} s: {failure.reason}"
-    else:
-        reason = (f"the pitch reached {float(np.max(trajectory.q[:, task.pitch_index])):.4f} rad within "
-                  f"{max_time:g} s, short of vertical ({task.vertical:.4f} rad)")
     timings["total"] = time.perf_counter() - start
     return FlipResult(
-        plan=first, trajectory=trajectory, flipped=crossed, time_to_vertical=time_to_vertical,
+        plan=first, trajectory=trajectory, flipped=run.stopped,
+        time_to_vertical=_time_to_vertical(trajectory, task) if run.stopped else None,
         body_contact_kept=separation is None, separation=separation, body_events=body_events,
-        steps=len(trajectory.times) - 1, replans=replans, held=tuple(held), plans=tuple(plans),
-        modes=modes, reason=reason, timings=timings, **common,
+        steps=len(trajectory.times) - 1, replans=run.decisions, held=tuple(policy.held),
+        plans=tuple(policy.plans), modes=modes,
+        reason=_not_flipped_reason(trajectory, task, run.stopped, max_time), timings=timings, **common,
     )
+
+
+def _loop_options(scene: Scene, dt: float, max_time: float, replan_every: int, armature: float | None
+                  ) -> tuple[float, float, float]:
+    """``(max_time, dt, armature)`` of the closed loop, checked before any plan is made.
+
+    Raises:
+        InputError: a bad step, time, count or armature.
+    """
+    from ..simulation.inputs import check_simulation_times
+
+    max_time, dt = check_simulation_times(max_time, dt)
+    if isinstance(replan_every, bool) or not isinstance(replan_every, int) or replan_every < 1:
+        raise InputError(f"replan_every must be an integer >= 1 (steps), got {replan_every!r}")
+    arm = _armature(scene, armature)
+    if not (math.isfinite(arm) and arm > 0):
+        raise InputError(f"the armature must be a positive rotor inertia [kg m^2], got {arm!r}")
+    return max_time, dt, arm
+
+
+def _not_flipped_reason(trajectory: Trajectory, task: FlipTask, crossed: bool, max_time: float) -> str | None:
+    """Why the run did not pass vertical (None when it did)."""
+    failure = trajectory.failure
+    if crossed:
+        return None
+    if failure is not None:
+        return f"the simulation {trajectory.status} at t = {failure.time:.4g} s: {failure.reason}"
+    return (f"the pitch reached {float(np.max(trajectory.q[:, task.pitch_index])):.4f} rad within "
+            f"{max_time:g} s, short of vertical ({task.vertical:.4f} rad)")
 
 
 def _time_to_vertical(trajectory: Trajectory, task: FlipTask) -> float:
@@ -1164,57 +1213,50 @@ def _time_to_vertical(trajectory: Trajectory, task: FlipTask) -> float:
     return float(t_a + (task.vertical - p_a) / (p_b - p_a) * (t_b - t_a))
 
 
-def _closed_loop(scene: Scene, first: FlipPlan, task: FlipTask, *, dt: float, max_time: float,
-                 replan_every: int, margin: float, armature: float, solver: str,
-                 progress: Callable[[float, float], None] | None, timings: dict[str, float]
-                 ) -> tuple[Any, list[tuple[float, str | None, Mapping[str, float]]], list[tuple[float, str]],
-                            int, bool]:
-    """Step the rigid model, re-planning every ``replan_every`` steps, until vertical or ``max_time``.
+class _Replanner:
+    """The flip's policy: a plan at the state reached; the torques held when none can be made.
 
-    Returns:
-        (the stepper, the plans applied (time, mode, torques), the holds (time, why), the number of
-        re-plans, whether the pitch crossed vertical).
+    It keeps every plan applied ``(time, mode or None, torques)`` and every hold ``(time, why)``.
     """
-    from ..simulation.rigid import RigidSettings, RigidStepper
 
-    arm = armature
-    names = scene.inputs.coordinates
-    replan_scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
-    force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
+    def __init__(self, scene: Scene, first: FlipPlan, margin: float, solver: str) -> None:
+        self.names = scene.inputs.coordinates
+        self.scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
+        self.force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
+        self.margin, self.solver = margin, solver
+        self.command = first.input_vector(self.names)
+        self.plans: list[tuple[float, str | None, Mapping[str, float]]] = [
+            (0.0, first.mode, dict(first.torques))]
+        self.held: list[tuple[float, str]] = []
+
+    def __call__(self, stepper: RigidStepper) -> np.ndarray:
+        """The command from the stepper's state on (a contact the last step loaded is planned with)."""
+        loaded = stepper.last_forces[:, 0] > self.force_tolerance
+        self.command, mode, why = _replanned(self.scene, stepper, loaded, self.margin, self.solver,
+                                             self.command, self.names)
+        if why is not None:
+            self.held.append((stepper.t, why))
+        self.plans.append((stepper.t, mode, dict(zip(self.names, self.command.tolist(), strict=True))))
+        return self.command
+
+
+def _closed_loop(scene: Scene, policy: _Replanner, task: FlipTask, *, dt: float, max_time: float,
+                 replan_every: int, armature: float, progress: Callable[[float, float], None] | None
+                 ) -> ClosedLoopRun:
+    """One rigid stepper re-planned every ``replan_every`` steps, until vertical or ``max_time``.
+
+    The stepper runs on the re-planning model's scene (its gap tolerance); a massless leg in the
+    air gets no torque (:func:`_free_legs_idle`).
+    """
     legs = _massless_legs(scene)
-    command = first.input_vector(names)
-    plans: list[tuple[float, str | None, Mapping[str, float]]] = [(0.0, first.mode, dict(first.torques))]
-    held: list[tuple[float, str]] = []
-    stepper = RigidStepper(replan_scene, RigidSettings(max_ambiguity_checks=0), armature=arm)
-    replans = 0
-    crossed = False
-    step = 0
-    while stepper.t < max_time - 1e-12:
-        if step and step % replan_every == 0:
-            t1 = time.perf_counter()
-            loaded = stepper.last_forces[:, 0] > force_tolerance
-            command, mode, why = _replanned(replan_scene, stepper, loaded, margin, solver, command, names)
-            replans += 1
-            if why is not None:
-                held.append((stepper.t, why))
-            plans.append((stepper.t, mode, dict(zip(names, command.tolist(), strict=True))))
-            timings["replanning"] += time.perf_counter() - t1
-        t1 = time.perf_counter()
-        u = _free_legs_idle(scene, legs, command, stepper.q)
-        advanced = stepper.step(u, min(dt, max_time - stepper.t))
-        timings["simulation"] += time.perf_counter() - t1
-        step += 1
-        if progress is not None and (step % replan_every == 0 or not advanced):
-            progress(stepper.t, max_time)
-        if not advanced:
-            break
-        if stepper.q[task.pitch_index] >= task.vertical:
-            crossed = True
-            break
-    return stepper, plans, held, replans, crossed
+    stepper = RigidStepper(policy.scene, RigidSettings(max_ambiguity_checks=0), armature=armature)
+    return run_closed_loop(
+        stepper, policy, max_time, dt, every=replan_every, command=policy.command,
+        actuate=lambda command, at: _free_legs_idle(scene, legs, command, at.q),
+        stop=lambda at: bool(at.q[task.pitch_index] >= task.vertical), progress=progress)
 
 
-def _replanned(replan_scene: Scene, stepper: Any, loaded: np.ndarray, margin: float, solver: str,
+def _replanned(replan_scene: Scene, stepper: RigidStepper, loaded: np.ndarray, margin: float, solver: str,
                command: np.ndarray, names: Sequence[str]) -> tuple[np.ndarray, str | None, str | None]:
     """A re-plan at the stepper's state.
 

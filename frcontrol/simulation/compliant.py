@@ -28,15 +28,15 @@ Impacts are not inelastic here: a Kelvin–Voigt contact lets go while still com
 reaches 0 with ``k delta = -b d delta/dt``), so even critical damping returns some speed (a box
 dropped flat at 1.98 m/s leaves at 0.37 m/s with zeta = 1), unlike the rigid model's restitution 0.
 
-Dynamics (M with the armature of massless coordinates, see :mod:`.options`)::
+Dynamics (M with the armature of massless coordinates, see :mod:`.armature`)::
 
     M(q) dv/dt = S^T u - h(q, v) + J_N^T lam_N + J_T^T lam_T,     dq/dt = v
 
 Forward dynamics is unique: the state is ``y = (q, v, s)`` (``2 n + c`` entries for c modelled
 contacts). Stiffness ``k_N`` [N/m] and damping ``b_N`` [N s/m] come from the arguments, else the
-scene's ``[model]`` table, else :data:`~.options.DEFAULT_STIFFNESS` and critical damping
+scene's ``[model]`` table (:mod:`.model_table`), else its default stiffness and critical damping
 ``b = 2 zeta sqrt(k m_eff)`` for each contact's effective mass at the initial state
-(:mod:`.options`); ``k_T`` defaults to ``k_N`` and ``b_T`` to critical damping for the tangential
+(:class:`ContactOverrides`); ``k_T`` defaults to ``k_N`` and ``b_T`` to critical damping for the tangential
 effective mass.
 
 Integration
@@ -94,6 +94,10 @@ DIVERGENCE_VELOCITY = 1e8
 """[m/s or rad/s] A velocity above this (or a NaN) is taken as a blow-up and ends the simulation as
 failed. Deliberately far above anything physical: a massless leg with a small armature legitimately
 spins at thousands of rad/s under a few N m."""
+
+IMMOBILE_ROW_TOLERANCE = 1e-12
+"""[-] A contact direction whose inverse effective mass ``J M^-1 J^T`` times the heaviest diagonal
+entry of M is at most this cannot move the robot: its effective mass is taken as that entry."""
 
 
 @dataclass(frozen=True)
@@ -182,6 +186,75 @@ def _positive(value: float | None, label: str, *, allow_zero: bool = False) -> f
     return float(value)
 
 
+@dataclass(frozen=True)
+class ContactOverrides:
+    """Contact parameters given for every modelled contact, over the scene's ``[model]`` (None: not given).
+
+    Attributes:
+        stiffness: k_N [N/m], > 0.
+        damping: b_N [N s/m], >= 0.
+        damping_ratio: zeta [-] for the damping not given, > 0.
+        tangential_stiffness: k_T [N/m], > 0.
+        tangential_damping: b_T [N s/m], > 0.
+
+    Raises:
+        InputError: a value out of its range, or not a finite number.
+    """
+
+    stiffness: float | None = None
+    damping: float | None = None
+    damping_ratio: float | None = None
+    tangential_stiffness: float | None = None
+    tangential_damping: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.tangential_damping is not None and self.tangential_damping == 0:
+            raise InputError("the tangential damping must be > 0 [N s/m]: the spring-damper in series with "
+                             "the Coulomb slider needs it (it sets how fast the slider's anchor follows)")
+        checked = {
+            "stiffness": _positive(self.stiffness, "the contact stiffness [N/m]"),
+            "damping": _positive(self.damping, "the contact damping [N s/m]", allow_zero=True),
+            "damping_ratio": _positive(self.damping_ratio, "the damping ratio"),
+            "tangential_stiffness": _positive(self.tangential_stiffness, "the tangential stiffness [N/m]"),
+            "tangential_damping": _positive(self.tangential_damping, "the tangential damping [N s/m]"),
+        }
+        for name, value in checked.items():
+            object.__setattr__(self, name, value)
+
+    def resolve(self, base: ContactParameters, mass_normal: float, mass_tangent: float
+                ) -> tuple[float, float, float, float, float]:
+        """``(k_N, b_N, k_T, b_T, zeta)`` of one contact.
+
+        These values, else ``base`` (the contact's ``[model]``), else ``k_T = k_N`` and critical
+        damping ``2 zeta sqrt(k m)`` for the effective masses [kg].
+        """
+        k_n = self.stiffness if self.stiffness is not None else base.stiffness
+        k_t = self.tangential_stiffness if self.tangential_stiffness is not None else (
+            base.tangential_stiffness if base.tangential_stiffness is not None else k_n)
+        zeta = self.damping_ratio if self.damping_ratio is not None else base.damping_ratio
+        b_n = self.damping if self.damping is not None else (
+            base.damping if base.damping is not None else 2.0 * zeta * math.sqrt(k_n * mass_normal))
+        b_t = self.tangential_damping if self.tangential_damping is not None else (
+            base.tangential_damping if base.tangential_damping is not None
+            else 2.0 * zeta * math.sqrt(k_t * mass_tangent))
+        return k_n, b_n, k_t, b_t, zeta
+
+
+def _effective_masses(factor: tuple[np.ndarray, bool], mass_matrix: np.ndarray, rows: Sequence[np.ndarray]
+                      ) -> list[float]:
+    """[kg] ``1 / (J M^-1 J^T)`` of each Jacobian row (Cholesky solves).
+
+    A row that cannot move the robot (``J M^-1 J^T`` at most :data:`IMMOBILE_ROW_TOLERANCE` over
+    the heaviest coordinate's mass) gets the heaviest coordinate's mass.
+    """
+    heaviest = float(np.max(np.diag(mass_matrix)))
+    masses = []
+    for row in rows:
+        w = float(row @ scipy.linalg.cho_solve(factor, row))  # 1 / effective mass [1/kg]
+        masses.append(1.0 / w if w * heaviest > IMMOBILE_ROW_TOLERANCE else heaviest)
+    return masses
+
+
 def compliant_contacts(
     scene: Scene,
     mass_matrix: np.ndarray,
@@ -189,13 +262,9 @@ def compliant_contacts(
     jacobian_tangent: np.ndarray,
     *,
     contacts: str = "active",
-    stiffness: float | None = None,
-    damping: float | None = None,
-    damping_ratio: float | None = None,
-    tangential_stiffness: float | None = None,
-    tangential_damping: float | None = None,
+    overrides: ContactOverrides | None = None,
 ) -> CompliantContacts:
-    """Resolve the modelled contacts' parameters (arguments > scene ``[model]`` > defaults).
+    """Resolve the modelled contacts' parameters (``overrides`` > scene ``[model]`` > defaults).
 
     Args:
         scene: the scene.
@@ -203,50 +272,24 @@ def compliant_contacts(
         jacobian_normal: J_N of ALL the scene's contacts at the initial state, (k, n).
         jacobian_tangent: J_T of all the scene's contacts, (k, n).
         contacts: ``"active"`` (the scene's active contacts) or ``"all"``.
-        stiffness: k_N [N/m] for every contact (overrides the scene).
-        damping: b_N [N s/m] for every contact (overrides the scene).
-        damping_ratio: zeta [-] for the damping not given.
-        tangential_stiffness: k_T [N/m] for every contact.
-        tangential_damping: b_T [N s/m] for every contact.
+        overrides: parameters for every contact (default: none given).
 
     Raises:
-        InputError: a non-positive stiffness, damping ratio or tangential damping, a negative
-            damping, an unknown ``contacts`` choice.
+        InputError: an unknown ``contacts`` choice.
         SceneError: a bad ``[model]`` table.
     """
     if contacts not in ("active", "all"):
         raise InputError(f"contacts must be 'active' or 'all', got {contacts!r}")
-    stiffness = _positive(stiffness, "the contact stiffness [N/m]")
-    damping = _positive(damping, "the contact damping [N s/m]", allow_zero=True)
-    damping_ratio = _positive(damping_ratio, "the damping ratio")
-    tangential_stiffness = _positive(tangential_stiffness, "the tangential stiffness [N/m]")
-    if tangential_damping is not None and tangential_damping == 0:
-        raise InputError("the tangential damping must be > 0 [N s/m]: the spring-damper in series with "
-                         "the Coulomb slider needs it (it sets how fast the slider's anchor follows)")
-    tangential_damping = _positive(tangential_damping, "the tangential damping [N s/m]")
+    overrides = overrides if overrides is not None else ContactOverrides()
     options = model_options(scene)
     indices = scene.active_indices if contacts == "active" else tuple(range(len(scene.contacts)))
     factor = scipy.linalg.cho_factor(mass_matrix)
-    rows = {}
+    rows = []
     for i in indices:
-        base: ContactParameters = options.parameters(scene.contacts[i].name)
-        k_n = stiffness if stiffness is not None else base.stiffness
-        k_t = tangential_stiffness if tangential_stiffness is not None else (
-            base.tangential_stiffness if base.tangential_stiffness is not None else k_n)
-        zeta = damping_ratio if damping_ratio is not None else base.damping_ratio
-        masses = []
-        heaviest = float(np.max(np.diag(mass_matrix)))
-        for row in (jacobian_normal[i], jacobian_tangent[i]):
-            w = float(row @ scipy.linalg.cho_solve(factor, row))  # 1 / effective mass [1/kg]
-            # a row that cannot move the robot (w ~ 0) gets the heaviest coordinate's mass
-            masses.append(1.0 / w if w * heaviest > 1e-12 else heaviest)
-        b_n = damping if damping is not None else (
-            base.damping if base.damping is not None else 2.0 * zeta * math.sqrt(k_n * masses[0]))
-        b_t = tangential_damping if tangential_damping is not None else (
-            base.tangential_damping if base.tangential_damping is not None
-            else 2.0 * zeta * math.sqrt(k_t * masses[1]))
-        rows[i] = (k_n, b_n, k_t, b_t, masses[0], masses[1], zeta)
-    arr = np.array([rows[i] for i in indices], dtype=float).reshape(-1, 7)
+        m_n, m_t = _effective_masses(factor, mass_matrix, (jacobian_normal[i], jacobian_tangent[i]))
+        k_n, b_n, k_t, b_t, zeta = overrides.resolve(options.parameters(scene.contacts[i].name), m_n, m_t)
+        rows.append((k_n, b_n, k_t, b_t, m_n, m_t, zeta))
+    arr = np.array(rows, dtype=float).reshape(-1, 7)
     return CompliantContacts(
         names=tuple(scene.contacts[i].name for i in indices),
         indices=tuple(indices),
@@ -329,12 +372,10 @@ def simulate_compliant(
         impact_velocity: [m/s] a contact closing faster than this is an ``impact`` event.
 
     Returns:
-        The trajectory (``model = "compliant"``, its ``status`` and ``failure``: time and reason,
-        or None), sampled every ``dt``; ``info`` holds the ``integrator``, the step
-        sizes (``steps``, ``min_step``, ``max_step_taken``, ``mean_step``), ``rhs_evaluations``,
+        The trajectory (``model = "compliant"``, its ``status`` and ``failure``), sampled every
+        ``dt``; ``info`` holds the settings, the integrator's steps (:meth:`_CompliantRun.report`),
         ``energy`` [J] (kinetic + gravitational), ``elastic_energy`` [J] (springs),
-        ``max_penetration`` [m] per sample, the contacts' parameters, ``armature``,
-        and ``state_size``.
+        ``max_penetration`` [m] per sample and the contacts' parameters.
 
     Raises:
         InputError: a bad duration or ``dt`` (<= 0, > duration, or above the explicit stability
@@ -345,62 +386,50 @@ def simulate_compliant(
     """
     duration, dt = check_simulation_times(duration, dt)
     _check_integrator_options(integrator, rtol, atol, max_step, max_steps)
-    options = model_options(scene)
-    robot = scene.robot
-    n = robot.nv
-    q, v = robot.check_state(scene.q if q0 is None else q0, scene.v if v0 is None else v0)
+    overrides = ContactOverrides(stiffness, damping, damping_ratio, tangential_stiffness, tangential_damping)
     schedule, constant = input_schedule(scene, inputs)
-    state0 = robot.state(q, v, list(range(len(scene.contacts))))
-    arm = massless_armature(scene, state0.mass_matrix, options.armature if armature is None else armature)
-    mass0 = arm.apply(state0.mass_matrix)
-    mass_factor(mass0, arm)  # raises IllConditioned early
-    params = compliant_contacts(
-        scene, mass0, state0.jacobian_normal, state0.jacobian_tangent, contacts=contacts,
-        stiffness=stiffness, damping=damping, damping_ratio=damping_ratio,
-        tangential_stiffness=tangential_stiffness, tangential_damping=tangential_damping)
-    s0 = _initial_stretch(initial_stretch, params)
+    y0, arm, params = _initial_state(scene, q0, v0, armature, contacts, overrides, initial_stretch)
     stability_limit = explicit_stability_limit(params)
-    if integrator == "euler" and dt >= stability_limit:
+    if integrator == "euler":
+        _check_euler_step(dt, stability_limit)
+    dynamics = _Dynamics(scene, params, arm, scene.inputs.selection_transpose(scene.robot.nv))
+    run = _CompliantRun(scene, dynamics, params, duration, dt, max_steps, impact_velocity, y0)
+    settings: dict[str, Any] = {"integrator": integrator, "rtol": rtol, "atol": atol,
+                                "max_step": dt if max_step is None else max_step}
+    run.integrate(schedule, None if constant else dt, stability_limit=stability_limit, **settings)
+    info = run.report(explicit_stability_limit=stability_limit, contacts_modelled=contacts, **settings)
+    return _trajectory(scene, dynamics, params, arm, run.sample_times[:len(run.samples_y)], run.samples_y,
+                       run.samples_u, run.events, run.status, run.failure, info)
+
+
+def _check_euler_step(dt: float, stability_limit: float) -> None:
+    """Raises InputError when the explicit step ``dt`` [s] is not below its stability limit [s]."""
+    if dt >= stability_limit:
         raise InputError(f"the explicit 'euler' step dt = {dt:.3g} s is not below its stability limit "
                          f"2 (sqrt(1 + zeta^2) - zeta) / omega = {stability_limit:.3g} s (omega = "
                          "sqrt(k / m_eff), zeta the damping ratio, of the most restrictive contact): use "
                          "a smaller dt or an implicit integrator ('radau', 'bdf')")
-    dynamics = _Dynamics(scene, params, arm, scene.inputs.selection_transpose(n))
-    run = _CompliantRun(scene, dynamics, params, duration, dt, max_steps, impact_velocity,
-                        np.concatenate([q, v, s0]))
-    hold_segments = constant is False
-    u_const = schedule(0.0, q, v)
-    y, t_seg = run.samples_y[0].copy(), 0.0
-    while run.next_sample <= run.sample_count and run.status == "completed":
-        u = u_const if not hold_segments else schedule(t_seg, y[:n], y[n:2 * n])
-        t_end = float(run.sample_times[run.next_sample]) if hold_segments else duration
-        if integrator == "euler":
-            y, t_seg = run.euler_segment(y, t_seg, t_end, u, stability_limit)
-        else:
-            y, t_seg = run.scipy_segment(integrator, y, t_seg, t_end, u, rtol=rtol, atol=atol,
-                                         max_step=dt if max_step is None else max_step)
 
-    steps_taken = run.steps_taken
-    return _trajectory(scene, dynamics, params, arm, run.sample_times[:len(run.samples_y)], run.samples_y,
-                       run.samples_u, run.events, run.status, run.failure, {
-                           "integrator": integrator,
-                           "dt": dt,
-                           "rtol": rtol,
-                           "atol": atol,
-                           "max_step": dt if max_step is None else max_step,
-                           "steps": len(steps_taken),
-                           "min_step": float(min(steps_taken)) if steps_taken else 0.0,
-                           "max_step_taken": float(max(steps_taken)) if steps_taken else 0.0,
-                           "mean_step": float(np.mean(steps_taken)) if steps_taken else 0.0,
-                           "rhs_evaluations": run.rhs_evaluations,
-                           "explicit_stability_limit": stability_limit,
-                           "contacts": params.report(),
-                           "contacts_modelled": contacts,
-                           "state_size": 2 * n + params.count,
-                           "armature": arm.report(),
-                           "impact_velocity": impact_velocity,
-                           "wall_time": time.perf_counter() - run.start_wall,
-                       })
+
+def _initial_state(scene: Scene, q0: Sequence[float] | np.ndarray | None,
+                   v0: Sequence[float] | np.ndarray | None, armature: float | None, contacts: str,
+                   overrides: ContactOverrides, initial_stretch: Sequence[float] | np.ndarray | None
+                   ) -> tuple[np.ndarray, Armature, CompliantContacts]:
+    """``(y0 = (q, v, s), armature, contact parameters)`` at the start of a run.
+
+    Raises:
+        InputError: a bad state or stretch. IllConditioned: M is singular even with the armature.
+    """
+    robot = scene.robot
+    q, v = robot.check_state(scene.q if q0 is None else q0, scene.v if v0 is None else v0)
+    state0 = robot.state(q, v, list(range(len(scene.contacts))))
+    default_armature = model_options(scene).armature if armature is None else armature
+    arm = massless_armature(scene, state0.mass_matrix, default_armature)
+    mass0 = arm.apply(state0.mass_matrix)
+    mass_factor(mass0, arm)  # raises IllConditioned early
+    params = compliant_contacts(scene, mass0, state0.jacobian_normal, state0.jacobian_tangent,
+                                contacts=contacts, overrides=overrides)
+    return np.concatenate([q, v, _initial_stretch(initial_stretch, params)]), arm, params
 
 
 def _check_integrator_options(integrator: str, rtol: float, atol: float, max_step: float | None,
@@ -468,6 +497,46 @@ class _CompliantRun:
         self.contact_status = _event_status(status0, st0.gaps, scene.gap_tolerance)
         self.last_vn = st0.normal_velocities.copy()
         self.start_wall = time.perf_counter()
+
+    def integrate(self, schedule: InputSchedule, hold: float | None, *, integrator: str,
+                  stability_limit: float, rtol: float, atol: float, max_step: float) -> None:
+        """Run to the end (or a failure): one segment per held input.
+
+        ``hold``: None for a constant input (one segment), else the sample interval over which a
+        scheduled input is held.
+        """
+        n = self.n
+        y, t_seg = self.samples_y[0].copy(), 0.0
+        u_const = schedule(0.0, y[:n], y[n:2 * n])
+        while self.next_sample <= self.sample_count and self.status == "completed":
+            u = u_const if hold is None else schedule(t_seg, y[:n], y[n:2 * n])
+            t_end = float(self.sample_times[self.next_sample]) if hold is not None else self.duration
+            if integrator == "euler":
+                y, t_seg = self.euler_segment(y, t_seg, t_end, u, stability_limit)
+            else:
+                y, t_seg = self.scipy_segment(integrator, y, t_seg, t_end, u, rtol=rtol, atol=atol,
+                                              max_step=max_step)
+
+    def report(self, **settings: Any) -> dict[str, Any]:
+        """The trajectory's ``info``.
+
+        The run's settings, its steps (``steps``, ``min_step``, ``max_step_taken``, ``mean_step``
+        [s]), ``rhs_evaluations``, the contacts' parameters, ``armature`` and ``state_size``.
+        """
+        steps_taken = self.steps_taken
+        return {
+            "integrator": settings["integrator"], "dt": self._dt, "rtol": settings["rtol"],
+            "atol": settings["atol"], "max_step": settings["max_step"],
+            "steps": len(steps_taken),
+            "min_step": float(min(steps_taken)) if steps_taken else 0.0,
+            "max_step_taken": float(max(steps_taken)) if steps_taken else 0.0,
+            "mean_step": float(np.mean(steps_taken)) if steps_taken else 0.0,
+            "rhs_evaluations": self.rhs_evaluations,
+            "explicit_stability_limit": settings["explicit_stability_limit"],
+            "contacts": self.params.report(), "contacts_modelled": settings["contacts_modelled"],
+            "state_size": 2 * self.n + self.params.count, "armature": self.dynamics.armature.report(),
+            "impact_velocity": self.impact_velocity, "wall_time": time.perf_counter() - self.start_wall,
+        }
 
     def fail(self, status: str, t: float, reason: str, hint: bool = False) -> None:
         """End the run: ``failed`` or ``diverged`` at ``t`` (with the validity hint when diverged)."""
@@ -645,7 +714,9 @@ __all__ = [
     "DEFAULT_ATOL",
     "DEFAULT_RTOL",
     "INTEGRATORS",
+    "IMMOBILE_ROW_TOLERANCE",
     "CompliantContacts",
+    "ContactOverrides",
     "compliant_contacts",
     "contact_forces",
     "simulate_compliant",

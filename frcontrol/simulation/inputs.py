@@ -9,7 +9,7 @@ a validated callable; a value outside the scene's input limits raises
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -20,11 +20,21 @@ from ..scene import Scene, parse_input_assignments
 INPUT_LIMIT_TOLERANCE = 1e-9
 """[N or N m] An input may exceed its limit by this much (round-off) before it is an error."""
 
+STEP_COUNT_TOLERANCE = 1e-9
+"""[-] ``duration / dt`` within this of an integer counts as that integer (no sliver of a last
+step from round-off)."""
+
+
 InputSchedule = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 """``(t, q, v) -> u``: the validated input at a time and state."""
 
 
-def _check_input_vector(scene: Scene, u: Any, when: str) -> np.ndarray:
+def check_input_vector(scene: Scene, u: Any, when: str) -> np.ndarray:
+    """``u`` as a float vector of the scene's inputs, checked (``when`` starts the message).
+
+    Raises:
+        InputError: not numbers, a wrong length, NaN or infinity, a value outside the limits.
+    """
     try:
         arr = np.asarray(u, dtype=float).reshape(-1)
     except (TypeError, ValueError) as err:
@@ -64,13 +74,27 @@ def input_schedule(
         func = inputs
 
         def schedule(t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-            return _check_input_vector(scene, func(t, q, v), f"the input at t = {t:.6g} s")
+            return check_input_vector(scene, func(t, q, v), f"the input at t = {t:.6g} s")
 
         return schedule, False
     u: Any = parse_input_assignments(scene, inputs) if isinstance(inputs, Mapping) else inputs
-    constant = _check_input_vector(scene, u, "the constant input")
+    constant = check_input_vector(scene, u, "the constant input")
     constant.setflags(write=False)
     return (lambda t, q, v: constant), True
+
+
+def step_lengths(duration: float, dt: float) -> Iterator[tuple[int, float]]:
+    """``(step index, length [s])`` of each step of a run of ``duration``.
+
+    Every step is ``dt`` long but the last, shortened to end at ``duration`` (the time reached
+    summed step by step, as a stepper sums it).
+    """
+    steps = max(1, int(np.ceil(duration / dt - STEP_COUNT_TOLERANCE)))
+    t = 0.0
+    for step in range(steps):
+        h = min(dt, duration - t) if step == steps - 1 else dt
+        yield step, h
+        t = t + h
 
 
 def check_simulation_times(duration: float, dt: float, dt_name: str = "dt") -> tuple[float, float]:
@@ -90,4 +114,12 @@ def check_simulation_times(duration: float, dt: float, dt_name: str = "dt") -> t
     return float(duration), float(dt)
 
 
-__all__ = ["INPUT_LIMIT_TOLERANCE", "InputSchedule", "check_simulation_times", "input_schedule"]
+__all__ = [
+    "INPUT_LIMIT_TOLERANCE",
+    "InputSchedule",
+    "check_input_vector",
+    "STEP_COUNT_TOLERANCE",
+    "check_simulation_times",
+    "input_schedule",
+    "step_lengths",
+]

@@ -72,7 +72,7 @@ from ..lcp import ENUMERATION_MAX_SIZE, solve_lcp
 from ..modes import ContactProblem, contact_mode_letter
 from ..scene import Scene
 from .armature import DEFAULT_ARMATURE, Armature, mass_factor, massless_armature
-from .inputs import InputSchedule, check_simulation_times, input_schedule
+from .inputs import InputSchedule, check_simulation_times, input_schedule, step_lengths
 from .model_table import model_options
 from .trajectory import ContactEvent, SimulationFailure, Trajectory
 from .validity import HINT as VALIDITY_HINT
@@ -263,9 +263,7 @@ def simulate_rigid(
                              lcp_method, max_ambiguity_checks)
     schedule, _ = input_schedule(scene, inputs)
     stepper = RigidStepper(scene, settings, q0=q0, v0=v0, armature=armature)
-    steps = max(1, int(np.ceil(duration / dt - 1e-9)))
-    for step in range(steps):
-        h = min(dt, duration - stepper.t) if step == steps - 1 else dt
+    for _, h in step_lengths(duration, dt):
         if not stepper.step(schedule(stepper.t, stepper.q, stepper.v), h):
             break
     return stepper.trajectory(dt)

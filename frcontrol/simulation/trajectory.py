@@ -27,6 +27,10 @@ class ContactEvent:
     kind: str
     detail: str = ""
 
+    def to_dict(self) -> dict:
+        """The event as JSON: ``{"time", "contact", "kind", "detail"}``."""
+        return {"time": self.time, "contact": self.contact, "kind": self.kind, "detail": self.detail}
+
 
 @dataclass(frozen=True)
 class SimulationWarning:
@@ -169,8 +173,7 @@ class Trajectory:
             "inputs": list(self.input_names),
             "final_q": self.q[-1],
             "final_v": self.v[-1],
-            "events": [{"time": e.time, "contact": e.contact, "kind": e.kind, "detail": e.detail}
-                       for e in self.events],
+            "events": [e.to_dict() for e in self.events],
             "energy": None if energy is None else {
                 "initial": energy[0], "final": energy[-1],
                 "largest_increase": float(np.max(np.diff(energy), initial=0.0))},

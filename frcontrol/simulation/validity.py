@@ -251,29 +251,39 @@ def assess(
     info: dict[str, Any] = dict(trajectory.info)
     info["validity"] = limits.report()
     info["input_work"] = work
-    bad = _first(~finite)
-    if bad is None:
-        bad = _first(blow_up)
-        reason = None if bad is None else (
-            f"energy blow-up: {energy[bad]:.6g} J from {energy[0]:.6g} J with {work[bad]:.6g} J of "
-            f"input work (more than {DIVERGENCE_FACTOR:g} x the run's energy scale)")
-    else:
-        reason = "the state became NaN or infinite"
+    bad, reason = _divergence(finite, blow_up, energy, work)
     end = T if bad is None else max(bad, 1)
-
     warnings = _warnings(trajectory, limits, energy, penetration, work, excess, allowed, finite, end)
-
     if bad is None:
         return replace(trajectory, info=info, warnings=tuple(warnings))
-    info["input_work"] = work[:end]
+    return _cut(trajectory, info, tuple(warnings), end, SimulationFailure(float(times[bad]), reason, HINT))
+
+
+def _divergence(finite: np.ndarray, blow_up: np.ndarray, energy: np.ndarray, work: np.ndarray
+                ) -> tuple[int | None, str]:
+    """The first diverged sample (a non-finite state first, else an energy blow-up) and why."""
+    bad = _first(~finite)
+    if bad is not None:
+        return bad, "the state became NaN or infinite"
+    bad = _first(blow_up)
+    if bad is None:
+        return None, ""
+    return bad, (f"energy blow-up: {energy[bad]:.6g} J from {energy[0]:.6g} J with {work[bad]:.6g} J of "
+                 f"input work (more than {DIVERGENCE_FACTOR:g} x the run's energy scale)")
+
+
+def _cut(trajectory: Trajectory, info: dict[str, Any], warnings: tuple[SimulationWarning, ...], end: int,
+         failure: SimulationFailure) -> Trajectory:
+    """The run up to sample ``end`` (excluded), diverged: every per-sample array of ``info`` cut too."""
+    T = len(trajectory.times)
     for key, value in list(info.items()):
         if isinstance(value, np.ndarray) and value.shape[:1] == (T,):
             info[key] = value[:end]
+    times = trajectory.times
     return replace(
         trajectory, times=times[:end], q=trajectory.q[:end], v=trajectory.v[:end],
         inputs=trajectory.inputs[:end], contact_forces=trajectory.contact_forces[:end],
         contact_points=trajectory.contact_points[:end],
         events=tuple(e for e in trajectory.events if e.time <= times[end - 1]),
         modes=None if trajectory.modes is None else trajectory.modes[:end],
-        info=info, warnings=tuple(warnings), status="diverged",
-        failure=SimulationFailure(float(times[bad]), str(reason), HINT))
+        info=info, warnings=warnings, status="diverged", failure=failure)

@@ -473,11 +473,17 @@ def solve(problem: LinearProgram, *, solver: str = DEFAULT_LP_SOLVER, fallback: 
 
 
 def _solve_once(problem: LinearProgram, solver: str, options: dict[str, Any]) -> LPResult:
-    adapter = _adapter(_LP_SOLVERS, solver)
+    return _timed(_adapter(_LP_SOLVERS, solver), problem, solver, options, LPResult)
+
+
+def _timed(adapter: QPAdapter, problem: LinearProgram, solver: str, options: dict[str, Any],
+           result_type: type[LPResult]) -> LPResult:
+    """One back-end's answer, timed and checked by :func:`_finish` (crossed bounds answer alone)."""
     start = time.perf_counter()
     raw = _bounds_crossed(problem) or adapter(problem, **options)
     elapsed = time.perf_counter() - start
-    return _finish(LPResult, problem, raw, solver, elapsed, None)
+    P = problem.P if isinstance(problem, QuadraticProgram) else None
+    return _finish(result_type, problem, raw, solver, elapsed, P)
 
 
 def solve_lp(
@@ -581,7 +587,4 @@ def solve_qp(
     lp = _validate_lp(q, A_ub, b_ub, A_eq, b_eq, lb, ub)
     P = _validate_qp(P, lp)
     problem = QuadraticProgram(lp.c, lp.A_ub, lp.b_ub, lp.A_eq, lp.b_eq, lp.lb, lp.ub, P=P)
-    start = time.perf_counter()
-    raw = _bounds_crossed(problem) or adapter(problem, **options)
-    elapsed = time.perf_counter() - start
-    return cast(QPResult, _finish(QPResult, problem, raw, solver, elapsed, P))
+    return cast(QPResult, _timed(adapter, problem, solver, options, QPResult))

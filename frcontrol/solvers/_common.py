@@ -8,13 +8,15 @@ and never has to copy for contiguity.
 An adapter is a function ``adapter(problem, **options) -> RawSolution``. It maps the back-end's
 own status onto the four statuses of the door and returns the primal point when it has one. The
 door times the call, computes the objective and the primal residual, and builds the result.
+A back-end module writes one function ``solve(H, problem, options)`` (``H`` None for an LP, the
+QP's ``P`` otherwise) and gets both adapters from :class:`Adapter`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -93,9 +95,34 @@ LPAdapter = Callable[..., RawSolution]
 QPAdapter = Callable[..., RawSolution]
 """Signature of an adapter: ``adapter(problem: QuadraticProgram, **options) -> RawSolution``."""
 
+ProgramSolver = Callable[[np.ndarray | None, LinearProgram, dict[str, Any]], RawSolution]
+"""A back-end's one solve: ``solve(H, problem, options)``, ``H`` None for an LP, ``P`` for a QP."""
+
+
+@dataclass(frozen=True)
+class Adapter:
+    """A back-end's two adapters, both on its one :data:`ProgramSolver`.
+
+    Attributes:
+        solve: the back-end's ``solve(H, problem, options)``; it raises
+            :class:`~frcontrol.errors.InputError` for an option the back-end does not know.
+    """
+
+    solve: ProgramSolver
+
+    def solve_lp(self, problem: LinearProgram, **options: Any) -> RawSolution:
+        """Solve an LP: the mapped status, the primal point and the back-end's own status."""
+        return self.solve(None, problem, options)
+
+    def solve_qp(self, problem: QuadraticProgram, **options: Any) -> RawSolution:
+        """Solve a convex QP (``P`` is the back-end's Hessian), as :meth:`solve_lp`."""
+        return self.solve(problem.P, problem, options)
+
 
 __all__ = [
+    "Adapter",
     "LinearProgram",
+    "ProgramSolver",
     "QuadraticProgram",
     "RawSolution",
 ]

@@ -44,7 +44,7 @@ import numpy as np
 
 from frcontrol.errors import InputError
 
-from ._common import LinearProgram, QuadraticProgram, RawSolution, Status
+from ._common import Adapter, LinearProgram, RawSolution, Status
 
 DAQP_INF = 1e30
 """DAQP's infinity: bounds at or beyond ``±1e30`` are inactive (``DAQP_INF`` in its C source)."""
@@ -164,39 +164,15 @@ def _solve(H: np.ndarray | None, problem: LinearProgram, options: dict) -> RawSo
     return RawSolution(status, np.array(x, dtype=float) if status == "optimal" else None, raw)
 
 
-def solve_lp(problem: LinearProgram, **options: object) -> RawSolution:
-    """Solve an LP with DAQP (``H=None``).
-
-    Args:
-        problem: the validated LP.
-        **options: DAQP settings (see :data:`SETTINGS`).
-
-    Returns:
-        The mapped status and the primal point.
-
-    Raises:
-        InputError: an option DAQP does not know.
-    """
-    return _solve(None, problem, options)
-
-
-def solve_qp(problem: QuadraticProgram, **options: object) -> RawSolution:
-    """Solve a convex QP with DAQP.
-
-    Args:
-        problem: the validated QP (``P`` is passed as DAQP's ``H``).
-        **options: DAQP settings (see :data:`SETTINGS`).
-
-    Returns:
-        The mapped status and the primal point.
-
-    Raises:
-        InputError: an option DAQP does not know.
-    """
-    return _solve(problem.P, problem, options)
+ADAPTER = Adapter(_solve)
+"""DAQP's adapters: LPs with ``H=None``, QPs with ``H = P``; ``**options`` are DAQP settings
+(:data:`SETTINGS`)."""
+solve_lp = ADAPTER.solve_lp
+solve_qp = ADAPTER.solve_qp
 
 
 __all__ = [
+    "ADAPTER",
     "DAQP_INF",
     "EQUALITY_CONSISTENCY_TOLERANCE",
     "EXIT_FLAGS",

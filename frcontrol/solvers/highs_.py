@@ -38,7 +38,7 @@ import numpy as np
 
 from frcontrol.errors import InputError
 
-from ._common import LinearProgram, QuadraticProgram, RawSolution, Status
+from ._common import Adapter, LinearProgram, RawSolution, Status
 
 _STATUS: dict[highspy.HighsModelStatus, Status] = {
     highspy.HighsModelStatus.kOptimal: "optimal",
@@ -164,42 +164,25 @@ def _run(model: highspy.HighsLp | highspy.HighsModel, options: dict) -> RawSolut
     return RawSolution(status, x, raw)
 
 
-def solve_lp(problem: LinearProgram, **options: object) -> RawSolution:
-    """Solve an LP with HiGHS.
-
-    Args:
-        problem: the validated LP.
-        **options: HiGHS options by name (``time_limit``, ``primal_feasibility_tolerance``...).
-
-    Returns:
-        The mapped status and the primal point.
-
-    Raises:
-        InputError: an option HiGHS rejects.
-    """
-    return _run(_build_lp(problem), options)
-
-
-def solve_qp(problem: QuadraticProgram, **options: object) -> RawSolution:
-    """Solve a convex QP with HiGHS (its QP solver is an active-set method).
-
-    Args:
-        problem: the validated QP.
-        **options: HiGHS options by name.
-
-    Returns:
-        The mapped status and the primal point.
-
-    Raises:
-        InputError: an option HiGHS rejects.
-    """
+def _solve(H: np.ndarray | None, problem: LinearProgram, options: dict) -> RawSolution:
+    """An LP as a ``HighsLp``; a QP as a ``HighsModel`` with the Hessian (an active-set method)."""
+    if H is None:
+        return _run(_build_lp(problem), options)
     model = highspy.HighsModel()
     model.lp_ = _build_lp(problem)
-    model.hessian_ = _hessian(problem.P)
+    model.hessian_ = _hessian(H)
     return _run(model, options)
 
 
+ADAPTER = Adapter(_solve)
+"""HiGHS's adapters; ``**options`` are HiGHS options by name (``time_limit``,
+``primal_feasibility_tolerance``...), a rejected one raises :class:`~frcontrol.errors.InputError`."""
+solve_lp = ADAPTER.solve_lp
+solve_qp = ADAPTER.solve_qp
+
+
 __all__ = [
+    "ADAPTER",
     "RETRIES",
     "solve_lp",
     "solve_qp",

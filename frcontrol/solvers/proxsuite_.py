@@ -35,7 +35,7 @@ import proxsuite
 
 from frcontrol.errors import InputError
 
-from ._common import LinearProgram, QuadraticProgram, RawSolution, Status
+from ._common import Adapter, LinearProgram, RawSolution, Status
 
 PROXQP_INF = 1e20
 """Magnitude that stands for an infinite bound when passed to ProxQP."""
@@ -99,39 +99,15 @@ def _solve(H: np.ndarray | None, problem: LinearProgram, options: dict) -> RawSo
     return RawSolution(status, x if status == "optimal" else None, raw)
 
 
-def solve_lp(problem: LinearProgram, **options: object) -> RawSolution:
-    """Solve an LP with ProxQP (zero Hessian).
-
-    Args:
-        problem: the validated LP.
-        **options: ProxQP settings by name; they override :data:`DEFAULT_SETTINGS`.
-
-    Returns:
-        The mapped status and the primal point.
-
-    Raises:
-        InputError: a setting ProxQP does not have.
-    """
-    return _solve(None, problem, options)
-
-
-def solve_qp(problem: QuadraticProgram, **options: object) -> RawSolution:
-    """Solve a convex QP with ProxQP.
-
-    Args:
-        problem: the validated QP.
-        **options: ProxQP settings by name; they override :data:`DEFAULT_SETTINGS`.
-
-    Returns:
-        The mapped status and the primal point.
-
-    Raises:
-        InputError: a setting ProxQP does not have.
-    """
-    return _solve(problem.P, problem, options)
+ADAPTER = Adapter(_solve)
+"""ProxQP's adapters: LPs with a zero Hessian, QPs with ``H = P``; ``**options`` are ProxQP
+settings by name, over :data:`DEFAULT_SETTINGS`."""
+solve_lp = ADAPTER.solve_lp
+solve_qp = ADAPTER.solve_qp
 
 
 __all__ = [
+    "ADAPTER",
     "DEFAULT_SETTINGS",
     "DUALITY_GAP_TOLERANCE",
     "PROXQP_INF",
