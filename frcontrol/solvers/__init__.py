@@ -275,22 +275,34 @@ def primal_residual(problem: LinearProgram, x: np.ndarray) -> float:
         \max\big(0,\ \max(A_{ub}x - b_{ub}),\ \max|A_{eq}x - b_{eq}|,\
         \max(lb - x),\ \max(x - ub)\big)
     """
-    violations = [problem.lb - x, x - problem.ub]
+    worst = 0.0
     if problem.A_ub.shape[0]:
-        violations.append(problem.A_ub @ x - problem.b_ub)
+        worst = max(worst, float((problem.A_ub @ x - problem.b_ub).max()))
     if problem.A_eq.shape[0]:
-        violations.append(np.abs(problem.A_eq @ x - problem.b_eq))
-    return max(0.0, float(np.max(np.concatenate(violations))))
+        worst = max(worst, float(np.abs(problem.A_eq @ x - problem.b_eq).max()))
+    if problem.has_bounds:
+        worst = max(worst, float((problem.lb - x).max()), float((x - problem.ub).max()))
+    return worst
 
 
 def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
-    rhs = np.concatenate([problem.b_ub, problem.b_eq, problem.lb, problem.ub])
-    np.abs(rhs, out=rhs)
-    scale = 1.0 + float(np.max(rhs, initial=0.0, where=rhs < np.inf))
-    if x is not None:
+    """``FEASIBILITY_TOLERANCE`` times the scale of the terms (see :data:`FEASIBILITY_TOLERANCE`)."""
+    largest = 0.0
+    for rhs in (problem.b_ub, problem.b_eq):
+        if rhs.shape[0]:
+            largest = max(largest, float(np.abs(rhs).max()))
+    if problem.has_bounds:
+        for bound in (problem.lb, problem.ub):
+            finite = np.abs(bound)
+            finite = finite[finite < np.inf]
+            if finite.shape[0]:
+                largest = max(largest, float(finite.max()))
+    scale = 1.0 + largest
+    if x is not None and x.shape[0]:
+        size = float(np.abs(x).max())
         for A in (problem.A_ub, problem.A_eq):
             if A.shape[0]:
-                scale += float(np.abs(A).sum(1).max()) * float(np.abs(x).max())
+                scale += float(np.abs(A).sum(1).max()) * size
     return FEASIBILITY_TOLERANCE * scale
 
 
@@ -343,7 +355,7 @@ def _finish(
 
 
 def _bounds_crossed(problem: LinearProgram) -> RawSolution | None:
-    if (problem.lb > problem.ub).any():
+    if problem.has_bounds and (problem.lb > problem.ub).any():
         return RawSolution("infeasible", None, "door: lb > ub")
     return None
 

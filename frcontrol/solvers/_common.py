@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, Literal
 
 import numpy as np
@@ -54,7 +55,7 @@ class LinearProgram:
         """Number of variables."""
         return int(self.c.shape[0])
 
-    @property
+    @cached_property
     def has_bounds(self) -> bool:
         """Whether at least one simple bound is finite."""
         return bool(np.isfinite(self.lb).any() or np.isfinite(self.ub).any())
