@@ -13,7 +13,7 @@ if TYPE_CHECKING:
     from ..scene import Scene
     from .trajectory import Trajectory
 
-INTEGRATORS = ("radau", "bdf", "lsoda", "rk45", "dop853", "euler")
+INTEGRATORS = ("radau", "bdf", "lsoda", "rk45", "dop853", "euler", "implicit")
 """The integrators :func:`simulate_compliant` accepts."""
 
 TRAJECTORY_FORMATS = (".npz", ".csv")

@@ -48,12 +48,31 @@ Integration
 ``dt < min_i 2 (sqrt(1 + zeta_i^2) - zeta_i) / omega_i`` (``omega_i = sqrt(k_i / m_eff,i)`` and
 ``zeta_i`` the damping ratio of contact direction i at the initial state: the explicit damper
 shrinks the undamped limit ``2 / omega``; reported as ``info["explicit_stability_limit"]``; a
-larger ``dt`` is refused). Samples are taken every
+larger ``dt`` is refused), or ``"implicit"``: fixed-step *linearly implicit* Euler with step ``dt``,
+the contact forces taken at the end of the step (below). Samples are taken every
 ``dt`` from the solvers' dense output; a callable input is held constant over each sample
 interval (zero-order hold). The adaptive solvers' step is at most ``max_step`` (default ``dt``)
 so that no contact onset is stepped over. A solver that fails (step size underflow, a NaN) or
 exceeds ``max_steps`` ends the simulation: ``status = "failed"`` with the time and the
 reason, and the trajectory up to there is returned.
+
+The linearly implicit step (``"implicit"``), as peer simulators step stiff contacts: the robot's
+``M`` and ``h`` are taken at the start of the step, the contact forces at its end. With
+``delta+ = delta - h J_N v+`` and, for a sticking contact, ``s+ = s + h J_T v+``, the law above is
+affine in ``v+`` on each contact's status (open, stick, slip with the trial force's sign)::
+
+    lam_N = k_N delta - (k_N h + b_N) J_N v+                   (closed: > 0 and delta+ > 0)
+    lam_T = -(k_T s + (k_T h + b_T) J_T v+)                    (stick: |lam_T| <= mu lam_N)
+    lam_T = -sign(F) mu lam_N                                  (slip)
+
+so ``M (v+ - v) = h (S^T u - h(q, v) + J_N^T lam_N + J_T^T lam_T)`` is one linear solve. The
+statuses start from the explicit law at the step's start and are updated from the solution until
+they repeat (at most :data:`ACTIVE_SET_ITERATIONS`). Then ``q+ = q + h v+`` and the stretch
+follows its status (stick: ``s + h J_T v+``; slip and open, implicitly:
+``s+ = (s + h sign(F) mu lam_N / b_T) / (1 + h k_T / b_T)``). The contact's spring-damper is thus
+integrated by implicit Euler, unconditionally stable and strongly damping its oscillation at any
+step: ``dt`` may exceed the explicit limit many times, to reach a steady force in a few steps, at
+first-order accuracy in ``dt`` for the slow motion.
 """
 
 from __future__ import annotations
@@ -69,6 +88,7 @@ import scipy.integrate
 import scipy.linalg
 
 from ..errors import InputError
+from ..model import RobotState
 from ..scene import Scene
 from . import INTEGRATORS
 from .armature import Armature, mass_factor, massless_armature
@@ -89,6 +109,11 @@ DEFAULT_ATOL = 1e-9
 
 MAX_STEPS = 500_000
 """Integrator steps per simulation at most (then ``status = "failed"``)."""
+
+ACTIVE_SET_ITERATIONS = 8
+"""The linearly implicit step re-solves with updated contact statuses (open, stick, slip) at most
+this many times; statuses that still change then (a contact at a status boundary) keep the last
+solve, which satisfies the law of the statuses it was solved with."""
 
 DIVERGENCE_VELOCITY = 1e8
 """[m/s or rad/s] A velocity above this (or a NaN) is taken as a blow-up and ends the simulation as
@@ -321,6 +346,93 @@ class _Dynamics:
         dv = scipy.linalg.cho_solve(factor, force, check_finite=False)
         return np.concatenate([v, dv, rate]), (state, lam_n, lam_t, status)
 
+    def explicit_step(self, y: np.ndarray, u: np.ndarray, h: float) -> tuple[np.ndarray, RobotState]:
+        """One semi-implicit (symplectic) Euler step: ``v += h a; q += h v; s += h ds/dt``."""
+        n = self.scene.robot.nv
+        ydot, (state, _, _, _) = self.evaluate(y, u)
+        y_new = y.copy()
+        y_new[n:2 * n] = y[n:2 * n] + h * ydot[n:2 * n]
+        y_new[:n] = y[:n] + h * y_new[n:2 * n]
+        y_new[2 * n:] = y[2 * n:] + h * ydot[2 * n:]
+        return y_new, state
+
+    def implicit_step(self, y: np.ndarray, u: np.ndarray, h: float) -> tuple[np.ndarray, RobotState]:
+        """One linearly implicit Euler step (module docstring): contact forces at the step's end."""
+        n = self.scene.robot.nv
+        q, v, s = y[:n], y[n:2 * n], y[2 * n:]
+        state = self.scene.robot.state(q, v, self.contacts.indices)
+        _, _, _, status = contact_forces(self.contacts, state.gaps, state.normal_velocities,
+                                         state.tangential_velocities, s)
+        sign = np.sign(self.contacts.tangential_stiffness * s
+                       + self.contacts.tangential_damping * state.tangential_velocities)
+        system = _ImplicitStep(self.contacts, state, self.armature.apply(state.mass_matrix),
+                               self.input_map @ u - state.bias, v, s, h)
+        v_new = system.solve(status, sign)
+        for _ in range(ACTIVE_SET_ITERATIONS):
+            new_status, new_sign = system.statuses(v_new)
+            sliding = status == 2
+            if np.array_equal(new_status, status) and np.array_equal(new_sign[sliding], sign[sliding]):
+                break
+            status, sign = new_status, new_sign
+            v_new = system.solve(status, sign)
+        return np.concatenate([q + h * v_new, v_new, system.stretch(v_new, status, sign)]), state
+
+
+@dataclass(frozen=True)
+class _ImplicitStep:
+    """The linear system of one linearly implicit step: ``(M + h K) v+ = M v + h (f + r)``.
+
+    ``K`` and ``r`` depend on the contacts' statuses (0 open, 1 stick, 2 slip) and slip signs.
+    """
+
+    contacts: CompliantContacts
+    state: RobotState
+    mass: np.ndarray
+    free_force: np.ndarray  # S^T u - h(q, v)
+    v: np.ndarray
+    s: np.ndarray
+    h: float
+
+    def solve(self, status: np.ndarray, sign: np.ndarray) -> np.ndarray:
+        """``v+`` for these statuses."""
+        c, st, h = self.contacts, self.state, self.h
+        closed, stick, slip = status > 0, status == 1, status == 2
+        delta = -st.gaps
+        normal_gain = np.where(closed, c.stiffness * h + c.damping, 0.0)  # lam_N = k delta - gain J_N v+
+        normal_force = np.where(closed, c.stiffness * delta, 0.0)
+        tangent_gain = np.where(stick, c.tangential_stiffness * h + c.tangential_damping, 0.0)
+        friction = np.where(slip, sign * c.mu, 0.0)  # slip: lam_T = -sign mu lam_N
+        jn, jt = st.jacobian_normal, st.jacobian_tangent
+        stiffness = ((jn.T * normal_gain) @ jn + (jt.T * tangent_gain) @ jt
+                     + (jt.T * (friction * normal_gain)) @ jn)
+        rhs = self.mass @ self.v + h * (self.free_force + jn.T @ normal_force
+                                        - jt.T @ np.where(stick, c.tangential_stiffness * self.s, 0.0)
+                                        - jt.T @ (friction * normal_force))
+        return np.linalg.solve(self.mass + h * stiffness, rhs)
+
+    def normal_forces(self, v_new: np.ndarray) -> np.ndarray:
+        """``lam_N`` at the step's end if every contact were closed (the law before its max)."""
+        c, st = self.contacts, self.state
+        return c.stiffness * -st.gaps - (c.stiffness * self.h + c.damping) * (st.jacobian_normal @ v_new)
+
+    def statuses(self, v_new: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The contact law's statuses and trial-force signs at the step's end, for ``v+``."""
+        c, st, h = self.contacts, self.state, self.h
+        lam_n = self.normal_forces(v_new)
+        closed = (lam_n > 0.0) & (-st.gaps - h * (st.jacobian_normal @ v_new) > 0.0)
+        v_t = st.jacobian_tangent @ v_new
+        trial = c.tangential_stiffness * (self.s + h * v_t) + c.tangential_damping * v_t
+        stick = np.abs(trial) <= c.mu * np.maximum(lam_n, 0.0)
+        return np.where(closed, np.where(stick, 1, 2), 0), np.sign(trial)
+
+    def stretch(self, v_new: np.ndarray, status: np.ndarray, sign: np.ndarray) -> np.ndarray:
+        """``s+``: stick ``s + h v_T+``; slip and open relax implicitly towards the slider's force."""
+        c, h = self.contacts, self.h
+        limit = np.where(status == 2, c.mu * np.maximum(self.normal_forces(v_new), 0.0), 0.0)
+        relaxed = (self.s + h * sign * limit / c.tangential_damping) / (1.0 + h * c.tangential_stiffness
+                                                                        / c.tangential_damping)
+        return np.where(status == 1, self.s + h * (self.state.jacobian_tangent @ v_new), relaxed)
+
 
 def simulate_compliant(
     scene: Scene,
@@ -511,8 +623,9 @@ class _CompliantRun:
         while self.next_sample <= self.sample_count and self.status == "completed":
             u = u_const if hold is None else schedule(t_seg, y[:n], y[n:2 * n])
             t_end = float(self.sample_times[self.next_sample]) if hold is not None else self.duration
-            if integrator == "euler":
-                y, t_seg = self.euler_segment(y, t_seg, t_end, u, stability_limit)
+            if integrator in ("euler", "implicit"):
+                y, t_seg = self.fixed_step_segment(y, t_seg, t_end, u, stability_limit,
+                                                   implicit=integrator == "implicit")
             else:
                 y, t_seg = self.scipy_segment(integrator, y, t_seg, t_end, u, rtol=rtol, atol=atol,
                                               max_step=max_step)
@@ -570,24 +683,24 @@ class _CompliantRun:
         return self.next_sample <= self.sample_count and \
             self.sample_times[self.next_sample] <= t + 1e-12 * self.duration
 
-    def euler_segment(self, y: np.ndarray, t_seg: float, t_end: float, u: np.ndarray,
-                      stability_limit: float) -> tuple[np.ndarray, float]:
-        """Semi-implicit Euler steps of at most dt from ``t_seg`` to ``t_end``."""
+    def fixed_step_segment(self, y: np.ndarray, t_seg: float, t_end: float, u: np.ndarray,
+                           stability_limit: float, implicit: bool) -> tuple[np.ndarray, float]:
+        """Steps of at most dt from ``t_seg`` to ``t_end``: semi-implicit or linearly implicit Euler."""
         n = self.n
         while t_seg < t_end - 1e-12 * self.duration:
             h = min(self._dt, t_end - t_seg)
+            if implicit:
+                y_new, st_now = self.dynamics.implicit_step(y, u, h)
+            else:
+                y_new, st_now = self.dynamics.explicit_step(y, u, h)
             self.rhs_evaluations += 1
-            ydot, (st_now, _, _, _) = self.dynamics.evaluate(y, u)
-            y_new = y.copy()
-            y_new[n:2 * n] = y[n:2 * n] + h * ydot[n:2 * n]
-            y_new[:n] = y[:n] + h * y_new[n:2 * n]
-            y_new[2 * n:] = y[2 * n:] + h * ydot[2 * n:]
             self.steps_taken.append(h)
             y, t_seg = y_new, t_seg + h
             if not np.all(np.isfinite(y)) or np.max(np.abs(y[n:2 * n])) > DIVERGENCE_VELOCITY:
+                limit = "" if implicit else (f"; the explicit step's stability limit was "
+                                             f"{stability_limit:.3g} s at the start")
                 self.fail("diverged", t_seg, f"the state became NaN or a velocity exceeded "
-                          f"{DIVERGENCE_VELOCITY:g}; the explicit step's stability limit was "
-                          f"{stability_limit:.3g} s at the start", hint=True)
+                          f"{DIVERGENCE_VELOCITY:g}{limit}", hint=True)
                 break
             self.record_events(t_seg, y, u, st_now.normal_velocities)
             while self._due(t_seg):
