@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 from conftest import rod_scene
-from test_simulation import BOX_INERTIA, G, SLOPE, SLOPE_NORMAL, UP_SLOPE, box_scene, slope_scene
+from test_simulation import BOX_INERTIA, SLOPE, SLOPE_NORMAL, UP_SLOPE, G, box_scene, slope_scene
 
 from frcontrol.engine import solutions_at
 from frcontrol.scene import load_scene
