@@ -188,15 +188,16 @@ FIGURES = (
 """Every figure, in the order of the issue's table."""
 
 COMPLIANT_CONFIGS: dict[str, dict[str, Any]] = {
-    "rod_on_table": {"stiffness": 1e7, "window": 12.0, "integrator": "lsoda", "rtol": 1e-3},
-    "box_on_slope": {"stiffness": 1e5, "window": 12.0, "integrator": "lsoda", "rtol": 1e-3},
+    "rod_on_table": {"stiffness": 1e12, "integrator": "implicit", "step_omega": 30.0, "steps": 3},
+    "box_on_slope": {"stiffness": 1e10, "integrator": "implicit", "step_omega": 100.0, "steps": 3},
 }
-"""The compliant configuration per scene: stiffness [N/m], settling window [1/omega_min],
-integrator and its rtol, as ``benchmarks/trade.py`` defines them. Each is among the cheapest
-reaching 1e-3 force error in a sweep of ``benchmarks.trade.force_point`` (k = 1e4..1e8 N/m,
-windows 6 and 12, euler at 0.3x its limit, lsoda, rk45 and radau at rtol 1e-3) on 2026-11-25,
-chosen with its error at least 2x below 1e-3 (rod 2.9e-4, box 4.9e-5) so that round-off changes
-do not flip its check."""
+"""The compliant configuration per scene: stiffness [N/m], the linearly implicit integrator, its
+step in units of ``1/omega_min`` (``omega_min = sqrt(k lambda_min)`` of ``benchmarks/trade.py``'s
+reference) and the number of steps. Each is among the cheapest reaching 1e-3 force error in a sweep
+(k = 1e8, 1e10, 1e12 N/m; steps of 3, 10, 30 and 100 / omega_min; 2 to 6 steps) on 2026-11-25,
+chosen with its error at least 2x below 1e-3 (rod 3.8e-5, box 1.1e-6) so that round-off changes
+do not flip its check. Before the implicit integrator the cheapest were lsoda at rtol 1e-3,
+k = 1e7 (rod) and 1e5 (box), window 12: 16-42 ms."""
 
 
 class InvalidAnswer(Exception):
@@ -334,8 +335,8 @@ def _compliant_figure(name: str) -> tuple[Call, Check]:
     scenario = next(s for s in trade.SCENARIOS if s.name == name)
     ref = trade.build_reference(scenario, load_scene(name))
     config = COMPLIANT_CONFIGS[name]
-    t_r = config["window"] / math.sqrt(config["stiffness"] * ref.slowest_eigenvalue)
-    dt = t_r  # an adaptive integrator: one sample, read at the end of the window
+    dt = config["step_omega"] / math.sqrt(config["stiffness"] * ref.slowest_eigenvalue)
+    t_r = config["steps"] * dt  # fixed steps, read at the last one
 
     def check(trajectory: Any) -> None:
         if trajectory.status != "completed":

@@ -789,7 +789,7 @@ def _batch_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_t
     """The batch path; None when a mode's rank is undecidable (the reference path then decides)."""
     batch = decide_modes(problem, u, lambda H, h, motion: _admissible_in_w(H, h, motion, solver),
                          rank_tolerance=rank_tolerance, domain_tolerance=DOMAIN_TOLERANCE,
-                         zero_row_tolerance=ZERO_ROW_TOLERANCE)
+                         zero_row_tolerance=ZERO_ROW_TOLERANCE, radius_cap=poly.CHEBYSHEV_RADIUS_CAP)
     if batch.ill_conditioned:
         return None
     n, k = problem.n, problem.k

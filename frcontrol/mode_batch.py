@@ -152,7 +152,7 @@ rank outside the ill-conditioned band, and an LU solve gives the same unique res
 
 
 def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, rank_tolerance: float,
-                 domain_tolerance: float, zero_row_tolerance: float) -> ModeBatch:
+                 domain_tolerance: float, zero_row_tolerance: float, radius_cap: float) -> ModeBatch:
     """Stack, factorise and decide every full mode at ``u`` (see the module docstring).
 
     Well-conditioned modes are certified by a cheap bound (:data:`CERTIFIED_MARGIN`) and solved
@@ -165,6 +165,7 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
         rank_tolerance: relative singular-value threshold of the rank decisions.
         domain_tolerance: the engine's membership distance.
         zero_row_tolerance: the engine's constant-row threshold.
+        radius_cap: the Chebyshev LP's radius cap (for a side of an interval without a bound).
     """
     modes, letters = full_modes(problem.allowed_modes())
     st = _stack(problem, letters, u)
@@ -187,7 +188,7 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
     for r in np.unique(rank):
         group = np.nonzero(rank == r)[0]
         found.update(_decide_rank_group(problem, modes, st, scaled, rest, group, int(r), u, decide_w,
-                                        domain_tolerance, zero_row_tolerance))
+                                        (domain_tolerance, zero_row_tolerance, radius_cap)))
     return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
 
 
@@ -270,11 +271,13 @@ class _Scaled:
 
 def _decide_rank_group(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, sc: _Scaled,
                        rest: np.ndarray, group: np.ndarray, r: int, u: np.ndarray, decide_w: WDecider,
-                       domain_tolerance: float, zero_row_tolerance: float) -> dict[int, BatchSolution]:
+                       tolerances: tuple[float, float, float]) -> dict[int, BatchSolution]:
     """The modes of one rank r: responses ``x = X_u u + X_w w + x_0`` on ``E u = e``, then their domains.
 
     The same formulas as :func:`frcontrol.response.solve_affine`, for the whole group at once.
+    ``tolerances``: the domain and zero-row tolerances and the radius cap of :func:`decide_modes`.
     """
+    domain_tolerance, zero_row_tolerance, radius_cap = tolerances
     index = rest[group]  # the group's modes (``group`` indexes the SVD's modes, ``rest``)
     U, Vt = sc.U[group], sc.Vt[group]
     inv_s = 1.0 / sc.s[group][:, :r]
@@ -301,10 +304,18 @@ def _decide_rank_group(problem: ContactProblem, modes: tuple[str, ...], st: _Sta
     p = X_w.shape[2]
     if p == 0:
         ok &= np.all(np.where(motion, h > domain_tolerance, h >= -domain_tolerance) | ~valid, axis=1)
+    if p == 1:
+        admissible, centre = decide_intervals(H_w[:, :, 0], h, motion, valid, domain_tolerance,
+                                              zero_row_tolerance, radius_cap)
+        ok &= admissible
     out = {}
     for j in np.nonzero(ok)[0]:
         rows = valid[j]
-        w = np.zeros(0) if p == 0 else decide_w(H_w[j][rows], h[j][rows], motion[j][rows])
+        w: np.ndarray | None
+        if p <= 1:
+            w = centre[j:j + 1] if p == 1 else np.zeros(0)
+        else:
+            w = decide_w(H_w[j][rows], h[j][rows], motion[j][rows])
         if w is None:
             continue
         i = int(index[j])
@@ -352,7 +363,21 @@ def interval_admissible(H: np.ndarray, h: np.ndarray, motion: np.ndarray, domain
     """The engine's admissible ``w`` for one ambiguity variable, in closed form; None if none.
 
     With ``H w <= h`` (one column, rows normalised in (u, w)) this is what the engine's two LPs
-    decide, on an interval:
+    decide, on an interval (:func:`decide_intervals` for one mode).
+    """
+    rows = H.shape[0]
+    ok, w = decide_intervals(H[None, :, 0], h[None], motion[None], np.ones((1, rows), dtype=bool),
+                             domain_tolerance, zero_row_tolerance, radius_cap)
+    return w[:1] if ok[0] else None
+
+
+def decide_intervals(a: np.ndarray, h: np.ndarray, motion: np.ndarray, valid: np.ndarray,
+                     domain_tolerance: float, zero_row_tolerance: float, radius_cap: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """For modes with one ambiguity variable: which are admissible at the input, and their ``w``.
+
+    Per mode, the rows ``a_i w <= h_i`` (``a``, ``h``, ``motion``, ``valid``: (modes, rows); rows
+    normalised in (u, w)) are decided as the engine's two LPs decide them, on an interval:
 
     1. the motion test (:func:`frcontrol.engine.motion_margin`): non-motion rows relaxed by
        ``domain_tolerance``; a constant motion row must hold by more than it; the largest margin
@@ -362,67 +387,50 @@ def interval_admissible(H: np.ndarray, h: np.ndarray, motion: np.ndarray, domain
        ``domain_tolerance`` (its Chebyshev centre), or, when it is thinner than
        ``2 domain_tolerance``, the motion test's point. A side without a bound is replaced by the
        other bound moved by the radius cap (as the capped Chebyshev LP does).
+
+    Returns:
+        ``(admissible (modes,), w (modes,))``.
     """
-    a = H[:, 0]
-    scale = np.abs(a)
-    zero = scale <= zero_row_tolerance * max(1.0, float(np.max(scale, initial=0.0)))
+    scale = np.where(valid, np.abs(a), 0.0)
+    zero = valid & (scale <= zero_row_tolerance * np.maximum(1.0, scale.max(axis=1, initial=0.0))[:, None])
     relaxed = h + np.where(motion, 0.0, domain_tolerance)
-    if np.any(relaxed[zero & ~motion] < 0.0) or np.any(h[zero & motion] <= domain_tolerance):
-        return None
-    lo, hi = _interval(a, relaxed, ~zero & ~motion)
-    if lo > hi:
-        return None
-    moving = ~zero & motion
-    if np.any(moving):
-        w, margin = _best_margin(a[moving], relaxed[moving], lo, hi)
-        if margin is None or margin <= domain_tolerance:
-            return None
-    else:
-        w = min(max(0.0, lo), hi)
-    lo_ball, hi_ball = _interval(a, h + domain_tolerance, ~zero)
-    if np.isfinite(lo_ball) and np.isfinite(hi_ball):
-        if hi_ball - lo_ball > 2.0 * domain_tolerance:
-            return np.array([0.5 * (lo_ball + hi_ball)])
-        return np.array([w])
-    if np.isfinite(lo_ball):
-        return np.array([lo_ball + radius_cap])
-    if np.isfinite(hi_ball):
-        return np.array([hi_ball - radius_cap])
-    return np.array([w])
+    ok = ~((zero & ~motion & (relaxed < 0.0)) | (zero & motion & (h <= domain_tolerance))).any(axis=1)
+    live = valid & ~zero
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ends = np.where(live, relaxed / a, np.nan)  # a_i w <= b_i: w <= end (a > 0) or w >= end (a < 0)
+        ball_ends = np.where(live, (h + domain_tolerance) / a, np.nan)
+    lo, hi = _bounds(ends, a, live & ~motion)
+    moving = live & motion
+    upper, lower = _bounds(ends, a, moving)[::-1]
+    ok &= lo <= hi
+    has_motion = moving.any(axis=1)
+    finite_up, finite_down = np.isfinite(upper), np.isfinite(lower)
+    with np.errstate(invalid="ignore"):  # inf - inf in the branches np.where does not take
+        w = np.where(finite_up & finite_down, 0.5 * (upper + lower),
+                     np.where(finite_up, upper - 1.0, np.where(finite_down, lower + 1.0, 0.0)))
+        w = np.minimum(np.maximum(np.where(has_motion, w, 0.0), lo), hi)
+        margin = np.minimum(1.0, np.minimum(upper - w, w - lower))
+        ok &= ~has_motion | ((margin >= 0.0) & (margin > domain_tolerance))
+        lo_ball, hi_ball = _bounds(ball_ends, a, live)
+        finite_lo, finite_hi = np.isfinite(lo_ball), np.isfinite(hi_ball)
+        one_side = np.where(finite_lo, lo_ball + radius_cap, np.where(finite_hi, hi_ball - radius_cap, w))
+        centre = np.where(finite_lo & finite_hi,
+                          np.where(hi_ball - lo_ball > 2.0 * domain_tolerance, 0.5 * (lo_ball + hi_ball), w),
+                          one_side)
+    return ok, centre
 
 
-def _interval(a: np.ndarray, b: np.ndarray, rows: np.ndarray) -> tuple[float, float]:
-    """``{w: a_i w <= b_i}`` over the chosen rows (none zero), as ``(lo, hi)``."""
-    up, down = rows & (a > 0), rows & (a < 0)
-    hi = float(np.min(b[up] / a[up])) if np.any(up) else np.inf
-    lo = float(np.max(b[down] / a[down])) if np.any(down) else -np.inf
+def _bounds(ends: np.ndarray, a: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per mode, ``(lo, hi)`` of ``{w: a_i w <= b_i}`` over the chosen rows (``ends = b / a``)."""
+    hi = np.where(rows & (a > 0), ends, np.inf).min(axis=1, initial=np.inf)
+    lo = np.where(rows & (a < 0), ends, -np.inf).max(axis=1, initial=-np.inf)
     return lo, hi
-
-
-def _best_margin(a: np.ndarray, b: np.ndarray, lo: float, hi: float) -> tuple[float, float | None]:
-    """Maximise ``t = min(1, min_i (b_i - a_i w) / |a_i|)`` over ``w`` in ``[lo, hi]``.
-
-    Returns ``(w, t)``; ``t`` is None when no ``w`` of the interval has ``t >= 0``.
-    """
-    ends = b / a
-    upper = float(np.min(ends[a > 0])) if np.any(a > 0) else np.inf  # w <= upper - t
-    lower = float(np.max(ends[a < 0])) if np.any(a < 0) else -np.inf  # w >= lower + t
-    if np.isfinite(upper) and np.isfinite(lower):
-        w = 0.5 * (upper + lower)
-    elif np.isfinite(upper):
-        w = upper - 1.0
-    elif np.isfinite(lower):
-        w = lower + 1.0
-    else:
-        w = 0.0
-    w = min(max(w, lo), hi)
-    t = min(1.0, upper - w, w - lower)
-    return w, (t if t >= 0.0 else None)
 
 
 __all__ = [
     "BATCH_MAX_MODES",
     "BatchSolution",
+    "decide_intervals",
     "decide_modes",
     "full_modes",
     "interval_admissible",
