@@ -30,23 +30,10 @@ from frcontrol.errors import CoordinateNotFound, InputError, reason_from_excepti
 from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
-from . import (
-    CONE_COLOR,
-    CONTACT_COLOR,
-    FORCE_COLOR,
-    INACTIVE_CONTACT_COLOR,
-    SURFACE_COLOR,
-    OutputFileError,
-    VizError,
-    friction_cone_directions,
-    link_visuals,
-    pose_matrix,
-    rgba_hex,
-    surface_lines,
-    surface_segments,
-    visual_depth,
-    visual_outline,
-)
+from . import colors as palette
+from .errors import OutputFileError, VizError
+from .geometry import friction_cone_directions, pose_matrix, surface_lines, surface_segments
+from .visuals import link_visuals, visual_depth, visual_outline
 
 __all__ = [
     "HALFPLANE_TOLERANCE",
@@ -409,9 +396,9 @@ def _draw_force_arrows(ax: Any, world: np.ndarray, arrows: np.ndarray, force_sca
     for j in range(len(world)):
         if np.hypot(*arrows[j]) > 0:
             ax.annotate("", xy=world[j] + force_scale * arrows[j], xytext=world[j], zorder=4,
-                        arrowprops={"arrowstyle": "-|>", "color": FORCE_COLOR, "linewidth": 1.5})
+                        arrowprops={"arrowstyle": "-|>", "color": palette.FORCE_COLOR, "linewidth": 1.5})
     ax.text(0.01, 0.01, f"forces: {force_scale:.3g} m/N", transform=ax.transAxes, fontsize=7,
-            color=FORCE_COLOR)
+            color=palette.FORCE_COLOR)
 
 
 def _draw_surface_lines(ax: Any, lines: Sequence[Any], center: np.ndarray, reach: float, band: float) -> None:
@@ -420,9 +407,10 @@ def _draw_surface_lines(ax: Any, lines: Sequence[Any], center: np.ndarray, reach
     for line, (start, end) in zip(lines, surface_segments(lines, center, reach), strict=True):
         behind = -band * line.normal
         strip = np.array([start, end, end + behind, start + behind])
-        ax.add_patch(PolygonPatch(strip, closed=True, facecolor="none", edgecolor=SURFACE_COLOR,
+        ax.add_patch(PolygonPatch(strip, closed=True, facecolor="none", edgecolor=palette.SURFACE_COLOR,
                                   hatch="////", linewidth=0.0, zorder=1))
-        ax.plot([start[0], end[0]], [start[1], end[1]], color=SURFACE_COLOR, linewidth=2.0, zorder=1.5)
+        ax.plot([start[0], end[0]], [start[1], end[1]], color=palette.SURFACE_COLOR, linewidth=2.0,
+                zorder=1.5)
 
 
 def _draw_link_outlines(ax: Any, shapes: Sequence[tuple[float, np.ndarray, Any]]) -> None:
@@ -430,11 +418,11 @@ def _draw_link_outlines(ax: Any, shapes: Sequence[tuple[float, np.ndarray, Any]]
     PolygonPatch = _polygon_patch()
     for depth_rank, (_, outline, visual) in enumerate(sorted(shapes, key=lambda s: s[0])):
         if len(outline) >= 3:
-            ax.add_patch(PolygonPatch(outline, closed=True, facecolor=rgba_hex(visual.rgba),
+            ax.add_patch(PolygonPatch(outline, closed=True, facecolor=palette.rgba_hex(visual.rgba),
                                       edgecolor="0.15", linewidth=0.6, alpha=max(0.3, visual.rgba[3]),
                                       zorder=2 + 0.01 * depth_rank))
         else:
-            ax.plot(outline[:, 0], outline[:, 1], color=rgba_hex(visual.rgba), zorder=2)
+            ax.plot(outline[:, 0], outline[:, 1], color=palette.rgba_hex(visual.rgba), zorder=2)
 
 
 def _draw_contact_points(ax: Any, points: Sequence[Any], world: np.ndarray, touching: np.ndarray,
@@ -446,12 +434,13 @@ def _draw_contact_points(ax: Any, points: Sequence[Any], world: np.ndarray, touc
         if touching[j]:
             e1, e2 = friction_cone_directions(point.normal_in_world, point.mu)
             ax.add_patch(PolygonPatch(np.array([p, p + cone_length * e1, p + cone_length * e2]),
-                                      closed=True, facecolor=CONE_COLOR, edgecolor="#2171b5",
+                                      closed=True, facecolor=palette.CONE_COLOR, edgecolor="#2171b5",
                                       alpha=0.35, linewidth=0.8, zorder=3))
-            ax.plot(*p, marker="o", markersize=5, color=CONTACT_COLOR, markeredgecolor="0.2", zorder=5)
+            ax.plot(*p, marker="o", markersize=5, color=palette.CONTACT_COLOR, markeredgecolor="0.2",
+                    zorder=5)
         else:
             ax.plot(*p, marker="o", markersize=5, markerfacecolor="none",
-                    markeredgecolor=INACTIVE_CONTACT_COLOR, zorder=5)
+                    markeredgecolor=palette.INACTIVE_CONTACT_COLOR, zorder=5)
         if labels:
             ax.annotate(point.name, p, xytext=(4, -10), textcoords="offset points", fontsize=7,
                         color="0.25", zorder=6)
