@@ -154,3 +154,21 @@ def test_statics_figures_have_no_overlap_and_say_what_is_cut(name, lateral, tmp_
         assert x0 <= min(bar.get_xdata()) and max(bar.get_xdata()) <= x1  # cut at the view
         if not support.bounded and lateral and support.region is not None and report.support.feasible:
             assert any("cut at the view" in e for e in entries if e.startswith("support region"))
+
+
+@pytest.mark.parametrize(("name", "lateral", "whole"),
+                         [("snake_climb", 2.0, True), ("box_on_slope", 1.0, False)])
+def test_a_support_region_covering_the_whole_view_is_a_tint_not_a_flood(name, lateral, whole):
+    """The snake braced in its channel may stand anywhere in the view: its region is a faint tint
+    that the legend explains, not dots over the drawing; a region that ends in the view is hatched."""
+    scene = load_scene(name)
+    report = analyze_statics(scene, lateral_acceleration=lateral)
+    ax = figures.plot_statics(scene, report).axes[0]
+    region = next(p for p in ax.patches if p.get_label().startswith("support region"))
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+    A, b = report.support.region.A, report.support.region.b
+    assert bool(np.all(A @ corners.T <= b[:, None] + 1e-9)) == whole  # the oracle: the region itself
+    assert ("covers all of it" in region.get_label()) == whole
+    assert (not region.get_hatch()) == whole
+    assert (region.get_alpha() is not None and region.get_alpha() < 0.1) == whole

@@ -42,6 +42,7 @@ __all__ = [
     "BODY_FACE",
     "CLIMB_WINDOW_MARGIN",
     "STATICS_WINDOW_MARGIN",
+    "SUPPORT_REGION_TOLERANCE",
     "NO_MODE_LABEL",
     "flip_figure",
     "input_slice",
@@ -344,6 +345,11 @@ def _locator(bins: int = 6) -> Any:
 BODY_FACE, BODY_EDGE = "#9ecae1", "#3182bd"
 """Colours of the body's links in the statics figure."""
 
+SUPPORT_REGION_TOLERANCE = 1e-9
+"""Relative to the statics figure's span: a support-region vertex this close to the window's
+edge lies on it (the region is cut there), and a window corner this far outside the region's
+half-planes still counts as inside (the region covers the whole window)."""
+
 STATICS_WINDOW_MARGIN = 0.35
 """The statics figure shows the body's box (links, contacts, centre of mass) enlarged by this
 fraction of its larger side on every side; unbounded support sets are cut at that window."""
@@ -355,7 +361,8 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
     The links are drawn from their URDF visuals (:func:`frcontrol.viz.link_visuals`); the support
     interval of the centre of mass's x is a bar at the centre of mass's height (an arrow head
     where it is unbounded), the planar support region (with a lateral acceleration) is hatched,
-    cut at the window when it is unbounded, and the legend says so.
+    cut at the window when it is unbounded (a faint tint when it covers the whole window), and
+    the legend says so.
 
     Returns:
         The figure (also written to ``path`` when given).
@@ -363,30 +370,75 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
     Raises:
         VizError: matplotlib is missing. OutputFileError: the file cannot be written.
     """
-    from matplotlib.patches import Polygon
-
-    from . import link_visuals, pose_matrix, visual_outline
+    from .plots import REGION_LABEL_STYLE, frame_axes, place_labels
 
     body = report.body
     figure = _figure(figsize=(7.0, 6.4), layout="constrained")
     ax = figure.add_subplot()
+    pts = np.vstack([body.points, body.com[None, :], *_draw_body_links(ax, scene)])
+    span = float(max(np.ptp(pts[:, 0]), np.ptp(pts[:, 1]), 0.2))
+    lo, hi = pts.min(axis=0) - STATICS_WINDOW_MARGIN * span, pts.max(axis=0) + STATICS_WINDOW_MARGIN * span
+    names = _draw_contacts_at_rest(ax, report, span)
+    c = body.com
+    ax.plot(*c, "k+", ms=12, mew=2, zorder=6)
+    if body.weight > 0:
+        ax.annotate("", c + np.array([0.0, -0.25 * span]), c,
+                    arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5}, zorder=6)
+    if report.support.feasible:
+        _draw_support(ax, report.support, c, lo, hi, span)
+    eq = report.equilibrium
+    verdict = (f"form closure: {_yes(report.form_closure.closed)}, force closure: "
+               f"{_yes(report.force_closure.closed)}\nequilibrium: {_yes(eq.exists)}, weakly stable: "
+               f"{_yes(report.weakly_stable)}, strongly stable: {_yes(report.strongly_stable)}")
+    frame_axes(ax, (lo[0], hi[0], lo[1], hi[1]), ("x [m]", "y [m]"), f"{report.scene_name}\n{verdict}")
+    ax.title.set_fontsize(9)
+    ax.set_aspect("equal", adjustable="box")
+    ax.xaxis.set_major_locator(_locator())
+    ax.yaxis.set_major_locator(_locator())
+    if report.support.feasible:
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8)
+    place_labels(ax, names, **{**REGION_LABEL_STYLE, "zorder": 7})
+    if path is not None:
+        _save(figure, path)
+    return figure
+
+
+def _draw_body_links(ax: Any, scene: Scene) -> list[np.ndarray]:
+    """The robot's links at the scene's state, from their URDF visuals; returns their outlines [m]."""
+    from matplotlib.patches import Polygon
+
+    from .geometry import pose_matrix
+    from .visuals import link_visuals, visual_outline
+
     poses = scene.robot.link_poses(scene.q)
-    extent = [body.points, body.com[None, :]]
+    outlines = []
     for link, shapes in link_visuals(scene.robot, [c.point for c in scene.contacts]).items():
         origin, angle = poses[link]
         for visual in shapes:
             outline = visual_outline(visual, pose_matrix(origin, angle))
             ax.add_patch(Polygon(outline, closed=True, zorder=2, facecolor=BODY_FACE, edgecolor=BODY_EDGE))
-            extent.append(outline)
-    pts = np.vstack(extent)
-    span = float(max(np.ptp(pts[:, 0]), np.ptp(pts[:, 1]), 0.2))
-    lo, hi = pts.min(axis=0) - STATICS_WINDOW_MARGIN * span, pts.max(axis=0) + STATICS_WINDOW_MARGIN * span
+            outlines.append(outline)
+    return outlines
+
+
+def _draw_contacts_at_rest(ax: Any, report: StaticsReport, span: float
+                           ) -> list[tuple[str, np.ndarray, float]]:
+    """Each contact: its surface, friction cone and point, and its equilibrium force as an arrow.
+
+    The longest force arrow is 30 % of ``span`` [m], the cones 25 %.
+
+    Returns:
+        The contacts' name labels ``(name, point, importance)``, on the surface's side of each
+        point, for :func:`~frcontrol.viz.plots.place_labels`.
+    """
+    from matplotlib.patches import Polygon
+
+    body, eq = report.body, report.equilibrium
     cone_length = 0.25 * span
-    eq = report.equilibrium
-    force_scale = 0.0
-    if eq.lambda_n is not None and eq.lambda_t is not None:
-        biggest = float(np.max(np.hypot(eq.lambda_n, eq.lambda_t), initial=0.0))
-        force_scale = 0.3 * span / biggest if biggest > 0 else 0.0
+    forces = (None if eq.lambda_n is None or eq.lambda_t is None else
+              np.column_stack([eq.lambda_n, eq.lambda_t]))
+    biggest = 0.0 if forces is None else float(np.max(np.hypot(forces[:, 0], forces[:, 1]), initial=0.0))
+    force_scale = 0.3 * span / biggest if biggest > 0 else 0.0
     names = []
     for i, name in enumerate(body.contact_names):
         p, n, t, mu = body.points[i], body.normals[i], body.tangents[i], body.mu[i]
@@ -397,44 +449,18 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
                              closed=True, facecolor="#fdd0a2", edgecolor="#e6550d", alpha=0.6, zorder=3))
         ax.plot(*p, "o", color="#e6550d", zorder=4)
         names.append((name, p - 0.08 * span * n, 1.0))  # on the surface's side, off the cone
-        if force_scale > 0 and eq.lambda_n is not None and eq.lambda_t is not None:
-            f = eq.lambda_n[i] * n + eq.lambda_t[i] * t
-            ax.annotate("", p + force_scale * f, p, zorder=5,
+        if force_scale > 0 and forces is not None:
+            ax.annotate("", p + force_scale * (forces[i, 0] * n + forces[i, 1] * t), p, zorder=5,
                         arrowprops={"arrowstyle": "->", "color": "#31a354", "lw": 2})
-    c = body.com
-    ax.plot(*c, "k+", ms=12, mew=2, zorder=6)
-    if body.weight > 0:
-        ax.annotate("", c + np.array([0.0, -0.25 * span]), c,
-                    arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5}, zorder=6)
-    sup = report.support
-    if sup.feasible:
-        _draw_support(ax, sup, c, lo, hi, span)
-    ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(lo[1], hi[1])
-    ax.set_aspect("equal", adjustable="box")
-    ax.xaxis.set_major_locator(_locator())
-    ax.yaxis.set_major_locator(_locator())
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    verdict = (f"form closure: {_yes(report.form_closure.closed)}, force closure: "
-               f"{_yes(report.force_closure.closed)}\nequilibrium: {_yes(eq.exists)}, weakly stable: "
-               f"{_yes(report.weakly_stable)}, strongly stable: {_yes(report.strongly_stable)}")
-    ax.set_title(f"{report.scene_name}\n{verdict}", fontsize=9)
-    if sup.feasible:
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8)
-    from .plots import place_labels
-
-    place_labels(ax, names, fontsize=8, zorder=7)
-    if path is not None:
-        _save(figure, path)
-    return figure
+    return names
 
 
 def _draw_support(ax: Any, sup: Any, c: np.ndarray, lo: np.ndarray, hi: np.ndarray, span: float) -> None:
     """The support interval and region of a statics report, cut at the view ``lo``..``hi``.
 
     The interval of the CoM's x is a bar at the CoM's height (arrows where unbounded); the planar
-    region under a lateral acceleration is hatched, and its legend entry says when it is cut.
+    region under a lateral acceleration is hatched, and its legend entry says when it is cut. A
+    region that covers the whole view is a faint tint, not a hatch over everything.
     """
     from matplotlib.patches import Polygon
 
@@ -451,18 +477,24 @@ def _draw_support(ax: Any, sup: Any, c: np.ndarray, lo: np.ndarray, hi: np.ndarr
         end, step = (x0, -1.0) if side == "left" else (x1, 1.0)
         ax.annotate("", (end, c[1]), (end - step * 0.06 * span, c[1]), zorder=2.5,
                     arrowprops={"arrowstyle": "-|>", "color": "#31a354", "lw": 1.5})
-    if sup.lateral_acceleration != 0.0 and sup.region is not None:
-        window = (lo[0], hi[0], lo[1], hi[1])
-        region = polygon_from_halfplanes(sup.region.A, sup.region.b, window)
-        if len(region) >= 3:
-            edge = 1e-9 * span
-            on_window = np.zeros(len(region), dtype=bool)
-            for axis, bound in ((0, lo[0]), (0, hi[0]), (1, lo[1]), (1, hi[1])):
-                on_window |= np.isclose(region[:, axis], bound, atol=edge)
-            cut = ", cut at the view" if np.any(on_window) else ""
-            label = f"support region, |a| <= {sup.lateral_acceleration:g} m/s$^2${cut}"
-            ax.add_patch(Polygon(region, closed=True, facecolor="none", edgecolor="#006d2c", hatch="..",
-                                 lw=1.5, zorder=1, label=label))
+    if sup.lateral_acceleration == 0.0 or sup.region is None:
+        return
+    window = (lo[0], hi[0], lo[1], hi[1])
+    region = polygon_from_halfplanes(sup.region.A, sup.region.b, window)
+    if len(region) < 3:
+        return
+    corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
+    slack = SUPPORT_REGION_TOLERANCE * span * np.linalg.norm(sup.region.A, axis=1)
+    whole = bool(np.all(sup.region.A @ corners.T <= (sup.region.b + slack)[:, None]))
+    on_window = np.zeros(len(region), dtype=bool)
+    for axis, bound in ((0, lo[0]), (0, hi[0]), (1, lo[1]), (1, hi[1])):
+        on_window |= np.isclose(region[:, axis], bound, atol=SUPPORT_REGION_TOLERANCE * span)
+    cut = (", cut at the view: it covers all of it" if whole else
+           ", cut at the view" if np.any(on_window) else "")
+    label = f"support region, |a| <= {sup.lateral_acceleration:g} m/s$^2${cut}"
+    style = ({"facecolor": "#006d2c", "alpha": 0.07, "edgecolor": "none"} if whole else
+             {"facecolor": "none", "edgecolor": "#006d2c", "hatch": "..", "lw": 1.5})
+    ax.add_patch(Polygon(region, closed=True, zorder=1, label=label, **style))
 
 
 def _yes(flag: bool | None) -> str:
