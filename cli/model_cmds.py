@@ -3,18 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
 
 import numpy as np
-import typer
 from rich.table import Table
 
 from frcontrol.scene import load_scene, shipped_robots_dir
 
 from .common import console, handle_errors, print_json, set_quiet
-from .options import JsonOpt, QuietOpt, SetOpt, scene_overrides
-
-SceneArg = Annotated[str, typer.Argument(help="A scene file, or the name of a shipped scene.")]
+from .options import JsonOpt, QuietOpt, SceneArg, SetOpt, scene_overrides
 
 
 @handle_errors

@@ -11,6 +11,10 @@ import typer
 from frcontrol.errors import InputError
 from frcontrol.scene_schema import parse_override
 
+SceneArg = Annotated[
+    str, typer.Argument(metavar="SCENE", help="A scene file, or the name of a shipped scene.")
+]
+
 SetOpt = Annotated[
     list[str] | None,
     typer.Option(
@@ -137,6 +141,7 @@ __all__ = [
     "OutOpt",
     "PortOpt",
     "QuietOpt",
+    "SceneArg",
     "SetOpt",
     "check_out_suffix",
     "html_option",
