@@ -6,9 +6,6 @@ from typing import TYPE_CHECKING, Any
 
 from rich.table import Table
 
-from frcontrol.scene import load_scene
-from frcontrol.scene import parse_input_assignments as parse_input_vector
-
 if TYPE_CHECKING:  # the engine loads when a command runs, not for --help
     from frcontrol.engine import RigidSolution
     from frcontrol.modes import ContactProblem
@@ -42,8 +39,9 @@ def analyze_command(
     """
     common.set_quiet(quiet)
     from frcontrol.engine import analyze, solutions_at
+    from frcontrol.scene import parse_input_assignments as parse_input_vector
 
-    loaded = load_scene(scene, overrides=options.scene_overrides(sets))
+    loaded = options.load_scene_with_overrides(scene, sets)
     assignments = options.parse_inputs(inputs)
     with common.progress("analysing contact modes...") as status:
         result = analyze(loaded, progress=lambda mode: status.update(f"analysing mode {mode}"))

@@ -9,7 +9,6 @@ from rich.table import Table
 
 from frcontrol.planning import DEFAULT_CLIMB_DURATION as DEFAULT_DURATION
 from frcontrol.planning import DEFAULT_CLIMB_MARGIN as DEFAULT_MARGIN
-from frcontrol.scene import load_scene
 
 from . import common, options
 from .common import console
@@ -65,7 +64,7 @@ def climb_command(
     from frcontrol.planning.climb import plan_climb, simulate_climb
 
     common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
-    loaded = load_scene(scene, overrides=options.scene_overrides(sets))
+    loaded = options.load_scene_with_overrides(scene, sets)
     with common.live_viewer(view, port) as server:
         with common.progress("planning the climb..."):
             plan = plan_climb(loaded, margin=margin)

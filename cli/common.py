@@ -15,7 +15,6 @@ import typer
 from rich.console import Console
 
 from frcontrol.errors import FrcontrolError, InputError
-from frcontrol.jsonable import to_jsonable
 
 if TYPE_CHECKING:  # the scene, the simulators and the viewer load when a command runs
     from frcontrol.scene import Scene
@@ -221,7 +220,9 @@ def show_live(server: ViewerServer, scene: Scene, trajectory: Trajectory | None,
 
 
 def print_json(payload: dict[str, Any]) -> None:
-    """Write a JSON document on stdout."""
+    """Write a JSON document on stdout (NumPy values converted by :func:`frcontrol.jsonable.to_jsonable`)."""
+    from frcontrol.jsonable import to_jsonable
+
     sys.stdout.write(json.dumps(to_jsonable(payload), indent=2) + "\n")
 
 
@@ -240,5 +241,4 @@ __all__ = [
     "tell",
     "handle_errors",
     "print_json",
-    "to_jsonable",
 ]

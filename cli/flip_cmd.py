@@ -8,7 +8,6 @@ import typer
 from rich.table import Table
 
 from frcontrol.planning import DEFAULT_FLIP_MARGIN as DEFAULT_MARGIN
-from frcontrol.scene import load_scene
 
 if TYPE_CHECKING:  # the planner loads when the command runs, not for --help
     from frcontrol.planning.flip import FlipPlan, FlipResult
@@ -70,7 +69,7 @@ def flip_command(
     """
     common.set_quiet(quiet)
     common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
-    loaded = load_scene(scene, overrides=options.scene_overrides(sets))
+    loaded = options.load_scene_with_overrides(scene, sets)
     with common.live_viewer(view, port) as server:
         plan, result = _plan_and_fly(loaded, margin, max_time, dt, replan_every)
         payload = plan.to_dict(result)

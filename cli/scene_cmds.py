@@ -9,7 +9,6 @@ from typing import Annotated
 import typer
 
 from frcontrol.errors import SceneError
-from frcontrol.scene import resolve_scene_path, scene_problems
 from frcontrol.scene_schema import SCENE_SCHEMA
 
 from .common import handle_errors, note, print_json, set_quiet
@@ -46,6 +45,8 @@ def validate_command(
       frc validate snake_climb --json
     """
     set_quiet(quiet)
+    from frcontrol.scene import resolve_scene_path, scene_problems
+
     reports = []
     for name in files:
         problems = scene_problems(name)

@@ -9,7 +9,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from rich.table import Table
 
-from frcontrol.scene import load_scene
 from frcontrol.simulation import INTEGRATORS
 
 if TYPE_CHECKING:  # the simulators load when the command runs, not for --help
@@ -91,7 +90,7 @@ def simulate_command(
     """
     common.set_quiet(quiet)
     common.check_outputs(html=html, plot=plot, out=out)
-    loaded = load_scene(scene, overrides=options.scene_overrides(sets))
+    loaded = options.load_scene_with_overrides(scene, sets)
     assignments = options.parse_inputs(inputs)
     traj = _simulate(loaded, model, stiffness, damping, assignments, duration, dt, integrator)
     _report_validity(traj)

@@ -7,8 +7,6 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from frcontrol.scene import load_scene
-
 from . import common, options
 from .common import console
 
@@ -51,7 +49,7 @@ def statics_command(
     from frcontrol.statics import analyze_statics
 
     common.check_outputs(plot=plot, html=html)
-    loaded = load_scene(scene, overrides=options.scene_overrides(sets))
+    loaded = options.load_scene_with_overrides(scene, sets)
     report = analyze_statics(loaded, options.parse_inputs(inputs),
                              lateral_acceleration=lateral_acceleration, strong=not no_strong)
     if plot is not None:  # the files first: a failure leaves no answer on stdout

@@ -5,12 +5,14 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from frcontrol.errors import FrcontrolError
-from frcontrol.scene import Scene, load_scene
+
+if TYPE_CHECKING:  # the scene module loads when the command runs, not for --help
+    from frcontrol.scene import Scene
 
 from . import common, options
 
@@ -55,6 +57,8 @@ def view_command(
         html = Path(f"{Path(scene).stem}.html")
     common.check_outputs(view=view, port=port, plot=plot, html=html)
     overrides = options.scene_overrides(sets)
+    from frcontrol.scene import load_scene
+
     loaded = load_scene(scene, overrides=overrides)
     written: dict[str, str | None] = {"html": None, "plot": None, "url": None, "zmq_url": None}
 
@@ -120,6 +124,8 @@ def _watcher(scene: str, overrides: dict | None, loaded: Scene, show: Callable[[
         if now == watched["stamp"]:
             return
         watched["stamp"] = now
+        from frcontrol.scene import load_scene
+
         try:
             current = load_scene(scene, overrides=overrides)
             show(current)
