@@ -686,12 +686,27 @@ def chromium():
     if executable is None:
         why = ("chromium is not installed: apt-get install chromium (Debian), or set "
                "FRC_CHROMIUM to a Chromium/Chrome executable")
-        if os.environ.get("CI"):  # CI installs it (.ci/run): there, a missing browser is a failure
+        if os.environ.get("CI") == "true":  # CI installs it (.ci/run): there, a missing browser fails
             pytest.fail(f"in CI the browser test must run, but {why}")
         pytest.skip(f"{why} (outside CI only)")
     browser = HeadlessChromium(executable)
     yield browser
     browser.close()
+
+
+@pytest.mark.parametrize(("ci", "outcome"), [("true", "1 error"), ("false", "1 skipped")])
+def test_without_chromium_the_browser_tests_fail_in_ci_and_skip_elsewhere(tmp_path, ci, outcome):
+    """CI must run the browser tests: there a missing Chromium is an error, elsewhere a skip that
+    says why (a PATH with no browser on it, in a pytest of its own)."""
+    env = {**os.environ, "PATH": str(tmp_path), "CI": ci}
+    env.pop("FRC_CHROMIUM", None)
+    target = f"{Path(__file__).name}::test_browser_checks_catch_errors_and_blank_pages"
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider", target],
+                         cwd=Path(__file__).parent, env=env, capture_output=True, text=True, timeout=300)
+    assert outcome in run.stdout, run.stdout[-2000:]
+    reason = "in CI the browser test must run" if ci == "true" else "chromium is not installed"
+    assert reason in run.stdout
+    assert "browser tests (real Chromium):" in run.stdout
 
 
 CAPTION_ROWS = 85
