@@ -14,7 +14,8 @@ from . import common, options
 from .common import console
 
 ClimbSceneArg = Annotated[
-    str, typer.Argument(help="A scene file with [[disturbances]], or the name of a shipped scene.")
+    str, typer.Argument(
+        metavar="SCENE", help="A scene file with [[disturbances]], or the name of a shipped scene.")
 ]
 HtmlOpt = options.html_option("the simulated climb")
 ViewOpt = options.view_option("the simulated climb")

@@ -17,7 +17,8 @@ from . import common, options
 from .common import console
 
 FlipSceneArg = Annotated[
-    str, typer.Argument(help="A scene file with a robot on its back, or the name of a shipped scene.")
+    str, typer.Argument(
+        metavar="SCENE", help="A scene file with a robot on its back, or the name of a shipped scene.")
 ]
 HtmlOpt = options.html_option("the simulated flip")
 ViewOpt = options.view_option("the simulated flip")

@@ -31,7 +31,8 @@ SetOpt = Annotated[
 
 InputOpt = Annotated[
     list[str] | None,
-    typer.Option("--input", "-i", help="An input value NAME=VALUE (repeatable); inputs not named are 0."),
+    typer.Option("--input", "-i", metavar="NAME=VALUE",
+                 help="An input value NAME=VALUE (repeatable); inputs not named are 0."),
 ]
 
 

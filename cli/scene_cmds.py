@@ -33,7 +33,8 @@ def schema_command(
 
 @handle_errors
 def validate_command(
-    files: Annotated[list[str], typer.Argument(help="Scene files, or names of shipped scenes.")],
+    files: Annotated[list[str], typer.Argument(metavar="FILE",
+                                               help="Scene files, or names of shipped scenes.")],
     json_output: JsonOpt = False,
     quiet: QuietOpt = False,
 ) -> None:

@@ -135,3 +135,15 @@ def test_every_readme_example_runs(example, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     result = runner.invoke(app, shlex.split(example)[1:])
     assert result.exit_code == 0, (example, result.stderr[-500:])
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_help_names_arguments_and_repeated_options_in_words(name):
+    """The usage line names arguments in capitals (SCENE, FILE), and --input shows its grammar
+    (NAME=VALUE), not a Python type such as <list[str]>."""
+    result = runner.invoke(app, [name, "-h"])
+    assert result.exit_code == 0
+    usage = result.stdout.splitlines()[0]
+    assert "scene" not in usage and "files" not in usage, usage
+    if "--input" in result.stdout:
+        assert "--input NAME=VALUE" in result.stdout
