@@ -50,10 +50,7 @@ def analyze_command(
     payload = result.to_dict(inactive)
     if solutions is not None:
         payload["solutions"] = [solution_payload(s, result.problem) for s in solutions]
-    if json:
-        common.print_json(payload)
-        return
-    render(payload)
+    common.answer(payload, render, json=json)
 
 
 def render(payload: dict[str, Any]) -> None:

@@ -13,10 +13,7 @@ from frcontrol.planning import DEFAULT_CLIMB_MARGIN as DEFAULT_MARGIN
 from . import common, options
 from .common import console
 
-ClimbSceneArg = Annotated[
-    str, typer.Argument(
-        metavar="SCENE", help="A scene file with [[disturbances]], or the name of a shipped scene.")
-]
+ClimbSceneArg = options.scene_argument("with [[disturbances]]")
 HtmlOpt = options.html_option("the simulated climb")
 ViewOpt = options.view_option("the simulated climb")
 
@@ -78,10 +75,7 @@ def climb_command(
         with common.progress("simulating the climb..."):
             result = simulate_climb(loaded, plan, duration=duration, seed=seed) if duration > 0 else None
         payload = plan.to_dict(result)
-        if json:
-            common.print_json(payload)
-        else:
-            render(payload)
+        common.answer(payload, render, json=json)
         if plot is not None:
             from frcontrol.viz.figures import plot_climb
 

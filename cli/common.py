@@ -219,6 +219,14 @@ def show_live(server: ViewerServer, scene: Scene, trajectory: Trajectory | None,
     serve_until_stopped(server.url)
 
 
+def answer(payload: dict[str, Any], render: Callable[[dict[str, Any]], None], *, json: bool) -> None:
+    """A command's answer: ``payload`` (a result's ``to_dict()``) as JSON on stdout, or ``render``ed."""
+    if json:
+        print_json(payload)
+    else:
+        render(payload)
+
+
 def print_json(payload: dict[str, Any]) -> None:
     """Write a JSON document on stdout (NumPy values converted by :func:`frcontrol.jsonable.to_jsonable`)."""
     from frcontrol.jsonable import to_jsonable
@@ -227,6 +235,7 @@ def print_json(payload: dict[str, Any]) -> None:
 
 
 __all__ = [
+    "answer",
     "check_output_files",
     "check_outputs",
     "live_viewer",

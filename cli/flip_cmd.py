@@ -16,10 +16,7 @@ if TYPE_CHECKING:  # the planner loads when the command runs, not for --help
 from . import common, options
 from .common import console
 
-FlipSceneArg = Annotated[
-    str, typer.Argument(
-        metavar="SCENE", help="A scene file with a robot on its back, or the name of a shipped scene.")
-]
+FlipSceneArg = options.scene_argument("with a robot on its back")
 HtmlOpt = options.html_option("the simulated flip")
 ViewOpt = options.view_option("the simulated flip")
 
@@ -74,10 +71,7 @@ def flip_command(
     with common.live_viewer(view, port) as server:
         plan, result = _plan_and_fly(loaded, margin, max_time, dt, replan_every)
         payload = plan.to_dict(result)
-        if json:
-            common.print_json(payload)
-        else:
-            render(payload)
+        common.answer(payload, render, json=json)
         if plot is not None:
             from frcontrol.viz.figures import plot_flip
 

@@ -14,9 +14,15 @@ from frcontrol.scene_schema import parse_override
 if TYPE_CHECKING:  # the scene module loads when a command runs, not for --help
     from frcontrol.scene import Scene
 
-SceneArg = Annotated[
-    str, typer.Argument(metavar="SCENE", help="A scene file, or the name of a shipped scene.")
-]
+def scene_argument(kind: str = "") -> Any:
+    """The SCENE argument of a command; ``kind`` says what the scene must hold ("with [[disturbances]]")."""
+    return Annotated[
+        str, typer.Argument(metavar="SCENE", help=f"A scene file{' ' + kind if kind else ''}, or the name "
+                            "of a shipped scene."),
+    ]
+
+
+SceneArg = scene_argument()
 
 SetOpt = Annotated[
     list[str] | None,
@@ -166,6 +172,7 @@ __all__ = [
     "load_scene_with_overrides",
     "parse_inputs",
     "plot_option",
+    "scene_argument",
     "scene_overrides",
     "view_option",
 ]

@@ -100,10 +100,7 @@ def simulate_command(
         common.note(f"wrote {plot_trajectory(traj, plot, coordinates=traj.coordinates)}", to_stderr=json)
     common.write_motion(loaded, traj, html=html, out=out, json=json)
     payload = traj.to_dict(loaded)
-    if json:
-        common.print_json(payload)
-    else:
-        render(payload)
+    common.answer(payload, render, json=json)
 
 
 def _simulate(scene: Scene, model: ContactModel | None, stiffness: float | None, damping: float | None,

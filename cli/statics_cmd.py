@@ -65,10 +65,7 @@ def statics_command(
                    for i, name in enumerate(report.body.contact_names)})
         write_html(loaded, trajectory_from_scene(loaded, forces), html)
     payload = report.to_dict()
-    if json:
-        common.print_json(payload)
-    else:
-        render(payload)
+    common.answer(payload, render, json=json)
     for written in (plot, html):
         if written is not None:
             common.note(f"wrote {written}", to_stderr=json)
