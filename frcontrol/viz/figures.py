@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -44,12 +45,16 @@ __all__ = [
     "STATICS_WINDOW_MARGIN",
     "SUPPORT_REGION_TOLERANCE",
     "NO_MODE_LABEL",
+    "FLIP_ZOOM_FRACTION",
+    "FLIP_ZOOM_MARGIN",
     "flip_figure",
+    "flip_zoom_window",
     "input_slice",
     "plot_climb",
     "plot_flip",
     "plot_flip_inputs",
     "plot_flip_motion",
+    "plot_flip_zoom",
     "plot_statics",
 ]
 
@@ -70,6 +75,50 @@ def input_slice(
     others = [k for k in range(A.shape[1]) if k not in axes]
     rhs = b - A[:, others] @ through[others] if others else b
     return A[:, list(axes)], rhs
+
+
+@dataclass(frozen=True)
+class _InputSpace:
+    """The 2-D slice of a plan's input space that the flip figure draws.
+
+    Attributes:
+        plan: the plan (with its analysis).
+        axes: the two planned inputs spanning the slice (indices).
+        through: [N m] the point the slice passes through (the plan, else the box's middle).
+        box: the input box on the two axes, padded by 3 %: (xmin, xmax, ymin, ymax).
+        axis_labels: the two axes' names with their unit.
+    """
+
+    plan: FlipPlan
+    axes: tuple[int, int]
+    through: np.ndarray
+    box: tuple[float, float, float, float]
+    axis_labels: tuple[str, str]
+
+
+def _input_space(plan: FlipPlan, axes: tuple[int, int]) -> _InputSpace:
+    """The slice of ``plan``'s input space spanned by ``axes``, checked.
+
+    Raises:
+        InputError: the plan has no analysis, fewer than two planned inputs, or bad axes.
+    """
+    analysis = plan.analysis
+    if analysis is None:
+        raise InputError("the plan has no analysis to draw (no input was planned at this state)")
+    m = analysis.problem.m
+    if m < 2:
+        raise InputError(f"the input-space picture needs two planned inputs; the plan has {m} "
+                         f"({', '.join(plan.planned_inputs) or 'none'})")
+    if len(set(axes)) != 2 or not all(0 <= a < m for a in axes):
+        raise InputError(f"axes must be two different indices below {m}, got {axes}")
+    problem = analysis.problem
+    names = problem.inputs
+    through = (np.array([plan.torques[n] for n in names]) if plan.mode is not None
+               else 0.5 * (problem.lower + problem.upper))
+    lo, hi = problem.lower[list(axes)], problem.upper[list(axes)]
+    pad = 0.03 * (hi - lo)
+    box = (lo[0] - pad[0], hi[0] + pad[0], lo[1] - pad[1], hi[1] + pad[1])
+    return _InputSpace(plan, axes, through, box, (f"{names[axes[0]]} [N m]", f"{names[axes[1]]} [N m]"))
 
 
 def plot_flip_inputs(
@@ -95,43 +144,19 @@ def plot_flip_inputs(
         VizError: matplotlib is missing.
         OutputFileError: the file cannot be written.
     """
-    from .plots import REGION_LABEL_STYLE, place_labels, plot_polygons
+    from .plots import REGION_LABEL_STYLE, place_labels
 
-    analysis = plan.analysis
-    if analysis is None:
-        raise InputError("the plan has no analysis to draw (no input was planned at this state)")
-    m = analysis.problem.m
-    if m < 2:
-        raise InputError(f"the input-space picture needs two planned inputs; the plan has {m} "
-                         f"({', '.join(plan.planned_inputs) or 'none'})")
-    if len(set(axes)) != 2 or not all(0 <= a < m for a in axes):
-        raise InputError(f"axes must be two different indices below {m}, got {axes}")
-    problem = analysis.problem
-    names = problem.inputs
-    through = (np.array([plan.torques[n] for n in names]) if plan.mode is not None
-               else 0.5 * (problem.lower + problem.upper))
-    lo, hi = problem.lower[list(axes)], problem.upper[list(axes)]
-    pad = 0.03 * (hi - lo)
-    box = (lo[0] - pad[0], hi[0] + pad[0], lo[1] - pad[1], hi[1] + pad[1])
+    space = _input_space(plan, axes)
     if ax is None:
         ax = _figure(figsize=(7.0, 6.0), layout="constrained").add_subplot()
-
-    full = [mode for mode in analysis.feasible_modes if mode.inputs_full_dimensional]
-    flat = [mode for mode in analysis.feasible_modes if not mode.inputs_full_dimensional]
-    labels = (f"{names[axes[0]]} [N m]", f"{names[axes[1]]} [N m]")
-    sets = [input_slice(mode.feasible_input_domain, axes, through) for mode in full]
-    plot_polygons(sets, ax=ax, labels=[mode.mode for mode in full], box=box, alpha=0.25,
-                  axis_labels=labels, legend=False, label_regions=False)
-    region_labels = ax._frcontrol_region_labels
-    _draw_flat_overlapping_and_chosen(ax, plan, flat, axes, through, box, labels)
+    region_labels = _draw_input_space(ax, space, space.box)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize="x-small", ncol=4)
-    ax.set_aspect("equal", adjustable="box")
-    ax.xaxis.set_major_locator(_locator())
-    ax.yaxis.set_major_locator(_locator())
     status = (f"plan: {plan.mode}, pitch acceleration {plan.pitch_acceleration:.4g} rad/s$^2$"
               if plan.found else f"no flip plan{f' (best: {plan.mode})' if plan.mode else ''}")
-    others = [k for k in range(m) if k not in axes]
-    sliced = ("; slice at " + ", ".join(f"{names[k]} = {through[k]:.4g}" for k in others)) if others else ""
+    names = plan.analysis.problem.inputs if plan.analysis is not None else ()
+    others = [k for k in range(len(names)) if k not in axes]
+    sliced = ("; slice at " + ", ".join(f"{names[k]} = {space.through[k]:.4g}" for k in others)
+              if others else "")
     ax.set_title(f"input domains T_c (hatched: two modes), margin {plan.margin:g} N m\n{status}{sliced}",
                  fontsize="small")
     # last: the layout is final, so labels are measured where they will be
@@ -139,6 +164,89 @@ def plot_flip_inputs(
     if path is not None:
         _save(ax.figure, path)
     return ax
+
+
+def _draw_input_space(ax: Any, space: _InputSpace, window: tuple[float, float, float, float]
+                      ) -> list[tuple[str, np.ndarray, float]]:
+    """Every mode's T_c, the overlaps, the chosen pieces and the plan, in ``window``, equal aspect.
+
+    Returns:
+        The region labels ``(mode, centroid, area)`` to place once the figure is laid out.
+    """
+    from .plots import plot_polygons
+
+    analysis = space.plan.analysis
+    assert analysis is not None  # checked by _input_space
+    full = [mode for mode in analysis.feasible_modes if mode.inputs_full_dimensional]
+    flat = [mode for mode in analysis.feasible_modes if not mode.inputs_full_dimensional]
+    sets = [input_slice(mode.feasible_input_domain, space.axes, space.through) for mode in full]
+    plot_polygons(sets, ax=ax, labels=[mode.mode for mode in full], box=window, alpha=0.25,
+                  axis_labels=space.axis_labels, legend=False, label_regions=False)
+    region_labels = ax._frcontrol_region_labels
+    _draw_flat_overlapping_and_chosen(ax, space.plan, flat, space.axes, space.through, window,
+                                      space.axis_labels)
+    ax.set_aspect("equal", adjustable="box")
+    ax.xaxis.set_major_locator(_locator())
+    ax.yaxis.set_major_locator(_locator())
+    return list(region_labels)
+
+
+FLIP_ZOOM_FRACTION = 0.4
+"""The flip figure adds a panel zoomed on the smaller input domains (every full-dimensional T_c
+but the largest) when their box spans less than this fraction of the input box on both axes:
+at that size their colours and labels would not be readable in the whole box."""
+
+FLIP_ZOOM_MARGIN = 0.08
+"""The zoom panel shows the smaller domains' box enlarged by this fraction of its size on every side."""
+
+
+def flip_zoom_window(plan: FlipPlan, *, axes: tuple[int, int] = (0, 1)
+                     ) -> tuple[float, float, float, float] | None:
+    """The window (xmin, xmax, ymin, ymax) of the flip figure's zoom panel, or None if none is needed.
+
+    It frames every full-dimensional T_c of the slice but the largest (by the area of its box), when
+    they span less than :data:`FLIP_ZOOM_FRACTION` of the input box on both axes.
+
+    Raises:
+        InputError: see :func:`plot_flip_inputs`.
+    """
+    from .plots import polygon_from_halfplanes
+
+    space = _input_space(plan, axes)
+    analysis = plan.analysis
+    assert analysis is not None  # checked by _input_space
+    boxes = []
+    for mode in analysis.feasible_modes:
+        if mode.inputs_full_dimensional:
+            A, b = input_slice(mode.feasible_input_domain, axes, space.through)
+            vertices = polygon_from_halfplanes(A, b, space.box)
+            if len(vertices) >= 3:
+                boxes.append((vertices.min(axis=0), vertices.max(axis=0)))
+    boxes.sort(key=lambda lohi: float(np.prod(lohi[1] - lohi[0])))
+    if len(boxes) < 2:
+        return None
+    lo = np.min([low for low, _ in boxes[:-1]], axis=0)
+    hi = np.max([high for _, high in boxes[:-1]], axis=0)
+    whole = np.array([space.box[1] - space.box[0], space.box[3] - space.box[2]])
+    if np.any(hi - lo > FLIP_ZOOM_FRACTION * whole):
+        return None
+    grow = FLIP_ZOOM_MARGIN * np.maximum(hi - lo, 1e-3 * whole)
+    return (lo[0] - grow[0], hi[0] + grow[0], lo[1] - grow[1], hi[1] + grow[1])
+
+
+def plot_flip_zoom(plan: FlipPlan, ax: Any, window: tuple[float, float, float, float], *,
+                   axes: tuple[int, int] = (0, 1)) -> list[tuple[str, np.ndarray, float]]:
+    """Draw the input space in ``window`` (:func:`flip_zoom_window`), titled as a zoom.
+
+    Returns:
+        The region labels, for :func:`~frcontrol.viz.plots.place_labels` once the figure is laid out.
+
+    Raises:
+        InputError: see :func:`plot_flip_inputs`.
+    """
+    labels = _draw_input_space(ax, _input_space(plan, axes), window)
+    ax.set_title("zoom on the smaller domains (the dashed box above)", fontsize="small")
+    return labels
 
 
 def _draw_flat_overlapping_and_chosen(ax: Any, plan: FlipPlan, flat: Sequence[Any], axes: tuple[int, int],
@@ -246,27 +354,40 @@ def plot_flip(result: FlipResult | FlipPlan, path: str | Path, *, axes: tuple[in
 def flip_figure(result: FlipResult | FlipPlan, *, axes: tuple[int, int] = (0, 1)) -> Any:
     """One figure: the input space (left) and, for a simulated flip, the pitch and forces (right).
 
+    When the smaller domains are small in the input box (:func:`flip_zoom_window`), a second panel
+    below the input space zooms on them, and a dashed box in the first shows where.
+
     Raises:
         VizError: matplotlib is missing. InputError: see :func:`plot_flip_inputs`.
     """
+    from matplotlib.patches import Rectangle
+
+    from .plots import REGION_LABEL_STYLE, place_labels
+
     plan = result.plan if isinstance(result, FlipResult) else result
     simulated = isinstance(result, FlipResult) and result.trajectory is not None
-    figure = _figure(figsize=(13.0 if simulated else 7.0, 6.0), layout="constrained")
+    drawable = plan.analysis is not None and plan.analysis.problem.m >= 2
+    window = flip_zoom_window(plan, axes=axes) if drawable else None
+    figure = _figure(figsize=(13.0 if simulated else 7.0, 6.0 if window is None else 10.5),
+                     layout="constrained")
     figure.suptitle(f"{_scene_name(result)}: the flip plan", fontsize="medium")
+    grid = figure.add_gridspec(2, 2 if simulated else 1, width_ratios=[1.0, 1.1] if simulated else None)
+    left = figure.add_subplot(grid[:, 0] if window is None else grid[0, 0])
+    zoom = None if window is None else figure.add_subplot(grid[1, 0])
     if isinstance(result, FlipResult) and result.trajectory is not None:
-        grid = figure.add_gridspec(2, 2, width_ratios=[1.0, 1.1])
-        left = figure.add_subplot(grid[:, 0])
         top = figure.add_subplot(grid[0, 1])
-        bottom = figure.add_subplot(grid[1, 1], sharex=top)
-        plot_flip_motion(result, (top, bottom))
-    else:
-        left = figure.add_subplot()
-    if plan.analysis is not None and plan.analysis.problem.m >= 2:
+        plot_flip_motion(result, (top, figure.add_subplot(grid[1, 1], sharex=top)))
+    zoom_labels = [] if zoom is None or window is None else plot_flip_zoom(plan, zoom, window, axes=axes)
+    if drawable:
         plot_flip_inputs(plan, ax=left, axes=axes)
     else:
         left.text(0.5, 0.5, plan.reason or "no input space to draw", ha="center", va="center",
                   wrap=True, transform=left.transAxes)
         left.set_axis_off()
+    if zoom is not None and window is not None:
+        left.add_patch(Rectangle((window[0], window[2]), window[1] - window[0], window[3] - window[2],
+                                 fill=False, edgecolor="0.2", linestyle="--", linewidth=1.0, zorder=8))
+        place_labels(zoom, zoom_labels, **REGION_LABEL_STYLE)
     return figure
 
 
