@@ -179,3 +179,10 @@ def test_the_readme_table_lists_every_option_of_every_command(name):
     documented = set(re.findall(r"--[a-z][a-z-]*", rows[name]))
     options = {opt for param in COMMANDS[name].params for opt in param.opts if opt.startswith("--")}
     assert documented == options - EVERY_COMMAND_OPTIONS, (documented, options)
+
+
+def test_help_texts_keep_their_brackets():
+    """Units and table names in brackets are text, not markup: [s], [N/m] and [model] show."""
+    shown = " ".join(runner.invoke(app, ["simulate", "-h"], terminal_width=200).stdout.split())
+    for text in ("Simulated time [s]", "[N/m]", "the scene's [model]"):
+        assert text in shown, text
