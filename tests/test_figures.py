@@ -204,3 +204,16 @@ def test_the_flip_figure_zooms_on_the_small_domains_and_labels_them(flip):
         in_main = {t.get_text() for t in main.texts}
         in_zoom = {t.get_text() for t in zoom.texts}
         assert in_zoom <= set(boxes) and len(in_main | in_zoom) > len(in_main)
+
+
+@pytest.mark.parametrize("name", shipped_scene_names())
+def test_scene_pictures_have_no_overlap_and_equal_aspect(name):
+    """`frc view SCENE --plot`: the contacts' names, ticks and title never collide; x and y in metres
+    share one scale."""
+    from frcontrol.viz.plots import plot_scene
+
+    ax = plot_scene(load_scene(name))
+    assert text_overlaps(ax.figure) == []
+    assert ax.get_aspect() == 1.0
+    contacts = {c.name for c in load_scene(name).contacts}
+    assert contacts <= {t.get_text() for t in ax.texts}
