@@ -863,3 +863,20 @@ def test_the_page_has_play_pause_a_time_slider_and_shows_time_and_mode(chromium,
     assert not seen["playingAfterSeek"]
     assert seen["playingAfterClick"] and seen["label"] == "pause"
     assert not seen["playingAfterSecondClick"]
+
+
+def test_the_still_page_of_frc_view_frames_the_robot_in_the_centre(chromium, tmp_path, monkeypatch):
+    """`frc view rhex_flip` (no flag): the page it writes shows RHex in the middle of the view below
+    the caption, not off to one side, and fills neither the width nor the height."""
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(view_app, ["rhex_flip", "-q"])
+    assert result.exit_code == 0, result.stderr
+    png, errors, _ = chromium.load((tmp_path / "rhex_flip.html").as_uri())
+    assert errors == []
+    image = read_png(png)
+    height, width = image.shape[:2]
+    left, right, top, bottom = robot_box(image)
+    view_top = mv.CAPTION_FRACTION * height
+    assert abs((left + right) / 2 - width / 2) < 0.1 * width, (left, right, width)
+    assert abs((top + bottom) / 2 - (view_top + height) / 2) < 0.12 * height, (top, bottom, height)
+    assert right - left < width - 10 and bottom - top < 0.9 * (height - view_top)
