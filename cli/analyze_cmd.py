@@ -6,16 +6,12 @@ from typing import TYPE_CHECKING, Any
 
 from rich.table import Table
 
-from frcontrol.scene import load_scene
-from frcontrol.scene import parse_input_assignments as parse_input_vector
-
 if TYPE_CHECKING:  # the engine loads when a command runs, not for --help
-    from frcontrol.engine import DynamicResponse, RigidSolution
+    from frcontrol.engine import RigidSolution
     from frcontrol.modes import ContactProblem
 
-from .common import console, handle_errors, print_json, progress, set_quiet
-from .model_cmds import SceneArg
-from .options import InputOpt, JsonOpt, QuietOpt, SetOpt, parse_inputs, scene_overrides
+from . import common, options
+from .common import console
 
 
 def solution_payload(solution: RigidSolution, problem: ContactProblem) -> dict[str, Any]:
@@ -25,18 +21,13 @@ def solution_payload(solution: RigidSolution, problem: ContactProblem) -> dict[s
     return solution_report(problem, solution)
 
 
-def analysis_payload(result: DynamicResponse, inactive: list[str]) -> dict[str, Any]:
-    """The ``frc analyze --json`` document (without solutions): ``DynamicResponse.to_dict``."""
-    return result.to_dict(inactive)
-
-
-@handle_errors
+@common.handle_errors
 def analyze_command(
-    scene: SceneArg,
-    inputs: InputOpt = None,
-    json: JsonOpt = False,
-    sets: SetOpt = None,
-    quiet: QuietOpt = False,
+    scene: options.SceneArg,
+    inputs: options.InputOpt = None,
+    json: options.JsonOpt = False,
+    sets: options.SetOpt = None,
+    quiet: options.QuietOpt = False,
 ) -> None:
     """Every contact mode at the scene's state: response, domain, ambiguity; with --input, the solutions.
 
@@ -46,22 +37,20 @@ def analyze_command(
       frc analyze rod_on_table --input x=1 --input theta=0.5 --json
       frc analyze rod_on_table --set contacts.tip.mu=0.3 --input x=1
     """
-    set_quiet(quiet)
+    common.set_quiet(quiet)
     from frcontrol.engine import analyze, solutions_at
+    from frcontrol.scene import parse_input_assignments as parse_input_vector
 
-    loaded = load_scene(scene, overrides=scene_overrides(sets))
-    assignments = parse_inputs(inputs)
-    with progress("analysing contact modes...") as status:
+    loaded = options.load_scene_with_overrides(scene, sets)
+    assignments = options.parse_inputs(inputs)
+    with common.progress("analysing contact modes...") as status:
         result = analyze(loaded, progress=lambda mode: status.update(f"analysing mode {mode}"))
         solutions = solutions_at(result, parse_input_vector(loaded, assignments)) if inputs else None
     inactive = [c.name for c in loaded.contacts if not c.active]
-    payload = analysis_payload(result, inactive)
+    payload = result.to_dict(inactive)
     if solutions is not None:
         payload["solutions"] = [solution_payload(s, result.problem) for s in solutions]
-    if json:
-        print_json(payload)
-        return
-    render(payload)
+    common.answer(payload, render, json=json)
 
 
 def render(payload: dict[str, Any]) -> None:
@@ -102,7 +91,6 @@ def render(payload: dict[str, Any]) -> None:
 
 
 __all__ = [
-    "analysis_payload",
     "analyze_command",
     "render",
     "solution_payload",

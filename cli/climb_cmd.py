@@ -2,51 +2,23 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import Annotated, Any
 
 import typer
 from rich.table import Table
 
 from frcontrol.planning import DEFAULT_CLIMB_DURATION as DEFAULT_DURATION
 from frcontrol.planning import DEFAULT_CLIMB_MARGIN as DEFAULT_MARGIN
-from frcontrol.scene import load_scene
 
-if TYPE_CHECKING:  # the planner loads when the command runs, not for --help
-    from frcontrol.planning.climb import ClimbPlan, ClimbResult
+from . import common, options
+from .common import console
 
-from .common import (
-    check_output_files,
-    console,
-    fail,
-    handle_errors,
-    note,
-    print_json,
-    progress,
-    serve_until_stopped,
-    set_quiet,
-    tell,
-)
-from .options import (
-    JsonOpt,
-    OutOpt,
-    PortOpt,
-    QuietOpt,
-    SetOpt,
-    check_out_suffix,
-    html_option,
-    plot_option,
-    scene_overrides,
-    view_option,
-)
+ClimbSceneArg = options.scene_argument("with [[disturbances]]")
+HtmlOpt = options.html_option("the simulated climb")
+ViewOpt = options.view_option("the simulated climb")
 
-ClimbSceneArg = Annotated[
-    str, typer.Argument(help="A scene file with [[disturbances]], or the name of a shipped scene.")
-]
-HtmlOpt = html_option("the simulated climb")
-ViewOpt = view_option("the simulated climb")
-
-PlotOpt = plot_option("per disturbance, its polytope, the largest scale found and the robust "
-                      "region at the planned torques")
+PlotOpt = options.plot_option("per disturbance, its polytope, the largest scale found and the "
+                              "robust region at the planned torques")
 MarginOpt = Annotated[
     float,
     typer.Option("--margin", min=0.0,
@@ -60,25 +32,20 @@ DurationOpt = Annotated[
 SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of the sampled disturbances.")]
 
 
-def climb_payload(plan: ClimbPlan, result: ClimbResult | None) -> dict[str, Any]:
-    """The ``frc climb --json`` document: ``ClimbPlan.to_dict(result)``."""
-    return plan.to_dict(result)
-
-
-@handle_errors
+@common.handle_errors
 def climb_command(
     scene: ClimbSceneArg = "snake_climb",
-    json: JsonOpt = False,
+    json: options.JsonOpt = False,
     html: HtmlOpt = None,
-    out: OutOpt = None,
+    out: options.OutOpt = None,
     view: ViewOpt = False,
-    port: PortOpt = None,
+    port: options.PortOpt = None,
     plot: PlotOpt = None,
     margin: MarginOpt = DEFAULT_MARGIN,
     duration: DurationOpt = DEFAULT_DURATION,
     seed: SeedOpt = 0,
-    sets: SetOpt = None,
-    quiet: QuietOpt = False,
+    sets: options.SetOpt = None,
+    quiet: options.QuietOpt = False,
 ) -> None:
     """Plan the snake climb: torques holding the brace in mode F for every disturbance.
 
@@ -91,52 +58,33 @@ def climb_command(
       frc climb --plot climb.png
       frc climb --margin 0.2 --json
     """
-    set_quiet(quiet)
+    common.set_quiet(quiet)
     from frcontrol.planning.climb import plan_climb, simulate_climb
 
-    if port is not None and not view:
-        raise fail("--port needs --view")
-    check_output_files(plot=plot, html=html, out=out)
-    check_out_suffix(out)
-    loaded = load_scene(scene, overrides=scene_overrides(sets))
-    with progress("planning the climb..."):
-        plan = plan_climb(loaded, margin=margin)
-    if not plan.found:  # an answer, not an error (exit 0): the JSON says why
-        if json:
-            print_json(climb_payload(plan, None))
-        else:
-            console.print(f"no climb plan: {plan.reason}")
-        return
-    with progress("simulating the climb..."):
-        result = simulate_climb(loaded, plan, duration=duration, seed=seed) if duration > 0 else None
-    payload = climb_payload(plan, result)
-    if json:
-        print_json(payload)
-    else:
-        render(payload)
-    if plot is not None:
-        from frcontrol.viz.figures import plot_climb
+    common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
+    loaded = options.load_scene_with_overrides(scene, sets)
+    with common.live_viewer(view, port) as server:
+        with common.progress("planning the climb..."):
+            plan = plan_climb(loaded, margin=margin)
+        if not plan.found:  # an answer, not an error (exit 0): the JSON says why
+            if json:
+                common.print_json(plan.to_dict(None))
+            else:
+                console.print(f"no climb plan: {plan.reason}")
+            return
+        with common.progress("simulating the climb..."):
+            result = simulate_climb(loaded, plan, duration=duration, seed=seed) if duration > 0 else None
+        payload = plan.to_dict(result)
+        common.answer(payload, render, json=json)
+        if plot is not None:
+            from frcontrol.viz.figures import plot_climb
 
-        plot_climb(plan, plot)
-        note(f"wrote {plot}", to_stderr=json)
-    trajectory = None if result is None else result.trajectory
-    if html is not None:
-        from frcontrol.viz.meshcat_view import write_html
-
-        note(f"wrote {write_html(loaded, trajectory, html)}", to_stderr=json)
-    if out is not None:
-        if trajectory is None:
-            note("no trajectory (nothing was simulated): --out not written", to_stderr=True)
-        else:
-            from frcontrol.simulation.export import save_trajectory
-
-            note(f"wrote {save_trajectory(loaded, trajectory, out)}", to_stderr=json)
-    if view:
-        from frcontrol.viz.meshcat_view import serve
-
-        url = serve(loaded, trajectory, port)
-        tell(f"meshcat viewer: {url}", to_stderr=json)
-        serve_until_stopped(url)
+            plot_climb(plan, plot)
+            common.note(f"wrote {plot}", to_stderr=json)
+        trajectory = None if result is None else result.trajectory
+        common.write_motion(loaded, trajectory, html=html, out=out, json=json)
+        if server is not None:
+            common.show_live(server, loaded, trajectory, json=json)
 
 
 def render(payload: dict[str, Any]) -> None:
@@ -169,6 +117,5 @@ def render(payload: dict[str, Any]) -> None:
 
 __all__ = [
     "climb_command",
-    "climb_payload",
     "render",
 ]

@@ -5,16 +5,21 @@ from __future__ import annotations
 import json
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from functools import wraps
 from pathlib import Path
-from typing import Any, ParamSpec, TypeVar
+from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 import typer
 from rich.console import Console
 
 from frcontrol.errors import FrcontrolError, InputError
-from frcontrol.jsonable import to_jsonable
+
+if TYPE_CHECKING:  # the scene, the simulators and the viewer load when a command runs
+    from frcontrol.scene import Scene
+    from frcontrol.simulation.trajectory import Trajectory
+    from frcontrol.viz.meshcat_view import ViewerServer
 
 console = Console()
 P = ParamSpec("P")
@@ -121,12 +126,25 @@ def handle_errors(func: Callable[P, R]) -> Callable[P, R]:
     return wrapper
 
 
+def check_outputs(*, view: bool = False, port: int | None = None, **files: Path | None) -> None:
+    """Refuse, before any work, ``--port`` without ``--view`` and any output file that cannot be written.
+
+    Raises:
+        typer.Exit: ``--port`` without ``--view`` (exit 1, one line on stderr).
+        InputError: see :func:`check_output_files`.
+    """
+    if port is not None and not view:
+        raise fail("--port needs --view")
+    check_output_files(**files)
+
+
 def check_output_files(**files: Path | None) -> None:
     """Refuse, before any work, an output file that cannot be written (``plot=path, html=path``).
 
     Raises:
-        InputError: the path is a directory, its folder does not exist or is not writable, or a
-            ``--plot`` file's suffix is no image format matplotlib writes.
+        InputError: the path is a directory, its folder does not exist or is not writable, a
+            ``--plot`` file's suffix is no image format matplotlib writes, or an ``--out`` file's
+            is neither ``.npz`` nor ``.csv``.
     """
     for option, path in files.items():
         if path is None:
@@ -146,15 +164,83 @@ def check_output_files(**files: Path | None) -> None:
             if path.suffix.lower().lstrip(".") not in formats:
                 raise InputError(f"{flag} {str(path)!r}: the suffix must name an image format "
                                  f"({', '.join('.' + f for f in sorted(formats))})")
+        if option == "out":
+            from .options import check_out_suffix
+
+            check_out_suffix(path)
+
+
+def write_motion(scene: Scene, trajectory: Trajectory | None, *, html: Path | None, out: Path | None,
+                 json: bool, modes: Sequence[str] | None = None) -> None:
+    """Write a command's ``--html`` page and ``--out`` export of its motion, and say where.
+
+    With no trajectory (nothing was simulated) the page shows the scene's state and ``--out`` is
+    not written, which stderr says.
+    """
+    if html is not None:
+        from frcontrol.viz.meshcat_view import write_html
+
+        note(f"wrote {write_html(scene, trajectory, html, modes=modes)}", to_stderr=json)
+    if out is None:
+        return
+    if trajectory is None:
+        note("no trajectory (nothing was simulated): --out not written", to_stderr=True)
+        return
+    from frcontrol.simulation.export import save_trajectory
+
+    note(f"wrote {save_trajectory(scene, trajectory, out)}", to_stderr=json)
+
+
+@contextmanager
+def live_viewer(view: bool, port: int | None) -> Iterator[ViewerServer | None]:
+    """The ``--view`` server (None without ``--view``), stopped when the command ends in any way.
+
+    It starts before the work, so that a taken port fails first.
+    """
+    if not view:
+        yield None
+        return
+    from frcontrol.viz.meshcat_view import start_server, stop_server
+
+    server = start_server(port)
+    try:
+        yield server
+    finally:
+        stop_server(server.url)
+
+
+def show_live(server: ViewerServer, scene: Scene, trajectory: Trajectory | None, *, json: bool,
+              modes: Sequence[str] | None = None) -> None:
+    """Draw the motion into the ``--view`` server, print its URL and serve until Ctrl-C or SIGTERM."""
+    from frcontrol.viz.meshcat_view import draw
+
+    draw(server.visualizer(), scene, trajectory, modes=modes)
+    tell(f"meshcat viewer: {server.url}", to_stderr=json)
+    serve_until_stopped(server.url)
+
+
+def answer(payload: dict[str, Any], render: Callable[[dict[str, Any]], None], *, json: bool) -> None:
+    """A command's answer: ``payload`` (a result's ``to_dict()``) as JSON on stdout, or ``render``ed."""
+    if json:
+        print_json(payload)
+    else:
+        render(payload)
 
 
 def print_json(payload: dict[str, Any]) -> None:
-    """Write a JSON document on stdout."""
+    """Write a JSON document on stdout (NumPy values converted by :func:`frcontrol.jsonable.to_jsonable`)."""
+    from frcontrol.jsonable import to_jsonable
+
     sys.stdout.write(json.dumps(to_jsonable(payload), indent=2) + "\n")
 
 
 __all__ = [
+    "answer",
     "check_output_files",
+    "check_outputs",
+    "live_viewer",
+    "show_live",
+    "write_motion",
     "fail",
     "note",
     "progress",
@@ -164,5 +250,4 @@ __all__ = [
     "tell",
     "handle_errors",
     "print_json",
-    "to_jsonable",
 ]

@@ -8,44 +8,20 @@ import typer
 from rich.table import Table
 
 from frcontrol.planning import DEFAULT_FLIP_MARGIN as DEFAULT_MARGIN
-from frcontrol.scene import load_scene
 
 if TYPE_CHECKING:  # the planner loads when the command runs, not for --help
     from frcontrol.planning.flip import FlipPlan, FlipResult
+    from frcontrol.scene import Scene
 
-from .common import (
-    check_output_files,
-    console,
-    fail,
-    handle_errors,
-    note,
-    print_json,
-    progress,
-    serve_until_stopped,
-    set_quiet,
-    tell,
-)
-from .options import (
-    JsonOpt,
-    OutOpt,
-    PortOpt,
-    QuietOpt,
-    SetOpt,
-    check_out_suffix,
-    html_option,
-    plot_option,
-    scene_overrides,
-    view_option,
-)
+from . import common, options
+from .common import console
 
-FlipSceneArg = Annotated[
-    str, typer.Argument(help="A scene file with a robot on its back, or the name of a shipped scene.")
-]
-HtmlOpt = html_option("the simulated flip")
-ViewOpt = view_option("the simulated flip")
+FlipSceneArg = options.scene_argument("with a robot on its back")
+HtmlOpt = options.html_option("the simulated flip")
+ViewOpt = options.view_option("the simulated flip")
 
-PlotOpt = plot_option("the input space (every mode's domain, the ambiguous overlaps hatched, "
-                      "the plan) and the pitch and contact forces over the simulated time")
+PlotOpt = options.plot_option("the input space (every mode's domain, the ambiguous overlaps "
+                              "hatched, the plan) and the pitch and contact forces over the simulated time")
 MarginOpt = Annotated[
     float,
     typer.Option("--margin", min=0.0, help="Distance [N m] kept between the plan and every input "
@@ -60,26 +36,21 @@ DtOpt = Annotated[float, typer.Option("--dt", min=1e-6, help="Time step [s] of t
 ReplanOpt = Annotated[int, typer.Option("--replan-every", min=1, help="Steps between two plans.")]
 
 
-def flip_payload(plan: FlipPlan, result: FlipResult | None) -> dict[str, Any]:
-    """The ``frc flip --json`` document: ``FlipPlan.to_dict(result)``."""
-    return plan.to_dict(result)
-
-
-@handle_errors
+@common.handle_errors
 def flip_command(
     scene: FlipSceneArg = "rhex_flip",
-    json: JsonOpt = False,
+    json: options.JsonOpt = False,
     html: HtmlOpt = None,
-    out: OutOpt = None,
+    out: options.OutOpt = None,
     view: ViewOpt = False,
-    port: PortOpt = None,
+    port: options.PortOpt = None,
     plot: PlotOpt = None,
     margin: MarginOpt = DEFAULT_MARGIN,
     max_time: MaxTimeOpt = 2.0,
     dt: DtOpt = 1e-3,
     replan_every: ReplanOpt = 10,
-    sets: SetOpt = None,
-    quiet: QuietOpt = False,
+    sets: options.SetOpt = None,
+    quiet: options.QuietOpt = False,
 ) -> None:
     """Plan the flip: hip torques maximising the body's pitch acceleration, unambiguously.
 
@@ -94,62 +65,37 @@ def flip_command(
       frc flip --margin 0.5 --json
       frc flip --set contacts.front_corner.mu=0.5 --out flip.csv
     """
-    set_quiet(quiet)
-    from frcontrol.planning.flip import plan_flip, simulate_flip
-
-    if port is not None and not view:
-        raise fail("--port needs --view")
-    check_output_files(plot=plot, html=html, out=out)
-    check_out_suffix(out)
-    from frcontrol.viz.meshcat_view import stop_server
-
-    loaded = load_scene(scene, overrides=scene_overrides(sets))
-    server = None
-    if view:  # fail on a taken port before the work, not after it
-        from frcontrol.viz.meshcat_view import start_server
-
-        server = start_server(port)
-    try:
-        with progress("planning the flip...") as status:
-            plan = plan_flip(loaded, margin=margin)
-            result = None
-            if plan.found and max_time > 0:
-                status.update(f"simulating the flip (up to {max_time:g} s)...")
-                result = simulate_flip(
-                    loaded, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin, plan=plan,
-                    progress=lambda t, total: status.update(f"simulating the flip: {t:.3f} / {total:g} s"))
-        payload = flip_payload(plan, result)
-        if json:
-            print_json(payload)
-        else:
-            render(payload)
+    common.set_quiet(quiet)
+    common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
+    loaded = options.load_scene_with_overrides(scene, sets)
+    with common.live_viewer(view, port) as server:
+        plan, result = _plan_and_fly(loaded, margin, max_time, dt, replan_every)
+        payload = plan.to_dict(result)
+        common.answer(payload, render, json=json)
         if plot is not None:
             from frcontrol.viz.figures import plot_flip
 
-            note(f"wrote {plot_flip(result if result is not None else plan, plot)}", to_stderr=json)
+            common.note(f"wrote {plot_flip(result if result is not None else plan, plot)}", to_stderr=json)
         trajectory = None if result is None else result.trajectory
         modes = None if result is None else list(result.modes)
-        if html is not None:
-            from frcontrol.viz.meshcat_view import write_html
-
-            note(f"wrote {write_html(loaded, trajectory, html, modes=modes)}", to_stderr=json)
-        if out is not None:
-            if trajectory is None:
-                note("no trajectory (nothing was simulated): --out not written", to_stderr=True)
-            else:
-                from frcontrol.simulation.export import save_trajectory
-
-                note(f"wrote {save_trajectory(loaded, trajectory, out)}", to_stderr=json)
+        common.write_motion(loaded, trajectory, html=html, out=out, json=json, modes=modes)
         if server is not None:
-            from frcontrol.viz.meshcat_view import draw
+            common.show_live(server, loaded, trajectory, json=json, modes=modes)
 
-            draw(server.visualizer(), loaded, trajectory, modes=modes)
-            tell(f"meshcat viewer: {server.url}", to_stderr=json)
-            serve_until_stopped(server.url)
-    except BaseException:
-        if server is not None:
-            stop_server(server.url)
-        raise
+
+def _plan_and_fly(scene: Scene, margin: float, max_time: float, dt: float, replan_every: int
+                  ) -> tuple[FlipPlan, FlipResult | None]:
+    """The plan and, when one is found and ``max_time`` > 0, the simulated closed loop."""
+    from frcontrol.planning.flip import plan_flip, simulate_flip
+
+    with common.progress("planning the flip...") as status:
+        plan = plan_flip(scene, margin=margin)
+        if not plan.found or max_time <= 0:
+            return plan, None
+        status.update(f"simulating the flip (up to {max_time:g} s)...")
+        return plan, simulate_flip(
+            scene, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin, plan=plan,
+            progress=lambda t, total: status.update(f"simulating the flip: {t:.3f} / {total:g} s"))
 
 
 def render(payload: dict[str, Any]) -> None:
@@ -191,6 +137,5 @@ def render(payload: dict[str, Any]) -> None:
 
 __all__ = [
     "flip_command",
-    "flip_payload",
     "render",
 ]

@@ -3,18 +3,11 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
 
-import numpy as np
-import typer
 from rich.table import Table
 
-from frcontrol.scene import load_scene, shipped_robots_dir
-
 from .common import console, handle_errors, print_json, set_quiet
-from .options import JsonOpt, QuietOpt, SetOpt, scene_overrides
-
-SceneArg = Annotated[str, typer.Argument(help="A scene file, or the name of a shipped scene.")]
+from .options import JsonOpt, QuietOpt, SceneArg, SetOpt, scene_overrides
 
 
 @handle_errors
@@ -26,6 +19,8 @@ def robots(json: JsonOpt = False, quiet: QuietOpt = False) -> None:
       frc robots --json
     """
     set_quiet(quiet)
+    from frcontrol.scene import shipped_robots_dir
+
     root = shipped_robots_dir()
     if json:
         print_json({"folder": str(root),
@@ -44,6 +39,8 @@ def robots(json: JsonOpt = False, quiet: QuietOpt = False) -> None:
 
 def show_payload(scene_file: str | Path, overrides: dict | None = None) -> dict:
     """The ``frc show --json`` document for a scene."""
+    from frcontrol.scene import load_scene
+
     scene = load_scene(scene_file, overrides=overrides)
     state = scene.robot.state(scene.q, scene.v)
     contacts = {}
@@ -96,6 +93,8 @@ def show(scene: SceneArg, json: JsonOpt = False, sets: SetOpt = None, quiet: Qui
     for i, name in enumerate(names):
         mass.add_row(name, *[f"{x:.4g}" for x in payload["mass_matrix"][i]], f"{payload['bias'][i]:.4g}")
     console.print(mass)
+    import numpy as np
+
     rows = Table(title="contacts (rows J_N, J_T over the coordinates)")
     for col in ("contact", "active", "gap [m]", "v_n", "v_t", "J_N", "J_T"):
         rows.add_column(col, overflow="fold")

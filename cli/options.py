@@ -4,12 +4,25 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from frcontrol.errors import InputError
 from frcontrol.scene_schema import parse_override
+
+if TYPE_CHECKING:  # the scene module loads when a command runs, not for --help
+    from frcontrol.scene import Scene
+
+def scene_argument(kind: str = "") -> Any:
+    """The SCENE argument of a command; ``kind`` says what the scene must hold ("with [[disturbances]]")."""
+    return Annotated[
+        str, typer.Argument(metavar="SCENE", help=f"A scene file{' ' + kind if kind else ''}, or the name "
+                            "of a shipped scene."),
+    ]
+
+
+SceneArg = scene_argument()
 
 SetOpt = Annotated[
     list[str] | None,
@@ -24,7 +37,8 @@ SetOpt = Annotated[
 
 InputOpt = Annotated[
     list[str] | None,
-    typer.Option("--input", "-i", help="An input value NAME=VALUE (repeatable); inputs not named are 0."),
+    typer.Option("--input", "-i", metavar="NAME=VALUE",
+                 help="An input value NAME=VALUE (repeatable); inputs not named are 0."),
 ]
 
 
@@ -94,6 +108,20 @@ def scene_overrides(assignments: list[str] | None) -> dict[str, Any]:
     return out
 
 
+def load_scene_with_overrides(scene: str, assignments: list[str] | None) -> Scene:
+    """The scene a command names (a file or a shipped scene's name), with its ``--set`` overrides.
+
+    The scene module (and Pinocchio) loads here, when a command runs, not for ``--help``.
+
+    Raises:
+        SceneError: see :func:`frcontrol.scene.load_scene`.
+        InputError: see :func:`scene_overrides`.
+    """
+    from frcontrol.scene import load_scene
+
+    return load_scene(scene, overrides=scene_overrides(assignments))
+
+
 def plot_option(what: str) -> Any:
     """The ``--plot FILE`` option of a command, ``what`` saying what its figure shows."""
     return Annotated[
@@ -137,11 +165,14 @@ __all__ = [
     "OutOpt",
     "PortOpt",
     "QuietOpt",
+    "SceneArg",
     "SetOpt",
     "check_out_suffix",
     "html_option",
+    "load_scene_with_overrides",
     "parse_inputs",
     "plot_option",
+    "scene_argument",
     "scene_overrides",
     "view_option",
 ]

@@ -9,7 +9,6 @@ from typing import Annotated
 import typer
 
 from frcontrol.errors import SceneError
-from frcontrol.scene import resolve_scene_path, scene_problems
 from frcontrol.scene_schema import SCENE_SCHEMA
 
 from .common import handle_errors, note, print_json, set_quiet
@@ -34,7 +33,8 @@ def schema_command(
 
 @handle_errors
 def validate_command(
-    files: Annotated[list[str], typer.Argument(help="Scene files, or names of shipped scenes.")],
+    files: Annotated[list[str], typer.Argument(metavar="FILE",
+                                               help="Scene files, or names of shipped scenes.")],
     json_output: JsonOpt = False,
     quiet: QuietOpt = False,
 ) -> None:
@@ -46,6 +46,8 @@ def validate_command(
       frc validate snake_climb --json
     """
     set_quiet(quiet)
+    from frcontrol.scene import resolve_scene_path, scene_problems
+
     reports = []
     for name in files:
         problems = scene_problems(name)

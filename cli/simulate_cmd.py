@@ -9,27 +9,14 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from rich.table import Table
 
-from frcontrol.scene import load_scene
 from frcontrol.simulation import INTEGRATORS
 
 if TYPE_CHECKING:  # the simulators load when the command runs, not for --help
     from frcontrol.scene import Scene
     from frcontrol.simulation.trajectory import Trajectory
 
-from .common import check_output_files, console, fail, handle_errors, note, print_json, progress, set_quiet
-from .model_cmds import SceneArg
-from .options import (
-    InputOpt,
-    JsonOpt,
-    OutOpt,
-    QuietOpt,
-    SetOpt,
-    check_out_suffix,
-    html_option,
-    parse_inputs,
-    plot_option,
-    scene_overrides,
-)
+from . import common, options
+from .common import console
 
 MAX_EVENTS_SHOWN = 40
 """Events listed in the table (all of them are in ``--json``)."""
@@ -66,31 +53,26 @@ IntegratorOpt = Annotated[
     str,
     typer.Option("--integrator", help=f"Compliant model's integrator: {', '.join(INTEGRATORS)}."),
 ]
-HtmlOpt = html_option("the trajectory")
-PlotOpt = plot_option("every coordinate and the contact forces over time, contact events marked")
+HtmlOpt = options.html_option("the trajectory")
+PlotOpt = options.plot_option("every coordinate and the contact forces over time, contact events marked")
 
 
-def trajectory_payload(traj: Trajectory, scene: Scene | None = None) -> dict[str, Any]:
-    """The ``frc simulate --json`` document: :meth:`~frcontrol.simulation.Trajectory.to_dict`."""
-    return traj.to_dict(scene)
-
-
-@handle_errors
+@common.handle_errors
 def simulate_command(
-    scene: SceneArg,
+    scene: options.SceneArg,
     model: ModelOpt = None,
     stiffness: StiffnessOpt = None,
     damping: DampingOpt = None,
     dt: DtOpt = 1e-3,
     duration: DurationOpt = 1.0,
-    inputs: InputOpt = None,
+    inputs: options.InputOpt = None,
     integrator: IntegratorOpt = "radau",
-    json: JsonOpt = False,
+    json: options.JsonOpt = False,
     html: HtmlOpt = None,
     plot: PlotOpt = None,
-    out: OutOpt = None,
-    sets: SetOpt = None,
-    quiet: QuietOpt = False,
+    out: options.OutOpt = None,
+    sets: options.SetOpt = None,
+    quiet: options.QuietOpt = False,
 ) -> None:
     """Simulate a scene: contact events, energy and constraint drift over time.
 
@@ -106,47 +88,54 @@ def simulate_command(
       frc simulate rhex_flip --input hip_rear=5 -T 0.2 --out run.npz --html run.html
       frc simulate rod_on_table -T 0.3 --plot rod.png
     """
-    set_quiet(quiet)
+    common.set_quiet(quiet)
+    common.check_outputs(html=html, plot=plot, out=out)
+    loaded = options.load_scene_with_overrides(scene, sets)
+    assignments = options.parse_inputs(inputs)
+    traj = _simulate(loaded, model, stiffness, damping, assignments, duration, dt, integrator)
+    _report_validity(traj)
+    if plot is not None:
+        from frcontrol.viz.plots import plot_trajectory
+
+        common.note(f"wrote {plot_trajectory(traj, plot, coordinates=traj.coordinates)}", to_stderr=json)
+    common.write_motion(loaded, traj, html=html, out=out, json=json)
+    payload = traj.to_dict(loaded)
+    common.answer(payload, render, json=json)
+
+
+def _simulate(scene: Scene, model: ContactModel | None, stiffness: float | None, damping: float | None,
+              inputs: dict[str, float], duration: float, dt: float, integrator: str) -> Trajectory:
+    """The run on the chosen contact model (default: the scene's [model] contact).
+
+    Raises:
+        typer.Exit: --stiffness or --damping with the rigid model.
+    """
     from frcontrol.simulation.compliant import simulate_compliant
     from frcontrol.simulation.model_table import model_options
     from frcontrol.simulation.rigid import simulate_rigid
 
-    check_output_files(html=html, plot=plot, out=out)
-    check_out_suffix(out)
-    loaded = load_scene(scene, overrides=scene_overrides(sets))
-    chosen = model.value if model is not None else model_options(loaded).contact
+    chosen = model.value if model is not None else model_options(scene).contact
     if chosen == "rigid" and (stiffness is not None or damping is not None):
-        raise fail("--stiffness and --damping belong to the compliant model: add --model compliant")
-    assignments = parse_inputs(inputs)
-    with progress(f"simulating {duration:g} s on the {chosen} model..."):
+        raise common.fail("--stiffness and --damping belong to the compliant model: add --model compliant")
+    with common.progress(f"simulating {duration:g} s on the {chosen} model..."):
         if chosen == "rigid":
-            traj = simulate_rigid(loaded, assignments, duration, dt)
-        else:
-            traj = simulate_compliant(loaded, assignments, duration, dt, integrator=integrator,
-                                      stiffness=stiffness, damping=damping)
+            return simulate_rigid(scene, inputs, duration, dt)
+        return simulate_compliant(scene, inputs, duration, dt, integrator=integrator,
+                                  stiffness=stiffness, damping=damping)
+
+
+def _report_validity(traj: Trajectory) -> None:
+    """Each validity warning as one line on stderr; a run that failed or diverged exits 1, saying why.
+
+    Raises:
+        typer.Exit: the run did not complete.
+    """
     for warning in traj.warnings:
         sys.stderr.write(f"frc: warning: t = {warning.time:.6g} s: {warning.kind}: {warning.detail}\n")
     failure = traj.failure
     if failure is not None:
         hint = f"; {failure.hint}" if failure.hint else ""
-        raise fail(f"the simulation {traj.status} at t = {failure.time:.6g} s: {failure.reason}{hint}")
-    if html is not None:
-        from frcontrol.viz.meshcat_view import write_html
-
-        note(f"wrote {write_html(loaded, traj, html)}", to_stderr=json)
-    if plot is not None:
-        from frcontrol.viz.plots import plot_trajectory
-
-        note(f"wrote {plot_trajectory(traj, plot, coordinates=traj.coordinates)}", to_stderr=json)
-    if out is not None:
-        from frcontrol.simulation.export import save_trajectory
-
-        note(f"wrote {save_trajectory(loaded, traj, out)}", to_stderr=json)
-    payload = trajectory_payload(traj, loaded)
-    if json:
-        print_json(payload)
-    else:
-        render(payload)
+        raise common.fail(f"the simulation {traj.status} at t = {failure.time:.6g} s: {failure.reason}{hint}")
 
 
 def render(payload: dict[str, Any]) -> None:
@@ -184,5 +173,4 @@ __all__ = [
     "MAX_EVENTS_SHOWN",
     "render",
     "simulate_command",
-    "trajectory_payload",
 ]

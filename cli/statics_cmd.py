@@ -2,32 +2,17 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import Annotated, Any
 
 import typer
 from rich.table import Table
 
-from frcontrol.scene import load_scene
+from . import common, options
+from .common import console
 
-if TYPE_CHECKING:  # the statics load when the command runs, not for --help
-    from frcontrol.statics import StaticsReport
-
-from .common import check_output_files, console, handle_errors, note, print_json, set_quiet
-from .model_cmds import SceneArg
-from .options import (
-    InputOpt,
-    JsonOpt,
-    QuietOpt,
-    SetOpt,
-    html_option,
-    parse_inputs,
-    plot_option,
-    scene_overrides,
-)
-
-HtmlOpt = html_option("the body at rest with its equilibrium contact forces")
-PlotOpt = plot_option("the body, its contacts, friction cones and equilibrium forces, and the "
-                      "support interval and region")
+HtmlOpt = options.html_option("the body at rest with its equilibrium contact forces")
+PlotOpt = options.plot_option("the body, its contacts, friction cones and equilibrium forces, and "
+                              "the support interval and region")
 LateralOpt = Annotated[
     float,
     typer.Option("--lateral-acceleration", min=0.0,
@@ -40,22 +25,17 @@ WeakOnlyOpt = Annotated[
 ]
 
 
-def statics_payload(report: StaticsReport) -> dict[str, Any]:
-    """The ``frc statics --json`` document: :meth:`~frcontrol.statics.StaticsReport.to_dict`."""
-    return report.to_dict()
-
-
-@handle_errors
+@common.handle_errors
 def statics_command(
-    scene: SceneArg,
-    json: JsonOpt = False,
+    scene: options.SceneArg,
+    json: options.JsonOpt = False,
     plot: PlotOpt = None,
     html: HtmlOpt = None,
-    inputs: InputOpt = None,
+    inputs: options.InputOpt = None,
     lateral_acceleration: LateralOpt = 0.0,
     no_strong: WeakOnlyOpt = False,
-    sets: SetOpt = None,
-    quiet: QuietOpt = False,
+    sets: options.SetOpt = None,
+    quiet: options.QuietOpt = False,
 ) -> None:
     """Form and force closure, static equilibrium, support region, weak and strong stability at rest.
 
@@ -65,14 +45,14 @@ def statics_command(
       frc statics snake_climb --lateral-acceleration 2 --plot statics.png
       frc statics disk_in_wedge --html disk.html
     """
-    set_quiet(quiet)
+    common.set_quiet(quiet)
     from frcontrol.statics import analyze_statics
 
-    check_output_files(plot=plot, html=html)
-    loaded = load_scene(scene, overrides=scene_overrides(sets))
-    report = analyze_statics(loaded, parse_inputs(inputs), lateral_acceleration=lateral_acceleration,
-                             strong=not no_strong)
-    if plot is not None:
+    common.check_outputs(plot=plot, html=html)
+    loaded = options.load_scene_with_overrides(scene, sets)
+    report = analyze_statics(loaded, options.parse_inputs(inputs),
+                             lateral_acceleration=lateral_acceleration, strong=not no_strong)
+    if plot is not None:  # the files first: a failure leaves no answer on stdout
         from frcontrol.viz.figures import plot_statics
 
         plot_statics(loaded, report, plot)
@@ -84,14 +64,11 @@ def statics_command(
                   {name: (equilibrium.lambda_n[i], equilibrium.lambda_t[i])
                    for i, name in enumerate(report.body.contact_names)})
         write_html(loaded, trajectory_from_scene(loaded, forces), html)
-    payload = statics_payload(report)
-    if json:
-        print_json(payload)
-        return
-    render(payload)
+    payload = report.to_dict()
+    common.answer(payload, render, json=json)
     for written in (plot, html):
         if written is not None:
-            note(f"wrote {written}")
+            common.note(f"wrote {written}", to_stderr=json)
 
 
 def _yes(flag: bool | None) -> str:
@@ -151,5 +128,4 @@ def render(payload: dict[str, Any]) -> None:
 __all__ = [
     "render",
     "statics_command",
-    "statics_payload",
 ]

@@ -5,37 +5,19 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from frcontrol.errors import FrcontrolError
-from frcontrol.scene import Scene, load_scene
 
-from .common import (
-    check_output_files,
-    fail,
-    handle_errors,
-    note,
-    print_json,
-    serve_until_stopped,
-    set_quiet,
-    wait_until_stopped,
-)
-from .model_cmds import SceneArg
-from .options import (
-    JsonOpt,
-    PortOpt,
-    QuietOpt,
-    SetOpt,
-    html_option,
-    plot_option,
-    scene_overrides,
-    view_option,
-)
+if TYPE_CHECKING:  # the scene module loads when the command runs, not for --help
+    from frcontrol.scene import Scene
 
-HtmlOpt = html_option("the scene")
-ViewOpt = view_option("the scene")
+from . import common, options
+
+HtmlOpt = options.html_option("the scene")
+ViewOpt = options.view_option("the scene")
 
 WatchOpt = Annotated[
     bool,
@@ -43,20 +25,20 @@ WatchOpt = Annotated[
                  "the --view server and rewrite --html. A scene that no longer loads is reported on "
                  "stderr and the last good one stays. Runs until Ctrl-C or SIGTERM."),
 ]
-PlotOpt = plot_option("a 2-D picture of the scene")
+PlotOpt = options.plot_option("a 2-D picture of the scene")
 
 
-@handle_errors
+@common.handle_errors
 def view_command(
-    scene: SceneArg,
+    scene: options.SceneArg,
     html: HtmlOpt = None,
     view: ViewOpt = False,
-    port: PortOpt = None,
+    port: options.PortOpt = None,
     plot: PlotOpt = None,
     watch: WatchOpt = False,
-    json: JsonOpt = False,
-    sets: SetOpt = None,
-    quiet: QuietOpt = False,
+    json: options.JsonOpt = False,
+    sets: options.SetOpt = None,
+    quiet: options.QuietOpt = False,
 ) -> None:
     """Show a scene's state: robot, contacts, surfaces and friction cones.
 
@@ -70,13 +52,13 @@ def view_command(
       frc view rhex_flip --view --port 7000
       frc view my_scene.toml --view --watch
     """
-    set_quiet(quiet)
-    if port is not None and not view:
-        raise fail("--port needs --view")
+    common.set_quiet(quiet)
     if html is None and plot is None and not view:
         html = Path(f"{Path(scene).stem}.html")
-    check_output_files(plot=plot, html=html)
-    overrides = scene_overrides(sets)
+    common.check_outputs(view=view, port=port, plot=plot, html=html)
+    overrides = options.scene_overrides(sets)
+    from frcontrol.scene import load_scene
+
     loaded = load_scene(scene, overrides=overrides)
     written: dict[str, str | None] = {"html": None, "plot": None, "url": None, "zmq_url": None}
 
@@ -86,13 +68,13 @@ def view_command(
             from frcontrol.viz.meshcat_view import write_html
 
             written["html"] = str(Path(write_html(current, None, html)).resolve())
-            note(f"wrote {written['html']}", to_stderr=json)
+            common.note(f"wrote {written['html']}", to_stderr=json)
         if plot is not None:
             from frcontrol.viz.plots import plot_scene
 
             plot_scene(current, plot)
             written["plot"] = str(plot)
-            note(f"wrote {plot}", to_stderr=json)
+            common.note(f"wrote {plot}", to_stderr=json)
         if written["url"] is not None:
             from frcontrol.viz.meshcat_view import redraw
 
@@ -105,16 +87,16 @@ def view_command(
         written["url"] = url = serve(loaded, None, port)
         written["zmq_url"] = server_at(url).zmq_url
     if json:
-        print_json({"scene": loaded.name, **written})
+        common.print_json({"scene": loaded.name, **written})
     elif view:
         typer.echo(f"meshcat viewer: {written['url']}")
     sys.stdout.flush()
     tick = _watcher(scene, overrides, loaded, show) if watch else None
     if view:
-        serve_until_stopped(str(written["url"]), tick)
+        common.serve_until_stopped(str(written["url"]), tick)
     elif watch:
-        note("watching; Ctrl-C (or SIGTERM) stops", to_stderr=True)
-        wait_until_stopped(tick)
+        common.note("watching; Ctrl-C (or SIGTERM) stops", to_stderr=True)
+        common.wait_until_stopped(tick)
 
 
 def _watcher(scene: str, overrides: dict | None, loaded: Scene, show: Callable[[Scene], None]
@@ -142,6 +124,8 @@ def _watcher(scene: str, overrides: dict | None, loaded: Scene, show: Callable[[
         if now == watched["stamp"]:
             return
         watched["stamp"] = now
+        from frcontrol.scene import load_scene
+
         try:
             current = load_scene(scene, overrides=overrides)
             show(current)
@@ -150,7 +134,7 @@ def _watcher(scene: str, overrides: dict | None, loaded: Scene, show: Callable[[
             return
         watched["files"] = files_of(current)
         watched["stamp"] = stamp(watched["files"])
-        note(f"reloaded {current.path}", to_stderr=True)
+        common.note(f"reloaded {current.path}", to_stderr=True)
 
     return tick
 

@@ -17,14 +17,19 @@ from .errors import (
     SceneError,
     SolverNotFound,
 )
-from .model import ContactPoint, PlanarRobot, RobotState
-from .scene import Contact, Inputs, Scene, load_scene
 
 __version__ = "0.1.0"
 
-# The main calls, imported on first use so that ``import frcontrol`` stays light (the engine, the
-# planners and SciPy load only when asked for).
+# The scene, the model and the main calls, imported on first use so that ``import frcontrol`` stays
+# light (Pinocchio, the engine, the planners and SciPy load only when asked for).
 _LAZY = {
+    "ContactPoint": "frcontrol.model",
+    "PlanarRobot": "frcontrol.model",
+    "RobotState": "frcontrol.model",
+    "Contact": "frcontrol.scene",
+    "Inputs": "frcontrol.scene",
+    "Scene": "frcontrol.scene",
+    "load_scene": "frcontrol.scene",
     "analyze": "frcontrol.engine",
     "solutions_at": "frcontrol.engine",
     "analyze_statics": "frcontrol.statics",
@@ -37,7 +42,7 @@ _LAZY = {
 
 
 def __getattr__(name: str):
-    """``frcontrol.analyze`` and the other main calls of :data:`_LAZY`, imported on first use."""
+    """``frcontrol.load_scene``, ``frcontrol.analyze``... (the names of :data:`_LAZY`) on first use."""
     if name in _LAZY:
         import importlib
 

@@ -135,3 +135,54 @@ def test_every_readme_example_runs(example, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     result = runner.invoke(app, shlex.split(example)[1:])
     assert result.exit_code == 0, (example, result.stderr[-500:])
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_help_names_arguments_and_repeated_options_in_words(name):
+    """The usage line names arguments in capitals (SCENE, FILE), and --input shows its grammar
+    (NAME=VALUE), not a Python type such as <list[str]>."""
+    result = runner.invoke(app, [name, "-h"])
+    assert result.exit_code == 0
+    usage = result.stdout.splitlines()[0]
+    assert "scene" not in usage and "files" not in usage, usage
+    if "--input" in result.stdout:
+        assert "--input NAME=VALUE" in result.stdout
+
+
+EVERY_COMMAND_OPTIONS = {"--help", "--set", "--quiet"}
+"""Options of (nearly) every command, documented once below the README's command table."""
+
+
+def readme_command_rows() -> dict[str, str]:
+    """The README's command table: the command's name -> its row's first cell (the synopsis)."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    table = text.split("## Command line", 1)[1].split("\n\n", 2)[1]
+    rows = {}
+    for line in table.splitlines():
+        cells = line.replace("\\|", "/").split("|")  # an escaped bar is part of a cell
+        synopsis = cells[1].strip().strip("`") if line.startswith("| `frc ") else ""
+        if synopsis and synopsis != "frc --help":
+            rows[synopsis.split()[1]] = synopsis
+    return rows
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_the_readme_table_lists_every_option_of_every_command(name):
+    """Each command's row in the README names exactly the long options its --help has (less
+    --help, --set and --quiet, which the text below the table documents for every command)."""
+    import re
+
+    rows = readme_command_rows()
+    assert name in rows, f"the README's command table has no row for frc {name}"
+    documented = set(re.findall(r"--[a-z][a-z-]*", rows[name]))
+    options = {opt for param in COMMANDS[name].params for opt in param.opts if opt.startswith("--")}
+    assert documented == options - EVERY_COMMAND_OPTIONS, (documented, options)
+
+
+def test_help_texts_keep_their_brackets():
+    """Units and table names in brackets are text, not markup: [s], [N/m] and [model] show."""
+    shown = " ".join(runner.invoke(app, ["simulate", "-h"], terminal_width=200).stdout.split())
+    for text in ("Simulated time [s]", "[N/m]", "the scene's [model]"):
+        assert text in shown, text

@@ -154,3 +154,66 @@ def test_statics_figures_have_no_overlap_and_say_what_is_cut(name, lateral, tmp_
         assert x0 <= min(bar.get_xdata()) and max(bar.get_xdata()) <= x1  # cut at the view
         if not support.bounded and lateral and support.region is not None and report.support.feasible:
             assert any("cut at the view" in e for e in entries if e.startswith("support region"))
+
+
+@pytest.mark.parametrize(("name", "lateral", "whole"),
+                         [("snake_climb", 2.0, True), ("box_on_slope", 1.0, False)])
+def test_a_support_region_covering_the_whole_view_is_a_tint_not_a_flood(name, lateral, whole):
+    """The snake braced in its channel may stand anywhere in the view: its region is a faint tint
+    that the legend explains, not dots over the drawing; a region that ends in the view is hatched."""
+    scene = load_scene(name)
+    report = analyze_statics(scene, lateral_acceleration=lateral)
+    ax = figures.plot_statics(scene, report).axes[0]
+    region = next(p for p in ax.patches if p.get_label().startswith("support region"))
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+    A, b = report.support.region.A, report.support.region.b
+    assert bool(np.all(A @ corners.T <= b[:, None] + 1e-9)) == whole  # the oracle: the region itself
+    assert ("covers all of it" in region.get_label()) == whole
+    assert (not region.get_hatch()) == whole
+    assert (region.get_alpha() is not None and region.get_alpha() < 0.1) == whole
+
+
+def test_the_flip_figure_zooms_on_the_small_domains_and_labels_them(flip):
+    """RHex's smaller mode domains sit within a few N m of zero torque in a +-40 N m box: a second
+    panel frames every one of them (checked against their vertices), at equal aspect, and labels
+    more modes than the whole box can."""
+    from frcontrol.viz.plots import polygon_from_halfplanes
+
+    scene, plan, result = flip
+    window = figures.flip_zoom_window(plan)
+    assert window is not None
+    problem = plan.analysis.problem
+    through = np.array([plan.torques[n] for n in problem.inputs])
+    boxes = {}
+    for mode in plan.analysis.feasible_modes:
+        if mode.inputs_full_dimensional:
+            A, b = figures.input_slice(mode.feasible_input_domain, (0, 1), through)
+            v = polygon_from_halfplanes(A, b, (-50.0, 50.0, -50.0, 50.0))
+            boxes[mode.mode] = (v.min(axis=0), v.max(axis=0))
+    largest = max(boxes, key=lambda name: np.prod(boxes[name][1] - boxes[name][0]))
+    for name, (low, high) in boxes.items():
+        if name != largest:
+            assert window[0] < low[0] and high[0] < window[1] and window[2] < low[1] and high[1] < window[3]
+    span = problem.upper - problem.lower
+    assert window[1] - window[0] < 0.5 * span[0] and window[3] - window[2] < 0.5 * span[1]  # a real zoom
+    for figure in (figures.flip_figure(result), figures.flip_figure(plan)):
+        main, zoom = figure.axes[0], figure.axes[1]
+        assert zoom.get_xlim() == pytest.approx(window[:2]) and zoom.get_ylim() == pytest.approx(window[2:])
+        assert zoom.get_aspect() == 1.0 and text_overlaps(figure) == []
+        in_main = {t.get_text() for t in main.texts}
+        in_zoom = {t.get_text() for t in zoom.texts}
+        assert in_zoom <= set(boxes) and len(in_main | in_zoom) > len(in_main)
+
+
+@pytest.mark.parametrize("name", shipped_scene_names())
+def test_scene_pictures_have_no_overlap_and_equal_aspect(name):
+    """`frc view SCENE --plot`: the contacts' names, ticks and title never collide; x and y in metres
+    share one scale."""
+    from frcontrol.viz.plots import plot_scene
+
+    ax = plot_scene(load_scene(name))
+    assert text_overlaps(ax.figure) == []
+    assert ax.get_aspect() == 1.0
+    contacts = {c.name for c in load_scene(name).contacts}
+    assert contacts <= {t.get_text() for t in ax.texts}

@@ -92,3 +92,20 @@ def test_the_cli_json_is_the_result_to_dict(command):
     assert out.exit_code == 0, out.stderr
     got = json.loads(out.stdout)
     assert _without_timings(got) == _without_timings(json.loads(json.dumps(want)))
+
+
+def test_the_cli_and_the_package_load_no_pinocchio_until_a_command_runs(tmp_path):
+    """`frc --help` imports the app and its commands only: not Pinocchio, NumPy or a planner; the
+    scene and the model load on first use, as the same objects as from their modules."""
+    code = ("import sys, frcontrol, frcontrol.cli.app\n"
+            "heavy = [m for m in ('pinocchio', 'numpy', 'frcontrol.model', 'frcontrol.scene', 'scipy') "
+            "if m in sys.modules]\n"
+            "print(','.join(heavy))\n"
+            "from frcontrol import Scene, load_scene\n"
+            "import frcontrol.model, frcontrol.scene\n"
+            "print(load_scene is frcontrol.scene.load_scene and Scene is frcontrol.scene.Scene "
+            "and frcontrol.PlanarRobot is frcontrol.model.PlanarRobot)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
+                         timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines() == ["", "True"], out.stdout

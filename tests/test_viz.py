@@ -686,12 +686,27 @@ def chromium():
     if executable is None:
         why = ("chromium is not installed: apt-get install chromium (Debian), or set "
                "FRC_CHROMIUM to a Chromium/Chrome executable")
-        if os.environ.get("CI"):  # CI installs it (.ci/run): there, a missing browser is a failure
+        if os.environ.get("CI") == "true":  # CI installs it (.ci/run): there, a missing browser fails
             pytest.fail(f"in CI the browser test must run, but {why}")
         pytest.skip(f"{why} (outside CI only)")
     browser = HeadlessChromium(executable)
     yield browser
     browser.close()
+
+
+@pytest.mark.parametrize(("ci", "outcome"), [("true", "1 error"), ("false", "1 skipped")])
+def test_without_chromium_the_browser_tests_fail_in_ci_and_skip_elsewhere(tmp_path, ci, outcome):
+    """CI must run the browser tests: there a missing Chromium is an error, elsewhere a skip that
+    says why (a PATH with no browser on it, in a pytest of its own)."""
+    env = {**os.environ, "PATH": str(tmp_path), "CI": ci}
+    env.pop("FRC_CHROMIUM", None)
+    target = f"{Path(__file__).name}::test_browser_checks_catch_errors_and_blank_pages"
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider", target],
+                         cwd=Path(__file__).parent, env=env, capture_output=True, text=True, timeout=300)
+    assert outcome in run.stdout, run.stdout[-2000:]
+    reason = "in CI the browser test must run" if ci == "true" else "chromium is not installed"
+    assert reason in run.stdout
+    assert "browser tests (real Chromium):" in run.stdout
 
 
 CAPTION_ROWS = 85
@@ -848,3 +863,20 @@ def test_the_page_has_play_pause_a_time_slider_and_shows_time_and_mode(chromium,
     assert not seen["playingAfterSeek"]
     assert seen["playingAfterClick"] and seen["label"] == "pause"
     assert not seen["playingAfterSecondClick"]
+
+
+def test_the_still_page_of_frc_view_frames_the_robot_in_the_centre(chromium, tmp_path, monkeypatch):
+    """`frc view rhex_flip` (no flag): the page it writes shows RHex in the middle of the view below
+    the caption, not off to one side, and fills neither the width nor the height."""
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(view_app, ["rhex_flip", "-q"])
+    assert result.exit_code == 0, result.stderr
+    png, errors, _ = chromium.load((tmp_path / "rhex_flip.html").as_uri())
+    assert errors == []
+    image = read_png(png)
+    height, width = image.shape[:2]
+    left, right, top, bottom = robot_box(image)
+    view_top = mv.CAPTION_FRACTION * height
+    assert abs((left + right) / 2 - width / 2) < 0.1 * width, (left, right, width)
+    assert abs((top + bottom) / 2 - (view_top + height) / 2) < 0.12 * height, (top, bottom, height)
+    assert right - left < width - 10 and bottom - top < 0.9 * (height - view_top)

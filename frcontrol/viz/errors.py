@@ -1,4 +1,8 @@
-"""The viewer's and the figures' errors."""
+"""The viewer's and the figures' errors.
+
+Each carries the data that explains it as attributes, set in one place (:class:`VizError`), and a
+message built from them.
+"""
 
 from __future__ import annotations
 
@@ -10,7 +14,17 @@ __all__ = ["OutputFileError", "PortInUse", "ViewerServerError", "VizError"]
 
 
 class VizError(FrcontrolError):
-    """Base class of the errors raised while drawing, writing or serving a picture."""
+    """Base class of the errors raised while drawing, writing or serving a picture.
+
+    Args:
+        message: the one line shown to the user.
+        **data: the error's data, kept as attributes of the same names.
+    """
+
+    def __init__(self, message: str, **data: object) -> None:
+        for name, value in data.items():
+            setattr(self, name, value)
+        super().__init__(message)
 
 
 class PortInUse(VizError):
@@ -21,21 +35,25 @@ class PortInUse(VizError):
         port: the port asked for.
     """
 
+    host: str
+    port: int
+
     def __init__(self, host: str, port: int) -> None:
-        self.host = host
-        self.port = int(port)
-        super().__init__(
-            f"port {port} on {host} is already in use: choose another port, or give none to let "
-            "meshcat take the first free one from 7000"
-        )
+        super().__init__(f"port {port} on {host} is already in use: choose another port, or give none "
+                         "to let meshcat take the first free one from 7000", host=host, port=int(port))
 
 
 class ViewerServerError(VizError):
-    """The meshcat server could not be started (or stopped answering)."""
+    """The meshcat server could not be started (or stopped answering).
+
+    Attributes:
+        reason: what went wrong.
+    """
+
+    reason: str
 
     def __init__(self, reason: str) -> None:
-        self.reason = reason
-        super().__init__(f"meshcat server: {reason}")
+        super().__init__(f"meshcat server: {reason}", reason=reason)
 
 
 class OutputFileError(VizError):
@@ -46,7 +64,8 @@ class OutputFileError(VizError):
         reason: what went wrong.
     """
 
+    path: str
+    reason: str
+
     def __init__(self, path: str | Path, reason: str) -> None:
-        self.path = str(path)
-        self.reason = reason
-        super().__init__(f"cannot write {self.path}: {reason}")
+        super().__init__(f"cannot write {path}: {reason}", path=str(path), reason=reason)

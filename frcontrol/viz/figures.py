@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -42,13 +43,18 @@ __all__ = [
     "BODY_FACE",
     "CLIMB_WINDOW_MARGIN",
     "STATICS_WINDOW_MARGIN",
+    "SUPPORT_REGION_TOLERANCE",
     "NO_MODE_LABEL",
+    "FLIP_ZOOM_FRACTION",
+    "FLIP_ZOOM_MARGIN",
     "flip_figure",
+    "flip_zoom_window",
     "input_slice",
     "plot_climb",
     "plot_flip",
     "plot_flip_inputs",
     "plot_flip_motion",
+    "plot_flip_zoom",
     "plot_statics",
 ]
 
@@ -69,6 +75,50 @@ def input_slice(
     others = [k for k in range(A.shape[1]) if k not in axes]
     rhs = b - A[:, others] @ through[others] if others else b
     return A[:, list(axes)], rhs
+
+
+@dataclass(frozen=True)
+class _InputSpace:
+    """The 2-D slice of a plan's input space that the flip figure draws.
+
+    Attributes:
+        plan: the plan (with its analysis).
+        axes: the two planned inputs spanning the slice (indices).
+        through: [N m] the point the slice passes through (the plan, else the box's middle).
+        box: the input box on the two axes, padded by 3 %: (xmin, xmax, ymin, ymax).
+        axis_labels: the two axes' names with their unit.
+    """
+
+    plan: FlipPlan
+    axes: tuple[int, int]
+    through: np.ndarray
+    box: tuple[float, float, float, float]
+    axis_labels: tuple[str, str]
+
+
+def _input_space(plan: FlipPlan, axes: tuple[int, int]) -> _InputSpace:
+    """The slice of ``plan``'s input space spanned by ``axes``, checked.
+
+    Raises:
+        InputError: the plan has no analysis, fewer than two planned inputs, or bad axes.
+    """
+    analysis = plan.analysis
+    if analysis is None:
+        raise InputError("the plan has no analysis to draw (no input was planned at this state)")
+    m = analysis.problem.m
+    if m < 2:
+        raise InputError(f"the input-space picture needs two planned inputs; the plan has {m} "
+                         f"({', '.join(plan.planned_inputs) or 'none'})")
+    if len(set(axes)) != 2 or not all(0 <= a < m for a in axes):
+        raise InputError(f"axes must be two different indices below {m}, got {axes}")
+    problem = analysis.problem
+    names = problem.inputs
+    through = (np.array([plan.torques[n] for n in names]) if plan.mode is not None
+               else 0.5 * (problem.lower + problem.upper))
+    lo, hi = problem.lower[list(axes)], problem.upper[list(axes)]
+    pad = 0.03 * (hi - lo)
+    box = (lo[0] - pad[0], hi[0] + pad[0], lo[1] - pad[1], hi[1] + pad[1])
+    return _InputSpace(plan, axes, through, box, (f"{names[axes[0]]} [N m]", f"{names[axes[1]]} [N m]"))
 
 
 def plot_flip_inputs(
@@ -94,43 +144,19 @@ def plot_flip_inputs(
         VizError: matplotlib is missing.
         OutputFileError: the file cannot be written.
     """
-    from .plots import REGION_LABEL_STYLE, place_labels, plot_polygons
+    from .plots import REGION_LABEL_STYLE, place_labels
 
-    analysis = plan.analysis
-    if analysis is None:
-        raise InputError("the plan has no analysis to draw (no input was planned at this state)")
-    m = analysis.problem.m
-    if m < 2:
-        raise InputError(f"the input-space picture needs two planned inputs; the plan has {m} "
-                         f"({', '.join(plan.planned_inputs) or 'none'})")
-    if len(set(axes)) != 2 or not all(0 <= a < m for a in axes):
-        raise InputError(f"axes must be two different indices below {m}, got {axes}")
-    problem = analysis.problem
-    names = problem.inputs
-    through = (np.array([plan.torques[n] for n in names]) if plan.mode is not None
-               else 0.5 * (problem.lower + problem.upper))
-    lo, hi = problem.lower[list(axes)], problem.upper[list(axes)]
-    pad = 0.03 * (hi - lo)
-    box = (lo[0] - pad[0], hi[0] + pad[0], lo[1] - pad[1], hi[1] + pad[1])
+    space = _input_space(plan, axes)
     if ax is None:
         ax = _figure(figsize=(7.0, 6.0), layout="constrained").add_subplot()
-
-    full = [mode for mode in analysis.feasible_modes if mode.inputs_full_dimensional]
-    flat = [mode for mode in analysis.feasible_modes if not mode.inputs_full_dimensional]
-    labels = (f"{names[axes[0]]} [N m]", f"{names[axes[1]]} [N m]")
-    sets = [input_slice(mode.feasible_input_domain, axes, through) for mode in full]
-    plot_polygons(sets, ax=ax, labels=[mode.mode for mode in full], box=box, alpha=0.25,
-                  axis_labels=labels, legend=False, label_regions=False)
-    region_labels = ax._frcontrol_region_labels
-    _draw_flat_overlapping_and_chosen(ax, plan, flat, axes, through, box, labels)
+    region_labels = _draw_input_space(ax, space, space.box)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize="x-small", ncol=4)
-    ax.set_aspect("equal", adjustable="box")
-    ax.xaxis.set_major_locator(_locator())
-    ax.yaxis.set_major_locator(_locator())
     status = (f"plan: {plan.mode}, pitch acceleration {plan.pitch_acceleration:.4g} rad/s$^2$"
               if plan.found else f"no flip plan{f' (best: {plan.mode})' if plan.mode else ''}")
-    others = [k for k in range(m) if k not in axes]
-    sliced = ("; slice at " + ", ".join(f"{names[k]} = {through[k]:.4g}" for k in others)) if others else ""
+    names = plan.analysis.problem.inputs if plan.analysis is not None else ()
+    others = [k for k in range(len(names)) if k not in axes]
+    sliced = ("; slice at " + ", ".join(f"{names[k]} = {space.through[k]:.4g}" for k in others)
+              if others else "")
     ax.set_title(f"input domains T_c (hatched: two modes), margin {plan.margin:g} N m\n{status}{sliced}",
                  fontsize="small")
     # last: the layout is final, so labels are measured where they will be
@@ -138,6 +164,89 @@ def plot_flip_inputs(
     if path is not None:
         _save(ax.figure, path)
     return ax
+
+
+def _draw_input_space(ax: Any, space: _InputSpace, window: tuple[float, float, float, float]
+                      ) -> list[tuple[str, np.ndarray, float]]:
+    """Every mode's T_c, the overlaps, the chosen pieces and the plan, in ``window``, equal aspect.
+
+    Returns:
+        The region labels ``(mode, centroid, area)`` to place once the figure is laid out.
+    """
+    from .plots import plot_polygons
+
+    analysis = space.plan.analysis
+    assert analysis is not None  # checked by _input_space
+    full = [mode for mode in analysis.feasible_modes if mode.inputs_full_dimensional]
+    flat = [mode for mode in analysis.feasible_modes if not mode.inputs_full_dimensional]
+    sets = [input_slice(mode.feasible_input_domain, space.axes, space.through) for mode in full]
+    plot_polygons(sets, ax=ax, labels=[mode.mode for mode in full], box=window, alpha=0.25,
+                  axis_labels=space.axis_labels, legend=False, label_regions=False)
+    region_labels = ax._frcontrol_region_labels
+    _draw_flat_overlapping_and_chosen(ax, space.plan, flat, space.axes, space.through, window,
+                                      space.axis_labels)
+    ax.set_aspect("equal", adjustable="box")
+    ax.xaxis.set_major_locator(_locator())
+    ax.yaxis.set_major_locator(_locator())
+    return list(region_labels)
+
+
+FLIP_ZOOM_FRACTION = 0.4
+"""The flip figure adds a panel zoomed on the smaller input domains (every full-dimensional T_c
+but the largest) when their box spans less than this fraction of the input box on both axes:
+at that size their colours and labels would not be readable in the whole box."""
+
+FLIP_ZOOM_MARGIN = 0.08
+"""The zoom panel shows the smaller domains' box enlarged by this fraction of its size on every side."""
+
+
+def flip_zoom_window(plan: FlipPlan, *, axes: tuple[int, int] = (0, 1)
+                     ) -> tuple[float, float, float, float] | None:
+    """The window (xmin, xmax, ymin, ymax) of the flip figure's zoom panel, or None if none is needed.
+
+    It frames every full-dimensional T_c of the slice but the largest (by the area of its box), when
+    they span less than :data:`FLIP_ZOOM_FRACTION` of the input box on both axes.
+
+    Raises:
+        InputError: see :func:`plot_flip_inputs`.
+    """
+    from .plots import polygon_from_halfplanes
+
+    space = _input_space(plan, axes)
+    analysis = plan.analysis
+    assert analysis is not None  # checked by _input_space
+    boxes = []
+    for mode in analysis.feasible_modes:
+        if mode.inputs_full_dimensional:
+            A, b = input_slice(mode.feasible_input_domain, axes, space.through)
+            vertices = polygon_from_halfplanes(A, b, space.box)
+            if len(vertices) >= 3:
+                boxes.append((vertices.min(axis=0), vertices.max(axis=0)))
+    boxes.sort(key=lambda lohi: float(np.prod(lohi[1] - lohi[0])))
+    if len(boxes) < 2:
+        return None
+    lo = np.min([low for low, _ in boxes[:-1]], axis=0)
+    hi = np.max([high for _, high in boxes[:-1]], axis=0)
+    whole = np.array([space.box[1] - space.box[0], space.box[3] - space.box[2]])
+    if np.any(hi - lo > FLIP_ZOOM_FRACTION * whole):
+        return None
+    grow = FLIP_ZOOM_MARGIN * np.maximum(hi - lo, 1e-3 * whole)
+    return (lo[0] - grow[0], hi[0] + grow[0], lo[1] - grow[1], hi[1] + grow[1])
+
+
+def plot_flip_zoom(plan: FlipPlan, ax: Any, window: tuple[float, float, float, float], *,
+                   axes: tuple[int, int] = (0, 1)) -> list[tuple[str, np.ndarray, float]]:
+    """Draw the input space in ``window`` (:func:`flip_zoom_window`), titled as a zoom.
+
+    Returns:
+        The region labels, for :func:`~frcontrol.viz.plots.place_labels` once the figure is laid out.
+
+    Raises:
+        InputError: see :func:`plot_flip_inputs`.
+    """
+    labels = _draw_input_space(ax, _input_space(plan, axes), window)
+    ax.set_title("zoom on the smaller domains (the dashed box above)", fontsize="small")
+    return labels
 
 
 def _draw_flat_overlapping_and_chosen(ax: Any, plan: FlipPlan, flat: Sequence[Any], axes: tuple[int, int],
@@ -245,27 +354,40 @@ def plot_flip(result: FlipResult | FlipPlan, path: str | Path, *, axes: tuple[in
 def flip_figure(result: FlipResult | FlipPlan, *, axes: tuple[int, int] = (0, 1)) -> Any:
     """One figure: the input space (left) and, for a simulated flip, the pitch and forces (right).
 
+    When the smaller domains are small in the input box (:func:`flip_zoom_window`), a second panel
+    below the input space zooms on them, and a dashed box in the first shows where.
+
     Raises:
         VizError: matplotlib is missing. InputError: see :func:`plot_flip_inputs`.
     """
+    from matplotlib.patches import Rectangle
+
+    from .plots import REGION_LABEL_STYLE, place_labels
+
     plan = result.plan if isinstance(result, FlipResult) else result
     simulated = isinstance(result, FlipResult) and result.trajectory is not None
-    figure = _figure(figsize=(13.0 if simulated else 7.0, 6.0), layout="constrained")
+    drawable = plan.analysis is not None and plan.analysis.problem.m >= 2
+    window = flip_zoom_window(plan, axes=axes) if drawable else None
+    figure = _figure(figsize=(13.0 if simulated else 7.0, 6.0 if window is None else 10.5),
+                     layout="constrained")
     figure.suptitle(f"{_scene_name(result)}: the flip plan", fontsize="medium")
+    grid = figure.add_gridspec(2, 2 if simulated else 1, width_ratios=[1.0, 1.1] if simulated else None)
+    left = figure.add_subplot(grid[:, 0] if window is None else grid[0, 0])
+    zoom = None if window is None else figure.add_subplot(grid[1, 0])
     if isinstance(result, FlipResult) and result.trajectory is not None:
-        grid = figure.add_gridspec(2, 2, width_ratios=[1.0, 1.1])
-        left = figure.add_subplot(grid[:, 0])
         top = figure.add_subplot(grid[0, 1])
-        bottom = figure.add_subplot(grid[1, 1], sharex=top)
-        plot_flip_motion(result, (top, bottom))
-    else:
-        left = figure.add_subplot()
-    if plan.analysis is not None and plan.analysis.problem.m >= 2:
+        plot_flip_motion(result, (top, figure.add_subplot(grid[1, 1], sharex=top)))
+    zoom_labels = [] if zoom is None or window is None else plot_flip_zoom(plan, zoom, window, axes=axes)
+    if drawable:
         plot_flip_inputs(plan, ax=left, axes=axes)
     else:
         left.text(0.5, 0.5, plan.reason or "no input space to draw", ha="center", va="center",
                   wrap=True, transform=left.transAxes)
         left.set_axis_off()
+    if zoom is not None and window is not None:
+        left.add_patch(Rectangle((window[0], window[2]), window[1] - window[0], window[3] - window[2],
+                                 fill=False, edgecolor="0.2", linestyle="--", linewidth=1.0, zorder=8))
+        place_labels(zoom, zoom_labels, **REGION_LABEL_STYLE)
     return figure
 
 
@@ -344,6 +466,11 @@ def _locator(bins: int = 6) -> Any:
 BODY_FACE, BODY_EDGE = "#9ecae1", "#3182bd"
 """Colours of the body's links in the statics figure."""
 
+SUPPORT_REGION_TOLERANCE = 1e-9
+"""Relative to the statics figure's span: a support-region vertex this close to the window's
+edge lies on it (the region is cut there), and a window corner this far outside the region's
+half-planes still counts as inside (the region covers the whole window)."""
+
 STATICS_WINDOW_MARGIN = 0.35
 """The statics figure shows the body's box (links, contacts, centre of mass) enlarged by this
 fraction of its larger side on every side; unbounded support sets are cut at that window."""
@@ -355,7 +482,8 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
     The links are drawn from their URDF visuals (:func:`frcontrol.viz.link_visuals`); the support
     interval of the centre of mass's x is a bar at the centre of mass's height (an arrow head
     where it is unbounded), the planar support region (with a lateral acceleration) is hatched,
-    cut at the window when it is unbounded, and the legend says so.
+    cut at the window when it is unbounded (a faint tint when it covers the whole window), and
+    the legend says so.
 
     Returns:
         The figure (also written to ``path`` when given).
@@ -363,30 +491,75 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
     Raises:
         VizError: matplotlib is missing. OutputFileError: the file cannot be written.
     """
-    from matplotlib.patches import Polygon
-
-    from . import link_visuals, pose_matrix, visual_outline
+    from .plots import REGION_LABEL_STYLE, frame_axes, place_labels
 
     body = report.body
     figure = _figure(figsize=(7.0, 6.4), layout="constrained")
     ax = figure.add_subplot()
+    pts = np.vstack([body.points, body.com[None, :], *_draw_body_links(ax, scene)])
+    span = float(max(np.ptp(pts[:, 0]), np.ptp(pts[:, 1]), 0.2))
+    lo, hi = pts.min(axis=0) - STATICS_WINDOW_MARGIN * span, pts.max(axis=0) + STATICS_WINDOW_MARGIN * span
+    names = _draw_contacts_at_rest(ax, report, span)
+    c = body.com
+    ax.plot(*c, "k+", ms=12, mew=2, zorder=6)
+    if body.weight > 0:
+        ax.annotate("", c + np.array([0.0, -0.25 * span]), c,
+                    arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5}, zorder=6)
+    if report.support.feasible:
+        _draw_support(ax, report.support, c, lo, hi, span)
+    eq = report.equilibrium
+    verdict = (f"form closure: {_yes(report.form_closure.closed)}, force closure: "
+               f"{_yes(report.force_closure.closed)}\nequilibrium: {_yes(eq.exists)}, weakly stable: "
+               f"{_yes(report.weakly_stable)}, strongly stable: {_yes(report.strongly_stable)}")
+    frame_axes(ax, (lo[0], hi[0], lo[1], hi[1]), ("x [m]", "y [m]"), f"{report.scene_name}\n{verdict}")
+    ax.title.set_fontsize(9)
+    ax.set_aspect("equal", adjustable="box")
+    ax.xaxis.set_major_locator(_locator())
+    ax.yaxis.set_major_locator(_locator())
+    if report.support.feasible:
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8)
+    place_labels(ax, names, **{**REGION_LABEL_STYLE, "zorder": 7})
+    if path is not None:
+        _save(figure, path)
+    return figure
+
+
+def _draw_body_links(ax: Any, scene: Scene) -> list[np.ndarray]:
+    """The robot's links at the scene's state, from their URDF visuals; returns their outlines [m]."""
+    from matplotlib.patches import Polygon
+
+    from .geometry import pose_matrix
+    from .visuals import link_visuals, visual_outline
+
     poses = scene.robot.link_poses(scene.q)
-    extent = [body.points, body.com[None, :]]
+    outlines = []
     for link, shapes in link_visuals(scene.robot, [c.point for c in scene.contacts]).items():
         origin, angle = poses[link]
         for visual in shapes:
             outline = visual_outline(visual, pose_matrix(origin, angle))
             ax.add_patch(Polygon(outline, closed=True, zorder=2, facecolor=BODY_FACE, edgecolor=BODY_EDGE))
-            extent.append(outline)
-    pts = np.vstack(extent)
-    span = float(max(np.ptp(pts[:, 0]), np.ptp(pts[:, 1]), 0.2))
-    lo, hi = pts.min(axis=0) - STATICS_WINDOW_MARGIN * span, pts.max(axis=0) + STATICS_WINDOW_MARGIN * span
+            outlines.append(outline)
+    return outlines
+
+
+def _draw_contacts_at_rest(ax: Any, report: StaticsReport, span: float
+                           ) -> list[tuple[str, np.ndarray, float]]:
+    """Each contact: its surface, friction cone and point, and its equilibrium force as an arrow.
+
+    The longest force arrow is 30 % of ``span`` [m], the cones 25 %.
+
+    Returns:
+        The contacts' name labels ``(name, point, importance)``, on the surface's side of each
+        point, for :func:`~frcontrol.viz.plots.place_labels`.
+    """
+    from matplotlib.patches import Polygon
+
+    body, eq = report.body, report.equilibrium
     cone_length = 0.25 * span
-    eq = report.equilibrium
-    force_scale = 0.0
-    if eq.lambda_n is not None and eq.lambda_t is not None:
-        biggest = float(np.max(np.hypot(eq.lambda_n, eq.lambda_t), initial=0.0))
-        force_scale = 0.3 * span / biggest if biggest > 0 else 0.0
+    forces = (None if eq.lambda_n is None or eq.lambda_t is None else
+              np.column_stack([eq.lambda_n, eq.lambda_t]))
+    biggest = 0.0 if forces is None else float(np.max(np.hypot(forces[:, 0], forces[:, 1]), initial=0.0))
+    force_scale = 0.3 * span / biggest if biggest > 0 else 0.0
     names = []
     for i, name in enumerate(body.contact_names):
         p, n, t, mu = body.points[i], body.normals[i], body.tangents[i], body.mu[i]
@@ -397,44 +570,18 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
                              closed=True, facecolor="#fdd0a2", edgecolor="#e6550d", alpha=0.6, zorder=3))
         ax.plot(*p, "o", color="#e6550d", zorder=4)
         names.append((name, p - 0.08 * span * n, 1.0))  # on the surface's side, off the cone
-        if force_scale > 0 and eq.lambda_n is not None and eq.lambda_t is not None:
-            f = eq.lambda_n[i] * n + eq.lambda_t[i] * t
-            ax.annotate("", p + force_scale * f, p, zorder=5,
+        if force_scale > 0 and forces is not None:
+            ax.annotate("", p + force_scale * (forces[i, 0] * n + forces[i, 1] * t), p, zorder=5,
                         arrowprops={"arrowstyle": "->", "color": "#31a354", "lw": 2})
-    c = body.com
-    ax.plot(*c, "k+", ms=12, mew=2, zorder=6)
-    if body.weight > 0:
-        ax.annotate("", c + np.array([0.0, -0.25 * span]), c,
-                    arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5}, zorder=6)
-    sup = report.support
-    if sup.feasible:
-        _draw_support(ax, sup, c, lo, hi, span)
-    ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(lo[1], hi[1])
-    ax.set_aspect("equal", adjustable="box")
-    ax.xaxis.set_major_locator(_locator())
-    ax.yaxis.set_major_locator(_locator())
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    verdict = (f"form closure: {_yes(report.form_closure.closed)}, force closure: "
-               f"{_yes(report.force_closure.closed)}\nequilibrium: {_yes(eq.exists)}, weakly stable: "
-               f"{_yes(report.weakly_stable)}, strongly stable: {_yes(report.strongly_stable)}")
-    ax.set_title(f"{report.scene_name}\n{verdict}", fontsize=9)
-    if sup.feasible:
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8)
-    from .plots import place_labels
-
-    place_labels(ax, names, fontsize=8, zorder=7)
-    if path is not None:
-        _save(figure, path)
-    return figure
+    return names
 
 
 def _draw_support(ax: Any, sup: Any, c: np.ndarray, lo: np.ndarray, hi: np.ndarray, span: float) -> None:
     """The support interval and region of a statics report, cut at the view ``lo``..``hi``.
 
     The interval of the CoM's x is a bar at the CoM's height (arrows where unbounded); the planar
-    region under a lateral acceleration is hatched, and its legend entry says when it is cut.
+    region under a lateral acceleration is hatched, and its legend entry says when it is cut. A
+    region that covers the whole view is a faint tint, not a hatch over everything.
     """
     from matplotlib.patches import Polygon
 
@@ -451,18 +598,24 @@ def _draw_support(ax: Any, sup: Any, c: np.ndarray, lo: np.ndarray, hi: np.ndarr
         end, step = (x0, -1.0) if side == "left" else (x1, 1.0)
         ax.annotate("", (end, c[1]), (end - step * 0.06 * span, c[1]), zorder=2.5,
                     arrowprops={"arrowstyle": "-|>", "color": "#31a354", "lw": 1.5})
-    if sup.lateral_acceleration != 0.0 and sup.region is not None:
-        window = (lo[0], hi[0], lo[1], hi[1])
-        region = polygon_from_halfplanes(sup.region.A, sup.region.b, window)
-        if len(region) >= 3:
-            edge = 1e-9 * span
-            on_window = np.zeros(len(region), dtype=bool)
-            for axis, bound in ((0, lo[0]), (0, hi[0]), (1, lo[1]), (1, hi[1])):
-                on_window |= np.isclose(region[:, axis], bound, atol=edge)
-            cut = ", cut at the view" if np.any(on_window) else ""
-            label = f"support region, |a| <= {sup.lateral_acceleration:g} m/s$^2${cut}"
-            ax.add_patch(Polygon(region, closed=True, facecolor="none", edgecolor="#006d2c", hatch="..",
-                                 lw=1.5, zorder=1, label=label))
+    if sup.lateral_acceleration == 0.0 or sup.region is None:
+        return
+    window = (lo[0], hi[0], lo[1], hi[1])
+    region = polygon_from_halfplanes(sup.region.A, sup.region.b, window)
+    if len(region) < 3:
+        return
+    corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
+    slack = SUPPORT_REGION_TOLERANCE * span * np.linalg.norm(sup.region.A, axis=1)
+    whole = bool(np.all(sup.region.A @ corners.T <= (sup.region.b + slack)[:, None]))
+    on_window = np.zeros(len(region), dtype=bool)
+    for axis, bound in ((0, lo[0]), (0, hi[0]), (1, lo[1]), (1, hi[1])):
+        on_window |= np.isclose(region[:, axis], bound, atol=SUPPORT_REGION_TOLERANCE * span)
+    cut = (", cut at the view: it covers all of it" if whole else
+           ", cut at the view" if np.any(on_window) else "")
+    label = f"support region, |a| <= {sup.lateral_acceleration:g} m/s$^2${cut}"
+    style = ({"facecolor": "#006d2c", "alpha": 0.07, "edgecolor": "none"} if whole else
+             {"facecolor": "none", "edgecolor": "#006d2c", "hatch": "..", "lw": 1.5})
+    ax.add_patch(Polygon(region, closed=True, zorder=1, label=label, **style))
 
 
 def _yes(flag: bool | None) -> str:

@@ -54,27 +54,10 @@ from frcontrol.errors import InputError, reason_from_exception
 from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
-from . import (
-    CONE_COLOR,
-    CONTACT_COLOR,
-    FORCE_COLOR,
-    INACTIVE_CONTACT_COLOR,
-    MODE_COLORS,
-    SURFACE_COLOR,
-    LinkVisual,
-    OutputFileError,
-    PortInUse,
-    ViewerServerError,
-    friction_cone_directions,
-    hex_color,
-    link_visuals,
-    pose_matrix,
-    rgba_hex,
-    surface_lines,
-    surface_segments,
-    visual_depth,
-    visual_outline,
-)
+from . import colors
+from .errors import OutputFileError, PortInUse, ViewerServerError
+from .geometry import friction_cone_directions, pose_matrix, surface_lines, surface_segments
+from .visuals import LinkVisual, link_visuals, visual_depth, visual_outline
 
 __all__ = [
     "DEFAULT_FPS",
@@ -252,7 +235,7 @@ def _check_modes(modes: Sequence[str] | None, trajectory: Trajectory) -> list[st
     if len(modes) != count:
         raise InputError(f"expected one mode string per sample ({count}), got {len(modes)}")
     for i, mode in enumerate(modes):
-        if not isinstance(mode, str) or len(mode) != k or any(ch not in MODE_COLORS for ch in mode):
+        if not isinstance(mode, str) or len(mode) != k or any(ch not in colors.MODE_COLORS for ch in mode):
             raise InputError(
                 f"modes[{i}] = {mode!r}: expected {k} letters from S, L, R, F (one per contact "
                 f"of the trajectory: {', '.join(trajectory.contacts)})"
@@ -524,7 +507,7 @@ class _Layers:
             t = line.tangent
             slab = self.root["surfaces"][f"line{i}"]
             slab.set_object(mg.Box([float(np.hypot(*(end - start))), thickness, self.z_front - self.z_back]),
-                            mg.MeshLambertMaterial(color=hex_color(SURFACE_COLOR)))
+                            mg.MeshLambertMaterial(color=colors.hex_color(colors.SURFACE_COLOR)))
             slab.set_transform(pose_matrix((start + end) / 2, math.atan2(t[1], t[0]))
                                @ _translation(0.0, -thickness / 2, (self.z_front + self.z_back) / 2))
 
@@ -535,15 +518,15 @@ class _Layers:
             node = self.root["robot"][_node(link)]
             for i, visual in enumerate(shapes):
                 geometry, transform = _visual_object(visual)
-                material = mg.MeshLambertMaterial(color=hex_color(rgba_hex(visual.rgba)),
+                material = mg.MeshLambertMaterial(color=colors.hex_color(colors.rgba_hex(visual.rgba)),
                                                   opacity=float(visual.rgba[3]))
                 node[f"visual{i}"].set_object(geometry, material)
                 node[f"visual{i}"].set_transform(transform)
         radius = 0.012 * self.size
         for point, contact in zip(self.points, self.scene.contacts, strict=True):
             node = self.root["robot"][_node(point.link)][f"contact_{_node(point.name)}"]
-            color = CONTACT_COLOR if contact.active else INACTIVE_CONTACT_COLOR
-            node.set_object(mg.Sphere(radius), mg.MeshLambertMaterial(color=hex_color(color)))
+            color = colors.CONTACT_COLOR if contact.active else colors.INACTIVE_CONTACT_COLOR
+            node.set_object(mg.Sphere(radius), mg.MeshLambertMaterial(color=colors.hex_color(color)))
             node.set_transform(_translation(point.point_in_link[0], point.point_in_link[1], self.z_front))
 
     def cones(self) -> None:
@@ -556,11 +539,11 @@ class _Layers:
             node = self.root["cones"][_node(point.name)]
             node["fan"].set_object(
                 mg.TriangularMeshGeometry(vertices.astype(np.float32), np.array([[0, 1, 2]], np.uint32)),
-                mg.MeshBasicMaterial(color=hex_color(CONE_COLOR), opacity=0.3),
+                mg.MeshBasicMaterial(color=colors.hex_color(colors.CONE_COLOR), opacity=0.3),
             )
             node["edges"].set_object(mg.LineSegments(
                 mg.PointsGeometry(vertices[[0, 1, 0, 2]].T.astype(np.float32)),
-                mg.LineBasicMaterial(color=hex_color("#2171b5")),
+                mg.LineBasicMaterial(color=colors.hex_color("#2171b5")),
             ))
 
     def arrows(self) -> None:
@@ -571,7 +554,7 @@ class _Layers:
             letters = [""] if self.modes is None else sorted({self.modes[i][j] for i in self.samples})
             for letter in letters:
                 path_name = _node(point.name) + (f"_{letter}" if letter else "")
-                arrow_color = hex_color(MODE_COLORS[letter] if letter else FORCE_COLOR)
+                arrow_color = colors.hex_color(colors.MODE_COLORS[letter] if letter else colors.FORCE_COLOR)
                 node = self.root["forces"][path_name]
                 material = mg.MeshLambertMaterial(color=arrow_color)
                 node["shaft"].set_object(mg.Cylinder(1.0, shaft_radius), material)
@@ -744,10 +727,10 @@ def _legend(scene: Scene, drawing: Drawing, contacts: Sequence[str]) -> str:
     force = f"forces: {drawing.force_scale * 1000:.3g} mm per N ({drawing.force_scale:.3g} m/N)"
     if drawing.modes:
         swatches = " ".join(f'<span style="color:{color}">&#9632;</span>&nbsp;{letter}'
-                            for letter, color in MODE_COLORS.items())
+                            for letter, color in colors.MODE_COLORS.items())
         force += f" &middot; modes: {swatches}"
     else:
-        force = f'<span style="color:{FORCE_COLOR}">&#9632;</span> ' + force
+        force = f'<span style="color:{colors.FORCE_COLOR}">&#9632;</span> ' + force
     if drawing.animated:
         order = ", ".join(html_lib.escape(name) for name in contacts)
         motion = f"mode letters per contact: {order}" if contacts else "no contacts"
@@ -757,8 +740,8 @@ def _legend(scene: Scene, drawing: Drawing, contacts: Sequence[str]) -> str:
         '<div id="frcontrol-legend" style="position:absolute;left:8px;top:8px;'
         'font:12px sans-serif;color:#222;background:rgba(255,255,255,0.8);padding:4px 6px;">'
         f"<b>{html_lib.escape(scene.name)}</b><br>{force}<br>"
-        f'<span style="color:{CONE_COLOR}">&#9650;</span> friction cones &middot; '
-        f'<span style="color:{CONTACT_COLOR}">&#9679;</span> contacts &middot; {motion}'
+        f'<span style="color:{colors.CONE_COLOR}">&#9650;</span> friction cones &middot; '
+        f'<span style="color:{colors.CONTACT_COLOR}">&#9679;</span> contacts &middot; {motion}'
         f"{_controls(drawing) if drawing.animated else ''}</div>"
     )
 

@@ -30,23 +30,10 @@ from frcontrol.errors import CoordinateNotFound, InputError, reason_from_excepti
 from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
-from . import (
-    CONE_COLOR,
-    CONTACT_COLOR,
-    FORCE_COLOR,
-    INACTIVE_CONTACT_COLOR,
-    SURFACE_COLOR,
-    OutputFileError,
-    VizError,
-    friction_cone_directions,
-    link_visuals,
-    pose_matrix,
-    rgba_hex,
-    surface_lines,
-    surface_segments,
-    visual_depth,
-    visual_outline,
-)
+from . import colors as palette
+from .errors import OutputFileError, VizError
+from .geometry import friction_cone_directions, pose_matrix, surface_lines, surface_segments
+from .visuals import link_visuals, visual_depth, visual_outline
 
 __all__ = [
     "HALFPLANE_TOLERANCE",
@@ -54,6 +41,7 @@ __all__ = [
     "save_figure",
     "text_overlaps",
     "LABEL_CLEARANCE",
+    "frame_axes",
     "REGION_LABEL_STYLE",
     "place_labels",
     "plot_polygons",
@@ -321,55 +309,66 @@ def plot_scene(
         InputError: ``q`` or ``contact_forces`` has the wrong shape or non-finite values.
         OutputFileError: the file cannot be written.
     """
-    robot = scene.robot
     config, forces = _checked_state_and_forces(scene, q, contact_forces)
     if ax is None:
-        figure = new_figure(figsize=(7.0, 5.0), layout="constrained")
-        ax = figure.add_subplot()
+        ax = new_figure(figsize=(7.0, 5.0), layout="constrained").add_subplot()
     points = [c.point for c in scene.contacts]
-    world = robot.contact_points_in_world(config).reshape(-1, 2)
+    world = scene.robot.contact_points_in_world(config).reshape(-1, 2)
     normals = np.array([p.normal_in_world for p in points]).reshape(-1, 2)
     surfaces = np.array([p.surface_point_in_world for p in points]).reshape(-1, 2)
     touching = np.einsum("kj,kj->k", normals, world - surfaces) <= scene.gap_tolerance
-
     shapes = _link_shapes(scene, config)
     lines = surface_lines(points)
-    outlines = [s[1] for s in shapes] + [world]
-    outlines += [np.array([line.foot(p) for p in world]) for line in lines if len(world)]
-    xy = np.vstack([o for o in outlines if len(o)]) if any(len(o) for o in outlines) else np.zeros((1, 2))
-    lower, upper = xy.min(axis=0), xy.max(axis=0)
+    lower, upper = _scene_extent(shapes, world, lines)
     size = max(float(np.max(upper - lower)), 0.1)
-
     arrows = None
     if forces is not None:
-        tangents = np.array([p.tangent_in_world for p in points]).reshape(-1, 2)
-        arrows = forces[:, :1] * normals + forces[:, 1:] * tangents
-        peak = float(np.max(np.hypot(arrows[:, 0], arrows[:, 1]), initial=0.0))
-        if force_scale is None:
-            force_scale = 0.3 * size / peak if peak > 0 else 0.0
-        elif not (math.isfinite(force_scale) and force_scale > 0):
-            raise InputError(f"force_scale must be a positive number of metres per newton, got {force_scale}")
+        arrows, force_scale = _force_arrows(points, forces, size, force_scale)
         tips = world + force_scale * arrows
         lower, upper = np.minimum(lower, tips.min(axis=0)), np.maximum(upper, tips.max(axis=0))
     margin = 0.08 * max(float(np.max(upper - lower)), 0.1)
     lower, upper = lower - margin, upper + margin
-    center = (lower + upper) / 2
 
-    _draw_surface_lines(ax, lines, center, float(np.hypot(*(upper - lower))), 0.03 * size)
+    _draw_surface_lines(ax, lines, (lower + upper) / 2, float(np.hypot(*(upper - lower))), 0.03 * size)
     _draw_link_outlines(ax, shapes)
     _draw_contact_points(ax, points, world, touching, 0.12 * size, labels)
     if arrows is not None and force_scale:
         _draw_force_arrows(ax, world, arrows, force_scale)
-
-    ax.set_xlim(lower[0], upper[0])
-    ax.set_ylim(lower[1], upper[1])
+    frame_axes(ax, (lower[0], upper[0], lower[1], upper[1]), ("x [m]", "y [m]"),
+               title if title is not None else scene.name)
     ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_title(title if title is not None else scene.name)
     if path is not None:
         save_figure(ax.figure, path)
     return ax
+
+
+def _scene_extent(shapes: Sequence[tuple[float, np.ndarray, Any]], world: np.ndarray,
+                  lines: Sequence[Any]) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper corners [m] of the links, the contact points and their feet on the surfaces."""
+    outlines = [s[1] for s in shapes] + [world]
+    outlines += [np.array([line.foot(p) for p in world]) for line in lines if len(world)]
+    xy = np.vstack([o for o in outlines if len(o)]) if any(len(o) for o in outlines) else np.zeros((1, 2))
+    return xy.min(axis=0), xy.max(axis=0)
+
+
+def _force_arrows(points: Sequence[Any], forces: np.ndarray, size: float, force_scale: float | None
+                  ) -> tuple[np.ndarray, float]:
+    """The contact forces as world vectors [N], and the arrows' scale [m/N].
+
+    The default scale draws the largest force at 30 % of ``size`` [m] (0 when every force is 0).
+
+    Raises:
+        InputError: ``force_scale`` is given and is not a positive number.
+    """
+    normals = np.array([p.normal_in_world for p in points]).reshape(-1, 2)
+    tangents = np.array([p.tangent_in_world for p in points]).reshape(-1, 2)
+    arrows = forces[:, :1] * normals + forces[:, 1:] * tangents
+    if force_scale is None:
+        peak = float(np.max(np.hypot(arrows[:, 0], arrows[:, 1]), initial=0.0))
+        return arrows, 0.3 * size / peak if peak > 0 else 0.0
+    if not (math.isfinite(force_scale) and force_scale > 0):
+        raise InputError(f"force_scale must be a positive number of metres per newton, got {force_scale}")
+    return arrows, force_scale
 
 
 def _checked_state_and_forces(scene: Scene, q: Any, contact_forces: Any
@@ -409,9 +408,9 @@ def _draw_force_arrows(ax: Any, world: np.ndarray, arrows: np.ndarray, force_sca
     for j in range(len(world)):
         if np.hypot(*arrows[j]) > 0:
             ax.annotate("", xy=world[j] + force_scale * arrows[j], xytext=world[j], zorder=4,
-                        arrowprops={"arrowstyle": "-|>", "color": FORCE_COLOR, "linewidth": 1.5})
+                        arrowprops={"arrowstyle": "-|>", "color": palette.FORCE_COLOR, "linewidth": 1.5})
     ax.text(0.01, 0.01, f"forces: {force_scale:.3g} m/N", transform=ax.transAxes, fontsize=7,
-            color=FORCE_COLOR)
+            color=palette.FORCE_COLOR)
 
 
 def _draw_surface_lines(ax: Any, lines: Sequence[Any], center: np.ndarray, reach: float, band: float) -> None:
@@ -420,9 +419,10 @@ def _draw_surface_lines(ax: Any, lines: Sequence[Any], center: np.ndarray, reach
     for line, (start, end) in zip(lines, surface_segments(lines, center, reach), strict=True):
         behind = -band * line.normal
         strip = np.array([start, end, end + behind, start + behind])
-        ax.add_patch(PolygonPatch(strip, closed=True, facecolor="none", edgecolor=SURFACE_COLOR,
+        ax.add_patch(PolygonPatch(strip, closed=True, facecolor="none", edgecolor=palette.SURFACE_COLOR,
                                   hatch="////", linewidth=0.0, zorder=1))
-        ax.plot([start[0], end[0]], [start[1], end[1]], color=SURFACE_COLOR, linewidth=2.0, zorder=1.5)
+        ax.plot([start[0], end[0]], [start[1], end[1]], color=palette.SURFACE_COLOR, linewidth=2.0,
+                zorder=1.5)
 
 
 def _draw_link_outlines(ax: Any, shapes: Sequence[tuple[float, np.ndarray, Any]]) -> None:
@@ -430,11 +430,11 @@ def _draw_link_outlines(ax: Any, shapes: Sequence[tuple[float, np.ndarray, Any]]
     PolygonPatch = _polygon_patch()
     for depth_rank, (_, outline, visual) in enumerate(sorted(shapes, key=lambda s: s[0])):
         if len(outline) >= 3:
-            ax.add_patch(PolygonPatch(outline, closed=True, facecolor=rgba_hex(visual.rgba),
+            ax.add_patch(PolygonPatch(outline, closed=True, facecolor=palette.rgba_hex(visual.rgba),
                                       edgecolor="0.15", linewidth=0.6, alpha=max(0.3, visual.rgba[3]),
                                       zorder=2 + 0.01 * depth_rank))
         else:
-            ax.plot(outline[:, 0], outline[:, 1], color=rgba_hex(visual.rgba), zorder=2)
+            ax.plot(outline[:, 0], outline[:, 1], color=palette.rgba_hex(visual.rgba), zorder=2)
 
 
 def _draw_contact_points(ax: Any, points: Sequence[Any], world: np.ndarray, touching: np.ndarray,
@@ -446,12 +446,13 @@ def _draw_contact_points(ax: Any, points: Sequence[Any], world: np.ndarray, touc
         if touching[j]:
             e1, e2 = friction_cone_directions(point.normal_in_world, point.mu)
             ax.add_patch(PolygonPatch(np.array([p, p + cone_length * e1, p + cone_length * e2]),
-                                      closed=True, facecolor=CONE_COLOR, edgecolor="#2171b5",
+                                      closed=True, facecolor=palette.CONE_COLOR, edgecolor="#2171b5",
                                       alpha=0.35, linewidth=0.8, zorder=3))
-            ax.plot(*p, marker="o", markersize=5, color=CONTACT_COLOR, markeredgecolor="0.2", zorder=5)
+            ax.plot(*p, marker="o", markersize=5, color=palette.CONTACT_COLOR, markeredgecolor="0.2",
+                    zorder=5)
         else:
             ax.plot(*p, marker="o", markersize=5, markerfacecolor="none",
-                    markeredgecolor=INACTIVE_CONTACT_COLOR, zorder=5)
+                    markeredgecolor=palette.INACTIVE_CONTACT_COLOR, zorder=5)
         if labels:
             ax.annotate(point.name, p, xytext=(4, -10), textcoords="offset points", fontsize=7,
                         color="0.25", zorder=6)
@@ -504,6 +505,10 @@ def _halfplanes(item: Any, index: int) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(A, dtype=float), np.asarray(b, dtype=float)
 
 
+_PolygonStyle = tuple[str, str | None, str | None]
+"""How :func:`plot_polygons` draws one set: (colour, hatch or None, label or None)."""
+
+
 def plot_polygons(
     polygons: Sequence[Any],
     path: str | Path | None = None,
@@ -553,62 +558,17 @@ def plot_polygons(
         InputError: malformed sets or options, or an unbounded set with no ``box``.
         OutputFileError: the file cannot be written.
     """
-    PolygonPatch = _polygon_patch()
-    count = len(polygons)
-    for name, values in (("labels", labels), ("hatches", hatches), ("colors", colors)):
-        if values is not None and len(values) != count:
-            raise InputError(f"{name} has {len(values)} entries for {count} polygons")
-    sets = [_halfplanes(item, i) for i, item in enumerate(polygons)]
-    if box is None:
-        big = _DEFAULT_BOX_HALF_WIDTH
-        window = (-big, big, -big, big)
-        vertices = [polygon_from_halfplanes(A, b, window) for A, b in sets]
-        for i, v in enumerate(vertices):
-            if len(v) and np.max(np.abs(v)) >= big * (1 - 1e-9):
-                raise InputError(f"polygons[{i}] is unbounded: pass box=(xmin, xmax, ymin, ymax)")
-        stacked = np.vstack([v for v in vertices if len(v)] or [np.zeros((1, 2))])
-        low, high = stacked.min(axis=0), stacked.max(axis=0)
-        pad = 0.1 * np.maximum(high - low, 1e-3) + np.where(high - low > 0, 0.0, 0.5)
-        window = (low[0] - pad[0], high[0] + pad[0], low[1] - pad[1], high[1] + pad[1])
-    else:
-        x0, x1, y0, y1 = (float(v) for v in box)
-        window = (x0, x1, y0, y1)
-        vertices = [polygon_from_halfplanes(A, b, window) for A, b in sets]
+    styles = _polygon_styles(len(polygons), labels, hatches, colors)
+    vertices, window = _clipped_polygons([_halfplanes(item, i) for i, item in enumerate(polygons)], box)
     if ax is None:
-        figure = new_figure(figsize=(6.0, 5.0), layout="constrained")
-        ax = figure.add_subplot()
-    to_label: list[tuple[str, np.ndarray, float]] = []
-    for i, v in enumerate(vertices):
-        color = (colors[i] if colors is not None and colors[i] is not None else f"C{i % 10}")
-        hatch = hatches[i] if hatches is not None else None
-        label = labels[i] if labels is not None else None
-        if len(v) >= 3:
-            ax.add_patch(PolygonPatch(v, closed=True, facecolor=color, alpha=alpha, hatch=hatch,
-                                      edgecolor=color, linewidth=0.0, label=label, zorder=2))
-            ax.add_patch(PolygonPatch(v, closed=True, fill=False, edgecolor=color, linewidth=1.2, zorder=3))
-            centroid = _centroid(v)
-        elif len(v) >= 1:
-            ax.plot(v[:, 0], v[:, 1], color=color, linewidth=3.0, marker="o" if len(v) == 1 else None,
-                    label=label, zorder=3)
-            centroid = v.mean(axis=0)
-        else:
-            if label is not None:
-                ax.plot([], [], color=color, label=f"{label} (empty)")
-            continue
-        if label is not None:
-            area = _area(v) if len(v) >= 3 else 0.0
-            to_label.append((label, centroid, area))
+        ax = new_figure(figsize=(6.0, 5.0), layout="constrained").add_subplot()
+    to_label = _draw_polygons(ax, vertices, styles, alpha)
     if points is not None:
         marks = np.asarray(points, dtype=float).reshape(-1, 2)
         ax.plot(marks[:, 0], marks[:, 1], linestyle="none", marker="*", markersize=10, color="black",
                 zorder=6)
-    ax.set_xlim(window[0], window[1])
-    ax.set_ylim(window[2], window[3])
-    ax.set_xlabel(axis_labels[0])
-    ax.set_ylabel(axis_labels[1])
-    if title is not None:
-        ax.set_title(title)
-    if labels is not None and any(label is not None for label in labels) and legend:
+    frame_axes(ax, window, axis_labels, title)
+    if legend and any(label is not None for _, _, label in styles):
         ax.legend(loc="best", fontsize="small")
     ax.grid(True, alpha=0.3)
     if to_label and label_regions:
@@ -617,6 +577,84 @@ def plot_polygons(
     if path is not None:
         save_figure(ax.figure, path)
     return ax
+
+
+def frame_axes(ax: Any, window: Sequence[float], axis_labels: tuple[str, str], title: str | None = None
+               ) -> None:
+    """Show ``window`` (xmin, xmax, ymin, ymax) of an Axes, name its axes and give it a title."""
+    ax.set_xlim(window[0], window[1])
+    ax.set_ylim(window[2], window[3])
+    ax.set_xlabel(axis_labels[0])
+    ax.set_ylabel(axis_labels[1])
+    if title is not None:
+        ax.set_title(title)
+
+
+def _polygon_styles(count: int, labels: Sequence[str | None] | None, hatches: Sequence[str | None] | None,
+                    colors: Sequence[str | None] | None) -> list[_PolygonStyle]:
+    """Each polygon's (colour, hatch, label) from :func:`plot_polygons`' options.
+
+    Raises:
+        InputError: an option does not have one entry per polygon.
+    """
+    for name, values in (("labels", labels), ("hatches", hatches), ("colors", colors)):
+        if values is not None and len(values) != count:
+            raise InputError(f"{name} has {len(values)} entries for {count} polygons")
+    styles: list[_PolygonStyle] = []
+    for i in range(count):
+        color = colors[i] if colors is not None else None
+        styles.append((color if color is not None else f"C{i % 10}",
+                       hatches[i] if hatches is not None else None,
+                       labels[i] if labels is not None else None))
+    return styles
+
+
+def _clipped_polygons(sets: Sequence[tuple[np.ndarray, np.ndarray]], box: Sequence[float] | None
+                      ) -> tuple[list[np.ndarray], tuple[float, float, float, float]]:
+    """Each set's vertices inside the window, and the window: ``box``, or the sets' extent + 10 %.
+
+    Raises:
+        InputError: with no ``box``, a set reaches :data:`_DEFAULT_BOX_HALF_WIDTH` (unbounded).
+    """
+    if box is not None:
+        x0, x1, y0, y1 = (float(v) for v in box)
+        window = (x0, x1, y0, y1)
+        return [polygon_from_halfplanes(A, b, window) for A, b in sets], window
+    big = _DEFAULT_BOX_HALF_WIDTH
+    vertices = [polygon_from_halfplanes(A, b, (-big, big, -big, big)) for A, b in sets]
+    for i, v in enumerate(vertices):
+        if len(v) and np.max(np.abs(v)) >= big * (1 - 1e-9):
+            raise InputError(f"polygons[{i}] is unbounded: pass box=(xmin, xmax, ymin, ymax)")
+    stacked = np.vstack([v for v in vertices if len(v)] or [np.zeros((1, 2))])
+    low, high = stacked.min(axis=0), stacked.max(axis=0)
+    pad = 0.1 * np.maximum(high - low, 1e-3) + np.where(high - low > 0, 0.0, 0.5)
+    return vertices, (low[0] - pad[0], high[0] + pad[0], low[1] - pad[1], high[1] + pad[1])
+
+
+def _draw_polygons(ax: Any, vertices: Sequence[np.ndarray], styles: Sequence[_PolygonStyle],
+                   alpha: float) -> list[tuple[str, np.ndarray, float]]:
+    """Each clipped set with its ``(colour, hatch, label)``: filled and outlined, a segment or a point.
+
+    Returns:
+        ``(label, centroid, area)`` of every labelled set that is drawn (empty sets are only
+        listed in the legend, as "(empty)").
+    """
+    PolygonPatch = _polygon_patch()
+    to_label: list[tuple[str, np.ndarray, float]] = []
+    for v, (color, hatch, label) in zip(vertices, styles, strict=True):
+        if len(v) >= 3:
+            ax.add_patch(PolygonPatch(v, closed=True, facecolor=color, alpha=alpha, hatch=hatch,
+                                      edgecolor=color, linewidth=0.0, label=label, zorder=2))
+            ax.add_patch(PolygonPatch(v, closed=True, fill=False, edgecolor=color, linewidth=1.2, zorder=3))
+        elif len(v) >= 1:
+            ax.plot(v[:, 0], v[:, 1], color=color, linewidth=3.0, marker="o" if len(v) == 1 else None,
+                    label=label, zorder=3)
+        elif label is not None:
+            ax.plot([], [], color=color, label=f"{label} (empty)")
+        if label is not None and len(v):
+            to_label.append((label, _centroid(v) if len(v) >= 3 else v.mean(axis=0),
+                             _area(v) if len(v) >= 3 else 0.0))
+    return to_label
 
 
 def _area(vertices: np.ndarray) -> float:
