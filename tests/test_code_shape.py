@@ -18,11 +18,7 @@ PACKAGES = ("frcontrol", "cli")
 MAX_FUNCTION_LINES = 80
 """The longest a function may be, in lines."""
 
-ALLOWED_FOR_NOW: dict[str, int] = {
-    "cli/flip_cmd.py::flip_command": 84,
-    "frcontrol/viz/plots.py::plot_polygons": 113,
-    "frcontrol/viz/plots.py::plot_scene": 85,
-}
+ALLOWED_FOR_NOW: dict[str, int] = {}
 """Functions still being split elsewhere, with their length today: they may not grow, and an
 entry that is no longer needed fails too (remove it). To be emptied."""
 

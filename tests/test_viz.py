@@ -486,9 +486,11 @@ def test_cli_view_watch_reloads_the_scene_and_survives_a_bad_edit(tmp_path, writ
     from conftest import toml_text
 
     def rod_x(page: str) -> float:
+        # NaN while the viewer redraws (the scene cleared, the rod not yet placed): the loops below
+        # poll until their deadline, so a viewer that never places it still fails
         moves = [c for c in page_commands(page) if c["type"] == "set_transform"
                  and c["path"] == "/meshcat/frcontrol/robot/rod"]
-        return float(np.reshape(moves[-1]["matrix"], (4, 4)).T[0, 3])
+        return float(np.reshape(moves[-1]["matrix"], (4, 4)).T[0, 3]) if moves else float("nan")
 
     path = write_scene(rod_scene(), "watched.toml")
     page_path = tmp_path / "watched.html"
