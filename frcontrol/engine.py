@@ -55,8 +55,9 @@ constant row: it is judged by its right-hand side alone (normalising it would in
 
 def _row_norms(H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Row norms, and the mask of numerically constant rows (see :data:`ZERO_ROW_TOLERANCE`)."""
-    norms = np.sqrt(np.sum(H * H, axis=1))
-    constant = norms <= ZERO_ROW_TOLERANCE * max(1.0, float(np.max(norms, initial=0.0)))
+    norms = np.sqrt((H * H).sum(axis=1))
+    largest = float(norms.max()) if norms.shape[0] else 0.0
+    constant = norms <= ZERO_ROW_TOLERANCE * max(1.0, largest)
     return norms, constant
 
 
@@ -355,19 +356,19 @@ def motion_margin(
     d = H.shape[1]
     norms, zero = _row_norms(H)
     constant = motion & zero
-    if np.any(h[constant] < -DOMAIN_TOLERANCE):
+    if (h[constant] < -DOMAIN_TOLERANCE).any():
         return MotionMargin("infeasible", None, None)
-    degenerate_constant = bool(np.any(h[constant] <= DOMAIN_TOLERANCE))
-    tighten = np.where(motion & ~constant, norms, 0.0)
-    A_ub = np.hstack([H, tighten[:, None]])
-    c = np.zeros(d + 1)
-    c[-1] = -1.0
-    A = np.hstack([A_eq, np.zeros((A_eq.shape[0], 1))]) if A_eq.shape[0] else None
-    b = b_eq if A_eq.shape[0] else None
-    lb = np.full(d + 1, -np.inf)
-    ub = np.full(d + 1, np.inf)
-    lb[-1], ub[-1] = 0.0, 1.0
-    result = solve_lp_prepared(c, A_ub, h, A, b, lb, ub, solver=solver, fallback=RETRY_ERRORS)
+    degenerate_constant = bool((h[constant] <= DOMAIN_TOLERANCE).any())
+    A_ub = np.empty((H.shape[0], d + 1))
+    A_ub[:, :d] = H
+    A_ub[:, d] = np.where(motion & ~constant, norms, 0.0)
+    A = None
+    if A_eq.shape[0]:
+        A = np.zeros((A_eq.shape[0], d + 1))
+        A[:, :d] = A_eq
+    bounds = _margin_bounds(d)
+    result = solve_lp_prepared(bounds[0], A_ub, h, A, b_eq if A is not None else None, bounds[1], bounds[2],
+                               solver=solver, fallback=RETRY_ERRORS)
     if not result.found or result.x is None:
         return MotionMargin("infeasible", None, None)
     z, t = result.x[:d], float(result.x[-1])
@@ -375,6 +376,16 @@ def motion_margin(
     if degenerate_constant or (has_motion and t <= DOMAIN_TOLERANCE):
         return MotionMargin("freedom", z, t)
     return MotionMargin("ok", z, t)
+
+
+def _margin_bounds(d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The motion LP's cost (maximise t) and bounds (z free, 0 <= t <= 1) over ``(z, t)``."""
+    cost = np.zeros(d + 1)
+    cost[-1] = -1.0
+    lb = np.full(d + 1, -np.inf)
+    ub = np.full(d + 1, np.inf)
+    lb[-1], ub[-1] = 0.0, 1.0
+    return cost, lb, ub
 
 
 def _subtree_size(allowed: Sequence[str], depth: int) -> int:

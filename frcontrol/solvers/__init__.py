@@ -277,32 +277,31 @@ def primal_residual(problem: LinearProgram, x: np.ndarray) -> float:
     """
     worst = 0.0
     if problem.A_ub.shape[0]:
-        worst = max(worst, float((problem.A_ub @ x - problem.b_ub).max()))
+        worst = max(worst, _largest(problem.A_ub @ x - problem.b_ub))
     if problem.A_eq.shape[0]:
-        worst = max(worst, float(np.abs(problem.A_eq @ x - problem.b_eq).max()))
+        worst = max(worst, _largest(np.abs(problem.A_eq @ x - problem.b_eq)))
     if problem.has_bounds:
-        worst = max(worst, float((problem.lb - x).max()), float((x - problem.ub).max()))
+        worst = max(worst, _largest(problem.lb - x), _largest(x - problem.ub))
     return worst
+
+
+def _largest(values: np.ndarray, where: np.ndarray | bool = True) -> float:
+    """The largest entry (where ``where``), at least 0: one reduction, no wrapper."""
+    return float(np.maximum.reduce(values, where=where, initial=0.0))
 
 
 def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
     """``FEASIBILITY_TOLERANCE`` times the scale of the terms (see :data:`FEASIBILITY_TOLERANCE`)."""
-    largest = 0.0
-    for rhs in (problem.b_ub, problem.b_eq):
-        if rhs.shape[0]:
-            largest = max(largest, float(np.abs(rhs).max()))
+    largest = max(_largest(np.abs(problem.b_ub)), _largest(np.abs(problem.b_eq)))
     if problem.has_bounds:
-        for bound in (problem.lb, problem.ub):
-            finite = np.abs(bound)
-            finite = finite[finite < np.inf]
-            if finite.shape[0]:
-                largest = max(largest, float(finite.max()))
+        bounds = np.abs(np.concatenate((problem.lb, problem.ub)))
+        largest = max(largest, _largest(bounds, where=bounds < np.inf))
     scale = 1.0 + largest
     if x is not None and x.shape[0]:
-        size = float(np.abs(x).max())
+        size = _largest(np.abs(x))
         for A in (problem.A_ub, problem.A_eq):
             if A.shape[0]:
-                scale += float(np.abs(A).sum(1).max()) * size
+                scale += _largest(np.abs(A).sum(axis=1)) * size
     return FEASIBILITY_TOLERANCE * scale
 
 
