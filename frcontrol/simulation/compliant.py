@@ -346,6 +346,17 @@ class _Dynamics:
         dv = scipy.linalg.cho_solve(factor, force, check_finite=False)
         return np.concatenate([v, dv, rate]), (state, lam_n, lam_t, status)
 
+    def forces(self, y: np.ndarray) -> tuple[RobotState, np.ndarray, np.ndarray, np.ndarray]:
+        """The state's kinematics and the contact law at ``y``: ``(state, lam_N, lam_T, status)``.
+
+        What :meth:`evaluate` computes besides the accelerations (no mass matrix solve).
+        """
+        n = self.scene.robot.nv
+        state = self.scene.robot.state(y[:n], y[n:2 * n], self.contacts.indices)
+        lam_n, lam_t, _, status = contact_forces(
+            self.contacts, state.gaps, state.normal_velocities, state.tangential_velocities, y[2 * n:])
+        return state, lam_n, lam_t, status
+
     def explicit_step(self, y: np.ndarray, u: np.ndarray, h: float) -> tuple[np.ndarray, RobotState]:
         """One semi-implicit (symplectic) Euler step: ``v += h a; q += h v; s += h ds/dt``."""
         n = self.scene.robot.nv
@@ -605,7 +616,7 @@ class _CompliantRun:
         self.failure: dict[str, Any] | None = None
         self.steps_taken: list[float] = []
         self.rhs_evaluations = 0
-        _, (st0, _, _, status0) = dynamics.evaluate(y0, np.zeros(scene.inputs.count))
+        st0, _, _, status0 = dynamics.forces(y0)
         self.contact_status = _event_status(status0, st0.gaps, scene.gap_tolerance)
         self.last_vn = st0.normal_velocities.copy()
         self.start_wall = time.perf_counter()
@@ -660,7 +671,7 @@ class _CompliantRun:
 
     def record_events(self, t: float, y_now: np.ndarray, u: np.ndarray, vn_before: np.ndarray) -> np.ndarray:
         """Compare each contact's status with the previous step's; return v_N now."""
-        _, (st, _, _, stat) = self.dynamics.evaluate(y_now, u)
+        st, _, _, stat = self.dynamics.forces(y_now)
         stat = _event_status(stat, st.gaps, self.scene.gap_tolerance)
         for j in np.nonzero(stat != self.contact_status)[0]:
             name, before, now = self.params.names[j], self.contact_status[j], stat[j]
@@ -777,8 +788,7 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
     points = np.zeros((len(ys), k_all, 2))
     kinetic, potential, elastic, penetration = [], [], [], []
     for j, y in enumerate(ys):
-        u = inputs[j]
-        _, (st, lam_n, lam_t, _) = dynamics.evaluate(y, u)
+        st, lam_n, lam_t, _ = dynamics.forces(y)
         idx = list(params.indices)
         forces[j, idx, 0] = lam_n
         forces[j, idx, 1] = lam_t
