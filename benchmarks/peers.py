@@ -203,6 +203,7 @@ class CompliantSetting:
     rtol: float | None = None           # None: simulate's default (and its default atol)
     euler_fraction: float | None = None  # the euler step as a fraction of the stability limit
     window: float | None = None         # N_r; None: read after one default sample (1 ms)
+    steps: int | None = None            # implicit: the window in this many fixed steps
 
 
 @dataclass(frozen=True)
@@ -269,10 +270,19 @@ def compliant_grid(stiffnesses: tuple[float, ...], integrators: tuple[str, ...],
     return tuple(out)
 
 
+def implicit_grid(stiffnesses: tuple[float, ...], step_omegas: tuple[float, ...], steps: int
+                  ) -> tuple[CompliantSetting, ...]:
+    """The linearly implicit integrator: ``steps`` fixed steps of ``step_omega / omega_min`` each."""
+    return tuple(CompliantSetting(f"k {k:.0e}, implicit, {steps} steps of {w:g}/omega", k, "implicit",
+                                  None, None, steps * w, steps)
+                 for k in stiffnesses for w in step_omegas)
+
+
 FULL = Grid(
     mujoco=mujoco_grid((0.002, 0.001, 0.0005), (0.99, 0.999, 0.9999), (1.0, 10.0)),
     drake=drake_grid(("tamsi", "sap", "lagged"), (1e-3, 1e-2), (None, 1e6, 1e8, 1e10)),
-    compliant=compliant_grid((1e5, 1e6, 1e7), ("radau", "lsoda", "euler"), (1e-3, 1e-6), (12.0, 40.0)),
+    compliant=compliant_grid((1e5, 1e6, 1e7), ("radau", "lsoda", "euler"), (1e-3, 1e-6), (12.0, 40.0))
+    + implicit_grid((1e8, 1e10, 1e12), (30.0, 100.0), 3),
     runs=DEFAULT_RUNS,
 )
 QUICK = Grid(
@@ -659,6 +669,10 @@ def compliant_call(ref: Reference, setting: CompliantSetting, scene: Scene, dura
         if steps > limit:
             return (lambda: None), f"skipped: {steps} fixed steps predicted"
         dt = duration / steps
+    elif setting.integrator == "implicit" and setting.steps:
+        dt = window / setting.steps
+        if duration / dt > MAX_CREEP_STEPS:
+            return (lambda: None), f"skipped: {duration / dt:.0f} fixed steps predicted"
     else:
         dt = min(dt, duration)
 
