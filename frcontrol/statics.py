@@ -491,7 +491,7 @@ def _lp(c: np.ndarray, solver: str, **kwargs: Any) -> LPResult:
 
     DAQP gets ``primal_tol = DAQP_PRIMAL_TOLERANCE``.
     """
-    options = {"primal_tol": DAQP_PRIMAL_TOLERANCE} if solver == "daqp" else {}
+    options: dict[str, Any] = {"primal_tol": DAQP_PRIMAL_TOLERANCE} if solver == "daqp" else {}
     return solve_lp(c, solver=solver, **kwargs, **options,
                     fallback=must_solve("a statics LP", bounded=False, retry_unbounded=False))
 

@@ -508,9 +508,10 @@ def solve_lp(
     *,
     solver: str = DEFAULT_LP_SOLVER,
     fallback: Fallback = NO_FALLBACK,
+    validate: bool = True,
     **options: Any,
 ) -> LPResult:
-    r"""Solve a linear program: :func:`solve` of :func:`lp_problem` (validated).
+    r"""Solve a linear program: :func:`solve` of :func:`lp_problem`.
 
     minimise :math:`c^\top x` s.t. :math:`A_{ub}x \le b_{ub}`, :math:`A_{eq}x = b_{eq}`,
     :math:`lb \le x \le ub`.
@@ -525,6 +526,7 @@ def solve_lp(
         ub: upper bounds, a scalar or shape ``(n,)``, ``+inf`` allowed; ``None`` = no bound.
         solver: back-end name (see :func:`available_solvers`).
         fallback: what to do when the answer is not usable (:class:`Fallback`).
+        validate: check the arrays (False: see :func:`lp_problem`; :func:`solve_lp_prepared`).
         **options: back-end settings, passed on verbatim (e.g. ``primal_tol`` for DAQP).
 
     Returns:
@@ -535,29 +537,17 @@ def solve_lp(
         SolverNotFound: ``solver`` is unknown or not installed.
         SolverFailed: see :func:`solve`.
     """
-    return solve(lp_problem(c, A_ub, b_ub, A_eq, b_eq, lb, ub), solver=solver, fallback=fallback, **options)
+    problem = lp_problem(c, A_ub, b_ub, A_eq, b_eq, lb, ub, validate=validate)
+    return solve(problem, solver=solver, fallback=fallback, **options)
 
 
-def solve_lp_prepared(
-    c: np.ndarray,
-    A_ub: np.ndarray | None = None,
-    b_ub: np.ndarray | None = None,
-    A_eq: np.ndarray | None = None,
-    b_eq: np.ndarray | None = None,
-    lb: np.ndarray | None = None,
-    ub: np.ndarray | None = None,
-    *,
-    solver: str = DEFAULT_LP_SOLVER,
-    fallback: Fallback = NO_FALLBACK,
-    **options: Any,
-) -> LPResult:
-    """:func:`solve_lp` for arrays frcontrol built itself: ``lp_problem(..., validate=False)``.
+def solve_lp_prepared(*args: Any, **kwargs: Any) -> LPResult:
+    """:func:`solve_lp` with ``validate=False``: for arrays frcontrol built itself.
 
     Internal hot paths (domains, projections, overlaps) use this; user-facing calls go through
     :func:`solve_lp`. The residual check is the door's usual one.
     """
-    problem = lp_problem(c, A_ub, b_ub, A_eq, b_eq, lb, ub, validate=False)
-    return solve(problem, solver=solver, fallback=fallback, **options)
+    return solve_lp(*args, validate=False, **kwargs)
 
 
 def solve_qp(
