@@ -775,7 +775,12 @@ def solutions_at(
         inputs: ``{name: value}`` (names not given are 0) or the full input vector.
         solver: the LP back-end (for modes with two or more ambiguity variables).
         rank_tolerance: relative singular-value threshold of the rank decisions.
-        method: one of :data:`SOLUTION_METHODS`; every method gives the same solutions.
+        method: one of :data:`SOLUTION_METHODS`. Every method gives the same modes, the same
+            accelerations and the same forces wherever they are unique. Where they are not (a
+            mode with ambiguity variables w), each reports a Chebyshev centre of the admissible
+            w; the ball's radius is capped at ``CHEBYSHEV_RADIUS_CAP``, so on a set wider than
+            twice the cap any point that far inside is one: the batch reports the midpoint of a
+            one-variable interval, the LPs one vertex of those centres.
 
     Raises:
         CoordinateNotFound / InputError: unknown input names, wrong length, NaN, outside limits,

@@ -21,7 +21,10 @@ modes (4^k at most, 64 for RHex) fit in one stack of matrices:
    in closed form by :func:`interval_admissible` instead of two LPs; with more, by the engine's
    LPs.
 
-Nothing here decides differently from the reference: the same rows, the same equilibration, the
+Where the internal forces are not unique, the representative w may differ from the reference's
+when its admissible set is wider than twice ``CHEBYSHEV_RADIUS_CAP``: both are Chebyshev centres
+of the capped ball (the midpoint here, a vertex of the centres there). Otherwise nothing here
+decides differently from the reference: the same rows, the same equilibration, the
 same rank rule (a singular value in the ill-conditioned band sends the whole problem back to the
 reference path, which raises only where it meets that mode) and the same tolerances. The tests
 cross-check both paths on random scenes and inputs.
@@ -411,6 +414,9 @@ def decide_intervals(a: np.ndarray, h: np.ndarray, motion: np.ndarray, valid: np
         w = np.minimum(np.maximum(np.where(has_motion, w, 0.0), lo), hi)
         margin = np.minimum(1.0, np.minimum(upper - w, w - lower))
         ok &= ~has_motion | ((margin >= 0.0) & (margin > domain_tolerance))
+        # rows with coefficients below the zero-row threshold are judged by their right-hand side
+        # alone (above), as the engine does: normalising them would inflate round-off into a
+        # bound of ~1e16 (massless legs' modes)
         lo_ball, hi_ball = _bounds(ball_ends, a, live)
         finite_lo, finite_hi = np.isfinite(lo_ball), np.isfinite(hi_ball)
         one_side = np.where(finite_lo, lo_ball + radius_cap, np.where(finite_hi, hi_ball - radius_cap, w))

@@ -680,6 +680,8 @@ def _facets_hit_along_normals(unit: np.ndarray, slack: np.ndarray, tolerance: fl
     the redundancy LP of :func:`_is_redundant` would find row ``j`` irredundant, so it is marked
     so here. One matrix product tests every normal; Clarkson's loop then spends LPs on the rest.
     """
+    if unit.shape[0] < 2:  # one row alone bounds a non-empty set: a facet
+        return np.ones(unit.shape[0], dtype=bool)
     speeds = unit @ unit.T  # [ray i, row j]: how fast the ray along normal i approaches row j
     with np.errstate(divide="ignore", invalid="ignore"):
         exits = np.where(speeds > 0, slack[None, :] / speeds, np.inf)

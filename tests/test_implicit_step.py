@@ -116,3 +116,45 @@ def explicit_stability_limit_of(scene):
 
     _, _, params = _initial_state(scene, None, None, None, "active", ContactOverrides(), None)
     return explicit_stability_limit(params)
+
+
+def test_a_box_landing_while_it_slides_follows_the_adaptive_integrator(write_scene):
+    # the slip law's coupling of lam_T to J_N v+ acts only while the penetration changes: a box
+    # touching down at 1 m/s while it slides at 2 m/s; the linearly implicit step at a small dt
+    # must follow Radau's trajectory (a sign error there once gave a different motion at any dt)
+    box = box_scene([0.0, 0.25, 0.0])
+    box["state"]["v"] = [2.0, -1.0, 0.0]
+    scene = load_scene(write_scene(box))
+    reference = simulate_compliant(scene, None, 0.02, 1e-4, integrator="radau", stiffness=1e5, rtol=1e-9,
+                                   atol=1e-12)
+    implicit = simulate_compliant(scene, None, 0.02, 1e-6, integrator="implicit", stiffness=1e5)
+    np.testing.assert_allclose(implicit.v[-1], reference.v[-1], atol=2e-3)
+    assert reference.v[-1, 0] < 1.9  # friction acted on the slide: the coupling mattered
+    sliding = np.abs(implicit.contact_forces[1:, :, 1]) >= 0.999 * 0.5 * implicit.contact_forces[1:, :, 0]
+    assert np.any(sliding & (implicit.contact_forces[1:, :, 0] > 0.1))  # lam_T = mu lam_N somewhere
+
+
+def test_the_implicit_step_satisfies_the_law_it_was_solved_with():
+    from frcontrol.simulation.compliant import _ImplicitStep
+
+    rng = np.random.default_rng(7)
+    scene = load_scene("box_on_ground")
+    from frcontrol.simulation.compliant import ContactOverrides, _initial_state
+
+    _, arm, params = _initial_state(scene, None, None, None, "active", ContactOverrides(stiffness=1e5), None)
+    for _ in range(20):
+        v = rng.normal(size=3)
+        s = rng.normal(size=2) * 1e-4
+        state = scene.robot.state(scene.q - np.array([0.0, 1e-4, 0.0]), v, params.indices)
+        h = 1e-3
+        step = _ImplicitStep(params, state, arm.apply(state.mass_matrix), -state.bias, v, s, h)
+        status = rng.integers(1, 3, size=2)  # stick or slip
+        sign = rng.choice([-1.0, 1.0], size=2)
+        v_new = step.solve(status, sign)
+        lam_n = step.normal_forces(v_new)
+        v_t = state.jacobian_tangent @ v_new
+        stick = -(params.tangential_stiffness * s + (params.tangential_stiffness * h + params.tangential_damping) * v_t)
+        lam_t = np.where(status == 1, stick, -sign * params.mu * lam_n)
+        force = -state.bias + state.jacobian_normal.T @ lam_n + state.jacobian_tangent.T @ lam_t
+        residual = arm.apply(state.mass_matrix) @ (v_new - v) - h * force
+        assert np.max(np.abs(residual)) < 1e-9 * (1.0 + np.max(np.abs(h * force)))

@@ -414,8 +414,11 @@ class _ImplicitStep:
         tangent_gain = np.where(stick, c.tangential_stiffness * h + c.tangential_damping, 0.0)
         friction = np.where(slip, sign * c.mu, 0.0)  # slip: lam_T = -sign mu lam_N
         jn, jt = st.jacobian_normal, st.jacobian_tangent
+        # J^T lam(v+) = J_N^T (k delta - g_N J_N v+) - J_T^T (k_T s + g_T J_T v+)   (stick)
+        #             - J_T^T sign mu (k delta - g_N J_N v+)                        (slip)
+        # the v+ terms, moved to the left: K = J_N^T g_N J_N + J_T^T g_T J_T - J_T^T sign mu g_N J_N
         stiffness = ((jn.T * normal_gain) @ jn + (jt.T * tangent_gain) @ jt
-                     + (jt.T * (friction * normal_gain)) @ jn)
+                     - (jt.T * (friction * normal_gain)) @ jn)
         rhs = self.mass @ self.v + h * (self.free_force + jn.T @ normal_force
                                         - jt.T @ np.where(stick, c.tangential_stiffness * self.s, 0.0)
                                         - jt.T @ (friction * normal_force))

@@ -292,7 +292,10 @@ def _largest(values: np.ndarray, where: np.ndarray | bool = True) -> float:
 
 def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
     """``FEASIBILITY_TOLERANCE`` times the scale of the terms (see :data:`FEASIBILITY_TOLERANCE`)."""
-    largest = max(_largest(np.abs(problem.b_ub)), _largest(np.abs(problem.b_eq)))
+    largest = 0.0
+    for rhs in (problem.b_ub, problem.b_eq):  # the finite ones (an unvalidated problem may hold inf)
+        magnitude = np.abs(rhs)
+        largest = max(largest, _largest(magnitude, where=magnitude < np.inf))
     if problem.has_bounds:
         bounds = np.abs(np.concatenate((problem.lb, problem.ub)))
         largest = max(largest, _largest(bounds, where=bounds < np.inf))
