@@ -138,6 +138,7 @@ def serve_command(
 
 def _run(app: object, host: str, port: int, *, json: bool, quiet: bool) -> None:
     """Serve ``app`` with uvicorn; say where once it listens; stop on Ctrl-C or SIGTERM."""
+    import signal
     import threading
 
     import uvicorn
@@ -162,7 +163,15 @@ def _run(app: object, host: str, port: int, *, json: bool, quiet: bool) -> None:
         sys.stdout.flush()
 
     threading.Thread(target=announce, daemon=True).start()
-    server.run()
+    # uvicorn shuts down gracefully on SIGINT/SIGTERM, then raises the signal again for the handlers
+    # it found: these ones end the wait quietly, so a stop by signal is an ordinary exit (code 0).
+    previous = {sig: signal.signal(sig, lambda signum, frame: None)
+                for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        server.run()
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     if not server.started:
         raise common.fail(f"the service could not start on {url} (see the log above)")
 

@@ -10,9 +10,9 @@ their shape is the library's ``to_dict()``, documented with each command.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
 
 from frcontrol.planning import (
     DEFAULT_CLIMB_DURATION,
@@ -80,10 +80,21 @@ class SceneContent(Strict):
         return self
 
 
+def _scene_form(value: Any) -> str:
+    """Which form a request's scene takes: ``"name"`` (a string) or ``"content"`` (an object)."""
+    return "name" if isinstance(value, str) else "content"
+
+
+SceneField = Annotated[
+    Annotated[str, Tag("name")] | Annotated[SceneContent, Tag("content")], Discriminator(_scene_form)
+]
+"""A request's scene: a shipped scene's name, or its content (errors name the form: ``content``)."""
+
+
 class SceneRequest(Strict):
     """The fields every scene endpoint takes: the scene and its overrides."""
 
-    scene: str | SceneContent = Field(
+    scene: SceneField = Field(
         description="A shipped scene's name (`\"rod_on_table\"`, see `GET /robots`) or the scene's content.",
         examples=["rod_on_table"])
     set: dict[str, Any] = Field(
@@ -131,7 +142,7 @@ class SimulateRequest(InputsRequest):
 class FlipRequest(SceneRequest):
     """`POST /plan/flip`: `frc flip SCENE --json`."""
 
-    scene: str | SceneContent = Field("rhex_flip", description="As for every scene endpoint.")
+    scene: SceneField = Field("rhex_flip", description="As for every scene endpoint.")
     margin: float = Field(DEFAULT_FLIP_MARGIN, ge=0.0, description="[N m] as `--margin`.")
     max_time: float = Field(2.0, ge=0.0, description="[s] as `--max-time` (0: plan only).")
     dt: float = Field(1e-3, ge=1e-6, description="[s] as `--dt`.")
@@ -141,7 +152,7 @@ class FlipRequest(SceneRequest):
 class ClimbRequest(SceneRequest):
     """`POST /plan/climb`: `frc climb SCENE --json`."""
 
-    scene: str | SceneContent = Field("snake_climb", description="As for every scene endpoint.")
+    scene: SceneField = Field("snake_climb", description="As for every scene endpoint.")
     margin: float = Field(DEFAULT_CLIMB_MARGIN, ge=0.0, description="[N m or N] as `--margin`.")
     duration: float = Field(DEFAULT_CLIMB_DURATION, ge=0.0, description="[s] as `--duration`.")
     seed: int = Field(0, description="Seed of the sampled disturbances, as `--seed`.")
@@ -215,6 +226,7 @@ __all__ = [
     "JobState",
     "Robots",
     "SceneContent",
+    "SceneField",
     "SceneRequest",
     "SimulateRequest",
     "SolutionsRequest",

@@ -221,10 +221,10 @@ class JobRunner:
                     continue
                 reply = json.loads(message[1])
                 job.reply = reply
-                self._end(job, "done" if reply["status"] == 200 else "failed",
-                          "done" if reply["status"] == 200 else "refused")
                 if reply["status"] == 200:
                     job.progress = 1.0
+                self._end(job, "done" if reply["status"] == 200 else "failed",
+                          "done" if reply["status"] == 200 else "refused")
         except (EOFError, OSError):
             if job.state == "running":
                 self._end(job, "failed", "the job's process ended without an answer")
