@@ -137,7 +137,8 @@ def run(rounds: int, count: int, workers: int) -> dict:
             "in_process_median_s": reference, "summary": summary,
             "rounds_detail": [{k: v for k, v in r.items() if k != "latencies_s"} for r in results],
             "latencies_s": [r["latencies_s"] for r in results], "python": platform.python_version(),
-            "machine": platform.machine(), "cpus": os.cpu_count(), "date": time.strftime("%Y-%m-%d")}
+            "machine": platform.machine(), "cpus": os.cpu_count(), "load_average_1min": os.getloadavg()[0],
+            "date": time.strftime("%Y-%m-%d")}
 
 
 def plot(result: dict, path: Path) -> None:
