@@ -10,8 +10,9 @@ inputs, and times each answer and the round. Every answer is checked against the
 same document ``frc analyze rod_on_table --input x=... --json`` prints as ``"solutions"``): a
 wrong answer or a failed request stops the benchmark, so an error cannot look fast. Reported:
 throughput [requests/s] (requests over the round's wall time), the median and p99 latency of a
-request, each the median over the rounds; and, as the reference measured in the same run, the same
-work in this process (scene, analysis, solutions; no HTTP, no worker), median of 50.
+request, each the median over the rounds; the latency of one request alone (one keep-alive
+connection, median of 50); and, as the reference measured in the same run, the same work in this
+process (scene, analysis, solutions; no HTTP, no worker), median of 50.
 
 Writes ``benchmarks/results/serve.json`` and ``benchmarks/results/serve.png``.
 """
@@ -119,6 +120,22 @@ async def one_round(url: str, count: int, expected: dict[float, dict]) -> dict:
             "p99_s": ordered[min(len(ordered) - 1, int(0.99 * len(ordered)))], "latencies_s": list(latencies)}
 
 
+def one_at_a_time(url: str, expected: dict[float, dict], runs: int = 50) -> float:
+    """[s] The median latency of a request alone (one keep-alive connection), answers checked."""
+    import httpx
+
+    times = []
+    with httpx.Client(base_url=url, timeout=120) as http:
+        for i in range(runs):
+            x = INPUTS[i % len(INPUTS)]
+            start = time.perf_counter()
+            response = http.post("/solutions", json={"scene": "rod_on_table", "inputs": {"x": x}})
+            times.append(time.perf_counter() - start)
+            if response.status_code != 200 or response.json() != expected[x]:
+                raise SystemExit(f"x = {x}: status {response.status_code}: {response.text[:300]}")
+    return statistics.median(times)
+
+
 def run(rounds: int, count: int, workers: int) -> dict:
     """Every round against one server, after one warm-up round."""
     expected = expected_answers()
@@ -127,6 +144,7 @@ def run(rounds: int, count: int, workers: int) -> dict:
     try:
         asyncio.run(one_round(url, count, expected))  # warm-up
         results = [asyncio.run(one_round(url, count, expected)) for _ in range(rounds)]
+        alone = one_at_a_time(url, expected)
     finally:
         process.send_signal(signal.SIGTERM)
         process.communicate(timeout=60)
@@ -134,7 +152,7 @@ def run(rounds: int, count: int, workers: int) -> dict:
                for key in ("throughput_rps", "median_s", "p99_s", "wall_s")}
     return {"benchmark": "serve", "requests": count, "rounds": rounds, "workers": workers,
             "endpoint": "POST /solutions", "scene": "rod_on_table", "inputs_x": INPUTS,
-            "in_process_median_s": reference, "summary": summary,
+            "in_process_median_s": reference, "one_at_a_time_median_s": alone, "summary": summary,
             "rounds_detail": [{k: v for k, v in r.items() if k != "latencies_s"} for r in results],
             "latencies_s": [r["latencies_s"] for r in results], "python": platform.python_version(),
             "machine": platform.machine(), "cpus": os.cpu_count(), "load_average_1min": os.getloadavg()[0],
@@ -179,7 +197,8 @@ def main() -> None:
     s = result["summary"]
     print(f"{result['requests']} concurrent POST /solutions, {result['workers']} workers, "
           f"medians of {result['rounds']} rounds: {s['throughput_rps']:.0f} requests/s, latency median "
-          f"{1e3 * s['median_s']:.0f} ms, p99 {1e3 * s['p99_s']:.0f} ms; the same work in-process "
+          f"{1e3 * s['median_s']:.0f} ms, p99 {1e3 * s['p99_s']:.0f} ms; one request alone "
+          f"{1e3 * result['one_at_a_time_median_s']:.1f} ms; the same work in-process "
           f"{1e3 * result['in_process_median_s']:.2f} ms")
 
 
