@@ -61,13 +61,18 @@ def request_scene(request: models.SceneRequest) -> Iterator[Scene]:
         SceneError: an unknown shipped name, malformed TOML, a robot given as a path, and
             everything :func:`frcontrol.scene.scene_from_document` refuses.
     """
-    from frcontrol.scene import read_scene_document, scene_from_document, shipped_robots_dir
+    from frcontrol.scene import (
+        read_scene_document,
+        scene_from_document,
+        shipped_robots_dir,
+        shipped_scene_names,
+    )
     from frcontrol.scene_schema import nearest
 
     if isinstance(request.scene, str):
         name = request.scene.removesuffix(".toml")
-        names = sorted(p.stem for p in (shipped_robots_dir() / "scenes").glob("*.toml"))
-        if name not in names:
+        names = shipped_scene_names()
+        if name not in names:  # checked against the list: a name is never used as a path
             guess = nearest(name, names)
             hint = f"did you mean {guess!r}? " if guess else ""
             raise SceneError(request.scene, "", f"no shipped scene of that name (a scene is sent by a "
