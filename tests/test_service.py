@@ -1,9 +1,9 @@
 """The planning service (frc serve): answers equal the commands' --json; hostile input refused.
 
-Against the app with httpx (Starlette's TestClient, with the app's worker processes started), and
-against a real `frc serve` process on a free loopback port: the flip planned through it, and 200
-concurrent /solutions requests whose answers equal `frc analyze --input ... --json`'s solutions.
-Only 127.0.0.1 is ever bound.
+Against the app with httpx over real HTTP (the app served by uvicorn in a thread of the test, its
+worker processes started by its lifespan), and against a real `frc serve` process on a free
+loopback port: the flip planned through it, and 200 concurrent /solutions requests whose answers
+equal `frc analyze --input ... --json`'s solutions. Only 127.0.0.1 is ever bound.
 """
 
 from __future__ import annotations
@@ -17,11 +17,11 @@ import subprocess
 import sys
 import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import httpx
 import pytest
-from fastapi.testclient import TestClient
 from frcontrol.cli.app import app as cli_app
 from typer.testing import CliRunner
 
@@ -48,18 +48,46 @@ def cli_error(*args: str) -> str:
     return line.removeprefix("frc: error: ")
 
 
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@contextmanager
+def served(config: ServiceConfig, headers: dict[str, str] | None = None):
+    """The app on a free loopback port (uvicorn in a thread), and an httpx client of it."""
+    import uvicorn
+
+    port = free_port()
+    server = uvicorn.Server(uvicorn.Config(create_app(config), host="127.0.0.1", port=port,
+                                           log_level="warning", lifespan="on"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 120
+    while not server.started:
+        assert thread.is_alive() and time.monotonic() < deadline, "the app did not start"
+        time.sleep(0.05)
+    try:
+        with httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=120, headers=headers) as http:
+            yield http
+    finally:
+        server.should_exit = True
+        thread.join(60)
+
+
 @pytest.fixture(scope="module")
 def client():
-    with TestClient(create_app(ServiceConfig(workers=2, time_limit=60.0, max_body=200_000))) as c:
-        yield c
+    with served(ServiceConfig(workers=2, time_limit=60.0, max_body=200_000)) as http:
+        yield http
 
 
 @pytest.fixture(scope="module")
 def strict_client():
     """One worker, a 2 s time limit, one job at a time, and a token."""
     config = ServiceConfig(workers=1, time_limit=2.0, max_jobs=1, token=TOKEN)
-    with TestClient(create_app(config), headers={"Authorization": f"Bearer {TOKEN}"}) as c:
-        yield c
+    with served(config, headers={"Authorization": f"Bearer {TOKEN}"}) as http:
+        yield http
 
 
 def test_info_endpoints(client):
@@ -298,12 +326,6 @@ def test_serve_prints_the_openapi_schema():
 
 
 # --- a real frc serve process --------------------------------------------------------------------
-
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
 
 @pytest.fixture(scope="module")
 def server():
