@@ -27,6 +27,7 @@ from typer.testing import CliRunner
 
 from frcontrol.scene import read_scene_document, shipped_robots_dir
 from frcontrol.service import ServiceConfig, create_app
+from frcontrol.service.models import SolutionsAnswer
 
 runner = CliRunner()
 ROD_TOML = (shipped_robots_dir() / "scenes" / "rod_on_table.toml").read_text(encoding="utf-8")
@@ -98,6 +99,8 @@ def test_info_endpoints(client):
     robots = cli_json("robots")
     assert client.get("/robots").json() == {"robots": robots["robots"], "scenes": robots["scenes"]}
     schema = client.get("/openapi.json").json()
+    answer = schema["paths"]["/solutions"]["post"]["responses"]["200"]["content"]["application/json"]
+    assert answer["schema"] == {"$ref": "#/components/schemas/SolutionsAnswer"}
     assert {"/analyze", "/solutions", "/statics", "/simulate", "/plan/flip", "/plan/climb", "/atlas",
             "/jobs/{job_id}", "/health", "/version", "/robots"} <= set(schema["paths"])
     assert schema["components"]["schemas"]["SolutionsRequest"]["additionalProperties"] is False
@@ -136,6 +139,7 @@ def test_solutions_equal_the_clis_and_a_scene_sent_as_content_equals_the_shipped
     assert expected, "the rod has a solution at x = -1"
     by_name = client.post("/solutions", json={"scene": "rod_on_table", "inputs": {"x": -1.0}})
     assert by_name.status_code == 200 and by_name.json() == {"solutions": expected}
+    SolutionsAnswer.model_validate(by_name.json())  # the documented response model holds it exactly
     by_toml = client.post("/solutions", json={"scene": {"toml": ROD_TOML}, "inputs": {"x": -1.0}})
     assert by_toml.json() == {"solutions": expected}
     document = read_scene_document(shipped_robots_dir() / "scenes" / "rod_on_table.toml")
@@ -382,4 +386,5 @@ def test_200_concurrent_solutions_all_equal_the_clis(server):
     assert [r.status_code for r in responses] == [200] * LOAD
     for i, response in enumerate(responses):
         assert response.json() == {"solutions": expected[INPUTS[i % len(INPUTS)]]}
+        SolutionsAnswer.model_validate(response.json())
     assert httpx.get(f"{server}/health").json()["status"] == "ok"

@@ -27,6 +27,9 @@ from .work import NotAvailable, error_document, start_atlas
 API_VERSION = "1"
 """The version of the HTTP API (its paths and request fields), apart from frcontrol's."""
 
+ANSWERS: dict[str, Any] = {"solutions": models.SolutionsAnswer}
+"""The typed answers (the others are JSON objects: their command's ``to_dict()``)."""
+
 ENDPOINTS: dict[str, tuple[str, type[models.SceneRequest], str]] = {
     "analyze": ("/analyze", models.AnalyzeRequest, "`frc analyze SCENE [--input ...] --json`: every "
                 "contact mode at the scene's state; with `inputs`, every rigid-body solution too."),
@@ -243,7 +246,7 @@ def _add_work_routes(app: FastAPI, pool: WorkerPool, jobs: JobRunner, kind: str,
     answer.__annotations__ = {"request": request_model, "return": Any}
     start_job.__annotations__ = {"request": request_model, "return": Any}
     app.add_api_route(path, answer, methods=["POST"], summary=summary, responses=WORK_REFUSALS,
-                      response_model=dict[str, Any], name=kind)
+                      response_model=ANSWERS.get(kind, dict[str, Any]), name=kind)
     app.add_api_route(f"/jobs{path}", start_job, methods=["POST"], status_code=202,
                       summary=f"Start {path} as a job (its id, then GET /jobs/{{id}})",
                       response_model=models.JobState, name=f"job_{kind}",

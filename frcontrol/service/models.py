@@ -3,8 +3,9 @@
 Every request is strict: an unknown key, a wrong type or a number that is not finite (NaN,
 Infinity, anywhere in the body) is a 422 naming the field. A command's options are its long
 names with underscores (``--max-time`` is ``"max_time"``), with the command's defaults and ranges.
-Responses are the commands' ``--json`` documents; they are typed loosely (a JSON object) because
-their shape is the library's ``to_dict()``, documented with each command.
+Responses are the commands' ``--json`` documents, built by the library's ``to_dict()``:
+``/solutions``' is typed here in full (:class:`SolutionsAnswer`; the tests hold every answer to it),
+the other commands' are JSON objects whose shape each command's ``to_dict()`` documents.
 """
 
 from __future__ import annotations
@@ -164,6 +165,41 @@ class AtlasRequest(SceneRequest):
     options: dict[str, Any] = Field(default_factory=dict, description="The sweep's options.")
 
 
+class ContactAnswer(BaseModel):
+    """One contact's forces [N] and accelerations [m/s^2] in a rigid solution."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    lambda_n: float
+    lambda_t: float
+    a_n: float
+    a_t: float
+
+
+class SolutionAnswer(BaseModel):
+    """One rigid-body solution (:meth:`frcontrol.engine.RigidSolution.to_dict`) with its stability."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    mode: str = Field(description="The contact mode, one of S, L, R, F per active contact.")
+    dv: list[float] = Field(description="The accelerations of the coordinates [m/s^2 or rad/s^2].")
+    contacts: dict[str, ContactAnswer] = Field(description="Forces and accelerations by contact name.")
+    ambiguity_dim: int
+    ambiguous_outputs: str = Field(description="none, forces or accelerations (what w moves).")
+    w: list[float] = Field(description="The representative ambiguity values used.")
+    equality_residual: float
+    stable: bool | None = Field(description="Stable under contact compliance; null: not analysable.")
+    stability_reason: str
+
+
+class SolutionsAnswer(BaseModel):
+    """`POST /solutions`: the `"solutions"` of `frc analyze SCENE --input ... --json`."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    solutions: list[SolutionAnswer]
+
+
 class ErrorItem(BaseModel):
     """One problem with a request: where (the field path) and what (the CLI's message)."""
 
@@ -217,6 +253,7 @@ __all__ = [
     "AnalyzeRequest",
     "AtlasRequest",
     "ClimbRequest",
+    "ContactAnswer",
     "ErrorItem",
     "ErrorResponse",
     "FlipRequest",
@@ -229,6 +266,8 @@ __all__ = [
     "SceneField",
     "SceneRequest",
     "SimulateRequest",
+    "SolutionAnswer",
+    "SolutionsAnswer",
     "SolutionsRequest",
     "StaticsRequest",
     "Strict",
