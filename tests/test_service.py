@@ -182,7 +182,8 @@ def test_unknown_keys_are_refused(client, body, loc):
     assert refused == [loc]
 
 
-@pytest.mark.parametrize("text", ['{"scene": "rod_on_table"', "[1, 2]", '"rod_on_table"', ""])
+@pytest.mark.parametrize("text", ['{"scene": "rod_on_table"', "[1, 2]", '"rod_on_table"', "",
+                                  "[" * 50_000 + "]" * 50_000])
 def test_malformed_json_and_other_bodies_are_422s(client, text):
     response = client.post("/solutions", content=text, headers={"content-type": "application/json"})
     assert response.status_code == 422 and response.json()["detail"][0]["loc"][0] == "body"

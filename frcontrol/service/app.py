@@ -158,13 +158,17 @@ class _Guard:
 def _non_finite(body: bytes) -> JSONResponse | None:
     """A 422 naming the field of a NaN or an infinite number in a JSON body, else None.
 
-    NaN and Infinity are not JSON, though Python reads them; malformed JSON is left to the endpoint.
+    NaN and Infinity are not JSON, though Python reads them. A body nested too deeply to read is a
+    422 too; malformed JSON is left to the endpoint.
     """
     try:
-        document = json.loads(body) if body else None
+        where = first_non_finite(json.loads(body) if body else None)
+    except RecursionError:
+        return JSONResponse({"detail": [{"loc": ["body"], "type": "json_too_deep",
+                                         "msg": "the JSON nests too deeply to be a request"}]},
+                            status_code=422)
     except ValueError:
         return None
-    where = first_non_finite(document)
     if where is None:
         return None
     return JSONResponse({"detail": [{"loc": ["body", *where], "type": "finite_number",
