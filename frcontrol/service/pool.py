@@ -35,17 +35,17 @@ class WorkerLost(Exception):
 
 
 def _worker_main(conn: Connection) -> None:
-    """A pool worker: answer ``(kind, text)`` messages until the pipe closes."""
+    """A pool worker: answer ``(number, kind, text)`` with ``(number, answer)`` until the pipe closes."""
     from .work import execute, warm_up
 
     warm_up()
     conn.send("ready")
     while True:
         try:
-            kind, text = conn.recv()
+            number, kind, text = conn.recv()
         except (EOFError, OSError):
             return
-        conn.send(execute(kind, text))
+        conn.send((number, execute(kind, text)))
 
 
 @dataclass
@@ -79,6 +79,7 @@ class WorkerPool:
         self.time_limit = time_limit
         self._idle: asyncio.Queue[_Worker] | None = None
         self._all: list[_Worker] = []
+        self._sent = 0
 
     async def start(self) -> None:
         """Start the workers (in parallel) and wait until each has loaded the library."""
@@ -103,12 +104,17 @@ class WorkerPool:
             worker = await asyncio.wait_for(self._idle.get(), self.time_limit)
         except TimeoutError:
             raise TimeLimitExceeded(self.time_limit) from None
+        self._sent += 1
+        number = self._sent
         try:
-            worker.conn.send((kind, text))
-            ready = await asyncio.to_thread(worker.conn.poll, max(0.0, deadline - time.monotonic()))
-            if not ready:
-                raise TimeLimitExceeded(self.time_limit)
-            reply: str = worker.conn.recv()
+            worker.conn.send((number, kind, text))
+            while True:  # an answer to an abandoned request (its client went away) is skipped
+                ready = await asyncio.to_thread(worker.conn.poll, max(0.0, deadline - time.monotonic()))
+                if not ready:
+                    raise TimeLimitExceeded(self.time_limit)
+                answered, reply = worker.conn.recv()
+                if answered == number:
+                    break
         except TimeLimitExceeded:
             worker = await self._replace(worker)
             raise
@@ -117,7 +123,7 @@ class WorkerPool:
             raise WorkerLost("a worker process ended during the request") from err
         finally:
             self._idle.put_nowait(worker)
-        return reply
+        return str(reply)
 
     async def _replace(self, worker: _Worker) -> _Worker:
         """Kill a worker and start its successor."""
