@@ -38,18 +38,15 @@ def analyze_command(
       frc analyze rod_on_table --set contacts.tip.mu=0.3 --input x=1
     """
     common.set_quiet(quiet)
-    from frcontrol.engine import analyze, solutions_at
-    from frcontrol.scene import parse_input_assignments as parse_input_vector
+    from frcontrol.answers import analysis_and_solutions, analysis_payload
 
     loaded = options.load_scene_with_overrides(scene, sets)
     assignments = options.parse_inputs(inputs)
     with common.progress("analysing contact modes...") as status:
-        result = analyze(loaded, progress=lambda mode: status.update(f"analysing mode {mode}"))
-        solutions = solutions_at(result, parse_input_vector(loaded, assignments)) if inputs else None
-    inactive = [c.name for c in loaded.contacts if not c.active]
-    payload = result.to_dict(inactive)
-    if solutions is not None:
-        payload["solutions"] = [solution_payload(s, result.problem) for s in solutions]
+        result, solutions = analysis_and_solutions(
+            loaded, assignments if inputs else None,
+            progress=lambda mode: status.update(f"analysing mode {mode}"))
+    payload = analysis_payload(loaded, result, solutions)
     common.answer(payload, render, json=json)
 
 

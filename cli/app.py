@@ -6,7 +6,17 @@ import warnings
 
 import typer
 
-from . import analyze_cmd, climb_cmd, flip_cmd, model_cmds, scene_cmds, simulate_cmd, statics_cmd, view_cmd
+from . import (
+    analyze_cmd,
+    climb_cmd,
+    flip_cmd,
+    model_cmds,
+    scene_cmds,
+    serve_cmd,
+    simulate_cmd,
+    statics_cmd,
+    view_cmd,
+)
 
 app = typer.Typer(
     name="frc",
@@ -49,6 +59,7 @@ app.command("flip")(flip_cmd.flip_command)
 app.command("climb")(climb_cmd.climb_command)
 app.command("schema")(scene_cmds.schema_command)
 app.command("validate")(scene_cmds.validate_command)
+app.command("serve")(serve_cmd.serve_command)
 
 
 def main() -> None:

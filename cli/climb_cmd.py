@@ -59,21 +59,20 @@ def climb_command(
       frc climb --margin 0.2 --json
     """
     common.set_quiet(quiet)
-    from frcontrol.planning.climb import plan_climb, simulate_climb
+    from frcontrol.answers import plan_and_climb
 
     common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
     loaded = options.load_scene_with_overrides(scene, sets)
     with common.live_viewer(view, port) as server:
-        with common.progress("planning the climb..."):
-            plan = plan_climb(loaded, margin=margin)
+        with common.progress("planning the climb...") as status:
+            plan, result = plan_and_climb(loaded, margin=margin, duration=duration, seed=seed,
+                                          on_simulation=lambda: status.update("simulating the climb..."))
         if not plan.found:  # an answer, not an error (exit 0): the JSON says why
             if json:
                 common.print_json(plan.to_dict(None))
             else:
                 console.print(f"no climb plan: {plan.reason}")
             return
-        with common.progress("simulating the climb..."):
-            result = simulate_climb(loaded, plan, duration=duration, seed=seed) if duration > 0 else None
         payload = plan.to_dict(result)
         common.answer(payload, render, json=json)
         if plot is not None:

@@ -86,15 +86,12 @@ def flip_command(
 def _plan_and_fly(scene: Scene, margin: float, max_time: float, dt: float, replan_every: int
                   ) -> tuple[FlipPlan, FlipResult | None]:
     """The plan and, when one is found and ``max_time`` > 0, the simulated closed loop."""
-    from frcontrol.planning.flip import plan_flip, simulate_flip
+    from frcontrol.answers import plan_and_fly
 
     with common.progress("planning the flip...") as status:
-        plan = plan_flip(scene, margin=margin)
-        if not plan.found or max_time <= 0:
-            return plan, None
-        status.update(f"simulating the flip (up to {max_time:g} s)...")
-        return plan, simulate_flip(
-            scene, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin, plan=plan,
+        return plan_and_fly(
+            scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
+            on_simulation=lambda: status.update(f"simulating the flip (up to {max_time:g} s)..."),
             progress=lambda t, total: status.update(f"simulating the flip: {t:.3f} / {total:g} s"))
 
 

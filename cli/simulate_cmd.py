@@ -108,20 +108,15 @@ def _simulate(scene: Scene, model: ContactModel | None, stiffness: float | None,
     """The run on the chosen contact model (default: the scene's [model] contact).
 
     Raises:
-        typer.Exit: --stiffness or --damping with the rigid model.
+        InputError: --stiffness or --damping with the rigid model.
     """
-    from frcontrol.simulation.compliant import simulate_compliant
+    from frcontrol.answers import run_simulation
     from frcontrol.simulation.model_table import model_options
-    from frcontrol.simulation.rigid import simulate_rigid
 
     chosen = model.value if model is not None else model_options(scene).contact
-    if chosen == "rigid" and (stiffness is not None or damping is not None):
-        raise common.fail("--stiffness and --damping belong to the compliant model: add --model compliant")
     with common.progress(f"simulating {duration:g} s on the {chosen} model..."):
-        if chosen == "rigid":
-            return simulate_rigid(scene, inputs, duration, dt)
-        return simulate_compliant(scene, inputs, duration, dt, integrator=integrator,
-                                  stiffness=stiffness, damping=damping)
+        return run_simulation(scene, inputs, model=chosen, stiffness=stiffness, damping=damping,
+                              duration=duration, dt=dt, integrator=integrator)
 
 
 def _report_validity(traj: Trajectory) -> None:
@@ -130,12 +125,13 @@ def _report_validity(traj: Trajectory) -> None:
     Raises:
         typer.Exit: the run did not complete.
     """
+    from frcontrol.answers import simulation_failure
+
     for warning in traj.warnings:
         sys.stderr.write(f"frc: warning: t = {warning.time:.6g} s: {warning.kind}: {warning.detail}\n")
-    failure = traj.failure
+    failure = simulation_failure(traj)
     if failure is not None:
-        hint = f"; {failure.hint}" if failure.hint else ""
-        raise common.fail(f"the simulation {traj.status} at t = {failure.time:.6g} s: {failure.reason}{hint}")
+        raise common.fail(failure)
 
 
 def render(payload: dict[str, Any]) -> None:

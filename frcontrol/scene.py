@@ -312,14 +312,78 @@ def load_scene(
     scene_path = resolve_scene_path(path)
     reader = _Reader(scene_path)
     raw = read_scene_document(scene_path)
+    robot = _checked_document(reader, raw, overrides)
+    robot_file = _resolve_robot(reader, scene_path, robot)
+    return _scene_from_checked(reader, scene_path, raw, robot_file, gap_tolerance)
+
+
+def _checked_document(reader: _Reader, raw: dict[str, Any], overrides: Mapping[str, Any] | None) -> str:
+    """Apply ``overrides`` to a scene document and check it against the schema; its robot's name.
+
+    Raises:
+        SceneError: an override or a field is wrong (see :func:`load_scene`).
+    """
     for key, value in (overrides or {}).items():
         for problem in apply_override(raw, key, value):
             raise reader.fail(problem.field, problem.reason)
     problems = schema_problems(raw)
     if problems:
         raise reader.fail(problems[0].field, problems[0].reason)
+    return reader.string(raw["robot"], "robot")
+
+
+def scene_from_document(
+    document: Mapping[str, Any],
+    *,
+    source: str = "scene",
+    robot_files: Mapping[str, Path] | None = None,
+    gap_tolerance: float | None = None,
+    overrides: Mapping[str, Any] | None = None,
+) -> Scene:
+    """Validate a scene given as a document (the parsed TOML, or its JSON form), not as a file.
+
+    Nothing is read from a path named by the document: its ``robot`` must be a bare file name,
+    either a key of ``robot_files`` (URDF files the caller wrote, e.g. from text it received) or a
+    robot shipped with frcontrol. This is how a scene from another program (``frc serve``) loads.
+
+    Args:
+        document: the scene's tables, as :func:`read_scene_document` returns them (copied, not changed).
+        source: what error messages name in place of a file (``"scene"``, or a shipped scene's path).
+        robot_files: URDF files by the bare name a scene may give as its ``robot``.
+        gap_tolerance: [m] overrides the scene's ``gap_tolerance``.
+        overrides: values to set before validation, by dotted path, as for :func:`load_scene`.
+
+    Raises:
+        SceneError: everything :func:`load_scene` refuses, and a ``robot`` that is a path
+            (``../../etc/passwd``) or names neither a given nor a shipped URDF.
+    """
+    import copy
+
+    scene_path = Path(source)
+    reader = _Reader(scene_path)
+    raw = copy.deepcopy(dict(document))
+    robot = _checked_document(reader, raw, overrides)
+    files = dict(robot_files or {})
+    shipped = sorted(p.name for p in shipped_robots_dir().glob("*.urdf"))
+    if robot != Path(robot).name or robot in ("", ".", ".."):
+        raise reader.fail("robot", f"{robot!r} is a path: a scene loaded from a document names its robot "
+                          f"by the file name of a shipped URDF ({', '.join(shipped)}) or of a URDF sent "
+                          "with it")
+    if robot in files:
+        robot_file = files[robot]
+    elif robot in shipped:
+        robot_file = shipped_robots_dir() / robot
+    else:
+        given = f"the URDFs sent with it ({', '.join(sorted(files))}) nor " if files else ""
+        raise reader.fail("robot", f"no URDF {robot!r} among {given}the shipped robots "
+                          f"({', '.join(shipped)})")
+    return _scene_from_checked(reader, scene_path, raw, robot_file, gap_tolerance)
+
+
+def _scene_from_checked(reader: _Reader, scene_path: Path, raw: dict[str, Any], robot_file: Path,
+                        gap_tolerance: float | None) -> Scene:
+    """The scene of a document that passed the schema, on the URDF ``robot_file``."""
     name = reader.string(raw.get("name", scene_path.stem), "name")
-    robot_file = _resolve_robot(reader, scene_path, reader.string(raw["robot"], "robot"))
     base, gravity, tol = _read_model_settings(reader, raw, gap_tolerance)
     try:
         bare = PlanarRobot(robot_file, base=base, gravity=gravity)
@@ -562,6 +626,7 @@ __all__ = [
     "parse_input_assignments",
     "read_scene_document",
     "resolve_scene_path",
+    "scene_from_document",
     "scene_problems",
     "shipped_robots_dir",
     "shipped_scene_names",

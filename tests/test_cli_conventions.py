@@ -22,7 +22,7 @@ def test_every_command_has_the_shared_options(name):
 
 
 def test_every_command_is_registered():
-    assert set(COMMANDS) == READS_A_SCENE | {"robots", "schema", "validate"}
+    assert set(COMMANDS) == READS_A_SCENE | {"robots", "schema", "validate", "serve"}
 
 
 def test_quiet_keeps_the_answer_and_drops_the_notes(tmp_path):

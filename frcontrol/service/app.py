@@ -1,0 +1,298 @@
+"""The FastAPI application of ``frc serve``: endpoints, the token check and the body-size cap.
+
+:func:`create_app` builds it from a :class:`ServiceConfig`; ``frc serve`` runs it with uvicorn.
+The endpoints and their JSON are documented in the README ("The planning service") and in the
+OpenAPI schema the app serves at ``/openapi.json`` (pages at ``/docs``).
+"""
+
+from __future__ import annotations
+
+import hmac
+import json
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from dataclasses import dataclass
+from typing import Any
+
+from fastapi import FastAPI, HTTPException, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from . import models
+from .models import first_non_finite
+from .pool import JobRunner, TimeLimitExceeded, WorkerLost, WorkerPool
+from .work import NotAvailable, error_document, start_atlas
+
+API_VERSION = "1"
+"""The version of the HTTP API (its paths and request fields), apart from frcontrol's."""
+
+ANSWERS: dict[str, Any] = {"solutions": models.SolutionsAnswer}
+"""The typed answers (the others are JSON objects: their command's ``to_dict()``)."""
+
+ENDPOINTS: dict[str, tuple[str, type[models.SceneRequest], str]] = {
+    "analyze": ("/analyze", models.AnalyzeRequest, "`frc analyze SCENE [--input ...] --json`: every "
+                "contact mode at the scene's state; with `inputs`, every rigid-body solution too."),
+    "solutions": ("/solutions", models.SolutionsRequest, "Every rigid-body solution at the inputs: "
+                  "`{\"solutions\": [...]}`, the `solutions` of `frc analyze --input ... --json`."),
+    "statics": ("/statics", models.StaticsRequest, "`frc statics SCENE --json`: closure, equilibrium, "
+                "support region, weak and strong stability at rest."),
+    "simulate": ("/simulate", models.SimulateRequest, "`frc simulate SCENE --json`: a trajectory with "
+                 "contact events, checked against the model's validity (a diverged run is a 422)."),
+    "flip": ("/plan/flip", models.FlipRequest, "`frc flip SCENE --json`: the flip plan and its "
+             "closed-loop simulation."),
+    "climb": ("/plan/climb", models.ClimbRequest, "`frc climb SCENE --json`: the climb plan and its "
+              "simulated check."),
+}
+"""Each kind of work: its path, its request model and what it answers."""
+
+REFUSALS: dict[int | str, dict[str, Any]] = {
+    401: {"model": models.ErrorResponse, "description": "No or a wrong `Authorization: Bearer` token "
+          "(when the service has one)."},
+    413: {"model": models.ErrorResponse, "description": "The body exceeds the size cap."},
+    422: {"model": models.ErrorResponse, "description": "Bad input: the field path and the CLI's message."},
+}
+WORK_REFUSALS: dict[int | str, dict[str, Any]] = {
+    **REFUSALS,
+    504: {"model": models.ErrorResponse, "description": "The request exceeded the time limit (named)."},
+}
+
+
+@dataclass(frozen=True)
+class ServiceConfig:
+    """How the service runs.
+
+    Attributes:
+        workers: worker processes answering requests.
+        time_limit: [s] each request's limit, waiting for a worker included (then a 504).
+        job_time_limit: [s] each job's limit (then the job fails, saying so).
+        max_jobs: jobs running at once (another one is a 429).
+        max_body: [bytes] the largest request body (a larger one is a 413).
+        token: when set, every request needs ``Authorization: Bearer <token>`` (else a 401).
+    """
+
+    workers: int = 2
+    time_limit: float = 60.0
+    job_time_limit: float = 3600.0
+    max_jobs: int = 2
+    max_body: int = 1_000_000
+    token: str | None = None
+
+
+def _error(status: int, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
+    return JSONResponse({"detail": message}, status_code=status, headers=headers)
+
+
+async def _refused(request: Request, err: Exception) -> JSONResponse:
+    """A request the models refuse: 422 with each problem's field path and message.
+
+    The input is not echoed: it may hold what JSON cannot carry back, such as NaN.
+    """
+    problems = err.errors() if isinstance(err, RequestValidationError) else []
+    return JSONResponse({"detail": [{"loc": list(e["loc"]), "msg": e["msg"], "type": e["type"]}
+                                    for e in problems]}, status_code=422)
+
+
+class _Guard:
+    """ASGI middleware: the bearer token (when configured) and the body-size cap, before any parsing."""
+
+    def __init__(self, app: ASGIApp, config: ServiceConfig) -> None:
+        self.app = app
+        self.config = config
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope["headers"]}
+        refusal = self._refusal(headers)
+        if refusal is None:
+            body, refusal = await self._body(receive)
+        if refusal is not None:
+            await refusal(scope, receive, send)
+            return
+        sent = False
+
+        async def replay() -> Message:
+            nonlocal sent
+            if sent:
+                return await receive()
+            sent = True
+            return {"type": "http.request", "body": body, "more_body": False}
+
+        await self.app(scope, replay, send)
+
+    def _refusal(self, headers: dict[str, str]) -> JSONResponse | None:
+        token = self.config.token
+        if token is not None:
+            given = headers.get("authorization", "")
+            scheme, _, value = given.partition(" ")
+            if scheme.lower() != "bearer" or not hmac.compare_digest(value.strip().encode(), token.encode()):
+                return _error(401, "this service needs 'Authorization: Bearer <token>' with the token of "
+                              "its --token-file", {"WWW-Authenticate": "Bearer"})
+        length = headers.get("content-length")
+        if length is not None and (not length.isdigit() or int(length) > self.config.max_body):
+            return self._too_large()
+        return None
+
+    def _too_large(self) -> JSONResponse:
+        return _error(413, f"the request body exceeds the service's cap of {self.config.max_body} bytes "
+                      "(frc serve --max-body)")
+
+    async def _body(self, receive: Receive) -> tuple[bytes, JSONResponse | None]:
+        chunks, size = [], 0
+        while True:
+            message = await receive()
+            if message["type"] != "http.request":
+                return b"", None
+            chunk = message.get("body", b"")
+            size += len(chunk)
+            if size > self.config.max_body:
+                return b"", self._too_large()
+            chunks.append(chunk)
+            if not message.get("more_body", False):
+                body = b"".join(chunks)
+                return body, _non_finite(body)
+
+
+def _non_finite(body: bytes) -> JSONResponse | None:
+    """A 422 naming the field of a NaN or an infinite number in a JSON body, else None.
+
+    NaN and Infinity are not JSON, though Python reads them. A body nested too deeply to read is a
+    422 too; malformed JSON is left to the endpoint.
+    """
+    try:
+        where = first_non_finite(json.loads(body) if body else None)
+    except RecursionError:
+        return JSONResponse({"detail": [{"loc": ["body"], "type": "json_too_deep",
+                                         "msg": "the JSON nests too deeply to be a request"}]},
+                            status_code=422)
+    except ValueError:
+        return None
+    if where is None:
+        return None
+    return JSONResponse({"detail": [{"loc": ["body", *where], "type": "finite_number",
+                                     "msg": "expected a finite number: NaN and Infinity are not JSON "
+                                            "numbers and are not accepted"}]}, status_code=422)
+
+
+def create_app(config: ServiceConfig | None = None) -> FastAPI:
+    """The service's application: worker pool and jobs started with it, stopped with it."""
+    config = config or ServiceConfig()
+    pool = WorkerPool(config.workers, config.time_limit)
+    jobs = JobRunner(config.max_jobs, config.job_time_limit)
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        await pool.start()
+        try:
+            yield
+        finally:
+            jobs.stop()
+            pool.stop()
+
+    app = FastAPI(title="frcontrol planning service", version=API_VERSION, lifespan=lifespan,
+                  description="Contact modes, mode domains, plans and simulations of planar robots in "
+                              "contact, as JSON: each answer is the matching `frc` command's `--json`.")
+    app.add_middleware(_Guard, config=config)
+    app.add_exception_handler(RequestValidationError, _refused)
+    _add_info_routes(app, config, pool, jobs)
+    for kind, (path, request_model, summary) in ENDPOINTS.items():
+        _add_work_routes(app, pool, jobs, kind, path, request_model, summary)
+    _add_job_routes(app, jobs)
+    return app
+
+
+def _add_info_routes(app: FastAPI, config: ServiceConfig, pool: WorkerPool, jobs: JobRunner) -> None:
+    @app.get("/health", response_model=models.Health, responses=REFUSALS)
+    async def health() -> dict[str, Any]:
+        """Answers at once, also while every worker is busy."""
+        return {"status": "ok", "workers": pool.size, "jobs_running": jobs.running()}
+
+    @app.get("/version", response_model=models.Version, responses=REFUSALS)
+    async def version() -> dict[str, Any]:
+        """The version of frcontrol and of the API."""
+        from frcontrol import __version__
+
+        return {"frcontrol": __version__, "api": API_VERSION}
+
+    @app.get("/robots", response_model=models.Robots, responses=REFUSALS)
+    async def robots() -> dict[str, Any]:
+        """What ships: `frc robots --json` without the folder (the service takes no paths)."""
+        from frcontrol.scene import shipped_robots_dir
+
+        root = shipped_robots_dir()
+        return {"robots": [p.name for p in sorted(root.glob("*.urdf"))],
+                "scenes": [p.stem for p in sorted((root / "scenes").glob("*.toml"))]}
+
+
+def _add_work_routes(app: FastAPI, pool: WorkerPool, jobs: JobRunner, kind: str, path: str,
+                     request_model: type[models.SceneRequest], summary: str) -> None:
+    async def answer(request: models.SceneRequest) -> Any:
+        text = request.model_dump_json(by_alias=True)
+        try:
+            reply = json.loads(await pool.run(kind, text))
+        except TimeLimitExceeded as err:
+            return _error(504, str(err))
+        except WorkerLost as err:
+            return _error(500, str(err))
+        if reply["status"] == 200:
+            return JSONResponse(reply["answer"])
+        return JSONResponse({"detail": reply["detail"]}, status_code=reply["status"])
+
+    async def start_job(request: models.SceneRequest) -> Any:
+        job = jobs.start(kind, request.model_dump_json(by_alias=True))
+        if job is None:
+            return _error(429, f"{jobs.max_running} jobs are running, the service's limit "
+                          "(frc serve --max-jobs): wait for one to end or cancel one")
+        return JSONResponse(job.public(), status_code=202)
+
+    answer.__annotations__ = {"request": request_model, "return": Any}
+    start_job.__annotations__ = {"request": request_model, "return": Any}
+    app.add_api_route(path, answer, methods=["POST"], summary=summary, responses=WORK_REFUSALS,
+                      response_model=ANSWERS.get(kind, dict[str, Any]), name=kind)
+    app.add_api_route(f"/jobs{path}", start_job, methods=["POST"], status_code=202,
+                      summary=f"Start {path} as a job (its id, then GET /jobs/{{id}})",
+                      response_model=models.JobState, name=f"job_{kind}",
+                      responses={**REFUSALS, 429: {"model": models.ErrorResponse,
+                                                   "description": "Too many jobs running."}})
+
+
+def _add_job_routes(app: FastAPI, jobs: JobRunner) -> None:
+    def found(job_id: str) -> dict[str, Any]:
+        job = jobs.jobs.get(job_id)
+        if job is None:
+            raise HTTPException(404, f"no job {job_id!r} (a finished job is kept until {jobs.keep} newer "
+                                "ones end)")
+        return job.public()
+
+    @app.get("/jobs/{job_id}", response_model=models.JobState, responses=REFUSALS)
+    async def job_state(job_id: str) -> dict[str, Any]:
+        """A job's state and progress; its result when done, its error when failed."""
+        return found(job_id)
+
+    @app.delete("/jobs/{job_id}", response_model=models.JobState, responses=REFUSALS)
+    async def cancel_job(job_id: str) -> dict[str, Any]:
+        """Cancel a job (its process is stopped); a finished job stays as it was."""
+        found(job_id)
+        jobs.cancel(job_id)
+        return found(job_id)
+
+    @app.post("/atlas", status_code=202, response_model=models.JobState,
+              responses={**REFUSALS, 501: {"model": models.ErrorResponse,
+                                           "description": "Not available in this version."}})
+    async def atlas(request: models.AtlasRequest) -> Any:
+        """Start a sweep of the mode atlas as a job (not available in this version: a 501)."""
+        try:
+            return found(start_atlas(request))
+        except NotAvailable as err:
+            document = error_document(err)
+            return JSONResponse({"detail": document["detail"]}, status_code=document["status"])
+
+
+__all__ = [
+    "API_VERSION",
+    "ENDPOINTS",
+    "ServiceConfig",
+    "create_app",
+]

@@ -1,0 +1,275 @@
+"""The service's request and response models (pydantic): what each endpoint accepts, for OpenAPI.
+
+Every request is strict: an unknown key, a wrong type or a number that is not finite (NaN,
+Infinity, anywhere in the body) is a 422 naming the field. A command's options are its long
+names with underscores (``--max-time`` is ``"max_time"``), with the command's defaults and ranges.
+Responses are the commands' ``--json`` documents, built by the library's ``to_dict()``:
+``/solutions``' is typed here in full (:class:`SolutionsAnswer`; the tests hold every answer to it),
+the other commands' are JSON objects whose shape each command's ``to_dict()`` documents.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any
+
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
+
+from frcontrol.planning import (
+    DEFAULT_CLIMB_DURATION,
+    DEFAULT_CLIMB_MARGIN,
+    DEFAULT_FLIP_MARGIN,
+)
+
+MAX_URDF_NAME = 100
+"""Longest file name of a URDF sent with a scene."""
+
+
+def first_non_finite(value: Any, where: tuple[str | int, ...] = ()) -> tuple[str | int, ...] | None:
+    """The path of the first float that is NaN or infinite in a JSON value, or None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return where
+    if isinstance(value, dict):
+        items: Any = value.items()
+    elif isinstance(value, list):
+        items = enumerate(value)
+    else:
+        return None
+    for key, item in items:
+        found = first_non_finite(item, (*where, key))
+        if found is not None:
+            return found
+    return None
+
+
+class Strict(BaseModel):
+    """A request part: unknown keys refused, every number finite."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _finite(cls, data: Any) -> Any:
+        found = first_non_finite(data)
+        if found is not None:
+            where = ".".join(str(k) for k in found)
+            raise ValueError(f"{where}: expected a finite number (NaN and Infinity are not accepted)")
+        return data
+
+
+class SceneContent(Strict):
+    """A scene sent as content: its TOML text or its JSON form, and URDFs it may name as its robot."""
+
+    toml: str | None = Field(None, description="The scene file's TOML text.")
+    json_: dict[str, Any] | None = Field(
+        None, alias="json", description="The scene as JSON: the tables of the scene schema (`frc schema`).")
+    robots: dict[str, str] = Field(
+        default_factory=dict,
+        description="URDF texts by file name (`{\"arm.urdf\": \"<robot ...>\"}`) that the scene may name "
+                    "as its `robot`; otherwise the robot is a shipped URDF (`GET /robots`). Never a path.")
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, populate_by_name=True)
+
+    @model_validator(mode="after")
+    def _one_form(self) -> SceneContent:
+        if (self.toml is None) == (self.json_ is None):
+            raise ValueError("give the scene as exactly one of 'toml' (its text) or 'json' (its tables)")
+        for name in self.robots:
+            if not name.endswith(".urdf") or "/" in name or "\\" in name or name.startswith(".") \
+                    or len(name) > MAX_URDF_NAME:
+                raise ValueError(f"robots: {name!r} is not a URDF file name (a bare name ending in .urdf)")
+        return self
+
+
+def _scene_form(value: Any) -> str:
+    """Which form a request's scene takes: ``"name"`` (a string) or ``"content"`` (an object)."""
+    return "name" if isinstance(value, str) else "content"
+
+
+SceneField = Annotated[
+    Annotated[str, Tag("name")] | Annotated[SceneContent, Tag("content")], Discriminator(_scene_form)
+]
+"""A request's scene: a shipped scene's name, or its content (errors name the form: ``content``)."""
+
+
+class SceneRequest(Strict):
+    """The fields every scene endpoint takes: the scene and its overrides."""
+
+    scene: SceneField = Field(
+        description="A shipped scene's name (`\"rod_on_table\"`, see `GET /robots`) or the scene's content.",
+        examples=["rod_on_table"])
+    set: dict[str, Any] = Field(
+        default_factory=dict,
+        description="Overrides by dotted path, as `frc --set` (`{\"contacts.tip.mu\": 0.5}`), checked "
+                    "exactly like the scene's own values.")
+
+
+class InputsRequest(SceneRequest):
+    """A scene and named inputs (inputs not named are 0)."""
+
+    inputs: dict[str, float] = Field(default_factory=dict,
+                                     description="Input values by coordinate name [N or N m], as `--input`.")
+
+
+class AnalyzeRequest(SceneRequest):
+    """`POST /analyze`: `frc analyze SCENE [--input ...] --json`."""
+
+    inputs: dict[str, float] | None = Field(
+        None, description="Input values by name [N or N m]: with them, the answer adds `solutions`.")
+
+
+class SolutionsRequest(InputsRequest):
+    """`POST /solutions`: every rigid-body solution at the inputs."""
+
+
+class StaticsRequest(InputsRequest):
+    """`POST /statics`: `frc statics SCENE --json`."""
+
+    lateral_acceleration: float = Field(0.0, ge=0.0, description="[m/s^2] as `--lateral-acceleration`.")
+    no_strong: bool = Field(False, description="Skip the strong-stability test, as `--no-strong`.")
+
+
+class SimulateRequest(InputsRequest):
+    """`POST /simulate`: `frc simulate SCENE --json`."""
+
+    model: str | None = Field(None, description="`rigid` or `compliant` (default: the scene's [model]).")
+    stiffness: float | None = Field(None, description="[N/m] compliant contact stiffness, as `--stiffness`.")
+    damping: float | None = Field(None, description="[N s/m] compliant contact damping, as `--damping`.")
+    dt: float = Field(1e-3, description="[s] the rigid step; the compliant sample interval.")
+    duration: float = Field(1.0, description="[s] simulated time.")
+    integrator: str = Field("radau", description="The compliant model's integrator.")
+
+
+class FlipRequest(SceneRequest):
+    """`POST /plan/flip`: `frc flip SCENE --json`."""
+
+    scene: SceneField = Field("rhex_flip", description="As for every scene endpoint.")
+    margin: float = Field(DEFAULT_FLIP_MARGIN, ge=0.0, description="[N m] as `--margin`.")
+    max_time: float = Field(2.0, ge=0.0, description="[s] as `--max-time` (0: plan only).")
+    dt: float = Field(1e-3, ge=1e-6, description="[s] as `--dt`.")
+    replan_every: int = Field(10, ge=1, description="Steps between two plans, as `--replan-every`.")
+
+
+class ClimbRequest(SceneRequest):
+    """`POST /plan/climb`: `frc climb SCENE --json`."""
+
+    scene: SceneField = Field("snake_climb", description="As for every scene endpoint.")
+    margin: float = Field(DEFAULT_CLIMB_MARGIN, ge=0.0, description="[N m or N] as `--margin`.")
+    duration: float = Field(DEFAULT_CLIMB_DURATION, ge=0.0, description="[s] as `--duration`.")
+    seed: int = Field(0, description="Seed of the sampled disturbances, as `--seed`.")
+
+
+class AtlasRequest(SceneRequest):
+    """`POST /atlas`: a sweep of the mode atlas, run as a job."""
+
+    options: dict[str, Any] = Field(default_factory=dict, description="The sweep's options.")
+
+
+class ContactAnswer(BaseModel):
+    """One contact's forces [N] and accelerations [m/s^2] in a rigid solution."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    lambda_n: float
+    lambda_t: float
+    a_n: float
+    a_t: float
+
+
+class SolutionAnswer(BaseModel):
+    """One rigid-body solution (:meth:`frcontrol.engine.RigidSolution.to_dict`) with its stability."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    mode: str = Field(description="The contact mode, one of S, L, R, F per active contact.")
+    dv: list[float] = Field(description="The accelerations of the coordinates [m/s^2 or rad/s^2].")
+    contacts: dict[str, ContactAnswer] = Field(description="Forces and accelerations by contact name.")
+    ambiguity_dim: int
+    ambiguous_outputs: str = Field(description="none, forces or accelerations (what w moves).")
+    w: list[float] = Field(description="The representative ambiguity values used.")
+    equality_residual: float
+    stable: bool | None = Field(description="Stable under contact compliance; null: not analysable.")
+    stability_reason: str
+
+
+class SolutionsAnswer(BaseModel):
+    """`POST /solutions`: the `"solutions"` of `frc analyze SCENE --input ... --json`."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    solutions: list[SolutionAnswer]
+
+
+class ErrorItem(BaseModel):
+    """One problem with a request: where (the field path) and what (the CLI's message)."""
+
+    loc: list[str | int]
+    msg: str
+    type: str
+
+
+class ErrorResponse(BaseModel):
+    """A refused request (4xx/5xx): FastAPI's shape, `{"detail": [...]}` or `{"detail": "..."}`."""
+
+    detail: list[ErrorItem] | str
+
+
+class JobState(BaseModel):
+    """A job: `GET /jobs/{id}`."""
+
+    id: str
+    kind: str
+    state: str = Field(description="queued, running, done, failed or cancelled")
+    progress: float | None = Field(description="The fraction done, when the work reports it.")
+    message: str
+    elapsed: float = Field(description="[s] since the job started.")
+    result: dict[str, Any] | None = Field(None, description="The answer, when done: the endpoint's JSON.")
+    error: ErrorResponse | None = Field(None, description="Why it failed, when failed.")
+
+
+class Health(BaseModel):
+    """`GET /health`."""
+
+    status: str
+    workers: int
+    jobs_running: int
+
+
+class Version(BaseModel):
+    """`GET /version`."""
+
+    frcontrol: str
+    api: str
+
+
+class Robots(BaseModel):
+    """`GET /robots`: `frc robots --json` without the folder (the service reveals no paths)."""
+
+    robots: list[str]
+    scenes: list[str]
+
+
+__all__ = [
+    "AnalyzeRequest",
+    "AtlasRequest",
+    "ClimbRequest",
+    "ContactAnswer",
+    "ErrorItem",
+    "ErrorResponse",
+    "FlipRequest",
+    "Health",
+    "first_non_finite",
+    "InputsRequest",
+    "JobState",
+    "Robots",
+    "SceneContent",
+    "SceneField",
+    "SceneRequest",
+    "SimulateRequest",
+    "SolutionAnswer",
+    "SolutionsAnswer",
+    "SolutionsRequest",
+    "StaticsRequest",
+    "Strict",
+    "Version",
+]

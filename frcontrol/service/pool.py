@@ -1,0 +1,275 @@
+"""Worker processes for the service: a pool for requests, one process per job; both with time limits.
+
+The server's event loop only parses, waits and answers: the work runs in other processes, so a
+slow request never blocks ``GET /health``. A request that exceeds its time limit gets its worker
+killed (the work cannot be interrupted otherwise) and a fresh worker takes its place. Only text
+crosses a process boundary (the request's and the answer's JSON).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import multiprocessing
+import threading
+import time
+import uuid
+from dataclasses import dataclass, field
+from multiprocessing.connection import Connection
+from multiprocessing.process import BaseProcess
+from typing import Any
+
+_CONTEXT = multiprocessing.get_context("spawn")  # no fork of a threaded server
+
+
+class TimeLimitExceeded(Exception):
+    """A request ran past its time limit [s]."""
+
+    def __init__(self, limit: float) -> None:
+        self.limit = limit
+        super().__init__(f"the request exceeded the service's time limit of {limit:g} s "
+                         "(frc serve --time-limit); its work was stopped")
+
+
+class WorkerLost(Exception):
+    """A worker process ended while it held a request."""
+
+
+def _worker_main(conn: Connection) -> None:
+    """A pool worker: answer ``(number, kind, text)`` with ``(number, answer)`` until the pipe closes."""
+    from .work import execute, warm_up
+
+    warm_up()
+    conn.send("ready")
+    while True:
+        try:
+            number, kind, text = conn.recv()
+        except (EOFError, OSError):
+            return
+        conn.send((number, execute(kind, text)))
+
+
+@dataclass
+class _Worker:
+    process: BaseProcess
+    conn: Connection
+
+
+def _start_worker() -> _Worker:
+    """A worker process, returned once it has loaded the library."""
+    parent, child = _CONTEXT.Pipe()
+    process = _CONTEXT.Process(target=_worker_main, args=(child,), daemon=True, name="frc-serve-worker")
+    process.start()
+    child.close()
+    parent.recv()  # "ready"
+    return _Worker(process, parent)
+
+
+def _stop_worker(worker: _Worker) -> None:
+    worker.conn.close()
+    if worker.process.is_alive():
+        worker.process.kill()
+    worker.process.join(5)
+
+
+class WorkerPool:
+    """``workers`` processes answering requests, each within ``time_limit`` [s] from its arrival."""
+
+    def __init__(self, workers: int, time_limit: float) -> None:
+        self.size = workers
+        self.time_limit = time_limit
+        self._idle: asyncio.Queue[_Worker] | None = None
+        self._all: list[_Worker] = []
+        self._sent = 0
+
+    async def start(self) -> None:
+        """Start the workers (in parallel) and wait until each has loaded the library."""
+        self._idle = asyncio.Queue()
+        started = await asyncio.gather(*(asyncio.to_thread(_start_worker) for _ in range(self.size)))
+        for worker in started:
+            self._all.append(worker)
+            self._idle.put_nowait(worker)
+
+    async def run(self, kind: str, text: str) -> str:
+        """The answer's JSON text for a request (see :func:`frcontrol.service.work.execute`).
+
+        Raises:
+            TimeLimitExceeded: no answer within the time limit, counted from the call (waiting for
+                a free worker included).
+            WorkerLost: the worker died (it is replaced).
+        """
+        if self._idle is None:
+            raise RuntimeError("the pool is not started")
+        deadline = time.monotonic() + self.time_limit
+        try:
+            worker = await asyncio.wait_for(self._idle.get(), self.time_limit)
+        except TimeoutError:
+            raise TimeLimitExceeded(self.time_limit) from None
+        self._sent += 1
+        number = self._sent
+        try:
+            worker.conn.send((number, kind, text))
+            while True:  # an answer to an abandoned request (its client went away) is skipped
+                ready = await asyncio.to_thread(worker.conn.poll, max(0.0, deadline - time.monotonic()))
+                if not ready:
+                    raise TimeLimitExceeded(self.time_limit)
+                answered, reply = worker.conn.recv()
+                if answered == number:
+                    break
+        except TimeLimitExceeded:
+            worker = await self._replace(worker)
+            raise
+        except (EOFError, OSError) as err:
+            worker = await self._replace(worker)
+            raise WorkerLost("a worker process ended during the request") from err
+        finally:
+            self._idle.put_nowait(worker)
+        return str(reply)
+
+    async def _replace(self, worker: _Worker) -> _Worker:
+        """Kill a worker and start its successor."""
+        await asyncio.to_thread(_stop_worker, worker)
+        fresh = await asyncio.to_thread(_start_worker)
+        self._all[self._all.index(worker)] = fresh
+        return fresh
+
+    def stop(self) -> None:
+        """Stop every worker."""
+        for worker in self._all:
+            _stop_worker(worker)
+        self._all.clear()
+
+
+def _job_main(kind: str, text: str, conn: Connection) -> None:
+    """A job's process: progress messages, then the answer."""
+    from .work import execute
+
+    def progress(fraction: float | None, message: str) -> None:
+        conn.send(("progress", fraction, message))
+
+    conn.send(("done", execute(kind, text, progress)))
+    conn.close()
+
+
+@dataclass
+class Job:
+    """A job's record (its public part is :class:`frcontrol.service.models.JobState`)."""
+
+    id: str
+    kind: str
+    started: float
+    state: str = "running"
+    progress: float | None = None
+    message: str = "started"
+    reply: dict[str, Any] | None = None
+    ended: float | None = None
+    process: BaseProcess | None = field(default=None, repr=False)
+
+    def public(self) -> dict[str, Any]:
+        """``GET /jobs/{id}``: state, progress, and the result (done) or the error (failed)."""
+        end = self.ended if self.ended is not None else time.monotonic()
+        out: dict[str, Any] = {"id": self.id, "kind": self.kind, "state": self.state,
+                               "progress": self.progress, "message": self.message,
+                               "elapsed": end - self.started, "result": None, "error": None}
+        if self.reply is not None:
+            if self.reply["status"] == 200:
+                out["result"] = self.reply["answer"]
+            else:
+                out["error"] = {"detail": self.reply["detail"]}
+        return out
+
+
+class JobRunner:
+    """Jobs: each in its own process (so that it can be cancelled), at most ``max_running`` at once."""
+
+    def __init__(self, max_running: int, time_limit: float, keep: int = 100) -> None:
+        self.max_running = max_running
+        self.time_limit = time_limit
+        self.keep = keep
+        self.jobs: dict[str, Job] = {}
+        self._lock = threading.Lock()
+
+    def running(self) -> int:
+        """How many jobs are running."""
+        with self._lock:
+            return sum(job.state == "running" for job in self.jobs.values())
+
+    def start(self, kind: str, text: str) -> Job | None:
+        """Start a job; None when ``max_running`` jobs already run."""
+        if self.running() >= self.max_running:
+            return None
+        parent, child = _CONTEXT.Pipe(duplex=False)
+        job = Job(id=uuid.uuid4().hex, kind=kind, started=time.monotonic())
+        job.process = _CONTEXT.Process(target=_job_main, args=(kind, text, child), daemon=True,
+                                       name=f"frc-serve-job-{job.id[:8]}")
+        with self._lock:
+            self._forget_old()
+            self.jobs[job.id] = job
+        job.process.start()
+        child.close()
+        threading.Thread(target=self._follow, args=(job, parent), daemon=True).start()
+        return job
+
+    def _follow(self, job: Job, conn: Connection) -> None:
+        """Read a job's messages until it ends, is cancelled or runs out of time."""
+        import json
+
+        deadline = job.started + self.time_limit
+        try:
+            while job.state == "running":
+                if not conn.poll(min(0.2, max(0.0, deadline - time.monotonic()))):
+                    if time.monotonic() >= deadline:
+                        self._end(job, "failed", f"the job exceeded the service's time limit of "
+                                  f"{self.time_limit:g} s (frc serve --job-time-limit); it was stopped")
+                    continue
+                message = conn.recv()
+                if message[0] == "progress":
+                    job.progress, job.message = message[1], message[2]
+                    continue
+                reply = json.loads(message[1])
+                job.reply = reply
+                if reply["status"] == 200:
+                    job.progress = 1.0
+                self._end(job, "done" if reply["status"] == 200 else "failed",
+                          "done" if reply["status"] == 200 else "refused")
+        except (EOFError, OSError):
+            if job.state == "running":
+                self._end(job, "failed", "the job's process ended without an answer")
+        finally:
+            conn.close()
+
+    def _end(self, job: Job, state: str, message: str) -> None:
+        with self._lock:
+            if job.state != "running":
+                return
+            job.state, job.message, job.ended = state, message, time.monotonic()
+        if job.process is not None and job.process.is_alive():
+            job.process.kill()
+        if job.process is not None:
+            job.process.join(5)
+
+    def cancel(self, job_id: str) -> Job | None:
+        """Cancel a job (a finished one stays as it was); None when there is no such job."""
+        job = self.jobs.get(job_id)
+        if job is not None:
+            self._end(job, "cancelled", "cancelled by DELETE /jobs/{id}")
+        return job
+
+    def _forget_old(self) -> None:
+        """Keep at most ``keep`` finished jobs (the oldest go first)."""
+        finished = [j for j in self.jobs.values() if j.state != "running"]
+        for job in finished[: max(0, len(finished) - self.keep + 1)]:
+            del self.jobs[job.id]
+
+    def stop(self) -> None:
+        """Cancel every running job."""
+        for job in list(self.jobs.values()):
+            self._end(job, "cancelled", "the service stopped")
+
+
+__all__ = [
+    "Job",
+    "JobRunner",
+    "TimeLimitExceeded",
+    "WorkerLost",
+    "WorkerPool",
+]

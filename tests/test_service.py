@@ -1,0 +1,391 @@
+"""The planning service (frc serve): answers equal the commands' --json; hostile input refused.
+
+Against the app with httpx over real HTTP (the app served by uvicorn in a thread of the test, its
+worker processes started by its lifespan), and against a real `frc serve` process on a free
+loopback port: the flip planned through it, and 200 concurrent /solutions requests whose answers
+equal `frc analyze --input ... --json`'s solutions. Only 127.0.0.1 is ever bound.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import httpx
+import pytest
+from frcontrol.cli.app import app as cli_app
+from typer.testing import CliRunner
+
+from frcontrol.scene import read_scene_document, shipped_robots_dir
+from frcontrol.service import ServiceConfig, create_app
+from frcontrol.service.models import SolutionsAnswer
+
+runner = CliRunner()
+ROD_TOML = (shipped_robots_dir() / "scenes" / "rod_on_table.toml").read_text(encoding="utf-8")
+TOKEN = "s3cret-token-for-tests"
+
+
+def cli_json(*args: str) -> dict:
+    result = runner.invoke(cli_app, [*args, "--json"])
+    assert result.exit_code == 0, result.stderr
+    return json.loads(result.stdout)
+
+
+def cli_error(*args: str) -> str:
+    """The CLI's one-line error, without its 'frc: error: ' prefix."""
+    result = runner.invoke(cli_app, list(args))
+    assert result.exit_code == 1 and result.stdout == ""
+    line = result.stderr.strip()
+    assert line.startswith("frc: error: ") and "\n" not in line
+    return line.removeprefix("frc: error: ")
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@contextmanager
+def served(config: ServiceConfig, headers: dict[str, str] | None = None):
+    """The app on a free loopback port (uvicorn in a thread), and an httpx client of it."""
+    import uvicorn
+
+    port = free_port()
+    server = uvicorn.Server(uvicorn.Config(create_app(config), host="127.0.0.1", port=port,
+                                           log_level="warning", lifespan="on"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 120
+    while not server.started:
+        assert thread.is_alive() and time.monotonic() < deadline, "the app did not start"
+        time.sleep(0.05)
+    try:
+        with httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=120, headers=headers) as http:
+            yield http
+    finally:
+        server.should_exit = True
+        thread.join(60)
+
+
+@pytest.fixture(scope="module")
+def client():
+    with served(ServiceConfig(workers=2, time_limit=60.0, max_body=200_000)) as http:
+        yield http
+
+
+@pytest.fixture(scope="module")
+def strict_client():
+    """One worker, a 2 s time limit, one job at a time, and a token."""
+    config = ServiceConfig(workers=1, time_limit=2.0, max_jobs=1, token=TOKEN)
+    with served(config, headers={"Authorization": f"Bearer {TOKEN}"}) as http:
+        yield http
+
+
+def test_info_endpoints(client):
+    assert client.get("/health").json() == {"status": "ok", "workers": 2, "jobs_running": 0}
+    import frcontrol
+
+    assert client.get("/version").json() == {"frcontrol": frcontrol.__version__, "api": "1"}
+    robots = cli_json("robots")
+    assert client.get("/robots").json() == {"robots": robots["robots"], "scenes": robots["scenes"]}
+    schema = client.get("/openapi.json").json()
+    answer = schema["paths"]["/solutions"]["post"]["responses"]["200"]["content"]["application/json"]
+    assert answer["schema"] == {"$ref": "#/components/schemas/SolutionsAnswer"}
+    assert {"/analyze", "/solutions", "/statics", "/simulate", "/plan/flip", "/plan/climb", "/atlas",
+            "/jobs/{job_id}", "/health", "/version", "/robots"} <= set(schema["paths"])
+    assert schema["components"]["schemas"]["SolutionsRequest"]["additionalProperties"] is False
+    assert client.get("/docs").status_code == 200
+
+
+def without_timings(document):
+    """A document without its wall-clock figures (they differ from run to run)."""
+    if isinstance(document, dict):
+        return {k: without_timings(v) for k, v in document.items()
+                if k not in ("timings", "wall_time", "elapsed")}
+    if isinstance(document, list):
+        return [without_timings(v) for v in document]
+    return document
+
+
+@pytest.mark.parametrize(("path", "body", "args"), [
+    ("/analyze", {"scene": "disk_in_wedge", "inputs": {"y": 5.0}},
+     ["analyze", "disk_in_wedge", "--input", "y=5"]),
+    ("/analyze", {"scene": "rod_on_table", "set": {"contacts.tip.mu": 0.3}},
+     ["analyze", "rod_on_table", "--set", "contacts.tip.mu=0.3"]),
+    ("/statics", {"scene": "box_on_slope", "lateral_acceleration": 1.0},
+     ["statics", "box_on_slope", "--lateral-acceleration", "1"]),
+    ("/simulate", {"scene": "rod_on_table", "duration": 0.05, "inputs": {"x": 1.0}},
+     ["simulate", "rod_on_table", "-T", "0.05", "--input", "x=1"]),
+    ("/plan/climb", {"duration": 0.0}, ["climb", "--duration", "0"]),
+])
+def test_answers_equal_the_commands_json(client, path, body, args):
+    response = client.post(path, json=body)
+    assert response.status_code == 200, response.text
+    assert without_timings(response.json()) == without_timings(cli_json(*args))
+
+
+def test_solutions_equal_the_clis_and_a_scene_sent_as_content_equals_the_shipped_one(client):
+    expected = cli_json("analyze", "rod_on_table", "--input", "x=-1")["solutions"]
+    assert expected, "the rod has a solution at x = -1"
+    by_name = client.post("/solutions", json={"scene": "rod_on_table", "inputs": {"x": -1.0}})
+    assert by_name.status_code == 200 and by_name.json() == {"solutions": expected}
+    SolutionsAnswer.model_validate(by_name.json())  # the documented response model holds it exactly
+    by_toml = client.post("/solutions", json={"scene": {"toml": ROD_TOML}, "inputs": {"x": -1.0}})
+    assert by_toml.json() == {"solutions": expected}
+    document = read_scene_document(shipped_robots_dir() / "scenes" / "rod_on_table.toml")
+    urdf = (shipped_robots_dir() / "rod.urdf").read_text(encoding="utf-8")
+    sent = {**document, "robot": "my_rod.urdf"}
+    by_json = client.post("/solutions", json={"scene": {"json": sent, "robots": {"my_rod.urdf": urdf}},
+                                              "inputs": {"x": -1.0}})
+    assert by_json.status_code == 200, by_json.text
+    assert by_json.json() == {"solutions": expected}
+
+
+def test_bad_input_is_a_422_with_the_clis_message_and_field_path(client):
+    response = client.post("/analyze", json={"scene": "rod_on_table", "set": {"contacts.tip.muu": 0.5}})
+    assert response.status_code == 422
+    [problem] = response.json()["detail"]
+    assert problem["loc"] == ["body", "set", "contacts.tip.muu"]
+    assert problem["msg"] == cli_error("analyze", "rod_on_table", "--set", "contacts.tip.muu=0.5")
+    response = client.post("/solutions", json={"scene": "rod_on_table", "inputs": {"nope": 1.0}})
+    assert response.status_code == 422
+    [problem] = response.json()["detail"]
+    assert problem["loc"] == ["body", "inputs", "nope"]
+    assert problem["msg"] == cli_error("analyze", "rod_on_table", "--input", "nope=1")
+    response = client.post("/simulate", json={"scene": "rod_on_table", "stiffness": 1e6, "model": "rigid"})
+    assert response.status_code == 422
+    assert response.json()["detail"][0]["msg"] == cli_error("simulate", "rod_on_table", "--model", "rigid",
+                                                            "--stiffness", "1e6")
+    malformed = client.post("/analyze", json={"scene": {"toml": "robot = ["}})
+    assert malformed.status_code == 422 and "malformed TOML" in malformed.json()["detail"][0]["msg"]
+
+
+@pytest.mark.parametrize(("body", "loc"), [
+    ({"scene": "rod_on_table", "bogus": 1}, ["body", "bogus"]),
+    ({"scene": "rod_on_table", "margin": 0.1}, ["body", "margin"]),  # /solutions has no margin
+    ({"scene": {"toml": ROD_TOML, "extra": 1}}, ["body", "scene", "content", "extra"]),
+])
+def test_unknown_keys_are_refused(client, body, loc):
+    response = client.post("/solutions", json=body)
+    assert response.status_code == 422
+    refused = [p["loc"] for p in response.json()["detail"] if p["type"] == "extra_forbidden"]
+    assert refused == [loc]
+
+
+@pytest.mark.parametrize("text", ['{"scene": "rod_on_table"', "[1, 2]", '"rod_on_table"', "",
+                                  "[" * 50_000 + "]" * 50_000])
+def test_malformed_json_and_other_bodies_are_422s(client, text):
+    response = client.post("/solutions", content=text, headers={"content-type": "application/json"})
+    assert response.status_code == 422 and response.json()["detail"][0]["loc"][0] == "body"
+
+
+@pytest.mark.parametrize("text", [
+    '{"scene": "rod_on_table", "inputs": {"x": NaN}}',
+    '{"scene": "rod_on_table", "inputs": {"x": Infinity}}',
+    '{"scene": "rod_on_table", "inputs": {"x": 1e999}}',
+])
+def test_nan_and_infinity_are_refused_naming_the_field(client, text):
+    response = client.post("/solutions", content=text, headers={"content-type": "application/json"})
+    assert response.status_code == 422
+    assert response.json()["detail"][0]["loc"] == ["body", "inputs", "x"]
+    nested = text.replace('"inputs": {"x"', '"set": {"gravity"')
+    response = client.post("/analyze", content=nested, headers={"content-type": "application/json"})
+    assert response.status_code == 422 and response.json()["detail"][0]["loc"] == ["body", "set", "gravity"]
+
+
+def test_a_huge_body_is_a_413(client):
+    response = client.post("/solutions", json={"scene": {"toml": ROD_TOML + "#" * 300_000}})
+    assert response.status_code == 413
+    assert "200000 bytes" in response.json()["detail"]
+    chunked = client.post("/solutions", content=iter([b'{"scene": "', b"x" * 150_000, b"y" * 150_000]),
+                          headers={"content-type": "application/json"})
+    assert chunked.status_code == 413
+
+
+@pytest.mark.parametrize(("body", "loc"), [
+    ({"scene": "../../etc/passwd"}, ["body", "scene"]),
+    ({"scene": "/etc/passwd"}, ["body", "scene"]),
+    ({"scene": {"toml": ROD_TOML.replace('robot = "rod.urdf"', 'robot = "../../etc/passwd"')}},
+     ["body", "scene", "robot"]),
+    ({"scene": {"toml": ROD_TOML.replace('robot = "rod.urdf"', 'robot = "/etc/passwd"')}},
+     ["body", "scene", "robot"]),
+    ({"scene": "rod_on_table", "set": {"robot": "../../etc/passwd"}}, ["body", "set", "robot"]),
+    ({"scene": "rod_on_table", "set": {"robot": "../rod.urdf"}}, ["body", "set", "robot"]),
+])
+def test_no_file_path_is_ever_read_from_a_request(client, body, loc):
+    assert "rod.urdf" in ROD_TOML
+    response = client.post("/analyze", json=body)
+    assert response.status_code == 422, response.text
+    [problem] = response.json()["detail"]
+    assert problem["loc"] == loc and problem["type"] == "SceneError"
+    assert "root:" not in response.text  # nothing of the file leaks into the answer
+
+
+def test_urdf_names_sent_with_a_scene_must_be_bare(client):
+    body = {"scene": {"toml": ROD_TOML, "robots": {"../../x.urdf": "<robot name='r'/>"}}}
+    response = client.post("/analyze", json=body)
+    assert response.status_code == 422 and "not a URDF file name" in response.text
+
+
+def test_a_job_runs_reports_and_gives_the_endpoints_answer(client):
+    started = client.post("/jobs/solutions", json={"scene": "rod_on_table", "inputs": {"x": -1.0}})
+    assert started.status_code == 202
+    job = started.json()
+    assert job["state"] == "running" and job["kind"] == "solutions"
+    while job["state"] == "running":
+        time.sleep(0.1)
+        job = client.get(f"/jobs/{job['id']}").json()
+    assert job["state"] == "done" and job["progress"] == 1.0 and job["error"] is None
+    expected = client.post("/solutions", json={"scene": "rod_on_table", "inputs": {"x": -1.0}}).json()
+    assert job["result"] == expected
+    refused = client.post("/jobs/analyze", json={"scene": "rod_on_table", "set": {"gravity": -1.0}}).json()
+    while refused["state"] == "running":
+        time.sleep(0.1)
+        refused = client.get(f"/jobs/{refused['id']}").json()
+    assert refused["state"] == "failed" and refused["result"] is None
+    assert refused["error"]["detail"][0]["loc"] == ["body", "set", "gravity"]
+    assert client.get("/jobs/nope").status_code == 404 and client.delete("/jobs/nope").status_code == 404
+
+
+def test_a_flip_job_reports_its_progress(client):
+    job = client.post("/jobs/plan/flip", json={"max_time": 0.3}).json()
+    seen = set()
+    while job["state"] == "running":
+        time.sleep(0.05)
+        job = client.get(f"/jobs/{job['id']}").json()
+        seen.add(job["progress"])
+    assert job["state"] == "done", job
+    assert any(p is not None and 0 < p < 1 for p in seen), seen  # the simulation's progress
+    assert job["result"]["found"] is True and job["result"]["simulation"]["simulated"] is True
+
+
+def test_atlas_is_not_available_in_this_version(client):
+    response = client.post("/atlas", json={"scene": "rod_on_table"})
+    assert response.status_code == 501
+    assert "not available in this version" in response.json()["detail"][0]["msg"]
+
+
+def test_a_token_is_needed_when_configured(strict_client):
+    assert strict_client.get("/health").status_code == 200
+    for headers in ({"Authorization": ""}, {"Authorization": "Bearer wrong"}, {"Authorization": TOKEN}):
+        response = strict_client.get("/health", headers=headers)
+        assert response.status_code == 401 and response.headers["www-authenticate"] == "Bearer"
+        answer = strict_client.post("/solutions", json={"scene": "rod_on_table"}, headers=headers)
+        assert answer.status_code == 401
+
+
+SLOW = {"scene": "rod_on_table", "duration": 500.0, "dt": 1e-3}
+"""A simulation far longer than the strict client's 2 s limit."""
+
+
+def test_a_slow_request_hits_its_time_limit_and_never_blocks_health(strict_client):
+    answers = {}
+    slow = threading.Thread(target=lambda: answers.update(slow=strict_client.post("/simulate", json=SLOW)))
+    slow.start()
+    time.sleep(0.3)  # let it reach the only worker
+    health = strict_client.get("/health")
+    assert health.status_code == 200 and slow.is_alive()  # answered while the worker is busy
+    slow.join(60)
+    response = answers["slow"]
+    assert response.status_code == 504
+    assert "time limit of 2 s" in response.json()["detail"]
+    after = strict_client.post("/solutions", json={"scene": "rod_on_table"})  # a fresh worker answers
+    assert after.status_code == 200 and "solutions" in after.json()
+
+
+def test_a_job_can_be_cancelled_and_jobs_are_capped(strict_client):
+    job = strict_client.post("/jobs/simulate", json=SLOW).json()
+    assert job["state"] == "running"
+    assert strict_client.post("/jobs/simulate", json=SLOW).status_code == 429
+    assert strict_client.get("/health").json()["jobs_running"] == 1
+    cancelled = strict_client.delete(f"/jobs/{job['id']}").json()
+    assert cancelled["state"] == "cancelled" and cancelled["result"] is None
+    assert strict_client.get(f"/jobs/{job['id']}").json()["state"] == "cancelled"
+    assert strict_client.get("/health").json()["jobs_running"] == 0
+
+
+# --- the command line -----------------------------------------------------------------------------
+
+def test_serve_refuses_other_addresses_without_a_token_and_bad_token_files(tmp_path):
+    assert "--token-file" in cli_error("serve", "--host", "0.0.0.0")
+    empty = tmp_path / "token.txt"
+    empty.write_text("\n")
+    assert "first line is empty" in cli_error("serve", "--token-file", str(empty))
+    assert "cannot read it" in cli_error("serve", "--token-file", str(tmp_path / "missing.txt"))
+    assert "not available in this version" in cli_error("serve", "--scheduler", "tcp://127.0.0.1:8786")
+
+
+def test_serve_prints_the_openapi_schema():
+    schema = cli_json("serve", "--openapi")
+    assert "/plan/flip" in schema["paths"] and schema["info"]["title"] == "frcontrol planning service"
+
+
+# --- a real frc serve process --------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def server():
+    """A real `frc serve` on a free loopback port, stopped with SIGTERM at the end."""
+    port = free_port()
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    process = subprocess.Popen([sys.executable, "-m", "frcontrol", "serve", "--port", str(port), "--workers",
+                                "2", "--json", "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True, env=env, cwd=Path(__file__).parent)
+    url = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 120
+    while True:
+        assert process.poll() is None, process.communicate()
+        try:
+            if httpx.get(f"{url}/health", timeout=1).status_code == 200:
+                break
+        except httpx.TransportError:
+            pass
+        assert time.monotonic() < deadline, "frc serve did not answer within 120 s"
+        time.sleep(0.2)
+    yield url
+    process.send_signal(signal.SIGTERM)
+    out, err = process.communicate(timeout=60)
+    assert process.returncode == 0, err
+    assert json.loads(out) == {"url": url, "docs": f"{url}/docs"}
+    assert "Traceback" not in err
+
+
+def test_a_real_server_plans_the_flip(server):
+    response = httpx.post(f"{server}/plan/flip", json={}, timeout=120)
+    assert response.status_code == 200, response.text
+    answer = response.json()
+    expected = cli_json("flip", "--max-time", "0")
+    assert answer["found"] is True and answer["torques"] == expected["torques"]
+    assert answer["simulation"]["flipped"] is True
+
+
+LOAD = 200
+INPUTS = [-1.0, -0.5, 0.0, 0.5, 1.0]
+
+
+async def _load(url: str, count: int) -> list[httpx.Response]:
+    limits = httpx.Limits(max_connections=count)
+    async with httpx.AsyncClient(base_url=url, timeout=120, limits=limits) as http:
+        return await asyncio.gather(*(
+            http.post("/solutions", json={"scene": "rod_on_table", "inputs": {"x": INPUTS[i % len(INPUTS)]}})
+            for i in range(count)))
+
+
+def test_200_concurrent_solutions_all_equal_the_clis(server):
+    expected = {x: cli_json("analyze", "rod_on_table", "--input", f"x={x}")["solutions"] for x in INPUTS}
+    responses = asyncio.run(_load(server, LOAD))
+    assert len(responses) == LOAD
+    assert [r.status_code for r in responses] == [200] * LOAD
+    for i, response in enumerate(responses):
+        assert response.json() == {"solutions": expected[INPUTS[i % len(INPUTS)]]}
+        SolutionsAnswer.model_validate(response.json())
+    assert httpx.get(f"{server}/health").json()["status"] == "ok"
