@@ -296,7 +296,9 @@ def load_scene(
         gap_tolerance: [m] overrides the scene's ``gap_tolerance`` (default :data:`GAP_TOLERANCE`).
         overrides: values to set before validation, by dotted path (``{"contacts.tip.mu": 0.5,
             "gravity": 3.7}``; see :func:`~frcontrol.scene_schema.apply_override`), checked exactly
-            like the file's own values.
+            like the file's own values. ``state.q.NAME`` and ``state.v.NAME`` set one coordinate
+            by name (``state.q.theta``); a contact without ``surface_point`` then follows its
+            contact point to that state (gap 0).
 
     Returns:
         The validated scene.
@@ -312,7 +314,11 @@ def load_scene(
     scene_path = resolve_scene_path(path)
     reader = _Reader(scene_path)
     raw = read_scene_document(scene_path)
+    coordinate_overrides = {}
     for key, value in (overrides or {}).items():
+        if _coordinate_path(key) is not None:
+            coordinate_overrides[key] = value  # state.q.NAME: the names are known with the robot
+            continue
         for problem in apply_override(raw, key, value):
             raise reader.fail(problem.field, problem.reason)
     problems = schema_problems(raw)
@@ -325,6 +331,7 @@ def load_scene(
         bare = PlanarRobot(robot_file, base=base, gravity=gravity)
     except RobotModelError as err:
         raise SceneError(str(scene_path), "robot", f"{robot_file.name}: {err.reason}") from err
+    _apply_coordinate_overrides(reader, raw, bare, coordinate_overrides)
     q, v = _read_state(reader, raw, bare)
     locked, q, v = _read_locked_joints(reader, raw, bare, q, v)
     if locked:
@@ -369,6 +376,43 @@ def _read_model_settings(reader: _Reader, raw: Mapping[str, Any], gap_tolerance:
     if tol <= 0:
         raise reader.fail("gap_tolerance", f"expected > 0 [m], got {tol}")
     return str(base), gravity, tol
+
+
+def _coordinate_path(path: str) -> tuple[str, str] | None:
+    """``("q", "theta")`` for ``state.q.theta`` (one coordinate by name), else None."""
+    parts = path.split(".")
+    if len(parts) == 3 and parts[0] == "state" and parts[1] in ("q", "v") and not parts[2].isdigit():
+        return parts[1], parts[2]
+    return None
+
+
+def _apply_coordinate_overrides(reader: _Reader, raw: dict[str, Any], bare: PlanarRobot,
+                                overrides: Mapping[str, Any]) -> None:
+    """Set single coordinates of ``[state]`` by name (``state.q.theta``, ``state.v.x``), in place.
+
+    The names are the robot's coordinates before locking (``q`` and ``v`` list locked joints too);
+    an absent ``v`` starts from zeros.
+    """
+    coords = bare.coordinate_names
+    for path, value in overrides.items():
+        vector, name = _coordinate_path(path) or ("", "")
+        if name not in coords:
+            guess = nearest(name, coords)
+            hint = f"did you mean {guess!r}? " if guess else ""
+            raise reader.fail(path, f"unknown coordinate {name!r}; {hint}the coordinates are: "
+                              f"{', '.join(coords)}")
+        state = raw.setdefault("state", {})
+        if not isinstance(state, dict):
+            raise reader.fail("state", "expected a table [state]")
+        if vector == "v" and "v" not in state:
+            state["v"] = [0.0] * len(coords)
+        values = state.get(vector)
+        if not isinstance(values, list) or len(values) != len(coords):
+            raise reader.fail(f"state.{vector}", f"expected {len(coords)} numbers ({', '.join(coords)}) "
+                              f"before setting {path}")
+        values = list(values)  # a copy: the list may be a caller's override value
+        values[coords.index(name)] = reader.number(value, path)
+        state[vector] = values
 
 
 def _read_state(reader: _Reader, raw: Mapping[str, Any], bare: PlanarRobot) -> tuple[np.ndarray, np.ndarray]:
