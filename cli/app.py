@@ -6,7 +6,17 @@ import warnings
 
 import typer
 
-from . import analyze_cmd, climb_cmd, flip_cmd, model_cmds, scene_cmds, simulate_cmd, statics_cmd, view_cmd
+from . import (
+    analyze_cmd,
+    atlas_cmd,
+    climb_cmd,
+    flip_cmd,
+    model_cmds,
+    scene_cmds,
+    simulate_cmd,
+    statics_cmd,
+    view_cmd,
+)
 
 app = typer.Typer(
     name="frc",
@@ -47,6 +57,7 @@ app.command("view")(view_cmd.view_command)
 app.command("simulate")(simulate_cmd.simulate_command)
 app.command("flip")(flip_cmd.flip_command)
 app.command("climb")(climb_cmd.climb_command)
+app.command("atlas")(atlas_cmd.atlas_command)
 app.command("schema")(scene_cmds.schema_command)
 app.command("validate")(scene_cmds.validate_command)
 
