@@ -125,8 +125,11 @@ def atlas_command(
     set_quiet(quiet)
     from frcontrol.atlas import build_atlas, run_atlas
     from frcontrol.atlas.store import check_out
+    from frcontrol.errors import InputError
 
     check_output_files(plot=plot, out=out)
+    if resume and out is None:
+        raise InputError("--resume needs --out FILE: the finished chunks are kept beside FILE")
     if out is not None:
         check_out(out)
     what_name = What(what).value

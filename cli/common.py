@@ -84,15 +84,16 @@ class _Bar:
         self.first: int | None = None
 
     def __enter__(self) -> _Bar:
-        self.progress.start()
-        return self
+        return self  # the bar starts at the first call: an error before any work prints only itself
 
     def __exit__(self, *exc: object) -> None:
-        self.progress.stop()
+        if self.first is not None:
+            self.progress.stop()
 
     def __call__(self, done: int, total: int) -> None:
         """Show ``done`` of ``total`` (the rate counts from the first call: resumed work is not rate)."""
         if self.first is None:
+            self.progress.start()
             self.first = done
             self.progress.reset(self.task, total=total, completed=done, rate="")
             return

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..errors import AtlasInterrupted
 from ..jsonable import to_jsonable
 from .executors import RunReport, default_workers, run_dask, run_pool, run_serial
 from .grid import WHATS, AtlasPlan, Axis, build_atlas, parse_axis
@@ -98,8 +99,8 @@ def run_atlas(
         scheduler: a Dask scheduler's address, ``tcp://HOST:PORT`` (then ``workers`` is ignored).
         out: a ``.parquet`` or ``.npz`` table; its chunks are kept as they finish (``store.py``).
         resume: compute only the chunks missing from ``out``'s folder of finished chunks.
-        progress: called as ``progress(points_done, points_total)`` after each chunk (and once at
-            the start, with the resumed points).
+        progress: called as ``progress(points_done, points_total)`` once the workers are ready
+            (with the resumed points), then after each chunk.
 
     Raises:
         InputError: a bad ``out`` suffix, ``resume`` without ``out``, stored chunks of other
@@ -121,8 +122,9 @@ def run_atlas(
     todo = [c for c in range(plan.chunk_count) if c not in found]
     done_points = sum(len(c["index"]) for c in found.values())
     computed = {"seconds": 0.0, "points": 0}
-    if progress is not None:
-        progress(done_points, plan.size)
+    def started() -> None:
+        if progress is not None:
+            progress(done_points, plan.size)
 
     def done(result: dict[str, Any]) -> None:
         nonlocal done_points
@@ -135,7 +137,12 @@ def run_atlas(
         if progress is not None:
             progress(done_points, plan.size)
 
-    report = _execute(plan, todo, done, workers, scheduler)
+    try:
+        report = _execute(plan, todo, done, started, workers, scheduler)
+    except AtlasInterrupted as err:
+        kept = (f"{len(found)} of {plan.chunk_count} chunks are kept in {store.folder}: run the same "
+                "command with --resume to finish" if store is not None else "nothing is kept without --out")
+        raise AtlasInterrupted(f"{err}; {kept}") from err
     rows = _merge(plan, found)
     if store is not None:
         store.finish(rows)
@@ -146,18 +153,18 @@ def run_atlas(
     return AtlasResult(plan, rows, run, timings)
 
 
-def _execute(plan: AtlasPlan, todo: list[int], done: Callable[[dict[str, Any]], None], workers: int | None,
-             scheduler: str | None) -> RunReport:
+def _execute(plan: AtlasPlan, todo: list[int], done: Callable[[dict[str, Any]], None],
+             started: Callable[[], None], workers: int | None, scheduler: str | None) -> RunReport:
     if scheduler is not None:
-        return run_dask(plan, todo, done, scheduler)
+        return run_dask(plan, todo, done, scheduler, started)
     count = default_workers() if workers is None else workers
     if count == 1 or len(todo) <= 1:
         if count < 1:
             from ..errors import InputError
 
             raise InputError(f"--workers must be >= 1, got {count}")
-        return run_serial(plan, todo, done)
-    return run_pool(plan, todo, done, count)
+        return run_serial(plan, todo, done, started)
+    return run_pool(plan, todo, done, count, started)
 
 
 __all__ = [

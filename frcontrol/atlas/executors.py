@@ -29,6 +29,7 @@ from .grid import AtlasPlan
 from .points import evaluate_chunk
 
 ChunkCallback = Callable[[dict[str, Any]], None]
+StartCallback = Callable[[], None]
 
 MAX_CHUNK_ATTEMPTS = 3
 """How many times a chunk is handed out before its worker's deaths count as the chunk's fault
@@ -66,9 +67,15 @@ class RunReport:
                 "worker_deaths": self.worker_deaths, "rerun_chunks": sorted(self.rerun)}
 
 
-def run_serial(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback) -> RunReport:
-    """Every chunk in this process, in order."""
+def _nothing() -> None:
+    return None
+
+
+def run_serial(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback,
+               started: StartCallback = _nothing) -> RunReport:
+    """Every chunk in this process, in order (``started()`` first)."""
     report = RunReport("serial", 1)
+    started()
     for chunk in chunks:
         done(evaluate_chunk(plan, chunk))
         report.computed += 1
@@ -135,8 +142,9 @@ class _Pool:
         self.workers.clear()
 
 
-def run_pool(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback, workers: int) -> RunReport:
-    """The chunks on ``workers`` local processes (module docstring).
+def run_pool(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback, workers: int,
+             started: StartCallback = _nothing) -> RunReport:
+    """The chunks on ``workers`` local processes (module docstring); ``started()`` once they are up.
 
     Raises:
         InputError: ``workers`` < 1.
@@ -151,6 +159,7 @@ def run_pool(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback, worker
     attempts: dict[int, int] = {}
     pool = _Pool(plan, min(workers, max(1, len(chunks))))
     try:
+        started()
         while todo or pool.holding:
             for sentinel in pool.idle():
                 if not todo:
@@ -198,8 +207,9 @@ def _replace_dead(pool: _Pool, sentinel: Any, todo: list[int], attempts: dict[in
     pool.start_worker()
 
 
-def run_dask(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback, address: str) -> RunReport:
-    """The chunks on the Dask cluster at ``address`` (``tcp://HOST:PORT``).
+def run_dask(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback, address: str,
+             started: StartCallback = _nothing) -> RunReport:
+    """The chunks on the Dask cluster at ``address`` (``tcp://HOST:PORT``); ``started()`` once connected.
 
     Raises:
         InputError: Dask is not installed (``pip install "frcontrol[cluster]"``), or no scheduler
@@ -217,9 +227,10 @@ def run_dask(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback, addres
         raise InputError(f"--scheduler {address}: no Dask scheduler answers there ({err})") from err
     report = RunReport("dask", len(client.scheduler_info().get("workers", {})))
     try:
+        started()
         futures = [client.submit(evaluate_chunk, plan, chunk, key=f"atlas-{plan.fingerprint[:16]}-{chunk}",
                                  pure=False, retries=MAX_CHUNK_ATTEMPTS - 1) for chunk in chunks]
-        for future in as_completed(futures):
+        for future in as_completed(futures, loop=client.loop):
             try:
                 result = future.result()
             except Exception as err:  # noqa: BLE001 - a lost scheduler or a killed cluster
