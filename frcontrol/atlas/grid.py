@@ -219,6 +219,17 @@ def _check_path(scene_path: str, axis: Axis, raw: dict[str, Any], coordinates: S
         raise SceneError(scene_path, problems[0].field, problems[0].reason)
 
 
+def _numbers_as_floats(value: Any) -> Any:
+    """``-1`` and ``-1.0`` set the same scene: one fingerprint."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if isinstance(value, list):
+        return [_numbers_as_floats(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _numbers_as_floats(v) for k, v in value.items()}
+    return value
+
+
 def _file_digest(path: Any) -> str:
     from pathlib import Path
 
@@ -277,7 +288,8 @@ def build_atlas(
     recipe = {"format": FORMAT_VERSION, "scene": _file_digest(plan.scene_path),
               "robot": _file_digest(base.robot.urdf_path), "what": what,
               "axes": [[a.path, a.start, a.stop, a.count] for a in axes],
-              "inputs": sorted(fixed_inputs.items()), "set": sorted((k, repr(v)) for k, v in fixed.items()),
+              "inputs": sorted(fixed_inputs.items()),
+              "set": sorted((k, repr(_numbers_as_floats(v))) for k, v in fixed.items()),
               "chunk_size": plan.chunk_size}
     digest = hashlib.sha256(json.dumps(recipe, sort_keys=True).encode()).hexdigest()
     return AtlasPlan(**{**plan.__dict__, "fingerprint": digest})
