@@ -216,30 +216,51 @@ def run_dask(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback, addres
             answers at ``address``.
         AtlasInterrupted: the scheduler was lost mid-run, or a chunk failed on the cluster.
     """
+    import logging
+
     try:
         from distributed import Client, as_completed
     except ImportError as err:
         raise InputError('--scheduler needs Dask distributed: pip install "frcontrol[cluster]" '
                          '(or pip install "dask[distributed]")') from err
+    # Dask's own logs (a lost connection, with tracebacks) are not the answer: the error says it.
+    silence = logging.Filter("frcontrol")
+    handlers = logging.getLogger("distributed").handlers + logging.getLogger().handlers
+    for handler in handlers:
+        handler.addFilter(silence)
     try:
-        client = Client(address, timeout=DASK_CONNECT_TIMEOUT, set_as_default=False)
-    except (OSError, TimeoutError) as err:
-        raise InputError(f"--scheduler {address}: no Dask scheduler answers there ({err})") from err
-    report = RunReport("dask", len(client.scheduler_info().get("workers", {})))
-    try:
-        started()
-        futures = [client.submit(evaluate_chunk, plan, chunk, key=f"atlas-{plan.fingerprint[:16]}-{chunk}",
-                                 pure=False, retries=MAX_CHUNK_ATTEMPTS - 1) for chunk in chunks]
-        for future in as_completed(futures, loop=client.loop):
-            try:
-                result = future.result()
-            except Exception as err:  # noqa: BLE001 - a lost scheduler or a killed cluster
-                raise AtlasInterrupted(f"the Dask cluster failed: {type(err).__name__}: {err}") from err
-            done(result)
-            report.computed += 1
-            future.release()
+        try:
+            client = Client(address, timeout=DASK_CONNECT_TIMEOUT, set_as_default=False)
+        except (OSError, TimeoutError) as err:
+            raise InputError(f"--scheduler {address}: no Dask scheduler answers there "
+                             f"({_one_line(err)})") from err
+        try:
+            return _dask_chunks(client, plan, chunks, done, started, as_completed)
+        finally:
+            client.close(timeout=DASK_CLOSE_TIMEOUT)
     finally:
-        client.close(timeout=DASK_CLOSE_TIMEOUT)
+        for handler in handlers:
+            handler.removeFilter(silence)
+
+
+def _one_line(err: BaseException) -> str:
+    return " ".join(f"{type(err).__name__}: {err}".split())
+
+
+def _dask_chunks(client: Any, plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback,
+                 started: StartCallback, as_completed: Any) -> RunReport:
+    report = RunReport("dask", len(client.scheduler_info().get("workers", {})))
+    started()
+    futures = [client.submit(evaluate_chunk, plan, chunk, key=f"atlas-{plan.fingerprint[:16]}-{chunk}",
+                             pure=False, retries=MAX_CHUNK_ATTEMPTS - 1) for chunk in chunks]
+    for future in as_completed(futures, loop=client.loop):
+        try:
+            result = future.result()
+        except Exception as err:  # noqa: BLE001 - a lost scheduler, a chunk that kept killing workers
+            raise AtlasInterrupted(f"the Dask cluster failed: {_one_line(err)}") from err
+        done(result)
+        report.computed += 1
+        future.release()
     return report
 
 
