@@ -9,9 +9,9 @@ the outermost: point ``k`` of a grid of shape ``(n_0, n_1, ...)`` sits at the mu
 
 The points go in chunks of consecutive indices, the unit of work of every executor and of the
 output file. The chunk size depends on the grid alone (never on the workers), so a run resumed with
-other workers finds the same chunks. The plan's *fingerprint* (a SHA-256 of the scene file, its
-URDF, the kind, the axes, the fixed inputs and overrides, and the chunk size) tells whether stored
-chunks belong to it.
+other workers finds the same chunks. The plan's *fingerprint* (a SHA-256 of frcontrol's version,
+the scene file, its URDF, the kind, the axes, the fixed inputs and overrides, and the chunk size)
+tells whether stored chunks belong to it.
 """
 
 from __future__ import annotations
@@ -285,7 +285,9 @@ def build_atlas(
         raise InputError(f"the chunk size must be >= 1, got {chunk_size}")
     plan = AtlasPlan(str(scene), str(resolve_scene_path(scene)), what, axes, fixed_inputs, fixed,
                      int(chunk_size))
-    recipe = {"format": FORMAT_VERSION, "scene": _file_digest(plan.scene_path),
+    from .. import __version__
+
+    recipe = {"format": FORMAT_VERSION, "frcontrol": __version__, "scene": _file_digest(plan.scene_path),
               "robot": _file_digest(base.robot.urdf_path), "what": what,
               "axes": [[a.path, a.start, a.stop, a.count] for a in axes],
               "inputs": sorted(fixed_inputs.items()),
