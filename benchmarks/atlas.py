@@ -142,10 +142,12 @@ def pool_start() -> float:
 
 def big_atlas(runs: int, cost: float) -> dict:
     plan = build_atlas("rod_on_table", axes(181, 101), overrides=SETS)
+    load_before = os.getloadavg()[0]
     run = timed_run(plan, runs, workers=2)
     budget = BUDGET_FACTOR * cost * plan.size / 2
     return {"grid": [181, 101], "points": plan.size, "workers": 2, **run, "budget_s": budget,
-            "within_budget": bool(run["wall_s"] <= budget), "ideal_s": cost * plan.size / 2}
+            "within_budget": bool(run["wall_s"] <= budget), "ideal_s": cost * plan.size / 2,
+            "load_average_before_after": [load_before, os.getloadavg()[0]]}
 
 
 def plot(payload: dict, path: Path) -> None:
