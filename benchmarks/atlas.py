@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    python -m benchmarks.atlas [--runs 3] [--big-runs 1] [--quick]
+    python -m benchmarks.atlas [--runs 3] [--big-runs 1] [--quick] [--replot]
 
 The problem is the rod on the table sliding left (``--set state.v.x=-1``) over its pitch and the
 tip's friction, ``state.q.theta`` in [0.1, 3.0] and ``contacts.tip.mu`` in [0, 2]: at every point the
@@ -163,9 +163,11 @@ def plot(payload: dict, path: Path) -> None:
     ideal = 1.0 / payload["per_point"]["per_point_s"]
     for i, r in enumerate(rows):
         left.plot([i - 0.4, i + 0.4], [ideal * r["workers"]] * 2, color="k", ls="--")
-        left.text(i, r["points_per_s"], f"{r['points_per_s']:.0f}/s\n(x{r['speedup']:.2f})", ha="center",
+        top = max(r["points_per_s"], ideal * r["workers"])
+        left.text(i, top * 1.01, f"{r['points_per_s']:.0f}/s\n(x{r['speedup']:.2f})", ha="center",
                   va="bottom", fontsize=8)
     left.set_ylabel("grid points per second")
+    left.set_ylim(0, 1.25 * max(max(r["points_per_s"], ideal * r["workers"]) for r in rows))
     left.set_title(f"{payload['grid']} rod grid; dashes: workers / per-point cost", fontsize=9)
     over = payload["chunk_overhead"]
     names = [k for k in ("pool", "dask") if k in over]
@@ -193,7 +195,11 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--big-runs", type=int, default=1)
     parser.add_argument("--quick", action="store_true", help="a smoke run: small grids, one run each")
+    parser.add_argument("--replot", action="store_true", help="redraw atlas.png from atlas.json, no run")
     args = parser.parse_args()
+    if args.replot:
+        plot(json.loads((RESULTS / "atlas.json").read_text()), RESULTS / "atlas.png")
+        return
     runs = 1 if args.quick else args.runs
     n_theta, n_mu = (11, 7) if args.quick else (61, 41)
     start = time.perf_counter()
