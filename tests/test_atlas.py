@@ -250,3 +250,24 @@ def test_cli_errors_are_one_line(args, code, text, tmp_path, monkeypatch):
     assert text in out.stderr and out.stdout == ""
     if code == 1:
         assert out.stderr.startswith("frc: error: ") and out.stderr.count("\n") == 1
+
+
+def test_the_command_offers_every_kind_of_the_library():
+    from frcontrol.cli.atlas_cmd import WHATS as CLI_WHATS
+
+    from frcontrol.atlas import WHATS
+
+    assert CLI_WHATS == WHATS
+
+
+def test_building_a_plan_loads_no_solver(tmp_path):
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom frcontrol.atlas import build_atlas\n"
+            "plan = build_atlas('rod_on_table', ['state.q.theta=0.3:2.8:181', 'contacts.tip.mu=0:2:101'])\n"
+            "heavy = ('frcontrol.engine', 'frcontrol.solvers', 'scipy', 'distributed')\n"
+            "print(plan.chunk_count, [m for m in heavy if m in sys.modules])\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
+                         timeout=60)
+    assert out.returncode == 0 and out.stdout.split(None, 1) == ["286", "[]\n"], out.stdout + out.stderr
