@@ -134,8 +134,8 @@ def chunk_overhead(runs: int, n_theta: int, n_mu: int, scheduler: str | None) ->
 
 
 def pool_start() -> float:
-    """[s] A run of 2 one-point chunks on 2 pool workers: the first pool of the process (fork server
-    start and its imports included), less nothing (the 2 points cost about 5 ms)."""
+    """[s] A run of 2 one-point chunks on 2 pool workers: the workers' start and their imports of
+    frcontrol (the 2 points cost about 5 ms)."""
     tiny = build_atlas("rod_on_table", ["contacts.tip.mu=0.5:1:2"], overrides=SETS, chunk_size=1)
     return timed_run(tiny, 1, workers=2)["wall_s"]
 

@@ -66,8 +66,16 @@ def children(pid: int) -> list[int]:
 
 
 def pool_workers(pid: int) -> list[int]:
-    """The frc process's grandchildren: the workers its fork server started."""
-    return [g for c in children(pid) for g in children(c)]
+    """The frc process's pool workers: its children started by multiprocessing's spawn."""
+    out = []
+    for child in children(pid):
+        try:
+            cmdline = Path(f"/proc/{child}/cmdline").read_bytes()
+        except OSError:
+            continue
+        if b"spawn_main" in cmdline:
+            out.append(child)
+    return out
 
 
 def wait_for_chunks(out: Path, count: int, process: subprocess.Popen) -> None:

@@ -35,12 +35,11 @@ MAX_CHUNK_ATTEMPTS = 3
 """How many times a chunk is handed out before its worker's deaths count as the chunk's fault
 (then the run stops with an error naming the chunk)."""
 
-PRELOAD = ["frcontrol.atlas.points", "frcontrol.engine", "frcontrol.stability"]
-"""Modules the pool's fork server imports once, before it forks any worker."""
-
-WORKER_START_METHOD = "forkserver"
-"""How pool workers start: from a small server process that has imported frcontrol (fast to
-start and to replace, and free of this process's threads); ``spawn`` where it does not exist."""
+WORKER_START_METHOD = "spawn"
+"""How pool workers start: a fresh interpreter each, with this process's ``sys.path``, free of its
+threads, on every platform. (A fork server that preloads frcontrol starts faster, but on Python 3.11
+it imports with the working directory first on its path: run from a source checkout, it would
+load the checkout's frcontrol instead of the installed one.)"""
 
 
 @dataclass
@@ -101,10 +100,7 @@ class _Pool:
     def __init__(self, plan: AtlasPlan, workers: int) -> None:
         import multiprocessing as mp
 
-        methods = mp.get_all_start_methods()
-        self.context: Any = mp.get_context(WORKER_START_METHOD if WORKER_START_METHOD in methods else "spawn")
-        if self.context.get_start_method() == "forkserver":
-            self.context.set_forkserver_preload(PRELOAD)
+        self.context: Any = mp.get_context(WORKER_START_METHOD)
         self.plan = plan
         self.workers: dict[Any, tuple[Any, Any]] = {}  # process sentinel -> (process, connection)
         self.holding: dict[Any, int] = {}  # sentinel -> the chunk the worker is computing
@@ -112,9 +108,19 @@ class _Pool:
             self.start_worker()
 
     def start_worker(self) -> None:
+        import threading
+
         parent, child = self.context.Pipe()
         process = self.context.Process(target=_worker_main, args=(child, self.plan), daemon=True)
-        process.start()
+        # A worker starts with SIGINT ignored (inherited across exec; Python then leaves it so), so
+        # that a Ctrl-C to the process group while it imports frcontrol prints no traceback.
+        main = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            process.start()
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, previous)
         child.close()
         self.workers[process.sentinel] = (process, parent)
 
