@@ -87,20 +87,22 @@ def per_point_cost(runs: int, sample: int) -> dict:
 
 
 def timed_run(plan, runs: int, **where) -> dict:
-    walls, inside = [], []
+    walls, inside, cpu = [], [], []
     report = None
     for _ in range(runs):
         start = time.perf_counter()
         result = run_atlas(plan, **where)
         walls.append(time.perf_counter() - start)
         inside.append(result.timings["per_point"])
+        cpu.append(result.timings["cpu_per_point"])
         report = result.run
     wall = statistics.median(walls)
     # per point inside the workers (wall time there): above the serial cost when the workers wait
     # for a core (other work on the machine), not for the executor
     return {"wall_s": wall, "walls_s": walls, "points_per_s": plan.size / wall, "chunks": plan.chunk_count,
             "chunk_size": plan.chunk_size, "workers": report["workers"] if report else None,
-            "per_point_in_workers_s": statistics.median(inside)}
+            "per_point_in_workers_s": statistics.median(inside),
+            "cpu_per_point_in_workers_s": statistics.median(cpu)}
 
 
 def throughput(runs: int, n_theta: int, n_mu: int, cost: float, scheduler: str | None) -> list[dict]:
@@ -229,7 +231,8 @@ def main() -> None:
     for r in rows:
         print(f"{r['executor']} x{r['workers']}: {r['points_per_s']:.0f} points/s, "
               f"speed-up {r['speedup']:.2f}, efficiency {r['efficiency']:.2f}, "
-              f"{1e3 * r['per_point_in_workers_s']:.2f} ms per point inside the workers")
+              f"{1e3 * r['per_point_in_workers_s']:.2f} ms per point inside the workers "
+              f"({1e3 * r['cpu_per_point_in_workers_s']:.2f} ms of CPU)")
     for name in ("pool", "dask"):
         if name in overhead:
             print(f"{name}: {1e3 * overhead[name]['per_chunk_s']:.2f} ms per chunk")
@@ -237,7 +240,8 @@ def main() -> None:
     if big:
         print(f"181 x 101 on 2 workers: {big['wall_s']:.1f} s, budget {big['budget_s']:.1f} s "
               f"({'met' if big['within_budget'] else 'NOT met'}); ideal {big['ideal_s']:.1f} s; "
-              f"{1e3 * big['per_point_in_workers_s']:.2f} ms per point inside the workers")
+              f"{1e3 * big['per_point_in_workers_s']:.2f} ms per point inside the workers "
+              f"({1e3 * big['cpu_per_point_in_workers_s']:.2f} ms of CPU)")
     print(f"written to {folder}; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
 
 

@@ -43,7 +43,8 @@ class AtlasResult:
         run: how the run went (executor, workers, chunks computed and resumed, worker deaths).
         timings: [s] ``total`` (wall time of this run), ``compute`` (the chunks' compute time
             summed over the processes that ran them in this run), ``per_point`` (compute over the
-            points computed in this run).
+            points computed in this run), ``cpu_per_point`` (the same in CPU time: below
+            ``per_point`` when the workers waited for a core).
     """
 
     plan: AtlasPlan
@@ -121,7 +122,7 @@ def run_atlas(
     resumed = len(found)
     todo = [c for c in range(plan.chunk_count) if c not in found]
     done_points = sum(len(c["index"]) for c in found.values())
-    computed = {"seconds": 0.0, "points": 0}
+    computed = {"seconds": 0.0, "cpu_seconds": 0.0, "points": 0}
     def started() -> None:
         if progress is not None:
             progress(done_points, plan.size)
@@ -133,6 +134,7 @@ def run_atlas(
         found[int(result["chunk"])] = result
         done_points += len(result["index"])
         computed["seconds"] += float(result["seconds"])
+        computed["cpu_seconds"] += float(result.get("cpu_seconds", 0.0))
         computed["points"] += len(result["index"])
         if progress is not None:
             progress(done_points, plan.size)
@@ -148,8 +150,9 @@ def run_atlas(
         store.finish(rows)
     run = {**report.to_dict(), "chunks": plan.chunk_count, "chunk_size": plan.chunk_size,
            "resumed_chunks": resumed}
-    per_point = computed["seconds"] / computed["points"] if computed["points"] else 0.0
-    timings = {"total": time.perf_counter() - start, "compute": computed["seconds"], "per_point": per_point}
+    points = max(1, computed["points"])
+    timings = {"total": time.perf_counter() - start, "compute": computed["seconds"],
+               "per_point": computed["seconds"] / points, "cpu_per_point": computed["cpu_seconds"] / points}
     return AtlasResult(plan, rows, run, timings)
 
 

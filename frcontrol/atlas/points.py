@@ -158,17 +158,21 @@ def evaluate_point(plan: AtlasPlan, index: int) -> dict[str, Any]:
 
 
 def evaluate_chunk(plan: AtlasPlan, chunk: int) -> dict[str, Any]:
-    """The columns of one chunk's points: ``{"chunk", "index": [...], column: [...], "seconds"}``.
+    """The columns of one chunk's points: ``{"chunk", "index", column..., "seconds", "cpu_seconds"}``.
 
-    ``seconds`` is the chunk's compute time [s] in the process that ran it.
+    ``seconds`` is the chunk's compute time [s] in the process that ran it (wall clock), and
+    ``cpu_seconds`` the CPU time that process spent on it (less than ``seconds`` when the process
+    waited for a core).
     """
     start = time.perf_counter()
+    cpu = time.process_time()
     indices = list(plan.chunk_points(chunk))
     rows = [evaluate_point(plan, k) for k in indices]
     out: dict[str, Any] = {"chunk": chunk, "index": indices}
     for name in columns(plan.what):
         out[name] = [row[name] for row in rows]
     out["seconds"] = time.perf_counter() - start
+    out["cpu_seconds"] = time.process_time() - cpu
     return out
 
 
