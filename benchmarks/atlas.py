@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    python -m benchmarks.atlas [--runs 3] [--big-runs 1] [--quick] [--replot]
+    python -m benchmarks.atlas [--runs 3] [--big-runs 1] [--quick] [--replot] [--big-only]
 
 The problem is the rod on the table sliding left (``--set state.v.x=-1``) over its pitch and the
 tip's friction, ``state.q.theta`` in [0.1, 3.0] and ``contacts.tip.mu`` in [0, 2]: at every point the
@@ -198,7 +198,22 @@ def main() -> None:
     parser.add_argument("--big-runs", type=int, default=1)
     parser.add_argument("--quick", action="store_true", help="a smoke run: small grids, one run each")
     parser.add_argument("--replot", action="store_true", help="redraw atlas.png from atlas.json, no run")
+    parser.add_argument("--big-only", action="store_true",
+                        help="only the per-point cost and the 181 x 101 atlas, to atlas_big.json")
     args = parser.parse_args()
+    if args.big_only:
+        cost = per_point_cost(args.runs, 400)
+        big = big_atlas(args.big_runs, cost["per_point_s"])
+        payload = {"benchmark": "frc atlas: the 181 x 101 rod atlas on 2 workers", "command":
+                   "python -m benchmarks.atlas --big-only", "per_point": cost, "big_atlas": big,
+                   "cores": os.cpu_count(), "python": platform.python_version()}
+        (RESULTS / "atlas_big.json").write_text(json.dumps(payload, indent=2) + "\n")
+        print(f"per point {1e3 * cost['per_point_s']:.2f} ms; 181 x 101 on 2 workers: {big['wall_s']:.1f} s, "
+              f"budget {big['budget_s']:.1f} s ({'met' if big['within_budget'] else 'NOT met'}); "
+              f"{1e3 * big['per_point_in_workers_s']:.2f} ms per point inside the workers "
+              f"({1e3 * big['cpu_per_point_in_workers_s']:.2f} ms of CPU); "
+              f"load {big['load_average_before_after']}")
+        return
     if args.replot:
         plot(json.loads((RESULTS / "atlas.json").read_text()), RESULTS / "atlas.png")
         return
