@@ -8,6 +8,7 @@ import typer
 
 from . import (
     analyze_cmd,
+    atlas_cmd,
     climb_cmd,
     flip_cmd,
     model_cmds,
@@ -57,6 +58,7 @@ app.command("view")(view_cmd.view_command)
 app.command("simulate")(simulate_cmd.simulate_command)
 app.command("flip")(flip_cmd.flip_command)
 app.command("climb")(climb_cmd.climb_command)
+app.command("atlas")(atlas_cmd.atlas_command)
 app.command("schema")(scene_cmds.schema_command)
 app.command("validate")(scene_cmds.validate_command)
 app.command("serve")(serve_cmd.serve_command)

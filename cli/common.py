@@ -53,6 +53,66 @@ def progress(message: str) -> Any:
     return _Silent() if _quiet else Console(stderr=True).status(message)
 
 
+class _SilentBar:
+    """A stand-in for a progress bar under ``--quiet`` or ``--json``."""
+
+    def __enter__(self) -> _SilentBar:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def __call__(self, done: int, total: int) -> None:
+        """Nothing to show."""
+
+
+class _Bar:
+    """A Rich progress bar on stderr: done/total, rate and time left; called as ``bar(done, total)``."""
+
+    def __init__(self, description: str, unit: str) -> None:
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        self.progress = Progress(
+            TextColumn(description), BarColumn(), MofNCompleteColumn(), TextColumn(unit),
+            TextColumn("{task.fields[rate]}"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+            console=Console(stderr=True), transient=False,
+        )
+        self.task = self.progress.add_task(description, total=None, rate="")
+        self.unit = unit
+        self.first: int | None = None
+
+    def __enter__(self) -> _Bar:
+        return self  # the bar starts at the first call: an error before any work prints only itself
+
+    def __exit__(self, *exc: object) -> None:
+        if self.first is not None:
+            self.progress.stop()
+
+    def __call__(self, done: int, total: int) -> None:
+        """Show ``done`` of ``total`` (the rate counts from the first call: resumed work is not rate)."""
+        if self.first is None:
+            self.progress.start()
+            self.first = done
+            self.progress.reset(self.task, total=total, completed=done, rate="")
+            return
+        task = self.progress.tasks[0]
+        elapsed = task.elapsed or 0.0
+        rate = f"{(done - self.first) / elapsed:.4g} {self.unit}/s" if elapsed > 0 else ""
+        self.progress.update(self.task, completed=done, rate=rate)
+
+
+def progress_bar(description: str, unit: str, *, show: bool = True) -> Any:
+    """A progress bar with rate and time left on stderr, or nothing under ``--quiet`` or ``show=False``."""
+    return _Bar(description, unit) if show and not _quiet else _SilentBar()
+
+
 def note(text: str, *, to_stderr: bool = False) -> None:
     """An informational line ("wrote FILE"): on stdout, or stderr when stdout holds JSON; none if quiet."""
     if not _quiet:
@@ -244,6 +304,7 @@ __all__ = [
     "fail",
     "note",
     "progress",
+    "progress_bar",
     "serve_until_stopped",
     "wait_until_stopped",
     "set_quiet",

@@ -100,6 +100,14 @@ class ImpactState(FrcontrolError):
         )
 
 
+class AtlasInterrupted(FrcontrolError):
+    """An atlas stopped before its last chunk.
+
+    A signal, a lost scheduler or a chunk that kills its workers; the chunks finished so far are
+    kept when the run writes ``--out``.
+    """
+
+
 class SolverNotFound(FrcontrolError):
     """The requested LP/QP back-end is unknown or not installed."""
 
@@ -113,6 +121,7 @@ class SolverNotFound(FrcontrolError):
 
 
 __all__ = [
+    "AtlasInterrupted",
     "CoordinateNotFound",
     "FrameNotFound",
     "FrcontrolError",

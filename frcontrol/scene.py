@@ -296,7 +296,9 @@ def load_scene(
         gap_tolerance: [m] overrides the scene's ``gap_tolerance`` (default :data:`GAP_TOLERANCE`).
         overrides: values to set before validation, by dotted path (``{"contacts.tip.mu": 0.5,
             "gravity": 3.7}``; see :func:`~frcontrol.scene_schema.apply_override`), checked exactly
-            like the file's own values.
+            like the file's own values. ``state.q.NAME`` and ``state.v.NAME`` set one coordinate
+            by name (``state.q.theta``); a contact without ``surface_point`` then follows its
+            contact point to that state (gap 0).
 
     Returns:
         The validated scene.
@@ -312,24 +314,33 @@ def load_scene(
     scene_path = resolve_scene_path(path)
     reader = _Reader(scene_path)
     raw = read_scene_document(scene_path)
-    robot = _checked_document(reader, raw, overrides)
+    robot, coordinates = _checked_document(reader, raw, overrides)
     robot_file = _resolve_robot(reader, scene_path, robot)
-    return _scene_from_checked(reader, scene_path, raw, robot_file, gap_tolerance)
+    return _scene_from_checked(reader, scene_path, raw, robot_file, gap_tolerance, coordinates)
 
 
-def _checked_document(reader: _Reader, raw: dict[str, Any], overrides: Mapping[str, Any] | None) -> str:
-    """Apply ``overrides`` to a scene document and check it against the schema; its robot's name.
+def _checked_document(reader: _Reader, raw: dict[str, Any], overrides: Mapping[str, Any] | None
+                      ) -> tuple[str, dict[str, Any]]:
+    """Apply ``overrides`` to a scene document and check it against the schema.
+
+    Returns:
+        The robot's name, and the overrides of single coordinates (``state.q.NAME``), which are
+        applied once the robot's coordinates are known (:func:`_apply_coordinate_overrides`).
 
     Raises:
         SceneError: an override or a field is wrong (see :func:`load_scene`).
     """
+    coordinate_overrides: dict[str, Any] = {}
     for key, value in (overrides or {}).items():
+        if _coordinate_path(key) is not None:
+            coordinate_overrides[key] = value  # state.q.NAME: the names are known with the robot
+            continue
         for problem in apply_override(raw, key, value):
             raise reader.fail(problem.field, problem.reason)
     problems = schema_problems(raw)
     if problems:
         raise reader.fail(problems[0].field, problems[0].reason)
-    return reader.string(raw["robot"], "robot")
+    return reader.string(raw["robot"], "robot"), coordinate_overrides
 
 
 def scene_from_document(
@@ -362,7 +373,7 @@ def scene_from_document(
     scene_path = Path(source)
     reader = _Reader(scene_path)
     raw = copy.deepcopy(dict(document))
-    robot = _checked_document(reader, raw, overrides)
+    robot, coordinates = _checked_document(reader, raw, overrides)
     files = dict(robot_files or {})
     shipped = sorted(p.name for p in shipped_robots_dir().glob("*.urdf"))
     if robot != Path(robot).name or robot in ("", ".", ".."):
@@ -377,18 +388,22 @@ def scene_from_document(
         given = f"the URDFs sent with it ({', '.join(sorted(files))}) nor " if files else ""
         raise reader.fail("robot", f"no URDF {robot!r} among {given}the shipped robots "
                           f"({', '.join(shipped)})")
-    return _scene_from_checked(reader, scene_path, raw, robot_file, gap_tolerance)
+    return _scene_from_checked(reader, scene_path, raw, robot_file, gap_tolerance, coordinates)
 
 
 def _scene_from_checked(reader: _Reader, scene_path: Path, raw: dict[str, Any], robot_file: Path,
-                        gap_tolerance: float | None) -> Scene:
-    """The scene of a document that passed the schema, on the URDF ``robot_file``."""
+                        gap_tolerance: float | None, coordinates: Mapping[str, Any]) -> Scene:
+    """The scene of a document that passed the schema, on the URDF ``robot_file``.
+
+    ``coordinates``: the single-coordinate overrides (``state.q.NAME``) to apply to its state.
+    """
     name = reader.string(raw.get("name", scene_path.stem), "name")
     base, gravity, tol = _read_model_settings(reader, raw, gap_tolerance)
     try:
         bare = PlanarRobot(robot_file, base=base, gravity=gravity)
     except RobotModelError as err:
         raise SceneError(str(scene_path), "robot", f"{robot_file.name}: {err.reason}") from err
+    _apply_coordinate_overrides(reader, raw, bare, coordinates)
     q, v = _read_state(reader, raw, bare)
     locked, q, v = _read_locked_joints(reader, raw, bare, q, v)
     if locked:
@@ -433,6 +448,43 @@ def _read_model_settings(reader: _Reader, raw: Mapping[str, Any], gap_tolerance:
     if tol <= 0:
         raise reader.fail("gap_tolerance", f"expected > 0 [m], got {tol}")
     return str(base), gravity, tol
+
+
+def _coordinate_path(path: str) -> tuple[str, str] | None:
+    """``("q", "theta")`` for ``state.q.theta`` (one coordinate by name), else None."""
+    parts = path.split(".")
+    if len(parts) == 3 and parts[0] == "state" and parts[1] in ("q", "v") and not parts[2].isdigit():
+        return parts[1], parts[2]
+    return None
+
+
+def _apply_coordinate_overrides(reader: _Reader, raw: dict[str, Any], bare: PlanarRobot,
+                                overrides: Mapping[str, Any]) -> None:
+    """Set single coordinates of ``[state]`` by name (``state.q.theta``, ``state.v.x``), in place.
+
+    The names are the robot's coordinates before locking (``q`` and ``v`` list locked joints too);
+    an absent ``v`` starts from zeros.
+    """
+    coords = bare.coordinate_names
+    for path, value in overrides.items():
+        vector, name = _coordinate_path(path) or ("", "")
+        if name not in coords:
+            guess = nearest(name, coords)
+            hint = f"did you mean {guess!r}? " if guess else ""
+            raise reader.fail(path, f"unknown coordinate {name!r}; {hint}the coordinates are: "
+                              f"{', '.join(coords)}")
+        state = raw.setdefault("state", {})
+        if not isinstance(state, dict):
+            raise reader.fail("state", "expected a table [state]")
+        if vector == "v" and "v" not in state:
+            state["v"] = [0.0] * len(coords)
+        values = state.get(vector)
+        if not isinstance(values, list) or len(values) != len(coords):
+            raise reader.fail(f"state.{vector}", f"expected {len(coords)} numbers ({', '.join(coords)}) "
+                              f"before setting {path}")
+        values = list(values)  # a copy: the list may be a caller's override value
+        values[coords.index(name)] = reader.number(value, path)
+        state[vector] = values
 
 
 def _read_state(reader: _Reader, raw: Mapping[str, Any], bare: PlanarRobot) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,211 @@
+"""``frc atlas``: sweep a scene over states, parameters and inputs, here or on a Dask cluster."""
+
+from __future__ import annotations
+
+import signal
+from enum import StrEnum
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+from rich.table import Table
+
+from .common import (
+    check_output_files,
+    console,
+    fail,
+    handle_errors,
+    note,
+    print_json,
+    progress_bar,
+    set_quiet,
+)
+from .model_cmds import SceneArg
+from .options import InputOpt, JsonOpt, QuietOpt, SetOpt, parse_inputs, plot_option, scene_overrides
+
+if TYPE_CHECKING:  # the atlas loads when the command runs, not for --help
+    from frcontrol.atlas import AtlasResult
+
+class What(StrEnum):
+    """``--what``'s choices (frcontrol.atlas.WHATS, spelled here so that --help imports no atlas)."""
+
+    solutions = "solutions"
+    statics = "statics"
+    flip = "flip"
+    climb = "climb"
+
+
+WHATS = tuple(w.value for w in What)
+
+VaryOpt = Annotated[
+    list[str],
+    typer.Option("--vary", metavar="PATH=START:STOP:N",
+                 help="An axis of the grid: numpy.linspace(START, STOP, N) for PATH, a --set path "
+                      "(contacts.tip.mu, gravity, model.stiffness, one coordinate state.q.theta or "
+                      "state.v.x) or input.NAME (an input's value). Repeatable: the first is the "
+                      "outermost axis of every array."),
+]
+WhatOpt = Annotated[
+    What,
+    typer.Option("--what",
+                 help="What to compute at every point: solutions (count, modes, stability, "
+                      "ambiguity), statics (closure, equilibrium), flip or climb (whether a plan "
+                      "exists, its margin or largest disturbance scale)."),
+]
+AtlasOutOpt = Annotated[
+    Path | None,
+    typer.Option("--out", metavar="FILE",
+                 help="Write the table, one row per grid point: FILE.parquet (pyarrow) or FILE.npz. "
+                      "Finished chunks are kept in FILE.parts as they come; --resume finishes an "
+                      "interrupted run."),
+]
+PlotOpt = plot_option("the count (or --figure) over the first two axes, one colour per value")
+FigureOpt = Annotated[
+    str,
+    typer.Option("--figure", help="The array --plot draws: counts, ambiguous, modes, stable, or the "
+                 "kind's own (found, margin, max_disturbance_scale, form_closure_margin...)."),
+]
+WorkersOpt = Annotated[
+    int | None,
+    typer.Option("--workers", "-w", min=1, help="Local worker processes (default: every core; 1 runs "
+                 "in this process)."),
+]
+SchedulerOpt = Annotated[
+    str | None,
+    typer.Option("--scheduler", metavar="ADDRESS",
+                 help='Run on a Dask distributed cluster at tcp://HOST:PORT (pip install '
+                      '"frcontrol[cluster]"; its workers need frcontrol installed).'),
+]
+ResumeOpt = Annotated[
+    bool,
+    typer.Option("--resume", help="Finish an interrupted run with the same arguments: compute only "
+                 "the chunks missing from FILE.parts (refused if the arguments differ)."),
+]
+ChunkOpt = Annotated[
+    int | None,
+    typer.Option("--chunk-size", min=1, help="Grid points per chunk (default: the grid in about 256 "
+                 "chunks, at most 64 points each)."),
+]
+
+
+class _Signalled(KeyboardInterrupt):
+    """SIGTERM, raised where the run is, so that it stops as on Ctrl-C."""
+
+
+def _raise_on_sigterm(signum: int, frame: Any) -> None:
+    raise _Signalled()
+
+
+@handle_errors
+def atlas_command(
+    scene: SceneArg,
+    vary: VaryOpt,
+    inputs: InputOpt = None,
+    sets: SetOpt = None,
+    what: WhatOpt = What.solutions,
+    json: JsonOpt = False,
+    out: AtlasOutOpt = None,
+    plot: PlotOpt = None,
+    figure: FigureOpt = "counts",
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
+    resume: ResumeOpt = False,
+    chunk_size: ChunkOpt = None,
+    quiet: QuietOpt = False,
+) -> None:
+    """Sweep a scene over a grid of states, parameters and inputs: a map of what can happen.
+
+    \b
+    Examples:
+      frc atlas rod_on_table --vary state.q.theta=0.3:2.8:13 --vary contacts.tip.mu=0:2:9 --workers 1
+      frc atlas rod_on_table --vary input.theta=-5:5:21 --set state.v.x=-1 --json --workers 2
+      frc atlas box_on_slope --vary contacts.lower.mu=0.1:0.6:6 --what statics --out box.npz --workers 1
+      frc atlas rod_on_table --vary state.q.theta=0.3:2.8:13 --vary state.v.x=-2:2:9 --plot rod.png -w 1
+    """
+    set_quiet(quiet)
+    from frcontrol.atlas import build_atlas, run_atlas
+    from frcontrol.atlas.store import check_out
+    from frcontrol.errors import InputError
+
+    check_output_files(plot=plot, out=out)
+    if resume and out is None:
+        raise InputError("--resume needs --out FILE: the finished chunks are kept beside FILE")
+    if out is not None:
+        check_out(out)
+    what_name = What(what).value
+    plan = build_atlas(scene, vary, what=what_name, inputs=parse_inputs(inputs),
+                       overrides=scene_overrides(sets), chunk_size=chunk_size)
+    _check_figure(figure, what_name)
+    previous = signal.signal(signal.SIGTERM, _raise_on_sigterm)
+    try:
+        with progress_bar(f"atlas {plan.size} points", "points", show=not json) as bar:
+            result = run_atlas(plan, workers=workers, scheduler=scheduler, out=out, resume=resume,
+                               progress=bar)
+    except KeyboardInterrupt as err:
+        name = "SIGTERM" if isinstance(err, _Signalled) else "SIGINT"
+        kept = (f"the finished chunks are kept in {out.name}.parts: run the same command with --resume "
+                "to finish" if out is not None else "nothing is kept without --out")
+        raise fail(f"interrupted by {name}; {kept}") from None
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    _report(result, json=json, out=out, plot=plot, figure=figure)
+
+
+def _check_figure(figure: str, what: str) -> None:
+    from frcontrol.atlas import KIND_COLUMNS
+    from frcontrol.errors import InputError
+
+    valid = ("counts", "modes", "stable", "ambiguous", *KIND_COLUMNS[what])
+    if figure not in valid:
+        raise InputError(f"--figure {figure!r}: not an array of --what {what}; valid: {', '.join(valid)}")
+
+
+def _report(result: AtlasResult, *, json: bool, out: Path | None, plot: Path | None, figure: str) -> None:
+    doc = result.to_dict()
+    if plot is not None:
+        from frcontrol.viz.atlas_figure import plot_atlas
+
+        plot_atlas(doc, plot, figure=figure)
+    if json:
+        print_json(doc)
+    else:
+        render(doc)
+    for written in (out, plot):
+        if written is not None:
+            note(f"wrote {written}", to_stderr=json)
+
+
+def render(doc: dict[str, Any]) -> None:
+    """The atlas as a summary: the grid, how many points have each count, the errors, the run."""
+    from collections import Counter
+
+    def flat(node: Any, depth: int) -> list[Any]:
+        return [node] if depth == 0 else [x for item in node for x in flat(item, depth - 1)]
+
+    depth = len(doc["shape"])
+    counts = flat(doc["counts"], depth)
+    errors = [e for e in flat(doc["errors"], depth) if e is not None]
+    ambiguous = Counter(a for a in flat(doc["ambiguous"], depth) if a is not None)
+    axes = " x ".join(f"{a['path']} ({len(a['values'])})" for a in doc["axes"])
+    console.print(f"{doc['scene']}: {doc['what']} over {axes}: {doc['points']} points")
+    table = Table(title="rigid solutions per point")
+    for col in ("solutions", "points"):
+        table.add_column(col)
+    for count, n in sorted(Counter(c for c in counts if c is not None).items()):
+        table.add_row(str(count), str(n))
+    console.print(table)
+    console.print("ambiguous: " + ", ".join(f"{k} {v}" for k, v in sorted(ambiguous.items())))
+    if errors:
+        first = Counter(errors).most_common(1)[0]
+        console.print(f"errors: {len(errors)} points (most common: {first[0]})")
+    run, t = doc["run"], doc["timings"]
+    console.print(f"time: {t['total']:.2f} s, {run['executor']} on {run['workers']} worker(s), "
+                  f"{1e3 * t['per_point']:.2f} ms per point; {run['chunks']} chunks of {run['chunk_size']}"
+                  + (f", {run['resumed_chunks']} resumed" if run["resumed_chunks"] else ""))
+
+
+__all__ = [
+    "WHATS",
+    "atlas_command",
+    "render",
+]

@@ -1,0 +1,311 @@
+"""An atlas's grid and its chunks: a pure plan, built and checked without solving anything.
+
+``frc atlas SCENE --vary PATH=START:STOP:N ...`` sweeps a scene over a grid. Each axis varies one
+path: a scene field in the ``--set`` grammar (``contacts.tip.mu``, ``gravity``, ``model.stiffness``,
+one coordinate ``state.q.theta`` / ``state.v.x``), or an input's value, ``input.NAME``. An axis's
+values are ``numpy.linspace(START, STOP, N)``. The grid is the product of the axes, the first axis
+the outermost: point ``k`` of a grid of shape ``(n_0, n_1, ...)`` sits at the multi-index
+``numpy.unravel_index(k, shape)`` (C order), and every array of the result is nested that way.
+
+The points go in chunks of consecutive indices, the unit of work of every executor and of the
+output file. The chunk size depends on the grid alone (never on the workers), so a run resumed with
+other workers finds the same chunks. The plan's *fingerprint* (a SHA-256 of frcontrol's version,
+the scene file, its URDF, the kind, the axes, the fixed inputs and overrides, and the chunk size)
+tells whether stored chunks belong to it.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import CoordinateNotFound, InputError, SceneError
+from ..scene import load_scene, parse_input_assignments, resolve_scene_path
+from ..scene_schema import apply_override, nearest
+
+WHATS = ("solutions", "statics", "flip", "climb")
+"""What an atlas computes at every point (``--what``)."""
+
+INPUT_PREFIX = "input."
+"""An axis path ``input.NAME`` varies the input NAME (as ``--input NAME=VALUE`` sets it)."""
+
+TARGET_CHUNKS = 256
+"""The number of chunks a grid is cut into when its points allow (enough to balance many workers
+and to lose little work to an interruption)."""
+
+MAX_CHUNK_POINTS = 64
+"""The most points in one chunk (a rod point costs about 2 ms: a chunk of 64, about 0.15 s)."""
+
+FORMAT_VERSION = 1
+"""The version of the stored chunks and of the fingerprint's recipe."""
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One varied path: ``numpy.linspace(start, stop, count)``.
+
+    Attributes:
+        path: a scene path (``contacts.tip.mu``, ``state.q.theta``) or ``input.NAME``.
+        start, stop: the first and last values, in the field's units (radians for angles).
+        count: the number of values, >= 1.
+    """
+
+    path: str
+    start: float
+    stop: float
+    count: int
+
+    @property
+    def values(self) -> np.ndarray:
+        """The axis's values."""
+        return np.linspace(self.start, self.stop, self.count)
+
+    @property
+    def input_name(self) -> str | None:
+        """The input this axis varies, or None for a scene path."""
+        return self.path[len(INPUT_PREFIX):] if self.path.startswith(INPUT_PREFIX) else None
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"path", "start", "stop", "count", "values"}`` as JSON values."""
+        return {"path": self.path, "start": self.start, "stop": self.stop, "count": self.count,
+                "values": self.values.tolist()}
+
+
+def parse_axis(text: str) -> Axis:
+    """``"contacts.tip.mu=0:2:101"`` -> :class:`Axis` (the ``--vary`` grammar).
+
+    Raises:
+        InputError: not ``PATH=START:STOP:N``, a bound that is not a finite number, or N not an
+            integer >= 1.
+    """
+    path, sep, spec = text.partition("=")
+    path = path.strip()
+    parts = spec.split(":")
+    if not sep or not path or len(parts) != 3:
+        raise InputError(f"--vary expects PATH=START:STOP:N, got {text!r}")
+    try:
+        start, stop = float(parts[0]), float(parts[1])
+    except ValueError as err:
+        raise InputError(f"--vary {text!r}: START and STOP must be numbers") from err
+    if not (math.isfinite(start) and math.isfinite(stop)):
+        raise InputError(f"--vary {text!r}: START and STOP must be finite")
+    try:
+        count = int(parts[2])
+    except ValueError as err:
+        raise InputError(f"--vary {text!r}: N must be an integer, got {parts[2]!r}") from err
+    if count < 1:
+        raise InputError(f"--vary {text!r}: N must be >= 1, got {count}")
+    return Axis(path, start, stop, count)
+
+
+def default_chunk_size(points: int) -> int:
+    """Points per chunk for a grid of ``points``.
+
+    :data:`TARGET_CHUNKS` chunks, at most :data:`MAX_CHUNK_POINTS` points each.
+    """
+    return max(1, min(MAX_CHUNK_POINTS, math.ceil(points / TARGET_CHUNKS)))
+
+
+@dataclass(frozen=True)
+class AtlasPlan:
+    """A sweep to run: the scene, the kind, the axes, what stays fixed, and the chunks.
+
+    Attributes:
+        scene: the scene as given (a path or a shipped scene's name).
+        scene_path: the scene file.
+        what: one of :data:`WHATS`.
+        axes: the varied paths, the first the outermost.
+        inputs: the fixed inputs ``{name: value}`` (``--input``).
+        overrides: the fixed scene overrides ``{path: value}`` (``--set``).
+        chunk_size: points per chunk.
+        fingerprint: SHA-256 of everything the results depend on (module docstring).
+    """
+
+    scene: str
+    scene_path: str
+    what: str
+    axes: tuple[Axis, ...]
+    inputs: Mapping[str, float] = field(default_factory=dict)
+    overrides: Mapping[str, Any] = field(default_factory=dict)
+    chunk_size: int = 1
+    fingerprint: str = ""
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """The grid's shape, one entry per axis."""
+        return tuple(a.count for a in self.axes)
+
+    @property
+    def size(self) -> int:
+        """The number of grid points."""
+        return math.prod(self.shape)
+
+    @property
+    def chunk_count(self) -> int:
+        """The number of chunks."""
+        return math.ceil(self.size / self.chunk_size)
+
+    def chunk_points(self, chunk: int) -> range:
+        """The flat indices of a chunk's points."""
+        if not 0 <= chunk < self.chunk_count:
+            raise InputError(f"chunk {chunk} is out of range: the plan has {self.chunk_count} chunks")
+        return range(chunk * self.chunk_size, min(self.size, (chunk + 1) * self.chunk_size))
+
+    def point(self, index: int) -> tuple[dict[str, Any], dict[str, float]]:
+        """The scene overrides and the inputs at the flat index ``index``."""
+        overrides = dict(self.overrides)
+        inputs = dict(self.inputs)
+        for axis, i in zip(self.axes, np.unravel_index(index, self.shape), strict=True):
+            value = float(axis.values[int(i)])
+            name = axis.input_name
+            if name is None:
+                overrides[axis.path] = value
+            else:
+                inputs[name] = value
+        return overrides, inputs
+
+    @property
+    def varies_scene(self) -> bool:
+        """Whether some axis changes the scene (else every point shares one loaded scene)."""
+        return any(a.input_name is None for a in self.axes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The plan as JSON values (stored beside the chunks)."""
+        return {"scene": self.scene, "what": self.what, "axes": [a.to_dict() for a in self.axes],
+                "inputs": dict(self.inputs), "set": dict(self.overrides), "shape": list(self.shape),
+                "points": self.size, "chunk_size": self.chunk_size, "chunks": self.chunk_count,
+                "fingerprint": self.fingerprint}
+
+
+def _check_axes(axes: Sequence[Axis], inputs: Mapping[str, float], overrides: Mapping[str, Any]) -> None:
+    paths = [a.path for a in axes]
+    for path in paths:
+        if paths.count(path) > 1:
+            raise InputError(f"--vary {path} is given twice")
+        if path in overrides:
+            raise InputError(f"--vary {path} is also set by --set {path}=...: give one of them")
+        if path.startswith(INPUT_PREFIX) and path[len(INPUT_PREFIX):] in inputs:
+            raise InputError(f"--vary {path} is also given by --input {path[len(INPUT_PREFIX):]}=...")
+
+
+def _check_path(scene_path: str, axis: Axis, raw: dict[str, Any], coordinates: Sequence[str],
+                inputs: Sequence[str]) -> None:
+    """Raise the typed error of an axis path that names nothing (the nearest valid one in it)."""
+    name = axis.input_name
+    if name is not None:
+        if name not in inputs:
+            err = CoordinateNotFound(name, inputs)
+            guess = nearest(name, inputs)
+            hint = f" (did you mean {INPUT_PREFIX}{guess}?)" if guess else ""
+            raise InputError(f"--vary {axis.path}: {err}{hint}")
+        return
+    parts = axis.path.split(".")
+    if len(parts) == 3 and parts[0] == "state" and parts[1] in ("q", "v") and not parts[2].isdigit():
+        if parts[2] not in coordinates:
+            guess = nearest(parts[2], coordinates)
+            hint = f"did you mean 'state.{parts[1]}.{guess}'? " if guess else ""
+            raise SceneError(scene_path, axis.path, f"unknown coordinate {parts[2]!r}; {hint}"
+                             f"the coordinates are: {', '.join(coordinates)}")
+        return
+    problems = apply_override(copy.deepcopy(raw), axis.path, axis.start)
+    if problems:
+        raise SceneError(scene_path, problems[0].field, problems[0].reason)
+
+
+def _numbers_as_floats(value: Any) -> Any:
+    """``-1`` and ``-1.0`` set the same scene: one fingerprint."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if isinstance(value, list):
+        return [_numbers_as_floats(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _numbers_as_floats(v) for k, v in value.items()}
+    return value
+
+
+def _file_digest(path: Any) -> str:
+    from pathlib import Path
+
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def build_atlas(
+    scene: str,
+    vary: Sequence[Axis | str],
+    *,
+    what: str = "solutions",
+    inputs: Mapping[str, float] | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    chunk_size: int | None = None,
+) -> AtlasPlan:
+    """Check a sweep's arguments and build its plan (the scene is loaded once; nothing is solved).
+
+    Args:
+        scene: a scene file or the name of a shipped scene.
+        vary: the axes, as :class:`Axis` or ``"PATH=START:STOP:N"``; the first is the outermost.
+        what: one of :data:`WHATS`.
+        inputs: fixed input values ``{name: value}`` (others 0, or the axis's value).
+        overrides: fixed scene overrides ``{path: value}`` (the ``--set`` grammar).
+        chunk_size: points per chunk (default :func:`default_chunk_size`).
+
+    Raises:
+        InputError: no axis, a malformed axis, an unknown ``what``, a path varied twice or also
+            fixed, an unknown input (with the nearest), a fixed input outside its limits, or a
+            chunk size < 1.
+        SceneError: the scene or a ``--set`` override is invalid, or an axis path names no field
+            (with the nearest valid one).
+    """
+    from ..model import PlanarRobot
+
+    if what not in WHATS:
+        raise InputError(f"unknown --what {what!r}; valid: {', '.join(WHATS)}")
+    axes = tuple(parse_axis(a) if isinstance(a, str) else a for a in vary)
+    if not axes:
+        raise InputError("an atlas needs at least one --vary PATH=START:STOP:N")
+    fixed_inputs = {str(k): float(v) for k, v in (inputs or {}).items()}
+    fixed = dict(overrides or {})
+    _check_axes(axes, fixed_inputs, fixed)
+    base = load_scene(scene, overrides=fixed)
+    parse_input_assignments(base, fixed_inputs)
+    raw = dict(base.raw)
+    full = PlanarRobot(base.robot.urdf_path, base=base.robot.base).coordinate_names  # with locked joints
+    for axis in axes:
+        _check_path(str(base.path), axis, raw, full, base.inputs.coordinates)
+    size = math.prod(a.count for a in axes)
+    if chunk_size is None:
+        chunk_size = default_chunk_size(size)
+    if chunk_size < 1:
+        raise InputError(f"the chunk size must be >= 1, got {chunk_size}")
+    plan = AtlasPlan(str(scene), str(resolve_scene_path(scene)), what, axes, fixed_inputs, fixed,
+                     int(chunk_size))
+    from .. import __version__
+
+    recipe = {"format": FORMAT_VERSION, "frcontrol": __version__, "scene": _file_digest(plan.scene_path),
+              "robot": _file_digest(base.robot.urdf_path), "what": what,
+              "axes": [[a.path, a.start, a.stop, a.count] for a in axes],
+              "inputs": sorted(fixed_inputs.items()),
+              "set": sorted((k, repr(_numbers_as_floats(v))) for k, v in fixed.items()),
+              "chunk_size": plan.chunk_size}
+    digest = hashlib.sha256(json.dumps(recipe, sort_keys=True).encode()).hexdigest()
+    return AtlasPlan(**{**plan.__dict__, "fingerprint": digest})
+
+
+__all__ = [
+    "FORMAT_VERSION",
+    "INPUT_PREFIX",
+    "MAX_CHUNK_POINTS",
+    "TARGET_CHUNKS",
+    "WHATS",
+    "AtlasPlan",
+    "Axis",
+    "build_atlas",
+    "default_chunk_size",
+    "parse_axis",
+]

@@ -1,0 +1,273 @@
+"""frc atlas in one process: the grid plan, each point's columns against the library, bad points,
+the JSON contract, the table files, resuming after an interruption, the map figure, the CLI's errors.
+
+Real processes (the local pool, signals, killed workers) are in test_atlas_processes.py, Dask in
+test_atlas_dask.py.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from frcontrol.cli.app import app
+from typer.testing import CliRunner
+
+import frcontrol
+from frcontrol.atlas import AMBIGUITY, Axis, build_atlas, parse_axis, read_table, run_atlas
+from frcontrol.atlas.store import parts_folder
+from frcontrol.errors import InputError, SceneError
+from frcontrol.scene import load_scene
+from frcontrol.stability import stability_of
+
+runner = CliRunner()
+ROD_AXES = ["state.q.theta=0.3:2.8:4", "contacts.tip.mu=0:2:3"]
+
+
+def test_the_grid_is_a_plan_built_without_solving():
+    plan = build_atlas("rod_on_table", ROD_AXES + ["input.x=-1:1:2"], inputs={"y": 1.0},
+                       overrides={"state.v.x": -1.0})
+    assert plan.shape == (4, 3, 2) and plan.size == 24
+    assert [a.path for a in plan.axes] == ["state.q.theta", "contacts.tip.mu", "input.x"]
+    np.testing.assert_array_equal(plan.axes[0].values, np.linspace(0.3, 2.8, 4))
+    # the first axis is the outermost: index 1 moves the last axis, index 6 the first
+    overrides, inputs = plan.point(1)
+    assert overrides == {"state.v.x": -1.0, "state.q.theta": 0.3, "contacts.tip.mu": 0.0}
+    assert inputs == {"y": 1.0, "x": 1.0}
+    assert plan.point(6)[0]["state.q.theta"] == pytest.approx(0.3 + 2.5 / 3)
+    covered = [k for c in range(plan.chunk_count) for k in plan.chunk_points(c)]
+    assert covered == list(range(plan.size))
+    # the chunks depend on the grid, not on who computes them; the fingerprint on every argument
+    same = build_atlas("rod_on_table", ROD_AXES + ["input.x=-1:1:2"], inputs={"y": 1.0},
+                       overrides={"state.v.x": -1.0})
+    assert same.fingerprint == plan.fingerprint and same.chunk_size == plan.chunk_size
+    for other in (build_atlas("rod_on_table", ROD_AXES + ["input.x=-1:1:3"], inputs={"y": 1.0},
+                              overrides={"state.v.x": -1.0}),
+                  build_atlas("rod_on_table", ROD_AXES + ["input.x=-1:1:2"], inputs={"y": 2.0},
+                              overrides={"state.v.x": -1.0}),
+                  build_atlas("rod_on_table", ROD_AXES + ["input.x=-1:1:2"], inputs={"y": 1.0},
+                              overrides={"state.v.x": -1.0}, what="statics")):
+        assert other.fingerprint != plan.fingerprint
+    big = build_atlas("rod_on_table", ["state.q.theta=0.3:2.8:181", "contacts.tip.mu=0:2:101"])
+    assert big.chunk_size == 64 and big.chunk_count == 286
+
+
+@pytest.mark.parametrize("axis, error, text", [
+    ("contacts.tipp.mu=0:1:3", SceneError, "did you mean 'tip'"),
+    ("state.q.thet=0:1:3", SceneError, "did you mean 'state.q.theta'"),
+    ("contacts.tip.muu=0:1:3", SceneError, "did you mean 'mu'"),
+    ("input.thta=0:1:3", InputError, "did you mean input.theta"),
+    ("gravity=0:1", InputError, "PATH=START:STOP:N"),
+    ("gravity=0:1:0", InputError, "N must be >= 1"),
+    ("gravity=0:nan:3", InputError, "finite"),
+    ("gravity=a:1:3", InputError, "must be numbers"),
+])
+def test_a_bad_axis_is_a_typed_error_naming_the_nearest_path(axis, error, text):
+    with pytest.raises(error, match=text):
+        build_atlas("rod_on_table", [axis])
+
+
+def test_conflicting_arguments_are_refused():
+    with pytest.raises(InputError, match="given twice"):
+        build_atlas("rod_on_table", ["gravity=1:2:2", "gravity=1:3:2"])
+    with pytest.raises(InputError, match="also set by --set"):
+        build_atlas("rod_on_table", ["gravity=1:2:2"], overrides={"gravity": 3.0})
+    with pytest.raises(InputError, match="also given by --input"):
+        build_atlas("rod_on_table", ["input.x=1:2:2"], inputs={"x": 3.0})
+    with pytest.raises(InputError, match="unknown --what"):
+        build_atlas("rod_on_table", ["gravity=1:2:2"], what="everything")
+    with pytest.raises(InputError, match="at least one"):
+        build_atlas("rod_on_table", [])
+    assert parse_axis("input.x=-1:1:5") == Axis("input.x", -1.0, 1.0, 5)
+
+
+def direct(scene_overrides, inputs):
+    """What the library says at one point, without the atlas."""
+    scene = load_scene("rod_on_table", overrides=scene_overrides)
+    found = sorted(frcontrol.solutions_at(scene, inputs), key=lambda s: s.mode)
+    from frcontrol.modes import ContactProblem
+
+    problem = ContactProblem.from_scene(scene)
+    stable = [None if (v := stability_of(problem, s).stable) is None else bool(v) for s in found]
+    return scene, [s.mode for s in found], stable, found
+
+
+def test_every_point_is_what_the_library_says_there():
+    plan = build_atlas("rod_on_table", ROD_AXES + ["input.x=-3:3:2"], overrides={"state.v.x": -1.0})
+    result = run_atlas(plan, workers=1)
+    rows = result.rows
+    counts = set()
+    for k in range(plan.size):
+        overrides, inputs = plan.point(k)
+        scene, modes, stable, found = direct(overrides, inputs)
+        # a varied pitch moves the tip: the table follows it (gap 0), as when the scene is loaded
+        assert scene.contacts[0].active and abs(scene.contacts[0].gap) < 1e-12
+        assert rows["error"][k] is None
+        assert rows["count"][k] == len(modes) and rows["modes"][k] == modes and rows["stable"][k] == stable
+        within = any(s.ambiguity_dim > 0 for s in found)
+        assert rows["ambiguous"][k] == AMBIGUITY[int(len(found) > 1) + 2 * int(within)]
+        counts.add(rows["count"][k])
+    assert counts == {0, 1}  # sliding left, the rod has no rigid solution at some pitches and mu
+
+
+def test_ambiguity_between_and_within_modes():
+    # RHex at an overlap of LLF and LFR (between modes); the table's legs share its load (within)
+    flip = run_atlas(build_atlas("rhex_flip", ["input.hip_middle=-0.75:-0.65:3"],
+                                 inputs={"hip_rear": 0.7011}), workers=1)
+    scene = load_scene("rhex_flip")
+    for k, amb in enumerate(flip.rows["ambiguous"]):
+        u = {"hip_middle": float(np.linspace(-0.75, -0.65, 3)[k]), "hip_rear": 0.7011}
+        found = frcontrol.solutions_at(scene, u)
+        assert flip.rows["count"][k] == len(found)
+        assert amb in (("between", "both") if len(found) > 1 else ("none", "within"))
+    assert any(c > 1 for c in flip.rows["count"])
+    table = run_atlas(build_atlas("table_on_ground", ["gravity=5:10:2"]), workers=1)
+    assert set(table.rows["ambiguous"]) <= {"within", "both"} and table.rows["count"] == [1, 1]
+
+
+def test_a_bad_point_records_its_error_and_the_sweep_goes_on():
+    result = run_atlas(build_atlas("rod_on_table", ["contacts.tip.mu=-1:1:3", "input.x=-60:0:2"]), workers=1)
+    errors, counts = result.rows["error"], result.rows["count"]
+    assert "contacts[0].mu: expected >= 0, got -1.0" in errors[0] and "got -1.0" in errors[1]
+    assert "outside its limits" in errors[2] and errors[3] is None and counts[3] == 1
+    assert counts[:3] == [None] * 3 and result.rows["modes"][0] is None
+
+
+def test_statics_flip_and_climb_add_their_columns():
+    statics = run_atlas(build_atlas("box_on_slope", ["contacts.lower.mu=0.1:0.6:2"], what="statics"),
+                        workers=1)
+    report = frcontrol.analyze_statics(load_scene("box_on_slope", overrides={"contacts.lower.mu": 0.6}))
+    assert statics.rows["static_equilibrium"][1] is True is bool(report.equilibrium.exists)
+    assert statics.rows["force_closure_margin"][1] == pytest.approx(report.force_closure.margin)
+    flip = run_atlas(build_atlas("rhex_flip", ["contacts.front_corner.mu=0.2:0.8:2"], what="flip"), workers=1)
+    plan = frcontrol.plan_flip(load_scene("rhex_flip", overrides={"contacts.front_corner.mu": 0.8}))
+    assert flip.rows["found"][1] is plan.found
+    assert flip.rows["plan_mode"][1] == (plan.mode if plan.found else None)
+    climb = run_atlas(build_atlas("snake_climb", ["gravity=9.81:9.81:1"], what="climb"), workers=1)
+    plan = frcontrol.plan_climb(load_scene("snake_climb"))
+    assert climb.rows["found"] == [plan.found]
+    assert climb.rows["max_disturbance_scale"][0] == pytest.approx(plan.max_disturbance_scale)
+
+
+def invoke(*args):
+    return runner.invoke(app, ["atlas", *args])
+
+
+def test_the_json_contract(tmp_path):
+    out = invoke("rod_on_table", "--vary", "state.q.theta=0.3:2.8:3", "--vary", "contacts.tip.mu=0:2:2",
+                 "--set", "state.v.x=-1", "--json", "--workers", "1")
+    assert out.exit_code == 0, out.stderr
+    doc = json.loads(out.stdout)
+    contract = {"scene", "what", "axes", "counts", "modes", "stable", "ambiguous", "errors", "timings"}
+    assert contract <= set(doc)
+    assert doc["scene"] == "rod_on_table" and doc["what"] == "solutions"
+    assert [a["path"] for a in doc["axes"]] == ["state.q.theta", "contacts.tip.mu"]
+    assert doc["axes"][0]["values"] == np.linspace(0.3, 2.8, 3).tolist()
+    for key in ("counts", "modes", "stable", "ambiguous", "errors"):
+        assert len(doc[key]) == 3 and all(len(row) == 2 for row in doc[key]), key
+    assert all(isinstance(c, int) for row in doc["counts"] for c in row)
+    assert all(isinstance(m, list) for row in doc["modes"] for m in row)
+
+
+def test_npz_and_parquet_hold_the_same_table(tmp_path):
+    plan = build_atlas("rod_on_table", ROD_AXES, overrides={"state.v.x": -1.0})
+    tables = {}
+    for suffix in (".npz", ".parquet"):
+        out = tmp_path / f"atlas{suffix}"
+        result = run_atlas(plan, workers=1, out=out)
+        assert not parts_folder(out).exists()
+        tables[suffix] = read_table(out)
+    a, b = tables[".npz"], tables[".parquet"]
+    assert set(a) == set(b) >= {"index", "state.q.theta", "contacts.tip.mu", "count", "modes", "stable",
+                                "ambiguous", "error", "atlas_plan"}
+    for name in a:
+        assert a[name].tolist() == b[name].tolist(), name
+    assert a["count"].tolist() == result.rows["count"]
+    assert a["modes"].tolist() == [" ".join(m) for m in result.rows["modes"]]
+    assert json.loads(str(a["atlas_plan"]))["fingerprint"] == plan.fingerprint
+
+
+def test_an_interrupted_run_resumes_to_the_same_result(tmp_path):
+    plan = build_atlas("rod_on_table", ROD_AXES, overrides={"state.v.x": -1.0}, chunk_size=2)
+    whole = run_atlas(plan, workers=1)
+    out = tmp_path / "rod.npz"
+    seen = []
+
+    def stop_after_three(done, total):  # Ctrl-C while the fourth chunk is reported
+        seen.append(done)
+        if len(seen) == 4:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_atlas(plan, workers=1, out=out, progress=stop_after_three)
+    assert not out.exists() and len(list(parts_folder(out).glob("chunk-*.json"))) == 3
+    with pytest.raises(InputError, match="add --resume"):
+        run_atlas(plan, workers=1, out=out)
+    other = build_atlas("rod_on_table", ROD_AXES, overrides={"state.v.x": 1.0}, chunk_size=2)
+    with pytest.raises(InputError, match="other arguments"):
+        run_atlas(other, workers=1, out=out, resume=True)
+    resumed = run_atlas(plan, workers=1, out=out, resume=True)
+    assert resumed.run["resumed_chunks"] == 3 and resumed.run["computed_chunks"] == plan.chunk_count - 3
+    assert resumed.rows == whole.rows
+    assert read_table(out)["count"].tolist() == [-1 if c is None else c for c in whole.rows["count"]]
+    with pytest.raises(InputError, match="needs --out"):
+        run_atlas(plan, resume=True)
+
+
+def test_the_map_has_one_colour_per_count_and_a_legend(tmp_path):
+    from frcontrol.viz.atlas_figure import ERROR_LABEL, plot_atlas
+    from frcontrol.viz.plots import text_overlaps
+
+    doc = run_atlas(build_atlas("rod_on_table", ["contacts.tip.mu=-0.5:2:6", "state.q.theta=0.3:2.8:5"],
+                                overrides={"state.v.x": -1.0}), workers=1).to_dict()
+    fig = plot_atlas(doc, tmp_path / "map.png")
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert labels == ["0 solutions", "1 solution", ERROR_LABEL]
+    assert not text_overlaps(fig) and (tmp_path / "map.png").read_bytes()[:4] == b"\x89PNG"
+    axes = ["gravity=5:10:2", "contacts.tip.mu=0:2:2", "input.x=0:1:2"]
+    three = run_atlas(build_atlas("rod_on_table", axes), workers=1).to_dict()
+    for figure in ("ambiguous", "modes"):
+        assert not text_overlaps(plot_atlas(three, figure=figure))
+    assert "input.x = 0" in plot_atlas(three).axes[0].get_title()
+    with pytest.raises(InputError, match="no such array"):
+        plot_atlas(three, figure="nothing")
+
+
+@pytest.mark.parametrize("args, code, text", [
+    (["--vary", "contacts.tipp.mu=0:1:2"], 1, "did you mean 'tip'"),
+    (["--vary", "gravity=1:2:2", "--out", "x.csv"], 1, "suffix must be one of .parquet, .npz"),
+    (["--vary", "gravity=1:2:2", "--resume"], 1, "--resume needs --out"),
+    (["--vary", "gravity=1:2:2", "--figure", "found"], 1, "not an array of --what solutions"),
+    ([], 2, "--vary"),
+    (["--vary", "gravity=1:2:2", "--what", "all"], 2, "--what"),
+    (["--vary", "gravity=1:2:2", "--workers", "0"], 2, "--workers"),
+])
+def test_cli_errors_are_one_line(args, code, text, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    out = invoke("rod_on_table", *args)
+    assert out.exit_code == code, out.stderr
+    assert text in out.stderr and out.stdout == ""
+    if code == 1:
+        assert out.stderr.startswith("frc: error: ") and out.stderr.count("\n") == 1
+
+
+def test_the_command_offers_every_kind_of_the_library():
+    from frcontrol.cli.atlas_cmd import WHATS as CLI_WHATS
+
+    from frcontrol.atlas import WHATS
+
+    assert CLI_WHATS == WHATS
+
+
+def test_building_a_plan_loads_no_solver(tmp_path):
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom frcontrol.atlas import build_atlas\n"
+            "plan = build_atlas('rod_on_table', ['state.q.theta=0.3:2.8:181', 'contacts.tip.mu=0:2:101'])\n"
+            "heavy = ('frcontrol.engine', 'frcontrol.solvers', 'scipy', 'distributed')\n"
+            "print(plan.chunk_count, [m for m in heavy if m in sys.modules])\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
+                         timeout=60)
+    assert out.returncode == 0 and out.stdout.split(None, 1) == ["286", "[]\n"], out.stdout + out.stderr

@@ -1,0 +1,158 @@
+"""frc atlas as a user runs it: real processes, real signals, real kills.
+
+One grid of the rod (sliding, so that some points have no rigid solution) is computed serially in
+this process as the reference. Then ``frc atlas`` runs as a subprocess on a local pool of two
+workers and is interrupted by Ctrl-C (SIGINT to its whole process group, as a terminal sends it),
+by SIGTERM (to it alone), or has one of its pool workers killed (SIGKILL) mid-chunk. Every
+interruption keeps the finished chunks; ``--resume`` then finishes, and every result equals the
+reference. Linux only (the process tree is read from /proc).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from frcontrol.atlas import build_atlas, read_table, run_atlas
+from frcontrol.atlas.store import parts_folder
+
+AXES = ["state.q.theta=0.2:2.9:40", "contacts.tip.mu=0:2:25"]
+SETS = {"state.v.x": -1.0}
+CHUNK = 25
+WAIT = 120.0
+"""[s] The longest any run may take here (a hung run fails instead of blocking the suite)."""
+
+
+def frc() -> list[str]:
+    script = Path(sys.executable).with_name("frc")
+    return [str(script)] if script.exists() else [sys.executable, "-m", "frcontrol"]
+
+
+def atlas_args(out: Path, *extra: str) -> list[str]:
+    args = [*frc(), "atlas", "rod_on_table", "--set", "state.v.x=-1", "--chunk-size", str(CHUNK),
+            "--workers", "2", "--out", str(out), "--json"]
+    for axis in AXES:
+        args += ["--vary", axis]
+    return args + list(extra)
+
+
+@pytest.fixture(scope="module")
+def reference():
+    plan = build_atlas("rod_on_table", AXES, overrides=SETS, chunk_size=CHUNK)
+    return plan, run_atlas(plan, workers=1)
+
+
+def comparable(doc: dict) -> dict:
+    return {k: v for k, v in doc.items() if k not in ("run", "timings")}
+
+
+def children(pid: int) -> list[int]:
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+def pool_workers(pid: int) -> list[int]:
+    """The frc process's pool workers: its children started by multiprocessing's spawn."""
+    out = []
+    for child in children(pid):
+        try:
+            cmdline = Path(f"/proc/{child}/cmdline").read_bytes()
+        except OSError:
+            continue
+        if b"spawn_main" in cmdline:
+            out.append(child)
+    return out
+
+
+def wait_for_chunks(out: Path, count: int, process: subprocess.Popen) -> None:
+    deadline = time.monotonic() + WAIT
+    while len(list(parts_folder(out).glob("chunk-*.json"))) < count:
+        assert process.poll() is None, process.communicate()
+        assert time.monotonic() < deadline, "no chunk came"
+        time.sleep(0.02)
+
+
+def gone(pids: list[int]) -> bool:
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        if not any(Path(f"/proc/{p}").exists() and "Z" not in _state(p) for p in pids):
+            return True
+        time.sleep(0.05)
+    return False
+
+
+def _state(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return "Z"
+
+
+def check_same_table(out: Path, reference_result) -> None:
+    table = read_table(out)
+    rows = reference_result.rows
+    assert table["count"].tolist() == [-1 if c is None else c for c in rows["count"]]
+    assert table["modes"].tolist() == [" ".join(m or []) for m in rows["modes"]]
+    assert table["error"].tolist() == [e or "" for e in rows["error"]]
+
+
+@pytest.mark.parametrize("how", ["SIGINT", "SIGTERM"])
+def test_a_signal_keeps_the_finished_chunks_and_resume_finishes_identically(how, reference, tmp_path):
+    plan, whole = reference
+    out = tmp_path / "rod.npz"
+    run = subprocess.Popen(atlas_args(out), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           cwd=tmp_path, start_new_session=True)
+    wait_for_chunks(out, 3, run)
+    workers = pool_workers(run.pid)
+    if how == "SIGINT":
+        os.killpg(run.pid, signal.SIGINT)  # Ctrl-C in a terminal reaches the whole process group
+    else:
+        os.kill(run.pid, signal.SIGTERM)
+    stdout, stderr = run.communicate(timeout=WAIT)
+    assert run.returncode == 1 and stdout == ""
+    last = stderr.splitlines()[-1]
+    assert last.startswith(f"frc: error: interrupted by {how}; the finished chunks are kept in rod.npz.parts")
+    assert "Traceback" not in stderr
+    assert workers and gone(workers), "the pool's workers outlived the run"
+    kept = len(list(parts_folder(out).glob("chunk-*.json")))
+    assert 3 <= kept < plan.chunk_count and not out.exists()
+
+    resumed = subprocess.run(atlas_args(out, "--resume"), capture_output=True, text=True, cwd=tmp_path,
+                             timeout=WAIT)
+    assert resumed.returncode == 0, resumed.stderr
+    doc = json.loads(resumed.stdout)
+    assert doc["run"]["resumed_chunks"] == kept and doc["run"]["computed_chunks"] == plan.chunk_count - kept
+    assert comparable(doc) == comparable(whole.to_dict())
+    check_same_table(out, whole)
+    assert not parts_folder(out).exists()
+
+
+def test_a_killed_pool_worker_has_its_chunk_rerun(reference, tmp_path):
+    plan, whole = reference
+    out = tmp_path / "rod.parquet"
+    run = subprocess.Popen(atlas_args(out), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           cwd=tmp_path)
+    wait_for_chunks(out, 1, run)
+    victim = pool_workers(run.pid)[0]
+    os.kill(victim, signal.SIGKILL)
+    stdout, stderr = run.communicate(timeout=WAIT)
+    assert run.returncode == 0, stderr
+    doc = json.loads(stdout)
+    assert doc["run"]["worker_deaths"] == 1 and len(doc["run"]["rerun_chunks"]) == 1
+    assert doc["run"]["workers"] == 2 and doc["run"]["executor"] == "pool"
+    assert comparable(doc) == comparable(whole.to_dict())
+    check_same_table(out, whole)
