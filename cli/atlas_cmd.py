@@ -127,11 +127,9 @@ def atlas_command(
     from frcontrol.atlas.store import check_out
     from frcontrol.errors import InputError
 
-    check_output_files(plot=plot, out=out)
+    check_output_files(plot=plot, out=out, out_check=check_out)
     if resume and out is None:
         raise InputError("--resume needs --out FILE: the finished chunks are kept beside FILE")
-    if out is not None:
-        check_out(out)
     what_name = What(what).value
     plan = build_atlas(scene, vary, what=what_name, inputs=parse_inputs(inputs),
                        overrides=scene_overrides(sets), chunk_size=chunk_size)

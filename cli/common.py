@@ -198,13 +198,16 @@ def check_outputs(*, view: bool = False, port: int | None = None, **files: Path 
     check_output_files(**files)
 
 
-def check_output_files(**files: Path | None) -> None:
+def check_output_files(*, out_check: Callable[[Path], None] | None = None, **files: Path | None) -> None:
     """Refuse, before any work, an output file that cannot be written (``plot=path, html=path``).
+
+    ``out_check`` checks an ``--out`` file's format (default: a trajectory's, ``.npz`` or ``.csv``;
+    ``frc atlas`` passes its tables' check).
 
     Raises:
         InputError: the path is a directory, its folder does not exist or is not writable, a
             ``--plot`` file's suffix is no image format matplotlib writes, or an ``--out`` file's
-            is neither ``.npz`` nor ``.csv``.
+            format is not one the command writes.
     """
     for option, path in files.items():
         if path is None:
@@ -227,7 +230,7 @@ def check_output_files(**files: Path | None) -> None:
         if option == "out":
             from .options import check_out_suffix
 
-            check_out_suffix(path)
+            (out_check or check_out_suffix)(path)
 
 
 def write_motion(scene: Scene, trajectory: Trajectory | None, *, html: Path | None, out: Path | None,

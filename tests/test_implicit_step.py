@@ -153,7 +153,8 @@ def test_the_implicit_step_satisfies_the_law_it_was_solved_with():
         v_new = step.solve(status, sign)
         lam_n = step.normal_forces(v_new)
         v_t = state.jacobian_tangent @ v_new
-        stick = -(params.tangential_stiffness * s + (params.tangential_stiffness * h + params.tangential_damping) * v_t)
+        gain = params.tangential_stiffness * h + params.tangential_damping
+        stick = -(params.tangential_stiffness * s + gain * v_t)
         lam_t = np.where(status == 1, stick, -sign * params.mu * lam_n)
         force = -state.bias + state.jacobian_normal.T @ lam_n + state.jacobian_tangent.T @ lam_t
         residual = arm.apply(state.mass_matrix) @ (v_new - v) - h * force
