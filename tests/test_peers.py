@@ -17,8 +17,12 @@ import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-if str(REPO) not in sys.path:  # the benchmarks live beside the package, not in it
-    sys.path.insert(0, str(REPO))
+# The benchmarks live beside the package, not in it: the checkout goes LAST on the path, so that
+# `frcontrol` stays the installed package, here and in every process the other tests spawn (they
+# inherit this path; with the checkout first, a service or Dask worker imported the source tree's
+# frcontrol, which has no frcontrol.robots, and failed in CI).
+if str(REPO) not in sys.path:
+    sys.path.append(str(REPO))
 
 from benchmarks import peers  # noqa: E402
 from benchmarks.trade import SCENARIOS, build_reference, force_error  # noqa: E402
