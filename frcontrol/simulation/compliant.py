@@ -672,7 +672,7 @@ class _CompliantRun:
         if hint:
             self.failure["hint"] = VALIDITY_HINT
 
-    def record_events(self, t: float, y_now: np.ndarray, u: np.ndarray, vn_before: np.ndarray) -> np.ndarray:
+    def record_events(self, t: float, y_now: np.ndarray, vn_before: np.ndarray) -> np.ndarray:
         """Compare each contact's status with the previous step's; return v_N now."""
         st, _, _, stat = self.dynamics.forces(y_now)
         stat = _event_status(stat, st.gaps, self.scene.gap_tolerance)
@@ -716,7 +716,7 @@ class _CompliantRun:
                 self.fail("diverged", t_seg, f"the state became NaN or a velocity exceeded "
                           f"{DIVERGENCE_VELOCITY:g}{limit}", hint=True)
                 break
-            self.record_events(t_seg, y, u, st_now.normal_velocities)
+            self.record_events(t_seg, y, st_now.normal_velocities)
             while self._due(t_seg):
                 self.samples_y.append(y.copy())
                 self.samples_u.append(u.copy())
@@ -760,7 +760,7 @@ class _CompliantRun:
                 self.fail("diverged", t_now, "the state became NaN or a velocity exceeded "
                           f"{DIVERGENCE_VELOCITY:g}", hint=True)
                 break
-            self.last_vn = self.record_events(t_now, y_now, u, self.last_vn)
+            self.last_vn = self.record_events(t_now, y_now, self.last_vn)
             if self._due(t_now):
                 dense = solver.dense_output()
                 while self._due(t_now):
