@@ -57,7 +57,6 @@ def per_point_cost(runs: int, sample: int) -> dict:
     """Mean seconds per point over a sample of distinct points of the big grid, median of runs."""
     import frcontrol
     from frcontrol.modes import ContactProblem
-    from frcontrol.scene import load_scene
     from frcontrol.stability import stability_of
 
     plan = build_atlas("rod_on_table", axes(181, 101), overrides=SETS)
@@ -73,7 +72,7 @@ def per_point_cost(runs: int, sample: int) -> dict:
         for k in points[: sample // 4]:
             overrides, inputs = plan.point(int(k))
             t0 = time.perf_counter()
-            scene = load_scene(plan.scene_path, overrides=overrides)
+            scene = plan.source.load(overrides)
             t1 = time.perf_counter()
             problem = ContactProblem.from_scene(scene)
             for s in frcontrol.solutions_at(problem, inputs):

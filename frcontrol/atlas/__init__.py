@@ -91,6 +91,9 @@ def run_atlas(
     out: Path | None = None,
     resume: bool = False,
     progress: Callable[[int, int], None] | None = None,
+    stop: Callable[[], bool] | None = None,
+    chunk_time_limit: float | None = None,
+    in_process: bool = True,
 ) -> AtlasResult:
     """Run a plan: serially (``workers=1``), on a local pool, or on Dask (``scheduler``).
 
@@ -102,11 +105,19 @@ def run_atlas(
         resume: compute only the chunks missing from ``out``'s folder of finished chunks.
         progress: called as ``progress(points_done, points_total)`` once the workers are ready
             (with the resumed points), then after each chunk.
+        stop: polled while the run waits; once true, the run ends (``AtlasInterrupted``), its
+            workers stopped mid-chunk (a server cancels a job this way).
+        chunk_time_limit: [s] on the local pool, a chunk running longer ends the run (its worker
+            is stopped); not enforced on Dask, which cannot stop a running task.
+        in_process: with one worker or one chunk, run in this process (False: always in worker
+            processes, as a server does to keep its own process free).
 
     Raises:
         InputError: a bad ``out`` suffix, ``resume`` without ``out``, stored chunks of other
             arguments, ``workers`` < 1, no scheduler at ``scheduler`` or Dask not installed.
-        AtlasInterrupted: the run stopped early (the finished chunks stay in ``out``'s folder).
+        AtlasInterrupted: the run stopped early (the finished chunks stay in ``out``'s folder):
+            ``stop``, a chunk past ``chunk_time_limit``, a chunk killing its workers, a lost
+            scheduler.
     """
     from ..errors import InputError
 
@@ -139,8 +150,9 @@ def run_atlas(
         if progress is not None:
             progress(done_points, plan.size)
 
+    where = _Where(workers, scheduler, stop, chunk_time_limit, in_process)
     try:
-        report = _execute(plan, todo, done, started, workers, scheduler)
+        report = _execute(plan, todo, done, started, where)
     except AtlasInterrupted as err:
         kept = (f"{len(found)} of {plan.chunk_count} chunks are kept in {store.folder}: run the same "
                 "command with --resume to finish" if store is not None else "nothing is kept without --out")
@@ -156,18 +168,29 @@ def run_atlas(
     return AtlasResult(plan, rows, run, timings)
 
 
-def _execute(plan: AtlasPlan, todo: list[int], done: Callable[[dict[str, Any]], None],
-             started: Callable[[], None], workers: int | None, scheduler: str | None) -> RunReport:
-    if scheduler is not None:
-        return run_dask(plan, todo, done, scheduler, started)
-    count = default_workers() if workers is None else workers
-    if count == 1 or len(todo) <= 1:
-        if count < 1:
-            from ..errors import InputError
+@dataclass(frozen=True)
+class _Where:
+    """Where and under what limits the chunks run (:func:`run_atlas`'s arguments)."""
 
-            raise InputError(f"--workers must be >= 1, got {count}")
-        return run_serial(plan, todo, done, started)
-    return run_pool(plan, todo, done, count, started)
+    workers: int | None
+    scheduler: str | None
+    stop: Callable[[], bool] | None
+    chunk_time_limit: float | None
+    in_process: bool
+
+
+def _execute(plan: AtlasPlan, todo: list[int], done: Callable[[dict[str, Any]], None],
+             started: Callable[[], None], where: _Where) -> RunReport:
+    if where.scheduler is not None:
+        return run_dask(plan, todo, done, where.scheduler, started, where.stop)
+    count = default_workers() if where.workers is None else where.workers
+    if count < 1:
+        from ..errors import InputError
+
+        raise InputError(f"--workers must be >= 1, got {count}")
+    if where.in_process and (count == 1 or len(todo) <= 1):
+        return run_serial(plan, todo, done, started, where.stop)
+    return run_pool(plan, todo, done, count, started, where.stop, where.chunk_time_limit)
 
 
 __all__ = [

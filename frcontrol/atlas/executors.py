@@ -14,13 +14,21 @@ whichever runs them.
 - :func:`run_dask`: a Dask distributed cluster (``tcp://HOST:PORT``); the workers need frcontrol
   installed. Dask re-runs the chunks of a worker that dies; a lost scheduler ends the run with
   :class:`~frcontrol.errors.AtlasInterrupted` (the chunks finished so far are kept by the caller).
+
+Every executor also takes ``stop``, a callable polled while the run waits (every
+:data:`STOP_POLL_INTERVAL`): once it returns true, the run ends with
+:class:`~frcontrol.errors.AtlasInterrupted`, the pool's workers stopped mid-chunk and Dask's
+pending chunks cancelled (a server cancels a job this way). The local pool also takes
+``chunk_time_limit`` [s]: a chunk that runs longer has its worker stopped and ends the run, naming
+the chunk. Dask cannot stop a running task, so on a cluster only ``stop`` bounds a run.
 """
 
 from __future__ import annotations
 
 import os
 import signal
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -30,6 +38,10 @@ from .points import evaluate_chunk
 
 ChunkCallback = Callable[[dict[str, Any]], None]
 StartCallback = Callable[[], None]
+StopCallback = Callable[[], bool]
+
+STOP_POLL_INTERVAL = 0.2
+"""[s] How often a run with a ``stop`` callable or a chunk time limit checks them while it waits."""
 
 MAX_CHUNK_ATTEMPTS = 3
 """How many times a chunk is handed out before its worker's deaths count as the chunk's fault
@@ -70,12 +82,19 @@ def _nothing() -> None:
     return None
 
 
+def check_stop(stop: StopCallback | None) -> None:
+    """Raise :class:`~frcontrol.errors.AtlasInterrupted` once ``stop()`` is true."""
+    if stop is not None and stop():
+        raise AtlasInterrupted("the run was stopped on request")
+
+
 def run_serial(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback,
-               started: StartCallback = _nothing) -> RunReport:
-    """Every chunk in this process, in order (``started()`` first)."""
+               started: StartCallback = _nothing, stop: StopCallback | None = None) -> RunReport:
+    """Every chunk in this process, in order (``started()`` first; ``stop`` polled between chunks)."""
     report = RunReport("serial", 1)
     started()
     for chunk in chunks:
+        check_stop(stop)
         done(evaluate_chunk(plan, chunk))
         report.computed += 1
     return report
@@ -104,6 +123,7 @@ class _Pool:
         self.plan = plan
         self.workers: dict[Any, tuple[Any, Any]] = {}  # process sentinel -> (process, connection)
         self.holding: dict[Any, int] = {}  # sentinel -> the chunk the worker is computing
+        self.since: dict[Any, float] = {}  # sentinel -> when it got its chunk (time.monotonic)
         for _ in range(workers):
             self.start_worker()
 
@@ -128,8 +148,24 @@ class _Pool:
         return [s for s in self.workers if s not in self.holding]
 
     def send(self, sentinel: Any, chunk: int) -> None:
+        import time
+
         self.workers[sentinel][1].send(chunk)
         self.holding[sentinel] = chunk
+        self.since[sentinel] = time.monotonic()
+
+    def check_time(self, limit: float | None) -> None:
+        """Raise :class:`~frcontrol.errors.AtlasInterrupted` for a chunk held longer than ``limit``."""
+        import time
+
+        if limit is None:
+            return
+        now = time.monotonic()
+        for sentinel, chunk in self.holding.items():
+            if now - self.since[sentinel] > limit:
+                raise AtlasInterrupted(f"chunk {chunk} ran past the time limit of {limit:g} s per chunk "
+                                       "(its worker was stopped); a smaller chunk size keeps chunks "
+                                       "within it")
 
     def close(self) -> None:
         for _, connection in self.workers.values():
@@ -149,12 +185,14 @@ class _Pool:
 
 
 def run_pool(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback, workers: int,
-             started: StartCallback = _nothing) -> RunReport:
+             started: StartCallback = _nothing, stop: StopCallback | None = None,
+             chunk_time_limit: float | None = None) -> RunReport:
     """The chunks on ``workers`` local processes (module docstring); ``started()`` once they are up.
 
     Raises:
         InputError: ``workers`` < 1.
-        AtlasInterrupted: a chunk's worker died :data:`MAX_CHUNK_ATTEMPTS` times.
+        AtlasInterrupted: a chunk's worker died :data:`MAX_CHUNK_ATTEMPTS` times, ``stop()`` became
+            true, or a chunk ran past ``chunk_time_limit`` [s].
     """
     from multiprocessing.connection import wait
 
@@ -164,9 +202,12 @@ def run_pool(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback, worker
     report = RunReport("pool", workers)
     attempts: dict[int, int] = {}
     pool = _Pool(plan, min(workers, max(1, len(chunks))))
+    timeout = None if stop is None and chunk_time_limit is None else STOP_POLL_INTERVAL
     try:
         started()
         while todo or pool.holding:
+            check_stop(stop)
+            pool.check_time(chunk_time_limit)
             for sentinel in pool.idle():
                 if not todo:
                     break
@@ -174,7 +215,7 @@ def run_pool(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback, worker
                 attempts[chunk] = attempts.get(chunk, 0) + 1
                 pool.send(sentinel, chunk)
             by_connection = {conn: s for s, (_, conn) in pool.workers.items()}
-            for ready in wait(list(by_connection) + list(pool.workers)):
+            for ready in wait(list(by_connection) + list(pool.workers), timeout):
                 sentinel = by_connection.get(ready, ready)
                 if sentinel not in pool.workers:
                     continue
@@ -214,18 +255,38 @@ def _replace_dead(pool: _Pool, sentinel: Any, todo: list[int], attempts: dict[in
 
 
 def run_dask(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback, address: str,
-             started: StartCallback = _nothing) -> RunReport:
+             started: StartCallback = _nothing, stop: StopCallback | None = None) -> RunReport:
     """The chunks on the Dask cluster at ``address`` (``tcp://HOST:PORT``); ``started()`` once connected.
 
     Raises:
         InputError: Dask is not installed (``pip install "frcontrol[cluster]"``), or no scheduler
             answers at ``address``.
-        AtlasInterrupted: the scheduler was lost mid-run, or a chunk failed on the cluster.
+        AtlasInterrupted: the scheduler was lost mid-run, a chunk failed on the cluster, or
+            ``stop()`` became true (the pending chunks are cancelled).
     """
+    with _dask_client(address) as client:
+        from distributed import as_completed
+
+        return _dask_chunks(client, plan, chunks, done, started, as_completed, stop)
+
+
+def check_scheduler(address: str) -> int:
+    """The number of workers of the Dask scheduler at ``address`` (a program checks it at its start).
+
+    Raises:
+        InputError: Dask is not installed, or no scheduler answers at ``address``.
+    """
+    with _dask_client(address) as client:
+        return len(client.scheduler_info().get("workers", {}))
+
+
+@contextmanager
+def _dask_client(address: str) -> Iterator[Any]:
+    """A Dask client of ``address``, closed at the end; Dask's own log silenced meanwhile."""
     import logging
 
     try:
-        from distributed import Client, as_completed
+        from distributed import Client
     except ImportError as err:
         raise InputError('--scheduler needs Dask distributed: pip install "frcontrol[cluster]" '
                          '(or pip install "dask[distributed]")') from err
@@ -241,7 +302,7 @@ def run_dask(plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback, addres
             raise InputError(f"--scheduler {address}: no Dask scheduler answers there "
                              f"({_one_line(err)})") from err
         try:
-            return _dask_chunks(client, plan, chunks, done, started, as_completed)
+            yield client
         finally:
             client.close(timeout=DASK_CLOSE_TIMEOUT)
     finally:
@@ -254,19 +315,35 @@ def _one_line(err: BaseException) -> str:
 
 
 def _dask_chunks(client: Any, plan: AtlasPlan, chunks: Sequence[int], done: ChunkCallback,
-                 started: StartCallback, as_completed: Any) -> RunReport:
+                 started: StartCallback, as_completed: Any, stop: StopCallback | None) -> RunReport:
+    import threading
+
     report = RunReport("dask", len(client.scheduler_info().get("workers", {})))
     started()
     futures = [client.submit(evaluate_chunk, plan, chunk, key=f"atlas-{plan.fingerprint[:16]}-{chunk}",
                              pure=False, retries=MAX_CHUNK_ATTEMPTS - 1) for chunk in chunks]
-    for future in as_completed(futures, loop=client.loop):
-        try:
-            result = future.result()
-        except Exception as err:  # noqa: BLE001 - a lost scheduler, a chunk that kept killing workers
-            raise AtlasInterrupted(f"the Dask cluster failed: {_one_line(err)}") from err
-        done(result)
-        report.computed += 1
-        future.release()
+    finished = threading.Event()
+
+    def watch() -> None:  # a stop request cancels the pending chunks, which ends the wait below
+        while not finished.wait(STOP_POLL_INTERVAL):
+            if stop is not None and stop():
+                client.cancel(futures)
+                return
+
+    if stop is not None:
+        threading.Thread(target=watch, daemon=True, name="frc-atlas-stop").start()
+    try:
+        for future in as_completed(futures, loop=client.loop):
+            check_stop(stop)
+            try:
+                result = future.result()
+            except Exception as err:  # noqa: BLE001 - a lost scheduler, a chunk that kept killing workers
+                raise AtlasInterrupted(f"the Dask cluster failed: {_one_line(err)}") from err
+            done(result)
+            report.computed += 1
+            future.release()
+    finally:
+        finished.set()
     return report
 
 
@@ -289,9 +366,13 @@ __all__ = [
     "DASK_CLOSE_TIMEOUT",
     "DASK_CONNECT_TIMEOUT",
     "MAX_CHUNK_ATTEMPTS",
+    "STOP_POLL_INTERVAL",
     "WORKER_START_METHOD",
     "ChunkCallback",
     "RunReport",
+    "StopCallback",
+    "check_scheduler",
+    "check_stop",
     "default_workers",
     "run_dask",
     "run_pool",

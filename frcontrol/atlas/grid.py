@@ -12,6 +12,10 @@ output file. The chunk size depends on the grid alone (never on the workers), so
 other workers finds the same chunks. The plan's *fingerprint* (a SHA-256 of frcontrol's version,
 the scene file, its URDF, the kind, the axes, the fixed inputs and overrides, and the chunk size)
 tells whether stored chunks belong to it.
+
+The scene is a :class:`~frcontrol.scene_source.SceneSource`: a file or a shipped scene's name (the
+command's SCENE), or the scene's content (``frc serve``'s ``POST /atlas``), which every worker
+rebuilds from text; the fingerprint covers the content and the URDF texts sent with it.
 """
 
 from __future__ import annotations
@@ -27,8 +31,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import CoordinateNotFound, InputError, SceneError
-from ..scene import load_scene, parse_input_assignments, resolve_scene_path
+from ..scene import parse_input_assignments
 from ..scene_schema import apply_override, nearest
+from ..scene_source import SceneSource
 
 WHATS = ("solutions", "statics", "flip", "climb")
 """What an atlas computes at every point (``--what``)."""
@@ -118,8 +123,8 @@ class AtlasPlan:
     """A sweep to run: the scene, the kind, the axes, what stays fixed, and the chunks.
 
     Attributes:
-        scene: the scene as given (a path or a shipped scene's name).
-        scene_path: the scene file.
+        scene: the scene as given (a path or a shipped scene's name; for content, ``"scene"``).
+        source: where the workers load it from (a file, a shipped name or the content).
         what: one of :data:`WHATS`.
         axes: the varied paths, the first the outermost.
         inputs: the fixed inputs ``{name: value}`` (``--input``).
@@ -129,7 +134,7 @@ class AtlasPlan:
     """
 
     scene: str
-    scene_path: str
+    source: SceneSource
     what: str
     axes: tuple[Axis, ...]
     inputs: Mapping[str, float] = field(default_factory=dict)
@@ -170,6 +175,19 @@ class AtlasPlan:
             else:
                 inputs[name] = value
         return overrides, inputs
+
+    @classmethod
+    def from_dict(cls, document: Mapping[str, Any], source: SceneSource) -> AtlasPlan:
+        """The plan whose :meth:`to_dict` is ``document``, on ``source``.
+
+        Nothing is checked again: ``document`` comes from a plan :func:`build_atlas` built on the
+        same source (in another process: ``frc serve`` checks a request in a worker, then runs it).
+        """
+        axes = tuple(Axis(str(a["path"]), float(a["start"]), float(a["stop"]), int(a["count"]))
+                     for a in document["axes"])
+        return cls(str(document["scene"]), source, str(document["what"]), axes,
+                   {str(k): float(v) for k, v in document["inputs"].items()}, dict(document["set"]),
+                   int(document["chunk_size"]), str(document["fingerprint"]))
 
     @property
     def varies_scene(self) -> bool:
@@ -237,7 +255,7 @@ def _file_digest(path: Any) -> str:
 
 
 def build_atlas(
-    scene: str,
+    scene: str | SceneSource,
     vary: Sequence[Axis | str],
     *,
     what: str = "solutions",
@@ -248,7 +266,8 @@ def build_atlas(
     """Check a sweep's arguments and build its plan (the scene is loaded once; nothing is solved).
 
     Args:
-        scene: a scene file or the name of a shipped scene.
+        scene: a scene file or the name of a shipped scene, or a
+            :class:`~frcontrol.scene_source.SceneSource` (a scene sent as content).
         vary: the axes, as :class:`Axis` or ``"PATH=START:STOP:N"``; the first is the outermost.
         what: one of :data:`WHATS`.
         inputs: fixed input values ``{name: value}`` (others 0, or the axis's value).
@@ -272,10 +291,12 @@ def build_atlas(
     fixed_inputs = {str(k): float(v) for k, v in (inputs or {}).items()}
     fixed = dict(overrides or {})
     _check_axes(axes, fixed_inputs, fixed)
-    base = load_scene(scene, overrides=fixed)
-    parse_input_assignments(base, fixed_inputs)
-    raw = dict(base.raw)
-    full = PlanarRobot(base.robot.urdf_path, base=base.robot.base).coordinate_names  # with locked joints
+    source = scene if isinstance(scene, SceneSource) else SceneSource.file(scene)
+    with source.loaded(fixed) as base:
+        parse_input_assignments(base, fixed_inputs)
+        raw = dict(base.raw)
+        full = PlanarRobot(base.robot.urdf_path, base=base.robot.base).coordinate_names  # with locked joints
+        robot_digest = _file_digest(base.robot.urdf_path)
     for axis in axes:
         _check_path(str(base.path), axis, raw, full, base.inputs.coordinates)
     size = math.prod(a.count for a in axes)
@@ -283,12 +304,11 @@ def build_atlas(
         chunk_size = default_chunk_size(size)
     if chunk_size < 1:
         raise InputError(f"the chunk size must be >= 1, got {chunk_size}")
-    plan = AtlasPlan(str(scene), str(resolve_scene_path(scene)), what, axes, fixed_inputs, fixed,
-                     int(chunk_size))
+    plan = AtlasPlan(source.label, source, what, axes, fixed_inputs, fixed, int(chunk_size))
     from .. import __version__
 
-    recipe = {"format": FORMAT_VERSION, "frcontrol": __version__, "scene": _file_digest(plan.scene_path),
-              "robot": _file_digest(base.robot.urdf_path), "what": what,
+    recipe = {"format": FORMAT_VERSION, "frcontrol": __version__, "scene": source.digest(),
+              "robot": robot_digest, "what": what,
               "axes": [[a.path, a.start, a.stop, a.count] for a in axes],
               "inputs": sorted(fixed_inputs.items()),
               "set": sorted((k, repr(_numbers_as_floats(v))) for k, v in fixed.items()),

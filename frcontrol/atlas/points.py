@@ -19,6 +19,7 @@ At every point, whatever ``what`` is (the same columns for every kind):
 The scene is loaded once per distinct set of scene overrides (a worker keeps the last few): a
 sweep over inputs only loads it once; a varied state reloads it, so that a contact without
 ``surface_point`` follows its contact point (gap 0), exactly as :func:`frcontrol.load_scene` does.
+A scene sent as content is rebuilt from its text (:class:`~frcontrol.scene_source.SceneSource`).
 """
 
 from __future__ import annotations
@@ -30,7 +31,8 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..errors import FrcontrolError
-from ..scene import Scene, load_scene
+from ..scene import Scene
+from ..scene_source import SceneSource
 from .grid import AtlasPlan
 
 if TYPE_CHECKING:
@@ -67,16 +69,16 @@ class _Scenes:
     """The last :data:`SCENE_CACHE_SIZE` scenes loaded, with their contact problems."""
 
     def __init__(self) -> None:
-        self.cache: OrderedDict[str, tuple[Scene, ContactProblem]] = OrderedDict()
+        self.cache: OrderedDict[tuple[SceneSource, str], tuple[Scene, ContactProblem]] = OrderedDict()
 
-    def get(self, scene: str, overrides: Mapping[str, Any]) -> tuple[Scene, ContactProblem]:
+    def get(self, source: SceneSource, overrides: Mapping[str, Any]) -> tuple[Scene, ContactProblem]:
         from ..modes import ContactProblem
 
-        key = json.dumps([scene, sorted((k, repr(v)) for k, v in overrides.items())])
+        key = (source, json.dumps(sorted((k, repr(v)) for k, v in overrides.items())))
         if key in self.cache:
             self.cache.move_to_end(key)
             return self.cache[key]
-        loaded = load_scene(scene, overrides=overrides)
+        loaded = source.load(overrides)
         entry = (loaded, ContactProblem.from_scene(loaded))
         self.cache[key] = entry
         if len(self.cache) > SCENE_CACHE_SIZE:
@@ -140,7 +142,7 @@ def evaluate_point(plan: AtlasPlan, index: int) -> dict[str, Any]:
     overrides, inputs = plan.point(index)
     row: dict[str, Any] = dict.fromkeys(columns(plan.what))
     try:
-        scene, problem = _SCENES.get(plan.scene_path, overrides)
+        scene, problem = _SCENES.get(plan.source, overrides)
         row.update(solutions_columns(scene, problem, inputs))
         if plan.what == "statics":
             row.update(_statics_columns(scene, inputs))
