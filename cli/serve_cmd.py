@@ -25,7 +25,9 @@ WorkersOpt = Annotated[
 SchedulerOpt = Annotated[
     str | None,
     typer.Option("--scheduler", metavar="ADDRESS",
-                 help="A Dask scheduler for the atlas jobs (the atlas sweep is not in this version)."),
+                 help="Run the chunks of POST /atlas jobs on the Dask cluster at tcp://HOST:PORT (checked "
+                      'at the start; pip install "frcontrol[cluster]"); default: a local pool of '
+                      "--workers processes per job."),
 ]
 TokenFileOpt = Annotated[
     Path | None,
@@ -102,8 +104,9 @@ def serve_command(
     """Serve frcontrol's commands as JSON over HTTP, until Ctrl-C or SIGTERM.
 
     POST /analyze, /solutions, /statics, /simulate, /plan/flip, /plan/climb answer with the
-    matching command's --json; POST /jobs/... runs the same as a job (GET /jobs/{id} for its
-    progress and result, DELETE to cancel); GET /health, /version, /robots. API pages at /docs.
+    matching command's --json; POST /jobs/... runs the same as a job, POST /atlas runs frc atlas
+    as one (GET /jobs/{id} for its progress and result, DELETE to cancel); GET /health, /version,
+    /robots. API pages at /docs.
     Needs pip install "frcontrol[serve]". The URL goes to stdout (with --json: {"url", "docs"}).
 
     \b
@@ -112,6 +115,7 @@ def serve_command(
     Serving (until Ctrl-C or SIGTERM):
       frc serve --port 8000 --workers 2
       frc serve --host 0.0.0.0 --token-file token.txt
+      frc serve --scheduler tcp://head-node:8786
     """
     common.set_quiet(quiet)
     try:
@@ -119,20 +123,21 @@ def serve_command(
     except ImportError as err:
         raise common.fail(f"frc serve needs FastAPI and uvicorn ({err.name} is missing): "
                           'pip install "frcontrol[serve]"') from None
-    if scheduler is not None:
-        raise common.fail(f"--scheduler {scheduler!r}: a scheduler runs atlas jobs, and the atlas sweep is "
-                          "not available in this version; serve without --scheduler")
     if host != LOOPBACK and token_file is None:
         raise common.fail(f"--host {host}: listening on an address other than {LOOPBACK} needs "
                           "--token-file FILE (every request then brings 'Authorization: Bearer <token>')")
     token = read_token(token_file) if token_file is not None else None
     config = ServiceConfig(workers=workers, time_limit=time_limit, job_time_limit=job_time_limit,
-                           max_jobs=max_jobs, max_body=max_body, token=token)
+                           max_jobs=max_jobs, max_body=max_body, token=token, scheduler=scheduler)
     app = create_app(config)
     if openapi:
         common.print_json(app.openapi())
         return
     _check_port_free(host, port)
+    if scheduler is not None:
+        from frcontrol.atlas.executors import check_scheduler
+
+        check_scheduler(scheduler)  # a typo'd address fails here, not in every job
     _run(app, host, port, json=json, quiet=quiet)
 
 

@@ -108,6 +108,10 @@ class AtlasInterrupted(FrcontrolError):
     """
 
 
+class ChunkTimeLimitExceeded(AtlasInterrupted):
+    """An atlas chunk ran past the run's time limit per chunk; its worker was stopped."""
+
+
 class SolverNotFound(FrcontrolError):
     """The requested LP/QP back-end is unknown or not installed."""
 
@@ -122,6 +126,7 @@ class SolverNotFound(FrcontrolError):
 
 __all__ = [
     "AtlasInterrupted",
+    "ChunkTimeLimitExceeded",
     "CoordinateNotFound",
     "FrameNotFound",
     "FrcontrolError",

@@ -109,7 +109,7 @@ class SceneSource:
             _parse_toml(toml)
             return cls("toml", toml, CONTENT_SOURCE, pairs)
         try:
-            text = json.dumps(dict(document or {}), allow_nan=False, sort_keys=True)
+            text = json.dumps(dict(document or {}), allow_nan=False)
         except (TypeError, ValueError) as err:
             raise SceneError(CONTENT_SOURCE, "", f"the scene's tables are not JSON: {err}") from err
         return cls("json", text, CONTENT_SOURCE, pairs)

@@ -156,7 +156,7 @@ def run_atlas(
     except AtlasInterrupted as err:
         kept = (f"{len(found)} of {plan.chunk_count} chunks are kept in {store.folder}: run the same "
                 "command with --resume to finish" if store is not None else "nothing is kept without --out")
-        raise AtlasInterrupted(f"{err}; {kept}") from err
+        raise type(err)(f"{err}; {kept}") from err  # the same kind of interruption
     rows = _merge(plan, found)
     if store is not None:
         store.finish(rows)

@@ -32,7 +32,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..errors import AtlasInterrupted, InputError
+from ..errors import AtlasInterrupted, ChunkTimeLimitExceeded, InputError
 from .grid import AtlasPlan
 from .points import evaluate_chunk
 
@@ -155,7 +155,7 @@ class _Pool:
         self.since[sentinel] = time.monotonic()
 
     def check_time(self, limit: float | None) -> None:
-        """Raise :class:`~frcontrol.errors.AtlasInterrupted` for a chunk held longer than ``limit``."""
+        """Raise :class:`~frcontrol.errors.ChunkTimeLimitExceeded` for a chunk held past ``limit`` [s]."""
         import time
 
         if limit is None:
@@ -163,9 +163,9 @@ class _Pool:
         now = time.monotonic()
         for sentinel, chunk in self.holding.items():
             if now - self.since[sentinel] > limit:
-                raise AtlasInterrupted(f"chunk {chunk} ran past the time limit of {limit:g} s per chunk "
-                                       "(its worker was stopped); a smaller chunk size keeps chunks "
-                                       "within it")
+                raise ChunkTimeLimitExceeded(f"chunk {chunk} ran past the time limit of {limit:g} s per "
+                                             "chunk (its worker was stopped); a smaller chunk size keeps "
+                                             "chunks within it")
 
     def close(self) -> None:
         for _, connection in self.workers.values():

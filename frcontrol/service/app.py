@@ -7,6 +7,7 @@ OpenAPI schema the app serves at ``/openapi.json`` (pages at ``/docs``).
 
 from __future__ import annotations
 
+import asyncio
 import hmac
 import json
 from collections.abc import AsyncIterator
@@ -21,8 +22,8 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from . import models
 from .models import first_non_finite
-from .pool import JobRunner, TimeLimitExceeded, WorkerLost, WorkerPool
-from .work import NotAvailable, error_document, start_atlas
+from .pool import Job, JobRunner, TimeLimitExceeded, WorkerLost, WorkerPool
+from .work import scene_source
 
 API_VERSION = "1"
 """The version of the HTTP API (its paths and request fields), apart from frcontrol's."""
@@ -56,6 +57,10 @@ WORK_REFUSALS: dict[int | str, dict[str, Any]] = {
     **REFUSALS,
     504: {"model": models.ErrorResponse, "description": "The request exceeded the time limit (named)."},
 }
+JOB_REFUSALS: dict[int | str, dict[str, Any]] = {
+    **REFUSALS,
+    429: {"model": models.ErrorResponse, "description": "Too many jobs running."},
+}
 
 
 @dataclass(frozen=True)
@@ -69,6 +74,8 @@ class ServiceConfig:
         max_jobs: jobs running at once (another one is a 429).
         max_body: [bytes] the largest request body (a larger one is a 413).
         token: when set, every request needs ``Authorization: Bearer <token>`` (else a 401).
+        scheduler: a Dask scheduler's address for the atlas jobs' chunks (None: a local pool of
+            ``workers`` processes per job).
     """
 
     workers: int = 2
@@ -77,6 +84,7 @@ class ServiceConfig:
     max_jobs: int = 2
     max_body: int = 1_000_000
     token: str | None = None
+    scheduler: str | None = None
 
 
 def _error(status: int, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
@@ -200,6 +208,7 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
     for kind, (path, request_model, summary) in ENDPOINTS.items():
         _add_work_routes(app, pool, jobs, kind, path, request_model, summary)
     _add_job_routes(app, jobs)
+    _add_atlas_route(app, config, pool, jobs)
     return app
 
 
@@ -243,8 +252,7 @@ def _add_work_routes(app: FastAPI, pool: WorkerPool, jobs: JobRunner, kind: str,
     async def start_job(request: models.SceneRequest) -> Any:
         job = jobs.start(kind, request.model_dump_json(by_alias=True))
         if job is None:
-            return _error(429, f"{jobs.max_running} jobs are running, the service's limit "
-                          "(frc serve --max-jobs): wait for one to end or cancel one")
+            return _too_many_jobs(jobs)
         return JSONResponse(job.public(), status_code=202)
 
     answer.__annotations__ = {"request": request_model, "return": Any}
@@ -253,9 +261,7 @@ def _add_work_routes(app: FastAPI, pool: WorkerPool, jobs: JobRunner, kind: str,
                       response_model=ANSWERS.get(kind, dict[str, Any]), name=kind)
     app.add_api_route(f"/jobs{path}", start_job, methods=["POST"], status_code=202,
                       summary=f"Start {path} as a job (its id, then GET /jobs/{{id}})",
-                      response_model=models.JobState, name=f"job_{kind}",
-                      responses={**REFUSALS, 429: {"model": models.ErrorResponse,
-                                                   "description": "Too many jobs running."}})
+                      response_model=models.JobState, name=f"job_{kind}", responses=JOB_REFUSALS)
 
 
 def _add_job_routes(app: FastAPI, jobs: JobRunner) -> None:
@@ -273,21 +279,52 @@ def _add_job_routes(app: FastAPI, jobs: JobRunner) -> None:
 
     @app.delete("/jobs/{job_id}", response_model=models.JobState, responses=REFUSALS)
     async def cancel_job(job_id: str) -> dict[str, Any]:
-        """Cancel a job (its process is stopped); a finished job stays as it was."""
+        """Cancel a job (its process, or an atlas's workers, stopped); a finished job stays as it was."""
         found(job_id)
         jobs.cancel(job_id)
         return found(job_id)
 
+
+def _too_many_jobs(jobs: JobRunner) -> JSONResponse:
+    return _error(429, f"{jobs.max_running} jobs are running, the service's limit (frc serve --max-jobs): "
+                  "wait for one to end or cancel one")
+
+
+def _add_atlas_route(app: FastAPI, config: ServiceConfig, pool: WorkerPool, jobs: JobRunner) -> None:
     @app.post("/atlas", status_code=202, response_model=models.JobState,
-              responses={**REFUSALS, 501: {"model": models.ErrorResponse,
-                                           "description": "Not available in this version."}})
+              responses={**JOB_REFUSALS, **WORK_REFUSALS})
     async def atlas(request: models.AtlasRequest) -> Any:
-        """Start a sweep of the mode atlas as a job (not available in this version: a 501)."""
+        """`frc atlas SCENE --vary ... --json` as a job: its id, then `GET /jobs/{id}`.
+
+        The request is checked at once (a 422 names the field); the sweep then runs on a local
+        pool of `--workers` processes started for the job, or on the `--scheduler` Dask cluster.
+        Each chunk must finish within the service's time limit; the whole job within the job time
+        limit. `GET /jobs/{id}` shows `points_done` of `points_total` and, when done, the result.
+        """
+        if jobs.running() >= jobs.max_running:
+            return _too_many_jobs(jobs)
         try:
-            return found(start_atlas(request))
-        except NotAvailable as err:
-            document = error_document(err)
-            return JSONResponse({"detail": document["detail"]}, status_code=document["status"])
+            reply = json.loads(await pool.run("atlas", request.model_dump_json(by_alias=True)))
+        except TimeLimitExceeded as err:
+            return _error(504, str(err))
+        except WorkerLost as err:
+            return _error(500, str(err))
+        if reply["status"] != 200:
+            return JSONResponse({"detail": reply["detail"]}, status_code=reply["status"])
+        job = await asyncio.to_thread(_start_atlas, jobs, config, reply["answer"], request)
+        if job is None:
+            return _too_many_jobs(jobs)
+        return JSONResponse(job.public(), status_code=202)
+
+
+def _start_atlas(jobs: JobRunner, config: ServiceConfig, plan: dict[str, Any],
+                 request: models.AtlasRequest) -> Job | None:
+    """Start the atlas job of a checked request (in a thread: the first one imports the atlas)."""
+    from .atlas_job import atlas_work
+
+    work = atlas_work(plan, scene_source(request.scene), workers=config.workers,
+                      scheduler=config.scheduler, chunk_time_limit=config.time_limit)
+    return jobs.start_thread("atlas", work)
 
 
 __all__ = [

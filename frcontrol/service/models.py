@@ -11,7 +11,7 @@ the other commands' are JSON objects whose shape each command's ``to_dict()`` do
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
 
@@ -23,6 +23,10 @@ from frcontrol.planning import (
 
 MAX_URDF_NAME = 100
 """Longest file name of a URDF sent with a scene."""
+
+MAX_ATLAS_POINTS = 100_000
+"""The most grid points of one ``POST /atlas`` job (``frc atlas`` has no such limit): a finished
+job keeps its result in the server's memory, a few megabytes at this size."""
 
 
 def first_non_finite(value: Any, where: tuple[str | int, ...] = ()) -> tuple[str | int, ...] | None:
@@ -159,10 +163,22 @@ class ClimbRequest(SceneRequest):
     seed: int = Field(0, description="Seed of the sampled disturbances, as `--seed`.")
 
 
-class AtlasRequest(SceneRequest):
-    """`POST /atlas`: a sweep of the mode atlas, run as a job."""
+class AtlasRequest(InputsRequest):
+    """`POST /atlas`: `frc atlas SCENE --vary ... --json`, run as a job."""
 
-    options: dict[str, Any] = Field(default_factory=dict, description="The sweep's options.")
+    vary: list[str] = Field(
+        min_length=1,
+        description="The grid's axes as `--vary`: `PATH=START:STOP:N` (`numpy.linspace(START, STOP, N)` "
+                    "for PATH, a `set` path such as `contacts.tip.mu` or `state.q.theta`, or "
+                    "`input.NAME`); the first is the outermost axis of every array. At most "
+                    f"{MAX_ATLAS_POINTS} points in all.",
+        examples=[["state.q.theta=0.3:2.8:13", "contacts.tip.mu=0:2:9"]])
+    what: Literal["solutions", "statics", "flip", "climb"] = Field(
+        "solutions", description="What to compute at every point, as `--what`.")
+    chunk_size: int | None = Field(
+        None, ge=1, description="Grid points per chunk, as `--chunk-size` (default: the grid in about "
+                                "256 chunks of at most 64 points). Each chunk must finish within the "
+                                "service's time limit.")
 
 
 class ContactAnswer(BaseModel):
@@ -221,6 +237,8 @@ class JobState(BaseModel):
     kind: str
     state: str = Field(description="queued, running, done, failed or cancelled")
     progress: float | None = Field(description="The fraction done, when the work reports it.")
+    points_done: int | None = Field(None, description="An atlas: the grid points computed so far.")
+    points_total: int | None = Field(None, description="An atlas: the grid's points.")
     message: str
     elapsed: float = Field(description="[s] since the job started.")
     result: dict[str, Any] | None = Field(None, description="The answer, when done: the endpoint's JSON.")
@@ -261,6 +279,7 @@ __all__ = [
     "first_non_finite",
     "InputsRequest",
     "JobState",
+    "MAX_ATLAS_POINTS",
     "Robots",
     "SceneContent",
     "SceneField",

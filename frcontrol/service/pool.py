@@ -4,21 +4,32 @@ The server's event loop only parses, waits and answers: the work runs in other p
 slow request never blocks ``GET /health``. A request that exceeds its time limit gets its worker
 killed (the work cannot be interrupted otherwise) and a fresh worker takes its place. Only text
 crosses a process boundary (the request's and the answer's JSON).
+
+A job whose work starts processes of its own (an atlas: a process pool, or a Dask client) cannot
+run in a job process (a daemonic process has no children): a thread of the server's process drives
+it instead (:meth:`JobRunner.start_thread`), waiting on its workers, and stops it when cancelled.
 """
 
 from __future__ import annotations
 
 import asyncio
+import logging
 import multiprocessing
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 from typing import Any
 
 _CONTEXT = multiprocessing.get_context("spawn")  # no fork of a threaded server
+
+log = logging.getLogger(__name__)
+
+THREAD_JOB_JOIN_TIMEOUT = 10.0
+"""[s] How long the service's shutdown waits for a cancelled thread job to stop its workers."""
 
 
 class TimeLimitExceeded(Exception):
@@ -162,13 +173,17 @@ class Job:
     message: str = "started"
     reply: dict[str, Any] | None = None
     ended: float | None = None
+    points_done: int | None = None
+    points_total: int | None = None
     process: BaseProcess | None = field(default=None, repr=False)
+    thread: threading.Thread | None = field(default=None, repr=False)
 
     def public(self) -> dict[str, Any]:
         """``GET /jobs/{id}``: state, progress, and the result (done) or the error (failed)."""
         end = self.ended if self.ended is not None else time.monotonic()
         out: dict[str, Any] = {"id": self.id, "kind": self.kind, "state": self.state,
-                               "progress": self.progress, "message": self.message,
+                               "progress": self.progress, "points_done": self.points_done,
+                               "points_total": self.points_total, "message": self.message,
                                "elapsed": end - self.started, "result": None, "error": None}
         if self.reply is not None:
             if self.reply["status"] == 200:
@@ -176,6 +191,12 @@ class Job:
             else:
                 out["error"] = {"detail": self.reply["detail"]}
         return out
+
+
+JobWork = Callable[[Job, Callable[[], bool]], dict[str, Any]]
+"""A job driven by a thread: ``work(job, stopped)`` updates the job's progress, polls ``stopped()``
+(true once cancelled or past the time limit: then it stops its workers and returns) and returns its
+reply, ``{"status": 200, "answer": ...}`` or an error document (:func:`.work.error_document`)."""
 
 
 class JobRunner:
@@ -209,6 +230,39 @@ class JobRunner:
         threading.Thread(target=self._follow, args=(job, parent), daemon=True).start()
         return job
 
+    def start_thread(self, kind: str, work: JobWork) -> Job | None:
+        """Start a job driven by a thread of this process (:data:`JobWork`); None when at the cap."""
+        if self.running() >= self.max_running:
+            return None
+        job = Job(id=uuid.uuid4().hex, kind=kind, started=time.monotonic())
+        job.thread = threading.Thread(target=self._drive, args=(job, work), daemon=True,
+                                      name=f"frc-serve-job-{job.id[:8]}")
+        with self._lock:
+            self._forget_old()
+            self.jobs[job.id] = job
+        job.thread.start()
+        return job
+
+    def _drive(self, job: Job, work: JobWork) -> None:
+        deadline = job.started + self.time_limit
+
+        def stopped() -> bool:
+            if job.state == "running" and time.monotonic() >= deadline:
+                self._end(job, "failed", self._past_limit())
+            return job.state != "running"
+
+        try:
+            reply = work(job, stopped)
+        except Exception as err:  # a bug: the client gets its type, the server's log the traceback
+            log.exception("job %s (%s) failed", job.id, job.kind)
+            reply = {"status": 500, "detail": f"internal error ({type(err).__name__}); see the server's log"}
+        ok = reply["status"] == 200
+        self._end(job, "done" if ok else "failed", "done" if ok else "refused", reply)
+
+    def _past_limit(self) -> str:
+        return (f"the job exceeded the service's time limit of {self.time_limit:g} s "
+                "(frc serve --job-time-limit); it was stopped")
+
     def _follow(self, job: Job, conn: Connection) -> None:
         """Read a job's messages until it ends, is cancelled or runs out of time."""
         import json
@@ -218,30 +272,31 @@ class JobRunner:
             while job.state == "running":
                 if not conn.poll(min(0.2, max(0.0, deadline - time.monotonic()))):
                     if time.monotonic() >= deadline:
-                        self._end(job, "failed", f"the job exceeded the service's time limit of "
-                                  f"{self.time_limit:g} s (frc serve --job-time-limit); it was stopped")
+                        self._end(job, "failed", self._past_limit())
                     continue
                 message = conn.recv()
                 if message[0] == "progress":
                     job.progress, job.message = message[1], message[2]
                     continue
                 reply = json.loads(message[1])
-                job.reply = reply
-                if reply["status"] == 200:
-                    job.progress = 1.0
-                self._end(job, "done" if reply["status"] == 200 else "failed",
-                          "done" if reply["status"] == 200 else "refused")
+                ok = reply["status"] == 200
+                self._end(job, "done" if ok else "failed", "done" if ok else "refused", reply)
         except (EOFError, OSError):
             if job.state == "running":
                 self._end(job, "failed", "the job's process ended without an answer")
         finally:
             conn.close()
 
-    def _end(self, job: Job, state: str, message: str) -> None:
+    def _end(self, job: Job, state: str, message: str, reply: dict[str, Any] | None = None) -> None:
+        """End a running job (an ended one stays as it was) with its reply, if any."""
         with self._lock:
             if job.state != "running":
                 return
             job.state, job.message, job.ended = state, message, time.monotonic()
+            if reply is not None:
+                job.reply = reply
+                if state == "done":
+                    job.progress = 1.0
         if job.process is not None and job.process.is_alive():
             job.process.kill()
         if job.process is not None:
@@ -261,14 +316,19 @@ class JobRunner:
             del self.jobs[job.id]
 
     def stop(self) -> None:
-        """Cancel every running job."""
+        """Cancel every running job; wait (a little) for the threads' jobs to stop their workers."""
         for job in list(self.jobs.values()):
             self._end(job, "cancelled", "the service stopped")
+        for job in list(self.jobs.values()):
+            if job.thread is not None:
+                job.thread.join(THREAD_JOB_JOIN_TIMEOUT)
 
 
 __all__ = [
+    "THREAD_JOB_JOIN_TIMEOUT",
     "Job",
     "JobRunner",
+    "JobWork",
     "TimeLimitExceeded",
     "WorkerLost",
     "WorkerPool",

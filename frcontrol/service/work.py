@@ -8,27 +8,30 @@ parsed as JSON, never unpickled or evaluated.
 
 An error the library raises on purpose (:class:`~frcontrol.FrcontrolError`) becomes a 422 whose
 message is the CLI's one-line error (without ``frc: error:``) and whose ``loc`` is the field path.
+
+``POST /atlas`` is checked here too (``"atlas"``: the plan is built, nothing is computed, and its
+``to_dict()`` is the answer); the job itself is driven from the server's process
+(:mod:`.atlas_job`).
 """
 
 from __future__ import annotations
 
 import json
 import logging
-import tempfile
-import tomllib
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
 
-from frcontrol.errors import CoordinateNotFound, FrcontrolError, SceneError
+from frcontrol.errors import CoordinateNotFound, FrcontrolError, InputError, SceneError
 
 from . import models
 
 if TYPE_CHECKING:
+    from frcontrol.atlas import AtlasPlan
     from frcontrol.scene import Scene
+    from frcontrol.scene_source import SceneSource
 
 Progress = Callable[[float | None, str], None]
 """Called by long work with (fraction done or None, what it is doing)."""
@@ -42,12 +45,34 @@ REQUESTS: dict[str, type[models.SceneRequest]] = {
     "simulate": models.SimulateRequest,
     "flip": models.FlipRequest,
     "climb": models.ClimbRequest,
+    "atlas": models.AtlasRequest,
 }
 """Each kind of work and the request it takes."""
 
 
-class NotAvailable(FrcontrolError):
-    """The work exists in the API but not in this version of frcontrol (a 501)."""
+class FieldError(FrcontrolError):
+    """A library error about one field of a request: its message, and the field's path (``loc``)."""
+
+    def __init__(self, loc: Sequence[str | int], err: FrcontrolError) -> None:
+        self.loc = list(loc)
+        self.kind = type(err).__name__
+        super().__init__(str(err))
+
+
+def scene_source(scene: str | models.SceneContent) -> SceneSource:
+    """A request's scene as a :class:`~frcontrol.scene_source.SceneSource`.
+
+    A shipped scene's name (checked against the shipped list, never used as a path) or the content.
+
+    Raises:
+        SceneError: an unknown shipped name (the nearest named), malformed TOML.
+    """
+    from frcontrol.scene_source import SceneSource
+
+    if isinstance(scene, str):
+        return SceneSource.shipped(scene)
+    return SceneSource.content(toml=scene.toml, document=None if scene.toml is not None else scene.json_,
+                               robots=scene.robots)
 
 
 @contextmanager
@@ -61,39 +86,8 @@ def request_scene(request: models.SceneRequest) -> Iterator[Scene]:
         SceneError: an unknown shipped name, malformed TOML, a robot given as a path, and
             everything :func:`frcontrol.scene.scene_from_document` refuses.
     """
-    from frcontrol.scene import (
-        read_scene_document,
-        scene_from_document,
-        shipped_robots_dir,
-        shipped_scene_names,
-    )
-    from frcontrol.scene_schema import nearest
-
-    if isinstance(request.scene, str):
-        name = request.scene.removesuffix(".toml")
-        names = shipped_scene_names()
-        if name not in names:  # checked against the list: a name is never used as a path
-            guess = nearest(name, names)
-            hint = f"did you mean {guess!r}? " if guess else ""
-            raise SceneError(request.scene, "", f"no shipped scene of that name (a scene is sent by a "
-                             f"shipped scene's name or as content); {hint}shipped scenes: {', '.join(names)}")
-        path = shipped_robots_dir() / "scenes" / f"{name}.toml"
-        yield scene_from_document(read_scene_document(path), source=str(path), overrides=request.set)
-        return
-    content = request.scene
-    if content.toml is not None:
-        try:
-            document = tomllib.loads(content.toml)
-        except tomllib.TOMLDecodeError as err:
-            raise SceneError("scene", "", f"malformed TOML: {err}") from err
-    else:
-        document = dict(content.json_ or {})
-    with tempfile.TemporaryDirectory(prefix="frc-serve-") as folder:
-        files = {}
-        for name, text in content.robots.items():
-            files[name] = Path(folder) / Path(name).name
-            files[name].write_text(text, encoding="utf-8")
-        yield scene_from_document(document, source="scene", robot_files=files, overrides=request.set)
+    with scene_source(request.scene).loaded(request.set) as scene:
+        yield scene
 
 
 def _analyze(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
@@ -150,15 +144,38 @@ def _climb(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
     return plan.to_dict(result)
 
 
-def start_atlas(request: models.AtlasRequest) -> str:
-    """Start a sweep of the mode atlas as a job; its id.
+def plan_atlas(request: models.AtlasRequest) -> AtlasPlan:
+    """The plan of a ``POST /atlas`` request, checked as ``frc atlas`` checks its arguments.
 
     Raises:
-        NotAvailable: always, in this version: the atlas sweep (``frc atlas``) is not part of it yet.
+        FieldError: an axis that is malformed, names no field or input (the nearest in the
+            message), conflicts with ``set`` or ``inputs``, or a grid of more than
+            :data:`~.models.MAX_ATLAS_POINTS` points (``loc`` ``["vary", i]`` or ``["vary"]``).
+        SceneError, CoordinateNotFound, InputError: the scene, ``set`` or ``inputs`` refused.
     """
-    raise NotAvailable("the mode atlas sweep is not available in this version of frcontrol "
-                       "(POST /atlas starts it once `frc atlas` exists); the job endpoints serve "
-                       "POST /jobs/{command} meanwhile")
+    import math
+
+    from frcontrol.atlas import build_atlas, parse_axis
+
+    axes = []
+    for i, text in enumerate(request.vary):
+        try:
+            axes.append(parse_axis(text))
+        except InputError as err:
+            raise FieldError(["vary", i], err) from err
+    points = math.prod(a.count for a in axes)
+    if points > models.MAX_ATLAS_POINTS:
+        raise FieldError(["vary"], InputError(
+            f"the grid has {points} points; a job of this service takes at most {models.MAX_ATLAS_POINTS}: "
+            "sweep fewer points, or run frc atlas (no limit) on a machine or a Dask cluster"))
+    try:
+        return build_atlas(scene_source(request.scene), axes, what=request.what, inputs=request.inputs,
+                           overrides=request.set, chunk_size=request.chunk_size)
+    except (SceneError, InputError) as err:
+        for i, axis in enumerate(axes):
+            if getattr(err, "field", None) == axis.path or str(err).startswith(f"--vary {axis.path}"):
+                raise FieldError(["vary", i], err) from err
+        raise
 
 
 WORK: dict[str, Callable[[Any, Scene, Progress], dict[str, Any]]] = {
@@ -169,11 +186,14 @@ WORK: dict[str, Callable[[Any, Scene, Progress], dict[str, Any]]] = {
 
 
 def error_document(err: FrcontrolError, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """A refused request as ``{"status": 422 or 501, "detail": [{loc, msg, type}]}``.
+    """A refused request as ``{"status": 422, "detail": [{loc, msg, type}]}``.
 
     ``loc`` is the field's path in the request: ``["body", "set", PATH]`` for a refused override,
-    ``["body", "scene", FIELD]`` for a scene's field, ``["body", "inputs", NAME]`` for an input.
+    ``["body", "scene", FIELD]`` for a scene's field, ``["body", "inputs", NAME]`` for an input,
+    ``["body", "vary", i]`` for an atlas's axis.
     """
+    if isinstance(err, FieldError):
+        return {"status": 422, "detail": [{"loc": ["body", *err.loc], "msg": str(err), "type": err.kind}]}
     loc: list[str | int] = ["body"]
     if isinstance(err, SceneError) and err.field and err.field in (overrides or {}):
         loc += ["set", err.field]
@@ -181,8 +201,7 @@ def error_document(err: FrcontrolError, overrides: Mapping[str, Any] | None = No
         loc += ["scene", err.field] if err.field else ["scene"]
     elif isinstance(err, CoordinateNotFound):
         loc += ["inputs", err.name]
-    status = 501 if isinstance(err, NotAvailable) else 422
-    return {"status": status, "detail": [{"loc": loc, "msg": str(err), "type": type(err).__name__}]}
+    return {"status": 422, "detail": [{"loc": loc, "msg": str(err), "type": type(err).__name__}]}
 
 
 def validation_document(err: ValidationError) -> dict[str, Any]:
@@ -203,8 +222,11 @@ def execute(kind: str, text: str, progress: Progress | None = None) -> str:
     request: models.SceneRequest | None = None
     try:
         request = REQUESTS[kind].model_validate_json(text)
-        with request_scene(request) as scene:
-            answer = WORK[kind](request, scene, report)
+        if isinstance(request, models.AtlasRequest):
+            answer = plan_atlas(request).to_dict()
+        else:
+            with request_scene(request) as scene:
+                answer = WORK[kind](request, scene, report)
         return json.dumps({"status": 200, "answer": to_jsonable(answer)})
     except ValidationError as err:
         return json.dumps(validation_document(err))
@@ -219,20 +241,22 @@ def execute(kind: str, text: str, progress: Progress | None = None) -> str:
 def warm_up() -> None:
     """Import what the work needs, so that a worker's first request does not pay for it."""
     import frcontrol.answers  # noqa: F401
+    import frcontrol.atlas  # noqa: F401
     import frcontrol.engine  # noqa: F401
     import frcontrol.scene  # noqa: F401
     import frcontrol.stability  # noqa: F401
 
 
 __all__ = [
-    "NotAvailable",
+    "FieldError",
     "Progress",
     "REQUESTS",
     "WORK",
     "error_document",
     "execute",
+    "plan_atlas",
     "request_scene",
-    "start_atlas",
+    "scene_source",
     "validation_document",
     "warm_up",
 ]
