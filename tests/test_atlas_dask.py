@@ -82,6 +82,21 @@ def _zombie(pid: int) -> bool:
         return True
 
 
+def test_a_stopped_run_cancels_its_chunks_on_the_cluster(plan, cluster):
+    from frcontrol.errors import AtlasInterrupted
+
+    seen = []
+    with pytest.raises(AtlasInterrupted, match="stopped on request"):
+        run_atlas(plan, scheduler=cluster.scheduler_address, progress=lambda done, total: seen.append(done),
+                  stop=lambda: seen[-1] > 0 if seen else False)
+    assert seen == [0, CHUNK]  # started, one chunk in, then stopped: the other chunks never came
+    with Client(cluster.scheduler_address, set_as_default=False) as client:
+        deadline = time.monotonic() + WAIT
+        while any(client.processing().values()):  # the cancelled chunks leave the workers
+            assert time.monotonic() < deadline
+            time.sleep(0.1)
+
+
 def _dask(*args: str) -> list[str]:
     script = Path(sys.executable).with_name("dask")
     if script.exists():

@@ -269,10 +269,151 @@ def test_a_flip_job_reports_its_progress(client):
     assert job["result"]["found"] is True and job["result"]["simulation"]["simulated"] is True
 
 
-def test_atlas_is_not_available_in_this_version(client):
-    response = client.post("/atlas", json={"scene": "rod_on_table"})
-    assert response.status_code == 501
-    assert "not available in this version" in response.json()["detail"][0]["msg"]
+# --- POST /atlas: frc atlas as a job ---------------------------------------------------------------
+
+ATLAS_ARGS = ["rod_on_table", "--set", "state.v.x=-1", "--vary", "state.q.theta=0.3:2.8:5",
+              "--vary", "contacts.tip.mu=-0.4:2:4", "--chunk-size", "4"]  # mu < 0: points with errors
+ATLAS_BODY = {"scene": "rod_on_table", "set": {"state.v.x": -1}, "vary": ["state.q.theta=0.3:2.8:5",
+              "contacts.tip.mu=-0.4:2:4"], "chunk_size": 4}
+
+
+def finished(http: httpx.Client, job: dict, limit: float = 120.0) -> dict:
+    """The job once it has ended (polled)."""
+    deadline = time.monotonic() + limit
+    while job["state"] == "running":
+        assert time.monotonic() < deadline, job
+        time.sleep(0.1)
+        job = http.get(f"/jobs/{job['id']}").json()
+    return job
+
+
+@pytest.fixture(scope="module")
+def atlas_job(client):
+    """The finished job of ATLAS_BODY."""
+    started = client.post("/atlas", json=ATLAS_BODY)
+    assert started.status_code == 202, started.text
+    assert started.json()["kind"] == "atlas"
+    return finished(client, started.json())
+
+
+def test_an_atlas_job_answers_frc_atlas_json(atlas_job):
+    job = atlas_job
+    assert job["state"] == "done" and job["kind"] == "atlas" and job["error"] is None, job
+    assert job["points_done"] == job["points_total"] == 20 and job["progress"] == 1.0
+    expected = cli_json("atlas", *ATLAS_ARGS, "--workers", "2")  # the service's 2 workers, as a pool
+    assert job["result"]["run"]["executor"] == "pool" and any(job["result"]["errors"][0])
+    assert without_timings(job["result"]) == without_timings(expected)
+
+
+def test_an_atlas_scene_sent_as_content_equals_the_shipped_one(client, atlas_job):
+    by_name = atlas_job["result"]
+    document = read_scene_document(shipped_robots_dir() / "scenes" / "rod_on_table.toml")
+    urdf = (shipped_robots_dir() / "rod.urdf").read_text(encoding="utf-8")
+    bodies = [{**ATLAS_BODY, "scene": {"toml": ROD_TOML}},
+              {**ATLAS_BODY, "scene": {"json": {**document, "robot": "my_rod.urdf"},
+                                       "robots": {"my_rod.urdf": urdf}}}]
+    started = [client.post("/atlas", json=body) for body in bodies]  # both at once (2 jobs allowed)
+    assert [r.status_code for r in started] == [202, 202], [r.text for r in started]
+    same = {k: v for k, v in by_name.items() if k not in ("scene", "fingerprint", "timings")}
+    shipped = str(shipped_robots_dir() / "scenes" / "rod_on_table.toml")
+    same["errors"] = [[e and e.replace(shipped, "scene") for e in row] for row in same["errors"]]
+    assert any(e for row in same["errors"] for e in row)  # messages name the scene as sent
+    for response in started:
+        result = finished(client, response.json())["result"]
+        assert result["scene"] == "scene" and result["fingerprint"] != by_name["fingerprint"]
+        assert {k: result[k] for k in same} == same
+
+
+@pytest.mark.parametrize(("body", "loc", "args"), [
+    ({"vary": ["contacts.tip.muu=0:1:3"]}, ["body", "vary", 0], ["--vary", "contacts.tip.muu=0:1:3"]),
+    ({"vary": ["gravity=1:2:2", "state.q.thetaa=0:1:3"]}, ["body", "vary", 1],
+     ["--vary", "gravity=1:2:2", "--vary", "state.q.thetaa=0:1:3"]),
+    ({"vary": ["input.nope=0:1:3"]}, ["body", "vary", 0], ["--vary", "input.nope=0:1:3"]),
+    ({"vary": ["contacts.tip.mu=a:1:3"]}, ["body", "vary", 0], ["--vary", "contacts.tip.mu=a:1:3"]),
+    ({"vary": ["gravity=1:2:2"], "set": {"gravity": 3.0}}, ["body", "vary", 0],
+     ["--vary", "gravity=1:2:2", "--set", "gravity=3"]),
+    ({"vary": ["gravity=1:2:2"], "set": {"contacts.tip.muu": 1.0}}, ["body", "set", "contacts.tip.muu"],
+     ["--vary", "gravity=1:2:2", "--set", "contacts.tip.muu=1"]),
+    ({"vary": ["gravity=1:2:2"], "inputs": {"xx": 1.0}}, ["body", "inputs", "xx"],
+     ["--vary", "gravity=1:2:2", "--input", "xx=1"]),
+])
+def test_bad_atlas_options_are_422s_with_the_clis_message(client, body, loc, args):
+    response = client.post("/atlas", json={"scene": "rod_on_table", **body})
+    assert response.status_code == 422, response.text
+    [problem] = response.json()["detail"]
+    assert problem["loc"] == loc
+    assert problem["msg"] == cli_error("atlas", "rod_on_table", *args, "--workers", "1")
+
+
+@pytest.mark.parametrize(("body", "loc"), [
+    ({"vary": ["state.q.theta=0:1:1000", "contacts.tip.mu=0:1:1000"]}, ["body", "vary"]),  # too many points
+    ({"vary": []}, ["body", "vary"]),
+    ({"vary": ["gravity=1:2:2"], "what": "everything"}, ["body", "what"]),
+    ({"vary": ["gravity=1:2:2"], "workers": 8}, ["body", "workers"]),  # the service decides
+    ({"vary": ["gravity=1:2:2"], "out": "/tmp/x.npz"}, ["body", "out"]),  # no files
+    ({"vary": ["gravity=1:2:2"], "chunk_size": 0}, ["body", "chunk_size"]),
+    ({"vary": ["gravity=1:2:2"], "scene": "../../etc/passwd"}, ["body", "scene"]),
+    ({"vary": ["gravity=1:2:2"], "scene": {"toml": ROD_TOML.replace('robot = "rod.urdf"',
+                                                                    'robot = "../../etc/passwd"')}},
+     ["body", "scene", "robot"]),
+    ({"vary": ["gravity=1:2:2"], "set": {"robot": "../rod.urdf"}}, ["body", "set", "robot"]),
+])
+def test_atlas_requests_the_service_refuses(client, body, loc):
+    response = client.post("/atlas", json={"scene": "rod_on_table", **body})
+    assert response.status_code == 422, response.text
+    assert [p["loc"] for p in response.json()["detail"]] == [loc]
+    assert "root:" not in response.text  # nothing of a file named in the request leaks
+
+
+def atlas_workers() -> list:
+    """The atlas pool's worker processes started by this process (an app served in a thread here)."""
+    import multiprocessing
+
+    from frcontrol.atlas.executors import WORKER_NAME
+
+    return [p for p in multiprocessing.active_children() if p.name == WORKER_NAME]
+
+
+def test_an_atlas_job_reports_progress_and_stops_when_cancelled(client):
+    body = {"scene": "rod_on_table", "set": {"state.v.x": -1},
+            "vary": ["state.q.theta=0.3:2.8:100", "contacts.tip.mu=0:2:100"], "chunk_size": 16}
+    job = client.post("/atlas", json=body).json()
+    seen = []
+    deadline = time.monotonic() + 120
+    while len(set(seen)) < 3:  # the points done, seen growing
+        assert job["state"] == "running" and time.monotonic() < deadline, job
+        time.sleep(0.2)
+        job = client.get(f"/jobs/{job['id']}").json()
+        assert client.get("/health").json()["jobs_running"] == 1  # answered while the job runs
+        if job["points_done"]:
+            seen.append(job["points_done"])
+    assert seen == sorted(seen) and job["points_total"] == 10_000
+    assert len(atlas_workers()) == 2
+    cancelled = client.delete(f"/jobs/{job['id']}").json()
+    assert cancelled["state"] == "cancelled" and cancelled["result"] is None
+    stopped_at = cancelled["points_done"]
+    assert stopped_at < 10_000
+    deadline = time.monotonic() + 30
+    while atlas_workers():  # the job's workers are stopped
+        assert time.monotonic() < deadline, atlas_workers()
+        time.sleep(0.1)
+    after = client.get(f"/jobs/{job['id']}").json()
+    assert after["state"] == "cancelled" and after["points_done"] == stopped_at
+    assert client.get("/health").json()["jobs_running"] == 0
+
+
+def test_an_atlas_chunk_past_the_time_limit_fails_its_job(strict_client):
+    body = {"scene": "rod_on_table", "set": {"state.v.x": -1},
+            "vary": ["state.q.theta=0.3:2.8:100", "contacts.tip.mu=0:2:100"], "chunk_size": 5000}
+    job = finished(strict_client, strict_client.post("/atlas", json=body).json())
+    assert job["state"] == "failed" and job["result"] is None, job
+    [problem] = job["error"]["detail"]
+    assert problem["loc"] == ["body", "chunk_size"] and problem["type"] == "ChunkTimeLimitExceeded"
+    assert "time limit of 2 s per chunk" in problem["msg"] and "--out" not in problem["msg"]
+    deadline = time.monotonic() + 30
+    while atlas_workers():
+        assert time.monotonic() < deadline
+        time.sleep(0.1)
 
 
 def test_a_token_is_needed_when_configured(strict_client):
@@ -322,7 +463,6 @@ def test_serve_refuses_other_addresses_without_a_token_and_bad_token_files(tmp_p
     empty.write_text("\n")
     assert "first line is empty" in cli_error("serve", "--token-file", str(empty))
     assert "cannot read it" in cli_error("serve", "--token-file", str(tmp_path / "missing.txt"))
-    assert "not available in this version" in cli_error("serve", "--scheduler", "tcp://127.0.0.1:8786")
 
 
 def test_serve_prints_the_openapi_schema():
@@ -332,13 +472,13 @@ def test_serve_prints_the_openapi_schema():
 
 # --- a real frc serve process --------------------------------------------------------------------
 
-@pytest.fixture(scope="module")
-def server():
-    """A real `frc serve` on a free loopback port, stopped with SIGTERM at the end."""
+@contextmanager
+def frc_serve(*options: str):
+    """A real `frc serve` on a free loopback port (its URL), stopped with SIGTERM at the end."""
     port = free_port()
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    process = subprocess.Popen([sys.executable, "-m", "frcontrol", "serve", "--port", str(port), "--workers",
-                                "2", "--json", "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    process = subprocess.Popen([sys.executable, "-m", "frcontrol", "serve", "--port", str(port), *options,
+                                "--json", "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                text=True, env=env, cwd=Path(__file__).parent)
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 120
@@ -357,6 +497,12 @@ def server():
     assert process.returncode == 0, err
     assert json.loads(out) == {"url": url, "docs": f"{url}/docs"}
     assert "Traceback" not in err
+
+
+@pytest.fixture(scope="module")
+def server():
+    with frc_serve("--workers", "2") as url:
+        yield url
 
 
 def test_a_real_server_plans_the_flip(server):
@@ -389,3 +535,22 @@ def test_200_concurrent_solutions_all_equal_the_clis(server):
         assert response.json() == {"solutions": expected[INPUTS[i % len(INPUTS)]]}
         SolutionsAnswer.model_validate(response.json())
     assert httpx.get(f"{server}/health").json()["status"] == "ok"
+
+
+def test_a_real_server_runs_atlas_jobs_on_a_dask_cluster():
+    if os.environ.get("CI") != "true":
+        pytest.importorskip("distributed", reason="Dask distributed is not installed (pip install "
+                            "\".[test]\" installs it; CI runs this test)")
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None) as cluster, \
+            frc_serve("--workers", "1", "--scheduler", cluster.scheduler_address) as url, \
+            httpx.Client(base_url=url, timeout=120) as http:
+        started = http.post("/atlas", json=ATLAS_BODY)
+        assert started.status_code == 202, started.text
+        job = finished(http, started.json())
+    assert job["state"] == "done", job
+    assert job["result"]["run"]["executor"] == "dask" and job["result"]["run"]["workers"] == 1
+    expected = cli_json("atlas", *ATLAS_ARGS, "--workers", "1")
+    assert without_timings({**job["result"], "run": None}) == without_timings({**expected, "run": None})

@@ -40,6 +40,9 @@ ChunkCallback = Callable[[dict[str, Any]], None]
 StartCallback = Callable[[], None]
 StopCallback = Callable[[], bool]
 
+WORKER_NAME = "frc-atlas-worker"
+"""The name of the local pool's worker processes (``multiprocessing.active_children()``)."""
+
 STOP_POLL_INTERVAL = 0.2
 """[s] How often a run with a ``stop`` callable or a chunk time limit checks them while it waits."""
 
@@ -131,7 +134,8 @@ class _Pool:
         import threading
 
         parent, child = self.context.Pipe()
-        process = self.context.Process(target=_worker_main, args=(child, self.plan), daemon=True)
+        process = self.context.Process(target=_worker_main, args=(child, self.plan), daemon=True,
+                                       name=WORKER_NAME)
         # A worker starts with SIGINT ignored (inherited across exec; Python then leaves it so), so
         # that a Ctrl-C to the process group while it imports frcontrol prints no traceback.
         main = threading.current_thread() is threading.main_thread()
@@ -367,6 +371,7 @@ __all__ = [
     "DASK_CONNECT_TIMEOUT",
     "MAX_CHUNK_ATTEMPTS",
     "STOP_POLL_INTERVAL",
+    "WORKER_NAME",
     "WORKER_START_METHOD",
     "ChunkCallback",
     "RunReport",
