@@ -38,10 +38,12 @@ TokenFileOpt = Annotated[
 TimeLimitOpt = Annotated[
     float,
     typer.Option("--time-limit", min=0.1, help="[s] Each request's time limit (waiting included); past "
-                 "it the answer is a 504 naming the limit and the work is stopped."),
+                 "it the answer is a 504 naming the limit and the work is stopped. Also each chunk's "
+                 "limit in an atlas job on the local pool."),
 ]
 JobTimeLimitOpt = Annotated[
-    float, typer.Option("--job-time-limit", min=0.1, help="[s] Each job's time limit."),
+    float, typer.Option("--job-time-limit", min=0.1, help="[s] Each job's time limit (an atlas job's "
+                        "whole run)."),
 ]
 MaxJobsOpt = Annotated[
     int, typer.Option("--max-jobs", min=1, help="Jobs running at once (another is a 429)."),
