@@ -119,17 +119,8 @@ def run_atlas(
             ``stop``, a chunk past ``chunk_time_limit``, a chunk killing its workers, a lost
             scheduler.
     """
-    from ..errors import InputError
-
     start = time.perf_counter()
-    if resume and out is None:
-        raise InputError("--resume needs --out FILE: the finished chunks are kept beside FILE")
-    store = None
-    found: dict[int, Mapping[str, Any]] = {}
-    if out is not None:
-        check_out(out)
-        store = ChunkStore(out, plan)
-        found.update(store.open(resume))
+    store, found = _open_store(plan, out, resume)
     resumed = len(found)
     todo = [c for c in range(plan.chunk_count) if c not in found]
     done_points = sum(len(c["index"]) for c in found.values())
@@ -166,6 +157,20 @@ def run_atlas(
     timings = {"total": time.perf_counter() - start, "compute": computed["seconds"],
                "per_point": computed["seconds"] / points, "cpu_per_point": computed["cpu_seconds"] / points}
     return AtlasResult(plan, rows, run, timings)
+
+
+def _open_store(plan: AtlasPlan, out: Path | None, resume: bool
+                ) -> tuple[ChunkStore | None, dict[int, Mapping[str, Any]]]:
+    """The store of ``out`` (None without it) and the chunks it already holds (``resume``)."""
+    from ..errors import InputError
+
+    if resume and out is None:
+        raise InputError("--resume needs --out FILE: the finished chunks are kept beside FILE")
+    if out is None:
+        return None, {}
+    check_out(out)
+    store = ChunkStore(out, plan)
+    return store, dict(store.open(resume))
 
 
 @dataclass(frozen=True)
