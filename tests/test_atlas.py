@@ -271,3 +271,32 @@ def test_building_a_plan_loads_no_solver(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
                          timeout=60)
     assert out.returncode == 0 and out.stdout.split(None, 1) == ["286", "[]\n"], out.stdout + out.stderr
+
+
+def test_a_scene_given_as_content_sweeps_like_its_file_and_never_reads_a_path(tmp_path):
+    from frcontrol.scene import shipped_robots_dir
+    from frcontrol.scene_source import SceneSource
+
+    toml = (shipped_robots_dir() / "scenes" / "rod_on_table.toml").read_text(encoding="utf-8")
+    urdf = (shipped_robots_dir() / "rod.urdf").read_text(encoding="utf-8")
+    sets = {"state.v.x": -1.0}
+    by_file = run_atlas(build_atlas("rod_on_table", ROD_AXES, overrides=sets), workers=1)
+    mine = SceneSource.content(toml=toml.replace('robot = "rod.urdf"', 'robot = "mine.urdf"'),
+                               robots={"mine.urdf": urdf})
+    plan = build_atlas(mine, ROD_AXES, overrides=sets)
+    assert plan.scene == "scene" and plan.fingerprint != by_file.plan.fingerprint
+    assert run_atlas(plan, workers=1).rows == by_file.rows
+    other = SceneSource.content(toml=toml, robots={"mine.urdf": urdf.replace("rod", "bar")})
+    assert build_atlas(other, ROD_AXES, overrides=sets).fingerprint != plan.fingerprint  # URDF text counts
+    (tmp_path / "rod.urdf").write_text(urdf, encoding="utf-8")  # a real file at the path named
+    for robot in (str(tmp_path / "rod.urdf"), "../rod.urdf"):
+        named = SceneSource.content(toml=toml.replace('robot = "rod.urdf"', f'robot = "{robot}"'))
+        with pytest.raises(SceneError, match="is a path"):
+            build_atlas(named, ROD_AXES)
+    with pytest.raises(SceneError, match="is a path"):
+        build_atlas(SceneSource.shipped("rod_on_table"), ROD_AXES,
+                    overrides={"robot": str(tmp_path / "rod.urdf")})
+    with pytest.raises(SceneError, match="did you mean 'rod_on_table'"):
+        SceneSource.shipped("rod_on_tabel")
+    with pytest.raises(SceneError, match="no shipped scene"):
+        SceneSource.shipped(str(tmp_path / "rod.urdf"))
