@@ -405,7 +405,9 @@ def test_an_atlas_job_reports_progress_and_stops_when_cancelled(client):
 def test_an_atlas_chunk_past_the_time_limit_fails_its_job(strict_client):
     body = {"scene": "rod_on_table", "set": {"state.v.x": -1},
             "vary": ["state.q.theta=0.3:2.8:100", "contacts.tip.mu=0:2:100"], "chunk_size": 5000}
-    job = finished(strict_client, strict_client.post("/atlas", json=body).json())
+    job = strict_client.post("/atlas", json=body).json()
+    assert strict_client.post("/atlas", json=body).status_code == 429  # one job at a time here
+    job = finished(strict_client, job)
     assert job["state"] == "failed" and job["result"] is None, job
     [problem] = job["error"]["detail"]
     assert problem["loc"] == ["body", "chunk_size"] and problem["type"] == "ChunkTimeLimitExceeded"
