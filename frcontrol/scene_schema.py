@@ -56,6 +56,8 @@ _CONTACT_PARAMETERS: dict[str, Any] = {
     "damping_ratio": _number("zeta [-], used when damping is absent", exclusiveMinimum=0),
     "tangential_stiffness": _number("k_T [N/m]; absent: = stiffness", exclusiveMinimum=0),
     "tangential_damping": _number("b_T [N s/m]; absent: critical", exclusiveMinimum=0),
+    "restitution": _number("e [-], Newton's restitution of the rigid model's impact law", minimum=0,
+                           maximum=1, default=0),
 }
 
 SCENE_SCHEMA: dict[str, Any] = {

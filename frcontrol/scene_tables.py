@@ -18,6 +18,7 @@ A scene may choose its contact model and the compliant model's parameters::
     damping_ratio = 1.0          # zeta [-], > 0, used when damping is absent
     tangential_stiffness = 1e5   # k_T [N/m], > 0; absent: = stiffness
     tangential_damping = 120.0   # b_T [N s/m], > 0; absent: critical, like damping
+    restitution = 0.5            # e [-] in [0, 1]: the rigid model's impact law (default 0)
     armature = 1e-4              # [kg m^2 or kg], >= 0: rotor inertia added to massless coordinates
 
     [model.contacts.front_toe]   # per-contact overrides (the contact must exist in the scene)
@@ -65,7 +66,8 @@ DEFAULT_DAMPING_RATIO = 1.0
 
 _MODEL_KEYS = {"contact", "stiffness", "damping", "damping_ratio", "tangential_stiffness",
                "tangential_damping", "armature", "contacts"}
-_CONTACT_KEYS = {"stiffness", "damping", "damping_ratio", "tangential_stiffness", "tangential_damping"}
+_CONTACT_KEYS = {"stiffness", "damping", "damping_ratio", "tangential_stiffness", "tangential_damping",
+                 "restitution"}
 
 
 @dataclass(frozen=True)
@@ -78,6 +80,7 @@ class ContactParameters:
         damping_ratio: zeta [-], > 0, used when a damping is None.
         tangential_stiffness: k_T [N/m], > 0, or None for ``stiffness``.
         tangential_damping: b_T [N s/m], > 0, or None for ``2 zeta sqrt(k_T m_T)``.
+        restitution: e [-] in [0, 1], Newton's coefficient of the rigid model's impact law.
     """
 
     stiffness: float = DEFAULT_STIFFNESS
@@ -85,6 +88,7 @@ class ContactParameters:
     damping_ratio: float = DEFAULT_DAMPING_RATIO
     tangential_stiffness: float | None = None
     tangential_damping: float | None = None
+    restitution: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -131,13 +135,18 @@ def _parameters(path: str, table: Mapping[str, Any], where: str, base: ContactPa
     values: dict[str, Any] = {
         "stiffness": base.stiffness, "damping": base.damping, "damping_ratio": base.damping_ratio,
         "tangential_stiffness": base.tangential_stiffness,
-        "tangential_damping": base.tangential_damping,
+        "tangential_damping": base.tangential_damping, "restitution": base.restitution,
     }
     for key in ("stiffness", "tangential_stiffness", "damping_ratio", "tangential_damping"):
         if key in table:
             values[key] = _number(path, table[key], f"{where}.{key}", positive=True)
     if "damping" in table:
         values["damping"] = _number(path, table["damping"], f"{where}.damping", non_negative=True)
+    if "restitution" in table:
+        e = _number(path, table["restitution"], f"{where}.restitution", non_negative=True)
+        if e > 1.0:
+            raise SceneError(path, f"{where}.restitution", f"expected a value in [0, 1], got {e}")
+        values["restitution"] = e
     return ContactParameters(**values)
 
 
