@@ -197,6 +197,8 @@ class Trajectory:
                 "integrator", "rtol", "atol", "min_step", "max_step_taken", "mean_step", "rhs_evaluations",
                 "state_size", "contacts_modelled", "explicit_stability_limit")})
             summary["contact_parameters"] = info["contacts"]
+            summary["zones"] = info.get("zones_parameters", {})
+            summary["zone_landing_energy"] = info.get("zone_landing_energy", 0.0)
             summary["elastic_energy_final"] = float(info["elastic_energy"][-1])
         if not np.isfinite(summary.get("explicit_stability_limit", 0.0)):
             summary["explicit_stability_limit"] = None
@@ -204,6 +206,8 @@ class Trajectory:
         samples: dict[str, Any] = {"times": self.times, "q": self.q, "v": self.v, "inputs": self.inputs,
                                    "forces": self.contact_forces, "energy": energy,
                                    "max_penetration": penetration}
+        if info.get("zones"):  # the compliant model's contact zones: deformation [m], force [N]
+            samples["zones"] = info["zones"]
         if scene is not None:
             from .export import sample_modes
 
