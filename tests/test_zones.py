@@ -148,3 +148,23 @@ def test_the_peg_scene_carries_its_zones_to_the_json_and_the_out_file(tmp_path):
     bad = CliRunner().invoke(app, ["simulate", "peg_on_surface", "--set",
                                    "model.contacts.left_corner.zone=three"])
     assert bad.exit_code == 1 and "zone" in bad.output
+
+
+def test_a_one_stage_zone_lets_the_body_go(write_scene):
+    """Without gravity or damping the body leaves at its approach speed, and its mass, released,
+    rides along on its spring: the body is not held back (pi sqrt(m / k) in contact)."""
+    k = 1e4
+    zone = {"zone": "one_stage", "mass_robot": 1e-3, "stiffness_internal_robot": k}
+    scene = load_scene(write_scene(disk_scene(zone, y0=0.101, v0=-1.0, gravity=0.0)))
+    # the mass lands at the end of an integrator step: at most a step's travel late (max_step)
+    traj = simulate_compliant(scene, None, 0.04, 1e-3, contacts="all", max_step=5e-5)
+    impacts = [e.to_dict() for e in traj.events if e.kind == "impact"]
+    assert len(impacts) == 1
+    assert impacts[0]["duration"] == pytest.approx(math.pi * math.sqrt(MASS / k), rel=0.01)
+    assert impacts[0]["peak_force"] == pytest.approx(math.sqrt(k * MASS), rel=0.01)
+    assert traj.v[-1, 1] == pytest.approx(1.0, rel=0.01)
+    # released at rest from the surface, the mass swings at +-(v / sqrt(k / m')) k on its spring
+    swing = 1.0 / math.sqrt(k / 1e-3) * k
+    after = traj.times > impacts[0]["time"] + impacts[0]["duration"] + 0.002
+    assert np.max(np.abs(zone_series(traj, "force")[after])) < 1.5 * swing < 0.05 * math.sqrt(k * MASS)
+    assert traj.info["zone_landing_energy"] == pytest.approx(0.5 * 1e-3 * 1.0**2, rel=1e-6)

@@ -388,16 +388,17 @@ class _Dynamics:
         """The contact zones' forces at ``y`` (None without zones)."""
         return self._law(y)[5]
 
-    def land(self, y: np.ndarray) -> tuple[np.ndarray, float] | None:
-        """``y`` with the one-stage zone masses that went through their surface stopped on it.
+    def switch(self, y: np.ndarray) -> tuple[np.ndarray, float] | None:
+        """``y`` with the one-stage zone masses landed or released (:meth:`.zones.ContactZones.switch`).
 
-        Returns ``(y, energy)``, the kinetic energy [J] the stops took
-        (:meth:`.zones.ContactZones.land`), or None when no mass did.
+        Returns ``(y, energy)``, the kinetic energy [J] the landings took, or None when nothing
+        changed.
         """
         if self.zones is None:
             return None
-        start = 2 * self.scene.robot.nv + self.contacts.count
-        landed = self.zones.land(y[start:])
+        n, start = self.scene.robot.nv, 2 * self.scene.robot.nv + self.contacts.count
+        state = self.scene.robot.state(y[:n], y[n:2 * n], self.contacts.indices)
+        landed = self.zones.switch(y[start:], state.gaps, state.normal_velocities)
         if landed is None:
             return None
         return np.concatenate([y[:start], landed[0]]), landed[1]
@@ -745,8 +746,11 @@ class _CompliantRun:
 
     def record_events(self, t: float, y_now: np.ndarray, vn_before: np.ndarray) -> np.ndarray:
         """Compare each contact's status with the previous step's; return v_N now."""
-        st, lam_n, _, stat = self.dynamics.forces(y_now)
-        stat = _event_status(stat, st.gaps, self.scene.gap_tolerance)
+        st, lam_n, _, raw = self.dynamics.forces(y_now)
+        stat = _event_status(raw, st.gaps, self.scene.gap_tolerance)
+        if self.dynamics.zones is not None:  # a zone touches through its interface, not the point's gap
+            slots = list(self.dynamics.zones.slots)
+            stat[slots] = raw[slots]
         self.impact_phases.update(t, lam_n, st.normal_velocities, stat > 0)
         for j in np.nonzero(stat != self.contact_status)[0]:
             name, before, now = self.params.names[j], self.contact_status[j], stat[j]
@@ -846,8 +850,8 @@ class _CompliantRun:
             if len(self.steps_taken) >= self.max_steps:
                 self.fail("failed", t_now, f"more than {self.max_steps} steps")
                 break
-            landed = self.dynamics.land(solver.y)
-            if landed is not None and solver.status == "running":  # a one-stage mass hit its surface
+            landed = self.dynamics.switch(solver.y)
+            if landed is not None and solver.status == "running":  # a one-stage mass landed or left
                 self.landing_energy += landed[1]
                 solver = solver_cls(fun, t_now, landed[0], t_end, rtol=rtol, atol=atol, max_step=max_step)
         return solver.y.copy(), float(solver.t)

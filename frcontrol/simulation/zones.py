@@ -37,8 +37,10 @@ One stage: the mass touches the rigid surface at ``y_r = 0``. It is *pinned* whi
 ``y_r <= 0``, ``w_r <= 0`` and its load pushes it down (``F_r - m'_r g_n >= 0``): then
 ``dy_r/dt = dw_r/dt = 0`` and the surface carries ``R = F_r - m'_r g_n``; else it moves freely,
 ``m'_r dw_r/dt = -F_r + m'_r g_n``. When it lands the surface stops it at once (the seed's infinite
-impact force of the one-stage model): :meth:`ContactZones.land` sets ``y_r = 0`` and ``w_r = 0``,
-the integrator restarts from there, and the mass's kinetic energy is lost (reported). Pinned, the
+impact force of the one-stage model): between the integrator's steps :meth:`ContactZones.switch`
+sets ``y_r = 0`` and ``w_r = 0`` and pins it, or releases a pinned one whose load turned negative,
+and the integrator restarts from there (the right-hand side stays smooth within a step); the
+mass's kinetic energy is lost at landing (reported). Pinned, the
 robot sees ``F_r = k''_r delta + b''_r d delta/dt`` on its penetration ``delta = -s``: the
 Kelvin–Voigt law, so a robot of mass m resting on it sinks ``m g / k''_r`` and oscillates at
 ``sqrt(k''_r / m)``; in flight the mass rides on its spring.
@@ -46,7 +48,7 @@ Kelvin–Voigt law, so a robot of mass m resting on it sinks ``m g / k''_r`` and
 The normal force on the robot is ``F_r`` (it may pull, a little, while a mass swings back: the
 internal springs are fastened); the friction limit is ``mu max(0, F_r)`` while the zone's
 interface is closed (``F > 0``, or the one-stage mass pinned), else 0. The state adds 2 entries
-per one-stage zone and 4 per two-stage zone; samples carry each zone's deformation
+per one-stage zone (and its pinned flag) and 4 per two-stage zone; samples carry each zone's deformation
 ``c_r + max(0, x') + c_e`` [m] and force ``F_r`` [N].
 """
 
@@ -61,8 +63,9 @@ import numpy as np
 from ..errors import InputError
 from ..scene import Scene
 
-ZONE_STATE_SIZE = {"one_stage": 2, "two_stage": 4}
-"""State entries a zone adds: (y_r, w_r) for one stage, (y_r, w_r, y_e, w_e) for two."""
+ZONE_STATE_SIZE = {"one_stage": 3, "two_stage": 4}
+"""State entries a zone adds: (y_r, w_r, pinned) for one stage (``pinned``, 1 or 0, constant
+between the integrator's switches), (y_r, w_r, y_e, w_e) for two."""
 
 
 def _series(a: float, b: float) -> float:
@@ -126,13 +129,27 @@ class ContactZones:
         return len(self.names)
 
     def _split(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(y_r, w_r, y_e, w_e, two-stage mask) per zone from the zones' state."""
+        """(y_r, w_r, y_e, w_e, two-stage mask) per zone from the zones' state (one stage: y_e = w_e = 0)."""
         off = np.array(self.offsets, dtype=int)
         two = np.array([k == "two_stage" for k in self.kinds], dtype=bool)
         y_r, w_r = z[off], z[off + 1]
         y_e = np.where(two, z[np.minimum(off + 2, len(z) - 1)], 0.0)
         w_e = np.where(two, z[np.minimum(off + 3, len(z) - 1)], 0.0)
         return y_r, w_r, y_e, w_e, two
+
+    def _pinned(self, z: np.ndarray) -> np.ndarray:
+        """The one-stage masses' flag: pinned on the surface (two-stage zones: False)."""
+        off = np.array(self.offsets, dtype=int)
+        one = np.array([k == "one_stage" for k in self.kinds], dtype=bool)
+        return one & (z[np.minimum(off + 2, len(z) - 1)] > 0.5)
+
+    def _load(self, z: np.ndarray, gaps: np.ndarray, normal_velocities: np.ndarray) -> np.ndarray:
+        """[N] What pushes each robot-side mass into the surface: ``F_r - m'_r g_n``."""
+        slots = list(self.slots)
+        y_r, w_r, _, _, _ = self._split(z)
+        f_r = self.stiffness_internal_robot * (y_r - gaps[slots]) \
+            + self.damping_internal_robot * (w_r - normal_velocities[slots])
+        return f_r - self.mass_robot * self.gravity_normal
 
     def initial_state(self, gaps: np.ndarray, normal_velocities: np.ndarray) -> np.ndarray:
         """The zones undeformed: ``y_r = max(s, 0)``, ``w_r = v_N`` (0 on the surface), ``y_e = w_e = 0``.
@@ -145,6 +162,10 @@ class ContactZones:
         for slot, off in zip(self.slots, self.offsets, strict=True):
             z[off] = max(float(gaps[slot]), 0.0)
             z[off + 1] = float(normal_velocities[slot]) if gaps[slot] > 0 else 0.0
+        load = self._load(z, gaps, normal_velocities)
+        for j, (kind, off) in enumerate(zip(self.kinds, self.offsets, strict=True)):
+            if kind == "one_stage":
+                z[off + 2] = float(z[off] <= 0.0 and load[j] >= 0.0)
         return z
 
     def forces(self, z: np.ndarray, gaps: np.ndarray, normal_velocities: np.ndarray) -> ZoneForces:
@@ -165,7 +186,7 @@ class ContactZones:
         f_ext = np.where(two & (overlap > 0.0), np.maximum(
             0.0, self.stiffness_external * overlap + self.damping_external * overlap_rate), 0.0)
         load = f_r - self.mass_robot * self.gravity_normal  # what pushes the one-stage mass down
-        pinned = ~two & (y_r <= 0.0) & (w_r <= 0.0) & (load >= 0.0)
+        pinned = self._pinned(z)
         accel_r = np.where(two, f_ext - f_r, -f_r) / self.mass_robot + self.gravity_normal
         rates = np.zeros(self.size)
         off = np.array(self.offsets, dtype=int)
@@ -174,22 +195,37 @@ class ContactZones:
         for j in np.nonzero(two)[0]:
             rates[off[j] + 2] = w_e[j]
             rates[off[j] + 3] = (f_e[j] - f_ext[j]) / self.mass_environment[j]
+        # one stage: the pinned flag's rate is 0 (it changes only in switch)
         interface = np.where(two, f_ext, np.where(pinned, load, 0.0))
         deformation = c_r + np.maximum(overlap, 0.0) * two + np.where(two, -y_e, 0.0)
         return ZoneForces(f_r, interface, interface > 0.0, deformation, rates)
 
-    def land(self, z: np.ndarray) -> tuple[np.ndarray, float] | None:
-        """Stop the one-stage masses that went through the surface.
+    def switch(self, z: np.ndarray, gaps: np.ndarray, normal_velocities: np.ndarray
+               ) -> tuple[np.ndarray, float] | None:
+        """Land or release the one-stage masses, between the integrator's steps.
+
+        A free mass that went through its surface (``y_r < 0``, or ``y_r = 0`` moving down) is
+        stopped on it and pinned; a pinned one whose load ``F_r - m'_r g_n`` turned negative is
+        released.
+
+        Args:
+            z: the zones' state.
+            gaps: s [m] of the modelled contacts.
+            normal_velocities: v_N [m/s] of the modelled contacts.
 
         Returns:
-            ``(z, energy)`` with ``y_r = w_r = 0`` for each such mass and the kinetic energy [J]
-            their stop took, or None when no mass crossed the surface.
+            ``(z, energy)``, the kinetic energy [J] the landings took, or None when nothing changed.
         """
         out, lost = z.copy(), 0.0
-        for kind, off, mass in zip(self.kinds, self.offsets, self.mass_robot, strict=True):
-            if kind == "one_stage" and (z[off] < 0.0 or (z[off] == 0.0 and z[off + 1] < 0.0)):
+        load = self._load(z, gaps, normal_velocities)
+        for j, (kind, off, mass) in enumerate(zip(self.kinds, self.offsets, self.mass_robot, strict=True)):
+            if kind != "one_stage":
+                continue
+            if z[off + 2] > 0.5 and load[j] < 0.0:
+                out[off + 2] = 0.0
+            elif z[off + 2] <= 0.5 and (z[off] < 0.0 or (z[off] == 0.0 and z[off + 1] < 0.0)):
                 lost += 0.5 * float(mass) * float(min(z[off + 1], 0.0)) ** 2
-                out[off], out[off + 1] = 0.0, max(float(z[off + 1]), 0.0)
+                out[off], out[off + 1], out[off + 2] = 0.0, 0.0, 1.0
         return None if np.array_equal(out, z) else (out, lost)
 
     def elastic_energy(self, z: np.ndarray, gaps: np.ndarray) -> float:
