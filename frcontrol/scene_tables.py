@@ -88,6 +88,7 @@ ZONE_REQUIRED = {
 
 _CONTACT_KEYS = {"stiffness", "damping", "damping_ratio", "tangential_stiffness", "tangential_damping",
                  "restitution", "zone", *ZONE_PARAMETERS}
+_MODEL_KEYS |= _CONTACT_KEYS  # [model] gives every contact's defaults
 
 
 @dataclass(frozen=True)

@@ -167,3 +167,17 @@ def test_impacts_reach_the_json_and_the_out_file(tmp_path):
     column = header.index("impacts.left_end.impulse_normal")
     rows = [line.split(",") for line in out.read_text().splitlines()[1:]]
     assert sum(float(r[column]) for r in rows) == pytest.approx(impact["impulse_normal"], rel=1e-12)
+
+
+@pytest.mark.parametrize("name", ["box_on_ground", "table_on_ground", "peg_on_surface", "rhex_flip"])
+def test_no_impact_of_a_shipped_scene_gains_energy(name):
+    """Shipped scenes raised 2 cm and dropped, restitution 0.7 on every contact, rigid model:
+    several contacts strike at once, with friction (RHex: corners and massless legs' toes)."""
+    scene = load_scene(name, overrides={"model.contact": "rigid", "model.restitution": 0.7})
+    q0 = scene.q.copy()
+    q0[1] += 0.02
+    traj = simulate_rigid(scene, None, 0.15, DT, q0=q0)
+    impacts = traj.info["impacts"]
+    assert traj.completed and len(impacts) >= 2
+    for impact in impacts:
+        assert impact["kinetic_energy_after"] <= impact["kinetic_energy_before"] * (1 + 1e-12) + 1e-12
