@@ -5,6 +5,7 @@ Run from the repository root::
     python -m benchmarks.trade            # the full sweep (about 45 minutes here)
     python -m benchmarks.trade --quick    # fewer knobs (a few minutes)
     python -m benchmarks.trade --replot   # redraw the figures from the JSON
+    python -m benchmarks.trade --zones    # contact zones and the impact law (benchmarks/trade_zones.py)
 
 Writes ``benchmarks/results/trade.json``, one figure per scene ``benchmarks/results/trade_<scene>.png``
 (error against wall time, log-log, the Pareto front marked) and prints a short table.
@@ -742,7 +743,13 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=None, help="runs per re-timed point (median)")
     parser.add_argument("--scenes", nargs="*", default=None, help="a subset of the scenes")
     parser.add_argument("--replot", action="store_true", help="redraw the figures from trade.json only")
+    parser.add_argument("--zones", action="store_true", help="contact zones and the impact law only")
     args = parser.parse_args()
+    if args.zones:
+        from benchmarks import trade_zones
+
+        trade_zones.print_table(trade_zones.run(args.quick))
+        return
     if args.replot:
         for result in json.loads((RESULTS / "trade.json").read_text())["scenes"]:
             plot_scene(result["scene"], result["rigid"], result["force_sweep"], result["trajectory_sweep"],

@@ -56,6 +56,33 @@ _CONTACT_PARAMETERS: dict[str, Any] = {
     "damping_ratio": _number("zeta [-], used when damping is absent", exclusiveMinimum=0),
     "tangential_stiffness": _number("k_T [N/m]; absent: = stiffness", exclusiveMinimum=0),
     "tangential_damping": _number("b_T [N s/m]; absent: critical", exclusiveMinimum=0),
+    "restitution": _number("e [-], Newton's restitution of the rigid model's impact law", minimum=0,
+                           maximum=1, default=0),
+    "zone": {"enum": ["rigid", "compliant", "one_stage", "two_stage"],
+             "description": "the compliant model's contact zone (Vukobratovic-Potkonjak Fig. 6): compliant "
+                            "(Kelvin-Voigt, massless), one_stage (a robot-side mass on its internal "
+                            "spring-damper, rigid against the surface), two_stage (masses, internal and "
+                            "external spring-dampers on both sides); rigid: only the rigid model"},
+    "mass_robot": _number("m'_r [kg], the robot side's contact mass (one_stage, two_stage)",
+                          exclusiveMinimum=0),
+    "stiffness_internal_robot": _number("k''_r [N/m], the robot side's internal stiffness (one_stage, "
+                                        "two_stage)", exclusiveMinimum=0),
+    "damping_internal_robot": _number("b''_r [N s/m], the robot side's internal damping; absent: 0",
+                                      minimum=0),
+    "stiffness_external_robot": _number("k'_r [N/m], the robot side's external stiffness (two_stage)",
+                                        exclusiveMinimum=0),
+    "damping_external_robot": _number("b'_r [N s/m], the robot side's external damping; absent: 0",
+                                      minimum=0),
+    "mass_environment": _number("m'_e [kg], the environment side's contact mass (two_stage)",
+                                exclusiveMinimum=0),
+    "stiffness_internal_environment": _number("k''_e [N/m], the environment side's internal stiffness "
+                                              "(two_stage)", exclusiveMinimum=0),
+    "damping_internal_environment": _number("b''_e [N s/m], the environment side's internal damping; "
+                                            "absent: 0", minimum=0),
+    "stiffness_external_environment": _number("k'_e [N/m], the environment side's external stiffness "
+                                              "(two_stage)", exclusiveMinimum=0),
+    "damping_external_environment": _number("b'_e [N s/m], the environment side's external damping; "
+                                            "absent: 0", minimum=0),
 }
 
 SCENE_SCHEMA: dict[str, Any] = {

@@ -18,11 +18,15 @@ A scene may choose its contact model and the compliant model's parameters::
     damping_ratio = 1.0          # zeta [-], > 0, used when damping is absent
     tangential_stiffness = 1e5   # k_T [N/m], > 0; absent: = stiffness
     tangential_damping = 120.0   # b_T [N s/m], > 0; absent: critical, like damping
+    restitution = 0.5            # e [-] in [0, 1]: the rigid model's impact law (default 0)
     armature = 1e-4              # [kg m^2 or kg], >= 0: rotor inertia added to massless coordinates
 
     [model.contacts.front_toe]   # per-contact overrides (the contact must exist in the scene)
     stiffness = 2e5
     damping = 50.0
+    zone = "one_stage"           # the compliant model's contact zone (ZONES; simulation/zones.py)
+    mass_robot = 0.01            # m'_r [kg], > 0
+    stiffness_internal_robot = 2e5   # k''_r [N/m], > 0 (the zone's parameters: ZONE_PARAMETERS)
 
 :func:`read_model` parses and validates it and raises
 :class:`~frcontrol.errors.SceneError` (file, dotted field, reason) for a bad value.
@@ -65,7 +69,26 @@ DEFAULT_DAMPING_RATIO = 1.0
 
 _MODEL_KEYS = {"contact", "stiffness", "damping", "damping_ratio", "tangential_stiffness",
                "tangential_damping", "armature", "contacts"}
-_CONTACT_KEYS = {"stiffness", "damping", "damping_ratio", "tangential_stiffness", "tangential_damping"}
+ZONES = ("rigid", "compliant", "one_stage", "two_stage")
+"""The contact zones ``[model.contacts.NAME] zone`` may name (:mod:`frcontrol.simulation.zones`)."""
+
+ZONE_PARAMETERS = ("mass_robot", "stiffness_internal_robot", "damping_internal_robot",
+                   "stiffness_external_robot", "damping_external_robot", "mass_environment",
+                   "stiffness_internal_environment", "damping_internal_environment",
+                   "stiffness_external_environment", "damping_external_environment")
+"""A zone's masses [kg], stiffnesses [N/m] and dampers [N s/m] (the seed's m', k'', b'', k', b' on
+the robot side r and the environment side e); dampers default to 0."""
+
+ZONE_REQUIRED = {
+    "one_stage": ("mass_robot", "stiffness_internal_robot"),
+    "two_stage": ("mass_robot", "stiffness_internal_robot", "stiffness_external_robot", "mass_environment",
+                  "stiffness_internal_environment", "stiffness_external_environment"),
+}
+"""The parameters each zone needs."""
+
+_CONTACT_KEYS = {"stiffness", "damping", "damping_ratio", "tangential_stiffness", "tangential_damping",
+                 "restitution", "zone", *ZONE_PARAMETERS}
+_MODEL_KEYS |= _CONTACT_KEYS  # [model] gives every contact's defaults
 
 
 @dataclass(frozen=True)
@@ -78,6 +101,9 @@ class ContactParameters:
         damping_ratio: zeta [-], > 0, used when a damping is None.
         tangential_stiffness: k_T [N/m], > 0, or None for ``stiffness``.
         tangential_damping: b_T [N s/m], > 0, or None for ``2 zeta sqrt(k_T m_T)``.
+        restitution: e [-] in [0, 1], Newton's coefficient of the rigid model's impact law.
+        zone: the compliant model's contact zone (one of :data:`ZONES`), None: Kelvin–Voigt.
+        zone_parameters: the zone's masses, stiffnesses and dampers given (:data:`ZONE_PARAMETERS`).
     """
 
     stiffness: float = DEFAULT_STIFFNESS
@@ -85,6 +111,9 @@ class ContactParameters:
     damping_ratio: float = DEFAULT_DAMPING_RATIO
     tangential_stiffness: float | None = None
     tangential_damping: float | None = None
+    restitution: float = 0.0
+    zone: str | None = None
+    zone_parameters: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -131,14 +160,39 @@ def _parameters(path: str, table: Mapping[str, Any], where: str, base: ContactPa
     values: dict[str, Any] = {
         "stiffness": base.stiffness, "damping": base.damping, "damping_ratio": base.damping_ratio,
         "tangential_stiffness": base.tangential_stiffness,
-        "tangential_damping": base.tangential_damping,
+        "tangential_damping": base.tangential_damping, "restitution": base.restitution,
+        "zone": base.zone, "zone_parameters": dict(base.zone_parameters),
     }
     for key in ("stiffness", "tangential_stiffness", "damping_ratio", "tangential_damping"):
         if key in table:
             values[key] = _number(path, table[key], f"{where}.{key}", positive=True)
     if "damping" in table:
         values["damping"] = _number(path, table["damping"], f"{where}.damping", non_negative=True)
+    if "restitution" in table:
+        e = _number(path, table["restitution"], f"{where}.restitution", non_negative=True)
+        if e > 1.0:
+            raise SceneError(path, f"{where}.restitution", f"expected a value in [0, 1], got {e}")
+        values["restitution"] = e
+    _zone(path, table, where, values)
     return ContactParameters(**values)
+
+
+def _zone(path: str, table: Mapping[str, Any], where: str, values: dict[str, Any]) -> None:
+    """Read a table's ``zone`` and zone parameters into ``values``, and check what the zone needs."""
+    if "zone" in table:
+        if table["zone"] not in ZONES:
+            raise SceneError(path, f"{where}.zone",
+                             f"expected one of {', '.join(map(repr, ZONES))}, got {table['zone']!r}")
+        values["zone"] = table["zone"]
+    for key in ZONE_PARAMETERS:
+        if key in table:
+            values["zone_parameters"][key] = _number(path, table[key], f"{where}.{key}",
+                                                     positive=not key.startswith("damping"),
+                                                     non_negative=True)
+    missing = [key for key in ZONE_REQUIRED.get(values["zone"], ()) if key not in values["zone_parameters"]]
+    if missing and ("zone" in table or any(key in table for key in ZONE_PARAMETERS)):
+        raise SceneError(path, f"{where}.{missing[0]}",
+                         f"the {values['zone']} zone needs {', '.join(missing)} (see the scene schema)")
 
 
 def read_model(path: str, raw: Any, contact_names: Sequence[str]) -> ModelOptions:
@@ -354,6 +408,9 @@ def _corners(path: str, table: Mapping[str, Any], where: str) -> np.ndarray:
 __all__ = [
     "CONTACT_MODELS",
     "ContactParameters",
+    "ZONES",
+    "ZONE_PARAMETERS",
+    "ZONE_REQUIRED",
     "DEFAULT_ARMATURE",
     "DEFAULT_DAMPING_RATIO",
     "DEFAULT_STIFFNESS",

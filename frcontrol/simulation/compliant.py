@@ -28,6 +28,14 @@ Impacts are not inelastic here: a Kelvin–Voigt contact lets go while still com
 reaches 0 with ``k delta = -b d delta/dt``), so even critical damping returns some speed (a box
 dropped flat at 1.98 m/s leaves at 0.37 m/s with zeta = 1), unlike the rigid model's restitution 0.
 
+Contact zones: a contact whose ``[model.contacts.NAME] zone`` is ``"one_stage"`` or
+``"two_stage"`` takes its normal force from the lumped masses, springs and dampers of
+:mod:`.zones` (their coordinates join the state ``y = (q, v, s, z)``; the adaptive integrators
+only), with the same tangential slider, limited by the zone's normal force while its interface is
+closed. An impact (a contact closing faster than ``impact_velocity``) is an ``impact`` event whose
+values, filled at the end of its transition phase (:class:`.zones.ImpactPhases`), give its
+``peak_force`` [N], ``duration`` [s], ``impulse_normal`` [N s] and normal velocities.
+
 Dynamics (M with the armature of massless coordinates, see :mod:`.armature`)::
 
     M(q) dv/dt = S^T u - h(q, v) + J_N^T lam_N + J_T^T lam_T,     dq/dt = v
@@ -98,6 +106,7 @@ from .rigid import IMPACT_VELOCITY
 from .trajectory import ContactEvent, SimulationFailure, Trajectory
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
+from .zones import ContactZones, ImpactPhases, ZoneForces, contact_zones
 
 _SCIPY_SOLVERS = {"radau": "Radau", "bdf": "BDF", "lsoda": "LSODA", "rk45": "RK45", "dop853": "DOP853"}
 
@@ -173,6 +182,7 @@ def contact_forces(
     normal_velocities: np.ndarray,
     tangential_velocities: np.ndarray,
     stretch: np.ndarray,
+    zones: tuple[Sequence[int], ZoneForces] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The Kelvin–Voigt forces and the stretch rates (module docstring's equations).
 
@@ -182,6 +192,9 @@ def contact_forces(
         normal_velocities: v_N [m/s].
         tangential_velocities: v_T [m/s].
         stretch: s [m], the tangential springs' stretches.
+        zones: the contact zones' slots among the modelled contacts and their forces
+            (:mod:`.zones`): there the normal force is the zone's ``F_r`` and the friction limit
+            ``mu max(0, F_r)`` while the zone's interface is closed.
 
     Returns:
         ``(lam_N, lam_T, ds/dt, status)`` with status per contact 0 = open (no normal force),
@@ -191,13 +204,19 @@ def contact_forces(
     lam_n = np.where(delta > 0.0,
                      np.maximum(0.0, contacts.stiffness * delta - contacts.damping * normal_velocities), 0.0)
     limit = contacts.mu * lam_n
+    closed = lam_n > 0.0
+    if zones is not None:
+        slots, zone = list(zones[0]), zones[1]
+        lam_n[slots] = zone.robot_force
+        closed[slots] = zone.closed
+        limit[slots] = contacts.mu[slots] * np.maximum(zone.robot_force, 0.0) * zone.closed
     trial = contacts.tangential_stiffness * stretch + contacts.tangential_damping * tangential_velocities
     stick = np.abs(trial) <= limit
     sign = np.sign(trial)
     lam_t = np.where(stick, -trial, -limit * sign)
     rate = np.where(stick, tangential_velocities,
                     (limit * sign - contacts.tangential_stiffness * stretch) / contacts.tangential_damping)
-    status = np.where(lam_n > 0.0, np.where(stick, 1, 2), 0)
+    status = np.where(closed, np.where(stick, 1, 2), 0)
     return lam_n, lam_t, rate, status
 
 
@@ -333,29 +352,56 @@ class _Dynamics:
     contacts: CompliantContacts
     armature: Armature
     input_map: np.ndarray
+    zones: ContactZones | None = None
+
+    def _law(self, y: np.ndarray) -> tuple[RobotState, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                           ZoneForces | None]:
+        """``(state, lam_N, lam_T, ds/dt, status, zone forces)`` at ``y = (q, v, s, z)``."""
+        n, c = self.scene.robot.nv, self.contacts.count
+        state = self.scene.robot.state(y[:n], y[n:2 * n], self.contacts.indices)
+        zone = None if self.zones is None else self.zones.forces(
+            y[2 * n + c:], state.gaps, state.normal_velocities)
+        lam_n, lam_t, rate, status = contact_forces(
+            self.contacts, state.gaps, state.normal_velocities, state.tangential_velocities,
+            y[2 * n:2 * n + c], None if zone is None or self.zones is None else (self.zones.slots, zone))
+        return state, lam_n, lam_t, rate, status, zone
 
     def evaluate(self, y: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, tuple]:
         n = self.scene.robot.nv
-        q, v, s = y[:n], y[n:2 * n], y[2 * n:]
-        state = self.scene.robot.state(q, v, self.contacts.indices)
-        lam_n, lam_t, rate, status = contact_forces(
-            self.contacts, state.gaps, state.normal_velocities, state.tangential_velocities, s)
+        state, lam_n, lam_t, rate, status, zone = self._law(y)
         force = self.input_map @ u - state.bias + state.jacobian_normal.T @ lam_n \
             + state.jacobian_tangent.T @ lam_t
         factor = mass_factor(self.armature.apply(state.mass_matrix), self.armature)
         dv = scipy.linalg.cho_solve(factor, force, check_finite=False)
-        return np.concatenate([v, dv, rate]), (state, lam_n, lam_t, status)
+        parts = [y[n:2 * n], dv, rate] + ([] if zone is None else [zone.rates])
+        return np.concatenate(parts), (state, lam_n, lam_t, status)
 
     def forces(self, y: np.ndarray) -> tuple[RobotState, np.ndarray, np.ndarray, np.ndarray]:
         """The state's kinematics and the contact law at ``y``: ``(state, lam_N, lam_T, status)``.
 
         What :meth:`evaluate` computes besides the accelerations (no mass matrix solve).
         """
-        n = self.scene.robot.nv
-        state = self.scene.robot.state(y[:n], y[n:2 * n], self.contacts.indices)
-        lam_n, lam_t, _, status = contact_forces(
-            self.contacts, state.gaps, state.normal_velocities, state.tangential_velocities, y[2 * n:])
+        state, lam_n, lam_t, _, status, _ = self._law(y)
         return state, lam_n, lam_t, status
+
+    def zone_forces(self, y: np.ndarray) -> ZoneForces | None:
+        """The contact zones' forces at ``y`` (None without zones)."""
+        return self._law(y)[5]
+
+    def switch(self, y: np.ndarray) -> tuple[np.ndarray, float] | None:
+        """``y`` with the one-stage zone masses landed or released (:meth:`.zones.ContactZones.switch`).
+
+        Returns ``(y, energy)``, the kinetic energy [J] the landings took, or None when nothing
+        changed.
+        """
+        if self.zones is None:
+            return None
+        n, start = self.scene.robot.nv, 2 * self.scene.robot.nv + self.contacts.count
+        state = self.scene.robot.state(y[:n], y[n:2 * n], self.contacts.indices)
+        landed = self.zones.switch(y[start:], state.gaps, state.normal_velocities)
+        if landed is None:
+            return None
+        return np.concatenate([y[:start], landed[0]]), landed[1]
 
     def explicit_step(self, y: np.ndarray, u: np.ndarray, h: float) -> tuple[np.ndarray, RobotState]:
         """One semi-implicit (symplectic) Euler step: ``v += h a; q += h v; s += h ds/dt``."""
@@ -515,10 +561,11 @@ def simulate_compliant(
     overrides = ContactOverrides(stiffness, damping, damping_ratio, tangential_stiffness, tangential_damping)
     schedule, constant = input_schedule(scene, inputs)
     y0, arm, params = _initial_state(scene, q0, v0, armature, contacts, overrides, initial_stretch)
+    y0, zones = _with_zones(scene, params, y0, integrator)
     stability_limit = explicit_stability_limit(params)
     if integrator == "euler":
         _check_euler_step(dt, stability_limit)
-    dynamics = _Dynamics(scene, params, arm, scene.inputs.selection_transpose(scene.robot.nv))
+    dynamics = _Dynamics(scene, params, arm, scene.inputs.selection_transpose(scene.robot.nv), zones)
     run = _CompliantRun(scene, dynamics, params, duration, dt, max_steps, impact_velocity, y0)
     settings: dict[str, Any] = {"integrator": integrator, "rtol": rtol, "atol": atol,
                                 "max_step": dt if max_step is None else max_step}
@@ -526,6 +573,25 @@ def simulate_compliant(
     info = run.report(explicit_stability_limit=stability_limit, contacts_modelled=contacts, **settings)
     return _trajectory(scene, dynamics, params, arm, run.sample_times[:len(run.samples_y)], run.samples_y,
                        run.samples_u, run.events, run.status, run.failure, info)
+
+
+def _with_zones(scene: Scene, params: CompliantContacts, y0: np.ndarray, integrator: str
+                ) -> tuple[np.ndarray, ContactZones | None]:
+    """The initial state with the contact zones' (undeformed) appended, and the zones.
+
+    Raises:
+        InputError: a zone with a fixed-step integrator (``euler``, ``implicit``: their steps do
+            not carry the zones' masses), or a modelled contact with a ``rigid`` zone.
+    """
+    zones = contact_zones(scene, params.names)
+    if zones is None:
+        return y0, None
+    if integrator in ("euler", "implicit"):
+        raise InputError(f"contact zones ({', '.join(zones.names)}) need an adaptive integrator "
+                         f"('radau', 'bdf', 'lsoda', 'rk45', 'dop853'), not {integrator!r}")
+    n = scene.robot.nv
+    state = scene.robot.state(y0[:n], y0[n:2 * n], params.indices)
+    return np.concatenate([y0, zones.initial_state(state.gaps, state.normal_velocities)]), zones
 
 
 def _check_euler_step(dt: float, stability_limit: float) -> None:
@@ -622,6 +688,8 @@ class _CompliantRun:
         st0, _, _, status0 = dynamics.forces(y0)
         self.contact_status = _event_status(status0, st0.gaps, scene.gap_tolerance)
         self.last_vn = st0.normal_velocities.copy()
+        self.impact_phases = ImpactPhases()
+        self.landing_energy = 0.0
         self.start_wall = time.perf_counter()
 
     def integrate(self, schedule: InputSchedule, hold: float | None, *, integrator: str,
@@ -661,7 +729,11 @@ class _CompliantRun:
             "rhs_evaluations": self.rhs_evaluations,
             "explicit_stability_limit": settings["explicit_stability_limit"],
             "contacts": self.params.report(), "contacts_modelled": settings["contacts_modelled"],
-            "state_size": 2 * self.n + self.params.count, "armature": self.dynamics.armature.report(),
+            "state_size": 2 * self.n + self.params.count + (0 if self.dynamics.zones is None
+                                                            else self.dynamics.zones.size),
+            "zones_parameters": {} if self.dynamics.zones is None else self.dynamics.zones.report(),
+            "zone_landing_energy": self.landing_energy,
+            "armature": self.dynamics.armature.report(),
             "impact_velocity": self.impact_velocity, "wall_time": time.perf_counter() - self.start_wall,
         }
 
@@ -674,14 +746,21 @@ class _CompliantRun:
 
     def record_events(self, t: float, y_now: np.ndarray, vn_before: np.ndarray) -> np.ndarray:
         """Compare each contact's status with the previous step's; return v_N now."""
-        st, _, _, stat = self.dynamics.forces(y_now)
-        stat = _event_status(stat, st.gaps, self.scene.gap_tolerance)
+        st, lam_n, _, raw = self.dynamics.forces(y_now)
+        stat = _event_status(raw, st.gaps, self.scene.gap_tolerance)
+        if self.dynamics.zones is not None:  # a zone touches through its interface, not the point's gap
+            slots = list(self.dynamics.zones.slots)
+            stat[slots] = raw[slots]
+        self.impact_phases.update(t, lam_n, st.normal_velocities, stat > 0)
         for j in np.nonzero(stat != self.contact_status)[0]:
             name, before, now = self.params.names[j], self.contact_status[j], stat[j]
+            values: dict[str, Any] = {}
             if before == 0:
                 kind = "impact" if vn_before[j] < -self.impact_velocity else "close"
                 how = {1: "sticks", 2: "slides", 3: "no load"}[int(now)]
                 detail = f"v_N = {vn_before[j]:.4g} m/s; {how}"
+                if kind == "impact":
+                    values = self.impact_phases.start(int(j), t, vn_before[j], lam_n[j])
             elif now == 0:
                 kind, detail = "open", f"v_N = {st.normal_velocities[j]:.4g} m/s"
             elif now == 3 or before == 3:
@@ -689,7 +768,7 @@ class _CompliantRun:
             else:
                 kind = "stick" if now == 1 else "slip"
                 detail = f"v_T = {st.tangential_velocities[j]:.4g} m/s" if kind == "slip" else ""
-            self.events.append(ContactEvent(t, name, kind, detail))
+            self.events.append(ContactEvent(t, name, kind, detail, values))
         self.contact_status = stat.copy()
         return st.normal_velocities.copy()
 
@@ -771,12 +850,48 @@ class _CompliantRun:
             if len(self.steps_taken) >= self.max_steps:
                 self.fail("failed", t_now, f"more than {self.max_steps} steps")
                 break
+            landed = self.dynamics.switch(solver.y)
+            if landed is not None and solver.status == "running":  # a one-stage mass landed or left
+                self.landing_energy += landed[1]
+                solver = solver_cls(fun, t_now, landed[0], t_end, rtol=rtol, atol=atol, max_step=max_step)
         return solver.y.copy(), float(solver.t)
 
 
 def _event_status(status: np.ndarray, gaps: np.ndarray, gap_tolerance: float) -> np.ndarray:
     """Per contact: 0 open, 1 stick, 2 slip, 3 touching (|gap| <= tolerance) without load."""
     return np.where((status == 0) & (np.abs(gaps) <= gap_tolerance), 3, status)
+
+
+def _zone_sample(dynamics: _Dynamics, y: np.ndarray, gaps: np.ndarray, samples: dict[str, list]) -> None:
+    """Append one sample's zone deformations [m], forces [N] and energy [J] (nothing without zones).
+
+    The energy is the zones' springs', their masses' kinetic energy and the robot-side masses'
+    potential ``-m'_r g_n y_r``.
+    """
+    zones, forces = dynamics.zones, dynamics.zone_forces(y)
+    if zones is None or forces is None:
+        return
+    z = y[2 * dynamics.scene.robot.nv + dynamics.contacts.count:]
+    heights = z[np.array(zones.offsets, dtype=int)]
+    samples["deformation"].append(forces.deformation)
+    samples["force"].append(forces.robot_force)
+    samples["energy"].append(zones.elastic_energy(z, gaps) + zones.kinetic_energy(z)
+                             - float(np.sum(zones.mass_robot * zones.gravity_normal * heights)))
+
+
+def _zone_info(dynamics: _Dynamics, samples: dict[str, list]) -> dict[str, Any]:
+    """The zones' samples for ``info``.
+
+    ``info["zones"]``: per zone, ``deformation`` [m] and ``force`` [N] per sample;
+    ``info["zone_energy"]``: [J] per sample (0 without zones).
+    """
+    zones = dynamics.zones
+    if zones is None:
+        return {"zones": {}, "zone_energy": 0.0}
+    deformation, force = np.array(samples["deformation"]), np.array(samples["force"])
+    return {"zones": {name: {"deformation": deformation[:, j], "force": force[:, j]}
+                      for j, name in enumerate(zones.names)},
+            "zone_energy": np.array(samples["energy"])}
 
 
 def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, arm: Armature,
@@ -790,6 +905,10 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
     forces = np.zeros((len(ys), k_all, 2))
     points = np.zeros((len(ys), k_all, 2))
     kinetic, potential, elastic, penetration = [], [], [], []
+    kelvin_voigt = np.ones(params.count, dtype=bool)
+    if dynamics.zones is not None:
+        kelvin_voigt[list(dynamics.zones.slots)] = False
+    zone_samples: dict[str, list] = {"deformation": [], "force": [], "energy": []}
     for j, y in enumerate(ys):
         st, lam_n, lam_t, _ = dynamics.forces(y)
         idx = list(params.indices)
@@ -800,18 +919,20 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
         mass = arm.apply(full.mass_matrix)
         kinetic.append(0.5 * float(y[n:2 * n] @ mass @ y[n:2 * n]))
         potential.append(scene.robot.potential_energy(y[:n]))
-        delta = np.maximum(0.0, -st.gaps)
-        s = y[2 * n:]
+        delta = np.where(kelvin_voigt, np.maximum(0.0, -st.gaps), 0.0)
+        s = y[2 * n:2 * n + params.count]
         elastic.append(float(0.5 * np.sum(params.stiffness * delta**2)
                              + 0.5 * np.sum(params.tangential_stiffness * s**2)))
         penetration.append(max(0.0, -float(np.min(full.gaps, initial=np.inf))))
+        _zone_sample(dynamics, y, st.gaps, zone_samples)
+    info.update(_zone_info(dynamics, zone_samples))
     info.update({
         "energy": np.array(kinetic) + np.array(potential),
         "kinetic_energy": np.array(kinetic),
         "potential_energy": np.array(potential),
         "elastic_energy": np.array(elastic),
         "max_penetration": np.array(penetration),
-        "stretch": ys[:, 2 * n:],
+        "stretch": ys[:, 2 * n:2 * n + params.count],
         "modelled_contacts": list(params.names),
     })
     trajectory = Trajectory(
@@ -832,7 +953,11 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
         failure=None if failure is None else SimulationFailure(**failure),
     )
     softest = float(np.min(params.stiffness)) if params.count else None
-    return assess(scene, trajectory, energy=info["energy"] + info["elastic_energy"],
+    if dynamics.zones is not None:  # the zones' own softest spring, in series
+        softest = float(np.min(1.0 / (1.0 / dynamics.zones.stiffness_internal_robot + np.where(
+            dynamics.zones.stiffness_external > 0, 1.0 / np.maximum(dynamics.zones.stiffness_external, 1e-300)
+            + 1.0 / np.maximum(dynamics.zones.stiffness_internal_environment, 1e-300), 0.0))))
+    return assess(scene, trajectory, energy=info["energy"] + info["elastic_energy"] + info["zone_energy"],
                   penetration=info["max_penetration"], stiffness=softest, dt=float(info["dt"]))
 
 

@@ -14,7 +14,10 @@ and :data:`~frcontrol.simulation.rigid.SLIP_VELOCITY_TOLERANCE`.
 :func:`save_trajectory` writes ``times``, ``q``, ``v``, ``inputs``, ``forces`` (every contact's
 ``(lambda_n, lambda_t)``) and ``modes`` (one letter per contact and sample): in an ``.npz`` file as
 arrays of those names (with ``coordinates``, ``contacts`` and ``input_names``), in a ``.csv`` file
-as one row per sample with a header naming every column.
+as one row per sample with a header naming every column. A run's per-sample series with dotted
+names (:func:`sample_series`: the rigid model's impact impulses ``impacts.NAME.impulse_normal`` and
+``impacts.NAME.impulse_tangent`` [N s], the compliant model's contact zones ``zones.NAME.deformation``
+[m] and ``zones.NAME.force`` [N]) follow, under those names, as arrays and as columns.
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from . import TRAJECTORY_FORMATS
 from .rigid import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
 from .trajectory import Trajectory
 
-__all__ = ["TRAJECTORY_FORMATS", "sample_modes", "save_trajectory", "trajectory_arrays"]
+__all__ = ["TRAJECTORY_FORMATS", "sample_modes", "sample_series", "save_trajectory", "trajectory_arrays"]
 
 
 
@@ -54,11 +57,25 @@ def sample_modes(scene: Scene, trajectory: Trajectory, *, slip_tolerance: float 
     return tuple(out)
 
 
+def sample_series(trajectory: Trajectory) -> dict[str, np.ndarray]:
+    """The run's per-sample series by dotted name, one value per sample (module docstring)."""
+    info, out, count = trajectory.info, {}, len(trajectory.times)
+    if "impact_impulses" in info:
+        impulses = np.asarray(info["impact_impulses"], dtype=float)[:count]
+        for i, name in enumerate(trajectory.contacts):
+            out[f"impacts.{name}.impulse_normal"] = impulses[:, i, 0]
+            out[f"impacts.{name}.impulse_tangent"] = impulses[:, i, 1]
+    for name, zone in info.get("zones", {}).items():
+        for part in ("deformation", "force"):
+            out[f"zones.{name}.{part}"] = np.asarray(zone[part], dtype=float)[:count]
+    return out
+
+
 def trajectory_arrays(scene: Scene, trajectory: Trajectory) -> dict[str, np.ndarray]:
     """The arrays :func:`save_trajectory` writes, by name."""
     modes = sample_modes(scene, trajectory)
     k = len(trajectory.contacts)
-    return {
+    return {**sample_series(trajectory), **{
         "times": np.asarray(trajectory.times, dtype=float),
         "q": np.asarray(trajectory.q, dtype=float),
         "v": np.asarray(trajectory.v, dtype=float),
@@ -68,7 +85,7 @@ def trajectory_arrays(scene: Scene, trajectory: Trajectory) -> dict[str, np.ndar
         "coordinates": np.array(trajectory.coordinates, dtype=str),
         "contacts": np.array(trajectory.contacts, dtype=str),
         "input_names": np.array(trajectory.input_names, dtype=str),
-    }
+    }}
 
 
 def save_trajectory(scene: Scene, trajectory: Trajectory, path: str | Path) -> Path:
@@ -98,6 +115,8 @@ def _write_csv(path: Path, arrays: dict[str, np.ndarray]) -> None:
     header = (["time"] + [f"q_{c}" for c in coords] + [f"v_{c}" for c in coords]
               + [f"u_{u}" for u in inputs]
               + [f"{c}_{part}" for c in contacts for part in ("lambda_n", "lambda_t", "mode")])
+    series = [name for name in arrays if "." in name]
+    header += series
     with path.open("w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle)
         writer.writerow(header)
@@ -108,4 +127,5 @@ def _write_csv(path: Path, arrays: dict[str, np.ndarray]) -> None:
             for i in range(len(contacts)):
                 row += [repr(float(arrays["forces"][j, i, 0])), repr(float(arrays["forces"][j, i, 1])),
                         str(arrays["modes"][j, i])]
+            row += [repr(float(arrays[name][j])) for name in series]
             writer.writerow(row)

@@ -1,4 +1,4 @@
-r"""Rigid-body simulation: velocity-level time stepping with inelastic impacts (METHOD §7).
+r"""Rigid-body simulation: velocity-level time stepping with an impact law (METHOD §7).
 
 The scheme (Stewart and Trinkle 1996; Anitescu and Potra 1997), one step of length ``h`` from
 ``(q, v)`` at time ``t`` with input ``u``::
@@ -26,7 +26,8 @@ h)`` (Cholesky solves, never an inverse) gives an LCP in ``z = (p_N, p_T^+, p_T^
     [-W_TN  -W_TT   W_TT  I ]       [-J_T v_free          ]
     [ mu    -I     -I     0 ]       [ 0                   ]
 
-``W = J M^-1 J^T`` (the Delassus matrix), solved by Lemke's method (:func:`frcontrol.lcp.solve_lcp`).
+``W = J M^-1 J^T`` (the Delassus matrix), solved by Lemke's method (:func:`frcontrol.lcp.solve_lcp`,
+through :func:`.impact.solve_impulse_lcp`).
 *Why an LCP and not a QP*: Anitescu's convex (QP/CCP) relaxation replaces the normal
 complementarity by ``J_N v+ >= -mu |J_T v+|``, so sliding bodies drift off their surface by
 ``mu |v_T| h`` per step; the box on a slope then would not slide on the slope. The LCP keeps
@@ -36,12 +37,21 @@ ever end on a ray here, the step is retried with a tiny regularisation of ``W``,
 enumeration when small, else the simulation stops with ``status = "failed"`` and the
 trajectory up to there).
 
-Impacts are *inelastic* (restitution 0): a closing contact's normal velocity after the step is
-``-phi~/h >= ...`` i.e. ~0, with the complementarity above; the kinetic energy of the approach is
-lost. Energy: for constant ``M`` and a linear potential (one rigid body under gravity) a step
-changes the mechanical energy by ``-1/2 |v+ - v|_M^2 + p_T . J_T v+ - sum_i p_N,i phi~_i / h``:
-never positive except for the stabilisation term of penetrations, which is reported
-(``info["stabilization_work"]``).
+Impacts go through the impact law (:mod:`.impact`): a step that would land a contact approaching
+faster than ``impact_velocity`` (open at the step's start, taking an impulse in it) is split at the
+instant ``gap / -v_N`` the contact closes (at most :data:`MAX_LANDINGS_PER_STEP` times); there,
+and at a step's start where a touching contact (gap <= :data:`IMPACT_GAP_TOLERANCE`) approaches
+that fast, every touching contact takes the instantaneous impulses of :func:`.impact.impact_law`:
+the momentum balance, Coulomb's law on the impulses and Newton's restitution ``e`` of
+``[model.contacts.NAME] restitution`` (default 0, inelastic), an LCP solved by Lemke's method. The
+kinetic energy never grows through it. Each impact is an ``impact`` event with its numbers
+(``impulse_normal``, ``impulse_tangent`` [N s], ``normal_velocity_before``/``_after`` [m/s],
+``restitution``, ``kinetic_energy_before``/``_after`` [J]), listed in ``info["impacts"]``, and the
+impulses of each step in ``info["impact_impulses"]`` (T, k, 2). Between impacts the steps are
+inelastic at the velocity level as above. Energy: for constant ``M`` and a linear potential (one
+rigid body under gravity) a step changes the mechanical energy by ``-1/2 |v+ - v|_M^2 + p_T . J_T
+v+ - sum_i p_N,i phi~_i / h``: never positive except for the stabilisation term of penetrations,
+which is reported (``info["stabilization_work"]``).
 
 Massless links get a joint armature (see :mod:`frcontrol.simulation.armature`).
 
@@ -68,10 +78,10 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import FrcontrolError, InputError
-from ..lcp import ENUMERATION_MAX_SIZE, solve_lcp
 from ..modes import ContactProblem, contact_mode_letter
 from ..scene import Scene
 from .armature import DEFAULT_ARMATURE, Armature, mass_factor, massless_armature
+from .impact import ImpulseLCPFailure, impact_law, solve_impulse_lcp
 from .inputs import InputSchedule, check_simulation_times, input_schedule, step_lengths
 from .model_table import model_options
 from .trajectory import ContactEvent, SimulationFailure, Trajectory
@@ -109,91 +119,13 @@ MAX_AMBIGUITY_CHECKS = 20
 """Calls of :func:`~frcontrol.engine.solutions_at` per simulation, at most (each enumerates the
 modes; on RHex it takes about half a second)."""
 
-LCP_REGULARIZATION = 1e-10
-"""[-] When Lemke's method fails, the step is retried with ``W + eps I`` (W scaled to unit
-diagonal): this eps."""
+IMPACT_GAP_TOLERANCE = 1e-5
+"""[m] A contact within this of its surface is touching for the impact law: it takes the law when
+it approaches faster than ``impact_velocity``, and bounds the impulses of the others touching."""
 
-
-@dataclass(frozen=True)
-class _StepResult:
-    v_next: np.ndarray
-    impulse_n: np.ndarray  # per candidate
-    impulse_t: np.ndarray
-    lcp_size: int
-    residual: float
-    regularized: bool
-
-
-class _StepFailure(FrcontrolError):
-    """The step's LCP had no solution by any method (a result of the simulation, not raised out)."""
-
-
-def _solve_step(
-    factor: tuple[np.ndarray, bool],
-    v_free: np.ndarray,
-    jn: np.ndarray,
-    jt: np.ndarray,
-    gaps: np.ndarray,
-    mu: np.ndarray,
-    dt: float,
-    stabilization: float,
-    method: str,
-) -> _StepResult:
-    """Solve one step's LCP for the candidate contacts (rows jn, jt)."""
-    c = jn.shape[0]
-    jac = np.vstack([jn, jt])
-    X = scipy.linalg.cho_solve(factor, jac.T, check_finite=False)  # M^-1 J^T, (n, 2c)
-    W = jac @ X
-    scale = float(np.max(np.diag(W)))
-    m_ref = 1.0 / scale if scale > 0 else 1.0  # impulses in units of m_ref [kg] x [m/s]
-    Ws = W * m_ref
-    shifted = np.where(gaps >= 0.0, gaps, stabilization * gaps)
-    b_n = jn @ v_free + shifted / dt
-    b_t = jt @ v_free
-    if np.all(b_n >= 0.0):  # every candidate separates or just touches: z = 0, sigma = |b_t|
-        return _StepResult(v_free.copy(), np.zeros(c), np.zeros(c), 0, 0.0, False)
-    n_idx, p_idx, m_idx, s_idx = (np.arange(c) + j * c for j in range(4))
-    base = np.zeros((4 * c, 4 * c))
-    base[np.ix_(n_idx, n_idx)] = Ws[:c, :c]
-    base[np.ix_(n_idx, p_idx)] = Ws[:c, c:]
-    base[np.ix_(n_idx, m_idx)] = -Ws[:c, c:]
-    base[np.ix_(p_idx, n_idx)] = Ws[c:, :c]
-    base[np.ix_(p_idx, p_idx)] = Ws[c:, c:]
-    base[np.ix_(p_idx, m_idx)] = -Ws[c:, c:]
-    base[np.ix_(m_idx, n_idx)] = -Ws[c:, :c]
-    base[np.ix_(m_idx, p_idx)] = -Ws[c:, c:]
-    base[np.ix_(m_idx, m_idx)] = Ws[c:, c:]
-    base[p_idx, s_idx] = 1.0
-    base[m_idx, s_idx] = 1.0
-    base[s_idx, n_idx] = mu
-    base[s_idx, p_idx] = -1.0
-    base[s_idx, m_idx] = -1.0
-    diagonal = np.concatenate([n_idx, p_idx, m_idx])
-
-    def lcp_matrix(eps: float) -> np.ndarray:
-        if eps == 0.0:
-            return base
-        out = base.copy()
-        out[diagonal, diagonal] += eps
-        return out
-
-    q_lcp = np.concatenate([b_n, b_t, -b_t, np.zeros(c)])
-    attempts = [(method, 0.0)]
-    if method == "lemke":
-        attempts.append(("lemke", LCP_REGULARIZATION))
-    if 4 * c <= ENUMERATION_MAX_SIZE and method != "enumerate":
-        attempts.append(("enumerate", 0.0))
-    statuses = []
-    for how, eps in attempts:
-        result = solve_lcp(lcp_matrix(eps), q_lcp, method=how)
-        if result.found and result.z is not None:
-            z = result.z
-            p_n = m_ref * z[:c]
-            p_t = m_ref * (z[c:2 * c] - z[2 * c:3 * c])
-            v_next = v_free + X @ np.concatenate([p_n, p_t])
-            return _StepResult(v_next, p_n, p_t, 4 * c, float(result.residual), eps > 0 or how != method)
-        statuses.append(f"{how}{' (regularised)' if eps else ''}: {result.status}")
-    raise _StepFailure(f"the step's LCP ({4 * c} unknowns) has no solution: {'; '.join(statuses)}")
+MAX_LANDINGS_PER_STEP = 4
+"""A step is split at most this many times at the instants contacts land (then the rest of the
+step lands the next contact by its LCP, as a step without impact law)."""
 
 
 def _sliding_phrase(sliding: str | None, v_t: float) -> str:
@@ -222,6 +154,7 @@ def simulate_rigid(
     armature: float | None = None,
     lcp_method: str = "lemke",
     max_ambiguity_checks: int = MAX_AMBIGUITY_CHECKS,
+    impact_law: bool = True,
 ) -> Trajectory:
     """Simulate the scene with rigid contacts by velocity-level time stepping.
 
@@ -242,6 +175,8 @@ def simulate_rigid(
         lcp_method: ``"lemke"`` or ``"enumerate"``.
         max_ambiguity_checks: at most this many :func:`~frcontrol.engine.solutions_at` calls
             (0: none).
+        impact_law: apply the impact law at landings (module docstring); False: the steps'
+            LCPs absorb impacts, inelastically.
 
     Returns:
         The trajectory (``model = "rigid"``; its ``status``, ``"completed"``, ``"failed"`` or
@@ -260,7 +195,7 @@ def simulate_rigid(
     """
     duration, dt = check_simulation_times(duration, dt)
     settings = RigidSettings(activation_distance, stabilization, impact_velocity, slip_velocity_tolerance,
-                             lcp_method, max_ambiguity_checks)
+                             lcp_method, max_ambiguity_checks, impact_law)
     schedule, _ = input_schedule(scene, inputs)
     stepper = RigidStepper(scene, settings, q0=q0, v0=v0, armature=armature)
     for _, h in step_lengths(duration, dt):
@@ -273,6 +208,10 @@ def simulate_rigid(
 class RigidSettings:
     """The rigid stepper's settings (see :func:`simulate_rigid` for each), validated.
 
+    ``impact_law=False`` steps without the impact law: the step that lands a contact and the next
+    one absorb its impact through their LCPs (inelastic, no restitution, no split; the scheme the
+    flip planner's closed loop was verified with).
+
     Raises:
         InputError: stabilization outside [0, 1], a negative or non-finite distance or tolerance,
             an unknown LCP method or a negative number of ambiguity checks.
@@ -284,6 +223,7 @@ class RigidSettings:
     slip_velocity_tolerance: float = SLIP_VELOCITY_TOLERANCE
     lcp_method: str = "lemke"
     max_ambiguity_checks: int = MAX_AMBIGUITY_CHECKS
+    impact_law: bool = True
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.stabilization <= 1.0:
@@ -319,6 +259,8 @@ class RigidStepper:
         self.names = tuple(c.name for c in scene.contacts)
         self._all = list(range(len(self.names)))
         self._mu = np.array([c.mu for c in scene.contacts], dtype=float)
+        self._restitution = np.array([scene.model.parameters(c.name).restitution for c in scene.contacts],
+                                     dtype=float)
         self._input_map = scene.inputs.selection_transpose(robot.nv)
         self.state = robot.state(self.q, self.v, self._all)
         options = model_options(scene)
@@ -338,6 +280,9 @@ class RigidStepper:
         self._penetration = [max(0.0, -float(np.min(self.state.gaps, initial=np.inf)))]
         self._stab_work = [0.0]
         self.events: list[ContactEvent] = []
+        self.impacts: list[dict] = []
+        self._step_impacts = np.zeros((k, 2))
+        self._impact_impulses = [np.zeros((k, 2))]
         self.checks: list[dict] = []
         self.lcp_stats = {"solves": 0, "max_unknowns": 0, "regularised_or_fallback": 0, "max_residual": 0.0}
         slip = self.settings.slip_velocity_tolerance
@@ -359,23 +304,139 @@ class RigidStepper:
         mass = self.armature.apply(self.state.mass_matrix)
         self._kinetic.append(0.5 * float(self.v @ mass @ self.v))
         self._potential.append(self.scene.robot.potential_energy(self.q))
+        start = (self.q, self.v, self.state, len(self.events), len(self.impacts), self._closed.copy())
+        self._step_impacts = np.zeros((len(self.names), 2))
         try:
-            v_next, p_n, p_t, candidates = self._impulses(mass, u, h)
-        except _StepFailure as err:
+            v_next, p_n, p_t, candidates, rest = self._landed_step(u, h)
+        except ImpulseLCPFailure as err:
+            self._restore(start)
             self.status, self.failure = "failed", SimulationFailure(self.t, str(err))
             return False
         if not np.all(np.isfinite(v_next)):
+            self._restore(start)
             self.status = "diverged"
             self.failure = SimulationFailure(self.t, "the velocity became NaN or infinite", VALIDITY_HINT)
-            self._stab_work.pop()
             return False
         self._contact_bookkeeping(u, h, v_next, p_n, candidates)
-        self._advance(u, h, v_next, p_n, p_t)
+        self._advance(u, h, v_next, p_n, p_t, rest)
         return True
 
+    def _restore(self, start: tuple) -> None:
+        """Undo a step that failed: the state, events and impacts of its start; no sample."""
+        self.q, self.v, self.state, n_events, n_impacts, self._closed = start
+        del self.events[n_events:], self.impacts[n_impacts:]
+        self._kinetic.pop()
+        self._potential.pop()
+
+    def _landed_step(self, u: np.ndarray, h: float
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+        """One step, split at the instants contacts land, each landing followed by the impact law.
+
+        Returns ``(v+, p_N, p_T, candidates, rest)``: the impulses [N s] summed over the step
+        (impacts included), and the length [s] of its last part, which :meth:`_advance` moves.
+        """
+        k = len(self.names)
+        p_n, p_t, cand = np.zeros(k), np.zeros(k), np.zeros(k, dtype=bool)
+        rest, work, elapsed = h, 0.0, 0.0
+        splits = MAX_LANDINGS_PER_STEP if self.settings.impact_law else 0
+        for landing in range(splits + 1):
+            if splits:
+                self._impact_if_closing(self.t + h)
+            mass = self.armature.apply(self.state.mass_matrix)
+            v_next, pn, pt, cand_part, w = self._impulses(mass, u, rest)
+            split = self._landing_time(rest, pn, u) if landing < splits else None
+            if split is not None:
+                v_next, pn, pt, cand_part, w = self._impulses(mass, u, split)
+            p_n, p_t, cand, work = p_n + pn, p_t + pt, cand | cand_part, work + w
+            if split is None:
+                break
+            self._move(split, v_next)
+            rest, elapsed = rest - split, elapsed + split
+        self._stab_work.append(self._stab_work[-1] + work)
+        return v_next, p_n + self._step_impacts[:, 0], p_t + self._step_impacts[:, 1], cand, rest
+
+    def _landing_time(self, h: float, p_n: np.ndarray, u: np.ndarray) -> float | None:
+        """[s] When the first contact that this step lands at speed closes (None: none does in ``h``).
+
+        A contact lands when it is open at the step's start (gap above :data:`IMPACT_GAP_TOLERANCE`),
+        approaches faster than ``impact_velocity`` and takes an impulse. In free flight its gap
+        after a step of length ``s`` is ``phi + s v_N + s^2 a_N`` (``a_N = J_N M^-1 (S^T u - h)``,
+        as the step predicts it): the step is split at the root, where the contact closes with no
+        impulse, so that the impact law sees its whole approach speed.
+        """
+        st = self.state
+        landing = (p_n > 0.0) & (st.gaps > IMPACT_GAP_TOLERANCE) \
+            & (st.normal_velocities < -self.settings.impact_velocity)
+        if not np.any(landing):
+            return None
+        mass = self.armature.apply(st.mass_matrix)
+        accel = scipy.linalg.cho_solve(mass_factor(mass, self.armature), self._input_map @ u - st.bias,
+                                       check_finite=False)
+        gap, vn = st.gaps[landing], st.normal_velocities[landing]
+        a_n = st.jacobian_normal[landing] @ accel
+        disc = vn**2 - 4.0 * a_n * gap
+        reach = disc >= 0.0
+        if not np.any(reach):
+            return None
+        roots = 2.0 * gap[reach] / (-vn[reach] + np.sqrt(disc[reach]))  # the smaller root, stably
+        first = float(np.min(roots))
+        return first if first < h else None
+
+    def _move(self, length: float, v_next: np.ndarray) -> None:
+        """Move q by ``length`` [s] at ``v_next`` within a step (no sample, no time)."""
+        robot = self.scene.robot
+        self.q = robot.integrate(self.q, length * v_next)
+        self.v = v_next
+        self.state = robot.state(self.q, self.v, self._all)
+
+    def _impact_if_closing(self, t_event: float) -> None:
+        """Apply the impact law when a touching contact approaches faster than ``impact_velocity``.
+
+        Every touching contact (gap at most :data:`IMPACT_GAP_TOLERANCE`) takes part; each that
+        approached gets an ``impact`` event (time ``t_event``, the step's end) with its impulses
+        and normal velocities, and counts as closed from then on.
+        """
+        st, cfg = self.state, self.settings
+        touching = np.nonzero(st.gaps <= IMPACT_GAP_TOLERANCE)[0]
+        closing = st.normal_velocities[touching] < -cfg.impact_velocity
+        if not np.any(closing):
+            return
+        mass = self.armature.apply(st.mass_matrix)
+        law = impact_law(mass, mass_factor(mass, self.armature), self.v, st.jacobian_normal[touching],
+                         st.jacobian_tangent[touching], self._mu[touching], self._restitution[touching],
+                         cfg.lcp_method)
+        self._step_impacts[touching, 0] += law.impulse_normal
+        self._step_impacts[touching, 1] += law.impulse_tangent
+        for j in np.nonzero(closing)[0]:
+            i = int(touching[j])
+            record = {
+                "impulse_normal": float(law.impulse_normal[j]),
+                "impulse_tangent": float(law.impulse_tangent[j]),
+                "normal_velocity_before": float(law.normal_velocity_before[j]),
+                "normal_velocity_after": float(law.normal_velocity_after[j]),
+                "tangential_velocity_after": float(law.tangential_velocity_after[j]),
+                "restitution": float(law.restitution[j]),
+                "kinetic_energy_before": law.kinetic_energy_before,
+                "kinetic_energy_after": law.kinetic_energy_after,
+            }
+            detail = (f"v_N = {record['normal_velocity_before']:.4g} -> {record['normal_velocity_after']:.4g}"
+                      f" m/s, impulse ({record['impulse_normal']:.4g}, {record['impulse_tangent']:.4g}) N s"
+                      f", e = {record['restitution']:.3g}")
+            self.events.append(ContactEvent(t_event, self.names[i], "impact", detail, record))
+            self.impacts.append({"time": t_event, "contact": self.names[i], **record})
+            self._closed[i] = True
+            self._sliding[i] = "slip" if abs(law.tangential_velocity_after[j]) \
+                > cfg.slip_velocity_tolerance else "stick"
+        self.v = law.velocity
+        self.state = self.scene.robot.state(self.q, self.v, self._all)
+
     def _impulses(self, mass: np.ndarray, u: np.ndarray, h: float
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(v_next, normal and tangential impulses per contact, the candidates' mask) of a step."""
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+        """A step of length ``h`` from the current state, by its LCP.
+
+        Returns ``(v_next, p_N, p_T, candidates, work)``: impulses per contact, the candidates' mask
+        and the stabilization work [J].
+        """
         st, cfg = self.state, self.settings
         factor = mass_factor(mass, self.armature)
         accel = scipy.linalg.cho_solve(factor, self._input_map @ u - st.bias, check_finite=False)
@@ -387,20 +448,18 @@ class RigidStepper:
         in_cand = np.zeros(k, dtype=bool)
         in_cand[cand] = True
         if not cand.size:
-            self._stab_work.append(self._stab_work[-1])
-            return v_free, p_n, p_t, in_cand
-        res = _solve_step(factor, v_free, st.jacobian_normal[cand], st.jacobian_tangent[cand], gaps[cand],
-                          self._mu[cand], h, cfg.stabilization, cfg.lcp_method)
-        p_n[cand], p_t[cand] = res.impulse_n, res.impulse_t
+            return v_free, p_n, p_t, in_cand, 0.0
+        shifted = np.where(gaps[cand] >= 0, gaps[cand], cfg.stabilization * gaps[cand])
+        res = solve_impulse_lcp(factor, v_free, st.jacobian_normal[cand], st.jacobian_tangent[cand],
+                                shifted / h, self._mu[cand], cfg.lcp_method)
+        p_n[cand], p_t[cand] = res.impulse_normal, res.impulse_tangent
         stats = self.lcp_stats
         stats["solves"] += 1
         stats["max_unknowns"] = max(stats["max_unknowns"], res.lcp_size)
         stats["regularised_or_fallback"] += int(res.regularized)
         stats["max_residual"] = max(stats["max_residual"], res.residual)
-        shifted = np.where(gaps[cand] >= 0, gaps[cand], cfg.stabilization * gaps[cand])
-        work = float(np.sum(res.impulse_n * np.maximum(0.0, -shifted))) / h
-        self._stab_work.append(self._stab_work[-1] + work)
-        return res.v_next, p_n, p_t, in_cand
+        work = float(np.sum(res.impulse_normal * np.maximum(0.0, -shifted))) / h
+        return res.velocity, p_n, p_t, in_cand, work
 
     def _contact_bookkeeping(self, u: np.ndarray, h: float, v_next: np.ndarray, p_n: np.ndarray,
                              candidates: np.ndarray) -> None:
@@ -462,10 +521,11 @@ class RigidStepper:
             self.events.append(ContactEvent(self.t, ",".join(entry["contacts"]), "ambiguous",
                                             f"modes {entry['summary']}; the step took {taken}"))
 
-    def _advance(self, u: np.ndarray, h: float, v_next: np.ndarray, p_n: np.ndarray, p_t: np.ndarray) -> None:
-        """Move the state to the end of the step and record the sample."""
+    def _advance(self, u: np.ndarray, h: float, v_next: np.ndarray, p_n: np.ndarray, p_t: np.ndarray,
+                 rest: float | None = None) -> None:
+        """Move the state to the end of the step (its last ``rest`` [s], default all) and record it."""
         robot = self.scene.robot
-        self.q = robot.integrate(self.q, h * v_next)
+        self.q = robot.integrate(self.q, (h if rest is None else rest) * v_next)
         self.v = v_next
         self.t = self.t + h
         self.state = robot.state(self.q, self.v, self._all)
@@ -475,6 +535,7 @@ class RigidStepper:
         self._vs.append(self.v.copy())
         self._us.append(np.asarray(u, dtype=float).copy())
         self._forces.append(self.last_forces)
+        self._impact_impulses.append(self._step_impacts.copy())
         self._points.append(self.state.contact_points.copy())
         self._penetration.append(max(0.0, -float(np.min(self.state.gaps, initial=np.inf))))
 
@@ -493,7 +554,7 @@ class RigidStepper:
         energy = kinetic + potential
         info = {
             "scheme": "velocity-level time stepping (Stewart-Trinkle), exact 2-D Coulomb law, LCP by "
-                      f"{cfg.lcp_method}, inelastic impacts",
+                      f"{cfg.lcp_method}, impact law (Coulomb, Newton restitution) at landings",
             "dt": dt,
             "steps": len(self._times) - 1,
             "duration": float(self._times[-1]),
@@ -502,6 +563,9 @@ class RigidStepper:
             "potential_energy": potential,
             "max_penetration": np.array(self._penetration),
             "stabilization_work": np.array(self._stab_work),
+            "impacts": list(self.impacts),
+            "impact_impulses": np.array(self._impact_impulses),
+            "restitution": dict(zip(self.names, self._restitution.tolist(), strict=True)),
             "lcp": dict(self.lcp_stats),
             "armature": self.armature.report(),
             "ambiguity_checks": list(self.checks),
@@ -510,6 +574,7 @@ class RigidStepper:
                 "activation_distance": cfg.activation_distance,
                 "stabilization": cfg.stabilization,
                 "impact_velocity": cfg.impact_velocity,
+                "impact_gap": IMPACT_GAP_TOLERANCE,
                 "slip_velocity": cfg.slip_velocity_tolerance,
                 "contact_force": self.force_tolerance,
                 "ambiguity_velocity": AMBIGUITY_VELOCITY_TOLERANCE,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -19,17 +20,20 @@ class ContactEvent:
     """Something that happened at a contact.
 
     ``kind`` is ``"open"``, ``"close"``, ``"impact"``, ``"stick"``, ``"slip"`` or ``"ambiguous"``
-    (several rigid solutions existed at that instant).
+    (several rigid solutions existed at that instant). ``values`` holds an event's numbers by name
+    (an impact's ``impulse_normal`` [N s], ``normal_velocity_before`` [m/s]...).
     """
 
     time: float
     contact: str
     kind: str
     detail: str = ""
+    values: Mapping[str, Any] = field(default_factory=dict, hash=False)
 
     def to_dict(self) -> dict:
-        """The event as JSON: ``{"time", "contact", "kind", "detail"}``."""
-        return {"time": self.time, "contact": self.contact, "kind": self.kind, "detail": self.detail}
+        """The event as JSON: ``{"time", "contact", "kind", "detail"}`` and its ``values``."""
+        return {"time": self.time, "contact": self.contact, "kind": self.kind, "detail": self.detail,
+                **self.values}
 
 
 @dataclass(frozen=True)
@@ -186,11 +190,15 @@ class Trajectory:
             summary["tolerances"] = info["tolerances"]
             summary["ambiguity_checks"] = info["ambiguity_checks"]
             summary["stabilization_work"] = float(info["stabilization_work"][-1])
+            summary["impacts"] = info.get("impacts", [])
+            summary["restitution"] = info.get("restitution")
         elif self.model == "compliant" and "integrator" in info:
             summary.update({key: info[key] for key in (
                 "integrator", "rtol", "atol", "min_step", "max_step_taken", "mean_step", "rhs_evaluations",
                 "state_size", "contacts_modelled", "explicit_stability_limit")})
             summary["contact_parameters"] = info["contacts"]
+            summary["zones"] = info.get("zones_parameters", {})
+            summary["zone_landing_energy"] = info.get("zone_landing_energy", 0.0)
             summary["elastic_energy_final"] = float(info["elastic_energy"][-1])
         if not np.isfinite(summary.get("explicit_stability_limit", 0.0)):
             summary["explicit_stability_limit"] = None
@@ -198,6 +206,8 @@ class Trajectory:
         samples: dict[str, Any] = {"times": self.times, "q": self.q, "v": self.v, "inputs": self.inputs,
                                    "forces": self.contact_forces, "energy": energy,
                                    "max_penetration": penetration}
+        if info.get("zones"):  # the compliant model's contact zones: deformation [m], force [N]
+            samples["zones"] = info["zones"]
         if scene is not None:
             from .export import sample_modes
 
