@@ -283,7 +283,7 @@ def _visual_element(link: ET.Element, visual: UrdfVisual, to_new: np.ndarray, ur
         geometry_tag = ("mesh", {"filename": mesh.resolve().as_uri(), "scale": _numbers(visual.size)})
     element = ET.SubElement(link, "visual")
     _origin_element(element, to_new @ visual.origin)
-    ET.SubElement(ET.SubElement(element, "geometry"), geometry_tag[0], **geometry_tag[1])
+    ET.SubElement(ET.SubElement(element, "geometry"), geometry_tag[0], geometry_tag[1])
     if visual.rgba is not None:
         material = ET.SubElement(element, "material", name=f"{visual.link}_color")
         ET.SubElement(material, "color", rgba=_numbers(visual.rgba))
@@ -305,7 +305,7 @@ def _link_element(robot: ET.Element, document: UrdfDocument, name: str, turn: np
         entries = {key: repr(float(tensor[i, j])) for key, (i, j) in
                    (("ixx", (0, 0)), ("ixy", (0, 1)), ("ixz", (0, 2)), ("iyy", (1, 1)), ("iyz", (1, 2)),
                     ("izz", (2, 2)))}
-        ET.SubElement(element, "inertia", **entries)
+        ET.SubElement(element, "inertia", entries)
     for visual in document.visuals.get(name, ()):
         _visual_element(link, visual, to_new, document.path.parent)
 
