@@ -54,7 +54,7 @@ from ..simulation.closed_loop import run_closed_loop
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
-from . import DEFAULT_FLIP_MARGIN
+from . import DEFAULT_FLIP_MARGIN, DEFAULT_STANDUP_DURATION
 from .flip import (
     REPLAN_GAP_TOLERANCE,
     REPLAN_VELOCITY_TOLERANCE,
@@ -325,6 +325,7 @@ class StandUpResult:
             ground), or None.
         final_base: [m, m, rad] the base's (x, y, theta) at the end.
         peak_torques: [N m] the largest |torque| applied, per input.
+        peak_speeds: [rad/s or m/s] the largest |velocity| of each input's coordinate.
         replans: plans made after the first.
         held: re-planning points at which no plan was made and the torques were held, with why.
         plans: ``(time [s], mode or None, torques)`` of every plan applied.
@@ -342,6 +343,7 @@ class StandUpResult:
     lift_off: float | None
     final_base: np.ndarray | None
     peak_torques: Mapping[str, float]
+    peak_speeds: Mapping[str, float]
     replans: int
     held: tuple[tuple[float, str], ...]
     plans: tuple[tuple[float, str | None, Mapping[str, float]], ...]
@@ -374,7 +376,7 @@ class StandUpResult:
             "foot_travel": dict(self.foot_travel), "lift_off": self.lift_off,
             "final_base": None if self.final_base is None else dict(zip(_BASE, self.final_base.tolist(),
                                                                          strict=True)),
-            "peak_torques": dict(self.peak_torques), "replans": self.replans, "held": len(self.held),
+            "peak_torques": dict(self.peak_torques), "peak_speeds": dict(self.peak_speeds), "replans": self.replans, "held": len(self.held),
             "reason": self.reason, "dt": self.dt, "duration": self.duration, "timings": dict(self.timings),
         }
         if self.trajectory is not None:
@@ -388,9 +390,9 @@ class StandUpResult:
 def simulate_standup(
     scene: Scene,
     *,
-    duration: float = 1.5,
+    duration: float = DEFAULT_STANDUP_DURATION,
     dt: float = 2e-3,
-    replan_every: int = 5,
+    replan_every: int = 10,
     margin: float = DEFAULT_MARGIN,
     solver: str = DEFAULT_LP_SOLVER,
     progress: Callable[[float, float], None] | None = None,
@@ -418,7 +420,7 @@ def simulate_standup(
     if not first.found or duration <= 0:
         timings["total"] = time.perf_counter() - start
         why = first.reason if not first.found else "not simulated (duration 0)"
-        return StandUpResult(first, None, False, None, None, {}, None, None, {}, 0, (), (), why, dt,
+        return StandUpResult(first, None, False, None, None, {}, None, None, {}, {}, 0, (), (), why, dt,
                              float(duration), timings)
     policy = _Replanner(scene, task, first, margin, solver)
     stepper = RigidStepper(policy.scene, RigidSettings(max_ambiguity_checks=0))
@@ -467,10 +469,12 @@ def _judge(scene: Scene, task: StandUpTask, trajectory: Trajectory) -> dict[str,
                   f"the base ends at y = {base[-1, 1]:.4f} m, theta = {base[-1, 2]:.4f} rad (goal "
                   f"{task.stand_height:g} m within {STAND_TOLERANCE:g} m, {task.goal[2]:.4f} rad within "
                   f"{PITCH_TOLERANCE:g} rad)")
-    peak = np.max(np.abs(trajectory.inputs), axis=0) if len(trajectory.inputs) else np.zeros(0)
+    peak = np.max(np.abs(trajectory.inputs), axis=0)
+    speeds = np.max(np.abs(trajectory.v[:, list(scene.inputs.indices)]), axis=0)
     return {"stood": stood, "time_to_stand": time_to_stand, "feet_held": bool(held), "foot_travel": travel,
             "lift_off": lift_off, "final_base": base[-1].copy(), "reason": reason,
-            "peak_torques": dict(zip(trajectory.input_names, peak.tolist(), strict=True))}
+            "peak_torques": dict(zip(trajectory.input_names, peak.tolist(), strict=True)),
+            "peak_speeds": dict(zip(trajectory.input_names, speeds.tolist(), strict=True))}
 
 
 class _Replanner:
