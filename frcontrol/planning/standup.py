@@ -376,7 +376,8 @@ class StandUpResult:
             "foot_travel": dict(self.foot_travel), "lift_off": self.lift_off,
             "final_base": None if self.final_base is None else dict(zip(_BASE, self.final_base.tolist(),
                                                                          strict=True)),
-            "peak_torques": dict(self.peak_torques), "peak_speeds": dict(self.peak_speeds), "replans": self.replans, "held": len(self.held),
+            "peak_torques": dict(self.peak_torques), "peak_speeds": dict(self.peak_speeds),
+            "replans": self.replans, "held": len(self.held),
             "reason": self.reason, "dt": self.dt, "duration": self.duration, "timings": dict(self.timings),
         }
         if self.trajectory is not None:
