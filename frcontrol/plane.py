@@ -82,6 +82,9 @@ PLANE_NORMAL_TOLERANCE = 1e-9
 EXAMPLE_ROBOT_DATA_PREFIX = "example-robot-data:"
 """A scene's ``robot`` that starts with this names a robot of the example-robot-data package."""
 
+_GIMBAL_LOCK = 1e-12
+"""[-] cos(pitch) at or below which roll and yaw are not separable (yaw is then set to 0)."""
+
 _ERD_ROBOTS = "cmeel.prefix/share/example-robot-data/robots"
 _CACHE_FOLDER = "frcontrol-planar-urdf"
 
@@ -213,8 +216,9 @@ def reference_poses(document: UrdfDocument, locked: Mapping[str, float]) -> dict
 
 def rpy_from_matrix(rotation: np.ndarray) -> tuple[float, float, float]:
     """URDF's (roll, pitch, yaw) [rad] of a rotation, ``R = Rz(yaw) Ry(pitch) Rx(roll)``."""
-    pitch = math.asin(max(-1.0, min(1.0, -float(rotation[2, 0]))))
-    if abs(rotation[2, 0]) < 1.0 - 1e-12:
+    cos_pitch = math.hypot(float(rotation[0, 0]), float(rotation[1, 0]))
+    pitch = math.atan2(-float(rotation[2, 0]), cos_pitch)  # accurate near +-pi/2, unlike asin
+    if cos_pitch > _GIMBAL_LOCK:
         roll = math.atan2(float(rotation[2, 1]), float(rotation[2, 2]))
         yaw = math.atan2(float(rotation[1, 0]), float(rotation[0, 0]))
     else:  # gimbal lock: only roll - yaw (or roll + yaw) is defined; take yaw = 0
