@@ -178,3 +178,25 @@ def test_a_scene_loads_solo12_in_its_sagittal_plane(tmp_path):
                                'HR_HAA = 0.0}'))
     scene = load_scene(path)
     assert scene.coordinate_names[:3] == ("x", "y", "theta") and len(scene.coordinate_names) == 11
+
+
+def test_a_scene_document_names_an_example_robot_data_robot():
+    """The service's door (a document, no paths) accepts the package's robots by name."""
+    from frcontrol.scene import read_scene_document, resolve_scene_path, scene_from_document
+
+    document = read_scene_document(resolve_scene_path("solo_standup"))
+    scene = scene_from_document(document)
+    assert scene.robot.total_mass == pytest.approx(2.17784899, rel=1e-8)
+    with pytest.raises(SceneError, match="example-robot-data has no robot"):
+        scene_from_document({**document, "robot": "example-robot-data:../solo"})
+
+
+@pytest.mark.parametrize(("joints", "reason"), [
+    ('<joint name="free" type="floating"><parent link="a"/><child link="b"/></joint>', "is floating"),
+    ("", "expected one root link, found 2: a, b"),
+])
+def test_a_urdf_that_is_not_one_tree_without_a_base_is_refused(tmp_path, joints, reason):
+    path = tmp_path / "r.urdf"
+    path.write_text(f'<robot name="r"><link name="a"/><link name="b"/>{joints}</robot>')
+    with pytest.raises(RobotModelError, match=reason):
+        planar_urdf(path, "xz")
