@@ -389,7 +389,12 @@ def planar_urdf(source: str | Path, plane: str, locked: Mapping[str, float] | No
     except OSError as err:
         raise RobotModelError(str(source), f"cannot read URDF: {err}") from err
     items = tuple(sorted((str(k), float(v)) for k, v in (locked or {}).items()))
-    return _written(str(resolved), info.st_mtime_ns, info.st_size, plane, items)
+    key = (str(resolved), info.st_mtime_ns, info.st_size, plane, items)
+    target = _written(*key)
+    if not target.is_file():  # removed since this process wrote it (a cleaned temporary folder)
+        _written.cache_clear()
+        target = _written(*key)
+    return target
 
 
 @lru_cache(maxsize=32)

@@ -200,3 +200,13 @@ def test_a_urdf_that_is_not_one_tree_without_a_base_is_refused(tmp_path, joints,
     path.write_text(f'<robot name="r"><link name="a"/><link name="b"/>{joints}</robot>')
     with pytest.raises(RobotModelError, match=reason):
         planar_urdf(path, "xz")
+
+
+def test_a_removed_cache_file_is_written_again(tmp_path):
+    source = tmp_path / "private_solo.urdf"  # its own cache file: others may be reading Solo's
+    source.write_text(SOLO.read_text())
+    path = planar_urdf(source, "xz")
+    path.unlink()
+    again = planar_urdf(source, "xz")
+    assert again == path and again.is_file()
+    again.unlink()
