@@ -15,6 +15,7 @@ from . import (
     scene_cmds,
     serve_cmd,
     simulate_cmd,
+    standup_cmd,
     statics_cmd,
     view_cmd,
 )
@@ -58,6 +59,7 @@ app.command("view")(view_cmd.view_command)
 app.command("simulate")(simulate_cmd.simulate_command)
 app.command("flip")(flip_cmd.flip_command)
 app.command("climb")(climb_cmd.climb_command)
+app.command("standup")(standup_cmd.standup_command)
 app.command("atlas")(atlas_cmd.atlas_command)
 app.command("schema")(scene_cmds.schema_command)
 app.command("validate")(scene_cmds.validate_command)

@@ -32,6 +32,7 @@ from .errors import (
     reason_from_exception,
 )
 from .model import ContactPoint, PlanarRobot, RobotState
+from .plane import EXAMPLE_ROBOT_DATA_PREFIX, PLANES, example_robot_data_urdf, planar_urdf
 from .scene_schema import SchemaProblem, apply_override, nearest, reference_problems, schema_problems
 from .scene_tables import (
     DisturbanceTable,
@@ -245,6 +246,8 @@ class _Reader:
 
 
 def _resolve_robot(reader: _Reader, scene_path: Path, robot: str) -> Path:
+    if robot.startswith(EXAMPLE_ROBOT_DATA_PREFIX):
+        return _example_robot(reader, robot)
     candidate = (scene_path.parent / robot).resolve()
     if candidate.is_file():
         return candidate
@@ -255,6 +258,37 @@ def _resolve_robot(reader: _Reader, scene_path: Path, robot: str) -> Path:
         "robot", f"no URDF {robot!r} next to the scene nor among the shipped robots "
         f"({', '.join(sorted(p.name for p in shipped_robots_dir().glob('*.urdf')))})"
     )
+
+
+def _example_robot(reader: _Reader, robot: str) -> Path:
+    """The URDF of ``robot = "example-robot-data:NAME"`` (see :mod:`frcontrol.plane`)."""
+    try:
+        return example_robot_data_urdf(robot)
+    except RobotModelError as err:
+        raise reader.fail("robot", err.reason) from err
+
+
+def _mapped_robot(reader: _Reader, raw: Mapping[str, Any], robot_file: Path) -> Path:
+    """``robot_file``, or its planar URDF in the scene's ``plane`` (:func:`frcontrol.plane.planar_urdf`).
+
+    Raises:
+        SceneError: ``plane_locked`` without ``plane``, a 3-D robot of example-robot-data without
+            ``plane``, or a plane the robot does not move in (the joint is named).
+    """
+    plane = raw.get("plane")
+    if plane is None:
+        if "plane_locked" in raw:
+            raise reader.fail("plane_locked", "plane_locked welds joints of a 3-D robot before its plane "
+                              "mapping: give the plane too (plane = \"xz\")")
+        if str(raw.get("robot", "")).startswith(EXAMPLE_ROBOT_DATA_PREFIX):
+            raise reader.fail("plane", f"missing: {raw['robot']} is a 3-D robot; give the plane it moves "
+                              f"in, one of {', '.join(PLANES)} (plane = \"xz\": x forward, z up)")
+        return robot_file
+    try:
+        return planar_urdf(robot_file, str(plane), raw.get("plane_locked", {}))
+    except RobotModelError as err:
+        where = "plane_locked" if "cannot lock" in err.reason else "plane"
+        raise reader.fail(where, f"{robot_file.name}: {err.reason}") from err
 
 
 def read_scene_document(path: Path) -> dict[str, Any]:
@@ -376,6 +410,9 @@ def scene_from_document(
     robot, coordinates = _checked_document(reader, raw, overrides)
     files = dict(robot_files or {})
     shipped = sorted(p.name for p in shipped_robots_dir().glob("*.urdf"))
+    if robot.startswith(EXAMPLE_ROBOT_DATA_PREFIX):
+        return _scene_from_checked(reader, scene_path, raw, _example_robot(reader, robot), gap_tolerance,
+                                   coordinates)
     if robot != Path(robot).name or robot in ("", ".", ".."):
         raise reader.fail("robot", f"{robot!r} is a path: a scene loaded from a document names its robot "
                           f"by the file name of a shipped URDF ({', '.join(shipped)}) or of a URDF sent "
@@ -399,6 +436,7 @@ def _scene_from_checked(reader: _Reader, scene_path: Path, raw: dict[str, Any], 
     """
     name = reader.string(raw.get("name", scene_path.stem), "name")
     base, gravity, tol = _read_model_settings(reader, raw, gap_tolerance)
+    robot_file = _mapped_robot(reader, raw, robot_file)
     try:
         bare = PlanarRobot(robot_file, base=base, gravity=gravity)
     except RobotModelError as err:

@@ -99,7 +99,14 @@ SCENE_SCHEMA: dict[str, Any] = {
         "name": {"type": "string", "minLength": 1, "description": "a human-readable name"},
         "description": {"type": "string", "description": "free text"},
         "robot": {"type": "string", "minLength": 1,
-                  "description": "URDF file, relative to the scene, else a shipped robot's name"},
+                  "description": "URDF file, relative to the scene, else a shipped robot's name, "
+                                 "or example-robot-data:NAME (a 3-D robot: give plane)"},
+        "plane": {"enum": ["xz", "yz", "xy", "zx", "zy", "yx"],
+                  "description": "a 3-D robot's plane: the world axes that become the planar x and y "
+                                 "(y up); xz is the sagittal plane of a robot with x forward, z up"},
+        "plane_locked": {"type": "object", "additionalProperties": _number("[rad or m]"),
+                         "description": "3-D joints welded at a value [rad or m] before the plane "
+                                        "mapping (joints that do not move in the plane)"},
         "base": {"enum": ["planar", "fixed"], "default": "planar",
                  "description": "planar: floating x, y, theta; fixed: bolted to the world"},
         "gravity": _number("[m/s^2] along -y", minimum=0, default=9.81),
@@ -180,6 +187,9 @@ SCENE_SCHEMA: dict[str, Any] = {
                               "description": "climb: the link of the point that must rise"},
                 "head_point": {**_PAIR, "description": "climb: [m] that point, in the link's frame"},
                 "min_head_acceleration": _number("climb: [m/s^2] least upward acceleration of the head"),
+                "feet": {**_NAMES, "minItems": 1, "x-refers": "contact",
+                         "description": "standup: the contacts held in mode F (the feet)"},
+                "stand_height": _number("standup: [m] the height y of the base to stand at"),
             },
         },
         "disturbances": {

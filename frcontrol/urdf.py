@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
@@ -22,7 +22,7 @@ import numpy as np
 
 from .errors import RobotModelError
 
-__all__ = ["UrdfDocument", "UrdfJoint", "UrdfVisual", "read_urdf"]
+__all__ = ["UrdfDocument", "UrdfInertial", "UrdfJoint", "UrdfVisual", "read_urdf"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,6 +69,25 @@ class UrdfVisual:
 
 
 @dataclass(frozen=True, eq=False)
+class UrdfInertial:
+    """The ``<inertial>`` of a link.
+
+    Attributes:
+        link: the link's name.
+        mass: [kg].
+        origin: the inertial frame's pose in the link frame, 4x4 [m] (its origin is the centre of
+            mass).
+        inertia: the rotational inertia about the centre of mass, in the inertial frame, 3x3
+            [kg m^2].
+    """
+
+    link: str
+    mass: float
+    origin: np.ndarray
+    inertia: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
 class UrdfDocument:
     """What frcontrol reads from a URDF file.
 
@@ -78,6 +97,7 @@ class UrdfDocument:
         links: link names, in document order.
         joints: every joint, in document order.
         visuals: link name -> its visuals, in document order.
+        inertials: link name -> its inertial (links without one are absent).
     """
 
     path: Path
@@ -85,6 +105,7 @@ class UrdfDocument:
     links: tuple[str, ...]
     joints: tuple[UrdfJoint, ...]
     visuals: dict[str, tuple[UrdfVisual, ...]]
+    inertials: dict[str, UrdfInertial] = field(default_factory=dict)
 
     @property
     def movable_joints(self) -> tuple[UrdfJoint, ...]:
@@ -120,12 +141,14 @@ def _read(resolved: str, mtime_ns: int, size: int, shown: str) -> UrdfDocument:
         rgba = _color(material, shown)
         if material.get("name") and rgba is not None:
             materials[material.get("name")] = rgba
-    links, visuals = [], {}
+    links, visuals, inertials = [], {}, {}
     for link in root.findall("link"):
         name = link.get("name", "")
         links.append(name)
         visuals[name] = tuple(v for v in (_visual(name, element, materials, shown)
                                           for element in link.findall("visual")) if v is not None)
+        if (inertial := link.find("inertial")) is not None:
+            inertials[name] = _inertial(name, inertial, shown)
     joints = []
     for joint in root.findall("joint"):
         name = joint.get("name", "")
@@ -142,7 +165,23 @@ def _read(resolved: str, mtime_ns: int, size: int, shown: str) -> UrdfDocument:
             origin=_origin(joint.find("origin"), shown, f"joint {name!r}"),
             axis=axis / np.linalg.norm(axis),
         ))
-    return UrdfDocument(Path(resolved), root.get("name", ""), tuple(links), tuple(joints), visuals)
+    return UrdfDocument(Path(resolved), root.get("name", ""), tuple(links), tuple(joints), visuals,
+                        inertials)
+
+
+def _inertial(link: str, element: ET.Element, shown: str) -> UrdfInertial:
+    """An ``<inertial>``: mass (0 when absent), origin and inertia (zeros when absent)."""
+    where = f"link {link!r} inertial"
+    mass_element = element.find("mass")
+    text = "0" if mass_element is None else mass_element.get("value", "0")
+    mass = float(_numbers(text, 1, shown, f"{where}: bad mass {text!r}")[0])
+    inertia = np.zeros((3, 3))
+    if (tensor := element.find("inertia")) is not None:
+        keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+        text = " ".join(tensor.get(key, "0") for key in keys)
+        ixx, ixy, ixz, iyy, iyz, izz = _numbers(text, 6, shown, f"{where}: bad inertia {text!r}")
+        inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    return UrdfInertial(link, mass, _origin(element.find("origin"), shown, where), inertia)
 
 
 def _numbers(text: str, count: int, shown: str, message: str) -> np.ndarray:

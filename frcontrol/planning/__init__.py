@@ -1,4 +1,4 @@
-"""Planners on the mode-domain engine: the RHex flip and the snake climb.
+"""Planners on the mode-domain engine: the RHex flip, the snake climb and standing up.
 
 ``plan_flip`` and ``plan_climb`` are also exported at the top level (``frcontrol.plan_flip``).
 The planners' defaults live here, in a module that imports nothing, so that the command line can
@@ -16,4 +16,8 @@ DEFAULT_CLIMB_MARGIN = 0.05
 DEFAULT_CLIMB_DURATION = 0.1
 """[s] Default simulated time of the climb's check (:data:`frcontrol.planning.climb.DEFAULT_DURATION`)."""
 
-__all__ = ["DEFAULT_CLIMB_DURATION", "DEFAULT_CLIMB_MARGIN", "DEFAULT_FLIP_MARGIN"]
+DEFAULT_STANDUP_DURATION = 1.2
+"""[s] Default simulated time of the stand-up (:func:`frcontrol.planning.standup.simulate_standup`)."""
+
+__all__ = ["DEFAULT_CLIMB_DURATION", "DEFAULT_CLIMB_MARGIN", "DEFAULT_FLIP_MARGIN",
+           "DEFAULT_STANDUP_DURATION"]
