@@ -30,6 +30,12 @@ DurationOpt = Annotated[
                  help="Simulated time [s] of the check under sampled disturbances."),
 ]
 SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of the sampled disturbances.")]
+ScaleOpt = Annotated[
+    float | None,
+    typer.Option("--scale", min=0.0,
+                 help="With --cycles: the disturbance scale of the gait's simulation (default 0.1, at most "
+                      "the weakest phase's planned scale)."),
+]
 CyclesOpt = Annotated[
     int | None,
     typer.Option("--cycles", min=1,
@@ -52,6 +58,7 @@ def climb_command(
     duration: DurationOpt = DEFAULT_DURATION,
     seed: SeedOpt = 0,
     cycles: CyclesOpt = None,
+    scale: ScaleOpt = None,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
 ) -> None:
@@ -65,7 +72,7 @@ def climb_command(
     Examples:
       frc climb --plot climb.png
       frc climb --margin 0.2 --json
-      frc climb snake_climb --cycles 5 --html gait.html
+      frc climb snake_climb --cycles 1 --html gait.html
     """
     common.set_quiet(quiet)
     from frcontrol.answers import plan_and_climb
@@ -73,9 +80,13 @@ def climb_command(
     common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
     loaded = options.load_scene_with_overrides(scene, sets)
     if cycles is not None:
-        _gait(loaded, cycles, margin=margin, seed=seed, json=json, html=html, out=out, view=view, port=port,
-              plot=plot)
+        _gait(loaded, cycles, margin=margin, seed=seed, scale=scale, json=json, html=html, out=out, view=view,
+              port=port, plot=plot)
         return
+    if scale is not None:
+        from frcontrol.errors import InputError
+
+        raise InputError("--scale sets the gait's simulated disturbances: add --cycles N")
     with common.live_viewer(view, port) as server:
         with common.progress("planning the climb...") as status:
             plan, result = plan_and_climb(loaded, margin=margin, duration=duration, seed=seed,
@@ -99,8 +110,8 @@ def climb_command(
             common.show_live(server, loaded, trajectory, json=json)
 
 
-def _gait(loaded: Any, cycles: int, *, margin: float, seed: int, json: bool, html: Any, out: Any, view: bool,
-          port: Any, plot: Any) -> None:
+def _gait(loaded: Any, cycles: int, *, margin: float, seed: int, scale: float | None, json: bool, html: Any,
+          out: Any, view: bool, port: Any, plot: Any) -> None:
     """``--cycles``: plan the gait, simulate it, print and write its outputs."""
     from frcontrol.answers import plan_and_gait
     from frcontrol.errors import InputError
@@ -112,7 +123,7 @@ def _gait(loaded: Any, cycles: int, *, margin: float, seed: int, json: bool, htm
     with common.live_viewer(view, port) as server:
         with common.progress("planning the gait...") as status:
             plan, result = plan_and_gait(
-                loaded, cycles=cycles, margin=margin, seed=seed,
+                loaded, cycles=cycles, margin=margin, seed=seed, scale=scale,
                 on_simulation=lambda: status.update("simulating the gait..."),
                 progress=lambda done, total: status.update(f"simulating the gait: phase {done}/{total}"))
         common.answer(gait_payload(plan, result), render_gait, json=json)

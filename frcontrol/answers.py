@@ -152,7 +152,7 @@ def plan_and_climb(scene: Scene, *, margin: float, duration: float, seed: int,
     return plan, simulate_climb(scene, plan, duration=duration, seed=seed)
 
 
-def plan_and_gait(scene: Scene, *, cycles: int, margin: float, seed: int,
+def plan_and_gait(scene: Scene, *, cycles: int, margin: float, seed: int, scale: float | None = None,
                   on_simulation: Callable[[], None] | None = None,
                   progress: Callable[[int, int], None] | None = None) -> tuple[GaitPlan, GaitResult]:
     """``frc climb --cycles N``'s work: the gait's plan, then its rigid simulation.
@@ -162,6 +162,7 @@ def plan_and_gait(scene: Scene, *, cycles: int, margin: float, seed: int,
         cycles: number of cycles (>= 1).
         margin: [N m or N] the robustness radius in the lifted (u, d) space.
         seed: seed of the sampled disturbances.
+        scale: the disturbance scale of the simulation (None: the gait's default).
         on_simulation: called once when the simulation starts.
         progress: called with (phases done, phases) along the simulation.
     """
@@ -170,7 +171,7 @@ def plan_and_gait(scene: Scene, *, cycles: int, margin: float, seed: int,
     plan = plan_gait(scene, cycles, margin=margin)
     if on_simulation is not None:
         on_simulation()
-    return plan, simulate_gait(plan, seed=seed, progress=progress)
+    return plan, simulate_gait(plan, seed=seed, scale=scale, progress=progress)
 
 
 __all__ = [

@@ -123,6 +123,7 @@ __all__ = [
     "RELEASE_TIME",
     "ROBUSTNESS_PENALTY",
     "SHAPE_FIELDS",
+    "SIMULATION_SCALE",
     "STANDOFF",
     "STROKE",
     "TOUCH_GAP",
@@ -230,6 +231,16 @@ GUARD_GAP = 0.002
 
 GUARD_RATE = 20.0
 """[1/s] alpha of the guard: the gap's approach is critically damped at this rate."""
+
+SIMULATION_SCALE = 0.1
+"""[-] Default disturbance scale of the simulated gait (capped by the plan's scale). The phases'
+certificates hold at rest up to their largest scales (about 9 on the snake), but along the motion
+the open lower body of ``pull`` is pushed about by the brace disturbance (up to 40 N at j3, twice the
+snake's weight): at scale 0.3 the upper brace slides about a millimetre while the lower body is
+pulled up. 0.1 keeps every brace within the slip tolerance."""
+
+ROW_NORM_FLOOR = 1e-12
+"""[-] A domain row whose norm over ``(u, d)`` is at most this does not depend on them: dropped."""
 
 REFERENCE_STEP = 1e-4
 """[s] Step of the central differences that give the reference's velocity and acceleration."""
@@ -496,31 +507,20 @@ def tracking_step(scene: Scene, disturbances: DisturbanceSet, q: np.ndarray, v: 
     problem = replace(problem, mu=FRICTION_SAFETY * problem.mu)
     mode = "".join("F" if c.name in held else "S" for c in contacts)
     m_u, n = scene.inputs.count, scene.robot.nv
-    if contacts:
-        system = build_mode_system(problem, mode)
-        response = solve_affine(system.A, system.B, system.c, name=f"the system of mode {mode}")
-        X, x0 = response.X_u, response.x_0
-        H = system.G @ X
-        h = system.g - system.G @ x0
-    else:
-        X = np.linalg.solve(problem.mass_matrix, problem.input_map)
-        x0 = -np.linalg.solve(problem.mass_matrix, problem.bias)
-        H, h = np.zeros((0, problem.m)), np.zeros(0)
-    guard = _guard_rows(local, X[:n], x0[:n], [c.name for c in at.contacts if c.name in released
-                                                and c.name not in {k.name for k in contacts}])
-    H, h = np.vstack([H, guard[0]]), np.concatenate([h, guard[1]])
-    norms = np.sqrt(np.sum(H * H, axis=1))
-    keep = norms > 1e-12
-    H, h = H[keep] / norms[keep, None], h[keep] / norms[keep]
-    # variables (u, e, sigma)
+    X, x0, H, h = _mode_rows(problem, mode)
+    opened = [c.name for c in at.contacts if c.name in released and c.name not in {k.name for k in contacts}]
+    guard = _unit_rows(*_guard_rows(local, X[:n], x0[:n], opened))
+    H, h = _unit_rows(H, h)
+    # variables (u, e, sigma): the mode's rows at every vertex, the guard's at the zero disturbance
     nvar = m_u + n + 1
     rows, rhs = [], []
-    for point in points:
-        block = np.zeros((H.shape[0], nvar))
-        block[:, :m_u] = H[:, :m_u]
-        block[:, -1] = -1.0
-        rows.append(block)
-        rhs.append(h - H[:, m_u:] @ point - margin)
+    for (A, b), vertices in (((H, h), points), (guard, np.zeros((1, points.shape[1])))):
+        for point in vertices:
+            block = np.zeros((A.shape[0], nvar))
+            block[:, :m_u] = A[:, :m_u]
+            block[:, -1] = -1.0
+            rows.append(block)
+            rhs.append(b - A[:, m_u:] @ point - margin)
     Xq, a0 = X[:n, :m_u], x0[:n] - desired
     for sign in (1.0, -1.0):
         block = np.zeros((n, nvar))
@@ -538,6 +538,24 @@ def tracking_step(scene: Scene, disturbances: DisturbanceSet, q: np.ndarray, v: 
     u = result.x[:m_u]
     return TrackingStep(u, mode, tuple(c.name for c in contacts), float(result.x[-1]),
                         float(np.sum(result.x[m_u:m_u + n])))
+
+
+def _mode_rows(problem: Any, mode: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(X, x_0, H, h)``: the mode's response ``x = X z + x_0`` and its domain rows ``H z <= h``."""
+    if not mode:
+        X = np.linalg.solve(problem.mass_matrix, problem.input_map)
+        return X, -np.linalg.solve(problem.mass_matrix, problem.bias), np.zeros((0, problem.m)), np.zeros(0)
+    system = build_mode_system(problem, mode)
+    response = solve_affine(system.A, system.B, system.c, name=f"the system of mode {mode}")
+    X, x0 = response.X_u, response.x_0
+    return X, x0, system.G @ X, system.g - system.G @ x0
+
+
+def _unit_rows(H: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows ``H z <= h`` with unit norms (rows that do not depend on z dropped)."""
+    norms = np.sqrt(np.sum(H * H, axis=1))
+    keep = norms > ROW_NORM_FLOOR
+    return H[keep] / norms[keep, None], h[keep] / norms[keep]
 
 
 def _guard_rows(scene: Scene, X: np.ndarray, x0: np.ndarray, names: Sequence[str]
@@ -857,7 +875,8 @@ class PhaseRun:
         name: the phase; cycle: its cycle (1-based).
         start, end: [s] its times; start_index, end_index: its samples.
         max_deficit: [N m or N] the tracking LP's largest robustness deficit in the phase.
-        max_slip: [m] the largest tangential displacement of a held contact while held.
+        max_slip: [m] the largest slide of a held contact while held (``sum |v_T| dt``).
+        max_drift: [m] the largest displacement of a held contact along its wall while held.
         max_tracking_error: [m or rad] the largest |q_ref - q|.
         base_height: [m] the base's height (the tail's y) at the end.
         closed: the closing contacts that touch at the end.
@@ -871,6 +890,7 @@ class PhaseRun:
     end_index: int
     max_deficit: float
     max_slip: float
+    max_drift: float
     max_tracking_error: float
     base_height: float
     closed: tuple[str, ...]
@@ -879,7 +899,8 @@ class PhaseRun:
         """The phase's run as JSON."""
         return {"name": self.name, "cycle": self.cycle, "start": self.start, "end": self.end,
                 "start_index": self.start_index, "end_index": self.end_index, "max_deficit": self.max_deficit,
-                "max_slip": self.max_slip, "max_tracking_error": self.max_tracking_error,
+                "max_slip": self.max_slip, "max_drift": self.max_drift,
+                "max_tracking_error": self.max_tracking_error,
                 "base_height": self.base_height, "closed": list(self.closed)}
 
 
@@ -897,7 +918,8 @@ class GaitResult:
         phases: every phase's record.
         heights: [m] the base's height at the end of each cycle; rise: the last minus the start.
         brace_held: no held contact slid by more than ``slip_tolerance`` while held, and the run completed.
-        max_slip: [m] the largest such slide.
+        max_slip: [m] the largest such slide (``sum |v_T| dt`` while held).
+        max_drift: [m] the largest displacement of a held contact along its wall while held.
         max_deficit: [N m or N] the largest robustness deficit of the run.
         scale: the disturbance scale sampled; seed: the sampler's seed.
         disturbance_times: [s] start of each held sample; disturbance_samples: [N] (K, dim).
@@ -916,6 +938,7 @@ class GaitResult:
     rise: float
     brace_held: bool
     max_slip: float
+    max_drift: float
     max_deficit: float
     scale: float
     seed: int
@@ -960,7 +983,8 @@ class _Run:
         st = self.stepper
         start, start_index = st.t, len(self.torques)
         anchors: dict[str, np.ndarray] = {}
-        worst = {"deficit": 0.0, "slip": 0.0, "error": 0.0}
+        slid: dict[str, dict[str, float]] = {}
+        worst = {"deficit": 0.0, "slip": 0.0, "drift": 0.0, "error": 0.0}
         steps = max(1, int(round(reference.duration / self.dt)))
         for k in range(steps):
             q_ref, v_ref, a_ref = reference.state(k * self.dt)
@@ -978,27 +1002,35 @@ class _Run:
             self.phase_of_step.append(index)
             worst["deficit"] = max(worst["deficit"], step.deficit)
             worst["error"] = max(worst["error"], float(np.max(np.abs(q_ref - st.q))))
-            worst["slip"] = max(worst["slip"], self._slip(anchors, held + closing))
+            slip, drift = self._slip(slid, anchors, held + closing)
+            worst["slip"], worst["drift"] = max(worst["slip"], slip), max(worst["drift"], drift)
         touching = {c.name for c in self.scene.at(st.q).contacts if c.gap <= TOUCH_GAP}
         return PhaseRun(name, cycle, start, st.t, start_index, len(self.torques), worst["deficit"],
-                        worst["slip"], worst["error"], float(st.q[1]),
+                        worst["slip"], worst["drift"], worst["error"], float(st.q[1]),
                         tuple(c for c in closing if c in touching))
 
-    def _slip(self, anchors: dict[str, np.ndarray], held: Sequence[str]) -> float:
-        """The largest slide [m] of a held contact from where it was first held in the phase."""
+    def _slip(self, record: dict[str, dict[str, float]], anchors: dict[str, np.ndarray],
+              held: Sequence[str]) -> tuple[float, float]:
+        """``(slip, drift)`` [m] of the held contacts so far in the phase (the largest of each).
+
+        The slip of a contact sums ``|v_T| dt`` over the steps it touches while held (how far it
+        slid); its drift is its displacement along the wall from where it was first held (the slip
+        plus the time stepping's drift: ``q+ = q + h v+`` keeps ``v_T = 0`` to first order only).
+        """
         st = self.stepper
-        names = st.names
-        worst = 0.0
+        slip, drift = 0.0, 0.0
         for name in held:
-            i = names.index(name)
+            i = st.names.index(name)
             normal, tangent = self.wall[name]
-            gap = float(normal @ st.state.contact_points[i]) - float(normal @ self._surface(name))
-            if gap > TOUCH_GAP and name not in anchors:
+            point = st.state.contact_points[i]
+            if float(normal @ (point - self._surface(name))) > TOUCH_GAP and name not in anchors:
                 continue
-            point = st.state.contact_points[i].copy()
-            anchor = anchors.setdefault(name, point)
-            worst = max(worst, abs(float(tangent @ (point - anchor))))
-        return worst
+            anchor = anchors.setdefault(name, point.copy())
+            slid = record.setdefault(name, {"slip": 0.0})
+            slid["slip"] += abs(float(st.state.tangential_velocities[i])) * self.dt
+            slip = max(slip, slid["slip"])
+            drift = max(drift, abs(float(tangent @ (point - anchor))))
+        return slip, drift
 
     def _surface(self, name: str) -> np.ndarray:
         return next(c.point.surface_point_in_world for c in self.scene.contacts if c.name == name)
@@ -1019,7 +1051,7 @@ def simulate_gait(
         plan: the planned gait.
         dt: [s] the time step (the tracking LP is solved every step).
         seed: the disturbance sampler's seed.
-        scale: the disturbance scale (default: the plan's).
+        scale: the disturbance scale (default: :data:`SIMULATION_SCALE`, at most the plan's).
         slip_tolerance: [m] see :data:`~frcontrol.planning.climb.BRACE_SLIP_TOLERANCE`.
         progress: called with (phases done, phases) after each phase.
 
@@ -1028,7 +1060,7 @@ def simulate_gait(
     """
     if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0 < dt <= 0.01):
         raise InputError(f"dt must be a number in (0, 0.01] [s], got {dt!r}")
-    s = plan.scale if scale is None else scale
+    s = min(plan.scale, SIMULATION_SCALE) if scale is None else scale
     if not (isinstance(s, (int, float)) and math.isfinite(s) and s >= 0):
         raise InputError(f"scale must be a finite number >= 0, got {scale!r}")
     if not (isinstance(slip_tolerance, (int, float)) and slip_tolerance > 0):
@@ -1058,6 +1090,7 @@ def simulate_gait(
         phase_of_step=np.array(run.phase_of_step, dtype=int), deficits=np.array(run.deficits),
         phases=tuple(records), heights=heights, rise=float(trajectory.q[-1, 1] - trajectory.q[0, 1]),
         brace_held=bool(complete and max_slip <= slip_tolerance), max_slip=max_slip,
+        max_drift=max((r.max_drift for r in records), default=0.0),
         max_deficit=max((r.max_deficit for r in records), default=0.0), scale=float(s), seed=seed,
         disturbance_times=DEFAULT_HOLD * np.arange(len(run.samples)),
         disturbance_samples=np.array(run.samples).reshape(-1, plan.disturbances.dim),
@@ -1121,7 +1154,7 @@ def _result_payload(plan: GaitPlan, result: GaitResult) -> dict[str, Any]:
         "phase_runs": [r.to_dict() for r in result.phases],
         "simulation": {
             "samples": samples, "rise": result.rise, "brace_held": result.brace_held,
-            "max_slip": result.max_slip,
+            "max_slip": result.max_slip, "max_drift": result.max_drift,
             "max_deficit": result.max_deficit, "scale": result.scale, "seed": result.seed, "dt": result.dt,
             "status": trajectory.status, "slip_tolerance": result.slip_tolerance,
             "phases_completed": len(result.phases),
