@@ -108,30 +108,34 @@ def test_cli_bad_cycles_and_plot() -> None:
 
 
 # ----------------------------------------------------------------------------- one run, checked
-def _held_slip(payload: dict, scene: frcontrol.Scene) -> float:
-    """The largest slide [m] along its wall of a contact while the controller held it (F).
+def _held_slip(payload: dict, scene: frcontrol.Scene) -> tuple[float, float]:
+    """``(slip, drift)`` [m]: the largest slide of a contact while the controller held it (F).
 
-    From the samples' configurations, through the model's kinematics.
+    From the samples alone, through the model's point Jacobians: the slip sums ``|t . J(q_k)
+    v_k+1| h`` over the held steps of a phase (the sliding velocity each step gave the contact),
+    the drift is the contact point's largest displacement along its wall within the phase.
     """
-    sim = payload["simulation"]
-    samples = sim["samples"]
-    q = np.array(samples["q"])
+    samples = payload["simulation"]["samples"]
+    q, v, times = np.array(samples["q"]), np.array(samples["v"]), np.array(samples["times"])
     names = [c.name for c in scene.contacts]
-    points = {c.name: (c.point.link, c.point.point_in_link) for c in scene.contacts}
-    kin = _PointKinematics(scene, [(n, *points[n]) for n in names])
-    positions = np.array([kin.positions(x) for x in q])  # (T, k, 2)
-    worst = 0.0
-    phases = np.array(samples["phase"])
-    for index in np.unique(phases):
-        steps = np.nonzero(phases == index)[0]
-        for name in names:
-            held = [s for s in steps
-                    if name in samples["mode_contacts"][s]
-                    and samples["controller_mode"][s][samples["mode_contacts"][s].index(name)] == "F"]
-            if held:
-                y = positions[[s + 1 for s in held], names.index(name), 1]
-                worst = max(worst, float(np.max(np.abs(y - y[0]))))
-    return worst
+    tangents = {c.name: c.point.tangent_in_world for c in scene.contacts}
+    kin = _PointKinematics(scene, [(c.name, c.point.link, c.point.point_in_link) for c in scene.contacts])
+    slides: dict[tuple[int, str], float] = {}
+    drift = 0.0
+    first: dict[tuple[int, str], np.ndarray] = {}
+    steps = zip(samples["controller_mode"], samples["mode_contacts"], strict=True)
+    for k, (mode, contacts) in enumerate(steps):
+        phase = samples["phase"][k]
+        jac, _, positions = kin.evaluate(q[k], np.zeros(scene.robot.nv))
+        for letter, name in zip(mode, contacts, strict=True):
+            if letter != "F":
+                continue
+            i = names.index(name)
+            sliding = tangents[name] @ (jac[2 * i:2 * i + 2] @ v[k + 1])
+            slides[(phase, name)] = slides.get((phase, name), 0.0) + abs(sliding) * (times[k + 1] - times[k])
+            anchor = first.setdefault((phase, name), positions[i])
+            drift = max(drift, abs(float(tangents[name] @ (positions[i] - anchor))))
+    return max(slides.values()), drift
 
 
 def test_gait_climbs_and_holds(gait_run: tuple[dict, Path], scene: frcontrol.Scene) -> None:
@@ -149,8 +153,10 @@ def test_gait_climbs_and_holds(gait_run: tuple[dict, Path], scene: frcontrol.Sce
     assert np.allclose(q[ends, 1] - q[0, 1], payload["heights"])
     assert np.all(np.diff(np.concatenate([[0.0], payload["heights"]])) > 0.5 * (STROKE[1] - STROKE[0]))
     # no brace slipped while held, recomputed from q through the model
-    assert _held_slip(payload, scene) <= BRACE_SLIP_TOLERANCE
-    assert sim["brace_held"]
+    slip, drift = _held_slip(payload, scene)
+    assert slip == pytest.approx(sim["max_slip"], rel=0.05, abs=1e-7)
+    assert slip <= BRACE_SLIP_TOLERANCE and sim["brace_held"]
+    assert drift <= sim["max_drift"] * 1.05 + 1e-7
     # the torques are within the limits
     torques = np.array(samples["torques"])
     limits = payload["limits"]

@@ -45,10 +45,14 @@ disturbances as inputs) and the domain rows ``H z <= h`` (normalised). The torqu
                u within the torque limits, 0 <= sigma
 
 with ``ddq_ref = a_ref + K_p (q_ref - q) + K_d (v_ref - v)`` (:data:`TRACKING_STIFFNESS`,
-:data:`TRACKING_DAMPING`). ``sigma`` is 0 whenever the mode can be held robustly at scale ``s``
+:data:`TRACKING_DAMPING`). The mode's rows use friction cones of ``FRICTION_SAFETY mu``
+(:data:`FRICTION_SAFETY`). ``sigma`` is 0 whenever the mode can be held robustly at scale ``s``
 with the margin: then, by convexity, every disturbance of ``s P`` keeps the held contacts loaded
-inside their friction cones (and the releasing ones opening). The largest ``sigma`` of a run is
-reported (``robustness_deficit``).
+inside their (reduced) friction cones and the opening ones opening. The largest ``sigma`` of a run
+is reported (``max_deficit``). Contacts that have opened and are within :data:`GUARD_DISTANCE` of
+their wall are *guarded* at the zero disturbance: their approach is limited so that they do not
+strike the wall (:func:`_guard_rows`; held at every vertex, the guard left the motion no room).
+A contact that carried force in the last step is in the mode whatever its gap.
 
 Certificates (planning, before the run)
 ---------------------------------------
@@ -67,10 +71,13 @@ Certificates (planning, before the run)
   slide (L or R) is a *slip mode*; the check passes when none holds.
 
 The simulation (:func:`simulate_gait`) runs the rigid time stepper with the tracking LP's torques
-plus disturbances ``J_d(q)^T d(t)``, ``d`` sampled in ``conv(V_s)`` and held for
-:data:`~frcontrol.planning.climb.DEFAULT_HOLD`. A brace *slips* when a contact that the phase
-holds moves along its wall by more than
-:data:`~frcontrol.planning.climb.BRACE_SLIP_TOLERANCE` while held.
+plus disturbances ``J_d(q)^T d(t)``, ``d`` sampled in ``conv(V_s)`` (``s``: :data:`SIMULATION_SCALE`
+unless given) and held for :data:`~frcontrol.planning.climb.DEFAULT_HOLD`. The reference of each
+phase starts from the braces where they closed (:meth:`GaitGeometry.measure`). A brace *slips*
+when a contact the controller holds (F) slides, over a phase, by more than
+:data:`~frcontrol.planning.climb.BRACE_SLIP_TOLERANCE`: the slide sums ``|v_T+| h``, the sliding
+velocity each step's friction law gave the contact (``v_T+ = J_T(q) v+``). Its displacement along
+the wall (``max_drift``) is reported apart: it adds the time stepping's drift, first order in h.
 """
 
 from __future__ import annotations
@@ -875,7 +882,7 @@ class PhaseRun:
         name: the phase; cycle: its cycle (1-based).
         start, end: [s] its times; start_index, end_index: its samples.
         max_deficit: [N m or N] the tracking LP's largest robustness deficit in the phase.
-        max_slip: [m] the largest slide of a held contact while held (``sum |v_T| dt``).
+        max_slip: [m] the largest slide of a held contact while held (``sum |v_T+| h``).
         max_drift: [m] the largest displacement of a held contact along its wall while held.
         max_tracking_error: [m or rad] the largest |q_ref - q|.
         base_height: [m] the base's height (the tail's y) at the end.
@@ -918,7 +925,8 @@ class GaitResult:
         phases: every phase's record.
         heights: [m] the base's height at the end of each cycle; rise: the last minus the start.
         brace_held: no held contact slid by more than ``slip_tolerance`` while held, and the run completed.
-        max_slip: [m] the largest such slide (``sum |v_T| dt`` while held).
+        max_slip: [m] the largest such slide (``sum |v_T+| h`` while held, ``v_T+`` each step's
+            sliding velocity).
         max_drift: [m] the largest displacement of a held contact along its wall while held.
         max_deficit: [N m or N] the largest robustness deficit of the run.
         scale: the disturbance scale sampled; seed: the sampler's seed.
@@ -994,6 +1002,7 @@ class _Run:
                                  desired, self.points, TRACKING_MARGIN, self.plan.solver, loaded)
             jac, _, _ = self.kin.evaluate(st.q, st.v)
             force = self.torque_map @ step.torques + jac[:self.plan.disturbances.dim].T @ self.disturbance()
+            tangent_rows = st.state.jacobian_tangent.copy()
             if not st.step(force, self.dt):
                 return None
             self.torques.append(step.torques)
@@ -1002,7 +1011,8 @@ class _Run:
             self.phase_of_step.append(index)
             worst["deficit"] = max(worst["deficit"], step.deficit)
             worst["error"] = max(worst["error"], float(np.max(np.abs(q_ref - st.q))))
-            slip, drift = self._slip(slid, anchors, held + closing)
+            fixed = [c for letter, c in zip(step.mode, step.contacts, strict=True) if letter == "F"]
+            slip, drift = self._slip(slid, anchors, fixed, tangent_rows @ st.v)
             worst["slip"], worst["drift"] = max(worst["slip"], slip), max(worst["drift"], drift)
         touching = {c.name for c in self.scene.at(st.q).contacts if c.gap <= TOUCH_GAP}
         return PhaseRun(name, cycle, start, st.t, start_index, len(self.torques), worst["deficit"],
@@ -1010,30 +1020,28 @@ class _Run:
                         tuple(c for c in closing if c in touching))
 
     def _slip(self, record: dict[str, dict[str, float]], anchors: dict[str, np.ndarray],
-              held: Sequence[str]) -> tuple[float, float]:
+              held: Sequence[str], sliding: np.ndarray) -> tuple[float, float]:
         """``(slip, drift)`` [m] of the held contacts so far in the phase (the largest of each).
 
-        The slip of a contact sums ``|v_T| dt`` over the steps it touches while held (how far it
-        slid); its drift is its displacement along the wall from where it was first held (the slip
-        plus the time stepping's drift: ``q+ = q + h v+`` keeps ``v_T = 0`` to first order only).
+        The slip of a contact sums ``|v_T+| h`` over the steps it touches while held, with ``v_T+ =
+        J_T(q) v+`` the step's own sliding velocity (``sliding``, per contact: the velocity the
+        time stepper's friction law sets); its drift is its displacement along the wall from where
+        it was first held: the slip plus the time stepping's drift (``q+ = q + h v+`` keeps the
+        contact still to first order in h only).
         """
         st = self.stepper
         slip, drift = 0.0, 0.0
         for name in held:
             i = st.names.index(name)
-            normal, tangent = self.wall[name]
+            _, tangent = self.wall[name]
             point = st.state.contact_points[i]
-            if float(normal @ (point - self._surface(name))) > TOUCH_GAP and name not in anchors:
-                continue
             anchor = anchors.setdefault(name, point.copy())
             slid = record.setdefault(name, {"slip": 0.0})
-            slid["slip"] += abs(float(st.state.tangential_velocities[i])) * self.dt
+            slid["slip"] += abs(float(sliding[i])) * self.dt
             slip = max(slip, slid["slip"])
             drift = max(drift, abs(float(tangent @ (point - anchor))))
         return slip, drift
 
-    def _surface(self, name: str) -> np.ndarray:
-        return next(c.point.surface_point_in_world for c in self.scene.contacts if c.name == name)
 
 
 def simulate_gait(
