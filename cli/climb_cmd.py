@@ -33,7 +33,7 @@ SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of the sampled distur
 ScaleOpt = Annotated[
     float | None,
     typer.Option("--scale", min=0.0,
-                 help="With --cycles: the disturbance scale of the gait's simulation (default 0.1, at most "
+                 help="With --cycles: the disturbance scale of the gait's simulation (default 0.02, at most "
                       "the weakest phase's planned scale)."),
 ]
 CyclesOpt = Annotated[
