@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 import frcontrol
 from frcontrol.errors import InputError, SceneError
-from frcontrol.planning.climb import BRACE_SLIP_TOLERANCE, _PointKinematics
+from frcontrol.planning.climb import BRACE_SLIP_TOLERANCE, DEFAULT_HOLD, _PointKinematics, load_disturbances
 from frcontrol.planning.gait import (
     STROKE,
     configuration_from_points,
@@ -162,9 +162,18 @@ def test_gait_climbs_and_holds(gait_run: tuple[dict, Path], scene: frcontrol.Sce
     limits = payload["limits"]
     assert np.all(torques >= np.array(limits["lower"]) - 1e-9)
     assert np.all(torques <= np.array(limits["upper"]) + 1e-9)
-    # the samples' generalized forces are the torques plus the disturbances (zero at scale 0)
-    inputs = np.array(samples["inputs"])
-    assert np.allclose(inputs[:, 3:], torques, atol=1e-6 + 50 * sim["scale"])
+    # the samples' generalized forces are S^T u + J_d(q)^T d, d the held disturbance sample (the
+    # time stepper's inputs: row k + 1 is the step from sample k, row 0 repeats the first)
+    inputs = np.array(samples["inputs"])[1:]
+    dist = load_disturbances(scene)
+    kin = _PointKinematics(scene, [(d.name, d.link, d.point_in_link) for d in dist.items])
+    drawn = np.array(sim["disturbance_samples"])
+    for k in range(0, len(torques), 97):
+        jac, _, _ = kin.evaluate(q[k], v[k])
+        held = drawn[int(times[k] / DEFAULT_HOLD + 1e-9)]
+        expected = np.concatenate([np.zeros(3), torques[k]]) + jac.T @ held
+        assert np.allclose(inputs[k], expected, atol=1e-9)
+    assert np.all(np.abs(drawn) <= sim["scale"] * np.abs(dist.vertices()).max(axis=0) + 1e-12)
     # the sampled disturbances lie within the planned scale
     assert sim["scale"] <= payload["weakest_phase"]["max_disturbance_scale"] + 1e-12
     assert page.exists() and page.stat().st_size > 10_000
