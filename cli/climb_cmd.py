@@ -30,6 +30,19 @@ DurationOpt = Annotated[
                  help="Simulated time [s] of the check under sampled disturbances."),
 ]
 SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of the sampled disturbances.")]
+ScaleOpt = Annotated[
+    float | None,
+    typer.Option("--scale", min=0.0,
+                 help="With --cycles: the disturbance scale of the gait's simulation (default 0.02, at most "
+                      "the weakest phase's planned scale)."),
+]
+CyclesOpt = Annotated[
+    int | None,
+    typer.Option("--cycles", min=1,
+                 help="Climb by this many cycles of the gait (extend, brace the upper body, pull the lower "
+                      "body up, re-brace) instead of holding one brace; --duration and --plot are then "
+                      "not used."),
+]
 
 
 @common.handle_errors
@@ -44,6 +57,8 @@ def climb_command(
     margin: MarginOpt = DEFAULT_MARGIN,
     duration: DurationOpt = DEFAULT_DURATION,
     seed: SeedOpt = 0,
+    cycles: CyclesOpt = None,
+    scale: ScaleOpt = None,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
 ) -> None:
@@ -57,12 +72,21 @@ def climb_command(
     Examples:
       frc climb --plot climb.png
       frc climb --margin 0.2 --json
+      frc climb snake_climb --cycles 1 --html gait.html
     """
     common.set_quiet(quiet)
     from frcontrol.answers import plan_and_climb
 
     common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
     loaded = options.load_scene_with_overrides(scene, sets)
+    if cycles is not None:
+        _gait(loaded, cycles, margin=margin, seed=seed, scale=scale, json=json, html=html, out=out, view=view,
+              port=port, plot=plot)
+        return
+    if scale is not None:
+        from frcontrol.errors import InputError
+
+        raise InputError("--scale sets the gait's simulated disturbances: add --cycles N")
     with common.live_viewer(view, port) as server:
         with common.progress("planning the climb...") as status:
             plan, result = plan_and_climb(loaded, margin=margin, duration=duration, seed=seed,
@@ -84,6 +108,61 @@ def climb_command(
         common.write_motion(loaded, trajectory, html=html, out=out, json=json)
         if server is not None:
             common.show_live(server, loaded, trajectory, json=json)
+
+
+def _gait(loaded: Any, cycles: int, *, margin: float, seed: int, scale: float | None, json: bool, html: Any,
+          out: Any, view: bool, port: Any, plot: Any) -> None:
+    """``--cycles``: plan the gait, simulate it, print and write its outputs."""
+    from frcontrol.answers import plan_and_gait
+    from frcontrol.errors import InputError
+    from frcontrol.planning.gait import gait_payload
+
+    if plot is not None:
+        raise InputError("--plot draws the single brace's figure; with --cycles use --html (an animation) "
+                         "or --json (the samples)")
+    with common.live_viewer(view, port) as server:
+        with common.progress("planning the gait...") as status:
+            plan, result = plan_and_gait(
+                loaded, cycles=cycles, margin=margin, seed=seed, scale=scale,
+                on_simulation=lambda: status.update("simulating the gait..."),
+                progress=lambda done, total: status.update(f"simulating the gait: phase {done}/{total}"))
+        common.answer(gait_payload(plan, result), render_gait, json=json)
+        common.write_motion(loaded, result.trajectory, html=html, out=out, json=json)
+        if server is not None:
+            common.show_live(server, loaded, result.trajectory, json=json)
+
+
+def render_gait(payload: dict[str, Any]) -> None:
+    """The gait as rich text and tables: heights per cycle, phases' scales, the weakest phase."""
+    sim = payload["simulation"]
+    lower, upper = ", ".join(payload["lower_brace"]), ", ".join(payload["upper_brace"])
+    console.print(f"gait: {payload['cycles']} cycle(s), lower brace {lower}, upper brace {upper}; "
+                  f"disturbances sampled at scale {sim['scale']:.4g}")
+    heights = Table(title="base height at the end of each cycle [m]")
+    for name in ("cycle", "height", "rise"):
+        heights.add_column(name)
+    for i, (h, r) in enumerate(zip(payload["heights"], payload["rise_per_cycle"], strict=True)):
+        heights.add_row(str(i + 1), f"{h:.4f}", f"{r:.4f}")
+    console.print(heights)
+    phases = Table(title="phases: planned largest disturbance scale, and in the simulation")
+    for name in ("cycle", "phase", "mode", "max scale", "max deficit", "max slip [m]"):
+        phases.add_column(name)
+    for plan, run in zip(payload["phases"], payload["phase_runs"], strict=False):
+        phases.add_row(str(plan["cycle"]), plan["name"], plan["mode"], f"{plan['max_disturbance_scale']:.4g}",
+                       f"{run['max_deficit']:.3g}", f"{run['max_slip']:.3g}")
+    console.print(phases)
+    weakest = payload["weakest_phase"]
+    console.print(f"weakest phase: {weakest['name']} (cycle {weakest['cycle']}), largest scale "
+                  f"{weakest['max_disturbance_scale']:.4g}")
+    for check in payload["hand_overs"][:2]:
+        console.print(f"hand-over {check['name']}: mode {check['mode']}, {check['modes_checked']} other "
+                      f"modes checked, {len(check['held_modes'])} hold, slip modes: "
+                      f"{', '.join(check['slip_modes']) or 'none'}")
+    console.print(f"simulation ({sim['samples']['times'][-1]:.3g} s, rigid, {sim['phases_completed']} of "
+                  f"{len(payload['phases'])} phases): base rise {sim['rise']:.4f} m; brace "
+                  f"{'held' if sim['brace_held'] else 'SLIPPED'} (max slip {sim['max_slip']:.3g} m, "
+                  f"tolerance {sim['slip_tolerance']:g}); largest robustness deficit "
+                  f"{sim['max_deficit']:.3g}")
 
 
 def render(payload: dict[str, Any]) -> None:
@@ -117,4 +196,5 @@ def render(payload: dict[str, Any]) -> None:
 __all__ = [
     "climb_command",
     "render",
+    "render_gait",
 ]

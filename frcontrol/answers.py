@@ -17,6 +17,7 @@ if TYPE_CHECKING:
     from .engine import DynamicResponse, RigidSolution
     from .planning.climb import ClimbPlan, ClimbResult
     from .planning.flip import FlipPlan, FlipResult
+    from .planning.gait import GaitPlan, GaitResult
     from .scene import Scene
     from .simulation.trajectory import Trajectory
 
@@ -151,12 +152,35 @@ def plan_and_climb(scene: Scene, *, margin: float, duration: float, seed: int,
     return plan, simulate_climb(scene, plan, duration=duration, seed=seed)
 
 
+def plan_and_gait(scene: Scene, *, cycles: int, margin: float, seed: int, scale: float | None = None,
+                  on_simulation: Callable[[], None] | None = None,
+                  progress: Callable[[int, int], None] | None = None) -> tuple[GaitPlan, GaitResult]:
+    """``frc climb --cycles N``'s work: the gait's plan, then its rigid simulation.
+
+    Args:
+        scene: the scene with ``[[disturbances]]`` and ``[task] upper_brace_contacts``.
+        cycles: number of cycles (>= 1).
+        margin: [N m or N] the robustness radius in the lifted (u, d) space.
+        seed: seed of the sampled disturbances.
+        scale: the disturbance scale of the simulation (None: the gait's default).
+        on_simulation: called once when the simulation starts.
+        progress: called with (phases done, phases) along the simulation.
+    """
+    from .planning.gait import plan_gait, simulate_gait
+
+    plan = plan_gait(scene, cycles, margin=margin)
+    if on_simulation is not None:
+        on_simulation()
+    return plan, simulate_gait(plan, seed=seed, scale=scale, progress=progress)
+
+
 __all__ = [
     "CONTACT_MODELS",
     "analysis_and_solutions",
     "analysis_payload",
     "plan_and_climb",
     "plan_and_fly",
+    "plan_and_gait",
     "run_simulation",
     "simulation_failure",
     "solutions_payload",

@@ -183,6 +183,9 @@ SCENE_SCHEMA: dict[str, Any] = {
                           "description": "flip: the body's pitch coordinate"},
                 "brace_contacts": {**_NAMES, "minItems": 1, "x-refers": "contact",
                                    "description": "climb: the contacts held in mode F"},
+                "upper_brace_contacts": {**_NAMES, "minItems": 1, "x-refers": "contact",
+                                         "description": "climb --cycles: the gait's upper brace, "
+                                                        "separated at the scene's state"},
                 "head_link": {"type": "string", "x-refers": "link",
                               "description": "climb: the link of the point that must rise"},
                 "head_point": {**_PAIR, "description": "climb: [m] that point, in the link's frame"},

@@ -243,6 +243,7 @@ class TaskTable:
         body_contacts: flip: the body's contacts, which must stay loaded.
         pitch: flip: the body's pitch coordinate.
         brace_contacts: climb: the contacts held in mode F.
+        upper_brace_contacts: climb's gait: the upper brace's contacts.
         head_link: climb: the link of the point that must rise.
         head_point: climb: that point [m] in the link's frame.
         min_head_acceleration: climb: a_min [m/s^2].
@@ -251,6 +252,7 @@ class TaskTable:
     body_contacts: tuple[str, ...] | None = None
     pitch: str | None = None
     brace_contacts: tuple[str, ...] | None = None
+    upper_brace_contacts: tuple[str, ...] | None = None
     head_link: str | None = None
     head_point: np.ndarray | None = None
     min_head_acceleration: float | None = None
@@ -284,6 +286,7 @@ def read_task(path: str, raw: Any) -> TaskTable:
         body_contacts=names("body_contacts"),
         pitch=None if pitch is None else str(pitch),
         brace_contacts=names("brace_contacts"),
+        upper_brace_contacts=names("upper_brace_contacts"),
         head_link=None if head_link is None else str(head_link),
         head_point=(None if "head_point" not in raw
                     else finite_pair(raw["head_point"], path, "task.head_point")),
