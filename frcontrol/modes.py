@@ -25,9 +25,10 @@ unconstrained: a relaxation of every mode that completes it.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -61,6 +62,8 @@ class ContactProblem:
         mu: friction coefficients (k,).
         lower: input lower limits (m,) (-inf where none); upper: upper limits (m,).
         velocity_tolerance: [m/s] what counts as a zero contact velocity.
+        input_units: each input's unit (``"N"``, ``"N m"``, ``"V"`` for a DC motor's voltage).
+        drives: the scene's drives at this state (:func:`frcontrol.drives.drives_report`), by joint.
     """
 
     coordinates: tuple[str, ...]
@@ -79,6 +82,8 @@ class ContactProblem:
     lower: np.ndarray
     upper: np.ndarray
     velocity_tolerance: float = VELOCITY_TOLERANCE
+    input_units: tuple[str, ...] = ()
+    drives: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def n(self) -> int:
@@ -139,6 +144,8 @@ class ContactProblem:
             lower=scene.inputs.lower,
             upper=scene.inputs.upper,
             velocity_tolerance=velocity_tolerance,
+            input_units=scene.inputs.units,
+            drives=_drives_report(scene, scene.v if v is None else v),
         )
 
     @cached_property
@@ -184,6 +191,15 @@ class ContactProblem:
         rows = np.vstack([eye[up], -eye[lo]])
         rhs = np.concatenate([self.upper[up], -self.lower[lo]])
         return rows.reshape(-1, m), rhs
+
+
+def _drives_report(scene: Scene, v: np.ndarray) -> dict[str, Any]:
+    """The scene's drives at the joint speeds ``v`` (empty without drives)."""
+    if not scene.drives:
+        return {}
+    from .drives import drives_report
+
+    return drives_report(scene.drives, dict(zip(scene.coordinate_names, v, strict=True)))
 
 
 def _drive_torque(scene: Scene, given: np.ndarray | None) -> np.ndarray | float:
