@@ -245,6 +245,9 @@ class DynamicResponse:
             "contacts": list(problem.contacts),
             "inactive_contacts": list(inactive_contacts),
             "inputs": list(problem.inputs),
+            "input_units": dict(zip(problem.inputs, problem.input_units, strict=True)) if problem.input_units
+            else {},
+            **({"drives": dict(problem.drives)} if problem.drives else {}),
             "modes": modes,
             "overlaps": [list(o.modes) for o in self.overlaps],
             "enumeration": {

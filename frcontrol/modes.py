@@ -25,9 +25,10 @@ unconstrained: a relaxation of every mode that completes it.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -61,6 +62,8 @@ class ContactProblem:
         mu: friction coefficients (k,).
         lower: input lower limits (m,) (-inf where none); upper: upper limits (m,).
         velocity_tolerance: [m/s] what counts as a zero contact velocity.
+        input_units: each input's unit (``"N"``, ``"N m"``, ``"V"`` for a DC motor's voltage).
+        drives: the scene's drives at this state (:func:`frcontrol.drives.drives_report`), by joint.
     """
 
     coordinates: tuple[str, ...]
@@ -79,6 +82,8 @@ class ContactProblem:
     lower: np.ndarray
     upper: np.ndarray
     velocity_tolerance: float = VELOCITY_TOLERANCE
+    input_units: tuple[str, ...] = ()
+    drives: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def n(self) -> int:
@@ -104,6 +109,7 @@ class ContactProblem:
         *,
         contacts: Sequence[int] | None = None,
         velocity_tolerance: float = VELOCITY_TOLERANCE,
+        drive_torque: np.ndarray | None = None,
     ) -> ContactProblem:
         """The problem at the scene's state (or at ``q``, ``v``).
 
@@ -114,6 +120,9 @@ class ContactProblem:
             contacts: indices into ``scene.contacts`` of the contacts that take part (default: the
                 scene's active contacts), e.g. those a simulator finds touching.
             velocity_tolerance: [m/s] |v| at most this is zero (see :data:`VELOCITY_TOLERANCE`).
+            drive_torque: [N m] per coordinate, the known torques of elastic transmissions, moved
+                into the bias (default: their torques at rest at the scene's state,
+                :func:`frcontrol.drives.resting_joint_torques`; zero without elastic drives).
         """
         indices = list(scene.active_indices if contacts is None else contacts)
         state = scene.robot.state(scene.q if q is None else q, scene.v if v is None else v, indices)
@@ -123,7 +132,7 @@ class ContactProblem:
             contacts=tuple(c.name for c in active),
             inputs=scene.inputs.coordinates,
             mass_matrix=state.mass_matrix,
-            bias=state.bias,
+            bias=state.bias - _drive_torque(scene, drive_torque),
             input_map=scene.inputs.selection_transpose(scene.robot.nv),
             jacobian_normal=state.jacobian_normal,
             jacobian_tangent=state.jacobian_tangent,
@@ -135,6 +144,8 @@ class ContactProblem:
             lower=scene.inputs.lower,
             upper=scene.inputs.upper,
             velocity_tolerance=velocity_tolerance,
+            input_units=scene.inputs.units,
+            drives=_drives_report(scene, scene.v if v is None else v),
         )
 
     @cached_property
@@ -180,6 +191,26 @@ class ContactProblem:
         rows = np.vstack([eye[up], -eye[lo]])
         rhs = np.concatenate([self.upper[up], -self.lower[lo]])
         return rows.reshape(-1, m), rhs
+
+
+def _drives_report(scene: Scene, v: np.ndarray) -> dict[str, Any]:
+    """The scene's drives at the joint speeds ``v`` (empty without drives)."""
+    if not scene.drives:
+        return {}
+    from .drives import drives_report
+
+    return drives_report(scene.drives, dict(zip(scene.coordinate_names, v, strict=True)))
+
+
+def _drive_torque(scene: Scene, given: np.ndarray | None) -> np.ndarray | float:
+    """The elastic transmissions' known joint torques (0 when the scene has none)."""
+    if given is not None:
+        return np.asarray(given, dtype=float)
+    if not any(d.elastic for d in scene.drives.values()):
+        return 0.0
+    from .drives import resting_joint_torques
+
+    return resting_joint_torques(scene.drives, scene.coordinate_names)
 
 
 @dataclass(frozen=True)

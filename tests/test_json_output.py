@@ -29,6 +29,9 @@ PLANNER_SCENE = {"flip": "rhex_flip", "climb": "snake_climb", "standup": "solo_s
 PLANNER_SHORT = {"flip": ["--max-time", "0.05"], "climb": ["--duration", "0.02"],
                  "standup": ["--max-time", "0.02"]}
 """Each planner's short settings (they keep the run small)."""
+PLANNER_SCENES = {"flip": ("rhex_flip", "rhex_flip_drives"), "climb": ("snake_climb",),
+                  "standup": ("solo_standup",)}
+"""The shipped scenes each planner runs on (the others lack its [task] fields)."""
 
 
 def per_scene(scene: str) -> list[list[str]]:
@@ -118,7 +121,7 @@ def test_the_planners_run_on_their_scenes_and_refuse_the_others(outcomes):
         for command in PLANNER_SCENE:
             args = (command, scene, *PLANNER_SHORT[command])
             done = outcomes[(None, args)]
-            expected = 0 if PLANNER_SCENE[command] == scene else 1
+            expected = 0 if scene in PLANNER_SCENES[command] else 1
             assert done.returncode == expected, (args, done.stderr)
             if expected:
                 assert ": task." in done.stderr or ": disturbances" in done.stderr, done.stderr

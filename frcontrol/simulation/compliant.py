@@ -41,7 +41,9 @@ Dynamics (M with the armature of massless coordinates, see :mod:`.armature`)::
     M(q) dv/dt = S^T u - h(q, v) + J_N^T lam_N + J_T^T lam_T,     dq/dt = v
 
 Forward dynamics is unique: the state is ``y = (q, v, s)`` (``2 n + c`` entries for c modelled
-contacts). Stiffness ``k_N`` [N/m] and damping ``b_N`` [N s/m] come from the arguments, else the
+contacts), followed by the elastic transmissions' ``z`` when the scene's drives have elastic
+stages (:mod:`frcontrol.simulation.drives`; a drive's rigid stages are in ``M``, ``h`` and
+``S^T``). Stiffness ``k_N`` [N/m] and damping ``b_N`` [N s/m] come from the arguments, else the
 scene's ``[model]`` table (:mod:`.model_table`), else its default stiffness and critical damping
 ``b = 2 zeta sqrt(k m_eff)`` for each contact's effective mass at the initial state
 (:class:`ContactOverrides`); ``k_T`` defaults to ``k_N`` and ``b_T`` to critical damping for the tangential
@@ -100,6 +102,7 @@ from ..model import RobotState
 from ..scene import Scene
 from . import INTEGRATORS
 from .armature import Armature, mass_factor, massless_armature
+from .drives import Transmissions
 from .inputs import InputSchedule, check_simulation_times, input_schedule
 from .model_table import ContactParameters, model_options
 from .rigid import IMPACT_VELOCITY
@@ -353,27 +356,44 @@ class _Dynamics:
     armature: Armature
     input_map: np.ndarray
     zones: ContactZones | None = None
+    transmissions: Transmissions | None = None  # elastic drives: their state ends y
+
+    @property
+    def stretch_end(self) -> int:
+        """Where the contacts' stretch ends in ``y = (q, v, s, z_zones, z_drives)``."""
+        return 2 * self.scene.robot.nv + self.contacts.count
+
+    @property
+    def zones_end(self) -> int:
+        """Where the contact zones' state ends (and the elastic drives' starts) in ``y``."""
+        return self.stretch_end + (0 if self.zones is None else self.zones.size)
 
     def _law(self, y: np.ndarray) -> tuple[RobotState, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                            ZoneForces | None]:
-        """``(state, lam_N, lam_T, ds/dt, status, zone forces)`` at ``y = (q, v, s, z)``."""
-        n, c = self.scene.robot.nv, self.contacts.count
+        """``(state, lam_N, lam_T, ds/dt, status, zone forces)`` at ``y``."""
+        n, end = self.scene.robot.nv, self.stretch_end
         state = self.scene.robot.state(y[:n], y[n:2 * n], self.contacts.indices)
         zone = None if self.zones is None else self.zones.forces(
-            y[2 * n + c:], state.gaps, state.normal_velocities)
+            y[end:self.zones_end], state.gaps, state.normal_velocities)
         lam_n, lam_t, rate, status = contact_forces(
             self.contacts, state.gaps, state.normal_velocities, state.tangential_velocities,
-            y[2 * n:2 * n + c], None if zone is None or self.zones is None else (self.zones.slots, zone))
+            y[2 * n:end], None if zone is None or self.zones is None else (self.zones.slots, zone))
         return state, lam_n, lam_t, rate, status, zone
 
     def evaluate(self, y: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, tuple]:
-        n = self.scene.robot.nv
+        n, end = self.scene.robot.nv, self.zones_end
+        q, v = y[:n], y[n:2 * n]
         state, lam_n, lam_t, rate, status, zone = self._law(y)
         force = self.input_map @ u - state.bias + state.jacobian_normal.T @ lam_n \
             + state.jacobian_tangent.T @ lam_t
+        parts = [v, np.empty(n), rate]
+        if self.transmissions is not None:
+            force = force + self.transmissions.joint_force(q, v, y[end:])
+            parts.append(self.transmissions.derivative(q, v, y[end:], u))
         factor = mass_factor(self.armature.apply(state.mass_matrix), self.armature)
-        dv = scipy.linalg.cho_solve(factor, force, check_finite=False)
-        parts = [y[n:2 * n], dv, rate] + ([] if zone is None else [zone.rates])
+        parts[1] = scipy.linalg.cho_solve(factor, force, check_finite=False)
+        if zone is not None:
+            parts.insert(3, zone.rates)
         return np.concatenate(parts), (state, lam_n, lam_t, status)
 
     def forces(self, y: np.ndarray) -> tuple[RobotState, np.ndarray, np.ndarray, np.ndarray]:
@@ -396,12 +416,12 @@ class _Dynamics:
         """
         if self.zones is None:
             return None
-        n, start = self.scene.robot.nv, 2 * self.scene.robot.nv + self.contacts.count
+        n, start, end = self.scene.robot.nv, self.stretch_end, self.zones_end
         state = self.scene.robot.state(y[:n], y[n:2 * n], self.contacts.indices)
-        landed = self.zones.switch(y[start:], state.gaps, state.normal_velocities)
+        landed = self.zones.switch(y[start:end], state.gaps, state.normal_velocities)
         if landed is None:
             return None
-        return np.concatenate([y[:start], landed[0]]), landed[1]
+        return np.concatenate([y[:start], landed[0], y[end:]]), landed[1]
 
     def explicit_step(self, y: np.ndarray, u: np.ndarray, h: float) -> tuple[np.ndarray, RobotState]:
         """One semi-implicit (symplectic) Euler step: ``v += h a; q += h v; s += h ds/dt``."""
@@ -411,19 +431,26 @@ class _Dynamics:
         y_new[n:2 * n] = y[n:2 * n] + h * ydot[n:2 * n]
         y_new[:n] = y[:n] + h * y_new[n:2 * n]
         y_new[2 * n:] = y[2 * n:] + h * ydot[2 * n:]
+        if self.transmissions is not None:  # the clusters' angles move with their new speeds
+            end, count = self.zones_end, self.transmissions.count
+            y_new[end:end + count] = y[end:end + count] + h * y_new[end + count:]
         return y_new, state
 
     def implicit_step(self, y: np.ndarray, u: np.ndarray, h: float) -> tuple[np.ndarray, RobotState]:
         """One linearly implicit Euler step (module docstring): contact forces at the step's end."""
-        n = self.scene.robot.nv
-        q, v, s = y[:n], y[n:2 * n], y[2 * n:]
+        n, end = self.scene.robot.nv, self.stretch_end
+        q, v, s = y[:n], y[n:2 * n], y[2 * n:end]
         state = self.scene.robot.state(q, v, self.contacts.indices)
         _, _, _, status = contact_forces(self.contacts, state.gaps, state.normal_velocities,
                                          state.tangential_velocities, s)
         sign = np.sign(self.contacts.tangential_stiffness * s
                        + self.contacts.tangential_damping * state.tangential_velocities)
-        system = _ImplicitStep(self.contacts, state, self.armature.apply(state.mass_matrix),
-                               self.input_map @ u - state.bias, v, s, h)
+        mass, force = self.armature.apply(state.mass_matrix), self.input_map @ u - state.bias
+        coupled = None
+        if self.transmissions is not None:  # elastic drives: see frcontrol.simulation.drives
+            coupled = self.transmissions.implicit(q, v, y[end:], u, h)
+            mass, force = coupled.mass(mass), force + coupled.force
+        system = _ImplicitStep(self.contacts, state, mass, force, v, s, h)
         v_new = system.solve(status, sign)
         for _ in range(ACTIVE_SET_ITERATIONS):
             new_status, new_sign = system.statuses(v_new)
@@ -432,7 +459,10 @@ class _Dynamics:
                 break
             status, sign = new_status, new_sign
             v_new = system.solve(status, sign)
-        return np.concatenate([q + h * v_new, v_new, system.stretch(v_new, status, sign)]), state
+        parts = [q + h * v_new, v_new, system.stretch(v_new, status, sign)]
+        if coupled is not None:
+            parts.append(coupled.state(v_new))
+        return np.concatenate(parts), state
 
 
 @dataclass(frozen=True)
@@ -565,7 +595,7 @@ def simulate_compliant(
     stability_limit = explicit_stability_limit(params)
     if integrator == "euler":
         _check_euler_step(dt, stability_limit)
-    dynamics = _Dynamics(scene, params, arm, scene.inputs.selection_transpose(scene.robot.nv), zones)
+    dynamics, y0 = _dynamics(scene, params, arm, y0, zones)
     run = _CompliantRun(scene, dynamics, params, duration, dt, max_steps, impact_velocity, y0)
     settings: dict[str, Any] = {"integrator": integrator, "rtol": rtol, "atol": atol,
                                 "max_step": dt if max_step is None else max_step}
@@ -592,6 +622,18 @@ def _with_zones(scene: Scene, params: CompliantContacts, y0: np.ndarray, integra
     n = scene.robot.nv
     state = scene.robot.state(y0[:n], y0[n:2 * n], params.indices)
     return np.concatenate([y0, zones.initial_state(state.gaps, state.normal_velocities)]), zones
+
+
+def _dynamics(scene: Scene, params: CompliantContacts, arm: Armature, y0: np.ndarray,
+              zones: ContactZones | None = None) -> tuple[_Dynamics, np.ndarray]:
+    """The right-hand side, and ``y0`` (zones' state included) with the elastic drives' appended (if any)."""
+    transmissions = Transmissions(scene)
+    dynamics = _Dynamics(scene, params, arm, scene.inputs.selection_transpose(scene.robot.nv),
+                         zones, transmissions if transmissions else None)
+    if not transmissions:
+        return dynamics, y0
+    n = scene.robot.nv
+    return dynamics, np.concatenate([y0, transmissions.initial(y0[:n], y0[n:2 * n])])
 
 
 def _check_euler_step(dt: float, stability_limit: float) -> None:
@@ -729,8 +771,7 @@ class _CompliantRun:
             "rhs_evaluations": self.rhs_evaluations,
             "explicit_stability_limit": settings["explicit_stability_limit"],
             "contacts": self.params.report(), "contacts_modelled": settings["contacts_modelled"],
-            "state_size": 2 * self.n + self.params.count + (0 if self.dynamics.zones is None
-                                                            else self.dynamics.zones.size),
+            "state_size": len(self.samples_y[0]),
             "zones_parameters": {} if self.dynamics.zones is None else self.dynamics.zones.report(),
             "zone_landing_energy": self.landing_energy,
             "armature": self.dynamics.armature.report(),
@@ -871,7 +912,7 @@ def _zone_sample(dynamics: _Dynamics, y: np.ndarray, gaps: np.ndarray, samples: 
     zones, forces = dynamics.zones, dynamics.zone_forces(y)
     if zones is None or forces is None:
         return
-    z = y[2 * dynamics.scene.robot.nv + dynamics.contacts.count:]
+    z = y[dynamics.stretch_end:dynamics.zones_end]
     heights = z[np.array(zones.offsets, dtype=int)]
     samples["deformation"].append(forces.deformation)
     samples["force"].append(forces.robot_force)
@@ -920,7 +961,7 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
         kinetic.append(0.5 * float(y[n:2 * n] @ mass @ y[n:2 * n]))
         potential.append(scene.robot.potential_energy(y[:n]))
         delta = np.where(kelvin_voigt, np.maximum(0.0, -st.gaps), 0.0)
-        s = y[2 * n:2 * n + params.count]
+        s = y[2 * n:dynamics.stretch_end]
         elastic.append(float(0.5 * np.sum(params.stiffness * delta**2)
                              + 0.5 * np.sum(params.tangential_stiffness * s**2)))
         penetration.append(max(0.0, -float(np.min(full.gaps, initial=np.inf))))
@@ -932,9 +973,18 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
         "potential_energy": np.array(potential),
         "elastic_energy": np.array(elastic),
         "max_penetration": np.array(penetration),
-        "stretch": ys[:, 2 * n:2 * n + params.count],
+        "stretch": ys[:, 2 * n:dynamics.stretch_end],
         "modelled_contacts": list(params.names),
     })
+    extra_work = None
+    if dynamics.transmissions is not None:  # the clusters' and springs' energy; the motors' work
+        z = ys[:, dynamics.zones_end:]
+        info["elastic_energy"] = info["elastic_energy"] + np.array(
+            [dynamics.transmissions.energy(y[:n], zj) for y, zj in zip(ys, z, strict=True)])
+        info["transmissions"] = {"state": z, "size": dynamics.transmissions.size}
+        power = np.array([dynamics.transmissions.motor_power(zj, uj)
+                          for zj, uj in zip(z, inputs, strict=True)])
+        extra_work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(times))])
     trajectory = Trajectory(
         scene_name=scene.name,
         coordinates=scene.coordinate_names,
@@ -958,7 +1008,8 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
             dynamics.zones.stiffness_external > 0, 1.0 / np.maximum(dynamics.zones.stiffness_external, 1e-300)
             + 1.0 / np.maximum(dynamics.zones.stiffness_internal_environment, 1e-300), 0.0))))
     return assess(scene, trajectory, energy=info["energy"] + info["elastic_energy"] + info["zone_energy"],
-                  penetration=info["max_penetration"], stiffness=softest, dt=float(info["dt"]))
+                  penetration=info["max_penetration"], stiffness=softest, dt=float(info["dt"]),
+                  extra_work=extra_work)
 
 
 __all__ = [

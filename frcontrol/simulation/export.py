@@ -15,9 +15,12 @@ and :data:`~frcontrol.simulation.rigid.SLIP_VELOCITY_TOLERANCE`.
 ``(lambda_n, lambda_t)``) and ``modes`` (one letter per contact and sample): in an ``.npz`` file as
 arrays of those names (with ``coordinates``, ``contacts`` and ``input_names``), in a ``.csv`` file
 as one row per sample with a header naming every column. A run's per-sample series with dotted
-names (:func:`sample_series`: the rigid model's impact impulses ``impacts.NAME.impulse_normal`` and
-``impacts.NAME.impulse_tangent`` [N s], the compliant model's contact zones ``zones.NAME.deformation``
-[m] and ``zones.NAME.force`` [N]) follow, under those names, as arrays and as columns.
+names follow, under those names, as arrays and as columns (a series with several columns, such as
+a drive's stages, as ``NAME[i]``): the drives' ``drives.JOINT.voltage``, ``.current``,
+``.motor_speed`` and ``.torque`` (:mod:`.drives`), the rigid model's impact impulses
+``impacts.NAME.impulse_normal`` and ``impacts.NAME.impulse_tangent`` [N s] and the compliant
+model's contact zones ``zones.NAME.deformation`` [m] and ``zones.NAME.force`` [N]
+(:func:`sample_series`).
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from ..errors import InputError, reason_from_exception
 from ..modes import contact_mode_letter
 from ..scene import Scene
 from . import TRAJECTORY_FORMATS
+from .drives import drive_arrays
 from .rigid import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
 from .trajectory import Trajectory
 
@@ -85,6 +89,7 @@ def trajectory_arrays(scene: Scene, trajectory: Trajectory) -> dict[str, np.ndar
         "coordinates": np.array(trajectory.coordinates, dtype=str),
         "contacts": np.array(trajectory.contacts, dtype=str),
         "input_names": np.array(trajectory.input_names, dtype=str),
+        **drive_arrays(scene, trajectory),
     }}
 
 
@@ -116,7 +121,8 @@ def _write_csv(path: Path, arrays: dict[str, np.ndarray]) -> None:
               + [f"u_{u}" for u in inputs]
               + [f"{c}_{part}" for c in contacts for part in ("lambda_n", "lambda_t", "mode")])
     series = [name for name in arrays if "." in name]
-    header += series
+    header += [name if arrays[name].ndim == 1 else f"{name}[{i}]"
+               for name in series for i in range(1 if arrays[name].ndim == 1 else arrays[name].shape[1])]
     with path.open("w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle)
         writer.writerow(header)
@@ -127,5 +133,5 @@ def _write_csv(path: Path, arrays: dict[str, np.ndarray]) -> None:
             for i in range(len(contacts)):
                 row += [repr(float(arrays["forces"][j, i, 0])), repr(float(arrays["forces"][j, i, 1])),
                         str(arrays["modes"][j, i])]
-            row += [repr(float(arrays[name][j])) for name in series]
+            row += [repr(float(x)) for name in series for x in np.atleast_1d(arrays[name][j])]
             writer.writerow(row)

@@ -209,11 +209,20 @@ class Trajectory:
         if info.get("zones"):  # the compliant model's contact zones: deformation [m], force [N]
             samples["zones"] = info["zones"]
         if scene is not None:
+            from .drives import drive_samples, stage_samples
             from .export import sample_modes
+
+            summary["input_units"] = scene.inputs.unit_map()
+            if scene.drives:
+                samples["drives"] = drive_samples(scene, self)
+                if any(d.elastic for d in scene.drives.values()):
+                    samples["stages"] = stage_samples(scene, self)
 
             modes = sample_modes(scene, self)
             samples["modes"] = list(modes)
             for event in summary["events"]:
+                if event["contact"] not in self.contacts:
+                    continue  # an "ambiguous" event names every touching contact, comma-separated
                 at = min(int(np.searchsorted(self.times, event["time"] - 1e-12)), len(modes) - 1)
                 i = self.contacts.index(event["contact"])
                 event["from"], event["to"] = modes[max(at - 1, 0)][i], modes[at][i]
