@@ -69,6 +69,7 @@ from .flip import (
 )
 
 __all__ = [
+    "COMPLIANT_EXTRA_TIME",
     "COMPLIANT_STIFFNESS",
     "DEFAULT_HIP_DRIVE",
     "FALL_PITCH_RATE",
@@ -78,9 +79,13 @@ __all__ = [
     "HipDrive",
     "PumpPhase",
     "PumpResult",
+    "drive_current",
     "drive_samples",
     "joint_torque",
     "no_load_speed",
+    "pump_flip",
+    "pump_payload",
+    "scene_drives",
     "simulate_pump",
     "stall_torque",
     "torque_limits",
@@ -105,6 +110,10 @@ critical damping) that ``python -m benchmarks.trade`` recommends for trajectorie
 FALL_PITCH_RATE = 1e-3
 """[rad/s] A recirculation ends, and the next push starts, once a toe touches the ground and the
 body's pitch rate is at most this: the body has come back down onto its legs."""
+
+COMPLIANT_EXTRA_TIME = 0.2
+"""[s] After a rigid flip, the compliant replay runs this much longer (the last voltages held): a
+compliant body a few milliseconds behind the rigid one still gets to pass vertical."""
 
 LIMIT_TOLERANCE = 1e-9
 """[-] A sample's torque is within the motor's limits when it exceeds none of them by more than
@@ -185,6 +194,18 @@ def voltage_for_torque(drive: HipDrive, torque: float, joint_speed: float) -> fl
 def drive_current(drive: HipDrive, voltage: np.ndarray, joint_speed: np.ndarray) -> np.ndarray:
     """[A] The pair's current ``(V - CE N qdot) / R``."""
     return (voltage - drive.back_emf_constant * drive.ratio * joint_speed) / drive.resistance
+
+
+def _within_drive_limits(scene: Scene, drives: Sequence[HipDrive], speeds: np.ndarray) -> Scene:
+    """The scene with its input limits narrowed to the drives' torque-speed limits at ``speeds``.
+
+    The scene's own torque limits still hold where they are narrower.
+    """
+    limits = np.array([torque_limits(d, float(s)) for d, s in zip(drives, speeds, strict=True)])
+    limits = limits.reshape(-1, 2)
+    lower = np.maximum(scene.inputs.lower, limits[:, 0])
+    upper = np.minimum(scene.inputs.upper, limits[:, 1])
+    return replace(scene, inputs=replace(scene.inputs, lower=lower, upper=upper))
 
 
 def scene_drives(scene: Scene) -> dict[str, HipDrive]:
@@ -360,8 +381,7 @@ class _PumpPolicy:
 
     def _plan(self, stepper: RigidStepper, speeds: np.ndarray) -> tuple[FlipPlan | None, str | None]:
         """The push plan within the torque-speed limits of this instant, or why there is none."""
-        limits = np.array([torque_limits(d, float(s)) for d, s in zip(self.drives, speeds, strict=True)])
-        scene = replace(self.scene, inputs=replace(self.scene.inputs, lower=limits[:, 0], upper=limits[:, 1]))
+        scene = _within_drive_limits(self.scene, self.drives, speeds)
         loaded = stepper.last_forces[:, 0] > self.force_tolerance
         start = time.perf_counter()
         result = _replan(scene, stepper.q, stepper.v, loaded, self.margin, self.solver)
@@ -551,7 +571,8 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
     """The rigid run's voltages, replayed against time, on the compliant model.
 
     Each sample interval holds the torque the drive gives at the rigid run's voltage and the
-    compliant run's joint speed (so the torques stay on the motor's line); Radau, critical
+    compliant run's joint speed (after a rigid flip, :data:`COMPLIANT_EXTRA_TIME` more with the
+    last voltages) (so the torques stay on the motor's line); Radau, critical
     damping, ``stiffness`` [N/m] on every contact (all listed, so the rear corner can land).
 
     Returns:
@@ -575,8 +596,10 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
                          for d, V, j in zip(drives, row, index, strict=True)])
 
     start = time.perf_counter()
-    duration = float(trajectory.times[-1]) if result.flipped else result.max_time
-    run = simulate_compliant(scene, torques, duration=max(duration, dt), dt=dt, stiffness=stiffness,
+    duration = float(trajectory.times[-1]) + COMPLIANT_EXTRA_TIME if result.flipped else result.max_time
+    unlimited = np.full(scene.inputs.count, np.inf)  # the drive's line is the limit
+    free = replace(scene, inputs=replace(scene.inputs, lower=-unlimited, upper=unlimited))
+    run = simulate_compliant(free, torques, duration=max(duration, dt), dt=dt, stiffness=stiffness,
                              contacts="all", armature=result.armature)
     pitch = run.q[:, task.pitch_index]
     crossed = np.nonzero(pitch >= task.vertical)[0]
@@ -614,10 +637,8 @@ def pump_flip(scene: Scene, *, margin: float = DEFAULT_MARGIN, max_time: float =
 
     drives = scene_drives(scene)
     speeds = scene.v[list(scene.inputs.indices)]
-    limits = np.array([torque_limits(drives[n], float(s)) for n, s in zip(scene.inputs.coordinates, speeds,
-                                                                         strict=True)])
-    at_rest = replace(scene, inputs=replace(scene.inputs, lower=limits[:, 0], upper=limits[:, 1]))
-    plan = plan_flip(at_rest, margin=margin)
+    plan = plan_flip(_within_drive_limits(scene, [drives[n] for n in scene.inputs.coordinates], speeds),
+                     margin=margin)
     if max_time <= 0:
         return plan, None
     result = simulate_pump(scene, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin,
