@@ -55,7 +55,13 @@ def solutions_payload(result: DynamicResponse, solutions: list[RigidSolution]) -
 def analysis_payload(scene: Scene, result: DynamicResponse, solutions: list[RigidSolution] | None
                      ) -> dict[str, Any]:
     """The document ``frc analyze --json`` prints (with ``"solutions"`` when solutions were asked for)."""
+    from .drives import drives_report
+
     payload = result.to_dict([c.name for c in scene.contacts if not c.active])
+    payload["input_units"] = scene.inputs.unit_map()
+    if scene.drives:
+        speeds = dict(zip(scene.coordinate_names, scene.v, strict=True))
+        payload["drives"] = drives_report(scene.drives, speeds)
     if solutions is not None:
         payload["solutions"] = solutions_payload(result, solutions)
     return payload

@@ -272,6 +272,8 @@ class PlanarRobot:
         pi, pj = np.meshgrid(v_index, v_index, indexing="ij")
         self._mass_gather = (np.minimum(pi, pj) * n + np.maximum(pi, pj)).ravel()
         self._layouts: dict = {}  # contact subsets -> _ContactLayout
+        self._damping = np.zeros(n)  # [N m s/rad] drives' viscous damping (set_drive_terms)
+        self._has_damping = False
 
     # ------------------------------------------------------------------ construction helpers
     def _lock_joints(self, model: pin.Model, locked: Mapping[str, float], names: Sequence[str]) -> pin.Model:
@@ -310,6 +312,28 @@ class PlanarRobot:
             ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world, s.copy(), c.mu)
             for c, s in zip(self.contacts, self._surface_points, strict=True)
         )
+
+    def set_drive_terms(self, inertia: Mapping[int, float], damping: Mapping[int, float]) -> None:
+        """Add drives' reflected inertia and viscous damping to minimal coordinates.
+
+        ``inertia`` [kg m^2] goes into the coordinate's diagonal of M (Pinocchio's ``armature`` of
+        this object's own model, which CRBA adds); ``damping`` b [N m s/rad] adds ``b v`` to the
+        bias h(q, v) (a DC motor's electrical damping, :mod:`frcontrol.drives`). Both by index
+        into the minimal coordinates; the values replace earlier ones.
+        """
+        armature = np.zeros(self.nv)
+        self._damping = np.zeros(self.nv)
+        for i, value in inertia.items():
+            armature[self._v_index[i]] = value
+        for i, value in damping.items():
+            self._damping[i] = value
+        self.model.armature = armature
+        self._has_damping = bool(np.any(self._damping))
+
+    @property
+    def drive_damping(self) -> np.ndarray:
+        """[N m s/rad] per minimal coordinate: the drives' viscous damping in the bias (a copy)."""
+        return self._damping.copy()
 
     @property
     def nv(self) -> int:
@@ -414,7 +438,8 @@ class PlanarRobot:
             q=q,
             v=v,
             mass_matrix=data.M.ravel()[self._mass_gather].reshape(n, n),
-            bias=data.nle[self._v_index],
+            bias=(data.nle[self._v_index] + self._damping * v) if self._has_damping
+            else data.nle[self._v_index],
             contact_points=points,
             gaps=(basis[0] * (points - layout.surface_points)).sum(axis=1),
             normal_velocities=velocities[0],

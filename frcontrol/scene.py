@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from .drives import Drive, read_drives
 from .errors import (
     FrameNotFound,
     FrcontrolError,
@@ -31,7 +32,7 @@ from .errors import (
     SceneError,
     reason_from_exception,
 )
-from .model import ContactPoint, PlanarRobot, RobotState
+from .model import BASE_COORDINATES, ContactPoint, PlanarRobot, RobotState
 from .scene_schema import SchemaProblem, apply_override, nearest, reference_problems, schema_problems
 from .scene_tables import (
     DisturbanceTable,
@@ -79,17 +80,25 @@ class Contact:
 class Inputs:
     """Control inputs u: generalized forces on named coordinates, with optional box limits.
 
+    A coordinate driven by a DC motor (``[model.drives.JOINT]``) takes a voltage [V]; its column
+    of ``S^T`` is the drive's gain ``eta N C_M / R`` [N m/V] (:mod:`frcontrol.drives`).
+
     Attributes:
         coordinates: the coordinates u acts on, in order.
         indices: their indices in the minimal coordinates.
-        lower: lower limits [N or N m] (``-inf`` where absent).
-        upper: upper limits [N or N m] (``+inf`` where absent).
+        lower: lower limits [N, N m or V] (``-inf`` where absent).
+        upper: upper limits [N, N m or V] (``+inf`` where absent).
+        gains: generalized force per unit of each input (1 for a force or torque; [N m/V] for a
+            voltage); None: all 1.
+        units: each input's unit (``"N"``, ``"N m"``, ``"V"``); empty: not known.
     """
 
     coordinates: tuple[str, ...]
     indices: tuple[int, ...]
     lower: np.ndarray
     upper: np.ndarray
+    gains: tuple[float, ...] | None = None
+    units: tuple[str, ...] = ()
 
     @property
     def count(self) -> int:
@@ -98,13 +107,18 @@ class Inputs:
 
     def selection_transpose(self, n: int) -> np.ndarray:
         """S^T (n x m): maps inputs to generalized forces (a shared, read-only array)."""
-        return _selection_transpose(self.indices, n)
+        return _selection_transpose(self.indices, n, self.gains)
+
+    def unit_map(self) -> dict[str, str]:
+        """Each input's unit, by name (``{"hip_rear": "V"}``)."""
+        return dict(zip(self.coordinates, self.units, strict=True)) if self.units else {}
 
 
 @lru_cache(maxsize=256)
-def _selection_transpose(indices: tuple[int, ...], n: int) -> np.ndarray:
+def _selection_transpose(indices: tuple[int, ...], n: int, gains: tuple[float, ...] | None = None
+                         ) -> np.ndarray:
     st = np.zeros((n, len(indices)))
-    st[list(indices), np.arange(len(indices))] = 1.0
+    st[list(indices), np.arange(len(indices))] = 1.0 if gains is None else gains
     st.setflags(write=False)
     return st
 
@@ -126,6 +140,7 @@ class Scene:
         model: the ``[model]`` table (defaults when absent).
         task: the ``[task]`` table (empty when absent).
         disturbances: the ``[[disturbances]]`` tables (none when absent).
+        drives: the ``[model.drives]`` tables, by joint (none when absent).
     """
 
     path: Path
@@ -140,6 +155,7 @@ class Scene:
     model: ModelOptions = field(default_factory=ModelOptions)
     task: TaskTable = field(default_factory=TaskTable)
     disturbances: tuple[DisturbanceTable, ...] = ()
+    drives: Mapping[str, Drive] = field(default_factory=dict)
 
     @property
     def coordinate_names(self) -> tuple[str, ...]:
@@ -421,6 +437,10 @@ def _scene_from_checked(reader: _Reader, scene_path: Path, raw: dict[str, Any], 
     robot.set_surface_points([p.surface_point_in_world for p in points])
     contacts = _contacts_at_state(reader, points, world, tol)
     inputs = _read_inputs(reader, raw.get("inputs"), coords, locked)
+    model_table = raw.get("model")
+    drives_table = model_table.get("drives") if isinstance(model_table, dict) else None
+    drives = read_drives(str(scene_path), drives_table, robot.joint_names, tuple(locked))
+    inputs = _driven_inputs(reader, robot, inputs, drives)
     references = reference_problems(raw, {
         "link": robot.link_names, "contact": [p.name for p in points], "coordinate": coords,
     })
@@ -430,7 +450,51 @@ def _scene_from_checked(reader: _Reader, scene_path: Path, raw: dict[str, Any], 
     return Scene(scene_path, name, robot, q, v, tuple(contacts), inputs, tol, raw,
                  model=read_model(path_text, raw.get("model"), [p.name for p in points]),
                  task=read_task(path_text, raw.get("task")),
-                 disturbances=read_disturbances(path_text, raw.get("disturbances"), robot.link_names))
+                 disturbances=read_disturbances(path_text, raw.get("disturbances"), robot.link_names),
+                 drives=drives)
+
+
+def _force_unit(robot: PlanarRobot, coordinate: str) -> str:
+    """The unit of a generalized force on ``coordinate``: "N" (x, y, a prismatic joint) or "N m"."""
+    if coordinate in BASE_COORDINATES and robot.base == "planar":
+        return "N m" if coordinate == "theta" else "N"
+    joint = robot.model.joints[robot.model.getJointId(coordinate)]
+    return "N" if "Prismatic" in joint.shortname() or joint.shortname().startswith("JointModelP") else "N m"
+
+
+def _driven_inputs(reader: _Reader, robot: PlanarRobot, inputs: Inputs, drives: Mapping[str, Drive]
+                   ) -> Inputs:
+    """The inputs with their units and gains, and the drives' inertia and damping in ``robot``.
+
+    A driven joint's input is a voltage: its limits (default: the drive's ``voltage_limit``) must
+    lie within ``[-voltage_limit, voltage_limit]``.
+
+    Raises:
+        SceneError: a driven joint that is not an input, or a voltage limit beyond the drive's.
+    """
+    coords = robot.coordinate_names
+    units = tuple(_force_unit(robot, coords[i]) for i in inputs.indices)
+    if not drives:
+        return replace(inputs, units=units)
+    index = {name: i for i, name in enumerate(coords)}
+    robot.set_drive_terms({index[j]: d.reflected_inertia for j, d in drives.items()},
+                          {index[j]: d.joint_damping for j, d in drives.items()})
+    lower, upper = inputs.lower.copy(), inputs.upper.copy()
+    gains, unit_list = [1.0] * inputs.count, list(units)
+    for joint, drive in drives.items():
+        if joint not in inputs.coordinates:
+            raise reader.fail(f"model.drives.{joint}", f"the driven joint {joint!r} is not an input: add "
+                              "it to [inputs] coordinates (its input is the motor's voltage [V])")
+        j = inputs.coordinates.index(joint)
+        limit = drive.voltage_limit
+        lower[j] = max(lower[j], -limit) if math.isinf(lower[j]) else lower[j]
+        upper[j] = min(upper[j], limit) if math.isinf(upper[j]) else upper[j]
+        for label, value in (("lower", lower[j]), ("upper", upper[j])):
+            if abs(value) > limit:
+                raise reader.fail(f"inputs.{label}[{j}]", f"{value:g} V for the driven joint {joint!r} is "
+                                  f"beyond its drive's voltage_limit {limit:g} V")
+        gains[j], unit_list[j] = drive.input_gain, "V"
+    return replace(inputs, lower=lower, upper=upper, gains=tuple(gains), units=tuple(unit_list))
 
 
 def _read_model_settings(reader: _Reader, raw: Mapping[str, Any], gap_tolerance: float | None

@@ -58,6 +58,41 @@ _CONTACT_PARAMETERS: dict[str, Any] = {
     "tangential_damping": _number("b_T [N s/m]; absent: critical", exclusiveMinimum=0),
 }
 
+_STAGE: dict[str, Any] = {
+    "type": "object",
+    "additionalProperties": False,
+    "description": "a gear pair, then a torsion element (rigid without stiffness); motor side first",
+    "properties": {
+        "ratio": _number("N [-], input speed / output speed (33 for 33:1)", exclusiveMinimum=0,
+                         default=1),
+        "efficiency": _number("eta [-], in (0, 1]: factor on the driving torque through the gears",
+                              exclusiveMinimum=0, maximum=1, default=1),
+        "inertia_in": _number("I' [kg m^2], input gear's inertia", minimum=0, default=0),
+        "inertia_out": _number("I'' [kg m^2], output gear's inertia", minimum=0, default=0),
+        "stiffness": _number("c [N m/rad] of the torsion element after the gears; absent: rigid",
+                             exclusiveMinimum=0),
+        "damping": _number("d [N m s/rad] of the torsion element", minimum=0, default=0),
+    },
+}
+
+_DRIVE: dict[str, Any] = {
+    "type": "object",
+    "additionalProperties": False,
+    "description": "a DC motor (voltage input [V]) and its transmission, driving the joint named by "
+                   "the table's key",
+    "required": ["resistance", "torque_constant", "back_emf_constant", "rotor_inertia", "voltage_limit"],
+    "properties": {
+        "kind": {"enum": ["dc_motor"], "default": "dc_motor"},
+        "resistance": _number("R [ohm], terminal resistance", exclusiveMinimum=0),
+        "torque_constant": _number("C_M [N m/A]", exclusiveMinimum=0),
+        "back_emf_constant": _number("C_E [V s/rad]", minimum=0),
+        "rotor_inertia": _number("J_r [kg m^2]", minimum=0),
+        "voltage_limit": _number("u_max [V]: the voltage lies in [-u_max, u_max]", exclusiveMinimum=0),
+        "stages": {"type": "array", "items": _STAGE,
+                   "description": "the transmission, motor side first; absent: direct drive"},
+    },
+}
+
 SCENE_SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "$id": "frcontrol-scene.schema.json",
@@ -113,8 +148,8 @@ SCENE_SCHEMA: dict[str, Any] = {
             "properties": {
                 "coordinates": {**_NAMES, "x-refers": "coordinate",
                                 "description": "the coordinates u acts on (generalized forces)"},
-                "lower": {**_NUMBERS, "description": "[N or N m] lower limits, same order"},
-                "upper": {**_NUMBERS, "description": "[N or N m] upper limits, same order"},
+                "lower": {**_NUMBERS, "description": "[N or N m; V if driven] lower limits, same order"},
+                "upper": {**_NUMBERS, "description": "[N or N m; V if driven] upper limits, same order"},
             },
         },
         "model": {
@@ -126,6 +161,11 @@ SCENE_SCHEMA: dict[str, Any] = {
                 **_CONTACT_PARAMETERS,
                 "armature": _number("[kg m^2 or kg] rotor inertia added to massless coordinates",
                                     minimum=0),
+                "drives": {
+                    "type": "object",
+                    "description": "DC-motor drives, by joint name: the joint's input is then a voltage [V]",
+                    "additionalProperties": _DRIVE,
+                },
                 "contacts": {
                     "type": "object",
                     "description": "per-contact overrides, by contact name",
@@ -248,6 +288,8 @@ def _check(doc: Any, schema: Mapping[str, Any], path: str, out: list[SchemaProbl
             fail(f"expected >= {schema['minimum']:g}, got {doc!r}")
         elif "exclusiveMinimum" in schema and doc <= schema["exclusiveMinimum"]:
             fail(f"expected > {schema['exclusiveMinimum']:g}, got {doc!r}")
+        elif "maximum" in schema and doc > schema["maximum"]:
+            fail(f"expected <= {schema['maximum']:g}, got {doc!r}")
     elif kind == "string":
         if not isinstance(doc, str):
             fail(f"expected a string, got {_type_name(doc)} ({doc!r})")

@@ -64,7 +64,7 @@ DEFAULT_DAMPING_RATIO = 1.0
 """[-] Default damping ratio zeta: critical damping for each contact's effective mass."""
 
 _MODEL_KEYS = {"contact", "stiffness", "damping", "damping_ratio", "tangential_stiffness",
-               "tangential_damping", "armature", "contacts"}
+               "tangential_damping", "armature", "contacts", "drives"}
 _CONTACT_KEYS = {"stiffness", "damping", "damping_ratio", "tangential_stiffness", "tangential_damping"}
 
 

@@ -12,9 +12,10 @@ The defaults are the rigid stepper's :data:`~frcontrol.simulation.rigid.CONTACT_
 and :data:`~frcontrol.simulation.rigid.SLIP_VELOCITY_TOLERANCE`.
 
 :func:`save_trajectory` writes ``times``, ``q``, ``v``, ``inputs``, ``forces`` (every contact's
-``(lambda_n, lambda_t)``) and ``modes`` (one letter per contact and sample): in an ``.npz`` file as
-arrays of those names (with ``coordinates``, ``contacts`` and ``input_names``), in a ``.csv`` file
-as one row per sample with a header naming every column.
+``(lambda_n, lambda_t)``) and ``modes`` (one letter per contact and sample), and for each drive
+``drives.JOINT.voltage``, ``.current``, ``.motor_speed`` and ``.torque``
+(:mod:`.drives`): in an ``.npz`` file as arrays of those names (with ``coordinates``, ``contacts``
+and ``input_names``), in a ``.csv`` file as one row per sample with a header naming every column.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from ..errors import InputError, reason_from_exception
 from ..modes import contact_mode_letter
 from ..scene import Scene
 from . import TRAJECTORY_FORMATS
+from .drives import drive_arrays
 from .rigid import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
 from .trajectory import Trajectory
 
@@ -68,6 +70,7 @@ def trajectory_arrays(scene: Scene, trajectory: Trajectory) -> dict[str, np.ndar
         "coordinates": np.array(trajectory.coordinates, dtype=str),
         "contacts": np.array(trajectory.contacts, dtype=str),
         "input_names": np.array(trajectory.input_names, dtype=str),
+        **drive_arrays(scene, trajectory),
     }
 
 
@@ -98,6 +101,8 @@ def _write_csv(path: Path, arrays: dict[str, np.ndarray]) -> None:
     header = (["time"] + [f"q_{c}" for c in coords] + [f"v_{c}" for c in coords]
               + [f"u_{u}" for u in inputs]
               + [f"{c}_{part}" for c in contacts for part in ("lambda_n", "lambda_t", "mode")])
+    extra = [name for name in arrays if name.startswith(("drives.", "stages."))]
+    header += extra
     with path.open("w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle)
         writer.writerow(header)
@@ -108,4 +113,5 @@ def _write_csv(path: Path, arrays: dict[str, np.ndarray]) -> None:
             for i in range(len(contacts)):
                 row += [repr(float(arrays["forces"][j, i, 0])), repr(float(arrays["forces"][j, i, 1])),
                         str(arrays["modes"][j, i])]
+            row += [repr(float(arrays[name][j])) for name in extra]
             writer.writerow(row)

@@ -320,6 +320,8 @@ class RigidStepper:
         self._all = list(range(len(self.names)))
         self._mu = np.array([c.mu for c in scene.contacts], dtype=float)
         self._input_map = scene.inputs.selection_transpose(robot.nv)
+        damping = robot.drive_damping
+        self._damping = damping if np.any(damping) else None
         self.state = robot.state(self.q, self.v, self._all)
         options = model_options(scene)
         self.armature = massless_armature(scene, self.state.mass_matrix,
@@ -377,6 +379,8 @@ class RigidStepper:
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(v_next, normal and tangential impulses per contact, the candidates' mask) of a step."""
         st, cfg = self.state, self.settings
+        if self._damping is not None:  # drives' damping, implicit: (M + h D)(v+ - v) = h (f - D v) + J^T p
+            mass = mass + np.diag(h * self._damping)
         factor = mass_factor(mass, self.armature)
         accel = scipy.linalg.cho_solve(factor, self._input_map @ u - st.bias, check_finite=False)
         v_free = self.v + h * accel

@@ -199,11 +199,18 @@ class Trajectory:
                                    "forces": self.contact_forces, "energy": energy,
                                    "max_penetration": penetration}
         if scene is not None:
+            from .drives import drive_samples
             from .export import sample_modes
+
+            summary["input_units"] = scene.inputs.unit_map()
+            if scene.drives:
+                samples["drives"] = drive_samples(scene, self)
 
             modes = sample_modes(scene, self)
             samples["modes"] = list(modes)
             for event in summary["events"]:
+                if event["contact"] not in self.contacts:
+                    continue  # an "ambiguous" event names every touching contact, comma-separated
                 at = min(int(np.searchsorted(self.times, event["time"] - 1e-12)), len(modes) - 1)
                 i = self.contacts.index(event["contact"])
                 event["from"], event["to"] = modes[max(at - 1, 0)][i], modes[at][i]
