@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
@@ -35,11 +36,11 @@ MaxTimeOpt = Annotated[
 DtOpt = Annotated[float, typer.Option("--dt", min=1e-6, help="Time step [s] of the simulation.")]
 ReplanOpt = Annotated[int, typer.Option("--replan-every", min=1, help="Steps between two plans.")]
 PumpOpt = Annotated[
-    bool,
-    typer.Option("--pump", help="Pump the body up over several leg strokes (push, fall back onto the "
-                 "legs, recirculate, push again) within the hips' motor torque-speed limits; the JSON's "
+    bool | None,
+    typer.Option("--pump/--no-pump", help="Pump the body up over several leg strokes (push, fall back "
+                 "onto the legs, recirculate, push again) within the hips' DC-motor limits; the JSON's "
                  "simulation then carries every sample's drives and limits, and 'pump' the cycles, "
-                 "phases and energy drawn."),
+                 "phases and energy drawn. Default: on for a scene whose inputs all have drives."),
 ]
 CompliantOpt = Annotated[
     bool,
@@ -61,7 +62,7 @@ def flip_command(
     max_time: MaxTimeOpt = 2.0,
     dt: DtOpt = 1e-3,
     replan_every: ReplanOpt = 10,
-    pump: PumpOpt = False,
+    pump: PumpOpt = None,
     compliant: CompliantOpt = False,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
@@ -78,12 +79,12 @@ def flip_command(
       frc flip --html flip.html --plot flip.png
       frc flip --margin 0.5 --json
       frc flip --set contacts.front_corner.mu=0.5 --out flip.csv
-      frc flip --pump --max-time 3 --plot pump.png
+      frc flip rhex_flip_drives --max-time 3 --plot pump.png
     """
     common.set_quiet(quiet)
     common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
     loaded = options.load_scene_with_overrides(scene, sets)
-    if pump:
+    if pump or (pump is None and _driven(loaded)):
         _pump(loaded, json=json, html=html, out=out, plot=plot, margin=margin, max_time=max_time, dt=dt,
               replan_every=replan_every, compliant=compliant)
         return
@@ -112,6 +113,11 @@ def _plan_and_fly(scene: Scene, margin: float, max_time: float, dt: float, repla
             scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
             on_simulation=lambda: status.update(f"simulating the flip (up to {max_time:g} s)..."),
             progress=lambda t, total: status.update(f"simulating the flip: {t:.3f} / {total:g} s"))
+
+
+def _driven(scene: Scene) -> bool:
+    """Every input of the scene has a DC-motor drive: ``frc flip`` pumps by default."""
+    return bool(scene.drives) and all(name in scene.drives for name in scene.inputs.coordinates)
 
 
 def _pump(scene: Scene, *, json: bool, html: Any, out: Any, plot: Any, margin: float, max_time: float,
@@ -147,7 +153,7 @@ def render_pump(payload: dict[str, Any]) -> None:
         table.add_row(str(p["cycle"]), p["kind"], f"{p['start']:.3f}", f"{p['end']:.3f}",
                       ", ".join(p["modes"]), p["ended_by"].split(" (")[0])
     console.print(table)
-    stalls = ", ".join(f"{name} {d['stall_torque']:.1f} N m / {d['no_load_speed']:.1f} rad/s"
+    stalls = ", ".join(f"{name} {d['stall_torque']:.1f} N m / {d['no_load_speed'] or math.inf:.1f} rad/s"
                        for name, d in pump["drives"].items())
     console.print(f"drives (stall torque / no-load speed): {stalls}")
     console.print(f"cycles: {pump['cycles']}; highest pitch per cycle \\[rad]: "

@@ -6,25 +6,19 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from frcontrol.drives import joint_torque, no_load_speed, stall_torque, torque_limits
 from frcontrol.engine import solutions_at
-from frcontrol.errors import InputError
+from frcontrol.errors import SceneError
 from frcontrol.planning.flip import flip_task
 from frcontrol.planning.pump import (
-    DEFAULT_HIP_DRIVE,
-    HipDrive,
-    joint_torque,
-    no_load_speed,
     pump_flip,
     pump_payload,
     simulate_pump,
-    stall_torque,
-    torque_limits,
     verify_compliant,
     voltage_for_torque,
 )
@@ -32,54 +26,49 @@ from frcontrol.scene import load_scene
 
 runner = CliRunner()
 PITCH = 2  # theta in RHex's coordinates
-STRONG = replace(DEFAULT_HIP_DRIVE, voltage_limit=150.0)
-"""A drive 6.25 times as strong as a RHex hip pair (120 N m stall, 188 rad/s): one stroke flips."""
+STRONG_VOLTS = 250.0
+"""[V] The motors at this voltage limit (117 N m stall, 323 rad/s, ten times RHex's pair): one
+stroke flips the body."""
 
 
 @pytest.fixture(scope="module")
 def rhex():
-    return load_scene("rhex_flip")
+    return load_scene("rhex_flip_drives")
 
 
 @pytest.fixture(scope="module")
 def pumped(rhex):
-    """Two cycles and a half at the default drive (19.2 N m stall per pair), with its first plan."""
+    """Two cycles at the scene's drives (11.2 N m stall per pair), with the first push's plan."""
     return pump_flip(rhex, max_time=0.6)
 
 
 @pytest.fixture(scope="module")
-def strong(rhex):
-    """The strong drive alone limits the torques (the scene's 40 N m limits are lifted)."""
-    free = replace(rhex, inputs=replace(rhex.inputs, lower=np.full(2, -1e3), upper=np.full(2, 1e3)))
-    return simulate_pump(free, max_time=0.5, drives={n: STRONG for n in rhex.inputs.coordinates})
+def strong():
+    sets = {f"model.drives.{j}.voltage_limit": STRONG_VOLTS for j in ("hip_middle", "hip_rear")}
+    sets.update({"inputs.lower": [-STRONG_VOLTS] * 2, "inputs.upper": [STRONG_VOLTS] * 2})
+    scene = load_scene("rhex_flip_drives", overrides=sets)
+    return scene, simulate_pump(scene, max_time=0.5)
 
 
 # ------------------------------------------------------------------------------- the drive
 
 
-def test_the_line_has_the_dc_motor_closed_forms():
-    d = HipDrive(resistance=2.0, torque_constant=0.05, back_emf_constant=0.04, voltage_limit=12.0, ratio=10.0,
-                 efficiency=0.5)
-    assert stall_torque(d) == pytest.approx(0.5 * 10 * 0.05 * 12 / 2.0)
-    assert no_load_speed(d) == pytest.approx(12.0 / (0.04 * 10))
-    assert joint_torque(d, 12.0, no_load_speed(d)) == pytest.approx(0.0, abs=1e-12)
-    # the limits are the line at -V_max and +V_max, shifted down by the back-EMF at any speed
-    lo, hi = torque_limits(d, 7.0)
-    assert hi == pytest.approx(stall_torque(d) - 0.5 * 10 * 0.05 * 0.04 * 10 * 7.0 / 2.0)
-    assert hi - lo == pytest.approx(2 * stall_torque(d))
-    # the voltage for a torque inside the limits gives that torque back
+def test_the_voltage_for_a_torque_inverts_the_motor_line(rhex):
     rng = np.random.default_rng(4)
-    for speed, fraction in zip(rng.uniform(-40, 40, 20), rng.uniform(0, 1, 20), strict=True):
-        lo, hi = torque_limits(d, speed)
-        torque = lo + fraction * (hi - lo)
-        volts = voltage_for_torque(d, torque, speed)
-        assert abs(volts) <= d.voltage_limit + 1e-12
-        assert joint_torque(d, volts, speed) == pytest.approx(torque, abs=1e-9)
+    for drive in rhex.drives.values():
+        for speed, fraction in zip(rng.uniform(-40, 40, 20), rng.uniform(0, 1, 20), strict=True):
+            lo, hi = torque_limits(drive, speed)
+            torque = lo + fraction * (hi - lo)
+            volts = voltage_for_torque(drive, torque, speed)
+            assert abs(volts) <= drive.voltage_limit + 1e-12
+            assert joint_torque(drive, volts, speed) == pytest.approx(torque, abs=1e-9)
+        # beyond the limits, the voltage saturates
+        assert voltage_for_torque(drive, 2 * stall_torque(drive), 0.0) == drive.voltage_limit
 
 
-def test_the_default_pair_is_within_twenty_newton_metres():
-    assert 15.0 < stall_torque(DEFAULT_HIP_DRIVE) <= 20.0
-    assert 25.0 < no_load_speed(DEFAULT_HIP_DRIVE) < 35.0
+def test_the_scene_hip_pairs_are_within_twenty_newton_metres(rhex):
+    for drive in rhex.drives.values():
+        assert 0 < stall_torque(drive) <= 20.0 and 20.0 < no_load_speed(drive) < 40.0
 
 
 # ---------------------------------------------------------------- the run, from its samples
@@ -108,10 +97,10 @@ def test_every_sample_lies_on_the_motor_line(rhex, pumped):
         assert np.all(torque <= swing - shift + 1e-9) and np.all(torque >= -swing - shift - 1e-9)
         assert c["stall_torque"] <= 20.0
     assert doc["simulation"]["torque_within_limits"] is True
-    # the stepper was given exactly these torques (the applied inputs of the rigid run)
-    applied = result.trajectory.inputs[1:]
+    # the stepper was given exactly these voltages (the inputs of the rigid run)
     for j, name in enumerate(rhex.inputs.coordinates):
-        assert np.allclose(applied[:, j], np.array(samples["drives"][name]["torque"])[:-1], atol=1e-12)
+        assert np.array_equal(result.trajectory.inputs[:, j], samples["drives"][name]["voltage"])
+    assert doc["input_units"] == {"hip_middle": "V", "hip_rear": "V"}
 
 
 def test_the_energy_drawn_is_the_integral_of_voltage_times_current(rhex, pumped):
@@ -119,7 +108,7 @@ def test_the_energy_drawn_is_the_integral_of_voltage_times_current(rhex, pumped)
     samples = pump_payload(rhex, plan, result)["simulation"]["samples"]
     dt = np.diff(samples["times"])
     power = sum(np.array(d["voltage"]) * np.array(d["current"]) for d in samples["drives"].values())
-    assert result.energy_drawn == pytest.approx(float(np.sum(power[:-1] * dt)), rel=1e-12)
+    assert result.energy_drawn == pytest.approx(float(np.sum(power[1:] * dt)), rel=1e-12)
     # the supply pays at least for the mechanical energy the body gained at its highest
     energy = result.trajectory.info["energy"]
     assert result.energy_drawn > float(np.max(energy) - energy[0]) > 0
@@ -154,22 +143,22 @@ def test_the_first_push_is_the_one_rigid_solution_at_its_torques(rhex, pumped):
     assert plan.found and plan.unambiguous
     (solution,) = solutions_at(rhex, dict(plan.torques))
     assert solution.mode == plan.mode
-    lo, hi = torque_limits(DEFAULT_HIP_DRIVE, 0.0)
-    assert all(lo <= x <= hi for x in plan.torques.values())
+    assert all(abs(x) <= rhex.drives[name].voltage_limit for name, x in plan.torques.items())
 
 
 def test_within_twenty_newton_metres_the_rigid_body_does_not_flip_and_says_why(pumped):
     _, result = pumped
     assert not result.flipped and result.time_to_vertical is None
     assert "short of vertical" in result.reason
-    assert result.max_pitch < flip_task(load_scene("rhex_flip")).vertical
+    assert result.max_pitch < flip_task(load_scene("rhex_flip_drives")).vertical
 
 
 # ---------------------------------------------------------------- a flip, by simulation
 
 
-def test_a_strong_enough_drive_flips_and_the_samples_show_it(rhex, strong):
-    task = flip_task(rhex)
+def test_a_strong_enough_drive_flips_and_the_samples_show_it(strong):
+    scene, strong = strong
+    task = flip_task(scene)
     pitch = strong.trajectory.q[:, task.pitch_index]
     assert strong.flipped and pitch[-1] >= task.vertical > pitch[:-1].max()
     assert strong.trajectory.times[-2] <= strong.time_to_vertical <= strong.trajectory.times[-1]
@@ -177,8 +166,9 @@ def test_a_strong_enough_drive_flips_and_the_samples_show_it(rhex, strong):
     assert strong.cycles == 1 and strong.phases[0].kind == "push"
 
 
-def test_the_strong_flip_survives_the_compliant_model(rhex, strong):
-    check = verify_compliant(rhex, strong)
+def test_the_strong_flip_survives_the_compliant_model(strong):
+    scene, strong = strong
+    check = verify_compliant(scene, strong)
     assert check["status"] == "completed" and check["torque_within_limits"]
     assert check["flipped"], check
 
@@ -190,9 +180,9 @@ def test_the_compliant_replay_follows_the_rigid_pumping(rhex):
     assert check["max_pitch"] == pytest.approx(result.max_pitch, abs=0.02)
 
 
-def test_a_missing_drive_is_an_input_error(rhex):
-    with pytest.raises(InputError, match="no drive for the input"):
-        simulate_pump(rhex, max_time=0.1, drives={"hip_middle": DEFAULT_HIP_DRIVE})
+def test_a_scene_without_drives_is_a_scene_error():
+    with pytest.raises(SceneError, match="needs a DC-motor drive on every input"):
+        simulate_pump(load_scene("rhex_flip"), max_time=0.1)
 
 
 # ------------------------------------------------------------------------ the command line
@@ -205,7 +195,7 @@ def test_frc_flip_pump_json_plot_and_exit_codes(tmp_path):
     from frcontrol.viz.pump_figure import pump_figure
 
     figure = tmp_path / "pump.png"
-    result = runner.invoke(app, ["flip", "rhex_flip", "--pump", "--max-time", "0.3", "--json",
+    result = runner.invoke(app, ["flip", "rhex_flip_drives", "--max-time", "0.3", "--json",
                                  "--plot", str(figure)])
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
@@ -217,8 +207,9 @@ def test_frc_flip_pump_json_plot_and_exit_codes(tmp_path):
     assert set(sim["samples"]["drives"]["hip_rear"]) >= {"voltage", "current", "motor_speed", "torque"}
     assert {"cycles", "time_to_flip", "energy_drawn", "phases"} <= set(doc["pump"])
     assert figure.stat().st_size > 0
-    scene = load_scene("rhex_flip")
+    scene = load_scene("rhex_flip_drives")
     assert text_overlaps(pump_figure(scene, simulate_pump(scene, max_time=0.3))) == []
-    bad = runner.invoke(app, ["flip", "rhex_flip", "--pump", "--max-time", "0.1", "--dt", "1"])
-    assert bad.exit_code == 1 and "Traceback" not in bad.output
+    for args in (["rhex_flip_drives", "--max-time", "0.1", "--dt", "1"], ["rhex_flip", "--pump"]):
+        bad = runner.invoke(app, ["flip", *args])
+        assert bad.exit_code == 1 and "Traceback" not in bad.output and len(bad.stderr.splitlines()) == 1
     assert math.isfinite(doc["pump"]["energy_drawn"])

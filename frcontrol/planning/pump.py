@@ -4,39 +4,38 @@ Saranli, Rizzi and Koditschek (IJRR 23(9), 2004) right the real RHex, whose hips
 body past vertical in one stroke, by chaining strokes. The plan here chains *phases*:
 
 - **push**: the toes on the ground push the body up about its front corner. The input is the
-  flip plan (:func:`frcontrol.planning.flip.plan_flip`): the torques that maximise the pitch
-  acceleration in the *unambiguous set* of a mode keeping every body contact loaded, with the
-  input limits of this instant: the motor's torque-speed line at each hip's speed (below). The
-  phase ends when the analysis predicts a mode change it cannot plan in: no candidate mode keeps
-  a pushing toe loaded (the toes lift off), or no plan pitches the body up.
-- **flight / fall** (``recirculate``): the legs are in the air, the body moves on its own. A
-  massless leg in the air carries no torque in the rigid analysis (its input is forced to 0 in
-  every mode: it cannot change the body's mode), so the legs' voltages only turn their rotors:
-  each leg is driven round (one turn in its pushing direction, :data:`RECIRCULATION_GAIN`) to its
-  touch-down angle, the angle it had at the start, where its toe meets the ground when the body
-  comes back down. The phase ends when a toe touches the ground (the analysis' contact set changes).
+  flip plan (:func:`frcontrol.planning.flip.plan_flip`): the hip voltages that maximise the pitch
+  acceleration in the *unambiguous set* of a mode keeping every body contact loaded. With DC-motor
+  drives (``[model.drives.JOINT]``, :mod:`frcontrol.drives`) the inputs are voltages within
+  ``[-u_max, u_max]`` and the motors' electrical damping is in the bias, so the analysis is in
+  voltage space at the hips' speeds: the torque-speed line is the shape of every mode domain. The
+  phase ends on a mode change the analysis predicts: the best unambiguous mode loads no toe any
+  more (the toes lift off), or no mode keeping a toe loaded pitches the body up.
+- **recirculate**: the legs are in the air and the body moves on its own (up, then back down).
+  Each leg is driven round (one turn on in its pushing direction, :data:`RECIRCULATION_GAIN`) to
+  its touch-down angle, the angle it had at the start, where its toe meets the ground when the
+  body comes back down. The phase ends when a toe touches the ground with the body's pitch rate at
+  most :data:`FALL_PITCH_RATE`: the body has fallen back onto its legs.
 - then **push** again: a new cycle.
 
-**Drives.** Each planar hip stands for a pair of DC motors behind a gear (ratio N, efficiency
-eta), taken as one equivalent drive. With voltage V [V] and joint speed qdot [rad/s]::
+**Drives.** Each planar hip stands for a pair of motors behind a gear (ratio N, efficiency
+eta), one drive. With voltage u [V] and joint speed qdot [rad/s]::
 
-    torque = eta N CM (V - CE N qdot) / R,   |V| <= V_max
-    => torque in [eta N CM (-V_max - CE N qdot) / R, eta N CM (V_max - CE N qdot) / R]
+    torque = eta N C_M (u - C_E N qdot) / R,   |u| <= u_max
+    => torque in [eta N C_M (-u_max - C_E N qdot) / R, eta N C_M (u_max - C_E N qdot) / R]
 
-(CM [N m/A] the torque constant, CE [V s/rad] the back-EMF constant, R [ohm] the resistance).
-The plan picks torques inside that interval, and the voltage that gives them is applied; the
-simulation then computes each step's torque from the voltage at the step's joint speed, so
-every sample's torque lies on the motor's line by construction (the JSON carries the voltage,
-current, motor speed, torque and the limits of every sample: a reader can check).
+(:func:`frcontrol.drives.torque_limits`). The voltages are the simulation's inputs: every sample's
+torque lies on the motor's line by construction, and the JSON carries each sample's voltage,
+current, motor speed, torque and limits, so a reader can check.
 
-**Energy drawn.** The electrical energy ``sum_j int V_j I_j dt`` [J] with the pair's current
-``I = (V - CE N qdot) / R`` (negative power, braking, counts as returned).
+**Energy drawn.** ``sum_j sum_k u_j,k i_j,k (t_k - t_k-1)`` [J], from the samples (the voltage held
+over the step ending at sample k and the current at that sample; negative power, braking, counts
+as returned).
 
 **Verification.** The run is one rigid simulation (velocity-level time stepping with inelastic
 impacts). The same voltages, replayed against time, drive the compliant model (Kelvin–Voigt
 contacts at the stiffness the speed-accuracy benchmark recommends for trajectories,
-:data:`COMPLIANT_STIFFNESS`), each sample's torque again from the drive's line at the compliant
-joint speed: the flip must survive both.
+:data:`COMPLIANT_STIFFNESS`): the flip must survive both.
 """
 
 from __future__ import annotations
@@ -49,7 +48,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..drives import Drive, no_load_speed, stall_torque, torque_limits
+from ..errors import SceneError
 from ..jsonable import finite_or_none, to_jsonable
 from ..scene import Scene
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
@@ -57,11 +57,11 @@ from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER
 from .flip import (
     DEFAULT_MARGIN,
+    FORCED_INPUT_TOLERANCE,
     SEPARATION_GAP,
     FlipPlan,
     _body_contacts,
     _gaps,
-    _massless_legs,
     _replan,
     _time_to_vertical,
     flip_task,
@@ -71,45 +71,40 @@ from .flip import (
 __all__ = [
     "COMPLIANT_EXTRA_TIME",
     "COMPLIANT_STIFFNESS",
-    "DEFAULT_HIP_DRIVE",
     "FALL_PITCH_RATE",
     "LIMIT_TOLERANCE",
     "RECIRCULATION_DAMPING",
     "RECIRCULATION_GAIN",
-    "HipDrive",
     "PumpPhase",
     "PumpResult",
-    "drive_current",
-    "drive_samples",
-    "joint_torque",
-    "no_load_speed",
+    "check_pump_scene",
+    "energy_drawn",
     "pump_flip",
     "pump_payload",
-    "scene_drives",
+    "pump_samples",
     "simulate_pump",
-    "stall_torque",
-    "torque_limits",
     "verify_compliant",
     "voltage_for_torque",
+    "within_limits",
 ]
 
 # ---------------------------------------------------------------------------------------------
 # constants
 
 RECIRCULATION_GAIN = 60.0
-"""[V/rad] Proportional gain of the legs' voltage towards their touch-down angle in the air."""
+"""[V/rad] Proportional gain of a leg's voltage towards its touch-down angle in the air."""
 
 RECIRCULATION_DAMPING = 0.5
 """[V s/rad] Damping of the same loop (added to the motor's own back-EMF damping)."""
+
+FALL_PITCH_RATE = 1e-3
+"""[rad/s] A recirculation ends, and the next push starts, once a toe touches the ground and the
+body's pitch rate is at most this: the body has come back down onto its legs."""
 
 COMPLIANT_STIFFNESS = 1e6
 """[N/m] Contact stiffness of the compliant check: the middle of the range (1e5-1e7 N/m, Radau,
 critical damping) that ``python -m benchmarks.trade`` recommends for trajectories (README,
 "Which setting for which purpose")."""
-
-FALL_PITCH_RATE = 1e-3
-"""[rad/s] A recirculation ends, and the next push starts, once a toe touches the ground and the
-body's pitch rate is at most this: the body has come back down onto its legs."""
 
 COMPLIANT_EXTRA_TIME = 0.2
 """[s] After a rigid flip, the compliant replay runs this much longer (the last voltages held): a
@@ -120,97 +115,49 @@ LIMIT_TOLERANCE = 1e-9
 this times ``1 + |torque|`` (round-off of the line's evaluation)."""
 
 PUSH_DIRECTION_TOLERANCE = 1e-9
-"""[N m] A planned torque of at most this size gives no pushing direction (the leg recirculates
-in the default, negative, direction)."""
+"""[V] A planned voltage of at most this size gives no pushing direction (the leg recirculates in
+the default, negative, direction)."""
 
 
-# ---------------------------------------------------------------------------------------------
-# the drive: one function gives the torque-speed line
+def voltage_for_torque(drive: Drive, torque: float, joint_speed: float) -> float:
+    """[V] The voltage giving ``torque`` [N m] at ``joint_speed`` [rad/s], within the voltage limit.
 
-
-@dataclass(frozen=True)
-class HipDrive:
-    """A hip's drive: a pair of DC motors behind one gear, as one equivalent motor.
-
-    Attributes:
-        resistance: [ohm] the pair's resistance (two windings in parallel).
-        torque_constant: [N m/A] CM.
-        back_emf_constant: [V s/rad] CE.
-        voltage_limit: [V] |V| at most this.
-        ratio: [-] gear ratio N (motor turns per joint turn).
-        efficiency: [-] the gear's efficiency eta, in (0, 1].
+    The inverse of :func:`frcontrol.drives.joint_torque`: ``u = R torque / (eta N C_M) + C_E N qdot``.
     """
-
-    resistance: float
-    torque_constant: float
-    back_emf_constant: float
-    voltage_limit: float
-    ratio: float
-    efficiency: float = 1.0
+    gain = drive.efficiency * drive.ratio * drive.torque_constant / drive.resistance
+    volts = torque / gain + drive.back_emf_constant * drive.ratio * joint_speed
+    return float(np.clip(volts, -drive.voltage_limit, drive.voltage_limit))
 
 
-DEFAULT_HIP_DRIVE = HipDrive(resistance=0.75, torque_constant=0.0242, back_emf_constant=0.0242,
-                             voltage_limit=24.0, ratio=33.0, efficiency=0.75)
-"""A 20 W-class pair: two Maxon-type coreless motors (24 V winding, CM = CE = 0.0242 N m/A,
-1.5 ohm each, so 0.75 ohm for the pair) behind 33:1 gearheads of efficiency 0.75, as on RHex
-(Saranli, Buehler and Koditschek 2001). Stall torque 19.2 N m per pair (below 20 N m), no-load
-joint speed 30 rad/s (RHex's legs turn at up to about 5 Hz when running). Used when the scene
-gives no drive."""
+def check_pump_scene(scene: Scene) -> list[Drive]:
+    """The drive of each input, in input order.
 
-
-def joint_torque(drive: HipDrive, voltage: float | np.ndarray, joint_speed: float | np.ndarray
-                 ) -> float | np.ndarray:
-    """[N m] ``eta N CM (V - CE N qdot) / R`` at voltage [V] and joint speed [rad/s]."""
-    d = drive
-    back_emf = d.back_emf_constant * d.ratio * joint_speed
-    return d.efficiency * d.ratio * d.torque_constant * (voltage - back_emf) / d.resistance
-
-
-def torque_limits(drive: HipDrive, joint_speed: float) -> tuple[float, float]:
-    """[N m] The torque interval at a joint speed [rad/s]: the line at ``-V_max`` and ``+V_max``."""
-    lo = float(joint_torque(drive, -drive.voltage_limit, joint_speed))
-    hi = float(joint_torque(drive, drive.voltage_limit, joint_speed))
-    return lo, hi
-
-
-def stall_torque(drive: HipDrive) -> float:
-    """[N m] ``eta N CM V_max / R``: the torque at rest and full voltage."""
-    return float(joint_torque(drive, drive.voltage_limit, 0.0))
-
-
-def no_load_speed(drive: HipDrive) -> float:
-    """[rad/s] ``V_max / (CE N)``: the joint speed where the torque at full voltage is 0."""
-    return drive.voltage_limit / (drive.back_emf_constant * drive.ratio)
-
-
-def voltage_for_torque(drive: HipDrive, torque: float, joint_speed: float) -> float:
-    """[V] The voltage giving ``torque`` [N m] at ``joint_speed`` [rad/s], within the voltage limit."""
-    d = drive
-    volts = torque * d.resistance / (d.efficiency * d.ratio * d.torque_constant) \
-        + d.back_emf_constant * d.ratio * joint_speed
-    return float(np.clip(volts, -d.voltage_limit, d.voltage_limit))
-
-
-def drive_current(drive: HipDrive, voltage: np.ndarray, joint_speed: np.ndarray) -> np.ndarray:
-    """[A] The pair's current ``(V - CE N qdot) / R``."""
-    return (voltage - drive.back_emf_constant * drive.ratio * joint_speed) / drive.resistance
-
-
-def _within_drive_limits(scene: Scene, drives: Sequence[HipDrive], speeds: np.ndarray) -> Scene:
-    """The scene with its input limits narrowed to the drives' torque-speed limits at ``speeds``.
-
-    The scene's own torque limits still hold where they are narrower.
+    Raises:
+        SceneError: an input has no drive (the pumping flip plans voltages within the motors'
+            limits: every input needs ``[model.drives.JOINT]``).
     """
-    limits = np.array([torque_limits(d, float(s)) for d, s in zip(drives, speeds, strict=True)])
-    limits = limits.reshape(-1, 2)
-    lower = np.maximum(scene.inputs.lower, limits[:, 0])
-    upper = np.minimum(scene.inputs.upper, limits[:, 1])
-    return replace(scene, inputs=replace(scene.inputs, lower=lower, upper=upper))
+    missing = [name for name in scene.inputs.coordinates if name not in scene.drives]
+    if missing:
+        raise SceneError(str(scene.path), f"model.drives.{missing[0]}",
+                         f"the pumping flip needs a DC-motor drive on every input; {', '.join(missing)} "
+                         "has none (add [model.drives.JOINT] tables, as the shipped scene "
+                         "rhex_flip_drives does)")
+    return [scene.drives[name] for name in scene.inputs.coordinates]
 
 
-def scene_drives(scene: Scene) -> dict[str, HipDrive]:
-    """The drive of each input: :data:`DEFAULT_HIP_DRIVE` for every input of the scene."""
-    return {name: DEFAULT_HIP_DRIVE for name in scene.inputs.coordinates}
+def _leg_contacts(scene: Scene, body: Sequence[str]) -> dict[int, list[int]]:
+    """Input -> the contacts (not the body's) its coordinate moves, from the contact Jacobians."""
+    state = scene.robot.state(scene.q, scene.v)
+    jac = np.vstack([state.jacobian_normal, state.jacobian_tangent])
+    k = len(scene.contacts)
+    body_index = {i for i, c in enumerate(scene.contacts) if c.name in body}
+    legs = {}
+    for i, j in enumerate(scene.inputs.indices):
+        rows = np.nonzero(np.abs(jac[:, j]) > FORCED_INPUT_TOLERANCE)[0]
+        toes = sorted({int(r % k) for r in rows} - body_index)
+        if toes:
+            legs[i] = toes
+    return legs
 
 
 # ---------------------------------------------------------------------------------------------
@@ -224,9 +171,9 @@ class PumpPhase:
     Attributes:
         kind: ``"push"`` or ``"recirculate"``.
         cycle: the pumping cycle it belongs to (a cycle starts with a push), from 1.
-        start: [s] its first sample's time; end: [s] the time it ended.
+        start: [s] when it began; end: [s] when it ended.
         modes: the planned modes of a push (one letter per active contact), in order, without
-            repeats; empty for a recirculation (its legs cannot change the body's mode).
+            repeats; empty for a recirculation.
         ended_by: the mode change (or the end of the run) that ended it.
     """
 
@@ -243,10 +190,9 @@ class PumpResult:
     """The simulated pumping flip.
 
     Attributes:
-        trajectory: the rigid run (its ``inputs`` are the applied torques [N m]).
-        voltages: [V] per sample, one column per input (the voltage held from that sample on; the
-            last sample repeats the last step's).
-        drives: the drive of each input.
+        trajectory: the rigid run; its ``inputs`` are the voltages [V] (row k: the step ending at
+            sample k).
+        drives: the drive of each input, in input order.
         phases: the phases in time order.
         flipped: the pitch passed vertical within ``max_time``.
         time_to_vertical: [s] when it did (else None).
@@ -256,15 +202,14 @@ class PumpResult:
         body_contact_kept: no body contact touching at the start separated (up to the flip).
         plans: ``(time, mode or None, why not)`` of every planning call of a push.
         reason: why it did not flip (None if it did).
-        dt: [s] the step; max_time: [s] the simulated time limit; armature: [kg m^2] the legs'.
-        margin: [N m] the push plans' margin.
-        timings: [s] ``simulation``, ``planning``, ``total``.
+        dt: [s] the step; max_time: [s] the simulated time limit.
+        margin: [V] the push plans' margin.
+        timings: [s] ``planning``, ``simulation``, ``total``.
         compliant: the compliant check (:func:`verify_compliant`), when made.
     """
 
     trajectory: Trajectory
-    voltages: np.ndarray
-    drives: Mapping[str, HipDrive]
+    drives: tuple[Drive, ...]
     phases: tuple[PumpPhase, ...]
     flipped: bool
     time_to_vertical: float | None
@@ -277,7 +222,6 @@ class PumpResult:
     reason: str | None
     dt: float
     max_time: float
-    armature: float
     margin: float
     timings: Mapping[str, float]
     compliant: Mapping[str, Any] | None = None
@@ -288,25 +232,19 @@ class PumpResult:
         return sum(1 for p in self.phases if p.kind == "push")
 
     def to_dict(self) -> dict[str, Any]:
-        """The pumping part of ``frc flip --json`` (``pump``), and its ``simulation``."""
+        """The ``pump`` part of ``frc flip --json``: cycles, time to flip, energy, phases, drives."""
         phases = [{"kind": p.kind, "cycle": p.cycle, "start": p.start, "end": p.end,
                    "modes": list(p.modes), "ended_by": p.ended_by} for p in self.phases]
-        drives = {name: {"resistance": d.resistance, "torque_constant": d.torque_constant,
-                         "back_emf_constant": d.back_emf_constant, "voltage_limit": d.voltage_limit,
-                         "ratio": d.ratio, "efficiency": d.efficiency, "stall_torque": stall_torque(d),
-                         "no_load_speed": no_load_speed(d)} for name, d in self.drives.items()}
+        drives = {d.joint: {"resistance": d.resistance, "torque_constant": d.torque_constant,
+                            "back_emf_constant": d.back_emf_constant, "voltage_limit": d.voltage_limit,
+                            "ratio": d.ratio, "efficiency": d.efficiency, "stall_torque": stall_torque(d),
+                            "no_load_speed": finite_or_none(no_load_speed(d))} for d in self.drives}
         return to_jsonable({
-            "cycles": self.cycles,
-            "flipped": self.flipped,
-            "time_to_flip": finite_or_none(self.time_to_vertical),
-            "energy_drawn": self.energy_drawn,
-            "max_pitch": self.max_pitch,
-            "vertical": self.vertical,
-            "cycle_max_pitch": list(self.cycle_max_pitch),
-            "phases": phases,
-            "drives": drives,
-            "margin": self.margin,
-            "compliant": None if self.compliant is None else dict(self.compliant),
+            "cycles": self.cycles, "flipped": self.flipped,
+            "time_to_flip": finite_or_none(self.time_to_vertical), "energy_drawn": self.energy_drawn,
+            "max_pitch": self.max_pitch, "vertical": self.vertical,
+            "cycle_max_pitch": list(self.cycle_max_pitch), "phases": phases, "drives": drives,
+            "margin": self.margin, "compliant": None if self.compliant is None else dict(self.compliant),
         })
 
 
@@ -320,15 +258,15 @@ class _PumpPolicy:
     Called every ``replan_every`` steps with the stepper; returns the voltages to hold.
     """
 
-    def __init__(self, scene: Scene, drives: Mapping[str, HipDrive], margin: float, solver: str) -> None:
-        self.scene = scene
+    def __init__(self, scene: Scene, drives: Sequence[Drive], margin: float, solver: str) -> None:
+        task = flip_task(scene)
+        self.scene, self.drives = scene, list(drives)
         self.names = scene.inputs.coordinates
-        self.drives = [drives[name] for name in self.names]
         self.index = np.array(scene.inputs.indices)
+        self.pitch_index = task.pitch_index
         self.margin, self.solver = margin, solver
         self.force_tolerance = CONTACT_FORCE_TOLERANCE * scene.robot.weight_scale()
-        self.pitch_index = flip_task(scene).pitch_index
-        self.legs = _massless_legs(scene)
+        self.legs = _leg_contacts(scene, task.body_contacts)
         self.touchdown = np.array(scene.q)[self.index]
         self.direction = -np.ones(len(self.names))
         self.target = self.touchdown.copy()
@@ -338,53 +276,38 @@ class _PumpPolicy:
         self.plans: list[tuple[float, str | None, str | None]] = []
         self.planning_time = 0.0
 
-    def toes_down(self, q: np.ndarray) -> np.ndarray:
-        """Per input, whether its leg has a contact on its surface (no leg: True)."""
+    def toes_down(self, q: np.ndarray) -> bool:
+        """Whether a leg has a contact on its surface."""
         gaps = _gaps(self.scene, q)
-        down = np.ones(len(self.names), dtype=bool)
-        for i, toes in self.legs.items():
-            down[i] = bool(np.any(gaps[toes] <= SEPARATION_GAP))
-        return down
+        return any(bool(np.any(gaps[toes] <= SEPARATION_GAP)) for toes in self.legs.values())
 
     def __call__(self, stepper: RigidStepper) -> np.ndarray:
         """The voltages from the stepper's state on."""
         q, v, t = stepper.q, stepper.v, stepper.t
-        speeds = v[self.index]
-        down = self.toes_down(q)
-        falling = v[self.pitch_index] <= FALL_PITCH_RATE
-        if self.kind == "recirculate" and falling and np.any(down & self._legged()):
+        if self.kind == "recirculate" and v[self.pitch_index] <= FALL_PITCH_RATE and self.toes_down(q):
             self._next_phase(t, "push", "the body is back on a toe")
-        volts = self._recirculation(q, speeds)
-        if self.kind == "push":
-            plan, why = self._plan(stepper, speeds)
-            self.plans.append((t, plan.mode if plan is not None else None, why))
-            if plan is None:
-                if why is not None and why.startswith("impact"):
-                    return volts  # a landing: the acceleration-level model does not apply yet
-                self._next_phase(t, "recirculate", why or "no plan")
-                self.target = self._recirculation_targets(q)
-                return self._recirculation(q, speeds)
-            torques = plan.input_vector(self.names)
-            for i, drive in enumerate(self.drives):
-                torque = float(torques[i]) if down[i] else 0.0  # a leg in the air coasts
-                volts[i] = voltage_for_torque(drive, torque, float(speeds[i]))
-                if abs(torques[i]) > PUSH_DIRECTION_TOLERANCE:
-                    self.direction[i] = math.copysign(1.0, float(torques[i]))
-            if plan.mode is not None and (not self.modes or self.modes[-1] != plan.mode):
-                self.modes.append(plan.mode)
+        if self.kind == "recirculate":
+            return self._recirculation(q, v[self.index])
+        plan, why = self._plan(stepper)
+        self.plans.append((t, None if plan is None else plan.mode, why))
+        if plan is None:
+            if why is not None and why.startswith("impact"):  # a landing: plan at the next call
+                return self._recirculation(q, v[self.index])
+            self._next_phase(t, "recirculate", why or "no plan")
+            self.target = self._recirculation_targets(q)
+            return self._recirculation(q, v[self.index])
+        volts = plan.input_vector(self.names)
+        pushing = np.abs(volts) > PUSH_DIRECTION_TOLERANCE
+        self.direction[pushing] = np.sign(volts[pushing])
+        if plan.mode is not None and (not self.modes or self.modes[-1] != plan.mode):
+            self.modes.append(plan.mode)
         return volts
 
-    def _legged(self) -> np.ndarray:
-        mask = np.zeros(len(self.names), dtype=bool)
-        mask[list(self.legs)] = True
-        return mask
-
-    def _plan(self, stepper: RigidStepper, speeds: np.ndarray) -> tuple[FlipPlan | None, str | None]:
-        """The push plan within the torque-speed limits of this instant, or why there is none."""
-        scene = _within_drive_limits(self.scene, self.drives, speeds)
+    def _plan(self, stepper: RigidStepper) -> tuple[FlipPlan | None, str | None]:
+        """The push plan at the stepper's state, or why there is none."""
         loaded = stepper.last_forces[:, 0] > self.force_tolerance
         start = time.perf_counter()
-        result = _replan(scene, stepper.q, stepper.v, loaded, self.margin, self.solver)
+        result = _replan(self.scene, stepper.q, stepper.v, loaded, self.margin, self.solver)
         self.planning_time += time.perf_counter() - start
         if isinstance(result, str):
             return None, result
@@ -394,22 +317,17 @@ class _PumpPolicy:
                 if c not in result.body_contacts and letter != "S"]
         if not toes:
             return None, f"the planned mode {result.mode} loads no toe: the toes lift off"
-        if result.pitch_acceleration is None or result.pitch_acceleration <= 0:
-            return None, "no plan pitches the body up"
         return result, None
 
     def _recirculation_targets(self, q: np.ndarray) -> np.ndarray:
-        """Each leg's touch-down angle, one turn on in its pushing direction (at most one turn)."""
+        """Each leg's touch-down angle, less than one turn on in its pushing direction."""
         angles = q[self.index]
         turns = np.floor(self.direction * (angles - self.touchdown) / (2 * math.pi)) + 1
-        targets = self.touchdown + self.direction * 2 * math.pi * turns
-        near = np.abs(angles - self.touchdown) < 1e-3
-        return np.where(near, self.touchdown, targets)
+        return self.touchdown + self.direction * 2 * math.pi * turns
 
     def _recirculation(self, q: np.ndarray, speeds: np.ndarray) -> np.ndarray:
         """[V] The legs' loop towards their targets, within each drive's voltage limit."""
-        error = self.target - q[self.index]
-        volts = RECIRCULATION_GAIN * error - RECIRCULATION_DAMPING * speeds
+        volts = RECIRCULATION_GAIN * (self.target - q[self.index]) - RECIRCULATION_DAMPING * speeds
         limits = np.array([d.voltage_limit for d in self.drives])
         return np.clip(volts, -limits, limits)
 
@@ -435,57 +353,44 @@ def simulate_pump(
     max_time: float = 4.0,
     replan_every: int = 10,
     margin: float = DEFAULT_MARGIN,
-    armature: float | None = None,
     solver: str = DEFAULT_LP_SOLVER,
-    drives: Mapping[str, HipDrive] | None = None,
     progress: Callable[[float, float], None] | None = None,
 ) -> PumpResult:
     """Pump the body up, phase by phase, in one rigid simulation until it passes vertical.
 
-    The phases and the drives are defined in the module's docstring. Every ``replan_every`` steps
-    the policy chooses the voltages; every step applies the torque the drive gives at that
-    voltage and the step's joint speed.
+    The phases are defined in the module's docstring. Every ``replan_every`` steps the policy
+    chooses the voltages, held until the next decision.
 
     Args:
-        scene: the scene (RHex on its back, its ``[task]`` as for :func:`~.flip.plan_flip`).
+        scene: RHex on its back with a DC-motor drive on every input, its ``[task]`` as for
+            :func:`~.flip.plan_flip`.
         dt: [s] the time step.
         max_time: [s] the longest simulated time.
         replan_every: steps between two decisions, >= 1.
-        margin: [N m] the push plans' margin.
-        armature: [kg m^2] the massless hips' rotor inertia (default as :func:`~.flip.simulate_flip`).
+        margin: [V] the push plans' margin.
         solver: LP back-end of the plans.
-        drives: the drive of each input (default: :func:`scene_drives`).
         progress: called with (simulated time, max_time) at every decision.
 
     Raises:
-        InputError: a bad step, time, count or armature, or a drive missing for an input.
-        SceneError: a malformed ``[task]`` table.
+        InputError: a bad step, time or count.
+        SceneError: an input without a drive, a malformed ``[task]`` table.
     """
     from .flip import _loop_options
 
     start = time.perf_counter()
-    max_time, dt, arm = _loop_options(scene, dt, max_time, replan_every, armature)
+    max_time, dt, _ = _loop_options(scene, dt, max_time, replan_every, None)
     task = flip_task(scene)
-    drives = dict(scene_drives(scene) if drives is None else drives)
-    missing = [name for name in scene.inputs.coordinates if name not in drives]
-    if missing:
-        raise InputError(f"no drive for the input(s) {', '.join(missing)}; the drives given are for "
-                         f"{', '.join(drives) or 'no input'}")
+    drives = check_pump_scene(scene)
     policy = _PumpPolicy(scene, drives, margin, solver)
-    stepper = RigidStepper(scene, RigidSettings(max_ambiguity_checks=0), armature=arm)
-    volts, voltages = np.zeros(scene.inputs.count), []
+    stepper = RigidStepper(scene, RigidSettings(max_ambiguity_checks=0))
+    volts = np.zeros(scene.inputs.count)
     steps = int(math.ceil(max_time / dt - 1e-9))
     for k in range(steps):
         if k % replan_every == 0:
             volts = policy(stepper)
             if progress is not None:
                 progress(stepper.t, max_time)
-        speeds = stepper.v[policy.index]
-        torques = np.array([joint_torque(d, float(V), float(s))
-                            for d, V, s in zip(policy.drives, volts, speeds, strict=True)])
-        voltages.append(volts.copy())
-        if not stepper.step(torques, min(dt, max_time - stepper.t) if k == steps - 1 else dt):
-            voltages.pop()
+        if not stepper.step(volts, min(dt, max_time - stepper.t)):
             break
         if stepper.q[task.pitch_index] >= task.vertical:
             break
@@ -493,22 +398,22 @@ def simulate_pump(
     flipped = bool(trajectory.q[-1, task.pitch_index] >= task.vertical)
     trajectory = replace(trajectory, modes=tuple(sample_modes(scene, trajectory)),
                          info={**trajectory.info, "source": "simulate_pump"})
-    held = np.array(voltages + voltages[-1:]) if voltages else np.zeros((1, scene.inputs.count))
     end = float(trajectory.times[-1])
-    phases = policy.close(end, "vertical passed" if flipped else trajectory.failure.reason
-                          if trajectory.failure is not None else "the end of the run")
+    failure = trajectory.failure
+    phases = policy.close(end, "vertical passed" if flipped else failure.reason if failure is not None
+                          else "the end of the run")
     separation, _ = _body_contacts(scene, trajectory, task.body_contacts, len(trajectory.times) - 1)
     pitch = trajectory.q[:, task.pitch_index]
     total = time.perf_counter() - start
     return PumpResult(
-        trajectory=trajectory, voltages=held, drives=drives, phases=phases, flipped=flipped,
+        trajectory=trajectory, drives=tuple(drives), phases=phases, flipped=flipped,
         time_to_vertical=_time_to_vertical(trajectory, task) if flipped else None,
         max_pitch=float(pitch.max()), vertical=task.vertical,
         cycle_max_pitch=_cycle_max_pitch(trajectory.times, pitch, phases),
-        energy_drawn=_energy_drawn(trajectory, held, policy),
-        body_contact_kept=separation is None, plans=tuple(policy.plans),
+        energy_drawn=energy_drawn(scene, trajectory), body_contact_kept=separation is None,
+        plans=tuple(policy.plans),
         reason=None if flipped else _why_not(trajectory, pitch, task.vertical, max_time),
-        dt=dt, max_time=max_time, armature=arm, margin=margin,
+        dt=dt, max_time=max_time, margin=margin,
         timings={"planning": policy.planning_time, "simulation": total - policy.planning_time,
                  "total": total},
     )
@@ -532,34 +437,39 @@ def _cycle_max_pitch(times: np.ndarray, pitch: np.ndarray, phases: Sequence[Pump
     return tuple(best[c] for c in sorted(best))
 
 
-def _energy_drawn(trajectory: Trajectory, voltages: np.ndarray, policy: _PumpPolicy) -> float:
-    """[J] ``sum_j int V_j I_j dt``, each step's power at its start."""
-    speeds = trajectory.v[:, policy.index]
-    power = np.zeros(len(trajectory.times))
-    for j, drive in enumerate(policy.drives):
-        power += voltages[:, j] * drive_current(drive, voltages[:, j], speeds[:, j])
-    return float(np.sum(power[:-1] * np.diff(trajectory.times)))
+def energy_drawn(scene: Scene, trajectory: Trajectory) -> float:
+    """[J] ``sum_j sum_k u_j,k i_j,k (t_k - t_k-1)`` over the samples (row 0 repeats row 1: skipped)."""
+    from ..simulation.drives import drive_samples
+
+    power = sum(table["voltage"] * table["current"] for table in drive_samples(scene, trajectory).values())
+    return float(np.sum(np.asarray(power)[1:] * np.diff(trajectory.times)))
 
 
-def drive_samples(trajectory: Trajectory, voltages: np.ndarray, drives: Mapping[str, HipDrive],
-                  index: Sequence[int]) -> dict[str, Any]:
-    """The ``samples`` of a run with drives: ``times``, ``q``, ``v`` (a row per sample) and ``drives``.
+def pump_samples(scene: Scene, trajectory: Trajectory) -> dict[str, Any]:
+    """The run's ``samples``, as ``frc simulate --json`` has them, with each drive's limits.
 
-    ``drives``: per input, ``voltage`` [V], ``current`` [A], ``motor_speed`` [rad/s, motor side],
-    ``torque`` [N m, joint side], and the torque-speed limits ``torque_lower``, ``torque_upper``
-    [N m] at the sample's joint speed: what the motor could give there.
+    ``times``, ``q``, ``v`` (a row per sample), ``drives`` (per joint ``voltage`` [V], ``current``
+    [A], ``motor_speed`` [rad/s, motor side], ``torque`` [N m, joint side]) and the rest of
+    :meth:`Trajectory.to_dict`'s samples; each drive adds ``torque_lower`` and ``torque_upper``
+    [N m], the torque-speed line's limits at the sample's joint speed.
     """
-    out: dict[str, Any] = {"times": trajectory.times, "q": trajectory.q, "v": trajectory.v, "drives": {}}
-    for j, (name, drive) in enumerate(drives.items()):
-        speed = trajectory.v[:, index[j]]
-        volts = voltages[:, j]
-        limits = np.array([torque_limits(drive, float(s)) for s in speed]).reshape(-1, 2)
-        out["drives"][name] = {
-            "voltage": volts, "current": drive_current(drive, volts, speed),
-            "motor_speed": drive.ratio * speed, "torque": joint_torque(drive, volts, speed),
-            "torque_lower": limits[:, 0], "torque_upper": limits[:, 1],
-        }
-    return out
+    samples = dict(trajectory.to_dict(scene)["samples"])
+    for joint, table in samples.get("drives", {}).items():
+        speed = np.asarray(samples["v"])[:, scene.coordinate_names.index(joint)]
+        lo, hi = torque_limits(scene.drives[joint], speed)
+        table["torque_lower"], table["torque_upper"] = to_jsonable(lo), to_jsonable(hi)
+    return samples
+
+
+def within_limits(samples: Mapping[str, Any]) -> bool:
+    """Every sample's torque within its limits, to :data:`LIMIT_TOLERANCE`."""
+    for table in samples.get("drives", {}).values():
+        torque = np.asarray(table["torque"], dtype=float)
+        slack = LIMIT_TOLERANCE * (1.0 + np.abs(torque))
+        if np.any(torque < np.asarray(table["torque_lower"]) - slack) or \
+                np.any(torque > np.asarray(table["torque_upper"]) + slack):
+            return False
+    return True
 
 
 # ---------------------------------------------------------------------------------------------
@@ -570,56 +480,42 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
                      ) -> dict[str, Any]:
     """The rigid run's voltages, replayed against time, on the compliant model.
 
-    Each sample interval holds the torque the drive gives at the rigid run's voltage and the
-    compliant run's joint speed (after a rigid flip, :data:`COMPLIANT_EXTRA_TIME` more with the
-    last voltages) (so the torques stay on the motor's line); Radau, critical
-    damping, ``stiffness`` [N/m] on every contact (all listed, so the rear corner can land).
+    Radau, critical damping, ``stiffness`` [N/m] on every listed contact (so the rear corner can
+    land), each sample interval holding the voltage the rigid run held there (after a rigid flip,
+    :data:`COMPLIANT_EXTRA_TIME` more with the last voltages).
 
     Returns:
         ``stiffness``, ``flipped`` (the pitch passed vertical), ``time_to_vertical`` [s],
-        ``max_pitch`` [rad], ``status``, ``wall_time`` [s], and ``torque_within_limits`` (every
-        sample's torque within the line's limits at its joint speed, to :data:`LIMIT_TOLERANCE`).
+        ``max_pitch`` [rad], ``status``, ``duration`` [s], ``torque_within_limits`` (from the
+        compliant run's own samples) and ``wall_time`` [s].
     """
     from ..simulation.compliant import simulate_compliant
 
-    trajectory = result.trajectory
-    names = scene.inputs.coordinates
-    drives = [result.drives[name] for name in names]
-    index = np.array(scene.inputs.indices)
-    task = flip_task(scene)
+    voltages = result.trajectory.inputs
     dt = result.dt
-    voltages = result.voltages
+    task = flip_task(scene)
 
-    def torques(t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        row = voltages[min(int(round(t / dt)), len(voltages) - 1)]
-        return np.array([joint_torque(d, float(V), float(v[j]))
-                         for d, V, j in zip(drives, row, index, strict=True)])
+    def held(t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return voltages[min(int(round(t / dt)) + 1, len(voltages) - 1)]
 
     start = time.perf_counter()
-    duration = float(trajectory.times[-1]) + COMPLIANT_EXTRA_TIME if result.flipped else result.max_time
-    unlimited = np.full(scene.inputs.count, np.inf)  # the drive's line is the limit
-    free = replace(scene, inputs=replace(scene.inputs, lower=-unlimited, upper=unlimited))
-    run = simulate_compliant(free, torques, duration=max(duration, dt), dt=dt, stiffness=stiffness,
-                             contacts="all", armature=result.armature)
+    end = float(result.trajectory.times[-1])
+    duration = end + COMPLIANT_EXTRA_TIME if result.flipped else result.max_time
+    run = simulate_compliant(scene, held, duration=max(duration, dt), dt=dt, stiffness=stiffness,
+                             contacts="all")
     pitch = run.q[:, task.pitch_index]
     crossed = np.nonzero(pitch >= task.vertical)[0]
-    applied = run.inputs[1:]
-    speeds = run.v[:-1, index]
-    within = True
-    for j, drive in enumerate(drives):
-        lo, hi = np.vectorize(lambda s, d=drive: torque_limits(d, float(s)))(speeds[:, j])
-        slack = LIMIT_TOLERANCE * (1.0 + np.abs(applied[:, j]))
-        within &= bool(np.all((applied[:, j] >= lo - slack) & (applied[:, j] <= hi + slack)))
     return {
         "stiffness": stiffness, "flipped": bool(crossed.size),
         "time_to_vertical": float(run.times[crossed[0]]) if crossed.size else None,
         "max_pitch": float(pitch.max()), "status": run.status, "duration": float(run.times[-1]),
-        "torque_within_limits": within, "wall_time": time.perf_counter() - start,
+        "torque_within_limits": within_limits(pump_samples(scene, run)),
+        "wall_time": time.perf_counter() - start,
     }
 
 
 # ---------------------------------------------------------------------------------------------
-# frc flip --pump
+# frc flip on a scene with drives
 
 
 def pump_flip(scene: Scene, *, margin: float = DEFAULT_MARGIN, max_time: float = 4.0, dt: float = 1e-3,
@@ -627,51 +523,45 @@ def pump_flip(scene: Scene, *, margin: float = DEFAULT_MARGIN, max_time: float =
               progress: Callable[[float, float], None] | None = None) -> tuple[FlipPlan, PumpResult | None]:
     """The first push's plan at the scene's state and, when ``max_time`` > 0, the pumping run.
 
-    The first plan is the flip plan within the drives' stall torques (the torque-speed limits at
-    rest); ``compliant`` adds :func:`verify_compliant` to the result.
+    ``compliant`` adds :func:`verify_compliant` to the result.
 
     Raises:
         InputError, SceneError: see :func:`simulate_pump` and :func:`~.flip.plan_flip`.
     """
     from .flip import plan_flip
 
-    drives = scene_drives(scene)
-    speeds = scene.v[list(scene.inputs.indices)]
-    plan = plan_flip(_within_drive_limits(scene, [drives[n] for n in scene.inputs.coordinates], speeds),
-                     margin=margin)
+    check_pump_scene(scene)
+    plan = plan_flip(scene, margin=margin)
     if max_time <= 0:
         return plan, None
     result = simulate_pump(scene, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin,
-                           drives=drives, progress=progress)
+                           progress=progress)
     if compliant:
         result = replace(result, compliant=verify_compliant(scene, result))
     return plan, result
 
 
 def pump_payload(scene: Scene, plan: FlipPlan, result: PumpResult | None) -> dict[str, Any]:
-    """The ``frc flip --pump --json`` document.
+    """The ``frc flip --json`` document of the pumping flip.
 
-    The flip's keys (its first plan), ``simulation`` from the pumping run with ``samples``
-    (``times``, ``q``, ``v``, ``drives``), and ``pump`` (cycles, phases, energy drawn).
+    The flip's keys (its first push's plan: ``torques`` are then the inputs' values, voltages for
+    driven joints, ``input_units`` says), ``simulation`` from the pumping run with ``samples``
+    (:func:`pump_samples`), and ``pump`` (:meth:`PumpResult.to_dict`).
     """
     payload = plan.to_dict(None)
+    payload["input_units"] = scene.inputs.unit_map()
     if result is None:
         return payload
     traj = result.trajectory
-    index = list(scene.inputs.indices)
-    within = all(
-        bool(np.all((d["torque"] >= d["torque_lower"] - LIMIT_TOLERANCE * (1 + np.abs(d["torque"])))
-                    & (d["torque"] <= d["torque_upper"] + LIMIT_TOLERANCE * (1 + np.abs(d["torque"])))))
-        for d in drive_samples(traj, result.voltages, result.drives, index)["drives"].values())
+    samples = pump_samples(scene, traj)
     payload["simulation"] = to_jsonable({
         "flipped": result.flipped, "time_to_vertical": finite_or_none(result.time_to_vertical),
         "body_contact_kept": result.body_contact_kept, "steps": len(traj.times) - 1,
         "replans": len(result.plans), "simulated": True, "reason": result.reason,
         "max_pitch": result.max_pitch, "vertical": result.vertical, "dt": result.dt,
-        "max_time": result.max_time, "armature": result.armature, "duration": traj.duration,
-        "status": traj.status, "events": [e.to_dict() for e in traj.events],
-        "torque_within_limits": within, "timings": dict(result.timings),
-        "samples": drive_samples(traj, result.voltages, result.drives, index),
+        "max_time": result.max_time, "duration": traj.duration, "status": traj.status,
+        "events": [e.to_dict() for e in traj.events], "torque_within_limits": within_limits(samples),
+        "timings": dict(result.timings), "samples": samples,
     })
     payload["pump"] = result.to_dict()
     return payload

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..planning.flip import flip_task
-from ..planning.pump import PumpResult, joint_torque, torque_limits
+from ..planning.pump import PumpResult, pump_samples
 from ..scene import Scene
 from .plots import new_figure, save_figure
 
@@ -76,16 +76,12 @@ def _draw_portrait(ax: Any, traj: Any, pitch_index: int, result: PumpResult) -> 
 
 
 def _draw_torques(ax: Any, scene: Scene, result: PumpResult) -> None:
-    """Each hip's torque and its torque-speed limits at the sample's joint speed."""
-    traj = result.trajectory
-    for j, name in enumerate(scene.inputs.coordinates):
-        drive = result.drives[name]
-        speed = traj.v[:, scene.inputs.indices[j]]
-        torque = joint_torque(drive, result.voltages[:, j], speed)
-        limits = np.array([torque_limits(drive, float(s)) for s in speed]).reshape(-1, 2)
-        ax.plot(traj.times, torque, color=f"C{j}", lw=1.2, label=f"{name} torque")
-        ax.plot(traj.times, limits[:, 0], color=f"C{j}", lw=0.6, ls=":")
-        ax.plot(traj.times, limits[:, 1], color=f"C{j}", lw=0.6, ls=":",
+    """Each hip's torque and its torque-speed limits at the sample's joint speed (the samples')."""
+    samples = pump_samples(scene, result.trajectory)
+    for j, (name, table) in enumerate(samples.get("drives", {}).items()):
+        ax.plot(samples["times"], table["torque"], color=f"C{j}", lw=1.2, label=f"{name} torque")
+        ax.plot(samples["times"], table["torque_lower"], color=f"C{j}", lw=0.6, ls=":")
+        ax.plot(samples["times"], table["torque_upper"], color=f"C{j}", lw=0.6, ls=":",
                 label=f"{name} limits at its speed")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("hip torque [N m]")
