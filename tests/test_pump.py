@@ -131,6 +131,8 @@ def test_the_phases_chain_push_and_recirculation_and_end_on_the_predicted_lift_o
             assert np.all(forces[after] == 0.0), phase
         else:
             assert phase.ended_by == "the body is back on a toe"
+            # the legs' voltages never left the body two possible motions
+            assert phase.predicted and phase.unambiguous
             k = int(np.searchsorted(times, phase.end))
             assert result.trajectory.v[k, PITCH] <= 1e-3
     # the cycles' highest pitches, read from the samples

@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 
 from ..drives import Drive, no_load_speed, stall_torque, torque_limits
-from ..errors import SceneError
+from ..errors import FrcontrolError, ImpactState, SceneError
 from ..jsonable import finite_or_none, to_jsonable
 from ..scene import Scene
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
@@ -58,6 +58,8 @@ from ..solvers import DEFAULT_LP_SOLVER
 from .flip import (
     DEFAULT_MARGIN,
     FORCED_INPUT_TOLERANCE,
+    REPLAN_GAP_TOLERANCE,
+    REPLAN_VELOCITY_TOLERANCE,
     SEPARATION_GAP,
     FlipPlan,
     _body_contacts,
@@ -81,6 +83,7 @@ __all__ = [
     "energy_drawn",
     "pump_flip",
     "pump_payload",
+    "predicted_modes",
     "pump_samples",
     "simulate_pump",
     "verify_compliant",
@@ -175,6 +178,11 @@ class PumpPhase:
         modes: the planned modes of a push (one letter per active contact), in order, without
             repeats; empty for a recirculation.
         ended_by: the mode change (or the end of the run) that ended it.
+        predicted: for a recirculation, the rigid solutions' modes at each decision's state and
+            voltages (:func:`~frcontrol.engine.solutions_at`, the planning model), without
+            repeats; a decision the acceleration-level model cannot judge (an impact) adds none.
+            A push's decisions are its plans, each verified as the one rigid solution.
+        unambiguous: every decision of the phase had exactly one rigid solution.
     """
 
     kind: str
@@ -183,6 +191,8 @@ class PumpPhase:
     end: float
     modes: tuple[str, ...]
     ended_by: str
+    predicted: tuple[str, ...] = ()
+    unambiguous: bool = True
 
 
 @dataclass(frozen=True)
@@ -234,7 +244,8 @@ class PumpResult:
     def to_dict(self) -> dict[str, Any]:
         """The ``pump`` part of ``frc flip --json``: cycles, time to flip, energy, phases, drives."""
         phases = [{"kind": p.kind, "cycle": p.cycle, "start": p.start, "end": p.end,
-                   "modes": list(p.modes), "ended_by": p.ended_by} for p in self.phases]
+                   "modes": list(p.modes), "ended_by": p.ended_by, "predicted": list(p.predicted),
+                   "unambiguous": p.unambiguous} for p in self.phases]
         drives = {d.joint: {"resistance": d.resistance, "torque_constant": d.torque_constant,
                             "back_emf_constant": d.back_emf_constant, "voltage_limit": d.voltage_limit,
                             "ratio": d.ratio, "efficiency": d.efficiency, "stall_torque": stall_torque(d),
@@ -260,7 +271,7 @@ class _PumpPolicy:
 
     def __init__(self, scene: Scene, drives: Sequence[Drive], margin: float, solver: str) -> None:
         task = flip_task(scene)
-        self.scene, self.drives = scene, list(drives)
+        self.scene, self.drives = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE), list(drives)
         self.names = scene.inputs.coordinates
         self.index = np.array(scene.inputs.indices)
         self.pitch_index = task.pitch_index
@@ -272,6 +283,8 @@ class _PumpPolicy:
         self.target = self.touchdown.copy()
         self.kind, self.cycle, self.start = "push", 1, 0.0
         self.modes: list[str] = []
+        self.predicted: list[str] = []
+        self.unambiguous = True
         self.phases: list[PumpPhase] = []
         self.plans: list[tuple[float, str | None, str | None]] = []
         self.planning_time = 0.0
@@ -287,7 +300,7 @@ class _PumpPolicy:
         if self.kind == "recirculate" and v[self.pitch_index] <= FALL_PITCH_RATE and self.toes_down(q):
             self._next_phase(t, "push", "the body is back on a toe")
         if self.kind == "recirculate":
-            return self._recirculation(q, v[self.index])
+            return self._checked(stepper, self._recirculation(q, v[self.index]))
         plan, why = self._plan(stepper)
         self.plans.append((t, None if plan is None else plan.mode, why))
         if plan is None:
@@ -295,7 +308,7 @@ class _PumpPolicy:
                 return self._recirculation(q, v[self.index])
             self._next_phase(t, "recirculate", why or "no plan")
             self.target = self._recirculation_targets(q)
-            return self._recirculation(q, v[self.index])
+            return self._checked(stepper, self._recirculation(q, v[self.index]))
         volts = plan.input_vector(self.names)
         pushing = np.abs(volts) > PUSH_DIRECTION_TOLERANCE
         self.direction[pushing] = np.sign(volts[pushing])
@@ -319,6 +332,19 @@ class _PumpPolicy:
             return None, f"the planned mode {result.mode} loads no toe: the toes lift off"
         return result, None
 
+    def _checked(self, stepper: RigidStepper, volts: np.ndarray) -> np.ndarray:
+        """``volts``, after recording the rigid solutions they give at the stepper's state."""
+        loaded = stepper.last_forces[:, 0] > self.force_tolerance
+        start = time.perf_counter()
+        modes = predicted_modes(self.scene, stepper.q, stepper.v, loaded, volts)
+        self.planning_time += time.perf_counter() - start
+        if modes is not None:
+            self.unambiguous &= len(modes) == 1
+            for mode in modes:
+                if mode not in self.predicted:
+                    self.predicted.append(mode)
+        return volts
+
     def _recirculation_targets(self, q: np.ndarray) -> np.ndarray:
         """Each leg's touch-down angle, less than one turn on in its pushing direction."""
         angles = q[self.index]
@@ -331,15 +357,47 @@ class _PumpPolicy:
         limits = np.array([d.voltage_limit for d in self.drives])
         return np.clip(volts, -limits, limits)
 
+    def _phase(self, t: float, why: str) -> PumpPhase:
+        return PumpPhase(self.kind, self.cycle, self.start, t, tuple(self.modes), why, tuple(self.predicted),
+                         self.unambiguous)
+
     def _next_phase(self, t: float, kind: str, why: str) -> None:
-        self.phases.append(PumpPhase(self.kind, self.cycle, self.start, t, tuple(self.modes), why))
+        self.phases.append(self._phase(t, why))
         if kind == "push":
             self.cycle += 1
-        self.kind, self.start, self.modes = kind, t, []
+        self.kind, self.start, self.modes, self.predicted, self.unambiguous = kind, t, [], [], True
 
     def close(self, t: float, why: str) -> tuple[PumpPhase, ...]:
         """The phases, the last one ended at ``t`` by ``why``."""
-        return tuple(self.phases + [PumpPhase(self.kind, self.cycle, self.start, t, tuple(self.modes), why)])
+        return tuple([*self.phases, self._phase(t, why)])
+
+
+def predicted_modes(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarray, inputs: np.ndarray
+                    ) -> list[str] | None:
+    """The modes of every rigid solution at a simulated state and inputs, on the planning model.
+
+    The planning model of :func:`~.flip.simulate_flip`'s re-plans: the contacts within the
+    scene's gap tolerance or loaded by the last step (``loaded``, per scene contact) are active, a
+    loaded contact's normal velocity is 0, velocities up to :data:`~.flip.REPLAN_VELOCITY_TOLERANCE`
+    are 0. None where the model does not apply (a contact moving into its surface: an impact).
+    """
+    from ..engine import solutions_at
+    from ..modes import ContactProblem
+    from ..scene import Contact
+
+    here = scene.at(q, v)
+    here = replace(here, contacts=tuple(Contact(c.point, c.gap, bool(c.active or loaded[i]))
+                                        for i, c in enumerate(here.contacts)))
+    try:
+        problem = ContactProblem.from_scene(here, velocity_tolerance=REPLAN_VELOCITY_TOLERANCE)
+        held = np.array([bool(loaded[i]) for i, c in enumerate(here.contacts) if c.active], dtype=bool)
+        if held.size:
+            problem = replace(problem, normal_velocities=np.where(held, 0.0, problem.normal_velocities))
+        return [s.mode for s in solutions_at(problem, inputs)]
+    except ImpactState:
+        return None
+    except FrcontrolError:
+        return None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -382,7 +440,7 @@ def simulate_pump(
     task = flip_task(scene)
     drives = check_pump_scene(scene)
     policy = _PumpPolicy(scene, drives, margin, solver)
-    stepper = RigidStepper(scene, RigidSettings(max_ambiguity_checks=0))
+    stepper = RigidStepper(policy.scene, RigidSettings(max_ambiguity_checks=0))
     volts = np.zeros(scene.inputs.count)
     steps = int(math.ceil(max_time / dt - 1e-9))
     for k in range(steps):
