@@ -62,7 +62,7 @@ DRIVE_KEYS = ("kind", "resistance", "torque_constant", "back_emf_constant", "rot
               "voltage_limit", "stages")
 """The keys of a ``[model.drives.JOINT]`` table."""
 
-STAGE_KEYS = ("ratio", "efficiency", "inertia_in", "inertia_out", "stiffness", "damping")
+STAGE_KEYS = ("ratio", "efficiency", "inertia_in", "inertia_out", "stiffness", "damping", "deflection")
 """The keys of a ``[[model.drives.JOINT.stages]]`` table."""
 
 
@@ -77,6 +77,8 @@ class Stage:
         inertia_out: I'' [kg m^2], the output gear's inertia (turns at the input speed / N).
         stiffness: c [N m/rad] of the torsion element after the gears, > 0; None: rigid.
         damping: d [N m s/rad] of the torsion element, >= 0 (ignored when rigid).
+        deflection: [rad] the torsion element's twist at the scene's state (ignored when rigid):
+            the analysis's spring torque and the simulation's initial condition.
     """
 
     ratio: float = 1.0
@@ -85,6 +87,7 @@ class Stage:
     inertia_out: float = 0.0
     stiffness: float | None = None
     damping: float = 0.0
+    deflection: float = 0.0
 
     @property
     def elastic(self) -> bool:
@@ -300,6 +303,24 @@ def drives_report(drives: Mapping[str, Drive], joint_speeds: Mapping[str, float]
     return out
 
 
+def resting_joint_torques(drives: Mapping[str, Drive], coordinate_names: Sequence[str]) -> np.ndarray:
+    """[N m] per coordinate: the elastic transmissions' torques at rest, eta_e rho_e c delta.
+
+    The last spring of each drive with elastic stages, twisted by its stage's ``deflection`` and
+    not moving relative to the joint: what :class:`~frcontrol.modes.ContactProblem` takes as the
+    known generalized force of an elastic drive at the scene's state (its voltage acts on the
+    motor's cluster only and does not reach the joint within the instant analysed).
+    """
+    out = np.zeros(len(coordinate_names))
+    for joint, drive in drives.items():
+        if drive.elastic:
+            last = clusters(drive)[-1]
+            spring = drive.stages[drive.elastic_stages[-1]]
+            torque = float(spring.stiffness or 0.0) * spring.deflection
+            out[list(coordinate_names).index(joint)] += last.input_efficiency * last.input_ratio * torque
+    return out
+
+
 # ------------------------------------------------------------------------------------ scene table
 def read_drives(path: str, raw: Any, joint_names: Sequence[str], locked: Sequence[str] = ()
                 ) -> dict[str, Drive]:
@@ -363,7 +384,7 @@ def _read_drive(path: str, joint: str, table: Mapping[str, Any], where: str) -> 
     if not isinstance(stages_raw, list):
         raise SceneError(path, f"{where}.stages", "expected an array of tables [[...stages]]")
     stages = tuple(_read_stage(path, s, f"{where}.stages[{i}]") for i, s in enumerate(stages_raw))
-    return Drive(
+    drive = Drive(
         joint=joint,
         resistance=_value(path, table, "resistance", where, positive=True, unit="[ohm]"),
         torque_constant=_value(path, table, "torque_constant", where, positive=True, unit="[N m/A]"),
@@ -372,6 +393,12 @@ def _read_drive(path: str, joint: str, table: Mapping[str, Any], where: str) -> 
         voltage_limit=_value(path, table, "voltage_limit", where, positive=True, unit="[V]"),
         stages=stages, kind=str(kind),
     )
+    for cluster in clusters(drive)[:-1]:
+        if cluster.inertia <= 0.0:
+            raise SceneError(path, f"{where}.stages[{cluster.stages[-1]}]", "the elastic stage's motor side "
+                             "has no inertia (rotor_inertia, inertia_in, inertia_out all 0 up to the "
+                             "previous elastic stage): give it one, or make the stage rigid")
+    return drive
 
 
 def _read_stage(path: str, table: Any, where: str) -> Stage:
@@ -392,7 +419,15 @@ def _read_stage(path: str, table: Any, where: str) -> Stage:
         inertia_out=_value(path, table, "inertia_out", where, default=0.0, unit="[kg m^2]"),
         stiffness=stiffness,
         damping=_value(path, table, "damping", where, default=0.0, unit="[N m s/rad]"),
+        deflection=_signed(path, table, "deflection", where),
     )
+
+
+def _signed(path: str, table: Mapping[str, Any], key: str, where: str) -> float:
+    value = table.get(key, 0.0)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise SceneError(path, f"{where}.{key}", f"expected a finite number [rad], got {value!r}")
+    return float(value)
 
 
 __all__ = [
@@ -409,6 +444,7 @@ __all__ = [
     "motor_current",
     "no_load_speed",
     "read_drives",
+    "resting_joint_torques",
     "stall_torque",
     "torque_limits",
 ]

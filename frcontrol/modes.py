@@ -104,6 +104,7 @@ class ContactProblem:
         *,
         contacts: Sequence[int] | None = None,
         velocity_tolerance: float = VELOCITY_TOLERANCE,
+        drive_torque: np.ndarray | None = None,
     ) -> ContactProblem:
         """The problem at the scene's state (or at ``q``, ``v``).
 
@@ -114,6 +115,9 @@ class ContactProblem:
             contacts: indices into ``scene.contacts`` of the contacts that take part (default: the
                 scene's active contacts), e.g. those a simulator finds touching.
             velocity_tolerance: [m/s] |v| at most this is zero (see :data:`VELOCITY_TOLERANCE`).
+            drive_torque: [N m] per coordinate, the known torques of elastic transmissions, moved
+                into the bias (default: their torques at rest at the scene's state,
+                :func:`frcontrol.drives.resting_joint_torques`; zero without elastic drives).
         """
         indices = list(scene.active_indices if contacts is None else contacts)
         state = scene.robot.state(scene.q if q is None else q, scene.v if v is None else v, indices)
@@ -123,7 +127,7 @@ class ContactProblem:
             contacts=tuple(c.name for c in active),
             inputs=scene.inputs.coordinates,
             mass_matrix=state.mass_matrix,
-            bias=state.bias,
+            bias=state.bias - _drive_torque(scene, drive_torque),
             input_map=scene.inputs.selection_transpose(scene.robot.nv),
             jacobian_normal=state.jacobian_normal,
             jacobian_tangent=state.jacobian_tangent,
@@ -180,6 +184,17 @@ class ContactProblem:
         rows = np.vstack([eye[up], -eye[lo]])
         rhs = np.concatenate([self.upper[up], -self.lower[lo]])
         return rows.reshape(-1, m), rhs
+
+
+def _drive_torque(scene: Scene, given: np.ndarray | None) -> np.ndarray | float:
+    """The elastic transmissions' known joint torques (0 when the scene has none)."""
+    if given is not None:
+        return np.asarray(given, dtype=float)
+    if not any(d.elastic for d in scene.drives.values()):
+        return 0.0
+    from .drives import resting_joint_torques
+
+    return resting_joint_torques(scene.drives, scene.coordinate_names)
 
 
 @dataclass(frozen=True)

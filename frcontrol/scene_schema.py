@@ -72,6 +72,7 @@ _STAGE: dict[str, Any] = {
         "stiffness": _number("c [N m/rad] of the torsion element after the gears; absent: rigid",
                              exclusiveMinimum=0),
         "damping": _number("d [N m s/rad] of the torsion element", minimum=0, default=0),
+        "deflection": _number("[rad] the torsion element's twist at the scene's state", default=0),
     },
 }
 

@@ -25,7 +25,7 @@ from frcontrol.errors import SceneError
 from frcontrol.modes import ContactProblem
 from frcontrol.scene import load_scene, scene_from_document
 from frcontrol.simulation.compliant import simulate_compliant
-from frcontrol.simulation.drives import drive_samples
+from frcontrol.simulation.drives import drive_samples, stage_samples
 from frcontrol.simulation.rigid import simulate_rigid
 
 runner = CliRunner()
@@ -268,3 +268,118 @@ def test_simulate_json_and_out_carry_each_drives_samples(tmp_path):
     names = ("voltage", "current", "motor_speed", "torque")
     assert header[-4:] == [f"drives.hip_rear.{name}" for name in names]
     assert all(math.isfinite(float(x)) for x in lines[1].split(",")[-8:])
+
+
+# --------------------------------------------------------------------------- elastic stages
+def crossing_period(times, signal):
+    """[s] The mean period of an oscillation, from its zero crossings (linear interpolation)."""
+    i = np.nonzero(np.diff(np.sign(signal)))[0]
+    crossings = times[i] - signal[i] * (times[i + 1] - times[i]) / (signal[i + 1] - signal[i])
+    return 2.0 * float(np.mean(np.diff(crossings)))
+
+
+SPRING = 2.0
+"""[N m/rad] the torsion element of the two-inertia tests."""
+
+TWO_INERTIAS = [
+    # the spring after a 5:1 gear: the rotor's 1e-4 kg m^2 is 25e-4 at the spring, the arm on it
+    ([{"ratio": 5.0, "stiffness": SPRING, "deflection": 0.1}], 25e-4, ARM_INERTIA),
+    # the spring on the rotor, a 4:1 gear (input gear 1e-4 kg m^2) between it and the arm
+    ([{"ratio": 1.0, "stiffness": SPRING, "deflection": 0.1}, {"ratio": 4.0, "inertia_in": 1e-4}],
+     1e-4, (ARM_INERTIA + 16e-4) / 16),
+]
+
+
+@pytest.mark.parametrize(("stages", "i1", "i2"), TWO_INERTIAS)
+def test_two_inertias_on_a_torsion_spring_oscillate_at_the_closed_form_frequency(stages, i1, i2):
+    """sqrt(c (I1 + I2) / (I1 I2)), both inertias reflected to the spring's ends; no back-EMF."""
+    scene = motor_scene(stages, back_emf_constant=0.0, rotor_inertia=1e-4)
+    period = 2 * math.pi / math.sqrt(SPRING * (i1 + i2) / (i1 * i2))
+    run = simulate_compliant(scene, {"axle": 0.0}, 3 * period, period / 100, rtol=1e-8, atol=1e-10)
+    stages_out = json.loads(json.dumps(run.to_dict(scene)))["samples"]["stages"]["axle"]
+    deflection = np.array(stages_out["deflection"])
+    assert deflection.shape == (len(run.times), len(stages))
+    assert deflection[0, 0] == pytest.approx(0.1) and np.all(deflection[:, 1:] == 0.0)
+    assert crossing_period(run.times, deflection[:, 0]) == pytest.approx(period, rel=1e-4)
+    assert run.info["state_size"] == 2 + 2  # (q, v) and one cluster's (theta, omega)
+    # the rigid stepper's implicit Euler keeps the period to second order in the step
+    rigid = simulate_rigid(scene, {"axle": 0.0}, 3 * period, period / 400)
+    twist = np.array([r["axle"]["deflection"][0] for r in _reports(scene, rigid)])
+    assert crossing_period(rigid.times, twist) == pytest.approx(period, rel=2e-3)
+    # the arm's momentum about the axle and the spring's motor side balance (no external torque):
+    # I1 theta_1' + I2 (rho q') is constant (here 0)
+    state = rigid.info["transmissions"]["state"]
+    ratio = scene.drives["axle"].stages[-1].ratio if len(stages) > 1 else 1.0
+    momentum = i1 * state[:, 1] + i2 * ratio * rigid.v[:, 0]
+    assert np.max(np.abs(momentum)) < 1e-9
+
+
+def _reports(scene, trajectory):
+    from frcontrol.simulation.drives import Transmissions
+
+    model = Transmissions(scene)
+    states = trajectory.info["transmissions"]["state"]
+    return [model.report(q, v, z, u) for q, v, z, u in zip(trajectory.q, trajectory.v, states,
+                                                            trajectory.inputs, strict=True)]
+
+
+def test_an_elastic_drive_reaches_the_rigid_drives_steady_speed():
+    """At steady speed the spring carries no torque: u / (C_E N) at the joint, as if rigid."""
+    stages = [{"ratio": 10.0, "stiffness": 5.0, "damping": 0.05, "inertia_out": 1e-4}]
+    scene = motor_scene(stages)
+    run = simulate_rigid(scene, {"axle": 6.0}, 2.0, 1e-3)
+    assert run.v[-1, 0] == pytest.approx(6.0 / (0.05 * 10.0), rel=1e-5)
+    samples = drive_samples(scene, run)["axle"]
+    assert samples["motor_speed"][-1] == pytest.approx(6.0 / 0.05, rel=1e-5)
+    assert abs(samples["torque"][-1]) < 1e-5
+
+
+def test_the_analysis_of_an_elastic_drive_takes_the_spring_torque_and_not_the_voltage():
+    """`frc analyze` with an elastic stage: the joint sees the spring's torque at the scene's
+    deflection (a known generalized force); the voltage does not reach the joint in the instant."""
+    stages = [{"ratio": 10.0, "stiffness": 5.0, "deflection": 0.02, "inertia_out": 1e-4},
+              {"ratio": 2.0, "efficiency": 0.9, "inertia_in": 1e-5}]
+    document = motor_document(stages, gravity=9.81)
+    document["state"]["q"] = [0.4]
+    scene = scene_from_document(document)
+    joint_side = ARM_INERTIA + 4 * 1e-5  # the rigid stage after the spring turns with the joint
+    spring = 0.9 * 2.0 * 5.0 * 0.02      # eta rho c delta at the joint
+    gravity = 1.0 * 9.81 * 0.1 * math.cos(0.4)
+    for u in (-12.0, 0.0, 12.0):
+        [solution] = solutions_at(scene, {"axle": u})
+        assert solution.dv[0] == pytest.approx((spring - gravity) / joint_side, rel=1e-9)
+    assert scene.inputs.selection_transpose(1)[0, 0] == 0.0
+
+
+# ------------------------------------------------------------------------------ energy balance
+ENERGY_STAGES = [
+    [{"ratio": 10.0, "inertia_in": 1e-6, "inertia_out": 1e-4}],
+    [{"ratio": 10.0, "stiffness": 5.0, "damping": 0.02, "inertia_out": 1e-4},
+     {"ratio": 2.0, "inertia_in": 1e-5}],
+]
+
+
+def energy_balance(scene, run):
+    """max |E(t) - E(0) - int (u i - i^2 R - sum d delta'^2) dt| [J], and the work's scale [J]."""
+    samples = drive_samples(scene, run)["axle"]
+    power = samples["voltage"] * samples["current"] - samples["current"] ** 2 * MOTOR["resistance"]
+    drive = scene.drives["axle"]
+    if drive.elastic:
+        rates = stage_samples(scene, run)["axle"]["deflection_rate"]
+        power = power - rates ** 2 @ np.array([s.damping for s in drive.stages])
+    work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(run.times))])
+    energy = run.info["energy"] + run.info.get("elastic_energy", 0.0)
+    return float(np.max(np.abs(energy - energy[0] - work))), float(np.max(np.abs(work)))
+
+
+@pytest.mark.parametrize("stages", ENERGY_STAGES, ids=["rigid", "elastic"])
+def test_electrical_input_less_losses_is_the_mechanical_energy_change(stages):
+    """A motor swinging a pendulum (C_M = C_E in SI units, efficiency 1): u i - i^2 R - d delta'^2
+    = d/dt (kinetic + potential + the springs'), to the integrator's tolerance."""
+    scene = motor_scene(stages, gravity=9.81)
+    run = simulate_compliant(scene, {"axle": 6.0}, 0.2, 2e-4, rtol=1e-10, atol=1e-12)
+    error, scale = energy_balance(scene, run)
+    assert scale > 0.1 and error < 2e-5 * scale  # the trapezoidal rule's error on the samples
+    # the rigid stepper's implicit Euler dissipates at first order in its step
+    errors = [energy_balance(scene, simulate_rigid(scene, {"axle": 6.0}, 0.2, dt))[0] for dt in (2e-4, 1e-4)]
+    assert errors[1] < 0.6 * errors[0] and errors[1] < 0.02 * scale

@@ -92,6 +92,7 @@ from ..model import RobotState
 from ..scene import Scene
 from . import INTEGRATORS
 from .armature import Armature, mass_factor, massless_armature
+from .drives import Transmissions
 from .inputs import InputSchedule, check_simulation_times, input_schedule
 from .model_table import ContactParameters, model_options
 from .rigid import IMPACT_VELOCITY
@@ -333,18 +334,28 @@ class _Dynamics:
     contacts: CompliantContacts
     armature: Armature
     input_map: np.ndarray
+    transmissions: Transmissions | None = None  # elastic drives: their state z ends y
+
+    @property
+    def stretch_end(self) -> int:
+        """Where the contacts' stretch ends in ``y = (q, v, s, z)``."""
+        return 2 * self.scene.robot.nv + self.contacts.count
 
     def evaluate(self, y: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, tuple]:
-        n = self.scene.robot.nv
-        q, v, s = y[:n], y[n:2 * n], y[2 * n:]
+        n, end = self.scene.robot.nv, self.stretch_end
+        q, v, s = y[:n], y[n:2 * n], y[2 * n:end]
         state = self.scene.robot.state(q, v, self.contacts.indices)
         lam_n, lam_t, rate, status = contact_forces(
             self.contacts, state.gaps, state.normal_velocities, state.tangential_velocities, s)
         force = self.input_map @ u - state.bias + state.jacobian_normal.T @ lam_n \
             + state.jacobian_tangent.T @ lam_t
+        parts = [v, np.empty(n), rate]
+        if self.transmissions is not None:
+            force = force + self.transmissions.joint_force(q, v, y[end:])
+            parts.append(self.transmissions.derivative(q, v, y[end:], u))
         factor = mass_factor(self.armature.apply(state.mass_matrix), self.armature)
-        dv = scipy.linalg.cho_solve(factor, force, check_finite=False)
-        return np.concatenate([v, dv, rate]), (state, lam_n, lam_t, status)
+        parts[1] = scipy.linalg.cho_solve(factor, force, check_finite=False)
+        return np.concatenate(parts), (state, lam_n, lam_t, status)
 
     def forces(self, y: np.ndarray) -> tuple[RobotState, np.ndarray, np.ndarray, np.ndarray]:
         """The state's kinematics and the contact law at ``y``: ``(state, lam_N, lam_T, status)``.
@@ -353,8 +364,8 @@ class _Dynamics:
         """
         n = self.scene.robot.nv
         state = self.scene.robot.state(y[:n], y[n:2 * n], self.contacts.indices)
-        lam_n, lam_t, _, status = contact_forces(
-            self.contacts, state.gaps, state.normal_velocities, state.tangential_velocities, y[2 * n:])
+        lam_n, lam_t, _, status = contact_forces(self.contacts, state.gaps, state.normal_velocities,
+                                                 state.tangential_velocities, y[2 * n:self.stretch_end])
         return state, lam_n, lam_t, status
 
     def explicit_step(self, y: np.ndarray, u: np.ndarray, h: float) -> tuple[np.ndarray, RobotState]:
@@ -365,19 +376,26 @@ class _Dynamics:
         y_new[n:2 * n] = y[n:2 * n] + h * ydot[n:2 * n]
         y_new[:n] = y[:n] + h * y_new[n:2 * n]
         y_new[2 * n:] = y[2 * n:] + h * ydot[2 * n:]
+        if self.transmissions is not None:  # the clusters' angles move with their new speeds
+            end, count = self.stretch_end, self.transmissions.count
+            y_new[end:end + count] = y[end:end + count] + h * y_new[end + count:]
         return y_new, state
 
     def implicit_step(self, y: np.ndarray, u: np.ndarray, h: float) -> tuple[np.ndarray, RobotState]:
         """One linearly implicit Euler step (module docstring): contact forces at the step's end."""
-        n = self.scene.robot.nv
-        q, v, s = y[:n], y[n:2 * n], y[2 * n:]
+        n, end = self.scene.robot.nv, self.stretch_end
+        q, v, s = y[:n], y[n:2 * n], y[2 * n:end]
         state = self.scene.robot.state(q, v, self.contacts.indices)
         _, _, _, status = contact_forces(self.contacts, state.gaps, state.normal_velocities,
                                          state.tangential_velocities, s)
         sign = np.sign(self.contacts.tangential_stiffness * s
                        + self.contacts.tangential_damping * state.tangential_velocities)
-        system = _ImplicitStep(self.contacts, state, self.armature.apply(state.mass_matrix),
-                               self.input_map @ u - state.bias, v, s, h)
+        mass, force = self.armature.apply(state.mass_matrix), self.input_map @ u - state.bias
+        coupled = None
+        if self.transmissions is not None:  # elastic drives: see frcontrol.simulation.drives
+            coupled = self.transmissions.implicit(q, v, y[end:], u, h)
+            mass, force = coupled.mass(mass), force + coupled.force
+        system = _ImplicitStep(self.contacts, state, mass, force, v, s, h)
         v_new = system.solve(status, sign)
         for _ in range(ACTIVE_SET_ITERATIONS):
             new_status, new_sign = system.statuses(v_new)
@@ -386,7 +404,10 @@ class _Dynamics:
                 break
             status, sign = new_status, new_sign
             v_new = system.solve(status, sign)
-        return np.concatenate([q + h * v_new, v_new, system.stretch(v_new, status, sign)]), state
+        parts = [q + h * v_new, v_new, system.stretch(v_new, status, sign)]
+        if coupled is not None:
+            parts.append(coupled.state(v_new))
+        return np.concatenate(parts), state
 
 
 @dataclass(frozen=True)
@@ -518,7 +539,7 @@ def simulate_compliant(
     stability_limit = explicit_stability_limit(params)
     if integrator == "euler":
         _check_euler_step(dt, stability_limit)
-    dynamics = _Dynamics(scene, params, arm, scene.inputs.selection_transpose(scene.robot.nv))
+    dynamics, y0 = _dynamics(scene, params, arm, y0)
     run = _CompliantRun(scene, dynamics, params, duration, dt, max_steps, impact_velocity, y0)
     settings: dict[str, Any] = {"integrator": integrator, "rtol": rtol, "atol": atol,
                                 "max_step": dt if max_step is None else max_step}
@@ -526,6 +547,18 @@ def simulate_compliant(
     info = run.report(explicit_stability_limit=stability_limit, contacts_modelled=contacts, **settings)
     return _trajectory(scene, dynamics, params, arm, run.sample_times[:len(run.samples_y)], run.samples_y,
                        run.samples_u, run.events, run.status, run.failure, info)
+
+
+def _dynamics(scene: Scene, params: CompliantContacts, arm: Armature, y0: np.ndarray
+              ) -> tuple[_Dynamics, np.ndarray]:
+    """The right-hand side, and ``y0`` with the elastic drives' state appended (if any)."""
+    transmissions = Transmissions(scene)
+    dynamics = _Dynamics(scene, params, arm, scene.inputs.selection_transpose(scene.robot.nv),
+                         transmissions if transmissions else None)
+    if not transmissions:
+        return dynamics, y0
+    n = scene.robot.nv
+    return dynamics, np.concatenate([y0, transmissions.initial(y0[:n], y0[n:2 * n])])
 
 
 def _check_euler_step(dt: float, stability_limit: float) -> None:
@@ -661,7 +694,7 @@ class _CompliantRun:
             "rhs_evaluations": self.rhs_evaluations,
             "explicit_stability_limit": settings["explicit_stability_limit"],
             "contacts": self.params.report(), "contacts_modelled": settings["contacts_modelled"],
-            "state_size": 2 * self.n + self.params.count, "armature": self.dynamics.armature.report(),
+            "state_size": len(self.samples_y[0]), "armature": self.dynamics.armature.report(),
             "impact_velocity": self.impact_velocity, "wall_time": time.perf_counter() - self.start_wall,
         }
 
@@ -801,7 +834,7 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
         kinetic.append(0.5 * float(y[n:2 * n] @ mass @ y[n:2 * n]))
         potential.append(scene.robot.potential_energy(y[:n]))
         delta = np.maximum(0.0, -st.gaps)
-        s = y[2 * n:]
+        s = y[2 * n:dynamics.stretch_end]
         elastic.append(float(0.5 * np.sum(params.stiffness * delta**2)
                              + 0.5 * np.sum(params.tangential_stiffness * s**2)))
         penetration.append(max(0.0, -float(np.min(full.gaps, initial=np.inf))))
@@ -811,9 +844,18 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
         "potential_energy": np.array(potential),
         "elastic_energy": np.array(elastic),
         "max_penetration": np.array(penetration),
-        "stretch": ys[:, 2 * n:],
+        "stretch": ys[:, 2 * n:dynamics.stretch_end],
         "modelled_contacts": list(params.names),
     })
+    extra_work = None
+    if dynamics.transmissions is not None:  # the clusters' and springs' energy; the motors' work
+        z = ys[:, dynamics.stretch_end:]
+        info["elastic_energy"] = info["elastic_energy"] + np.array(
+            [dynamics.transmissions.energy(y[:n], zj) for y, zj in zip(ys, z, strict=True)])
+        info["transmissions"] = {"state": z, "size": dynamics.transmissions.size}
+        power = np.array([dynamics.transmissions.motor_power(zj, uj)
+                          for zj, uj in zip(z, inputs, strict=True)])
+        extra_work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(times))])
     trajectory = Trajectory(
         scene_name=scene.name,
         coordinates=scene.coordinate_names,
@@ -833,7 +875,8 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
     )
     softest = float(np.min(params.stiffness)) if params.count else None
     return assess(scene, trajectory, energy=info["energy"] + info["elastic_energy"],
-                  penetration=info["max_penetration"], stiffness=softest, dt=float(info["dt"]))
+                  penetration=info["max_penetration"], stiffness=softest, dt=float(info["dt"]),
+                  extra_work=extra_work)
 
 
 __all__ = [

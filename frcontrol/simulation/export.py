@@ -102,7 +102,8 @@ def _write_csv(path: Path, arrays: dict[str, np.ndarray]) -> None:
               + [f"u_{u}" for u in inputs]
               + [f"{c}_{part}" for c in contacts for part in ("lambda_n", "lambda_t", "mode")])
     extra = [name for name in arrays if name.startswith(("drives.", "stages."))]
-    header += extra
+    header += [name if arrays[name].ndim == 1 else f"{name}[{i}]"
+               for name in extra for i in range(1 if arrays[name].ndim == 1 else arrays[name].shape[1])]
     with path.open("w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle)
         writer.writerow(header)
@@ -113,5 +114,5 @@ def _write_csv(path: Path, arrays: dict[str, np.ndarray]) -> None:
             for i in range(len(contacts)):
                 row += [repr(float(arrays["forces"][j, i, 0])), repr(float(arrays["forces"][j, i, 1])),
                         str(arrays["modes"][j, i])]
-            row += [repr(float(arrays[name][j])) for name in extra]
+            row += [repr(float(x)) for name in extra for x in np.atleast_1d(arrays[name][j])]
             writer.writerow(row)

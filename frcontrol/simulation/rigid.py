@@ -43,7 +43,9 @@ changes the mechanical energy by ``-1/2 |v+ - v|_M^2 + p_T . J_T v+ - sum_i p_N,
 never positive except for the stabilisation term of penetrations, which is reported
 (``info["stabilization_work"]``).
 
-Massless links get a joint armature (see :mod:`frcontrol.simulation.armature`).
+Massless links get a joint armature (see :mod:`frcontrol.simulation.armature`). DC-motor drives
+(:mod:`frcontrol.drives`): their electrical damping ``D`` is taken at the step's end, ``M`` becoming
+``M + h D``; elastic transmissions step with the robot (:mod:`frcontrol.simulation.drives`).
 
 Events (``Trajectory.events``): ``close`` / ``impact`` (a contact starts carrying force, with
 approach speed above ``impact_velocity`` for an impact), ``open``, ``stick``, ``slip``, and
@@ -72,6 +74,7 @@ from ..lcp import ENUMERATION_MAX_SIZE, solve_lcp
 from ..modes import ContactProblem, contact_mode_letter
 from ..scene import Scene
 from .armature import DEFAULT_ARMATURE, Armature, mass_factor, massless_armature
+from .drives import ImplicitTransmissions, TransmissionRun
 from .inputs import InputSchedule, check_simulation_times, input_schedule, step_lengths
 from .model_table import model_options
 from .trajectory import ContactEvent, SimulationFailure, Trajectory
@@ -322,6 +325,9 @@ class RigidStepper:
         self._input_map = scene.inputs.selection_transpose(robot.nv)
         damping = robot.drive_damping
         self._damping = damping if np.any(damping) else None
+        run = TransmissionRun(scene, self.q, self.v)  # elastic drives' own state, if any
+        self.transmissions = run if run.model else None
+        self._coupled: ImplicitTransmissions | None = None  # the current step's, with transmissions
         self.state = robot.state(self.q, self.v, self._all)
         options = model_options(scene)
         self.armature = massless_armature(scene, self.state.mass_matrix,
@@ -379,10 +385,14 @@ class RigidStepper:
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(v_next, normal and tangential impulses per contact, the candidates' mask) of a step."""
         st, cfg = self.state, self.settings
+        force = self._input_map @ u - st.bias
         if self._damping is not None:  # drives' damping, implicit: (M + h D)(v+ - v) = h (f - D v) + J^T p
             mass = mass + np.diag(h * self._damping)
+        if self.transmissions is not None:  # elastic drives: the springs' torques, see .drives
+            self._coupled = self.transmissions.implicit(self.q, self.v, u, h)
+            force, mass = force + self._coupled.force, self._coupled.mass(mass)
         factor = mass_factor(mass, self.armature)
-        accel = scipy.linalg.cho_solve(factor, self._input_map @ u - st.bias, check_finite=False)
+        accel = scipy.linalg.cho_solve(factor, force, check_finite=False)
         v_free = self.v + h * accel
         gaps, vn = st.gaps, st.normal_velocities
         cand = np.nonzero(gaps <= cfg.activation_distance + 2.0 * h * np.maximum(0.0, -vn))[0]
@@ -459,8 +469,10 @@ class RigidStepper:
         self._check_pending = False
         taken = _taken_mode(p_n[touching], vt_next[touching], self.force_tolerance, h,
                             cfg.slip_velocity_tolerance)
+        drive_torque = (None if self.transmissions is None
+                        else self.transmissions.model.joint_force(self.q, self.v, self.transmissions.z))
         entry = _ambiguity_check(self.scene, self.q, self.v, u, touching, self.armature,
-                                 cfg.slip_velocity_tolerance, taken, self.t)
+                                 cfg.slip_velocity_tolerance, taken, self.t, drive_torque)
         self.checks.append(entry)
         if entry["distinct_motions"] > 1:
             self.events.append(ContactEvent(self.t, ",".join(entry["contacts"]), "ambiguous",
@@ -471,6 +483,8 @@ class RigidStepper:
         robot = self.scene.robot
         self.q = robot.integrate(self.q, h * v_next)
         self.v = v_next
+        if self.transmissions is not None and self._coupled is not None:
+            self.transmissions.advance(self._coupled, v_next, u)
         self.t = self.t + h
         self.state = robot.state(self.q, self.v, self._all)
         self.last_forces = np.column_stack([p_n / h, p_t / h])
@@ -495,6 +509,10 @@ class RigidStepper:
         us = self._us
         inputs_arr = np.vstack([us[0]] + us) if us else np.zeros((1, scene.inputs.count))
         energy = kinetic + potential
+        extra_work = np.array(self._stab_work)
+        if self.transmissions is not None:
+            energy = energy + self.transmissions.energy(np.array(self._qs))
+            extra_work = extra_work + self.transmissions.work()
         info = {
             "scheme": "velocity-level time stepping (Stewart-Trinkle), exact 2-D Coulomb law, LCP by "
                       f"{cfg.lcp_method}, inelastic impacts",
@@ -521,6 +539,8 @@ class RigidStepper:
             },
             "wall_time": time.perf_counter() - self._start_wall,
         }
+        if self.transmissions is not None:
+            info["transmissions"] = self.transmissions.info()
         trajectory = Trajectory(
             scene_name=scene.name, coordinates=scene.coordinate_names, contacts=self.names,
             times=np.array(self._times), q=np.array(self._qs), v=np.array(self._vs), inputs=inputs_arr,
@@ -529,15 +549,17 @@ class RigidStepper:
             status=self.status, failure=self.failure,
         )
         return assess(scene, trajectory, energy=energy, penetration=info["max_penetration"], stiffness=None,
-                      dt=dt, extra_work=info["stabilization_work"])
+                      dt=dt, extra_work=extra_work)
 
 
 def _ambiguity_check(scene: Scene, q: np.ndarray, v: np.ndarray, u: np.ndarray, touching: list[int],
-                     arm: Armature, slip_tol: float, taken: str, t: float) -> dict:
+                     arm: Armature, slip_tol: float, taken: str, t: float,
+                     drive_torque: np.ndarray | None = None) -> dict:
     """Every rigid solution at this state (touching contacts, v_N taken as 0), and the step's mode."""
     from ..engine import solutions_at  # the engine is heavy; import on first use
 
-    at_state = ContactProblem.from_scene(scene, q, v, contacts=touching, velocity_tolerance=slip_tol)
+    at_state = ContactProblem.from_scene(scene, q, v, contacts=touching, velocity_tolerance=slip_tol,
+                                         drive_torque=drive_torque)
     vt = at_state.tangential_velocities.copy()
     vt[np.abs(vt) <= slip_tol] = 0.0
     problem = replace(at_state, mass_matrix=arm.apply(at_state.mass_matrix),

@@ -199,12 +199,14 @@ class Trajectory:
                                    "forces": self.contact_forces, "energy": energy,
                                    "max_penetration": penetration}
         if scene is not None:
-            from .drives import drive_samples
+            from .drives import drive_samples, stage_samples
             from .export import sample_modes
 
             summary["input_units"] = scene.inputs.unit_map()
             if scene.drives:
                 samples["drives"] = drive_samples(scene, self)
+                if any(d.elastic for d in scene.drives.values()):
+                    samples["stages"] = stage_samples(scene, self)
 
             modes = sample_modes(scene, self)
             samples["modes"] = list(modes)
