@@ -7,7 +7,9 @@ Run from the repository root::
     python -m benchmarks.trade --replot   # redraw the figures from the JSON
 
 Writes ``benchmarks/results/trade.json``, one figure per scene ``benchmarks/results/trade_<scene>.png``
-(error against wall time, log-log, the Pareto front marked) and prints a short table.
+(error against wall time, log-log, the Pareto front marked) and prints a short table. The drives'
+part (what a DC-motor drive and an elastic gearhead cost per step, and how far the gearhead's
+stiffness moves the answer) is ``python -m benchmarks.trade_drives``.
 
 The question each point answers
 -------------------------------

@@ -139,7 +139,7 @@ def test_a_motor_spins_a_free_inertia_up_to_u_over_ce_n_with_the_electromechanic
     assert tau == pytest.approx(2.0 * j_rotor / (0.05 * 0.05), rel=1e-12)
     run = simulate_compliant(scene, {"axle": u}, 3 * tau, tau / 50, rtol=1e-9, atol=1e-12)
     exact = steady * (1 - np.exp(-run.times / tau))
-    assert np.max(np.abs(run.v[:, 0] - exact)) < 1e-6 * steady
+    assert np.max(np.abs(run.v[:, 0] - exact)) < 1e-8 * steady
     # the rigid stepper (implicit in the motor's damping) converges to it at first order in dt
     errors = []
     for dt in (tau / 20, tau / 40):
@@ -300,12 +300,13 @@ def test_two_inertias_on_a_torsion_spring_oscillate_at_the_closed_form_frequency
     deflection = np.array(stages_out["deflection"])
     assert deflection.shape == (len(run.times), len(stages))
     assert deflection[0, 0] == pytest.approx(0.1) and np.all(deflection[:, 1:] == 0.0)
-    assert crossing_period(run.times, deflection[:, 0]) == pytest.approx(period, rel=1e-4)
+    assert crossing_period(run.times, deflection[:, 0]) == pytest.approx(period, rel=1e-7)
     assert run.info["state_size"] == 2 + 2  # (q, v) and one cluster's (theta, omega)
     # the rigid stepper's implicit Euler keeps the period to second order in the step
+    # ((omega h)^2 / 3 = 8.2e-5 at 400 steps a period)
     rigid = simulate_rigid(scene, {"axle": 0.0}, 3 * period, period / 400)
     twist = np.array([r["axle"]["deflection"][0] for r in _reports(scene, rigid)])
-    assert crossing_period(rigid.times, twist) == pytest.approx(period, rel=2e-3)
+    assert crossing_period(rigid.times, twist) == pytest.approx(period, rel=2e-4)
     # the arm's momentum about the axle and the spring's motor side balance (no external torque):
     # I1 theta_1' + I2 (rho q') is constant (here 0)
     state = rigid.info["transmissions"]["state"]

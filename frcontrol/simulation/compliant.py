@@ -33,7 +33,8 @@ Dynamics (M with the armature of massless coordinates, see :mod:`.armature`)::
     M(q) dv/dt = S^T u - h(q, v) + J_N^T lam_N + J_T^T lam_T,     dq/dt = v
 
 Forward dynamics is unique: the state is ``y = (q, v, s)`` (``2 n + c`` entries for c modelled
-contacts). Stiffness ``k_N`` [N/m] and damping ``b_N`` [N s/m] come from the arguments, else the
+contacts), followed by the elastic transmissions' ``z`` when the scene's drives have elastic
+stages (:mod:`frcontrol.simulation.drives`; a drive's rigid stages are in ``M``, ``h`` and ``S^T``). Stiffness ``k_N`` [N/m] and damping ``b_N`` [N s/m] come from the arguments, else the
 scene's ``[model]`` table (:mod:`.model_table`), else its default stiffness and critical damping
 ``b = 2 zeta sqrt(k m_eff)`` for each contact's effective mass at the initial state
 (:class:`ContactOverrides`); ``k_T`` defaults to ``k_N`` and ``b_T`` to critical damping for the tangential
