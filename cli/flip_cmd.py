@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
@@ -34,6 +35,18 @@ MaxTimeOpt = Annotated[
 ]
 DtOpt = Annotated[float, typer.Option("--dt", min=1e-6, help="Time step [s] of the simulation.")]
 ReplanOpt = Annotated[int, typer.Option("--replan-every", min=1, help="Steps between two plans.")]
+PumpOpt = Annotated[
+    bool | None,
+    typer.Option("--pump/--no-pump", help="Pump the body up over several leg strokes (push, fall back "
+                 "onto the legs, recirculate, push again) within the hips' DC-motor limits; the JSON's "
+                 "simulation then carries every sample's drives and limits, and 'pump' the cycles, "
+                 "phases and energy drawn. Default: on for a scene whose inputs all have drives."),
+]
+CompliantOpt = Annotated[
+    bool,
+    typer.Option("--compliant", help="With --pump: replay the run's voltages on the compliant model "
+                 "too (k = 1e6 N/m; tens of seconds)."),
+]
 
 
 @common.handle_errors
@@ -49,6 +62,8 @@ def flip_command(
     max_time: MaxTimeOpt = 2.0,
     dt: DtOpt = 1e-3,
     replan_every: ReplanOpt = 10,
+    pump: PumpOpt = None,
+    compliant: CompliantOpt = False,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
 ) -> None:
@@ -64,10 +79,15 @@ def flip_command(
       frc flip --html flip.html --plot flip.png
       frc flip --margin 0.5 --json
       frc flip --set contacts.front_corner.mu=0.5 --out flip.csv
+      frc flip rhex_flip_drives --max-time 3 --plot pump.png
     """
     common.set_quiet(quiet)
     common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
     loaded = options.load_scene_with_overrides(scene, sets)
+    if pump or (pump is None and _driven(loaded)):
+        _pump(loaded, json=json, html=html, out=out, plot=plot, margin=margin, max_time=max_time, dt=dt,
+              replan_every=replan_every, compliant=compliant)
+        return
     with common.live_viewer(view, port) as server:
         plan, result = _plan_and_fly(loaded, margin, max_time, dt, replan_every)
         payload = plan.to_dict(result)
@@ -93,6 +113,62 @@ def _plan_and_fly(scene: Scene, margin: float, max_time: float, dt: float, repla
             scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
             on_simulation=lambda: status.update(f"simulating the flip (up to {max_time:g} s)..."),
             progress=lambda t, total: status.update(f"simulating the flip: {t:.3f} / {total:g} s"))
+
+
+def _driven(scene: Scene) -> bool:
+    """Every input of the scene has a DC-motor drive: ``frc flip`` pumps by default."""
+    return bool(scene.drives) and all(name in scene.drives for name in scene.inputs.coordinates)
+
+
+def _pump(scene: Scene, *, json: bool, html: Any, out: Any, plot: Any, margin: float, max_time: float,
+          dt: float, replan_every: int, compliant: bool) -> None:
+    """``frc flip --pump``: the pumping run, its answer, figure, page and export."""
+    from frcontrol.planning.pump import pump_flip, pump_payload
+
+    with common.progress("pumping the flip...") as status:
+        plan, result = pump_flip(
+            scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every, compliant=compliant,
+            progress=lambda t, total: status.update(f"pumping the flip: {t:.3f} / {total:g} s"))
+    common.answer(pump_payload(scene, plan, result), render_pump, json=json)
+    if plot is not None and result is not None:
+        from frcontrol.viz.pump_figure import plot_pump
+
+        common.note(f"wrote {plot_pump(scene, result, plot)}", to_stderr=json)
+    trajectory = None if result is None else result.trajectory
+    modes = None if trajectory is None or trajectory.modes is None else list(trajectory.modes)
+    common.write_motion(scene, trajectory, html=html, out=out, json=json, modes=modes)
+
+
+def render_pump(payload: dict[str, Any]) -> None:
+    """The pumping run as rich text: cycles, the outcome, the energy, the limits check."""
+    sim, pump = payload["simulation"], payload.get("pump")
+    if pump is None:
+        console.print(f"first push: mode {payload['mode']}, torques {payload['torques']}; not simulated "
+                      f"({sim['reason']})")
+        return
+    table = Table(title="pumping phases")
+    for column in ("cycle", "phase", "start [s]", "end [s]", "modes", "ended by"):
+        table.add_column(column, overflow="fold")
+    for p in pump["phases"]:
+        table.add_row(str(p["cycle"]), p["kind"], f"{p['start']:.3f}", f"{p['end']:.3f}",
+                      ", ".join(p["modes"]), p["ended_by"].split(" (")[0])
+    console.print(table)
+    stalls = ", ".join(f"{name} {d['stall_torque']:.1f} N m / {d['no_load_speed'] or math.inf:.1f} rad/s"
+                       for name, d in pump["drives"].items())
+    console.print(f"drives (stall torque / no-load speed): {stalls}")
+    console.print(f"cycles: {pump['cycles']}; highest pitch per cycle \\[rad]: "
+                  + ", ".join(f"{x:.3f}" for x in pump["cycle_max_pitch"]))
+    if sim["flipped"]:
+        console.print(f"flipped: yes, vertical at {sim['time_to_vertical']:.4f} s")
+    else:
+        console.print(f"flipped: no ({sim['reason']})")
+    console.print(f"energy drawn: {pump['energy_drawn']:.1f} J; every sample's torque within the motor's "
+                  f"limits: {'yes' if sim['torque_within_limits'] else 'NO'}")
+    check = pump["compliant"]
+    if check is not None:
+        verdict = ("flipped" if check["flipped"]
+                   else f"not flipped, highest pitch {check['max_pitch']:.3f} rad")
+        console.print(f"compliant check (k = {check['stiffness']:g} N/m): {verdict}")
 
 
 def render(payload: dict[str, Any]) -> None:
@@ -135,4 +211,5 @@ def render(payload: dict[str, Any]) -> None:
 __all__ = [
     "flip_command",
     "render",
+    "render_pump",
 ]

@@ -83,8 +83,8 @@ from ..errors import FrcontrolError, InputError
 from ..modes import ContactProblem, contact_mode_letter
 from ..scene import Scene
 from .armature import DEFAULT_ARMATURE, Armature, mass_factor, massless_armature
-from .impact import ImpulseLCPFailure, impact_law, solve_impulse_lcp
 from .drives import ImplicitTransmissions, TransmissionRun
+from .impact import ImpulseLCPFailure, impact_law, solve_impulse_lcp
 from .inputs import InputSchedule, check_simulation_times, input_schedule, step_lengths
 from .model_table import model_options
 from .trajectory import ContactEvent, SimulationFailure, Trajectory
