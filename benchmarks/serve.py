@@ -44,7 +44,7 @@ def free_port() -> int:
 
 
 def expected_answers() -> dict[float, dict]:
-    """The library's answer per input: ``{"solutions": [...]}``, as JSON would carry it."""
+    """The library's answer per input: ``{"solutions": [...], "input_units": {...}}``, as JSON carries it."""
     from frcontrol.answers import analysis_and_solutions, solutions_payload
     from frcontrol.jsonable import to_jsonable
     from frcontrol.scene import load_scene
@@ -53,7 +53,8 @@ def expected_answers() -> dict[float, dict]:
     out = {}
     for x in INPUTS:
         result, solutions = analysis_and_solutions(scene, {"x": x})
-        answer = {"solutions": solutions_payload(result, solutions or [])}
+        answer = {"solutions": solutions_payload(result, solutions or []),
+                  "input_units": scene.inputs.unit_map()}
         out[x] = json.loads(json.dumps(to_jsonable(answer)))
     return out
 

@@ -135,20 +135,23 @@ def test_answers_equal_the_commands_json(client, path, body, args):
 
 
 def test_solutions_equal_the_clis_and_a_scene_sent_as_content_equals_the_shipped_one(client):
-    expected = cli_json("analyze", "rod_on_table", "--input", "x=-1")["solutions"]
+    cli = cli_json("analyze", "rod_on_table", "--input", "x=-1")
+    expected = cli["solutions"]
     assert expected, "the rod has a solution at x = -1"
+    assert cli["input_units"] == {"x": "N", "y": "N", "theta": "N m"}
     by_name = client.post("/solutions", json={"scene": "rod_on_table", "inputs": {"x": -1.0}})
-    assert by_name.status_code == 200 and by_name.json() == {"solutions": expected}
+    assert by_name.status_code == 200
+    assert by_name.json() == {"solutions": expected, "input_units": cli["input_units"]}
     SolutionsAnswer.model_validate(by_name.json())  # the documented response model holds it exactly
     by_toml = client.post("/solutions", json={"scene": {"toml": ROD_TOML}, "inputs": {"x": -1.0}})
-    assert by_toml.json() == {"solutions": expected}
+    assert by_toml.json() == by_name.json()
     document = read_scene_document(shipped_robots_dir() / "scenes" / "rod_on_table.toml")
     urdf = (shipped_robots_dir() / "rod.urdf").read_text(encoding="utf-8")
     sent = {**document, "robot": "my_rod.urdf"}
     by_json = client.post("/solutions", json={"scene": {"json": sent, "robots": {"my_rod.urdf": urdf}},
                                               "inputs": {"x": -1.0}})
     assert by_json.status_code == 200, by_json.text
-    assert by_json.json() == {"solutions": expected}
+    assert by_json.json() == by_name.json()
 
 
 def test_bad_input_is_a_422_with_the_clis_message_and_field_path(client):
@@ -529,12 +532,13 @@ async def _load(url: str, count: int) -> list[httpx.Response]:
 
 
 def test_200_concurrent_solutions_all_equal_the_clis(server):
-    expected = {x: cli_json("analyze", "rod_on_table", "--input", f"x={x}")["solutions"] for x in INPUTS}
+    expected = {x: {key: cli_json("analyze", "rod_on_table", "--input", f"x={x}")[key]
+                    for key in ("solutions", "input_units")} for x in INPUTS}
     responses = asyncio.run(_load(server, LOAD))
     assert len(responses) == LOAD
     assert [r.status_code for r in responses] == [200] * LOAD
     for i, response in enumerate(responses):
-        assert response.json() == {"solutions": expected[INPUTS[i % len(INPUTS)]]}
+        assert response.json() == expected[INPUTS[i % len(INPUTS)]]
         SolutionsAnswer.model_validate(response.json())
     assert httpx.get(f"{server}/health").json()["status"] == "ok"
 

@@ -209,11 +209,13 @@ class SolutionAnswer(BaseModel):
 
 
 class SolutionsAnswer(BaseModel):
-    """`POST /solutions`: the `"solutions"` of `frc analyze SCENE --input ... --json`."""
+    """`POST /solutions`: the `"solutions"` and `"input_units"` of `frc analyze SCENE --input ... --json`."""
 
     model_config = ConfigDict(extra="forbid")
 
     solutions: list[SolutionAnswer]
+    input_units: dict[str, str] = Field(
+        default_factory=dict, description="each input's unit: N, N m, or V for a DC motor's voltage")
 
 
 class ErrorItem(BaseModel):
