@@ -187,6 +187,14 @@ def test_a_scene_without_drives_is_a_scene_error():
         simulate_pump(load_scene("rhex_flip"), max_time=0.1)
 
 
+def test_an_elastic_stage_is_a_scene_error_not_a_run_without_pushes():
+    stage = {"ratio": 33.0, "efficiency": 0.7, "stiffness": 20.0, "damping": 0.05}
+    scene = load_scene("rhex_flip_drives", overrides={"model.drives.hip_rear.stages": [stage]})
+    with pytest.raises(SceneError, match="needs rigid stages") as error:
+        pump_flip(scene, max_time=0.1)
+    assert error.value.field == "model.drives.hip_rear.stages[0]"
+
+
 # ------------------------------------------------------------------------ the command line
 
 

@@ -137,7 +137,10 @@ def check_pump_scene(scene: Scene) -> list[Drive]:
 
     Raises:
         SceneError: an input has no drive (the pumping flip plans voltages within the motors'
-            limits: every input needs ``[model.drives.JOINT]``).
+            limits: every input needs ``[model.drives.JOINT]``), or a drive has an elastic stage
+            (its voltage reaches the joint only through the spring: its input column in the
+            analysis is 0, so no push has an unambiguous voltage and the phases would only
+            alternate without pushing).
     """
     missing = [name for name in scene.inputs.coordinates if name not in scene.drives]
     if missing:
@@ -145,6 +148,14 @@ def check_pump_scene(scene: Scene) -> list[Drive]:
                          f"the pumping flip needs a DC-motor drive on every input; {', '.join(missing)} "
                          "has none (add [model.drives.JOINT] tables, as the shipped scene "
                          "rhex_flip_drives does)")
+    for name in scene.inputs.coordinates:
+        drive = scene.drives[name]
+        if drive.elastic:
+            raise SceneError(str(scene.path), f"model.drives.{name}.stages[{drive.elastic_stages[0]}]",
+                             "the pumping flip plans each push in voltage space and needs rigid stages: "
+                             "through an elastic stage the voltage does not act on the joint within the "
+                             "analysed instant (its input column is 0), so no push can be planned; "
+                             "remove 'stiffness' from the stage")
     return [scene.drives[name] for name in scene.inputs.coordinates]
 
 
