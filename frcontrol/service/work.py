@@ -102,7 +102,7 @@ def _solutions(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]
     from frcontrol.answers import analysis_and_solutions, solutions_payload
 
     result, solutions = analysis_and_solutions(scene, request.inputs)
-    return {"solutions": solutions_payload(result, solutions or [])}
+    return {"solutions": solutions_payload(result, solutions or []), "input_units": scene.inputs.unit_map()}
 
 
 def _statics(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
