@@ -376,7 +376,9 @@ class TransmissionRun:
     """A fixed-step simulator's record of the elastic transmissions along a run.
 
     The stepper takes :meth:`implicit`'s force and mass into its step, then calls :meth:`advance`
-    with the joints' new velocity; :meth:`energy` and :meth:`work` give the
+    with the joints' new velocity (:meth:`move` first for each part of a step split at a landing,
+    so that the transmissions move over the whole step, as the joints do); :meth:`energy` and
+    :meth:`work` give the
     series the validity check needs, :meth:`info` what ``Trajectory.info["transmissions"]`` holds.
     """
 
@@ -385,16 +387,28 @@ class TransmissionRun:
         self.z = self.model.initial(q0, v0)
         self.samples = [self.z.copy()]
         self._work = [0.0]
+        self._part_work = 0.0  # [J] the motors' work over the parts of the current step moved so far
 
     def implicit(self, q: np.ndarray, v: np.ndarray, u: np.ndarray, h: float) -> ImplicitTransmissions:
         """The transmissions' part of a step of ``h`` [s] from the run's current state."""
         return self.model.implicit(q, v, self.z, u, h)
 
+    def move(self, step: ImplicitTransmissions, v_new: np.ndarray, u: np.ndarray) -> None:
+        """Move the transmissions over a part of a step (no sample); :meth:`advance` books its work."""
+        self.z = step.state(v_new)
+        self._part_work += step.h * self.model.motor_power(self.z, u)
+
+    def undo_parts(self, z: np.ndarray) -> None:
+        """Go back to ``z``, the state at the start of a step that failed, forgetting its parts."""
+        self.z, self._part_work = z, 0.0
+
     def advance(self, step: ImplicitTransmissions, v_new: np.ndarray, u: np.ndarray) -> None:
         """Move the transmissions to the step's end and record the sample."""
         self.z = step.state(v_new)
         self.samples.append(self.z.copy())
-        self._work.append(self._work[-1] + step.h * self.model.motor_power(self.z, u))
+        work = self._part_work + step.h * self.model.motor_power(self.z, u)
+        self._work.append(self._work[-1] + work)
+        self._part_work = 0.0
 
     def energy(self, qs: np.ndarray) -> np.ndarray:
         """[J] per sample: the clusters' kinetic and the springs' elastic energy."""

@@ -312,7 +312,8 @@ class RigidStepper:
         mass = self.armature.apply(self.state.mass_matrix)
         self._kinetic.append(0.5 * float(self.v @ mass @ self.v))
         self._potential.append(self.scene.robot.potential_energy(self.q))
-        start = (self.q, self.v, self.state, len(self.events), len(self.impacts), self._closed.copy())
+        start = (self.q, self.v, self.state, len(self.events), len(self.impacts), self._closed.copy(),
+                 None if self.transmissions is None else self.transmissions.z.copy())
         self._step_impacts = np.zeros((len(self.names), 2))
         try:
             v_next, p_n, p_t, candidates, rest = self._landed_step(u, h)
@@ -331,7 +332,9 @@ class RigidStepper:
 
     def _restore(self, start: tuple) -> None:
         """Undo a step that failed: the state, events and impacts of its start; no sample."""
-        self.q, self.v, self.state, n_events, n_impacts, self._closed = start
+        self.q, self.v, self.state, n_events, n_impacts, self._closed, z = start
+        if self.transmissions is not None and z is not None:
+            self.transmissions.undo_parts(z)
         del self.events[n_events:], self.impacts[n_impacts:]
         self._kinetic.pop()
         self._potential.pop()
@@ -359,6 +362,8 @@ class RigidStepper:
             if split is None:
                 break
             self._move(split, v_next)
+            if self.transmissions is not None and self._coupled is not None:  # they move with the joints
+                self.transmissions.move(self._coupled, v_next, u)
             rest, elapsed = rest - split, elapsed + split
         self._stab_work.append(self._stab_work[-1] + work)
         return v_next, p_n + self._step_impacts[:, 0], p_t + self._step_impacts[:, 1], cand, rest
