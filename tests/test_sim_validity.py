@@ -151,3 +151,17 @@ def test_status_and_failure_are_typed_fields_that_agree():
     failed = replace(run, status="failed", failure=SimulationFailure(0.005, "why", ""))
     summary = failed.to_dict()["summary"]
     assert summary["status"] == "failed" and summary["failure"] == {"time": 0.005, "reason": "why"}
+
+
+def test_a_diverged_run_cuts_the_nested_series_too():
+    """The contact zones' series (nested in info) end where the run does, like the samples."""
+    scene = load_scene("peg_on_surface")
+    run = simulate_compliant(scene, None, 0.01, 0.001)
+    assert run.info["zones"], "the scene has contact zones"
+    q = run.q.copy()
+    q[5, 0] = np.nan
+    broken = assess(scene, replace(run, q=q, warnings=()), energy=run.info["energy"],
+                    penetration=run.info["max_penetration"], stiffness=None, dt=0.001)
+    assert broken.status == "diverged" and len(broken.times) == 5
+    for zone in broken.info["zones"].values():
+        assert len(zone["deformation"]) == len(zone["force"]) == 5

@@ -272,13 +272,22 @@ def _divergence(finite: np.ndarray, blow_up: np.ndarray, energy: np.ndarray, wor
                  f"input work (more than {DIVERGENCE_FACTOR:g} x the run's energy scale)")
 
 
+def _cut_series(info: dict[str, Any], count: int, end: int) -> dict[str, Any]:
+    """``info`` with every per-sample array (``count`` rows), nested ones included, cut at ``end``."""
+    out: dict[str, Any] = {}
+    for key, value in info.items():
+        if isinstance(value, np.ndarray) and value.shape[:1] == (count,):
+            value = value[:end]
+        elif isinstance(value, dict):  # the contact zones' and the transmissions' series
+            value = _cut_series(value, count, end)
+        out[key] = value
+    return out
+
+
 def _cut(trajectory: Trajectory, info: dict[str, Any], warnings: tuple[SimulationWarning, ...], end: int,
          failure: SimulationFailure) -> Trajectory:
     """The run up to sample ``end`` (excluded), diverged: every per-sample array of ``info`` cut too."""
-    T = len(trajectory.times)
-    for key, value in list(info.items()):
-        if isinstance(value, np.ndarray) and value.shape[:1] == (T,):
-            info[key] = value[:end]
+    info = _cut_series(info, len(trajectory.times), end)
     times = trajectory.times
     return replace(
         trajectory, times=times[:end], q=trajectory.q[:end], v=trajectory.v[:end],
