@@ -57,7 +57,7 @@ import numpy as np
 
 from .errors import RobotModelError
 from .scene_schema import nearest
-from .urdf import UrdfDocument, UrdfJoint, UrdfVisual, read_urdf
+from .urdf import UrdfDocument, UrdfJoint, UrdfVisual, read_urdf, resolve_mesh
 
 __all__ = [
     "EXAMPLE_ROBOT_DATA_PREFIX",
@@ -249,27 +249,6 @@ def _origin_element(parent: ET.Element, pose: np.ndarray) -> None:
     ET.SubElement(parent, "origin", xyz=_numbers(pose[:3, 3]), rpy=_numbers(rpy_from_matrix(pose[:3, :3])))
 
 
-def _resolve_mesh(filename: str, urdf_dir: Path) -> Path | None:
-    """A mesh file named by a URDF, or None when it is not found.
-
-    ``package://pkg/rel`` is looked up beside the URDF and in its parents, with and without
-    ``pkg``; ``file://abs`` and paths relative to the URDF are taken as they are.
-    """
-    if filename.startswith("file://"):
-        candidate = Path(filename[len("file://"):])
-        return candidate if candidate.is_file() else None
-    if filename.startswith("package://"):
-        rest = Path(filename[len("package://"):])
-        tails = [rest, Path(*rest.parts[1:])] if len(rest.parts) > 1 else [rest]
-        for folder in (urdf_dir, *urdf_dir.parents):
-            for tail in tails:
-                if (folder / tail).is_file():
-                    return folder / tail
-        return None
-    candidate = Path(filename) if Path(filename).is_absolute() else urdf_dir / filename
-    return candidate if candidate.is_file() else None
-
-
 def _visual_element(link: ET.Element, visual: UrdfVisual, to_new: np.ndarray, urdf_dir: Path) -> None:
     """A ``<visual>`` posed in the link's new frame (``to_new``: the old frame in the new, 4x4)."""
     geometry_tag: tuple[str, dict[str, str]]
@@ -281,7 +260,7 @@ def _visual_element(link: ET.Element, visual: UrdfVisual, to_new: np.ndarray, ur
     elif visual.shape == "sphere":
         geometry_tag = ("sphere", {"radius": repr(float(visual.size[0]))})
     else:
-        mesh = _resolve_mesh(visual.mesh_filename, urdf_dir)
+        mesh = resolve_mesh(visual.mesh_filename, urdf_dir)
         if mesh is None:
             return
         geometry_tag = ("mesh", {"filename": mesh.resolve().as_uri(), "scale": _numbers(visual.size)})

@@ -22,7 +22,7 @@ import numpy as np
 
 from .errors import RobotModelError
 
-__all__ = ["UrdfDocument", "UrdfInertial", "UrdfJoint", "UrdfVisual", "read_urdf"]
+__all__ = ["UrdfDocument", "UrdfInertial", "UrdfJoint", "UrdfVisual", "read_urdf", "resolve_mesh"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -253,3 +253,24 @@ def _visual(link: str, element: ET.Element, materials: dict, shown: str) -> Urdf
             scale = tuple(values * 3) if len(values) == 1 else tuple(values)
         return UrdfVisual(link, "mesh", scale, origin, rgba, mesh.get("filename", ""))
     return None
+
+
+def resolve_mesh(filename: str, urdf_dir: Path) -> Path | None:
+    """A mesh file named by a URDF, or None when it is not found.
+
+    ``package://pkg/rel`` is looked up beside the URDF and in its parents, without and then with
+    ``pkg``; ``file://abs`` and paths relative to the URDF are taken as they are.
+    """
+    if filename.startswith("file://"):
+        candidate = Path(filename[len("file://"):])
+        return candidate if candidate.is_file() else None
+    if filename.startswith("package://"):
+        rest = Path(filename[len("package://"):])
+        tails = [Path(*rest.parts[1:]), rest] if len(rest.parts) > 1 else [rest]
+        for folder in (urdf_dir, *urdf_dir.parents):
+            for tail in tails:
+                if (folder / tail).is_file():
+                    return folder / tail
+        return None
+    candidate = Path(filename) if Path(filename).is_absolute() else urdf_dir / filename
+    return candidate if candidate.is_file() else None

@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 
 from ..drives import Drive, no_load_speed, stall_torque, torque_limits
-from ..errors import FrcontrolError, ImpactState, SceneError
+from ..errors import FrcontrolError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
 from ..scene import Scene
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
@@ -405,9 +405,7 @@ def predicted_modes(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarr
         if held.size:
             problem = replace(problem, normal_velocities=np.where(held, 0.0, problem.normal_velocities))
         return [s.mode for s in solutions_at(problem, inputs)]
-    except ImpactState:
-        return None
-    except FrcontrolError:
+    except FrcontrolError:  # ImpactState included: no prediction at this state
         return None
 
 

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from frcontrol.model import ContactPoint, PlanarRobot
+from frcontrol.urdf import resolve_mesh
 
 from .errors import VizError
 from .geometry import convex_hull, pose_matrix
@@ -50,23 +51,6 @@ class LinkVisual:
     fallback: bool = False
 
 
-def _resolve_mesh(filename: str, urdf_dir: Path) -> Path | None:
-    """A mesh file named by a URDF: ``package://pkg/rel``, ``file://abs`` or a relative path."""
-    if filename.startswith("file://"):
-        candidate = Path(filename[len("file://"):])
-        return candidate if candidate.is_file() else None
-    if filename.startswith("package://"):
-        rest = Path(filename[len("package://"):])
-        tails = [Path(*rest.parts[1:]), rest] if len(rest.parts) > 1 else [rest]
-        for folder in (urdf_dir, *urdf_dir.parents):
-            for tail in tails:
-                if (folder / tail).is_file():
-                    return folder / tail
-        return None
-    candidate = Path(filename) if Path(filename).is_absolute() else urdf_dir / filename
-    return candidate if candidate.is_file() else None
-
-
 def _urdf_visuals(urdf_path: Path) -> tuple[dict, dict]:
     """(visuals by link, child joint origins by link) from :func:`frcontrol.urdf.read_urdf`."""
     from frcontrol.errors import RobotModelError
@@ -84,7 +68,7 @@ def _urdf_visuals(urdf_path: Path) -> tuple[dict, dict]:
             rgba = visual.rgba if visual.rgba is not None else DEFAULT_VISUAL_COLOR
             mesh_path = None
             if visual.shape == "mesh":
-                mesh_path = _resolve_mesh(visual.mesh_filename, urdf_dir)
+                mesh_path = resolve_mesh(visual.mesh_filename, urdf_dir)
                 if mesh_path is None:
                     continue  # unusable: the link falls back to a thin box if nothing else is left
             kept.append(LinkVisual(link, visual.shape, visual.size, visual.origin, rgba, mesh_path=mesh_path))
