@@ -16,7 +16,7 @@ import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -168,9 +168,9 @@ class Scene:
         """The contacts that touch at the scene's state, in file order."""
         return tuple(c for c in self.contacts if c.active)
 
-    @property
+    @cached_property
     def active_indices(self) -> tuple[int, ...]:
-        """Indices (into ``contacts``) of the active contacts."""
+        """Indices (into ``contacts``) of the active contacts (found once: a scene is frozen)."""
         return tuple(i for i, c in enumerate(self.contacts) if c.active)
 
     def at(self, q: np.ndarray, v: np.ndarray | None = None) -> Scene:
