@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +38,9 @@ from .urdf import read_urdf
 BASE_COORDINATES = ("x", "y", "theta")
 """Names of the planar base's coordinates: position [m] of the root link's frame and its angle
 [rad], counter-clockwise from the world x axis."""
+
+SKELETON_CACHE_SIZE = 64
+"""How many built Pinocchio models (by URDF content, base and locked joints) are kept for reuse."""
 
 PLANE_AXIS_TOLERANCE = 1e-9
 """How far [unit vector components] a revolute axis may lean off the world z axis, or a prismatic
@@ -210,6 +214,99 @@ def _coordinate_maps(model: pin.Model, base: str, joint_names: Sequence[str]
     return q_gather, v_index
 
 
+def _file_content(path: Path) -> bytes:
+    """The URDF's bytes (the model cache's key: a file rewritten with other content is rebuilt).
+
+    Raises:
+        RobotModelError: the file cannot be read (the URDF reader's message).
+    """
+    try:
+        return path.read_bytes()
+    except OSError as err:
+        read_urdf(path)  # raises the URDF reader's one-line message for an unreadable file
+        raise RobotModelError(str(path), f"cannot read URDF: {err}") from err
+
+
+@dataclass(frozen=True)
+class _Skeleton:
+    """What a URDF, a base and locked joints determine, built once (:func:`_skeleton`).
+
+    Attributes:
+        model: the Pinocchio model (locked joints welded, no contact frame, gravity unset); never
+            handed out: each :class:`PlanarRobot` works on its own copy.
+        joints: the movable joints left, (name, kind, axis) in document order.
+        link_names: the model's links.
+        q_gather, v_index: :func:`_coordinate_maps` (read-only).
+    """
+
+    model: pin.Model
+    joints: tuple[tuple[str, str, np.ndarray], ...]
+    link_names: tuple[str, ...]
+    q_gather: np.ndarray | None
+    v_index: np.ndarray
+
+
+@lru_cache(maxsize=SKELETON_CACHE_SIZE)
+def _skeleton(urdf: str, content: bytes, base: str, locked: tuple[tuple[str, float], ...]) -> _Skeleton:
+    """The Pinocchio model of the URDF at ``urdf`` (whose bytes are ``content``) and its layout.
+
+    Cached by the file's path and content, the base and the locked joints with their values: a
+    scene load builds its robot two or three times (before and after its contacts and locked
+    joints are known), and a sweep reloads the same scene at every point.
+
+    Raises:
+        RobotModelError: the URDF cannot be read, is not planar, or locks an unknown joint.
+    """
+    joints = [(j.name, j.kind, j.axis) for j in read_urdf(urdf).movable_joints]
+    _check_planar_joints(urdf, joints)
+    try:
+        if base == "planar":
+            root = pin.JointModelComposite(3)
+            root.addJoint(pin.JointModelPX())
+            root.addJoint(pin.JointModelPY())
+            root.addJoint(pin.JointModelRZ())
+            model = pin.buildModelFromUrdf(urdf, root)
+        else:
+            model = pin.buildModelFromUrdf(urdf)
+    except (ValueError, RuntimeError) as err:
+        raise RobotModelError(urdf, f"Pinocchio cannot build the model: {err}") from err
+    if locked:
+        model = _lock_joints(urdf, model, dict(locked), [name for name, _, _ in joints])
+        joints = [j for j in joints if j[0] not in dict(locked)]
+    names = [name for name, _, _ in joints]
+    n = (3 if base == "planar" else 0) + len(names)
+    if model.nv != n:
+        raise RobotModelError(urdf, f"expected {n} velocities, Pinocchio has {model.nv}")
+    q_gather, v_index = _coordinate_maps(model, base, names)
+    for array in (q_gather, v_index):
+        if array is not None:
+            array.setflags(write=False)
+    link_names = tuple(f.name for f in model.frames if f.type == pin.FrameType.BODY)
+    return _Skeleton(model, tuple(joints), link_names, q_gather, v_index)
+
+
+def _lock_joints(urdf: str, model: pin.Model, locked: Mapping[str, float], names: Sequence[str]) -> pin.Model:
+    """The reduced model with the ``locked`` joints welded at their given values.
+
+    Raises:
+        RobotModelError: an unknown joint.
+    """
+    unknown = [name for name in locked if name not in names]
+    if unknown:
+        raise RobotModelError(urdf, f"cannot lock unknown joint {unknown[0]!r}; "
+                              f"the joints are: {', '.join(names)}")
+    reference = pin.neutral(model)
+    ids = []
+    for name, value in locked.items():
+        joint = model.joints[model.getJointId(name)]
+        if joint.nq == 2:
+            reference[joint.idx_q:joint.idx_q + 2] = [math.cos(value), math.sin(value)]
+        else:
+            reference[joint.idx_q] = value
+        ids.append(model.getJointId(name))
+    return pin.buildReducedModel(model, ids, reference)
+
+
 @dataclass(frozen=True)
 class PointKinematics:
     """Points fixed on links, at one state (:meth:`PlanarRobot.point_kinematics`).
@@ -255,23 +352,10 @@ class PlanarRobot:
         if base not in ("planar", "fixed"):
             raise RobotModelError(str(urdf_path), f"base must be 'planar' or 'fixed', got {base!r}")
         self.base = base
-        joints = [(j.name, j.kind, j.axis) for j in read_urdf(self.urdf_path).movable_joints]
-        _check_planar_joints(str(urdf_path), joints)
-        try:
-            if base == "planar":
-                root = pin.JointModelComposite(3)
-                root.addJoint(pin.JointModelPX())
-                root.addJoint(pin.JointModelPY())
-                root.addJoint(pin.JointModelRZ())
-                model = pin.buildModelFromUrdf(str(self.urdf_path), root)
-            else:
-                model = pin.buildModelFromUrdf(str(self.urdf_path))
-        except (ValueError, RuntimeError) as err:
-            raise RobotModelError(str(urdf_path), f"Pinocchio cannot build the model: {err}") from err
         locked = dict(locked or {})
-        if locked:
-            model = self._lock_joints(model, locked, [name for name, _, _ in joints])
-            joints = [j for j in joints if j[0] not in locked]
+        skeleton = _skeleton(str(urdf_path), _file_content(self.urdf_path), base, tuple(locked.items()))
+        model = pin.Model(skeleton.model)  # this object's own copy: frames and armature are added to it
+        joints = skeleton.joints
         self.locked: dict[str, float] = locked
         model.gravity.linear[:] = [0.0, -float(gravity), 0.0]
         self.gravity = float(gravity)
@@ -284,15 +368,11 @@ class PlanarRobot:
             (BASE_COORDINATES if base == "planar" else ()) + self.joint_names
         )
         n = len(self.coordinate_names)
-        if model.nv != n:
-            raise RobotModelError(str(urdf_path), f"expected {n} velocities, Pinocchio has {model.nv}")
-        self._q_gather, v_index = _coordinate_maps(model, base, joint_names)
+        self._q_gather, v_index = skeleton.q_gather, skeleton.v_index
         self._identity_order = bool(np.array_equal(v_index, np.arange(n)))
         self._v_index = v_index
         # Pinocchio velocity vector from a minimal one: v_pin[v_index] = v.
-        self.link_names: tuple[str, ...] = tuple(
-            f.name for f in model.frames if f.type == pin.FrameType.BODY
-        )
+        self.link_names: tuple[str, ...] = skeleton.link_names
 
         self.contacts: tuple[ContactPoint, ...] = tuple(contacts)
         frame_ids = []
@@ -309,30 +389,13 @@ class PlanarRobot:
         # M in minimal order from Pinocchio's upper triangle (CRBA fills only that): one gather of
         # flat indices into M^T (C-ordered: Eigen's M is column-major, so M.T is a view), entry
         # (i, j) from M^T[max, min] of the Pinocchio indices of coordinates i, j
-        pi, pj = np.meshgrid(v_index, v_index, indexing="ij")
-        self._mass_gather = (np.maximum(pi, pj) * n + np.minimum(pi, pj)).ravel()
+        upper, lower = np.maximum.outer(v_index, v_index), np.minimum.outer(v_index, v_index)
+        self._mass_gather = (upper * n + lower).ravel()
         self._layouts: dict = {}  # contact subsets -> _ContactLayout
         self._damping = np.zeros(n)  # [N m s/rad] drives' viscous damping (set_drive_terms)
         self._has_damping = False
 
     # ------------------------------------------------------------------ construction helpers
-    def _lock_joints(self, model: pin.Model, locked: Mapping[str, float], names: Sequence[str]) -> pin.Model:
-        """The reduced model with the ``locked`` joints welded at their given values."""
-        unknown = [name for name in locked if name not in names]
-        if unknown:
-            raise RobotModelError(str(self.urdf_path), f"cannot lock unknown joint {unknown[0]!r}; "
-                                  f"the joints are: {', '.join(names)}")
-        reference = pin.neutral(model)
-        ids = []
-        for name, value in locked.items():
-            joint = model.joints[model.getJointId(name)]
-            if joint.nq == 2:
-                reference[joint.idx_q:joint.idx_q + 2] = [math.cos(value), math.sin(value)]
-            else:
-                reference[joint.idx_q] = value
-            ids.append(model.getJointId(name))
-        return pin.buildReducedModel(model, ids, reference)
-
     def _add_point_frame(self, model: pin.Model, name: str, link: str, point: np.ndarray) -> int:
         if link not in self.link_names:
             raise FrameNotFound(link, self.link_names)

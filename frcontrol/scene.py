@@ -50,6 +50,9 @@ GAP_TOLERANCE = 1e-6
 DEFAULT_GRAVITY = 9.81
 """[m/s^2] Gravity along -y when the scene does not say."""
 
+SCENE_TEXT_CACHE_SIZE = 64
+"""How many scene files' parsed TOML (by their text) are kept: a sweep reloads one scene per point."""
+
 
 
 @dataclass(frozen=True)
@@ -328,9 +331,27 @@ def read_scene_document(path: Path) -> dict[str, Any]:
     except OSError as err:
         raise reader.fail("", f"cannot read the file: {reason_from_exception(err)}") from err
     try:
-        return tomllib.loads(text)
+        return _fresh_copy(_parsed_toml(text))
     except tomllib.TOMLDecodeError as err:
         raise reader.fail("", f"malformed TOML: {err}") from err
+
+
+@lru_cache(maxsize=SCENE_TEXT_CACHE_SIZE)
+def _parsed_toml(text: str) -> dict[str, Any]:
+    """The TOML document ``text``, parsed once per content (never handed out: see :func:`_fresh_copy`)."""
+    return tomllib.loads(text)
+
+
+def _fresh_copy(value: Any) -> Any:
+    """A copy of a parsed TOML value with new tables and arrays (the loader edits them in place).
+
+    The leaves (str, int, float, bool, dates and times) are immutable and shared.
+    """
+    if isinstance(value, dict):
+        return {key: _fresh_copy(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_fresh_copy(item) for item in value]
+    return value
 
 
 def load_scene(
