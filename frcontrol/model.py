@@ -367,7 +367,7 @@ class PlanarRobot:
         self.coordinate_names: tuple[str, ...] = (
             (BASE_COORDINATES if base == "planar" else ()) + self.joint_names
         )
-        n = len(self.coordinate_names)
+        n = self._n = len(self.coordinate_names)
         self._q_gather, v_index = skeleton.q_gather, skeleton.v_index
         self._identity_order = bool(np.array_equal(v_index, np.arange(n)))
         self._v_index = v_index
@@ -523,8 +523,10 @@ class PlanarRobot:
         # at (q, v, a = 0), from which the frames' classical accelerations are the drifts.
         pin.computeAllTerms(model, data, self._pinocchio_q(q),
                             v if self._identity_order else self.pinocchio_v_from_minimal(v))
-        layout = self._layout(contacts if contacts is None or type(contacts) is tuple else tuple(contacts))
-        frames, k, n = layout.frames, len(layout.frames), self.nv
+        layout = self._layouts.get(contacts) if contacts is None or type(contacts) is tuple else None
+        if layout is None:
+            layout = self._layout(None if contacts is None else tuple(contacts))
+        frames, k, n = layout.frames, len(layout.frames), self._n
         if k:
             # per frame: its placement (first: the other two read it), its world-aligned 6 x n
             # Jacobian at the point and its classical acceleration; projected on (n, t) at once
