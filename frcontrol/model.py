@@ -16,8 +16,9 @@ and its contact accelerations ``a_N = J_N dv + dJ_N v``, ``a_T = J_T dv + dJ_T v
 
 The planar base is three one-degree-of-freedom joints (prismatic x, prismatic y, revolute z) in a
 Pinocchio composite joint, so that Pinocchio's velocity equals ``dq/dt`` in the world (a
-``JointModelPlanar`` would express it in the body frame). URDF ``continuous`` joints are stored by
-Pinocchio as ``(cos, sin)`` pairs; the minimal joint angle is mapped onto them here.
+``JointModelPlanar`` would express it in the body frame). URDF ``continuous`` joints, which
+Pinocchio's URDF reader makes unbounded joints of ``(cos, sin)`` pairs, are rebuilt as revolute
+joints of the angle (same kinematics): Pinocchio's q is then the minimal q, in Pinocchio's order.
 """
 
 from __future__ import annotations
@@ -273,6 +274,7 @@ def _skeleton(urdf: str, content: bytes, base: str, locked: tuple[tuple[str, flo
     if locked:
         model = _lock_joints(urdf, model, dict(locked), [name for name, _, _ in joints])
         joints = [j for j in joints if j[0] not in dict(locked)]
+    model = _angle_joints(model)
     names = [name for name, _, _ in joints]
     n = (3 if base == "planar" else 0) + len(names)
     if model.nv != n:
@@ -283,6 +285,45 @@ def _skeleton(urdf: str, content: bytes, base: str, locked: tuple[tuple[str, flo
             array.setflags(write=False)
     link_names = tuple(f.name for f in model.frames if f.type == pin.FrameType.BODY)
     return _Skeleton(model, tuple(joints), link_names, q_gather, v_index)
+
+
+_ANGLE_JOINTS = {"JointModelRUBX": pin.JointModelRX, "JointModelRUBY": pin.JointModelRY,
+                 "JointModelRUBZ": pin.JointModelRZ}
+"""Pinocchio's unbounded revolute joints about a frame axis, and the revolute joint of each."""
+
+
+def _angle_joints(model: pin.Model) -> pin.Model:
+    """``model`` with its unbounded revolute joints made revolute joints about the same axes.
+
+    An unbounded joint (a URDF ``continuous`` one) has the pair (cos, sin) as its configuration; the
+    revolute joint has the angle. All else is kept: tree, placements, inertias, frames and the
+    per-velocity parameters. The kinematics and dynamics are the same (the joint's rotation is
+    built from cos and sin of the angle either way); Pinocchio's q is then the minimal q, up to
+    order, with no conversion per call. URDF position limits, which frcontrol does not use, are
+    dropped for those joints.
+    """
+    unaligned = "JointModelRevoluteUnboundedUnaligned"
+    kinds = [model.joints[j].shortname() for j in range(1, model.njoints)]
+    if not any(kind in _ANGLE_JOINTS or kind == unaligned for kind in kinds):
+        return model
+    out = pin.Model()
+    out.name = model.name
+    data = model.createData()
+    for j, kind in enumerate(kinds, start=1):
+        joint = model.joints[j]
+        if kind in _ANGLE_JOINTS:
+            joint = _ANGLE_JOINTS[kind]()
+        elif kind == unaligned:  # its axis: the angular part of its motion subspace
+            local = np.reshape(pin.computeJointJacobian(model, data, pin.neutral(model), j), (6, -1))
+            joint = pin.JointModelRevoluteUnaligned(local[3:, joint.idx_v].copy())
+        out.addJoint(model.parents[j], joint, model.jointPlacements[j], model.names[j])
+        out.inertias[j] = model.inertias[j]
+    for frame in list(model.frames)[1:]:
+        out.addFrame(frame, False)
+    for name in ("armature", "damping", "friction", "effortLimit", "velocityLimit", "rotorInertia",
+                 "rotorGearRatio"):
+        setattr(out, name, getattr(model, name).copy())
+    return out
 
 
 def _lock_joints(urdf: str, model: pin.Model, locked: Mapping[str, float], names: Sequence[str]) -> pin.Model:
@@ -360,8 +401,8 @@ class PlanarRobot:
         model.gravity.linear[:] = [0.0, -float(gravity), 0.0]
         self.gravity = float(gravity)
 
-        # Minimal coordinates <-> Pinocchio (q, v): one velocity per coordinate; continuous joints
-        # are (cos, sin) pairs in Pinocchio's q. Coordinate order: base, then URDF document order.
+        # Minimal coordinates <-> Pinocchio (q, v): one velocity per coordinate (and one q: the
+        # continuous joints are revolute ones). Coordinate order: base, then URDF document order.
         joint_names = [name for name, _, _ in joints]
         self.joint_names: tuple[str, ...] = tuple(joint_names)
         self.coordinate_names: tuple[str, ...] = (

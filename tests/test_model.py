@@ -160,13 +160,37 @@ def test_fixed_base_equals_the_joint_block_of_the_planar_base_at_the_origin():
     np.testing.assert_allclose(sf.drift_normal, sp.drift_normal, atol=1e-12)
 
 
-def test_continuous_joints_map_to_cos_sin():
-    robot = rhex(False)
-    q = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6])
-    q_pin = robot.pinocchio_q_from_minimal(q)
-    assert robot.model.nq == 9
-    origin = robot.pinocchio_q_from_minimal(np.zeros(6))
-    np.testing.assert_allclose(pin.difference(robot.model, origin, q_pin)[robot._v_index], q)
+@pytest.mark.parametrize("axis", ["0 0 1", "0 0 -1"])
+def test_continuous_joints_are_revolute_joints_of_pinocchios_cos_sin_model(axis, tmp_path):
+    """The model's continuous joints take the angle; M, h and every frame's placement equal those of
+    Pinocchio's own model of the URDF (unbounded joints of (cos q, sin q)) bit for bit."""
+    urdf = tmp_path / "rhex.urdf"
+    text = (ROBOTS / "rhex_planar.urdf").read_text()
+    assert text.count('<axis xyz="0 0 1"/>') == 3
+    urdf.write_text(text.replace('<axis xyz="0 0 1"/>', f'<axis xyz="{axis}"/>'))
+    robot = PlanarRobot(urdf, "planar", 9.81, [point("toe", "leg_front", (0.0, -0.17))])
+    assert robot.model.nq == robot.model.nv == 6
+    root = pin.JointModelComposite(3)
+    for joint in (pin.JointModelPX(), pin.JointModelPY(), pin.JointModelRZ()):
+        root.addJoint(joint)
+    own = pin.buildModelFromUrdf(str(urdf), root)
+    assert own.nq == 9 and {own.joints[j].nq for j in range(2, 5)} == {2}
+    own.gravity = robot.model.gravity
+    rng = np.random.default_rng(4)
+    for _ in range(3):
+        q, v = random_state(robot, rng)
+        q_own = np.r_[q[:3], np.ravel([(np.cos(a), np.sin(a)) for a in q[3:]])]
+        data, own_data = robot.model.createData(), own.createData()
+        pin.computeAllTerms(robot.model, data, robot.pinocchio_q_from_minimal(q), v)
+        pin.computeAllTerms(own, own_data, q_own, v)
+        np.testing.assert_array_equal(data.M, own_data.M)
+        np.testing.assert_array_equal(data.nle, own_data.nle)
+        pin.updateFramePlacements(robot.model, data)
+        pin.updateFramePlacements(own, own_data)
+        for f in range(own.nframes):  # the robot's own model has the contact frame too, at the end
+            np.testing.assert_array_equal(data.oMf[f].homogeneous, own_data.oMf[f].homogeneous)
+    assert [f.name for f in robot.model.frames][:own.nframes] == [f.name for f in own.frames]
+    assert [robot.model.inertias[j] == own.inertias[j] for j in range(own.njoints)] == [True] * own.njoints
 
 
 def test_joint_order_follows_the_urdf_document(tmp_path):
