@@ -238,6 +238,10 @@ class _Skeleton:
         joints: the movable joints left, (name, kind, axis) in document order.
         link_names: the model's links.
         q_gather, v_index: :func:`_coordinate_maps` (read-only).
+        mass_gather: M in minimal order from Pinocchio's upper triangle, by one gather of flat
+            indices into M^T (read-only; C-ordered: Eigen's M is column-major, so M.T is a view):
+            entry (i, j) is M^T[max, min] of the Pinocchio indices of coordinates i and j.
+        identity_order: whether the minimal coordinates are in Pinocchio's velocity order.
     """
 
     model: pin.Model
@@ -245,6 +249,8 @@ class _Skeleton:
     link_names: tuple[str, ...]
     q_gather: np.ndarray | None
     v_index: np.ndarray
+    mass_gather: np.ndarray
+    identity_order: bool
 
 
 @lru_cache(maxsize=SKELETON_CACHE_SIZE)
@@ -280,11 +286,13 @@ def _skeleton(urdf: str, content: bytes, base: str, locked: tuple[tuple[str, flo
     if model.nv != n:
         raise RobotModelError(urdf, f"expected {n} velocities, Pinocchio has {model.nv}")
     q_gather, v_index = _coordinate_maps(model, base, names)
-    for array in (q_gather, v_index):
+    mass_gather = (np.maximum.outer(v_index, v_index) * n + np.minimum.outer(v_index, v_index)).ravel()
+    for array in (q_gather, v_index, mass_gather):
         if array is not None:
             array.setflags(write=False)
     link_names = tuple(f.name for f in model.frames if f.type == pin.FrameType.BODY)
-    return _Skeleton(model, tuple(joints), link_names, q_gather, v_index)
+    return _Skeleton(model, tuple(joints), link_names, q_gather, v_index, mass_gather,
+                     bool(np.array_equal(v_index, np.arange(n))))
 
 
 _ANGLE_JOINTS = {"JointModelRUBX": pin.JointModelRX, "JointModelRUBY": pin.JointModelRY,
@@ -410,7 +418,7 @@ class PlanarRobot:
         )
         n = self._n = len(self.coordinate_names)
         self._q_gather, v_index = skeleton.q_gather, skeleton.v_index
-        self._identity_order = bool(np.array_equal(v_index, np.arange(n)))
+        self._identity_order = skeleton.identity_order
         self._v_index = v_index
         # Pinocchio velocity vector from a minimal one: v_pin[v_index] = v.
         self.link_names: tuple[str, ...] = skeleton.link_names
@@ -427,11 +435,7 @@ class PlanarRobot:
         ).reshape(-1, 2)
         self.model = model
         self.data = model.createData()
-        # M in minimal order from Pinocchio's upper triangle (CRBA fills only that): one gather of
-        # flat indices into M^T (C-ordered: Eigen's M is column-major, so M.T is a view), entry
-        # (i, j) from M^T[max, min] of the Pinocchio indices of coordinates i, j
-        upper, lower = np.maximum.outer(v_index, v_index), np.minimum.outer(v_index, v_index)
-        self._mass_gather = (upper * n + lower).ravel()
+        self._mass_gather = skeleton.mass_gather  # M from CRBA's upper triangle (_Skeleton)
         self._layouts: dict = {}  # contact subsets -> _ContactLayout
         self._damping = np.zeros(n)  # [N m s/rad] drives' viscous damping (set_drive_terms)
         self._has_damping = False

@@ -201,8 +201,9 @@ class Scene:
         )
 
 
+@lru_cache(maxsize=1)
 def shipped_robots_dir() -> Path:
-    """The folder of robots and scenes shipped with frcontrol."""
+    """The folder of robots and scenes shipped with frcontrol (found once: the package stays put)."""
     return Path(str(resources.files("frcontrol.robots")))
 
 
