@@ -16,8 +16,9 @@ and its contact accelerations ``a_N = J_N dv + dJ_N v``, ``a_T = J_T dv + dJ_T v
 
 The planar base is three one-degree-of-freedom joints (prismatic x, prismatic y, revolute z) in a
 Pinocchio composite joint, so that Pinocchio's velocity equals ``dq/dt`` in the world (a
-``JointModelPlanar`` would express it in the body frame). URDF ``continuous`` joints are stored by
-Pinocchio as ``(cos, sin)`` pairs; the minimal joint angle is mapped onto them here.
+``JointModelPlanar`` would express it in the body frame). URDF ``continuous`` joints, which
+Pinocchio's URDF reader makes unbounded joints of ``(cos, sin)`` pairs, are rebuilt as revolute
+joints of the angle (same kinematics): Pinocchio's q is then the minimal q, in Pinocchio's order.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +39,9 @@ from .urdf import read_urdf
 BASE_COORDINATES = ("x", "y", "theta")
 """Names of the planar base's coordinates: position [m] of the root link's frame and its angle
 [rad], counter-clockwise from the world x axis."""
+
+SKELETON_CACHE_SIZE = 64
+"""How many built Pinocchio models (by URDF content, base and locked joints) are kept for reuse."""
 
 PLANE_AXIS_TOLERANCE = 1e-9
 """How far [unit vector components] a revolute axis may lean off the world z axis, or a prismatic
@@ -72,11 +77,36 @@ class ContactPoint:
 
 @dataclass(frozen=True)
 class _ContactLayout:
-    """A subset of the contacts, laid out once: frame ids, (n, t) rows (2, k, 2), surface points."""
+    """A subset of k contacts, laid out once for :meth:`PlanarRobot.state`.
+
+    Attributes:
+        frames: the contacts' Pinocchio frame ids.
+        jacobian_projection: (2k, 6k): rows n_i^T and t_i^T, applied to the frames' stacked 6 x n
+            Jacobians (world-aligned, at the point: linear rows first), give ``[J_N; J_T]``.
+        motion_projection: (5k, 9k + 1): applied to ``[a_1 .. a_k, p_1 .. p_k, 1]`` (the frames'
+            6-D classical accelerations, their 3-D positions, a one) it gives ``[n^T a; t^T a;
+            n^T (p - s); p_x, p_y interleaved]``: drifts, gaps and the points.
+    """
 
     frames: tuple[int, ...]
-    basis: np.ndarray
-    surface_points: np.ndarray
+    jacobian_projection: np.ndarray
+    motion_projection: np.ndarray
+
+
+def _contact_layout(frames: Sequence[int], normals: np.ndarray, tangents: np.ndarray,
+                    surface_points: np.ndarray) -> _ContactLayout:
+    """The projections of :class:`_ContactLayout` for contacts with these (k, 2) lines."""
+    k = len(frames)
+    jacobian = np.zeros((2 * k, 6 * k))
+    motion = np.zeros((5 * k, 9 * k + 1))
+    for i, (normal, tangent, surface) in enumerate(zip(normals, tangents, surface_points, strict=True)):
+        acc, pos = 6 * i, 6 * k + 3 * i  # columns of contact i's acceleration and position
+        jacobian[i, acc:acc + 2] = motion[i, acc:acc + 2] = normal
+        jacobian[k + i, acc:acc + 2] = motion[k + i, acc:acc + 2] = tangent
+        motion[2 * k + i, pos:pos + 2] = normal
+        motion[2 * k + i, -1] = -(normal @ surface)
+        motion[3 * k + 2 * i, pos] = motion[3 * k + 2 * i + 1, pos + 1] = 1.0
+    return _ContactLayout(tuple(frames), jacobian, motion)
 
 
 @dataclass(frozen=True)
@@ -114,6 +144,23 @@ class RobotState:
     drift_tangent: np.ndarray
 
 
+def _assembled_state(fields: dict[str, np.ndarray]) -> RobotState:
+    """A :class:`RobotState` of ``fields`` (every field, by name), as its ``__init__`` makes it.
+
+    The frozen dataclass's generated ``__init__`` sets each field through ``object.__setattr__``,
+    about 1 us for twelve fields: a tenth of :meth:`PlanarRobot.state`. This fills the instance's
+    dictionary in one call; the object is the same (frozen afterwards, equal, same repr).
+    """
+    state = object.__new__(RobotState)
+    state.__dict__.update(fields)
+    return state
+
+
+_WORLD_ALIGNED = pin.LOCAL_WORLD_ALIGNED
+_ONE = np.ones(1)
+_ONE.setflags(write=False)
+
+
 def _check_planar_joints(urdf: str, joints: Sequence[tuple[str, str, np.ndarray]]) -> None:
     """Revolute and continuous axes along z, prismatic axes in x-y, no other movable joint.
 
@@ -137,37 +184,176 @@ def _check_planar_joints(urdf: str, joints: Sequence[tuple[str, str, np.ndarray]
 
 
 def _coordinate_maps(model: pin.Model, base: str, joint_names: Sequence[str]
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                     ) -> tuple[np.ndarray | None, np.ndarray]:
     """Minimal coordinates <-> Pinocchio (q, v).
 
     One velocity per coordinate; continuous joints are (cos, sin) pairs in Pinocchio's q.
 
     Returns:
-        (linear q sources, their Pinocchio q indices, continuous q sources, their first Pinocchio
-        q index, v_index: the Pinocchio velocity index of each coordinate).
+        (q_gather: Pinocchio's q is ``[q, cos q, sin q][q_gather]``, or None when it is ``q``
+        itself; v_index: the Pinocchio velocity index of each coordinate).
     """
     n = (3 if base == "planar" else 0) + len(joint_names)
     v_index = np.empty(n, dtype=int)
-    linear_q_src, linear_q_dst, unbounded_src, unbounded_dst = [], [], [], []
+    q_gather = np.empty(model.nq, dtype=int)
     offset = 0
     if base == "planar":
         root_id = model.getJointId("root_joint")
         idx_q, idx_v = model.joints[root_id].idx_q, model.joints[root_id].idx_v
         v_index[:3] = idx_v + np.arange(3)
-        linear_q_src += [0, 1, 2]
-        linear_q_dst += [idx_q, idx_q + 1, idx_q + 2]
+        q_gather[idx_q:idx_q + 3] = np.arange(3)
         offset = 3
     for i, name in enumerate(joint_names):
         jm = model.joints[model.getJointId(name)]
         v_index[offset + i] = jm.idx_v
         if jm.nq == 2:
-            unbounded_src.append(offset + i)
-            unbounded_dst.append(jm.idx_q)
+            q_gather[jm.idx_q:jm.idx_q + 2] = (n + offset + i, 2 * n + offset + i)
         else:
-            linear_q_src.append(offset + i)
-            linear_q_dst.append(jm.idx_q)
-    as_int = [np.array(x, dtype=int) for x in (linear_q_src, linear_q_dst, unbounded_src, unbounded_dst)]
-    return as_int[0], as_int[1], as_int[2], as_int[3], v_index
+            q_gather[jm.idx_q] = offset + i
+    if np.array_equal(q_gather, np.arange(n)):
+        return None, v_index
+    return q_gather, v_index
+
+
+def _file_content(path: Path) -> bytes:
+    """The URDF's bytes (the model cache's key: a file rewritten with other content is rebuilt).
+
+    Raises:
+        RobotModelError: the file cannot be read (the URDF reader's message).
+    """
+    try:
+        return path.read_bytes()
+    except OSError as err:
+        read_urdf(path)  # raises the URDF reader's one-line message for an unreadable file
+        raise RobotModelError(str(path), f"cannot read URDF: {err}") from err
+
+
+@dataclass(frozen=True)
+class _Skeleton:
+    """What a URDF, a base and locked joints determine, built once (:func:`_skeleton`).
+
+    Attributes:
+        model: the Pinocchio model (locked joints welded, no contact frame, gravity unset); never
+            handed out: each :class:`PlanarRobot` works on its own copy.
+        joints: the movable joints left, (name, kind, axis) in document order.
+        link_names: the model's links.
+        q_gather, v_index: :func:`_coordinate_maps` (read-only).
+        mass_gather: M in minimal order from Pinocchio's upper triangle, by one gather of flat
+            indices into M^T (read-only; C-ordered: Eigen's M is column-major, so M.T is a view):
+            entry (i, j) is M^T[max, min] of the Pinocchio indices of coordinates i and j.
+        identity_order: whether the minimal coordinates are in Pinocchio's velocity order.
+    """
+
+    model: pin.Model
+    joints: tuple[tuple[str, str, np.ndarray], ...]
+    link_names: tuple[str, ...]
+    q_gather: np.ndarray | None
+    v_index: np.ndarray
+    mass_gather: np.ndarray
+    identity_order: bool
+
+
+@lru_cache(maxsize=SKELETON_CACHE_SIZE)
+def _skeleton(urdf: str, content: bytes, base: str, locked: tuple[tuple[str, float], ...]) -> _Skeleton:
+    """The Pinocchio model of the URDF at ``urdf`` (whose bytes are ``content``) and its layout.
+
+    Cached by the file's path and content, the base and the locked joints with their values: a
+    scene load builds its robot two or three times (before and after its contacts and locked
+    joints are known), and a sweep reloads the same scene at every point.
+
+    Raises:
+        RobotModelError: the URDF cannot be read, is not planar, or locks an unknown joint.
+    """
+    joints = [(j.name, j.kind, j.axis) for j in read_urdf(urdf).movable_joints]
+    _check_planar_joints(urdf, joints)
+    try:
+        if base == "planar":
+            root = pin.JointModelComposite(3)
+            root.addJoint(pin.JointModelPX())
+            root.addJoint(pin.JointModelPY())
+            root.addJoint(pin.JointModelRZ())
+            model = pin.buildModelFromUrdf(urdf, root)
+        else:
+            model = pin.buildModelFromUrdf(urdf)
+    except (ValueError, RuntimeError) as err:
+        raise RobotModelError(urdf, f"Pinocchio cannot build the model: {err}") from err
+    if locked:
+        model = _lock_joints(urdf, model, dict(locked), [name for name, _, _ in joints])
+        joints = [j for j in joints if j[0] not in dict(locked)]
+    model = _angle_joints(model)
+    names = [name for name, _, _ in joints]
+    n = (3 if base == "planar" else 0) + len(names)
+    if model.nv != n:
+        raise RobotModelError(urdf, f"expected {n} velocities, Pinocchio has {model.nv}")
+    q_gather, v_index = _coordinate_maps(model, base, names)
+    mass_gather = (np.maximum.outer(v_index, v_index) * n + np.minimum.outer(v_index, v_index)).ravel()
+    for array in (q_gather, v_index, mass_gather):
+        if array is not None:
+            array.setflags(write=False)
+    link_names = tuple(f.name for f in model.frames if f.type == pin.FrameType.BODY)
+    return _Skeleton(model, tuple(joints), link_names, q_gather, v_index, mass_gather,
+                     bool(np.array_equal(v_index, np.arange(n))))
+
+
+_ANGLE_JOINTS = {"JointModelRUBX": pin.JointModelRX, "JointModelRUBY": pin.JointModelRY,
+                 "JointModelRUBZ": pin.JointModelRZ}
+"""Pinocchio's unbounded revolute joints about a frame axis, and the revolute joint of each."""
+
+
+def _angle_joints(model: pin.Model) -> pin.Model:
+    """``model`` with its unbounded revolute joints made revolute joints about the same axes.
+
+    An unbounded joint (a URDF ``continuous`` one) has the pair (cos, sin) as its configuration; the
+    revolute joint has the angle. All else is kept: tree, placements, inertias, frames and the
+    per-velocity parameters. The kinematics and dynamics are the same (the joint's rotation is
+    built from cos and sin of the angle either way); Pinocchio's q is then the minimal q, up to
+    order, with no conversion per call. URDF position limits, which frcontrol does not use, are
+    dropped for those joints.
+    """
+    unaligned = "JointModelRevoluteUnboundedUnaligned"
+    kinds = [model.joints[j].shortname() for j in range(1, model.njoints)]
+    if not any(kind in _ANGLE_JOINTS or kind == unaligned for kind in kinds):
+        return model
+    out = pin.Model()
+    out.name = model.name
+    data = model.createData()
+    for j, kind in enumerate(kinds, start=1):
+        joint = model.joints[j]
+        if kind in _ANGLE_JOINTS:
+            joint = _ANGLE_JOINTS[kind]()
+        elif kind == unaligned:  # its axis: the angular part of its motion subspace
+            local = np.reshape(pin.computeJointJacobian(model, data, pin.neutral(model), j), (6, -1))
+            joint = pin.JointModelRevoluteUnaligned(local[3:, joint.idx_v].copy())
+        out.addJoint(model.parents[j], joint, model.jointPlacements[j], model.names[j])
+        out.inertias[j] = model.inertias[j]
+    for frame in list(model.frames)[1:]:
+        out.addFrame(frame, False)
+    for name in ("armature", "damping", "friction", "effortLimit", "velocityLimit", "rotorInertia",
+                 "rotorGearRatio"):
+        setattr(out, name, getattr(model, name).copy())
+    return out
+
+
+def _lock_joints(urdf: str, model: pin.Model, locked: Mapping[str, float], names: Sequence[str]) -> pin.Model:
+    """The reduced model with the ``locked`` joints welded at their given values.
+
+    Raises:
+        RobotModelError: an unknown joint.
+    """
+    unknown = [name for name in locked if name not in names]
+    if unknown:
+        raise RobotModelError(urdf, f"cannot lock unknown joint {unknown[0]!r}; "
+                              f"the joints are: {', '.join(names)}")
+    reference = pin.neutral(model)
+    ids = []
+    for name, value in locked.items():
+        joint = model.joints[model.getJointId(name)]
+        if joint.nq == 2:
+            reference[joint.idx_q:joint.idx_q + 2] = [math.cos(value), math.sin(value)]
+        else:
+            reference[joint.idx_q] = value
+        ids.append(model.getJointId(name))
+    return pin.buildReducedModel(model, ids, reference)
 
 
 @dataclass(frozen=True)
@@ -215,45 +401,27 @@ class PlanarRobot:
         if base not in ("planar", "fixed"):
             raise RobotModelError(str(urdf_path), f"base must be 'planar' or 'fixed', got {base!r}")
         self.base = base
-        joints = [(j.name, j.kind, j.axis) for j in read_urdf(self.urdf_path).movable_joints]
-        _check_planar_joints(str(urdf_path), joints)
-        try:
-            if base == "planar":
-                root = pin.JointModelComposite(3)
-                root.addJoint(pin.JointModelPX())
-                root.addJoint(pin.JointModelPY())
-                root.addJoint(pin.JointModelRZ())
-                model = pin.buildModelFromUrdf(str(self.urdf_path), root)
-            else:
-                model = pin.buildModelFromUrdf(str(self.urdf_path))
-        except (ValueError, RuntimeError) as err:
-            raise RobotModelError(str(urdf_path), f"Pinocchio cannot build the model: {err}") from err
         locked = dict(locked or {})
-        if locked:
-            model = self._lock_joints(model, locked, [name for name, _, _ in joints])
-            joints = [j for j in joints if j[0] not in locked]
+        skeleton = _skeleton(str(urdf_path), _file_content(self.urdf_path), base, tuple(locked.items()))
+        model = pin.Model(skeleton.model)  # this object's own copy: frames and armature are added to it
+        joints = skeleton.joints
         self.locked: dict[str, float] = locked
         model.gravity.linear[:] = [0.0, -float(gravity), 0.0]
         self.gravity = float(gravity)
 
-        # Minimal coordinates <-> Pinocchio (q, v): one velocity per coordinate; continuous joints
-        # are (cos, sin) pairs in Pinocchio's q. Coordinate order: base, then URDF document order.
+        # Minimal coordinates <-> Pinocchio (q, v): one velocity per coordinate (and one q: the
+        # continuous joints are revolute ones). Coordinate order: base, then URDF document order.
         joint_names = [name for name, _, _ in joints]
         self.joint_names: tuple[str, ...] = tuple(joint_names)
         self.coordinate_names: tuple[str, ...] = (
             (BASE_COORDINATES if base == "planar" else ()) + self.joint_names
         )
-        n = len(self.coordinate_names)
-        if model.nv != n:
-            raise RobotModelError(str(urdf_path), f"expected {n} velocities, Pinocchio has {model.nv}")
-        maps = _coordinate_maps(model, base, joint_names)
-        self._q_linear_src, self._q_linear_dst, self._q_unbounded_src, self._q_unbounded_dst, v_index = maps
-        self._identity_order = bool(np.array_equal(v_index, np.arange(n)))
+        n = self._n = len(self.coordinate_names)
+        self._q_gather, v_index = skeleton.q_gather, skeleton.v_index
+        self._identity_order = skeleton.identity_order
         self._v_index = v_index
         # Pinocchio velocity vector from a minimal one: v_pin[v_index] = v.
-        self.link_names: tuple[str, ...] = tuple(
-            f.name for f in model.frames if f.type == pin.FrameType.BODY
-        )
+        self.link_names: tuple[str, ...] = skeleton.link_names
 
         self.contacts: tuple[ContactPoint, ...] = tuple(contacts)
         frame_ids = []
@@ -267,32 +435,12 @@ class PlanarRobot:
         ).reshape(-1, 2)
         self.model = model
         self.data = model.createData()
-        # M in minimal order from Pinocchio's upper triangle (CRBA fills only that): one gather of
-        # flat indices, entry (i, j) from (min, max) of the Pinocchio indices of coordinates i, j
-        pi, pj = np.meshgrid(v_index, v_index, indexing="ij")
-        self._mass_gather = (np.minimum(pi, pj) * n + np.maximum(pi, pj)).ravel()
+        self._mass_gather = skeleton.mass_gather  # M from CRBA's upper triangle (_Skeleton)
         self._layouts: dict = {}  # contact subsets -> _ContactLayout
         self._damping = np.zeros(n)  # [N m s/rad] drives' viscous damping (set_drive_terms)
         self._has_damping = False
 
     # ------------------------------------------------------------------ construction helpers
-    def _lock_joints(self, model: pin.Model, locked: Mapping[str, float], names: Sequence[str]) -> pin.Model:
-        """The reduced model with the ``locked`` joints welded at their given values."""
-        unknown = [name for name in locked if name not in names]
-        if unknown:
-            raise RobotModelError(str(self.urdf_path), f"cannot lock unknown joint {unknown[0]!r}; "
-                                  f"the joints are: {', '.join(names)}")
-        reference = pin.neutral(model)
-        ids = []
-        for name, value in locked.items():
-            joint = model.joints[model.getJointId(name)]
-            if joint.nq == 2:
-                reference[joint.idx_q:joint.idx_q + 2] = [math.cos(value), math.sin(value)]
-            else:
-                reference[joint.idx_q] = value
-            ids.append(model.getJointId(name))
-        return pin.buildReducedModel(model, ids, reference)
-
     def _add_point_frame(self, model: pin.Model, name: str, link: str, point: np.ndarray) -> int:
         if link not in self.link_names:
             raise FrameNotFound(link, self.link_names)
@@ -342,14 +490,16 @@ class PlanarRobot:
 
     # ------------------------------------------------------------------ conversions
     def pinocchio_q_from_minimal(self, q: np.ndarray) -> np.ndarray:
-        """Pinocchio's configuration vector for the minimal coordinates ``q``."""
-        q_pin = np.empty(self.model.nq)
-        q_pin[self._q_linear_dst] = q[self._q_linear_src]
-        if self._q_unbounded_src.size:
-            angles = q[self._q_unbounded_src]
-            q_pin[self._q_unbounded_dst] = np.cos(angles)
-            q_pin[self._q_unbounded_dst + 1] = np.sin(angles)
-        return q_pin
+        """Pinocchio's configuration vector for the minimal coordinates ``q`` (a new array)."""
+        q_pin = self._pinocchio_q(q)
+        return q_pin.copy() if q_pin is q else q_pin
+
+    def _pinocchio_q(self, q: np.ndarray) -> np.ndarray:
+        """Pinocchio's q: ``q`` itself when they coincide, else one gather from ``[q, cos q, sin q]``."""
+        q = np.asarray(q, dtype=float)
+        if self._q_gather is None:
+            return q
+        return np.concatenate((q, np.cos(q), np.sin(q))).take(self._q_gather)
 
     def pinocchio_v_from_minimal(self, v: np.ndarray) -> np.ndarray:
         """Pinocchio's velocity vector for the minimal velocity ``v``."""
@@ -388,18 +538,15 @@ class PlanarRobot:
 
     def _symmetric_minimal(self, upper: np.ndarray) -> np.ndarray:
         """The full symmetric M in minimal order from Pinocchio's upper triangle."""
-        return upper.ravel()[self._mass_gather].reshape(self.nv, self.nv)
+        return upper.T.take(self._mass_gather).reshape(self.nv, self.nv)
 
-    def _layout(self, contacts: Sequence[int] | None) -> _ContactLayout:
-        key = None if contacts is None else tuple(contacts)
+    def _layout(self, key: tuple[int, ...] | None) -> _ContactLayout:
+        """The layout of the contacts ``key`` (None: all), made once per subset."""
         layout = self._layouts.get(key)
         if layout is None:
-            indices = tuple(range(len(self.contacts))) if key is None else key
-            idx = np.array(indices, dtype=int)
-            # rows n^T and t^T of each contact's frame, stacked as (2, k, 2)
-            basis = np.stack([self._normals[idx], self._tangents[idx]])
-            layout = _ContactLayout(tuple(self._contact_frames[i] for i in indices), basis,
-                                    self._surface_points[idx])
+            indices = list(range(len(self.contacts))) if key is None else list(key)
+            layout = _contact_layout([self._contact_frames[i] for i in indices], self._normals[indices],
+                                     self._tangents[indices], self._surface_points[indices])
             self._layouts[key] = layout
         return layout
 
@@ -407,6 +554,9 @@ class PlanarRobot:
         self, q: np.ndarray, v: np.ndarray, contacts: Sequence[int] | None = None
     ) -> RobotState:
         """Everything the contact-dynamics layers need at ``(q, v)``.
+
+        Every array of the result is new (none is shared with another call or with Pinocchio's
+        data), so states may be kept across calls.
 
         Args:
             q: minimal configuration, shape (n,) (not validated here: see :meth:`check_state`).
@@ -416,39 +566,38 @@ class PlanarRobot:
         model, data = self.model, self.data
         # One pass: CRBA (upper triangle), nonlinear effects, joint Jacobians and the kinematics
         # at (q, v, a = 0), from which the frames' classical accelerations are the drifts.
-        pin.computeAllTerms(model, data, self.pinocchio_q_from_minimal(q), self.pinocchio_v_from_minimal(v))
-        layout = self._layout(contacts)
-        k, n = len(layout.frames), self.nv
-        points = np.empty((k, 2))
-        jac = np.empty((2, k, n))  # world x and y rows of every contact point's Jacobian
-        drift = np.empty((k, 2))
-        lwa = pin.LOCAL_WORLD_ALIGNED
-        for row, fid in enumerate(layout.frames):
-            points[row] = pin.updateFramePlacement(model, data, fid).translation[:2]
-            jac[:, row] = pin.getFrameJacobian(model, data, fid, lwa)[:2]
-            drift[row] = pin.getFrameClassicalAcceleration(model, data, fid, lwa).linear[:2]
+        pin.computeAllTerms(model, data, self._pinocchio_q(q),
+                            v if self._identity_order else self.pinocchio_v_from_minimal(v))
+        layout = self._layouts.get(contacts) if contacts is None or type(contacts) is tuple else None
+        if layout is None:
+            layout = self._layout(None if contacts is None else tuple(contacts))
+        frames, k, n = layout.frames, len(layout.frames), self._n
+        if k:
+            # per frame: its placement (first: the other two read it), its world-aligned 6 x n
+            # Jacobian at the point and its classical acceleration; projected on (n, t) at once
+            update, jacobian = pin.updateFramePlacement, pin.getFrameJacobian
+            acceleration = pin.getFrameClassicalAcceleration
+            positions = [update(model, data, f).translation for f in frames]
+            # (ndarray.dot: a third of the matmul operator's overhead on matrices this small)
+            rows = layout.jacobian_projection.dot(np.concatenate(
+                [jacobian(model, data, f, _WORLD_ALIGNED) for f in frames]))
+            motion = layout.motion_projection.dot(np.concatenate(
+                [acceleration(model, data, f, _WORLD_ALIGNED).vector for f in frames] + positions + [_ONE]))
+        else:
+            rows, motion = np.empty((0, n)), np.empty(0)
         if not self._identity_order:
-            jac = jac[:, :, self._v_index]
-        # project on the contact frames: rows n^T J and t^T J (as (2, k, n)), drifts n^T a and t^T a
-        basis = layout.basis
-        rows = basis[:, :, 0, None] * jac[0] + basis[:, :, 1, None] * jac[1]
-        drifts = (basis * drift).sum(axis=2)
-        velocities = rows @ v
-        return RobotState(
-            q=q,
-            v=v,
-            mass_matrix=data.M.ravel()[self._mass_gather].reshape(n, n),
-            bias=(data.nle[self._v_index] + self._damping * v) if self._has_damping
-            else data.nle[self._v_index],
-            contact_points=points,
-            gaps=(basis[0] * (points - layout.surface_points)).sum(axis=1),
-            normal_velocities=velocities[0],
-            tangential_velocities=velocities[1],
-            jacobian_normal=rows[0],
-            jacobian_tangent=rows[1],
-            drift_normal=drifts[0],
-            drift_tangent=drifts[1],
-        )
+            rows = rows[:, self._v_index]
+        velocities = rows.dot(v)
+        bias = data.nle.copy() if self._identity_order else data.nle[self._v_index]
+        return _assembled_state({
+            "q": q, "v": v,
+            "mass_matrix": data.M.T.take(self._mass_gather).reshape(n, n),
+            "bias": bias + self._damping * v if self._has_damping else bias,
+            "contact_points": motion[3 * k:].reshape(k, 2), "gaps": motion[2 * k:3 * k],
+            "normal_velocities": velocities[:k], "tangential_velocities": velocities[k:],
+            "jacobian_normal": rows[:k], "jacobian_tangent": rows[k:],
+            "drift_normal": motion[:k], "drift_tangent": motion[k:2 * k],
+        })
 
     def contact_points_in_world(self, q: np.ndarray) -> np.ndarray:
         """World positions [m] of every contact point at ``q``, shape (k, 2)."""

@@ -16,7 +16,7 @@ import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -49,6 +49,9 @@ GAP_TOLERANCE = 1e-6
 
 DEFAULT_GRAVITY = 9.81
 """[m/s^2] Gravity along -y when the scene does not say."""
+
+SCENE_TEXT_CACHE_SIZE = 64
+"""How many scene files' parsed TOML (by their text) are kept: a sweep reloads one scene per point."""
 
 
 
@@ -168,9 +171,9 @@ class Scene:
         """The contacts that touch at the scene's state, in file order."""
         return tuple(c for c in self.contacts if c.active)
 
-    @property
+    @cached_property
     def active_indices(self) -> tuple[int, ...]:
-        """Indices (into ``contacts``) of the active contacts."""
+        """Indices (into ``contacts``) of the active contacts (found once: a scene is frozen)."""
         return tuple(i for i, c in enumerate(self.contacts) if c.active)
 
     def at(self, q: np.ndarray, v: np.ndarray | None = None) -> Scene:
@@ -198,8 +201,9 @@ class Scene:
         )
 
 
+@lru_cache(maxsize=1)
 def shipped_robots_dir() -> Path:
-    """The folder of robots and scenes shipped with frcontrol."""
+    """The folder of robots and scenes shipped with frcontrol (found once: the package stays put)."""
     return Path(str(resources.files("frcontrol.robots")))
 
 
@@ -328,9 +332,27 @@ def read_scene_document(path: Path) -> dict[str, Any]:
     except OSError as err:
         raise reader.fail("", f"cannot read the file: {reason_from_exception(err)}") from err
     try:
-        return tomllib.loads(text)
+        return _fresh_copy(_parsed_toml(text))
     except tomllib.TOMLDecodeError as err:
         raise reader.fail("", f"malformed TOML: {err}") from err
+
+
+@lru_cache(maxsize=SCENE_TEXT_CACHE_SIZE)
+def _parsed_toml(text: str) -> dict[str, Any]:
+    """The TOML document ``text``, parsed once per content (never handed out: see :func:`_fresh_copy`)."""
+    return tomllib.loads(text)
+
+
+def _fresh_copy(value: Any) -> Any:
+    """A copy of a parsed TOML value with new tables and arrays (the loader edits them in place).
+
+    The leaves (str, int, float, bool, dates and times) are immutable and shared.
+    """
+    if isinstance(value, dict):
+        return {key: _fresh_copy(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_fresh_copy(item) for item in value]
+    return value
 
 
 def load_scene(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 
 from frcontrol.errors import FrameNotFound, RobotModelError
 from frcontrol.model import ContactPoint, PlanarRobot
-from frcontrol.scene import load_scene, shipped_robots_dir
+from frcontrol.scene import load_scene, shipped_robots_dir, shipped_scene_names
 
 ROBOTS = shipped_robots_dir()
 EPS = 1e-6  # finite-difference step [m or rad]
@@ -159,13 +160,37 @@ def test_fixed_base_equals_the_joint_block_of_the_planar_base_at_the_origin():
     np.testing.assert_allclose(sf.drift_normal, sp.drift_normal, atol=1e-12)
 
 
-def test_continuous_joints_map_to_cos_sin():
-    robot = rhex(False)
-    q = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6])
-    q_pin = robot.pinocchio_q_from_minimal(q)
-    assert robot.model.nq == 9
-    origin = robot.pinocchio_q_from_minimal(np.zeros(6))
-    np.testing.assert_allclose(pin.difference(robot.model, origin, q_pin)[robot._v_index], q)
+@pytest.mark.parametrize("axis", ["0 0 1", "0 0 -1"])
+def test_continuous_joints_are_revolute_joints_of_pinocchios_cos_sin_model(axis, tmp_path):
+    """The model's continuous joints take the angle; M, h and every frame's placement equal those of
+    Pinocchio's own model of the URDF (unbounded joints of (cos q, sin q)) bit for bit."""
+    urdf = tmp_path / "rhex.urdf"
+    text = (ROBOTS / "rhex_planar.urdf").read_text()
+    assert text.count('<axis xyz="0 0 1"/>') == 3
+    urdf.write_text(text.replace('<axis xyz="0 0 1"/>', f'<axis xyz="{axis}"/>'))
+    robot = PlanarRobot(urdf, "planar", 9.81, [point("toe", "leg_front", (0.0, -0.17))])
+    assert robot.model.nq == robot.model.nv == 6
+    root = pin.JointModelComposite(3)
+    for joint in (pin.JointModelPX(), pin.JointModelPY(), pin.JointModelRZ()):
+        root.addJoint(joint)
+    own = pin.buildModelFromUrdf(str(urdf), root)
+    assert own.nq == 9 and {own.joints[j].nq for j in range(2, 5)} == {2}
+    own.gravity = robot.model.gravity
+    rng = np.random.default_rng(4)
+    for _ in range(3):
+        q, v = random_state(robot, rng)
+        q_own = np.r_[q[:3], np.ravel([(np.cos(a), np.sin(a)) for a in q[3:]])]
+        data, own_data = robot.model.createData(), own.createData()
+        pin.computeAllTerms(robot.model, data, robot.pinocchio_q_from_minimal(q), v)
+        pin.computeAllTerms(own, own_data, q_own, v)
+        np.testing.assert_array_equal(data.M, own_data.M)
+        np.testing.assert_array_equal(data.nle, own_data.nle)
+        pin.updateFramePlacements(robot.model, data)
+        pin.updateFramePlacements(own, own_data)
+        for f in range(own.nframes):  # the robot's own model has the contact frame too, at the end
+            np.testing.assert_array_equal(data.oMf[f].homogeneous, own_data.oMf[f].homogeneous)
+    assert [f.name for f in robot.model.frames][:own.nframes] == [f.name for f in own.frames]
+    assert [robot.model.inertias[j] == own.inertias[j] for j in range(own.njoints)] == [True] * own.njoints
 
 
 def test_joint_order_follows_the_urdf_document(tmp_path):
@@ -260,3 +285,80 @@ def test_point_kinematics_against_finite_differences(make, tmp_path):
         np.testing.assert_allclose(kin.drifts, (ahead - behind) @ v / (2 * EPS), atol=1e-5)
     with pytest.raises(FrameNotFound):
         robot.point_kinematics(q, v, [("no_such_link", (0.0, 0.0))])
+
+
+ROUND_OFF = 1e-14  # [-] agreement of two evaluations of the same formulas, relative to the array's scale
+
+
+def state_by_frame(robot: PlanarRobot, q, v, contacts) -> dict[str, np.ndarray]:
+    """The state's arrays from Pinocchio's 3-D functions on a fresh Data, frame by frame: CRBA's
+    upper triangle mirrored, nonlinear effects, each frame's placement, world-aligned Jacobian and
+    classical acceleration, projected on the contact's normal and tangent one contact at a time."""
+    model, data = robot.model, robot.model.createData()
+    q_pin, v_pin = robot.pinocchio_q_from_minimal(q), robot.pinocchio_v_from_minimal(v)
+    order = robot._v_index
+    upper = pin.crba(model, data, q_pin)
+    mass = (np.triu(upper) + np.triu(upper, 1).T)[np.ix_(order, order)]
+    bias = pin.nonLinearEffects(model, data, q_pin, v_pin)[order] + robot.drive_damping * v
+    pin.forwardKinematics(model, data, q_pin, v_pin, np.zeros(model.nv))
+    pin.computeJointJacobians(model, data, q_pin)
+    keys = ("contact_points", "gaps", "jacobian_normal", "jacobian_tangent", "drift_normal", "drift_tangent")
+    out: dict[str, list] = {key: [] for key in keys}
+    lwa = pin.LOCAL_WORLD_ALIGNED
+    for i in contacts:
+        contact, frame = robot.contacts[i], robot._contact_frames[i]
+        n, t = contact.normal_in_world, contact.tangent_in_world
+        p = pin.updateFramePlacement(model, data, frame).translation[:2]
+        jac = pin.getFrameJacobian(model, data, frame, lwa)[:2][:, order]
+        acc = pin.getFrameClassicalAcceleration(model, data, frame, lwa).linear[:2]
+        for key, value in (("contact_points", p), ("gaps", n @ (p - contact.surface_point_in_world)),
+                           ("jacobian_normal", n @ jac), ("jacobian_tangent", t @ jac),
+                           ("drift_normal", n @ acc), ("drift_tangent", t @ acc)):
+            out[key].append(value)
+    k, nv = len(contacts), robot.nv
+    arrays = {"mass_matrix": mass, "bias": bias, "contact_points": np.reshape(out["contact_points"], (k, 2)),
+              **{key: np.reshape(out[key], (k, nv)) for key in ("jacobian_normal", "jacobian_tangent")},
+              **{key: np.array(out[key]) for key in ("gaps", "drift_normal", "drift_tangent")}}
+    arrays["normal_velocities"] = arrays["jacobian_normal"] @ v
+    arrays["tangential_velocities"] = arrays["jacobian_tangent"] @ v
+    return arrays
+
+
+def assert_equal_to_round_off(found: np.ndarray, expected: np.ndarray, scale: float, label: str) -> None:
+    assert found.shape == expected.shape, label
+    assert np.all(np.abs(found - expected) <= ROUND_OFF * max(scale, 1e-300)), label
+
+
+@pytest.mark.parametrize("name", shipped_scene_names())
+def test_state_equals_the_frame_by_frame_evaluation_on_every_shipped_scene(name):
+    scene = load_scene(name)
+    robot = scene.robot
+    rng = np.random.default_rng(sum(map(ord, name)))
+    everything = tuple(range(len(robot.contacts)))
+    subsets = [None, scene.active_indices, everything[::-1], list(everything[-1:]), ()]
+    for contacts in subsets:
+        q, v = random_state(robot, rng)
+        state = robot.state(q, v, contacts)
+        expected = state_by_frame(robot, q, v, everything if contacts is None else tuple(contacts))
+        assert np.array_equal(state.q, q) and np.array_equal(state.v, v)
+        for key, value in expected.items():
+            scale = np.max(np.abs(expected["contact_points" if key == "gaps" else key]), initial=0.0)
+            assert_equal_to_round_off(getattr(state, key), value, scale, f"{name} {contacts} {key}")
+
+
+def test_states_are_kept_across_calls():
+    """Every array of a state is its own: a later call (other q, v) leaves an earlier state as it was."""
+    scene = load_scene("rhex_flip")
+    robot = scene.robot
+    rng = np.random.default_rng(5)
+    q, v = random_state(robot, rng)
+    first = robot.state(q, v, scene.active_indices)
+    kept = {key: np.copy(value) for key, value in vars(first).items()}
+    second = robot.state(*random_state(robot, rng), scene.active_indices)
+    for key, value in vars(first).items():
+        np.testing.assert_array_equal(value, kept[key], err_msg=key)
+        if key not in ("q", "v"):
+            assert not np.shares_memory(value, getattr(second, key)), key
+    assert set(vars(first)) == {f.name for f in dataclasses.fields(first)}
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        first.gaps = np.zeros(0)  # type: ignore[misc]

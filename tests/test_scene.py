@@ -7,7 +7,8 @@ import pytest
 from conftest import ROBOTS, rod_scene
 
 from frcontrol.errors import CoordinateNotFound, InputError, SceneError
-from frcontrol.scene import load_scene, parse_input_assignments
+from frcontrol.model import _skeleton
+from frcontrol.scene import _parsed_toml, load_scene, parse_input_assignments, shipped_scene_names
 
 
 def test_readme_scene_loads_with_defaults(write_scene):
@@ -201,3 +202,61 @@ def test_model_task_and_disturbances_are_typed_when_the_scene_is_loaded(write_sc
     with pytest.raises(SceneError) as bad_model:
         load_scene(write_scene(rod_scene(model={"stiffness": -1.0})))
     assert bad_model.value.field == "model.stiffness"
+
+
+def _scene_arrays(scene) -> dict[str, np.ndarray]:
+    """A loaded scene's numbers: state, contacts, inputs, and its state's arrays at a seeded (q, v)."""
+    robot = scene.robot
+    rng = np.random.default_rng(11)
+    state = scene.state(rng.uniform(-1.0, 1.0, robot.nv), rng.normal(size=robot.nv))
+    arrays = {f"state.{key}": np.asarray(value) for key, value in vars(state).items()}
+    arrays.update(q=scene.q, v=scene.v, gaps=np.array([c.gap for c in scene.contacts]),
+                  active=np.array([c.active for c in scene.contacts]),
+                  surfaces=np.array([c.point.surface_point_in_world for c in scene.contacts]).reshape(-1, 2),
+                  lower=scene.inputs.lower, upper=scene.inputs.upper, armature=np.array(robot.model.armature),
+                  damping=robot.drive_damping, mass=np.array(robot.total_mass))
+    return arrays
+
+
+@pytest.mark.parametrize("name", shipped_scene_names())
+def test_a_scene_loads_the_same_from_the_caches(name):
+    """The second load (parsed TOML and Pinocchio model reused) equals the first, from cold caches,
+    bit for bit; and the two loads share no mutable part."""
+    _skeleton.cache_clear()
+    _parsed_toml.cache_clear()
+    cold = load_scene(name)
+    warm = load_scene(name)
+    assert _skeleton.cache_info().hits >= 1 and _parsed_toml.cache_info().hits == 1
+    assert cold.coordinate_names == warm.coordinate_names and cold.robot.link_names == warm.robot.link_names
+    assert cold.raw == warm.raw and cold.raw is not warm.raw
+    first, second = _scene_arrays(cold), _scene_arrays(warm)
+    for key, value in first.items():
+        np.testing.assert_array_equal(value, second[key], err_msg=f"{name}: {key}")
+    assert cold.robot.model is not warm.robot.model and cold.robot.data is not warm.robot.data
+
+
+def test_a_loaded_scene_changed_in_place_leaves_the_next_load_alone():
+    scene = load_scene("rhex_flip")
+    scene.raw["contacts"][0]["mu"] = 123.0  # the raw document is the caller's
+    scene.robot.set_drive_terms({3: 0.5}, {3: 2.0})  # armature of its own Pinocchio model
+    again = load_scene("rhex_flip")
+    assert again.raw["contacts"][0]["mu"] != 123.0
+    np.testing.assert_array_equal(again.robot.model.armature, 0.0)
+    np.testing.assert_array_equal(again.robot.drive_damping, 0.0)
+    assert again.state().mass_matrix[3, 3] == scene.state().mass_matrix[3, 3] - 0.5
+
+
+def test_files_rewritten_with_other_content_are_read_again(write_scene, tmp_path):
+    """The caches key on the files' content: an edit of the same size, at once, is seen."""
+    urdf = tmp_path / "my_rod.urdf"
+    urdf.write_text((ROBOTS / "rod.urdf").read_text())
+    path = write_scene(rod_scene(robot="my_rod.urdf"))
+    before = load_scene(path)
+    urdf.write_text(urdf.read_text().replace('<mass value="1.0"/>', '<mass value="2.0"/>'))
+    text = path.read_text()
+    assert "mu = 1.4" in text
+    path.write_text(text.replace("mu = 1.4", "mu = 0.7"))
+    after = load_scene(path)
+    assert (before.robot.total_mass, after.robot.total_mass) == (1.0, 2.0)
+    assert (before.contacts[0].mu, after.contacts[0].mu) == (1.4, 0.7)
+    assert after.state().mass_matrix[0, 0] == pytest.approx(2.0 * before.state().mass_matrix[0, 0], rel=1e-15)
