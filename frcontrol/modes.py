@@ -154,6 +154,15 @@ class ContactProblem:
         return contact_row_table(self)
 
     @cached_property
+    def row_labels(self) -> np.ndarray:
+        """Each inequality row's label, ``"tip: lam_N >= 0"``, indexed like the row table (k, 4, 3)."""
+        labels = np.empty((self.k, len(MODE_LETTERS), ROWS_PER_CONTACT), dtype=object)
+        for i, name in enumerate(self.contacts):
+            for letter, row_labels in enumerate(_ROW_LABELS):
+                labels[i, letter] = [f"{name}: {label}" for label in row_labels]
+        return labels
+
+    @cached_property
     def dynamics(self) -> np.ndarray:
         """The dynamics' rows of every mode's ``A`` (:func:`dynamics_rows`), built once."""
         return dynamics_rows(self)
@@ -263,9 +272,7 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
     A = np.vstack([problem.dynamics, table.equalities[contacts, letters].reshape(-1, nx)])
     B = np.vstack([problem.input_map, np.zeros((2 * len(mode), problem.m))])
     c = np.concatenate([-problem.bias, table.equality_rhs[contacts, letters].reshape(-1)])
-    labels = [f"{problem.contacts[i]}: {_ROW_LABELS[letter][j]}"
-              for i, letter in zip(contacts, letters, strict=True)
-              for j in range(ROWS_PER_CONTACT) if table.valid[i, letter, j]]
+    labels = problem.row_labels[contacts, letters].reshape(-1)[valid].tolist()
     return ModeSystem(
         mode=mode,
         A=A,

@@ -40,6 +40,13 @@ CONSISTENCY_TOLERANCE = 1e-9
 """A consistency row ``E_i u = e_i`` whose ``E_i`` has norm at most this times the scale of
 ``[B c]`` is void; it is inconsistent if ``|e_i|`` also exceeds this times that scale."""
 
+CERTIFIED_MARGIN = 10.0
+"""[-] :func:`certified_affine` answers without an SVD when ``||A||_F ||A^+||_F`` (of the
+equilibrated A of full row rank, a bound on its 2-norm condition number) is below
+``1 / (CERTIFIED_MARGIN max(rank_tolerance, ILL_CONDITIONED_BAND))``: its smallest singular value
+is then certainly above both thresholds, so the SVD would find full row rank outside the
+ill-conditioned band (the margin of :mod:`frcontrol.mode_batch`'s certificate)."""
+
 OUTPUT_TOLERANCE = 1e-9
 """An output depends on w if its row of ``X_w`` exceeds this times the largest entry of X_w."""
 
@@ -53,9 +60,12 @@ class AffineSolution:
         E: (r_e, m) with orthonormal rows; e: (r_e,).
         consistent: False if no input satisfies the equalities (then the rest is meaningless).
         rank: numerical rank of A; shape: A's shape.
-        singular_values: of the equilibrated A, descending.
-        condition_number: largest over smallest kept singular value.
+        singular_values: of the equilibrated A, descending (empty when :func:`certified_affine`
+            decided the rank without them).
+        condition_number: largest over smallest kept singular value (an upper bound of it when
+            certified).
         rank_tolerance: the relative tolerance used.
+        certified: the rank was certified by :func:`certified_affine` (no SVD).
     """
 
     X_u: np.ndarray
@@ -69,6 +79,7 @@ class AffineSolution:
     singular_values: np.ndarray
     condition_number: float
     rank_tolerance: float
+    certified: bool = False
 
     @property
     def ambiguity_dim(self) -> int:
@@ -91,13 +102,18 @@ class AffineSolution:
 
 def power_of_two_scale(top: np.ndarray) -> np.ndarray:
     """``2^-round(log2 t)`` of each largest magnitude ``t`` (1 where ``t`` is 0): exact scalings."""
-    return np.exp2(-np.round(np.log2(np.where(top > 0, top, 1.0))))
+    # np.rint is np.round at 0 decimals (halves to even), without its Python wrapper
+    return np.exp2(-np.rint(np.log2(np.where(top > 0, top, 1.0))))
 
 
 def _equilibrate(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Row and column scalings (powers of two) making each row and column's max-abs about 1."""
-    rows = power_of_two_scale(np.max(np.abs(A), axis=1)) if A.size else np.ones(A.shape[0])
-    cols = power_of_two_scale(np.max(np.abs(A * rows[:, None]), axis=0)) if A.size else np.ones(A.shape[1])
+    if not A.size:
+        return np.ones(A.shape[0]), np.ones(A.shape[1])
+    magnitude = np.abs(A)
+    rows = power_of_two_scale(magnitude.max(axis=1))
+    # powers of two scale exactly: |A * r| is |A| * r
+    cols = power_of_two_scale((magnitude * rows[:, None]).max(axis=0))
     return rows, cols
 
 
@@ -170,6 +186,64 @@ def solve_affine(
     )
 
 
+def certified_affine(
+    A: np.ndarray,
+    B: np.ndarray,
+    c: np.ndarray,
+    *,
+    rank_tolerance: float = RANK_TOLERANCE,
+) -> AffineSolution | None:
+    """:func:`solve_affine`'s answer for a well-conditioned ``A`` of full row rank, without an SVD.
+
+    ``A`` (rows <= columns) is equilibrated as in :func:`solve_affine`; a square one is solved by
+    LU, a wide one through the QR factorisation ``A_hat^T = Q R``: ``A_hat = R_1^T Q_1^T``, its
+    minimum-norm solution ``Q_1 R_1^-T`` (the pseudo-inverse the SVD applies) and its null space
+    ``Q_2``. The identity's columns of the same solve give ``R_1^-T`` (or ``A_hat^-1``) for the
+    condition bound of :data:`CERTIFIED_MARGIN`. When the bound certifies the rank, the SVD would
+    decide full row rank (no consistency condition, consistent, no singular value in the
+    ill-conditioned band) and give the same ``X_u`` and ``x_0``; its ``X_w`` spans the same null
+    space: ``X_w = diag(c) V_2`` and here ``diag(c) Q_2``, with ``Q_2 = V_2 O`` for an orthogonal
+    ``O``, so every distance measured in (u, w) (the engine's margins and balls) is the same.
+
+    Returns:
+        The response, with ``singular_values`` empty and ``condition_number`` the certified bound;
+        None when the rank is not certified (the caller then takes :func:`solve_affine`).
+    """
+    rows, nx = A.shape
+    if rows == 0 or rows > nx:
+        return None
+    m = B.shape[1]
+    r_scale, c_scale = _equilibrate(A)
+    A_hat = A * r_scale[:, None] * c_scale[None, :]
+    rhs = np.empty((rows, rows + m + 1))
+    rhs[:, :rows] = np.eye(rows)
+    rhs[:, rows:rows + m] = B * r_scale[:, None]
+    rhs[:, -1] = c * r_scale
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            if rows == nx:
+                Q2 = np.zeros((nx, 0))
+                y = np.linalg.solve(A_hat, rhs)
+                inverse = y[:, :rows]
+            else:
+                Q, R = np.linalg.qr(A_hat.T, mode="complete")
+                inverse = np.linalg.solve(R[:rows].T, rhs)
+                y = Q[:, :rows] @ inverse
+                Q2 = Q[:, rows:]
+                inverse = inverse[:, :rows]
+            bound = float(np.sqrt((A_hat * A_hat).sum() * (inverse * inverse).sum()))
+    except np.linalg.LinAlgError:  # exactly singular: not certified
+        return None
+    if not bound * CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND) < 1.0:
+        return None  # also NaN: a nearly singular A
+    return AffineSolution(
+        X_u=c_scale[:, None] * y[:, rows:rows + m], X_w=c_scale[:, None] * Q2, x_0=c_scale * y[:, -1],
+        E=np.zeros((0, m)), e=np.zeros(0), consistent=True, rank=rows, shape=(rows, nx),
+        singular_values=np.zeros(0), condition_number=bound, rank_tolerance=rank_tolerance,
+        certified=True,
+    )
+
+
 def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> str:
     """Which outputs of ``x = (dv, lam)`` depend on w: ``"none"``, ``"forces"`` or ``"accelerations"``.
 
@@ -195,6 +269,8 @@ def outputs_moved_by(X_w: np.ndarray, n_coordinates: int) -> str:
 __all__ = [
     "AffineSolution",
     "ambiguous_outputs",
+    "CERTIFIED_MARGIN",
+    "certified_affine",
     "CONSISTENCY_TOLERANCE",
     "ILL_CONDITIONED_BAND",
     "OUTPUT_TOLERANCE",
