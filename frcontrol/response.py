@@ -117,6 +117,15 @@ def _equilibrate(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rows, cols
 
 
+def _void_conditions(E_raw: np.ndarray, e_raw: np.ndarray, threshold: float) -> bool:
+    """Whether the SVD of the consistency rows would keep none and find them consistent.
+
+    Every singular value of ``E_raw`` is at most its Frobenius norm, and every entry of a rotated
+    ``e_raw`` at most its 2-norm: both at most ``threshold`` decide it without the SVD.
+    """
+    return bool(np.sqrt((E_raw * E_raw).sum()) <= threshold and np.sqrt(e_raw @ e_raw) <= threshold)
+
+
 def solve_affine(
     A: np.ndarray,
     B: np.ndarray,
@@ -165,7 +174,9 @@ def solve_affine(
     e_raw = -(U2.T @ cs)
     scale = max(1.0, float(np.max(np.abs(Bs), initial=0.0)), float(np.max(np.abs(cs), initial=0.0)))
     consistent = True
-    if E_raw.shape[0]:
+    if E_raw.shape[0] and _void_conditions(E_raw, e_raw, CONSISTENCY_TOLERANCE * scale):
+        E, e = np.zeros((0, B.shape[1])), np.zeros(0)
+    elif E_raw.shape[0]:
         if E_raw.shape[1]:
             Ue, se, Vte = np.linalg.svd(E_raw, full_matrices=True)
             kept = int(np.sum(se > CONSISTENCY_TOLERANCE * scale))
@@ -195,11 +206,12 @@ def certified_affine(
 ) -> AffineSolution | None:
     """:func:`solve_affine`'s answer for a well-conditioned ``A`` of full row rank, without an SVD.
 
-    ``A`` (rows <= columns) is equilibrated as in :func:`solve_affine`; a square one is solved by
-    LU, a wide one through the QR factorisation ``A_hat^T = Q R``: ``A_hat = R_1^T Q_1^T``, its
-    minimum-norm solution ``Q_1 R_1^-T`` (the pseudo-inverse the SVD applies) and its null space
-    ``Q_2``. The identity's columns of the same solve give ``R_1^-T`` (or ``A_hat^-1``) for the
-    condition bound of :data:`CERTIFIED_MARGIN`. When the bound certifies the rank, the SVD would
+    ``A`` (rows <= columns) is equilibrated as in :func:`solve_affine` and solved through the QR
+    factorisation ``A_hat^T = Q R``: ``A_hat = R_1^T Q_1^T``, its minimum-norm solution
+    ``Q_1 R_1^-T`` (the pseudo-inverse the SVD applies) and its null space ``Q_2`` (empty for a
+    square A). The identity's columns of the same solve give ``R_1^-T`` for the condition bound of
+    :data:`CERTIFIED_MARGIN` (``||A_hat||_F ||R_1^-1||_F``); a pivot of ``R`` too small for it
+    answers None before the solve. When the bound certifies the rank, the SVD would
     decide full row rank (no consistency condition, consistent, no singular value in the
     ill-conditioned band) and give the same ``X_u`` and ``x_0``; its ``X_w`` spans the same null
     space: ``X_w = diag(c) V_2`` and here ``diag(c) Q_2``, with ``Q_2 = V_2 O`` for an orthogonal
@@ -215,27 +227,27 @@ def certified_affine(
     m = B.shape[1]
     r_scale, c_scale = _equilibrate(A)
     A_hat = A * r_scale[:, None] * c_scale[None, :]
+    limit = 1.0 / (CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND))
+    size = float(np.sqrt((A_hat * A_hat).sum()))  # ||A_hat||_F = ||R_1||_F
+    Q, R = np.linalg.qr(A_hat.T, mode="complete")
+    # ||R_1^-1||_F >= 1 / min |R_ii|: a small pivot rules the certificate out before any solve
+    if not size < limit * float(np.abs(np.diagonal(R)).min()):
+        return None  # also NaN
     rhs = np.empty((rows, rows + m + 1))
     rhs[:, :rows] = np.eye(rows)
     rhs[:, rows:rows + m] = B * r_scale[:, None]
     rhs[:, -1] = c * r_scale
     try:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            if rows == nx:
-                Q2 = np.zeros((nx, 0))
-                y = np.linalg.solve(A_hat, rhs)
-                inverse = y[:, :rows]
-            else:
-                Q, R = np.linalg.qr(A_hat.T, mode="complete")
-                inverse = np.linalg.solve(R[:rows].T, rhs)
-                y = Q[:, :rows] @ inverse
-                Q2 = Q[:, rows:]
-                inverse = inverse[:, :rows]
-            bound = float(np.sqrt((A_hat * A_hat).sum() * (inverse * inverse).sum()))
+            solved = np.linalg.solve(R[:rows].T, rhs)  # R_1^-T [I, B, c]
+            inverse = solved[:, :rows]
+            bound = size * float(np.sqrt((inverse * inverse).sum()))
     except np.linalg.LinAlgError:  # exactly singular: not certified
         return None
-    if not bound * CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND) < 1.0:
+    if not bound < limit:
         return None  # also NaN: a nearly singular A
+    y = Q[:, :rows] @ solved
+    Q2 = Q[:, rows:]
     return AffineSolution(
         X_u=c_scale[:, None] * y[:, rows:rows + m], X_w=c_scale[:, None] * Q2, x_0=c_scale * y[:, -1],
         E=np.zeros((0, m)), e=np.zeros(0), consistent=True, rank=rows, shape=(rows, nx),
