@@ -38,7 +38,7 @@ from .errors import CoordinateNotFound, InputError
 from .jsonable import to_jsonable
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
 from .modes import ContactProblem, ModeSystem, build_mode_system, mode_outputs
-from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, certified_affine, solve_affine
+from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, solve_affine
 from .scene import Scene
 from .solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp_prepared
 
@@ -119,7 +119,8 @@ class ModeAnalysis:
             return None
         if "domain" not in self._cache:
             t0 = time.perf_counter()
-            self._cache["domain"] = poly.minimal_representation(self.raw_domain, solver=self.solver)
+            self._cache["domain"] = poly.minimal_representation(self.raw_domain, solver=self.solver,
+                                                                ball=self._cache.get("raw_ball"))
             self._cache["reduction_time"] = time.perf_counter() - t0
         return self._cache["domain"]
 
@@ -483,16 +484,10 @@ class _ModeEnumerator:
                             name=f"the system of mode {system.mode}")
 
     def test(self, mode: str) -> tuple[str, ModeSystem, AffineSolution, tuple[np.ndarray, ...] | None]:
-        """Build and solve a (partial) mode: 'ok', 'freedom' or 'infeasible'.
-
-        A well-conditioned system's response comes from :func:`certified_affine` (the same
-        decisions and the same distances in (u, w) as the SVD, without it).
-        """
+        """Build and solve a (partial) mode: 'ok', 'freedom' or 'infeasible'."""
         t0 = time.perf_counter()
         system = build_mode_system(self.problem, mode)
-        response = certified_affine(system.A, system.B, system.c, rank_tolerance=self.rank_tolerance)
-        if response is None:
-            response = self.response(system)
+        response = self.response(system)
         t1 = time.perf_counter()
         self.timings["response"] += t1 - t0
         if not response.consistent:
@@ -518,11 +513,6 @@ class _ModeEnumerator:
                 inputs_full_dimensional=False, pruned=verdict, m=problem.m, solver=solver))
             return
         t0 = time.perf_counter()
-        if response.certified:
-            # certified: the mode's reported response and domain are the SVD's, as without the
-            # certificate (the same map up to round-off, and the same basis of w)
-            response = self.response(system)
-            rows = domain_rows(system, response, self.bounds)[:4]
         domain = poly.Polytope(*rows)
         ball = poly.chebyshev_ball(domain, solver=solver)
         full = bool(ball.found and ball.radius > DOMAIN_TOLERANCE and domain.A_eq.shape[0] == 0)
@@ -531,6 +521,7 @@ class _ModeEnumerator:
             mode=mode, system=system, response=response, ambiguous_outputs=outputs, feasible=True,
             full_dimensional=full, chebyshev_radius=float(ball.radius) if ball.found else 0.0,
             raw_domain=domain, inputs_full_dimensional=full, m=problem.m, solver=solver,
+            _cache={"raw_ball": ball},  # the minimal form's emptiness test is this same LP
         )
         if not full and domain.A_eq.shape[0] == 0 and response.ambiguity_dim:
             # D_c flat in (u, w) without input equalities: its projection may still have volume

@@ -40,12 +40,10 @@ CONSISTENCY_TOLERANCE = 1e-9
 """A consistency row ``E_i u = e_i`` whose ``E_i`` has norm at most this times the scale of
 ``[B c]`` is void; it is inconsistent if ``|e_i|`` also exceeds this times that scale."""
 
-CERTIFIED_MARGIN = 10.0
-"""[-] :func:`certified_affine` answers without an SVD when ``||A||_F ||A^+||_F`` (of the
-equilibrated A of full row rank, a bound on its 2-norm condition number) is below
-``1 / (CERTIFIED_MARGIN max(rank_tolerance, ILL_CONDITIONED_BAND))``: its smallest singular value
-is then certainly above both thresholds, so the SVD would find full row rank outside the
-ill-conditioned band (the margin of :mod:`frcontrol.mode_batch`'s certificate)."""
+VOID_CONDITIONS_SAFETY = 0.5
+"""[-] The consistency rows are found void without their SVD only when their Frobenius norm and
+that of their right-hand side are at most this times the consistency threshold: the SVD's own
+round-off (relative, about 1e-16) cannot then put a singular value or a rotated entry above it."""
 
 OUTPUT_TOLERANCE = 1e-9
 """An output depends on w if its row of ``X_w`` exceeds this times the largest entry of X_w."""
@@ -60,12 +58,9 @@ class AffineSolution:
         E: (r_e, m) with orthonormal rows; e: (r_e,).
         consistent: False if no input satisfies the equalities (then the rest is meaningless).
         rank: numerical rank of A; shape: A's shape.
-        singular_values: of the equilibrated A, descending (empty when :func:`certified_affine`
-            decided the rank without them).
-        condition_number: largest over smallest kept singular value (an upper bound of it when
-            certified).
+        singular_values: of the equilibrated A, descending.
+        condition_number: largest over smallest kept singular value.
         rank_tolerance: the relative tolerance used.
-        certified: the rank was certified by :func:`certified_affine` (no SVD).
     """
 
     X_u: np.ndarray
@@ -79,7 +74,6 @@ class AffineSolution:
     singular_values: np.ndarray
     condition_number: float
     rank_tolerance: float
-    certified: bool = False
 
     @property
     def ambiguity_dim(self) -> int:
@@ -121,9 +115,11 @@ def _void_conditions(E_raw: np.ndarray, e_raw: np.ndarray, threshold: float) -> 
     """Whether the SVD of the consistency rows would keep none and find them consistent.
 
     Every singular value of ``E_raw`` is at most its Frobenius norm, and every entry of a rotated
-    ``e_raw`` at most its 2-norm: both at most ``threshold`` decide it without the SVD.
+    ``e_raw`` at most its 2-norm: both at most ``threshold`` (times
+    :data:`VOID_CONDITIONS_SAFETY`) decide it without the SVD.
     """
-    return bool(np.sqrt((E_raw * E_raw).sum()) <= threshold and np.sqrt(e_raw @ e_raw) <= threshold)
+    bound = VOID_CONDITIONS_SAFETY * threshold
+    return bool(np.sqrt((E_raw * E_raw).sum()) <= bound and np.sqrt(e_raw @ e_raw) <= bound)
 
 
 def solve_affine(
@@ -197,65 +193,6 @@ def solve_affine(
     )
 
 
-def certified_affine(
-    A: np.ndarray,
-    B: np.ndarray,
-    c: np.ndarray,
-    *,
-    rank_tolerance: float = RANK_TOLERANCE,
-) -> AffineSolution | None:
-    """:func:`solve_affine`'s answer for a well-conditioned ``A`` of full row rank, without an SVD.
-
-    ``A`` (rows <= columns) is equilibrated as in :func:`solve_affine` and solved through the QR
-    factorisation ``A_hat^T = Q R``: ``A_hat = R_1^T Q_1^T``, its minimum-norm solution
-    ``Q_1 R_1^-T`` (the pseudo-inverse the SVD applies) and its null space ``Q_2`` (empty for a
-    square A). The identity's columns of the same solve give ``R_1^-T`` for the condition bound of
-    :data:`CERTIFIED_MARGIN` (``||A_hat||_F ||R_1^-1||_F``); a pivot of ``R`` too small for it
-    answers None before the solve. When the bound certifies the rank, the SVD would
-    decide full row rank (no consistency condition, consistent, no singular value in the
-    ill-conditioned band) and give the same ``X_u`` and ``x_0``; its ``X_w`` spans the same null
-    space: ``X_w = diag(c) V_2`` and here ``diag(c) Q_2``, with ``Q_2 = V_2 O`` for an orthogonal
-    ``O``, so every distance measured in (u, w) (the engine's margins and balls) is the same.
-
-    Returns:
-        The response, with ``singular_values`` empty and ``condition_number`` the certified bound;
-        None when the rank is not certified (the caller then takes :func:`solve_affine`).
-    """
-    rows, nx = A.shape
-    if rows == 0 or rows > nx:
-        return None
-    m = B.shape[1]
-    r_scale, c_scale = _equilibrate(A)
-    A_hat = A * r_scale[:, None] * c_scale[None, :]
-    limit = 1.0 / (CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND))
-    size = float(np.sqrt((A_hat * A_hat).sum()))  # ||A_hat||_F = ||R_1||_F
-    Q, R = np.linalg.qr(A_hat.T, mode="complete")
-    # ||R_1^-1||_F >= 1 / min |R_ii|: a small pivot rules the certificate out before any solve
-    if not size < limit * float(np.abs(np.diagonal(R)).min()):
-        return None  # also NaN
-    rhs = np.empty((rows, rows + m + 1))
-    rhs[:, :rows] = np.eye(rows)
-    rhs[:, rows:rows + m] = B * r_scale[:, None]
-    rhs[:, -1] = c * r_scale
-    try:
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            solved = np.linalg.solve(R[:rows].T, rhs)  # R_1^-T [I, B, c]
-            inverse = solved[:, :rows]
-            bound = size * float(np.sqrt((inverse * inverse).sum()))
-    except np.linalg.LinAlgError:  # exactly singular: not certified
-        return None
-    if not bound < limit:
-        return None  # also NaN: a nearly singular A
-    y = Q[:, :rows] @ solved
-    Q2 = Q[:, rows:]
-    return AffineSolution(
-        X_u=c_scale[:, None] * y[:, rows:rows + m], X_w=c_scale[:, None] * Q2, x_0=c_scale * y[:, -1],
-        E=np.zeros((0, m)), e=np.zeros(0), consistent=True, rank=rows, shape=(rows, nx),
-        singular_values=np.zeros(0), condition_number=bound, rank_tolerance=rank_tolerance,
-        certified=True,
-    )
-
-
 def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> str:
     """Which outputs of ``x = (dv, lam)`` depend on w: ``"none"``, ``"forces"`` or ``"accelerations"``.
 
@@ -281,8 +218,6 @@ def outputs_moved_by(X_w: np.ndarray, n_coordinates: int) -> str:
 __all__ = [
     "AffineSolution",
     "ambiguous_outputs",
-    "CERTIFIED_MARGIN",
-    "certified_affine",
     "CONSISTENCY_TOLERANCE",
     "ILL_CONDITIONED_BAND",
     "OUTPUT_TOLERANCE",
@@ -290,4 +225,5 @@ __all__ = [
     "power_of_two_scale",
     "RANK_TOLERANCE",
     "solve_affine",
+    "VOID_CONDITIONS_SAFETY",
 ]
