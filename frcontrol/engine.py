@@ -38,7 +38,7 @@ from .errors import CoordinateNotFound, InputError
 from .jsonable import to_jsonable
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
 from .modes import ContactProblem, ModeSystem, build_mode_system, mode_outputs
-from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, solve_affine
+from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, certified_responses, solve_affine
 from .scene import Scene
 from .solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp_prepared
 
@@ -475,6 +475,8 @@ class _ModeEnumerator:
         self.prune_partial, self.progress, self.timings = prune_partial, progress, timings
         self.allowed = problem.allowed_modes()
         self.bounds = problem.input_bound_rows()
+        self.prepared: dict[str, tuple[ModeSystem, AffineSolution | None]] = {}
+        self.deficient: set[str] = set()  # tested modes whose equalities lack full row rank
         self.counts = {"freedom": 0, "infeasible": 0, "partial": 0, "evaluated": 0}
         self.analyses: list[ModeAnalysis] = []
 
@@ -483,11 +485,37 @@ class _ModeEnumerator:
         return solve_affine(system.A, system.B, system.c, rank_tolerance=self.rank_tolerance,
                             name=f"the system of mode {system.mode}")
 
-    def test(self, mode: str) -> tuple[str, ModeSystem, AffineSolution, tuple[np.ndarray, ...] | None]:
-        """Build and solve a (partial) mode: 'ok', 'freedom' or 'infeasible'."""
+    def prepare(self, prefix: str, letters: str) -> None:
+        """Build the systems of ``prefix``'s children and certify their responses together.
+
+        :func:`certified_responses` factorises the children at once; a child it does not certify
+        gets the SVD when it is tested. Below a mode without full row rank (its rows dependent,
+        so every child's too) nothing is certified and the certificate is not tried.
+        """
         t0 = time.perf_counter()
-        system = build_mode_system(self.problem, mode)
-        response = self.response(system)
+        children = [prefix + letter for letter in letters]
+        systems = [build_mode_system(self.problem, child) for child in children]
+        responses: list[AffineSolution | None] = [None] * len(children)
+        if prefix not in self.deficient:
+            responses = certified_responses(
+                np.stack([s.A for s in systems]), np.stack([s.B for s in systems]),
+                np.stack([s.c for s in systems]), rank_tolerance=self.rank_tolerance)
+        self.prepared.update(zip(children, zip(systems, responses, strict=True), strict=True))
+        self.timings["response"] += time.perf_counter() - t0
+
+    def test(self, mode: str) -> tuple[str, ModeSystem, AffineSolution, tuple[np.ndarray, ...] | None]:
+        """Build and solve a (partial) mode: 'ok', 'freedom' or 'infeasible'.
+
+        The system and a certified response come from :meth:`prepare` when it ran for the mode.
+        """
+        t0 = time.perf_counter()
+        system, response = self.prepared.pop(mode, (None, None))
+        if system is None:
+            system = build_mode_system(self.problem, mode)
+        if response is None:
+            response = self.response(system)
+        if response.rank < system.A.shape[0]:
+            self.deficient.add(mode)
         t1 = time.perf_counter()
         self.timings["response"] += t1 - t0
         if not response.consistent:
@@ -513,6 +541,11 @@ class _ModeEnumerator:
                 inputs_full_dimensional=False, pruned=verdict, m=problem.m, solver=solver))
             return
         t0 = time.perf_counter()
+        if response.certified:
+            # the reported response and domain are the SVD's, as without the certificate (the
+            # same map up to round-off, its w in the SVD's basis)
+            response = self.response(system)
+            rows = domain_rows(system, response, self.bounds)[:4]
         domain = poly.Polytope(*rows)
         ball = poly.chebyshev_ball(domain, solver=solver)
         full = bool(ball.found and ball.radius > DOMAIN_TOLERANCE and domain.A_eq.shape[0] == 0)
@@ -538,6 +571,8 @@ class _ModeEnumerator:
         if depth == self.problem.k:
             self.evaluate(prefix)
             return
+        if self.prune_partial or depth + 1 == self.problem.k:  # the children are tested
+            self.prepare(prefix, self.allowed[depth])
         for letter in self.allowed[depth]:
             child = prefix + letter
             if self.prune_partial and depth + 1 < self.problem.k:

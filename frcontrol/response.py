@@ -40,6 +40,13 @@ CONSISTENCY_TOLERANCE = 1e-9
 """A consistency row ``E_i u = e_i`` whose ``E_i`` has norm at most this times the scale of
 ``[B c]`` is void; it is inconsistent if ``|e_i|`` also exceeds this times that scale."""
 
+CERTIFIED_MARGIN = 10.0
+"""[-] :func:`certified_responses` answers without an SVD when ``||A||_F ||R_1^-1||_F`` (of the
+equilibrated A of full row rank, a bound on its 2-norm condition number) is below
+``1 / (CERTIFIED_MARGIN max(rank_tolerance, ILL_CONDITIONED_BAND))``: its smallest singular value
+is then certainly above both thresholds, so the SVD would find full row rank outside the
+ill-conditioned band (the margin of :mod:`frcontrol.mode_batch`'s certificate)."""
+
 VOID_CONDITIONS_SAFETY = 0.5
 """[-] The consistency rows are found void without their SVD only when their Frobenius norm and
 that of their right-hand side are at most this times the consistency threshold: the SVD's own
@@ -61,6 +68,8 @@ class AffineSolution:
         singular_values: of the equilibrated A, descending.
         condition_number: largest over smallest kept singular value.
         rank_tolerance: the relative tolerance used.
+        certified: the rank was certified without an SVD (:func:`certified_responses`); then
+            ``singular_values`` is empty and ``condition_number`` an upper bound.
     """
 
     X_u: np.ndarray
@@ -74,6 +83,7 @@ class AffineSolution:
     singular_values: np.ndarray
     condition_number: float
     rank_tolerance: float
+    certified: bool = False
 
     @property
     def ambiguity_dim(self) -> int:
@@ -193,6 +203,66 @@ def solve_affine(
     )
 
 
+def certified_responses(
+    A: np.ndarray,
+    B: np.ndarray,
+    c: np.ndarray,
+    *,
+    rank_tolerance: float = RANK_TOLERANCE,
+) -> list[AffineSolution | None]:
+    """:func:`solve_affine`'s answers for a stack of systems of full row rank, without an SVD.
+
+    ``A`` (count, rows, nx) with rows <= nx, ``B`` (count, rows, m), ``c`` (count, rows): e.g. the
+    modes that extend one partial mode by each letter. Each A is equilibrated as in
+    :func:`solve_affine` and factorised, all at once, as ``A_hat^T = Q R``: ``A_hat = R_1^T Q_1^T``,
+    its minimum-norm solution ``Q_1 R_1^-T`` (the pseudo-inverse the SVD applies) and its null
+    space ``Q_2`` (empty for a square A). The identity's columns of the same solve give
+    ``R_1^-T`` for the bound of :data:`CERTIFIED_MARGIN`. A certified system is one the SVD would
+    find of full row rank outside the ill-conditioned band (no consistency condition,
+    consistent); its ``X_u`` and ``x_0`` are the SVD's, and its ``X_w = diag(c) Q_2`` spans the
+    same null space as the SVD's ``diag(c) V_2`` with ``Q_2 = V_2 O`` for an orthogonal ``O``: every
+    distance in (u, w) (the engine's margins and balls) is the same.
+
+    Returns:
+        Per system its response (``certified`` True), or None when the bound does not certify it
+        (the caller then takes :func:`solve_affine`).
+    """
+    count, rows, nx = A.shape
+    out: list[AffineSolution | None] = [None] * count
+    if count == 0 or rows == 0 or rows > nx:
+        return out
+    m = B.shape[2]
+    magnitude = np.abs(A)
+    r_scale = power_of_two_scale(magnitude.max(axis=2))
+    c_scale = power_of_two_scale((magnitude * r_scale[:, :, None]).max(axis=1))
+    A_hat = A * r_scale[:, :, None] * c_scale[:, None, :]
+    limit = 1.0 / (CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND))
+    size = np.sqrt((A_hat * A_hat).sum(axis=(1, 2)))  # ||A_hat||_F = ||R_1||_F
+    Q, R = np.linalg.qr(np.swapaxes(A_hat, 1, 2), mode="complete")
+    # ||R_1^-1||_F >= 1 / min |R_ii|: a small pivot rules the certificate out before any solve
+    pivots = np.abs(np.diagonal(R[:, :rows], axis1=1, axis2=2)).min(axis=1)
+    hopeful = np.nonzero(size < limit * pivots)[0]
+    if hopeful.size == 0:
+        return out
+    rhs = np.empty((hopeful.size, rows, rows + m + 1))
+    rhs[:, :, :rows] = np.eye(rows)
+    rhs[:, :, rows:rows + m] = B[hopeful] * r_scale[hopeful, :, None]
+    rhs[:, :, -1] = c[hopeful] * r_scale[hopeful]
+    with np.errstate(over="ignore", invalid="ignore"):  # a nearly singular R_1: not certified
+        solved = np.linalg.solve(np.swapaxes(R[hopeful, :rows], 1, 2), rhs)  # R_1^-T [I, B, c]
+        bound = size[hopeful] * np.sqrt((solved[:, :, :rows] ** 2).sum(axis=(1, 2)))
+    y = np.matmul(Q[hopeful, :, :rows], solved)
+    for j, i in enumerate(hopeful.tolist()):
+        if bound[j] < limit:  # False for NaN
+            scale = c_scale[i]
+            out[i] = AffineSolution(
+                X_u=scale[:, None] * y[j, :, rows:rows + m], X_w=scale[:, None] * Q[i, :, rows:],
+                x_0=scale * y[j, :, -1], E=np.zeros((0, m)), e=np.zeros(0), consistent=True, rank=rows,
+                shape=(rows, nx), singular_values=np.zeros(0), condition_number=float(bound[j]),
+                rank_tolerance=rank_tolerance, certified=True)
+    return out
+
+
 def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> str:
     """Which outputs of ``x = (dv, lam)`` depend on w: ``"none"``, ``"forces"`` or ``"accelerations"``.
 
@@ -218,6 +288,8 @@ def outputs_moved_by(X_w: np.ndarray, n_coordinates: int) -> str:
 __all__ = [
     "AffineSolution",
     "ambiguous_outputs",
+    "CERTIFIED_MARGIN",
+    "certified_responses",
     "CONSISTENCY_TOLERANCE",
     "ILL_CONDITIONED_BAND",
     "OUTPUT_TOLERANCE",
