@@ -153,7 +153,8 @@ def compare(before: dict[str, Any], now: dict[str, Any]) -> list[str]:
                 problems.append(f"{name}: {old!r} -> {new!r}")
             continue
         if new is None or old["enumeration"] != new["enumeration"]:
-            problems.append(f"{name}: enumeration {old['enumeration']} -> {None if new is None else new['enumeration']}")
+            after = None if new is None else new["enumeration"]
+            problems.append(f"{name}: enumeration {old['enumeration']} -> {after}")
             continue
         for a, b in zip(old["modes"], new["modes"], strict=True):
             plain = ("mode", "feasible", "pruned", "case", "full_dimensional", "inputs_full_dimensional")
@@ -182,8 +183,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.command == "measure":
         for name, entry in measure(args.runs).items():
-            print(f"{name:30s} median {entry['median_s'] * 1e3:8.1f} ms  cpu {entry['median_cpu_s'] * 1e3:8.1f} ms"
-                  f"  ratio {entry['ratio_to_calibration']:6.3f}  LPs {entry['lps']}")
+            print(f"{name:30s} median {entry['median_s'] * 1e3:8.1f} ms  "
+                  f"cpu {entry['median_cpu_s'] * 1e3:8.1f} ms  "
+                  f"ratio {entry['ratio_to_calibration']:6.3f}  LPs {entry['lps']}")
         return 0
     if args.command == "snapshot":
         args.file.write_bytes(pickle.dumps(snapshot()))
