@@ -37,7 +37,7 @@ from . import polytope as poly
 from .errors import CoordinateNotFound, InputError
 from .jsonable import to_jsonable
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
-from .modes import ContactProblem, ModeSystem, build_mode_system, mode_outputs
+from .modes import ContactProblem, ModeSystem, build_child_systems, build_mode_system, mode_outputs
 from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, certified_responses, solve_affine
 from .scene import Scene
 from .solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp_prepared
@@ -494,11 +494,12 @@ class _ModeEnumerator:
         """
         t0 = time.perf_counter()
         children = [prefix + letter for letter in letters]
-        systems = [build_mode_system(self.problem, child) for child in children]
+        systems = build_child_systems(self.problem, prefix, letters)
         responses: list[AffineSolution | None] = [None] * len(children)
         if prefix not in self.deficient:
+            B = systems[0].B  # shared by the children
             responses = certified_responses(
-                np.stack([s.A for s in systems]), np.stack([s.B for s in systems]),
+                np.stack([s.A for s in systems]), np.broadcast_to(B, (len(systems), *B.shape)),
                 np.stack([s.c for s in systems]), rank_tolerance=self.rank_tolerance)
         self.prepared.update(zip(children, zip(systems, responses, strict=True), strict=True))
         self.timings["response"] += time.perf_counter() - t0

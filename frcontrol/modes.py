@@ -285,6 +285,39 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
     )
 
 
+def build_child_systems(problem: ContactProblem, prefix: str, letters: str) -> list[ModeSystem]:
+    """:func:`build_mode_system` of ``prefix + letter`` for each letter, in one gather.
+
+    The same rows as one call per child (the children share ``B``, which is read-only).
+    """
+    check_mode(problem, prefix + letters[:1], partial=True)
+    if any(ch not in MODE_LETTERS for ch in letters):
+        raise InputError(f"a mode is a string of the letters S, L, R, F; got {letters!r}")
+    n, nx, count, j = problem.n, problem.n + 2 * problem.k, len(letters), len(prefix) + 1
+    table = problem.row_table
+    contacts = np.arange(j, dtype=int)
+    chosen = np.empty((count, j), dtype=int)
+    chosen[:] = [MODE_LETTERS.index(ch) for ch in prefix] + [0]
+    chosen[:, -1] = [MODE_LETTERS.index(ch) for ch in letters]
+    A = np.empty((count, n + 2 * j, nx))
+    A[:, :n] = problem.dynamics
+    A[:, n:] = table.equalities[contacts, chosen].reshape(count, 2 * j, nx)
+    B = np.zeros((n + 2 * j, problem.m))
+    B[:n] = problem.input_map
+    B.setflags(write=False)
+    c = np.empty((count, n + 2 * j))
+    c[:, :n] = -problem.bias
+    c[:, n:] = table.equality_rhs[contacts, chosen].reshape(count, 2 * j)
+    valid = table.valid[contacts, chosen].reshape(count, -1)
+    G = table.inequalities[contacts, chosen].reshape(count, -1, nx)
+    g = table.inequality_rhs[contacts, chosen].reshape(count, -1)
+    motion = table.motion[contacts, chosen].reshape(count, -1)
+    labels = problem.row_labels[contacts, chosen].reshape(count, -1)
+    return [ModeSystem(mode=prefix + letter, A=A[i], B=B, c=c[i], G=G[i][valid[i]], g=g[i][valid[i]],
+                       labels=tuple(labels[i][valid[i]].tolist()), motion=motion[i][valid[i]])
+            for i, letter in enumerate(letters)]
+
+
 ROWS_PER_CONTACT = 3
 """The most inequality rows one contact adds in one mode (F: lam_N >= 0 and the two cone sides)."""
 
@@ -465,6 +498,7 @@ def contact_mode_letter(normal_force: float, tangential_velocity: float, force_t
 
 __all__ = [
     "all_modes",
+    "build_child_systems",
     "contact_mode_letter",
     "build_mode_system",
     "check_mode",

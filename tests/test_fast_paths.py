@@ -20,7 +20,7 @@ from frcontrol import engine
 from frcontrol import polytope as poly
 from frcontrol import response as resp
 from frcontrol.engine import analyze, domain_polytope, motion_margin
-from frcontrol.modes import ROWS_PER_CONTACT, all_modes, build_mode_system
+from frcontrol.modes import ROWS_PER_CONTACT, all_modes, build_child_systems, build_mode_system
 from frcontrol.scene import load_scene
 
 RTOL = 1e-8
@@ -213,3 +213,18 @@ def engine_labels(letter: int) -> tuple[str, ...]:
     """The labels of one letter's rows, as METHOD §2 writes them."""
     return (("a_N >= 0", "", ""), ("lam_N >= 0", "a_T <= 0", ""), ("lam_N >= 0", "a_T >= 0", ""),
             ("lam_N >= 0", "lam_T <= mu lam_N", "-lam_T <= mu lam_N"))[letter]
+
+
+def test_children_built_together_are_the_modes_built_alone():
+    rng = np.random.default_rng(13)
+    for _ in range(15):
+        problem = random_problem(rng)
+        allowed = problem.allowed_modes()
+        for depth in range(problem.k):
+            prefix = "".join(letters[0] for letters in allowed[:depth])
+            together = build_child_systems(problem, prefix, allowed[depth])
+            for letter, system in zip(allowed[depth], together, strict=True):
+                alone = build_mode_system(problem, prefix + letter)
+                assert (system.mode, system.labels) == (alone.mode, alone.labels)
+                for name in ("A", "B", "c", "G", "g", "motion"):
+                    np.testing.assert_array_equal(getattr(system, name), getattr(alone, name))
