@@ -37,8 +37,8 @@ from . import polytope as poly
 from .errors import CoordinateNotFound, InputError
 from .jsonable import to_jsonable
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
-from .modes import ContactProblem, ModeSystem, build_mode_system, mode_outputs
-from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, solve_affine
+from .modes import ContactProblem, ModeSystem, build_child_systems, build_mode_system, mode_outputs
+from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, certified_responses, solve_affine
 from .scene import Scene
 from .solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp_prepared
 
@@ -119,7 +119,8 @@ class ModeAnalysis:
             return None
         if "domain" not in self._cache:
             t0 = time.perf_counter()
-            self._cache["domain"] = poly.minimal_representation(self.raw_domain, solver=self.solver)
+            self._cache["domain"] = poly.minimal_representation(self.raw_domain, solver=self.solver,
+                                                                ball=self._cache.get("raw_ball"))
             self._cache["reduction_time"] = time.perf_counter() - t0
         return self._cache["domain"]
 
@@ -309,18 +310,31 @@ def domain_polytope(
     problem: ContactProblem, system: ModeSystem, response: AffineSolution
 ) -> tuple[poly.Polytope, np.ndarray]:
     """D_c over z = (u, w) after substituting the mode's response, and its motion-row mask."""
-    m, p = problem.m, response.ambiguity_dim
-    G, g = system.G, system.g
-    H = np.hstack([G @ response.X_u, G @ response.X_w])
-    h = g - G @ response.x_0
-    C, d = problem.input_bound_rows()
-    H = np.vstack([H, np.hstack([C, np.zeros((C.shape[0], p))])])
-    h = np.concatenate([h, d])
-    motion = np.concatenate([system.motion, np.zeros(C.shape[0], dtype=bool)])
-    A_eq = np.hstack([response.E, np.zeros((response.E.shape[0], p))])
+    H, h, A_eq, b_eq, motion = domain_rows(system, response, problem.input_bound_rows())
+    return poly.Polytope(H, h, A_eq, b_eq), motion
+
+
+def domain_rows(system: ModeSystem, response: AffineSolution, bounds: tuple[np.ndarray, np.ndarray]
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The arrays of :func:`domain_polytope` (``H, h, A_eq, b_eq, motion``), not yet a polytope.
+
+    ``bounds``: the problem's input limits ``(C, d)`` (:meth:`ContactProblem.input_bound_rows`).
+    """
+    C, d = bounds
+    m, p = C.shape[1], response.ambiguity_dim
+    G = system.G
+    rows = G.shape[0]
+    H = np.zeros((rows + C.shape[0], m + p))
+    H[:rows, :m] = G @ response.X_u
+    H[:rows, m:] = G @ response.X_w
+    H[rows:, :m] = C
+    h = np.concatenate([system.g - G @ response.x_0, d])
+    motion = np.zeros(h.size, dtype=bool)
+    motion[:rows] = system.motion
     # explicit row counts: with no input and no ambiguity (m + p = 0) the domain lives in R^0
-    return poly.Polytope(H.reshape(h.size, m + p), h, A_eq.reshape(response.e.size, m + p),
-                         response.e.copy()), motion
+    A_eq = np.zeros((response.e.size, m + p))
+    A_eq[:, :m] = response.E
+    return H, h, A_eq, response.e.copy(), motion
 
 
 @dataclass(frozen=True)
@@ -460,24 +474,57 @@ class _ModeEnumerator:
         self.problem, self.solver, self.rank_tolerance = problem, solver, rank_tolerance
         self.prune_partial, self.progress, self.timings = prune_partial, progress, timings
         self.allowed = problem.allowed_modes()
+        self.bounds = problem.input_bound_rows()
+        self.prepared: dict[str, tuple[ModeSystem, AffineSolution | None]] = {}
+        self.deficient: set[str] = set()  # tested modes whose equalities lack full row rank
         self.counts = {"freedom": 0, "infeasible": 0, "partial": 0, "evaluated": 0}
         self.analyses: list[ModeAnalysis] = []
 
-    def test(self, mode: str) -> tuple[str, ModeSystem, AffineSolution, poly.Polytope | None]:
-        """Build and solve a (partial) mode: 'ok', 'freedom' or 'infeasible'."""
+    def response(self, system: ModeSystem) -> AffineSolution:
+        """The mode's response by :func:`solve_affine` (the SVD and its rank rule)."""
+        return solve_affine(system.A, system.B, system.c, rank_tolerance=self.rank_tolerance,
+                            name=f"the system of mode {system.mode}")
+
+    def prepare(self, prefix: str, letters: str) -> None:
+        """Build the systems of ``prefix``'s children and certify their responses together.
+
+        :func:`certified_responses` factorises the children at once; a child it does not certify
+        gets the SVD when it is tested. Below a mode without full row rank (its rows dependent,
+        so every child's too) nothing is certified and the certificate is not tried.
+        """
         t0 = time.perf_counter()
-        system = build_mode_system(self.problem, mode)
-        response = solve_affine(system.A, system.B, system.c, rank_tolerance=self.rank_tolerance,
-                                name=f"the system of mode {mode}")
+        children = [prefix + letter for letter in letters]
+        systems = build_child_systems(self.problem, prefix, letters)
+        responses: list[AffineSolution | None] = [None] * len(children)
+        if prefix not in self.deficient:
+            B = systems[0].B  # shared by the children
+            responses = certified_responses(
+                np.stack([s.A for s in systems]), np.broadcast_to(B, (len(systems), *B.shape)),
+                np.stack([s.c for s in systems]), rank_tolerance=self.rank_tolerance)
+        self.prepared.update(zip(children, zip(systems, responses, strict=True), strict=True))
+        self.timings["response"] += time.perf_counter() - t0
+
+    def test(self, mode: str) -> tuple[str, ModeSystem, AffineSolution, tuple[np.ndarray, ...] | None]:
+        """Build and solve a (partial) mode: 'ok', 'freedom' or 'infeasible'.
+
+        The system and a certified response come from :meth:`prepare` when it ran for the mode.
+        """
+        t0 = time.perf_counter()
+        system, response = self.prepared.pop(mode, (None, None))
+        if system is None:
+            system = build_mode_system(self.problem, mode)
+        if response is None:
+            response = self.response(system)
+        if response.rank < system.A.shape[0]:
+            self.deficient.add(mode)
         t1 = time.perf_counter()
         self.timings["response"] += t1 - t0
         if not response.consistent:
             return "freedom", system, response, None
-        domain, motion = domain_polytope(self.problem, system, response)
-        verdict = motion_margin(domain.A, domain.b, motion, domain.A_eq, domain.b_eq,
-                                solver=self.solver).verdict
+        rows = domain_rows(system, response, self.bounds)
+        verdict = motion_margin(*rows[:2], rows[4], *rows[2:4], solver=self.solver).verdict
         self.timings["feasibility"] += time.perf_counter() - t1
-        return verdict, system, response, domain
+        return verdict, system, response, rows[:4]
 
     def evaluate(self, mode: str) -> None:
         """Analyse a full mode: its response, domain, and whether its T_c has an interior."""
@@ -485,9 +532,9 @@ class _ModeEnumerator:
         self.counts["evaluated"] += 1
         if self.progress is not None:
             self.progress(mode)
-        verdict, system, response, domain = self.test(mode)
+        verdict, system, response, rows = self.test(mode)
         outputs = ambiguous_outputs(response, problem.n)
-        if verdict != "ok" or domain is None:
+        if verdict != "ok" or rows is None:
             self.counts[verdict] += 1
             self.analyses.append(ModeAnalysis(
                 mode=mode, system=system, response=response, ambiguous_outputs=outputs,
@@ -495,6 +542,12 @@ class _ModeEnumerator:
                 inputs_full_dimensional=False, pruned=verdict, m=problem.m, solver=solver))
             return
         t0 = time.perf_counter()
+        if response.certified:
+            # the reported response and domain are the SVD's, as without the certificate (the
+            # same map up to round-off, its w in the SVD's basis)
+            response = self.response(system)
+            rows = domain_rows(system, response, self.bounds)[:4]
+        domain = poly.Polytope(*rows)
         ball = poly.chebyshev_ball(domain, solver=solver)
         full = bool(ball.found and ball.radius > DOMAIN_TOLERANCE and domain.A_eq.shape[0] == 0)
         timings["domain"] += time.perf_counter() - t0
@@ -502,6 +555,7 @@ class _ModeEnumerator:
             mode=mode, system=system, response=response, ambiguous_outputs=outputs, feasible=True,
             full_dimensional=full, chebyshev_radius=float(ball.radius) if ball.found else 0.0,
             raw_domain=domain, inputs_full_dimensional=full, m=problem.m, solver=solver,
+            _cache={"raw_ball": ball},  # the minimal form's emptiness test is this same LP
         )
         if not full and domain.A_eq.shape[0] == 0 and response.ambiguity_dim:
             # D_c flat in (u, w) without input equalities: its projection may still have volume
@@ -518,6 +572,8 @@ class _ModeEnumerator:
         if depth == self.problem.k:
             self.evaluate(prefix)
             return
+        if self.prune_partial or depth + 1 == self.problem.k:  # the children are tested
+            self.prepare(prefix, self.allowed[depth])
         for letter in self.allowed[depth]:
             child = prefix + letter
             if self.prune_partial and depth + 1 < self.problem.k:
@@ -876,6 +932,7 @@ __all__ = [
     "analyze",
     "BOX_FILTER_MODES_PER_INPUT",
     "domain_polytope",
+    "domain_rows",
     "DOMAIN_TOLERANCE",
     "DynamicResponse",
     "Enumeration",

@@ -154,6 +154,15 @@ class ContactProblem:
         return contact_row_table(self)
 
     @cached_property
+    def row_labels(self) -> np.ndarray:
+        """Each inequality row's label, ``"tip: lam_N >= 0"``, indexed like the row table (k, 4, 3)."""
+        labels = np.empty((self.k, len(MODE_LETTERS), ROWS_PER_CONTACT), dtype=object)
+        for i, name in enumerate(self.contacts):
+            for letter, row_labels in enumerate(_ROW_LABELS):
+                labels[i, letter] = [f"{name}: {label}" for label in row_labels]
+        return labels
+
+    @cached_property
     def dynamics(self) -> np.ndarray:
         """The dynamics' rows of every mode's ``A`` (:func:`dynamics_rows`), built once."""
         return dynamics_rows(self)
@@ -263,9 +272,7 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
     A = np.vstack([problem.dynamics, table.equalities[contacts, letters].reshape(-1, nx)])
     B = np.vstack([problem.input_map, np.zeros((2 * len(mode), problem.m))])
     c = np.concatenate([-problem.bias, table.equality_rhs[contacts, letters].reshape(-1)])
-    labels = [f"{problem.contacts[i]}: {_ROW_LABELS[letter][j]}"
-              for i, letter in zip(contacts, letters, strict=True)
-              for j in range(ROWS_PER_CONTACT) if table.valid[i, letter, j]]
+    labels = problem.row_labels[contacts, letters].reshape(-1)[valid].tolist()
     return ModeSystem(
         mode=mode,
         A=A,
@@ -276,6 +283,39 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
         labels=tuple(labels),
         motion=table.motion[contacts, letters].reshape(-1)[valid],
     )
+
+
+def build_child_systems(problem: ContactProblem, prefix: str, letters: str) -> list[ModeSystem]:
+    """:func:`build_mode_system` of ``prefix + letter`` for each letter, in one gather.
+
+    The same rows as one call per child (the children share ``B``, which is read-only).
+    """
+    check_mode(problem, prefix + letters[:1], partial=True)
+    if any(ch not in MODE_LETTERS for ch in letters):
+        raise InputError(f"a mode is a string of the letters S, L, R, F; got {letters!r}")
+    n, nx, count, j = problem.n, problem.n + 2 * problem.k, len(letters), len(prefix) + 1
+    table = problem.row_table
+    contacts = np.arange(j, dtype=int)
+    chosen = np.empty((count, j), dtype=int)
+    chosen[:] = [MODE_LETTERS.index(ch) for ch in prefix] + [0]
+    chosen[:, -1] = [MODE_LETTERS.index(ch) for ch in letters]
+    A = np.empty((count, n + 2 * j, nx))
+    A[:, :n] = problem.dynamics
+    A[:, n:] = table.equalities[contacts, chosen].reshape(count, 2 * j, nx)
+    B = np.zeros((n + 2 * j, problem.m))
+    B[:n] = problem.input_map
+    B.setflags(write=False)
+    c = np.empty((count, n + 2 * j))
+    c[:, :n] = -problem.bias
+    c[:, n:] = table.equality_rhs[contacts, chosen].reshape(count, 2 * j)
+    valid = table.valid[contacts, chosen].reshape(count, -1)
+    G = table.inequalities[contacts, chosen].reshape(count, -1, nx)
+    g = table.inequality_rhs[contacts, chosen].reshape(count, -1)
+    motion = table.motion[contacts, chosen].reshape(count, -1)
+    labels = problem.row_labels[contacts, chosen].reshape(count, -1)
+    return [ModeSystem(mode=prefix + letter, A=A[i], B=B, c=c[i], G=G[i][valid[i]], g=g[i][valid[i]],
+                       labels=tuple(labels[i][valid[i]].tolist()), motion=motion[i][valid[i]])
+            for i, letter in enumerate(letters)]
 
 
 ROWS_PER_CONTACT = 3
@@ -458,6 +498,7 @@ def contact_mode_letter(normal_force: float, tangential_velocity: float, force_t
 
 __all__ = [
     "all_modes",
+    "build_child_systems",
     "contact_mode_letter",
     "build_mode_system",
     "check_mode",

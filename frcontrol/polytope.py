@@ -701,6 +701,7 @@ def minimal_representation(
     tolerance: float = REDUNDANCY_TOLERANCE,
     solver: str = DEFAULT_LP_SOLVER,
     use_minrep: bool = True,
+    ball: ChebyshevBall | None = None,
 ) -> Polytope:
     r"""An irredundant representation of ``P`` (the same set, no redundant row).
 
@@ -733,6 +734,8 @@ def minimal_representation(
         tolerance: redundancy slack [units of x]; default :data:`REDUNDANCY_TOLERANCE`.
         solver: LP back-end.
         use_minrep: run stage 4 (when ``daqp.minrep`` is installed).
+        ball: ``chebyshev_ball(P, solver=solver)`` when the caller has it already (stage 2 then
+            reuses it instead of solving the same LP again).
 
     Returns:
         The irredundant representation.
@@ -744,7 +747,8 @@ def minimal_representation(
         return Polytope.empty_set(d)
     A_eq, b_eq = _independent_equalities(P.A_eq, P.b_eq)
     hull = _affine_hull(A_eq, b_eq, d)
-    ball = chebyshev_ball(P, solver=solver)
+    if ball is None:
+        ball = chebyshev_ball(P, solver=solver)
     if hull is None or not ball.found:
         return Polytope.empty_set(d)
     G = P.A @ hull.N

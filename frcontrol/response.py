@@ -40,6 +40,18 @@ CONSISTENCY_TOLERANCE = 1e-9
 """A consistency row ``E_i u = e_i`` whose ``E_i`` has norm at most this times the scale of
 ``[B c]`` is void; it is inconsistent if ``|e_i|`` also exceeds this times that scale."""
 
+CERTIFIED_MARGIN = 10.0
+"""[-] :func:`certified_responses` answers without an SVD when ``||A||_F ||R_1^-1||_F`` (of the
+equilibrated A of full row rank, a bound on its 2-norm condition number) is below
+``1 / (CERTIFIED_MARGIN max(rank_tolerance, ILL_CONDITIONED_BAND))``: its smallest singular value
+is then certainly above both thresholds, so the SVD would find full row rank outside the
+ill-conditioned band (the margin of :mod:`frcontrol.mode_batch`'s certificate)."""
+
+VOID_CONDITIONS_SAFETY = 0.5
+"""[-] The consistency rows are found void without their SVD only when their Frobenius norm and
+that of their right-hand side are at most this times the consistency threshold: the SVD's own
+round-off (relative, about 1e-16) cannot then put a singular value or a rotated entry above it."""
+
 OUTPUT_TOLERANCE = 1e-9
 """An output depends on w if its row of ``X_w`` exceeds this times the largest entry of X_w."""
 
@@ -56,6 +68,8 @@ class AffineSolution:
         singular_values: of the equilibrated A, descending.
         condition_number: largest over smallest kept singular value.
         rank_tolerance: the relative tolerance used.
+        certified: the rank was certified without an SVD (:func:`certified_responses`); then
+            ``singular_values`` is empty and ``condition_number`` an upper bound.
     """
 
     X_u: np.ndarray
@@ -69,6 +83,7 @@ class AffineSolution:
     singular_values: np.ndarray
     condition_number: float
     rank_tolerance: float
+    certified: bool = False
 
     @property
     def ambiguity_dim(self) -> int:
@@ -91,14 +106,30 @@ class AffineSolution:
 
 def power_of_two_scale(top: np.ndarray) -> np.ndarray:
     """``2^-round(log2 t)`` of each largest magnitude ``t`` (1 where ``t`` is 0): exact scalings."""
-    return np.exp2(-np.round(np.log2(np.where(top > 0, top, 1.0))))
+    # np.rint is np.round at 0 decimals (halves to even), without its Python wrapper
+    return np.exp2(-np.rint(np.log2(np.where(top > 0, top, 1.0))))
 
 
 def _equilibrate(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Row and column scalings (powers of two) making each row and column's max-abs about 1."""
-    rows = power_of_two_scale(np.max(np.abs(A), axis=1)) if A.size else np.ones(A.shape[0])
-    cols = power_of_two_scale(np.max(np.abs(A * rows[:, None]), axis=0)) if A.size else np.ones(A.shape[1])
+    if not A.size:
+        return np.ones(A.shape[0]), np.ones(A.shape[1])
+    magnitude = np.abs(A)
+    rows = power_of_two_scale(magnitude.max(axis=1))
+    # powers of two scale exactly: |A * r| is |A| * r
+    cols = power_of_two_scale((magnitude * rows[:, None]).max(axis=0))
     return rows, cols
+
+
+def _void_conditions(E_raw: np.ndarray, e_raw: np.ndarray, threshold: float) -> bool:
+    """Whether the SVD of the consistency rows would keep none and find them consistent.
+
+    Every singular value of ``E_raw`` is at most its Frobenius norm, and every entry of a rotated
+    ``e_raw`` at most its 2-norm: both at most ``threshold`` (times
+    :data:`VOID_CONDITIONS_SAFETY`) decide it without the SVD.
+    """
+    bound = VOID_CONDITIONS_SAFETY * threshold
+    return bool(np.sqrt((E_raw * E_raw).sum()) <= bound and np.sqrt(e_raw @ e_raw) <= bound)
 
 
 def solve_affine(
@@ -149,7 +180,9 @@ def solve_affine(
     e_raw = -(U2.T @ cs)
     scale = max(1.0, float(np.max(np.abs(Bs), initial=0.0)), float(np.max(np.abs(cs), initial=0.0)))
     consistent = True
-    if E_raw.shape[0]:
+    if E_raw.shape[0] and _void_conditions(E_raw, e_raw, CONSISTENCY_TOLERANCE * scale):
+        E, e = np.zeros((0, B.shape[1])), np.zeros(0)
+    elif E_raw.shape[0]:
         if E_raw.shape[1]:
             Ue, se, Vte = np.linalg.svd(E_raw, full_matrices=True)
             kept = int(np.sum(se > CONSISTENCY_TOLERANCE * scale))
@@ -168,6 +201,66 @@ def solve_affine(
         X_u=X_u, X_w=X_w, x_0=x_0, E=E, e=e, consistent=consistent, rank=rank,
         shape=(rows, nx), singular_values=s, condition_number=condition, rank_tolerance=rank_tolerance,
     )
+
+
+def certified_responses(
+    A: np.ndarray,
+    B: np.ndarray,
+    c: np.ndarray,
+    *,
+    rank_tolerance: float = RANK_TOLERANCE,
+) -> list[AffineSolution | None]:
+    """:func:`solve_affine`'s answers for a stack of systems of full row rank, without an SVD.
+
+    ``A`` (count, rows, nx) with rows <= nx, ``B`` (count, rows, m), ``c`` (count, rows): e.g. the
+    modes that extend one partial mode by each letter. Each A is equilibrated as in
+    :func:`solve_affine` and factorised, all at once, as ``A_hat^T = Q R``: ``A_hat = R_1^T Q_1^T``,
+    its minimum-norm solution ``Q_1 R_1^-T`` (the pseudo-inverse the SVD applies) and its null
+    space ``Q_2`` (empty for a square A). The identity's columns of the same solve give
+    ``R_1^-T`` for the bound of :data:`CERTIFIED_MARGIN`. A certified system is one the SVD would
+    find of full row rank outside the ill-conditioned band (no consistency condition,
+    consistent); its ``X_u`` and ``x_0`` are the SVD's, and its ``X_w = diag(c) Q_2`` spans the
+    same null space as the SVD's ``diag(c) V_2`` with ``Q_2 = V_2 O`` for an orthogonal ``O``: every
+    distance in (u, w) (the engine's margins and balls) is the same.
+
+    Returns:
+        Per system its response (``certified`` True), or None when the bound does not certify it
+        (the caller then takes :func:`solve_affine`).
+    """
+    count, rows, nx = A.shape
+    out: list[AffineSolution | None] = [None] * count
+    if count == 0 or rows == 0 or rows > nx:
+        return out
+    m = B.shape[2]
+    magnitude = np.abs(A)
+    r_scale = power_of_two_scale(magnitude.max(axis=2))
+    c_scale = power_of_two_scale((magnitude * r_scale[:, :, None]).max(axis=1))
+    A_hat = A * r_scale[:, :, None] * c_scale[:, None, :]
+    limit = 1.0 / (CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND))
+    size = np.sqrt((A_hat * A_hat).sum(axis=(1, 2)))  # ||A_hat||_F = ||R_1||_F
+    Q, R = np.linalg.qr(np.swapaxes(A_hat, 1, 2), mode="complete")
+    # ||R_1^-1||_F >= 1 / min |R_ii|: a small pivot rules the certificate out before any solve
+    pivots = np.abs(np.diagonal(R[:, :rows], axis1=1, axis2=2)).min(axis=1)
+    hopeful = np.nonzero(size < limit * pivots)[0]
+    if hopeful.size == 0:
+        return out
+    rhs = np.empty((hopeful.size, rows, rows + m + 1))
+    rhs[:, :, :rows] = np.eye(rows)
+    rhs[:, :, rows:rows + m] = B[hopeful] * r_scale[hopeful, :, None]
+    rhs[:, :, -1] = c[hopeful] * r_scale[hopeful]
+    with np.errstate(over="ignore", invalid="ignore"):  # a nearly singular R_1: not certified
+        solved = np.linalg.solve(np.swapaxes(R[hopeful, :rows], 1, 2), rhs)  # R_1^-T [I, B, c]
+        bound = size[hopeful] * np.sqrt((solved[:, :, :rows] ** 2).sum(axis=(1, 2)))
+    y = np.matmul(Q[hopeful, :, :rows], solved)
+    for j, i in enumerate(hopeful.tolist()):
+        if bound[j] < limit:  # False for NaN
+            scale = c_scale[i]
+            out[i] = AffineSolution(
+                X_u=scale[:, None] * y[j, :, rows:rows + m], X_w=scale[:, None] * Q[i, :, rows:],
+                x_0=scale * y[j, :, -1], E=np.zeros((0, m)), e=np.zeros(0), consistent=True, rank=rows,
+                shape=(rows, nx), singular_values=np.zeros(0), condition_number=float(bound[j]),
+                rank_tolerance=rank_tolerance, certified=True)
+    return out
 
 
 def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> str:
@@ -195,6 +288,8 @@ def outputs_moved_by(X_w: np.ndarray, n_coordinates: int) -> str:
 __all__ = [
     "AffineSolution",
     "ambiguous_outputs",
+    "CERTIFIED_MARGIN",
+    "certified_responses",
     "CONSISTENCY_TOLERANCE",
     "ILL_CONDITIONED_BAND",
     "OUTPUT_TOLERANCE",
@@ -202,4 +297,5 @@ __all__ = [
     "power_of_two_scale",
     "RANK_TOLERANCE",
     "solve_affine",
+    "VOID_CONDITIONS_SAFETY",
 ]

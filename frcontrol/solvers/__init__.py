@@ -277,11 +277,11 @@ def primal_residual(problem: LinearProgram, x: np.ndarray) -> float:
     """
     worst = 0.0
     if problem.A_ub.shape[0]:
-        worst = max(worst, _largest(problem.A_ub @ x - problem.b_ub))
+        worst = max(worst, float((problem.A_ub @ x - problem.b_ub).max()))
     if problem.A_eq.shape[0]:
-        worst = max(worst, _largest(np.abs(problem.A_eq @ x - problem.b_eq)))
-    if problem.has_bounds:
-        worst = max(worst, _largest(problem.lb - x), _largest(x - problem.ub))
+        worst = max(worst, float(np.abs(problem.A_eq @ x - problem.b_eq).max()))
+    if problem.has_bounds and x.shape[0]:
+        worst = max(worst, float((problem.lb - x).max()), float((x - problem.ub).max()))
     return worst
 
 
@@ -292,19 +292,16 @@ def _largest(values: np.ndarray, where: np.ndarray | bool = True) -> float:
 
 def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
     """``FEASIBILITY_TOLERANCE`` times the scale of the terms (see :data:`FEASIBILITY_TOLERANCE`)."""
-    largest = 0.0
-    for rhs in (problem.b_ub, problem.b_eq):  # the finite ones (an unvalidated problem may hold inf)
-        magnitude = np.abs(rhs)
-        largest = max(largest, _largest(magnitude, where=magnitude < np.inf))
-    if problem.has_bounds:
-        bounds = np.abs(np.concatenate((problem.lb, problem.ub)))
-        largest = max(largest, _largest(bounds, where=bounds < np.inf))
-    scale = 1.0 + largest
+    # the finite right-hand sides (an unvalidated problem may hold inf), in one reduction
+    parts = (problem.b_ub, problem.b_eq, problem.lb, problem.ub) if problem.has_bounds else (
+        problem.b_ub, problem.b_eq)
+    magnitude = np.abs(np.concatenate(parts))
+    scale = 1.0 + _largest(magnitude, where=magnitude < np.inf)
     if x is not None and x.shape[0]:
-        size = _largest(np.abs(x))
+        size = float(np.abs(x).max())
         for A in (problem.A_ub, problem.A_eq):
             if A.shape[0]:
-                scale += _largest(np.abs(A).sum(axis=1)) * size
+                scale += float(np.abs(A).sum(axis=1).max()) * size
     return FEASIBILITY_TOLERANCE * scale
 
 
@@ -357,7 +354,7 @@ def _finish(
 
 
 def _bounds_crossed(problem: LinearProgram) -> RawSolution | None:
-    if problem.has_bounds and (problem.lb > problem.ub).any():
+    if (problem.lb > problem.ub).any():  # infinite bounds never cross
         return RawSolution("infeasible", None, "door: lb > ub")
     return None
 

@@ -1,0 +1,230 @@
+"""The analysis's fast paths against the paths they short-cut, on random problems and shipped scenes.
+
+- :func:`frcontrol.response.certified_responses` (one stacked QR, no SVD) against
+  :func:`frcontrol.response.solve_affine`: the same rank decisions, the same ``X_u`` and ``x_0``,
+  a null-space basis that is a rotation of the SVD's, hence the same motion margins;
+- the consistency rows decided without their SVD against the SVD;
+- :func:`frcontrol.engine.analyze` with the certified children against the SVD for every mode:
+  the same modes, verdicts, counts and (bitwise) domains;
+- a minimal representation that reuses its caller's Chebyshev ball against one that solves it;
+- the cached row labels and the domain rows against the formulas they replace.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_mode_batch import random_problem
+
+from frcontrol import engine
+from frcontrol import polytope as poly
+from frcontrol import response as resp
+from frcontrol.engine import analyze, domain_polytope, motion_margin
+from frcontrol.modes import ROWS_PER_CONTACT, all_modes, build_child_systems, build_mode_system
+from frcontrol.scene import load_scene
+
+RTOL = 1e-8
+"""Relative agreement of two factorisations' responses (round-off of a 30 x 30 solve)."""
+
+
+def _random_stack(rng: np.random.Generator, count: int, rows: int, nx: int, m: int, deficient: bool
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    A = rng.normal(size=(count, rows, nx)) * np.exp2(rng.integers(-6, 7, size=(count, rows, 1)))
+    if deficient and rows > 1:  # a row repeated (scaled): rank rows - 1
+        A[:, -1] = 3.0 * A[:, 0]
+    return A, rng.normal(size=(count, rows, m)), rng.normal(size=(count, rows))
+
+
+def _null_projector(X_w: np.ndarray, c_scale: np.ndarray) -> np.ndarray:
+    basis = X_w / c_scale[:, None]  # the orthonormal basis of null(A_hat)
+    return basis @ basis.T
+
+
+def test_certified_responses_are_the_svds():
+    rng = np.random.default_rng(20261125)
+    certified = refused = 0
+    for _ in range(60):
+        nx = int(rng.integers(2, 12))
+        rows = int(rng.integers(1, nx + 1))
+        m = int(rng.integers(0, 4))
+        deficient = bool(rng.random() < 0.3)
+        A, B, c = _random_stack(rng, int(rng.integers(1, 5)), rows, nx, m, deficient)
+        for i, fast in enumerate(resp.certified_responses(A, B, c)):
+            svd = resp.solve_affine(A[i], B[i], c[i])
+            if fast is None:
+                refused += 1
+                continue
+            certified += 1
+            assert not deficient or rows == 1
+            assert (fast.rank, fast.case, fast.consistent, fast.E.shape, fast.certified) == (
+                svd.rank, svd.case, svd.consistent, svd.E.shape, True)
+            assert fast.condition_number >= svd.condition_number * (1 - RTOL)  # an upper bound
+            scale = 1.0 + np.abs(svd.X_u).max(initial=0.0) + np.abs(svd.x_0).max()
+            np.testing.assert_allclose(fast.X_u, svd.X_u, rtol=0, atol=RTOL * scale)
+            np.testing.assert_allclose(fast.x_0, svd.x_0, rtol=0, atol=RTOL * scale)
+            _, c_scale = resp._equilibrate(A[i])
+            np.testing.assert_allclose(_null_projector(fast.X_w, c_scale), _null_projector(svd.X_w, c_scale),
+                                       atol=1e-10)
+    assert certified > 50 and refused > 10  # both sides of the certificate were exercised
+
+
+def test_rank_deficient_and_nearly_singular_systems_are_not_certified():
+    rng = np.random.default_rng(7)
+    A, B, c = _random_stack(rng, 3, 6, 8, 2, deficient=True)
+    assert resp.certified_responses(A, B, c) == [None, None, None]
+    A = rng.normal(size=(1, 5, 5))
+    A[0, 4] = A[0, 3] + 1e-9 * rng.normal(size=5)  # s_min ~ 1e-9 s_max: inside the band's margin
+    assert resp.certified_responses(A, rng.normal(size=(1, 5, 1)), rng.normal(size=(1, 5))) == [None]
+    wide = np.zeros((2, 4, 3))  # more rows than unknowns: never certified
+    assert resp.certified_responses(wide, np.zeros((2, 4, 1)), np.zeros((2, 4))) == [None, None]
+
+
+def test_certified_and_svd_domains_have_the_same_motion_margins():
+    """Distances in (u, w) do not see a rotation of w: the engine's LP gives the same verdict and t."""
+    rng = np.random.default_rng(3)
+    compared = 0
+    for _ in range(25):
+        problem = random_problem(rng)
+        for mode in all_modes(problem.allowed_modes())[:12]:
+            for prefix in (mode[:-1], mode):
+                if not prefix:
+                    continue
+                system = build_mode_system(problem, prefix)
+                fast = resp.certified_responses(system.A[None], system.B[None], system.c[None])[0]
+                if fast is None:
+                    continue
+                svd = resp.solve_affine(system.A, system.B, system.c)
+                answers = []
+                for response in (fast, svd):
+                    P, motion = domain_polytope(problem, system, response)
+                    answers.append(motion_margin(P.A, P.b, motion, P.A_eq, P.b_eq))
+                assert answers[0].verdict == answers[1].verdict
+                if answers[0].margin is not None:
+                    assert answers[0].margin == pytest.approx(answers[1].margin, abs=1e-7)
+                compared += 1
+    assert compared > 40
+
+
+def _svd_consistency(monkeypatch: pytest.MonkeyPatch, A: np.ndarray, B: np.ndarray, c: np.ndarray
+                     ) -> resp.AffineSolution:
+    with monkeypatch.context() as patch:
+        patch.setattr(resp, "_void_conditions", lambda *args: False)  # always the SVD of E_raw
+        return resp.solve_affine(A, B, c)
+
+
+def test_void_consistency_rows_are_decided_as_their_svd_decides(monkeypatch):
+    rng = np.random.default_rng(11)
+    shortcut = 0
+    for _ in range(80):
+        rows, nx, m = int(rng.integers(2, 8)), int(rng.integers(2, 8)), int(rng.integers(0, 3))
+        A = rng.normal(size=(rows, nx))
+        A[-1] = A[0] * 2.0  # a dependent row: a left null vector
+        B = rng.normal(size=(rows, m))
+        c = rng.normal(size=rows)
+        kind = rng.integers(3)
+        if kind == 0:  # B and c in the range of A: the consistency rows vanish
+            B[-1], c[-1] = 2.0 * B[0], 2.0 * c[0]
+        elif kind == 1:  # only c off the range: inconsistent for every input
+            B[-1] = 2.0 * B[0]
+        fast = resp.solve_affine(A, B, c)
+        svd = _svd_consistency(monkeypatch, A, B, c)
+        shortcut += kind == 0
+        assert (fast.consistent, fast.E.shape, fast.rank) == (svd.consistent, svd.E.shape, svd.rank)
+        np.testing.assert_array_equal(fast.X_u, svd.X_u)
+        if fast.E.shape[0]:
+            np.testing.assert_array_equal(fast.E, svd.E)
+            np.testing.assert_array_equal(fast.e, svd.e)
+    assert shortcut > 10
+
+
+def _svd_only(monkeypatch: pytest.MonkeyPatch, problem):
+    with monkeypatch.context() as patch:
+        patch.setattr(engine, "certified_responses", lambda A, B, c, rank_tolerance: [None] * len(A))
+        return analyze(problem, ambiguity=False)
+
+
+def _assert_same_analysis(fast, slow) -> None:
+    assert fast.to_dict()["enumeration"] == slow.to_dict()["enumeration"]
+    assert [(m.mode, m.feasible, m.pruned, m.response.case, m.response.rank) for m in fast.modes] == [
+        (m.mode, m.feasible, m.pruned, m.response.case, m.response.rank) for m in slow.modes]
+    for a, b in zip(fast.feasible_modes, slow.feasible_modes, strict=True):
+        assert not a.response.certified
+        for x, y in ((a.raw_domain.A, b.raw_domain.A), (a.raw_domain.b, b.raw_domain.b),
+                     (a.domain.A, b.domain.A), (a.domain.b, b.domain.b)):
+            np.testing.assert_array_equal(x, y)
+
+
+def test_analysis_with_certified_children_is_the_svds_on_random_problems(monkeypatch):
+    rng = np.random.default_rng(20261126)
+    certified = 0
+    for _ in range(30):
+        problem = random_problem(rng)
+        fast = analyze(problem, ambiguity=False)
+        certified += sum(m.response.certified for m in fast.modes)
+        _assert_same_analysis(fast, _svd_only(monkeypatch, problem))
+    assert certified > 10
+
+
+@pytest.mark.parametrize("name", ["rhex_flip", "snake_climb", "table_on_ground", "disk_in_wedge"])
+def test_analysis_with_certified_children_is_the_svds_on_shipped_scenes(monkeypatch, name):
+    problem = engine.ContactProblem.from_scene(load_scene(name))
+    _assert_same_analysis(analyze(problem, ambiguity=False), _svd_only(monkeypatch, problem))
+
+
+def test_minimal_form_with_the_callers_ball_is_the_same():
+    rng = np.random.default_rng(5)
+    for _ in range(30):
+        d = int(rng.integers(1, 5))
+        A = rng.normal(size=(int(rng.integers(d + 1, 12)), d))
+        P = poly.Polytope(A, np.abs(rng.normal(size=A.shape[0])) + 0.1 * rng.random())
+        if rng.random() < 0.3:
+            P = poly.Polytope(P.A, P.b - 3.0)  # often empty
+        ball = poly.chebyshev_ball(P)
+        given, solved = poly.minimal_representation(P, ball=ball), poly.minimal_representation(P)
+        for x, y in ((given.A, solved.A), (given.b, solved.b), (given.A_eq, solved.A_eq)):
+            np.testing.assert_array_equal(x, y)
+
+
+def test_row_labels_and_domain_rows_are_the_formulas_they_replace():
+    rng = np.random.default_rng(9)
+    for _ in range(10):
+        problem = random_problem(rng)
+        table = problem.row_table
+        for mode in all_modes(problem.allowed_modes())[:8]:
+            system = build_mode_system(problem, mode)
+            letters = ["SLRF".index(ch) for ch in mode]
+            expected = [f"{problem.contacts[i]}: {engine_labels(letter)[j]}"
+                        for i, letter in enumerate(letters) for j in range(ROWS_PER_CONTACT)
+                        if table.valid[i, letter, j]]
+            assert list(system.labels) == expected
+            response = resp.solve_affine(system.A, system.B, system.c)
+            P, motion = domain_polytope(problem, system, response)
+            C, d = problem.input_bound_rows()
+            p = response.ambiguity_dim
+            H = np.vstack([np.hstack([system.G @ response.X_u, system.G @ response.X_w]),
+                           np.hstack([C, np.zeros((C.shape[0], p))])])
+            np.testing.assert_array_equal(P.A, H.reshape(P.A.shape))
+            np.testing.assert_array_equal(P.b, np.concatenate([system.g - system.G @ response.x_0, d]))
+            np.testing.assert_array_equal(motion[:system.G.shape[0]], system.motion)
+            assert not motion[system.G.shape[0]:].any()
+
+
+def engine_labels(letter: int) -> tuple[str, ...]:
+    """The labels of one letter's rows, as METHOD §2 writes them."""
+    return (("a_N >= 0", "", ""), ("lam_N >= 0", "a_T <= 0", ""), ("lam_N >= 0", "a_T >= 0", ""),
+            ("lam_N >= 0", "lam_T <= mu lam_N", "-lam_T <= mu lam_N"))[letter]
+
+
+def test_children_built_together_are_the_modes_built_alone():
+    rng = np.random.default_rng(13)
+    for _ in range(15):
+        problem = random_problem(rng)
+        allowed = problem.allowed_modes()
+        for depth in range(problem.k):
+            prefix = "".join(letters[0] for letters in allowed[:depth])
+            together = build_child_systems(problem, prefix, allowed[depth])
+            for letter, system in zip(allowed[depth], together, strict=True):
+                alone = build_mode_system(problem, prefix + letter)
+                assert (system.mode, system.labels) == (alone.mode, alone.labels)
+                for name in ("A", "B", "c", "G", "g", "motion"):
+                    np.testing.assert_array_equal(getattr(system, name), getattr(alone, name))
