@@ -69,6 +69,7 @@ from .flip import (
     flip_task,
     sample_modes,
 )
+from .flip_budget import FlipBudget, body_energy, energy_shortfall, flip_budget
 
 __all__ = [
     "COMPLIANT_EXTRA_TIME",
@@ -227,6 +228,9 @@ class PumpResult:
         margin: [V] the push plans' margin.
         timings: [s] ``planning``, ``simulation``, ``total``.
         compliant: the compliant check (:func:`verify_compliant`), when made.
+        budget: the flip's energy barrier and the legs' reach (:func:`~.flip_budget.flip_budget`).
+        cycle_max_energy: [J] per cycle, the body's largest mechanical energy above the start
+            (:func:`~.flip_budget.body_energy`).
     """
 
     trajectory: Trajectory
@@ -246,6 +250,8 @@ class PumpResult:
     margin: float
     timings: Mapping[str, float]
     compliant: Mapping[str, Any] | None = None
+    budget: FlipBudget | None = None
+    cycle_max_energy: tuple[float, ...] = ()
 
     @property
     def cycles(self) -> int:
@@ -267,6 +273,9 @@ class PumpResult:
             "max_pitch": self.max_pitch, "vertical": self.vertical,
             "cycle_max_pitch": list(self.cycle_max_pitch), "phases": phases, "drives": drives,
             "margin": self.margin, "compliant": None if self.compliant is None else dict(self.compliant),
+            "budget": None if self.budget is None else self.budget.to_dict(),
+            "cycle_max_energy": list(self.cycle_max_energy),
+            "max_energy": max(self.cycle_max_energy, default=None),
         })
 
 
@@ -471,18 +480,21 @@ def simulate_pump(
                           else "the end of the run")
     separation, _ = _body_contacts(scene, trajectory, task.body_contacts, len(trajectory.times) - 1)
     pitch = trajectory.q[:, task.pitch_index]
+    budget, energy = flip_budget(scene), body_energy(scene, trajectory)
     total = time.perf_counter() - start
     return PumpResult(
         trajectory=trajectory, drives=tuple(drives), phases=phases, flipped=flipped,
         time_to_vertical=_time_to_vertical(trajectory, task) if flipped else None,
         max_pitch=float(pitch.max()), vertical=task.vertical,
-        cycle_max_pitch=_cycle_max_pitch(trajectory.times, pitch, phases),
+        cycle_max_pitch=_cycle_max(trajectory.times, pitch, phases),
         energy_drawn=energy_drawn(scene, trajectory), body_contact_kept=separation is None,
         plans=tuple(policy.plans),
-        reason=None if flipped else _why_not(trajectory, pitch, task.vertical, max_time),
+        reason=None if flipped else f"{_why_not(trajectory, pitch, task.vertical, max_time)}; "
+                                    f"{energy_shortfall(budget, energy)}",
         dt=dt, max_time=max_time, margin=margin,
         timings={"planning": policy.planning_time, "simulation": total - policy.planning_time,
                  "total": total},
+        budget=budget, cycle_max_energy=_cycle_max(trajectory.times, energy, phases),
     )
 
 
@@ -494,13 +506,13 @@ def _why_not(trajectory: Trajectory, pitch: np.ndarray, vertical: float, max_tim
             f"({vertical:.4f} rad)")
 
 
-def _cycle_max_pitch(times: np.ndarray, pitch: np.ndarray, phases: Sequence[PumpPhase]) -> tuple[float, ...]:
-    """[rad] The largest pitch of each cycle's samples."""
+def _cycle_max(times: np.ndarray, series: np.ndarray, phases: Sequence[PumpPhase]) -> tuple[float, ...]:
+    """The largest value of ``series`` (a pitch [rad], an energy [J]) over each cycle's samples."""
     best: dict[int, float] = {}
     for phase in phases:
         inside = (times >= phase.start) & (times <= phase.end)
         if np.any(inside):
-            best[phase.cycle] = max(best.get(phase.cycle, -math.inf), float(pitch[inside].max()))
+            best[phase.cycle] = max(best.get(phase.cycle, -math.inf), float(series[inside].max()))
     return tuple(best[c] for c in sorted(best))
 
 
