@@ -192,6 +192,13 @@ def test_the_flip_budget_is_the_closed_form_of_the_geometry(rhex):
     assert budget.kinetic_energy_needed > 11.0
 
 
+def test_a_budget_over_body_contacts_on_different_surfaces_is_a_scene_error():
+    scene = load_scene("rhex_flip_drives", overrides={"contacts.rear_corner.normal": [0.1, 1.0]})
+    with pytest.raises(SceneError, match="one flat surface") as error:
+        flip_budget(scene)
+    assert error.value.field == "task.body_contacts"
+
+
 def test_a_toe_carries_force_only_below_its_reach_pitch(rhex, pumped):
     _, result = pumped
     budget, traj = result.budget, result.trajectory

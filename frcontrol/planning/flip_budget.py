@@ -6,7 +6,7 @@ right above that contact. For RHex (``rhex_flip_drives``) that is the front corn
 the centre of mass (``sqrt(0.25^2 + 0.065^2)``): 7.5 kg x 9.81 m/s^2 x (0.258 - 0.077) m = 13.3 J
 above the scene's start (14.2 J above lying flat). A leg can push only while its toe reaches the
 ground: with the body pivoting on the front corner, the hip of a leg of length ``l`` rises above
-``l`` at a small pitch (RHex's 0.17 m legs: 0.16 rad above flat for the middle hip, 0.09 rad for
+``l`` at a small pitch (RHex's 0.17 m legs: 0.168 rad above flat for the middle hip, 0.090 rad for
 the rear one), so the body must leave the legs' last stroke carrying the rest of the barrier as
 kinetic energy.
 

@@ -32,6 +32,12 @@ current, motor speed, torque and limits, so a reader can check.
 over the step ending at sample k and the current at that sample; negative power, braking, counts
 as returned).
 
+**Energy budget.** The run reports the body's mechanical energy per cycle against the barrier it
+must cross and the pitches up to which the legs reach the ground (:mod:`.flip_budget`): with the
+pushes ending on a mode change, the recirculation ending with the body at rest on its legs, and
+rigid massless legs, every push after the first starts from rest, so the cycles cannot add up
+(README, "The pumping flip").
+
 **Verification.** The run is one rigid simulation (velocity-level time stepping with inelastic
 impacts). The same voltages, replayed against time, drive the compliant model (Kelvin–Voigt
 contacts at the stiffness the speed-accuracy benchmark recommends for trajectories,
@@ -480,7 +486,7 @@ def simulate_pump(
                           else "the end of the run")
     separation, _ = _body_contacts(scene, trajectory, task.body_contacts, len(trajectory.times) - 1)
     pitch = trajectory.q[:, task.pitch_index]
-    budget, energy = flip_budget(scene), body_energy(scene, trajectory)
+    budget, energy = _budget(scene, trajectory)
     total = time.perf_counter() - start
     return PumpResult(
         trajectory=trajectory, drives=tuple(drives), phases=phases, flipped=flipped,
@@ -489,13 +495,25 @@ def simulate_pump(
         cycle_max_pitch=_cycle_max(trajectory.times, pitch, phases),
         energy_drawn=energy_drawn(scene, trajectory), body_contact_kept=separation is None,
         plans=tuple(policy.plans),
-        reason=None if flipped else f"{_why_not(trajectory, pitch, task.vertical, max_time)}; "
-                                    f"{energy_shortfall(budget, energy)}",
+        reason=None if flipped else _why_not(trajectory, pitch, task.vertical, max_time) + (
+            "" if budget is None else f"; {energy_shortfall(budget, energy)}"),
         dt=dt, max_time=max_time, margin=margin,
         timings={"planning": policy.planning_time, "simulation": total - policy.planning_time,
                  "total": total},
-        budget=budget, cycle_max_energy=_cycle_max(trajectory.times, energy, phases),
+        budget=budget, cycle_max_energy=_cycle_max(trajectory.times, energy, phases) if energy.size else (),
     )
+
+
+def _budget(scene: Scene, trajectory: Trajectory) -> tuple[FlipBudget | None, np.ndarray]:
+    """The flip's energy budget and the body's energy [J] per sample.
+
+    (None, empty) where the budget does not apply: no planar floating base, or the body's contacts
+    on different surfaces.
+    """
+    try:
+        return flip_budget(scene), body_energy(scene, trajectory)
+    except SceneError:
+        return None, np.empty(0)
 
 
 def _why_not(trajectory: Trajectory, pitch: np.ndarray, vertical: float, max_time: float) -> str:
