@@ -164,6 +164,13 @@ def render_pump(payload: dict[str, Any]) -> None:
         console.print(f"flipped: no ({sim['reason']})")
     console.print(f"energy drawn: {pump['energy_drawn']:.1f} J; every sample's torque within the motor's "
                   f"limits: {'yes' if sim['torque_within_limits'] else 'NO'}")
+    budget = pump.get("budget")
+    if budget is not None and pump.get("max_energy") is not None:
+        reach = ", ".join(f"{name} {pitch:.3f}" for name, pitch in budget["reach_pitch"].items()
+                          if pitch is not None)
+        console.print(f"energy budget: the body's highest {pump['max_energy']:.2f} J above the start; over "
+                      f"{budget['pivot']} it needs {budget['barrier_energy']:.2f} J; the toes reach the "
+                      f"ground up to pitch \\[rad] {reach or 'none'}")
     check = pump["compliant"]
     if check is not None:
         verdict = ("flipped" if check["flipped"]

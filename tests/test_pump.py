@@ -15,6 +15,7 @@ from frcontrol.drives import joint_torque, no_load_speed, stall_torque, torque_l
 from frcontrol.engine import solutions_at
 from frcontrol.errors import SceneError
 from frcontrol.planning.flip import flip_task
+from frcontrol.planning.flip_budget import flip_budget
 from frcontrol.planning.pump import (
     pump_flip,
     pump_payload,
@@ -155,6 +156,82 @@ def test_within_twenty_newton_metres_the_rigid_body_does_not_flip_and_says_why(p
     assert result.max_pitch < flip_task(load_scene("rhex_flip_drives")).vertical
 
 
+# ------------------------------------------------------- the energy budget, and why no flip
+
+BODY_MASS, BODY_INERTIA = 7.5, 0.1668125
+"""[kg], [kg m^2] RHex's body (rhex_planar.urdf; the legs are massless)."""
+CORNER, HIP_DEPTH, LEG = (0.25, 0.065), 0.13, 0.17
+"""[m] The front corner in the body frame, the hips' height above the shell lying flat (2 x 0.065),
+a leg's length (rhex_planar.urdf)."""
+
+
+def _closed_form_reach(hip_to_corner: float) -> float:
+    """[rad] The pitch above flat at which a hip ``hip_to_corner`` [m] behind the front corner (along
+    the body) rises ``LEG`` above the ground, the body pivoting on the corner:
+    ``hip_to_corner sin a + HIP_DEPTH cos a = LEG``."""
+    return math.asin(LEG / math.hypot(hip_to_corner, HIP_DEPTH)) - math.atan2(HIP_DEPTH, hip_to_corner)
+
+
+def test_the_flip_budget_is_the_closed_form_of_the_geometry(rhex):
+    budget = flip_budget(rhex)
+    g, y0, step = rhex.robot.gravity, float(rhex.q[1]), budget.pitch_step
+    weight = BODY_MASS * g
+    assert budget.pivot == "front_corner"
+    # the barrier: the centre of mass right above the front corner
+    assert budget.barrier_energy == pytest.approx(weight * (math.hypot(*CORNER) - y0), abs=1e-4)
+    assert budget.tip_pitch == pytest.approx(math.pi + math.atan2(*CORNER), abs=step)
+    assert budget.vertical_energy == pytest.approx(weight * (CORNER[0] - y0), abs=1e-9)
+    # the legs reach the ground only a few degrees up (0.2 m between hips, 0.05 m corner to front hip)
+    for joint, behind in (("hip_middle", 0.25), ("hip_rear", 0.45)):
+        reach = budget.reach_pitch[joint] - math.pi
+        assert _closed_form_reach(behind) - step <= reach <= _closed_form_reach(behind)
+    top = max(budget.reach_pitch.values()) - math.pi
+    height = CORNER[0] * math.sin(top) + CORNER[1] * math.cos(top)
+    assert budget.reach_energy == pytest.approx(weight * (height - y0), abs=1e-9)
+    assert budget.kinetic_energy_needed == pytest.approx(budget.barrier_energy - budget.reach_energy)
+    assert budget.kinetic_energy_needed > 11.0
+
+
+def test_a_budget_over_body_contacts_on_different_surfaces_is_a_scene_error():
+    scene = load_scene("rhex_flip_drives", overrides={"contacts.rear_corner.normal": [0.1, 1.0]})
+    with pytest.raises(SceneError, match="one flat surface") as error:
+        flip_budget(scene)
+    assert error.value.field == "task.body_contacts"
+
+
+def test_a_toe_carries_force_only_below_its_reach_pitch(rhex, pumped):
+    _, result = pumped
+    budget, traj = result.budget, result.trajectory
+    pitch = traj.q[:, PITCH]
+    for toe, joint in (("middle_toe", "hip_middle"), ("rear_toe", "hip_rear")):
+        loaded = traj.contact_forces[:, traj.contacts.index(toe), 0] > 0
+        assert np.any(loaded)
+        assert np.all(pitch[loaded] <= budget.reach_pitch[joint] + budget.pitch_step)
+
+
+def test_the_rigid_pumping_does_not_add_up_and_the_samples_show_it(rhex, pumped):
+    plan, result = pumped
+    doc = json.loads(json.dumps(pump_payload(rhex, plan, result)))
+    samples, pump = doc["simulation"]["samples"], doc["pump"]
+    q, v, times = np.array(samples["q"]), np.array(samples["v"]), np.array(samples["times"])
+    # the body's mechanical energy above the start, from the samples and the URDF's mass alone
+    energy = 0.5 * BODY_MASS * (v[:, 0] ** 2 + v[:, 1] ** 2) + 0.5 * BODY_INERTIA * v[:, 2] ** 2 \
+        + BODY_MASS * rhex.robot.gravity * (q[:, 1] - q[0, 1])
+    assert pump["max_energy"] == pytest.approx(float(energy.max()), abs=1e-9)
+    assert pump["max_energy"] < pump["budget"]["barrier_energy"]
+    # every push after the first starts from rest (the body is back on its legs), so it can end no
+    # higher than the first push from rest: the cycles' highest energies do not grow
+    pushes = [p for p in pump["phases"] if p["kind"] == "push"]
+    assert len(pushes) >= 2
+    for push in pushes[1:]:
+        k = int(np.searchsorted(times, push["start"]))
+        kinetic = 0.5 * BODY_MASS * (v[k, 0] ** 2 + v[k, 1] ** 2) + 0.5 * BODY_INERTIA * v[k, 2] ** 2
+        assert kinetic < 1e-3
+    first, *later = pump["cycle_max_energy"]
+    assert all(e <= first + 0.05 for e in later), pump["cycle_max_energy"]
+    assert "13.31 J brings its centre of mass over front_corner" in doc["simulation"]["reason"]
+
+
 # ---------------------------------------------------------------- a flip, by simulation
 
 
@@ -215,7 +292,7 @@ def test_frc_flip_pump_json_plot_and_exit_codes(tmp_path):
     assert {"flipped", "time_to_vertical", "body_contact_kept", "steps", "samples"} <= set(sim)
     assert {"times", "q", "v", "drives"} <= set(sim["samples"])
     assert set(sim["samples"]["drives"]["hip_rear"]) >= {"voltage", "current", "motor_speed", "torque"}
-    assert {"cycles", "time_to_flip", "energy_drawn", "phases"} <= set(doc["pump"])
+    assert {"cycles", "time_to_flip", "energy_drawn", "phases", "budget", "max_energy"} <= set(doc["pump"])
     assert figure.stat().st_size > 0
     scene = load_scene("rhex_flip_drives")
     assert text_overlaps(pump_figure(scene, simulate_pump(scene, max_time=0.3))) == []

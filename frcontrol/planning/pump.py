@@ -32,6 +32,12 @@ current, motor speed, torque and limits, so a reader can check.
 over the step ending at sample k and the current at that sample; negative power, braking, counts
 as returned).
 
+**Energy budget.** The run reports the body's mechanical energy per cycle against the barrier it
+must cross and the pitches up to which the legs reach the ground (:mod:`.flip_budget`): with the
+pushes ending on a mode change, the recirculation ending with the body at rest on its legs, and
+rigid massless legs, every push after the first starts from rest, so the cycles cannot add up
+(README, "The pumping flip").
+
 **Verification.** The run is one rigid simulation (velocity-level time stepping with inelastic
 impacts). The same voltages, replayed against time, drive the compliant model (Kelvin–Voigt
 contacts at the stiffness the speed-accuracy benchmark recommends for trajectories,
@@ -69,6 +75,7 @@ from .flip import (
     flip_task,
     sample_modes,
 )
+from .flip_budget import FlipBudget, body_energy, energy_shortfall, flip_budget
 
 __all__ = [
     "COMPLIANT_EXTRA_TIME",
@@ -227,6 +234,9 @@ class PumpResult:
         margin: [V] the push plans' margin.
         timings: [s] ``planning``, ``simulation``, ``total``.
         compliant: the compliant check (:func:`verify_compliant`), when made.
+        budget: the flip's energy barrier and the legs' reach (:func:`~.flip_budget.flip_budget`).
+        cycle_max_energy: [J] per cycle, the body's largest mechanical energy above the start
+            (:func:`~.flip_budget.body_energy`).
     """
 
     trajectory: Trajectory
@@ -246,6 +256,8 @@ class PumpResult:
     margin: float
     timings: Mapping[str, float]
     compliant: Mapping[str, Any] | None = None
+    budget: FlipBudget | None = None
+    cycle_max_energy: tuple[float, ...] = ()
 
     @property
     def cycles(self) -> int:
@@ -267,6 +279,9 @@ class PumpResult:
             "max_pitch": self.max_pitch, "vertical": self.vertical,
             "cycle_max_pitch": list(self.cycle_max_pitch), "phases": phases, "drives": drives,
             "margin": self.margin, "compliant": None if self.compliant is None else dict(self.compliant),
+            "budget": None if self.budget is None else self.budget.to_dict(),
+            "cycle_max_energy": list(self.cycle_max_energy),
+            "max_energy": max(self.cycle_max_energy, default=None),
         })
 
 
@@ -471,19 +486,34 @@ def simulate_pump(
                           else "the end of the run")
     separation, _ = _body_contacts(scene, trajectory, task.body_contacts, len(trajectory.times) - 1)
     pitch = trajectory.q[:, task.pitch_index]
+    budget, energy = _budget(scene, trajectory)
     total = time.perf_counter() - start
     return PumpResult(
         trajectory=trajectory, drives=tuple(drives), phases=phases, flipped=flipped,
         time_to_vertical=_time_to_vertical(trajectory, task) if flipped else None,
         max_pitch=float(pitch.max()), vertical=task.vertical,
-        cycle_max_pitch=_cycle_max_pitch(trajectory.times, pitch, phases),
+        cycle_max_pitch=_cycle_max(trajectory.times, pitch, phases),
         energy_drawn=energy_drawn(scene, trajectory), body_contact_kept=separation is None,
         plans=tuple(policy.plans),
-        reason=None if flipped else _why_not(trajectory, pitch, task.vertical, max_time),
+        reason=None if flipped else _why_not(trajectory, pitch, task.vertical, max_time) + (
+            "" if budget is None else f"; {energy_shortfall(budget, energy)}"),
         dt=dt, max_time=max_time, margin=margin,
         timings={"planning": policy.planning_time, "simulation": total - policy.planning_time,
                  "total": total},
+        budget=budget, cycle_max_energy=_cycle_max(trajectory.times, energy, phases) if energy.size else (),
     )
+
+
+def _budget(scene: Scene, trajectory: Trajectory) -> tuple[FlipBudget | None, np.ndarray]:
+    """The flip's energy budget and the body's energy [J] per sample.
+
+    (None, empty) where the budget does not apply: no planar floating base, or the body's contacts
+    on different surfaces.
+    """
+    try:
+        return flip_budget(scene), body_energy(scene, trajectory)
+    except SceneError:
+        return None, np.empty(0)
 
 
 def _why_not(trajectory: Trajectory, pitch: np.ndarray, vertical: float, max_time: float) -> str:
@@ -494,13 +524,13 @@ def _why_not(trajectory: Trajectory, pitch: np.ndarray, vertical: float, max_tim
             f"({vertical:.4f} rad)")
 
 
-def _cycle_max_pitch(times: np.ndarray, pitch: np.ndarray, phases: Sequence[PumpPhase]) -> tuple[float, ...]:
-    """[rad] The largest pitch of each cycle's samples."""
+def _cycle_max(times: np.ndarray, series: np.ndarray, phases: Sequence[PumpPhase]) -> tuple[float, ...]:
+    """The largest value of ``series`` (a pitch [rad], an energy [J]) over each cycle's samples."""
     best: dict[int, float] = {}
     for phase in phases:
         inside = (times >= phase.start) & (times <= phase.end)
         if np.any(inside):
-            best[phase.cycle] = max(best.get(phase.cycle, -math.inf), float(pitch[inside].max()))
+            best[phase.cycle] = max(best.get(phase.cycle, -math.inf), float(series[inside].max()))
     return tuple(best[c] for c in sorted(best))
 
 

@@ -1,0 +1,131 @@
+"""How far open-loop hip voltages get RHex's rigid flip within a voltage limit: a cross-entropy search.
+
+Each candidate holds, for each driven hip, one voltage per ``--step`` seconds (``--knots`` of
+them, within ``+-volts``), then the last one, in the rigid model (``RigidStepper``, 1 ms steps)
+from the scene ``rhex_flip_drives`` (drives at ``--volts``) or, with ``--front``, the same scene
+with its front hip unlocked and driven like the others. The search keeps the best quarter of each
+population (``--population`` runs) and samples the next one around it. Objectives (``--objective``):
+
+- ``pitch``: the highest pitch [rad] (vertical: 4.712);
+- ``energy``: the body's highest mechanical energy above the start [J]
+  (:func:`frcontrol.planning.flip_budget.body_energy`);
+- ``corner``: the highest energy the body would have if it turned about its front corner from
+  that instant on, ``V(q) - V(q0) + L |L| / (2 I_corner)`` [J], with ``L`` its angular momentum
+  about the corner (massless legs: the body's own), at the samples where the corner is within
+  ``CORNER_GAP`` of the ground (elsewhere the body is not turning about it), to compare with the
+  barrier, ``pump.budget``.
+
+Prints one JSON document: the best candidate's voltages and its pitch, energy and corner energy.
+Not part of ``benchmarks/ci.py``: a measurement behind the README's table ("The pumping flip").
+
+    python -m benchmarks.pump_search --front --objective energy --seed 8 --iterations 10
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+import numpy as np
+
+from frcontrol.planning.flip_budget import body_energy
+from frcontrol.scene import Scene, load_scene
+from frcontrol.simulation.rigid import RigidSettings, RigidStepper
+
+HIPS = ("hip_front", "hip_middle", "hip_rear")
+FRONT_DRIVE = {"kind": "dc_motor", "resistance": 1.16, "torque_constant": 0.0234, "back_emf_constant": 0.0234,
+               "rotor_inertia": 2.1e-6, "stages": [{"ratio": 33.0, "efficiency": 0.7}]}
+"""The front pair's drive: the same pair of maxon RE 25 as rhex_flip_drives' other hips."""
+
+CORNER_GAP = 0.02
+"""[m] The ``corner`` objective counts the samples where the front corner is at most this high."""
+
+
+def scene_for(volts: float, front: bool, flat: bool) -> Scene:
+    """rhex_flip_drives at ``volts`` [V]; ``front``: the front hip driven; ``flat``: lying flat."""
+    hips = HIPS if front else HIPS[1:]
+    sets: dict = {f"model.drives.{h}.voltage_limit": volts for h in HIPS[1:]}
+    sets.update({"inputs.lower": [-volts] * len(hips), "inputs.upper": [volts] * len(hips)})
+    if front:
+        sets.update({"locked_joints": [], "inputs.coordinates": list(hips),
+                     "model.drives.hip_front": {**FRONT_DRIVE, "voltage_limit": volts}})
+    if flat:  # both corners down, the toes on the ground behind the hips (0.13 m hips, 0.17 m legs)
+        leg = math.acos(0.13 / 0.17) - math.pi
+        sets["state.q"] = [0.0, 0.065, math.pi, 0.0, leg, leg]
+    return load_scene("rhex_flip_drives", overrides=sets)
+
+
+def run(scene: Scene, schedule: np.ndarray, step: float, duration: float):
+    """The rigid run of a schedule (hips x knots, in [-1, 1] of the voltage limit)."""
+    limit = np.array(scene.inputs.upper)
+    stepper = RigidStepper(scene, RigidSettings(max_ambiguity_checks=0))
+    for _ in range(int(round(duration / 1e-3))):
+        knot = min(int(stepper.t / step), schedule.shape[1] - 1)
+        if not stepper.step(schedule[:, knot] * limit, 1e-3) or stepper.q[2] >= 1.5 * math.pi:
+            break
+    return stepper.trajectory(1e-3)
+
+
+def corner_energy(scene: Scene, traj) -> np.ndarray:
+    """[J] ``V(q) - V(q0) + L |L| / (2 I_corner)`` per sample, about the front corner."""
+    robot, corner = scene.robot, [c.name for c in scene.contacts].index("front_corner")
+    mass, start = robot.total_mass, robot.potential_energy(np.asarray(scene.q))
+    com = np.array([robot.center_of_mass(q) for q in traj.q])
+    com_velocity = np.gradient(com, traj.times, axis=0)
+    out = np.empty(len(traj.times))
+    for k, (q, v) in enumerate(zip(traj.q, traj.v, strict=True)):
+        own = robot.mass_matrix(q)[2, 2] - mass * float(np.sum((com[k] - q[:2]) ** 2))
+        point = robot.contact_points_in_world(q)[corner]
+        if point[1] > CORNER_GAP:
+            out[k] = -math.inf
+            continue
+        r = com[k] - point
+        momentum = own * v[2] + mass * (r[0] * com_velocity[k, 1] - r[1] * com_velocity[k, 0])
+        out[k] = robot.potential_energy(q) - start + momentum * abs(momentum) / (2 * (own + mass * r @ r))
+    return out
+
+
+def main() -> None:
+    """Parse the options, search, print the JSON."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--volts", type=float, default=42.8)
+    parser.add_argument("--front", action="store_true")
+    parser.add_argument("--flat", action="store_true")
+    parser.add_argument("--objective", choices=("pitch", "energy", "corner"), default="pitch")
+    parser.add_argument("--knots", type=int, default=10)
+    parser.add_argument("--step", type=float, default=0.05)
+    parser.add_argument("--population", type=int, default=20)
+    parser.add_argument("--iterations", type=int, default=8)
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    scene = scene_for(args.volts, args.front, args.flat)
+    duration = args.knots * args.step + 0.5
+    shape = (scene.inputs.count, args.knots)
+    measures = {"pitch": lambda t: t.q[:, 2], "energy": lambda t: body_energy(scene, t),
+                "corner": lambda t: corner_energy(scene, t)}
+
+    def score(x: np.ndarray) -> float:
+        return float(np.max(measures[args.objective](run(scene, x.reshape(shape), args.step, duration))))
+
+    rng = np.random.default_rng(args.seed)
+    mean, spread = -0.5 * np.ones(math.prod(shape)), 0.8 * np.ones(math.prod(shape))
+    best, best_x = -math.inf, mean
+    for _ in range(args.iterations):
+        population = np.clip(mean + spread * rng.standard_normal((args.population, mean.size)), -1, 1)
+        scores = np.array([score(x) for x in population])
+        elite = population[np.argsort(scores)[-max(2, args.population // 4):]]
+        mean, spread = elite.mean(axis=0), elite.std(axis=0) + 0.05
+        if scores.max() > best:
+            best, best_x = float(scores.max()), population[int(np.argmax(scores))]
+    traj = run(scene, best_x.reshape(shape), args.step, duration)
+    print(json.dumps({
+        "options": vars(args), "runs": args.iterations * args.population, "best": best,
+        "voltages": (best_x.reshape(shape) * np.array(scene.inputs.upper)[:, None]).round(2).tolist(),
+        "max_pitch": float(traj.q[:, 2].max()), "max_energy": float(body_energy(scene, traj).max()),
+        "max_corner_energy": float(corner_energy(scene, traj).max()),
+    }, indent=1))
+
+
+if __name__ == "__main__":
+    main()
