@@ -38,6 +38,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .kernel import compiled, kernel_choice
 from .modes import MODE_LETTERS, ContactProblem
 from .response import CONSISTENCY_TOLERANCE, ILL_CONDITIONED_BAND, outputs_moved_by, power_of_two_scale
 
@@ -159,7 +160,8 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
     """Stack, factorise and decide every full mode at ``u`` (see the module docstring).
 
     Well-conditioned modes are certified by a cheap bound (:data:`CERTIFIED_MARGIN`) and solved
-    by LU; the others get the SVD and its rank rule.
+    by LU, in the kernel ``FRC_KERNEL`` chooses (:mod:`frcontrol.kernel`); the others get the SVD
+    and its rank rule.
 
     Args:
         problem: the contact problem.
@@ -169,8 +171,26 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
         domain_tolerance: the engine's membership distance.
         zero_row_tolerance: the engine's constant-row threshold.
         radius_cap: the Chebyshev LP's radius cap (for a side of an interval without a bound).
+
+    Raises:
+        KernelError: ``FRC_KERNEL`` names no kernel, or the compiled one where it is not built.
     """
     modes, letters = full_modes(problem.allowed_modes())
+    tolerances = (domain_tolerance, zero_row_tolerance, radius_cap)
+    if kernel_choice() == "compiled":
+        found, rest = _compiled_full_rank(problem, modes, letters, u, rank_tolerance, domain_tolerance,
+                                          zero_row_tolerance)
+        if rest.size == 0:
+            return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+        st = _stack(problem, letters[rest], u)  # the modes left for the SVD alone
+        r_scale, c_scale = _equilibrate(st.A)
+        A_hat = st.A * r_scale[:, :, None] * c_scale[:, None, :]
+        others = _svd_modes(problem, tuple(modes[i] for i in rest.tolist()), st, A_hat, r_scale, c_scale,
+                            np.arange(rest.size), u, decide_w, rank_tolerance, tolerances)
+        if others is None:
+            return ModeBatch(modes, (), True)
+        found.update({int(rest[i]): sol for i, sol in others.items()})
+        return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
     st = _stack(problem, letters, u)
     r_scale, c_scale = _equilibrate(st.A)
     A_hat = st.A * r_scale[:, :, None] * c_scale[:, None, :]
@@ -178,21 +198,64 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
     found = _decide_full_rank(problem, modes, st, certified, x, X_u, u, domain_tolerance,
                               zero_row_tolerance)
     rest = np.nonzero(~certified)[0]
-    if rest.size == 0:
-        return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+    if rest.size:
+        others = _svd_modes(problem, modes, st, A_hat, r_scale, c_scale, rest, u, decide_w, rank_tolerance,
+                            tolerances)
+        if others is None:
+            return ModeBatch(modes, (), True)
+        found.update(others)
+    return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+
+
+def _svd_modes(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, A_hat: np.ndarray,
+               r_scale: np.ndarray, c_scale: np.ndarray, rest: np.ndarray, u: np.ndarray,
+               decide_w: WDecider, rank_tolerance: float, tolerances: tuple[float, float, float]
+               ) -> dict[int, BatchSolution] | None:
+    """The modes ``rest`` (indices into ``st`` and ``modes``) by one batched SVD and the rank rule.
+
+    None when a singular value lies in the ill-conditioned band (nothing is decided then).
+    """
     U, s, Vt = np.linalg.svd(A_hat[rest])
     s_max = s[:, :1]
     kept = s > rank_tolerance * s_max
     if (kept & (s <= ILL_CONDITIONED_BAND * s_max)).any():
-        return ModeBatch(modes, (), True)
+        return None
     rank = np.where(s_max[:, 0] > 0.0, kept.sum(axis=1), 0)
     scaled = _Scaled(U, s, Vt, r_scale[rest], c_scale[rest], st.B[rest] * r_scale[rest, :, None],
                      st.c[rest] * r_scale[rest])
+    found: dict[int, BatchSolution] = {}
     for r in np.unique(rank):
         group = np.nonzero(rank == r)[0]
         found.update(_decide_rank_group(problem, modes, st, scaled, rest, group, int(r), u, decide_w,
-                                        (domain_tolerance, zero_row_tolerance, radius_cap)))
-    return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+                                        tolerances))
+    return found
+
+
+def _compiled_full_rank(problem: ContactProblem, modes: tuple[str, ...], letters: np.ndarray,
+                        u: np.ndarray, rank_tolerance: float, domain_tolerance: float,
+                        zero_row_tolerance: float) -> tuple[dict[int, BatchSolution], np.ndarray]:
+    """The certified modes by the compiled kernel (:mod:`frcontrol._kernel`), and the others' indices.
+
+    The kernel does what :func:`_stack`, :func:`_equilibrate`, :func:`_certified_responses` and
+    :func:`_decide_full_rank` do, one mode at a time in C.
+    """
+    table = problem.row_table
+    count, nx = letters.shape[0], problem.n + 2 * problem.k
+    status = np.empty(count, dtype=np.int8)
+    x = np.empty((count, nx))
+    residual = np.empty(count)
+    violation = np.empty(count)
+    assert compiled is not None  # kernel_choice() said so
+    compiled.certified_modes(
+        problem.dynamics, table.equalities, table.equality_rhs, table.inequalities, table.inequality_rhs,
+        table.valid, table.motion, letters, np.ascontiguousarray(problem.input_map, dtype=float),
+        np.ascontiguousarray(problem.bias, dtype=float), np.ascontiguousarray(u, dtype=float), status, x,
+        residual, violation, CERTIFIED_MARGIN, max(rank_tolerance, ILL_CONDITIONED_BAND),
+        domain_tolerance, zero_row_tolerance)
+    empty = np.zeros(0)
+    found = {i: BatchSolution(modes[i], x[i], empty, "none", float(residual[i]), float(violation[i]))
+             for i in np.nonzero(status == compiled.CERTIFIED_ADMISSIBLE)[0].tolist()}
+    return found, np.nonzero(status == compiled.NOT_CERTIFIED)[0]
 
 
 def _certified_responses(problem: ContactProblem, st: _Stack, A_hat: np.ndarray, r_scale: np.ndarray,
