@@ -40,7 +40,13 @@ import numpy as np
 
 from .kernel import compiled, kernel_choice
 from .modes import MODE_LETTERS, ContactProblem
-from .response import CONSISTENCY_TOLERANCE, ILL_CONDITIONED_BAND, outputs_moved_by, power_of_two_scale
+from .response import (
+    CONSISTENCY_TOLERANCE,
+    ILL_CONDITIONED_BAND,
+    OUTPUT_TOLERANCE,
+    outputs_moved_by,
+    power_of_two_scale,
+)
 
 BATCH_MAX_MODES = 1024
 """The fast path stacks every full mode when there are at most this many (4^5); larger problems
@@ -178,19 +184,7 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
     modes, letters = full_modes(problem.allowed_modes())
     tolerances = (domain_tolerance, zero_row_tolerance, radius_cap)
     if kernel_choice() == "compiled":
-        found, rest = _compiled_full_rank(problem, modes, letters, u, rank_tolerance, domain_tolerance,
-                                          zero_row_tolerance)
-        if rest.size == 0:
-            return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
-        st = _stack(problem, letters[rest], u)  # the modes left for the SVD alone
-        r_scale, c_scale = _equilibrate(st.A)
-        A_hat = st.A * r_scale[:, :, None] * c_scale[:, None, :]
-        others = _svd_modes(problem, tuple(modes[i] for i in rest.tolist()), st, A_hat, r_scale, c_scale,
-                            np.arange(rest.size), u, decide_w, rank_tolerance, tolerances)
-        if others is None:
-            return ModeBatch(modes, (), True)
-        found.update({int(rest[i]): sol for i, sol in others.items()})
-        return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+        return _compiled_modes(problem, modes, letters, u, decide_w, rank_tolerance, tolerances)
     st = _stack(problem, letters, u)
     r_scale, c_scale = _equilibrate(st.A)
     A_hat = st.A * r_scale[:, :, None] * c_scale[:, None, :]
@@ -231,31 +225,105 @@ def _svd_modes(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, A_ha
     return found
 
 
-def _compiled_full_rank(problem: ContactProblem, modes: tuple[str, ...], letters: np.ndarray,
-                        u: np.ndarray, rank_tolerance: float, domain_tolerance: float,
-                        zero_row_tolerance: float) -> tuple[dict[int, BatchSolution], np.ndarray]:
-    """The certified modes by the compiled kernel (:mod:`frcontrol._kernel`), and the others' indices.
+def _compiled_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np.ndarray, u: np.ndarray,
+                    decide_w: WDecider, rank_tolerance: float, tolerances: tuple[float, float, float]
+                    ) -> ModeBatch:
+    """:func:`decide_modes` with the compiled kernel (:mod:`frcontrol._kernel`).
 
-    The kernel does what :func:`_stack`, :func:`_equilibrate`, :func:`_certified_responses` and
-    :func:`_decide_full_rank` do, one mode at a time in C.
+    ``certified_modes`` does what :func:`_stack`, :func:`_equilibrate`, :func:`_certified_responses`
+    and :func:`_decide_full_rank` do, one mode at a time in C; the other modes get NumPy's batched
+    SVD, then ``rank_modes`` (:func:`_compiled_rank_modes`).
     """
+    assert compiled is not None  # kernel_choice() said so
+    domain_tolerance, zero_row_tolerance, _ = tolerances
     table = problem.row_table
     count, nx = letters.shape[0], problem.n + 2 * problem.k
-    status = np.empty(count, dtype=np.int8)
-    x = np.empty((count, nx))
-    residual = np.empty(count)
-    violation = np.empty(count)
-    assert compiled is not None  # kernel_choice() said so
-    compiled.certified_modes(
-        problem.dynamics, table.equalities, table.equality_rhs, table.inequalities, table.inequality_rhs,
-        table.valid, table.motion, letters, np.ascontiguousarray(problem.input_map, dtype=float),
-        np.ascontiguousarray(problem.bias, dtype=float), np.ascontiguousarray(u, dtype=float), status, x,
-        residual, violation, CERTIFIED_MARGIN, max(rank_tolerance, ILL_CONDITIONED_BAND),
-        domain_tolerance, zero_row_tolerance)
+    rows = (problem.dynamics, table.equalities, table.equality_rhs, table.inequalities,
+            table.inequality_rhs, table.valid, table.motion)
+    vectors = (np.ascontiguousarray(problem.input_map, dtype=float),
+               np.ascontiguousarray(problem.bias, dtype=float), np.ascontiguousarray(u, dtype=float))
+    status, residual, violation = np.empty(count, dtype=np.int8), np.empty(count), np.empty(count)
+    x, a_hat = np.empty((count, nx)), np.empty((count, nx, nx))
+    r_scale, c_scale = np.empty((count, nx)), np.empty((count, nx))
+    compiled.certified_modes(*rows, letters, *vectors, status, x, residual, violation, a_hat, r_scale,
+                             c_scale, CERTIFIED_MARGIN, max(rank_tolerance, ILL_CONDITIONED_BAND),
+                             domain_tolerance, zero_row_tolerance)
     empty = np.zeros(0)
     found = {i: BatchSolution(modes[i], x[i], empty, "none", float(residual[i]), float(violation[i]))
              for i in np.nonzero(status == compiled.CERTIFIED_ADMISSIBLE)[0].tolist()}
-    return found, np.nonzero(status == compiled.NOT_CERTIFIED)[0]
+    rest = np.nonzero(status == compiled.NOT_CERTIFIED)[0]
+    if rest.size:
+        others = _compiled_rank_modes(problem, modes, letters, rest, (rows, vectors),
+                                      (a_hat[rest], r_scale[rest], c_scale[rest]), u, decide_w,
+                                      rank_tolerance, tolerances)
+        if others is None:
+            return ModeBatch(modes, (), True)
+        found.update(others)
+    return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+
+
+def _compiled_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np.ndarray,
+                         rest: np.ndarray, buffers: tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]],
+                         scaled: tuple[np.ndarray, np.ndarray, np.ndarray], u: np.ndarray,
+                         decide_w: WDecider, rank_tolerance: float, tolerances: tuple[float, float, float]
+                         ) -> dict[int, BatchSolution] | None:
+    """The modes ``rest`` by NumPy's batched SVD of their ``A_hat``, then ``rank_modes`` in C.
+
+    ``rank_modes`` applies :func:`_decide_rank_group`'s formulas to the modes with at most one
+    ambiguity variable; those with more keep :func:`_decide_rank_group` (their w comes from LPs).
+    None when a singular value lies in the ill-conditioned band.
+    """
+    assert compiled is not None
+    rows, vectors = buffers
+    a_hat, r_scale, c_scale = scaled
+    U, s, Vt = np.linalg.svd(a_hat)
+    count, nx = rest.size, a_hat.shape[1]
+    status, residual, violation = np.empty(count, dtype=np.int8), np.empty(count), np.empty(count)
+    x, w, outputs = np.empty((count, nx)), np.empty(count), np.empty(count, dtype=np.int8)
+    domain_tolerance, zero_row_tolerance, radius_cap = tolerances
+    if compiled.rank_modes(*rows, letters[rest], *vectors, U, s, Vt, r_scale, c_scale, status, x, w,
+                           outputs, residual, violation, rank_tolerance, ILL_CONDITIONED_BAND,
+                           domain_tolerance, zero_row_tolerance, radius_cap, CONSISTENCY_TOLERANCE,
+                           OUTPUT_TOLERANCE):
+        return None
+    ambiguous = status == compiled.ADMISSIBLE_W
+    empty = np.zeros(0)
+    found = {}
+    for j in np.nonzero((status == compiled.ADMISSIBLE) | ambiguous)[0].tolist():
+        i = int(rest[j])
+        found[i] = BatchSolution(modes[i], x[j], w[j:j + 1] if ambiguous[j] else empty,
+                                 _MOVES[outputs[j]], float(residual[j]), float(violation[j]))
+    more = np.nonzero(status == compiled.NEEDS_PYTHON)[0]
+    if more.size:
+        found.update(_python_rank_modes(problem, modes, letters, rest[more], (U[more], s[more], Vt[more]),
+                                        r_scale[more], c_scale[more], u, decide_w, rank_tolerance,
+                                        tolerances))
+    return found
+
+
+_MOVES = ("none", "forces", "accelerations")
+"""The compiled kernel's ``outputs`` codes (MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS)."""
+
+
+def _python_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np.ndarray,
+                       index: np.ndarray, svd: tuple[np.ndarray, np.ndarray, np.ndarray],
+                       r_scale: np.ndarray, c_scale: np.ndarray, u: np.ndarray, decide_w: WDecider,
+                       rank_tolerance: float, tolerances: tuple[float, float, float]
+                       ) -> dict[int, BatchSolution]:
+    """The modes ``index`` (two or more ambiguity variables) by :func:`_decide_rank_group`, from their SVD."""
+    U, s, Vt = svd
+    st = _stack(problem, letters[index], u)
+    names = tuple(modes[i] for i in index.tolist())
+    scaled = _Scaled(U, s, Vt, r_scale, c_scale, st.B * r_scale[:, :, None], st.c * r_scale)
+    rank = np.where(s[:, 0] > 0.0, (s > rank_tolerance * s[:, :1]).sum(axis=1), 0)
+    everything = np.arange(index.size)
+    found: dict[int, BatchSolution] = {}
+    for r in np.unique(rank):
+        group = np.nonzero(rank == r)[0]
+        decided = _decide_rank_group(problem, names, st, scaled, everything, group, int(r), u, decide_w,
+                                     tolerances)
+        found.update({int(index[j]): sol for j, sol in decided.items()})
+    return found
 
 
 def _certified_responses(problem: ContactProblem, st: _Stack, A_hat: np.ndarray, r_scale: np.ndarray,
