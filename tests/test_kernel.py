@@ -11,18 +11,19 @@ import os
 
 import numpy as np
 import pytest
-from frcontrol import kernel, mode_batch
 from frcontrol.cli.app import app
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from test_mode_batch import SCENES, random_problem
+from typer.testing import CliRunner
+
+from frcontrol import kernel, mode_batch
 from frcontrol.engine import DOMAIN_TOLERANCE, RANK_TOLERANCE, ZERO_ROW_TOLERANCE, solutions_at
 from frcontrol.errors import KernelError
 from frcontrol.modes import ContactProblem
 from frcontrol.polytope import CHEBYSHEV_RADIUS_CAP
 from frcontrol.response import ILL_CONDITIONED_BAND
 from frcontrol.scene import load_scene
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
-from test_mode_batch import SCENES, random_problem
-from typer.testing import CliRunner
 
 compiled = kernel.compiled
 needs_kernel = pytest.mark.skipif(compiled is None and os.environ.get("CI") != "true",
@@ -163,8 +164,8 @@ def test_the_rank_kernel_decides_every_mode_as_the_svd_path(tolerance):
         table = problem.row_table
         ill = compiled.rank_modes(
             problem.dynamics, table.equalities, table.equality_rhs, table.inequalities, table.inequality_rhs,
-            table.valid, table.motion, letters, problem.input_map, problem.bias, u, *np.linalg.svd(A_hat), r, c,
-            status, x, w, outputs, residual, violation, RANK_TOLERANCE, ILL_CONDITIONED_BAND, tolerance,
+            table.valid, table.motion, letters, problem.input_map, problem.bias, u, *np.linalg.svd(A_hat),
+            r, c, status, x, w, outputs, residual, violation, RANK_TOLERANCE, ILL_CONDITIONED_BAND, tolerance,
             ZERO_ROW_TOLERANCE, CHEBYSHEV_RADIUS_CAP, 1e-9, 1e-9)
         assert ill == (reference is None)
         if ill:
