@@ -21,6 +21,11 @@ modes (4^k at most, 64 for RHex) fit in one stack of matrices:
    in closed form by :func:`interval_admissible` instead of two LPs; with more, by the engine's
    LPs.
 
+Steps 1-2, and step 3 for modes with at most one ambiguity variable, run in a compiled kernel
+(:mod:`frcontrol._kernel`, chosen by ``FRC_KERNEL``: :mod:`frcontrol.kernel`) where it is built:
+the same formulas one mode at a time in C, after NumPy's batched SVD for step 3. The NumPy code
+here is the reference and the fallback; the tests cross-check the two.
+
 Where the internal forces are not unique, the representative w may differ from the reference's
 when its admissible set is wider than twice ``CHEBYSHEV_RADIUS_CAP``: both are Chebyshev centres
 of the capped ball (the midpoint here, a vertex of the centres there). Otherwise nothing here
