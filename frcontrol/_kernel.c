@@ -888,11 +888,26 @@ PyMODINIT_FUNC PyInit__kernel(void) {
                              "MOVES_ACCELERATIONS"};
     int values[10] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
                       NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS};
+    PyObject *all = Py_BuildValue("[ss]", "certified_modes", "rank_modes");
+    if (all == NULL) {
+        Py_DECREF(mod);
+        return NULL;
+    }
     for (int i = 0; i < 10; i++) {
-        if (PyModule_AddIntConstant(mod, names[i], values[i]) != 0) {
+        PyObject *name = PyUnicode_FromString(names[i]);
+        int failed = name == NULL || PyList_Append(all, name) != 0 ||
+                     PyModule_AddIntConstant(mod, names[i], values[i]) != 0;
+        Py_XDECREF(name);
+        if (failed) {
+            Py_DECREF(all);
             Py_DECREF(mod);
             return NULL;
         }
+    }
+    if (PyModule_AddObject(mod, "__all__", all) != 0) { /* steals the reference on success */
+        Py_DECREF(all);
+        Py_DECREF(mod);
+        return NULL;
     }
     return mod;
 }
