@@ -6,6 +6,9 @@ import warnings
 
 import typer
 
+from frcontrol.errors import KernelError
+from frcontrol.kernel import kernel_choice
+
 from . import (
     analyze_cmd,
     atlas_cmd,
@@ -19,6 +22,7 @@ from . import (
     statics_cmd,
     view_cmd,
 )
+from .common import fail
 
 app = typer.Typer(
     name="frc",
@@ -51,6 +55,10 @@ def _root(
     # Floating-point warnings (overflow in a run that diverges) would add lines to stderr: the
     # library reports what they mean (a diverged status, a warning with its time and detail).
     warnings.filterwarnings("ignore", category=RuntimeWarning)
+    try:  # FRC_KERNEL (frcontrol.kernel) is checked once, before any command runs
+        kernel_choice()
+    except KernelError as err:
+        raise fail(str(err)) from None
 app.command("robots")(model_cmds.robots)
 app.command("show")(model_cmds.show)
 app.command("analyze")(analyze_cmd.analyze_command)

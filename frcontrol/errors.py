@@ -75,6 +75,14 @@ class InputError(FrcontrolError):
     """A value handed to a library function is malformed (shape, NaN, outside its limits)."""
 
 
+class KernelError(FrcontrolError):
+    """The compiled kernel cannot be used as asked.
+
+    ``FRC_KERNEL`` names no kernel, the compiled kernel is asked for but not built, or a buffer
+    handed to it has the wrong dtype, shape or memory layout.
+    """
+
+
 class IllConditioned(FrcontrolError):
     """A matrix is too ill-conditioned to trust the answer at the stated tolerance."""
 

@@ -21,6 +21,11 @@ modes (4^k at most, 64 for RHex) fit in one stack of matrices:
    in closed form by :func:`interval_admissible` instead of two LPs; with more, by the engine's
    LPs.
 
+Steps 1-2, and step 3 for modes with at most one ambiguity variable, run in a compiled kernel
+(:mod:`frcontrol._kernel`, chosen by ``FRC_KERNEL``: :mod:`frcontrol.kernel`) where it is built:
+the same formulas one mode at a time in C, after NumPy's batched SVD for step 3. The NumPy code
+here is the reference and the fallback; the tests cross-check the two.
+
 Where the internal forces are not unique, the representative w may differ from the reference's
 when its admissible set is wider than twice ``CHEBYSHEV_RADIUS_CAP``: both are Chebyshev centres
 of the capped ball (the midpoint here, a vertex of the centres there). Otherwise nothing here
@@ -38,8 +43,15 @@ from functools import lru_cache
 
 import numpy as np
 
+from .kernel import compiled, kernel_choice
 from .modes import MODE_LETTERS, ContactProblem
-from .response import CONSISTENCY_TOLERANCE, ILL_CONDITIONED_BAND, outputs_moved_by, power_of_two_scale
+from .response import (
+    CONSISTENCY_TOLERANCE,
+    ILL_CONDITIONED_BAND,
+    OUTPUT_TOLERANCE,
+    outputs_moved_by,
+    power_of_two_scale,
+)
 
 BATCH_MAX_MODES = 1024
 """The fast path stacks every full mode when there are at most this many (4^5); larger problems
@@ -159,7 +171,8 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
     """Stack, factorise and decide every full mode at ``u`` (see the module docstring).
 
     Well-conditioned modes are certified by a cheap bound (:data:`CERTIFIED_MARGIN`) and solved
-    by LU; the others get the SVD and its rank rule.
+    by LU, in the kernel ``FRC_KERNEL`` chooses (:mod:`frcontrol.kernel`); the others get the SVD
+    and its rank rule.
 
     Args:
         problem: the contact problem.
@@ -169,8 +182,14 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
         domain_tolerance: the engine's membership distance.
         zero_row_tolerance: the engine's constant-row threshold.
         radius_cap: the Chebyshev LP's radius cap (for a side of an interval without a bound).
+
+    Raises:
+        KernelError: ``FRC_KERNEL`` names no kernel, or the compiled one where it is not built.
     """
     modes, letters = full_modes(problem.allowed_modes())
+    tolerances = (domain_tolerance, zero_row_tolerance, radius_cap)
+    if kernel_choice() == "compiled":
+        return _compiled_modes(problem, modes, letters, u, decide_w, rank_tolerance, tolerances)
     st = _stack(problem, letters, u)
     r_scale, c_scale = _equilibrate(st.A)
     A_hat = st.A * r_scale[:, :, None] * c_scale[:, None, :]
@@ -178,21 +197,138 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
     found = _decide_full_rank(problem, modes, st, certified, x, X_u, u, domain_tolerance,
                               zero_row_tolerance)
     rest = np.nonzero(~certified)[0]
-    if rest.size == 0:
-        return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+    if rest.size:
+        others = _svd_modes(problem, modes, st, A_hat, r_scale, c_scale, rest, u, decide_w, rank_tolerance,
+                            tolerances)
+        if others is None:
+            return ModeBatch(modes, (), True)
+        found.update(others)
+    return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+
+
+def _svd_modes(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, A_hat: np.ndarray,
+               r_scale: np.ndarray, c_scale: np.ndarray, rest: np.ndarray, u: np.ndarray,
+               decide_w: WDecider, rank_tolerance: float, tolerances: tuple[float, float, float]
+               ) -> dict[int, BatchSolution] | None:
+    """The modes ``rest`` (indices into ``st`` and ``modes``) by one batched SVD and the rank rule.
+
+    None when a singular value lies in the ill-conditioned band (nothing is decided then).
+    """
     U, s, Vt = np.linalg.svd(A_hat[rest])
     s_max = s[:, :1]
     kept = s > rank_tolerance * s_max
     if (kept & (s <= ILL_CONDITIONED_BAND * s_max)).any():
-        return ModeBatch(modes, (), True)
+        return None
     rank = np.where(s_max[:, 0] > 0.0, kept.sum(axis=1), 0)
     scaled = _Scaled(U, s, Vt, r_scale[rest], c_scale[rest], st.B[rest] * r_scale[rest, :, None],
                      st.c[rest] * r_scale[rest])
+    found: dict[int, BatchSolution] = {}
     for r in np.unique(rank):
         group = np.nonzero(rank == r)[0]
         found.update(_decide_rank_group(problem, modes, st, scaled, rest, group, int(r), u, decide_w,
-                                        (domain_tolerance, zero_row_tolerance, radius_cap)))
+                                        tolerances))
+    return found
+
+
+def _compiled_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np.ndarray, u: np.ndarray,
+                    decide_w: WDecider, rank_tolerance: float, tolerances: tuple[float, float, float]
+                    ) -> ModeBatch:
+    """:func:`decide_modes` with the compiled kernel (:mod:`frcontrol._kernel`).
+
+    ``certified_modes`` does what :func:`_stack`, :func:`_equilibrate`, :func:`_certified_responses`
+    and :func:`_decide_full_rank` do, one mode at a time in C; the other modes get NumPy's batched
+    SVD, then ``rank_modes`` (:func:`_compiled_rank_modes`).
+    """
+    assert compiled is not None  # kernel_choice() said so
+    domain_tolerance, zero_row_tolerance, _ = tolerances
+    table = problem.row_table
+    count, nx = letters.shape[0], problem.n + 2 * problem.k
+    rows = (problem.dynamics, table.equalities, table.equality_rhs, table.inequalities,
+            table.inequality_rhs, table.valid, table.motion)
+    vectors = (np.ascontiguousarray(problem.input_map, dtype=float),
+               np.ascontiguousarray(problem.bias, dtype=float), np.ascontiguousarray(u, dtype=float))
+    status, residual, violation = np.empty(count, dtype=np.int8), np.empty(count), np.empty(count)
+    x, a_hat = np.empty((count, nx)), np.empty((count, nx, nx))
+    r_scale, c_scale = np.empty((count, nx)), np.empty((count, nx))
+    compiled.certified_modes(*rows, letters, *vectors, status, x, residual, violation, a_hat, r_scale,
+                             c_scale, CERTIFIED_MARGIN, max(rank_tolerance, ILL_CONDITIONED_BAND),
+                             domain_tolerance, zero_row_tolerance)
+    empty = np.zeros(0)
+    found = {i: BatchSolution(modes[i], x[i], empty, "none", float(residual[i]), float(violation[i]))
+             for i in np.nonzero(status == compiled.CERTIFIED_ADMISSIBLE)[0].tolist()}
+    rest = np.nonzero(status == compiled.NOT_CERTIFIED)[0]
+    if rest.size:
+        others = _compiled_rank_modes(problem, modes, letters, rest, (rows, vectors),
+                                      (a_hat[rest], r_scale[rest], c_scale[rest]), u, decide_w,
+                                      rank_tolerance, tolerances)
+        if others is None:
+            return ModeBatch(modes, (), True)
+        found.update(others)
     return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+
+
+def _compiled_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np.ndarray,
+                         rest: np.ndarray, buffers: tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]],
+                         scaled: tuple[np.ndarray, np.ndarray, np.ndarray], u: np.ndarray,
+                         decide_w: WDecider, rank_tolerance: float, tolerances: tuple[float, float, float]
+                         ) -> dict[int, BatchSolution] | None:
+    """The modes ``rest`` by NumPy's batched SVD of their ``A_hat``, then ``rank_modes`` in C.
+
+    ``rank_modes`` applies :func:`_decide_rank_group`'s formulas to the modes with at most one
+    ambiguity variable; those with more keep :func:`_decide_rank_group` (their w comes from LPs).
+    None when a singular value lies in the ill-conditioned band.
+    """
+    assert compiled is not None
+    rows, vectors = buffers
+    a_hat, r_scale, c_scale = scaled
+    U, s, Vt = np.linalg.svd(a_hat)
+    count, nx = rest.size, a_hat.shape[1]
+    status, residual, violation = np.empty(count, dtype=np.int8), np.empty(count), np.empty(count)
+    x, w, outputs = np.empty((count, nx)), np.empty(count), np.empty(count, dtype=np.int8)
+    domain_tolerance, zero_row_tolerance, radius_cap = tolerances
+    if compiled.rank_modes(*rows, letters[rest], *vectors, U, s, Vt, r_scale, c_scale, status, x, w,
+                           outputs, residual, violation, rank_tolerance, ILL_CONDITIONED_BAND,
+                           domain_tolerance, zero_row_tolerance, radius_cap, CONSISTENCY_TOLERANCE,
+                           OUTPUT_TOLERANCE):
+        return None
+    ambiguous = status == compiled.ADMISSIBLE_W
+    empty = np.zeros(0)
+    found = {}
+    for j in np.nonzero((status == compiled.ADMISSIBLE) | ambiguous)[0].tolist():
+        i = int(rest[j])
+        found[i] = BatchSolution(modes[i], x[j], w[j:j + 1] if ambiguous[j] else empty,
+                                 _MOVES[outputs[j]], float(residual[j]), float(violation[j]))
+    more = np.nonzero(status == compiled.NEEDS_PYTHON)[0]
+    if more.size:
+        found.update(_python_rank_modes(problem, modes, letters, rest[more], (U[more], s[more], Vt[more]),
+                                        r_scale[more], c_scale[more], u, decide_w, rank_tolerance,
+                                        tolerances))
+    return found
+
+
+_MOVES = ("none", "forces", "accelerations")
+"""The compiled kernel's ``outputs`` codes (MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS)."""
+
+
+def _python_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np.ndarray,
+                       index: np.ndarray, svd: tuple[np.ndarray, np.ndarray, np.ndarray],
+                       r_scale: np.ndarray, c_scale: np.ndarray, u: np.ndarray, decide_w: WDecider,
+                       rank_tolerance: float, tolerances: tuple[float, float, float]
+                       ) -> dict[int, BatchSolution]:
+    """The modes ``index`` (two or more ambiguity variables) by :func:`_decide_rank_group`, from their SVD."""
+    U, s, Vt = svd
+    st = _stack(problem, letters[index], u)
+    names = tuple(modes[i] for i in index.tolist())
+    scaled = _Scaled(U, s, Vt, r_scale, c_scale, st.B * r_scale[:, :, None], st.c * r_scale)
+    rank = np.where(s[:, 0] > 0.0, (s > rank_tolerance * s[:, :1]).sum(axis=1), 0)
+    everything = np.arange(index.size)
+    found: dict[int, BatchSolution] = {}
+    for r in np.unique(rank):
+        group = np.nonzero(rank == r)[0]
+        decided = _decide_rank_group(problem, names, st, scaled, everything, group, int(r), u, decide_w,
+                                     tolerances)
+        found.update({int(index[j]): sol for j, sol in decided.items()})
+    return found
 
 
 def _certified_responses(problem: ContactProblem, st: _Stack, A_hat: np.ndarray, r_scale: np.ndarray,

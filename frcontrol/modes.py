@@ -363,7 +363,12 @@ class ContactRowTable:
 
 def dynamics_rows(problem: ContactProblem) -> np.ndarray:
     """The dynamics' rows ``[M, -J_N^T, -J_T^T]`` of every mode's ``A`` (right side ``S^T u - h``)."""
-    return np.hstack([problem.mass_matrix, -problem.jacobian_normal.T, -problem.jacobian_tangent.T])
+    n, k = problem.n, problem.k
+    rows = np.empty((n, n + 2 * k))
+    rows[:, :n] = problem.mass_matrix
+    np.negative(problem.jacobian_normal.T, out=rows[:, n:n + k])
+    np.negative(problem.jacobian_tangent.T, out=rows[:, n + k:])
+    return rows
 
 
 def contact_row_table(problem: ContactProblem) -> ContactRowTable:
@@ -376,8 +381,8 @@ def contact_row_table(problem: ContactProblem) -> ContactRowTable:
     n, k, tol = problem.n, problem.k, problem.velocity_tolerance
     jn, jt, dn, dt, mu = (problem.jacobian_normal, problem.jacobian_tangent, problem.drift_normal,
                           problem.drift_tangent, problem.mu)
-    values = np.concatenate([(0.0, 1.0, -1.0), jn.ravel(), -jn.ravel(), jt.ravel(), -jt.ravel(), dn, -dn,
-                             dt, -dt, mu, -mu, -np.maximum(1.0, mu)])
+    plain = np.concatenate([jn.ravel(), jt.ravel(), dn, dt, mu])
+    values = np.concatenate([(0.0, 1.0, -1.0), plain, -plain, -np.maximum(1.0, mu)])
     template = _row_template(n, k)
     resting = np.abs(problem.normal_velocities) <= tol
     sticking = np.abs(problem.tangential_velocities) <= tol
@@ -394,8 +399,8 @@ def contact_row_table(problem: ContactProblem) -> ContactRowTable:
 class _RowTemplate:
     """Where each entry of a :class:`ContactRowTable` comes from.
 
-    Indices into the value vector ``(0, 1, -1, J_N, -J_N, J_T, -J_T, d_N, -d_N, d_T, -d_T, mu, -mu,
-    -max(1, mu))``.
+    Indices into the value vector ``(0, 1, -1, P, -P, -max(1, mu))`` with the problem's numbers
+    ``P = (J_N, J_T, d_N, d_T, mu)`` (each of them and its negative: one negation of P).
     """
 
     equalities: np.ndarray
@@ -414,9 +419,14 @@ def _row_template(n: int, k: int) -> _RowTemplate:
     idx = np.arange(k)
     i_n, i_t = n + idx, n + k + idx
     ZERO, ONE, MINUS = 0, 1, 2
-    start = np.cumsum([3, k * n, k * n, k * n, k * n, k, k, k, k, k, k])
-    jn, neg_jn, jt, neg_jt = (start[j] + np.arange(k * n).reshape(k, n) for j in range(4))
-    dn, neg_dn, dt, neg_dt, mu, neg_mu, neg_scale = (start[j] + idx for j in range(4, 11))
+    size = 2 * k * n + 3 * k  # P = (J_N, J_T, d_N, d_T, mu); values = (0, 1, -1, P, -P, -max(1, mu))
+    plain = np.cumsum([3, k * n, k * n, k, k])  # where J_N, J_T, d_N, d_T, mu start in P
+    matrix = np.arange(k * n).reshape(k, n)
+    jn, jt = plain[0] + matrix, plain[1] + matrix
+    neg_jn, neg_jt = jn + size, jt + size
+    dn, dt, mu = (plain[j] + idx for j in range(2, 5))
+    neg_dn, neg_dt, neg_mu = dn + size, dt + size, mu + size
+    neg_scale = 3 + 2 * size + idx
     eq = np.full((k, 4, 2, nx), ZERO)
     eq_rhs = np.full((k, 4, 2), ZERO)
     eq[idx, S, 0, i_n] = ONE  # S: lam_N = 0, lam_T = 0

@@ -1,0 +1,913 @@
+/* The compiled kernel of frcontrol.mode_batch: the certified-modes path of decide_modes.
+ *
+ * Plain C against the CPython API and the buffer protocol (no NumPy headers): the build needs only
+ * setuptools, a C compiler and Python's headers. frcontrol/kernel.py wraps it; the NumPy code in
+ * frcontrol/mode_batch.py (_stack, _equilibrate, _certified_responses, _decide_full_rank) is the
+ * reference it reproduces, mode by mode:
+ *
+ *   1. A = [dynamics; the contact row table's equalities of the mode's letters], its right side
+ *      rhs = c + [S^T u; 0] with c = [-h; the equalities' right sides];
+ *   2. power-of-two row scalings r (of max |A| per row), then column scalings s (of max |r A| per
+ *      column): A_hat = diag(r) A diag(s), as _equilibrate;
+ *   3. an LU factorisation of A_hat with partial pivoting solving
+ *      A_hat Y = [I, diag(r) B, diag(r) rhs]; an exactly zero pivot: not certified;
+ *   4. certified when ||A_hat||_F ||A_hat^-1||_F * margin * tolerance < 1 (CERTIFIED_MARGIN);
+ *   5. x = diag(s) y_last, X_u = diag(s) Y_B; each valid inequality row G_i at u: its norm in u
+ *      ||G_i X_u||, rows below the zero-row threshold normalised by 1, the slack
+ *      -(G_i x - g_i) / norm; motion rows must exceed the domain tolerance, the others reach its
+ *      negative;
+ *   6. the equality residual max |A x - rhs| and the inequality violation max(G x - g, 0).
+ *
+ * Every buffer is checked (format, dimensions, shape, C-contiguity, writability); a wrong one
+ * raises frcontrol.errors.KernelError, never a crash.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <string.h>
+
+#define LETTERS 4          /* S, L, R, F */
+#define EQUALITY_ROWS 2    /* equality rows per contact */
+#define INEQUALITY_ROWS 3  /* ROWS_PER_CONTACT */
+
+enum { NOT_CERTIFIED = 0, CERTIFIED_INADMISSIBLE = 1, CERTIFIED_ADMISSIBLE = 2 };
+
+static PyObject *kernel_error = NULL; /* frcontrol.errors.KernelError */
+
+typedef struct {
+    Py_buffer view;
+    int held;
+} Buffer;
+
+static int format_is(const char *format, char kind) {
+    const char *f = format ? format : "B";
+    if (*f == '@' || *f == '=' || *f == '<') {
+        f++;
+    }
+    if (f[1] != '\0') {
+        return 0;
+    }
+    switch (kind) {
+    case 'd':
+        return f[0] == 'd';
+    case '?':
+        return f[0] == '?';
+    case 'q':
+        return f[0] == 'q' || (f[0] == 'l' && sizeof(long) == 8);
+    case 'b':
+        return f[0] == 'b';
+    default:
+        return 0;
+    }
+}
+
+/* Take a C-contiguous buffer of the given kind ('d' float64, '?' bool, 'q' int64, 'b' int8) and
+ * number of dimensions; shape entries >= 0 must match, -1 is read back. */
+static int take(PyObject *obj, Buffer *b, const char *name, char kind, int ndim, Py_ssize_t *shape,
+                int writable) {
+    int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
+    if (PyObject_GetBuffer(obj, &b->view, flags) != 0) {
+        PyErr_Clear();
+        PyErr_Format(kernel_error, "kernel buffer %s: not a C-contiguous%s buffer", name,
+                     writable ? ", writable" : "");
+        return -1;
+    }
+    b->held = 1;
+    if (!format_is(b->view.format, kind)) {
+        PyErr_Format(kernel_error, "kernel buffer %s: format %s, expected %s", name,
+                     b->view.format ? b->view.format : "B",
+                     kind == 'd' ? "float64" : kind == '?' ? "bool" : kind == 'q' ? "int64" : "int8");
+        return -1;
+    }
+    if (b->view.ndim != ndim) {
+        PyErr_Format(kernel_error, "kernel buffer %s: %d dimensions, expected %d", name, b->view.ndim,
+                     ndim);
+        return -1;
+    }
+    for (int i = 0; i < ndim; i++) {
+        if (shape[i] < 0) {
+            shape[i] = b->view.shape[i];
+        } else if (b->view.shape[i] != shape[i]) {
+            PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, i,
+                         b->view.shape[i], shape[i]);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* 2^-round(log2 t), 1 where t is 0: frcontrol.response.power_of_two_scale (round half to even). */
+static double power_of_two_scale(double top) {
+    if (!(top > 0.0)) {
+        return 1.0;
+    }
+    return exp2(-nearbyint(log2(top)));
+}
+
+typedef struct {
+    Py_ssize_t n, k, m, nx, count;
+    const double *dynamics, *eq, *eq_rhs, *ineq, *ineq_rhs, *input_map, *bias, *u;
+    const unsigned char *valid, *motion;
+    const long long *letters;
+    double margin, tolerance, domain_tolerance, zero_row_tolerance;
+    signed char *status;
+    double *x, *residual, *violation;
+    double *a_hat_out, *r_out, *c_out; /* certified_modes: every mode's A_hat and scalings */
+} Problem;
+
+typedef struct {
+    double *A, *A_hat, *Y, *rhs, *c, *r_scale, *c_scale, *X_u, *xs;
+} Scratch;
+
+/* Steps 1-2: the mode's A, its right side and the equilibrated A_hat. */
+static void assemble(const Problem *p, const long long *letters, const double *Su, Scratch *s) {
+    Py_ssize_t n = p->n, nx = p->nx;
+    memcpy(s->A, p->dynamics, (size_t)(n * nx) * sizeof(double));
+    for (Py_ssize_t i = 0; i < n; i++) {
+        s->c[i] = -p->bias[i];
+        s->rhs[i] = s->c[i] + Su[i];
+    }
+    for (Py_ssize_t j = 0; j < p->k; j++) {
+        Py_ssize_t cell = j * LETTERS + letters[j];
+        for (Py_ssize_t r = 0; r < EQUALITY_ROWS; r++) {
+            Py_ssize_t row = n + EQUALITY_ROWS * j + r;
+            memcpy(s->A + row * nx, p->eq + (cell * EQUALITY_ROWS + r) * nx, (size_t)nx * sizeof(double));
+            s->c[row] = s->rhs[row] = p->eq_rhs[cell * EQUALITY_ROWS + r];
+        }
+    }
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        double top = 0.0;
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            double a = fabs(s->A[i * nx + j]);
+            top = a > top ? a : top;
+        }
+        s->r_scale[i] = power_of_two_scale(top);
+    }
+    for (Py_ssize_t j = 0; j < nx; j++) {
+        double top = 0.0;
+        for (Py_ssize_t i = 0; i < nx; i++) {
+            double a = fabs(s->A[i * nx + j] * s->r_scale[i]);
+            top = a > top ? a : top;
+        }
+        s->c_scale[j] = power_of_two_scale(top);
+    }
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            s->A_hat[i * nx + j] = s->A[i * nx + j] * s->r_scale[i] * s->c_scale[j];
+        }
+    }
+}
+
+/* Step 3: A_hat Y = [I, diag(r) B, diag(r) rhs] by LU with partial pivoting (A_hat is overwritten).
+ * Returns 0 on an exactly zero pivot. */
+static int lu_solve(const Problem *p, Scratch *s) {
+    Py_ssize_t n = p->n, nx = p->nx, m = p->m, w = nx + m + 1;
+    double *a = s->A_hat, *y = s->Y;
+    memset(y, 0, (size_t)(nx * w) * sizeof(double));
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        y[i * w + i] = 1.0;
+        if (i < n) {
+            for (Py_ssize_t j = 0; j < m; j++) {
+                y[i * w + nx + j] = p->input_map[i * m + j] * s->r_scale[i];
+            }
+        }
+        y[i * w + w - 1] = s->rhs[i] * s->r_scale[i];
+    }
+    for (Py_ssize_t c = 0; c < nx; c++) {
+        Py_ssize_t pivot = c;
+        double best = fabs(a[c * nx + c]);
+        for (Py_ssize_t i = c + 1; i < nx; i++) {
+            double v = fabs(a[i * nx + c]);
+            if (v > best) {
+                best = v;
+                pivot = i;
+            }
+        }
+        if (best == 0.0) {
+            return 0;
+        }
+        if (pivot != c) {
+            for (Py_ssize_t j = 0; j < nx; j++) {
+                double t = a[c * nx + j];
+                a[c * nx + j] = a[pivot * nx + j];
+                a[pivot * nx + j] = t;
+            }
+            for (Py_ssize_t j = 0; j < w; j++) {
+                double t = y[c * w + j];
+                y[c * w + j] = y[pivot * w + j];
+                y[pivot * w + j] = t;
+            }
+        }
+        double inv = 1.0 / a[c * nx + c];
+        for (Py_ssize_t i = c + 1; i < nx; i++) {
+            double l = a[i * nx + c] * inv;
+            if (l == 0.0) {
+                continue;
+            }
+            for (Py_ssize_t j = c + 1; j < nx; j++) {
+                a[i * nx + j] -= l * a[c * nx + j];
+            }
+            for (Py_ssize_t j = 0; j < w; j++) {
+                y[i * w + j] -= l * y[c * w + j];
+            }
+        }
+    }
+    for (Py_ssize_t c = nx - 1; c >= 0; c--) {
+        double d = a[c * nx + c];
+        for (Py_ssize_t j = 0; j < w; j++) {
+            double v = y[c * w + j];
+            for (Py_ssize_t i = c + 1; i < nx; i++) {
+                v -= a[c * nx + i] * y[i * w + j];
+            }
+            y[c * w + j] = v / d;
+        }
+    }
+    return 1;
+}
+
+/* Step 4: ||A_hat||_F ||A_hat^-1||_F margin tolerance < 1 (sum_A2 taken before the LU). */
+static int certified_bound(const Problem *p, const Scratch *s, double sum_a2) {
+    Py_ssize_t nx = p->nx, w = nx + p->m + 1;
+    double sum_y2 = 0.0;
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            double v = s->Y[i * w + j];
+            sum_y2 += v * v;
+        }
+    }
+    double bound = sqrt(sum_a2 * sum_y2);
+    return bound * p->margin * p->tolerance < 1.0;
+}
+
+/* Steps 5-6 for a certified mode: its inequality rows at u, the residual and the violation. */
+static int decide(const Problem *p, const long long *letters, const Scratch *s, double *residual,
+                  double *violation) {
+    Py_ssize_t nx = p->nx, m = p->m, k = p->k;
+    double largest = 0.0;
+    int admissible = 1;
+    /* first pass: the largest valid row norm in u */
+    for (Py_ssize_t j = 0; j < k; j++) {
+        Py_ssize_t cell = j * LETTERS + letters[j];
+        for (Py_ssize_t r = 0; r < INEQUALITY_ROWS; r++) {
+            if (!p->valid[cell * INEQUALITY_ROWS + r]) {
+                continue;
+            }
+            const double *g = p->ineq + (cell * INEQUALITY_ROWS + r) * nx;
+            double sq = 0.0;
+            for (Py_ssize_t c = 0; c < m; c++) {
+                double h = 0.0;
+                for (Py_ssize_t i = 0; i < nx; i++) {
+                    h += g[i] * s->X_u[i * m + c];
+                }
+                sq += h * h;
+            }
+            double norm = sqrt(sq);
+            largest = norm > largest ? norm : largest;
+        }
+    }
+    double floor = p->zero_row_tolerance * (largest > 1.0 ? largest : 1.0);
+    double worst = 0.0;
+    for (Py_ssize_t j = 0; j < k; j++) {
+        Py_ssize_t cell = j * LETTERS + letters[j];
+        for (Py_ssize_t r = 0; r < INEQUALITY_ROWS; r++) {
+            Py_ssize_t row = cell * INEQUALITY_ROWS + r;
+            if (!p->valid[row]) {
+                continue;
+            }
+            const double *g = p->ineq + row * nx;
+            double sq = 0.0, gx = 0.0;
+            for (Py_ssize_t c = 0; c < m; c++) {
+                double h = 0.0;
+                for (Py_ssize_t i = 0; i < nx; i++) {
+                    h += g[i] * s->X_u[i * m + c];
+                }
+                sq += h * h;
+            }
+            for (Py_ssize_t i = 0; i < nx; i++) {
+                gx += g[i] * s->xs[i];
+            }
+            double norm = sqrt(sq);
+            norm = norm <= floor ? 1.0 : norm;
+            double bad = gx - p->ineq_rhs[row];
+            double slack = -bad / norm;
+            worst = bad > worst ? bad : worst;
+            int holds = p->motion[row] ? slack > p->domain_tolerance : slack >= -p->domain_tolerance;
+            admissible &= holds;
+        }
+    }
+    double res = 0.0;
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        double ax = 0.0;
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            ax += s->A[i * nx + j] * s->xs[j];
+        }
+        double d = fabs(ax - s->rhs[i]);
+        res = d > res ? d : res;
+    }
+    *residual = res;
+    *violation = worst;
+    return admissible;
+}
+
+static void run_modes(const Problem *p, const double *Su, Scratch *s) {
+    Py_ssize_t nx = p->nx, m = p->m, w = nx + m + 1;
+    for (Py_ssize_t mode = 0; mode < p->count; mode++) {
+        const long long *letters = p->letters + mode * p->k;
+        double *x = p->x + mode * nx;
+        memset(x, 0, (size_t)nx * sizeof(double));
+        p->residual[mode] = 0.0;
+        p->violation[mode] = 0.0;
+        p->status[mode] = NOT_CERTIFIED;
+        assemble(p, letters, Su, s);
+        memcpy(p->a_hat_out + mode * nx * nx, s->A_hat, (size_t)(nx * nx) * sizeof(double));
+        memcpy(p->r_out + mode * nx, s->r_scale, (size_t)nx * sizeof(double));
+        memcpy(p->c_out + mode * nx, s->c_scale, (size_t)nx * sizeof(double));
+        double sum_a2 = 0.0;
+        for (Py_ssize_t i = 0; i < nx * nx; i++) {
+            sum_a2 += s->A_hat[i] * s->A_hat[i];
+        }
+        if (!lu_solve(p, s) || !certified_bound(p, s, sum_a2)) {
+            continue;
+        }
+        for (Py_ssize_t i = 0; i < nx; i++) {
+            s->xs[i] = s->c_scale[i] * s->Y[i * w + w - 1];
+            for (Py_ssize_t c = 0; c < m; c++) {
+                s->X_u[i * m + c] = s->c_scale[i] * s->Y[i * w + nx + c];
+            }
+        }
+        memcpy(x, s->xs, (size_t)nx * sizeof(double));
+        int ok = decide(p, letters, s, &p->residual[mode], &p->violation[mode]);
+        p->status[mode] = ok ? CERTIFIED_ADMISSIBLE : CERTIFIED_INADMISSIBLE;
+    }
+}
+
+/* ------------------------------------------------------------------ the rank-deficient modes */
+
+typedef struct {
+    const double *U, *s, *Vt, *r_in, *c_in;
+    double rank_tolerance, band, radius_cap, consistency_tolerance, output_tolerance;
+    double *w;
+    signed char *outputs;
+} Ranked;
+
+enum { INADMISSIBLE = 0, ADMISSIBLE = 1, NEEDS_PYTHON = 2, ADMISSIBLE_W = 3 };
+enum { MOVES_NONE = 0, MOVES_FORCES = 1, MOVES_ACCELERATIONS = 2 };
+
+static Py_ssize_t rank_of(const double *s, Py_ssize_t nx, double rank_tolerance) {
+    if (nx == 0 || !(s[0] > 0.0)) {
+        return 0;
+    }
+    Py_ssize_t rank = 0;
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        rank += s[i] > rank_tolerance * s[0];
+    }
+    return rank;
+}
+
+/* The responses of a mode of rank r = nx - p (p <= 1), by solve_affine's formulas: with
+ * Bc = diag(r) [B c], X_u and x_0 = diag(c) V1 diag(1/s) U1^T Bc, X_w = diag(c) V2, and the
+ * consistency row left = U2^T Bc. Writes X_u (nx, m), x0 (nx), X_w (nx), left (m + 1). */
+static void responses(const Problem *p, const Ranked *q, Py_ssize_t mode, Py_ssize_t r, const Scratch *s,
+                      double *X_u, double *x0, double *X_w, double *left) {
+    Py_ssize_t nx = p->nx, n = p->n, m = p->m, w = m + 1;
+    const double *U = q->U + mode * nx * nx, *sv = q->s + mode * nx, *Vt = q->Vt + mode * nx * nx;
+    const double *rs = q->r_in + mode * nx, *cs = q->c_in + mode * nx;
+    double *T = s->Y; /* r x (m + 1): diag(1/s) U1^T Bc */
+    for (Py_ssize_t a = 0; a <= r && a < nx; a++) {
+        double *row = a < r ? T + a * w : left;
+        for (Py_ssize_t j = 0; j < w; j++) {
+            double v = 0.0;
+            for (Py_ssize_t i = 0; i < nx; i++) {
+                double bc = j < m ? (i < n ? p->input_map[i * m + j] * rs[i] : 0.0) : s->c[i] * rs[i];
+                v += U[i * nx + a] * bc;
+            }
+            row[j] = a < r ? (1.0 / sv[a]) * v : v;
+        }
+    }
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        for (Py_ssize_t j = 0; j < w; j++) {
+            double v = 0.0;
+            for (Py_ssize_t a = 0; a < r; a++) {
+                v += Vt[a * nx + i] * T[a * w + j];
+            }
+            if (j < m) {
+                X_u[i * m + j] = cs[i] * v;
+            } else {
+                x0[i] = cs[i] * v;
+            }
+        }
+        X_w[i] = r < nx ? cs[i] * Vt[r * nx + i] : 0.0;
+    }
+}
+
+/* _consistent_at for p <= 1 with _scale_of's scale of diag(r) [B c]. */
+static int consistent(const Problem *p, const Ranked *q, Py_ssize_t mode, Py_ssize_t pdim, const Scratch *s,
+                      const double *left) {
+    if (pdim == 0) {
+        return 1;
+    }
+    Py_ssize_t nx = p->nx, n = p->n, m = p->m;
+    const double *rs = q->r_in + mode * nx;
+    double scale = 0.0;
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        for (Py_ssize_t j = 0; j < m && i < n; j++) {
+            double v = fabs(p->input_map[i * m + j] * rs[i]);
+            scale = v > scale ? v : scale;
+        }
+        double v = fabs(s->c[i] * rs[i]);
+        scale = v > scale ? v : scale;
+    }
+    scale = scale > 1.0 ? scale : 1.0;
+    double e = -left[m], limit = q->consistency_tolerance * scale;
+    double sq = 0.0, eu = 0.0;
+    for (Py_ssize_t j = 0; j < m; j++) {
+        sq += left[j] * left[j];
+        eu += left[j] * p->u[j];
+    }
+    double norm = sqrt(sq);
+    if (m == 0 || !(norm > limit)) {
+        return !(fabs(e) > limit);
+    }
+    return fabs(eu - e) / norm <= p->domain_tolerance;
+}
+
+/* decide_intervals for one mode: rows a_i w <= h_i over the valid rows (a, h, motion). */
+static int interval(const Problem *p, const Ranked *q, Py_ssize_t rows, const double *a, const double *h,
+                    const unsigned char *motion, double *centre) {
+    double dt = p->domain_tolerance, top = 0.0, inf = INFINITY;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        top = fabs(a[i]) > top ? fabs(a[i]) : top;
+    }
+    double floor = p->zero_row_tolerance * (top > 1.0 ? top : 1.0);
+    double lo = -inf, hi = inf, lower = -inf, upper = inf, lo_ball = -inf, hi_ball = inf;
+    int ok = 1, has_motion = 0;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        double relaxed = h[i] + (motion[i] ? 0.0 : dt);
+        if (fabs(a[i]) <= floor) {
+            ok &= motion[i] ? !(h[i] <= dt) : !(relaxed < 0.0);
+            continue;
+        }
+        double end = relaxed / a[i], ball = (h[i] + dt) / a[i];
+        if (a[i] > 0) {
+            hi_ball = ball < hi_ball ? ball : hi_ball;
+        } else if (a[i] < 0) {
+            lo_ball = ball > lo_ball ? ball : lo_ball;
+        }
+        if (motion[i]) {
+            has_motion = 1;
+            if (a[i] > 0) {
+                upper = end < upper ? end : upper;
+            } else if (a[i] < 0) {
+                lower = end > lower ? end : lower;
+            }
+        } else if (a[i] > 0) {
+            hi = end < hi ? end : hi;
+        } else if (a[i] < 0) {
+            lo = end > lo ? end : lo;
+        }
+    }
+    ok &= lo <= hi;
+    int fu = isfinite(upper), fd = isfinite(lower);
+    double w = fu && fd ? 0.5 * (upper + lower) : fu ? upper - 1.0 : fd ? lower + 1.0 : 0.0;
+    w = has_motion ? w : 0.0;
+    w = fmin(fmax(w, lo), hi);
+    double margin = fmin(1.0, fmin(upper - w, w - lower));
+    ok &= !has_motion || (margin >= 0.0 && margin > dt);
+    int flo = isfinite(lo_ball), fhi = isfinite(hi_ball);
+    double one_side = flo ? lo_ball + q->radius_cap : fhi ? hi_ball - q->radius_cap : w;
+    *centre = flo && fhi ? (hi_ball - lo_ball > 2.0 * dt ? 0.5 * (lo_ball + hi_ball) : w) : one_side;
+    return ok;
+}
+
+/* outputs_moved_by for one direction X_w (nx,). */
+static signed char moved_by(const Problem *p, const Ranked *q, const double *X_w) {
+    double top = 0.0;
+    for (Py_ssize_t i = 0; i < p->nx; i++) {
+        top = fabs(X_w[i]) > top ? fabs(X_w[i]) : top;
+    }
+    double threshold = q->output_tolerance * (top > 1e-300 ? top : 1e-300);
+    int moves_dv = 0, moves_forces = 0;
+    for (Py_ssize_t i = 0; i < p->nx; i++) {
+        if (fabs(X_w[i]) > threshold) {
+            *(i < p->n ? &moves_dv : &moves_forces) = 1;
+        }
+    }
+    return moves_dv ? MOVES_ACCELERATIONS : moves_forces ? MOVES_FORCES : MOVES_NONE;
+}
+
+/* The inequality rows at u as a_i w <= h_i (rows normalised in (u, w)); p = 0 decides them here.
+ * Writes the valid rows' a, h, motion; returns their count, or -1 when p = 0 and a row fails. */
+static Py_ssize_t sliced_rows(const Problem *p, const long long *letters, Py_ssize_t pdim, const double *X_u,
+                              const double *x0, const double *X_w, double *a, double *h, unsigned char *mo) {
+    Py_ssize_t nx = p->nx, m = p->m, rows = 0;
+    double largest = 0.0;
+    for (int pass = 0; pass < 2; pass++) {
+        double floor = p->zero_row_tolerance * (largest > 1.0 ? largest : 1.0);
+        rows = 0;
+        for (Py_ssize_t j = 0; j < p->k; j++) {
+            Py_ssize_t cell = j * LETTERS + letters[j];
+            for (Py_ssize_t r = 0; r < INEQUALITY_ROWS; r++) {
+                Py_ssize_t row = cell * INEQUALITY_ROWS + r;
+                if (!p->valid[row]) {
+                    continue;
+                }
+                const double *g = p->ineq + row * nx;
+                double sq = 0.0, hu = 0.0, gx0 = 0.0, hw = 0.0;
+                for (Py_ssize_t c = 0; c < m; c++) {
+                    double v = 0.0;
+                    for (Py_ssize_t i = 0; i < nx; i++) {
+                        v += g[i] * X_u[i * m + c];
+                    }
+                    sq += v * v;
+                    hu += v * p->u[c];
+                }
+                for (Py_ssize_t i = 0; i < nx; i++) {
+                    gx0 += g[i] * x0[i];
+                    hw += g[i] * X_w[i];
+                }
+                double norm = sqrt(sq + (pdim ? hw * hw : 0.0));
+                if (pass == 0) {
+                    largest = norm > largest ? norm : largest;
+                    continue;
+                }
+                int constant = norm <= floor;
+                norm = constant ? 1.0 : norm;
+                a[rows] = constant ? 0.0 : hw / norm;
+                h[rows] = (p->ineq_rhs[row] - gx0 - hu) / norm;
+                mo[rows] = p->motion[row];
+                if (pdim == 0 && !(mo[rows] ? h[rows] > p->domain_tolerance : h[rows] >= -p->domain_tolerance)) {
+                    return -1;
+                }
+                rows++;
+            }
+        }
+    }
+    return rows;
+}
+
+/* x = X_u u + X_w w + x_0, its equality residual and inequality violation. */
+static void finish(const Problem *p, const long long *letters, const Scratch *s, const double *X_u,
+                   const double *x0, const double *X_w, double w, double *x, double *residual,
+                   double *violation) {
+    Py_ssize_t nx = p->nx, m = p->m;
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        double v = 0.0;
+        for (Py_ssize_t c = 0; c < m; c++) {
+            v += X_u[i * m + c] * p->u[c];
+        }
+        x[i] = v + X_w[i] * w + x0[i];
+    }
+    double res = 0.0, worst = 0.0;
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        double ax = 0.0;
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            ax += s->A[i * nx + j] * x[j];
+        }
+        double d = fabs(ax - s->rhs[i]);
+        res = d > res ? d : res;
+    }
+    for (Py_ssize_t j = 0; j < p->k; j++) {
+        Py_ssize_t cell = j * LETTERS + letters[j];
+        for (Py_ssize_t r = 0; r < INEQUALITY_ROWS; r++) {
+            Py_ssize_t row = cell * INEQUALITY_ROWS + r;
+            if (!p->valid[row]) {
+                continue;
+            }
+            double gx = 0.0;
+            for (Py_ssize_t i = 0; i < nx; i++) {
+                gx += p->ineq[row * nx + i] * x[i];
+            }
+            double bad = gx - p->ineq_rhs[row];
+            worst = bad > worst ? bad : worst;
+        }
+    }
+    *residual = res;
+    *violation = worst;
+}
+
+/* One rank-deficient (or SVD-decided) mode with p <= 1. */
+static signed char rank_mode(const Problem *p, const Ranked *q, Py_ssize_t mode, const double *Su, Scratch *s,
+                             double *work) {
+    Py_ssize_t nx = p->nx, m = p->m;
+    const long long *letters = p->letters + mode * p->k;
+    Py_ssize_t r = rank_of(q->s + mode * nx, nx, q->rank_tolerance), pdim = nx - r;
+    if (pdim >= 2) {
+        return NEEDS_PYTHON;
+    }
+    assemble(p, letters, Su, s);
+    double *X_u = work, *x0 = X_u + nx * m, *X_w = x0 + nx, *left = X_w + nx, *a = left + m + 1;
+    double *h = a + INEQUALITY_ROWS * p->k;
+    unsigned char *mo = (unsigned char *)(h + INEQUALITY_ROWS * p->k);
+    responses(p, q, mode, r, s, X_u, x0, X_w, left);
+    if (!consistent(p, q, mode, pdim, s, left)) {
+        return INADMISSIBLE;
+    }
+    Py_ssize_t rows = sliced_rows(p, letters, pdim, X_u, x0, X_w, a, h, mo);
+    double w = 0.0;
+    if (rows < 0 || (pdim == 1 && !interval(p, q, rows, a, h, mo, &w))) {
+        return INADMISSIBLE;
+    }
+    q->w[mode] = w;
+    q->outputs[mode] = pdim ? moved_by(p, q, X_w) : MOVES_NONE;
+    finish(p, letters, s, X_u, x0, X_w, w, p->x + mode * nx, &p->residual[mode], &p->violation[mode]);
+    return pdim ? ADMISSIBLE_W : ADMISSIBLE;
+}
+
+/* ------------------------------------------------------------------ arguments */
+
+#define PROBLEM_BUFFERS 11
+#define MAX_BUFFERS 22
+static const char *problem_names[PROBLEM_BUFFERS] = {
+    "dynamics", "equalities", "equality_rhs", "inequalities", "inequality_rhs", "valid", "motion",
+    "letters", "input_map", "bias", "u"};
+
+/* The problem's 11 buffers, reading n, nx, k, m and the mode count from them. */
+static int take_problem(PyObject *const *args, Buffer *b, Problem *p) {
+    Py_ssize_t s_dyn[2] = {-1, -1};
+    if (take(args[0], &b[0], problem_names[0], 'd', 2, s_dyn, 0)) return -1;
+    Py_ssize_t n = s_dyn[0], nx = s_dyn[1];
+    Py_ssize_t s_eq[4] = {-1, LETTERS, EQUALITY_ROWS, nx};
+    if (take(args[1], &b[1], problem_names[1], 'd', 4, s_eq, 0)) return -1;
+    Py_ssize_t k = s_eq[0];
+    if (nx != n + 2 * k) {
+        PyErr_Format(kernel_error, "kernel buffer dynamics: %zd columns, expected n + 2k = %zd", nx,
+                     n + 2 * k);
+        return -1;
+    }
+    Py_ssize_t s_eqr[3] = {k, LETTERS, EQUALITY_ROWS};
+    Py_ssize_t s_in[4] = {k, LETTERS, INEQUALITY_ROWS, nx};
+    Py_ssize_t s_inr[3] = {k, LETTERS, INEQUALITY_ROWS};
+    Py_ssize_t s_valid[3] = {k, LETTERS, INEQUALITY_ROWS};
+    Py_ssize_t s_motion[3] = {k, LETTERS, INEQUALITY_ROWS};
+    Py_ssize_t s_letters[2] = {-1, k};
+    Py_ssize_t s_map[2] = {n, -1};
+    if (take(args[2], &b[2], problem_names[2], 'd', 3, s_eqr, 0) ||
+        take(args[3], &b[3], problem_names[3], 'd', 4, s_in, 0) ||
+        take(args[4], &b[4], problem_names[4], 'd', 3, s_inr, 0) ||
+        take(args[5], &b[5], problem_names[5], '?', 3, s_valid, 0) ||
+        take(args[6], &b[6], problem_names[6], '?', 3, s_motion, 0) ||
+        take(args[7], &b[7], problem_names[7], 'q', 2, s_letters, 0) ||
+        take(args[8], &b[8], problem_names[8], 'd', 2, s_map, 0)) {
+        return -1;
+    }
+    Py_ssize_t count = s_letters[0], m = s_map[1];
+    Py_ssize_t s_bias[1] = {n}, s_u[1] = {m};
+    if (take(args[9], &b[9], problem_names[9], 'd', 1, s_bias, 0) ||
+        take(args[10], &b[10], problem_names[10], 'd', 1, s_u, 0)) {
+        return -1;
+    }
+    memset(p, 0, sizeof(*p));
+    p->n = n, p->k = k, p->m = m, p->nx = nx, p->count = count;
+    p->dynamics = b[0].view.buf, p->eq = b[1].view.buf, p->eq_rhs = b[2].view.buf;
+    p->ineq = b[3].view.buf, p->ineq_rhs = b[4].view.buf;
+    p->valid = b[5].view.buf, p->motion = b[6].view.buf, p->letters = b[7].view.buf;
+    p->input_map = b[8].view.buf, p->bias = b[9].view.buf, p->u = b[10].view.buf;
+    for (Py_ssize_t i = 0; i < count * k; i++) {
+        if (p->letters[i] < 0 || p->letters[i] >= LETTERS) {
+            PyErr_Format(kernel_error, "kernel buffer letters: entry %lld is not a letter index 0-3",
+                         p->letters[i]);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* Per-mode buffers after the problem's: names, kinds ('d' or 'b'), trailing shape (0: none,
+ * 1: (nx,), 2: (nx, nx)), writable. */
+typedef struct {
+    const char *name;
+    char kind;
+    int tail;
+    int writable;
+} ModeBuffer;
+
+static int take_modes(PyObject *const *args, Buffer *b, const Problem *p, const ModeBuffer *spec, int count,
+                      void **out) {
+    for (int i = 0; i < count; i++) {
+        Py_ssize_t shape[3] = {p->count, p->nx, p->nx};
+        if (take(args[PROBLEM_BUFFERS + i], &b[PROBLEM_BUFFERS + i], spec[i].name, spec[i].kind,
+                 1 + spec[i].tail, shape, spec[i].writable)) {
+            return -1;
+        }
+        out[i] = b[PROBLEM_BUFFERS + i].view.buf;
+    }
+    return 0;
+}
+
+static int take_floats(PyObject *const *args, Py_ssize_t first, const char *const *names, double **dest,
+                       int count) {
+    for (int i = 0; i < count; i++) {
+        double v = PyFloat_AsDouble(args[first + i]);
+        if (v == -1.0 && PyErr_Occurred()) {
+            PyErr_Clear();
+            PyErr_Format(kernel_error, "kernel argument %s: not a number", names[i]);
+            return -1;
+        }
+        *dest[i] = v;
+    }
+    return 0;
+}
+
+static void release(Buffer *b, int count) {
+    for (int i = 0; i < count; i++) {
+        if (b[i].held) {
+            PyBuffer_Release(&b[i].view);
+        }
+    }
+}
+
+/* Scratch for one mode at a time, and S^T u. */
+static double *scratch(const Problem *p, Scratch *s, double **Su, double **work) {
+    Py_ssize_t nx = p->nx, m = p->m, w = nx + m + 1;
+    Py_ssize_t size = 3 * nx * nx + nx * w + 6 * nx + nx * m + p->n + 1;
+    size += nx * m + 3 * nx + m + 1 + 3 * INEQUALITY_ROWS * p->k + 1; /* rank_mode's work */
+    double *memory = PyMem_Malloc((size_t)size * sizeof(double));
+    if (memory == NULL) {
+        PyErr_NoMemory();
+        return NULL;
+    }
+    double *at = memory;
+    s->A = at, at += nx * nx;
+    s->A_hat = at, at += nx * nx;
+    s->Y = at, at += nx * w + nx * nx;
+    s->rhs = at, at += nx;
+    s->c = at, at += nx;
+    s->r_scale = at, at += nx;
+    s->c_scale = at, at += nx;
+    s->xs = at, at += nx;
+    s->X_u = at, at += nx * m;
+    *Su = at, at += p->n + 1;
+    *work = at;
+    for (Py_ssize_t i = 0; i < p->n; i++) {
+        double v = 0.0;
+        for (Py_ssize_t j = 0; j < m; j++) {
+            v += p->input_map[i * m + j] * p->u[j];
+        }
+        (*Su)[i] = v;
+    }
+    return memory;
+}
+
+static const ModeBuffer certified_buffers[7] = {
+    {"status", 'b', 0, 1}, {"x", 'd', 1, 1}, {"residual", 'd', 0, 1}, {"violation", 'd', 0, 1},
+    {"a_hat", 'd', 2, 1}, {"r_scale", 'd', 1, 1}, {"c_scale", 'd', 1, 1}};
+static const char *certified_floats[4] = {"margin", "tolerance", "domain_tolerance", "zero_row_tolerance"};
+
+static PyObject *certified_modes(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != PROBLEM_BUFFERS + 7 + 4) {
+        PyErr_Format(kernel_error, "certified_modes takes %d arguments, got %zd", PROBLEM_BUFFERS + 11, nargs);
+        return NULL;
+    }
+    Buffer b[MAX_BUFFERS];
+    memset(b, 0, sizeof(b));
+    Problem p;
+    PyObject *result = NULL;
+    double *memory = NULL, *Su, *work;
+    void *out[7];
+    if (take_problem(args, b, &p) || take_modes(args, b, &p, certified_buffers, 7, out)) {
+        goto done;
+    }
+    double *floats[4] = {&p.margin, &p.tolerance, &p.domain_tolerance, &p.zero_row_tolerance};
+    if (take_floats(args, PROBLEM_BUFFERS + 7, certified_floats, floats, 4)) {
+        goto done;
+    }
+    p.status = out[0], p.x = out[1], p.residual = out[2], p.violation = out[3];
+    p.a_hat_out = out[4], p.r_out = out[5], p.c_out = out[6];
+    Scratch s;
+    memory = scratch(&p, &s, &Su, &work);
+    if (memory == NULL) {
+        goto done;
+    }
+    run_modes(&p, Su, &s);
+    result = Py_NewRef(Py_None);
+done:
+    PyMem_Free(memory);
+    release(b, MAX_BUFFERS);
+    return result;
+}
+
+static const ModeBuffer rank_buffers[11] = {
+    {"U", 'd', 2, 0}, {"s", 'd', 1, 0}, {"Vt", 'd', 2, 0}, {"r_scale", 'd', 1, 0}, {"c_scale", 'd', 1, 0},
+    {"status", 'b', 0, 1}, {"x", 'd', 1, 1}, {"w", 'd', 0, 1}, {"outputs", 'b', 0, 1},
+    {"residual", 'd', 0, 1}, {"violation", 'd', 0, 1}};
+static const char *rank_floats[7] = {"rank_tolerance", "band", "domain_tolerance", "zero_row_tolerance",
+                                     "radius_cap", "consistency_tolerance", "output_tolerance"};
+
+static PyObject *rank_modes(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != PROBLEM_BUFFERS + 11 + 7) {
+        PyErr_Format(kernel_error, "rank_modes takes %d arguments, got %zd", PROBLEM_BUFFERS + 18, nargs);
+        return NULL;
+    }
+    Buffer b[MAX_BUFFERS];
+    memset(b, 0, sizeof(b));
+    Problem p;
+    Ranked q;
+    PyObject *result = NULL;
+    double *memory = NULL, *Su, *work;
+    void *io[11];
+    if (take_problem(args, b, &p) || take_modes(args, b, &p, rank_buffers, 11, io)) {
+        goto done;
+    }
+    double *floats[7] = {&q.rank_tolerance, &q.band, &p.domain_tolerance, &p.zero_row_tolerance,
+                         &q.radius_cap, &q.consistency_tolerance, &q.output_tolerance};
+    if (take_floats(args, PROBLEM_BUFFERS + 11, rank_floats, floats, 7)) {
+        goto done;
+    }
+    q.U = io[0], q.s = io[1], q.Vt = io[2], q.r_in = io[3], q.c_in = io[4];
+    p.status = io[5], p.x = io[6], q.w = io[7], q.outputs = io[8], p.residual = io[9], p.violation = io[10];
+    Py_ssize_t nx = p.nx;
+    for (Py_ssize_t mode = 0; mode < p.count; mode++) { /* the band first: then nothing is decided */
+        const double *sv = q.s + mode * nx;
+        for (Py_ssize_t i = 0; i < nx; i++) {
+            if (sv[i] > q.rank_tolerance * sv[0] && sv[i] <= q.band * sv[0]) {
+                result = Py_NewRef(Py_True);
+                goto done;
+            }
+        }
+    }
+    Scratch s;
+    memory = scratch(&p, &s, &Su, &work);
+    if (memory == NULL) {
+        goto done;
+    }
+    for (Py_ssize_t mode = 0; mode < p.count; mode++) {
+        memset(p.x + mode * nx, 0, (size_t)nx * sizeof(double));
+        q.w[mode] = p.residual[mode] = p.violation[mode] = 0.0;
+        q.outputs[mode] = MOVES_NONE;
+        p.status[mode] = rank_mode(&p, &q, mode, Su, &s, work);
+    }
+    result = Py_NewRef(Py_False);
+done:
+    PyMem_Free(memory);
+    release(b, MAX_BUFFERS);
+    return result;
+}
+
+static PyMethodDef methods[] = {
+    {"certified_modes", (PyCFunction)(void (*)(void))certified_modes, METH_FASTCALL,
+     "certified_modes(dynamics, equalities, equality_rhs, inequalities, inequality_rhs, valid, motion,\n"
+     "                letters, input_map, bias, u, status, x, residual, violation, a_hat, r_scale,\n"
+     "                c_scale, margin, tolerance, domain_tolerance, zero_row_tolerance) -> None\n\n"
+     "Every mode of `letters` (count, k): certified or not, and, when certified, its x, whether its\n"
+     "inequalities hold at u, its equality residual and inequality violation, written into status\n"
+     "(int8: NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE), x (count, nx), residual\n"
+     "and violation (count,); every mode's equilibrated A and scalings into a_hat (count, nx, nx),\n"
+     "r_scale and c_scale (count, nx)."},
+    {"rank_modes", (PyCFunction)(void (*)(void))rank_modes, METH_FASTCALL,
+     "rank_modes(dynamics, ..., u, U, s, Vt, r_scale, c_scale, status, x, w, outputs, residual,\n"
+     "           violation, rank_tolerance, band, domain_tolerance, zero_row_tolerance, radius_cap,\n"
+     "           consistency_tolerance, output_tolerance) -> bool\n\n"
+     "The modes of `letters` from their equilibrated A's SVD (U, s, Vt): True, deciding nothing, when a\n"
+     "singular value lies in the ill-conditioned band; else each mode's status (int8: INADMISSIBLE,\n"
+     "ADMISSIBLE, ADMISSIBLE_W with one ambiguity variable, NEEDS_PYTHON with more), x, w,\n"
+     "outputs (MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS), residual and violation."},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "frcontrol._kernel",
+                                    "The compiled kernel of frcontrol.mode_batch.", -1,
+                                    methods, NULL, NULL, NULL, NULL};
+
+PyMODINIT_FUNC PyInit__kernel(void) {
+    PyObject *errors = PyImport_ImportModule("frcontrol.errors");
+    if (errors == NULL) {
+        return NULL;
+    }
+    kernel_error = PyObject_GetAttrString(errors, "KernelError");
+    Py_DECREF(errors);
+    if (kernel_error == NULL) {
+        return NULL;
+    }
+    PyObject *mod = PyModule_Create(&module);
+    if (mod == NULL) {
+        return NULL;
+    }
+    const char *names[10] = {"NOT_CERTIFIED", "CERTIFIED_INADMISSIBLE", "CERTIFIED_ADMISSIBLE", "INADMISSIBLE",
+                             "ADMISSIBLE", "NEEDS_PYTHON", "ADMISSIBLE_W", "MOVES_NONE", "MOVES_FORCES",
+                             "MOVES_ACCELERATIONS"};
+    int values[10] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
+                      NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS};
+    PyObject *all = Py_BuildValue("[ss]", "certified_modes", "rank_modes");
+    if (all == NULL) {
+        Py_DECREF(mod);
+        return NULL;
+    }
+    for (int i = 0; i < 10; i++) {
+        PyObject *name = PyUnicode_FromString(names[i]);
+        int failed = name == NULL || PyList_Append(all, name) != 0 ||
+                     PyModule_AddIntConstant(mod, names[i], values[i]) != 0;
+        Py_XDECREF(name);
+        if (failed) {
+            Py_DECREF(all);
+            Py_DECREF(mod);
+            return NULL;
+        }
+    }
+    if (PyModule_AddObject(mod, "__all__", all) != 0) { /* steals the reference on success */
+        Py_DECREF(all);
+        Py_DECREF(mod);
+        return NULL;
+    }
+    return mod;
+}

@@ -1,0 +1,70 @@
+"""Which implementation decides the certified modes of :func:`frcontrol.mode_batch.decide_modes`.
+
+Two implementations give the same answers (to round-off, see :data:`CERTIFIED_ROUND_OFF_BAND`):
+
+- ``"compiled"``: :mod:`frcontrol._kernel`, a small C extension built by ``pip install .``; per
+  mode it assembles ``A`` from the contact row table, equilibrates it by powers of two, solves by
+  LU with partial pivoting, applies the :data:`~frcontrol.mode_batch.CERTIFIED_MARGIN` bound and
+  decides the inequality rows at ``u``, all in one call (NumPy's per-call overhead is what limits
+  the NumPy path on small problems).
+- ``"numpy"``: the reference, the NumPy code of :mod:`frcontrol.mode_batch`.
+
+The environment variable ``FRC_KERNEL`` chooses (``numpy`` or ``compiled``); unset or empty, the
+compiled kernel when it is built, else NumPy. An unknown value, or ``compiled`` where the extension
+was not built, raises :class:`~frcontrol.errors.KernelError`. Modes the bound does not certify go
+to the batched SVD in NumPy on either path.
+"""
+
+from __future__ import annotations
+
+import os
+from types import ModuleType
+
+from .errors import KernelError
+
+KERNEL_VARIABLE = "FRC_KERNEL"
+"""The environment variable that chooses the kernel."""
+
+KERNELS = ("numpy", "compiled")
+"""The kernels ``FRC_KERNEL`` may name."""
+
+CERTIFIED_ROUND_OFF_BAND = 1e-6
+"""Relative width of the band around the certification threshold (``bound * CERTIFIED_MARGIN *
+tolerance = 1``) inside which the two kernels may decide a mode differently: their Frobenius
+norms and LU solves sum in different orders, and ``||A_hat^-1||_F`` carries a relative error up to
+about ``cond * eps``, some 1e-9 at the threshold's condition numbers (1e7); the band is wider.
+Such a mode is certified by one kernel and sent to the SVD by the other, and both give the same
+response: it is full rank outside the ill-conditioned band either way."""
+
+
+def _load_compiled() -> ModuleType | None:
+    try:
+        from . import _kernel
+    except ImportError:
+        return None
+    return _kernel
+
+
+compiled: ModuleType | None = _load_compiled()
+"""The compiled extension :mod:`frcontrol._kernel`, or None where it was not built."""
+
+
+def kernel_choice() -> str:
+    """The kernel in force: ``FRC_KERNEL``, or by default the compiled one when it is built.
+
+    Raises:
+        KernelError: ``FRC_KERNEL`` names no kernel, or asks for the compiled one where it was not
+            built.
+    """
+    value = os.environ.get(KERNEL_VARIABLE, "")
+    if not value:
+        return "compiled" if compiled is not None else "numpy"
+    if value not in KERNELS:
+        raise KernelError(f"{KERNEL_VARIABLE}={value!r} names no kernel; valid: {', '.join(KERNELS)}")
+    if value == "compiled" and compiled is None:
+        raise KernelError(f"{KERNEL_VARIABLE}=compiled, but the extension frcontrol._kernel was not built "
+                          "(reinstall with a C compiler: pip install .)")
+    return value
+
+
+__all__ = ["CERTIFIED_ROUND_OFF_BAND", "compiled", "kernel_choice", "KERNEL_VARIABLE", "KERNELS"]

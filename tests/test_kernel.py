@@ -1,0 +1,282 @@
+"""The compiled kernel (frcontrol._kernel) against the NumPy reference of frcontrol.mode_batch.
+
+Random contact problems (those of test_mode_batch) and the shipped scenes at random inputs: the
+same modes admitted, the same accelerations and forces, the certified flags equal except within
+CERTIFIED_ROUND_OFF_BAND of the threshold. Bad buffers raise KernelError; FRC_KERNEL is checked.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+from frcontrol.cli.app import app
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from test_mode_batch import SCENES, random_problem
+from typer.testing import CliRunner
+
+from frcontrol import kernel, mode_batch
+from frcontrol.engine import DOMAIN_TOLERANCE, RANK_TOLERANCE, ZERO_ROW_TOLERANCE, solutions_at
+from frcontrol.errors import KernelError
+from frcontrol.modes import ContactProblem
+from frcontrol.polytope import CHEBYSHEV_RADIUS_CAP
+from frcontrol.response import ILL_CONDITIONED_BAND
+from frcontrol.scene import load_scene
+
+compiled = kernel.compiled
+needs_kernel = pytest.mark.skipif(compiled is None and os.environ.get("CI") != "true",
+                                  reason="frcontrol._kernel is not built here (pip install . builds it)")
+
+X_AGREEMENT = 1e-12
+"""Relative agreement of the two kernels' responses, per unit of the mode's condition bound below
+1e7 (the LU and LAPACK's sum in different orders)."""
+
+
+def test_the_extension_is_built_in_ci():
+    if os.environ.get("CI") == "true":
+        assert compiled is not None, "CI installs the wheel: frcontrol._kernel must have been built"
+        assert kernel.kernel_choice() == "compiled"
+    elif compiled is None:
+        pytest.skip("frcontrol._kernel is not built here; the NumPy kernel runs")
+
+
+def decide(problem: ContactProblem, u: np.ndarray, name: str, monkeypatch,
+           tolerance: float = DOMAIN_TOLERANCE) -> mode_batch.ModeBatch:
+    monkeypatch.setenv("FRC_KERNEL", name)
+    return mode_batch.decide_modes(problem, u, lambda H, h, motion: None, rank_tolerance=RANK_TOLERANCE,
+                                   domain_tolerance=tolerance, zero_row_tolerance=ZERO_ROW_TOLERANCE,
+                                   radius_cap=CHEBYSHEV_RADIUS_CAP)
+
+
+def certified_both(problem: ContactProblem, u: np.ndarray):
+    """The modes certified by one kernel and not the other, and their bounds over the threshold."""
+    modes, letters = mode_batch.full_modes(problem.allowed_modes())
+    stack = mode_batch._stack(problem, letters, u)
+    r, c = mode_batch._equilibrate(stack.A)
+    A_hat = stack.A * r[:, :, None] * c[:, None, :]
+    numpy_flags, _, _ = mode_batch._certified_responses(problem, stack, A_hat, r, c, RANK_TOLERANCE)
+    count, nx = letters.shape[0], stack.A.shape[1]
+    status = np.empty(count, dtype=np.int8)
+    outputs = [np.empty((count, nx)), np.empty(count), np.empty(count), np.empty((count, nx, nx)),
+               np.empty((count, nx)), np.empty((count, nx))]
+    table = problem.row_table
+    compiled.certified_modes(problem.dynamics, table.equalities, table.equality_rhs, table.inequalities,
+                             table.inequality_rhs, table.valid, table.motion, letters, problem.input_map,
+                             problem.bias, u, status, *outputs, mode_batch.CERTIFIED_MARGIN,
+                             max(RANK_TOLERANCE, ILL_CONDITIONED_BAND), DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE)
+    np.testing.assert_array_equal(outputs[3], A_hat)  # powers of two: the same numbers exactly
+    kernel_flags = status != compiled.NOT_CERTIFIED
+    differ = np.nonzero(numpy_flags != kernel_flags)[0]
+    with np.errstate(all="ignore"):  # ||A||_F ||A^-1||_F (inf where singular) of the modes that differ
+        bound = np.array([np.linalg.cond(A_hat[i], p="fro") for i in differ])
+    return differ, bound * mode_batch.CERTIFIED_MARGIN * max(RANK_TOLERANCE, ILL_CONDITIONED_BAND)
+
+
+def assert_same_batch(problem: ContactProblem, u: np.ndarray, monkeypatch,
+                      tolerance: float = DOMAIN_TOLERANCE) -> int:
+    ref = decide(problem, u, "numpy", monkeypatch, tolerance)
+    fast = decide(problem, u, "compiled", monkeypatch, tolerance)
+    assert fast.ill_conditioned == ref.ill_conditioned
+    assert [s.mode for s in fast.solutions] == [s.mode for s in ref.solutions]
+    for a, b in zip(fast.solutions, ref.solutions, strict=True):
+        scale = 1.0 + float(np.max(np.abs(b.x), initial=0.0))
+        assert a.w.shape == b.w.shape and a.ambiguous_outputs == b.ambiguous_outputs
+        # the same SVD (a w of the same sign) or the same unique response
+        np.testing.assert_allclose(a.x, b.x, rtol=0, atol=1e-9 * scale)
+        np.testing.assert_allclose(a.w, b.w, rtol=0, atol=1e-9 * (1.0 + np.abs(b.w).max(initial=0.0)))
+        assert a.equality_residual <= 1e-8 * scale
+        assert abs(a.inequality_violation - b.inequality_violation) <= 1e-9 * scale
+        assert a.inequality_violation <= 1e-6 * scale or tolerance > DOMAIN_TOLERANCE
+    return len(ref.solutions)
+
+
+@needs_kernel
+def test_random_problems_agree_with_the_numpy_kernel(monkeypatch):
+    rng = np.random.default_rng(20261126)
+    solved = flagged = 0
+    for _ in range(250):
+        problem = random_problem(rng)
+        u = rng.normal(size=problem.m) * 5.0
+        solved += assert_same_batch(problem, u, monkeypatch)
+        assert_same_batch(problem, u, monkeypatch, 0.3)  # many rows inside the tolerance
+        differ, ratio = certified_both(problem, u)
+        assert np.all(np.abs(ratio - 1.0) <= kernel.CERTIFIED_ROUND_OFF_BAND), (differ, ratio)
+        flagged += differ.size
+    assert solved > 100 and flagged < 3  # the comparison saw answers; the flags differ at most rarely
+
+
+@needs_kernel
+def test_certified_responses_agree_to_round_off():
+    rng = np.random.default_rng(7)
+    worst = 0.0
+    for _ in range(200):
+        problem = random_problem(rng)
+        u = rng.normal(size=problem.m) * 5.0
+        modes, letters = mode_batch.full_modes(problem.allowed_modes())
+        stack = mode_batch._stack(problem, letters, u)
+        r, c = mode_batch._equilibrate(stack.A)
+        A_hat = stack.A * r[:, :, None] * c[:, None, :]
+        flags, x, _ = mode_batch._certified_responses(problem, stack, A_hat, r, c, RANK_TOLERANCE)
+        count, nx = letters.shape[0], stack.A.shape[1]
+        status, fast = np.empty(count, dtype=np.int8), np.empty((count, nx))
+        rest = [np.empty(count), np.empty(count), np.empty((count, nx, nx)), np.empty((count, nx)),
+                np.empty((count, nx))]
+        table = problem.row_table
+        compiled.certified_modes(problem.dynamics, table.equalities, table.equality_rhs, table.inequalities,
+                                 table.inequality_rhs, table.valid, table.motion, letters,
+                                 problem.input_map, problem.bias, u, status, fast, *rest,
+                                 mode_batch.CERTIFIED_MARGIN, max(RANK_TOLERANCE, ILL_CONDITIONED_BAND),
+                                 DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE)
+        both = flags & (status != compiled.NOT_CERTIFIED)
+        if not both.any():
+            continue
+        bound = np.linalg.cond(A_hat[both], p="fro")
+        error = np.abs(fast[both] - x[both]).max(axis=1) / (1.0 + np.abs(x[both]).max(axis=1))
+        worst = max(worst, float((error / bound).max()))
+    assert worst <= X_AGREEMENT
+
+
+@needs_kernel
+@pytest.mark.parametrize("tolerance", [DOMAIN_TOLERANCE, 0.3])
+def test_the_rank_kernel_decides_every_mode_as_the_svd_path(tolerance):
+    """Every mode, well conditioned or not, through rank_modes and through NumPy's SVD path.
+
+    A wide domain tolerance puts many rows inside it, where the strict and non-strict tests differ.
+    """
+    rng = np.random.default_rng(11)
+    decided = ambiguous = 0
+    for _ in range(150):
+        problem = random_problem(rng)
+        u = rng.normal(size=problem.m) * 5.0
+        modes, letters = mode_batch.full_modes(problem.allowed_modes())
+        stack = mode_batch._stack(problem, letters, u)
+        r, c = mode_batch._equilibrate(stack.A)
+        A_hat = stack.A * r[:, :, None] * c[:, None, :]
+        everything = np.arange(len(modes))
+        reference = mode_batch._svd_modes(problem, modes, stack, A_hat, r, c, everything, u,
+                                          lambda H, h, motion: None, RANK_TOLERANCE,
+                                          (tolerance, ZERO_ROW_TOLERANCE, CHEBYSHEV_RADIUS_CAP))
+        count, nx = len(modes), A_hat.shape[1]
+        status, x, w = np.empty(count, dtype=np.int8), np.empty((count, nx)), np.empty(count)
+        outputs, residual, violation = np.empty(count, dtype=np.int8), np.empty(count), np.empty(count)
+        table = problem.row_table
+        ill = compiled.rank_modes(
+            problem.dynamics, table.equalities, table.equality_rhs, table.inequalities, table.inequality_rhs,
+            table.valid, table.motion, letters, problem.input_map, problem.bias, u, *np.linalg.svd(A_hat),
+            r, c, status, x, w, outputs, residual, violation, RANK_TOLERANCE, ILL_CONDITIONED_BAND, tolerance,
+            ZERO_ROW_TOLERANCE, CHEBYSHEV_RADIUS_CAP, 1e-9, 1e-9)
+        assert ill == (reference is None)
+        if ill:
+            continue
+        admitted = {i for i in everything if status[i] in (compiled.ADMISSIBLE, compiled.ADMISSIBLE_W)}
+        python = {i for i in everything if status[i] == compiled.NEEDS_PYTHON}
+        assert admitted == set(reference) - python
+        for i in admitted:
+            scale = 1.0 + np.abs(reference[i].x).max()
+            np.testing.assert_allclose(x[i], reference[i].x, rtol=0, atol=1e-9 * scale)
+            assert (status[i] == compiled.ADMISSIBLE_W) == (reference[i].w.size == 1)
+            assert mode_batch._MOVES[outputs[i]] == reference[i].ambiguous_outputs
+            np.testing.assert_allclose(residual[i], reference[i].equality_residual, rtol=0, atol=1e-9 * scale)
+        decided += len(admitted)
+        ambiguous += int((status == compiled.ADMISSIBLE_W).sum())
+    assert decided > 100 and ambiguous > 10
+
+
+@needs_kernel
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(name=st.sampled_from(SCENES), data=st.data())
+def test_shipped_scenes_agree_with_the_numpy_kernel(name, data, monkeypatch):
+    problem = ContactProblem.from_scene(load_scene(name))
+    if mode_batch.full_modes(problem.allowed_modes())[1].shape[0] > mode_batch.BATCH_MAX_MODES:
+        return  # the snake on the ground: the reference path, no kernel
+    u = np.array([data.draw(st.floats(lo, hi)) for lo, hi in zip(problem.lower, problem.upper, strict=True)])
+    assert_same_batch(problem, u, monkeypatch)
+
+
+@needs_kernel
+@pytest.mark.parametrize("name", ["rod_on_table", "box_on_slope", "rhex_flip"])
+def test_the_benchmarked_scenes_take_the_kernel_and_agree(name, monkeypatch):
+    scene = load_scene(name)
+    u = np.zeros(scene.inputs.count)
+    monkeypatch.setenv("FRC_KERNEL", "compiled")
+    fast = solutions_at(scene, u)
+    reference = solutions_at(scene, u, method="reference")
+    assert [s.mode for s in fast] == [s.mode for s in reference] and fast
+    for a, b in zip(fast, reference, strict=True):
+        if a.ambiguous_outputs != "accelerations":
+            np.testing.assert_allclose(a.dv, b.dv, rtol=0, atol=1e-8 * (1.0 + np.abs(b.dv).max()))
+
+
+def kernel_arguments(problem: ContactProblem) -> list:
+    modes, letters = mode_batch.full_modes(problem.allowed_modes())
+    count, nx = letters.shape[0], problem.n + 2 * problem.k
+    table = problem.row_table
+    return [problem.dynamics, table.equalities, table.equality_rhs, table.inequalities, table.inequality_rhs,
+            table.valid, table.motion, letters, problem.input_map, problem.bias, np.zeros(problem.m),
+            np.empty(count, dtype=np.int8), np.empty((count, nx)), np.empty(count), np.empty(count),
+            np.empty((count, nx, nx)), np.empty((count, nx)), np.empty((count, nx)), 10.0, 1e-8, 1e-9, 1e-9]
+
+
+@needs_kernel
+@pytest.mark.parametrize("position, bad, text", [
+    (0, lambda a: a.astype(np.float32), "dynamics: format f, expected float64"),
+    (3, lambda a: a[:, :, :2].copy(), "inequalities: axis 2 has 2 entries, expected 3"),
+    (3, lambda a: a[:, :, :2], "inequalities: not a C-contiguous buffer"),
+    (8, lambda a: np.zeros((a.shape[0] + 1, a.shape[1])), "input_map: axis 0 has 4 entries, expected 3"),
+    (8, lambda a: np.asfortranarray(np.ones((3, 2))), "input_map: not a C-contiguous buffer"),
+    (12, lambda a: np.empty((a.shape[1], a.shape[0])).T, "x: not a C-contiguous, writable buffer"),
+    (12, lambda a: np.broadcast_to(np.empty(a.shape[1]), a.shape), "x: not a C-contiguous, writable buffer"),
+    (5, lambda a: a.astype(np.int8), "valid: format b, expected bool"),
+    (7, lambda a: a + 4, "letters: entry 4 is not a letter index"),
+    (7, lambda a: a.astype(np.int32), "letters: format i, expected int64"),
+    (10, lambda a: np.zeros(a.size + 1), "u: axis 0 has"),
+    (11, lambda a: a.astype(np.float64), "status: format d, expected int8"),
+    (18, lambda a: "ten", "margin: not a number"),
+    (2, lambda a: [1.0, 2.0], "equality_rhs: not a C-contiguous"),
+])
+def test_bad_buffers_raise_a_kernel_error(position, bad, text):
+    arguments = kernel_arguments(ContactProblem.from_scene(load_scene("box_on_slope")))
+    arguments[position] = bad(arguments[position])
+    with pytest.raises(KernelError, match=text.replace("(", r"\(")):
+        compiled.certified_modes(*arguments)
+    with pytest.raises(KernelError, match="takes 22 arguments, got 21"):
+        compiled.certified_modes(*arguments[:-1])
+
+
+@needs_kernel
+def test_the_rank_kernel_checks_its_buffers_too():
+    arguments = kernel_arguments(ContactProblem.from_scene(load_scene("box_on_slope")))
+    problem, count, nx = arguments[:11], arguments[7].shape[0], arguments[0].shape[1]
+    svd = [np.zeros((count, nx, nx)), np.zeros((count, nx)), np.zeros((count, nx, nx)), np.ones((count, nx)),
+           np.ones((count, nx))]
+    outputs = [np.empty(count, dtype=np.int8), np.empty((count, nx)), np.empty(count),
+               np.empty(count, dtype=np.int8), np.empty(count), np.empty(count)]
+    tolerances = [1e-10, 1e-8, 1e-9, 1e-9, 1e3, 1e-9, 1e-9]
+    assert compiled.rank_modes(*problem, *svd, *outputs, *tolerances) is False  # all zero: rank 0
+    svd[1] = np.zeros((count, nx + 1))
+    with pytest.raises(KernelError, match="s: axis 1 has"):
+        compiled.rank_modes(*problem, *svd, *outputs, *tolerances)
+
+
+def test_the_switch(monkeypatch):
+    monkeypatch.setenv("FRC_KERNEL", "numpy")
+    assert kernel.kernel_choice() == "numpy"
+    monkeypatch.setenv("FRC_KERNEL", "fortran")
+    with pytest.raises(KernelError, match="FRC_KERNEL='fortran' names no kernel; valid: numpy, compiled"):
+        solutions_at(load_scene("rod_on_table"), {})
+    monkeypatch.setattr(kernel, "compiled", None)  # as where no compiler built the extension
+    monkeypatch.setenv("FRC_KERNEL", "compiled")
+    with pytest.raises(KernelError, match="frcontrol._kernel was not built"):
+        kernel.kernel_choice()
+    monkeypatch.delenv("FRC_KERNEL")
+    assert kernel.kernel_choice() == "numpy"  # the pure fallback
+    assert [s.mode for s in solutions_at(load_scene("rod_on_table"), {})] == ["F"]
+
+
+def test_an_unknown_kernel_is_one_line_and_exit_1():
+    result = CliRunner().invoke(app, ["robots"], env={"FRC_KERNEL": "gpu"})
+    assert result.exit_code == 1
+    assert result.stderr.strip().splitlines() == [
+        "frc: error: FRC_KERNEL='gpu' names no kernel; valid: numpy, compiled"]
