@@ -23,7 +23,9 @@ import pytest
 from frcontrol.atlas import build_atlas, read_table, run_atlas
 from frcontrol.atlas.store import parts_folder
 
-AXES = ["state.q.theta=0.2:2.9:40", "contacts.tip.mu=0:2:25"]
+# 2500 points (100 chunks): the run outlasts the latency of a signal on a loaded 2-core machine by
+# seconds, so that the signal finds it running (with 1000 points it once finished first)
+AXES = ["state.q.theta=0.2:2.9:100", "contacts.tip.mu=0:2:25"]
 SETS = {"state.v.x": -1.0}
 CHUNK = 25
 WAIT = 120.0
