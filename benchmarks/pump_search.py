@@ -22,7 +22,8 @@ population (``--population`` runs) and samples the next one around it. Objective
 
 A run stops once the pitch is a quarter turn from flat, either way.
 
-Prints one JSON document: the best candidate's voltages and its pitch, energy and corner energy.
+Prints one JSON document: the best candidate's voltages and its highest and lowest pitch, energy,
+corner energy and ballistic clearances (forwards, backwards).
 Not part of ``benchmarks/ci.py``: a measurement behind the README's table ("The pumping flip").
 
     python -m benchmarks.pump_search --front --objective energy --seed 8 --iterations 10
