@@ -13,9 +13,17 @@ population (``--population`` runs) and samples the next one around it. Objective
   that instant on, ``V(q) - V(q0) + L |L| / (2 I_corner)`` [J], with ``L`` its angular momentum
   about the corner (massless legs: the body's own), at the samples where the corner is within
   ``CORNER_GAP`` of the ground (elsewhere the body is not turning about it), to compare with the
-  barrier, ``pump.budget``.
+  barrier, ``pump.budget``;
+- ``back``: how far the body pitches backwards, ``pi - pitch`` [rad] (backwards vertical: 1.571),
+  self-righting over the rear corner;
+- ``ballistic`` / ``ballistic_back``: the highest clearance [m] of the body's lower end at
+  vertical (forwards / backwards) were the body to fly freely from a sample on
+  (:func:`ballistic_clearance`): positive means a throw from there passes vertical in the air.
 
-Prints one JSON document: the best candidate's voltages and its pitch, energy and corner energy.
+A run stops once the pitch is a quarter turn from flat, either way.
+
+Prints one JSON document: the best candidate's voltages and its highest and lowest pitch, energy,
+corner energy and ballistic clearances (forwards, backwards).
 Not part of ``benchmarks/ci.py``: a measurement behind the README's table ("The pumping flip").
 
     python -m benchmarks.pump_search --front --objective energy --seed 8 --iterations 10
@@ -62,7 +70,7 @@ def run(scene: Scene, schedule: np.ndarray, step: float, duration: float):
     stepper = RigidStepper(scene, RigidSettings(max_ambiguity_checks=0))
     for _ in range(int(round(duration / 1e-3))):
         knot = min(int(stepper.t / step), schedule.shape[1] - 1)
-        if not stepper.step(schedule[:, knot] * limit, 1e-3) or stepper.q[2] >= 1.5 * math.pi:
+        if not stepper.step(schedule[:, knot] * limit, 1e-3) or abs(stepper.q[2] - math.pi) >= 0.5 * math.pi:
             break
     return stepper.trajectory(1e-3)
 
@@ -86,13 +94,34 @@ def corner_energy(scene: Scene, traj) -> np.ndarray:
     return out
 
 
+HALF_LENGTH = 0.25
+"""[m] From the body's centre to its ends: standing vertical, the lowest end is this far below the centre."""
+
+
+def ballistic_clearance(traj, backwards: bool) -> np.ndarray:
+    """[m] Per sample: how high the body's lower end would stand at vertical if it flew freely from there.
+
+    Free flight keeps the pitch rate and drops the centre by gravity: the pitch reaches vertical
+    (``pi / 2`` backwards, ``3 pi / 2`` forwards) after ``t = remaining / |rate|``, with the centre
+    at ``y + vy t - g t^2 / 2``; minus :data:`HALF_LENGTH`. ``-inf`` where the pitch rate points away.
+    """
+    target = 0.5 * math.pi if backwards else 1.5 * math.pi
+    remaining = target - traj.q[:, 2]
+    rate = traj.v[:, 2]
+    toward = remaining * rate > 0
+    t = np.where(toward, remaining / np.where(toward, rate, 1.0), 0.0)
+    height = traj.q[:, 1] + traj.v[:, 1] * t - 0.5 * 9.81 * t**2 - HALF_LENGTH
+    return np.where(toward | (remaining * (1 if not backwards else -1) <= 0), height, -math.inf)
+
+
 def main() -> None:
     """Parse the options, search, print the JSON."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--volts", type=float, default=42.8)
     parser.add_argument("--front", action="store_true")
     parser.add_argument("--flat", action="store_true")
-    parser.add_argument("--objective", choices=("pitch", "energy", "corner"), default="pitch")
+    parser.add_argument("--objective", default="pitch",
+                        choices=("pitch", "back", "energy", "corner", "ballistic", "ballistic_back"))
     parser.add_argument("--knots", type=int, default=10)
     parser.add_argument("--step", type=float, default=0.05)
     parser.add_argument("--population", type=int, default=20)
@@ -102,14 +131,17 @@ def main() -> None:
     scene = scene_for(args.volts, args.front, args.flat)
     duration = args.knots * args.step + 0.5
     shape = (scene.inputs.count, args.knots)
-    measures = {"pitch": lambda t: t.q[:, 2], "energy": lambda t: body_energy(scene, t),
-                "corner": lambda t: corner_energy(scene, t)}
+    measures = {"pitch": lambda t: t.q[:, 2], "back": lambda t: math.pi - t.q[:, 2],
+                "energy": lambda t: body_energy(scene, t), "corner": lambda t: corner_energy(scene, t),
+                "ballistic": lambda t: ballistic_clearance(t, False),
+                "ballistic_back": lambda t: ballistic_clearance(t, True)}
 
     def score(x: np.ndarray) -> float:
         return float(np.max(measures[args.objective](run(scene, x.reshape(shape), args.step, duration))))
 
     rng = np.random.default_rng(args.seed)
-    mean, spread = -0.5 * np.ones(math.prod(shape)), 0.8 * np.ones(math.prod(shape))
+    mean = (0.0 if "back" in args.objective else -0.5) * np.ones(math.prod(shape))
+    spread = 0.8 * np.ones(math.prod(shape))
     best, best_x = -math.inf, mean
     for _ in range(args.iterations):
         population = np.clip(mean + spread * rng.standard_normal((args.population, mean.size)), -1, 1)
@@ -122,8 +154,10 @@ def main() -> None:
     print(json.dumps({
         "options": vars(args), "runs": args.iterations * args.population, "best": best,
         "voltages": (best_x.reshape(shape) * np.array(scene.inputs.upper)[:, None]).round(2).tolist(),
-        "max_pitch": float(traj.q[:, 2].max()), "max_energy": float(body_energy(scene, traj).max()),
+        "max_pitch": float(traj.q[:, 2].max()), "min_pitch": float(traj.q[:, 2].min()),
+        "max_energy": float(body_energy(scene, traj).max()),
         "max_corner_energy": float(corner_energy(scene, traj).max()),
+        "clearance": [float(ballistic_clearance(traj, backwards).max()) for backwards in (False, True)],
     }, indent=1))
 
 

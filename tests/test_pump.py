@@ -300,3 +300,39 @@ def test_frc_flip_pump_json_plot_and_exit_codes(tmp_path):
         bad = runner.invoke(app, ["flip", *args])
         assert bad.exit_code == 1 and "Traceback" not in bad.output and len(bad.stderr.splitlines()) == 1
     assert math.isfinite(doc["pump"]["energy_drawn"])
+
+
+def _closed_form_hold(hip_to_corner: float, low: float, high: float) -> float:
+    """[rad] The pitch above flat, in [low, high], at which a toe whose hip is ``hip_to_corner`` [m]
+    behind the front corner reaches the ground exactly as far behind the corner as the centre of
+    mass, the body pivoting on the corner (bisection on ``x_hip + sqrt(LEG^2 - h^2) - x_com``)."""
+    def excess(a: float) -> float:
+        along = CORNER[0] * math.cos(a) - CORNER[1] * math.sin(a)
+        hip = hip_to_corner * math.cos(a) - HIP_DEPTH * math.sin(a)
+        height = hip_to_corner * math.sin(a) + HIP_DEPTH * math.cos(a)
+        return hip + math.sqrt(max(LEG**2 - height**2, 0.0)) - along
+
+    sign = math.copysign(1.0, excess(low))
+    for _ in range(60):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if excess(middle) * sign > 0 else (low, middle)
+    return 0.5 * (low + high)
+
+
+def test_a_toe_that_reaches_the_ground_holds_the_body_only_with_the_centre_of_mass_behind_it(rhex):
+    budget = flip_budget(rhex)
+    step, start = budget.pitch_step, budget.start_pitch - math.pi
+    holds = {toe: [(a - math.pi, b - math.pi) for a, b in spans] for toe, spans in budget.hold_pitch.items()}
+    # the front toe (hip 0.05 m behind the corner): from 1.162 rad up to vertical, 14.0 J above flat
+    (first, last), = holds["front_toe"]
+    front = _closed_form_hold(0.05, 0.5, 1.3)
+    assert front <= first <= front + step
+    assert last == pytest.approx(0.5 * math.pi)
+    height = CORNER[0] * math.sin(front) + CORNER[1] * math.cos(front)
+    assert BODY_MASS * rhex.robot.gravity * (height - CORNER[1]) == pytest.approx(14.0, abs=0.05)
+    # the middle and rear toes: from the start until just before their hips leave their reach
+    for toe, behind in (("middle_toe", 0.25), ("rear_toe", 0.45)):
+        (first, last), = holds[toe]
+        end = min(_closed_form_hold(behind, start, _closed_form_reach(behind)), _closed_form_reach(behind))
+        assert first == pytest.approx(start)
+        assert end - step <= last <= end

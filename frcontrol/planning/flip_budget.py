@@ -17,7 +17,14 @@ lowest body contact touches, and reads, at every step of :data:`PITCH_STEP`:
 - the potential energy (Pinocchio's), whose largest value above the start is the *barrier*;
 - each driven leg's hip height above the ground against the leg's length (a toe lies
   ``|point|`` from its link's frame, which a URDF puts on the link's joint: the hip), which gives
-  the highest pitch at which the leg still reaches the ground (*reach*).
+  the highest pitch at which the leg still reaches the ground (*reach*);
+- each toe's *hold*: whether the toe can carry the body about the pivot, i.e. reach the ground at
+  least as far from the pivot, on the centre of mass's side, as the centre of mass. About the
+  pivot, a friction force on the ground has no moment, so the toe's normal force times its
+  distance must balance the weight's moment with the pivot's normal force >= 0. A leg whose hip
+  lies near the pivot (RHex's front leg, 0.139 m from the front corner, less than its 0.17 m)
+  reaches the ground at every pitch but holds the body only from 1.162 rad above flat on, with
+  the centre of mass 14.0 J above flat of the barrier's 14.2 J: reaching is not holding.
 
 :func:`body_energy` is the body's mechanical energy along a run, ``1/2 v_b^T M_bb v_b + V(q) -
 V(q_0)`` [J], with ``v_b`` the base's velocity (x, y, pitch) and ``M_bb`` its block of the mass
@@ -30,7 +37,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -66,6 +73,8 @@ class FlipBudget:
         reach_pitch: per driven joint whose leg has a toe, the highest pitch [rad] up to which
             (from the start on) a toe still reaches the ground; None: not even at the start.
         reach_energy: [J] the potential energy above the state at the highest reach pitch.
+        hold_pitch: per toe (every contact off the body, driven or not), the pitch intervals
+            ``[from, to]`` [rad] of the sweep over which it can hold the body (module docstring).
         pitch_step: [rad] the sweep's step.
     """
 
@@ -78,6 +87,7 @@ class FlipBudget:
     reach_pitch: Mapping[str, float | None]
     reach_energy: float
     pitch_step: float
+    hold_pitch: Mapping[str, tuple[tuple[float, float], ...]] = field(default_factory=dict)
 
     @property
     def kinetic_energy_needed(self) -> float:
@@ -92,6 +102,7 @@ class FlipBudget:
             "vertical_energy": self.vertical_energy, "reach_pitch": dict(self.reach_pitch),
             "reach_energy": self.reach_energy, "kinetic_energy_needed": self.kinetic_energy_needed,
             "pitch_step": self.pitch_step,
+            "hold_pitch": {toe: [list(span) for span in spans] for toe, spans in self.hold_pitch.items()},
         })
 
 
@@ -157,6 +168,8 @@ def flip_budget(scene: Scene, *, pitch_step: float = PITCH_STEP) -> FlipBudget:
     energy = np.empty(pitches.size)
     lowest = np.empty(pitches.size, dtype=int)
     reaches = {joint: np.empty(pitches.size, dtype=bool) for joint in toes}
+    off_body = [i for i in range(len(names)) if i not in body]
+    holds = np.empty((pitches.size, len(off_body)), dtype=bool)
     for k, pitch in enumerate(pitches):
         q = np.array(scene.q, dtype=float)
         q[task.pitch_index] = pitch
@@ -168,6 +181,9 @@ def flip_budget(scene: Scene, *, pitch_step: float = PITCH_STEP) -> FlipBudget:
         poses = robot.link_poses(q)
         for joint, legs in toes.items():
             reaches[joint][k] = any(_toe_reaches(scene.contacts[t].point, poses, surface[t]) for t in legs)
+        pivot = robot.contact_points_in_world(q)[lowest[k]]
+        holds[k] = [_toe_holds(scene.contacts[t].point, poses, surface[t], pivot, robot.center_of_mass(q))
+                    for t in off_body]
     tip = int(np.argmax(energy))
     reach_pitch = {joint: _last_contiguous(pitches, ok) for joint, ok in reaches.items()}
     highest = [p for p in reach_pitch.values() if p is not None]
@@ -176,6 +192,7 @@ def flip_budget(scene: Scene, *, pitch_step: float = PITCH_STEP) -> FlipBudget:
         pivot=names[lowest[tip]], start_pitch=task.initial_pitch, vertical=task.vertical,
         tip_pitch=float(pitches[tip]), barrier_energy=float(energy[tip]), vertical_energy=float(energy[-1]),
         reach_pitch=reach_pitch, reach_energy=reach_energy, pitch_step=pitch_step,
+        hold_pitch={names[t]: _intervals(pitches, holds[:, j]) for j, t in enumerate(off_body)},
     )
 
 
@@ -184,6 +201,32 @@ def _toe_reaches(toe: ContactPoint, poses: Mapping[str, tuple[np.ndarray, float]
     """Whether the toe's hip (its link's origin) is within the leg's length of the toe's surface."""
     hip_height = float((poses[toe.link][0] - surface) @ toe.normal_in_world)
     return hip_height <= float(np.linalg.norm(toe.point_in_link))
+
+
+def _toe_holds(toe: ContactPoint, poses: Mapping[str, tuple[np.ndarray, float]], surface: np.ndarray,
+               pivot: np.ndarray, com: np.ndarray) -> bool:
+    """Whether the toe can reach its surface at least as far from ``pivot`` as ``com``, on its side.
+
+    Distances along the surface (the normal turned a quarter turn); the toe lies on the circle of
+    the leg's length about its hip (its link's origin).
+    """
+    normal = toe.normal_in_world
+    tangent = np.array([-normal[1], normal[0]])
+    hip = poses[toe.link][0]
+    height = float((hip - surface) @ normal)
+    leg = float(np.linalg.norm(toe.point_in_link))
+    if height > leg:
+        return False
+    side = 1.0 if float((com - pivot) @ tangent) >= 0.0 else -1.0
+    farthest = side * float((hip - pivot) @ tangent) + math.sqrt(leg**2 - height**2)
+    return farthest >= side * float((com - pivot) @ tangent)
+
+
+def _intervals(pitches: np.ndarray, ok: np.ndarray) -> tuple[tuple[float, float], ...]:
+    """The runs of ``ok`` as ``(first pitch, last pitch)``."""
+    edges = np.diff(np.concatenate(([0], ok.astype(int), [0])))
+    starts, ends = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0] - 1
+    return tuple((float(pitches[a]), float(pitches[b])) for a, b in zip(starts, ends, strict=True))
 
 
 def _last_contiguous(pitches: np.ndarray, ok: np.ndarray) -> float | None:
