@@ -281,7 +281,8 @@ def primal_residual(problem: LinearProgram, x: np.ndarray) -> float:
     if problem.A_eq.shape[0]:
         worst = max(worst, float(np.abs(problem.A_eq @ x - problem.b_eq).max()))
     if problem.has_bounds and x.shape[0]:
-        worst = max(worst, float((problem.lb - x).max()), float((x - problem.ub).max()))
+        # max(lb - x) and max(x - ub) in one reduction (the same largest entry)
+        worst = max(worst, float(np.maximum(problem.lb - x, x - problem.ub).max()))
     return worst
 
 
@@ -301,7 +302,7 @@ def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
         size = float(np.abs(x).max())
         for A in (problem.A_ub, problem.A_eq):
             if A.shape[0]:
-                scale += float(np.abs(A).sum(axis=1).max()) * size
+                scale += float(np.add.reduce(np.abs(A), axis=1).max()) * size
     return FEASIBILITY_TOLERANCE * scale
 
 
