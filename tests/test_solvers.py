@@ -456,3 +456,6 @@ def test_daqp_leaves_the_problem_arrays_unchanged():
         # the door's residual (NumPy's or the compiled check's, equal to round-off) of the same x
         residual = solvers.primal_residual(problem, result.x)
         assert abs(result.primal_residual - residual) <= 1e-9 * result.residual_tolerance
+    problem = solvers.lp_problem(**random_feasible_lp(rng, 4, 9))
+    problem.A_ub.setflags(write=False)  # a read-only matrix (e.g. a cached one) is copied for DAQP
+    assert solvers.solve(problem, solver="daqp").found

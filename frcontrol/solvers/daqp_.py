@@ -117,7 +117,9 @@ def _stack(
         np.minimum(problem.ub, DAQP_INF, out=bupper[:m_s])
         np.maximum(problem.lb, -DAQP_INF, out=blower[:m_s])
     bupper[m_s : m_s + m_ub] = problem.b_ub
-    if rows == m_ub:  # inequalities only: the door's C-contiguous float64 A_ub as it is
+    if rows == m_ub and problem.A_ub.flags.writeable:
+        # inequalities only: the door's C-contiguous float64 A_ub as it is (DAQP reads it through
+        # a writable typed memoryview, hence the flag, and does not write it)
         return problem.A_ub, bupper, blower, sense
     A = np.empty((rows, n))
     A[:m_ub] = problem.A_ub
