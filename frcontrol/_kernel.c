@@ -845,6 +845,118 @@ done:
     return result;
 }
 
+/* The LP door's check of an answer (frcontrol.solvers.primal_residual and _residual_tolerance):
+ * residual = max(0, max(A_ub x - b_ub), max |A_eq x - b_eq|, max(lb - x), max(x - ub)) (the
+ * bounds only when has_bounds), and scale = 1 + the largest finite |b_ub|, |b_eq| (|lb|, |ub| when
+ * has_bounds) + (max_i ||a_ub_i||_1 + max_j ||a_eq_j||_1) ||x||_inf, the last term added row block by
+ * row block as there. x None: no residual (NaN) and no x term. */
+static double row_block_residual(const double *A, const double *b, const double *x, Py_ssize_t rows,
+                                 Py_ssize_t n, int absolute, double worst) {
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        double v = 0.0;
+        for (Py_ssize_t j = 0; j < n; j++) {
+            v += A[i * n + j] * x[j];
+        }
+        v -= b[i];
+        if (absolute) {
+            v = fabs(v);
+        }
+        if (v > worst) {
+            worst = v;
+        }
+    }
+    return worst;
+}
+
+static double largest_row_l1(const double *A, Py_ssize_t rows, Py_ssize_t n) {
+    double best = 0.0;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        double v = 0.0;
+        for (Py_ssize_t j = 0; j < n; j++) {
+            v += fabs(A[i * n + j]);
+        }
+        if (v > best) {
+            best = v;
+        }
+    }
+    return best;
+}
+
+static double largest_finite(const double *v, Py_ssize_t size, double best) {
+    for (Py_ssize_t i = 0; i < size; i++) {
+        double a = fabs(v[i]);
+        if (a < HUGE_VAL && a > best) {
+            best = a;
+        }
+    }
+    return best;
+}
+
+static PyObject *lp_check(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 8) {
+        PyErr_Format(kernel_error, "lp_check takes 8 arguments, got %zd", nargs);
+        return NULL;
+    }
+    Buffer b[7];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    Py_ssize_t ub_shape[2] = {-1, -1}, n = 0, m_ub, m_eq;
+    if (take(args[0], &b[0], "A_ub", 'd', 2, ub_shape, 0)) {
+        goto done;
+    }
+    n = ub_shape[1], m_ub = ub_shape[0];
+    Py_ssize_t b_ub_shape[1] = {m_ub}, eq_shape[2] = {-1, n}, vector[1] = {n}, x_shape[1] = {0};
+    if (take(args[1], &b[1], "b_ub", 'd', 1, b_ub_shape, 0) || take(args[2], &b[2], "A_eq", 'd', 2, eq_shape, 0)) {
+        goto done;
+    }
+    m_eq = eq_shape[0];
+    Py_ssize_t b_eq_shape[1] = {m_eq};
+    if (take(args[3], &b[3], "b_eq", 'd', 1, b_eq_shape, 0) || take(args[4], &b[4], "lb", 'd', 1, vector, 0) ||
+        take(args[5], &b[5], "ub", 'd', 1, vector, 0)) {
+        goto done;
+    }
+    int has_x = args[6] != Py_None;
+    x_shape[0] = n;
+    if (has_x && take(args[6], &b[6], "x", 'd', 1, x_shape, 0)) {
+        goto done;
+    }
+    int has_bounds = PyObject_IsTrue(args[7]);
+    if (has_bounds < 0) {
+        goto done;
+    }
+    const double *A_ub = b[0].view.buf, *b_ub = b[1].view.buf, *A_eq = b[2].view.buf, *b_eq = b[3].view.buf;
+    const double *lb = b[4].view.buf, *ub = b[5].view.buf, *x = has_x ? b[6].view.buf : NULL;
+    double top = largest_finite(b_eq, m_eq, largest_finite(b_ub, m_ub, 0.0));
+    if (has_bounds) {
+        top = largest_finite(ub, n, largest_finite(lb, n, top));
+    }
+    double scale = 1.0 + top, residual = NAN;
+    if (has_x) {
+        double size = 0.0;
+        residual = 0.0;
+        for (Py_ssize_t j = 0; j < n; j++) {
+            size = fabs(x[j]) > size ? fabs(x[j]) : size;
+            if (has_bounds) {
+                residual = lb[j] - x[j] > residual ? lb[j] - x[j] : residual;
+                residual = x[j] - ub[j] > residual ? x[j] - ub[j] : residual;
+            }
+        }
+        residual = row_block_residual(A_ub, b_ub, x, m_ub, n, 0, residual);
+        residual = row_block_residual(A_eq, b_eq, x, m_eq, n, 1, residual);
+        if (m_ub && n) {
+            scale += largest_row_l1(A_ub, m_ub, n) * size;
+        }
+        if (m_eq && n) {
+            scale += largest_row_l1(A_eq, m_eq, n) * size;
+        }
+    }
+    result = Py_BuildValue("(dd)", residual, scale);
+done:
+    release(b, 7);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"certified_modes", (PyCFunction)(void (*)(void))certified_modes, METH_FASTCALL,
      "certified_modes(dynamics, equalities, equality_rhs, inequalities, inequality_rhs, valid, motion,\n"
@@ -863,6 +975,10 @@ static PyMethodDef methods[] = {
      "singular value lies in the ill-conditioned band; else each mode's status (int8: INADMISSIBLE,\n"
      "ADMISSIBLE, ADMISSIBLE_W with one ambiguity variable, NEEDS_PYTHON with more), x, w,\n"
      "outputs (MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS), residual and violation."},
+    {"lp_check", (PyCFunction)(void (*)(void))lp_check, METH_FASTCALL,
+     "lp_check(A_ub, b_ub, A_eq, b_eq, lb, ub, x, has_bounds) -> (residual, scale)\n\n"
+     "The LP door's primal residual of x (NaN for x None) and the scale of its tolerance\n"
+     "(frcontrol.solvers.primal_residual and FEASIBILITY_TOLERANCE), in one pass."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "frcontrol._kernel",
@@ -888,7 +1004,7 @@ PyMODINIT_FUNC PyInit__kernel(void) {
                              "MOVES_ACCELERATIONS"};
     int values[10] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
                       NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS};
-    PyObject *all = Py_BuildValue("[ss]", "certified_modes", "rank_modes");
+    PyObject *all = Py_BuildValue("[sss]", "certified_modes", "rank_modes", "lp_check");
     if (all == NULL) {
         Py_DECREF(mod);
         return NULL;

@@ -374,12 +374,16 @@ def motion_margin(
     d = H.shape[1]
     norms, zero = _row_norms(H)
     constant = motion & zero
-    if (h[constant] < -DOMAIN_TOLERANCE).any():
-        return MotionMargin("infeasible", None, None)
-    degenerate_constant = bool((h[constant] <= DOMAIN_TOLERANCE).any())
+    degenerate_constant = False
+    if constant.any():
+        fixed = h[constant]
+        if (fixed < -DOMAIN_TOLERANCE).any():
+            return MotionMargin("infeasible", None, None)
+        degenerate_constant = bool((fixed <= DOMAIN_TOLERANCE).any())
+    moving = motion ^ constant  # the motion rows with coefficients (constant is within motion)
     A_ub = np.empty((H.shape[0], d + 1))
     A_ub[:, :d] = H
-    A_ub[:, d] = np.where(motion & ~constant, norms, 0.0)
+    np.multiply(norms, moving, out=A_ub[:, d])  # the norm on a moving row, 0 elsewhere
     A = None
     if A_eq.shape[0]:
         A = np.zeros((A_eq.shape[0], d + 1))
@@ -390,8 +394,7 @@ def motion_margin(
     if not result.found or result.x is None:
         return MotionMargin("infeasible", None, None)
     z, t = result.x[:d], float(result.x[-1])
-    has_motion = bool(np.any(motion & ~constant))
-    if degenerate_constant or (has_motion and t <= DOMAIN_TOLERANCE):
+    if degenerate_constant or (t <= DOMAIN_TOLERANCE and moving.any()):
         return MotionMargin("freedom", z, t)
     return MotionMargin("ok", z, t)
 
@@ -400,9 +403,12 @@ def _margin_bounds(d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The motion LP's cost (maximise t) and bounds (z free, 0 <= t <= 1) over ``(z, t)``."""
     cost = np.zeros(d + 1)
     cost[-1] = -1.0
-    lb = np.full(d + 1, -np.inf)
-    ub = np.full(d + 1, np.inf)
-    lb[-1], ub[-1] = 0.0, 1.0
+    lb = np.empty(d + 1)
+    lb[:-1] = -np.inf
+    lb[-1] = 0.0
+    ub = np.empty(d + 1)
+    ub[:-1] = np.inf
+    ub[-1] = 1.0
     return cost, lb, ub
 
 

@@ -12,7 +12,9 @@ Two implementations give the same answers (to round-off, see :data:`CERTIFIED_RO
 The environment variable ``FRC_KERNEL`` chooses (``numpy`` or ``compiled``); unset or empty, the
 compiled kernel when it is built, else NumPy. An unknown value, or ``compiled`` where the extension
 was not built, raises :class:`~frcontrol.errors.KernelError`. Modes the bound does not certify go
-to the batched SVD in NumPy on either path.
+to the batched SVD in NumPy on either path. The same switch chooses how the LP door
+(:mod:`frcontrol.solvers`) checks an answer: ``lp_check`` of the extension, or NumPy's
+:func:`~frcontrol.solvers.primal_residual` and residual tolerance (equal to round-off).
 """
 
 from __future__ import annotations

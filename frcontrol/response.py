@@ -252,14 +252,17 @@ def certified_responses(
         solved = np.linalg.solve(np.swapaxes(R[hopeful, :rows], 1, 2), rhs)  # R_1^-T [I, B, c]
         bound = size[hopeful] * np.sqrt((solved[:, :, :rows] ** 2).sum(axis=(1, 2)))
     y = np.matmul(Q[hopeful, :, :rows], solved)
+    # x = diag(c) y for every hopeful system at once (elementwise: the same numbers as one by one)
+    y *= c_scale[hopeful, :, None]
+    X_u, x_0 = np.ascontiguousarray(y[:, :, rows:rows + m]), np.ascontiguousarray(y[:, :, -1])
+    X_w = Q[hopeful, :, rows:] * c_scale[hopeful, :, None]
+    no_conditions, no_values = np.zeros((0, m)), np.zeros(0)  # empty: shared, nothing to write
     for j, i in enumerate(hopeful.tolist()):
         if bound[j] < limit:  # False for NaN
-            scale = c_scale[i]
             out[i] = AffineSolution(
-                X_u=scale[:, None] * y[j, :, rows:rows + m], X_w=scale[:, None] * Q[i, :, rows:],
-                x_0=scale * y[j, :, -1], E=np.zeros((0, m)), e=np.zeros(0), consistent=True, rank=rows,
-                shape=(rows, nx), singular_values=np.zeros(0), condition_number=float(bound[j]),
-                rank_tolerance=rank_tolerance, certified=True)
+                X_u=X_u[j], X_w=X_w[j], x_0=x_0[j], E=no_conditions, e=no_values,
+                consistent=True, rank=rows, shape=(rows, nx), singular_values=no_values,
+                condition_number=float(bound[j]), rank_tolerance=rank_tolerance, certified=True)
     return out
 
 

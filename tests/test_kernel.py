@@ -280,3 +280,103 @@ def test_an_unknown_kernel_is_one_line_and_exit_1():
     assert result.exit_code == 1
     assert result.stderr.strip().splitlines() == [
         "frc: error: FRC_KERNEL='gpu' names no kernel; valid: numpy, compiled"]
+
+
+# ---------------------------------------------------------------------------- the LP door's check
+LP_CHECK_AGREEMENT = 1e-12
+"""Relative agreement of the compiled and the NumPy residual checks (the same sums in another
+order), per unit of the residual tolerance's scale."""
+
+
+def _numpy_check(problem, x):
+    from frcontrol.solvers import _residual_tolerance, primal_residual
+
+    residual = float("nan") if x is None else primal_residual(problem, x)
+    return residual, _residual_tolerance(problem, x)
+
+
+def _compiled_check(problem, x):
+    from frcontrol.solvers import FEASIBILITY_TOLERANCE
+
+    residual, scale = compiled.lp_check(problem.A_ub, problem.b_ub, problem.A_eq, problem.b_eq,
+                                        problem.lb, problem.ub, x, problem.has_bounds)
+    return residual, FEASIBILITY_TOLERANCE * scale
+
+
+def _agree(problem, x):
+    from frcontrol.solvers import FEASIBILITY_TOLERANCE
+
+    residual, tolerance = _numpy_check(problem, x)
+    fast_residual, fast_tolerance = _compiled_check(problem, x)
+    assert fast_tolerance == pytest.approx(tolerance, rel=LP_CHECK_AGREEMENT)
+    if x is None:
+        assert np.isnan(residual) and np.isnan(fast_residual)
+    else:
+        assert abs(fast_residual - residual) <= LP_CHECK_AGREEMENT * tolerance / FEASIBILITY_TOLERANCE
+
+
+@needs_kernel
+def test_the_compiled_lp_check_agrees_with_numpy_on_random_problems():
+    """Random LPs with and without equalities, bounds (some infinite) and rows, at random points
+    (feasible or not) and without a point: the same residual and tolerance to round-off."""
+    from frcontrol.solvers import lp_problem
+
+    rng = np.random.default_rng(7)
+    for trial in range(300):
+        n, m_ub, m_eq = int(rng.integers(1, 9)), int(rng.integers(0, 12)), int(rng.integers(0, 3))
+        scale = 10.0 ** rng.uniform(-3, 3)
+        lb = np.where(rng.random(n) < 0.3, -np.inf, -rng.uniform(0, 5, n))
+        ub = np.where(rng.random(n) < 0.3, np.inf, rng.uniform(0, 5, n))
+        bounded = trial % 4 != 0
+        problem = lp_problem(rng.standard_normal(n), scale * rng.standard_normal((m_ub, n)),
+                             scale * rng.standard_normal(m_ub), rng.standard_normal((m_eq, n)),
+                             rng.standard_normal(m_eq), lb if bounded else None, ub if bounded else None)
+        _agree(problem, None)
+        _agree(problem, rng.standard_normal(n) * 10.0 ** rng.uniform(-3, 3))
+
+
+@needs_kernel
+@pytest.mark.parametrize("name", ["rhex_flip", "snake_climb"])
+def test_the_door_accepts_the_same_answers_with_either_check(name, monkeypatch):
+    """Every LP of a shipped scene's analysis (its domains and projections too), checked both ways:
+    the same residual and tolerance to round-off, and the same accept/reject decision."""
+    import frcontrol.solvers as door
+    from frcontrol.engine import analyze
+
+    seen: list = []
+    original = door._finish
+
+    def record(result_type, problem, raw, solver, solve_time, P):
+        result = original(result_type, problem, raw, solver, solve_time, P)
+        seen.append((problem, result))
+        return result
+
+    monkeypatch.setattr(door, "_finish", record)
+    monkeypatch.setenv("FRC_KERNEL", "compiled")
+    result = analyze(load_scene(name), ambiguity=False)
+    for mode in result.feasible_modes[:6]:
+        _ = mode.input_domain
+    assert len(seen) > 50
+    for problem, answer in seen:
+        if answer.x is None:
+            _agree(problem, None)
+            continue
+        _agree(problem, answer.x)
+        residual, tolerance = _numpy_check(problem, answer.x)
+        assert residual <= tolerance  # the answer the compiled check accepted, NumPy accepts too
+
+
+@needs_kernel
+def test_the_lp_check_refuses_bad_buffers():
+    from frcontrol.solvers import lp_problem
+
+    problem = lp_problem(np.ones(2), np.eye(2), np.ones(2))
+    arrays = [problem.A_ub, problem.b_ub, problem.A_eq, problem.b_eq, problem.lb, problem.ub]
+    with pytest.raises(KernelError, match="x"):
+        compiled.lp_check(*arrays, np.ones(3), True)
+    with pytest.raises(KernelError, match="b_ub"):
+        compiled.lp_check(problem.A_ub, np.ones(3), *arrays[2:], np.ones(2), True)
+    with pytest.raises(KernelError, match="A_ub"):
+        compiled.lp_check(np.ones((2, 2), dtype=np.float32), *arrays[1:], np.ones(2), True)
+    with pytest.raises(KernelError, match="8 arguments"):
+        compiled.lp_check(*arrays)

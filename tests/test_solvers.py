@@ -440,3 +440,22 @@ def test_the_reference_back_end_falls_back_to_the_default():
     assert failed.status == "error"
     rescued = solve_lp(c, A, b, solver=REFERENCE_LP_SOLVER, time_limit=0.0, fallback=RETRY_ERRORS)
     assert rescued.found and rescued.solver == DEFAULT_LP_SOLVER
+
+
+def test_daqp_leaves_the_problem_arrays_unchanged():
+    """DAQP reads an inequality-only problem's A_ub in place (no copy): the door's residual check,
+    run after the solve, must still see the problem as it was handed in."""
+    rng = np.random.default_rng(13)
+    for _ in range(30):
+        problem = solvers.lp_problem(**random_feasible_lp(rng, 4, 9))
+        before = [array.copy() for array in dataclasses.astuple(problem)]
+        result = solvers.solve(problem, solver="daqp")
+        assert result.found, result.raw_status
+        for old, now in zip(before, dataclasses.astuple(problem), strict=True):
+            assert np.array_equal(old, now)
+        # the door's residual (NumPy's or the compiled check's, equal to round-off) of the same x
+        residual = solvers.primal_residual(problem, result.x)
+        assert abs(result.primal_residual - residual) <= 1e-9 * result.residual_tolerance
+    problem = solvers.lp_problem(**random_feasible_lp(rng, 4, 9))
+    problem.A_ub.setflags(write=False)  # a read-only matrix (e.g. a cached one) is copied for DAQP
+    assert solvers.solve(problem, solver="daqp").found

@@ -38,6 +38,7 @@ from typing import Any, cast
 import numpy as np
 
 from frcontrol.errors import FrcontrolError, InputError, SolverNotFound
+from frcontrol.kernel import compiled, kernel_choice
 
 from ._common import LinearProgram, QPAdapter, QuadraticProgram, RawSolution, Status
 
@@ -281,7 +282,8 @@ def primal_residual(problem: LinearProgram, x: np.ndarray) -> float:
     if problem.A_eq.shape[0]:
         worst = max(worst, float(np.abs(problem.A_eq @ x - problem.b_eq).max()))
     if problem.has_bounds and x.shape[0]:
-        worst = max(worst, float((problem.lb - x).max()), float((x - problem.ub).max()))
+        # max(lb - x) and max(x - ub) in one reduction (the same largest entry)
+        worst = max(worst, float(np.maximum(problem.lb - x, x - problem.ub).max()))
     return worst
 
 
@@ -301,8 +303,23 @@ def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
         size = float(np.abs(x).max())
         for A in (problem.A_ub, problem.A_eq):
             if A.shape[0]:
-                scale += float(np.abs(A).sum(axis=1).max()) * size
+                scale += float(np.add.reduce(np.abs(A), axis=1).max()) * size
     return FEASIBILITY_TOLERANCE * scale
+
+
+def _check(problem: LinearProgram, x: np.ndarray | None) -> tuple[float, float]:
+    """:func:`primal_residual` (NaN without ``x``) and :func:`_residual_tolerance`.
+
+    With the compiled kernel in force (:func:`frcontrol.kernel.kernel_choice`), both in one pass of
+    ``frcontrol._kernel.lp_check`` (the same sums in another order: equal to round-off, see
+    tests/test_kernel.py); else in NumPy.
+    """
+    if kernel_choice() == "compiled" and compiled is not None:
+        residual, scale = compiled.lp_check(problem.A_ub, problem.b_ub, problem.A_eq, problem.b_eq,
+                                            problem.lb, problem.ub, x, problem.has_bounds)
+        return residual, FEASIBILITY_TOLERANCE * scale
+    residual = float("nan") if x is None else primal_residual(problem, x)
+    return residual, _residual_tolerance(problem, x)
 
 
 def _adapter(registry: dict[str, QPAdapter], solver: str) -> QPAdapter:
@@ -322,14 +339,11 @@ def _finish(
     P: np.ndarray | None,
 ) -> LPResult:
     status, raw_status, x = raw.status, raw.raw_status, raw.x
-    residual = float("nan")
     if x is not None:
-        x = np.asarray(x, dtype=np.float64).reshape(-1)
+        x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1)
         if x.shape != (problem.n,) or not np.isfinite(x).all():
             status, raw_status, x = "error", raw_status + "; door: x malformed or not finite", None
-        else:
-            residual = primal_residual(problem, x)
-    tolerance = _residual_tolerance(problem, x)
+    residual, tolerance = _check(problem, x)
     if status == "optimal" and not residual <= tolerance:
         status = "error"
         raw_status += f"; door: primal residual {residual:.3g} > {tolerance:.3g}, rejected"
@@ -432,8 +446,9 @@ def lp_problem(
         b_eq: equality right-hand side, shape ``(m_eq,)``, or ``None``.
         lb: lower bounds, a scalar or shape ``(n,)``, ``-inf`` allowed; ``None`` = no bound.
         ub: upper bounds, a scalar or shape ``(n,)``, ``+inf`` allowed; ``None`` = no bound.
-        validate: check shapes and values (False: arrays frcontrol built itself, float64 of
-            consistent shapes with no NaN; they are only made C-contiguous, which DAQP needs).
+        validate: check shapes and values (False: arrays frcontrol built itself, of consistent
+            shapes with no NaN; they are only made C-contiguous float64, which DAQP and the
+            compiled check need).
 
     Raises:
         InputError: malformed arrays (shapes, NaN, infinite entries in matrices), when validated.
@@ -441,7 +456,10 @@ def lp_problem(
     if validate:
         return _validate_lp(c, A_ub, b_ub, A_eq, b_eq, lb, ub)
     n = c.shape[0]
-    contiguous = np.ascontiguousarray
+
+    def contiguous(array: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(array, dtype=np.float64)  # no copy for float64 already contiguous
+
     return LinearProgram(
         contiguous(c),
         contiguous(A_ub) if A_ub is not None else np.zeros((0, n)),

@@ -110,15 +110,19 @@ def _stack(
     m_ub, m_eq = problem.A_ub.shape[0], problem.A_eq.shape[0]
     pairs = equalities_as_pairs and m_eq > 0
     rows = m_ub + (2 * m_eq if pairs else m_eq)
-    A = np.empty((rows, n))
     bupper = np.empty(m_s + rows)
     blower = np.full(m_s + rows, -DAQP_INF)
-    sense = np.full(m_s + rows, SENSE_INEQUALITY, dtype=np.intc)
+    sense = np.zeros(m_s + rows, dtype=np.intc)  # SENSE_INEQUALITY
     if m_s:
         np.minimum(problem.ub, DAQP_INF, out=bupper[:m_s])
         np.maximum(problem.lb, -DAQP_INF, out=blower[:m_s])
-    A[:m_ub] = problem.A_ub
     bupper[m_s : m_s + m_ub] = problem.b_ub
+    if rows == m_ub and problem.A_ub.flags.writeable:
+        # inequalities only: the door's C-contiguous float64 A_ub as it is (DAQP reads it through
+        # a writable typed memoryview, hence the flag, and does not write it)
+        return problem.A_ub, bupper, blower, sense
+    A = np.empty((rows, n))
+    A[:m_ub] = problem.A_ub
     if pairs:
         A[m_ub : m_ub + m_eq] = problem.A_eq
         A[m_ub + m_eq :] = -problem.A_eq
