@@ -46,11 +46,12 @@ import numpy as np
 from .kernel import compiled, kernel_choice
 from .modes import MODE_LETTERS, ContactProblem
 from .response import (
+    CERTIFIED_MARGIN,
     CONSISTENCY_TOLERANCE,
     ILL_CONDITIONED_BAND,
     OUTPUT_TOLERANCE,
+    equilibrate_stack,
     outputs_moved_by,
-    power_of_two_scale,
 )
 
 BATCH_MAX_MODES = 1024
@@ -116,11 +117,8 @@ def full_modes(allowed: tuple[str, ...]) -> tuple[tuple[str, ...], np.ndarray]:
     return modes, letters
 
 
-def _equilibrate(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Row and column scalings of a stack, as :func:`frcontrol.response._equilibrate` per matrix."""
-    rows = power_of_two_scale(np.abs(A).max(axis=2))
-    cols = power_of_two_scale(np.abs(A * rows[:, :, None]).max(axis=1))
-    return rows, cols
+_equilibrate = equilibrate_stack
+"""Row and column scalings of the modes' stack (:func:`frcontrol.response.equilibrate_stack`)."""
 
 
 @dataclass(frozen=True)
@@ -159,11 +157,11 @@ def _stack(problem: ContactProblem, letters: np.ndarray, u: np.ndarray) -> _Stac
                   table.motion[contacts, letters].reshape(count, -1))
 
 
-CERTIFIED_MARGIN = 10.0
-"""A mode skips the SVD when ``||A||_F ||A^-1||_F`` (of the equilibrated A, a bound on its 2-norm
-condition number) is below ``1 / (CERTIFIED_MARGIN max(rank_tolerance, ILL_CONDITIONED_BAND))``:
-its smallest singular value is then certainly above both thresholds, so the SVD would find full
-rank outside the ill-conditioned band, and an LU solve gives the same unique response."""
+# CERTIFIED_MARGIN (frcontrol.response): a mode skips the SVD when ``||A||_F ||A^-1||_F`` (of the
+# equilibrated A, a bound on its 2-norm condition number) is below
+# ``1 / (CERTIFIED_MARGIN max(rank_tolerance, ILL_CONDITIONED_BAND))``: its smallest singular value is
+# then certainly above both thresholds, so the SVD would find full rank outside the ill-conditioned
+# band, and an LU solve gives the same unique response.
 
 
 def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, rank_tolerance: float,
@@ -219,14 +217,20 @@ def _svd_modes(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, A_ha
     kept = s > rank_tolerance * s_max
     if (kept & (s <= ILL_CONDITIONED_BAND * s_max)).any():
         return None
-    rank = np.where(s_max[:, 0] > 0.0, kept.sum(axis=1), 0)
     scaled = _Scaled(U, s, Vt, r_scale[rest], c_scale[rest], st.B[rest] * r_scale[rest, :, None],
                      st.c[rest] * r_scale[rest])
+    return _decide_by_rank(problem, modes, st, scaled, rest, rank_tolerance, u, decide_w, tolerances)
+
+
+def _decide_by_rank(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, sc: _Scaled,
+                    rest: np.ndarray, rank_tolerance: float, u: np.ndarray, decide_w: WDecider,
+                    tolerances: tuple[float, float, float]) -> dict[int, BatchSolution]:
+    """The SVD's modes (``sc``, for ``rest`` of ``st``) by :func:`_decide_rank_group`, rank by rank."""
+    rank = np.where(sc.s[:, 0] > 0.0, (sc.s > rank_tolerance * sc.s[:, :1]).sum(axis=1), 0)
     found: dict[int, BatchSolution] = {}
     for r in np.unique(rank):
         group = np.nonzero(rank == r)[0]
-        found.update(_decide_rank_group(problem, modes, st, scaled, rest, group, int(r), u, decide_w,
-                                        tolerances))
+        found.update(_decide_rank_group(problem, modes, st, sc, rest, group, int(r), u, decide_w, tolerances))
     return found
 
 
@@ -320,15 +324,9 @@ def _python_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letters:
     st = _stack(problem, letters[index], u)
     names = tuple(modes[i] for i in index.tolist())
     scaled = _Scaled(U, s, Vt, r_scale, c_scale, st.B * r_scale[:, :, None], st.c * r_scale)
-    rank = np.where(s[:, 0] > 0.0, (s > rank_tolerance * s[:, :1]).sum(axis=1), 0)
-    everything = np.arange(index.size)
-    found: dict[int, BatchSolution] = {}
-    for r in np.unique(rank):
-        group = np.nonzero(rank == r)[0]
-        decided = _decide_rank_group(problem, names, st, scaled, everything, group, int(r), u, decide_w,
-                                     tolerances)
-        found.update({int(index[j]): sol for j, sol in decided.items()})
-    return found
+    decided = _decide_by_rank(problem, names, st, scaled, np.arange(index.size), rank_tolerance, u,
+                              decide_w, tolerances)
+    return {int(index[j]): sol for j, sol in decided.items()}
 
 
 def _certified_responses(problem: ContactProblem, st: _Stack, A_hat: np.ndarray, r_scale: np.ndarray,

@@ -45,7 +45,8 @@ CERTIFIED_MARGIN = 10.0
 equilibrated A of full row rank, a bound on its 2-norm condition number) is below
 ``1 / (CERTIFIED_MARGIN max(rank_tolerance, ILL_CONDITIONED_BAND))``: its smallest singular value
 is then certainly above both thresholds, so the SVD would find full row rank outside the
-ill-conditioned band (the margin of :mod:`frcontrol.mode_batch`'s certificate)."""
+ill-conditioned band. :mod:`frcontrol.mode_batch` certifies its modes with the same margin
+(``||A^-1||_F`` for a square A)."""
 
 VOID_CONDITIONS_SAFETY = 0.5
 """[-] The consistency rows are found void without their SVD only when their Frobenius norm and
@@ -118,6 +119,15 @@ def _equilibrate(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rows = power_of_two_scale(magnitude.max(axis=1))
     # powers of two scale exactly: |A * r| is |A| * r
     cols = power_of_two_scale((magnitude * rows[:, None]).max(axis=0))
+    return rows, cols
+
+
+def equilibrate_stack(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Row and column scalings of a stack ``(count, rows, cols)``, as :func:`_equilibrate` per matrix."""
+    magnitude = np.abs(A)
+    rows = power_of_two_scale(magnitude.max(axis=2))
+    # powers of two scale exactly: |A * r| is |A| * r
+    cols = power_of_two_scale((magnitude * rows[:, :, None]).max(axis=1))
     return rows, cols
 
 
@@ -232,9 +242,7 @@ def certified_responses(
     if count == 0 or rows == 0 or rows > nx:
         return out
     m = B.shape[2]
-    magnitude = np.abs(A)
-    r_scale = power_of_two_scale(magnitude.max(axis=2))
-    c_scale = power_of_two_scale((magnitude * r_scale[:, :, None]).max(axis=1))
+    r_scale, c_scale = equilibrate_stack(A)
     A_hat = A * r_scale[:, :, None] * c_scale[:, None, :]
     limit = 1.0 / (CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND))
     size = np.sqrt((A_hat * A_hat).sum(axis=(1, 2)))  # ||A_hat||_F = ||R_1||_F
@@ -294,6 +302,7 @@ __all__ = [
     "CERTIFIED_MARGIN",
     "certified_responses",
     "CONSISTENCY_TOLERANCE",
+    "equilibrate_stack",
     "ILL_CONDITIONED_BAND",
     "OUTPUT_TOLERANCE",
     "outputs_moved_by",
