@@ -23,18 +23,8 @@ ViewOpt = options.view_option("the simulated flip")
 
 PlotOpt = options.plot_option("the input space (every mode's domain, the ambiguous overlaps "
                               "hatched, the plan) and the pitch and contact forces over the simulated time")
-MarginOpt = Annotated[
-    float,
-    typer.Option("--margin", min=0.0, help="Distance [N m] kept between the plan and every input "
-                 "where another contact mode also holds."),
-]
-MaxTimeOpt = Annotated[
-    float,
-    typer.Option("--max-time", "-T", min=0.0,
-                 help="Longest simulated time [s] of the closed loop (0: plan only, no simulation)."),
-]
-DtOpt = Annotated[float, typer.Option("--dt", min=1e-6, help="Time step [s] of the simulation.")]
-ReplanOpt = Annotated[int, typer.Option("--replan-every", min=1, help="Steps between two plans.")]
+MarginOpt = options.margin_option("the plan")
+MaxTimeOpt = options.max_time_option("plan only")
 PumpOpt = Annotated[
     bool | None,
     typer.Option("--pump/--no-pump", help="Pump the body up over several leg strokes (push, fall back "
@@ -60,8 +50,8 @@ def flip_command(
     plot: PlotOpt = None,
     margin: MarginOpt = DEFAULT_MARGIN,
     max_time: MaxTimeOpt = 2.0,
-    dt: DtOpt = 1e-3,
-    replan_every: ReplanOpt = 10,
+    dt: options.StepOpt = 1e-3,
+    replan_every: options.ReplanOpt = 10,
     pump: PumpOpt = None,
     compliant: CompliantOpt = False,
     sets: options.SetOpt = None,

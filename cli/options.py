@@ -150,6 +150,30 @@ def view_option(what: str) -> Any:
     ]
 
 
+def margin_option(what: str) -> Any:
+    """A planner's ``--margin`` option: the distance [N m] kept between ``what`` and other modes' inputs."""
+    return Annotated[
+        float,
+        typer.Option("--margin", min=0.0, help=f"Distance [N m] kept between {what} and every input "
+                     "where another contact mode also holds."),
+    ]
+
+
+def max_time_option(what: str) -> Any:
+    """A closed-loop planner's ``--max-time`` option, ``what`` saying what 0 keeps."""
+    return Annotated[
+        float,
+        typer.Option("--max-time", "-T", min=0.0,
+                     help=f"Longest simulated time [s] of the closed loop (0: {what}, no simulation)."),
+    ]
+
+
+StepOpt = Annotated[float, typer.Option("--dt", min=1e-6, help="Time step [s] of the simulation.")]
+"""A planner's simulation time step."""
+
+ReplanOpt = Annotated[int, typer.Option("--replan-every", min=1, help="Steps between two plans.")]
+"""Steps of a planner's closed loop between two plans."""
+
 PortOpt = Annotated[
     int | None,
     typer.Option("--port", min=1, max=65535,

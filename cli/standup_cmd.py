@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Any
 
-import typer
 from rich.table import Table
 
 from frcontrol.planning import DEFAULT_FLIP_MARGIN as DEFAULT_MARGIN
@@ -15,18 +14,8 @@ from .common import console
 
 StandUpSceneArg = options.scene_argument("with [task] feet and stand_height")
 HtmlOpt = options.html_option("the simulated stand-up")
-MarginOpt = Annotated[
-    float,
-    typer.Option("--margin", min=0.0, help="Distance [N m] kept between each plan and every input "
-                 "where another contact mode also holds."),
-]
-DurationOpt = Annotated[
-    float,
-    typer.Option("--max-time", "-T", min=0.0,
-                 help="Simulated time [s] of the closed loop (0: the first plan only, no simulation)."),
-]
-DtOpt = Annotated[float, typer.Option("--dt", min=1e-6, help="Time step [s] of the simulation.")]
-ReplanOpt = Annotated[int, typer.Option("--replan-every", min=1, help="Steps between two plans.")]
+MarginOpt = options.margin_option("each plan")
+DurationOpt = options.max_time_option("the first plan only")
 
 
 @common.handle_errors
@@ -37,8 +26,8 @@ def standup_command(
     out: options.OutOpt = None,
     margin: MarginOpt = DEFAULT_MARGIN,
     max_time: DurationOpt = DEFAULT_DURATION,
-    dt: DtOpt = 2e-3,
-    replan_every: ReplanOpt = 10,
+    dt: options.StepOpt = 2e-3,
+    replan_every: options.ReplanOpt = 10,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
 ) -> None:
