@@ -106,7 +106,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -1216,13 +1216,27 @@ def _time_to_vertical(trajectory: Trajectory, task: FlipTask) -> float:
     return float(t_a + (task.vertical - p_a) / (p_b - p_a) * (t_b - t_a))
 
 
-class _Replanner:
-    """The flip's policy: a plan at the state reached; the torques held when none can be made.
+class AppliedPlan(Protocol):
+    """What a closed loop reads of a plan: its mode, torques and input vector."""
 
-    It keeps every plan applied ``(time, mode or None, torques)`` and every hold ``(time, why)``.
+    @property
+    def mode(self) -> str | None: ...
+
+    @property
+    def torques(self) -> Mapping[str, float]: ...
+
+    def input_vector(self, inputs: Sequence[str]) -> np.ndarray: ...
+
+
+class ReplanningPolicy:
+    """A closed loop's plan record: the last command, every plan applied and every hold.
+
+    Subclasses make a plan at the stepper's state in ``__call__`` and :meth:`record` it. It keeps
+    every plan applied ``(time, mode or None, torques)`` and every hold ``(time, why)``; the
+    stepper runs on ``self.scene``, the scene at :data:`REPLAN_GAP_TOLERANCE`.
     """
 
-    def __init__(self, scene: Scene, first: FlipPlan, margin: float, solver: str) -> None:
+    def __init__(self, scene: Scene, first: AppliedPlan, margin: float, solver: str) -> None:
         self.names = scene.inputs.coordinates
         self.scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
         self.force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
@@ -1232,15 +1246,26 @@ class _Replanner:
             (0.0, first.mode, dict(first.torques))]
         self.held: list[tuple[float, str]] = []
 
+    def loaded(self, stepper: RigidStepper) -> np.ndarray:
+        """Which contacts the stepper's last step loaded (normal force above the tolerance)."""
+        return stepper.last_forces[:, 0] > self.force_tolerance
+
+    def record(self, t: float, mode: str | None, why: str | None) -> np.ndarray:
+        """Note the command applied from ``t`` (a hold when ``why`` says why); return it."""
+        if why is not None:
+            self.held.append((t, why))
+        self.plans.append((t, mode, dict(zip(self.names, self.command.tolist(), strict=True))))
+        return self.command
+
+
+class _Replanner(ReplanningPolicy):
+    """The flip's policy: a plan at the state reached; the torques held when none can be made."""
+
     def __call__(self, stepper: RigidStepper) -> np.ndarray:
         """The command from the stepper's state on (a contact the last step loaded is planned with)."""
-        loaded = stepper.last_forces[:, 0] > self.force_tolerance
-        self.command, mode, why = _replanned(self.scene, stepper, loaded, self.margin, self.solver,
-                                             self.command, self.names)
-        if why is not None:
-            self.held.append((stepper.t, why))
-        self.plans.append((stepper.t, mode, dict(zip(self.names, self.command.tolist(), strict=True))))
-        return self.command
+        self.command, mode, why = _replanned(self.scene, stepper, self.loaded(stepper), self.margin,
+                                             self.solver, self.command, self.names)
+        return self.record(stepper.t, mode, why)
 
 
 def _closed_loop(scene: Scene, policy: _Replanner, task: FlipTask, *, dt: float, max_time: float,

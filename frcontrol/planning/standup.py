@@ -51,15 +51,15 @@ from ..modes import VELOCITY_TOLERANCE, ContactProblem
 from ..response import OUTPUT_TOLERANCE
 from ..scene import Contact, Scene
 from ..simulation.closed_loop import run_closed_loop
-from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
+from ..simulation.rigid import RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
 from . import DEFAULT_FLIP_MARGIN, DEFAULT_STANDUP_DURATION
 from .flip import (
-    REPLAN_GAP_TOLERANCE,
     REPLAN_VELOCITY_TOLERANCE,
     SEPARATION_GAP,
     TORQUE_ROUNDING,
+    ReplanningPolicy,
     margin_pieces,
 )
 
@@ -478,23 +478,17 @@ def _judge(scene: Scene, task: StandUpTask, trajectory: Trajectory) -> dict[str,
             "peak_speeds": dict(zip(trajectory.input_names, speeds.tolist(), strict=True))}
 
 
-class _Replanner:
+class _Replanner(ReplanningPolicy):
     """The stand-up's policy: a plan at the state reached; the torques held when none is made."""
 
     def __init__(self, scene: Scene, task: StandUpTask, first: StandUpPlan, margin: float,
                  solver: str) -> None:
-        self.names = scene.inputs.coordinates
-        self.scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
-        self.task, self.margin, self.solver = task, margin, solver
-        self.force_tolerance = CONTACT_FORCE_TOLERANCE * scene.robot.weight_scale()
-        self.command = first.input_vector(self.names)
-        self.plans: list[tuple[float, str | None, Mapping[str, float]]] = [
-            (0.0, first.mode, dict(first.torques))]
-        self.held: list[tuple[float, str]] = []
+        super().__init__(scene, first, margin, solver)
+        self.task = task
 
     def __call__(self, stepper: RigidStepper) -> np.ndarray:
         """The command from the stepper's state on."""
-        loaded = stepper.last_forces[:, 0] > self.force_tolerance
+        loaded = self.loaded(stepper)
         here = self.scene.at(stepper.q, stepper.v)
         contacts = tuple(Contact(c.point, c.gap, bool(c.active or loaded[i]))
                          for i, c in enumerate(here.contacts))
@@ -512,8 +506,4 @@ class _Replanner:
             plan, why = None, f"no plan ({err}): torques held"
         if plan is not None and plan.found:
             self.command = plan.input_vector(self.names)
-        else:
-            self.held.append((stepper.t, str(why)))
-        self.plans.append((stepper.t, plan.mode if plan is not None else None,
-                           dict(zip(self.names, self.command.tolist(), strict=True))))
-        return self.command
+        return self.record(stepper.t, plan.mode if plan is not None else None, why)
