@@ -4,7 +4,9 @@ Each candidate holds, for each driven hip, one voltage per ``--step`` seconds (`
 them, within ``+-volts``), then the last one, in the rigid model (``RigidStepper``, 1 ms steps)
 from the scene ``rhex_flip_drives`` (drives at ``--volts``) or, with ``--front``, the same scene
 with its front hip unlocked and driven like the others. The search keeps the best quarter of each
-population (``--population`` runs) and samples the next one around it. Objectives (``--objective``):
+population (``--population`` runs) and samples the next one around it. ``--hip-stiffness K`` puts a
+torsion spring of K [N m/rad] after each driven hip's gearhead (an elastic stage: the voltage then
+reaches the leg only through it). Objectives (``--objective``):
 
 - ``pitch``: the highest pitch [rad] (vertical: 4.712);
 - ``energy``: the body's highest mechanical energy above the start [J]
@@ -50,14 +52,28 @@ CORNER_GAP = 0.02
 """[m] The ``corner`` objective counts the samples where the front corner is at most this high."""
 
 
-def scene_for(volts: float, front: bool, flat: bool) -> Scene:
-    """rhex_flip_drives at ``volts`` [V]; ``front``: the front hip driven; ``flat``: lying flat."""
+def scene_for(volts: float, front: bool, flat: bool, hip_stiffness: float | None = None,
+              hip_damping: float = 0.0) -> Scene:
+    """rhex_flip_drives at ``volts`` [V]; ``front``: the front hip driven; ``flat``: lying flat.
+
+    ``hip_stiffness`` [N m/rad]: each driven hip's gearhead ends in a torsion spring of that
+    stiffness (and ``hip_damping`` [N m s/rad]), an elastic stage (:mod:`frcontrol.drives`): the
+    motor then reaches the leg only through the spring.
+    """
     hips = HIPS if front else HIPS[1:]
     sets: dict = {f"model.drives.{h}.voltage_limit": volts for h in HIPS[1:]}
+    if hip_stiffness is not None:
+        stage = {"ratio": 33.0, "efficiency": 0.7, "stiffness": hip_stiffness}
+        if hip_damping > 0:
+            stage["damping"] = hip_damping
+        sets.update({f"model.drives.{h}.stages": [stage] for h in HIPS[1:]})
     sets.update({"inputs.lower": [-volts] * len(hips), "inputs.upper": [volts] * len(hips)})
     if front:
+        front_drive = {**FRONT_DRIVE, "voltage_limit": volts}
+        if hip_stiffness is not None:
+            front_drive["stages"] = sets["model.drives.hip_middle.stages"]
         sets.update({"locked_joints": [], "inputs.coordinates": list(hips),
-                     "model.drives.hip_front": {**FRONT_DRIVE, "voltage_limit": volts}})
+                     "model.drives.hip_front": front_drive})
     if flat:  # both corners down, the toes on the ground behind the hips (0.13 m hips, 0.17 m legs)
         leg = math.acos(0.13 / 0.17) - math.pi
         sets["state.q"] = [0.0, 0.065, math.pi, 0.0, leg, leg]
@@ -120,6 +136,9 @@ def main() -> None:
     parser.add_argument("--volts", type=float, default=42.8)
     parser.add_argument("--front", action="store_true")
     parser.add_argument("--flat", action="store_true")
+    parser.add_argument("--hip-stiffness", type=float, default=None,
+                        help="[N m/rad] an elastic stage at each driven hip (a spring after the gearhead)")
+    parser.add_argument("--hip-damping", type=float, default=0.0, help="[N m s/rad] that spring's damping")
     parser.add_argument("--objective", default="pitch",
                         choices=("pitch", "back", "energy", "corner", "ballistic", "ballistic_back"))
     parser.add_argument("--knots", type=int, default=10)
@@ -128,7 +147,7 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=8)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-    scene = scene_for(args.volts, args.front, args.flat)
+    scene = scene_for(args.volts, args.front, args.flat, args.hip_stiffness, args.hip_damping)
     duration = args.knots * args.step + 0.5
     shape = (scene.inputs.count, args.knots)
     measures = {"pitch": lambda t: t.q[:, 2], "back": lambda t: math.pi - t.q[:, 2],
