@@ -969,7 +969,8 @@ done:
  * order. Pinocchio's arrays may be strided (Eigen is column-major). The result is a new instance
  * of the state type with every field in its __dict__, as its __init__ would set them; its arrays
  * are new: M, h, the points, the rows (J_N and J_T are views of one (2k, n) array) and the
- * contact values (gaps, velocities and drifts: views of one (5k,) array).
+ * contact values (gaps, velocities and drifts: views of one (5k,) array). The frames must be the
+ * model's (PlanarRobot's layouts): Pinocchio does not check a frame index.
  */
 #define STATE_FIELDS 12
 #define STATE_ARGS 8
@@ -1192,6 +1193,8 @@ static int take_state_inputs(PyObject *const *args, Buffer *b, StateJob *job) {
     for (Py_ssize_t i = 0; i < LINE_ENTRIES * job->k; i++) {
         job->lines[i] = PyFloat_AsDouble(PyTuple_GET_ITEM(args[6], i));
         if (job->lines[i] == -1.0 && PyErr_Occurred()) {
+            PyErr_Clear();
+            PyErr_Format(kernel_error, "robot_state: lines[%zd] is not a number", i);
             return -1;
         }
     }

@@ -167,10 +167,10 @@ _ONE.setflags(write=False)
 
 
 def _compiled_assembly() -> bool:
-    """Whether :meth:`PlanarRobot.state` assembles in the compiled kernel (``FRC_KERNEL``, as the
-    mode batch reads it: :func:`frcontrol.kernel.kernel_choice`).
+    """Whether :meth:`PlanarRobot.state` assembles in the compiled kernel.
 
-    An unknown ``FRC_KERNEL`` chooses NumPy here: the analysis, which reads the variable too,
+    ``FRC_KERNEL`` chooses, as for the mode batch (:func:`frcontrol.kernel.kernel_choice`), when the
+    robot is built. An unknown value chooses NumPy here: the analysis, which reads the variable too,
     reports it where it is used.
     """
     try:
@@ -600,7 +600,7 @@ class PlanarRobot:
             layout = self._layout(None if contacts is None else tuple(contacts))
         if self._kernel_plan is None:
             return self._state_numpy(q, v, layout)
-        return compiled.robot_state(  # type: ignore[union-attr]  (a plan only where it is built)
+        return compiled.robot_state(  # type: ignore[union-attr]  # a plan only where it is built
             self._kernel_plan, q, v, data.M, data.nle, layout.frames, layout.lines,
             self._damping if self._has_damping else None)
 
