@@ -165,7 +165,8 @@ def _stack(problem: ContactProblem, letters: np.ndarray, u: np.ndarray) -> _Stac
 
 
 def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, rank_tolerance: float,
-                 domain_tolerance: float, zero_row_tolerance: float, radius_cap: float) -> ModeBatch:
+                 domain_tolerance: float, zero_row_tolerance: float, radius_cap: float,
+                 allowed: tuple[str, ...] | None = None) -> ModeBatch:
     """Stack, factorise and decide every full mode at ``u`` (see the module docstring).
 
     Well-conditioned modes are certified by a cheap bound (:data:`CERTIFIED_MARGIN`) and solved
@@ -180,11 +181,12 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
         domain_tolerance: the engine's membership distance.
         zero_row_tolerance: the engine's constant-row threshold.
         radius_cap: the Chebyshev LP's radius cap (for a side of an interval without a bound).
+        allowed: ``problem.allowed_modes()`` when the caller has it already.
 
     Raises:
         KernelError: ``FRC_KERNEL`` names no kernel, or the compiled one where it is not built.
     """
-    modes, letters = full_modes(problem.allowed_modes())
+    modes, letters = full_modes(problem.allowed_modes() if allowed is None else allowed)
     tolerances = (domain_tolerance, zero_row_tolerance, radius_cap)
     if kernel_choice() == "compiled":
         return _compiled_modes(problem, modes, letters, u, decide_w, rank_tolerance, tolerances)
@@ -258,10 +260,11 @@ def _compiled_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np
                              c_scale, CERTIFIED_MARGIN, max(rank_tolerance, ILL_CONDITIONED_BAND),
                              domain_tolerance, zero_row_tolerance)
     empty = np.zeros(0)
+    codes = status.tolist()  # (a Python loop over the modes: cheaper than NumPy's on a few dozen)
     found = {i: BatchSolution(modes[i], x[i], empty, "none", float(residual[i]), float(violation[i]))
-             for i in np.nonzero(status == compiled.CERTIFIED_ADMISSIBLE)[0].tolist()}
-    rest = np.nonzero(status == compiled.NOT_CERTIFIED)[0]
-    if rest.size:
+             for i, code in enumerate(codes) if code == compiled.CERTIFIED_ADMISSIBLE}
+    if compiled.NOT_CERTIFIED in codes:
+        rest = np.array([i for i, code in enumerate(codes) if code == compiled.NOT_CERTIFIED])
         others = _compiled_rank_modes(problem, modes, letters, rest, (rows, vectors),
                                       (a_hat[rest], r_scale[rest], c_scale[rest]), u, decide_w,
                                       rank_tolerance, tolerances)
@@ -295,15 +298,16 @@ def _compiled_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letter
                            domain_tolerance, zero_row_tolerance, radius_cap, CONSISTENCY_TOLERANCE,
                            OUTPUT_TOLERANCE):
         return None
-    ambiguous = status == compiled.ADMISSIBLE_W
     empty = np.zeros(0)
     found = {}
-    for j in np.nonzero((status == compiled.ADMISSIBLE) | ambiguous)[0].tolist():
-        i = int(rest[j])
-        found[i] = BatchSolution(modes[i], x[j], w[j:j + 1] if ambiguous[j] else empty,
-                                 _MOVES[outputs[j]], float(residual[j]), float(violation[j]))
-    more = np.nonzero(status == compiled.NEEDS_PYTHON)[0]
-    if more.size:
+    codes = status.tolist()
+    for j, code in enumerate(codes):
+        if code == compiled.ADMISSIBLE or code == compiled.ADMISSIBLE_W:
+            i = int(rest[j])
+            found[i] = BatchSolution(modes[i], x[j], w[j:j + 1] if code == compiled.ADMISSIBLE_W else empty,
+                                     _MOVES[outputs[j]], float(residual[j]), float(violation[j]))
+    if compiled.NEEDS_PYTHON in codes:
+        more = np.array([j for j, code in enumerate(codes) if code == compiled.NEEDS_PYTHON])
         found.update(_python_rank_modes(problem, modes, letters, rest[more], (U[more], s[more], Vt[more]),
                                         r_scale[more], c_scale[more], u, decide_w, rank_tolerance,
                                         tolerances))
