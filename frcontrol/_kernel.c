@@ -1285,6 +1285,165 @@ static PyObject *robot_state(PyObject *self, PyObject *const *args, Py_ssize_t n
     return result;
 }
 
+/* ------------------------------------------------------------------------------------------------
+ * contact_rows: the dynamics rows and the contact row table of frcontrol.modes (dynamics_rows and
+ * contact_row_table, the reference), written into given arrays for the mode batch. Every entry is
+ * one of the problem's numbers, its negative, -max(1, mu), 0, 1 or -1, as in the table of
+ * frcontrol.modes.ContactRowTable's docstring: the arrays equal the reference's bit for bit.
+ */
+#define ROW_LETTERS 4 /* S, L, R, F */
+enum { LETTER_S, LETTER_L, LETTER_R, LETTER_F };
+
+typedef struct {
+    Py_ssize_t n, k, nx;
+    const Py_buffer *mass, *jn, *jt, *dn, *dt, *mu, *vn, *vt;
+    double tolerance;
+    double *dynamics, *eq, *eq_rhs, *ineq, *ineq_rhs;
+    unsigned char *valid, *motion;
+} RowJob;
+
+/* Contact i's rows: equalities (ROW_LETTERS, 2, nx), inequalities (ROW_LETTERS, 3, nx). */
+static void contact_rows_of(const RowJob *r, Py_ssize_t i) {
+    Py_ssize_t n = r->n, k = r->k, nx = r->nx, lam_n = n + i, lam_t = n + k + i;
+    double *eq = r->eq + i * ROW_LETTERS * EQUALITY_ROWS * nx, *eq_rhs = r->eq_rhs + i * ROW_LETTERS * EQUALITY_ROWS;
+    double *in = r->ineq + i * ROW_LETTERS * INEQUALITY_ROWS * nx;
+    double *in_rhs = r->ineq_rhs + i * ROW_LETTERS * INEQUALITY_ROWS;
+    unsigned char *valid = r->valid + i * ROW_LETTERS * INEQUALITY_ROWS;
+    unsigned char *motion = r->motion + i * ROW_LETTERS * INEQUALITY_ROWS;
+    double mu = at1(r->mu, i), dn = at1(r->dn, i), dt = at1(r->dt, i);
+    double scale = -(1.0 > mu ? 1.0 : mu); /* -max(1, mu), as np.maximum(1.0, mu) then negated */
+    int resting = fabs(at1(r->vn, i)) <= r->tolerance, sticking = fabs(at1(r->vt, i)) <= r->tolerance;
+#define EQ(letter, row, col) eq[((letter) * EQUALITY_ROWS + (row)) * nx + (col)]
+#define IN(letter, row, col) in[((letter) * INEQUALITY_ROWS + (row)) * nx + (col)]
+#define CELL(letter, row) ((letter) * INEQUALITY_ROWS + (row))
+    EQ(LETTER_S, 0, lam_n) = 1.0; /* S: lam_N = 0, lam_T = 0 */
+    EQ(LETTER_S, 1, lam_t) = 1.0;
+    for (Py_ssize_t c = 0; c < n; c++) {
+        double jn = at2(r->jn, i, c), jt = at2(r->jt, i, c);
+        for (int letter = LETTER_L; letter <= LETTER_F; letter++) {
+            EQ(letter, 0, c) = jn; /* a_N = 0 in L, R, F */
+        }
+        EQ(LETTER_F, 1, c) = jt; /* F: a_T = 0 */
+        IN(LETTER_S, 0, c) = -jn; /* S: a_N >= 0 */
+        IN(LETTER_R, 1, c) = -jt; /* R: a_T >= 0 */
+        IN(LETTER_L, 1, c) = jt;  /* L: a_T <= 0 */
+    }
+    for (int letter = LETTER_L; letter <= LETTER_F; letter++) {
+        eq_rhs[letter * EQUALITY_ROWS] = -dn;
+    }
+    eq_rhs[LETTER_F * EQUALITY_ROWS + 1] = -dt;
+    EQ(LETTER_R, 1, lam_t) = 1.0; /* R: lam_T + mu lam_N = 0 */
+    EQ(LETTER_R, 1, lam_n) = mu;
+    EQ(LETTER_L, 1, lam_t) = 1.0; /* L: lam_T - mu lam_N = 0 */
+    EQ(LETTER_L, 1, lam_n) = -mu;
+    in_rhs[CELL(LETTER_S, 0)] = dn;
+    IN(LETTER_L, 0, lam_n) = IN(LETTER_R, 0, lam_n) = scale; /* L, R: -max(1, mu) lam_N <= 0 */
+    IN(LETTER_F, 0, lam_n) = -1.0;                            /* F: lam_N >= 0 */
+    in_rhs[CELL(LETTER_R, 1)] = dt;
+    in_rhs[CELL(LETTER_L, 1)] = -dt;
+    IN(LETTER_F, 1, lam_t) = 1.0; /* F: lam_T - mu lam_N <= 0 */
+    IN(LETTER_F, 1, lam_n) = -mu;
+    IN(LETTER_F, 2, lam_t) = -1.0; /* F: -lam_T - mu lam_N <= 0 */
+    IN(LETTER_F, 2, lam_n) = -mu;
+    valid[CELL(LETTER_S, 0)] = motion[CELL(LETTER_S, 0)] = (unsigned char)resting;
+    valid[CELL(LETTER_L, 0)] = valid[CELL(LETTER_R, 0)] = valid[CELL(LETTER_F, 0)] = 1;
+    valid[CELL(LETTER_L, 1)] = valid[CELL(LETTER_R, 1)] = (unsigned char)sticking;
+    motion[CELL(LETTER_L, 1)] = motion[CELL(LETTER_R, 1)] = (unsigned char)sticking;
+    valid[CELL(LETTER_F, 1)] = valid[CELL(LETTER_F, 2)] = 1;
+#undef EQ
+#undef IN
+#undef CELL
+}
+
+#define ROW_INPUTS 8  /* mass, jn, jt, dn, dt, mu, vn, vt */
+#define ROW_OUTPUTS 7 /* dynamics, eq, eq_rhs, ineq, ineq_rhs, valid, motion */
+
+static int take_row_buffers(PyObject *const *args, Buffer *b, RowJob *r) {
+    const char *names[ROW_INPUTS] = {"mass", "jacobian_normal", "jacobian_tangent", "drift_normal",
+                                     "drift_tangent", "mu", "normal_velocities", "tangential_velocities"};
+    Py_ssize_t mass[2] = {-1, -1};
+    if (take_strided(args[0], &b[0], names[0], 2, mass)) {
+        return -1;
+    }
+    Py_ssize_t n = mass[0], jn[2] = {-1, n};
+    if (mass[1] != n) {
+        PyErr_Format(kernel_error, "kernel buffer mass: %zd x %zd, expected a square matrix", n, mass[1]);
+        return -1;
+    }
+    if (take_strided(args[1], &b[1], names[1], 2, jn)) {
+        return -1;
+    }
+    Py_ssize_t k = jn[0], nx = n + 2 * k, jt[2] = {k, n};
+    if (take_strided(args[2], &b[2], names[2], 2, jt)) {
+        return -1;
+    }
+    for (int j = 3; j < ROW_INPUTS; j++) {
+        Py_ssize_t vector[1] = {k};
+        if (take_strided(args[j], &b[j], names[j], 1, vector)) {
+            return -1;
+        }
+    }
+    r->tolerance = PyFloat_AsDouble(args[ROW_INPUTS]);
+    if (r->tolerance == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();
+        PyErr_SetString(kernel_error, "contact_rows: velocity_tolerance is not a number");
+        return -1;
+    }
+    Py_ssize_t dyn[2] = {n, nx}, eq[4] = {k, ROW_LETTERS, EQUALITY_ROWS, nx}, eq_rhs[3] = {k, ROW_LETTERS, EQUALITY_ROWS};
+    Py_ssize_t in[4] = {k, ROW_LETTERS, INEQUALITY_ROWS, nx}, in_rhs[3] = {k, ROW_LETTERS, INEQUALITY_ROWS};
+    Py_ssize_t flags[3] = {k, ROW_LETTERS, INEQUALITY_ROWS}, flags2[3] = {k, ROW_LETTERS, INEQUALITY_ROWS};
+    PyObject *const *out = args + ROW_INPUTS + 1;
+    Buffer *ob = b + ROW_INPUTS;
+    if (take(out[0], &ob[0], "dynamics", 'd', 2, dyn, 1) || take(out[1], &ob[1], "equalities", 'd', 4, eq, 1) ||
+        take(out[2], &ob[2], "equality_rhs", 'd', 3, eq_rhs, 1) ||
+        take(out[3], &ob[3], "inequalities", 'd', 4, in, 1) ||
+        take(out[4], &ob[4], "inequality_rhs", 'd', 3, in_rhs, 1) ||
+        take(out[5], &ob[5], "valid", '?', 3, flags, 1) || take(out[6], &ob[6], "motion", '?', 3, flags2, 1)) {
+        return -1;
+    }
+    *r = (RowJob){n, k, nx, &b[0].view, &b[1].view, &b[2].view, &b[3].view, &b[4].view, &b[5].view,
+                  &b[6].view, &b[7].view, r->tolerance, ob[0].view.buf, ob[1].view.buf, ob[2].view.buf,
+                  ob[3].view.buf, ob[4].view.buf, ob[5].view.buf, ob[6].view.buf};
+    return 0;
+}
+
+static PyObject *contact_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != ROW_INPUTS + 1 + ROW_OUTPUTS) {
+        PyErr_Format(kernel_error, "contact_rows takes %d arguments, got %zd", ROW_INPUTS + 1 + ROW_OUTPUTS, nargs);
+        return NULL;
+    }
+    Buffer b[ROW_INPUTS + ROW_OUTPUTS];
+    memset(b, 0, sizeof(b));
+    RowJob r;
+    memset(&r, 0, sizeof(r));
+    PyObject *result = NULL;
+    if (take_row_buffers(args, b, &r) == 0) {
+        Py_ssize_t n = r.n, k = r.k, nx = r.nx;
+        for (Py_ssize_t a = 0; a < n; a++) { /* [M, -J_N^T, -J_T^T] */
+            for (Py_ssize_t c = 0; c < n; c++) {
+                r.dynamics[a * nx + c] = at2(r.mass, a, c);
+            }
+            for (Py_ssize_t i = 0; i < k; i++) {
+                r.dynamics[a * nx + n + i] = -at2(r.jn, i, a);
+                r.dynamics[a * nx + n + k + i] = -at2(r.jt, i, a);
+            }
+        }
+        memset(r.eq, 0, (size_t)(k * ROW_LETTERS * EQUALITY_ROWS * nx) * sizeof(double));
+        memset(r.eq_rhs, 0, (size_t)(k * ROW_LETTERS * EQUALITY_ROWS) * sizeof(double));
+        memset(r.ineq, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS * nx) * sizeof(double));
+        memset(r.ineq_rhs, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS) * sizeof(double));
+        memset(r.valid, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS));
+        memset(r.motion, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS));
+        for (Py_ssize_t i = 0; i < k; i++) {
+            contact_rows_of(&r, i);
+        }
+        result = Py_NewRef(Py_None);
+    }
+    release(b, ROW_INPUTS + ROW_OUTPUTS);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"certified_modes", (PyCFunction)(void (*)(void))certified_modes, METH_FASTCALL,
      "certified_modes(dynamics, equalities, equality_rhs, inequalities, inequality_rhs, valid, motion,\n"
@@ -1315,6 +1474,12 @@ static PyMethodDef methods[] = {
      "lines (a tuple of 5 k floats) holds each contact's n, t and n . s, damping (or None) the drives' b. plan: (state\n"
      "type, numpy.empty, model, data, updateFramePlacement, getFrameJacobian,\n"
      "getFrameClassicalAcceleration, LOCAL_WORLD_ALIGNED, v_index (int64, or None: the identity), nv)."},
+    {"contact_rows", (PyCFunction)(void (*)(void))contact_rows, METH_FASTCALL,
+     "contact_rows(mass, jacobian_normal, jacobian_tangent, drift_normal, drift_tangent, mu,\n"
+     "             normal_velocities, tangential_velocities, velocity_tolerance, dynamics, equalities,\n"
+     "             equality_rhs, inequalities, inequality_rhs, valid, motion) -> None\n\n"
+     "frcontrol.modes.dynamics_rows and contact_row_table written into the given arrays (n, nx),\n"
+     "(k, 4, 2, nx), (k, 4, 2), (k, 4, 3, nx), (k, 4, 3) and the bool (k, 4, 3) twice; bit for bit."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "frcontrol._kernel",
@@ -1340,7 +1505,7 @@ PyMODINIT_FUNC PyInit__kernel(void) {
                              "MOVES_ACCELERATIONS"};
     int values[10] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
                       NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS};
-    PyObject *all = Py_BuildValue("[ssss]", "certified_modes", "rank_modes", "lp_check", "robot_state");
+    PyObject *all = Py_BuildValue("[sssss]", "certified_modes", "rank_modes", "lp_check", "robot_state", "contact_rows");
     if (all == NULL) {
         Py_DECREF(mod);
         return NULL;

@@ -43,8 +43,9 @@ from functools import lru_cache
 
 import numpy as np
 
+from .errors import KernelError
 from .kernel import compiled, kernel_choice
-from .modes import MODE_LETTERS, ContactProblem
+from .modes import MODE_LETTERS, ROWS_PER_CONTACT, ContactProblem
 from .response import (
     CERTIFIED_MARGIN,
     CONSISTENCY_TOLERANCE,
@@ -247,10 +248,8 @@ def _compiled_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np
     """
     assert compiled is not None  # kernel_choice() said so
     domain_tolerance, zero_row_tolerance, _ = tolerances
-    table = problem.row_table
     count, nx = letters.shape[0], problem.n + 2 * problem.k
-    rows = (problem.dynamics, table.equalities, table.equality_rhs, table.inequalities,
-            table.inequality_rhs, table.valid, table.motion)
+    rows = _compiled_rows(problem)
     vectors = (np.ascontiguousarray(problem.input_map, dtype=float),
                np.ascontiguousarray(problem.bias, dtype=float), np.ascontiguousarray(u, dtype=float))
     status, residual, violation = np.empty(count, dtype=np.int8), np.empty(count), np.empty(count)
@@ -272,6 +271,36 @@ def _compiled_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np
             return ModeBatch(modes, (), True)
         found.update(others)
     return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+
+
+def _compiled_rows(problem: ContactProblem) -> tuple[np.ndarray, ...]:
+    """``problem.dynamics`` and the arrays of ``problem.row_table``, by the compiled kernel.
+
+    ``contact_rows`` writes :func:`frcontrol.modes.dynamics_rows` and
+    :func:`~frcontrol.modes.contact_row_table` bit for bit (every entry is one of the problem's
+    numbers, its negative, -max(1, mu), 0, 1 or -1), in one call instead of NumPy's gathers. A
+    problem whose table is built already keeps it; one whose arrays the kernel does not take (not
+    float64) gets NumPy's.
+    """
+    if "row_table" in problem.__dict__:  # built already (a cached property)
+        table = problem.row_table
+        return (problem.dynamics, table.equalities, table.equality_rhs, table.inequalities,
+                table.inequality_rhs, table.valid, table.motion)
+    n, k = problem.n, problem.k
+    nx = n + 2 * k
+    pairs, cells = (k, len(MODE_LETTERS), 2), (k, len(MODE_LETTERS), ROWS_PER_CONTACT)
+    rows = (np.empty((n, nx)), np.empty(pairs + (nx,)), np.empty(pairs), np.empty(cells + (nx,)),
+            np.empty(cells), np.empty(cells, dtype=bool), np.empty(cells, dtype=bool))
+    try:
+        compiled.contact_rows(  # type: ignore[union-attr]  # only on the compiled path
+            problem.mass_matrix, problem.jacobian_normal, problem.jacobian_tangent, problem.drift_normal,
+            problem.drift_tangent, problem.mu, problem.normal_velocities, problem.tangential_velocities,
+            problem.velocity_tolerance, *rows)
+    except KernelError:
+        table = problem.row_table
+        return (problem.dynamics, table.equalities, table.equality_rhs, table.inequalities,
+                table.inequality_rhs, table.valid, table.motion)
+    return rows
 
 
 def _compiled_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np.ndarray,
