@@ -957,6 +957,493 @@ done:
     return result;
 }
 
+/* ------------------------------------------------------------------------------------------------
+ * robot_state: frcontrol.model.PlanarRobot.state after Pinocchio's computeAllTerms, in one call.
+ * Its NumPy path (PlanarRobot._state_numpy) is the reference it reproduces. Per contact frame, in
+ * that order, it calls Pinocchio's updateFramePlacement (the position p), getFrameJacobian (J,
+ * 6 x nv, world-aligned, at the point) and getFrameClassicalAcceleration (a, the drift), the calls
+ * the NumPy path makes; then, with the contact's normal n, tangent t and offset n . s of its line:
+ * the point p[0:2], the gap n . p[0:2] - n . s, the rows J_N = n^T J[0:2] and J_T = t^T J[0:2] in
+ * minimal order, the velocities J_N v and J_T v, the drifts n . a[0:2] and t . a[0:2]. M is
+ * mirrored from CRBA's upper triangle and h = nle (+ b v, the drives' damping), both in minimal
+ * order. Pinocchio's arrays may be strided (Eigen is column-major). The result is a new instance
+ * of the state type with every field in its __dict__, as its __init__ would set them; its arrays
+ * are new: M, h, the points, the rows (J_N and J_T are views of one (2k, n) array) and the
+ * contact values (gaps, velocities and drifts: views of one (5k,) array). The frames must be the
+ * model's (PlanarRobot's layouts): Pinocchio does not check a frame index.
+ */
+#define STATE_FIELDS 12
+#define STATE_ARGS 8
+#define PLAN_ENTRIES 10
+#define LINE_ENTRIES 5 /* n_x, n_y, t_x, t_y, n . s */
+
+static const char *state_field_names[STATE_FIELDS] = {
+    "q", "v", "mass_matrix", "bias", "contact_points", "gaps", "normal_velocities",
+    "tangential_velocities", "jacobian_normal", "jacobian_tangent", "drift_normal", "drift_tangent"};
+static PyObject *state_fields[STATE_FIELDS]; /* interned on the first call */
+static PyObject *translation_name, *vector_name;
+enum { F_MASS = 2, F_BIAS, F_POINTS, F_GAPS, F_VN, F_VT, F_JN, F_JT, F_DN, F_DT };
+enum { P_TYPE, P_EMPTY, P_MODEL, P_DATA, P_UPDATE, P_JACOBIAN, P_ACCELERATION, P_FRAME, P_V_INDEX, P_NV };
+
+/* A float64 buffer of ndim dimensions with any strides; shape entries >= 0 must match. */
+static int take_strided(PyObject *obj, Buffer *b, const char *name, int ndim, Py_ssize_t *shape) {
+    if (PyObject_GetBuffer(obj, &b->view, PyBUF_RECORDS_RO) != 0) {
+        PyErr_Clear();
+        PyErr_Format(kernel_error, "kernel buffer %s: not a strided buffer", name);
+        return -1;
+    }
+    b->held = 1;
+    if (!format_is(b->view.format, 'd') || b->view.ndim != ndim) {
+        PyErr_Format(kernel_error, "kernel buffer %s: %d dimensions of format %s, expected %d of float64", name,
+                     b->view.ndim, b->view.format ? b->view.format : "B", ndim);
+        return -1;
+    }
+    for (int i = 0; i < ndim; i++) {
+        if (shape[i] >= 0 && b->view.shape[i] != shape[i]) {
+            PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, i,
+                         b->view.shape[i], shape[i]);
+            return -1;
+        }
+        shape[i] = b->view.shape[i];
+    }
+    return 0;
+}
+
+static double at1(const Py_buffer *v, Py_ssize_t i) {
+    return *(const double *)((const char *)v->buf + i * v->strides[0]);
+}
+
+static double at2(const Py_buffer *v, Py_ssize_t i, Py_ssize_t j) {
+    return *(const double *)((const char *)v->buf + i * v->strides[0] + j * v->strides[1]);
+}
+
+/* A new float64 array (rows,) or (rows, cols) from `empty` (numpy.empty), its buffer held in b. */
+static PyObject *new_array(PyObject *empty, Py_ssize_t rows, Py_ssize_t cols, Buffer *b, double **data) {
+    PyObject *shape = cols < 0 ? PyLong_FromSsize_t(rows) : Py_BuildValue("(nn)", rows, cols);
+    if (shape == NULL) {
+        return NULL;
+    }
+    PyObject *array = PyObject_CallOneArg(empty, shape);
+    Py_DECREF(shape);
+    Py_ssize_t want[2] = {rows, cols};
+    if (array == NULL || take(array, b, "output", 'd', cols < 0 ? 1 : 2, want, 1)) {
+        Py_XDECREF(array);
+        return NULL;
+    }
+    *data = b->view.buf;
+    return array;
+}
+
+typedef struct {
+    Py_ssize_t n, nv, k;
+    PyObject *const *plan;
+    const long long *v_index; /* NULL: the identity */
+    const double *damping;    /* NULL: none */
+    double *lines;            /* (k, LINE_ENTRIES), read from the tuple of floats */
+    const Py_buffer *v;       /* (n,), any stride */
+    double *mass, *bias, *points, *rows, *values; /* values: gaps, v_N, v_T, drift_N, drift_T */
+} StateJob;
+
+static Py_ssize_t pinocchio_index(const StateJob *job, Py_ssize_t a) {
+    return job->v_index ? (Py_ssize_t)job->v_index[a] : a;
+}
+
+/* M (mirrored from the upper triangle) and h in minimal order. */
+static void fill_dynamics(const StateJob *job, const Py_buffer *mass, const Py_buffer *nle) {
+    Py_ssize_t n = job->n;
+    for (Py_ssize_t a = 0; a < n; a++) {
+        Py_ssize_t ia = pinocchio_index(job, a);
+        for (Py_ssize_t c = 0; c < n; c++) {
+            Py_ssize_t ic = pinocchio_index(job, c);
+            job->mass[a * n + c] = ia <= ic ? at2(mass, ia, ic) : at2(mass, ic, ia);
+        }
+        job->bias[a] = at1(nle, ia);
+        if (job->damping) {
+            job->bias[a] = job->bias[a] + job->damping[a] * at1(job->v, a);
+        }
+    }
+}
+
+/* Contact i's entries from its frame's position, Jacobian and classical acceleration. */
+static void fill_contact(const StateJob *job, Py_ssize_t i, const Py_buffer *pos, const Py_buffer *J,
+                         const Py_buffer *acc) {
+    Py_ssize_t n = job->n, k = job->k;
+    const double *line = job->lines + LINE_ENTRIES * i;
+    double *JN = job->rows + i * n, *JT = job->rows + (k + i) * n, vn = 0.0, vt = 0.0;
+    for (Py_ssize_t a = 0; a < n; a++) {
+        Py_ssize_t col = pinocchio_index(job, a);
+        double jx = at2(J, 0, col), jy = at2(J, 1, col);
+        JN[a] = line[0] * jx + line[1] * jy;
+        JT[a] = line[2] * jx + line[3] * jy;
+        vn += JN[a] * at1(job->v, a);
+        vt += JT[a] * at1(job->v, a);
+    }
+    double px = at1(pos, 0), py = at1(pos, 1), ax = at1(acc, 0), ay = at1(acc, 1);
+    job->points[2 * i] = px;
+    job->points[2 * i + 1] = py;
+    job->values[i] = line[0] * px + line[1] * py - line[4];
+    job->values[k + i] = vn;
+    job->values[2 * k + i] = vt;
+    job->values[3 * k + i] = line[0] * ax + line[1] * ay;
+    job->values[4 * k + i] = line[2] * ax + line[3] * ay;
+}
+
+/* Pinocchio's call `function(model, data, frame[, reference frame])`, then its attribute `name`
+ * (NULL: the result itself). */
+static PyObject *pinocchio_call(const StateJob *job, int function, PyObject *frame, int world_aligned,
+                                PyObject *name) {
+    PyObject *call_args[4] = {job->plan[P_MODEL], job->plan[P_DATA], frame, job->plan[P_FRAME]};
+    PyObject *result = PyObject_Vectorcall(job->plan[function], call_args, world_aligned ? 4 : 3, NULL);
+    if (result == NULL || name == NULL) {
+        return result;
+    }
+    PyObject *attribute = PyObject_GetAttr(result, name);
+    Py_DECREF(result);
+    return attribute;
+}
+
+/* Every contact frame of the tuple `frames`: Pinocchio's three calls, then its entries. */
+static int fill_contacts(const StateJob *job, PyObject *frames) {
+    for (Py_ssize_t i = 0; i < job->k; i++) {
+        PyObject *frame = PyTuple_GET_ITEM(frames, i), *arrays[3];
+        arrays[0] = pinocchio_call(job, P_UPDATE, frame, 0, translation_name);
+        arrays[1] = arrays[0] ? pinocchio_call(job, P_JACOBIAN, frame, 1, NULL) : NULL;
+        arrays[2] = arrays[1] ? pinocchio_call(job, P_ACCELERATION, frame, 1, vector_name) : NULL;
+        Buffer fb[3];
+        memset(fb, 0, sizeof(fb));
+        Py_ssize_t pos_shape[1] = {3}, jac_shape[2] = {6, job->nv}, acc_shape[1] = {6};
+        int failed = arrays[2] == NULL || take_strided(arrays[0], &fb[0], "position", 1, pos_shape) ||
+                     take_strided(arrays[1], &fb[1], "jacobian", 2, jac_shape) ||
+                     take_strided(arrays[2], &fb[2], "acceleration", 1, acc_shape);
+        if (!failed) {
+            fill_contact(job, i, &fb[0].view, &fb[1].view, &fb[2].view);
+        }
+        release(fb, 3);
+        for (int a = 0; a < 3; a++) {
+            Py_XDECREF(arrays[a]);
+        }
+        if (failed) {
+            return -1;
+        }
+    }
+    return 0;
+}
+
+static int intern_names(void) {
+    for (int f = 0; f < STATE_FIELDS; f++) {
+        if (state_fields[f] == NULL && (state_fields[f] = PyUnicode_InternFromString(state_field_names[f])) == NULL) {
+            return -1;
+        }
+    }
+    if (translation_name == NULL && (translation_name = PyUnicode_InternFromString("translation")) == NULL) {
+        return -1;
+    }
+    if (vector_name == NULL && (vector_name = PyUnicode_InternFromString("vector")) == NULL) {
+        return -1;
+    }
+    return 0;
+}
+
+/* object.__new__(state_type) with the fields `values` as its __dict__. */
+static PyObject *new_state(PyObject *state_type, PyObject **values) {
+    PyObject *dict = PyDict_New(), *no_args = PyTuple_New(0), *state = NULL;
+    int failed = dict == NULL || no_args == NULL;
+    for (int f = 0; f < STATE_FIELDS && !failed; f++) {
+        failed = PyDict_SetItem(dict, state_fields[f], values[f]) != 0;
+    }
+    if (!failed) {
+        state = PyBaseObject_Type.tp_new((PyTypeObject *)state_type, no_args, NULL);
+    }
+    if (state != NULL && PyObject_GenericSetDict(state, dict, NULL) != 0) {
+        Py_CLEAR(state);
+    }
+    Py_XDECREF(dict);
+    Py_XDECREF(no_args);
+    return state;
+}
+
+/* Checks the plan, v, mass, nle, frames, lines and damping into b and job. */
+static int take_state_inputs(PyObject *const *args, Buffer *b, StateJob *job) {
+    PyObject *plan = args[0];
+    if (!PyTuple_Check(plan) || PyTuple_GET_SIZE(plan) != PLAN_ENTRIES || !PyType_Check(PyTuple_GET_ITEM(plan, P_TYPE)) ||
+        !PyTuple_Check(args[5])) {
+        PyErr_Format(kernel_error, "robot_state: plan must be a tuple of %d entries, the first a class, and "
+                     "frames a tuple", PLAN_ENTRIES);
+        return -1;
+    }
+    job->plan = &PyTuple_GET_ITEM(plan, 0);
+    job->nv = PyLong_AsSsize_t(job->plan[P_NV]);
+    if (job->nv < 0) {
+        if (!PyErr_Occurred()) {
+            PyErr_SetString(kernel_error, "robot_state: nv must be >= 0");
+        }
+        return -1;
+    }
+    Py_ssize_t nv = job->nv, vec[1] = {-1}, mass_shape[2] = {nv, nv}, nle_shape[1] = {nv};
+    job->k = PyTuple_GET_SIZE(args[5]);
+    if (!PyTuple_Check(args[6]) || PyTuple_GET_SIZE(args[6]) != LINE_ENTRIES * job->k) {
+        PyErr_Format(kernel_error, "robot_state: lines must be a tuple of %zd floats", LINE_ENTRIES * job->k);
+        return -1;
+    }
+    job->lines = PyMem_Malloc((size_t)(LINE_ENTRIES * job->k + 1) * sizeof(double));
+    if (job->lines == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    for (Py_ssize_t i = 0; i < LINE_ENTRIES * job->k; i++) {
+        job->lines[i] = PyFloat_AsDouble(PyTuple_GET_ITEM(args[6], i));
+        if (job->lines[i] == -1.0 && PyErr_Occurred()) {
+            PyErr_Clear();
+            PyErr_Format(kernel_error, "robot_state: lines[%zd] is not a number", i);
+            return -1;
+        }
+    }
+    if (take_strided(args[2], &b[0], "v", 1, vec) || take_strided(args[3], &b[1], "mass", 2, mass_shape) ||
+        take_strided(args[4], &b[2], "nle", 1, nle_shape)) {
+        return -1;
+    }
+    job->n = vec[0], job->v = &b[0].view;
+    Py_ssize_t n_shape[1] = {job->n};
+    if (job->plan[P_V_INDEX] == Py_None) {
+        if (job->n != nv) {
+            PyErr_Format(kernel_error, "robot_state: v has %zd entries, expected %zd", job->n, nv);
+            return -1;
+        }
+    } else {
+        if (take(job->plan[P_V_INDEX], &b[4], "v_index", 'q', 1, n_shape, 0)) {
+            return -1;
+        }
+        job->v_index = b[4].view.buf;
+        for (Py_ssize_t a = 0; a < job->n; a++) {
+            if (job->v_index[a] < 0 || job->v_index[a] >= nv) {
+                PyErr_Format(kernel_error, "robot_state: v_index[%zd] = %lld is outside 0..%zd", a,
+                             job->v_index[a], nv - 1);
+                return -1;
+            }
+        }
+    }
+    if (args[7] != Py_None) {
+        if (take(args[7], &b[5], "damping", 'd', 1, n_shape, 0)) {
+            return -1;
+        }
+        job->damping = b[5].view.buf;
+    }
+    return 0;
+}
+
+/* The state's arrays: four new ones, and views (J_N, J_T of the rows; the values). */
+static int state_arrays(const StateJob *job, PyObject *empty, PyObject **values, Buffer *out, double **data) {
+    Py_ssize_t n = job->n, k = job->k;
+    PyObject *rows = NULL, *motion = NULL;
+    int failed = (values[F_MASS] = new_array(empty, n, n, &out[0], &data[0])) == NULL ||
+                 (values[F_BIAS] = new_array(empty, n, -1, &out[1], &data[1])) == NULL ||
+                 (values[F_POINTS] = new_array(empty, k, 2, &out[2], &data[2])) == NULL ||
+                 (rows = new_array(empty, 2 * k, n, &out[3], &data[3])) == NULL ||
+                 (motion = new_array(empty, 5 * k, -1, &out[4], &data[4])) == NULL;
+    int views[7] = {F_JN, F_JT, F_GAPS, F_VN, F_VT, F_DN, F_DT};
+    for (int j = 0; j < 7 && !failed; j++) {
+        PyObject *base = j < 2 ? rows : motion;
+        Py_ssize_t lo = (j < 2 ? j : j - 2) * k;
+        failed = (values[views[j]] = PySequence_GetSlice(base, lo, lo + k)) == NULL;
+    }
+    Py_XDECREF(rows);
+    Py_XDECREF(motion);
+    return failed ? -1 : 0;
+}
+
+static PyObject *robot_state(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != STATE_ARGS) {
+        PyErr_Format(kernel_error, "robot_state takes %d arguments, got %zd", STATE_ARGS, nargs);
+        return NULL;
+    }
+    if (intern_names()) {
+        return NULL;
+    }
+    Buffer b[6], out[5]; /* inputs: v, mass, nle, (unused), v_index, damping; the five new arrays */
+    memset(b, 0, sizeof(b));
+    memset(out, 0, sizeof(out));
+    StateJob job;
+    memset(&job, 0, sizeof(job));
+    PyObject *values[STATE_FIELDS] = {NULL}, *result = NULL;
+    double *data[5] = {NULL};
+    if (take_state_inputs(args, b, &job) == 0 && state_arrays(&job, job.plan[P_EMPTY], values, out, data) == 0) {
+        job.mass = data[0], job.bias = data[1], job.points = data[2], job.rows = data[3], job.values = data[4];
+        fill_dynamics(&job, &b[1].view, &b[2].view);
+        if (fill_contacts(&job, args[5]) == 0) {
+            values[0] = args[1];
+            values[1] = args[2];
+            result = new_state(job.plan[P_TYPE], values);
+        }
+    }
+    PyMem_Free(job.lines);
+    release(b, 6);
+    release(out, 5);
+    for (int f = F_MASS; f < STATE_FIELDS; f++) {
+        Py_XDECREF(values[f]);
+    }
+    return result;
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * contact_rows: the dynamics rows and the contact row table of frcontrol.modes (dynamics_rows and
+ * contact_row_table, the reference), written into given arrays for the mode batch. Every entry is
+ * one of the problem's numbers, its negative, -max(1, mu), 0, 1 or -1, as in the table of
+ * frcontrol.modes.ContactRowTable's docstring: the arrays equal the reference's bit for bit.
+ */
+#define ROW_LETTERS 4 /* S, L, R, F */
+enum { LETTER_S, LETTER_L, LETTER_R, LETTER_F };
+
+typedef struct {
+    Py_ssize_t n, k, nx;
+    const Py_buffer *mass, *jn, *jt, *dn, *dt, *mu, *vn, *vt;
+    double tolerance;
+    double *dynamics, *eq, *eq_rhs, *ineq, *ineq_rhs;
+    unsigned char *valid, *motion;
+} RowJob;
+
+/* Contact i's rows: equalities (ROW_LETTERS, 2, nx), inequalities (ROW_LETTERS, 3, nx). */
+static void contact_rows_of(const RowJob *r, Py_ssize_t i) {
+    Py_ssize_t n = r->n, k = r->k, nx = r->nx, lam_n = n + i, lam_t = n + k + i;
+    double *eq = r->eq + i * ROW_LETTERS * EQUALITY_ROWS * nx, *eq_rhs = r->eq_rhs + i * ROW_LETTERS * EQUALITY_ROWS;
+    double *in = r->ineq + i * ROW_LETTERS * INEQUALITY_ROWS * nx;
+    double *in_rhs = r->ineq_rhs + i * ROW_LETTERS * INEQUALITY_ROWS;
+    unsigned char *valid = r->valid + i * ROW_LETTERS * INEQUALITY_ROWS;
+    unsigned char *motion = r->motion + i * ROW_LETTERS * INEQUALITY_ROWS;
+    double mu = at1(r->mu, i), dn = at1(r->dn, i), dt = at1(r->dt, i);
+    double scale = -(1.0 > mu ? 1.0 : mu); /* -max(1, mu), as np.maximum(1.0, mu) then negated */
+    int resting = fabs(at1(r->vn, i)) <= r->tolerance, sticking = fabs(at1(r->vt, i)) <= r->tolerance;
+#define EQ(letter, row, col) eq[((letter) * EQUALITY_ROWS + (row)) * nx + (col)]
+#define IN(letter, row, col) in[((letter) * INEQUALITY_ROWS + (row)) * nx + (col)]
+#define CELL(letter, row) ((letter) * INEQUALITY_ROWS + (row))
+    EQ(LETTER_S, 0, lam_n) = 1.0; /* S: lam_N = 0, lam_T = 0 */
+    EQ(LETTER_S, 1, lam_t) = 1.0;
+    for (Py_ssize_t c = 0; c < n; c++) {
+        double jn = at2(r->jn, i, c), jt = at2(r->jt, i, c);
+        for (int letter = LETTER_L; letter <= LETTER_F; letter++) {
+            EQ(letter, 0, c) = jn; /* a_N = 0 in L, R, F */
+        }
+        EQ(LETTER_F, 1, c) = jt; /* F: a_T = 0 */
+        IN(LETTER_S, 0, c) = -jn; /* S: a_N >= 0 */
+        IN(LETTER_R, 1, c) = -jt; /* R: a_T >= 0 */
+        IN(LETTER_L, 1, c) = jt;  /* L: a_T <= 0 */
+    }
+    for (int letter = LETTER_L; letter <= LETTER_F; letter++) {
+        eq_rhs[letter * EQUALITY_ROWS] = -dn;
+    }
+    eq_rhs[LETTER_F * EQUALITY_ROWS + 1] = -dt;
+    EQ(LETTER_R, 1, lam_t) = 1.0; /* R: lam_T + mu lam_N = 0 */
+    EQ(LETTER_R, 1, lam_n) = mu;
+    EQ(LETTER_L, 1, lam_t) = 1.0; /* L: lam_T - mu lam_N = 0 */
+    EQ(LETTER_L, 1, lam_n) = -mu;
+    in_rhs[CELL(LETTER_S, 0)] = dn;
+    IN(LETTER_L, 0, lam_n) = IN(LETTER_R, 0, lam_n) = scale; /* L, R: -max(1, mu) lam_N <= 0 */
+    IN(LETTER_F, 0, lam_n) = -1.0;                            /* F: lam_N >= 0 */
+    in_rhs[CELL(LETTER_R, 1)] = dt;
+    in_rhs[CELL(LETTER_L, 1)] = -dt;
+    IN(LETTER_F, 1, lam_t) = 1.0; /* F: lam_T - mu lam_N <= 0 */
+    IN(LETTER_F, 1, lam_n) = -mu;
+    IN(LETTER_F, 2, lam_t) = -1.0; /* F: -lam_T - mu lam_N <= 0 */
+    IN(LETTER_F, 2, lam_n) = -mu;
+    valid[CELL(LETTER_S, 0)] = motion[CELL(LETTER_S, 0)] = (unsigned char)resting;
+    valid[CELL(LETTER_L, 0)] = valid[CELL(LETTER_R, 0)] = valid[CELL(LETTER_F, 0)] = 1;
+    valid[CELL(LETTER_L, 1)] = valid[CELL(LETTER_R, 1)] = (unsigned char)sticking;
+    motion[CELL(LETTER_L, 1)] = motion[CELL(LETTER_R, 1)] = (unsigned char)sticking;
+    valid[CELL(LETTER_F, 1)] = valid[CELL(LETTER_F, 2)] = 1;
+#undef EQ
+#undef IN
+#undef CELL
+}
+
+#define ROW_INPUTS 8  /* mass, jn, jt, dn, dt, mu, vn, vt */
+#define ROW_OUTPUTS 7 /* dynamics, eq, eq_rhs, ineq, ineq_rhs, valid, motion */
+
+static int take_row_buffers(PyObject *const *args, Buffer *b, RowJob *r) {
+    const char *names[ROW_INPUTS] = {"mass", "jacobian_normal", "jacobian_tangent", "drift_normal",
+                                     "drift_tangent", "mu", "normal_velocities", "tangential_velocities"};
+    Py_ssize_t mass[2] = {-1, -1};
+    if (take_strided(args[0], &b[0], names[0], 2, mass)) {
+        return -1;
+    }
+    Py_ssize_t n = mass[0], jn[2] = {-1, n};
+    if (mass[1] != n) {
+        PyErr_Format(kernel_error, "kernel buffer mass: %zd x %zd, expected a square matrix", n, mass[1]);
+        return -1;
+    }
+    if (take_strided(args[1], &b[1], names[1], 2, jn)) {
+        return -1;
+    }
+    Py_ssize_t k = jn[0], nx = n + 2 * k, jt[2] = {k, n};
+    if (take_strided(args[2], &b[2], names[2], 2, jt)) {
+        return -1;
+    }
+    for (int j = 3; j < ROW_INPUTS; j++) {
+        Py_ssize_t vector[1] = {k};
+        if (take_strided(args[j], &b[j], names[j], 1, vector)) {
+            return -1;
+        }
+    }
+    r->tolerance = PyFloat_AsDouble(args[ROW_INPUTS]);
+    if (r->tolerance == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();
+        PyErr_SetString(kernel_error, "contact_rows: velocity_tolerance is not a number");
+        return -1;
+    }
+    Py_ssize_t dyn[2] = {n, nx}, eq[4] = {k, ROW_LETTERS, EQUALITY_ROWS, nx}, eq_rhs[3] = {k, ROW_LETTERS, EQUALITY_ROWS};
+    Py_ssize_t in[4] = {k, ROW_LETTERS, INEQUALITY_ROWS, nx}, in_rhs[3] = {k, ROW_LETTERS, INEQUALITY_ROWS};
+    Py_ssize_t flags[3] = {k, ROW_LETTERS, INEQUALITY_ROWS}, flags2[3] = {k, ROW_LETTERS, INEQUALITY_ROWS};
+    PyObject *const *out = args + ROW_INPUTS + 1;
+    Buffer *ob = b + ROW_INPUTS;
+    if (take(out[0], &ob[0], "dynamics", 'd', 2, dyn, 1) || take(out[1], &ob[1], "equalities", 'd', 4, eq, 1) ||
+        take(out[2], &ob[2], "equality_rhs", 'd', 3, eq_rhs, 1) ||
+        take(out[3], &ob[3], "inequalities", 'd', 4, in, 1) ||
+        take(out[4], &ob[4], "inequality_rhs", 'd', 3, in_rhs, 1) ||
+        take(out[5], &ob[5], "valid", '?', 3, flags, 1) || take(out[6], &ob[6], "motion", '?', 3, flags2, 1)) {
+        return -1;
+    }
+    *r = (RowJob){n, k, nx, &b[0].view, &b[1].view, &b[2].view, &b[3].view, &b[4].view, &b[5].view,
+                  &b[6].view, &b[7].view, r->tolerance, ob[0].view.buf, ob[1].view.buf, ob[2].view.buf,
+                  ob[3].view.buf, ob[4].view.buf, ob[5].view.buf, ob[6].view.buf};
+    return 0;
+}
+
+static PyObject *contact_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != ROW_INPUTS + 1 + ROW_OUTPUTS) {
+        PyErr_Format(kernel_error, "contact_rows takes %d arguments, got %zd", ROW_INPUTS + 1 + ROW_OUTPUTS, nargs);
+        return NULL;
+    }
+    Buffer b[ROW_INPUTS + ROW_OUTPUTS];
+    memset(b, 0, sizeof(b));
+    RowJob r;
+    memset(&r, 0, sizeof(r));
+    PyObject *result = NULL;
+    if (take_row_buffers(args, b, &r) == 0) {
+        Py_ssize_t n = r.n, k = r.k, nx = r.nx;
+        for (Py_ssize_t a = 0; a < n; a++) { /* [M, -J_N^T, -J_T^T] */
+            for (Py_ssize_t c = 0; c < n; c++) {
+                r.dynamics[a * nx + c] = at2(r.mass, a, c);
+            }
+            for (Py_ssize_t i = 0; i < k; i++) {
+                r.dynamics[a * nx + n + i] = -at2(r.jn, i, a);
+                r.dynamics[a * nx + n + k + i] = -at2(r.jt, i, a);
+            }
+        }
+        memset(r.eq, 0, (size_t)(k * ROW_LETTERS * EQUALITY_ROWS * nx) * sizeof(double));
+        memset(r.eq_rhs, 0, (size_t)(k * ROW_LETTERS * EQUALITY_ROWS) * sizeof(double));
+        memset(r.ineq, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS * nx) * sizeof(double));
+        memset(r.ineq_rhs, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS) * sizeof(double));
+        memset(r.valid, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS));
+        memset(r.motion, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS));
+        for (Py_ssize_t i = 0; i < k; i++) {
+            contact_rows_of(&r, i);
+        }
+        result = Py_NewRef(Py_None);
+    }
+    release(b, ROW_INPUTS + ROW_OUTPUTS);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"certified_modes", (PyCFunction)(void (*)(void))certified_modes, METH_FASTCALL,
      "certified_modes(dynamics, equalities, equality_rhs, inequalities, inequality_rhs, valid, motion,\n"
@@ -979,6 +1466,20 @@ static PyMethodDef methods[] = {
      "lp_check(A_ub, b_ub, A_eq, b_eq, lb, ub, x, has_bounds) -> (residual, scale)\n\n"
      "The LP door's primal residual of x (NaN for x None) and the scale of its tolerance\n"
      "(frcontrol.solvers.primal_residual and FEASIBILITY_TOLERANCE), in one pass."},
+    {"robot_state", (PyCFunction)(void (*)(void))robot_state, METH_FASTCALL,
+     "robot_state(plan, q, v, mass, nle, frames, lines, damping) -> state\n\n"
+     "frcontrol.model.PlanarRobot.state after Pinocchio's computeAllTerms: a new instance of the state\n"
+     "type (its fields in its __dict__) from Pinocchio's M (upper triangle) and nle and, per frame of\n"
+     "the tuple frames, Pinocchio's position, world-aligned Jacobian and classical acceleration;\n"
+     "lines (a tuple of 5 k floats) holds each contact's n, t and n . s, damping (or None) the drives' b. plan: (state\n"
+     "type, numpy.empty, model, data, updateFramePlacement, getFrameJacobian,\n"
+     "getFrameClassicalAcceleration, LOCAL_WORLD_ALIGNED, v_index (int64, or None: the identity), nv)."},
+    {"contact_rows", (PyCFunction)(void (*)(void))contact_rows, METH_FASTCALL,
+     "contact_rows(mass, jacobian_normal, jacobian_tangent, drift_normal, drift_tangent, mu,\n"
+     "             normal_velocities, tangential_velocities, velocity_tolerance, dynamics, equalities,\n"
+     "             equality_rhs, inequalities, inequality_rhs, valid, motion) -> None\n\n"
+     "frcontrol.modes.dynamics_rows and contact_row_table written into the given arrays (n, nx),\n"
+     "(k, 4, 2, nx), (k, 4, 2), (k, 4, 3, nx), (k, 4, 3) and the bool (k, 4, 3) twice; bit for bit."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "frcontrol._kernel",
@@ -1004,7 +1505,7 @@ PyMODINIT_FUNC PyInit__kernel(void) {
                              "MOVES_ACCELERATIONS"};
     int values[10] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
                       NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS};
-    PyObject *all = Py_BuildValue("[sss]", "certified_modes", "rank_modes", "lp_check");
+    PyObject *all = Py_BuildValue("[sssss]", "certified_modes", "rank_modes", "lp_check", "robot_state", "contact_rows");
     if (all == NULL) {
         Py_DECREF(mod);
         return NULL;

@@ -869,26 +869,22 @@ def solutions_at(
         return listed
     problem = scene if isinstance(scene, ContactProblem) else ContactProblem.from_scene(scene)
     u = _input_vector(problem, inputs)
-    if method != "reference" and _mode_count(problem) <= BATCH_MAX_MODES:
-        found = _batch_solutions(problem, u, solver, rank_tolerance)
-        if found is not None:
-            return found
+    if method != "reference":
+        allowed = problem.allowed_modes()
+        if math.prod(len(letters) for letters in allowed) <= BATCH_MAX_MODES:
+            found = _batch_solutions(problem, u, solver, rank_tolerance, allowed)
+            if found is not None:
+                return found
     return _tree_solutions(problem, u, solver, rank_tolerance, closed_form)
 
 
-def _mode_count(problem: ContactProblem) -> int:
-    count = 1
-    for letters in problem.allowed_modes():
-        count *= len(letters)
-    return count
-
-
-def _batch_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_tolerance: float
-                     ) -> list[RigidSolution] | None:
+def _batch_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_tolerance: float,
+                     allowed: tuple[str, ...] | None = None) -> list[RigidSolution] | None:
     """The batch path; None when a mode's rank is undecidable (the reference path then decides)."""
     batch = decide_modes(problem, u, lambda H, h, motion: _admissible_in_w(H, h, motion, solver),
                          rank_tolerance=rank_tolerance, domain_tolerance=DOMAIN_TOLERANCE,
-                         zero_row_tolerance=ZERO_ROW_TOLERANCE, radius_cap=poly.CHEBYSHEV_RADIUS_CAP)
+                         zero_row_tolerance=ZERO_ROW_TOLERANCE, radius_cap=poly.CHEBYSHEV_RADIUS_CAP,
+                         allowed=allowed)
     if batch.ill_conditioned:
         return None
     n, k = problem.n, problem.k

@@ -43,8 +43,9 @@ from functools import lru_cache
 
 import numpy as np
 
+from .errors import KernelError
 from .kernel import compiled, kernel_choice
-from .modes import MODE_LETTERS, ContactProblem
+from .modes import MODE_LETTERS, ROWS_PER_CONTACT, ContactProblem
 from .response import (
     CERTIFIED_MARGIN,
     CONSISTENCY_TOLERANCE,
@@ -165,7 +166,8 @@ def _stack(problem: ContactProblem, letters: np.ndarray, u: np.ndarray) -> _Stac
 
 
 def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, rank_tolerance: float,
-                 domain_tolerance: float, zero_row_tolerance: float, radius_cap: float) -> ModeBatch:
+                 domain_tolerance: float, zero_row_tolerance: float, radius_cap: float,
+                 allowed: tuple[str, ...] | None = None) -> ModeBatch:
     """Stack, factorise and decide every full mode at ``u`` (see the module docstring).
 
     Well-conditioned modes are certified by a cheap bound (:data:`CERTIFIED_MARGIN`) and solved
@@ -180,11 +182,12 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
         domain_tolerance: the engine's membership distance.
         zero_row_tolerance: the engine's constant-row threshold.
         radius_cap: the Chebyshev LP's radius cap (for a side of an interval without a bound).
+        allowed: ``problem.allowed_modes()`` when the caller has it already.
 
     Raises:
         KernelError: ``FRC_KERNEL`` names no kernel, or the compiled one where it is not built.
     """
-    modes, letters = full_modes(problem.allowed_modes())
+    modes, letters = full_modes(problem.allowed_modes() if allowed is None else allowed)
     tolerances = (domain_tolerance, zero_row_tolerance, radius_cap)
     if kernel_choice() == "compiled":
         return _compiled_modes(problem, modes, letters, u, decide_w, rank_tolerance, tolerances)
@@ -245,10 +248,8 @@ def _compiled_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np
     """
     assert compiled is not None  # kernel_choice() said so
     domain_tolerance, zero_row_tolerance, _ = tolerances
-    table = problem.row_table
     count, nx = letters.shape[0], problem.n + 2 * problem.k
-    rows = (problem.dynamics, table.equalities, table.equality_rhs, table.inequalities,
-            table.inequality_rhs, table.valid, table.motion)
+    rows = _compiled_rows(problem)
     vectors = (np.ascontiguousarray(problem.input_map, dtype=float),
                np.ascontiguousarray(problem.bias, dtype=float), np.ascontiguousarray(u, dtype=float))
     status, residual, violation = np.empty(count, dtype=np.int8), np.empty(count), np.empty(count)
@@ -258,10 +259,11 @@ def _compiled_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np
                              c_scale, CERTIFIED_MARGIN, max(rank_tolerance, ILL_CONDITIONED_BAND),
                              domain_tolerance, zero_row_tolerance)
     empty = np.zeros(0)
+    codes = status.tolist()  # (a Python loop over the modes: cheaper than NumPy's on a few dozen)
     found = {i: BatchSolution(modes[i], x[i], empty, "none", float(residual[i]), float(violation[i]))
-             for i in np.nonzero(status == compiled.CERTIFIED_ADMISSIBLE)[0].tolist()}
-    rest = np.nonzero(status == compiled.NOT_CERTIFIED)[0]
-    if rest.size:
+             for i, code in enumerate(codes) if code == compiled.CERTIFIED_ADMISSIBLE}
+    if compiled.NOT_CERTIFIED in codes:
+        rest = np.array([i for i, code in enumerate(codes) if code == compiled.NOT_CERTIFIED])
         others = _compiled_rank_modes(problem, modes, letters, rest, (rows, vectors),
                                       (a_hat[rest], r_scale[rest], c_scale[rest]), u, decide_w,
                                       rank_tolerance, tolerances)
@@ -269,6 +271,36 @@ def _compiled_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np
             return ModeBatch(modes, (), True)
         found.update(others)
     return ModeBatch(modes, tuple(found[i] for i in sorted(found)), False)
+
+
+def _compiled_rows(problem: ContactProblem) -> tuple[np.ndarray, ...]:
+    """``problem.dynamics`` and the arrays of ``problem.row_table``, by the compiled kernel.
+
+    ``contact_rows`` writes :func:`frcontrol.modes.dynamics_rows` and
+    :func:`~frcontrol.modes.contact_row_table` bit for bit (every entry is one of the problem's
+    numbers, its negative, -max(1, mu), 0, 1 or -1), in one call instead of NumPy's gathers. A
+    problem whose table is built already keeps it; one whose arrays the kernel does not take (not
+    float64) gets NumPy's.
+    """
+    if "row_table" in problem.__dict__:  # built already (a cached property)
+        table = problem.row_table
+        return (problem.dynamics, table.equalities, table.equality_rhs, table.inequalities,
+                table.inequality_rhs, table.valid, table.motion)
+    n, k = problem.n, problem.k
+    nx = n + 2 * k
+    pairs, cells = (k, len(MODE_LETTERS), 2), (k, len(MODE_LETTERS), ROWS_PER_CONTACT)
+    rows = (np.empty((n, nx)), np.empty(pairs + (nx,)), np.empty(pairs), np.empty(cells + (nx,)),
+            np.empty(cells), np.empty(cells, dtype=bool), np.empty(cells, dtype=bool))
+    try:
+        compiled.contact_rows(  # type: ignore[union-attr]  # only on the compiled path
+            problem.mass_matrix, problem.jacobian_normal, problem.jacobian_tangent, problem.drift_normal,
+            problem.drift_tangent, problem.mu, problem.normal_velocities, problem.tangential_velocities,
+            problem.velocity_tolerance, *rows)
+    except KernelError:
+        table = problem.row_table
+        return (problem.dynamics, table.equalities, table.equality_rhs, table.inequalities,
+                table.inequality_rhs, table.valid, table.motion)
+    return rows
 
 
 def _compiled_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np.ndarray,
@@ -295,15 +327,16 @@ def _compiled_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letter
                            domain_tolerance, zero_row_tolerance, radius_cap, CONSISTENCY_TOLERANCE,
                            OUTPUT_TOLERANCE):
         return None
-    ambiguous = status == compiled.ADMISSIBLE_W
     empty = np.zeros(0)
     found = {}
-    for j in np.nonzero((status == compiled.ADMISSIBLE) | ambiguous)[0].tolist():
-        i = int(rest[j])
-        found[i] = BatchSolution(modes[i], x[j], w[j:j + 1] if ambiguous[j] else empty,
-                                 _MOVES[outputs[j]], float(residual[j]), float(violation[j]))
-    more = np.nonzero(status == compiled.NEEDS_PYTHON)[0]
-    if more.size:
+    codes = status.tolist()
+    for j, code in enumerate(codes):
+        if code == compiled.ADMISSIBLE or code == compiled.ADMISSIBLE_W:
+            i = int(rest[j])
+            found[i] = BatchSolution(modes[i], x[j], w[j:j + 1] if code == compiled.ADMISSIBLE_W else empty,
+                                     _MOVES[outputs[j]], float(residual[j]), float(violation[j]))
+    if compiled.NEEDS_PYTHON in codes:
+        more = np.array([j for j, code in enumerate(codes) if code == compiled.NEEDS_PYTHON])
         found.update(_python_rank_modes(problem, modes, letters, rest[more], (U[more], s[more], Vt[more]),
                                         r_scale[more], c_scale[more], u, decide_w, rank_tolerance,
                                         tolerances))

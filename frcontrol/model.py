@@ -33,7 +33,8 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike
 
-from .errors import FrameNotFound, InputError, RobotModelError
+from .errors import FrameNotFound, InputError, KernelError, RobotModelError
+from .kernel import compiled, kernel_choice
 from .urdf import read_urdf
 
 BASE_COORDINATES = ("x", "y", "theta")
@@ -86,11 +87,14 @@ class _ContactLayout:
         motion_projection: (5k, 9k + 1): applied to ``[a_1 .. a_k, p_1 .. p_k, 1]`` (the frames'
             6-D classical accelerations, their 3-D positions, a one) it gives ``[n^T a; t^T a;
             n^T (p - s); p_x, p_y interleaved]``: drifts, gaps and the points.
+        lines: each contact's ``n_x, n_y, t_x, t_y, n . s`` (5k floats), what the compiled assembly
+            (:func:`frcontrol._kernel.robot_state`) reads in place of the two projections.
     """
 
     frames: tuple[int, ...]
     jacobian_projection: np.ndarray
     motion_projection: np.ndarray
+    lines: tuple[float, ...]
 
 
 def _contact_layout(frames: Sequence[int], normals: np.ndarray, tangents: np.ndarray,
@@ -106,7 +110,8 @@ def _contact_layout(frames: Sequence[int], normals: np.ndarray, tangents: np.nda
         motion[2 * k + i, pos:pos + 2] = normal
         motion[2 * k + i, -1] = -(normal @ surface)
         motion[3 * k + 2 * i, pos] = motion[3 * k + 2 * i + 1, pos + 1] = 1.0
-    return _ContactLayout(tuple(frames), jacobian, motion)
+    lines = np.column_stack([normals, tangents, -motion[2 * k:3 * k, -1]]).reshape(k, 5)
+    return _ContactLayout(tuple(frames), jacobian, motion, tuple(lines.ravel().tolist()))
 
 
 @dataclass(frozen=True)
@@ -159,6 +164,19 @@ def _assembled_state(fields: dict[str, np.ndarray]) -> RobotState:
 _WORLD_ALIGNED = pin.LOCAL_WORLD_ALIGNED
 _ONE = np.ones(1)
 _ONE.setflags(write=False)
+
+
+def _compiled_assembly() -> bool:
+    """Whether :meth:`PlanarRobot.state` assembles in the compiled kernel.
+
+    ``FRC_KERNEL`` chooses, as for the mode batch (:func:`frcontrol.kernel.kernel_choice`), when the
+    robot is built. An unknown value chooses NumPy here: the analysis, which reads the variable too,
+    reports it where it is used.
+    """
+    try:
+        return kernel_choice() == "compiled"
+    except KernelError:
+        return False
 
 
 def _check_planar_joints(urdf: str, joints: Sequence[tuple[str, str, np.ndarray]]) -> None:
@@ -439,6 +457,11 @@ class PlanarRobot:
         self._layouts: dict = {}  # contact subsets -> _ContactLayout
         self._damping = np.zeros(n)  # [N m s/rad] drives' viscous damping (set_drive_terms)
         self._has_damping = False
+        # state() assembles in frcontrol._kernel.robot_state with this plan (None: in NumPy)
+        self._kernel_plan = (RobotState, np.empty, model, self.data, pin.updateFramePlacement,
+                             pin.getFrameJacobian, pin.getFrameClassicalAcceleration, _WORLD_ALIGNED,
+                             None if self._identity_order else np.asarray(v_index, dtype=np.int64), n,
+                             ) if _compiled_assembly() else None
 
     # ------------------------------------------------------------------ construction helpers
     def _add_point_frame(self, model: pin.Model, name: str, link: str, point: np.ndarray) -> int:
@@ -556,21 +579,34 @@ class PlanarRobot:
         """Everything the contact-dynamics layers need at ``(q, v)``.
 
         Every array of the result is new (none is shared with another call or with Pinocchio's
-        data), so states may be kept across calls.
+        data), so states may be kept across calls. One pass of Pinocchio (CRBA's upper triangle,
+        nonlinear effects, joint Jacobians and the kinematics at ``(q, v, a = 0)``), then per
+        contact frame its placement (first: the other two read it), its world-aligned 6 x n
+        Jacobian at the point and its classical acceleration, the drift; these are projected on
+        the contacts' normals and tangents in one call of the compiled kernel
+        (:func:`frcontrol._kernel.robot_state`), or in NumPy (:meth:`_state_numpy`, the
+        reference) where ``FRC_KERNEL=numpy`` or the extension is not built.
 
         Args:
             q: minimal configuration, shape (n,) (not validated here: see :meth:`check_state`).
-            v: minimal velocity, shape (n,).
+            v: minimal velocity, float64, shape (n,).
             contacts: indices into ``self.contacts`` to evaluate (default: all), in that order.
         """
         model, data = self.model, self.data
-        # One pass: CRBA (upper triangle), nonlinear effects, joint Jacobians and the kinematics
-        # at (q, v, a = 0), from which the frames' classical accelerations are the drifts.
         pin.computeAllTerms(model, data, self._pinocchio_q(q),
                             v if self._identity_order else self.pinocchio_v_from_minimal(v))
         layout = self._layouts.get(contacts) if contacts is None or type(contacts) is tuple else None
         if layout is None:
             layout = self._layout(None if contacts is None else tuple(contacts))
+        if self._kernel_plan is None:
+            return self._state_numpy(q, v, layout)
+        return compiled.robot_state(  # type: ignore[union-attr]  # a plan only where it is built
+            self._kernel_plan, q, v, data.M, data.nle, layout.frames, layout.lines,
+            self._damping if self._has_damping else None)
+
+    def _state_numpy(self, q: np.ndarray, v: np.ndarray, layout: _ContactLayout) -> RobotState:
+        """:meth:`state`'s assembly in NumPy, after Pinocchio's pass: the reference of the compiled one."""
+        model, data = self.model, self.data
         frames, k, n = layout.frames, len(layout.frames), self._n
         if k:
             # per frame: its placement (first: the other two read it), its world-aligned 6 x n

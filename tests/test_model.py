@@ -362,3 +362,99 @@ def test_states_are_kept_across_calls():
     assert set(vars(first)) == {f.name for f in dataclasses.fields(first)}
     with pytest.raises(dataclasses.FrozenInstanceError):
         first.gaps = np.zeros(0)  # type: ignore[misc]
+
+
+def numpy_twin(monkeypatch, build):
+    """``build()`` made once with the compiled assembly and once with ``FRC_KERNEL=numpy``."""
+    compiled = build()
+    if compiled._kernel_plan is None:
+        pytest.skip("the compiled kernel is not built here (tests/test_kernel.py fails in CI then)")
+    monkeypatch.setenv("FRC_KERNEL", "numpy")
+    reference = build()
+    monkeypatch.delenv("FRC_KERNEL")
+    assert reference._kernel_plan is None
+    return compiled, reference
+
+
+def assert_states_equal_to_round_off(found, expected, label: str) -> None:
+    assert set(vars(found)) == set(vars(expected)) == {f.name for f in dataclasses.fields(found)}
+    for key, value in vars(expected).items():
+        scale = np.max(np.abs(expected.contact_points if key == "gaps" else value), initial=0.0)
+        assert_equal_to_round_off(getattr(found, key), value, scale, f"{label} {key}")
+        assert getattr(found, key).dtype == value.dtype, f"{label} {key}"
+
+
+@pytest.mark.parametrize("name", shipped_scene_names())
+def test_compiled_assembly_equals_the_numpy_assembly_on_every_shipped_scene(name, monkeypatch):
+    """The compiled kernel's state (frcontrol._kernel.robot_state) against the NumPy reference, on
+    every contact subset shape at random states: the same Pinocchio calls, the same sums."""
+    compiled, reference = numpy_twin(monkeypatch, lambda: load_scene(name).robot)
+    rng = np.random.default_rng(sum(map(ord, name)) + 1)
+    everything = tuple(range(len(compiled.contacts)))
+    for contacts in (None, everything[::-1], everything[-1:], (), everything[:1] * 2):
+        for _ in range(3):
+            q, v = random_state(compiled, rng)
+            assert_states_equal_to_round_off(compiled.state(q, v, contacts), reference.state(q, v, contacts),
+                                             f"{name} {contacts}")
+
+
+def test_compiled_assembly_reorders_coordinates_and_adds_drive_damping(tmp_path, monkeypatch):
+    """A robot whose coordinates are not in Pinocchio's order (a joint listed last in its URDF) and
+    drives' damping in h: both paths agree; the state's v enters as given, even strided."""
+    text = (ROBOTS / "snake_planar.urdf").read_text()
+    start = text.index('  <joint name="j1"')
+    end = text.index("</joint>", start) + len("</joint>\n")
+    urdf = tmp_path / "reordered.urdf"
+    urdf.write_text(text[:start] + text[end:].replace("</robot>", text[start:end] + "</robot>"))
+    contacts = [point("tail", "link0", (0.0, 0.0), n=(1.0, 0.0)),
+                point("head", "link8", (0.2, 0.0), n=(0.6, 0.8))]
+
+    def build() -> PlanarRobot:
+        robot = PlanarRobot(urdf, "planar", 9.81, contacts)
+        robot.set_drive_terms({3: 0.01, 10: 0.02}, {4: 0.5, 10: 1.5})
+        return robot
+
+    compiled, reference = numpy_twin(monkeypatch, build)
+    assert compiled._kernel_plan[8] is not None  # the coordinates are reordered
+    rng = np.random.default_rng(11)
+    for contacts in (None, (1,), ()):
+        q, v = random_state(compiled, rng)
+        wide = np.repeat(v, 2)  # v as a strided view
+        found = compiled.state(q, wide[::2], contacts)
+        assert_states_equal_to_round_off(found, reference.state(q, v, contacts), f"reordered {contacts}")
+        expected_bias = rnea_minimal(compiled, q, v, np.zeros(compiled.nv)) + compiled.drive_damping * v
+        np.testing.assert_allclose(found.bias, expected_bias, rtol=1e-12, atol=1e-12)
+
+
+def test_compiled_assembly_refuses_malformed_arguments(monkeypatch):
+    from frcontrol import _kernel
+    from frcontrol.errors import KernelError
+
+    scene = load_scene("rod_on_table")
+    robot = scene.robot
+    if robot._kernel_plan is None:
+        pytest.skip("the compiled kernel is not built here (tests/test_kernel.py fails in CI then)")
+    plan, data = robot._kernel_plan, robot.data
+    layout = robot._layout(None)
+    good = [plan, scene.q, scene.v, data.M, data.nle, layout.frames, layout.lines, None]
+    assert _kernel.robot_state(*good).gaps.shape == (1,)
+    cases = [
+        ({0: plan[:-1]}, "plan must be a tuple of 10 entries"),
+        ({0: (1,) + plan[1:]}, "plan must be a tuple of 10 entries"),
+        ({5: list(layout.frames)}, "frames a tuple"),
+        ({6: layout.lines[:-1]}, "lines must be a tuple of 5 floats"),
+        ({6: ("a",) * 5}, r"lines\[0\] is not a number"),
+        ({2: scene.v[:2]}, "v has 2 entries, expected 3"),
+        ({2: scene.v.astype(np.float32)}, "buffer v"),
+        ({2: [0.0, 0.0, 0.0]}, "buffer v: not a strided buffer"),
+        ({3: np.zeros((3, 2))}, "buffer mass: axis 1 has 2 entries, expected 3"),
+        ({4: np.zeros(4)}, "buffer nle: axis 0 has 4 entries, expected 3"),
+        ({7: np.zeros(2)}, "buffer damping"),
+        ({0: plan[:8] + (np.array([0, 1, 3]), 3)}, r"v_index\[2\] = 3 is outside 0..2"),
+    ]
+    for change, message in cases:
+        args = [change.get(i, arg) for i, arg in enumerate(good)]
+        with pytest.raises(KernelError if message else Exception, match=message):
+            _kernel.robot_state(*args)
+    with pytest.raises(KernelError, match="takes 8 arguments, got 7"):
+        _kernel.robot_state(*good[:-1])
