@@ -957,6 +957,112 @@ done:
     return result;
 }
 
+/* The motion LP's rows of a mode (frcontrol.engine.domain_rows, then motion_margin's rows): with
+ * H = [G X_u, G X_w; C, 0] and h = [g - G x_0; d], out = [H, t] where t is each moving row's norm
+ * ||H_i|| (0 elsewhere) and h_out = h. motion (one flag per row of G) marks the motion rows; the
+ * input limits' rows C u <= d never are. A row is constant when its norm is at most
+ * zero_row_tolerance * max(1, the largest norm); a motion row is moving unless constant. Returns -1
+ * when a constant motion row has h_i < -domain_tolerance (the set is empty), else
+ * 1 (a constant motion row has h_i <= domain_tolerance) + 2 (some row is moving). */
+static PyObject *margin_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 12) {
+        PyErr_Format(kernel_error, "margin_rows takes 12 arguments, got %zd", nargs);
+        return NULL;
+    }
+    Buffer b[10];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    double *norms = NULL;
+    Py_ssize_t g_shape[2] = {-1, -1}, u_shape[2] = {-1, -1}, w_shape[2] = {-1, -1};
+    if (take(args[0], &b[0], "G", 'd', 2, g_shape, 0)) goto done;
+    Py_ssize_t r = g_shape[0], nx = g_shape[1];
+    u_shape[0] = w_shape[0] = nx;
+    if (take(args[1], &b[1], "X_u", 'd', 2, u_shape, 0) || take(args[2], &b[2], "X_w", 'd', 2, w_shape, 0)) goto done;
+    Py_ssize_t m = u_shape[1], p = w_shape[1];
+    Py_ssize_t x0_shape[1] = {nx}, gv_shape[1] = {r}, c_shape[2] = {-1, m};
+    if (take(args[3], &b[3], "x_0", 'd', 1, x0_shape, 0) || take(args[4], &b[4], "g", 'd', 1, gv_shape, 0) ||
+        take(args[5], &b[5], "C", 'd', 2, c_shape, 0)) goto done;
+    Py_ssize_t rows = r + c_shape[0], d = m + p;
+    Py_ssize_t d_shape[1] = {c_shape[0]}, motion_shape[1] = {r}, out_shape[2] = {rows, d + 1}, h_shape[1] = {rows};
+    if (take(args[6], &b[6], "d", 'd', 1, d_shape, 0) || take(args[7], &b[7], "motion", '?', 1, motion_shape, 0) ||
+        take(args[8], &b[8], "out", 'd', 2, out_shape, 1) || take(args[9], &b[9], "h_out", 'd', 1, h_shape, 1)) goto done;
+    double zero_row_tolerance = 0.0, domain_tolerance = 0.0;
+    double *floats[2] = {&zero_row_tolerance, &domain_tolerance};
+    static const char *float_names[2] = {"zero_row_tolerance", "domain_tolerance"};
+    if (take_floats(args, 10, float_names, floats, 2)) goto done;
+    const double *G = b[0].view.buf, *X_u = b[1].view.buf, *X_w = b[2].view.buf, *x_0 = b[3].view.buf;
+    const double *g = b[4].view.buf, *C = b[5].view.buf, *dv = b[6].view.buf;
+    const unsigned char *motion = b[7].view.buf;
+    double *out = b[8].view.buf, *h = b[9].view.buf;
+    norms = PyMem_Malloc((size_t)(rows + 1) * sizeof(double));
+    if (norms == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    double largest = 0.0;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        double *row = out + i * (d + 1);
+        if (i < r) {
+            const double *Gi = G + i * nx;
+            double v = g[i];
+            for (Py_ssize_t j = 0; j < d; j++) {
+                row[j] = 0.0;
+            }
+            for (Py_ssize_t k = 0; k < nx; k++) {
+                double a = Gi[k];
+                if (a == 0.0) {
+                    continue;
+                }
+                for (Py_ssize_t j = 0; j < m; j++) {
+                    row[j] += a * X_u[k * m + j];
+                }
+                for (Py_ssize_t j = 0; j < p; j++) {
+                    row[m + j] += a * X_w[k * p + j];
+                }
+                v -= a * x_0[k];
+            }
+            h[i] = v;
+        } else {
+            for (Py_ssize_t j = 0; j < m; j++) {
+                row[j] = C[(i - r) * m + j];
+            }
+            for (Py_ssize_t j = m; j < d; j++) {
+                row[j] = 0.0;
+            }
+            h[i] = dv[i - r];
+        }
+        double sum = 0.0;
+        for (Py_ssize_t j = 0; j < d; j++) {
+            sum += row[j] * row[j];
+        }
+        norms[i] = sqrt(sum);
+        largest = norms[i] > largest ? norms[i] : largest;
+    }
+    double floor = zero_row_tolerance * (largest > 1.0 ? largest : 1.0);
+    long flags = 0;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        int constant = norms[i] <= floor, moves = i < r && motion[i];
+        out[i * (d + 1) + d] = moves && !constant ? norms[i] : 0.0;
+        if (moves && constant) {
+            if (h[i] < -domain_tolerance) {
+                result = PyLong_FromLong(-1);
+                goto done;
+            }
+            if (h[i] <= domain_tolerance) {
+                flags |= 1;
+            }
+        } else if (moves) {
+            flags |= 2;
+        }
+    }
+    result = PyLong_FromLong(flags);
+done:
+    PyMem_Free(norms);
+    release(b, 10);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"certified_modes", (PyCFunction)(void (*)(void))certified_modes, METH_FASTCALL,
      "certified_modes(dynamics, equalities, equality_rhs, inequalities, inequality_rhs, valid, motion,\n"
@@ -979,6 +1085,12 @@ static PyMethodDef methods[] = {
      "lp_check(A_ub, b_ub, A_eq, b_eq, lb, ub, x, has_bounds) -> (residual, scale)\n\n"
      "The LP door's primal residual of x (NaN for x None) and the scale of its tolerance\n"
      "(frcontrol.solvers.primal_residual and FEASIBILITY_TOLERANCE), in one pass."},
+    {"margin_rows", (PyCFunction)(void (*)(void))margin_rows, METH_FASTCALL,
+     "margin_rows(G, X_u, X_w, x_0, g, C, d, motion, out, h_out, zero_row_tolerance, domain_tolerance)\n"
+     "-> int\n\n"
+     "The motion LP's rows of a mode's domain (frcontrol.engine.domain_rows and motion_margin) written\n"
+     "into out (rows, m + p + 1) and h_out (rows,): -1 when a constant motion row is violated, else\n"
+     "1 (a constant motion row is not strict) + 2 (some motion row is moving)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "frcontrol._kernel",
@@ -1004,7 +1116,7 @@ PyMODINIT_FUNC PyInit__kernel(void) {
                              "MOVES_ACCELERATIONS"};
     int values[10] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
                       NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS};
-    PyObject *all = Py_BuildValue("[sss]", "certified_modes", "rank_modes", "lp_check");
+    PyObject *all = Py_BuildValue("[ssss]", "certified_modes", "rank_modes", "lp_check", "margin_rows");
     if (all == NULL) {
         Py_DECREF(mod);
         return NULL;
