@@ -40,7 +40,7 @@ from .jsonable import to_jsonable
 from .kernel import compiled, kernel_choice
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
 from .modes import ContactProblem, ModeSystem, build_child_systems, build_mode_system, mode_outputs
-from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, certified_responses, solve_affine
+from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, certified_children, solve_affine
 from .scene import Scene
 from .solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp_prepared
 
@@ -539,7 +539,7 @@ class _ModeEnumerator:
     def prepare(self, prefix: str, letters: str) -> None:
         """Build the systems of ``prefix``'s children and certify their responses together.
 
-        :func:`certified_responses` factorises the children at once; a child it does not certify
+        :func:`certified_children` factorises the children at once; a child it does not certify
         gets the SVD when it is tested. Below a mode without full row rank (its rows dependent,
         so every child's too) nothing is certified and the certificate is not tried.
         """
@@ -548,10 +548,9 @@ class _ModeEnumerator:
         systems = build_child_systems(self.problem, prefix, letters)
         responses: list[AffineSolution | None] = [None] * len(children)
         if prefix not in self.deficient:
-            B = systems[0].B  # shared by the children
-            responses = certified_responses(
-                np.stack([s.A for s in systems]), np.broadcast_to(B, (len(systems), *B.shape)),
-                np.stack([s.c for s in systems]), rank_tolerance=self.rank_tolerance)
+            responses = certified_children(  # the children share B
+                np.stack([s.A for s in systems]), systems[0].B, np.stack([s.c for s in systems]),
+                rank_tolerance=self.rank_tolerance)
         self.prepared.update(zip(children, zip(systems, responses, strict=True), strict=True))
         self.timings["response"] += time.perf_counter() - t0
 

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import IllConditioned
+from .kernel import compiled, kernel_choice
 
 RANK_TOLERANCE = 1e-10
 """Singular values of the equilibrated A at most this times the largest are taken as zero."""
@@ -274,6 +275,36 @@ def certified_responses(
     return out
 
 
+def certified_children(
+    A: np.ndarray,
+    B: np.ndarray,
+    c: np.ndarray,
+    *,
+    rank_tolerance: float = RANK_TOLERANCE,
+) -> list[AffineSolution | None]:
+    """:func:`certified_responses` of systems that share ``B`` (rows, m): a node's children.
+
+    With the compiled kernel in force (:func:`frcontrol.kernel.kernel_choice`), each system in C
+    (``frcontrol._kernel.certified_children``: the same scalings, the same bound, a Householder QR
+    of its own, so the responses and bounds equal NumPy's to round-off, see tests/test_kernel.py);
+    else :func:`certified_responses` in NumPy.
+    """
+    count, rows, nx = A.shape
+    if kernel_choice() != "compiled" or compiled is None or count == 0 or rows == 0 or rows > nx:
+        return certified_responses(A, np.broadcast_to(B, (count, *B.shape)), c, rank_tolerance=rank_tolerance)
+    m = B.shape[1]
+    limit = 1.0 / (CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND))
+    X_u, x_0, X_w = np.empty((count, nx, m)), np.empty((count, nx)), np.empty((count, nx, nx - rows))
+    bound = np.empty(count)
+    compiled.certified_children(np.ascontiguousarray(A), np.ascontiguousarray(B), np.ascontiguousarray(c),
+                                X_u, x_0, X_w, bound, limit)
+    no_conditions, no_values = np.zeros((0, m)), np.zeros(0)  # empty: shared, nothing to write
+    return [AffineSolution(
+        X_u=X_u[i], X_w=X_w[i], x_0=x_0[i], E=no_conditions, e=no_values, consistent=True, rank=rows,
+        shape=(rows, nx), singular_values=no_values, condition_number=value, rank_tolerance=rank_tolerance,
+        certified=True) if value < limit else None for i, value in enumerate(bound.tolist())]
+
+
 def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> str:
     """Which outputs of ``x = (dv, lam)`` depend on w: ``"none"``, ``"forces"`` or ``"accelerations"``.
 
@@ -300,6 +331,7 @@ __all__ = [
     "AffineSolution",
     "ambiguous_outputs",
     "CERTIFIED_MARGIN",
+    "certified_children",
     "certified_responses",
     "CONSISTENCY_TOLERANCE",
     "equilibrate_stack",

@@ -139,7 +139,7 @@ def test_void_consistency_rows_are_decided_as_their_svd_decides(monkeypatch):
 
 def _svd_only(monkeypatch: pytest.MonkeyPatch, problem):
     with monkeypatch.context() as patch:
-        patch.setattr(engine, "certified_responses", lambda A, B, c, rank_tolerance: [None] * len(A))
+        patch.setattr(engine, "certified_children", lambda A, B, c, rank_tolerance: [None] * len(A))
         return analyze(problem, ambiguity=False)
 
 
@@ -228,3 +228,67 @@ def test_children_built_together_are_the_modes_built_alone():
                 assert (system.mode, system.labels) == (alone.mode, alone.labels)
                 for name in ("A", "B", "c", "G", "g", "motion"):
                     np.testing.assert_array_equal(getattr(system, name), getattr(alone, name))
+
+
+@pytest.mark.skipif(resp.compiled is None, reason="frcontrol._kernel is not built here (pip install . builds)")
+def test_compiled_certified_children_are_numpys_certified_responses(monkeypatch):
+    """The kernel's Householder QR against NumPy's stacked QR on random stacks sharing B (some
+    rank-deficient, some nearly singular, widely scaled rows): the same certificates (except within
+    CERTIFIED_ROUND_OFF_BAND of the threshold), bounds, X_u, x_0 and null spaces to round-off."""
+    from frcontrol.kernel import CERTIFIED_ROUND_OFF_BAND
+
+    rng = np.random.default_rng(20261126)
+    limit = 1.0 / (resp.CERTIFIED_MARGIN * max(resp.RANK_TOLERANCE, resp.ILL_CONDITIONED_BAND))
+    certified = refused = 0
+    for trial in range(150):
+        nx = int(rng.integers(2, 30))
+        rows = int(rng.integers(1, nx + 1))
+        count, m = int(rng.integers(1, 6)), int(rng.integers(0, 9))
+        A, B, c = _random_stack(rng, count, rows, nx, m, deficient=bool(rng.random() < 0.2))
+        if trial % 5 == 0 and rows > 1:  # nearly dependent rows: bounds about the threshold
+            A[:, -1] = A[:, 0] + 10.0 ** rng.uniform(-12, -5) * rng.normal(size=(count, nx))
+        A[:, :, rng.random(nx) < 0.2] = 0.0  # zero columns: nothing to reflect
+        shared = B[0]
+        monkeypatch.setenv("FRC_KERNEL", "numpy")
+        reference = resp.certified_children(A, shared, c)
+        monkeypatch.setenv("FRC_KERNEL", "compiled")
+        fast = resp.certified_children(A, shared, c)
+        for i, (a, b) in enumerate(zip(fast, reference, strict=True)):
+            if (a is None) != (b is None):
+                kept = a if a is not None else b
+                assert abs(kept.condition_number / limit - 1.0) <= CERTIFIED_ROUND_OFF_BAND
+                continue
+            if a is None:
+                refused += 1
+                continue
+            certified += 1
+            assert (a.rank, a.case, a.E.shape, a.X_w.shape, a.certified) == (b.rank, b.case, b.E.shape,
+                                                                              b.X_w.shape, True)
+            assert a.condition_number == pytest.approx(b.condition_number, rel=1e-9)
+            scale = 1.0 + np.abs(b.X_u).max(initial=0.0) + np.abs(b.x_0).max()
+            tolerance = 1e-15 * b.condition_number * scale
+            np.testing.assert_allclose(a.X_u, b.X_u, rtol=0, atol=tolerance)
+            np.testing.assert_allclose(a.x_0, b.x_0, rtol=0, atol=tolerance)
+            _, c_scale = resp._equilibrate(A[i])
+            np.testing.assert_allclose(_null_projector(a.X_w, c_scale), _null_projector(b.X_w, c_scale),
+                                       atol=1e-15 * b.condition_number)
+    assert certified > 150 and refused > 20  # both sides of the certificate were exercised
+
+
+def test_analyze_is_the_same_on_both_kernels(monkeypatch):
+    """The tree's compiled fast paths (certified children, the motion LP's rows) against NumPy on
+    scenes: the same modes, verdicts and counts, and bitwise the same domains."""
+    for scene in (load_scene("rhex_flip"), load_scene("snake_climb"), load_scene("table_on_ground")):
+        answers = []
+        for kernel_name in ("numpy", "compiled") if resp.compiled is not None else ("numpy",):
+            monkeypatch.setenv("FRC_KERNEL", kernel_name)
+            result = analyze(scene, ambiguity=False)
+            answers.append((result.to_dict()["enumeration"],
+                            [(m.mode, m.pruned, m.response.case, m.domain) for m in result.modes]))
+        for other in answers[1:]:
+            assert other[0] == answers[0][0]
+            for a, b in zip(other[1], answers[0][1], strict=True):
+                assert a[:3] == b[:3]
+                assert (a[3] is None) == (b[3] is None)
+                if a[3] is not None:
+                    assert np.array_equal(a[3].A, b[3].A) and np.array_equal(a[3].b, b[3].b)
