@@ -230,7 +230,7 @@ def test_children_built_together_are_the_modes_built_alone():
                     np.testing.assert_array_equal(getattr(system, name), getattr(alone, name))
 
 
-@pytest.mark.skipif(resp.compiled is None, reason="frcontrol._kernel is not built here (pip install . builds)")
+@pytest.mark.skipif(resp.compiled is None, reason="frcontrol._kernel is not built here")
 def test_compiled_certified_children_are_numpys_certified_responses(monkeypatch):
     """The kernel's Householder QR against NumPy's stacked QR on random stacks sharing B (some
     rank-deficient, some nearly singular, widely scaled rows): the same certificates (except within
