@@ -292,3 +292,24 @@ def test_analyze_is_the_same_on_both_kernels(monkeypatch):
                 assert (a[3] is None) == (b[3] is None)
                 if a[3] is not None:
                     assert np.array_equal(a[3].A, b[3].A) and np.array_equal(a[3].b, b[3].b)
+
+
+def test_polytope_row_norms_and_near_pairs_are_the_library_calls_they_replace():
+    """Bitwise: the row norms without np.linalg.norm's wrapper, and the near pairs without np.triu,
+    on random unit rows with planted duplicates and opposites (and empty and one-row inputs)."""
+    rng = np.random.default_rng(41)
+    seen = 0
+    for _ in range(200):
+        m, d = int(rng.integers(0, 12)), int(rng.integers(1, 6))
+        X = rng.normal(size=(m, d)) * 10.0 ** rng.uniform(-8, 8, size=(m, 1))
+        assert np.array_equal(poly._row_norms(X), np.linalg.norm(X, axis=1))
+        unit = X / np.maximum(np.linalg.norm(X, axis=1), 1e-300)[:, None]
+        if m > 2:
+            unit[1], unit[2] = unit[0], -unit[0] * (1.0 + 1e-12)  # a duplicate and an opposite
+        for sign in (1.0, -1.0):
+            threshold = 1.0 - poly.DUPLICATE_TOLERANCE
+            expected = np.argwhere(np.triu(sign * (unit @ unit.T) >= threshold, 1)).reshape(-1, 2)
+            found = poly._near_pairs(unit, threshold, sign)
+            assert found.shape == expected.shape and np.array_equal(found, expected)
+            seen += found.shape[0]
+    assert seen > 100
