@@ -134,7 +134,9 @@ class ModeAnalysis:
         if "input_domain" not in self._cache:
             t0 = time.perf_counter()
             if self.ambiguity_dim:
-                projected = poly.project(self.domain, range(self.m), solver=self.solver)
+                # D_c's raw form and its minimal one are the same set: the same Chebyshev ball
+                projected = poly.project(self.domain, range(self.m), solver=self.solver,
+                                         ball=self._cache.get("raw_ball"))
             else:
                 projected = self.domain
             self._cache["input_domain"] = projected

@@ -901,6 +901,7 @@ def project(
     method: str = "fourier_motzkin",
     tolerance: float = REDUNDANCY_TOLERANCE,
     solver: str = DEFAULT_LP_SOLVER,
+    ball: ChebyshevBall | None = None,
 ) -> Polytope:
     r"""Projection :math:`\{y : \exists x \in P,\ y = (x_k)_{k \in 	ext{keep}}\}`.
 
@@ -917,6 +918,9 @@ def project(
         method: ``"fourier_motzkin"`` (the only one implemented).
         tolerance: redundancy slack of the pruning [units of x].
         solver: LP back-end of the pruning.
+        ball: a Chebyshev ball of the set ``P`` (of any H-representation of it) when the caller
+            has one: the first pruning reuses it instead of solving its LP again, when ``keep``
+            is ``P``'s leading coordinates in order (so the coordinates are not permuted).
 
     Returns:
         The projection, in minimal representation, in ``R^len(keep)``; the canonical empty set if
@@ -933,8 +937,8 @@ def project(
         return _r0(not chebyshev_ball(P, solver=solver).found)
     order = kept + [i for i in range(P.dim) if i not in kept]
     current = minimal_representation(
-        Polytope(P.A[:, order], P.b, P.A_eq[:, order], P.b_eq), tolerance=tolerance, solver=solver
-    )
+        Polytope(P.A[:, order], P.b, P.A_eq[:, order], P.b_eq), tolerance=tolerance, solver=solver,
+        ball=ball if order == list(range(P.dim)) else None)
     while True:
         if current.empty:
             return Polytope.empty_set(n_keep)

@@ -313,3 +313,27 @@ def test_polytope_row_norms_and_near_pairs_are_the_library_calls_they_replace():
             assert found.shape == expected.shape and np.array_equal(found, expected)
             seen += found.shape[0]
     assert seen > 100
+
+
+def test_projection_with_the_raw_forms_ball_is_the_same():
+    """project(minimal D, ball of raw D) against project(minimal D): random redundant polytopes
+    with equalities (the shape of a mode's D_c), some empty, some flat; bitwise the same T."""
+    rng = np.random.default_rng(23)
+    projected = 0
+    for _ in range(60):
+        d = int(rng.integers(2, 6))
+        A = rng.normal(size=(int(rng.integers(d + 1, 14)), d))
+        b = np.abs(rng.normal(size=A.shape[0])) + 0.1 * rng.random()
+        A = np.vstack([A, 2.0 * A[:2]])  # redundant copies
+        b = np.concatenate([b, 2.0 * b[:2] + rng.random(2)])
+        A_eq = rng.normal(size=(int(rng.integers(0, 2)), d))
+        raw = poly.Polytope(A, b - (3.0 if rng.random() < 0.2 else 0.0), A_eq, np.zeros(A_eq.shape[0]))
+        ball = poly.chebyshev_ball(raw)
+        minimal = poly.minimal_representation(raw, ball=ball)
+        keep = int(rng.integers(1, d))
+        given, solved = poly.project(minimal, keep, ball=ball), poly.project(minimal, keep)
+        projected += not given.empty
+        for x, y in zip((given.A, given.b, given.A_eq, given.b_eq),
+                        (solved.A, solved.b, solved.A_eq, solved.b_eq), strict=True):
+            np.testing.assert_array_equal(x, y)
+    assert projected > 30
