@@ -117,9 +117,9 @@ def _equilibrate(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if not A.size:
         return np.ones(A.shape[0]), np.ones(A.shape[1])
     magnitude = np.abs(A)
-    rows = power_of_two_scale(magnitude.max(axis=1))
+    rows = power_of_two_scale(np.maximum.reduce(magnitude, axis=1))  # .max(axis=1) without its wrapper
     # powers of two scale exactly: |A * r| is |A| * r
-    cols = power_of_two_scale((magnitude * rows[:, None]).max(axis=0))
+    cols = power_of_two_scale(np.maximum.reduce(magnitude * rows[:, None], axis=0))
     return rows, cols
 
 
@@ -171,9 +171,9 @@ def solve_affine(
     if s_max == 0.0:
         rank = 0
     else:
-        rank = int(np.sum(s > rank_tolerance * s_max))
+        rank = int(np.count_nonzero(s > rank_tolerance * s_max))
         band = (s > rank_tolerance * s_max) & (s <= ILL_CONDITIONED_BAND * s_max)
-        if np.any(band):
+        if np.count_nonzero(band):
             raise IllConditioned(name, s_max / s[band].min(), ILL_CONDITIONED_BAND)
     condition = float(s_max / s[rank - 1]) if rank else float("inf")
     Bs = B * r_scale[:, None]
@@ -189,7 +189,8 @@ def solve_affine(
     # consistency: U2^T (B u + c) = 0  ->  E u = e
     E_raw = U2.T @ Bs
     e_raw = -(U2.T @ cs)
-    scale = max(1.0, float(np.max(np.abs(Bs), initial=0.0)), float(np.max(np.abs(cs), initial=0.0)))
+    scale = max(1.0, float(np.maximum.reduce(np.abs(Bs), axis=None, initial=0.0)),
+                float(np.maximum.reduce(np.abs(cs), axis=None, initial=0.0)))
     consistent = True
     if E_raw.shape[0] and _void_conditions(E_raw, e_raw, CONSISTENCY_TOLERANCE * scale):
         E, e = np.zeros((0, B.shape[1])), np.zeros(0)
