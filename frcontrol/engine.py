@@ -414,14 +414,15 @@ def _margin_lp(A_ub: np.ndarray, h: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarr
 
 
 def mode_margin(system: ModeSystem, response: AffineSolution, bounds: tuple[np.ndarray, np.ndarray], *,
-                solver: str = DEFAULT_LP_SOLVER) -> MotionMargin:
+                solver: str = DEFAULT_LP_SOLVER, kernel: str | None = None) -> MotionMargin:
     """:func:`motion_margin` of the mode's domain (:func:`domain_rows`), its rows built in one call.
 
     With the compiled kernel in force (:func:`frcontrol.kernel.kernel_choice`) the LP's rows come
     from ``frcontrol._kernel.margin_rows`` (the same sums in another order: equal to round-off, see
     tests/test_kernel.py); else from :func:`domain_rows` and :func:`motion_margin` in NumPy.
+    ``kernel``: :func:`~frcontrol.kernel.kernel_choice`'s answer when the caller has it.
     """
-    if kernel_choice() != "compiled" or compiled is None:
+    if (kernel or kernel_choice()) != "compiled" or compiled is None:
         H, h, A_eq, b_eq, motion = domain_rows(system, response, bounds)
         return motion_margin(H, h, motion, A_eq, b_eq, solver=solver)
     C, d = bounds
@@ -528,6 +529,7 @@ class _ModeEnumerator:
         self.prune_partial, self.progress, self.timings = prune_partial, progress, timings
         self.allowed = problem.allowed_modes()
         self.bounds = problem.input_bound_rows()
+        self.kernel = kernel_choice()  # read once for the whole tree
         self.prepared: dict[str, tuple[ModeSystem, AffineSolution | None]] = {}
         self.deficient: set[str] = set()  # tested modes whose equalities lack full row rank
         self.counts = {"freedom": 0, "infeasible": 0, "partial": 0, "evaluated": 0}
@@ -552,7 +554,7 @@ class _ModeEnumerator:
         if prefix not in self.deficient:
             responses = certified_children(  # the children share B
                 np.stack([s.A for s in systems]), systems[0].B, np.stack([s.c for s in systems]),
-                rank_tolerance=self.rank_tolerance)
+                rank_tolerance=self.rank_tolerance, kernel=self.kernel)
         self.prepared.update(zip(children, zip(systems, responses, strict=True), strict=True))
         self.timings["response"] += time.perf_counter() - t0
 
@@ -573,7 +575,7 @@ class _ModeEnumerator:
         self.timings["response"] += t1 - t0
         if not response.consistent:
             return "freedom", system, response
-        verdict = mode_margin(system, response, self.bounds, solver=self.solver).verdict
+        verdict = mode_margin(system, response, self.bounds, solver=self.solver, kernel=self.kernel).verdict
         self.timings["feasibility"] += time.perf_counter() - t1
         return verdict, system, response
 
@@ -637,10 +639,16 @@ class _ModeEnumerator:
 
 
 def _input_rows(mode: ModeAnalysis) -> tuple[np.ndarray, np.ndarray, int]:
-    """Rows (H, h) over (u, w) whose projection is T_c with an interior.
+    """Rows (H, h) over (u, w) whose projection is T_c with an interior (cached on the mode).
 
     D_c itself when it is full-dimensional, else T_c (projected) with no w.
     """
+    if "input_rows" not in mode._cache:
+        mode._cache["input_rows"] = _build_input_rows(mode)
+    return mode._cache["input_rows"]
+
+
+def _build_input_rows(mode: ModeAnalysis) -> tuple[np.ndarray, np.ndarray, int]:
     if mode.full_dimensional and mode.raw_domain is not None:
         H, h, p = mode.raw_domain.A, mode.raw_domain.b, mode.ambiguity_dim
     else:

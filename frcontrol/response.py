@@ -282,16 +282,18 @@ def certified_children(
     c: np.ndarray,
     *,
     rank_tolerance: float = RANK_TOLERANCE,
+    kernel: str | None = None,
 ) -> list[AffineSolution | None]:
     """:func:`certified_responses` of systems that share ``B`` (rows, m): a node's children.
 
     With the compiled kernel in force (:func:`frcontrol.kernel.kernel_choice`), each system in C
     (``frcontrol._kernel.certified_children``: the same scalings, the same bound, a Householder QR
     of its own, so the responses and bounds equal NumPy's to round-off, see tests/test_kernel.py);
-    else :func:`certified_responses` in NumPy.
+    else :func:`certified_responses` in NumPy. ``kernel``: ``kernel_choice()``'s answer when the
+    caller has it.
     """
     count, rows, nx = A.shape
-    if kernel_choice() != "compiled" or compiled is None or count == 0 or rows == 0 or rows > nx:
+    if (kernel or kernel_choice()) != "compiled" or compiled is None or count == 0 or rows == 0 or rows > nx:
         return certified_responses(A, np.broadcast_to(B, (count, *B.shape)), c, rank_tolerance=rank_tolerance)
     m = B.shape[1]
     limit = 1.0 / (CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND))
@@ -319,11 +321,11 @@ def outputs_moved_by(X_w: np.ndarray, n_coordinates: int) -> str:
     """What the ambiguity directions ``X_w`` (nx, p) move: see :func:`ambiguous_outputs`."""
     if X_w.shape[1] == 0:
         return "none"
-    mags = np.max(np.abs(X_w), axis=1)
-    threshold = OUTPUT_TOLERANCE * max(float(mags.max()), 1e-300)
-    if np.any(mags[:n_coordinates] > threshold):
+    mags = np.maximum.reduce(np.abs(X_w), axis=1)  # np.max without its Python wrapper
+    threshold = OUTPUT_TOLERANCE * max(float(np.maximum.reduce(mags)), 1e-300)
+    if np.count_nonzero(mags[:n_coordinates] > threshold):
         return "accelerations"
-    if np.any(mags[n_coordinates:] > threshold):
+    if np.count_nonzero(mags[n_coordinates:] > threshold):
         return "forces"
     return "none"
 

@@ -139,7 +139,7 @@ def test_void_consistency_rows_are_decided_as_their_svd_decides(monkeypatch):
 
 def _svd_only(monkeypatch: pytest.MonkeyPatch, problem):
     with monkeypatch.context() as patch:
-        patch.setattr(engine, "certified_children", lambda A, B, c, rank_tolerance: [None] * len(A))
+        patch.setattr(engine, "certified_children", lambda A, B, c, rank_tolerance, kernel: [None] * len(A))
         return analyze(problem, ambiguity=False)
 
 
