@@ -40,7 +40,14 @@ from .jsonable import to_jsonable
 from .kernel import compiled, kernel_choice
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
 from .modes import ContactProblem, ModeSystem, build_child_systems, build_mode_system, mode_outputs
-from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, certified_children, solve_affine
+from .response import (
+    RANK_TOLERANCE,
+    AffineSolution,
+    ambiguous_outputs,
+    certified_children,
+    solve_affine,
+    solve_affine_stack,
+)
 from .scene import Scene
 from .solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp_prepared
 
@@ -545,13 +552,18 @@ class _ModeEnumerator:
 
         :func:`certified_children` factorises the children at once; a child it does not certify
         gets the SVD when it is tested. Below a mode without full row rank (its rows dependent,
-        so every child's too) nothing is certified and the certificate is not tried.
+        so every child's too) the certificate is not tried: the children get their SVDs at once
+        (:func:`solve_affine_stack`, the same answers as one by one).
         """
         t0 = time.perf_counter()
         children = [prefix + letter for letter in letters]
         systems = build_child_systems(self.problem, prefix, letters)
-        responses: list[AffineSolution | None] = [None] * len(children)
-        if prefix not in self.deficient:
+        responses: list[AffineSolution | None]
+        if prefix in self.deficient:  # every child is deficient too: their SVDs, batched
+            responses = solve_affine_stack(np.stack([s.A for s in systems]), systems[0].B,
+                                           np.stack([s.c for s in systems]),
+                                           rank_tolerance=self.rank_tolerance)
+        else:
             responses = certified_children(  # the children share B
                 np.stack([s.A for s in systems]), systems[0].B, np.stack([s.c for s in systems]),
                 rank_tolerance=self.rank_tolerance, kernel=self.kernel)

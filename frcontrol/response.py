@@ -163,10 +163,52 @@ def solve_affine(
     Raises:
         IllConditioned: a singular value lies in the band where the rank cannot be decided.
     """
-    rows, nx = A.shape
     r_scale, c_scale = _equilibrate(A)
     A_hat = A * r_scale[:, None] * c_scale[None, :]
     U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
+    return _affine_from_svd(A.shape, B, c, r_scale, c_scale, (U, s, Vt), rank_tolerance, name)
+
+
+def solve_affine_stack(
+    A: np.ndarray,
+    B: np.ndarray,
+    c: np.ndarray,
+    *,
+    rank_tolerance: float = RANK_TOLERANCE,
+) -> list[AffineSolution | None]:
+    """:func:`solve_affine` of each system of a stack sharing ``B``, with one batched SVD.
+
+    ``A`` (count, rows, nx), ``B`` (rows, m), ``c`` (count, rows): e.g. a node's children. The same
+    scalings (:func:`equilibrate_stack`) and the same LAPACK call per matrix, so each answer is
+    :func:`solve_affine`'s bit for bit (tests/test_fast_paths.py). A system whose rank lies in the
+    ill-conditioned band gets None: :func:`solve_affine` raises for it when its caller asks.
+    """
+    r_scale, c_scale = equilibrate_stack(A)
+    A_hat = A * r_scale[:, :, None] * c_scale[:, None, :]
+    U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
+    out: list[AffineSolution | None] = []
+    for i in range(A.shape[0]):
+        try:
+            out.append(_affine_from_svd(A.shape[1:], B, c[i], r_scale[i], c_scale[i], (U[i], s[i], Vt[i]),
+                                        rank_tolerance, "A"))
+        except IllConditioned:
+            out.append(None)
+    return out
+
+
+def _affine_from_svd(
+    shape: tuple[int, ...],
+    B: np.ndarray,
+    c: np.ndarray,
+    r_scale: np.ndarray,
+    c_scale: np.ndarray,
+    svd: tuple[np.ndarray, np.ndarray, np.ndarray],
+    rank_tolerance: float,
+    name: str,
+) -> AffineSolution:
+    """:func:`solve_affine` from the SVD ``U, s, Vt`` of ``diag(r_scale) A diag(c_scale)``."""
+    rows, nx = shape
+    U, s, Vt = svd
     s_max = s[0] if s.size else 0.0
     if s_max == 0.0:
         rank = 0
@@ -344,5 +386,6 @@ __all__ = [
     "power_of_two_scale",
     "RANK_TOLERANCE",
     "solve_affine",
+    "solve_affine_stack",
     "VOID_CONDITIONS_SAFETY",
 ]

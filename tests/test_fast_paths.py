@@ -338,3 +338,34 @@ def test_projection_with_the_raw_forms_ball_is_the_same():
                         (solved.A, solved.b, solved.A_eq, solved.b_eq), strict=True):
             np.testing.assert_array_equal(x, y)
     assert projected > 30
+
+
+def test_batched_svds_are_solve_affines_bit_for_bit():
+    """solve_affine_stack against solve_affine one system at a time: random stacks sharing B, of
+    full and deficient rank, consistent or not, some in the ill-conditioned band (None, where
+    solve_affine raises)."""
+    from frcontrol.errors import IllConditioned
+
+    rng = np.random.default_rng(31)
+    compared = banded = 0
+    for trial in range(80):
+        nx = int(rng.integers(2, 14))
+        rows, count, m = int(rng.integers(1, nx + 2)), int(rng.integers(1, 5)), int(rng.integers(0, 4))
+        A, B, c = _random_stack(rng, count, rows, nx, m, deficient=bool(rng.random() < 0.5))
+        if trial % 6 == 0 and rows > 1:  # a singular value about 1e-9 of the largest: the band
+            A[:, -1] = A[:, 0] + 1e-9 * rng.normal(size=(count, nx))
+        if trial % 3 == 0 and rows > 1:  # dependent rows with their right sides: consistency rows
+            c[:, -1] = 3.0 * c[:, 0]
+        stacked = resp.solve_affine_stack(A, B[0], c)
+        for i, fast in enumerate(stacked):
+            if fast is None:
+                with pytest.raises(IllConditioned):
+                    resp.solve_affine(A[i], B[0], c[i])
+                banded += 1
+                continue
+            alone = resp.solve_affine(A[i], B[0], c[i])
+            assert (fast.rank, fast.consistent, fast.case) == (alone.rank, alone.consistent, alone.case)
+            for name in ("X_u", "X_w", "x_0", "E", "e", "singular_values"):
+                np.testing.assert_array_equal(getattr(fast, name), getattr(alone, name))
+            compared += 1
+    assert compared > 150 and banded > 0
