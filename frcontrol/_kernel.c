@@ -1444,6 +1444,315 @@ static PyObject *contact_rows(PyObject *self, PyObject *const *args, Py_ssize_t 
     return result;
 }
 
+/* The motion LP's rows of a mode (frcontrol.engine.domain_rows, then motion_margin's rows): with
+ * H = [G X_u, G X_w; C, 0] and h = [g - G x_0; d], out = [H, t] where t is each moving row's norm
+ * ||H_i|| (0 elsewhere) and h_out = h. motion (one flag per row of G) marks the motion rows; the
+ * input limits' rows C u <= d never are. A row is constant when its norm is at most
+ * zero_row_tolerance * max(1, the largest norm); a motion row is moving unless constant. Returns -1
+ * when a constant motion row has h_i < -domain_tolerance (the set is empty), else
+ * 1 (a constant motion row has h_i <= domain_tolerance) + 2 (some row is moving). */
+static PyObject *margin_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 12) {
+        PyErr_Format(kernel_error, "margin_rows takes 12 arguments, got %zd", nargs);
+        return NULL;
+    }
+    Buffer b[10];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    double *norms = NULL;
+    Py_ssize_t g_shape[2] = {-1, -1}, u_shape[2] = {-1, -1}, w_shape[2] = {-1, -1};
+    if (take(args[0], &b[0], "G", 'd', 2, g_shape, 0)) goto done;
+    Py_ssize_t r = g_shape[0], nx = g_shape[1];
+    u_shape[0] = w_shape[0] = nx;
+    if (take(args[1], &b[1], "X_u", 'd', 2, u_shape, 0) || take(args[2], &b[2], "X_w", 'd', 2, w_shape, 0)) goto done;
+    Py_ssize_t m = u_shape[1], p = w_shape[1];
+    Py_ssize_t x0_shape[1] = {nx}, gv_shape[1] = {r}, c_shape[2] = {-1, m};
+    if (take(args[3], &b[3], "x_0", 'd', 1, x0_shape, 0) || take(args[4], &b[4], "g", 'd', 1, gv_shape, 0) ||
+        take(args[5], &b[5], "C", 'd', 2, c_shape, 0)) goto done;
+    Py_ssize_t rows = r + c_shape[0], d = m + p;
+    Py_ssize_t d_shape[1] = {c_shape[0]}, motion_shape[1] = {r}, out_shape[2] = {rows, d + 1}, h_shape[1] = {rows};
+    if (take(args[6], &b[6], "d", 'd', 1, d_shape, 0) || take(args[7], &b[7], "motion", '?', 1, motion_shape, 0) ||
+        take(args[8], &b[8], "out", 'd', 2, out_shape, 1) || take(args[9], &b[9], "h_out", 'd', 1, h_shape, 1)) goto done;
+    double zero_row_tolerance = 0.0, domain_tolerance = 0.0;
+    double *floats[2] = {&zero_row_tolerance, &domain_tolerance};
+    static const char *float_names[2] = {"zero_row_tolerance", "domain_tolerance"};
+    if (take_floats(args, 10, float_names, floats, 2)) goto done;
+    const double *G = b[0].view.buf, *X_u = b[1].view.buf, *X_w = b[2].view.buf, *x_0 = b[3].view.buf;
+    const double *g = b[4].view.buf, *C = b[5].view.buf, *dv = b[6].view.buf;
+    const unsigned char *motion = b[7].view.buf;
+    double *out = b[8].view.buf, *h = b[9].view.buf;
+    norms = PyMem_Malloc((size_t)(rows + 1) * sizeof(double));
+    if (norms == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    double largest = 0.0;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        double *row = out + i * (d + 1);
+        if (i < r) {
+            const double *Gi = G + i * nx;
+            double v = g[i];
+            for (Py_ssize_t j = 0; j < d; j++) {
+                row[j] = 0.0;
+            }
+            for (Py_ssize_t k = 0; k < nx; k++) {
+                double a = Gi[k];
+                if (a == 0.0) {
+                    continue;
+                }
+                for (Py_ssize_t j = 0; j < m; j++) {
+                    row[j] += a * X_u[k * m + j];
+                }
+                for (Py_ssize_t j = 0; j < p; j++) {
+                    row[m + j] += a * X_w[k * p + j];
+                }
+                v -= a * x_0[k];
+            }
+            h[i] = v;
+        } else {
+            for (Py_ssize_t j = 0; j < m; j++) {
+                row[j] = C[(i - r) * m + j];
+            }
+            for (Py_ssize_t j = m; j < d; j++) {
+                row[j] = 0.0;
+            }
+            h[i] = dv[i - r];
+        }
+        double sum = 0.0;
+        for (Py_ssize_t j = 0; j < d; j++) {
+            sum += row[j] * row[j];
+        }
+        norms[i] = sqrt(sum);
+        largest = norms[i] > largest ? norms[i] : largest;
+    }
+    double floor = zero_row_tolerance * (largest > 1.0 ? largest : 1.0);
+    long flags = 0;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        int constant = norms[i] <= floor, moves = i < r && motion[i];
+        out[i * (d + 1) + d] = moves && !constant ? norms[i] : 0.0;
+        if (moves && constant) {
+            if (h[i] < -domain_tolerance) {
+                result = PyLong_FromLong(-1);
+                goto done;
+            }
+            if (h[i] <= domain_tolerance) {
+                flags |= 1;
+            }
+        } else if (moves) {
+            flags |= 2;
+        }
+    }
+    result = PyLong_FromLong(flags);
+done:
+    PyMem_Free(norms);
+    release(b, 10);
+    return result;
+}
+
+/* frcontrol.response.certified_responses for the children of one node (they share B): per system
+ * A (rows, nx), rows <= nx, the power-of-two scalings of equilibrate_stack, A_hat^T = Q R by
+ * Householder reflections (Q kept as its reflections), R_1^T Y = [I, diag(r) B, diag(r) c] by forward
+ * substitution, bound = ||A_hat||_F ||Y_I||_F (an upper bound of the condition number; +inf when a
+ * pivot |R_jj| is at most ||A_hat||_F / limit, so no solve can certify it), and, when bound < limit,
+ * X_u, x_0 = diag(s) Q_1 Y_[B c] and X_w = diag(s) Q_2. */
+typedef struct {
+    Py_ssize_t rows, nx, m;
+    double *M, *tau, *V, *Y, *r, *s;
+} QRScratch;
+
+static void householder(QRScratch *w) {
+    Py_ssize_t rows = w->rows, nx = w->nx;
+    double *M = w->M; /* M[i * rows + j] = A_hat[j][i] */
+    for (Py_ssize_t j = 0; j < rows; j++) {
+        double alpha = M[j * rows + j], xnorm = 0.0;
+        for (Py_ssize_t i = j + 1; i < nx; i++) {
+            xnorm += M[i * rows + j] * M[i * rows + j];
+        }
+        double norm = sqrt(alpha * alpha + xnorm);
+        if (xnorm == 0.0 || norm == 0.0) {
+            w->tau[j] = 0.0; /* already triangular in this column */
+            continue;
+        }
+        double beta = alpha > 0.0 ? -norm : norm, scale = 1.0 / (alpha - beta);
+        for (Py_ssize_t i = j + 1; i < nx; i++) {
+            M[i * rows + j] *= scale;
+        }
+        w->tau[j] = (beta - alpha) / beta;
+        M[j * rows + j] = beta;
+        for (Py_ssize_t k = j + 1; k < rows; k++) {
+            double dot = M[j * rows + k];
+            for (Py_ssize_t i = j + 1; i < nx; i++) {
+                dot += M[i * rows + j] * M[i * rows + k];
+            }
+            dot *= w->tau[j];
+            M[j * rows + k] -= dot;
+            for (Py_ssize_t i = j + 1; i < nx; i++) {
+                M[i * rows + k] -= dot * M[i * rows + j];
+            }
+        }
+    }
+}
+
+/* X (nx, cols) <- Q X = H_0 ... H_{rows-1} X, the reflections applied from the last one back. */
+static void apply_q(const QRScratch *w, double *X, Py_ssize_t cols) {
+    Py_ssize_t rows = w->rows, nx = w->nx;
+    const double *M = w->M;
+    for (Py_ssize_t j = rows - 1; j >= 0; j--) {
+        double tau = w->tau[j];
+        if (tau == 0.0) {
+            continue;
+        }
+        for (Py_ssize_t k = 0; k < cols; k++) {
+            double dot = X[j * cols + k];
+            for (Py_ssize_t i = j + 1; i < nx; i++) {
+                dot += M[i * rows + j] * X[i * cols + k];
+            }
+            dot *= tau;
+            X[j * cols + k] -= dot;
+            for (Py_ssize_t i = j + 1; i < nx; i++) {
+                X[i * cols + k] -= dot * M[i * rows + j];
+            }
+        }
+    }
+}
+
+/* One system: the scalings, the factorisation, the bound and, when certified, the response. */
+static double certify_child(QRScratch *w, const double *A, const double *B, const double *c, double limit,
+                            double *X_u, double *x_0, double *X_w) {
+    Py_ssize_t rows = w->rows, nx = w->nx, m = w->m, width = rows + m + 1;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        double top = 0.0;
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            top = fabs(A[i * nx + j]) > top ? fabs(A[i * nx + j]) : top;
+        }
+        w->r[i] = power_of_two_scale(top);
+    }
+    for (Py_ssize_t j = 0; j < nx; j++) {
+        double top = 0.0;
+        for (Py_ssize_t i = 0; i < rows; i++) {
+            double v = fabs(A[i * nx + j]) * w->r[i];
+            top = v > top ? v : top;
+        }
+        w->s[j] = power_of_two_scale(top);
+    }
+    double size = 0.0;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            double v = A[i * nx + j] * w->r[i] * w->s[j];
+            w->M[j * rows + i] = v;
+            size += v * v;
+        }
+    }
+    size = sqrt(size);
+    householder(w);
+    for (Py_ssize_t j = 0; j < rows; j++) {
+        if (!(size < limit * fabs(w->M[j * rows + j]))) {
+            return HUGE_VAL; /* ||R_1^-1||_F >= 1 / |R_jj|: not certified */
+        }
+    }
+    double *Y = w->Y, sum = 0.0;
+    for (Py_ssize_t i = 0; i < rows; i++) { /* R_1^T Y = [I, diag(r) B, diag(r) c], R_1^T lower */
+        double *y = Y + i * width;
+        for (Py_ssize_t k = 0; k < width; k++) {
+            y[k] = k < rows ? (k == i) : k < rows + m ? B[i * m + k - rows] * w->r[i] : c[i] * w->r[i];
+        }
+        for (Py_ssize_t l = 0; l < i; l++) {
+            double a = w->M[l * rows + i];
+            for (Py_ssize_t k = 0; k < width; k++) {
+                y[k] -= a * Y[l * width + k];
+            }
+        }
+        double d = w->M[i * rows + i];
+        for (Py_ssize_t k = 0; k < width; k++) {
+            y[k] /= d;
+        }
+        for (Py_ssize_t k = 0; k < rows; k++) {
+            sum += y[k] * y[k];
+        }
+    }
+    double bound = size * sqrt(sum);
+    if (!(bound < limit)) {
+        return bound;
+    }
+    double *V = w->V; /* Q [Y_[B c]; 0]: the minimum-norm solutions */
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        for (Py_ssize_t k = 0; k <= m; k++) {
+            V[i * (m + 1) + k] = i < rows ? Y[i * width + rows + k] : 0.0;
+        }
+    }
+    apply_q(w, V, m + 1);
+    Py_ssize_t p = nx - rows; /* Q [0; I]: the null space */
+    memset(X_w, 0, (size_t)(nx * p) * sizeof(double));
+    for (Py_ssize_t k = 0; k < p; k++) {
+        X_w[(rows + k) * p + k] = 1.0;
+    }
+    apply_q(w, X_w, p);
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        for (Py_ssize_t k = 0; k < m; k++) {
+            X_u[i * m + k] = V[i * (m + 1) + k] * w->s[i];
+        }
+        x_0[i] = V[i * (m + 1) + m] * w->s[i];
+        for (Py_ssize_t k = 0; k < p; k++) {
+            X_w[i * p + k] *= w->s[i];
+        }
+    }
+    return bound;
+}
+
+static PyObject *certified_children(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 8) {
+        PyErr_Format(kernel_error, "certified_children takes 8 arguments, got %zd", nargs);
+        return NULL;
+    }
+    Buffer b[7];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    double *memory = NULL;
+    Py_ssize_t a_shape[3] = {-1, -1, -1};
+    if (take(args[0], &b[0], "A", 'd', 3, a_shape, 0)) goto done;
+    Py_ssize_t count = a_shape[0], rows = a_shape[1], nx = a_shape[2];
+    if (rows > nx || rows == 0) {
+        PyErr_Format(kernel_error, "kernel buffer A: %zd rows and %zd columns, expected 0 < rows <= columns",
+                     rows, nx);
+        goto done;
+    }
+    Py_ssize_t b_shape[2] = {rows, -1}, c_shape[2] = {count, rows};
+    if (take(args[1], &b[1], "B", 'd', 2, b_shape, 0) || take(args[2], &b[2], "c", 'd', 2, c_shape, 0)) goto done;
+    Py_ssize_t m = b_shape[1];
+    Py_ssize_t u_shape[3] = {count, nx, m}, x_shape[2] = {count, nx}, w_shape[3] = {count, nx, nx - rows};
+    Py_ssize_t bound_shape[1] = {count};
+    if (take(args[3], &b[3], "X_u", 'd', 3, u_shape, 1) || take(args[4], &b[4], "x_0", 'd', 2, x_shape, 1) ||
+        take(args[5], &b[5], "X_w", 'd', 3, w_shape, 1) || take(args[6], &b[6], "bound", 'd', 1, bound_shape, 1))
+        goto done;
+    double limit = PyFloat_AsDouble(args[7]);
+    if (limit == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();
+        PyErr_Format(kernel_error, "kernel argument limit: not a number");
+        goto done;
+    }
+    Py_ssize_t width = rows + m + 1;
+    memory = PyMem_Malloc((size_t)(nx * rows + rows + nx * (m + 1) + rows * width + rows + nx) * sizeof(double));
+    if (memory == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    QRScratch w = {rows, nx, m, memory, NULL, NULL, NULL, NULL, NULL};
+    w.tau = w.M + nx * rows, w.V = w.tau + rows, w.Y = w.V + nx * (m + 1), w.r = w.Y + rows * width, w.s = w.r + rows;
+    const double *A = b[0].view.buf, *B = b[1].view.buf, *c = b[2].view.buf;
+    double *X_u = b[3].view.buf, *x_0 = b[4].view.buf, *X_w = b[5].view.buf, *bound = b[6].view.buf;
+    for (Py_ssize_t i = 0; i < count; i++) {
+        bound[i] = certify_child(&w, A + i * rows * nx, B, c + i * rows, limit, X_u + i * nx * m, x_0 + i * nx,
+                                 X_w + i * nx * (nx - rows));
+    }
+    result = Py_NewRef(Py_None);
+done:
+    PyMem_Free(memory);
+    release(b, 7);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"certified_modes", (PyCFunction)(void (*)(void))certified_modes, METH_FASTCALL,
      "certified_modes(dynamics, equalities, equality_rhs, inequalities, inequality_rhs, valid, motion,\n"
@@ -1480,6 +1789,17 @@ static PyMethodDef methods[] = {
      "             equality_rhs, inequalities, inequality_rhs, valid, motion) -> None\n\n"
      "frcontrol.modes.dynamics_rows and contact_row_table written into the given arrays (n, nx),\n"
      "(k, 4, 2, nx), (k, 4, 2), (k, 4, 3, nx), (k, 4, 3) and the bool (k, 4, 3) twice; bit for bit."},
+    {"certified_children", (PyCFunction)(void (*)(void))certified_children, METH_FASTCALL,
+     "certified_children(A, B, c, X_u, x_0, X_w, bound, limit) -> None\n\n"
+     "frcontrol.response.certified_responses of systems A (count, rows, nx) sharing B (rows, m), with\n"
+     "c (count, rows): each one's condition bound into bound (count,) (+inf when a pivot rules it\n"
+     "out), and where bound < limit its X_u (count, nx, m), x_0 (count, nx), X_w (count, nx, nx - rows)."},
+    {"margin_rows", (PyCFunction)(void (*)(void))margin_rows, METH_FASTCALL,
+     "margin_rows(G, X_u, X_w, x_0, g, C, d, motion, out, h_out, zero_row_tolerance, domain_tolerance)\n"
+     "-> int\n\n"
+     "The motion LP's rows of a mode's domain (frcontrol.engine.domain_rows and motion_margin) written\n"
+     "into out (rows, m + p + 1) and h_out (rows,): -1 when a constant motion row is violated, else\n"
+     "1 (a constant motion row is not strict) + 2 (some motion row is moving)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "frcontrol._kernel",
@@ -1505,7 +1825,8 @@ PyMODINIT_FUNC PyInit__kernel(void) {
                              "MOVES_ACCELERATIONS"};
     int values[10] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
                       NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS};
-    PyObject *all = Py_BuildValue("[sssss]", "certified_modes", "rank_modes", "lp_check", "robot_state", "contact_rows");
+    PyObject *all = Py_BuildValue("[sssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
+                                  "contact_rows", "margin_rows", "certified_children");
     if (all == NULL) {
         Py_DECREF(mod);
         return NULL;

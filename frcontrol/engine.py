@@ -37,9 +37,17 @@ import numpy as np
 from . import polytope as poly
 from .errors import CoordinateNotFound, InputError
 from .jsonable import to_jsonable
+from .kernel import compiled, kernel_choice
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
 from .modes import ContactProblem, ModeSystem, build_child_systems, build_mode_system, mode_outputs
-from .response import RANK_TOLERANCE, AffineSolution, ambiguous_outputs, certified_responses, solve_affine
+from .response import (
+    RANK_TOLERANCE,
+    AffineSolution,
+    ambiguous_outputs,
+    certified_children,
+    solve_affine,
+    solve_affine_stack,
+)
 from .scene import Scene
 from .solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp_prepared
 
@@ -133,7 +141,9 @@ class ModeAnalysis:
         if "input_domain" not in self._cache:
             t0 = time.perf_counter()
             if self.ambiguity_dim:
-                projected = poly.project(self.domain, range(self.m), solver=self.solver)
+                # D_c's raw form and its minimal one are the same set: the same Chebyshev ball
+                projected = poly.project(self.domain, range(self.m), solver=self.solver,
+                                         ball=self._cache.get("raw_ball"))
             else:
                 projected = self.domain
             self._cache["input_domain"] = projected
@@ -375,15 +385,26 @@ def motion_margin(
     norms, zero = _row_norms(H)
     constant = motion & zero
     degenerate_constant = False
-    if constant.any():
+    if np.count_nonzero(constant):
         fixed = h[constant]
-        if (fixed < -DOMAIN_TOLERANCE).any():
+        if np.count_nonzero(fixed < -DOMAIN_TOLERANCE):
             return MotionMargin("infeasible", None, None)
-        degenerate_constant = bool((fixed <= DOMAIN_TOLERANCE).any())
+        degenerate_constant = bool(np.count_nonzero(fixed <= DOMAIN_TOLERANCE))
     moving = motion ^ constant  # the motion rows with coefficients (constant is within motion)
     A_ub = np.empty((H.shape[0], d + 1))
     A_ub[:, :d] = H
     np.multiply(norms, moving, out=A_ub[:, d])  # the norm on a moving row, 0 elsewhere
+    return _margin_lp(A_ub, h, A_eq, b_eq, degenerate_constant, bool(np.count_nonzero(moving)), solver)
+
+
+def _margin_lp(A_ub: np.ndarray, h: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarray, degenerate_constant: bool,
+               moving: bool, solver: str) -> MotionMargin:
+    """:func:`motion_margin`'s LP over ``(z, t)`` with its rows ``A_ub`` (the last column t's) built.
+
+    ``degenerate_constant``: a constant motion row is not strict; ``moving``: some motion row has
+    coefficients.
+    """
+    d = A_ub.shape[1] - 1
     A = None
     if A_eq.shape[0]:
         A = np.zeros((A_eq.shape[0], d + 1))
@@ -394,13 +415,45 @@ def motion_margin(
     if not result.found or result.x is None:
         return MotionMargin("infeasible", None, None)
     z, t = result.x[:d], float(result.x[-1])
-    if degenerate_constant or (t <= DOMAIN_TOLERANCE and moving.any()):
+    if degenerate_constant or (t <= DOMAIN_TOLERANCE and moving):
         return MotionMargin("freedom", z, t)
     return MotionMargin("ok", z, t)
 
 
+def mode_margin(system: ModeSystem, response: AffineSolution, bounds: tuple[np.ndarray, np.ndarray], *,
+                solver: str = DEFAULT_LP_SOLVER, kernel: str | None = None) -> MotionMargin:
+    """:func:`motion_margin` of the mode's domain (:func:`domain_rows`), its rows built in one call.
+
+    With the compiled kernel in force (:func:`frcontrol.kernel.kernel_choice`) the LP's rows come
+    from ``frcontrol._kernel.margin_rows`` (the same sums in another order: equal to round-off, see
+    tests/test_kernel.py); else from :func:`domain_rows` and :func:`motion_margin` in NumPy.
+    ``kernel``: :func:`~frcontrol.kernel.kernel_choice`'s answer when the caller has it.
+    """
+    if (kernel or kernel_choice()) != "compiled" or compiled is None:
+        H, h, A_eq, b_eq, motion = domain_rows(system, response, bounds)
+        return motion_margin(H, h, motion, A_eq, b_eq, solver=solver)
+    C, d = bounds
+    m, p = C.shape[1], response.ambiguity_dim
+    rows = system.G.shape[0] + C.shape[0]
+    A_ub, h = np.empty((rows, m + p + 1)), np.empty(rows)
+    X_u, X_w = np.ascontiguousarray(response.X_u), np.ascontiguousarray(response.X_w)
+    flags = compiled.margin_rows(system.G, X_u, X_w, response.x_0, system.g, C, d, system.motion, A_ub, h,
+                                 ZERO_ROW_TOLERANCE, DOMAIN_TOLERANCE)
+    if flags < 0:
+        return MotionMargin("infeasible", None, None)
+    A_eq = np.zeros((response.e.size, m + p))
+    A_eq[:, :m] = response.E
+    return _margin_lp(A_ub, h, A_eq, response.e, bool(flags & 1), bool(flags & 2), solver)
+
+
+_MARGIN_BOUNDS: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+""":func:`_margin_bounds` by dimension, built once (the door and DAQP only read them)."""
+
+
 def _margin_bounds(d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The motion LP's cost (maximise t) and bounds (z free, 0 <= t <= 1) over ``(z, t)``."""
+    if d in _MARGIN_BOUNDS:
+        return _MARGIN_BOUNDS[d]
     cost = np.zeros(d + 1)
     cost[-1] = -1.0
     lb = np.empty(d + 1)
@@ -409,6 +462,7 @@ def _margin_bounds(d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ub = np.empty(d + 1)
     ub[:-1] = np.inf
     ub[-1] = 1.0
+    _MARGIN_BOUNDS[d] = cost, lb, ub
     return cost, lb, ub
 
 
@@ -482,6 +536,7 @@ class _ModeEnumerator:
         self.prune_partial, self.progress, self.timings = prune_partial, progress, timings
         self.allowed = problem.allowed_modes()
         self.bounds = problem.input_bound_rows()
+        self.kernel = kernel_choice()  # read once for the whole tree
         self.prepared: dict[str, tuple[ModeSystem, AffineSolution | None]] = {}
         self.deficient: set[str] = set()  # tested modes whose equalities lack full row rank
         self.counts = {"freedom": 0, "infeasible": 0, "partial": 0, "evaluated": 0}
@@ -495,23 +550,27 @@ class _ModeEnumerator:
     def prepare(self, prefix: str, letters: str) -> None:
         """Build the systems of ``prefix``'s children and certify their responses together.
 
-        :func:`certified_responses` factorises the children at once; a child it does not certify
+        :func:`certified_children` factorises the children at once; a child it does not certify
         gets the SVD when it is tested. Below a mode without full row rank (its rows dependent,
-        so every child's too) nothing is certified and the certificate is not tried.
+        so every child's too) the certificate is not tried: the children get their SVDs at once
+        (:func:`solve_affine_stack`, the same answers as one by one).
         """
         t0 = time.perf_counter()
         children = [prefix + letter for letter in letters]
         systems = build_child_systems(self.problem, prefix, letters)
-        responses: list[AffineSolution | None] = [None] * len(children)
-        if prefix not in self.deficient:
-            B = systems[0].B  # shared by the children
-            responses = certified_responses(
-                np.stack([s.A for s in systems]), np.broadcast_to(B, (len(systems), *B.shape)),
-                np.stack([s.c for s in systems]), rank_tolerance=self.rank_tolerance)
+        responses: list[AffineSolution | None]
+        if prefix in self.deficient:  # every child is deficient too: their SVDs, batched
+            responses = solve_affine_stack(np.stack([s.A for s in systems]), systems[0].B,
+                                           np.stack([s.c for s in systems]),
+                                           rank_tolerance=self.rank_tolerance)
+        else:
+            responses = certified_children(  # the children share B
+                np.stack([s.A for s in systems]), systems[0].B, np.stack([s.c for s in systems]),
+                rank_tolerance=self.rank_tolerance, kernel=self.kernel)
         self.prepared.update(zip(children, zip(systems, responses, strict=True), strict=True))
         self.timings["response"] += time.perf_counter() - t0
 
-    def test(self, mode: str) -> tuple[str, ModeSystem, AffineSolution, tuple[np.ndarray, ...] | None]:
+    def test(self, mode: str) -> tuple[str, ModeSystem, AffineSolution]:
         """Build and solve a (partial) mode: 'ok', 'freedom' or 'infeasible'.
 
         The system and a certified response come from :meth:`prepare` when it ran for the mode.
@@ -527,11 +586,10 @@ class _ModeEnumerator:
         t1 = time.perf_counter()
         self.timings["response"] += t1 - t0
         if not response.consistent:
-            return "freedom", system, response, None
-        rows = domain_rows(system, response, self.bounds)
-        verdict = motion_margin(*rows[:2], rows[4], *rows[2:4], solver=self.solver).verdict
+            return "freedom", system, response
+        verdict = mode_margin(system, response, self.bounds, solver=self.solver, kernel=self.kernel).verdict
         self.timings["feasibility"] += time.perf_counter() - t1
-        return verdict, system, response, rows[:4]
+        return verdict, system, response
 
     def evaluate(self, mode: str) -> None:
         """Analyse a full mode: its response, domain, and whether its T_c has an interior."""
@@ -539,9 +597,9 @@ class _ModeEnumerator:
         self.counts["evaluated"] += 1
         if self.progress is not None:
             self.progress(mode)
-        verdict, system, response, rows = self.test(mode)
+        verdict, system, response = self.test(mode)
         outputs = ambiguous_outputs(response, problem.n)
-        if verdict != "ok" or rows is None:
+        if verdict != "ok":
             self.counts[verdict] += 1
             self.analyses.append(ModeAnalysis(
                 mode=mode, system=system, response=response, ambiguous_outputs=outputs,
@@ -553,8 +611,8 @@ class _ModeEnumerator:
             # the reported response and domain are the SVD's, as without the certificate (the
             # same map up to round-off, its w in the SVD's basis)
             response = self.response(system)
-            rows = domain_rows(system, response, self.bounds)[:4]
-        domain = poly.Polytope(*rows)
+        # the domain in NumPy on either kernel (the test's rows decided only the verdict)
+        domain = poly.Polytope(*domain_rows(system, response, self.bounds)[:4])
         ball = poly.chebyshev_ball(domain, solver=solver)
         full = bool(ball.found and ball.radius > DOMAIN_TOLERANCE and domain.A_eq.shape[0] == 0)
         timings["domain"] += time.perf_counter() - t0
@@ -593,10 +651,16 @@ class _ModeEnumerator:
 
 
 def _input_rows(mode: ModeAnalysis) -> tuple[np.ndarray, np.ndarray, int]:
-    """Rows (H, h) over (u, w) whose projection is T_c with an interior.
+    """Rows (H, h) over (u, w) whose projection is T_c with an interior (cached on the mode).
 
     D_c itself when it is full-dimensional, else T_c (projected) with no w.
     """
+    if "input_rows" not in mode._cache:
+        mode._cache["input_rows"] = _build_input_rows(mode)
+    return mode._cache["input_rows"]
+
+
+def _build_input_rows(mode: ModeAnalysis) -> tuple[np.ndarray, np.ndarray, int]:
     if mode.full_dimensional and mode.raw_domain is not None:
         H, h, p = mode.raw_domain.A, mode.raw_domain.b, mode.ambiguity_dim
     else:
@@ -941,6 +1005,7 @@ __all__ = [
     "DynamicResponse",
     "Enumeration",
     "ModeAnalysis",
+    "mode_margin",
     "motion_margin",
     "Overlap",
     "RigidSolution",

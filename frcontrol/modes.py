@@ -308,14 +308,17 @@ def build_child_systems(problem: ContactProblem, prefix: str, letters: str) -> l
     c = np.empty((count, n + 2 * j))
     c[:, :n] = -problem.bias
     c[:, n:] = table.equality_rhs[contacts, chosen].reshape(count, 2 * j)
-    valid = table.valid[contacts, chosen].reshape(count, -1)
-    G = table.inequalities[contacts, chosen].reshape(count, -1, nx)
-    g = table.inequality_rhs[contacts, chosen].reshape(count, -1)
-    motion = table.motion[contacts, chosen].reshape(count, -1)
-    labels = problem.row_labels[contacts, chosen].reshape(count, -1)
-    return [ModeSystem(mode=prefix + letter, A=A[i], B=B, c=c[i], G=G[i][valid[i]], g=g[i][valid[i]],
-                       labels=tuple(labels[i][valid[i]].tolist()), motion=motion[i][valid[i]])
-            for i, letter in enumerate(letters)]
+    valid = table.valid[contacts, chosen].reshape(-1)
+    # every child's valid rows in one gather each, then each child's block of them (a C-contiguous slice)
+    G = table.inequalities[contacts, chosen].reshape(-1, nx)[valid]
+    g = table.inequality_rhs[contacts, chosen].reshape(-1)[valid]
+    motion = table.motion[contacts, chosen].reshape(-1)[valid]
+    labels = problem.row_labels[contacts, chosen].reshape(-1)[valid].tolist()
+    ends = np.cumsum(valid.reshape(count, -1).sum(axis=1)).tolist()
+    starts = [0, *ends[:-1]]
+    return [ModeSystem(mode=prefix + letter, A=A[i], B=B, c=c[i], G=G[start:end], g=g[start:end],
+                       labels=tuple(labels[start:end]), motion=motion[start:end])
+            for i, (letter, start, end) in enumerate(zip(letters, starts, ends, strict=True))]
 
 
 ROWS_PER_CONTACT = 3

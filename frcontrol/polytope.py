@@ -252,6 +252,11 @@ class ChebyshevBall:
 # helpers
 
 
+def _row_norms(X: np.ndarray) -> np.ndarray:
+    """Each row's 2-norm: ``np.linalg.norm(X, axis=1)``'s own sum, without its wrapper (bitwise equal)."""
+    return np.sqrt(np.add.reduce(X * X, axis=1))
+
+
 def _lp(
     solver: str,
     c: np.ndarray,
@@ -288,7 +293,7 @@ def _affine_hull(A_eq: np.ndarray, b_eq: np.ndarray, d: int) -> _Hull | None:
     """Parametrise ``A_eq x = b_eq`` as ``x = x0 + N z`` by an SVD; ``None`` if inconsistent."""
     if A_eq.shape[0] == 0:
         return _Hull(np.zeros(d), np.eye(d))
-    norms = np.linalg.norm(A_eq, axis=1)
+    norms = _row_norms(A_eq)
     zero = norms <= 0.0
     if np.any(np.abs(b_eq[zero]) > EQUALITY_TOLERANCE):
         return None
@@ -306,13 +311,13 @@ def _affine_hull(A_eq: np.ndarray, b_eq: np.ndarray, d: int) -> _Hull | None:
 
 def _independent_equalities(A_eq: np.ndarray, b_eq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit-norm, linearly independent equality rows (QR with column pivoting on ``A_eq^T``)."""
-    norms = np.linalg.norm(A_eq, axis=1)
+    norms = _row_norms(A_eq)
     nonzero = norms > 0.0
     A_unit = A_eq[nonzero] / norms[nonzero, None]
     b_unit = b_eq[nonzero] / norms[nonzero]
     if A_unit.shape[0] == 0:
         return A_unit, b_unit
-    _, R, pivots = scipy.linalg.qr(A_unit.T, mode="economic", pivoting=True)
+    _, R, pivots = scipy.linalg.qr(A_unit.T, mode="economic", pivoting=True, check_finite=False)  # finite
     diagonal = np.abs(np.diag(R))
     rank = int(np.sum(diagonal > RANK_TOLERANCE * diagonal[0]))
     rows = np.sort(pivots[:rank])
@@ -377,8 +382,8 @@ def chebyshev_ball(P: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> Chebyshev
     k = hull.N.shape[1]
     G = P.A @ hull.N
     h = P.b - P.A @ hull.x0
-    row_norms = np.linalg.norm(P.A, axis=1)
-    g_norms = np.linalg.norm(G, axis=1)
+    row_norms = _row_norms(P.A)
+    g_norms = _row_norms(G)
     flat = g_norms <= ZERO_TOLERANCE * row_norms
     if np.any(h[flat] < -CONTAINMENT_TOLERANCE * np.maximum(row_norms[flat], 1e-300)):
         return _no_ball(k)
@@ -515,8 +520,8 @@ def _near_pairs(unit: np.ndarray, threshold: float, sign: float) -> np.ndarray:
     """
     m = unit.shape[0]
     if m <= _DENSE_PAIRS_MAX_ROWS:
-        close = np.triu(sign * (unit @ unit.T) >= threshold, 1)
-        return np.argwhere(close).reshape(-1, 2)
+        found = np.argwhere(sign * (unit @ unit.T) >= threshold)  # row-major: sorted by (p, q)
+        return found[found[:, 0] < found[:, 1]]
     return _near_pairs_sorted(unit, threshold, sign)
 
 
@@ -557,7 +562,7 @@ def _normalise_and_merge(
         ``(kept, pairs)``: indices of the rows kept (``None`` if a row proves the set empty),
         and the pairs ``(i, j)`` of kept opposite rows that make an equality.
     """
-    g_norms = np.linalg.norm(G, axis=1)
+    g_norms = _row_norms(G)
     zero = g_norms <= ZERO_TOLERANCE * row_norms
     if np.any(h[zero] < -CONTAINMENT_TOLERANCE * np.maximum(row_norms[zero], 1e-300)):
         return None, []
@@ -753,13 +758,13 @@ def minimal_representation(
         return Polytope.empty_set(d)
     G = P.A @ hull.N
     h = P.b - P.A @ hull.x0
-    kept, pairs = _normalise_and_merge(G, h, np.linalg.norm(P.A, axis=1), tolerance)
+    kept, pairs = _normalise_and_merge(G, h, _row_norms(P.A), tolerance)
     if kept is None:
         return Polytope.empty_set(d)
     if pairs:  # new equalities: start again with them
         return minimal_representation(_slabs_as_equalities(P, A_eq, b_eq, pairs), tolerance=tolerance,
                                       solver=solver, use_minrep=use_minrep)
-    g_norms = np.linalg.norm(G[kept], axis=1)
+    g_norms = _row_norms(G[kept])
     unit = np.ascontiguousarray(G[kept] / g_norms[:, None])
     offsets = np.ascontiguousarray(h[kept] / g_norms)
     center = hull.N.T @ (ball.center - hull.x0) if ball.full_dimensional else None
@@ -831,7 +836,7 @@ def _eliminate_with_equalities(
         equalities reduce to a violated ``0 = b``.
     """
     while A_eq.shape[0]:
-        norms = np.linalg.norm(A_eq, axis=1)
+        norms = _row_norms(A_eq)
         zero = norms <= ZERO_TOLERANCE
         if np.any(np.abs(b_eq[zero]) > EQUALITY_TOLERANCE):
             return None
@@ -869,7 +874,7 @@ def _fourier_motzkin_step(
     Returns:
         ``(A', b', j)``: the new rows without column ``j``, and ``j``.
     """
-    norms = np.linalg.norm(A, axis=1)
+    norms = _row_norms(A)
     norms[norms == 0.0] = 1.0
     A, b = A / norms[:, None], b / norms
     coefficients = A[:, n_keep:]
@@ -896,6 +901,7 @@ def project(
     method: str = "fourier_motzkin",
     tolerance: float = REDUNDANCY_TOLERANCE,
     solver: str = DEFAULT_LP_SOLVER,
+    ball: ChebyshevBall | None = None,
 ) -> Polytope:
     r"""Projection :math:`\{y : \exists x \in P,\ y = (x_k)_{k \in 	ext{keep}}\}`.
 
@@ -912,6 +918,9 @@ def project(
         method: ``"fourier_motzkin"`` (the only one implemented).
         tolerance: redundancy slack of the pruning [units of x].
         solver: LP back-end of the pruning.
+        ball: a Chebyshev ball of the set ``P`` (of any H-representation of it) when the caller
+            has one: the first pruning reuses it instead of solving its LP again, when ``keep``
+            is ``P``'s leading coordinates in order (so the coordinates are not permuted).
 
     Returns:
         The projection, in minimal representation, in ``R^len(keep)``; the canonical empty set if
@@ -928,8 +937,8 @@ def project(
         return _r0(not chebyshev_ball(P, solver=solver).found)
     order = kept + [i for i in range(P.dim) if i not in kept]
     current = minimal_representation(
-        Polytope(P.A[:, order], P.b, P.A_eq[:, order], P.b_eq), tolerance=tolerance, solver=solver
-    )
+        Polytope(P.A[:, order], P.b, P.A_eq[:, order], P.b_eq), tolerance=tolerance, solver=solver,
+        ball=ball if order == list(range(P.dim)) else None)
     while True:
         if current.empty:
             return Polytope.empty_set(n_keep)

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import IllConditioned
+from .kernel import compiled, kernel_choice
 
 RANK_TOLERANCE = 1e-10
 """Singular values of the equilibrated A at most this times the largest are taken as zero."""
@@ -116,9 +117,9 @@ def _equilibrate(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if not A.size:
         return np.ones(A.shape[0]), np.ones(A.shape[1])
     magnitude = np.abs(A)
-    rows = power_of_two_scale(magnitude.max(axis=1))
+    rows = power_of_two_scale(np.maximum.reduce(magnitude, axis=1))  # .max(axis=1) without its wrapper
     # powers of two scale exactly: |A * r| is |A| * r
-    cols = power_of_two_scale((magnitude * rows[:, None]).max(axis=0))
+    cols = power_of_two_scale(np.maximum.reduce(magnitude * rows[:, None], axis=0))
     return rows, cols
 
 
@@ -162,17 +163,59 @@ def solve_affine(
     Raises:
         IllConditioned: a singular value lies in the band where the rank cannot be decided.
     """
-    rows, nx = A.shape
     r_scale, c_scale = _equilibrate(A)
     A_hat = A * r_scale[:, None] * c_scale[None, :]
     U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
+    return _affine_from_svd(A.shape, B, c, r_scale, c_scale, (U, s, Vt), rank_tolerance, name)
+
+
+def solve_affine_stack(
+    A: np.ndarray,
+    B: np.ndarray,
+    c: np.ndarray,
+    *,
+    rank_tolerance: float = RANK_TOLERANCE,
+) -> list[AffineSolution | None]:
+    """:func:`solve_affine` of each system of a stack sharing ``B``, with one batched SVD.
+
+    ``A`` (count, rows, nx), ``B`` (rows, m), ``c`` (count, rows): e.g. a node's children. The same
+    scalings (:func:`equilibrate_stack`) and the same LAPACK call per matrix, so each answer is
+    :func:`solve_affine`'s bit for bit (tests/test_fast_paths.py). A system whose rank lies in the
+    ill-conditioned band gets None: :func:`solve_affine` raises for it when its caller asks.
+    """
+    r_scale, c_scale = equilibrate_stack(A)
+    A_hat = A * r_scale[:, :, None] * c_scale[:, None, :]
+    U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
+    out: list[AffineSolution | None] = []
+    for i in range(A.shape[0]):
+        try:
+            out.append(_affine_from_svd(A.shape[1:], B, c[i], r_scale[i], c_scale[i], (U[i], s[i], Vt[i]),
+                                        rank_tolerance, "A"))
+        except IllConditioned:
+            out.append(None)
+    return out
+
+
+def _affine_from_svd(
+    shape: tuple[int, ...],
+    B: np.ndarray,
+    c: np.ndarray,
+    r_scale: np.ndarray,
+    c_scale: np.ndarray,
+    svd: tuple[np.ndarray, np.ndarray, np.ndarray],
+    rank_tolerance: float,
+    name: str,
+) -> AffineSolution:
+    """:func:`solve_affine` from the SVD ``U, s, Vt`` of ``diag(r_scale) A diag(c_scale)``."""
+    rows, nx = shape
+    U, s, Vt = svd
     s_max = s[0] if s.size else 0.0
     if s_max == 0.0:
         rank = 0
     else:
-        rank = int(np.sum(s > rank_tolerance * s_max))
+        rank = int(np.count_nonzero(s > rank_tolerance * s_max))
         band = (s > rank_tolerance * s_max) & (s <= ILL_CONDITIONED_BAND * s_max)
-        if np.any(band):
+        if np.count_nonzero(band):
             raise IllConditioned(name, s_max / s[band].min(), ILL_CONDITIONED_BAND)
     condition = float(s_max / s[rank - 1]) if rank else float("inf")
     Bs = B * r_scale[:, None]
@@ -188,7 +231,8 @@ def solve_affine(
     # consistency: U2^T (B u + c) = 0  ->  E u = e
     E_raw = U2.T @ Bs
     e_raw = -(U2.T @ cs)
-    scale = max(1.0, float(np.max(np.abs(Bs), initial=0.0)), float(np.max(np.abs(cs), initial=0.0)))
+    scale = max(1.0, float(np.maximum.reduce(np.abs(Bs), axis=None, initial=0.0)),
+                float(np.maximum.reduce(np.abs(cs), axis=None, initial=0.0)))
     consistent = True
     if E_raw.shape[0] and _void_conditions(E_raw, e_raw, CONSISTENCY_TOLERANCE * scale):
         E, e = np.zeros((0, B.shape[1])), np.zeros(0)
@@ -274,6 +318,38 @@ def certified_responses(
     return out
 
 
+def certified_children(
+    A: np.ndarray,
+    B: np.ndarray,
+    c: np.ndarray,
+    *,
+    rank_tolerance: float = RANK_TOLERANCE,
+    kernel: str | None = None,
+) -> list[AffineSolution | None]:
+    """:func:`certified_responses` of systems that share ``B`` (rows, m): a node's children.
+
+    With the compiled kernel in force (:func:`frcontrol.kernel.kernel_choice`), each system in C
+    (``frcontrol._kernel.certified_children``: the same scalings, the same bound, a Householder QR
+    of its own, so the responses and bounds equal NumPy's to round-off, see tests/test_kernel.py);
+    else :func:`certified_responses` in NumPy. ``kernel``: ``kernel_choice()``'s answer when the
+    caller has it.
+    """
+    count, rows, nx = A.shape
+    if (kernel or kernel_choice()) != "compiled" or compiled is None or count == 0 or rows == 0 or rows > nx:
+        return certified_responses(A, np.broadcast_to(B, (count, *B.shape)), c, rank_tolerance=rank_tolerance)
+    m = B.shape[1]
+    limit = 1.0 / (CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND))
+    X_u, x_0, X_w = np.empty((count, nx, m)), np.empty((count, nx)), np.empty((count, nx, nx - rows))
+    bound = np.empty(count)
+    compiled.certified_children(np.ascontiguousarray(A), np.ascontiguousarray(B), np.ascontiguousarray(c),
+                                X_u, x_0, X_w, bound, limit)
+    no_conditions, no_values = np.zeros((0, m)), np.zeros(0)  # empty: shared, nothing to write
+    return [AffineSolution(
+        X_u=X_u[i], X_w=X_w[i], x_0=x_0[i], E=no_conditions, e=no_values, consistent=True, rank=rows,
+        shape=(rows, nx), singular_values=no_values, condition_number=value, rank_tolerance=rank_tolerance,
+        certified=True) if value < limit else None for i, value in enumerate(bound.tolist())]
+
+
 def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> str:
     """Which outputs of ``x = (dv, lam)`` depend on w: ``"none"``, ``"forces"`` or ``"accelerations"``.
 
@@ -287,11 +363,11 @@ def outputs_moved_by(X_w: np.ndarray, n_coordinates: int) -> str:
     """What the ambiguity directions ``X_w`` (nx, p) move: see :func:`ambiguous_outputs`."""
     if X_w.shape[1] == 0:
         return "none"
-    mags = np.max(np.abs(X_w), axis=1)
-    threshold = OUTPUT_TOLERANCE * max(float(mags.max()), 1e-300)
-    if np.any(mags[:n_coordinates] > threshold):
+    mags = np.maximum.reduce(np.abs(X_w), axis=1)  # np.max without its Python wrapper
+    threshold = OUTPUT_TOLERANCE * max(float(np.maximum.reduce(mags)), 1e-300)
+    if np.count_nonzero(mags[:n_coordinates] > threshold):
         return "accelerations"
-    if np.any(mags[n_coordinates:] > threshold):
+    if np.count_nonzero(mags[n_coordinates:] > threshold):
         return "forces"
     return "none"
 
@@ -300,6 +376,7 @@ __all__ = [
     "AffineSolution",
     "ambiguous_outputs",
     "CERTIFIED_MARGIN",
+    "certified_children",
     "certified_responses",
     "CONSISTENCY_TOLERANCE",
     "equilibrate_stack",
@@ -309,5 +386,6 @@ __all__ = [
     "power_of_two_scale",
     "RANK_TOLERANCE",
     "solve_affine",
+    "solve_affine_stack",
     "VOID_CONDITIONS_SAFETY",
 ]

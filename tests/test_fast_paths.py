@@ -139,7 +139,7 @@ def test_void_consistency_rows_are_decided_as_their_svd_decides(monkeypatch):
 
 def _svd_only(monkeypatch: pytest.MonkeyPatch, problem):
     with monkeypatch.context() as patch:
-        patch.setattr(engine, "certified_responses", lambda A, B, c, rank_tolerance: [None] * len(A))
+        patch.setattr(engine, "certified_children", lambda A, B, c, rank_tolerance, kernel: [None] * len(A))
         return analyze(problem, ambiguity=False)
 
 
@@ -226,5 +226,146 @@ def test_children_built_together_are_the_modes_built_alone():
             for letter, system in zip(allowed[depth], together, strict=True):
                 alone = build_mode_system(problem, prefix + letter)
                 assert (system.mode, system.labels) == (alone.mode, alone.labels)
+                assert system.G.flags.c_contiguous and system.g.flags.c_contiguous  # the kernel reads them
                 for name in ("A", "B", "c", "G", "g", "motion"):
                     np.testing.assert_array_equal(getattr(system, name), getattr(alone, name))
+
+
+@pytest.mark.skipif(resp.compiled is None, reason="frcontrol._kernel is not built here")
+def test_compiled_certified_children_are_numpys_certified_responses(monkeypatch):
+    """The kernel's Householder QR against NumPy's stacked QR on random stacks sharing B (some
+    rank-deficient, some nearly singular, widely scaled rows): the same certificates (except within
+    CERTIFIED_ROUND_OFF_BAND of the threshold), bounds, X_u, x_0 and null spaces to round-off."""
+    from frcontrol.kernel import CERTIFIED_ROUND_OFF_BAND
+
+    rng = np.random.default_rng(20261126)
+    limit = 1.0 / (resp.CERTIFIED_MARGIN * max(resp.RANK_TOLERANCE, resp.ILL_CONDITIONED_BAND))
+    certified = refused = 0
+    for trial in range(150):
+        nx = int(rng.integers(2, 30))
+        rows = int(rng.integers(1, nx + 1))
+        count, m = int(rng.integers(1, 6)), int(rng.integers(0, 9))
+        A, B, c = _random_stack(rng, count, rows, nx, m, deficient=bool(rng.random() < 0.2))
+        if trial % 5 == 0 and rows > 1:  # nearly dependent rows: bounds about the threshold
+            A[:, -1] = A[:, 0] + 10.0 ** rng.uniform(-12, -5) * rng.normal(size=(count, nx))
+        A[:, :, rng.random(nx) < 0.2] = 0.0  # zero columns: nothing to reflect
+        shared = B[0]
+        monkeypatch.setenv("FRC_KERNEL", "numpy")
+        reference = resp.certified_children(A, shared, c)
+        monkeypatch.setenv("FRC_KERNEL", "compiled")
+        fast = resp.certified_children(A, shared, c)
+        for i, (a, b) in enumerate(zip(fast, reference, strict=True)):
+            if (a is None) != (b is None):
+                kept = a if a is not None else b
+                assert abs(kept.condition_number / limit - 1.0) <= CERTIFIED_ROUND_OFF_BAND
+                continue
+            if a is None:
+                refused += 1
+                continue
+            certified += 1
+            assert (a.rank, a.case, a.E.shape, a.X_w.shape, a.certified) == (b.rank, b.case, b.E.shape,
+                                                                              b.X_w.shape, True)
+            assert a.condition_number == pytest.approx(b.condition_number, rel=1e-9)
+            scale = 1.0 + np.abs(b.X_u).max(initial=0.0) + np.abs(b.x_0).max()
+            tolerance = 1e-15 * b.condition_number * scale
+            np.testing.assert_allclose(a.X_u, b.X_u, rtol=0, atol=tolerance)
+            np.testing.assert_allclose(a.x_0, b.x_0, rtol=0, atol=tolerance)
+            _, c_scale = resp._equilibrate(A[i])
+            np.testing.assert_allclose(_null_projector(a.X_w, c_scale), _null_projector(b.X_w, c_scale),
+                                       atol=1e-15 * b.condition_number)
+    assert certified > 150 and refused > 20  # both sides of the certificate were exercised
+
+
+def test_analyze_is_the_same_on_both_kernels(monkeypatch):
+    """The tree's compiled fast paths (certified children, the motion LP's rows) against NumPy on
+    scenes: the same modes, verdicts and counts, and bitwise the same domains."""
+    for scene in (load_scene("rhex_flip"), load_scene("snake_climb"), load_scene("table_on_ground")):
+        answers = []
+        for kernel_name in ("numpy", "compiled") if resp.compiled is not None else ("numpy",):
+            monkeypatch.setenv("FRC_KERNEL", kernel_name)
+            result = analyze(scene, ambiguity=False)
+            answers.append((result.to_dict()["enumeration"],
+                            [(m.mode, m.pruned, m.response.case, m.domain) for m in result.modes]))
+        for other in answers[1:]:
+            assert other[0] == answers[0][0]
+            for a, b in zip(other[1], answers[0][1], strict=True):
+                assert a[:3] == b[:3]
+                assert (a[3] is None) == (b[3] is None)
+                if a[3] is not None:
+                    assert np.array_equal(a[3].A, b[3].A) and np.array_equal(a[3].b, b[3].b)
+
+
+def test_polytope_row_norms_and_near_pairs_are_the_library_calls_they_replace():
+    """Bitwise: the row norms without np.linalg.norm's wrapper, and the near pairs without np.triu,
+    on random unit rows with planted duplicates and opposites (and empty and one-row inputs)."""
+    rng = np.random.default_rng(41)
+    seen = 0
+    for _ in range(200):
+        m, d = int(rng.integers(0, 12)), int(rng.integers(1, 6))
+        X = rng.normal(size=(m, d)) * 10.0 ** rng.uniform(-8, 8, size=(m, 1))
+        assert np.array_equal(poly._row_norms(X), np.linalg.norm(X, axis=1))
+        unit = X / np.maximum(np.linalg.norm(X, axis=1), 1e-300)[:, None]
+        if m > 2:
+            unit[1], unit[2] = unit[0], -unit[0] * (1.0 + 1e-12)  # a duplicate and an opposite
+        for sign in (1.0, -1.0):
+            threshold = 1.0 - poly.DUPLICATE_TOLERANCE
+            expected = np.argwhere(np.triu(sign * (unit @ unit.T) >= threshold, 1)).reshape(-1, 2)
+            found = poly._near_pairs(unit, threshold, sign)
+            assert found.shape == expected.shape and np.array_equal(found, expected)
+            seen += found.shape[0]
+    assert seen > 100
+
+
+def test_projection_with_the_raw_forms_ball_is_the_same():
+    """project(minimal D, ball of raw D) against project(minimal D): random redundant polytopes
+    with equalities (the shape of a mode's D_c), some empty, some flat; bitwise the same T."""
+    rng = np.random.default_rng(23)
+    projected = 0
+    for _ in range(60):
+        d = int(rng.integers(2, 6))
+        A = rng.normal(size=(int(rng.integers(d + 1, 14)), d))
+        b = np.abs(rng.normal(size=A.shape[0])) + 0.1 * rng.random()
+        A = np.vstack([A, 2.0 * A[:2]])  # redundant copies
+        b = np.concatenate([b, 2.0 * b[:2] + rng.random(2)])
+        A_eq = rng.normal(size=(int(rng.integers(0, 2)), d))
+        raw = poly.Polytope(A, b - (3.0 if rng.random() < 0.2 else 0.0), A_eq, np.zeros(A_eq.shape[0]))
+        ball = poly.chebyshev_ball(raw)
+        minimal = poly.minimal_representation(raw, ball=ball)
+        keep = int(rng.integers(1, d))
+        given, solved = poly.project(minimal, keep, ball=ball), poly.project(minimal, keep)
+        projected += not given.empty
+        for x, y in zip((given.A, given.b, given.A_eq, given.b_eq),
+                        (solved.A, solved.b, solved.A_eq, solved.b_eq), strict=True):
+            np.testing.assert_array_equal(x, y)
+    assert projected > 30
+
+
+def test_batched_svds_are_solve_affines_bit_for_bit():
+    """solve_affine_stack against solve_affine one system at a time: random stacks sharing B, of
+    full and deficient rank, consistent or not, some in the ill-conditioned band (None, where
+    solve_affine raises)."""
+    from frcontrol.errors import IllConditioned
+
+    rng = np.random.default_rng(31)
+    compared = banded = 0
+    for trial in range(80):
+        nx = int(rng.integers(2, 14))
+        rows, count, m = int(rng.integers(1, nx + 2)), int(rng.integers(1, 5)), int(rng.integers(0, 4))
+        A, B, c = _random_stack(rng, count, rows, nx, m, deficient=bool(rng.random() < 0.5))
+        if trial % 6 == 0 and rows > 1:  # a singular value about 1e-9 of the largest: the band
+            A[:, -1] = A[:, 0] + 1e-9 * rng.normal(size=(count, nx))
+        if trial % 3 == 0 and rows > 1:  # dependent rows with their right sides: consistency rows
+            c[:, -1] = 3.0 * c[:, 0]
+        stacked = resp.solve_affine_stack(A, B[0], c)
+        for i, fast in enumerate(stacked):
+            if fast is None:
+                with pytest.raises(IllConditioned):
+                    resp.solve_affine(A[i], B[0], c[i])
+                banded += 1
+                continue
+            alone = resp.solve_affine(A[i], B[0], c[i])
+            assert (fast.rank, fast.consistent, fast.case) == (alone.rank, alone.consistent, alone.case)
+            for name in ("X_u", "X_w", "x_0", "E", "e", "singular_values"):
+                np.testing.assert_array_equal(getattr(fast, name), getattr(alone, name))
+            compared += 1
+    assert compared > 150 and banded > 0

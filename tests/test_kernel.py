@@ -380,3 +380,113 @@ def test_the_lp_check_refuses_bad_buffers():
         compiled.lp_check(np.ones((2, 2), dtype=np.float32), *arrays[1:], np.ones(2), True)
     with pytest.raises(KernelError, match="8 arguments"):
         compiled.lp_check(*arrays)
+
+
+MARGIN_ROWS_AGREEMENT = 1e-13
+"""Relative agreement of margin_rows' rows with NumPy's (per unit of the row's scale: the same
+products summed in another order)."""
+
+
+def _numpy_margin_rows(G, X_u, X_w, x_0, g, C, d, motion):
+    """domain_rows' H and h, and motion_margin's last column and flags, in NumPy."""
+    from frcontrol.engine import _row_norms
+
+    m, p = X_u.shape[1], X_w.shape[1]
+    H = np.zeros((G.shape[0] + C.shape[0], m + p))
+    H[:G.shape[0], :m], H[:G.shape[0], m:], H[G.shape[0]:, :m] = G @ X_u, G @ X_w, C
+    h = np.concatenate([g - G @ x_0, d])
+    rows_motion = np.concatenate([motion, np.zeros(C.shape[0], dtype=bool)])
+    norms, zero = _row_norms(H)
+    constant = rows_motion & zero
+    if np.any(h[constant] < -DOMAIN_TOLERANCE):
+        return H, h, None, -1
+    flags = int(np.any(h[constant] <= DOMAIN_TOLERANCE)) + 2 * int(np.any(rows_motion & ~zero))
+    return H, h, norms * (rows_motion & ~zero), flags
+
+
+@needs_kernel
+def test_margin_rows_agree_with_numpy_on_random_problems():
+    """Random rows, responses and limits, with zero and tiny rows among the motion rows (each
+    constant row violated, on the edge or strict): the same rows to round-off and the same flags."""
+    rng = np.random.default_rng(11)
+    seen = set()
+    for _ in range(400):
+        nx, r, m, p, c = (int(rng.integers(1, 12)), int(rng.integers(0, 10)), int(rng.integers(0, 5)),
+                          int(rng.integers(0, 4)), int(rng.integers(0, 6)))
+        scale = 10.0 ** rng.uniform(-2, 2)
+        G = scale * rng.standard_normal((r, nx)) * (rng.random((r, nx)) < 0.7)
+        g = rng.standard_normal(r)
+        X_u, X_w, x_0 = rng.standard_normal((nx, m)), rng.standard_normal((nx, p)), rng.standard_normal(nx)
+        C, d = rng.standard_normal((c, m)), rng.standard_normal(c)
+        motion = rng.random(r) < 0.5
+        for i in np.nonzero(rng.random(r) < 0.2)[0]:  # constant rows: no coefficient in (u, w)
+            G[i] = 0.0
+            g[i] = rng.choice([-1.0, 0.0, 1.0])
+        A_ub, h = np.empty((r + c, m + p + 1)), np.empty(r + c)
+        flags = compiled.margin_rows(G, X_u, X_w, x_0, g, C, d, motion, A_ub, h, ZERO_ROW_TOLERANCE,
+                                     DOMAIN_TOLERANCE)
+        H, h_ref, column, flags_ref = _numpy_margin_rows(G, X_u, X_w, x_0, g, C, d, motion)
+        assert flags == flags_ref
+        seen.add(flags)
+        if flags < 0:
+            continue
+        largest = np.abs(np.hstack([X_u, X_w, x_0[:, None]])).max(initial=0.0)
+        size = 1.0 + np.abs(G).sum(axis=1, keepdims=True) * (1.0 + largest)
+        size = np.vstack([size, np.ones((c, 1))])
+        assert np.all(np.abs(A_ub[:, :-1] - H) <= MARGIN_ROWS_AGREEMENT * size)
+        assert np.all(np.abs(h - h_ref) <= MARGIN_ROWS_AGREEMENT * (size[:, 0] + np.abs(h_ref)))
+        assert np.all(np.abs(A_ub[:, -1] - column) <= MARGIN_ROWS_AGREEMENT * size[:, 0])
+    assert seen == {-1, 0, 1, 2, 3}  # every branch taken
+
+
+@needs_kernel
+@pytest.mark.parametrize("name", ["rhex_flip", "snake_climb", "box_on_slope"])
+def test_mode_margin_gives_motion_margins_verdicts_on_every_mode(name, monkeypatch):
+    """Every full mode of a shipped scene (and every partial one): mode_margin on the compiled
+    kernel gives the verdict and the margin of motion_margin on NumPy's domain_rows."""
+    from frcontrol.engine import domain_rows, mode_margin, motion_margin
+    from frcontrol.modes import build_mode_system
+    from frcontrol.response import solve_affine
+
+    monkeypatch.setenv("FRC_KERNEL", "compiled")
+    problem = ContactProblem.from_scene(load_scene(name))
+    bounds = problem.input_bound_rows()
+    level, modes = [""], [""]
+    for letters in problem.allowed_modes():
+        level = [prefix + letter for prefix in level for letter in letters]
+        modes += level
+    verdicts = set()
+    for mode in modes:
+        system = build_mode_system(problem, mode)
+        response = solve_affine(system.A, system.B, system.c)
+        if not response.consistent:
+            continue
+        H, h, A_eq, b_eq, motion = domain_rows(system, response, bounds)
+        reference = motion_margin(H, h, motion, A_eq, b_eq)
+        fast = mode_margin(system, response, bounds)
+        assert fast.verdict == reference.verdict, mode
+        verdicts.add(fast.verdict)
+        if reference.margin is not None:
+            assert fast.margin == pytest.approx(reference.margin, abs=1e-9)
+    assert "ok" in verdicts and (name == "snake_climb" or len(verdicts) > 1), verdicts  # the brace's all hold
+
+
+@needs_kernel
+def test_margin_rows_refuses_bad_buffers():
+    G, X, x, v = np.ones((2, 3)), np.ones((3, 2)), np.ones(3), np.ones(2)
+    C, motion = np.ones((1, 2)), np.ones(2, dtype=bool)
+    good = [G, X, np.ones((3, 1)), x, v, C, np.ones(1), motion, np.empty((3, 4)), np.empty(3), 1e-9, 1e-7]
+    assert compiled.margin_rows(*good) == 2
+    for position, bad, text in [(1, np.ones((2, 2)), "X_u"), (7, np.ones(2), "motion"),
+                                (8, np.empty((3, 8))[:, ::2], "out"), (9, np.empty(3)[::-1], "h_out"),
+                                (5, np.ones((1, 3)), "C"), (10, "x", "zero_row_tolerance")]:
+        args = list(good)
+        args[position] = bad
+        with pytest.raises(KernelError, match=text):
+            compiled.margin_rows(*args)
+    readonly = np.empty((3, 4))
+    readonly.setflags(write=False)
+    with pytest.raises(KernelError, match="out"):
+        compiled.margin_rows(*good[:8], readonly, *good[9:])
+    with pytest.raises(KernelError, match="12 arguments"):
+        compiled.margin_rows(*good[:4])

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
 from typing import Any, Literal
 
 import numpy as np
@@ -55,10 +54,15 @@ class LinearProgram:
         """Number of variables."""
         return int(self.c.shape[0])
 
-    @cached_property
+    @property
     def has_bounds(self) -> bool:
-        """Whether at least one simple bound is finite."""
-        return bool(np.isfinite(self.lb).any() or np.isfinite(self.ub).any())
+        """Whether at least one simple bound is finite (computed once per problem)."""
+        # cached by hand: functools.cached_property takes a lock per first access on Python 3.11
+        cached = self.__dict__.get("_has_bounds")
+        if cached is None:
+            cached = bool(np.count_nonzero(np.isfinite(self.lb)) or np.count_nonzero(np.isfinite(self.ub)))
+            self.__dict__["_has_bounds"] = cached
+        return cached
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)

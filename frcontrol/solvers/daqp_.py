@@ -111,7 +111,8 @@ def _stack(
     pairs = equalities_as_pairs and m_eq > 0
     rows = m_ub + (2 * m_eq if pairs else m_eq)
     bupper = np.empty(m_s + rows)
-    blower = np.full(m_s + rows, -DAQP_INF)
+    blower = np.empty(m_s + rows)
+    blower.fill(-DAQP_INF)
     sense = np.zeros(m_s + rows, dtype=np.intc)  # SENSE_INEQUALITY
     if m_s:
         np.minimum(problem.ub, DAQP_INF, out=bupper[:m_s])
@@ -147,7 +148,7 @@ def _equalities_consistent(problem: LinearProgram) -> bool:
 
 
 def _solve(H: np.ndarray | None, problem: LinearProgram, options: dict) -> RawSolution:
-    unknown = set(options) - SETTINGS
+    unknown = set(options) - SETTINGS if options else None
     if unknown:
         raise InputError(f"unknown DAQP option(s) {sorted(unknown)}; known: {sorted(SETTINGS)}")
     A, bupper, blower, sense = _stack(problem, equalities_as_pairs=H is None)
