@@ -1753,6 +1753,10 @@ done:
     return result;
 }
 
+#ifndef FRC_KERNEL_SOURCE_SHA256
+#define FRC_KERNEL_SOURCE_SHA256 "" /* built without setup.py: the source it came from is not known */
+#endif
+
 static PyMethodDef methods[] = {
     {"certified_modes", (PyCFunction)(void (*)(void))certified_modes, METH_FASTCALL,
      "certified_modes(dynamics, equalities, equality_rhs, inequalities, inequality_rhs, valid, motion,\n"
@@ -1818,6 +1822,10 @@ PyMODINIT_FUNC PyInit__kernel(void) {
     }
     PyObject *mod = PyModule_Create(&module);
     if (mod == NULL) {
+        return NULL;
+    }
+    if (PyModule_AddStringConstant(mod, "SOURCE_SHA256", FRC_KERNEL_SOURCE_SHA256) != 0) {
+        Py_DECREF(mod);
         return NULL;
     }
     const char *names[10] = {"NOT_CERTIFIED", "CERTIFIED_INADMISSIBLE", "CERTIFIED_ADMISSIBLE", "INADMISSIBLE",

@@ -11,7 +11,9 @@ Two implementations give the same answers (to round-off, see :data:`CERTIFIED_RO
 
 The environment variable ``FRC_KERNEL`` chooses (``numpy`` or ``compiled``); unset or empty, the
 compiled kernel when it is built, else NumPy. An unknown value, or ``compiled`` where the extension
-was not built, raises :class:`~frcontrol.errors.KernelError`. Modes the bound does not certify go
+was not built, raises :class:`~frcontrol.errors.KernelError`. An extension built from another
+``_kernel.c`` than the one beside it (an editable install not rebuilt after a change) is not used:
+a ``RuntimeWarning`` says so and NumPy runs (:func:`stale_reason`). Modes the bound does not certify go
 to the batched SVD in NumPy on either path. The same switch chooses how the LP door
 (:mod:`frcontrol.solvers`) checks an answer: ``lp_check`` of the extension, or NumPy's
 :func:`~frcontrol.solvers.primal_residual` and residual tolerance (equal to round-off).
@@ -19,7 +21,10 @@ to the batched SVD in NumPy on either path. The same switch chooses how the LP d
 
 from __future__ import annotations
 
+import hashlib
 import os
+import warnings
+from pathlib import Path
 from types import ModuleType
 
 from .errors import KernelError
@@ -39,16 +44,45 @@ Such a mode is certified by one kernel and sent to the SVD by the other, and bot
 response: it is full rank outside the ill-conditioned band either way."""
 
 
-def _load_compiled() -> ModuleType | None:
+NOT_BUILT = "the extension frcontrol._kernel was not built (reinstall with a C compiler: pip install .)"
+"""Why the compiled kernel is unavailable, when it was not built."""
+
+
+def stale_reason(module: ModuleType, source: Path) -> str | None:
+    """Why ``module`` does not run ``source``, or None when it does (or no source is beside it).
+
+    The build compiles the SHA-256 of ``frcontrol/_kernel.c`` into the extension
+    (``SOURCE_SHA256``, setup.py). An editable install (``pip install -e .``) builds it in place
+    and leaves the source beside it: when that source has changed since, the extension runs other
+    code than the source says. A wheel carries no source, and there is nothing to compare.
+    """
+    if not source.is_file():
+        return None
+    built = getattr(module, "SOURCE_SHA256", "")
+    if built == hashlib.sha256(source.read_bytes()).hexdigest():
+        return None
+    return (f"the extension frcontrol._kernel was built from another {source.name} than the one beside it "
+            "(rebuild it: pip install -e .)")
+
+
+def _load_compiled() -> tuple[ModuleType | None, str | None]:
+    """The extension, or None and why not (not built, or built from another source)."""
     try:
         from . import _kernel
     except ImportError:
-        return None
-    return _kernel
+        return None, NOT_BUILT
+    stale = stale_reason(_kernel, Path(__file__).with_name("_kernel.c"))
+    if stale is not None:
+        # one line on stderr, named after the extension (no source line to quote)
+        warnings.warn_explicit(f"{stale}; the NumPy kernel runs instead", RuntimeWarning,
+                               "frcontrol._kernel", 0)
+        return None, stale
+    return _kernel, None
 
 
-compiled: ModuleType | None = _load_compiled()
-"""The compiled extension :mod:`frcontrol._kernel`, or None where it was not built."""
+compiled, unavailable = _load_compiled()
+"""The compiled extension :mod:`frcontrol._kernel`, or None where it was not built or is stale (its
+source changed since it was built: :func:`stale_reason`); ``unavailable`` says which, else None."""
 
 
 def kernel_choice() -> str:
@@ -64,9 +98,9 @@ def kernel_choice() -> str:
     if value not in KERNELS:
         raise KernelError(f"{KERNEL_VARIABLE}={value!r} names no kernel; valid: {', '.join(KERNELS)}")
     if value == "compiled" and compiled is None:
-        raise KernelError(f"{KERNEL_VARIABLE}=compiled, but the extension frcontrol._kernel was not built "
-                          "(reinstall with a C compiler: pip install .)")
+        raise KernelError(f"{KERNEL_VARIABLE}=compiled, but {unavailable}")
     return value
 
 
-__all__ = ["CERTIFIED_ROUND_OFF_BAND", "compiled", "kernel_choice", "KERNEL_VARIABLE", "KERNELS"]
+__all__ = ["CERTIFIED_ROUND_OFF_BAND", "compiled", "kernel_choice", "KERNEL_VARIABLE", "KERNELS", "NOT_BUILT",
+           "stale_reason", "unavailable"]

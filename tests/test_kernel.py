@@ -7,7 +7,10 @@ CERTIFIED_ROUND_OFF_BAND of the threshold. Bad buffers raise KernelError; FRC_KE
 
 from __future__ import annotations
 
+import hashlib
 import os
+import types
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -260,6 +263,31 @@ def test_the_rank_kernel_checks_its_buffers_too():
         compiled.rank_modes(*problem, *svd, *outputs, *tolerances)
 
 
+SOURCE = Path(__file__).resolve().parents[1] / "frcontrol" / "_kernel.c"
+"""The C source in this checkout."""
+
+
+def test_the_extension_records_its_source():
+    """The extension in use was built from this checkout's _kernel.c (its SHA-256, setup.py)."""
+    if compiled is None:
+        pytest.skip("frcontrol._kernel is not built here (or is stale); the NumPy kernel runs")
+    assert compiled.SOURCE_SHA256 == hashlib.sha256(SOURCE.read_bytes()).hexdigest()
+
+
+def test_a_stale_extension_is_told_apart(tmp_path):
+    """An editable build whose source changed since is not used: stale_reason says why."""
+    source = tmp_path / "_kernel.c"
+    module = types.ModuleType("frcontrol._kernel")
+    module.SOURCE_SHA256 = hashlib.sha256(b"int x;").hexdigest()  # type: ignore[attr-defined]
+    assert kernel.stale_reason(module, source) is None  # a wheel: no source beside it
+    source.write_bytes(b"int x;")
+    assert kernel.stale_reason(module, source) is None  # built from this source
+    source.write_bytes(b"int x = 1;")
+    reason = kernel.stale_reason(module, source)
+    assert reason is not None and "rebuild it: pip install -e ." in reason
+    assert kernel.stale_reason(types.ModuleType("bare"), source) is not None  # no digest recorded
+
+
 def test_the_switch(monkeypatch):
     monkeypatch.setenv("FRC_KERNEL", "numpy")
     assert kernel.kernel_choice() == "numpy"
@@ -267,8 +295,13 @@ def test_the_switch(monkeypatch):
     with pytest.raises(KernelError, match="FRC_KERNEL='fortran' names no kernel; valid: numpy, compiled"):
         solutions_at(load_scene("rod_on_table"), {})
     monkeypatch.setattr(kernel, "compiled", None)  # as where no compiler built the extension
+    monkeypatch.setattr(kernel, "unavailable", kernel.NOT_BUILT)
     monkeypatch.setenv("FRC_KERNEL", "compiled")
     with pytest.raises(KernelError, match="frcontrol._kernel was not built"):
+        kernel.kernel_choice()
+    stale = kernel.stale_reason(types.ModuleType("old"), SOURCE)  # no digest: built otherwise
+    monkeypatch.setattr(kernel, "unavailable", stale)
+    with pytest.raises(KernelError, match="built from another _kernel.c than the one beside it"):
         kernel.kernel_choice()
     monkeypatch.delenv("FRC_KERNEL")
     assert kernel.kernel_choice() == "numpy"  # the pure fallback
