@@ -6,7 +6,7 @@ import warnings
 
 import typer
 
-from frcontrol.errors import KernelError
+from frcontrol.errors import KernelError, StaleKernelWarning
 from frcontrol.kernel import kernel_choice
 
 from . import (
@@ -56,9 +56,13 @@ def _root(
     # library reports what they mean (a diverged status, a warning with its time and detail).
     warnings.filterwarnings("ignore", category=RuntimeWarning)
     try:  # FRC_KERNEL (frcontrol.kernel) is checked once, before any command runs
-        kernel_choice()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", StaleKernelWarning)
+            kernel_choice()
     except KernelError as err:
         raise fail(str(err)) from None
+    for warning in caught:  # a stale compiled kernel: one line, and NumPy runs
+        typer.echo(f"frc: warning: {warning.message}", err=True)
 app.command("robots")(model_cmds.robots)
 app.command("show")(model_cmds.show)
 app.command("analyze")(analyze_cmd.analyze_command)

@@ -83,6 +83,14 @@ class KernelError(FrcontrolError):
     """
 
 
+class StaleKernelWarning(UserWarning):
+    """The compiled kernel was built from another ``_kernel.c`` than the one beside it.
+
+    An editable install not rebuilt after a change to the C source: the NumPy kernel runs instead
+    (:func:`frcontrol.kernel.stale_reason`); ``pip install -e .`` rebuilds it.
+    """
+
+
 class IllConditioned(FrcontrolError):
     """A matrix is too ill-conditioned to trust the answer at the stated tolerance."""
 
@@ -133,6 +141,7 @@ class SolverNotFound(FrcontrolError):
 
 
 __all__ = [
+    "StaleKernelWarning",
     "AtlasInterrupted",
     "ChunkTimeLimitExceeded",
     "CoordinateNotFound",

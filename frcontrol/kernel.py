@@ -27,7 +27,7 @@ import warnings
 from pathlib import Path
 from types import ModuleType
 
-from .errors import KernelError
+from .errors import KernelError, StaleKernelWarning
 
 KERNEL_VARIABLE = "FRC_KERNEL"
 """The environment variable that chooses the kernel."""
@@ -54,7 +54,7 @@ def stale_reason(module: ModuleType, source: Path) -> str | None:
     The build compiles the SHA-256 of ``frcontrol/_kernel.c`` into the extension
     (``SOURCE_SHA256``, setup.py). An editable install (``pip install -e .``) builds it in place
     and leaves the source beside it: when that source has changed since, the extension runs other
-    code than the source says. A wheel carries no source, and there is nothing to compare.
+    code than the source says. Without a source beside it, there is nothing to compare.
     """
     if not source.is_file():
         return None
@@ -72,12 +72,7 @@ def _load_compiled() -> tuple[ModuleType | None, str | None]:
     except ImportError:
         return None, NOT_BUILT
     stale = stale_reason(_kernel, Path(__file__).with_name("_kernel.c"))
-    if stale is not None:
-        # one line on stderr, named after the extension (no source line to quote)
-        warnings.warn_explicit(f"{stale}; the NumPy kernel runs instead", RuntimeWarning,
-                               "frcontrol._kernel", 0)
-        return None, stale
-    return _kernel, None
+    return (None, stale) if stale is not None else (_kernel, None)
 
 
 compiled, unavailable = _load_compiled()
@@ -85,15 +80,25 @@ compiled, unavailable = _load_compiled()
 source changed since it was built: :func:`stale_reason`); ``unavailable`` says which, else None."""
 
 
+_stale_said = False
+"""Whether this process was told that the extension is stale (:func:`kernel_choice` says it once)."""
+
+
 def kernel_choice() -> str:
     """The kernel in force: ``FRC_KERNEL``, or by default the compiled one when it is built.
 
+    Unset, with a stale extension (:func:`stale_reason`), it warns (:class:`StaleKernelWarning`).
+
     Raises:
         KernelError: ``FRC_KERNEL`` names no kernel, or asks for the compiled one where it was not
-            built.
+            built or is stale.
     """
     value = os.environ.get(KERNEL_VARIABLE, "")
     if not value:
+        global _stale_said
+        if compiled is None and unavailable != NOT_BUILT and not _stale_said:  # stale: say so, once
+            _stale_said = True
+            warnings.warn(f"{unavailable}; the NumPy kernel runs instead", StaleKernelWarning, stacklevel=2)
         return "compiled" if compiled is not None else "numpy"
     if value not in KERNELS:
         raise KernelError(f"{KERNEL_VARIABLE}={value!r} names no kernel; valid: {', '.join(KERNELS)}")
