@@ -62,6 +62,8 @@ def scene_for(volts: float, front: bool, flat: bool, hip_stiffness: float | None
     """
     hips = HIPS if front else HIPS[1:]
     sets: dict = {f"model.drives.{h}.voltage_limit": volts for h in HIPS[1:]}
+    if not hip_damping >= 0:
+        raise SystemExit(f"--hip-damping must be >= 0 N m s/rad, got {hip_damping}")
     if hip_stiffness is not None:
         stage = {"ratio": 33.0, "efficiency": 0.7, "stiffness": hip_stiffness}
         if hip_damping > 0:

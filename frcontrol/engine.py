@@ -447,7 +447,8 @@ def mode_margin(system: ModeSystem, response: AffineSolution, bounds: tuple[np.n
 
 
 _MARGIN_BOUNDS: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-""":func:`_margin_bounds` by dimension, built once (the door and DAQP only read them)."""
+""":func:`_margin_bounds` by dimension, built once (the door and DAQP only read them; they stay
+writable because DAQP's binding takes writable buffers only)."""
 
 
 def _margin_bounds(d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -135,11 +135,13 @@ __all__ = [
     "REPLAN_VELOCITY_TOLERANCE",
     "SEPARATION_GAP",
     "TORQUE_ROUNDING",
+    "AppliedPlan",
     "FlipPiece",
     "FlipPlan",
     "FlipResult",
     "FlipProblem",
     "FlipTask",
+    "ReplanningPolicy",
     "build_flip",
     "flip_task",
     "margin_pieces",
@@ -1220,12 +1222,15 @@ class AppliedPlan(Protocol):
     """What a closed loop reads of a plan: its mode, torques and input vector."""
 
     @property
-    def mode(self) -> str | None: ...
+    def mode(self) -> str | None:
+        """The plan's contact mode, or None."""
 
     @property
-    def torques(self) -> Mapping[str, float]: ...
+    def torques(self) -> Mapping[str, float]:
+        """The plan's input per input coordinate."""
 
-    def input_vector(self, inputs: Sequence[str]) -> np.ndarray: ...
+    def input_vector(self, inputs: Sequence[str]) -> np.ndarray:
+        """The plan's inputs in the order of ``inputs``."""
 
 
 class ReplanningPolicy:
