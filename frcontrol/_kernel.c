@@ -1014,6 +1014,30 @@ static int take_strided(PyObject *obj, Buffer *b, const char *name, int ndim, Py
     return 0;
 }
 
+/* take_strided for Pinocchio's arrays (Eigen matrices of doubles): 8-byte entries, no format string
+ * asked (numpy builds that string anew on every request, a tenth of the buffer's cost). */
+static int take_pinocchio(PyObject *obj, Buffer *b, const char *name, int ndim, Py_ssize_t *shape) {
+    if (PyObject_GetBuffer(obj, &b->view, PyBUF_STRIDES) != 0) {
+        PyErr_Clear();
+        PyErr_Format(kernel_error, "kernel buffer %s: not a strided buffer", name);
+        return -1;
+    }
+    b->held = 1;
+    if (b->view.itemsize != (Py_ssize_t)sizeof(double) || b->view.ndim != ndim) {
+        PyErr_Format(kernel_error, "kernel buffer %s: %d dimensions of %zd-byte entries, expected %d of float64",
+                     name, b->view.ndim, b->view.itemsize, ndim);
+        return -1;
+    }
+    for (int i = 0; i < ndim; i++) {
+        if (shape[i] >= 0 && b->view.shape[i] != shape[i]) {
+            PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, i,
+                         b->view.shape[i], shape[i]);
+            return -1;
+        }
+    }
+    return 0;
+}
+
 static double at1(const Py_buffer *v, Py_ssize_t i) {
     return *(const double *)((const char *)v->buf + i * v->strides[0]);
 }
@@ -1136,9 +1160,9 @@ static int fill_contacts(const StateJob *job, PyObject *frames, PyObject *positi
         Buffer fb[3];
         memset(fb, 0, sizeof(fb));
         Py_ssize_t pos_shape[1] = {3}, jac_shape[2] = {6, job->nv}, acc_shape[1] = {6};
-        int failed = arrays[2] == NULL || take_strided(arrays[0], &fb[0], "position", 1, pos_shape) ||
-                     take_strided(arrays[1], &fb[1], "jacobian", 2, jac_shape) ||
-                     take_strided(arrays[2], &fb[2], "acceleration", 1, acc_shape);
+        int failed = arrays[2] == NULL || take_pinocchio(arrays[0], &fb[0], "position", 1, pos_shape) ||
+                     take_pinocchio(arrays[1], &fb[1], "jacobian", 2, jac_shape) ||
+                     take_pinocchio(arrays[2], &fb[2], "acceleration", 1, acc_shape);
         if (!failed) {
             fill_contact(job, i, &fb[0].view, &fb[1].view, &fb[2].view);
         }
@@ -1218,8 +1242,8 @@ static int take_state_inputs(PyObject *const *args, Buffer *b, StateJob *job) {
             return -1;
         }
     }
-    if (take_strided(args[A_V], &b[0], "v", 1, vec) || take_strided(job->plan[P_MASS], &b[1], "mass", 2, mass_shape) ||
-        take_strided(job->plan[P_NLE], &b[2], "nle", 1, nle_shape)) {
+    if (take_strided(args[A_V], &b[0], "v", 1, vec) || take_pinocchio(job->plan[P_MASS], &b[1], "mass", 2, mass_shape) ||
+        take_pinocchio(job->plan[P_NLE], &b[2], "nle", 1, nle_shape)) {
         return -1;
     }
     job->n = vec[0], job->v = &b[0].view;
