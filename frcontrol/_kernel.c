@@ -1275,6 +1275,33 @@ static int take_state_inputs(PyObject *const *args, Buffer *b, StateJob *job) {
     return 0;
 }
 
+#define STATE_VIEWS 9
+static Py_ssize_t views_n = -1, views_k = -1; /* the (n, k) of view_slices */
+static PyObject *view_slices[STATE_VIEWS];   /* the views' slices of the blocks, for that (n, k) */
+
+/* The slices of state_arrays' views for (n, k), made when (n, k) differs from the last call's (a
+ * slice made per view costs a fifth of the view). */
+static int state_slices(Py_ssize_t n, Py_ssize_t k) {
+    if (n == views_n && k == views_k) {
+        return 0;
+    }
+    views_n = views_k = -1;
+    for (int j = 0; j < STATE_VIEWS; j++) {
+        Py_ssize_t lo = j == 0 || j == 3 ? 0 : j < 3 ? n + (j - 1) * k : n + (j - 4) * k;
+        Py_ssize_t hi = j == 0 || j == 3 ? n : lo + k;
+        PyObject *start = PyLong_FromSsize_t(lo), *stop = PyLong_FromSsize_t(hi);
+        PyObject *slice = start && stop ? PySlice_New(start, stop, NULL) : NULL;
+        Py_XDECREF(start);
+        Py_XDECREF(stop);
+        if (slice == NULL) {
+            return -1;
+        }
+        Py_XSETREF(view_slices[j], slice);
+    }
+    views_n = n, views_k = k;
+    return 0;
+}
+
 /* The state's arrays, new: the points, and views of two new blocks, the (n + 2k, n) matrices
  * [M; J_N; J_T] and the (n + 5k,) vectors [h, gaps, v_N, v_T, drift_N, drift_T] (three arrays
  * from numpy.empty instead of ten: a view costs less than an array and its buffer). */
@@ -1284,12 +1311,10 @@ static int state_arrays(StateJob *job, PyObject *empty, PyObject **values, Buffe
     PyObject *blocks[2] = {new_array(empty, n + 2 * k, n, &out[0], &matrices), NULL};
     blocks[1] = blocks[0] ? new_array(empty, n + 5 * k, -1, &out[1], &vectors) : NULL;
     int failed = blocks[1] == NULL ||
-                 (values[F_POINTS] = new_array(empty, k, 2, &out[2], &job->points)) == NULL;
-    int views[9] = {F_MASS, F_JN, F_JT, F_BIAS, F_GAPS, F_VN, F_VT, F_DN, F_DT}; /* 3 of one, 6 of the other */
-    for (int j = 0; j < 9 && !failed; j++) {
-        Py_ssize_t lo = j == 0 || j == 3 ? 0 : j < 3 ? n + (j - 1) * k : n + (j - 4) * k;
-        Py_ssize_t hi = j == 0 || j == 3 ? n : lo + k;
-        failed = (values[views[j]] = PySequence_GetSlice(blocks[j >= 3], lo, hi)) == NULL;
+                 (values[F_POINTS] = new_array(empty, k, 2, &out[2], &job->points)) == NULL || state_slices(n, k);
+    int views[STATE_VIEWS] = {F_MASS, F_JN, F_JT, F_BIAS, F_GAPS, F_VN, F_VT, F_DN, F_DT}; /* 3 of one, 6 of the other */
+    for (int j = 0; j < STATE_VIEWS && !failed; j++) {
+        failed = (values[views[j]] = PyObject_GetItem(blocks[j >= 3], view_slices[j])) == NULL;
     }
     Py_XDECREF(blocks[0]);
     Py_XDECREF(blocks[1]);
