@@ -965,15 +965,15 @@ done:
  * the NumPy path makes. Pinocchio's M, nle and each frame's p are read through views of the
  * data's own storage (data.M, data.nle, data.oMf[frame].translation: the plan's and the
  * positions' arrays, made once), which computeAllTerms and updateFramePlacement overwrite in
- * place: reading them costs no conversion per call. Then, with the contact's normal n, tangent t and offset n . s of its line:
- * the point p[0:2], the gap n . p[0:2] - n . s, the rows J_N = n^T J[0:2] and J_T = t^T J[0:2] in
- * minimal order, the velocities J_N v and J_T v, the drifts n . a[0:2] and t . a[0:2]. M is
- * mirrored from CRBA's upper triangle and h = nle (+ b v, the drives' damping), both in minimal
- * order. Pinocchio's arrays may be strided (Eigen is column-major). The result is a new instance
- * of the state type with every field in its __dict__, as its __init__ would set them; its arrays
- * are new: the points, and views of two new blocks, [M; J_N; J_T] (n + 2k, n) and [h, gaps, v_N,
- * v_T, drift_N, drift_T] (n + 5k,). The frames must be the model's (PlanarRobot's layouts):
- * Pinocchio does not check a frame index.
+ * place: reading them costs no conversion per call. Then, with the contact's normal n, tangent
+ * t and offset n . s of its line: the point p[0:2], the gap n . p[0:2] - n . s, the rows
+ * J_N = n^T J[0:2] and J_T = t^T J[0:2] in minimal order, the velocities J_N v and J_T v, the
+ * drifts n . a[0:2] and t . a[0:2]. M is mirrored from CRBA's upper triangle and h = nle (+ b v,
+ * the drives' damping), both in minimal order. Pinocchio's arrays may be strided (Eigen is
+ * column-major). The result is a new instance of the state type with every field in its
+ * __dict__, as its __init__ would set them; its arrays are new: the points, and views of two new
+ * blocks, [M; J_N; J_T] (n + 2k, n) and [h, gaps, v_N, v_T, drift_N, drift_T] (n + 5k,). The
+ * frames must be the model's (PlanarRobot's layouts): Pinocchio does not check a frame index.
  */
 #define STATE_FIELDS 12
 #define STATE_ARGS 7
