@@ -962,28 +962,33 @@ done:
  * Its NumPy path (PlanarRobot._state_numpy) is the reference it reproduces. Per contact frame, in
  * that order, it calls Pinocchio's updateFramePlacement (the position p), getFrameJacobian (J,
  * 6 x nv, world-aligned, at the point) and getFrameClassicalAcceleration (a, the drift), the calls
- * the NumPy path makes; then, with the contact's normal n, tangent t and offset n . s of its line:
- * the point p[0:2], the gap n . p[0:2] - n . s, the rows J_N = n^T J[0:2] and J_T = t^T J[0:2] in
- * minimal order, the velocities J_N v and J_T v, the drifts n . a[0:2] and t . a[0:2]. M is
- * mirrored from CRBA's upper triangle and h = nle (+ b v, the drives' damping), both in minimal
- * order. Pinocchio's arrays may be strided (Eigen is column-major). The result is a new instance
- * of the state type with every field in its __dict__, as its __init__ would set them; its arrays
- * are new: M, h, the points, the rows (J_N and J_T are views of one (2k, n) array) and the
- * contact values (gaps, velocities and drifts: views of one (5k,) array). The frames must be the
- * model's (PlanarRobot's layouts): Pinocchio does not check a frame index.
+ * the NumPy path makes. Pinocchio's M, nle and each frame's p are read through views of the
+ * data's own storage (data.M, data.nle, data.oMf[frame].translation: the plan's and the
+ * positions' arrays, made once), which computeAllTerms and updateFramePlacement overwrite in
+ * place: reading them costs no conversion per call. Then, with the contact's normal n, tangent
+ * t and offset n . s of its line: the point p[0:2], the gap n . p[0:2] - n . s, the rows
+ * J_N = n^T J[0:2] and J_T = t^T J[0:2] in minimal order, the velocities J_N v and J_T v, the
+ * drifts n . a[0:2] and t . a[0:2]. M is mirrored from CRBA's upper triangle and h = nle (+ b v,
+ * the drives' damping), both in minimal order. Pinocchio's arrays may be strided (Eigen is
+ * column-major). The result is a new instance of the state type with every field in its
+ * __dict__, as its __init__ would set them; its arrays are new: the points, and views of two new
+ * blocks, [M; J_N; J_T] (n + 2k, n) and [h, gaps, v_N, v_T, drift_N, drift_T] (n + 5k,). The
+ * frames must be the model's (PlanarRobot's layouts): Pinocchio does not check a frame index.
  */
 #define STATE_FIELDS 12
-#define STATE_ARGS 8
-#define PLAN_ENTRIES 10
+#define STATE_ARGS 7
+#define PLAN_ENTRIES 12
 #define LINE_ENTRIES 5 /* n_x, n_y, t_x, t_y, n . s */
 
 static const char *state_field_names[STATE_FIELDS] = {
     "q", "v", "mass_matrix", "bias", "contact_points", "gaps", "normal_velocities",
     "tangential_velocities", "jacobian_normal", "jacobian_tangent", "drift_normal", "drift_tangent"};
 static PyObject *state_fields[STATE_FIELDS]; /* interned on the first call */
-static PyObject *translation_name, *vector_name;
+static PyObject *vector_name;
 enum { F_MASS = 2, F_BIAS, F_POINTS, F_GAPS, F_VN, F_VT, F_JN, F_JT, F_DN, F_DT };
-enum { P_TYPE, P_EMPTY, P_MODEL, P_DATA, P_UPDATE, P_JACOBIAN, P_ACCELERATION, P_FRAME, P_V_INDEX, P_NV };
+enum { P_TYPE, P_EMPTY, P_MODEL, P_DATA, P_UPDATE, P_JACOBIAN, P_ACCELERATION, P_FRAME, P_V_INDEX, P_NV, P_MASS,
+       P_NLE };
+enum { A_PLAN, A_Q, A_V, A_FRAMES, A_POSITIONS, A_LINES, A_DAMPING };
 
 /* A float64 buffer of ndim dimensions with any strides; shape entries >= 0 must match. */
 static int take_strided(PyObject *obj, Buffer *b, const char *name, int ndim, Py_ssize_t *shape) {
@@ -1009,6 +1014,30 @@ static int take_strided(PyObject *obj, Buffer *b, const char *name, int ndim, Py
     return 0;
 }
 
+/* take_strided for Pinocchio's arrays (Eigen matrices of doubles): 8-byte entries, no format string
+ * asked (numpy builds that string anew on every request, a tenth of the buffer's cost). */
+static int take_pinocchio(PyObject *obj, Buffer *b, const char *name, int ndim, Py_ssize_t *shape) {
+    if (PyObject_GetBuffer(obj, &b->view, PyBUF_STRIDES) != 0) {
+        PyErr_Clear();
+        PyErr_Format(kernel_error, "kernel buffer %s: not a strided buffer", name);
+        return -1;
+    }
+    b->held = 1;
+    if (b->view.itemsize != (Py_ssize_t)sizeof(double) || b->view.ndim != ndim) {
+        PyErr_Format(kernel_error, "kernel buffer %s: %d dimensions of %zd-byte entries, expected %d of float64",
+                     name, b->view.ndim, b->view.itemsize, ndim);
+        return -1;
+    }
+    for (int i = 0; i < ndim; i++) {
+        if (shape[i] >= 0 && b->view.shape[i] != shape[i]) {
+            PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, i,
+                         b->view.shape[i], shape[i]);
+            return -1;
+        }
+    }
+    return 0;
+}
+
 static double at1(const Py_buffer *v, Py_ssize_t i) {
     return *(const double *)((const char *)v->buf + i * v->strides[0]);
 }
@@ -1017,17 +1046,33 @@ static double at2(const Py_buffer *v, Py_ssize_t i, Py_ssize_t j) {
     return *(const double *)((const char *)v->buf + i * v->strides[0] + j * v->strides[1]);
 }
 
-/* A new float64 array (rows,) or (rows, cols) from `empty` (numpy.empty), its buffer held in b. */
+/* A new float64 array (rows,) or (rows, cols) from `empty` (numpy.empty, whose default type is
+ * float64), its C-contiguous buffer held in b (no format asked: numpy builds that string anew for
+ * every new array). */
 static PyObject *new_array(PyObject *empty, Py_ssize_t rows, Py_ssize_t cols, Buffer *b, double **data) {
-    PyObject *shape = cols < 0 ? PyLong_FromSsize_t(rows) : Py_BuildValue("(nn)", rows, cols);
+    PyObject *shape = cols < 0 ? PyLong_FromSsize_t(rows) : PyTuple_New(2);
+    if (shape != NULL && cols >= 0) {
+        PyObject *r = PyLong_FromSsize_t(rows), *c = PyLong_FromSsize_t(cols);
+        PyTuple_SET_ITEM(shape, 0, r);
+        PyTuple_SET_ITEM(shape, 1, c);
+        if (r == NULL || c == NULL) {
+            Py_CLEAR(shape);
+        }
+    }
     if (shape == NULL) {
         return NULL;
     }
     PyObject *array = PyObject_CallOneArg(empty, shape);
     Py_DECREF(shape);
-    Py_ssize_t want[2] = {rows, cols};
-    if (array == NULL || take(array, b, "output", 'd', cols < 0 ? 1 : 2, want, 1)) {
-        Py_XDECREF(array);
+    if (array == NULL) {
+        return NULL;
+    }
+    Py_ssize_t size = cols < 0 ? rows : rows * cols;
+    if (PyObject_GetBuffer(array, &b->view, PyBUF_C_CONTIGUOUS | PyBUF_WRITABLE) != 0 ||
+        (b->held = 1, b->view.len != size * (Py_ssize_t)sizeof(double))) {
+        PyErr_Clear();
+        PyErr_Format(kernel_error, "kernel buffer output: not %zd writable, C-contiguous float64 entries", size);
+        Py_DECREF(array);
         return NULL;
     }
     *data = b->view.buf;
@@ -1102,19 +1147,22 @@ static PyObject *pinocchio_call(const StateJob *job, int function, PyObject *fra
     return attribute;
 }
 
-/* Every contact frame of the tuple `frames`: Pinocchio's three calls, then its entries. */
-static int fill_contacts(const StateJob *job, PyObject *frames) {
+/* Every contact frame of the tuple `frames`: Pinocchio's three calls, then its entries; the
+ * frame's position is read from its view in the tuple `positions` after updateFramePlacement. */
+static int fill_contacts(const StateJob *job, PyObject *frames, PyObject *positions) {
     for (Py_ssize_t i = 0; i < job->k; i++) {
         PyObject *frame = PyTuple_GET_ITEM(frames, i), *arrays[3];
-        arrays[0] = pinocchio_call(job, P_UPDATE, frame, 0, translation_name);
+        PyObject *placement = pinocchio_call(job, P_UPDATE, frame, 0, NULL);
+        Py_XDECREF(placement);
+        arrays[0] = placement ? Py_NewRef(PyTuple_GET_ITEM(positions, i)) : NULL;
         arrays[1] = arrays[0] ? pinocchio_call(job, P_JACOBIAN, frame, 1, NULL) : NULL;
         arrays[2] = arrays[1] ? pinocchio_call(job, P_ACCELERATION, frame, 1, vector_name) : NULL;
         Buffer fb[3];
         memset(fb, 0, sizeof(fb));
         Py_ssize_t pos_shape[1] = {3}, jac_shape[2] = {6, job->nv}, acc_shape[1] = {6};
-        int failed = arrays[2] == NULL || take_strided(arrays[0], &fb[0], "position", 1, pos_shape) ||
-                     take_strided(arrays[1], &fb[1], "jacobian", 2, jac_shape) ||
-                     take_strided(arrays[2], &fb[2], "acceleration", 1, acc_shape);
+        int failed = arrays[2] == NULL || take_pinocchio(arrays[0], &fb[0], "position", 1, pos_shape) ||
+                     take_pinocchio(arrays[1], &fb[1], "jacobian", 2, jac_shape) ||
+                     take_pinocchio(arrays[2], &fb[2], "acceleration", 1, acc_shape);
         if (!failed) {
             fill_contact(job, i, &fb[0].view, &fb[1].view, &fb[2].view);
         }
@@ -1135,40 +1183,36 @@ static int intern_names(void) {
             return -1;
         }
     }
-    if (translation_name == NULL && (translation_name = PyUnicode_InternFromString("translation")) == NULL) {
-        return -1;
-    }
     if (vector_name == NULL && (vector_name = PyUnicode_InternFromString("vector")) == NULL) {
         return -1;
     }
     return 0;
 }
 
-/* object.__new__(state_type) with the fields `values` as its __dict__. */
+/* object.__new__(state_type) with the fields `values` set as object.__setattr__ sets them (the
+ * frozen class's own __setattr__ refuses), into the instance's __dict__. */
 static PyObject *new_state(PyObject *state_type, PyObject **values) {
-    PyObject *dict = PyDict_New(), *no_args = PyTuple_New(0), *state = NULL;
-    int failed = dict == NULL || no_args == NULL;
-    for (int f = 0; f < STATE_FIELDS && !failed; f++) {
-        failed = PyDict_SetItem(dict, state_fields[f], values[f]) != 0;
-    }
-    if (!failed) {
+    PyObject *no_args = PyTuple_New(0), *state = NULL;
+    if (no_args != NULL) {
         state = PyBaseObject_Type.tp_new((PyTypeObject *)state_type, no_args, NULL);
+        Py_DECREF(no_args);
     }
-    if (state != NULL && PyObject_GenericSetDict(state, dict, NULL) != 0) {
-        Py_CLEAR(state);
+    for (int f = 0; f < STATE_FIELDS && state != NULL; f++) {
+        if (PyObject_GenericSetAttr(state, state_fields[f], values[f]) != 0) {
+            Py_CLEAR(state);
+        }
     }
-    Py_XDECREF(dict);
-    Py_XDECREF(no_args);
     return state;
 }
 
-/* Checks the plan, v, mass, nle, frames, lines and damping into b and job. */
+/* Checks the plan (with its mass and nle), v, frames, positions, lines and damping into b and job. */
 static int take_state_inputs(PyObject *const *args, Buffer *b, StateJob *job) {
-    PyObject *plan = args[0];
+    PyObject *plan = args[A_PLAN];
     if (!PyTuple_Check(plan) || PyTuple_GET_SIZE(plan) != PLAN_ENTRIES || !PyType_Check(PyTuple_GET_ITEM(plan, P_TYPE)) ||
-        !PyTuple_Check(args[5])) {
+        !PyTuple_Check(args[A_FRAMES]) || !PyTuple_Check(args[A_POSITIONS]) ||
+        PyTuple_GET_SIZE(args[A_POSITIONS]) != PyTuple_GET_SIZE(args[A_FRAMES])) {
         PyErr_Format(kernel_error, "robot_state: plan must be a tuple of %d entries, the first a class, and "
-                     "frames a tuple", PLAN_ENTRIES);
+                     "frames and positions tuples of one length", PLAN_ENTRIES);
         return -1;
     }
     job->plan = &PyTuple_GET_ITEM(plan, 0);
@@ -1180,8 +1224,8 @@ static int take_state_inputs(PyObject *const *args, Buffer *b, StateJob *job) {
         return -1;
     }
     Py_ssize_t nv = job->nv, vec[1] = {-1}, mass_shape[2] = {nv, nv}, nle_shape[1] = {nv};
-    job->k = PyTuple_GET_SIZE(args[5]);
-    if (!PyTuple_Check(args[6]) || PyTuple_GET_SIZE(args[6]) != LINE_ENTRIES * job->k) {
+    job->k = PyTuple_GET_SIZE(args[A_FRAMES]);
+    if (!PyTuple_Check(args[A_LINES]) || PyTuple_GET_SIZE(args[A_LINES]) != LINE_ENTRIES * job->k) {
         PyErr_Format(kernel_error, "robot_state: lines must be a tuple of %zd floats", LINE_ENTRIES * job->k);
         return -1;
     }
@@ -1191,15 +1235,15 @@ static int take_state_inputs(PyObject *const *args, Buffer *b, StateJob *job) {
         return -1;
     }
     for (Py_ssize_t i = 0; i < LINE_ENTRIES * job->k; i++) {
-        job->lines[i] = PyFloat_AsDouble(PyTuple_GET_ITEM(args[6], i));
+        job->lines[i] = PyFloat_AsDouble(PyTuple_GET_ITEM(args[A_LINES], i));
         if (job->lines[i] == -1.0 && PyErr_Occurred()) {
             PyErr_Clear();
             PyErr_Format(kernel_error, "robot_state: lines[%zd] is not a number", i);
             return -1;
         }
     }
-    if (take_strided(args[2], &b[0], "v", 1, vec) || take_strided(args[3], &b[1], "mass", 2, mass_shape) ||
-        take_strided(args[4], &b[2], "nle", 1, nle_shape)) {
+    if (take_strided(args[A_V], &b[0], "v", 1, vec) || take_pinocchio(job->plan[P_MASS], &b[1], "mass", 2, mass_shape) ||
+        take_pinocchio(job->plan[P_NLE], &b[2], "nle", 1, nle_shape)) {
         return -1;
     }
     job->n = vec[0], job->v = &b[0].view;
@@ -1222,8 +1266,8 @@ static int take_state_inputs(PyObject *const *args, Buffer *b, StateJob *job) {
             }
         }
     }
-    if (args[7] != Py_None) {
-        if (take(args[7], &b[5], "damping", 'd', 1, n_shape, 0)) {
+    if (args[A_DAMPING] != Py_None) {
+        if (take(args[A_DAMPING], &b[5], "damping", 'd', 1, n_shape, 0)) {
             return -1;
         }
         job->damping = b[5].view.buf;
@@ -1231,23 +1275,52 @@ static int take_state_inputs(PyObject *const *args, Buffer *b, StateJob *job) {
     return 0;
 }
 
-/* The state's arrays: four new ones, and views (J_N, J_T of the rows; the values). */
-static int state_arrays(const StateJob *job, PyObject *empty, PyObject **values, Buffer *out, double **data) {
-    Py_ssize_t n = job->n, k = job->k;
-    PyObject *rows = NULL, *motion = NULL;
-    int failed = (values[F_MASS] = new_array(empty, n, n, &out[0], &data[0])) == NULL ||
-                 (values[F_BIAS] = new_array(empty, n, -1, &out[1], &data[1])) == NULL ||
-                 (values[F_POINTS] = new_array(empty, k, 2, &out[2], &data[2])) == NULL ||
-                 (rows = new_array(empty, 2 * k, n, &out[3], &data[3])) == NULL ||
-                 (motion = new_array(empty, 5 * k, -1, &out[4], &data[4])) == NULL;
-    int views[7] = {F_JN, F_JT, F_GAPS, F_VN, F_VT, F_DN, F_DT};
-    for (int j = 0; j < 7 && !failed; j++) {
-        PyObject *base = j < 2 ? rows : motion;
-        Py_ssize_t lo = (j < 2 ? j : j - 2) * k;
-        failed = (values[views[j]] = PySequence_GetSlice(base, lo, lo + k)) == NULL;
+#define STATE_VIEWS 9
+static Py_ssize_t views_n = -1, views_k = -1; /* the (n, k) of view_slices */
+static PyObject *view_slices[STATE_VIEWS];   /* the views' slices of the blocks, for that (n, k) */
+
+/* The slices of state_arrays' views for (n, k), made when (n, k) differs from the last call's (a
+ * slice made per view costs a fifth of the view). */
+static int state_slices(Py_ssize_t n, Py_ssize_t k) {
+    if (n == views_n && k == views_k) {
+        return 0;
     }
-    Py_XDECREF(rows);
-    Py_XDECREF(motion);
+    views_n = views_k = -1;
+    for (int j = 0; j < STATE_VIEWS; j++) {
+        Py_ssize_t lo = j == 0 || j == 3 ? 0 : j < 3 ? n + (j - 1) * k : n + (j - 4) * k;
+        Py_ssize_t hi = j == 0 || j == 3 ? n : lo + k;
+        PyObject *start = PyLong_FromSsize_t(lo), *stop = PyLong_FromSsize_t(hi);
+        PyObject *slice = start && stop ? PySlice_New(start, stop, NULL) : NULL;
+        Py_XDECREF(start);
+        Py_XDECREF(stop);
+        if (slice == NULL) {
+            return -1;
+        }
+        Py_XSETREF(view_slices[j], slice);
+    }
+    views_n = n, views_k = k;
+    return 0;
+}
+
+/* The state's arrays, new: the points, and views of two new blocks, the (n + 2k, n) matrices
+ * [M; J_N; J_T] and the (n + 5k,) vectors [h, gaps, v_N, v_T, drift_N, drift_T] (three arrays
+ * from numpy.empty instead of ten: a view costs less than an array and its buffer). */
+static int state_arrays(StateJob *job, PyObject *empty, PyObject **values, Buffer *out) {
+    Py_ssize_t n = job->n, k = job->k;
+    double *matrices = NULL, *vectors = NULL;
+    PyObject *blocks[2] = {new_array(empty, n + 2 * k, n, &out[0], &matrices), NULL};
+    blocks[1] = blocks[0] ? new_array(empty, n + 5 * k, -1, &out[1], &vectors) : NULL;
+    int failed = blocks[1] == NULL ||
+                 (values[F_POINTS] = new_array(empty, k, 2, &out[2], &job->points)) == NULL || state_slices(n, k);
+    int views[STATE_VIEWS] = {F_MASS, F_JN, F_JT, F_BIAS, F_GAPS, F_VN, F_VT, F_DN, F_DT}; /* 3 of one, 6 of the other */
+    for (int j = 0; j < STATE_VIEWS && !failed; j++) {
+        failed = (values[views[j]] = PyObject_GetItem(blocks[j >= 3], view_slices[j])) == NULL;
+    }
+    Py_XDECREF(blocks[0]);
+    Py_XDECREF(blocks[1]);
+    if (!failed) {
+        job->mass = matrices, job->rows = matrices + n * n, job->bias = vectors, job->values = vectors + n;
+    }
     return failed ? -1 : 0;
 }
 
@@ -1260,25 +1333,23 @@ static PyObject *robot_state(PyObject *self, PyObject *const *args, Py_ssize_t n
     if (intern_names()) {
         return NULL;
     }
-    Buffer b[6], out[5]; /* inputs: v, mass, nle, (unused), v_index, damping; the five new arrays */
+    Buffer b[6], out[3]; /* inputs: v, mass, nle, (unused), v_index, damping; the three new arrays */
     memset(b, 0, sizeof(b));
     memset(out, 0, sizeof(out));
     StateJob job;
     memset(&job, 0, sizeof(job));
     PyObject *values[STATE_FIELDS] = {NULL}, *result = NULL;
-    double *data[5] = {NULL};
-    if (take_state_inputs(args, b, &job) == 0 && state_arrays(&job, job.plan[P_EMPTY], values, out, data) == 0) {
-        job.mass = data[0], job.bias = data[1], job.points = data[2], job.rows = data[3], job.values = data[4];
+    if (take_state_inputs(args, b, &job) == 0 && state_arrays(&job, job.plan[P_EMPTY], values, out) == 0) {
         fill_dynamics(&job, &b[1].view, &b[2].view);
-        if (fill_contacts(&job, args[5]) == 0) {
-            values[0] = args[1];
-            values[1] = args[2];
+        if (fill_contacts(&job, args[A_FRAMES], args[A_POSITIONS]) == 0) {
+            values[0] = args[A_Q];
+            values[1] = args[A_V];
             result = new_state(job.plan[P_TYPE], values);
         }
     }
     PyMem_Free(job.lines);
     release(b, 6);
-    release(out, 5);
+    release(out, 3);
     for (int f = F_MASS; f < STATE_FIELDS; f++) {
         Py_XDECREF(values[f]);
     }
@@ -1780,13 +1851,15 @@ static PyMethodDef methods[] = {
      "The LP door's primal residual of x (NaN for x None) and the scale of its tolerance\n"
      "(frcontrol.solvers.primal_residual and FEASIBILITY_TOLERANCE), in one pass."},
     {"robot_state", (PyCFunction)(void (*)(void))robot_state, METH_FASTCALL,
-     "robot_state(plan, q, v, mass, nle, frames, lines, damping) -> state\n\n"
+     "robot_state(plan, q, v, frames, positions, lines, damping) -> state\n\n"
      "frcontrol.model.PlanarRobot.state after Pinocchio's computeAllTerms: a new instance of the state\n"
      "type (its fields in its __dict__) from Pinocchio's M (upper triangle) and nle and, per frame of\n"
-     "the tuple frames, Pinocchio's position, world-aligned Jacobian and classical acceleration;\n"
-     "lines (a tuple of 5 k floats) holds each contact's n, t and n . s, damping (or None) the drives' b. plan: (state\n"
-     "type, numpy.empty, model, data, updateFramePlacement, getFrameJacobian,\n"
-     "getFrameClassicalAcceleration, LOCAL_WORLD_ALIGNED, v_index (int64, or None: the identity), nv)."},
+     "the tuple frames, Pinocchio's position (read after updateFramePlacement from the frame's view in\n"
+     "the tuple positions, data.oMf[frame].translation), world-aligned Jacobian and classical\n"
+     "acceleration; lines (a tuple of 5 k floats) holds each contact's n, t and n . s, damping (or\n"
+     "None) the drives' b. plan: (state type, numpy.empty, model, data, updateFramePlacement,\n"
+     "getFrameJacobian, getFrameClassicalAcceleration, LOCAL_WORLD_ALIGNED, v_index (int64, or None:\n"
+     "the identity), nv, data.M, data.nle), the last two views of the data's storage."},
     {"contact_rows", (PyCFunction)(void (*)(void))contact_rows, METH_FASTCALL,
      "contact_rows(mass, jacobian_normal, jacobian_tangent, drift_normal, drift_tangent, mu,\n"
      "             normal_velocities, tangential_velocities, velocity_tolerance, dynamics, equalities,\n"

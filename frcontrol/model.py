@@ -89,17 +89,21 @@ class _ContactLayout:
             n^T (p - s); p_x, p_y interleaved]``: drifts, gaps and the points.
         lines: each contact's ``n_x, n_y, t_x, t_y, n . s`` (5k floats), what the compiled assembly
             (:func:`frcontrol._kernel.robot_state`) reads in place of the two projections.
+        positions: each frame's ``data.oMf[frame].translation`` [m], a view of the Pinocchio data's
+            storage, which ``updateFramePlacement`` overwrites in place: the compiled assembly reads
+            the position there, with no conversion of the call's result.
     """
 
     frames: tuple[int, ...]
     jacobian_projection: np.ndarray
     motion_projection: np.ndarray
     lines: tuple[float, ...]
+    positions: tuple[np.ndarray, ...]
 
 
 def _contact_layout(frames: Sequence[int], normals: np.ndarray, tangents: np.ndarray,
-                    surface_points: np.ndarray) -> _ContactLayout:
-    """The projections of :class:`_ContactLayout` for contacts with these (k, 2) lines."""
+                    surface_points: np.ndarray, positions: Sequence[np.ndarray]) -> _ContactLayout:
+    """The :class:`_ContactLayout` of contacts with these (k, 2) lines and position views."""
     k = len(frames)
     jacobian = np.zeros((2 * k, 6 * k))
     motion = np.zeros((5 * k, 9 * k + 1))
@@ -111,7 +115,7 @@ def _contact_layout(frames: Sequence[int], normals: np.ndarray, tangents: np.nda
         motion[2 * k + i, -1] = -(normal @ surface)
         motion[3 * k + 2 * i, pos] = motion[3 * k + 2 * i + 1, pos + 1] = 1.0
     lines = np.column_stack([normals, tangents, -motion[2 * k:3 * k, -1]]).reshape(k, 5)
-    return _ContactLayout(tuple(frames), jacobian, motion, tuple(lines.ravel().tolist()))
+    return _ContactLayout(tuple(frames), jacobian, motion, tuple(lines.ravel().tolist()), tuple(positions))
 
 
 @dataclass(frozen=True)
@@ -452,7 +456,10 @@ class PlanarRobot:
             [c.surface_point_in_world for c in self.contacts], dtype=float
         ).reshape(-1, 2)
         self.model = model
-        self.data = model.createData()
+        self.data = model.createData()  # never replaced: the views below read its storage
+        # views of the data's storage, which Pinocchio's calls overwrite in place (Eigen's M is
+        # column-major: its view is strided); they do not keep the data alive, this object does
+        self._frame_positions = [self.data.oMf[f].translation for f in frame_ids]
         self._mass_gather = skeleton.mass_gather  # M from CRBA's upper triangle (_Skeleton)
         self._layouts: dict = {}  # contact subsets -> _ContactLayout
         self._damping = np.zeros(n)  # [N m s/rad] drives' viscous damping (set_drive_terms)
@@ -461,7 +468,7 @@ class PlanarRobot:
         self._kernel_plan = (RobotState, np.empty, model, self.data, pin.updateFramePlacement,
                              pin.getFrameJacobian, pin.getFrameClassicalAcceleration, _WORLD_ALIGNED,
                              None if self._identity_order else np.asarray(v_index, dtype=np.int64), n,
-                             ) if _compiled_assembly() else None
+                             self.data.M, self.data.nle) if _compiled_assembly() else None
 
     # ------------------------------------------------------------------ construction helpers
     def _add_point_frame(self, model: pin.Model, name: str, link: str, point: np.ndarray) -> int:
@@ -569,7 +576,8 @@ class PlanarRobot:
         if layout is None:
             indices = list(range(len(self.contacts))) if key is None else list(key)
             layout = _contact_layout([self._contact_frames[i] for i in indices], self._normals[indices],
-                                     self._tangents[indices], self._surface_points[indices])
+                                     self._tangents[indices], self._surface_points[indices],
+                                     [self._frame_positions[i] for i in indices])
             self._layouts[key] = layout
         return layout
 
@@ -584,7 +592,8 @@ class PlanarRobot:
         contact frame its placement (first: the other two read it), its world-aligned 6 x n
         Jacobian at the point and its classical acceleration, the drift; these are projected on
         the contacts' normals and tangents in one call of the compiled kernel
-        (:func:`frcontrol._kernel.robot_state`), or in NumPy (:meth:`_state_numpy`, the
+        (:func:`frcontrol._kernel.robot_state`, which reads M, h and the frames' positions through
+        views of the Pinocchio data's storage, made once), or in NumPy (:meth:`_state_numpy`, the
         reference) where ``FRC_KERNEL=numpy`` or the extension is not built.
 
         Args:
@@ -592,16 +601,19 @@ class PlanarRobot:
             v: minimal velocity, float64, shape (n,).
             contacts: indices into ``self.contacts`` to evaluate (default: all), in that order.
         """
-        model, data = self.model, self.data
-        pin.computeAllTerms(model, data, self._pinocchio_q(q),
+        # (an array q goes to Pinocchio as it is where no gather is needed: Pinocchio converts
+        # other number types itself; a sequence goes through _pinocchio_q)
+        pin.computeAllTerms(self.model, self.data,
+                            q if self._q_gather is None and type(q) is np.ndarray else self._pinocchio_q(q),
                             v if self._identity_order else self.pinocchio_v_from_minimal(v))
         layout = self._layouts.get(contacts) if contacts is None or type(contacts) is tuple else None
         if layout is None:
             layout = self._layout(None if contacts is None else tuple(contacts))
-        if self._kernel_plan is None:
+        plan = self._kernel_plan
+        if plan is None:
             return self._state_numpy(q, v, layout)
         return compiled.robot_state(  # type: ignore[union-attr]  # a plan only where it is built
-            self._kernel_plan, q, v, data.M, data.nle, layout.frames, layout.lines,
+            plan, q, v, layout.frames, layout.positions, layout.lines,
             self._damping if self._has_damping else None)
 
     def _state_numpy(self, q: np.ndarray, v: np.ndarray, layout: _ContactLayout) -> RobotState:

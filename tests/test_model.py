@@ -434,27 +434,51 @@ def test_compiled_assembly_refuses_malformed_arguments(monkeypatch):
     robot = scene.robot
     if robot._kernel_plan is None:
         pytest.skip("the compiled kernel is not built here (tests/test_kernel.py fails in CI then)")
-    plan, data = robot._kernel_plan, robot.data
+    plan = robot._kernel_plan
     layout = robot._layout(None)
-    good = [plan, scene.q, scene.v, data.M, data.nle, layout.frames, layout.lines, None]
+    good = [plan, scene.q, scene.v, layout.frames, layout.positions, layout.lines, None]
     assert _kernel.robot_state(*good).gaps.shape == (1,)
     cases = [
-        ({0: plan[:-1]}, "plan must be a tuple of 10 entries"),
-        ({0: (1,) + plan[1:]}, "plan must be a tuple of 10 entries"),
-        ({5: list(layout.frames)}, "frames a tuple"),
-        ({6: layout.lines[:-1]}, "lines must be a tuple of 5 floats"),
-        ({6: ("a",) * 5}, r"lines\[0\] is not a number"),
+        ({0: plan[:-1]}, "plan must be a tuple of 12 entries"),
+        ({0: (1,) + plan[1:]}, "plan must be a tuple of 12 entries"),
+        ({3: list(layout.frames)}, "frames and positions tuples"),
+        ({4: ()}, "frames and positions tuples of one length"),
+        ({5: layout.lines[:-1]}, "lines must be a tuple of 5 floats"),
+        ({5: ("a",) * 5}, r"lines\[0\] is not a number"),
         ({2: scene.v[:2]}, "v has 2 entries, expected 3"),
         ({2: scene.v.astype(np.float32)}, "buffer v"),
         ({2: [0.0, 0.0, 0.0]}, "buffer v: not a strided buffer"),
-        ({3: np.zeros((3, 2))}, "buffer mass: axis 1 has 2 entries, expected 3"),
-        ({4: np.zeros(4)}, "buffer nle: axis 0 has 4 entries, expected 3"),
-        ({7: np.zeros(2)}, "buffer damping"),
-        ({0: plan[:8] + (np.array([0, 1, 3]), 3)}, r"v_index\[2\] = 3 is outside 0..2"),
+        ({0: plan[:10] + (np.zeros((3, 2)), plan[11])}, "buffer mass: axis 1 has 2 entries, expected 3"),
+        ({0: plan[:11] + (np.zeros(4),)}, "buffer nle: axis 0 has 4 entries, expected 3"),
+        ({4: (np.zeros(2),)}, "buffer position: axis 0 has 2 entries, expected 3"),
+        ({6: np.zeros(2)}, "buffer damping"),
+        ({0: plan[:8] + (np.array([0, 1, 3]),) + plan[9:]}, r"v_index\[2\] = 3 is outside 0..2"),
     ]
     for change, message in cases:
         args = [change.get(i, arg) for i, arg in enumerate(good)]
         with pytest.raises(KernelError if message else Exception, match=message):
             _kernel.robot_state(*args)
-    with pytest.raises(KernelError, match="takes 8 arguments, got 7"):
+    with pytest.raises(KernelError, match="takes 7 arguments, got 6"):
         _kernel.robot_state(*good[:-1])
+
+
+def test_compiled_assembly_reads_pinocchio_storage_in_place():
+    """The views the compiled assembly reads (the plan's M and h, each contact's position) are of
+    the Pinocchio data's own storage: after a call at another state they hold Pinocchio's new
+    values, the same as its conversions of data.M, data.nle and the placement's translation."""
+    scene = load_scene("rhex_flip")
+    robot = scene.robot
+    if robot._kernel_plan is None:
+        pytest.skip("the compiled kernel is not built here (tests/test_kernel.py fails in CI then)")
+    mass, nle = robot._kernel_plan[10:]
+    layout = robot._layout(None)
+    rng = np.random.default_rng(3)
+    for _ in range(2):
+        q, v = random_state(robot, rng)
+        state = robot.state(q, v)
+        np.testing.assert_array_equal(mass, robot.data.M)
+        np.testing.assert_array_equal(nle, robot.data.nle)
+        for frame, position, point in zip(layout.frames, layout.positions, state.contact_points, strict=True):
+            placement = pin.updateFramePlacement(robot.model, robot.data, frame)
+            np.testing.assert_array_equal(position, placement.translation)
+            np.testing.assert_array_equal(position[:2], point)
