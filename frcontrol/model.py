@@ -169,6 +169,23 @@ _WORLD_ALIGNED = pin.LOCAL_WORLD_ALIGNED
 _ONE = np.ones(1)
 _ONE.setflags(write=False)
 
+_FLOAT64 = np.dtype(np.float64)
+
+
+def _reads_in_place(data: pin.Data, frames: Sequence[int]) -> bool:
+    """Whether Pinocchio hands out ``data.M``, ``data.nle`` and the frames' translations as views.
+
+    The compiled assembly makes these views once and reads the data's storage through them: each
+    must not own its memory, and two reads must give the same memory. Where a Pinocchio build hands
+    out copies instead, the NumPy assembly runs.
+    """
+
+    def address(array: np.ndarray) -> int:
+        return int(array.__array_interface__["data"][0])
+
+    reads = [lambda: data.M, lambda: data.nle] + [lambda f=f: data.oMf[f].translation for f in frames]
+    return all(not read().flags.owndata and address(read()) == address(read()) for read in reads)
+
 
 def _compiled_assembly() -> bool:
     """Whether :meth:`PlanarRobot.state` assembles in the compiled kernel.
@@ -468,7 +485,8 @@ class PlanarRobot:
         self._kernel_plan = (RobotState, np.empty, model, self.data, pin.updateFramePlacement,
                              pin.getFrameJacobian, pin.getFrameClassicalAcceleration, _WORLD_ALIGNED,
                              None if self._identity_order else np.asarray(v_index, dtype=np.int64), n,
-                             self.data.M, self.data.nle) if _compiled_assembly() else None
+                             self.data.M, self.data.nle) if _compiled_assembly() and _reads_in_place(
+                                 self.data, frame_ids) else None
 
     # ------------------------------------------------------------------ construction helpers
     def _add_point_frame(self, model: pin.Model, name: str, link: str, point: np.ndarray) -> int:
@@ -598,9 +616,11 @@ class PlanarRobot:
 
         Args:
             q: minimal configuration, shape (n,) (not validated here: see :meth:`check_state`).
-            v: minimal velocity, float64, shape (n,).
+            v: minimal velocity, shape (n,) (float64 goes through as it is).
             contacts: indices into ``self.contacts`` to evaluate (default: all), in that order.
         """
+        if type(v) is not np.ndarray or v.dtype != _FLOAT64:  # the kernel reads float64 only
+            v = np.asarray(v, dtype=float)
         # (an array q goes to Pinocchio as it is where no gather is needed: Pinocchio converts
         # other number types itself; a sequence goes through _pinocchio_q)
         pin.computeAllTerms(self.model, self.data,

@@ -462,6 +462,33 @@ def test_compiled_assembly_refuses_malformed_arguments(monkeypatch):
         _kernel.robot_state(*good[:-1])
 
 
+def test_pinocchio_hands_out_views_and_copies_are_told_apart():
+    """This Pinocchio hands out views (so the compiled assembly is used where it is built); a data
+    object whose arrays are copies is told apart, and would get the NumPy assembly."""
+    from frcontrol.model import _reads_in_place
+
+    robot = load_scene("rhex_flip").robot
+    assert _reads_in_place(robot.data, robot._contact_frames)
+
+    class Copies:  # Pinocchio's data as a binding that copied its arrays out would give it
+        def __init__(self, data):
+            self._data = data
+
+        @property
+        def M(self):
+            return self._data.M.copy()
+
+        @property
+        def nle(self):
+            return self._data.nle.copy()
+
+        @property
+        def oMf(self):
+            return self._data.oMf
+
+    assert not _reads_in_place(Copies(robot.data), robot._contact_frames)
+
+
 def test_compiled_assembly_reads_pinocchio_storage_in_place():
     """The views the compiled assembly reads (the plan's M and h, each contact's position) are of
     the Pinocchio data's own storage: after a call at another state they hold Pinocchio's new
@@ -482,3 +509,15 @@ def test_compiled_assembly_reads_pinocchio_storage_in_place():
             placement = pin.updateFramePlacement(robot.model, robot.data, frame)
             np.testing.assert_array_equal(position, placement.translation)
             np.testing.assert_array_equal(position[:2], point)
+
+
+def test_a_velocity_of_another_number_type_is_converted():
+    """state() takes v as a list or an int/float32 array on either kernel, as float64."""
+    scene = load_scene("rhex_flip")
+    robot, v = scene.robot, np.arange(scene.robot.nv) - 2
+    reference = robot.state(scene.q, v.astype(float))
+    for given in (v, v.tolist(), v.astype(np.float32)):
+        state = robot.state(scene.q, given)
+        assert state.v.dtype == np.float64
+        np.testing.assert_array_equal(state.bias, reference.bias)
+        np.testing.assert_array_equal(state.normal_velocities, reference.normal_velocities)
