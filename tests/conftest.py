@@ -3,13 +3,22 @@
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import pytest
 
+from frcontrol.kernel import compiled
 from frcontrol.scene import shipped_robots_dir
 
 ROBOTS = shipped_robots_dir()
+
+needs_kernel = pytest.mark.skipif(
+    compiled is None and os.environ.get("CI") != "true",
+    reason="frcontrol._kernel is not built here, or is stale (pip install . builds it); the NumPy kernel "
+           "runs, and every other test checks it")
+"""For tests of the compiled kernel: they skip outside CI where it is not built; in CI they run (and
+fail without it, as tests/test_kernel.py::test_the_extension_is_built_in_ci does)."""
 
 
 def toml_value(value) -> str:

@@ -6,10 +6,10 @@ on every shipped scene; strided and non-float64 arrays; malformed buffers raise 
 from __future__ import annotations
 
 import dataclasses
-import os
 
 import numpy as np
 import pytest
+from conftest import needs_kernel
 from test_mode_batch import random_problem
 
 from frcontrol import kernel, mode_batch
@@ -18,8 +18,7 @@ from frcontrol.modes import ContactProblem
 from frcontrol.scene import load_scene, shipped_scene_names
 
 compiled = kernel.compiled
-pytestmark = pytest.mark.skipif(compiled is None and os.environ.get("CI") != "true",
-                                reason="frcontrol._kernel is not built here (pip install . builds it)")
+pytestmark = needs_kernel
 
 
 def reference_rows(problem: ContactProblem) -> tuple[np.ndarray, ...]:

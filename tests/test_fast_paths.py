@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import needs_kernel
 from test_mode_batch import random_problem
 
 from frcontrol import engine
@@ -231,7 +232,7 @@ def test_children_built_together_are_the_modes_built_alone():
                     np.testing.assert_array_equal(getattr(system, name), getattr(alone, name))
 
 
-@pytest.mark.skipif(resp.compiled is None, reason="frcontrol._kernel is not built here")
+@needs_kernel
 def test_compiled_certified_children_are_numpys_certified_responses(monkeypatch):
     """The kernel's Householder QR against NumPy's stacked QR on random stacks sharing B (some
     rank-deficient, some nearly singular, widely scaled rows): the same certificates (except within

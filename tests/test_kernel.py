@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import needs_kernel
 from frcontrol.cli.app import app
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -30,8 +31,6 @@ from frcontrol.response import ILL_CONDITIONED_BAND
 from frcontrol.scene import load_scene
 
 compiled = kernel.compiled
-needs_kernel = pytest.mark.skipif(compiled is None and os.environ.get("CI") != "true",
-                                  reason="frcontrol._kernel is not built here (pip install . builds it)")
 
 X_AGREEMENT = 1e-12
 """Relative agreement of the two kernels' responses, per unit of the mode's condition bound below
@@ -285,10 +284,10 @@ SOURCE = Path(__file__).resolve().parents[1] / "frcontrol" / "_kernel.c"
 """The C source in this checkout."""
 
 
+@needs_kernel
 def test_the_extension_records_its_source():
     """The extension in use was built from this checkout's _kernel.c (its SHA-256, setup.py)."""
-    if compiled is None:
-        pytest.skip("frcontrol._kernel is not built here (or is stale); the NumPy kernel runs")
+    assert compiled is not None
     assert compiled.SOURCE_SHA256 == hashlib.sha256(SOURCE.read_bytes()).hexdigest()
 
 
