@@ -110,17 +110,22 @@ def test_random_problems_agree_with_the_numpy_kernel(monkeypatch):
     assert solved > 100 and flagged < 3  # the comparison saw answers; the flags differ at most rarely
 
 
+def random_stack(rng: np.random.Generator) -> tuple:
+    """A random problem at a random input: its modes stacked and equilibrated as the batch does."""
+    problem = random_problem(rng)
+    u = rng.normal(size=problem.m) * 5.0
+    modes, letters = mode_batch.full_modes(problem.allowed_modes())
+    stack = mode_batch._stack(problem, letters, u)
+    r, c = mode_batch._equilibrate(stack.A)
+    return problem, u, modes, letters, stack, r, c, stack.A * r[:, :, None] * c[:, None, :]
+
+
 @needs_kernel
 def test_certified_responses_agree_to_round_off():
     rng = np.random.default_rng(7)
     worst = 0.0
     for _ in range(200):
-        problem = random_problem(rng)
-        u = rng.normal(size=problem.m) * 5.0
-        modes, letters = mode_batch.full_modes(problem.allowed_modes())
-        stack = mode_batch._stack(problem, letters, u)
-        r, c = mode_batch._equilibrate(stack.A)
-        A_hat = stack.A * r[:, :, None] * c[:, None, :]
+        problem, u, modes, letters, stack, r, c, A_hat = random_stack(rng)
         flags, x, _ = mode_batch._certified_responses(problem, stack, A_hat, r, c, RANK_TOLERANCE)
         count, nx = letters.shape[0], stack.A.shape[1]
         status, fast = np.empty(count, dtype=np.int8), np.empty((count, nx))
@@ -151,12 +156,7 @@ def test_the_rank_kernel_decides_every_mode_as_the_svd_path(tolerance):
     rng = np.random.default_rng(11)
     decided = ambiguous = 0
     for _ in range(150):
-        problem = random_problem(rng)
-        u = rng.normal(size=problem.m) * 5.0
-        modes, letters = mode_batch.full_modes(problem.allowed_modes())
-        stack = mode_batch._stack(problem, letters, u)
-        r, c = mode_batch._equilibrate(stack.A)
-        A_hat = stack.A * r[:, :, None] * c[:, None, :]
+        problem, u, modes, letters, stack, r, c, A_hat = random_stack(rng)
         everything = np.arange(len(modes))
         reference = mode_batch._svd_modes(problem, modes, stack, A_hat, r, c, everything, u,
                                           lambda H, h, motion: None, RANK_TOLERANCE,
