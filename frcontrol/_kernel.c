@@ -1797,12 +1797,9 @@ static PyObject *certified_children(PyObject *self, PyObject *const *args, Py_ss
     if (take(args[3], &b[3], "X_u", 'd', 3, u_shape, 1) || take(args[4], &b[4], "x_0", 'd', 2, x_shape, 1) ||
         take(args[5], &b[5], "X_w", 'd', 3, w_shape, 1) || take(args[6], &b[6], "bound", 'd', 1, bound_shape, 1))
         goto done;
-    double limit = PyFloat_AsDouble(args[7]);
-    if (limit == -1.0 && PyErr_Occurred()) {
-        PyErr_Clear();
-        PyErr_Format(kernel_error, "kernel argument limit: not a number");
-        goto done;
-    }
+    double limit = 0.0, *floats[1] = {&limit};
+    static const char *float_names[1] = {"limit"};
+    if (take_floats(args, 7, float_names, floats, 1)) goto done;
     Py_ssize_t width = rows + m + 1;
     memory = PyMem_Malloc((size_t)(nx * rows + rows + nx * (m + 1) + rows * width + rows + nx) * sizeof(double));
     if (memory == NULL) {
