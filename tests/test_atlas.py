@@ -53,6 +53,43 @@ def test_the_grid_is_a_plan_built_without_solving():
     assert big.chunk_size == 64 and big.chunk_count == 286
 
 
+def test_a_grid_value_is_numpys_linspace_to_the_bit_without_building_the_axis():
+    rng = np.random.default_rng(24)
+    axes = [Axis("x", 0.3, 2.8, 13), Axis("x", 0.0, 5e-324, 3), Axis("x", 1.0, 1.0, 4),
+            Axis("x", 2.0, 3.0, 1), Axis("x", -0.0, 0.0, 3), Axis("x", -1e308, 1e307, 7)]
+    for _ in range(300):
+        start, stop = rng.normal(size=2) * 10.0 ** rng.integers(-12, 12, size=2)
+        axes.append(Axis("x", float(start), float(stop), int(rng.integers(1, 3000))))
+    for axis in axes:
+        one_by_one = np.array([axis.value(i) for i in range(axis.count)])
+        assert one_by_one.tobytes() == axis.values.tobytes()  # every bit, the sign of a zero too
+        assert one_by_one[-1] == (axis.stop if axis.count > 1 else axis.start)
+    # an axis of 10^12 values: numpy.linspace would need 7.3 TiB for one point
+    plan = build_atlas("rod_on_table", ["input.x=-1:1:1000000000000"], max_points=10**12)
+    last = plan.size - 1
+    assert plan.point(0)[1]["x"] == -1.0 and plan.point(last)[1]["x"] == 1.0
+    assert plan.point(last // 2)[1]["x"] == float(last // 2) * (2.0 / last) - 1.0
+    with pytest.raises(InputError, match="has 1000000000000 values"):
+        plan.axes[0].value(plan.size)
+
+
+def test_a_grid_above_the_point_budget_is_refused_before_the_scene_is_read(tmp_path):
+    from frcontrol.atlas import MAX_ATLAS_POINTS
+
+    missing = str(tmp_path / "nothing.toml")  # never read: the budget is checked first
+    huge = ["state.q.theta=0:1:1000000000", "contacts.tip.mu=0:2:1000000000"]
+    budget = f"1000000000000000000 points .* budget of {MAX_ATLAS_POINTS} points"
+    with pytest.raises(InputError, match=budget):
+        build_atlas(missing, huge)
+    with pytest.raises(InputError, match="budget of 5 points"):
+        build_atlas(missing, ["gravity=1:2:6"], max_points=5)
+    assert build_atlas("rod_on_table", ["gravity=1:2:6"], max_points=6).size == 6
+    with pytest.raises(InputError, match="budget must be >= 1"):
+        build_atlas("rod_on_table", ["gravity=1:2:6"], max_points=0)
+    with pytest.raises(InputError, match="overflows"):
+        parse_axis("gravity=-1e308:1e308:3")
+
+
 @pytest.mark.parametrize("axis, error, text", [
     ("contacts.tipp.mu=0:1:3", SceneError, "did you mean 'tip'"),
     ("state.q.thet=0:1:3", SceneError, "did you mean 'state.q.theta'"),
@@ -242,6 +279,10 @@ def test_the_map_has_one_colour_per_count_and_a_legend(tmp_path):
     ([], 2, "--vary"),
     (["--vary", "gravity=1:2:2", "--what", "all"], 2, "--what"),
     (["--vary", "gravity=1:2:2", "--workers", "0"], 2, "--workers"),
+    (["--vary", "state.q.theta=0:1:1000000000", "--vary", "contacts.tip.mu=0:2:3"], 1,
+     "the grid has 3000000000 points (1000000000 x 3), more than the budget of 100000 points"),
+    (["--vary", "gravity=1:2:3", "--max-points", "2"], 1, "budget of 2 points"),
+    (["--vary", "gravity=1:2:3", "--max-points", "0"], 2, "--max-points"),
 ])
 def test_cli_errors_are_one_line(args, code, text, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
@@ -250,6 +291,16 @@ def test_cli_errors_are_one_line(args, code, text, tmp_path, monkeypatch):
     assert text in out.stderr and out.stdout == ""
     if code == 1:
         assert out.stderr.startswith("frc: error: ") and out.stderr.count("\n") == 1
+
+
+def test_max_points_raises_the_budget_and_its_help_gives_the_default():
+    from frcontrol.atlas import MAX_ATLAS_POINTS
+
+    out = invoke("rod_on_table", "--vary", "gravity=5:10:3", "--max-points", "3", "--json", "--workers", "1")
+    assert out.exit_code == 0, out.stderr
+    assert json.loads(out.stdout)["points"] == 3
+    help_text = " ".join(invoke("--help").stdout.split())
+    assert f"default: {MAX_ATLAS_POINTS}" in help_text
 
 
 def test_the_command_offers_every_kind_of_the_library():
