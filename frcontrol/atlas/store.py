@@ -94,24 +94,28 @@ class ChunkStore:
         """
         manifest = self.folder / "manifest.json"
         if self.folder.exists():
-            found = sorted(self.folder.glob("chunk-*.json"))
             if not resume:
-                raise InputError(f"{self.folder} holds {len(found)} finished chunks of an unfinished sweep: "
+                found = len(list(self.folder.glob("chunk-*.json")))
+                raise InputError(f"{self.folder} holds {found} finished chunks of an unfinished sweep: "
                                  "add --resume to finish it, or delete the folder to start again")
             stored = _read_json(manifest)
             if stored is None or stored.get("fingerprint") != self.plan.fingerprint:
                 raise InputError(f"--resume: {self.folder} was written by a sweep with other arguments "
                                  f"({_difference(stored, self.plan)}); run with the same arguments, or "
                                  "delete the folder to start again")
-            return self._read_chunks(found)
+            return self.finished()
         self.folder.mkdir(parents=True)
         _write_atomic(manifest, json.dumps(self.plan.to_dict()))
         return {}
 
-    def _read_chunks(self, files: Sequence[Path]) -> dict[int, dict[str, Any]]:
+    def finished(self) -> dict[int, dict[str, Any]]:
+        """The whole chunks of this plan in the folder, by number.
+
+        A file that does not parse, lacks a column or holds other points is left out (computed again).
+        """
         chunks: dict[int, dict[str, Any]] = {}
         expected = {"chunk", "index", *columns(self.plan.what)}
-        for path in files:
+        for path in sorted(self.folder.glob("chunk-*.json")):
             data = _read_json(path)
             if data is None or not expected <= set(data):
                 continue  # not a whole chunk: computed again
