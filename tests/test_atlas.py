@@ -16,7 +16,7 @@ from typer.testing import CliRunner
 
 import frcontrol
 from frcontrol.atlas import AMBIGUITY, Axis, build_atlas, parse_axis, read_table, run_atlas
-from frcontrol.atlas.store import parts_folder
+from frcontrol.atlas.store import parts_folder, read_metadata
 from frcontrol.errors import InputError, SceneError
 from frcontrol.scene import load_scene
 from frcontrol.stability import stability_of
@@ -207,22 +207,66 @@ def test_the_json_contract(tmp_path):
     assert all(isinstance(m, list) for row in doc["modes"] for m in row)
 
 
-def test_npz_and_parquet_hold_the_same_table(tmp_path):
-    plan = build_atlas("rod_on_table", ROD_AXES, overrides={"state.v.x": -1.0})
-    tables = {}
+def test_npz_and_parquet_read_back_as_the_runs_rows(tmp_path):
+    plan = build_atlas("rod_on_table", ["contacts.tip.mu=-0.5:2:3", "state.q.theta=0.3:2.8:4"],
+                       overrides={"state.v.x": -1.0})
     for suffix in (".npz", ".parquet"):
         out = tmp_path / f"atlas{suffix}"
         result = run_atlas(plan, workers=1, out=out)
         assert not parts_folder(out).exists()
-        tables[suffix] = read_table(out)
-    a, b = tables[".npz"], tables[".parquet"]
-    assert set(a) == set(b) >= {"index", "state.q.theta", "contacts.tip.mu", "count", "modes", "stable",
-                                "ambiguous", "error", "atlas_plan"}
-    for name in a:
-        assert a[name].tolist() == b[name].tolist(), name
-    assert a["count"].tolist() == result.rows["count"]
-    assert a["modes"].tolist() == [" ".join(m) for m in result.rows["modes"]]
-    assert json.loads(str(a["atlas_plan"]))["fingerprint"] == plan.fingerprint
+        table = read_table(out)
+        assert list(table) == ["index", "contacts.tip.mu", "state.q.theta", "count", "modes", "stable",
+                               "ambiguous", "error"]
+        assert table["index"] == list(range(plan.size))
+        assert table["contacts.tip.mu"] == np.repeat(np.linspace(-0.5, 2, 3), 4).tolist()
+        for name in ("count", "modes", "stable", "ambiguous", "error"):
+            assert table[name] == result.rows[name], (suffix, name)
+        assert None in table["count"] and [] in table["modes"]  # an error point, a point with no solution
+        assert read_metadata(out)["plan"]["fingerprint"] == plan.fingerprint
+
+
+def test_parquet_has_real_nulls_booleans_lists_and_units(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    plan = build_atlas("box_on_slope", ["contacts.lower.mu=-0.2:0.6:3"], what="statics",
+                       overrides={"gravity": 9.0})
+    result = run_atlas(plan, workers=1, out=tmp_path / "box.parquet")
+    table = pq.read_table(tmp_path / "box.parquet")
+    schema = table.schema
+    assert schema.field("count").type == pa.int64() and schema.field("modes").type == pa.list_(pa.string())
+    assert schema.field("stable").type == pa.list_(pa.bool_())
+    assert schema.field("static_equilibrium").type == pa.bool_()
+    assert schema.field("force_closure_margin").type == pa.float64()
+    assert schema.field("error").type == pa.string() and not schema.field("index").nullable
+    bad = result.rows["error"].index(next(e for e in result.rows["error"] if e))  # mu < 0
+    for name in ("count", "modes", "stable", "static_equilibrium", "force_closure_margin", "ambiguous"):
+        assert table.column(name).null_count == 1 and table.column(name)[bad].as_py() is None, name
+    assert table.column("error").null_count == plan.size - 1
+    assert table.column("static_equilibrium").to_pylist() == result.rows["static_equilibrium"]
+    assert schema.field("contacts.lower.mu").metadata == {b"unit": b"-"}
+    assert schema.field("force_closure_margin").metadata == {b"unit": b"N or N m"}
+    meta = json.loads(schema.metadata[b"frcontrol.atlas.metadata"])
+    assert meta["set"] == {"gravity": 9.0} and meta["plan"]["fingerprint"] == plan.fingerprint
+    assert meta["columns"]["count"] == {"type": "int64", "null": -1, "unit": "-"}
+    assert json.loads(schema.metadata[b"frcontrol.atlas"])["fingerprint"] == plan.fingerprint
+
+
+def test_npz_has_the_same_names_and_a_json_metadata_entry(tmp_path):
+    plan = build_atlas("rod_on_table", ["input.x=-60:0:2", "gravity=5:10:2"], overrides={"state.v.x": -1.0})
+    parquet, npz = tmp_path / "rod.parquet", tmp_path / "rod.npz"
+    run_atlas(plan, workers=1, out=parquet)
+    run_atlas(plan, workers=1, out=npz)
+    import pyarrow.parquet as pq
+
+    with np.load(npz) as data:
+        arrays = {name: data[name] for name in data.files}
+    assert set(arrays) == set(pq.read_schema(parquet).names) | {"atlas_metadata", "atlas_plan"}
+    meta = json.loads(str(arrays["atlas_metadata"]))
+    assert meta == read_metadata(parquet) and meta["set"] == {"state.v.x": -1.0}
+    assert meta["columns"]["gravity"]["unit"] == "m/s^2" and meta["columns"]["input.x"]["count"] == 2
+    assert arrays["count"].dtype == np.int64 and arrays["count"][0] == meta["columns"]["count"]["null"]
+    assert arrays["error"][0].startswith("input x") or "outside its limits" in arrays["error"][0]
 
 
 def test_an_interrupted_run_resumes_to_the_same_result(tmp_path):
@@ -247,7 +291,7 @@ def test_an_interrupted_run_resumes_to_the_same_result(tmp_path):
     resumed = run_atlas(plan, workers=1, out=out, resume=True)
     assert resumed.run["resumed_chunks"] == 3 and resumed.run["computed_chunks"] == plan.chunk_count - 3
     assert resumed.rows == whole.rows
-    assert read_table(out)["count"].tolist() == [-1 if c is None else c for c in whole.rows["count"]]
+    assert read_table(out)["count"] == whole.rows["count"]
     with pytest.raises(InputError, match="needs --out"):
         run_atlas(plan, resume=True)
 
