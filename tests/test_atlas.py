@@ -342,7 +342,8 @@ def test_max_points_raises_the_budget_and_its_help_gives_the_default():
 
     out = invoke("rod_on_table", "--vary", "gravity=5:10:3", "--max-points", "3", "--json", "--workers", "1")
     assert out.exit_code == 0, out.stderr
-    assert json.loads(out.stdout)["points"] == 3
+    doc = json.loads(out.stdout)
+    assert doc["points"] == 3 and doc["max_points"] == 3  # the budget is reported with the result
     help_text = " ".join(invoke("--help").stdout.split())
     assert f"default: {MAX_ATLAS_POINTS}" in help_text
 

@@ -64,7 +64,8 @@ class AtlasResult:
         }
         for name in KIND_COLUMNS[self.plan.what]:
             doc[name] = nest(self.rows[name], shape)
-        doc.update({"shape": list(shape), "points": self.plan.size, "inputs": dict(self.plan.inputs),
+        doc.update({"shape": list(shape), "points": self.plan.size, "max_points": self.plan.max_points,
+                    "inputs": dict(self.plan.inputs),
                     "set": dict(self.plan.overrides), "fingerprint": self.plan.fingerprint,
                     "run": dict(self.run), "timings": dict(self.timings)})
         return to_jsonable(doc)

@@ -180,6 +180,7 @@ class AtlasPlan:
         overrides: the fixed scene overrides ``{path: value}`` (``--set``).
         chunk_size: points per chunk.
         fingerprint: SHA-256 of everything the results depend on (module docstring).
+        max_points: the point budget the plan was checked against (:data:`MAX_ATLAS_POINTS`).
     """
 
     scene: str
@@ -190,6 +191,7 @@ class AtlasPlan:
     overrides: Mapping[str, Any] = field(default_factory=dict)
     chunk_size: int = 1
     fingerprint: str = ""
+    max_points: int = MAX_ATLAS_POINTS
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -236,7 +238,8 @@ class AtlasPlan:
                      for a in document["axes"])
         return cls(str(document["scene"]), source, str(document["what"]), axes,
                    {str(k): float(v) for k, v in document["inputs"].items()}, dict(document["set"]),
-                   int(document["chunk_size"]), str(document["fingerprint"]))
+                   int(document["chunk_size"]), str(document["fingerprint"]),
+                   int(document.get("max_points", MAX_ATLAS_POINTS)))
 
     @property
     def varies_scene(self) -> bool:
@@ -247,8 +250,8 @@ class AtlasPlan:
         """The plan as JSON values (stored beside the chunks)."""
         return {"scene": self.scene, "what": self.what, "axes": [a.to_dict() for a in self.axes],
                 "inputs": dict(self.inputs), "set": dict(self.overrides), "shape": list(self.shape),
-                "points": self.size, "chunk_size": self.chunk_size, "chunks": self.chunk_count,
-                "fingerprint": self.fingerprint}
+                "points": self.size, "max_points": self.max_points, "chunk_size": self.chunk_size,
+                "chunks": self.chunk_count, "fingerprint": self.fingerprint}
 
 
 def _check_axes(axes: Sequence[Axis], inputs: Mapping[str, float], overrides: Mapping[str, Any]) -> None:
@@ -356,7 +359,8 @@ def build_atlas(
         chunk_size = default_chunk_size(size)
     if chunk_size < 1:
         raise InputError(f"the chunk size must be >= 1, got {chunk_size}")
-    plan = AtlasPlan(source.label, source, what, axes, fixed_inputs, fixed, int(chunk_size))
+    plan = AtlasPlan(source.label, source, what, axes, fixed_inputs, fixed, int(chunk_size),
+                     max_points=max_points)
     from .. import __version__
 
     recipe = {"format": FORMAT_VERSION, "frcontrol": __version__, "scene": source.digest(),
