@@ -87,6 +87,12 @@ ChunkOpt = Annotated[
                  "chunks, at most 64 points each)."),
 ]
 
+MaxPointsOpt = Annotated[
+    int | None,
+    typer.Option("--max-points", min=1, help="The point budget: a grid of more points is refused at "
+                 "once (default: 100000, frcontrol.atlas.MAX_ATLAS_POINTS)."),
+]
+
 
 class _Signalled(KeyboardInterrupt):
     """SIGTERM, raised where the run is, so that it stops as on Ctrl-C."""
@@ -111,6 +117,7 @@ def atlas_command(
     scheduler: SchedulerOpt = None,
     resume: ResumeOpt = False,
     chunk_size: ChunkOpt = None,
+    max_points: MaxPointsOpt = None,
     quiet: QuietOpt = False,
 ) -> None:
     """Sweep a scene over a grid of states, parameters and inputs: a map of what can happen.
@@ -123,7 +130,7 @@ def atlas_command(
       frc atlas rod_on_table --vary state.q.theta=0.3:2.8:13 --vary state.v.x=-2:2:9 --plot rod.png -w 1
     """
     set_quiet(quiet)
-    from frcontrol.atlas import build_atlas, run_atlas
+    from frcontrol.atlas import MAX_ATLAS_POINTS, build_atlas, run_atlas
     from frcontrol.atlas.store import check_out
     from frcontrol.errors import InputError
 
@@ -132,7 +139,8 @@ def atlas_command(
         raise InputError("--resume needs --out FILE: the finished chunks are kept beside FILE")
     what_name = What(what).value
     plan = build_atlas(scene, vary, what=what_name, inputs=parse_inputs(inputs),
-                       overrides=scene_overrides(sets), chunk_size=chunk_size)
+                       overrides=scene_overrides(sets), chunk_size=chunk_size,
+                       max_points=MAX_ATLAS_POINTS if max_points is None else max_points)
     _check_figure(figure, what_name)
     previous = signal.signal(signal.SIGTERM, _raise_on_sigterm)
     try:

@@ -16,7 +16,7 @@ from typer.testing import CliRunner
 
 import frcontrol
 from frcontrol.atlas import AMBIGUITY, Axis, build_atlas, parse_axis, read_table, run_atlas
-from frcontrol.atlas.store import parts_folder
+from frcontrol.atlas.store import parts_folder, read_metadata
 from frcontrol.errors import InputError, SceneError
 from frcontrol.scene import load_scene
 from frcontrol.stability import stability_of
@@ -51,6 +51,43 @@ def test_the_grid_is_a_plan_built_without_solving():
         assert other.fingerprint != plan.fingerprint
     big = build_atlas("rod_on_table", ["state.q.theta=0.3:2.8:181", "contacts.tip.mu=0:2:101"])
     assert big.chunk_size == 64 and big.chunk_count == 286
+
+
+def test_a_grid_value_is_numpys_linspace_to_the_bit_without_building_the_axis():
+    rng = np.random.default_rng(24)
+    axes = [Axis("x", 0.3, 2.8, 13), Axis("x", 0.0, 5e-324, 3), Axis("x", 1.0, 1.0, 4),
+            Axis("x", 2.0, 3.0, 1), Axis("x", -0.0, 0.0, 3), Axis("x", -1e308, 1e307, 7)]
+    for _ in range(300):
+        start, stop = rng.normal(size=2) * 10.0 ** rng.integers(-12, 12, size=2)
+        axes.append(Axis("x", float(start), float(stop), int(rng.integers(1, 3000))))
+    for axis in axes:
+        one_by_one = np.array([axis.value(i) for i in range(axis.count)])
+        assert one_by_one.tobytes() == axis.values.tobytes()  # every bit, the sign of a zero too
+        assert one_by_one[-1] == (axis.stop if axis.count > 1 else axis.start)
+    # an axis of 10^12 values: numpy.linspace would need 7.3 TiB for one point
+    plan = build_atlas("rod_on_table", ["input.x=-1:1:1000000000000"], max_points=10**12)
+    last = plan.size - 1
+    assert plan.point(0)[1]["x"] == -1.0 and plan.point(last)[1]["x"] == 1.0
+    assert plan.point(last // 2)[1]["x"] == float(last // 2) * (2.0 / last) - 1.0
+    with pytest.raises(InputError, match="has 1000000000000 values"):
+        plan.axes[0].value(plan.size)
+
+
+def test_a_grid_above_the_point_budget_is_refused_before_the_scene_is_read(tmp_path):
+    from frcontrol.atlas import MAX_ATLAS_POINTS
+
+    missing = str(tmp_path / "nothing.toml")  # never read: the budget is checked first
+    huge = ["state.q.theta=0:1:1000000000", "contacts.tip.mu=0:2:1000000000"]
+    budget = f"1000000000000000000 points .* budget of {MAX_ATLAS_POINTS} points"
+    with pytest.raises(InputError, match=budget):
+        build_atlas(missing, huge)
+    with pytest.raises(InputError, match="budget of 5 points"):
+        build_atlas(missing, ["gravity=1:2:6"], max_points=5)
+    assert build_atlas("rod_on_table", ["gravity=1:2:6"], max_points=6).size == 6
+    with pytest.raises(InputError, match="budget must be >= 1"):
+        build_atlas("rod_on_table", ["gravity=1:2:6"], max_points=0)
+    with pytest.raises(InputError, match="overflows"):
+        parse_axis("gravity=-1e308:1e308:3")
 
 
 @pytest.mark.parametrize("axis, error, text", [
@@ -170,22 +207,66 @@ def test_the_json_contract(tmp_path):
     assert all(isinstance(m, list) for row in doc["modes"] for m in row)
 
 
-def test_npz_and_parquet_hold_the_same_table(tmp_path):
-    plan = build_atlas("rod_on_table", ROD_AXES, overrides={"state.v.x": -1.0})
-    tables = {}
+def test_npz_and_parquet_read_back_as_the_runs_rows(tmp_path):
+    plan = build_atlas("rod_on_table", ["contacts.tip.mu=-0.5:2:3", "state.q.theta=0.3:2.8:4"],
+                       overrides={"state.v.x": -1.0})
     for suffix in (".npz", ".parquet"):
         out = tmp_path / f"atlas{suffix}"
         result = run_atlas(plan, workers=1, out=out)
         assert not parts_folder(out).exists()
-        tables[suffix] = read_table(out)
-    a, b = tables[".npz"], tables[".parquet"]
-    assert set(a) == set(b) >= {"index", "state.q.theta", "contacts.tip.mu", "count", "modes", "stable",
-                                "ambiguous", "error", "atlas_plan"}
-    for name in a:
-        assert a[name].tolist() == b[name].tolist(), name
-    assert a["count"].tolist() == result.rows["count"]
-    assert a["modes"].tolist() == [" ".join(m) for m in result.rows["modes"]]
-    assert json.loads(str(a["atlas_plan"]))["fingerprint"] == plan.fingerprint
+        table = read_table(out)
+        assert list(table) == ["index", "contacts.tip.mu", "state.q.theta", "count", "modes", "stable",
+                               "ambiguous", "error"]
+        assert table["index"] == list(range(plan.size))
+        assert table["contacts.tip.mu"] == np.repeat(np.linspace(-0.5, 2, 3), 4).tolist()
+        for name in ("count", "modes", "stable", "ambiguous", "error"):
+            assert table[name] == result.rows[name], (suffix, name)
+        assert None in table["count"] and [] in table["modes"]  # an error point, a point with no solution
+        assert read_metadata(out)["plan"]["fingerprint"] == plan.fingerprint
+
+
+def test_parquet_has_real_nulls_booleans_lists_and_units(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    plan = build_atlas("box_on_slope", ["contacts.lower.mu=-0.2:0.6:3"], what="statics",
+                       overrides={"gravity": 9.0})
+    result = run_atlas(plan, workers=1, out=tmp_path / "box.parquet")
+    table = pq.read_table(tmp_path / "box.parquet")
+    schema = table.schema
+    assert schema.field("count").type == pa.int64() and schema.field("modes").type == pa.list_(pa.string())
+    assert schema.field("stable").type == pa.list_(pa.bool_())
+    assert schema.field("static_equilibrium").type == pa.bool_()
+    assert schema.field("force_closure_margin").type == pa.float64()
+    assert schema.field("error").type == pa.string() and not schema.field("index").nullable
+    bad = result.rows["error"].index(next(e for e in result.rows["error"] if e))  # mu < 0
+    for name in ("count", "modes", "stable", "static_equilibrium", "force_closure_margin", "ambiguous"):
+        assert table.column(name).null_count == 1 and table.column(name)[bad].as_py() is None, name
+    assert table.column("error").null_count == plan.size - 1
+    assert table.column("static_equilibrium").to_pylist() == result.rows["static_equilibrium"]
+    assert schema.field("contacts.lower.mu").metadata == {b"unit": b"-"}
+    assert schema.field("force_closure_margin").metadata == {b"unit": b"N or N m"}
+    meta = json.loads(schema.metadata[b"frcontrol.atlas.metadata"])
+    assert meta["set"] == {"gravity": 9.0} and meta["plan"]["fingerprint"] == plan.fingerprint
+    assert meta["columns"]["count"] == {"type": "int64", "null": -1, "unit": "-"}
+    assert json.loads(schema.metadata[b"frcontrol.atlas"])["fingerprint"] == plan.fingerprint
+
+
+def test_npz_has_the_same_names_and_a_json_metadata_entry(tmp_path):
+    plan = build_atlas("rod_on_table", ["input.x=-60:0:2", "gravity=5:10:2"], overrides={"state.v.x": -1.0})
+    parquet, npz = tmp_path / "rod.parquet", tmp_path / "rod.npz"
+    run_atlas(plan, workers=1, out=parquet)
+    run_atlas(plan, workers=1, out=npz)
+    import pyarrow.parquet as pq
+
+    with np.load(npz) as data:
+        arrays = {name: data[name] for name in data.files}
+    assert set(arrays) == set(pq.read_schema(parquet).names) | {"atlas_metadata", "atlas_plan"}
+    meta = json.loads(str(arrays["atlas_metadata"]))
+    assert meta == read_metadata(parquet) and meta["set"] == {"state.v.x": -1.0}
+    assert meta["columns"]["gravity"]["unit"] == "m/s^2" and meta["columns"]["input.x"]["count"] == 2
+    assert arrays["count"].dtype == np.int64 and arrays["count"][0] == meta["columns"]["count"]["null"]
+    assert arrays["error"][0].startswith("input x") or "outside its limits" in arrays["error"][0]
 
 
 def test_an_interrupted_run_resumes_to_the_same_result(tmp_path):
@@ -210,7 +291,7 @@ def test_an_interrupted_run_resumes_to_the_same_result(tmp_path):
     resumed = run_atlas(plan, workers=1, out=out, resume=True)
     assert resumed.run["resumed_chunks"] == 3 and resumed.run["computed_chunks"] == plan.chunk_count - 3
     assert resumed.rows == whole.rows
-    assert read_table(out)["count"].tolist() == [-1 if c is None else c for c in whole.rows["count"]]
+    assert read_table(out)["count"] == whole.rows["count"]
     with pytest.raises(InputError, match="needs --out"):
         run_atlas(plan, resume=True)
 
@@ -242,6 +323,10 @@ def test_the_map_has_one_colour_per_count_and_a_legend(tmp_path):
     ([], 2, "--vary"),
     (["--vary", "gravity=1:2:2", "--what", "all"], 2, "--what"),
     (["--vary", "gravity=1:2:2", "--workers", "0"], 2, "--workers"),
+    (["--vary", "state.q.theta=0:1:1000000000", "--vary", "contacts.tip.mu=0:2:3"], 1,
+     "the grid has 3000000000 points (1000000000 x 3), more than the budget of 100000 points"),
+    (["--vary", "gravity=1:2:3", "--max-points", "2"], 1, "budget of 2 points"),
+    (["--vary", "gravity=1:2:3", "--max-points", "0"], 2, "--max-points"),
 ])
 def test_cli_errors_are_one_line(args, code, text, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
@@ -250,6 +335,17 @@ def test_cli_errors_are_one_line(args, code, text, tmp_path, monkeypatch):
     assert text in out.stderr and out.stdout == ""
     if code == 1:
         assert out.stderr.startswith("frc: error: ") and out.stderr.count("\n") == 1
+
+
+def test_max_points_raises_the_budget_and_its_help_gives_the_default():
+    from frcontrol.atlas import MAX_ATLAS_POINTS
+
+    out = invoke("rod_on_table", "--vary", "gravity=5:10:3", "--max-points", "3", "--json", "--workers", "1")
+    assert out.exit_code == 0, out.stderr
+    doc = json.loads(out.stdout)
+    assert doc["points"] == 3 and doc["max_points"] == 3  # the budget is reported with the result
+    help_text = " ".join(invoke("--help").stdout.split())
+    assert f"default: {MAX_ATLAS_POINTS}" in help_text
 
 
 def test_the_command_offers_every_kind_of_the_library():

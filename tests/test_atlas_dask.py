@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from frcontrol.atlas import build_atlas, run_atlas
-from frcontrol.atlas.store import parts_folder
+from frcontrol.atlas.store import ChunkStore, parts_folder
 
 if os.environ.get("CI") != "true":
     pytest.importorskip("distributed", reason="Dask distributed is not installed (pip install \".[test]\" "
@@ -47,7 +47,25 @@ def serial(plan):
 def cluster():
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=None) as local:
+        with Client(local.scheduler_address, set_as_default=False) as client:
+            client.wait_for_workers(2, timeout=WAIT)  # both registered with the scheduler: ready
         yield local
+
+
+def scheduler_address(file: Path, scheduler: subprocess.Popen) -> str:
+    """The address in a scheduler file, once the file parses (Dask creates it, then writes it)."""
+    deadline = time.monotonic() + WAIT
+    while True:
+        assert scheduler.poll() is None, "the scheduler exited"
+        assert time.monotonic() < deadline, "the scheduler wrote no address"
+        try:
+            address = json.loads(file.read_text())["address"]
+        except (OSError, ValueError, KeyError, TypeError):  # not there yet, or half written
+            time.sleep(0.05)
+            continue
+        if isinstance(address, str) and address:
+            return address
+        time.sleep(0.05)
 
 
 def test_serial_pool_and_cluster_give_the_same_atlas(plan, serial, cluster):
@@ -73,6 +91,12 @@ def test_a_killed_dask_worker_has_its_chunks_rerun(plan, serial, cluster, tmp_pa
     result = run_atlas(plan, scheduler=cluster.scheduler_address, out=out, progress=kill_one)
     assert killed and (not Path(f"/proc/{killed[0]}").exists() or _zombie(killed[0]))
     assert result.rows == serial.rows and out.exists() and not parts_folder(out).exists()
+    # the run survived one death: counted, with the chunk the worker was computing handed out again
+    assert result.run["worker_deaths"] == 1
+    rerun = result.run["rerun_chunks"]
+    assert 1 <= len(rerun) and set(rerun) <= set(range(plan.chunk_count))
+    again = run_atlas(plan, scheduler=cluster.scheduler_address)  # an earlier run's deaths are not this one's
+    assert again.run["worker_deaths"] == 0 and again.run["rerun_chunks"] == []
 
 
 def _zombie(pid: int) -> bool:
@@ -109,39 +133,44 @@ def _frc() -> list[str]:
     return [str(script)] if script.exists() else [sys.executable, "-m", "frcontrol"]
 
 
-def test_a_killed_scheduler_ends_the_run_with_its_chunks_kept(plan, serial, tmp_path):
+def test_a_killed_scheduler_ends_the_run_with_its_chunks_kept(serial, tmp_path):
+    # one point per chunk: 120 chunks, so that the run is far from done when the scheduler dies
+    plan = build_atlas("rod_on_table", AXES, overrides=SETS, chunk_size=1)
     started = []
+    workers = None
     try:
         file = tmp_path / "scheduler.json"
         scheduler = subprocess.Popen(_dask("scheduler", "--host", "127.0.0.1", "--port", "0",
                                            "--no-dashboard", "--scheduler-file", str(file)),
                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         started.append(scheduler)
-        deadline = time.monotonic() + WAIT
-        while not file.exists():
-            assert time.monotonic() < deadline and scheduler.poll() is None
-            time.sleep(0.05)
-        address = json.loads(file.read_text())["address"]
+        address = scheduler_address(file, scheduler)
         assert address.startswith("tcp://127.0.0.1:")
-        started.append(subprocess.Popen(_dask("worker", address, "--nworkers", "2", "--nthreads", "1",
-                                              "--host", "127.0.0.1", "--no-dashboard"),
-                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        workers = subprocess.Popen(_dask("worker", address, "--nworkers", "2", "--nthreads", "1",
+                                         "--host", "127.0.0.1", "--no-dashboard"),
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                   start_new_session=True)
+        with Client(address, set_as_default=False, timeout=f"{WAIT}s") as client:
+            client.wait_for_workers(2, timeout=WAIT)  # registered: the run starts on both
         out = tmp_path / "rod.npz"
-        args = [*_frc(), "atlas", "rod_on_table", "--set", "state.v.x=-1", "--chunk-size", str(CHUNK),
+        args = [*_frc(), "atlas", "rod_on_table", "--set", "state.v.x=-1", "--chunk-size", "1",
                 "--out", str(out), "--json"] + [x for axis in AXES for x in ("--vary", axis)]
         run = subprocess.Popen([*args, "--scheduler", address], stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True)
         started.append(run)
-        while len(list(parts_folder(out).glob("chunk-*.json"))) < 2:
+        deadline = time.monotonic() + WAIT
+        while len(ChunkStore(out, plan).finished()) < 2:  # whole chunks, as --resume reads them
             assert run.poll() is None, run.communicate()
             assert time.monotonic() < deadline, "no chunk came"
             time.sleep(0.02)
+        os.killpg(workers.pid, signal.SIGSTOP)  # no chunk finishes from here on, however slow this test
         scheduler.kill()
         stdout, stderr = run.communicate(timeout=WAIT)
         assert run.returncode == 1 and stdout == ""
         assert stderr.startswith("frc: error: the Dask cluster failed") and stderr.count("\n") == 1, stderr
         assert "--resume" in stderr
-        kept = len(list(parts_folder(out).glob("chunk-*.json")))
+        kept = len(ChunkStore(out, plan).finished())
+        assert kept == len(list(parts_folder(out).glob("chunk-*.json")))  # every file kept is whole
         assert 2 <= kept < plan.chunk_count
         # the chunks do not depend on where they ran: finish on this machine's pool
         resumed = subprocess.run([*args, "--resume", "--workers", "2"], capture_output=True, text=True,
@@ -151,6 +180,9 @@ def test_a_killed_scheduler_ends_the_run_with_its_chunks_kept(plan, serial, tmp_
         assert doc["run"]["resumed_chunks"] == kept
         assert doc["counts"] == serial.to_dict()["counts"] and doc["errors"] == serial.to_dict()["errors"]
     finally:
+        if workers is not None and workers.poll() is None:
+            os.killpg(workers.pid, signal.SIGKILL)  # stopped: a SIGTERM would wait for a SIGCONT
+            workers.wait(timeout=WAIT)
         for process in reversed(started):
             if process.poll() is None:
                 process.terminate()

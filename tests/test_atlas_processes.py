@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 from frcontrol.atlas import build_atlas, read_table, run_atlas
-from frcontrol.atlas.store import parts_folder
+from frcontrol.atlas.store import ChunkStore, parts_folder
 
 AXES = ["state.q.theta=0.2:2.9:40", "contacts.tip.mu=0:2:25"]
 SETS = {"state.v.x": -1.0}
@@ -101,16 +101,17 @@ def as_from_a_terminal() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def wait_for_chunks(out: Path, count: int, process: subprocess.Popen) -> None:
+def wait_for_chunks(out: Path, plan, count: int, process: subprocess.Popen) -> None:
+    """Until ``count`` chunks of ``plan`` are whole in ``out``'s folder (parsed, as --resume reads them)."""
     deadline = time.monotonic() + WAIT
-    while len(list(parts_folder(out).glob("chunk-*.json"))) < count:
+    while len(ChunkStore(out, plan).finished()) < count:
         assert process.poll() is None, process.communicate()
         assert time.monotonic() < deadline, "no chunk came"
         time.sleep(0.02)
 
 
 def gone(pids: list[int]) -> bool:
-    deadline = time.monotonic() + 10
+    deadline = time.monotonic() + WAIT
     while time.monotonic() < deadline:
         if not any(Path(f"/proc/{p}").exists() and "Z" not in _state(p) for p in pids):
             return True
@@ -127,10 +128,8 @@ def _state(pid: int) -> str:
 
 def check_same_table(out: Path, reference_result) -> None:
     table = read_table(out)
-    rows = reference_result.rows
-    assert table["count"].tolist() == [-1 if c is None else c for c in rows["count"]]
-    assert table["modes"].tolist() == [" ".join(m or []) for m in rows["modes"]]
-    assert table["error"].tolist() == [e or "" for e in rows["error"]]
+    for name in ("count", "modes", "stable", "error"):
+        assert table[name] == reference_result.rows[name], name
 
 
 @pytest.mark.parametrize("how", ["SIGINT", "SIGTERM"])
@@ -139,9 +138,9 @@ def test_a_signal_keeps_the_finished_chunks_and_resume_finishes_identically(how,
     out = tmp_path / "rod.npz"
     run = subprocess.Popen(atlas_args(out), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            cwd=tmp_path, start_new_session=True, preexec_fn=as_from_a_terminal)
-    wait_for_chunks(out, 1, run)
+    wait_for_chunks(out, plan, 1, run)
     workers = pool_workers(run.pid)  # before the third chunk: the signal must find the run going
-    wait_for_chunks(out, 3, run)
+    wait_for_chunks(out, plan, 3, run)
     if how == "SIGINT":
         os.killpg(run.pid, signal.SIGINT)  # Ctrl-C in a terminal reaches the whole process group
     else:
@@ -153,7 +152,8 @@ def test_a_signal_keeps_the_finished_chunks_and_resume_finishes_identically(how,
     assert last.startswith(f"frc: error: interrupted by {how}; the finished chunks are kept in rod.npz.parts")
     assert "Traceback" not in stderr
     assert workers and gone(workers), "the pool's workers outlived the run"
-    kept = len(list(parts_folder(out).glob("chunk-*.json")))
+    kept = len(ChunkStore(out, plan).finished())
+    assert kept == len(list(parts_folder(out).glob("chunk-*.json")))  # every file kept is whole
     assert 3 <= kept < plan.chunk_count and not out.exists()
 
     resumed = subprocess.run(atlas_args(out, "--resume"), capture_output=True, text=True, cwd=tmp_path,
@@ -171,7 +171,7 @@ def test_a_killed_pool_worker_has_its_chunk_rerun(reference, tmp_path):
     out = tmp_path / "rod.parquet"
     run = subprocess.Popen(atlas_args(out), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            cwd=tmp_path)
-    wait_for_chunks(out, 1, run)
+    wait_for_chunks(out, plan, 1, run)
     victim = pool_workers(run.pid)[0]
     os.kill(victim, signal.SIGKILL)
     stdout, stderr = run.communicate(timeout=WAIT)

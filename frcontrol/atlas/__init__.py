@@ -19,7 +19,7 @@ from typing import Any
 from ..errors import AtlasInterrupted
 from ..jsonable import to_jsonable
 from .executors import RunReport, default_workers, run_dask, run_pool, run_serial
-from .grid import WHATS, AtlasPlan, Axis, build_atlas, parse_axis
+from .grid import MAX_ATLAS_POINTS, WHATS, AtlasPlan, Axis, build_atlas, parse_axis
 from .points import AMBIGUITY, KIND_COLUMNS, columns, evaluate_chunk
 from .store import ChunkStore, check_out, read_table
 
@@ -64,7 +64,8 @@ class AtlasResult:
         }
         for name in KIND_COLUMNS[self.plan.what]:
             doc[name] = nest(self.rows[name], shape)
-        doc.update({"shape": list(shape), "points": self.plan.size, "inputs": dict(self.plan.inputs),
+        doc.update({"shape": list(shape), "points": self.plan.size, "max_points": self.plan.max_points,
+                    "inputs": dict(self.plan.inputs),
                     "set": dict(self.plan.overrides), "fingerprint": self.plan.fingerprint,
                     "run": dict(self.run), "timings": dict(self.timings)})
         return to_jsonable(doc)
@@ -201,6 +202,7 @@ def _execute(plan: AtlasPlan, todo: list[int], done: Callable[[dict[str, Any]], 
 __all__ = [
     "AMBIGUITY",
     "KIND_COLUMNS",
+    "MAX_ATLAS_POINTS",
     "WHATS",
     "AtlasPlan",
     "AtlasResult",

@@ -14,6 +14,9 @@ whichever runs them.
 - :func:`run_dask`: a Dask distributed cluster (``tcp://HOST:PORT``); the workers need frcontrol
   installed. Dask re-runs the chunks of a worker that dies; a lost scheduler ends the run with
   :class:`~frcontrol.errors.AtlasInterrupted` (the chunks finished so far are kept by the caller).
+  The deaths are read from the scheduler's event log when the run ends: every worker it removed
+  unannounced during the run (killed, crashed, unresponsive; not one retired on purpose), and the
+  run's chunks that worker was computing or still held.
 
 Every executor also takes ``stop``, a callable polled while the run waits (every
 :data:`STOP_POLL_INTERVAL`): once it returns true, the run ends with
@@ -65,7 +68,8 @@ class RunReport:
         executor: ``"serial"``, ``"pool"`` or ``"dask"``.
         workers: the workers used (the cluster's at the start for Dask).
         computed: the chunks computed in this run.
-        worker_deaths: pool workers that died mid-run (each replaced).
+        worker_deaths: workers that died mid-run: pool workers (each replaced), or Dask workers the
+            scheduler removed unannounced (module docstring).
         rerun: the chunks handed out again after their worker died.
     """
 
@@ -323,9 +327,11 @@ def _dask_chunks(client: Any, plan: AtlasPlan, chunks: Sequence[int], done: Chun
     import threading
 
     report = RunReport("dask", len(client.scheduler_info().get("workers", {})))
+    since = _last_event_time(client)
     started()
-    futures = [client.submit(evaluate_chunk, plan, chunk, key=f"atlas-{plan.fingerprint[:16]}-{chunk}",
-                             pure=False, retries=MAX_CHUNK_ATTEMPTS - 1) for chunk in chunks]
+    prefix = f"atlas-{plan.fingerprint[:16]}-"
+    futures = [client.submit(evaluate_chunk, plan, chunk, key=f"{prefix}{chunk}", pure=False,
+                             retries=MAX_CHUNK_ATTEMPTS - 1) for chunk in chunks]
     finished = threading.Event()
 
     def watch() -> None:  # a stop request cancels the pending chunks, which ends the wait below
@@ -348,7 +354,28 @@ def _dask_chunks(client: Any, plan: AtlasPlan, chunks: Sequence[int], done: Chun
             future.release()
     finally:
         finished.set()
+    _count_lost_workers(client, since, prefix, report)
     return report
+
+
+def _last_event_time(client: Any) -> float:
+    """The scheduler's time of its latest cluster event (0 if none): later events are this run's."""
+    return max((float(stamp) for stamp, _ in client.get_events("all")), default=0.0)
+
+
+def _count_lost_workers(client: Any, since: float, prefix: str, report: RunReport) -> None:
+    """Count in ``report`` the workers the scheduler removed unannounced after ``since``.
+
+    Their chunks (keys ``prefix`` + number) that they were computing or held are the rerun ones.
+    """
+    for stamp, event in client.get_events("all"):
+        if float(stamp) <= since or not isinstance(event, dict) or event.get("action") != "remove-worker":
+            continue
+        if event.get("expected"):
+            continue  # retired on purpose, its chunks moved away: not a death
+        report.worker_deaths += 1
+        keys = [*event.get("processing-tasks", ()), *event.get("lost-computed-tasks", ())]
+        report.rerun += [int(str(key)[len(prefix):]) for key in keys if str(key).startswith(prefix)]
 
 
 DASK_CONNECT_TIMEOUT = "10s"

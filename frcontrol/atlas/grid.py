@@ -3,9 +3,13 @@
 ``frc atlas SCENE --vary PATH=START:STOP:N ...`` sweeps a scene over a grid. Each axis varies one
 path: a scene field in the ``--set`` grammar (``contacts.tip.mu``, ``gravity``, ``model.stiffness``,
 one coordinate ``state.q.theta`` / ``state.v.x``), or an input's value, ``input.NAME``. An axis's
-values are ``numpy.linspace(START, STOP, N)``. The grid is the product of the axes, the first axis
+values are ``numpy.linspace(START, STOP, N)``; value ``i`` alone is computed in O(1) as
+``START + i * ((STOP - START) / (N - 1))``, the last one exactly ``STOP`` (bit for bit what
+``numpy.linspace`` gives: :meth:`Axis.value`). The grid is the product of the axes, the first axis
 the outermost: point ``k`` of a grid of shape ``(n_0, n_1, ...)`` sits at the multi-index
-``numpy.unravel_index(k, shape)`` (C order), and every array of the result is nested that way.
+``numpy.unravel_index(k, shape)`` (C order), and every array of the result is nested that way. A
+grid of more than ``max_points`` points (:data:`MAX_ATLAS_POINTS` unless raised) is refused before
+the scene is loaded.
 
 The points go in chunks of consecutive indices, the unit of work of every executor and of the
 output file. The chunk size depends on the grid alone (never on the workers), so a run resumed with
@@ -48,6 +52,12 @@ and to lose little work to an interruption)."""
 MAX_CHUNK_POINTS = 64
 """The most points in one chunk (a rod point costs about 2 ms: a chunk of 64, about 0.15 s)."""
 
+MAX_ATLAS_POINTS = 100_000
+"""[points] The point budget of one atlas: the most grid points :func:`build_atlas` accepts unless
+its ``max_points`` raises it (``frc atlas --max-points``); ``frc serve``'s ``POST /atlas`` takes at
+most this many (a finished job keeps its result in the server's memory, a few megabytes at this
+size). At about 2 ms a point, a grid at the budget is a few minutes of one core."""
+
 FORMAT_VERSION = 1
 """The version of the stored chunks and of the fingerprint's recipe."""
 
@@ -69,8 +79,30 @@ class Axis:
 
     @property
     def values(self) -> np.ndarray:
-        """The axis's values."""
+        """The axis's values, ``numpy.linspace(start, stop, count)``."""
         return np.linspace(self.start, self.stop, self.count)
+
+    def value(self, i: int) -> float:
+        """The axis's value ``i`` in O(1): ``start + i * step``, ``step = (stop - start) / (count - 1)``.
+
+        The same float as ``values[i]`` (numpy's recipe: the last value is ``stop`` itself, and a
+        step that underflows to 0 is replaced by ``(i / (count - 1)) * (stop - start)``).
+
+        Raises:
+            InputError: ``i`` is not in ``range(count)``.
+        """
+        if not 0 <= i < self.count:
+            raise InputError(f"value {i} of --vary {self.path}: the axis has {self.count} values")
+        delta = self.stop - self.start
+        if self.count == 1:
+            return float(0.0 * delta + self.start)
+        if i == self.count - 1:
+            return float(self.stop)
+        div = self.count - 1
+        step = delta / div
+        if step == 0.0:
+            return float(float(i) / div * delta + self.start)
+        return float(float(i) * step + self.start)
 
     @property
     def input_name(self) -> str | None:
@@ -107,7 +139,24 @@ def parse_axis(text: str) -> Axis:
         raise InputError(f"--vary {text!r}: N must be an integer, got {parts[2]!r}") from err
     if count < 1:
         raise InputError(f"--vary {text!r}: N must be >= 1, got {count}")
+    if not math.isfinite(stop - start):
+        raise InputError(f"--vary {text!r}: STOP - START overflows a float; sweep a narrower range")
     return Axis(path, start, stop, count)
+
+
+def check_point_budget(shape: Sequence[int], max_points: int) -> None:
+    """Refuse a grid of more than ``max_points`` points (:data:`MAX_ATLAS_POINTS` by default).
+
+    Raises:
+        InputError: ``max_points`` < 1, or more points than it, with the budget in the message.
+    """
+    if max_points < 1:
+        raise InputError(f"the point budget must be >= 1, got {max_points}")
+    points = math.prod(shape)
+    if points > max_points:
+        grid = " x ".join(str(n) for n in shape)
+        raise InputError(f"the grid has {points} points ({grid}), more than the budget of {max_points} "
+                         "points: sweep fewer points, or raise the budget with --max-points")
 
 
 def default_chunk_size(points: int) -> int:
@@ -131,6 +180,7 @@ class AtlasPlan:
         overrides: the fixed scene overrides ``{path: value}`` (``--set``).
         chunk_size: points per chunk.
         fingerprint: SHA-256 of everything the results depend on (module docstring).
+        max_points: the point budget the plan was checked against (:data:`MAX_ATLAS_POINTS`).
     """
 
     scene: str
@@ -141,6 +191,7 @@ class AtlasPlan:
     overrides: Mapping[str, Any] = field(default_factory=dict)
     chunk_size: int = 1
     fingerprint: str = ""
+    max_points: int = MAX_ATLAS_POINTS
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -168,7 +219,7 @@ class AtlasPlan:
         overrides = dict(self.overrides)
         inputs = dict(self.inputs)
         for axis, i in zip(self.axes, np.unravel_index(index, self.shape), strict=True):
-            value = float(axis.values[int(i)])
+            value = axis.value(int(i))
             name = axis.input_name
             if name is None:
                 overrides[axis.path] = value
@@ -187,7 +238,8 @@ class AtlasPlan:
                      for a in document["axes"])
         return cls(str(document["scene"]), source, str(document["what"]), axes,
                    {str(k): float(v) for k, v in document["inputs"].items()}, dict(document["set"]),
-                   int(document["chunk_size"]), str(document["fingerprint"]))
+                   int(document["chunk_size"]), str(document["fingerprint"]),
+                   int(document.get("max_points", MAX_ATLAS_POINTS)))
 
     @property
     def varies_scene(self) -> bool:
@@ -198,8 +250,8 @@ class AtlasPlan:
         """The plan as JSON values (stored beside the chunks)."""
         return {"scene": self.scene, "what": self.what, "axes": [a.to_dict() for a in self.axes],
                 "inputs": dict(self.inputs), "set": dict(self.overrides), "shape": list(self.shape),
-                "points": self.size, "chunk_size": self.chunk_size, "chunks": self.chunk_count,
-                "fingerprint": self.fingerprint}
+                "points": self.size, "max_points": self.max_points, "chunk_size": self.chunk_size,
+                "chunks": self.chunk_count, "fingerprint": self.fingerprint}
 
 
 def _check_axes(axes: Sequence[Axis], inputs: Mapping[str, float], overrides: Mapping[str, Any]) -> None:
@@ -262,6 +314,7 @@ def build_atlas(
     inputs: Mapping[str, float] | None = None,
     overrides: Mapping[str, Any] | None = None,
     chunk_size: int | None = None,
+    max_points: int = MAX_ATLAS_POINTS,
 ) -> AtlasPlan:
     """Check a sweep's arguments and build its plan (the scene is loaded once; nothing is solved).
 
@@ -273,11 +326,12 @@ def build_atlas(
         inputs: fixed input values ``{name: value}`` (others 0, or the axis's value).
         overrides: fixed scene overrides ``{path: value}`` (the ``--set`` grammar).
         chunk_size: points per chunk (default :func:`default_chunk_size`).
+        max_points: the point budget (:data:`MAX_ATLAS_POINTS`): a larger grid is refused at once.
 
     Raises:
         InputError: no axis, a malformed axis, an unknown ``what``, a path varied twice or also
-            fixed, an unknown input (with the nearest), a fixed input outside its limits, or a
-            chunk size < 1.
+            fixed, an unknown input (with the nearest), a fixed input outside its limits, a
+            chunk size < 1, or a grid of more than ``max_points`` points.
         SceneError: the scene or a ``--set`` override is invalid, or an axis path names no field
             (with the nearest valid one).
     """
@@ -291,6 +345,7 @@ def build_atlas(
     fixed_inputs = {str(k): float(v) for k, v in (inputs or {}).items()}
     fixed = dict(overrides or {})
     _check_axes(axes, fixed_inputs, fixed)
+    check_point_budget([a.count for a in axes], max_points)
     source = scene if isinstance(scene, SceneSource) else SceneSource.file(scene)
     with source.loaded(fixed) as base:
         parse_input_assignments(base, fixed_inputs)
@@ -304,7 +359,8 @@ def build_atlas(
         chunk_size = default_chunk_size(size)
     if chunk_size < 1:
         raise InputError(f"the chunk size must be >= 1, got {chunk_size}")
-    plan = AtlasPlan(source.label, source, what, axes, fixed_inputs, fixed, int(chunk_size))
+    plan = AtlasPlan(source.label, source, what, axes, fixed_inputs, fixed, int(chunk_size),
+                     max_points=max_points)
     from .. import __version__
 
     recipe = {"format": FORMAT_VERSION, "frcontrol": __version__, "scene": source.digest(),
@@ -320,12 +376,14 @@ def build_atlas(
 __all__ = [
     "FORMAT_VERSION",
     "INPUT_PREFIX",
+    "MAX_ATLAS_POINTS",
     "MAX_CHUNK_POINTS",
     "TARGET_CHUNKS",
     "WHATS",
     "AtlasPlan",
     "Axis",
     "build_atlas",
+    "check_point_budget",
     "default_chunk_size",
     "parse_axis",
 ]

@@ -11,23 +11,32 @@ arguments, or an edited scene or URDF), and leaves only the missing chunks to co
 every float exactly (shortest round-trip repr), so a resumed result is identical to an
 uninterrupted one.
 
-The table (Parquet via pyarrow, or NPZ), one row per point:
+The table (Parquet via pyarrow, or NPZ), one row per point, the same column names in both:
 
 - ``index`` (int64), then one float64 column per axis, named by its path;
-- ``count`` (int64; -1 at an error point), ``modes`` (the sorted modes separated by spaces),
-  ``stable`` (one ``true``/``false``/``null`` per mode, separated by spaces), ``ambiguous`` and
-  ``error`` (strings; empty when there is none);
-- the kind's columns: flags as int8 (1 true, 0 false, -1 null), numbers as float64 (NaN for null),
-  names as strings (empty for null).
+- ``count``, ``modes``, ``stable``, ``ambiguous``, ``error``, then the kind's columns.
 
-The plan (as JSON) is in the Parquet schema's metadata under ``frcontrol.atlas``, and in the NPZ
-array ``atlas_plan`` (a string).
+Parquet holds real nulls (an error point's columns, a plan's absent mode, an unanalysable
+stability): ``count`` int64, ``modes`` a list of strings (sorted), ``stable`` a list of booleans
+(one per mode, in their order; an element is null where the stability is not analysable),
+``ambiguous``, ``error`` and names strings, flags booleans, numbers float64. NumPy has no null, so
+NPZ encodes them: ``count`` -1, ``modes`` and ``stable`` one string of space-separated items
+(``"L R"``, ``"true null"``; empty at a point whose ``count`` is -1), strings empty, flags int8
+(1 true, 0 false, -1 null), numbers NaN.
+
+Both carry a JSON metadata entry (:func:`table_metadata`): the plan, the fixed ``--set`` values and
+inputs, each column's unit, type and null encoding. It is the Parquet file's metadata under
+``frcontrol.atlas.metadata`` (and the plan alone under ``frcontrol.atlas``, as before), with each
+field's unit in its own field metadata (``unit``); in NPZ it is the array ``atlas_metadata`` (and
+the plan alone ``atlas_plan``). :func:`read_table` reads either back as the run's rows.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
+import re
 import shutil
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -36,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from .grid import AtlasPlan
+from .grid import INPUT_PREFIX, AtlasPlan
 from .points import columns
 
 TABLE_FORMATS = (".parquet", ".npz")
@@ -46,6 +55,19 @@ FLAG_COLUMNS = frozenset({"form_closure", "force_closure", "static_equilibrium",
                           "strongly_stable", "found"})
 NUMBER_COLUMNS = frozenset({"form_closure_margin", "force_closure_margin", "pitch_acceleration", "margin",
                             "max_disturbance_scale", "robustness_radius"})
+LIST_COLUMNS = frozenset({"modes", "stable"})
+"""The columns whose value at a point is a list (Parquet list columns)."""
+
+COLUMN_UNITS: dict[str, str] = {
+    "count": "-", "form_closure_margin": "N or N m", "force_closure_margin": "N or N m",
+    "pitch_acceleration": "rad/s^2", "margin": "N m", "max_disturbance_scale": "-",
+    "robustness_radius": "N m or N",
+}
+"""The units of the computed number columns (:data:`~.points.KIND_COLUMNS`); an axis's unit is its
+scene field's (:func:`axis_unit`)."""
+
+METADATA_KEY = "frcontrol.atlas.metadata"
+"""The Parquet file-metadata key of the table's JSON metadata (NPZ: the array ``atlas_metadata``)."""
 
 
 def parts_folder(out: Path) -> Path:
@@ -94,24 +116,28 @@ class ChunkStore:
         """
         manifest = self.folder / "manifest.json"
         if self.folder.exists():
-            found = sorted(self.folder.glob("chunk-*.json"))
             if not resume:
-                raise InputError(f"{self.folder} holds {len(found)} finished chunks of an unfinished sweep: "
+                found = len(list(self.folder.glob("chunk-*.json")))
+                raise InputError(f"{self.folder} holds {found} finished chunks of an unfinished sweep: "
                                  "add --resume to finish it, or delete the folder to start again")
             stored = _read_json(manifest)
             if stored is None or stored.get("fingerprint") != self.plan.fingerprint:
                 raise InputError(f"--resume: {self.folder} was written by a sweep with other arguments "
                                  f"({_difference(stored, self.plan)}); run with the same arguments, or "
                                  "delete the folder to start again")
-            return self._read_chunks(found)
+            return self.finished()
         self.folder.mkdir(parents=True)
         _write_atomic(manifest, json.dumps(self.plan.to_dict()))
         return {}
 
-    def _read_chunks(self, files: Sequence[Path]) -> dict[int, dict[str, Any]]:
+    def finished(self) -> dict[int, dict[str, Any]]:
+        """The whole chunks of this plan in the folder, by number.
+
+        A file that does not parse, lacks a column or holds other points is left out (computed again).
+        """
         chunks: dict[int, dict[str, Any]] = {}
         expected = {"chunk", "index", *columns(self.plan.what)}
-        for path in files:
+        for path in sorted(self.folder.glob("chunk-*.json")):
             data = _read_json(path)
             if data is None or not expected <= set(data):
                 continue  # not a whole chunk: computed again
@@ -152,13 +178,58 @@ def _write_atomic(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
+def axis_unit(path: str) -> str:
+    """The unit of an axis's path, from the scene schema's description (``"-"`` if it gives none)."""
+    from ..scene_schema import SCENE_SCHEMA
+
+    if path.startswith(INPUT_PREFIX):
+        path = "inputs.lower"
+    node: Any = SCENE_SCHEMA
+    for part in path.replace("[", ".").replace("]", "").split("."):
+        if node.get("type") == "array":
+            if "properties" not in node["items"]:
+                break  # a coordinate of state.q or state.v: the list's unit
+            node = node["items"]  # ``part`` names an entry (contacts.tip)
+            continue
+        node = node.get("properties", {}).get(part, node.get("additionalProperties") or {})
+    found = re.search(r"\[([^\]]+)\]", str(node.get("description", "")))
+    return found.group(1) if found else "-"
+
+
+def _column_kind(name: str) -> tuple[str, Any]:
+    """A result column's type and its NPZ null: ``("int64", -1)``, ``("bool", -1)``..."""
+    if name == "count":
+        return "int64", -1
+    if name in LIST_COLUMNS:
+        return ("list<string>" if name == "modes" else "list<bool>"), ""
+    if name in FLAG_COLUMNS:
+        return "bool", -1
+    if name in NUMBER_COLUMNS:
+        return "float64", "NaN"
+    return "string", ""
+
+
+def table_metadata(plan: AtlasPlan) -> dict[str, Any]:
+    """The table's JSON metadata: ``{"plan", "set", "inputs", "columns": {name: {unit?, type, null}}}``.
+
+    ``null`` is how NPZ writes a null (Parquet writes real nulls); a unit is given where one applies.
+    """
+    described: dict[str, dict[str, Any]] = {"index": {"type": "int64", "null": None}}
+    for axis in plan.axes:
+        described[axis.path] = {"type": "float64", "null": None, "unit": axis_unit(axis.path),
+                                "start": axis.start, "stop": axis.stop, "count": axis.count}
+    for name in columns(plan.what):
+        kind, null = _column_kind(name)
+        described[name] = {"type": kind, "null": null}
+        if name in COLUMN_UNITS:
+            described[name]["unit"] = COLUMN_UNITS[name]
+    return {"plan": plan.to_dict(), "set": dict(plan.overrides), "inputs": dict(plan.inputs),
+            "columns": described}
+
+
 def table_columns(plan: AtlasPlan, rows: Mapping[str, Sequence[Any]]) -> dict[str, np.ndarray]:
-    """The flat columns of the table (module docstring), one entry per grid point in index order."""
-    index = np.asarray(rows["index"], dtype=np.int64)
-    out: dict[str, np.ndarray] = {"index": index}
-    multi = np.unravel_index(index, plan.shape)
-    for axis, i in zip(plan.axes, multi, strict=True):
-        out[axis.path] = axis.values[i]
+    """The NPZ table's flat columns (module docstring), one entry per grid point in index order."""
+    out = _grid_columns(plan, rows)
     out["count"] = np.array([-1 if c is None else c for c in rows["count"]], dtype=np.int64)
     out["modes"] = np.array([" ".join(m or []) for m in rows["modes"]], dtype=str)
     out["stable"] = np.array([" ".join(json.dumps(x) for x in (s or [])) for s in rows["stable"]], dtype=str)
@@ -175,45 +246,105 @@ def table_columns(plan: AtlasPlan, rows: Mapping[str, Sequence[Any]]) -> dict[st
     return out
 
 
+def _grid_columns(plan: AtlasPlan, rows: Mapping[str, Sequence[Any]]) -> dict[str, np.ndarray]:
+    """``index`` and one column per axis (the axis's values at each row's point)."""
+    index = np.asarray(rows["index"], dtype=np.int64)
+    out: dict[str, np.ndarray] = {"index": index}
+    for axis, i in zip(plan.axes, np.unravel_index(index, plan.shape), strict=True):
+        out[axis.path] = axis.values[i]
+    return out
+
+
+def _arrow_table(plan: AtlasPlan, rows: Mapping[str, Sequence[Any]], meta: Mapping[str, Any]) -> Any:
+    """The Parquet table: real nulls, booleans, list columns, units in the fields' metadata."""
+    import pyarrow as pa
+
+    types = {"int64": pa.int64(), "float64": pa.float64(), "bool": pa.bool_(), "string": pa.string(),
+             "list<string>": pa.list_(pa.string()), "list<bool>": pa.list_(pa.bool_())}
+    grid = _grid_columns(plan, rows)
+    arrays, fields = [], []
+    for name, described in meta["columns"].items():
+        kind = types[described["type"]]
+        arrays.append(pa.array(grid[name] if name in grid else list(rows[name]), type=kind))
+        unit = {b"unit": described["unit"].encode()} if "unit" in described else None
+        fields.append(pa.field(name, kind, nullable=name not in grid, metadata=unit))
+    file_meta = {"frcontrol.atlas": json.dumps(meta["plan"]), METADATA_KEY: json.dumps(meta)}
+    return pa.Table.from_arrays(arrays, schema=pa.schema(fields, metadata=file_meta))
+
+
 def write_table(out: Path, plan: AtlasPlan, rows: Mapping[str, Sequence[Any]]) -> None:
     """Write the table to ``out`` (``.parquet`` or ``.npz``), through a temporary file."""
-    table = table_columns(plan, rows)
-    meta = json.dumps(plan.to_dict())
+    meta = table_metadata(plan)
     tmp = out.with_name(out.name + f".tmp{os.getpid()}{out.suffix}")
     if out.suffix.lower() == ".parquet":
-        import pyarrow as pa
         import pyarrow.parquet as pq
 
-        arrow = pa.table({k: pa.array(v) for k, v in table.items()}).replace_schema_metadata(
-            {"frcontrol.atlas": meta})
-        pq.write_table(arrow, tmp)
+        pq.write_table(_arrow_table(plan, rows, meta), tmp)
     else:
-        arrays: dict[str, Any] = {**table, "atlas_plan": np.array(meta)}
+        arrays: dict[str, Any] = {**table_columns(plan, rows), "atlas_metadata": np.array(json.dumps(meta)),
+                                  "atlas_plan": np.array(json.dumps(meta["plan"]))}
         np.savez(tmp, **arrays)
     os.replace(tmp, out)
 
 
-def read_table(path: Path) -> dict[str, np.ndarray]:
-    """An atlas table written by :func:`write_table`, as ``{column: array}`` (plus ``atlas_plan``)."""
+def read_metadata(path: Path) -> dict[str, Any]:
+    """The JSON metadata of a table written by :func:`write_table` (:func:`table_metadata`)."""
+    if path.suffix.lower() == ".parquet":
+        import pyarrow.parquet as pq
+
+        return dict(json.loads(pq.read_schema(path).metadata[METADATA_KEY.encode()]))
+    with np.load(path) as data:
+        return dict(json.loads(str(data["atlas_metadata"])))
+
+
+def read_table(path: Path) -> dict[str, list[Any]]:
+    """A table written by :func:`write_table`, as ``{column: [value per row]}``: the run's rows.
+
+    Nulls are None and lists are lists, from either format (NPZ's encodings decoded), so that a
+    table reads back as :attr:`~frcontrol.atlas.AtlasResult.rows` (with the axis columns).
+    """
     if path.suffix.lower() == ".parquet":
         import pyarrow.parquet as pq
 
         table = pq.read_table(path)
-        out = {name: table.column(name).to_numpy() for name in table.column_names}
-        out["atlas_plan"] = np.array(table.schema.metadata[b"frcontrol.atlas"].decode())
-        return out
+        return {name: table.column(name).to_pylist() for name in table.column_names}
+    described = read_metadata(path)["columns"]
     with np.load(path) as data:
-        return {name: data[name] for name in data.files}
+        out = {name: _from_npz(data[name].tolist(), kind["type"]) for name, kind in described.items()}
+    for name in LIST_COLUMNS:  # an error point's lists are empty in NPZ: null where count is
+        out[name] = [None if count is None else items for items, count in zip(out[name], out["count"],
+                                                                               strict=True)]
+    return out
+
+
+def _from_npz(values: list[Any], kind: str) -> list[Any]:
+    """A column of an NPZ table, its nulls and lists decoded (module docstring)."""
+    if kind == "int64" or kind == "bool":
+        decoded = [None if v == -1 else v for v in values]
+        return [None if v is None else bool(v) for v in decoded] if kind == "bool" else decoded
+    if kind == "float64":
+        return [None if math.isnan(v) else v for v in values]
+    if kind == "list<string>":
+        return [v.split() for v in values]
+    if kind == "list<bool>":
+        return [[json.loads(x) for x in v.split()] for v in values]
+    return [v or None for v in values]
 
 
 __all__ = [
+    "COLUMN_UNITS",
     "FLAG_COLUMNS",
+    "LIST_COLUMNS",
+    "METADATA_KEY",
     "NUMBER_COLUMNS",
     "TABLE_FORMATS",
     "ChunkStore",
+    "axis_unit",
     "check_out",
     "parts_folder",
+    "read_metadata",
     "read_table",
     "table_columns",
+    "table_metadata",
     "write_table",
 ]
