@@ -50,6 +50,7 @@ def cluster():
         yield local
 
 
+@pytest.mark.slow
 def test_serial_pool_and_cluster_give_the_same_atlas(plan, serial, cluster):
     pool = run_atlas(plan, workers=2)
     dask = run_atlas(plan, scheduler=cluster.scheduler_address)
@@ -109,6 +110,7 @@ def _frc() -> list[str]:
     return [str(script)] if script.exists() else [sys.executable, "-m", "frcontrol"]
 
 
+@pytest.mark.slow
 def test_a_killed_scheduler_ends_the_run_with_its_chunks_kept(plan, serial, tmp_path):
     started = []
     try:
