@@ -24,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import urllib.parse
 import urllib.request
 from pathlib import Path
 
@@ -692,8 +693,9 @@ class HeadlessChromium:
             (screenshot PNG, JavaScript errors, the value of ``expression`` evaluated at the end).
         """
         if commands is None:
-            commands = meshcat_commands(Path(url.removeprefix("file://")).read_text(encoding="utf-8")) \
-                if url.startswith("file://") else 0
+            local = urllib.parse.urlparse(url)
+            commands = 0 if local.scheme != "file" else meshcat_commands(
+                Path(urllib.request.url2pathname(local.path)).read_text(encoding="utf-8"))
         return asyncio.run(self._load(url, expression, commands))
 
     async def _load(self, url: str, expression: str | None, commands: int
