@@ -131,10 +131,13 @@ WAIT_INTERVAL = 0.2
 """[s] How often a waiting command wakes up (to stop on a signal, or to poll watched files)."""
 
 
-def wait_until_stopped(tick: Callable[[], None] | None = None) -> None:
+def wait_until_stopped(tick: Callable[[], None] | None = None,
+                       ready: Callable[[], None] | None = None) -> None:
     """Wait until Ctrl-C (SIGINT) or SIGTERM, calling ``tick`` every :data:`WAIT_INTERVAL`.
 
-    The signals end the wait, not the process, so the caller cleans up before frc exits.
+    The signals end the wait, not the process, so the caller cleans up before frc exits. ``ready``
+    (what says the command is ready, such as its URL) runs once the signals are caught: a signal
+    sent as soon as that line is read ends the wait, never the process.
     """
     import signal
     import threading
@@ -144,6 +147,8 @@ def wait_until_stopped(tick: Callable[[], None] | None = None) -> None:
     for sig in (signal.SIGINT, signal.SIGTERM):
         handlers[sig] = signal.signal(sig, lambda signum, frame: stop.set())
     try:
+        if ready is not None:
+            ready()
         while not stop.wait(WAIT_INTERVAL):
             if tick is not None:
                 tick()
@@ -152,17 +157,23 @@ def wait_until_stopped(tick: Callable[[], None] | None = None) -> None:
             signal.signal(sig, handler)
 
 
-def serve_until_stopped(url: str, tick: Callable[[], None] | None = None) -> None:
+def serve_until_stopped(url: str, tick: Callable[[], None] | None = None,
+                        ready: Callable[[], None] | None = None) -> None:
     """Keep the meshcat server at ``url`` until Ctrl-C (SIGINT) or SIGTERM, then shut it down.
 
     The signals end the wait, not the process: the server is stopped before frc exits, so no
-    server is left behind on its port. ``tick`` runs every :data:`WAIT_INTERVAL` meanwhile.
+    server is left behind on its port. ``ready`` runs once the signals are caught (see
+    :func:`wait_until_stopped`); ``tick`` runs every :data:`WAIT_INTERVAL` meanwhile.
     """
     from frcontrol.viz.meshcat_view import stop_server
 
-    note("serving; Ctrl-C (or SIGTERM) stops the viewer", to_stderr=True)
+    def serving() -> None:
+        if ready is not None:
+            ready()
+        note("serving; Ctrl-C (or SIGTERM) stops the viewer", to_stderr=True)
+
     try:
-        wait_until_stopped(tick)
+        wait_until_stopped(tick, serving)
     finally:
         stop_server(url)
 
@@ -278,8 +289,7 @@ def show_live(server: ViewerServer, scene: Scene, trajectory: Trajectory | None,
     from frcontrol.viz.meshcat_view import draw
 
     draw(server.visualizer(), scene, trajectory, modes=modes)
-    tell(f"meshcat viewer: {server.url}", to_stderr=json)
-    serve_until_stopped(server.url)
+    serve_until_stopped(server.url, ready=lambda: tell(f"meshcat viewer: {server.url}", to_stderr=json))
 
 
 def answer(payload: dict[str, Any], render: Callable[[dict[str, Any]], None], *, json: bool) -> None:

@@ -80,23 +80,32 @@ def view_command(
 
             redraw(written["url"], current)
 
+    # the watched files' stamps are taken before anything is shown: an edit made once the command
+    # says it is ready is always seen
+    tick = _watcher(scene, overrides, loaded, show) if watch else None
     show(loaded)
     if view:
         from frcontrol.viz.meshcat_view import serve, server_at
 
         written["url"] = url = serve(loaded, None, port)
         written["zmq_url"] = server_at(url).zmq_url
-    if json:
-        common.print_json({"scene": loaded.name, **written})
-    elif view:
-        typer.echo(f"meshcat viewer: {written['url']}")
-    sys.stdout.flush()
-    tick = _watcher(scene, overrides, loaded, show) if watch else None
+
+    def announce() -> None:
+        """The ready line: the JSON document, or the viewer's URL."""
+        if json:
+            common.print_json({"scene": loaded.name, **written})
+        elif view:
+            typer.echo(f"meshcat viewer: {written['url']}")
+        sys.stdout.flush()
+        if watch and not view:
+            common.note("watching; Ctrl-C (or SIGTERM) stops", to_stderr=True)
+
     if view:
-        common.serve_until_stopped(str(written["url"]), tick)
+        common.serve_until_stopped(str(written["url"]), tick, announce)
     elif watch:
-        common.note("watching; Ctrl-C (or SIGTERM) stops", to_stderr=True)
-        common.wait_until_stopped(tick)
+        common.wait_until_stopped(tick, announce)
+    else:
+        announce()
 
 
 def _watcher(scene: str, overrides: dict | None, loaded: Scene, show: Callable[[Scene], None]

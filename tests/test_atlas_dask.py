@@ -68,6 +68,7 @@ def scheduler_address(file: Path, scheduler: subprocess.Popen) -> str:
         time.sleep(0.05)
 
 
+@pytest.mark.slow
 def test_serial_pool_and_cluster_give_the_same_atlas(plan, serial, cluster):
     pool = run_atlas(plan, workers=2)
     dask = run_atlas(plan, scheduler=cluster.scheduler_address)
@@ -133,6 +134,7 @@ def _frc() -> list[str]:
     return [str(script)] if script.exists() else [sys.executable, "-m", "frcontrol"]
 
 
+@pytest.mark.slow
 def test_a_killed_scheduler_ends_the_run_with_its_chunks_kept(serial, tmp_path):
     # one point per chunk: 120 chunks, so that the run is far from done when the scheduler dies
     plan = build_atlas("rod_on_table", AXES, overrides=SETS, chunk_size=1)

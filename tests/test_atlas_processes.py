@@ -23,6 +23,8 @@ import pytest
 from frcontrol.atlas import build_atlas, read_table, run_atlas
 from frcontrol.atlas.store import ChunkStore, parts_folder
 
+pytestmark = pytest.mark.slow  # real process pools stopped by signals and kills: seconds each
+
 AXES = ["state.q.theta=0.2:2.9:40", "contacts.tip.mu=0:2:25"]
 SETS = {"state.v.x": -1.0}
 CHUNK = 25

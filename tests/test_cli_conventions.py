@@ -106,6 +106,7 @@ def help_examples():
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("example", help_examples())
 def test_every_help_example_runs(example, tmp_path, monkeypatch):
     import shlex
@@ -128,6 +129,7 @@ def readme_examples():
     return [line for line in lines if "--view" not in line]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("example", readme_examples())
 def test_every_readme_example_runs(example, tmp_path, monkeypatch):
     import shlex

@@ -323,6 +323,7 @@ def test_partial_pruning_drops_subtrees_and_loses_no_mode(write_scene):
 
 
 # ----------------------------------------------------------------------------- LCP agreement
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["rod_on_table", "box_on_ground", "box_on_slope", "table_on_ground",
                                   "disk_in_wedge", "snake_climb"])
 def test_modes_lemke_and_enumeration_agree(name):

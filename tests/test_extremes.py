@@ -12,9 +12,14 @@ from __future__ import annotations
 import pytest
 from extreme_cases import CASES, TYPED_ERROR_CASES, Case, Outcome
 
+SLOW_CASES = {"box-contacts-1e-12-apart", "box-duplicate-contact"}
+"""The cases that take seconds (``pytest -m 'not slow'`` leaves them out)."""
+
 
 def _param(case: Case):
     marks = [pytest.mark.xfail(strict=True, reason=case.known_failure)] if case.known_failure else []
+    if case.id in SLOW_CASES:
+        marks.append(pytest.mark.slow)
     return pytest.param(case, id=case.id, marks=marks)
 
 

@@ -77,6 +77,7 @@ def test_region_labels_skip_the_ones_that_would_collide(tmp_path):
 # ---------------------------------------------------------------------------------- the flip
 
 
+@pytest.mark.slow
 def test_flip_figure_has_no_overlap_and_explains_every_colour(flip):
     scene, plan, result = flip
     for figure in (figures.flip_figure(result), figures.flip_figure(plan)):
@@ -174,6 +175,7 @@ def test_a_support_region_covering_the_whole_view_is_a_tint_not_a_flood(name, la
     assert (region.get_alpha() is not None and region.get_alpha() < 0.1) == whole
 
 
+@pytest.mark.slow
 def test_the_flip_figure_zooms_on_the_small_domains_and_labels_them(flip):
     """RHex's smaller mode domains sit within a few N m of zero torque in a +-40 N m box: a second
     panel frames every one of them (checked against their vertices), at equal aspect, and labels

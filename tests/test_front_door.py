@@ -34,7 +34,7 @@ def test_import_frcontrol_stays_light(tmp_path):
             "'meshcat') if m in sys.modules]\n"
             "print(','.join(heavy))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
-                         timeout=60)
+                         timeout=120)
     assert out.returncode == 0 and out.stdout.strip() == "", out.stdout + out.stderr
 
 
@@ -106,6 +106,6 @@ def test_the_cli_and_the_package_load_no_pinocchio_until_a_command_runs(tmp_path
             "print(load_scene is frcontrol.scene.load_scene and Scene is frcontrol.scene.Scene "
             "and frcontrol.PlanarRobot is frcontrol.model.PlanarRobot)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
-                         timeout=60)
+                         timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.splitlines() == ["", "True"], out.stdout

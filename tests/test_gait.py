@@ -138,6 +138,7 @@ def _held_slip(payload: dict, scene: frcontrol.Scene) -> tuple[float, float]:
     return max(slides.values()), drift
 
 
+@pytest.mark.slow
 def test_gait_climbs_and_holds(gait_run: tuple[dict, Path], scene: frcontrol.Scene) -> None:
     payload, page = gait_run
     sim = payload["simulation"]
@@ -179,6 +180,7 @@ def test_gait_climbs_and_holds(gait_run: tuple[dict, Path], scene: frcontrol.Sce
     assert page.exists() and page.stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_gait_plan_report(gait_run: tuple[dict, Path]) -> None:
     payload, _ = gait_run
     phases = payload["phases"]

@@ -118,6 +118,7 @@ def explicit_stability_limit_of(scene):
     return explicit_stability_limit(params)
 
 
+@pytest.mark.slow
 def test_a_box_landing_while_it_slides_follows_the_adaptive_integrator(write_scene):
     # the slip law's coupling of lam_T to J_N v+ acts only while the penetration changes: a box
     # touching down at 1 m/s while it slides at 2 m/s; the linearly implicit step at a small dt

@@ -23,6 +23,8 @@ import pytest
 
 from frcontrol.scene import shipped_scene_names
 
+pytestmark = pytest.mark.slow  # every command on every scene, as subprocesses: minutes
+
 SCENES = shipped_scene_names()
 BACKENDS = ("daqp", "highs", "proxsuite")
 PLANNER_SCENE = {"flip": "rhex_flip", "climb": "snake_climb", "standup": "solo_standup"}

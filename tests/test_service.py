@@ -299,6 +299,7 @@ def atlas_job(client):
     return finished(client, started.json())
 
 
+@pytest.mark.slow
 def test_an_atlas_job_answers_frc_atlas_json(atlas_job):
     job = atlas_job
     assert job["state"] == "done" and job["kind"] == "atlas" and job["error"] is None, job
@@ -308,6 +309,7 @@ def test_an_atlas_job_answers_frc_atlas_json(atlas_job):
     assert without_timings(job["result"]) == without_timings(expected)
 
 
+@pytest.mark.slow
 def test_an_atlas_scene_sent_as_content_equals_the_shipped_one(client, atlas_job):
     by_name = atlas_job["result"]
     document = read_scene_document(shipped_robots_dir() / "scenes" / "rod_on_table.toml")
@@ -377,6 +379,7 @@ def atlas_workers() -> list:
     return [p for p in multiprocessing.active_children() if p.name == WORKER_NAME]
 
 
+@pytest.mark.slow
 def test_an_atlas_job_reports_progress_and_stops_when_cancelled(client):
     body = {"scene": "rod_on_table", "set": {"state.v.x": -1},
             "vary": ["state.q.theta=0.3:2.8:100", "contacts.tip.mu=0:2:100"], "chunk_size": 16}
@@ -405,6 +408,7 @@ def test_an_atlas_job_reports_progress_and_stops_when_cancelled(client):
     assert client.get("/health").json()["jobs_running"] == 0
 
 
+@pytest.mark.slow
 def test_an_atlas_chunk_past_the_time_limit_fails_its_job(strict_client):
     body = {"scene": "rod_on_table", "set": {"state.v.x": -1},
             "vary": ["state.q.theta=0.3:2.8:100", "contacts.tip.mu=0:2:100"], "chunk_size": 5000}
@@ -434,6 +438,7 @@ SLOW = {"scene": "rod_on_table", "duration": 500.0, "dt": 1e-3}
 """A simulation far longer than the strict client's 2 s limit."""
 
 
+@pytest.mark.slow
 def test_a_slow_request_hits_its_time_limit_and_never_blocks_health(strict_client):
     answers = {}
     slow = threading.Thread(target=lambda: answers.update(slow=strict_client.post("/simulate", json=SLOW)))
@@ -510,6 +515,7 @@ def server():
         yield url
 
 
+@pytest.mark.slow
 def test_a_real_server_plans_the_flip(server):
     response = httpx.post(f"{server}/plan/flip", json={}, timeout=120)
     assert response.status_code == 200, response.text
@@ -531,6 +537,7 @@ async def _load(url: str, count: int) -> list[httpx.Response]:
             for i in range(count)))
 
 
+@pytest.mark.slow
 def test_200_concurrent_solutions_all_equal_the_clis(server):
     expected = {x: {key: cli_json("analyze", "rod_on_table", "--input", f"x={x}")[key]
                     for key in ("solutions", "input_units")} for x in INPUTS}
@@ -543,6 +550,7 @@ def test_200_concurrent_solutions_all_equal_the_clis(server):
     assert httpx.get(f"{server}/health").json()["status"] == "ok"
 
 
+@pytest.mark.slow
 def test_a_real_server_runs_atlas_jobs_on_a_dask_cluster():
     if os.environ.get("CI") != "true":
         pytest.importorskip("distributed", reason="Dask distributed is not installed (pip install "

@@ -51,6 +51,7 @@ def test_the_limits_follow_the_scene():
     assert soft.max_penetration > 50 * stiff.max_penetration  # F / k, plus the gap tolerance
 
 
+@pytest.mark.slow
 def test_constant_torques_on_massless_legs_are_reported():
     """The issue's run: hips beyond 10^4 rad/s, toes striking at hundreds of m/s, centimetres deep."""
     scene = load_scene("rhex_flip")

@@ -374,6 +374,7 @@ def test_highs_infeasible_verdict_is_confirmed_without_presolve():
         assert solve_lp(PRESOLVE_C, PRESOLVE_A, PRESOLVE_B, solver=solver).status == "unbounded"
 
 
+@pytest.mark.slow
 def test_highs_writes_nothing_on_stdout(tmp_path):
     """HiGHS's postsolve prints debug lines to the C-level stdout; the adapter silences them
     (seen on the lifted climb LPs: a duplicate column undone in postsolve)."""

@@ -95,6 +95,7 @@ def test_painleve_verdict_holds_for_the_classic_unforced_rod(write_scene):
     assert verdicts["R"].eigenvalues[0].real == pytest.approx(painleve_d(THETA, MU, +1.0), rel=1e-8)
 
 
+@pytest.mark.slow
 def test_unstable_sliding_is_left_by_the_compliant_model_as_the_boundary_layer_predicts(write_scene):
     scene, problem, v, u = painleve_rod(write_scene, +1.0)
     rigid = next(s for s in solutions_at(problem, u) if s.mode == "R")
@@ -124,6 +125,7 @@ def test_unstable_sliding_is_left_by_the_compliant_model_as_the_boundary_layer_p
     assert lighter.contact_forces[-1, 0, 0] == 0.0 and any(e.kind == "open" for e in lighter.events)
 
 
+@pytest.mark.slow
 def test_stable_sliding_is_approached_by_the_compliant_model(write_scene):
     scene, problem, v, u = painleve_rod(write_scene, -1.0)
     solutions = solutions_at(problem, u)

@@ -24,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import urllib.parse
 import urllib.request
 from pathlib import Path
 
@@ -303,7 +304,7 @@ def test_serve_a_scene_and_refuse_a_taken_port():
     url = mv.serve(scene)
     try:
         assert url.startswith("http://127.0.0.1:") and url.endswith("/static/")
-        with urllib.request.urlopen(url, timeout=10) as response:
+        with urllib.request.urlopen(url, timeout=READY_SECONDS) as response:
             assert response.status == 200 and b"meshcat" in response.read().lower()
     finally:
         mv.stop_server(url)
@@ -446,30 +447,79 @@ def port_is_free(port: int) -> bool:
         return probe.connect_ex(("127.0.0.1", port)) != 0
 
 
+READY_SECONDS = 120.0
+"""[s] How long a test waits for another process (a server, the browser, a reloaded scene) to be
+ready, polling: CI is a loaded 2-core machine, so this is generous; a ready process answers at once."""
+
+
+def read_stdout_until(process: subprocess.Popen, ready):
+    """Read ``process``'s stdout until ``ready(the text so far)`` gives a value (a condition that
+    means ready: a whole JSON document, a URL), within :data:`READY_SECONDS`; return that value."""
+    import queue
+    import threading
+
+    lines: queue.Queue = queue.Queue()
+
+    def forward() -> None:
+        for line in process.stdout:
+            lines.put(line)
+        lines.put("")  # the end of its output
+
+    threading.Thread(target=forward, daemon=True).start()
+    deadline = time.monotonic() + READY_SECONDS
+    text = ""
+    while True:
+        try:
+            line = lines.get(timeout=max(deadline - time.monotonic(), 0.0))
+        except queue.Empty:
+            raise AssertionError(f"not ready within {READY_SECONDS:g} s; stdout so far: {text!r}") from None
+        assert line, f"frc exited ({process.wait()}) before it was ready; stdout: {text!r}"
+        text += line
+        value = ready(text)
+        if value is not None:
+            return value
+
+
+def wait_until(condition, what: str) -> None:
+    """Poll ``condition()`` until it holds, failing after :data:`READY_SECONDS` with ``what``."""
+    deadline = time.monotonic() + READY_SECONDS
+    while not condition():
+        assert time.monotonic() < deadline, f"{what} (within {READY_SECONDS:g} s)"
+        time.sleep(0.1)
+
+
+def replace_text(path: Path, text: str) -> None:
+    """Write ``path`` at once (a new file renamed over it), as an editor saves: a watcher never
+    reads it half written."""
+    part = path.with_name(path.name + ".part")
+    part.write_text(text)
+    os.replace(part, path)
+
+
 def stop_and_check_the_port(process: subprocess.Popen, port: int) -> None:
     """SIGTERM ends a serving `frc` with exit 0, and no server is left behind on its port."""
     process.send_signal(signal.SIGTERM)
-    assert process.wait(timeout=20) == 0
-    deadline = time.monotonic() + 10
-    while not port_is_free(port) and time.monotonic() < deadline:
-        time.sleep(0.1)
-    assert port_is_free(port), f"a server was left behind on port {port}"
+    assert process.wait(timeout=READY_SECONDS) == 0
+    wait_until(lambda: port_is_free(port), f"a server was left behind on port {port}")
 
 
-def test_cli_view_serves_until_sigterm_then_stops_the_server(tmp_path):
-    """As a user's script runs it: a real process, no terminal; SIGTERM ends it and its server."""
+@pytest.mark.parametrize("at_once", [False, True])
+def test_cli_view_serves_until_sigterm_then_stops_the_server(tmp_path, at_once):
+    """As a user's script runs it: a real process, no terminal; SIGTERM ends it and its server,
+    also when sent as soon as the URL is read (the ready line is printed once SIGTERM is caught)."""
     port = free_port()
     process = subprocess.Popen([sys.executable, "-m", "frcontrol", "view", "rhex_flip", "--view", "--port",
                                 str(port)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                cwd=tmp_path, stdin=subprocess.DEVNULL)
     try:
-        line = process.stdout.readline()
-        url = re.search(r"meshcat viewer: (http://127\.0\.0\.1:\d+/static/)", line).group(1)
+        url = read_stdout_until(process, lambda text: (found := re.search(
+            r"meshcat viewer: (http://127\.0\.0\.1:\d+/static/)\n", text)) and found.group(1))
         assert f":{port}/" in url
-        with urllib.request.urlopen(url, timeout=10) as response:
-            assert response.status == 200
-        time.sleep(0.5)
-        assert process.poll() is None  # still serving
+        if not at_once:
+            for _ in range(2):  # it answers, and keeps serving
+                with urllib.request.urlopen(url, timeout=READY_SECONDS) as response:
+                    assert response.status == 200
+            assert process.poll() is None
         stop_and_check_the_port(process, port)
     finally:
         if process.poll() is None:
@@ -501,38 +551,31 @@ def test_cli_view_watch_reloads_the_scene_and_survives_a_bad_edit(tmp_path, writ
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path, stdin=subprocess.DEVNULL)
     errors: list[str] = []
     threading.Thread(target=lambda: errors.extend(process.stderr), daemon=True).start()
+
+    def whole_document(text: str) -> dict | None:
+        with contextlib.suppress(json.JSONDecodeError):
+            return json.loads(text)
+        return None
+
     try:
-        text = ""
-        while True:
-            line = process.stdout.readline()
-            assert line, f"frc exited: {errors}"
-            text += line
-            with contextlib.suppress(json.JSONDecodeError):
-                document = json.loads(text)
-                break
+        document = read_stdout_until(process, whole_document)
         assert f":{port}/" in document["url"] and document["html"] == str(page_path.resolve())
         with contextlib.redirect_stdout(io.StringIO()):
             probe = mv._import_meshcat().Visualizer(zmq_url=document["zmq_url"])
         assert rod_x(probe.static_html()) == pytest.approx(0.0, abs=1e-12)
         assert rod_x(page_path.read_text()) == pytest.approx(0.0, abs=1e-12)
 
-        time.sleep(0.05)  # a new modification time even on coarse clocks
-        path.write_text(toml_text(rod_scene(state={"q": [0.25, 0.453, 2.007], "v": [0.0, 0.0, 0.0]})))
-        deadline = time.monotonic() + 20
-        while rod_x(probe.static_html()) != pytest.approx(0.25, abs=1e-12):
-            assert time.monotonic() < deadline, f"the viewer did not reload: {errors}"
-            time.sleep(0.1)
-        deadline = time.monotonic() + 5
-        while rod_x(page_path.read_text()) != pytest.approx(0.25, abs=1e-12):
-            assert time.monotonic() < deadline, "the page was not rewritten"
-            time.sleep(0.1)
+        # the file's size changes with each edit, so a watcher sees it even on a coarse clock
+        replace_text(path, toml_text(rod_scene(state={"q": [0.25, 0.453, 2.007], "v": [0.0, 0.0, 0.0]})))
+        wait_until(lambda: rod_x(probe.static_html()) == pytest.approx(0.25, abs=1e-12),
+                   f"the viewer did not reload: {errors}")
+        wait_until(lambda: rod_x(page_path.read_text()) == pytest.approx(0.25, abs=1e-12),
+                   "the page was not rewritten")
 
-        bad = toml_text(rod_scene()).replace("mu = ", "muu = ")
-        path.write_text(bad)
-        deadline = time.monotonic() + 20
-        while not any("still watching" in e for e in errors):
-            assert time.monotonic() < deadline and process.poll() is None, errors
-            time.sleep(0.1)
+        replace_text(path, toml_text(rod_scene()).replace("mu = ", "muu = "))
+        wait_until(lambda: any("still watching" in e for e in errors) or process.poll() is not None,
+                   f"no complaint about the bad edit: {errors}")
+        assert process.poll() is None, errors
         complaint = next(e for e in errors if "still watching" in e)
         assert "muu" in complaint and "'mu'" in complaint and complaint.count("\n") == 1
         assert process.poll() is None
@@ -564,6 +607,29 @@ CHROMIUM_FLAGS = [
 ]
 
 
+COUNT_MESHCAT_COMMANDS = """(() => {
+  // Before the page's scripts: count the drawing commands its meshcat viewer applies (a page
+  // file's come from fetch() promises, a served viewer's over its websocket).
+  let current;
+  window.frcCommandsApplied = 0;
+  Object.defineProperty(window, "viewer", {configurable: true, get: () => current, set(value) {
+    current = value;
+    const apply = value.handle_command_bytearray.bind(value);
+    value.handle_command_bytearray = (bytes) => {
+      const out = apply(bytes);
+      window.frcCommandsApplied += 1;
+      return out;
+    };
+  }});
+})();"""
+
+
+def meshcat_commands(page: str) -> int:
+    """How many drawing commands a meshcat page (``static_html()``) holds: as many as a served
+    viewer sends a browser that connects."""
+    return page.count('fetch("data:application/octet-binary;base64,')
+
+
 def find_chromium() -> str | None:
     """Chromium or Chrome: $FRC_CHROMIUM, else the first on PATH."""
     explicit = os.environ.get("FRC_CHROMIUM")
@@ -585,37 +651,59 @@ class HeadlessChromium:
             [executable, *CHROMIUM_FLAGS, f"--user-data-dir={self.profile}", "about:blank"],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
         )
-        active = Path(self.profile) / "DevToolsActivePort"
-        deadline = time.monotonic() + 30
-        while not (active.exists() and active.read_text().strip()):
+        self.port = 0
+        deadline = time.monotonic() + READY_SECONDS
+        while not self._answers():
             if self.process.poll() is not None or time.monotonic() > deadline:
                 self.close()
-                raise RuntimeError("chromium did not open its DevTools port")
-            time.sleep(0.05)
-        self.port = int(active.read_text().split()[0])
+                raise RuntimeError(f"chromium did not answer on its DevTools port within {READY_SECONDS:g} s")
+            time.sleep(0.1)
+
+    def _answers(self) -> bool:
+        """Whether the DevTools port is known (its file written whole: the port, then the browser's
+        path) and answers a real request."""
+        try:
+            port, path = (Path(self.profile) / "DevToolsActivePort").read_text().split("\n")[:2]
+            with urllib.request.urlopen(f"http://127.0.0.1:{int(port)}/json/version", timeout=10) as response:
+                if not path.startswith("/devtools/browser/") or "Browser" not in json.load(response):
+                    return False
+        except (OSError, ValueError):  # not written yet, half written, or not listening yet
+            return False
+        self.port = int(port)
+        return True
 
     def close(self) -> None:
         self.process.terminate()
         try:
-            self.process.wait(timeout=10)
+            self.process.wait(timeout=READY_SECONDS)
         except subprocess.TimeoutExpired:
             self.process.kill()
-            self.process.wait(timeout=10)
+            self.process.wait(timeout=READY_SECONDS)
         shutil.rmtree(self.profile, ignore_errors=True)
 
-    def load(self, url: str, expression: str | None = None) -> tuple[bytes, list[str], object]:
+    def load(self, url: str, expression: str | None = None, commands: int | None = None
+             ) -> tuple[bytes, list[str], object]:
         """Open ``url`` in a new tab, let it render (and finish a meshcat animation).
+
+        The page counts as drawn once it has loaded and its meshcat viewer has applied ``commands``
+        drawing commands (None: as many as a page file holds; a served viewer's come over its
+        websocket after the page loads), and its animation has finished.
 
         Returns:
             (screenshot PNG, JavaScript errors, the value of ``expression`` evaluated at the end).
         """
-        return asyncio.run(self._load(url, expression))
+        if commands is None:
+            local = urllib.parse.urlparse(url)
+            commands = 0 if local.scheme != "file" else meshcat_commands(
+                Path(urllib.request.url2pathname(local.path)).read_text(encoding="utf-8"))
+        return asyncio.run(self._load(url, expression, commands))
 
-    async def _load(self, url: str, expression: str | None) -> tuple[bytes, list[str], object]:
+    async def _load(self, url: str, expression: str | None, commands: int
+                    ) -> tuple[bytes, list[str], object]:
         from tornado.websocket import websocket_connect
 
         request = urllib.request.Request(f"http://127.0.0.1:{self.port}/json/new?about:blank", method="PUT")
-        with urllib.request.urlopen(request, timeout=10) as response:
+        with urllib.request.urlopen(request, timeout=READY_SECONDS) as response:
             target = json.load(response)
         connection = await websocket_connect(target["webSocketDebuggerUrl"], max_message_size=1 << 26)
         errors: list[str] = []
@@ -643,7 +731,7 @@ class HeadlessChromium:
             number = next(ids)
             connection.write_message(json.dumps({"id": number, "method": method, "params": params}))
             while True:
-                raw = await asyncio.wait_for(connection.read_message(), timeout=30)
+                raw = await asyncio.wait_for(connection.read_message(), timeout=READY_SECONDS)
                 if raw is None:
                     raise RuntimeError("the DevTools connection closed")
                 message = json.loads(raw)
@@ -658,26 +746,34 @@ class HeadlessChromium:
                                 returnByValue=True)
             return result["result"].get("value")
 
+        async def loaded() -> bool:
+            await evaluate("1")  # reads the events that came meanwhile
+            return "Page.loadEventFired" in events
+
+        async def wait_for(condition, what: str) -> None:
+            while not await condition():
+                if time.monotonic() > deadline:
+                    raise RuntimeError(f"{url}: {what} within {READY_SECONDS:g} s; errors: {errors}")
+                await asyncio.sleep(0.05)
+
         try:
             for domain in ("Runtime", "Log", "Page"):
                 await call(f"{domain}.enable")
+            await call("Page.addScriptToEvaluateOnNewDocument", source=COUNT_MESHCAT_COMMANDS)
             await call("Page.navigate", url=url)
-            deadline = time.monotonic() + 30
-            while "Page.loadEventFired" not in events and time.monotonic() < deadline:
-                await asyncio.sleep(0.05)
-                await evaluate("1")
-            # Wait for a meshcat animation to finish (pages without one pass at once).
-            while time.monotonic() < deadline and await evaluate(
-                    "typeof viewer !== 'undefined' && viewer.animator.playing"):
-                await asyncio.sleep(0.1)
-            await asyncio.sleep(0.3)
+            deadline = time.monotonic() + READY_SECONDS
+            await wait_for(loaded, "the page did not load")
+            await wait_for(lambda: evaluate(f"window.frcCommandsApplied >= {commands}"),
+                           f"the viewer did not apply its {commands} drawing commands")
+            await wait_for(lambda: evaluate("typeof viewer === 'undefined' || !viewer.animator.playing"),
+                           "the animation did not finish")
             await evaluate("new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
             value = await evaluate(expression) if expression else None
             shot = await call("Page.captureScreenshot", format="png")
         finally:
             connection.close()
             with urllib.request.urlopen(f"http://127.0.0.1:{self.port}/json/close/{target['id']}",
-                                        timeout=10):
+                                        timeout=READY_SECONDS):
                 pass
         return base64.b64decode(shot["data"]), errors, value
 
@@ -776,7 +872,8 @@ def test_served_viewer_draws_in_chromium(chromium):
     scene, trajectory = rhex_trajectory()
     url = mv.serve(scene, trajectory)
     try:
-        png, errors, animation = chromium.load(url, "viewer.animator.duration")
+        commands = meshcat_commands(mv.server_at(url).static_html())
+        png, errors, animation = chromium.load(url, "viewer.animator.duration", commands)
     finally:
         mv.stop_server(url)
     assert errors == []
