@@ -13,7 +13,7 @@ Named problems:
   lower-dimensional modes it needs are cached in the analysis after the first run: the median is
   the warm figure, the first run is reported apart);
 * ``flip_simulated``: :func:`~frcontrol.planning.flip.simulate_flip` on ``rhex_flip`` (at most 2 s
-  at 1 ms, a plan every 10 steps; the shipped 40 N m hips flip it, at 0.79 s) and on the same
+  at 1 ms, a plan every 10 steps; the shipped 13.4 N m hips flip it, at 0.41 s) and on the same
   scene with realistic 10 N m hips (``flip_simulated_10Nm``: it does not flip, so this runs the
   whole 2 s);
 * ``climb_plan``: :func:`frcontrol.planning.climb.plan_climb` on ``snake_climb`` with its scale

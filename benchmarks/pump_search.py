@@ -44,9 +44,11 @@ from frcontrol.scene import Scene, load_scene
 from frcontrol.simulation.rigid import RigidSettings, RigidStepper
 
 HIPS = ("hip_front", "hip_middle", "hip_rear")
-FRONT_DRIVE = {"kind": "dc_motor", "resistance": 1.16, "torque_constant": 0.0234, "back_emf_constant": 0.0234,
-               "rotor_inertia": 2.1e-6, "stages": [{"ratio": 33.0, "efficiency": 0.7}]}
-"""The front pair's drive: the same pair of maxon RE 25 as rhex_flip_drives' other hips."""
+FRONT_DRIVE = {"kind": "dc_motor", "resistance": 0.665, "torque_constant": 0.0161,
+               "back_emf_constant": 0.01806, "rotor_inertia": 1.822e-6,
+               "stages": [{"ratio": 33.0625, "efficiency": 0.7}]}
+"""The front pair's drive: the same pair of RHex's motors as rhex_flip_drives' other hips (RHexLib's
+constants, sources in that scene)."""
 
 CORNER_GAP = 0.02
 """[m] The ``corner`` objective counts the samples where the front corner is at most this high."""

@@ -250,10 +250,10 @@ def corner(name: str, point: Sequence[float], normal: Sequence[float] = (0.0, 1.
             "surface_point": [0.0, 0.0]}
 
 
-RHEX_STATIC_INPUT = np.array([-1.57, -2.03])
+RHEX_STATIC_INPUT = np.array([-1.0, -3.84])
 """[N m] Hip torques at which RHex (rhex_flip) rests in mode FFF (a Chebyshev centre, rounded)."""
 
-RHEX_MOVING_INPUT = np.array([-3.08, -3.65])
+RHEX_MOVING_INPUT = np.array([-8.08, -6.34])
 """[N m] Hip torques at which RHex pitches up in mode RFL (a Chebyshev centre, rounded)."""
 
 

@@ -149,16 +149,17 @@ def test_every_point_is_what_the_library_says_there():
 
 
 def test_ambiguity_between_and_within_modes():
-    # RHex at an overlap of LLF and LFR (between modes); the table's legs share its load (within)
-    flip = run_atlas(build_atlas("rhex_flip", ["input.hip_middle=-0.75:-0.65:3"],
-                                 inputs={"hip_rear": 0.7011}), workers=1)
-    scene = load_scene("rhex_flip")
-    for k, amb in enumerate(flip.rows["ambiguous"]):
-        u = {"hip_middle": float(np.linspace(-0.75, -0.65, 3)[k]), "hip_rear": 0.7011}
+    # the rod on the table across an overlap of its modes S, R and F (between modes); the table's
+    # legs share its load (within)
+    rod = run_atlas(build_atlas("rod_on_table", ["input.x=48.0:49.6:3"],
+                                inputs={"y": -49.3379, "theta": 24.0442}), workers=1)
+    scene = load_scene("rod_on_table")
+    for k, amb in enumerate(rod.rows["ambiguous"]):
+        u = {"x": float(np.linspace(48.0, 49.6, 3)[k]), "y": -49.3379, "theta": 24.0442}
         found = frcontrol.solutions_at(scene, u)
-        assert flip.rows["count"][k] == len(found)
+        assert rod.rows["count"][k] == len(found)
         assert amb in (("between", "both") if len(found) > 1 else ("none", "within"))
-    assert any(c > 1 for c in flip.rows["count"])
+    assert any(c > 1 for c in rod.rows["count"])
     table = run_atlas(build_atlas("table_on_ground", ["gravity=5:10:2"]), workers=1)
     assert set(table.rows["ambiguous"]) <= {"within", "both"} and table.rows["count"] == [1, 1]
 

@@ -234,10 +234,13 @@ def test_analyze_json_names_each_inputs_unit_and_the_drives_torque_band():
 def test_the_shipped_rhex_drives_are_a_motor_pair_within_20_newton_metres_at_stall():
     scene = load_scene("rhex_flip_drives")
     for drive in scene.drives.values():
-        assert stall_torque(drive) <= 20.0
-        assert drive.ratio == 33.0
-        assert stall_torque(drive) == pytest.approx(
-            drive.efficiency * 33.0 * drive.torque_constant * drive.voltage_limit / drive.resistance)
+        # RHexLib's motor (hardware/UofM/config.hh), two in parallel: R / 2, twice the rotor inertia
+        assert drive.resistance == pytest.approx(1.33 / 2)
+        assert drive.rotor_inertia == pytest.approx(2 * 9.11e-7)
+        assert drive.ratio == 33.0625 and drive.voltage_limit == 24.0
+        lossless = 33.0625 * drive.torque_constant * drive.voltage_limit / drive.resistance  # N C_M U / R
+        assert lossless <= 20.0
+        assert stall_torque(drive) == pytest.approx(drive.efficiency * lossless)
 
 
 # ---------------------------------------------------------------------------- simulate output
@@ -255,9 +258,9 @@ def test_simulate_json_and_out_carry_each_drives_samples(tmp_path):
     times = payload["samples"]["times"]
     assert all(len(rear[key]) == len(times) for key in rear)
     assert rear["voltage"][-1] == -12.0
-    assert rear["current"][-1] == pytest.approx((-12.0 - 0.0234 * rear["motor_speed"][-1]) / 1.16)
+    assert rear["current"][-1] == pytest.approx((-12.0 - 0.01806 * rear["motor_speed"][-1]) / 0.665)
     v_rear = [row[payload["summary"]["coordinates"].index("hip_rear")] for row in payload["samples"]["v"]]
-    assert rear["motor_speed"] == pytest.approx([33.0 * x for x in v_rear])
+    assert rear["motor_speed"] == pytest.approx([33.0625 * x for x in v_rear])
     arrays = np.load(out)
     assert arrays["drives.hip_rear.current"] == pytest.approx(rear["current"])
     csv_path = tmp_path / "run.csv"

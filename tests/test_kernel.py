@@ -204,15 +204,15 @@ def test_shipped_scenes_agree_with_the_numpy_kernel(name, data, monkeypatch):
 
 @needs_kernel
 def test_the_kernels_differ_only_on_an_edge(monkeypatch):
-    """rhex_flip's mode LLF has its domain's edge at u_1 = 0: at u_1 = DOMAIN_TOLERANCE its normalised
+    """rhex_flip's mode LRR has its domain's edge at u_1 = 0: at u_1 = DOMAIN_TOLERANCE its normalised
     slack is -DOMAIN_TOLERANCE to one ulp, where the kernels' sums may fall either side; a millionth
-    of the tolerance either side of that input, they agree (and LLF is in, then out)."""
+    of the tolerance either side of that input, they agree (and LRR is in, then out)."""
     problem = ContactProblem.from_scene(load_scene("rhex_flip"))
     inside, outside = (np.array([DOMAIN_TOLERANCE * (1 + s * 1e-6), 0.0]) for s in (-1, 1))
     assert_same_batch(problem, inside, monkeypatch)
     assert_same_batch(problem, outside, monkeypatch)
-    assert "LLF" in [s.mode for s in decide(problem, inside, "numpy", monkeypatch).solutions]
-    assert "LLF" not in [s.mode for s in decide(problem, outside, "numpy", monkeypatch).solutions]
+    assert "LRR" in [s.mode for s in decide(problem, inside, "numpy", monkeypatch).solutions]
+    assert "LRR" not in [s.mode for s in decide(problem, outside, "numpy", monkeypatch).solutions]
 
 
 @needs_kernel

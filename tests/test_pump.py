@@ -28,7 +28,7 @@ from frcontrol.scene import load_scene
 runner = CliRunner()
 PITCH = 2  # theta in RHex's coordinates
 STRONG_VOLTS = 250.0
-"""[V] The motors at this voltage limit (117 N m stall, 323 rad/s, ten times RHex's pair): one
+"""[V] The motors at this voltage limit (140 N m stall, 419 rad/s, ten times RHex's pair): one
 stroke flips the body."""
 
 
@@ -39,7 +39,7 @@ def rhex():
 
 @pytest.fixture(scope="module")
 def pumped(rhex):
-    """Two cycles at the scene's drives (11.2 N m stall per pair), with the first push's plan."""
+    """Two cycles at the scene's drives (13.4 N m stall per pair), with the first push's plan."""
     return pump_flip(rhex, max_time=0.6)
 
 
@@ -69,7 +69,7 @@ def test_the_voltage_for_a_torque_inverts_the_motor_line(rhex):
 
 def test_the_scene_hip_pairs_are_within_twenty_newton_metres(rhex):
     for drive in rhex.drives.values():
-        assert 0 < stall_torque(drive) <= 20.0 and 20.0 < no_load_speed(drive) < 40.0
+        assert 0 < stall_torque(drive) <= 20.0 and 20.0 < no_load_speed(drive) < 45.0
 
 
 # ---------------------------------------------------------------- the run, from its samples
@@ -160,9 +160,9 @@ def test_within_twenty_newton_metres_the_rigid_body_does_not_flip_and_says_why(p
 
 BODY_MASS, BODY_INERTIA = 7.5, 0.1668125
 """[kg], [kg m^2] RHex's body (rhex_planar.urdf; the legs are massless)."""
-CORNER, HIP_DEPTH, LEG = (0.25, 0.065), 0.13, 0.17
-"""[m] The front corner in the body frame, the hips' height above the shell lying flat (2 x 0.065),
-a leg's length (rhex_planar.urdf)."""
+CORNER, HIP_DEPTH, LEG = (0.25, 0.065), 0.065, 0.17
+"""[m] The front corner in the body frame, the hips' height above the shell lying flat (the hips on
+the mid-plane, 0.065 below the back face), a leg's length (rhex_planar.urdf)."""
 
 
 def _closed_form_reach(hip_to_corner: float) -> float:
@@ -189,7 +189,7 @@ def test_the_flip_budget_is_the_closed_form_of_the_geometry(rhex):
     height = CORNER[0] * math.sin(top) + CORNER[1] * math.cos(top)
     assert budget.reach_energy == pytest.approx(weight * (height - y0), abs=1e-9)
     assert budget.kinetic_energy_needed == pytest.approx(budget.barrier_energy - budget.reach_energy)
-    assert budget.kinetic_energy_needed > 11.0
+    assert budget.kinetic_energy_needed > 6.0  # 6.5 J of the 13.3 J: the legs reach half-way up
 
 
 def test_a_budget_over_body_contacts_on_different_surfaces_is_a_scene_error():
@@ -209,7 +209,7 @@ def test_a_toe_carries_force_only_below_its_reach_pitch(rhex, pumped):
         assert np.all(pitch[loaded] <= budget.reach_pitch[joint] + budget.pitch_step)
 
 
-def test_the_rigid_pumping_does_not_add_up_and_the_samples_show_it(rhex, pumped):
+def test_the_rigid_pumping_stays_below_the_barrier_and_the_samples_show_it(rhex, pumped):
     plan, result = pumped
     doc = json.loads(json.dumps(pump_payload(rhex, plan, result)))
     samples, pump = doc["simulation"]["samples"], doc["pump"]
@@ -219,16 +219,15 @@ def test_the_rigid_pumping_does_not_add_up_and_the_samples_show_it(rhex, pumped)
         + BODY_MASS * rhex.robot.gravity * (q[:, 1] - q[0, 1])
     assert pump["max_energy"] == pytest.approx(float(energy.max()), abs=1e-9)
     assert pump["max_energy"] < pump["budget"]["barrier_energy"]
-    # every push after the first starts from rest (the body is back on its legs), so it can end no
-    # higher than the first push from rest: the cycles' highest energies do not grow
+    # every push after the first starts as the body falls back onto its toes, still moving (the
+    # legs reach 0.46 rad up, so the body lands on them, not at rest), and no cycle reaches the barrier
     pushes = [p for p in pump["phases"] if p["kind"] == "push"]
     assert len(pushes) >= 2
     for push in pushes[1:]:
         k = int(np.searchsorted(times, push["start"]))
         kinetic = 0.5 * BODY_MASS * (v[k, 0] ** 2 + v[k, 1] ** 2) + 0.5 * BODY_INERTIA * v[k, 2] ** 2
-        assert kinetic < 1e-3
-    first, *later = pump["cycle_max_energy"]
-    assert all(e <= first + 0.05 for e in later), pump["cycle_max_energy"]
+        assert kinetic > 1.0
+    assert all(e < pump["budget"]["barrier_energy"] for e in pump["cycle_max_energy"])
     assert "13.31 J brings its centre of mass over front_corner" in doc["simulation"]["reason"]
 
 
@@ -323,13 +322,13 @@ def test_a_toe_that_reaches_the_ground_holds_the_body_only_with_the_centre_of_ma
     budget = flip_budget(rhex)
     step, start = budget.pitch_step, budget.start_pitch - math.pi
     holds = {toe: [(a - math.pi, b - math.pi) for a, b in spans] for toe, spans in budget.hold_pitch.items()}
-    # the front toe (hip 0.05 m behind the corner): from 1.162 rad up to vertical, 14.0 J above flat
+    # the front toe (hip 0.05 m behind the corner): from 0.680 rad up to vertical, 11.0 J above flat
     (first, last), = holds["front_toe"]
     front = _closed_form_hold(0.05, 0.5, 1.3)
     assert front <= first <= front + step
     assert last == pytest.approx(0.5 * math.pi)
     height = CORNER[0] * math.sin(front) + CORNER[1] * math.cos(front)
-    assert BODY_MASS * rhex.robot.gravity * (height - CORNER[1]) == pytest.approx(14.0, abs=0.05)
+    assert BODY_MASS * rhex.robot.gravity * (height - CORNER[1]) == pytest.approx(11.05, abs=0.05)
     # the middle and rear toes: from the start until just before their hips leave their reach
     for toe, behind in (("middle_toe", 0.25), ("rear_toe", 0.45)):
         (first, last), = holds[toe]

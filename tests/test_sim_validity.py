@@ -30,10 +30,15 @@ runner = CliRunner()
 FREE_ROD = 'robot = "rod.urdf"\n[state]\nq = [0.0, 1.0, 0.3]\n[inputs]\ncoordinates = ["x"]\n'
 
 
+CALM_INPUTS = {"rhex_flip": np.array([-1.0, -3.84])}
+"""Inputs that hold a scene at rest where zero does not: RHex's hips in mode FFF (with no torque
+its legs give way under the body)."""
+
+
 @pytest.mark.parametrize("name", ["rod_on_table", "box_on_slope", "table_on_ground", "rhex_flip"])
 @pytest.mark.parametrize("simulate", [simulate_rigid, simulate_compliant])
 def test_a_calm_run_has_no_warning(name, simulate):
-    trajectory = simulate(load_scene(name), None, 0.2, 0.002)
+    trajectory = simulate(load_scene(name), CALM_INPUTS.get(name), 0.2, 0.002)
     assert trajectory.status == "completed" and trajectory.warnings == ()
     limits = trajectory.info["validity"]
     assert limits["max_speed"] > 0 and limits["max_penetration"] > 0

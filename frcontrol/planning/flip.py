@@ -75,8 +75,8 @@ and plans over the others, and reports them (``forced_inputs``).
 (:class:`frcontrol.simulation.rigid.RigidStepper`: velocity-level time stepping, contacts open and
 close, inelastic impacts absorbed by the steps' LCPs: ``impact_law=False``, without the split at
 landings and the restitution of :func:`~frcontrol.simulation.rigid.simulate_rigid`, whose
-instantaneous impacts end the 40 N m flip of the tests short of vertical: a toe's impact lifts the
-front corner) until the pitch passes vertical or ``max_time``: the re-planning is the
+instantaneous impacts can end a flip short of vertical: a toe's impact lifts the front corner)
+until the pitch passes vertical or ``max_time``: the re-planning is the
 policy of :func:`frcontrol.simulation.closed_loop.run_closed_loop`, which holds the torques between
 plans. The run is one trajectory, checked for validity like any rigid simulation.
 

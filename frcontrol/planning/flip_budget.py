@@ -6,9 +6,9 @@ right above that contact. For RHex (``rhex_flip_drives``) that is the front corn
 the centre of mass (``sqrt(0.25^2 + 0.065^2)``): 7.5 kg x 9.81 m/s^2 x (0.258 - 0.077) m = 13.3 J
 above the scene's start (14.2 J above lying flat). A leg can push only while its toe reaches the
 ground: with the body pivoting on the front corner, the hip of a leg of length ``l`` rises above
-``l`` at a small pitch (RHex's 0.17 m legs: 0.168 rad above flat for the middle hip, 0.090 rad for
-the rear one), so the body must leave the legs' last stroke carrying the rest of the barrier as
-kinetic energy.
+``l`` at some pitch (RHex's 0.17 m legs, hips on the body's mid-plane: 0.462 rad above flat for
+the middle hip, 0.238 rad for the rear one), so the body must leave the legs' last stroke
+carrying the rest of the barrier as kinetic energy.
 
 :func:`flip_budget` sweeps the pitch from the scene's state to vertical, the body rotated
 rigidly (the joints at their angles in the scene) and moved along the ground's normal until its
@@ -22,9 +22,9 @@ lowest body contact touches, and reads, at every step of :data:`PITCH_STEP`:
   least as far from the pivot, on the centre of mass's side, as the centre of mass. About the
   pivot, a friction force on the ground has no moment, so the toe's normal force times its
   distance must balance the weight's moment with the pivot's normal force >= 0. A leg whose hip
-  lies near the pivot (RHex's front leg, 0.139 m from the front corner, less than its 0.17 m)
-  reaches the ground at every pitch but holds the body only from 1.162 rad above flat on, with
-  the centre of mass 14.0 J above flat of the barrier's 14.2 J: reaching is not holding.
+  lies near the pivot (RHex's front leg, 0.082 m from the front corner, less than its 0.17 m)
+  reaches the ground at every pitch but holds the body only from 0.680 rad above flat on, with
+  the centre of mass 11.0 J above flat of the barrier's 14.2 J: reaching is not holding.
 
 :func:`body_energy` is the body's mechanical energy along a run, ``1/2 v_b^T M_bb v_b + V(q) -
 V(q_0)`` [J], with ``v_b`` the base's velocity (x, y, pitch) and ``M_bb`` its block of the mass

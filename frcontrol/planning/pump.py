@@ -33,10 +33,10 @@ over the step ending at sample k and the current at that sample; negative power,
 as returned).
 
 **Energy budget.** The run reports the body's mechanical energy per cycle against the barrier it
-must cross and the pitches up to which the legs reach the ground (:mod:`.flip_budget`): with the
-pushes ending on a mode change, the recirculation ending with the body at rest on its legs, and
-rigid massless legs, every push after the first starts from rest, so the cycles cannot add up
-(README, "The pumping flip").
+must cross and the pitches up to which the legs reach the ground (:mod:`.flip_budget`). With rigid
+massless legs nothing stores energy between pushes: a push after the first starts from the body's
+landing on its toes, and the inelastic landing and the back-driven motors take what a push adds,
+so the cycles' peaks stop growing below the barrier (README, "The pumping flip").
 
 **Verification.** The run is one rigid simulation (velocity-level time stepping with inelastic
 impacts). The same voltages, replayed against time, drive the compliant model (Kelvin–Voigt
