@@ -671,14 +671,14 @@ def enumerate_lcp_solutions(
 ) -> list[LCPSolution]:
     """All solutions of the LCP, one per complementary support that yields a verified solution.
 
-    Supports are visited by increasing size (then lexicographically). For each support
-    ``alpha`` the block system ``M[alpha, alpha] z_alpha = -q_alpha`` is solved by SVD least
-    squares; the candidate is kept if ``z >= -tol``, ``w >= -tol`` and its natural-map
-    residual is at most ``tol = tolerance * ||q||_inf`` (:func:`lcp_enumeration_tolerance`: the
-    problem's data alone, so that a candidate's cancelling entries cannot loosen it). Identical solutions (within ``tol``) from different supports
-    are reported once. A singular principal block yields one representative of its solution
-    set (the minimum-norm point, or a vertex found by a linear program when that point is not
-    feasible), noted in ``LCPSolution.note``: a non-isolated solution set is represented, not
+    Supports are visited by increasing size (then lexicographically). For each support ``alpha`` the
+    block system ``M[alpha, alpha] z_alpha = -q_alpha`` is solved by SVD least squares; the
+    candidate is kept if ``z >= -tol``, ``w >= -tol`` and its natural-map residual is at most ``tol
+    = tolerance * ||q||_inf`` (:func:`lcp_enumeration_tolerance`: the problem's data alone, so that
+    a candidate's cancelling entries cannot loosen it). Identical solutions (within ``tol``) from
+    different supports are reported once. A singular principal block yields one representative of
+    its solution set (the minimum-norm point, or a vertex found by a linear program when that point
+    is not feasible), noted in ``LCPSolution.note``: a non-isolated solution set is represented, not
     listed. Every support is decided, so an empty list means no solution exists (up to the
     tolerance).
 
