@@ -138,7 +138,7 @@ def equilibrate_stack(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def balanced_scaling(A_hat: np.ndarray, svd: tuple[np.ndarray, np.ndarray, np.ndarray]
                      ) -> tuple[np.ndarray, np.ndarray]:
-    """Scalings of a stack ``A_hat`` (count, rows, cols) balancing its entries against its pseudo-inverse's.
+    """Scalings of a stack ``A_hat`` (count, rows, cols) balancing it against its pseudo-inverse.
 
     The max-abs equilibration of :func:`solve_affine` leaves a sliding mode's system with a
     condition number growing as mu^2 (the friction row ``lam_T - mu lam_N = 0`` sets the scale of
@@ -155,7 +155,9 @@ def balanced_scaling(A_hat: np.ndarray, svd: tuple[np.ndarray, np.ndarray, np.nd
     U, s, Vt = svd
     count, rank = s.shape
     magnitude = np.abs(A_hat)
-    inverse = np.abs(np.matmul(np.swapaxes(Vt[:, :rank], 1, 2) / s[:, None, :], np.swapaxes(U[:, :, :rank], 1, 2)))
+    # |A_hat^+| = |V diag(1/s) U^T|, (count, cols, rows)
+    inverse = np.abs(np.matmul(np.swapaxes(Vt[:, :rank], 1, 2) / s[:, None, :],
+                               np.swapaxes(U[:, :, :rank], 1, 2)))
     rows, cols = np.ones((count, A_hat.shape[1])), np.ones((count, A_hat.shape[2]))
     for _ in range(BALANCING_SWEEPS):
         a = (magnitude * rows[:, :, None] * cols[:, None, :]).max(axis=1)
@@ -167,13 +169,33 @@ def balanced_scaling(A_hat: np.ndarray, svd: tuple[np.ndarray, np.ndarray, np.nd
     return rows, cols
 
 
+def _scalable(A_hat: np.ndarray, s: np.ndarray, Vt: np.ndarray, rank_tolerance: float) -> np.ndarray:
+    """Per system: whether a diagonal scaling could lift a singular value at or below the band.
+
+    For a right singular vector v, ``omega = max_i |A v|_i / (|A| |v|)_i`` is the smallest relative
+    change of each entry of A making v a null vector (Oettli-Prager), the same under every diagonal
+    scaling; then every scaling ``D_r A D_c`` is within ``omega |D_r A D_c|`` of a singular matrix,
+    and its smallest singular value at most ``omega sqrt(min(rows, cols))`` times its largest. When
+    that is at most ``rank_tolerance`` for each such v (a table on two legs: omega about 1e-17),
+    no scaling decides otherwise, and the system keeps its first SVD without a second one.
+    """
+    size = s.shape[1]
+    V = np.swapaxes(Vt[:, :size], 1, 2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.abs(np.matmul(A_hat, V)) / np.matmul(np.abs(A_hat), np.abs(V))
+    omega = np.nan_to_num(ratio, nan=0.0, posinf=0.0).max(axis=1)
+    small = s <= ILL_CONDITIONED_BAND * s[:, :1]
+    return (small & (omega * np.sqrt(size) > rank_tolerance)).any(axis=1)
+
+
 def rebalance_undecided(A_hat: np.ndarray, r_scale: np.ndarray, c_scale: np.ndarray,
                         svd: tuple[np.ndarray, np.ndarray, np.ndarray], rank_tolerance: float) -> np.ndarray:
     """Decide again, under :func:`balanced_scaling`, each system whose rank the first scaling left open.
 
     ``A_hat`` (count, rows, cols) ``= diag(r_scale) A diag(c_scale)`` with its SVD. A system whose
     smallest singular value is at most :data:`ILL_CONDITIONED_BAND` times its largest (a rank
-    drop, or a value in the band) is balanced and gets a second SVD (one batched call for all);
+    drop, or a value in the band) and that a scaling could decide otherwise (:func:`_scalable`) is
+    balanced and gets a second SVD (one batched call for all);
     the balanced system replaces the first, in place (``A_hat``, the scalings and ``svd``), when
     the first had a value in the band or the balanced one has the higher rank. So a system the
     first scaling decides keeps its answer bit for bit (a system singular to round-off, e.g. a
@@ -185,6 +207,8 @@ def rebalance_undecided(A_hat: np.ndarray, r_scale: np.ndarray, c_scale: np.ndar
         return np.zeros(0, dtype=int)
     s_max, s_min = s[:, 0], s[:, -1]
     open_ = np.nonzero((s_min > 0.0) & (s_min <= ILL_CONDITIONED_BAND * s_max))[0]
+    if open_.size:
+        open_ = open_[_scalable(A_hat[open_], s[open_], Vt[open_], rank_tolerance)]
     if not open_.size:
         return open_
     rows, cols = balanced_scaling(A_hat[open_], (U[open_], s[open_], Vt[open_]))
