@@ -43,7 +43,8 @@ Solvers
 * **Enumeration** (``method="enumerate"``): every complementary support
   :math:`\alpha \subseteq \{1..n\}` (smallest supports first) gives the candidate
   :math:`z_\alpha = -M_{\alpha\alpha}^{+} q_\alpha`, :math:`z_{\bar\alpha} = 0`, solved by an
-  SVD-based least-squares solve; the candidate is kept if it verifies. A singular principal
+  SVD-based least-squares solve; the candidate is kept if it verifies at the data's bound
+  ``LCP_TOLERANCE * ||q||_inf`` (not the candidate's: see :data:`LCP_TOLERANCE`). A singular principal
   block (non-isolated solutions) yields its minimum-norm point or, when that point is not
   feasible, a vertex of :math:`\{z_\alpha \ge 0,\ M_{\alpha\alpha} z_\alpha = -q_\alpha,\
   w_{\bar\alpha} \ge 0\}` found by a linear program. Every support is decided, so the search
@@ -112,6 +113,7 @@ __all__ = [
     "fc2d_error",
     "fc2d_to_lcp",
     "lcp_residual",
+    "lcp_enumeration_tolerance",
     "lcp_row_tolerances",
     "lcp_tolerance",
     "siconos_lcp_error",
@@ -128,8 +130,13 @@ Dimensionless, and applied **row by row**: row ``i`` of ``w = M z + q`` is accep
 bound of one row does not grow with another row's entries: a friction-cone row carrying
 ``mu = 1e10`` no longer loosens the check of the sliding-acceleration rows (with one scalar bound
 ``max|M| ||z||`` it did, and the enumeration accepted frictionless sliding for a rod at rest).
-Enumeration uses the same per-row bounds to accept slightly negative ``z`` and ``w`` entries from
-round-off. The largest row bound is reported as ``LCPSolution.tolerance``.
+The largest row bound is reported as ``LCPSolution.tolerance``.
+
+Enumeration accepts a candidate at one bound set by the data alone, ``LCP_TOLERANCE *
+||q||_inf`` (:func:`lcp_enumeration_tolerance`), on its residual and on any negative ``z`` or ``w``
+entry: the per-row bounds scale with the candidate's own entries, and a candidate whose entries
+cancel (a sticking contact's ``lam_T+ = lam_T- = 3.5e7`` at ``mu = 1e8``) loosened its own check
+until non-solutions passed.
 """
 
 DUPLICATE_TOLERANCE: float = 1e-9
@@ -357,6 +364,26 @@ def lcp_tolerance(
     return float(np.max(bounds)) if bounds.size else 0.0
 
 
+def lcp_enumeration_tolerance(q: np.ndarray, tolerance: float = LCP_TOLERANCE) -> float:
+    """The absolute bound an enumerated candidate is accepted at: ``tolerance * ||q||_inf``.
+
+    Set by the problem's data alone, never by the candidate: a candidate whose entries cancel
+    (a sticking contact's ``lam_T+`` and ``lam_T-`` both near ``mu lam_N / 2``, 3.5e7 at ``mu =
+    1e8``) cannot loosen its own check, as it did with the per-row bounds of
+    :func:`lcp_row_tolerances` (a tangential force of -11.7 on a contact without normal force was
+    accepted at 32.6). A solution set with such a representative also has the one without the
+    cancelling split, which enumeration reaches by a smaller support and checks to this bound.
+
+    Args:
+        q: the ``(n,)`` vector.
+        tolerance: the relative tolerance (see :data:`LCP_TOLERANCE`).
+
+    Returns:
+        The bound in the units of ``w`` (and, as for Lemke's check, applied to ``z`` too).
+    """
+    return tolerance * (float(np.max(np.abs(q))) if q.size else 0.0)
+
+
 def siconos_lcp_error(M: np.ndarray, q: np.ndarray, z: np.ndarray) -> float:
     """Siconos' relative LCP error ``||z - max(0, z - w)||_2 / ||q||_2``.
 
@@ -390,7 +417,11 @@ def _verified(
     start: float,
     note: str = "",
 ) -> LCPSolution:
-    """Build an LCPSolution, computing ``w``, the residual and ``found`` from ``z``."""
+    """Build an LCPSolution, computing ``w``, the residual and ``found`` from ``z``.
+
+    Lemke's point is checked row by row (:func:`lcp_row_tolerances`), an enumerated one at the
+    data's bound (:func:`lcp_enumeration_tolerance`).
+    """
     w: np.ndarray | None = None
     if z is None:
         found, residual, bound = False, math.inf, lcp_tolerance(M, q, None, tolerance)
@@ -398,7 +429,8 @@ def _verified(
         w = M @ z + q
         natural = np.abs(np.minimum(z, w))
         residual = float(np.max(natural)) if natural.size else 0.0
-        bounds = lcp_row_tolerances(M, q, z, tolerance)
+        bounds = (np.full(q.size, lcp_enumeration_tolerance(q, tolerance)) if method == "enumerate"
+                  else lcp_row_tolerances(M, q, z, tolerance))
         bound = float(np.max(bounds)) if bounds.size else 0.0
         found = status == "solved" and bool(np.all(natural <= bounds))
         if status == "solved" and not found:
@@ -558,15 +590,14 @@ def _check_enumeration_size(n: int, max_size: int | None) -> None:
 
 
 def _verifies(M: np.ndarray, q: np.ndarray, z: np.ndarray, tolerance: float) -> bool:
-    """Whether ``z`` passes the enumeration check, row by row (:func:`lcp_row_tolerances`).
+    """Whether ``z`` passes the enumeration check (:func:`lcp_enumeration_tolerance`).
 
-    Every row needs ``z_i, w_i >= -tau_i`` and ``|min(z_i, w_i)| <= tau_i``.
+    Every row needs ``z_i, w_i >= -tau`` and ``|min(z_i, w_i)| <= tau``, with ``tau`` set by the
+    problem's data alone.
     """
     w = M @ z + q
-    bounds = lcp_row_tolerances(M, q, z, tolerance)
-    return bool(
-        np.all(z >= -bounds) and np.all(w >= -bounds) and np.all(np.abs(np.minimum(z, w)) <= bounds)
-    )
+    bound = lcp_enumeration_tolerance(q, tolerance)
+    return bool(np.all(z >= -bound) and np.all(w >= -bound) and np.all(np.abs(np.minimum(z, w)) <= bound))
 
 
 def _support_candidate(
@@ -640,13 +671,14 @@ def enumerate_lcp_solutions(
 ) -> list[LCPSolution]:
     """All solutions of the LCP, one per complementary support that yields a verified solution.
 
-    Supports are visited by increasing size (then lexicographically). For each support
-    ``alpha`` the block system ``M[alpha, alpha] z_alpha = -q_alpha`` is solved by SVD least
-    squares; the candidate is kept if ``z >= -tol``, ``w >= -tol`` and its natural-map
-    residual is at most ``tol``. Identical solutions (within ``tol``) from different supports
-    are reported once. A singular principal block yields one representative of its solution
-    set (the minimum-norm point, or a vertex found by a linear program when that point is not
-    feasible), noted in ``LCPSolution.note``: a non-isolated solution set is represented, not
+    Supports are visited by increasing size (then lexicographically). For each support ``alpha`` the
+    block system ``M[alpha, alpha] z_alpha = -q_alpha`` is solved by SVD least squares; the
+    candidate is kept if ``z >= -tol``, ``w >= -tol`` and its natural-map residual is at most ``tol
+    = tolerance * ||q||_inf`` (:func:`lcp_enumeration_tolerance`: the problem's data alone, so that
+    a candidate's cancelling entries cannot loosen it). Identical solutions (within ``tol``) from
+    different supports are reported once. A singular principal block yields one representative of
+    its solution set (the minimum-norm point, or a vertex found by a linear program when that point
+    is not feasible), noted in ``LCPSolution.note``: a non-isolated solution set is represented, not
     listed. Every support is decided, so an empty list means no solution exists (up to the
     tolerance).
 

@@ -53,6 +53,7 @@ from .response import (
     OUTPUT_TOLERANCE,
     equilibrate_stack,
     outputs_moved_by,
+    rebalance_undecided,
 )
 
 BATCH_MAX_MODES = 1024
@@ -215,13 +216,14 @@ def _svd_modes(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, A_ha
 
     None when a singular value lies in the ill-conditioned band (nothing is decided then).
     """
-    U, s, Vt = np.linalg.svd(A_hat[rest])
+    a_hat, r_scale, c_scale = A_hat[rest], r_scale[rest], c_scale[rest]
+    U, s, Vt = np.linalg.svd(a_hat)
+    rebalance_undecided(a_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance)
     s_max = s[:, :1]
     kept = s > rank_tolerance * s_max
     if (kept & (s <= ILL_CONDITIONED_BAND * s_max)).any():
         return None
-    scaled = _Scaled(U, s, Vt, r_scale[rest], c_scale[rest], st.B[rest] * r_scale[rest, :, None],
-                     st.c[rest] * r_scale[rest])
+    scaled = _Scaled(U, s, Vt, r_scale, c_scale, st.B[rest] * r_scale[:, :, None], st.c[rest] * r_scale)
     return _decide_by_rank(problem, modes, st, scaled, rest, rank_tolerance, u, decide_w, tolerances)
 
 
@@ -318,6 +320,7 @@ def _compiled_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letter
     rows, vectors = buffers
     a_hat, r_scale, c_scale = scaled
     U, s, Vt = np.linalg.svd(a_hat)
+    rebalance_undecided(a_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance)
     count, nx = rest.size, a_hat.shape[1]
     status, residual, violation = np.empty(count, dtype=np.int8), np.empty(count), np.empty(count)
     x, w, outputs = np.empty((count, nx)), np.empty(count), np.empty(count, dtype=np.int8)

@@ -37,6 +37,10 @@ ILL_CONDITIONED_BAND = 1e-8
 """A singular value between ``RANK_TOLERANCE`` and this (times the largest) is too close to the
 rank threshold to decide the rank: :class:`~frcontrol.errors.IllConditioned` is raised."""
 
+BALANCING_SWEEPS = 8
+"""[-] Sweeps of :func:`balanced_scaling` (each a column then a row pass, powers of two): on the
+shipped scenes' sliding modes the condition stops improving after four."""
+
 CONSISTENCY_TOLERANCE = 1e-9
 """A consistency row ``E_i u = e_i`` whose ``E_i`` has norm at most this times the scale of
 ``[B c]`` is void; it is inconsistent if ``|e_i|`` also exceeds this times that scale."""
@@ -132,6 +136,94 @@ def equilibrate_stack(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rows, cols
 
 
+def balanced_scaling(A_hat: np.ndarray, svd: tuple[np.ndarray, np.ndarray, np.ndarray]
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Scalings of a stack ``A_hat`` (count, rows, cols) balancing it against its pseudo-inverse.
+
+    The max-abs equilibration of :func:`solve_affine` leaves a sliding mode's system with a
+    condition number growing as mu^2 (the friction row ``lam_T - mu lam_N = 0`` sets the scale of
+    the lam_N column), while under a good diagonal scaling it grows as mu. With ``X = A_hat^+``
+    from the SVD ``U, s, Vt`` already made (all its singular values), each column ``j`` is scaled
+    by ``sqrt(max|X_j.| / max|A_.j|)`` and each row ``i`` by ``sqrt(max|X_.i| / max|A_i.|)``, in
+    powers of two (exact), :data:`BALANCING_SWEEPS` times: ``D_r A D_c`` has the inverse
+    ``D_c^-1 X D_r^-1``, so no sweep needs a new factorisation (a heuristic for Bauer's optimal
+    scaling, which balances ``|A|`` against ``|A^-1|``). Every smallest singular value must be > 0.
+
+    Returns:
+        Row and column factors ``D_r``, ``D_c`` (count, rows) and (count, cols), to multiply A_hat's.
+    """
+    U, s, Vt = svd
+    count, rank = s.shape
+    magnitude = np.abs(A_hat)
+    # |A_hat^+| = |V diag(1/s) U^T|, (count, cols, rows)
+    inverse = np.abs(np.matmul(np.swapaxes(Vt[:, :rank], 1, 2) / s[:, None, :],
+                               np.swapaxes(U[:, :, :rank], 1, 2)))
+    rows, cols = np.ones((count, A_hat.shape[1])), np.ones((count, A_hat.shape[2]))
+    for _ in range(BALANCING_SWEEPS):
+        a = (magnitude * rows[:, :, None] * cols[:, None, :]).max(axis=1)
+        x = (inverse / cols[:, :, None] / rows[:, None, :]).max(axis=2)
+        cols *= power_of_two_scale(np.sqrt(np.where(a > 0, a, 1.0) / np.where(x > 0, x, 1.0)))
+        a = (magnitude * rows[:, :, None] * cols[:, None, :]).max(axis=2)
+        x = (inverse / cols[:, :, None] / rows[:, None, :]).max(axis=1)
+        rows *= power_of_two_scale(np.sqrt(np.where(a > 0, a, 1.0) / np.where(x > 0, x, 1.0)))
+    return rows, cols
+
+
+def _scalable(A_hat: np.ndarray, s: np.ndarray, Vt: np.ndarray, rank_tolerance: float) -> np.ndarray:
+    """Per system: whether a diagonal scaling could lift a singular value at or below the band.
+
+    For a right singular vector v, ``omega = max_i |A v|_i / (|A| |v|)_i`` is the smallest relative
+    change of each entry of A making v a null vector (Oettli-Prager), the same under every diagonal
+    scaling; then every scaling ``D_r A D_c`` is within ``omega |D_r A D_c|`` of a singular matrix,
+    and its smallest singular value at most ``omega sqrt(min(rows, cols))`` times its largest. When
+    that is at most ``rank_tolerance`` for each such v (a table on two legs: omega about 1e-17),
+    no scaling decides otherwise, and the system keeps its first SVD without a second one.
+    """
+    size = s.shape[1]
+    V = np.swapaxes(Vt[:, :size], 1, 2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.abs(np.matmul(A_hat, V)) / np.matmul(np.abs(A_hat), np.abs(V))
+    omega = np.nan_to_num(ratio, nan=0.0, posinf=0.0).max(axis=1)
+    small = s <= ILL_CONDITIONED_BAND * s[:, :1]
+    return (small & (omega * np.sqrt(size) > rank_tolerance)).any(axis=1)
+
+
+def rebalance_undecided(A_hat: np.ndarray, r_scale: np.ndarray, c_scale: np.ndarray,
+                        svd: tuple[np.ndarray, np.ndarray, np.ndarray], rank_tolerance: float) -> np.ndarray:
+    """Decide again, under :func:`balanced_scaling`, each system whose rank the first scaling left open.
+
+    ``A_hat`` (count, rows, cols) ``= diag(r_scale) A diag(c_scale)`` with its SVD. A system whose
+    smallest singular value is at most :data:`ILL_CONDITIONED_BAND` times its largest (a rank
+    drop, or a value in the band) and that a scaling could decide otherwise (:func:`_scalable`) is
+    balanced and gets a second SVD (one batched call for all);
+    the balanced system replaces the first, in place (``A_hat``, the scalings and ``svd``), when
+    the first had a value in the band or the balanced one has the higher rank. So a system the
+    first scaling decides keeps its answer bit for bit (a system singular to round-off, e.g. a
+    table on two legs, keeps its rank drop under any scaling), and where the balanced system is
+    still in the band, the error reports its condition. Returns the indices replaced.
+    """
+    U, s, Vt = svd
+    if not s.shape[1]:
+        return np.zeros(0, dtype=int)
+    s_max, s_min = s[:, 0], s[:, -1]
+    open_ = np.nonzero((s_min > 0.0) & (s_min <= ILL_CONDITIONED_BAND * s_max))[0]
+    if open_.size:
+        open_ = open_[_scalable(A_hat[open_], s[open_], Vt[open_], rank_tolerance)]
+    if not open_.size:
+        return open_
+    rows, cols = balanced_scaling(A_hat[open_], (U[open_], s[open_], Vt[open_]))
+    balanced = A_hat[open_] * rows[:, :, None] * cols[:, None, :]
+    U_b, s_b, Vt_b = np.linalg.svd(balanced, full_matrices=True)
+    first_rank = (s[open_] > rank_tolerance * s_max[open_, None]).sum(axis=1)
+    in_band = first_rank > (s[open_] > ILL_CONDITIONED_BAND * s_max[open_, None]).sum(axis=1)
+    better = in_band | ((s_b > rank_tolerance * s_b[:, :1]).sum(axis=1) > first_rank)
+    chosen = open_[better]
+    A_hat[chosen], U[chosen], s[chosen], Vt[chosen] = balanced[better], U_b[better], s_b[better], Vt_b[better]
+    r_scale[chosen] *= rows[better]
+    c_scale[chosen] *= cols[better]
+    return chosen
+
+
 def _void_conditions(E_raw: np.ndarray, e_raw: np.ndarray, threshold: float) -> bool:
     """Whether the SVD of the consistency rows would keep none and find them consistent.
 
@@ -166,6 +258,9 @@ def solve_affine(
     r_scale, c_scale = _equilibrate(A)
     A_hat = A * r_scale[:, None] * c_scale[None, :]
     U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
+    if s.size and 0.0 < s[-1] <= ILL_CONDITIONED_BAND * s[0]:  # (views: rebalanced in place)
+        rebalance_undecided(A_hat[None], r_scale[None], c_scale[None], (U[None], s[None], Vt[None]),
+                            rank_tolerance)
     return _affine_from_svd(A.shape, B, c, r_scale, c_scale, (U, s, Vt), rank_tolerance, name)
 
 
@@ -186,6 +281,7 @@ def solve_affine_stack(
     r_scale, c_scale = equilibrate_stack(A)
     A_hat = A * r_scale[:, :, None] * c_scale[:, None, :]
     U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
+    rebalance_undecided(A_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance)
     out: list[AffineSolution | None] = []
     for i in range(A.shape[0]):
         try:
@@ -375,6 +471,8 @@ def outputs_moved_by(X_w: np.ndarray, n_coordinates: int) -> str:
 __all__ = [
     "AffineSolution",
     "ambiguous_outputs",
+    "balanced_scaling",
+    "BALANCING_SWEEPS",
     "CERTIFIED_MARGIN",
     "certified_children",
     "certified_responses",
@@ -385,6 +483,7 @@ __all__ = [
     "outputs_moved_by",
     "power_of_two_scale",
     "RANK_TOLERANCE",
+    "rebalance_undecided",
     "solve_affine",
     "solve_affine_stack",
     "VOID_CONDITIONS_SAFETY",

@@ -22,7 +22,14 @@ import numpy as np
 
 from .errors import RobotModelError
 
-__all__ = ["UrdfDocument", "UrdfInertial", "UrdfJoint", "UrdfVisual", "read_urdf", "resolve_mesh"]
+__all__ = ["INERTIA_TOLERANCE", "UrdfDocument", "UrdfInertial", "UrdfJoint", "UrdfVisual", "read_urdf",
+           "resolve_mesh"]
+
+INERTIA_TOLERANCE = 1e-9
+"""How far [-, relative to the largest eigenvalue's magnitude] the smallest eigenvalue of a link's
+rotational inertia may fall below zero (round-off of a rotated tensor) before the link is rejected
+as having an indefinite inertia. A zero mass (a massless link) and a zero I_zz (a point mass) are
+physical; a negative mass or a negative eigenvalue is not."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,8 +124,9 @@ def read_urdf(path: str | Path) -> UrdfDocument:
     """The URDF at ``path``, parsed once per version of the file.
 
     Raises:
-        RobotModelError: the file cannot be read or parsed, its root is not ``<robot>``, or a
-            value frcontrol reads is malformed (an axis, an origin, a size, a colour).
+        RobotModelError: the file cannot be read or parsed, its root is not ``<robot>``, a
+            value frcontrol reads is malformed (an axis, an origin, a size, a colour), or a link's
+            mass is negative or its inertia indefinite (:func:`_check_inertial`).
     """
     resolved = Path(path).resolve()
     try:
@@ -181,7 +189,29 @@ def _inertial(link: str, element: ET.Element, shown: str) -> UrdfInertial:
         text = " ".join(tensor.get(key, "0") for key in keys)
         ixx, ixy, ixz, iyy, iyz, izz = _numbers(text, 6, shown, f"{where}: bad inertia {text!r}")
         inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    _check_inertial(link, mass, inertia, shown)
     return UrdfInertial(link, mass, _origin(element.find("origin"), shown, where), inertia)
+
+
+def _check_inertial(link: str, mass: float, inertia: np.ndarray, shown: str) -> None:
+    """Reject a link whose mass is negative or whose inertia tensor has a negative eigenvalue.
+
+    The planar dynamics see the mass and the inertia about the plane's normal; both must be >= 0
+    for M(q) to be positive semi-definite. A zero mass is a massless link and a zero inertia a
+    point mass, both supported (M may then be singular: :mod:`frcontrol.response`). The whole
+    tensor is checked, to :data:`INERTIA_TOLERANCE`, so that its z component is >= 0 in any frame.
+
+    Raises:
+        RobotModelError: naming the link and the offending value.
+    """
+    if mass < 0.0:
+        raise RobotModelError(shown, f"link {link!r} has mass {mass:g} kg; a link's mass must be "
+                              ">= 0 (0 for a massless link)")
+    eigenvalues = np.linalg.eigvalsh(inertia)
+    if eigenvalues[0] < -INERTIA_TOLERANCE * float(np.abs(eigenvalues).max()):
+        raise RobotModelError(shown, f"link {link!r} has an indefinite inertia (smallest eigenvalue "
+                              f"{eigenvalues[0]:.6g} kg m^2, izz {inertia[2, 2]:g} kg m^2); a link's "
+                              "inertia must be positive semi-definite (all zeros for a massless link)")
 
 
 def _numbers(text: str, count: int, shown: str, message: str) -> np.ndarray:

@@ -19,6 +19,7 @@ from frcontrol.lcp import (
     LCPSolution,
     enumerate_lcp_solutions,
     fc2d_error,
+    fc2d_to_lcp,
     lcp_residual,
     siconos_lcp_error,
     solve_fc2d,
@@ -676,3 +677,71 @@ def test_friction_problem_validation() -> None:
     problem = FrictionContact2D(W=np.eye(2), q=np.zeros(2), mu=np.ones(1), number_of_contacts=1)
     with pytest.raises(InputError, match="unknown LCP method"):
         solve_fc2d(problem, "nsgs")
+
+
+# --------------------------------------------------------------------------------------------
+# Enumeration at extreme friction
+# --------------------------------------------------------------------------------------------
+
+# An independent acceptance check, scaled by the problem's data alone (never by the candidate)
+DATA_CHECK = 1e-8
+
+
+def check_by_the_data(M: np.ndarray, q: np.ndarray, z: np.ndarray) -> None:
+    """``z >= 0``, ``w = M z + q >= 0`` and ``min(z, w) = 0`` to ``DATA_CHECK * ||q||_inf``."""
+    bound = DATA_CHECK * np.max(np.abs(q))
+    w = M @ z + q
+    assert np.min(z) >= -bound, f"z has an entry {np.min(z):.6g} < 0"
+    assert np.min(w) >= -bound, f"w has an entry {np.min(w):.6g} < 0"
+    assert np.max(np.abs(np.minimum(z, w))) <= bound
+
+
+def reactions(z: np.ndarray, nc: int) -> np.ndarray:
+    """``r = (r_n, r_t+ - r_t-)`` per contact from an LCP solution of :func:`fc2d_to_lcp`."""
+    r = np.empty(2 * nc)
+    r[0::2], r[1::2] = z[:nc], z[nc:2 * nc] - z[2 * nc:3 * nc]
+    return r
+
+
+@pytest.mark.parametrize("mu", [1e6, 1e7, 1e8, 1e10])
+@pytest.mark.parametrize("name", sorted(EXPECTED_FC2D))
+def test_slider_crank_enumeration_at_extreme_friction(name: str, mu: float) -> None:
+    """Every enumerated solution is one by a check the candidate cannot loosen, and the set holds
+    the reactions of the same problem at mu = 1e3 (both contacts then stick: mu no longer
+    matters) and of ``solve_fc2d``. Before the check was scaled by the data, 2 of 6 solutions at
+    mu = 1e7 and 1e8 had a tangential force of -11.7 on a contact without normal force."""
+    base = read_siconos_fc2d(FC2D_DIR / name)
+    problem = FrictionContact2D(base.W, base.q, np.full(2, mu), 2)
+    M, q = fc2d_to_lcp(problem)
+    solutions = enumerate_lcp_solutions(M, q)
+    assert solutions
+    for solution in solutions:
+        assert solution.found and solution.residual <= solution.tolerance
+        check_by_the_data(M, q, solution.z)
+    moderate = FrictionContact2D(base.W, base.q, np.full(2, 1e3), 2)
+    (r_moderate, *_) = {tuple(reactions(s.z, 2)) for s in enumerate_lcp_solutions(*fc2d_to_lcp(moderate))}
+    scale = np.max(np.abs(r_moderate))
+    for solution in solutions:  # one physical solution, however its friction is split
+        np.testing.assert_allclose(reactions(solution.z, 2), r_moderate, rtol=0, atol=1e-6 * scale)
+    np.testing.assert_allclose(solve_fc2d(problem).r, r_moderate, rtol=0, atol=1e-6 * scale)
+
+
+@pytest.mark.parametrize("mu", [1e8, 1e10])
+def test_rod_enumeration_at_extreme_friction(mu: float, tmp_path: Path) -> None:
+    """The leaning rod at rest (Painleve's rod, the closed form in extreme_cases): every solution
+    of its contact LCP passes the data-scaled check, and the closed form is among them."""
+    from extreme_cases import rod, rod_at_rest
+
+    from frcontrol.contact_lcp import all_contact_lcp_solutions, build_contact_lcp
+    from frcontrol.modes import ContactProblem
+
+    problem = ContactProblem.from_scene(rod(tmp_path, "rod", mu=mu))
+    lcp = build_contact_lcp(problem, np.zeros(3))
+    solutions = enumerate_lcp_solutions(lcp.W, lcp.b)
+    assert solutions
+    for solution in solutions:
+        check_by_the_data(lcp.W, lcp.b, solution.z)
+    mode, dv, lam_n, lam_t = rod_at_rest(mu)
+    (only,) = all_contact_lcp_solutions(problem, np.zeros(3))
+    assert only.mode == mode
+    np.testing.assert_allclose(only.x, np.concatenate([dv, [lam_n, lam_t]]), rtol=1e-7, atol=1e-9)

@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 from frcontrol.errors import RobotModelError
-from frcontrol.scene import shipped_robots_dir
+from frcontrol.scene import load_scene, shipped_robots_dir
 from frcontrol.urdf import read_urdf
 
 INERTIAL = ('<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" '
@@ -107,3 +107,78 @@ def test_a_changed_file_is_read_again(tmp_path):
     assert read_urdf(path).name == "two, longer"
     with pytest.raises(RobotModelError, match="cannot read URDF"):
         read_urdf(tmp_path / "missing.urdf")
+
+
+# ------------------------------------------------------------------ physical validity of links
+
+def pendulum_urdf(mass: str, inertia: dict[str, str]) -> str:
+    """A fixed base and one arm on a revolute joint about z: the arm has this mass and inertia."""
+    tensor = {"ixx": "0.01", "ixy": "0", "ixz": "0", "iyy": "0.01", "iyz": "0", "izz": "0.01"} | inertia
+    attributes = " ".join(f'{key}="{value}"' for key, value in tensor.items())
+    return f"""<?xml version="1.0"?>
+<robot name="pendulum">
+  <link name="base">{INERTIAL}</link>
+  <link name="arm"><inertial><origin xyz="0.5 0 0"/><mass value="{mass}"/>
+    <inertia {attributes}/></inertial></link>
+  <joint name="hinge" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="10"/></joint>
+</robot>
+"""
+
+
+def pendulum_scene(tmp_path, write_scene, mass: str, inertia: dict[str, str]):
+    (tmp_path / "pendulum.urdf").write_text(pendulum_urdf(mass, inertia))
+    return write_scene({
+        "name": "pendulum", "robot": "pendulum.urdf", "base": "fixed", "state": {"q": [0.3]},
+        "contacts": [{"name": "tip", "link": "arm", "point": [1.0, 0.0], "normal": [0.0, 1.0],
+                      "mu": 0.5, "surface_point": [0.0, -0.0]}],
+        "inputs": {"coordinates": ["hinge"], "lower": [-5.0], "upper": [5.0]},
+    }, "pendulum.toml")
+
+
+INVALID_LINKS = [
+    ("-1", {}, "link 'arm' has mass -1 kg"),
+    ("1", {"izz": "-0.01"}, "link 'arm' has an indefinite inertia"),
+    ("1", {"ixx": "-0.01"}, "link 'arm' has an indefinite inertia"),  # izz > 0, but not physical
+    ("1", {"ixx": "0.01", "iyy": "0.01", "ixy": "0.05"}, "link 'arm' has an indefinite inertia"),
+]
+
+
+@pytest.mark.parametrize(("mass", "inertia", "message"), INVALID_LINKS)
+def test_a_negative_mass_or_an_indefinite_inertia_is_refused(tmp_path, mass, inertia, message):
+    path = tmp_path / "pendulum.urdf"
+    path.write_text(pendulum_urdf(mass, inertia))
+    with pytest.raises(RobotModelError, match=message):
+        read_urdf(path)
+
+
+@pytest.mark.parametrize(("mass", "inertia", "message"), INVALID_LINKS[:2])
+@pytest.mark.parametrize("command", [["validate"], ["analyze", "--input", "hinge=0"]])
+def test_the_cli_names_the_link_in_one_line(tmp_path, write_scene, command, mass, inertia, message):
+    """``frc validate`` and ``frc analyze``: exit 1, one line on stderr naming the link."""
+    from frcontrol.cli.app import app
+    from typer.testing import CliRunner
+
+    scene = pendulum_scene(tmp_path, write_scene, mass, inertia)
+    result = CliRunner().invoke(app, [command[0], str(scene), *command[1:]])
+    assert result.exit_code == 1 and result.stdout == ""
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("frc: error: ") and message in lines[0], result.stderr
+
+
+@pytest.mark.parametrize(("mass", "inertia"), [
+    ("0", {key: "0" for key in ("ixx", "iyy", "izz")}),  # a massless link (RHex's legs)
+    ("0.2", {key: "0" for key in ("ixx", "iyy", "izz")}),  # a point mass (the snake's links)
+])
+def test_a_massless_link_and_a_point_mass_are_physical(tmp_path, write_scene, mass, inertia):
+    """Both load and answer; the mass matrix is positive semi-definite (here: the point mass
+    gives m r^2, the massless arm 0)."""
+    from frcontrol.cli.app import app
+    from typer.testing import CliRunner
+
+    scene = pendulum_scene(tmp_path, write_scene, mass, inertia)
+    result = CliRunner().invoke(app, ["validate", str(scene)])
+    assert result.exit_code == 0, result.stderr
+    loaded = load_scene(scene)
+    (m,) = loaded.robot.mass_matrix(np.array([0.3])).ravel()
+    assert m == pytest.approx(float(mass) * 0.25, abs=1e-12)
