@@ -75,6 +75,22 @@ class InputError(FrcontrolError):
     """A value handed to a library function is malformed (shape, NaN, outside its limits)."""
 
 
+class LimitExceeded(InputError):
+    """A value asks for more work or memory than a documented cap allows.
+
+    Attributes:
+        field: the argument that asks for it (``duration``, ``stiffness``...).
+        value: what was asked (in the cap's unit).
+        limit: the cap.
+    """
+
+    def __init__(self, field: str, value: float, limit: float, message: str) -> None:
+        self.field = field
+        self.value = value
+        self.limit = limit
+        super().__init__(message)
+
+
 class KernelError(FrcontrolError):
     """The compiled kernel cannot be used as asked.
 
@@ -150,6 +166,7 @@ __all__ = [
     "IllConditioned",
     "ImpactState",
     "InputError",
+    "LimitExceeded",
     "reason_from_exception",
     "RobotModelError",
     "SceneError",

@@ -97,13 +97,13 @@ import numpy as np
 import scipy.integrate
 import scipy.linalg
 
-from ..errors import InputError
+from ..errors import InputError, LimitExceeded
 from ..model import RobotState
 from ..scene import Scene
 from . import INTEGRATORS
 from .armature import Armature, mass_factor, massless_armature
 from .drives import Transmissions
-from .inputs import InputSchedule, check_simulation_times, input_schedule
+from .inputs import STEP_COUNT_TOLERANCE, InputSchedule, check_simulation_times, input_schedule
 from .model_table import ContactParameters, model_options
 from .rigid import IMPACT_VELOCITY
 from .trajectory import ContactEvent, SimulationFailure, Trajectory
@@ -583,11 +583,15 @@ def simulate_compliant(
         InputError: a bad duration or ``dt`` (<= 0, > duration, or above the explicit stability
             limit with ``euler``), stiffness (<= 0), damping (< 0), tangential damping (<= 0),
             tolerance, unknown integrator, bad state, input or stretch.
+        LimitExceeded: more samples or sampled memory than the caps of
+            :func:`~.inputs.check_simulation_times`, or more integrator steps than ``max_steps``
+            at the least (``duration / dt`` fixed, ``duration / max_step`` adaptive).
         SceneError: a bad ``[model]`` table.
         IllConditioned: M is singular even with the armature.
     """
-    duration, dt = check_simulation_times(duration, dt)
+    duration, dt = check_simulation_times(duration, dt, scene=scene)
     _check_integrator_options(integrator, rtol, atol, max_step, max_steps)
+    _check_step_budget(integrator, duration, dt if max_step is None else max_step, max_steps)
     overrides = ContactOverrides(stiffness, damping, damping_ratio, tangential_stiffness, tangential_damping)
     schedule, constant = input_schedule(scene, inputs)
     y0, arm, params = _initial_state(scene, q0, v0, armature, contacts, overrides, initial_stretch)
@@ -678,6 +682,24 @@ def _check_integrator_options(integrator: str, rtol: float, atol: float, max_ste
         raise InputError(f"max_step must be a positive number [s], got {max_step!r}")
     if not (isinstance(max_steps, int) and max_steps > 0):
         raise InputError(f"max_steps must be a positive integer, got {max_steps!r}")
+
+
+def _check_step_budget(integrator: str, duration: float, step: float, max_steps: int) -> None:
+    """Refuse a run that needs more than ``max_steps`` integrator steps before it starts.
+
+    A fixed-step integrator takes ``duration / dt`` steps, an adaptive one at least
+    ``duration / max_step`` (``step``: the fixed step or ``max_step`` [s]).
+
+    Raises:
+        LimitExceeded: ``field`` ``"duration"``, the least step count and ``max_steps``.
+    """
+    least = math.ceil(duration / step - STEP_COUNT_TOLERANCE)
+    if least > max_steps:
+        kind = "steps of dt" if integrator in ("euler", "implicit") else "steps of at most max_step"
+        raise LimitExceeded("duration", least, max_steps, (
+            f"the compliant model's {integrator!r} integrator needs at least {least:.4g} {kind} = {step:g} s "
+            f"for duration = {duration:g} s; a run takes at most max_steps = {max_steps} (MAX_STEPS): "
+            "shorten the duration or lengthen the step"))
 
 
 def _initial_stretch(initial_stretch: Sequence[float] | np.ndarray | None, params: CompliantContacts
