@@ -331,10 +331,21 @@ def read_scene_document(path: Path) -> dict[str, Any]:
         raise reader.fail("", f"cannot read the file: not UTF-8 text (byte {err.start})") from err
     except OSError as err:
         raise reader.fail("", f"cannot read the file: {reason_from_exception(err)}") from err
+    return scene_toml(text, str(path))
+
+
+def scene_toml(text: str, source: str) -> dict[str, Any]:
+    """The parsed TOML of a scene's text, unchecked (``source`` names the scene in messages).
+
+    Raises:
+        SceneError: not TOML, or nested too deeply to parse (any depth is an error, not a crash).
+    """
     try:
         return _fresh_copy(_parsed_toml(text))
     except tomllib.TOMLDecodeError as err:
-        raise reader.fail("", f"malformed TOML: {err}") from err
+        raise SceneError(source, "", f"malformed TOML: {err}") from err
+    except RecursionError as err:
+        raise SceneError(source, "", "the TOML nests too deeply to be a scene") from err
 
 
 @lru_cache(maxsize=SCENE_TEXT_CACHE_SIZE)
@@ -802,6 +813,7 @@ __all__ = [
     "parse_input_assignments",
     "read_scene_document",
     "resolve_scene_path",
+    "scene_toml",
     "scene_from_document",
     "scene_problems",
     "shipped_robots_dir",

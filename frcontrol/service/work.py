@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
 
-from frcontrol.errors import CoordinateNotFound, FrcontrolError, InputError, SceneError
+from frcontrol.errors import CoordinateNotFound, FrcontrolError, InputError, LimitExceeded, SceneError
 
 from . import models
 
@@ -37,6 +37,9 @@ Progress = Callable[[float | None, str], None]
 """Called by long work with (fraction done or None, what it is doing)."""
 
 log = logging.getLogger(__name__)
+
+OUT_OF_MEMORY = 507
+"""The status of a request that ran out of its process's memory limit (``frc serve --worker-memory``)."""
 
 REQUESTS: dict[str, type[models.SceneRequest]] = {
     "analyze": models.AnalyzeRequest,
@@ -131,8 +134,11 @@ def _flip(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
     def report(t: float, total: float) -> None:
         progress(t / total if total > 0 else None, f"simulating the flip: {t:.3f} / {total:g} s")
 
-    plan, result = plan_and_fly(scene, margin=request.margin, max_time=request.max_time, dt=request.dt,
-                                replan_every=request.replan_every, progress=report)
+    try:
+        plan, result = plan_and_fly(scene, margin=request.margin, max_time=request.max_time, dt=request.dt,
+                                    replan_every=request.replan_every, progress=report)
+    except LimitExceeded as err:  # the flip's simulated time is its max_time
+        raise FieldError(["max_time"], err) from err
     return plan.to_dict(result)
 
 
@@ -201,6 +207,8 @@ def error_document(err: FrcontrolError, overrides: Mapping[str, Any] | None = No
         loc += ["scene", err.field] if err.field else ["scene"]
     elif isinstance(err, CoordinateNotFound):
         loc += ["inputs", err.name]
+    elif isinstance(err, LimitExceeded):
+        loc += [err.field]
     return {"status": 422, "detail": [{"loc": loc, "msg": str(err), "type": type(err).__name__}]}
 
 
@@ -213,8 +221,9 @@ def validation_document(err: ValidationError) -> dict[str, Any]:
 def execute(kind: str, text: str, progress: Progress | None = None) -> str:
     """Run one request: ``{"status": 200, "answer": {...}}`` or an error document, as JSON text.
 
-    Never raises for a bad request; an unexpected failure is a 500 naming the exception's type
-    (logged in the server's log with its traceback, never sent).
+    Never raises for a bad request; a request that ran out of the process's memory limit is a
+    :data:`OUT_OF_MEMORY` (507) naming the limit; an unexpected failure is a 500 naming the
+    exception's type (logged in the server's log with its traceback, never sent).
     """
     from frcontrol.jsonable import to_jsonable
 
@@ -232,10 +241,26 @@ def execute(kind: str, text: str, progress: Progress | None = None) -> str:
         return json.dumps(validation_document(err))
     except FrcontrolError as err:
         return json.dumps(error_document(err, None if request is None else request.set))
+    except MemoryError:
+        return json.dumps({"status": OUT_OF_MEMORY, "detail": _memory_message()})
     except Exception as err:  # a bug: the client gets its type, the server's log the traceback
         log.exception("request %s failed", kind)
         return json.dumps({"status": 500, "detail": f"internal error ({type(err).__name__}); see the "
                                                     "server's log"})
+
+
+def _memory_message() -> str:
+    import resource
+
+    limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+    cap = "its memory" if limit == resource.RLIM_INFINITY else f"the {limit // 2**20} MiB a worker may use"
+    return (f"the request needed more memory than {cap} (frc serve --worker-memory); its work was "
+            "stopped and its worker replaced: ask for less (a shorter run, a larger step)")
+
+
+def out_of_memory(reply: str) -> bool:
+    """Whether :func:`execute`'s reply says that the request ran out of memory (its worker then ends)."""
+    return reply.startswith(f'{{"status": {OUT_OF_MEMORY},')
 
 
 def warm_up() -> None:
@@ -249,6 +274,8 @@ def warm_up() -> None:
 
 __all__ = [
     "FieldError",
+    "OUT_OF_MEMORY",
+    "out_of_memory",
     "Progress",
     "REQUESTS",
     "WORK",

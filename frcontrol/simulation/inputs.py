@@ -149,6 +149,17 @@ def check_simulation_times(duration: float, dt: float, dt_name: str = "dt", scen
     return float(duration), float(dt)
 
 
+def check_seed(seed: Any) -> int:
+    """A random generator's seed, checked: an integer >= 0.
+
+    Raises:
+        InputError: not an integer, or negative.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"seed must be an integer >= 0, got {seed!r}")
+    return int(seed)
+
+
 def trajectory_bytes(scene: Scene, samples: int) -> int:
     """[bytes] The sampled arrays of a run of ``samples`` steps (see :data:`MAX_TRAJECTORY_BYTES`)."""
     n, m, k = scene.robot.nv, scene.inputs.count, len(scene.contacts)
@@ -176,6 +187,7 @@ __all__ = [
     "MAX_TRAJECTORY_BYTES",
     "SAMPLE_DIAGNOSTICS",
     "check_input_vector",
+    "check_seed",
     "check_trajectory_memory",
     "trajectory_bytes",
     "STEP_COUNT_TOLERANCE",
