@@ -55,9 +55,9 @@ MaxBodyOpt = Annotated[
 WorkerMemoryOpt = Annotated[
     int | None,
     typer.Option("--worker-memory", min=0, metavar="MIB",
-                 help="[MiB] The address space each worker and job process may use (RLIMIT_AS; the "
-                      "library takes about 500 of it); a request that needs more is a 507 and its "
-                      "worker is replaced. 0: no limit. Default: 4096."),
+                 help="[MiB] The address space each worker and job process may add to what it uses "
+                      "once the library is loaded (RLIMIT_AS; about 500 MiB); a request that needs "
+                      "more is a 507 and its worker is replaced. 0: no limit. Default: 4096."),
 ]
 MaxResultBytesOpt = Annotated[
     int | None,

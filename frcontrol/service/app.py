@@ -89,8 +89,8 @@ class ServiceConfig:
         token: when set, every request needs ``Authorization: Bearer <token>`` (else a 401).
         scheduler: a Dask scheduler's address for the atlas jobs' chunks (None: a local pool of
             ``workers`` processes per job).
-        worker_memory: [MiB] the address space of each worker and job process (``RLIMIT_AS``);
-            None: no limit.
+        worker_memory: [MiB] the address space each worker and job process may add to what it
+            uses once the library is loaded (``RLIMIT_AS``); None: no limit.
         max_result_bytes: [bytes] finished jobs' results kept in all (the oldest go first).
     """
 

@@ -15,7 +15,7 @@ import math
 import re
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, field_validator, model_validator
 
 from frcontrol.planning import (
     DEFAULT_CLIMB_DURATION,
@@ -103,11 +103,16 @@ class SceneContent(Strict):
     def _one_form(self) -> SceneContent:
         if (self.toml is None) == (self.json_ is None):
             raise ValueError("give the scene as exactly one of 'toml' (its text) or 'json' (its tables)")
-        for name in self.robots:
+        return self
+
+    @field_validator("robots")
+    @classmethod
+    def _urdf_names(cls, robots: dict[str, str]) -> dict[str, str]:
+        for name in robots:
             if URDF_NAME.fullmatch(name) is None or len(name) > MAX_URDF_NAME:
                 raise ValueError(f"robots: {name!r} is not a URDF file name (a bare name ending in .urdf, "
                                  f"of ASCII letters, digits and _.+-, at most {MAX_URDF_NAME} characters)")
-        return self
+        return robots
 
 
 def _scene_form(value: Any) -> str:

@@ -36,8 +36,8 @@ _CONTEXT = multiprocessing.get_context("spawn")  # no fork of a threaded server
 log = logging.getLogger(__name__)
 
 DEFAULT_WORKER_MEMORY = 4096
-"""[MiB] The address space a worker or job process may use by default (``frc serve
---worker-memory``): the library itself takes about 500 MiB of it."""
+"""[MiB] The address space a worker or job process may add, by default, to what it uses once the
+library is loaded (about 500 MiB): its requests' memory (``frc serve --worker-memory``)."""
 
 DEFAULT_MAX_RESULT_BYTES = 256 * 2**20
 """[bytes] The finished jobs' results kept in the server's memory at most, in all (their JSON
@@ -61,7 +61,7 @@ class WorkerLost(Exception):
 
 
 def limit_memory(mib: int | None) -> None:
-    """Limit this process's address space to ``mib`` MiB (``RLIMIT_AS``; None: no limit).
+    """Let this process's address space grow by at most ``mib`` MiB from now (``RLIMIT_AS``; None: no limit).
 
     Allocations past it raise :class:`MemoryError` in this process alone.
     """
@@ -69,11 +69,23 @@ def limit_memory(mib: int | None) -> None:
         return
     import resource
 
-    limit = int(mib) * 2**20
+    limit = _address_space() + int(mib) * 2**20
     _, hard = resource.getrlimit(resource.RLIMIT_AS)
     if hard != resource.RLIM_INFINITY:
         limit = min(limit, hard)
     resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
+
+
+def _address_space() -> int:
+    """[bytes] This process's address space now (Linux: ``VmSize`` of ``/proc/self/status``; else 0)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmSize:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 0
 
 
 def _worker_main(conn: Connection, memory: int | None) -> None:

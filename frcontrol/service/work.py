@@ -22,6 +22,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 from pydantic import ValidationError
 
 from frcontrol.errors import CoordinateNotFound, FrcontrolError, InputError, LimitExceeded, SceneError
@@ -37,6 +38,10 @@ Progress = Callable[[float | None, str], None]
 """Called by long work with (fraction done or None, what it is doing)."""
 
 log = logging.getLogger(__name__)
+
+BLAS_WARM_UP = 512
+"""[-] The size of the products :func:`warm_up` makes, so that BLAS allocates its buffers (and
+starts its threads) before a worker's memory limit is set."""
 
 OUT_OF_MEMORY = 507
 """The status of a request that ran out of its process's memory limit (``frc serve --worker-memory``)."""
@@ -253,9 +258,10 @@ def _memory_message() -> str:
     import resource
 
     limit = resource.getrlimit(resource.RLIMIT_AS)[0]
-    cap = "its memory" if limit == resource.RLIM_INFINITY else f"the {limit // 2**20} MiB a worker may use"
-    return (f"the request needed more memory than {cap} (frc serve --worker-memory); its work was "
-            "stopped and its worker replaced: ask for less (a shorter run, a larger step)")
+    cap = "" if limit == resource.RLIM_INFINITY else f" ({limit // 2**20} MiB of address space in all)"
+    return (f"the request needed more memory than a worker may use{cap}, the service's limit (frc serve "
+            "--worker-memory); its work was stopped and its worker replaced: ask for less (a shorter "
+            "run, a larger step)")
 
 
 def out_of_memory(reply: str) -> bool:
@@ -264,15 +270,33 @@ def out_of_memory(reply: str) -> bool:
 
 
 def warm_up() -> None:
-    """Import what the work needs, so that a worker's first request does not pay for it."""
+    """Import what the work needs, so that a worker's first request does not pay for it.
+
+    Also before a worker's memory limit is set: the libraries' address space is then its own.
+    """
+    import scipy.linalg
+
     import frcontrol.answers  # noqa: F401
     import frcontrol.atlas  # noqa: F401
     import frcontrol.engine  # noqa: F401
+    import frcontrol.planning.climb  # noqa: F401
+    import frcontrol.planning.flip  # noqa: F401
     import frcontrol.scene  # noqa: F401
+    import frcontrol.simulation.compliant  # noqa: F401
+    import frcontrol.simulation.rigid  # noqa: F401
     import frcontrol.stability  # noqa: F401
+    import frcontrol.statics  # noqa: F401
+
+    square = np.eye(BLAS_WARM_UP) + 1.0  # NumPy's and SciPy's BLAS allocate their buffers on first use
+    product = square @ square
+    np.linalg.solve(product, square[0])
+    scipy.linalg.cho_solve(scipy.linalg.cho_factor(product), square[0])
+    scipy.linalg.lu_solve(scipy.linalg.lu_factor(product), square[0])
+    scipy.linalg.blas.dgemm(1.0, square, square)
 
 
 __all__ = [
+    "BLAS_WARM_UP",
     "FieldError",
     "OUT_OF_MEMORY",
     "out_of_memory",
