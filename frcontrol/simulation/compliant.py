@@ -583,15 +583,12 @@ def simulate_compliant(
         InputError: a bad duration or ``dt`` (<= 0, > duration, or above the explicit stability
             limit with ``euler``), stiffness (<= 0), damping (< 0), tangential damping (<= 0),
             tolerance, unknown integrator, bad state, input or stretch.
-        LimitExceeded: more samples or sampled memory than the caps of
-            :func:`~.inputs.check_simulation_times`, or more integrator steps than ``max_steps``
-            at the least (``duration / dt`` fixed, ``duration / max_step`` adaptive).
+        LimitExceeded: over the caps of :func:`~.inputs.check_simulation_times`, or ``max_steps``.
         SceneError: a bad ``[model]`` table.
         IllConditioned: M is singular even with the armature.
     """
     duration, dt = check_simulation_times(duration, dt, scene=scene)
-    _check_integrator_options(integrator, rtol, atol, max_step, max_steps)
-    _check_step_budget(integrator, duration, dt if max_step is None else max_step, max_steps)
+    _check_integrator_options(integrator, rtol, atol, max_step, max_steps, duration, dt)
     overrides = ContactOverrides(stiffness, damping, damping_ratio, tangential_stiffness, tangential_damping)
     schedule, constant = input_schedule(scene, inputs)
     y0, arm, params = _initial_state(scene, q0, v0, armature, contacts, overrides, initial_stretch)
@@ -671,8 +668,11 @@ def _initial_state(scene: Scene, q0: Sequence[float] | np.ndarray | None,
 
 
 def _check_integrator_options(integrator: str, rtol: float, atol: float, max_step: float | None,
-                              max_steps: int) -> None:
-    """Raises InputError for an unknown integrator or a bad tolerance, step or step count."""
+                              max_steps: int, duration: float, dt: float) -> None:
+    """Raises InputError for an unknown integrator or a bad tolerance, step or step count.
+
+    And :class:`~frcontrol.errors.LimitExceeded` for a run over ``max_steps`` (:func:`_check_step_budget`).
+    """
     if integrator not in INTEGRATORS:
         raise InputError(f"unknown integrator {integrator!r}; choose one of: {', '.join(INTEGRATORS)}")
     for label, value in (("rtol", rtol), ("atol", atol)):
@@ -682,6 +682,7 @@ def _check_integrator_options(integrator: str, rtol: float, atol: float, max_ste
         raise InputError(f"max_step must be a positive number [s], got {max_step!r}")
     if not (isinstance(max_steps, int) and max_steps > 0):
         raise InputError(f"max_steps must be a positive integer, got {max_steps!r}")
+    _check_step_budget(integrator, duration, dt if max_step is None else max_step, max_steps)
 
 
 def _check_step_budget(integrator: str, duration: float, step: float, max_steps: int) -> None:
