@@ -29,7 +29,7 @@ DurationOpt = Annotated[
     typer.Option("--duration", "-T", min=0.0,
                  help="Simulated time [s] of the check under sampled disturbances."),
 ]
-SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of the sampled disturbances.")]
+SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of the sampled disturbances (>= 0).")]
 ScaleOpt = Annotated[
     float | None,
     typer.Option("--scale", min=0.0,

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -52,6 +52,19 @@ MaxBodyOpt = Annotated[
     int,
     typer.Option("--max-body", min=1024, help="[bytes] The largest request body (a larger one is a 413)."),
 ]
+WorkerMemoryOpt = Annotated[
+    int | None,
+    typer.Option("--worker-memory", min=0, metavar="MIB",
+                 help="[MiB] The address space each worker and job process may add to what it uses "
+                      "once the library is loaded (RLIMIT_AS; about 500 MiB); a request that needs "
+                      "more is a 507 and its worker is replaced. 0: no limit. Default: 4096."),
+]
+MaxResultBytesOpt = Annotated[
+    int | None,
+    typer.Option("--max-result-bytes", min=1024, metavar="BYTES",
+                 help="[bytes] Finished jobs' results kept in memory in all; the oldest finished jobs "
+                      "are forgotten first, and a larger result alone fails its job. Default: 256 MiB."),
+]
 OpenApiOpt = Annotated[
     bool,
     typer.Option("--openapi", help="Print the API's OpenAPI schema (JSON) and exit, serving nothing."),
@@ -99,6 +112,8 @@ def serve_command(
     job_time_limit: JobTimeLimitOpt = 3600.0,
     max_jobs: MaxJobsOpt = 2,
     max_body: MaxBodyOpt = 1_000_000,
+    worker_memory: WorkerMemoryOpt = None,
+    max_result_bytes: MaxResultBytesOpt = None,
     openapi: OpenApiOpt = False,
     json: options.JsonOpt = False,
     quiet: options.QuietOpt = False,
@@ -129,8 +144,13 @@ def serve_command(
         raise common.fail(f"--host {host}: listening on an address other than {LOOPBACK} needs "
                           "--token-file FILE (every request then brings 'Authorization: Bearer <token>')")
     token = read_token(token_file) if token_file is not None else None
+    limits: dict[str, Any] = {}  # the service's defaults unless given
+    if worker_memory is not None:
+        limits["worker_memory"] = worker_memory or None
+    if max_result_bytes is not None:
+        limits["max_result_bytes"] = max_result_bytes
     config = ServiceConfig(workers=workers, time_limit=time_limit, job_time_limit=job_time_limit,
-                           max_jobs=max_jobs, max_body=max_body, token=token, scheduler=scheduler)
+                           max_jobs=max_jobs, max_body=max_body, token=token, scheduler=scheduler, **limits)
     app = create_app(config)
     if openapi:
         common.print_json(app.openapi())

@@ -141,9 +141,14 @@ def plan_and_climb(scene: Scene, *, margin: float, duration: float, seed: int,
         duration: [s] simulated time under sampled disturbances (0: plan only).
         seed: seed of the sampled disturbances.
         on_simulation: called once when the simulation starts.
+
+    Raises:
+        InputError: a seed that is not an integer >= 0 (before any planning); see the planner.
     """
     from .planning.climb import plan_climb, simulate_climb
+    from .simulation.inputs import check_seed
 
+    check_seed(seed)
     plan = plan_climb(scene, margin=margin)
     if not plan.found or duration <= 0:
         return plan, None
@@ -165,9 +170,14 @@ def plan_and_gait(scene: Scene, *, cycles: int, margin: float, seed: int, scale:
         scale: the disturbance scale of the simulation (None: the gait's default).
         on_simulation: called once when the simulation starts.
         progress: called with (phases done, phases) along the simulation.
+
+    Raises:
+        InputError: a seed that is not an integer >= 0 (before any planning); see the planner.
     """
     from .planning.gait import plan_gait, simulate_gait
+    from .simulation.inputs import check_seed
 
+    check_seed(seed)
     plan = plan_gait(scene, cycles, margin=margin)
     if on_simulation is not None:
         on_simulation()

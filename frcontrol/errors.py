@@ -9,10 +9,35 @@ method ending on a ray) are *results*, not exceptions.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import lru_cache
+from pathlib import Path
 
 
 class FrcontrolError(Exception):
     """Base class of every error frcontrol raises on purpose."""
+
+
+@lru_cache(maxsize=1)
+def _shipped_root() -> Path:
+    from importlib import resources
+
+    return Path(str(resources.files("frcontrol.robots"))).resolve()
+
+
+def shown_path(path: str | Path) -> str:
+    """A file as messages name it: a shipped scene by its name, a shipped robot by its file name.
+
+    So that no message discloses where frcontrol is installed (``rod_on_table``, ``rod.urdf``,
+    not ``/.../site-packages/frcontrol/robots/scenes/rod_on_table.toml``); any other path as given.
+    """
+    text = str(path)
+    try:
+        where = Path(text).resolve().relative_to(_shipped_root())
+    except (ValueError, OSError, RuntimeError):  # not shipped, or not a path (a NUL, a loop)
+        return text
+    if where.parent == Path("scenes") and where.suffix == ".toml":
+        return where.stem
+    return where.as_posix()
 
 
 def reason_from_exception(err: BaseException) -> str:
@@ -38,7 +63,8 @@ class SceneError(FrcontrolError):
         self.path = str(path)
         self.field = field
         self.reason = reason
-        where = f"{self.path}: {field}: " if field else f"{self.path}: "
+        shown = shown_path(self.path)
+        where = f"{shown}: {field}: " if field else f"{shown}: "
         super().__init__(where + reason)
 
 
@@ -48,7 +74,7 @@ class RobotModelError(FrcontrolError):
     def __init__(self, path: str, reason: str) -> None:
         self.path = str(path)
         self.reason = reason
-        super().__init__(f"{self.path}: {reason}")
+        super().__init__(f"{shown_path(self.path)}: {reason}")
 
 
 class FrameNotFound(FrcontrolError):
@@ -73,6 +99,22 @@ class CoordinateNotFound(FrcontrolError):
 
 class InputError(FrcontrolError):
     """A value handed to a library function is malformed (shape, NaN, outside its limits)."""
+
+
+class LimitExceeded(InputError):
+    """A value asks for more work or memory than a documented cap allows.
+
+    Attributes:
+        field: the argument that asks for it (``duration``, ``stiffness``...).
+        value: what was asked (in the cap's unit).
+        limit: the cap.
+    """
+
+    def __init__(self, field: str, value: float, limit: float, message: str) -> None:
+        self.field = field
+        self.value = value
+        self.limit = limit
+        super().__init__(message)
 
 
 class KernelError(FrcontrolError):
@@ -150,8 +192,10 @@ __all__ = [
     "IllConditioned",
     "ImpactState",
     "InputError",
+    "LimitExceeded",
     "reason_from_exception",
     "RobotModelError",
     "SceneError",
     "SolverNotFound",
+    "shown_path",
 ]

@@ -34,7 +34,14 @@ from .errors import (
 )
 from .model import BASE_COORDINATES, ContactPoint, PlanarRobot, RobotState
 from .plane import EXAMPLE_ROBOT_DATA_PREFIX, PLANES, example_robot_data_urdf, planar_urdf
-from .scene_schema import SchemaProblem, apply_override, nearest, reference_problems, schema_problems
+from .scene_schema import (
+    SchemaProblem,
+    apply_override,
+    beyond_float,
+    nearest,
+    reference_problems,
+    schema_problems,
+)
 from .scene_tables import (
     DisturbanceTable,
     ModelOptions,
@@ -246,6 +253,8 @@ class _Reader:
     def number(self, value: Any, field_name: str) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.fail(field_name, f"expected a number, got {value!r}")
+        if beyond_float(value):
+            raise self.fail(field_name, beyond_float(value))
         x = float(value)
         if not math.isfinite(x):
             raise self.fail(field_name, f"expected a finite number, got {value!r}")
@@ -331,10 +340,21 @@ def read_scene_document(path: Path) -> dict[str, Any]:
         raise reader.fail("", f"cannot read the file: not UTF-8 text (byte {err.start})") from err
     except OSError as err:
         raise reader.fail("", f"cannot read the file: {reason_from_exception(err)}") from err
+    return scene_toml(text, str(path))
+
+
+def scene_toml(text: str, source: str) -> dict[str, Any]:
+    """The parsed TOML of a scene's text, unchecked (``source`` names the scene in messages).
+
+    Raises:
+        SceneError: not TOML, or nested too deeply to parse (any depth is an error, not a crash).
+    """
     try:
         return _fresh_copy(_parsed_toml(text))
     except tomllib.TOMLDecodeError as err:
-        raise reader.fail("", f"malformed TOML: {err}") from err
+        raise SceneError(source, "", f"malformed TOML: {err}") from err
+    except RecursionError as err:
+        raise SceneError(source, "", "the TOML nests too deeply to be a scene") from err
 
 
 @lru_cache(maxsize=SCENE_TEXT_CACHE_SIZE)
@@ -411,8 +431,26 @@ def _checked_document(reader: _Reader, raw: dict[str, Any], overrides: Mapping[s
             raise reader.fail(problem.field, problem.reason)
     problems = schema_problems(raw)
     if problems:
-        raise reader.fail(problems[0].field, problems[0].reason)
+        raise reader.fail(_set_path(problems[0].field, raw, overrides or {}), problems[0].reason)
     return reader.string(raw["robot"], "robot"), coordinate_overrides
+
+
+def _set_path(field: str, raw: Mapping[str, Any], overrides: Mapping[str, Any]) -> str:
+    """``field`` as the override that set it names it (``contacts.tip.mu`` for ``contacts[0].mu``).
+
+    A field no override set keeps its own name.
+    """
+    for key in overrides:
+        parts = key.split(".")
+        entries = raw.get(parts[0]) if len(parts) > 1 else None
+        if isinstance(entries, list):  # an entry of [[contacts]] or [[disturbances]] by its name
+            named = [i for i, e in enumerate(entries) if isinstance(e, Mapping) and e.get("name") == parts[1]]
+            index = named[0] if named else None
+            if index is not None:
+                parts = [f"{parts[0]}[{index}]", *parts[2:]]
+        if ".".join(parts) == field or field.startswith(".".join(parts) + "["):
+            return key
+    return field
 
 
 def scene_from_document(
@@ -802,6 +840,7 @@ __all__ = [
     "parse_input_assignments",
     "read_scene_document",
     "resolve_scene_path",
+    "scene_toml",
     "scene_from_document",
     "scene_problems",
     "shipped_robots_dir",

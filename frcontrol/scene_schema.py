@@ -22,13 +22,16 @@ from __future__ import annotations
 
 import difflib
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 __all__ = [
+    "MAX_NUMBER",
     "NEAREST_KEY_CUTOFF",
     "apply_override",
+    "beyond_float",
     "parse_override",
     "SCENE_SCHEMA",
     "SchemaProblem",
@@ -36,6 +39,17 @@ __all__ = [
     "reference_problems",
     "schema_problems",
 ]
+
+MAX_NUMBER = int(sys.float_info.max)
+"""The largest integer a scene's number may be (a float's range, about 1.8e308): a larger one is
+refused as not finite."""
+
+def beyond_float(value: int | float) -> str:
+    """Why an integer beyond :data:`MAX_NUMBER` is no number of a scene ("" for any other value)."""
+    if isinstance(value, int) and not -MAX_NUMBER <= value <= MAX_NUMBER:
+        return f"expected a finite number, got an integer of {value.bit_length()} bits (beyond a float)"
+    return ""
+
 
 NEAREST_KEY_CUTOFF = 0.5
 """[-] Least ``difflib`` similarity ratio for a valid name to be offered as "did you mean"."""
@@ -323,6 +337,8 @@ def _check(doc: Any, schema: Mapping[str, Any], path: str, out: list[SchemaProbl
     if kind == "number":
         if isinstance(doc, bool) or not isinstance(doc, (int, float)):
             fail(f"expected a number, got {_type_name(doc)} ({doc!r})")
+        elif beyond_float(doc):
+            fail(beyond_float(doc))
         elif not math.isfinite(doc):
             fail(f"expected a finite number, got {doc!r}")
         elif "minimum" in schema and doc < schema["minimum"]:

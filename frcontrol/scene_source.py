@@ -23,7 +23,6 @@ from __future__ import annotations
 import hashlib
 import json
 import tempfile
-import tomllib
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -163,10 +162,9 @@ class SceneSource:
 
 
 def _parse_toml(text: str) -> dict[str, Any]:
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise SceneError(CONTENT_SOURCE, "", f"malformed TOML: {err}") from err
+    from .scene import scene_toml
+
+    return scene_toml(text, CONTENT_SOURCE)
 
 
 __all__ = [

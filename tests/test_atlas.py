@@ -167,7 +167,8 @@ def test_ambiguity_between_and_within_modes():
 def test_a_bad_point_records_its_error_and_the_sweep_goes_on():
     result = run_atlas(build_atlas("rod_on_table", ["contacts.tip.mu=-1:1:3", "input.x=-60:0:2"]), workers=1)
     errors, counts = result.rows["error"], result.rows["count"]
-    assert "contacts[0].mu: expected >= 0, got -1.0" in errors[0] and "got -1.0" in errors[1]
+    assert errors[0] == "rod_on_table: contacts.tip.mu: expected >= 0, got -1.0"  # the scene's name, the axis
+    assert "got -1.0" in errors[1]
     assert "outside its limits" in errors[2] and errors[3] is None and counts[3] == 1
     assert counts[:3] == [None] * 3 and result.rows["modes"][0] is None
 

@@ -210,7 +210,8 @@ def test_overrides_set_values_and_are_checked_like_the_file(write_scene):
     ("contacts.tip.muu=1", "contacts.tip.muu", "did you mean 'mu'?"),
     ("gravty=1", "gravty", "did you mean 'gravity'?"),
     ("state.q[5]=1", "state.q[5]", "out of range"),
-    ("contacts.tip.mu=-1", "contacts[0].mu", ">= 0"),
+    ("contacts.tip.mu=-1", "contacts.tip.mu", ">= 0"),  # named as it was set
+    ("contacts[0].mu=-1", "contacts[0].mu", ">= 0"),
     ("model.contacts.tipp.stiffness=3", "model.contacts.tipp", "did you mean 'tip'?"),
     ("gravity.x=1", "gravity.x", "not a table"),
     ("state.q=abc", "state.q", "expected a list"),

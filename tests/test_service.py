@@ -92,7 +92,8 @@ def strict_client():
 
 
 def test_info_endpoints(client):
-    assert client.get("/health").json() == {"status": "ok", "workers": 2, "jobs_running": 0}
+    assert client.get("/health").json() == {"status": "ok", "workers": 2, "workers_configured": 2,
+                                            "jobs_running": 0}
     import frcontrol
 
     assert client.get("/version").json() == {"frcontrol": frcontrol.__version__, "api": "1"}
@@ -320,8 +321,8 @@ def test_an_atlas_scene_sent_as_content_equals_the_shipped_one(client, atlas_job
     started = [client.post("/atlas", json=body) for body in bodies]  # both at once (2 jobs allowed)
     assert [r.status_code for r in started] == [202, 202], [r.text for r in started]
     same = {k: v for k, v in by_name.items() if k not in ("scene", "fingerprint", "timings")}
-    shipped = str(shipped_robots_dir() / "scenes" / "rod_on_table.toml")
-    same["errors"] = [[e and e.replace(shipped, "scene") for e in row] for row in same["errors"]]
+    same["errors"] = [[e and e.replace("rod_on_table: ", "scene: ") for e in row] for row in same["errors"]]
+    assert not any(str(shipped_robots_dir()) in e for row in by_name["errors"] for e in row if e)
     assert any(e for row in same["errors"] for e in row)  # messages name the scene as sent
     for response in started:
         result = finished(client, response.json())["result"]
@@ -485,6 +486,13 @@ def test_serve_prints_the_openapi_schema():
 @contextmanager
 def frc_serve(*options: str):
     """A real `frc serve` on a free loopback port (its URL), stopped with SIGTERM at the end."""
+    with frc_serve_process(*options) as (url, _):
+        yield url
+
+
+@contextmanager
+def frc_serve_process(*options: str):
+    """A real `frc serve` on a free loopback port: its URL and its process, stopped with SIGTERM."""
     port = free_port()
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     process = subprocess.Popen([sys.executable, "-m", "frcontrol", "serve", "--port", str(port), *options,
@@ -501,7 +509,7 @@ def frc_serve(*options: str):
             pass
         assert time.monotonic() < deadline, "frc serve did not answer within 120 s"
         time.sleep(0.2)
-    yield url
+    yield url, process
     process.send_signal(signal.SIGTERM)
     out, err = process.communicate(timeout=60)
     assert process.returncode == 0, err
@@ -568,3 +576,171 @@ def test_a_real_server_runs_atlas_jobs_on_a_dask_cluster():
     assert job["result"]["run"]["executor"] == "dask" and job["result"]["run"]["workers"] == 1
     expected = cli_json("atlas", *ATLAS_ARGS, "--workers", "1")
     assert without_timings({**job["result"], "run": None}) == without_timings({**expected, "run": None})
+
+
+# --- hostile input and bounded work, against a real frc serve ------------------------------------
+
+def nested(depth: int) -> list:
+    """A JSON array nested ``depth`` deep."""
+    value: list = []
+    for _ in range(depth):
+        value = [value]
+    return value
+
+
+HOSTILE = [  # (path, body, loc of the refused field, what the message says)
+    ("/analyze", {"scene": "rod_on_table", "set": {"gravity": nested(300)}}, ["body", "set", "gravity"],
+     "deeper than 32"),
+    ("/analyze", {"scene": {"json": {"robot": "rod.urdf", "contacts": nested(900)}}},
+     ["body", "scene", "json", "contacts"], "deeper than 32"),
+    ("/analyze", {"scene": {"toml": "a = " + "[" * 3000 + "]" * 3000}}, ["body", "scene"],
+     "nests too deeply"),
+    ("/analyze", {"scene": {"toml": ROD_TOML, "robots": {"a\x00.urdf": "<robot name='r'/>"}}},
+     ["body", "scene", "content", "robots"], "not a URDF file name"),
+    ("/analyze", {"scene": {"toml": ROD_TOML, "robots": {"\u00e9\x7f.urdf": "<robot name='r'/>"}}},
+     ["body", "scene", "content", "robots"], "not a URDF file name"),
+    ("/analyze", {"scene": "rod_on_table", "set": {"robot": "a\x00.urdf"}}, ["body", "set", "robot"],
+     "rod_on_table: robot: no URDF"),
+    ("/plan/climb", {"seed": -1}, ["body", "seed"], "greater than or equal to 0"),
+    ("/simulate", {"scene": "rod_on_table", "duration": 1e9}, ["body", "duration"],
+     "asks for 1e+12 samples; a simulation takes at most 1e+07 (MAX_SIMULATION_SAMPLES)"),
+    ("/simulate", {"scene": "box_on_slope", "model": "compliant", "stiffness": 1e6, "duration": 1e6},
+     ["body", "duration"], "asks for 1e+09 samples; a simulation takes at most 1e+07"),
+    ("/simulate", {"scene": "box_on_slope", "model": "compliant", "stiffness": 1e6, "duration": 1e3},
+     ["body", "duration"], "needs at least 1e+06 steps of at most max_step = 0.001 s for duration = 1000 s; "
+                           "a run takes at most max_steps = 500000"),
+    ("/simulate", {"scene": "rod_on_table", "duration": 7500.0, "dt": 1e-3}, ["body", "duration"],
+     "1030 MiB of sampled arrays; a simulation takes at most 1024 MiB (MAX_TRAJECTORY_BYTES)"),
+    ("/plan/flip", {"max_time": 1e9}, ["body", "max_time"], "MAX_SIMULATION_SAMPLES"),
+    ("/solutions", {"scene": "rod_on_table", "inputs": {"x": "1.0"}}, ["body", "inputs", "x"],
+     "valid number"),
+    ("/solutions", {"scene": "rod_on_table", "inputs": {"x": True}}, ["body", "inputs", "x"],
+     "valid number"),
+    ("/plan/flip", {"dt": "0.001"}, ["body", "dt"], "valid number"),
+    ("/analyze", {"scene": "rod_on_table", "set": {"gravity": 10**400}}, ["body", "set", "gravity"],
+     "rod_on_table: gravity: expected a finite number, got an integer of 1329 bits"),
+    ("/analyze", {"scene": "rod_on_table", "set": {"contacts.tip.mu": -1}},
+     ["body", "set", "contacts.tip.mu"], "rod_on_table: contacts.tip.mu: expected >= 0, got -1"),
+]
+
+
+def client_port(response: httpx.Response) -> int:
+    """The local port of the connection a response came on (the same port: the same connection)."""
+    return response.extensions["network_stream"].get_extra_info("client_addr")[1]
+
+
+def test_hostile_input_is_a_422_naming_the_field_and_the_connection_stays(server):
+    with httpx.Client(base_url=server, timeout=120) as http:
+        port = client_port(http.get("/health"))
+        for path, body, loc, message in HOSTILE:
+            response = http.post(path, content=json.dumps(body), headers={"content-type": "application/json"})
+            assert response.status_code == 422, (path, body, response.text)
+            assert response.headers["content-type"] == "application/json"
+            problems = response.json()["detail"]
+            assert loc in [p["loc"] for p in problems], (loc, problems)
+            assert any(message in p["msg"] for p in problems), (message, problems)
+            assert str(shipped_robots_dir()) not in response.text and "site-packages" not in response.text
+            after = http.get("/health")  # the next request on the same keep-alive connection
+            assert after.status_code == 200 and client_port(after) == port, (path, body)
+        answered = http.post("/solutions", json={"scene": "rod_on_table", "inputs": {"x": -1.0}})
+        assert answered.status_code == 200 and client_port(answered) == port
+
+
+def test_the_cli_refuses_what_the_service_refuses_in_one_line():
+    assert cli_error("climb", "--seed", "-1") == "seed must be an integer >= 0, got -1"
+    assert "MAX_SIMULATION_SAMPLES" in cli_error("simulate", "rod_on_table", "-T", "1e9")
+    assert "MAX_STEPS" in cli_error("simulate", "box_on_slope", "--model", "compliant", "-T", "1e3")
+    assert cli_error("analyze", "rod_on_table", "--set", "contacts.tip.mu=-1") == \
+        "rod_on_table: contacts.tip.mu: expected >= 0, got -1"
+
+
+def worker_pids(server_pid: int) -> list[int]:
+    """The pids of a server's worker processes (its children started by multiprocessing's spawn)."""
+    pids = []
+    for task in Path(f"/proc/{server_pid}/task").iterdir():
+        for child in (task / "children").read_text().split():
+            cmdline = Path(f"/proc/{child}/cmdline").read_bytes()
+            if b"spawn_main" in cmdline and b"resource_tracker" not in cmdline:
+                pids.append(int(child))
+    return pids
+
+
+def killed(pid: int) -> None:
+    """Kill a process and wait until it has ended: reaped, or a zombie whose every thread has ended.
+
+    (Its main thread shows as a zombie while its other threads, BLAS's, are still ending: until
+    then its parent cannot see that it has ended.)
+    """
+    os.kill(pid, signal.SIGKILL)
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+            threads = os.listdir(f"/proc/{pid}/task")
+        except FileNotFoundError:
+            return
+        if state in ("Z", "X") and threads == [str(pid)]:
+            return
+        assert time.monotonic() < deadline, f"process {pid} did not end"
+        time.sleep(0.05)
+
+
+def healthy(http: httpx.Client, workers: int) -> dict:
+    """``GET /health`` once it reports ``workers`` workers alive (polled)."""
+    deadline = time.monotonic() + 120
+    while (health := http.get("/health").json())["workers"] != workers:
+        assert time.monotonic() < deadline, health
+        time.sleep(0.1)
+    return health
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="finding a server's workers reads /proc "
+                    "(Linux)")
+def test_a_worker_dead_while_idle_costs_no_request_and_health_counts_the_living():
+    with frc_serve_process("--workers", "1") as (url, process), \
+            httpx.Client(base_url=url, timeout=120) as http:
+        [worker] = worker_pids(process.pid)
+        killed(worker)  # dies while idle: the next request goes to its successor
+        answered = http.post("/solutions", json={"scene": "rod_on_table", "inputs": {"x": -1.0}})
+        assert answered.status_code == 200, answered.text
+        assert healthy(http, 1)["status"] == "ok"
+        [successor] = worker_pids(process.pid)
+        assert successor != worker
+        killed(successor)
+        assert http.get("/health").json() == {"status": "degraded", "workers": 0, "workers_configured": 1,
+                                              "jobs_running": 0}
+        assert healthy(http, 1) == {"status": "ok", "workers": 1, "workers_configured": 1, "jobs_running": 0}
+        assert http.post("/solutions", json={"scene": "rod_on_table"}).status_code == 200
+
+
+MEMORY_HUNGRY = {"scene": "rod_on_table", "duration": 10.0}
+"""A run within the simulation caps whose answer needs far more than 8 MiB (its JSON alone is 2.5 MB)."""
+
+
+def test_a_request_past_the_worker_memory_limit_is_a_507_and_its_worker_is_replaced():
+    with frc_serve_process("--workers", "1", "--worker-memory", "8", "--max-result-bytes", "2048") \
+            as (url, process), httpx.Client(base_url=url, timeout=120) as http:
+        [worker] = worker_pids(process.pid)
+        response = http.post("/simulate", json=MEMORY_HUNGRY)
+        assert response.status_code == 507 and response.headers["content-type"] == "application/json"
+        assert "--worker-memory" in response.json()["detail"]
+        assert http.get("/health").json()["workers"] == 1
+        assert worker_pids(process.pid) != [worker]  # replaced
+        assert http.post("/solutions", json={"scene": "rod_on_table"}).status_code == 200
+        job = finished(http, http.post("/jobs/simulate", json=MEMORY_HUNGRY).json())
+        assert job["state"] == "failed" and "--worker-memory" in job["error"]["detail"], job
+
+
+def test_finished_job_results_are_capped_in_bytes_oldest_dropped_first():
+    with frc_serve("--workers", "1", "--max-result-bytes", "2048") as url, \
+            httpx.Client(base_url=url, timeout=120) as http:
+        large = finished(http, http.post("/jobs/analyze", json={"scene": "rhex_flip"}).json())
+        assert large["state"] == "failed" and large["result"] is None
+        assert "more than the service keeps (2048 bytes" in large["error"]["detail"]
+        ids = [finished(http, http.post("/jobs/solutions", json={"scene": "rod_on_table",
+                                                                  "inputs": {"x": -1.0}}).json())["id"]
+               for _ in range(6)]
+        kept = [http.get(f"/jobs/{job_id}") for job_id in ids]
+        present = [r.status_code == 200 for r in kept]
+        assert present[-1] and not present[0] and present == sorted(present), present  # the oldest go
+        assert sum(len(json.dumps(r.json()["result"])) for r in kept if r.status_code == 200) <= 2048

@@ -10,7 +10,7 @@ import pytest
 from conftest import ROBOTS, rod_scene
 from scipy.integrate import solve_ivp
 
-from frcontrol.errors import CoordinateNotFound, IllConditioned, InputError, SceneError
+from frcontrol.errors import CoordinateNotFound, IllConditioned, InputError, LimitExceeded, SceneError
 from frcontrol.modes import ContactProblem
 from frcontrol.scene import load_scene
 from frcontrol.simulation.compliant import contact_forces, simulate_compliant
@@ -452,7 +452,11 @@ def test_bad_rigid_parameters_and_unknown_input_name(write_scene):
 
 def test_integrator_failure_keeps_the_trajectory_and_reports_time_and_reason(write_scene):
     scene = load_scene(write_scene(box_scene([0.0, 0.45, 0.0])))
-    traj = simulate_compliant(scene, None, 0.5, 1e-3, max_steps=50)
+    traj = simulate_compliant(scene, None, 0.5, 1e-3, max_steps=50, max_step=0.01)  # 50 steps at the least
+    assert traj.status == "failed"
+    with pytest.raises(LimitExceeded, match=r"needs at least 500 steps .* at most max_steps = 50") as info:
+        simulate_compliant(scene, None, 0.5, 1e-3, max_steps=50)  # refused before it starts
+    assert (info.value.field, info.value.value, info.value.limit) == ("duration", 500, 50)
     assert traj.status == "failed"
     failure = traj.failure
     assert "more than 50 steps" in failure.reason and 0.0 < failure.time < 0.5

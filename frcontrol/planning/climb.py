@@ -152,7 +152,7 @@ from ..polytope import Polytope, hull_from_points
 from ..response import AffineSolution, solve_affine
 from ..scene import Inputs, Scene
 from ..simulation.closed_loop import Policy, run_closed_loop
-from ..simulation.inputs import check_simulation_times
+from ..simulation.inputs import check_seed, check_simulation_times
 from ..simulation.rigid import RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
 from ..solvers import CONFIRM_INFEASIBLE, DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
@@ -1432,9 +1432,10 @@ def simulate_climb(
         slip_tolerance: [m] see :data:`BRACE_SLIP_TOLERANCE`.
 
     Raises:
-        InputError: the plan was not found, or a bad duration, step, hold or scale.
+        InputError: the plan was not found, or a bad duration, step, hold, scale or seed.
     """
     s = _check_simulation_request(plan, duration, dt, hold, scale)
+    seed = check_seed(seed)
     count = max(1, int(math.ceil(duration / hold)))
     samples = _sample_disturbances(plan.disturbances.robust_points(s), count, np.random.default_rng(seed))
     kin = _PointKinematics(scene, [(d.name, d.link, d.point_in_link) for d in plan.disturbances.items]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import hmac
+import itertools
 import json
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -21,8 +22,16 @@ from fastapi.responses import JSONResponse
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from . import models
-from .models import first_non_finite
-from .pool import Job, JobRunner, TimeLimitExceeded, WorkerLost, WorkerPool
+from .models import first_non_finite, too_deep
+from .pool import (
+    DEFAULT_MAX_RESULT_BYTES,
+    DEFAULT_WORKER_MEMORY,
+    Job,
+    JobRunner,
+    TimeLimitExceeded,
+    WorkerLost,
+    WorkerPool,
+)
 from .work import scene_source
 
 API_VERSION = "1"
@@ -55,7 +64,11 @@ REFUSALS: dict[int | str, dict[str, Any]] = {
 }
 WORK_REFUSALS: dict[int | str, dict[str, Any]] = {
     **REFUSALS,
+    500: {"model": models.ErrorResponse, "description": "The worker process ended during the request "
+          "(it is replaced)."},
     504: {"model": models.ErrorResponse, "description": "The request exceeded the time limit (named)."},
+    507: {"model": models.ErrorResponse, "description": "The request needed more memory than a worker may "
+          "use (the limit named; the worker is replaced)."},
 }
 JOB_REFUSALS: dict[int | str, dict[str, Any]] = {
     **REFUSALS,
@@ -76,6 +89,9 @@ class ServiceConfig:
         token: when set, every request needs ``Authorization: Bearer <token>`` (else a 401).
         scheduler: a Dask scheduler's address for the atlas jobs' chunks (None: a local pool of
             ``workers`` processes per job).
+        worker_memory: [MiB] the address space each worker and job process may add to what it
+            uses once the library is loaded (``RLIMIT_AS``); None: no limit.
+        max_result_bytes: [bytes] finished jobs' results kept in all (the oldest go first).
     """
 
     workers: int = 2
@@ -85,6 +101,8 @@ class ServiceConfig:
     max_body: int = 1_000_000
     token: str | None = None
     scheduler: str | None = None
+    worker_memory: int | None = DEFAULT_WORKER_MEMORY
+    max_result_bytes: int = DEFAULT_MAX_RESULT_BYTES
 
 
 def _error(status: int, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
@@ -163,20 +181,30 @@ class _Guard:
                 return body, _non_finite(body)
 
 
+def _too_deep(where: tuple[str | int, ...]) -> JSONResponse:
+    field = list(itertools.takewhile(lambda key: isinstance(key, str), where))[:3]
+    return JSONResponse({"detail": [{"loc": ["body", *field], "type": "json_too_deep",
+                                     "msg": f"the JSON nests deeper than {models.MAX_JSON_DEPTH} levels "
+                                            "(the service's cap, MAX_JSON_DEPTH)"}]}, status_code=422)
+
+
 def _non_finite(body: bytes) -> JSONResponse | None:
     """A 422 naming the field of a NaN or an infinite number in a JSON body, else None.
 
-    NaN and Infinity are not JSON, though Python reads them. A body nested too deeply to read is a
-    422 too; malformed JSON is left to the endpoint.
+    NaN and Infinity are not JSON, though Python reads them. A body nested deeper than
+    :data:`~.models.MAX_JSON_DEPTH` is a 422 naming the field where it does; malformed JSON is
+    left to the endpoint.
     """
     try:
-        where = first_non_finite(json.loads(body) if body else None)
+        document = json.loads(body) if body else None
     except RecursionError:
-        return JSONResponse({"detail": [{"loc": ["body"], "type": "json_too_deep",
-                                         "msg": "the JSON nests too deeply to be a request"}]},
-                            status_code=422)
+        return _too_deep(())
     except ValueError:
         return None
+    deep = too_deep(document)
+    if deep is not None:
+        return _too_deep(deep)
+    where = first_non_finite(document)
     if where is None:
         return None
     return JSONResponse({"detail": [{"loc": ["body", *where], "type": "finite_number",
@@ -187,8 +215,9 @@ def _non_finite(body: bytes) -> JSONResponse | None:
 def create_app(config: ServiceConfig | None = None) -> FastAPI:
     """The service's application: worker pool and jobs started with it, stopped with it."""
     config = config or ServiceConfig()
-    pool = WorkerPool(config.workers, config.time_limit)
-    jobs = JobRunner(config.max_jobs, config.job_time_limit)
+    pool = WorkerPool(config.workers, config.time_limit, config.worker_memory)
+    jobs = JobRunner(config.max_jobs, config.job_time_limit, max_result_bytes=config.max_result_bytes,
+                     memory=config.worker_memory)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -213,10 +242,22 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
 
 
 def _add_info_routes(app: FastAPI, config: ServiceConfig, pool: WorkerPool, jobs: JobRunner) -> None:
+    background: set[asyncio.Task[None]] = set()  # held until done (the loop keeps weak references)
+
     @app.get("/health", response_model=models.Health, responses=REFUSALS)
     async def health() -> dict[str, Any]:
-        """Answers at once, also while every worker is busy."""
-        return {"status": "ok", "workers": pool.size, "jobs_running": jobs.running()}
+        """Answers at once, also while every worker is busy: `workers` counts those alive.
+
+        A worker that died while idle is replaced in the background (and before a request is sent
+        to it); until then `status` is `degraded`.
+        """
+        alive = pool.alive()
+        if alive < pool.size:
+            healing = asyncio.get_running_loop().create_task(pool.heal())
+            background.add(healing)
+            healing.add_done_callback(background.discard)
+        return {"status": "ok" if alive == pool.size else "degraded", "workers": alive,
+                "workers_configured": pool.size, "jobs_running": jobs.running()}
 
     @app.get("/version", response_model=models.Version, responses=REFUSALS)
     async def version() -> dict[str, Any]:

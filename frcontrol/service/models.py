@@ -1,7 +1,8 @@
 """The service's request and response models (pydantic): what each endpoint accepts, for OpenAPI.
 
-Every request is strict: an unknown key, a wrong type or a number that is not finite (NaN,
-Infinity, anywhere in the body) is a 422 naming the field. A command's options are its long
+Every request is strict: an unknown key, a wrong type (a string or a boolean where a number is
+asked: no conversion), a number that is not finite (NaN, Infinity, anywhere in the body) or JSON
+nested deeper than :data:`MAX_JSON_DEPTH` is a 422 naming the field. A command's options are its long
 names with underscores (``--max-time`` is ``"max_time"``), with the command's defaults and ranges.
 Responses are the commands' ``--json`` documents, built by the library's ``to_dict()``:
 ``/solutions``' is typed here in full (:class:`SolutionsAnswer`; the tests hold every answer to it),
@@ -11,9 +12,10 @@ the other commands' are JSON objects whose shape each command's ``to_dict()`` do
 from __future__ import annotations
 
 import math
+import re
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, field_validator, model_validator
 
 from frcontrol.planning import (
     DEFAULT_CLIMB_DURATION,
@@ -24,9 +26,32 @@ from frcontrol.planning import (
 MAX_URDF_NAME = 100
 """Longest file name of a URDF sent with a scene."""
 
+URDF_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*\.urdf")
+"""A URDF file name sent with a scene: ASCII letters, digits, ``_ . + -``, ending in ``.urdf``."""
+
+MAX_JSON_DEPTH = 32
+"""The deepest nesting of arrays and objects in a request body (a scene's tables need 4)."""
+
 MAX_ATLAS_POINTS = 100_000
 """The most grid points of one ``POST /atlas`` job (``frc atlas`` has no such limit): a finished
 job keeps its result in the server's memory, a few megabytes at this size."""
+
+
+def too_deep(value: Any, limit: int = MAX_JSON_DEPTH) -> tuple[str | int, ...] | None:
+    """The path to the first array or object nested deeper than ``limit`` in a JSON value, or None.
+
+    Walked without recursion, so that any depth is measured.
+    """
+    stack: list[tuple[Any, tuple[str | int, ...]]] = [(value, ())]
+    while stack:
+        item, where = stack.pop()
+        if not isinstance(item, (dict, list)):
+            continue
+        if len(where) >= limit:
+            return where
+        children = item.items() if isinstance(item, dict) else enumerate(item)
+        stack.extend((child, (*where, key)) for key, child in children)
+    return None
 
 
 def first_non_finite(value: Any, where: tuple[str | int, ...] = ()) -> tuple[str | int, ...] | None:
@@ -49,7 +74,7 @@ def first_non_finite(value: Any, where: tuple[str | int, ...] = ()) -> tuple[str
 class Strict(BaseModel):
     """A request part: unknown keys refused, every number finite."""
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
     @model_validator(mode="before")
     @classmethod
@@ -72,17 +97,22 @@ class SceneContent(Strict):
         description="URDF texts by file name (`{\"arm.urdf\": \"<robot ...>\"}`) that the scene may name "
                     "as its `robot`; otherwise the robot is a shipped URDF (`GET /robots`). Never a path.")
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, populate_by_name=True)
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, populate_by_name=True, strict=True)
 
     @model_validator(mode="after")
     def _one_form(self) -> SceneContent:
         if (self.toml is None) == (self.json_ is None):
             raise ValueError("give the scene as exactly one of 'toml' (its text) or 'json' (its tables)")
-        for name in self.robots:
-            if not name.endswith(".urdf") or "/" in name or "\\" in name or name.startswith(".") \
-                    or len(name) > MAX_URDF_NAME:
-                raise ValueError(f"robots: {name!r} is not a URDF file name (a bare name ending in .urdf)")
         return self
+
+    @field_validator("robots")
+    @classmethod
+    def _urdf_names(cls, robots: dict[str, str]) -> dict[str, str]:
+        for name in robots:
+            if URDF_NAME.fullmatch(name) is None or len(name) > MAX_URDF_NAME:
+                raise ValueError(f"robots: {name!r} is not a URDF file name (a bare name ending in .urdf, "
+                                 f"of ASCII letters, digits and _.+-, at most {MAX_URDF_NAME} characters)")
+        return robots
 
 
 def _scene_form(value: Any) -> str:
@@ -160,7 +190,7 @@ class ClimbRequest(SceneRequest):
     scene: SceneField = Field("snake_climb", description="As for every scene endpoint.")
     margin: float = Field(DEFAULT_CLIMB_MARGIN, ge=0.0, description="[N m or N] as `--margin`.")
     duration: float = Field(DEFAULT_CLIMB_DURATION, ge=0.0, description="[s] as `--duration`.")
-    seed: int = Field(0, description="Seed of the sampled disturbances, as `--seed`.")
+    seed: int = Field(0, ge=0, description="Seed of the sampled disturbances, as `--seed` (>= 0).")
 
 
 class AtlasRequest(InputsRequest):
@@ -250,8 +280,9 @@ class JobState(BaseModel):
 class Health(BaseModel):
     """`GET /health`."""
 
-    status: str
-    workers: int
+    status: str = Field(description="ok, or degraded while a dead worker is being replaced")
+    workers: int = Field(description="The worker processes alive.")
+    workers_configured: int = Field(description="The worker processes the service runs (--workers).")
     jobs_running: int
 
 
@@ -279,6 +310,9 @@ __all__ = [
     "FlipRequest",
     "Health",
     "first_non_finite",
+    "MAX_JSON_DEPTH",
+    "too_deep",
+    "URDF_NAME",
     "InputsRequest",
     "JobState",
     "MAX_ATLAS_POINTS",

@@ -5,6 +5,12 @@ slow request never blocks ``GET /health``. A request that exceeds its time limit
 killed (the work cannot be interrupted otherwise) and a fresh worker takes its place. Only text
 crosses a process boundary (the request's and the answer's JSON).
 
+Every worker and job process runs under an address-space limit (``RLIMIT_AS``, ``frc serve
+--worker-memory``), set once it has loaded the library: a request that needs more fails with a
+:class:`MemoryError` in its own process, is answered with a 507 naming the limit, and the worker
+ends and is replaced; no request can take the host's memory. A worker found dead when a request
+is about to be sent to it (it died while idle) is replaced and the request goes to its successor.
+
 A job whose work starts processes of its own (an atlas: a process pool, or a Dask client) cannot
 run in a job process (a daemonic process has no children): a thread of the server's process drives
 it instead (:meth:`JobRunner.start_thread`), waiting on its workers, and stops it when cancelled.
@@ -13,6 +19,7 @@ it instead (:meth:`JobRunner.start_thread`), waiting on its workers, and stops i
 from __future__ import annotations
 
 import asyncio
+import json
 import logging
 import multiprocessing
 import threading
@@ -27,6 +34,14 @@ from typing import Any
 _CONTEXT = multiprocessing.get_context("spawn")  # no fork of a threaded server
 
 log = logging.getLogger(__name__)
+
+DEFAULT_WORKER_MEMORY = 4096
+"""[MiB] The address space a worker or job process may add, by default, to what it uses once the
+library is loaded (about 500 MiB): its requests' memory (``frc serve --worker-memory``)."""
+
+DEFAULT_MAX_RESULT_BYTES = 256 * 2**20
+"""[bytes] The finished jobs' results kept in the server's memory at most, in all (their JSON
+text's length); the oldest finished jobs are forgotten first (``frc serve --max-result-bytes``)."""
 
 THREAD_JOB_JOIN_TIMEOUT = 10.0
 """[s] How long the service's shutdown waits for a cancelled thread job to stop its workers."""
@@ -45,18 +60,53 @@ class WorkerLost(Exception):
     """A worker process ended while it held a request."""
 
 
-def _worker_main(conn: Connection) -> None:
-    """A pool worker: answer ``(number, kind, text)`` with ``(number, answer)`` until the pipe closes."""
-    from .work import execute, warm_up
+def limit_memory(mib: int | None) -> None:
+    """Let this process's address space grow by at most ``mib`` MiB from now (``RLIMIT_AS``; None: no limit).
+
+    Allocations past it raise :class:`MemoryError` in this process alone.
+    """
+    if mib is None:
+        return
+    import resource
+
+    limit = _address_space() + int(mib) * 2**20
+    _, hard = resource.getrlimit(resource.RLIMIT_AS)
+    if hard != resource.RLIM_INFINITY:
+        limit = min(limit, hard)
+    resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
+
+
+def _address_space() -> int:
+    """[bytes] This process's address space now (Linux: ``VmSize`` of ``/proc/self/status``; else 0)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmSize:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 0
+
+
+def _worker_main(conn: Connection, memory: int | None) -> None:
+    """A pool worker: answer ``(number, kind, text)`` with ``(number, answer)`` until the pipe closes.
+
+    It ends after an answer that ran out of memory (:func:`.work.out_of_memory`), to be replaced.
+    """
+    from .work import execute, out_of_memory, warm_up
 
     warm_up()
+    limit_memory(memory)
     conn.send("ready")
     while True:
         try:
             number, kind, text = conn.recv()
         except (EOFError, OSError):
             return
-        conn.send((number, execute(kind, text)))
+        answer = execute(kind, text)
+        conn.send((number, answer))
+        if out_of_memory(answer):
+            return
 
 
 @dataclass
@@ -65,10 +115,11 @@ class _Worker:
     conn: Connection
 
 
-def _start_worker() -> _Worker:
-    """A worker process, returned once it has loaded the library."""
+def _start_worker(memory: int | None) -> _Worker:
+    """A worker process under ``memory`` MiB, returned once it has loaded the library."""
     parent, child = _CONTEXT.Pipe()
-    process = _CONTEXT.Process(target=_worker_main, args=(child,), daemon=True, name="frc-serve-worker")
+    process = _CONTEXT.Process(target=_worker_main, args=(child, memory), daemon=True,
+                               name="frc-serve-worker")
     process.start()
     child.close()
     parent.recv()  # "ready"
@@ -83,31 +134,46 @@ def _stop_worker(worker: _Worker) -> None:
 
 
 class WorkerPool:
-    """``workers`` processes answering requests, each within ``time_limit`` [s] from its arrival."""
+    """``workers`` processes answering requests, each within ``time_limit`` [s] from its arrival.
 
-    def __init__(self, workers: int, time_limit: float) -> None:
+    Each worker runs under ``memory`` MiB of address space (None: no limit).
+    """
+
+    def __init__(self, workers: int, time_limit: float, memory: int | None = None) -> None:
         self.size = workers
         self.time_limit = time_limit
+        self.memory = memory
         self._idle: asyncio.Queue[_Worker] | None = None
         self._all: list[_Worker] = []
         self._sent = 0
+        self._healing = False
 
     async def start(self) -> None:
         """Start the workers (in parallel) and wait until each has loaded the library."""
         self._idle = asyncio.Queue()
-        started = await asyncio.gather(*(asyncio.to_thread(_start_worker) for _ in range(self.size)))
+        started = await asyncio.gather(*(asyncio.to_thread(_start_worker, self.memory)
+                                         for _ in range(self.size)))
         for worker in started:
             self._all.append(worker)
             self._idle.put_nowait(worker)
 
+    def alive(self) -> int:
+        """How many workers are alive (a dead one is replaced when found)."""
+        return sum(worker.process.is_alive() for worker in self._all)
+
     async def run(self, kind: str, text: str) -> str:
         """The answer's JSON text for a request (see :func:`frcontrol.service.work.execute`).
+
+        A worker found dead before the request is sent to it is replaced, and the request goes to
+        its successor; a worker whose answer ran out of memory is replaced after it.
 
         Raises:
             TimeLimitExceeded: no answer within the time limit, counted from the call (waiting for
                 a free worker included).
-            WorkerLost: the worker died (it is replaced).
+            WorkerLost: the worker died during the request (it is replaced).
         """
+        from .work import out_of_memory
+
         if self._idle is None:
             raise RuntimeError("the pool is not started")
         deadline = time.monotonic() + self.time_limit
@@ -118,7 +184,7 @@ class WorkerPool:
         self._sent += 1
         number = self._sent
         try:
-            worker.conn.send((number, kind, text))
+            worker = await self._send(worker, (number, kind, text))
             while True:  # an answer to an abandoned request (its client went away) is skipped
                 ready = await asyncio.to_thread(worker.conn.poll, max(0.0, deadline - time.monotonic()))
                 if not ready:
@@ -126,20 +192,51 @@ class WorkerPool:
                 answered, reply = worker.conn.recv()
                 if answered == number:
                     break
+            if out_of_memory(reply):
+                worker = await self._replace(worker)
         except TimeLimitExceeded:
             worker = await self._replace(worker)
             raise
         except (EOFError, OSError) as err:
             worker = await self._replace(worker)
-            raise WorkerLost("a worker process ended during the request") from err
+            raise WorkerLost("a worker process ended during the request (it is replaced)") from err
         finally:
             self._idle.put_nowait(worker)
         return str(reply)
 
+    async def _send(self, worker: _Worker, message: tuple[int, str, str]) -> _Worker:
+        """Send a request to ``worker``, or to its successor if it is found dead first; the one sent to."""
+        for _ in range(2):
+            if not worker.process.is_alive():
+                log.warning("worker %s was found dead before a request; replacing it", worker.process.pid)
+                worker = await self._replace(worker)
+            try:
+                worker.conn.send(message)
+                return worker
+            except (BrokenPipeError, ConnectionResetError):  # it died between the check and the send
+                continue
+        raise WorkerLost("no worker process could take the request (two died before it was sent)")
+
+    async def heal(self) -> None:
+        """Replace the idle workers that died while idle (one healing at a time)."""
+        if self._idle is None or self._healing:
+            return
+        self._healing = True
+        try:
+            idle = [self._idle.get_nowait() for _ in range(self._idle.qsize())]
+            dead = [worker for worker in idle if not worker.process.is_alive()]
+            for worker in idle:
+                if worker not in dead:
+                    self._idle.put_nowait(worker)
+            for worker in dead:
+                self._idle.put_nowait(await self._replace(worker))
+        finally:
+            self._healing = False
+
     async def _replace(self, worker: _Worker) -> _Worker:
         """Kill a worker and start its successor."""
         await asyncio.to_thread(_stop_worker, worker)
-        fresh = await asyncio.to_thread(_start_worker)
+        fresh = await asyncio.to_thread(_start_worker, self.memory)
         self._all[self._all.index(worker)] = fresh
         return fresh
 
@@ -150,9 +247,12 @@ class WorkerPool:
         self._all.clear()
 
 
-def _job_main(kind: str, text: str, conn: Connection) -> None:
-    """A job's process: progress messages, then the answer."""
-    from .work import execute
+def _job_main(kind: str, text: str, conn: Connection, memory: int | None) -> None:
+    """A job's process (under ``memory`` MiB): progress messages, then the answer."""
+    from .work import execute, warm_up
+
+    warm_up()
+    limit_memory(memory)
 
     def progress(fraction: float | None, message: str) -> None:
         conn.send(("progress", fraction, message))
@@ -175,6 +275,7 @@ class Job:
     ended: float | None = None
     points_done: int | None = None
     points_total: int | None = None
+    result_bytes: int = 0
     process: BaseProcess | None = field(default=None, repr=False)
     thread: threading.Thread | None = field(default=None, repr=False)
 
@@ -200,12 +301,21 @@ reply, ``{"status": 200, "answer": ...}`` or an error document (:func:`.work.err
 
 
 class JobRunner:
-    """Jobs: each in its own process (so that it can be cancelled), at most ``max_running`` at once."""
+    """Jobs: each in its own process (so that it can be cancelled), at most ``max_running`` at once.
 
-    def __init__(self, max_running: int, time_limit: float, keep: int = 100) -> None:
+    Finished jobs are kept for ``GET /jobs/{id}``: at most ``keep`` of them, and at most
+    ``max_result_bytes`` of results (their JSON text) in all, the oldest finished forgotten first;
+    a result larger than ``max_result_bytes`` alone fails its job (a 507 in its ``error``). Job
+    processes run under ``memory`` MiB of address space (None: no limit).
+    """
+
+    def __init__(self, max_running: int, time_limit: float, keep: int = 100,
+                 max_result_bytes: int = DEFAULT_MAX_RESULT_BYTES, memory: int | None = None) -> None:
         self.max_running = max_running
         self.time_limit = time_limit
         self.keep = keep
+        self.max_result_bytes = max_result_bytes
+        self.memory = memory
         self.jobs: dict[str, Job] = {}
         self._lock = threading.Lock()
 
@@ -220,7 +330,7 @@ class JobRunner:
             return None
         parent, child = _CONTEXT.Pipe(duplex=False)
         job = Job(id=uuid.uuid4().hex, kind=kind, started=time.monotonic())
-        job.process = _CONTEXT.Process(target=_job_main, args=(kind, text, child), daemon=True,
+        job.process = _CONTEXT.Process(target=_job_main, args=(kind, text, child, self.memory), daemon=True,
                                        name=f"frc-serve-job-{job.id[:8]}")
         with self._lock:
             self._forget_old()
@@ -257,7 +367,8 @@ class JobRunner:
             log.exception("job %s (%s) failed", job.id, job.kind)
             reply = {"status": 500, "detail": f"internal error ({type(err).__name__}); see the server's log"}
         ok = reply["status"] == 200
-        self._end(job, "done" if ok else "failed", "done" if ok else "refused", reply)
+        self._end(job, "done" if ok else "failed", "done" if ok else "refused", reply,
+                  len(json.dumps(reply)))
 
     def _past_limit(self) -> str:
         return (f"the job exceeded the service's time limit of {self.time_limit:g} s "
@@ -265,8 +376,6 @@ class JobRunner:
 
     def _follow(self, job: Job, conn: Connection) -> None:
         """Read a job's messages until it ends, is cancelled or runs out of time."""
-        import json
-
         deadline = job.started + self.time_limit
         try:
             while job.state == "running":
@@ -280,23 +389,31 @@ class JobRunner:
                     continue
                 reply = json.loads(message[1])
                 ok = reply["status"] == 200
-                self._end(job, "done" if ok else "failed", "done" if ok else "refused", reply)
+                self._end(job, "done" if ok else "failed", "done" if ok else "refused", reply,
+                          len(message[1]))
         except (EOFError, OSError):
             if job.state == "running":
                 self._end(job, "failed", "the job's process ended without an answer")
         finally:
             conn.close()
 
-    def _end(self, job: Job, state: str, message: str, reply: dict[str, Any] | None = None) -> None:
-        """End a running job (an ended one stays as it was) with its reply, if any."""
+    def _end(self, job: Job, state: str, message: str, reply: dict[str, Any] | None = None,
+             size: int = 0) -> None:
+        """End a running job (an ended one stays as it was) with its reply, if any, of ``size`` bytes."""
+        if size > self.max_result_bytes:
+            state, message, reply = "failed", "result too large", {"status": 507, "detail": (
+                f"the job's result is {size} bytes, more than the service keeps ({self.max_result_bytes} "
+                "bytes, frc serve --max-result-bytes): ask for less (a shorter run, fewer points)")}
+            size = len(json.dumps(reply))
         with self._lock:
             if job.state != "running":
                 return
             job.state, job.message, job.ended = state, message, time.monotonic()
             if reply is not None:
-                job.reply = reply
+                job.reply, job.result_bytes = reply, size
                 if state == "done":
                     job.progress = 1.0
+            self._forget_old()
         if job.process is not None and job.process.is_alive():
             job.process.kill()
         if job.process is not None:
@@ -310,10 +427,15 @@ class JobRunner:
         return job
 
     def _forget_old(self) -> None:
-        """Keep at most ``keep`` finished jobs (the oldest go first)."""
-        finished = [j for j in self.jobs.values() if j.state != "running"]
-        for job in finished[: max(0, len(finished) - self.keep + 1)]:
+        """Keep at most ``keep`` finished jobs and ``max_result_bytes`` of results (oldest go first)."""
+        finished = sorted((j for j in self.jobs.values() if j.state != "running"),
+                          key=lambda j: j.ended if j.ended is not None else j.started)
+        count, total = len(finished), sum(j.result_bytes for j in finished)
+        for job in finished:
+            if count <= self.keep and total <= self.max_result_bytes:
+                break
             del self.jobs[job.id]
+            count, total = count - 1, total - job.result_bytes
 
     def stop(self) -> None:
         """Cancel every running job; wait (a little) for the threads' jobs to stop their workers."""
@@ -325,6 +447,8 @@ class JobRunner:
 
 
 __all__ = [
+    "DEFAULT_MAX_RESULT_BYTES",
+    "DEFAULT_WORKER_MEMORY",
     "THREAD_JOB_JOIN_TIMEOUT",
     "Job",
     "JobRunner",
@@ -332,4 +456,5 @@ __all__ = [
     "TimeLimitExceeded",
     "WorkerLost",
     "WorkerPool",
+    "limit_memory",
 ]

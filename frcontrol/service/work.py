@@ -22,9 +22,10 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 from pydantic import ValidationError
 
-from frcontrol.errors import CoordinateNotFound, FrcontrolError, InputError, SceneError
+from frcontrol.errors import CoordinateNotFound, FrcontrolError, InputError, LimitExceeded, SceneError
 
 from . import models
 
@@ -37,6 +38,13 @@ Progress = Callable[[float | None, str], None]
 """Called by long work with (fraction done or None, what it is doing)."""
 
 log = logging.getLogger(__name__)
+
+BLAS_WARM_UP = 512
+"""[-] The size of the products :func:`warm_up` makes, so that BLAS allocates its buffers (and
+starts its threads) before a worker's memory limit is set."""
+
+OUT_OF_MEMORY = 507
+"""The status of a request that ran out of its process's memory limit (``frc serve --worker-memory``)."""
 
 REQUESTS: dict[str, type[models.SceneRequest]] = {
     "analyze": models.AnalyzeRequest,
@@ -131,8 +139,11 @@ def _flip(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
     def report(t: float, total: float) -> None:
         progress(t / total if total > 0 else None, f"simulating the flip: {t:.3f} / {total:g} s")
 
-    plan, result = plan_and_fly(scene, margin=request.margin, max_time=request.max_time, dt=request.dt,
-                                replan_every=request.replan_every, progress=report)
+    try:
+        plan, result = plan_and_fly(scene, margin=request.margin, max_time=request.max_time, dt=request.dt,
+                                    replan_every=request.replan_every, progress=report)
+    except LimitExceeded as err:  # the flip's simulated time is its max_time
+        raise FieldError(["max_time"], err) from err
     return plan.to_dict(result)
 
 
@@ -201,6 +212,8 @@ def error_document(err: FrcontrolError, overrides: Mapping[str, Any] | None = No
         loc += ["scene", err.field] if err.field else ["scene"]
     elif isinstance(err, CoordinateNotFound):
         loc += ["inputs", err.name]
+    elif isinstance(err, LimitExceeded):
+        loc += [err.field]
     return {"status": 422, "detail": [{"loc": loc, "msg": str(err), "type": type(err).__name__}]}
 
 
@@ -213,8 +226,9 @@ def validation_document(err: ValidationError) -> dict[str, Any]:
 def execute(kind: str, text: str, progress: Progress | None = None) -> str:
     """Run one request: ``{"status": 200, "answer": {...}}`` or an error document, as JSON text.
 
-    Never raises for a bad request; an unexpected failure is a 500 naming the exception's type
-    (logged in the server's log with its traceback, never sent).
+    Never raises for a bad request; a request that ran out of the process's memory limit is a
+    :data:`OUT_OF_MEMORY` (507) naming the limit; an unexpected failure is a 500 naming the
+    exception's type (logged in the server's log with its traceback, never sent).
     """
     from frcontrol.jsonable import to_jsonable
 
@@ -232,23 +246,60 @@ def execute(kind: str, text: str, progress: Progress | None = None) -> str:
         return json.dumps(validation_document(err))
     except FrcontrolError as err:
         return json.dumps(error_document(err, None if request is None else request.set))
+    except MemoryError:
+        return json.dumps({"status": OUT_OF_MEMORY, "detail": _memory_message()})
     except Exception as err:  # a bug: the client gets its type, the server's log the traceback
         log.exception("request %s failed", kind)
         return json.dumps({"status": 500, "detail": f"internal error ({type(err).__name__}); see the "
                                                     "server's log"})
 
 
+def _memory_message() -> str:
+    import resource
+
+    limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+    cap = "" if limit == resource.RLIM_INFINITY else f" ({limit // 2**20} MiB of address space in all)"
+    return (f"the request needed more memory than a worker may use{cap}, the service's limit (frc serve "
+            "--worker-memory); its work was stopped and its worker replaced: ask for less (a shorter "
+            "run, a larger step)")
+
+
+def out_of_memory(reply: str) -> bool:
+    """Whether :func:`execute`'s reply says that the request ran out of memory (its worker then ends)."""
+    return reply.startswith(f'{{"status": {OUT_OF_MEMORY},')
+
+
 def warm_up() -> None:
-    """Import what the work needs, so that a worker's first request does not pay for it."""
+    """Import what the work needs, so that a worker's first request does not pay for it.
+
+    Also before a worker's memory limit is set: the libraries' address space is then its own.
+    """
+    import scipy.linalg
+
     import frcontrol.answers  # noqa: F401
     import frcontrol.atlas  # noqa: F401
     import frcontrol.engine  # noqa: F401
+    import frcontrol.planning.climb  # noqa: F401
+    import frcontrol.planning.flip  # noqa: F401
     import frcontrol.scene  # noqa: F401
+    import frcontrol.simulation.compliant  # noqa: F401
+    import frcontrol.simulation.rigid  # noqa: F401
     import frcontrol.stability  # noqa: F401
+    import frcontrol.statics  # noqa: F401
+
+    square = np.eye(BLAS_WARM_UP) + 1.0  # NumPy's and SciPy's BLAS allocate their buffers on first use
+    product = square @ square
+    np.linalg.solve(product, square[0])
+    scipy.linalg.cho_solve(scipy.linalg.cho_factor(product), square[0])
+    scipy.linalg.lu_solve(scipy.linalg.lu_factor(product), square[0])
+    scipy.linalg.blas.dgemm(1.0, square, square)
 
 
 __all__ = [
+    "BLAS_WARM_UP",
     "FieldError",
+    "OUT_OF_MEMORY",
+    "out_of_memory",
     "Progress",
     "REQUESTS",
     "WORK",

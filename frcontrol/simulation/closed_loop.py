@@ -81,7 +81,7 @@ def run_closed_loop(
     Raises:
         InputError: a bad duration, step or ``every``; a command that is not a valid input.
     """
-    duration, dt = check_simulation_times(duration, dt)
+    duration, dt = check_simulation_times(duration, dt, scene=stepper.scene)
     if isinstance(every, bool) or not isinstance(every, int) or every < 1:
         raise InputError(f"every must be an integer >= 1 (steps), got {every!r}")
     scene = stepper.scene

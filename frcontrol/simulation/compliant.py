@@ -97,13 +97,13 @@ import numpy as np
 import scipy.integrate
 import scipy.linalg
 
-from ..errors import InputError
+from ..errors import InputError, LimitExceeded
 from ..model import RobotState
 from ..scene import Scene
 from . import INTEGRATORS
 from .armature import Armature, mass_factor, massless_armature
 from .drives import Transmissions
-from .inputs import InputSchedule, check_simulation_times, input_schedule
+from .inputs import STEP_COUNT_TOLERANCE, InputSchedule, check_simulation_times, input_schedule
 from .model_table import ContactParameters, model_options
 from .rigid import IMPACT_VELOCITY
 from .trajectory import ContactEvent, SimulationFailure, Trajectory
@@ -583,11 +583,12 @@ def simulate_compliant(
         InputError: a bad duration or ``dt`` (<= 0, > duration, or above the explicit stability
             limit with ``euler``), stiffness (<= 0), damping (< 0), tangential damping (<= 0),
             tolerance, unknown integrator, bad state, input or stretch.
+        LimitExceeded: over the caps of :func:`~.inputs.check_simulation_times`, or ``max_steps``.
         SceneError: a bad ``[model]`` table.
         IllConditioned: M is singular even with the armature.
     """
-    duration, dt = check_simulation_times(duration, dt)
-    _check_integrator_options(integrator, rtol, atol, max_step, max_steps)
+    duration, dt = check_simulation_times(duration, dt, scene=scene)
+    _check_integrator_options(integrator, rtol, atol, max_step, max_steps, duration, dt)
     overrides = ContactOverrides(stiffness, damping, damping_ratio, tangential_stiffness, tangential_damping)
     schedule, constant = input_schedule(scene, inputs)
     y0, arm, params = _initial_state(scene, q0, v0, armature, contacts, overrides, initial_stretch)
@@ -667,8 +668,11 @@ def _initial_state(scene: Scene, q0: Sequence[float] | np.ndarray | None,
 
 
 def _check_integrator_options(integrator: str, rtol: float, atol: float, max_step: float | None,
-                              max_steps: int) -> None:
-    """Raises InputError for an unknown integrator or a bad tolerance, step or step count."""
+                              max_steps: int, duration: float, dt: float) -> None:
+    """Raises InputError for an unknown integrator or a bad tolerance, step or step count.
+
+    And :class:`~frcontrol.errors.LimitExceeded` for a run over ``max_steps`` (:func:`_check_step_budget`).
+    """
     if integrator not in INTEGRATORS:
         raise InputError(f"unknown integrator {integrator!r}; choose one of: {', '.join(INTEGRATORS)}")
     for label, value in (("rtol", rtol), ("atol", atol)):
@@ -678,6 +682,25 @@ def _check_integrator_options(integrator: str, rtol: float, atol: float, max_ste
         raise InputError(f"max_step must be a positive number [s], got {max_step!r}")
     if not (isinstance(max_steps, int) and max_steps > 0):
         raise InputError(f"max_steps must be a positive integer, got {max_steps!r}")
+    _check_step_budget(integrator, duration, dt if max_step is None else max_step, max_steps)
+
+
+def _check_step_budget(integrator: str, duration: float, step: float, max_steps: int) -> None:
+    """Refuse a run that needs more than ``max_steps`` integrator steps before it starts.
+
+    A fixed-step integrator takes ``duration / dt`` steps, an adaptive one at least
+    ``duration / max_step`` (``step``: the fixed step or ``max_step`` [s]).
+
+    Raises:
+        LimitExceeded: ``field`` ``"duration"``, the least step count and ``max_steps``.
+    """
+    least = math.ceil(duration / step - STEP_COUNT_TOLERANCE)
+    if least > max_steps:
+        kind = "steps of dt" if integrator in ("euler", "implicit") else "steps of at most max_step"
+        raise LimitExceeded("duration", least, max_steps, (
+            f"the compliant model's {integrator!r} integrator needs at least {least:.4g} {kind} = {step:g} s "
+            f"for duration = {duration:g} s; a run takes at most max_steps = {max_steps} (MAX_STEPS): "
+            "shorten the duration or lengthen the step"))
 
 
 def _initial_stretch(initial_stretch: Sequence[float] | np.ndarray | None, params: CompliantContacts

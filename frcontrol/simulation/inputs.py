@@ -1,9 +1,14 @@
-r"""Inputs over time, and the checks of a simulation's duration and step.
+r"""Inputs over time, and the checks of a simulation's duration, step and size.
 
 ``inputs`` is a constant vector (one value per scene input), a mapping ``name -> value`` (inputs
 not named are 0) or a callable ``(t, q, v) -> u``. :func:`input_schedule` turns any of them into
 a validated callable; a value outside the scene's input limits raises
 :class:`~frcontrol.errors.InputError` (a callable's value, with the time at which it happened).
+
+Every simulation's size is bounded before it starts (:func:`check_simulation_times`): at most
+:data:`MAX_SIMULATION_SAMPLES` samples (``duration / dt``) and, with the scene, at most
+:data:`MAX_TRAJECTORY_BYTES` of sampled arrays; above either the run is refused with
+:class:`~frcontrol.errors.LimitExceeded` naming the field, the cap and the value.
 """
 
 from __future__ import annotations
@@ -14,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, LimitExceeded
 from ..scene import Scene, parse_input_assignments
 
 INPUT_LIMIT_TOLERANCE = 1e-9
@@ -23,6 +28,19 @@ INPUT_LIMIT_TOLERANCE = 1e-9
 STEP_COUNT_TOLERANCE = 1e-9
 """[-] ``duration / dt`` within this of an integer counts as that integer (no sliver of a last
 step from round-off)."""
+
+MAX_SIMULATION_SAMPLES = 10_000_000
+"""[-] The most samples (steps of ``dt``: ``duration / dt``) of one simulation; a longer run is
+refused before it starts (1e4 s at the default dt of 1 ms)."""
+
+MAX_TRAJECTORY_BYTES = 1 << 30
+"""[bytes] The most memory a simulation's sampled arrays may take (1 GiB): times, q, v, inputs,
+each contact's two forces and two point coordinates, and :data:`SAMPLE_DIAGNOSTICS` figures per
+sample, 8 bytes each; a run that needs more is refused before it starts."""
+
+SAMPLE_DIAGNOSTICS = 4
+"""[-] Figures a simulator records per sample besides the trajectory's arrays (energies,
+penetration), counted by :data:`MAX_TRAJECTORY_BYTES`."""
 
 
 InputSchedule = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
@@ -97,12 +115,21 @@ def step_lengths(duration: float, dt: float) -> Iterator[tuple[int, float]]:
         t = t + h
 
 
-def check_simulation_times(duration: float, dt: float, dt_name: str = "dt") -> tuple[float, float]:
-    """Validate a duration and a step.
+def check_simulation_times(duration: float, dt: float, dt_name: str = "dt", scene: Scene | None = None
+                           ) -> tuple[float, float]:
+    """Validate a duration and a step, and the run's size they ask for.
+
+    Args:
+        duration: [s] the simulated time.
+        dt: [s] the step (the sample interval).
+        dt_name: what messages call the step.
+        scene: when given, the sampled arrays' memory is checked too (their width depends on it).
 
     Raises:
         InputError: a non-finite or non-positive duration or step, or a step longer than the
             duration.
+        LimitExceeded: more than :data:`MAX_SIMULATION_SAMPLES` samples, or more than
+            :data:`MAX_TRAJECTORY_BYTES` of sampled arrays (``field`` ``"duration"``).
     """
     for label, value in (("duration", duration), (dt_name, dt)):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -111,13 +138,58 @@ def check_simulation_times(duration: float, dt: float, dt_name: str = "dt") -> t
             raise InputError(f"{label} must be > 0 [s], got {value}")
     if dt > duration:
         raise InputError(f"{dt_name} = {dt} s exceeds the duration {duration} s: use a smaller step")
+    samples = math.ceil(duration / dt - STEP_COUNT_TOLERANCE)
+    if samples > MAX_SIMULATION_SAMPLES:
+        raise LimitExceeded("duration", samples, MAX_SIMULATION_SAMPLES, (
+            f"duration / {dt_name} = {duration:g} s / {dt:g} s asks for {samples:.4g} samples; a simulation "
+            f"takes at most {MAX_SIMULATION_SAMPLES:.4g} (MAX_SIMULATION_SAMPLES): shorten the duration or "
+            f"lengthen {dt_name}"))
+    if scene is not None:
+        check_trajectory_memory(scene, samples, dt_name)
     return float(duration), float(dt)
+
+
+def check_seed(seed: Any) -> int:
+    """A random generator's seed, checked: an integer >= 0.
+
+    Raises:
+        InputError: not an integer, or negative.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"seed must be an integer >= 0, got {seed!r}")
+    return int(seed)
+
+
+def trajectory_bytes(scene: Scene, samples: int) -> int:
+    """[bytes] The sampled arrays of a run of ``samples`` steps (see :data:`MAX_TRAJECTORY_BYTES`)."""
+    n, m, k = scene.robot.nv, scene.inputs.count, len(scene.contacts)
+    return (samples + 1) * (1 + 2 * n + m + 4 * k + SAMPLE_DIAGNOSTICS) * 8
+
+
+def check_trajectory_memory(scene: Scene, samples: int, dt_name: str = "dt") -> None:
+    """Refuse a run whose sampled arrays would exceed :data:`MAX_TRAJECTORY_BYTES`.
+
+    Raises:
+        LimitExceeded: ``field`` ``"duration"``, value and limit in bytes.
+    """
+    needed = trajectory_bytes(scene, samples)
+    if needed > MAX_TRAJECTORY_BYTES:
+        raise LimitExceeded("duration", needed, MAX_TRAJECTORY_BYTES, (
+            f"{samples} samples of this scene need {needed / 2**20:.4g} MiB of sampled arrays; a simulation "
+            f"takes at most {MAX_TRAJECTORY_BYTES / 2**20:.4g} MiB (MAX_TRAJECTORY_BYTES): shorten the "
+            f"duration or lengthen {dt_name}"))
 
 
 __all__ = [
     "INPUT_LIMIT_TOLERANCE",
     "InputSchedule",
+    "MAX_SIMULATION_SAMPLES",
+    "MAX_TRAJECTORY_BYTES",
+    "SAMPLE_DIAGNOSTICS",
     "check_input_vector",
+    "check_seed",
+    "check_trajectory_memory",
+    "trajectory_bytes",
     "STEP_COUNT_TOLERANCE",
     "check_simulation_times",
     "input_schedule",

@@ -193,10 +193,12 @@ def simulate_rigid(
     Raises:
         InputError: a bad duration, step, state, input (length, NaN, outside limits),
             stabilization outside [0, 1], negative distances or tolerances, unknown LCP method.
+        LimitExceeded: more samples or sampled memory than the caps of
+            :func:`~.inputs.check_simulation_times`.
         SceneError: a bad ``[model]`` table.
         IllConditioned: M is singular even with the armature.
     """
-    duration, dt = check_simulation_times(duration, dt)
+    duration, dt = check_simulation_times(duration, dt, scene=scene)
     settings = RigidSettings(activation_distance, stabilization, impact_velocity, slip_velocity_tolerance,
                              lcp_method, max_ambiguity_checks, impact_law)
     schedule, _ = input_schedule(scene, inputs)
