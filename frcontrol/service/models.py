@@ -17,6 +17,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, field_validator, model_validator
 
+from frcontrol.atlas.grid import MAX_ATLAS_POINTS
 from frcontrol.planning import (
     DEFAULT_CLIMB_DURATION,
     DEFAULT_CLIMB_MARGIN,
@@ -32,9 +33,6 @@ URDF_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*\.urdf")
 MAX_JSON_DEPTH = 32
 """The deepest nesting of arrays and objects in a request body (a scene's tables need 4)."""
 
-MAX_ATLAS_POINTS = 100_000
-"""The most grid points of one ``POST /atlas`` job (``frc atlas`` has no such limit): a finished
-job keeps its result in the server's memory, a few megabytes at this size."""
 
 
 def too_deep(value: Any, limit: int = MAX_JSON_DEPTH) -> tuple[str | int, ...] | None:

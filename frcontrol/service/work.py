@@ -161,12 +161,12 @@ def plan_atlas(request: models.AtlasRequest) -> AtlasPlan:
     Raises:
         FieldError: an axis that is malformed, names no field or input (the nearest in the
             message), conflicts with ``set`` or ``inputs``, or a grid of more than
-            :data:`~.models.MAX_ATLAS_POINTS` points (``loc`` ``["vary", i]`` or ``["vary"]``).
+            :data:`~frcontrol.atlas.MAX_ATLAS_POINTS` points (``loc`` ``["vary", i]`` or ``["vary"]``).
         SceneError, CoordinateNotFound, InputError: the scene, ``set`` or ``inputs`` refused.
     """
     import math
 
-    from frcontrol.atlas import build_atlas, parse_axis
+    from frcontrol.atlas import MAX_ATLAS_POINTS, build_atlas, parse_axis
 
     axes = []
     for i, text in enumerate(request.vary):
@@ -175,10 +175,11 @@ def plan_atlas(request: models.AtlasRequest) -> AtlasPlan:
         except InputError as err:
             raise FieldError(["vary", i], err) from err
     points = math.prod(a.count for a in axes)
-    if points > models.MAX_ATLAS_POINTS:
+    if points > MAX_ATLAS_POINTS:
         raise FieldError(["vary"], InputError(
-            f"the grid has {points} points; a job of this service takes at most {models.MAX_ATLAS_POINTS}: "
-            "sweep fewer points, or run frc atlas (no limit) on a machine or a Dask cluster"))
+            f"the grid has {points} points; a job of this service takes at most {MAX_ATLAS_POINTS} "
+            "(frcontrol.atlas.MAX_ATLAS_POINTS): sweep fewer points, or run frc atlas --max-points N "
+            "on a machine or a Dask cluster"))
     try:
         return build_atlas(scene_source(request.scene), axes, what=request.what, inputs=request.inputs,
                            overrides=request.set, chunk_size=request.chunk_size)
