@@ -1,14 +1,17 @@
-"""Every mode system decided rank-deficient, and how far from round-off: ``python -m benchmarks.rank_decisions``.
+"""Every mode system decided rank-deficient, and how far from round-off.
+
+``python -m benchmarks.rank_decisions [SCENE ...]``.
 
 For every shipped scene, at its own friction and with every contact's mu set to each decade from
 1 to 1e8, every system the engine factorises (each full mode and each partial mode the tree grows)
 is decided as :mod:`frcontrol.response` decides it. Each one decided rank-deficient is printed with
-its smallest kept-out singular value relative to the largest, under the first (max-abs) scaling and
-under :func:`frcontrol.response.balanced_scaling`, and that balanced value in units of the
-round-off bound ``eps || |A_bal| ||_2 / sigma_max(A_bal)`` (``roundoff``): a rank drop that an
-elementwise relative change of a few eps of the entries can produce sits at a few times ``n``
-there; a drop far above it is not explained by round-off. ``--all`` also prints, per scene and
-friction, the count of systems.
+its largest dropped singular value relative to the largest one, under the first (max-abs) scaling and
+under :func:`frcontrol.response.balanced_scaling`, that balanced value over
+:func:`frcontrol.response.round_off_bound` (``roundoff``: at most 1 for a rank drop a change of
+each entry by ``n`` eps of itself explains), and the verdict of
+:func:`frcontrol.response.rebalance_undecided` (``dropped``: decided rank-deficient; ``undecided``:
+the analysis raises IllConditioned). ``--all`` also prints, per scene and friction, the count of
+systems.
 """
 
 from __future__ import annotations
@@ -41,34 +44,31 @@ def _row(A: np.ndarray) -> dict | None:
         _equilibrate,
         balanced_scaling,
         rebalance_undecided,
+        round_off_bound,
     )
 
     r, c = _equilibrate(A)
     A_hat = A * r[:, None] * c[None, :]
     U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
-    first = s.copy()
-    stack = (A_hat[None].copy(), r[None].copy(), c[None].copy())
-    svd = (U[None].copy(), s[None].copy(), Vt[None].copy())
+    undecided = np.zeros(0, dtype=int)
+    decided = s
     if s[-1] > 0.0 and s[-1] <= ILL_CONDITIONED_BAND * s[0]:
-        rebalance_undecided(*stack, svd, RANK_TOLERANCE)
-    decided = svd[1][0]
+        svd = (U[None].copy(), s[None].copy(), Vt[None].copy())
+        undecided, _ = rebalance_undecided(A_hat[None].copy(), r[None].copy(), c[None].copy(), svd,
+                                           RANK_TOLERANCE)
+        decided = svd[1][0]
     rank = int(np.count_nonzero(decided > RANK_TOLERANCE * decided[0]))
     if rank == min(A.shape):
         return None
-    V = Vt[rank:min(A.shape)].T
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = np.abs(A_hat @ V) / (np.abs(A_hat) @ np.abs(V))
-    omega = float(np.nan_to_num(ratio, nan=0.0, posinf=0.0).max(initial=0.0))
-    row = {"size": min(A.shape), "rank": rank, "first": first[rank] / first[0],
-           "omega": omega / np.finfo(float).eps}
-    if first[-1] == 0.0:
+    row = {"size": min(A.shape), "rank": rank, "first": s[rank] / s[0],
+           "verdict": "undecided" if undecided.size else "dropped"}
+    if s[-1] == 0.0:
         row.update(balanced=0.0, roundoff=0.0)
         return row
     rows, cols = balanced_scaling(A_hat[None], (U[None], s[None], Vt[None]))
-    balanced = A_hat * rows[0][:, None] * cols[0][None, :]
-    s_b = np.linalg.svd(balanced, compute_uv=False)
-    bound = np.finfo(float).eps * np.linalg.norm(np.abs(balanced), 2)
-    row.update(balanced=s_b[rank] / s_b[0], roundoff=s_b[rank] / bound)
+    balanced = A_hat[None] * rows[:, :, None] * cols[:, None, :]
+    s_b = np.linalg.svd(balanced[0], compute_uv=False)
+    row.update(balanced=s_b[rank] / s_b[0], roundoff=s_b[rank] / round_off_bound(balanced)[0])
     return row
 
 
@@ -96,16 +96,16 @@ def measure(scenes: list[str], show_all: bool) -> list[tuple]:
 
 def main(argv: list[str] | None = None) -> int:
     """Print the table."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("scenes", nargs="*", help="shipped scene names (default: all)")
     parser.add_argument("--all", action="store_true", help="also count the systems per point")
     args = parser.parse_args(argv)
     print(f"{'scene':16} {'mu':>8} {'mode':10} {'n':>3} {'rank':>4} {'first':>9} {'balanced':>9} "
-          f"{'roundoff':>9} {'omega':>9}")
+          f"{'roundoff':>9} verdict")
     for name, mu, mode, row in measure(args.scenes, args.all):
         label = "default" if mu is None else f"{mu:.0e}"
         print(f"{name:16} {label:>8} {mode:10} {row['size']:>3} {row['rank']:>4} {row['first']:9.2e} "
-              f"{row['balanced']:9.2e} {row['roundoff']:9.2e} {row['omega']:9.2e}")
+              f"{row['balanced']:9.2e} {row['roundoff']:9.2e} {row['verdict']}")
     return 0
 
 
