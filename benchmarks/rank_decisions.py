@@ -6,7 +6,8 @@ For every shipped scene, at its own friction and with every contact's mu set to 
 1 to 1e8, every system the engine factorises (each full mode and each partial mode the tree grows)
 is decided as :mod:`frcontrol.response` decides it. Each one decided rank-deficient is printed with
 its largest dropped singular value relative to the largest one, under the first (max-abs) scaling and
-under :func:`frcontrol.response.balanced_scaling`, that balanced value over
+under :func:`frcontrol.response.balanced_scaling` (nan for a system with a singular value exactly
+0, which is not balanced), that value over
 :func:`frcontrol.response.round_off_bound` (``roundoff``: at most 1 for a rank drop a change of
 each entry by ``n`` eps of itself explains), and the verdict of
 :func:`frcontrol.response.rebalance_undecided` (``dropped``: decided rank-deficient; ``undecided``:
@@ -52,7 +53,7 @@ def _row(A: np.ndarray) -> dict | None:
     U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
     undecided = np.zeros(0, dtype=int)
     decided = s
-    if s[-1] > 0.0 and s[-1] <= ILL_CONDITIONED_BAND * s[0]:
+    if s[-1] <= ILL_CONDITIONED_BAND * s[0]:
         svd = (U[None].copy(), s[None].copy(), Vt[None].copy())
         undecided, _ = rebalance_undecided(A_hat[None].copy(), r[None].copy(), c[None].copy(), svd,
                                            RANK_TOLERANCE)
@@ -62,8 +63,8 @@ def _row(A: np.ndarray) -> dict | None:
         return None
     row = {"size": min(A.shape), "rank": rank, "first": s[rank] / s[0],
            "verdict": "undecided" if undecided.size else "dropped"}
-    if s[-1] == 0.0:
-        row.update(balanced=0.0, roundoff=0.0)
+    if s[-1] == 0.0:  # not balanced: the first scaling's figures
+        row.update(balanced=float("nan"), roundoff=s[rank] / round_off_bound(A_hat[None])[0])
         return row
     rows, cols = balanced_scaling(A_hat[None], (U[None], s[None], Vt[None]))
     balanced = A_hat[None] * rows[:, :, None] * cols[:, None, :]

@@ -50,7 +50,7 @@ dimension). Above that, no change of each entry by ``n`` eps of itself makes the
 scaling): it is nonsingular, and too ill-conditioned to decide (:func:`rebalance_undecided`). Over the
 shipped scenes at mu = 1 to 1e8 (``python -m benchmarks.rank_decisions``) the singular modes sit at
 0.03 of that bound or below, and the box on the slope sliding at mu = 1e8 at 0.2 (its smallest
-singular value, about 1/(3.4 mu^2) of the largest, is below round-off there); the same modes at
+singular value, about 1/(0.34 mu^2) of the largest, is below round-off there); the same modes at
 mu = 1e6 and 1e7 at 1870 and 19 times it, snake_climb's FLF at 1e8 at 2490 times."""
 
 CONSISTENCY_TOLERANCE = 1e-9
@@ -225,23 +225,25 @@ def rebalance_undecided(A_hat: np.ndarray, r_scale: np.ndarray, c_scale: np.ndar
 
     A rank drop that round-off does not explain (the balanced system's largest dropped singular
     value above :func:`round_off_bound`) is not decided: the system is nonsingular, too
-    ill-conditioned for its rank to be read. It is replaced by the balanced system too.
+    ill-conditioned for its rank to be read. It is replaced by the balanced system too. A system
+    with a singular value exactly 0 is not balanced; the rest of its drop is checked under the
+    first scaling (:func:`_unexplained_exact_drops`).
 
     Returns:
-        The indices of the systems left undecided so, and the condition number of each under the
-        balanced scaling (its largest singular value over the largest one the rank rule dropped):
-        the caller raises :class:`~frcontrol.errors.IllConditioned` with it.
+        The indices of the systems left undecided so, and the condition number of each (under the
+        balanced scaling where one was made): its largest singular value over the largest one the
+        rank rule dropped. The caller raises :class:`~frcontrol.errors.IllConditioned` with it.
     """
     U, s, Vt = svd
-    none = np.zeros(0, dtype=int), np.zeros(0)
     if not s.shape[1]:
-        return none
+        return np.zeros(0, dtype=int), np.zeros(0)
     s_max, s_min = s[:, 0], s[:, -1]
+    exact, exact_condition = _unexplained_exact_drops(A_hat, s, rank_tolerance)
     open_ = np.nonzero((s_min > 0.0) & (s_min <= ILL_CONDITIONED_BAND * s_max))[0]
     if open_.size:
         open_ = open_[_scalable(A_hat[open_], s[open_], Vt[open_])]
     if not open_.size:
-        return none
+        return exact, exact_condition
     rows, cols = balanced_scaling(A_hat[open_], (U[open_], s[open_], Vt[open_]))
     balanced = A_hat[open_] * rows[:, :, None] * cols[:, None, :]
     U_b, s_b, Vt_b = np.linalg.svd(balanced, full_matrices=True)
@@ -259,7 +261,25 @@ def rebalance_undecided(A_hat: np.ndarray, r_scale: np.ndarray, c_scale: np.ndar
                                                        Vt_b[replaced])
     r_scale[chosen] *= rows[replaced]
     c_scale[chosen] *= cols[replaced]
-    return open_[undecided], s_b[undecided, 0] / dropped[undecided]
+    return (np.concatenate([exact, open_[undecided]]),
+            np.concatenate([exact_condition, s_b[undecided, 0] / dropped[undecided]]))
+
+
+def _unexplained_exact_drops(A_hat: np.ndarray, s: np.ndarray, rank_tolerance: float
+                             ) -> tuple[np.ndarray, np.ndarray]:
+    """The systems with a singular value exactly 0 whose rank rule also drops one above round-off.
+
+    No balancing applies to them (it needs every singular value > 0), but the bound of
+    :func:`round_off_bound` holds under every diagonal scaling, the first one too: a dropped value
+    above it there is not round-off's. Their indices into the stack, and their conditions (the
+    largest singular value over the largest dropped one).
+    """
+    s_max = s[:, 0]
+    candidates = np.nonzero((s[:, -1] == 0.0) & (s_max > 0.0))[0]
+    rank = (s[candidates] > rank_tolerance * s_max[candidates, None]).sum(axis=1)
+    dropped = s[candidates, rank]  # rank < size: the last value is 0
+    found = dropped > round_off_bound(A_hat[candidates])
+    return candidates[found], s_max[candidates[found]] / dropped[found]
 
 
 def _void_conditions(E_raw: np.ndarray, e_raw: np.ndarray, threshold: float) -> bool:
@@ -297,7 +317,7 @@ def solve_affine(
     r_scale, c_scale = _equilibrate(A)
     A_hat = A * r_scale[:, None] * c_scale[None, :]
     U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
-    if s.size and 0.0 < s[-1] <= ILL_CONDITIONED_BAND * s[0]:  # (views: rebalanced in place)
+    if s.size and s[-1] <= ILL_CONDITIONED_BAND * s[0]:  # (views: rebalanced in place)
         undecided, condition = rebalance_undecided(A_hat[None], r_scale[None], c_scale[None],
                                                    (U[None], s[None], Vt[None]), rank_tolerance)
         if undecided.size:

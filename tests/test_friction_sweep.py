@@ -245,3 +245,19 @@ def test_input_boxes_sharing_an_infinite_side_are_not_set_apart_by_it():
         assert _boxes_apart(odd, (np.array([-np.inf, 2.0]), np.array([np.inf, 3.0])))  # the second input
         assert not _boxes_apart(free, free)
         assert not _boxes_apart((np.array([-np.inf, 0.0]), np.array([-np.inf, 1.0])), free)
+
+
+def test_an_exact_zero_does_not_carry_a_drop_above_round_off_with_it():
+    """A 6 x 6 system with a zero row and column (a singular value exactly 0, no balancing) and a
+    5 x 5 block at 1e-13 of singular: the rank rule would drop both; the second is not round-off's."""
+    rng = np.random.default_rng(7)
+    U, _ = np.linalg.qr(rng.standard_normal((5, 5)))
+    V, _ = np.linalg.qr(rng.standard_normal((5, 5)))
+    A = np.zeros((6, 6))
+    A[:5, :5] = U @ np.diag([1.0, 1.0, 1.0, 1.0, 1e-13]) @ V.T
+    B, c = np.ones((6, 1)), np.zeros(6)
+    with pytest.raises(IllConditioned) as raised:
+        solve_affine(A, B, c)
+    assert 1e12 < raised.value.condition_number < 1e14, raised.value
+    A[:5, :5] = U @ np.diag([1.0, 1.0, 1.0, 1.0, 0.0]) @ V.T  # singular to round-off: both dropped
+    assert solve_affine(A, B, c).rank == 4
