@@ -41,7 +41,9 @@ from .kernel import compiled, kernel_choice
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
 from .modes import ContactProblem, ModeSystem, build_child_systems, build_mode_system, mode_outputs
 from .response import (
+    ILL_CONDITIONED_BAND,
     RANK_TOLERANCE,
+    ROUND_OFF_RANK_DROP,
     AffineSolution,
     ambiguous_outputs,
     certified_children,
@@ -524,7 +526,8 @@ def analyze(
         problem=problem, modes=tuple(analyses), enumeration=enumeration, overlaps=tuple(overlaps),
         timings=timings, solver=solver,
         tolerances={"rank": rank_tolerance, "domain": DOMAIN_TOLERANCE,
-                    "velocity": problem.velocity_tolerance},
+                    "velocity": problem.velocity_tolerance, "ill_conditioned_band": ILL_CONDITIONED_BAND,
+                    "round_off_rank_drop": ROUND_OFF_RANK_DROP},
     )
 
 
@@ -681,6 +684,20 @@ def _input_box(mode: ModeAnalysis, solver: str) -> tuple[np.ndarray, np.ndarray]
     return lower, upper
 
 
+def _boxes_apart(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> bool:
+    """Whether two input boxes (:func:`_input_box`) meet in less than ``2 DOMAIN_TOLERANCE`` of an input.
+
+    A side where both bounds are the same infinity (a support LP found the box unbounded one way
+    and the opposite way infeasible, which happens at large friction) tells nothing: that input
+    does not set the boxes apart.
+    """
+    lo = np.maximum(a[0], b[0])
+    hi = np.minimum(a[1], b[1])
+    width = np.full(lo.shape, np.inf)
+    np.subtract(hi, lo, out=width, where=~(np.isinf(hi) & (hi == lo)))
+    return bool(np.any(width <= 2 * DOMAIN_TOLERANCE))
+
+
 def _interiors_meet(a: ModeAnalysis, b: ModeAnalysis, solver: str) -> tuple[float, np.ndarray | None]:
     """Whether int(T_a) and int(T_b) meet: one LP in the lifted space (u, w_a, w_b).
 
@@ -724,11 +741,8 @@ def _overlaps(feasible: Sequence[ModeAnalysis], solver: str) -> list[Overlap]:
     overlaps: list[Overlap] = []
     for i, a in enumerate(candidates):
         for j in range(i + 1, len(candidates)):
-            if boxes is not None:
-                lo = np.maximum(boxes[i][0], boxes[j][0])
-                hi = np.minimum(boxes[i][1], boxes[j][1])
-                if np.any(hi - lo <= 2 * DOMAIN_TOLERANCE):
-                    continue
+            if boxes is not None and _boxes_apart(boxes[i], boxes[j]):
+                continue
             b = candidates[j]
             margin, center = _interiors_meet(a, b, solver)
             if margin > DOMAIN_TOLERANCE and center is not None:

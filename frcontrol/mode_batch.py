@@ -30,9 +30,9 @@ Where the internal forces are not unique, the representative w may differ from t
 when its admissible set is wider than twice ``CHEBYSHEV_RADIUS_CAP``: both are Chebyshev centres
 of the capped ball (the midpoint here, a vertex of the centres there). Otherwise nothing here
 decides differently from the reference: the same rows, the same equilibration, the
-same rank rule (a singular value in the ill-conditioned band sends the whole problem back to the
-reference path, which raises only where it meets that mode) and the same tolerances. The tests
-cross-check both paths on random scenes and inputs.
+same rank rule (a singular value in the ill-conditioned band, or a rank drop round-off does not
+explain, sends the whole problem back to the reference path, which raises only where it meets that
+mode) and the same tolerances. The tests cross-check both paths on random scenes and inputs.
 """
 
 from __future__ import annotations
@@ -93,8 +93,9 @@ class ModeBatch:
         modes: every full mode, in the reference path's order (letters S, L, R, F, contact by
             contact).
         solutions: the admissible ones, in that order.
-        ill_conditioned: some mode has a singular value in the ill-conditioned band (then nothing
-            was decided: the reference path decides, and raises where it meets that mode).
+        ill_conditioned: some mode has a singular value in the ill-conditioned band or a rank drop
+            round-off does not explain (then nothing was decided: the reference path decides, and
+            raises where it meets that mode).
     """
 
     modes: tuple[str, ...]
@@ -214,14 +215,15 @@ def _svd_modes(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, A_ha
                ) -> dict[int, BatchSolution] | None:
     """The modes ``rest`` (indices into ``st`` and ``modes``) by one batched SVD and the rank rule.
 
-    None when a singular value lies in the ill-conditioned band (nothing is decided then).
+    None when a singular value lies in the ill-conditioned band, or a rank drop is not round-off's
+    (:func:`~frcontrol.response.rebalance_undecided`): nothing is decided then.
     """
     a_hat, r_scale, c_scale = A_hat[rest], r_scale[rest], c_scale[rest]
     U, s, Vt = np.linalg.svd(a_hat)
-    rebalance_undecided(a_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance)
+    undecided, _ = rebalance_undecided(a_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance)
     s_max = s[:, :1]
     kept = s > rank_tolerance * s_max
-    if (kept & (s <= ILL_CONDITIONED_BAND * s_max)).any():
+    if undecided.size or (kept & (s <= ILL_CONDITIONED_BAND * s_max)).any():
         return None
     scaled = _Scaled(U, s, Vt, r_scale, c_scale, st.B[rest] * r_scale[:, :, None], st.c[rest] * r_scale)
     return _decide_by_rank(problem, modes, st, scaled, rest, rank_tolerance, u, decide_w, tolerances)
@@ -314,13 +316,14 @@ def _compiled_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letter
 
     ``rank_modes`` applies :func:`_decide_rank_group`'s formulas to the modes with at most one
     ambiguity variable; those with more keep :func:`_decide_rank_group` (their w comes from LPs).
-    None when a singular value lies in the ill-conditioned band.
+    None when a singular value lies in the ill-conditioned band or a rank drop is not round-off's.
     """
     assert compiled is not None
     rows, vectors = buffers
     a_hat, r_scale, c_scale = scaled
     U, s, Vt = np.linalg.svd(a_hat)
-    rebalance_undecided(a_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance)
+    if rebalance_undecided(a_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance)[0].size:
+        return None
     count, nx = rest.size, a_hat.shape[1]
     status, residual, violation = np.empty(count, dtype=np.int8), np.empty(count), np.empty(count)
     x, w, outputs = np.empty((count, nx)), np.empty(count), np.empty(count, dtype=np.int8)

@@ -41,6 +41,18 @@ BALANCING_SWEEPS = 8
 """[-] Sweeps of :func:`balanced_scaling` (each a column then a row pass, powers of two): on the
 shipped scenes' sliding modes the condition stops improving after four."""
 
+ROUND_OFF_RANK_DROP = 2.220446049250313e-16
+"""[-] The relative change of each entry that round-off may make, per row or column of the system
+(the double's machine epsilon): a rank drop is round-off's only when the balanced system's largest
+dropped singular value is at most ``n ROUND_OFF_RANK_DROP ||A_bal||_F`` (``n`` its smaller
+dimension). Above that, no change of each entry by ``n`` eps of itself makes the system singular
+(``||dA||_2 <= ||dA||_F <= n eps ||A_bal||_F`` for ``|dA| <= n eps |A_bal|``, under any diagonal
+scaling): it is nonsingular, and too ill-conditioned to decide (:func:`rebalance_undecided`). Over the
+shipped scenes at mu = 1 to 1e8 (``python -m benchmarks.rank_decisions``) the singular modes sit at
+0.03 of that bound or below, and the box on the slope sliding at mu = 1e8 at 0.2 (its smallest
+singular value, about 1/(0.34 mu^2) of the largest, is below round-off there); the same modes at
+mu = 1e6 and 1e7 at 1870 and 19 times it, snake_climb's FLF at 1e8 at 2490 times."""
+
 CONSISTENCY_TOLERANCE = 1e-9
 """A consistency row ``E_i u = e_i`` whose ``E_i`` has norm at most this times the scale of
 ``[B c]`` is void; it is inconsistent if ``|e_i|`` also exceeds this times that scale."""
@@ -169,15 +181,14 @@ def balanced_scaling(A_hat: np.ndarray, svd: tuple[np.ndarray, np.ndarray, np.nd
     return rows, cols
 
 
-def _scalable(A_hat: np.ndarray, s: np.ndarray, Vt: np.ndarray, rank_tolerance: float) -> np.ndarray:
+def _scalable(A_hat: np.ndarray, s: np.ndarray, Vt: np.ndarray) -> np.ndarray:
     """Per system: whether a diagonal scaling could lift a singular value at or below the band.
 
     For a right singular vector v, ``omega = max_i |A v|_i / (|A| |v|)_i`` is the smallest relative
     change of each entry of A making v a null vector (Oettli-Prager), the same under every diagonal
-    scaling; then every scaling ``D_r A D_c`` is within ``omega |D_r A D_c|`` of a singular matrix,
-    and its smallest singular value at most ``omega sqrt(min(rows, cols))`` times its largest. When
-    that is at most ``rank_tolerance`` for each such v (a table on two legs: omega about 1e-17),
-    no scaling decides otherwise, and the system keeps its first SVD without a second one.
+    scaling. When that is round-off (at most ``n`` :data:`ROUND_OFF_RANK_DROP`) for each such v,
+    the system is singular to round-off under every scaling: no scaling decides otherwise, and it
+    keeps its first SVD without a second one.
     """
     size = s.shape[1]
     V = np.swapaxes(Vt[:, :size], 1, 2)
@@ -185,11 +196,21 @@ def _scalable(A_hat: np.ndarray, s: np.ndarray, Vt: np.ndarray, rank_tolerance: 
         ratio = np.abs(np.matmul(A_hat, V)) / np.matmul(np.abs(A_hat), np.abs(V))
     omega = np.nan_to_num(ratio, nan=0.0, posinf=0.0).max(axis=1)
     small = s <= ILL_CONDITIONED_BAND * s[:, :1]
-    return (small & (omega * np.sqrt(size) > rank_tolerance)).any(axis=1)
+    return (small & (omega > size * ROUND_OFF_RANK_DROP)).any(axis=1)
+
+
+def round_off_bound(A_hat: np.ndarray) -> np.ndarray:
+    """``n ROUND_OFF_RANK_DROP ||A_hat||_F`` per system of a stack (count, rows, cols).
+
+    ``n`` is the smaller dimension: a singular value at most this is round-off's
+    (:data:`ROUND_OFF_RANK_DROP`).
+    """
+    return min(A_hat.shape[1:]) * ROUND_OFF_RANK_DROP * np.sqrt((A_hat * A_hat).sum(axis=(1, 2)))
 
 
 def rebalance_undecided(A_hat: np.ndarray, r_scale: np.ndarray, c_scale: np.ndarray,
-                        svd: tuple[np.ndarray, np.ndarray, np.ndarray], rank_tolerance: float) -> np.ndarray:
+                        svd: tuple[np.ndarray, np.ndarray, np.ndarray], rank_tolerance: float
+                        ) -> tuple[np.ndarray, np.ndarray]:
     """Decide again, under :func:`balanced_scaling`, each system whose rank the first scaling left open.
 
     ``A_hat`` (count, rows, cols) ``= diag(r_scale) A diag(c_scale)`` with its SVD. A system whose
@@ -200,28 +221,65 @@ def rebalance_undecided(A_hat: np.ndarray, r_scale: np.ndarray, c_scale: np.ndar
     the first had a value in the band or the balanced one has the higher rank. So a system the
     first scaling decides keeps its answer bit for bit (a system singular to round-off, e.g. a
     table on two legs, keeps its rank drop under any scaling), and where the balanced system is
-    still in the band, the error reports its condition. Returns the indices replaced.
+    still in the band, the error reports its condition.
+
+    A rank drop that round-off does not explain (the balanced system's largest dropped singular
+    value above :func:`round_off_bound`) is not decided: the system is nonsingular, too
+    ill-conditioned for its rank to be read. It is replaced by the balanced system too. A system
+    with a singular value exactly 0 is not balanced; the rest of its drop is checked under the
+    first scaling (:func:`_unexplained_exact_drops`).
+
+    Returns:
+        The indices of the systems left undecided so, and the condition number of each (under the
+        balanced scaling where one was made): its largest singular value over the largest one the
+        rank rule dropped. The caller raises :class:`~frcontrol.errors.IllConditioned` with it.
     """
     U, s, Vt = svd
     if not s.shape[1]:
-        return np.zeros(0, dtype=int)
+        return np.zeros(0, dtype=int), np.zeros(0)
     s_max, s_min = s[:, 0], s[:, -1]
+    exact, exact_condition = _unexplained_exact_drops(A_hat, s, rank_tolerance)
     open_ = np.nonzero((s_min > 0.0) & (s_min <= ILL_CONDITIONED_BAND * s_max))[0]
     if open_.size:
-        open_ = open_[_scalable(A_hat[open_], s[open_], Vt[open_], rank_tolerance)]
+        open_ = open_[_scalable(A_hat[open_], s[open_], Vt[open_])]
     if not open_.size:
-        return open_
+        return exact, exact_condition
     rows, cols = balanced_scaling(A_hat[open_], (U[open_], s[open_], Vt[open_]))
     balanced = A_hat[open_] * rows[:, :, None] * cols[:, None, :]
     U_b, s_b, Vt_b = np.linalg.svd(balanced, full_matrices=True)
     first_rank = (s[open_] > rank_tolerance * s_max[open_, None]).sum(axis=1)
     in_band = first_rank > (s[open_] > ILL_CONDITIONED_BAND * s_max[open_, None]).sum(axis=1)
-    better = in_band | ((s_b > rank_tolerance * s_b[:, :1]).sum(axis=1) > first_rank)
-    chosen = open_[better]
-    A_hat[chosen], U[chosen], s[chosen], Vt[chosen] = balanced[better], U_b[better], s_b[better], Vt_b[better]
-    r_scale[chosen] *= rows[better]
-    c_scale[chosen] *= cols[better]
-    return chosen
+    balanced_rank = (s_b > rank_tolerance * s_b[:, :1]).sum(axis=1)
+    better = in_band | (balanced_rank > first_rank)
+    size = s.shape[1]
+    rank = np.where(better, balanced_rank, first_rank)
+    dropped = s_b[np.arange(open_.size), np.minimum(rank, size - 1)]
+    undecided = (rank < size) & (dropped > round_off_bound(balanced))
+    replaced = better | undecided
+    chosen = open_[replaced]
+    A_hat[chosen], U[chosen], s[chosen], Vt[chosen] = (balanced[replaced], U_b[replaced], s_b[replaced],
+                                                       Vt_b[replaced])
+    r_scale[chosen] *= rows[replaced]
+    c_scale[chosen] *= cols[replaced]
+    return (np.concatenate([exact, open_[undecided]]),
+            np.concatenate([exact_condition, s_b[undecided, 0] / dropped[undecided]]))
+
+
+def _unexplained_exact_drops(A_hat: np.ndarray, s: np.ndarray, rank_tolerance: float
+                             ) -> tuple[np.ndarray, np.ndarray]:
+    """The systems with a singular value exactly 0 whose rank rule also drops one above round-off.
+
+    No balancing applies to them (it needs every singular value > 0), but the bound of
+    :func:`round_off_bound` holds under every diagonal scaling, the first one too: a dropped value
+    above it there is not round-off's. Their indices into the stack, and their conditions (the
+    largest singular value over the largest dropped one).
+    """
+    s_max = s[:, 0]
+    candidates = np.nonzero((s[:, -1] == 0.0) & (s_max > 0.0))[0]
+    rank = (s[candidates] > rank_tolerance * s_max[candidates, None]).sum(axis=1)
+    dropped = s[candidates, rank]  # rank < size: the last value is 0
+    found = dropped > round_off_bound(A_hat[candidates])
+    return candidates[found], s_max[candidates[found]] / dropped[found]
 
 
 def _void_conditions(E_raw: np.ndarray, e_raw: np.ndarray, threshold: float) -> bool:
@@ -253,14 +311,17 @@ def solve_affine(
         name: what A is called in an :class:`IllConditioned` error.
 
     Raises:
-        IllConditioned: a singular value lies in the band where the rank cannot be decided.
+        IllConditioned: a singular value lies in the band where the rank cannot be decided, or the
+            rank rule would drop one that round-off does not explain (:func:`rebalance_undecided`).
     """
     r_scale, c_scale = _equilibrate(A)
     A_hat = A * r_scale[:, None] * c_scale[None, :]
     U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
-    if s.size and 0.0 < s[-1] <= ILL_CONDITIONED_BAND * s[0]:  # (views: rebalanced in place)
-        rebalance_undecided(A_hat[None], r_scale[None], c_scale[None], (U[None], s[None], Vt[None]),
-                            rank_tolerance)
+    if s.size and s[-1] <= ILL_CONDITIONED_BAND * s[0]:  # (views: rebalanced in place)
+        undecided, condition = rebalance_undecided(A_hat[None], r_scale[None], c_scale[None],
+                                                   (U[None], s[None], Vt[None]), rank_tolerance)
+        if undecided.size:
+            raise IllConditioned(name, condition[0], ILL_CONDITIONED_BAND)
     return _affine_from_svd(A.shape, B, c, r_scale, c_scale, (U, s, Vt), rank_tolerance, name)
 
 
@@ -276,14 +337,19 @@ def solve_affine_stack(
     ``A`` (count, rows, nx), ``B`` (rows, m), ``c`` (count, rows): e.g. a node's children. The same
     scalings (:func:`equilibrate_stack`) and the same LAPACK call per matrix, so each answer is
     :func:`solve_affine`'s bit for bit (tests/test_fast_paths.py). A system whose rank lies in the
-    ill-conditioned band gets None: :func:`solve_affine` raises for it when its caller asks.
+    ill-conditioned band, or whose rank drop round-off does not explain, gets None:
+    :func:`solve_affine` raises for it when its caller asks.
     """
     r_scale, c_scale = equilibrate_stack(A)
     A_hat = A * r_scale[:, :, None] * c_scale[:, None, :]
     U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
-    rebalance_undecided(A_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance)
+    undecided, _ = rebalance_undecided(A_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance)
+    undecided_set = set(undecided.tolist())
     out: list[AffineSolution | None] = []
     for i in range(A.shape[0]):
+        if i in undecided_set:
+            out.append(None)
+            continue
         try:
             out.append(_affine_from_svd(A.shape[1:], B, c[i], r_scale[i], c_scale[i], (U[i], s[i], Vt[i]),
                                         rank_tolerance, "A"))
@@ -484,6 +550,8 @@ __all__ = [
     "power_of_two_scale",
     "RANK_TOLERANCE",
     "rebalance_undecided",
+    "ROUND_OFF_RANK_DROP",
+    "round_off_bound",
     "solve_affine",
     "solve_affine_stack",
     "VOID_CONDITIONS_SAFETY",

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from frcontrol import polytope as poly
 from frcontrol.engine import DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE, _admissible_in_w, solutions_at
-from frcontrol.errors import InputError
+from frcontrol.errors import IllConditioned, InputError
 from frcontrol.mode_batch import full_modes, interval_admissible
 from frcontrol.modes import ContactProblem, all_modes, build_mode_system
 from frcontrol.scene import load_scene
@@ -155,13 +155,19 @@ def test_interval_rule_matches_the_two_lps(data):
         assert min(_chebyshev_radius(H, h, closed), cap) >= min(_chebyshev_radius(H, h, lps), cap) - 1e-7
 
 
-def test_nearly_singular_modes_take_the_svd_and_agree(write_scene):
-    """Two contacts a hair apart: the certificate must refuse them, the SVD decides, both paths agree."""
+def _rod_on_two_contacts(write_scene, gap: float) -> ContactProblem:
+    """The rod on its left end, listed twice, ``gap`` [m] apart along the rod."""
     from conftest import rod_scene
 
     contacts = [{"name": "a", "link": "rod", "point": [-0.5, 0.0], "normal": [0.0, 1.0], "mu": 0.8},
-                {"name": "b", "link": "rod", "point": [-0.5, 1e-12], "normal": [0.0, 1.0], "mu": 0.8}]
-    problem = ContactProblem.from_scene(load_scene(write_scene(rod_scene(contacts=contacts))))
+                {"name": "b", "link": "rod", "point": [-0.5, gap], "normal": [0.0, 1.0], "mu": 0.8}]
+    return ContactProblem.from_scene(load_scene(write_scene(rod_scene(contacts=contacts))))
+
+
+def test_nearly_singular_modes_take_the_svd_and_agree(write_scene):
+    """Two contacts a hair apart (1e-16 m: one point to round-off): the certificate must refuse
+    them, the SVD decides, both paths agree."""
+    problem = _rod_on_two_contacts(write_scene, 1e-16)
     from frcontrol.mode_batch import CERTIFIED_MARGIN, _certified_responses, _equilibrate, _stack
 
     modes, letters = full_modes(problem.allowed_modes())
@@ -177,3 +183,18 @@ def test_nearly_singular_modes_take_the_svd_and_agree(write_scene):
     assert assert_same_solutions(problem, np.zeros(problem.m)) == 1
     (only,) = solutions_at(problem, np.zeros(problem.m))
     assert only.mode == "FF" and only.ambiguity_dim == 2  # the two contacts' forces: one point's
+
+
+def test_contacts_apart_beyond_round_off_stop_both_paths_alike(write_scene):
+    """1e-12 m apart: LR's system is nonsingular (smallest singular value about 1e-12 of the
+    largest under the balanced scaling, far above round-off) and too ill-conditioned to decide.
+    Both paths raise, naming the same mode and condition, instead of taking it as one point."""
+    problem = _rod_on_two_contacts(write_scene, 1e-12)
+    errors = []
+    for method in ("batch", "reference"):
+        with pytest.raises(IllConditioned) as raised:
+            solutions_at(problem, np.zeros(problem.m), method=method)
+        errors.append(raised.value)
+    assert errors[0].matrix_name == errors[1].matrix_name == "the system of mode LR"
+    assert errors[0].condition_number == errors[1].condition_number
+    assert 1e11 < errors[0].condition_number < 1e13, errors[0]
