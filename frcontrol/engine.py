@@ -39,7 +39,14 @@ from .errors import CoordinateNotFound, InputError
 from .jsonable import to_jsonable
 from .kernel import compiled, kernel_choice
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
-from .modes import ContactProblem, ModeSystem, build_child_systems, build_mode_system, mode_outputs
+from .modes import (
+    ContactProblem,
+    ModeSystem,
+    build_child_systems,
+    build_mode_system,
+    mode_outputs,
+    needs_balancing,
+)
 from .response import (
     ILL_CONDITIONED_BAND,
     RANK_TOLERANCE,
@@ -549,7 +556,8 @@ class _ModeEnumerator:
     def response(self, system: ModeSystem) -> AffineSolution:
         """The mode's response by :func:`solve_affine` (the SVD and its rank rule)."""
         return solve_affine(system.A, system.B, system.c, rank_tolerance=self.rank_tolerance,
-                            name=f"the system of mode {system.mode}")
+                            name=f"the system of mode {system.mode}",
+                            balance=bool(needs_balancing(self.problem, [system.mode])[0]))
 
     def prepare(self, prefix: str, letters: str) -> None:
         """Build the systems of ``prefix``'s children and certify their responses together.
@@ -566,7 +574,8 @@ class _ModeEnumerator:
         if prefix in self.deficient:  # every child is deficient too: their SVDs, batched
             responses = solve_affine_stack(np.stack([s.A for s in systems]), systems[0].B,
                                            np.stack([s.c for s in systems]),
-                                           rank_tolerance=self.rank_tolerance)
+                                           rank_tolerance=self.rank_tolerance,
+                                           balance=needs_balancing(self.problem, children))
         else:
             responses = certified_children(  # the children share B
                 np.stack([s.A for s in systems]), systems[0].B, np.stack([s.c for s in systems]),
@@ -992,7 +1001,8 @@ def _tree_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_to
             mode = prefix + letter
             system = build_mode_system(problem, mode)
             response = solve_affine(system.A, system.B, system.c, rank_tolerance=rank_tolerance,
-                                    name=f"the system of mode {mode}")
+                                    name=f"the system of mode {mode}",
+                                    balance=bool(needs_balancing(problem, [mode])[0]))
             w = _admissible_w(system, response, u, solver, closed_form)
             if w is None:
                 continue

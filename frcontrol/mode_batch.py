@@ -45,7 +45,7 @@ import numpy as np
 
 from .errors import KernelError
 from .kernel import compiled, kernel_choice
-from .modes import MODE_LETTERS, ROWS_PER_CONTACT, ContactProblem
+from .modes import MODE_LETTERS, ROWS_PER_CONTACT, ContactProblem, needs_balancing
 from .response import (
     CERTIFIED_MARGIN,
     CONSISTENCY_TOLERANCE,
@@ -220,7 +220,8 @@ def _svd_modes(problem: ContactProblem, modes: tuple[str, ...], st: _Stack, A_ha
     """
     a_hat, r_scale, c_scale = A_hat[rest], r_scale[rest], c_scale[rest]
     U, s, Vt = np.linalg.svd(a_hat)
-    undecided, _ = rebalance_undecided(a_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance)
+    undecided, _ = rebalance_undecided(a_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance,
+                                       needs_balancing(problem, [modes[i] for i in rest]))
     s_max = s[:, :1]
     kept = s > rank_tolerance * s_max
     if undecided.size or (kept & (s <= ILL_CONDITIONED_BAND * s_max)).any():
@@ -322,7 +323,8 @@ def _compiled_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letter
     rows, vectors = buffers
     a_hat, r_scale, c_scale = scaled
     U, s, Vt = np.linalg.svd(a_hat)
-    if rebalance_undecided(a_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance)[0].size:
+    if rebalance_undecided(a_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance,
+                           needs_balancing(problem, [modes[i] for i in rest]))[0].size:
         return None
     count, nx = rest.size, a_hat.shape[1]
     status, residual, violation = np.empty(count, dtype=np.int8), np.empty(count), np.empty(count)

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from .errors import ImpactState, InputError
+from .response import BALANCING_FRICTION
 from .scene import Scene
 
 MODE_LETTERS = "SLRF"
@@ -254,6 +255,18 @@ def check_mode(problem: ContactProblem, mode: str, *, partial: bool = False) -> 
         raise InputError(f"mode {mode!r} has {len(mode)} letters; the scene has {problem.k} active "
                          f"contacts ({', '.join(problem.contacts)})")
     return mode
+
+
+def needs_balancing(problem: ContactProblem, modes: Sequence[str]) -> np.ndarray:
+    """Per mode: whether its system may be balanced.
+
+    True where one of its sliding contacts (L or R) has mu above
+    :data:`~frcontrol.response.BALANCING_FRICTION`.
+    """
+    rough = problem.mu > BALANCING_FRICTION
+    if not rough.any():
+        return np.zeros(len(modes), dtype=bool)
+    return np.array([any(rough[i] for i, ch in enumerate(mode) if ch in "LR") for mode in modes], dtype=bool)
 
 
 def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
@@ -513,6 +526,7 @@ __all__ = [
     "all_modes",
     "build_child_systems",
     "contact_mode_letter",
+    "needs_balancing",
     "build_mode_system",
     "check_mode",
     "contact_row_table",

@@ -53,6 +53,15 @@ shipped scenes at mu = 1 to 1e8 (``python -m benchmarks.rank_decisions``) the si
 singular value, about 1/(0.34 mu^2) of the largest, is below round-off there); the same modes at
 mu = 1e6 and 1e7 at 1870 and 19 times it, snake_climb's FLF at 1e8 at 2490 times."""
 
+BALANCING_FRICTION = 1.0
+"""[-] A contact mode's system is balanced (:func:`rebalance_undecided`) only when one of its sliding
+contacts has a friction coefficient above this. A sliding contact's row ``lam_T = +-mu lam_N`` is
+the one entry of a mode's system that grows with a parameter the max-abs equilibration cannot
+absorb (the condition grows as mu^2 under it, as mu under a good scaling); at mu <= 1 it adds no
+spread to its row, and the first scaling decides as it always has (a table on two legs, a box
+sticking at both corners: each would otherwise pay a balancing and a second SVD per query, for
+the same answer). Callers that do not know the mode balance every system (``balance=True``)."""
+
 CONSISTENCY_TOLERANCE = 1e-9
 """A consistency row ``E_i u = e_i`` whose ``E_i`` has norm at most this times the scale of
 ``[B c]`` is void; it is inconsistent if ``|e_i|`` also exceeds this times that scale."""
@@ -209,8 +218,8 @@ def round_off_bound(A_hat: np.ndarray) -> np.ndarray:
 
 
 def rebalance_undecided(A_hat: np.ndarray, r_scale: np.ndarray, c_scale: np.ndarray,
-                        svd: tuple[np.ndarray, np.ndarray, np.ndarray], rank_tolerance: float
-                        ) -> tuple[np.ndarray, np.ndarray]:
+                        svd: tuple[np.ndarray, np.ndarray, np.ndarray], rank_tolerance: float,
+                        balance: bool | np.ndarray = True) -> tuple[np.ndarray, np.ndarray]:
     """Decide again, under :func:`balanced_scaling`, each system whose rank the first scaling left open.
 
     ``A_hat`` (count, rows, cols) ``= diag(r_scale) A diag(c_scale)`` with its SVD. A system whose
@@ -229,6 +238,9 @@ def rebalance_undecided(A_hat: np.ndarray, r_scale: np.ndarray, c_scale: np.ndar
     with a singular value exactly 0 is not balanced; the rest of its drop is checked under the
     first scaling (:func:`_unexplained_exact_drops`).
 
+    ``balance`` (one flag, or one per system) says which systems may be balanced at all
+    (:data:`BALANCING_FRICTION`); the others keep their first decision.
+
     Returns:
         The indices of the systems left undecided so, and the condition number of each (under the
         balanced scaling where one was made): its largest singular value over the largest one the
@@ -239,7 +251,9 @@ def rebalance_undecided(A_hat: np.ndarray, r_scale: np.ndarray, c_scale: np.ndar
         return np.zeros(0, dtype=int), np.zeros(0)
     s_max, s_min = s[:, 0], s[:, -1]
     exact, exact_condition = _unexplained_exact_drops(A_hat, s, rank_tolerance)
-    open_ = np.nonzero((s_min > 0.0) & (s_min <= ILL_CONDITIONED_BAND * s_max))[0]
+    open_ = np.nonzero((s_min > 0.0) & (s_min <= ILL_CONDITIONED_BAND * s_max) & balance)[0]
+    if open_.size:
+        open_ = open_[~_structural_drops(A_hat[open_], s[open_], rank_tolerance)]
     if open_.size:
         open_ = open_[_scalable(A_hat[open_], s[open_], Vt[open_])]
     if not open_.size:
@@ -263,6 +277,24 @@ def rebalance_undecided(A_hat: np.ndarray, r_scale: np.ndarray, c_scale: np.ndar
     c_scale[chosen] *= cols[replaced]
     return (np.concatenate([exact, open_[undecided]]),
             np.concatenate([exact_condition, s_b[undecided, 0] / dropped[undecided]]))
+
+
+def _structural_drops(A_hat: np.ndarray, s: np.ndarray, rank_tolerance: float) -> np.ndarray:
+    """Per system of a stack: whether exactly zero rows or columns account for its whole rank drop.
+
+    A system with ``z`` zero columns (an unknown no equation holds, e.g. the force of a separated
+    contact, a massless link's acceleration) has rank at most ``cols - z`` under every scaling, and
+    likewise for zero rows. Where the first scaling's rank reaches that bound with no singular
+    value in the band, no scaling decides otherwise: the system keeps its first SVD without
+    balancing (on rhex_flip, 28 of the 29 rank drops of one ``solutions_at``).
+    """
+    s_max = s[:, :1]
+    rank = (s > rank_tolerance * s_max).sum(axis=1)
+    in_band = rank > (s > ILL_CONDITIONED_BAND * s_max).sum(axis=1)
+    zero = A_hat == 0.0
+    bound = np.minimum(A_hat.shape[1] - zero.all(axis=2).sum(axis=1),
+                       A_hat.shape[2] - zero.all(axis=1).sum(axis=1))
+    return ~in_band & (rank >= bound)
 
 
 def _unexplained_exact_drops(A_hat: np.ndarray, s: np.ndarray, rank_tolerance: float
@@ -300,6 +332,7 @@ def solve_affine(
     *,
     rank_tolerance: float = RANK_TOLERANCE,
     name: str = "A",
+    balance: bool = True,
 ) -> AffineSolution:
     """Every solution of ``A x = B u + c`` as an affine map of (u, w), with its consistency set.
 
@@ -309,6 +342,8 @@ def solve_affine(
         c: the constant term, (rows,).
         rank_tolerance: relative singular-value threshold for the rank decision.
         name: what A is called in an :class:`IllConditioned` error.
+        balance: whether an undecided rank may be decided again under a balanced scaling
+            (:func:`rebalance_undecided`, :data:`BALANCING_FRICTION`).
 
     Raises:
         IllConditioned: a singular value lies in the band where the rank cannot be decided, or the
@@ -319,7 +354,7 @@ def solve_affine(
     U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
     if s.size and s[-1] <= ILL_CONDITIONED_BAND * s[0]:  # (views: rebalanced in place)
         undecided, condition = rebalance_undecided(A_hat[None], r_scale[None], c_scale[None],
-                                                   (U[None], s[None], Vt[None]), rank_tolerance)
+                                                   (U[None], s[None], Vt[None]), rank_tolerance, balance)
         if undecided.size:
             raise IllConditioned(name, condition[0], ILL_CONDITIONED_BAND)
     return _affine_from_svd(A.shape, B, c, r_scale, c_scale, (U, s, Vt), rank_tolerance, name)
@@ -331,6 +366,7 @@ def solve_affine_stack(
     c: np.ndarray,
     *,
     rank_tolerance: float = RANK_TOLERANCE,
+    balance: bool | np.ndarray = True,
 ) -> list[AffineSolution | None]:
     """:func:`solve_affine` of each system of a stack sharing ``B``, with one batched SVD.
 
@@ -343,7 +379,7 @@ def solve_affine_stack(
     r_scale, c_scale = equilibrate_stack(A)
     A_hat = A * r_scale[:, :, None] * c_scale[:, None, :]
     U, s, Vt = np.linalg.svd(A_hat, full_matrices=True)
-    undecided, _ = rebalance_undecided(A_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance)
+    undecided, _ = rebalance_undecided(A_hat, r_scale, c_scale, (U, s, Vt), rank_tolerance, balance)
     undecided_set = set(undecided.tolist())
     out: list[AffineSolution | None] = []
     for i in range(A.shape[0]):
@@ -542,6 +578,7 @@ __all__ = [
     "CERTIFIED_MARGIN",
     "certified_children",
     "certified_responses",
+    "BALANCING_FRICTION",
     "CONSISTENCY_TOLERANCE",
     "equilibrate_stack",
     "ILL_CONDITIONED_BAND",

@@ -155,19 +155,21 @@ def test_interval_rule_matches_the_two_lps(data):
         assert min(_chebyshev_radius(H, h, closed), cap) >= min(_chebyshev_radius(H, h, lps), cap) - 1e-7
 
 
-def _rod_on_two_contacts(write_scene, gap: float) -> ContactProblem:
+def _rod_on_two_contacts(write_scene, gap: float, mu: float = 0.8) -> ContactProblem:
     """The rod on its left end, listed twice, ``gap`` [m] apart along the rod."""
     from conftest import rod_scene
 
-    contacts = [{"name": "a", "link": "rod", "point": [-0.5, 0.0], "normal": [0.0, 1.0], "mu": 0.8},
-                {"name": "b", "link": "rod", "point": [-0.5, gap], "normal": [0.0, 1.0], "mu": 0.8}]
+    contacts = [{"name": "a", "link": "rod", "point": [-0.5, 0.0], "normal": [0.0, 1.0], "mu": mu},
+                {"name": "b", "link": "rod", "point": [-0.5, gap], "normal": [0.0, 1.0], "mu": mu}]
     return ContactProblem.from_scene(load_scene(write_scene(rod_scene(contacts=contacts))))
 
 
-def test_nearly_singular_modes_take_the_svd_and_agree(write_scene):
-    """Two contacts a hair apart (1e-16 m: one point to round-off): the certificate must refuse
-    them, the SVD decides, both paths agree."""
-    problem = _rod_on_two_contacts(write_scene, 1e-16)
+@pytest.mark.parametrize("gap", [1e-16, 1e-12])
+def test_nearly_singular_modes_take_the_svd_and_agree(write_scene, gap):
+    """Two contacts a hair apart (1e-16 m: one point to round-off; 1e-12 m: one point to the first
+    scaling, which decides at mu <= BALANCING_FRICTION): the certificate must refuse them, the SVD
+    decides, both paths agree."""
+    problem = _rod_on_two_contacts(write_scene, gap)
     from frcontrol.mode_batch import CERTIFIED_MARGIN, _certified_responses, _equilibrate, _stack
 
     modes, letters = full_modes(problem.allowed_modes())
@@ -186,10 +188,12 @@ def test_nearly_singular_modes_take_the_svd_and_agree(write_scene):
 
 
 def test_contacts_apart_beyond_round_off_stop_both_paths_alike(write_scene):
-    """1e-12 m apart: LR's system is nonsingular (smallest singular value about 1e-12 of the
-    largest under the balanced scaling, far above round-off) and too ill-conditioned to decide.
-    Both paths raise, naming the same mode and condition, instead of taking it as one point."""
-    problem = _rod_on_two_contacts(write_scene, 1e-12)
+    """1e-12 m apart at mu = 2 (above BALANCING_FRICTION, so a sliding mode's rank drop is decided
+    again under a balanced scaling): LR's system is nonsingular (smallest singular value about
+    1e-12 of the largest under the balanced scaling, far above round-off) and too ill-conditioned
+    to decide. Both paths raise, naming the same mode and condition, instead of taking it as one
+    point."""
+    problem = _rod_on_two_contacts(write_scene, 1e-12, mu=2.0)
     errors = []
     for method in ("batch", "reference"):
         with pytest.raises(IllConditioned) as raised:
