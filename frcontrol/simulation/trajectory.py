@@ -158,7 +158,8 @@ class Trajectory:
 
         With the scene, the samples also carry every contact's mode per sample
         (:func:`~frcontrol.simulation.export.sample_modes`) and each event the mode its contact left
-        and entered (``from``, ``to``: the letters of the samples before and at the event). Fields a
+        and entered (``from``, ``to``: the letters of the samples before and at the event), and each
+        joint spring's ``deflection`` and ``force`` per sample (``samples.springs.JOINT``). Fields a
         producer did not report (a planner's trajectory has no energy) are null.
         """
         info = self.info
@@ -213,6 +214,9 @@ class Trajectory:
             from .export import sample_modes
 
             summary["input_units"] = scene.inputs.unit_map()
+            if scene.robot.springs:  # the joint springs: deflection [m or rad], force [N or N m]
+                summary["springs"] = scene.robot.springs.to_dict()
+                samples["springs"] = scene.robot.springs.samples(self.q, self.v)
             if scene.drives:
                 samples["drives"] = drive_samples(scene, self)
                 if any(d.elastic for d in scene.drives.values()):
