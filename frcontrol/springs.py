@@ -17,6 +17,7 @@ be an input's offset, not a leg's store) and not locked. With numpy only.
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -104,6 +105,8 @@ def _check_joint(path: str, joint: str, where: str, coordinates: Sequence[str], 
     """The joint exists, is not locked and is not an input; else a message naming the nearest valid one."""
     valid = [j for j in joints if j not in inputs]
     guess = nearest(joint, valid)
+    if guess is None and joint in (*inputs, *locked) and valid:  # a real joint: offer the closest anyway
+        guess = difflib.get_close_matches(joint, valid, n=1, cutoff=0.0)[0]
     hint = f"did you mean {guess!r}? " if guess else ""
     listing = f"the unactuated joints are: {', '.join(valid) or '(none)'}"
     if joint in locked:
