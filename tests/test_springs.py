@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import toml_text, toml_value
+from conftest import needs_kernel, toml_text, toml_value
 from frcontrol.cli.app import app
 from typer.testing import CliRunner
 
@@ -224,7 +224,8 @@ def test_a_stiff_leg_is_the_locked_leg_at_a_state(tmp_path):
         worst = 0.0
         for mode, solution in rigid.items():
             forces = np.r_[solution.lambda_n, solution.lambda_t]
-            contact_force = state.jacobian_normal.T @ solution.lambda_n + state.jacobian_tangent.T @ solution.lambda_t
+            contact_force = (state.jacobian_normal.T @ solution.lambda_n
+                             + state.jacobian_tangent.T @ solution.lambda_t)
             load = float((contact_force - state.mass_matrix @ np.append(solution.dv, 0.0) - state.bias)[4])
             sprung_scene = leg_scene(tmp_path, stiffness=k, q_leg=LEG + load / k)  # the load holds the toe
             sprung = {s.mode: s for s in solutions_at(sprung_scene, u)}
@@ -260,3 +261,47 @@ def test_a_bad_spring_is_one_line_and_exit_1(tmp_path, springs, field, message):
     assert result.exit_code == 1
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and field in lines[0] and "Traceback" not in result.output, result.output
+
+
+def test_the_viewer_moves_a_prismatic_joints_link(tmp_path):
+    """The page's animation of the bob follows its prismatic joint: the link's key positions are
+    the joint's coordinate (the bob's origin is the joint's, on the world's y axis)."""
+    from test_viz import page_commands
+
+    from frcontrol.viz import meshcat_view
+
+    scene = load_scene(bob_scene(tmp_path, {"stiffness": BOB_STIFFNESS}))
+    run = simulate_rigid(scene, duration=0.3, dt=1e-2)
+    page = meshcat_view.write_html(scene, run, tmp_path / "bob.html", fps=100).read_text(encoding="utf-8")
+    (animation,) = [c for c in page_commands(page) if c["type"] == "set_animation"]
+    clip = {a["path"]: a["clip"] for a in animation["animations"]}["/meshcat/frcontrol/robot/bob"]
+    keys = {t["name"]: t for t in clip["tracks"]}[".position"]["keys"]
+    positions = np.array([key["value"] for key in keys])
+    assert np.ptp(run.q[:, 0]) > 0.05  # the bob moved
+    np.testing.assert_allclose(positions[:, 1], run.q[:, 0], atol=1e-12)
+    np.testing.assert_allclose(positions[:, 0], 0.0, atol=1e-12)
+
+
+@needs_kernel
+def test_both_kernels_add_the_springs(tmp_path, monkeypatch):
+    """The compiled and the NumPy assembly give the same state with springs, which is the
+    springless state plus k (q - rest) + c v on the spring's coordinate."""
+    path = tmp_path / "leg.toml"
+    leg_scene(tmp_path, stiffness=2400.0)
+    text = (tmp_path / "leg_2400.0.toml").read_text()
+    path.write_text(text.replace("rest = 0.17", "rest = 0.17, damping = 24.0"))
+    states = {}
+    for kernel in ("compiled", "numpy"):
+        monkeypatch.setenv("FRC_KERNEL", kernel)
+        robot = load_scene(path).robot
+        assert (robot._kernel_plan is not None) == (kernel == "compiled")
+        q, v = np.array([0.1, 0.2, 0.3, 0.4, 0.15]), np.array([0.5, -0.2, 1.0, -2.0, 0.7])
+        states[kernel] = robot.state(q, v)
+    monkeypatch.setenv("FRC_KERNEL", "numpy")
+    free = leg_scene(tmp_path, stiffness=0.0).robot.state(q, v)
+    for name, value in vars(states["numpy"]).items():
+        found = getattr(states["compiled"], name)
+        np.testing.assert_allclose(found, value, rtol=1e-13, atol=1e-13, err_msg=name)
+    expected = free.bias.copy()
+    expected[4] += 2400.0 * (0.15 - LEG) + 24.0 * 0.7
+    np.testing.assert_allclose(states["compiled"].bias, expected, rtol=1e-13, atol=1e-12)
