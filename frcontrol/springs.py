@@ -77,6 +77,15 @@ class JointSprings:
         return {joint: {"deflection": deflection[:, j], "force": force[:, j]}
                 for j, joint in enumerate(self.joints)}
 
+    def report(self, q: np.ndarray, v: np.ndarray) -> dict[str, dict[str, float]]:
+        """The springs at one state, as JSON: :meth:`to_dict`'s values, ``deflection`` and ``force``."""
+        if not self.joints:
+            return {}
+        deflection, force = self.deflection(q), self.force(q, v)
+        return {joint: {**table, "deflection": float(deflection[j]),
+                         "force": float(force[j]) + 0.0}  # (+ 0.0: no -0.0 in the JSON)
+                for j, (joint, table) in enumerate(self.to_dict().items())}
+
     def to_dict(self) -> dict[str, dict[str, float]]:
         """The springs as JSON: ``{JOINT: {"stiffness", "damping", "rest"}}``."""
         return {joint: {"stiffness": float(self.stiffness[j]), "damping": float(self.damping[j]),

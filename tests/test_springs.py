@@ -9,6 +9,7 @@ the leg joint locked, at a state. Bad ``[model.springs]`` tables: one line, exit
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -99,6 +100,11 @@ def test_the_static_deflection_is_m_g_over_k(tmp_path):
     assert abs(solution.dv[0]) < 1e-12
     (off,) = solutions_at(scene.at(np.array([rest + 1e-3])), [])
     assert off.dv[0] == pytest.approx(-BOB_STIFFNESS * 1e-3 / BOB_MASS, rel=1e-9)
+    result = runner.invoke(app, ["analyze", str(scene.path), "--set", f"state.q=[{rest!r}]", "--json"])
+    assert result.exit_code == 0, result.output
+    reported = json.loads(result.stdout)["springs"]["spring"]
+    assert reported["deflection"] == rest
+    assert reported["force"] == pytest.approx(BOB_MASS * GRAVITY, rel=1e-12)
 
 
 def test_statics_sees_the_spring(tmp_path):
