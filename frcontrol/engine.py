@@ -269,6 +269,7 @@ class DynamicResponse:
             "input_units": dict(zip(problem.inputs, problem.input_units, strict=True)) if problem.input_units
             else {},
             **({"drives": dict(problem.drives)} if problem.drives else {}),
+            **({"springs": dict(problem.springs)} if problem.springs else {}),
             "modes": modes,
             "overlaps": [list(o.modes) for o in self.overlaps],
             "enumeration": {

@@ -35,6 +35,7 @@ from numpy.typing import ArrayLike
 
 from .errors import FrameNotFound, InputError, KernelError, RobotModelError
 from .kernel import compiled, kernel_choice
+from .springs import NO_SPRINGS, JointSprings
 from .urdf import read_urdf
 
 BASE_COORDINATES = ("x", "y", "theta")
@@ -128,7 +129,8 @@ class RobotState:
         q: minimal configuration [m, rad], shape (n,).
         v: minimal velocity [m/s, rad/s], shape (n,).
         mass_matrix: M(q) [kg, kg m, kg m^2], shape (n, n), symmetric positive semi-definite.
-        bias: h(q, v) = gravity + Coriolis/centrifugal generalized forces [N, N m], shape (n,).
+        bias: h(q, v) = gravity + Coriolis/centrifugal generalized forces [N, N m] (+ the drives'
+            damping and the joint springs' ``k (q - rest) + c v``), shape (n,).
         contact_points: world positions p_i [m], shape (k, 2).
         gaps: phi_i [m], shape (k,).
         normal_velocities: v_N,i = J_N,i v [m/s], shape (k,).
@@ -481,6 +483,7 @@ class PlanarRobot:
         self._layouts: dict = {}  # contact subsets -> _ContactLayout
         self._damping = np.zeros(n)  # [N m s/rad] drives' viscous damping (set_drive_terms)
         self._has_damping = False
+        self._springs = NO_SPRINGS  # joint springs, added to h by state() (set_springs)
         # state() assembles in frcontrol._kernel.robot_state with this plan (None: in NumPy)
         self._kernel_plan = (RobotState, np.empty, model, self.data, pin.updateFramePlacement,
                              pin.getFrameJacobian, pin.getFrameClassicalAcceleration, _WORLD_ALIGNED,
@@ -525,6 +528,23 @@ class PlanarRobot:
             self._damping[i] = value
         self.model.armature = armature
         self._has_damping = bool(np.any(self._damping))
+
+    def set_springs(self, springs: JointSprings) -> None:
+        """Put joint springs on coordinates: :meth:`state` adds their force to the bias h(q, v).
+
+        The spring on coordinate j adds ``k (q_j - rest) + c v_j`` to ``h_j``
+        (:mod:`frcontrol.springs`); the springs replace earlier ones.
+        """
+        self._springs = springs
+
+    @property
+    def springs(self) -> JointSprings:
+        """The joint springs (:mod:`frcontrol.springs`), empty when there is none."""
+        return self._springs
+
+    def spring_energy(self, q: np.ndarray) -> float:
+        """The joint springs' elastic energy ``sum 1/2 k (q_j - rest)^2`` [J] at ``q``."""
+        return float(self._springs.elastic_energy(q)) if self._springs else 0.0
 
     @property
     def drive_damping(self) -> np.ndarray:
@@ -612,7 +632,8 @@ class PlanarRobot:
         the contacts' normals and tangents in one call of the compiled kernel
         (:func:`frcontrol._kernel.robot_state`, which reads M, h and the frames' positions through
         views of the Pinocchio data's storage, made once), or in NumPy (:meth:`_state_numpy`, the
-        reference) where ``FRC_KERNEL=numpy`` or the extension is not built.
+        reference) where ``FRC_KERNEL=numpy`` or the extension is not built. The joint springs'
+        force (:meth:`set_springs`) is then added to the bias, the one place for both kernels.
 
         Args:
             q: minimal configuration, shape (n,) (not validated here: see :meth:`check_state`).
@@ -631,10 +652,14 @@ class PlanarRobot:
             layout = self._layout(None if contacts is None else tuple(contacts))
         plan = self._kernel_plan
         if plan is None:
-            return self._state_numpy(q, v, layout)
-        return compiled.robot_state(  # type: ignore[union-attr]  # a plan only where it is built
-            plan, q, v, layout.frames, layout.positions, layout.lines,
-            self._damping if self._has_damping else None)
+            state = self._state_numpy(q, v, layout)
+        else:
+            state = compiled.robot_state(  # type: ignore[union-attr]  # a plan only where it is built
+                plan, q, v, layout.frames, layout.positions, layout.lines,
+                self._damping if self._has_damping else None)
+        if self._springs:  # the joint springs' known force, on either kernel's new bias array
+            self._springs.add_to_bias(state.bias, q, v)
+        return state
 
     def _state_numpy(self, q: np.ndarray, v: np.ndarray, layout: _ContactLayout) -> RobotState:
         """:meth:`state`'s assembly in NumPy, after Pinocchio's pass: the reference of the compiled one."""

@@ -65,6 +65,8 @@ class ContactProblem:
         velocity_tolerance: [m/s] what counts as a zero contact velocity.
         input_units: each input's unit (``"N"``, ``"N m"``, ``"V"`` for a DC motor's voltage).
         drives: the scene's drives at this state (:func:`frcontrol.drives.drives_report`), by joint.
+        springs: the joint springs at this state (:meth:`frcontrol.springs.JointSprings.report`: k, c,
+            rest, deflection [m or rad] and force [N or N m], in h already), by joint.
     """
 
     coordinates: tuple[str, ...]
@@ -85,6 +87,7 @@ class ContactProblem:
     velocity_tolerance: float = VELOCITY_TOLERANCE
     input_units: tuple[str, ...] = ()
     drives: Mapping[str, Any] = field(default_factory=dict)
+    springs: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def n(self) -> int:
@@ -147,6 +150,7 @@ class ContactProblem:
             velocity_tolerance=velocity_tolerance,
             input_units=scene.inputs.units,
             drives=_drives_report(scene, scene.v if v is None else v),
+            springs=scene.robot.springs.report(state.q, state.v),
         )
 
     @cached_property

@@ -50,6 +50,7 @@ from .scene_tables import (
     read_model,
     read_task,
 )
+from .springs import read_springs
 
 GAP_TOLERANCE = 1e-6
 """[m] A contact with gap <= this is active (touching); a gap < -this is a penetration error."""
@@ -539,6 +540,9 @@ def _scene_from_checked(reader: _Reader, scene_path: Path, raw: dict[str, Any], 
     drives_table = model_table.get("drives") if isinstance(model_table, dict) else None
     drives = read_drives(str(scene_path), drives_table, robot.joint_names, tuple(locked))
     inputs = _driven_inputs(reader, robot, inputs, drives)
+    springs_table = model_table.get("springs") if isinstance(model_table, dict) else None
+    robot.set_springs(read_springs(str(scene_path), springs_table, coords, robot.joint_names,
+                                   inputs.coordinates, tuple(locked)))
     references = reference_problems(raw, {
         "link": robot.link_names, "contact": [p.name for p in points], "coordinate": coords,
     })

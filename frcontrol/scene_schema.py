@@ -135,6 +135,19 @@ _DRIVE: dict[str, Any] = {
     },
 }
 
+_SPRING: dict[str, Any] = {
+    "type": "object",
+    "additionalProperties": False,
+    "description": "a linear spring and damper on the unactuated joint named by the table's key: the "
+                   "generalized force -stiffness (q - rest) - damping v on its coordinate",
+    "required": ["stiffness"],
+    "properties": {
+        "stiffness": _number("k [N/m] on a prismatic joint, [N m/rad] on a revolute one", minimum=0),
+        "damping": _number("c [N s/m] or [N m s/rad]", minimum=0, default=0),
+        "rest": _number("[m] or [rad] the coordinate's value at which the spring is relaxed", default=0),
+    },
+}
+
 SCENE_SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "$id": "frcontrol-scene.schema.json",
@@ -214,6 +227,11 @@ SCENE_SCHEMA: dict[str, Any] = {
                     "type": "object",
                     "description": "DC-motor drives, by joint name: the joint's input is then a voltage [V]",
                     "additionalProperties": _DRIVE,
+                },
+                "springs": {
+                    "type": "object",
+                    "description": "joint springs, by joint name (unactuated joints only)",
+                    "additionalProperties": _SPRING,
                 },
                 "contacts": {
                     "type": "object",

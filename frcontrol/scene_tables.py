@@ -68,7 +68,7 @@ DEFAULT_DAMPING_RATIO = 1.0
 """[-] Default damping ratio zeta: critical damping for each contact's effective mass."""
 
 _MODEL_KEYS = {"contact", "stiffness", "damping", "damping_ratio", "tangential_stiffness",
-               "tangential_damping", "armature", "contacts", "drives"}
+               "tangential_damping", "armature", "contacts", "drives", "springs"}
 ZONES = ("rigid", "compliant", "one_stage", "two_stage")
 """The contact zones ``[model.contacts.NAME] zone`` may name (:mod:`frcontrol.simulation.zones`)."""
 

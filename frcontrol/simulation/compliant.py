@@ -576,7 +576,8 @@ def simulate_compliant(
     Returns:
         The trajectory (``model = "compliant"``, its ``status`` and ``failure``), sampled every
         ``dt``; ``info`` holds the settings, the integrator's steps (:meth:`_CompliantRun.report`),
-        ``energy`` [J] (kinetic + gravitational), ``elastic_energy`` [J] (springs),
+        ``energy`` [J] (kinetic + gravitational), ``elastic_energy`` [J] (springs: the contacts',
+        the transmissions' and the joint springs'; the joint springs' alone: ``spring_energy``),
         ``max_penetration`` [m] per sample and the contacts' parameters.
 
     Raises:
@@ -990,11 +991,13 @@ def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, ar
         penetration.append(max(0.0, -float(np.min(full.gaps, initial=np.inf))))
         _zone_sample(dynamics, y, st.gaps, zone_samples)
     info.update(_zone_info(dynamics, zone_samples))
+    springs = np.asarray(robot.springs.elastic_energy(ys[:, :n]), dtype=float)
     info.update({
         "energy": np.array(kinetic) + np.array(potential),
         "kinetic_energy": np.array(kinetic),
         "potential_energy": np.array(potential),
-        "elastic_energy": np.array(elastic),
+        "elastic_energy": np.array(elastic) + springs,
+        "spring_energy": springs,
         "max_penetration": np.array(penetration),
         "stretch": ys[:, 2 * n:dynamics.stretch_end],
         "modelled_contacts": list(params.names),

@@ -20,7 +20,8 @@ a drive's stages, as ``NAME[i]``): the drives' ``drives.JOINT.voltage``, ``.curr
 ``.motor_speed`` and ``.torque`` (:mod:`.drives`), the rigid model's impact impulses
 ``impacts.NAME.impulse_normal`` and ``impacts.NAME.impulse_tangent`` [N s] and the compliant
 model's contact zones ``zones.NAME.deformation`` [m] and ``zones.NAME.force`` [N]
-(:func:`sample_series`).
+(:func:`sample_series`), and the joint springs' ``springs.JOINT.deflection`` [m or rad] and
+``springs.JOINT.force`` [N or N m] (:mod:`frcontrol.springs`).
 """
 
 from __future__ import annotations
@@ -90,6 +91,8 @@ def trajectory_arrays(scene: Scene, trajectory: Trajectory) -> dict[str, np.ndar
         "contacts": np.array(trajectory.contacts, dtype=str),
         "input_names": np.array(trajectory.input_names, dtype=str),
         **drive_arrays(scene, trajectory),
+        **{f"springs.{joint}.{name}": series for joint, table in
+           scene.robot.springs.samples(trajectory.q, trajectory.v).items() for name, series in table.items()},
     }}
 
 

@@ -185,7 +185,7 @@ def simulate_rigid(
         The trajectory (``model = "rigid"``; its ``status``, ``"completed"``, ``"failed"`` or
         ``"diverged"`` (see :mod:`~frcontrol.simulation.validity`), and ``failure``: time, reason
         and, when it diverged, a hint; or None): one sample per step; ``info`` holds ``dt``, ``steps``,
-        ``energy`` [J] (kinetic with the armature + gravitational) and its parts,
+        ``energy`` [J] (kinetic with the armature + gravitational + the joint springs') and its parts,
         ``max_penetration`` [m] per sample, ``stabilization_work`` [J] (cumulative), ``lcp``
         statistics, ``armature``, ``ambiguity_checks`` and the tolerances. ``warnings`` on the
         trajectory say where the run left its model's validity.
@@ -576,7 +576,8 @@ class RigidStepper:
         potential = np.array(self._potential + [scene.robot.potential_energy(self.q)])
         us = self._us
         inputs_arr = np.vstack([us[0]] + us) if us else np.zeros((1, scene.inputs.count))
-        energy = kinetic + potential
+        springs = np.asarray(scene.robot.springs.elastic_energy(np.array(self._qs)), dtype=float)
+        energy = kinetic + potential + springs
         extra_work = np.array(self._stab_work)
         if self.transmissions is not None:
             energy = energy + self.transmissions.energy(np.array(self._qs))
@@ -590,6 +591,7 @@ class RigidStepper:
             "energy": energy,
             "kinetic_energy": kinetic,
             "potential_energy": potential,
+            "spring_energy": springs,
             "max_penetration": np.array(self._penetration),
             "stabilization_work": np.array(self._stab_work),
             "impacts": list(self.impacts),

@@ -158,7 +158,8 @@ class Trajectory:
 
         With the scene, the samples also carry every contact's mode per sample
         (:func:`~frcontrol.simulation.export.sample_modes`) and each event the mode its contact left
-        and entered (``from``, ``to``: the letters of the samples before and at the event). Fields a
+        and entered (``from``, ``to``: the letters of the samples before and at the event), and each
+        joint spring's ``deflection`` and ``force`` per sample (``samples.springs.JOINT``). Fields a
         producer did not report (a planner's trajectory has no energy) are null.
         """
         info = self.info
@@ -209,25 +210,32 @@ class Trajectory:
         if info.get("zones"):  # the compliant model's contact zones: deformation [m], force [N]
             samples["zones"] = info["zones"]
         if scene is not None:
-            from .drives import drive_samples, stage_samples
-            from .export import sample_modes
-
-            summary["input_units"] = scene.inputs.unit_map()
-            if scene.drives:
-                samples["drives"] = drive_samples(scene, self)
-                if any(d.elastic for d in scene.drives.values()):
-                    samples["stages"] = stage_samples(scene, self)
-
-            modes = sample_modes(scene, self)
-            samples["modes"] = list(modes)
-            for event in summary["events"]:
-                if event["contact"] not in self.contacts:
-                    continue  # an "ambiguous" event names every touching contact, comma-separated
-                at = min(int(np.searchsorted(self.times, event["time"] - 1e-12)), len(modes) - 1)
-                i = self.contacts.index(event["contact"])
-                event["from"], event["to"] = modes[max(at - 1, 0)][i], modes[at][i]
+            self._add_scene_parts(scene, summary, samples)
         return to_jsonable({"summary": summary, "samples": samples,
                             "warnings": [w.to_dict() for w in self.warnings]})
+
+    def _add_scene_parts(self, scene: Scene, summary: dict[str, Any], samples: dict[str, Any]) -> None:
+        """What :meth:`to_dict` reports with the scene: input units, springs, drives, modes."""
+        from .drives import drive_samples, stage_samples
+        from .export import sample_modes
+
+        summary["input_units"] = scene.inputs.unit_map()
+        if scene.robot.springs:  # the joint springs: deflection [m or rad], force [N or N m]
+            summary["springs"] = scene.robot.springs.to_dict()
+            samples["springs"] = scene.robot.springs.samples(self.q, self.v)
+        if scene.drives:
+            samples["drives"] = drive_samples(scene, self)
+            if any(d.elastic for d in scene.drives.values()):
+                samples["stages"] = stage_samples(scene, self)
+
+        modes = sample_modes(scene, self)
+        samples["modes"] = list(modes)
+        for event in summary["events"]:
+            if event["contact"] not in self.contacts:
+                continue  # an "ambiguous" event names every touching contact, comma-separated
+            at = min(int(np.searchsorted(self.times, event["time"] - 1e-12)), len(modes) - 1)
+            i = self.contacts.index(event["contact"])
+            event["from"], event["to"] = modes[max(at - 1, 0)][i], modes[at][i]
 
 
 __all__ = [
