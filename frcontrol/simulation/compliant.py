@@ -574,11 +574,10 @@ def simulate_compliant(
         impact_velocity: [m/s] a contact closing faster than this is an ``impact`` event.
 
     Returns:
-        The trajectory (``model = "compliant"``, its ``status`` and ``failure``), sampled every
-        ``dt``; ``info`` holds the settings, the integrator's steps (:meth:`_CompliantRun.report`),
-        ``energy`` [J] (kinetic + gravitational), ``elastic_energy`` [J] (springs: the contacts',
-        the transmissions' and the joint springs'; the joint springs' alone: ``spring_energy``),
-        ``max_penetration`` [m] per sample and the contacts' parameters.
+        The trajectory (``model = "compliant"``, ``status``, ``failure``), sampled every ``dt``;
+        ``info``: the settings, the steps (:meth:`_CompliantRun.report`), ``energy`` [J] (kinetic +
+        gravitational), ``elastic_energy`` [J] (the contacts', transmissions' and joint springs';
+        theirs alone: ``spring_energy``), ``max_penetration`` [m] per sample, the contacts' parameters.
 
     Raises:
         InputError: a bad duration or ``dt`` (<= 0, > duration, or above the explicit stability
