@@ -141,8 +141,11 @@ def _watcher(scene: str, overrides: dict | None, loaded: Scene, show: Callable[[
         except FrcontrolError as err:
             sys.stderr.write(f"frc: error: {err} (still watching)\n")
             return
-        watched["files"] = files_of(current)
-        watched["stamp"] = stamp(watched["files"])
+        # the stamp stays the one taken before the load: an edit made while the scene was read or
+        # drawn differs from it, and the next tick reloads (stamping again here would miss it)
+        files = files_of(current)
+        if files != watched["files"]:  # another URDF: watched from now on
+            watched["files"], watched["stamp"] = files, stamp(files)
         common.note(f"reloaded {current.path}", to_stderr=True)
 
     return tick
