@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from conftest import counted, tally
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -404,23 +405,29 @@ polytopes = st.integers(min_value=0, max_value=2**32 - 1).map(
 points = st.lists(st.floats(-3.0, 3.0), min_size=4, max_size=4)
 
 
+@counted
 @settings(max_examples=40, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(P=polytopes, coords=points)
 def test_minimal_representation_keeps_membership(P, coords):
+    tally().example()
     x = np.array(coords[: P.dim])
     minimal = minimal_representation(P)
     if strictly_inside(P, x, margin=1e-6):
+        tally().check()
         assert contains(minimal, x)
     slack = (P.A @ x - P.b) / np.linalg.norm(P.A, axis=1)
     if np.max(slack) > 1e-6:
+        tally().check()
         assert not contains(minimal, x)
 
 
+@counted
 @settings(max_examples=30, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(P=polytopes, coords=points, keep_first=st.booleans())
 def test_projection_agrees_with_lp_feasibility(P, coords, keep_first):
+    tally().example()
     d = P.dim
     keep = [0] if keep_first else list(range(1, d))
     shadow = project(P, keep)
@@ -429,9 +436,11 @@ def test_projection_agrees_with_lp_feasibility(P, coords, keep_first):
         assert contains(shadow, x[keep], tolerance=1e-7)
     y = x[keep]
     if strictly_inside(shadow, y, margin=1e-6):  # a point of the shadow lifts into P
+        tally().check()
         lift = solve_lp(np.zeros(d), P.A, P.b, np.eye(d)[keep], y, solver=REF)
         assert lift.found
     elif not contains(shadow, y, tolerance=1e-6):
+        tally().check()
         lift = solve_lp(np.zeros(d), P.A, P.b, np.eye(d)[keep], y, solver=REF)
         assert not lift.found
 
