@@ -75,3 +75,29 @@ def test_an_over_long_function_is_caught(tmp_path):
     path = tmp_path / "long.py"
     path.write_text("def long():\n" + body)
     assert function_lengths(path) == {"long": MAX_FUNCTION_LINES + 1}
+
+
+def _raises_without_match(path: Path) -> list[int]:
+    """Lines of ``pytest.raises(...)`` calls in a file that give no ``match=``."""
+    lines = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "raises"
+                and isinstance(node.func.value, ast.Name) and node.func.value.id == "pytest"
+                and not any(keyword.arg == "match" for keyword in node.keywords)):
+            lines.append(node.lineno)
+    return lines
+
+
+def test_every_expected_error_names_its_message():
+    """A ``pytest.raises`` without ``match=`` passes on any error of that type, the wrong one too."""
+    bare = {path.name: lines for path in sorted((ROOT / "tests").glob("*.py"))
+            if (lines := _raises_without_match(path))}
+    assert not bare, f"pytest.raises without match= (file: lines): {bare}"
+
+
+def test_a_bare_raises_is_caught(tmp_path):
+    path = tmp_path / "test_x.py"
+    path.write_text("import pytest\n\ndef test():\n    with pytest.raises(\n        ValueError):\n"
+                    "        int('x')\n    with pytest.raises(ValueError, match='invalid'):\n"
+                    "        int('x')\n")
+    assert _raises_without_match(path) == [4]

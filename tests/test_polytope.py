@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -212,30 +213,30 @@ def test_intersections():
 
 
 def test_bad_input():
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match=re.escape("A must have shape (m, d), got (2,)")):
         Polytope(np.array([1.0, 2.0]), np.array([1.0]))
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="A must be finite"):
         Polytope(np.array([[1.0, np.nan]]), np.array([1.0]))
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match=re.escape("b must have shape (1,), got (2,)")):
         Polytope(np.array([[1.0, 0.0]]), np.array([1.0, 2.0]))
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match=re.escape("A_eq must have shape (m, 2), got (1, 3)")):
         Polytope(np.eye(2), np.ones(2), np.ones((1, 3)), np.ones(1))
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="A_eq and b_eq must be given together"):
         Polytope(np.eye(2), np.ones(2), np.ones((1, 2)), None)
     box = Polytope.from_box([0.0, 0.0], [1.0, 1.0])
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="must keep between 0 and 2 coordinates"):
         project(box, 3)
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="distinct coordinates"):
         project(box, [0, 0])
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="unknown projection method 'vertex'"):
         project(box, 1, method="vertex")
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match=re.escape("x must have shape (2,), got (1,)")):
         contains(box, [1.0])
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="polytopes of dimensions 2 and 1"):
         intersect(box, Polytope.from_box([0.0], [1.0]))
-    with pytest.raises(dataclasses.FrozenInstanceError):
+    with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign to field 'A'"):
         box.A = np.eye(2)  # type: ignore[misc]
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="read-only"):
         box.A[0, 0] = 3.0  # read-only arrays
 
 
