@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from pathlib import Path
@@ -19,6 +20,54 @@ needs_kernel = pytest.mark.skipif(
            "runs, and every other test checks it")
 """For tests of the compiled kernel: they skip outside CI where it is not built; in CI they run (and
 fail without it, as tests/test_kernel.py::test_the_extension_is_built_in_ci does)."""
+
+
+MIN_CHECKED_FRACTION = 0.5
+"""A property test whose assertion sits under an ``if`` must have run it on at least this fraction
+of its examples (hypothesis's rejected examples, by ``assume``, do not count): otherwise the filter,
+not the property, decided the outcome."""
+
+
+class PropertyTally:
+    """How many examples a filtering property test saw, and on how many its assertion ran."""
+
+    def __init__(self) -> None:
+        self.examples = 0
+        self.checked = 0
+
+    def example(self) -> None:
+        self.examples += 1
+
+    def check(self) -> None:
+        self.checked += 1
+
+
+_TALLIES: list[PropertyTally] = []
+
+
+def counted(test):
+    """Wrap a hypothesis test (above ``@settings``/``@given``): it calls ``tally().example()`` once
+    per example and ``tally().check()`` where its filtered assertion ran; the test fails when the
+    assertion ran on fewer than MIN_CHECKED_FRACTION of the examples."""
+
+    @functools.wraps(test)
+    def run(*args, **kwargs):
+        _TALLIES.append(PropertyTally())
+        try:
+            test(*args, **kwargs)
+        finally:
+            seen = _TALLIES.pop()
+        assert seen.examples > 0, f"{test.__name__}: no example ran"
+        assert seen.checked >= MIN_CHECKED_FRACTION * seen.examples, (
+            f"{test.__name__}: the filtered assertion ran on {seen.checked} of {seen.examples} examples "
+            f"(at least {MIN_CHECKED_FRACTION:.0%} required)")
+
+    return run
+
+
+def tally() -> PropertyTally:
+    """The tally of the counted property test running now."""
+    return _TALLIES[-1]
 
 
 def toml_value(value) -> str:

@@ -280,9 +280,9 @@ def test_an_interrupted_run_resumes_to_the_same_result(tmp_path):
     def stop_after_three(done, total):  # Ctrl-C while the fourth chunk is reported
         seen.append(done)
         if len(seen) == 4:
-            raise KeyboardInterrupt
+            raise KeyboardInterrupt("stopped after three chunks")
 
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(KeyboardInterrupt, match="stopped after three chunks"):
         run_atlas(plan, workers=1, out=out, progress=stop_after_three)
     assert not out.exists() and len(list(parts_folder(out).glob("chunk-*.json"))) == 3
     with pytest.raises(InputError, match="add --resume"):

@@ -6,6 +6,7 @@ import copy
 import itertools
 import json
 import math
+import re
 import tomllib
 from dataclasses import replace
 
@@ -275,7 +276,7 @@ def test_bad_task_tables(write_scene):
                         ({"min_head_acceleration": "fast"}, "task.min_head_acceleration")):
         raw = snake_dict()
         raw["task"] = task
-        with pytest.raises(SceneError) as info:
+        with pytest.raises(SceneError, match=re.escape(field)) as info:
             plan_climb(load_scene(write_scene(raw)))
         assert info.value.field == field
 

@@ -18,11 +18,6 @@ PACKAGES = ("frcontrol", "cli")
 MAX_FUNCTION_LINES = 80
 """The longest a function may be, in lines."""
 
-ALLOWED_FOR_NOW: dict[str, int] = {}
-"""Functions still being split elsewhere, with their length today: they may not grow, and an
-entry that is no longer needed fails too (remove it). To be emptied."""
-
-
 def function_lengths(path: Path) -> dict[str, int]:
     """``qualified name -> lines`` of every function and method in one file."""
     lengths: dict[str, int] = {}
@@ -57,17 +52,9 @@ def package_lengths() -> dict[str, int]:
 def test_no_function_is_longer_than_the_limit():
     lengths = package_lengths()
     assert len(lengths) > 100, f"only {len(lengths)} functions found under {ROOT}: wrong root?"
-    too_long = {key: n for key, n in lengths.items()
-                if n > MAX_FUNCTION_LINES and n > ALLOWED_FOR_NOW.get(key, MAX_FUNCTION_LINES)}
+    too_long = {key: n for key, n in lengths.items() if n > MAX_FUNCTION_LINES}
     assert not too_long, (f"functions over {MAX_FUNCTION_LINES} lines (split them by their sub-jobs): "
                           + ", ".join(f"{key} ({n})" for key, n in sorted(too_long.items())))
-
-
-def test_every_allowed_exception_is_still_needed():
-    lengths = package_lengths()
-    stale = {key: lengths.get(key) for key in ALLOWED_FOR_NOW
-             if lengths.get(key, 0) <= MAX_FUNCTION_LINES}
-    assert not stale, f"remove these entries from ALLOWED_FOR_NOW (now short enough or gone): {stale}"
 
 
 @pytest.mark.parametrize(("source", "expected"), [
@@ -88,3 +75,29 @@ def test_an_over_long_function_is_caught(tmp_path):
     path = tmp_path / "long.py"
     path.write_text("def long():\n" + body)
     assert function_lengths(path) == {"long": MAX_FUNCTION_LINES + 1}
+
+
+def _raises_without_match(path: Path) -> list[int]:
+    """Lines of ``pytest.raises(...)`` calls in a file that give no ``match=``."""
+    lines = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "raises"
+                and isinstance(node.func.value, ast.Name) and node.func.value.id == "pytest"
+                and not any(keyword.arg == "match" for keyword in node.keywords)):
+            lines.append(node.lineno)
+    return lines
+
+
+def test_every_expected_error_names_its_message():
+    """A ``pytest.raises`` without ``match=`` passes on any error of that type, the wrong one too."""
+    bare = {path.name: lines for path in sorted((ROOT / "tests").glob("*.py"))
+            if (lines := _raises_without_match(path))}
+    assert not bare, f"pytest.raises without match= (file: lines): {bare}"
+
+
+def test_a_bare_raises_is_caught(tmp_path):
+    path = tmp_path / "test_x.py"
+    path.write_text("import pytest\n\ndef test():\n    with pytest.raises(\n        ValueError):\n"
+                    "        int('x')\n    with pytest.raises(ValueError, match='invalid'):\n"
+                    "        int('x')\n")
+    assert _raises_without_match(path) == [4]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import ROBOTS, rod_scene
+from conftest import ROBOTS, counted, rod_scene, tally
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -399,12 +399,14 @@ def test_every_solution_satisfies_its_mode(name, data):
         assert sol.equality_residual <= 1e-8 * scale
 
 
+@counted
 @settings(max_examples=40, deadline=None)
 @given(name=st.sampled_from(SCENES), data=st.data())
 def test_projection_membership_matches_an_lp_on_the_domain(name, data):
     result = analysis(name)
     feasible = [m for m in result.feasible_modes if m.ambiguity_dim > 0]
     assume(feasible)  # a scene without ambiguity variables has nothing to project
+    tally().example()
     mode = data.draw(st.sampled_from(feasible))
     problem = result.problem
     u = np.array([data.draw(st.floats(lo, hi)) for lo, hi in zip(problem.lower, problem.upper, strict=True)])
@@ -419,6 +421,7 @@ def test_projection_membership_matches_an_lp_on_the_domain(name, data):
     # points within 1e-6 of the boundary may go either way
     margin = _distance_to_boundary(mode.input_domain, u)
     if margin > 1e-6:
+        tally().check()
         assert in_projection == has_w, (mode.mode, u)
 
 
@@ -431,7 +434,7 @@ def _distance_to_boundary(P, u):
 # ----------------------------------------------------------------------------- bad input
 def test_bad_inputs_are_typed_errors(write_scene):
     scene = load_scene("rod_on_table")
-    with pytest.raises(CoordinateNotFound):
+    with pytest.raises(CoordinateNotFound, match="unknown coordinate 'phi'"):
         solutions_at(scene, {"phi": 1.0})
     with pytest.raises(InputError, match="outside"):
         solutions_at(scene, {"x": 100.0})
@@ -440,7 +443,7 @@ def test_bad_inputs_are_typed_errors(write_scene):
     moving_in = load_scene(write_scene(rod_scene(state={"q": [0.0, 0.453, 2.007], "v": [0.0, -1.0, 0.0]})))
     with pytest.raises(ImpactState, match="impact"):
         analyze(moving_in)
-    with pytest.raises(ImpactState):
+    with pytest.raises(ImpactState, match="this is an impact"):
         solutions_at(moving_in, {})
     assert DOMAIN_TOLERANCE > 0
 

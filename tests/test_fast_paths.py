@@ -360,7 +360,7 @@ def test_batched_svds_are_solve_affines_bit_for_bit():
         stacked = resp.solve_affine_stack(A, B[0], c)
         for i, fast in enumerate(stacked):
             if fast is None:
-                with pytest.raises(IllConditioned):
+                with pytest.raises(IllConditioned, match="ill-conditioned"):
                     resp.solve_affine(A[i], B[0], c[i])
                 banded += 1
                 continue

@@ -462,7 +462,7 @@ def test_build_flip_is_the_formulation_and_needs_no_solver(monkeypatch):
     with monkeypatch.context() as patch:
         patch.setattr(door, "_LP_SOLVERS", {})
         built = build_flip(scene)
-        with pytest.raises(SolverNotFound):
+        with pytest.raises(SolverNotFound, match="is not available"):
             plan_flip(scene)  # the planner does need one: the removal is real
     assert built.task.pitch == "theta" and set(built.body_contacts) <= set(built.task.body_contacts)
     assert built.problem.inputs == tuple(i for k, i in enumerate(built.full.inputs) if k not in built.forced)

@@ -118,7 +118,7 @@ def test_every_decade_of_friction_answers_right_or_names_the_ill_conditioned_sys
         if (name, mu) in ILL_CONDITIONED or (name, mu) in NOT_ROUND_OFF:
             in_band = (name, mu) in ILL_CONDITIONED
             mode = ILL_CONDITIONED[(name, mu)] if in_band else NOT_ROUND_OFF[(name, mu)]
-            with pytest.raises(IllConditioned) as raised:
+            with pytest.raises(IllConditioned, match="ill-conditioned") as raised:
                 analysis_and_solutions(scene, inputs)
             error = raised.value
             assert error.matrix_name == f"the system of mode {mode}", (mu, error)
@@ -227,7 +227,7 @@ def test_a_rank_drop_is_taken_only_where_round_off_explains_it(seed):
     assert singular.rank == 5 and singular.ambiguity_dim == 1
     U, s, Vt = np.linalg.svd(A)
     nonsingular = A + 1e-13 * s[0] * np.outer(U[:, -1], Vt[-1])
-    with pytest.raises(IllConditioned) as raised:
+    with pytest.raises(IllConditioned, match="ill-conditioned") as raised:
         solve_affine(nonsingular, B, c)
     assert 1e12 < raised.value.condition_number < 1e14, raised.value
     assert raised.value.tolerance == ILL_CONDITIONED_BAND
@@ -256,7 +256,7 @@ def test_an_exact_zero_does_not_carry_a_drop_above_round_off_with_it():
     A = np.zeros((6, 6))
     A[:5, :5] = U @ np.diag([1.0, 1.0, 1.0, 1.0, 1e-13]) @ V.T
     B, c = np.ones((6, 1)), np.zeros(6)
-    with pytest.raises(IllConditioned) as raised:
+    with pytest.raises(IllConditioned, match="ill-conditioned") as raised:
         solve_affine(A, B, c)
     assert 1e12 < raised.value.condition_number < 1e14, raised.value
     A[:5, :5] = U @ np.diag([1.0, 1.0, 1.0, 1.0, 0.0]) @ V.T  # singular to round-off: both dropped

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import counted, tally
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -463,14 +464,18 @@ def lcps(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray]:
     return M, q
 
 
+@counted
 @settings(max_examples=300, deadline=None)
 @given(lcps())
 def test_every_found_solution_is_a_solution(problem: tuple[np.ndarray, np.ndarray]) -> None:
+    tally().example()
     M, q = problem
     every = enumerate_lcp_solutions(M, q)
     results = [solve_lcp(M, q, "lemke"), solve_lcp(M, q, "enumerate"), *every]
     if not every:  # the enumeration is exhaustive: no solution there means none anywhere
         assert not any(r.found for r in results[:2])
+    else:
+        tally().check()  # a solution exists: every one found is checked below
     for result in results:
         assert result.found == (result.status == "solved")
         if result.found:

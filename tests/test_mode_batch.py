@@ -196,7 +196,7 @@ def test_contacts_apart_beyond_round_off_stop_both_paths_alike(write_scene):
     problem = _rod_on_two_contacts(write_scene, 1e-12, mu=2.0)
     errors = []
     for method in ("batch", "reference"):
-        with pytest.raises(IllConditioned) as raised:
+        with pytest.raises(IllConditioned, match="ill-conditioned") as raised:
             solutions_at(problem, np.zeros(problem.m), method=method)
         errors.append(raised.value)
     assert errors[0].matrix_name == errors[1].matrix_name == "the system of mode LR"

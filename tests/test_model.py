@@ -284,7 +284,7 @@ def test_point_kinematics_against_finite_differences(make, tmp_path):
         ahead = robot.point_kinematics(q + EPS * v, v, points).jacobians
         behind = robot.point_kinematics(q - EPS * v, v, points).jacobians
         np.testing.assert_allclose(kin.drifts, (ahead - behind) @ v / (2 * EPS), atol=1e-5)
-    with pytest.raises(FrameNotFound):
+    with pytest.raises(FrameNotFound, match="unknown link 'no_such_link'"):
         robot.point_kinematics(q, v, [("no_such_link", (0.0, 0.0))])
 
 
@@ -361,7 +361,7 @@ def test_states_are_kept_across_calls():
         if key not in ("q", "v"):
             assert not np.shares_memory(value, getattr(second, key)), key
     assert set(vars(first)) == {f.name for f in dataclasses.fields(first)}
-    with pytest.raises(dataclasses.FrozenInstanceError):
+    with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign to field 'gaps'"):
         first.gaps = np.zeros(0)  # type: ignore[misc]
 
 

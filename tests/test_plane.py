@@ -10,6 +10,7 @@ frame, an axis sign, a centre of mass or an inertia shows up here.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pinocchio as pin
@@ -167,7 +168,7 @@ def scene_text(extra: str, robot: str = "example-robot-data:solo12") -> str:
 def test_a_scene_names_what_is_wrong_with_its_plane(tmp_path, extra, field, reason):
     path = tmp_path / "s.toml"
     path.write_text(scene_text(extra))
-    with pytest.raises(SceneError) as info:
+    with pytest.raises(SceneError, match=re.escape(reason)) as info:
         load_scene(path)
     assert info.value.field == field and reason in info.value.reason, info.value
 

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
+from conftest import counted, tally
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -211,30 +213,30 @@ def test_intersections():
 
 
 def test_bad_input():
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match=re.escape("A must have shape (m, d), got (2,)")):
         Polytope(np.array([1.0, 2.0]), np.array([1.0]))
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="A must be finite"):
         Polytope(np.array([[1.0, np.nan]]), np.array([1.0]))
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match=re.escape("b must have shape (1,), got (2,)")):
         Polytope(np.array([[1.0, 0.0]]), np.array([1.0, 2.0]))
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match=re.escape("A_eq must have shape (m, 2), got (1, 3)")):
         Polytope(np.eye(2), np.ones(2), np.ones((1, 3)), np.ones(1))
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="A_eq and b_eq must be given together"):
         Polytope(np.eye(2), np.ones(2), np.ones((1, 2)), None)
     box = Polytope.from_box([0.0, 0.0], [1.0, 1.0])
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="must keep between 0 and 2 coordinates"):
         project(box, 3)
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="distinct coordinates"):
         project(box, [0, 0])
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="unknown projection method 'vertex'"):
         project(box, 1, method="vertex")
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match=re.escape("x must have shape (2,), got (1,)")):
         contains(box, [1.0])
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="polytopes of dimensions 2 and 1"):
         intersect(box, Polytope.from_box([0.0], [1.0]))
-    with pytest.raises(dataclasses.FrozenInstanceError):
+    with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign to field 'A'"):
         box.A = np.eye(2)  # type: ignore[misc]
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="read-only"):
         box.A[0, 0] = 3.0  # read-only arrays
 
 
@@ -404,23 +406,29 @@ polytopes = st.integers(min_value=0, max_value=2**32 - 1).map(
 points = st.lists(st.floats(-3.0, 3.0), min_size=4, max_size=4)
 
 
+@counted
 @settings(max_examples=40, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(P=polytopes, coords=points)
 def test_minimal_representation_keeps_membership(P, coords):
+    tally().example()
     x = np.array(coords[: P.dim])
     minimal = minimal_representation(P)
     if strictly_inside(P, x, margin=1e-6):
+        tally().check()
         assert contains(minimal, x)
     slack = (P.A @ x - P.b) / np.linalg.norm(P.A, axis=1)
     if np.max(slack) > 1e-6:
+        tally().check()
         assert not contains(minimal, x)
 
 
+@counted
 @settings(max_examples=30, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(P=polytopes, coords=points, keep_first=st.booleans())
 def test_projection_agrees_with_lp_feasibility(P, coords, keep_first):
+    tally().example()
     d = P.dim
     keep = [0] if keep_first else list(range(1, d))
     shadow = project(P, keep)
@@ -429,9 +437,11 @@ def test_projection_agrees_with_lp_feasibility(P, coords, keep_first):
         assert contains(shadow, x[keep], tolerance=1e-7)
     y = x[keep]
     if strictly_inside(shadow, y, margin=1e-6):  # a point of the shadow lifts into P
+        tally().check()
         lift = solve_lp(np.zeros(d), P.A, P.b, np.eye(d)[keep], y, solver=REF)
         assert lift.found
     elif not contains(shadow, y, tolerance=1e-6):
+        tally().check()
         lift = solve_lp(np.zeros(d), P.A, P.b, np.eye(d)[keep], y, solver=REF)
         assert not lift.found
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from conftest import ROBOTS, rod_scene
@@ -87,7 +89,7 @@ BAD_SCENES = {
 def test_bad_scene_names_file_and_field(case, write_scene):
     scene_dict, field, reason = BAD_SCENES[case]
     path = write_scene(scene_dict)
-    with pytest.raises(SceneError) as info:
+    with pytest.raises(SceneError, match=re.escape(reason)) as info:
         load_scene(path)
     assert info.value.field == field
     assert reason in info.value.reason
@@ -163,7 +165,7 @@ def test_locked_joints_add_no_coordinate_and_keep_the_kinematics(write_scene):
      "zero velocity"),
 ])
 def test_bad_locked_joints(write_scene, overrides, field, reason):
-    with pytest.raises(SceneError) as info:
+    with pytest.raises(SceneError, match=re.escape(reason)) as info:
         load_scene(write_scene(rhex_scene(**overrides)))
     assert info.value.field == field and reason in info.value.reason
 
@@ -195,11 +197,11 @@ def test_model_task_and_disturbances_are_typed_when_the_scene_is_loaded(write_sc
     assert flip.disturbances == () and isinstance(flip.model, ModelOptions)
     plain = load_scene("rod_on_table")
     assert plain.task == TaskTable() and plain.model.contact == "rigid" and not plain.model.armature_given
-    with pytest.raises(SceneError) as bad_box:
+    with pytest.raises(SceneError, match=re.escape("disturbances[0].lower[0]")) as bad_box:
         load_scene(write_scene(rod_scene(disturbances=[
             {"name": "push", "link": "rod", "point": [0.0, 0.0], "lower": [1.0, 0.0], "upper": [0.0, 1.0]}])))
     assert bad_box.value.field == "disturbances[0].lower[0]"
-    with pytest.raises(SceneError) as bad_model:
+    with pytest.raises(SceneError, match=re.escape("model.stiffness")) as bad_model:
         load_scene(write_scene(rod_scene(model={"stiffness": -1.0})))
     assert bad_model.value.field == "model.stiffness"
 

@@ -118,7 +118,7 @@ BROKEN = {
 def test_a_broken_scene_names_the_exact_field(case, write_scene):
     doc, field, reason, schema_rejects = BROKEN[case]
     path = write_scene(toml_text(doc) if not isinstance(doc, str) else doc)
-    with pytest.raises(SceneError) as info:
+    with pytest.raises(SceneError, match=re.escape(reason)) as info:
         load_scene(path)
     assert info.value.field == field, info.value
     assert reason in info.value.reason, info.value
@@ -150,11 +150,11 @@ def test_frc_validate_exit_codes_and_lines(write_scene):
 
 
 def test_missing_scene_lists_the_shipped_ones_with_the_nearest(tmp_path):
-    with pytest.raises(SceneError) as info:
+    with pytest.raises(SceneError, match="did you mean 'rod_on_table'") as info:
         load_scene("rod_on_tabel")
     assert "did you mean 'rod_on_table'?" in info.value.reason
     assert all(name in info.value.reason for name in SHIPPED)
-    with pytest.raises(SceneError) as info:
+    with pytest.raises(SceneError, match="it is a directory, not a scene file") as info:
         load_scene(tmp_path)
     assert info.value.reason == "cannot read: it is a directory, not a scene file"
     (tmp_path / "latin1.toml").write_bytes(b'name = "caf\xe9"\n')
@@ -219,7 +219,7 @@ def test_overrides_set_values_and_are_checked_like_the_file(write_scene):
 def test_a_bad_override_names_its_path(assignment, field, reason):
     from frcontrol.scene_schema import parse_override
 
-    with pytest.raises(SceneError) as info:
+    with pytest.raises(SceneError, match=re.escape(reason)) as info:
         load_scene("rod_on_table", overrides=dict([parse_override(assignment)]))
     assert info.value.field == field and reason in info.value.reason
 
@@ -230,7 +230,7 @@ def test_override_grammar():
     assert parse_override("a.b=[1, 2.5]") == ("a.b", [1, 2.5])
     assert parse_override(" model.contact = compliant ") == ("model.contact", "compliant")
     assert parse_override('name="x=y"') == ("name", "x=y")
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="expected PATH=VALUE"):
         parse_override("gravity")
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pinocchio as pin
@@ -397,7 +398,7 @@ def test_bad_model_table_names_the_field(write_scene, table, field):
     from conftest import toml_text
 
     # strict scenes: [model] is checked when the scene is loaded, before a simulator reads it
-    with pytest.raises(SceneError) as info:
+    with pytest.raises(SceneError, match=re.escape(field)) as info:
         load_scene(write_scene(toml_text(box_scene([0.0, 0.25, 0.0])) + table))
     assert info.value.field == field
 
@@ -446,7 +447,7 @@ def test_bad_rigid_parameters_and_unknown_input_name(write_scene):
         simulate_rigid(scene, None, 0.01, 1e-3, stabilization=1.5)
     with pytest.raises(InputError, match="unknown LCP method"):
         simulate_rigid(scene, None, 0.01, 1e-3, lcp_method="pgs")
-    with pytest.raises(CoordinateNotFound):
+    with pytest.raises(CoordinateNotFound, match="unknown coordinate 'hip'"):
         simulate_rigid(scene, {"hip": 1.0}, 0.01, 1e-3)
 
 

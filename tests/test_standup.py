@@ -9,6 +9,7 @@ exactly one rigid solution, in the planned mode, in a fresh analysis.
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -98,7 +99,7 @@ def test_the_json_carries_the_samples_and_the_verdict(solo, stood):
     ({"task.feet": ["front_toe"]}, "task.feet[0]"),
 ])
 def test_a_bad_task_names_its_field(overrides, field):
-    with pytest.raises(SceneError) as info:
+    with pytest.raises(SceneError, match=re.escape(field)) as info:
         standup_task(load_scene("solo_standup", overrides=overrides))
     assert info.value.field == field
 

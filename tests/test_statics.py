@@ -450,7 +450,7 @@ def test_scene_level_errors(write_scene):
         contact["surface_point"] = [0.0, -0.1]
     assert static_body_from_scene(load_scene(write_scene(lifted))).normals.shape == (0, 2)
     scene = load_scene("box_on_ground")
-    with pytest.raises(CoordinateNotFound):
+    with pytest.raises(CoordinateNotFound, match="unknown coordinate 'hip'"):
         analyze_statics(scene, {"hip": 1.0})
     with pytest.raises(InputError, match="entries"):
         static_body_from_scene(scene, [1.0, 2.0])

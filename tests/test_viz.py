@@ -308,7 +308,7 @@ def test_serve_a_scene_and_refuse_a_taken_port():
             assert response.status == 200 and b"meshcat" in response.read().lower()
     finally:
         mv.stop_server(url)
-    with pytest.raises(OSError):
+    with pytest.raises(OSError, match="[Cc]onnection refused"):
         urllib.request.urlopen(url, timeout=5)
 
 
