@@ -21,12 +21,21 @@ MaxTimeOpt = Annotated[
 ]
 MarginOpt = Annotated[
     float | None,
-    typer.Option("--margin", min=0.0, help="Distance [input units] kept between every plan and every input "
-                 "where another contact mode also holds, for every phase (default: each phase's margin)."),
+    typer.Option(
+        "--margin",
+        min=0.0,
+        help="Distance [input units] kept between every plan and every input "
+        "where another contact mode also holds, for every phase (default: each phase's margin).",
+    ),
 ]
 CompliantOpt = Annotated[
-    bool, typer.Option("--compliant", help="Replay the run's inputs on the compliant model too (its samples "
-                       "under 'compliant' in the JSON).")]
+    bool,
+    typer.Option(
+        "--compliant",
+        help="Replay the run's inputs on the compliant model too (its samples "
+        "under 'compliant' in the JSON).",
+    ),
+]
 
 
 @common.handle_errors
@@ -68,21 +77,33 @@ def plan_command(
     with common.live_viewer(view, port) as server:
         with common.progress("planning the task...") as status:
             result, payload = plan_task_answer(
-                loaded, dt=dt, replan_every=replan_every, max_time=max_time, margin=margin, compliant=compliant,
-                progress=lambda t, total: status.update(f"running the task: {t:.3f} / {total:g} s"))
+                loaded,
+                dt=dt,
+                replan_every=replan_every,
+                max_time=max_time,
+                margin=margin,
+                compliant=compliant,
+                progress=lambda t, total: status.update(f"running the task: {t:.3f} / {total:g} s"),
+            )
         common.answer(payload, render, json=json)
         _outputs(loaded, result, plot=plot, html=html, out=out, json=json)
         if server is not None:
-            common.show_live(server, loaded, result.trajectory, json=json, modes=list(result.trajectory.modes or ()))
+            common.show_live(
+                server, loaded, result.trajectory, json=json, modes=list(result.trajectory.modes or ())
+            )
 
 
-def _outputs(scene: Any, result: Any, *, plot: Path | None, html: Path | None, out: Path | None, json: bool) -> None:
+def _outputs(
+    scene: Any, result: Any, *, plot: Path | None, html: Path | None, out: Path | None, json: bool
+) -> None:
     """The figure, the page and the export of the planned run."""
     trajectory = result.trajectory
     if plot is not None:
         from frcontrol.viz.plots import plot_trajectory
 
-        common.note(f"wrote {plot_trajectory(trajectory, plot, coordinates=trajectory.coordinates)}", to_stderr=json)
+        common.note(
+            f"wrote {plot_trajectory(trajectory, plot, coordinates=trajectory.coordinates)}", to_stderr=json
+        )
     common.write_motion(scene, trajectory, html=html, out=out, json=json, modes=list(trajectory.modes or ()))
 
 
@@ -94,17 +115,30 @@ def render(payload: dict[str, Any]) -> None:
     for phase in payload["phases"]:
         plans = phase["plans"]
         modes = sorted({p["mode"] for p in plans if p["found"]})
-        table.add_row(phase["name"], f"{phase['start']:.3f}", f"{phase['end']:.3f}", str(len(plans)),
-                      str(sum(not p["found"] for p in plans)), ", ".join(modes) or "-", phase["why"] or "-")
+        table.add_row(
+            phase["name"],
+            f"{phase['start']:.3f}",
+            f"{phase['end']:.3f}",
+            str(len(plans)),
+            str(sum(not p["found"] for p in plans)),
+            ", ".join(modes) or "-",
+            phase["why"] or "-",
+        )
     console.print(table)
     outcome = payload["outcome"]
     console.print("achieved: yes" if outcome["achieved"] else f"achieved: no ({outcome['reason']})")
     infeasible = outcome.get("infeasible")
     if infeasible is not None:
         closest = infeasible["closest_margin"]
-        console.print(f"no plan in phase {infeasible['phase']!r} at {infeasible['time']:.3f} s: "
-                      f"{infeasible['reason']}" + ("" if closest is None else
-                      f"; closest margin {closest:.4g} (mode {infeasible['closest_mode']})"))
+        console.print(
+            f"no plan in phase {infeasible['phase']!r} at {infeasible['time']:.3f} s: "
+            f"{infeasible['reason']}"
+            + (
+                ""
+                if closest is None
+                else f"; closest margin {closest:.4g} (mode {infeasible['closest_mode']})"
+            )
+        )
 
 
 __all__ = ["plan_command", "render"]

@@ -187,7 +187,8 @@ def plan_and_gait(scene: Scene, *, cycles: int, margin: float, seed: int, scale:
 
 def plan_task_answer(scene: Scene, *, dt: float = 1e-3, replan_every: int = 10, max_time: float | None = None,
                      margin: float | None = None, compliant: bool = False,
-                     progress: Callable[[float, float], None] | None = None) -> tuple[PlanResult, dict[str, Any]]:
+                     progress: Callable[[float, float], None] | None = None
+                     ) -> tuple[PlanResult, dict[str, Any]]:
     """``frc plan``'s and ``POST /plan``'s work: the scene's task run, and its ``--json`` document.
 
     Args:

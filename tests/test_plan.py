@@ -50,8 +50,10 @@ def travel(trajectory, scene_, name: str) -> np.ndarray:
 
 
 def within_limits(trajectory, scene_) -> bool:
-    return bool(np.all(trajectory.inputs >= scene_.inputs.lower - 1e-12)
-                and np.all(trajectory.inputs <= scene_.inputs.upper + 1e-12))
+    return bool(
+        np.all(trajectory.inputs >= scene_.inputs.lower - 1e-12)
+        and np.all(trajectory.inputs <= scene_.inputs.upper + 1e-12)
+    )
 
 
 def test_rod_pivots_about_its_tip_without_slip():
@@ -125,16 +127,19 @@ def test_an_infeasible_phase_says_which_mode_and_the_closest_margin():
     assert 0 < outcome["infeasible"]["closest_margin"] < 100
 
 
-@pytest.mark.parametrize(("assignment", "message"), [
-    ("task.phases[0].modes.lefft=F", "did you mean 'left'"),
-    ("task.phases[0].modes.left=FX", "^[SLRF]+$"),
-    ("task.phases[0].maximize.coordinate=xx", "unknown coordinate 'xx'"),
-    ("task.phases[0].until.coordinat=x", "did you mean 'coordinate'"),
-    ("task.phases[0].minimize={coordinate='x'}", "exactly one of maximize, minimize, track"),
-    ("task.phases[0].robust=true", "needs [[disturbances]]"),
-    ("task.body_contacts=['left']", "not both"),
-    ("task.phases[0].maximize={link='box', point=[0, 0]}", "direction"),
-])
+@pytest.mark.parametrize(
+    ("assignment", "message"),
+    [
+        ("task.phases[0].modes.lefft=F", "did you mean 'left'"),
+        ("task.phases[0].modes.left=FX", "^[SLRF]+$"),
+        ("task.phases[0].maximize.coordinate=xx", "unknown coordinate 'xx'"),
+        ("task.phases[0].until.coordinat=x", "did you mean 'coordinate'"),
+        ("task.phases[0].minimize={coordinate='x'}", "exactly one of maximize, minimize, track"),
+        ("task.phases[0].robust=true", "needs [[disturbances]]"),
+        ("task.body_contacts=['left']", "not both"),
+        ("task.phases[0].maximize={link='box', point=[0, 0]}", "direction"),
+    ],
+)
 def test_bad_tasks_are_one_line_errors(assignment, message):
     result = runner.invoke(app, ["plan", "box_slide", "--set", assignment])
     assert result.exit_code == 1 and result.stdout == ""
@@ -148,15 +153,25 @@ def test_a_dedicated_planners_scene_is_refused_by_read_task():
 
 
 def _random_phase(rng: np.random.Generator, contacts: list[str], coordinates: list[str]) -> Phase:
-    modes = {name: "".join(sorted(set(rng.choice(list(LETTERS), size=rng.integers(1, 4))), key=LETTERS.index))
-             for name in contacts if rng.random() < 0.7}
+    modes = {
+        name: "".join(sorted(set(rng.choice(list(LETTERS), size=rng.integers(1, 4))), key=LETTERS.index))
+        for name in contacts
+        if rng.random() < 0.7
+    }
     if rng.random() < 0.3:
-        targets = {name: float(rng.normal(scale=0.1)) for name in rng.choice(coordinates, size=2, replace=False)}
-        objective = Objective("track", targets=targets, stiffness=float(rng.uniform(0, 50)),
-                              damping=float(rng.uniform(0, 10)))
+        targets = {
+            name: float(rng.normal(scale=0.1)) for name in rng.choice(coordinates, size=2, replace=False)
+        }
+        objective = Objective(
+            "track", targets=targets, stiffness=float(rng.uniform(0, 50)), damping=float(rng.uniform(0, 10))
+        )
     else:
-        objective = Objective(str(rng.choice(["maximize", "minimize"])), coordinate=str(rng.choice(coordinates)))
-    return Phase("random", modes, float(rng.choice([0.0, 0.01, 0.1])), False, objective, Until("time", time=1.0))
+        objective = Objective(
+            str(rng.choice(["maximize", "minimize"])), coordinate=str(rng.choice(coordinates))
+        )
+    return Phase(
+        "random", modes, float(rng.choice([0.0, 0.01, 0.1])), False, objective, Until("time", time=1.0)
+    )
 
 
 @pytest.mark.slow

@@ -194,10 +194,12 @@ class ClimbRequest(SceneRequest):
 class PlanRequest(SceneRequest):
     """`POST /plan`: `frc plan SCENE --json`."""
 
-    scene: SceneField = Field("box_slide", description="As for every scene endpoint: a scene with [task] phases.")
+    scene: SceneField = Field("box_slide", description="As for every scene endpoint: a scene with [task] "
+                                                       "phases.")
     margin: float | None = Field(None, ge=0.0, description="[input units] as `--margin` (default: each "
                                  "phase's margin).")
-    max_time: float | None = Field(None, ge=0.0, description="[s] as `--max-time` (default: [task] max_time).")
+    max_time: float | None = Field(None, ge=0.0, description="[s] as `--max-time` (default: [task] "
+                                   "max_time).")
     dt: float = Field(1e-3, ge=1e-6, description="[s] as `--dt`.")
     replan_every: int = Field(10, ge=1, description="Steps between two plans, as `--replan-every`.")
     compliant: bool = Field(False, description="Replay the inputs on the compliant model, as `--compliant`.")

@@ -95,11 +95,20 @@ class Decision:
 
     def to_dict(self) -> dict[str, Any]:
         """The decision as JSON-ready values."""
-        return {"found": self.found, "mode": self.mode, "contacts": list(self.contacts),
-                "inputs": dict(self.inputs), "objective": self.objective, "margin": self.margin,
-                "robust": self.robust, "vertices": self.vertices,
-                "tried": [{"mode": m, "why": why} for m, why in self.tried], "reason": self.reason,
-                "closest_margin": self.closest_margin, "closest_mode": self.closest_mode}
+        return {
+            "found": self.found,
+            "mode": self.mode,
+            "contacts": list(self.contacts),
+            "inputs": dict(self.inputs),
+            "objective": self.objective,
+            "margin": self.margin,
+            "robust": self.robust,
+            "vertices": self.vertices,
+            "tried": [{"mode": m, "why": why} for m, why in self.tried],
+            "reason": self.reason,
+            "closest_margin": self.closest_margin,
+            "closest_mode": self.closest_mode,
+        }
 
 
 def lifted_problem(scene: Scene, problem: ContactProblem, margin: float) -> tuple[ContactProblem, np.ndarray]:
@@ -109,15 +118,19 @@ def lifted_problem(scene: Scene, problem: ContactProblem, margin: float) -> tupl
     kin = scene.robot.point_kinematics(scene.q, scene.v, [(d.link, d.point_in_link) for d in dist.items])
     jac = kin.jacobians.reshape(-1, scene.robot.nv)
     pad = DISTURBANCE_PAD + margin
-    lifted = replace(problem, inputs=problem.inputs + dist.names,
-                     input_map=np.hstack([problem.input_map, jac.T]),
-                     lower=np.concatenate([problem.lower, points.min(axis=0) - pad]),
-                     upper=np.concatenate([problem.upper, points.max(axis=0) + pad]))
+    lifted = replace(
+        problem,
+        inputs=problem.inputs + dist.names,
+        input_map=np.hstack([problem.input_map, jac.T]),
+        lower=np.concatenate([problem.lower, points.min(axis=0) - pad]),
+        upper=np.concatenate([problem.upper, points.max(axis=0) + pad]),
+    )
     return lifted, points
 
 
-def decide(scene: Scene, phase: Phase, *, problem: ContactProblem | None = None,
-           solver: str = DEFAULT_LP_SOLVER) -> Decision:
+def decide(
+    scene: Scene, phase: Phase, *, problem: ContactProblem | None = None, solver: str = DEFAULT_LP_SOLVER
+) -> Decision:
     """The phase's plan at the scene's state (see the module's docstring).
 
     Args:
@@ -129,14 +142,21 @@ def decide(scene: Scene, phase: Phase, *, problem: ContactProblem | None = None,
     Raises:
         ImpactState: a contact moves into its surface (the acceleration-level model does not apply).
     """
-    problem = problem if problem is not None else ContactProblem.from_scene(
-        scene, velocity_tolerance=VELOCITY_TOLERANCE)
+    problem = (
+        problem
+        if problem is not None
+        else ContactProblem.from_scene(scene, velocity_tolerance=VELOCITY_TOLERANCE)
+    )
     m_u = problem.m
     points = np.zeros((1, 0))
     if phase.robust:
         problem, points = lifted_problem(scene, problem, phase.margin)
-    common = {"contacts": problem.contacts, "margin": phase.margin, "robust": phase.robust,
-              "vertices": len(points)}
+    common: dict[str, Any] = {
+        "contacts": problem.contacts,
+        "margin": phase.margin,
+        "robust": phase.robust,
+        "vertices": len(points),
+    }
     absent = _absent_contacts(scene, phase, problem.contacts)
     if absent:
         return Decision(False, None, inputs={}, objective=None, tried=(), reason=absent, **common)
@@ -158,8 +178,15 @@ def decide(scene: Scene, phase: Phase, *, problem: ContactProblem | None = None,
             tried.append((mode, checked))
             continue
         names = problem.inputs[:m_u]
-        return Decision(True, mode, inputs=dict(zip(names, checked[0].tolist(), strict=True)),
-                        objective=checked[1], tried=tuple(tried), reason=None, **common)
+        return Decision(
+            True,
+            mode,
+            inputs=dict(zip(names, checked[0].tolist(), strict=True)),
+            objective=checked[1],
+            tried=tuple(tried),
+            reason=None,
+            **common,
+        )
     if not allowed:
         reason = "no feasible mode has only the allowed letters " + _letters(phase, problem.contacts)
     elif optima:
@@ -167,9 +194,17 @@ def decide(scene: Scene, phase: Phase, *, problem: ContactProblem | None = None,
     else:
         reason = f"no allowed mode has unambiguous inputs {phase.margin:g} away from every other mode"
     closest = _closest_margin(analysis, allowed, phase.margin, solver) if allowed and not optima else None
-    return Decision(False, None, inputs={}, objective=None, tried=tuple(tried), reason=reason,
-                    closest_margin=None if closest is None else closest[0],
-                    closest_mode=None if closest is None else closest[1], **common)
+    return Decision(
+        False,
+        None,
+        inputs={},
+        objective=None,
+        tried=tuple(tried),
+        reason=reason,
+        closest_margin=None if closest is None else closest[0],
+        closest_mode=None if closest is None else closest[1],
+        **common,
+    )
 
 
 def _letters(phase: Phase, contacts: tuple[str, ...]) -> str:
@@ -185,8 +220,15 @@ def _absent_contacts(scene: Scene, phase: Phase, active: tuple[str, ...]) -> str
     return None
 
 
-def _mode_optima(analysis: DynamicResponse, mode: str, margin: float, rows: ObjectiveRows,
-                 points: np.ndarray, m_u: int, solver: str) -> list[tuple[float, np.ndarray]] | str:
+def _mode_optima(
+    analysis: DynamicResponse,
+    mode: str,
+    margin: float,
+    rows: ObjectiveRows,
+    points: np.ndarray,
+    m_u: int,
+    solver: str,
+) -> list[tuple[float, np.ndarray]] | str:
     """``(cost, u)`` of every piece's optimum of ``mode`` (cost: lower is better), or why none."""
     chosen = analysis.mode(mode)
     if not chosen.inputs_full_dimensional:
@@ -209,8 +251,16 @@ def _mode_optima(analysis: DynamicResponse, mode: str, margin: float, rows: Obje
     return out if out else "no piece's LP has a solution"
 
 
-def _piece_lp(A: np.ndarray, b: np.ndarray, gain: np.ndarray, bias: np.ndarray, rows: ObjectiveRows,
-              points: np.ndarray, m_u: int, solver: str) -> tuple[float, np.ndarray] | None:
+def _piece_lp(
+    A: np.ndarray,
+    b: np.ndarray,
+    gain: np.ndarray,
+    bias: np.ndarray,
+    rows: ObjectiveRows,
+    points: np.ndarray,
+    m_u: int,
+    solver: str,
+) -> tuple[float, np.ndarray] | None:
     """One LP over ``(u, t)`` on a piece ``A z <= b``, every constraint once per point of V."""
     k = len(bias) if rows.kind == "track" else 1
     A_u, A_d = A[:, :m_u], A[:, m_u:]
@@ -240,9 +290,15 @@ def _round(u: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     return np.minimum(np.maximum(rounded, lower), upper) + 0.0
 
 
-def _verify(analysis: DynamicResponse, mode: str, u: np.ndarray, points: np.ndarray, rows: ObjectiveRows,
-            problem: ContactProblem) -> tuple[np.ndarray, float] | str:
-    """``(rounded u, objective)`` when ``solutions_at`` gives exactly ``mode`` at every point, else why not."""
+def _verify(
+    analysis: DynamicResponse,
+    mode: str,
+    u: np.ndarray,
+    points: np.ndarray,
+    rows: ObjectiveRows,
+    problem: ContactProblem,
+) -> tuple[np.ndarray, float] | str:
+    """``(rounded u, objective)`` when ``solutions_at`` gives only ``mode`` at every point, else why not."""
     m_u = len(u)
     rounded = _round(u, problem.lower[:m_u], problem.upper[:m_u])
     values = []
@@ -256,18 +312,22 @@ def _verify(analysis: DynamicResponse, mode: str, u: np.ndarray, points: np.ndar
     return rounded, worst
 
 
-def _closest_margin(analysis: DynamicResponse, modes: list[str], margin: float, solver: str
-                    ) -> tuple[float, str] | None:
+def _closest_margin(
+    analysis: DynamicResponse, modes: list[str], margin: float, solver: str
+) -> tuple[float, str] | None:
     """The largest margin in [0, margin] at which one of ``modes`` has unambiguous inputs, and the mode."""
     best: tuple[float, str] | None = None
     for mode in modes:
-        if not analysis.mode(mode).inputs_full_dimensional or not margin_pieces(analysis, mode, 0.0,
-                                                                                solver=solver):
+        if not analysis.mode(mode).inputs_full_dimensional or not margin_pieces(
+            analysis, mode, 0.0, solver=solver
+        ):
             continue
         low, high = 0.0, margin
         for _ in range(CLOSEST_MARGIN_STEPS):
             middle = 0.5 * (low + high)
-            low, high = (middle, high) if margin_pieces(analysis, mode, middle, solver=solver) else (low, middle)
+            low, high = (
+                (middle, high) if margin_pieces(analysis, mode, middle, solver=solver) else (low, middle)
+            )
         if best is None or low > best[0]:
             best = (low, mode)
     return best

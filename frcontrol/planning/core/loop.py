@@ -63,8 +63,12 @@ class PhaseRecord:
 def contact_gaps(scene: Scene, q: np.ndarray) -> np.ndarray:
     """Every contact's gap [m] at ``q`` (along its normal, from its surface point)."""
     points = scene.robot.contact_points_in_world(q)
-    return np.array([c.point.normal_in_world @ (p - c.point.surface_point_in_world)
-                     for c, p in zip(scene.contacts, points, strict=True)]).reshape(-1)
+    return np.array(
+        [
+            c.point.normal_in_world @ (p - c.point.surface_point_in_world)
+            for c, p in zip(scene.contacts, points, strict=True)
+        ]
+    ).reshape(-1)
 
 
 def until_met(scene: Scene, until: Until, q: np.ndarray, elapsed: float) -> bool:
@@ -77,12 +81,14 @@ def until_met(scene: Scene, until: Until, q: np.ndarray, elapsed: float) -> bool
         return value >= until.above if until.above is not None else value <= float(until.below)  # type: ignore[arg-type]
     gaps = contact_gaps(scene, q)
     names = [c.name for c in scene.contacts]
-    return all((gaps[names.index(name)] <= SEPARATION_GAP) == (state == "closed")
-               for name, state in until.contacts.items())
+    return all(
+        (gaps[names.index(name)] <= SEPARATION_GAP) == (state == "closed")
+        for name, state in until.contacts.items()
+    )
 
 
 class _TaskPolicy:
-    """The closed loop's policy: the current phase's plan at the state reached, phases advanced on ``until``."""
+    """The closed loop's policy: the phase's plan at the state reached; phases advance on ``until``."""
 
     def __init__(self, scene: Scene, task: Task, solver: str, margin: float | None) -> None:
         self.scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
@@ -113,8 +119,9 @@ class _TaskPolicy:
         except FrcontrolError as err:
             decision = _held(self.phase, str(err))
         if decision.found:
-            self.command = np.array([decision.inputs.get(n, c) for n, c in zip(self.names, self.command,
-                                                                                 strict=True)])
+            self.command = np.array(
+                [decision.inputs.get(n, c) for n, c in zip(self.names, self.command, strict=True)]
+            )
         self.records[-1].decisions.append((t, decision))
         return self.command
 
@@ -124,7 +131,9 @@ class _TaskPolicy:
             return self.scene, None
         loaded = stepper.last_forces[:, 0] > self.force_tolerance
         here = self.scene.at(stepper.q, stepper.v)
-        contacts = tuple(Contact(c.point, c.gap, bool(c.active or loaded[i])) for i, c in enumerate(here.contacts))
+        contacts = tuple(
+            Contact(c.point, c.gap, bool(c.active or loaded[i])) for i, c in enumerate(here.contacts)
+        )
         here = replace(here, contacts=contacts)
         problem = ContactProblem.from_scene(here, velocity_tolerance=REPLAN_VELOCITY_TOLERANCE)
         down = np.array([bool(loaded[i]) for i, c in enumerate(contacts) if c.active], dtype=bool)
@@ -184,9 +193,17 @@ class TaskRun:
     timings: dict[str, float]
 
 
-def run_task(scene: Scene, task: Task, *, dt: float = 1e-3, replan_every: int = 10, max_time: float | None = None,
-             margin: float | None = None, solver: str = DEFAULT_LP_SOLVER,
-             progress: Callable[[float, float], None] | None = None) -> TaskRun:
+def run_task(
+    scene: Scene,
+    task: Task,
+    *,
+    dt: float = 1e-3,
+    replan_every: int = 10,
+    max_time: float | None = None,
+    margin: float | None = None,
+    solver: str = DEFAULT_LP_SOLVER,
+    progress: Callable[[float, float], None] | None = None,
+) -> TaskRun:
     """Plan and re-plan ``task`` along one rigid run (see the module's docstring).
 
     Args:
@@ -209,15 +226,37 @@ def run_task(scene: Scene, task: Task, *, dt: float = 1e-3, replan_every: int = 
     duration = task.max_time if max_time is None else max_time
     policy = _TaskPolicy(scene, task, solver, margin)
     armature = scene.model.armature if scene.model.armature_given else None
-    stepper = RigidStepper(policy.scene, RigidSettings(max_ambiguity_checks=0, impact_law=False), armature=armature)
+    stepper = RigidStepper(
+        policy.scene, RigidSettings(max_ambiguity_checks=0, impact_law=False), armature=armature
+    )
     first = policy.plan(None)
-    run = run_closed_loop(stepper, policy, duration, dt, every=replan_every, command=first,
-                          actuate=policy.actuate, stop=policy.stop, progress=progress)
+    run = run_closed_loop(
+        stepper,
+        policy,
+        duration,
+        dt,
+        every=replan_every,
+        command=first,
+        actuate=policy.actuate,
+        stop=policy.stop,
+        progress=progress,
+    )
     last = policy.records[-1]
     if last.end is None:
         last.end = float(run.trajectory.times[-1])
         failure = getattr(run.trajectory, "failure", None)
-        last.why = (f"the simulation {run.trajectory.status}: {failure.reason}" if failure is not None
-                    else f"max_time {duration:g} s reached")
-    return TaskRun(tuple(policy.records), run.trajectory, policy.done, run.decisions + 1, dt, duration,
-                   replan_every, {"planning": run.timings["policy"], "simulation": run.timings["simulation"]})
+        last.why = (
+            f"the simulation {run.trajectory.status}: {failure.reason}"
+            if failure is not None
+            else f"max_time {duration:g} s reached"
+        )
+    return TaskRun(
+        tuple(policy.records),
+        run.trajectory,
+        policy.done,
+        run.decisions + 1,
+        dt,
+        duration,
+        replan_every,
+        {"planning": run.timings["policy"], "simulation": run.timings["simulation"]},
+    )

@@ -74,8 +74,9 @@ def objective_rows(scene: Scene, objective: Objective, q: np.ndarray, v: np.ndar
         return ObjectiveRows("track", rows, np.zeros(len(idx)), targets, weights, names)
     if objective.coordinate is not None:
         row = np.eye(n)[coords.index(objective.coordinate)][None, :]
-        return ObjectiveRows(objective.kind, row, np.zeros(1), np.zeros(0), np.zeros(0),
-                             (objective.coordinate,))
+        return ObjectiveRows(
+            objective.kind, row, np.zeros(1), np.zeros(0), np.zeros(0), (objective.coordinate,)
+        )
     assert objective.link is not None and objective.point is not None and objective.direction is not None
     kin = scene.robot.point_kinematics(q, v, [(objective.link, np.asarray(objective.point))])
     direction = np.asarray(objective.direction, dtype=float)

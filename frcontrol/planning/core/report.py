@@ -61,19 +61,32 @@ class PlanResult:
             "task": dict(self.task.raw),
             "phases": [_phase_dict(r) for r in self.run.records],
             "outcome": _outcome(self.run),
-            "tolerances": {"rounding": TORQUE_ROUNDING, "separation_gap": SEPARATION_GAP,
-                           "replan_gap": REPLAN_GAP_TOLERANCE, "replan_velocity": REPLAN_VELOCITY_TOLERANCE,
-                           "closest_margin_steps": CLOSEST_MARGIN_STEPS},
-            "simulation": {"model": "rigid", "status": self.trajectory.status, "dt": self.run.dt,
-                           "max_time": self.run.max_time, "replan_every": self.run.replan_every,
-                           "decisions": self.run.decisions, "samples": document["samples"],
-                           "events": document["summary"]["events"]},
+            "tolerances": {
+                "rounding": TORQUE_ROUNDING,
+                "separation_gap": SEPARATION_GAP,
+                "replan_gap": REPLAN_GAP_TOLERANCE,
+                "replan_velocity": REPLAN_VELOCITY_TOLERANCE,
+                "closest_margin_steps": CLOSEST_MARGIN_STEPS,
+            },
+            "simulation": {
+                "model": "rigid",
+                "status": self.trajectory.status,
+                "dt": self.run.dt,
+                "max_time": self.run.max_time,
+                "replan_every": self.run.replan_every,
+                "decisions": self.run.decisions,
+                "samples": document["samples"],
+                "events": document["summary"]["events"],
+            },
             "timings": dict(self.timings),
         }
         if self.compliant is not None:
             replay = self.compliant.to_dict(scene)
-            payload["compliant"] = {"model": "compliant", "status": self.compliant.status,
-                                    "samples": replay["samples"]}
+            payload["compliant"] = {
+                "model": "compliant",
+                "status": self.compliant.status,
+                "samples": replay["samples"],
+            }
         return to_jsonable(payload)
 
 
@@ -82,29 +95,44 @@ def _plan_dict(t: float, decision: Decision) -> dict[str, Any]:
 
 
 def _phase_dict(record: PhaseRecord) -> dict[str, Any]:
-    return {"name": record.name, "start": record.start, "end": record.end, "why": record.why, "met": record.met,
-            "plans": [_plan_dict(t, d) for t, d in record.decisions]}
+    return {
+        "name": record.name,
+        "start": record.start,
+        "end": record.end,
+        "why": record.why,
+        "met": record.met,
+        "plans": [_plan_dict(t, d) for t, d in record.decisions],
+    }
 
 
 def _outcome(run: TaskRun) -> dict[str, Any]:
     """``achieved``, ``reason``, and the first phase whose decision found no plan (``infeasible``)."""
     last = run.records[-1]
-    outcome: dict[str, Any] = {"achieved": run.achieved, "reason": None if run.achieved else
-                               f"phase {last.name!r} ended: {last.why}"}
+    outcome: dict[str, Any] = {
+        "achieved": run.achieved,
+        "reason": None if run.achieved else f"phase {last.name!r} ended: {last.why}",
+    }
     for record in run.records:
         failed = [(t, d) for t, d in record.decisions if not d.found]
         if failed:
             t, d = failed[0]
             outcome["infeasible"] = {
-                "phase": record.name, "time": t, "reason": d.reason,
+                "phase": record.name,
+                "time": t,
+                "reason": d.reason,
                 "modes": [{"mode": m, "why": why} for m, why in d.tried],
-                "closest_margin": d.closest_margin, "closest_mode": d.closest_mode, "margin": d.margin}
+                "closest_margin": d.closest_margin,
+                "closest_mode": d.closest_mode,
+                "margin": d.margin,
+            }
             break
     return outcome
 
 
-def schedule_of(run: TaskRun, trajectory: Trajectory) -> Callable[[float, np.ndarray, np.ndarray], np.ndarray]:
-    """The inputs the rigid run applied, as ``(t, q, v) -> u``: each sample's inputs held over its interval."""
+def schedule_of(
+    run: TaskRun, trajectory: Trajectory
+) -> Callable[[float, np.ndarray, np.ndarray], np.ndarray]:
+    """The inputs the rigid run applied, as ``(t, q, v) -> u``, each sample's held over its interval."""
     times = np.asarray(trajectory.times)
     inputs = np.asarray(trajectory.inputs)
 
@@ -115,9 +143,17 @@ def schedule_of(run: TaskRun, trajectory: Trajectory) -> Callable[[float, np.nda
     return schedule
 
 
-def plan_task(scene: Scene, *, dt: float = 1e-3, replan_every: int = 10, max_time: float | None = None,
-              margin: float | None = None, compliant: bool = False, solver: str = DEFAULT_LP_SOLVER,
-              progress: Callable[[float, float], None] | None = None) -> PlanResult:
+def plan_task(
+    scene: Scene,
+    *,
+    dt: float = 1e-3,
+    replan_every: int = 10,
+    max_time: float | None = None,
+    margin: float | None = None,
+    compliant: bool = False,
+    solver: str = DEFAULT_LP_SOLVER,
+    progress: Callable[[float, float], None] | None = None,
+) -> PlanResult:
     """Read the scene's task, run it (:func:`~.loop.run_task`) and, with ``compliant``, replay its inputs.
 
     Raises:
@@ -126,20 +162,33 @@ def plan_task(scene: Scene, *, dt: float = 1e-3, replan_every: int = 10, max_tim
     """
     start = time.perf_counter()
     task = read_task(scene)
-    run = run_task(scene, task, dt=dt, replan_every=replan_every, max_time=max_time, margin=margin,
-                   solver=solver, progress=progress)
+    run = run_task(
+        scene,
+        task,
+        dt=dt,
+        replan_every=replan_every,
+        max_time=max_time,
+        margin=margin,
+        solver=solver,
+        progress=progress,
+    )
     trajectory = run.trajectory
     assert isinstance(trajectory, Trajectory)
     from dataclasses import replace
 
-    trajectory = replace(trajectory, modes=tuple(sample_modes(scene, trajectory)),
-                         info={**trajectory.info, "source": "plan_task"})
+    trajectory = replace(
+        trajectory,
+        modes=tuple(sample_modes(scene, trajectory)),
+        info={**trajectory.info, "source": "plan_task"},
+    )
     t0 = time.perf_counter()
     replay = None
     if compliant:
         from ...simulation.compliant import simulate_compliant
 
         duration = float(trajectory.times[-1])
-        replay = simulate_compliant(scene, schedule_of(run, trajectory), duration, dt) if duration > 0 else None
+        replay = (
+            simulate_compliant(scene, schedule_of(run, trajectory), duration, dt) if duration > 0 else None
+        )
     timings = {**run.timings, "compliant": time.perf_counter() - t0, "total": time.perf_counter() - start}
     return PlanResult(task, run, trajectory, replay, timings)

@@ -119,7 +119,9 @@ class Phase:
 
     def allows(self, contacts: tuple[str, ...], mode: str) -> bool:
         """Whether ``mode`` (one letter per contact of ``contacts``) has only allowed letters."""
-        return all(letter in self.modes.get(name, LETTERS) for name, letter in zip(contacts, mode, strict=True))
+        return all(
+            letter in self.modes.get(name, LETTERS) for name, letter in zip(contacts, mode, strict=True)
+        )
 
 
 @dataclass(frozen=True)
@@ -155,8 +157,12 @@ def read_task(scene: Scene) -> Task:
     raw = scene.raw.get("task")
     if not isinstance(raw, Mapping) or "phases" not in raw:
         hint = _dedicated_hint(raw)
-        raise SceneError(path, "task.phases", "missing: frc plan runs a task given as [[task.phases]] "
-                         f"(name, modes, margin, maximize/minimize/track, until){hint}")
+        raise SceneError(
+            path,
+            "task.phases",
+            "missing: frc plan runs a task given as [[task.phases]] "
+            f"(name, modes, margin, maximize/minimize/track, until){hint}",
+        )
     phases = tuple(_phase(scene, p, f"task.phases[{i}]") for i, p in enumerate(raw["phases"]))
     return Task(float(raw.get("max_time", DEFAULT_MAX_TIME)), int(raw.get("repeat", 1)), phases, dict(raw))
 
@@ -164,8 +170,12 @@ def read_task(scene: Scene) -> Task:
 def _dedicated_hint(raw: Any) -> str:
     if not isinstance(raw, Mapping):
         return ""
-    for key, command in (("body_contacts", "frc flip"), ("head_link", "frc climb"),
-                         ("brace_contacts", "frc climb"), ("feet", "frc standup")):
+    for key, command in (
+        ("body_contacts", "frc flip"),
+        ("head_link", "frc climb"),
+        ("brace_contacts", "frc climb"),
+        ("feet", "frc standup"),
+    ):
         if key in raw:
             return f"; this scene's [task] is for {command}"
     return ""
@@ -174,30 +184,51 @@ def _dedicated_hint(raw: Any) -> str:
 def _phase(scene: Scene, raw: Mapping[str, Any], where: str) -> Phase:
     kind = next(k for k in ("maximize", "minimize", "track") if k in raw)
     if raw.get("robust", False) and not scene.disturbances:
-        raise SceneError(str(scene.path), f"{where}.robust", "a robust phase needs [[disturbances]] "
-                         "(their vertices are the disturbances it must hold for); the scene has none")
+        raise SceneError(
+            str(scene.path),
+            f"{where}.robust",
+            "a robust phase needs [[disturbances]] "
+            "(their vertices are the disturbances it must hold for); the scene has none",
+        )
     modes = {str(k): "".join(sorted(set(v), key=LETTERS.index)) for k, v in raw.get("modes", {}).items()}
-    return Phase(str(raw["name"]), modes, float(raw.get("margin", DEFAULT_PHASE_MARGIN)),
-                 bool(raw.get("robust", False)), _objective(kind, raw[kind]), _until(raw["until"]))
+    return Phase(
+        str(raw["name"]),
+        modes,
+        float(raw.get("margin", DEFAULT_PHASE_MARGIN)),
+        bool(raw.get("robust", False)),
+        _objective(kind, raw[kind]),
+        _until(raw["until"]),
+    )
 
 
 def _objective(kind: str, raw: Mapping[str, Any]) -> Objective:
     if kind == "track":
-        return Objective(kind, targets={str(k): float(v) for k, v in raw["coordinates"].items()},
-                         stiffness=float(raw.get("stiffness", 0.0)), damping=float(raw.get("damping", 0.0)),
-                         weights={str(k): float(v) for k, v in raw.get("weights", {}).items()})
+        return Objective(
+            kind,
+            targets={str(k): float(v) for k, v in raw["coordinates"].items()},
+            stiffness=float(raw.get("stiffness", 0.0)),
+            damping=float(raw.get("damping", 0.0)),
+            weights={str(k): float(v) for k, v in raw.get("weights", {}).items()},
+        )
     if "coordinate" in raw:
         return Objective(kind, coordinate=str(raw["coordinate"]))
     direction = np.asarray(raw["direction"], dtype=float)
-    return Objective(kind, link=str(raw["link"]), point=(float(raw["point"][0]), float(raw["point"][1])),
-                     direction=(float(direction[0]), float(direction[1])))
+    return Objective(
+        kind,
+        link=str(raw["link"]),
+        point=(float(raw["point"][0]), float(raw["point"][1])),
+        direction=(float(direction[0]), float(direction[1])),
+    )
 
 
 def _until(raw: Mapping[str, Any]) -> Until:
     if "coordinate" in raw:
-        return Until("coordinate", coordinate=str(raw["coordinate"]),
-                     above=None if "above" not in raw else float(raw["above"]),
-                     below=None if "below" not in raw else float(raw["below"]))
+        return Until(
+            "coordinate",
+            coordinate=str(raw["coordinate"]),
+            above=None if "above" not in raw else float(raw["above"]),
+            below=None if "below" not in raw else float(raw["below"]),
+        )
     if "time" in raw:
         return Until("time", time=float(raw["time"]))
     return Until("contact", contacts={str(k): str(v) for k, v in raw["contact"].items()})
