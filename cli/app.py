@@ -15,6 +15,7 @@ from . import (
     climb_cmd,
     flip_cmd,
     model_cmds,
+    plan_cmd,
     scene_cmds,
     serve_cmd,
     simulate_cmd,
@@ -72,6 +73,7 @@ app.command("simulate")(simulate_cmd.simulate_command)
 app.command("flip")(flip_cmd.flip_command)
 app.command("climb")(climb_cmd.climb_command)
 app.command("standup")(standup_cmd.standup_command)
+app.command("plan")(plan_cmd.plan_command)
 app.command("atlas")(atlas_cmd.atlas_command)
 app.command("schema")(scene_cmds.schema_command)
 app.command("validate")(scene_cmds.validate_command)

@@ -16,6 +16,7 @@ from .errors import InputError
 if TYPE_CHECKING:
     from .engine import DynamicResponse, RigidSolution
     from .planning.climb import ClimbPlan, ClimbResult
+    from .planning.core import PlanResult
     from .planning.flip import FlipPlan, FlipResult
     from .planning.gait import GaitPlan, GaitResult
     from .scene import Scene
@@ -184,6 +185,31 @@ def plan_and_gait(scene: Scene, *, cycles: int, margin: float, seed: int, scale:
     return plan, simulate_gait(plan, seed=seed, scale=scale, progress=progress)
 
 
+def plan_task_answer(scene: Scene, *, dt: float = 1e-3, replan_every: int = 10, max_time: float | None = None,
+                     margin: float | None = None, compliant: bool = False,
+                     progress: Callable[[float, float], None] | None = None
+                     ) -> tuple[PlanResult, dict[str, Any]]:
+    """``frc plan``'s and ``POST /plan``'s work: the scene's task run, and its ``--json`` document.
+
+    Args:
+        scene: a scene whose ``[task]`` is given as ``[[task.phases]]``.
+        dt: [s] the rigid step.
+        replan_every: steps between two plans.
+        max_time: [s] the longest simulated time (default: the task's ``max_time``).
+        margin: [input units] every phase's margin (default: each phase's own).
+        compliant: replay the applied inputs on the compliant model too.
+        progress: called with (simulated time, max_time) along the run.
+
+    Raises:
+        SceneError: the scene has no task given as phases; InputError: a bad step, time or margin.
+    """
+    from .planning.core import plan_task
+
+    result = plan_task(scene, dt=dt, replan_every=replan_every, max_time=max_time, margin=margin,
+                       compliant=compliant, progress=progress)
+    return result, result.to_dict(scene)
+
+
 __all__ = [
     "CONTACT_MODELS",
     "analysis_and_solutions",
@@ -191,6 +217,7 @@ __all__ = [
     "plan_and_climb",
     "plan_and_fly",
     "plan_and_gait",
+    "plan_task_answer",
     "run_simulation",
     "simulation_failure",
     "solutions_payload",

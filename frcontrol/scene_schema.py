@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -58,6 +59,68 @@ _NUMBER = {"type": "number"}
 _PAIR = {"type": "array", "items": _NUMBER, "minItems": 2, "maxItems": 2}
 _NUMBERS = {"type": "array", "items": _NUMBER}
 _NAMES = {"type": "array", "items": {"type": "string", "minLength": 1}}
+
+_OBJECTIVE = {
+    "type": "object",
+    "additionalProperties": False,
+    "description": "a coordinate's acceleration, or a point's acceleration along a direction",
+    "properties": {
+        "coordinate": {"type": "string", "x-refers": "coordinate",
+                       "description": "the coordinate whose acceleration is the objective"},
+        "link": {"type": "string", "x-refers": "link", "description": "the link of the point"},
+        "point": {**_PAIR, "description": "[m] the point, in the link's frame"},
+        "direction": {**_PAIR, "description": "[-] the world direction of its acceleration"},
+    },
+}
+_PHASE = {
+    "type": "object",
+    "additionalProperties": False,
+    "required": ["name", "until"],
+    "properties": {
+        "name": {"type": "string", "minLength": 1, "description": "the phase's name"},
+        "modes": {"type": "object", "x-refers-keys": "contact",
+                  "description": "allowed mode letters (S, L, R, F) per contact; a contact not named: any",
+                  "additionalProperties": {"type": "string", "minLength": 1, "pattern": "^[SLRF]+$"}},
+        "margin": {"type": "number", "minimum": 0,
+                   "description": "[input units] distance kept inside the allowed modes' unambiguous set"},
+        "robust": {"type": "boolean",
+                   "description": "hold the allowed modes for every vertex of every [[disturbances]]"},
+        "maximize": {**_OBJECTIVE, "description": "maximise an acceleration"},
+        "minimize": {**_OBJECTIVE, "description": "minimise an acceleration"},
+        "track": {
+            "type": "object",
+            "additionalProperties": False,
+            "required": ["coordinates"],
+            "description": "least (weighted L1) distance of the accelerations to a PD target",
+            "properties": {
+                "coordinates": {"type": "object", "x-refers-keys": "coordinate", "minProperties": 1,
+                                "additionalProperties": {"type": "number"},
+                                "description": "[m or rad] the target of each coordinate"},
+                "stiffness": {"type": "number", "minimum": 0, "description": "[1/s^2] the PD stiffness"},
+                "damping": {"type": "number", "minimum": 0, "description": "[1/s] the PD damping"},
+                "weights": {"type": "object", "x-refers-keys": "coordinate",
+                            "additionalProperties": {"type": "number", "minimum": 0},
+                            "description": "[-] weight of each coordinate's error (default 1)"},
+            },
+        },
+        "until": {
+            "type": "object",
+            "additionalProperties": False,
+            "description": "when the phase ends: one of coordinate (with above or below), time, contact",
+            "properties": {
+                "coordinate": {"type": "string", "x-refers": "coordinate",
+                               "description": "the coordinate compared"},
+                "above": {"type": "number", "description": "ends when the coordinate passes above this"},
+                "below": {"type": "number", "description": "ends when the coordinate passes below this"},
+                "time": {"type": "number", "exclusiveMinimum": 0,
+                         "description": "[s] ends this long after the phase starts"},
+                "contact": {"type": "object", "x-refers-keys": "contact", "minProperties": 1,
+                            "additionalProperties": {"enum": ["closed", "open"]},
+                            "description": "ends when every named contact is closed or open"},
+            },
+        },
+    },
+}
 
 
 def _number(description: str, **bounds: float) -> dict[str, Any]:
@@ -248,8 +311,15 @@ SCENE_SCHEMA: dict[str, Any] = {
         "task": {
             "type": "object",
             "additionalProperties": False,
-            "description": "what the planners need; each planner reads its own keys",
+            "description": "what the planners need: either a task as phases (frc plan: max_time, "
+                           "repeat, phases) or a dedicated planner's keys (frc flip, climb, standup), "
+                           "not both",
             "properties": {
+                "max_time": _number("plan: [s] the longest simulated time of the task", exclusiveMinimum=0),
+                "repeat": {"type": "integer", "minimum": 1,
+                           "description": "plan: how many times the phases run, in order"},
+                "phases": {"type": "array", "minItems": 1, "items": _PHASE,
+                           "description": "plan: the task's phases, run in order"},
                 "body_contacts": {**_NAMES, "minItems": 1, "x-refers": "contact",
                                   "description": "flip: the body's contacts"},
                 "pitch": {"type": "string", "x-refers": "coordinate",
@@ -365,11 +435,21 @@ def _check(doc: Any, schema: Mapping[str, Any], path: str, out: list[SchemaProbl
             fail(f"expected > {schema['exclusiveMinimum']:g}, got {doc!r}")
         elif "maximum" in schema and doc > schema["maximum"]:
             fail(f"expected <= {schema['maximum']:g}, got {doc!r}")
+    elif kind == "integer":
+        if isinstance(doc, bool) or not isinstance(doc, int):
+            fail(f"expected an integer, got {_type_name(doc)} ({doc!r})")
+        elif "minimum" in schema and doc < schema["minimum"]:
+            fail(f"expected >= {schema['minimum']:g}, got {doc!r}")
+    elif kind == "boolean":
+        if not isinstance(doc, bool):
+            fail(f"expected true or false, got {_type_name(doc)} ({doc!r})")
     elif kind == "string":
         if not isinstance(doc, str):
             fail(f"expected a string, got {_type_name(doc)} ({doc!r})")
         elif len(doc) < schema.get("minLength", 0):
             fail("expected a non-empty string")
+        elif "pattern" in schema and re.fullmatch(schema["pattern"], doc) is None:
+            fail(f"expected a string matching {schema['pattern']}, got {doc!r}")
     elif kind == "array":
         if not isinstance(doc, list):
             fail(f"expected a list, got {_type_name(doc)} ({doc!r})")
@@ -395,6 +475,8 @@ def _check(doc: Any, schema: Mapping[str, Any], path: str, out: list[SchemaProbl
             elif extra is False:
                 kind_name = "field" if not path else "key"
                 fail(_unknown(kind_name, str(key), _table_label(path, doc), list(properties)), where)
+        if len(doc) < schema.get("minProperties", 0):
+            fail(f"expected at least {schema['minProperties']} key(s){_table_label(path, doc)}")
         for key in schema.get("required", []):
             if key not in doc:
                 where = f"{path}.{key}" if path else key
@@ -410,6 +492,55 @@ def schema_problems(doc: Any) -> list[SchemaProblem]:
         for i, table in enumerate(doc["disturbances"]):
             if isinstance(table, Mapping):
                 out.extend(_disturbance_shape(table, f"disturbances[{i}]"))
+    if isinstance(doc, Mapping) and isinstance(doc.get("task"), Mapping):
+        out.extend(_task_shape(doc["task"]))
+    return out
+
+
+PHASED_TASK_KEYS = ("max_time", "repeat", "phases")
+"""The keys of a task given as phases (``frc plan``); the other ``[task]`` keys are the dedicated
+planners' (``frc flip``, ``frc climb``, ``frc standup``)."""
+
+
+def _task_shape(task: Mapping[str, Any]) -> list[SchemaProblem]:
+    """A ``[task]`` is phases or a dedicated planner's keys, not both; a phase has one objective."""
+    out = []
+    phased = [k for k in task if k in PHASED_TASK_KEYS]
+    dedicated = [k for k in task if k not in PHASED_TASK_KEYS]
+    if phased and dedicated:
+        out.append(SchemaProblem(f"task.{dedicated[0]}", f"a [task] with {phased[0]} is a task as "
+                                 "phases (frc plan): give either phases or a dedicated planner's keys "
+                                 f"({', '.join(dedicated)}), not both"))
+    if phased and "phases" not in task:
+        out.append(SchemaProblem("task.phases", "missing: a task as phases needs [[task.phases]]"))
+    phases = task.get("phases")
+    for i, phase in enumerate(phases if isinstance(phases, list) else []):
+        if isinstance(phase, Mapping):
+            out.extend(_phase_shape(phase, f"task.phases[{i}]"))
+    return out
+
+
+def _phase_shape(phase: Mapping[str, Any], where: str) -> list[SchemaProblem]:
+    """One of maximize, minimize, track; ``until`` one condition, a coordinate with above or below."""
+    objectives = [k for k in ("maximize", "minimize", "track") if k in phase]
+    if len(objectives) != 1:
+        got = ", ".join(objectives) or "none"
+        return [SchemaProblem(where, f"a phase needs exactly one of maximize, minimize, track (got {got})")]
+    out = []
+    objective = phase[objectives[0]]
+    if objectives[0] != "track" and isinstance(objective, Mapping):
+        point = [k for k in ("link", "point", "direction") if k in objective]
+        if ("coordinate" in objective) == bool(point) or (point and len(point) != 3):
+            out.append(SchemaProblem(f"{where}.{objectives[0]}", "expected either coordinate = NAME, or "
+                                     "link, point = [x, y] and direction = [dx, dy]"))
+    until = phase.get("until")
+    if isinstance(until, Mapping):
+        kinds = [k for k in ("coordinate", "time", "contact") if k in until]
+        bounds = [k for k in ("above", "below") if k in until]
+        if len(kinds) != 1 or (kinds == ["coordinate"]) != (len(bounds) == 1) or (bounds and not kinds):
+            out.append(SchemaProblem(f"{where}.until", "expected one condition: coordinate = NAME with "
+                                     "above = X or below = X, or time = T [s], or contact = { NAME = "
+                                     "'closed' | 'open' }"))
     return out
 
 

@@ -9,7 +9,8 @@ from typer.testing import CliRunner
 
 runner = CliRunner()
 COMMANDS = typer.main.get_command(app).commands
-READS_A_SCENE = {"show", "analyze", "statics", "simulate", "flip", "climb", "standup", "view", "atlas"}
+READS_A_SCENE = {"show", "analyze", "statics", "simulate", "flip", "climb", "standup", "plan", "view",
+                 "atlas"}
 
 
 @pytest.mark.parametrize("name", sorted(COMMANDS))

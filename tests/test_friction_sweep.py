@@ -29,6 +29,7 @@ SCENES = [name for name in shipped_scene_names() if len(load_scene(name).contact
 
 ILL_CONDITIONED = {
     ("box_on_ground", 1e8): "LL",
+    ("box_slide", 1e8): "LL",  # the same box and contacts as box_on_ground
     ("box_on_slope", 1e5): "LL", ("box_on_slope", 1e8): "LF",
     ("disk_in_wedge", 1e8): "SL",
     ("peg_on_surface", 1e7): "LL", ("peg_on_surface", 1e8): "LL",

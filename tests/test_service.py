@@ -744,3 +744,14 @@ def test_finished_job_results_are_capped_in_bytes_oldest_dropped_first():
         present = [r.status_code == 200 for r in kept]
         assert present[-1] and not present[0] and present == sorted(present), present  # the oldest go
         assert sum(len(json.dumps(r.json()["result"])) for r in kept if r.status_code == 200) <= 2048
+
+
+def test_post_plan_answers_frc_plan_json(client):
+    answer = client.post("/plan", json={"scene": "box_slide"})
+    assert answer.status_code == 200, answer.text
+    served_doc, cli_doc = answer.json(), cli_json("plan", "box_slide")
+    served_doc.pop("timings"), cli_doc.pop("timings")
+    assert served_doc == cli_doc
+    assert served_doc["outcome"]["achieved"] is True
+    refused = client.post("/plan", json={"scene": "rhex_flip"})
+    assert refused.status_code == 422 and "task.phases" in refused.text

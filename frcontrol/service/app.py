@@ -53,6 +53,8 @@ ENDPOINTS: dict[str, tuple[str, type[models.SceneRequest], str]] = {
              "closed-loop simulation."),
     "climb": ("/plan/climb", models.ClimbRequest, "`frc climb SCENE --json`: the climb plan and its "
               "simulated check."),
+    "plan": ("/plan", models.PlanRequest, "`frc plan SCENE --json`: the scene's task (its [task] phases) "
+             "planned along a rigid run: phases, plans, outcome and samples."),
 }
 """Each kind of work: its path, its request model and what it answers."""
 

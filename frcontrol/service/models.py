@@ -191,6 +191,20 @@ class ClimbRequest(SceneRequest):
     seed: int = Field(0, ge=0, description="Seed of the sampled disturbances, as `--seed` (>= 0).")
 
 
+class PlanRequest(SceneRequest):
+    """`POST /plan`: `frc plan SCENE --json`."""
+
+    scene: SceneField = Field("box_slide", description="As for every scene endpoint: a scene with [task] "
+                                                       "phases.")
+    margin: float | None = Field(None, ge=0.0, description="[input units] as `--margin` (default: each "
+                                 "phase's margin).")
+    max_time: float | None = Field(None, ge=0.0, description="[s] as `--max-time` (default: [task] "
+                                   "max_time).")
+    dt: float = Field(1e-3, ge=1e-6, description="[s] as `--dt`.")
+    replan_every: int = Field(10, ge=1, description="Steps between two plans, as `--replan-every`.")
+    compliant: bool = Field(False, description="Replay the inputs on the compliant model, as `--compliant`.")
+
+
 class AtlasRequest(InputsRequest):
     """`POST /atlas`: `frc atlas SCENE --vary ... --json`, run as a job."""
 

@@ -53,6 +53,7 @@ REQUESTS: dict[str, type[models.SceneRequest]] = {
     "simulate": models.SimulateRequest,
     "flip": models.FlipRequest,
     "climb": models.ClimbRequest,
+    "plan": models.PlanRequest,
     "atlas": models.AtlasRequest,
 }
 """Each kind of work and the request it takes."""
@@ -155,6 +156,21 @@ def _climb(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
     return plan.to_dict(result)
 
 
+def _plan(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
+    from frcontrol.answers import plan_task_answer
+
+    def report(t: float, total: float) -> None:
+        progress(t / total if total > 0 else None, f"running the task: {t:.3f} / {total:g} s")
+
+    try:
+        _, payload = plan_task_answer(scene, dt=request.dt, replan_every=request.replan_every,
+                                      max_time=request.max_time, margin=request.margin,
+                                      compliant=request.compliant, progress=report)
+    except LimitExceeded as err:  # the task's simulated time is its max_time
+        raise FieldError(["max_time"], err) from err
+    return payload
+
+
 def plan_atlas(request: models.AtlasRequest) -> AtlasPlan:
     """The plan of a ``POST /atlas`` request, checked as ``frc atlas`` checks its arguments.
 
@@ -192,7 +208,7 @@ def plan_atlas(request: models.AtlasRequest) -> AtlasPlan:
 
 WORK: dict[str, Callable[[Any, Scene, Progress], dict[str, Any]]] = {
     "analyze": _analyze, "solutions": _solutions, "statics": _statics, "simulate": _simulate,
-    "flip": _flip, "climb": _climb,
+    "flip": _flip, "climb": _climb, "plan": _plan,
 }
 """Each kind of work: (checked request, scene, progress) -> the command's ``--json`` document."""
 
@@ -281,6 +297,7 @@ def warm_up() -> None:
     import frcontrol.atlas  # noqa: F401
     import frcontrol.engine  # noqa: F401
     import frcontrol.planning.climb  # noqa: F401
+    import frcontrol.planning.core  # noqa: F401
     import frcontrol.planning.flip  # noqa: F401
     import frcontrol.scene  # noqa: F401
     import frcontrol.simulation.compliant  # noqa: F401

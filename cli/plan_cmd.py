@@ -1,0 +1,144 @@
+"""``frc plan``: run any scene's task given as ``[[task.phases]]``, re-planning along a rigid run."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.table import Table
+
+from . import common, options
+from .common import console
+
+PlanSceneArg = options.scene_argument("with [task] phases")
+HtmlOpt = options.html_option("the planned run")
+ViewOpt = options.view_option("the planned run")
+PlotOpt = options.plot_option("every coordinate and the contact forces over the planned run")
+MaxTimeOpt = Annotated[
+    float | None,
+    typer.Option("--max-time", "-T", min=0.0, help="Longest simulated time [s] (default: [task] max_time)."),
+]
+MarginOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--margin",
+        min=0.0,
+        help="Distance [input units] kept between every plan and every input "
+        "where another contact mode also holds, for every phase (default: each phase's margin).",
+    ),
+]
+CompliantOpt = Annotated[
+    bool,
+    typer.Option(
+        "--compliant",
+        help="Replay the run's inputs on the compliant model too (its samples "
+        "under 'compliant' in the JSON).",
+    ),
+]
+
+
+@common.handle_errors
+def plan_command(
+    scene: PlanSceneArg = "box_slide",
+    json: options.JsonOpt = False,
+    html: HtmlOpt = None,
+    out: options.OutOpt = None,
+    view: ViewOpt = False,
+    port: options.PortOpt = None,
+    plot: PlotOpt = None,
+    margin: MarginOpt = None,
+    max_time: MaxTimeOpt = None,
+    dt: options.StepOpt = 1e-3,
+    replan_every: options.ReplanOpt = 10,
+    compliant: CompliantOpt = False,
+    sets: options.SetOpt = None,
+    quiet: options.QuietOpt = False,
+) -> None:
+    """Run the scene's task: each phase planned in its allowed modes' unambiguous set, re-planned along a run.
+
+    Each plan is the input, at least the phase's margin from every input where another mode also
+    holds, that best serves the phase's objective (maximize, minimize or track), checked at its
+    printed values; a rigid simulation re-plans every --replan-every steps and moves to the next
+    phase when 'until' holds. An unachieved task is a result (exit 0, outcome.achieved false with
+    the reason), not an error.
+
+    \b
+    Examples:
+      frc plan box_slide
+      frc plan rod_pivot --json
+      frc plan solo_shift --plot shift.png --html shift.html
+    """
+    common.set_quiet(quiet)
+    common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
+    loaded = options.load_scene_with_overrides(scene, sets)
+    from frcontrol.answers import plan_task_answer
+
+    with common.live_viewer(view, port) as server:
+        with common.progress("planning the task...") as status:
+            result, payload = plan_task_answer(
+                loaded,
+                dt=dt,
+                replan_every=replan_every,
+                max_time=max_time,
+                margin=margin,
+                compliant=compliant,
+                progress=lambda t, total: status.update(f"running the task: {t:.3f} / {total:g} s"),
+            )
+        common.answer(payload, render, json=json)
+        _outputs(loaded, result, plot=plot, html=html, out=out, json=json)
+        if server is not None:
+            common.show_live(
+                server, loaded, result.trajectory, json=json, modes=list(result.trajectory.modes or ())
+            )
+
+
+def _outputs(
+    scene: Any, result: Any, *, plot: Path | None, html: Path | None, out: Path | None, json: bool
+) -> None:
+    """The figure, the page and the export of the planned run."""
+    trajectory = result.trajectory
+    if plot is not None:
+        from frcontrol.viz.plots import plot_trajectory
+
+        common.note(
+            f"wrote {plot_trajectory(trajectory, plot, coordinates=trajectory.coordinates)}", to_stderr=json
+        )
+    common.write_motion(scene, trajectory, html=html, out=out, json=json, modes=list(trajectory.modes or ()))
+
+
+def render(payload: dict[str, Any]) -> None:
+    """The phases, their plans and the outcome as rich text and a table."""
+    table = Table(title="phases")
+    for column in ("phase", "start [s]", "end [s]", "plans", "held", "modes planned", "ended by"):
+        table.add_column(column, overflow="fold")
+    for phase in payload["phases"]:
+        plans = phase["plans"]
+        modes = sorted({p["mode"] for p in plans if p["found"]})
+        table.add_row(
+            phase["name"],
+            f"{phase['start']:.3f}",
+            f"{phase['end']:.3f}",
+            str(len(plans)),
+            str(sum(not p["found"] for p in plans)),
+            ", ".join(modes) or "-",
+            phase["why"] or "-",
+        )
+    console.print(table)
+    outcome = payload["outcome"]
+    console.print("achieved: yes" if outcome["achieved"] else f"achieved: no ({outcome['reason']})")
+    infeasible = outcome.get("infeasible")
+    if infeasible is not None:
+        closest = infeasible["closest_margin"]
+        console.print(
+            f"no plan in phase {infeasible['phase']!r} at {infeasible['time']:.3f} s: "
+            f"{infeasible['reason']}"
+            + (
+                ""
+                if closest is None
+                else f"; closest margin {closest:.4g} (mode {infeasible['closest_mode']})"
+            )
+        )
+
+
+__all__ = ["plan_command", "render"]

@@ -1,0 +1,333 @@
+r"""One decision: the inputs, in an allowed mode's unambiguous set, that best serve a phase's objective.
+
+At a state the engine gives every contact mode c its affine response ``dv = X_u u + x_0`` and its
+input domain T_c (METHOD §3). A phase allows some letters per contact; the candidate modes are the
+feasible modes made of allowed letters only. For each, :func:`frcontrol.planning.flip.margin_pieces`
+builds the inputs at least ``margin`` from every input where another mode also holds (a union of
+convex pieces), and one LP per piece optimises the objective
+(:mod:`~frcontrol.planning.core.objective`)::
+
+    maximise   t                            (maximize: t <= C dv + o;  minimize: t <= -(C dv + o))
+    minimise   sum_i w_i e_i                (track:   -e <= C dv + o - a* <= e)
+    s.t.       u in the piece,  dv = X_u u + x_0.
+
+**Robust phases.** With ``robust = true`` the disturbances of ``[[disturbances]]`` are extra inputs
+``d`` (the lifted problem of :func:`frcontrol.planning.climb.augmented_problem`: input map
+``[S^T, J_d^T]``), the analysis and the pieces are over ``z = (u, d)``, and every constraint of the
+LP above is written once per point ``v`` of ``V`` (the vertices of the disturbance polytope, and the
+zero disturbance when the polytope does not hold it): ``(u, v)`` in the same piece for every v, which
+by convexity puts ``{u} x conv(V)`` in it, and the objective is the worst case over V.
+
+**Rounding and verification.** The optima, best first, are rounded to
+:data:`~frcontrol.planning.flip.TORQUE_ROUNDING` (within the limits) and checked with
+:func:`frcontrol.engine.solutions_at` at the rounded inputs (at every v of V when robust): exactly
+one rigid solution, in the planned mode. The first that passes is the plan. A mode whose objective
+quantities depend on its ambiguity variables w is no candidate (the motion is not determined).
+
+**No plan.** When no candidate has a piece at the margin, the decision reports the allowed modes
+that were tried and why each failed, and the *closest margin*: the largest margin in ``[0, margin]``
+(found by :data:`CLOSEST_MARGIN_STEPS` bisection steps) at which some allowed mode still has
+unambiguous inputs, with that mode; None when no allowed mode has any.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from ...engine import DynamicResponse, analyze, solutions_at
+from ...modes import VELOCITY_TOLERANCE, ContactProblem
+from ...response import OUTPUT_TOLERANCE
+from ...scene import Scene
+from ...solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
+from ..climb import load_disturbances
+from ..flip import TORQUE_ROUNDING, margin_pieces
+from .objective import ObjectiveRows, objective_rows
+from .task import Phase
+
+__all__ = ["CLOSEST_MARGIN_STEPS", "DISTURBANCE_PAD", "Decision", "decide", "lifted_problem"]
+
+CLOSEST_MARGIN_STEPS = 8
+"""Bisection steps of the closest margin reported when no plan is found (the margin is then known
+to ``margin / 2^8``)."""
+
+DISTURBANCE_PAD = 1e-3
+"""[N] The lifted problem's disturbance box is the disturbance polytope's bounding box grown by this
+(plus the margin), so that the box's own faces are not where a mode's domain ends."""
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The inputs chosen at one state of one phase.
+
+    Attributes:
+        found: a verified plan exists.
+        mode: the planned mode (one letter per contact of ``contacts``), or None.
+        contacts: the active contacts, in mode-letter order.
+        inputs: the rounded inputs by scene input name (empty when none was found).
+        objective: the objective at the rounded inputs (worst case over V when robust): the
+            acceleration (maximize/minimize) or the weighted L1 error (track); None without a plan.
+        margin: [input units] the margin asked for.
+        robust: the plan holds at every disturbance vertex.
+        vertices: how many disturbance points were checked (1 when not robust).
+        tried: per allowed mode tried and not chosen, why.
+        reason: why no plan was made (None when found).
+        closest_margin: when no allowed mode had unambiguous inputs at the margin: the largest
+            margin at which one has (None when none has any, or when a plan was found).
+        closest_mode: the mode reaching ``closest_margin``.
+    """
+
+    found: bool
+    mode: str | None
+    contacts: tuple[str, ...]
+    inputs: dict[str, float]
+    objective: float | None
+    margin: float
+    robust: bool
+    vertices: int
+    tried: tuple[tuple[str, str], ...]
+    reason: str | None
+    closest_margin: float | None = None
+    closest_mode: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The decision as JSON-ready values."""
+        return {
+            "found": self.found,
+            "mode": self.mode,
+            "contacts": list(self.contacts),
+            "inputs": dict(self.inputs),
+            "objective": self.objective,
+            "margin": self.margin,
+            "robust": self.robust,
+            "vertices": self.vertices,
+            "tried": [{"mode": m, "why": why} for m, why in self.tried],
+            "reason": self.reason,
+            "closest_margin": self.closest_margin,
+            "closest_mode": self.closest_mode,
+        }
+
+
+def lifted_problem(scene: Scene, problem: ContactProblem, margin: float) -> tuple[ContactProblem, np.ndarray]:
+    """The problem over ``z = (u, d)`` and the disturbance points V (rows), for a robust phase."""
+    dist = load_disturbances(scene)
+    points = dist.robust_points()
+    kin = scene.robot.point_kinematics(scene.q, scene.v, [(d.link, d.point_in_link) for d in dist.items])
+    jac = kin.jacobians.reshape(-1, scene.robot.nv)
+    pad = DISTURBANCE_PAD + margin
+    lifted = replace(
+        problem,
+        inputs=problem.inputs + dist.names,
+        input_map=np.hstack([problem.input_map, jac.T]),
+        lower=np.concatenate([problem.lower, points.min(axis=0) - pad]),
+        upper=np.concatenate([problem.upper, points.max(axis=0) + pad]),
+    )
+    return lifted, points
+
+
+def decide(
+    scene: Scene, phase: Phase, *, problem: ContactProblem | None = None, solver: str = DEFAULT_LP_SOLVER
+) -> Decision:
+    """The phase's plan at the scene's state (see the module's docstring).
+
+    Args:
+        scene: the scene at the state to plan at.
+        phase: the phase (its allowed modes, margin, robustness and objective).
+        problem: the contact problem to plan on (default: the scene's at its state).
+        solver: LP back-end.
+
+    Raises:
+        ImpactState: a contact moves into its surface (the acceleration-level model does not apply).
+    """
+    problem = (
+        problem
+        if problem is not None
+        else ContactProblem.from_scene(scene, velocity_tolerance=VELOCITY_TOLERANCE)
+    )
+    m_u = problem.m
+    points = np.zeros((1, 0))
+    if phase.robust:
+        problem, points = lifted_problem(scene, problem, phase.margin)
+    common: dict[str, Any] = {
+        "contacts": problem.contacts,
+        "margin": phase.margin,
+        "robust": phase.robust,
+        "vertices": len(points),
+    }
+    absent = _absent_contacts(scene, phase, problem.contacts)
+    if absent:
+        return Decision(False, None, inputs={}, objective=None, tried=(), reason=absent, **common)
+    analysis = analyze(problem, solver=solver)
+    rows = objective_rows(scene, phase.objective, scene.q, scene.v)
+    allowed = [m.mode for m in analysis.feasible_modes if phase.allows(problem.contacts, m.mode)]
+    tried: list[tuple[str, str]] = []
+    optima: list[tuple[float, str, np.ndarray]] = []
+    for mode in allowed:
+        found = _mode_optima(analysis, mode, phase.margin, rows, points, m_u, solver)
+        if isinstance(found, str):
+            tried.append((mode, found))
+        else:
+            optima += [(cost, mode, u) for cost, u in found]
+    optima.sort(key=lambda item: item[0])
+    for _, mode, u in optima:
+        checked = _verify(analysis, mode, u, points, rows, problem)
+        if isinstance(checked, str):
+            tried.append((mode, checked))
+            continue
+        names = problem.inputs[:m_u]
+        return Decision(
+            True,
+            mode,
+            inputs=dict(zip(names, checked[0].tolist(), strict=True)),
+            objective=checked[1],
+            tried=tuple(tried),
+            reason=None,
+            **common,
+        )
+    if not allowed:
+        reason = "no feasible mode has only the allowed letters " + _letters(phase, problem.contacts)
+    elif optima:
+        reason = "no optimum gives exactly one rigid solution in its mode once rounded"
+    else:
+        reason = f"no allowed mode has unambiguous inputs {phase.margin:g} away from every other mode"
+    closest = _closest_margin(analysis, allowed, phase.margin, solver) if allowed and not optima else None
+    return Decision(
+        False,
+        None,
+        inputs={},
+        objective=None,
+        tried=tuple(tried),
+        reason=reason,
+        closest_margin=None if closest is None else closest[0],
+        closest_mode=None if closest is None else closest[1],
+        **common,
+    )
+
+
+def _letters(phase: Phase, contacts: tuple[str, ...]) -> str:
+    return "(" + ", ".join(f"{name} {phase.modes[name]}" for name in contacts if name in phase.modes) + ")"
+
+
+def _absent_contacts(scene: Scene, phase: Phase, active: tuple[str, ...]) -> str | None:
+    """Why the phase cannot be planned when a contact that may not separate does not touch."""
+    for contact in scene.contacts:
+        letters = phase.modes.get(contact.name)
+        if letters is not None and "S" not in letters and contact.name not in active:
+            return f"contact {contact.name} does not touch, and the phase allows it only {letters}"
+    return None
+
+
+def _mode_optima(
+    analysis: DynamicResponse,
+    mode: str,
+    margin: float,
+    rows: ObjectiveRows,
+    points: np.ndarray,
+    m_u: int,
+    solver: str,
+) -> list[tuple[float, np.ndarray]] | str:
+    """``(cost, u)`` of every piece's optimum of ``mode`` (cost: lower is better), or why none."""
+    chosen = analysis.mode(mode)
+    if not chosen.inputs_full_dimensional:
+        return "its input domain is flat (inputs on a hyperplane)"
+    response, n = chosen.response, rows.rows.shape[1]  # the response's first n outputs are dv
+    if response.X_w.size:
+        coupling = rows.rows @ response.X_w[:n]
+        if np.max(np.abs(coupling)) > OUTPUT_TOLERANCE * max(float(np.max(np.abs(response.X_w))), 1e-300):
+            return "the objective depends on the mode's ambiguity variables w"
+    pieces = margin_pieces(analysis, mode, margin, solver=solver)
+    if not pieces:
+        return f"no unambiguous input {margin:g} away from every other mode"
+    gain = rows.rows @ response.X_u[:n]
+    bias = rows.rows @ response.x_0[:n] + rows.offset
+    out = []
+    for piece in pieces:
+        found = _piece_lp(piece.A, piece.b, gain, bias, rows, points, m_u, solver)
+        if found is not None:
+            out.append(found)
+    return out if out else "no piece's LP has a solution"
+
+
+def _piece_lp(
+    A: np.ndarray,
+    b: np.ndarray,
+    gain: np.ndarray,
+    bias: np.ndarray,
+    rows: ObjectiveRows,
+    points: np.ndarray,
+    m_u: int,
+    solver: str,
+) -> tuple[float, np.ndarray] | None:
+    """One LP over ``(u, t)`` on a piece ``A z <= b``, every constraint once per point of V."""
+    k = len(bias) if rows.kind == "track" else 1
+    A_u, A_d = A[:, :m_u], A[:, m_u:]
+    g_u, g_d = gain[:, :m_u], gain[:, m_u:]
+    blocks, rhs = [], []
+    for v in points:
+        blocks.append(np.hstack([A_u, np.zeros((A.shape[0], k))]))
+        rhs.append(b - A_d @ v)
+        level = bias + g_d @ v
+        if rows.kind == "track":
+            blocks += [np.hstack([g_u, -np.eye(k)]), np.hstack([-g_u, -np.eye(k)])]
+            rhs += [rows.targets - level, level - rows.targets]
+        else:
+            blocks.append(np.hstack([-rows.sign * g_u, np.ones((1, 1))]))
+            rhs.append(rows.sign * level)
+    cost = np.concatenate([np.zeros(m_u), rows.weights if rows.kind == "track" else [-1.0]])
+    result = solve_lp(cost, np.vstack(blocks), np.concatenate(rhs), solver=solver, fallback=RETRY_ERRORS)
+    if not result.found or result.x is None:
+        return None
+    return float(result.objective), result.x[:m_u].copy()
+
+
+def _round(u: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Rounded to :data:`TORQUE_ROUNDING` (the double nearest the printed decimal), within the limits."""
+    decimals = round(-math.log10(TORQUE_ROUNDING))
+    rounded = np.array([round(float(x), decimals) for x in u])
+    return np.minimum(np.maximum(rounded, lower), upper) + 0.0
+
+
+def _verify(
+    analysis: DynamicResponse,
+    mode: str,
+    u: np.ndarray,
+    points: np.ndarray,
+    rows: ObjectiveRows,
+    problem: ContactProblem,
+) -> tuple[np.ndarray, float] | str:
+    """``(rounded u, objective)`` when ``solutions_at`` gives only ``mode`` at every point, else why not."""
+    m_u = len(u)
+    rounded = _round(u, problem.lower[:m_u], problem.upper[:m_u])
+    values = []
+    for v in points:
+        solutions = solutions_at(analysis, np.concatenate([rounded, v]))
+        if [s.mode for s in solutions] != [mode]:
+            found = ", ".join(s.mode for s in solutions) or "none"
+            return f"at the rounded inputs the rigid solutions are {found}, not only {mode}"
+        values.append(rows.value(solutions[0].dv))
+    worst = max(values) if rows.kind in ("track", "minimize") else min(values)
+    return rounded, worst
+
+
+def _closest_margin(
+    analysis: DynamicResponse, modes: list[str], margin: float, solver: str
+) -> tuple[float, str] | None:
+    """The largest margin in [0, margin] at which one of ``modes`` has unambiguous inputs, and the mode."""
+    best: tuple[float, str] | None = None
+    for mode in modes:
+        if not analysis.mode(mode).inputs_full_dimensional or not margin_pieces(
+            analysis, mode, 0.0, solver=solver
+        ):
+            continue
+        low, high = 0.0, margin
+        for _ in range(CLOSEST_MARGIN_STEPS):
+            middle = 0.5 * (low + high)
+            low, high = (
+                (middle, high) if margin_pieces(analysis, mode, middle, solver=solver) else (low, middle)
+            )
+        if best is None or low > best[0]:
+            best = (low, mode)
+    return best

@@ -1,0 +1,262 @@
+r"""Running a task: decisions along one rigid closed-loop run, phase after phase.
+
+:func:`run_task` plans the first phase at the scene's state (:func:`~.decision.decide`), then steps
+one rigid time stepper (:class:`~frcontrol.simulation.rigid.RigidStepper`, inelastic impacts
+absorbed by the steps' LCPs as in the flip's loop) and re-plans every ``replan_every`` steps at the
+state reached, holding the inputs in between (:func:`~frcontrol.simulation.closed_loop.run_closed_loop`).
+After every step the current phase's ``until`` is checked at the new state; when it holds, the phase
+ends there and the next one is planned before the next step. The run ends when the last phase's
+``until`` holds (the task is *achieved*), at ``max_time``, or when the simulation cannot go on.
+
+*Re-planning model* (the flip's and the stand-up's): the scene at the state reached, with the
+contacts within :data:`~frcontrol.planning.flip.REPLAN_GAP_TOLERANCE` of their surface or loaded by
+the last step active, a loaded contact's normal velocity taken as 0, and velocities of at most
+:data:`~frcontrol.planning.flip.REPLAN_VELOCITY_TOLERANCE` taken as zero. When no plan is made (no
+allowed mode can be made unambiguous, or an impact) the inputs are held and the decision, with its
+reason, is kept in the phase's record.
+
+*Contacts in ``until``*: a contact is *closed* at a sample when its gap is at most
+:data:`~frcontrol.planning.flip.SEPARATION_GAP`, else *open*.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ...errors import FrcontrolError, ImpactState, InputError
+from ...modes import ContactProblem
+from ...scene import Contact, Scene
+from ...simulation.closed_loop import run_closed_loop
+from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
+from ...solvers import DEFAULT_LP_SOLVER
+from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
+from .decision import Decision, decide
+from .task import Phase, Task, Until
+
+__all__ = ["PhaseRecord", "TaskRun", "contact_gaps", "run_task", "until_met"]
+
+
+@dataclass
+class PhaseRecord:
+    """One phase as it ran.
+
+    Attributes:
+        name: the phase's name.
+        start: [s] when it started.
+        end: [s] when it ended (None while running).
+        why: why it ended (``until``'s condition, ``max_time``, the simulation's failure).
+        decisions: ``(time [s], decision)`` of every plan made in it, in order.
+        met: its ``until`` held.
+    """
+
+    name: str
+    start: float
+    end: float | None = None
+    why: str | None = None
+    decisions: list[tuple[float, Decision]] = field(default_factory=list)
+    met: bool = False
+
+
+def contact_gaps(scene: Scene, q: np.ndarray) -> np.ndarray:
+    """Every contact's gap [m] at ``q`` (along its normal, from its surface point)."""
+    points = scene.robot.contact_points_in_world(q)
+    return np.array(
+        [
+            c.point.normal_in_world @ (p - c.point.surface_point_in_world)
+            for c, p in zip(scene.contacts, points, strict=True)
+        ]
+    ).reshape(-1)
+
+
+def until_met(scene: Scene, until: Until, q: np.ndarray, elapsed: float) -> bool:
+    """Whether ``until`` holds at the configuration ``q``, ``elapsed`` seconds into the phase."""
+    if until.kind == "time":
+        assert until.time is not None
+        return elapsed >= until.time
+    if until.kind == "coordinate":
+        value = float(q[list(scene.coordinate_names).index(str(until.coordinate))])
+        return value >= until.above if until.above is not None else value <= float(until.below)  # type: ignore[arg-type]
+    gaps = contact_gaps(scene, q)
+    names = [c.name for c in scene.contacts]
+    return all(
+        (gaps[names.index(name)] <= SEPARATION_GAP) == (state == "closed")
+        for name, state in until.contacts.items()
+    )
+
+
+class _TaskPolicy:
+    """The closed loop's policy: the phase's plan at the state reached; phases advance on ``until``."""
+
+    def __init__(self, scene: Scene, task: Task, solver: str, margin: float | None) -> None:
+        self.scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
+        self.phases = task.sequence()
+        if margin is not None:
+            self.phases = [replace(p, margin=margin) for p in self.phases]
+        self.solver = solver
+        self.names = scene.inputs.coordinates
+        self.force_tolerance = CONTACT_FORCE_TOLERANCE * scene.robot.weight_scale()
+        self.command = np.clip(np.zeros(len(self.names)), scene.inputs.lower, scene.inputs.upper)
+        self.records = [PhaseRecord(self.phases[0].name, 0.0)]
+        self.pending = False
+        self.done = False
+
+    @property
+    def phase(self) -> Phase:
+        """The phase running."""
+        return self.phases[len(self.records) - 1]
+
+    def plan(self, stepper: RigidStepper | None) -> np.ndarray:
+        """Plan the current phase at the stepper's state (the scene's at the start); hold when no plan."""
+        t = 0.0 if stepper is None else stepper.t
+        try:
+            here, problem = self._model(stepper)
+            decision = decide(here, self.phase, problem=problem, solver=self.solver)
+        except ImpactState as err:
+            decision = _held(self.phase, f"impact at {err.contact} (v_N = {err.normal_velocity:.3g} m/s)")
+        except FrcontrolError as err:
+            decision = _held(self.phase, str(err))
+        if decision.found:
+            self.command = np.array(
+                [decision.inputs.get(n, c) for n, c in zip(self.names, self.command, strict=True)]
+            )
+        self.records[-1].decisions.append((t, decision))
+        return self.command
+
+    def _model(self, stepper: RigidStepper | None) -> tuple[Scene, ContactProblem | None]:
+        """The re-planning model at the stepper's state (see the module's docstring)."""
+        if stepper is None:
+            return self.scene, None
+        loaded = stepper.last_forces[:, 0] > self.force_tolerance
+        here = self.scene.at(stepper.q, stepper.v)
+        contacts = tuple(
+            Contact(c.point, c.gap, bool(c.active or loaded[i])) for i, c in enumerate(here.contacts)
+        )
+        here = replace(here, contacts=contacts)
+        problem = ContactProblem.from_scene(here, velocity_tolerance=REPLAN_VELOCITY_TOLERANCE)
+        down = np.array([bool(loaded[i]) for i, c in enumerate(contacts) if c.active], dtype=bool)
+        if down.size:
+            problem = replace(problem, normal_velocities=np.where(down, 0.0, problem.normal_velocities))
+        return here, problem
+
+    def __call__(self, stepper: RigidStepper) -> np.ndarray:
+        """The run's periodic re-plan."""
+        return self.plan(stepper)
+
+    def actuate(self, held: np.ndarray, stepper: RigidStepper) -> np.ndarray:
+        """Each step's inputs: a new phase is planned before its first step."""
+        if self.pending:
+            self.pending = False
+            self.plan(stepper)
+        return self.command
+
+    def stop(self, stepper: RigidStepper) -> bool:
+        """After each step: end the phase when its ``until`` holds; stop after the last phase."""
+        record = self.records[-1]
+        if not until_met(self.scene, self.phase.until, stepper.q, stepper.t - record.start):
+            return False
+        record.end, record.why, record.met = stepper.t, f"until {self.phase.until.describe()}", True
+        if len(self.records) == len(self.phases):
+            self.done = True
+            return True
+        self.records.append(PhaseRecord(self.phases[len(self.records)].name, stepper.t))
+        self.pending = True
+        return False
+
+
+def _held(phase: Phase, why: str) -> Decision:
+    return Decision(False, None, (), {}, None, phase.margin, phase.robust, 0, (), why)
+
+
+@dataclass(frozen=True)
+class TaskRun:
+    """A task's closed-loop run: its phases' records and the trajectory (applied inputs included).
+
+    Attributes:
+        records: the phases as they ran.
+        trajectory: the rigid run.
+        achieved: the last phase's ``until`` held within ``max_time``.
+        decisions: the plans made (the first included).
+        dt: [s] the step; max_time: [s] the longest simulated time; replan_every: steps between plans.
+        timings: [s] ``planning``, ``simulation``.
+    """
+
+    records: tuple[PhaseRecord, ...]
+    trajectory: object
+    achieved: bool
+    decisions: int
+    dt: float
+    max_time: float
+    replan_every: int
+    timings: dict[str, float]
+
+
+def run_task(
+    scene: Scene,
+    task: Task,
+    *,
+    dt: float = 1e-3,
+    replan_every: int = 10,
+    max_time: float | None = None,
+    margin: float | None = None,
+    solver: str = DEFAULT_LP_SOLVER,
+    progress: Callable[[float, float], None] | None = None,
+) -> TaskRun:
+    """Plan and re-plan ``task`` along one rigid run (see the module's docstring).
+
+    Args:
+        scene: the scene.
+        task: its task (:func:`~.task.read_task`).
+        dt: [s] the step.
+        replan_every: steps between plans, >= 1.
+        max_time: [s] the longest simulated time (default: the task's).
+        margin: [input units] every phase's margin (default: each phase's own).
+        solver: LP back-end.
+        progress: called with (simulated time, max_time) every ``replan_every`` steps.
+
+    Raises:
+        InputError: a bad step, time, count or margin.
+    """
+    if isinstance(replan_every, bool) or not isinstance(replan_every, int) or replan_every < 1:
+        raise InputError(f"replan_every must be an integer >= 1 (steps), got {replan_every!r}")
+    if margin is not None and not (np.isfinite(margin) and margin >= 0):
+        raise InputError(f"the margin must be a finite number >= 0 [input units], got {margin!r}")
+    duration = task.max_time if max_time is None else max_time
+    policy = _TaskPolicy(scene, task, solver, margin)
+    armature = scene.model.armature if scene.model.armature_given else None
+    stepper = RigidStepper(
+        policy.scene, RigidSettings(max_ambiguity_checks=0, impact_law=False), armature=armature
+    )
+    first = policy.plan(None)
+    run = run_closed_loop(
+        stepper,
+        policy,
+        duration,
+        dt,
+        every=replan_every,
+        command=first,
+        actuate=policy.actuate,
+        stop=policy.stop,
+        progress=progress,
+    )
+    last = policy.records[-1]
+    if last.end is None:
+        last.end = float(run.trajectory.times[-1])
+        failure = getattr(run.trajectory, "failure", None)
+        last.why = (
+            f"the simulation {run.trajectory.status}: {failure.reason}"
+            if failure is not None
+            else f"max_time {duration:g} s reached"
+        )
+    return TaskRun(
+        tuple(policy.records),
+        run.trajectory,
+        policy.done,
+        run.decisions + 1,
+        dt,
+        duration,
+        replan_every,
+        {"planning": run.timings["policy"], "simulation": run.timings["simulation"]},
+    )

@@ -1,0 +1,194 @@
+"""The report of a task: :class:`PlanResult` and its ``frc plan --json`` document.
+
+``to_dict()`` has the keys every planner result has: ``task`` (the ``[task]`` table as read),
+``phases`` (per phase: ``name``, ``start``, ``end``, ``why`` it ended, ``met``, and ``plans``: the
+decisions made, each with its time, mode, inputs, objective value and margin), ``outcome``
+(``achieved``, ``reason``; when a decision found no plan: ``infeasible`` with the phase, the modes
+that could not be made unambiguous and why, and the closest margin found), ``tolerances`` and
+``simulation`` (``samples`` in ``frc simulate --json``'s shape, with the per-sample ``modes``). With
+``compliant``, ``compliant`` holds the same inputs replayed on the compliant model.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ...jsonable import to_jsonable
+from ...scene import Scene
+from ...simulation.export import sample_modes
+from ...simulation.trajectory import Trajectory
+from ...solvers import DEFAULT_LP_SOLVER
+from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP, TORQUE_ROUNDING
+from .decision import CLOSEST_MARGIN_STEPS, Decision
+from .loop import PhaseRecord, TaskRun, run_task
+from .task import Task, read_task
+
+__all__ = ["PlanResult", "plan_task", "schedule_of"]
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """A task planned along its run, and (optionally) the inputs replayed on the compliant model.
+
+    Attributes:
+        task: the task as read.
+        run: the rigid closed-loop run.
+        trajectory: its trajectory, with the per-sample modes.
+        compliant: the compliant replay, or None.
+        timings: [s] ``planning``, ``simulation``, ``compliant``, ``total``.
+    """
+
+    task: Task
+    run: TaskRun
+    trajectory: Trajectory
+    compliant: Trajectory | None
+    timings: dict[str, float]
+
+    @property
+    def achieved(self) -> bool:
+        """The last phase's ``until`` held within ``max_time``."""
+        return self.run.achieved
+
+    def to_dict(self, scene: Scene) -> dict[str, Any]:
+        """The ``frc plan --json`` document (see the module's docstring)."""
+        document = self.trajectory.to_dict(scene)
+        payload: dict[str, Any] = {
+            "task": dict(self.task.raw),
+            "phases": [_phase_dict(r) for r in self.run.records],
+            "outcome": _outcome(self.run),
+            "tolerances": {
+                "rounding": TORQUE_ROUNDING,
+                "separation_gap": SEPARATION_GAP,
+                "replan_gap": REPLAN_GAP_TOLERANCE,
+                "replan_velocity": REPLAN_VELOCITY_TOLERANCE,
+                "closest_margin_steps": CLOSEST_MARGIN_STEPS,
+            },
+            "simulation": {
+                "model": "rigid",
+                "status": self.trajectory.status,
+                "dt": self.run.dt,
+                "max_time": self.run.max_time,
+                "replan_every": self.run.replan_every,
+                "decisions": self.run.decisions,
+                "samples": document["samples"],
+                "events": document["summary"]["events"],
+            },
+            "timings": dict(self.timings),
+        }
+        if self.compliant is not None:
+            replay = self.compliant.to_dict(scene)
+            payload["compliant"] = {
+                "model": "compliant",
+                "status": self.compliant.status,
+                "samples": replay["samples"],
+            }
+        return to_jsonable(payload)
+
+
+def _plan_dict(t: float, decision: Decision) -> dict[str, Any]:
+    return {"time": t, **decision.to_dict()}
+
+
+def _phase_dict(record: PhaseRecord) -> dict[str, Any]:
+    return {
+        "name": record.name,
+        "start": record.start,
+        "end": record.end,
+        "why": record.why,
+        "met": record.met,
+        "plans": [_plan_dict(t, d) for t, d in record.decisions],
+    }
+
+
+def _outcome(run: TaskRun) -> dict[str, Any]:
+    """``achieved``, ``reason``, and the first phase whose decision found no plan (``infeasible``)."""
+    last = run.records[-1]
+    outcome: dict[str, Any] = {
+        "achieved": run.achieved,
+        "reason": None if run.achieved else f"phase {last.name!r} ended: {last.why}",
+    }
+    for record in run.records:
+        failed = [(t, d) for t, d in record.decisions if not d.found]
+        if failed:
+            t, d = failed[0]
+            outcome["infeasible"] = {
+                "phase": record.name,
+                "time": t,
+                "reason": d.reason,
+                "modes": [{"mode": m, "why": why} for m, why in d.tried],
+                "closest_margin": d.closest_margin,
+                "closest_mode": d.closest_mode,
+                "margin": d.margin,
+            }
+            break
+    return outcome
+
+
+def schedule_of(
+    run: TaskRun, trajectory: Trajectory
+) -> Callable[[float, np.ndarray, np.ndarray], np.ndarray]:
+    """The inputs the rigid run applied, as ``(t, q, v) -> u``, each sample's held over its interval."""
+    times = np.asarray(trajectory.times)
+    inputs = np.asarray(trajectory.inputs)
+
+    def schedule(t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        i = int(np.searchsorted(times, t + 1e-12, side="right")) - 1
+        return inputs[min(max(i, 0), len(inputs) - 1)]
+
+    return schedule
+
+
+def plan_task(
+    scene: Scene,
+    *,
+    dt: float = 1e-3,
+    replan_every: int = 10,
+    max_time: float | None = None,
+    margin: float | None = None,
+    compliant: bool = False,
+    solver: str = DEFAULT_LP_SOLVER,
+    progress: Callable[[float, float], None] | None = None,
+) -> PlanResult:
+    """Read the scene's task, run it (:func:`~.loop.run_task`) and, with ``compliant``, replay its inputs.
+
+    Raises:
+        SceneError: no task given as phases (:func:`~.task.read_task`).
+        InputError: a bad step, time, count or margin.
+    """
+    start = time.perf_counter()
+    task = read_task(scene)
+    run = run_task(
+        scene,
+        task,
+        dt=dt,
+        replan_every=replan_every,
+        max_time=max_time,
+        margin=margin,
+        solver=solver,
+        progress=progress,
+    )
+    trajectory = run.trajectory
+    assert isinstance(trajectory, Trajectory)
+    from dataclasses import replace
+
+    trajectory = replace(
+        trajectory,
+        modes=tuple(sample_modes(scene, trajectory)),
+        info={**trajectory.info, "source": "plan_task"},
+    )
+    t0 = time.perf_counter()
+    replay = None
+    if compliant:
+        from ...simulation.compliant import simulate_compliant
+
+        duration = float(trajectory.times[-1])
+        replay = (
+            simulate_compliant(scene, schedule_of(run, trajectory), duration, dt) if duration > 0 else None
+        )
+    timings = {**run.timings, "compliant": time.perf_counter() - t0, "total": time.perf_counter() - start}
+    return PlanResult(task, run, trajectory, replay, timings)
