@@ -72,7 +72,7 @@ def _check_figure_name(figure: str) -> str:
     return figure
 
 
-def _check_scheduler(address: str | None) -> str | None:
+def check_scheduler_address(address: str | None) -> str | None:
     """``--scheduler``: SCHEME://HOST:PORT (or HOST:PORT, tcp); whether it answers is checked later."""
     from urllib.parse import urlsplit
 
@@ -122,7 +122,7 @@ WorkersOpt = Annotated[
 ]
 SchedulerOpt = Annotated[
     str | None,
-    typer.Option("--scheduler", metavar="ADDRESS", callback=_check_scheduler,
+    typer.Option("--scheduler", metavar="ADDRESS", callback=check_scheduler_address,
                  help='Run on a Dask distributed cluster at tcp://HOST:PORT (pip install '
                       '"frcontrol[cluster]"; its workers need frcontrol installed).'),
 ]
@@ -258,6 +258,7 @@ def render(doc: dict[str, Any]) -> None:
 
 __all__ = [
     "WHATS",
+    "check_scheduler_address",
     "atlas_command",
     "render",
 ]
