@@ -23,10 +23,10 @@ from .model_cmds import SceneArg
 from .options import (
     InputOpt,
     JsonOpt,
-    in_range,
     QuietOpt,
     SetOpt,
     grammar,
+    in_range,
     output_path,
     parse_inputs,
     plot_option,
@@ -112,12 +112,14 @@ AtlasOutOpt = Annotated[
 PlotOpt = plot_option("the count (or --figure) over the first two axes, one colour per value")
 FigureOpt = Annotated[
     str,
-    typer.Option("--figure", callback=_check_figure_name, help="The array --plot draws: counts, ambiguous, modes, stable, or the "
+    typer.Option("--figure", callback=_check_figure_name,
+                 help="The array --plot draws: counts, ambiguous, modes, stable, or the "
                  "kind's own (found, margin, max_disturbance_scale, form_closure_margin...)."),
 ]
 WorkersOpt = Annotated[
     int | None,
-    typer.Option("--workers", "-w", callback=in_range(low=1), help="Local worker processes (default: every core; 1 runs "
+    typer.Option("--workers", "-w", callback=in_range(low=1),
+                 help="Local worker processes (default: every core; 1 runs "
                  "in this process)."),
 ]
 SchedulerOpt = Annotated[
@@ -133,13 +135,15 @@ ResumeOpt = Annotated[
 ]
 ChunkOpt = Annotated[
     int | None,
-    typer.Option("--chunk-size", callback=in_range(low=1), help="Grid points per chunk (default: the grid in about 256 "
+    typer.Option("--chunk-size", callback=in_range(low=1),
+                 help="Grid points per chunk (default: the grid in about 256 "
                  "chunks, at most 64 points each)."),
 ]
 
 MaxPointsOpt = Annotated[
     int | None,
-    typer.Option("--max-points", callback=in_range(low=1), help="The point budget: a grid of more points is refused at "
+    typer.Option("--max-points", callback=in_range(low=1),
+                 help="The point budget: a grid of more points is refused at "
                  "once (default: 100000, frcontrol.atlas.MAX_ATLAS_POINTS)."),
 ]
 
@@ -209,7 +213,8 @@ def _check_figure(figure: str, what: str) -> None:
 
     valid = ("counts", "modes", "stable", "ambiguous", *KIND_COLUMNS[what])
     if figure not in valid:
-        raise usage_error("--figure", f"{figure!r} is not an array of --what {what}; valid: {', '.join(valid)}")
+        raise usage_error("--figure", f"{figure!r} is not an array of --what {what}; valid: "
+                          f"{', '.join(valid)}")
 
 
 def _report(result: AtlasResult, *, json: bool, out: Path | None, plot: Path | None, figure: str) -> None:

@@ -9,7 +9,6 @@ from rich.table import Table
 from .common import console, handle_errors, print_json, set_quiet
 from .options import JsonOpt, QuietOpt, SceneArg, SetOpt, scene_overrides
 
-
 DESCRIPTION_CHARS = 120
 """[characters] The longest description ``frc robots`` shows (the comment's first sentence, cut at a word)."""
 
@@ -30,7 +29,9 @@ def _leading_comment(path: Path, opener: str, closer: str = "") -> str:
             break
     comment = " ".join(words).split(closer)[0] if closer else " ".join(words)
     sentence = comment.split(". ")[0].strip().rstrip(".")
-    return sentence if len(sentence) <= DESCRIPTION_CHARS else sentence[:DESCRIPTION_CHARS].rsplit(" ", 1)[0] + " ..."
+    if len(sentence) <= DESCRIPTION_CHARS:
+        return sentence
+    return sentence[:DESCRIPTION_CHARS].rsplit(" ", 1)[0] + " ..."
 
 
 def catalog() -> list[dict[str, str]]:

@@ -63,12 +63,14 @@ TokenFileOpt = Annotated[
 ]
 TimeLimitOpt = Annotated[
     float,
-    typer.Option("--time-limit", callback=in_range(0.1, unit="[s]"), help="[s] Each request's time limit (waiting included); past "
+    typer.Option("--time-limit", callback=in_range(0.1, unit="[s]"),
+                 help="[s] Each request's time limit (waiting included); past "
                  "it the answer is a 504 naming the limit and the work is stopped. Also each chunk's "
                  "limit in an atlas job on the local pool."),
 ]
 JobTimeLimitOpt = Annotated[
-    float, typer.Option("--job-time-limit", callback=in_range(0.1, unit="[s]"), help="[s] Each job's time limit (an atlas job's "
+    float, typer.Option("--job-time-limit", callback=in_range(0.1, unit="[s]"),
+                        help="[s] Each job's time limit (an atlas job's "
                         "whole run)."),
 ]
 MaxJobsOpt = Annotated[
@@ -76,7 +78,8 @@ MaxJobsOpt = Annotated[
 ]
 MaxBodyOpt = Annotated[
     int,
-    typer.Option("--max-body", callback=in_range(1024, unit="[bytes]"), help="[bytes] The largest request body (a larger one is a 413)."),
+    typer.Option("--max-body", callback=in_range(1024, unit="[bytes]"),
+                 help="[bytes] The largest request body (a larger one is a 413)."),
 ]
 WorkerMemoryOpt = Annotated[
     int | None,
@@ -190,7 +193,7 @@ def serve_command(
 
 
 def _logs_on_stderr() -> dict[str, Any]:
-    """uvicorn's logging configuration with every log, the access log too, on stderr (stdout: answers)."""
+    """Uvicorn's logging configuration with every log, the access log too, on stderr (stdout: answers)."""
     import copy
 
     from uvicorn.config import LOGGING_CONFIG

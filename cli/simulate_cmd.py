@@ -36,18 +36,21 @@ ModelOpt = Annotated[
 ]
 StiffnessOpt = Annotated[
     float | None,
-    typer.Option("--stiffness", "-k", callback=in_range(above=0.0, unit="[N/m]"), help="Compliant contact stiffness k [N/m] for every contact "
+    typer.Option("--stiffness", "-k", callback=in_range(above=0.0, unit="[N/m]"),
+                 help="Compliant contact stiffness k [N/m] for every contact "
                  "(default: the scene's [model], else 1e5)."),
 ]
 DampingOpt = Annotated[
     float | None,
-    typer.Option("--damping", callback=in_range(low=0.0, unit="[N s/m]"), help="Compliant contact damping b [N s/m] (default: critical for each "
+    typer.Option("--damping", callback=in_range(low=0.0, unit="[N s/m]"),
+                 help="Compliant contact damping b [N s/m] (default: critical for each "
                  "contact's effective mass)."),
 ]
 DtOpt = Annotated[
     float,
-    typer.Option("--dt", callback=in_range(above=0.0, unit="[s]"), help="Rigid: the time step [s]. Compliant: the sample interval and control "
-                 "period [s] (the integrator adapts its own steps)."),
+    typer.Option("--dt", callback=in_range(above=0.0, unit="[s]"),
+                 help="Rigid: the time step [s]. Compliant: the sample interval and control "
+                      "period [s] (the integrator adapts its own steps)."),
 ]
 DurationOpt = options.duration_option("Simulated time [s].")
 

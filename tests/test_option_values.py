@@ -15,7 +15,6 @@ import subprocess
 import sys
 import types
 import typing
-from pathlib import Path
 
 import pytest
 import typer
