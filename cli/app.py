@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import sys
 import warnings
+from collections.abc import Sequence
+from typing import Any
 
 import typer
+from typer.core import TyperGroup
 
 from frcontrol.errors import KernelError, StaleKernelWarning
 from frcontrol.kernel import kernel_choice
@@ -23,10 +27,53 @@ from . import (
     statics_cmd,
     view_cmd,
 )
-from .common import fail
+from .common import Interrupted, fail
+
+
+class FrcGroup(TyperGroup):
+    """The ``frc`` command group: the one place where a run's end becomes an exit code.
+
+    A usage error (an unknown option, a missing argument, a bad option value) is one line on
+    stderr and exit 2; Ctrl-C is one line, ``frc: error: interrupted by SIGINT``, and exit 130.
+    """
+
+    def invoke(self, ctx: Any) -> Any:
+        """Run the command; Ctrl-C (KeyboardInterrupt) wherever it lands becomes :class:`Interrupted`."""
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            raise Interrupted() from None
+
+    def main(self, args: Sequence[str] | None = None, prog_name: str | None = None,
+             complete_var: str | None = None, standalone_mode: bool = True, **extra: Any) -> Any:
+        """Parse and run; print any usage error or interruption as one line; exit with its code."""
+        from typer._click.exceptions import ClickException, NoArgsIsHelpError, UsageError
+        from typer.exceptions import Abort
+
+        try:
+            code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except NoArgsIsHelpError as err:  # bare `frc`: the help, as before
+            err.show()
+            code = err.exit_code
+        except ClickException as err:
+            hint = f" (see '{err.ctx.command_path} -h')" if isinstance(err, UsageError) and err.ctx else ""
+            message = " ".join(err.format_message().split())
+            sys.stderr.write(f"frc: error: {message}{hint}\n")
+            code = err.exit_code
+        except (Abort, KeyboardInterrupt):
+            sys.stderr.write("frc: error: interrupted by SIGINT\n")
+            code = 130
+        except Interrupted as err:
+            sys.stderr.write(f"frc: error: {err}\n")
+            code = err.exit_code
+        if not standalone_mode:
+            return code
+        sys.exit(code if isinstance(code, int) else 0)
+
 
 app = typer.Typer(
     name="frc",
+    cls=FrcGroup,
     help="frcontrol: contact modes, mode domains, ambiguity and planning for planar robots in contact.",
     no_args_is_help=True,
     add_completion=False,
@@ -86,6 +133,7 @@ def main() -> None:
 
 
 __all__ = [
+    "FrcGroup",
     "app",
     "main",
 ]

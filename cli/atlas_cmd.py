@@ -11,9 +11,8 @@ import typer
 from rich.table import Table
 
 from .common import (
-    check_output_files,
+    Interrupted,
     console,
-    fail,
     handle_errors,
     note,
     print_json,
@@ -21,7 +20,19 @@ from .common import (
     set_quiet,
 )
 from .model_cmds import SceneArg
-from .options import InputOpt, JsonOpt, QuietOpt, SetOpt, parse_inputs, plot_option, scene_overrides
+from .options import (
+    InputOpt,
+    JsonOpt,
+    QuietOpt,
+    SetOpt,
+    grammar,
+    in_range,
+    output_path,
+    parse_inputs,
+    plot_option,
+    scene_overrides,
+    usage_error,
+)
 
 if TYPE_CHECKING:  # the atlas loads when the command runs, not for --help
     from frcontrol.atlas import AtlasResult
@@ -37,9 +48,48 @@ class What(StrEnum):
 
 WHATS = tuple(w.value for w in What)
 
+
+def _parse_axes(texts: list[str]) -> None:
+    from frcontrol.atlas.grid import parse_axis
+
+    for text in texts:
+        parse_axis(text)
+
+
+def _check_table_out(path: Path) -> None:
+    from frcontrol.atlas.store import check_out
+
+    check_out(path)
+
+
+def _check_figure_name(figure: str) -> str:
+    """``--figure``: an array of some ``--what`` (which one's is checked once --what is known)."""
+    from frcontrol.atlas import KIND_COLUMNS
+
+    valid = sorted({"counts", "modes", "stable", "ambiguous"}.union(*KIND_COLUMNS.values()))
+    if figure not in valid:
+        raise typer.BadParameter(f"expected one of {', '.join(valid)}, got {figure!r}")
+    return figure
+
+
+def check_scheduler_address(address: str | None) -> str | None:
+    """``--scheduler``: SCHEME://HOST:PORT (or HOST:PORT, tcp); whether it answers is checked later."""
+    from urllib.parse import urlsplit
+
+    if address is None:
+        return None
+    try:
+        parts = urlsplit(address if "://" in address else f"tcp://{address}")
+        port = parts.port
+    except ValueError:
+        port, parts = None, None
+    if parts is None or not parts.hostname or port is None or " " in address:
+        raise typer.BadParameter(f"expected tcp://HOST:PORT, got {address!r}")
+    return address
+
 VaryOpt = Annotated[
     list[str],
-    typer.Option("--vary", metavar="PATH=START:STOP:N",
+    typer.Option("--vary", metavar="PATH=START:STOP:N", callback=grammar(_parse_axes),
                  help="An axis of the grid: numpy.linspace(START, STOP, N) for PATH, a --set path "
                       "(contacts.tip.mu, gravity, model.stiffness, one coordinate state.q.theta or "
                       "state.v.x) or input.NAME (an input's value). Repeatable: the first is the "
@@ -54,7 +104,7 @@ WhatOpt = Annotated[
 ]
 AtlasOutOpt = Annotated[
     Path | None,
-    typer.Option("--out", metavar="FILE",
+    typer.Option("--out", metavar="FILE", callback=output_path("--out", _check_table_out),
                  help="Write the table, one row per grid point: FILE.parquet (pyarrow) or FILE.npz. "
                       "Finished chunks are kept in FILE.parts as they come; --resume finishes an "
                       "interrupted run."),
@@ -62,17 +112,19 @@ AtlasOutOpt = Annotated[
 PlotOpt = plot_option("the count (or --figure) over the first two axes, one colour per value")
 FigureOpt = Annotated[
     str,
-    typer.Option("--figure", help="The array --plot draws: counts, ambiguous, modes, stable, or the "
+    typer.Option("--figure", callback=_check_figure_name,
+                 help="The array --plot draws: counts, ambiguous, modes, stable, or the "
                  "kind's own (found, margin, max_disturbance_scale, form_closure_margin...)."),
 ]
 WorkersOpt = Annotated[
     int | None,
-    typer.Option("--workers", "-w", min=1, help="Local worker processes (default: every core; 1 runs "
+    typer.Option("--workers", "-w", callback=in_range(low=1),
+                 help="Local worker processes (default: every core; 1 runs "
                  "in this process)."),
 ]
 SchedulerOpt = Annotated[
     str | None,
-    typer.Option("--scheduler", metavar="ADDRESS",
+    typer.Option("--scheduler", metavar="ADDRESS", callback=check_scheduler_address,
                  help='Run on a Dask distributed cluster at tcp://HOST:PORT (pip install '
                       '"frcontrol[cluster]"; its workers need frcontrol installed).'),
 ]
@@ -83,13 +135,15 @@ ResumeOpt = Annotated[
 ]
 ChunkOpt = Annotated[
     int | None,
-    typer.Option("--chunk-size", min=1, help="Grid points per chunk (default: the grid in about 256 "
+    typer.Option("--chunk-size", callback=in_range(low=1),
+                 help="Grid points per chunk (default: the grid in about 256 "
                  "chunks, at most 64 points each)."),
 ]
 
 MaxPointsOpt = Annotated[
     int | None,
-    typer.Option("--max-points", min=1, help="The point budget: a grid of more points is refused at "
+    typer.Option("--max-points", callback=in_range(low=1),
+                 help="The point budget: a grid of more points is refused at "
                  "once (default: 100000, frcontrol.atlas.MAX_ATLAS_POINTS)."),
 ]
 
@@ -131,17 +185,14 @@ def atlas_command(
     """
     set_quiet(quiet)
     from frcontrol.atlas import MAX_ATLAS_POINTS, build_atlas, run_atlas
-    from frcontrol.atlas.store import check_out
-    from frcontrol.errors import InputError
 
-    check_output_files(plot=plot, out=out, out_check=check_out)
     if resume and out is None:
-        raise InputError("--resume needs --out FILE: the finished chunks are kept beside FILE")
+        raise usage_error("--resume", "it needs --out FILE: the finished chunks are kept beside FILE")
     what_name = What(what).value
+    _check_figure(figure, what_name)
     plan = build_atlas(scene, vary, what=what_name, inputs=parse_inputs(inputs),
                        overrides=scene_overrides(sets), chunk_size=chunk_size,
                        max_points=MAX_ATLAS_POINTS if max_points is None else max_points)
-    _check_figure(figure, what_name)
     previous = signal.signal(signal.SIGTERM, _raise_on_sigterm)
     try:
         with progress_bar(f"atlas {plan.size} points", "points", show=not json) as bar:
@@ -151,7 +202,7 @@ def atlas_command(
         name = "SIGTERM" if isinstance(err, _Signalled) else "SIGINT"
         kept = (f"the finished chunks are kept in {out.name}.parts: run the same command with --resume "
                 "to finish" if out is not None else "nothing is kept without --out")
-        raise fail(f"interrupted by {name}; {kept}") from None
+        raise Interrupted(name, kept) from None
     finally:
         signal.signal(signal.SIGTERM, previous)
     _report(result, json=json, out=out, plot=plot, figure=figure)
@@ -159,11 +210,11 @@ def atlas_command(
 
 def _check_figure(figure: str, what: str) -> None:
     from frcontrol.atlas import KIND_COLUMNS
-    from frcontrol.errors import InputError
 
     valid = ("counts", "modes", "stable", "ambiguous", *KIND_COLUMNS[what])
     if figure not in valid:
-        raise InputError(f"--figure {figure!r}: not an array of --what {what}; valid: {', '.join(valid)}")
+        raise usage_error("--figure", f"{figure!r} is not an array of --what {what}; valid: "
+                          f"{', '.join(valid)}")
 
 
 def _report(result: AtlasResult, *, json: bool, out: Path | None, plot: Path | None, figure: str) -> None:
@@ -212,6 +263,7 @@ def render(doc: dict[str, Any]) -> None:
 
 __all__ = [
     "WHATS",
+    "check_scheduler_address",
     "atlas_command",
     "render",
 ]

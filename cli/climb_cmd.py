@@ -12,6 +12,7 @@ from frcontrol.planning import DEFAULT_CLIMB_MARGIN as DEFAULT_MARGIN
 
 from . import common, options
 from .common import console
+from .options import in_range
 
 ClimbSceneArg = options.scene_argument("with [[disturbances]]")
 HtmlOpt = options.html_option("the simulated climb")
@@ -21,24 +22,21 @@ PlotOpt = options.plot_option("per disturbance, its polytope, the largest scale 
                               "robust region at the planned torques")
 MarginOpt = Annotated[
     float,
-    typer.Option("--margin", min=0.0,
+    typer.Option("--margin", callback=in_range(low=0.0),
                  help="Required robustness radius [N m or N] in the lifted (u, d) space."),
 ]
-DurationOpt = Annotated[
-    float,
-    typer.Option("--duration", "-T", min=0.0,
-                 help="Simulated time [s] of the check under sampled disturbances."),
-]
-SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of the sampled disturbances (>= 0).")]
+DurationOpt = options.duration_option("Simulated time [s] of the check under sampled disturbances.")
+SeedOpt = Annotated[int, typer.Option("--seed", callback=in_range(low=0),
+                                      help="Seed of the sampled disturbances (>= 0).")]
 ScaleOpt = Annotated[
     float | None,
-    typer.Option("--scale", min=0.0,
+    typer.Option("--scale", callback=in_range(low=0.0),
                  help="With --cycles: the disturbance scale of the gait's simulation (default 0.02, at most "
                       "the weakest phase's planned scale)."),
 ]
 CyclesOpt = Annotated[
     int | None,
-    typer.Option("--cycles", min=1,
+    typer.Option("--cycles", callback=in_range(low=1),
                  help="Climb by this many cycles of the gait (extend, brace the upper body, pull the lower "
                       "body up, re-brace) instead of holding one brace; --duration and --plot are then "
                       "not used."),
@@ -77,16 +75,17 @@ def climb_command(
     common.set_quiet(quiet)
     from frcontrol.answers import plan_and_climb
 
-    common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
+    common.check_port(view=view, port=port)
+    if cycles is None and scale is not None:
+        raise options.usage_error("--scale", "it sets the gait's simulated disturbances: add --cycles N")
+    if cycles is not None and plot is not None:
+        raise options.usage_error("--plot", "it draws the single brace's figure; with --cycles use --html "
+                                  "(an animation) or --json (the samples)")
     loaded = options.load_scene_with_overrides(scene, sets)
     if cycles is not None:
         _gait(loaded, cycles, margin=margin, seed=seed, scale=scale, json=json, html=html, out=out, view=view,
-              port=port, plot=plot)
+              port=port)
         return
-    if scale is not None:
-        from frcontrol.errors import InputError
-
-        raise InputError("--scale sets the gait's simulated disturbances: add --cycles N")
     with common.live_viewer(view, port) as server:
         with common.progress("planning the climb...") as status:
             plan, result = plan_and_climb(loaded, margin=margin, duration=duration, seed=seed,
@@ -111,15 +110,11 @@ def climb_command(
 
 
 def _gait(loaded: Any, cycles: int, *, margin: float, seed: int, scale: float | None, json: bool, html: Any,
-          out: Any, view: bool, port: Any, plot: Any) -> None:
+          out: Any, view: bool, port: Any) -> None:
     """``--cycles``: plan the gait, simulate it, print and write its outputs."""
     from frcontrol.answers import plan_and_gait
-    from frcontrol.errors import InputError
     from frcontrol.planning.gait import gait_payload
 
-    if plot is not None:
-        raise InputError("--plot draws the single brace's figure; with --cycles use --html (an animation) "
-                         "or --json (the samples)")
     with common.live_viewer(view, port) as server:
         with common.progress("planning the gait...") as status:
             plan, result = plan_and_gait(

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import sys
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -14,7 +13,7 @@ from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 import typer
 from rich.console import Console
 
-from frcontrol.errors import FrcontrolError, InputError
+from frcontrol.errors import FrcontrolError
 
 if TYPE_CHECKING:  # the scene, the simulators and the viewer load when a command runs
     from frcontrol.scene import Scene
@@ -197,51 +196,30 @@ def handle_errors(func: Callable[P, R]) -> Callable[P, R]:
     return wrapper
 
 
-def check_outputs(*, view: bool = False, port: int | None = None, **files: Path | None) -> None:
-    """Refuse, before any work, ``--port`` without ``--view`` and any output file that cannot be written.
+def check_port(*, view: bool, port: int | None) -> None:
+    """Refuse ``--port`` without ``--view`` (a usage error, exit 2).
 
     Raises:
-        typer.Exit: ``--port`` without ``--view`` (exit 1, one line on stderr).
-        InputError: see :func:`check_output_files`.
+        typer.BadParameter: ``--port`` given without ``--view``.
     """
     if port is not None and not view:
-        raise fail("--port needs --view")
-    check_output_files(**files)
+        raise typer.BadParameter("it sets the port of the --view server: add --view", param_hint="'--port'")
 
 
-def check_output_files(*, out_check: Callable[[Path], None] | None = None, **files: Path | None) -> None:
-    """Refuse, before any work, an output file that cannot be written (``plot=path, html=path``).
+class Interrupted(Exception):  # noqa: N818  (a stop, not an error of the program)
+    """A command stopped by a signal: ``frc`` prints ``detail`` on one line and exits 128 + the signal.
 
-    ``out_check`` checks an ``--out`` file's format (default: a trajectory's, ``.npz`` or ``.csv``;
-    ``frc atlas`` passes its tables' check).
-
-    Raises:
-        InputError: the path is a directory, its folder does not exist or is not writable, a
-            ``--plot`` file's suffix is no image format matplotlib writes, or an ``--out`` file's
-            format is not one the command writes.
+    A command raises it where it can say what it kept ("the finished chunks are kept in ...");
+    Ctrl-C anywhere else becomes one with no detail.
     """
-    for option, path in files.items():
-        if path is None:
-            continue
-        flag = "--" + option.replace("_", "-")
-        folder = path.parent if str(path.parent) else Path(".")
-        if path.is_dir():
-            raise InputError(f"{flag} {str(path)!r}: cannot write: it is a directory, expected a file name")
-        if not folder.is_dir():
-            raise InputError(f"{flag} {str(path)!r}: cannot write: the folder {str(folder)!r} does not exist")
-        if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
-            raise InputError(f"{flag} {str(path)!r}: cannot write: permission denied")
-        if option == "plot":
-            from matplotlib.backend_bases import FigureCanvasBase
 
-            formats = FigureCanvasBase.get_supported_filetypes()
-            if path.suffix.lower().lstrip(".") not in formats:
-                raise InputError(f"{flag} {str(path)!r}: the suffix must name an image format "
-                                 f"({', '.join('.' + f for f in sorted(formats))})")
-        if option == "out":
-            from .options import check_out_suffix
+    def __init__(self, signal_name: str = "SIGINT", detail: str = "") -> None:
+        import signal
 
-            (out_check or check_out_suffix)(path)
+        self.signal_name = signal_name
+        self.exit_code = 128 + int(getattr(signal, signal_name))
+        self.detail = detail
+        super().__init__(f"interrupted by {signal_name}" + (f"; {detail}" if detail else ""))
 
 
 def write_motion(scene: Scene, trajectory: Trajectory | None, *, html: Path | None, out: Path | None,
@@ -254,7 +232,8 @@ def write_motion(scene: Scene, trajectory: Trajectory | None, *, html: Path | No
     if html is not None:
         from frcontrol.viz.meshcat_view import write_html
 
-        note(f"wrote {write_html(scene, trajectory, html, modes=modes)}", to_stderr=json)
+        write_html(scene, trajectory, html, modes=modes)
+        note(f"wrote {html}", to_stderr=json)
     if out is None:
         return
     if trajectory is None:
@@ -262,7 +241,8 @@ def write_motion(scene: Scene, trajectory: Trajectory | None, *, html: Path | No
         return
     from frcontrol.simulation.export import save_trajectory
 
-    note(f"wrote {save_trajectory(scene, trajectory, out)}", to_stderr=json)
+    save_trajectory(scene, trajectory, out)
+    note(f"wrote {out}", to_stderr=json)
 
 
 @contextmanager
@@ -309,8 +289,8 @@ def print_json(payload: dict[str, Any]) -> None:
 
 __all__ = [
     "answer",
-    "check_output_files",
-    "check_outputs",
+    "Interrupted",
+    "check_port",
     "live_viewer",
     "show_live",
     "write_motion",

@@ -24,7 +24,8 @@ ViewOpt = options.view_option("the simulated flip")
 PlotOpt = options.plot_option("the input space (every mode's domain, the ambiguous overlaps "
                               "hatched, the plan) and the pitch and contact forces over the simulated time")
 MarginOpt = options.margin_option("the plan")
-MaxTimeOpt = options.max_time_option("plan only")
+DurationOpt = options.duration_option("Longest simulated time [s] of the closed loop (0: plan only, no "
+                                      "simulation).")
 PumpOpt = Annotated[
     bool | None,
     typer.Option("--pump/--no-pump", help="Pump the body up over several leg strokes (push, fall back "
@@ -49,13 +50,14 @@ def flip_command(
     port: options.PortOpt = None,
     plot: PlotOpt = None,
     margin: MarginOpt = DEFAULT_MARGIN,
-    max_time: MaxTimeOpt = 2.0,
+    duration: DurationOpt = 2.0,
     dt: options.StepOpt = 1e-3,
     replan_every: options.ReplanOpt = 10,
     pump: PumpOpt = None,
     compliant: CompliantOpt = False,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
+    max_time: options.MaxTimeAliasOpt = None,
 ) -> None:
     """Plan the flip: hip torques maximising the body's pitch acceleration, unambiguously.
 
@@ -69,10 +71,11 @@ def flip_command(
       frc flip --html flip.html --plot flip.png
       frc flip --margin 0.5 --json
       frc flip --set contacts.front_corner.mu=0.5 --out flip.csv
-      frc flip rhex_flip_drives --max-time 3 --plot pump.png
+      frc flip rhex_flip_drives --duration 3 --plot pump.png
     """
     common.set_quiet(quiet)
-    common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
+    common.check_port(view=view, port=port)
+    max_time = options.duration_given(duration, max_time)
     loaded = options.load_scene_with_overrides(scene, sets)
     if pump or (pump is None and _driven(loaded)):
         _pump(loaded, json=json, html=html, out=out, plot=plot, margin=margin, max_time=max_time, dt=dt,
@@ -85,7 +88,8 @@ def flip_command(
         if plot is not None:
             from frcontrol.viz.figures import plot_flip
 
-            common.note(f"wrote {plot_flip(result if result is not None else plan, plot)}", to_stderr=json)
+            plot_flip(result if result is not None else plan, plot)
+            common.note(f"wrote {plot}", to_stderr=json)
         trajectory = None if result is None else result.trajectory
         modes = None if result is None else list(result.modes)
         common.write_motion(loaded, trajectory, html=html, out=out, json=json, modes=modes)
@@ -123,7 +127,8 @@ def _pump(scene: Scene, *, json: bool, html: Any, out: Any, plot: Any, margin: f
     if plot is not None and result is not None:
         from frcontrol.viz.pump_figure import plot_pump
 
-        common.note(f"wrote {plot_pump(scene, result, plot)}", to_stderr=json)
+        plot_pump(scene, result, plot)
+        common.note(f"wrote {plot}", to_stderr=json)
     trajectory = None if result is None else result.trajectory
     modes = None if trajectory is None or trajectory.modes is None else list(trajectory.modes)
     common.write_motion(scene, trajectory, html=html, out=out, json=json, modes=modes)

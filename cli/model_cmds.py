@@ -9,10 +9,63 @@ from rich.table import Table
 from .common import console, handle_errors, print_json, set_quiet
 from .options import JsonOpt, QuietOpt, SceneArg, SetOpt, scene_overrides
 
+DESCRIPTION_CHARS = 120
+"""[characters] The longest description ``frc robots`` shows (the comment's first sentence, cut at a word)."""
+
+
+def _leading_comment(path: Path, opener: str, closer: str = "") -> str:
+    """The first sentence of a file's leading comment (a URDF's ``<!-- ... -->``, a scene's ``# ...``)."""
+    words: list[str] = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        text = line.strip()
+        if text.startswith("<?xml") or (not text and not words):
+            continue
+        if not words and not text.startswith(opener):
+            break
+        if opener == "#" and not text.startswith("#"):
+            break
+        words.append(text.removeprefix(opener).strip())
+        if closer and closer in text:
+            break
+    comment = " ".join(words).split(closer)[0] if closer else " ".join(words)
+    sentence = comment.split(". ")[0].strip().rstrip(".")
+    if len(sentence) <= DESCRIPTION_CHARS:
+        return sentence
+    return sentence[:DESCRIPTION_CHARS].rsplit(" ", 1)[0] + " ..."
+
+
+def catalog() -> list[dict[str, str]]:
+    """Every robot and scene a scene file can name: ``{"kind", "name", "description"}`` rows.
+
+    The shipped URDFs (``robot = "rod.urdf"``), the example-robot-data robots when that package is
+    installed (``robot = "example-robot-data:solo/solo12"``), and the shipped scenes.
+    """
+    from frcontrol.errors import FrcontrolError
+    from frcontrol.plane import EXAMPLE_ROBOT_DATA_PREFIX, example_robot_data_robots
+    from frcontrol.scene import shipped_robots_dir
+
+    root = shipped_robots_dir()
+    rows = [{"kind": "robot", "name": p.name, "description": _leading_comment(p, "<!--", "-->")}
+            for p in sorted(root.glob("*.urdf"))]
+    try:
+        extra = example_robot_data_robots()
+    except FrcontrolError:  # example-robot-data not installed: nothing more a scene can name
+        extra = {}
+    bare = {path: name for name, path in extra.items() if "/" not in name}
+    for name, path in extra.items():
+        if "/" in name:
+            alias = f" (also example-robot-data:{bare[path]})" if path in bare else ""
+            rows.append({"kind": "robot", "name": EXAMPLE_ROBOT_DATA_PREFIX + name,
+                         "description": f"{path.parent.parent.name}/{path.name} from the example-robot-data "
+                                        f"package, a 3-D URDF made planar by the scene's [plane]{alias}"})
+    rows += [{"kind": "scene", "name": p.stem, "description": _leading_comment(p, "#")}
+             for p in sorted((root / "scenes").glob("*.toml"))]
+    return rows
+
 
 @handle_errors
 def robots(json: JsonOpt = False, quiet: QuietOpt = False) -> None:
-    """List the robots and scenes that ship with frcontrol.
+    """List every robot a scene can name (shipped and example-robot-data) and the shipped scenes.
 
     \b
     Example:
@@ -22,18 +75,18 @@ def robots(json: JsonOpt = False, quiet: QuietOpt = False) -> None:
     from frcontrol.scene import shipped_robots_dir
 
     root = shipped_robots_dir()
+    rows = catalog()
     if json:
         print_json({"folder": str(root),
                     "robots": [p.name for p in sorted(root.glob("*.urdf"))],
-                    "scenes": [p.stem for p in sorted((root / "scenes").glob("*.toml"))]})
+                    "scenes": [p.stem for p in sorted((root / "scenes").glob("*.toml"))],
+                    "catalog": rows})
         return
-    table = Table(title=f"shipped with frcontrol ({root})")
-    table.add_column("kind", overflow="fold")
-    table.add_column("name", overflow="fold")
-    for path in sorted(root.glob("*.urdf")):
-        table.add_row("robot", path.name)
-    for path in sorted((root / "scenes").glob("*.toml")):
-        table.add_row("scene", path.stem)
+    table = Table(title=f"what a scene can name (shipped files in {root})")
+    for column in ("kind", "name", "description"):
+        table.add_column(column, overflow="fold")
+    for row in rows:
+        table.add_row(row["kind"], row["name"], row["description"])
     console.print(table)
 
 
@@ -108,6 +161,7 @@ def show(scene: SceneArg, json: JsonOpt = False, sets: SetOpt = None, quiet: Qui
 
 
 __all__ = [
+    "catalog",
     "robots",
     "show",
     "show_payload",

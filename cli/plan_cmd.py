@@ -15,15 +15,16 @@ PlanSceneArg = options.scene_argument("with [task] phases")
 HtmlOpt = options.html_option("the planned run")
 ViewOpt = options.view_option("the planned run")
 PlotOpt = options.plot_option("every coordinate and the contact forces over the planned run")
-MaxTimeOpt = Annotated[
+DurationOpt = Annotated[
     float | None,
-    typer.Option("--max-time", "-T", min=0.0, help="Longest simulated time [s] (default: [task] max_time)."),
+    typer.Option("--duration", "-T", callback=options.in_range(low=0.0, unit="[s]"),
+                 help="Longest simulated time [s] (default: [task] max_time)."),
 ]
 MarginOpt = Annotated[
     float | None,
     typer.Option(
         "--margin",
-        min=0.0,
+        callback=options.in_range(low=0.0, unit="[input units]"),
         help="Distance [input units] kept between every plan and every input "
         "where another contact mode also holds, for every phase (default: each phase's margin).",
     ),
@@ -48,12 +49,13 @@ def plan_command(
     port: options.PortOpt = None,
     plot: PlotOpt = None,
     margin: MarginOpt = None,
-    max_time: MaxTimeOpt = None,
+    duration: DurationOpt = None,
     dt: options.StepOpt = 1e-3,
     replan_every: options.ReplanOpt = 10,
     compliant: CompliantOpt = False,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
+    max_time: options.MaxTimeAliasOpt = None,
 ) -> None:
     """Run the scene's task: each phase planned in its allowed modes' unambiguous set, re-planned along a run.
 
@@ -70,7 +72,7 @@ def plan_command(
       frc plan solo_shift --plot shift.png --html shift.html
     """
     common.set_quiet(quiet)
-    common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
+    common.check_port(view=view, port=port)
     loaded = options.load_scene_with_overrides(scene, sets)
     from frcontrol.answers import plan_task_answer
 
@@ -80,7 +82,7 @@ def plan_command(
                 loaded,
                 dt=dt,
                 replan_every=replan_every,
-                max_time=max_time,
+                max_time=duration if max_time is None else max_time,
                 margin=margin,
                 compliant=compliant,
                 progress=lambda t, total: status.update(f"running the task: {t:.3f} / {total:g} s"),

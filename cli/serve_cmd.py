@@ -10,58 +10,87 @@ import typer
 from frcontrol.errors import reason_from_exception
 
 from . import common, options
+from .atlas_cmd import check_scheduler_address
+from .options import in_range
 
 LOOPBACK = "127.0.0.1"
 """The only address ``frc serve`` binds to without a token."""
 
+
+def _check_host(host: str) -> str:
+    """``--host``: an IP address or a host name (whether it can be bound is checked at the start)."""
+    import ipaddress
+    import re
+
+    try:
+        ipaddress.ip_address(host)
+    except ValueError:
+        if not re.fullmatch(r"[A-Za-z0-9]([A-Za-z0-9.-]{0,252})", host):
+            raise typer.BadParameter(f"expected an IP address or a host name, got {host!r}") from None
+    return host
+
+
+def _check_token_file(path: Path | None) -> Path | None:
+    """``--token-file``: a readable file (an empty first line is refused once it is read)."""
+    import os
+
+    if path is not None and not (path.is_file() and os.access(path, os.R_OK)):
+        raise typer.BadParameter(f"{str(path)!r}: expected a readable file holding the token")
+    return path
+
+
 HostOpt = Annotated[
     str,
-    typer.Option("--host", help=f"Address to listen on. Any other than {LOOPBACK} needs --token-file."),
+    typer.Option("--host", callback=_check_host,
+                 help=f"Address to listen on. Any other than {LOOPBACK} needs --token-file."),
 ]
-ServePortOpt = Annotated[int, typer.Option("--port", min=1, max=65535, help="Port to listen on.")]
+ServePortOpt = Annotated[int, typer.Option("--port", callback=in_range(1, 65535), help="Port to listen on.")]
 WorkersOpt = Annotated[
-    int, typer.Option("--workers", min=1, max=64, help="Worker processes answering requests."),
+    int, typer.Option("--workers", callback=in_range(1, 64), help="Worker processes answering requests."),
 ]
 SchedulerOpt = Annotated[
     str | None,
-    typer.Option("--scheduler", metavar="ADDRESS",
+    typer.Option("--scheduler", metavar="ADDRESS", callback=check_scheduler_address,
                  help="Run the chunks of POST /atlas jobs on the Dask cluster at tcp://HOST:PORT (checked "
                       'at the start; pip install "frcontrol[cluster]"); default: a local pool of '
                       "--workers processes per job."),
 ]
 TokenFileOpt = Annotated[
     Path | None,
-    typer.Option("--token-file", metavar="FILE",
+    typer.Option("--token-file", metavar="FILE", callback=_check_token_file,
                  help="A file holding the token every request must bring as 'Authorization: Bearer "
                       "<token>' (its first line). Required to listen on any address but 127.0.0.1."),
 ]
 TimeLimitOpt = Annotated[
     float,
-    typer.Option("--time-limit", min=0.1, help="[s] Each request's time limit (waiting included); past "
+    typer.Option("--time-limit", callback=in_range(0.1, unit="[s]"),
+                 help="[s] Each request's time limit (waiting included); past "
                  "it the answer is a 504 naming the limit and the work is stopped. Also each chunk's "
                  "limit in an atlas job on the local pool."),
 ]
 JobTimeLimitOpt = Annotated[
-    float, typer.Option("--job-time-limit", min=0.1, help="[s] Each job's time limit (an atlas job's "
+    float, typer.Option("--job-time-limit", callback=in_range(0.1, unit="[s]"),
+                        help="[s] Each job's time limit (an atlas job's "
                         "whole run)."),
 ]
 MaxJobsOpt = Annotated[
-    int, typer.Option("--max-jobs", min=1, help="Jobs running at once (another is a 429)."),
+    int, typer.Option("--max-jobs", callback=in_range(1), help="Jobs running at once (another is a 429)."),
 ]
 MaxBodyOpt = Annotated[
     int,
-    typer.Option("--max-body", min=1024, help="[bytes] The largest request body (a larger one is a 413)."),
+    typer.Option("--max-body", callback=in_range(1024, unit="[bytes]"),
+                 help="[bytes] The largest request body (a larger one is a 413)."),
 ]
 WorkerMemoryOpt = Annotated[
     int | None,
-    typer.Option("--worker-memory", min=0, metavar="MIB",
+    typer.Option("--worker-memory", callback=in_range(0, unit="[MiB]"), metavar="MIB",
                  help="[MiB] The address space each worker and job process may add to what it uses "
                       "once the library is loaded (RLIMIT_AS; about 500 MiB); a request that needs "
                       "more is a 507 and its worker is replaced. 0: no limit. Default: 4096."),
 ]
 MaxResultBytesOpt = Annotated[
     int | None,
-    typer.Option("--max-result-bytes", min=1024, metavar="BYTES",
+    typer.Option("--max-result-bytes", callback=in_range(1024, unit="[bytes]"), metavar="BYTES",
                  help="[bytes] Finished jobs' results kept in memory in all; the oldest finished jobs "
                       "are forgotten first, and a larger result alone fails its job. Default: 256 MiB."),
 ]
@@ -163,6 +192,18 @@ def serve_command(
     _run(app, host, port, json=json, quiet=quiet)
 
 
+def _logs_on_stderr() -> dict[str, Any]:
+    """Uvicorn's logging configuration with every log, the access log too, on stderr (stdout: answers)."""
+    import copy
+
+    from uvicorn.config import LOGGING_CONFIG
+
+    config = copy.deepcopy(LOGGING_CONFIG)
+    for handler in config["handlers"].values():
+        handler["stream"] = "ext://sys.stderr"
+    return config
+
+
 def _run(app: object, host: str, port: int, *, json: bool, quiet: bool) -> None:
     """Serve ``app`` with uvicorn; say where once it listens; stop on Ctrl-C or SIGTERM."""
     import signal
@@ -174,19 +215,20 @@ def _run(app: object, host: str, port: int, *, json: bool, quiet: bool) -> None:
     url = f"http://{shown}:{port}"
     level = "warning" if quiet else "info"
     server = uvicorn.Server(uvicorn.Config(app, host=host, port=port, log_level=level, access_log=not quiet,
-                                           lifespan="on"))
+                                           lifespan="on", log_config=_logs_on_stderr()))
 
     def announce() -> None:
         while not server.started and not server.should_exit:
             threading.Event().wait(0.05)
         if not server.started:
             return
-        if json:
-            common.print_json({"url": url, "docs": f"{url}/docs"})
-        else:
-            common.tell(f"serving {url} (API pages at {url}/docs); Ctrl-C or SIGTERM stops")
+        import json as json_module
         import sys
 
+        if json:  # one line, flushed: a program reads it while the service runs
+            sys.stdout.write(json_module.dumps({"url": url, "docs": f"{url}/docs"}) + "\n")
+        else:
+            common.tell(f"serving {url} (API pages at {url}/docs); Ctrl-C or SIGTERM stops")
         sys.stdout.flush()
 
     threading.Thread(target=announce, daemon=True).start()

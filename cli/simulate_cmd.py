@@ -17,6 +17,7 @@ if TYPE_CHECKING:  # the simulators load when the command runs, not for --help
 
 from . import common, options
 from .common import console
+from .options import in_range
 
 MAX_EVENTS_SHOWN = 40
 """Events listed in the table (all of them are in ``--json``)."""
@@ -35,23 +36,35 @@ ModelOpt = Annotated[
 ]
 StiffnessOpt = Annotated[
     float | None,
-    typer.Option("--stiffness", "-k", help="Compliant contact stiffness k [N/m] for every contact "
+    typer.Option("--stiffness", "-k", callback=in_range(above=0.0, unit="[N/m]"),
+                 help="Compliant contact stiffness k [N/m] for every contact "
                  "(default: the scene's [model], else 1e5)."),
 ]
 DampingOpt = Annotated[
     float | None,
-    typer.Option("--damping", help="Compliant contact damping b [N s/m] (default: critical for each "
+    typer.Option("--damping", callback=in_range(low=0.0, unit="[N s/m]"),
+                 help="Compliant contact damping b [N s/m] (default: critical for each "
                  "contact's effective mass)."),
 ]
 DtOpt = Annotated[
     float,
-    typer.Option("--dt", help="Rigid: the time step [s]. Compliant: the sample interval and control "
-                 "period [s] (the integrator adapts its own steps)."),
+    typer.Option("--dt", callback=in_range(above=0.0, unit="[s]"),
+                 help="Rigid: the time step [s]. Compliant: the sample interval and control "
+                      "period [s] (the integrator adapts its own steps)."),
 ]
-DurationOpt = Annotated[float, typer.Option("--duration", "-T", help="Simulated time [s].")]
+DurationOpt = options.duration_option("Simulated time [s].")
+
+
+def _check_integrator(name: str) -> str:
+    if name not in INTEGRATORS:
+        raise typer.BadParameter(f"expected one of {', '.join(INTEGRATORS)}, got {name!r}")
+    return name
+
+
 IntegratorOpt = Annotated[
     str,
-    typer.Option("--integrator", help=f"Compliant model's integrator: {', '.join(INTEGRATORS)}."),
+    typer.Option("--integrator", callback=_check_integrator,
+                 help=f"Compliant model's integrator: {', '.join(INTEGRATORS)}."),
 ]
 HtmlOpt = options.html_option("the trajectory")
 PlotOpt = options.plot_option("every coordinate and the contact forces over time, contact events marked")
@@ -89,7 +102,6 @@ def simulate_command(
       frc simulate rod_on_table -T 0.3 --plot rod.png
     """
     common.set_quiet(quiet)
-    common.check_outputs(html=html, plot=plot, out=out)
     loaded = options.load_scene_with_overrides(scene, sets)
     assignments = options.parse_inputs(inputs)
     traj = _simulate(loaded, model, stiffness, damping, assignments, duration, dt, integrator)
@@ -97,7 +109,8 @@ def simulate_command(
     if plot is not None:
         from frcontrol.viz.plots import plot_trajectory
 
-        common.note(f"wrote {plot_trajectory(traj, plot, coordinates=traj.coordinates)}", to_stderr=json)
+        plot_trajectory(traj, plot, coordinates=traj.coordinates)
+        common.note(f"wrote {plot}", to_stderr=json)
     common.write_motion(loaded, traj, html=html, out=out, json=json)
     payload = traj.to_dict(loaded)
     common.answer(payload, render, json=json)

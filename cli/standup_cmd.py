@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from rich.table import Table
@@ -14,8 +15,12 @@ from .common import console
 
 StandUpSceneArg = options.scene_argument("with [task] feet and stand_height")
 HtmlOpt = options.html_option("the simulated stand-up")
+ViewOpt = options.view_option("the simulated stand-up")
+PlotOpt = options.plot_option("every coordinate and the contact forces over the simulated time, contact "
+                              "events marked")
 MarginOpt = options.margin_option("each plan")
-DurationOpt = options.max_time_option("the first plan only")
+DurationOpt = options.duration_option("Longest simulated time [s] of the closed loop (0: the first plan "
+                                      "only, no simulation).")
 
 
 @common.handle_errors
@@ -24,12 +29,16 @@ def standup_command(
     json: options.JsonOpt = False,
     html: HtmlOpt = None,
     out: options.OutOpt = None,
+    view: ViewOpt = False,
+    port: options.PortOpt = None,
+    plot: PlotOpt = None,
     margin: MarginOpt = DEFAULT_MARGIN,
-    max_time: DurationOpt = DEFAULT_DURATION,
+    duration: DurationOpt = DEFAULT_DURATION,
     dt: options.StepOpt = 2e-3,
     replan_every: options.ReplanOpt = 10,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
+    max_time: options.MaxTimeAliasOpt = None,
 ) -> None:
     """Stand up: torques lifting the base to [task] stand_height with the feet in mode F.
 
@@ -41,20 +50,39 @@ def standup_command(
 
     \b
     Examples:
-      frc standup --max-time 0.1
-      frc standup --json --max-time 0
+      frc standup --duration 0.1
+      frc standup --json --duration 0
+      frc standup --duration 0.1 --plot standup.png
     """
     common.set_quiet(quiet)
-    common.check_outputs(html=html, out=out)
+    common.check_port(view=view, port=port)
+    duration = options.duration_given(duration, max_time)
     loaded = options.load_scene_with_overrides(scene, sets)
     from frcontrol.planning.standup import simulate_standup
 
-    with common.progress("planning the stand-up...") as status:
-        result = simulate_standup(
-            loaded, duration=max_time, dt=dt, replan_every=replan_every, margin=margin,
-            progress=lambda t, total: status.update(f"simulating the stand-up: {t:.3f} / {total:g} s"))
-    common.answer(result.to_dict(loaded), render, json=json)
-    common.write_motion(loaded, result.trajectory, html=html, out=out, json=json)
+    with common.live_viewer(view, port) as server:
+        with common.progress("planning the stand-up...") as status:
+            result = simulate_standup(
+                loaded, duration=duration, dt=dt, replan_every=replan_every, margin=margin,
+                progress=lambda t, total: status.update(f"simulating the stand-up: {t:.3f} / {total:g} s"))
+        common.answer(result.to_dict(loaded), render, json=json)
+        trajectory = result.trajectory
+        if plot is not None:
+            _plot(trajectory, plot, json=json)
+        common.write_motion(loaded, trajectory, html=html, out=out, json=json)
+        if server is not None:
+            common.show_live(server, loaded, trajectory, json=json)
+
+
+def _plot(trajectory: Any, plot: Path, *, json: bool) -> None:
+    """``--plot``: the simulated coordinates and forces over time (nothing simulated: no figure)."""
+    if trajectory is None:
+        common.note("no trajectory (nothing was simulated): --plot not written", to_stderr=True)
+        return
+    from frcontrol.viz.plots import plot_trajectory
+
+    plot_trajectory(trajectory, plot, coordinates=trajectory.coordinates)
+    common.note(f"wrote {plot}", to_stderr=json)
 
 
 def render(payload: dict[str, Any]) -> None:

@@ -15,7 +15,7 @@ PlotOpt = options.plot_option("the body, its contacts, friction cones and equili
                               "the support interval and region")
 LateralOpt = Annotated[
     float,
-    typer.Option("--lateral-acceleration", min=0.0,
+    typer.Option("--lateral-acceleration", callback=options.in_range(low=0.0, unit="[m/s^2]"),
                  help="[m/s^2] planar support region: stay at rest while the supports accelerate "
                       "sideways by up to this (0: the vertical strip)."),
 ]
@@ -48,7 +48,6 @@ def statics_command(
     common.set_quiet(quiet)
     from frcontrol.statics import analyze_statics
 
-    common.check_outputs(plot=plot, html=html)
     loaded = options.load_scene_with_overrides(scene, sets)
     report = analyze_statics(loaded, options.parse_inputs(inputs),
                              lateral_acceleration=lateral_acceleration, strong=not no_strong)

@@ -53,9 +53,10 @@ def view_command(
       frc view my_scene.toml --view --watch
     """
     common.set_quiet(quiet)
+    common.check_port(view=view, port=port)
     if html is None and plot is None and not view:
         html = Path(f"{Path(scene).stem}.html")
-    common.check_outputs(view=view, port=port, plot=plot, html=html)
+        options.check_output_path("--html", html)
     overrides = options.scene_overrides(sets)
     from frcontrol.scene import load_scene
 
@@ -67,8 +68,8 @@ def view_command(
         if html is not None:
             from frcontrol.viz.meshcat_view import write_html
 
-            written["html"] = str(Path(write_html(current, None, html)).resolve())
-            common.note(f"wrote {written['html']}", to_stderr=json)
+            written["html"] = str(Path(write_html(current, None, html)).resolve())  # the JSON's: absolute
+            common.note(f"wrote {html}", to_stderr=json)  # the line: the path as given
         if plot is not None:
             from frcontrol.viz.plots import plot_scene
 

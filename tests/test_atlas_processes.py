@@ -148,7 +148,7 @@ def test_a_signal_keeps_the_finished_chunks_and_resume_finishes_identically(how,
     else:
         os.kill(run.pid, signal.SIGTERM)
     stdout, stderr = run.communicate(timeout=WAIT)
-    assert run.returncode == 1 and stdout == "", (
+    assert run.returncode == 128 + getattr(signal, how) and stdout == "", (
         f"exit {run.returncode}, SIGINT here {signal.getsignal(signal.SIGINT)!r}, stderr: {stderr[-300:]!r}")
     last = stderr.splitlines()[-1]
     assert last.startswith(f"frc: error: interrupted by {how}; the finished chunks are kept in rod.npz.parts")

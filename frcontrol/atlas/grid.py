@@ -332,10 +332,12 @@ def build_atlas(
         InputError: no axis, a malformed axis, an unknown ``what``, a path varied twice or also
             fixed, an unknown input (with the nearest), a fixed input outside its limits, a
             chunk size < 1, or a grid of more than ``max_points`` points.
-        SceneError: the scene or a ``--set`` override is invalid, or an axis path names no field
-            (with the nearest valid one).
+        SceneError: the scene or a ``--set`` override is invalid, an axis path names no field
+            (with the nearest valid one), or the scene lacks what ``what`` needs (a flip's or a
+            climb's ``[task]``).
     """
     from ..model import PlanarRobot
+    from .points import check_scene_for
 
     if what not in WHATS:
         raise InputError(f"unknown --what {what!r}; valid: {', '.join(WHATS)}")
@@ -349,6 +351,7 @@ def build_atlas(
     source = scene if isinstance(scene, SceneSource) else SceneSource.file(scene)
     with source.loaded(fixed) as base:
         parse_input_assignments(base, fixed_inputs)
+        check_scene_for(base, what)  # a flip sweep of a scene with no [task] is refused at once
         raw = dict(base.raw)
         full = PlanarRobot(base.robot.urdf_path, base=base.robot.base).coordinate_names  # with locked joints
         robot_digest = _file_digest(base.robot.urdf_path)

@@ -231,16 +231,56 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
             pool.stop()
 
     app = FastAPI(title="frcontrol planning service", version=API_VERSION, lifespan=lifespan,
+                  docs_url=None, redoc_url=None,  # served from installed files: _add_docs_routes
                   description="Contact modes, mode domains, plans and simulations of planar robots in "
                               "contact, as JSON: each answer is the matching `frc` command's `--json`.")
     app.add_middleware(_Guard, config=config)
     app.add_exception_handler(RequestValidationError, _refused)
     _add_info_routes(app, config, pool, jobs)
+    _add_docs_routes(app)
     for kind, (path, request_model, summary) in ENDPOINTS.items():
         _add_work_routes(app, pool, jobs, kind, path, request_model, summary)
     _add_job_routes(app, jobs)
     _add_atlas_route(app, config, pool, jobs)
     return app
+
+
+DOCS_ASSETS = "/docs-assets"
+"""Where the service serves the Swagger UI's script and style sheet (from the fastapi-offline package)."""
+
+
+def _add_docs_routes(app: FastAPI) -> None:
+    """``/docs``: the Swagger UI from installed files (no CDN: it works offline).
+
+    The assets come from the ``fastapi-offline`` package (the ``serve`` extra); without it the
+    page says so and links the schema.
+    """
+    from pathlib import Path
+
+    from fastapi.openapi.docs import get_swagger_ui_html
+    from fastapi.responses import HTMLResponse
+
+    try:
+        import fastapi_offline
+    except ImportError:
+        assets = None
+    else:
+        assets = Path(fastapi_offline.__file__).parent / "static"
+    if assets is not None and (assets / "swagger-ui-bundle.js").is_file():
+        from fastapi.staticfiles import StaticFiles
+
+        app.mount(DOCS_ASSETS, StaticFiles(directory=assets), name="docs-assets")
+
+    @app.get("/docs", include_in_schema=False)
+    async def docs() -> HTMLResponse:
+        if assets is None:
+            return HTMLResponse("<!doctype html><title>frcontrol planning service</title><p>The API pages "
+                                'need fastapi-offline: pip install "frcontrol[serve]". The schema: '
+                                '<a href="/openapi.json">/openapi.json</a></p>')
+        return get_swagger_ui_html(openapi_url="/openapi.json", title=f"{app.title} - API",
+                                   swagger_js_url=f"{DOCS_ASSETS}/swagger-ui-bundle.js",
+                                   swagger_css_url=f"{DOCS_ASSETS}/swagger-ui.css",
+                                   swagger_favicon_url=f"{DOCS_ASSETS}/favicon.png")
 
 
 def _add_info_routes(app: FastAPI, config: ServiceConfig, pool: WorkerPool, jobs: JobRunner) -> None:
