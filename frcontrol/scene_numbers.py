@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from .model import ContactPoint
-from .scene import Scene, _contacts_at_state, _coordinate_path, _Reader
+from .scene import Contact, Scene, _contacts_at_state, _coordinate_path, _Reader
 
 MU_PATH_FIELD = "mu"
 """The contact field :func:`is_numeric_path` takes as a number (``contacts.NAME.mu``)."""
@@ -103,25 +103,31 @@ def scene_with_numbers(scene: Scene, overrides: Mapping[str, Any], bare_coordina
             _set_raw_mu(raw, index[name], number)
         else:
             raise reader.fail(path, "not a numeric override of this scene (load the scene with it)")
-    points = [replace(c.point, mu=m) if c.mu != m else c.point
+    points = [c.point if c.mu == m else _point(c.point, c.point.surface_point_in_world, m)
               for c, m in zip(scene.contacts, mu, strict=True)]
     if q is not scene.q:
         points, contacts = _placed_at(reader, scene, points, q)
     else:
-        contacts = [replace(c, point=p) for c, p in zip(scene.contacts, points, strict=True)]
+        contacts = [c if c.point is p else Contact(p, c.gap, c.active)
+                    for c, p in zip(scene.contacts, points, strict=True)]
     moved = replace(scene, q=q, v=v, contacts=tuple(contacts), raw=raw)
     use_contacts_of(moved)
     return moved
 
 
 def _placed_at(reader: _Reader, scene: Scene, points: list[ContactPoint], q: np.ndarray
-               ) -> tuple[list[ContactPoint], list[Any]]:
+               ) -> tuple[list[ContactPoint], list[Contact]]:
     """The contact points and contacts at ``q``, as the loader places them (module docstring)."""
     world = scene.robot.contact_points_in_world(q)
     pending = _pending_surfaces(scene)
-    points = [replace(p, surface_point_in_world=world[i].copy()) if pending[i] else p
-              for i, p in enumerate(points)]
+    points = [_point(p, world[i].copy(), p.mu) if pending[i] else p for i, p in enumerate(points)]
     return points, _contacts_at_state(reader, points, world, scene.gap_tolerance)
+
+
+def _point(point: ContactPoint, surface_point_in_world: np.ndarray, mu: float) -> ContactPoint:
+    """``point`` with another surface point [m] and Coulomb coefficient [-]."""
+    return ContactPoint(point.name, point.link, point.point_in_link, point.normal_in_world,
+                        surface_point_in_world, mu)
 
 
 def _pending_surfaces(scene: Scene) -> list[bool]:

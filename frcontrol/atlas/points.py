@@ -31,11 +31,10 @@ path is tested against). A scene sent as content is rebuilt from its text
 
 from __future__ import annotations
 
-import json
 import time
 from collections import OrderedDict
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ..errors import FrcontrolError
@@ -81,18 +80,27 @@ class _Loaded:
     scene: Scene
     problem: ContactProblem
     bare_coordinates: tuple[str, ...]
+    numeric: dict[frozenset[str], bool] = field(default_factory=dict)  # paths -> all numeric here
+
+    def takes_numbers(self, paths: frozenset[str]) -> bool:
+        """Whether every path of ``paths`` is numeric on this scene (found once per set of paths)."""
+        known = self.numeric.get(paths)
+        if known is None:
+            known = self.numeric[paths] = all(is_numeric_path(self.scene, path) for path in paths)
+        return known
 
 
 class _Scenes:
     """The last :data:`SCENE_CACHE_SIZE` scenes loaded (or the typed errors they raised), by overrides."""
 
     def __init__(self) -> None:
-        self.cache: OrderedDict[tuple[SceneSource, str], _Loaded | FrcontrolError] = OrderedDict()
+        self.cache: OrderedDict[tuple[SceneSource, tuple[tuple[str, str], ...]], _Loaded | FrcontrolError] = \
+            OrderedDict()
         self.loads = 0
 
     def get(self, source: SceneSource, overrides: Mapping[str, Any]) -> _Loaded:
         """The scene with ``overrides``, loaded once (a typed error of the load raised again)."""
-        key = (source, json.dumps(sorted((k, repr(v)) for k, v in overrides.items())))
+        key = (source, tuple(sorted((k, repr(v)) for k, v in overrides.items())))
         entry = self.cache.get(key)
         if entry is None:
             entry = self._load(source, overrides)
@@ -144,7 +152,7 @@ def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: froze
     if numeric:
         try:
             template = _SCENES.get(plan.source, {k: v for k, v in overrides.items() if k not in numeric})
-            if all(is_numeric_path(template.scene, path) for path in numeric):
+            if template.takes_numbers(frozenset(numeric)):
                 scene = scene_with_numbers(template.scene, numeric, template.bare_coordinates)
                 return scene, ContactProblem.from_scene(scene)
         except FrcontrolError:
