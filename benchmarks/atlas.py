@@ -6,13 +6,16 @@ Run from the repository root::
 
 The problem is the rod on the table sliding left (``--set state.v.x=-1``) over its pitch and the
 tip's friction, ``state.q.theta`` in [0.1, 3.0] and ``contacts.tip.mu`` in [0, 2]: at every point the
-scene is reloaded (the pitch moves the tip, the table follows it), every rigid solution is found
-(``solutions_at`` from scratch) and each one's stability is checked.
+pitch and the friction are set on the scene a worker loaded once (the tip moves, the table follows
+it: :mod:`frcontrol.scene_numbers`), every rigid solution is found (``solutions_at``) and each
+one's stability is checked.
 
 * **per-point cost** (the reference, in this process): a sample of distinct grid points evaluated
-  one after another, :func:`frcontrol.atlas.points.evaluate_point`; the mean per point, median of
-  ``--runs`` runs. Beside it, its parts: ``load_scene`` with the point's overrides, and
-  ``solutions_at`` with the stability checks on the loaded scene.
+  one after another as a chunk evaluates them (:func:`frcontrol.atlas.points.evaluate_point`: the
+  scene loaded once, each point's pitch and friction set on it), in CPU time, median of ``--runs``
+  runs; beside it, in the same runs, the same points with the scene loaded at every point
+  (``reload=True``, the path before), ``solutions_at`` from scratch at the same points, and the
+  calibration workload of ``benchmarks.ci``, with the ratios (per run, then their median).
 * **throughput**: a 61 x 41 grid through :func:`frcontrol.atlas.run_atlas` serially (1 worker), on
   the local pool with 2 and with every core, and on a Dask ``LocalCluster`` of 2 single-threaded
   worker processes on 127.0.0.1 (when Dask is installed), each the median of ``--runs`` runs, in
@@ -21,8 +24,8 @@ scene is reloaded (the pitch moves the tip, the table follows it), every rigid s
 * **chunk overhead**: the same grid on 2 pool workers (and on the cluster) with chunks of 1 point
   and of 64: ``(wall(1) - wall(64)) / (chunks(1) - chunks(64))`` per chunk; and the pool's start-up
   (a run of 2 one-point chunks, less their compute).
-* **the issue's rod atlas**: 181 x 101 points on 2 local workers, wall time against the budget
-  ``2 x per-point cost x points / 2``.
+* **the big rod atlas**: 181 x 101 points on 2 local workers, wall time against the budget
+  ``2 x solutions_at's cost x points / 2`` (an atlas at most twice the queries it is made of).
 
 Writes ``benchmarks/results/atlas.json`` and ``benchmarks/results/atlas.png``.
 """
@@ -46,7 +49,7 @@ from frcontrol.atlas.points import evaluate_point
 RESULTS = Path(__file__).resolve().parent / "results"
 SETS = {"state.v.x": -1.0}
 BUDGET_FACTOR = 2.0
-"""The big atlas on W workers must take at most this x per-point cost x points / W."""
+"""The big atlas on W workers must take at most this x solutions_at's cost x points / W."""
 
 
 def axes(n_theta: int, n_mu: int) -> list[str]:
@@ -54,35 +57,56 @@ def axes(n_theta: int, n_mu: int) -> list[str]:
 
 
 def per_point_cost(runs: int, sample: int) -> dict:
-    """Mean seconds per point over a sample of distinct points of the big grid, median of runs."""
+    """Seconds per point over a sample of distinct points of the big grid, medians of ``runs`` runs.
+
+    In each run, one after another on the same points: the chunk path (the scene loaded once, each
+    point's pitch and friction set on it), the scene loaded at every point (``reload=True``, the
+    path before), ``solutions_at`` from scratch on the point's scene (loaded beforehand, not timed),
+    and the calibration workload of ``benchmarks.ci``; the ratios are per run, then their median.
+    """
     import frcontrol
-    from frcontrol.modes import ContactProblem
-    from frcontrol.stability import stability_of
+    from benchmarks.ci import calibration_workload
+    from frcontrol.atlas.points import numeric_axes
 
     plan = build_atlas("rod_on_table", axes(181, 101), overrides=SETS)
+    paths = numeric_axes(plan)
     rng = np.random.default_rng(7)
-    means, loads, solves = [], [], []
+    parts: dict[str, list[float]] = {"chunk": [], "reload": [], "solutions_at": [], "calibration": []}
     for _ in range(runs):
-        points = rng.choice(plan.size, size=sample, replace=False)
-        start = time.perf_counter()
+        points = [int(k) for k in rng.choice(plan.size, size=sample, replace=False)]
+        scenes = [(plan.source.load(plan.point(k)[0]), plan.point(k)[1]) for k in points[: sample // 4]]
+        start = time.process_time()
         for k in points:
-            evaluate_point(plan, int(k))
-        means.append((time.perf_counter() - start) / sample)
-        load_t = solve_t = 0.0
+            evaluate_point(plan, k, numeric_paths=paths)
+        parts["chunk"].append((time.process_time() - start) / sample)
+        start = time.process_time()
         for k in points[: sample // 4]:
-            overrides, inputs = plan.point(int(k))
-            t0 = time.perf_counter()
-            scene = plan.source.load(overrides)
-            t1 = time.perf_counter()
-            problem = ContactProblem.from_scene(scene)
-            for s in frcontrol.solutions_at(problem, inputs):
-                stability_of(problem, s)
-            t2 = time.perf_counter()
-            load_t, solve_t = load_t + t1 - t0, solve_t + t2 - t1
-        loads.append(load_t / (sample // 4))
-        solves.append(solve_t / (sample // 4))
-    return {"sample_points": sample, "runs": runs, "per_point_s": statistics.median(means),
-            "load_scene_s": statistics.median(loads), "solutions_and_stability_s": statistics.median(solves)}
+            evaluate_point(plan, k, reload=True)
+        parts["reload"].append((time.process_time() - start) / (sample // 4))
+        start = time.process_time()
+        for scene, inputs in scenes:
+            frcontrol.solutions_at(scene, inputs)
+        parts["solutions_at"].append((time.process_time() - start) / len(scenes))
+        start = time.process_time()
+        calibration_workload()
+        parts["calibration"].append(time.process_time() - start)
+    ratio = [c / q for c, q in zip(parts["chunk"], parts["solutions_at"], strict=True)]
+    cal = [c / w for c, w in zip(parts["chunk"], parts["calibration"], strict=True)]
+    return {"sample_points": sample, "runs": runs, "clock": "CPU time of this process",
+            "per_point_s": statistics.median(parts["chunk"]),
+            "reload_per_point_s": statistics.median(parts["reload"]),
+            "solutions_at_s": statistics.median(parts["solutions_at"]),
+            "calibration_s": statistics.median(parts["calibration"]),
+            "ratio_to_solutions_at": statistics.median(ratio), "ratio_to_calibration": statistics.median(cal),
+            "speedup_over_reload": statistics.median(
+                [r / c for r, c in zip(parts["reload"], parts["chunk"], strict=True)])}
+
+
+def per_point_line(cost: dict) -> str:
+    return (f"per point: {1e6 * cost['per_point_s']:.0f} us of CPU ({cost['ratio_to_solutions_at']:.2f}x "
+            f"solutions_at's {1e6 * cost['solutions_at_s']:.0f} us, {cost['ratio_to_calibration']:.4f}x the "
+            f"calibration's {1e3 * cost['calibration_s']:.2f} ms); loading the scene at every point "
+            f"{1e6 * cost['reload_per_point_s']:.0f} us ({cost['speedup_over_reload']:.1f}x slower)")
 
 
 def timed_run(plan, runs: int, **where) -> dict:
@@ -142,6 +166,7 @@ def pool_start() -> float:
 
 
 def big_atlas(runs: int, cost: float) -> dict:
+    """The 181 x 101 atlas on 2 workers; ``cost`` [s]: one ``solutions_at`` (the budget's unit)."""
     plan = build_atlas("rod_on_table", axes(181, 101), overrides=SETS)
     load_before = os.getloadavg()[0]
     run = timed_run(plan, runs, workers=2)
@@ -202,12 +227,13 @@ def main() -> None:
     args = parser.parse_args()
     if args.big_only:
         cost = per_point_cost(args.runs, 400)
-        big = big_atlas(args.big_runs, cost["per_point_s"])
+        big = big_atlas(args.big_runs, cost["solutions_at_s"])
         payload = {"benchmark": "frc atlas: the 181 x 101 rod atlas on 2 workers", "command":
                    "python -m benchmarks.atlas --big-only", "per_point": cost, "big_atlas": big,
                    "cores": os.cpu_count(), "python": platform.python_version()}
         (RESULTS / "atlas_big.json").write_text(json.dumps(payload, indent=2) + "\n")
-        print(f"per point {1e3 * cost['per_point_s']:.2f} ms; 181 x 101 on 2 workers: {big['wall_s']:.1f} s, "
+        print(per_point_line(cost))
+        print(f"181 x 101 on 2 workers: {big['wall_s']:.1f} s, "
               f"budget {big['budget_s']:.1f} s ({'met' if big['within_budget'] else 'NOT met'}); "
               f"{1e3 * big['per_point_in_workers_s']:.2f} ms per point inside the workers "
               f"({1e3 * big['cpu_per_point_in_workers_s']:.2f} ms of CPU); "
@@ -230,7 +256,7 @@ def main() -> None:
     finally:
         if cluster is not None:
             cluster.close()
-    big = big_atlas(args.big_runs, cost["per_point_s"]) if not args.quick else {}
+    big = big_atlas(args.big_runs, cost["solutions_at_s"]) if not args.quick else {}
     payload = {"benchmark": "frc atlas: throughput, per-point cost, chunk overhead", "command":
                "python -m benchmarks.atlas", "grid": f"{n_theta} x {n_mu}", "per_point": cost,
                "throughput": rows, "chunk_overhead": overhead, "big_atlas": big,
@@ -240,8 +266,7 @@ def main() -> None:
     (folder / "atlas.json").write_text(json.dumps(payload, indent=2) + "\n")
     if big:
         plot(payload, folder / "atlas.png")
-    print(f"per point: {1e3 * cost['per_point_s']:.2f} ms (load_scene {1e3 * cost['load_scene_s']:.2f} ms, "
-          f"solutions_at + stability {1e3 * cost['solutions_and_stability_s']:.2f} ms)")
+    print(per_point_line(cost))
     for r in rows:
         print(f"{r['executor']} x{r['workers']}: {r['points_per_s']:.0f} points/s, "
               f"speed-up {r['speedup']:.2f}, efficiency {r['efficiency']:.2f}, "

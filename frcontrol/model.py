@@ -512,6 +512,12 @@ class PlanarRobot:
             for c, s in zip(self.contacts, self._surface_points, strict=True)
         )
 
+    def set_friction(self, mu: Sequence[float]) -> None:
+        """Set every contact's Coulomb coefficient [-], in ``contacts`` order (no kinematics changes)."""
+        self.contacts = tuple(ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world,
+                                           c.surface_point_in_world, float(m))
+                              for c, m in zip(self.contacts, mu, strict=True))
+
     def set_drive_terms(self, inertia: Mapping[int, float], damping: Mapping[int, float]) -> None:
         """Add drives' reflected inertia and viscous damping to minimal coordinates.
 

@@ -238,8 +238,8 @@ def stability_of(
                          tolerances=tolerances)
 
     J_r, J_c = np.array(rows), np.array(cols)
-    m_scale = max(float(np.max(np.abs(M))), 1e-300)
-    j_scale = max(float(np.max(np.abs(J_r))), float(np.max(np.abs(J_c))), 1e-300)
+    m_scale = max(float(np.abs(M).max()), 1e-300)
+    j_scale = max(float(np.abs(J_r).max()), float(np.abs(J_c).max()), 1e-300)
     d_scale = j_scale**2 / m_scale
     eig_tol = EIGENVALUE_TOLERANCE * d_scale
     tolerances["eigenvalue"] = eig_tol
@@ -273,11 +273,12 @@ def _solution_tolerances(problem: ContactProblem, solution: RigidSolution) -> di
     Forces [N] relative to its forces and the bias, accelerations relative to its accelerations
     (each scale at least 1).
     """
-    forces = np.concatenate([np.abs(solution.lambda_n), np.abs(solution.lambda_t)])
-    force_scale = max(1.0, float(np.max(forces, initial=0.0)),
-                      float(np.max(np.abs(problem.bias), initial=0.0)))
-    accel_scale = max(1.0, float(np.max(np.abs(solution.dv), initial=0.0)),
-                      float(np.max(np.abs(np.concatenate([solution.a_n, solution.a_t])), initial=0.0)))
+    force_scale = max(1.0, float(np.abs(solution.lambda_n).max(initial=0.0)),
+                      float(np.abs(solution.lambda_t).max(initial=0.0)),
+                      float(np.abs(problem.bias).max(initial=0.0)))
+    accel_scale = max(1.0, float(np.abs(solution.dv).max(initial=0.0)),
+                      float(np.abs(solution.a_n).max(initial=0.0)),
+                      float(np.abs(solution.a_t).max(initial=0.0)))
     return {"force": FORCE_TOLERANCE * force_scale, "acceleration": ACCELERATION_TOLERANCE * accel_scale,
             "rank": RANK_TOLERANCE, "finite": FINITE_TOLERANCE}
 
@@ -346,11 +347,13 @@ def _reduced_rows(M: np.ndarray, J_r: np.ndarray, J_c: np.ndarray, j_scale: floa
     rho = int(np.sum(sv > RANK_TOLERANCE * sv[0])) if sv.size else 0
     U = U[:, :rho]
     Jr, Jc = U.T @ J_r, U.T @ J_c
-    m_abs = float(np.max(np.abs(M)))
-    coupled = [j for j in range(M.shape[0])
-               if np.max(np.abs(M[j]), initial=0.0) > RANK_TOLERANCE * m_abs
-               or np.max(np.abs(Jr[:, j]), initial=0.0) > RANK_TOLERANCE * j_scale
-               or np.max(np.abs(Jc[:, j]), initial=0.0) > RANK_TOLERANCE * j_scale]
+    m_abs = float(np.abs(M).max())
+    # a coordinate is coupled when its row of M, or its column of Jr or Jc, has an entry above the
+    # tolerance (the largest entry of each, at once)
+    held = ((np.abs(M).max(axis=1, initial=0.0) > RANK_TOLERANCE * m_abs)
+            | (np.abs(Jr).max(axis=0, initial=0.0) > RANK_TOLERANCE * j_scale)
+            | (np.abs(Jc).max(axis=0, initial=0.0) > RANK_TOLERANCE * j_scale))
+    coupled = np.flatnonzero(held).tolist()
     if len(coupled) < M.shape[0]:
         return _Rows(M[np.ix_(coupled, coupled)], Jr[:, coupled], Jc[:, coupled], J_r[:, coupled],
                      J_c[:, coupled], rho)
@@ -376,10 +379,9 @@ def _spectrum(rows: _Rows, m_scale: float, j_scale: float, d_scale: float) -> _S
     n = M.shape[0]
     m_eig, m_vec = np.linalg.eigh(M)
     if m_eig[0] > RANK_TOLERANCE * m_eig[-1]:
-        factor = scipy.linalg.cho_factor(M)
-        eigenvalues = np.linalg.eigvals(Jr @ scipy.linalg.cho_solve(factor, Jc.T))
-        return _Spectrum("cholesky", eigenvalues, np.zeros(0),
-                         rows.J_r @ scipy.linalg.cho_solve(factor, rows.J_c.T))
+        factor = _cholesky(M)
+        eigenvalues = np.linalg.eigvals(Jr @ _cholesky_solve(factor, Jc.T))
+        return _Spectrum("cholesky", eigenvalues, np.zeros(0), rows.J_r @ _cholesky_solve(factor, rows.J_c.T))
     A = np.block([[M / m_scale, -Jc.T / j_scale], [Jr / j_scale, np.zeros((rho, rho))]])
     B = np.zeros_like(A)
     B[n:, n:] = np.eye(rho)
@@ -401,6 +403,27 @@ def _spectrum(rows: _Rows, m_scale: float, j_scale: float, d_scale: float) -> _S
                          f"{infinite_count} eigenvalue(s) of D are infinite (massless directions) but their "
                          f"limit has {lead.size} nonzero coefficient(s): not analysable")
     return _Spectrum("pencil", eigenvalues, lead, None)
+
+
+def _cholesky(M: np.ndarray) -> np.ndarray:
+    """``scipy.linalg.cho_factor(M)``'s upper factor, by the same LAPACK call (``potrf``).
+
+    Without its checks (M is finite and positive definite here), and so with the same numbers.
+    """
+    potrf = scipy.linalg.lapack.dpotrf if M.dtype == np.float64 else scipy.linalg.get_lapack_funcs(
+        "potrf", (M,))
+    factor, info = potrf(M, lower=False, clean=False, overwrite_a=False)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"the mass matrix is not positive definite (potrf info {info})")
+    return factor
+
+
+def _cholesky_solve(factor: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """``scipy.linalg.cho_solve((factor, False), rhs)`` by the same LAPACK call (``potrs``)."""
+    x, info = scipy.linalg.lapack.dpotrs(factor, rhs, lower=False, overwrite_b=False)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"potrs failed (info {info})")
+    return x
 
 
 def _fmt(values: Sequence[complex] | np.ndarray) -> str:

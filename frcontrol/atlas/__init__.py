@@ -40,7 +40,9 @@ class AtlasResult:
         plan: what was swept.
         rows: ``{column: [value per point]}`` in index order (:data:`~.points.COMMON_COLUMNS` and
             the kind's), plus ``index``.
-        run: how the run went (executor, workers, chunks computed and resumed, worker deaths).
+        run: how the run went (executor, workers, chunks computed and resumed, worker deaths, and
+            ``scene_loads``: the scenes the workers loaded from the source; the other points were
+            made from a loaded scene, :mod:`frcontrol.scene_numbers`).
         timings: [s] ``total`` (wall time of this run), ``compute`` (the chunks' compute time
             summed over the processes that ran them in this run), ``per_point`` (compute over the
             points computed in this run), ``cpu_per_point`` (the same in CPU time: below
@@ -125,7 +127,7 @@ def run_atlas(
     resumed = len(found)
     todo = [c for c in range(plan.chunk_count) if c not in found]
     done_points = sum(len(c["index"]) for c in found.values())
-    computed = {"seconds": 0.0, "cpu_seconds": 0.0, "points": 0}
+    computed = {"seconds": 0.0, "cpu_seconds": 0.0, "points": 0, "scene_loads": 0}
     def started() -> None:
         if progress is not None:
             progress(done_points, plan.size)
@@ -139,6 +141,7 @@ def run_atlas(
         computed["seconds"] += float(result["seconds"])
         computed["cpu_seconds"] += float(result.get("cpu_seconds", 0.0))
         computed["points"] += len(result["index"])
+        computed["scene_loads"] += int(result.get("scene_loads", 0))
         if progress is not None:
             progress(done_points, plan.size)
 
@@ -153,7 +156,7 @@ def run_atlas(
     if store is not None:
         store.finish(rows)
     run = {**report.to_dict(), "chunks": plan.chunk_count, "chunk_size": plan.chunk_size,
-           "resumed_chunks": resumed}
+           "resumed_chunks": resumed, "scene_loads": int(computed["scene_loads"])}
     points = max(1, computed["points"])
     timings = {"total": time.perf_counter() - start, "compute": computed["seconds"],
                "per_point": computed["seconds"] / points, "cpu_per_point": computed["cpu_seconds"] / points}

@@ -16,22 +16,30 @@ At every point, whatever ``what`` is (the same columns for every kind):
 
 ``statics``, ``flip`` and ``climb`` add their own columns (:data:`KIND_COLUMNS`).
 
-The scene is loaded once per distinct set of scene overrides (a worker keeps the last few): a
-sweep over inputs only loads it once; a varied state reloads it, so that a contact without
-``surface_point`` follows its contact point (gap 0), exactly as :func:`frcontrol.load_scene` does.
-A scene sent as content is rebuilt from its text (:class:`~frcontrol.scene_source.SceneSource`).
+A worker loads the scene once per distinct set of the overrides that change its structure (it
+keeps the last few), and applies the ones that change only numbers to that loaded scene
+(:mod:`frcontrol.scene_numbers`): an axis ``state.q.NAME``, ``state.v.NAME`` or
+``contacts.NAME.mu`` moves the state (the contacts placed again as the loader places them) or sets
+a friction coefficient, and ``input.NAME`` changes only the input. Every other axis (gravity, a
+mass, a locked joint's angle, a contact's geometry) loads the scene at each of its values, and so
+does a point the numeric path refuses (a penetrating contact, a scene that does not load without
+the point's values): that point is loaded with all its overrides, exactly as before, so its error
+is the loader's own. ``reload=True`` computes every point that way (the reference the numeric
+path is tested against). A scene sent as content is rebuilt from its text
+(:class:`~frcontrol.scene_source.SceneSource`).
 """
 
 from __future__ import annotations
 
-import json
 import time
 from collections import OrderedDict
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ..errors import FrcontrolError
 from ..scene import Scene
+from ..scene_numbers import is_numeric_path, numeric_syntax, scene_with_numbers, use_contacts_of
 from ..scene_source import SceneSource
 from .grid import AtlasPlan
 
@@ -65,28 +73,93 @@ def columns(what: str) -> tuple[str, ...]:
     return COMMON_COLUMNS + KIND_COLUMNS[what]
 
 
+@dataclass(frozen=True)
+class _Loaded:
+    """A scene as loaded, its contact problem, and its coordinates before locking (``[state]``'s order)."""
+
+    scene: Scene
+    problem: ContactProblem
+    bare_coordinates: tuple[str, ...]
+    numeric: dict[frozenset[str], bool] = field(default_factory=dict)  # paths -> all numeric here
+
+    def takes_numbers(self, paths: frozenset[str]) -> bool:
+        """Whether every path of ``paths`` is numeric on this scene (found once per set of paths)."""
+        known = self.numeric.get(paths)
+        if known is None:
+            known = self.numeric[paths] = all(is_numeric_path(self.scene, path) for path in paths)
+        return known
+
+
 class _Scenes:
-    """The last :data:`SCENE_CACHE_SIZE` scenes loaded, with their contact problems."""
+    """The last :data:`SCENE_CACHE_SIZE` scenes loaded (or the typed errors they raised), by overrides."""
 
     def __init__(self) -> None:
-        self.cache: OrderedDict[tuple[SceneSource, str], tuple[Scene, ContactProblem]] = OrderedDict()
+        self.cache: OrderedDict[tuple[SceneSource, tuple[tuple[str, str], ...]], _Loaded | FrcontrolError] = \
+            OrderedDict()
+        self.loads = 0
 
-    def get(self, source: SceneSource, overrides: Mapping[str, Any]) -> tuple[Scene, ContactProblem]:
+    def get(self, source: SceneSource, overrides: Mapping[str, Any]) -> _Loaded:
+        """The scene with ``overrides``, loaded once (a typed error of the load raised again)."""
+        key = (source, tuple(sorted((k, repr(v)) for k, v in overrides.items())))
+        entry = self.cache.get(key)
+        if entry is None:
+            entry = self._load(source, overrides)
+            self.cache[key] = entry
+            if len(self.cache) > SCENE_CACHE_SIZE:
+                self.cache.popitem(last=False)
+        else:
+            self.cache.move_to_end(key)
+        if isinstance(entry, FrcontrolError):
+            raise entry.with_traceback(None)
+        return entry
+
+    def _load(self, source: SceneSource, overrides: Mapping[str, Any]) -> _Loaded | FrcontrolError:
+        from ..model import PlanarRobot
         from ..modes import ContactProblem
 
-        key = (source, json.dumps(sorted((k, repr(v)) for k, v in overrides.items())))
-        if key in self.cache:
-            self.cache.move_to_end(key)
-            return self.cache[key]
-        loaded = source.load(overrides)
-        entry = (loaded, ContactProblem.from_scene(loaded))
-        self.cache[key] = entry
-        if len(self.cache) > SCENE_CACHE_SIZE:
-            self.cache.popitem(last=False)
-        return entry
+        self.loads += 1
+        try:
+            with source.loaded(overrides) as scene:
+                robot = scene.robot
+                bare = (PlanarRobot(robot.urdf_path, base=robot.base).coordinate_names if robot.locked
+                        else scene.coordinate_names)
+            return _Loaded(scene, ContactProblem.from_scene(scene), bare)
+        except FrcontrolError as err:
+            return err
 
 
 _SCENES = _Scenes()
+
+
+def numeric_axes(plan: AtlasPlan) -> frozenset[str]:
+    """The plan's axis paths that may change only numbers (checked against the scene later)."""
+    return frozenset(a.path for a in plan.axes if a.input_name is None and numeric_syntax(a.path))
+
+
+def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: frozenset[str] = frozenset()
+             ) -> tuple[Scene, ContactProblem]:
+    """The scene and its problem with a point's ``overrides`` (module docstring).
+
+    ``numeric_paths``: the paths to apply to the scene loaded without them (:func:`numeric_axes`);
+    none: the scene loaded with every override.
+
+    Raises:
+        FrcontrolError: the typed error of loading the scene with ``overrides``.
+    """
+    from ..modes import ContactProblem
+
+    numeric = {k: v for k, v in overrides.items() if k in numeric_paths}
+    if numeric:
+        try:
+            template = _SCENES.get(plan.source, {k: v for k, v in overrides.items() if k not in numeric})
+            if template.takes_numbers(frozenset(numeric)):
+                scene = scene_with_numbers(template.scene, numeric, template.bare_coordinates)
+                return scene, ContactProblem.from_scene(scene)
+        except FrcontrolError:
+            pass  # loaded with every override below: the point's own error, as the loader words it
+    loaded = _SCENES.get(plan.source, overrides)
+    use_contacts_of(loaded.scene)  # a scene made from it may have set the shared robot
+    return loaded.scene, loaded.problem
 
 
 def solutions_columns(scene: Scene, problem: ContactProblem, inputs: Mapping[str, float]) -> dict[str, Any]:
@@ -153,12 +226,21 @@ def _climb_columns(scene: Scene) -> dict[str, Any]:
             "robustness_radius": float(plan.robustness_radius) if plan.found else None}
 
 
-def evaluate_point(plan: AtlasPlan, index: int) -> dict[str, Any]:
-    """Every column of one grid point (module docstring); a typed error is recorded, not raised."""
+def evaluate_point(plan: AtlasPlan, index: int, *, reload: bool = False,
+                   numeric_paths: frozenset[str] | None = None) -> dict[str, Any]:
+    """Every column of one grid point (module docstring); a typed error is recorded, not raised.
+
+    ``reload``: load the scene with all the point's overrides (no numeric path).
+    ``numeric_paths``: :func:`numeric_axes` of ``plan``, if known.
+    """
     overrides, inputs = plan.point(index)
     row: dict[str, Any] = dict.fromkeys(columns(plan.what))
+    if reload:
+        numeric_paths = frozenset()
+    elif numeric_paths is None:
+        numeric_paths = numeric_axes(plan)
     try:
-        scene, problem = _SCENES.get(plan.source, overrides)
+        scene, problem = scene_at(plan, overrides, numeric_paths)
         row.update(solutions_columns(scene, problem, inputs))
         if plan.what == "statics":
             row.update(_statics_columns(scene, inputs))
@@ -175,22 +257,27 @@ def evaluate_point(plan: AtlasPlan, index: int) -> dict[str, Any]:
     return row
 
 
-def evaluate_chunk(plan: AtlasPlan, chunk: int) -> dict[str, Any]:
-    """The columns of one chunk's points: ``{"chunk", "index", column..., "seconds", "cpu_seconds"}``.
+def evaluate_chunk(plan: AtlasPlan, chunk: int, *, reload: bool = False) -> dict[str, Any]:
+    """The columns of one chunk's points (and how long they took, and the scenes loaded for them).
 
+    The keys: ``chunk``, ``index``, every column, ``seconds``, ``cpu_seconds``, ``scene_loads``.
     ``seconds`` is the chunk's compute time [s] in the process that ran it (wall clock), and
     ``cpu_seconds`` the CPU time that process spent on it (less than ``seconds`` when the process
-    waited for a core).
+    waited for a core); ``scene_loads`` the scenes it loaded from the source (the others were kept
+    from earlier points, or made by the numeric path). ``reload``: as :func:`evaluate_point`'s.
     """
     start = time.perf_counter()
     cpu = time.process_time()
+    loads = _SCENES.loads
     indices = list(plan.chunk_points(chunk))
-    rows = [evaluate_point(plan, k) for k in indices]
+    paths = frozenset() if reload else numeric_axes(plan)
+    rows = [evaluate_point(plan, k, numeric_paths=paths) for k in indices]
     out: dict[str, Any] = {"chunk": chunk, "index": indices}
     for name in columns(plan.what):
         out[name] = [row[name] for row in rows]
     out["seconds"] = time.perf_counter() - start
     out["cpu_seconds"] = time.process_time() - cpu
+    out["scene_loads"] = _SCENES.loads - loads
     return out
 
 
@@ -202,5 +289,7 @@ __all__ = [
     "columns",
     "evaluate_chunk",
     "evaluate_point",
+    "numeric_axes",
+    "scene_at",
     "solutions_columns",
 ]

@@ -1,0 +1,175 @@
+"""Overrides that change only numbers, applied to a loaded scene without loading it again.
+
+Loading a scene (:func:`~frcontrol.scene.load_scene`) reads the TOML, checks it against the schema,
+builds the robot's Pinocchio model and places its contacts: about half a millisecond for the rod,
+twenty times one ``solutions_at``. A sweep that changes only a number of the scene from point to
+point (an atlas's ``--vary state.q.theta=...``) does not need all of it. :func:`scene_with_numbers`
+gives the scene that :func:`~frcontrol.scene.load_scene` gives with the same overrides, from a scene
+already loaded without them, for the *numeric* overrides (:func:`is_numeric_path`):
+
+- ``state.q.NAME`` and ``state.v.NAME``: one coordinate of the state, by name. The contacts are
+  placed again at the new state exactly as the loader places them: a contact without
+  ``surface_point`` follows its contact point (gap 0), the others get their gap and activity at
+  the new state, and a contact penetrating deeper than the scene's gap tolerance is the loader's
+  :class:`~frcontrol.errors.SceneError`.
+- ``contacts.NAME.mu``: one contact's Coulomb coefficient [-] (>= 0, as the schema requires).
+
+Anything else (a locked joint's coordinate, a mass, gravity, a contact's geometry, a list by
+index) changes the model or its structure: it is not numeric here, and a caller loads the scene
+with it. The arrays the override touches are the only ones made again; the robot (its Pinocchio
+model) is shared with the scene given, whose contacts' surface points and friction it is set to
+(one robot holds one set: a scene made here is used before the next one is made).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from .model import ContactPoint
+from .scene import Contact, Scene, _contacts_at_state, _coordinate_path, _Reader
+
+MU_PATH_FIELD = "mu"
+"""The contact field :func:`is_numeric_path` takes as a number (``contacts.NAME.mu``)."""
+
+
+def _contact_mu_name(path: str) -> str | None:
+    """``"tip"`` for ``contacts.tip.mu`` (a contact by name), else None."""
+    parts = path.split(".")
+    if len(parts) == 3 and parts[0] == "contacts" and parts[2] == MU_PATH_FIELD and "[" not in path \
+            and not parts[1].isdigit():
+        return parts[1]
+    return None
+
+
+def numeric_syntax(path: str) -> bool:
+    """Whether ``path`` has the form of a numeric override, whatever the scene.
+
+    The forms: ``state.q.NAME``, ``state.v.NAME``, ``contacts.NAME.mu`` (:func:`is_numeric_path`
+    checks the names against a scene).
+    """
+    return _coordinate_path(path) is not None or _contact_mu_name(path) is not None
+
+
+def is_numeric_path(scene: Scene, path: str) -> bool:
+    """Whether :func:`scene_with_numbers` can apply an override of ``path`` to ``scene``.
+
+    True for ``state.q.NAME`` and ``state.v.NAME`` with NAME one of the scene's coordinates (not a
+    locked joint) and for ``contacts.NAME.mu`` with NAME one of its contacts.
+    """
+    coordinate = _coordinate_path(path)
+    if coordinate is not None:
+        return coordinate[1] in scene.coordinate_names
+    name = _contact_mu_name(path)
+    return name is not None and any(c.name == name for c in scene.contacts)
+
+
+def scene_with_numbers(scene: Scene, overrides: Mapping[str, Any], bare_coordinates: tuple[str, ...]
+                       ) -> Scene:
+    """The scene :func:`~frcontrol.scene.load_scene` gives with ``overrides`` on top of ``scene``'s own.
+
+    Args:
+        scene: a loaded scene (its own overrides already applied).
+        overrides: numeric overrides only (:func:`is_numeric_path`), ``{path: number}``.
+        bare_coordinates: the robot's coordinates before locking, the order of ``[state]``'s lists
+            (the scene's own when no joint is locked).
+
+    Raises:
+        SceneError: a value that is not a finite number, a negative ``mu``, a path that is not
+            numeric, or a contact penetrating its surface at the new state (the loader's message).
+    """
+    reader = _Reader(scene.path)
+    q, v = scene.q, scene.v
+    raw = dict(scene.raw)
+    index = {c.name: i for i, c in enumerate(scene.contacts)}
+    mu = [c.mu for c in scene.contacts]
+    for path, value in overrides.items():
+        number = reader.number(value, path)
+        coordinate = _coordinate_path(path)
+        name = _contact_mu_name(path)
+        if coordinate is not None and coordinate[1] in scene.coordinate_names:
+            vector, coordinate_name = coordinate
+            target = q.copy() if vector == "q" else v.copy()
+            target[scene.coordinate_names.index(coordinate_name)] = number
+            q, v = (target, v) if vector == "q" else (q, target)
+            _set_raw_state(raw, vector, bare_coordinates, coordinate_name, number)
+        elif name is not None and name in index:
+            if number < 0:
+                raise reader.fail(path, f"friction coefficient must be >= 0, got {number}")
+            mu[index[name]] = number
+            _set_raw_mu(raw, index[name], number)
+        else:
+            raise reader.fail(path, "not a numeric override of this scene (load the scene with it)")
+    points = [c.point if c.mu == m else _point(c.point, c.point.surface_point_in_world, m)
+              for c, m in zip(scene.contacts, mu, strict=True)]
+    if q is not scene.q:
+        points, contacts = _placed_at(reader, scene, points, q)
+    else:
+        contacts = [c if c.point is p else Contact(p, c.gap, c.active)
+                    for c, p in zip(scene.contacts, points, strict=True)]
+    moved = replace(scene, q=q, v=v, contacts=tuple(contacts), raw=raw)
+    use_contacts_of(moved)
+    return moved
+
+
+def _placed_at(reader: _Reader, scene: Scene, points: list[ContactPoint], q: np.ndarray
+               ) -> tuple[list[ContactPoint], list[Contact]]:
+    """The contact points and contacts at ``q``, as the loader places them (module docstring)."""
+    world = scene.robot.contact_points_in_world(q)
+    pending = _pending_surfaces(scene)
+    points = [_point(p, world[i].copy(), p.mu) if pending[i] else p for i, p in enumerate(points)]
+    return points, _contacts_at_state(reader, points, world, scene.gap_tolerance)
+
+
+def _point(point: ContactPoint, surface_point_in_world: np.ndarray, mu: float) -> ContactPoint:
+    """``point`` with another surface point [m] and Coulomb coefficient [-]."""
+    return ContactPoint(point.name, point.link, point.point_in_link, point.normal_in_world,
+                        surface_point_in_world, mu)
+
+
+def _pending_surfaces(scene: Scene) -> list[bool]:
+    """For each contact, whether its table gives no ``surface_point`` (it follows the state)."""
+    tables = scene.raw.get("contacts", [])
+    return [isinstance(t, Mapping) and "surface_point" not in t for t in tables]
+
+
+def use_contacts_of(scene: Scene) -> None:
+    """Set the scene's robot to the scene's contacts' surface points and friction, where they differ.
+
+    Scenes made by :func:`scene_with_numbers` share one robot; the one in use sets it.
+    """
+    robot = scene.robot
+    surfaces = [c.point.surface_point_in_world for c in scene.contacts]
+    if any(not np.array_equal(s, c.surface_point_in_world)
+           for s, c in zip(surfaces, robot.contacts, strict=True)):
+        robot.set_surface_points(surfaces)
+    mu = [c.mu for c in scene.contacts]
+    if mu != [c.mu for c in robot.contacts]:
+        robot.set_friction(mu)
+
+
+def _set_raw_state(raw: dict[str, Any], vector: str, bare_coordinates: tuple[str, ...], name: str,
+                   number: float) -> None:
+    """``raw["state"][vector]`` with the coordinate ``name`` set (new tables: ``raw`` is a copy)."""
+    state = dict(raw.get("state", {}))
+    values = list(state.get(vector, [0.0] * len(bare_coordinates)))
+    values[bare_coordinates.index(name)] = number
+    state[vector] = values
+    raw["state"] = state
+
+
+def _set_raw_mu(raw: dict[str, Any], index: int, number: float) -> None:
+    """``raw["contacts"]`` with contact ``index``'s ``mu`` set (new tables: ``raw`` is a copy)."""
+    raw["contacts"] = [{**t, "mu": number} if i == index else t for i, t in enumerate(raw["contacts"])]
+
+
+__all__ = [
+    "MU_PATH_FIELD",
+    "is_numeric_path",
+    "numeric_syntax",
+    "scene_with_numbers",
+    "use_contacts_of",
+]

@@ -1,0 +1,129 @@
+"""An atlas's numeric path (a loaded scene's state and friction set in place) against loading the
+scene at every point: the same columns at every point of every shipped scene, errors included.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from frcontrol.atlas import build_atlas, run_atlas
+from frcontrol.atlas.points import columns, evaluate_chunk, numeric_axes
+from frcontrol.errors import SceneError
+from frcontrol.scene import load_scene, shipped_scene_names
+from frcontrol.scene_numbers import is_numeric_path, scene_with_numbers
+
+
+def _both_ways(plan):
+    """Every chunk's rows by the numeric path and by loading the scene at every point."""
+    fast = [evaluate_chunk(plan, c) for c in range(plan.chunk_count)]
+    slow = [evaluate_chunk(plan, c, reload=True) for c in range(plan.chunk_count)]
+    return fast, slow
+
+
+def _assert_same_rows(plan, fast, slow):
+    for a, b in zip(fast, slow, strict=True):
+        assert a["index"] == b["index"]
+        for name in columns(plan.what):
+            for k, x, y in zip(a["index"], a[name], b[name], strict=True):
+                assert repr(x) == repr(y), (plan.scene, name, k, plan.point(k))  # to the bit
+
+
+def _random_axes(name, rng):
+    """A state coordinate (locked joints too), a contact's mu and an input, near the scene's values."""
+    scene = load_scene(name)
+    raw_q = scene.raw["state"]["q"]
+    from frcontrol.model import PlanarRobot
+
+    bare = PlanarRobot(scene.robot.urdf_path, base=scene.robot.base).coordinate_names
+    j = int(rng.integers(len(bare)))
+    span = float(rng.choice([0.02, 0.3]))
+    q0 = float(raw_q[j])
+    axes = [f"state.q.{bare[j]}={q0 - span}:{q0 + span}:5"]
+    contact = scene.contacts[int(rng.integers(len(scene.contacts)))]
+    axes.append(f"contacts.{contact.name}.mu={rng.uniform(0, 0.3):.3f}:{rng.uniform(0.5, 1.5):.3f}:2")
+    if scene.inputs.count:
+        i = int(rng.integers(scene.inputs.count))
+        lo, hi = max(scene.inputs.lower[i], -5.0), min(scene.inputs.upper[i], 5.0)
+        axes.append(f"input.{scene.inputs.coordinates[i]}={lo}:{hi}:2")
+    moving = [c for c in scene.coordinate_names if c not in scene.robot.locked]
+    overrides = {f"state.v.{moving[int(rng.integers(len(moving)))]}": float(rng.choice([0.0, 0.3, -0.5]))}
+    return axes, overrides
+
+
+@pytest.mark.parametrize("name", shipped_scene_names())
+def test_the_numeric_path_gives_every_column_of_a_reloaded_scene(name):
+    rng = np.random.default_rng(sum(map(ord, name)))
+    axes, overrides = _random_axes(name, rng)
+    # the velocity as an axis too on every other scene (a fixed --set on the others)
+    if rng.integers(2):
+        path, value = next(iter(overrides.items()))
+        axes, overrides = axes + [f"{path}={value}:{value + 0.25}:2"], {}
+    plan = build_atlas(name, axes, overrides=overrides, chunk_size=5)
+    assert numeric_axes(plan)
+    fast, slow = _both_ways(plan)
+    _assert_same_rows(plan, fast, slow)
+
+
+def test_statics_columns_are_the_same_on_the_numeric_path():
+    plan = build_atlas("box_on_ground", ["state.q.theta=-0.05:0.05:3", "contacts.left.mu=0.2:0.9:2",
+                                         "input.x=-3:3:2"], what="statics")
+    fast, slow = _both_ways(plan)
+    _assert_same_rows(plan, fast, slow)
+    assert any(v is not None for c in fast for v in c["force_closure"])
+
+
+def test_errors_stay_per_point_and_are_the_loaders_own():
+    # the box lowered into the ground penetrates (the loader's SceneError), raised it lifts off
+    plan = build_atlas("box_on_ground", ["state.q.y=0.2:0.3:5", "contacts.right.mu=0.1:0.5:2"])
+    fast, slow = _both_ways(plan)
+    _assert_same_rows(plan, fast, slow)
+    errors = [e for c in fast for e in c["error"]]
+    assert sum("penetrates" in (e or "") for e in errors) == 4 and errors.count(None) == 6
+    counts = [n for c in fast for n in c["count"]]
+    assert counts[-1] == 1  # lifted off: one solution, the free fall
+
+
+def test_a_numeric_sweep_loads_the_scene_once():
+    # a fixed value no other test uses: the scene is not yet among the kept ones
+    plan = build_atlas("rod_on_table", ["state.q.theta=0.3:2.8:7", "contacts.tip.mu=0:2:5"],
+                       overrides={"state.v.x": -0.9871})
+    result = run_atlas(plan, workers=1)
+    assert result.run["scene_loads"] == 1
+    slow = [evaluate_chunk(plan, c, reload=True) for c in range(plan.chunk_count)]
+    assert [n for c in slow for n in c["count"]] == result.rows["count"]
+
+
+def test_a_locked_joint_or_a_mass_is_not_numeric_and_loads_the_scene():
+    scene = load_scene("rhex_flip")
+    assert not is_numeric_path(scene, "state.q.hip_front")  # locked: welded into the model
+    assert is_numeric_path(scene, "state.q.hip_middle") and is_numeric_path(scene, "contacts.front_toe.mu")
+    assert not is_numeric_path(scene, "contacts[0].mu") and not is_numeric_path(scene, "gravity")
+    plan = build_atlas("rhex_flip", ["state.q.hip_front=0:0.2:2", "gravity=9:10:2"])
+    assert numeric_axes(plan) == frozenset({"state.q.hip_front"})
+    fast, slow = _both_ways(plan)
+    _assert_same_rows(plan, fast, slow)
+
+
+def test_scene_with_numbers_is_the_loaded_scene():
+    base = load_scene("rod_on_table", overrides={"state.v.x": -1.0})
+    numbers = {"state.q.theta": 1.1, "contacts.tip.mu": 0.3, "state.v.theta": 0.5}
+    made = scene_with_numbers(base, numbers, base.coordinate_names)
+    loaded = load_scene("rod_on_table", overrides={"state.v.x": -1.0, **numbers})
+    assert made.q.tobytes() == loaded.q.tobytes() and made.v.tobytes() == loaded.v.tobytes()
+    assert dict(made.raw) == dict(loaded.raw)
+    for a, b in zip(made.contacts, loaded.contacts, strict=True):
+        assert (a.gap, a.active, a.mu) == (b.gap, b.active, b.mu)
+        assert a.point.surface_point_in_world.tobytes() == b.point.surface_point_in_world.tobytes()
+    assert [c.mu for c in made.robot.contacts] == [0.3]
+    with pytest.raises(SceneError, match="must be >= 0"):
+        scene_with_numbers(base, {"contacts.tip.mu": -0.1}, base.coordinate_names)
+    with pytest.raises(SceneError, match="expected a finite number"):
+        scene_with_numbers(base, {"state.q.theta": math.nan}, base.coordinate_names)
+    with pytest.raises(SceneError, match="not a numeric override"):
+        scene_with_numbers(base, {"gravity": 3.0}, base.coordinate_names)
+    box = load_scene("box_on_ground")
+    with pytest.raises(SceneError, match="penetrates its surface"):
+        scene_with_numbers(box, {"state.q.y": 0.2}, box.coordinate_names)
