@@ -319,9 +319,9 @@ def test_the_map_has_one_colour_per_count_and_a_legend(tmp_path):
 
 @pytest.mark.parametrize("args, code, text", [
     (["--vary", "contacts.tipp.mu=0:1:2"], 1, "did you mean 'tip'"),
-    (["--vary", "gravity=1:2:2", "--out", "x.csv"], 1, "suffix must be one of .parquet, .npz"),
-    (["--vary", "gravity=1:2:2", "--resume"], 1, "--resume needs --out"),
-    (["--vary", "gravity=1:2:2", "--figure", "found"], 1, "not an array of --what solutions"),
+    (["--vary", "gravity=1:2:2", "--out", "x.csv"], 2, "suffix must be one of .parquet, .npz"),
+    (["--vary", "gravity=1:2:2", "--resume"], 2, "'--resume': it needs --out FILE"),
+    (["--vary", "gravity=1:2:2", "--figure", "found"], 2, "not an array of --what solutions"),
     ([], 2, "--vary"),
     (["--vary", "gravity=1:2:2", "--what", "all"], 2, "--what"),
     (["--vary", "gravity=1:2:2", "--workers", "0"], 2, "--workers"),
