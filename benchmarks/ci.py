@@ -5,7 +5,7 @@ Run from the repository root, with frcontrol installed::
     python -m benchmarks.ci                                  # measure, write results/ci.json and ci.png
     python -m benchmarks.ci --check benchmarks/baseline.json # ... then exit 1 on a regression
     python -m benchmarks.ci --update-baseline                # ... and write benchmarks/baseline.json
-    python -m benchmarks.ci --readme                         # docs/benchmarks.md's figures table from results/ci.json
+    python -m benchmarks.ci --readme                         # docs/benchmarks.md's table from results/ci.json
 
 It takes about a minute on the 2-core development machine (at most 90 s) and measures every
 figure of the speed targets (:data:`FIGURES`):
@@ -612,7 +612,8 @@ def readme_block(text: str) -> str:
     """
     begin, end = text.find(README_BEGIN), text.find(README_END)
     if begin < 0 or end < begin:
-        raise ValueError(f"docs/benchmarks.md needs the lines {README_BEGIN!r} and {README_END!r}, in that order")
+        raise ValueError(f"docs/benchmarks.md needs the lines {README_BEGIN!r} and {README_END!r}, "
+                         "in that order")
     return text[begin + len(README_BEGIN):end].strip("\n")
 
 
@@ -659,7 +660,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--update-baseline", action="store_true",
                         help=f"write {BASELINE.relative_to(ROOT)} from this run")
     parser.add_argument("--readme", action="store_true",
-                        help=f"only rewrite docs/benchmarks.md's figures table from {RESULT_JSON.relative_to(ROOT)}")
+                        help=f"only rewrite docs/benchmarks.md's figures table from "
+                             f"{RESULT_JSON.relative_to(ROOT)}")
     parser.add_argument("--runs", type=int, default=RUNS, help="timed samples per figure")
     parser.add_argument("--verbose", action="store_true", help="report each round")
     args = parser.parse_args(argv)

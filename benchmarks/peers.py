@@ -944,7 +944,7 @@ def plot_problem(result: dict, path: Path) -> None:
     plt.close(fig)
 
 
-# ------------------------------------------------------------------------------------ the benchmarks page (docs/benchmarks.md)
+# ------------------------------------------------------------------ the benchmarks page (docs/benchmarks.md)
 def fmt_time(seconds: float | None) -> str:
     """A time [s] in us or ms."""
     if seconds is None:
@@ -1101,7 +1101,8 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="a smoke run, written to a temporary folder")
     parser.add_argument("--runs", type=int, default=None, help="runs per timed point (median)")
     parser.add_argument("--out", type=Path, default=None, help="the results folder")
-    parser.add_argument("--readme", action="store_true", help="print the benchmarks page's tables from peers.json")
+    parser.add_argument("--readme", action="store_true",
+                        help="print the benchmarks page's tables from peers.json")
     parser.add_argument("--replot", action="store_true", help="redraw the figures from peers.json")
     parser.add_argument("--write-readme", action="store_true",
                         help="rewrite docs/benchmarks.md's generated tables from the results (after the run, "

@@ -16,7 +16,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def generator():
-    spec = importlib.util.spec_from_file_location("gen_scene_reference", ROOT / "docs" / "gen_scene_reference.py")
+    path = ROOT / "docs" / "gen_scene_reference.py"
+    spec = importlib.util.spec_from_file_location("gen_scene_reference", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -80,7 +81,8 @@ def test_the_readmes_links_lead_somewhere():
         path = ROOT / target
         assert path.exists(), f"README.md links to {target}, which does not exist"
         if anchor:
-            assert anchor in heading_anchors(path.read_text(encoding="utf-8")), f"no heading for {target}#{anchor}"
+            anchors = heading_anchors(path.read_text(encoding="utf-8"))
+            assert anchor in anchors, f"README.md links to {target}#{anchor}: no such heading"
 
 
 @pytest.mark.slow
@@ -90,7 +92,8 @@ def test_the_manual_builds_strictly(tmp_path):
             pytest.fail("the docs extra is not installed in CI: the README's test command must install it")
         pytest.skip("the docs extra (mkdocs, mkdocs-material, mkdocstrings) is not installed: "
                     "pip install '.[docs]' to build the manual")
-    done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
+    command = [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")]
+    done = subprocess.run(command,
                           cwd=ROOT, capture_output=True, text=True, timeout=600,
                           env={**os.environ, "NO_MKDOCS_2_WARNING": "1"})
     assert done.returncode == 0, done.stderr[-3000:]

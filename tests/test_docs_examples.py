@@ -7,7 +7,8 @@ The conventions (docs/contributing.md, "Examples in the documentation"):
   line; ``# comments`` are dropped); other lines (installs, ``dask``, ``curl``) are not run;
 - in a ```console block every line starting with ``$ frc `` or ``$ python -m `` runs, and the lines
   after it, up to the next ``$ `` line, are its output;
-- a ```text block right after a python block (only blank lines between them), or after a bash block of one command, is its output;
+- a ```text block right after a python block, or after a bash block of one command (only blank lines
+  between them), is its output;
 - shown output is compared token by token: text exactly (runs of blank space are one space), numbers
   to the digits printed (``3.116`` matches 3.1158 and 3.1163, not 3.12), and ``...`` matches anything;
 - a command exits 0, unless its shown output begins with ``frc: error:`` (then it must exit 1 and
@@ -115,7 +116,8 @@ def examples_of(page: Path) -> list[Example]:
         shown = ("\n".join(following.lines) if following and following.lang == "text" and following.adjacent
                  else None)
         if block.lang == "python":
-            out.append(Example(page, block.line, "python", "\n".join(block.lines), shown, files, block.marker))
+            code = "\n".join(block.lines)
+            out.append(Example(page, block.line, "python", code, shown, files, block.marker))
         elif block.lang == "bash":
             commands = commands_of(block)
             for line, command in commands:
@@ -194,9 +196,8 @@ def run_python(code: str) -> str:
 def run_command(command: str) -> tuple[int, str, str]:
     """Run a ``frc`` command in this process, a ``python -m`` one as a process."""
     if command.startswith("frc "):
-        from typer.testing import CliRunner
-
         from frcontrol.cli.app import app
+        from typer.testing import CliRunner
 
         result = CliRunner().invoke(app, shlex.split(command)[1:])
         if result.exception is not None and not isinstance(result.exception, SystemExit):
@@ -221,7 +222,8 @@ def test_example_runs_and_shows_its_output(example: Example, tmp_path, monkeypat
         output = stderr if wants_error else stdout
     if example.expected is not None:
         problem = matches(example.expected, output)
-        assert problem is None, f"{example.id}: {problem}\n--- shown:\n{example.expected}\n--- printed:\n{output}"
+        assert problem is None, (f"{example.id}: {problem}\n--- shown:\n{example.expected}\n"
+                                 f"--- printed:\n{output}")
 
 
 def test_the_collector_finds_the_examples_the_pages_hold():
@@ -229,7 +231,8 @@ def test_the_collector_finds_the_examples_the_pages_hold():
     and so is one example per command of the command reference."""
     readme = examples_of(ROOT / "README.md")
     assert any(e.kind == "python" and "solutions_at" in e.code and e.expected for e in readme)
-    commands = {e.code.split()[1] for e in examples_of(ROOT / "docs" / "commands.md") if e.code.startswith("frc ")}
+    shown = examples_of(ROOT / "docs" / "commands.md")
+    commands = {e.code.split()[1] for e in shown if e.code.startswith("frc ")}
     from frcontrol.cli.app import app
     from typer.main import get_command
 
