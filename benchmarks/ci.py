@@ -5,7 +5,7 @@ Run from the repository root, with frcontrol installed::
     python -m benchmarks.ci                                  # measure, write results/ci.json and ci.png
     python -m benchmarks.ci --check benchmarks/baseline.json # ... then exit 1 on a regression
     python -m benchmarks.ci --update-baseline                # ... and write benchmarks/baseline.json
-    python -m benchmarks.ci --readme                         # README's figures table from results/ci.json
+    python -m benchmarks.ci --readme                         # docs/benchmarks.md's table from results/ci.json
 
 It takes about a minute on the 2-core development machine (at most 90 s) and measures every
 figure of the speed targets (:data:`FIGURES`):
@@ -77,7 +77,7 @@ target), and ``median_cpu_s``, ``wall_ratio_to_calibration``, ``min_s``, ``max_s
 versions, cores and date) and ``benchmarks/results/ci.png``.
 
 This module imports only the standard library and NumPy at its top, so that the tests can load it
-for the gate and the README rendering without running anything.
+for the gate and the benchmarks page's table without running anything.
 """
 
 from __future__ import annotations
@@ -104,7 +104,8 @@ RESULTS = ROOT / "benchmarks" / "results"
 RESULT_JSON = RESULTS / "ci.json"
 RESULT_PNG = RESULTS / "ci.png"
 BASELINE = ROOT / "benchmarks" / "baseline.json"
-README = ROOT / "README.md"
+README = ROOT / "docs" / "benchmarks.md"
+"""The page that holds the figures table (between README_BEGIN and README_END)."""
 
 RUNS = 7
 """Timed samples per figure (their median is the figure), after one warm-up round."""
@@ -162,7 +163,7 @@ class Figure:
 
     Attributes:
         name: its key in the JSON.
-        label: what it is, for the README table.
+        label: what it is, for the benchmarks page's table.
         target_s: the target [s] of its median (None: no target); model assembly's is computed in
             the run (:data:`ASSEMBLY_TARGET_VS_BARE` times the bare calls' median).
         calls: calls per timed sample (a sample is their total time over their number, so that fast
@@ -655,7 +656,7 @@ def summary_line(name: str, entry: dict[str, Any]) -> str:
 
 
 def render_table(result: dict[str, Any]) -> str:
-    """The README's figures table (markdown) from a result as written by :func:`measure`."""
+    """The benchmarks page's figures table (markdown) from a result as written by :func:`measure`."""
     calibration = result["calibration"]
     lines = [
         f"Measured by `python -m benchmarks.ci` on {result['date'][:10]} ({result['cores']} cores, Python "
@@ -685,14 +686,15 @@ def render_table(result: dict[str, Any]) -> str:
 
 
 def readme_block(text: str) -> str:
-    """The text between the README's two markers (without them).
+    """The text between the benchmarks page's two markers (without them).
 
     Raises:
         ValueError: the markers are missing or out of order.
     """
     begin, end = text.find(README_BEGIN), text.find(README_END)
     if begin < 0 or end < begin:
-        raise ValueError(f"README.md needs the lines {README_BEGIN!r} and {README_END!r}, in that order")
+        raise ValueError(f"docs/benchmarks.md needs the lines {README_BEGIN!r} and {README_END!r}, "
+                         "in that order")
     return text[begin + len(README_BEGIN):end].strip("\n")
 
 
@@ -739,7 +741,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--update-baseline", action="store_true",
                         help=f"write {BASELINE.relative_to(ROOT)} from this run")
     parser.add_argument("--readme", action="store_true",
-                        help=f"only rewrite README.md's figures table from {RESULT_JSON.relative_to(ROOT)}")
+                        help=f"only rewrite docs/benchmarks.md's figures table from "
+                             f"{RESULT_JSON.relative_to(ROOT)}")
     parser.add_argument("--runs", type=int, default=RUNS, help="timed samples per figure")
     parser.add_argument("--verbose", action="store_true", help="report each round")
     args = parser.parse_args(argv)

@@ -1,7 +1,7 @@
 """The least hip torque at which ``frc flip``'s unambiguous plan still flips RHex: a bisection.
 
 Each trial sets both driven hips' torque limits of the scene (``rhex_flip`` unless ``--scene``) to
-``+-T`` [N m at the hip, after the gearhead: the README's torque convention] and runs the real
+``+-T`` [N m at the hip, after the gearhead: the manual's torque convention, docs/models.md] and runs the real
 closed loop, :func:`frcontrol.planning.flip.simulate_flip` (plan, rigid simulation, re-plan every
 10 steps, ``--max-time`` seconds). A trial flips when the body pitches past vertical within that
 time. The bisection keeps ``lo`` (does not flip) and ``hi`` (flips) and halves the bracket down to
@@ -11,7 +11,7 @@ fails again above the threshold would make the figure misleading).
 
 Prints one JSON document: the bracket ``[lo, hi]``, every trial (torque, flipped, time to
 vertical, body contact kept, highest pitch) and the torques above ``hi`` that did not flip.
-Not part of ``benchmarks/ci.py``: the measurement behind the README's "least hip torque" figure.
+Not part of ``benchmarks/ci.py``: the measurement behind the "least hip torque" figure of docs/rhex-flip.md.
 
     python -m benchmarks.flip_torque                 # rhex_flip, bracket [5, 40] N m, to 0.01 N m
 """

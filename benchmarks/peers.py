@@ -4,7 +4,7 @@ Run from the repository root::
 
     pip install ".[peers]" && python -m benchmarks.peers   # the full run (2-3 minutes here)
     python -m benchmarks.peers --quick                     # a smoke run (seconds), to a temporary folder
-    python -m benchmarks.peers --readme                    # the README's tables, from peers.json
+    python -m benchmarks.peers --readme                    # the benchmarks page's tables, from peers.json
     python -m benchmarks.peers --replot                    # redraw the figures from peers.json
 
 Writes ``benchmarks/results/peers.json`` and one figure per problem,
@@ -123,7 +123,8 @@ from frcontrol.scene import Scene, load_scene
 from frcontrol.simulation import simulate, simulate_rigid
 
 RESULTS = Path(__file__).resolve().parent / "results"
-README = Path(__file__).resolve().parents[1] / "README.md"
+README = Path(__file__).resolve().parents[1] / "docs" / "benchmarks.md"
+"""The manual's page that holds the generated tables."""
 PEER_MODULES = {"mujoco": "mujoco", "drake": "pydrake"}
 """The module each peer is imported as."""
 
@@ -943,7 +944,7 @@ def plot_problem(result: dict, path: Path) -> None:
     plt.close(fig)
 
 
-# ------------------------------------------------------------------------------------ README
+# ------------------------------------------------------------------ the benchmarks page (docs/benchmarks.md)
 def fmt_time(seconds: float | None) -> str:
     """A time [s] in us or ms."""
     if seconds is None:
@@ -952,7 +953,7 @@ def fmt_time(seconds: float | None) -> str:
 
 
 def readme_tables(payload: dict) -> str:
-    """The README's markdown tables from a peers.json payload."""
+    """The benchmarks page's markdown tables from a peers.json payload."""
     problems = payload["problems"]
     simulators = list(dict.fromkeys(name for r in problems for name in r["summary"]))
     head = ["simulator"] + [f"{r['problem']}: time to 1e-3 (x frcontrol rigid)" for r in problems] + [
@@ -1059,10 +1060,10 @@ README_END = "<!-- end of the generated peers tables -->"
 
 
 def write_readme(payload: dict, readme: Path) -> None:
-    """Replace the generated block of the README (between its markers) by the tables of ``payload``.
+    """Replace the generated block of the benchmarks page (between its markers) by the tables of ``payload``.
 
     Raises:
-        ValueError: the README has not exactly one pair of markers.
+        ValueError: the page has not exactly one pair of markers.
     """
     text = readme.read_text()
     if text.count(README_BEGIN) != 1 or text.count(README_END) != 1:
@@ -1100,10 +1101,11 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="a smoke run, written to a temporary folder")
     parser.add_argument("--runs", type=int, default=None, help="runs per timed point (median)")
     parser.add_argument("--out", type=Path, default=None, help="the results folder")
-    parser.add_argument("--readme", action="store_true", help="print the README's tables from peers.json")
+    parser.add_argument("--readme", action="store_true",
+                        help="print the benchmarks page's tables from peers.json")
     parser.add_argument("--replot", action="store_true", help="redraw the figures from peers.json")
     parser.add_argument("--write-readme", action="store_true",
-                        help="rewrite the README's generated tables from the results (after the run, "
+                        help="rewrite docs/benchmarks.md's generated tables from the results (after the run, "
                              "or from peers.json with --readme)")
     parser.add_argument("--peers", nargs="*", default=["mujoco", "drake"], choices=["mujoco", "drake"])
     args = parser.parse_args()

@@ -26,7 +26,7 @@ A run stops once the pitch is a quarter turn from flat, either way.
 
 Prints one JSON document: the best candidate's voltages and its highest and lowest pitch, energy,
 corner energy and ballistic clearances (forwards, backwards).
-Not part of ``benchmarks/ci.py``: a measurement behind the README's table ("The pumping flip").
+Not part of ``benchmarks/ci.py``: a measurement behind the table of docs/rhex-flip.md ("The pumping flip").
 
     python -m benchmarks.pump_search --front --objective energy --seed 8 --iterations 10
 """

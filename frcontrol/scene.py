@@ -1,9 +1,9 @@
 """Scene files: the one door for user input, where every field is validated.
 
 A scene is a TOML file naming a robot (URDF), its base, a state, contact points against fixed lines
-and the control inputs (see the README for the format). :func:`load_scene` reads it, builds the
-robot model and returns a :class:`Scene`, or raises :class:`~frcontrol.errors.SceneError` naming the
-file, the field and what is wrong.
+and the control inputs (the format: docs/scenes.md and docs/scene-reference.md).
+:func:`load_scene` reads it, builds the robot model and returns a :class:`Scene`, or raises
+:class:`~frcontrol.errors.SceneError` naming the file, the field and what is wrong.
 
 A contact whose gap at the scene's state exceeds :data:`GAP_TOLERANCE` is *inactive*: it is kept in
 ``Scene.contacts`` (and reported) but not in ``Scene.active_contacts``, so the contact layers model

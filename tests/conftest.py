@@ -104,7 +104,7 @@ def toml_text(scene: dict) -> str:
 
 
 def rod_scene(**overrides) -> dict:
-    """The README's rod-on-a-table scene as a dictionary (robot by absolute path)."""
+    """The rod-on-a-table scene of docs/scenes.md as a dictionary (robot by absolute path)."""
     scene = {
         "name": "rod on a table",
         "robot": str(ROBOTS / "rod.urdf"),

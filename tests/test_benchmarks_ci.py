@@ -1,4 +1,4 @@
-"""The CI benchmark's gate, README table and calibration (``benchmarks/ci.py``), with no timing.
+"""The CI benchmark's gate, benchmarks page table and calibration (``benchmarks/ci.py``), with no timing.
 
 ``benchmarks`` is not an installed package: the module is loaded from its file. Its top level
 imports only the standard library and NumPy, so nothing here runs a benchmark.
@@ -42,9 +42,9 @@ def _run(ratios: dict[str, float | None], gated: tuple[str, ...] = ()) -> dict:
 
 def test_readme_table_is_the_rendering_of_the_committed_json():
     result = json.loads((ROOT / "benchmarks" / "results" / "ci.json").read_text())
-    block = ci.readme_block((ROOT / "README.md").read_text())
+    block = ci.readme_block((ROOT / "docs" / "benchmarks.md").read_text())
     assert block == ci.render_table(result), (
-        "README.md's figures table differs from benchmarks/results/ci.json: run "
+        "docs/benchmarks.md's figures table differs from benchmarks/results/ci.json: run "
         "`python -m benchmarks.ci --readme` (or restore the committed ci.json)")
 
 

@@ -118,29 +118,6 @@ def test_every_help_example_runs(example, tmp_path, monkeypatch):
     assert result.exit_code == 0, (example, result.stderr[-500:])
 
 
-def readme_examples():
-    """The README's per-command examples (served viewers left out: they wait)."""
-    from pathlib import Path
-
-    readme = Path(__file__).resolve().parents[1] / "README.md"
-    text = readme.read_text(encoding="utf-8")
-    block = text.split("One example per command", 1)[1].split("```bash", 1)[1].split("```", 1)[0]
-    lines = [line.strip() for line in block.splitlines() if line.strip()]
-    assert len(lines) >= len(COMMANDS), "the README should show every command"
-    assert {line.split()[1] for line in lines} == set(COMMANDS)
-    return [line for line in lines if "--view" not in line]
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("example", readme_examples())
-def test_every_readme_example_runs(example, tmp_path, monkeypatch):
-    import shlex
-
-    monkeypatch.chdir(tmp_path)
-    result = runner.invoke(app, shlex.split(example)[1:])
-    assert result.exit_code == 0, (example, result.stderr[-500:])
-
-
 @pytest.mark.parametrize("name", sorted(COMMANDS))
 def test_help_names_arguments_and_repeated_options_in_words(name):
     """The usage line names arguments in capitals (SCENE, FILE), and --input shows its grammar
@@ -154,15 +131,15 @@ def test_help_names_arguments_and_repeated_options_in_words(name):
 
 
 EVERY_COMMAND_OPTIONS = {"--help", "--set", "--quiet"}
-"""Options of (nearly) every command, documented once below the README's command table."""
+"""Options of (nearly) every command, documented once below the command table of docs/commands.md."""
 
 
-def readme_command_rows() -> dict[str, str]:
-    """The README's command table: the command's name -> its row's first cell (the synopsis)."""
+def command_table_rows() -> dict[str, str]:
+    """The synopsis table of docs/commands.md: the command's name -> its row's first cell."""
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
-    table = text.split("## Command line", 1)[1].split("\n\n", 2)[1]
+    text = (Path(__file__).resolve().parents[1] / "docs" / "commands.md").read_text(encoding="utf-8")
+    table = text.split("## Synopsis", 1)[1].split("\n\n", 3)[2]
     rows = {}
     for line in table.splitlines():
         cells = line.replace("\\|", "/").split("|")  # an escaped bar is part of a cell
@@ -173,13 +150,13 @@ def readme_command_rows() -> dict[str, str]:
 
 
 @pytest.mark.parametrize("name", sorted(COMMANDS))
-def test_the_readme_table_lists_every_option_of_every_command(name):
-    """Each command's row in the README names exactly the long options its --help has (less
+def test_the_command_table_lists_every_option_of_every_command(name):
+    """Each command's row in the synopsis names exactly the long options its --help has (less
     --help, --set and --quiet, which the text below the table documents for every command)."""
     import re
 
-    rows = readme_command_rows()
-    assert name in rows, f"the README's command table has no row for frc {name}"
+    rows = command_table_rows()
+    assert name in rows, f"the command table of docs/commands.md has no row for frc {name}"
     documented = set(re.findall(r"--[a-z][a-z-]*", rows[name]))
     options = {opt for param in COMMANDS[name].params for opt in param.opts
                if opt.startswith("--") and not param.hidden}  # a hidden former name is not documented

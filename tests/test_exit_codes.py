@@ -1,4 +1,5 @@
-"""One exit-code rule for every command (README, "Exit codes"): 0 answered, 1 bad input, 2 usage."""
+"""One exit-code rule for every command (docs/commands.md, "Exit codes and errors"): 0 answered, 1 bad
+input, 2 usage."""
 
 from __future__ import annotations
 

@@ -36,7 +36,7 @@ as returned).
 must cross and the pitches up to which the legs reach the ground (:mod:`.flip_budget`). With rigid
 massless legs nothing stores energy between pushes: a push after the first starts from the body's
 landing on its toes, and the inelastic landing and the back-driven motors take what a push adds,
-so the cycles' peaks stop growing below the barrier (README, "The pumping flip").
+so the cycles' peaks stop growing below the barrier (docs/rhex-flip.md, "The pumping flip").
 
 **Verification.** The run is one rigid simulation (velocity-level time stepping with inelastic
 impacts). The same voltages, replayed against time, drive the compliant model (Kelvin–Voigt
@@ -113,7 +113,7 @@ body's pitch rate is at most this: the body has come back down onto its legs."""
 
 COMPLIANT_STIFFNESS = 1e6
 """[N/m] Contact stiffness of the compliant check: the middle of the range (1e5-1e7 N/m, Radau,
-critical damping) that ``python -m benchmarks.trade`` recommends for trajectories (README,
+critical damping) that ``python -m benchmarks.trade`` recommends for trajectories (docs/benchmarks.md,
 "Which setting for which purpose")."""
 
 COMPLIANT_EXTRA_TIME = 0.2

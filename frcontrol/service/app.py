@@ -1,7 +1,7 @@
 """The FastAPI application of ``frc serve``: endpoints, the token check and the body-size cap.
 
 :func:`create_app` builds it from a :class:`ServiceConfig`; ``frc serve`` runs it with uvicorn.
-The endpoints and their JSON are documented in the README ("The planning service") and in the
+The endpoints and their JSON are documented in docs/service.md and in the
 OpenAPI schema the app serves at ``/openapi.json`` (pages at ``/docs``).
 """
 
