@@ -47,6 +47,7 @@ from .modes import (
     mode_outputs,
     needs_balancing,
 )
+from .query import BatchSolutions, QueryMode, QueryTable, check_inputs
 from .response import (
     ILL_CONDITIONED_BAND,
     RANK_TOLERANCE,
@@ -236,6 +237,7 @@ class DynamicResponse:
     solver: str = DEFAULT_LP_SOLVER
     tolerances: Mapping[str, float] = field(default_factory=dict)
     _unambiguous: dict = field(default_factory=dict, repr=False, compare=False)
+    _query: dict = field(default_factory=dict, repr=False, compare=False)
 
     def to_dict(self, inactive_contacts: Sequence[str] = ()) -> dict[str, Any]:
         """The analysis as JSON values (the ``frc analyze --json`` document, without solutions).
@@ -909,7 +911,9 @@ SOLUTION_METHODS = ("auto", "batch", "reference")
 """How :func:`solutions_at` decides the modes: ``"batch"`` stacks every full mode and decides them
 together (:mod:`frcontrol.mode_batch`; at most :data:`~frcontrol.mode_batch.BATCH_MAX_MODES`);
 ``"reference"`` grows modes contact by contact with an LP per (partial) mode; ``"auto"`` (the
-default) takes the batch when the modes fit in it."""
+default) takes the batch when the modes fit in it. On a finished analysis: ``"auto"`` locates the input
+among the feasible modes' domains (:mod:`frcontrol.query`), ``"batch"`` decides the modes one at a
+time by the same rules, ``"reference"`` with an LP per mode."""
 
 
 def solutions_at(
@@ -946,10 +950,16 @@ def solutions_at(
     """
     if method not in SOLUTION_METHODS:
         raise InputError(f"unknown solution method {method!r}; valid: {', '.join(SOLUTION_METHODS)}")
+    if not isinstance(inputs, Mapping) and np.ndim(inputs) == 2:
+        analysis = scene if isinstance(scene, DynamicResponse) else analyze(
+            scene, solver=solver, ambiguity=False, rank_tolerance=rank_tolerance)
+        return solutions_at_batch(analysis, inputs, solver=solver)
     closed_form = method != "reference"
     if isinstance(scene, DynamicResponse):
         problem = scene.problem
         u = _input_vector(problem, inputs)
+        if method == "auto":
+            return _located_solutions(scene, u, solver)
         listed = []
         for mode in scene.feasible_modes:
             w = _admissible_w(mode.system, mode.response, u, solver, closed_form)
@@ -965,6 +975,55 @@ def solutions_at(
             if found is not None:
                 return found
     return _tree_solutions(problem, u, solver, rank_tolerance, closed_form)
+
+
+def query_table(analysis: DynamicResponse) -> QueryTable:
+    """The analysis's feasible modes stacked for point location (:mod:`frcontrol.query`), built once.
+
+    Cached on the analysis: the first query pays for it (about the cost of ten queries).
+    """
+    table = analysis._query.get("table")
+    if table is None:
+        modes = [QueryMode(m.mode, m.system, m.response, m.ambiguous_outputs) for m in analysis.feasible_modes]
+        table = QueryTable(analysis.problem, modes, zero_row_tolerance=ZERO_ROW_TOLERANCE,
+                           radius_cap=poly.CHEBYSHEV_RADIUS_CAP, tolerance=DOMAIN_TOLERANCE)
+        analysis._query["table"] = table
+    return table
+
+
+def _located_solutions(analysis: DynamicResponse, u: np.ndarray, solver: str) -> list[RigidSolution]:
+    """:func:`solutions_at` on an analysis: point location in its :func:`query_table`."""
+    table = query_table(analysis)
+    found = table.locate(u, lambda H, h, motion: _admissible_in_w(H, h, motion, solver))
+    n, k = table.problem.n, table.problem.k
+    p = table.p[found.index].tolist()
+    return [RigidSolution(
+        mode=table.modes[i], dv=x[:n], lambda_n=x[n:n + k], lambda_t=x[n + k:], a_n=a_n, a_t=a_t,
+        ambiguity_dim=p[s], ambiguous_outputs=table.ambiguous_outputs[i], w=w[:p[s]],
+        equality_residual=float(residual), inequality_violation=float(violation))
+        for s, (i, x, w, a_n, a_t, residual, violation) in enumerate(zip(
+            found.index.tolist(), found.x, found.w, found.a_n, found.a_t, found.equality_residual.tolist(),
+            found.inequality_violation.tolist(), strict=True))]
+
+
+def solutions_at_batch(analysis: DynamicResponse, inputs: np.ndarray | Sequence[Sequence[float]], *,
+                       solver: str = DEFAULT_LP_SOLVER) -> BatchSolutions:
+    """Every rigid solution at each of N inputs on a finished analysis, as arrays.
+
+    The same modes, accelerations, forces and representatives w as :func:`solutions_at` at each
+    point (to round-off); ``solutions_at(analysis, U)`` with a 2-D ``U`` calls this.
+
+    Args:
+        analysis: a finished :func:`analyze`.
+        inputs: an (N, m) array of full input vectors [N or N m].
+        solver: the LP back-end (for modes with two or more ambiguity variables).
+
+    Raises:
+        InputError: not an (N, m) array, a NaN or infinite entry, an input outside its limits.
+    """
+    table = query_table(analysis)
+    U = check_inputs(analysis.problem, inputs, DOMAIN_TOLERANCE)
+    return table.locate_batch(U, lambda H, h, motion: _admissible_in_w(H, h, motion, solver))
 
 
 def _batch_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_tolerance: float,
@@ -1036,6 +1095,8 @@ __all__ = [
     "Overlap",
     "RigidSolution",
     "SOLUTION_METHODS",
+    "query_table",
     "solutions_at",
+    "solutions_at_batch",
     "ZERO_ROW_TOLERANCE",
 ]
