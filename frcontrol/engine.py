@@ -996,14 +996,16 @@ def _located_solutions(analysis: DynamicResponse, u: np.ndarray, solver: str) ->
     table = query_table(analysis)
     found = table.locate(u, lambda H, h, motion: _admissible_in_w(H, h, motion, solver))
     n, k = table.problem.n, table.problem.k
-    p = table.p[found.index].tolist()
-    return [RigidSolution(
-        mode=table.modes[i], dv=x[:n], lambda_n=x[n:n + k], lambda_t=x[n + k:], a_n=a_n, a_t=a_t,
-        ambiguity_dim=p[s], ambiguous_outputs=table.ambiguous_outputs[i], w=w[:p[s]],
-        equality_residual=float(residual), inequality_violation=float(violation))
-        for s, (i, x, w, a_n, a_t, residual, violation) in enumerate(zip(
-            found.index.tolist(), found.x, found.w, found.a_n, found.a_t, found.equality_residual.tolist(),
-            found.inequality_violation.tolist(), strict=True))]
+    dims, outputs, modes = table.p_list, table.ambiguous_outputs, table.modes
+    residual, violation = found.equality_residual.tolist(), found.inequality_violation.tolist()
+    listed = []
+    for i, r in zip(found.index.tolist(), found.rows, strict=True):
+        x = found.x[r]
+        listed.append(RigidSolution(
+            mode=modes[i], dv=x[:n], lambda_n=x[n:n + k], lambda_t=x[n + k:], a_n=found.a_n[r], a_t=found.a_t[r],
+            ambiguity_dim=dims[i], ambiguous_outputs=outputs[i], w=found.w[r, :dims[i]],
+            equality_residual=residual[r], inequality_violation=violation[r]))
+    return listed
 
 
 def solutions_at_batch(analysis: DynamicResponse, inputs: np.ndarray | Sequence[Sequence[float]], *,

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from .errors import InputError
+from .kernel import compiled, kernel_choice
 from .mode_batch import decide_intervals
 from .modes import ContactProblem, ModeSystem
 from .response import AffineSolution
@@ -63,15 +64,19 @@ class QueryMode:
 
 @dataclass(frozen=True)
 class Located:
-    """The solutions at one input: the modes holding it (indices into the table's modes), per solution.
+    """Solutions found by the table: solution s is mode ``index[s]``, in row ``rows[s]`` of the arrays.
 
     Attributes:
-        index: (S,) the modes; x: (S, nx) ``(dv, lambda_n, lambda_t)``; w: (S, p_max) (padded by 0).
-        a_n, a_t: (S, k) contact accelerations [m/s^2].
-        equality_residual, inequality_violation: (S,) as in :class:`BatchSolutions`.
+        index: the modes (indices into the table's modes), one per solution.
+        rows: each solution's row in the arrays below (``range(S)`` unless the arrays hold a row for
+            every mode, as :meth:`QueryTable.locate` with the compiled kernel).
+        x: ``(dv, lambda_n, lambda_t)`` per row; w: (rows, p_max) the ambiguity values (padded by 0).
+        a_n, a_t: (rows, k) contact accelerations [m/s^2].
+        equality_residual, inequality_violation: per row, as in :class:`BatchSolutions`.
     """
 
     index: np.ndarray
+    rows: Sequence[int]
     x: np.ndarray
     w: np.ndarray
     a_n: np.ndarray
@@ -211,7 +216,9 @@ class QueryTable:
     """The feasible modes of one analysis, stacked for point location (module docstring).
 
     Build it once per analysis (:func:`frcontrol.engine.query_table` caches it on the analysis);
-    :meth:`locate` answers one input, :meth:`locate_batch` many.
+    :meth:`locate` answers one input, :meth:`locate_batch` many. Both run in the kernel
+    ``FRC_KERNEL`` chooses (:mod:`frcontrol.kernel`): ``locate_points`` and ``evaluate_points`` of the
+    compiled one, or their NumPy twins :meth:`decide` and :meth:`evaluate`.
 
     Args:
         problem: the analysis's contact problem.
@@ -228,31 +235,34 @@ class QueryTable:
         self.zero_row_tolerance, self.radius_cap = zero_row_tolerance, radius_cap
         self.modes = tuple(m.mode for m in modes)
         self.ambiguous_outputs = tuple(m.ambiguous_outputs for m in modes)
-        self.p = np.array([m.response.ambiguity_dim for m in modes], dtype=int)
+        self.p = np.array([m.response.ambiguity_dim for m in modes], dtype=np.int64)
         self.p_max = int(self.p.max(initial=0))
-        rows = [_mode_rows(m, zero_row_tolerance) for m in modes]
-        self.rows = rows
-        self.inequality_rows = [m.system.G.shape[0] for m in modes]
-        m, nx = problem.m, problem.n + 2 * problem.k
-        width = max((r[2].size for r in rows), default=0)
+        self.p_list = self.p.tolist()
+        self.mode_rows = [_mode_rows(m, zero_row_tolerance) for m in modes]
+        self.row_count = np.array([r[2].size for r in self.mode_rows], dtype=np.int64)
+        self.inequality_rows = np.array([m.system.G.shape[0] for m in modes], dtype=np.int64)
+        m, nx, width = problem.m, problem.n + 2 * problem.k, int(self.row_count.max(initial=0))
+        rows = self.mode_rows
         self.H_u = _padded([r[0] for r in rows], width, (m,), 0.0)
         self.h_0 = _padded([r[2] for r in rows], width, (), 1.0)  # a padded row always holds
         self.norms = _padded([r[3] for r in rows], width, (), 1.0)
         self.motion = _padded([r[4] for r in rows], width, (), False, bool)
         self.valid = _padded([np.ones(r[2].size, bool) for r in rows], width, (), False, bool)
-        self.none = np.flatnonzero(self.p == 0)
         self.one = np.flatnonzero(self.p == 1)
         self.many = np.flatnonzero(self.p >= 2).tolist()
-        self.H_w1 = _padded([rows[i][1][:, 0] for i in self.one.tolist()], width, (), 0.0)
+        self.H_w1 = _padded([r[1][:, 0] if r[1].shape[1] == 1 else np.zeros(0) for r in rows], width, (), 0.0)
         self.X_u = _padded([x.response.X_u for x in modes], nx, (m,), 0.0)
         self.x_0 = _padded([x.response.x_0 for x in modes], nx, (), 0.0)
-        self.X_w = _padded([x.response.X_w.T for x in modes], self.p_max, (nx,), 0.0).transpose(0, 2, 1)
-        g_rows = max(self.inequality_rows, default=0)
-        self.K = np.stack([_output_map(problem, x.system, g_rows) for x in modes]) if modes else \
-            np.zeros((0, 2 * problem.k + nx + g_rows, nx + m + 1))
-        k = problem.k
-        self.output_slices = (slice(0, k), slice(k, 2 * k), slice(2 * k, 2 * k + nx),
-                              slice(2 * k + nx, 2 * k + nx + g_rows))
+        self.X_w = np.ascontiguousarray(
+            _padded([x.response.X_w.T for x in modes], self.p_max, (nx,), 0.0).transpose(0, 2, 1))
+        g_rows = int(self.inequality_rows.max(initial=0))
+        self.K = _padded([_output_map(problem, x.system, g_rows) for x in modes], 2 * problem.k + nx + g_rows,
+                         (nx + m + 1,), 0.0)
+        self.kernel_arguments = (self.H_u, self.h_0, self.norms, self.motion, self.H_w1, self.p, self.row_count,
+                                 self.inequality_rows, self.X_u, self.X_w, self.x_0, self.K, tolerance,
+                                 zero_row_tolerance, radius_cap)
+        """The table as the compiled kernel's ``locate_points``, ``evaluate_points`` and
+        ``query_point`` take it (their first 15 arguments)."""
 
     def slacks(self, U: np.ndarray) -> np.ndarray:
         """Every row's slack ``(h_0 - H_u u) / norm`` at the inputs ``U`` (C, m): (C, modes, rows)."""
@@ -261,53 +271,126 @@ class QueryTable:
             return np.ones((U.shape[0], count, rows))
         return (self.h_0 - (U @ self.H_u.reshape(count * rows, m).T).reshape(-1, count, rows)) / self.norms
 
-    def decide(self, U: np.ndarray, h: np.ndarray, decide_w: WDecider) -> tuple[np.ndarray, np.ndarray]:
-        """Which modes hold each input of ``U`` (C, m), its slacks ``h`` (C, modes, rows), and their ``w``.
-
-        Returns ``ok`` (C, modes) and ``w`` (C, modes, p_max) (zero where a mode has no w).
+    def decide(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The NumPy twin of the kernel's ``locate_points``: per input of ``U`` (C, m) and mode, a status
+        (``QUERY_OUTSIDE`` 0, ``QUERY_INSIDE`` 1, ``QUERY_NEEDS_PYTHON`` 2: two or more ambiguity
+        variables, consistent) and the representative w of a one-variable mode: (C, modes) each.
         """
-        tol = self.tolerance
+        h, tol = self.slacks(U), self.tolerance
         ok = ~np.where(self.motion, h <= tol, h < -tol).any(axis=-1)
-        w = np.zeros((*ok.shape, self.p_max))
+        w = np.zeros(ok.shape)
         one = self.one
         if one.size:
             points, rows = h.shape[0], h.shape[2]
             flat = (points * one.size, rows)
-            parts = np.broadcast_arrays(self.H_w1, h[:, one], self.motion[one], self.valid[one])
+            parts = np.broadcast_arrays(self.H_w1[one], h[:, one], self.motion[one], self.valid[one])
             admissible, centre = decide_intervals(*(a.reshape(flat) for a in parts), tol,
                                                   self.zero_row_tolerance, self.radius_cap)
             ok[:, one] = admissible.reshape(points, one.size)
-            w[:, one, 0] = centre.reshape(points, one.size)
+            w[:, one] = centre.reshape(points, one.size)
+        status = ok.astype(np.int8)
         for i in self.many:
-            ok[:, i] = False
-            H_u, H_w, h_0, norms, motion = (a[:self.inequality_rows[i]] for a in self.rows[i])
-            consistent = np.all(h[:, i, H_u.shape[0]:len(self.rows[i][4])] >= -tol, axis=1)
-            for j in np.flatnonzero(consistent).tolist():
-                # the slice as the engine computes it, to the last bit: the LP's representative is
-                # one vertex of the Chebyshev centres, which round-off may move to another
-                found = decide_w(H_w, (h_0 - H_u @ U[j]) / norms, motion)
-                if found is not None:
-                    ok[j, i] = True
-                    w[j, i, :self.p[i]] = found
-        return ok, w
+            start, end = self.inequality_rows[i], self.row_count[i]
+            status[:, i] = 2 * np.all(h[:, i, start:end] >= -tol, axis=1)
+        return status, w
+
+    def _located(self, U: np.ndarray, decide_w: WDecider) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The (point, mode) pairs holding, in point then mode order, and their w (S, p_max)."""
+        if kernel_choice() == "compiled" and compiled is not None:
+            status = np.empty((U.shape[0], len(self.modes)), dtype=np.int8)
+            w1 = np.empty(status.shape)
+            compiled.locate_points(*self.kernel_arguments, U, status, w1)
+        else:
+            status, w1 = self.decide(U)
+        point, index = (np.ascontiguousarray(a) for a in np.nonzero(status))  # views of one (S, 2) array
+        w = np.zeros((point.size, self.p_max))
+        if self.one.size:
+            w[:, 0] = w1[point, index]
+        if self.many:
+            keep = self._decide_many(U, point, index, w, decide_w)
+            point, index, w = point[keep], index[keep], w[keep]
+        return point, index, w
+
+    def _decide_many(self, U: np.ndarray, point: np.ndarray, index: np.ndarray, w: np.ndarray,
+                     decide_w: WDecider) -> np.ndarray:
+        """The engine's LPs for the pairs whose mode has two or more ambiguity variables (fills ``w``).
+
+        Returns the mask of the pairs that hold.
+        """
+        keep = np.ones(point.size, dtype=bool)
+        for s in np.flatnonzero(self.p[index] >= 2).tolist():
+            i = int(index[s])
+            H_u, H_w, h_0, norms, motion = (a[:self.inequality_rows[i]] for a in self.mode_rows[i])
+            # the slice as the engine computes it, to the last bit: the LP's representative is one
+            # vertex of the Chebyshev centres, which round-off may move to another
+            found = decide_w(H_w, (h_0 - H_u @ U[point[s]]) / norms, motion)
+            if found is None:
+                keep[s] = False
+            else:
+                w[s, :found.size] = found
+        return keep
+
+    def _evaluate_many(self, u: np.ndarray, i: int, decide_w: WDecider,
+                       rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> int:
+        """Mode ``i`` (two or more ambiguity variables, consistent at ``u``) by the engine's LPs.
+
+        When it holds, its solution is written into row ``i`` of ``rows`` (x, acc, residual,
+        violation, w); returns 1 if it holds, else 0.
+        """
+        U, point, index, w = u.reshape(1, -1), np.zeros(1, dtype=np.int64), np.array([i]), np.zeros((1, self.p_max))
+        if not self._decide_many(U, point, index, w, decide_w)[0]:
+            return 0
+        found = self.evaluate(U, point, index, w)
+        x, acc, residual, violation, w_rows = rows
+        x[i], residual[i], violation[i], w_rows[i] = found.x[0], found.equality_residual[0], \
+            found.inequality_violation[0], w[0]
+        acc[i] = np.concatenate([found.a_n[0], found.a_t[0]])
+        return 1
 
     def evaluate(self, U: np.ndarray, point: np.ndarray, index: np.ndarray, w: np.ndarray) -> Located:
-        """The solutions of modes ``index`` (S,) at inputs ``U[point]`` with ambiguity values ``w`` (S, p_max)."""
+        """The solutions of modes ``index`` (S,) at inputs ``U[point]`` with ambiguity values ``w`` (S, p_max).
+
+        The compiled kernel's ``evaluate_points``, or its NumPy twin.
+        """
+        k = self.problem.k
+        if kernel_choice() == "compiled" and compiled is not None:
+            x = np.empty((point.size, self.X_u.shape[1]))
+            acc, residual, violation = np.empty((point.size, 2 * k)), np.empty(point.size), np.empty(point.size)
+            compiled.evaluate_points(*self.kernel_arguments, U, point, index, w, x, acc, residual, violation)
+            return Located(index, range(index.size), x, w, acc[:, :k], acc[:, k:], residual, violation)
         u = U[point]
         x = (np.matmul(self.X_u[index], u[:, :, None]) + np.matmul(self.X_w[index], w[:, :, None]))[:, :, 0]
         x += self.x_0[index]
         z = np.concatenate([x, u, np.ones((x.shape[0], 1))], axis=1)
         y = np.matmul(self.K[index], z[:, :, None])[:, :, 0]
-        a_n, a_t, equations, inequalities = (y[:, s] for s in self.output_slices)
-        return Located(index, x, w, a_n, a_t, np.abs(equations).max(axis=1, initial=0.0),
-                       inequalities.max(axis=1, initial=0.0))
+        nx = x.shape[1]
+        return Located(index, range(index.size), x, w, y[:, :k], y[:, k:2 * k],
+                       np.abs(y[:, 2 * k:2 * k + nx]).max(axis=1, initial=0.0),
+                       y[:, 2 * k + nx:].max(axis=1, initial=0.0))
 
     def locate(self, u: np.ndarray, decide_w: WDecider) -> Located:
-        """The modes holding the input ``u`` (m,), already checked, with their solutions."""
-        U = u[None]
-        ok, w = self.decide(U, self.slacks(U), decide_w)
-        index = np.flatnonzero(ok[0])
-        return self.evaluate(U, np.zeros(index.size, dtype=int), index, w[0, index])
+        """The modes holding the input ``u`` (m,), already checked, with their solutions.
+
+        With the compiled kernel, one ``query_point`` call locates and evaluates (the LPs of modes
+        with two or more ambiguity variables, where their consistency holds, then run in Python).
+        """
+        if kernel_choice() == "compiled" and compiled is not None:
+            count, nx, k = len(self.modes), self.X_u.shape[1], self.problem.k
+            status, w1, residual, violation = (np.empty(count, dtype=np.int8), np.empty(count), np.empty(count),
+                                               np.empty(count))
+            x, acc = np.empty((count, nx)), np.empty((count, 2 * k))
+            compiled.query_point(*self.kernel_arguments, u, status, w1, x, acc, residual, violation)
+            codes = status.tolist()
+            w = w1[:, None] if self.p_max <= 1 else np.zeros((count, self.p_max))
+            if self.many:
+                w[:, 0] = w1
+                for i in [i for i, code in enumerate(codes) if code == 2]:
+                    codes[i] = self._evaluate_many(u, i, decide_w, (x, acc, residual, violation, w))
+            rows = [i for i, code in enumerate(codes) if code == 1]
+            return Located(np.array(rows, dtype=np.int64), rows, x, w, acc[:, :k], acc[:, k:], residual, violation)
+        U = u.reshape(1, -1)
+        point, index, w = self._located(U, decide_w)
+        return self.evaluate(U, point, index, w)
 
     def locate_batch(self, U: np.ndarray, decide_w: WDecider, chunk: int | None = None) -> BatchSolutions:
         """Every solution at each input of ``U`` (N, m), already checked (:class:`BatchSolutions`).
@@ -318,9 +401,8 @@ class QueryTable:
         parts: list[tuple[np.ndarray, Located]] = []
         for start in range(0, U.shape[0], chunk):
             block = U[start:start + chunk]
-            ok, w = self.decide(block, self.slacks(block), decide_w)
-            point, index = np.nonzero(ok)
-            parts.append((point + start, self.evaluate(block, point, index, w[point, index])))
+            point, index, w = self._located(block, decide_w)
+            parts.append((point + start, self.evaluate(block, point, index, w)))
         return self._batch(U, parts)
 
     def _batch(self, U: np.ndarray, parts: list[tuple[np.ndarray, Located]]) -> BatchSolutions:
@@ -331,11 +413,11 @@ class QueryTable:
             arrays = [pick(found) for _, found in parts]
             return np.concatenate(arrays) if arrays else np.zeros((0, width))
 
-        point = np.concatenate([p for p, _ in parts]) if parts else np.zeros(0, dtype=int)
-        index = joined(lambda f: f.index, 0).astype(int).reshape(-1)
+        point = np.concatenate([p for p, _ in parts]) if parts else np.zeros(0, dtype=np.int64)
+        index = joined(lambda f: f.index, 0).astype(np.int64).reshape(-1)
         x = joined(lambda f: f.x, n + 2 * k)
         count = np.bincount(point, minlength=U.shape[0])
-        offsets = np.zeros(U.shape[0] + 1, dtype=int)
+        offsets = np.zeros(U.shape[0] + 1, dtype=np.int64)
         np.cumsum(count, out=offsets[1:])
         return BatchSolutions(
             inputs=U, modes=self.modes, count=count, offsets=offsets, point=point, mode_index=index,
