@@ -337,7 +337,8 @@ def _batch_figure(name: str) -> tuple[Call, Check]:
 
     analysis = analyze(load_scene(name), ambiguity=False)
     problem = analysis.problem
-    U = np.random.default_rng(CALIBRATION_SEED).uniform(problem.lower, problem.upper, (BATCH_POINTS, problem.m))
+    rng = np.random.default_rng(CALIBRATION_SEED)
+    U = rng.uniform(problem.lower, problem.upper, (BATCH_POINTS, problem.m))
     sample = np.linspace(0, BATCH_POINTS - 1, BATCH_CHECKED_POINTS).astype(int)
     expected = [tuple(s.mode for s in solutions_at(analysis, U[i])) for i in sample]
 
@@ -561,8 +562,8 @@ def measure(runs: int = RUNS, progress: Callable[[str], None] | None = None) -> 
         "figures": figures,
         "notes": {
             "inputs": "the rigid solutions are at zero input (u = 0) for every scene, and the RHex query "
-                      f"also at u = {QUERY_GENERIC_INPUT}; the batches at {BATCH_POINTS} inputs uniform within "
-                      "the limits",
+                      f"also at u = {QUERY_GENERIC_INPUT}; the batches at {BATCH_POINTS} inputs uniform "
+                      "within the limits",
             "analysis": "forced: analyze() with its defaults (overlaps included), then every feasible "
                         "mode's domain and input_domain; lazy: analyze() alone",
             "snake_ground_8": "as benchmarks/engine.py measures it: analyze(ambiguity=False), lazy",

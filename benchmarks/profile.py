@@ -204,7 +204,8 @@ def render(title: str, result: dict[str, Any], cost: float) -> str:
         lines.append(f"  {stage:20s} {entry['seconds'] * 1e3:8.2f} ms {100 * entry['share']:6.1f}% "
                      f"{entry['calls']:8d}")
     wrapped = sum(entry["calls"] for entry in result["stages"].values())
-    lines.append(f"  (the timers cost about {cost * 1e6:.2f} us per call: {wrapped * cost * 1e3:.2f} ms here)")
+    lines.append(f"  (the timers cost about {cost * 1e6:.2f} us per call: "
+                 f"{wrapped * cost * 1e3:.2f} ms here)")
     return "\n".join(lines)
 
 

@@ -30,9 +30,10 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
+import numpy.typing as npt
 
 from . import polytope as poly
 from .errors import CoordinateNotFound, InputError
@@ -916,6 +917,18 @@ among the feasible modes' domains (:mod:`frcontrol.query`), ``"batch"`` decides 
 time by the same rules, ``"reference"`` with an LP per mode."""
 
 
+@overload
+def solutions_at(scene: Scene | ContactProblem | DynamicResponse,
+                 inputs: Mapping[str, float] | Sequence[float], *, solver: str = ...,
+                 rank_tolerance: float = ..., method: str = ...) -> list[RigidSolution]: ...
+
+
+@overload
+def solutions_at(scene: Scene | ContactProblem | DynamicResponse, inputs: np.ndarray, *,
+                 solver: str = ..., rank_tolerance: float = ...,
+                 method: str = ...) -> Any: ...  # a list for one input, a BatchSolutions for (N, m)
+
+
 def solutions_at(
     scene: Scene | ContactProblem | DynamicResponse,
     inputs: Mapping[str, float] | Sequence[float] | np.ndarray,
@@ -923,7 +936,7 @@ def solutions_at(
     solver: str = DEFAULT_LP_SOLVER,
     rank_tolerance: float = RANK_TOLERANCE,
     method: str = "auto",
-) -> list[RigidSolution]:
+) -> list[RigidSolution] | BatchSolutions:
     """Every rigid-body solution at one input: all modes whose domain holds it.
 
     Each solution is reported once, under the mode that describes its motion (see
@@ -932,7 +945,9 @@ def solutions_at(
     Args:
         scene: a scene (at its state), a prepared problem, or a finished analysis (only its
             feasible modes are tested).
-        inputs: ``{name: value}`` (names not given are 0) or the full input vector.
+        inputs: ``{name: value}`` (names not given are 0) or the full input vector; or an (N, m)
+            array of N input vectors: then the answer is one :class:`~frcontrol.query.BatchSolutions`
+            (:func:`solutions_at_batch`; a scene is analysed first, without overlaps).
         solver: the LP back-end (for modes with two or more ambiguity variables).
         rank_tolerance: relative singular-value threshold of the rank decisions.
         method: one of :data:`SOLUTION_METHODS`. Every method gives the same modes, the same
@@ -984,7 +999,8 @@ def query_table(analysis: DynamicResponse) -> QueryTable:
     """
     table = analysis._query.get("table")
     if table is None:
-        modes = [QueryMode(m.mode, m.system, m.response, m.ambiguous_outputs) for m in analysis.feasible_modes]
+        modes = [QueryMode(m.mode, m.system, m.response, m.ambiguous_outputs)
+                 for m in analysis.feasible_modes]
         table = QueryTable(analysis.problem, modes, zero_row_tolerance=ZERO_ROW_TOLERANCE,
                            radius_cap=poly.CHEBYSHEV_RADIUS_CAP, tolerance=DOMAIN_TOLERANCE)
         analysis._query["table"] = table
@@ -1002,13 +1018,14 @@ def _located_solutions(analysis: DynamicResponse, u: np.ndarray, solver: str) ->
     for i, r in zip(found.index.tolist(), found.rows, strict=True):
         x = found.x[r]
         listed.append(RigidSolution(
-            mode=modes[i], dv=x[:n], lambda_n=x[n:n + k], lambda_t=x[n + k:], a_n=found.a_n[r], a_t=found.a_t[r],
+            mode=modes[i], dv=x[:n], lambda_n=x[n:n + k], lambda_t=x[n + k:], a_n=found.a_n[r],
+            a_t=found.a_t[r],
             ambiguity_dim=dims[i], ambiguous_outputs=outputs[i], w=found.w[r, :dims[i]],
             equality_residual=residual[r], inequality_violation=violation[r]))
     return listed
 
 
-def solutions_at_batch(analysis: DynamicResponse, inputs: np.ndarray | Sequence[Sequence[float]], *,
+def solutions_at_batch(analysis: DynamicResponse, inputs: npt.ArrayLike, *,
                        solver: str = DEFAULT_LP_SOLVER) -> BatchSolutions:
     """Every rigid solution at each of N inputs on a finished analysis, as arrays.
 

@@ -258,9 +258,9 @@ class QueryTable:
         g_rows = int(self.inequality_rows.max(initial=0))
         self.K = _padded([_output_map(problem, x.system, g_rows) for x in modes], 2 * problem.k + nx + g_rows,
                          (nx + m + 1,), 0.0)
-        self.kernel_arguments = (self.H_u, self.h_0, self.norms, self.motion, self.H_w1, self.p, self.row_count,
-                                 self.inequality_rows, self.X_u, self.X_w, self.x_0, self.K, tolerance,
-                                 zero_row_tolerance, radius_cap)
+        self.kernel_arguments = (self.H_u, self.h_0, self.norms, self.motion, self.H_w1, self.p,
+                                 self.row_count, self.inequality_rows, self.X_u, self.X_w, self.x_0, self.K,
+                                 tolerance, zero_row_tolerance, radius_cap)
         """The table as the compiled kernel's ``locate_points``, ``evaluate_points`` and
         ``query_point`` take it (their first 15 arguments)."""
 
@@ -272,23 +272,26 @@ class QueryTable:
         return (self.h_0 - (U @ self.H_u.reshape(count * rows, m).T).reshape(-1, count, rows)) / self.norms
 
     def decide(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The NumPy twin of the kernel's ``locate_points``: per input of ``U`` (C, m) and mode, a status
-        (``QUERY_OUTSIDE`` 0, ``QUERY_INSIDE`` 1, ``QUERY_NEEDS_PYTHON`` 2: two or more ambiguity
-        variables, consistent) and the representative w of a one-variable mode: (C, modes) each.
+        """The NumPy twin of the kernel's ``locate_points``: a status per input and mode, and w.
+
+        Per input of ``U`` (C, m) and mode: ``QUERY_OUTSIDE`` 0, ``QUERY_INSIDE`` 1 or
+        ``QUERY_NEEDS_PYTHON`` 2 (two or more ambiguity variables, consistent), and the
+        representative w of a one-variable mode: (C, modes) each.
         """
         h, tol = self.slacks(U), self.tolerance
-        ok = ~np.where(self.motion, h <= tol, h < -tol).any(axis=-1)
+        ok = np.asarray(~np.where(self.motion, h <= tol, h < -tol).any(axis=-1))
         w = np.zeros(ok.shape)
         one = self.one
         if one.size:
             points, rows = h.shape[0], h.shape[2]
             flat = (points * one.size, rows)
-            parts = np.broadcast_arrays(self.H_w1[one], h[:, one], self.motion[one], self.valid[one])
-            admissible, centre = decide_intervals(*(a.reshape(flat) for a in parts), tol,
-                                                  self.zero_row_tolerance, self.radius_cap)
+            a, h_one, motion, valid = (part.reshape(flat) for part in np.broadcast_arrays(
+                self.H_w1[one], h[:, one], self.motion[one], self.valid[one]))
+            admissible, centre = decide_intervals(a, h_one, motion, valid, tol, self.zero_row_tolerance,
+                                                  self.radius_cap)
             ok[:, one] = admissible.reshape(points, one.size)
             w[:, one] = centre.reshape(points, one.size)
-        status = ok.astype(np.int8)
+        status: np.ndarray = ok.astype(np.int8)
         for i in self.many:
             start, end = self.inequality_rows[i], self.row_count[i]
             status[:, i] = 2 * np.all(h[:, i, start:end] >= -tol, axis=1)
@@ -337,7 +340,8 @@ class QueryTable:
         When it holds, its solution is written into row ``i`` of ``rows`` (x, acc, residual,
         violation, w); returns 1 if it holds, else 0.
         """
-        U, point, index, w = u.reshape(1, -1), np.zeros(1, dtype=np.int64), np.array([i]), np.zeros((1, self.p_max))
+        U, point, index = u.reshape(1, -1), np.zeros(1, dtype=np.int64), np.array([i])
+        w = np.zeros((1, self.p_max))
         if not self._decide_many(U, point, index, w, decide_w)[0]:
             return 0
         found = self.evaluate(U, point, index, w)
@@ -348,14 +352,15 @@ class QueryTable:
         return 1
 
     def evaluate(self, U: np.ndarray, point: np.ndarray, index: np.ndarray, w: np.ndarray) -> Located:
-        """The solutions of modes ``index`` (S,) at inputs ``U[point]`` with ambiguity values ``w`` (S, p_max).
+        """The solutions of modes ``index`` (S,) at inputs ``U[point]``, ambiguity values ``w`` (S, p_max).
 
         The compiled kernel's ``evaluate_points``, or its NumPy twin.
         """
         k = self.problem.k
         if kernel_choice() == "compiled" and compiled is not None:
             x = np.empty((point.size, self.X_u.shape[1]))
-            acc, residual, violation = np.empty((point.size, 2 * k)), np.empty(point.size), np.empty(point.size)
+            acc, residual, violation = (np.empty((point.size, 2 * k)), np.empty(point.size),
+                                        np.empty(point.size))
             compiled.evaluate_points(*self.kernel_arguments, U, point, index, w, x, acc, residual, violation)
             return Located(index, range(index.size), x, w, acc[:, :k], acc[:, k:], residual, violation)
         u = U[point]
@@ -376,8 +381,8 @@ class QueryTable:
         """
         if kernel_choice() == "compiled" and compiled is not None:
             count, nx, k = len(self.modes), self.X_u.shape[1], self.problem.k
-            status, w1, residual, violation = (np.empty(count, dtype=np.int8), np.empty(count), np.empty(count),
-                                               np.empty(count))
+            status = np.empty(count, dtype=np.int8)
+            w1, residual, violation = np.empty(count), np.empty(count), np.empty(count)
             x, acc = np.empty((count, nx)), np.empty((count, 2 * k))
             compiled.query_point(*self.kernel_arguments, u, status, w1, x, acc, residual, violation)
             codes = status.tolist()
@@ -387,7 +392,8 @@ class QueryTable:
                 for i in [i for i, code in enumerate(codes) if code == 2]:
                     codes[i] = self._evaluate_many(u, i, decide_w, (x, acc, residual, violation, w))
             rows = [i for i, code in enumerate(codes) if code == 1]
-            return Located(np.array(rows, dtype=np.int64), rows, x, w, acc[:, :k], acc[:, k:], residual, violation)
+            return Located(np.array(rows, dtype=np.int64), rows, x, w, acc[:, :k], acc[:, k:], residual,
+                           violation)
         U = u.reshape(1, -1)
         point, index, w = self._located(U, decide_w)
         return self.evaluate(U, point, index, w)
@@ -459,5 +465,5 @@ def check_inputs(problem: ContactProblem, inputs: Any, tolerance: float = BOUNDA
     return U
 
 
-__all__ = ["BATCH_CHUNK_POINTS", "BatchSolutions", "BOUNDARY_TOLERANCE", "check_inputs", "Located", "QueryMode",
-           "QueryTable", "WDecider"]
+__all__ = ["BATCH_CHUNK_POINTS", "BatchSolutions", "BOUNDARY_TOLERANCE", "check_inputs", "Located",
+           "QueryMode", "QueryTable", "WDecider"]

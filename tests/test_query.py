@@ -231,7 +231,8 @@ def test_the_batch_shape_and_json():
     S, n, k = batch.point.size, analysis.problem.n, analysis.problem.k
     assert batch.count.shape == (12,) and batch.offsets.shape == (13,)
     assert batch.dv.shape == (S, n) and batch.lambda_n.shape == (S, k) and batch.a_t.shape == (S, k)
-    assert batch.w.shape == (S, 2) and batch.mode_index.shape == (S,) and batch.tolerance == BOUNDARY_TOLERANCE
+    assert batch.w.shape == (S, 2) and batch.mode_index.shape == (S,)
+    assert batch.tolerance == BOUNDARY_TOLERANCE
     assert np.all(np.diff(batch.point) >= 0)
     document = json.loads(json.dumps(batch.to_dict()))
     assert document["count"] == batch.count.tolist() and len(document["dv"]) == S
@@ -243,7 +244,8 @@ def test_an_empty_batch_and_a_scene_batch():
     assert len(empty) == 0 and empty.point.size == 0 and empty.offsets.tolist() == [0]
     U = random_inputs("rod_on_table", 5, seed=1)
     on_scene = solutions_at(scene, U)  # analysed first
-    assert [on_scene.modes_at(i) for i in range(5)] == [tuple(s.mode for s in solutions_at(analysis, u)) for u in U]
+    expected = [tuple(s.mode for s in solutions_at(analysis, u)) for u in U]
+    assert [on_scene.modes_at(i) for i in range(5)] == expected
 
 
 @pytest.mark.parametrize("bad, text", [
