@@ -183,7 +183,8 @@ def main(argv: list[str] | None = None) -> int:
                   if r.get("forced_s") is not None else r.get("forced_skipped", "-"))
         print(f"{k:2d} contacts: {r['modes_evaluated']:6d} modes evaluated, {r['modes_feasible']:5d} "
               f"feasible; analysis {r['analysis_s']:.3f} s "
-              f"({1e3 * r['analysis_per_evaluated_mode_s']:.3f} ms per evaluated mode); forced {forced}", flush=True)
+              f"({1e3 * r['analysis_per_evaluated_mode_s']:.3f} ms per evaluated mode); forced {forced}",
+              flush=True)
     for r in rows:
         for key in ("analysis_s", "forced_s"):
             if r.get(key) is not None:
