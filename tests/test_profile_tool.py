@@ -14,7 +14,6 @@ if str(REPO) not in sys.path:  # the benchmarks beside the package; the checkout
     sys.path.append(str(REPO))
 
 from benchmarks import profile  # noqa: E402
-
 from frcontrol import engine, solvers  # noqa: E402
 
 
