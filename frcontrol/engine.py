@@ -48,7 +48,7 @@ from .modes import (
     mode_outputs,
     needs_balancing,
 )
-from .query import BatchSolutions, QueryMode, QueryTable, check_inputs
+from .query import BatchSolutions, QueryMode, QueryTable, check_inputs, row_norms
 from .response import (
     ILL_CONDITIONED_BAND,
     RANK_TOLERANCE,
@@ -75,10 +75,7 @@ constant row: it is judged by its right-hand side alone (normalising it would in
 
 def _row_norms(H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Row norms, and the mask of numerically constant rows (see :data:`ZERO_ROW_TOLERANCE`)."""
-    norms = np.sqrt((H * H).sum(axis=1))
-    largest = float(norms.max()) if norms.shape[0] else 0.0
-    constant = norms <= ZERO_ROW_TOLERANCE * max(1.0, largest)
-    return norms, constant
+    return row_norms(H, ZERO_ROW_TOLERANCE)
 
 
 @dataclass(frozen=True)

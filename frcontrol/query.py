@@ -152,8 +152,8 @@ class BatchSolutions:
             "ambiguous_outputs", "tolerance")})
 
 
-def _row_norms(H: np.ndarray, zero_row_tolerance: float) -> tuple[np.ndarray, np.ndarray]:
-    """Row norms and the mask of numerically constant rows (the engine's ``_row_norms``)."""
+def row_norms(H: np.ndarray, zero_row_tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Row norms, and the mask of numerically constant rows (norm <= tolerance * max(1, largest))."""
     norms = np.sqrt((H * H).sum(axis=1))
     largest = float(norms.max()) if norms.shape[0] else 0.0
     return norms, norms <= zero_row_tolerance * max(1.0, largest)
@@ -168,7 +168,7 @@ def _mode_rows(entry: QueryMode, zero_row_tolerance: float
     """
     G, response = entry.system.G, entry.response
     H_u, H_w = G @ response.X_u, G @ response.X_w
-    norms, constant = _row_norms(np.hstack([H_u, H_w]), zero_row_tolerance)
+    norms, constant = row_norms(np.hstack([H_u, H_w]), zero_row_tolerance)
     norms[constant] = 1.0
     H_w = H_w / norms[:, None]
     H_w[constant] = 0.0
@@ -466,4 +466,4 @@ def check_inputs(problem: ContactProblem, inputs: Any, tolerance: float = BOUNDA
 
 
 __all__ = ["BATCH_CHUNK_POINTS", "BatchSolutions", "BOUNDARY_TOLERANCE", "check_inputs", "Located",
-           "QueryMode", "QueryTable", "WDecider"]
+           "QueryMode", "QueryTable", "row_norms", "WDecider"]
