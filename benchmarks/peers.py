@@ -60,7 +60,8 @@ What each point is
   ``MultibodyPlantConfig()``'s (1 ms, ``lagged``, stiffness from the 1 mm penetration allowance,
   stiction tolerance 1e-4 m/s) with point contact.
 - **frcontrol rigid**: ``solutions_at(scene, {})`` from scratch, and on an existing ``analyze``
-  result (the analysis not timed).
+  result (the analysis not timed): one input, and per point of a batch of :data:`BATCH_POINTS`
+  inputs (``solutions_at(analysis, U)``, the same input repeated).
 - **frcontrol compliant**: ``frcontrol.simulate`` on the scene loaded with
   ``overrides={"model.contact": "compliant", "model.stiffness": k}`` (critical damping), from relaxed
   springs, read after a settling window ``N_r / omega_min`` as in :mod:`benchmarks.trade`. Settings:
@@ -711,6 +712,10 @@ def compliant_point(ref: Reference, setting: CompliantSetting, runs: int) -> dic
                  readout(ref, trajectory))
 
 
+BATCH_POINTS = 100_000
+"""Inputs of frcontrol's batch query (``solutions_at(analysis, U)``), timed per point."""
+
+
 def frcontrol_points(ref: Reference, grid: Grid, rest: bool) -> list[dict]:
     """Rigid from scratch and on an analysis; every compliant setting (the cheapest at 1e-3 re-timed);
     at rest (the box) also the compliant defaults after the creep duration."""
@@ -729,6 +734,14 @@ def frcontrol_points(ref: Reference, grid: Grid, rest: bool) -> list[dict]:
     seconds, times, solutions = median_time(lambda: solutions_at(analysis, {}), max(grid.runs, 9))
     points.append(point("frcontrol rigid", "solutions_at on an analysis", {}, "exact", seconds, len(times),
                         ref, rigid_forces(solutions)))
+    U = np.zeros((BATCH_POINTS, analysis.problem.m))  # the problem's input, N times over
+    seconds, times, batch = median_time(lambda: solutions_at(analysis, U), max(3, grid.runs // 3))
+    modes, forces = batch.modes_at(0), np.full(ref.forces.shape, np.nan)
+    if ref.mode in modes:
+        row = batch.rows(0).start + modes.index(ref.mode)
+        forces = np.concatenate([batch.lambda_n[row], batch.lambda_t[row]])
+    points.append(point("frcontrol rigid", f"solutions_at on an analysis, per point of {BATCH_POINTS:,}", {},
+                        "exact", seconds / BATCH_POINTS, len(times), ref, forces))
     compliant_point(ref, COMPLIANT_DEFAULTS, 1)  # warm-up: the first simulation loads SciPy's integrators
     compliant = [compliant_point(ref, setting, grid.runs if setting == COMPLIANT_DEFAULTS else 1)
                  for setting in grid.compliant]

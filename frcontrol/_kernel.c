@@ -1,4 +1,5 @@
-/* The compiled kernel of frcontrol.mode_batch: the certified-modes path of decide_modes.
+/* The compiled kernel of frcontrol.mode_batch (the certified-modes path of decide_modes) and of
+ * frcontrol.query (locate_points, evaluate_points: queries on an analysis).
  *
  * Plain C against the CPython API and the buffer protocol (no NumPy headers): the build needs only
  * setuptools, a C compiler and Python's headers. frcontrol/kernel.py wraps it; the NumPy code in
@@ -431,14 +432,15 @@ static int consistent(const Problem *p, const Ranked *q, Py_ssize_t mode, Py_ssi
     return fabs(eu - e) / norm <= p->domain_tolerance;
 }
 
-/* decide_intervals for one mode: rows a_i w <= h_i over the valid rows (a, h, motion). */
-static int interval(const Problem *p, const Ranked *q, Py_ssize_t rows, const double *a, const double *h,
-                    const unsigned char *motion, double *centre) {
-    double dt = p->domain_tolerance, top = 0.0, inf = INFINITY;
+/* decide_intervals for one mode: rows a_i w <= h_i over the valid rows (a, h, motion), with the
+ * domain tolerance dt, the zero-row tolerance zrt and the radius cap. */
+static int interval_rows(Py_ssize_t rows, const double *a, const double *h, const unsigned char *motion,
+                         double dt, double zrt, double radius_cap, double *centre) {
+    double top = 0.0, inf = INFINITY;
     for (Py_ssize_t i = 0; i < rows; i++) {
         top = fabs(a[i]) > top ? fabs(a[i]) : top;
     }
-    double floor = p->zero_row_tolerance * (top > 1.0 ? top : 1.0);
+    double floor = zrt * (top > 1.0 ? top : 1.0);
     double lo = -inf, hi = inf, lower = -inf, upper = inf, lo_ball = -inf, hi_ball = inf;
     int ok = 1, has_motion = 0;
     for (Py_ssize_t i = 0; i < rows; i++) {
@@ -474,9 +476,14 @@ static int interval(const Problem *p, const Ranked *q, Py_ssize_t rows, const do
     double margin = fmin(1.0, fmin(upper - w, w - lower));
     ok &= !has_motion || (margin >= 0.0 && margin > dt);
     int flo = isfinite(lo_ball), fhi = isfinite(hi_ball);
-    double one_side = flo ? lo_ball + q->radius_cap : fhi ? hi_ball - q->radius_cap : w;
+    double one_side = flo ? lo_ball + radius_cap : fhi ? hi_ball - radius_cap : w;
     *centre = flo && fhi ? (hi_ball - lo_ball > 2.0 * dt ? 0.5 * (lo_ball + hi_ball) : w) : one_side;
     return ok;
+}
+
+static int interval(const Problem *p, const Ranked *q, Py_ssize_t rows, const double *a, const double *h,
+                    const unsigned char *motion, double *centre) {
+    return interval_rows(rows, a, h, motion, p->domain_tolerance, p->zero_row_tolerance, q->radius_cap, centre);
 }
 
 /* outputs_moved_by for one direction X_w (nx,). */
@@ -1821,6 +1828,272 @@ done:
     return result;
 }
 
+/* ------------------------------------------------------------------ queries on an analysis */
+/* frcontrol.query.QueryTable.decide and evaluate (the NumPy twins), point by point and mode by mode.
+ *
+ * Locating: per point u and mode i, the slacks h_r = (h_0[i,r] - H_u[i,r,:] . u) / norms[i,r] of the
+ * mode's first rows[i] rows; a mode without ambiguity variables (p[i] = 0) holds the point when
+ * every motion row has h > tol and every other h >= -tol; with one (p[i] = 1), interval_rows over
+ * its rows (a = H_w1[i]) decides it and gives w; with more, its consistency rows (from
+ * inequality_rows[i] on) must have h >= -tol, and the LP decides in Python (QUERY_NEEDS_PYTHON).
+ *
+ * Evaluating: mode i at u with ambiguity values w: x = X_u u + X_w w + x_0 and y = K [x; u; 1], whose
+ * first 2k entries are the contact accelerations, the next nx the equation residuals (their largest
+ * magnitude is the residual), the rest the inequality slacks G x - g (their largest, at least 0, is
+ * the violation). */
+enum { QUERY_OUTSIDE = 0, QUERY_INSIDE = 1, QUERY_NEEDS_PYTHON = 2 };
+
+typedef struct {
+    Py_ssize_t modes, width, m, nx, pmax, krows, acc;
+    const double *H_u, *h_0, *norms, *H_w1, *X_u, *X_w, *x_0, *K;
+    const unsigned char *motion;
+    const long long *p, *rows, *ineq;
+    double dt, zrt, cap;
+} QueryTable;
+
+static signed char locate_mode(const QueryTable *t, Py_ssize_t i, const double *u, double *h, double *centre) {
+    Py_ssize_t count = (Py_ssize_t)t->rows[i], at = i * t->width, m = t->m;
+    for (Py_ssize_t r = 0; r < count; r++) {
+        const double *row = t->H_u + (at + r) * m;
+        double v = 0.0;
+        for (Py_ssize_t c = 0; c < m; c++) {
+            v += row[c] * u[c];
+        }
+        h[r] = (t->h_0[at + r] - v) / t->norms[at + r];
+    }
+    *centre = 0.0;
+    if (t->p[i] == 1) {
+        return interval_rows(count, t->H_w1 + at, h, t->motion + at, t->dt, t->zrt, t->cap, centre) ? QUERY_INSIDE
+                                                                                                  : QUERY_OUTSIDE;
+    }
+    for (Py_ssize_t r = t->p[i] == 0 ? 0 : (Py_ssize_t)t->ineq[i]; r < count; r++) {
+        if (t->motion[at + r] ? !(h[r] > t->dt) : h[r] < -t->dt) {
+            return QUERY_OUTSIDE;
+        }
+    }
+    return t->p[i] > 1 ? QUERY_NEEDS_PYTHON : QUERY_INSIDE;
+}
+
+static void evaluate_mode(const QueryTable *t, Py_ssize_t i, const double *u, const double *w, double *x,
+                          double *acc, double *residual, double *violation, double *z) {
+    Py_ssize_t nx = t->nx, m = t->m, pmax = t->pmax, cols = nx + m + 1;
+    for (Py_ssize_t r = 0; r < nx; r++) {
+        const double *xu = t->X_u + (i * nx + r) * m, *xw = t->X_w + (i * nx + r) * pmax;
+        double v = 0.0, vw = 0.0;
+        for (Py_ssize_t c = 0; c < m; c++) {
+            v += xu[c] * u[c];
+        }
+        for (Py_ssize_t c = 0; c < pmax; c++) {
+            vw += xw[c] * w[c];
+        }
+        x[r] = v + vw + t->x_0[i * nx + r];
+        z[r] = x[r];
+    }
+    for (Py_ssize_t c = 0; c < m; c++) {
+        z[nx + c] = u[c];
+    }
+    z[nx + m] = 1.0;
+    double res = 0.0, worst = 0.0;
+    for (Py_ssize_t r = 0; r < t->krows; r++) {
+        const double *row = t->K + (i * t->krows + r) * cols;
+        double v = 0.0;
+        for (Py_ssize_t c = 0; c < cols; c++) {
+            v += row[c] * z[c];
+        }
+        if (r < t->acc) {
+            acc[r] = v;
+        } else if (r < t->acc + nx) {
+            res = fabs(v) > res ? fabs(v) : res;
+        } else {
+            worst = v > worst ? v : worst;
+        }
+    }
+    *residual = res;
+    *violation = worst;
+}
+
+#define QUERY_BUFFERS 15
+static const char *query_names[QUERY_BUFFERS] = {"H_u", "h_0", "norms", "motion", "H_w1", "p", "rows",
+                                                  "inequality_rows", "X_u", "X_w", "x_0", "K", "domain_tolerance",
+                                                  "zero_row_tolerance", "radius_cap"};
+
+/* The table's 12 buffers and 3 tolerances (args[0:15]), checked against one another; acc: 2k. */
+static int take_query(PyObject *const *args, Buffer *b, QueryTable *t, Py_ssize_t acc) {
+    Py_ssize_t hu[3] = {-1, -1, -1};
+    if (take(args[0], &b[0], "H_u", 'd', 3, hu, 0)) return -1;
+    t->modes = hu[0], t->width = hu[1], t->m = hu[2];
+    Py_ssize_t fr[2] = {t->modes, t->width}, f1[1] = {t->modes}, xu[3] = {t->modes, -1, t->m};
+    if (take(args[1], &b[1], "h_0", 'd', 2, fr, 0) || take(args[2], &b[2], "norms", 'd', 2, fr, 0) ||
+        take(args[3], &b[3], "motion", '?', 2, fr, 0) || take(args[4], &b[4], "H_w1", 'd', 2, fr, 0) ||
+        take(args[5], &b[5], "p", 'q', 1, f1, 0) || take(args[6], &b[6], "rows", 'q', 1, f1, 0) ||
+        take(args[7], &b[7], "inequality_rows", 'q', 1, f1, 0) || take(args[8], &b[8], "X_u", 'd', 3, xu, 0))
+        return -1;
+    t->nx = xu[1];
+    Py_ssize_t xw[3] = {t->modes, t->nx, -1}, x0[2] = {t->modes, t->nx}, k[3] = {t->modes, -1, t->nx + t->m + 1};
+    if (take(args[9], &b[9], "X_w", 'd', 3, xw, 0) || take(args[10], &b[10], "x_0", 'd', 2, x0, 0) ||
+        take(args[11], &b[11], "K", 'd', 3, k, 0))
+        return -1;
+    t->pmax = xw[2], t->krows = k[1], t->acc = acc;
+    double *floats[3] = {&t->dt, &t->zrt, &t->cap};
+    if (take_floats(args, 12, query_names + 12, floats, 3)) return -1;
+    t->H_u = b[0].view.buf, t->h_0 = b[1].view.buf, t->norms = b[2].view.buf, t->motion = b[3].view.buf;
+    t->H_w1 = b[4].view.buf, t->p = b[5].view.buf, t->rows = b[6].view.buf, t->ineq = b[7].view.buf;
+    t->X_u = b[8].view.buf, t->X_w = b[9].view.buf, t->x_0 = b[10].view.buf, t->K = b[11].view.buf;
+    if (acc + t->nx > t->krows) {
+        PyErr_Format(kernel_error, "query: K has %zd rows, fewer than %zd + %zd", t->krows, acc, t->nx);
+        return -1;
+    }
+    for (Py_ssize_t i = 0; i < t->modes; i++) {
+        if (t->rows[i] < 0 || t->rows[i] > t->width || t->ineq[i] < 0 || t->ineq[i] > t->rows[i] || t->p[i] < 0 ||
+            t->p[i] > t->pmax) {
+            PyErr_Format(kernel_error, "query: mode %zd has %lld rows (%lld inequalities) of %zd, p %lld", i,
+                         t->rows[i], t->ineq[i], t->width, t->p[i]);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* locate_points(table..., U, status, w): every point of U (N, m) against every mode. */
+static PyObject *locate_points(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != QUERY_BUFFERS + 3) {
+        PyErr_Format(kernel_error, "locate_points takes %d arguments, got %zd", QUERY_BUFFERS + 3, nargs);
+        return NULL;
+    }
+    Buffer b[15];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    double *h = NULL;
+    QueryTable t;
+    if (take_query(args, b, &t, 0)) goto done;
+    Py_ssize_t u_shape[2] = {-1, t.m};
+    if (take(args[15], &b[12], "U", 'd', 2, u_shape, 0)) goto done;
+    Py_ssize_t points = u_shape[0], out[2] = {points, t.modes};
+    if (take(args[16], &b[13], "status", 'b', 2, out, 1) || take(args[17], &b[14], "w", 'd', 2, out, 1)) goto done;
+    const double *U = b[12].view.buf;
+    signed char *status = b[13].view.buf;
+    double *w = b[14].view.buf;
+    h = PyMem_Malloc((size_t)(t.width + 1) * sizeof(double));
+    if (h == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (Py_ssize_t j = 0; j < points; j++) {
+        for (Py_ssize_t i = 0; i < t.modes; i++) {
+            status[j * t.modes + i] = locate_mode(&t, i, U + j * t.m, h, &w[j * t.modes + i]);
+        }
+    }
+    Py_INCREF(Py_None);
+    result = Py_None;
+done:
+    PyMem_Free(h);
+    release(b, 15);
+    return result;
+}
+
+/* evaluate_points(table..., U, point, index, w, x, acc, residual, violation): per solution s, mode
+ * index[s] at U[point[s]] with the ambiguity values w[s] (p_max,). */
+static PyObject *evaluate_points(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != QUERY_BUFFERS + 8) {
+        PyErr_Format(kernel_error, "evaluate_points takes %d arguments, got %zd", QUERY_BUFFERS + 8, nargs);
+        return NULL;
+    }
+    Buffer b[20];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    double *z = NULL;
+    QueryTable t;
+    Py_ssize_t acc_shape[2] = {-1, -1};
+    if (take(args[20], &b[19], "acc", 'd', 2, acc_shape, 1) || take_query(args, b, &t, acc_shape[1])) goto done;
+    Py_ssize_t u_shape[2] = {-1, t.m}, s_shape[1] = {acc_shape[0]}, w_shape[2] = {acc_shape[0], t.pmax};
+    Py_ssize_t x_shape[2] = {acc_shape[0], t.nx};
+    if (take(args[15], &b[12], "U", 'd', 2, u_shape, 0) || take(args[16], &b[13], "point", 'q', 1, s_shape, 0) ||
+        take(args[17], &b[14], "index", 'q', 1, s_shape, 0) || take(args[18], &b[15], "w", 'd', 2, w_shape, 0) ||
+        take(args[19], &b[16], "x", 'd', 2, x_shape, 1) || take(args[21], &b[17], "residual", 'd', 1, s_shape, 1) ||
+        take(args[22], &b[18], "violation", 'd', 1, s_shape, 1))
+        goto done;
+    const double *U = b[12].view.buf, *W = b[15].view.buf;
+    const long long *point = b[13].view.buf, *index = b[14].view.buf;
+    double *X = b[16].view.buf, *acc = b[19].view.buf, *residual = b[17].view.buf, *violation = b[18].view.buf;
+    Py_ssize_t count = s_shape[0];
+    for (Py_ssize_t s = 0; s < count; s++) {
+        if (index[s] < 0 || index[s] >= t.modes || point[s] < 0 || point[s] >= u_shape[0]) {
+            PyErr_Format(kernel_error, "evaluate_points: solution %zd has mode %lld of %zd, point %lld of %zd", s,
+                         index[s], t.modes, point[s], u_shape[0]);
+            goto done;
+        }
+    }
+    z = PyMem_Malloc((size_t)(t.nx + t.m + 2) * sizeof(double));
+    if (z == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (Py_ssize_t s = 0; s < count; s++) {
+        evaluate_mode(&t, (Py_ssize_t)index[s], U + point[s] * t.m, W + s * t.pmax, X + s * t.nx,
+                      acc + s * t.acc, &residual[s], &violation[s], z);
+    }
+    Py_INCREF(Py_None);
+    result = Py_None;
+done:
+    PyMem_Free(z);
+    release(b, 20);
+    return result;
+}
+
+/* query_point(table..., u, status, w, x, acc, residual, violation): one input u (m,) against every
+ * mode, each mode that holds it (QUERY_INSIDE) evaluated at its w into its row of x (modes, nx),
+ * acc (modes, 2k), residual and violation (modes,). */
+static PyObject *query_point(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != QUERY_BUFFERS + 7) {
+        PyErr_Format(kernel_error, "query_point takes %d arguments, got %zd", QUERY_BUFFERS + 7, nargs);
+        return NULL;
+    }
+    Buffer b[19];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    double *h = NULL;
+    QueryTable t;
+    Py_ssize_t acc_shape[2] = {-1, -1};
+    if (take(args[19], &b[18], "acc", 'd', 2, acc_shape, 1) || take_query(args, b, &t, acc_shape[1])) goto done;
+    Py_ssize_t u_shape[1] = {t.m}, f1[1] = {t.modes}, x_shape[2] = {t.modes, t.nx};
+    if (acc_shape[0] != t.modes) {
+        PyErr_Format(kernel_error, "kernel buffer acc: axis 0 has %zd entries, expected %zd", acc_shape[0], t.modes);
+        goto done;
+    }
+    if (take(args[15], &b[12], "u", 'd', 1, u_shape, 0) || take(args[16], &b[13], "status", 'b', 1, f1, 1) ||
+        take(args[17], &b[14], "w", 'd', 1, f1, 1) || take(args[18], &b[15], "x", 'd', 2, x_shape, 1) ||
+        take(args[20], &b[16], "residual", 'd', 1, f1, 1) || take(args[21], &b[17], "violation", 'd', 1, f1, 1))
+        goto done;
+    const double *u = b[12].view.buf;
+    signed char *status = b[13].view.buf;
+    double *w = b[14].view.buf, *X = b[15].view.buf, *acc = b[18].view.buf;
+    double *residual = b[16].view.buf, *violation = b[17].view.buf;
+    h = PyMem_Malloc((size_t)(t.width + t.nx + t.m + t.pmax + 2) * sizeof(double));
+    if (h == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    double *z = h + t.width, *wi = z + t.nx + t.m + 1;
+    for (Py_ssize_t i = 0; i < t.modes; i++) {
+        status[i] = locate_mode(&t, i, u, h, &w[i]);
+        if (status[i] == QUERY_INSIDE) {
+            for (Py_ssize_t c = 0; c < t.pmax; c++) {
+                wi[c] = c == 0 ? w[i] : 0.0;
+            }
+            evaluate_mode(&t, i, u, wi, X + i * t.nx, acc + i * t.acc, &residual[i], &violation[i], z);
+        }
+    }
+    Py_INCREF(Py_None);
+    result = Py_None;
+done:
+    PyMem_Free(h);
+    release(b, 19);
+    return result;
+}
+
 #ifndef FRC_KERNEL_SOURCE_SHA256
 #define FRC_KERNEL_SOURCE_SHA256 "" /* built without setup.py: the source it came from is not known */
 #endif
@@ -1874,6 +2147,21 @@ static PyMethodDef methods[] = {
      "The motion LP's rows of a mode's domain (frcontrol.engine.domain_rows and motion_margin) written\n"
      "into out (rows, m + p + 1) and h_out (rows,): -1 when a constant motion row is violated, else\n"
      "1 (a constant motion row is not strict) + 2 (some motion row is moving)."},
+    {"locate_points", (PyCFunction)(void (*)(void))locate_points, METH_FASTCALL,
+     "locate_points(H_u, h_0, norms, motion, H_w1, p, rows, inequality_rows, X_u, X_w, x_0, K,\n"
+     "              domain_tolerance, zero_row_tolerance, radius_cap, U, status, w) -> None\n\n"
+     "frcontrol.query.QueryTable.decide: per point of U (N, m) and mode, status (int8, N x modes:\n"
+     "QUERY_OUTSIDE, QUERY_INSIDE, QUERY_NEEDS_PYTHON for a mode with two or more ambiguity variables\n"
+     "whose consistency rows hold) and w (the interval rule's representative of a one-variable mode)."},
+    {"evaluate_points", (PyCFunction)(void (*)(void))evaluate_points, METH_FASTCALL,
+     "evaluate_points(<the table's 15 arguments>, U, point, index, w, x, acc, residual, violation) -> None\n\n"
+     "frcontrol.query.QueryTable.evaluate: per solution (mode index[s] at U[point[s]], ambiguity w[s])\n"
+     "x = X_u u + X_w w + x_0, and from y = K [x; u; 1] the contact accelerations, the largest equation\n"
+     "residual and the largest inequality violation (at least 0)."},
+    {"query_point", (PyCFunction)(void (*)(void))query_point, METH_FASTCALL,
+     "query_point(<the table's 15 arguments>, u, status, w, x, acc, residual, violation) -> None\n\n"
+     "locate_points for one input u (m,), and evaluate_points for every mode found inside, into its row\n"
+     "of x (modes, nx), acc (modes, 2k), residual and violation (modes,)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "frcontrol._kernel",
@@ -1898,18 +2186,20 @@ PyMODINIT_FUNC PyInit__kernel(void) {
         Py_DECREF(mod);
         return NULL;
     }
-    const char *names[10] = {"NOT_CERTIFIED", "CERTIFIED_INADMISSIBLE", "CERTIFIED_ADMISSIBLE", "INADMISSIBLE",
+    const char *names[13] = {"NOT_CERTIFIED", "CERTIFIED_INADMISSIBLE", "CERTIFIED_ADMISSIBLE", "INADMISSIBLE",
                              "ADMISSIBLE", "NEEDS_PYTHON", "ADMISSIBLE_W", "MOVES_NONE", "MOVES_FORCES",
-                             "MOVES_ACCELERATIONS"};
-    int values[10] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
-                      NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS};
-    PyObject *all = Py_BuildValue("[sssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
-                                  "contact_rows", "margin_rows", "certified_children");
+                             "MOVES_ACCELERATIONS", "QUERY_OUTSIDE", "QUERY_INSIDE", "QUERY_NEEDS_PYTHON"};
+    int values[13] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
+                      NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS,
+                      QUERY_OUTSIDE, QUERY_INSIDE, QUERY_NEEDS_PYTHON};
+    PyObject *all = Py_BuildValue("[ssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
+                                  "contact_rows", "margin_rows", "certified_children", "locate_points",
+                                  "evaluate_points", "query_point");
     if (all == NULL) {
         Py_DECREF(mod);
         return NULL;
     }
-    for (int i = 0; i < 10; i++) {
+    for (int i = 0; i < 13; i++) {
         PyObject *name = PyUnicode_FromString(names[i]);
         int failed = name == NULL || PyList_Append(all, name) != 0 ||
                      PyModule_AddIntConstant(mod, names[i], values[i]) != 0;

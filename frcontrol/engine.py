@@ -30,9 +30,10 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
+import numpy.typing as npt
 
 from . import polytope as poly
 from .errors import CoordinateNotFound, InputError
@@ -47,6 +48,7 @@ from .modes import (
     mode_outputs,
     needs_balancing,
 )
+from .query import BatchSolutions, QueryMode, QueryTable, check_inputs, row_norms
 from .response import (
     ILL_CONDITIONED_BAND,
     RANK_TOLERANCE,
@@ -73,10 +75,7 @@ constant row: it is judged by its right-hand side alone (normalising it would in
 
 def _row_norms(H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Row norms, and the mask of numerically constant rows (see :data:`ZERO_ROW_TOLERANCE`)."""
-    norms = np.sqrt((H * H).sum(axis=1))
-    largest = float(norms.max()) if norms.shape[0] else 0.0
-    constant = norms <= ZERO_ROW_TOLERANCE * max(1.0, largest)
-    return norms, constant
+    return row_norms(H, ZERO_ROW_TOLERANCE)
 
 
 @dataclass(frozen=True)
@@ -236,6 +235,7 @@ class DynamicResponse:
     solver: str = DEFAULT_LP_SOLVER
     tolerances: Mapping[str, float] = field(default_factory=dict)
     _unambiguous: dict = field(default_factory=dict, repr=False, compare=False)
+    _query: dict = field(default_factory=dict, repr=False, compare=False)
 
     def to_dict(self, inactive_contacts: Sequence[str] = ()) -> dict[str, Any]:
         """The analysis as JSON values (the ``frc analyze --json`` document, without solutions).
@@ -909,7 +909,21 @@ SOLUTION_METHODS = ("auto", "batch", "reference")
 """How :func:`solutions_at` decides the modes: ``"batch"`` stacks every full mode and decides them
 together (:mod:`frcontrol.mode_batch`; at most :data:`~frcontrol.mode_batch.BATCH_MAX_MODES`);
 ``"reference"`` grows modes contact by contact with an LP per (partial) mode; ``"auto"`` (the
-default) takes the batch when the modes fit in it."""
+default) takes the batch when the modes fit in it. On a finished analysis: ``"auto"`` locates the input
+among the feasible modes' domains (:mod:`frcontrol.query`), ``"batch"`` decides the modes one at a
+time by the same rules, ``"reference"`` with an LP per mode."""
+
+
+@overload
+def solutions_at(scene: Scene | ContactProblem | DynamicResponse,
+                 inputs: Mapping[str, float] | Sequence[float], *, solver: str = ...,
+                 rank_tolerance: float = ..., method: str = ...) -> list[RigidSolution]: ...
+
+
+@overload
+def solutions_at(scene: Scene | ContactProblem | DynamicResponse, inputs: np.ndarray, *,
+                 solver: str = ..., rank_tolerance: float = ...,
+                 method: str = ...) -> Any: ...  # a list for one input, a BatchSolutions for (N, m)
 
 
 def solutions_at(
@@ -919,7 +933,7 @@ def solutions_at(
     solver: str = DEFAULT_LP_SOLVER,
     rank_tolerance: float = RANK_TOLERANCE,
     method: str = "auto",
-) -> list[RigidSolution]:
+) -> list[RigidSolution] | BatchSolutions:
     """Every rigid-body solution at one input: all modes whose domain holds it.
 
     Each solution is reported once, under the mode that describes its motion (see
@@ -928,7 +942,9 @@ def solutions_at(
     Args:
         scene: a scene (at its state), a prepared problem, or a finished analysis (only its
             feasible modes are tested).
-        inputs: ``{name: value}`` (names not given are 0) or the full input vector.
+        inputs: ``{name: value}`` (names not given are 0) or the full input vector; or an (N, m)
+            array of N input vectors: then the answer is one :class:`~frcontrol.query.BatchSolutions`
+            (:func:`solutions_at_batch`; a scene is analysed first, without overlaps).
         solver: the LP back-end (for modes with two or more ambiguity variables).
         rank_tolerance: relative singular-value threshold of the rank decisions.
         method: one of :data:`SOLUTION_METHODS`. Every method gives the same modes, the same
@@ -946,10 +962,16 @@ def solutions_at(
     """
     if method not in SOLUTION_METHODS:
         raise InputError(f"unknown solution method {method!r}; valid: {', '.join(SOLUTION_METHODS)}")
+    if not isinstance(inputs, Mapping) and np.ndim(inputs) == 2:
+        analysis = scene if isinstance(scene, DynamicResponse) else analyze(
+            scene, solver=solver, ambiguity=False, rank_tolerance=rank_tolerance)
+        return solutions_at_batch(analysis, inputs, solver=solver)
     closed_form = method != "reference"
     if isinstance(scene, DynamicResponse):
         problem = scene.problem
         u = _input_vector(problem, inputs)
+        if method == "auto":
+            return _located_solutions(scene, u, solver)
         listed = []
         for mode in scene.feasible_modes:
             w = _admissible_w(mode.system, mode.response, u, solver, closed_form)
@@ -965,6 +987,59 @@ def solutions_at(
             if found is not None:
                 return found
     return _tree_solutions(problem, u, solver, rank_tolerance, closed_form)
+
+
+def query_table(analysis: DynamicResponse) -> QueryTable:
+    """The analysis's feasible modes stacked for point location (:mod:`frcontrol.query`), built once.
+
+    Cached on the analysis: the first query pays for it (about the cost of ten queries).
+    """
+    table = analysis._query.get("table")
+    if table is None:
+        modes = [QueryMode(m.mode, m.system, m.response, m.ambiguous_outputs)
+                 for m in analysis.feasible_modes]
+        table = QueryTable(analysis.problem, modes, zero_row_tolerance=ZERO_ROW_TOLERANCE,
+                           radius_cap=poly.CHEBYSHEV_RADIUS_CAP, tolerance=DOMAIN_TOLERANCE)
+        analysis._query["table"] = table
+    return table
+
+
+def _located_solutions(analysis: DynamicResponse, u: np.ndarray, solver: str) -> list[RigidSolution]:
+    """:func:`solutions_at` on an analysis: point location in its :func:`query_table`."""
+    table = query_table(analysis)
+    found = table.locate(u, lambda H, h, motion: _admissible_in_w(H, h, motion, solver))
+    n, k = table.problem.n, table.problem.k
+    dims, outputs, modes = table.p_list, table.ambiguous_outputs, table.modes
+    residual, violation = found.equality_residual.tolist(), found.inequality_violation.tolist()
+    listed = []
+    for i, r in zip(found.index.tolist(), found.rows, strict=True):
+        x = found.x[r]
+        listed.append(RigidSolution(
+            mode=modes[i], dv=x[:n], lambda_n=x[n:n + k], lambda_t=x[n + k:], a_n=found.a_n[r],
+            a_t=found.a_t[r],
+            ambiguity_dim=dims[i], ambiguous_outputs=outputs[i], w=found.w[r, :dims[i]],
+            equality_residual=residual[r], inequality_violation=violation[r]))
+    return listed
+
+
+def solutions_at_batch(analysis: DynamicResponse, inputs: npt.ArrayLike, *,
+                       solver: str = DEFAULT_LP_SOLVER) -> BatchSolutions:
+    """Every rigid solution at each of N inputs on a finished analysis, as arrays.
+
+    The same modes, accelerations, forces and representatives w as :func:`solutions_at` at each
+    point (to round-off); ``solutions_at(analysis, U)`` with a 2-D ``U`` calls this.
+
+    Args:
+        analysis: a finished :func:`analyze`.
+        inputs: an (N, m) array of full input vectors [N or N m].
+        solver: the LP back-end (for modes with two or more ambiguity variables).
+
+    Raises:
+        InputError: not an (N, m) array, a NaN or infinite entry, an input outside its limits.
+    """
+    table = query_table(analysis)
+    U = check_inputs(analysis.problem, inputs, DOMAIN_TOLERANCE)
+    return table.locate_batch(U, lambda H, h, motion: _admissible_in_w(H, h, motion, solver))
 
 
 def _batch_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_tolerance: float,
@@ -1036,6 +1111,8 @@ __all__ = [
     "Overlap",
     "RigidSolution",
     "SOLUTION_METHODS",
+    "query_table",
     "solutions_at",
+    "solutions_at_batch",
     "ZERO_ROW_TOLERANCE",
 ]

@@ -1,0 +1,469 @@
+"""Queries on a finished analysis: point location among the mode domains and an affine evaluation.
+
+Once :func:`frcontrol.engine.analyze` has found the feasible modes of a scene at its state, the rigid
+solutions at an input ``u`` are the modes whose domain ``D_c`` holds ``(u, w)`` for some ``w``,
+each at ``x = X_u u + X_w w + x_0``. :class:`QueryTable` keeps, once per analysis, what that takes:
+for every feasible mode its inequalities over ``(u, w)`` with the response substituted,
+``H_u u + H_w w <= h_0`` (rows normalised by their norm in ``(u, w)``, numerically constant rows by
+1, as :func:`frcontrol.engine.solutions_at` slices them), its consistency conditions ``E u = e``
+(two rows each, without ``w``), its affine response, and its system ``A, B, c, G, g`` for the
+residuals. The modes' rows are stacked into one ``(modes, rows, m)`` array (padded rows always hold).
+
+At one input (:meth:`QueryTable.locate`), one product gives every row's slack
+``h = (h_0 - H_u u) / norm``; then, with :data:`BOUNDARY_TOLERANCE` ``tol``:
+
+- a mode without ambiguity variables holds ``u`` when every non-motion row has ``h >= -tol`` and
+  every motion row ``h > tol`` (its solution moves as the mode says);
+- a mode with one ambiguity variable: the interval rule of
+  :func:`frcontrol.mode_batch.decide_intervals` (also its representative ``w``), for all such
+  modes at once;
+- a mode with two or more: its consistency rows first, then the engine's LPs (``decide_w``), one
+  mode at a time.
+
+These are the rules, the tolerances and the representatives of the engine's path on an analysis,
+so the answers are the same up to the round-off of the sums (a point exactly at a threshold may be
+decided either way). :meth:`QueryTable.locate_batch` does the same for ``N`` inputs at once, mode by
+mode, and returns a :class:`BatchSolutions`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError
+from .kernel import compiled, kernel_choice
+from .mode_batch import decide_intervals
+from .modes import ContactProblem, ModeSystem
+from .response import AffineSolution
+
+BOUNDARY_TOLERANCE = 1e-7
+"""[units of u: N or N m] An input that lies at most this distance outside a facet of a mode's
+domain (a row normalised in (u, w)) is in it; on a motion facet (the mode's motion strict, e.g.
+``a_N > 0`` of a separating contact) it must lie more than this inside. The engine's
+:data:`~frcontrol.engine.DOMAIN_TOLERANCE`, with which the from-scratch path decides: both paths
+hold a point on a facet to the same rule (checked in tests/test_query.py)."""
+
+WDecider = Callable[[np.ndarray, np.ndarray, np.ndarray], "np.ndarray | None"]
+"""``decide(H_w, h_w, motion) -> w or None``: the engine's rule for a mode with two or more
+ambiguity variables at one input (rows normalised in (u, w))."""
+
+
+@dataclass(frozen=True)
+class QueryMode:
+    """One feasible mode as the table takes it: its name, system, response and what w moves."""
+
+    mode: str
+    system: ModeSystem
+    response: AffineSolution
+    ambiguous_outputs: str
+
+
+@dataclass(frozen=True)
+class Located:
+    """Solutions found by the table: solution s is mode ``index[s]``, in row ``rows[s]`` of the arrays.
+
+    Attributes:
+        index: the modes (indices into the table's modes), one per solution.
+        rows: each solution's row in the arrays below (``range(S)`` unless the arrays hold a row for
+            every mode, as :meth:`QueryTable.locate` with the compiled kernel).
+        x: ``(dv, lambda_n, lambda_t)`` per row; w: (rows, p_max) the ambiguity values (padded by 0).
+        a_n, a_t: (rows, k) contact accelerations [m/s^2].
+        equality_residual, inequality_violation: per row, as in :class:`BatchSolutions`.
+    """
+
+    index: np.ndarray
+    rows: Sequence[int]
+    x: np.ndarray
+    w: np.ndarray
+    a_n: np.ndarray
+    a_t: np.ndarray
+    equality_residual: np.ndarray
+    inequality_violation: np.ndarray
+
+
+@dataclass(frozen=True)
+class BatchSolutions:
+    """Every rigid solution at each of N inputs, as arrays (``solutions_at(analysis, U)``).
+
+    The solutions are stored point after point, in the analysis's mode order within a point:
+    solution ``s`` belongs to point ``point[s]``, and the solutions of point ``i`` are the rows
+    ``offsets[i]:offsets[i + 1]`` of every per-solution array (S solutions in all).
+
+    Attributes:
+        inputs: the inputs (N, m) [N or N m].
+        modes: the analysis's feasible modes; ``mode_index`` points into it.
+        count: number of solutions per point (N,).
+        offsets: (N + 1,) where each point's solutions start.
+        point: (S,) the point of each solution.
+        mode_index: (S,) its mode, an index into ``modes``.
+        dv: (S, n) accelerations [m/s^2, rad/s^2].
+        lambda_n, lambda_t: (S, k) contact forces [N].
+        a_n, a_t: (S, k) contact accelerations [m/s^2].
+        ambiguity_dim: (S,) the mode's number of ambiguity variables p.
+        w: (S, p_max) the representative ambiguity values, the first ``ambiguity_dim[s]`` entries
+            of row s (the rest 0).
+        equality_residual: (S,) max ``|A x - B u - c|``.
+        inequality_violation: (S,) max violation of the mode's inequalities (at most the tolerance).
+        ambiguous_outputs: per mode (like ``modes``): ``"none"``, ``"forces"`` or ``"accelerations"``.
+        tolerance: :data:`BOUNDARY_TOLERANCE`, the membership distance used.
+    """
+
+    inputs: np.ndarray
+    modes: tuple[str, ...]
+    count: np.ndarray
+    offsets: np.ndarray
+    point: np.ndarray
+    mode_index: np.ndarray
+    dv: np.ndarray
+    lambda_n: np.ndarray
+    lambda_t: np.ndarray
+    a_n: np.ndarray
+    a_t: np.ndarray
+    ambiguity_dim: np.ndarray
+    w: np.ndarray
+    equality_residual: np.ndarray
+    inequality_violation: np.ndarray
+    ambiguous_outputs: tuple[str, ...]
+    tolerance: float = BOUNDARY_TOLERANCE
+
+    def __len__(self) -> int:
+        """The number of points N."""
+        return int(self.count.shape[0])
+
+    def rows(self, i: int) -> slice:
+        """The rows of point ``i``'s solutions in the per-solution arrays."""
+        return slice(int(self.offsets[i]), int(self.offsets[i + 1]))
+
+    def modes_at(self, i: int) -> tuple[str, ...]:
+        """The modes of point ``i``'s solutions, in the analysis's order."""
+        return tuple(self.modes[j] for j in self.mode_index[self.rows(i)].tolist())
+
+    def to_dict(self) -> dict[str, Any]:
+        """The arrays as nested lists (JSON values), with the field names above."""
+        from .jsonable import to_jsonable
+
+        return to_jsonable({name: getattr(self, name) for name in (
+            "inputs", "modes", "count", "offsets", "point", "mode_index", "dv", "lambda_n", "lambda_t",
+            "a_n", "a_t", "ambiguity_dim", "w", "equality_residual", "inequality_violation",
+            "ambiguous_outputs", "tolerance")})
+
+
+def row_norms(H: np.ndarray, zero_row_tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Row norms, and the mask of numerically constant rows (norm <= tolerance * max(1, largest))."""
+    norms = np.sqrt((H * H).sum(axis=1))
+    largest = float(norms.max()) if norms.shape[0] else 0.0
+    return norms, norms <= zero_row_tolerance * max(1.0, largest)
+
+
+def _mode_rows(entry: QueryMode, zero_row_tolerance: float
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One mode's rows ``(H_u, H_w, h_0, norms, motion)``: its inequalities, then ``E u = e`` twice.
+
+    The inequalities as the engine slices them (:func:`frcontrol.engine.solutions_at`): ``H_w``
+    divided by the row's norm in (u, w), zero on a constant row, whose norm counts as 1.
+    """
+    G, response = entry.system.G, entry.response
+    H_u, H_w = G @ response.X_u, G @ response.X_w
+    norms, constant = row_norms(np.hstack([H_u, H_w]), zero_row_tolerance)
+    norms[constant] = 1.0
+    H_w = H_w / norms[:, None]
+    H_w[constant] = 0.0
+    E, e = response.E, response.e
+    H_u = np.vstack([H_u, E, -E])
+    H_w = np.vstack([H_w, np.zeros((2 * e.size, H_w.shape[1]))])
+    h_0 = np.concatenate([entry.system.g - G @ response.x_0, e, -e])
+    norms = np.concatenate([norms, np.ones(2 * e.size)])
+    motion = np.concatenate([entry.system.motion, np.zeros(2 * e.size, dtype=bool)])
+    return H_u, H_w, h_0, norms, motion
+
+
+def _padded(arrays: Sequence[np.ndarray], rows: int, tail: tuple[int, ...], fill: Any, dtype: Any = float
+            ) -> np.ndarray:
+    """Arrays of shapes ``(r_i, *tail)`` stacked into ``(len, rows, *tail)``, padded with ``fill``."""
+    out = np.full((len(arrays), rows, *tail), fill, dtype=dtype)
+    for i, a in enumerate(arrays):
+        out[i, :a.shape[0]] = a
+    return out
+
+
+def _output_map(problem: ContactProblem, system: ModeSystem, rows: int) -> np.ndarray:
+    """``K`` with ``K [x; u; 1] = [a_n; a_t; A x - B u - c; G x - g]`` (G padded to ``rows`` rows).
+
+    One product gives a solution's contact accelerations, its equation residuals and its
+    inequality slacks, each a dot product of the same terms as the separate formulas.
+    """
+    n, k, m = problem.n, problem.k, problem.m
+    nx = system.A.shape[1]
+    K = np.zeros((2 * k + nx + rows, nx + m + 1))
+    K[:k, :n] = problem.jacobian_normal
+    K[:k, -1] = problem.drift_normal
+    K[k:2 * k, :n] = problem.jacobian_tangent
+    K[k:2 * k, -1] = problem.drift_tangent
+    K[2 * k:2 * k + nx, :nx] = system.A
+    K[2 * k:2 * k + nx, nx:nx + m] = -system.B
+    K[2 * k:2 * k + nx, -1] = -system.c
+    G = system.G
+    K[2 * k + nx:2 * k + nx + G.shape[0], :nx] = G
+    K[2 * k + nx:2 * k + nx + G.shape[0], -1] = -system.g
+    return K
+
+
+class QueryTable:
+    """The feasible modes of one analysis, stacked for point location (module docstring).
+
+    Build it once per analysis (:func:`frcontrol.engine.query_table` caches it on the analysis);
+    :meth:`locate` answers one input, :meth:`locate_batch` many. Both run in the kernel
+    ``FRC_KERNEL`` chooses (:mod:`frcontrol.kernel`): ``locate_points`` and ``evaluate_points`` of the
+    compiled one, or their NumPy twins :meth:`decide` and :meth:`evaluate`.
+
+    Args:
+        problem: the analysis's contact problem.
+        modes: its feasible modes, in its order (inconsistent ones are left out).
+        zero_row_tolerance: the engine's constant-row threshold.
+        radius_cap: the Chebyshev LP's radius cap (the interval rule's unbounded side).
+        tolerance: the membership distance (:data:`BOUNDARY_TOLERANCE`).
+    """
+
+    def __init__(self, problem: ContactProblem, modes: Sequence[QueryMode], *, zero_row_tolerance: float,
+                 radius_cap: float, tolerance: float = BOUNDARY_TOLERANCE) -> None:
+        modes = [m for m in modes if m.response.consistent]
+        self.problem, self.tolerance = problem, tolerance
+        self.zero_row_tolerance, self.radius_cap = zero_row_tolerance, radius_cap
+        self.modes = tuple(m.mode for m in modes)
+        self.ambiguous_outputs = tuple(m.ambiguous_outputs for m in modes)
+        self.p = np.array([m.response.ambiguity_dim for m in modes], dtype=np.int64)
+        self.p_max = int(self.p.max(initial=0))
+        self.p_list = self.p.tolist()
+        self.mode_rows = [_mode_rows(m, zero_row_tolerance) for m in modes]
+        self.row_count = np.array([r[2].size for r in self.mode_rows], dtype=np.int64)
+        self.inequality_rows = np.array([m.system.G.shape[0] for m in modes], dtype=np.int64)
+        m, nx, width = problem.m, problem.n + 2 * problem.k, int(self.row_count.max(initial=0))
+        rows = self.mode_rows
+        self.H_u = _padded([r[0] for r in rows], width, (m,), 0.0)
+        self.h_0 = _padded([r[2] for r in rows], width, (), 1.0)  # a padded row always holds
+        self.norms = _padded([r[3] for r in rows], width, (), 1.0)
+        self.motion = _padded([r[4] for r in rows], width, (), False, bool)
+        self.valid = _padded([np.ones(r[2].size, bool) for r in rows], width, (), False, bool)
+        self.one = np.flatnonzero(self.p == 1)
+        self.many = np.flatnonzero(self.p >= 2).tolist()
+        self.H_w1 = _padded([r[1][:, 0] if r[1].shape[1] == 1 else np.zeros(0) for r in rows], width, (), 0.0)
+        self.X_u = _padded([x.response.X_u for x in modes], nx, (m,), 0.0)
+        self.x_0 = _padded([x.response.x_0 for x in modes], nx, (), 0.0)
+        self.X_w = np.ascontiguousarray(
+            _padded([x.response.X_w.T for x in modes], self.p_max, (nx,), 0.0).transpose(0, 2, 1))
+        g_rows = int(self.inequality_rows.max(initial=0))
+        self.K = _padded([_output_map(problem, x.system, g_rows) for x in modes], 2 * problem.k + nx + g_rows,
+                         (nx + m + 1,), 0.0)
+        self.kernel_arguments = (self.H_u, self.h_0, self.norms, self.motion, self.H_w1, self.p,
+                                 self.row_count, self.inequality_rows, self.X_u, self.X_w, self.x_0, self.K,
+                                 tolerance, zero_row_tolerance, radius_cap)
+        """The table as the compiled kernel's ``locate_points``, ``evaluate_points`` and
+        ``query_point`` take it (their first 15 arguments)."""
+
+    def slacks(self, U: np.ndarray) -> np.ndarray:
+        """Every row's slack ``(h_0 - H_u u) / norm`` at the inputs ``U`` (C, m): (C, modes, rows)."""
+        count, rows, m = self.H_u.shape
+        if count * rows == 0:
+            return np.ones((U.shape[0], count, rows))
+        return (self.h_0 - (U @ self.H_u.reshape(count * rows, m).T).reshape(-1, count, rows)) / self.norms
+
+    def decide(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The NumPy twin of the kernel's ``locate_points``: a status per input and mode, and w.
+
+        Per input of ``U`` (C, m) and mode: ``QUERY_OUTSIDE`` 0, ``QUERY_INSIDE`` 1 or
+        ``QUERY_NEEDS_PYTHON`` 2 (two or more ambiguity variables, consistent), and the
+        representative w of a one-variable mode: (C, modes) each.
+        """
+        h, tol = self.slacks(U), self.tolerance
+        ok = np.asarray(~np.where(self.motion, h <= tol, h < -tol).any(axis=-1))
+        w = np.zeros(ok.shape)
+        one = self.one
+        if one.size:
+            points, rows = h.shape[0], h.shape[2]
+            flat = (points * one.size, rows)
+            a, h_one, motion, valid = (part.reshape(flat) for part in np.broadcast_arrays(
+                self.H_w1[one], h[:, one], self.motion[one], self.valid[one]))
+            admissible, centre = decide_intervals(a, h_one, motion, valid, tol, self.zero_row_tolerance,
+                                                  self.radius_cap)
+            ok[:, one] = admissible.reshape(points, one.size)
+            w[:, one] = centre.reshape(points, one.size)
+        status: np.ndarray = ok.astype(np.int8)
+        for i in self.many:
+            start, end = self.inequality_rows[i], self.row_count[i]
+            status[:, i] = 2 * np.all(h[:, i, start:end] >= -tol, axis=1)
+        return status, w
+
+    def _located(self, U: np.ndarray, decide_w: WDecider) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The (point, mode) pairs holding, in point then mode order, and their w (S, p_max)."""
+        if kernel_choice() == "compiled" and compiled is not None:
+            status = np.empty((U.shape[0], len(self.modes)), dtype=np.int8)
+            w1 = np.empty(status.shape)
+            compiled.locate_points(*self.kernel_arguments, U, status, w1)
+        else:
+            status, w1 = self.decide(U)
+        point, index = (np.ascontiguousarray(a) for a in np.nonzero(status))  # views of one (S, 2) array
+        w = np.zeros((point.size, self.p_max))
+        if self.one.size:
+            w[:, 0] = w1[point, index]
+        if self.many:
+            keep = self._decide_many(U, point, index, w, decide_w)
+            point, index, w = point[keep], index[keep], w[keep]
+        return point, index, w
+
+    def _decide_many(self, U: np.ndarray, point: np.ndarray, index: np.ndarray, w: np.ndarray,
+                     decide_w: WDecider) -> np.ndarray:
+        """The engine's LPs for the pairs whose mode has two or more ambiguity variables (fills ``w``).
+
+        Returns the mask of the pairs that hold.
+        """
+        keep = np.ones(point.size, dtype=bool)
+        for s in np.flatnonzero(self.p[index] >= 2).tolist():
+            i = int(index[s])
+            H_u, H_w, h_0, norms, motion = (a[:self.inequality_rows[i]] for a in self.mode_rows[i])
+            # the slice as the engine computes it, to the last bit: the LP's representative is one
+            # vertex of the Chebyshev centres, which round-off may move to another
+            found = decide_w(H_w, (h_0 - H_u @ U[point[s]]) / norms, motion)
+            if found is None:
+                keep[s] = False
+            else:
+                w[s, :found.size] = found
+        return keep
+
+    def _evaluate_many(self, u: np.ndarray, i: int, decide_w: WDecider,
+                       rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> int:
+        """Mode ``i`` (two or more ambiguity variables, consistent at ``u``) by the engine's LPs.
+
+        When it holds, its solution is written into row ``i`` of ``rows`` (x, acc, residual,
+        violation, w); returns 1 if it holds, else 0.
+        """
+        U, point, index = u.reshape(1, -1), np.zeros(1, dtype=np.int64), np.array([i])
+        w = np.zeros((1, self.p_max))
+        if not self._decide_many(U, point, index, w, decide_w)[0]:
+            return 0
+        found = self.evaluate(U, point, index, w)
+        x, acc, residual, violation, w_rows = rows
+        x[i], residual[i], violation[i], w_rows[i] = found.x[0], found.equality_residual[0], \
+            found.inequality_violation[0], w[0]
+        acc[i] = np.concatenate([found.a_n[0], found.a_t[0]])
+        return 1
+
+    def evaluate(self, U: np.ndarray, point: np.ndarray, index: np.ndarray, w: np.ndarray) -> Located:
+        """The solutions of modes ``index`` (S,) at inputs ``U[point]``, ambiguity values ``w`` (S, p_max).
+
+        The compiled kernel's ``evaluate_points``, or its NumPy twin.
+        """
+        k = self.problem.k
+        if kernel_choice() == "compiled" and compiled is not None:
+            x = np.empty((point.size, self.X_u.shape[1]))
+            acc, residual, violation = (np.empty((point.size, 2 * k)), np.empty(point.size),
+                                        np.empty(point.size))
+            compiled.evaluate_points(*self.kernel_arguments, U, point, index, w, x, acc, residual, violation)
+            return Located(index, range(index.size), x, w, acc[:, :k], acc[:, k:], residual, violation)
+        u = U[point]
+        x = (np.matmul(self.X_u[index], u[:, :, None]) + np.matmul(self.X_w[index], w[:, :, None]))[:, :, 0]
+        x += self.x_0[index]
+        z = np.concatenate([x, u, np.ones((x.shape[0], 1))], axis=1)
+        y = np.matmul(self.K[index], z[:, :, None])[:, :, 0]
+        nx = x.shape[1]
+        return Located(index, range(index.size), x, w, y[:, :k], y[:, k:2 * k],
+                       np.abs(y[:, 2 * k:2 * k + nx]).max(axis=1, initial=0.0),
+                       y[:, 2 * k + nx:].max(axis=1, initial=0.0))
+
+    def locate(self, u: np.ndarray, decide_w: WDecider) -> Located:
+        """The modes holding the input ``u`` (m,), already checked, with their solutions.
+
+        With the compiled kernel, one ``query_point`` call locates and evaluates (the LPs of modes
+        with two or more ambiguity variables, where their consistency holds, then run in Python).
+        """
+        if kernel_choice() == "compiled" and compiled is not None:
+            count, nx, k = len(self.modes), self.X_u.shape[1], self.problem.k
+            status = np.empty(count, dtype=np.int8)
+            w1, residual, violation = np.empty(count), np.empty(count), np.empty(count)
+            x, acc = np.empty((count, nx)), np.empty((count, 2 * k))
+            compiled.query_point(*self.kernel_arguments, u, status, w1, x, acc, residual, violation)
+            codes = status.tolist()
+            w = w1[:, None] if self.p_max <= 1 else np.zeros((count, self.p_max))
+            if self.many:
+                w[:, 0] = w1
+                for i in [i for i, code in enumerate(codes) if code == 2]:
+                    codes[i] = self._evaluate_many(u, i, decide_w, (x, acc, residual, violation, w))
+            rows = [i for i, code in enumerate(codes) if code == 1]
+            return Located(np.array(rows, dtype=np.int64), rows, x, w, acc[:, :k], acc[:, k:], residual,
+                           violation)
+        U = u.reshape(1, -1)
+        point, index, w = self._located(U, decide_w)
+        return self.evaluate(U, point, index, w)
+
+    def locate_batch(self, U: np.ndarray, decide_w: WDecider, chunk: int | None = None) -> BatchSolutions:
+        """Every solution at each input of ``U`` (N, m), already checked (:class:`BatchSolutions`).
+
+        The points are decided :data:`BATCH_CHUNK_POINTS` at a time (``chunk`` overrides it).
+        """
+        chunk = chunk or BATCH_CHUNK_POINTS
+        parts: list[tuple[np.ndarray, Located]] = []
+        for start in range(0, U.shape[0], chunk):
+            block = U[start:start + chunk]
+            point, index, w = self._located(block, decide_w)
+            parts.append((point + start, self.evaluate(block, point, index, w)))
+        return self._batch(U, parts)
+
+    def _batch(self, U: np.ndarray, parts: list[tuple[np.ndarray, Located]]) -> BatchSolutions:
+        """The chunks' solutions joined into one :class:`BatchSolutions` (already in point order)."""
+        n, k = self.problem.n, self.problem.k
+
+        def joined(pick: Callable[[Located], np.ndarray], width: int) -> np.ndarray:
+            arrays = [pick(found) for _, found in parts]
+            return np.concatenate(arrays) if arrays else np.zeros((0, width))
+
+        point = np.concatenate([p for p, _ in parts]) if parts else np.zeros(0, dtype=np.int64)
+        index = joined(lambda f: f.index, 0).astype(np.int64).reshape(-1)
+        x = joined(lambda f: f.x, n + 2 * k)
+        count = np.bincount(point, minlength=U.shape[0])
+        offsets = np.zeros(U.shape[0] + 1, dtype=np.int64)
+        np.cumsum(count, out=offsets[1:])
+        return BatchSolutions(
+            inputs=U, modes=self.modes, count=count, offsets=offsets, point=point, mode_index=index,
+            dv=x[:, :n], lambda_n=x[:, n:n + k], lambda_t=x[:, n + k:], a_n=joined(lambda f: f.a_n, k),
+            a_t=joined(lambda f: f.a_t, k), ambiguity_dim=self.p[index], w=joined(lambda f: f.w, self.p_max),
+            equality_residual=joined(lambda f: f.equality_residual, 0).reshape(-1),
+            inequality_violation=joined(lambda f: f.inequality_violation, 0).reshape(-1),
+            ambiguous_outputs=self.ambiguous_outputs, tolerance=self.tolerance)
+
+
+BATCH_CHUNK_POINTS = 2048
+"""Inputs decided together by :meth:`QueryTable.locate_batch`: its temporary arrays hold this many
+points times every mode's rows (about 0.3 MB per 1000 row-points), so memory stays bounded at any N."""
+
+
+def check_inputs(problem: ContactProblem, inputs: Any, tolerance: float = BOUNDARY_TOLERANCE) -> np.ndarray:
+    """A batch of inputs as a float (N, m) array, checked: finite and within the limits (to ``tolerance``).
+
+    Raises:
+        InputError: not an (N, m) array of numbers, a NaN or infinite entry, or an input outside its
+            limits (the first such point and input are named).
+    """
+    try:
+        U = np.asarray(inputs, dtype=float)
+    except (TypeError, ValueError) as err:
+        raise InputError(f"a batch of inputs must be an (N, {problem.m}) array of numbers: {err}") from err
+    if U.ndim != 2 or U.shape[1] != problem.m:
+        raise InputError(f"a batch of inputs must have shape (N, {problem.m}) (inputs "
+                         f"{', '.join(problem.inputs) or 'none'}); got shape {U.shape}")
+    bad = ~np.isfinite(U)
+    if bad.any():
+        i, j = np.argwhere(bad)[0].tolist()
+        raise InputError(f"point {i} of the batch has a NaN or infinite entry: {U[i].tolist()}")
+    outside = (U < problem.lower - tolerance) | (U > problem.upper + tolerance)
+    if outside.any():
+        i, j = np.argwhere(outside)[0].tolist()
+        raise InputError(f"point {i} of the batch: input {problem.inputs[j]!r} = {U[i, j]:g} is outside its "
+                         f"limits [{problem.lower[j]:g}, {problem.upper[j]:g}]")
+    return U
+
+
+__all__ = ["BATCH_CHUNK_POINTS", "BatchSolutions", "BOUNDARY_TOLERANCE", "check_inputs", "Located",
+           "QueryMode", "QueryTable", "row_norms", "WDecider"]

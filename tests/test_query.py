@@ -1,0 +1,288 @@
+"""Queries on a finished analysis (frcontrol/query.py): the same answers as the other paths.
+
+``solutions_at(analysis, u)`` locates u among the stacked mode domains; it is held to the engine's
+mode-by-mode path on the same analysis (``method="batch"``: the same rules one mode at a time), to
+the from-scratch path (``solutions_at(scene, u)``: other factorisations, the same modes and
+motions) and to the batch ``solutions_at(analysis, U)``, at random inputs, on the facets of the
+domains (within and beyond BOUNDARY_TOLERANCE) and in the overlaps of several modes, on every
+shipped scene; and the compiled kernel to its NumPy twin.
+"""
+
+from __future__ import annotations
+
+import json
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import needs_kernel
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from frcontrol.engine import DOMAIN_TOLERANCE, analyze, query_table, solutions_at, solutions_at_batch
+from frcontrol.errors import InputError, KernelError
+from frcontrol.kernel import compiled
+from frcontrol.query import BOUNDARY_TOLERANCE, BatchSolutions
+from frcontrol.scene import load_scene, shipped_robots_dir
+
+SCENES = sorted(p.stem for p in (shipped_robots_dir() / "scenes").glob("*.toml"))
+
+AGREEMENT = 1e-9
+"""[-] Accelerations, forces and w of two paths agree to this, relative to max(1, |value|): the
+same formulas summed in other orders (the from-scratch path's LU against the analysis's SVD)."""
+
+
+@cache
+def analysed(name: str):
+    scene = load_scene(name)
+    return scene, analyze(scene, ambiguity=name == "rod_on_table")
+
+
+def random_inputs(name: str, count: int, seed: int) -> np.ndarray:
+    """Inputs within the limits, a third of them with some entries zeroed (where lower-dimensional
+    domains live: E u = e holds at u = 0 on the RHex scenes)."""
+    problem = analysed(name)[1].problem
+    rng = np.random.default_rng(seed)
+    U = rng.uniform(problem.lower, problem.upper, (count, problem.m))
+    U[: count // 3] *= rng.integers(0, 2, (count // 3, problem.m))
+    return U
+
+
+def close(a: np.ndarray, b: np.ndarray) -> bool:
+    return bool(np.all(np.abs(a - b) <= AGREEMENT * np.maximum(1.0, np.maximum(np.abs(a), np.abs(b)))))
+
+
+def assert_same(found: list, expected: list, *, w: bool = True, where: str = "") -> None:
+    """Same modes in the same order, the same outputs (and w, in the same basis)."""
+    assert [s.mode for s in found] == [s.mode for s in expected], where
+    for s, r in zip(found, expected, strict=True):
+        fields = ["dv", "a_n", "a_t"]
+        if s.ambiguous_outputs == "none":
+            fields += ["lambda_n", "lambda_t"]
+        if w:
+            fields += ["lambda_n", "lambda_t", "w"]
+            assert s.ambiguity_dim == r.ambiguity_dim and s.ambiguous_outputs == r.ambiguous_outputs, where
+        for name in fields:
+            assert close(getattr(s, name), getattr(r, name)), f"{where} mode {s.mode}: {name}"
+        if w:  # the same x: the same residuals (of a point on E u = e within the tolerance, not 0)
+            scale = max(1.0, float(np.abs(s.dv).max(initial=0.0)), float(np.abs(s.lambda_n).max(initial=0.0)))
+            assert abs(s.equality_residual - r.equality_residual) <= 1e-9 * scale
+            assert abs(s.inequality_violation - r.inequality_violation) <= 1e-9 * scale
+
+
+def assert_batch_matches(batch: BatchSolutions, U: np.ndarray, singles: list[list]) -> None:
+    """Point by point, the batch's arrays are the single path's solutions."""
+    assert len(batch) == U.shape[0] and batch.offsets[-1] == batch.point.size
+    assert np.array_equal(batch.count, np.diff(batch.offsets))
+    for i, single in enumerate(singles):
+        rows = batch.rows(i)
+        assert batch.modes_at(i) == tuple(s.mode for s in single), f"point {i}"
+        assert np.all(batch.point[rows] == i)
+        for j, s in zip(range(rows.start, rows.stop), single, strict=True):
+            for name in ("dv", "lambda_n", "lambda_t", "a_n", "a_t"):
+                assert close(getattr(batch, name)[j], getattr(s, name)), f"point {i} {s.mode} {name}"
+            assert close(batch.w[j, :s.ambiguity_dim], s.w) and batch.ambiguity_dim[j] == s.ambiguity_dim
+            assert batch.ambiguous_outputs[batch.mode_index[j]] == s.ambiguous_outputs
+
+
+def check_paths(name: str, U: np.ndarray, scratch: bool = True) -> None:
+    """Every path at every input of U: located == mode by mode == from scratch, and the batch."""
+    scene, analysis = analysed(name)
+    singles = []
+    for i, u in enumerate(U):
+        located = solutions_at(analysis, u)
+        assert_same(located, solutions_at(analysis, u, method="batch"), where=f"{name} point {i}")
+        if scratch:  # the from-scratch path's w lives in its own basis: compare the motion and forces
+            assert_same(located, solutions_at(scene, u), w=False, where=f"{name} point {i} from scratch")
+        singles.append(located)
+    assert_batch_matches(solutions_at(analysis, U), U, singles)
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_random_inputs_agree_on_every_shipped_scene(name):
+    check_paths(name, random_inputs(name, 24, seed=29))
+
+
+def facet_points(name: str, count: int, seed: int) -> np.ndarray:
+    """Inputs on the facets of the modes' input domains, and BOUNDARY_TOLERANCE / 2 and 2 x it outside.
+
+    For a mode without ambiguity variables each row of D_c is a half-space of u (normalised here
+    by its norm); the point on it is the Chebyshev centre of the facet (the other rows hold there by
+    the largest margin).
+    """
+    _, analysis = analysed(name)
+    problem = analysis.problem
+    rng = np.random.default_rng(seed)
+    points: list[np.ndarray] = []
+    eligible = [m for m in analysis.feasible_modes
+                if not m.ambiguity_dim and m.raw_domain is not None and m.chebyshev_radius > DOMAIN_TOLERANCE]
+    for j in rng.permutation(len(eligible)).tolist():
+        if len(points) >= 2 * count:  # enough: a sample of the modes (the snake has 64, Solo 144)
+            break
+        mode = eligible[j]
+        H, h = mode.raw_domain.A, mode.raw_domain.b
+        norms = np.linalg.norm(H, axis=1)
+        for r in np.flatnonzero(norms > 1e-9):
+            a = H[r] / norms[r]
+            on_facet = on_the_facet(H, h, r)
+            if on_facet is None:
+                continue
+            for offset in (0.0, 0.5 * BOUNDARY_TOLERANCE, -0.5 * BOUNDARY_TOLERANCE, 2 * BOUNDARY_TOLERANCE):
+                u = on_facet + offset * a  # outside the facet by ``offset``
+                if np.all(u >= problem.lower) and np.all(u <= problem.upper):
+                    points.append(u)
+    points = np.array(points).reshape(-1, problem.m)
+    return points[rng.permutation(len(points))[:count]]
+
+
+def on_the_facet(H: np.ndarray, h: np.ndarray, r: int) -> np.ndarray | None:
+    """The Chebyshev centre of the facet ``H[r] u = h[r]`` of {u: H u <= h} (HiGHS), None if it is
+    lower-dimensional (a radius below 1e-6)."""
+    from frcontrol.polytope import Polytope, chebyshev_ball
+
+    others = np.delete(np.arange(H.shape[0]), r)
+    ball = chebyshev_ball(Polytope(H[others], h[others], H[r:r + 1], h[r:r + 1]), solver="highs")
+    return ball.center if ball.found and ball.radius > 1e-6 else None
+
+
+@pytest.mark.parametrize("name", ["rod_on_table", "box_on_slope", "table_on_ground", "rhex_flip_drives",
+                                  "peg_on_surface", "snake_climb"])
+def test_points_on_facets_agree(name):
+    U = facet_points(name, 60, seed=7)
+    assert U.shape[0] >= 6, "too few facet points to test"
+    check_paths(name, U, scratch=name != "snake_climb")
+
+
+def test_a_point_just_outside_a_facet_holds_and_one_beyond_the_tolerance_does_not():
+    """The rule itself, on the rod's modes: a non-motion facet's point moved out by half the
+    tolerance holds, by twice it does not; a motion facet's point moved in by half the tolerance
+    does not hold (the motion must be strict), by twice it does."""
+    _, analysis = analysed("rod_on_table")
+    tested = 0
+    for mode in analysis.feasible_modes:
+        system, response = mode.system, mode.response
+        H_u = system.G @ response.X_u
+        norms = np.linalg.norm(H_u, axis=1)
+        H, h = H_u / norms[:, None], (system.g - system.G @ response.x_0) / norms
+        for r in range(H.shape[0]):
+            on_facet = on_the_facet(np.vstack([H, analysis.problem.input_bound_rows()[0]]),
+                                    np.concatenate([h, analysis.problem.input_bound_rows()[1]]), r)
+            if on_facet is None:
+                continue
+            cases = ((-0.5, False), (-2.0, True)) if system.motion[r] else ((0.5, True), (2.0, False))
+            for outside, holds in cases:
+                u = on_facet + outside * BOUNDARY_TOLERANCE * H[r]
+                tested += 1
+                assert (mode.mode in [s.mode for s in solutions_at(analysis, u)]) is holds, (mode.mode, r)
+                assert (mode.mode in solutions_at(analysis, u[None]).modes_at(0)) is holds
+                assert (mode.mode in [s.mode for s in solutions_at(analysis, u, method="batch")]) is holds
+    assert tested >= 8
+
+
+def test_overlaps_report_every_mode():
+    """The rod's overlapping modes: at each overlap's centre both modes (and the paths agree)."""
+    _, analysis = analysed("rod_on_table")
+    assert analysis.overlaps, "the rod on the table has overlapping modes"
+    centres = np.array([o.center for o in analysis.overlaps])
+    for overlap, u in zip(analysis.overlaps, centres, strict=True):
+        assert set(overlap.modes) <= {s.mode for s in solutions_at(analysis, u)}
+    check_paths("rod_on_table", centres)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_property_single_and_batch_agree(data):
+    name = data.draw(st.sampled_from(["rod_on_table", "box_on_slope", "rhex_flip", "peg_on_surface"]))
+    problem = analysed(name)[1].problem
+    U = np.array([[data.draw(st.floats(lo, hi, allow_nan=False)) for lo, hi in
+                   zip(problem.lower.tolist(), problem.upper.tolist(), strict=True)] for _ in range(3)])
+    check_paths(name, U, scratch=False)
+
+
+@needs_kernel
+@pytest.mark.parametrize("name", SCENES)
+def test_the_compiled_query_agrees_with_its_numpy_twin(name, monkeypatch):
+    _, analysis = analysed(name)
+    U = np.vstack([random_inputs(name, 40, seed=3), facet_points(name, 20, seed=5)])
+    answers = {}
+    for kernel in ("numpy", "compiled"):
+        monkeypatch.setenv("FRC_KERNEL", kernel)
+        answers[kernel] = ([solutions_at(analysis, u) for u in U], solutions_at(analysis, U))
+    for single_numpy, single_compiled in zip(answers["numpy"][0], answers["compiled"][0], strict=True):
+        assert_same(single_compiled, single_numpy)
+    assert_batch_matches(answers["compiled"][1], U, answers["numpy"][0])
+
+
+def test_a_batch_in_chunks_is_the_same_batch():
+    _, analysis = analysed("box_on_slope")
+    U = random_inputs("box_on_slope", 50, seed=11)
+    table = query_table(analysis)
+    whole = table.locate_batch(U, lambda H, h, motion: None)
+    chunked = table.locate_batch(U, lambda H, h, motion: None, chunk=7)
+    for name in ("count", "point", "mode_index", "dv", "lambda_n", "lambda_t", "w"):
+        assert np.array_equal(getattr(whole, name), getattr(chunked, name)), name
+
+
+def test_the_batch_shape_and_json():
+    _, analysis = analysed("rhex_flip")
+    U = random_inputs("rhex_flip", 12, seed=2)
+    batch = solutions_at_batch(analysis, U)
+    S, n, k = batch.point.size, analysis.problem.n, analysis.problem.k
+    assert batch.count.shape == (12,) and batch.offsets.shape == (13,)
+    assert batch.dv.shape == (S, n) and batch.lambda_n.shape == (S, k) and batch.a_t.shape == (S, k)
+    assert batch.w.shape == (S, 2) and batch.mode_index.shape == (S,)
+    assert batch.tolerance == BOUNDARY_TOLERANCE
+    assert np.all(np.diff(batch.point) >= 0)
+    document = json.loads(json.dumps(batch.to_dict()))
+    assert document["count"] == batch.count.tolist() and len(document["dv"]) == S
+
+
+def test_an_empty_batch_and_a_scene_batch():
+    scene, analysis = analysed("rod_on_table")
+    empty = solutions_at(analysis, np.zeros((0, 3)))
+    assert len(empty) == 0 and empty.point.size == 0 and empty.offsets.tolist() == [0]
+    U = random_inputs("rod_on_table", 5, seed=1)
+    on_scene = solutions_at(scene, U)  # analysed first
+    expected = [tuple(s.mode for s in solutions_at(analysis, u)) for u in U]
+    assert [on_scene.modes_at(i) for i in range(5)] == expected
+
+
+@pytest.mark.parametrize("bad, text", [
+    (np.zeros((4, 2)), r"shape \(N, 3\)"),
+    (np.array([[0.0, np.nan, 0.0]]), "point 0 of the batch has a NaN"),
+    (np.array([[0.0, 0.0, 0.0], [1e9, 0.0, 0.0]]), "point 1 of the batch: input"),
+    ([["a", "b", "c"]], "array of numbers"),
+])
+def test_bad_batches_are_input_errors(bad, text):
+    _, analysis = analysed("rod_on_table")
+    with pytest.raises(InputError, match=text):
+        solutions_at_batch(analysis, bad)
+
+
+@needs_kernel
+def test_the_query_kernel_refuses_bad_buffers():
+    _, analysis = analysed("box_on_slope")
+    table = query_table(analysis)
+    args = list(table.kernel_arguments)
+    status, w = np.empty((1, len(table.modes)), dtype=np.int8), np.empty((1, len(table.modes)))
+    with pytest.raises(KernelError, match="locate_points takes 18 arguments"):
+        compiled.locate_points(*args)
+    with pytest.raises(KernelError, match="kernel buffer U"):
+        compiled.locate_points(*args, np.zeros((1, 2)), status, w)
+    with pytest.raises(KernelError, match="kernel buffer status"):
+        compiled.locate_points(*args, np.zeros((1, 3)), np.empty((1, len(table.modes))), w)
+    bad = list(args)
+    bad[6] = table.row_count + 1000  # more rows than the table holds
+    with pytest.raises(KernelError, match="mode 0 has"):
+        compiled.locate_points(*bad, np.zeros((1, 3)), status, w)
+    one = np.zeros(1)
+    with pytest.raises(KernelError, match="solution 0 has mode 99"):
+        compiled.evaluate_points(*args, np.zeros((1, 3)), np.zeros(1, dtype=np.int64), np.array([99]),
+                                 np.zeros((1, table.p_max)), np.empty((1, table.X_u.shape[1])),
+                                 np.empty((1, 2 * analysis.problem.k)), one, one.copy())
+
+
+def test_the_docs_page_names_the_tolerance():
+    text = (Path(__file__).resolve().parent.parent / "docs" / "speed.md").read_text()
+    assert "BOUNDARY_TOLERANCE" in text and f"{BOUNDARY_TOLERANCE:g}" in text
