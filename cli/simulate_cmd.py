@@ -121,12 +121,15 @@ def _simulate(scene: Scene, model: ContactModel | None, stiffness: float | None,
     """The run on the chosen contact model (default: the scene's [model] contact).
 
     Raises:
-        InputError: --stiffness or --damping with the rigid model.
+        typer.BadParameter: --stiffness or --damping with the rigid model (a usage error, exit 2).
     """
     from frcontrol.answers import run_simulation
     from frcontrol.simulation.model_table import model_options
 
     chosen = model.value if model is not None else model_options(scene).contact
+    if chosen == "rigid" and (stiffness is not None or damping is not None):
+        raise typer.BadParameter("--stiffness and --damping belong to the compliant model: "
+                                 "add --model compliant")
     with common.progress(f"simulating {duration:g} s on the {chosen} model..."):
         return run_simulation(scene, inputs, model=chosen, stiffness=stiffness, damping=damping,
                               duration=duration, dt=dt, integrator=integrator)

@@ -67,7 +67,7 @@ def test_a_bad_suffix_is_refused(tmp_path):
         save_trajectory(scene, simulate_rigid(scene, None, 0.01, 0.001), tmp_path / "run.txt")
     for command in (["simulate", "rod_on_table"], ["flip"], ["climb"]):
         result = runner.invoke(app, [*command, "--out", str(tmp_path / "run.txt")])
-        assert result.exit_code == 1 and "the suffix must be one of .npz, .csv" in result.stderr
+        assert result.exit_code == 2 and "the suffix must be one of .npz, .csv" in result.stderr
 
 
 def test_the_cli_exports_and_its_json_carries_the_modes(tmp_path):

@@ -425,7 +425,7 @@ def test_cli_bad_input_is_one_line_and_exit_1(write_scene):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "no inputs" in lines[0] and "Traceback" not in result.output
     result = runner.invoke(app(), ["flip", "--port", "7001"])
-    assert result.exit_code == 1 and "--port needs --view" in result.stderr
+    assert result.exit_code == 2 and "add --view" in result.stderr
 
 
 def test_cli_refuses_a_taken_port_before_planning():

@@ -104,7 +104,7 @@ def test_cli_bad_cycles_and_plot() -> None:
     result = CliRunner().invoke(app, ["climb", "snake_climb", "--cycles", "0"])
     assert result.exit_code != 0 and "Traceback" not in result.output
     result = CliRunner().invoke(app, ["climb", "snake_climb", "--cycles", "1", "--plot", "x.png"])
-    assert result.exit_code == 1 and "--plot" in result.output
+    assert result.exit_code == 2 and "--plot" in result.output
 
 
 # ----------------------------------------------------------------------------- one run, checked

@@ -495,12 +495,9 @@ def test_contact_forces_law():
 
 # ---------------------------------------------------------------------------------------- command line
 def cli_app():
-    import typer
-    from frcontrol.cli.simulate_cmd import simulate_command
+    """The real ``frc`` group: its one-line usage errors (exit 2) and error lines (exit 1)."""
+    from frcontrol.cli.app import app
 
-    app = typer.Typer()
-    app.command("simulate")(simulate_command)
-    app.command("other")(lambda: None)  # two commands: the app then dispatches by name, like frc
     return app
 
 
@@ -529,11 +526,11 @@ def test_cli_simulate_compliant_table_and_errors(tmp_path):
     assert result.exit_code == 0, result.output
     assert "compliant model" in result.stdout and "final state" in result.stdout
     bad = runner.invoke(cli_app(), ["simulate", "box_on_ground", "--dt", "0"])
-    assert bad.exit_code == 1 and "dt must be > 0" in bad.stderr
+    assert bad.exit_code == 2 and "'--dt': expected a finite number > 0" in bad.stderr
     bad = runner.invoke(cli_app(), ["simulate", "box_on_ground", "-k", "1e4"])
-    assert bad.exit_code == 1 and "add --model compliant" in bad.stderr
+    assert bad.exit_code == 2 and "--stiffness and --damping belong" in bad.stderr
     bad = runner.invoke(cli_app(), ["simulate", "box_on_ground", "--model", "compliant", "--integrator", "x"])
-    assert bad.exit_code == 1 and "unknown integrator 'x'" in bad.stderr
+    assert bad.exit_code == 2 and "'--integrator': expected one of" in bad.stderr
     failed = runner.invoke(cli_app(), ["simulate", "box_on_ground", "-i", "x=99"])
     assert failed.exit_code == 1 and "outside its limits" in failed.stderr
 

@@ -10,7 +10,6 @@ import pinocchio as pin
 import pytest
 import typer
 from conftest import ROBOTS
-from frcontrol.cli.statics_cmd import statics_command
 from typer.testing import CliRunner
 
 from frcontrol import polytope as poly
@@ -601,13 +600,9 @@ def test_a_braced_snake_is_in_equilibrium_locked_but_not_with_limp_joints():
 
 
 def cli_app() -> typer.Typer:
-    app = typer.Typer()
+    """The real ``frc`` group: its one-line usage errors (exit 2) and error lines (exit 1)."""
+    from frcontrol.cli.app import app
 
-    @app.callback()
-    def main() -> None:
-        """frc (statics only)."""
-
-    app.command("statics")(statics_command)
     return app
 
 
@@ -630,6 +625,6 @@ def test_cli_plot_and_errors(tmp_path):
     assert result.exit_code == 0, result.output
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     bad = CliRunner().invoke(cli_app(), ["statics", "box_on_ground", "--input", "x=oops"])
-    assert bad.exit_code == 1 and "not a number" in bad.output
+    assert bad.exit_code == 2 and "not a number" in bad.output
     missing = CliRunner().invoke(cli_app(), ["statics", "no_such_scene"])
     assert missing.exit_code == 1 and "no such file" in missing.output

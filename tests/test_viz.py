@@ -32,6 +32,7 @@ import numpy as np
 import pytest
 import typer
 from conftest import rod_scene
+from frcontrol.cli.app import app as frc_app
 from frcontrol.cli.view_cmd import view_command
 from typer.testing import CliRunner
 
@@ -415,14 +416,14 @@ def test_cli_view_writes_files_and_fails_cleanly(tmp_path, write_scene):
     assert (tmp_path / "v.html").stat().st_size > 500_000
     assert ink_fraction(read_png(tmp_path / "v.png")) > 0.05
     bad = write_scene(rod_scene(state={"q": [0.0, 0.453]}))
-    for args, message in (
-        ([str(tmp_path / "missing.toml"), "--html", str(tmp_path / "m.html")], "no such file"),
-        ([str(bad), "--html", str(tmp_path / "b.html")], "state.q"),
-        (["rhex_flip", "--html", str(tmp_path / "p.html"), "--port", "7000"], "--port needs --view"),
-        (["rhex_flip", "--html", str(tmp_path / "no" / "dir.html")], "cannot write"),
+    for args, code, message in (
+        ([str(tmp_path / "missing.toml"), "--html", str(tmp_path / "m.html")], 1, "no such file"),
+        ([str(bad), "--html", str(tmp_path / "b.html")], 1, "state.q"),
+        (["rhex_flip", "--html", str(tmp_path / "p.html"), "--port", "7000"], 2, "add --view"),
+        (["rhex_flip", "--html", str(tmp_path / "no" / "dir.html")], 2, "cannot write"),
     ):
-        result = runner.invoke(view_app, args)
-        assert result.exit_code == 1, (args, result.output)
+        result = runner.invoke(frc_app, ["view", *args])  # the real group: its one-line usage errors
+        assert result.exit_code == code, (args, result.output)
         lines = result.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("frc: error:") and message in lines[0], lines
         assert "Traceback" not in result.output
