@@ -58,6 +58,7 @@ from ..drives import Drive, no_load_speed, stall_torque, torque_limits
 from ..errors import FrcontrolError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
 from ..scene import Scene
+from ..simulation.energy_audit import EnergyAudit, energy_audit
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER
@@ -75,7 +76,6 @@ from .flip import (
     sample_modes,
 )
 from .flip_budget import FlipBudget, body_energy, energy_shortfall, flip_budget
-from ..simulation.energy_audit import EnergyAudit, energy_audit
 
 __all__ = [
     "COMPLIANT_EXTRA_TIME",
@@ -299,11 +299,11 @@ class PumpResult:
 
         Sample k (the end of the step from k-1) is judged against the modes allowed by the phase
         whose decisions chose that step's voltages (``start <= t_k-1 < end``) and, where a phase
-        starts at the sample (a decision made at that very state), by that phase too. Returns ``within`` (every sample's mode is one
-        of its phase's ``allowed``), ``samples``, ``outside`` (how many are not) and ``first``
-        (``time``, ``mode``, ``phase`` of the first that is not; None).
+        starts at the sample (a decision made at that very state), by that phase too. Returns
+        ``within`` (every sample's mode is allowed), ``samples``, ``outside`` (how many are not)
+        and ``first`` (``time``, ``mode``, ``phase`` of the first that is not; None).
         """
-        times, modes = self.trajectory.times, self.trajectory.modes
+        times, modes = self.trajectory.times, self.trajectory.modes or ()
         outside, first = 0, None
         for k in range(1, len(times)):
             phase = next((p for p in self.phases if p.start <= times[k - 1] + 1e-12 < p.end), self.phases[-1])
@@ -581,10 +581,12 @@ def simulate_pump(
 
 def _run(policy: _PumpPolicy, stepper: RigidStepper, task: Any, dt: float, max_time: float,
          replan_every: int, progress: Callable[[float, float], None] | None) -> int | None:
-    """Step the closed loop until ``max_time`` or, once the pitch has passed vertical (the land
-    phase), until the body is at rest right side up or :data:`SETTLE_TIME` has passed since it last
-    did (a body that falls back on its back is pumped again). Returns the first sample at or past
-    vertical (None: not reached)."""
+    """Step the closed loop; return the first sample at or past vertical (None: not reached).
+
+    Until ``max_time`` or, once the pitch has passed vertical (the land phase), until the body is
+    at rest right side up or :data:`SETTLE_TIME` has passed since it last did (a body that falls
+    back on its back is pumped again).
+    """
     volts = np.zeros(len(policy.names))
     end, crossed, k, samples = max_time, None, 0, 0
     while stepper.t < end - 1e-9:
@@ -613,7 +615,8 @@ def _at_rest(v: np.ndarray, task: Any) -> bool:
     return bool(np.all(np.abs(base) <= REST_SPEED))
 
 
-def _crossing_time(times: np.ndarray, pitch: np.ndarray, vertical: float, crossed: int | None) -> float | None:
+def _crossing_time(times: np.ndarray, pitch: np.ndarray, vertical: float, crossed: int | None
+                   ) -> float | None:
     """[s] When the pitch crossed vertical (linear between the samples around ``crossed``)."""
     if crossed is None:
         return None

@@ -102,8 +102,10 @@ class EnergyAudit:
         return abs(self.residual) <= self.tolerance * self.scale
 
     def to_dict(self) -> dict[str, Any]:
-        """As JSON: the terms [J], ``stored_in_springs``, ``change``, ``residual``,
-        ``relative_residual`` (``|residual| / scale``), ``tolerance`` and ``closes``."""
+        """As JSON: the terms, ``stored_in_springs``, ``change``, ``residual`` [J], and more.
+
+        Also ``relative_residual`` (``|residual| / scale``), ``tolerance`` and ``closes``.
+        """
         scale = self.scale
         return {**self.terms, "stored_in_springs": float(self.spring_energy[-1] - self.spring_energy[0]),
                 "change": self.change, "residual": self.residual,
@@ -139,7 +141,8 @@ def _step_terms(scene: Scene, trajectory: Trajectory, h: np.ndarray) -> dict[str
         slip[k] = float(p[:, 1] @ (state.jacobian_tangent @ v[k + 1]))
         normal[k] = float(p[:, 0] @ (state.jacobian_normal @ v[k + 1]))
         if springs:
-            damper[k] = -h[k] * float(np.sum(springs.damping * v[k, springs.indices] * v[k + 1, springs.indices]))
+            rates = v[k, springs.indices] * v[k + 1, springs.indices]
+            damper[k] = -h[k] * float(np.sum(springs.damping * rates))
         if not np.any(impacts[k + 1]):
             jump = v[k + 1] - v[k]
             stepping[k] = -0.5 * float(jump @ armature.apply(state.mass_matrix) @ jump)
