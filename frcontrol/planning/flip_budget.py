@@ -217,7 +217,8 @@ def flip_budget(scene: Scene, *, pitch_step: float = PITCH_STEP) -> FlipBudget:
             reaches[joint][k] = any(_toe_reaches(scene.contacts[t].point, hip[t], legs[t], surface[t])
                                     for t in feet)
         pivot, com = robot.contact_points_in_world(q)[lowest[k]], robot.center_of_mass(q)
-        holds[k] = [_toe_holds(scene.contacts[t].point, hip[t], legs[t], surface[t], pivot, com) for t in off_body]
+        holds[k] = [_toe_holds(scene.contacts[t].point, hip[t], legs[t], surface[t], pivot, com)
+                    for t in off_body]
     tip = int(np.argmax(energy))
     reach_pitch = {joint: _last_contiguous(pitches, ok) for joint, ok in reaches.items()}
     highest = [p for p in reach_pitch.values() if p is not None]
