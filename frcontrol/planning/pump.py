@@ -700,8 +700,8 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
     """The rigid run's voltages, replayed against time, on the compliant model.
 
     Radau, critical damping, ``stiffness`` [N/m] on every listed contact (so the rear corner can
-    land), each sample interval holding the voltage the rigid run held there (after a rigid flip,
-    :data:`COMPLIANT_EXTRA_TIME` more with the last voltages).
+    land), each sample interval holding the voltage the rigid run held there, up to the rigid
+    run's time to vertical plus :data:`COMPLIANT_EXTRA_TIME` (after a rigid flip), else ``max_time``.
 
     Returns:
         ``stiffness``, ``flipped`` (the pitch passed vertical), ``time_to_vertical`` [s],
@@ -718,8 +718,8 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
         return voltages[min(int(round(t / dt)) + 1, len(voltages) - 1)]
 
     start = time.perf_counter()
-    end = float(result.trajectory.times[-1])
-    duration = end + COMPLIANT_EXTRA_TIME if result.flipped else result.max_time
+    flip_time = result.time_to_vertical
+    duration = flip_time + COMPLIANT_EXTRA_TIME if flip_time is not None else result.max_time
     run = simulate_compliant(scene, held, duration=max(duration, dt), dt=dt, stiffness=stiffness,
                              contacts="all")
     pitch = run.q[:, task.pitch_index]
