@@ -274,7 +274,8 @@ def test_the_rigid_pumping_stays_below_the_barrier_and_the_samples_show_it(rhex,
         r = points[:, result.trajectory.contacts.index(toe)] - q[:, :2]
         speed = v[:, :2] + v[:, 2:3] * np.column_stack([-r[:, 1], r[:, 0]])
         height = points[:, result.trajectory.contacts.index(toe), 1]
-        energy += 0.5 * TOE_MASS * np.sum(speed**2, axis=1) + TOE_MASS * rhex.robot.gravity * (height - height[0])
+        energy += 0.5 * TOE_MASS * np.sum(speed**2, axis=1) \
+            + TOE_MASS * rhex.robot.gravity * (height - height[0])
     assert pump["max_energy"] == pytest.approx(float(energy.max()), abs=1e-9)
     assert pump["max_energy"] < pump["budget"]["barrier_energy"]
     # every push after the first starts as the body falls back onto its toes, still moving (the
