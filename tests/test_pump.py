@@ -459,6 +459,9 @@ def test_frc_flip_pump_json_plot_and_exit_codes(tmp_path):
         bad = runner.invoke(app, ["flip", *args])
         assert bad.exit_code == 1 and "Traceback" not in bad.output and len(bad.stderr.splitlines()) == 1
     assert math.isfinite(doc["pump"]["energy_drawn"])
+    assert {"final_pitch", "right_side_up", "at_rest", "modes_check", "energy_audit"} <= set(doc["pump"])
+    text = runner.invoke(app, ["flip", "rhex_flip_drives", "--max-time", "0.3"])
+    assert text.exit_code == 0 and "right side up: no" in text.stdout and "energy audit" in text.stdout
 
 
 def _closed_form_hold(hip_to_corner: float, low: float, high: float) -> float:
