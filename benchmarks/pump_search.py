@@ -76,11 +76,11 @@ def scene_for(volts: float, front: bool, flat: bool, hip_stiffness: float | None
         front_drive = {**FRONT_DRIVE, "voltage_limit": volts}
         if hip_stiffness is not None:
             front_drive["stages"] = sets["model.drives.hip_middle.stages"]
-        sets.update({"locked_joints": [], "inputs.coordinates": list(hips),
+        sets.update({"locked_joints": ["spring_front"], "inputs.coordinates": list(hips),
                      "model.drives.hip_front": front_drive})
-    if flat:  # both corners down, the toes on the ground behind the hips (0.13 m hips, 0.17 m legs)
-        leg = math.acos(0.13 / 0.17) - math.pi
-        sets["state.q"] = [0.0, 0.065, math.pi, 0.0, leg, leg]
+    if flat:  # both corners down, the toes on the ground behind the hips (0.065 m hips, 0.17 m legs)
+        leg = math.acos(0.065 / 0.17) - math.pi
+        sets["state.q"] = [0.0, 0.065, math.pi, 0.0, 0.17, leg, 0.17, leg, 0.17]  # legs at rest length
     return load_scene("rhex_flip_drives", overrides=sets)
 
 

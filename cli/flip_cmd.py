@@ -166,11 +166,28 @@ def render_pump(payload: dict[str, Any]) -> None:
         console.print(f"energy budget: the body's highest {pump['max_energy']:.2f} J above the start; over "
                       f"{budget['pivot']} it needs {budget['barrier_energy']:.2f} J; the toes reach the "
                       f"ground up to pitch \\[rad] {reach or 'none'}")
+    _render_end_and_audit(pump)
     check = pump["compliant"]
     if check is not None:
         verdict = ("flipped" if check["flipped"]
                    else f"not flipped, highest pitch {check['max_pitch']:.3f} rad")
         console.print(f"compliant check (k = {check['stiffness']:g} N/m): {verdict}")
+
+
+def _render_end_and_audit(pump: dict[str, Any]) -> None:
+    """How the pumping run ended, and its energy audit, one line each."""
+    if "final_pitch" in pump:
+        console.print(f"end: pitch {pump['final_pitch']:.4f} rad (upright {pump['upright_pitch']:.4f}); "
+                      f"right side up: {'yes' if pump['right_side_up'] else 'no'}; at rest: "
+                      f"{'yes' if pump['at_rest'] else 'no'}")
+    audit = pump.get("energy_audit")
+    if audit:
+        from frcontrol.simulation.energy_audit import AUDIT_TERMS
+
+        terms = ", ".join(f"{name.replace('_', ' ')} {audit[name]:.1f}" for name in AUDIT_TERMS)
+        console.print(f"energy audit \\[J]: {terms}; change {audit['change']:.2f}, residual "
+                      f"{audit['residual']:.2f} ({100 * audit['relative_residual']:.2f} % of the largest "
+                      "term)")
 
 
 def render(payload: dict[str, Any]) -> None:

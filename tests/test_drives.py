@@ -188,7 +188,13 @@ def test_the_analysis_in_volts_is_the_torque_analysis_through_the_affine_map():
     plain = load_scene("rhex_flip")
     v = rolling_velocity(plain)
     sets = {f"state.v.{name}": float(x) for name, x in zip(plain.coordinate_names, v, strict=True)}
-    driven = load_scene("rhex_flip_drives", overrides=sets)
+    # rhex_flip's robot (rigid massless legs) with rhex_flip_drives' drives at RHexLib's 24 V
+    pair = {"kind": "dc_motor", "resistance": 0.665, "torque_constant": 0.0161,
+            "back_emf_constant": 0.01806, "rotor_inertia": 1.822e-6, "voltage_limit": 24.0,
+            "stages": [{"ratio": 33.0625, "efficiency": 0.7}]}
+    driven = load_scene("rhex_flip", overrides={
+        **sets, "model.drives.hip_middle": pair, "model.drives.hip_rear": pair,
+        "inputs.lower": [-24.0, -24.0], "inputs.upper": [24.0, 24.0]})
     torque = load_scene("rhex_flip", overrides=sets)
     volt_problem = ContactProblem.from_scene(driven)
     torque_problem = ContactProblem.from_scene(torque)
@@ -231,16 +237,18 @@ def test_analyze_json_names_each_inputs_unit_and_the_drives_torque_band():
     assert torque["input_units"] == {"hip_middle": "N m", "hip_rear": "N m"}
 
 
-def test_the_shipped_rhex_drives_are_a_motor_pair_within_20_newton_metres_at_stall():
+def test_the_shipped_rhex_drives_are_a_motor_pair_within_20_newton_metres_at_rhexlibs_supply():
     scene = load_scene("rhex_flip_drives")
     for drive in scene.drives.values():
         # RHexLib's motor (hardware/UofM/config.hh), two in parallel: R / 2, twice the rotor inertia
         assert drive.resistance == pytest.approx(1.33 / 2)
         assert drive.rotor_inertia == pytest.approx(2 * 9.11e-7)
-        assert drive.ratio == 33.0625 and drive.voltage_limit == 24.0
-        lossless = 33.0625 * drive.torque_constant * drive.voltage_limit / drive.resistance  # N C_M U / R
+        # the supply is 1.5 x RHexLib's 24 V (the least found at which the pumping flip ends right
+        # side up, docs/rhex-legs.md); at 24 V a pair gives at most 20 N m at stall
+        assert drive.ratio == 33.0625 and drive.voltage_limit == 1.5 * 24.0
+        lossless = 33.0625 * drive.torque_constant * 24.0 / drive.resistance  # N C_M U / R at 24 V
         assert lossless <= 20.0
-        assert stall_torque(drive) == pytest.approx(drive.efficiency * lossless)
+        assert stall_torque(drive) == pytest.approx(drive.efficiency * lossless * 1.5)
 
 
 # ---------------------------------------------------------------------------- simulate output
@@ -269,8 +277,9 @@ def test_simulate_json_and_out_carry_each_drives_samples(tmp_path):
     lines = csv_path.read_text().splitlines()
     header = lines[0].split(",")
     names = ("voltage", "current", "motor_speed", "torque")
-    assert header[-4:] == [f"drives.hip_rear.{name}" for name in names]
-    assert all(math.isfinite(float(x)) for x in lines[1].split(",")[-8:])
+    first = header.index("drives.hip_rear.voltage")
+    assert header[first:first + 4] == [f"drives.hip_rear.{name}" for name in names]
+    assert all(math.isfinite(float(x)) for x in lines[1].split(",")[first - 4:first + 4])
 
 
 # --------------------------------------------------------------------------- elastic stages

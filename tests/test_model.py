@@ -293,14 +293,19 @@ ROUND_OFF = 1e-14  # [-] agreement of two evaluations of the same formulas, rela
 
 def state_by_frame(robot: PlanarRobot, q, v, contacts) -> dict[str, np.ndarray]:
     """The state's arrays from Pinocchio's 3-D functions on a fresh Data, frame by frame: CRBA's
-    upper triangle mirrored, nonlinear effects, each frame's placement, world-aligned Jacobian and
-    classical acceleration, projected on the contact's normal and tangent one contact at a time."""
+    upper triangle mirrored, nonlinear effects (plus the drives' damping and the joint springs),
+    each frame's placement, world-aligned Jacobian and classical acceleration, projected on the
+    contact's normal and tangent one contact at a time."""
     model, data = robot.model, robot.model.createData()
     q_pin, v_pin = robot.pinocchio_q_from_minimal(q), robot.pinocchio_v_from_minimal(v)
     order = robot._v_index
     upper = pin.crba(model, data, q_pin)
     mass = (np.triu(upper) + np.triu(upper, 1).T)[np.ix_(order, order)]
     bias = pin.nonLinearEffects(model, data, q_pin, v_pin)[order] + robot.drive_damping * v
+    springs = robot.springs  # the joint springs' k (q - rest) + c v, written out
+    if springs:
+        j = springs.indices
+        bias[j] += springs.stiffness * (q[j] - springs.rest) + springs.damping * v[j]
     pin.forwardKinematics(model, data, q_pin, v_pin, np.zeros(model.nv))
     pin.computeJointJacobians(model, data, q_pin)
     keys = ("contact_points", "gaps", "jacobian_normal", "jacobian_tangent", "drift_normal", "drift_tangent")

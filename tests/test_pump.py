@@ -1,6 +1,7 @@
 """The pumping flip: the drive's torque-speed line in closed form, the pumping run checked from its
-samples alone (every torque on the motor's line, the energy drawn, the phases), the flip verified
-by simulation (rigid and compliant), and the command line."""
+samples alone (every torque on the motor's line, the energy drawn, the phases), the flip through
+the compliant legs verified by simulation (rigid and compliant) and by its energy audit, and the
+command line."""
 
 from __future__ import annotations
 
@@ -14,16 +15,21 @@ from typer.testing import CliRunner
 from frcontrol.drives import joint_torque, no_load_speed, stall_torque, torque_limits
 from frcontrol.engine import solutions_at
 from frcontrol.errors import SceneError
-from frcontrol.planning.flip import flip_task
+from frcontrol.planning.flip import flip_task, plan_flip
 from frcontrol.planning.flip_budget import flip_budget
 from frcontrol.planning.pump import (
+    REST_SPEED,
+    UPRIGHT_TOLERANCE,
     pump_flip,
     pump_payload,
+    pump_samples,
     simulate_pump,
     verify_compliant,
     voltage_for_torque,
+    within_limits,
 )
 from frcontrol.scene import load_scene
+from frcontrol.simulation.energy_audit import AUDIT_TERMS, AUDIT_TOLERANCE
 
 runner = CliRunner()
 PITCH = 2  # theta in RHex's coordinates
@@ -32,22 +38,45 @@ STRONG_VOLTS = 250.0
 stroke flips the body."""
 
 
+RHEX_SUPPLY = 24.0
+"""[V] RHexLib's drive supply (DRIVE_SUPPLY, hardware/UofM/config.hh): 13.4 N m stall per pair."""
+
+
+def _at_supply(volts: float) -> dict:
+    """``--set`` overrides putting both drives and the input limits of rhex_flip_drives at ``volts``."""
+    sets = {f"model.drives.{j}.voltage_limit": volts for j in ("hip_middle", "hip_rear")}
+    sets.update({"inputs.lower": [-volts] * 2, "inputs.upper": [volts] * 2})
+    return sets
+
+
 @pytest.fixture(scope="module")
 def rhex():
-    return load_scene("rhex_flip_drives")
+    """RHex on its back with compliant legs, at RHexLib's 24 V supply (the shipped scene has 36 V)."""
+    return load_scene("rhex_flip_drives", overrides=_at_supply(RHEX_SUPPLY))
+
+
+@pytest.fixture(scope="module")
+def rigid_legs():
+    """The same body with rigid massless legs (rhex_flip): the budget's closed forms hold there."""
+    return load_scene("rhex_flip")
 
 
 @pytest.fixture(scope="module")
 def pumped(rhex):
-    """Two cycles at the scene's drives (13.4 N m stall per pair), with the first push's plan."""
+    """Two cycles at 24 V (13.4 N m stall per pair), with the first push's plan."""
     return pump_flip(rhex, max_time=0.6)
 
 
 @pytest.fixture(scope="module")
+def shipped():
+    """The shipped scene (36 V) and its pumping flip, run until it rests right side up."""
+    scene = load_scene("rhex_flip_drives")
+    return scene, simulate_pump(scene, max_time=2.0)
+
+
+@pytest.fixture(scope="module")
 def strong():
-    sets = {f"model.drives.{j}.voltage_limit": STRONG_VOLTS for j in ("hip_middle", "hip_rear")}
-    sets.update({"inputs.lower": [-STRONG_VOLTS] * 2, "inputs.upper": [STRONG_VOLTS] * 2})
-    scene = load_scene("rhex_flip_drives", overrides=sets)
+    scene = load_scene("rhex_flip_drives", overrides=_at_supply(STRONG_VOLTS))
     return scene, simulate_pump(scene, max_time=0.5)
 
 
@@ -67,9 +96,17 @@ def test_the_voltage_for_a_torque_inverts_the_motor_line(rhex):
         assert voltage_for_torque(drive, 2 * stall_torque(drive), 0.0) == drive.voltage_limit
 
 
-def test_the_scene_hip_pairs_are_within_twenty_newton_metres(rhex):
+def test_the_hip_pairs_at_rhexlibs_supply_are_within_twenty_newton_metres(rhex):
     for drive in rhex.drives.values():
         assert 0 < stall_torque(drive) <= 20.0 and 20.0 < no_load_speed(drive) < 45.0
+        # the convention without the gearhead's loss, N C_M U / R, is within 20 N m too
+        assert stall_torque(drive) / drive.efficiency == pytest.approx(19.2, abs=0.05)
+
+
+def test_the_shipped_supply_is_one_and_a_half_times_rhexlibs():
+    for drive in load_scene("rhex_flip_drives").drives.values():
+        assert drive.voltage_limit == 1.5 * RHEX_SUPPLY
+        assert stall_torque(drive) == pytest.approx(20.17, abs=0.01)
 
 
 # ---------------------------------------------------------------- the run, from its samples
@@ -158,8 +195,10 @@ def test_within_twenty_newton_metres_the_rigid_body_does_not_flip_and_says_why(p
 
 # ------------------------------------------------------- the energy budget, and why no flip
 
-BODY_MASS, BODY_INERTIA = 7.5, 0.1668125
-"""[kg], [kg m^2] RHex's body (rhex_planar.urdf; the legs are massless)."""
+BODY_MASS, BODY_INERTIA, TOE_MASS = 7.5, 0.1668125, 0.02
+"""[kg], [kg m^2] RHex's body (rhex_planar.urdf; the legs are massless); [kg] a toe of
+rhex_planar_legs.urdf."""
+TOES = ("front_toe", "middle_toe", "rear_toe")
 CORNER, HIP_DEPTH, LEG = (0.25, 0.065), 0.065, 0.17
 """[m] The front corner in the body frame, the hips' height above the shell lying flat (the hips on
 the mid-plane, 0.065 below the back face), a leg's length (rhex_planar.urdf)."""
@@ -172,7 +211,8 @@ def _closed_form_reach(hip_to_corner: float) -> float:
     return math.asin(LEG / math.hypot(hip_to_corner, HIP_DEPTH)) - math.atan2(HIP_DEPTH, hip_to_corner)
 
 
-def test_the_flip_budget_is_the_closed_form_of_the_geometry(rhex):
+def test_the_flip_budget_is_the_closed_form_of_the_geometry(rigid_legs):
+    rhex = rigid_legs
     budget = flip_budget(rhex)
     g, y0, step = rhex.robot.gravity, float(rhex.q[1]), budget.pitch_step
     weight = BODY_MASS * g
@@ -190,6 +230,17 @@ def test_the_flip_budget_is_the_closed_form_of_the_geometry(rhex):
     assert budget.reach_energy == pytest.approx(weight * (height - y0), abs=1e-9)
     assert budget.kinetic_energy_needed == pytest.approx(budget.barrier_energy - budget.reach_energy)
     assert budget.kinetic_energy_needed > 6.0  # 6.5 J of the 13.3 J: the legs reach half-way up
+
+
+def test_the_compliant_legs_reach_as_far_as_the_rigid_ones_and_toes_add_to_the_barrier(rhex, rigid_legs):
+    compliant, rigid = flip_budget(rhex), flip_budget(rigid_legs)
+    # at rest length (0.17 m) the springs' legs are the rigid legs: the same reach, to the step
+    assert compliant.reach_pitch == rigid.reach_pitch
+    # the three 0.02 kg toes rise with the body: at most 0.06 kg x g x 0.5 m more at the barrier
+    extra = compliant.barrier_energy - rigid.barrier_energy
+    assert 0.0 < extra < 3 * TOE_MASS * rhex.robot.gravity * 0.5
+    # the belly's corners lie on the body: they are not toes
+    assert set(compliant.hold_pitch) == {"front_toe", "middle_toe", "rear_toe"}
 
 
 def test_a_budget_over_body_contacts_on_different_surfaces_is_a_scene_error():
@@ -214,9 +265,17 @@ def test_the_rigid_pumping_stays_below_the_barrier_and_the_samples_show_it(rhex,
     doc = json.loads(json.dumps(pump_payload(rhex, plan, result)))
     samples, pump = doc["simulation"]["samples"], doc["pump"]
     q, v, times = np.array(samples["q"]), np.array(samples["v"]), np.array(samples["times"])
-    # the body's mechanical energy above the start, from the samples and the URDF's mass alone
+    # the body's mechanical energy above the start, from the samples and the URDFs' masses alone:
+    # the body, and each toe as a point mass moving with the body (joints held: M_bb)
     energy = 0.5 * BODY_MASS * (v[:, 0] ** 2 + v[:, 1] ** 2) + 0.5 * BODY_INERTIA * v[:, 2] ** 2 \
         + BODY_MASS * rhex.robot.gravity * (q[:, 1] - q[0, 1])
+    points = result.trajectory.contact_points
+    for toe in TOES:
+        r = points[:, result.trajectory.contacts.index(toe)] - q[:, :2]
+        speed = v[:, :2] + v[:, 2:3] * np.column_stack([-r[:, 1], r[:, 0]])
+        height = points[:, result.trajectory.contacts.index(toe), 1]
+        energy += 0.5 * TOE_MASS * np.sum(speed**2, axis=1) \
+            + TOE_MASS * rhex.robot.gravity * (height - height[0])
     assert pump["max_energy"] == pytest.approx(float(energy.max()), abs=1e-9)
     assert pump["max_energy"] < pump["budget"]["barrier_energy"]
     # every push after the first starts as the body falls back onto its toes, still moving (the
@@ -228,7 +287,7 @@ def test_the_rigid_pumping_stays_below_the_barrier_and_the_samples_show_it(rhex,
         kinetic = 0.5 * BODY_MASS * (v[k, 0] ** 2 + v[k, 1] ** 2) + 0.5 * BODY_INERTIA * v[k, 2] ** 2
         assert kinetic > 1.0
     assert all(e < pump["budget"]["barrier_energy"] for e in pump["cycle_max_energy"])
-    assert "13.31 J brings its centre of mass over front_corner" in doc["simulation"]["reason"]
+    assert "13.53 J brings its centre of mass over front_corner" in doc["simulation"]["reason"]
 
 
 # ---------------------------------------------------------------- a flip, by simulation
@@ -238,10 +297,11 @@ def test_a_strong_enough_drive_flips_and_the_samples_show_it(strong):
     scene, strong = strong
     task = flip_task(scene)
     pitch = strong.trajectory.q[:, task.pitch_index]
-    assert strong.flipped and pitch[-1] >= task.vertical > pitch[:-1].max()
-    assert strong.trajectory.times[-2] <= strong.time_to_vertical <= strong.trajectory.times[-1]
+    crossed = int(np.argmax(pitch >= task.vertical))
+    assert strong.flipped and pitch[crossed] >= task.vertical > pitch[:crossed].max()
+    assert strong.trajectory.times[crossed - 1] <= strong.time_to_vertical <= strong.trajectory.times[crossed]
     assert strong.trajectory.status == "completed"
-    assert strong.cycles == 1 and strong.phases[0].kind == "push"
+    assert strong.phases[0].kind == "push" and strong.phases[1].kind in ("recirculate", "land")
 
 
 def test_the_strong_flip_survives_the_compliant_model(strong):
@@ -256,6 +316,106 @@ def test_the_compliant_replay_follows_the_rigid_pumping(rhex):
     check = verify_compliant(rhex, result)
     assert check["status"] == "completed" and check["torque_within_limits"]
     assert check["max_pitch"] == pytest.approx(result.max_pitch, abs=0.02)
+
+
+# ------------------------------------------- the shipped flip, through the compliant legs
+
+
+def test_the_shipped_flip_passes_vertical_and_rests_right_side_up(shipped):
+    scene, result = shipped
+    traj, task = result.trajectory, flip_task(scene)
+    pitch, times = traj.q[:, task.pitch_index], traj.times
+    crossed = int(np.argmax(pitch >= task.vertical))
+    assert result.flipped and crossed > 0 and result.time_to_vertical < 5.0
+    assert times[crossed - 1] <= result.time_to_vertical <= times[crossed]
+    # at rest right side up at the end: pitch 2 pi, the base's velocities within REST_SPEED
+    assert abs(pitch[-1] - 2 * math.pi) < UPRIGHT_TOLERANCE and result.right_side_up
+    assert np.all(np.abs(traj.v[-1, :3]) <= REST_SPEED) and result.phases[-1].ended_by == "at rest"
+    assert result.phases[-1].kind == "land" and traj.status == "completed"
+    # every sample's voltage within the supply, every torque on the motor's line within its limits
+    limit = [scene.drives[name].voltage_limit for name in scene.inputs.coordinates]
+    assert np.all(np.abs(traj.inputs) <= np.array(limit) + 1e-12)
+    assert within_limits(pump_samples(scene, traj))
+
+
+def test_the_shipped_flip_pumps_through_the_springs(shipped):
+    scene, result = shipped
+    # at least two pushes, each cycle's peak energy above the previous one's
+    assert result.cycles >= 2
+    energy = result.cycle_max_energy
+    assert all(b > a for a, b in zip(energy, energy[1:], strict=False)), energy
+    # the springs worked: the legs were compressed under load, and released
+    springs = scene.robot.springs
+    deflection = springs.deflection(result.trajectory.q)
+    assert springs.joints == ("spring_middle", "spring_rear")
+    assert np.all(deflection.min(axis=0) < -5e-3)  # more than 5 mm compressed at some instant
+    assert np.all(np.abs(deflection[-1]) < 1e-3)    # back at rest length, the legs in the air
+
+
+def test_the_samples_modes_are_the_modes_the_plan_allowed_but_for_a_few_transitions(shipped):
+    _, result = shipped
+    traj = result.trajectory
+    check = result.modes_check()
+    # recount from the samples' modes and each phase's allowed modes alone
+    outside = 0
+    for k in range(1, len(traj.times)):
+        phase = next(p for p in result.phases if p.start <= traj.times[k - 1] + 1e-12 < p.end)
+        starting = [p for p in result.phases if abs(p.start - traj.times[k]) <= 1e-12]
+        allowed = set(phase.allowed).union(*(p.allowed for p in starting))
+        outside += traj.modes[k] not in allowed
+    assert check["outside"] == outside and check["samples"] == len(traj.times) - 1
+    # what is left are lift-offs and touch-downs between two decisions: under 1 % of the samples
+    assert 0 < outside < 0.01 * check["samples"] and not check["within"]
+    # and every push keeps the front corner loaded in every one of its samples
+    for phase in result.phases:
+        if phase.kind == "push":
+            inside = (traj.times > phase.start) & (traj.times <= phase.end)
+            assert all(traj.modes[k][0] in "FLR" for k in np.nonzero(inside)[0])
+
+
+def test_the_energy_audit_closes_within_one_percent(shipped):
+    scene, result = shipped
+    audit, traj = result.energy_audit, result.trajectory
+    terms = audit.terms
+    energy = traj.info["energy"]
+    assert audit.change == pytest.approx(float(energy[-1] - energy[0]), abs=1e-12)
+    assert terms["drawn"] == pytest.approx(result.energy_drawn, rel=1e-12)
+    # the winding's heat, from the samples' currents alone
+    samples = pump_samples(scene, traj)["drives"]
+    dt = np.diff(traj.times)
+    heat = sum(scene.drives[j].resistance * np.asarray(d["current"])[1:] ** 2 * dt
+               for j, d in samples.items())
+    assert -terms["resistance"] == pytest.approx(float(np.sum(heat)), rel=1e-12)
+    # losses are losses
+    for name in ("resistance", "spring_damping", "slip", "landings", "time_stepping"):
+        assert terms[name] <= 0.0, name
+    assert terms["landings"] < -1.0 and terms["slip"] < -1.0 and terms["spring_damping"] < -0.5
+    # the sum closes on the measured change within 1 % of the energy drawn ...
+    assert audit.closes and abs(audit.residual) <= AUDIT_TOLERANCE * terms["drawn"]
+    # ... and would not without any one of the big terms
+    for name in ("resistance", "conversion", "slip", "landings"):
+        assert abs(audit.residual + terms[name]) > AUDIT_TOLERANCE * audit.scale, name
+    doc = result.to_dict()["energy_audit"]
+    assert set(AUDIT_TERMS) <= set(doc) and doc["closes"] is True
+
+
+def test_the_push_plan_sees_the_springs_state(shipped):
+    scene, _ = shipped
+    plan = plan_flip(scene)
+    # the same state with the middle leg compressed by 1 cm: its spring pushes 32 N, and the plan changes
+    q = np.array(scene.q)
+    q[scene.coordinate_names.index("spring_middle")] -= 0.01
+    compressed = plan_flip(scene.at(q, scene.v))
+    assert plan.found and compressed.found
+    assert compressed.pitch_acceleration != pytest.approx(plan.pitch_acceleration, rel=1e-3)
+
+
+@pytest.mark.slow
+def test_the_shipped_flip_passes_vertical_in_the_compliant_replay(shipped):
+    scene, result = shipped
+    check = verify_compliant(scene, result)
+    assert check["status"] == "completed" and check["torque_within_limits"]
+    assert check["flipped"] and check["time_to_vertical"] < 5.0, check
 
 
 def test_a_scene_without_drives_is_a_scene_error():
@@ -299,6 +459,9 @@ def test_frc_flip_pump_json_plot_and_exit_codes(tmp_path):
         bad = runner.invoke(app, ["flip", *args])
         assert bad.exit_code == 1 and "Traceback" not in bad.output and len(bad.stderr.splitlines()) == 1
     assert math.isfinite(doc["pump"]["energy_drawn"])
+    assert {"final_pitch", "right_side_up", "at_rest", "modes_check", "energy_audit"} <= set(doc["pump"])
+    text = runner.invoke(app, ["flip", "rhex_flip_drives", "--max-time", "0.3"])
+    assert text.exit_code == 0 and "right side up: no" in text.stdout and "energy audit" in text.stdout
 
 
 def _closed_form_hold(hip_to_corner: float, low: float, high: float) -> float:
@@ -318,7 +481,8 @@ def _closed_form_hold(hip_to_corner: float, low: float, high: float) -> float:
     return 0.5 * (low + high)
 
 
-def test_a_toe_that_reaches_the_ground_holds_the_body_only_with_the_centre_of_mass_behind_it(rhex):
+def test_a_toe_that_reaches_the_ground_holds_the_body_only_with_the_centre_of_mass_behind_it(rigid_legs):
+    rhex = rigid_legs
     budget = flip_budget(rhex)
     step, start = budget.pitch_step, budget.start_pitch - math.pi
     holds = {toe: [(a - math.pi, b - math.pi) for a, b in spans] for toe, spans in budget.hold_pitch.items()}

@@ -136,6 +136,36 @@ def _base_translation(scene: Scene) -> tuple[int, int]:
     return names.index("x"), names.index("y")
 
 
+def _hip_links(scene: Scene) -> dict[str, str]:
+    """Link -> the link whose origin is its hip.
+
+    The link itself or, through prismatic joints (a compliant leg's spring, a toe link sliding
+    along the leg), the link the first one hangs from.
+    """
+    from ..urdf import read_urdf
+
+    parent = {j.child: (j.parent, j.kind) for j in read_urdf(scene.robot.urdf_path).joints}
+    hips = {}
+    for link in {c.point.link for c in scene.contacts}:
+        hip = link
+        while hip in parent and parent[hip][1] == "prismatic":
+            hip = parent[hip][0]
+        hips[link] = hip
+    return hips
+
+
+def _leg_lengths(scene: Scene, hips: Mapping[str, str]) -> np.ndarray:
+    """[m] Each contact's distance from its hip at the scene's state.
+
+    For a toe on its leg's own link, ``|point_in_link|``; below a spring joint, with the spring as
+    the scene has it.
+    """
+    q = np.asarray(scene.q, dtype=float)
+    poses, points = scene.robot.link_poses(q), scene.robot.contact_points_in_world(q)
+    return np.array([float(np.linalg.norm(points[i] - poses[hips[c.point.link]][0]))
+                     for i, c in enumerate(scene.contacts)])
+
+
 def _driven_toes(scene: Scene, body: Sequence[str]) -> dict[str, list[int]]:
     """Driven joint -> its toes: the contacts (not the body's) on the link it turns."""
     from .pump import _leg_contacts
@@ -163,12 +193,15 @@ def flip_budget(scene: Scene, *, pitch_step: float = PITCH_STEP) -> FlipBudget:
     body = [names.index(n) for n in task.body_contacts]
     surface = np.array([c.point.surface_point_in_world for c in scene.contacts])
     toes = _driven_toes(scene, task.body_contacts)
+    hips = _hip_links(scene)
+    legs = _leg_lengths(scene, hips)
+    body_link = scene.contacts[body[0]].point.link
     pitches = np.append(np.arange(task.initial_pitch, task.vertical, pitch_step), task.vertical)
     start = robot.potential_energy(np.asarray(scene.q, dtype=float))
     energy = np.empty(pitches.size)
     lowest = np.empty(pitches.size, dtype=int)
     reaches = {joint: np.empty(pitches.size, dtype=bool) for joint in toes}
-    off_body = [i for i in range(len(names)) if i not in body]
+    off_body = [i for i, c in enumerate(scene.contacts) if i not in body and c.point.link != body_link]
     holds = np.empty((pitches.size, len(off_body)), dtype=bool)
     for k, pitch in enumerate(pitches):
         q = np.array(scene.q, dtype=float)
@@ -179,10 +212,12 @@ def flip_budget(scene: Scene, *, pitch_step: float = PITCH_STEP) -> FlipBudget:
         q[[ix, iy]] -= float(np.min(gaps)) * normal
         energy[k] = robot.potential_energy(q) - start
         poses = robot.link_poses(q)
-        for joint, legs in toes.items():
-            reaches[joint][k] = any(_toe_reaches(scene.contacts[t].point, poses, surface[t]) for t in legs)
-        pivot = robot.contact_points_in_world(q)[lowest[k]]
-        holds[k] = [_toe_holds(scene.contacts[t].point, poses, surface[t], pivot, robot.center_of_mass(q))
+        hip = [poses[hips[c.point.link]][0] for c in scene.contacts]
+        for joint, feet in toes.items():
+            reaches[joint][k] = any(_toe_reaches(scene.contacts[t].point, hip[t], legs[t], surface[t])
+                                    for t in feet)
+        pivot, com = robot.contact_points_in_world(q)[lowest[k]], robot.center_of_mass(q)
+        holds[k] = [_toe_holds(scene.contacts[t].point, hip[t], legs[t], surface[t], pivot, com)
                     for t in off_body]
     tip = int(np.argmax(energy))
     reach_pitch = {joint: _last_contiguous(pitches, ok) for joint, ok in reaches.items()}
@@ -196,25 +231,21 @@ def flip_budget(scene: Scene, *, pitch_step: float = PITCH_STEP) -> FlipBudget:
     )
 
 
-def _toe_reaches(toe: ContactPoint, poses: Mapping[str, tuple[np.ndarray, float]], surface: np.ndarray
-                 ) -> bool:
-    """Whether the toe's hip (its link's origin) is within the leg's length of the toe's surface."""
-    hip_height = float((poses[toe.link][0] - surface) @ toe.normal_in_world)
-    return hip_height <= float(np.linalg.norm(toe.point_in_link))
+def _toe_reaches(toe: ContactPoint, hip: np.ndarray, leg: float, surface: np.ndarray) -> bool:
+    """Whether the toe's hip [m, world] is within the leg's length ``leg`` [m] of the toe's surface."""
+    return float((hip - surface) @ toe.normal_in_world) <= leg
 
 
-def _toe_holds(toe: ContactPoint, poses: Mapping[str, tuple[np.ndarray, float]], surface: np.ndarray,
-               pivot: np.ndarray, com: np.ndarray) -> bool:
+def _toe_holds(toe: ContactPoint, hip: np.ndarray, leg: float, surface: np.ndarray, pivot: np.ndarray,
+               com: np.ndarray) -> bool:
     """Whether the toe can reach its surface at least as far from ``pivot`` as ``com``, on its side.
 
     Distances along the surface (the normal turned a quarter turn); the toe lies on the circle of
-    the leg's length about its hip (its link's origin).
+    the leg's length ``leg`` [m] about its hip ``hip`` [m, world].
     """
     normal = toe.normal_in_world
     tangent = np.array([-normal[1], normal[0]])
-    hip = poses[toe.link][0]
     height = float((hip - surface) @ normal)
-    leg = float(np.linalg.norm(toe.point_in_link))
     if height > leg:
         return False
     side = 1.0 if float((com - pivot) @ tangent) >= 0.0 else -1.0

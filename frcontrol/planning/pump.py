@@ -58,6 +58,7 @@ from ..drives import Drive, no_load_speed, stall_torque, torque_limits
 from ..errors import FrcontrolError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
 from ..scene import Scene
+from ..simulation.energy_audit import EnergyAudit, energy_audit
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER
@@ -71,7 +72,6 @@ from .flip import (
     _body_contacts,
     _gaps,
     _replan,
-    _time_to_vertical,
     flip_task,
     sample_modes,
 )
@@ -123,6 +123,22 @@ compliant body a few milliseconds behind the rigid one still gets to pass vertic
 LIMIT_TOLERANCE = 1e-9
 """[-] A sample's torque is within the motor's limits when it exceeds none of them by more than
 this times ``1 + |torque|`` (round-off of the line's evaluation)."""
+
+SETTLE_TIME = 1.5
+"""[s] After the pitch passes vertical the run goes on at most this long (the **land** phase): the
+body falls right side up onto its legs and comes to rest."""
+
+REST_SPEED = 0.02
+"""[m/s or rad/s] The body is at rest when its base velocities (x, y, pitch) are all at most this;
+the land phase then ends the run."""
+
+UPRIGHT_TOLERANCE = 0.3
+"""[rad] The run ends right side up when its last pitch is within this of upright (vertical + pi/2:
+2 pi for RHex, which starts on its back at pi)."""
+
+STAND_ANGLE = math.pi
+"""[rad] The hip angle the legs are driven to in the land phase (mod 2 pi): the URDF's zero, a leg
+pointing towards the belly, i.e. down once the body is right side up."""
 
 PUSH_DIRECTION_TOLERANCE = 1e-9
 """[V] A planned voltage of at most this size gives no pushing direction (the leg recirculates in
@@ -190,7 +206,7 @@ class PumpPhase:
     """One phase of the pumping flip.
 
     Attributes:
-        kind: ``"push"`` or ``"recirculate"``.
+        kind: ``"push"``, ``"recirculate"`` or ``"land"`` (after vertical).
         cycle: the pumping cycle it belongs to (a cycle starts with a push), from 1.
         start: [s] when it began; end: [s] when it ended.
         modes: the planned modes of a push (one letter per active contact), in order, without
@@ -201,6 +217,9 @@ class PumpPhase:
             repeats; a decision the acceleration-level model cannot judge (an impact) adds none.
             A push's decisions are its plans, each verified as the one rigid solution.
         unambiguous: every decision of the phase had exactly one rigid solution.
+        allowed: the modes the phase's decisions allowed, one letter per scene contact (S for a
+            contact a decision did not hold): a push's planned modes, a recirculation's or
+            landing's predicted ones.
     """
 
     kind: str
@@ -211,6 +230,7 @@ class PumpPhase:
     ended_by: str
     predicted: tuple[str, ...] = ()
     unambiguous: bool = True
+    allowed: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -237,6 +257,9 @@ class PumpResult:
         budget: the flip's energy barrier and the legs' reach (:func:`~.flip_budget.flip_budget`).
         cycle_max_energy: [J] per cycle, the body's largest mechanical energy above the start
             (:func:`~.flip_budget.body_energy`).
+        energy_audit: where the run's energy came from and went
+            (:func:`~frcontrol.simulation.energy_audit.energy_audit`).
+        final_pitch: [rad] the pitch at the run's last sample.
     """
 
     trajectory: Trajectory
@@ -258,6 +281,38 @@ class PumpResult:
     compliant: Mapping[str, Any] | None = None
     budget: FlipBudget | None = None
     cycle_max_energy: tuple[float, ...] = ()
+    energy_audit: EnergyAudit | None = None
+    final_pitch: float = math.nan
+
+    @property
+    def upright_pitch(self) -> float:
+        """[rad] Right side up after the flip: vertical + pi/2."""
+        return self.vertical + 0.5 * math.pi
+
+    @property
+    def right_side_up(self) -> bool:
+        """The run ends within :data:`UPRIGHT_TOLERANCE` of :attr:`upright_pitch`."""
+        return abs(self.final_pitch - self.upright_pitch) < UPRIGHT_TOLERANCE
+
+    def modes_check(self) -> dict[str, Any]:
+        """Every sample's contact modes against the modes its phase's decisions allowed.
+
+        Sample k (the end of the step from k-1) is judged against the modes allowed by the phase
+        whose decisions chose that step's voltages (``start <= t_k-1 < end``) and, where a phase
+        starts at the sample (a decision made at that very state), by that phase too. Returns
+        ``within`` (every sample's mode is allowed), ``samples``, ``outside`` (how many are not)
+        and ``first`` (``time``, ``mode``, ``phase`` of the first that is not; None).
+        """
+        times, modes = self.trajectory.times, self.trajectory.modes or ()
+        outside, first = 0, None
+        for k in range(1, len(times)):
+            phase = next((p for p in self.phases if p.start <= times[k - 1] + 1e-12 < p.end), self.phases[-1])
+            starting = [p for p in self.phases if abs(p.start - times[k]) <= 1e-12]
+            if modes[k] not in phase.allowed and not any(modes[k] in p.allowed for p in starting):
+                outside += 1
+                if first is None:
+                    first = {"time": float(times[k]), "mode": modes[k], "phase": phase.kind}
+        return {"within": outside == 0, "samples": len(times) - 1, "outside": outside, "first": first}
 
     @property
     def cycles(self) -> int:
@@ -268,7 +323,7 @@ class PumpResult:
         """The ``pump`` part of ``frc flip --json``: cycles, time to flip, energy, phases, drives."""
         phases = [{"kind": p.kind, "cycle": p.cycle, "start": p.start, "end": p.end,
                    "modes": list(p.modes), "ended_by": p.ended_by, "predicted": list(p.predicted),
-                   "unambiguous": p.unambiguous} for p in self.phases]
+                   "unambiguous": p.unambiguous, "allowed": list(p.allowed)} for p in self.phases]
         drives = {d.joint: {"resistance": d.resistance, "torque_constant": d.torque_constant,
                             "back_emf_constant": d.back_emf_constant, "voltage_limit": d.voltage_limit,
                             "ratio": d.ratio, "efficiency": d.efficiency, "stall_torque": stall_torque(d),
@@ -282,6 +337,11 @@ class PumpResult:
             "budget": None if self.budget is None else self.budget.to_dict(),
             "cycle_max_energy": list(self.cycle_max_energy),
             "max_energy": max(self.cycle_max_energy, default=None),
+            "final_pitch": self.final_pitch, "upright_pitch": self.upright_pitch,
+            "right_side_up": self.right_side_up, "upright_tolerance": UPRIGHT_TOLERANCE,
+            "settle_time": SETTLE_TIME, "rest_speed": REST_SPEED,
+            "at_rest": self.phases[-1].ended_by == "at rest", "modes_check": self.modes_check(),
+            "energy_audit": None if self.energy_audit is None else self.energy_audit.to_dict(),
         })
 
 
@@ -300,7 +360,7 @@ class _PumpPolicy:
         self.scene, self.drives = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE), list(drives)
         self.names = scene.inputs.coordinates
         self.index = np.array(scene.inputs.indices)
-        self.pitch_index = task.pitch_index
+        self.pitch_index, self.vertical = task.pitch_index, task.vertical
         self.margin, self.solver = margin, solver
         self.force_tolerance = CONTACT_FORCE_TOLERANCE * scene.robot.weight_scale()
         self.legs = _leg_contacts(scene, task.body_contacts)
@@ -314,6 +374,20 @@ class _PumpPolicy:
         self.phases: list[PumpPhase] = []
         self.plans: list[tuple[float, str | None, str | None]] = []
         self.planning_time = 0.0
+        self.allowed: list[str] = []  # this phase's decisions: one letter per scene contact
+        self.contact_names = tuple(c.name for c in scene.contacts)
+
+    def land(self, t: float, q: np.ndarray) -> None:
+        """The pitch passed vertical: the land phase, the legs driven to :data:`STAND_ANGLE`."""
+        self._next_phase(t, "land", "vertical passed")
+        self.target = self._recirculation_targets(q, np.full(len(self.names), STAND_ANGLE))
+
+    def _allow(self, contacts: Sequence[str], mode: str) -> None:
+        """Record a decision's mode, over the scene's contacts (S for those it did not hold)."""
+        letters = dict(zip(contacts, mode, strict=True))
+        full = "".join(letters.get(name, "S") for name in self.contact_names)
+        if full not in self.allowed:
+            self.allowed.append(full)
 
     def toes_down(self, q: np.ndarray) -> bool:
         """Whether a leg has a contact on its surface."""
@@ -323,9 +397,12 @@ class _PumpPolicy:
     def __call__(self, stepper: RigidStepper) -> np.ndarray:
         """The voltages from the stepper's state on."""
         q, v, t = stepper.q, stepper.v, stepper.t
+        if self.kind == "land" and q[self.pitch_index] < self.vertical and v[self.pitch_index] < 0:
+            self._next_phase(t, "recirculate", "the body fell back below vertical")
+            self.target = self._recirculation_targets(q, self.touchdown)
         if self.kind == "recirculate" and v[self.pitch_index] <= FALL_PITCH_RATE and self.toes_down(q):
             self._next_phase(t, "push", "the body is back on a toe")
-        if self.kind == "recirculate":
+        if self.kind in ("recirculate", "land"):
             return self._checked(stepper, self._recirculation(q, v[self.index]))
         plan, why = self._plan(stepper)
         self.plans.append((t, None if plan is None else plan.mode, why))
@@ -333,9 +410,11 @@ class _PumpPolicy:
             if why is not None and why.startswith("impact"):  # a landing: plan at the next call
                 return self._recirculation(q, v[self.index])
             self._next_phase(t, "recirculate", why or "no plan")
-            self.target = self._recirculation_targets(q)
+            self.target = self._recirculation_targets(q, self.touchdown)
             return self._checked(stepper, self._recirculation(q, v[self.index]))
         volts = plan.input_vector(self.names)
+        if plan.mode is not None:
+            self._allow(plan.contacts, plan.mode)
         pushing = np.abs(volts) > PUSH_DIRECTION_TOLERANCE
         self.direction[pushing] = np.sign(volts[pushing])
         if plan.mode is not None and (not self.modes or self.modes[-1] != plan.mode):
@@ -366,16 +445,19 @@ class _PumpPolicy:
         self.planning_time += time.perf_counter() - start
         if modes is not None:
             self.unambiguous &= len(modes) == 1
+            here = self.scene.at(stepper.q, stepper.v)
+            active = [c for i, c in enumerate(self.contact_names) if here.contacts[i].active or loaded[i]]
             for mode in modes:
+                self._allow(active, mode)
                 if mode not in self.predicted:
                     self.predicted.append(mode)
         return volts
 
-    def _recirculation_targets(self, q: np.ndarray) -> np.ndarray:
-        """Each leg's touch-down angle, less than one turn on in its pushing direction."""
+    def _recirculation_targets(self, q: np.ndarray, goal: np.ndarray) -> np.ndarray:
+        """Each leg's ``goal`` angle [rad], less than one turn on in its pushing direction."""
         angles = q[self.index]
-        turns = np.floor(self.direction * (angles - self.touchdown) / (2 * math.pi)) + 1
-        return self.touchdown + self.direction * 2 * math.pi * turns
+        turns = np.floor(self.direction * (angles - goal) / (2 * math.pi)) + 1
+        return goal + self.direction * 2 * math.pi * turns
 
     def _recirculation(self, q: np.ndarray, speeds: np.ndarray) -> np.ndarray:
         """[V] The legs' loop towards their targets, within each drive's voltage limit."""
@@ -385,13 +467,14 @@ class _PumpPolicy:
 
     def _phase(self, t: float, why: str) -> PumpPhase:
         return PumpPhase(self.kind, self.cycle, self.start, t, tuple(self.modes), why, tuple(self.predicted),
-                         self.unambiguous)
+                         self.unambiguous, tuple(self.allowed))
 
     def _next_phase(self, t: float, kind: str, why: str) -> None:
         self.phases.append(self._phase(t, why))
         if kind == "push":
             self.cycle += 1
         self.kind, self.start, self.modes, self.predicted, self.unambiguous = kind, t, [], [], True
+        self.allowed = []
 
     def close(self, t: float, why: str) -> tuple[PumpPhase, ...]:
         """The phases, the last one ended at ``t`` by ``why``."""
@@ -465,32 +548,23 @@ def simulate_pump(
     drives = check_pump_scene(scene)
     policy = _PumpPolicy(scene, drives, margin, solver)
     stepper = RigidStepper(policy.scene, RigidSettings(max_ambiguity_checks=0))
-    volts = np.zeros(scene.inputs.count)
-    steps = int(math.ceil(max_time / dt - 1e-9))
-    for k in range(steps):
-        if k % replan_every == 0:
-            volts = policy(stepper)
-            if progress is not None:
-                progress(stepper.t, max_time)
-        if not stepper.step(volts, min(dt, max_time - stepper.t)):
-            break
-        if stepper.q[task.pitch_index] >= task.vertical:
-            break
+    crossed = _run(policy, stepper, task, dt, max_time, replan_every, progress)
     trajectory = stepper.trajectory(dt)
-    flipped = bool(trajectory.q[-1, task.pitch_index] >= task.vertical)
     trajectory = replace(trajectory, modes=tuple(sample_modes(scene, trajectory)),
                          info={**trajectory.info, "source": "simulate_pump"})
-    end = float(trajectory.times[-1])
+    flipped = crossed is not None
     failure = trajectory.failure
-    phases = policy.close(end, "vertical passed" if flipped else failure.reason if failure is not None
-                          else "the end of the run")
-    separation, _ = _body_contacts(scene, trajectory, task.body_contacts, len(trajectory.times) - 1)
+    end_reason = ("at rest" if _at_rest(trajectory.v[-1], task) else "the settling time's end") if flipped \
+        else failure.reason if failure is not None else "the end of the run"
+    phases = policy.close(float(trajectory.times[-1]), end_reason)
+    last = len(trajectory.times) - 1 if crossed is None else crossed
+    separation, _ = _body_contacts(scene, trajectory, task.body_contacts, last)
     pitch = trajectory.q[:, task.pitch_index]
     budget, energy = _budget(scene, trajectory)
     total = time.perf_counter() - start
     return PumpResult(
         trajectory=trajectory, drives=tuple(drives), phases=phases, flipped=flipped,
-        time_to_vertical=_time_to_vertical(trajectory, task) if flipped else None,
+        time_to_vertical=_crossing_time(trajectory.times, pitch, task.vertical, crossed),
         max_pitch=float(pitch.max()), vertical=task.vertical,
         cycle_max_pitch=_cycle_max(trajectory.times, pitch, phases),
         energy_drawn=energy_drawn(scene, trajectory), body_contact_kept=separation is None,
@@ -501,7 +575,55 @@ def simulate_pump(
         timings={"planning": policy.planning_time, "simulation": total - policy.planning_time,
                  "total": total},
         budget=budget, cycle_max_energy=_cycle_max(trajectory.times, energy, phases) if energy.size else (),
+        energy_audit=energy_audit(scene, trajectory), final_pitch=float(pitch[-1]),
     )
+
+
+def _run(policy: _PumpPolicy, stepper: RigidStepper, task: Any, dt: float, max_time: float,
+         replan_every: int, progress: Callable[[float, float], None] | None) -> int | None:
+    """Step the closed loop; return the first sample at or past vertical (None: not reached).
+
+    Until ``max_time`` or, once the pitch has passed vertical (the land phase), until the body is
+    at rest right side up or :data:`SETTLE_TIME` has passed since it last did (a body that falls
+    back on its back is pumped again).
+    """
+    volts = np.zeros(len(policy.names))
+    end, crossed, k, samples = max_time, None, 0, 0
+    while stepper.t < end - 1e-9:
+        if k % replan_every == 0:
+            volts = policy(stepper)
+            if progress is not None:
+                progress(stepper.t, end)
+        if not stepper.step(volts, min(dt, end - stepper.t)):
+            break
+        k, samples = k + 1, samples + 1
+        pitch = stepper.q[task.pitch_index]
+        if policy.kind != "land" and pitch >= task.vertical:
+            crossed = samples if crossed is None else crossed
+            end = max(end, stepper.t + SETTLE_TIME)
+            policy.land(stepper.t, stepper.q)
+            k = 0  # decide at once
+        elif policy.kind == "land" and _at_rest(stepper.v, task) \
+                and abs(pitch - task.vertical - 0.5 * math.pi) < UPRIGHT_TOLERANCE:
+            break
+    return crossed
+
+
+def _at_rest(v: np.ndarray, task: Any) -> bool:
+    """Whether the base's velocities (the pitch's and the two before it) are all within :data:`REST_SPEED`."""
+    base = np.asarray(v)[max(task.pitch_index - 2, 0): task.pitch_index + 1]
+    return bool(np.all(np.abs(base) <= REST_SPEED))
+
+
+def _crossing_time(times: np.ndarray, pitch: np.ndarray, vertical: float, crossed: int | None
+                   ) -> float | None:
+    """[s] When the pitch crossed vertical (linear between the samples around ``crossed``)."""
+    if crossed is None:
+        return None
+    if crossed == 0:
+        return 0.0
+    t_a, t_b, p_a, p_b = times[crossed - 1], times[crossed], pitch[crossed - 1], pitch[crossed]
+    return float(t_a + (vertical - p_a) / (p_b - p_a) * (t_b - t_a))
 
 
 def _budget(scene: Scene, trajectory: Trajectory) -> tuple[FlipBudget | None, np.ndarray]:
@@ -578,8 +700,8 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
     """The rigid run's voltages, replayed against time, on the compliant model.
 
     Radau, critical damping, ``stiffness`` [N/m] on every listed contact (so the rear corner can
-    land), each sample interval holding the voltage the rigid run held there (after a rigid flip,
-    :data:`COMPLIANT_EXTRA_TIME` more with the last voltages).
+    land), each sample interval holding the voltage the rigid run held there, up to the rigid
+    run's time to vertical plus :data:`COMPLIANT_EXTRA_TIME` (after a rigid flip), else ``max_time``.
 
     Returns:
         ``stiffness``, ``flipped`` (the pitch passed vertical), ``time_to_vertical`` [s],
@@ -596,8 +718,8 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
         return voltages[min(int(round(t / dt)) + 1, len(voltages) - 1)]
 
     start = time.perf_counter()
-    end = float(result.trajectory.times[-1])
-    duration = end + COMPLIANT_EXTRA_TIME if result.flipped else result.max_time
+    flip_time = result.time_to_vertical
+    duration = flip_time + COMPLIANT_EXTRA_TIME if flip_time is not None else result.max_time
     run = simulate_compliant(scene, held, duration=max(duration, dt), dt=dt, stiffness=stiffness,
                              contacts="all")
     pitch = run.q[:, task.pitch_index]
