@@ -11,7 +11,6 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-import typer
 from typer.testing import CliRunner
 
 from frcontrol.engine import solutions_at
@@ -64,13 +63,10 @@ def with_limits(scene, lower, upper):
 
 
 def app():
-    """A Typer app with the flip command (the real app registers it as ``frc flip``)."""
-    from frcontrol.cli.flip_cmd import flip_command
+    """The real ``frc`` group (``frc flip`` in it): its one-line usage errors and error lines."""
+    from frcontrol.cli.app import app as frc_app
 
-    application = typer.Typer()
-    application.command("flip")(flip_command)
-    application.command("noop")(lambda: None)  # two commands: Typer keeps the sub-command name
-    return application
+    return frc_app
 
 
 def unique_mode(analysis, u):
