@@ -28,6 +28,7 @@ from . import (
     view_cmd,
 )
 from .common import Interrupted, fail
+from .options import worded_once
 
 
 class FrcGroup(TyperGroup):
@@ -56,6 +57,7 @@ class FrcGroup(TyperGroup):
             err.show()
             code = err.exit_code
         except ClickException as err:
+            worded_once(err)
             hint = f" (see '{err.ctx.command_path} -h')" if isinstance(err, UsageError) and err.ctx else ""
             message = " ".join(err.format_message().split())
             sys.stderr.write(f"frc: error: {message}{hint}\n")
