@@ -28,6 +28,7 @@ from . import (
     view_cmd,
 )
 from .common import Interrupted, fail
+from .options import worded_once
 
 
 class FrcGroup(TyperGroup):
@@ -56,6 +57,7 @@ class FrcGroup(TyperGroup):
             err.show()
             code = err.exit_code
         except ClickException as err:
+            worded_once(err)
             hint = f" (see '{err.ctx.command_path} -h')" if isinstance(err, UsageError) and err.ctx else ""
             message = " ".join(err.format_message().split())
             sys.stderr.write(f"frc: error: {message}{hint}\n")
@@ -66,9 +68,28 @@ class FrcGroup(TyperGroup):
         except Interrupted as err:
             sys.stderr.write(f"frc: error: {err}\n")
             code = err.exit_code
+        else:
+            if code == 130:  # Typer's own exit for a Ctrl-C while the command line is read: silent
+                sys.stderr.write("frc: error: interrupted by SIGINT\n")
+        if code in (130, 143):
+            _exit_code_as_given()
         if not standalone_mode:
             return code
         sys.exit(code if isinstance(code, int) else 0)
+
+
+def _exit_code_as_given() -> None:
+    """Keep an interrupted run's exit code (130, 143) as it is, whatever ran when the signal came.
+
+    CPython remembers a KeyboardInterrupt that ended code it ran for a C extension (Boost.Python's
+    ``exec``, which Pinocchio calls) even when the command caught it, and ``python -m`` then ends
+    the process by SIGINT instead of with the code it was given. SIGINT is blocked for the last
+    moments of the run (the cleanup at exit): that self-signal stays pending, and the code stands.
+    """
+    import signal
+
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
 
 
 app = typer.Typer(

@@ -72,6 +72,31 @@ def in_range(low: float | None = None, high: float | None = None, *, above: floa
     return NumberRange(low, high, above=above, unit=unit).check
 
 
+def worded_once(err: Any) -> None:
+    """Reword a bad option value's usage error in place: one option name, the option's range.
+
+    The option is named once, by its long name ("'--duration'", not "'--duration' / '-T'"), and a
+    value that is not a number is answered with the option's range ("expected a finite number > 0
+    [s], got 'abc'"), not the parser's words.
+    """
+    param = getattr(err, "param", None)
+    if param is None or getattr(err, "param_hint", None) is not None:
+        return
+    names = [name for name in param.opts if name.startswith("--")] or list(param.opts)
+    err.param_hint = f"'{names[0]}'"
+    parsing = err.__cause__
+    info = getattr(getattr(param, "type_descriptor", None), "parameter_info", None)
+    limits = getattr(getattr(info, "callback", None), "__self__", None)
+    if isinstance(limits, NumberRange) and hasattr(parsing, "errors") and parsing.errors():
+        first = parsing.errors()[0]
+        expected = limits.expected()
+        if str(first.get("type", "")).startswith("int"):
+            expected = expected.replace("a finite number", "a whole number")
+        err.message = f"expected {expected}, got {first.get('input')!r}"
+    elif err.message.startswith("Value error, "):  # a choice's check: its own words, without the parser's
+        err.message = err.message.removeprefix("Value error, ").rstrip(".")
+
+
 def usage_error(option: str, message: str) -> typer.BadParameter:
     """The exit-2 error to raise for a bad value of ``option`` found inside a command."""
     return typer.BadParameter(message, param_hint=f"'{option}'")
@@ -349,6 +374,7 @@ __all__ = [
     "margin_option",
     "output_path",
     "usage_error",
+    "worded_once",
     "load_scene_with_overrides",
     "parse_inputs",
     "plot_option",

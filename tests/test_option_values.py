@@ -40,6 +40,9 @@ FREE_TEXT = {
 }
 """Bad values of the options whose type says nothing about what they accept."""
 
+PARSER_WORDS = ("Input should", "unable to parse", "Value error")
+"""The value parser's own wording, which a usage error replaces with the option's range or choices."""
+
 BASE = {
     "analyze": ["rod_on_table"], "show": ["rod_on_table"], "statics": ["rod_on_table"],
     "view": ["rod_on_table"], "simulate": ["rod_on_table", "-T", "0.01"], "validate": ["rod_on_table"],
@@ -104,6 +107,8 @@ def test_every_option_refuses_a_bad_value_with_exit_2_and_one_line(command, opti
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("frc: error: "), result.stderr
     assert f"'{option}'" in lines[0] and "Traceback" not in result.stderr
+    assert lines[0].count("'-") == 1, lines[0]  # the option named once, by its long name
+    assert not any(words in lines[0] for words in PARSER_WORDS), lines[0]
     assert result.stdout == "" and list(tmp_path.iterdir()) == []
 
 

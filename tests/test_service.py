@@ -767,3 +767,106 @@ def test_post_plan_answers_frc_plan_json(client):
     assert served_doc["outcome"]["achieved"] is True
     refused = client.post("/plan", json={"scene": "rhex_flip"})
     assert refused.status_code == 422 and "task.phases" in refused.text
+
+
+# --- frc serve for programs: the JSON line while it runs, logs on stderr, /docs offline ----------
+
+class _Lines:
+    """A pipe's lines as they come (a reader thread), to wait for one with a limit."""
+
+    def __init__(self, stream) -> None:
+        import queue
+
+        self.queue: queue.Queue[str | None] = queue.Queue()
+        self.seen: list[str] = []
+        self.thread = threading.Thread(target=self._read, args=(stream,), daemon=True)
+        self.thread.start()
+
+    def _read(self, stream) -> None:
+        for line in stream:
+            self.queue.put(line)
+        self.queue.put(None)  # the pipe closed: the process ended
+
+    def next(self, timeout: float) -> str | None:
+        """The next line, or None once the pipe is closed; fails after ``timeout`` seconds."""
+        import queue
+
+        try:
+            line = self.queue.get(timeout=timeout)
+        except queue.Empty:
+            raise AssertionError(f"no line within {timeout} s; so far: {''.join(self.seen)[-500:]}") from None
+        if line is not None:
+            self.seen.append(line)
+        return line
+
+    def until(self, found, timeout: float) -> str:
+        """Lines until one for which ``found(line)`` holds; fails at the pipe's end or the limit."""
+        deadline = time.monotonic() + timeout
+        while True:
+            line = self.next(max(deadline - time.monotonic(), 0.01))
+            assert line is not None, f"ended first: {''.join(self.seen)[-500:]}"
+            if found(line):
+                return line
+
+    def rest(self) -> str:
+        """Everything after what was read, once the pipe is closed."""
+        self.thread.join(timeout=60)
+        assert not self.thread.is_alive()
+        lines = []
+        while (line := self.queue.get_nowait()) is not None:
+            lines.append(line)
+        return "".join(lines)
+
+
+def _same_origin_links(page: str, base: str) -> list[str]:
+    """Every src/href the page references, resolved against ``base``."""
+    from html.parser import HTMLParser
+    from urllib.parse import urljoin
+
+    links: list[str] = []
+
+    class Links(HTMLParser):
+        def handle_starttag(self, tag, attrs):
+            links.extend(urljoin(base, value) for name, value in attrs if name in ("src", "href") and value)
+
+    Links().feed(page)
+    return links
+
+
+@pytest.mark.slow
+def test_serve_json_prints_its_line_while_serving_logs_on_stderr_and_docs_offline():
+    """The {"url", "docs"} line is read from a pipe while the service runs (no unbuffered mode):
+    the line means ready, its URL answers; the access log reaches stderr, stdout holds the line
+    alone; /docs and every script, style sheet and icon it names come from the service itself."""
+    from urllib.parse import urlsplit
+
+    port = free_port()
+    buffered = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}  # a pipe, as programs see it
+    process = subprocess.Popen([sys.executable, "-m", "frcontrol", "serve", "--port", str(port),
+                                "--workers", "1", "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True, env=buffered, cwd=Path(__file__).parent)
+    try:
+        stdout, stderr = _Lines(process.stdout), _Lines(process.stderr)
+        line = stdout.next(timeout=120)  # the line itself says the service listens
+        assert line is not None and line.endswith("\n"), (line, process.poll())
+        announced = json.loads(line)
+        url = f"http://127.0.0.1:{port}"
+        assert announced == {"url": url, "docs": f"{url}/docs"}
+        with httpx.Client(timeout=60) as http:
+            assert http.get(f"{url}/health").json()["status"] == "ok"
+            stderr.until(lambda text: '"GET /health HTTP/1.1" 200' in text, timeout=60)  # the access log
+            docs = http.get(announced["docs"])
+            assert docs.status_code == 200 and "swagger-ui" in docs.text
+            links = _same_origin_links(docs.text, announced["docs"])
+            assert {"swagger-ui-bundle.js", "swagger-ui.css"} <= {link.rsplit("/", 1)[-1] for link in links}
+            for link in links:
+                assert urlsplit(link)[:2] == urlsplit(url)[:2], f"/docs loads {link} from elsewhere"
+                assert http.get(link).status_code == 200, link
+            assert "'/openapi.json'" in docs.text and http.get(f"{url}/openapi.json").status_code == 200
+    finally:
+        process.send_signal(signal.SIGTERM)
+        process.wait(timeout=60)
+    assert process.returncode == 0
+    assert stdout.rest() == ""  # the JSON line was all of stdout
+    log = "".join(stderr.seen) + stderr.rest()
+    assert '"GET /docs HTTP/1.1" 200' in log and "Traceback" not in log
