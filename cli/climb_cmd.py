@@ -88,9 +88,10 @@ def climb_command(
 
         raise InputError("--scale sets the gait's simulated disturbances: add --cycles N")
     with common.live_viewer(view, port) as server:
-        with common.progress("planning the climb...") as status:
+        with common.progress("planning the climb", "s") as shown:
             plan, result = plan_and_climb(loaded, margin=margin, duration=duration, seed=seed,
-                                          on_simulation=lambda: status.update("simulating the climb..."))
+                                          on_simulation=lambda: shown.stage("simulating the climb"),
+                                          progress=shown)
         if not plan.found:  # an answer, not an error (exit 0): the JSON says why
             if json:
                 common.print_json(plan.to_dict(None))
@@ -121,11 +122,10 @@ def _gait(loaded: Any, cycles: int, *, margin: float, seed: int, scale: float | 
         raise InputError("--plot draws the single brace's figure; with --cycles use --html (an animation) "
                          "or --json (the samples)")
     with common.live_viewer(view, port) as server:
-        with common.progress("planning the gait...") as status:
+        with common.progress("planning the gait", "phases") as shown:
             plan, result = plan_and_gait(
                 loaded, cycles=cycles, margin=margin, seed=seed, scale=scale,
-                on_simulation=lambda: status.update("simulating the gait..."),
-                progress=lambda done, total: status.update(f"simulating the gait: phase {done}/{total}"))
+                on_simulation=lambda: shown.stage("simulating the gait"), progress=shown)
         common.answer(gait_payload(plan, result), render_gait, json=json)
         common.write_motion(loaded, result.trajectory, html=html, out=out, json=json)
         if server is not None:

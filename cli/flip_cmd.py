@@ -98,11 +98,10 @@ def _plan_and_fly(scene: Scene, margin: float, max_time: float, dt: float, repla
     """The plan and, when one is found and ``max_time`` > 0, the simulated closed loop."""
     from frcontrol.answers import plan_and_fly
 
-    with common.progress("planning the flip...") as status:
+    with common.progress("planning the flip", "s") as shown:
         return plan_and_fly(
             scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
-            on_simulation=lambda: status.update(f"simulating the flip (up to {max_time:g} s)..."),
-            progress=lambda t, total: status.update(f"simulating the flip: {t:.3f} / {total:g} s"))
+            on_simulation=lambda: shown.stage(f"simulating the flip (up to {max_time:g} s)"), progress=shown)
 
 
 def _driven(scene: Scene) -> bool:
@@ -115,10 +114,10 @@ def _pump(scene: Scene, *, json: bool, html: Any, out: Any, plot: Any, margin: f
     """``frc flip --pump``: the pumping run, its answer, figure, page and export."""
     from frcontrol.planning.pump import pump_flip, pump_payload
 
-    with common.progress("pumping the flip...") as status:
+    with common.progress("pumping the flip (up to the time limit)", "s") as shown:
         plan, result = pump_flip(
             scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every, compliant=compliant,
-            progress=lambda t, total: status.update(f"pumping the flip: {t:.3f} / {total:g} s"))
+            progress=shown)
     common.answer(pump_payload(scene, plan, result), render_pump, json=json)
     if plot is not None and result is not None:
         from frcontrol.viz.pump_figure import plot_pump

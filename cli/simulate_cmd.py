@@ -114,9 +114,9 @@ def _simulate(scene: Scene, model: ContactModel | None, stiffness: float | None,
     from frcontrol.simulation.model_table import model_options
 
     chosen = model.value if model is not None else model_options(scene).contact
-    with common.progress(f"simulating {duration:g} s on the {chosen} model..."):
+    with common.progress(f"simulating on the {chosen} model", "s") as shown:
         return run_simulation(scene, inputs, model=chosen, stiffness=stiffness, damping=damping,
-                              duration=duration, dt=dt, integrator=integrator)
+                              duration=duration, dt=dt, integrator=integrator, progress=shown)
 
 
 def _report_validity(traj: Trajectory) -> None:

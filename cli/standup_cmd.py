@@ -49,10 +49,9 @@ def standup_command(
     loaded = options.load_scene_with_overrides(scene, sets)
     from frcontrol.planning.standup import simulate_standup
 
-    with common.progress("planning the stand-up...") as status:
+    with common.progress("the stand-up (planned and simulated)", "s") as shown:
         result = simulate_standup(
-            loaded, duration=max_time, dt=dt, replan_every=replan_every, margin=margin,
-            progress=lambda t, total: status.update(f"simulating the stand-up: {t:.3f} / {total:g} s"))
+            loaded, duration=max_time, dt=dt, replan_every=replan_every, margin=margin, progress=shown)
     common.answer(result.to_dict(loaded), render, json=json)
     common.write_motion(loaded, result.trajectory, html=html, out=out, json=json)
 

@@ -8,7 +8,7 @@ hold no I/O: progress is a callback, files and rendering stay with the caller.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from .errors import InputError
@@ -59,12 +59,43 @@ def analysis_payload(scene: Scene, result: DynamicResponse, solutions: list[Rigi
     payload = result.to_dict([c.name for c in scene.contacts if not c.active])
     if solutions is not None:
         payload["solutions"] = solutions_payload(result, solutions)
-    return payload
+    return with_scene_modes(payload, [c.name for c in scene.contacts])
+
+
+def with_scene_modes(document: dict[str, Any], scene_contacts: Sequence[str]) -> dict[str, Any]:
+    """Add ``"scene_contacts"``, and ``"scene_mode"`` beside every ``"mode"`` of ``document``.
+
+    A ``"mode"`` has one letter per contact of the nearest ``"contacts"`` (a list of names, or a
+    table by name) at its level or above: the touching contacts. Its ``"scene_mode"`` has one
+    letter per contact of the scene, in scene order, ``S`` for those apart
+    (:func:`frcontrol.modes.scene_mode`): the form every text table, figure and page shows.
+    Returns ``document``, changed in place.
+    """
+    from .modes import scene_mode
+
+    def walk(node: Any, contacts: list[str] | None) -> None:
+        if isinstance(node, dict):
+            own = node.get("contacts")
+            if isinstance(own, (list, dict)) and all(isinstance(c, str) for c in own):
+                contacts = list(own)
+            mode = node.get("mode")
+            if isinstance(mode, str) and contacts is not None and len(mode) == len(contacts):
+                node["scene_mode"] = scene_mode(mode, contacts, scene_contacts)
+            for value in list(node.values()):
+                walk(value, contacts)
+        elif isinstance(node, list):
+            for value in node:
+                walk(value, contacts)
+
+    document["scene_contacts"] = list(scene_contacts)
+    walk(document, None)
+    return document
 
 
 def run_simulation(scene: Scene, inputs: Mapping[str, float], *, model: str | None = None,
                    stiffness: float | None = None, damping: float | None = None, duration: float = 1.0,
-                   dt: float = 1e-3, integrator: str = "radau") -> Trajectory:
+                   dt: float = 1e-3, integrator: str = "radau",
+                   progress: Callable[[float, float], None] | None = None) -> Trajectory:
     """The run ``frc simulate`` makes: on ``model`` (default: the scene's ``[model]`` contact).
 
     Args:
@@ -76,6 +107,7 @@ def run_simulation(scene: Scene, inputs: Mapping[str, float], *, model: str | No
         duration: [s] simulated time.
         dt: [s] the rigid step; the compliant sample interval.
         integrator: the compliant model's integrator.
+        progress: called with (simulated time [s], duration [s]) as the run advances.
 
     Raises:
         InputError: an unknown model, or stiffness or damping with the rigid model; see the simulators.
@@ -90,9 +122,9 @@ def run_simulation(scene: Scene, inputs: Mapping[str, float], *, model: str | No
     if chosen == "rigid" and (stiffness is not None or damping is not None):
         raise InputError("--stiffness and --damping belong to the compliant model: add --model compliant")
     if chosen == "rigid":
-        return simulate_rigid(scene, inputs, duration, dt)
+        return simulate_rigid(scene, inputs, duration, dt, progress=progress)
     return simulate_compliant(scene, inputs, duration, dt, integrator=integrator,
-                              stiffness=stiffness, damping=damping)
+                              stiffness=stiffness, damping=damping, progress=progress)
 
 
 def simulation_failure(trajectory: Trajectory) -> str | None:
@@ -131,7 +163,8 @@ def plan_and_fly(scene: Scene, *, margin: float, max_time: float, dt: float, rep
 
 
 def plan_and_climb(scene: Scene, *, margin: float, duration: float, seed: int,
-                   on_simulation: Callable[[], None] | None = None
+                   on_simulation: Callable[[], None] | None = None,
+                   progress: Callable[[float, float], None] | None = None
                    ) -> tuple[ClimbPlan, ClimbResult | None]:
     """``frc climb``'s work: the plan and, when one is found and ``duration`` > 0, the simulated check.
 
@@ -141,6 +174,7 @@ def plan_and_climb(scene: Scene, *, margin: float, duration: float, seed: int,
         duration: [s] simulated time under sampled disturbances (0: plan only).
         seed: seed of the sampled disturbances.
         on_simulation: called once when the simulation starts.
+        progress: called with (simulated time, duration) along the simulation.
 
     Raises:
         InputError: a seed that is not an integer >= 0 (before any planning); see the planner.
@@ -154,7 +188,7 @@ def plan_and_climb(scene: Scene, *, margin: float, duration: float, seed: int,
         return plan, None
     if on_simulation is not None:
         on_simulation()
-    return plan, simulate_climb(scene, plan, duration=duration, seed=seed)
+    return plan, simulate_climb(scene, plan, duration=duration, seed=seed, progress=progress)
 
 
 def plan_and_gait(scene: Scene, *, cycles: int, margin: float, seed: int, scale: float | None = None,
@@ -193,5 +227,6 @@ __all__ = [
     "plan_and_gait",
     "run_simulation",
     "simulation_failure",
+    "with_scene_modes",
     "solutions_payload",
 ]

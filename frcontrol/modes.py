@@ -526,8 +526,56 @@ def contact_mode_letter(normal_force: float, tangential_velocity: float, force_t
     return "F"
 
 
+MODE_MEANINGS = {"S": "separate", "L": "slide left (-t)", "R": "slide right (+t)", "F": "fixed"}
+"""What each mode letter says of its contact."""
+
+
+def scene_mode(mode: str, contacts: Sequence[str], scene_contacts: Sequence[str]) -> str:
+    """A mode over every contact of the scene, in scene order: the form every output prints.
+
+    A mode of the contact problem has one letter per *touching* contact (``contacts``); the
+    other contacts of the scene are apart, so they are ``S``. ``scene_mode("RL", ("toe", "heel"),
+    ("toe", "hip", "heel"))`` is ``"RSL"``.
+
+    Raises:
+        InputError: the mode's length is not the number of ``contacts``, or a contact is not in
+            ``scene_contacts``.
+    """
+    if len(mode) != len(contacts):
+        raise InputError(f"mode {mode!r} has {len(mode)} letters for {len(contacts)} contacts "
+                         f"({', '.join(contacts)})")
+    unknown = [name for name in contacts if name not in scene_contacts]
+    if unknown:
+        raise InputError(f"contact {unknown[0]!r} is not among the scene's ({', '.join(scene_contacts)})")
+    letters = dict(zip(contacts, mode, strict=True))
+    return "".join(letters.get(name, "S") for name in scene_contacts)
+
+
+def mode_label(mode: str, scene_contacts: Sequence[str]) -> str:
+    """A scene mode with each contact's name beside its letter: ``"RSL (toe R, hip S, heel L)"``."""
+    named = ", ".join(f"{name} {letter}" for name, letter in zip(scene_contacts, mode, strict=True))
+    return f"{mode} ({named})"
+
+
+def mode_heading(scene_contacts: Sequence[str]) -> str:
+    """A table column's heading for scene modes: ``"mode (toe hip heel)"``, the names in letter order."""
+    return f"mode ({' '.join(scene_contacts)})"
+
+
+def mode_key(scene_contacts: Sequence[str]) -> str:
+    """The line that decodes mode strings: which contact each letter is, and what each letter means."""
+    meanings = ", ".join(f"{letter} {meaning}" for letter, meaning in MODE_MEANINGS.items())
+    return (f"mode letters: one per contact, in scene order ({', '.join(scene_contacts)}); "
+            f"{meanings}")
+
+
 __all__ = [
     "all_modes",
+    "mode_heading",
+    "mode_key",
+    "mode_label",
+    "MODE_MEANINGS",
+    "scene_mode",
     "build_child_systems",
     "contact_mode_letter",
     "needs_balancing",

@@ -138,7 +138,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -1418,6 +1418,7 @@ def simulate_climb(
     seed: int = 0,
     scale: float | None = None,
     slip_tolerance: float = BRACE_SLIP_TOLERANCE,
+    progress: Callable[[float, float], None] | None = None,
 ) -> ClimbResult:
     """Simulate the planned torques with disturbances sampled from ``conv(V_s)`` (rigid contact).
 
@@ -1430,6 +1431,7 @@ def simulate_climb(
         seed: the random generator's seed.
         scale: the disturbance scale (default: the plan's).
         slip_tolerance: [m] see :data:`BRACE_SLIP_TOLERANCE`.
+        progress: called with (simulated time [s], duration [s]) after every step.
 
     Raises:
         InputError: the plan was not found, or a bad duration, step, hold, scale or seed.
@@ -1443,7 +1445,8 @@ def simulate_climb(
     n = scene.robot.nv
     every = Inputs(scene.coordinate_names, tuple(range(n)), np.full(n, -np.inf), np.full(n, np.inf))
     stepper = RigidStepper(replace(scene, inputs=every), RigidSettings(max_ambiguity_checks=0))
-    run = run_closed_loop(stepper, _disturbed_torques(scene, plan, kin, samples, hold), duration, dt)
+    run = run_closed_loop(stepper, _disturbed_torques(scene, plan, kin, samples, hold), duration, dt,
+                          progress=progress)
     return _brace_outcome(scene, plan, run.trajectory, kin, slip_tolerance,
                           disturbance_times=hold * np.arange(count), disturbance_samples=samples, seed=seed)
 

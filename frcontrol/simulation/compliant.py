@@ -89,7 +89,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -546,6 +546,7 @@ def simulate_compliant(
     max_steps: int = MAX_STEPS,
     armature: float | None = None,
     impact_velocity: float = IMPACT_VELOCITY,
+    progress: Callable[[float, float], None] | None = None,
 ) -> Trajectory:
     """Simulate the scene with compliant (Kelvin–Voigt + Coulomb slider) contacts.
 
@@ -572,6 +573,7 @@ def simulate_compliant(
         max_steps: integrator steps at most.
         armature: rotor inertia for massless coordinates (default: the scene's ``[model]``).
         impact_velocity: [m/s] a contact closing faster than this is an ``impact`` event.
+        progress: called with (simulated time [s], duration [s]) after every integrator step.
 
     Returns:
         The trajectory (``model = "compliant"``, ``status``, ``failure``), sampled every ``dt``;
@@ -598,6 +600,7 @@ def simulate_compliant(
         _check_euler_step(dt, stability_limit)
     dynamics, y0 = _dynamics(scene, params, arm, y0, zones)
     run = _CompliantRun(scene, dynamics, params, duration, dt, max_steps, impact_velocity, y0)
+    run.progress = progress
     settings: dict[str, Any] = {"integrator": integrator, "rtol": rtol, "atol": atol,
                                 "max_step": dt if max_step is None else max_step}
     run.integrate(schedule, None if constant else dt, stability_limit=stability_limit, **settings)
@@ -755,6 +758,7 @@ class _CompliantRun:
         self.last_vn = st0.normal_velocities.copy()
         self.impact_phases = ImpactPhases()
         self.landing_energy = 0.0
+        self.progress: Callable[[float, float], None] | None = None  # (time, duration) after each step
         self.start_wall = time.perf_counter()
 
     def integrate(self, schedule: InputSchedule, hold: float | None, *, integrator: str,
@@ -860,6 +864,8 @@ class _CompliantRun:
                           f"{DIVERGENCE_VELOCITY:g}{limit}", hint=True)
                 break
             self.record_events(t_seg, y, st_now.normal_velocities)
+            if self.progress is not None:
+                self.progress(t_seg, self.duration)
             while self._due(t_seg):
                 self.samples_y.append(y.copy())
                 self.samples_u.append(u.copy())
@@ -904,6 +910,8 @@ class _CompliantRun:
                           f"{DIVERGENCE_VELOCITY:g}", hint=True)
                 break
             self.last_vn = self.record_events(t_now, y_now, self.last_vn)
+            if self.progress is not None:
+                self.progress(t_now, self.duration)
             if self._due(t_now):
                 dense = solver.dense_output()
                 while self._due(t_now):
