@@ -229,6 +229,32 @@ def answer(payload: dict[str, Any], render: Callable[[dict[str, Any]], None], *,
         render(payload)
 
 
+def named_mode(record: dict[str, Any], payload: dict[str, Any]) -> str:
+    """A record's mode over every scene contact, each contact's name beside its letter.
+
+    ``record`` carries ``"scene_mode"`` (:func:`frcontrol.answers.with_scene_modes`), ``payload``
+    ``"scene_contacts"``: ``"RSL (toe R, hip S, heel L)"``.
+    """
+    from frcontrol.modes import mode_label
+
+    return mode_label(record["scene_mode"], payload["scene_contacts"])
+
+
+def named_modes(modes: Sequence[str], contacts: Sequence[str], payload: dict[str, Any]) -> str:
+    """Modes over ``contacts`` (the touching ones) as scene modes, the contacts' names after them.
+
+    ``"LSSSS, RSSSS (letters: front_corner rear_corner front_toe middle_toe rear_toe)"``; ``"none"``
+    for no modes.
+    """
+    from frcontrol.modes import scene_mode
+
+    if not modes:
+        return "none"
+    names = payload["scene_contacts"]
+    shown = ", ".join(scene_mode(mode, contacts, names) for mode in modes)
+    return f"{shown} (letters: {' '.join(names)})"
+
+
 def print_table(title: str, columns: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
     """A text table at the console's width that never cuts a word (:func:`cli.text_table.table_lines`)."""
     from .text_table import table_lines
@@ -261,4 +287,6 @@ __all__ = [
     "handle_errors",
     "print_json",
     "print_table",
+    "named_mode",
+    "named_modes",
 ]

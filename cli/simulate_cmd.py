@@ -53,6 +53,11 @@ IntegratorOpt = Annotated[
     str,
     typer.Option("--integrator", help=f"Compliant model's integrator: {', '.join(INTEGRATORS)}."),
 ]
+EveryOpt = Annotated[
+    int,
+    typer.Option("--every", min=1, help="Keep every N-th sample (and the last) in --json's samples: a "
+                 "document about N times smaller; the summary and the events stay the whole run's."),
+]
 HtmlOpt = options.html_option("the trajectory")
 PlotOpt = options.plot_option("every coordinate and the contact forces over time, contact events marked")
 
@@ -73,6 +78,7 @@ def simulate_command(
     out: options.OutOpt = None,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
+    every: EveryOpt = 1,
 ) -> None:
     """Simulate a scene: contact events, energy and constraint drift over time.
 
@@ -84,7 +90,7 @@ def simulate_command(
     \b
     Examples:
       frc simulate rod_on_table --duration 0.5
-      frc simulate box_on_slope --model compliant --stiffness 1e6 --json
+      frc simulate box_on_slope --model compliant --stiffness 1e6 --json --every 10
       frc simulate rhex_flip --input hip_rear=5 -T 0.2 --out run.npz --html run.html
       frc simulate rod_on_table -T 0.3 --plot rod.png
     """
@@ -99,7 +105,7 @@ def simulate_command(
 
         common.note(f"wrote {plot_trajectory(traj, plot, coordinates=traj.coordinates)}", to_stderr=json)
     common.write_motion(loaded, traj, html=html, out=out, json=json)
-    payload = traj.to_dict(loaded)
+    payload = traj.to_dict(loaded, every=every)
     common.answer(payload, render, json=json)
 
 

@@ -47,12 +47,13 @@ def standup_command(
     common.set_quiet(quiet)
     common.check_outputs(html=html, out=out)
     loaded = options.load_scene_with_overrides(scene, sets)
+    from frcontrol.answers import with_scene_modes
     from frcontrol.planning.standup import simulate_standup
 
     with common.progress("the stand-up (planned and simulated)", "s") as shown:
         result = simulate_standup(
             loaded, duration=max_time, dt=dt, replan_every=replan_every, margin=margin, progress=shown)
-    common.answer(result.to_dict(loaded), render, json=json)
+    common.answer(with_scene_modes(result.to_dict(loaded), loaded), render, json=json)
     common.write_motion(loaded, result.trajectory, html=html, out=out, json=json)
 
 
@@ -62,7 +63,7 @@ def render(payload: dict[str, Any]) -> None:
     if not payload["found"]:
         console.print(f"[bold]no stand-up plan[/bold]: {payload['reason']}")
         return
-    console.print(f"mode [bold]{payload['mode']}[/bold] (contacts {', '.join(payload['contacts'])}); "
+    console.print(f"mode {common.named_mode(payload, payload)}; "
                   f"unambiguous: yes (one rigid solution at the printed torques); margin "
                   f"{payload['margin']:g} N m")
     table = Table(title="joint torques [N m]")

@@ -46,6 +46,7 @@ def statics_command(
       frc statics disk_in_wedge --html disk.html
     """
     common.set_quiet(quiet)
+    from frcontrol.answers import with_scene_modes
     from frcontrol.statics import analyze_statics
 
     common.check_outputs(plot=plot, html=html)
@@ -64,7 +65,7 @@ def statics_command(
                   {name: (equilibrium.lambda_n[i], equilibrium.lambda_t[i])
                    for i, name in enumerate(report.body.contact_names)})
         write_html(loaded, trajectory_from_scene(loaded, forces), html)
-    payload = report.to_dict()
+    payload = with_scene_modes(report.to_dict(), loaded)
     common.answer(payload, render, json=json)
     for written in (plot, html):
         if written is not None:
@@ -95,7 +96,8 @@ def render(payload: dict[str, Any]) -> None:
     strong = payload["strong_stability"]
     verdicts.add_row("strongly stable", _yes(payload["strongly_stable"]),
                      "" if strong is None else
-                     (f"moving: {', '.join(strong['moving_modes'])}" if strong["moving_modes"] else
+                     (f"moving: {common.named_modes(strong['moving_modes'], payload['contacts'], payload)}"
+                      if strong["moving_modes"] else
                       f"{len(strong['solutions'])} rigid solution(s), all at rest"))
     sup = payload["support_region"]
 

@@ -8,7 +8,7 @@ hold no I/O: progress is a callback, files and rendering stay with the caller.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from .errors import InputError
@@ -59,10 +59,10 @@ def analysis_payload(scene: Scene, result: DynamicResponse, solutions: list[Rigi
     payload = result.to_dict([c.name for c in scene.contacts if not c.active])
     if solutions is not None:
         payload["solutions"] = solutions_payload(result, solutions)
-    return with_scene_modes(payload, [c.name for c in scene.contacts])
+    return with_scene_modes(payload, scene)
 
 
-def with_scene_modes(document: dict[str, Any], scene_contacts: Sequence[str]) -> dict[str, Any]:
+def with_scene_modes(document: dict[str, Any], scene: Scene) -> dict[str, Any]:
     """Add ``"scene_contacts"``, and ``"scene_mode"`` beside every ``"mode"`` of ``document``.
 
     A ``"mode"`` has one letter per contact of the nearest ``"contacts"`` (a list of names, or a
@@ -72,6 +72,8 @@ def with_scene_modes(document: dict[str, Any], scene_contacts: Sequence[str]) ->
     Returns ``document``, changed in place.
     """
     from .modes import scene_mode
+
+    scene_contacts = [c.name for c in scene.contacts]
 
     def walk(node: Any, contacts: list[str] | None) -> None:
         if isinstance(node, dict):

@@ -1124,6 +1124,7 @@ class ClimbPlan:
         payload: dict[str, Any] = {
             "found": plan.found,
             "mode": plan.mode,
+            "contacts": list(plan.problem.problem.contacts),
             "torques": dict(plan.torques),
             "max_disturbance_scale": plan.max_disturbance_scale,
             "robust": plan.robust,

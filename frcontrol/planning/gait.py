@@ -628,7 +628,8 @@ class PhaseCertificate:
     def to_dict(self) -> dict[str, Any]:
         """The phase's plan as JSON."""
         plan = self.plan
-        return {"name": self.name, "cycle": self.cycle, "mode": plan.mode, "held": list(self.held),
+        return {"name": self.name, "cycle": self.cycle, "mode": plan.mode,
+                "contacts": list(plan.problem.problem.contacts), "held": list(self.held),
                 "released": list(self.released), "closing": list(self.closing),
                 "mover": {"link": self.mover[0], "point": self.mover[1]}, "start_q": self.start,
                 "found": plan.found, "robust": plan.robust, "max_disturbance_scale": self.scale,
