@@ -307,6 +307,8 @@ class FlipPlan:
             massless leg in the air or lifting off: 0); not planned, applied as they are.
         planned_inputs: the inputs planned over (the scene's, minus the forced ones).
         contacts: the active contacts, in mode-letter order.
+        scene_contacts: every contact of the scene, in scene order (the letters of a scene mode,
+            :func:`~frcontrol.modes.scene_mode`, as the figures show).
         body_contacts: the active body contacts.
         pitch: the pitch coordinate.
         reason: why no plan was found (None when found).
@@ -338,6 +340,7 @@ class FlipPlan:
     timings: Mapping[str, float]
     tolerances: Mapping[str, float]
     analysis: DynamicResponse | None = field(default=None, repr=False, compare=False)
+    scene_contacts: tuple[str, ...] = ()
 
     def input_vector(self, inputs: Sequence[str]) -> np.ndarray:
         """The torques as a vector in the order of ``inputs`` (the scene's input names)."""
@@ -871,6 +874,7 @@ def plan_flip(
     forced_values = {full.inputs[i]: forced[i] for i in sorted(forced)}
     common = _plan_fields(task, problem, forced_values, analysis, margin=margin, rounding=rounding,
                           velocity_tolerance=velocity_tolerance)
+    common["scene_contacts"] = tuple(c.name for c in scene.contacts)
     ready = _candidates(scene, task, full, problem, forced_values, analysis, common["body_contacts"])
     if isinstance(ready, str):
         timings["total"] = time.perf_counter() - start
