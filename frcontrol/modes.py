@@ -67,6 +67,7 @@ class ContactProblem:
         drives: the scene's drives at this state (:func:`frcontrol.drives.drives_report`), by joint.
         springs: the joint springs at this state (:meth:`frcontrol.springs.JointSprings.report`: k, c,
             rest, deflection [m or rad] and force [N or N m], in h already), by joint.
+        scene_contacts: every contact of the scene, in scene order (empty: not from a scene).
     """
 
     coordinates: tuple[str, ...]
@@ -88,6 +89,7 @@ class ContactProblem:
     input_units: tuple[str, ...] = ()
     drives: Mapping[str, Any] = field(default_factory=dict)
     springs: Mapping[str, Any] = field(default_factory=dict)
+    scene_contacts: tuple[str, ...] = ()
 
     @property
     def n(self) -> int:
@@ -151,7 +153,15 @@ class ContactProblem:
             input_units=scene.inputs.units,
             drives=_drives_report(scene, scene.v if v is None else v),
             springs=scene.robot.springs.report(state.q, state.v),
+            scene_contacts=tuple(c.name for c in scene.contacts),
         )
+
+    def scene_mode(self, mode: str) -> str:
+        """``mode`` (a letter per contact of this problem) over every scene contact, as outputs print it.
+
+        Without the scene's contacts (a problem not built from a scene) the mode is returned as is.
+        """
+        return scene_mode(mode, self.contacts, self.scene_contacts) if self.scene_contacts else mode
 
     @cached_property
     def row_table(self) -> ContactRowTable:

@@ -763,8 +763,8 @@ def build_climb(
     timings["scale_bound"] = time.perf_counter() - t1
     if s_bound < 0:
         return result(**common, scale_bound=-1.0, obstacle=(
-            f"no torques within the limits keep mode {mode} with margin {margin:g} and the head "
-            f"accelerating upward at >= {a_min:g} m/s^2, even without disturbance: widen the torque "
+            f"no torques within the limits keep mode {base.scene_mode(mode)} with margin {margin:g} and "
+            f"the head accelerating upward at >= {a_min:g} m/s^2, even without disturbance: widen the torque "
             "limits, lower min_head_acceleration or the margin"))
 
     t1 = time.perf_counter()
@@ -790,7 +790,7 @@ def _brace_mode(base: ContactProblem, mode: str) -> tuple[ModeSystem, AffineSolu
     system = build_mode_system(base, mode)
     response = solve_affine(system.A, system.B, system.c, name=f"the system of mode {mode}")
     if not response.consistent or response.ambiguity_dim or response.E.shape[0]:
-        return (f"mode {mode} has {response.ambiguity_dim} ambiguity variable(s) and "
+        return (f"mode {base.scene_mode(mode)} has {response.ambiguity_dim} ambiguity variable(s) and "
                 f"{response.E.shape[0]} consistency condition(s): the brace's squeeze is not set by the "
                 "torques (fewer brace coordinates than brace rows), so no torque can certify it for every "
                 "squeeze; give the brace at least as many coordinates as contact rows (METHOD §6)")
@@ -846,11 +846,12 @@ def _lifted_analysis(scene: Scene, dist: DisturbanceSet, s_bound: float, margin:
     except InputError:
         target = None
     if target is None or not target.feasible:
-        obstacle = f"mode {mode} is infeasible at the scene's state (empty domain)"
+        obstacle = f"mode {boxed.scene_mode(mode)} is infeasible at the scene's state (empty domain)"
     else:
         pieces = analysis.unambiguous_set(mode)
         if not pieces:
-            obstacle = f"mode {mode} has no unambiguous inputs: other modes cover its whole domain"
+            obstacle = (f"mode {boxed.scene_mode(mode)} has no unambiguous inputs: other modes cover its "
+                        "whole domain")
     return boxed, analysis, tuple(pieces), obstacle, (lower, upper)
 
 
@@ -1240,8 +1241,8 @@ def plan_climb(
     lo, hi, u_lo, steps = _bisect_scale(cp, scale_tolerance)
     if u_lo is None:
         timings["total"] = time.perf_counter() - start
-        reason = (f"no torques keep mode {cp.mode} unambiguous with margin {cp.margin:g} even at the zero "
-                  "disturbance (another mode holds there)")
+        reason = (f"no torques keep mode {cp.problem.scene_mode(cp.mode)} unambiguous with margin "
+                  f"{cp.margin:g} even at the zero disturbance (another mode holds there)")
         return _not_planned(cp, reason, float(scale), steps, **record)
     timings["bisection"] = time.perf_counter() - t0
 
@@ -1319,12 +1320,12 @@ def _plan_reason(cp: ClimbProblem, check: Mapping[str, Any], plan_scale: float, 
                  nominal_feasible: bool) -> str:
     """What the verified plan guarantees, or why its rounded torques failed the verification."""
     if check["robust"]:
-        reason = (f"mode {cp.mode} holds, unambiguously, for every disturbance in "
+        reason = (f"mode {cp.problem.scene_mode(cp.mode)} holds, unambiguously, for every disturbance in "
                   f"{'P' if plan_scale == 1.0 else f'{plan_scale:.4g} P'}; largest scale {lo:.4g}")
         if not nominal_feasible:
             reason += f" (the nominal scale {scale:g} is infeasible: planned at the largest scale)"
         return reason
-    held = [e.mode for e in check["exclusions"] if e.held]
+    held = [cp.problem.scene_mode(e.mode) for e in check["exclusions"] if e.held]
     return ("the rounded torques failed the verification: "
             + (f"mode(s) {', '.join(held)} also hold" if held else
                f"radius {check['radius']:.3g}, worst head acceleration {check['worst']:.3g} m/s^2"))

@@ -114,7 +114,7 @@ from .. import polytope as poly
 from ..engine import DynamicResponse, ModeAnalysis, analyze, solutions_at
 from ..errors import FrcontrolError, ImpactState, InputError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
-from ..modes import VELOCITY_TOLERANCE, ContactProblem
+from ..modes import VELOCITY_TOLERANCE, ContactProblem, scene_mode
 from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
 from ..simulation.closed_loop import ClosedLoopRun, run_closed_loop
@@ -976,7 +976,8 @@ def _chosen_plan(scene: Scene, chosen: tuple[FlipPiece, np.ndarray, float] | Non
     if min_pitch_acceleration is not None and not (
             pitch > min_pitch_acceleration + PITCH_TOLERANCE * (1.0 + abs(pitch))):
         return replace(plan, found=False, reason=(
-            f"the best unambiguous torques ({_torque_text(torques)}, mode {piece.mode}) give a pitch "
+            f"the best unambiguous torques ({_torque_text(torques)}, mode "
+            f"{scene_mode(piece.mode, common['contacts'], common['scene_contacts'])}) give a pitch "
             f"acceleration of {pitch:.6g} rad/s^2, not above {min_pitch_acceleration:g}: no torque "
             "within the limits starts the flip"))
     return plan

@@ -361,7 +361,8 @@ class _PumpPolicy:
         toes = [c for c, letter in zip(result.contacts, result.mode or "", strict=False)
                 if c not in result.body_contacts and letter != "S"]
         if not toes:
-            return None, f"the planned mode {result.mode} loads no toe: the toes lift off"
+            planned = scene_mode(result.mode or "", result.contacts, self.contact_names)
+            return None, f"the planned mode {planned} loads no toe: the toes lift off"
         return result, None
 
     def _checked(self, stepper: RigidStepper, volts: np.ndarray) -> np.ndarray:

@@ -299,7 +299,8 @@ def _draw_flat_overlapping_and_chosen(ax: Any, plan: FlipPlan, flat: Sequence[An
                 color="gold", markeredgecolor="black", zorder=7,
                 label="the plan's torques" if plan.found else "the best torques (not a plan)")
     if flat:
-        ax.plot([], [], color="0.35", linewidth=3.0, label="flat T_c (e.g. a toe S: hip torque 0)")
+        ax.plot([], [], color="0.35", linewidth=3.0, marker="o",
+                label="flat T_c (e.g. a toe S: hip torque 0)")
     if overlaps:
         ax.fill([], [], facecolor="none", hatch="xxx", edgecolor="0.1", label="two modes (ambiguous)")
     ax.fill([], [], facecolor="white", edgecolor="0.5", label=NO_MODE_LABEL)
@@ -444,6 +445,7 @@ def plot_climb(plan: ClimbPlan, path: str | Path | None = None) -> Any:
         raise InputError(f"the climb plan was not found ({plan.reason}): nothing to plot")
     items = plan.disturbances.items
     figure = _figure(figsize=(5.0 * len(items), 5.6), layout="constrained")
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch, Rectangle
 
     s_max = plan.max_disturbance_scale
@@ -467,9 +469,11 @@ def plot_climb(plan: ClimbPlan, path: str | Path | None = None) -> Any:
         ax.set_aspect("equal", adjustable="box")
         ax.xaxis.set_major_locator(_locator())
         ax.yaxis.set_major_locator(_locator())
-    handles = [Patch(facecolor=c, alpha=0.35, hatch=h, edgecolor=c, label=label)
-               for c, h, label in zip(colors, hatches, labels, strict=True)]
+    handles: list[Any] = [Patch(facecolor=c, alpha=0.35, hatch=h, edgecolor=c, label=label)
+                          for c, h, label in zip(colors, hatches, labels, strict=True)]
     handles.append(Patch(fill=False, edgecolor="0.3", linestyle="--", label="analysis box (cuts the region)"))
+    handles.append(Line2D([], [], linestyle="none", marker="*", markersize=10, color="black",
+                          label="zero disturbance"))
     figure.legend(handles=handles, loc="outside lower center", ncol=2, fontsize="small")
     if path is not None:
         _save(figure, path)
