@@ -9,7 +9,7 @@ from __future__ import annotations
 import textwrap
 from collections.abc import Sequence
 
-COLUMN_GAP = 3
+COLUMN_GAP = 2
 """[characters] Spaces between two columns."""
 
 
@@ -50,14 +50,16 @@ def column_widths(columns: Sequence[str], rows: Sequence[Sequence[str]], width: 
 def table_lines(title: str, columns: Sequence[str], rows: Sequence[Sequence[str]], width: int) -> list[str]:
     """The table as text lines at most ``width`` wide (a longer word only if one alone is longer).
 
-    Too narrow for the columns' longest words, each row is printed as ``column: value; ...``
-    wrapped at spaces.
+    Too narrow for the columns' longest words, each row is printed as ``first cell: column: value;
+    ...`` wrapped at spaces (the first column's heading said once, after the title).
     """
     widths = column_widths(columns, rows, width)
     if widths is None:
-        lines = [title]
+        lines = textwrap.wrap(f"{title}, by {columns[0]}:", width, break_long_words=False,
+                              break_on_hyphens=False)
         for row in rows:
-            text = "; ".join(f"{column}: {value}" for column, value in zip(columns, row, strict=True))
+            text = f"{row[0]}: " + "; ".join(f"{column}: {value}"
+                                             for column, value in zip(columns[1:], row[1:], strict=True))
             lines += textwrap.wrap(text, width, initial_indent="  ", subsequent_indent="    ",
                                    break_long_words=False, break_on_hyphens=False)
         return lines
