@@ -205,6 +205,39 @@ def test_the_flip_figure_has_its_star_in_the_legend_and_modes_over_every_contact
     assert planned in labels and planned in figure.axes[0].get_title()
 
 
+def test_the_html_page_names_the_contacts_beside_the_mode_letters():
+    from frcontrol.simulation.export import sample_modes
+    from frcontrol.simulation.rigid import simulate_rigid
+    from frcontrol.viz.meshcat_view import scene_html
+
+    scene = load_scene("rhex_flip")
+    trajectory = simulate_rigid(scene, {"hip_middle": -5.0, "hip_rear": -5.0}, 0.02)
+    modes = sample_modes(scene, trajectory)
+    page, _ = scene_html(scene, trajectory, modes=modes)
+    assert mode_key(RHEX_CONTACTS) in page
+    data = json.loads(re.search(r"const data = (\{.*?\});\n", page).group(1))
+    assert len(data["modes"]) == len(data["times"])  # one per drawn sample
+    assert set(data["modes"]) <= {mode_label(mode, RHEX_CONTACTS) for mode in modes}
+    assert all(len(mode) == len(RHEX_CONTACTS) for mode in modes)
+
+
+@pytest.mark.slow
+def test_the_pump_figure_names_the_contacts_of_its_modes_and_explains_its_shading():
+    from frcontrol.planning.pump import simulate_pump
+    from frcontrol.viz.pump_figure import pump_figure
+
+    scene = load_scene("rhex_flip_drives")
+    result = simulate_pump(scene, max_time=0.3)
+    figure = pump_figure(scene, result)
+    portrait = figure.axes[0].get_legend()
+    assert portrait.get_title().get_text() == mode_heading(RHEX_CONTACTS)
+    entries = {t.get_text() for t in portrait.get_texts()}
+    assert set(result.trajectory.modes) <= entries | {"a push starts"}
+    assert all(len(mode) == len(RHEX_CONTACTS) for phase in result.phases for mode in phase.modes)
+    labels = {t.get_text() for t in figure.axes[1].get_legend().get_texts()}
+    assert {f"a {phase.kind} phase" for phase in result.phases} <= labels
+
+
 # ------------------------------------------------------------------------------ frc analyze
 
 def test_analyze_names_its_columns_in_words_and_help_defines_them():
