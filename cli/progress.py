@@ -2,7 +2,8 @@
 
 One helper for every command. On a terminal it is a live bar (Rich, cleared when the work ends);
 when stderr is a pipe or a file it is plain lines, one every :data:`PLAIN_INTERVAL` seconds at
-most, the first once the work has run :data:`SHOW_AFTER` seconds (short work prints nothing).
+most, the first once the work has run :data:`SHOW_AFTER` seconds (short work prints nothing); work
+that reports no fraction yet (a planner before its simulation) shows its time so far.
 Either way stdout is untouched, so ``--json`` output stays one valid document. ``--quiet``
 silences it.
 
@@ -14,6 +15,7 @@ A plain line reads::
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from typing import IO, Any
 
@@ -22,6 +24,10 @@ SHOW_AFTER = 2.0
 
 PLAIN_INTERVAL = 3.0
 """[s] Least time between two plain progress lines (stderr not a terminal)."""
+
+HEARTBEAT = 0.5
+"""[s] How often the display wakes up by itself, so that work without reports (a planner before
+its simulation) still shows its time so far."""
 
 
 def fraction_text(done: float, total: float | None, unit: str) -> str:
@@ -49,7 +55,8 @@ class Progress:
     ``task`` names the work ("simulating 2 s on the rigid model"); ``unit`` what ``done`` and
     ``total`` count ("s" of simulated time, "modes", "points"). :meth:`stage` renames the work (a
     planner that moves from planning to simulating). The estimate of the time left extrapolates
-    the rate since the first report (resumed work is not counted as rate).
+    the rate since the first report (resumed work is not counted as rate). Used as a context
+    manager, it also shows work that reports nothing for a while (its time so far).
     """
 
     def __init__(self, task: str, unit: str = "", *, quiet: bool = False,
@@ -61,32 +68,48 @@ class Progress:
         self.last_line = float("-inf")
         self.bar: Any = None
         self.latest: tuple[float, float | None] | None = None
+        self.lock = threading.Lock()
+        self.stopped = threading.Event()
+        self.beat: threading.Thread | None = None
 
     def __enter__(self) -> Progress:
+        if not self.quiet:
+            self.beat = threading.Thread(target=self._heartbeat, name="frc-progress", daemon=True)
+            self.beat.start()
         return self
 
     def __exit__(self, *exc: object) -> None:
-        if self.bar is not None:
-            self.bar.stop()
-            self.bar = None
+        self.stopped.set()
+        if self.beat is not None:
+            self.beat.join()
+        with self.lock:
+            if self.bar is not None:
+                self.bar.stop()
+                self.bar = None
+
+    def _heartbeat(self) -> None:
+        while not self.stopped.wait(HEARTBEAT):
+            now = time.monotonic()
+            if now - self.start >= SHOW_AFTER:
+                with self.lock:
+                    self._show(now)
 
     def stage(self, task: str) -> None:
         """Rename the work (and restart the rate): a new stage of the same command."""
-        self.task, self.first = task, None
-        if self.latest is not None:
-            self.latest = None
-            self._show(time.monotonic())
+        with self.lock:
+            self.task, self.first, self.latest = task, None, None
 
     def __call__(self, done: float, total: float | None = None) -> None:
         """Report ``done`` of ``total`` (None: unknown); shown when due, never on stdout."""
         if self.quiet:
             return
         now = time.monotonic()
-        if self.first is None:
-            self.first = (now, float(done))
-        self.latest = (float(done), None if total is None else float(total))
-        if now - self.start >= SHOW_AFTER:
-            self._show(now)
+        with self.lock:
+            if self.first is None:
+                self.first = (now, float(done))
+            self.latest = (float(done), None if total is None else float(total))
+            if now - self.start >= SHOW_AFTER:
+                self._show(now)
 
     def seconds_left(self, now: float | None = None) -> float | None:
         """The estimated time left [s] from the rate so far, or None (no rate or no total yet)."""
@@ -101,7 +124,8 @@ class Progress:
     def line(self, now: float | None = None) -> str:
         """The progress as one line: the work, the fraction done and the time left."""
         if self.latest is None:
-            return f"frc: {self.task}"
+            elapsed = (time.monotonic() if now is None else now) - self.start
+            return f"frc: {self.task}: {elapsed:.0f} s so far"
         done, total = self.latest
         amount = fraction_text(done, total, self.unit)
         left = time_left_text(self.seconds_left(now)) if total is not None else "total unknown"
@@ -134,6 +158,7 @@ class Progress:
 
 
 __all__ = [
+    "HEARTBEAT",
     "PLAIN_INTERVAL",
     "Progress",
     "SHOW_AFTER",

@@ -316,6 +316,26 @@ def test_plain_progress_lines_are_paced_and_say_fraction_and_time_left(monkeypat
     assert quiet.getvalue() == ""
 
 
+def test_work_without_reports_shows_its_time_so_far(monkeypatch):
+    """A planner before its simulation reports nothing: the display wakes up by itself."""
+    import time
+
+    from frcontrol.cli import progress as progress_module
+
+    monkeypatch.setattr(progress_module, "SHOW_AFTER", 0.0)
+    monkeypatch.setattr(progress_module, "HEARTBEAT", 0.01)
+    stream = io.StringIO()
+    with progress_module.Progress("planning the flip", "s", stream=stream):
+        deadline = time.monotonic() + 60.0  # a condition, not a timing: the first heartbeat's line
+        while "so far" not in stream.getvalue():
+            assert time.monotonic() < deadline, "no heartbeat line"
+            time.sleep(0.01)
+    assert re.match(r"frc: planning the flip: \d+ s so far\n", stream.getvalue())
+    quiet = io.StringIO()
+    with progress_module.Progress("planning the flip", "s", quiet=True, stream=quiet) as shown:
+        assert shown.beat is None  # no thread at all under --quiet
+
+
 def _run_long(*extra: str, tmp_path) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if k != "COLUMNS"}
     return subprocess.run([*frc_executable(), "simulate", "box_on_slope", "--model", "compliant",
