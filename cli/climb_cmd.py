@@ -75,7 +75,7 @@ def climb_command(
       frc climb snake_climb --cycles 1 --html gait.html
     """
     common.set_quiet(quiet)
-    from frcontrol.answers import plan_and_climb, with_scene_modes
+    from frcontrol.answers import plan_and_climb
 
     common.check_outputs(view=view, port=port, plot=plot, html=html, out=out)
     loaded = options.load_scene_with_overrides(scene, sets)
@@ -94,11 +94,11 @@ def climb_command(
                                           progress=shown)
         if not plan.found:  # an answer, not an error (exit 0): the JSON says why
             if json:
-                common.print_json(with_scene_modes(plan.to_dict(None), loaded))
+                common.print_json(plan.to_dict(None))
             else:
                 console.print(f"no climb plan: {plan.reason}")
             return
-        payload = with_scene_modes(plan.to_dict(result), loaded)
+        payload = plan.to_dict(result)
         common.answer(payload, render, json=json)
         if plot is not None:
             from frcontrol.viz.figures import plot_climb
@@ -114,7 +114,7 @@ def climb_command(
 def _gait(loaded: Any, cycles: int, *, margin: float, seed: int, scale: float | None, json: bool, html: Any,
           out: Any, view: bool, port: Any, plot: Any) -> None:
     """``--cycles``: plan the gait, simulate it, print and write its outputs."""
-    from frcontrol.answers import plan_and_gait, with_scene_modes
+    from frcontrol.answers import plan_and_gait
     from frcontrol.errors import InputError
     from frcontrol.planning.gait import gait_payload
 
@@ -126,7 +126,7 @@ def _gait(loaded: Any, cycles: int, *, margin: float, seed: int, scale: float | 
             plan, result = plan_and_gait(
                 loaded, cycles=cycles, margin=margin, seed=seed, scale=scale,
                 on_simulation=lambda: shown.stage("simulating the gait"), progress=shown)
-        common.answer(with_scene_modes(gait_payload(plan, result), loaded), render_gait, json=json)
+        common.answer(gait_payload(plan, result), render_gait, json=json)
         common.write_motion(loaded, result.trajectory, html=html, out=out, json=json)
         if server is not None:
             common.show_live(server, loaded, result.trajectory, json=json)

@@ -232,7 +232,7 @@ def answer(payload: dict[str, Any], render: Callable[[dict[str, Any]], None], *,
 def named_mode(record: dict[str, Any], payload: dict[str, Any]) -> str:
     """A record's mode over every scene contact, each contact's name beside its letter.
 
-    ``record`` carries ``"scene_mode"`` (:func:`frcontrol.answers.with_scene_modes`), ``payload``
+    ``record`` carries ``"scene_mode"`` (:func:`frcontrol.modes.add_scene_modes`), ``payload``
     ``"scene_contacts"``: ``"RSL (toe R, hip S, heel L)"``.
     """
     from frcontrol.modes import mode_label

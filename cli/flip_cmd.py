@@ -78,11 +78,9 @@ def flip_command(
         _pump(loaded, json=json, html=html, out=out, plot=plot, margin=margin, max_time=max_time, dt=dt,
               replan_every=replan_every, compliant=compliant)
         return
-    from frcontrol.answers import with_scene_modes
-
     with common.live_viewer(view, port) as server:
         plan, result = _plan_and_fly(loaded, margin, max_time, dt, replan_every)
-        payload = with_scene_modes(plan.to_dict(result), loaded)
+        payload = plan.to_dict(result)
         common.answer(payload, render, json=json)
         if plot is not None:
             from frcontrol.viz.figures import plot_flip
@@ -114,14 +112,13 @@ def _driven(scene: Scene) -> bool:
 def _pump(scene: Scene, *, json: bool, html: Any, out: Any, plot: Any, margin: float, max_time: float,
           dt: float, replan_every: int, compliant: bool) -> None:
     """``frc flip --pump``: the pumping run, its answer, figure, page and export."""
-    from frcontrol.answers import with_scene_modes
     from frcontrol.planning.pump import pump_flip, pump_payload
 
     with common.progress("pumping the flip (up to the time limit)", "s") as shown:
         plan, result = pump_flip(
             scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every, compliant=compliant,
             progress=shown)
-    common.answer(with_scene_modes(pump_payload(scene, plan, result), scene), render_pump, json=json)
+    common.answer(pump_payload(scene, plan, result), render_pump, json=json)
     if plot is not None and result is not None:
         from frcontrol.viz.pump_figure import plot_pump
 

@@ -47,13 +47,12 @@ def standup_command(
     common.set_quiet(quiet)
     common.check_outputs(html=html, out=out)
     loaded = options.load_scene_with_overrides(scene, sets)
-    from frcontrol.answers import with_scene_modes
     from frcontrol.planning.standup import simulate_standup
 
     with common.progress("the stand-up (planned and simulated)", "s") as shown:
         result = simulate_standup(
             loaded, duration=max_time, dt=dt, replan_every=replan_every, margin=margin, progress=shown)
-    common.answer(with_scene_modes(result.to_dict(loaded), loaded), render, json=json)
+    common.answer(result.to_dict(loaded), render, json=json)
     common.write_motion(loaded, result.trajectory, html=html, out=out, json=json)
 
 

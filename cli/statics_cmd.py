@@ -46,7 +46,6 @@ def statics_command(
       frc statics disk_in_wedge --html disk.html
     """
     common.set_quiet(quiet)
-    from frcontrol.answers import with_scene_modes
     from frcontrol.statics import analyze_statics
 
     common.check_outputs(plot=plot, html=html)
@@ -65,7 +64,7 @@ def statics_command(
                   {name: (equilibrium.lambda_n[i], equilibrium.lambda_t[i])
                    for i, name in enumerate(report.body.contact_names)})
         write_html(loaded, trajectory_from_scene(loaded, forces), html)
-    payload = with_scene_modes(report.to_dict(), loaded)
+    payload = report.to_dict()
     common.answer(payload, render, json=json)
     for written in (plot, html):
         if written is not None:

@@ -48,9 +48,12 @@ def analysis_and_solutions(
 
 def solutions_payload(result: DynamicResponse, solutions: list[RigidSolution]) -> list[dict[str, Any]]:
     """The ``"solutions"`` of ``frc analyze --input ... --json``: each solution with its stability."""
+    from .modes import add_scene_modes
     from .stability import solution_report
 
-    return [solution_report(result.problem, s) for s in solutions]
+    problem = result.problem
+    reports = [solution_report(problem, s) for s in solutions]
+    return add_scene_modes({"solutions": reports}, problem.scene_contacts or problem.contacts)["solutions"]
 
 
 def analysis_payload(scene: Scene, result: DynamicResponse, solutions: list[RigidSolution] | None
@@ -59,39 +62,7 @@ def analysis_payload(scene: Scene, result: DynamicResponse, solutions: list[Rigi
     payload = result.to_dict([c.name for c in scene.contacts if not c.active])
     if solutions is not None:
         payload["solutions"] = solutions_payload(result, solutions)
-    return with_scene_modes(payload, scene)
-
-
-def with_scene_modes(document: dict[str, Any], scene: Scene) -> dict[str, Any]:
-    """Add ``"scene_contacts"``, and ``"scene_mode"`` beside every ``"mode"`` of ``document``.
-
-    A ``"mode"`` has one letter per contact of the nearest ``"contacts"`` (a list of names, or a
-    table by name) at its level or above: the touching contacts. Its ``"scene_mode"`` has one
-    letter per contact of the scene, in scene order, ``S`` for those apart
-    (:func:`frcontrol.modes.scene_mode`): the form every text table, figure and page shows.
-    Returns ``document``, changed in place.
-    """
-    from .modes import scene_mode
-
-    scene_contacts = [c.name for c in scene.contacts]
-
-    def walk(node: Any, contacts: list[str] | None) -> None:
-        if isinstance(node, dict):
-            own = node.get("contacts")
-            if isinstance(own, (list, dict)) and all(isinstance(c, str) for c in own):
-                contacts = list(own)
-            mode = node.get("mode")
-            if isinstance(mode, str) and contacts is not None and len(mode) == len(contacts):
-                node["scene_mode"] = scene_mode(mode, contacts, scene_contacts)
-            for value in list(node.values()):
-                walk(value, contacts)
-        elif isinstance(node, list):
-            for value in node:
-                walk(value, contacts)
-
-    document["scene_contacts"] = list(scene_contacts)
-    walk(document, None)
-    return document
+    return payload
 
 
 def run_simulation(scene: Scene, inputs: Mapping[str, float], *, model: str | None = None,
@@ -229,6 +200,5 @@ __all__ = [
     "plan_and_gait",
     "run_simulation",
     "simulation_failure",
-    "with_scene_modes",
     "solutions_payload",
 ]

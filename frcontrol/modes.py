@@ -561,6 +561,34 @@ def scene_mode(mode: str, contacts: Sequence[str], scene_contacts: Sequence[str]
     return "".join(letters.get(name, "S") for name in scene_contacts)
 
 
+def add_scene_modes(document: dict[str, Any], scene_contacts: Sequence[str]) -> dict[str, Any]:
+    """Add ``"scene_contacts"``, and ``"scene_mode"`` beside every ``"mode"`` of a JSON document.
+
+    A ``"mode"`` has one letter per contact of the nearest ``"contacts"`` (a list of names, or a
+    table by name) at its level or above: the touching contacts. Its ``"scene_mode"`` has one
+    letter per contact of the scene (:func:`scene_mode`): the form every text table, figure and
+    page shows. Every result's ``to_dict()`` calls this. Returns ``document``, changed in place.
+    """
+
+    def walk(node: Any, contacts: list[str] | None) -> None:
+        if isinstance(node, dict):
+            own = node.get("contacts")
+            if isinstance(own, (list, dict)) and all(isinstance(c, str) for c in own):
+                contacts = list(own)
+            mode = node.get("mode")
+            if isinstance(mode, str) and contacts is not None and len(mode) == len(contacts):
+                node["scene_mode"] = scene_mode(mode, contacts, scene_contacts)
+            for value in list(node.values()):
+                walk(value, contacts)
+        elif isinstance(node, list):
+            for value in node:
+                walk(value, contacts)
+
+    document["scene_contacts"] = list(scene_contacts)
+    walk(document, None)
+    return document
+
+
 def mode_label(mode: str, scene_contacts: Sequence[str]) -> str:
     """A scene mode with each contact's name beside its letter: ``"RSL (toe R, hip S, heel L)"``."""
     named = ", ".join(f"{name} {letter}" for name, letter in zip(scene_contacts, mode, strict=True))
@@ -580,6 +608,7 @@ def mode_key(scene_contacts: Sequence[str]) -> str:
 
 
 __all__ = [
+    "add_scene_modes",
     "all_modes",
     "mode_heading",
     "mode_key",

@@ -214,7 +214,7 @@ def test_the_html_page_names_the_contacts_beside_the_mode_letters():
     trajectory = simulate_rigid(scene, {"hip_middle": -5.0, "hip_rear": -5.0}, 0.02)
     modes = sample_modes(scene, trajectory)
     page, _ = scene_html(scene, trajectory, modes=modes)
-    assert mode_key(RHEX_CONTACTS) in page
+    assert mode_heading(RHEX_CONTACTS) in page  # the caption names the letters' contacts
     data = json.loads(re.search(r"const data = (\{.*?\});\n", page).group(1))
     assert len(data["modes"]) == len(data["times"])  # one per drawn sample
     assert set(data["modes"]) <= {mode_label(mode, RHEX_CONTACTS) for mode in modes}

@@ -147,7 +147,7 @@ import numpy as np
 from ..engine import DOMAIN_TOLERANCE, DynamicResponse, analyze
 from ..errors import FrameNotFound, InputError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
-from ..modes import ContactProblem, ModeSystem, all_modes, build_mode_system
+from ..modes import ContactProblem, ModeSystem, add_scene_modes, all_modes, build_mode_system
 from ..polytope import Polytope, hull_from_points
 from ..response import AffineSolution, solve_affine
 from ..scene import Inputs, Scene
@@ -1170,7 +1170,8 @@ class ClimbPlan:
                 "slip_tolerance": result.slip_tolerance,
                 "brace_events": [e.to_dict() for e in result.brace_events],
             }
-        return to_jsonable(payload)
+        problem = plan.problem.problem
+        return add_scene_modes(to_jsonable(payload), problem.scene_contacts or problem.contacts)
 
 
 def _verify(cp: ClimbProblem, u: np.ndarray, scale: float) -> dict[str, Any]:

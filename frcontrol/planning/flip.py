@@ -114,7 +114,7 @@ from .. import polytope as poly
 from ..engine import DynamicResponse, ModeAnalysis, analyze, solutions_at
 from ..errors import FrcontrolError, ImpactState, InputError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
-from ..modes import VELOCITY_TOLERANCE, ContactProblem, scene_mode
+from ..modes import VELOCITY_TOLERANCE, ContactProblem, add_scene_modes, scene_mode
 from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
 from ..simulation.closed_loop import ClosedLoopRun, run_closed_loop
@@ -387,7 +387,7 @@ class FlipPlan:
                 "replans": 0, "simulated": False,
                 "reason": plan.reason if not plan.found else "not simulated (--max-time 0)",
             }
-            return to_jsonable(payload)
+            return add_scene_modes(to_jsonable(payload), plan.scene_contacts or plan.contacts)
         traj = result.trajectory
         payload["simulation"] = {
             "flipped": result.flipped,
@@ -411,7 +411,7 @@ class FlipPlan:
             "events": [e.to_dict() for e in traj.events],
             "timings": dict(result.timings),
         }
-        return to_jsonable(payload)
+        return add_scene_modes(to_jsonable(payload), plan.scene_contacts or plan.contacts)
 
 
 @dataclass(frozen=True)

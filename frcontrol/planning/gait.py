@@ -92,7 +92,7 @@ import numpy as np
 
 from ..errors import InputError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
-from ..modes import build_mode_system
+from ..modes import add_scene_modes, build_mode_system
 from ..response import solve_affine
 from ..scene import Inputs, Scene
 from ..scene_tables import TaskTable
@@ -1149,7 +1149,7 @@ def gait_payload(plan: GaitPlan, result: GaitResult | None) -> dict[str, Any]:
     }
     if result is not None:
         payload.update(_result_payload(plan, result))
-    return to_jsonable(payload)
+    return add_scene_modes(to_jsonable(payload), [c.name for c in scene.contacts])
 
 
 def _result_payload(plan: GaitPlan, result: GaitResult) -> dict[str, Any]:

@@ -47,7 +47,7 @@ from .. import polytope as poly
 from ..engine import DynamicResponse, analyze, solutions_at
 from ..errors import FrcontrolError, ImpactState, InputError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
-from ..modes import VELOCITY_TOLERANCE, ContactProblem
+from ..modes import VELOCITY_TOLERANCE, ContactProblem, add_scene_modes
 from ..response import OUTPUT_TOLERANCE
 from ..scene import Contact, Scene
 from ..simulation.closed_loop import run_closed_loop
@@ -386,7 +386,7 @@ class StandUpResult:
             simulation.update({"status": self.trajectory.status, "samples": document["samples"],
                                "events": document["summary"]["events"]})
         payload["simulation"] = simulation
-        return to_jsonable(payload)
+        return add_scene_modes(to_jsonable(payload), [c.name for c in scene.contacts])
 
 
 def simulate_standup(

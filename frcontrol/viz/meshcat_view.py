@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from frcontrol.errors import InputError, reason_from_exception
-from frcontrol.modes import mode_key, mode_label
+from frcontrol.modes import mode_heading, mode_label
 from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
@@ -733,7 +733,7 @@ def _legend(scene: Scene, drawing: Drawing, contacts: Sequence[str]) -> str:
     else:
         force = f'<span style="color:{colors.FORCE_COLOR}">&#9632;</span> ' + force
     if drawing.animated:
-        motion = html_lib.escape(mode_key(contacts)) if contacts else "no contacts"
+        motion = html_lib.escape(mode_heading(contacts)) if contacts else "no contacts"
     else:
         motion = "still: the scene's state"
     return (
