@@ -16,7 +16,7 @@ from .common import (
     handle_errors,
     note,
     print_json,
-    progress_bar,
+    progress,
     set_quiet,
 )
 from .model_cmds import SceneArg
@@ -195,7 +195,7 @@ def atlas_command(
                        max_points=MAX_ATLAS_POINTS if max_points is None else max_points)
     previous = signal.signal(signal.SIGTERM, _raise_on_sigterm)
     try:
-        with progress_bar(f"atlas {plan.size} points", "points", show=not json) as bar:
+        with progress(f"atlas of {plan.size} points", "points") as bar:
             result = run_atlas(plan, workers=workers, scheduler=scheduler, out=out, resume=resume,
                                progress=bar)
     except KeyboardInterrupt as err:

@@ -87,9 +87,10 @@ def climb_command(
               port=port)
         return
     with common.live_viewer(view, port) as server:
-        with common.progress("planning the climb...") as status:
+        with common.progress("planning the climb", "s") as shown:
             plan, result = plan_and_climb(loaded, margin=margin, duration=duration, seed=seed,
-                                          on_simulation=lambda: status.update("simulating the climb..."))
+                                          on_simulation=lambda: shown.stage("simulating the climb"),
+                                          progress=shown)
         if not plan.found:  # an answer, not an error (exit 0): the JSON says why
             if json:
                 common.print_json(plan.to_dict(None))
@@ -116,11 +117,10 @@ def _gait(loaded: Any, cycles: int, *, margin: float, seed: int, scale: float | 
     from frcontrol.planning.gait import gait_payload
 
     with common.live_viewer(view, port) as server:
-        with common.progress("planning the gait...") as status:
+        with common.progress("planning the gait", "phases") as shown:
             plan, result = plan_and_gait(
                 loaded, cycles=cycles, margin=margin, seed=seed, scale=scale,
-                on_simulation=lambda: status.update("simulating the gait..."),
-                progress=lambda done, total: status.update(f"simulating the gait: phase {done}/{total}"))
+                on_simulation=lambda: shown.stage("simulating the gait"), progress=shown)
         common.answer(gait_payload(plan, result), render_gait, json=json)
         common.write_motion(loaded, result.trajectory, html=html, out=out, json=json)
         if server is not None:
@@ -129,6 +129,8 @@ def _gait(loaded: Any, cycles: int, *, margin: float, seed: int, scale: float | 
 
 def render_gait(payload: dict[str, Any]) -> None:
     """The gait as rich text and tables: heights per cycle, phases' scales, the weakest phase."""
+    from frcontrol.modes import mode_heading, mode_key
+
     sim = payload["simulation"]
     lower, upper = ", ".join(payload["lower_brace"]), ", ".join(payload["upper_brace"])
     console.print(f"gait: {payload['cycles']} cycle(s), lower brace {lower}, upper brace {upper}; "
@@ -139,20 +141,21 @@ def render_gait(payload: dict[str, Any]) -> None:
     for i, (h, r) in enumerate(zip(payload["heights"], payload["rise_per_cycle"], strict=True)):
         heights.add_row(str(i + 1), f"{h:.4f}", f"{r:.4f}")
     console.print(heights)
-    phases = Table(title="phases: planned largest disturbance scale, and in the simulation")
-    for name in ("cycle", "phase", "mode", "max scale", "max deficit", "max slip [m]"):
-        phases.add_column(name)
-    for plan, run in zip(payload["phases"], payload["phase_runs"], strict=False):
-        phases.add_row(str(plan["cycle"]), plan["name"], plan["mode"], f"{plan['max_disturbance_scale']:.4g}",
-                       f"{run['max_deficit']:.3g}", f"{run['max_slip']:.3g}")
-    console.print(phases)
+    console.print(mode_key(payload["scene_contacts"]))
+    rows = [(str(plan["cycle"]), plan["name"], plan.get("scene_mode", "-"),
+             f"{plan['max_disturbance_scale']:.4g}", f"{run['max_deficit']:.3g}", f"{run['max_slip']:.3g}")
+            for plan, run in zip(payload["phases"], payload["phase_runs"], strict=False)]
+    common.print_table("phases: planned largest disturbance scale, and in the simulation",
+                       ("cycle", "phase", mode_heading(payload["scene_contacts"]), "max scale", "max deficit",
+                        "max slip [m]"), rows)
     weakest = payload["weakest_phase"]
     console.print(f"weakest phase: {weakest['name']} (cycle {weakest['cycle']}), largest scale "
                   f"{weakest['max_disturbance_scale']:.4g}")
     for check in payload["hand_overs"][:2]:
-        console.print(f"hand-over {check['name']}: mode {check['mode']}, {check['modes_checked']} other "
-                      f"modes checked, {len(check['held_modes'])} hold, slip modes: "
-                      f"{', '.join(check['slip_modes']) or 'none'}")
+        console.print(f"hand-over {check['name']}: mode {common.named_mode(check, payload)}, "
+                      f"{check['modes_checked']} other modes checked, {len(check['held_modes'])} hold, slip "
+                      f"modes: {common.named_modes(check['slip_modes'], check['contacts'], payload)}",
+                      highlight=False)
     console.print(f"simulation ({sim['samples']['times'][-1]:.3g} s, rigid, {sim['phases_completed']} of "
                   f"{len(payload['phases'])} phases): base rise {sim['rise']:.4f} m; brace "
                   f"{'held' if sim['brace_held'] else 'SLIPPED'} (max slip {sim['max_slip']:.3g} m, "
@@ -162,7 +165,7 @@ def render_gait(payload: dict[str, Any]) -> None:
 
 def render(payload: dict[str, Any]) -> None:
     """The plan as rich text and a table."""
-    console.print(f"mode {payload['mode']} at the zero disturbance; robust: "
+    console.print(f"mode {common.named_mode(payload, payload)} at the zero disturbance; robust: "
                   f"{'yes' if payload['robust'] else 'NO'} ({payload['reason']})")
     table = Table(title=f"joint torques [N m] (scale {payload['scale']:.4g})")
     for name in payload["torques"]:
@@ -175,8 +178,8 @@ def render(payload: dict[str, Any]) -> None:
     closest = payload["closest_mode"]
     console.print(f"robustness radius {payload['robustness_radius']:.4g} (margin {payload['margin']:g}); "
                   f"other modes excluded: {payload['modes_excluded']}"
-                  + (f", closest {closest['mode']} at {closest['margin']:.4g}" if closest and
-                     closest["margin"] is not None else ""))
+                  + (f", closest {common.named_mode(closest, payload)} at {closest['margin']:.4g}"
+                     if closest and closest["margin"] is not None else ""))
     console.print(f"head acceleration {payload['head_acceleration']:.4g} m/s^2 up at the zero disturbance, "
                   f">= {payload['worst_head_acceleration']:.4g} over the polytope "
                   f"(required {payload['min_head_acceleration']:g})")

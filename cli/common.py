@@ -15,6 +15,8 @@ from rich.console import Console
 
 from frcontrol.errors import FrcontrolError
 
+from .progress import Progress
+
 if TYPE_CHECKING:  # the scene, the simulators and the viewer load when a command runs
     from frcontrol.scene import Scene
     from frcontrol.simulation.trajectory import Trajectory
@@ -34,82 +36,9 @@ def set_quiet(quiet: bool) -> None:
     _quiet = bool(quiet)
 
 
-class _Silent:
-    """A stand-in for a progress display under ``--quiet``."""
-
-    def __enter__(self) -> _Silent:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        return None
-
-    def update(self, *args: object, **kwargs: object) -> None:
-        """Nothing to update."""
-
-
-def progress(message: str) -> Any:
-    """A progress display on stderr (a spinner with ``update(text)``), or nothing under ``--quiet``."""
-    return _Silent() if _quiet else Console(stderr=True).status(message)
-
-
-class _SilentBar:
-    """A stand-in for a progress bar under ``--quiet`` or ``--json``."""
-
-    def __enter__(self) -> _SilentBar:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        return None
-
-    def __call__(self, done: int, total: int) -> None:
-        """Nothing to show."""
-
-
-class _Bar:
-    """A Rich progress bar on stderr: done/total, rate and time left; called as ``bar(done, total)``."""
-
-    def __init__(self, description: str, unit: str) -> None:
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-
-        self.progress = Progress(
-            TextColumn(description), BarColumn(), MofNCompleteColumn(), TextColumn(unit),
-            TextColumn("{task.fields[rate]}"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
-            console=Console(stderr=True), transient=False,
-        )
-        self.task = self.progress.add_task(description, total=None, rate="")
-        self.unit = unit
-        self.first: int | None = None
-
-    def __enter__(self) -> _Bar:
-        return self  # the bar starts at the first call: an error before any work prints only itself
-
-    def __exit__(self, *exc: object) -> None:
-        if self.first is not None:
-            self.progress.stop()
-
-    def __call__(self, done: int, total: int) -> None:
-        """Show ``done`` of ``total`` (the rate counts from the first call: resumed work is not rate)."""
-        if self.first is None:
-            self.progress.start()
-            self.first = done
-            self.progress.reset(self.task, total=total, completed=done, rate="")
-            return
-        task = self.progress.tasks[0]
-        elapsed = task.elapsed or 0.0
-        rate = f"{(done - self.first) / elapsed:.4g} {self.unit}/s" if elapsed > 0 else ""
-        self.progress.update(self.task, completed=done, rate=rate)
-
-
-def progress_bar(description: str, unit: str, *, show: bool = True) -> Any:
-    """A progress bar with rate and time left on stderr, or nothing under ``--quiet`` or ``show=False``."""
-    return _Bar(description, unit) if show and not _quiet else _SilentBar()
+def progress(task: str, unit: str = "") -> Progress:
+    """The command's progress on stderr (:class:`cli.progress.Progress`), silent under ``--quiet``."""
+    return Progress(task, unit, quiet=_quiet)
 
 
 def note(text: str, *, to_stderr: bool = False) -> None:
@@ -280,6 +209,40 @@ def answer(payload: dict[str, Any], render: Callable[[dict[str, Any]], None], *,
         render(payload)
 
 
+def named_mode(record: dict[str, Any], payload: dict[str, Any]) -> str:
+    """A record's mode over every scene contact, each contact's name beside its letter.
+
+    ``record`` carries ``"scene_mode"`` (:func:`frcontrol.modes.add_scene_modes`), ``payload``
+    ``"scene_contacts"``: ``"RSL (toe R, hip S, heel L)"``.
+    """
+    from frcontrol.modes import mode_label
+
+    return mode_label(record["scene_mode"], payload["scene_contacts"])
+
+
+def named_modes(modes: Sequence[str], contacts: Sequence[str], payload: dict[str, Any]) -> str:
+    """Modes over ``contacts`` (the touching ones) as scene modes, the contacts' names after them.
+
+    ``"LSSSS, RSSSS (letters: front_corner rear_corner front_toe middle_toe rear_toe)"``; ``"none"``
+    for no modes.
+    """
+    from frcontrol.modes import scene_mode
+
+    if not modes:
+        return "none"
+    names = payload["scene_contacts"]
+    shown = ", ".join(scene_mode(mode, contacts, names) for mode in modes)
+    return f"{shown} (letters: {' '.join(names)})"
+
+
+def print_table(title: str, columns: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
+    """A text table at the console's width that never cuts a word (:func:`cli.text_table.table_lines`)."""
+    from .text_table import table_lines
+
+    for line in table_lines(title, columns, rows, console.width):
+        console.print(line, markup=False, highlight=False, crop=False, soft_wrap=True)
+
+
 def print_json(payload: dict[str, Any]) -> None:
     """Write a JSON document on stdout (NumPy values converted by :func:`frcontrol.jsonable.to_jsonable`)."""
     from frcontrol.jsonable import to_jsonable
@@ -297,11 +260,13 @@ __all__ = [
     "fail",
     "note",
     "progress",
-    "progress_bar",
     "serve_until_stopped",
     "wait_until_stopped",
     "set_quiet",
     "tell",
     "handle_errors",
     "print_json",
+    "print_table",
+    "named_mode",
+    "named_modes",
 ]

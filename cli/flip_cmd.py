@@ -102,11 +102,10 @@ def _plan_and_fly(scene: Scene, margin: float, max_time: float, dt: float, repla
     """The plan and, when one is found and ``max_time`` > 0, the simulated closed loop."""
     from frcontrol.answers import plan_and_fly
 
-    with common.progress("planning the flip...") as status:
+    with common.progress("planning the flip", "s") as shown:
         return plan_and_fly(
             scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
-            on_simulation=lambda: status.update(f"simulating the flip (up to {max_time:g} s)..."),
-            progress=lambda t, total: status.update(f"simulating the flip: {t:.3f} / {total:g} s"))
+            on_simulation=lambda: shown.stage(f"simulating the flip (up to {max_time:g} s)"), progress=shown)
 
 
 def _driven(scene: Scene) -> bool:
@@ -119,10 +118,10 @@ def _pump(scene: Scene, *, json: bool, html: Any, out: Any, plot: Any, margin: f
     """``frc flip --pump``: the pumping run, its answer, figure, page and export."""
     from frcontrol.planning.pump import pump_flip, pump_payload
 
-    with common.progress("pumping the flip...") as status:
+    with common.progress("pumping the flip (up to the time limit)", "s") as shown:
         plan, result = pump_flip(
             scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every, compliant=compliant,
-            progress=lambda t, total: status.update(f"pumping the flip: {t:.3f} / {total:g} s"))
+            progress=shown)
     common.answer(pump_payload(scene, plan, result), render_pump, json=json)
     if plot is not None and result is not None:
         from frcontrol.viz.pump_figure import plot_pump
@@ -136,18 +135,19 @@ def _pump(scene: Scene, *, json: bool, html: Any, out: Any, plot: Any, margin: f
 
 def render_pump(payload: dict[str, Any]) -> None:
     """The pumping run as rich text: cycles, the outcome, the energy, the limits check."""
+    from frcontrol.modes import mode_key
+
     sim, pump = payload["simulation"], payload.get("pump")
     if pump is None:
-        console.print(f"first push: mode {payload['mode']}, torques {payload['torques']}; not simulated "
+        first = common.named_mode(payload, payload) if payload["mode"] else "none"
+        console.print(f"first push: mode {first}, torques {payload['torques']}; not simulated "
                       f"({sim['reason']})")
         return
-    table = Table(title="pumping phases")
-    for column in ("cycle", "phase", "start [s]", "end [s]", "modes", "ended by"):
-        table.add_column(column, overflow="fold")
-    for p in pump["phases"]:
-        table.add_row(str(p["cycle"]), p["kind"], f"{p['start']:.3f}", f"{p['end']:.3f}",
-                      ", ".join(p["modes"]), p["ended_by"].split(" (")[0])
-    console.print(table)
+    console.print(mode_key(payload["scene_contacts"]))
+    rows = [(str(p["cycle"]), p["kind"], f"{p['start']:.3f}", f"{p['end']:.3f}", ", ".join(p["modes"]),
+             p["ended_by"].split(" (")[0]) for p in pump["phases"]]
+    common.print_table("pumping phases", ("cycle", "phase", "start [s]", "end [s]",
+                                          f"modes ({' '.join(payload['scene_contacts'])})", "ended by"), rows)
     stalls = ", ".join(f"{name} {d['stall_torque']:.1f} N m / {d['no_load_speed'] or math.inf:.1f} rad/s"
                        for name, d in pump["drives"].items())
     console.print(f"drives (stall torque / no-load speed): {stalls}")
@@ -198,8 +198,8 @@ def render(payload: dict[str, Any]) -> None:
         console.print(f"flipped: no ({sim['reason']})")
         return
     check = "yes (one rigid solution at the printed torques)" if payload["unambiguous"] else "NO"
-    console.print(f"mode [bold]{payload['mode']}[/bold] (contacts {', '.join(payload['contacts'])}); "
-                  f"unambiguous: {check}; margin {payload['margin']:g} N m")
+    console.print(f"mode {common.named_mode(payload, payload)}; unambiguous: {check}; margin "
+                  f"{payload['margin']:g} N m", highlight=False)
     table = Table(title="hip torques [N m]")
     for name in payload["torques"]:
         table.add_column(name, overflow="fold")
@@ -208,8 +208,9 @@ def render(payload: dict[str, Any]) -> None:
     worst = " (worst case over the mode's ambiguity)" if payload["worst_case"] else ""
     console.print(f"pitch acceleration ({payload['pitch']}): {payload['pitch_acceleration']:.6g} "
                   f"rad/s^2{worst}")
-    console.print(f"candidates {', '.join(payload['candidates'])}; explored "
-                  f"{', '.join(payload['explored'])}; {payload['pieces']} piece(s); plan in "
+    explored = common.named_modes(payload["explored"], payload["contacts"], payload)
+    console.print(f"candidates {common.named_modes(payload['candidates'], payload['contacts'], payload)}; "
+                  f"explored {explored}; {payload['pieces']} piece(s); plan in "
                   f"{1e3 * payload['timings']['total']:.1f} ms")
     if payload["forced_inputs"]:
         console.print("forced by the model: " + ", ".join(f"{k} = {v:g}" for k, v in

@@ -66,6 +66,12 @@ IntegratorOpt = Annotated[
     typer.Option("--integrator", callback=_check_integrator,
                  help=f"Compliant model's integrator: {', '.join(INTEGRATORS)}."),
 ]
+EveryOpt = Annotated[
+    int,
+    typer.Option("--every", callback=in_range(low=1),
+                 help="Keep every N-th sample (and the last) in --json's samples: a document about N "
+                      "times smaller; the summary and the events stay the whole run's."),
+]
 HtmlOpt = options.html_option("the trajectory")
 PlotOpt = options.plot_option("every coordinate and the contact forces over time, contact events marked")
 
@@ -86,6 +92,7 @@ def simulate_command(
     out: options.OutOpt = None,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
+    every: EveryOpt = 1,
 ) -> None:
     """Simulate a scene: contact events, energy and constraint drift over time.
 
@@ -97,7 +104,7 @@ def simulate_command(
     \b
     Examples:
       frc simulate rod_on_table --duration 0.5
-      frc simulate box_on_slope --model compliant --stiffness 1e6 --json
+      frc simulate box_on_slope --model compliant --stiffness 1e6 --json --every 10
       frc simulate rhex_flip --input hip_rear=5 -T 0.2 --out run.npz --html run.html
       frc simulate rod_on_table -T 0.3 --plot rod.png
     """
@@ -112,7 +119,7 @@ def simulate_command(
         plot_trajectory(traj, plot, coordinates=traj.coordinates)
         common.note(f"wrote {plot}", to_stderr=json)
     common.write_motion(loaded, traj, html=html, out=out, json=json)
-    payload = traj.to_dict(loaded)
+    payload = traj.to_dict(loaded, every=every)
     common.answer(payload, render, json=json)
 
 
@@ -130,9 +137,9 @@ def _simulate(scene: Scene, model: ContactModel | None, stiffness: float | None,
     if chosen == "rigid" and (stiffness is not None or damping is not None):
         raise typer.BadParameter("--stiffness and --damping belong to the compliant model: "
                                  "add --model compliant")
-    with common.progress(f"simulating {duration:g} s on the {chosen} model..."):
+    with common.progress(f"simulating on the {chosen} model", "s") as shown:
         return run_simulation(scene, inputs, model=chosen, stiffness=stiffness, damping=damping,
-                              duration=duration, dt=dt, integrator=integrator)
+                              duration=duration, dt=dt, integrator=integrator, progress=shown)
 
 
 def _report_validity(traj: Trajectory) -> None:

@@ -61,10 +61,9 @@ def standup_command(
     from frcontrol.planning.standup import simulate_standup
 
     with common.live_viewer(view, port) as server:
-        with common.progress("planning the stand-up...") as status:
+        with common.progress("the stand-up (planned and simulated)", "s") as shown:
             result = simulate_standup(
-                loaded, duration=duration, dt=dt, replan_every=replan_every, margin=margin,
-                progress=lambda t, total: status.update(f"simulating the stand-up: {t:.3f} / {total:g} s"))
+                loaded, duration=duration, dt=dt, replan_every=replan_every, margin=margin, progress=shown)
         common.answer(result.to_dict(loaded), render, json=json)
         trajectory = result.trajectory
         if plot is not None:
@@ -91,7 +90,7 @@ def render(payload: dict[str, Any]) -> None:
     if not payload["found"]:
         console.print(f"[bold]no stand-up plan[/bold]: {payload['reason']}")
         return
-    console.print(f"mode [bold]{payload['mode']}[/bold] (contacts {', '.join(payload['contacts'])}); "
+    console.print(f"mode {common.named_mode(payload, payload)}; "
                   f"unambiguous: yes (one rigid solution at the printed torques); margin "
                   f"{payload['margin']:g} N m")
     table = Table(title="joint torques [N m]")

@@ -94,7 +94,8 @@ def render(payload: dict[str, Any]) -> None:
     strong = payload["strong_stability"]
     verdicts.add_row("strongly stable", _yes(payload["strongly_stable"]),
                      "" if strong is None else
-                     (f"moving: {', '.join(strong['moving_modes'])}" if strong["moving_modes"] else
+                     (f"moving: {common.named_modes(strong['moving_modes'], payload['contacts'], payload)}"
+                      if strong["moving_modes"] else
                       f"{len(strong['solutions'])} rigid solution(s), all at rest"))
     sup = payload["support_region"]
 

@@ -49,9 +49,12 @@ def analysis_and_solutions(
 
 def solutions_payload(result: DynamicResponse, solutions: list[RigidSolution]) -> list[dict[str, Any]]:
     """The ``"solutions"`` of ``frc analyze --input ... --json``: each solution with its stability."""
+    from .modes import add_scene_modes
     from .stability import solution_report
 
-    return [solution_report(result.problem, s) for s in solutions]
+    problem = result.problem
+    reports = [solution_report(problem, s) for s in solutions]
+    return add_scene_modes({"solutions": reports}, problem.scene_contacts or problem.contacts)["solutions"]
 
 
 def analysis_payload(scene: Scene, result: DynamicResponse, solutions: list[RigidSolution] | None
@@ -65,7 +68,8 @@ def analysis_payload(scene: Scene, result: DynamicResponse, solutions: list[Rigi
 
 def run_simulation(scene: Scene, inputs: Mapping[str, float], *, model: str | None = None,
                    stiffness: float | None = None, damping: float | None = None, duration: float = 1.0,
-                   dt: float = 1e-3, integrator: str = "radau") -> Trajectory:
+                   dt: float = 1e-3, integrator: str = "radau",
+                   progress: Callable[[float, float], None] | None = None) -> Trajectory:
     """The run ``frc simulate`` makes: on ``model`` (default: the scene's ``[model]`` contact).
 
     Args:
@@ -77,6 +81,7 @@ def run_simulation(scene: Scene, inputs: Mapping[str, float], *, model: str | No
         duration: [s] simulated time.
         dt: [s] the rigid step; the compliant sample interval.
         integrator: the compliant model's integrator.
+        progress: called with (simulated time [s], duration [s]) as the run advances.
 
     Raises:
         InputError: an unknown model, or stiffness or damping with the rigid model; see the simulators.
@@ -91,9 +96,9 @@ def run_simulation(scene: Scene, inputs: Mapping[str, float], *, model: str | No
     if chosen == "rigid" and (stiffness is not None or damping is not None):
         raise InputError("--stiffness and --damping belong to the compliant model: add --model compliant")
     if chosen == "rigid":
-        return simulate_rigid(scene, inputs, duration, dt)
+        return simulate_rigid(scene, inputs, duration, dt, progress=progress)
     return simulate_compliant(scene, inputs, duration, dt, integrator=integrator,
-                              stiffness=stiffness, damping=damping)
+                              stiffness=stiffness, damping=damping, progress=progress)
 
 
 def simulation_failure(trajectory: Trajectory) -> str | None:
@@ -132,7 +137,8 @@ def plan_and_fly(scene: Scene, *, margin: float, max_time: float, dt: float, rep
 
 
 def plan_and_climb(scene: Scene, *, margin: float, duration: float, seed: int,
-                   on_simulation: Callable[[], None] | None = None
+                   on_simulation: Callable[[], None] | None = None,
+                   progress: Callable[[float, float], None] | None = None
                    ) -> tuple[ClimbPlan, ClimbResult | None]:
     """``frc climb``'s work: the plan and, when one is found and ``duration`` > 0, the simulated check.
 
@@ -142,6 +148,7 @@ def plan_and_climb(scene: Scene, *, margin: float, duration: float, seed: int,
         duration: [s] simulated time under sampled disturbances (0: plan only).
         seed: seed of the sampled disturbances.
         on_simulation: called once when the simulation starts.
+        progress: called with (simulated time, duration) along the simulation.
 
     Raises:
         InputError: a seed that is not an integer >= 0 (before any planning); see the planner.
@@ -155,7 +162,7 @@ def plan_and_climb(scene: Scene, *, margin: float, duration: float, seed: int,
         return plan, None
     if on_simulation is not None:
         on_simulation()
-    return plan, simulate_climb(scene, plan, duration=duration, seed=seed)
+    return plan, simulate_climb(scene, plan, duration=duration, seed=seed, progress=progress)
 
 
 def plan_and_gait(scene: Scene, *, cycles: int, margin: float, seed: int, scale: float | None = None,

@@ -43,6 +43,7 @@ from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
 from .modes import (
     ContactProblem,
     ModeSystem,
+    add_scene_modes,
     build_child_systems,
     build_mode_system,
     mode_outputs,
@@ -261,7 +262,7 @@ class DynamicResponse:
             "overlaps": list(self.overlapping(m.mode)),
             "pruned": m.pruned,
         } for m in self.modes]
-        return to_jsonable({
+        return add_scene_modes(to_jsonable({
             "coordinates": list(problem.coordinates),
             "contacts": list(problem.contacts),
             "inactive_contacts": list(inactive_contacts),
@@ -279,7 +280,7 @@ class DynamicResponse:
             },
             "timings": dict(self.timings),
             "tolerances": dict(self.tolerances),
-        })
+        }), problem.scene_contacts or (*problem.contacts, *inactive_contacts))
 
     @property
     def feasible_modes(self) -> tuple[ModeAnalysis, ...]:

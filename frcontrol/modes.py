@@ -67,6 +67,7 @@ class ContactProblem:
         drives: the scene's drives at this state (:func:`frcontrol.drives.drives_report`), by joint.
         springs: the joint springs at this state (:meth:`frcontrol.springs.JointSprings.report`: k, c,
             rest, deflection [m or rad] and force [N or N m], in h already), by joint.
+        scene_contacts: every contact of the scene, in scene order (empty: not from a scene).
     """
 
     coordinates: tuple[str, ...]
@@ -88,6 +89,7 @@ class ContactProblem:
     input_units: tuple[str, ...] = ()
     drives: Mapping[str, Any] = field(default_factory=dict)
     springs: Mapping[str, Any] = field(default_factory=dict)
+    scene_contacts: tuple[str, ...] = ()
 
     @property
     def n(self) -> int:
@@ -151,7 +153,15 @@ class ContactProblem:
             input_units=scene.inputs.units,
             drives=_drives_report(scene, scene.v if v is None else v),
             springs=scene.robot.springs.report(state.q, state.v),
+            scene_contacts=tuple(c.name for c in scene.contacts),
         )
+
+    def scene_mode(self, mode: str) -> str:
+        """``mode`` (a letter per contact of this problem) over every scene contact, as outputs print it.
+
+        Without the scene's contacts (a problem not built from a scene) the mode is returned as is.
+        """
+        return scene_mode(mode, self.contacts, self.scene_contacts) if self.scene_contacts else mode
 
     @cached_property
     def row_table(self) -> ContactRowTable:
@@ -526,8 +536,85 @@ def contact_mode_letter(normal_force: float, tangential_velocity: float, force_t
     return "F"
 
 
+MODE_MEANINGS = {"S": "separate", "L": "slide left (-t)", "R": "slide right (+t)", "F": "fixed"}
+"""What each mode letter says of its contact."""
+
+
+def scene_mode(mode: str, contacts: Sequence[str], scene_contacts: Sequence[str]) -> str:
+    """A mode over every contact of the scene, in scene order: the form every output prints.
+
+    A mode of the contact problem has one letter per *touching* contact (``contacts``); the
+    other contacts of the scene are apart, so they are ``S``. ``scene_mode("RL", ("toe", "heel"),
+    ("toe", "hip", "heel"))`` is ``"RSL"``.
+
+    Raises:
+        InputError: the mode's length is not the number of ``contacts``, or a contact is not in
+            ``scene_contacts``.
+    """
+    if len(mode) != len(contacts):
+        raise InputError(f"mode {mode!r} has {len(mode)} letters for {len(contacts)} contacts "
+                         f"({', '.join(contacts)})")
+    unknown = [name for name in contacts if name not in scene_contacts]
+    if unknown:
+        raise InputError(f"contact {unknown[0]!r} is not among the scene's ({', '.join(scene_contacts)})")
+    letters = dict(zip(contacts, mode, strict=True))
+    return "".join(letters.get(name, "S") for name in scene_contacts)
+
+
+def add_scene_modes(document: dict[str, Any], scene_contacts: Sequence[str]) -> dict[str, Any]:
+    """Add ``"scene_contacts"``, and ``"scene_mode"`` beside every ``"mode"`` of a JSON document.
+
+    A ``"mode"`` has one letter per contact of the nearest ``"contacts"`` (a list of names, or a
+    table by name) at its level or above: the touching contacts. Its ``"scene_mode"`` has one
+    letter per contact of the scene (:func:`scene_mode`): the form every text table, figure and
+    page shows. Every result's ``to_dict()`` calls this. Returns ``document``, changed in place.
+    """
+
+    def walk(node: Any, contacts: list[str] | None) -> None:
+        if isinstance(node, dict):
+            own = node.get("contacts")
+            if isinstance(own, (list, dict)) and all(isinstance(c, str) for c in own):
+                contacts = list(own)
+            mode = node.get("mode")
+            if isinstance(mode, str) and contacts is not None and len(mode) == len(contacts):
+                node["scene_mode"] = scene_mode(mode, contacts, scene_contacts)
+            for value in list(node.values()):
+                walk(value, contacts)
+        elif isinstance(node, list):
+            for value in node:
+                walk(value, contacts)
+
+    document["scene_contacts"] = list(scene_contacts)
+    walk(document, None)
+    return document
+
+
+def mode_label(mode: str, scene_contacts: Sequence[str]) -> str:
+    """A scene mode with each contact's name beside its letter: ``"RSL (toe R, hip S, heel L)"``."""
+    named = ", ".join(f"{name} {letter}" for name, letter in zip(scene_contacts, mode, strict=True))
+    return f"{mode} ({named})"
+
+
+def mode_heading(scene_contacts: Sequence[str]) -> str:
+    """A table column's heading for scene modes: ``"mode (toe hip heel)"``, the names in letter order."""
+    return f"mode ({' '.join(scene_contacts)})"
+
+
+def mode_key(scene_contacts: Sequence[str]) -> str:
+    """The line that decodes mode strings: which contact each letter is, and what each letter means."""
+    meanings = ", ".join(f"{letter} {meaning}" for letter, meaning in MODE_MEANINGS.items())
+    return (f"mode letters: one per contact, in scene order ({', '.join(scene_contacts)}); "
+            f"{meanings}")
+
+
 __all__ = [
+    "add_scene_modes",
     "all_modes",
+    "mode_heading",
+    "mode_key",
+    "mode_label",
+    "MODE_MEANINGS",
+    "scene_mode",
     "build_child_systems",
     "contact_mode_letter",
     "needs_balancing",

@@ -99,6 +99,7 @@ import scipy.spatial
 from . import polytope as poly
 from .errors import InputError
 from .jsonable import finite_or_none, to_jsonable
+from .modes import add_scene_modes
 from .scene import Scene, parse_input_assignments
 from .solvers import DEFAULT_LP_SOLVER, LPResult, SolverFailed, must_solve, solve_lp
 
@@ -1092,6 +1093,7 @@ class StaticsReport:
         weak: weak stability (the robot with its joints).
         strong: strong stability (None if not computed).
         timings: seconds per part, and ``"total"``.
+        scene_contacts: every contact of the scene, in scene order (the letters of a scene mode).
         tolerances: every tolerance that shaped the answers.
     """
 
@@ -1107,6 +1109,7 @@ class StaticsReport:
     strong: StrongStability | None
     timings: Mapping[str, float] = field(default_factory=dict)
     tolerances: Mapping[str, float] = field(default_factory=dict)
+    scene_contacts: tuple[str, ...] = ()
 
     @property
     def weakly_stable(self) -> bool:
@@ -1120,7 +1123,7 @@ class StaticsReport:
         eq = report.equilibrium
         sup = report.support
         strong = report.strong
-        return to_jsonable({
+        return add_scene_modes(to_jsonable({
             "scene": report.scene_name,
             "form_closure": report.form_closure.closed,
             "form_closure_margin": report.form_closure.margin,
@@ -1161,7 +1164,7 @@ class StaticsReport:
             },
             "timings": dict(report.timings),
             "tolerances": dict(report.tolerances),
-        })
+        }), report.scene_contacts or (*report.body.contact_names, *report.inactive_contacts))
 
     @property
     def strongly_stable(self) -> bool | None:
@@ -1220,6 +1223,7 @@ def analyze_statics(
     return StaticsReport(
         scene_name=scene.name,
         inactive_contacts=tuple(c.name for c in scene.contacts if not c.active),
+        scene_contacts=tuple(c.name for c in scene.contacts),
         inputs=np.asarray(u, dtype=float),
         body=body, form_closure=form, force_closure=force, equilibrium=equilibrium, support=support,
         weak=weak, strong=strong_result, timings=timings,

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from frcontrol.engine import solutions_at
+from frcontrol.modes import scene_mode
 from frcontrol.planning.climb import plan_climb
 from frcontrol.planning.flip import plan_flip, simulate_flip
 from frcontrol.polytope import contains
@@ -109,8 +110,9 @@ def test_flip_figure_has_no_overlap_and_explains_every_colour(flip):
         assert figures.NO_MODE_LABEL in entries and "two modes (ambiguous)" in entries
         assert left.get_aspect() == 1.0  # two torques in N m: one scale
         written = [t.get_text() for t in left.texts]
-        assert plan.mode in written  # the plan's (largest) region is labelled
-        modes = {m.mode for m in plan.analysis.feasible_modes}
+        # every mode over every scene contact (the form every output shows)
+        assert scene_mode(plan.mode, plan.contacts, plan.scene_contacts) in written  # the plan's region
+        modes = {scene_mode(m.mode, plan.contacts, plan.scene_contacts) for m in plan.analysis.feasible_modes}
         assert set(written) <= modes and all(w in entries for w in written)
 
 
@@ -214,7 +216,7 @@ def test_the_flip_figure_zooms_on_the_small_domains_and_labels_them(flip):
         if mode.inputs_full_dimensional:
             A, b = figures.input_slice(mode.feasible_input_domain, (0, 1), through)
             v = polygon_from_halfplanes(A, b, (-50.0, 50.0, -50.0, 50.0))
-            boxes[mode.mode] = (v.min(axis=0), v.max(axis=0))
+            boxes[scene_mode(mode.mode, plan.contacts, plan.scene_contacts)] = (v.min(axis=0), v.max(axis=0))
     largest = max(boxes, key=lambda name: np.prod(boxes[name][1] - boxes[name][0]))
     for name, (low, high) in boxes.items():
         if name != largest:

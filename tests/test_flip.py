@@ -444,7 +444,9 @@ def test_cli_writes_the_html_and_the_plot(tmp_path):
     assert page.startswith("<!DOCTYPE html>") or "<html" in page[:500].lower()
     assert "meshcat" in page.lower() and len(page) > 100_000
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert "mode RLL" in result.stdout and "hip torques" in result.stdout
+    # the mode over every scene contact, in scene order, with the names (rear_corner, front_toe apart)
+    assert ("mode RSSLL (front_corner R, rear_corner S, front_toe S, middle_toe L, rear_toe L)"
+            in " ".join(result.stdout.split())) and "hip torques" in result.stdout
 
 
 def test_build_flip_is_the_formulation_and_needs_no_solver(monkeypatch):

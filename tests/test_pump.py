@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 import pytest
+from test_json_output import is_progress
 from typer.testing import CliRunner
 
 from frcontrol.drives import joint_torque, no_load_speed, stall_torque, torque_limits
@@ -457,7 +458,8 @@ def test_frc_flip_pump_json_plot_and_exit_codes(tmp_path):
     assert text_overlaps(pump_figure(scene, simulate_pump(scene, max_time=0.3))) == []
     for args in (["rhex_flip_drives", "--max-time", "0.1", "--dt", "1"], ["rhex_flip", "--pump"]):
         bad = runner.invoke(app, ["flip", *args])
-        assert bad.exit_code == 1 and "Traceback" not in bad.output and len(bad.stderr.splitlines()) == 1
+        errors = [line for line in bad.stderr.splitlines() if not is_progress(line)]  # a loaded machine
+        assert bad.exit_code == 1 and "Traceback" not in bad.output and len(errors) == 1
     assert math.isfinite(doc["pump"]["energy_drawn"])
     assert {"final_pitch", "right_side_up", "at_rest", "modes_check", "energy_audit"} <= set(doc["pump"])
     text = runner.invoke(app, ["flip", "rhex_flip_drives", "--max-time", "0.3"])

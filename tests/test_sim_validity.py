@@ -128,7 +128,8 @@ def test_the_cli_exits_1_on_divergence_with_one_line(write_scene):
 
 def test_the_cli_reports_warnings_in_the_json_and_on_stderr():
     result = runner.invoke(app, ["simulate", "rhex_flip", "--model", "compliant", "--duration", "0.1",
-                                 "--input", "hip_middle=10", "--input", "hip_rear=10", "--json"])
+                                 "--input", "hip_middle=10", "--input", "hip_rear=10", "--json",
+                                 "--quiet"])  # no progress lines on a loaded machine: warnings only
     assert result.exit_code == 0, result.stderr
     doc = json.loads(result.stdout)
     assert doc["summary"]["status"] == "completed" and doc["summary"]["validity"]["max_speed"] > 0
@@ -136,7 +137,7 @@ def test_the_cli_reports_warnings_in_the_json_and_on_stderr():
     assert "speed" in kinds and all(set(w) == {"time", "kind", "detail"} for w in doc["warnings"])
     lines = result.stderr.strip().splitlines()
     assert len(lines) == len(doc["warnings"]) and all(line.startswith("frc: warning: t = ") for line in lines)
-    calm = runner.invoke(app, ["simulate", "rod_on_table", "--duration", "0.05", "--json"])
+    calm = runner.invoke(app, ["simulate", "rod_on_table", "--duration", "0.05", "--json", "--quiet"])
     assert calm.exit_code == 0 and json.loads(calm.stdout)["warnings"] == [] and calm.stderr == ""
 
 

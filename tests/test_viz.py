@@ -37,6 +37,7 @@ from frcontrol.cli.view_cmd import view_command
 from typer.testing import CliRunner
 
 from frcontrol.errors import CoordinateNotFound, InputError
+from frcontrol.modes import mode_label
 from frcontrol.scene import load_scene
 from frcontrol.simulation.trajectory import Trajectory
 from frcontrol.viz import (
@@ -961,7 +962,7 @@ def test_the_page_has_play_pause_a_time_slider_and_shows_time_and_mode(chromium,
     mode = trajectory.modes[drawing.samples[j]]
     assert drawing.sample_modes[j] == mode
     assert f"t = {drawing.times[j]:.3f} s of {drawing.times[-1]:.3f} s" in seen["text"]
-    assert seen["text"].endswith(f"mode {mode}")
+    assert seen["text"].endswith(f"mode {mode_label(mode, trajectory.contacts)}")  # names beside letters
     assert seen["max"] == pytest.approx(drawing.times[-1] - drawing.times[0])
     assert not seen["playingAfterSeek"]
     assert seen["playingAfterClick"] and seen["label"] == "pause"

@@ -138,7 +138,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -147,7 +147,7 @@ import numpy as np
 from ..engine import DOMAIN_TOLERANCE, DynamicResponse, analyze
 from ..errors import FrameNotFound, InputError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
-from ..modes import ContactProblem, ModeSystem, all_modes, build_mode_system
+from ..modes import ContactProblem, ModeSystem, add_scene_modes, all_modes, build_mode_system
 from ..polytope import Polytope, hull_from_points
 from ..response import AffineSolution, solve_affine
 from ..scene import Inputs, Scene
@@ -763,8 +763,8 @@ def build_climb(
     timings["scale_bound"] = time.perf_counter() - t1
     if s_bound < 0:
         return result(**common, scale_bound=-1.0, obstacle=(
-            f"no torques within the limits keep mode {mode} with margin {margin:g} and the head "
-            f"accelerating upward at >= {a_min:g} m/s^2, even without disturbance: widen the torque "
+            f"no torques within the limits keep mode {base.scene_mode(mode)} with margin {margin:g} and "
+            f"the head accelerating upward at >= {a_min:g} m/s^2, even without disturbance: widen the torque "
             "limits, lower min_head_acceleration or the margin"))
 
     t1 = time.perf_counter()
@@ -790,7 +790,7 @@ def _brace_mode(base: ContactProblem, mode: str) -> tuple[ModeSystem, AffineSolu
     system = build_mode_system(base, mode)
     response = solve_affine(system.A, system.B, system.c, name=f"the system of mode {mode}")
     if not response.consistent or response.ambiguity_dim or response.E.shape[0]:
-        return (f"mode {mode} has {response.ambiguity_dim} ambiguity variable(s) and "
+        return (f"mode {base.scene_mode(mode)} has {response.ambiguity_dim} ambiguity variable(s) and "
                 f"{response.E.shape[0]} consistency condition(s): the brace's squeeze is not set by the "
                 "torques (fewer brace coordinates than brace rows), so no torque can certify it for every "
                 "squeeze; give the brace at least as many coordinates as contact rows (METHOD §6)")
@@ -846,11 +846,12 @@ def _lifted_analysis(scene: Scene, dist: DisturbanceSet, s_bound: float, margin:
     except InputError:
         target = None
     if target is None or not target.feasible:
-        obstacle = f"mode {mode} is infeasible at the scene's state (empty domain)"
+        obstacle = f"mode {boxed.scene_mode(mode)} is infeasible at the scene's state (empty domain)"
     else:
         pieces = analysis.unambiguous_set(mode)
         if not pieces:
-            obstacle = f"mode {mode} has no unambiguous inputs: other modes cover its whole domain"
+            obstacle = (f"mode {boxed.scene_mode(mode)} has no unambiguous inputs: other modes cover its "
+                        "whole domain")
     return boxed, analysis, tuple(pieces), obstacle, (lower, upper)
 
 
@@ -1124,6 +1125,7 @@ class ClimbPlan:
         payload: dict[str, Any] = {
             "found": plan.found,
             "mode": plan.mode,
+            "contacts": list(plan.problem.problem.contacts),
             "torques": dict(plan.torques),
             "max_disturbance_scale": plan.max_disturbance_scale,
             "robust": plan.robust,
@@ -1168,7 +1170,8 @@ class ClimbPlan:
                 "slip_tolerance": result.slip_tolerance,
                 "brace_events": [e.to_dict() for e in result.brace_events],
             }
-        return to_jsonable(payload)
+        problem = plan.problem.problem
+        return add_scene_modes(to_jsonable(payload), problem.scene_contacts or problem.contacts)
 
 
 def _verify(cp: ClimbProblem, u: np.ndarray, scale: float) -> dict[str, Any]:
@@ -1239,8 +1242,8 @@ def plan_climb(
     lo, hi, u_lo, steps = _bisect_scale(cp, scale_tolerance)
     if u_lo is None:
         timings["total"] = time.perf_counter() - start
-        reason = (f"no torques keep mode {cp.mode} unambiguous with margin {cp.margin:g} even at the zero "
-                  "disturbance (another mode holds there)")
+        reason = (f"no torques keep mode {cp.problem.scene_mode(cp.mode)} unambiguous with margin "
+                  f"{cp.margin:g} even at the zero disturbance (another mode holds there)")
         return _not_planned(cp, reason, float(scale), steps, **record)
     timings["bisection"] = time.perf_counter() - t0
 
@@ -1318,12 +1321,12 @@ def _plan_reason(cp: ClimbProblem, check: Mapping[str, Any], plan_scale: float, 
                  nominal_feasible: bool) -> str:
     """What the verified plan guarantees, or why its rounded torques failed the verification."""
     if check["robust"]:
-        reason = (f"mode {cp.mode} holds, unambiguously, for every disturbance in "
+        reason = (f"mode {cp.problem.scene_mode(cp.mode)} holds, unambiguously, for every disturbance in "
                   f"{'P' if plan_scale == 1.0 else f'{plan_scale:.4g} P'}; largest scale {lo:.4g}")
         if not nominal_feasible:
             reason += f" (the nominal scale {scale:g} is infeasible: planned at the largest scale)"
         return reason
-    held = [e.mode for e in check["exclusions"] if e.held]
+    held = [cp.problem.scene_mode(e.mode) for e in check["exclusions"] if e.held]
     return ("the rounded torques failed the verification: "
             + (f"mode(s) {', '.join(held)} also hold" if held else
                f"radius {check['radius']:.3g}, worst head acceleration {check['worst']:.3g} m/s^2"))
@@ -1418,6 +1421,7 @@ def simulate_climb(
     seed: int = 0,
     scale: float | None = None,
     slip_tolerance: float = BRACE_SLIP_TOLERANCE,
+    progress: Callable[[float, float], None] | None = None,
 ) -> ClimbResult:
     """Simulate the planned torques with disturbances sampled from ``conv(V_s)`` (rigid contact).
 
@@ -1430,6 +1434,7 @@ def simulate_climb(
         seed: the random generator's seed.
         scale: the disturbance scale (default: the plan's).
         slip_tolerance: [m] see :data:`BRACE_SLIP_TOLERANCE`.
+        progress: called with (simulated time [s], duration [s]) after every step.
 
     Raises:
         InputError: the plan was not found, or a bad duration, step, hold, scale or seed.
@@ -1443,7 +1448,8 @@ def simulate_climb(
     n = scene.robot.nv
     every = Inputs(scene.coordinate_names, tuple(range(n)), np.full(n, -np.inf), np.full(n, np.inf))
     stepper = RigidStepper(replace(scene, inputs=every), RigidSettings(max_ambiguity_checks=0))
-    run = run_closed_loop(stepper, _disturbed_torques(scene, plan, kin, samples, hold), duration, dt)
+    run = run_closed_loop(stepper, _disturbed_torques(scene, plan, kin, samples, hold), duration, dt,
+                          progress=progress)
     return _brace_outcome(scene, plan, run.trajectory, kin, slip_tolerance,
                           disturbance_times=hold * np.arange(count), disturbance_samples=samples, seed=seed)
 

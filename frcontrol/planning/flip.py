@@ -114,7 +114,7 @@ from .. import polytope as poly
 from ..engine import DynamicResponse, ModeAnalysis, analyze, solutions_at
 from ..errors import FrcontrolError, ImpactState, InputError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
-from ..modes import VELOCITY_TOLERANCE, ContactProblem
+from ..modes import VELOCITY_TOLERANCE, ContactProblem, add_scene_modes, scene_mode
 from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
 from ..simulation.closed_loop import ClosedLoopRun, run_closed_loop
@@ -307,6 +307,8 @@ class FlipPlan:
             massless leg in the air or lifting off: 0); not planned, applied as they are.
         planned_inputs: the inputs planned over (the scene's, minus the forced ones).
         contacts: the active contacts, in mode-letter order.
+        scene_contacts: every contact of the scene, in scene order (the letters of a scene mode,
+            :func:`~frcontrol.modes.scene_mode`, as the figures show).
         body_contacts: the active body contacts.
         pitch: the pitch coordinate.
         reason: why no plan was found (None when found).
@@ -338,6 +340,7 @@ class FlipPlan:
     timings: Mapping[str, float]
     tolerances: Mapping[str, float]
     analysis: DynamicResponse | None = field(default=None, repr=False, compare=False)
+    scene_contacts: tuple[str, ...] = ()
 
     def input_vector(self, inputs: Sequence[str]) -> np.ndarray:
         """The torques as a vector in the order of ``inputs`` (the scene's input names)."""
@@ -384,7 +387,7 @@ class FlipPlan:
                 "replans": 0, "simulated": False,
                 "reason": plan.reason if not plan.found else "not simulated (--max-time 0)",
             }
-            return to_jsonable(payload)
+            return add_scene_modes(to_jsonable(payload), plan.scene_contacts or plan.contacts)
         traj = result.trajectory
         payload["simulation"] = {
             "flipped": result.flipped,
@@ -408,7 +411,7 @@ class FlipPlan:
             "events": [e.to_dict() for e in traj.events],
             "timings": dict(result.timings),
         }
-        return to_jsonable(payload)
+        return add_scene_modes(to_jsonable(payload), plan.scene_contacts or plan.contacts)
 
 
 @dataclass(frozen=True)
@@ -871,6 +874,7 @@ def plan_flip(
     forced_values = {full.inputs[i]: forced[i] for i in sorted(forced)}
     common = _plan_fields(task, problem, forced_values, analysis, margin=margin, rounding=rounding,
                           velocity_tolerance=velocity_tolerance)
+    common["scene_contacts"] = tuple(c.name for c in scene.contacts)
     ready = _candidates(scene, task, full, problem, forced_values, analysis, common["body_contacts"])
     if isinstance(ready, str):
         timings["total"] = time.perf_counter() - start
@@ -972,7 +976,8 @@ def _chosen_plan(scene: Scene, chosen: tuple[FlipPiece, np.ndarray, float] | Non
     if min_pitch_acceleration is not None and not (
             pitch > min_pitch_acceleration + PITCH_TOLERANCE * (1.0 + abs(pitch))):
         return replace(plan, found=False, reason=(
-            f"the best unambiguous torques ({_torque_text(torques)}, mode {piece.mode}) give a pitch "
+            f"the best unambiguous torques ({_torque_text(torques)}, mode "
+            f"{scene_mode(piece.mode, common['contacts'], common['scene_contacts'])}) give a pitch "
             f"acceleration of {pitch:.6g} rad/s^2, not above {min_pitch_acceleration:g}: no torque "
             "within the limits starts the flip"))
     return plan

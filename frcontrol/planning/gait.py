@@ -92,7 +92,7 @@ import numpy as np
 
 from ..errors import InputError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
-from ..modes import build_mode_system
+from ..modes import add_scene_modes, build_mode_system
 from ..response import solve_affine
 from ..scene import Inputs, Scene
 from ..scene_tables import TaskTable
@@ -628,7 +628,8 @@ class PhaseCertificate:
     def to_dict(self) -> dict[str, Any]:
         """The phase's plan as JSON."""
         plan = self.plan
-        return {"name": self.name, "cycle": self.cycle, "mode": plan.mode, "held": list(self.held),
+        return {"name": self.name, "cycle": self.cycle, "mode": plan.mode,
+                "contacts": list(plan.problem.problem.contacts), "held": list(self.held),
                 "released": list(self.released), "closing": list(self.closing),
                 "mover": {"link": self.mover[0], "point": self.mover[1]}, "start_q": self.start,
                 "found": plan.found, "robust": plan.robust, "max_disturbance_scale": self.scale,
@@ -1148,7 +1149,7 @@ def gait_payload(plan: GaitPlan, result: GaitResult | None) -> dict[str, Any]:
     }
     if result is not None:
         payload.update(_result_payload(plan, result))
-    return to_jsonable(payload)
+    return add_scene_modes(to_jsonable(payload), [c.name for c in scene.contacts])
 
 
 def _result_payload(plan: GaitPlan, result: GaitResult) -> dict[str, Any]:

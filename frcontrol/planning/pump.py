@@ -57,6 +57,7 @@ import numpy as np
 from ..drives import Drive, no_load_speed, stall_torque, torque_limits
 from ..errors import FrcontrolError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
+from ..modes import scene_mode
 from ..scene import Scene
 from ..simulation.energy_audit import EnergyAudit, energy_audit
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
@@ -209,10 +210,12 @@ class PumpPhase:
         kind: ``"push"``, ``"recirculate"`` or ``"land"`` (after vertical).
         cycle: the pumping cycle it belongs to (a cycle starts with a push), from 1.
         start: [s] when it began; end: [s] when it ended.
-        modes: the planned modes of a push (one letter per active contact), in order, without
-            repeats; empty for a recirculation.
+        modes: the planned modes of a push (one letter per scene contact, in scene order: the
+            touching contacts change from one plan to the next), in order, without repeats;
+            empty for a recirculation.
         ended_by: the mode change (or the end of the run) that ended it.
-        predicted: for a recirculation, the rigid solutions' modes at each decision's state and
+        predicted: for a recirculation, the rigid solutions' modes (one letter per scene contact)
+            at each decision's state and
             voltages (:func:`~frcontrol.engine.solutions_at`, the planning model), without
             repeats; a decision the acceleration-level model cannot judge (an impact) adds none.
             A push's decisions are its plans, each verified as the one rigid solution.
@@ -368,7 +371,8 @@ class _PumpPolicy:
         self.direction = -np.ones(len(self.names))
         self.target = self.touchdown.copy()
         self.kind, self.cycle, self.start = "push", 1, 0.0
-        self.modes: list[str] = []
+        self.contact_names = tuple(c.name for c in scene.contacts)
+        self.modes: list[str] = []  # scene modes (one letter per scene contact)
         self.predicted: list[str] = []
         self.unambiguous = True
         self.phases: list[PumpPhase] = []
@@ -417,8 +421,10 @@ class _PumpPolicy:
             self._allow(plan.contacts, plan.mode)
         pushing = np.abs(volts) > PUSH_DIRECTION_TOLERANCE
         self.direction[pushing] = np.sign(volts[pushing])
-        if plan.mode is not None and (not self.modes or self.modes[-1] != plan.mode):
-            self.modes.append(plan.mode)
+        if plan.mode is not None:
+            mode = scene_mode(plan.mode, plan.contacts, self.contact_names)
+            if not self.modes or self.modes[-1] != mode:
+                self.modes.append(mode)
         return volts
 
     def _plan(self, stepper: RigidStepper) -> tuple[FlipPlan | None, str | None]:
@@ -434,7 +440,8 @@ class _PumpPolicy:
         toes = [c for c, letter in zip(result.contacts, result.mode or "", strict=False)
                 if c not in result.body_contacts and letter != "S"]
         if not toes:
-            return None, f"the planned mode {result.mode} loads no toe: the toes lift off"
+            planned = scene_mode(result.mode or "", result.contacts, self.contact_names)
+            return None, f"the planned mode {planned} loads no toe: the toes lift off"
         return result, None
 
     def _checked(self, stepper: RigidStepper, volts: np.ndarray) -> np.ndarray:
@@ -485,6 +492,8 @@ def predicted_modes(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarr
                     ) -> list[str] | None:
     """The modes of every rigid solution at a simulated state and inputs, on the planning model.
 
+    Each mode has one letter per scene contact, in scene order (:func:`~frcontrol.modes.scene_mode`).
+
     The planning model of :func:`~.flip.simulate_flip`'s re-plans: the contacts within the
     scene's gap tolerance or loaded by the last step (``loaded``, per scene contact) are active, a
     loaded contact's normal velocity is 0, velocities up to :data:`~.flip.REPLAN_VELOCITY_TOLERANCE`
@@ -502,7 +511,8 @@ def predicted_modes(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarr
         held = np.array([bool(loaded[i]) for i, c in enumerate(here.contacts) if c.active], dtype=bool)
         if held.size:
             problem = replace(problem, normal_velocities=np.where(held, 0.0, problem.normal_velocities))
-        return [s.mode for s in solutions_at(problem, inputs)]
+        names = [c.name for c in scene.contacts]
+        return [scene_mode(s.mode, problem.contacts, names) for s in solutions_at(problem, inputs)]
     except FrcontrolError:  # ImpactState included: no prediction at this state
         return None
 

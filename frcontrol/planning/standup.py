@@ -47,7 +47,7 @@ from .. import polytope as poly
 from ..engine import DynamicResponse, analyze, solutions_at
 from ..errors import FrcontrolError, ImpactState, InputError, SceneError
 from ..jsonable import finite_or_none, to_jsonable
-from ..modes import VELOCITY_TOLERANCE, ContactProblem
+from ..modes import VELOCITY_TOLERANCE, ContactProblem, add_scene_modes
 from ..response import OUTPUT_TOLERANCE
 from ..scene import Contact, Scene
 from ..simulation.closed_loop import run_closed_loop
@@ -240,8 +240,8 @@ def plan_standup(
     analysis = analyze(problem, solver=solver)
     t_analysis = time.perf_counter() - start
     if mode not in [m.mode for m in analysis.feasible_modes]:
-        return _none(f"mode {mode} (feet fixed, the rest leaving) is infeasible within the torque limits",
-                     common, start)
+        return _none(f"mode {problem.scene_mode(mode)} (feet fixed, the rest leaving) is infeasible within "
+                     "the torque limits", common, start)
     chosen = _best_torques(analysis, mode, task, targets, margin, solver)
     if isinstance(chosen, str):
         return _none(chosen, common, start)
@@ -263,18 +263,19 @@ def _best_torques(analysis: DynamicResponse, mode: str, task: StandUpTask, targe
                   margin: float, solver: str) -> tuple[np.ndarray, np.ndarray, int] | str:
     """(rounded torques, their dv, pieces searched): the best verified piece optimum, or why none."""
     chosen = analysis.mode(mode)
+    named = analysis.problem.scene_mode(mode)  # as every output prints it
     if not chosen.inputs_full_dimensional:
-        return f"mode {mode} needs its torques on a hyperplane (its input domain is flat)"
+        return f"mode {named} needs its torques on a hyperplane (its input domain is flat)"
     response = chosen.response
     rows = response.X_u[list(task.base_indices)]
     offset = response.x_0[list(task.base_indices)]
     if response.X_w.size:
         coupling = response.X_w[list(task.base_indices)]
         if np.max(np.abs(coupling)) > OUTPUT_TOLERANCE * max(float(np.max(np.abs(response.X_w))), 1e-300):
-            return f"the base's motion in mode {mode} is ambiguous (it depends on the mode's w)"
+            return f"the base's motion in mode {named} is ambiguous (it depends on the mode's w)"
     pieces = margin_pieces(analysis, mode, margin, solver=solver)
     if not pieces:
-        return f"mode {mode} has no unambiguous input {margin:g} N m away from every other mode"
+        return f"mode {named} has no unambiguous input {margin:g} N m away from every other mode"
     found = (_closest(piece, rows, offset, targets, solver) for piece in pieces)
     optima = sorted((o for o in found if o is not None), key=lambda o: o[0])
     problem = analysis.problem
@@ -284,7 +285,7 @@ def _best_torques(analysis: DynamicResponse, mode: str, task: StandUpTask, targe
         solutions = solutions_at(analysis, rounded, solver=solver)
         if [s.mode for s in solutions] == [mode]:
             return rounded, solutions[0].dv, len(pieces)
-    return f"no piece's optimum gives exactly one rigid solution in mode {mode} once rounded"
+    return f"no piece's optimum gives exactly one rigid solution in mode {named} once rounded"
 
 
 def _closest(piece: poly.Polytope, rows: np.ndarray, offset: np.ndarray, targets: np.ndarray,
@@ -385,7 +386,7 @@ class StandUpResult:
             simulation.update({"status": self.trajectory.status, "samples": document["samples"],
                                "events": document["summary"]["events"]})
         payload["simulation"] = simulation
-        return to_jsonable(payload)
+        return add_scene_modes(to_jsonable(payload), [c.name for c in scene.contacts])
 
 
 def simulate_standup(

@@ -240,6 +240,8 @@ class SolutionAnswer(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     mode: str = Field(description="The contact mode, one of S, L, R, F per active contact.")
+    scene_mode: str = Field(description="The same mode over every contact of the scene, in scene order "
+                            "(S for those apart): the form the text outputs print.")
     dv: list[float] = Field(description="The accelerations of the coordinates [m/s^2 or rad/s^2].")
     contacts: dict[str, ContactAnswer] = Field(description="Forces and accelerations by contact name.")
     ambiguity_dim: int

@@ -89,7 +89,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -546,6 +546,7 @@ def simulate_compliant(
     max_steps: int = MAX_STEPS,
     armature: float | None = None,
     impact_velocity: float = IMPACT_VELOCITY,
+    progress: Callable[[float, float], None] | None = None,
 ) -> Trajectory:
     """Simulate the scene with compliant (Kelvin–Voigt + Coulomb slider) contacts.
 
@@ -572,6 +573,7 @@ def simulate_compliant(
         max_steps: integrator steps at most.
         armature: rotor inertia for massless coordinates (default: the scene's ``[model]``).
         impact_velocity: [m/s] a contact closing faster than this is an ``impact`` event.
+        progress: called with (simulated time [s], duration [s]) after every integrator step.
 
     Returns:
         The trajectory (``model = "compliant"``, ``status``, ``failure``), sampled every ``dt``;
@@ -593,11 +595,9 @@ def simulate_compliant(
     schedule, constant = input_schedule(scene, inputs)
     y0, arm, params = _initial_state(scene, q0, v0, armature, contacts, overrides, initial_stretch)
     y0, zones = _with_zones(scene, params, y0, integrator)
-    stability_limit = explicit_stability_limit(params)
-    if integrator == "euler":
-        _check_euler_step(dt, stability_limit)
+    stability_limit = _checked_stability_limit(integrator, dt, params)
     dynamics, y0 = _dynamics(scene, params, arm, y0, zones)
-    run = _CompliantRun(scene, dynamics, params, duration, dt, max_steps, impact_velocity, y0)
+    run = _CompliantRun(scene, dynamics, params, duration, dt, max_steps, impact_velocity, y0, progress)
     settings: dict[str, Any] = {"integrator": integrator, "rtol": rtol, "atol": atol,
                                 "max_step": dt if max_step is None else max_step}
     run.integrate(schedule, None if constant else dt, stability_limit=stability_limit, **settings)
@@ -637,13 +637,19 @@ def _dynamics(scene: Scene, params: CompliantContacts, arm: Armature, y0: np.nda
     return dynamics, np.concatenate([y0, transmissions.initial(y0[:n], y0[n:2 * n])])
 
 
-def _check_euler_step(dt: float, stability_limit: float) -> None:
-    """Raises InputError when the explicit step ``dt`` [s] is not below its stability limit [s]."""
-    if dt >= stability_limit:
+def _checked_stability_limit(integrator: str, dt: float, params: CompliantContacts) -> float:
+    """The explicit step's stability limit [s] (:func:`explicit_stability_limit`), checked for ``euler``.
+
+    Raises:
+        InputError: with ``euler``, the step ``dt`` [s] is not below the limit.
+    """
+    stability_limit = explicit_stability_limit(params)
+    if integrator == "euler" and dt >= stability_limit:
         raise InputError(f"the explicit 'euler' step dt = {dt:.3g} s is not below its stability limit "
                          f"2 (sqrt(1 + zeta^2) - zeta) / omega = {stability_limit:.3g} s (omega = "
                          "sqrt(k / m_eff), zeta the damping ratio, of the most restrictive contact): use "
                          "a smaller dt or an implicit integrator ('radau', 'bdf')")
+    return stability_limit
 
 
 def _initial_state(scene: Scene, q0: Sequence[float] | np.ndarray | None,
@@ -735,7 +741,8 @@ class _CompliantRun:
     """One compliant run's integration: segments of constant input, samples, events and failures."""
 
     def __init__(self, scene: Scene, dynamics: _Dynamics, params: CompliantContacts, duration: float,
-                 dt: float, max_steps: int, impact_velocity: float, y0: np.ndarray) -> None:
+                 dt: float, max_steps: int, impact_velocity: float, y0: np.ndarray,
+                 progress: Callable[[float, float], None] | None = None) -> None:
         self.scene, self.dynamics, self.params = scene, dynamics, params
         self.n = scene.robot.nv
         self.duration, self.max_steps, self.impact_velocity = duration, max_steps, impact_velocity
@@ -755,6 +762,7 @@ class _CompliantRun:
         self.last_vn = st0.normal_velocities.copy()
         self.impact_phases = ImpactPhases()
         self.landing_energy = 0.0
+        self.progress = progress  # called with (time, duration) after each step
         self.start_wall = time.perf_counter()
 
     def integrate(self, schedule: InputSchedule, hold: float | None, *, integrator: str,
@@ -860,6 +868,8 @@ class _CompliantRun:
                           f"{DIVERGENCE_VELOCITY:g}{limit}", hint=True)
                 break
             self.record_events(t_seg, y, st_now.normal_velocities)
+            if self.progress is not None:
+                self.progress(t_seg, self.duration)
             while self._due(t_seg):
                 self.samples_y.append(y.copy())
                 self.samples_u.append(u.copy())
@@ -904,6 +914,8 @@ class _CompliantRun:
                           f"{DIVERGENCE_VELOCITY:g}", hint=True)
                 break
             self.last_vn = self.record_events(t_now, y_now, self.last_vn)
+            if self.progress is not None:
+                self.progress(t_now, self.duration)
             if self._due(t_now):
                 dense = solver.dense_output()
                 while self._due(t_now):

@@ -73,7 +73,7 @@ tolerance, else R or L by the sign of ``v_T+``.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -158,6 +158,7 @@ def simulate_rigid(
     lcp_method: str = "lemke",
     max_ambiguity_checks: int = MAX_AMBIGUITY_CHECKS,
     impact_law: bool = True,
+    progress: Callable[[float, float], None] | None = None,
 ) -> Trajectory:
     """Simulate the scene with rigid contacts by velocity-level time stepping.
 
@@ -180,6 +181,7 @@ def simulate_rigid(
             (0: none).
         impact_law: apply the impact law at landings (module docstring); False: the steps'
             LCPs absorb impacts, inelastically.
+        progress: called with (simulated time [s], duration [s]) after every step.
 
     Returns:
         The trajectory (``model = "rigid"``; its ``status``, ``"completed"``, ``"failed"`` or
@@ -206,6 +208,8 @@ def simulate_rigid(
     for _, h in step_lengths(duration, dt):
         if not stepper.step(schedule(stepper.t, stepper.q, stepper.v), h):
             break
+        if progress is not None:
+            progress(stepper.t, duration)
     return stepper.trajectory(dt)
 
 

@@ -150,8 +150,11 @@ class Trajectory:
         """The samples of one coordinate."""
         return self.q[:, self.coordinates.index(name)]
 
-    def to_dict(self, scene: Scene | None = None) -> dict[str, Any]:
+    def to_dict(self, scene: Scene | None = None, *, every: int = 1) -> dict[str, Any]:
         """The run as JSON values: the ``frc simulate --json`` document.
+
+        ``every`` > 1 keeps every ``every``-th sample and the last one (:func:`every_nth_sample`;
+        ``summary.sample_every`` says which); the summary and the events are the whole run's.
 
         Its parts are ``summary``, ``samples`` (times, q, v, inputs, forces, energy,
         max_penetration) and ``warnings``.
@@ -211,6 +214,10 @@ class Trajectory:
             samples["zones"] = info["zones"]
         if scene is not None:
             self._add_scene_parts(scene, summary, samples)
+        summary["sample_every"] = check_sample_every(every)
+        summary["samples_kept"] = len(every_nth_sample(len(self.times), every))
+        if every > 1:
+            samples = _kept_samples(samples, every_nth_sample(len(self.times), every))
         return to_jsonable({"summary": summary, "samples": samples,
                             "warnings": [w.to_dict() for w in self.warnings]})
 
@@ -238,7 +245,43 @@ class Trajectory:
             event["from"], event["to"] = modes[max(at - 1, 0)][i], modes[at][i]
 
 
+def check_sample_every(every: Any) -> int:
+    """``every`` as an int >= 1 (keep every N-th sample).
+
+    Raises:
+        InputError: not an integer >= 1.
+    """
+    if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
+        raise InputError(f"every must be an integer >= 1 (keep every N-th sample), got {every!r}")
+    return int(every)
+
+
+def every_nth_sample(count: int, every: int) -> np.ndarray:
+    """The indices of the samples kept: 0, every, 2 every, ... and always the last (count - 1)."""
+    kept = np.arange(0, count, check_sample_every(every))
+    if count and kept[-1] != count - 1:
+        kept = np.append(kept, count - 1)
+    return kept
+
+
+def _kept_samples(node: Any, kept: np.ndarray) -> Any:
+    """``node`` (the samples' tables) with every per-sample series cut to the ``kept`` indices.
+
+    A series is an array or list whose first length is the number of samples (``kept[-1] + 1``).
+    """
+    count = int(kept[-1]) + 1 if kept.size else 0
+    if isinstance(node, dict):
+        return {key: _kept_samples(value, kept) for key, value in node.items()}
+    if isinstance(node, np.ndarray) and node.ndim >= 1 and node.shape[0] == count:
+        return node[kept]
+    if isinstance(node, (list, tuple)) and len(node) == count:
+        return [node[i] for i in kept]
+    return node
+
+
 __all__ = [
+    "check_sample_every",
+    "every_nth_sample",
     "ContactEvent",
     "SimulationFailure",
     "SimulationWarning",

@@ -150,9 +150,11 @@ def plot_flip_inputs(
     if ax is None:
         ax = _figure(figsize=(7.0, 6.0), layout="constrained").add_subplot()
     region_labels = _draw_input_space(ax, space, space.box)
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize="x-small", ncol=4)
-    status = (f"plan: {plan.mode}, pitch acceleration {plan.pitch_acceleration:.4g} rad/s$^2$"
-              if plan.found else f"no flip plan{f' (best: {plan.mode})' if plan.mode else ''}")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize="x-small", ncol=4,
+              title=_mode_legend_title(plan), title_fontsize="x-small")
+    mode = _scene_mode(plan, plan.mode) if plan.mode is not None else None
+    status = (f"plan: {mode}, pitch acceleration {plan.pitch_acceleration:.4g} rad/s$^2$"
+              if plan.found else f"no flip plan{f' (best: {mode})' if mode else ''}")
     names = plan.analysis.problem.inputs if plan.analysis is not None else ()
     others = [k for k in range(len(names)) if k not in axes]
     sliced = ("; slice at " + ", ".join(f"{names[k]} = {space.through[k]:.4g}" for k in others)
@@ -164,6 +166,20 @@ def plot_flip_inputs(
     if path is not None:
         _save(ax.figure, path)
     return ax
+
+
+def _scene_mode(plan: FlipPlan, mode: str) -> str:
+    """The plan's mode over every scene contact (as every output shows it), or as it is without them."""
+    from frcontrol.modes import scene_mode
+
+    return scene_mode(mode, plan.contacts, plan.scene_contacts) if plan.scene_contacts else mode
+
+
+def _mode_legend_title(plan: FlipPlan) -> str:
+    """The legend's title: which contact each mode letter is."""
+    from frcontrol.modes import mode_heading
+
+    return mode_heading(plan.scene_contacts or plan.contacts) + ": S separate, L/R slide, F fixed"
 
 
 def _draw_input_space(ax: Any, space: _InputSpace, window: tuple[float, float, float, float]
@@ -180,7 +196,8 @@ def _draw_input_space(ax: Any, space: _InputSpace, window: tuple[float, float, f
     full = [mode for mode in analysis.feasible_modes if mode.inputs_full_dimensional]
     flat = [mode for mode in analysis.feasible_modes if not mode.inputs_full_dimensional]
     sets = [input_slice(mode.feasible_input_domain, space.axes, space.through) for mode in full]
-    plot_polygons(sets, ax=ax, labels=[mode.mode for mode in full], box=window, alpha=0.25,
+    plot_polygons(sets, ax=ax, labels=[_scene_mode(space.plan, mode.mode) for mode in full], box=window,
+                  alpha=0.25,
                   axis_labels=space.axis_labels, legend=False, label_regions=False)
     region_labels = ax._frcontrol_region_labels
     _draw_flat_overlapping_and_chosen(ax, space.plan, flat, space.axes, space.through, window,
@@ -279,14 +296,17 @@ def _draw_flat_overlapping_and_chosen(ax: Any, plan: FlipPlan, flat: Sequence[An
                       colors=["black"] * len(chosen), box=box, alpha=0.0, axis_labels=labels)
     if plan.mode is not None:
         ax.plot([through[axes[0]]], [through[axes[1]]], linestyle="none", marker="*", markersize=16,
-                color="gold", markeredgecolor="black", zorder=7)
+                color="gold", markeredgecolor="black", zorder=7,
+                label="the plan's torques" if plan.found else "the best torques (not a plan)")
     if flat:
-        ax.plot([], [], color="0.35", linewidth=3.0, label="flat T_c (e.g. a toe S: hip torque 0)")
+        ax.plot([], [], color="0.35", linewidth=3.0, marker="o",
+                label="flat T_c (e.g. a toe S: hip torque 0)")
     if overlaps:
         ax.fill([], [], facecolor="none", hatch="xxx", edgecolor="0.1", label="two modes (ambiguous)")
     ax.fill([], [], facecolor="white", edgecolor="0.5", label=NO_MODE_LABEL)
     if chosen:
-        ax.plot([], [], color="black", linewidth=1.2, label=f"pieces of {plan.mode} (unambiguous)")
+        ax.plot([], [], color="black", linewidth=1.2,
+                label=f"pieces of {_scene_mode(plan, plan.mode or '')} (unambiguous)")
 
 
 def plot_flip_motion(result: FlipResult, axes: Sequence[Any]) -> None:
@@ -386,7 +406,10 @@ def flip_figure(result: FlipResult | FlipPlan, *, axes: tuple[int, int] = (0, 1)
         left.set_axis_off()
     if zoom is not None and window is not None:
         left.add_patch(Rectangle((window[0], window[2]), window[1] - window[0], window[3] - window[2],
-                                 fill=False, edgecolor="0.2", linestyle="--", linewidth=1.0, zorder=8))
+                                 fill=False, edgecolor="0.2", linestyle="--", linewidth=1.0, zorder=8,
+                                 label="the zoom panel's window"))
+        left.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize="x-small", ncol=4,
+                    title=_mode_legend_title(plan), title_fontsize="x-small")
         place_labels(zoom, zoom_labels, **REGION_LABEL_STYLE)
     return figure
 
@@ -422,6 +445,7 @@ def plot_climb(plan: ClimbPlan, path: str | Path | None = None) -> Any:
         raise InputError(f"the climb plan was not found ({plan.reason}): nothing to plot")
     items = plan.disturbances.items
     figure = _figure(figsize=(5.0 * len(items), 5.6), layout="constrained")
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch, Rectangle
 
     s_max = plan.max_disturbance_scale
@@ -445,9 +469,11 @@ def plot_climb(plan: ClimbPlan, path: str | Path | None = None) -> Any:
         ax.set_aspect("equal", adjustable="box")
         ax.xaxis.set_major_locator(_locator())
         ax.yaxis.set_major_locator(_locator())
-    handles = [Patch(facecolor=c, alpha=0.35, hatch=h, edgecolor=c, label=label)
-               for c, h, label in zip(colors, hatches, labels, strict=True)]
+    handles: list[Any] = [Patch(facecolor=c, alpha=0.35, hatch=h, edgecolor=c, label=label)
+                          for c, h, label in zip(colors, hatches, labels, strict=True)]
     handles.append(Patch(fill=False, edgecolor="0.3", linestyle="--", label="analysis box (cuts the region)"))
+    handles.append(Line2D([], [], linestyle="none", marker="*", markersize=10, color="black",
+                          label="zero disturbance"))
     figure.legend(handles=handles, loc="outside lower center", ncol=2, fontsize="small")
     if path is not None:
         _save(figure, path)
@@ -516,12 +542,32 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
     ax.set_aspect("equal", adjustable="box")
     ax.xaxis.set_major_locator(_locator())
     ax.yaxis.set_major_locator(_locator())
-    if report.support.feasible:
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8)
+    ax.legend(handles=[*_statics_marks(report), *ax.get_legend_handles_labels()[0]],
+              loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8, ncol=2)
     place_labels(ax, names, **{**REGION_LABEL_STYLE, "zorder": 7})
     if path is not None:
         _save(figure, path)
     return figure
+
+
+def _statics_marks(report: StaticsReport) -> list[Any]:
+    """Legend entries of the statics figure's marks: the body, the contacts, cones, forces and weight."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    marks = [Patch(facecolor=BODY_FACE, edgecolor=BODY_EDGE, label="the body's links"),
+             Line2D([], [], color="0.3", lw=2, label="contact surface"),
+             Line2D([], [], color="#e6550d", marker="o", linestyle="none", label="contact point"),
+             Patch(facecolor="#fdd0a2", edgecolor="#e6550d", alpha=0.6,
+                   label="friction cone (half-angle atan mu)"),
+             Line2D([], [], color="k", marker="+", markersize=12, markeredgewidth=2, linestyle="none",
+                    label="centre of mass")]
+    if report.body.weight > 0:
+        marks.append(Line2D([], [], color="k", lw=1.5, marker=">", label="gravity's direction (arrow)"))
+    if report.equilibrium.lambda_n is not None:
+        marks.append(Line2D([], [], color="#31a354", lw=2, marker=">",
+                            label="equilibrium contact force (arrow, longest 30 % of the view)"))
+    return marks
 
 
 def _draw_body_links(ax: Any, scene: Scene) -> list[np.ndarray]:

@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from frcontrol.errors import InputError, reason_from_exception
+from frcontrol.modes import mode_heading, mode_label
 from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
@@ -732,8 +733,7 @@ def _legend(scene: Scene, drawing: Drawing, contacts: Sequence[str]) -> str:
     else:
         force = f'<span style="color:{colors.FORCE_COLOR}">&#9632;</span> ' + force
     if drawing.animated:
-        order = ", ".join(html_lib.escape(name) for name in contacts)
-        motion = f"mode letters per contact: {order}" if contacts else "no contacts"
+        motion = html_lib.escape(mode_heading(contacts)) if contacts else "no contacts"
     else:
         motion = "still: the scene's state"
     return (
@@ -742,7 +742,7 @@ def _legend(scene: Scene, drawing: Drawing, contacts: Sequence[str]) -> str:
         f"<b>{html_lib.escape(scene.name)}</b><br>{force}<br>"
         f'<span style="color:{colors.CONE_COLOR}">&#9650;</span> friction cones &middot; '
         f'<span style="color:{colors.CONTACT_COLOR}">&#9679;</span> contacts &middot; {motion}'
-        f"{_controls(drawing) if drawing.animated else ''}</div>"
+        f"{_controls(drawing, contacts) if drawing.animated else ''}</div>"
     )
 
 
@@ -790,13 +790,19 @@ _CONTROLS_SCRIPT = """
 """
 
 
-def _controls(drawing: Drawing) -> str:
-    """Play/pause, a time slider, and the time and contact mode as text (reads meshcat's animator)."""
+def _controls(drawing: Drawing, contacts: Sequence[str]) -> str:
+    """Play/pause, a time slider, and the time and contact mode as text (reads meshcat's animator).
+
+    The mode reads as every output prints it: each contact's name beside its letter
+    (:func:`frcontrol.modes.mode_label`).
+    """
     import json
 
     times = drawing.times - drawing.times[0]
+    named = (None if drawing.sample_modes is None or len(contacts) != len(drawing.sample_modes[0])
+             else [mode_label(mode, contacts) for mode in drawing.sample_modes])
     data = {"times": times.tolist(), "start": float(drawing.times[0]), "duration": float(times[-1]),
-            "modes": None if drawing.sample_modes is None else list(drawing.sample_modes)}
+            "modes": None if drawing.sample_modes is None else (named or list(drawing.sample_modes))}
     script = _CONTROLS_SCRIPT % json.dumps(data).replace("</", "<\\/")
     return (
         '<div id="frcontrol-controls" style="margin-top:4px;display:flex;align-items:center;gap:6px;">'

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ..modes import mode_heading
 from ..planning.flip import flip_task
 from ..planning.pump import PumpResult, pump_samples
 from ..scene import Scene
@@ -44,8 +45,12 @@ def pump_figure(scene: Scene, result: PumpResult) -> Any:
     pitch_ax = figure.add_subplot(grid[0, 1])
     torque_ax = figure.add_subplot(grid[1, 1], sharex=pitch_ax)
     for ax in (pitch_ax, torque_ax):
+        labelled: set[str] = set()
         for phase in result.phases:
-            ax.axvspan(phase.start, phase.end, color=PHASE_COLOURS.get(phase.kind, "#eeeeee"), lw=0)
+            label = f"a {phase.kind} phase" if ax is pitch_ax and phase.kind not in labelled else None
+            labelled.add(phase.kind)
+            ax.axvspan(phase.start, phase.end, color=PHASE_COLOURS.get(phase.kind, "#eeeeee"), lw=0,
+                       label=label)
     pitch_ax.plot(traj.times, traj.q[:, task.pitch_index], color="black", lw=1.2, label="pitch")
     pitch_ax.axhline(task.vertical, color="tab:red", ls="--", lw=1, label="vertical")
     pitch_ax.set_ylabel(f"{task.pitch} [rad]")
@@ -74,8 +79,9 @@ def _draw_portrait(ax: Any, traj: Any, pitch_index: int, result: PumpResult) -> 
     ax.set_xlabel("pitch [rad]")
     ax.set_ylabel("pitch rate [rad/s]")
     ax.set_title("phase portrait, coloured by contact mode", fontsize="small")
-    ax.legend(loc="upper left", fontsize="x-small", ncol=2, title="one letter per contact",
+    ax.legend(loc="upper left", fontsize="x-small", ncol=2, title=mode_heading(traj.contacts),
               title_fontsize="x-small")
+
 
 
 def _draw_audit(ax: Any, result: PumpResult) -> None:
