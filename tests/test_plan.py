@@ -80,6 +80,17 @@ def test_box_slides_right_on_both_corners_without_tipping():
     assert within_limits(traj, box)
 
 
+def test_box_tips_about_its_left_corner_though_sliding_would_turn_it_faster():
+    box = scene("box_tip")
+    traj = plan_task(box).trajectory
+    assert np.all(loaded(traj, box, "left"))
+    assert np.max(np.abs(travel(traj, box, "left"))) <= SLIP_DISTANCE  # F, not L: the best without the modes
+    assert np.all(traj.contact_forces[1:, 1, 0] == 0) and np.all(contact_gaps(box, traj.q[-1])[1] > 0)
+    assert np.all(np.diff(traj.v[:, 2]) > 0)
+    assert traj.q[-1, 2] >= 0.02 > traj.q[-2, 2]
+    assert within_limits(traj, box)
+
+
 @pytest.mark.slow
 def test_solo_shifts_forward_with_both_feet_fixed():
     solo = scene("solo_shift")
