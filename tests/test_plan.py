@@ -116,6 +116,32 @@ def test_the_stand_up_as_a_task_reaches_frc_standups_height():
     assert abs(task_run.q[-1, 1] - dedicated.final_base[1]) <= 1e-3
 
 
+def test_track_is_least_squares_to_the_pd_target():
+    """The pivoting rod's accelerations are alpha g (one direction): the plan's alpha is the least-squares one.
+
+    Targets that no pivot reaches exactly (x, y and theta asked to move apart from the pivot's
+    direction g): the weighted least-squares alpha is ``sum w_i^2 g_i a_i / sum w_i^2 g_i^2``; the
+    L1 distance would be smallest at alpha = 1 (theta's own target) instead.
+    """
+    from frcontrol.engine import analyze
+
+    rod = scene("rod_pivot")
+    targets = {"x": rod.q[0] + 0.5, "y": rod.q[1], "theta": rod.q[2] + 1.0}
+    weights = {"x": 1.0, "y": 2.0, "theta": 1.0}
+    objective = Objective("track", targets=targets, stiffness=1.0, damping=0.0, weights=weights)
+    decision = decide(rod, Phase("p", {"tip": "F"}, 0.05, False, objective, Until("time", time=1.0)))
+    u = np.array([decision.inputs[n] for n in rod.inputs.coordinates])
+    (solution,) = solutions_at(analyze(rod), u)
+    assert solution.mode == "F"
+    dv = solution.dv[:3]
+    g = dv / dv[2]
+    a = np.array([0.5, 0.0, 1.0])  # stiffness (target - q), the rod at rest
+    w2 = np.array([1.0, 4.0, 1.0])
+    assert dv[2] == pytest.approx(np.sum(w2 * g * a) / np.sum(w2 * g * g), abs=1e-3)
+    assert not dv[2] == pytest.approx(1.0, abs=0.05)  # not the L1 optimum
+    assert decision.objective == pytest.approx(float(np.sum(w2 * (dv - a) ** 2)), rel=1e-9)
+
+
 def test_frc_plan_json_has_the_documented_keys():
     result = runner.invoke(app, ["plan", "box_slide", "--json", "--replan-every", "5"])
     assert result.exit_code == 0, result.stderr

@@ -4,19 +4,25 @@ At a state the engine gives every contact mode c its affine response ``dv = X_u 
 input domain T_c (METHOD §3). A phase allows some letters per contact; the candidate modes are the
 feasible modes made of allowed letters only. For each, :func:`frcontrol.planning.flip.margin_pieces`
 builds the inputs at least ``margin`` from every input where another mode also holds (a union of
-convex pieces), and one LP per piece optimises the objective
+convex pieces), and one LP (maximize, minimize) or QP (track) per piece optimises the objective
 (:mod:`~frcontrol.planning.core.objective`)::
 
-    maximise   t                            (maximize: t <= C dv + o;  minimize: t <= -(C dv + o))
-    minimise   sum_i w_i e_i                (track:   -e <= C dv + o - a* <= e)
+    maximise   t                              (maximize: t <= C dv + o;  minimize: t <= -(C dv + o))
+    minimise   |W (C dv + o - a*)|^2 + eps |u|^2   (track: least squares, W = diag(w))
     s.t.       u in the piece,  dv = X_u u + x_0.
+
+The track's QP goes through :func:`frcontrol.solvers.solve_qp` (the door checks its primal
+residual like an LP's); its Hessian ``2 G^T W^2 G`` (``G = C X_u``) is singular when fewer
+quantities are tracked than there are inputs, so ``eps`` = :data:`TRACK_REGULARIZATION` times its
+largest diagonal entry makes it definite and picks, among equally good inputs, the smallest.
 
 **Robust phases.** With ``robust = true`` the disturbances of ``[[disturbances]]`` are extra inputs
 ``d`` (the lifted problem of :func:`frcontrol.planning.climb.augmented_problem`: input map
 ``[S^T, J_d^T]``), the analysis and the pieces are over ``z = (u, d)``, and every constraint of the
 LP above is written once per point ``v`` of ``V`` (the vertices of the disturbance polytope, and the
 zero disturbance when the polytope does not hold it): ``(u, v)`` in the same piece for every v, which
-by convexity puts ``{u} x conv(V)`` in it, and the objective is the worst case over V.
+by convexity puts ``{u} x conv(V)`` in it, and the objective is the worst case over V (track: the
+QP minimises the mean squared error over V, and the decision reports the worst).
 
 **Rounding and verification.** The optima, best first, are rounded to
 :data:`~frcontrol.planning.flip.TORQUE_ROUNDING` (within the limits) and checked with
@@ -42,13 +48,20 @@ from ...engine import DynamicResponse, analyze, solutions_at
 from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...response import OUTPUT_TOLERANCE
 from ...scene import Scene
-from ...solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
+from ...solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, RETRY_ERRORS, solve_lp, solve_qp
 from ..climb import load_disturbances
 from ..flip import TORQUE_ROUNDING, margin_pieces
 from .objective import ObjectiveRows, objective_rows
 from .task import Phase
 
-__all__ = ["CLOSEST_MARGIN_STEPS", "DISTURBANCE_PAD", "Decision", "decide", "lifted_problem"]
+__all__ = [
+    "CLOSEST_MARGIN_STEPS",
+    "DISTURBANCE_PAD",
+    "TRACK_REGULARIZATION",
+    "Decision",
+    "decide",
+    "lifted_problem",
+]
 
 CLOSEST_MARGIN_STEPS = 8
 """Bisection steps of the closest margin reported when no plan is found (the margin is then known
@@ -57,6 +70,12 @@ to ``margin / 2^8``)."""
 DISTURBANCE_PAD = 1e-3
 """[N] The lifted problem's disturbance box is the disturbance polytope's bounding box grown by this
 (plus the margin), so that the box's own faces are not where a mode's domain ends."""
+
+
+TRACK_REGULARIZATION = 1e-9
+"""[-] The track's QP adds ``eps |u|^2`` with ``eps`` this times the largest diagonal entry of its
+Hessian: the Hessian becomes definite (DAQP needs it), and of inputs with the same error the
+smallest is chosen; relative 1e-9 moves the optimum's error by far less than the rounding does."""
 
 
 @dataclass(frozen=True)
@@ -69,7 +88,8 @@ class Decision:
         contacts: the active contacts, in mode-letter order.
         inputs: the rounded inputs by scene input name (empty when none was found).
         objective: the objective at the rounded inputs (worst case over V when robust): the
-            acceleration (maximize/minimize) or the weighted L1 error (track); None without a plan.
+            acceleration (maximize/minimize) or the weighted squared error (track); None without a
+            plan.
         margin: [input units] the margin asked for.
         robust: the plan holds at every disturbance vertex.
         vertices: how many disturbance points were checked (1 when not robust).
@@ -261,26 +281,58 @@ def _piece_lp(
     m_u: int,
     solver: str,
 ) -> tuple[float, np.ndarray] | None:
-    """One LP over ``(u, t)`` on a piece ``A z <= b``, every constraint once per point of V."""
-    k = len(bias) if rows.kind == "track" else 1
+    """The piece's optimum ``(cost, u)`` on ``A z <= b``, every constraint once per point of V.
+
+    maximize/minimize: one LP over ``(u, t)``; track: the least-squares QP over u (:func:`_piece_qp`).
+    """
+    if rows.kind == "track":
+        return _piece_qp(A, b, gain, bias, rows, points, m_u, solver)
     A_u, A_d = A[:, :m_u], A[:, m_u:]
     g_u, g_d = gain[:, :m_u], gain[:, m_u:]
     blocks, rhs = [], []
     for v in points:
-        blocks.append(np.hstack([A_u, np.zeros((A.shape[0], k))]))
+        blocks.append(np.hstack([A_u, np.zeros((A.shape[0], 1))]))
         rhs.append(b - A_d @ v)
-        level = bias + g_d @ v
-        if rows.kind == "track":
-            blocks += [np.hstack([g_u, -np.eye(k)]), np.hstack([-g_u, -np.eye(k)])]
-            rhs += [rows.targets - level, level - rows.targets]
-        else:
-            blocks.append(np.hstack([-rows.sign * g_u, np.ones((1, 1))]))
-            rhs.append(rows.sign * level)
-    cost = np.concatenate([np.zeros(m_u), rows.weights if rows.kind == "track" else [-1.0]])
+        blocks.append(np.hstack([-rows.sign * g_u, np.ones((1, 1))]))
+        rhs.append(rows.sign * (bias + g_d @ v))
+    cost = np.concatenate([np.zeros(m_u), [-1.0]])
     result = solve_lp(cost, np.vstack(blocks), np.concatenate(rhs), solver=solver, fallback=RETRY_ERRORS)
     if not result.found or result.x is None:
         return None
     return float(result.objective), result.x[:m_u].copy()
+
+
+def _piece_qp(
+    A: np.ndarray,
+    b: np.ndarray,
+    gain: np.ndarray,
+    bias: np.ndarray,
+    rows: ObjectiveRows,
+    points: np.ndarray,
+    m_u: int,
+    solver: str,
+) -> tuple[float, np.ndarray] | None:
+    """The track's least squares on a piece: mean over V of ``|W (G u + r_v)|^2`` plus the regularization.
+
+    ``G`` is the gain on u, ``r_v = bias + G_d v - a*``; the cost returned is the mean squared error
+    (without the regularization). A back-end error is retried once on the reference back-end.
+    """
+    A_u, A_d = A[:, :m_u], A[:, m_u:]
+    weighted = rows.weights[:, None] * gain[:, :m_u]
+    residuals = [rows.weights * (bias + gain[:, m_u:] @ v - rows.targets) for v in points]
+    hessian = 2.0 * weighted.T @ weighted
+    hessian += 2.0 * TRACK_REGULARIZATION * max(float(np.max(np.diag(hessian))), 1.0) * np.eye(m_u)
+    linear = 2.0 * weighted.T @ np.mean(residuals, axis=0)
+    A_ub = np.vstack([A_u] * len(points))
+    b_ub = np.concatenate([b - A_d @ v for v in points])
+    result = solve_qp(hessian, linear, A_ub, b_ub, solver=solver)
+    if result.status == "error" and solver != REFERENCE_LP_SOLVER:
+        result = solve_qp(hessian, linear, A_ub, b_ub, solver=REFERENCE_LP_SOLVER)
+    if not result.found or result.x is None:
+        return None
+    u = result.x.copy()
+    cost = float(np.mean([np.sum((weighted @ u + r) ** 2) for r in residuals]))
+    return cost, u
 
 
 def _round(u: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:

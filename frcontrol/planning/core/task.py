@@ -55,7 +55,8 @@ class Objective:
         targets: track: [m or rad] the target of each named coordinate.
         stiffness: track: [1/s^2] the PD target's stiffness.
         damping: track: [1/s] the PD target's damping.
-        weights: track: [-] each coordinate's weight in the L1 error.
+        weights: track: [-] each coordinate's error is multiplied by its weight before it is squared
+            (a length turns an angular error into a distance).
     """
 
     kind: str
