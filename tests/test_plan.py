@@ -116,6 +116,35 @@ def test_the_stand_up_as_a_task_reaches_frc_standups_height():
     assert abs(task_run.q[-1, 1] - dedicated.final_base[1]) <= 1e-3
 
 
+def crossing_time(trajectory, index: int, level: float) -> float:
+    """[s] When the coordinate first reaches ``level``, linear between the two samples around it."""
+    values = trajectory.q[:, index]
+    end = int(np.argmax(values >= level))
+    assert values[end] >= level and end > 0
+    t_a, t_b, p_a, p_b = trajectory.times[end - 1], trajectory.times[end], values[end - 1], values[end]
+    return float(t_a + (level - p_a) / (p_b - p_a) * (t_b - t_a))
+
+
+@pytest.mark.slow
+def test_the_flip_as_a_task_reaches_vertical_as_fast_as_frc_flip():
+    from frcontrol.planning.flip import SEPARATION_GAP, simulate_flip
+
+    rhex = scene("rhex_flip_task")
+    traj = plan_task(rhex).trajectory
+    vertical = 1.5 * np.pi
+    front = [c.name for c in rhex.contacts].index("front_corner")
+    gaps = np.array([contact_gaps(rhex, q)[front] for q in traj.q])
+    assert np.all(gaps <= SEPARATION_GAP)  # the pivot corner never leaves the ground
+    assert within_limits(traj, rhex)
+    for hip, toe in (("hip_middle", "middle_toe"), ("hip_rear", "rear_toe")):  # massless legs
+        toe_gaps = np.array([contact_gaps(rhex, q)[[c.name for c in rhex.contacts].index(toe)] for q in traj.q])
+        in_the_air = toe_gaps[:-1] > SEPARATION_GAP  # inputs[i + 1] is held over the step from sample i
+        assert np.any(in_the_air) and np.all(traj.inputs[1:][in_the_air, rhex.inputs.coordinates.index(hip)] == 0)
+    dedicated = simulate_flip(scene("rhex_flip"))
+    assert dedicated.time_to_vertical is not None
+    assert crossing_time(traj, 2, vertical) <= 1.1 * dedicated.time_to_vertical
+
+
 def test_track_is_least_squares_to_the_pd_target():
     """The pivoting rod's accelerations are alpha g (one direction): the plan's alpha is the least-squares one.
 

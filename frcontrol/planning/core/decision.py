@@ -39,18 +39,19 @@ unambiguous inputs, with that mode; None when no allowed mode has any.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from ...engine import DynamicResponse, analyze, solutions_at
+from ...engine import DynamicResponse, solutions_at
 from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...response import OUTPUT_TOLERANCE
 from ...scene import Scene
 from ...solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, RETRY_ERRORS, solve_lp, solve_qp
 from ..climb import load_disturbances
 from ..flip import TORQUE_ROUNDING, margin_pieces
+from .forced import planning_problem
 from .objective import ObjectiveRows, objective_rows
 from .task import Phase
 
@@ -98,6 +99,8 @@ class Decision:
         closest_margin: when no allowed mode had unambiguous inputs at the margin: the largest
             margin at which one has (None when none has any, or when a plan was found).
         closest_mode: the mode reaching ``closest_margin``.
+        forced: the inputs the rigid model forces at this state, and their values (fixed, not
+            planned: :mod:`~frcontrol.planning.core.forced`); included in ``inputs`` when found.
     """
 
     found: bool
@@ -112,6 +115,7 @@ class Decision:
     reason: str | None
     closest_margin: float | None = None
     closest_mode: str | None = None
+    forced: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The decision as JSON-ready values."""
@@ -128,6 +132,7 @@ class Decision:
             "reason": self.reason,
             "closest_margin": self.closest_margin,
             "closest_mode": self.closest_mode,
+            "forced_inputs": dict(self.forced),
         }
 
 
@@ -162,25 +167,28 @@ def decide(
     Raises:
         ImpactState: a contact moves into its surface (the acceleration-level model does not apply).
     """
-    problem = (
+    full = (
         problem
         if problem is not None
         else ContactProblem.from_scene(scene, velocity_tolerance=VELOCITY_TOLERANCE)
     )
-    m_u = problem.m
-    points = np.zeros((1, 0))
-    if phase.robust:
-        problem, points = lifted_problem(scene, problem, phase.margin)
+    lift = None if not phase.robust else (lambda p: lifted_problem(scene, p, phase.margin)[0])
+    problem, ready, forced = planning_problem(full, solver, lift)
+    m_u = len(full.inputs) - len(forced)
+    points = load_disturbances(scene).robust_points() if phase.robust else np.zeros((1, 0))
     common: dict[str, Any] = {
         "contacts": problem.contacts,
         "margin": phase.margin,
         "robust": phase.robust,
         "vertices": len(points),
+        "forced": forced,
     }
-    absent = _absent_contacts(scene, phase, problem.contacts)
-    if absent:
-        return Decision(False, None, inputs={}, objective=None, tried=(), reason=absent, **common)
-    analysis = analyze(problem, solver=solver)
+    why = _absent_contacts(scene, phase, problem.contacts) or _forced_outside(full, forced)
+    if why is None and ready is None:
+        why = "every input is forced at this state (" + _inputs_text(forced) + ")"
+    if why is not None or ready is None:
+        return Decision(False, None, inputs={}, objective=None, tried=(), reason=why, **common)
+    analysis = ready
     rows = objective_rows(scene, phase.objective, scene.q, scene.v)
     allowed = [m.mode for m in analysis.feasible_modes if phase.allows(problem.contacts, m.mode)]
     tried: list[tuple[str, str]] = []
@@ -197,11 +205,11 @@ def decide(
         if isinstance(checked, str):
             tried.append((mode, checked))
             continue
-        names = problem.inputs[:m_u]
+        planned = dict(zip(problem.inputs[:m_u], checked[0].tolist(), strict=True))
         return Decision(
             True,
             mode,
-            inputs=dict(zip(names, checked[0].tolist(), strict=True)),
+            inputs={name: forced.get(name, planned.get(name, 0.0)) for name in full.inputs},
             objective=checked[1],
             tried=tuple(tried),
             reason=None,
@@ -229,6 +237,20 @@ def decide(
 
 def _letters(phase: Phase, contacts: tuple[str, ...]) -> str:
     return "(" + ", ".join(f"{name} {phase.modes[name]}" for name in contacts if name in phase.modes) + ")"
+
+
+def _inputs_text(values: dict[str, float]) -> str:
+    return ", ".join(f"{name} = {value:g}" for name, value in values.items())
+
+
+def _forced_outside(full: ContactProblem, forced: dict[str, float]) -> str | None:
+    """Why no plan exists when the model forces an input outside its limits (None when none is)."""
+    bad = {
+        name: value
+        for name, value in forced.items()
+        if not full.lower[full.inputs.index(name)] <= value <= full.upper[full.inputs.index(name)]
+    }
+    return f"the rigid model forces {_inputs_text(bad)}, outside the limits" if bad else None
 
 
 def _absent_contacts(scene: Scene, phase: Phase, active: tuple[str, ...]) -> str | None:

@@ -12,8 +12,10 @@ ends there and the next one is planned before the next step. The run ends when t
 contacts within :data:`~frcontrol.planning.flip.REPLAN_GAP_TOLERANCE` of their surface or loaded by
 the last step active, a loaded contact's normal velocity taken as 0, and velocities of at most
 :data:`~frcontrol.planning.flip.REPLAN_VELOCITY_TOLERANCE` taken as zero. When no plan is made (no
-allowed mode can be made unambiguous, or an impact) the inputs are held and the decision, with its
-reason, is kept in the phase's record.
+allowed mode can be made unambiguous, or an impact) the inputs are held (the inputs the rigid model
+forces at the state set to their forced value) and the decision, with its reason, is kept in the
+phase's record. Between plans, every input on a massless coordinate whose contacts are all off
+their surface gets 0 (:func:`~.forced.idle_in_the_air`).
 
 *Contacts in ``until``*: a contact is *closed* at a sample when its gap is at most
 :data:`~frcontrol.planning.flip.SEPARATION_GAP`, else *open*.
@@ -34,6 +36,7 @@ from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidSte
 from ...solvers import DEFAULT_LP_SOLVER
 from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
 from .decision import Decision, decide
+from .forced import idle_in_the_air, massless_inputs
 from .task import Phase, Task, Until
 
 __all__ = ["PhaseRecord", "TaskRun", "contact_gaps", "run_task", "until_met"]
@@ -100,6 +103,7 @@ class _TaskPolicy:
         self.force_tolerance = CONTACT_FORCE_TOLERANCE * scene.robot.weight_scale()
         self.command = np.clip(np.zeros(len(self.names)), scene.inputs.lower, scene.inputs.upper)
         self.records = [PhaseRecord(self.phases[0].name, 0.0)]
+        self.legs = massless_inputs(scene)
         self.pending = False
         self.done = False
 
@@ -118,10 +122,8 @@ class _TaskPolicy:
             decision = _held(self.phase, f"impact at {err.contact} (v_N = {err.normal_velocity:.3g} m/s)")
         except FrcontrolError as err:
             decision = _held(self.phase, str(err))
-        if decision.found:
-            self.command = np.array(
-                [decision.inputs.get(n, c) for n, c in zip(self.names, self.command, strict=True)]
-            )
+        values = decision.inputs if decision.found else decision.forced
+        self.command = np.array([values.get(n, c) for n, c in zip(self.names, self.command, strict=True)])
         self.records[-1].decisions.append((t, decision))
         return self.command
 
@@ -146,11 +148,13 @@ class _TaskPolicy:
         return self.plan(stepper)
 
     def actuate(self, held: np.ndarray, stepper: RigidStepper) -> np.ndarray:
-        """Each step's inputs: a new phase is planned before its first step."""
+        """Each step's inputs: a new phase planned before its first step; massless inputs in the air: 0."""
         if self.pending:
             self.pending = False
             self.plan(stepper)
-        return self.command
+        if not self.legs:
+            return self.command
+        return idle_in_the_air(self.legs, contact_gaps(self.scene, stepper.q), self.command)
 
     def stop(self, stepper: RigidStepper) -> bool:
         """After each step: end the phase when its ``until`` holds; stop after the last phase."""
