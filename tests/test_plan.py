@@ -145,6 +145,34 @@ def test_the_flip_as_a_task_reaches_vertical_as_fast_as_frc_flip():
     assert crossing_time(traj, 2, vertical) <= 1.1 * dedicated.time_to_vertical
 
 
+@pytest.mark.slow
+def test_the_climb_as_a_task_finds_frc_climbs_disturbance_scale():
+    """The largest scale is checked by the engine on the climb's own lifted problem, at every vertex."""
+    from frcontrol.engine import analyze
+    from frcontrol.planning.climb import augmented_problem, load_disturbances, plan_climb
+
+    snake = scene("snake_climb_task")
+    result = plan_task(snake)
+    found = result.to_dict(snake)["phases"][0]["largest_scale"]
+    assert found["scale"] >= plan_climb(scene("snake_climb")).max_disturbance_scale
+    dist = load_disturbances(snake)
+    points = dist.robust_points(found["scale"])
+    lifted = augmented_problem(snake, dist, points.min(axis=0) - 1.0, points.max(axis=0) + 1.0)
+    analysis = analyze(lifted)
+    u = np.array([found["inputs"][n] for n in snake.inputs.coordinates])
+    head = snake.robot.point_kinematics(snake.q, snake.v, [("link8", np.array([0.2, 0.0]))])
+    for v in points:
+        (solution,) = solutions_at(analysis, np.concatenate([u, v]))
+        assert solution.mode == "FFF"
+        assert head.jacobians[0][1] @ solution.dv[: snake.robot.nv] + head.drifts[0][1] >= 1.0
+    traj = result.trajectory
+    early = traj.times[1:] <= 0.05  # the brace holds (the gentle head: minimised, at least 1 m/s^2)
+    for contact in ("tail", "tip", "top"):
+        assert np.all(loaded(traj, snake, contact)[early])
+        assert np.max(np.abs(travel(traj, snake, contact)[1:][early])) <= 1e-4
+    assert within_limits(traj, snake)
+
+
 def test_track_is_least_squares_to_the_pd_target():
     """The pivoting rod's accelerations are alpha g (one direction): the plan's alpha is the least-squares one.
 

@@ -62,6 +62,7 @@ __all__ = [
     "Decision",
     "decide",
     "lifted_problem",
+    "verify_plan",
 ]
 
 CLOSEST_MARGIN_STEPS = 8
@@ -136,10 +137,12 @@ class Decision:
         }
 
 
-def lifted_problem(scene: Scene, problem: ContactProblem, margin: float) -> tuple[ContactProblem, np.ndarray]:
-    """The problem over ``z = (u, d)`` and the disturbance points V (rows), for a robust phase."""
+def lifted_problem(
+    scene: Scene, problem: ContactProblem, margin: float, scale: float = 1.0
+) -> tuple[ContactProblem, np.ndarray]:
+    """The problem over ``z = (u, d)`` and the points V (rows) of ``scale`` times the disturbances."""
     dist = load_disturbances(scene)
-    points = dist.robust_points()
+    points = dist.robust_points(scale)
     kin = scene.robot.point_kinematics(scene.q, scene.v, [(d.link, d.point_in_link) for d in dist.items])
     jac = kin.jacobians.reshape(-1, scene.robot.nv)
     pad = DISTURBANCE_PAD + margin
@@ -201,7 +204,7 @@ def decide(
             optima += [(cost, mode, u) for cost, u in found]
     optima.sort(key=lambda item: item[0])
     for _, mode, u in optima:
-        checked = _verify(analysis, mode, u, points, rows, problem)
+        checked = verify_plan(analysis, mode, u, points, rows, problem)
         if isinstance(checked, str):
             tried.append((mode, checked))
             continue
@@ -317,6 +320,9 @@ def _piece_lp(
         rhs.append(b - A_d @ v)
         blocks.append(np.hstack([-rows.sign * g_u, np.ones((1, 1))]))
         rhs.append(rows.sign * (bias + g_d @ v))
+        if rows.at_least is not None:
+            blocks.append(np.hstack([-g_u, np.zeros((1, 1))]))
+            rhs.append(bias + g_d @ v - rows.at_least)
     cost = np.concatenate([np.zeros(m_u), [-1.0]])
     result = solve_lp(cost, np.vstack(blocks), np.concatenate(rhs), solver=solver, fallback=RETRY_ERRORS)
     if not result.found or result.x is None:
@@ -364,7 +370,7 @@ def _round(u: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     return np.minimum(np.maximum(rounded, lower), upper) + 0.0
 
 
-def _verify(
+def verify_plan(
     analysis: DynamicResponse,
     mode: str,
     u: np.ndarray,
@@ -383,6 +389,8 @@ def _verify(
             return f"at the rounded inputs the rigid solutions are {found}, not only {mode}"
         values.append(rows.value(solutions[0].dv))
     worst = max(values) if rows.kind in ("track", "minimize") else min(values)
+    if rows.at_least is not None and not worst >= rows.at_least:
+        return f"at the rounded inputs the objective {worst:.6g} is below at_least = {rows.at_least:g}"
     return rounded, worst
 
 

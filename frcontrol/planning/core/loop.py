@@ -29,7 +29,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ...errors import FrcontrolError, ImpactState, InputError
-from ...modes import ContactProblem
+from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...scene import Contact, Scene
 from ...simulation.closed_loop import run_closed_loop
 from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
@@ -37,6 +37,7 @@ from ...solvers import DEFAULT_LP_SOLVER
 from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
 from .decision import Decision, decide
 from .forced import idle_in_the_air, massless_inputs
+from .scale import ScaleResult, largest_scale
 from .task import Phase, Task, Until
 
 __all__ = ["PhaseRecord", "TaskRun", "contact_gaps", "run_task", "until_met"]
@@ -53,6 +54,7 @@ class PhaseRecord:
         why: why it ended (``until``'s condition, ``max_time``, the simulation's failure).
         decisions: ``(time [s], decision)`` of every plan made in it, in order.
         met: its ``until`` held.
+        largest_scale: a robust phase with ``largest_scale``: the search at its first decision.
     """
 
     name: str
@@ -61,6 +63,7 @@ class PhaseRecord:
     why: str | None = None
     decisions: list[tuple[float, Decision]] = field(default_factory=list)
     met: bool = False
+    largest_scale: ScaleResult | None = None
 
 
 def contact_gaps(scene: Scene, q: np.ndarray) -> np.ndarray:
@@ -118,6 +121,9 @@ class _TaskPolicy:
         try:
             here, problem = self._model(stepper)
             decision = decide(here, self.phase, problem=problem, solver=self.solver)
+            if self.phase.largest_scale is not None and not self.records[-1].decisions:
+                full = problem or ContactProblem.from_scene(here, velocity_tolerance=VELOCITY_TOLERANCE)
+                self.records[-1].largest_scale = largest_scale(here, self.phase, full, solver=self.solver)
         except ImpactState as err:
             decision = _held(self.phase, f"impact at {err.contact} (v_N = {err.normal_velocity:.3g} m/s)")
         except FrcontrolError as err:

@@ -38,6 +38,7 @@ class ObjectiveRows:
         targets: (k,) track: the target accelerations a*; else empty.
         weights: (k,) track: each error's scale before it is squared; else empty.
         names: the quantities' names (coordinates, or ``link@point``).
+        at_least: maximize/minimize: the floor of the quantity (worst case when robust), or None.
     """
 
     kind: str
@@ -46,6 +47,7 @@ class ObjectiveRows:
     targets: np.ndarray
     weights: np.ndarray
     names: tuple[str, ...]
+    at_least: float | None = None
 
     @property
     def sign(self) -> float:
@@ -75,7 +77,13 @@ def objective_rows(scene: Scene, objective: Objective, q: np.ndarray, v: np.ndar
     if objective.coordinate is not None:
         row = np.eye(n)[coords.index(objective.coordinate)][None, :]
         return ObjectiveRows(
-            objective.kind, row, np.zeros(1), np.zeros(0), np.zeros(0), (objective.coordinate,)
+            objective.kind,
+            row,
+            np.zeros(1),
+            np.zeros(0),
+            np.zeros(0),
+            (objective.coordinate,),
+            objective.at_least,
         )
     assert objective.link is not None and objective.point is not None and objective.direction is not None
     kin = scene.robot.point_kinematics(q, v, [(objective.link, np.asarray(objective.point))])
@@ -84,4 +92,4 @@ def objective_rows(scene: Scene, objective: Objective, q: np.ndarray, v: np.ndar
     row = (direction @ kin.jacobians[0])[None, :]
     offset = np.array([float(direction @ kin.drifts[0])])
     name = f"{objective.link}@({objective.point[0]:g}, {objective.point[1]:g})"
-    return ObjectiveRows(objective.kind, row, offset, np.zeros(0), np.zeros(0), (name,))
+    return ObjectiveRows(objective.kind, row, offset, np.zeros(0), np.zeros(0), (name,), objective.at_least)

@@ -96,7 +96,7 @@ def _plan_dict(t: float, decision: Decision) -> dict[str, Any]:
 
 
 def _phase_dict(record: PhaseRecord) -> dict[str, Any]:
-    return {
+    out = {
         "name": record.name,
         "start": record.start,
         "end": record.end,
@@ -104,6 +104,9 @@ def _phase_dict(record: PhaseRecord) -> dict[str, Any]:
         "met": record.met,
         "plans": [_plan_dict(t, d) for t, d in record.decisions],
     }
+    if record.largest_scale is not None:
+        out["largest_scale"] = record.largest_scale.to_dict()
+    return out
 
 
 def _outcome(run: TaskRun) -> dict[str, Any]:
