@@ -136,10 +136,12 @@ def test_the_flip_as_a_task_reaches_vertical_as_fast_as_frc_flip():
     gaps = np.array([contact_gaps(rhex, q)[front] for q in traj.q])
     assert np.all(gaps <= SEPARATION_GAP)  # the pivot corner never leaves the ground
     assert within_limits(traj, rhex)
+    names = [c.name for c in rhex.contacts]
     for hip, toe in (("hip_middle", "middle_toe"), ("hip_rear", "rear_toe")):  # massless legs
-        toe_gaps = np.array([contact_gaps(rhex, q)[[c.name for c in rhex.contacts].index(toe)] for q in traj.q])
+        toe_gaps = np.array([contact_gaps(rhex, q)[names.index(toe)] for q in traj.q])
         in_the_air = toe_gaps[:-1] > SEPARATION_GAP  # inputs[i + 1] is held over the step from sample i
-        assert np.any(in_the_air) and np.all(traj.inputs[1:][in_the_air, rhex.inputs.coordinates.index(hip)] == 0)
+        held = traj.inputs[1:, rhex.inputs.coordinates.index(hip)]
+        assert np.any(in_the_air) and np.all(held[in_the_air] == 0)
     dedicated = simulate_flip(scene("rhex_flip"))
     assert dedicated.time_to_vertical is not None
     assert crossing_time(traj, 2, vertical) <= 1.1 * dedicated.time_to_vertical
@@ -174,7 +176,7 @@ def test_the_climb_as_a_task_finds_frc_climbs_disturbance_scale():
 
 
 def test_track_is_least_squares_to_the_pd_target():
-    """The pivoting rod's accelerations are alpha g (one direction): the plan's alpha is the least-squares one.
+    """The pivoting rod's accelerations are alpha g (one direction): the plan's alpha is least squares'.
 
     Targets that no pivot reaches exactly (x, y and theta asked to move apart from the pivot's
     direction g): the weighted least-squares alpha is ``sum w_i^2 g_i a_i / sum w_i^2 g_i^2``; the
