@@ -60,6 +60,7 @@ __all__ = [
     "DISTURBANCE_PAD",
     "TRACK_REGULARIZATION",
     "Decision",
+    "PieceLP",
     "decide",
     "lifted_problem",
     "verify_plan",
@@ -78,6 +79,36 @@ TRACK_REGULARIZATION = 1e-9
 """[-] The track's QP adds ``eps |u|^2`` with ``eps`` this times the largest diagonal entry of its
 Hessian: the Hessian becomes definite (DAQP needs it), and of inputs with the same error the
 smallest is chosen; relative 1e-9 moves the optimum's error by far less than the rounding does."""
+
+
+@dataclass(frozen=True)
+class PieceLP:
+    """One convex piece ``A z <= b`` (z = (u, d)) of a mode's unambiguous set and the objective on it.
+
+    Attributes:
+        A, b: the piece's rows.
+        gain: (k, m) the objective quantities' gain on z in the mode: ``C X_z``.
+        bias: (k,) their value at z = 0: ``C x_0 + o``.
+        rows: the objective.
+        points: the disturbance points V (rows; one empty row when not robust).
+        m_u: how many of z's entries are inputs (the rest are disturbances).
+    """
+
+    A: np.ndarray
+    b: np.ndarray
+    gain: np.ndarray
+    bias: np.ndarray
+    rows: ObjectiveRows
+    points: np.ndarray
+    m_u: int
+
+    def split(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(A_u, A_d)``: the piece's columns on the inputs and on the disturbances."""
+        return self.A[:, : self.m_u], self.A[:, self.m_u :]
+
+    def gains(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(G_u, G_d)``: the gain's columns on the inputs and on the disturbances."""
+        return self.gain[:, : self.m_u], self.gain[:, self.m_u :]
 
 
 @dataclass(frozen=True)
@@ -290,34 +321,24 @@ def _mode_optima(
     bias = rows.rows @ response.x_0[:n] + rows.offset
     out = []
     for piece in pieces:
-        found = _piece_lp(piece.A, piece.b, gain, bias, rows, points, m_u, solver)
+        found = _piece_optimum(PieceLP(piece.A, piece.b, gain, bias, rows, points, m_u), solver)
         if found is not None:
             out.append(found)
     return out if out else "no piece's LP has a solution"
 
 
-def _piece_lp(
-    A: np.ndarray,
-    b: np.ndarray,
-    gain: np.ndarray,
-    bias: np.ndarray,
-    rows: ObjectiveRows,
-    points: np.ndarray,
-    m_u: int,
-    solver: str,
-) -> tuple[float, np.ndarray] | None:
-    """The piece's optimum ``(cost, u)`` on ``A z <= b``, every constraint once per point of V.
+def _piece_optimum(lp: PieceLP, solver: str) -> tuple[float, np.ndarray] | None:
+    """The piece's optimum ``(cost, u)`` (cost: lower is better), every constraint once per point of V.
 
     maximize/minimize: one LP over ``(u, t)``; track: the least-squares QP over u (:func:`_piece_qp`).
     """
-    if rows.kind == "track":
-        return _piece_qp(A, b, gain, bias, rows, points, m_u, solver)
-    A_u, A_d = A[:, :m_u], A[:, m_u:]
-    g_u, g_d = gain[:, :m_u], gain[:, m_u:]
+    if lp.rows.kind == "track":
+        return _piece_qp(lp, solver)
+    (A_u, A_d), (g_u, g_d), bias, rows, m_u = lp.split(), lp.gains(), lp.bias, lp.rows, lp.m_u
     blocks, rhs = [], []
-    for v in points:
-        blocks.append(np.hstack([A_u, np.zeros((A.shape[0], 1))]))
-        rhs.append(b - A_d @ v)
+    for v in lp.points:
+        blocks.append(np.hstack([A_u, np.zeros((A_u.shape[0], 1))]))
+        rhs.append(lp.b - A_d @ v)
         blocks.append(np.hstack([-rows.sign * g_u, np.ones((1, 1))]))
         rhs.append(rows.sign * (bias + g_d @ v))
         if rows.at_least is not None:
@@ -330,29 +351,20 @@ def _piece_lp(
     return float(result.objective), result.x[:m_u].copy()
 
 
-def _piece_qp(
-    A: np.ndarray,
-    b: np.ndarray,
-    gain: np.ndarray,
-    bias: np.ndarray,
-    rows: ObjectiveRows,
-    points: np.ndarray,
-    m_u: int,
-    solver: str,
-) -> tuple[float, np.ndarray] | None:
+def _piece_qp(lp: PieceLP, solver: str) -> tuple[float, np.ndarray] | None:
     """The track's least squares on a piece: mean over V of ``|W (G u + r_v)|^2`` plus the regularization.
 
     ``G`` is the gain on u, ``r_v = bias + G_d v - a*``; the cost returned is the mean squared error
     (without the regularization). A back-end error is retried once on the reference back-end.
     """
-    A_u, A_d = A[:, :m_u], A[:, m_u:]
-    weighted = rows.weights[:, None] * gain[:, :m_u]
-    residuals = [rows.weights * (bias + gain[:, m_u:] @ v - rows.targets) for v in points]
+    (A_u, A_d), (g_u, g_d), rows, m_u = lp.split(), lp.gains(), lp.rows, lp.m_u
+    weighted = rows.weights[:, None] * g_u
+    residuals = [rows.weights * (lp.bias + g_d @ v - rows.targets) for v in lp.points]
     hessian = 2.0 * weighted.T @ weighted
     hessian += 2.0 * TRACK_REGULARIZATION * max(float(np.max(np.diag(hessian))), 1.0) * np.eye(m_u)
     linear = 2.0 * weighted.T @ np.mean(residuals, axis=0)
-    A_ub = np.vstack([A_u] * len(points))
-    b_ub = np.concatenate([b - A_d @ v for v in points])
+    A_ub = np.vstack([A_u] * len(lp.points))
+    b_ub = np.concatenate([lp.b - A_d @ v for v in lp.points])
     result = solve_qp(hessian, linear, A_ub, b_ub, solver=solver)
     if result.status == "error" and solver != REFERENCE_LP_SOLVER:
         result = solve_qp(hessian, linear, A_ub, b_ub, solver=REFERENCE_LP_SOLVER)

@@ -28,14 +28,15 @@ from typing import Any
 
 import numpy as np
 
+from ...engine import DynamicResponse
 from ...modes import ContactProblem
 from ...scene import Scene
 from ...solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
 from ..climb import load_disturbances
 from ..flip import margin_pieces
-from .decision import lifted_problem, verify_plan
+from .decision import PieceLP, lifted_problem, verify_plan
 from .forced import planning_problem
-from .objective import ObjectiveRows, objective_rows
+from .objective import objective_rows
 from .task import Phase
 
 __all__ = ["SCALE_BACKOFF", "SCALE_BACKOFF_STEPS", "ScaleResult", "largest_scale"]
@@ -112,12 +113,11 @@ def largest_scale(
         n = rows.rows.shape[1]
         gain, bias = rows.rows @ chosen.response.X_u[:n], rows.rows @ chosen.response.x_0[:n] + rows.offset
         for piece in margin_pieces(analysis, mode, phase.margin, solver=solver):
-            found = _piece_scale(piece.A, piece.b, gain, bias, rows, points, m_u, upper, solver)
+            lp = PieceLP(piece.A, piece.b, gain, bias, rows, points, m_u)
+            found = _piece_scale(lp, upper, solver)
             if found is None or (best is not None and found[0] <= best[0]):
                 continue
-            checked = _verified(
-                analysis, mode, found, (piece.A, piece.b, gain, bias), rows, points, planned, solver
-            )
+            checked = _verified(analysis, mode, found, lp, planned, solver)
             if checked is not None and (best is None or checked[0] > best[0]):
                 best = (checked[0], mode, checked[1], checked[2])
     if best is None:
@@ -129,49 +129,36 @@ def largest_scale(
 
 
 def _verified(
-    analysis: Any,
+    analysis: DynamicResponse,
     mode: str,
     found: tuple[float, np.ndarray],
-    lp: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    rows: ObjectiveRows,
-    points: np.ndarray,
+    lp: PieceLP,
     problem: ContactProblem,
     solver: str,
 ) -> tuple[float, np.ndarray, float] | None:
     """``(scale, rounded u, objective)`` verified at ``scale V``, lowering the scale when the check fails."""
     scale, u = found
     for _ in range(SCALE_BACKOFF_STEPS + 1):
-        checked = verify_plan(analysis, mode, u, scale * points, rows, problem)
+        checked = verify_plan(analysis, mode, u, scale * lp.points, lp.rows, problem)
         if not isinstance(checked, str):
             return scale, checked[0], checked[1]
-        again = _piece_scale(*lp, rows, points, len(u), scale * (1.0 - SCALE_BACKOFF), solver)
+        again = _piece_scale(lp, scale * (1.0 - SCALE_BACKOFF), solver)
         if again is None:
             return None
         scale, u = again
     return None
 
 
-def _piece_scale(
-    A: np.ndarray,
-    b: np.ndarray,
-    gain: np.ndarray,
-    bias: np.ndarray,
-    rows: ObjectiveRows,
-    points: np.ndarray,
-    m_u: int,
-    upper: float,
-    solver: str,
-) -> tuple[float, np.ndarray] | None:
+def _piece_scale(lp: PieceLP, upper: float, solver: str) -> tuple[float, np.ndarray] | None:
     """``(s, u)``: the LP of the module's docstring on one piece, or None when it has no solution."""
-    A_u, A_d = A[:, :m_u], A[:, m_u:]
-    g_u, g_d = gain[:, :m_u], gain[:, m_u:]
+    (A_u, A_d), (g_u, g_d), at_least, m_u = lp.split(), lp.gains(), lp.rows.at_least, lp.m_u
     blocks, rhs = [], []
-    for v in points:
+    for v in lp.points:
         blocks.append(np.hstack([A_u, (A_d @ v)[:, None]]))
-        rhs.append(b)
-        if rows.at_least is not None:
+        rhs.append(lp.b)
+        if at_least is not None:
             blocks.append(np.hstack([-g_u, -(g_d @ v)[:, None]]))
-            rhs.append(bias - rows.at_least)
+            rhs.append(lp.bias - at_least)
     cost = np.concatenate([np.zeros(m_u), [-1.0]])
     lb = np.concatenate([np.full(m_u, -np.inf), [0.0]])
     ub = np.concatenate([np.full(m_u, np.inf), [upper]])
