@@ -223,6 +223,16 @@ def test_an_infeasible_phase_says_which_mode_and_the_closest_margin():
     assert 0 < outcome["infeasible"]["closest_margin"] < 100
 
 
+def test_an_objective_floor_out_of_reach_is_the_reason():
+    result = runner.invoke(
+        app, ["plan", "box_slide", "--json", "-T", "0.002", "--set", "task.phases[0].maximize.at_least=1000"]
+    )
+    assert result.exit_code == 0, result.stderr
+    outcome = json.loads(result.stdout)["outcome"]
+    assert outcome["achieved"] is False
+    assert outcome["infeasible"]["reason"] == "no allowed mode's unambiguous inputs reach at_least = 1000"
+
+
 @pytest.mark.parametrize(
     ("assignment", "message"),
     [
@@ -234,6 +244,9 @@ def test_an_infeasible_phase_says_which_mode_and_the_closest_margin():
         ("task.phases[0].robust=true", "needs [[disturbances]]"),
         ("task.body_contacts=['left']", "not both"),
         ("task.phases[0].maximize={link='box', point=[0, 0]}", "direction"),
+        ("task.phases[0].largest_scale={upper=2.0}", "add robust = true"),
+        ("task.phases[0].largest_scale={upper=-2.0}", "largest_scale.upper"),
+        ("task.phases[0].maximize.at_least='x'", "at_least"),
     ],
 )
 def test_bad_tasks_are_one_line_errors(assignment, message):

@@ -253,6 +253,8 @@ def decide(
         reason = "no feasible mode has only the allowed letters " + _letters(phase, problem.contacts)
     elif optima:
         reason = "no optimum gives exactly one rigid solution in its mode once rounded"
+    elif any(why == _BELOW_FLOOR for _, why in tried):
+        reason = f"no allowed mode's unambiguous inputs reach at_least = {rows.at_least:g}"
     else:
         reason = f"no allowed mode has unambiguous inputs {phase.margin:g} away from every other mode"
     closest = _closest_margin(analysis, allowed, phase.margin, solver) if allowed and not optima else None
@@ -267,6 +269,9 @@ def decide(
         closest_mode=None if closest is None else closest[1],
         **common,
     )
+
+
+_BELOW_FLOOR = "no unambiguous input reaches the objective's at_least"
 
 
 def _letters(phase: Phase, contacts: tuple[str, ...]) -> str:
@@ -324,6 +329,8 @@ def _mode_optima(
         found = _piece_optimum(PieceLP(piece.A, piece.b, gain, bias, rows, points, m_u), solver)
         if found is not None:
             out.append(found)
+    if not out and rows.at_least is not None:
+        return _BELOW_FLOOR
     return out if out else "no piece's LP has a solution"
 
 
