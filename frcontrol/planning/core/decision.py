@@ -249,21 +249,38 @@ def decide(
             reason=None,
             **common,
         )
+    return _no_plan(
+        analysis, phase, problem.contacts, allowed, bool(optima), tuple(tried), rows, solver, common
+    )
+
+
+def _no_plan(
+    analysis: DynamicResponse,
+    phase: Phase,
+    contacts: tuple[str, ...],
+    allowed: list[str],
+    optimised: bool,
+    tried: tuple[tuple[str, str], ...],
+    rows: ObjectiveRows,
+    solver: str,
+    common: dict[str, Any],
+) -> Decision:
+    """The decision without a plan: why, and the closest margin when no allowed mode had a piece."""
     if not allowed:
-        reason = "no feasible mode has only the allowed letters " + _letters(phase, problem.contacts)
-    elif optima:
+        reason = "no feasible mode has only the allowed letters " + _letters(phase, contacts)
+    elif optimised:
         reason = "no optimum gives exactly one rigid solution in its mode once rounded"
     elif any(why == _BELOW_FLOOR for _, why in tried):
         reason = f"no allowed mode's unambiguous inputs reach at_least = {rows.at_least:g}"
     else:
         reason = f"no allowed mode has unambiguous inputs {phase.margin:g} away from every other mode"
-    closest = _closest_margin(analysis, allowed, phase.margin, solver) if allowed and not optima else None
+    closest = _closest_margin(analysis, allowed, phase.margin, solver) if allowed and not optimised else None
     return Decision(
         False,
         None,
         inputs={},
         objective=None,
-        tried=tuple(tried),
+        tried=tried,
         reason=reason,
         closest_margin=None if closest is None else closest[0],
         closest_mode=None if closest is None else closest[1],
