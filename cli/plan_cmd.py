@@ -127,6 +127,13 @@ def render(payload: dict[str, Any]) -> None:
             phase["why"] or "-",
         )
     console.print(table)
+    for phase in payload["phases"]:
+        scale = phase.get("largest_scale")
+        if scale is not None:
+            console.print(
+                f"phase {phase['name']!r}: largest disturbance scale {scale['scale']:.4g} "
+                + (f"(mode {scale['mode']})" if scale["found"] else f"({scale['reason']})")
+            )
     outcome = payload["outcome"]
     console.print("achieved: yes" if outcome["achieved"] else f"achieved: no ({outcome['reason']})")
     infeasible = outcome.get("infeasible")

@@ -70,6 +70,8 @@ _OBJECTIVE = {
         "link": {"type": "string", "x-refers": "link", "description": "the link of the point"},
         "point": {**_PAIR, "description": "[m] the point, in the link's frame"},
         "direction": {**_PAIR, "description": "[-] the world direction of its acceleration"},
+        "at_least": {"type": "number",
+                     "description": "a plan's objective must be at least this (worst case when robust)"},
     },
 }
 _PHASE = {
@@ -85,13 +87,24 @@ _PHASE = {
                    "description": "[input units] distance kept inside the allowed modes' unambiguous set"},
         "robust": {"type": "boolean",
                    "description": "hold the allowed modes for every vertex of every [[disturbances]]"},
+        "largest_scale": {
+            "type": "object",
+            "additionalProperties": False,
+            "required": ["upper"],
+            "description": "robust phases: at the phase's first decision, also find the largest scale of "
+                           "the [[disturbances]] polytope at which a plan exists",
+            "properties": {
+                "upper": {"type": "number", "exclusiveMinimum": 0,
+                          "description": "[-] the largest scale searched"},
+            },
+        },
         "maximize": {**_OBJECTIVE, "description": "maximise an acceleration"},
         "minimize": {**_OBJECTIVE, "description": "minimise an acceleration"},
         "track": {
             "type": "object",
             "additionalProperties": False,
             "required": ["coordinates"],
-            "description": "least (weighted L1) distance of the accelerations to a PD target",
+            "description": "least squares of the accelerations to a PD target",
             "properties": {
                 "coordinates": {"type": "object", "x-refers-keys": "coordinate", "minProperties": 1,
                                 "additionalProperties": {"type": "number"},
@@ -100,7 +113,8 @@ _PHASE = {
                 "damping": {"type": "number", "minimum": 0, "description": "[1/s] the PD damping"},
                 "weights": {"type": "object", "x-refers-keys": "coordinate",
                             "additionalProperties": {"type": "number", "minimum": 0},
-                            "description": "[-] weight of each coordinate's error (default 1)"},
+                            "description": "[-] each coordinate's error is multiplied by this before "
+                                           "it is squared (default 1)"},
             },
         },
         "until": {

@@ -80,6 +80,17 @@ def test_box_slides_right_on_both_corners_without_tipping():
     assert within_limits(traj, box)
 
 
+def test_box_tips_about_its_left_corner_though_sliding_would_turn_it_faster():
+    box = scene("box_tip")
+    traj = plan_task(box).trajectory
+    assert np.all(loaded(traj, box, "left"))
+    assert np.max(np.abs(travel(traj, box, "left"))) <= SLIP_DISTANCE  # F, not L: the best without the modes
+    assert np.all(traj.contact_forces[1:, 1, 0] == 0) and np.all(contact_gaps(box, traj.q[-1])[1] > 0)
+    assert np.all(np.diff(traj.v[:, 2]) > 0)
+    assert traj.q[-1, 2] >= 0.02 > traj.q[-2, 2]
+    assert within_limits(traj, box)
+
+
 @pytest.mark.slow
 def test_solo_shifts_forward_with_both_feet_fixed():
     solo = scene("solo_shift")
@@ -105,6 +116,91 @@ def test_the_stand_up_as_a_task_reaches_frc_standups_height():
     assert abs(task_run.q[-1, 1] - dedicated.final_base[1]) <= 1e-3
 
 
+def crossing_time(trajectory, index: int, level: float) -> float:
+    """[s] When the coordinate first reaches ``level``, linear between the two samples around it."""
+    values = trajectory.q[:, index]
+    end = int(np.argmax(values >= level))
+    assert values[end] >= level and end > 0
+    t_a, t_b, p_a, p_b = trajectory.times[end - 1], trajectory.times[end], values[end - 1], values[end]
+    return float(t_a + (level - p_a) / (p_b - p_a) * (t_b - t_a))
+
+
+@pytest.mark.slow
+def test_the_flip_as_a_task_reaches_vertical_as_fast_as_frc_flip():
+    from frcontrol.planning.flip import SEPARATION_GAP, simulate_flip
+
+    rhex = scene("rhex_flip_task")
+    traj = plan_task(rhex).trajectory
+    vertical = 1.5 * np.pi
+    front = [c.name for c in rhex.contacts].index("front_corner")
+    gaps = np.array([contact_gaps(rhex, q)[front] for q in traj.q])
+    assert np.all(gaps <= SEPARATION_GAP)  # the pivot corner never leaves the ground
+    assert within_limits(traj, rhex)
+    names = [c.name for c in rhex.contacts]
+    for hip, toe in (("hip_middle", "middle_toe"), ("hip_rear", "rear_toe")):  # massless legs
+        toe_gaps = np.array([contact_gaps(rhex, q)[names.index(toe)] for q in traj.q])
+        in_the_air = toe_gaps[:-1] > SEPARATION_GAP  # inputs[i + 1] is held over the step from sample i
+        held = traj.inputs[1:, rhex.inputs.coordinates.index(hip)]
+        assert np.any(in_the_air) and np.all(held[in_the_air] == 0)
+    dedicated = simulate_flip(scene("rhex_flip"))
+    assert dedicated.time_to_vertical is not None
+    assert crossing_time(traj, 2, vertical) <= 1.1 * dedicated.time_to_vertical
+
+
+@pytest.mark.slow
+def test_the_climb_as_a_task_finds_frc_climbs_disturbance_scale():
+    """The largest scale is checked by the engine on the climb's own lifted problem, at every vertex."""
+    from frcontrol.engine import analyze
+    from frcontrol.planning.climb import augmented_problem, load_disturbances, plan_climb
+
+    snake = scene("snake_climb_task")
+    result = plan_task(snake)
+    found = result.to_dict(snake)["phases"][0]["largest_scale"]
+    assert found["scale"] >= plan_climb(scene("snake_climb")).max_disturbance_scale
+    dist = load_disturbances(snake)
+    points = dist.robust_points(found["scale"])
+    lifted = augmented_problem(snake, dist, points.min(axis=0) - 1.0, points.max(axis=0) + 1.0)
+    analysis = analyze(lifted)
+    u = np.array([found["inputs"][n] for n in snake.inputs.coordinates])
+    head = snake.robot.point_kinematics(snake.q, snake.v, [("link8", np.array([0.2, 0.0]))])
+    for v in points:
+        (solution,) = solutions_at(analysis, np.concatenate([u, v]))
+        assert solution.mode == "FFF"
+        assert head.jacobians[0][1] @ solution.dv[: snake.robot.nv] + head.drifts[0][1] >= 1.0
+    traj = result.trajectory
+    early = traj.times[1:] <= 0.05  # the brace holds (the gentle head: minimised, at least 1 m/s^2)
+    for contact in ("tail", "tip", "top"):
+        assert np.all(loaded(traj, snake, contact)[early])
+        assert np.max(np.abs(travel(traj, snake, contact)[1:][early])) <= 1e-4
+    assert within_limits(traj, snake)
+
+
+def test_track_is_least_squares_to_the_pd_target():
+    """The pivoting rod's accelerations are alpha g (one direction): the plan's alpha is least squares'.
+
+    Targets that no pivot reaches exactly (x, y and theta asked to move apart from the pivot's
+    direction g): the weighted least-squares alpha is ``sum w_i^2 g_i a_i / sum w_i^2 g_i^2``; the
+    L1 distance would be smallest at alpha = 1 (theta's own target) instead.
+    """
+    from frcontrol.engine import analyze
+
+    rod = scene("rod_pivot")
+    targets = {"x": rod.q[0] + 0.5, "y": rod.q[1], "theta": rod.q[2] + 1.0}
+    weights = {"x": 1.0, "y": 2.0, "theta": 1.0}
+    objective = Objective("track", targets=targets, stiffness=1.0, damping=0.0, weights=weights)
+    decision = decide(rod, Phase("p", {"tip": "F"}, 0.05, False, objective, Until("time", time=1.0)))
+    u = np.array([decision.inputs[n] for n in rod.inputs.coordinates])
+    (solution,) = solutions_at(analyze(rod), u)
+    assert solution.mode == "F"
+    dv = solution.dv[:3]
+    g = dv / dv[2]
+    a = np.array([0.5, 0.0, 1.0])  # stiffness (target - q), the rod at rest
+    w2 = np.array([1.0, 4.0, 1.0])
+    assert dv[2] == pytest.approx(np.sum(w2 * g * a) / np.sum(w2 * g * g), abs=1e-3)
+    assert not dv[2] == pytest.approx(1.0, abs=0.05)  # not the L1 optimum
+    assert decision.objective == pytest.approx(float(np.sum(w2 * (dv - a) ** 2)), rel=1e-9)
+
+
 def test_frc_plan_json_has_the_documented_keys():
     result = runner.invoke(app, ["plan", "box_slide", "--json", "--replan-every", "5"])
     assert result.exit_code == 0, result.stderr
@@ -127,6 +223,16 @@ def test_an_infeasible_phase_says_which_mode_and_the_closest_margin():
     assert 0 < outcome["infeasible"]["closest_margin"] < 100
 
 
+def test_an_objective_floor_out_of_reach_is_the_reason():
+    result = runner.invoke(
+        app, ["plan", "box_slide", "--json", "-T", "0.002", "--set", "task.phases[0].maximize.at_least=1000"]
+    )
+    assert result.exit_code == 0, result.stderr
+    outcome = json.loads(result.stdout)["outcome"]
+    assert outcome["achieved"] is False
+    assert outcome["infeasible"]["reason"] == "no allowed mode's unambiguous inputs reach at_least = 1000"
+
+
 @pytest.mark.parametrize(
     ("assignment", "message"),
     [
@@ -138,6 +244,9 @@ def test_an_infeasible_phase_says_which_mode_and_the_closest_margin():
         ("task.phases[0].robust=true", "needs [[disturbances]]"),
         ("task.body_contacts=['left']", "not both"),
         ("task.phases[0].maximize={link='box', point=[0, 0]}", "direction"),
+        ("task.phases[0].largest_scale={upper=2.0}", "add robust = true"),
+        ("task.phases[0].largest_scale={upper=-2.0}", "largest_scale.upper"),
+        ("task.phases[0].maximize.at_least='x'", "at_least"),
     ],
 )
 def test_bad_tasks_are_one_line_errors(assignment, message):

@@ -4,19 +4,25 @@ At a state the engine gives every contact mode c its affine response ``dv = X_u 
 input domain T_c (METHOD §3). A phase allows some letters per contact; the candidate modes are the
 feasible modes made of allowed letters only. For each, :func:`frcontrol.planning.flip.margin_pieces`
 builds the inputs at least ``margin`` from every input where another mode also holds (a union of
-convex pieces), and one LP per piece optimises the objective
+convex pieces), and one LP (maximize, minimize) or QP (track) per piece optimises the objective
 (:mod:`~frcontrol.planning.core.objective`)::
 
-    maximise   t                            (maximize: t <= C dv + o;  minimize: t <= -(C dv + o))
-    minimise   sum_i w_i e_i                (track:   -e <= C dv + o - a* <= e)
+    maximise   t                              (maximize: t <= C dv + o;  minimize: t <= -(C dv + o))
+    minimise   |W (C dv + o - a*)|^2 + eps |u|^2   (track: least squares, W = diag(w))
     s.t.       u in the piece,  dv = X_u u + x_0.
+
+The track's QP goes through :func:`frcontrol.solvers.solve_qp` (the door checks its primal
+residual like an LP's); its Hessian ``2 G^T W^2 G`` (``G = C X_u``) is singular when fewer
+quantities are tracked than there are inputs, so ``eps`` = :data:`TRACK_REGULARIZATION` times its
+largest diagonal entry makes it definite and picks, among equally good inputs, the smallest.
 
 **Robust phases.** With ``robust = true`` the disturbances of ``[[disturbances]]`` are extra inputs
 ``d`` (the lifted problem of :func:`frcontrol.planning.climb.augmented_problem`: input map
 ``[S^T, J_d^T]``), the analysis and the pieces are over ``z = (u, d)``, and every constraint of the
 LP above is written once per point ``v`` of ``V`` (the vertices of the disturbance polytope, and the
 zero disturbance when the polytope does not hold it): ``(u, v)`` in the same piece for every v, which
-by convexity puts ``{u} x conv(V)`` in it, and the objective is the worst case over V.
+by convexity puts ``{u} x conv(V)`` in it, and the objective is the worst case over V (track: the
+QP minimises the mean squared error over V, and the decision reports the worst).
 
 **Rounding and verification.** The optima, best first, are rounded to
 :data:`~frcontrol.planning.flip.TORQUE_ROUNDING` (within the limits) and checked with
@@ -33,22 +39,32 @@ unambiguous inputs, with that mode; None when no allowed mode has any.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from ...engine import DynamicResponse, analyze, solutions_at
+from ...engine import DynamicResponse, solutions_at
 from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...response import OUTPUT_TOLERANCE
 from ...scene import Scene
-from ...solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
+from ...solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, RETRY_ERRORS, solve_lp, solve_qp
 from ..climb import load_disturbances
 from ..flip import TORQUE_ROUNDING, margin_pieces
+from .forced import planning_problem
 from .objective import ObjectiveRows, objective_rows
 from .task import Phase
 
-__all__ = ["CLOSEST_MARGIN_STEPS", "DISTURBANCE_PAD", "Decision", "decide", "lifted_problem"]
+__all__ = [
+    "CLOSEST_MARGIN_STEPS",
+    "DISTURBANCE_PAD",
+    "TRACK_REGULARIZATION",
+    "Decision",
+    "PieceLP",
+    "decide",
+    "lifted_problem",
+    "verify_plan",
+]
 
 CLOSEST_MARGIN_STEPS = 8
 """Bisection steps of the closest margin reported when no plan is found (the margin is then known
@@ -57,6 +73,42 @@ to ``margin / 2^8``)."""
 DISTURBANCE_PAD = 1e-3
 """[N] The lifted problem's disturbance box is the disturbance polytope's bounding box grown by this
 (plus the margin), so that the box's own faces are not where a mode's domain ends."""
+
+
+TRACK_REGULARIZATION = 1e-9
+"""[-] The track's QP adds ``eps |u|^2`` with ``eps`` this times the largest diagonal entry of its
+Hessian: the Hessian becomes definite (DAQP needs it), and of inputs with the same error the
+smallest is chosen; relative 1e-9 moves the optimum's error by far less than the rounding does."""
+
+
+@dataclass(frozen=True)
+class PieceLP:
+    """One convex piece ``A z <= b`` (z = (u, d)) of a mode's unambiguous set and the objective on it.
+
+    Attributes:
+        A, b: the piece's rows.
+        gain: (k, m) the objective quantities' gain on z in the mode: ``C X_z``.
+        bias: (k,) their value at z = 0: ``C x_0 + o``.
+        rows: the objective.
+        points: the disturbance points V (rows; one empty row when not robust).
+        m_u: how many of z's entries are inputs (the rest are disturbances).
+    """
+
+    A: np.ndarray
+    b: np.ndarray
+    gain: np.ndarray
+    bias: np.ndarray
+    rows: ObjectiveRows
+    points: np.ndarray
+    m_u: int
+
+    def split(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(A_u, A_d)``: the piece's columns on the inputs and on the disturbances."""
+        return self.A[:, : self.m_u], self.A[:, self.m_u :]
+
+    def gains(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(G_u, G_d)``: the gain's columns on the inputs and on the disturbances."""
+        return self.gain[:, : self.m_u], self.gain[:, self.m_u :]
 
 
 @dataclass(frozen=True)
@@ -69,7 +121,8 @@ class Decision:
         contacts: the active contacts, in mode-letter order.
         inputs: the rounded inputs by scene input name (empty when none was found).
         objective: the objective at the rounded inputs (worst case over V when robust): the
-            acceleration (maximize/minimize) or the weighted L1 error (track); None without a plan.
+            acceleration (maximize/minimize) or the weighted squared error (track); None without a
+            plan.
         margin: [input units] the margin asked for.
         robust: the plan holds at every disturbance vertex.
         vertices: how many disturbance points were checked (1 when not robust).
@@ -78,6 +131,8 @@ class Decision:
         closest_margin: when no allowed mode had unambiguous inputs at the margin: the largest
             margin at which one has (None when none has any, or when a plan was found).
         closest_mode: the mode reaching ``closest_margin``.
+        forced: the inputs the rigid model forces at this state, and their values (fixed, not
+            planned: :mod:`~frcontrol.planning.core.forced`); included in ``inputs`` when found.
     """
 
     found: bool
@@ -92,6 +147,7 @@ class Decision:
     reason: str | None
     closest_margin: float | None = None
     closest_mode: str | None = None
+    forced: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The decision as JSON-ready values."""
@@ -108,13 +164,16 @@ class Decision:
             "reason": self.reason,
             "closest_margin": self.closest_margin,
             "closest_mode": self.closest_mode,
+            "forced_inputs": dict(self.forced),
         }
 
 
-def lifted_problem(scene: Scene, problem: ContactProblem, margin: float) -> tuple[ContactProblem, np.ndarray]:
-    """The problem over ``z = (u, d)`` and the disturbance points V (rows), for a robust phase."""
+def lifted_problem(
+    scene: Scene, problem: ContactProblem, margin: float, scale: float = 1.0
+) -> tuple[ContactProblem, np.ndarray]:
+    """The problem over ``z = (u, d)`` and the points V (rows) of ``scale`` times the disturbances."""
     dist = load_disturbances(scene)
-    points = dist.robust_points()
+    points = dist.robust_points(scale)
     kin = scene.robot.point_kinematics(scene.q, scene.v, [(d.link, d.point_in_link) for d in dist.items])
     jac = kin.jacobians.reshape(-1, scene.robot.nv)
     pad = DISTURBANCE_PAD + margin
@@ -142,25 +201,28 @@ def decide(
     Raises:
         ImpactState: a contact moves into its surface (the acceleration-level model does not apply).
     """
-    problem = (
+    full = (
         problem
         if problem is not None
         else ContactProblem.from_scene(scene, velocity_tolerance=VELOCITY_TOLERANCE)
     )
-    m_u = problem.m
-    points = np.zeros((1, 0))
-    if phase.robust:
-        problem, points = lifted_problem(scene, problem, phase.margin)
+    lift = None if not phase.robust else (lambda p: lifted_problem(scene, p, phase.margin)[0])
+    problem, ready, forced = planning_problem(full, solver, lift)
+    m_u = len(full.inputs) - len(forced)
+    points = load_disturbances(scene).robust_points() if phase.robust else np.zeros((1, 0))
     common: dict[str, Any] = {
         "contacts": problem.contacts,
         "margin": phase.margin,
         "robust": phase.robust,
         "vertices": len(points),
+        "forced": forced,
     }
-    absent = _absent_contacts(scene, phase, problem.contacts)
-    if absent:
-        return Decision(False, None, inputs={}, objective=None, tried=(), reason=absent, **common)
-    analysis = analyze(problem, solver=solver)
+    why = _absent_contacts(scene, phase, problem.contacts) or _forced_outside(full, forced)
+    if why is None and ready is None:
+        why = "every input is forced at this state (" + _inputs_text(forced) + ")"
+    if why is not None or ready is None:
+        return Decision(False, None, inputs={}, objective=None, tried=(), reason=why, **common)
+    analysis = ready
     rows = objective_rows(scene, phase.objective, scene.q, scene.v)
     allowed = [m.mode for m in analysis.feasible_modes if phase.allows(problem.contacts, m.mode)]
     tried: list[tuple[str, str]] = []
@@ -173,33 +235,52 @@ def decide(
             optima += [(cost, mode, u) for cost, u in found]
     optima.sort(key=lambda item: item[0])
     for _, mode, u in optima:
-        checked = _verify(analysis, mode, u, points, rows, problem)
+        checked = verify_plan(analysis, mode, u, points, rows, problem)
         if isinstance(checked, str):
             tried.append((mode, checked))
             continue
-        names = problem.inputs[:m_u]
+        planned = dict(zip(problem.inputs[:m_u], checked[0].tolist(), strict=True))
         return Decision(
             True,
             mode,
-            inputs=dict(zip(names, checked[0].tolist(), strict=True)),
+            inputs={name: forced.get(name, planned.get(name, 0.0)) for name in full.inputs},
             objective=checked[1],
             tried=tuple(tried),
             reason=None,
             **common,
         )
+    return _no_plan(
+        analysis, phase, problem.contacts, allowed, bool(optima), tuple(tried), rows, solver, common
+    )
+
+
+def _no_plan(
+    analysis: DynamicResponse,
+    phase: Phase,
+    contacts: tuple[str, ...],
+    allowed: list[str],
+    optimised: bool,
+    tried: tuple[tuple[str, str], ...],
+    rows: ObjectiveRows,
+    solver: str,
+    common: dict[str, Any],
+) -> Decision:
+    """The decision without a plan: why, and the closest margin when no allowed mode had a piece."""
     if not allowed:
-        reason = "no feasible mode has only the allowed letters " + _letters(phase, problem.contacts)
-    elif optima:
+        reason = "no feasible mode has only the allowed letters " + _letters(phase, contacts)
+    elif optimised:
         reason = "no optimum gives exactly one rigid solution in its mode once rounded"
+    elif any(why == _BELOW_FLOOR for _, why in tried):
+        reason = f"no allowed mode's unambiguous inputs reach at_least = {rows.at_least:g}"
     else:
         reason = f"no allowed mode has unambiguous inputs {phase.margin:g} away from every other mode"
-    closest = _closest_margin(analysis, allowed, phase.margin, solver) if allowed and not optima else None
+    closest = _closest_margin(analysis, allowed, phase.margin, solver) if allowed and not optimised else None
     return Decision(
         False,
         None,
         inputs={},
         objective=None,
-        tried=tuple(tried),
+        tried=tried,
         reason=reason,
         closest_margin=None if closest is None else closest[0],
         closest_mode=None if closest is None else closest[1],
@@ -207,8 +288,25 @@ def decide(
     )
 
 
+_BELOW_FLOOR = "no unambiguous input reaches the objective's at_least"
+
+
 def _letters(phase: Phase, contacts: tuple[str, ...]) -> str:
     return "(" + ", ".join(f"{name} {phase.modes[name]}" for name in contacts if name in phase.modes) + ")"
+
+
+def _inputs_text(values: dict[str, float]) -> str:
+    return ", ".join(f"{name} = {value:g}" for name, value in values.items())
+
+
+def _forced_outside(full: ContactProblem, forced: dict[str, float]) -> str | None:
+    """Why no plan exists when the model forces an input outside its limits (None when none is)."""
+    bad = {
+        name: value
+        for name, value in forced.items()
+        if not full.lower[full.inputs.index(name)] <= value <= full.upper[full.inputs.index(name)]
+    }
+    return f"the rigid model forces {_inputs_text(bad)}, outside the limits" if bad else None
 
 
 def _absent_contacts(scene: Scene, phase: Phase, active: tuple[str, ...]) -> str | None:
@@ -245,42 +343,60 @@ def _mode_optima(
     bias = rows.rows @ response.x_0[:n] + rows.offset
     out = []
     for piece in pieces:
-        found = _piece_lp(piece.A, piece.b, gain, bias, rows, points, m_u, solver)
+        found = _piece_optimum(PieceLP(piece.A, piece.b, gain, bias, rows, points, m_u), solver)
         if found is not None:
             out.append(found)
+    if not out and rows.at_least is not None:
+        return _BELOW_FLOOR
     return out if out else "no piece's LP has a solution"
 
 
-def _piece_lp(
-    A: np.ndarray,
-    b: np.ndarray,
-    gain: np.ndarray,
-    bias: np.ndarray,
-    rows: ObjectiveRows,
-    points: np.ndarray,
-    m_u: int,
-    solver: str,
-) -> tuple[float, np.ndarray] | None:
-    """One LP over ``(u, t)`` on a piece ``A z <= b``, every constraint once per point of V."""
-    k = len(bias) if rows.kind == "track" else 1
-    A_u, A_d = A[:, :m_u], A[:, m_u:]
-    g_u, g_d = gain[:, :m_u], gain[:, m_u:]
+def _piece_optimum(lp: PieceLP, solver: str) -> tuple[float, np.ndarray] | None:
+    """The piece's optimum ``(cost, u)`` (cost: lower is better), every constraint once per point of V.
+
+    maximize/minimize: one LP over ``(u, t)``; track: the least-squares QP over u (:func:`_piece_qp`).
+    """
+    if lp.rows.kind == "track":
+        return _piece_qp(lp, solver)
+    (A_u, A_d), (g_u, g_d), bias, rows, m_u = lp.split(), lp.gains(), lp.bias, lp.rows, lp.m_u
     blocks, rhs = [], []
-    for v in points:
-        blocks.append(np.hstack([A_u, np.zeros((A.shape[0], k))]))
-        rhs.append(b - A_d @ v)
-        level = bias + g_d @ v
-        if rows.kind == "track":
-            blocks += [np.hstack([g_u, -np.eye(k)]), np.hstack([-g_u, -np.eye(k)])]
-            rhs += [rows.targets - level, level - rows.targets]
-        else:
-            blocks.append(np.hstack([-rows.sign * g_u, np.ones((1, 1))]))
-            rhs.append(rows.sign * level)
-    cost = np.concatenate([np.zeros(m_u), rows.weights if rows.kind == "track" else [-1.0]])
+    for v in lp.points:
+        blocks.append(np.hstack([A_u, np.zeros((A_u.shape[0], 1))]))
+        rhs.append(lp.b - A_d @ v)
+        blocks.append(np.hstack([-rows.sign * g_u, np.ones((1, 1))]))
+        rhs.append(rows.sign * (bias + g_d @ v))
+        if rows.at_least is not None:
+            blocks.append(np.hstack([-g_u, np.zeros((1, 1))]))
+            rhs.append(bias + g_d @ v - rows.at_least)
+    cost = np.concatenate([np.zeros(m_u), [-1.0]])
     result = solve_lp(cost, np.vstack(blocks), np.concatenate(rhs), solver=solver, fallback=RETRY_ERRORS)
     if not result.found or result.x is None:
         return None
     return float(result.objective), result.x[:m_u].copy()
+
+
+def _piece_qp(lp: PieceLP, solver: str) -> tuple[float, np.ndarray] | None:
+    """The track's least squares on a piece: mean over V of ``|W (G u + r_v)|^2`` plus the regularization.
+
+    ``G`` is the gain on u, ``r_v = bias + G_d v - a*``; the cost returned is the mean squared error
+    (without the regularization). A back-end error is retried once on the reference back-end.
+    """
+    (A_u, A_d), (g_u, g_d), rows, m_u = lp.split(), lp.gains(), lp.rows, lp.m_u
+    weighted = rows.weights[:, None] * g_u
+    residuals = [rows.weights * (lp.bias + g_d @ v - rows.targets) for v in lp.points]
+    hessian = 2.0 * weighted.T @ weighted
+    hessian += 2.0 * TRACK_REGULARIZATION * max(float(np.max(np.diag(hessian))), 1.0) * np.eye(m_u)
+    linear = 2.0 * weighted.T @ np.mean(residuals, axis=0)
+    A_ub = np.vstack([A_u] * len(lp.points))
+    b_ub = np.concatenate([lp.b - A_d @ v for v in lp.points])
+    result = solve_qp(hessian, linear, A_ub, b_ub, solver=solver)
+    if result.status == "error" and solver != REFERENCE_LP_SOLVER:
+        result = solve_qp(hessian, linear, A_ub, b_ub, solver=REFERENCE_LP_SOLVER)
+    if not result.found or result.x is None:
+        return None
+    u = result.x.copy()
+    cost = float(np.mean([np.sum((weighted @ u + r) ** 2) for r in residuals]))
+    return cost, u
 
 
 def _round(u: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
@@ -290,7 +406,7 @@ def _round(u: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     return np.minimum(np.maximum(rounded, lower), upper) + 0.0
 
 
-def _verify(
+def verify_plan(
     analysis: DynamicResponse,
     mode: str,
     u: np.ndarray,
@@ -309,6 +425,8 @@ def _verify(
             return f"at the rounded inputs the rigid solutions are {found}, not only {mode}"
         values.append(rows.value(solutions[0].dv))
     worst = max(values) if rows.kind in ("track", "minimize") else min(values)
+    if rows.at_least is not None and not worst >= rows.at_least:
+        return f"at the rounded inputs the objective {worst:.6g} is below at_least = {rows.at_least:g}"
     return rounded, worst
 
 

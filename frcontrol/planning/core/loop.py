@@ -12,8 +12,10 @@ ends there and the next one is planned before the next step. The run ends when t
 contacts within :data:`~frcontrol.planning.flip.REPLAN_GAP_TOLERANCE` of their surface or loaded by
 the last step active, a loaded contact's normal velocity taken as 0, and velocities of at most
 :data:`~frcontrol.planning.flip.REPLAN_VELOCITY_TOLERANCE` taken as zero. When no plan is made (no
-allowed mode can be made unambiguous, or an impact) the inputs are held and the decision, with its
-reason, is kept in the phase's record.
+allowed mode can be made unambiguous, or an impact) the inputs are held (the inputs the rigid model
+forces at the state set to their forced value) and the decision, with its reason, is kept in the
+phase's record. Between plans, every input on a massless coordinate whose contacts are all off
+their surface gets 0 (:func:`~.forced.idle_in_the_air`).
 
 *Contacts in ``until``*: a contact is *closed* at a sample when its gap is at most
 :data:`~frcontrol.planning.flip.SEPARATION_GAP`, else *open*.
@@ -27,13 +29,15 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ...errors import FrcontrolError, ImpactState, InputError
-from ...modes import ContactProblem
+from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...scene import Contact, Scene
 from ...simulation.closed_loop import run_closed_loop
 from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ...solvers import DEFAULT_LP_SOLVER
 from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
 from .decision import Decision, decide
+from .forced import idle_in_the_air, massless_inputs
+from .scale import ScaleResult, largest_scale
 from .task import Phase, Task, Until
 
 __all__ = ["PhaseRecord", "TaskRun", "contact_gaps", "run_task", "until_met"]
@@ -50,6 +54,7 @@ class PhaseRecord:
         why: why it ended (``until``'s condition, ``max_time``, the simulation's failure).
         decisions: ``(time [s], decision)`` of every plan made in it, in order.
         met: its ``until`` held.
+        largest_scale: a robust phase with ``largest_scale``: the search at its first decision.
     """
 
     name: str
@@ -58,6 +63,7 @@ class PhaseRecord:
     why: str | None = None
     decisions: list[tuple[float, Decision]] = field(default_factory=list)
     met: bool = False
+    largest_scale: ScaleResult | None = None
 
 
 def contact_gaps(scene: Scene, q: np.ndarray) -> np.ndarray:
@@ -100,6 +106,7 @@ class _TaskPolicy:
         self.force_tolerance = CONTACT_FORCE_TOLERANCE * scene.robot.weight_scale()
         self.command = np.clip(np.zeros(len(self.names)), scene.inputs.lower, scene.inputs.upper)
         self.records = [PhaseRecord(self.phases[0].name, 0.0)]
+        self.legs = massless_inputs(scene)
         self.pending = False
         self.done = False
 
@@ -114,14 +121,15 @@ class _TaskPolicy:
         try:
             here, problem = self._model(stepper)
             decision = decide(here, self.phase, problem=problem, solver=self.solver)
+            if self.phase.largest_scale is not None and not self.records[-1].decisions:
+                full = problem or ContactProblem.from_scene(here, velocity_tolerance=VELOCITY_TOLERANCE)
+                self.records[-1].largest_scale = largest_scale(here, self.phase, full, solver=self.solver)
         except ImpactState as err:
             decision = _held(self.phase, f"impact at {err.contact} (v_N = {err.normal_velocity:.3g} m/s)")
         except FrcontrolError as err:
             decision = _held(self.phase, str(err))
-        if decision.found:
-            self.command = np.array(
-                [decision.inputs.get(n, c) for n, c in zip(self.names, self.command, strict=True)]
-            )
+        values = decision.inputs if decision.found else decision.forced
+        self.command = np.array([values.get(n, c) for n, c in zip(self.names, self.command, strict=True)])
         self.records[-1].decisions.append((t, decision))
         return self.command
 
@@ -146,11 +154,13 @@ class _TaskPolicy:
         return self.plan(stepper)
 
     def actuate(self, held: np.ndarray, stepper: RigidStepper) -> np.ndarray:
-        """Each step's inputs: a new phase is planned before its first step."""
+        """Each step's inputs: a new phase planned before its first step; massless inputs in the air: 0."""
         if self.pending:
             self.pending = False
             self.plan(stepper)
-        return self.command
+        if not self.legs:
+            return self.command
+        return idle_in_the_air(self.legs, contact_gaps(self.scene, stepper.q), self.command)
 
     def stop(self, stepper: RigidStepper) -> bool:
         """After each step: end the phase when its ``until`` holds; stop after the last phase."""

@@ -8,7 +8,7 @@ Every objective is affine in ``dv``, and in a mode ``dv = X_u u + x_0`` is affin
   :meth:`~frcontrol.model.PlanarRobot.point_kinematics` at the state);
 - ``track = { coordinates, stiffness, damping, weights }``: the rows ``e_i`` of the named
   coordinates and their PD targets ``a*_i = k (target_i - q_i) - d v_i``; the plan minimises the
-  weighted L1 error ``sum_i w_i |dv_i - a*_i|`` (one LP).
+  weighted least-squares error ``sum_i (w_i (dv_i - a*_i))^2`` (one QP).
 
 An :class:`ObjectiveRows` holds ``(rows, offset, targets, weights, sign)``: for maximise/minimise
 one row with ``sign`` +1 / -1 (the plan maximises ``sign (rows dv + offset)``); for track the rows and
@@ -36,8 +36,9 @@ class ObjectiveRows:
         rows: (k, n) the rows C: the objective's quantities are ``C dv + offset``.
         offset: (k,) [m/s^2 or rad/s^2] (a point's drift along the direction; 0 otherwise).
         targets: (k,) track: the target accelerations a*; else empty.
-        weights: (k,) track: the L1 weights; else empty.
+        weights: (k,) track: each error's scale before it is squared; else empty.
         names: the quantities' names (coordinates, or ``link@point``).
+        at_least: maximize/minimize: the floor of the quantity (worst case when robust), or None.
     """
 
     kind: str
@@ -46,6 +47,7 @@ class ObjectiveRows:
     targets: np.ndarray
     weights: np.ndarray
     names: tuple[str, ...]
+    at_least: float | None = None
 
     @property
     def sign(self) -> float:
@@ -53,10 +55,10 @@ class ObjectiveRows:
         return {"maximize": 1.0, "minimize": -1.0}.get(self.kind, 0.0)
 
     def value(self, dv: np.ndarray) -> float:
-        """The objective at ``dv``: the quantity (maximize/minimize) or the weighted L1 error (track)."""
+        """The objective at ``dv``: the quantity (maximize/minimize) or the weighted squared error (track)."""
         quantities = self.rows @ dv + self.offset
         if self.kind == "track":
-            return float(self.weights @ np.abs(quantities - self.targets))
+            return float(np.sum((self.weights * (quantities - self.targets)) ** 2))
         return float(quantities[0])
 
 
@@ -75,7 +77,13 @@ def objective_rows(scene: Scene, objective: Objective, q: np.ndarray, v: np.ndar
     if objective.coordinate is not None:
         row = np.eye(n)[coords.index(objective.coordinate)][None, :]
         return ObjectiveRows(
-            objective.kind, row, np.zeros(1), np.zeros(0), np.zeros(0), (objective.coordinate,)
+            objective.kind,
+            row,
+            np.zeros(1),
+            np.zeros(0),
+            np.zeros(0),
+            (objective.coordinate,),
+            objective.at_least,
         )
     assert objective.link is not None and objective.point is not None and objective.direction is not None
     kin = scene.robot.point_kinematics(q, v, [(objective.link, np.asarray(objective.point))])
@@ -84,4 +92,4 @@ def objective_rows(scene: Scene, objective: Objective, q: np.ndarray, v: np.ndar
     row = (direction @ kin.jacobians[0])[None, :]
     offset = np.array([float(direction @ kin.drifts[0])])
     name = f"{objective.link}@({objective.point[0]:g}, {objective.point[1]:g})"
-    return ObjectiveRows(objective.kind, row, offset, np.zeros(0), np.zeros(0), (name,))
+    return ObjectiveRows(objective.kind, row, offset, np.zeros(0), np.zeros(0), (name,), objective.at_least)

@@ -24,7 +24,7 @@ from ...simulation.export import sample_modes
 from ...simulation.trajectory import Trajectory
 from ...solvers import DEFAULT_LP_SOLVER
 from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP, TORQUE_ROUNDING
-from .decision import CLOSEST_MARGIN_STEPS, Decision
+from .decision import CLOSEST_MARGIN_STEPS, TRACK_REGULARIZATION, Decision
 from .loop import PhaseRecord, TaskRun, run_task
 from .task import Task, read_task
 
@@ -67,6 +67,7 @@ class PlanResult:
                 "replan_gap": REPLAN_GAP_TOLERANCE,
                 "replan_velocity": REPLAN_VELOCITY_TOLERANCE,
                 "closest_margin_steps": CLOSEST_MARGIN_STEPS,
+                "track_regularization": TRACK_REGULARIZATION,
             },
             "simulation": {
                 "model": "rigid",
@@ -95,7 +96,7 @@ def _plan_dict(t: float, decision: Decision) -> dict[str, Any]:
 
 
 def _phase_dict(record: PhaseRecord) -> dict[str, Any]:
-    return {
+    out = {
         "name": record.name,
         "start": record.start,
         "end": record.end,
@@ -103,6 +104,9 @@ def _phase_dict(record: PhaseRecord) -> dict[str, Any]:
         "met": record.met,
         "plans": [_plan_dict(t, d) for t, d in record.decisions],
     }
+    if record.largest_scale is not None:
+        out["largest_scale"] = record.largest_scale.to_dict()
+    return out
 
 
 def _outcome(run: TaskRun) -> dict[str, Any]:

@@ -10,7 +10,9 @@ The format (``robots/scene.schema.json`` holds every key; ``docs/tasks.md`` expl
     modes = { front_corner = "F" }      # allowed letters per contact (S, L, R, F); not named: any
     margin = 0.05                       # [input units] inside the allowed modes' unambiguous set
     robust = false                      # hold the modes at every vertex of every [[disturbances]]
+    # largest_scale = { upper = 20.0 }  # robust: also the largest disturbance scale with a plan
     maximize = { coordinate = "theta" } # or minimize = ..., or track = { coordinates = {...}, ... }
+    # maximize = { ..., at_least = 1.0 } # a plan's objective must reach this
     until = { coordinate = "theta", above = 4.712 }   # or below, time, contact = { NAME = "closed" }
 
 The scene loader has already checked the keys, the types and the names (unknown contacts, links and
@@ -55,7 +57,10 @@ class Objective:
         targets: track: [m or rad] the target of each named coordinate.
         stiffness: track: [1/s^2] the PD target's stiffness.
         damping: track: [1/s] the PD target's damping.
-        weights: track: [-] each coordinate's weight in the L1 error.
+        at_least: maximize/minimize: a plan's objective (worst case when robust) must be at least
+            this, or None.
+        weights: track: [-] each coordinate's error is multiplied by its weight before it is squared
+            (a length turns an angular error into a distance).
     """
 
     kind: str
@@ -67,6 +72,7 @@ class Objective:
     stiffness: float = 0.0
     damping: float = 0.0
     weights: Mapping[str, float] = field(default_factory=dict)
+    at_least: float | None = None
 
 
 @dataclass(frozen=True)
@@ -108,6 +114,8 @@ class Phase:
         robust: hold the allowed modes at every vertex of the disturbance polytope.
         objective: what to optimise.
         until: when the phase ends.
+        largest_scale: robust phases: the largest disturbance scale searched for at the phase's
+            first decision (:mod:`~frcontrol.planning.core.scale`), or None.
     """
 
     name: str
@@ -116,6 +124,7 @@ class Phase:
     robust: bool
     objective: Objective
     until: Until
+    largest_scale: float | None = None
 
     def allows(self, contacts: tuple[str, ...], mode: str) -> bool:
         """Whether ``mode`` (one letter per contact of ``contacts``) has only allowed letters."""
@@ -190,6 +199,12 @@ def _phase(scene: Scene, raw: Mapping[str, Any], where: str) -> Phase:
             "a robust phase needs [[disturbances]] "
             "(their vertices are the disturbances it must hold for); the scene has none",
         )
+    if "largest_scale" in raw and not raw.get("robust", False):
+        raise SceneError(
+            str(scene.path),
+            f"{where}.largest_scale",
+            "the largest scale is that of the [[disturbances]] a robust phase holds for: add robust = true",
+        )
     modes = {str(k): "".join(sorted(set(v), key=LETTERS.index)) for k, v in raw.get("modes", {}).items()}
     return Phase(
         str(raw["name"]),
@@ -198,6 +213,7 @@ def _phase(scene: Scene, raw: Mapping[str, Any], where: str) -> Phase:
         bool(raw.get("robust", False)),
         _objective(kind, raw[kind]),
         _until(raw["until"]),
+        None if "largest_scale" not in raw else float(raw["largest_scale"]["upper"]),
     )
 
 
@@ -210,14 +226,16 @@ def _objective(kind: str, raw: Mapping[str, Any]) -> Objective:
             damping=float(raw.get("damping", 0.0)),
             weights={str(k): float(v) for k, v in raw.get("weights", {}).items()},
         )
+    at_least = None if "at_least" not in raw else float(raw["at_least"])
     if "coordinate" in raw:
-        return Objective(kind, coordinate=str(raw["coordinate"]))
+        return Objective(kind, coordinate=str(raw["coordinate"]), at_least=at_least)
     direction = np.asarray(raw["direction"], dtype=float)
     return Objective(
         kind,
         link=str(raw["link"]),
         point=(float(raw["point"][0]), float(raw["point"][1])),
         direction=(float(direction[0]), float(direction[1])),
+        at_least=at_least,
     )
 
 
