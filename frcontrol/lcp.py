@@ -93,11 +93,13 @@ import math
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from scipy.optimize import linprog
 
 from frcontrol.errors import InputError
+from frcontrol.kernel import compiled, kernel_choice
 
 __all__ = [
     "ENUMERATION_MAX_SIZE",
@@ -479,13 +481,14 @@ class _LemkeTableau:
     the column basic in row i.
     """
 
-    def __init__(self, M: np.ndarray, q: np.ndarray) -> None:
+    def __init__(self, M: np.ndarray, q: np.ndarray, tableau: bool = True) -> None:
         n = q.size
         self.n, self.q = n, q
         self.z0, self.rhs = 2 * n, 2 * n + 1
         self.A = np.hstack([np.eye(n), -M, -np.ones((n, 1))])
-        self.table = np.hstack([self.A, q[:, None]])
-        self.basis = np.arange(n)
+        self.table = np.hstack([self.A, q[:, None]]) if tableau else np.zeros((0, 2 * n + 2))
+        self.basis = np.arange(n, dtype=np.int64)
+        self.rhs_values: np.ndarray | None = None  # the right side, when the table is not kept
 
     def pivot(self, row: int, column: int) -> None:
         """Make ``column`` basic in ``row``."""
@@ -518,17 +521,23 @@ class _LemkeTableau:
         try:
             values[self.basis] = np.linalg.solve(self.A[:, self.basis], self.q)
         except np.linalg.LinAlgError:
-            values[self.basis] = self.table[:, self.rhs]
+            values[self.basis] = self.table[:, self.rhs] if self.rhs_values is None else self.rhs_values
             return values, True
         return values, False
 
 
-def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> LCPSolution:
-    """Lexicographic Lemke's method; see the module docstring."""
-    start = time.perf_counter()
+LEMKE_STATUSES = ("solved", "ray", "max_pivots")
+"""How Lemke's pivots end, by the compiled kernel's code (``LEMKE_SOLVED``, ``LEMKE_RAY``,
+``LEMKE_MAX_PIVOTS``): z0 left the basis, no row bounds the entering column, or the pivot limit."""
+
+
+def _lemke_pivots(M: np.ndarray, q: np.ndarray, max_pivots: int) -> tuple[str, int, _LemkeTableau]:
+    """Lemke's pivots in NumPy (the reference of the compiled kernel's ``lemke``).
+
+    Returns:
+        How they ended (:data:`LEMKE_STATUSES`), the number of pivots and the tableau.
+    """
     n = q.size
-    if np.all(q >= 0):
-        return _verified(M, q, np.zeros(n), "solved", "lemke", 0, tolerance, start)
     tab = _LemkeTableau(M, q)
     # First pivot: z0 enters at the value that makes every w_i = q_i + z0 non-negative.
     row = tab.choose_row(np.ones(n), np.arange(n), None)
@@ -542,15 +551,45 @@ def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> L
         eligible = (np.flatnonzero(column > PIVOT_TOLERANCE * largest) if largest > 0
                     else np.zeros(0, dtype=int))
         if len(eligible) == 0:
-            return _lemke_stopped(M, q, tab, "ray", pivots, tolerance, start)
+            return "ray", pivots, tab
         if pivots >= max_pivots:
-            return _lemke_stopped(M, q, tab, "max_pivots", pivots, tolerance, start)
+            return "max_pivots", pivots, tab
         z0_rows = np.flatnonzero(tab.basis == tab.z0)
         preferred = int(z0_rows[0]) if z0_rows.size else None
         row = tab.choose_row(np.where(column > 0, column, 1.0), eligible, preferred)
         leaving = int(tab.basis[row])
         tab.pivot(row, entering)
         pivots += 1
+    return "solved", pivots, tab
+
+
+def _lemke_pivots_compiled(M: np.ndarray, q: np.ndarray, max_pivots: int
+                           ) -> tuple[str, int, _LemkeTableau]:
+    """:func:`_lemke_pivots` by the compiled kernel: the same pivots, the tableau's basis and right side."""
+    tab = _LemkeTableau(M, q, tableau=False)
+    rhs = np.empty(q.size)
+    kernel: Any = compiled
+    code, pivots = kernel.lemke(np.ascontiguousarray(M), np.ascontiguousarray(q), tab.basis, rhs, max_pivots,
+                                PIVOT_TOLERANCE, TIE_TOLERANCE)
+    tab.rhs_values = rhs
+    return LEMKE_STATUSES[code], int(pivots), tab
+
+
+def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> LCPSolution:
+    """Lexicographic Lemke's method; see the module docstring.
+
+    The pivots run in the kernel that :func:`frcontrol.kernel.kernel_choice` names (compiled, or
+    the NumPy reference :func:`_lemke_pivots`); both pivot alike, and the point is recomputed from
+    the final basis by the same LU solve.
+    """
+    start = time.perf_counter()
+    n = q.size
+    if np.all(q >= 0):
+        return _verified(M, q, np.zeros(n), "solved", "lemke", 0, tolerance, start)
+    run = _lemke_pivots_compiled if kernel_choice() == "compiled" else _lemke_pivots
+    status, pivots, tab = run(M, q, max_pivots)
+    if status != "solved":
+        return _lemke_stopped(M, q, tab, status, pivots, tolerance, start)
     values, singular = tab.basic_point()
     result = _verified(M, q, values[n : 2 * n].copy(), "solved", "lemke", pivots, tolerance, start)
     if singular and not result.found:
