@@ -43,10 +43,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from ..errors import FrcontrolError, InputError
 from ..lcp import ENUMERATION_MAX_SIZE, solve_lcp
+from .armature import solve_mass
 
 LCP_REGULARIZATION = 1e-10
 """[-] When Lemke's method fails, the LCP is retried with ``W + eps I`` (W scaled to unit
@@ -89,22 +89,16 @@ class ImpulseLCPFailure(FrcontrolError):
 def _coulomb_matrix(Ws: np.ndarray, mu: np.ndarray) -> np.ndarray:
     """The LCP matrix of the module docstring for a scaled Delassus matrix ``Ws`` (2c, 2c)."""
     c = len(mu)
-    n_idx, p_idx, m_idx, s_idx = (np.arange(c) + j * c for j in range(4))
+    W_nn, W_nt, W_tn, W_tt = Ws[:c, :c], Ws[:c, c:], Ws[c:, :c], Ws[c:, c:]
     base = np.zeros((4 * c, 4 * c))
-    base[np.ix_(n_idx, n_idx)] = Ws[:c, :c]
-    base[np.ix_(n_idx, p_idx)] = Ws[:c, c:]
-    base[np.ix_(n_idx, m_idx)] = -Ws[:c, c:]
-    base[np.ix_(p_idx, n_idx)] = Ws[c:, :c]
-    base[np.ix_(p_idx, p_idx)] = Ws[c:, c:]
-    base[np.ix_(p_idx, m_idx)] = -Ws[c:, c:]
-    base[np.ix_(m_idx, n_idx)] = -Ws[c:, :c]
-    base[np.ix_(m_idx, p_idx)] = -Ws[c:, c:]
-    base[np.ix_(m_idx, m_idx)] = Ws[c:, c:]
-    base[p_idx, s_idx] = 1.0
-    base[m_idx, s_idx] = 1.0
-    base[s_idx, n_idx] = mu
-    base[s_idx, p_idx] = -1.0
-    base[s_idx, m_idx] = -1.0
+    n, p, m, s = slice(0, c), slice(c, 2 * c), slice(2 * c, 3 * c), slice(3 * c, 4 * c)
+    base[n, n], base[n, p], base[n, m] = W_nn, W_nt, -W_nt
+    base[p, n], base[p, p], base[p, m] = W_tn, W_tt, -W_tt
+    base[m, n], base[m, p], base[m, m] = -W_tn, -W_tt, W_tt
+    d = np.arange(c)
+    base[c + d, 3 * c + d] = base[2 * c + d, 3 * c + d] = 1.0
+    base[3 * c + d, d] = mu
+    base[3 * c + d, c + d] = base[3 * c + d, 2 * c + d] = -1.0
     return base
 
 
@@ -133,7 +127,7 @@ def solve_impulse_lcp(
     """
     c = jn.shape[0]
     jac = np.vstack([jn, jt])
-    X = scipy.linalg.cho_solve(factor, jac.T, check_finite=False)  # M^-1 J^T, (n, 2c)
+    X = solve_mass(factor, jac.T)  # M^-1 J^T, (n, 2c)
     W = jac @ X
     scale = float(np.max(np.diag(W), initial=0.0))
     m_ref = 1.0 / scale if scale > 0 else 1.0  # impulses in units of m_ref [kg] x [m/s]

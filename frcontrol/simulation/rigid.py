@@ -77,12 +77,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.linalg
 
 from ..errors import FrcontrolError, InputError
 from ..modes import ContactProblem, contact_mode_letter
 from ..scene import Scene
-from .armature import DEFAULT_ARMATURE, Armature, mass_factor, massless_armature
+from .armature import DEFAULT_ARMATURE, Armature, mass_factor, massless_armature, solve_mass
 from .drives import ImplicitTransmissions, TransmissionRun
 from .impact import ImpulseLCPFailure, impact_law, solve_impulse_lcp
 from .inputs import InputSchedule, check_simulation_times, input_schedule, step_lengths
@@ -385,8 +384,7 @@ class RigidStepper:
         if not np.any(landing):
             return None
         mass = self.armature.apply(st.mass_matrix)
-        accel = scipy.linalg.cho_solve(mass_factor(mass, self.armature), self._input_map @ u - st.bias,
-                                       check_finite=False)
+        accel = solve_mass(mass_factor(mass, self.armature), self._input_map @ u - st.bias)
         gap, vn = st.gaps[landing], st.normal_velocities[landing]
         a_n = st.jacobian_normal[landing] @ accel
         disc = vn**2 - 4.0 * a_n * gap
@@ -460,7 +458,7 @@ class RigidStepper:
             self._coupled = self.transmissions.implicit(self.q, self.v, u, h)
             force, mass = force + self._coupled.force, self._coupled.mass(mass)
         factor = mass_factor(mass, self.armature)
-        accel = scipy.linalg.cho_solve(factor, force, check_finite=False)
+        accel = solve_mass(factor, force)
         v_free = self.v + h * accel
         gaps, vn = st.gaps, st.normal_velocities
         cand = np.nonzero(gaps <= cfg.activation_distance + 2.0 * h * np.maximum(0.0, -vn))[0]
