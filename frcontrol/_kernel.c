@@ -2101,9 +2101,9 @@ done:
  * columns: w, z, z0, the right side) is pivoted as there: the row divided by its pivot, then
  * table_i -= table_ic table_row for every other row. The ratio test is lexicographic on the rows
  * [B^-1 q, B^-1] / d, ties within TIE * (|B^-1| |q|)_i / d_i (first key) and TIE max_k |B^-1_ik| / d_i
- * (the others); z0's row is taken whenever it ties on the first key. The basis and the final right
- * side go to the caller (its LU solve recomputes the point); the only sum is |B^-1| |q|, a tie
- * width, added in index order. */
+ * (the others); z0's row is taken whenever it ties on the first key. The basis, its matrix
+ * [I, -M, -1][:, basis] and the final right side go to the caller (its LU solve recomputes the
+ * point); the only sum is |B^-1| |q|, a tie width, added in index order. */
 enum { LEMKE_SOLVED = 0, LEMKE_RAY = 1, LEMKE_MAX_PIVOTS = 2 };
 
 typedef struct {
@@ -2232,11 +2232,11 @@ static int lemke_run(Lemke *L, long long max_pivots, double pivot_tolerance, lon
 
 static PyObject *lemke(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != 7) {
-        PyErr_Format(kernel_error, "lemke takes 7 arguments, got %zd", nargs);
+    if (nargs != 8) {
+        PyErr_Format(kernel_error, "lemke takes 8 arguments, got %zd", nargs);
         return NULL;
     }
-    Buffer b[4];
+    Buffer b[5];
     memset(b, 0, sizeof(b));
     PyObject *result = NULL;
     double *work = NULL;
@@ -2245,13 +2245,13 @@ static PyObject *lemke(PyObject *self, PyObject *const *args, Py_ssize_t nargs) 
     if (take(args[1], &b[1], "q", 'd', 1, q_shape, 0)) {
         goto done;
     }
-    Py_ssize_t n = q_shape[0], m_shape[2] = {n, n}, v_shape[1] = {n}, v2_shape[1] = {n};
+    Py_ssize_t n = q_shape[0], m_shape[2] = {n, n}, v_shape[1] = {n}, b_shape[2] = {n, n}, v2_shape[1] = {n};
     if (take(args[0], &b[0], "M", 'd', 2, m_shape, 0) || take(args[2], &b[2], "basis", 'q', 1, v_shape, 1) ||
-        take(args[3], &b[3], "rhs", 'd', 1, v2_shape, 1)) {
+        take(args[3], &b[3], "matrix", 'd', 2, b_shape, 1) || take(args[4], &b[4], "rhs", 'd', 1, v2_shape, 1)) {
         goto done;
     }
-    long long max_pivots = PyLong_AsLongLong(args[4]);
-    double pivot_tolerance = PyFloat_AsDouble(args[5]), tie = PyFloat_AsDouble(args[6]);
+    long long max_pivots = PyLong_AsLongLong(args[5]);
+    double pivot_tolerance = PyFloat_AsDouble(args[6]), tie = PyFloat_AsDouble(args[7]);
     if (PyErr_Occurred()) {
         goto done;
     }
@@ -2278,15 +2278,19 @@ static PyObject *lemke(PyObject *self, PyObject *const *args, Py_ssize_t nargs) 
     }
     long long pivots = 0;
     int status = lemke_run(&L, max_pivots, pivot_tolerance, &pivots);
-    double *rhs = b[3].view.buf;
+    double *matrix = b[3].view.buf, *rhs = b[4].view.buf;
     for (Py_ssize_t i = 0; i < n; i++) {
         rhs[i] = L.table[i * cols + cols - 1];
+        for (Py_ssize_t r = 0; r < n; r++) {
+            long long c = L.basis[r];
+            matrix[i * n + r] = c < n ? (c == i ? 1.0 : 0.0) : c < 2 * n ? -M[i * n + (c - n)] : -1.0;
+        }
     }
     result = Py_BuildValue("(iL)", status, pivots);
 done:
     PyMem_Free(work);
     PyMem_Free(index);
-    release(b, 4);
+    release(b, 5);
     return result;
 }
 
@@ -2359,9 +2363,10 @@ static PyMethodDef methods[] = {
      "locate_points for one input u (m,), and evaluate_points for every mode found inside, into its row\n"
      "of x (modes, nx), acc (modes, 2k), residual and violation (modes,)."},
     {"lemke", (PyCFunction)(void (*)(void))lemke, METH_FASTCALL,
-     "lemke(M, q, basis, rhs, max_pivots, pivot_tolerance, tie_tolerance) -> (status, pivots)\n\n"
+     "lemke(M, q, basis, matrix, rhs, max_pivots, pivot_tolerance, tie_tolerance) -> (status, pivots)\n\n"
      "frcontrol.lcp's lexicographic Lemke pivots on M (n, n) and q (n,): the final basis (int64, the\n"
-     "tableau column basic in each row) and right side into basis and rhs (n,), and the status\n"
+     "tableau column basic in each row) into basis (n,), its columns of [I, -M, -1] into matrix\n"
+     "(n, n) and the tableau's right side into rhs (n,), and the status\n"
      "(LEMKE_SOLVED, LEMKE_RAY, LEMKE_MAX_PIVOTS) with the number of pivots."},
     {NULL, NULL, 0, NULL}};
 

@@ -281,8 +281,8 @@ class FC2DSolution:
 def _as_lcp(M: object, q: object) -> tuple[np.ndarray, np.ndarray]:
     """Return ``(M, q)`` as float arrays, raising InputError if they are malformed."""
     try:
-        M_arr = np.array(M, dtype=float)
-        q_arr = np.array(q, dtype=float)
+        M_arr = np.asarray(M, dtype=float)  # read only here: no copy of a float64 array
+        q_arr = np.asarray(q, dtype=float)
     except (TypeError, ValueError) as exc:
         raise InputError(f"M and q must be numeric arrays: {exc}") from exc
     if M_arr.ndim != 2 or M_arr.shape[0] != M_arr.shape[1]:
@@ -290,9 +290,9 @@ def _as_lcp(M: object, q: object) -> tuple[np.ndarray, np.ndarray]:
     n = M_arr.shape[0]
     if q_arr.shape != (n,):
         raise InputError(f"q must have shape ({n},) to match M {M_arr.shape}, got {q_arr.shape}")
-    if not np.all(np.isfinite(M_arr)):
+    if not np.isfinite(M_arr).all():
         raise InputError("M contains NaN or infinite entries")
-    if not np.all(np.isfinite(q_arr)):
+    if not np.isfinite(q_arr).all():
         raise InputError("q contains NaN or infinite entries")
     return M_arr, q_arr
 
@@ -430,11 +430,11 @@ def _verified(
     else:
         w = M @ z + q
         natural = np.abs(np.minimum(z, w))
-        residual = float(np.max(natural)) if natural.size else 0.0
+        residual = float(natural.max()) if natural.size else 0.0
         bounds = (np.full(q.size, lcp_enumeration_tolerance(q, tolerance)) if method == "enumerate"
                   else lcp_row_tolerances(M, q, z, tolerance))
-        bound = float(np.max(bounds)) if bounds.size else 0.0
-        found = status == "solved" and bool(np.all(natural <= bounds))
+        bound = float(bounds.max()) if bounds.size else 0.0
+        found = status == "solved" and bool((natural <= bounds).all())
         if status == "solved" and not found:
             status = "inaccurate"
     return LCPSolution(found=found, z=z, w=w, status=status, method=method, pivots=pivots, residual=residual,
@@ -481,14 +481,13 @@ class _LemkeTableau:
     the column basic in row i.
     """
 
-    def __init__(self, M: np.ndarray, q: np.ndarray, tableau: bool = True) -> None:
+    def __init__(self, M: np.ndarray, q: np.ndarray) -> None:
         n = q.size
         self.n, self.q = n, q
         self.z0, self.rhs = 2 * n, 2 * n + 1
         self.A = np.hstack([np.eye(n), -M, -np.ones((n, 1))])
-        self.table = np.hstack([self.A, q[:, None]]) if tableau else np.zeros((0, 2 * n + 2))
+        self.table = np.hstack([self.A, q[:, None]])
         self.basis = np.arange(n, dtype=np.int64)
-        self.rhs_values: np.ndarray | None = None  # the right side, when the table is not kept
 
     def pivot(self, row: int, column: int) -> None:
         """Make ``column`` basic in ``row``."""
@@ -512,18 +511,40 @@ class _LemkeTableau:
         return _lexicographic_min_row(keys, widths, rows, preferred)
 
     def basic_point(self) -> tuple[np.ndarray, bool]:
-        """``(w, z, z0)`` at the current basis, and whether the basis matrix was singular.
+        """:func:`_basic_point` at the current basis."""
+        return _basic_point(self.q, self.basis, self.A[:, self.basis], self.table[:, self.rhs])
 
-        Recomputed by an LU solve with the basis matrix (fresher than the accumulated tableau);
-        the tableau's values if the basis is singular.
-        """
-        values = np.zeros(2 * self.n + 1)
-        try:
-            values[self.basis] = np.linalg.solve(self.A[:, self.basis], self.q)
-        except np.linalg.LinAlgError:
-            values[self.basis] = self.table[:, self.rhs] if self.rhs_values is None else self.rhs_values
-            return values, True
-        return values, False
+
+@dataclass(frozen=True, eq=False)
+class _LemkeBasis:
+    """The compiled kernel's end of Lemke's pivots: the basis, its matrix and the right side."""
+
+    n: int
+    z0: int
+    q: np.ndarray
+    basis: np.ndarray
+    matrix: np.ndarray  # [I, -M, -1][:, basis]
+    rhs: np.ndarray  # the tableau's right side, B^-1 q as pivoted
+
+    def basic_point(self) -> tuple[np.ndarray, bool]:
+        """:func:`_basic_point` at the basis."""
+        return _basic_point(self.q, self.basis, self.matrix, self.rhs)
+
+
+def _basic_point(q: np.ndarray, basis: np.ndarray, matrix: np.ndarray, rhs: np.ndarray
+                 ) -> tuple[np.ndarray, bool]:
+    """``(w, z, z0)`` at a basis, and whether its matrix was singular.
+
+    Recomputed by an LU solve with the basis matrix ``[I, -M, -1][:, basis]`` (fresher than the
+    accumulated tableau); the tableau's right side ``rhs`` if the matrix is singular.
+    """
+    values = np.zeros(2 * q.size + 1)
+    try:
+        values[basis] = np.linalg.solve(matrix, q)
+    except np.linalg.LinAlgError:
+        values[basis] = rhs
+        return values, True
+    return values, False
 
 
 LEMKE_STATUSES = ("solved", "ray", "max_pivots")
@@ -563,16 +584,14 @@ def _lemke_pivots(M: np.ndarray, q: np.ndarray, max_pivots: int) -> tuple[str, i
     return "solved", pivots, tab
 
 
-def _lemke_pivots_compiled(M: np.ndarray, q: np.ndarray, max_pivots: int
-                           ) -> tuple[str, int, _LemkeTableau]:
-    """:func:`_lemke_pivots` by the compiled kernel: the same pivots, the tableau's basis and right side."""
-    tab = _LemkeTableau(M, q, tableau=False)
-    rhs = np.empty(q.size)
+def _lemke_pivots_compiled(M: np.ndarray, q: np.ndarray, max_pivots: int) -> tuple[str, int, _LemkeBasis]:
+    """:func:`_lemke_pivots` by the compiled kernel: the same pivots, basis and right side."""
+    n = q.size
+    basis, matrix, rhs = np.empty(n, dtype=np.int64), np.empty((n, n)), np.empty(n)
     kernel: Any = compiled
-    code, pivots = kernel.lemke(np.ascontiguousarray(M), np.ascontiguousarray(q), tab.basis, rhs, max_pivots,
+    code, pivots = kernel.lemke(np.ascontiguousarray(M), np.ascontiguousarray(q), basis, matrix, rhs, max_pivots,
                                 PIVOT_TOLERANCE, TIE_TOLERANCE)
-    tab.rhs_values = rhs
-    return LEMKE_STATUSES[code], int(pivots), tab
+    return LEMKE_STATUSES[code], int(pivots), _LemkeBasis(n, 2 * n, q, basis, matrix, rhs)
 
 
 def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> LCPSolution:
@@ -584,10 +603,13 @@ def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> L
     """
     start = time.perf_counter()
     n = q.size
-    if np.all(q >= 0):
+    if (q >= 0).all():
         return _verified(M, q, np.zeros(n), "solved", "lemke", 0, tolerance, start)
-    run = _lemke_pivots_compiled if kernel_choice() == "compiled" else _lemke_pivots
-    status, pivots, tab = run(M, q, max_pivots)
+    tab: _LemkeTableau | _LemkeBasis
+    if kernel_choice() == "compiled":
+        status, pivots, tab = _lemke_pivots_compiled(M, q, max_pivots)
+    else:
+        status, pivots, tab = _lemke_pivots(M, q, max_pivots)
     if status != "solved":
         return _lemke_stopped(M, q, tab, status, pivots, tolerance, start)
     values, singular = tab.basic_point()
@@ -597,7 +619,7 @@ def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> L
     return result
 
 
-def _lemke_stopped(M: np.ndarray, q: np.ndarray, tab: _LemkeTableau, status: str, pivots: int,
+def _lemke_stopped(M: np.ndarray, q: np.ndarray, tab: _LemkeTableau | _LemkeBasis, status: str, pivots: int,
                    tolerance: float, start: float) -> LCPSolution:
     """Lemke's method ended on a ray or the pivot limit.
 

@@ -126,14 +126,14 @@ def solve_impulse_lcp(
         ImpulseLCPFailure: no method found a solution.
     """
     c = jn.shape[0]
-    jac = np.vstack([jn, jt])
+    jac = np.concatenate((jn, jt))
     X = solve_mass(factor, jac.T)  # M^-1 J^T, (n, 2c)
     W = jac @ X
-    scale = float(np.max(np.diag(W), initial=0.0))
+    scale = float(W.diagonal().max()) if c else 0.0
     m_ref = 1.0 / scale if scale > 0 else 1.0  # impulses in units of m_ref [kg] x [m/s]
     b_n = jn @ v_base + normal_offset
     b_t = jt @ v_base
-    if np.all(b_n >= 0.0):  # every contact separates or just touches: z = 0, sigma = |b_t|
+    if (b_n >= 0.0).all():  # every contact separates or just touches: z = 0, sigma = |b_t|
         return ImpulseSolution(v_base.copy(), np.zeros(c), np.zeros(c), 0, 0.0, False)
     base = _coulomb_matrix(W * m_ref, np.asarray(mu, dtype=float))
     diagonal = np.arange(3 * c)
@@ -145,7 +145,7 @@ def solve_impulse_lcp(
         out[diagonal, diagonal] += eps
         return out
 
-    q_lcp = np.concatenate([b_n, b_t, -b_t, np.zeros(c)])
+    q_lcp = np.concatenate((b_n, b_t, -b_t, np.zeros(c)))
     attempts = [(method, 0.0)]
     if method == "lemke":
         attempts.append(("lemke", LCP_REGULARIZATION))
@@ -158,7 +158,7 @@ def solve_impulse_lcp(
             z = result.z
             p_n = m_ref * z[:c]
             p_t = m_ref * (z[c:2 * c] - z[2 * c:3 * c])
-            v_next = v_base + X @ np.concatenate([p_n, p_t])
+            v_next = v_base + X @ np.concatenate((p_n, p_t))
             return ImpulseSolution(v_next, p_n, p_t, 4 * c, float(result.residual),
                                    eps > 0 or how != method)
         statuses.append(f"{how}{' (regularised)' if eps else ''}: {result.status}")
