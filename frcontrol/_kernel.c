@@ -1,6 +1,7 @@
 /* The compiled kernel of frcontrol.mode_batch (the certified-modes path of decide_modes), of
  * frcontrol.query (locate_points, evaluate_points: queries on an analysis) and of frcontrol.lcp
- * (lemke: the pivots of Lemke's method, the rigid simulation's step).
+ * and frcontrol.simulation.impact (lemke: the pivots of Lemke's method; lcp_check: the check of its
+ * answer; coulomb_matrix: the LCP of the rigid simulation's step).
  *
  * Plain C against the CPython API and the buffer protocol (no NumPy headers): the build needs only
  * setuptools, a C compiler and Python's headers. frcontrol/kernel.py wraps it; the NumPy code in
@@ -2294,6 +2295,115 @@ done:
     return result;
 }
 
+/* coulomb_matrix: frcontrol.simulation.impact._coulomb_matrix of the Delassus matrix W (2c, 2c)
+ * scaled by m_ref (each entry W_ij m_ref, negated where the block is): the LCP matrix (4c, 4c) in
+ * z = (p_N, p_T+, p_T-, sigma), written into out, entry for entry as there. */
+static PyObject *coulomb_matrix(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 4) {
+        PyErr_Format(kernel_error, "coulomb_matrix takes 4 arguments, got %zd", nargs);
+        return NULL;
+    }
+    Buffer b[3];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    Py_ssize_t mu_shape[1] = {-1};
+    if (take(args[2], &b[1], "mu", 'd', 1, mu_shape, 0)) {
+        goto done;
+    }
+    Py_ssize_t c = mu_shape[0], w_shape[2] = {2 * c, 2 * c}, out_shape[2] = {4 * c, 4 * c};
+    if (take(args[0], &b[0], "W", 'd', 2, w_shape, 0) || take(args[3], &b[2], "out", 'd', 2, out_shape, 1)) {
+        goto done;
+    }
+    double m_ref = PyFloat_AsDouble(args[1]);
+    if (PyErr_Occurred()) {
+        goto done;
+    }
+    const double *W = b[0].view.buf, *mu = b[1].view.buf;
+    double *out = b[2].view.buf;
+    Py_ssize_t n = 4 * c, w = 2 * c;
+    memset(out, 0, (size_t)(n * n) * sizeof(double));
+    for (Py_ssize_t i = 0; i < c; i++) {
+        for (Py_ssize_t j = 0; j < c; j++) {
+            double nn = W[i * w + j] * m_ref, nt = W[i * w + c + j] * m_ref;
+            double tn = W[(c + i) * w + j] * m_ref, tt = W[(c + i) * w + c + j] * m_ref;
+            double *row_n = out + i * n, *row_p = out + (c + i) * n, *row_m = out + (2 * c + i) * n;
+            row_n[j] = nn, row_n[c + j] = nt, row_n[2 * c + j] = -nt;
+            row_p[j] = tn, row_p[c + j] = tt, row_p[2 * c + j] = -tt;
+            row_m[j] = -tn, row_m[c + j] = -tt, row_m[2 * c + j] = tt;
+        }
+        out[(c + i) * n + 3 * c + i] = 1.0;
+        out[(2 * c + i) * n + 3 * c + i] = 1.0;
+        out[(3 * c + i) * n + i] = mu[i];
+        out[(3 * c + i) * n + c + i] = -1.0;
+        out[(3 * c + i) * n + 2 * c + i] = -1.0;
+    }
+    Py_INCREF(Py_None);
+    result = Py_None;
+done:
+    release(b, 3);
+    return result;
+}
+
+/* lcp_check: frcontrol.lcp._verified's numbers for a candidate z of the LCP (M, q): w = M z + q
+ * into w, the residual max_i |min(z_i, w_i)| and the largest row bound, and whether every row is
+ * within its bound: tolerance * max((|M| |z|)_i, ||q||_inf) (lcp_row_tolerances), or, for an
+ * enumerated candidate, tolerance * ||q||_inf (lcp_enumeration_tolerance). Sums in index order:
+ * the same to round-off as NumPy's; a NaN anywhere makes the residual NaN and the check fail. */
+static PyObject *lcp_check_point(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 6) {
+        PyErr_Format(kernel_error, "lcp_check takes 6 arguments, got %zd", nargs);
+        return NULL;
+    }
+    Buffer b[4];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    Py_ssize_t q_shape[1] = {-1};
+    if (take(args[1], &b[1], "q", 'd', 1, q_shape, 0)) {
+        goto done;
+    }
+    Py_ssize_t n = q_shape[0], m_shape[2] = {n, n}, z_shape[1] = {n}, w_shape[1] = {n};
+    if (take(args[0], &b[0], "M", 'd', 2, m_shape, 0) || take(args[2], &b[2], "z", 'd', 1, z_shape, 0) ||
+        take(args[3], &b[3], "w", 'd', 1, w_shape, 1)) {
+        goto done;
+    }
+    double tolerance = PyFloat_AsDouble(args[4]);
+    int enumerated = PyObject_IsTrue(args[5]);
+    if (PyErr_Occurred() || enumerated < 0) {
+        goto done;
+    }
+    const double *M = b[0].view.buf, *q = b[1].view.buf, *z = b[2].view.buf;
+    double *w = b[3].view.buf, floor = 0.0, residual = 0.0, bound = 0.0;
+    int found = 1, nan = 0;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        nan |= isnan(q[i]);
+        floor = fabs(q[i]) > floor ? fabs(q[i]) : floor;
+    }
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double wi = 0.0, size = 0.0;
+        for (Py_ssize_t j = 0; j < n; j++) {
+            wi += M[i * n + j] * z[j];
+            size += fabs(M[i * n + j]) * fabs(z[j]);
+        }
+        w[i] = wi + q[i];
+        double natural = fabs(z[i] < w[i] ? z[i] : w[i]);
+        double row = tolerance * (enumerated || floor > size ? floor : size);
+        nan |= isnan(w[i]) || isnan(z[i]) || isnan(size);
+        residual = natural > residual ? natural : residual;
+        bound = row > bound ? row : bound;
+        found &= natural <= row;
+    }
+    if (nan) {
+        residual = bound = NAN;
+        found = 0;
+    }
+    result = Py_BuildValue("(ddO)", residual, bound, found ? Py_True : Py_False);
+done:
+    release(b, 4);
+    return result;
+}
+
 #ifndef FRC_KERNEL_SOURCE_SHA256
 #define FRC_KERNEL_SOURCE_SHA256 "" /* built without setup.py: the source it came from is not known */
 #endif
@@ -2368,6 +2478,14 @@ static PyMethodDef methods[] = {
      "tableau column basic in each row) into basis (n,), its columns of [I, -M, -1] into matrix\n"
      "(n, n) and the tableau's right side into rhs (n,), and the status\n"
      "(LEMKE_SOLVED, LEMKE_RAY, LEMKE_MAX_PIVOTS) with the number of pivots."},
+    {"coulomb_matrix", (PyCFunction)(void (*)(void))coulomb_matrix, METH_FASTCALL,
+     "coulomb_matrix(W, m_ref, mu, out) -> None\n\n"
+     "frcontrol.simulation.impact's Coulomb impulse LCP matrix (4c, 4c) of the Delassus matrix W (2c, 2c)\n"
+     "times m_ref and the friction coefficients mu (c,), written into out."},
+    {"lcp_check", (PyCFunction)(void (*)(void))lcp_check_point, METH_FASTCALL,
+     "lcp_check(M, q, z, w, tolerance, enumerated) -> (residual, bound, found)\n\n"
+     "frcontrol.lcp._verified's check of a candidate z: w = M z + q written into w, the natural-map\n"
+     "residual, the largest row bound and whether every row is within its bound."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "frcontrol._kernel",
@@ -2400,9 +2518,9 @@ PyMODINIT_FUNC PyInit__kernel(void) {
                       NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS,
                       QUERY_OUTSIDE, QUERY_INSIDE, QUERY_NEEDS_PYTHON, LEMKE_SOLVED, LEMKE_RAY,
                       LEMKE_MAX_PIVOTS};
-    PyObject *all = Py_BuildValue("[sssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
+    PyObject *all = Py_BuildValue("[sssssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
                                   "contact_rows", "margin_rows", "certified_children", "locate_points",
-                                  "evaluate_points", "query_point", "lemke");
+                                  "evaluate_points", "query_point", "lemke", "coulomb_matrix", "lcp_check");
     if (all == NULL) {
         Py_DECREF(mod);
         return NULL;

@@ -427,6 +427,13 @@ def _verified(
     w: np.ndarray | None = None
     if z is None:
         found, residual, bound = False, math.inf, lcp_tolerance(M, q, None, tolerance)
+    elif kernel_choice() == "compiled":  # the same numbers to round-off, in one call
+        w = np.empty(q.size)
+        kernel: Any = compiled
+        residual, bound, found = kernel.lcp_check(np.ascontiguousarray(M), np.ascontiguousarray(q),
+                                                  np.ascontiguousarray(z, dtype=float), w, tolerance,
+                                                  method == "enumerate")
+        found = found and status == "solved"
     else:
         w = M @ z + q
         natural = np.abs(np.minimum(z, w))
@@ -435,8 +442,8 @@ def _verified(
                   else lcp_row_tolerances(M, q, z, tolerance))
         bound = float(bounds.max()) if bounds.size else 0.0
         found = status == "solved" and bool((natural <= bounds).all())
-        if status == "solved" and not found:
-            status = "inaccurate"
+    if status == "solved" and not found and z is not None:
+        status = "inaccurate"
     return LCPSolution(found=found, z=z, w=w, status=status, method=method, pivots=pivots, residual=residual,
                        tolerance=bound, solve_time=time.perf_counter() - start, note=note)
 

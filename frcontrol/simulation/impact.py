@@ -41,10 +41,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from ..errors import FrcontrolError, InputError
+from ..kernel import compiled, kernel_choice
 from ..lcp import ENUMERATION_MAX_SIZE, solve_lcp
 from .armature import solve_mass
 
@@ -84,6 +86,21 @@ class ImpulseSolution:
 
 class ImpulseLCPFailure(FrcontrolError):
     """The impulse LCP had no solution by any method (a simulation's result, not raised out)."""
+
+
+def coulomb_matrix(W: np.ndarray, m_ref: float, mu: np.ndarray) -> np.ndarray:
+    """The LCP matrix of the module docstring for the Delassus matrix ``W`` (2c, 2c) times ``m_ref``.
+
+    By the compiled kernel (``coulomb_matrix``) where :func:`frcontrol.kernel.kernel_choice`
+    names it, else by :func:`_coulomb_matrix`, its NumPy reference: the same numbers.
+    """
+    if kernel_choice() == "compiled":
+        c = len(mu)
+        out = np.empty((4 * c, 4 * c))
+        kernel: Any = compiled
+        kernel.coulomb_matrix(np.ascontiguousarray(W), float(m_ref), np.ascontiguousarray(mu), out)
+        return out
+    return _coulomb_matrix(W * m_ref, mu)
 
 
 def _coulomb_matrix(Ws: np.ndarray, mu: np.ndarray) -> np.ndarray:
@@ -135,7 +152,7 @@ def solve_impulse_lcp(
     b_t = jt @ v_base
     if (b_n >= 0.0).all():  # every contact separates or just touches: z = 0, sigma = |b_t|
         return ImpulseSolution(v_base.copy(), np.zeros(c), np.zeros(c), 0, 0.0, False)
-    base = _coulomb_matrix(W * m_ref, np.asarray(mu, dtype=float))
+    base = coulomb_matrix(W, m_ref, np.asarray(mu, dtype=float))
     diagonal = np.arange(3 * c)
 
     def lcp_matrix(eps: float) -> np.ndarray:

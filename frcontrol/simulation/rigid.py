@@ -324,7 +324,7 @@ class RigidStepper:
             self._restore(start)
             self.status, self.failure = "failed", SimulationFailure(self.t, str(err))
             return False
-        if not np.all(np.isfinite(v_next)):
+        if not np.isfinite(v_next).all():
             self._restore(start)
             self.status = "diverged"
             self.failure = SimulationFailure(self.t, "the velocity became NaN or infinite", VALIDITY_HINT)
