@@ -96,6 +96,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from scipy.linalg.lapack import dgesv
 from scipy.optimize import linprog
 
 from frcontrol.errors import InputError
@@ -543,14 +544,18 @@ def _basic_point(q: np.ndarray, basis: np.ndarray, matrix: np.ndarray, rhs: np.n
     """``(w, z, z0)`` at a basis, and whether its matrix was singular.
 
     Recomputed by an LU solve with the basis matrix ``[I, -M, -1][:, basis]`` (fresher than the
-    accumulated tableau); the tableau's right side ``rhs`` if the matrix is singular.
+    accumulated tableau; LAPACK's ``dgesv``, the routine behind ``numpy.linalg.solve``, called
+    without that function's checks); the tableau's right side ``rhs`` if the matrix is singular
+    (an exactly zero pivot, where ``numpy.linalg.solve`` raises).
     """
     values = np.zeros(2 * q.size + 1)
-    try:
-        values[basis] = np.linalg.solve(matrix, q)
-    except np.linalg.LinAlgError:
+    if not q.size:
+        return values, False
+    _, _, x, info = dgesv(matrix, q)
+    if info != 0:
         values[basis] = rhs
         return values, True
+    values[basis] = x
     return values, False
 
 
