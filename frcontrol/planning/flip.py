@@ -1286,7 +1286,7 @@ def _closed_loop(scene: Scene, policy: _Replanner, task: FlipTask, *, dt: float,
                            armature=armature)
     return run_closed_loop(
         stepper, policy, max_time, dt, every=replan_every, command=policy.command,
-        actuate=lambda command, at: _free_legs_idle(scene, legs, command, at.q),
+        actuate=lambda command, at: _free_legs_idle(scene, legs, command, at.q, at.state.contact_points),
         stop=lambda at: bool(at.q[task.pitch_index] >= task.vertical), progress=progress)
 
 
@@ -1309,15 +1309,16 @@ def _replanned(replan_scene: Scene, stepper: RigidStepper, loaded: np.ndarray, m
 
 
 def _free_legs_idle(scene: Scene, legs: dict[int, list[int]], command: np.ndarray,
-                    q: np.ndarray) -> np.ndarray:
+                    q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
     """The command with 0 on every massless leg in the air.
 
     A leg is in the air when none of its contacts is within :data:`SEPARATION_GAP` of its
-    surface: the rigid model forces its torque to 0.
+    surface: the rigid model forces its torque to 0. ``points``: the contact points at ``q``
+    when known (a stepper's state holds them), else computed.
     """
     if not legs:
         return command
-    gaps = _gaps(scene, q)
+    gaps = _gaps(scene, q, points)
     free = [i for i, toes in legs.items() if not np.any(gaps[toes] <= SEPARATION_GAP)]
     if not free:
         return command
@@ -1344,9 +1345,10 @@ def _massless_legs(scene: Scene) -> dict[int, list[int]]:
     return legs
 
 
-def _gaps(scene: Scene, q: np.ndarray) -> np.ndarray:
-    """Every contact's gap [m] at q."""
-    points = scene.robot.contact_points_in_world(q)
+def _gaps(scene: Scene, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+    """Every contact's gap [m] at q (``points``: the contact points at q, when already known)."""
+    if points is None:
+        points = scene.robot.contact_points_in_world(q)
     return np.array([c.point.normal_in_world @ (p - c.point.surface_point_in_world)
                      for c, p in zip(scene.contacts, points, strict=True)])
 
