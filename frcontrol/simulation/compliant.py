@@ -101,7 +101,7 @@ from ..errors import InputError, LimitExceeded
 from ..model import RobotState
 from ..scene import Scene
 from . import INTEGRATORS
-from .armature import Armature, mass_factor, massless_armature
+from .armature import Armature, mass_factor, massless_armature, solve_mass
 from .drives import Transmissions
 from .inputs import STEP_COUNT_TOLERANCE, InputSchedule, check_simulation_times, input_schedule
 from .model_table import ContactParameters, model_options
@@ -391,7 +391,7 @@ class _Dynamics:
             force = force + self.transmissions.joint_force(q, v, y[end:])
             parts.append(self.transmissions.derivative(q, v, y[end:], u))
         factor = mass_factor(self.armature.apply(state.mass_matrix), self.armature)
-        parts[1] = scipy.linalg.cho_solve(factor, force, check_finite=False)
+        parts[1] = solve_mass(factor, force)
         if zone is not None:
             parts.insert(3, zone.rates)
         return np.concatenate(parts), (state, lam_n, lam_t, status)
