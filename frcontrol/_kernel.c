@@ -1,7 +1,8 @@
 /* The compiled kernel of frcontrol.mode_batch (the certified-modes path of decide_modes), of
  * frcontrol.query (locate_points, evaluate_points: queries on an analysis) and of frcontrol.lcp
- * and frcontrol.simulation.impact (lemke: the pivots of Lemke's method; lcp_check: the check of its
- * answer; coulomb_matrix: the LCP of the rigid simulation's step).
+ * and frcontrol.simulation (lemke: the pivots of Lemke's method; lcp_check: the check of its
+ * answer; coulomb_matrix: the LCP of the rigid simulation's step; compliant_law: the compliant
+ * contact law).
  *
  * Plain C against the CPython API and the buffer protocol (no NumPy headers): the build needs only
  * setuptools, a C compiler and Python's headers. frcontrol/kernel.py wraps it; the NumPy code in
@@ -2404,6 +2405,57 @@ done:
     return result;
 }
 
+/* compliant_law: frcontrol.simulation.compliant.contact_forces without contact zones, entry for
+ * entry as there (NumPy's maximum, sign and where; no sums): per contact the Kelvin-Voigt normal
+ * force, the Coulomb slider's tangential force and stretch rate, and the status (0 open, 1 stick,
+ * 2 slip). Inputs: gaps, v_N, v_T, the stretch s, mu, k_N, b_N, k_T, b_T (c,); outputs lam_N,
+ * lam_T, rate (float64) and status (int64), (c,). */
+static double numpy_sign(double x) {
+    return isnan(x) ? x : x > 0.0 ? 1.0 : x < 0.0 ? -1.0 : 0.0;
+}
+
+static PyObject *compliant_law(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 13) {
+        PyErr_Format(kernel_error, "compliant_law takes 13 arguments, got %zd", nargs);
+        return NULL;
+    }
+    static const char *names[13] = {"gaps", "normal_velocities", "tangential_velocities", "stretch", "mu",
+                                    "stiffness", "damping", "tangential_stiffness", "tangential_damping",
+                                    "lam_n", "lam_t", "rate", "status"};
+    Buffer b[13];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    Py_ssize_t c = -1;
+    for (int i = 0; i < 13; i++) {
+        Py_ssize_t shape[1] = {c};
+        if (take(args[i], &b[i], names[i], i == 12 ? 'q' : 'd', 1, shape, i >= 9)) {
+            goto done;
+        }
+        c = shape[0];
+    }
+    const double *gaps = b[0].view.buf, *vn = b[1].view.buf, *vt = b[2].view.buf, *s = b[3].view.buf;
+    const double *mu = b[4].view.buf, *k_n = b[5].view.buf, *b_n = b[6].view.buf, *k_t = b[7].view.buf;
+    const double *b_t = b[8].view.buf;
+    double *lam_n = b[9].view.buf, *lam_t = b[10].view.buf, *rate = b[11].view.buf;
+    long long *status = b[12].view.buf;
+    for (Py_ssize_t i = 0; i < c; i++) {
+        double delta = -gaps[i], push = k_n[i] * delta - b_n[i] * vn[i];
+        double normal = delta > 0.0 ? (0.0 >= push ? 0.0 : push) : 0.0; /* numpy.maximum(0, push) */
+        double limit = mu[i] * normal, trial = k_t[i] * s[i] + b_t[i] * vt[i], sign = numpy_sign(trial);
+        int stick = fabs(trial) <= limit;
+        lam_n[i] = normal;
+        lam_t[i] = stick ? -trial : -limit * sign;
+        rate[i] = stick ? vt[i] : (limit * sign - k_t[i] * s[i]) / b_t[i];
+        status[i] = normal > 0.0 ? (stick ? 1 : 2) : 0;
+    }
+    Py_INCREF(Py_None);
+    result = Py_None;
+done:
+    release(b, 13);
+    return result;
+}
+
 #ifndef FRC_KERNEL_SOURCE_SHA256
 #define FRC_KERNEL_SOURCE_SHA256 "" /* built without setup.py: the source it came from is not known */
 #endif
@@ -2486,6 +2538,10 @@ static PyMethodDef methods[] = {
      "lcp_check(M, q, z, w, tolerance, enumerated) -> (residual, bound, found)\n\n"
      "frcontrol.lcp._verified's check of a candidate z: w = M z + q written into w, the natural-map\n"
      "residual, the largest row bound and whether every row is within its bound."},
+    {"compliant_law", (PyCFunction)(void (*)(void))compliant_law, METH_FASTCALL,
+     "compliant_law(gaps, v_N, v_T, stretch, mu, k_N, b_N, k_T, b_T, lam_n, lam_t, rate, status) -> None\n\n"
+     "frcontrol.simulation.compliant.contact_forces without contact zones: lam_N, lam_T, the stretch\n"
+     "rates and the status (int64: 0 open, 1 stick, 2 slip) written into the last four arrays (c,)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "frcontrol._kernel",
@@ -2518,9 +2574,10 @@ PyMODINIT_FUNC PyInit__kernel(void) {
                       NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS,
                       QUERY_OUTSIDE, QUERY_INSIDE, QUERY_NEEDS_PYTHON, LEMKE_SOLVED, LEMKE_RAY,
                       LEMKE_MAX_PIVOTS};
-    PyObject *all = Py_BuildValue("[sssssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
+    PyObject *all = Py_BuildValue("[ssssssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
                                   "contact_rows", "margin_rows", "certified_children", "locate_points",
-                                  "evaluate_points", "query_point", "lemke", "coulomb_matrix", "lcp_check");
+                                  "evaluate_points", "query_point", "lemke", "coulomb_matrix", "lcp_check",
+                                  "compliant_law");
     if (all == NULL) {
         Py_DECREF(mod);
         return NULL;

@@ -98,6 +98,7 @@ import scipy.integrate
 import scipy.linalg
 
 from ..errors import InputError, LimitExceeded
+from ..kernel import compiled, kernel_choice
 from ..model import RobotState
 from ..scene import Scene
 from . import INTEGRATORS
@@ -202,7 +203,19 @@ def contact_forces(
     Returns:
         ``(lam_N, lam_T, ds/dt, status)`` with status per contact 0 = open (no normal force),
         1 = stick, 2 = slip.
+
+    Without zones, by the compiled kernel (``compliant_law``) where
+    :func:`frcontrol.kernel.kernel_choice` names it: the same numbers in one call.
     """
+    if zones is None and kernel_choice() == "compiled":
+        c = contacts.count
+        lam_n, lam_t, rate, status = np.empty(c), np.empty(c), np.empty(c), np.empty(c, dtype=np.int64)
+        kernel: Any = compiled
+        kernel.compliant_law(*(np.ascontiguousarray(a, dtype=float) for a in (
+            gaps, normal_velocities, tangential_velocities, stretch, contacts.mu, contacts.stiffness,
+            contacts.damping, contacts.tangential_stiffness, contacts.tangential_damping)),
+            lam_n, lam_t, rate, status)
+        return lam_n, lam_t, rate, status
     delta = -gaps
     lam_n = np.where(delta > 0.0,
                      np.maximum(0.0, contacts.stiffness * delta - contacts.damping * normal_velocities), 0.0)
