@@ -2346,11 +2346,12 @@ done:
     return result;
 }
 
-/* lcp_check: frcontrol.lcp._verified's numbers for a candidate z of the LCP (M, q): w = M z + q
- * into w, the residual max_i |min(z_i, w_i)| and the largest row bound, and whether every row is
- * within its bound: tolerance * max((|M| |z|)_i, ||q||_inf) (lcp_row_tolerances), or, for an
- * enumerated candidate, tolerance * ||q||_inf (lcp_enumeration_tolerance). Sums in index order:
- * the same to round-off as NumPy's; a NaN anywhere makes the residual NaN and the check fail. */
+/* lcp_check: frcontrol.lcp._verified's numbers for a candidate z of the LCP (M, q) with its
+ * w = M z + q (computed by the caller, NumPy's product): the residual max_i |min(z_i, w_i)| and the
+ * largest row bound, and whether every row is within its bound: tolerance * max((|M| |z|)_i,
+ * ||q||_inf) (lcp_row_tolerances), or, for an enumerated candidate, tolerance * ||q||_inf
+ * (lcp_enumeration_tolerance). The residual is NumPy's exactly; the bounds' sums run in index
+ * order (the same to round-off); a NaN anywhere makes the residual NaN and the check fail. */
 static PyObject *lcp_check_point(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
     if (nargs != 6) {
@@ -2366,7 +2367,7 @@ static PyObject *lcp_check_point(PyObject *self, PyObject *const *args, Py_ssize
     }
     Py_ssize_t n = q_shape[0], m_shape[2] = {n, n}, z_shape[1] = {n}, w_shape[1] = {n};
     if (take(args[0], &b[0], "M", 'd', 2, m_shape, 0) || take(args[2], &b[2], "z", 'd', 1, z_shape, 0) ||
-        take(args[3], &b[3], "w", 'd', 1, w_shape, 1)) {
+        take(args[3], &b[3], "w", 'd', 1, w_shape, 0)) {
         goto done;
     }
     double tolerance = PyFloat_AsDouble(args[4]);
@@ -2374,20 +2375,18 @@ static PyObject *lcp_check_point(PyObject *self, PyObject *const *args, Py_ssize
     if (PyErr_Occurred() || enumerated < 0) {
         goto done;
     }
-    const double *M = b[0].view.buf, *q = b[1].view.buf, *z = b[2].view.buf;
-    double *w = b[3].view.buf, floor = 0.0, residual = 0.0, bound = 0.0;
+    const double *M = b[0].view.buf, *q = b[1].view.buf, *z = b[2].view.buf, *w = b[3].view.buf;
+    double floor = 0.0, residual = 0.0, bound = 0.0;
     int found = 1, nan = 0;
     for (Py_ssize_t i = 0; i < n; i++) {
         nan |= isnan(q[i]);
         floor = fabs(q[i]) > floor ? fabs(q[i]) : floor;
     }
     for (Py_ssize_t i = 0; i < n; i++) {
-        double wi = 0.0, size = 0.0;
+        double size = 0.0;
         for (Py_ssize_t j = 0; j < n; j++) {
-            wi += M[i * n + j] * z[j];
             size += fabs(M[i * n + j]) * fabs(z[j]);
         }
-        w[i] = wi + q[i];
         double natural = fabs(z[i] < w[i] ? z[i] : w[i]);
         double row = tolerance * (enumerated || floor > size ? floor : size);
         nan |= isnan(w[i]) || isnan(z[i]) || isnan(size);
@@ -2536,8 +2535,8 @@ static PyMethodDef methods[] = {
      "times m_ref and the friction coefficients mu (c,), written into out."},
     {"lcp_check", (PyCFunction)(void (*)(void))lcp_check_point, METH_FASTCALL,
      "lcp_check(M, q, z, w, tolerance, enumerated) -> (residual, bound, found)\n\n"
-     "frcontrol.lcp._verified's check of a candidate z: w = M z + q written into w, the natural-map\n"
-     "residual, the largest row bound and whether every row is within its bound."},
+     "frcontrol.lcp._verified's check of a candidate z with w = M z + q: the natural-map residual,\n"
+     "the largest row bound and whether every row is within its bound."},
     {"compliant_law", (PyCFunction)(void (*)(void))compliant_law, METH_FASTCALL,
      "compliant_law(gaps, v_N, v_T, stretch, mu, k_N, b_N, k_T, b_T, lam_n, lam_t, rate, status) -> None\n\n"
      "frcontrol.simulation.compliant.contact_forces without contact zones: lam_N, lam_T, the stretch\n"

@@ -428,8 +428,8 @@ def _verified(
     w: np.ndarray | None = None
     if z is None:
         found, residual, bound = False, math.inf, lcp_tolerance(M, q, None, tolerance)
-    elif kernel_choice() == "compiled":  # the same numbers to round-off, in one call
-        w = np.empty(q.size)
+    elif kernel_choice() == "compiled":  # the same residual, the bounds to round-off, in one call
+        w = M @ z + q
         kernel: Any = compiled
         residual, bound, found = kernel.lcp_check(np.ascontiguousarray(M), np.ascontiguousarray(q),
                                                   np.ascontiguousarray(z, dtype=float), w, tolerance,
