@@ -114,7 +114,8 @@ def flip_replay() -> Replay:
         raise InvalidAnswer(f"the flip found no first plan: {result.reason}")
     stepped = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
     settings = RigidSettings(max_ambiguity_checks=0, impact_law=False)
-    return _replay(stepped, result.trajectory, settings, result.armature, result.max_time, dict(result.timings))
+    return _replay(stepped, result.trajectory, settings, result.armature, result.max_time,
+                   dict(result.timings))
 
 
 def _cpu(call: Callable[[], Any]) -> tuple[float, Any]:
@@ -173,7 +174,8 @@ def _compliant_case() -> dict[str, Any]:
 def run(runs: int, compliant: bool) -> dict[str, Any]:
     """Every case; prints one line per case."""
     cases: dict[str, dict[str, Any]] = {}
-    for label, make in (("pump rigid (rhex_flip_drives, 3 s)", pump_replay), ("flip rigid (rhex_flip)", flip_replay)):
+    for label, make in (("pump rigid (rhex_flip_drives, 3 s)", pump_replay),
+                        ("flip rigid (rhex_flip)", flip_replay)):
         replay = make()
         cases[label] = {**measure_case(replay.duration, replay.call, replay.check, runs),
                         "closed_loop_timings_s": replay.closed_loop}
@@ -186,7 +188,8 @@ def run(runs: int, compliant: bool) -> dict[str, Any]:
         cases["compliant replay (rhex_flip_drives)"] = _compliant_case()
         _print("compliant replay (rhex_flip_drives)", cases["compliant replay (rhex_flip_drives)"])
     return {"benchmark": "simulation", "command": "python -m benchmarks.simulation",
-            "reference_calibration_s": REFERENCE_CALIBRATION, "target_real_time_factor": TARGET_REAL_TIME_FACTOR,
+            "reference_calibration_s": REFERENCE_CALIBRATION,
+            "target_real_time_factor": TARGET_REAL_TIME_FACTOR,
             "versions": versions(), "cases": cases}
 
 

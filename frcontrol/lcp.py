@@ -601,8 +601,8 @@ def _lemke_pivots_compiled(M: np.ndarray, q: np.ndarray, max_pivots: int) -> tup
     n = q.size
     basis, matrix, rhs = np.empty(n, dtype=np.int64), np.empty((n, n)), np.empty(n)
     kernel: Any = compiled
-    code, pivots = kernel.lemke(np.ascontiguousarray(M), np.ascontiguousarray(q), basis, matrix, rhs, max_pivots,
-                                PIVOT_TOLERANCE, TIE_TOLERANCE)
+    code, pivots = kernel.lemke(np.ascontiguousarray(M), np.ascontiguousarray(q), basis, matrix, rhs,
+                                max_pivots, PIVOT_TOLERANCE, TIE_TOLERANCE)
     return LEMKE_STATUSES[code], int(pivots), _LemkeBasis(n, 2 * n, q, basis, matrix, rhs)
 
 

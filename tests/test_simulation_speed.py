@@ -99,7 +99,8 @@ def test_compiled_coulomb_matrix_and_contact_law_equal_numpy():
     for c in (1, 2, 5, 9):
         A = rng.normal(size=(2 * c, 2 * c))
         W, mu, m_ref = A @ A.T, rng.uniform(0, 1.5, c), float(rng.uniform(0.1, 10))
-        np.testing.assert_array_equal(impact.coulomb_matrix(W, m_ref, mu), impact._coulomb_matrix(W * m_ref, mu))
+        np.testing.assert_array_equal(impact.coulomb_matrix(W, m_ref, mu),
+                                      impact._coulomb_matrix(W * m_ref, mu))
     scene = load_scene("box_on_slope")
     state = scene.robot.state(np.array(scene.q), np.zeros(3))
     contacts = compliant.compliant_contacts(scene, state.mass_matrix, state.jacobian_normal,
@@ -107,8 +108,8 @@ def test_compiled_coulomb_matrix_and_contact_law_equal_numpy():
     c = contacts.count
     seen = set()
     for _ in range(300):  # open, stick and slip, with zero and signed trial forces
-        gaps, vn, vt, stretch = (rng.normal(scale=1e-4, size=c), rng.normal(size=c), rng.normal(size=c) * 1e-2,
-                                 rng.choice([0.0, 1e-5, -1e-5], size=c) * rng.uniform(0, 3, c))
+        gaps, vn, vt = rng.normal(scale=1e-4, size=c), rng.normal(size=c), rng.normal(size=c) * 1e-2
+        stretch = rng.choice([0.0, 1e-5, -1e-5], size=c) * rng.uniform(0, 3, c)
         fast = compliant.contact_forces(contacts, gaps, vn, vt, stretch)
         compliant.kernel_choice, saved = (lambda: "numpy"), compliant.kernel_choice
         try:

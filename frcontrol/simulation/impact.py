@@ -108,7 +108,7 @@ def _coulomb_matrix(Ws: np.ndarray, mu: np.ndarray) -> np.ndarray:
     c = len(mu)
     W_nn, W_nt, W_tn, W_tt = Ws[:c, :c], Ws[:c, c:], Ws[c:, :c], Ws[c:, c:]
     base = np.zeros((4 * c, 4 * c))
-    n, p, m, s = slice(0, c), slice(c, 2 * c), slice(2 * c, 3 * c), slice(3 * c, 4 * c)
+    n, p, m = slice(0, c), slice(c, 2 * c), slice(2 * c, 3 * c)
     base[n, n], base[n, p], base[n, m] = W_nn, W_nt, -W_nt
     base[p, n], base[p, p], base[p, m] = W_tn, W_tt, -W_tt
     base[m, n], base[m, p], base[m, m] = -W_tn, -W_tt, W_tt

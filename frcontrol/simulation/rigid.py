@@ -499,8 +499,8 @@ class RigidStepper:
         t_next = self.t + h
         had_event = False
         # Python numbers in the loop (numpy scalars cost more per test); the same values
-        closed, loaded_l, vt, vn_l, vn_n = (closed_next.tolist(), loaded.tolist(), vt_next.tolist(), vn.tolist(),
-                                            vn_next.tolist())
+        closed, loaded_l, vt = closed_next.tolist(), loaded.tolist(), vt_next.tolist()
+        vn_l, vn_n = vn.tolist(), vn_next.tolist()
         was_closed = self._closed.tolist()
         for i, name in enumerate(self.names):
             new_sliding: str | None = None
