@@ -61,7 +61,9 @@ shrinks the undamped limit ``2 / omega``; reported as ``info["explicit_stability
 larger ``dt`` is refused), or ``"implicit"``: fixed-step *linearly implicit* Euler with step ``dt``,
 the contact forces taken at the end of the step (below). Samples are taken every
 ``dt`` from the solvers' dense output; a callable input is held constant over each sample
-interval (zero-order hold). The adaptive solvers' step is at most ``max_step`` (default ``dt``)
+interval (zero-order hold): it is asked for its value at every sample, at the sampled state, and an
+adaptive solver runs on across the samples where that value does not change (a new solver starts
+at a sample where it does). The adaptive solvers' step is at most ``max_step`` (default ``dt``)
 so that no contact onset is stepped over. A solver that fails (step size underflow, a NaN) or
 exceeds ``max_steps`` ends the simulation: ``status = "failed"`` with the time and the
 reason, and the trajectory up to there is returned.
