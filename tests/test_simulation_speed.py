@@ -150,9 +150,14 @@ def test_flip_closed_loop_samples_equal_the_numpy_step(monkeypatch):
 
 def test_legs_in_the_air_read_from_the_stepper_points_as_from_q():
     scene = load_scene("rhex_flip")
-    q = np.array(scene.q)
-    points = scene.robot.state(q, np.zeros_like(q)).contact_points
-    np.testing.assert_array_equal(flip._gaps(scene, q, points), flip._gaps(scene, q))
+    rng = np.random.default_rng(11)
+    for _ in range(50):
+        q = np.array(scene.q) + rng.normal(scale=0.3, size=len(scene.q))
+        points = scene.robot.state(q, np.zeros_like(q)).contact_points
+        each = [c.point.normal_in_world @ (p - c.point.surface_point_in_world)  # the per-contact reference
+                for c, p in zip(scene.contacts, scene.robot.contact_points_in_world(q), strict=True)]
+        np.testing.assert_array_equal(flip._gaps(scene, q, points), np.array(each))
+        np.testing.assert_array_equal(flip._gaps(scene, q), np.array(each))
 
 
 def _held_inputs(scene, flicker: bool):

@@ -1318,8 +1318,8 @@ def _free_legs_idle(scene: Scene, legs: dict[int, list[int]], command: np.ndarra
     """
     if not legs:
         return command
-    gaps = _gaps(scene, q, points)
-    free = [i for i, toes in legs.items() if not np.any(gaps[toes] <= SEPARATION_GAP)]
+    gaps = _gaps(scene, q, points).tolist()  # Python numbers: a few tests per leg, every step
+    free = [i for i, toes in legs.items() if not any(gaps[j] <= SEPARATION_GAP for j in toes)]
     if not free:
         return command
     out = command.copy()
@@ -1349,8 +1349,9 @@ def _gaps(scene: Scene, q: np.ndarray, points: np.ndarray | None = None) -> np.n
     """Every contact's gap [m] at q (``points``: the contact points at q, when already known)."""
     if points is None:
         points = scene.robot.contact_points_in_world(q)
-    return np.array([c.point.normal_in_world @ (p - c.point.surface_point_in_world)
-                     for c, p in zip(scene.contacts, points, strict=True)])
+    normals = np.array([c.point.normal_in_world for c in scene.contacts]).reshape(-1, 2)
+    offset = points - np.array([c.point.surface_point_in_world for c in scene.contacts]).reshape(-1, 2)
+    return normals[:, 0] * offset[:, 0] + normals[:, 1] * offset[:, 1]  # n . (p - s), as n @ (p - s) sums it
 
 
 def _replan(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarray, margin: float,
