@@ -281,9 +281,9 @@ class FC2DSolution:
 
 def _as_lcp(M: object, q: object) -> tuple[np.ndarray, np.ndarray]:
     """Return ``(M, q)`` as float arrays, raising InputError if they are malformed."""
-    try:
-        M_arr = np.asarray(M, dtype=float)  # read only here: no copy of a float64 array
-        q_arr = np.asarray(q, dtype=float)
+    try:  # read only here: a float64 array goes through as it is
+        M_arr = M if type(M) is np.ndarray and M.dtype == np.float64 else np.asarray(M, dtype=float)
+        q_arr = q if type(q) is np.ndarray and q.dtype == np.float64 else np.asarray(q, dtype=float)
     except (TypeError, ValueError) as exc:
         raise InputError(f"M and q must be numeric arrays: {exc}") from exc
     if M_arr.ndim != 2 or M_arr.shape[0] != M_arr.shape[1]:
@@ -821,7 +821,7 @@ def solve_lcp(
         return _verified(M, q, np.zeros(0), "solved", method, 0, tolerance, time.perf_counter())
     if method == "lemke":
         limit = 50 * q.size + 100 if max_pivots is None else max_pivots
-        if not isinstance(limit, int | np.integer) or limit < 1:
+        if not isinstance(limit, (int, np.integer)) or limit < 1:
             raise InputError(f"max_pivots must be a positive integer, got {max_pivots!r}")
         return _lemke(M, q, tolerance, int(limit))
     if method == "enumerate":

@@ -303,6 +303,7 @@ class RigidStepper:
         self._check_pending = True
         self._mass_of: object = None  # the state whose M with the armature is self._mass
         self._mass = self.state.mass_matrix
+        self._damping_of, self._damping_matrix = -1.0, np.zeros((robot.nv, robot.nv))  # see _step_damping
         self._start_wall = time.perf_counter()
 
     def step(self, u: np.ndarray, h: float) -> bool:
@@ -370,6 +371,12 @@ class RigidStepper:
             rest, elapsed = rest - split, elapsed + split
         self._stab_work.append(self._stab_work[-1] + work)
         return v_next, p_n + self._step_impacts[:, 0], p_t + self._step_impacts[:, 1], cand, rest
+
+    def _step_damping(self, h: float, damping: np.ndarray) -> np.ndarray:
+        """``diag(h D)``, the drives' damping over a step of ``h`` [s] (made once per step length)."""
+        if self._damping_of != h:
+            self._damping_of, self._damping_matrix = h, np.diag(h * damping)
+        return self._damping_matrix
 
     def _applied_mass(self) -> np.ndarray:
         """M with the armature at the current state (made once per state: do not modify it)."""
@@ -461,7 +468,7 @@ class RigidStepper:
         st, cfg = self.state, self.settings
         force = self._input_map @ u - st.bias
         if self._damping is not None:  # drives' damping, implicit: (M + h D)(v+ - v) = h (f - D v) + J^T p
-            mass = mass + np.diag(h * self._damping)
+            mass = mass + self._step_damping(h, self._damping)
         if self.transmissions is not None:  # elastic drives: the springs' torques, see .drives
             self._coupled = self.transmissions.implicit(self.q, self.v, u, h)
             force, mass = force + self._coupled.force, self._coupled.mass(mass)
