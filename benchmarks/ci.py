@@ -36,6 +36,11 @@ figure of the speed targets (:data:`FIGURES`):
   (``solutions_at`` from scratch, and ``analyze_statics`` of the rod, a figure too): the target is
   :data:`ATLAS_TARGET_VS_QUERY` times the query's median of the same run; every timed point is
   checked against the scene loaded at that point;
+- the rigid simulation of the pumping flip (``rhex_flip_drives``, 3 s) and of the seed's flip
+  (``rhex_flip``'s closed loop to vertical): each closed loop is run once when the figures are
+  built, and its applied inputs are replayed through its stepper (``benchmarks/simulation.py``),
+  the replay checked equal to the closed loop's samples bit for bit; the target is
+  :data:`SIMULATION_TARGET_REAL_TIME` times faster than real time;
 - the start-up of ``frc --help`` and ``frc show rod_on_table`` as processes.
 
 Every answer is checked after it is timed (outside the timed region): the solutions against those
@@ -152,6 +157,13 @@ ATLAS_TARGET_VS_QUERY = 2.0
 """[-] Target of an atlas's point: at most this many times the query it is made of, measured in the same
 run (``solutions_at`` from scratch for a solutions atlas, ``analyze_statics`` for a statics one)."""
 
+SIMULATION_TARGET_REAL_TIME = 10.0
+"""[-] Target of the rigid simulation figures: at least this many times faster than real time (their
+``target_s`` is the simulated time over this)."""
+
+SIMULATED_SECONDS: dict[str, float] = {}
+"""[s] The simulated time of each simulation figure, filled when the figures are built."""
+
 ATLAS_FIGURE_POINTS = 64
 """Grid points per timed sample of an atlas figure: one chunk's worth, each a different point."""
 
@@ -234,6 +246,10 @@ FIGURES = (
     Figure("statics_rod_on_table", "`analyze_statics` from scratch: rod on a table (u = 0)", None, calls=4),
     Figure("atlas_statics_rod_per_point", "frc atlas --what statics, one point of a chunk: rod, pitch x "
            f"friction; target {ATLAS_TARGET_VS_QUERY:g}x `analyze_statics`", None, calls=ATLAS_FIGURE_POINTS),
+    Figure("simulation_rigid_pump", "rigid simulation of the pumping flip (`rhex_flip_drives`, 3 s: the "
+           "closed loop's voltages replayed through its stepper); target 10x real time", None),
+    Figure("simulation_rigid_flip", "rigid simulation of the seed's flip (`frc flip rhex_flip`'s closed loop "
+           "to vertical, replayed); target 10x real time", None),
     Figure("startup_frc_help", "start-up of `frc --help` (a process)", 0.3),
     Figure("startup_frc_show_rod_on_table", "start-up of `frc show rod_on_table` (a process)", 0.6),
 )
@@ -440,6 +456,16 @@ def _compliant_figure(name: str) -> tuple[Call, Check]:
     return (lambda: trade.compliant_run(ref, config, t_r, dt)), check
 
 
+def _simulation_figure(name: str) -> tuple[Call, Check]:
+    """A flip's closed loop, run once here; its rigid simulation replayed (``benchmarks/simulation.py``),
+    checked equal to the closed loop's samples."""
+    from benchmarks.simulation import flip_replay, pump_replay
+
+    replay = pump_replay() if name == "simulation_rigid_pump" else flip_replay()
+    SIMULATED_SECONDS[name] = replay.duration
+    return replay.call, replay.check
+
+
 def _startup_figure(label: str) -> tuple[Call, Check]:
     import subprocess
     import tempfile
@@ -530,6 +556,8 @@ def build_figures() -> dict[str, tuple[Call, Check]]:
         "atlas_rod_per_point": _atlas_figure("solutions"),
         "statics_rod_on_table": _statics_figure("rod_on_table"),
         "atlas_statics_rod_per_point": _atlas_figure("statics"),
+        "simulation_rigid_pump": _simulation_figure("simulation_rigid_pump"),
+        "simulation_rigid_flip": _simulation_figure("simulation_rigid_flip"),
         "startup_frc_help": _startup_figure("frc --help"),
         "startup_frc_show_rod_on_table": _startup_figure("frc show rod_on_table"),
     }
@@ -644,7 +672,15 @@ def measure(runs: int = RUNS, progress: Callable[[str], None] | None = None) -> 
 
 
 def _relative_targets(figures: dict[str, dict[str, Any]]) -> None:
-    """The atlas figures' targets: :data:`ATLAS_TARGET_VS_QUERY` times their query's median (this run)."""
+    """The atlas figures' targets: :data:`ATLAS_TARGET_VS_QUERY` times their query's median (this run);
+    the simulation figures': their simulated time over :data:`SIMULATION_TARGET_REAL_TIME`."""
+    for name, simulated in SIMULATED_SECONDS.items():
+        entry = figures[name]
+        if entry["valid"]:
+            entry["simulated_s"] = simulated
+            entry["real_time_factor"] = simulated / entry["median_s"]
+            entry["target_s"] = simulated / SIMULATION_TARGET_REAL_TIME
+            entry["met"] = entry["median_s"] <= entry["target_s"]
     for name, query in (("atlas_rod_per_point", "solutions_at_rod_on_table"),
                         ("atlas_statics_rod_per_point", "statics_rod_on_table")):
         entry, reference = figures[name], figures[query]

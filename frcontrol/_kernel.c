@@ -1,5 +1,8 @@
-/* The compiled kernel of frcontrol.mode_batch (the certified-modes path of decide_modes) and of
- * frcontrol.query (locate_points, evaluate_points: queries on an analysis).
+/* The compiled kernel of frcontrol.mode_batch (the certified-modes path of decide_modes), of
+ * frcontrol.query (locate_points, evaluate_points: queries on an analysis) and of frcontrol.lcp
+ * and frcontrol.simulation (lemke: the pivots of Lemke's method; lcp_check: the check of its
+ * answer; coulomb_matrix: the LCP of the rigid simulation's step; compliant_law: the compliant
+ * contact law).
  *
  * Plain C against the CPython API and the buffer protocol (no NumPy headers): the build needs only
  * setuptools, a C compiler and Python's headers. frcontrol/kernel.py wraps it; the NumPy code in
@@ -2094,6 +2097,364 @@ done:
     return result;
 }
 
+/* ------------------------------------------------------------------------------------------------
+ * lemke: the pivots of frcontrol.lcp's lexicographic Lemke method (_LemkeTableau, _lemke_pivots),
+ * the reference it reproduces pivot for pivot. The tableau [I, -M, -1 | q] (n rows, 2n + 2
+ * columns: w, z, z0, the right side) is pivoted as there: the row divided by its pivot, then
+ * table_i -= table_ic table_row for every other row. The ratio test is lexicographic on the rows
+ * [B^-1 q, B^-1] / d, ties within TIE * (|B^-1| |q|)_i / d_i (first key) and TIE max_k |B^-1_ik| / d_i
+ * (the others); z0's row is taken whenever it ties on the first key. The basis, its matrix
+ * [I, -M, -1][:, basis] and the final right side go to the caller (its LU solve recomputes the
+ * point); the only sum is |B^-1| |q|, a tie width, added in index order. */
+enum { LEMKE_SOLVED = 0, LEMKE_RAY = 1, LEMKE_MAX_PIVOTS = 2 };
+
+typedef struct {
+    Py_ssize_t n, cols;
+    double *table; /* n x cols, cols = 2n + 2 */
+    double *absq, *keys, *widths, *divisor;
+    Py_ssize_t *rows, *kept;
+    long long *basis;
+    double tie;
+} Lemke;
+
+static void lemke_pivot(Lemke *L, Py_ssize_t row, Py_ssize_t column) {
+    Py_ssize_t cols = L->cols;
+    double *r = L->table + row * cols;
+    double pivot = r[column];
+    for (Py_ssize_t j = 0; j < cols; j++) {
+        r[j] /= pivot;
+    }
+    for (Py_ssize_t i = 0; i < L->n; i++) {
+        if (i == row) {
+            continue;
+        }
+        double *t = L->table + i * cols;
+        double factor = t[column];
+        for (Py_ssize_t j = 0; j < cols; j++) {
+            t[j] -= factor * r[j];
+        }
+    }
+    L->basis[row] = column;
+}
+
+/* _LemkeTableau.choose_row and _lexicographic_min_row over the eligible rows[0..count). */
+static Py_ssize_t lemke_choose_row(Lemke *L, Py_ssize_t count, Py_ssize_t preferred) {
+    Py_ssize_t n = L->n, cols = L->cols, *rows = L->rows, *kept = L->kept;
+    for (Py_ssize_t c = 0; c < count; c++) {
+        Py_ssize_t i = rows[c];
+        const double *t = L->table + i * cols;
+        double scale0 = 0.0, scale1 = 0.0;
+        for (Py_ssize_t k = 0; k < n; k++) {
+            double a = fabs(t[k]);
+            scale0 += a * L->absq[k];
+            scale1 = a > scale1 ? a : scale1;
+        }
+        L->widths[2 * i] = L->tie * scale0 / L->divisor[i];
+        L->widths[2 * i + 1] = L->tie * scale1 / L->divisor[i];
+    }
+    for (Py_ssize_t column = 0; column <= n; column++) {
+        Py_ssize_t best = 0;
+        for (Py_ssize_t c = 0; c < count; c++) {
+            Py_ssize_t i = rows[c];
+            const double *t = L->table + i * cols;
+            L->keys[i] = (column == 0 ? t[cols - 1] : t[column - 1]) / L->divisor[i];
+            if (c > 0 && L->keys[i] < L->keys[rows[best]]) {
+                best = c;
+            }
+        }
+        Py_ssize_t b = rows[best], width = column == 0 ? 0 : 1, kept_count = 0, has_preferred = 0;
+        for (Py_ssize_t c = 0; c < count; c++) {
+            Py_ssize_t i = rows[c];
+            double wi = L->widths[2 * i + width], wb = L->widths[2 * b + width];
+            if (L->keys[i] <= L->keys[b] + (wi > wb ? wi : wb)) {
+                kept[kept_count++] = i;
+                has_preferred |= i == preferred;
+            }
+        }
+        memcpy(rows, kept, (size_t)kept_count * sizeof(Py_ssize_t));
+        count = kept_count;
+        if (column == 0 && has_preferred) {
+            return preferred;
+        }
+        if (count == 1) {
+            break;
+        }
+    }
+    return rows[0];
+}
+
+/* The pivots from the first (z0 entering) to z0 leaving, a ray or the pivot limit. */
+static int lemke_run(Lemke *L, long long max_pivots, double pivot_tolerance, long long *pivots) {
+    Py_ssize_t n = L->n, cols = L->cols, z0 = 2 * n;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        L->rows[i] = i;
+        L->divisor[i] = 1.0;
+    }
+    Py_ssize_t row = lemke_choose_row(L, n, -1);
+    long long leaving = L->basis[row];
+    lemke_pivot(L, row, z0);
+    *pivots = 1;
+    while (leaving != z0) {
+        Py_ssize_t entering = leaving < n ? leaving + n : leaving - n;
+        double largest = 0.0;
+        int nan = 0;
+        for (Py_ssize_t i = 0; i < n; i++) {
+            double a = fabs(L->table[i * cols + entering]);
+            nan |= isnan(a);
+            largest = a > largest ? a : largest;
+        }
+        Py_ssize_t count = 0;
+        for (Py_ssize_t i = 0; i < n && largest > 0 && !nan; i++) {
+            double d = L->table[i * cols + entering];
+            if (d > pivot_tolerance * largest) {
+                L->rows[count++] = i;
+            }
+        }
+        if (count == 0) {
+            return LEMKE_RAY;
+        }
+        if (*pivots >= max_pivots) {
+            return LEMKE_MAX_PIVOTS;
+        }
+        Py_ssize_t preferred = -1;
+        for (Py_ssize_t i = 0; i < n && preferred < 0; i++) {
+            preferred = L->basis[i] == z0 ? i : -1;
+        }
+        for (Py_ssize_t i = 0; i < n; i++) {
+            double d = L->table[i * cols + entering];
+            L->divisor[i] = d > 0 ? d : 1.0;
+        }
+        row = lemke_choose_row(L, count, preferred);
+        leaving = L->basis[row];
+        lemke_pivot(L, row, entering);
+        *pivots += 1;
+    }
+    return LEMKE_SOLVED;
+}
+
+static PyObject *lemke(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 8) {
+        PyErr_Format(kernel_error, "lemke takes 8 arguments, got %zd", nargs);
+        return NULL;
+    }
+    Buffer b[5];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    double *work = NULL;
+    Py_ssize_t *index = NULL;
+    Py_ssize_t q_shape[1] = {-1};
+    if (take(args[1], &b[1], "q", 'd', 1, q_shape, 0)) {
+        goto done;
+    }
+    Py_ssize_t n = q_shape[0], m_shape[2] = {n, n}, v_shape[1] = {n}, b_shape[2] = {n, n}, v2_shape[1] = {n};
+    if (take(args[0], &b[0], "M", 'd', 2, m_shape, 0) || take(args[2], &b[2], "basis", 'q', 1, v_shape, 1) ||
+        take(args[3], &b[3], "matrix", 'd', 2, b_shape, 1) || take(args[4], &b[4], "rhs", 'd', 1, v2_shape, 1)) {
+        goto done;
+    }
+    long long max_pivots = PyLong_AsLongLong(args[5]);
+    double pivot_tolerance = PyFloat_AsDouble(args[6]), tie = PyFloat_AsDouble(args[7]);
+    if (PyErr_Occurred()) {
+        goto done;
+    }
+    Py_ssize_t cols = 2 * n + 2;
+    work = PyMem_Malloc((size_t)(n * cols + 5 * n + 1) * sizeof(double));
+    index = PyMem_Malloc((size_t)(2 * n + 1) * sizeof(Py_ssize_t));
+    if (work == NULL || index == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    const double *M = b[0].view.buf, *q = b[1].view.buf;
+    Lemke L = {n, cols, work, work + n * cols, work + n * cols + n, work + n * cols + 2 * n,
+               work + n * cols + 4 * n, index, index + n, b[2].view.buf, tie};
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double *t = L.table + i * cols;
+        for (Py_ssize_t j = 0; j < n; j++) {
+            t[j] = i == j ? 1.0 : 0.0;
+            t[n + j] = -M[i * n + j];
+        }
+        t[2 * n] = -1.0;
+        t[2 * n + 1] = q[i];
+        L.absq[i] = fabs(q[i]);
+        L.basis[i] = i;
+    }
+    long long pivots = 0;
+    int status = lemke_run(&L, max_pivots, pivot_tolerance, &pivots);
+    double *matrix = b[3].view.buf, *rhs = b[4].view.buf;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        rhs[i] = L.table[i * cols + cols - 1];
+        for (Py_ssize_t r = 0; r < n; r++) {
+            long long c = L.basis[r];
+            matrix[i * n + r] = c < n ? (c == i ? 1.0 : 0.0) : c < 2 * n ? -M[i * n + (c - n)] : -1.0;
+        }
+    }
+    result = Py_BuildValue("(iL)", status, pivots);
+done:
+    PyMem_Free(work);
+    PyMem_Free(index);
+    release(b, 5);
+    return result;
+}
+
+/* coulomb_matrix: frcontrol.simulation.impact._coulomb_matrix of the Delassus matrix W (2c, 2c)
+ * scaled by m_ref (each entry W_ij m_ref, negated where the block is): the LCP matrix (4c, 4c) in
+ * z = (p_N, p_T+, p_T-, sigma), written into out, entry for entry as there. */
+static PyObject *coulomb_matrix(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 4) {
+        PyErr_Format(kernel_error, "coulomb_matrix takes 4 arguments, got %zd", nargs);
+        return NULL;
+    }
+    Buffer b[3];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    Py_ssize_t mu_shape[1] = {-1};
+    if (take(args[2], &b[1], "mu", 'd', 1, mu_shape, 0)) {
+        goto done;
+    }
+    Py_ssize_t c = mu_shape[0], w_shape[2] = {2 * c, 2 * c}, out_shape[2] = {4 * c, 4 * c};
+    if (take(args[0], &b[0], "W", 'd', 2, w_shape, 0) || take(args[3], &b[2], "out", 'd', 2, out_shape, 1)) {
+        goto done;
+    }
+    double m_ref = PyFloat_AsDouble(args[1]);
+    if (PyErr_Occurred()) {
+        goto done;
+    }
+    const double *W = b[0].view.buf, *mu = b[1].view.buf;
+    double *out = b[2].view.buf;
+    Py_ssize_t n = 4 * c, w = 2 * c;
+    memset(out, 0, (size_t)(n * n) * sizeof(double));
+    for (Py_ssize_t i = 0; i < c; i++) {
+        for (Py_ssize_t j = 0; j < c; j++) {
+            double nn = W[i * w + j] * m_ref, nt = W[i * w + c + j] * m_ref;
+            double tn = W[(c + i) * w + j] * m_ref, tt = W[(c + i) * w + c + j] * m_ref;
+            double *row_n = out + i * n, *row_p = out + (c + i) * n, *row_m = out + (2 * c + i) * n;
+            row_n[j] = nn, row_n[c + j] = nt, row_n[2 * c + j] = -nt;
+            row_p[j] = tn, row_p[c + j] = tt, row_p[2 * c + j] = -tt;
+            row_m[j] = -tn, row_m[c + j] = -tt, row_m[2 * c + j] = tt;
+        }
+        out[(c + i) * n + 3 * c + i] = 1.0;
+        out[(2 * c + i) * n + 3 * c + i] = 1.0;
+        out[(3 * c + i) * n + i] = mu[i];
+        out[(3 * c + i) * n + c + i] = -1.0;
+        out[(3 * c + i) * n + 2 * c + i] = -1.0;
+    }
+    Py_INCREF(Py_None);
+    result = Py_None;
+done:
+    release(b, 3);
+    return result;
+}
+
+/* lcp_check: frcontrol.lcp._verified's numbers for a candidate z of the LCP (M, q) with its
+ * w = M z + q (computed by the caller, NumPy's product): the residual max_i |min(z_i, w_i)| and the
+ * largest row bound, and whether every row is within its bound: tolerance * max((|M| |z|)_i,
+ * ||q||_inf) (lcp_row_tolerances), or, for an enumerated candidate, tolerance * ||q||_inf
+ * (lcp_enumeration_tolerance). The residual is NumPy's exactly; the bounds' sums run in index
+ * order (the same to round-off); a NaN anywhere makes the residual NaN and the check fail. */
+static PyObject *lcp_check_point(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 6) {
+        PyErr_Format(kernel_error, "lcp_check takes 6 arguments, got %zd", nargs);
+        return NULL;
+    }
+    Buffer b[4];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    Py_ssize_t q_shape[1] = {-1};
+    if (take(args[1], &b[1], "q", 'd', 1, q_shape, 0)) {
+        goto done;
+    }
+    Py_ssize_t n = q_shape[0], m_shape[2] = {n, n}, z_shape[1] = {n}, w_shape[1] = {n};
+    if (take(args[0], &b[0], "M", 'd', 2, m_shape, 0) || take(args[2], &b[2], "z", 'd', 1, z_shape, 0) ||
+        take(args[3], &b[3], "w", 'd', 1, w_shape, 0)) {
+        goto done;
+    }
+    double tolerance = PyFloat_AsDouble(args[4]);
+    int enumerated = PyObject_IsTrue(args[5]);
+    if (PyErr_Occurred() || enumerated < 0) {
+        goto done;
+    }
+    const double *M = b[0].view.buf, *q = b[1].view.buf, *z = b[2].view.buf, *w = b[3].view.buf;
+    double floor = 0.0, residual = 0.0, bound = 0.0;
+    int found = 1, nan = 0;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        nan |= isnan(q[i]);
+        floor = fabs(q[i]) > floor ? fabs(q[i]) : floor;
+    }
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double size = 0.0;
+        for (Py_ssize_t j = 0; j < n; j++) {
+            size += fabs(M[i * n + j]) * fabs(z[j]);
+        }
+        double natural = fabs(z[i] < w[i] ? z[i] : w[i]);
+        double row = tolerance * (enumerated || floor > size ? floor : size);
+        nan |= isnan(w[i]) || isnan(z[i]) || isnan(size);
+        residual = natural > residual ? natural : residual;
+        bound = row > bound ? row : bound;
+        found &= natural <= row;
+    }
+    if (nan) {
+        residual = bound = NAN;
+        found = 0;
+    }
+    result = Py_BuildValue("(ddO)", residual, bound, found ? Py_True : Py_False);
+done:
+    release(b, 4);
+    return result;
+}
+
+/* compliant_law: frcontrol.simulation.compliant.contact_forces without contact zones, entry for
+ * entry as there (NumPy's maximum, sign and where; no sums): per contact the Kelvin-Voigt normal
+ * force, the Coulomb slider's tangential force and stretch rate, and the status (0 open, 1 stick,
+ * 2 slip). Inputs: gaps, v_N, v_T, the stretch s, mu, k_N, b_N, k_T, b_T (c,); outputs lam_N,
+ * lam_T, rate (float64) and status (int64), (c,). */
+static double numpy_sign(double x) {
+    return isnan(x) ? x : x > 0.0 ? 1.0 : x < 0.0 ? -1.0 : 0.0;
+}
+
+static PyObject *compliant_law(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 13) {
+        PyErr_Format(kernel_error, "compliant_law takes 13 arguments, got %zd", nargs);
+        return NULL;
+    }
+    static const char *names[13] = {"gaps", "normal_velocities", "tangential_velocities", "stretch", "mu",
+                                    "stiffness", "damping", "tangential_stiffness", "tangential_damping",
+                                    "lam_n", "lam_t", "rate", "status"};
+    Buffer b[13];
+    memset(b, 0, sizeof(b));
+    PyObject *result = NULL;
+    Py_ssize_t c = -1;
+    for (int i = 0; i < 13; i++) {
+        Py_ssize_t shape[1] = {c};
+        if (take(args[i], &b[i], names[i], i == 12 ? 'q' : 'd', 1, shape, i >= 9)) {
+            goto done;
+        }
+        c = shape[0];
+    }
+    const double *gaps = b[0].view.buf, *vn = b[1].view.buf, *vt = b[2].view.buf, *s = b[3].view.buf;
+    const double *mu = b[4].view.buf, *k_n = b[5].view.buf, *b_n = b[6].view.buf, *k_t = b[7].view.buf;
+    const double *b_t = b[8].view.buf;
+    double *lam_n = b[9].view.buf, *lam_t = b[10].view.buf, *rate = b[11].view.buf;
+    long long *status = b[12].view.buf;
+    for (Py_ssize_t i = 0; i < c; i++) {
+        double delta = -gaps[i], push = k_n[i] * delta - b_n[i] * vn[i];
+        double normal = delta > 0.0 ? (0.0 >= push ? 0.0 : push) : 0.0; /* numpy.maximum(0, push) */
+        double limit = mu[i] * normal, trial = k_t[i] * s[i] + b_t[i] * vt[i], sign = numpy_sign(trial);
+        int stick = fabs(trial) <= limit;
+        lam_n[i] = normal;
+        lam_t[i] = stick ? -trial : -limit * sign;
+        rate[i] = stick ? vt[i] : (limit * sign - k_t[i] * s[i]) / b_t[i];
+        status[i] = normal > 0.0 ? (stick ? 1 : 2) : 0;
+    }
+    Py_INCREF(Py_None);
+    result = Py_None;
+done:
+    release(b, 13);
+    return result;
+}
+
 #ifndef FRC_KERNEL_SOURCE_SHA256
 #define FRC_KERNEL_SOURCE_SHA256 "" /* built without setup.py: the source it came from is not known */
 #endif
@@ -2162,6 +2523,24 @@ static PyMethodDef methods[] = {
      "query_point(<the table's 15 arguments>, u, status, w, x, acc, residual, violation) -> None\n\n"
      "locate_points for one input u (m,), and evaluate_points for every mode found inside, into its row\n"
      "of x (modes, nx), acc (modes, 2k), residual and violation (modes,)."},
+    {"lemke", (PyCFunction)(void (*)(void))lemke, METH_FASTCALL,
+     "lemke(M, q, basis, matrix, rhs, max_pivots, pivot_tolerance, tie_tolerance) -> (status, pivots)\n\n"
+     "frcontrol.lcp's lexicographic Lemke pivots on M (n, n) and q (n,): the final basis (int64, the\n"
+     "tableau column basic in each row) into basis (n,), its columns of [I, -M, -1] into matrix\n"
+     "(n, n) and the tableau's right side into rhs (n,), and the status\n"
+     "(LEMKE_SOLVED, LEMKE_RAY, LEMKE_MAX_PIVOTS) with the number of pivots."},
+    {"coulomb_matrix", (PyCFunction)(void (*)(void))coulomb_matrix, METH_FASTCALL,
+     "coulomb_matrix(W, m_ref, mu, out) -> None\n\n"
+     "frcontrol.simulation.impact's Coulomb impulse LCP matrix (4c, 4c) of the Delassus matrix W (2c, 2c)\n"
+     "times m_ref and the friction coefficients mu (c,), written into out."},
+    {"lcp_check", (PyCFunction)(void (*)(void))lcp_check_point, METH_FASTCALL,
+     "lcp_check(M, q, z, w, tolerance, enumerated) -> (residual, bound, found)\n\n"
+     "frcontrol.lcp._verified's check of a candidate z with w = M z + q: the natural-map residual,\n"
+     "the largest row bound and whether every row is within its bound."},
+    {"compliant_law", (PyCFunction)(void (*)(void))compliant_law, METH_FASTCALL,
+     "compliant_law(gaps, v_N, v_T, stretch, mu, k_N, b_N, k_T, b_T, lam_n, lam_t, rate, status) -> None\n\n"
+     "frcontrol.simulation.compliant.contact_forces without contact zones: lam_N, lam_T, the stretch\n"
+     "rates and the status (int64: 0 open, 1 stick, 2 slip) written into the last four arrays (c,)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "frcontrol._kernel",
@@ -2186,20 +2565,23 @@ PyMODINIT_FUNC PyInit__kernel(void) {
         Py_DECREF(mod);
         return NULL;
     }
-    const char *names[13] = {"NOT_CERTIFIED", "CERTIFIED_INADMISSIBLE", "CERTIFIED_ADMISSIBLE", "INADMISSIBLE",
+    const char *names[16] = {"NOT_CERTIFIED", "CERTIFIED_INADMISSIBLE", "CERTIFIED_ADMISSIBLE", "INADMISSIBLE",
                              "ADMISSIBLE", "NEEDS_PYTHON", "ADMISSIBLE_W", "MOVES_NONE", "MOVES_FORCES",
-                             "MOVES_ACCELERATIONS", "QUERY_OUTSIDE", "QUERY_INSIDE", "QUERY_NEEDS_PYTHON"};
-    int values[13] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
+                             "MOVES_ACCELERATIONS", "QUERY_OUTSIDE", "QUERY_INSIDE", "QUERY_NEEDS_PYTHON", "LEMKE_SOLVED", "LEMKE_RAY",
+                             "LEMKE_MAX_PIVOTS"};
+    int values[16] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
                       NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS,
-                      QUERY_OUTSIDE, QUERY_INSIDE, QUERY_NEEDS_PYTHON};
-    PyObject *all = Py_BuildValue("[ssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
+                      QUERY_OUTSIDE, QUERY_INSIDE, QUERY_NEEDS_PYTHON, LEMKE_SOLVED, LEMKE_RAY,
+                      LEMKE_MAX_PIVOTS};
+    PyObject *all = Py_BuildValue("[ssssssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
                                   "contact_rows", "margin_rows", "certified_children", "locate_points",
-                                  "evaluate_points", "query_point");
+                                  "evaluate_points", "query_point", "lemke", "coulomb_matrix", "lcp_check",
+                                  "compliant_law");
     if (all == NULL) {
         Py_DECREF(mod);
         return NULL;
     }
-    for (int i = 0; i < 13; i++) {
+    for (int i = 0; i < 16; i++) {
         PyObject *name = PyUnicode_FromString(names[i]);
         int failed = name == NULL || PyList_Append(all, name) != 0 ||
                      PyModule_AddIntConstant(mod, names[i], values[i]) != 0;

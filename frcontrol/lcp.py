@@ -93,11 +93,14 @@ import math
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
+from scipy.linalg.lapack import dgesv
 from scipy.optimize import linprog
 
 from frcontrol.errors import InputError
+from frcontrol.kernel import compiled, kernel_choice
 
 __all__ = [
     "ENUMERATION_MAX_SIZE",
@@ -278,9 +281,9 @@ class FC2DSolution:
 
 def _as_lcp(M: object, q: object) -> tuple[np.ndarray, np.ndarray]:
     """Return ``(M, q)`` as float arrays, raising InputError if they are malformed."""
-    try:
-        M_arr = np.array(M, dtype=float)
-        q_arr = np.array(q, dtype=float)
+    try:  # read only here: a float64 array goes through as it is
+        M_arr = M if type(M) is np.ndarray and M.dtype == np.float64 else np.asarray(M, dtype=float)
+        q_arr = q if type(q) is np.ndarray and q.dtype == np.float64 else np.asarray(q, dtype=float)
     except (TypeError, ValueError) as exc:
         raise InputError(f"M and q must be numeric arrays: {exc}") from exc
     if M_arr.ndim != 2 or M_arr.shape[0] != M_arr.shape[1]:
@@ -288,9 +291,9 @@ def _as_lcp(M: object, q: object) -> tuple[np.ndarray, np.ndarray]:
     n = M_arr.shape[0]
     if q_arr.shape != (n,):
         raise InputError(f"q must have shape ({n},) to match M {M_arr.shape}, got {q_arr.shape}")
-    if not np.all(np.isfinite(M_arr)):
+    if not np.isfinite(M_arr).all():
         raise InputError("M contains NaN or infinite entries")
-    if not np.all(np.isfinite(q_arr)):
+    if not np.isfinite(q_arr).all():
         raise InputError("q contains NaN or infinite entries")
     return M_arr, q_arr
 
@@ -425,16 +428,23 @@ def _verified(
     w: np.ndarray | None = None
     if z is None:
         found, residual, bound = False, math.inf, lcp_tolerance(M, q, None, tolerance)
+    elif kernel_choice() == "compiled":  # the same residual, the bounds to round-off, in one call
+        w = M @ z + q
+        kernel: Any = compiled
+        residual, bound, found = kernel.lcp_check(np.ascontiguousarray(M), np.ascontiguousarray(q),
+                                                  np.ascontiguousarray(z, dtype=float), w, tolerance,
+                                                  method == "enumerate")
+        found = found and status == "solved"
     else:
         w = M @ z + q
         natural = np.abs(np.minimum(z, w))
-        residual = float(np.max(natural)) if natural.size else 0.0
+        residual = float(natural.max()) if natural.size else 0.0
         bounds = (np.full(q.size, lcp_enumeration_tolerance(q, tolerance)) if method == "enumerate"
                   else lcp_row_tolerances(M, q, z, tolerance))
-        bound = float(np.max(bounds)) if bounds.size else 0.0
-        found = status == "solved" and bool(np.all(natural <= bounds))
-        if status == "solved" and not found:
-            status = "inaccurate"
+        bound = float(bounds.max()) if bounds.size else 0.0
+        found = status == "solved" and bool((natural <= bounds).all())
+    if status == "solved" and not found and z is not None:
+        status = "inaccurate"
     return LCPSolution(found=found, z=z, w=w, status=status, method=method, pivots=pivots, residual=residual,
                        tolerance=bound, solve_time=time.perf_counter() - start, note=note)
 
@@ -485,7 +495,7 @@ class _LemkeTableau:
         self.z0, self.rhs = 2 * n, 2 * n + 1
         self.A = np.hstack([np.eye(n), -M, -np.ones((n, 1))])
         self.table = np.hstack([self.A, q[:, None]])
-        self.basis = np.arange(n)
+        self.basis = np.arange(n, dtype=np.int64)
 
     def pivot(self, row: int, column: int) -> None:
         """Make ``column`` basic in ``row``."""
@@ -509,26 +519,58 @@ class _LemkeTableau:
         return _lexicographic_min_row(keys, widths, rows, preferred)
 
     def basic_point(self) -> tuple[np.ndarray, bool]:
-        """``(w, z, z0)`` at the current basis, and whether the basis matrix was singular.
+        """:func:`_basic_point` at the current basis."""
+        return _basic_point(self.q, self.basis, self.A[:, self.basis], self.table[:, self.rhs])
 
-        Recomputed by an LU solve with the basis matrix (fresher than the accumulated tableau);
-        the tableau's values if the basis is singular.
-        """
-        values = np.zeros(2 * self.n + 1)
-        try:
-            values[self.basis] = np.linalg.solve(self.A[:, self.basis], self.q)
-        except np.linalg.LinAlgError:
-            values[self.basis] = self.table[:, self.rhs]
-            return values, True
+
+@dataclass(frozen=True, eq=False)
+class _LemkeBasis:
+    """The compiled kernel's end of Lemke's pivots: the basis, its matrix and the right side."""
+
+    n: int
+    z0: int
+    q: np.ndarray
+    basis: np.ndarray
+    matrix: np.ndarray  # [I, -M, -1][:, basis]
+    rhs: np.ndarray  # the tableau's right side, B^-1 q as pivoted
+
+    def basic_point(self) -> tuple[np.ndarray, bool]:
+        """:func:`_basic_point` at the basis."""
+        return _basic_point(self.q, self.basis, self.matrix, self.rhs)
+
+
+def _basic_point(q: np.ndarray, basis: np.ndarray, matrix: np.ndarray, rhs: np.ndarray
+                 ) -> tuple[np.ndarray, bool]:
+    """``(w, z, z0)`` at a basis, and whether its matrix was singular.
+
+    Recomputed by an LU solve with the basis matrix ``[I, -M, -1][:, basis]`` (fresher than the
+    accumulated tableau; LAPACK's ``dgesv``, the routine behind ``numpy.linalg.solve``, called
+    without that function's checks); the tableau's right side ``rhs`` if the matrix is singular
+    (an exactly zero pivot, where ``numpy.linalg.solve`` raises).
+    """
+    values = np.zeros(2 * q.size + 1)
+    if not q.size:
         return values, False
+    _, _, x, info = dgesv(matrix, q)
+    if info != 0:
+        values[basis] = rhs
+        return values, True
+    values[basis] = x
+    return values, False
 
 
-def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> LCPSolution:
-    """Lexicographic Lemke's method; see the module docstring."""
-    start = time.perf_counter()
+LEMKE_STATUSES = ("solved", "ray", "max_pivots")
+"""How Lemke's pivots end, by the compiled kernel's code (``LEMKE_SOLVED``, ``LEMKE_RAY``,
+``LEMKE_MAX_PIVOTS``): z0 left the basis, no row bounds the entering column, or the pivot limit."""
+
+
+def _lemke_pivots(M: np.ndarray, q: np.ndarray, max_pivots: int) -> tuple[str, int, _LemkeTableau]:
+    """Lemke's pivots in NumPy (the reference of the compiled kernel's ``lemke``).
+
+    Returns:
+        How they ended (:data:`LEMKE_STATUSES`), the number of pivots and the tableau.
+    """
     n = q.size
-    if np.all(q >= 0):
-        return _verified(M, q, np.zeros(n), "solved", "lemke", 0, tolerance, start)
     tab = _LemkeTableau(M, q)
     # First pivot: z0 enters at the value that makes every w_i = q_i + z0 non-negative.
     row = tab.choose_row(np.ones(n), np.arange(n), None)
@@ -542,15 +584,46 @@ def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> L
         eligible = (np.flatnonzero(column > PIVOT_TOLERANCE * largest) if largest > 0
                     else np.zeros(0, dtype=int))
         if len(eligible) == 0:
-            return _lemke_stopped(M, q, tab, "ray", pivots, tolerance, start)
+            return "ray", pivots, tab
         if pivots >= max_pivots:
-            return _lemke_stopped(M, q, tab, "max_pivots", pivots, tolerance, start)
+            return "max_pivots", pivots, tab
         z0_rows = np.flatnonzero(tab.basis == tab.z0)
         preferred = int(z0_rows[0]) if z0_rows.size else None
         row = tab.choose_row(np.where(column > 0, column, 1.0), eligible, preferred)
         leaving = int(tab.basis[row])
         tab.pivot(row, entering)
         pivots += 1
+    return "solved", pivots, tab
+
+
+def _lemke_pivots_compiled(M: np.ndarray, q: np.ndarray, max_pivots: int) -> tuple[str, int, _LemkeBasis]:
+    """:func:`_lemke_pivots` by the compiled kernel: the same pivots, basis and right side."""
+    n = q.size
+    basis, matrix, rhs = np.empty(n, dtype=np.int64), np.empty((n, n)), np.empty(n)
+    kernel: Any = compiled
+    code, pivots = kernel.lemke(np.ascontiguousarray(M), np.ascontiguousarray(q), basis, matrix, rhs,
+                                max_pivots, PIVOT_TOLERANCE, TIE_TOLERANCE)
+    return LEMKE_STATUSES[code], int(pivots), _LemkeBasis(n, 2 * n, q, basis, matrix, rhs)
+
+
+def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> LCPSolution:
+    """Lexicographic Lemke's method; see the module docstring.
+
+    The pivots run in the kernel that :func:`frcontrol.kernel.kernel_choice` names (compiled, or
+    the NumPy reference :func:`_lemke_pivots`); both pivot alike, and the point is recomputed from
+    the final basis by the same LU solve.
+    """
+    start = time.perf_counter()
+    n = q.size
+    if (q >= 0).all():
+        return _verified(M, q, np.zeros(n), "solved", "lemke", 0, tolerance, start)
+    tab: _LemkeTableau | _LemkeBasis
+    if kernel_choice() == "compiled":
+        status, pivots, tab = _lemke_pivots_compiled(M, q, max_pivots)
+    else:
+        status, pivots, tab = _lemke_pivots(M, q, max_pivots)
+    if status != "solved":
+        return _lemke_stopped(M, q, tab, status, pivots, tolerance, start)
     values, singular = tab.basic_point()
     result = _verified(M, q, values[n : 2 * n].copy(), "solved", "lemke", pivots, tolerance, start)
     if singular and not result.found:
@@ -558,7 +631,7 @@ def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> L
     return result
 
 
-def _lemke_stopped(M: np.ndarray, q: np.ndarray, tab: _LemkeTableau, status: str, pivots: int,
+def _lemke_stopped(M: np.ndarray, q: np.ndarray, tab: _LemkeTableau | _LemkeBasis, status: str, pivots: int,
                    tolerance: float, start: float) -> LCPSolution:
     """Lemke's method ended on a ray or the pivot limit.
 
@@ -748,7 +821,7 @@ def solve_lcp(
         return _verified(M, q, np.zeros(0), "solved", method, 0, tolerance, time.perf_counter())
     if method == "lemke":
         limit = 50 * q.size + 100 if max_pivots is None else max_pivots
-        if not isinstance(limit, int | np.integer) or limit < 1:
+        if not isinstance(limit, (int, np.integer)) or limit < 1:
             raise InputError(f"max_pivots must be a positive integer, got {max_pivots!r}")
         return _lemke(M, q, tolerance, int(limit))
     if method == "enumerate":

@@ -56,6 +56,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import scipy.linalg
 
+from .cholesky import cholesky_solve, cholesky_upper
 from .errors import InputError
 from .modes import ContactProblem, check_mode
 
@@ -379,9 +380,9 @@ def _spectrum(rows: _Rows, m_scale: float, j_scale: float, d_scale: float) -> _S
     n = M.shape[0]
     m_eig, m_vec = np.linalg.eigh(M)
     if m_eig[0] > RANK_TOLERANCE * m_eig[-1]:
-        factor = _cholesky(M)
-        eigenvalues = np.linalg.eigvals(Jr @ _cholesky_solve(factor, Jc.T))
-        return _Spectrum("cholesky", eigenvalues, np.zeros(0), rows.J_r @ _cholesky_solve(factor, rows.J_c.T))
+        factor = cholesky_upper(M)
+        eigenvalues = np.linalg.eigvals(Jr @ cholesky_solve(factor, Jc.T))
+        return _Spectrum("cholesky", eigenvalues, np.zeros(0), rows.J_r @ cholesky_solve(factor, rows.J_c.T))
     A = np.block([[M / m_scale, -Jc.T / j_scale], [Jr / j_scale, np.zeros((rho, rho))]])
     B = np.zeros_like(A)
     B[n:, n:] = np.eye(rho)
@@ -403,27 +404,6 @@ def _spectrum(rows: _Rows, m_scale: float, j_scale: float, d_scale: float) -> _S
                          f"{infinite_count} eigenvalue(s) of D are infinite (massless directions) but their "
                          f"limit has {lead.size} nonzero coefficient(s): not analysable")
     return _Spectrum("pencil", eigenvalues, lead, None)
-
-
-def _cholesky(M: np.ndarray) -> np.ndarray:
-    """``scipy.linalg.cho_factor(M)``'s upper factor, by the same LAPACK call (``potrf``).
-
-    Without its checks (M is finite and positive definite here), and so with the same numbers.
-    """
-    potrf = scipy.linalg.lapack.dpotrf if M.dtype == np.float64 else scipy.linalg.get_lapack_funcs(
-        "potrf", (M,))
-    factor, info = potrf(M, lower=False, clean=False, overwrite_a=False)
-    if info != 0:
-        raise np.linalg.LinAlgError(f"the mass matrix is not positive definite (potrf info {info})")
-    return factor
-
-
-def _cholesky_solve(factor: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """``scipy.linalg.cho_solve((factor, False), rhs)`` by the same LAPACK call (``potrs``)."""
-    x, info = scipy.linalg.lapack.dpotrs(factor, rhs, lower=False, overwrite_b=False)
-    if info != 0:
-        raise np.linalg.LinAlgError(f"potrs failed (info {info})")
-    return x
 
 
 def _fmt(values: Sequence[complex] | np.ndarray) -> str:

@@ -1291,7 +1291,7 @@ def _closed_loop(scene: Scene, policy: _Replanner, task: FlipTask, *, dt: float,
                            armature=armature)
     return run_closed_loop(
         stepper, policy, max_time, dt, every=replan_every, command=policy.command,
-        actuate=lambda command, at: _free_legs_idle(scene, legs, command, at.q),
+        actuate=lambda command, at: _free_legs_idle(scene, legs, command, at.q, at.state.contact_points),
         stop=lambda at: bool(at.q[task.pitch_index] >= task.vertical), progress=progress)
 
 
@@ -1314,16 +1314,17 @@ def _replanned(replan_scene: Scene, stepper: RigidStepper, loaded: np.ndarray, m
 
 
 def _free_legs_idle(scene: Scene, legs: dict[int, list[int]], command: np.ndarray,
-                    q: np.ndarray) -> np.ndarray:
+                    q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
     """The command with 0 on every massless leg in the air.
 
     A leg is in the air when none of its contacts is within :data:`SEPARATION_GAP` of its
-    surface: the rigid model forces its torque to 0.
+    surface: the rigid model forces its torque to 0. ``points``: the contact points at ``q``
+    when known (a stepper's state holds them), else computed.
     """
     if not legs:
         return command
-    gaps = _gaps(scene, q)
-    free = [i for i, toes in legs.items() if not np.any(gaps[toes] <= SEPARATION_GAP)]
+    gaps = _gaps(scene, q, points).tolist()  # Python numbers: a few tests per leg, every step
+    free = [i for i, toes in legs.items() if not any(gaps[j] <= SEPARATION_GAP for j in toes)]
     if not free:
         return command
     out = command.copy()
@@ -1349,11 +1350,13 @@ def _massless_legs(scene: Scene) -> dict[int, list[int]]:
     return legs
 
 
-def _gaps(scene: Scene, q: np.ndarray) -> np.ndarray:
-    """Every contact's gap [m] at q."""
-    points = scene.robot.contact_points_in_world(q)
-    return np.array([c.point.normal_in_world @ (p - c.point.surface_point_in_world)
-                     for c, p in zip(scene.contacts, points, strict=True)])
+def _gaps(scene: Scene, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+    """Every contact's gap [m] at q (``points``: the contact points at q, when already known)."""
+    if points is None:
+        points = scene.robot.contact_points_in_world(q)
+    normals = np.array([c.point.normal_in_world for c in scene.contacts]).reshape(-1, 2)
+    offset = points - np.array([c.point.surface_point_in_world for c in scene.contacts]).reshape(-1, 2)
+    return normals[:, 0] * offset[:, 0] + normals[:, 1] * offset[:, 1]  # n . (p - s), as n @ (p - s) sums it
 
 
 def _replan(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarray, margin: float,

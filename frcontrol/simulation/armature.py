@@ -16,8 +16,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 
+from ..cholesky import cholesky_solve, cholesky_upper
 from ..errors import IllConditioned, InputError
 from ..scene import Scene
 from ..scene_tables import DEFAULT_ARMATURE
@@ -81,7 +81,7 @@ def mass_factor(mass_matrix: np.ndarray, armature: Armature) -> tuple[np.ndarray
             with ``armature = 0``, or a singular M whose diagonal is not zero).
     """
     try:
-        factor = scipy.linalg.cho_factor(mass_matrix, check_finite=False)
+        factor = (cholesky_upper(mass_matrix), False)
     except np.linalg.LinAlgError as err:
         eig = np.linalg.eigvalsh(mass_matrix)
         raise IllConditioned(
@@ -92,4 +92,10 @@ def mass_factor(mass_matrix: np.ndarray, armature: Armature) -> tuple[np.ndarray
     return factor
 
 
-__all__ = ["Armature", "DEFAULT_ARMATURE", "MASSLESS_TOLERANCE", "mass_factor", "massless_armature"]
+def solve_mass(factor: tuple[np.ndarray, bool], rhs: np.ndarray) -> np.ndarray:
+    """``M^-1 rhs`` from :func:`mass_factor`'s factor (``scipy.linalg.cho_solve``'s LAPACK call)."""
+    return cholesky_solve(factor[0], rhs)
+
+
+__all__ = ["Armature", "DEFAULT_ARMATURE", "MASSLESS_TOLERANCE", "mass_factor", "massless_armature",
+           "solve_mass"]

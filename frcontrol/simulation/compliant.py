@@ -61,7 +61,9 @@ shrinks the undamped limit ``2 / omega``; reported as ``info["explicit_stability
 larger ``dt`` is refused), or ``"implicit"``: fixed-step *linearly implicit* Euler with step ``dt``,
 the contact forces taken at the end of the step (below). Samples are taken every
 ``dt`` from the solvers' dense output; a callable input is held constant over each sample
-interval (zero-order hold). The adaptive solvers' step is at most ``max_step`` (default ``dt``)
+interval (zero-order hold): it is asked for its value at every sample, at the sampled state, and an
+adaptive solver runs on across the samples where that value does not change (a new solver starts
+at a sample where it does). The adaptive solvers' step is at most ``max_step`` (default ``dt``)
 so that no contact onset is stepped over. A solver that fails (step size underflow, a NaN) or
 exceeds ``max_steps`` ends the simulation: ``status = "failed"`` with the time and the
 reason, and the trajectory up to there is returned.
@@ -98,10 +100,11 @@ import scipy.integrate
 import scipy.linalg
 
 from ..errors import InputError, LimitExceeded
+from ..kernel import compiled, kernel_choice
 from ..model import RobotState
 from ..scene import Scene
 from . import INTEGRATORS
-from .armature import Armature, mass_factor, massless_armature
+from .armature import Armature, mass_factor, massless_armature, solve_mass
 from .drives import Transmissions
 from .inputs import STEP_COUNT_TOLERANCE, InputSchedule, check_simulation_times, input_schedule
 from .model_table import ContactParameters, model_options
@@ -202,7 +205,19 @@ def contact_forces(
     Returns:
         ``(lam_N, lam_T, ds/dt, status)`` with status per contact 0 = open (no normal force),
         1 = stick, 2 = slip.
+
+    Without zones, by the compiled kernel (``compliant_law``) where
+    :func:`frcontrol.kernel.kernel_choice` names it: the same numbers in one call.
     """
+    if zones is None and kernel_choice() == "compiled":
+        c = contacts.count
+        lam_n, lam_t, rate, status = np.empty(c), np.empty(c), np.empty(c), np.empty(c, dtype=np.int64)
+        kernel: Any = compiled
+        kernel.compliant_law(*(np.ascontiguousarray(a, dtype=float) for a in (
+            gaps, normal_velocities, tangential_velocities, stretch, contacts.mu, contacts.stiffness,
+            contacts.damping, contacts.tangential_stiffness, contacts.tangential_damping)),
+            lam_n, lam_t, rate, status)
+        return lam_n, lam_t, rate, status
     delta = -gaps
     lam_n = np.where(delta > 0.0,
                      np.maximum(0.0, contacts.stiffness * delta - contacts.damping * normal_velocities), 0.0)
@@ -391,7 +406,7 @@ class _Dynamics:
             force = force + self.transmissions.joint_force(q, v, y[end:])
             parts.append(self.transmissions.derivative(q, v, y[end:], u))
         factor = mass_factor(self.armature.apply(state.mass_matrix), self.armature)
-        parts[1] = scipy.linalg.cho_solve(factor, force, check_finite=False)
+        parts[1] = solve_mass(factor, force)
         if zone is not None:
             parts.insert(3, zone.rates)
         return np.concatenate(parts), (state, lam_n, lam_t, status)
@@ -767,23 +782,25 @@ class _CompliantRun:
 
     def integrate(self, schedule: InputSchedule, hold: float | None, *, integrator: str,
                   stability_limit: float, rtol: float, atol: float, max_step: float) -> None:
-        """Run to the end (or a failure): one segment per held input.
+        """Run to the end (or a failure).
 
         ``hold``: None for a constant input (one segment), else the sample interval over which a
-        scheduled input is held.
+        scheduled input is held. The fixed-step integrators run one segment per sample interval;
+        the adaptive ones run one solver for as long as the held input keeps its value
+        (:meth:`scipy_segment`), and start anew where it changes.
         """
         n = self.n
         y, t_seg = self.samples_y[0].copy(), 0.0
-        u_const = schedule(0.0, y[:n], y[n:2 * n])
+        u = schedule(0.0, y[:n], y[n:2 * n])
         while self.next_sample <= self.sample_count and self.status == "completed":
-            u = u_const if hold is None else schedule(t_seg, y[:n], y[n:2 * n])
-            t_end = float(self.sample_times[self.next_sample]) if hold is not None else self.duration
             if integrator in ("euler", "implicit"):
+                u = u if hold is None else schedule(t_seg, y[:n], y[n:2 * n])
+                t_end = float(self.sample_times[self.next_sample]) if hold is not None else self.duration
                 y, t_seg = self.fixed_step_segment(y, t_seg, t_end, u, stability_limit,
                                                    implicit=integrator == "implicit")
             else:
-                y, t_seg = self.scipy_segment(integrator, y, t_seg, t_end, u, rtol=rtol, atol=atol,
-                                              max_step=max_step)
+                y, t_seg, u = self.scipy_segment(integrator, y, t_seg, u, None if hold is None else schedule,
+                                                 rtol=rtol, atol=atol, max_step=max_step)
 
     def report(self, **settings: Any) -> dict[str, Any]:
         """The trajectory's ``info``.
@@ -879,58 +896,80 @@ class _CompliantRun:
                 break
         return y, t_seg
 
-    def scipy_segment(self, integrator: str, y: np.ndarray, t_seg: float, t_end: float, u: np.ndarray,
-                      *, rtol: float, atol: float, max_step: float) -> tuple[np.ndarray, float]:
-        """SciPy's adaptive integrator from ``t_seg`` to ``t_end``, sampled by its dense output."""
-        n = self.n
+    def scipy_segment(self, integrator: str, y: np.ndarray, t_seg: float, u: np.ndarray,
+                      schedule: InputSchedule | None, *, rtol: float, atol: float, max_step: float
+                      ) -> tuple[np.ndarray, float, np.ndarray]:
+        """SciPy's adaptive integrator from ``t_seg`` on at the input ``u``, sampled by its dense output.
 
+        With a held input (``schedule``), the input's next value is asked at each sample, at the
+        sampled state; the segment ends there when it differs from ``u`` (the step that went past
+        the sample is cut back to it). Returns ``(y, t, u)`` at the segment's end, ``u`` the input
+        from there on.
+        """
         def fun(t: float, yy: np.ndarray) -> np.ndarray:
             self.rhs_evaluations += 1
             return self.dynamics.evaluate(yy, u)[0]
 
         solver_cls = getattr(scipy.integrate, _SCIPY_SOLVERS[integrator])
-        solver = solver_cls(fun, t_seg, y, t_end, rtol=rtol, atol=atol, max_step=max_step)
+        solver = solver_cls(fun, t_seg, y, self.duration, rtol=rtol, atol=atol, max_step=max_step)
         while solver.status == "running":
-            try:
-                message = solver.step()
-            except (ValueError, np.linalg.LinAlgError, FloatingPointError) as err:
-                # SciPy's Radau/BDF difference their Jacobian with a factor that grows without bound
-                # on a column that never changes (e.g. the horizontal position): it can overflow
-                # into inf and the LU factorisation raises. Report it as a failure, keep the samples.
-                # diverged only if the state itself left the numbers; a finite state whose
-                # Jacobian differencing overflowed is the integrator's failure, not the model's
-                diverged = not np.all(np.isfinite(solver.y))
-                self.fail("diverged" if diverged else "failed", float(solver.t), f"{integrator}: {err}",
-                          hint=diverged)
-                break
-            if solver.status == "failed":
-                self.fail("failed", float(solver.t), f"{integrator}: {message}")
+            y_now = self._solver_step(solver, integrator)
+            if y_now is None:
                 break
             t_now = float(solver.t)
-            self.steps_taken.append(t_now - float(solver.t_old))
-            y_now = solver.y
-            if not np.all(np.isfinite(y_now)) or np.max(np.abs(y_now[n:2 * n])) > DIVERGENCE_VELOCITY:
-                self.fail("diverged", t_now, "the state became NaN or a velocity exceeded "
-                          f"{DIVERGENCE_VELOCITY:g}", hint=True)
-                break
-            self.last_vn = self.record_events(t_now, y_now, self.last_vn)
             if self.progress is not None:
                 self.progress(t_now, self.duration)
             if self._due(t_now):
                 dense = solver.dense_output()
                 while self._due(t_now):
                     ts = float(self.sample_times[self.next_sample])
-                    self.samples_y.append(y_now.copy() if ts >= t_now else dense(ts))
+                    y_s = y_now.copy() if ts >= t_now else dense(ts)
+                    self.samples_y.append(y_s)
                     self.samples_u.append(u.copy())
                     self.next_sample += 1
+                    u_next = u if schedule is None or self.next_sample > self.sample_count \
+                        else schedule(ts, y_s[:self.n], y_s[self.n:2 * self.n])
+                    if not np.array_equal(u_next, u):  # the input changes here: start anew from ts
+                        self.steps_taken[-1] = ts - float(solver.t_old)
+                        self.last_vn = self.record_events(ts, y_s, self.last_vn)
+                        return y_s.copy(), ts, u_next
+            self.last_vn = self.record_events(t_now, y_now, self.last_vn)
             if len(self.steps_taken) >= self.max_steps:
                 self.fail("failed", t_now, f"more than {self.max_steps} steps")
                 break
             landed = self.dynamics.switch(solver.y)
             if landed is not None and solver.status == "running":  # a one-stage mass landed or left
                 self.landing_energy += landed[1]
-                solver = solver_cls(fun, t_now, landed[0], t_end, rtol=rtol, atol=atol, max_step=max_step)
-        return solver.y.copy(), float(solver.t)
+                solver = solver_cls(fun, t_now, landed[0], self.duration, rtol=rtol, atol=atol,
+                                    max_step=max_step)
+        return solver.y.copy(), float(solver.t), u
+
+    def _solver_step(self, solver: Any, integrator: str) -> np.ndarray | None:
+        """One step of a SciPy solver, its length recorded; its state, or None when the run ends here."""
+        n = self.n
+        try:
+            message = solver.step()
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError) as err:
+            # SciPy's Radau/BDF difference their Jacobian with a factor that grows without bound
+            # on a column that never changes (e.g. the horizontal position): it can overflow
+            # into inf and the LU factorisation raises. Report it as a failure, keep the samples.
+            # diverged only if the state itself left the numbers; a finite state whose
+            # Jacobian differencing overflowed is the integrator's failure, not the model's
+            diverged = not np.all(np.isfinite(solver.y))
+            self.fail("diverged" if diverged else "failed", float(solver.t), f"{integrator}: {err}",
+                      hint=diverged)
+            return None
+        if solver.status == "failed":
+            self.fail("failed", float(solver.t), f"{integrator}: {message}")
+            return None
+        t_now = float(solver.t)
+        self.steps_taken.append(t_now - float(solver.t_old))
+        y_now = solver.y
+        if not np.all(np.isfinite(y_now)) or np.max(np.abs(y_now[n:2 * n])) > DIVERGENCE_VELOCITY:
+            self.fail("diverged", t_now, "the state became NaN or a velocity exceeded "
+                      f"{DIVERGENCE_VELOCITY:g}", hint=True)
+            return None
+        return y_now
 
 
 def _event_status(status: np.ndarray, gaps: np.ndarray, gap_tolerance: float) -> np.ndarray:

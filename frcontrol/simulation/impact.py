@@ -41,12 +41,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-import scipy.linalg
 
 from ..errors import FrcontrolError, InputError
+from ..kernel import compiled, kernel_choice
 from ..lcp import ENUMERATION_MAX_SIZE, solve_lcp
+from .armature import solve_mass
 
 LCP_REGULARIZATION = 1e-10
 """[-] When Lemke's method fails, the LCP is retried with ``W + eps I`` (W scaled to unit
@@ -86,25 +88,34 @@ class ImpulseLCPFailure(FrcontrolError):
     """The impulse LCP had no solution by any method (a simulation's result, not raised out)."""
 
 
+def coulomb_matrix(W: np.ndarray, m_ref: float, mu: np.ndarray) -> np.ndarray:
+    """The LCP matrix of the module docstring for the Delassus matrix ``W`` (2c, 2c) times ``m_ref``.
+
+    By the compiled kernel (``coulomb_matrix``) where :func:`frcontrol.kernel.kernel_choice`
+    names it, else by :func:`_coulomb_matrix`, its NumPy reference: the same numbers.
+    """
+    if kernel_choice() == "compiled":
+        c = len(mu)
+        out = np.empty((4 * c, 4 * c))
+        kernel: Any = compiled
+        kernel.coulomb_matrix(np.ascontiguousarray(W), float(m_ref), np.ascontiguousarray(mu), out)
+        return out
+    return _coulomb_matrix(W * m_ref, mu)
+
+
 def _coulomb_matrix(Ws: np.ndarray, mu: np.ndarray) -> np.ndarray:
     """The LCP matrix of the module docstring for a scaled Delassus matrix ``Ws`` (2c, 2c)."""
     c = len(mu)
-    n_idx, p_idx, m_idx, s_idx = (np.arange(c) + j * c for j in range(4))
+    W_nn, W_nt, W_tn, W_tt = Ws[:c, :c], Ws[:c, c:], Ws[c:, :c], Ws[c:, c:]
     base = np.zeros((4 * c, 4 * c))
-    base[np.ix_(n_idx, n_idx)] = Ws[:c, :c]
-    base[np.ix_(n_idx, p_idx)] = Ws[:c, c:]
-    base[np.ix_(n_idx, m_idx)] = -Ws[:c, c:]
-    base[np.ix_(p_idx, n_idx)] = Ws[c:, :c]
-    base[np.ix_(p_idx, p_idx)] = Ws[c:, c:]
-    base[np.ix_(p_idx, m_idx)] = -Ws[c:, c:]
-    base[np.ix_(m_idx, n_idx)] = -Ws[c:, :c]
-    base[np.ix_(m_idx, p_idx)] = -Ws[c:, c:]
-    base[np.ix_(m_idx, m_idx)] = Ws[c:, c:]
-    base[p_idx, s_idx] = 1.0
-    base[m_idx, s_idx] = 1.0
-    base[s_idx, n_idx] = mu
-    base[s_idx, p_idx] = -1.0
-    base[s_idx, m_idx] = -1.0
+    n, p, m = slice(0, c), slice(c, 2 * c), slice(2 * c, 3 * c)
+    base[n, n], base[n, p], base[n, m] = W_nn, W_nt, -W_nt
+    base[p, n], base[p, p], base[p, m] = W_tn, W_tt, -W_tt
+    base[m, n], base[m, p], base[m, m] = -W_tn, -W_tt, W_tt
+    d = np.arange(c)
+    base[c + d, 3 * c + d] = base[2 * c + d, 3 * c + d] = 1.0
+    base[3 * c + d, d] = mu
+    base[3 * c + d, c + d] = base[3 * c + d, 2 * c + d] = -1.0
     return base
 
 
@@ -132,16 +143,16 @@ def solve_impulse_lcp(
         ImpulseLCPFailure: no method found a solution.
     """
     c = jn.shape[0]
-    jac = np.vstack([jn, jt])
-    X = scipy.linalg.cho_solve(factor, jac.T, check_finite=False)  # M^-1 J^T, (n, 2c)
+    jac = np.concatenate((jn, jt))
+    X = solve_mass(factor, jac.T)  # M^-1 J^T, (n, 2c)
     W = jac @ X
-    scale = float(np.max(np.diag(W), initial=0.0))
+    scale = float(W.diagonal().max()) if c else 0.0
     m_ref = 1.0 / scale if scale > 0 else 1.0  # impulses in units of m_ref [kg] x [m/s]
     b_n = jn @ v_base + normal_offset
     b_t = jt @ v_base
-    if np.all(b_n >= 0.0):  # every contact separates or just touches: z = 0, sigma = |b_t|
+    if (b_n >= 0.0).all():  # every contact separates or just touches: z = 0, sigma = |b_t|
         return ImpulseSolution(v_base.copy(), np.zeros(c), np.zeros(c), 0, 0.0, False)
-    base = _coulomb_matrix(W * m_ref, np.asarray(mu, dtype=float))
+    base = coulomb_matrix(W, m_ref, np.asarray(mu, dtype=float))
     diagonal = np.arange(3 * c)
 
     def lcp_matrix(eps: float) -> np.ndarray:
@@ -151,7 +162,7 @@ def solve_impulse_lcp(
         out[diagonal, diagonal] += eps
         return out
 
-    q_lcp = np.concatenate([b_n, b_t, -b_t, np.zeros(c)])
+    q_lcp = np.concatenate((b_n, b_t, -b_t, np.zeros(c)))
     attempts = [(method, 0.0)]
     if method == "lemke":
         attempts.append(("lemke", LCP_REGULARIZATION))
@@ -164,7 +175,7 @@ def solve_impulse_lcp(
             z = result.z
             p_n = m_ref * z[:c]
             p_t = m_ref * (z[c:2 * c] - z[2 * c:3 * c])
-            v_next = v_base + X @ np.concatenate([p_n, p_t])
+            v_next = v_base + X @ np.concatenate((p_n, p_t))
             return ImpulseSolution(v_next, p_n, p_t, 4 * c, float(result.residual),
                                    eps > 0 or how != method)
         statuses.append(f"{how}{' (regularised)' if eps else ''}: {result.status}")

@@ -77,12 +77,11 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.linalg
 
 from ..errors import FrcontrolError, InputError
 from ..modes import ContactProblem, contact_mode_letter
 from ..scene import Scene
-from .armature import DEFAULT_ARMATURE, Armature, mass_factor, massless_armature
+from .armature import DEFAULT_ARMATURE, Armature, mass_factor, massless_armature, solve_mass
 from .drives import ImplicitTransmissions, TransmissionRun
 from .impact import ImpulseLCPFailure, impact_law, solve_impulse_lcp
 from .inputs import InputSchedule, check_simulation_times, input_schedule, step_lengths
@@ -266,7 +265,7 @@ class RigidStepper:
         self.q, self.v = robot.check_state(scene.q if q0 is None else q0, scene.v if v0 is None else v0)
         self.t = 0.0
         self.names = tuple(c.name for c in scene.contacts)
-        self._all = list(range(len(self.names)))
+        self._all = tuple(range(len(self.names)))
         self._mu = np.array([c.mu for c in scene.contacts], dtype=float)
         self._restitution = np.array([scene.model.parameters(c.name).restitution for c in scene.contacts],
                                      dtype=float)
@@ -306,6 +305,9 @@ class RigidStepper:
             if self._closed[i] else None
             for i in range(k)]
         self._check_pending = True
+        self._mass_of: object = None  # the state whose M with the armature is self._mass
+        self._mass = self.state.mass_matrix
+        self._damping_of, self._damping_matrix = -1.0, np.zeros((robot.nv, robot.nv))  # see _step_damping
         self._start_wall = time.perf_counter()
 
     def step(self, u: np.ndarray, h: float) -> bool:
@@ -315,7 +317,7 @@ class RigidStepper:
             False when the run cannot go on (the LCP failed, or the velocity left the numbers):
             :attr:`status` and :attr:`failure` say why, and no sample was added.
         """
-        mass = self.armature.apply(self.state.mass_matrix)
+        mass = self._applied_mass()
         self._kinetic.append(0.5 * float(self.v @ mass @ self.v))
         self._potential.append(self.scene.robot.potential_energy(self.q))
         start = (self.q, self.v, self.state, len(self.events), len(self.impacts), self._closed.copy(),
@@ -327,7 +329,7 @@ class RigidStepper:
             self._restore(start)
             self.status, self.failure = "failed", SimulationFailure(self.t, str(err))
             return False
-        if not np.all(np.isfinite(v_next)):
+        if not np.isfinite(v_next).all():
             self._restore(start)
             self.status = "diverged"
             self.failure = SimulationFailure(self.t, "the velocity became NaN or infinite", VALIDITY_HINT)
@@ -359,7 +361,7 @@ class RigidStepper:
         for landing in range(splits + 1):
             if splits:
                 self._impact_if_closing(self.t + h)
-            mass = self.armature.apply(self.state.mass_matrix)
+            mass = self._applied_mass()
             v_next, pn, pt, cand_part, w = self._impulses(mass, u, rest)
             split = self._landing_time(rest, pn, u) if landing < splits else None
             if split is not None:
@@ -374,6 +376,18 @@ class RigidStepper:
         self._stab_work.append(self._stab_work[-1] + work)
         return v_next, p_n + self._step_impacts[:, 0], p_t + self._step_impacts[:, 1], cand, rest
 
+    def _step_damping(self, h: float, damping: np.ndarray) -> np.ndarray:
+        """``diag(h D)``, the drives' damping over a step of ``h`` [s] (made once per step length)."""
+        if self._damping_of != h:
+            self._damping_of, self._damping_matrix = h, np.diag(h * damping)
+        return self._damping_matrix
+
+    def _applied_mass(self) -> np.ndarray:
+        """M with the armature at the current state (made once per state: do not modify it)."""
+        if self._mass_of is not self.state:
+            self._mass_of, self._mass = self.state, self.armature.apply(self.state.mass_matrix)
+        return self._mass
+
     def _landing_time(self, h: float, p_n: np.ndarray, u: np.ndarray) -> float | None:
         """[s] When the first contact that this step lands at speed closes (None: none does in ``h``).
 
@@ -386,11 +400,10 @@ class RigidStepper:
         st = self.state
         landing = (p_n > 0.0) & (st.gaps > IMPACT_GAP_TOLERANCE) \
             & (st.normal_velocities < -self.settings.impact_velocity)
-        if not np.any(landing):
+        if not landing.any():
             return None
-        mass = self.armature.apply(st.mass_matrix)
-        accel = scipy.linalg.cho_solve(mass_factor(mass, self.armature), self._input_map @ u - st.bias,
-                                       check_finite=False)
+        mass = self._applied_mass()
+        accel = solve_mass(mass_factor(mass, self.armature), self._input_map @ u - st.bias)
         gap, vn = st.gaps[landing], st.normal_velocities[landing]
         a_n = st.jacobian_normal[landing] @ accel
         disc = vn**2 - 4.0 * a_n * gap
@@ -416,11 +429,11 @@ class RigidStepper:
         and normal velocities, and counts as closed from then on.
         """
         st, cfg = self.state, self.settings
-        touching = np.nonzero(st.gaps <= IMPACT_GAP_TOLERANCE)[0]
+        touching = np.flatnonzero(st.gaps <= IMPACT_GAP_TOLERANCE)
         closing = st.normal_velocities[touching] < -cfg.impact_velocity
-        if not np.any(closing):
+        if not closing.any():
             return
-        mass = self.armature.apply(st.mass_matrix)
+        mass = self._applied_mass()
         law = impact_law(mass, mass_factor(mass, self.armature), self.v, st.jacobian_normal[touching],
                          st.jacobian_tangent[touching], self._mu[touching], self._restitution[touching],
                          cfg.lcp_method)
@@ -459,15 +472,15 @@ class RigidStepper:
         st, cfg = self.state, self.settings
         force = self._input_map @ u - st.bias
         if self._damping is not None:  # drives' damping, implicit: (M + h D)(v+ - v) = h (f - D v) + J^T p
-            mass = mass + np.diag(h * self._damping)
+            mass = mass + self._step_damping(h, self._damping)
         if self.transmissions is not None:  # elastic drives: the springs' torques, see .drives
             self._coupled = self.transmissions.implicit(self.q, self.v, u, h)
             force, mass = force + self._coupled.force, self._coupled.mass(mass)
         factor = mass_factor(mass, self.armature)
-        accel = scipy.linalg.cho_solve(factor, force, check_finite=False)
+        accel = solve_mass(factor, force)
         v_free = self.v + h * accel
         gaps, vn = st.gaps, st.normal_velocities
-        cand = np.nonzero(gaps <= cfg.activation_distance + 2.0 * h * np.maximum(0.0, -vn))[0]
+        cand = np.flatnonzero(gaps <= cfg.activation_distance + 2.0 * h * np.maximum(0.0, -vn))
         k = len(self.names)
         p_n, p_t = np.zeros(k), np.zeros(k)
         in_cand = np.zeros(k, dtype=bool)
@@ -496,27 +509,31 @@ class RigidStepper:
         self._maybe_check_ambiguity(u, h, p_n, vn, vt_next)
         t_next = self.t + h
         had_event = False
+        # Python numbers in the loop (numpy scalars cost more per test); the same values
+        closed, loaded_l, vt = closed_next.tolist(), loaded.tolist(), vt_next.tolist()
+        vn_l, vn_n = vn.tolist(), vn_next.tolist()
+        was_closed = self._closed.tolist()
         for i, name in enumerate(self.names):
             new_sliding: str | None = None
-            if closed_next[i] and loaded[i]:
-                new_sliding = "slip" if abs(vt_next[i]) > cfg.slip_velocity_tolerance else "stick"
-            if closed_next[i] and not self._closed[i]:
+            if closed[i] and loaded_l[i]:
+                new_sliding = "slip" if abs(vt[i]) > cfg.slip_velocity_tolerance else "stick"
+            if closed[i] and not was_closed[i]:
                 had_event = True
-                how = _sliding_phrase(new_sliding, vt_next[i])
-                if vn[i] < -cfg.impact_velocity:
-                    detail = f"v_N = {vn[i]:.4g} m/s, impulse {p_n[i]:.4g} N s; {how}"
+                how = _sliding_phrase(new_sliding, vt[i])
+                if vn_l[i] < -cfg.impact_velocity:
+                    detail = f"v_N = {vn_l[i]:.4g} m/s, impulse {float(p_n[i]):.4g} N s; {how}"
                     self.events.append(ContactEvent(t_next, name, "impact", detail))
                 else:
                     self.events.append(ContactEvent(t_next, name, "close", how))
-            elif self._closed[i] and not closed_next[i]:
+            elif was_closed[i] and not closed[i]:
                 had_event = True
-                self.events.append(ContactEvent(t_next, name, "open", f"v_N = {vn_next[i]:.4g} m/s"))
-            elif closed_next[i] and new_sliding is not None and self._sliding[i] is not None \
+                self.events.append(ContactEvent(t_next, name, "open", f"v_N = {vn_n[i]:.4g} m/s"))
+            elif closed[i] and new_sliding is not None and self._sliding[i] is not None \
                     and new_sliding != self._sliding[i]:
                 had_event = True
-                detail = f"v_T = {vt_next[i]:.4g} m/s" if new_sliding == "slip" else ""
+                detail = f"v_T = {vt[i]:.4g} m/s" if new_sliding == "slip" else ""
                 self.events.append(ContactEvent(t_next, name, new_sliding, detail))
-            if closed_next[i]:
+            if closed[i]:
                 self._sliding[i] = new_sliding if new_sliding is not None else self._sliding[i]
             else:
                 self._sliding[i] = None
@@ -558,7 +575,10 @@ class RigidStepper:
             self.transmissions.advance(self._coupled, v_next, u)
         self.t = self.t + h
         self.state = robot.state(self.q, self.v, self._all)
-        self.last_forces = np.column_stack([p_n / h, p_t / h])
+        forces = np.empty((len(p_n), 2))
+        forces[:, 0], forces[:, 1] = p_n, p_t
+        forces /= h
+        self.last_forces = forces
         self._times.append(self.t)
         self._qs.append(self.q.copy())
         self._vs.append(self.v.copy())
@@ -566,7 +586,7 @@ class RigidStepper:
         self._forces.append(self.last_forces)
         self._impact_impulses.append(self._step_impacts.copy())
         self._points.append(self.state.contact_points.copy())
-        self._penetration.append(max(0.0, -float(np.min(self.state.gaps, initial=np.inf))))
+        self._penetration.append(max(0.0, -float(self.state.gaps.min())) if len(self.names) else 0.0)
 
     def trajectory(self, dt: float) -> Trajectory:
         """The run so far, checked against the model's validity (:func:`.validity.assess`).
