@@ -77,7 +77,7 @@ def plan_command(
     from frcontrol.answers import plan_task_answer
 
     with common.live_viewer(view, port) as server:
-        with common.progress("planning the task...") as status:
+        with common.progress("the task (planned and simulated)", "s") as shown:
             result, payload = plan_task_answer(
                 loaded,
                 dt=dt,
@@ -85,7 +85,7 @@ def plan_command(
                 max_time=duration if max_time is None else max_time,
                 margin=margin,
                 compliant=compliant,
-                progress=lambda t, total: status.update(f"running the task: {t:.3f} / {total:g} s"),
+                progress=shown,
             )
         common.answer(payload, render, json=json)
         _outputs(loaded, result, plot=plot, html=html, out=out, json=json)
