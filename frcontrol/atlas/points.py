@@ -4,8 +4,9 @@ At every point, whatever ``what`` is (the same columns for every kind):
 
 - ``count``: the number of rigid-body solutions at the point's inputs (``solutions_at``);
 - ``modes``: their modes, sorted;
-- ``stable``: each one's stability under compliance (:func:`frcontrol.stability.stability_of`),
-  in the order of ``modes``: true, false, or null (not analysable);
+- ``stable``: each one's stability under compliance (:func:`frcontrol.stability.stability_of`, as
+  :func:`~frcontrol.stability.classify_solutions` finds it: the state's work once), in the order of
+  ``modes``: true, false, or null (not analysable);
 - ``ambiguous``: ``"none"``, ``"between"`` (more than one solution: between modes), ``"within"``
   (one solution whose mode has ambiguity variables, ``ambiguity_dim > 0``) or ``"both"``
   (several solutions, one of them with ambiguity variables);
@@ -165,13 +166,10 @@ def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: froze
 def solutions_columns(scene: Scene, problem: ContactProblem, inputs: Mapping[str, float]) -> dict[str, Any]:
     """``count``, ``modes``, ``stable`` and ``ambiguous`` at one input (module docstring)."""
     from ..engine import solutions_at
-    from ..stability import stability_of
+    from ..stability import classify_solutions
 
     found = sorted(solutions_at(problem, inputs), key=lambda s: s.mode)
-    stable = []
-    for solution in found:
-        verdict = stability_of(problem, solution).stable
-        stable.append(None if verdict is None else bool(verdict))
+    stable = [None if v.stable is None else bool(v.stable) for v in classify_solutions(problem, found)]
     between = len(found) > 1
     within = any(s.ambiguity_dim > 0 for s in found)
     return {"count": len(found), "modes": [s.mode for s in found], "stable": stable,
