@@ -512,6 +512,23 @@ class PlanarRobot:
             for c, s in zip(self.contacts, self._surface_points, strict=True)
         )
 
+    def use_contact_points(self, points: Sequence[ContactPoint]) -> None:
+        """Take ``points`` as the contacts, kept as given (not copied).
+
+        They are the same contacts (names, links, points, normals, in order) with their own surface
+        points [m] and Coulomb coefficients [-].
+
+        The contact layouts are made again only where a surface point changed (one that is the
+        same array as the contact's in use is unchanged).
+        """
+        if any(p.surface_point_in_world is not c.surface_point_in_world
+               for p, c in zip(points, self.contacts, strict=True)):
+            surfaces = np.array([p.surface_point_in_world for p in points], dtype=float).reshape(-1, 2)
+            if not np.array_equal(surfaces, self._surface_points):
+                self._surface_points = surfaces
+                self._layouts = {}
+        self.contacts = tuple(points)
+
     def set_friction(self, mu: Sequence[float]) -> None:
         """Set every contact's Coulomb coefficient [-], in ``contacts`` order (no kinematics changes)."""
         self.contacts = tuple(ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world,

@@ -24,12 +24,12 @@ model) is shared with the scene given, whose contacts' surface points and fricti
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from .model import ContactPoint
+from .records import replaced
 from .scene import Contact, Scene, _contacts_at_state, _coordinate_path, _Reader
 
 MU_PATH_FIELD = "mu"
@@ -52,6 +52,11 @@ def numeric_syntax(path: str) -> bool:
     checks the names against a scene).
     """
     return _coordinate_path(path) is not None or _contact_mu_name(path) is not None
+
+
+def is_friction_path(path: str) -> bool:
+    """Whether ``path`` sets a contact's Coulomb coefficient by name (``contacts.NAME.mu``)."""
+    return _contact_mu_name(path) is not None
 
 
 def is_numeric_path(scene: Scene, path: str) -> bool:
@@ -110,7 +115,7 @@ def scene_with_numbers(scene: Scene, overrides: Mapping[str, Any], bare_coordina
     else:
         contacts = [c if c.point is p else Contact(p, c.gap, c.active)
                     for c, p in zip(scene.contacts, points, strict=True)]
-    moved = replace(scene, q=q, v=v, contacts=tuple(contacts), raw=raw)
+    moved = replaced(scene, q=q, v=v, contacts=tuple(contacts), raw=raw)
     use_contacts_of(moved)
     return moved
 
@@ -139,16 +144,13 @@ def _pending_surfaces(scene: Scene) -> list[bool]:
 def use_contacts_of(scene: Scene) -> None:
     """Set the scene's robot to the scene's contacts' surface points and friction, where they differ.
 
-    Scenes made by :func:`scene_with_numbers` share one robot; the one in use sets it.
+    Scenes made by :func:`scene_with_numbers` share one robot; the one in use sets it (the robot
+    then holds the scene's own contact points: the next call sees at once that they are in use).
     """
     robot = scene.robot
-    surfaces = [c.point.surface_point_in_world for c in scene.contacts]
-    if any(not np.array_equal(s, c.surface_point_in_world)
-           for s, c in zip(surfaces, robot.contacts, strict=True)):
-        robot.set_surface_points(surfaces)
-    mu = [c.mu for c in scene.contacts]
-    if mu != [c.mu for c in robot.contacts]:
-        robot.set_friction(mu)
+    points = [c.point for c in scene.contacts]
+    if any(p is not c for p, c in zip(points, robot.contacts, strict=True)):
+        robot.use_contact_points(points)
 
 
 def _set_raw_state(raw: dict[str, Any], vector: str, bare_coordinates: tuple[str, ...], name: str,
@@ -168,6 +170,7 @@ def _set_raw_mu(raw: dict[str, Any], index: int, number: float) -> None:
 
 __all__ = [
     "MU_PATH_FIELD",
+    "is_friction_path",
     "is_numeric_path",
     "numeric_syntax",
     "scene_with_numbers",

@@ -38,9 +38,17 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from ..errors import FrcontrolError
 from ..scene import Scene
-from ..scene_numbers import is_numeric_path, numeric_syntax, scene_with_numbers, use_contacts_of
+from ..scene_numbers import (
+    is_friction_path,
+    is_numeric_path,
+    numeric_syntax,
+    scene_with_numbers,
+    use_contacts_of,
+)
 from ..scene_source import SceneSource
 from .grid import AtlasPlan
 
@@ -91,13 +99,30 @@ class _Loaded:
         return known
 
 
+@dataclass(frozen=True)
+class _Made:
+    """A point made on the numeric path.
+
+    The loaded scene it was made from, its numbers (``{path: value}``), its scene and problem.
+    """
+
+    template: _Loaded
+    numbers: dict[str, Any]
+    scene: Scene
+    problem: ContactProblem
+
+
 class _Scenes:
-    """The last :data:`SCENE_CACHE_SIZE` scenes loaded (or the typed errors they raised), by overrides."""
+    """The last :data:`SCENE_CACHE_SIZE` scenes loaded (or the typed errors they raised), by overrides.
+
+    And the last point made from one of them (``last``).
+    """
 
     def __init__(self) -> None:
         self.cache: OrderedDict[tuple[SceneSource, tuple[tuple[str, str], ...]], _Loaded | FrcontrolError] = \
             OrderedDict()
         self.loads = 0
+        self.last: _Made | None = None
 
     def get(self, source: SceneSource, overrides: Mapping[str, Any]) -> _Loaded:
         """The scene with ``overrides``, loaded once (a typed error of the load raised again)."""
@@ -147,20 +172,53 @@ def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: froze
     Raises:
         FrcontrolError: the typed error of loading the scene with ``overrides``.
     """
-    from ..modes import ContactProblem
-
     numeric = {k: v for k, v in overrides.items() if k in numeric_paths}
     if numeric:
         try:
             template = _SCENES.get(plan.source, {k: v for k, v in overrides.items() if k not in numeric})
             if template.takes_numbers(frozenset(numeric)):
-                scene = scene_with_numbers(template.scene, numeric, template.bare_coordinates)
-                return scene, ContactProblem.from_scene(scene)
+                return _made_at(template, numeric)
         except FrcontrolError:
             pass  # loaded with every override below: the point's own error, as the loader words it
     loaded = _SCENES.get(plan.source, overrides)
     use_contacts_of(loaded.scene)  # a scene made from it may have set the shared robot
     return loaded.scene, loaded.problem
+
+
+def _made_at(template: _Loaded, numbers: dict[str, Any]) -> tuple[Scene, ContactProblem]:
+    """The scene and problem with ``numbers`` set on ``template``'s scene.
+
+    From the last point made, when it was made from the same scene with the same paths: only the
+    numbers that differ are set (none: the last point's scene and problem; friction alone: the
+    last problem with the new coefficients, the state's arrays unchanged); else from the template.
+
+    Raises:
+        FrcontrolError: as :func:`~frcontrol.scene_numbers.scene_with_numbers`.
+    """
+    from ..modes import ContactProblem
+
+    last = _SCENES.last
+    if last is not None and last.template is template and last.numbers.keys() == numbers.keys():
+        changed = {k: v for k, v in numbers.items() if not _same_number(v, last.numbers[k])}
+        if not changed:
+            scene, problem = last.scene, last.problem
+            use_contacts_of(scene)  # the shared robot may have been set to another scene's since
+            return scene, problem
+        scene = scene_with_numbers(last.scene, changed, template.bare_coordinates)
+        if all(is_friction_path(path) for path in changed):
+            problem = last.problem.with_friction(np.array([c.mu for c in scene.active_contacts], dtype=float))
+        else:
+            problem = ContactProblem.from_scene(scene)
+    else:
+        scene = scene_with_numbers(template.scene, numbers, template.bare_coordinates)
+        problem = ContactProblem.from_scene(scene)
+    _SCENES.last = _Made(template, numbers, scene, problem)
+    return scene, problem
+
+
+def _same_number(a: Any, b: Any) -> bool:
+    """Whether two override values are the same number, to the bit (0.0 and -0.0 differ)."""
+    return type(a) is type(b) and repr(a) == repr(b)
 
 
 def solutions_columns(scene: Scene, problem: ContactProblem, inputs: Mapping[str, float]) -> dict[str, Any]:
