@@ -173,7 +173,8 @@ def test_a_record_replaced_is_the_dataclass_replaced():
     mu = np.array([0.3])
     fast, slow = replaced(problem, mu=mu), replace(problem, mu=mu)
     _same_problem(fast, slow)
-    assert "row_table" not in fast.__dict__ and fast.row_table.valid.tobytes() == slow.row_table.valid.tobytes()
+    assert "row_table" not in fast.__dict__
+    assert fast.row_table.valid.tobytes() == slow.row_table.valid.tobytes()
     moved = replaced(scene, q=scene.q + 0.1)
     assert moved.q.tobytes() == (scene.q + 0.1).tobytes() and moved.robot is scene.robot
     with pytest.raises(InputError, match="has no field 'mus'; its fields: coordinates"):
