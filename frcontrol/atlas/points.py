@@ -36,6 +36,8 @@ import time
 from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cache
+from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -195,8 +197,7 @@ def _made_at(template: _Loaded, numbers: dict[str, Any]) -> tuple[Scene, Contact
     Raises:
         FrcontrolError: as :func:`~frcontrol.scene_numbers.scene_with_numbers`.
     """
-    from ..modes import ContactProblem
-
+    problem_from_scene = _query().problem.from_scene
     last = _SCENES.last
     if last is not None and last.template is template and last.numbers.keys() == numbers.keys():
         changed = {k: v for k, v in numbers.items() if not _same_number(v, last.numbers[k])}
@@ -208,26 +209,45 @@ def _made_at(template: _Loaded, numbers: dict[str, Any]) -> tuple[Scene, Contact
         if all(is_friction_path(path) for path in changed):
             problem = last.problem.with_friction(np.array([c.mu for c in scene.active_contacts], dtype=float))
         else:
-            problem = ContactProblem.from_scene(scene)
+            problem = problem_from_scene(scene)
     else:
         scene = scene_with_numbers(template.scene, numbers, template.bare_coordinates)
-        problem = ContactProblem.from_scene(scene)
+        problem = problem_from_scene(scene)
     _SCENES.last = _Made(template, numbers, scene, problem)
     return scene, problem
 
 
+@dataclass(frozen=True)
+class _Query:
+    """The modules a point calls, imported once (``frcontrol.atlas`` loads without them).
+
+    Their functions are looked up at each call (a profiler may wrap them).
+    """
+
+    engine: ModuleType
+    stability: ModuleType
+    problem: type[ContactProblem]
+
+
+@cache
+def _query() -> _Query:
+    from .. import engine, stability
+    from ..modes import ContactProblem
+
+    return _Query(engine, stability, ContactProblem)
+
+
 def _same_number(a: Any, b: Any) -> bool:
     """Whether two override values are the same number, to the bit (0.0 and -0.0 differ)."""
-    return type(a) is type(b) and repr(a) == repr(b)
+    return type(a) is type(b) and a == b and (a != 0 or repr(a) == repr(b))
 
 
 def solutions_columns(scene: Scene, problem: ContactProblem, inputs: Mapping[str, float]) -> dict[str, Any]:
     """``count``, ``modes``, ``stable`` and ``ambiguous`` at one input (module docstring)."""
-    from ..engine import solutions_at
-    from ..stability import classify_solutions
-
-    found = sorted(solutions_at(problem, inputs), key=lambda s: s.mode)
-    stable = [None if v.stable is None else bool(v.stable) for v in classify_solutions(problem, found)]
+    query = _query()
+    found = sorted(query.engine.solutions_at(problem, inputs), key=lambda s: s.mode)
+    verdicts = query.stability.classify_solutions(problem, found)
+    stable = [None if v.stable is None else bool(v.stable) for v in verdicts]
     between = len(found) > 1
     within = any(s.ambiguity_dim > 0 for s in found)
     return {"count": len(found), "modes": [s.mode for s in found], "stable": stable,
