@@ -102,8 +102,7 @@ def scene_with_numbers(scene: Scene, overrides: Mapping[str, Any], bare_coordina
             q, v = (target, v) if vector == "q" else (q, target)
             _set_raw_state(raw, vector, bare_coordinates, coordinate_name, number)
         elif name is not None and name in index:
-            if number < 0:
-                raise reader.fail(path, f"friction coefficient must be >= 0, got {number}")
+            _check_friction(reader, path, number)
             mu[index[name]] = number
             _set_raw_mu(raw, index[name], number)
         else:
@@ -118,6 +117,39 @@ def scene_with_numbers(scene: Scene, overrides: Mapping[str, Any], bare_coordina
     moved = replaced(scene, q=q, v=v, contacts=tuple(contacts), raw=raw)
     use_contacts_of(moved)
     return moved
+
+
+def friction_with_numbers(scene: Scene, overrides: Mapping[str, Any]) -> np.ndarray:
+    """The active contacts' Coulomb coefficients [-] with ``overrides`` set, as a problem holds them.
+
+    ``np.array([c.mu for c in active], dtype=float)`` of :func:`scene_with_numbers`'s scene, without
+    making it: friction changes no other number of the scene's problem (its state, its contacts'
+    places and activity stay).
+
+    Args:
+        scene: a scene (its own overrides applied).
+        overrides: ``{contacts.NAME.mu: number}`` only (:func:`is_friction_path`).
+
+    Raises:
+        SceneError: as :func:`scene_with_numbers`: a value that is not a finite number, a negative
+            ``mu``, a path that is not a friction override of this scene.
+    """
+    reader = _Reader(scene.path)
+    mu = {c.name: c.mu for c in scene.contacts}
+    for path, value in overrides.items():
+        number = reader.number(value, path)
+        name = _contact_mu_name(path)
+        if name is None or name not in mu:
+            raise reader.fail(path, "not a friction override of this scene (contacts.NAME.mu)")
+        _check_friction(reader, path, number)
+        mu[name] = number
+    return np.array([mu[c.name] for c in scene.contacts if c.active], dtype=float)
+
+
+def _check_friction(reader: _Reader, path: str, number: float) -> None:
+    """Refuse a negative Coulomb coefficient (the schema's rule)."""
+    if number < 0:
+        raise reader.fail(path, f"friction coefficient must be >= 0, got {number}")
 
 
 def _placed_at(reader: _Reader, scene: Scene, points: list[ContactPoint], q: np.ndarray
@@ -170,6 +202,7 @@ def _set_raw_mu(raw: dict[str, Any], index: int, number: float) -> None:
 
 __all__ = [
     "MU_PATH_FIELD",
+    "friction_with_numbers",
     "is_friction_path",
     "is_numeric_path",
     "numeric_syntax",

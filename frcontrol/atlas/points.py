@@ -40,11 +40,10 @@ from functools import cache
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from ..errors import FrcontrolError
 from ..scene import Scene
 from ..scene_numbers import (
+    friction_with_numbers,
     is_friction_path,
     is_numeric_path,
     numeric_syntax,
@@ -105,13 +104,15 @@ class _Loaded:
 class _Made:
     """A point made on the numeric path.
 
-    The loaded scene it was made from, its numbers (``{path: value}``), its scene and problem.
+    The loaded scene it was made from, its numbers (``{path: value}``), its problem, and the last
+    scene made with the numbers it was made with.
     """
 
     template: _Loaded
     numbers: dict[str, Any]
-    scene: Scene
-    problem: ContactProblem
+    scene: Scene  # made with scene_numbers (a friction change alone makes no scene)
+    scene_numbers: dict[str, Any]
+    problem: ContactProblem  # made with numbers
 
 
 class _Scenes:
@@ -164,12 +165,13 @@ def numeric_axes(plan: AtlasPlan) -> frozenset[str]:
     return frozenset(a.path for a in plan.axes if a.input_name is None and numeric_syntax(a.path))
 
 
-def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: frozenset[str] = frozenset()
-             ) -> tuple[Scene, ContactProblem]:
+def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: frozenset[str] = frozenset(),
+             *, scene_needed: bool = True) -> tuple[Scene | None, ContactProblem]:
     """The scene and its problem with a point's ``overrides`` (module docstring).
 
     ``numeric_paths``: the paths to apply to the scene loaded without them (:func:`numeric_axes`);
-    none: the scene loaded with every override.
+    none: the scene loaded with every override. ``scene_needed``: False when only the problem is
+    read (a solutions atlas): the scene may then be None (a point that changes only friction).
 
     Raises:
         FrcontrolError: the typed error of loading the scene with ``overrides``.
@@ -179,7 +181,7 @@ def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: froze
         try:
             template = _SCENES.get(plan.source, {k: v for k, v in overrides.items() if k not in numeric})
             if template.takes_numbers(frozenset(numeric)):
-                return _made_at(template, numeric)
+                return _made_at(template, numeric, scene_needed)
         except FrcontrolError:
             pass  # loaded with every override below: the point's own error, as the loader words it
     loaded = _SCENES.get(plan.source, overrides)
@@ -187,34 +189,48 @@ def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: froze
     return loaded.scene, loaded.problem
 
 
-def _made_at(template: _Loaded, numbers: dict[str, Any]) -> tuple[Scene, ContactProblem]:
-    """The scene and problem with ``numbers`` set on ``template``'s scene.
+def _made_at(template: _Loaded, numbers: dict[str, Any], scene_needed: bool
+             ) -> tuple[Scene | None, ContactProblem]:
+    """The scene (if ``scene_needed``) and the problem with ``numbers`` set on ``template``'s scene.
 
     From the last point made, when it was made from the same scene with the same paths: only the
-    numbers that differ are set (none: the last point's scene and problem; friction alone: the
-    last problem with the new coefficients, the state's arrays unchanged); else from the template.
+    numbers that differ are set. None differ: the last point's. Friction alone: the last problem
+    with the new coefficients (the state's arrays unchanged), and no scene unless one is needed
+    (the last scene is kept with its own numbers, and brought up to date when one is). Else the
+    scene from the template's.
 
     Raises:
         FrcontrolError: as :func:`~frcontrol.scene_numbers.scene_with_numbers`.
     """
     problem_from_scene = _query().problem.from_scene
     last = _SCENES.last
-    if last is not None and last.template is template and last.numbers.keys() == numbers.keys():
-        changed = {k: v for k, v in numbers.items() if not _same_number(v, last.numbers[k])}
-        if not changed:
-            scene, problem = last.scene, last.problem
-            use_contacts_of(scene)  # the shared robot may have been set to another scene's since
-            return scene, problem
-        scene = scene_with_numbers(last.scene, changed, template.bare_coordinates)
-        if all(is_friction_path(path) for path in changed):
-            problem = last.problem.with_friction(np.array([c.mu for c in scene.active_contacts], dtype=float))
-        else:
-            problem = problem_from_scene(scene)
-    else:
+    if last is None or last.template is not template or last.numbers.keys() != numbers.keys():
         scene = scene_with_numbers(template.scene, numbers, template.bare_coordinates)
-        problem = problem_from_scene(scene)
-    _SCENES.last = _Made(template, numbers, scene, problem)
-    return scene, problem
+        _SCENES.last = _Made(template, numbers, scene, numbers, problem_from_scene(scene))
+        return scene, _SCENES.last.problem
+    changed = _changed(last.numbers, numbers)
+    problem: ContactProblem | None = last.problem
+    if changed and all(is_friction_path(path) for path in changed):
+        problem = last.problem.with_friction(friction_with_numbers(
+            last.scene, {k: v for k, v in numbers.items() if is_friction_path(k)}))
+    elif changed:
+        problem = None
+    scene, scene_numbers = last.scene, last.scene_numbers
+    if problem is None or scene_needed:
+        stale = _changed(scene_numbers, numbers)
+        if stale:
+            scene, scene_numbers = scene_with_numbers(scene, stale, template.bare_coordinates), numbers
+        else:
+            use_contacts_of(scene)  # the shared robot may have been set to another scene's since
+        if problem is None:
+            problem = problem_from_scene(scene)
+    _SCENES.last = _Made(template, numbers, scene, scene_numbers, problem)
+    return (scene if scene_needed else None), problem
+
+
+def _changed(before: dict[str, Any], after: dict[str, Any]) -> dict[str, Any]:
+    """The entries of ``after`` whose number differs from ``before``'s (same keys)."""
+    return {k: v for k, v in after.items() if not _same_number(v, before[k])}
 
 
 @dataclass(frozen=True)
@@ -242,8 +258,12 @@ def _same_number(a: Any, b: Any) -> bool:
     return type(a) is type(b) and a == b and (a != 0 or repr(a) == repr(b))
 
 
-def solutions_columns(scene: Scene, problem: ContactProblem, inputs: Mapping[str, float]) -> dict[str, Any]:
-    """``count``, ``modes``, ``stable`` and ``ambiguous`` at one input (module docstring)."""
+def solutions_columns(scene: Scene | None, problem: ContactProblem, inputs: Mapping[str, float]
+                      ) -> dict[str, Any]:
+    """``count``, ``modes``, ``stable`` and ``ambiguous`` at one input (module docstring).
+
+    ``scene`` is not read (``problem`` holds the state); it may be None.
+    """
     query = _query()
     found = sorted(query.engine.solutions_at(problem, inputs), key=lambda s: s.mode)
     verdicts = query.stability.classify_solutions(problem, found)
@@ -302,6 +322,15 @@ def _climb_columns(scene: Scene) -> dict[str, Any]:
             "robustness_radius": float(plan.robustness_radius) if plan.found else None}
 
 
+def _kind_columns(what: str, scene: Scene, inputs: Mapping[str, float]) -> dict[str, Any]:
+    """The columns ``what`` adds (:data:`KIND_COLUMNS`) at one point."""
+    if what == "statics":
+        return _statics_columns(scene, inputs)
+    if what == "flip":
+        return _flip_columns(scene)
+    return _climb_columns(scene)
+
+
 def evaluate_point(plan: AtlasPlan, index: int, *, reload: bool = False,
                    numeric_paths: frozenset[str] | None = None) -> dict[str, Any]:
     """Every column of one grid point (module docstring); a typed error is recorded, not raised.
@@ -316,14 +345,12 @@ def evaluate_point(plan: AtlasPlan, index: int, *, reload: bool = False,
     elif numeric_paths is None:
         numeric_paths = numeric_axes(plan)
     try:
-        scene, problem = scene_at(plan, overrides, numeric_paths)
+        scene, problem = scene_at(plan, overrides, numeric_paths, scene_needed=plan.what != "solutions")
         row.update(solutions_columns(scene, problem, inputs))
-        if plan.what == "statics":
-            row.update(_statics_columns(scene, inputs))
-        elif plan.what == "flip":
-            row.update(_flip_columns(scene))
-        elif plan.what == "climb":
-            row.update(_climb_columns(scene))
+        if plan.what != "solutions":
+            if scene is None:
+                raise RuntimeError("scene_at made no scene where one is needed")
+            row.update(_kind_columns(plan.what, scene, inputs))
     except FrcontrolError as err:
         row = dict.fromkeys(columns(plan.what))
         row["error"] = str(err)
