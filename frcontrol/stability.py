@@ -246,7 +246,6 @@ def _stability(problem: ContactProblem, solution: RigidSolution, stiffness: floa
     mode = check_mode(problem, solution.mode)
     if (stiffness is None) != (damping is None):
         raise InputError("give both stiffness and damping (or neither) for the boundary layer's roots")
-    M = np.asarray(problem.mass_matrix, dtype=float)
     n = problem.n
     tolerances = _solution_tolerances(problem, solution, None if state is None else state.bias_scale)
     rows, cols, labels, impending, notes = _constraint_rows(problem, solution, tolerances["force"],
@@ -260,6 +259,7 @@ def _stability(problem: ContactProblem, solution: RigidSolution, stiffness: floa
                          tolerances=tolerances)
 
     J_r, J_c = np.array(rows), np.array(cols)
+    M = np.asarray(problem.mass_matrix, dtype=float)
     m_scale = max(float(np.abs(M).max()), 1e-300) if state is None else state.mass.scale
     j_scale = max(_largest_magnitude(J_r), _largest_magnitude(J_c), 1e-300)
     d_scale = j_scale**2 / m_scale
@@ -458,16 +458,14 @@ def _cholesky_solve(factor: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 def _largest_magnitude(values: np.ndarray) -> float:
     """``float(np.abs(values).max(initial=0.0))``: the largest magnitude, 0 for none, NaN if one is NaN.
 
-    In Python over the entries (a few here): the same number without NumPy's cost per call.
+    By Python's built-ins over the entries (a few here): the same number without NumPy's cost per
+    call. (The sum of the magnitudes is NaN exactly when one is.)
     """
-    largest = 0.0
-    for x in values.ravel().tolist():
-        size = abs(x)
-        if size != size:
-            return size
-        if size > largest:
-            largest = size
-    return largest
+    sizes = list(map(abs, values.ravel().tolist()))
+    total = sum(sizes)
+    if total != total:
+        return total
+    return max(sizes, default=0.0)
 
 
 def _fmt(values: Sequence[complex] | np.ndarray) -> str:
