@@ -32,8 +32,10 @@ figure of the speed targets (:data:`FIGURES`):
   (:data:`COMPLIANT_CONFIGS`); every timed answer's error is checked;
 - an atlas's grid point, as a worker computes it in a chunk (the scene loaded once, each point's
   pitch and friction set on it: :mod:`frcontrol.scene_numbers`), for a solutions atlas and a statics
-  atlas of the rod (:data:`ATLAS_FIGURE_AXES`), against the query each point is made of
-  (``solutions_at`` from scratch, and ``analyze_statics`` of the rod, a figure too): the target is
+  atlas of the rod (:data:`ATLAS_FIGURE_AXES`; points :data:`ATLAS_FIGURE_STRIDE` grid steps apart,
+  and for the solutions atlas also in the grid's order, as a chunk has them), against the query each
+  point is made of (``solutions_at`` from scratch, and ``analyze_statics`` of the rod, a figure
+  too; a point's stability verdicts are not part of the query, they are of the point): the target is
   :data:`ATLAS_TARGET_VS_QUERY` times the query's median of the same run; every timed point is
   checked against the scene loaded at that point;
 - the start-up of ``frc --help`` and ``frc show rod_on_table`` as processes.
@@ -155,6 +157,14 @@ run (``solutions_at`` from scratch for a solutions atlas, ``analyze_statics`` fo
 ATLAS_FIGURE_POINTS = 64
 """Grid points per timed sample of an atlas figure: one chunk's worth, each a different point."""
 
+ATLAS_FIGURE_STRIDE = 37
+"""Grid steps between the points of ``atlas_rod_per_point`` (and the statics one): a new friction at
+every point and a new pitch at about every third (101 frictions per pitch), distinct points."""
+
+ATLAS_CHUNK_STRIDE = 1
+"""Grid steps between the points of ``atlas_rod_chunk_per_point``: the grid's order, as a worker
+computes a chunk (the last axis, the friction, varies fastest)."""
+
 ATLAS_FIGURE_AXES = ("state.q.theta=0.1:3.0:181", "contacts.tip.mu=0:2:101")
 """The atlas figures' grid: the rod's pitch [rad] and its tip's friction [-] (with ``state.v.x = -1``)."""
 
@@ -230,6 +240,9 @@ FIGURES = (
     Figure("compliant_rod_on_table", "compliant answer to 1e-3 force error: rod on a table", 2e-3, calls=2),
     Figure("compliant_box_on_slope", "compliant answer to 1e-3 force error: box on a slope", 2e-3, calls=2),
     Figure("atlas_rod_per_point", "frc atlas, one point of a chunk: rod, pitch x friction, sliding left; "
+           f"target {ATLAS_TARGET_VS_QUERY:g}x the rod's `solutions_at`", None, calls=ATLAS_FIGURE_POINTS),
+    Figure("atlas_rod_chunk_per_point", "frc atlas, one point of a chunk in grid order (the friction new at "
+           "each point, the pitch every 101): rod, sliding left; "
            f"target {ATLAS_TARGET_VS_QUERY:g}x the rod's `solutions_at`", None, calls=ATLAS_FIGURE_POINTS),
     Figure("statics_rod_on_table", "`analyze_statics` from scratch: rod on a table (u = 0)", None, calls=4),
     Figure("atlas_statics_rod_per_point", "frc atlas --what statics, one point of a chunk: rod, pitch x "
@@ -459,9 +472,9 @@ def _startup_figure(label: str) -> tuple[Call, Check]:
     return call, check
 
 
-def _atlas_figure(what: str) -> tuple[Call, Check]:
-    """One grid point after another along the grid (the chunk path), checked against loading the
-    scene at that point."""
+def _atlas_figure(what: str, stride: int = ATLAS_FIGURE_STRIDE) -> tuple[Call, Check]:
+    """One grid point after another, ``stride`` grid steps apart (the chunk path), checked against
+    loading the scene at that point."""
     from frcontrol.atlas import build_atlas
     from frcontrol.atlas.points import evaluate_point, numeric_axes
 
@@ -470,7 +483,7 @@ def _atlas_figure(what: str) -> tuple[Call, Check]:
     points = iter(range(10**9))
 
     def call() -> Any:
-        index = next(points) * 37 % plan.size  # distinct pitches and frictions, one after another
+        index = next(points) * stride % plan.size
         return index, evaluate_point(plan, index, numeric_paths=paths)
 
     def check(answer: Any) -> None:
@@ -528,6 +541,7 @@ def build_figures() -> dict[str, tuple[Call, Check]]:
         "compliant_rod_on_table": _compliant_figure("rod_on_table"),
         "compliant_box_on_slope": _compliant_figure("box_on_slope"),
         "atlas_rod_per_point": _atlas_figure("solutions"),
+        "atlas_rod_chunk_per_point": _atlas_figure("solutions", ATLAS_CHUNK_STRIDE),
         "statics_rod_on_table": _statics_figure("rod_on_table"),
         "atlas_statics_rod_per_point": _atlas_figure("statics"),
         "startup_frc_help": _startup_figure("frc --help"),
@@ -635,8 +649,10 @@ def measure(runs: int = RUNS, progress: Callable[[str], None] | None = None) -> 
             "snake_ground_8": "as benchmarks/engine.py measures it: analyze(ambiguity=False), lazy",
             "compliant": COMPLIANT_CONFIGS,
             "atlas": f"one grid point of {', '.join(ATLAS_FIGURE_AXES)} with state.v.x = -1, computed as a "
-                     f"chunk computes it; target_s is {ATLAS_TARGET_VS_QUERY:g}x the median of its query "
-                     "(solutions_at_rod_on_table, statics_rod_on_table) of the same run",
+                     f"chunk computes it, {ATLAS_FIGURE_STRIDE} grid steps after the last (chunk: "
+                     f"{ATLAS_CHUNK_STRIDE}, the grid's order); target_s is {ATLAS_TARGET_VS_QUERY:g}x the "
+                     "median of its query (solutions_at_rod_on_table, statics_rod_on_table) of the same run; "
+                     "the point's stability verdicts are in its time, not in the query's",
             "model_assembly": f"target_s is {ASSEMBLY_TARGET_VS_BARE:g}x the bare Pinocchio calls' median "
                               "of the same run",
         },
@@ -646,6 +662,7 @@ def measure(runs: int = RUNS, progress: Callable[[str], None] | None = None) -> 
 def _relative_targets(figures: dict[str, dict[str, Any]]) -> None:
     """The atlas figures' targets: :data:`ATLAS_TARGET_VS_QUERY` times their query's median (this run)."""
     for name, query in (("atlas_rod_per_point", "solutions_at_rod_on_table"),
+                        ("atlas_rod_chunk_per_point", "solutions_at_rod_on_table"),
                         ("atlas_statics_rod_per_point", "statics_rod_on_table")):
         entry, reference = figures[name], figures[query]
         if entry["valid"] and reference["valid"]:
