@@ -660,15 +660,21 @@ def measure(runs: int = RUNS, progress: Callable[[str], None] | None = None) -> 
 
 
 def _relative_targets(figures: dict[str, dict[str, Any]]) -> None:
-    """The atlas figures' targets: :data:`ATLAS_TARGET_VS_QUERY` times their query's median (this run)."""
+    """The atlas figures' targets: :data:`ATLAS_TARGET_VS_QUERY` times their query's median (this run).
+
+    Met when the ratio of the CPU medians is at most the target (``ratio_to_query``): on a machine
+    shared with other work, a sample of 64 points waits for a core more often than the query's
+    short one, which the wall times would count against the atlas. ``target_s`` is the target in
+    the query's wall time, for the table.
+    """
     for name, query in (("atlas_rod_per_point", "solutions_at_rod_on_table"),
                         ("atlas_rod_chunk_per_point", "solutions_at_rod_on_table"),
                         ("atlas_statics_rod_per_point", "statics_rod_on_table")):
         entry, reference = figures[name], figures[query]
         if entry["valid"] and reference["valid"]:
-            entry["ratio_to_query"] = entry["median_s"] / reference["median_s"]
+            entry["ratio_to_query"] = entry["median_cpu_s"] / reference["median_cpu_s"]
             entry["target_s"] = ATLAS_TARGET_VS_QUERY * reference["median_s"]
-            entry["met"] = entry["median_s"] <= entry["target_s"]
+            entry["met"] = entry["ratio_to_query"] <= ATLAS_TARGET_VS_QUERY
 
 
 def _median_of(samples: dict[str, list[float]]) -> float | None:
@@ -775,7 +781,8 @@ def render_table(result: dict[str, Any]) -> str:
         if "ratio_to_bare_pinocchio" in entry:
             median += f" ({entry['ratio_to_bare_pinocchio']:.2g}x the bare calls)"
         if "ratio_to_query" in entry:
-            median += f" ({entry['ratio_to_query']:.2g}x the query)"
+            median += f" ({entry['ratio_to_query']:.2g}x the query in CPU time)"
+            target = f"<= {ATLAS_TARGET_VS_QUERY:g}x the query ({format_seconds(entry['target_s'])})"
         lines.append(f"| {entry['label']} | {median} | "
                      f"{entry['ratio_to_calibration']:.3g} | {target} | {met} |")
     return "\n".join(lines)
