@@ -246,7 +246,47 @@ def _stability(problem: ContactProblem, solution: RigidSolution, stiffness: floa
     mode = check_mode(problem, solution.mode)
     if (stiffness is None) != (damping is None):
         raise InputError("give both stiffness and damping (or neither) for the boundary layer's roots")
-    n = problem.n
+    held = _held_spectrum(problem, solution, state)
+    if isinstance(held, Stability):
+        return held
+    spectrum, eig_tol = held.spectrum, held.eigenvalue_tolerance
+    eigenvalues, massless = np.asarray(spectrum.eigenvalues, dtype=complex), spectrum.massless
+    if eigenvalues.size > 1:
+        eigenvalues = eigenvalues[np.argsort(eigenvalues.real, kind="stable")]
+    roots = None
+    if stiffness is not None and damping is not None:
+        roots = boundary_layer_roots(eigenvalues, stiffness, damping)
+    complex_ones = [d for d in eigenvalues.tolist() if abs(d.imag) > eig_tol and d.real > eig_tol]
+    crit = max((critical_damping(d) for d in complex_ones), default=None)
+    suffix = _notes_suffix(held.indeterminate, held.decoupled, massless, held.notes)
+    common: dict[str, Any] = {
+        "rows": held.labels, "delassus": spectrum.delassus, "indeterminate_modes": held.indeterminate,
+        "massless_eigenvalues": massless, "critical_damping": crit, "boundary_layer_roots": roots,
+        "method": spectrum.method, "tolerances": held.tolerances}
+    return _verdict(mode, eigenvalues, massless, eig_tol, roots, complex_ones, crit, stiffness, damping,
+                    suffix, common)
+
+
+@dataclass(frozen=True)
+class _Held:
+    """A solution's held rows and D's spectrum on them."""
+
+    spectrum: _Spectrum
+    eigenvalue_tolerance: float  # [1/kg]
+    labels: tuple[str, ...]
+    notes: list[str]
+    indeterminate: int
+    decoupled: int
+    tolerances: dict[str, float]
+
+
+def _held_spectrum(problem: ContactProblem, solution: RigidSolution, state: _StateTerms | None
+                   ) -> _Held | Stability:
+    """D's spectrum on the solution's held rows, or the verdict itself where it needs none.
+
+    (No row is held, a change is impending, or the spectrum cannot be found.)
+    """
+    mode = solution.mode
     tolerances = _solution_tolerances(problem, solution, None if state is None else state.bias_scale)
     rows, cols, labels, impending, notes = _constraint_rows(problem, solution, tolerances["force"],
                                                             tolerances["acceleration"])
@@ -257,7 +297,6 @@ def _stability(problem: ContactProblem, solution: RigidSolution, stiffness: floa
     if not rows:
         return Stability(mode, True, empty, "no contact is held (every contact separates): no boundary layer",
                          tolerances=tolerances)
-
     J_r, J_c = np.array(rows), np.array(cols)
     M = np.asarray(problem.mass_matrix, dtype=float)
     m_scale = max(float(np.abs(M).max()), 1e-300) if state is None else state.mass.scale
@@ -270,28 +309,12 @@ def _stability(problem: ContactProblem, solution: RigidSolution, stiffness: floa
         indeterminate, decoupled = len(rows) - rho, 0
     else:
         reduced = _reduced_rows(M, J_r, J_c, j_scale)
-        indeterminate, decoupled = len(rows) - reduced.rho, n - reduced.M.shape[0]
+        indeterminate, decoupled = len(rows) - reduced.rho, problem.n - reduced.M.shape[0]
         spectrum = _spectrum(reduced, m_scale, j_scale, d_scale)
     if spectrum.problem is not None:
         return Stability(mode, None, spectrum.eigenvalues, spectrum.problem, tuple(labels),
                          indeterminate_modes=indeterminate, method=spectrum.method, tolerances=tolerances)
-    eigenvalues, massless, delassus, method = (spectrum.eigenvalues, spectrum.massless, spectrum.delassus,
-                                               spectrum.method)
-    eigenvalues = np.asarray(eigenvalues, dtype=complex)
-    if eigenvalues.size > 1:
-        eigenvalues = eigenvalues[np.argsort(eigenvalues.real, kind="stable")]
-    roots = None
-    if stiffness is not None and damping is not None:
-        roots = boundary_layer_roots(eigenvalues, stiffness, damping)
-    complex_ones = [d for d in eigenvalues.tolist() if abs(d.imag) > eig_tol and d.real > eig_tol]
-    crit = max((critical_damping(d) for d in complex_ones), default=None)
-    suffix = _notes_suffix(indeterminate, decoupled, massless, notes)
-    common: dict[str, Any] = {
-        "rows": tuple(labels), "delassus": delassus, "indeterminate_modes": indeterminate,
-        "massless_eigenvalues": massless, "critical_damping": crit, "boundary_layer_roots": roots,
-        "method": method, "tolerances": tolerances}
-    return _verdict(mode, eigenvalues, massless, eig_tol, roots, complex_ones, crit, stiffness, damping,
-                    suffix, common)
+    return _Held(spectrum, eig_tol, tuple(labels), notes, indeterminate, decoupled, tolerances)
 
 
 def _solution_tolerances(problem: ContactProblem, solution: RigidSolution, bias_scale: float | None = None
@@ -332,13 +355,11 @@ def _verdict(mode: str, eigenvalues: np.ndarray, massless: np.ndarray, eig_tol: 
              stiffness: float | None, damping: float | None, suffix: str, common: dict[str, Any]
              ) -> Stability:
     """Stable, unstable or not analysable, from D's spectrum (and the boundary layer's roots)."""
-    values = eigenvalues.tolist()  # Python's complex numbers: the same values, compared faster
-    negative = [d for d in values if d.real < -eig_tol] + [c for c in massless if c.real < 0]
+    negative, zero = _signs(eigenvalues, massless, eig_tol)
     if negative:
         return Stability(mode, False, eigenvalues,
                          f"unstable: D has eigenvalue(s) with negative real part {_fmt(negative)}: the "
                          "boundary layer diverges, the compliant solution leaves this one" + suffix, **common)
-    zero = [d for d in values if abs(d.real) <= eig_tol]
     if zero:
         return Stability(mode, None, eigenvalues,
                          f"D has eigenvalue(s) with zero real part {_fmt(zero)}: not analysable" + suffix,
@@ -351,6 +372,16 @@ def _verdict(mode: str, eigenvalues: np.ndarray, massless: np.ndarray, eig_tol: 
     if complex_ones:
         reason += f" (complex ones need damping b^2/k >= {crit:.4g} kg)"
     return Stability(mode, True, eigenvalues, reason + suffix, **common)
+
+
+def _signs(eigenvalues: np.ndarray, massless: np.ndarray, eig_tol: float) -> tuple[list[Any], list[Any]]:
+    """The eigenvalues of D with a negative real part, and those with a zero one (within ``eig_tol``).
+
+    The first list also holds the massless directions' negative leading coefficients.
+    """
+    values = eigenvalues.tolist()  # Python's complex numbers: the same values, compared faster
+    negative = [d for d in values if d.real < -eig_tol] + [c for c in massless if c.real < 0]
+    return negative, [d for d in values if abs(d.real) <= eig_tol]
 
 
 @dataclass(frozen=True)
@@ -514,6 +545,30 @@ class _StateTerms:
 _MASS_TERMS: dict[tuple[tuple[int, ...], bytes], _MassTerms] = {}
 
 
+def stable_verdicts(problem: ContactProblem, solutions: Sequence[RigidSolution]) -> list[bool | None]:
+    """``stability_of(problem, s).stable`` for each solution, without the reasons' words.
+
+    :func:`classify_solutions`'s path up to D's spectrum, then only the signs of its eigenvalues:
+    true (stable), false (unstable) or None (not analysable), as :class:`Stability` has them (with no
+    stiffness and damping given).
+
+    Raises:
+        InputError: as :func:`stability_of`.
+    """
+    state = _state_terms(problem)
+    verdicts: list[bool | None] = []
+    for solution in solutions:
+        check_mode(problem, solution.mode)
+        held = _held_spectrum(problem, solution, state)
+        if isinstance(held, Stability):
+            verdicts.append(held.stable)
+            continue
+        negative, zero = _signs(np.asarray(held.spectrum.eigenvalues, dtype=complex), held.spectrum.massless,
+                                held.eigenvalue_tolerance)
+        verdicts.append(False if negative else None if zero else True)
+    return verdicts
+
+
 def _state_terms(problem: ContactProblem) -> _StateTerms:
     M = np.asarray(problem.mass_matrix, dtype=float)
     key = (M.shape, M.tobytes())
@@ -592,4 +647,5 @@ __all__ = [
     "critical_damping",
     "solution_report",
     "stability_of",
+    "stable_verdicts",
 ]

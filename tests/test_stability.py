@@ -14,7 +14,13 @@ from frcontrol.errors import InputError
 from frcontrol.modes import ContactProblem
 from frcontrol.scene import load_scene, shipped_scene_names
 from frcontrol.simulation.compliant import simulate_compliant
-from frcontrol.stability import boundary_layer_roots, classify_solutions, critical_damping, stability_of
+from frcontrol.stability import (
+    boundary_layer_roots,
+    classify_solutions,
+    critical_damping,
+    stability_of,
+    stable_verdicts,
+)
 
 G = 9.81
 THETA, MU, LAM = 2.0, 1.4, 10.0  # Painleve's rod: 1 m, 1 kg, I = 1/12 kg m^2
@@ -283,6 +289,8 @@ def _verdicts_both_ways(problem, solutions, **kwargs):
     fast = classify_solutions(problem, solutions, **kwargs)
     for verdict, solution in zip(fast, solutions, strict=True):
         _same_stability(verdict, stability_of(problem, solution, **kwargs))
+    if not kwargs:  # the verdicts alone (no stiffness and damping: an atlas's)
+        assert stable_verdicts(problem, solutions) == [v.stable for v in fast]
     return fast
 
 
@@ -307,11 +315,11 @@ def test_classify_solutions_is_stability_of_on_every_shipped_scene(name):
     assert held or not scene.active_indices
 
 
-def test_classify_solutions_is_stability_of_along_the_rods_pitch_and_friction():
+def test_classify_solutions_is_stability_of_along_the_rods_pitch_and_friction(write_scene):
     # the rod sliding both ways over pitches and frictions: one held row (L, R: D is 1 x 1), two
     # (F), none (S), and the boundary layer's roots for a given stiffness and damping
     scene = load_scene("rod_on_table")
-    rows_held = set()
+    rows_held, verdicts = set(), set()
     for theta in np.linspace(0.1, 3.0, 13):
         q = np.array([0.0, 0.5 * math.sin(theta), theta])
         for mu in (0.0, 0.3, 1.4):
@@ -319,9 +327,15 @@ def test_classify_solutions_is_stability_of_along_the_rods_pitch_and_friction():
                 problem = replace(ContactProblem.from_scene(scene, q, np.array(v)), mu=np.array([mu]))
                 for u in (np.zeros(3), np.array([0.0, -20.0, 0.0]), np.array([3.0, 5.0, -1.0])):
                     found = solutions_at(problem, u)
-                    rows_held |= {len(s.rows) for s in _verdicts_both_ways(problem, found)}
+                    checked = _verdicts_both_ways(problem, found)
+                    rows_held |= {len(s.rows) for s in checked}
+                    verdicts |= {s.stable for s in checked}
                     _verdicts_both_ways(problem, found, stiffness=1e4, damping=20.0)
+    for sliding in (1.0, -1.0):  # Painleve's rod: sliding R is unstable here, L stable
+        _, problem, _, u = painleve_rod(write_scene, sliding)
+        verdicts |= {s.stable for s in _verdicts_both_ways(problem, solutions_at(problem, u))}
     assert rows_held == {0, 1, 2}
+    assert {True, False} <= verdicts
 
 
 def test_classify_solutions_is_stability_of_with_a_massless_leg():

@@ -4,9 +4,9 @@ At every point, whatever ``what`` is (the same columns for every kind):
 
 - ``count``: the number of rigid-body solutions at the point's inputs (``solutions_at``);
 - ``modes``: their modes, sorted;
-- ``stable``: each one's stability under compliance (:func:`frcontrol.stability.stability_of`, as
-  :func:`~frcontrol.stability.classify_solutions` finds it: the state's work once), in the order of
-  ``modes``: true, false, or null (not analysable);
+- ``stable``: each one's stability under compliance (:func:`frcontrol.stability.stability_of`'s
+  verdict, as :func:`~frcontrol.stability.stable_verdicts` finds it: the state's work once), in the
+  order of ``modes``: true, false, or null (not analysable);
 - ``ambiguous``: ``"none"``, ``"between"`` (more than one solution: between modes), ``"within"``
   (one solution whose mode has ambiguity variables, ``ambiguity_dim > 0``) or ``"both"``
   (several solutions, one of them with ambiguity variables);
@@ -266,8 +266,7 @@ def solutions_columns(scene: Scene | None, problem: ContactProblem, inputs: Mapp
     """
     query = _query()
     found = sorted(query.engine.solutions_at(problem, inputs), key=lambda s: s.mode)
-    verdicts = query.stability.classify_solutions(problem, found)
-    stable = [None if v.stable is None else bool(v.stable) for v in verdicts]
+    stable = [None if v is None else bool(v) for v in query.stability.stable_verdicts(problem, found)]
     between = len(found) > 1
     within = any(s.ambiguity_dim > 0 for s in found)
     return {"count": len(found), "modes": [s.mode for s in found], "stable": stable,
