@@ -21,7 +21,9 @@ A worker loads the scene once per distinct set of the overrides that change its 
 keeps the last few), and applies the ones that change only numbers to that loaded scene
 (:mod:`frcontrol.scene_numbers`): an axis ``state.q.NAME``, ``state.v.NAME`` or
 ``contacts.NAME.mu`` moves the state (the contacts placed again as the loader places them) or sets
-a friction coefficient, and ``input.NAME`` changes only the input. Every other axis (gravity, a
+a friction coefficient, and ``input.NAME`` changes only the input. Each point is made from the
+last one where it can: only the numbers that changed are set, and a change of friction alone sets
+the problem's coefficients (a solutions atlas then makes no scene for the point). Every other axis (gravity, a
 mass, a locked joint's angle, a contact's geometry) loads the scene at each of its values, and so
 does a point the numeric path refuses (a penetrating contact, a scene that does not load without
 the point's values): that point is loaded with all its overrides, exactly as before, so its error
