@@ -300,12 +300,13 @@ def _held_spectrum(problem: ContactProblem, solution: RigidSolution, state: _Sta
     J_r, J_c = np.array(rows), np.array(cols)
     M = np.asarray(problem.mass_matrix, dtype=float)
     m_scale = max(float(np.abs(M).max()), 1e-300) if state is None else state.mass.scale
-    j_scale = max(_largest_magnitude(J_r), _largest_magnitude(J_c), 1e-300)
+    j_r_size = _largest_magnitude(J_r)
+    j_scale = max(j_r_size, _largest_magnitude(J_c), 1e-300)
     d_scale = j_scale**2 / m_scale
     eig_tol = EIGENVALUE_TOLERANCE * d_scale
     tolerances["eigenvalue"] = eig_tol
     if state is not None and state.mass.factor is not None:
-        spectrum, rho = _factored_spectrum(state.mass.factor, J_r, J_c, j_scale)
+        spectrum, rho = _factored_spectrum(state.mass.factor, J_r, J_c, j_scale, j_r_size)
         indeterminate, decoupled = len(rows) - rho, 0
     else:
         reduced = _reduced_rows(M, J_r, J_c, j_scale)
@@ -326,10 +327,8 @@ def _solution_tolerances(problem: ContactProblem, solution: RigidSolution, bias_
     """
     if bias_scale is None:
         bias_scale = _bias_scale(problem)
-    force_scale = max(1.0, _largest_magnitude(solution.lambda_n), _largest_magnitude(solution.lambda_t),
-                      bias_scale)
-    accel_scale = max(1.0, _largest_magnitude(solution.dv), _largest_magnitude(solution.a_n),
-                      _largest_magnitude(solution.a_t))
+    force_scale = max(_scale_of((solution.lambda_n, solution.lambda_t)), bias_scale)
+    accel_scale = _scale_of((solution.dv, solution.a_n, solution.a_t))
     return {"force": FORCE_TOLERANCE * force_scale, "acceleration": ACCELERATION_TOLERANCE * accel_scale,
             "rank": RANK_TOLERANCE, "finite": FINITE_TOLERANCE}
 
@@ -486,6 +485,24 @@ def _cholesky_solve(factor: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return x
 
 
+def _scale_of(arrays: Sequence[np.ndarray]) -> float:
+    """``max(1.0, *(_largest_magnitude(a) for a in arrays))``, as Python's ``max`` has it.
+
+    An array with a NaN (its largest magnitude is NaN) is passed over, as ``max`` passes over a NaN
+    after its first argument. Without a NaN, the largest magnitude of them all, in one pass.
+    """
+    sizes = list(map(abs, [x for values in arrays for x in values.ravel().tolist()]))
+    total = sum(sizes)
+    if total == total:
+        return max(1.0, max(sizes, default=0.0))
+    scale = 1.0
+    for values in arrays:
+        largest = _largest_magnitude(values)
+        if largest > scale:
+            scale = largest
+    return scale
+
+
 def _largest_magnitude(values: np.ndarray) -> float:
     """``float(np.abs(values).max(initial=0.0))``: the largest magnitude, 0 for none, NaN if one is NaN.
 
@@ -601,15 +618,15 @@ def _bias_scale(problem: ContactProblem) -> float:
     return _largest_magnitude(problem.bias)
 
 
-def _factored_spectrum(factor: np.ndarray, J_r: np.ndarray, J_c: np.ndarray, j_scale: float
-                       ) -> tuple[_Spectrum, int]:
-    """_spectrum's Cholesky branch on M's ``factor``, and the rank of J_r.
+def _factored_spectrum(factor: np.ndarray, J_r: np.ndarray, J_c: np.ndarray, j_scale: float,
+                       j_r_size: float) -> tuple[_Spectrum, int]:
+    """_spectrum's Cholesky branch on M's ``factor``, and the rank of J_r (``j_r_size``: max |J_r|).
 
     One row of J_r that is not zero has rank 1 and U = [+-1] (the SVD's): D = J_r X and its
     eigenvalue are then D itself (the sign cancels exactly), unless D is 0 (its sign could differ)
     or outside :data:`UNSCALED_EIGENVALUE_RANGE`.
     """
-    if J_r.shape[0] == 1 and _largest_magnitude(J_r) > RANK_TOLERANCE * j_scale:
+    if J_r.shape[0] == 1 and j_r_size > RANK_TOLERANCE * j_scale:
         delassus = J_r @ _cholesky_solve(factor, J_c.T)
         d = abs(float(delassus[0, 0]))
         if UNSCALED_EIGENVALUE_RANGE[0] < d < UNSCALED_EIGENVALUE_RANGE[1]:

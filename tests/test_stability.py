@@ -342,3 +342,20 @@ def test_classify_solutions_is_stability_of_with_a_massless_leg():
     for phi, v_t in ((0.3, 0.0), (0.3, 1.0), (1.2, -1.0)):
         problem = massless_leg_problem(phi, v_t)
         _verdicts_both_ways(problem, solutions_at(problem, np.zeros(problem.m)))
+
+
+def test_the_scales_of_the_tolerances_are_numpys_and_pythons_max():
+    # the largest magnitude as NumPy's abs().max(initial=0), and the scale as Python's max(1, ...)
+    # over them (an array with a NaN passed over), on NaN, infinities, signed zeros and empties
+    import itertools
+
+    from frcontrol.stability import _largest_magnitude, _scale_of
+
+    rng = np.random.default_rng(0)
+    arrays = [np.zeros(0), np.array([-0.0]), np.array([0.3]), np.array([-3.0, 2.0]),
+              np.array([np.nan, 5.0]), np.array([5.0, np.nan]), np.array([np.inf]),
+              np.array([-np.inf, 2.0]), rng.normal(size=(2, 3)) * 10]
+    for values in arrays:
+        assert repr(_largest_magnitude(values)) == repr(float(np.abs(values).max(initial=0.0)))
+    for combo in itertools.product(arrays, repeat=3):
+        assert repr(_scale_of(combo)) == repr(max(1.0, *(_largest_magnitude(a) for a in combo)))
