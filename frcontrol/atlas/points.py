@@ -106,11 +106,14 @@ class _Loaded:
 class _Made:
     """A point made on the numeric path.
 
-    The loaded scene it was made from, its numbers (``{path: value}``), its problem, and the last
-    scene made with the numbers it was made with.
+    The source and loaded scene it was made from (with the overrides that were not numbers), its
+    numbers (``{path: value}``), its problem, and the last scene made with the numbers it was made
+    with.
     """
 
+    source: SceneSource
     template: _Loaded
+    structural: dict[str, Any]  # the overrides template was loaded with
     numbers: dict[str, Any]
     scene: Scene  # made with scene_numbers (a friction change alone makes no scene)
     scene_numbers: dict[str, Any]
@@ -143,6 +146,14 @@ class _Scenes:
         if isinstance(entry, FrcontrolError):
             raise entry.with_traceback(None)
         return entry
+
+    def template(self, source: SceneSource, overrides: dict[str, Any]) -> _Loaded:
+        """:meth:`get`, or at once the last point's loaded scene when it has these overrides."""
+        last = self.last
+        if last is not None and last.source == source and last.structural.keys() == overrides.keys() \
+                and not _changed(last.structural, overrides):
+            return last.template
+        return self.get(source, overrides)
 
     def _load(self, source: SceneSource, overrides: Mapping[str, Any]) -> _Loaded | FrcontrolError:
         from ..model import PlanarRobot
@@ -181,9 +192,10 @@ def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: froze
     numeric = {k: v for k, v in overrides.items() if k in numeric_paths}
     if numeric:
         try:
-            template = _SCENES.get(plan.source, {k: v for k, v in overrides.items() if k not in numeric})
+            structural = {k: v for k, v in overrides.items() if k not in numeric}
+            template = _SCENES.template(plan.source, structural)
             if template.takes_numbers(frozenset(numeric)):
-                return _made_at(template, numeric, scene_needed)
+                return _made_at(plan.source, template, structural, numeric, scene_needed)
         except FrcontrolError:
             pass  # loaded with every override below: the point's own error, as the loader words it
     loaded = _SCENES.get(plan.source, overrides)
@@ -191,9 +203,11 @@ def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: froze
     return loaded.scene, loaded.problem
 
 
-def _made_at(template: _Loaded, numbers: dict[str, Any], scene_needed: bool
-             ) -> tuple[Scene | None, ContactProblem]:
+def _made_at(source: SceneSource, template: _Loaded, structural: dict[str, Any], numbers: dict[str, Any],
+             scene_needed: bool) -> tuple[Scene | None, ContactProblem]:
     """The scene (if ``scene_needed``) and the problem with ``numbers`` set on ``template``'s scene.
+
+    ``structural``: the overrides ``template`` was loaded with (from ``source``).
 
     From the last point made, when it was made from the same scene with the same paths: only the
     numbers that differ are set. None differ: the last point's. Friction alone: the last problem
@@ -208,7 +222,7 @@ def _made_at(template: _Loaded, numbers: dict[str, Any], scene_needed: bool
     last = _SCENES.last
     if last is None or last.template is not template or last.numbers.keys() != numbers.keys():
         scene = scene_with_numbers(template.scene, numbers, template.bare_coordinates)
-        _SCENES.last = _Made(template, numbers, scene, numbers, problem_from_scene(scene))
+        _SCENES.last = _Made(source, template, structural, numbers, scene, numbers, problem_from_scene(scene))
         return scene, _SCENES.last.problem
     changed = _changed(last.numbers, numbers)
     problem: ContactProblem | None = last.problem
@@ -226,7 +240,7 @@ def _made_at(template: _Loaded, numbers: dict[str, Any], scene_needed: bool
             use_contacts_of(scene)  # the shared robot may have been set to another scene's since
         if problem is None:
             problem = problem_from_scene(scene)
-    _SCENES.last = _Made(template, numbers, scene, scene_numbers, problem)
+    _SCENES.last = _Made(source, template, structural, numbers, scene, scene_numbers, problem)
     return (scene if scene_needed else None), problem
 
 
