@@ -781,7 +781,7 @@ def render_table(result: dict[str, Any]) -> str:
         if "ratio_to_bare_pinocchio" in entry:
             median += f" ({entry['ratio_to_bare_pinocchio']:.2g}x the bare calls)"
         if "ratio_to_query" in entry:
-            median += f" ({entry['ratio_to_query']:.2g}x the query in CPU time)"
+            median += f" ({entry['ratio_to_query']:.3g}x the query in CPU time)"
             target = f"<= {ATLAS_TARGET_VS_QUERY:g}x the query ({format_seconds(entry['target_s'])})"
         lines.append(f"| {entry['label']} | {median} | "
                      f"{entry['ratio_to_calibration']:.3g} | {target} | {met} |")
