@@ -62,50 +62,85 @@ def per_point_cost(runs: int, sample: int) -> dict:
     In each run, one after another on the same points: the chunk path (the scene loaded once, each
     point's pitch and friction set on it), the scene loaded at every point (``reload=True``, the
     path before), ``solutions_at`` from scratch on the point's scene (loaded beforehand, not timed),
-    and the calibration workload of ``benchmarks.ci``; the ratios are per run, then their median.
+    the same with each solution's stability (``classify_solutions``: what a point computes), the
+    chunk path on as many points in the grid's order (as a worker computes a chunk: a new pitch
+    every 101 points), and the calibration workload of ``benchmarks.ci``; the ratios are per run,
+    then their median.
     """
-    import frcontrol
     from benchmarks.ci import calibration_workload
     from frcontrol.atlas.points import numeric_axes
 
     plan = build_atlas("rod_on_table", axes(181, 101), overrides=SETS)
     paths = numeric_axes(plan)
     rng = np.random.default_rng(7)
-    parts: dict[str, list[float]] = {"chunk": [], "reload": [], "solutions_at": [], "calibration": []}
+    parts: dict[str, list[float]] = {"chunk": [], "reload": [], "solutions_at": [], "with_stability": [],
+                                     "grid_order": [], "calibration": []}
     for _ in range(runs):
         points = [int(k) for k in rng.choice(plan.size, size=sample, replace=False)]
         scenes = [(plan.source.load(plan.point(k)[0]), plan.point(k)[1]) for k in points[: sample // 4]]
-        start = time.process_time()
-        for k in points:
-            evaluate_point(plan, k, numeric_paths=paths)
-        parts["chunk"].append((time.process_time() - start) / sample)
-        start = time.process_time()
-        for k in points[: sample // 4]:
-            evaluate_point(plan, k, reload=True)
-        parts["reload"].append((time.process_time() - start) / (sample // 4))
-        start = time.process_time()
-        for scene, inputs in scenes:
-            frcontrol.solutions_at(scene, inputs)
-        parts["solutions_at"].append((time.process_time() - start) / len(scenes))
+        first = int(rng.integers(plan.size - sample))
+        timed = _timed_parts(plan, paths, points, scenes, range(first, first + sample))
+        for name, seconds in timed.items():
+            parts[name].append(seconds)
         start = time.process_time()
         calibration_workload()
         parts["calibration"].append(time.process_time() - start)
-    ratio = [c / q for c, q in zip(parts["chunk"], parts["solutions_at"], strict=True)]
-    cal = [c / w for c, w in zip(parts["chunk"], parts["calibration"], strict=True)]
+    def ratios(a: str, b: str) -> float:
+        return statistics.median([x / y for x, y in zip(parts[a], parts[b], strict=True)])
+
     return {"sample_points": sample, "runs": runs, "clock": "CPU time of this process",
             "per_point_s": statistics.median(parts["chunk"]),
             "reload_per_point_s": statistics.median(parts["reload"]),
+            "grid_order_per_point_s": statistics.median(parts["grid_order"]),
             "solutions_at_s": statistics.median(parts["solutions_at"]),
+            "solutions_and_stability_s": statistics.median(parts["with_stability"]),
             "calibration_s": statistics.median(parts["calibration"]),
-            "ratio_to_solutions_at": statistics.median(ratio), "ratio_to_calibration": statistics.median(cal),
-            "speedup_over_reload": statistics.median(
-                [r / c for r, c in zip(parts["reload"], parts["chunk"], strict=True)])}
+            "ratio_to_solutions_at": ratios("chunk", "solutions_at"),
+            "grid_order_ratio_to_solutions_at": ratios("grid_order", "solutions_at"),
+            "ratio_to_solutions_and_stability": ratios("chunk", "with_stability"),
+            "ratio_to_calibration": ratios("chunk", "calibration"),
+            "speedup_over_reload": ratios("reload", "chunk")}
+
+
+def _timed_parts(plan, paths, points, scenes, in_order) -> dict[str, float]:
+    """CPU seconds per point of each path of :func:`per_point_cost`, in one run."""
+    import frcontrol
+    from frcontrol.modes import ContactProblem
+    from frcontrol.stability import classify_solutions
+
+    out = {}
+    start = time.process_time()
+    for k in points:
+        evaluate_point(plan, k, numeric_paths=paths)
+    out["chunk"] = (time.process_time() - start) / len(points)
+    start = time.process_time()
+    for k in points[: len(scenes)]:
+        evaluate_point(plan, k, reload=True)
+    out["reload"] = (time.process_time() - start) / len(scenes)
+    start = time.process_time()
+    for scene, inputs in scenes:
+        frcontrol.solutions_at(scene, inputs)
+    out["solutions_at"] = (time.process_time() - start) / len(scenes)
+    start = time.process_time()
+    for scene, inputs in scenes:
+        problem = ContactProblem.from_scene(scene)
+        classify_solutions(problem, frcontrol.solutions_at(problem, inputs))
+    out["with_stability"] = (time.process_time() - start) / len(scenes)
+    start = time.process_time()
+    for k in in_order:
+        evaluate_point(plan, k, numeric_paths=paths)
+    out["grid_order"] = (time.process_time() - start) / len(in_order)
+    return out
 
 
 def per_point_line(cost: dict) -> str:
     return (f"per point: {1e6 * cost['per_point_s']:.0f} us of CPU ({cost['ratio_to_solutions_at']:.2f}x "
-            f"solutions_at's {1e6 * cost['solutions_at_s']:.0f} us, {cost['ratio_to_calibration']:.4f}x the "
-            f"calibration's {1e3 * cost['calibration_s']:.2f} ms); loading the scene at every point "
+            f"solutions_at's {1e6 * cost['solutions_at_s']:.0f} us, "
+            f"{cost['ratio_to_solutions_and_stability']:.2f}x solutions_at with each solution's stability "
+            f"{1e6 * cost['solutions_and_stability_s']:.0f} us, {cost['ratio_to_calibration']:.4f}x the "
+            f"calibration's {1e3 * cost['calibration_s']:.2f} ms); in the grid's order "
+            f"{1e6 * cost['grid_order_per_point_s']:.0f} us ({cost['grid_order_ratio_to_solutions_at']:.2f}x "
+            f"solutions_at); loading the scene at every point "
             f"{1e6 * cost['reload_per_point_s']:.0f} us ({cost['speedup_over_reload']:.1f}x slower)")
 
 

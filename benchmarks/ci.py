@@ -32,8 +32,10 @@ figure of the speed targets (:data:`FIGURES`):
   (:data:`COMPLIANT_CONFIGS`); every timed answer's error is checked;
 - an atlas's grid point, as a worker computes it in a chunk (the scene loaded once, each point's
   pitch and friction set on it: :mod:`frcontrol.scene_numbers`), for a solutions atlas and a statics
-  atlas of the rod (:data:`ATLAS_FIGURE_AXES`), against the query each point is made of
-  (``solutions_at`` from scratch, and ``analyze_statics`` of the rod, a figure too): the target is
+  atlas of the rod (:data:`ATLAS_FIGURE_AXES`; points :data:`ATLAS_FIGURE_STRIDE` grid steps apart,
+  and for the solutions atlas also in the grid's order, as a chunk has them), against the query each
+  point is made of (``solutions_at`` from scratch, and ``analyze_statics`` of the rod, a figure
+  too; a point's stability verdicts are not part of the query, they are of the point): the target is
   :data:`ATLAS_TARGET_VS_QUERY` times the query's median of the same run; every timed point is
   checked against the scene loaded at that point;
 - the rigid simulation of the pumping flip (``rhex_flip_drives``, 3 s) and of the seed's flip
@@ -167,6 +169,14 @@ SIMULATED_SECONDS: dict[str, float] = {}
 ATLAS_FIGURE_POINTS = 64
 """Grid points per timed sample of an atlas figure: one chunk's worth, each a different point."""
 
+ATLAS_FIGURE_STRIDE = 37
+"""Grid steps between the points of ``atlas_rod_per_point`` (and the statics one): a new friction at
+every point and a new pitch at about every third (101 frictions per pitch), distinct points."""
+
+ATLAS_CHUNK_STRIDE = 1
+"""Grid steps between the points of ``atlas_rod_chunk_per_point``: the grid's order, as a worker
+computes a chunk (the last axis, the friction, varies fastest)."""
+
 ATLAS_FIGURE_AXES = ("state.q.theta=0.1:3.0:181", "contacts.tip.mu=0:2:101")
 """The atlas figures' grid: the rod's pitch [rad] and its tip's friction [-] (with ``state.v.x = -1``)."""
 
@@ -242,6 +252,9 @@ FIGURES = (
     Figure("compliant_rod_on_table", "compliant answer to 1e-3 force error: rod on a table", 2e-3, calls=2),
     Figure("compliant_box_on_slope", "compliant answer to 1e-3 force error: box on a slope", 2e-3, calls=2),
     Figure("atlas_rod_per_point", "frc atlas, one point of a chunk: rod, pitch x friction, sliding left; "
+           f"target {ATLAS_TARGET_VS_QUERY:g}x the rod's `solutions_at`", None, calls=ATLAS_FIGURE_POINTS),
+    Figure("atlas_rod_chunk_per_point", "frc atlas, one point of a chunk in grid order (the friction new at "
+           "each point, the pitch every 101): rod, sliding left; "
            f"target {ATLAS_TARGET_VS_QUERY:g}x the rod's `solutions_at`", None, calls=ATLAS_FIGURE_POINTS),
     Figure("statics_rod_on_table", "`analyze_statics` from scratch: rod on a table (u = 0)", None, calls=4),
     Figure("atlas_statics_rod_per_point", "frc atlas --what statics, one point of a chunk: rod, pitch x "
@@ -485,9 +498,9 @@ def _startup_figure(label: str) -> tuple[Call, Check]:
     return call, check
 
 
-def _atlas_figure(what: str) -> tuple[Call, Check]:
-    """One grid point after another along the grid (the chunk path), checked against loading the
-    scene at that point."""
+def _atlas_figure(what: str, stride: int = ATLAS_FIGURE_STRIDE) -> tuple[Call, Check]:
+    """One grid point after another, ``stride`` grid steps apart (the chunk path), checked against
+    loading the scene at that point."""
     from frcontrol.atlas import build_atlas
     from frcontrol.atlas.points import evaluate_point, numeric_axes
 
@@ -496,7 +509,7 @@ def _atlas_figure(what: str) -> tuple[Call, Check]:
     points = iter(range(10**9))
 
     def call() -> Any:
-        index = next(points) * 37 % plan.size  # distinct pitches and frictions, one after another
+        index = next(points) * stride % plan.size
         return index, evaluate_point(plan, index, numeric_paths=paths)
 
     def check(answer: Any) -> None:
@@ -554,6 +567,7 @@ def build_figures() -> dict[str, tuple[Call, Check]]:
         "compliant_rod_on_table": _compliant_figure("rod_on_table"),
         "compliant_box_on_slope": _compliant_figure("box_on_slope"),
         "atlas_rod_per_point": _atlas_figure("solutions"),
+        "atlas_rod_chunk_per_point": _atlas_figure("solutions", ATLAS_CHUNK_STRIDE),
         "statics_rod_on_table": _statics_figure("rod_on_table"),
         "atlas_statics_rod_per_point": _atlas_figure("statics"),
         "simulation_rigid_pump": _simulation_figure("simulation_rigid_pump"),
@@ -663,8 +677,10 @@ def measure(runs: int = RUNS, progress: Callable[[str], None] | None = None) -> 
             "snake_ground_8": "as benchmarks/engine.py measures it: analyze(ambiguity=False), lazy",
             "compliant": COMPLIANT_CONFIGS,
             "atlas": f"one grid point of {', '.join(ATLAS_FIGURE_AXES)} with state.v.x = -1, computed as a "
-                     f"chunk computes it; target_s is {ATLAS_TARGET_VS_QUERY:g}x the median of its query "
-                     "(solutions_at_rod_on_table, statics_rod_on_table) of the same run",
+                     f"chunk computes it, {ATLAS_FIGURE_STRIDE} grid steps after the last (chunk: "
+                     f"{ATLAS_CHUNK_STRIDE}, the grid's order); target_s is {ATLAS_TARGET_VS_QUERY:g}x the "
+                     "median of its query (solutions_at_rod_on_table, statics_rod_on_table) of the same run; "
+                     "the point's stability verdicts are in its time, not in the query's",
             "model_assembly": f"target_s is {ASSEMBLY_TARGET_VS_BARE:g}x the bare Pinocchio calls' median "
                               "of the same run",
         },
@@ -673,7 +689,13 @@ def measure(runs: int = RUNS, progress: Callable[[str], None] | None = None) -> 
 
 def _relative_targets(figures: dict[str, dict[str, Any]]) -> None:
     """The atlas figures' targets: :data:`ATLAS_TARGET_VS_QUERY` times their query's median (this run);
-    the simulation figures': their simulated time over :data:`SIMULATION_TARGET_REAL_TIME`."""
+    the simulation figures': their simulated time over :data:`SIMULATION_TARGET_REAL_TIME`.
+
+    Met when the ratio of the CPU medians is at most the target (``ratio_to_query``): on a machine
+    shared with other work, a sample of 64 points waits for a core more often than the query's
+    short one, which the wall times would count against the atlas. ``target_s`` is the target in
+    the query's wall time, for the table.
+    """
     for name, simulated in SIMULATED_SECONDS.items():
         entry = figures[name]
         if entry["valid"]:
@@ -682,12 +704,13 @@ def _relative_targets(figures: dict[str, dict[str, Any]]) -> None:
             entry["target_s"] = simulated / SIMULATION_TARGET_REAL_TIME
             entry["met"] = entry["median_s"] <= entry["target_s"]
     for name, query in (("atlas_rod_per_point", "solutions_at_rod_on_table"),
+                        ("atlas_rod_chunk_per_point", "solutions_at_rod_on_table"),
                         ("atlas_statics_rod_per_point", "statics_rod_on_table")):
         entry, reference = figures[name], figures[query]
         if entry["valid"] and reference["valid"]:
-            entry["ratio_to_query"] = entry["median_s"] / reference["median_s"]
+            entry["ratio_to_query"] = entry["median_cpu_s"] / reference["median_cpu_s"]
             entry["target_s"] = ATLAS_TARGET_VS_QUERY * reference["median_s"]
-            entry["met"] = entry["median_s"] <= entry["target_s"]
+            entry["met"] = entry["ratio_to_query"] <= ATLAS_TARGET_VS_QUERY
 
 
 def _median_of(samples: dict[str, list[float]]) -> float | None:
@@ -794,7 +817,8 @@ def render_table(result: dict[str, Any]) -> str:
         if "ratio_to_bare_pinocchio" in entry:
             median += f" ({entry['ratio_to_bare_pinocchio']:.2g}x the bare calls)"
         if "ratio_to_query" in entry:
-            median += f" ({entry['ratio_to_query']:.2g}x the query)"
+            median += f" ({entry['ratio_to_query']:.3g}x the query in CPU time)"
+            target = f"<= {ATLAS_TARGET_VS_QUERY:g}x the query ({format_seconds(entry['target_s'])})"
         lines.append(f"| {entry['label']} | {median} | "
                      f"{entry['ratio_to_calibration']:.3g} | {target} | {met} |")
     return "\n".join(lines)

@@ -28,7 +28,7 @@ domains                 ``ModeAnalysis.domain``: D_c in minimal form
 projection              ``ModeAnalysis.input_domain``: T_c, the projection onto the inputs
 overlaps                the pairs of modes whose T_c meet (``analyze(..., ambiguity=True)``)
 solutions               ``solutions_at`` (atlas only)
-stability               ``stability_of`` (atlas only)
+stability               ``stability_of``, ``classify_solutions``, ``stable_verdicts`` (atlas only)
 LPs                     the LP door ``frcontrol.solvers.solve`` (back-end and residual check)
 Python overhead         everything outside those functions: the loops and the bookkeeping
                         between them (and the timers' own cost, measured and reported)
@@ -106,6 +106,8 @@ def instrumented(timer: StageTimer) -> Iterator[None]:
     patch(engine, "_overlaps", "overlaps")
     patch(engine, "solutions_at", "solutions")
     patch(stability, "stability_of", "stability")
+    patch(stability, "classify_solutions", "stability")
+    patch(stability, "stable_verdicts", "stability")  # an atlas point's (stability_of's verdicts)
     patch(solvers, "solve", "LPs")
     try:
         yield

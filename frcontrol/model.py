@@ -119,6 +119,21 @@ def _contact_layout(frames: Sequence[int], normals: np.ndarray, tangents: np.nda
     return _ContactLayout(tuple(frames), jacobian, motion, tuple(lines.ravel().tolist()), tuple(positions))
 
 
+def _resurfaced(layout: _ContactLayout, normals: np.ndarray, surface_points: np.ndarray) -> _ContactLayout:
+    """``layout`` at other (k, 2) surface points: :func:`_contact_layout`'s, bit for bit.
+
+    Only the gaps' constants ``-n . s`` (the motion projection's last column) and the lines' ``n . s``
+    depend on the surface points; the rest is shared with ``layout``.
+    """
+    k = len(layout.frames)
+    motion = layout.motion_projection.copy()
+    lines = list(layout.lines)
+    for i, (normal, surface) in enumerate(zip(normals, surface_points, strict=True)):
+        motion[2 * k + i, -1] = -(normal @ surface)
+        lines[5 * i + 4] = -float(motion[2 * k + i, -1])
+    return _ContactLayout(layout.frames, layout.jacobian_projection, motion, tuple(lines), layout.positions)
+
+
 @dataclass(frozen=True)
 class RobotState:
     """Dynamics and contact kinematics of a robot at one state (q, v).
@@ -506,11 +521,40 @@ class PlanarRobot:
     def set_surface_points(self, surface_points: Sequence[np.ndarray]) -> None:
         """Set the surface point [m] of every contact line (the scene loader's gap-0 default)."""
         self._surface_points = np.array(surface_points, dtype=float).reshape(-1, 2)
-        self._layouts = {}
+        self._resurface_layouts()
         self.contacts = tuple(
             ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world, s.copy(), c.mu)
             for c, s in zip(self.contacts, self._surface_points, strict=True)
         )
+
+    def use_contact_points(self, points: Sequence[ContactPoint]) -> None:
+        """Take ``points`` as the contacts, kept as given (not copied).
+
+        They are the same contacts (names, links, points, normals, in order) with their own surface
+        points [m] and Coulomb coefficients [-].
+
+        Where a surface point changed, the contact layouts kept get its new gap constant (one that
+        is the same array as the contact's in use is unchanged).
+        """
+        if any(p.surface_point_in_world is not c.surface_point_in_world
+               and p.surface_point_in_world.tolist() != c.surface_point_in_world.tolist()
+               for p, c in zip(points, self.contacts, strict=True)):
+            self._surface_points = np.array([p.surface_point_in_world for p in points],
+                                            dtype=float).reshape(-1, 2)
+            self._resurface_layouts()
+        self.contacts = tuple(points)
+
+    def _resurface_layouts(self) -> None:
+        """The kept contact layouts at the surface points now set (:func:`_resurfaced`)."""
+        layouts = {}
+        for key, layout in self._layouts.items():
+            indices = self._layout_indices(key)
+            layouts[key] = _resurfaced(layout, self._normals[indices], self._surface_points[indices])
+        self._layouts = layouts
+
+    def _layout_indices(self, key: tuple[int, ...] | None) -> list[int]:
+        """The contacts of a layout's key (None: all)."""
+        return list(range(len(self.contacts))) if key is None else list(key)
 
     def set_friction(self, mu: Sequence[float]) -> None:
         """Set every contact's Coulomb coefficient [-], in ``contacts`` order (no kinematics changes)."""
@@ -618,7 +662,7 @@ class PlanarRobot:
         """The layout of the contacts ``key`` (None: all), made once per subset."""
         layout = self._layouts.get(key)
         if layout is None:
-            indices = list(range(len(self.contacts))) if key is None else list(key)
+            indices = self._layout_indices(key)
             layout = _contact_layout([self._contact_frames[i] for i in indices], self._normals[indices],
                                      self._tangents[indices], self._surface_points[indices],
                                      [self._frame_positions[i] for i in indices])

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from .errors import ImpactState, InputError
+from .records import replaced
 from .response import BALANCING_FRICTION
 from .scene import Scene
 
@@ -162,6 +163,15 @@ class ContactProblem:
         Without the scene's contacts (a problem not built from a scene) the mode is returned as is.
         """
         return scene_mode(mode, self.contacts, self.scene_contacts) if self.scene_contacts else mode
+
+    def with_friction(self, mu: np.ndarray) -> ContactProblem:
+        """The same problem with other Coulomb coefficients [-] (k,) of its contacts.
+
+        Nothing else depends on friction: the state's arrays are shared with this problem (a
+        problem is not changed in place), and what is found once per problem (the row table) is
+        found again for the new one.
+        """
+        return replaced(self, mu=mu)
 
     @cached_property
     def row_table(self) -> ContactRowTable:

@@ -24,12 +24,12 @@ model) is shared with the scene given, whose contacts' surface points and fricti
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from .model import ContactPoint
+from .records import replaced
 from .scene import Contact, Scene, _contacts_at_state, _coordinate_path, _Reader
 
 MU_PATH_FIELD = "mu"
@@ -52,6 +52,11 @@ def numeric_syntax(path: str) -> bool:
     checks the names against a scene).
     """
     return _coordinate_path(path) is not None or _contact_mu_name(path) is not None
+
+
+def is_friction_path(path: str) -> bool:
+    """Whether ``path`` sets a contact's Coulomb coefficient by name (``contacts.NAME.mu``)."""
+    return _contact_mu_name(path) is not None
 
 
 def is_numeric_path(scene: Scene, path: str) -> bool:
@@ -97,8 +102,7 @@ def scene_with_numbers(scene: Scene, overrides: Mapping[str, Any], bare_coordina
             q, v = (target, v) if vector == "q" else (q, target)
             _set_raw_state(raw, vector, bare_coordinates, coordinate_name, number)
         elif name is not None and name in index:
-            if number < 0:
-                raise reader.fail(path, f"friction coefficient must be >= 0, got {number}")
+            _check_friction(reader, path, number)
             mu[index[name]] = number
             _set_raw_mu(raw, index[name], number)
         else:
@@ -110,9 +114,42 @@ def scene_with_numbers(scene: Scene, overrides: Mapping[str, Any], bare_coordina
     else:
         contacts = [c if c.point is p else Contact(p, c.gap, c.active)
                     for c, p in zip(scene.contacts, points, strict=True)]
-    moved = replace(scene, q=q, v=v, contacts=tuple(contacts), raw=raw)
+    moved = replaced(scene, q=q, v=v, contacts=tuple(contacts), raw=raw)
     use_contacts_of(moved)
     return moved
+
+
+def friction_with_numbers(scene: Scene, overrides: Mapping[str, Any]) -> np.ndarray:
+    """The active contacts' Coulomb coefficients [-] with ``overrides`` set, as a problem holds them.
+
+    ``np.array([c.mu for c in active], dtype=float)`` of :func:`scene_with_numbers`'s scene, without
+    making it: friction changes no other number of the scene's problem (its state, its contacts'
+    places and activity stay).
+
+    Args:
+        scene: a scene (its own overrides applied).
+        overrides: ``{contacts.NAME.mu: number}`` only (:func:`is_friction_path`).
+
+    Raises:
+        SceneError: as :func:`scene_with_numbers`: a value that is not a finite number, a negative
+            ``mu``, a path that is not a friction override of this scene.
+    """
+    reader = _Reader(scene.path)
+    mu = {c.name: c.mu for c in scene.contacts}
+    for path, value in overrides.items():
+        number = reader.number(value, path)
+        name = _contact_mu_name(path)
+        if name is None or name not in mu:
+            raise reader.fail(path, "not a friction override of this scene (contacts.NAME.mu)")
+        _check_friction(reader, path, number)
+        mu[name] = number
+    return np.array([mu[c.name] for c in scene.contacts if c.active], dtype=float)
+
+
+def _check_friction(reader: _Reader, path: str, number: float) -> None:
+    """Refuse a negative Coulomb coefficient (the schema's rule)."""
+    if number < 0:
+        raise reader.fail(path, f"friction coefficient must be >= 0, got {number}")
 
 
 def _placed_at(reader: _Reader, scene: Scene, points: list[ContactPoint], q: np.ndarray
@@ -139,16 +176,13 @@ def _pending_surfaces(scene: Scene) -> list[bool]:
 def use_contacts_of(scene: Scene) -> None:
     """Set the scene's robot to the scene's contacts' surface points and friction, where they differ.
 
-    Scenes made by :func:`scene_with_numbers` share one robot; the one in use sets it.
+    Scenes made by :func:`scene_with_numbers` share one robot; the one in use sets it (the robot
+    then holds the scene's own contact points: the next call sees at once that they are in use).
     """
     robot = scene.robot
-    surfaces = [c.point.surface_point_in_world for c in scene.contacts]
-    if any(not np.array_equal(s, c.surface_point_in_world)
-           for s, c in zip(surfaces, robot.contacts, strict=True)):
-        robot.set_surface_points(surfaces)
-    mu = [c.mu for c in scene.contacts]
-    if mu != [c.mu for c in robot.contacts]:
-        robot.set_friction(mu)
+    points = [c.point for c in scene.contacts]
+    if any(p is not c for p, c in zip(points, robot.contacts, strict=True)):
+        robot.use_contact_points(points)
 
 
 def _set_raw_state(raw: dict[str, Any], vector: str, bare_coordinates: tuple[str, ...], name: str,
@@ -168,6 +202,8 @@ def _set_raw_mu(raw: dict[str, Any], index: int, number: float) -> None:
 
 __all__ = [
     "MU_PATH_FIELD",
+    "friction_with_numbers",
+    "is_friction_path",
     "is_numeric_path",
     "numeric_syntax",
     "scene_with_numbers",

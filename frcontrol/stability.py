@@ -80,6 +80,15 @@ RANK_TOLERANCE = 1e-10
 FINITE_TOLERANCE = 1e-10
 """[-] A pencil eigenvalue ``alpha / beta`` is infinite when ``|beta| <= this * |alpha|``."""
 
+MASS_FACTORS_KEPT = 16
+"""Mass matrices whose factorisations :func:`classify_solutions` keeps, by their bytes (an atlas's
+points often share M: a free body's never changes, and neither does M along a friction axis)."""
+
+UNSCALED_EIGENVALUE_RANGE = (1e-130, 1e130)
+"""[1/kg] The magnitudes of a 1 x 1 D whose eigenvalue LAPACK's ``geev`` returns as D itself, with
+no scaling (it scales a matrix whose largest entry is below about 1e-138 or above 1e138): inside
+it, :func:`classify_solutions` reads the eigenvalue of one held row without the call."""
+
 
 @dataclass(frozen=True)
 class Stability:
@@ -169,15 +178,18 @@ def _constraint_rows(problem: ContactProblem, solution: RigidSolution, force_tol
     cols: list[np.ndarray] = []
     labels: list[str] = []
     notes: list[str] = []
-    jn, jt, mu = problem.jacobian_normal, problem.jacobian_tangent, problem.mu
+    jn, jt, mu = problem.jacobian_normal, problem.jacobian_tangent, problem.mu.tolist()
     vtol = problem.velocity_tolerance
-    for i, letter in enumerate(solution.mode):
+    # the per-contact numbers as Python floats (the same values; NumPy's scalars cost more)
+    v_n, v_t = problem.normal_velocities.tolist(), problem.tangential_velocities.tolist()
+    a_n, a_t = solution.a_n.tolist(), solution.a_t.tolist()
+    for i, (letter, lam_n, lam_t) in enumerate(zip(solution.mode, solution.lambda_n.tolist(),
+                                                   solution.lambda_t.tolist(), strict=False)):
         name = problem.contacts[i]
-        lam_n, lam_t = solution.lambda_n[i], solution.lambda_t[i]
         if letter == "S":
-            if abs(problem.normal_velocities[i]) <= vtol and abs(solution.a_n[i]) <= accel_tol:
+            if abs(v_n[i]) <= vtol and abs(a_n[i]) <= accel_tol:
                 return rows, cols, labels, (f"impending contact at {name!r}: it separates with v_N = 0 and "
-                                            f"a_N = {solution.a_n[i]:.3g} ~ 0"), notes
+                                            f"a_N = {a_n[i]:.3g} ~ 0"), notes
             continue
         if lam_n <= force_tol:
             return rows, cols, labels, (f"impending separation at {name!r}: it is held ({letter}) with "
@@ -191,11 +203,11 @@ def _constraint_rows(problem: ContactProblem, solution: RigidSolution, force_tol
             labels += [f"{name}: N", f"{name}: T"]
             continue
         sign = 1.0 if letter == "R" else -1.0  # R: lam_T = -mu lam_N
-        if abs(problem.tangential_velocities[i]) <= vtol:
-            if abs(solution.a_t[i]) <= accel_tol:
+        if abs(v_t[i]) <= vtol:
+            if abs(a_t[i]) <= accel_tol:
                 return rows, cols, labels, (f"impending slip at {name!r}: {letter} from rest (v_T = 0) with "
-                                            f"a_T = {solution.a_t[i]:.3g} ~ 0"), notes
-            notes.append(f"{name!r} starts sliding from rest ({letter}, a_T = {solution.a_t[i]:.3g})")
+                                            f"a_T = {a_t[i]:.3g} ~ 0"), notes
+            notes.append(f"{name!r} starts sliding from rest ({letter}, a_T = {a_t[i]:.3g})")
         rows.append(jn[i])
         cols.append(jn[i] - sign * mu[i] * jt[i])
         labels.append(f"{name}: N ({letter}, column J_N {'-' if sign > 0 else '+'} mu J_T)")
@@ -222,12 +234,61 @@ def stability_of(
         InputError: the solution's mode does not fit the problem, only one of stiffness and
             damping is given, or they are out of range.
     """
+    return _stability(problem, solution, stiffness, damping, None)
+
+
+def _stability(problem: ContactProblem, solution: RigidSolution, stiffness: float | None,
+               damping: float | None, state: _StateTerms | None) -> Stability:
+    """:func:`stability_of`, or :func:`classify_solutions`'s path with ``state``.
+
+    ``state`` (:func:`_state_terms` of ``problem``): M's factorisation and the bias's scale are read
+    from it instead of being found again (the same numbers).
+    """
     mode = check_mode(problem, solution.mode)
     if (stiffness is None) != (damping is None):
         raise InputError("give both stiffness and damping (or neither) for the boundary layer's roots")
-    M = np.asarray(problem.mass_matrix, dtype=float)
-    n = problem.n
-    tolerances = _solution_tolerances(problem, solution)
+    held = _held_spectrum(problem, solution, state)
+    if isinstance(held, Stability):
+        return held
+    spectrum, eig_tol = held.spectrum, held.eigenvalue_tolerance
+    eigenvalues, massless = np.asarray(spectrum.eigenvalues, dtype=complex), spectrum.massless
+    if eigenvalues.size > 1:
+        eigenvalues = eigenvalues[np.argsort(eigenvalues.real, kind="stable")]
+    roots = None
+    if stiffness is not None and damping is not None:
+        roots = boundary_layer_roots(eigenvalues, stiffness, damping)
+    complex_ones = [d for d in eigenvalues.tolist() if abs(d.imag) > eig_tol and d.real > eig_tol]
+    crit = max((critical_damping(d) for d in complex_ones), default=None)
+    suffix = _notes_suffix(held.indeterminate, held.decoupled, massless, held.notes)
+    common: dict[str, Any] = {
+        "rows": held.labels, "delassus": spectrum.delassus, "indeterminate_modes": held.indeterminate,
+        "massless_eigenvalues": massless, "critical_damping": crit, "boundary_layer_roots": roots,
+        "method": spectrum.method, "tolerances": held.tolerances}
+    return _verdict(mode, eigenvalues, massless, eig_tol, roots, complex_ones, crit, stiffness, damping,
+                    suffix, common)
+
+
+@dataclass(frozen=True)
+class _Held:
+    """A solution's held rows and D's spectrum on them."""
+
+    spectrum: _Spectrum
+    eigenvalue_tolerance: float  # [1/kg]
+    labels: tuple[str, ...]
+    notes: list[str]
+    indeterminate: int
+    decoupled: int
+    tolerances: dict[str, float]
+
+
+def _held_spectrum(problem: ContactProblem, solution: RigidSolution, state: _StateTerms | None
+                   ) -> _Held | Stability:
+    """D's spectrum on the solution's held rows, or the verdict itself where it needs none.
+
+    (No row is held, a change is impending, or the spectrum cannot be found.)
+    """
+    mode = solution.mode
+    tolerances = _solution_tolerances(problem, solution, None if state is None else state.bias_scale)
     rows, cols, labels, impending, notes = _constraint_rows(problem, solution, tolerances["force"],
                                                             tolerances["acceleration"])
     empty = np.zeros(0, dtype=complex)
@@ -237,49 +298,38 @@ def stability_of(
     if not rows:
         return Stability(mode, True, empty, "no contact is held (every contact separates): no boundary layer",
                          tolerances=tolerances)
-
     J_r, J_c = np.array(rows), np.array(cols)
-    m_scale = max(float(np.abs(M).max()), 1e-300)
-    j_scale = max(float(np.abs(J_r).max()), float(np.abs(J_c).max()), 1e-300)
+    M = np.asarray(problem.mass_matrix, dtype=float)
+    m_scale = max(float(np.abs(M).max()), 1e-300) if state is None else state.mass.scale
+    j_r_size = _largest_magnitude(J_r)
+    j_scale = max(j_r_size, _largest_magnitude(J_c), 1e-300)
     d_scale = j_scale**2 / m_scale
     eig_tol = EIGENVALUE_TOLERANCE * d_scale
     tolerances["eigenvalue"] = eig_tol
-    reduced = _reduced_rows(M, J_r, J_c, j_scale)
-    indeterminate, decoupled = len(rows) - reduced.rho, n - reduced.M.shape[0]
-    spectrum = _spectrum(reduced, m_scale, j_scale, d_scale)
+    if state is not None and state.mass.factor is not None:
+        spectrum, rho = _factored_spectrum(state.mass.factor, J_r, J_c, j_scale, j_r_size)
+        indeterminate, decoupled = len(rows) - rho, 0
+    else:
+        reduced = _reduced_rows(M, J_r, J_c, j_scale)
+        indeterminate, decoupled = len(rows) - reduced.rho, problem.n - reduced.M.shape[0]
+        spectrum = _spectrum(reduced, m_scale, j_scale, d_scale)
     if spectrum.problem is not None:
         return Stability(mode, None, spectrum.eigenvalues, spectrum.problem, tuple(labels),
                          indeterminate_modes=indeterminate, method=spectrum.method, tolerances=tolerances)
-    eigenvalues, massless, delassus, method = (spectrum.eigenvalues, spectrum.massless, spectrum.delassus,
-                                               spectrum.method)
-    eigenvalues = np.asarray(eigenvalues, dtype=complex)
-    eigenvalues = eigenvalues[np.argsort(eigenvalues.real, kind="stable")]
-    roots = None
-    if stiffness is not None and damping is not None:
-        roots = boundary_layer_roots(eigenvalues, stiffness, damping)
-    complex_ones = [d for d in eigenvalues if abs(d.imag) > eig_tol and d.real > eig_tol]
-    crit = max((critical_damping(d) for d in complex_ones), default=None)
-    suffix = _notes_suffix(indeterminate, decoupled, massless, notes)
-    common: dict[str, Any] = {
-        "rows": tuple(labels), "delassus": delassus, "indeterminate_modes": indeterminate,
-        "massless_eigenvalues": massless, "critical_damping": crit, "boundary_layer_roots": roots,
-        "method": method, "tolerances": tolerances}
-    return _verdict(mode, eigenvalues, massless, eig_tol, roots, complex_ones, crit, stiffness, damping,
-                    suffix, common)
+    return _Held(spectrum, eig_tol, tuple(labels), notes, indeterminate, decoupled, tolerances)
 
 
-def _solution_tolerances(problem: ContactProblem, solution: RigidSolution) -> dict[str, float]:
+def _solution_tolerances(problem: ContactProblem, solution: RigidSolution, bias_scale: float | None = None
+                         ) -> dict[str, float]:
     """The absolute tolerances of one solution's analysis.
 
     Forces [N] relative to its forces and the bias, accelerations relative to its accelerations
-    (each scale at least 1).
+    (each scale at least 1). ``bias_scale``: ``max |h|`` [N, N m] if known.
     """
-    force_scale = max(1.0, float(np.abs(solution.lambda_n).max(initial=0.0)),
-                      float(np.abs(solution.lambda_t).max(initial=0.0)),
-                      float(np.abs(problem.bias).max(initial=0.0)))
-    accel_scale = max(1.0, float(np.abs(solution.dv).max(initial=0.0)),
-                      float(np.abs(solution.a_n).max(initial=0.0)),
-                      float(np.abs(solution.a_t).max(initial=0.0)))
+    if bias_scale is None:
+        bias_scale = _bias_scale(problem)
+    force_scale = max(_scale_of((solution.lambda_n, solution.lambda_t)), bias_scale)
+    accel_scale = _scale_of((solution.dv, solution.a_n, solution.a_t))
     return {"force": FORCE_TOLERANCE * force_scale, "acceleration": ACCELERATION_TOLERANCE * accel_scale,
             "rank": RANK_TOLERANCE, "finite": FINITE_TOLERANCE}
 
@@ -305,12 +355,11 @@ def _verdict(mode: str, eigenvalues: np.ndarray, massless: np.ndarray, eig_tol: 
              stiffness: float | None, damping: float | None, suffix: str, common: dict[str, Any]
              ) -> Stability:
     """Stable, unstable or not analysable, from D's spectrum (and the boundary layer's roots)."""
-    negative = [d for d in eigenvalues if d.real < -eig_tol] + [c for c in massless if c.real < 0]
+    negative, zero = _signs(eigenvalues, massless, eig_tol)
     if negative:
         return Stability(mode, False, eigenvalues,
                          f"unstable: D has eigenvalue(s) with negative real part {_fmt(negative)}: the "
                          "boundary layer diverges, the compliant solution leaves this one" + suffix, **common)
-    zero = [d for d in eigenvalues if abs(d.real) <= eig_tol]
     if zero:
         return Stability(mode, None, eigenvalues,
                          f"D has eigenvalue(s) with zero real part {_fmt(zero)}: not analysable" + suffix,
@@ -323,6 +372,16 @@ def _verdict(mode: str, eigenvalues: np.ndarray, massless: np.ndarray, eig_tol: 
     if complex_ones:
         reason += f" (complex ones need damping b^2/k >= {crit:.4g} kg)"
     return Stability(mode, True, eigenvalues, reason + suffix, **common)
+
+
+def _signs(eigenvalues: np.ndarray, massless: np.ndarray, eig_tol: float) -> tuple[list[Any], list[Any]]:
+    """The eigenvalues of D with a negative real part, and those with a zero one (within ``eig_tol``).
+
+    The first list also holds the massless directions' negative leading coefficients.
+    """
+    values = eigenvalues.tolist()  # Python's complex numbers: the same values, compared faster
+    negative = [d for d in values if d.real < -eig_tol] + [c for c in massless if c.real < 0]
+    return negative, [d for d in values if abs(d.real) <= eig_tol]
 
 
 @dataclass(frozen=True)
@@ -406,6 +465,37 @@ def _spectrum(rows: _Rows, m_scale: float, j_scale: float, d_scale: float) -> _S
     return _Spectrum("pencil", eigenvalues, lead, None)
 
 
+def _scale_of(arrays: Sequence[np.ndarray]) -> float:
+    """``max(1.0, *(_largest_magnitude(a) for a in arrays))``, as Python's ``max`` has it.
+
+    An array with a NaN (its largest magnitude is NaN) is passed over, as ``max`` passes over a NaN
+    after its first argument. Without a NaN, the largest magnitude of them all, in one pass.
+    """
+    sizes = list(map(abs, [x for values in arrays for x in values.ravel().tolist()]))
+    total = sum(sizes)
+    if total == total:
+        return max(1.0, max(sizes, default=0.0))
+    scale = 1.0
+    for values in arrays:
+        largest = _largest_magnitude(values)
+        if largest > scale:
+            scale = largest
+    return scale
+
+
+def _largest_magnitude(values: np.ndarray) -> float:
+    """``float(np.abs(values).max(initial=0.0))``: the largest magnitude, 0 for none, NaN if one is NaN.
+
+    By Python's built-ins over the entries (a few here): the same number without NumPy's cost per
+    call. (The sum of the magnitudes is NaN exactly when one is.)
+    """
+    sizes = list(map(abs, values.ravel().tolist()))
+    total = sum(sizes)
+    if total != total:
+        return total
+    return max(sizes, default=0.0)
+
+
 def _fmt(values: Sequence[complex] | np.ndarray) -> str:
     out = []
     for x in values:
@@ -417,8 +507,115 @@ def _fmt(values: Sequence[complex] | np.ndarray) -> str:
 
 def classify_solutions(problem: ContactProblem, solutions: Sequence[RigidSolution], *,
                        stiffness: float | None = None, damping: float | None = None) -> list[Stability]:
-    """:func:`stability_of` for each solution (e.g. every solution at one input)."""
-    return [stability_of(problem, s, stiffness=stiffness, damping=damping) for s in solutions]
+    """:func:`stability_of` for each solution (e.g. every solution at one input), the same to the bit.
+
+    What depends on the state alone is found once: the bias's scale, and M's eigenvalues and
+    Cholesky factor (kept for the last :data:`MASS_FACTORS_KEPT` mass matrices). A mode that holds
+    one row (one sliding contact's normal) needs no SVD and no eigenvalue call: D is 1 x 1.
+
+    Raises:
+        InputError: as :func:`stability_of`.
+    """
+    state = _state_terms(problem)
+    return [_stability(problem, s, stiffness, damping, state) for s in solutions]
+
+
+@dataclass(frozen=True)
+class _MassTerms:
+    """What the verdicts read of M alone."""
+
+    scale: float  # max(max |M|, 1e-300) [kg, kg m, kg m^2]
+    # M's Cholesky factor where _spectrum would take its Cholesky branch whatever the rows (every
+    # coordinate has an entry of M above the rank tolerance, and M passes the eigenvalue test);
+    # None: the reference path decides
+    factor: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class _StateTerms:
+    """What the verdicts of one problem's solutions share."""
+
+    mass: _MassTerms
+    bias_scale: float  # max |h| [N, N m]
+
+
+_MASS_TERMS: dict[tuple[tuple[int, ...], bytes], _MassTerms] = {}
+
+
+def stable_verdicts(problem: ContactProblem, solutions: Sequence[RigidSolution]) -> list[bool | None]:
+    """``stability_of(problem, s).stable`` for each solution, without the reasons' words.
+
+    :func:`classify_solutions`'s path up to D's spectrum, then only the signs of its eigenvalues:
+    true (stable), false (unstable) or None (not analysable), as :class:`Stability` has them (with no
+    stiffness and damping given).
+
+    Raises:
+        InputError: as :func:`stability_of`.
+    """
+    state = _state_terms(problem)
+    verdicts: list[bool | None] = []
+    for solution in solutions:
+        check_mode(problem, solution.mode)
+        held = _held_spectrum(problem, solution, state)
+        if isinstance(held, Stability):
+            verdicts.append(held.stable)
+            continue
+        negative, zero = _signs(np.asarray(held.spectrum.eigenvalues, dtype=complex), held.spectrum.massless,
+                                held.eigenvalue_tolerance)
+        verdicts.append(False if negative else None if zero else True)
+    return verdicts
+
+
+def _state_terms(problem: ContactProblem) -> _StateTerms:
+    M = np.asarray(problem.mass_matrix, dtype=float)
+    key = (M.shape, M.tobytes())
+    mass = _MASS_TERMS.get(key)
+    if mass is None:
+        if len(_MASS_TERMS) >= MASS_FACTORS_KEPT:
+            _MASS_TERMS.clear()
+        mass = _MASS_TERMS[key] = _mass_terms(M)
+    return _StateTerms(mass, _bias_scale(problem))
+
+
+def _mass_terms(M: np.ndarray) -> _MassTerms:
+    """M's scale, and its Cholesky factor when every held-row set would be factored (as _spectrum)."""
+    m_abs = float(np.abs(M).max(initial=0.0))
+    factor = None
+    # _reduced_rows keeps every coordinate when each row of M has an entry above this; _spectrum
+    # then tests and factors M itself (eigh with vectors: the same call, so the same eigenvalues)
+    if M.size and bool(np.all(np.abs(M).max(axis=1) > RANK_TOLERANCE * m_abs)):
+        m_eig, _ = np.linalg.eigh(M)
+        if m_eig[0] > RANK_TOLERANCE * m_eig[-1]:
+            try:
+                factor = cholesky_upper(M)
+            except np.linalg.LinAlgError:
+                factor = None  # the reference path meets the same failure
+    return _MassTerms(max(m_abs, 1e-300), factor)
+
+
+def _bias_scale(problem: ContactProblem) -> float:
+    """``max |h|`` [N, N m] (0 without coordinates)."""
+    return _largest_magnitude(problem.bias)
+
+
+def _factored_spectrum(factor: np.ndarray, J_r: np.ndarray, J_c: np.ndarray, j_scale: float,
+                       j_r_size: float) -> tuple[_Spectrum, int]:
+    """_spectrum's Cholesky branch on M's ``factor``, and the rank of J_r (``j_r_size``: max |J_r|).
+
+    One row of J_r that is not zero has rank 1 and U = [+-1] (the SVD's): D = J_r X and its
+    eigenvalue are then D itself (the sign cancels exactly), unless D is 0 (its sign could differ)
+    or outside :data:`UNSCALED_EIGENVALUE_RANGE`.
+    """
+    if J_r.shape[0] == 1 and j_r_size > RANK_TOLERANCE * j_scale:
+        delassus = J_r @ cholesky_solve(factor, J_c.T)
+        d = abs(float(delassus[0, 0]))
+        if UNSCALED_EIGENVALUE_RANGE[0] < d < UNSCALED_EIGENVALUE_RANGE[1]:
+            return _Spectrum("cholesky", delassus[0].copy(), np.zeros(0), delassus), 1
+    U, sv, _ = np.linalg.svd(J_r / j_scale)
+    rho = int(np.sum(sv > RANK_TOLERANCE * sv[0])) if sv.size else 0
+    U = U[:, :rho]
+    eigenvalues = np.linalg.eigvals((U.T @ J_r) @ cholesky_solve(factor, (U.T @ J_c).T))
+    return _Spectrum("cholesky", eigenvalues, np.zeros(0), J_r @ cholesky_solve(factor, J_c.T)), rho
 
 
 def solution_report(problem: ContactProblem, solution: RigidSolution, *, stiffness: float | None = None,
@@ -438,11 +635,14 @@ __all__ = [
     "EIGENVALUE_TOLERANCE",
     "FINITE_TOLERANCE",
     "FORCE_TOLERANCE",
+    "MASS_FACTORS_KEPT",
     "RANK_TOLERANCE",
+    "UNSCALED_EIGENVALUE_RANGE",
     "Stability",
     "boundary_layer_roots",
     "classify_solutions",
     "critical_damping",
     "solution_report",
     "stability_of",
+    "stable_verdicts",
 ]

@@ -127,3 +127,66 @@ def test_scene_with_numbers_is_the_loaded_scene():
     box = load_scene("box_on_ground")
     with pytest.raises(SceneError, match="penetrates its surface"):
         scene_with_numbers(box, {"state.q.y": 0.2}, box.coordinate_names)
+
+
+def _same_problem(a, b):
+    """Every field of two contact problems equal, arrays to the bit."""
+    for name in a.__dataclass_fields__:
+        x, y = getattr(a, name), getattr(b, name)
+        if isinstance(x, np.ndarray):
+            assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), name
+        else:
+            assert x == y, name
+
+
+@pytest.mark.parametrize("name, axes", [
+    ("rod_on_table", ["state.q.theta=0.3:2.8:4", "contacts.tip.mu=0:2:3", "input.x=-1:1:2"]),
+    ("box_on_ground", ["contacts.left.mu=0.2:0.9:3", "state.v.x=-0.5:0.5:3", "contacts.right.mu=0.1:0.4:2"]),
+])
+def test_each_point_of_a_chunk_has_the_problem_of_its_loaded_scene(name, axes):
+    # one point after another as a chunk makes them: from the last point when only friction or an
+    # input changed, from the state when it moved; the problem is the loaded scene's to the bit
+    from frcontrol.atlas.points import scene_at
+    from frcontrol.modes import ContactProblem
+
+    # (a solutions atlas needs no scene: a point that changes only friction makes none, and the
+    # next point that needs one brings the last one up to date; needed or not, at random)
+    plan = build_atlas(name, axes)
+    paths = numeric_axes(plan)
+    rng = np.random.default_rng(3)
+    made = 0
+    for k in range(plan.size):
+        overrides, _ = plan.point(k)
+        needed = bool(rng.integers(2))
+        scene, problem = scene_at(plan, overrides, paths, scene_needed=needed)
+        loaded = load_scene(name, overrides=overrides)
+        _same_problem(problem, ContactProblem.from_scene(loaded))
+        if scene is None:
+            assert not needed
+            continue
+        made += 1
+        assert [c.mu for c in scene.contacts] == [c.mu for c in loaded.contacts]
+        assert scene.q.tobytes() == loaded.q.tobytes() and dict(scene.raw) == dict(loaded.raw)
+        assert [c.mu for c in scene.robot.contacts] == [c.mu for c in loaded.contacts]
+    assert made >= plan.size // 4
+
+
+def test_a_record_replaced_is_the_dataclass_replaced():
+    from dataclasses import replace
+
+    from frcontrol.errors import InputError
+    from frcontrol.modes import ContactProblem
+    from frcontrol.records import replaced
+
+    scene = load_scene("rod_on_table")
+    problem = ContactProblem.from_scene(scene)
+    assert problem.row_table is not None  # found once and kept: not carried to the new record
+    mu = np.array([0.3])
+    fast, slow = replaced(problem, mu=mu), replace(problem, mu=mu)
+    _same_problem(fast, slow)
+    assert "row_table" not in fast.__dict__
+    assert fast.row_table.valid.tobytes() == slow.row_table.valid.tobytes()
+    moved = replaced(scene, q=scene.q + 0.1)
+    assert moved.q.tobytes() == (scene.q + 0.1).tobytes() and moved.robot is scene.robot
+    with pytest.raises(InputError, match="has no field 'mus'; its fields: coordinates"):
+        replaced(problem, mus=mu)

@@ -12,9 +12,15 @@ from conftest import rod_scene
 from frcontrol.engine import solutions_at
 from frcontrol.errors import InputError
 from frcontrol.modes import ContactProblem
-from frcontrol.scene import load_scene
+from frcontrol.scene import load_scene, shipped_scene_names
 from frcontrol.simulation.compliant import simulate_compliant
-from frcontrol.stability import boundary_layer_roots, critical_damping, stability_of
+from frcontrol.stability import (
+    boundary_layer_roots,
+    classify_solutions,
+    critical_damping,
+    stability_of,
+    stable_verdicts,
+)
 
 G = 9.81
 THETA, MU, LAM = 2.0, 1.4, 10.0  # Painleve's rod: 1 m, 1 kg, I = 1/12 kg m^2
@@ -265,3 +271,91 @@ def test_stability_rejects_mismatched_input(write_scene):
     d = painleve_d(THETA, MU, +1.0)
     np.testing.assert_allclose(sorted(verdict.boundary_layer_roots.real),
                                sorted(np.roots([1.0, 100.0 * d, 1e5 * d]).real))
+
+
+# ------------------------------------------------------------------- the per-state path, to the bit
+def _same_stability(a, b):
+    """Every field of two verdicts equal, arrays to the bit (dtype, shape and bytes)."""
+    for name in a.__dataclass_fields__:
+        x, y = getattr(a, name), getattr(b, name)
+        if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+            assert type(x) is type(y) and x.dtype == y.dtype and x.shape == y.shape, name
+            assert x.tobytes() == y.tobytes(), (name, x, y)
+        else:
+            assert repr(x) == repr(y), (name, x, y)
+
+
+def _verdicts_both_ways(problem, solutions, **kwargs):
+    fast = classify_solutions(problem, solutions, **kwargs)
+    for verdict, solution in zip(fast, solutions, strict=True):
+        _same_stability(verdict, stability_of(problem, solution, **kwargs))
+    if not kwargs:  # the verdicts alone (no stiffness and damping: an atlas's)
+        assert stable_verdicts(problem, solutions) == [v.stable for v in fast]
+    return fast
+
+
+@pytest.mark.parametrize("name", shipped_scene_names())
+def test_classify_solutions_is_stability_of_on_every_shipped_scene(name):
+    rng = np.random.default_rng(sum(map(ord, name)))
+    scene = load_scene(name)
+    moving = [i for i, c in enumerate(scene.coordinate_names) if c not in scene.robot.locked]
+    velocities = [scene.v] + [scene.v + s * np.eye(scene.robot.nv)[int(rng.choice(moving))]
+                              for s in (-0.4, 0.4)]
+    lower, upper = np.maximum(scene.inputs.lower, -5.0), np.minimum(scene.inputs.upper, 5.0)
+    inputs = [np.zeros(scene.inputs.count)] + [rng.uniform(lower, upper) for _ in range(4)]
+    held = 0
+    for v in velocities:
+        problem = ContactProblem.from_scene(scene, scene.q, v)
+        if any(vn < -problem.velocity_tolerance for vn in problem.normal_velocities):
+            continue  # an impact: no rigid solution to classify
+        for u in inputs:
+            found = solutions_at(problem, u)
+            held += sum(bool(s.rows) for s in _verdicts_both_ways(problem, found))
+    # some solution holds a contact where one touches: the spectra were compared, not only early exits
+    assert held or not scene.active_indices
+
+
+def test_classify_solutions_is_stability_of_along_the_rods_pitch_and_friction(write_scene):
+    # the rod sliding both ways over pitches and frictions: one held row (L, R: D is 1 x 1), two
+    # (F), none (S), and the boundary layer's roots for a given stiffness and damping
+    scene = load_scene("rod_on_table")
+    rows_held, verdicts = set(), set()
+    for theta in np.linspace(0.1, 3.0, 13):
+        q = np.array([0.0, 0.5 * math.sin(theta), theta])
+        for mu in (0.0, 0.3, 1.4):
+            for v in ([-1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]):
+                problem = replace(ContactProblem.from_scene(scene, q, np.array(v)), mu=np.array([mu]))
+                for u in (np.zeros(3), np.array([0.0, -20.0, 0.0]), np.array([3.0, 5.0, -1.0])):
+                    found = solutions_at(problem, u)
+                    checked = _verdicts_both_ways(problem, found)
+                    rows_held |= {len(s.rows) for s in checked}
+                    verdicts |= {s.stable for s in checked}
+                    _verdicts_both_ways(problem, found, stiffness=1e4, damping=20.0)
+    for sliding in (1.0, -1.0):  # Painleve's rod: sliding R is unstable here, L stable
+        _, problem, _, u = painleve_rod(write_scene, sliding)
+        verdicts |= {s.stable for s in _verdicts_both_ways(problem, solutions_at(problem, u))}
+    assert rows_held == {0, 1, 2}
+    assert {True, False} <= verdicts
+
+
+def test_classify_solutions_is_stability_of_with_a_massless_leg():
+    for phi, v_t in ((0.3, 0.0), (0.3, 1.0), (1.2, -1.0)):
+        problem = massless_leg_problem(phi, v_t)
+        _verdicts_both_ways(problem, solutions_at(problem, np.zeros(problem.m)))
+
+
+def test_the_scales_of_the_tolerances_are_numpys_and_pythons_max():
+    # the largest magnitude as NumPy's abs().max(initial=0), and the scale as Python's max(1, ...)
+    # over them (an array with a NaN passed over), on NaN, infinities, signed zeros and empties
+    import itertools
+
+    from frcontrol.stability import _largest_magnitude, _scale_of
+
+    rng = np.random.default_rng(0)
+    arrays = [np.zeros(0), np.array([-0.0]), np.array([0.3]), np.array([-3.0, 2.0]),
+              np.array([np.nan, 5.0]), np.array([5.0, np.nan]), np.array([np.inf]),
+              np.array([-np.inf, 2.0]), rng.normal(size=(2, 3)) * 10]
+    for values in arrays:
+        assert repr(_largest_magnitude(values)) == repr(float(np.abs(values).max(initial=0.0)))
+    for combo in itertools.product(arrays, repeat=3):
+        assert repr(_scale_of(combo)) == repr(max(1.0, *(_largest_magnitude(a) for a in combo)))

@@ -215,11 +215,20 @@ class AtlasPlan:
         return range(chunk * self.chunk_size, min(self.size, (chunk + 1) * self.chunk_size))
 
     def point(self, index: int) -> tuple[dict[str, Any], dict[str, float]]:
-        """The scene overrides and the inputs at the flat index ``index``."""
+        """The scene overrides and the inputs at the flat index ``index`` (the last axis varies fastest).
+
+        Raises:
+            InputError: ``index`` is not in ``range(size)``.
+        """
+        if not 0 <= index < self.size:
+            raise InputError(f"point {index} is out of range: the plan has {self.size} points")
         overrides = dict(self.overrides)
         inputs = dict(self.inputs)
-        for axis, i in zip(self.axes, np.unravel_index(index, self.shape), strict=True):
-            value = axis.value(int(i))
+        positions = [0] * len(self.axes)  # numpy.unravel_index(index, shape), in C order
+        for d in range(len(self.axes) - 1, -1, -1):
+            index, positions[d] = divmod(index, self.axes[d].count)
+        for axis, i in zip(self.axes, positions, strict=True):
+            value = axis.value(i)
             name = axis.input_name
             if name is None:
                 overrides[axis.path] = value

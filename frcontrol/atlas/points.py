@@ -4,8 +4,9 @@ At every point, whatever ``what`` is (the same columns for every kind):
 
 - ``count``: the number of rigid-body solutions at the point's inputs (``solutions_at``);
 - ``modes``: their modes, sorted;
-- ``stable``: each one's stability under compliance (:func:`frcontrol.stability.stability_of`),
-  in the order of ``modes``: true, false, or null (not analysable);
+- ``stable``: each one's stability under compliance (:func:`frcontrol.stability.stability_of`'s
+  verdict, as :func:`~frcontrol.stability.stable_verdicts` finds it: the state's work once), in the
+  order of ``modes``: true, false, or null (not analysable);
 - ``ambiguous``: ``"none"``, ``"between"`` (more than one solution: between modes), ``"within"``
   (one solution whose mode has ambiguity variables, ``ambiguity_dim > 0``) or ``"both"``
   (several solutions, one of them with ambiguity variables);
@@ -20,7 +21,9 @@ A worker loads the scene once per distinct set of the overrides that change its 
 keeps the last few), and applies the ones that change only numbers to that loaded scene
 (:mod:`frcontrol.scene_numbers`): an axis ``state.q.NAME``, ``state.v.NAME`` or
 ``contacts.NAME.mu`` moves the state (the contacts placed again as the loader places them) or sets
-a friction coefficient, and ``input.NAME`` changes only the input. Every other axis (gravity, a
+a friction coefficient, and ``input.NAME`` changes only the input. Each point is made from the
+last one where it can: only the numbers that changed are set, and a change of friction alone sets
+the problem's coefficients (a solutions atlas then makes no scene for the point). Every other axis (gravity, a
 mass, a locked joint's angle, a contact's geometry) loads the scene at each of its values, and so
 does a point the numeric path refuses (a penetrating contact, a scene that does not load without
 the point's values): that point is loaded with all its overrides, exactly as before, so its error
@@ -35,11 +38,20 @@ import time
 from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cache
+from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 from ..errors import FrcontrolError
 from ..scene import Scene
-from ..scene_numbers import is_numeric_path, numeric_syntax, scene_with_numbers, use_contacts_of
+from ..scene_numbers import (
+    friction_with_numbers,
+    is_friction_path,
+    is_numeric_path,
+    numeric_syntax,
+    scene_with_numbers,
+    use_contacts_of,
+)
 from ..scene_source import SceneSource
 from .grid import AtlasPlan
 
@@ -90,13 +102,35 @@ class _Loaded:
         return known
 
 
+@dataclass(frozen=True)
+class _Made:
+    """A point made on the numeric path.
+
+    The source and loaded scene it was made from (with the overrides that were not numbers), its
+    numbers (``{path: value}``), its problem, and the last scene made with the numbers it was made
+    with.
+    """
+
+    source: SceneSource
+    template: _Loaded
+    structural: dict[str, Any]  # the overrides template was loaded with
+    numbers: dict[str, Any]
+    scene: Scene  # made with scene_numbers (a friction change alone makes no scene)
+    scene_numbers: dict[str, Any]
+    problem: ContactProblem  # made with numbers
+
+
 class _Scenes:
-    """The last :data:`SCENE_CACHE_SIZE` scenes loaded (or the typed errors they raised), by overrides."""
+    """The last :data:`SCENE_CACHE_SIZE` scenes loaded (or the typed errors they raised), by overrides.
+
+    And the last point made from one of them (``last``).
+    """
 
     def __init__(self) -> None:
         self.cache: OrderedDict[tuple[SceneSource, tuple[tuple[str, str], ...]], _Loaded | FrcontrolError] = \
             OrderedDict()
         self.loads = 0
+        self.last: _Made | None = None
 
     def get(self, source: SceneSource, overrides: Mapping[str, Any]) -> _Loaded:
         """The scene with ``overrides``, loaded once (a typed error of the load raised again)."""
@@ -112,6 +146,14 @@ class _Scenes:
         if isinstance(entry, FrcontrolError):
             raise entry.with_traceback(None)
         return entry
+
+    def template(self, source: SceneSource, overrides: dict[str, Any]) -> _Loaded:
+        """:meth:`get`, or at once the last point's loaded scene when it has these overrides."""
+        last = self.last
+        if last is not None and last.source == source and last.structural.keys() == overrides.keys() \
+                and not _changed(last.structural, overrides):
+            return last.template
+        return self.get(source, overrides)
 
     def _load(self, source: SceneSource, overrides: Mapping[str, Any]) -> _Loaded | FrcontrolError:
         from ..model import PlanarRobot
@@ -136,25 +178,24 @@ def numeric_axes(plan: AtlasPlan) -> frozenset[str]:
     return frozenset(a.path for a in plan.axes if a.input_name is None and numeric_syntax(a.path))
 
 
-def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: frozenset[str] = frozenset()
-             ) -> tuple[Scene, ContactProblem]:
+def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: frozenset[str] = frozenset(),
+             *, scene_needed: bool = True) -> tuple[Scene | None, ContactProblem]:
     """The scene and its problem with a point's ``overrides`` (module docstring).
 
     ``numeric_paths``: the paths to apply to the scene loaded without them (:func:`numeric_axes`);
-    none: the scene loaded with every override.
+    none: the scene loaded with every override. ``scene_needed``: False when only the problem is
+    read (a solutions atlas): the scene may then be None (a point that changes only friction).
 
     Raises:
         FrcontrolError: the typed error of loading the scene with ``overrides``.
     """
-    from ..modes import ContactProblem
-
     numeric = {k: v for k, v in overrides.items() if k in numeric_paths}
     if numeric:
         try:
-            template = _SCENES.get(plan.source, {k: v for k, v in overrides.items() if k not in numeric})
+            structural = {k: v for k, v in overrides.items() if k not in numeric}
+            template = _SCENES.template(plan.source, structural)
             if template.takes_numbers(frozenset(numeric)):
-                scene = scene_with_numbers(template.scene, numeric, template.bare_coordinates)
-                return scene, ContactProblem.from_scene(scene)
+                return _made_at(plan.source, template, structural, numeric, scene_needed)
         except FrcontrolError:
             pass  # loaded with every override below: the point's own error, as the loader words it
     loaded = _SCENES.get(plan.source, overrides)
@@ -162,16 +203,86 @@ def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: froze
     return loaded.scene, loaded.problem
 
 
-def solutions_columns(scene: Scene, problem: ContactProblem, inputs: Mapping[str, float]) -> dict[str, Any]:
-    """``count``, ``modes``, ``stable`` and ``ambiguous`` at one input (module docstring)."""
-    from ..engine import solutions_at
-    from ..stability import stability_of
+def _made_at(source: SceneSource, template: _Loaded, structural: dict[str, Any], numbers: dict[str, Any],
+             scene_needed: bool) -> tuple[Scene | None, ContactProblem]:
+    """The scene (if ``scene_needed``) and the problem with ``numbers`` set on ``template``'s scene.
 
-    found = sorted(solutions_at(problem, inputs), key=lambda s: s.mode)
-    stable = []
-    for solution in found:
-        verdict = stability_of(problem, solution).stable
-        stable.append(None if verdict is None else bool(verdict))
+    ``structural``: the overrides ``template`` was loaded with (from ``source``).
+
+    From the last point made, when it was made from the same scene with the same paths: only the
+    numbers that differ are set. None differ: the last point's. Friction alone: the last problem
+    with the new coefficients (the state's arrays unchanged), and no scene unless one is needed
+    (the last scene is kept with its own numbers, and brought up to date when one is). Else the
+    scene from the template's.
+
+    Raises:
+        FrcontrolError: as :func:`~frcontrol.scene_numbers.scene_with_numbers`.
+    """
+    problem_from_scene = _query().problem.from_scene
+    last = _SCENES.last
+    if last is None or last.template is not template or last.numbers.keys() != numbers.keys():
+        scene = scene_with_numbers(template.scene, numbers, template.bare_coordinates)
+        _SCENES.last = _Made(source, template, structural, numbers, scene, numbers, problem_from_scene(scene))
+        return scene, _SCENES.last.problem
+    changed = _changed(last.numbers, numbers)
+    problem: ContactProblem | None = last.problem
+    if changed and all(is_friction_path(path) for path in changed):
+        problem = last.problem.with_friction(friction_with_numbers(
+            last.scene, {k: v for k, v in numbers.items() if is_friction_path(k)}))
+    elif changed:
+        problem = None
+    scene, scene_numbers = last.scene, last.scene_numbers
+    if problem is None or scene_needed:
+        stale = _changed(scene_numbers, numbers)
+        if stale:
+            scene, scene_numbers = scene_with_numbers(scene, stale, template.bare_coordinates), numbers
+        else:
+            use_contacts_of(scene)  # the shared robot may have been set to another scene's since
+        if problem is None:
+            problem = problem_from_scene(scene)
+    _SCENES.last = _Made(source, template, structural, numbers, scene, scene_numbers, problem)
+    return (scene if scene_needed else None), problem
+
+
+def _changed(before: dict[str, Any], after: dict[str, Any]) -> dict[str, Any]:
+    """The entries of ``after`` whose number differs from ``before``'s (same keys)."""
+    return {k: v for k, v in after.items() if not _same_number(v, before[k])}
+
+
+@dataclass(frozen=True)
+class _Query:
+    """The modules a point calls, imported once (``frcontrol.atlas`` loads without them).
+
+    Their functions are looked up at each call (a profiler may wrap them).
+    """
+
+    engine: ModuleType
+    stability: ModuleType
+    problem: type[ContactProblem]
+
+
+@cache
+def _query() -> _Query:
+    from .. import engine, stability
+    from ..modes import ContactProblem
+
+    return _Query(engine, stability, ContactProblem)
+
+
+def _same_number(a: Any, b: Any) -> bool:
+    """Whether two override values are the same number, to the bit (0.0 and -0.0 differ)."""
+    return type(a) is type(b) and a == b and (a != 0 or repr(a) == repr(b))
+
+
+def solutions_columns(scene: Scene | None, problem: ContactProblem, inputs: Mapping[str, float]
+                      ) -> dict[str, Any]:
+    """``count``, ``modes``, ``stable`` and ``ambiguous`` at one input (module docstring).
+
+    ``scene`` is not read (``problem`` holds the state); it may be None.
+    """
+    query = _query()
+    found = sorted(query.engine.solutions_at(problem, inputs), key=lambda s: s.mode)
+    stable = [None if v is None else bool(v) for v in query.stability.stable_verdicts(problem, found)]
     between = len(found) > 1
     within = any(s.ambiguity_dim > 0 for s in found)
     return {"count": len(found), "modes": [s.mode for s in found], "stable": stable,
@@ -226,6 +337,15 @@ def _climb_columns(scene: Scene) -> dict[str, Any]:
             "robustness_radius": float(plan.robustness_radius) if plan.found else None}
 
 
+def _kind_columns(what: str, scene: Scene, inputs: Mapping[str, float]) -> dict[str, Any]:
+    """The columns ``what`` adds (:data:`KIND_COLUMNS`) at one point."""
+    if what == "statics":
+        return _statics_columns(scene, inputs)
+    if what == "flip":
+        return _flip_columns(scene)
+    return _climb_columns(scene)
+
+
 def evaluate_point(plan: AtlasPlan, index: int, *, reload: bool = False,
                    numeric_paths: frozenset[str] | None = None) -> dict[str, Any]:
     """Every column of one grid point (module docstring); a typed error is recorded, not raised.
@@ -240,14 +360,12 @@ def evaluate_point(plan: AtlasPlan, index: int, *, reload: bool = False,
     elif numeric_paths is None:
         numeric_paths = numeric_axes(plan)
     try:
-        scene, problem = scene_at(plan, overrides, numeric_paths)
+        scene, problem = scene_at(plan, overrides, numeric_paths, scene_needed=plan.what != "solutions")
         row.update(solutions_columns(scene, problem, inputs))
-        if plan.what == "statics":
-            row.update(_statics_columns(scene, inputs))
-        elif plan.what == "flip":
-            row.update(_flip_columns(scene))
-        elif plan.what == "climb":
-            row.update(_climb_columns(scene))
+        if plan.what != "solutions":
+            if scene is None:
+                raise RuntimeError("scene_at made no scene where one is needed")
+            row.update(_kind_columns(plan.what, scene, inputs))
     except FrcontrolError as err:
         row = dict.fromkeys(columns(plan.what))
         row["error"] = str(err)
