@@ -452,10 +452,8 @@ class _PumpPolicy:
         self.planning_time += time.perf_counter() - start
         if modes is not None:
             self.unambiguous &= len(modes) == 1
-            here = self.scene.at(stepper.q, stepper.v)
-            active = [c for i, c in enumerate(self.contact_names) if here.contacts[i].active or loaded[i]]
             for mode in modes:
-                self._allow(active, mode)
+                self._allow(self.contact_names, mode)
                 if mode not in self.predicted:
                     self.predicted.append(mode)
         return volts
