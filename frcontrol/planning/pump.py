@@ -760,18 +760,20 @@ def within_limits(samples: Mapping[str, Any]) -> bool:
 # the compliant check
 
 
-def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COMPLIANT_STIFFNESS
-                     ) -> dict[str, Any]:
+def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COMPLIANT_STIFFNESS,
+                     to_end: bool = False) -> dict[str, Any]:
     """The rigid run's voltages, replayed against time, on the compliant model.
 
     Radau, critical damping, ``stiffness`` [N/m] on every listed contact (so the rear corner can
     land), each sample interval holding the voltage the rigid run held there, up to the rigid
-    run's time to vertical plus :data:`COMPLIANT_EXTRA_TIME` (after a rigid flip), else ``max_time``.
+    run's time to vertical plus :data:`COMPLIANT_EXTRA_TIME` (after a rigid flip), else ``max_time``;
+    with ``to_end``, up to the rigid run's last sample (the land phase included).
 
     Returns:
         ``stiffness``, ``flipped`` (the pitch passed vertical), ``time_to_vertical`` [s],
-        ``max_pitch`` [rad], ``status``, ``duration`` [s], ``torque_within_limits`` (from the
-        compliant run's own samples) and ``wall_time`` [s].
+        ``max_pitch`` [rad], ``final_pitch`` [rad], ``right_side_up`` (the final pitch within
+        :data:`UPRIGHT_TOLERANCE` of upright), ``status``, ``duration`` [s],
+        ``torque_within_limits`` (from the compliant run's own samples) and ``wall_time`` [s].
     """
     from ..simulation.compliant import simulate_compliant
 
@@ -785,6 +787,8 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
     start = time.perf_counter()
     flip_time = result.time_to_vertical
     duration = flip_time + COMPLIANT_EXTRA_TIME if flip_time is not None else result.max_time
+    if to_end:
+        duration = float(result.trajectory.times[-1])
     run = simulate_compliant(scene, held, duration=max(duration, dt), dt=dt, stiffness=stiffness,
                              contacts="all")
     pitch = run.q[:, task.pitch_index]
@@ -792,7 +796,9 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
     return {
         "stiffness": stiffness, "flipped": bool(crossed.size),
         "time_to_vertical": float(run.times[crossed[0]]) if crossed.size else None,
-        "max_pitch": float(pitch.max()), "status": run.status, "duration": float(run.times[-1]),
+        "max_pitch": float(pitch.max()), "final_pitch": float(pitch[-1]),
+        "right_side_up": bool(abs(pitch[-1] - result.upright_pitch) < UPRIGHT_TOLERANCE),
+        "status": run.status, "duration": float(run.times[-1]),
         "torque_within_limits": within_limits(pump_samples(scene, run)),
         "wall_time": time.perf_counter() - start,
     }
@@ -807,7 +813,7 @@ def pump_flip(scene: Scene, *, margin: float = DEFAULT_MARGIN, max_time: float =
               progress: Callable[[float, float], None] | None = None) -> tuple[FlipPlan, PumpResult | None]:
     """The first push's plan at the scene's state and, when ``max_time`` > 0, the pumping run.
 
-    ``compliant`` adds :func:`verify_compliant` to the result.
+    ``compliant`` adds :func:`verify_compliant` to the result, replayed to the rigid run's end.
 
     Raises:
         InputError, SceneError: see :func:`simulate_pump` and :func:`~.flip.plan_flip`.
@@ -821,7 +827,7 @@ def pump_flip(scene: Scene, *, margin: float = DEFAULT_MARGIN, max_time: float =
     result = simulate_pump(scene, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin,
                            progress=progress)
     if compliant:
-        result = replace(result, compliant=verify_compliant(scene, result))
+        result = replace(result, compliant=verify_compliant(scene, result, to_end=True))
     return plan, result
 
 
