@@ -6,8 +6,8 @@ command line."""
 from __future__ import annotations
 
 import json
-from dataclasses import replace
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -282,8 +282,9 @@ def test_the_rigid_pumping_stays_below_the_barrier_and_the_samples_show_it(rhex,
     q, v, times = np.array(samples["q"]), np.array(samples["v"]), np.array(samples["times"])
     # the body's mechanical energy above the start, from the samples and the URDFs' masses alone:
     # the body, and each toe as a point mass moving with the body (joints held: M_bb)
-    energy = 0.5 * LEGS_BODY_MASS * (v[:, 0] ** 2 + v[:, 1] ** 2) + 0.5 * LEGS_BODY_INERTIA * v[:, 2] ** 2 \
-        + LEGS_BODY_MASS * rhex.robot.gravity * (q[:, 1] - q[0, 1])
+    mass, inertia = LEGS_BODY_MASS, LEGS_BODY_INERTIA
+    energy = 0.5 * mass * (v[:, 0] ** 2 + v[:, 1] ** 2) + 0.5 * inertia * v[:, 2] ** 2 \
+        + mass * rhex.robot.gravity * (q[:, 1] - q[0, 1])
     points = result.trajectory.contact_points
     for toe in TOES:
         r = points[:, result.trajectory.contacts.index(toe)] - q[:, :2]
@@ -299,7 +300,7 @@ def test_the_rigid_pumping_stays_below_the_barrier_and_the_samples_show_it(rhex,
     assert len(pushes) >= 2
     for push in pushes[1:]:
         k = int(np.searchsorted(times, push["start"]))
-        kinetic = 0.5 * LEGS_BODY_MASS * (v[k, 0] ** 2 + v[k, 1] ** 2) + 0.5 * LEGS_BODY_INERTIA * v[k, 2] ** 2
+        kinetic = 0.5 * mass * (v[k, 0] ** 2 + v[k, 1] ** 2) + 0.5 * inertia * v[k, 2] ** 2
         assert kinetic > 1.0
     assert all(e < pump["budget"]["barrier_energy"] for e in pump["cycle_max_energy"])
     barrier = f"{pump['budget']['barrier_energy']:.2f} J brings its centre of mass over front_corner"
@@ -464,9 +465,12 @@ def test_the_push_plan_sees_the_springs_state(shipped):
 @pytest.mark.slow
 def test_the_shipped_flip_passes_vertical_in_the_compliant_replay(shipped):
     scene, result = shipped
-    check = verify_compliant(scene, result)
+    check = verify_compliant(scene, result, to_end=True)
     assert check["status"] == "completed" and check["torque_within_limits"]
     assert check["flipped"] and check["time_to_vertical"] < 5.0, check
+    # replayed to the rigid run's end, the compliant body lands right side up too
+    assert check["duration"] == pytest.approx(float(result.trajectory.times[-1]), abs=1e-9)
+    assert check["right_side_up"] and abs(check["final_pitch"] - 2 * math.pi) < UPRIGHT_TOLERANCE
 
 
 def test_a_scene_without_drives_is_a_scene_error():

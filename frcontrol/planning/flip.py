@@ -868,11 +868,9 @@ def plan_flip(
             plan, found faster).
         problem: the contact problem to plan on (default: the scene's at its state, with
             ``velocity_tolerance``); ignored when ``analysis`` is given.
-        free: per contact name, the letters the plan also allows that contact besides its
-            planned one (:func:`mode_allowed`; e.g. ``"S"``: a toe may separate): the
-            unambiguity constraint keeps away only from the modes not so allowed, and the
-            verification accepts rigid solutions in allowed modes beside the planned one.
-            Default: none (exactly one rigid solution, in the planned mode).
+        free: per contact name, the letters the plan also allows it (:func:`mode_allowed`,
+            ``"S"``: a toe may separate); the unambiguity constraint and the verification accept
+            those modes beside the planned one. Default: none (one rigid solution, planned).
 
     Returns:
         The plan; ``found=False`` with a ``reason`` when no candidate, piece or verified optimum
@@ -1049,7 +1047,8 @@ def _candidate_bounds(analysis: DynamicResponse, candidates: Sequence[str], pitc
 def _branch_and_bound(analysis: DynamicResponse, problem: ContactProblem, candidates: Sequence[str],
                       bounds: Mapping[str, float], pitch_index: int, margin: float, rounding: float,
                       exhaustive: bool, solver: str, timings: dict[str, float],
-                      free: Mapping[str, str] | None = None) -> tuple[list[FlipPiece], list[str], list[tuple[str, str]],
+                      free: Mapping[str, str] | None = None
+                      ) -> tuple[list[FlipPiece], list[str], list[tuple[str, str]],
                                  tuple[FlipPiece, np.ndarray, float] | None]:
     """The best verified piece, exploring candidates by decreasing bound.
 
@@ -1098,8 +1097,11 @@ def _torque_text(torques: Mapping[str, float]) -> str:
 
 def _verify(analysis: DynamicResponse, piece: FlipPiece, u: np.ndarray, pitch_index: int,
             solver: str, free: Mapping[str, str] | None = None) -> tuple[str | None, float]:
-    """``(None, pitch)`` if the rigid solutions at u are one in the piece's mode and otherwise only
-    in modes ``free`` allows (:func:`mode_allowed`; without ``free``: exactly one), else why."""
+    """``(None, pitch)`` if the rigid solutions at u are as the plan allows, else why.
+
+    That is: one solution in the piece's mode and the others only in modes ``free`` allows
+    (:func:`mode_allowed`; without ``free``: exactly one solution).
+    """
     mode = analysis.mode(piece.mode)
     pitch = worst_case_pitch(mode, pitch_index, u, solver=solver)
     solutions = solutions_at(analysis, u, solver=solver)
