@@ -243,12 +243,12 @@ def test_the_shipped_rhex_drives_are_a_motor_pair_within_20_newton_metres_at_rhe
         # RHexLib's motor (hardware/UofM/config.hh), two in parallel: R / 2, twice the rotor inertia
         assert drive.resistance == pytest.approx(1.33 / 2)
         assert drive.rotor_inertia == pytest.approx(2 * 9.11e-7)
-        # the supply is 1.5 x RHexLib's 24 V (the least found at which the pumping flip ends right
-        # side up, docs/rhex-legs.md); at 24 V a pair gives at most 20 N m at stall
-        assert drive.ratio == 33.0625 and drive.voltage_limit == 1.5 * 24.0
+        # the supply is 38 V, above RHexLib's 24 V (the pumping flip ends right side up there, not at
+        # 24 V: docs/rhex-flip.md); at 24 V a pair gives at most 20 N m at stall
+        assert drive.ratio == 33.0625 and drive.voltage_limit == 38.0
         lossless = 33.0625 * drive.torque_constant * 24.0 / drive.resistance  # N C_M U / R at 24 V
         assert lossless <= 20.0
-        assert stall_torque(drive) == pytest.approx(drive.efficiency * lossless * 1.5)
+        assert stall_torque(drive) == pytest.approx(drive.efficiency * lossless * 38.0 / 24.0)
 
 
 # ---------------------------------------------------------------------------- simulate output

@@ -145,6 +145,7 @@ __all__ = [
     "build_flip",
     "flip_task",
     "margin_pieces",
+    "mode_allowed",
     "maximise_pitch",
     "plan_flip",
     "sample_modes",
@@ -538,6 +539,7 @@ def margin_pieces(
     margin: float,
     *,
     solver: str = DEFAULT_LP_SOLVER,
+    free: Mapping[str, str] | None = None,
 ) -> list[poly.Polytope]:
     """The unambiguous inputs of ``mode`` kept ``margin`` away from every other mode, as pieces.
 
@@ -552,6 +554,8 @@ def margin_pieces(
         mode: a feasible mode whose T_c has an interior.
         margin: [units of u] the distance to keep, >= 0.
         solver: LP back-end.
+        free: per contact name, the letters a plan in ``mode`` also allows that contact
+            (:func:`mode_allowed`): the modes so allowed are not kept away from (default: none).
 
     Returns:
         Convex pieces with disjoint interiors, each with an interior (unit rows, not minimal).
@@ -563,6 +567,8 @@ def margin_pieces(
         return []
     others = [analysis.mode(name) for name in analysis.overlapping(mode)]
     others += [m for m in analysis.lower_dimensional_modes() if m.mode != mode]
+    contacts = analysis.problem.contacts
+    others = [m for m in others if not mode_allowed(m.mode, mode, contacts, free)]
     pieces: list[tuple[np.ndarray, np.ndarray]] = [(A, start_b)]
     for other in others:
         hull = _hull_band(other, margin)
@@ -591,6 +597,16 @@ def margin_pieces(
         if not pieces:
             break
     return [poly.Polytope(P_A, P_b) for P_A, P_b in pieces]
+
+
+def mode_allowed(mode: str, planned: str, contacts: Sequence[str], free: Mapping[str, str] | None) -> bool:
+    """Whether a plan in mode ``planned`` allows ``mode`` (both one letter per contact of ``contacts``).
+
+    It does when every contact has the planned letter or one of the letters ``free`` gives it
+    (``{"rear_toe": "S"}``: the rear toe may also separate). Without ``free``, only ``planned``.
+    """
+    free = free or {}
+    return all(a == b or a in free.get(name, "") for a, b, name in zip(mode, planned, contacts, strict=True))
 
 
 def _hull_band(mode: ModeAnalysis, margin: float) -> tuple[np.ndarray, np.ndarray] | None:
@@ -830,6 +846,7 @@ def plan_flip(
     velocity_tolerance: float = VELOCITY_TOLERANCE,
     exhaustive: bool = False,
     problem: ContactProblem | None = None,
+    free: Mapping[str, str] | None = None,
 ) -> FlipPlan:
     """The hip torques that maximise the body's pitch acceleration, unambiguously, at the state.
 
@@ -851,6 +868,9 @@ def plan_flip(
             plan, found faster).
         problem: the contact problem to plan on (default: the scene's at its state, with
             ``velocity_tolerance``); ignored when ``analysis`` is given.
+        free: per contact name, the letters the plan also allows it (:func:`mode_allowed`,
+            ``"S"``: a toe may separate); the unambiguity constraint and the verification accept
+            those modes beside the planned one. Default: none (one rigid solution, planned).
 
     Returns:
         The plan; ``found=False`` with a ``reason`` when no candidate, piece or verified optimum
@@ -889,7 +909,7 @@ def plan_flip(
     common["bounds"] = bounds
     pieces, explored, rejected, chosen = _branch_and_bound(
         analysis, problem, candidates, bounds, task.pitch_index, margin, rounding, exhaustive, solver,
-        timings)
+        timings, free)
     pieces.sort(key=lambda p: -p.pitch_acceleration)
     common.update({"pieces": tuple(pieces), "explored": tuple(explored), "rejected": tuple(rejected)})
     timings["total"] = time.perf_counter() - start
@@ -1026,7 +1046,8 @@ def _candidate_bounds(analysis: DynamicResponse, candidates: Sequence[str], pitc
 
 def _branch_and_bound(analysis: DynamicResponse, problem: ContactProblem, candidates: Sequence[str],
                       bounds: Mapping[str, float], pitch_index: int, margin: float, rounding: float,
-                      exhaustive: bool, solver: str, timings: dict[str, float]
+                      exhaustive: bool, solver: str, timings: dict[str, float],
+                      free: Mapping[str, str] | None = None
                       ) -> tuple[list[FlipPiece], list[str], list[tuple[str, str]],
                                  tuple[FlipPiece, np.ndarray, float] | None]:
     """The best verified piece, exploring candidates by decreasing bound.
@@ -1046,7 +1067,7 @@ def _branch_and_bound(analysis: DynamicResponse, problem: ContactProblem, candid
             break
         explored.append(name)
         t0 = time.perf_counter()
-        regions = margin_pieces(analysis, name, margin, solver=solver)
+        regions = margin_pieces(analysis, name, margin, solver=solver, free=free)
         t1 = time.perf_counter()
         found = sorted((maximise_pitch(analysis.mode(name), piece, pitch_index, solver)
                         for piece in regions), key=lambda p: -p.pitch_acceleration)
@@ -1061,7 +1082,7 @@ def _branch_and_bound(analysis: DynamicResponse, problem: ContactProblem, candid
                 rejected.append((piece.mode, "the LP found no optimum"))
                 continue
             u = _round_inputs(piece.optimum, problem.lower, problem.upper, rounding)
-            verdict, pitch = _verify(analysis, piece, u, pitch_index, solver)
+            verdict, pitch = _verify(analysis, piece, u, pitch_index, solver, free)
             if verdict is None:
                 chosen = (piece, u, pitch)
                 break
@@ -1075,15 +1096,20 @@ def _torque_text(torques: Mapping[str, float]) -> str:
 
 
 def _verify(analysis: DynamicResponse, piece: FlipPiece, u: np.ndarray, pitch_index: int,
-            solver: str) -> tuple[str | None, float]:
-    """``(None, pitch)`` if exactly one rigid solution holds at u, in the piece's mode, else why."""
+            solver: str, free: Mapping[str, str] | None = None) -> tuple[str | None, float]:
+    """``(None, pitch)`` if the rigid solutions at u are as the plan allows, else why.
+
+    That is: one solution in the piece's mode and the others only in modes ``free`` allows
+    (:func:`mode_allowed`; without ``free``: exactly one solution).
+    """
     mode = analysis.mode(piece.mode)
     pitch = worst_case_pitch(mode, pitch_index, u, solver=solver)
     solutions = solutions_at(analysis, u, solver=solver)
     modes = [s.mode for s in solutions]
-    if modes != [piece.mode]:
+    contacts = analysis.problem.contacts
+    if modes.count(piece.mode) != 1 or not all(mode_allowed(m, piece.mode, contacts, free) for m in modes):
         return f"solutions at the rounded torques: {', '.join(modes) or 'none'}", pitch
-    found = float(solutions[0].dv[pitch_index])
+    found = float(solutions[modes.index(piece.mode)].dv[pitch_index])
     if piece.worst_case:
         if found < pitch - PITCH_TOLERANCE * (1.0 + abs(pitch)):
             return f"the solution's pitch {found:.9g} is below the worst case {pitch:.9g}", pitch
@@ -1360,7 +1386,7 @@ def _gaps(scene: Scene, q: np.ndarray, points: np.ndarray | None = None) -> np.n
 
 
 def _replan(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarray, margin: float,
-            solver: str) -> FlipPlan | str:
+            solver: str, free: Mapping[str, str] | None = None) -> FlipPlan | str:
     """The plan at the simulated state, or why none could be made (an impact, an error).
 
     The contacts planned with are those within :data:`REPLAN_GAP_TOLERANCE` of their surface and
@@ -1382,7 +1408,8 @@ def _replan(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarray, marg
         held_down = np.array([bool(loaded[i]) for i, c in enumerate(contacts) if c.active], dtype=bool)
         if held_down.size:
             problem = replace(problem, normal_velocities=np.where(held_down, 0.0, problem.normal_velocities))
-        return plan_flip(here, margin=margin, solver=solver, min_pitch_acceleration=None, problem=problem)
+        return plan_flip(here, margin=margin, solver=solver, min_pitch_acceleration=None, problem=problem,
+                         free=free)
     except ImpactState as err:
         return f"impact at {err.contact} (v_N = {err.normal_velocity:.3g} m/s)"
     except FrcontrolError as err:

@@ -49,7 +49,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -74,6 +74,7 @@ from .flip import (
     _gaps,
     _replan,
     flip_task,
+    mode_allowed,
     sample_modes,
 )
 from .flip_budget import FlipBudget, body_energy, energy_shortfall, flip_budget
@@ -141,6 +142,23 @@ STAND_ANGLE = math.pi
 """[rad] The hip angle the legs are driven to in the land phase (mod 2 pi): the URDF's zero, a leg
 pointing towards the belly, i.e. down once the body is right side up."""
 
+ANY_LETTER = "SFLR"
+"""Every contact mode letter: a contact free to take any of them."""
+
+PUSH_FREEDOM = {"toe": ANY_LETTER, "other_body": ANY_LETTER, "pivot": "", "rest": ""}
+"""What a push allows besides its planned mode, per contact role (letters): a toe may separate
+(the push ends in its lift-off) or stick or slide either way (a pushing toe's slip reverses within
+a step as the leg turns), a body contact not touching at the start (RHex's rear corner) may touch
+(a graze); the body contacts touching at the start (the pivot, RHex's front corner) keep their
+planned letter, and the rest (the belly's corners) stay apart. The push plans' unambiguity
+constraint uses exactly this (:func:`~.flip.mode_allowed`): no other rigid solution may hold at
+a plan's voltages unless it is so allowed."""
+
+FREE_FREEDOM = {"toe": ANY_LETTER, "other_body": ANY_LETTER, "pivot": ANY_LETTER, "rest": ANY_LETTER}
+"""What a recirculation or the land phase allows: any letter on every contact. Neither plans a
+contact mode: the legs are driven to angles and the body moves on its own (it rises and falls
+back onto its toes and corners, or falls right side up onto its belly)."""
+
 PUSH_DIRECTION_TOLERANCE = 1e-9
 """[V] A planned voltage of at most this size gives no pushing direction (the leg recirculates in
 the default, negative, direction)."""
@@ -183,6 +201,24 @@ def check_pump_scene(scene: Scene) -> list[Drive]:
     return [scene.drives[name] for name in scene.inputs.coordinates]
 
 
+def _contact_roles(scene: Scene, body: Sequence[str], legs: Mapping[int, list[int]]) -> dict[str, str]:
+    """Each scene contact's role in the pumping flip (the keys of :data:`PUSH_FREEDOM`).
+
+    ``toe`` (moved by a driven leg), ``pivot`` (a body contact touching at the start),
+    ``other_body`` (a body contact apart at the start), ``rest`` (every other contact).
+    """
+    toes = {i for contacts in legs.values() for i in contacts}
+    roles = {}
+    for i, c in enumerate(scene.contacts):
+        if i in toes:
+            roles[c.name] = "toe"
+        elif c.name in body:
+            roles[c.name] = "pivot" if c.active else "other_body"
+        else:
+            roles[c.name] = "rest"
+    return roles
+
+
 def _leg_contacts(scene: Scene, body: Sequence[str]) -> dict[int, list[int]]:
     """Input -> the contacts (not the body's) its coordinate moves, from the contact Jacobians."""
     state = scene.robot.state(scene.q, scene.v)
@@ -223,6 +259,10 @@ class PumpPhase:
         allowed: the modes the phase's decisions allowed, one letter per scene contact (S for a
             contact a decision did not hold): a push's planned modes, a recirculation's or
             landing's predicted ones.
+        free: per scene contact, the letters the phase allows it besides those of ``allowed``
+            (:data:`PUSH_FREEDOM`, :data:`FREE_FREEDOM`): a sample's mode is allowed when it
+            matches a mode of ``allowed`` on every contact but free ones
+            (:func:`~.flip.mode_allowed`).
     """
 
     kind: str
@@ -234,6 +274,11 @@ class PumpPhase:
     predicted: tuple[str, ...] = ()
     unambiguous: bool = True
     allowed: tuple[str, ...] = ()
+    free: Mapping[str, str] = field(default_factory=dict)
+
+    def allows(self, mode: str, contacts: Sequence[str]) -> bool:
+        """Whether ``mode`` (one letter per scene contact, ``contacts``) is one the phase allowed."""
+        return any(mode_allowed(mode, base, contacts, self.free) for base in self.allowed)
 
 
 @dataclass(frozen=True)
@@ -263,6 +308,7 @@ class PumpResult:
         energy_audit: where the run's energy came from and went
             (:func:`~frcontrol.simulation.energy_audit.energy_audit`).
         final_pitch: [rad] the pitch at the run's last sample.
+        contacts: the scene's contact names, in order (the modes' letters).
     """
 
     trajectory: Trajectory
@@ -286,6 +332,7 @@ class PumpResult:
     cycle_max_energy: tuple[float, ...] = ()
     energy_audit: EnergyAudit | None = None
     final_pitch: float = math.nan
+    contacts: tuple[str, ...] = ()
 
     @property
     def upright_pitch(self) -> float:
@@ -302,7 +349,8 @@ class PumpResult:
 
         Sample k (the end of the step from k-1) is judged against the modes allowed by the phase
         whose decisions chose that step's voltages (``start <= t_k-1 < end``) and, where a phase
-        starts at the sample (a decision made at that very state), by that phase too. Returns
+        starts at the sample (a decision made at that very state), by that phase too
+        (:meth:`PumpPhase.allows`: its decisions' modes, its free contacts' letters). Returns
         ``within`` (every sample's mode is allowed), ``samples``, ``outside`` (how many are not)
         and ``first`` (``time``, ``mode``, ``phase`` of the first that is not; None).
         """
@@ -311,7 +359,8 @@ class PumpResult:
         for k in range(1, len(times)):
             phase = next((p for p in self.phases if p.start <= times[k - 1] + 1e-12 < p.end), self.phases[-1])
             starting = [p for p in self.phases if abs(p.start - times[k]) <= 1e-12]
-            if modes[k] not in phase.allowed and not any(modes[k] in p.allowed for p in starting):
+            if not phase.allows(modes[k], self.contacts) and \
+                    not any(p.allows(modes[k], self.contacts) for p in starting):
                 outside += 1
                 if first is None:
                     first = {"time": float(times[k]), "mode": modes[k], "phase": phase.kind}
@@ -326,7 +375,8 @@ class PumpResult:
         """The ``pump`` part of ``frc flip --json``: cycles, time to flip, energy, phases, drives."""
         phases = [{"kind": p.kind, "cycle": p.cycle, "start": p.start, "end": p.end,
                    "modes": list(p.modes), "ended_by": p.ended_by, "predicted": list(p.predicted),
-                   "unambiguous": p.unambiguous, "allowed": list(p.allowed)} for p in self.phases]
+                   "unambiguous": p.unambiguous, "allowed": list(p.allowed),
+                   "free": dict(p.free)} for p in self.phases]
         drives = {d.joint: {"resistance": d.resistance, "torque_constant": d.torque_constant,
                             "back_emf_constant": d.back_emf_constant, "voltage_limit": d.voltage_limit,
                             "ratio": d.ratio, "efficiency": d.efficiency, "stall_torque": stall_torque(d),
@@ -371,7 +421,6 @@ class _PumpPolicy:
         self.direction = -np.ones(len(self.names))
         self.target = self.touchdown.copy()
         self.kind, self.cycle, self.start = "push", 1, 0.0
-        self.contact_names = tuple(c.name for c in scene.contacts)
         self.modes: list[str] = []  # scene modes (one letter per scene contact)
         self.predicted: list[str] = []
         self.unambiguous = True
@@ -380,6 +429,7 @@ class _PumpPolicy:
         self.planning_time = 0.0
         self.allowed: list[str] = []  # this phase's decisions: one letter per scene contact
         self.contact_names = tuple(c.name for c in scene.contacts)
+        self.roles = _contact_roles(scene, task.body_contacts, self.legs)
 
     def land(self, t: float, q: np.ndarray) -> None:
         """The pitch passed vertical: the land phase, the legs driven to :data:`STAND_ANGLE`."""
@@ -431,7 +481,8 @@ class _PumpPolicy:
         """The push plan at the stepper's state, or why there is none."""
         loaded = stepper.last_forces[:, 0] > self.force_tolerance
         start = time.perf_counter()
-        result = _replan(self.scene, stepper.q, stepper.v, loaded, self.margin, self.solver)
+        result = _replan(self.scene, stepper.q, stepper.v, loaded, self.margin, self.solver,
+                         self.freedom("push"))
         self.planning_time += time.perf_counter() - start
         if isinstance(result, str):
             return None, result
@@ -452,9 +503,8 @@ class _PumpPolicy:
         self.planning_time += time.perf_counter() - start
         if modes is not None:
             self.unambiguous &= len(modes) == 1
-            for mode in modes:  # already one letter per scene contact (predicted_modes)
-                if mode not in self.allowed:
-                    self.allowed.append(mode)
+            for mode in modes:
+                self._allow(self.contact_names, mode)
                 if mode not in self.predicted:
                     self.predicted.append(mode)
         return volts
@@ -471,9 +521,14 @@ class _PumpPolicy:
         limits = np.array([d.voltage_limit for d in self.drives])
         return np.clip(volts, -limits, limits)
 
+    def freedom(self, kind: str) -> dict[str, str]:
+        """Per scene contact, the letters a phase of ``kind`` allows besides its decisions' modes."""
+        table = PUSH_FREEDOM if kind == "push" else FREE_FREEDOM
+        return {name: table[role] for name, role in self.roles.items() if table[role]}
+
     def _phase(self, t: float, why: str) -> PumpPhase:
         return PumpPhase(self.kind, self.cycle, self.start, t, tuple(self.modes), why, tuple(self.predicted),
-                         self.unambiguous, tuple(self.allowed))
+                         self.unambiguous, tuple(self.allowed), self.freedom(self.kind))
 
     def _next_phase(self, t: float, kind: str, why: str) -> None:
         self.phases.append(self._phase(t, why))
@@ -585,6 +640,7 @@ def simulate_pump(
                  "total": total},
         budget=budget, cycle_max_energy=_cycle_max(trajectory.times, energy, phases) if energy.size else (),
         energy_audit=energy_audit(scene, trajectory), final_pitch=float(pitch[-1]),
+        contacts=tuple(c.name for c in scene.contacts),
     )
 
 
@@ -704,18 +760,20 @@ def within_limits(samples: Mapping[str, Any]) -> bool:
 # the compliant check
 
 
-def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COMPLIANT_STIFFNESS
-                     ) -> dict[str, Any]:
+def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COMPLIANT_STIFFNESS,
+                     to_end: bool = False) -> dict[str, Any]:
     """The rigid run's voltages, replayed against time, on the compliant model.
 
     Radau, critical damping, ``stiffness`` [N/m] on every listed contact (so the rear corner can
     land), each sample interval holding the voltage the rigid run held there, up to the rigid
-    run's time to vertical plus :data:`COMPLIANT_EXTRA_TIME` (after a rigid flip), else ``max_time``.
+    run's time to vertical plus :data:`COMPLIANT_EXTRA_TIME` (after a rigid flip), else ``max_time``;
+    with ``to_end``, up to the rigid run's last sample (the land phase included).
 
     Returns:
         ``stiffness``, ``flipped`` (the pitch passed vertical), ``time_to_vertical`` [s],
-        ``max_pitch`` [rad], ``status``, ``duration`` [s], ``torque_within_limits`` (from the
-        compliant run's own samples) and ``wall_time`` [s].
+        ``max_pitch`` [rad], ``final_pitch`` [rad], ``right_side_up`` (the final pitch within
+        :data:`UPRIGHT_TOLERANCE` of upright), ``status``, ``duration`` [s],
+        ``torque_within_limits`` (from the compliant run's own samples) and ``wall_time`` [s].
     """
     from ..simulation.compliant import simulate_compliant
 
@@ -729,6 +787,8 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
     start = time.perf_counter()
     flip_time = result.time_to_vertical
     duration = flip_time + COMPLIANT_EXTRA_TIME if flip_time is not None else result.max_time
+    if to_end:
+        duration = float(result.trajectory.times[-1])
     run = simulate_compliant(scene, held, duration=max(duration, dt), dt=dt, stiffness=stiffness,
                              contacts="all")
     pitch = run.q[:, task.pitch_index]
@@ -736,7 +796,9 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
     return {
         "stiffness": stiffness, "flipped": bool(crossed.size),
         "time_to_vertical": float(run.times[crossed[0]]) if crossed.size else None,
-        "max_pitch": float(pitch.max()), "status": run.status, "duration": float(run.times[-1]),
+        "max_pitch": float(pitch.max()), "final_pitch": float(pitch[-1]),
+        "right_side_up": bool(abs(pitch[-1] - result.upright_pitch) < UPRIGHT_TOLERANCE),
+        "status": run.status, "duration": float(run.times[-1]),
         "torque_within_limits": within_limits(pump_samples(scene, run)),
         "wall_time": time.perf_counter() - start,
     }
@@ -751,7 +813,7 @@ def pump_flip(scene: Scene, *, margin: float = DEFAULT_MARGIN, max_time: float =
               progress: Callable[[float, float], None] | None = None) -> tuple[FlipPlan, PumpResult | None]:
     """The first push's plan at the scene's state and, when ``max_time`` > 0, the pumping run.
 
-    ``compliant`` adds :func:`verify_compliant` to the result.
+    ``compliant`` adds :func:`verify_compliant` to the result, replayed to the rigid run's end.
 
     Raises:
         InputError, SceneError: see :func:`simulate_pump` and :func:`~.flip.plan_flip`.
@@ -765,7 +827,7 @@ def pump_flip(scene: Scene, *, margin: float = DEFAULT_MARGIN, max_time: float =
     result = simulate_pump(scene, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin,
                            progress=progress)
     if compliant:
-        result = replace(result, compliant=verify_compliant(scene, result))
+        result = replace(result, compliant=verify_compliant(scene, result, to_end=True))
     return plan, result
 
 
