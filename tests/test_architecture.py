@@ -7,6 +7,7 @@ folder (``planning/``). A new module without a line in the document fails here.
 
 from __future__ import annotations
 
+import ast
 import re
 from pathlib import Path
 
@@ -50,3 +51,77 @@ def test_the_check_can_fail():
     assert named("planning/core/task.py", "planning/core/task.py")
     assert named("`core/task.py` reads", "planning/core/task.py")
     assert not named("`task.py` is elsewhere", "planning/core/tasks.py")
+
+
+LAYERS: list[tuple[str, ...]] = [
+    ("errors", "jsonable", "records"),
+    ("scene_schema",),
+    ("kernel", "_kernel"),
+    ("model", "urdf", "plane", "drives", "springs", "cholesky"),
+    ("scene", "scene_source", "scene_tables", "scene_numbers"),
+    ("polytope", "solvers"),
+    ("modes", "response", "mode_batch"),
+    ("engine", "query", "lcp", "contact_lcp", "siconos"),
+    ("simulation", "statics", "stability"),
+    ("atlas", "planning"),
+    ("viz",),
+    ("answers",),
+    ("cli", "service", "__main__"),
+]
+"""frcontrol's layers, lowest first, as docs/ARCHITECTURE.md draws them: a module imports from its own
+layer or below, never above (imports inside functions count too)."""
+
+
+def layer_of(module: str) -> int | None:
+    """The layer of ``frcontrol.``-relative ``module`` (its first part), None for the package itself."""
+    top = module.split(".")[0]
+    return next((i for i, names in enumerate(LAYERS) if top in names), None)
+
+
+def imports_upwards(source: str, module: str, is_package: bool) -> list[str]:
+    """The imports of ``module`` (``frcontrol``-relative, dotted) that reach a higher layer."""
+    own = layer_of(module)
+    parts = module.split(".") if module else []
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if not isinstance(node, ast.ImportFrom):
+            continue
+        if node.level:
+            base = parts if is_package else parts[:-1]
+            base = base[:len(base) - node.level + 1]
+            targets = [".".join([*base, node.module])] if node.module else [".".join([*base, a.name])
+                                                                          for a in node.names]
+        elif node.module and node.module.startswith("frcontrol."):
+            targets = [node.module.removeprefix("frcontrol.")]
+        else:
+            continue
+        for target in targets:
+            layer = layer_of(target.lstrip("."))
+            if own is not None and layer is not None and layer > own:
+                found.append(target)
+    return found
+
+
+def test_the_layers_run_one_way():
+    upwards = {}
+    count = 0
+    for path in sorted((ROOT / "frcontrol").rglob("*.py")):
+        relative = path.relative_to(ROOT / "frcontrol").with_suffix("").as_posix().replace("/", ".")
+        is_package = path.name == "__init__.py"
+        module = relative.removesuffix(".__init__").removesuffix("__init__")
+        if layer_of(module) is None and module:
+            upwards[module] = ["(not in LAYERS: add it, and to docs/ARCHITECTURE.md's figure)"]
+            continue
+        count += 1
+        if found := imports_upwards(path.read_text(encoding="utf-8"), module, is_package):
+            upwards[module] = found
+    assert count > 40
+    assert not upwards, f"imports to a higher layer: {upwards}"
+
+
+def test_an_upward_import_is_caught():
+    assert imports_upwards("from .engine import analyze\n", "modes", False) == ["engine"]
+    assert imports_upwards("def f():\n    from ..planning import flip\n", "simulation.rigid", False) \
+        == ["planning"]
+    assert imports_upwards("from .modes import ContactProblem\n", "engine", False) == []
+    assert imports_upwards("from frcontrol.answers import x\n", "viz.figures", False) == ["answers"]
