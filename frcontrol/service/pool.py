@@ -22,6 +22,7 @@ import asyncio
 import json
 import logging
 import multiprocessing
+import os
 import threading
 import time
 import uuid
@@ -88,6 +89,22 @@ def _address_space() -> int:
     return 0
 
 
+SINGLE_THREADED_BLAS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+"""The environment every worker and job process starts with (unless the server's own environment
+sets these): one BLAS thread. A robot's matrices are small, so threads gain nothing; and a
+multithreaded OpenBLAS that runs out of address space under ``--worker-memory`` spins instead of
+raising MemoryError (the request then ran into its time limit, a 504, instead of a 507)."""
+
+
+def _single_threaded_blas() -> None:
+    """Set :data:`SINGLE_THREADED_BLAS` in the server's environment, which spawned processes inherit.
+
+    The server's own BLAS, already loaded, keeps its threads.
+    """
+    for name, value in SINGLE_THREADED_BLAS.items():
+        os.environ.setdefault(name, value)
+
+
 def _worker_main(conn: Connection, memory: int | None) -> None:
     """A pool worker: answer ``(number, kind, text)`` with ``(number, answer)`` until the pipe closes.
 
@@ -117,6 +134,7 @@ class _Worker:
 
 def _start_worker(memory: int | None) -> _Worker:
     """A worker process under ``memory`` MiB, returned once it has loaded the library."""
+    _single_threaded_blas()
     parent, child = _CONTEXT.Pipe()
     process = _CONTEXT.Process(target=_worker_main, args=(child, memory), daemon=True,
                                name="frc-serve-worker")
@@ -330,6 +348,7 @@ class JobRunner:
             return None
         parent, child = _CONTEXT.Pipe(duplex=False)
         job = Job(id=uuid.uuid4().hex, kind=kind, started=time.monotonic())
+        _single_threaded_blas()
         job.process = _CONTEXT.Process(target=_job_main, args=(kind, text, child, self.memory), daemon=True,
                                        name=f"frc-serve-job-{job.id[:8]}")
         with self._lock:
