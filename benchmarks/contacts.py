@@ -12,7 +12,9 @@ midpoints from the head down. Per contact count it measures, in this process:
   computed (``ModeAnalysis.domain``, ``input_domain``), with the time per feasible mode; skipped
   for a count whose analysis predicts more than ``--forced-budget`` seconds (the analysis's
   per-feasible-mode cost at the previous count, times the feasible modes, the cost growing with
-  the count).
+  the count); up to :data:`REFERENCE_MAX_CONTACTS` contacts, also by the former rule (T_c
+  projected from D_c pruned once more, :func:`forced_reference`), for a before and after measured
+  in one process.
 
 Every figure is a median of ``--runs`` runs (a long one, above :data:`SINGLE_RUN_SECONDS`, runs once)
 and is also given as a ratio to ``benchmarks/ci.py``'s calibration workload measured in the same
@@ -36,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks.ci import calibration_workload, versions
+from frcontrol import polytope as poly
 from frcontrol.engine import analyze
 from frcontrol.scene import load_scene, shipped_robots_dir
 
@@ -48,6 +51,10 @@ PROGRESS_AFTER = 2.0
 
 SINGLE_RUN_SECONDS = 20.0
 """[s] A measurement whose first run took longer than this is not repeated."""
+
+REFERENCE_MAX_CONTACTS = 8
+"""Up to this contact count the forced analysis is also timed by the former rule
+(:func:`forced_reference`, ``forced_reference_s``), in the same process."""
 
 FORCED_BUDGET = 120.0
 """[s] Default largest predicted time of a forced analysis that is run."""
@@ -136,7 +143,19 @@ def measure(k: int, runs: int, forced_budget: float, previous: dict[str, Any] | 
     seconds, times, _ = timed(forced, runs)
     entry.update(forced_s=seconds, forced_runs=len(times),
                  forced_per_feasible_mode_s=seconds / max(1, e.feasible))
+    if k <= REFERENCE_MAX_CONTACTS:
+        seconds, times, _ = timed(lambda: forced_reference(scene), runs)
+        entry.update(forced_reference_s=seconds, forced_reference_runs=len(times))
     return entry
+
+
+def forced_reference(scene: Any) -> Any:
+    """The forced analysis by the former rule: each T_c projected from D_c pruned once more."""
+    done = analyze(scene, ambiguity=False)
+    for mode in done.feasible_modes:
+        if mode.ambiguity_dim:
+            poly.project(mode.domain, range(mode.m), solver=mode.solver, ball=mode._cache.get("raw_ball"))
+    return done
 
 
 def plot(payload: dict[str, Any], path: Path) -> None:
@@ -181,12 +200,14 @@ def main(argv: list[str] | None = None) -> int:
         r = rows[-1]
         forced = (f"{r['forced_s']:.2f} s, {1e3 * r['forced_per_feasible_mode_s']:.2f} ms per feasible mode"
                   if r.get("forced_s") is not None else r.get("forced_skipped", "-"))
+        if r.get("forced_reference_s") is not None:
+            forced += f" (former rule {r['forced_reference_s']:.2f} s)"
         print(f"{k:2d} contacts: {r['modes_evaluated']:6d} modes evaluated, {r['modes_feasible']:5d} "
               f"feasible; analysis {r['analysis_s']:.3f} s "
               f"({1e3 * r['analysis_per_evaluated_mode_s']:.3f} ms per evaluated mode); forced {forced}",
               flush=True)
     for r in rows:
-        for key in ("analysis_s", "forced_s"):
+        for key in ("analysis_s", "forced_s", "forced_reference_s"):
             if r.get(key) is not None:
                 r[key.replace("_s", "_ratio_to_calibration")] = r[key] / calibration
     command = "python -m benchmarks.contacts " + " ".join(argv or sys.argv[1:])

@@ -150,9 +150,8 @@ class ModeAnalysis:
         if "input_domain" not in self._cache:
             t0 = time.perf_counter()
             if self.ambiguity_dim:
-                # D_c's raw form and its minimal one are the same set: the same Chebyshev ball
-                projected = poly.project(self.domain, range(self.m), solver=self.solver,
-                                         ball=self._cache.get("raw_ball"))
+                # self.domain is D_c in minimal form already: the projection starts from it
+                projected = poly.project(self.domain, range(self.m), solver=self.solver, minimal=True)
             else:
                 projected = self.domain
             self._cache["input_domain"] = projected

@@ -902,6 +902,7 @@ def project(
     tolerance: float = REDUNDANCY_TOLERANCE,
     solver: str = DEFAULT_LP_SOLVER,
     ball: ChebyshevBall | None = None,
+    minimal: bool = False,
 ) -> Polytope:
     r"""Projection :math:`\{y : \exists x \in P,\ y = (x_k)_{k \in 	ext{keep}}\}`.
 
@@ -921,6 +922,9 @@ def project(
         ball: a Chebyshev ball of the set ``P`` (of any H-representation of it) when the caller
             has one: the first pruning reuses it instead of solving its LP again, when ``keep``
             is ``P``'s leading coordinates in order (so the coordinates are not permuted).
+        minimal: ``P`` is already a result of :func:`minimal_representation`: when ``keep`` is its
+            leading coordinates in order, the first pruning (which would find ``P`` again, at the
+            cost of its redundancy LPs) is skipped.
 
     Returns:
         The projection, in minimal representation, in ``R^len(keep)``; the canonical empty set if
@@ -936,9 +940,10 @@ def project(
     if n_keep == 0:  # onto R^0: the point if P is non-empty
         return _r0(not chebyshev_ball(P, solver=solver).found)
     order = kept + [i for i in range(P.dim) if i not in kept]
-    current = minimal_representation(
+    in_order = order == list(range(P.dim))
+    current = P if minimal and in_order else minimal_representation(
         Polytope(P.A[:, order], P.b, P.A_eq[:, order], P.b_eq), tolerance=tolerance, solver=solver,
-        ball=ball if order == list(range(P.dim)) else None)
+        ball=ball if in_order else None)
     while True:
         if current.empty:
             return Polytope.empty_set(n_keep)
