@@ -652,9 +652,9 @@ def _is_redundant(
     """
     k = int(np.count_nonzero(others))
     A_ub, b_ub = lps.rows[:k + 1], lps.rhs[:k + 1]
-    np.compress(others, unit, axis=0, out=A_ub[:k])
+    unit.compress(others, axis=0, out=A_ub[:k])  # the method: np.compress's own, without its wrapper
     A_ub[k] = unit[i]
-    np.compress(others, offsets, out=b_ub[:k])
+    offsets.compress(others, out=b_ub[:k])
     b_ub[k] = offsets[i] + 1.0
     result = lps.lps.solve(-unit[i], A_ub, b_ub)
     if not result.found:  # only "infeasible" is left: the set is empty after all
