@@ -522,10 +522,12 @@ _DENSE_PAIRS_MAX_ROWS = 512
 beyond it, by sorting rows rounded to :data:`_DUPLICATE_GRID`."""
 
 
-def _near_pairs(unit: np.ndarray, threshold: float, sign: float) -> np.ndarray:
+def _near_pairs(unit: np.ndarray, threshold: float, sign: float,
+                gram: np.ndarray | None = None) -> np.ndarray:
     """Pairs ``(p, q)``, ``p < q``, of unit rows with ``sign * (u_p . u_q) >= threshold``.
 
-    Up to :data:`_DENSE_PAIRS_MAX_ROWS` rows every pair is checked (one matrix product). Beyond,
+    Up to :data:`_DENSE_PAIRS_MAX_ROWS` rows every pair is checked (one matrix product, ``gram``
+    ``= unit @ unit.T`` when the caller has it: the duplicates and the opposite pairs share it). Beyond,
     candidates are the rows whose coordinates, rounded to :data:`_DUPLICATE_GRID`, coincide (for
     ``sign = -1``: coincide with the other row negated); each candidate pair is then checked
     exactly. Found by sorting, in O(m log m): two near-duplicates rounded to different grid
@@ -534,7 +536,10 @@ def _near_pairs(unit: np.ndarray, threshold: float, sign: float) -> np.ndarray:
     """
     m = unit.shape[0]
     if m <= _DENSE_PAIRS_MAX_ROWS:
-        found = np.argwhere(sign * (unit @ unit.T) >= threshold)  # row-major: sorted by (p, q)
+        if gram is None:
+            gram = unit @ unit.T
+        # sign * g >= threshold, exactly (negation is exact), without the product; row-major order
+        found = np.argwhere(gram >= threshold if sign > 0 else gram <= -threshold)
         return found[found[:, 0] < found[:, 1]]
     return _near_pairs_sorted(unit, threshold, sign)
 
@@ -586,7 +591,8 @@ def _normalise_and_merge(
     unit = G[candidates] / g_norms[candidates, None]
     offsets = h[candidates] / g_norms[candidates]
     keep = np.ones(candidates.size, dtype=bool)
-    duplicates = _near_pairs(unit, 1.0 - DUPLICATE_TOLERANCE, 1.0)
+    gram = unit @ unit.T if unit.shape[0] <= _DENSE_PAIRS_MAX_ROWS else None  # for both searches
+    duplicates = _near_pairs(unit, 1.0 - DUPLICATE_TOLERANCE, 1.0, gram)
     if duplicates.shape[0]:
         neighbours: dict[int, list[int]] = {}
         for p, q in duplicates:
@@ -599,7 +605,7 @@ def _normalise_and_merge(
                 keep[i] = False
     pairs: list[tuple[int, int]] = []
     paired: set[int] = set()
-    for p, q in _near_pairs(unit, 1.0 - DUPLICATE_TOLERANCE, -1.0):
+    for p, q in _near_pairs(unit, 1.0 - DUPLICATE_TOLERANCE, -1.0, gram):
         if not (keep[p] and keep[q]) or p in paired or q in paired:
             continue
         gap = offsets[p] + offsets[q]  # width of the slab between the two rows
