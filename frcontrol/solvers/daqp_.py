@@ -186,16 +186,15 @@ def solve_inequalities(c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, lb: np
     as ``(status, x, raw_status)``.
     """
     rows = A_ub.shape[0]
-    if lb is None:
-        bupper, m_s = b_ub, 0
+    m_s = 0 if lb is None or ub is None else c.shape[0]
+    blower = np.empty(m_s + rows)
+    blower.fill(-DAQP_INF)
+    if lb is None or ub is None:
+        bupper = b_ub
     else:
-        m_s = c.shape[0]
         bupper = np.empty(m_s + rows)
         np.minimum(ub, DAQP_INF, out=bupper[:m_s])
         bupper[m_s:] = b_ub
-    blower = np.empty(m_s + rows)
-    blower.fill(-DAQP_INF)
-    if m_s:
         np.maximum(lb, -DAQP_INF, out=blower[:m_s])
     x, _, exitflag, _ = daqp.solve(None, c, A_ub, bupper, blower, np.zeros(m_s + rows, dtype=np.intc))
     exitflag = int(exitflag)
