@@ -13,8 +13,10 @@ midpoints from the head down. Per contact count it measures, in this process:
   for a count whose analysis predicts more than ``--forced-budget`` seconds (the analysis's
   per-feasible-mode cost at the previous count, times the feasible modes, the cost growing with
   the count); up to :data:`REFERENCE_MAX_CONTACTS` contacts, also by the former rule (T_c
-  projected from D_c pruned once more, :func:`forced_reference`), for a before and after measured
-  in one process.
+  projected from D_c pruned once more, :func:`forced_reference`), and the analysis and the forced
+  analysis with every LP through the general door instead of its lean path
+  (``benchmarks.lp_door.general_door``: ``analysis_general_door_s``, ``forced_general_door_s``),
+  for a before and after measured in one process.
 
 Every figure is a median of ``--runs`` runs (a long one, above :data:`SINGLE_RUN_SECONDS`, runs once)
 and is also given as a ratio to ``benchmarks/ci.py``'s calibration workload measured in the same
@@ -38,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks.ci import calibration_workload, versions
+from benchmarks.lp_door import general_door
 from frcontrol import polytope as poly
 from frcontrol.engine import analyze
 from frcontrol.scene import load_scene, shipped_robots_dir
@@ -146,6 +149,11 @@ def measure(k: int, runs: int, forced_budget: float, previous: dict[str, Any] | 
     if k <= REFERENCE_MAX_CONTACTS:
         seconds, times, _ = timed(lambda: forced_reference(scene), runs)
         entry.update(forced_reference_s=seconds, forced_reference_runs=len(times))
+        with general_door():
+            seconds, times, _ = timed(forced, runs)
+            entry.update(forced_general_door_s=seconds, forced_general_door_runs=len(times))
+            seconds, times, _ = timed(lambda: analyze(scene, ambiguity=False), runs)
+            entry.update(analysis_general_door_s=seconds, analysis_general_door_runs=len(times))
     return entry
 
 
@@ -201,13 +209,15 @@ def main(argv: list[str] | None = None) -> int:
         forced = (f"{r['forced_s']:.2f} s, {1e3 * r['forced_per_feasible_mode_s']:.2f} ms per feasible mode"
                   if r.get("forced_s") is not None else r.get("forced_skipped", "-"))
         if r.get("forced_reference_s") is not None:
-            forced += f" (former rule {r['forced_reference_s']:.2f} s)"
+            forced += (f" (former rule {r['forced_reference_s']:.2f} s; general LP door: analysis "
+                       f"{r['analysis_general_door_s']:.3f} s, forced {r['forced_general_door_s']:.2f} s)")
         print(f"{k:2d} contacts: {r['modes_evaluated']:6d} modes evaluated, {r['modes_feasible']:5d} "
               f"feasible; analysis {r['analysis_s']:.3f} s "
               f"({1e3 * r['analysis_per_evaluated_mode_s']:.3f} ms per evaluated mode); forced {forced}",
               flush=True)
     for r in rows:
-        for key in ("analysis_s", "forced_s", "forced_reference_s"):
+        for key in ("analysis_s", "forced_s", "forced_reference_s", "analysis_general_door_s",
+                    "forced_general_door_s"):
             if r.get(key) is not None:
                 r[key.replace("_s", "_ratio_to_calibration")] = r[key] / calibration
     command = "python -m benchmarks.contacts " + " ".join(argv or sys.argv[1:])

@@ -29,7 +29,9 @@ projection              ``ModeAnalysis.input_domain``: T_c, the projection onto 
 overlaps                the pairs of modes whose T_c meet (``analyze(..., ambiguity=True)``)
 solutions               ``solutions_at`` (atlas only)
 stability               ``stability_of``, ``classify_solutions``, ``stable_verdicts`` (atlas only)
-LPs                     the LP door ``frcontrol.solvers.solve`` (back-end and residual check)
+LPs                     the LP door ``frcontrol.solvers.solve`` and its lean path
+                        ``InequalityLPs.solve`` (back-end and residual check; a lean call that
+                        falls back counts twice)
 Python overhead         everything outside those functions: the loops and the bookkeeping
                         between them (and the timers' own cost, measured and reported)
 ======================  ==========================================================================
@@ -109,6 +111,7 @@ def instrumented(timer: StageTimer) -> Iterator[None]:
     patch(stability, "classify_solutions", "stability")
     patch(stability, "stable_verdicts", "stability")  # an atlas point's (stability_of's verdicts)
     patch(solvers, "solve", "LPs")
+    patch(solvers.InequalityLPs, "solve", "LPs")
     try:
         yield
     finally:

@@ -61,7 +61,7 @@ from .response import (
     solve_affine_stack,
 )
 from .scene import Scene
-from .solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp_prepared
+from .solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, InequalityLPs, solve_lp_prepared
 
 DOMAIN_TOLERANCE = 1e-7
 """Membership: an input (u, w) is in a domain if no normalised half-space of it is violated by
@@ -415,13 +415,15 @@ def _margin_lp(A_ub: np.ndarray, h: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarr
     coefficients.
     """
     d = A_ub.shape[1] - 1
-    A = None
+    bounds = _margin_bounds(d)
     if A_eq.shape[0]:
         A = np.zeros((A_eq.shape[0], d + 1))
         A[:, :d] = A_eq
-    bounds = _margin_bounds(d)
-    result = solve_lp_prepared(bounds[0], A_ub, h, A, b_eq if A is not None else None, bounds[1], bounds[2],
-                               solver=solver, fallback=RETRY_ERRORS)
+        result = solve_lp_prepared(bounds[0], A_ub, h, A, b_eq, bounds[1], bounds[2], solver=solver,
+                                   fallback=RETRY_ERRORS)
+    else:  # the door's lean path (the same answer as solve_lp_prepared's)
+        lps = InequalityLPs(solver=solver, fallback=RETRY_ERRORS)
+        result = lps.solve(bounds[0], A_ub, h, bounds[1], bounds[2])
     if not result.found or result.x is None:
         return MotionMargin("infeasible", None, None)
     z, t = result.x[:d], float(result.x[-1])

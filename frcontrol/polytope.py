@@ -44,6 +44,7 @@ import scipy.linalg
 from frcontrol.errors import InputError
 from frcontrol.solvers import (
     DEFAULT_LP_SOLVER,
+    InequalityLPs,
     LPResult,
     must_solve,
     solve_lp_prepared,
@@ -257,6 +258,13 @@ def _row_norms(X: np.ndarray) -> np.ndarray:
     return np.sqrt(np.add.reduce(X * X, axis=1))
 
 
+_BOUNDED_LP = must_solve("an LP of the polytope module", bounded=True)
+"""The fallback policy of a bounded LP of this module (see :func:`_lp`)."""
+
+_LP = must_solve("an LP of the polytope module", bounded=False)
+"""The fallback policy of an LP of this module that may be unbounded (see :func:`_lp`)."""
+
+
 def _lp(
     solver: str,
     c: np.ndarray,
@@ -272,13 +280,19 @@ def _lp(
     ``solver`` returns ``"error"`` or ``"unbounded"`` (DAQP 0.11 reported a bounded, very
     degenerate LP of 951 rows as unbounded). ``bounded=True`` declares the LP bounded: an
     ``"unbounded"`` answer then counts as a failure. ``"infeasible"`` is trusted (no false
-    verdict seen from DAQP; HiGHS's are confirmed without presolve by its adapter).
+    verdict seen from DAQP; HiGHS's are confirmed without presolve by its adapter). The bounded
+    LPs without equalities (Chebyshev, redundancy) take the door's lean path,
+    :class:`~frcontrol.solvers.InequalityLPs`, with the same policy (:func:`_lps`).
 
     Raises:
         SolverFailed: no usable answer from either back-end.
     """
-    return solve_lp_prepared(c, A_ub, b_ub, solver=solver, **kwargs,
-                             fallback=must_solve("an LP of the polytope module", bounded=bounded))
+    return solve_lp_prepared(c, A_ub, b_ub, solver=solver, **kwargs, fallback=_BOUNDED_LP if bounded else _LP)
+
+
+def _lps(solver: str) -> InequalityLPs:
+    """The door's lean path for a run of bounded LPs without equalities, with :func:`_lp`'s policy."""
+    return InequalityLPs(solver=solver, fallback=_BOUNDED_LP)
 
 
 @dataclass(frozen=True, eq=False)
@@ -410,7 +424,7 @@ def _ball_in_hull(G: np.ndarray, h: np.ndarray, hull: _Hull, solver: str) -> Che
     lb = np.full(k + 1, -np.inf)
     ub = np.full(k + 1, np.inf)
     lb[-1], ub[-1] = 0.0, CHEBYSHEV_RADIUS_CAP
-    result = _lp(solver, cost, A_lp, h, bounded=True, lb=lb, ub=ub)
+    result = _lps(solver).solve(cost, A_lp, h, lb, ub)
     if result.status == "infeasible" or result.x is None:
         return _no_ball(k)
     radius = float(min(max(result.x[-1], 0.0), CHEBYSHEV_RADIUS_CAP))
@@ -508,10 +522,12 @@ _DENSE_PAIRS_MAX_ROWS = 512
 beyond it, by sorting rows rounded to :data:`_DUPLICATE_GRID`."""
 
 
-def _near_pairs(unit: np.ndarray, threshold: float, sign: float) -> np.ndarray:
+def _near_pairs(unit: np.ndarray, threshold: float, sign: float,
+                gram: np.ndarray | None = None) -> np.ndarray:
     """Pairs ``(p, q)``, ``p < q``, of unit rows with ``sign * (u_p . u_q) >= threshold``.
 
-    Up to :data:`_DENSE_PAIRS_MAX_ROWS` rows every pair is checked (one matrix product). Beyond,
+    Up to :data:`_DENSE_PAIRS_MAX_ROWS` rows every pair is checked (one matrix product, ``gram``
+    ``= unit @ unit.T`` when the caller has it: the duplicates and the opposite pairs share it). Beyond,
     candidates are the rows whose coordinates, rounded to :data:`_DUPLICATE_GRID`, coincide (for
     ``sign = -1``: coincide with the other row negated); each candidate pair is then checked
     exactly. Found by sorting, in O(m log m): two near-duplicates rounded to different grid
@@ -520,7 +536,10 @@ def _near_pairs(unit: np.ndarray, threshold: float, sign: float) -> np.ndarray:
     """
     m = unit.shape[0]
     if m <= _DENSE_PAIRS_MAX_ROWS:
-        found = np.argwhere(sign * (unit @ unit.T) >= threshold)  # row-major: sorted by (p, q)
+        if gram is None:
+            gram = unit @ unit.T
+        # sign * g >= threshold, exactly (negation is exact), without the product; row-major order
+        found = np.argwhere(gram >= threshold if sign > 0 else gram <= -threshold)
         return found[found[:, 0] < found[:, 1]]
     return _near_pairs_sorted(unit, threshold, sign)
 
@@ -572,7 +591,8 @@ def _normalise_and_merge(
     unit = G[candidates] / g_norms[candidates, None]
     offsets = h[candidates] / g_norms[candidates]
     keep = np.ones(candidates.size, dtype=bool)
-    duplicates = _near_pairs(unit, 1.0 - DUPLICATE_TOLERANCE, 1.0)
+    gram = unit @ unit.T if unit.shape[0] <= _DENSE_PAIRS_MAX_ROWS else None  # for both searches
+    duplicates = _near_pairs(unit, 1.0 - DUPLICATE_TOLERANCE, 1.0, gram)
     if duplicates.shape[0]:
         neighbours: dict[int, list[int]] = {}
         for p, q in duplicates:
@@ -585,7 +605,7 @@ def _normalise_and_merge(
                 keep[i] = False
     pairs: list[tuple[int, int]] = []
     paired: set[int] = set()
-    for p, q in _near_pairs(unit, 1.0 - DUPLICATE_TOLERANCE, -1.0):
+    for p, q in _near_pairs(unit, 1.0 - DUPLICATE_TOLERANCE, -1.0, gram):
         if not (keep[p] and keep[q]) or p in paired or q in paired:
             continue
         gap = offsets[p] + offsets[q]  # width of the slab between the two rows
@@ -605,9 +625,30 @@ class _EmptySet(Exception):
     """
 
 
+@dataclass(frozen=True, eq=False)
+class _RedundancyLPs:
+    """The redundancy LPs of one pruning: the door's lean path and buffers for their rows.
+
+    Attributes:
+        lps: the door's lean path (:func:`_lps`).
+        rows: ``(m + 1, d)``: the LP's rows are its leading rows (C-contiguous, as DAQP needs).
+        rhs: ``(m + 1,)``: their right-hand sides.
+    """
+
+    lps: InequalityLPs
+    rows: np.ndarray
+    rhs: np.ndarray
+
+    @classmethod
+    def for_rows(cls, unit: np.ndarray, solver: str) -> _RedundancyLPs:
+        """Buffers for LPs over at most every row of ``unit`` plus one."""
+        m, d = unit.shape
+        return cls(_lps(solver), np.empty((m + 1, d)), np.empty(m + 1))
+
+
 def _is_redundant(
     unit: np.ndarray, offsets: np.ndarray, i: int, others: np.ndarray, tolerance: float,
-    solver: str,
+    lps: _RedundancyLPs,
 ) -> tuple[bool, LPResult]:
     r"""Whether row ``i`` is implied by the rows ``others`` (a mask), by one LP.
 
@@ -615,9 +656,13 @@ def _is_redundant(
     :math:`g_i z \le h_i + 1` (so that the LP is bounded); redundant iff the maximum is at most
     :math:`h_i + \text{tolerance}`.
     """
-    A_ub = np.vstack([unit[others], unit[i]])
-    b_ub = np.append(offsets[others], offsets[i] + 1.0)
-    result = _lp(solver, -unit[i], A_ub, b_ub, bounded=True)
+    k = int(np.count_nonzero(others))
+    A_ub, b_ub = lps.rows[:k + 1], lps.rhs[:k + 1]
+    unit.compress(others, axis=0, out=A_ub[:k])  # the method: np.compress's own, without its wrapper
+    A_ub[k] = unit[i]
+    offsets.compress(others, out=b_ub[:k])
+    b_ub[k] = offsets[i] + 1.0
+    result = lps.lps.solve(-unit[i], A_ub, b_ub)
     if not result.found:  # only "infeasible" is left: the set is empty after all
         raise _EmptySet
     return bool(-result.objective <= offsets[i] + tolerance), result
@@ -640,15 +685,17 @@ def _irredundant_rows(
     :math:`i` is tested again. At most (rows + facets) LPs. When the ray meets several rows at
     once (a lower-dimensional face) or without an interior point, row :math:`i` is tested
     against all the rows not yet found redundant (sequential removal: of two weakly redundant
-    rows one stays).
+    rows one stays). Each LP depends on the verdicts before it, so they run one by one, on the
+    door's lean path with reused buffers (:class:`_RedundancyLPs`).
     """
     m = unit.shape[0]
     status = np.zeros(m, dtype=np.int8)  # 0 unknown, 1 irredundant, -1 redundant
+    lps = _RedundancyLPs.for_rows(unit, solver)
 
     def against_all_others(i: int) -> int:
         others = status != -1
         others[i] = False
-        return -1 if _is_redundant(unit, offsets, i, others, tolerance, solver)[0] else 1
+        return -1 if _is_redundant(unit, offsets, i, others, tolerance, lps)[0] else 1
 
     if center is None:
         for i in range(m):
@@ -658,7 +705,7 @@ def _irredundant_rows(
     status[_facets_hit_along_normals(unit, slack, tolerance)] = 1
     for i in range(m):
         while status[i] == 0:
-            redundant, result = _is_redundant(unit, offsets, i, status == 1, tolerance, solver)
+            redundant, result = _is_redundant(unit, offsets, i, status == 1, tolerance, lps)
             if redundant:
                 status[i] = -1
                 break

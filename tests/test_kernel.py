@@ -423,19 +423,28 @@ def test_the_compiled_lp_check_agrees_with_numpy_on_random_problems():
 @pytest.mark.parametrize("name", ["rhex_flip", "snake_climb"])
 def test_the_door_accepts_the_same_answers_with_either_check(name, monkeypatch):
     """Every LP of a shipped scene's analysis (its domains and projections too), checked both ways:
-    the same residual and tolerance to round-off, and the same accept/reject decision."""
+    the same residual and tolerance to round-off, and the same accept/reject decision. The LPs of
+    the general door and of its lean path (InequalityLPs, whose arrays are copied: the polytope
+    module reuses its buffers)."""
     import frcontrol.solvers as door
     from frcontrol.engine import analyze
 
     seen: list = []
-    original = door._finish
+    original, original_lean = door._finish, door.InequalityLPs.solve
 
     def record(result_type, problem, raw, solver, solve_time, P):
         result = original(result_type, problem, raw, solver, solve_time, P)
         seen.append((problem, result))
         return result
 
+    def record_lean(self, c, A_ub, b_ub, lb=None, ub=None):
+        result = original_lean(self, c, A_ub, b_ub, lb, ub)
+        copied = [None if a is None else np.array(a) for a in (c, A_ub, b_ub, lb, ub)]
+        seen.append((door.lp_problem(*copied[:3], None, None, *copied[3:], validate=False), result))
+        return result
+
     monkeypatch.setattr(door, "_finish", record)
+    monkeypatch.setattr(door.InequalityLPs, "solve", record_lean)
     monkeypatch.setenv("FRC_KERNEL", "compiled")
     result = analyze(load_scene(name), ambiguity=False)
     for mode in result.feasible_modes[:6]:

@@ -77,3 +77,54 @@ def test_minimal_skips_only_the_first_pruning() -> None:
     projected = poly.project(minimal, [0, 1], minimal=True)
     assert_same_minimal_form(projected, poly.Polytope.from_box([-1.0, -2.0], [1.0, 2.0]), "box")
     assert poly.project(redundant, [0, 1]).A.shape == (4, 2)
+
+
+def forced(scene):  # type: ignore[no-untyped-def]
+    """The analysis with its overlaps and every feasible mode's minimal D_c and T_c."""
+    result = analyze(scene)
+    for mode in result.feasible_modes:
+        _ = mode.domain, mode.input_domain
+    return result
+
+
+def assert_same_analysis(new, old) -> None:  # type: ignore[no-untyped-def]
+    """The same modes, verdicts, balls, minimal D_c and T_c (rows one to one) and overlaps."""
+    assert [m.mode for m in new.modes] == [m.mode for m in old.modes]
+    for a, b in zip(new.modes, old.modes, strict=True):
+        assert (a.feasible, a.pruned, a.full_dimensional, a.inputs_full_dimensional) == (
+            b.feasible, b.pruned, b.full_dimensional, b.inputs_full_dimensional), a.mode
+        assert a.chebyshev_radius == pytest.approx(b.chebyshev_radius, abs=ROW_TOLERANCE), a.mode
+        if a.feasible:
+            assert_same_minimal_form(a.domain, b.domain, f"D_c of {a.mode}")
+            assert_same_minimal_form(a.input_domain, b.input_domain, f"T_c of {a.mode}")
+    assert [o.modes for o in new.overlaps] == [o.modes for o in old.overlaps]
+    for a, b in zip(new.overlaps, old.overlaps, strict=True):
+        assert a.chebyshev_radius == pytest.approx(b.chebyshev_radius, abs=ROW_TOLERANCE), a.modes
+
+
+@pytest.mark.parametrize("name", shipped_scene_names())
+def test_the_lean_lp_path_gives_the_general_doors_analysis_on_shipped_scenes(name: str) -> None:
+    """The forced analysis (overlaps, every D_c and T_c) with the polytope module's and the engine's
+    LPs on the door's lean path (InequalityLPs) equals the one through the general door."""
+    from benchmarks.lp_door import general_door
+
+    scene = load_scene(name)
+    new = forced(scene)
+    with general_door():
+        old = forced(scene)
+    assert_same_analysis(new, old)
+
+
+def test_the_lean_lp_path_gives_the_general_doors_analysis_on_the_snake_with_6_contacts() -> None:
+    from benchmarks.lp_door import general_door
+
+    scene = load_scene(snake_scene(6))
+    new = analyze(scene, ambiguity=False)
+    for mode in new.feasible_modes:
+        _ = mode.domain, mode.input_domain
+    with general_door():
+        old = analyze(scene, ambiguity=False)
+        for mode in old.feasible_modes:
+            _ = mode.domain, mode.input_domain
+    assert new.enumeration == old.enumeration and new.enumeration.feasible == 62
+    assert_same_analysis(new, old)

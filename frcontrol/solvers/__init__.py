@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -40,12 +41,13 @@ import numpy as np
 from frcontrol.errors import FrcontrolError, InputError, SolverNotFound
 from frcontrol.kernel import compiled, kernel_choice
 
-from ._common import LinearProgram, QPAdapter, QuadraticProgram, RawSolution, Status
+from ._common import LeanAdapter, LinearProgram, QPAdapter, QuadraticProgram, RawSolution, Status
 
 __all__ = [
     "CONFIRM_INFEASIBLE",
     "DEFAULT_LP_SOLVER",
     "FEASIBILITY_TOLERANCE",
+    "InequalityLPs",
     "KNOWN_SOLVERS",
     "LP_SOLVER_ENVIRONMENT_VARIABLE",
     "Fallback",
@@ -155,11 +157,15 @@ class QPResult(LPResult):
 
 _LP_SOLVERS: dict[str, QPAdapter] = {}
 _QP_SOLVERS: dict[str, QPAdapter] = {}
+_LEAN_LP_SOLVERS: dict[str, tuple[QPAdapter, LeanAdapter]] = {}
+"""Back-ends with a lean form of their LP adapter (:class:`InequalityLPs`): name -> (the LP adapter
+it stands for, the lean one). Used only while that adapter is the one registered."""
 
 try:
     from . import daqp_
 
     _LP_SOLVERS["daqp"] = daqp_.solve_lp
+    _LEAN_LP_SOLVERS["daqp"] = (daqp_.solve_lp, daqp_.solve_inequalities)
     _QP_SOLVERS["daqp"] = daqp_.solve_qp
 except ImportError:  # pragma: no cover - depends on the environment
     pass
@@ -318,6 +324,11 @@ def _check(problem: LinearProgram, x: np.ndarray | None) -> tuple[float, float]:
         residual, scale = compiled.lp_check(problem.A_ub, problem.b_ub, problem.A_eq, problem.b_eq,
                                             problem.lb, problem.ub, x, problem.has_bounds)
         return residual, FEASIBILITY_TOLERANCE * scale
+    return _check_numpy(problem, x)
+
+
+def _check_numpy(problem: LinearProgram, x: np.ndarray | None) -> tuple[float, float]:
+    """:func:`_check` in NumPy (the compiled check's twin)."""
     residual = float("nan") if x is None else primal_residual(problem, x)
     return residual, _residual_tolerance(problem, x)
 
@@ -338,23 +349,45 @@ def _finish(
     solve_time: float,
     P: np.ndarray | None,
 ) -> LPResult:
-    status, raw_status, x = raw.status, raw.raw_status, raw.x
+    """The door's result of a back-end's answer ``raw`` to ``problem`` (:func:`_result`)."""
+    return _result(result_type, problem.c, raw.status, raw.raw_status, raw.x, solver, solve_time, P,
+                   lambda x: _check(problem, x))
+
+
+def _result(
+    result_type: type[LPResult],
+    c: np.ndarray,
+    status: Status,
+    raw_status: str,
+    x: np.ndarray | None,
+    solver: str,
+    solve_time: float,
+    P: np.ndarray | None,
+    check: Callable[[np.ndarray | None], tuple[float, float]],
+) -> LPResult:
+    """The result of an answer: ``x`` checked (shape, finite, then ``check``'s residual and tolerance).
+
+    An "optimal" answer whose residual exceeds its tolerance becomes ``"error"``: the back-end's
+    flag alone is never trusted.
+    """
     if x is not None:
         x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1)
-        if x.shape != (problem.n,) or np.count_nonzero(np.isfinite(x)) < x.shape[0]:
+        if x.shape != c.shape or np.count_nonzero(np.isfinite(x)) < x.shape[0]:
             status, raw_status, x = "error", raw_status + "; door: x malformed or not finite", None
-    residual, tolerance = _check(problem, x)
+    residual, tolerance = check(x)
     if status == "optimal" and not residual <= tolerance:
         status = "error"
         raw_status += f"; door: primal residual {residual:.3g} > {tolerance:.3g}, rejected"
     if status != "optimal":
         x = None
-    objective = {"infeasible": np.inf, "unbounded": -np.inf}.get(status, np.nan)
+    objective = _OBJECTIVE_WITHOUT_OPTIMUM.get(status, np.nan)
     if x is not None:
-        objective = float(problem.c @ x)
+        objective = float(c.dot(x))  # c @ x's BLAS dot, without the matmul ufunc's overhead
         if P is not None:
             objective += 0.5 * float(x @ P @ x)
-    return result_type(
+    # the frozen dataclass's fields set at once (its __init__ sets them one object.__setattr__ each)
+    result = _new_object(result_type)
+    result.__dict__.update(
         found=status == "optimal",
         status=status,
         x=x,
@@ -365,6 +398,14 @@ def _finish(
         primal_residual=residual,
         residual_tolerance=tolerance,
     )
+    return result
+
+
+_new_object = object.__new__
+
+
+_OBJECTIVE_WITHOUT_OPTIMUM = {"infeasible": np.inf, "unbounded": -np.inf}
+"""The objective reported without an optimum, by status (``nan`` for an error)."""
 
 
 def _bounds_crossed(problem: LinearProgram) -> RawSolution | None:
@@ -483,7 +524,11 @@ def solve(problem: LinearProgram, *, solver: str = DEFAULT_LP_SOLVER, fallback: 
         SolverNotFound: ``solver`` is unknown or not installed.
         SolverFailed: no answer counts and ``fallback.failure`` names the computation.
     """
-    first = _solve_once(problem, solver, options)
+    return _settle(problem, _solve_once(problem, solver, options), solver, fallback)
+
+
+def _settle(problem: LinearProgram, first: LPResult, solver: str, fallback: Fallback) -> LPResult:
+    """:func:`solve` after the first back-end's answer ``first``: the fallback policy."""
     if first.status not in fallback.retry_on:
         if first.status in fallback.accept or fallback.failure is None:
             return first
@@ -566,6 +611,86 @@ def solve_lp_prepared(*args: Any, **kwargs: Any) -> LPResult:
     :func:`solve_lp`. The residual check is the door's usual one.
     """
     return solve_lp(*args, validate=False, **kwargs)
+
+
+_NO_CONSTRAINTS: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
+"""Per number of variables n: an empty equality block ``(0, n)``, ``(0,)`` and the absent bounds
+``-inf``, ``+inf`` of shape ``(n,)``, read-only, for the residual check of :class:`InequalityLPs`."""
+
+
+def _no_constraints(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    if n not in _NO_CONSTRAINTS:
+        arrays = (np.zeros((0, n)), np.zeros(0), np.full(n, -np.inf), np.full(n, np.inf))
+        for array in arrays:
+            array.flags.writeable = False
+        _NO_CONSTRAINTS[n] = arrays
+    return _NO_CONSTRAINTS[n]
+
+
+class InequalityLPs:
+    r"""The door's lean path for many small LPs without equalities, on arrays frcontrol built itself.
+
+    The LPs: :math:`\min c^\top x` s.t. :math:`A_{ub} x \le b_{ub}`, :math:`lb \le x \le ub`.
+    Made once for a run of LPs (the redundancy LPs of a pruning, a Chebyshev LP, the engine's
+    motion LPs): the back-end, its options and the fallback policy are looked up and the kernel of
+    the residual check is read (:func:`~frcontrol.kernel.kernel_choice`) once, not per LP. Each
+    :meth:`solve` then returns what ``solve_lp_prepared(c, A_ub, b_ub, lb=lb, ub=ub,
+    solver=solver, fallback=fallback, **options)`` returns, field for field (the time aside): the
+    same back-end call on the same arrays, the same residual check of every answer (an
+    "optimal" answer above :data:`FEASIBILITY_TOLERANCE` becomes ``"error"``), the same fallback.
+    It skips the general door's per-call work: no problem object, no option handling, DAQP's
+    arrays built directly (the back-end's lean adapter, ``LeanAdapter``). A back-end without a
+    lean adapter, a replaced adapter, options, crossed bounds or a retry take the general door.
+
+    Raises:
+        SolverNotFound: ``solver`` is unknown or not installed (when made).
+        SolverFailed: see :func:`solve` (from :meth:`solve`).
+    """
+
+    __slots__ = ("solver", "fallback", "options", "_lean", "_compiled")
+
+    def __init__(self, *, solver: str = DEFAULT_LP_SOLVER, fallback: Fallback = NO_FALLBACK,
+                 **options: Any) -> None:
+        adapter = _adapter(_LP_SOLVERS, solver)
+        lean = _LEAN_LP_SOLVERS.get(solver)
+        self.solver, self.fallback, self.options = solver, fallback, options
+        self._lean = lean[1] if lean is not None and lean[0] is adapter and not options else None
+        self._compiled = compiled if kernel_choice() == "compiled" else None
+
+    def solve(self, c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, lb: np.ndarray | None = None,
+              ub: np.ndarray | None = None) -> LPResult:
+        """:func:`solve_lp_prepared` of the LP (``lb``/``ub``: shape ``(n,)`` or None, infinities allowed)."""
+        c = np.ascontiguousarray(c, dtype=np.float64)
+        A_ub = np.ascontiguousarray(A_ub, dtype=np.float64)
+        b_ub = np.ascontiguousarray(b_ub, dtype=np.float64)
+        n = c.shape[0]
+        A_eq, b_eq, no_lb, no_ub = _no_constraints(n)
+        lb = no_lb if lb is None else np.ascontiguousarray(lb, dtype=np.float64)
+        ub = no_ub if ub is None else np.ascontiguousarray(ub, dtype=np.float64)
+        has_bounds = lb is not no_lb or ub is not no_ub
+        if has_bounds:
+            has_bounds = bool(np.count_nonzero(np.isfinite(lb)) or np.count_nonzero(np.isfinite(ub)))
+        if self._lean is None or (has_bounds and np.count_nonzero(lb > ub)):
+            return solve(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), solver=self.solver,
+                         fallback=self.fallback, **self.options)
+        if not A_ub.flags.writeable:  # DAQP's binding takes writable buffers (it does not write them)
+            A_ub = A_ub.copy()
+        start = time.perf_counter()
+        status, x, raw = self._lean(c, A_ub, b_ub, lb if has_bounds else None, ub if has_bounds else None)
+        elapsed = time.perf_counter() - start
+
+        def check(x: np.ndarray | None) -> tuple[float, float]:
+            if self._compiled is None:
+                return _check_numpy(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), x)
+            residual, scale = self._compiled.lp_check(A_ub, b_ub, A_eq, b_eq, lb, ub, x, has_bounds)
+            return residual, FEASIBILITY_TOLERANCE * scale
+
+        first = _result(LPResult, c, status, raw, x, self.solver, elapsed, None, check)
+        fallback = self.fallback
+        if first.status not in fallback.retry_on and (
+                first.status in fallback.accept or fallback.failure is None):
+            return first
+        return _settle(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), first, self.solver, fallback)
 
 
 def solve_qp(

@@ -100,6 +100,13 @@ LPAdapter = Callable[..., RawSolution]
 QPAdapter = Callable[..., RawSolution]
 """Signature of an adapter: ``adapter(problem: QuadraticProgram, **options) -> RawSolution``."""
 
+LeanAdapter = Callable[
+    [np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None],
+    tuple[Status, np.ndarray | None, str]]
+"""A back-end's lean LP adapter (optional): ``lean(c, A_ub, b_ub, lb, ub) -> (status, x, raw_status)``
+for an LP without equalities, its arrays C-contiguous ``float64`` (``A_ub`` writable), ``lb`` and
+``ub`` None when no bound is finite; the same answer as its adapter on the same problem."""
+
 ProgramSolver = Callable[[np.ndarray | None, LinearProgram, dict[str, Any]], RawSolution]
 """A back-end's one solve: ``solve(H, problem, options)``, ``H`` None for an LP, ``P`` for a QP."""
 
@@ -126,6 +133,7 @@ class Adapter:
 
 __all__ = [
     "Adapter",
+    "LeanAdapter",
     "LinearProgram",
     "ProgramSolver",
     "QuadraticProgram",

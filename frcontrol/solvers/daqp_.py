@@ -169,6 +169,40 @@ def _solve(H: np.ndarray | None, problem: LinearProgram, options: dict) -> RawSo
     return RawSolution(status, np.array(x, dtype=float) if status == "optimal" else None, raw)
 
 
+_RAW_STATUS = {flag: f"exitflag={flag} ({meaning})" for flag, meaning in EXIT_FLAGS.items()}
+"""The raw status string of each known exit flag, as :func:`_solve` writes it."""
+
+_STATUS_OF_FLAG: dict[int, Status] = {1: "optimal", -1: "infeasible", -3: "unbounded"}
+"""The door's status of an exit flag (every other flag, but -6 with inconsistent equalities, is an error)."""
+
+
+def solve_inequalities(c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, lb: np.ndarray | None,
+                       ub: np.ndarray | None) -> tuple[Status, np.ndarray | None, str]:
+    """The LP adapter for ``min c x s.t. A_ub x <= b_ub, lb <= x <= ub`` (no equality), without objects.
+
+    The door's lean path (:class:`frcontrol.solvers.InequalityLPs`): the same DAQP call as
+    :func:`_solve` on the same arrays (``c``, ``A_ub``, ``b_ub`` C-contiguous ``float64``,
+    ``A_ub`` writable; ``lb``/``ub`` None or with a finite entry), so the same answer, returned
+    as ``(status, x, raw_status)``.
+    """
+    rows = A_ub.shape[0]
+    m_s = 0 if lb is None or ub is None else c.shape[0]
+    blower = np.empty(m_s + rows)
+    blower.fill(-DAQP_INF)
+    if lb is None or ub is None:
+        bupper = b_ub
+    else:
+        bupper = np.empty(m_s + rows)
+        np.minimum(ub, DAQP_INF, out=bupper[:m_s])
+        bupper[m_s:] = b_ub
+        np.maximum(lb, -DAQP_INF, out=blower[:m_s])
+    x, _, exitflag, _ = daqp.solve(None, c, A_ub, bupper, blower, np.zeros(m_s + rows, dtype=np.intc))
+    exitflag = int(exitflag)
+    raw = _RAW_STATUS.get(exitflag) or f"exitflag={exitflag} (unknown)"
+    status = _STATUS_OF_FLAG.get(exitflag, "error")
+    return status, np.array(x, dtype=float) if status == "optimal" else None, raw
+
+
 ADAPTER = Adapter(_solve)
 """DAQP's adapters: LPs with ``H=None``, QPs with ``H = P``; ``**options`` are DAQP settings
 (:data:`SETTINGS`)."""
@@ -184,6 +218,7 @@ __all__ = [
     "SENSE_EQUALITY",
     "SENSE_INEQUALITY",
     "SETTINGS",
+    "solve_inequalities",
     "solve_lp",
     "solve_qp",
 ]
