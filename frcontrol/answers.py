@@ -45,6 +45,18 @@ Progress = Callable[[float, float], None]
 """Called with (done, total) as long work advances: simulated time [s], or phases, or points."""
 
 
+class OptionConflict(InputError):
+    """An option given without the one it needs: ``compliant`` without the pump, ``scale`` without ``cycles``.
+
+    Attributes:
+        field: the option given (a request's field, a command's option without its dashes).
+    """
+
+    def __init__(self, field: str, message: str) -> None:
+        self.field = field
+        super().__init__(message)
+
+
 @dataclass(frozen=True)
 class Answer:
     """A command's answer: the document its ``--json`` prints and its endpoint returns.
@@ -389,12 +401,12 @@ def flip_answer(scene: Scene, *, margin: float, max_time: float, dt: float = 1e-
         progress: called with (simulated time, max_time) along the simulation.
 
     Raises:
-        InputError: ``compliant`` without the pump; see the planners.
+        OptionConflict: ``compliant`` without the pump; see the planners.
     """
     if not pumps(scene, pump):
         if compliant:
-            raise InputError("compliant replays the pumping run: it needs the pump (--pump, or a scene whose "
-                             "inputs all have drives)")
+            raise OptionConflict("compliant", "compliant replays the pumping run: it needs the pump (--pump, "
+                                 "or a scene whose inputs all have drives)")
         return _plain_flip(scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
                            on_simulation=on_simulation, progress=progress)
     from .planning.pump import pump_flip, pump_payload
@@ -448,14 +460,15 @@ def climb_answer(scene: Scene, *, margin: float, duration: float, seed: int = 0,
             phases) along the gait's.
 
     Raises:
-        InputError: a seed that is not an integer >= 0, or ``scale`` without ``cycles`` (before any
-            planning); see the planners.
+        InputError: a seed that is not an integer >= 0; OptionConflict: ``scale`` without
+            ``cycles`` (both before any planning); see the planners.
     """
     from .simulation.inputs import check_seed
 
     check_seed(seed)
     if cycles is None and scale is not None:
-        raise InputError("scale sets the gait's simulated disturbances: it needs cycles (--cycles N)")
+        raise OptionConflict("scale", "scale sets the gait's simulated disturbances: it needs cycles "
+                             "(--cycles N)")
     if cycles is not None:
         from .planning.gait import gait_payload, plan_gait, simulate_gait
 
@@ -541,6 +554,7 @@ def atlas_answer(plan: AtlasPlan, **run: Any) -> Answer:
 __all__ = [
     "Answer",
     "CONTACT_MODELS",
+    "OptionConflict",
     "DESCRIPTION_CHARS",
     "Progress",
     "RUN_DEPENDENT_KEYS",

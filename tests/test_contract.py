@@ -85,7 +85,7 @@ def test_every_command_has_an_endpoint_and_every_endpoint_a_command():
 def test_the_service_documentation_lists_every_endpoint():
     page = (Path(__file__).parent.parent / "docs" / "service.md").read_text(encoding="utf-8")
     for command, path in COMMAND_ENDPOINTS.items():
-        assert f"| `frc {command}" in page and f"`{path}`" in page, (command, path)
+        assert f"| `frc {command}" in page and f" {path}`" in page, (command, path)
     for key in RUN_DEPENDENT_KEYS:
         assert f"`{key}`" in page, key
 
@@ -174,6 +174,31 @@ def test_the_endpoint_answers_what_the_command_prints(case, args, body):
     served = _served(ENDPOINT_OF_CASE[case], body)
     printed = _cli_json(args)
     assert without_run_dependent(served) == without_run_dependent(printed)
+    if case == "flip":  # one rule on both sides: the pumping run on a scene whose inputs all have drives
+        assert ("pump" in served) == (body["scene"] == "rhex_flip_drives")
+
+
+@pytest.mark.parametrize(("args", "kind", "body", "field"), [
+    (["flip", "rhex_flip", "--compliant", "-T", "0"], "flip", {"compliant": True, "max_time": 0.0},
+     "compliant"),
+    (["climb", "--duration", "0"], "climb", {"scale": 0.1, "duration": 0.0}, "scale"),
+])
+def test_an_option_without_the_one_it_needs_is_refused_alike(args, kind, body, field):
+    reply = json.loads(execute(kind, json.dumps(body)))
+    assert reply["status"] == 422
+    [problem] = reply["detail"]
+    assert problem["loc"] == ["body", field]
+    result = runner.invoke(cli_app, args if kind == "flip" else [*args, "--scale", "0.1"])
+    assert result.exit_code in (1, 2) and result.stdout == ""
+    assert result.stderr.startswith("frc: error: ") and result.stderr.count("\n") == 1, result.stderr
+    assert field in result.stderr
+
+
+def test_validate_answers_a_scene_with_problems_with_its_problems():
+    reply = json.loads(execute("validate", json.dumps({"scene": {"toml": 'robot = "rod.urdf"'}})))
+    assert reply["status"] == 200, reply
+    assert reply["answer"]["valid"] is False
+    assert {"field": "state", "reason": "missing"} in reply["answer"]["files"][0]["problems"]
 
 
 def test_every_planner_and_driven_scenes_are_compared():

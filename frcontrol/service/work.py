@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 from pydantic import ValidationError
 
+from frcontrol.answers import OptionConflict
 from frcontrol.errors import CoordinateNotFound, FrcontrolError, InputError, LimitExceeded, SceneError
 
 from . import models
@@ -263,7 +264,7 @@ def error_document(err: FrcontrolError, overrides: Mapping[str, Any] | None = No
         loc += ["scene", err.field] if err.field else ["scene"]
     elif isinstance(err, CoordinateNotFound):
         loc += ["inputs", err.name]
-    elif isinstance(err, LimitExceeded):
+    elif isinstance(err, (LimitExceeded, OptionConflict)):
         loc += [err.field]
     return {"status": 422, "detail": [{"loc": loc, "msg": str(err), "type": type(err).__name__}]}
 
