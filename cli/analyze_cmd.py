@@ -6,21 +6,12 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # the engine loads when a command runs, not for --help
-    from frcontrol.engine import RigidSolution
-    from frcontrol.modes import ContactProblem
     from frcontrol.scene import Scene
 
     from .progress import Progress
 
 from . import common, options
 from .common import console
-
-
-def solution_payload(solution: RigidSolution, problem: ContactProblem) -> dict[str, Any]:
-    """One rigid-body solution as JSON, with its stability: :func:`frcontrol.stability.solution_report`."""
-    from frcontrol.stability import solution_report
-
-    return solution_report(problem, solution)
 
 
 @common.handle_errors
@@ -146,5 +137,4 @@ __all__ = [
     "render",
     "RESPONSE_WORDS",
     "SOLUTION_COLUMNS",
-    "solution_payload",
 ]
