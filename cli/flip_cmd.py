@@ -122,8 +122,7 @@ def render_pump(payload: dict[str, Any]) -> None:
     sim, pump = payload["simulation"], payload.get("pump")
     if pump is None:
         first = common.named_mode(payload, payload) if payload["mode"] else "none"
-        console.print(f"first push: mode {first}, torques {payload['torques']}; not simulated "
-                      f"({sim['reason']})")
+        console.print(f"first push: mode {first}, torques {payload['torques']}; {sim['reason']}")
         return
     console.print(mode_key(payload["scene_contacts"]))
     rows = [(str(p["cycle"]), p["kind"], f"{p['start']:.3f}", f"{p['end']:.3f}", ", ".join(p["modes"]),
