@@ -248,18 +248,22 @@ def schema_answer() -> Answer:
 def _source_problems(source: SceneSource) -> list[dict[str, str]]:
     """A scene sent as a name or as content: every schema problem, else the first the loader finds."""
     from .errors import SceneError
+    from .scene import read_scene_document, scene_toml, shipped_robots_dir
     from .scene_schema import schema_problems
     from .scene_source import CONTENT_SOURCE
 
     try:
-        if source.kind in ("toml", "json"):
-            from .scene import scene_toml
-
-            text = source.text
-            document = scene_toml(text, CONTENT_SOURCE) if source.kind == "toml" else json.loads(text)
-            problems = schema_problems(document)
-            if problems:
-                return [{"field": p.field, "reason": p.reason} for p in problems]
+        if source.kind == "toml":
+            document = scene_toml(source.text, CONTENT_SOURCE)
+        elif source.kind == "json":
+            document = json.loads(source.text)
+        else:  # a file, or a shipped scene by its name (never looked up as a path)
+            path = Path(source.text) if source.kind == "file" else (
+                shipped_robots_dir() / "scenes" / f"{source.text}.toml")
+            document = read_scene_document(path)
+        problems = schema_problems(document)
+        if problems:
+            return [{"field": p.field, "reason": p.reason} for p in problems]
         source.load()
     except SceneError as err:
         return [{"field": err.field, "reason": err.reason}]
