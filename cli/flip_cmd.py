@@ -79,17 +79,20 @@ def flip_command(
     common.check_port(view=view, port=port)
     max_time = options.duration_given(duration, max_time)
     loaded = options.load_scene_with_overrides(scene, sets)
-    from frcontrol.answers import flip_answer, pumps
+    from frcontrol.answers import OptionConflict, flip_answer, pumps
 
     pumping = pumps(loaded, pump)
     with common.live_viewer(view, port) as server:
         task = "pumping the flip" if pumping else "planning the flip"
         with common.progress(task, "s") as shown:
-            answer = flip_answer(
-                loaded, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every, pump=pump,
-                compliant=compliant, progress=shown,
-                on_simulation=lambda: shown.stage(f"simulating the {'pumping ' if pumping else ''}flip "
-                                                  f"(up to {max_time:g} s)"))
+            try:
+                answer = flip_answer(
+                    loaded, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every, pump=pump,
+                    compliant=compliant, progress=shown,
+                    on_simulation=lambda: shown.stage(f"simulating the {'pumping ' if pumping else ''}flip "
+                                                      f"(up to {max_time:g} s)"))
+            except OptionConflict as err:  # an option that needs another: a usage error (exit 2)
+                raise options.usage_error(f"--{err.field}", str(err)) from None
         common.answer(answer.document, render_pump if answer.kind == "pump" else render, json=json)
         if plot is not None:
             _plot(loaded, answer, plot, json=json)
