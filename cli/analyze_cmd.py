@@ -6,21 +6,12 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # the engine loads when a command runs, not for --help
-    from frcontrol.engine import RigidSolution
-    from frcontrol.modes import ContactProblem
     from frcontrol.scene import Scene
 
     from .progress import Progress
 
 from . import common, options
 from .common import console
-
-
-def solution_payload(solution: RigidSolution, problem: ContactProblem) -> dict[str, Any]:
-    """One rigid-body solution as JSON, with its stability: :func:`frcontrol.stability.solution_report`."""
-    from frcontrol.stability import solution_report
-
-    return solution_report(problem, solution)
 
 
 @common.handle_errors
@@ -40,16 +31,14 @@ def analyze_command(
       frc analyze rod_on_table --set contacts.tip.mu=0.3 --input x=1
     """
     common.set_quiet(quiet)
-    from frcontrol.answers import analysis_and_solutions, analysis_payload
+    from frcontrol.answers import analyze_answer
 
     loaded = options.load_scene_with_overrides(scene, sets)
     assignments = options.parse_inputs(inputs)
     with common.progress("analysing contact modes (at most)", "modes") as shown:
-        evaluated = _mode_counter(loaded, shown)
-        result, solutions = analysis_and_solutions(loaded, assignments if inputs else None,
-                                                   progress=evaluated)
-    payload = analysis_payload(loaded, result, solutions)
-    common.answer(payload, render, json=json)
+        answer = analyze_answer(loaded, assignments if inputs else None,
+                                progress=_mode_counter(loaded, shown))
+    common.answer(answer.document, render, json=json)
 
 
 def _mode_counter(scene: Scene, shown: Progress) -> Callable[[str], None]:
@@ -148,5 +137,4 @@ __all__ = [
     "render",
     "RESPONSE_WORDS",
     "SOLUTION_COLUMNS",
-    "solution_payload",
 ]

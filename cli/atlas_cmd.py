@@ -5,7 +5,7 @@ from __future__ import annotations
 import signal
 from enum import StrEnum
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import Annotated, Any
 
 import typer
 from rich.table import Table
@@ -34,8 +34,6 @@ from .options import (
     usage_error,
 )
 
-if TYPE_CHECKING:  # the atlas loads when the command runs, not for --help
-    from frcontrol.atlas import AtlasResult
 
 class What(StrEnum):
     """``--what``'s choices (frcontrol.atlas.WHATS, spelled here so that --help imports no atlas)."""
@@ -184,7 +182,8 @@ def atlas_command(
       frc atlas rod_on_table --vary state.q.theta=0.3:2.8:13 --vary state.v.x=-2:2:9 --plot rod.png -w 1
     """
     set_quiet(quiet)
-    from frcontrol.atlas import MAX_ATLAS_POINTS, build_atlas, run_atlas
+    from frcontrol.answers import atlas_answer
+    from frcontrol.atlas import MAX_ATLAS_POINTS, build_atlas
 
     if resume and out is None:
         raise usage_error("--resume", "it needs --out FILE: the finished chunks are kept beside FILE")
@@ -196,8 +195,8 @@ def atlas_command(
     previous = signal.signal(signal.SIGTERM, _raise_on_sigterm)
     try:
         with progress(f"atlas of {plan.size} points", "points") as bar:
-            result = run_atlas(plan, workers=workers, scheduler=scheduler, out=out, resume=resume,
-                               progress=bar)
+            answer = atlas_answer(plan, workers=workers, scheduler=scheduler, out=out, resume=resume,
+                                  progress=bar)
     except KeyboardInterrupt as err:
         name = "SIGTERM" if isinstance(err, _Signalled) else "SIGINT"
         kept = (f"the finished chunks are kept in {out.name}.parts: run the same command with --resume "
@@ -205,7 +204,7 @@ def atlas_command(
         raise Interrupted(name, kept) from None
     finally:
         signal.signal(signal.SIGTERM, previous)
-    _report(result, json=json, out=out, plot=plot, figure=figure)
+    _report(answer.document, json=json, out=out, plot=plot, figure=figure)
 
 
 def _check_figure(figure: str, what: str) -> None:
@@ -217,8 +216,7 @@ def _check_figure(figure: str, what: str) -> None:
                           f"{', '.join(valid)}")
 
 
-def _report(result: AtlasResult, *, json: bool, out: Path | None, plot: Path | None, figure: str) -> None:
-    doc = result.to_dict()
+def _report(doc: dict[str, Any], *, json: bool, out: Path | None, plot: Path | None, figure: str) -> None:
     if plot is not None:
         from frcontrol.viz.atlas_figure import plot_atlas
 

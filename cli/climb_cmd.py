@@ -73,8 +73,6 @@ def climb_command(
       frc climb snake_climb --cycles 1 --html gait.html
     """
     common.set_quiet(quiet)
-    from frcontrol.answers import plan_and_climb
-
     common.check_port(view=view, port=port)
     if cycles is None and scale is not None:
         raise options.usage_error("--scale", "it sets the gait's simulated disturbances: add --cycles N")
@@ -82,49 +80,26 @@ def climb_command(
         raise options.usage_error("--plot", "it draws the single brace's figure; with --cycles use --html "
                                   "(an animation) or --json (the samples)")
     loaded = options.load_scene_with_overrides(scene, sets)
-    if cycles is not None:
-        _gait(loaded, cycles, margin=margin, seed=seed, scale=scale, json=json, html=html, out=out, view=view,
-              port=port)
-        return
+    from frcontrol.answers import climb_answer
+
+    what = "the climb" if cycles is None else "the gait"
     with common.live_viewer(view, port) as server:
-        with common.progress("planning the climb", "s") as shown:
-            plan, result = plan_and_climb(loaded, margin=margin, duration=duration, seed=seed,
-                                          on_simulation=lambda: shown.stage("simulating the climb"),
-                                          progress=shown)
-        if not plan.found:  # an answer, not an error (exit 0): the JSON says why
-            if json:
-                common.print_json(plan.to_dict(None))
-            else:
-                console.print(f"no climb plan: {plan.reason}")
+        with common.progress(f"planning {what}", "s" if cycles is None else "phases") as shown:
+            answer = climb_answer(loaded, margin=margin, duration=duration, seed=seed, cycles=cycles,
+                                  scale=scale, on_simulation=lambda: shown.stage(f"simulating {what}"),
+                                  progress=shown)
+        if answer.kind == "climb" and not answer.document["found"] and not json:
+            console.print(f"no climb plan: {answer.document['reason']}")  # an answer, not an error (exit 0)
             return
-        payload = plan.to_dict(result)
-        common.answer(payload, render, json=json)
-        if plot is not None:
+        common.answer(answer.document, render_gait if answer.kind == "gait" else render, json=json)
+        if plot is not None and answer.document["found"]:
             from frcontrol.viz.figures import plot_climb
 
-            plot_climb(plan, plot)
+            plot_climb(answer.result, plot)
             common.note(f"wrote {plot}", to_stderr=json)
-        trajectory = None if result is None else result.trajectory
-        common.write_motion(loaded, trajectory, html=html, out=out, json=json)
+        common.write_motion(loaded, answer.trajectory, html=html, out=out, json=json)
         if server is not None:
-            common.show_live(server, loaded, trajectory, json=json)
-
-
-def _gait(loaded: Any, cycles: int, *, margin: float, seed: int, scale: float | None, json: bool, html: Any,
-          out: Any, view: bool, port: Any) -> None:
-    """``--cycles``: plan the gait, simulate it, print and write its outputs."""
-    from frcontrol.answers import plan_and_gait
-    from frcontrol.planning.gait import gait_payload
-
-    with common.live_viewer(view, port) as server:
-        with common.progress("planning the gait", "phases") as shown:
-            plan, result = plan_and_gait(
-                loaded, cycles=cycles, margin=margin, seed=seed, scale=scale,
-                on_simulation=lambda: shown.stage("simulating the gait"), progress=shown)
-        common.answer(gait_payload(plan, result), render_gait, json=json)
-        common.write_motion(loaded, result.trajectory, html=html, out=out, json=json)
-        if server is not None:
-            common.show_live(server, loaded, result.trajectory, json=json)
+            common.show_live(server, loaded, answer.trajectory, json=json)
 
 
 def render_gait(payload: dict[str, Any]) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
@@ -11,7 +12,7 @@ from rich.table import Table
 from frcontrol.planning import DEFAULT_FLIP_MARGIN as DEFAULT_MARGIN
 
 if TYPE_CHECKING:  # the planner loads when the command runs, not for --help
-    from frcontrol.planning.flip import FlipPlan, FlipResult
+    from frcontrol.answers import Answer
     from frcontrol.scene import Scene
 
 from . import common, options
@@ -31,7 +32,8 @@ PumpOpt = Annotated[
     typer.Option("--pump/--no-pump", help="Pump the body up over several leg strokes (push, fall back "
                  "onto the legs, recirculate, push again) within the hips' DC-motor limits; the JSON's "
                  "simulation then carries every sample's drives and limits, and 'pump' the cycles, "
-                 "phases and energy drawn. Default: on for a scene whose inputs all have drives."),
+                 "phases and energy drawn. Default: on for a scene whose inputs all have drives (as "
+                 "POST /plan/flip)."),
 ]
 CompliantOpt = Annotated[
     bool,
@@ -77,60 +79,43 @@ def flip_command(
     common.check_port(view=view, port=port)
     max_time = options.duration_given(duration, max_time)
     loaded = options.load_scene_with_overrides(scene, sets)
-    if pump or (pump is None and _driven(loaded)):
-        _pump(loaded, json=json, html=html, out=out, plot=plot, margin=margin, max_time=max_time, dt=dt,
-              replan_every=replan_every, compliant=compliant)
-        return
+    from frcontrol.answers import OptionConflict, flip_answer, pumps
+
+    pumping = pumps(loaded, pump)
     with common.live_viewer(view, port) as server:
-        plan, result = _plan_and_fly(loaded, margin, max_time, dt, replan_every)
-        payload = plan.to_dict(result)
-        common.answer(payload, render, json=json)
+        task = "pumping the flip" if pumping else "planning the flip"
+        with common.progress(task, "s") as shown:
+            try:
+                answer = flip_answer(
+                    loaded, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every, pump=pump,
+                    compliant=compliant, progress=shown,
+                    on_simulation=lambda: shown.stage(f"simulating the {'pumping ' if pumping else ''}flip "
+                                                      f"(up to {max_time:g} s)"))
+            except OptionConflict as err:  # an option that needs another: a usage error (exit 2)
+                raise options.usage_error(f"--{err.field}", str(err)) from None
+        common.answer(answer.document, render_pump if answer.kind == "pump" else render, json=json)
         if plot is not None:
-            from frcontrol.viz.figures import plot_flip
-
-            plot_flip(result if result is not None else plan, plot)
-            common.note(f"wrote {plot}", to_stderr=json)
-        trajectory = None if result is None else result.trajectory
-        modes = None if result is None else list(result.modes)
-        common.write_motion(loaded, trajectory, html=html, out=out, json=json, modes=modes)
+            _plot(loaded, answer, plot, json=json)
+        modes = None if answer.modes is None else list(answer.modes)
+        common.write_motion(loaded, answer.trajectory, html=html, out=out, json=json, modes=modes)
         if server is not None:
-            common.show_live(server, loaded, trajectory, json=json, modes=modes)
+            common.show_live(server, loaded, answer.trajectory, json=json, modes=modes)
 
 
-def _plan_and_fly(scene: Scene, margin: float, max_time: float, dt: float, replan_every: int
-                  ) -> tuple[FlipPlan, FlipResult | None]:
-    """The plan and, when one is found and ``max_time`` > 0, the simulated closed loop."""
-    from frcontrol.answers import plan_and_fly
-
-    with common.progress("planning the flip", "s") as shown:
-        return plan_and_fly(
-            scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
-            on_simulation=lambda: shown.stage(f"simulating the flip (up to {max_time:g} s)"), progress=shown)
-
-
-def _driven(scene: Scene) -> bool:
-    """Every input of the scene has a DC-motor drive: ``frc flip`` pumps by default."""
-    return bool(scene.drives) and all(name in scene.drives for name in scene.inputs.coordinates)
-
-
-def _pump(scene: Scene, *, json: bool, html: Any, out: Any, plot: Any, margin: float, max_time: float,
-          dt: float, replan_every: int, compliant: bool) -> None:
-    """``frc flip --pump``: the pumping run, its answer, figure, page and export."""
-    from frcontrol.planning.pump import pump_flip, pump_payload
-
-    with common.progress("pumping the flip (up to the time limit)", "s") as shown:
-        plan, result = pump_flip(
-            scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every, compliant=compliant,
-            progress=shown)
-    common.answer(pump_payload(scene, plan, result), render_pump, json=json)
-    if plot is not None and result is not None:
+def _plot(scene: Scene, answer: Answer, plot: Path, *, json: bool) -> None:
+    """``--plot``: the plan's input space and the run (the pumping run's own figure when it pumped)."""
+    if answer.kind == "pump":
+        if answer.result is None:  # nothing simulated: no pumping figure
+            common.note("no pumping run (nothing was simulated): --plot not written", to_stderr=True)
+            return
         from frcontrol.viz.pump_figure import plot_pump
 
-        plot_pump(scene, result, plot)
-        common.note(f"wrote {plot}", to_stderr=json)
-    trajectory = None if result is None else result.trajectory
-    modes = None if trajectory is None or trajectory.modes is None else list(trajectory.modes)
-    common.write_motion(scene, trajectory, html=html, out=out, json=json, modes=modes)
+        plot_pump(scene, answer.result, plot)
+    else:
+        from frcontrol.viz.figures import plot_flip
+
+        plot_flip(answer.result, plot)
+    common.note(f"wrote {plot}", to_stderr=json)
 
 
 def render_pump(payload: dict[str, Any]) -> None:
@@ -140,8 +125,7 @@ def render_pump(payload: dict[str, Any]) -> None:
     sim, pump = payload["simulation"], payload.get("pump")
     if pump is None:
         first = common.named_mode(payload, payload) if payload["mode"] else "none"
-        console.print(f"first push: mode {first}, torques {payload['torques']}; not simulated "
-                      f"({sim['reason']})")
+        console.print(f"first push: mode {first}, torques {payload['torques']}; {sim['reason']}")
         return
     console.print(mode_key(payload["scene_contacts"]))
     rows = [(str(p["cycle"]), p["kind"], f"{p['start']:.3f}", f"{p['end']:.3f}", ", ".join(p["modes"]),

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Annotated, Any
 
 import typer
@@ -74,39 +73,24 @@ def plan_command(
     common.set_quiet(quiet)
     common.check_port(view=view, port=port)
     loaded = options.load_scene_with_overrides(scene, sets)
-    from frcontrol.answers import plan_task_answer
+    from frcontrol.answers import plan_answer
 
     with common.live_viewer(view, port) as server:
         with common.progress("the task (planned and simulated)", "s") as shown:
-            result, payload = plan_task_answer(
-                loaded,
-                dt=dt,
-                replan_every=replan_every,
-                max_time=duration if max_time is None else max_time,
-                margin=margin,
-                compliant=compliant,
-                progress=shown,
-            )
-        common.answer(payload, render, json=json)
-        _outputs(loaded, result, plot=plot, html=html, out=out, json=json)
+            answer = plan_answer(loaded, dt=dt, replan_every=replan_every,
+                                 max_time=duration if max_time is None else max_time, margin=margin,
+                                 compliant=compliant, progress=shown)
+        common.answer(answer.document, render, json=json)
+        trajectory = answer.trajectory
+        if plot is not None:
+            from frcontrol.viz.plots import plot_trajectory
+
+            common.note(f"wrote {plot_trajectory(trajectory, plot, coordinates=trajectory.coordinates)}",
+                        to_stderr=json)
+        modes = None if answer.modes is None else list(answer.modes)
+        common.write_motion(loaded, trajectory, html=html, out=out, json=json, modes=modes)
         if server is not None:
-            common.show_live(
-                server, loaded, result.trajectory, json=json, modes=list(result.trajectory.modes or ())
-            )
-
-
-def _outputs(
-    scene: Any, result: Any, *, plot: Path | None, html: Path | None, out: Path | None, json: bool
-) -> None:
-    """The figure, the page and the export of the planned run."""
-    trajectory = result.trajectory
-    if plot is not None:
-        from frcontrol.viz.plots import plot_trajectory
-
-        common.note(
-            f"wrote {plot_trajectory(trajectory, plot, coordinates=trajectory.coordinates)}", to_stderr=json
-        )
-    common.write_motion(scene, trajectory, html=html, out=out, json=json, modes=list(trajectory.modes or ()))
+            common.show_live(server, loaded, trajectory, json=json, modes=modes)
 
 
 def render(payload: dict[str, Any]) -> None:

@@ -8,9 +8,6 @@ from typing import Annotated
 
 import typer
 
-from frcontrol.errors import SceneError
-from frcontrol.scene_schema import SCENE_SCHEMA
-
 from .common import handle_errors, note, print_json, set_quiet
 from .options import JsonOpt, QuietOpt
 
@@ -28,7 +25,9 @@ def schema_command(
       frc schema --json
     """
     set_quiet(quiet)
-    sys.stdout.write(json.dumps(SCENE_SCHEMA, indent=2) + "\n")
+    from frcontrol.answers import schema_answer
+
+    sys.stdout.write(json.dumps(schema_answer().document, indent=2) + "\n")
 
 
 @handle_errors
@@ -46,27 +45,20 @@ def validate_command(
       frc validate snake_climb --json
     """
     set_quiet(quiet)
-    from frcontrol.scene import resolve_scene_path, scene_problems
+    from frcontrol.answers import validation_answer
 
-    reports = []
-    for name in files:
-        problems = scene_problems(name)
-        try:
-            shown = str(resolve_scene_path(name))
-        except SceneError:  # a missing file: one of its problems, already listed
-            shown = name
-        reports.append({"file": shown, "valid": not problems,
-                        "problems": [{"field": p.field, "reason": p.reason} for p in problems]})
-        for p in problems:
-            where = f"{shown}: {p.field}: " if p.field else f"{shown}: "
-            sys.stderr.write(f"frc: error: {where}{p.reason}\n")
+    document = validation_answer(files).document
+    for r in document["files"]:
+        for p in r["problems"]:
+            where = f"{r['file']}: {p['field']}: " if p["field"] else f"{r['file']}: "
+            sys.stderr.write(f"frc: error: {where}{p['reason']}\n")
     if json_output:
-        print_json({"valid": all(r["valid"] for r in reports), "files": reports})
+        print_json(document)
     else:
-        for r in reports:
+        for r in document["files"]:
             if r["valid"]:
                 note(f"{r['file']}: valid")
-    if not all(r["valid"] for r in reports):
+    if not document["valid"]:
         raise typer.Exit(code=1)
 
 

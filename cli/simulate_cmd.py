@@ -12,6 +12,7 @@ from rich.table import Table
 from frcontrol.simulation import INTEGRATORS
 
 if TYPE_CHECKING:  # the simulators load when the command runs, not for --help
+    from frcontrol.answers import Answer
     from frcontrol.scene import Scene
     from frcontrol.simulation.trajectory import Trajectory
 
@@ -111,7 +112,8 @@ def simulate_command(
     common.set_quiet(quiet)
     loaded = options.load_scene_with_overrides(scene, sets)
     assignments = options.parse_inputs(inputs)
-    traj = _simulate(loaded, model, stiffness, damping, assignments, duration, dt, integrator)
+    answer = _simulate(loaded, model, stiffness, damping, assignments, duration, dt, integrator, every)
+    traj: Trajectory = answer.result  # the run, whether or not it completed
     _report_validity(traj)
     if plot is not None:
         from frcontrol.viz.plots import plot_trajectory
@@ -119,18 +121,17 @@ def simulate_command(
         plot_trajectory(traj, plot, coordinates=traj.coordinates)
         common.note(f"wrote {plot}", to_stderr=json)
     common.write_motion(loaded, traj, html=html, out=out, json=json)
-    payload = traj.to_dict(loaded, every=every)
-    common.answer(payload, render, json=json)
+    common.answer(answer.document, render, json=json)
 
 
 def _simulate(scene: Scene, model: ContactModel | None, stiffness: float | None, damping: float | None,
-              inputs: dict[str, float], duration: float, dt: float, integrator: str) -> Trajectory:
+              inputs: dict[str, float], duration: float, dt: float, integrator: str, every: int) -> Answer:
     """The run on the chosen contact model (default: the scene's [model] contact).
 
     Raises:
         typer.BadParameter: --stiffness or --damping with the rigid model (a usage error, exit 2).
     """
-    from frcontrol.answers import run_simulation
+    from frcontrol.answers import simulate_answer
     from frcontrol.simulation.model_table import model_options
 
     chosen = model.value if model is not None else model_options(scene).contact
@@ -138,8 +139,8 @@ def _simulate(scene: Scene, model: ContactModel | None, stiffness: float | None,
         raise typer.BadParameter("--stiffness and --damping belong to the compliant model: "
                                  "add --model compliant")
     with common.progress(f"simulating on the {chosen} model", "s") as shown:
-        return run_simulation(scene, inputs, model=chosen, stiffness=stiffness, damping=damping,
-                              duration=duration, dt=dt, integrator=integrator, progress=shown)
+        return simulate_answer(scene, inputs, model=chosen, stiffness=stiffness, damping=damping,
+                               duration=duration, dt=dt, integrator=integrator, every=every, progress=shown)
 
 
 def _report_validity(traj: Trajectory) -> None:

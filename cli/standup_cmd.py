@@ -58,19 +58,18 @@ def standup_command(
     common.check_port(view=view, port=port)
     duration = options.duration_given(duration, max_time)
     loaded = options.load_scene_with_overrides(scene, sets)
-    from frcontrol.planning.standup import simulate_standup
+    from frcontrol.answers import standup_answer
 
     with common.live_viewer(view, port) as server:
         with common.progress("the stand-up (planned and simulated)", "s") as shown:
-            result = simulate_standup(
-                loaded, duration=duration, dt=dt, replan_every=replan_every, margin=margin, progress=shown)
-        common.answer(result.to_dict(loaded), render, json=json)
-        trajectory = result.trajectory
+            answer = standup_answer(loaded, duration=duration, dt=dt, replan_every=replan_every,
+                                    margin=margin, progress=shown)
+        common.answer(answer.document, render, json=json)
         if plot is not None:
-            _plot(trajectory, plot, json=json)
-        common.write_motion(loaded, trajectory, html=html, out=out, json=json)
+            _plot(answer.trajectory, plot, json=json)
+        common.write_motion(loaded, answer.trajectory, html=html, out=out, json=json)
         if server is not None:
-            common.show_live(server, loaded, trajectory, json=json)
+            common.show_live(server, loaded, answer.trajectory, json=json)
 
 
 def _plot(trajectory: Any, plot: Path, *, json: bool) -> None:

@@ -46,11 +46,12 @@ def statics_command(
       frc statics disk_in_wedge --html disk.html
     """
     common.set_quiet(quiet)
-    from frcontrol.statics import analyze_statics
+    from frcontrol.answers import statics_answer
 
     loaded = options.load_scene_with_overrides(scene, sets)
-    report = analyze_statics(loaded, options.parse_inputs(inputs),
-                             lateral_acceleration=lateral_acceleration, strong=not no_strong)
+    answer = statics_answer(loaded, options.parse_inputs(inputs), lateral_acceleration=lateral_acceleration,
+                            strong=not no_strong)
+    report = answer.result
     if plot is not None:  # the files first: a failure leaves no answer on stdout
         from frcontrol.viz.figures import plot_statics
 
@@ -63,8 +64,7 @@ def statics_command(
                   {name: (equilibrium.lambda_n[i], equilibrium.lambda_t[i])
                    for i, name in enumerate(report.body.contact_names)})
         write_html(loaded, trajectory_from_scene(loaded, forces), html)
-    payload = report.to_dict()
-    common.answer(payload, render, json=json)
+    common.answer(answer.document, render, json=json)
     for written in (plot, html):
         if written is not None:
             common.note(f"wrote {written}", to_stderr=json)

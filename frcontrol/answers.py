@@ -1,29 +1,91 @@
-"""Each command's answer: the library calls behind a command and the JSON its ``--json`` prints.
+"""Each command's answer: one function per ``frc`` command, building the JSON its ``--json`` prints.
 
-The command line (``frc analyze``, ``frc simulate``, ``frc flip``, ``frc climb``...) and the planning
-service (``frc serve``) answer the same questions with the same documents: both call these
-functions, so a service answer is the command's ``--json`` built from the same ``to_dict()``. They
-hold no I/O: progress is a callback, files and rendering stay with the caller.
+The command line and the planning service (``frc serve``) answer the same questions with the same
+documents: a command parses its options, calls its ``*_answer`` function here and prints or writes
+files; the command's endpoint calls the same function with the request's fields (the table in
+docs/service.md). Where a default depends on the scene (``frc flip`` pumps on a scene whose inputs
+all have drives), the rule lives here, once. These functions hold no I/O: progress is a callback,
+files and rendering stay with the caller.
+
+Two runs of one command differ only in :data:`RUN_DEPENDENT_KEYS` (wall-clock timings, and paths
+on the machine that ran it, which the service never reveals).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+import json
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .errors import InputError
 
 if TYPE_CHECKING:
+    from .atlas import AtlasPlan
     from .engine import DynamicResponse, RigidSolution
-    from .planning.climb import ClimbPlan, ClimbResult
-    from .planning.core import PlanResult
-    from .planning.flip import FlipPlan, FlipResult
-    from .planning.gait import GaitPlan, GaitResult
     from .scene import Scene
+    from .scene_source import SceneSource
     from .simulation.trajectory import Trajectory
 
 CONTACT_MODELS = ("rigid", "compliant")
 """The contact models a simulation can run on (``frc simulate --model``)."""
+
+RUN_DEPENDENT_KEYS = frozenset({"timings", "wall_time", "elapsed", "run", "folder", "file"})
+"""The keys, at any depth, in which two answers to the same question may differ: wall-clock figures
+[s] (``timings``, ``wall_time``, ``elapsed``), how an atlas ran (``run``: its executor and worker
+count), and paths on the machine that answered (``folder`` of ``frc robots``, ``file`` of ``frc
+validate``: the service names a scene, never a path). Everything else of a command's ``--json``
+equals its endpoint's answer."""
+
+DESCRIPTION_CHARS = 120
+"""[characters] The longest description ``frc robots`` gives (the comment's first sentence, cut at a word)."""
+
+Progress = Callable[[float, float], None]
+"""Called with (done, total) as long work advances: simulated time [s], or phases, or points."""
+
+
+class OptionConflict(InputError):
+    """An option given without the one it needs: ``compliant`` without the pump, ``scale`` without ``cycles``.
+
+    Attributes:
+        field: the option given (a request's field, a command's option without its dashes).
+    """
+
+    def __init__(self, field: str, message: str) -> None:
+        self.field = field
+        super().__init__(message)
+
+
+@dataclass(frozen=True)
+class Answer:
+    """A command's answer: the document its ``--json`` prints and its endpoint returns.
+
+    Attributes:
+        kind: which answer it is: the command's name, or ``"pump"`` (``frc flip`` pumping) and
+            ``"gait"`` (``frc climb --cycles``), whose documents have shapes of their own.
+        document: the JSON document (NumPy values allowed: :func:`frcontrol.jsonable.to_jsonable`).
+        result: the library's result the document was built from (a plan, a run, a report), which
+            the command's figure is drawn from; None when there is none.
+        trajectory: the simulated motion, for ``--html``, ``--out`` and the live view (None:
+            nothing was simulated).
+        modes: the contact mode of each sample of ``trajectory``, for the page (None: not recorded).
+    """
+
+    kind: str
+    document: dict[str, Any]
+    result: Any = None
+    trajectory: Trajectory | None = None
+    modes: tuple[str, ...] | None = None
+
+
+def without_run_dependent(document: Any) -> Any:
+    """``document`` without :data:`RUN_DEPENDENT_KEYS`, at any depth: what two answers must share."""
+    if isinstance(document, dict):
+        return {k: without_run_dependent(v) for k, v in document.items() if k not in RUN_DEPENDENT_KEYS}
+    if isinstance(document, list):
+        return [without_run_dependent(v) for v in document]
+    return document
 
 
 def analysis_and_solutions(
@@ -110,11 +172,226 @@ def simulation_failure(trajectory: Trajectory) -> str | None:
     return f"the simulation {trajectory.status} at t = {failure.time:.6g} s: {failure.reason}{hint}"
 
 
-def plan_and_fly(scene: Scene, *, margin: float, max_time: float, dt: float, replan_every: int,
-                 on_simulation: Callable[[], None] | None = None,
-                 progress: Callable[[float, float], None] | None = None
-                 ) -> tuple[FlipPlan, FlipResult | None]:
-    """``frc flip``'s work: the plan and, when one is found and ``max_time`` > 0, the closed loop.
+# --- what ships, the scene format, scene files ------------------------------------------------
+
+
+def _leading_comment(path: Path, opener: str, closer: str = "") -> str:
+    """The first sentence of a file's leading comment (a URDF's ``<!-- ... -->``, a scene's ``# ...``)."""
+    words: list[str] = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        text = line.strip()
+        if text.startswith("<?xml") or (not text and not words):
+            continue
+        if not words and not text.startswith(opener):
+            break
+        if opener == "#" and not text.startswith("#"):
+            break
+        words.append(text.removeprefix(opener).strip())
+        if closer and closer in text:
+            break
+    comment = " ".join(words).split(closer)[0] if closer else " ".join(words)
+    sentence = comment.split(". ")[0].strip().rstrip(".")
+    if len(sentence) <= DESCRIPTION_CHARS:
+        return sentence
+    return sentence[:DESCRIPTION_CHARS].rsplit(" ", 1)[0] + " ..."
+
+
+def catalog() -> list[dict[str, str]]:
+    """Every robot and scene a scene file can name: ``{"kind", "name", "description"}`` rows.
+
+    The shipped URDFs (``robot = "rod.urdf"``), the example-robot-data robots when that package is
+    installed (``robot = "example-robot-data:solo/solo12"``), and the shipped scenes.
+    """
+    from .errors import FrcontrolError
+    from .plane import EXAMPLE_ROBOT_DATA_PREFIX, example_robot_data_robots
+    from .scene import shipped_robots_dir
+
+    root = shipped_robots_dir()
+    rows = [{"kind": "robot", "name": p.name, "description": _leading_comment(p, "<!--", "-->")}
+            for p in sorted(root.glob("*.urdf"))]
+    try:
+        extra = example_robot_data_robots()
+    except FrcontrolError:  # example-robot-data not installed: nothing more a scene can name
+        extra = {}
+    bare = {path: name for name, path in extra.items() if "/" not in name}
+    for name, path in extra.items():
+        if "/" in name:
+            alias = f" (also example-robot-data:{bare[path]})" if path in bare else ""
+            rows.append({"kind": "robot", "name": EXAMPLE_ROBOT_DATA_PREFIX + name,
+                         "description": f"{path.parent.parent.name}/{path.name} from the example-robot-data "
+                                        f"package, a 3-D URDF made planar by the scene's [plane]{alias}"})
+    rows += [{"kind": "scene", "name": p.stem, "description": _leading_comment(p, "#")}
+             for p in sorted((root / "scenes").glob("*.toml"))]
+    return rows
+
+
+def robots_answer() -> Answer:
+    """``frc robots --json`` (``GET /robots``): the shipped URDFs and scenes, and :func:`catalog`.
+
+    The command adds ``"folder"``, where the shipped files are; the service reveals no paths.
+    """
+    from .scene import shipped_robots_dir
+
+    root = shipped_robots_dir()
+    return Answer("robots", {"robots": [p.name for p in sorted(root.glob("*.urdf"))],
+                             "scenes": [p.stem for p in sorted((root / "scenes").glob("*.toml"))],
+                             "catalog": catalog()})
+
+
+def schema_answer() -> Answer:
+    """``frc schema`` (``GET /schema``): the scene format as a JSON Schema (draft 2020-12)."""
+    from .scene_schema import SCENE_SCHEMA
+
+    return Answer("schema", dict(SCENE_SCHEMA))
+
+
+def _source_problems(source: SceneSource) -> list[dict[str, str]]:
+    """A scene sent as a name or as content: every schema problem, else the first the loader finds."""
+    from .errors import SceneError
+    from .scene import read_scene_document, scene_toml, shipped_robots_dir
+    from .scene_schema import schema_problems
+    from .scene_source import CONTENT_SOURCE
+
+    try:
+        if source.kind == "toml":
+            document = scene_toml(source.text, CONTENT_SOURCE)
+        elif source.kind == "json":
+            document = json.loads(source.text)
+        else:  # a file, or a shipped scene by its name (never looked up as a path)
+            path = Path(source.text) if source.kind == "file" else (
+                shipped_robots_dir() / "scenes" / f"{source.text}.toml")
+            document = read_scene_document(path)
+        problems = schema_problems(document)
+        if problems:
+            return [{"field": p.field, "reason": p.reason} for p in problems]
+        source.load()
+    except SceneError as err:
+        return [{"field": err.field, "reason": err.reason}]
+    return []
+
+
+def validation_answer(scenes: Sequence[str | Path | SceneSource]) -> Answer:
+    """``frc validate FILE... --json`` (``POST /validate``): every problem of each scene, none when valid.
+
+    Args:
+        scenes: scene files or shipped scenes' names, as ``frc validate`` takes them (a missing
+            file is one of its problems), or scenes sent as :class:`~frcontrol.scene_source.SceneSource`.
+
+    The document is ``{"valid", "files": [{"file", "valid", "problems": [{"field", "reason"}]}]}``;
+    ``file`` is the file's path, or the name or label a scene was sent by.
+    """
+    from .errors import SceneError
+    from .scene import resolve_scene_path, scene_problems
+
+    reports = []
+    for scene in scenes:
+        if isinstance(scene, (str, Path)):
+            problems = [{"field": p.field, "reason": p.reason} for p in scene_problems(scene)]
+            try:
+                shown = str(resolve_scene_path(scene))
+            except SceneError:  # a missing file: one of its problems, already listed
+                shown = str(scene)
+        else:
+            problems, shown = _source_problems(scene), scene.label
+        reports.append({"file": shown, "valid": not problems, "problems": problems})
+    return Answer("validate", {"valid": all(r["valid"] for r in reports), "files": reports})
+
+
+# --- the model, the modes, statics, simulation --------------------------------------------------
+
+
+def show_answer(scene: Scene) -> Answer:
+    """``frc show --json`` (``POST /show``): the coordinates, M(q), h(q, v) and every contact's rows."""
+    state = scene.robot.state(scene.q, scene.v)
+    contacts = {}
+    for i, contact in enumerate(scene.contacts):
+        contacts[contact.name] = {
+            "gap": state.gaps[i], "v_n": state.normal_velocities[i], "v_t": state.tangential_velocities[i],
+            "jacobian_n": state.jacobian_normal[i], "jacobian_t": state.jacobian_tangent[i],
+            "drift_n": state.drift_normal[i], "drift_t": state.drift_tangent[i], "active": contact.active,
+            "point": state.contact_points[i],
+        }
+    return Answer("show", {
+        "scene": scene.name, "coordinates": list(scene.coordinate_names), "q": scene.q, "v": scene.v,
+        "mass_matrix": state.mass_matrix, "bias": state.bias, "contacts": contacts,
+        "inputs": list(scene.inputs.coordinates), "gap_tolerance": scene.gap_tolerance,
+    })
+
+
+def analyze_answer(scene: Scene, inputs: Mapping[str, float] | None = None,
+                   progress: Callable[[str], None] | None = None) -> Answer:
+    """``frc analyze [--input ...] --json`` (``POST /analyze``): every mode; with ``inputs``, the solutions.
+
+    Args:
+        scene: the loaded scene.
+        inputs: named input values [N or N m], or None for no solutions.
+        progress: called with each mode's name as its evaluation starts.
+    """
+    result, solutions = analysis_and_solutions(scene, inputs, progress=progress)
+    return Answer("analyze", analysis_payload(scene, result, solutions), result=result)
+
+
+def solutions_answer(scene: Scene, inputs: Mapping[str, float]) -> Answer:
+    """``POST /solutions``: ``"solutions"`` and ``"input_units"`` of ``frc analyze --input ... --json``."""
+    result, solutions = analysis_and_solutions(scene, inputs)
+    return Answer("solutions", {"solutions": solutions_payload(result, solutions or []),
+                                "input_units": scene.inputs.unit_map()}, result=result)
+
+
+def statics_answer(scene: Scene, inputs: Mapping[str, float] | None = None, *,
+                   lateral_acceleration: float = 0.0, strong: bool = True) -> Answer:
+    """``frc statics --json`` (``POST /statics``): closure, equilibrium, support region, stability.
+
+    Args:
+        scene: the loaded scene.
+        inputs: named input values [N or N m] held at rest (inputs not named are 0).
+        lateral_acceleration: [m/s^2] the sideways acceleration of the supports the support
+            region allows for.
+        strong: run the strong-stability test (the mode-domain engine).
+    """
+    from .statics import analyze_statics
+
+    report = analyze_statics(scene, dict(inputs or {}), lateral_acceleration=lateral_acceleration,
+                             strong=strong)
+    return Answer("statics", report.to_dict(), result=report)
+
+
+def simulate_answer(scene: Scene, inputs: Mapping[str, float], *, model: str | None = None,
+                    stiffness: float | None = None, damping: float | None = None, duration: float = 1.0,
+                    dt: float = 1e-3, integrator: str = "radau", every: int = 1,
+                    progress: Progress | None = None) -> Answer:
+    """``frc simulate --json`` (``POST /simulate``): :func:`run_simulation`'s run, every ``every``-th sample.
+
+    A run that did not complete is an answer too: :func:`simulation_failure` of its trajectory says
+    why (the command exits 1 with that line, the service answers 422).
+    """
+    trajectory = run_simulation(scene, inputs, model=model, stiffness=stiffness, damping=damping,
+                                duration=duration, dt=dt, integrator=integrator, progress=progress)
+    return Answer("simulate", trajectory.to_dict(scene, every=every), result=trajectory,
+                  trajectory=trajectory)
+
+
+# --- the planners --------------------------------------------------------------------------------
+
+
+def driven(scene: Scene) -> bool:
+    """Every input of the scene has a DC-motor drive: then ``frc flip`` and ``/plan/flip`` pump by default."""
+    return bool(scene.drives) and all(name in scene.drives for name in scene.inputs.coordinates)
+
+
+def pumps(scene: Scene, pump: bool | None) -> bool:
+    """Whether the flip pumps: as asked, or by default (None) when the scene is :func:`driven`."""
+    return driven(scene) if pump is None else pump
+
+
+def flip_answer(scene: Scene, *, margin: float, max_time: float, dt: float = 1e-3, replan_every: int = 10,
+                pump: bool | None = None, compliant: bool = False,
+                on_simulation: Callable[[], None] | None = None, progress: Progress | None = None) -> Answer:
+    """``frc flip --json`` (``POST /plan/flip``): the plan and, when ``max_time`` > 0, the closed loop.
+
+    With the pump (:func:`pumps`), the pumping run of :func:`frcontrol.planning.pump.pump_flip`
+    (kind ``"pump"``); else :func:`frcontrol.planning.flip.plan_flip` and, when a plan is found,
+    :func:`~frcontrol.planning.flip.simulate_flip` (kind ``"flip"``).
 
     Args:
         scene: the scene (RHex on its back).
@@ -122,81 +399,126 @@ def plan_and_fly(scene: Scene, *, margin: float, max_time: float, dt: float, rep
         max_time: [s] the longest simulated time (0: plan only).
         dt: [s] the simulation's step.
         replan_every: steps between two plans.
+        pump: pump over several strokes (None: when the scene is :func:`driven`).
+        compliant: with the pump, replay the run's inputs on the compliant model too.
         on_simulation: called once when the simulation starts.
         progress: called with (simulated time, max_time) along the simulation.
+
+    Raises:
+        OptionConflict: ``compliant`` without the pump; see the planners.
     """
+    if not pumps(scene, pump):
+        if compliant:
+            raise OptionConflict("compliant", "compliant replays the pumping run: it needs the pump (--pump, "
+                                 "or a scene whose inputs all have drives)")
+        return _plain_flip(scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
+                           on_simulation=on_simulation, progress=progress)
+    from .planning.pump import pump_flip, pump_payload
+
+    if on_simulation is not None and max_time > 0:
+        on_simulation()
+    plan, result = pump_flip(scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
+                             compliant=compliant, progress=progress)
+    trajectory = None if result is None else result.trajectory
+    modes = None if trajectory is None or trajectory.modes is None else tuple(trajectory.modes)
+    return Answer("pump", pump_payload(scene, plan, result), result=result, trajectory=trajectory,
+                  modes=modes)
+
+
+def _plain_flip(scene: Scene, *, margin: float, max_time: float, dt: float, replan_every: int,
+                on_simulation: Callable[[], None] | None, progress: Progress | None) -> Answer:
+    """The flip without the pump: one plan, then the closed loop when one is found."""
     from .planning.flip import plan_flip, simulate_flip
 
     plan = plan_flip(scene, margin=margin)
-    if not plan.found or max_time <= 0:
-        return plan, None
-    if on_simulation is not None:
-        on_simulation()
-    return plan, simulate_flip(scene, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin,
+    result = None
+    if plan.found and max_time > 0:
+        if on_simulation is not None:
+            on_simulation()
+        result = simulate_flip(scene, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin,
                                plan=plan, progress=progress)
+    trajectory = None if result is None else result.trajectory
+    modes = None if result is None else tuple(result.modes)
+    return Answer("flip", plan.to_dict(result), result=result if result is not None else plan,
+                  trajectory=trajectory, modes=modes)
 
 
-def plan_and_climb(scene: Scene, *, margin: float, duration: float, seed: int,
-                   on_simulation: Callable[[], None] | None = None,
-                   progress: Callable[[float, float], None] | None = None
-                   ) -> tuple[ClimbPlan, ClimbResult | None]:
-    """``frc climb``'s work: the plan and, when one is found and ``duration`` > 0, the simulated check.
+def climb_answer(scene: Scene, *, margin: float, duration: float, seed: int = 0, cycles: int | None = None,
+                 scale: float | None = None, on_simulation: Callable[[], None] | None = None,
+                 progress: Progress | None = None) -> Answer:
+    """``frc climb [--cycles N] --json`` (``POST /plan/climb``): the brace, or the gait.
+
+    Without ``cycles``: :func:`frcontrol.planning.climb.plan_climb` and, when a plan is found and
+    ``duration`` > 0, its simulated check (kind ``"climb"``). With ``cycles``: the gait's plan
+    (:func:`frcontrol.planning.gait.plan_gait`) and its rigid simulation (kind ``"gait"``).
 
     Args:
-        scene: the scene with ``[[disturbances]]``.
+        scene: the scene with ``[[disturbances]]`` (and ``[task] upper_brace_contacts`` for the gait).
         margin: [N m or N] the robustness radius in the lifted (u, d) space.
-        duration: [s] simulated time under sampled disturbances (0: plan only).
-        seed: seed of the sampled disturbances.
+        duration: [s] the brace's simulated check (0: plan only); not used by the gait.
+        seed: seed of the sampled disturbances (an integer >= 0).
+        cycles: the gait's number of cycles (>= 1), or None for one brace.
+        scale: the disturbance scale of the gait's simulation (None: the gait's default).
         on_simulation: called once when the simulation starts.
-        progress: called with (simulated time, duration) along the simulation.
+        progress: called with (simulated time, duration) along the brace's check, (phases done,
+            phases) along the gait's.
 
     Raises:
-        InputError: a seed that is not an integer >= 0 (before any planning); see the planner.
+        InputError: a seed that is not an integer >= 0; OptionConflict: ``scale`` without
+            ``cycles`` (both before any planning); see the planners.
     """
+    from .simulation.inputs import check_seed
+
+    check_seed(seed)
+    if cycles is None and scale is not None:
+        raise OptionConflict("scale", "scale sets the gait's simulated disturbances: it needs cycles "
+                             "(--cycles N)")
+    if cycles is not None:
+        from .planning.gait import gait_payload, plan_gait, simulate_gait
+
+        gait = plan_gait(scene, cycles, margin=margin)
+        if on_simulation is not None:
+            on_simulation()
+        run = simulate_gait(gait, seed=seed, scale=scale, progress=progress)
+        return Answer("gait", gait_payload(gait, run), result=run, trajectory=run.trajectory)
     from .planning.climb import plan_climb, simulate_climb
-    from .simulation.inputs import check_seed
 
-    check_seed(seed)
     plan = plan_climb(scene, margin=margin)
-    if not plan.found or duration <= 0:
-        return plan, None
-    if on_simulation is not None:
-        on_simulation()
-    return plan, simulate_climb(scene, plan, duration=duration, seed=seed, progress=progress)
+    result = None
+    if plan.found and duration > 0:
+        if on_simulation is not None:
+            on_simulation()
+        result = simulate_climb(scene, plan, duration=duration, seed=seed, progress=progress)
+    return Answer("climb", plan.to_dict(result), result=plan,
+                  trajectory=None if result is None else result.trajectory)
 
 
-def plan_and_gait(scene: Scene, *, cycles: int, margin: float, seed: int, scale: float | None = None,
-                  on_simulation: Callable[[], None] | None = None,
-                  progress: Callable[[int, int], None] | None = None) -> tuple[GaitPlan, GaitResult]:
-    """``frc climb --cycles N``'s work: the gait's plan, then its rigid simulation.
+def standup_answer(scene: Scene, *, duration: float, dt: float = 2e-3, replan_every: int = 10,
+                   margin: float, progress: Progress | None = None) -> Answer:
+    """``frc standup --json`` (``POST /plan/standup``): the first plan and the re-planned rigid run.
 
     Args:
-        scene: the scene with ``[[disturbances]]`` and ``[task] upper_brace_contacts``.
-        cycles: number of cycles (>= 1).
-        margin: [N m or N] the robustness radius in the lifted (u, d) space.
-        seed: seed of the sampled disturbances.
-        scale: the disturbance scale of the simulation (None: the gait's default).
-        on_simulation: called once when the simulation starts.
-        progress: called with (phases done, phases) along the simulation.
+        scene: the scene with ``[task] feet`` and ``stand_height``.
+        duration: [s] the longest simulated time (0: the first plan only).
+        dt: [s] the rigid step.
+        replan_every: steps between two plans.
+        margin: [N m] each plan's margin.
+        progress: called with (simulated time, duration) along the run.
 
     Raises:
-        InputError: a seed that is not an integer >= 0 (before any planning); see the planner.
+        SceneError, InputError: see :func:`frcontrol.planning.standup.simulate_standup`.
     """
-    from .planning.gait import plan_gait, simulate_gait
-    from .simulation.inputs import check_seed
+    from .planning.standup import simulate_standup
 
-    check_seed(seed)
-    plan = plan_gait(scene, cycles, margin=margin)
-    if on_simulation is not None:
-        on_simulation()
-    return plan, simulate_gait(plan, seed=seed, scale=scale, progress=progress)
+    result = simulate_standup(scene, duration=duration, dt=dt, replan_every=replan_every, margin=margin,
+                              progress=progress)
+    return Answer("standup", result.to_dict(scene), result=result, trajectory=result.trajectory)
 
 
-def plan_task_answer(scene: Scene, *, dt: float = 1e-3, replan_every: int = 10, max_time: float | None = None,
-                     margin: float | None = None, compliant: bool = False,
-                     progress: Callable[[float, float], None] | None = None
-                     ) -> tuple[PlanResult, dict[str, Any]]:
-    """``frc plan``'s and ``POST /plan``'s work: the scene's task run, and its ``--json`` document.
+def plan_answer(scene: Scene, *, dt: float = 1e-3, replan_every: int = 10, max_time: float | None = None,
+                margin: float | None = None, compliant: bool = False,
+                progress: Progress | None = None) -> Answer:
+    """``frc plan --json`` (``POST /plan``): the scene's task run.
 
     Args:
         scene: a scene whose ``[task]`` is given as ``[[task.phases]]``.
@@ -214,18 +536,52 @@ def plan_task_answer(scene: Scene, *, dt: float = 1e-3, replan_every: int = 10, 
 
     result = plan_task(scene, dt=dt, replan_every=replan_every, max_time=max_time, margin=margin,
                        compliant=compliant, progress=progress)
-    return result, result.to_dict(scene)
+    trajectory = result.trajectory
+    return Answer("plan", result.to_dict(scene), result=result, trajectory=trajectory,
+                  modes=None if trajectory.modes is None else tuple(trajectory.modes))
+
+
+def atlas_answer(plan: AtlasPlan, **run: Any) -> Answer:
+    """``frc atlas --json`` (``POST /atlas``'s job result): the sweep of ``plan``.
+
+    Args:
+        plan: from :func:`frcontrol.atlas.build_atlas`.
+        run: how it runs, as :func:`frcontrol.atlas.run_atlas` takes it (``workers``,
+            ``scheduler``, ``out``, ``resume``, ``progress``, ``stop``...): the document's ``run``.
+    """
+    from .atlas import run_atlas
+
+    result = run_atlas(plan, **run)
+    return Answer("atlas", result.to_dict(), result=result)
 
 
 __all__ = [
+    "Answer",
     "CONTACT_MODELS",
+    "OptionConflict",
+    "DESCRIPTION_CHARS",
+    "Progress",
+    "RUN_DEPENDENT_KEYS",
     "analysis_and_solutions",
     "analysis_payload",
-    "plan_and_climb",
-    "plan_and_fly",
-    "plan_and_gait",
-    "plan_task_answer",
+    "analyze_answer",
+    "atlas_answer",
+    "catalog",
+    "climb_answer",
+    "driven",
+    "flip_answer",
+    "plan_answer",
+    "pumps",
+    "robots_answer",
     "run_simulation",
+    "schema_answer",
+    "show_answer",
+    "simulate_answer",
     "simulation_failure",
+    "solutions_answer",
     "solutions_payload",
+    "standup_answer",
+    "statics_answer",
+    "validation_answer",
+    "without_run_dependent",
 ]

@@ -26,6 +26,7 @@ import pytest
 from frcontrol.cli.app import app as cli_app
 from typer.testing import CliRunner
 
+from frcontrol.answers import without_run_dependent
 from frcontrol.scene import read_scene_document, shipped_robots_dir
 from frcontrol.service import ServiceConfig, create_app
 from frcontrol.service.models import SolutionsAnswer
@@ -107,24 +108,16 @@ def test_info_endpoints(client):
 
     assert client.get("/version").json() == {"frcontrol": frcontrol.__version__, "api": "1"}
     robots = cli_json("robots")
-    assert client.get("/robots").json() == {"robots": robots["robots"], "scenes": robots["scenes"]}
+    robots.pop("folder")  # a path on this machine: the service reveals none
+    assert client.get("/robots").json() == robots
     schema = client.get("/openapi.json").json()
     answer = schema["paths"]["/solutions"]["post"]["responses"]["200"]["content"]["application/json"]
     assert answer["schema"] == {"$ref": "#/components/schemas/SolutionsAnswer"}
-    assert {"/analyze", "/solutions", "/statics", "/simulate", "/plan/flip", "/plan/climb", "/atlas",
-            "/jobs/{job_id}", "/health", "/version", "/robots"} <= set(schema["paths"])
+    assert {"/analyze", "/solutions", "/statics", "/simulate", "/plan/flip", "/plan/climb", "/plan/standup",
+            "/show", "/validate", "/schema", "/atlas", "/jobs/{job_id}", "/health", "/version",
+            "/robots"} <= set(schema["paths"])
     assert schema["components"]["schemas"]["SolutionsRequest"]["additionalProperties"] is False
     assert client.get("/docs").status_code == 200
-
-
-def without_timings(document):
-    """A document without its wall-clock figures (they differ from run to run)."""
-    if isinstance(document, dict):
-        return {k: without_timings(v) for k, v in document.items()
-                if k not in ("timings", "wall_time", "elapsed")}
-    if isinstance(document, list):
-        return [without_timings(v) for v in document]
-    return document
 
 
 @pytest.mark.parametrize(("path", "body", "args"), [
@@ -141,7 +134,7 @@ def without_timings(document):
 def test_answers_equal_the_commands_json(client, path, body, args):
     response = client.post(path, json=body)
     assert response.status_code == 200, response.text
-    assert without_timings(response.json()) == without_timings(cli_json(*args))
+    assert without_run_dependent(response.json()) == without_run_dependent(cli_json(*args))
 
 
 def test_solutions_equal_the_clis_and_a_scene_sent_as_content_equals_the_shipped_one(client):
@@ -316,7 +309,7 @@ def test_an_atlas_job_answers_frc_atlas_json(atlas_job):
     assert job["points_done"] == job["points_total"] == 20 and job["progress"] == 1.0
     expected = cli_json("atlas", *ATLAS_ARGS, "--workers", "2")  # the service's 2 workers, as a pool
     assert job["result"]["run"]["executor"] == "pool" and any(job["result"]["errors"][0])
-    assert without_timings(job["result"]) == without_timings(expected)
+    assert without_run_dependent(job["result"]) == without_run_dependent(expected)
 
 
 @pytest.mark.slow
@@ -587,7 +580,7 @@ def test_a_real_server_runs_atlas_jobs_on_a_dask_cluster():
     assert job["state"] == "done", job
     assert job["result"]["run"]["executor"] == "dask" and job["result"]["run"]["workers"] == 1
     expected = cli_json("atlas", *ATLAS_ARGS, "--workers", "1")
-    assert without_timings({**job["result"], "run": None}) == without_timings({**expected, "run": None})
+    assert without_run_dependent(job["result"]) == without_run_dependent(expected)  # "run" aside
 
 
 # --- hostile input and bounded work, against a real frc serve ------------------------------------

@@ -40,7 +40,11 @@ API_VERSION = "1"
 ANSWERS: dict[str, Any] = {"solutions": models.SolutionsAnswer}
 """The typed answers (the others are JSON objects: their command's ``to_dict()``)."""
 
-ENDPOINTS: dict[str, tuple[str, type[models.SceneRequest], str]] = {
+ENDPOINTS: dict[str, tuple[str, type[models.Strict], str]] = {
+    "show": ("/show", models.ShowRequest, "`frc show SCENE --json`: the coordinates, M(q), h(q, v) and every "
+             "contact's gap, velocities and rows at the scene's state."),
+    "validate": ("/validate", models.ValidateRequest, "`frc validate SCENE --json`: the scene's problems "
+                 "(none: valid); a scene with problems is an answer, not a 422."),
     "analyze": ("/analyze", models.AnalyzeRequest, "`frc analyze SCENE [--input ...] --json`: every "
                 "contact mode at the scene's state; with `inputs`, every rigid-body solution too."),
     "solutions": ("/solutions", models.SolutionsRequest, "Every rigid-body solution at the inputs: "
@@ -50,13 +54,39 @@ ENDPOINTS: dict[str, tuple[str, type[models.SceneRequest], str]] = {
     "simulate": ("/simulate", models.SimulateRequest, "`frc simulate SCENE --json`: a trajectory with "
                  "contact events, checked against the model's validity (a diverged run is a 422)."),
     "flip": ("/plan/flip", models.FlipRequest, "`frc flip SCENE --json`: the flip plan and its "
-             "closed-loop simulation."),
-    "climb": ("/plan/climb", models.ClimbRequest, "`frc climb SCENE --json`: the climb plan and its "
-              "simulated check."),
+             "closed-loop simulation; the pumping run (`pump`) by default on a scene whose inputs all have "
+             "drives."),
+    "climb": ("/plan/climb", models.ClimbRequest, "`frc climb SCENE [--cycles N] --json`: the climb plan and "
+              "its simulated check, or (`cycles`) the gait's plan and simulation."),
+    "standup": ("/plan/standup", models.StandUpRequest, "`frc standup SCENE --json`: the stand-up's first "
+                "plan and its re-planned rigid run."),
     "plan": ("/plan", models.PlanRequest, "`frc plan SCENE --json`: the scene's task (its [task] phases) "
              "planned along a rigid run: phases, plans, outcome and samples."),
 }
 """Each kind of work: its path, its request model and what it answers."""
+
+COMMAND_ENDPOINTS: dict[str, str] = {
+    "robots": "/robots", "schema": "/schema", "validate": "/validate", "show": "/show", "analyze": "/analyze",
+    "statics": "/statics", "simulate": "/simulate", "flip": "/plan/flip", "climb": "/plan/climb",
+    "standup": "/plan/standup", "plan": "/plan", "atlas": "/atlas",
+}
+"""Each ``frc`` command and the endpoint answering as its ``--json`` does, by the same
+:mod:`frcontrol.answers` function (docs/service.md has the table)."""
+
+COMMANDS_WITHOUT_ENDPOINT: dict[str, str] = {
+    "view": "opens a page in a browser on the machine it runs on; its data is frc show's and frc simulate's",
+    "serve": "runs this service",
+}
+"""The ``frc`` commands no endpoint answers for, and why."""
+
+ENDPOINTS_WITHOUT_COMMAND: dict[str, str] = {
+    "/solutions": "the solutions of frc analyze --input alone, typed in full (SolutionsAnswer)",
+    "/health": "the service's own state",
+    "/version": "the versions of frcontrol and of the API (frc --version prints the first)",
+    "/jobs/{job_id}": "a job's state and result",
+}
+"""The endpoints no ``frc`` command answers as (besides ``/jobs`` + an endpoint's path: the same work
+as a job), and why."""
 
 REFUSALS: dict[int | str, dict[str, Any]] = {
     401: {"model": models.ErrorResponse, "description": "No or a wrong `Authorization: Bearer` token "
@@ -311,16 +341,21 @@ def _add_info_routes(app: FastAPI, config: ServiceConfig, pool: WorkerPool, jobs
     @app.get("/robots", response_model=models.Robots, responses=REFUSALS)
     async def robots() -> dict[str, Any]:
         """What ships: `frc robots --json` without the folder (the service takes no paths)."""
-        from frcontrol.scene import shipped_robots_dir
+        from frcontrol.answers import robots_answer
 
-        root = shipped_robots_dir()
-        return {"robots": [p.name for p in sorted(root.glob("*.urdf"))],
-                "scenes": [p.stem for p in sorted((root / "scenes").glob("*.toml"))]}
+        return robots_answer().document
+
+    @app.get("/schema", response_model=dict[str, Any], responses=REFUSALS)
+    async def schema() -> dict[str, Any]:
+        """The scene format as a JSON Schema (draft 2020-12): `frc schema`."""
+        from frcontrol.answers import schema_answer
+
+        return schema_answer().document
 
 
 def _add_work_routes(app: FastAPI, pool: WorkerPool, jobs: JobRunner, kind: str, path: str,
-                     request_model: type[models.SceneRequest], summary: str) -> None:
-    async def answer(request: models.SceneRequest) -> Any:
+                     request_model: type[models.Strict], summary: str) -> None:
+    async def answer(request: models.Strict) -> Any:
         text = request.model_dump_json(by_alias=True)
         try:
             reply = json.loads(await pool.run(kind, text))
@@ -332,7 +367,7 @@ def _add_work_routes(app: FastAPI, pool: WorkerPool, jobs: JobRunner, kind: str,
             return JSONResponse(reply["answer"])
         return JSONResponse({"detail": reply["detail"]}, status_code=reply["status"])
 
-    async def start_job(request: models.SceneRequest) -> Any:
+    async def start_job(request: models.Strict) -> Any:
         job = jobs.start(kind, request.model_dump_json(by_alias=True))
         if job is None:
             return _too_many_jobs(jobs)
@@ -412,7 +447,10 @@ def _start_atlas(jobs: JobRunner, config: ServiceConfig, plan: dict[str, Any],
 
 __all__ = [
     "API_VERSION",
+    "COMMAND_ENDPOINTS",
+    "COMMANDS_WITHOUT_ENDPOINT",
     "ENDPOINTS",
+    "ENDPOINTS_WITHOUT_COMMAND",
     "ServiceConfig",
     "create_app",
 ]

@@ -46,7 +46,8 @@ def atlas_work(plan: Mapping[str, Any], source: SceneSource, *, workers: int, sc
     """
 
     def work(job: Job, stopped: Callable[[], bool]) -> dict[str, Any]:
-        from frcontrol.atlas import AtlasPlan, run_atlas
+        from frcontrol.answers import atlas_answer
+        from frcontrol.atlas import AtlasPlan
 
         checked = AtlasPlan.from_dict(plan, source)
         job.points_done, job.points_total = 0, checked.size
@@ -60,11 +61,11 @@ def atlas_work(plan: Mapping[str, Any], source: SceneSource, *, workers: int, sc
             job.message = f"{done} of {total} points"
 
         try:
-            result = run_atlas(checked, workers=workers, scheduler=scheduler, progress=progress,
-                               stop=stopped, chunk_time_limit=chunk_time_limit, in_process=False)
+            answer = atlas_answer(checked, workers=workers, scheduler=scheduler, progress=progress,
+                                  stop=stopped, chunk_time_limit=chunk_time_limit, in_process=False)
         except FrcontrolError as err:
             return _failure(err)
-        return {"status": 200, "answer": result.to_dict()}
+        return {"status": 200, "answer": answer.document}
 
     return work
 

@@ -22,6 +22,7 @@ from frcontrol.planning import (
     DEFAULT_CLIMB_DURATION,
     DEFAULT_CLIMB_MARGIN,
     DEFAULT_FLIP_MARGIN,
+    DEFAULT_STANDUP_DURATION,
 )
 
 MAX_URDF_NAME = 100
@@ -143,6 +144,18 @@ class InputsRequest(SceneRequest):
                                      description="Input values by coordinate name [N or N m], as `--input`.")
 
 
+class ShowRequest(SceneRequest):
+    """`POST /show`: `frc show SCENE --json`."""
+
+
+class ValidateRequest(Strict):
+    """`POST /validate`: `frc validate SCENE --json`, for one scene (a problem is an answer, not a 422)."""
+
+    scene: SceneField = Field(
+        description="A shipped scene's name or the scene's content, as for every scene endpoint.",
+        examples=["rod_on_table"])
+
+
 class AnalyzeRequest(SceneRequest):
     """`POST /analyze`: `frc analyze SCENE [--input ...] --json`."""
 
@@ -170,6 +183,7 @@ class SimulateRequest(InputsRequest):
     dt: float = Field(1e-3, description="[s] the rigid step; the compliant sample interval.")
     duration: float = Field(1.0, description="[s] simulated time.")
     integrator: str = Field("radau", description="The compliant model's integrator.")
+    every: int = Field(1, ge=1, description="Keep every N-th sample (and the last), as `--every`.")
 
 
 class FlipRequest(SceneRequest):
@@ -180,6 +194,10 @@ class FlipRequest(SceneRequest):
     max_time: float = Field(2.0, ge=0.0, description="[s] as `--max-time` (0: plan only).")
     dt: float = Field(1e-3, ge=1e-6, description="[s] as `--dt`.")
     replan_every: int = Field(10, ge=1, description="Steps between two plans, as `--replan-every`.")
+    pump: bool | None = Field(None, description="Pump over several leg strokes, as `--pump`/`--no-pump` "
+                              "(default: on for a scene whose inputs all have drives).")
+    compliant: bool = Field(False, description="With the pump: replay the run on the compliant model, as "
+                            "`--compliant`.")
 
 
 class ClimbRequest(SceneRequest):
@@ -189,6 +207,22 @@ class ClimbRequest(SceneRequest):
     margin: float = Field(DEFAULT_CLIMB_MARGIN, ge=0.0, description="[N m or N] as `--margin`.")
     duration: float = Field(DEFAULT_CLIMB_DURATION, ge=0.0, description="[s] as `--duration`.")
     seed: int = Field(0, ge=0, description="Seed of the sampled disturbances, as `--seed` (>= 0).")
+    cycles: int | None = Field(None, ge=1, description="Climb by this many cycles of the gait, as "
+                               "`--cycles` (then `duration` is not used).")
+    scale: float | None = Field(None, ge=0.0, description="With `cycles`: the gait's simulated disturbance "
+                                "scale, as `--scale`.")
+
+
+class StandUpRequest(SceneRequest):
+    """`POST /plan/standup`: `frc standup SCENE --json`."""
+
+    scene: SceneField = Field("solo_standup", description="As for every scene endpoint: a scene with [task] "
+                                                          "feet and stand_height.")
+    margin: float = Field(DEFAULT_FLIP_MARGIN, ge=0.0, description="[N m] as `--margin`.")
+    duration: float = Field(DEFAULT_STANDUP_DURATION, ge=0.0, description="[s] as `--duration` (0: the first "
+                            "plan only).")
+    dt: float = Field(2e-3, ge=1e-6, description="[s] as `--dt`.")
+    replan_every: int = Field(10, ge=1, description="Steps between two plans, as `--replan-every`.")
 
 
 class PlanRequest(SceneRequest):
@@ -312,6 +346,8 @@ class Robots(BaseModel):
 
     robots: list[str]
     scenes: list[str]
+    catalog: list[dict[str, str]] = Field(description="Every robot and scene a scene can name: `kind`, "
+                                          "`name`, `description`.")
 
 
 __all__ = [
@@ -334,11 +370,14 @@ __all__ = [
     "SceneContent",
     "SceneField",
     "SceneRequest",
+    "ShowRequest",
     "SimulateRequest",
     "SolutionAnswer",
     "SolutionsAnswer",
     "SolutionsRequest",
+    "StandUpRequest",
     "StaticsRequest",
     "Strict",
+    "ValidateRequest",
     "Version",
 ]

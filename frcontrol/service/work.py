@@ -20,11 +20,12 @@ import json
 import logging
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from pydantic import ValidationError
 
+from frcontrol.answers import OptionConflict
 from frcontrol.errors import CoordinateNotFound, FrcontrolError, InputError, LimitExceeded, SceneError
 
 from . import models
@@ -46,13 +47,16 @@ starts its threads) before a worker's memory limit is set."""
 OUT_OF_MEMORY = 507
 """The status of a request that ran out of its process's memory limit (``frc serve --worker-memory``)."""
 
-REQUESTS: dict[str, type[models.SceneRequest]] = {
+REQUESTS: dict[str, type[models.Strict]] = {
+    "show": models.ShowRequest,
+    "validate": models.ValidateRequest,
     "analyze": models.AnalyzeRequest,
     "solutions": models.SolutionsRequest,
     "statics": models.StaticsRequest,
     "simulate": models.SimulateRequest,
     "flip": models.FlipRequest,
     "climb": models.ClimbRequest,
+    "standup": models.StandUpRequest,
     "plan": models.PlanRequest,
     "atlas": models.AtlasRequest,
 }
@@ -99,76 +103,107 @@ def request_scene(request: models.SceneRequest) -> Iterator[Scene]:
         yield scene
 
 
-def _analyze(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
-    from frcontrol.answers import analysis_and_solutions, analysis_payload
+def _show(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
+    from frcontrol.answers import show_answer
 
-    result, solutions = analysis_and_solutions(scene, request.inputs,
-                                               progress=lambda mode: progress(None, f"analysing mode {mode}"))
-    return analysis_payload(scene, result, solutions)
+    return show_answer(scene).document
+
+
+def _analyze(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
+    from frcontrol.answers import analyze_answer
+
+    return analyze_answer(scene, request.inputs,
+                          progress=lambda mode: progress(None, f"analysing mode {mode}")).document
 
 
 def _solutions(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
-    from frcontrol.answers import analysis_and_solutions, solutions_payload
+    from frcontrol.answers import solutions_answer
 
-    result, solutions = analysis_and_solutions(scene, request.inputs)
-    return {"solutions": solutions_payload(result, solutions or []), "input_units": scene.inputs.unit_map()}
+    return solutions_answer(scene, request.inputs).document
 
 
 def _statics(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
-    from frcontrol.statics import analyze_statics
+    from frcontrol.answers import statics_answer
 
-    return analyze_statics(scene, request.inputs, lateral_acceleration=request.lateral_acceleration,
-                           strong=not request.no_strong).to_dict()
+    return statics_answer(scene, request.inputs, lateral_acceleration=request.lateral_acceleration,
+                          strong=not request.no_strong).document
 
 
 def _simulate(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
-    from frcontrol.answers import run_simulation, simulation_failure
-    from frcontrol.errors import InputError
+    from frcontrol.answers import simulate_answer, simulation_failure
 
-    trajectory = run_simulation(scene, request.inputs, model=request.model, stiffness=request.stiffness,
-                                damping=request.damping, duration=request.duration, dt=request.dt,
-                                integrator=request.integrator)
-    failure = simulation_failure(trajectory)
+    answer = simulate_answer(scene, request.inputs, model=request.model, stiffness=request.stiffness,
+                             damping=request.damping, duration=request.duration, dt=request.dt,
+                             integrator=request.integrator, every=request.every)
+    failure = simulation_failure(answer.result)
     if failure is not None:
         raise InputError(failure)
-    return trajectory.to_dict(scene)
+    return answer.document
+
+
+def _simulated(what: str, progress: Progress) -> Callable[[float, float], None]:
+    """The library's (done, total) progress as the job's fraction and message."""
+
+    def report(done: float, total: float) -> None:
+        progress(done / total if total > 0 else None, f"{what}: {done:g} / {total:g}")
+
+    return report
 
 
 def _flip(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
-    from frcontrol.answers import plan_and_fly
-
-    def report(t: float, total: float) -> None:
-        progress(t / total if total > 0 else None, f"simulating the flip: {t:.3f} / {total:g} s")
+    from frcontrol.answers import flip_answer
 
     try:
-        plan, result = plan_and_fly(scene, margin=request.margin, max_time=request.max_time, dt=request.dt,
-                                    replan_every=request.replan_every, progress=report)
+        return flip_answer(scene, margin=request.margin, max_time=request.max_time, dt=request.dt,
+                           replan_every=request.replan_every, pump=request.pump, compliant=request.compliant,
+                           progress=_simulated("simulating the flip [s]", progress)).document
     except LimitExceeded as err:  # the flip's simulated time is its max_time
         raise FieldError(["max_time"], err) from err
-    return plan.to_dict(result)
 
 
 def _climb(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
-    from frcontrol.answers import plan_and_climb
+    from frcontrol.answers import climb_answer
 
-    plan, result = plan_and_climb(scene, margin=request.margin, duration=request.duration, seed=request.seed,
-                                  on_simulation=lambda: progress(None, "simulating the climb"))
-    return plan.to_dict(result)
+    what = "the climb [s]" if request.cycles is None else "the gait [phases]"
+    return climb_answer(scene, margin=request.margin, duration=request.duration, seed=request.seed,
+                        cycles=request.cycles, scale=request.scale,
+                        on_simulation=lambda: progress(None, f"simulating {what}"),
+                        progress=_simulated(f"simulating {what}", progress)).document
+
+
+def _standup(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
+    from frcontrol.answers import standup_answer
+
+    try:
+        return standup_answer(scene, duration=request.duration, dt=request.dt,
+                              replan_every=request.replan_every, margin=request.margin,
+                              progress=_simulated("the stand-up [s]", progress)).document
+    except LimitExceeded as err:
+        raise FieldError(["duration"], err) from err
 
 
 def _plan(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
-    from frcontrol.answers import plan_task_answer
-
-    def report(t: float, total: float) -> None:
-        progress(t / total if total > 0 else None, f"running the task: {t:.3f} / {total:g} s")
+    from frcontrol.answers import plan_answer
 
     try:
-        _, payload = plan_task_answer(scene, dt=request.dt, replan_every=request.replan_every,
-                                      max_time=request.max_time, margin=request.margin,
-                                      compliant=request.compliant, progress=report)
+        return plan_answer(scene, dt=request.dt, replan_every=request.replan_every, max_time=request.max_time,
+                           margin=request.margin, compliant=request.compliant,
+                           progress=_simulated("running the task [s]", progress)).document
     except LimitExceeded as err:  # the task's simulated time is its max_time
         raise FieldError(["max_time"], err) from err
-    return payload
+
+
+def validate_scene(request: models.ValidateRequest) -> dict[str, Any]:
+    """``POST /validate``: the scene's problems, as ``frc validate --json`` lists them (none: valid).
+
+    The scene is checked, not loaded first: its problems are the answer, not a 422.
+
+    Raises:
+        SceneError: an unknown shipped name (the nearest named), malformed TOML.
+    """
+    from frcontrol.answers import validation_answer
+
+    return validation_answer([scene_source(request.scene)]).document
 
 
 def plan_atlas(request: models.AtlasRequest) -> AtlasPlan:
@@ -207,8 +242,8 @@ def plan_atlas(request: models.AtlasRequest) -> AtlasPlan:
 
 
 WORK: dict[str, Callable[[Any, Scene, Progress], dict[str, Any]]] = {
-    "analyze": _analyze, "solutions": _solutions, "statics": _statics, "simulate": _simulate,
-    "flip": _flip, "climb": _climb, "plan": _plan,
+    "show": _show, "analyze": _analyze, "solutions": _solutions, "statics": _statics, "simulate": _simulate,
+    "flip": _flip, "climb": _climb, "standup": _standup, "plan": _plan,
 }
 """Each kind of work: (checked request, scene, progress) -> the command's ``--json`` document."""
 
@@ -229,7 +264,7 @@ def error_document(err: FrcontrolError, overrides: Mapping[str, Any] | None = No
         loc += ["scene", err.field] if err.field else ["scene"]
     elif isinstance(err, CoordinateNotFound):
         loc += ["inputs", err.name]
-    elif isinstance(err, LimitExceeded):
+    elif isinstance(err, (LimitExceeded, OptionConflict)):
         loc += [err.field]
     return {"status": 422, "detail": [{"loc": loc, "msg": str(err), "type": type(err).__name__}]}
 
@@ -250,19 +285,21 @@ def execute(kind: str, text: str, progress: Progress | None = None) -> str:
     from frcontrol.jsonable import to_jsonable
 
     report = progress if progress is not None else (lambda fraction, message: None)
-    request: models.SceneRequest | None = None
+    request: models.Strict | None = None
     try:
         request = REQUESTS[kind].model_validate_json(text)
         if isinstance(request, models.AtlasRequest):
             answer = plan_atlas(request).to_dict()
-        else:
-            with request_scene(request) as scene:
+        elif isinstance(request, models.ValidateRequest):
+            answer = validate_scene(request)
+        else:  # every other request names a scene and its overrides
+            with request_scene(cast(models.SceneRequest, request)) as scene:
                 answer = WORK[kind](request, scene, report)
         return json.dumps({"status": 200, "answer": to_jsonable(answer)})
     except ValidationError as err:
         return json.dumps(validation_document(err))
     except FrcontrolError as err:
-        return json.dumps(error_document(err, None if request is None else request.set))
+        return json.dumps(error_document(err, getattr(request, "set", None)))
     except MemoryError:
         return json.dumps({"status": OUT_OF_MEMORY, "detail": _memory_message()})
     except Exception as err:  # a bug: the client gets its type, the server's log the traceback
@@ -299,6 +336,9 @@ def warm_up() -> None:
     import frcontrol.planning.climb  # noqa: F401
     import frcontrol.planning.core  # noqa: F401
     import frcontrol.planning.flip  # noqa: F401
+    import frcontrol.planning.gait  # noqa: F401
+    import frcontrol.planning.pump  # noqa: F401
+    import frcontrol.planning.standup  # noqa: F401
     import frcontrol.scene  # noqa: F401
     import frcontrol.simulation.compliant  # noqa: F401
     import frcontrol.simulation.rigid  # noqa: F401
@@ -326,6 +366,7 @@ __all__ = [
     "plan_atlas",
     "request_scene",
     "scene_source",
+    "validate_scene",
     "validation_document",
     "warm_up",
 ]
