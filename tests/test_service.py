@@ -416,7 +416,8 @@ def test_an_atlas_job_reports_progress_and_stops_when_cancelled(client):
 @pytest.mark.slow
 def test_an_atlas_chunk_past_the_time_limit_fails_its_job(strict_client):
     body = {"scene": "rod_on_table", "set": {"state.v.x": -1},
-            "vary": ["state.q.theta=0.3:2.8:100", "contacts.tip.mu=0:2:100"], "chunk_size": 5000}
+            "vary": ["state.q.theta=0.3:2.8:300", "contacts.tip.mu=0:2:300"], "chunk_size": 90000}
+    # 90,000 points in one chunk: several seconds of a worker's time at any atlas speed here
     job = strict_client.post("/atlas", json=body).json()
     assert strict_client.post("/atlas", json=body).status_code == 429  # one job at a time here
     job = finished(strict_client, job)
