@@ -125,3 +125,15 @@ def test_an_upward_import_is_caught():
         == ["planning"]
     assert imports_upwards("from .modes import ContactProblem\n", "engine", False) == []
     assert imports_upwards("from frcontrol.answers import x\n", "viz.figures", False) == ["answers"]
+
+
+def test_every_package_is_installed():
+    """pyproject.toml lists its packages by hand: a new sub-package left out installs nothing of it
+    (an editable install hides that; CI's non-editable one does not)."""
+    import tomllib
+
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+                 ["tool"]["setuptools"]["packages"])
+    found = {".".join(("frcontrol", *init.parent.relative_to(ROOT / "frcontrol").parts))
+             for init in (ROOT / "frcontrol").rglob("__init__.py")} | {"frcontrol.cli", "frcontrol.robots"}
+    assert found <= listed, f"packages missing from pyproject.toml: {sorted(found - listed)}"
