@@ -145,6 +145,7 @@ __all__ = [
     "build_flip",
     "flip_task",
     "margin_pieces",
+    "massless_inputs",
     "mode_allowed",
     "maximise_pitch",
     "plan_flip",
@@ -1312,7 +1313,7 @@ def _closed_loop(scene: Scene, policy: _Replanner, task: FlipTask, *, dt: float,
     The stepper runs on the re-planning model's scene (its gap tolerance); a massless leg in the
     air gets no torque (:func:`_free_legs_idle`).
     """
-    legs = _massless_legs(scene)
+    legs = massless_inputs(scene)
     stepper = RigidStepper(policy.scene, RigidSettings(max_ambiguity_checks=0, impact_law=False),
                            armature=armature)
     return run_closed_loop(
@@ -1358,7 +1359,7 @@ def _free_legs_idle(scene: Scene, legs: dict[int, list[int]], command: np.ndarra
     return out
 
 
-def _massless_legs(scene: Scene) -> dict[int, list[int]]:
+def massless_inputs(scene: Scene) -> dict[int, list[int]]:
     """Inputs on massless coordinates (zero row of M at the scene's state) -> the contacts they move.
 
     Such an input is free (its torque cannot act on the body) whenever none of its contacts touches.

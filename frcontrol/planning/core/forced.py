@@ -25,8 +25,7 @@ import numpy as np
 
 from ...engine import DynamicResponse, analyze
 from ...modes import ContactProblem
-from ...scene import Scene
-from ..flip import FORCED_INPUT_TOLERANCE, SEPARATION_GAP
+from ..flip import FORCED_INPUT_TOLERANCE, SEPARATION_GAP, massless_inputs
 
 __all__ = [
     "fix_inputs",
@@ -117,21 +116,6 @@ def planning_problem(
             planned = lift(fix_inputs(full, forced))
             analysis = analyze(planned, solver=solver) if planned.m else None
     return planned, analysis, {full.inputs[i]: forced[i] for i in sorted(forced)}
-
-
-def massless_inputs(scene: Scene) -> dict[int, list[int]]:
-    """Inputs on massless coordinates (zero row of M at the scene's state) -> the contacts they move."""
-    state = scene.robot.state(scene.q, scene.v)
-    M = state.mass_matrix
-    scale = max(1.0, float(np.max(np.abs(M))))
-    jac = np.vstack([state.jacobian_normal, state.jacobian_tangent])
-    k = len(scene.contacts)
-    legs = {}
-    for i, j in enumerate(scene.inputs.indices):
-        if np.max(np.abs(M[j])) <= FORCED_INPUT_TOLERANCE * scale:
-            rows = np.nonzero(np.abs(jac[:, j]) > FORCED_INPUT_TOLERANCE)[0]
-            legs[i] = sorted({int(r % k) for r in rows})
-    return legs
 
 
 def idle_in_the_air(legs: Mapping[int, list[int]], gaps: np.ndarray, command: np.ndarray) -> np.ndarray:
