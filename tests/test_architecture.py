@@ -137,3 +137,13 @@ def test_every_package_is_installed():
     found = {".".join(("frcontrol", *init.parent.relative_to(ROOT / "frcontrol").parts))
              for init in (ROOT / "frcontrol").rglob("__init__.py")} | {"frcontrol.cli", "frcontrol.robots"}
     assert found <= listed, f"packages missing from pyproject.toml: {sorted(found - listed)}"
+
+
+def test_no_test_puts_the_checkout_first_on_the_path():
+    """A test that puts the checkout first on ``sys.path`` makes every process the later tests spawn
+    (service and Dask workers) import the source tree's ``frcontrol``, which has no
+    ``frcontrol.robots``: they fail in CI, on the installed package, and nowhere else."""
+    offenders = [path.name for path in sorted((ROOT / "tests").glob("*.py"))
+                 if re.search(r"sys\.path\.insert\(\s*0", path.read_text(encoding="utf-8"))
+                 and path.name != "test_architecture.py"]
+    assert not offenders, f"use sys.path.append for the checkout in: {offenders}"
