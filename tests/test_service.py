@@ -515,7 +515,16 @@ def frc_serve_process(*options: str):
             pass
         assert time.monotonic() < deadline, "frc serve did not answer within 120 s"
         time.sleep(0.2)
-    yield url, process
+    try:
+        yield url, process
+    except BaseException:  # a failed test leaves no server behind (nor its workers)
+        process.send_signal(signal.SIGTERM)
+        try:
+            process.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.communicate()
+        raise
     process.send_signal(signal.SIGTERM)
     out, err = process.communicate(timeout=60)
     assert process.returncode == 0, err
