@@ -95,12 +95,15 @@ def plan_command(
 
 def render(payload: dict[str, Any]) -> None:
     """The phases, their plans and the outcome as rich text and a table."""
+    from frcontrol.modes import mode_heading
+
     table = Table(title="phases")
-    for column in ("phase", "start [s]", "end [s]", "plans", "held", "modes planned", "ended by"):
+    planned = f"planned {mode_heading(payload['scene_contacts'])}"
+    for column in ("phase", "start [s]", "end [s]", "plans", "held", planned, "ended by"):
         table.add_column(column, overflow="fold")
     for phase in payload["phases"]:
         plans = phase["plans"]
-        modes = sorted({p["mode"] for p in plans if p["found"]})
+        modes = sorted({p["scene_mode"] for p in plans if p["found"]})
         table.add_row(
             phase["name"],
             f"{phase['start']:.3f}",

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ...jsonable import to_jsonable
+from ...modes import add_scene_modes
 from ...scene import Scene
 from ...simulation.export import sample_modes
 from ...simulation.trajectory import Trajectory
@@ -88,7 +89,7 @@ class PlanResult:
                 "status": self.compliant.status,
                 "samples": replay["samples"],
             }
-        return to_jsonable(payload)
+        return add_scene_modes(to_jsonable(payload), [c.name for c in scene.contacts])
 
 
 def _plan_dict(t: float, decision: Decision) -> dict[str, Any]:
