@@ -70,14 +70,14 @@ def limit_memory(mib: int | None) -> None:
         return
     import resource
 
-    limit = _address_space() + int(mib) * 2**20
+    limit = address_space() + int(mib) * 2**20
     _, hard = resource.getrlimit(resource.RLIMIT_AS)
     if hard != resource.RLIM_INFINITY:
         limit = min(limit, hard)
     resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
 
 
-def _address_space() -> int:
+def address_space() -> int:
     """[bytes] This process's address space now (Linux: ``VmSize`` of ``/proc/self/status``; else 0)."""
     try:
         with open("/proc/self/status", encoding="ascii") as status:
@@ -110,10 +110,12 @@ def _worker_main(conn: Connection, memory: int | None) -> None:
 
     It ends after an answer that ran out of memory (:func:`.work.out_of_memory`), to be replaced.
     """
-    from .work import execute, out_of_memory, warm_up
+    from .work import execute, keep_reserve, out_of_memory, warm_up
 
     warm_up()
     limit_memory(memory)
+    if memory is not None:
+        keep_reserve()
     conn.send("ready")
     while True:
         try:
@@ -267,10 +269,12 @@ class WorkerPool:
 
 def _job_main(kind: str, text: str, conn: Connection, memory: int | None) -> None:
     """A job's process (under ``memory`` MiB): progress messages, then the answer."""
-    from .work import execute, warm_up
+    from .work import execute, keep_reserve, warm_up
 
     warm_up()
     limit_memory(memory)
+    if memory is not None:
+        keep_reserve()
 
     def progress(fraction: float | None, message: str) -> None:
         conn.send(("progress", fraction, message))

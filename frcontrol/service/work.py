@@ -301,11 +301,51 @@ def execute(kind: str, text: str, progress: Progress | None = None) -> str:
     except FrcontrolError as err:
         return json.dumps(error_document(err, getattr(request, "set", None)))
     except MemoryError:
+        release_reserve()
         return json.dumps({"status": OUT_OF_MEMORY, "detail": _memory_message()})
-    except Exception as err:  # a bug: the client gets its type, the server's log the traceback
-        log.exception("request %s failed", kind)
+    except Exception as err:
+        release_reserve()
+        if near_memory_limit():  # an extension that ran out of memory and said it otherwise
+            return json.dumps({"status": OUT_OF_MEMORY, "detail": _memory_message()})
+        keep_reserve()
+        log.exception("request %s failed", kind)  # a bug: the client gets its type, the log the traceback
         return json.dumps({"status": 500, "detail": f"internal error ({type(err).__name__}); see the "
                                                     "server's log"})
+
+
+MEMORY_RESERVE = 4 * 2**20
+"""[bytes] Memory a worker under a memory limit keeps allocated and frees when a request fails, so
+that it can still answer (and log) after the request has used up the limit."""
+
+_reserve: list[bytearray] = []
+
+
+def keep_reserve() -> None:
+    """Hold :data:`MEMORY_RESERVE` (a worker calls this once its memory limit is set)."""
+    if not _reserve:
+        try:
+            _reserve.append(bytearray(MEMORY_RESERVE))
+        except MemoryError:
+            pass  # too close to the limit to hold it: the next failure is answered without it
+
+
+def release_reserve() -> None:
+    """Free :data:`MEMORY_RESERVE`, for the answer to a failed request."""
+    _reserve.clear()
+
+
+def near_memory_limit() -> bool:
+    """Whether this process's address space is within 2 :data:`MEMORY_RESERVE` of its limit.
+
+    The limit is ``RLIMIT_AS``. A failure there is taken for running out of memory, whatever its
+    type: an extension that fails to allocate may raise SystemError or a library's own error.
+    """
+    import resource
+
+    from .pool import address_space
+
+    limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+    return limit != resource.RLIM_INFINITY and address_space() + 2 * MEMORY_RESERVE >= limit
 
 
 def _memory_message() -> str:
