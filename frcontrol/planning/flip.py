@@ -146,6 +146,7 @@ __all__ = [
     "flip_task",
     "margin_pieces",
     "massless_inputs",
+    "structurally_forced",
     "mode_allowed",
     "maximise_pitch",
     "plan_flip",
@@ -713,7 +714,7 @@ input direction ``e_i`` lying in the row space of a mode's consistency rows ``E`
 at most this), with the same value in every feasible mode (to this times ``1 + |value|``)."""
 
 
-def _structurally_forced(problem: ContactProblem) -> dict[int, float]:
+def structurally_forced(problem: ContactProblem) -> dict[int, float]:
     """Inputs whose coordinate has no inertia, no bias and no active contact: forced to 0.
 
     Row j of the dynamics reads ``M_j dv + h_j = u_j + J_N,j^T lam_N + J_T,j^T lam_T``; with
@@ -830,7 +831,7 @@ def build_flip(scene: Scene, *, velocity_tolerance: float = VELOCITY_TOLERANCE,
     task = flip_task(scene)
     full = problem if problem is not None else ContactProblem.from_scene(
         scene, velocity_tolerance=velocity_tolerance)
-    forced = _structurally_forced(full)
+    forced = structurally_forced(full)
     planned = _fix_inputs(full, forced) if forced else full
     return FlipProblem(task, full, planned, forced,
                        tuple(c for c in planned.contacts if c in task.body_contacts))

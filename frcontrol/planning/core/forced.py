@@ -25,7 +25,7 @@ import numpy as np
 
 from ...engine import DynamicResponse, analyze
 from ...modes import ContactProblem
-from ..flip import FORCED_INPUT_TOLERANCE, SEPARATION_GAP, massless_inputs
+from ..flip import FORCED_INPUT_TOLERANCE, SEPARATION_GAP, massless_inputs, structurally_forced
 
 __all__ = [
     "fix_inputs",
@@ -35,24 +35,6 @@ __all__ = [
     "planning_problem",
     "structurally_forced",
 ]
-
-
-def structurally_forced(problem: ContactProblem) -> dict[int, float]:
-    """Inputs (index) whose coordinate has no inertia, no bias and no active contact: forced to 0."""
-    M = problem.mass_matrix
-    tol = FORCED_INPUT_TOLERANCE
-    scale = max(1.0, float(np.max(np.abs(M), initial=0.0)))
-    jac = np.vstack([problem.jacobian_normal, problem.jacobian_tangent]).reshape(-1, problem.n)
-    forced = {}
-    for i in range(problem.m):
-        j = int(np.argmax(np.abs(problem.input_map[:, i])))
-        if (
-            np.max(np.abs(M[j]), initial=0.0) <= tol * scale
-            and abs(problem.bias[j]) <= tol * scale
-            and np.max(np.abs(jac[:, j]), initial=0.0) <= tol
-        ):
-            forced[i] = 0.0
-    return forced
 
 
 def forced_by_every_mode(analysis: DynamicResponse) -> dict[int, float]:
