@@ -752,20 +752,25 @@ def regressions(result: dict[str, Any], baseline: dict[str, Any],
             lines.append(f"regression: {name}: in the baseline, not measured in this run")
         elif not now.get("valid", True) or now.get("ratio_to_calibration") is None:
             lines.append(f"regression: {name}: invalid answer ({now.get('reason', 'no ratio')})")
-        elif base.get("ratio_to_calibration") is None:
-            continue  # no baseline ratio to compare with (it was invalid when the baseline was made)
-        elif now["ratio_to_calibration"] > factor * base["ratio_to_calibration"]:
-            lines.append(f"regression: {name}: ratio to calibration {now['ratio_to_calibration']:.4g} is "
-                         f"{now['ratio_to_calibration'] / base['ratio_to_calibration']:.2f}x the baseline's "
-                         f"{base['ratio_to_calibration']:.4g} (limit {factor:g}x); median "
-                         f"{format_seconds(now['median_s'])}")
+        else:
+            # a figure with a reference of its own in the same run (the model assembly against the
+            # bare Pinocchio calls it wraps) is gated on that ratio: a few microseconds' CPU time
+            # against the calibration varied 3x between two idle runs, its wall time by 0.3 %
+            key = ("ratio_to_bare_pinocchio" if base.get("ratio_to_bare_pinocchio") is not None
+                   and now.get("ratio_to_bare_pinocchio") is not None else "ratio_to_calibration")
+            if base.get(key) is None:
+                continue  # no baseline ratio to compare with (it was invalid when the baseline was made)
+            if now[key] > factor * base[key]:
+                lines.append(f"regression: {name}: {key.replace('_', ' ')} {now[key]:.4g} is "
+                             f"{now[key] / base[key]:.2f}x the baseline's {base[key]:.4g} (limit "
+                             f"{factor:g}x); median {format_seconds(now['median_s'])}")
     return lines
 
 
 def baseline_from(result: dict[str, Any]) -> dict[str, Any]:
     """What ``--update-baseline`` writes: the run's provenance and every figure's ratio."""
     keep = ("label", "gated", "valid", "median_s", "median_cpu_s", "runs", "ratio_to_calibration",
-            "wall_ratio_to_calibration")
+            "wall_ratio_to_calibration", "ratio_to_bare_pinocchio")
     return {
         "about": "baseline of python -m benchmarks.ci --check; update it with --update-baseline, in "
                  "a commit whose message says why",

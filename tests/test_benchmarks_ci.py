@@ -127,3 +127,15 @@ def test_format_seconds_picks_a_readable_unit():
     assert ci.format_seconds(7.17e-4) == "717 us"
     assert ci.format_seconds(4.5e-6) == "4.5 us"
     assert ci.format_seconds(None) == "-"
+
+
+def test_a_figure_with_a_same_run_reference_is_gated_on_that_ratio():
+    baseline = _run({"a": 1.0})
+    baseline["figures"]["a"]["ratio_to_bare_pinocchio"] = 2.0
+    noisy = _run({"a": 3.0})  # its CPU ratio to the calibration tripled, its own reference's did not
+    noisy["figures"]["a"]["ratio_to_bare_pinocchio"] = 2.1
+    assert ci.regressions(noisy, baseline) == []
+    slower = _run({"a": 1.0})
+    slower["figures"]["a"]["ratio_to_bare_pinocchio"] = 2.0 * 1.6
+    lines = ci.regressions(slower, baseline)
+    assert len(lines) == 1 and "ratio to bare pinocchio" in lines[0] and "1.60x" in lines[0]
