@@ -1,5 +1,5 @@
 """``python -m frcontrol.cli``: the ``frc`` command line."""
 
-from .app import main
+from . import main
 
 main()

@@ -1,5 +1,5 @@
 """``python -m frcontrol``: the ``frc`` command line."""
 
-from frcontrol.cli.app import main
+from frcontrol.cli import main
 
 main()

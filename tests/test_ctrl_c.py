@@ -159,3 +159,30 @@ def test_ctrl_c_stops_an_atlas_and_keeps_its_finished_chunks(tmp_path):
     assert stdout == "" and not out.exists()
     kept = _chunks(out)
     assert 1 <= len(kept) < 80 and len(kept) == len(list(Path(f"{out}.parts").glob("chunk-*.json")))
+
+
+INTERRUPT_AT_IMPORT = """
+import os, signal, sys
+from importlib.abc import MetaPathFinder
+
+class InterruptOnImport(MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name == "typer":  # the command line's first heavy import: SIGINT arrives while it loads
+            sys.meta_path.remove(self)
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+
+sys.meta_path.insert(0, InterruptOnImport())
+from frcontrol.cli import main
+main()
+"""
+"""A child that sends itself SIGINT the moment the command line starts to import Typer: the
+interruption lands deterministically while the entry point is still loading, not during a command."""
+
+
+@pytest.mark.parametrize("args", [["--help"], ["analyze", "rod_on_table"]])
+def test_ctrl_c_while_the_command_line_loads_is_one_line_and_exit_130(args):
+    done = subprocess.run([sys.executable, "-c", INTERRUPT_AT_IMPORT, *args], capture_output=True, text=True,
+                          timeout=WAIT, preexec_fn=as_from_a_terminal)
+    assert (done.returncode, done.stdout) == (130, "")
+    assert done.stderr == "frc: error: interrupted by SIGINT\n", done.stderr
