@@ -514,9 +514,11 @@ def standup_answer(scene: Scene, *, duration: float | None = None, dt: float = 2
 
     scene = stand_up_as_phases(scene)
     stand = standup_task(scene)  # before the run: a scene that is no stand-up is refused at once
-    return short_name_answer("standup", scene, lambda run: judge_standup(scene, run, stand).legacy_keys(scene),
-                             dt=dt, replan_every=replan_every, max_time=duration, margin=margin,
-                             progress=progress)
+    def legacy(run: Any) -> dict[str, Any]:
+        return judge_standup(scene, run, stand).legacy_keys(scene)
+
+    return short_name_answer("standup", scene, legacy, dt=dt, replan_every=replan_every, max_time=duration,
+                             margin=margin, progress=progress)
 
 
 def short_name_answer(kind: str, scene: Scene, legacy: Callable[[Any], Mapping[str, Any]],

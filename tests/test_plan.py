@@ -319,7 +319,9 @@ def _with_disturbance(name: str, tmp_path: Path):
     return load_scene(path)
 
 
-def _random_phase(rng: np.random.Generator, contacts: list[str], coordinates: list[str], robust: bool) -> Phase:
+def _random_phase(
+    rng: np.random.Generator, contacts: list[str], coordinates: list[str], robust: bool
+) -> Phase:
     modes = {
         name: "".join(sorted(set(rng.choice(list(LETTERS), size=rng.integers(1, 4))), key=LETTERS.index))
         for name in contacts

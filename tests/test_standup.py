@@ -84,8 +84,8 @@ def test_the_first_plan_is_unambiguous_in_a_fresh_analysis(solo, stood):
 
 
 def test_too_weak_motors_cannot_lift_it():
-    result = runner.invoke(app, ["standup", "--json", "-T", "0", "--set", "inputs.lower=[-0.3,-0.3,-0.3,-0.3]",
-                                 "--set", "inputs.upper=[0.3,0.3,0.3,0.3]"])
+    weak = ["--set", "inputs.lower=[-0.3,-0.3,-0.3,-0.3]", "--set", "inputs.upper=[0.3,0.3,0.3,0.3]"]
+    result = runner.invoke(app, ["standup", "--json", "-T", "0", *weak])
     assert result.exit_code == 0, result.stderr
     document = json.loads(result.stdout)
     assert document["found"] is False and document["torques"] is None
