@@ -1,4 +1,4 @@
-"""``frc standup``: joint torques that lift a robot lying on the ground onto its feet, unambiguously."""
+"""``frc standup``: a short name for ``frc plan`` on a stand-up task, with the stand-up's own keys."""
 
 from __future__ import annotations
 
@@ -7,20 +7,14 @@ from typing import Any
 
 from rich.table import Table
 
-from frcontrol.planning import DEFAULT_FLIP_MARGIN as DEFAULT_MARGIN
-from frcontrol.planning import DEFAULT_STANDUP_DURATION as DEFAULT_DURATION
-
-from . import common, options
+from . import common, options, plan_cmd
 from .common import console
 
-StandUpSceneArg = options.scene_argument("with [task] feet and stand_height")
+StandUpSceneArg = options.scene_argument("whose task is a stand-up (a phase tracking y with feet held F)")
 HtmlOpt = options.html_option("the simulated stand-up")
 ViewOpt = options.view_option("the simulated stand-up")
 PlotOpt = options.plot_option("every coordinate and the contact forces over the simulated time, contact "
                               "events marked")
-MarginOpt = options.margin_option("each plan")
-DurationOpt = options.duration_option("Longest simulated time [s] of the closed loop (0: the first plan "
-                                      "only, no simulation).")
 
 
 @common.handle_errors
@@ -32,31 +26,32 @@ def standup_command(
     view: ViewOpt = False,
     port: options.PortOpt = None,
     plot: PlotOpt = None,
-    margin: MarginOpt = DEFAULT_MARGIN,
-    duration: DurationOpt = DEFAULT_DURATION,
+    margin: plan_cmd.MarginOpt = None,
+    duration: plan_cmd.DurationOpt = None,
     dt: options.StepOpt = 2e-3,
     replan_every: options.ReplanOpt = 10,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
     max_time: options.MaxTimeAliasOpt = None,
 ) -> None:
-    """Stand up: torques lifting the base to [task] stand_height with the feet in mode F.
+    """Stand up: frc plan on a stand-up task, judged (stood, feet held) from the samples.
 
-    Each plan is the input, in the unambiguous set of the mode with the feet fixed and the body
-    leaving the ground (at least --margin from every input where another mode also holds), whose
-    base accelerations are closest to a critically damped lift; it is checked at its printed
-    values. A rigid simulation re-plans along the motion; the verdict (stood, feet held) is read
-    from its samples. No plan is a result (exit 0, "stood": false and the reason), not an error.
+    The scene's task tracks the base's height y with the feet allowed only mode F: each plan is
+    the input, at least --margin from every input where another mode also holds, closest to the
+    track's targets, checked at its printed values; a rigid simulation re-plans along the motion
+    (the same run as frc plan). The JSON is frc plan's (phases, outcome) with the stand-up's keys.
+    No plan is a result (exit 0, "stood": false and the reason), not an error.
 
     \b
     Examples:
       frc standup --duration 0.1
       frc standup --json --duration 0
+      frc standup --margin 100 --duration 0.01
       frc standup --duration 0.1 --plot standup.png
     """
     common.set_quiet(quiet)
     common.check_port(view=view, port=port)
-    duration = options.duration_given(duration, max_time)
+    duration = duration if max_time is None else max_time
     loaded = options.load_scene_with_overrides(scene, sets)
     from frcontrol.answers import standup_answer
 
@@ -65,11 +60,14 @@ def standup_command(
             answer = standup_answer(loaded, duration=duration, dt=dt, replan_every=replan_every,
                                     margin=margin, progress=shown)
         common.answer(answer.document, render, json=json)
+        trajectory = answer.trajectory
+        simulated = answer.document["simulation"]["simulated"]
         if plot is not None:
-            _plot(answer.trajectory, plot, json=json)
-        common.write_motion(loaded, answer.trajectory, html=html, out=out, json=json)
+            _plot(trajectory if simulated else None, plot, json=json)
+        modes = None if answer.modes is None else list(answer.modes)
+        common.write_motion(loaded, trajectory, html=html, out=out, json=json, modes=modes)
         if server is not None:
-            common.show_live(server, loaded, answer.trajectory, json=json)
+            common.show_live(server, loaded, trajectory, json=json, modes=modes)
 
 
 def _plot(trajectory: Any, plot: Path, *, json: bool) -> None:
@@ -84,24 +82,24 @@ def _plot(trajectory: Any, plot: Path, *, json: bool) -> None:
 
 
 def render(payload: dict[str, Any]) -> None:
-    """The first plan and the closed loop's verdict as rich text and a table."""
+    """The first plan, the phases and outcome (as ``frc plan`` shows them) and the verdict."""
     sim = payload["simulation"]
-    if not payload["found"]:
-        console.print(f"[bold]no stand-up plan[/bold]: {payload['reason']}")
-        return
-    console.print(f"mode {common.named_mode(payload, payload)}; "
-                  f"unambiguous: yes (one rigid solution at the printed torques); margin "
-                  f"{payload['margin']:g} N m")
-    table = Table(title="joint torques [N m]")
-    for name in payload["torques"]:
-        table.add_column(name, overflow="fold")
-    table.add_row(*[f"{x:.4f}" for x in payload["torques"].values()])
-    console.print(table)
-    units = {"x": "m/s^2", "y": "m/s^2", "theta": "rad/s^2"}
-    accelerations = ", ".join(f"{k} {v:.4g} {units[k]}" for k, v in payload["accelerations"].items())
-    console.print(f"base accelerations: {accelerations}")
+    if payload["found"]:
+        console.print(f"first plan: mode {common.named_mode(payload, payload)}; unambiguous: yes (one rigid "
+                      f"solution at the printed torques); margin {payload['margin']:g} N m")
+        table = Table(title="joint torques [N m]")
+        for name in payload["torques"]:
+            table.add_column(name, overflow="fold")
+        table.add_row(*[f"{x:.4f}" for x in payload["torques"].values()])
+        console.print(table)
+        units = {"x": "m/s^2", "y": "m/s^2", "theta": "rad/s^2"}
+        accelerations = ", ".join(f"{k} {v:.4g} {units[k]}" for k, v in payload["accelerations"].items())
+        console.print(f"base accelerations: {accelerations}")
+    else:
+        console.print(f"[bold]no first stand-up plan[/bold]: {payload['reason']}")
+    plan_cmd.render(payload)
     if not sim["simulated"]:
-        console.print(sim["reason"])
+        console.print("not simulated (duration 0)")
         return
     base = sim["final_base"]
     if sim["stood"]:

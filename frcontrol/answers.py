@@ -493,26 +493,56 @@ def climb_answer(scene: Scene, *, margin: float, duration: float, seed: int = 0,
                   trajectory=None if result is None else result.trajectory)
 
 
-def standup_answer(scene: Scene, *, duration: float, dt: float = 2e-3, replan_every: int = 10,
-                   margin: float, progress: Progress | None = None) -> Answer:
-    """``frc standup --json`` (``POST /plan/standup``): the first plan and the re-planned rigid run.
+def standup_answer(scene: Scene, *, duration: float | None = None, dt: float = 2e-3, replan_every: int = 10,
+                   margin: float | None = None, progress: Progress | None = None) -> Answer:
+    """``frc standup --json`` (``POST /plan/standup``): a short name for ``frc plan`` on a stand-up task.
 
     Args:
-        scene: the scene with ``[task] feet`` and ``stand_height``.
-        duration: [s] the longest simulated time (0: the first plan only).
+        scene: a scene whose task is a stand-up (:func:`frcontrol.planning.standup.standup_task`), or
+            gives the stand-up's former keys (``feet``, ``stand_height``).
+        duration: [s] the longest simulated time (default: the task's ``max_time``; 0: the first
+            plan only).
         dt: [s] the rigid step.
         replan_every: steps between two plans.
-        margin: [N m] each plan's margin.
+        margin: [N m] every plan's margin (default: the phase's own).
         progress: called with (simulated time, duration) along the run.
 
     Raises:
-        SceneError, InputError: see :func:`frcontrol.planning.standup.simulate_standup`.
+        SceneError: the task is no stand-up; InputError: a bad step, time or margin.
     """
-    from .planning.standup import simulate_standup
+    from .planning.standup import judge_standup, stand_up_as_phases, standup_task
 
-    result = simulate_standup(scene, duration=duration, dt=dt, replan_every=replan_every, margin=margin,
-                              progress=progress)
-    return Answer("standup", result.to_dict(scene), result=result, trajectory=result.trajectory)
+    scene = stand_up_as_phases(scene)
+    stand = standup_task(scene)  # before the run: a scene that is no stand-up is refused at once
+    def legacy(run: Any) -> dict[str, Any]:
+        return judge_standup(scene, run, stand).legacy_keys(scene)
+
+    return short_name_answer("standup", scene, legacy, dt=dt, replan_every=replan_every, max_time=duration,
+                             margin=margin, progress=progress)
+
+
+def short_name_answer(kind: str, scene: Scene, legacy: Callable[[Any], Mapping[str, Any]],
+                      **options: Any) -> Answer:
+    """The answer of a short name for ``frc plan`` (``frc standup``): the task run, and its legacy keys.
+
+    The command's options are mapped onto :func:`plan_answer`'s (``options``: ``dt``,
+    ``replan_every``, ``max_time``, ``margin``, ``compliant``, ``progress``) and the scene's task is
+    run exactly as ``frc plan`` runs it; ``legacy`` reads the keys the command documented before
+    (from the :class:`~frcontrol.planning.core.PlanResult`), and they are merged into ``frc plan``'s
+    document by :func:`frcontrol.planning.core.report.with_legacy_keys` (``phases`` and ``outcome``
+    stay ``frc plan``'s).
+
+    Args:
+        kind: the command's name (the answer's ``kind``).
+        scene: the scene.
+        legacy: the command's own keys, from the run.
+        options: :func:`plan_answer`'s keywords.
+    """
+    from .planning.core.report import with_legacy_keys
+
+    answer = plan_answer(scene, **options)
+    return Answer(kind, with_legacy_keys(answer.document, legacy(answer.result)), result=answer.result,
+                  trajectory=answer.trajectory, modes=answer.modes)
 
 
 def plan_answer(scene: Scene, *, dt: float = 1e-3, replan_every: int = 10, max_time: float | None = None,
@@ -575,6 +605,7 @@ __all__ = [
     "robots_answer",
     "run_simulation",
     "schema_answer",
+    "short_name_answer",
     "show_answer",
     "simulate_answer",
     "simulation_failure",

@@ -150,7 +150,8 @@ def _scene_cases(name: str) -> Iterator[tuple[str, list[str], dict[str, Any]]]:
         yield "climb", ["climb", name, "--duration", "0.01"], {"scene": name, "duration": 0.01}
     if "upper_brace_contacts" in task:
         yield "gait", ["climb", name, "--cycles", "1"], {"scene": name, "cycles": 1}
-    if "feet" in task:
+    phases = task.get("phases", [{}])
+    if "y" in phases[0].get("track", {}).get("coordinates", {}):  # a stand-up: frc plan's short name
         yield "standup", ["standup", name, "--duration", "0.02"], {"scene": name, "duration": 0.02}
     if "phases" in task:
         yield "plan", ["plan", name, "-T", "0.02"], {"scene": name, "max_time": 0.02}

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import counted, tally
 from frcontrol.cli.app import app
 from typer.testing import CliRunner
 
@@ -104,16 +105,6 @@ def test_solo_shifts_forward_with_both_feet_fixed():
     assert traj.q[-1, 0] >= 0.03 > traj.q[-2, 0]
     assert within_limits(traj, solo)
     assert result.to_dict(solo)["phases"][0]["why"] == "until x above 0.03"
-
-
-@pytest.mark.slow
-def test_the_stand_up_as_a_task_reaches_frc_standups_height():
-    from frcontrol.planning.standup import simulate_standup
-
-    task_run = plan_task(scene("solo_standup_task"), dt=2e-3).trajectory
-    dedicated = simulate_standup(scene("solo_standup"))
-    assert dedicated.final_base is not None
-    assert abs(task_run.q[-1, 1] - dedicated.final_base[1]) <= 1e-3
 
 
 def crossing_time(trajectory, index: int, level: float) -> float:
@@ -223,6 +214,53 @@ def test_an_infeasible_phase_says_which_mode_and_the_closest_margin():
     assert 0 < outcome["infeasible"]["closest_margin"] < 100
 
 
+TASK_SCENES = ("rod_pivot", "box_slide", "box_tip", "solo_shift", "solo_standup")
+"""The shipped tasks as phases this module owns (the flip's and the climb's are compared above)."""
+
+
+def _infeasible(name: str, how: str) -> tuple[object, dict]:
+    """The scene, made infeasible ``how``, and its first decision's outcome (``frc plan -T 0``)."""
+    base = scene(name)
+    if how == "margin":
+        loaded, options = base, ["--margin", "1000"]
+    else:  # every input limited to +-1e-3: no allowed mode is feasible (the rod's pivot needs none)
+        count = base.inputs.count
+        loaded = load_scene(SCENES / f"{name}.toml", overrides={"inputs.lower": [-1e-3] * count,
+                                                                "inputs.upper": [1e-3] * count})
+        options = [f"--set=inputs.lower={[-1e-3] * count}", f"--set=inputs.upper={[1e-3] * count}"]
+    result = runner.invoke(app, ["plan", name, "--json", "-T", "0", *options])
+    assert result.exit_code == 0, result.stderr
+    return loaded, json.loads(result.stdout)["outcome"]
+
+
+@pytest.mark.parametrize(
+    ("name", "how"),
+    [(n, "margin") for n in TASK_SCENES] + [(n, "limits") for n in TASK_SCENES if n != "rod_pivot"],
+)
+def test_an_infeasible_task_says_which_phase_which_mode_and_the_closest_margin(name, how):
+    from frcontrol.engine import analyze
+    from frcontrol.planning.flip import margin_pieces
+
+    loaded, outcome = _infeasible(name, how)
+    task = read_task(loaded)
+    phase = task.phases[0]
+    infeasible = outcome["infeasible"]
+    assert outcome["achieved"] is False and infeasible["phase"] == phase.name
+    contacts = [c.name for c in loaded.contacts]  # every contact touches at the shipped states
+    modes = [m["mode"] for m in infeasible["modes"]]
+    assert modes and all(phase.allows(tuple(contacts), m) for m in modes) and all(
+        m["why"] for m in infeasible["modes"])
+    analysis = analyze(loaded)
+    feasible = {m.mode for m in analysis.feasible_modes}
+    if how == "limits":  # no allowed mode is feasible: the engine agrees, and no margin helps
+        assert not feasible & set(modes) and infeasible["closest_margin"] is None
+        return
+    closest, mode = infeasible["closest_margin"], infeasible["closest_mode"]
+    assert 0 < closest < 1000 and mode in modes
+    assert margin_pieces(analysis, mode, closest)  # the engine finds unambiguous inputs at it ...
+    assert not margin_pieces(analysis, mode, closest * 1.01)  # ... and none 1 % further in
+
+
 def test_an_objective_floor_out_of_reach_is_the_reason():
     result = runner.invoke(
         app, ["plan", "box_slide", "--json", "-T", "0.002", "--set", "task.phases[0].maximize.at_least=1000"]
@@ -261,11 +299,33 @@ def test_a_dedicated_planners_scene_is_refused_by_read_task():
         read_task(scene("rhex_flip"))
 
 
-def _random_phase(rng: np.random.Generator, contacts: list[str], coordinates: list[str]) -> Phase:
+DISTURBANCE = """
+[[disturbances]]
+name = "push"
+link = "{link}"
+point = [0.0, 0.0]
+lower = [-0.5, -0.5]
+upper = [0.5, 0.5]
+"""
+"""A small force [N] on the body's frame origin, for the robust phases."""
+
+
+def _with_disturbance(name: str, tmp_path: Path):
+    """The scene with :data:`DISTURBANCE` on its first contact's link."""
+    base = scene(name)
+    path = tmp_path / f"{name}.toml"
+    text = (SCENES / f"{name}.toml").read_text()
+    path.write_text(text + DISTURBANCE.format(link=base.contacts[0].point.link))
+    return load_scene(path)
+
+
+def _random_phase(
+    rng: np.random.Generator, contacts: list[str], coordinates: list[str], robust: bool
+) -> Phase:
     modes = {
         name: "".join(sorted(set(rng.choice(list(LETTERS), size=rng.integers(1, 4))), key=LETTERS.index))
         for name in contacts
-        if rng.random() < 0.7
+        if rng.random() < 0.5
     }
     if rng.random() < 0.3:
         targets = {
@@ -278,32 +338,50 @@ def _random_phase(rng: np.random.Generator, contacts: list[str], coordinates: li
         objective = Objective(
             str(rng.choice(["maximize", "minimize"])), coordinate=str(rng.choice(coordinates))
         )
-    return Phase(
-        "random", modes, float(rng.choice([0.0, 0.01, 0.1])), False, objective, Until("time", time=1.0)
-    )
+    margin = float(rng.choice([0.0, 0.01, 0.1, 0.5]))
+    return Phase("random", modes, margin, robust, objective, Until("time", time=1.0))
+
+
+def _solutions(scene_, decision, robust: bool) -> list[list[str]]:
+    """The engine's rigid solutions' modes at the decision's inputs: per disturbance vertex when robust."""
+    from frcontrol.engine import analyze
+    from frcontrol.modes import ContactProblem
+    from frcontrol.planning.climb import load_disturbances
+    from frcontrol.planning.core.decision import lifted_problem
+
+    u = np.array([decision.inputs[n] for n in scene_.inputs.coordinates])
+    if not robust:
+        return [[s.mode for s in solutions_at(analyze(scene_), u)]]
+    lifted, _ = lifted_problem(scene_, ContactProblem.from_scene(scene_), 0.0)
+    analysis = analyze(lifted)
+    points = load_disturbances(scene_).robust_points()
+    return [[s.mode for s in solutions_at(analysis, np.concatenate([u, v]))] for v in points]
 
 
 @pytest.mark.slow
-def test_every_plan_said_unambiguous_has_exactly_one_solution_in_an_allowed_mode():
-    from frcontrol.engine import analyze
-
+@counted
+def test_every_plan_said_unambiguous_has_exactly_one_solution_in_an_allowed_mode(tmp_path):
+    """Random phases (allowed letters, margins up to 0.5, objectives; robust with a disturbance polytope)."""
     rng = np.random.default_rng(26)
-    found = 0
+    modes_seen, robust_checked = set(), 0
     for name in ("box_on_ground", "rod_on_table", "rod_pivot"):
-        base = scene(name)
-        contacts = [c.name for c in base.contacts]
-        for _ in range(12):
-            phase = _random_phase(rng, contacts, list(base.coordinate_names))
+        plain, disturbed = scene(name), _with_disturbance(name, tmp_path)
+        contacts = [c.name for c in plain.contacts]
+        for i in range(16):
+            robust = i % 2 == 1
+            base = disturbed if robust else plain
+            phase = _random_phase(rng, contacts, list(base.coordinate_names), robust)
             decision = decide(base, phase)
+            tally().example()
             if not decision.found:
                 continue
-            found += 1
-            u = np.array([decision.inputs[n] for n in base.inputs.coordinates])
-            solutions = solutions_at(analyze(base), u)
-            assert len(solutions) == 1, (name, phase, decision)
-            assert solutions[0].mode == decision.mode
-            assert phase.allows(decision.contacts, solutions[0].mode)
-    assert found >= 5  # the branch is taken
+            tally().check()
+            for solved in _solutions(base, decision, robust):
+                assert solved == [decision.mode], (name, phase, decision, solved)
+                assert phase.allows(decision.contacts, solved[0]), (name, phase, decision)
+            modes_seen.add(decision.mode)
+            robust_checked += robust
+    assert robust_checked >= 4 and len(modes_seen) >= 3  # both kinds of phase, several modes, are checked
 
 
 def _imports(path: Path) -> list[tuple[str, list[str]]]:

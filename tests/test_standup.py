@@ -1,4 +1,4 @@
-"""Solo stands up from its back (frc standup), checked on the simulated samples, not the planner's word.
+"""Solo stands up from its back (frc standup, a short name for frc plan), checked on the samples.
 
 The run is judged here again from its samples alone: the base's height and pitch at the end, the
 feet's positions recomputed with the robot's own kinematics at every sample, the body's ends off
@@ -22,11 +22,15 @@ from frcontrol.modes import ContactProblem
 from frcontrol.planning.standup import (
     SLIP_DISTANCE,
     STAND_TOLERANCE,
-    plan_standup,
     simulate_standup,
+    stand_up_as_phases,
     standup_task,
 )
-from frcontrol.scene import load_scene
+from frcontrol.scene import load_scene, shipped_robots_dir
+
+FORMER_HEIGHT = 0.199011
+"""[m] The base's height at the end of the stand-up's former dedicated planner's run (1.2 s, dt 2 ms):
+the task reaches it within 1 mm."""
 
 runner = CliRunner()
 
@@ -38,15 +42,16 @@ def solo():
 
 @pytest.fixture(scope="module")
 def stood(solo):
-    return simulate_standup(solo, duration=1.0)
+    return simulate_standup(solo)
 
 
 def test_solo_stands_up_in_the_rigid_simulation(solo, stood):
     trajectory = stood.trajectory
-    assert trajectory.status == "completed" and stood.held == ()
+    assert trajectory.status == "completed"
     task = standup_task(solo)
     y, theta = trajectory.coordinate("y"), trajectory.coordinate("theta")
     assert abs(y[-1] - task.stand_height) <= STAND_TOLERANCE and abs(theta[-1] - np.pi) < 0.01
+    assert abs(y[-1] - FORMER_HEIGHT) <= 1e-3
     assert y[0] == pytest.approx(0.028) and stood.stood and stood.reason is None
     # the feet, recomputed from q: on the ground at every sample, never moved along it
     names = [c.name for c in solo.contacts]
@@ -63,47 +68,93 @@ def test_solo_stands_up_in_the_rigid_simulation(solo, stood):
 
 
 def test_the_first_plan_is_unambiguous_in_a_fresh_analysis(solo, stood):
-    plan = stood.plan
-    assert plan.found and plan.mode == "SSFF" and plan.contacts == ("front_end", "rear_end", "front_foot",
-                                                                   "hind_foot")
+    document = stood.to_dict(solo)
+    assert document["mode"] == "SSFF" and document["contacts"] == ["front_end", "rear_end", "front_foot",
+                                                                  "hind_foot"]
     analysis = analyze(ContactProblem.from_scene(solo))
-    u = plan.input_vector(solo.inputs.coordinates)
+    u = np.array([document["torques"][n] for n in solo.inputs.coordinates])
+    assert np.allclose(u, stood.trajectory.inputs[1])  # the torques applied over the first step
     solutions = solutions_at(analysis, u)
     assert [s.mode for s in solutions] == ["SSFF"]
     y = solo.coordinate_names.index("y")
-    assert solutions[0].dv[y] == pytest.approx(plan.accelerations["y"], rel=1e-9)
-    assert 0.0 < plan.accelerations["y"] <= plan.targets["y"]
+    assert solutions[0].dv[y] == pytest.approx(document["accelerations"]["y"], rel=1e-9)
+    assert 0.0 < document["accelerations"]["y"] <= document["targets"]["y"]
     # without the torques the robot lies still with all four contacts loaded: the plan is not trivial
     assert [s.mode for s in solutions_at(analysis, np.zeros(4))] != ["SSFF"]
 
 
 def test_too_weak_motors_cannot_lift_it():
-    weak = load_scene("solo_standup", overrides={"inputs.lower": [-0.3] * 4, "inputs.upper": [0.3] * 4})
-    plan = plan_standup(weak)
-    assert not plan.found and "infeasible within the torque limits" in plan.reason
+    weak = ["--set", "inputs.lower=[-0.3,-0.3,-0.3,-0.3]", "--set", "inputs.upper=[0.3,0.3,0.3,0.3]"]
+    result = runner.invoke(app, ["standup", "--json", "-T", "0", *weak])
+    assert result.exit_code == 0, result.stderr
+    document = json.loads(result.stdout)
+    assert document["found"] is False and document["torques"] is None
+    assert document["outcome"]["infeasible"]["phase"] == "stand"
+    assert "no feasible mode has only the allowed letters" in document["reason"]
 
 
-def test_the_json_carries_the_samples_and_the_verdict(solo, stood):
+def test_the_json_is_frc_plans_with_the_stand_ups_keys(solo, stood):
     document = stood.to_dict(solo)
     simulation = document["simulation"]
     assert simulation["stood"] and simulation["feet_held"] and document["task"]["stand_height"] == 0.2
+    assert document["task"]["feet"] == ["front_foot", "hind_foot"] and document["task"]["max_time"] == 1.2
     samples = simulation["samples"]
     q = np.array(samples["q"])
     assert q.shape == (len(samples["times"]), 11 - 4) and abs(q[-1, 1] - 0.2) <= STAND_TOLERANCE
     assert np.max(np.abs(samples["inputs"])) <= 2.5 and set(samples["modes"][-1][2:]) == {"F"}
+    planned = stood.run.to_dict(solo)  # frc plan's document of the same run
+    assert document["phases"] == planned["phases"] and document["outcome"] == planned["outcome"]
+    assert {k: v for k, v in document["simulation"].items() if k in planned["simulation"]} == \
+        planned["simulation"]
     json.dumps(document)
+
+
+def test_frc_standup_is_frc_plan_on_the_same_scene():
+    standup = runner.invoke(app, ["standup", "--json", "-T", "0.02", "--dt", "0.002", "--margin", "0.1"])
+    plan = runner.invoke(app, ["plan", "solo_standup", "--json", "-T", "0.02", "--dt", "0.002", "--margin",
+                               "0.1"])
+    assert standup.exit_code == 0 and plan.exit_code == 0, standup.stderr + plan.stderr
+    short, full = json.loads(standup.stdout), json.loads(plan.stdout)
+    for key in ("phases", "outcome"):
+        assert short[key] == full[key]
+    assert short["simulation"]["samples"] == full["simulation"]["samples"]
+    assert short["margin"] == 0.1 and short["phases"][0]["plans"][0]["margin"] == 0.1
+
+
+def _former_scene(tmp_path, overrides=None):
+    """``solo_standup`` with its task in the former keys (``feet``, ``stand_height``)."""
+    text = (shipped_robots_dir() / "scenes" / "solo_standup.toml").read_text()
+    start, end = text.index("[task]"), text.index("[inputs]")
+    path = tmp_path / "solo_former.toml"
+    path.write_text(text[:start] + '[task]\nfeet = ["front_foot", "hind_foot"]\nstand_height = 0.2\n\n'
+                    + text[end:])
+    return load_scene(path, overrides=overrides)
+
+
+def test_the_former_keys_run_as_the_phase_they_meant(tmp_path, solo):
+    former = stand_up_as_phases(_former_scene(tmp_path))
+    assert former.raw["task"] == dict(solo.raw["task"]) | {"phases": former.raw["task"]["phases"]}
+    [phase] = former.raw["task"]["phases"]
+    [shipped] = solo.raw["task"]["phases"]
+    assert phase["modes"] == shipped["modes"] and phase["track"] == shipped["track"]
+    assert phase["until"] == shipped["until"] and phase["margin"] == shipped["margin"]
 
 
 @pytest.mark.parametrize(("overrides", "field"), [
     ({"task.stand_height": 0.01}, "task.stand_height"),
     ({"task.feet": ["front_toe"]}, "task.feet[0]"),
 ])
-def test_a_bad_task_names_its_field(overrides, field):
+def test_a_bad_former_task_names_its_field(tmp_path, overrides, field):
     with pytest.raises(SceneError, match=re.escape(field)) as info:
-        standup_task(load_scene("solo_standup", overrides=overrides))
+        stand_up_as_phases(_former_scene(tmp_path, overrides))
     assert info.value.field == field
 
 
-def test_the_command_refuses_a_scene_without_the_task():
-    result = runner.invoke(app, ["standup", "rhex_flip"])
-    assert result.exit_code == 1 and "task.feet: missing" in result.stderr
+@pytest.mark.parametrize(("args", "message"), [
+    (["standup", "rhex_flip"], "task.phases: missing"),
+    (["standup", "box_slide"], "task.phases[0].track.coordinates.y: missing"),
+    (["standup", "--set", "task.phases[0].track.coordinates.y=0.01"], "expected a height above"),
+])
+def test_the_command_refuses_a_scene_that_is_no_stand_up(args, message):
+    result = runner.invoke(app, args)
+    assert result.exit_code == 1 and result.stdout == "" and message in result.stderr, result.stderr

@@ -16,8 +16,4 @@ DEFAULT_CLIMB_MARGIN = 0.05
 DEFAULT_CLIMB_DURATION = 0.1
 """[s] Default simulated time of the climb's check (:data:`frcontrol.planning.climb.DEFAULT_DURATION`)."""
 
-DEFAULT_STANDUP_DURATION = 1.2
-"""[s] Default simulated time of the stand-up (:func:`frcontrol.planning.standup.simulate_standup`)."""
-
-__all__ = ["DEFAULT_CLIMB_DURATION", "DEFAULT_CLIMB_MARGIN", "DEFAULT_FLIP_MARGIN",
-           "DEFAULT_STANDUP_DURATION"]
+__all__ = ["DEFAULT_CLIMB_DURATION", "DEFAULT_CLIMB_MARGIN", "DEFAULT_FLIP_MARGIN"]

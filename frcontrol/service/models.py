@@ -22,7 +22,6 @@ from frcontrol.planning import (
     DEFAULT_CLIMB_DURATION,
     DEFAULT_CLIMB_MARGIN,
     DEFAULT_FLIP_MARGIN,
-    DEFAULT_STANDUP_DURATION,
 )
 
 MAX_URDF_NAME = 100
@@ -216,11 +215,11 @@ class ClimbRequest(SceneRequest):
 class StandUpRequest(SceneRequest):
     """`POST /plan/standup`: `frc standup SCENE --json`."""
 
-    scene: SceneField = Field("solo_standup", description="As for every scene endpoint: a scene with [task] "
-                                                          "feet and stand_height.")
-    margin: float = Field(DEFAULT_FLIP_MARGIN, ge=0.0, description="[N m] as `--margin`.")
-    duration: float = Field(DEFAULT_STANDUP_DURATION, ge=0.0, description="[s] as `--duration` (0: the first "
-                            "plan only).")
+    scene: SceneField = Field("solo_standup", description="As for every scene endpoint: a scene whose task "
+                                                          "is a stand-up (a phase tracking y, feet held F).")
+    margin: float | None = Field(None, ge=0.0, description="[N m] as `--margin` (default: the phase's).")
+    duration: float | None = Field(None, ge=0.0, description="[s] as `--duration` (default: [task] "
+                                   "max_time; 0: the first plan only).")
     dt: float = Field(2e-3, ge=1e-6, description="[s] as `--dt`.")
     replan_every: int = Field(10, ge=1, description="Steps between two plans, as `--replan-every`.")
 

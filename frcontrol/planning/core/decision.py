@@ -31,13 +31,17 @@ one rigid solution, in the planned mode. The first that passes is the plan. A mo
 quantities depend on its ambiguity variables w is no candidate (the motion is not determined).
 
 **No plan.** When no candidate has a piece at the margin, the decision reports the allowed modes
-that were tried and why each failed, and the *closest margin*: the largest margin in ``[0, margin]``
-(found by :data:`CLOSEST_MARGIN_STEPS` bisection steps) at which some allowed mode still has
-unambiguous inputs, with that mode; None when no allowed mode has any.
+that were tried and why each failed (an allowed mode the analysis found infeasible within the
+input limits, or pruned, is listed with that reason), and the *closest margin*: the largest margin
+in ``[0, margin]`` at which some allowed mode still has unambiguous inputs, with that mode; None
+when no allowed mode has any. It is found by halving the margin until a mode has pieces (at most
+:data:`CLOSEST_MARGIN_HALVINGS` times: a smaller margin is reported as 0), then
+:data:`CLOSEST_MARGIN_STEPS` bisection steps between that margin and its double.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -53,10 +57,12 @@ from ..climb import load_disturbances
 from ..flip import TORQUE_ROUNDING, margin_pieces
 from .forced import planning_problem
 from .objective import ObjectiveRows, objective_rows
-from .task import Phase
+from .task import LETTERS, Phase
 
 __all__ = [
+    "CLOSEST_MARGIN_HALVINGS",
     "CLOSEST_MARGIN_STEPS",
+    "INFEASIBLE_MODES_LISTED",
     "DISTURBANCE_PAD",
     "TRACK_REGULARIZATION",
     "Decision",
@@ -68,7 +74,15 @@ __all__ = [
 
 CLOSEST_MARGIN_STEPS = 8
 """Bisection steps of the closest margin reported when no plan is found (the margin is then known
-to ``margin / 2^8``)."""
+to ``1 / 2^8`` of itself)."""
+
+INFEASIBLE_MODES_LISTED = 16
+"""When no allowed mode is feasible and the enumeration evaluated none of them, the decision lists
+the allowed letter combinations when there are at most this many."""
+
+CLOSEST_MARGIN_HALVINGS = 40
+"""Halvings of the margin asked for while looking for the closest margin: below ``margin / 2^40``
+the closest margin is reported as 0."""
 
 DISTURBANCE_PAD = 1e-3
 """[N] The lifted problem's disturbance box is the disturbance polytope's bounding box grown by this
@@ -268,6 +282,7 @@ def _no_plan(
     """The decision without a plan: why, and the closest margin when no allowed mode had a piece."""
     if not allowed:
         reason = "no feasible mode has only the allowed letters " + _letters(phase, contacts)
+        tried = _infeasible_allowed(analysis, phase, contacts)
     elif optimised:
         reason = "no optimum gives exactly one rigid solution in its mode once rounded"
     elif any(why == _BELOW_FLOOR for _, why in tried):
@@ -289,6 +304,32 @@ def _no_plan(
 
 
 _BELOW_FLOOR = "no unambiguous input reaches the objective's at_least"
+
+
+def _infeasible_allowed(
+    analysis: DynamicResponse, phase: Phase, contacts: tuple[str, ...]
+) -> tuple[tuple[str, str], ...]:
+    """The allowed modes, none feasible, and why each is not: as evaluated, or pruned before that.
+
+    The modes the enumeration pruned before evaluating them are listed when the phase allows at
+    most :data:`INFEASIBLE_MODES_LISTED` letter combinations.
+    """
+    evaluated = {m.mode: m for m in analysis.modes if phase.allows(contacts, m.mode)}
+    letters = [phase.modes.get(name, LETTERS) for name in contacts]
+    if evaluated or math.prod(len(x) for x in letters) > INFEASIBLE_MODES_LISTED:
+        combinations = list(evaluated)
+    else:
+        combinations = ["".join(m) for m in itertools.product(*letters)]
+    why = {"freedom": "no solution moves as the mode says"}
+    return tuple(
+        (
+            mode,
+            why.get(str(evaluated[mode].pruned), "infeasible within the input limits")
+            if mode in evaluated
+            else "pruned by the enumeration: no solution within the input limits moves as it says",
+        )
+        for mode in combinations
+    )
 
 
 def _letters(phase: Phase, contacts: tuple[str, ...]) -> str:
@@ -440,8 +481,14 @@ def _closest_margin(
             analysis, mode, 0.0, solver=solver
         ):
             continue
-        low, high = 0.0, margin
-        for _ in range(CLOSEST_MARGIN_STEPS):
+        low, high = 0.5 * margin, margin
+        for _ in range(CLOSEST_MARGIN_HALVINGS):
+            if margin_pieces(analysis, mode, low, solver=solver):
+                break
+            low, high = 0.5 * low, low
+        else:
+            low = high = 0.0
+        for _ in range(CLOSEST_MARGIN_STEPS if high > 0 else 0):
             middle = 0.5 * (low + high)
             low, high = (
                 (middle, high) if margin_pieces(analysis, mode, middle, solver=solver) else (low, middle)

@@ -6,7 +6,8 @@ absorbed by the steps' LCPs as in the flip's loop) and re-plans every ``replan_e
 state reached, holding the inputs in between (:func:`~frcontrol.simulation.closed_loop.run_closed_loop`).
 After every step the current phase's ``until`` is checked at the new state; when it holds, the phase
 ends there and the next one is planned before the next step. The run ends when the last phase's
-``until`` holds (the task is *achieved*), at ``max_time``, or when the simulation cannot go on.
+``until`` holds (the task is *achieved*), at ``max_time``, or when the simulation cannot go on
+(``max_time`` 0: the first plan only, and a run of one sample).
 
 *Re-planning model* (the flip's and the stand-up's): the scene at the state reached, with the
 contacts within :data:`~frcontrol.planning.flip.REPLAN_GAP_TOLERANCE` of their surface or loaded by
@@ -31,7 +32,7 @@ import numpy as np
 from ...errors import FrcontrolError, ImpactState, InputError
 from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...scene import Contact, Scene
-from ...simulation.closed_loop import run_closed_loop
+from ...simulation.closed_loop import ClosedLoopRun, run_closed_loop
 from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ...solvers import DEFAULT_LP_SOLVER
 from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
@@ -221,7 +222,8 @@ def run_task(
         task: its task (:func:`~.task.read_task`).
         dt: [s] the step.
         replan_every: steps between plans, >= 1.
-        max_time: [s] the longest simulated time (default: the task's).
+        max_time: [s] the longest simulated time (default: the task's; 0: the first plan only, a
+            run of one sample).
         margin: [input units] every phase's margin (default: each phase's own).
         solver: LP back-end.
         progress: called with (simulated time, max_time) every ``replan_every`` steps.
@@ -240,17 +242,20 @@ def run_task(
         policy.scene, RigidSettings(max_ambiguity_checks=0, impact_law=False), armature=armature
     )
     first = policy.plan(None)
-    run = run_closed_loop(
-        stepper,
-        policy,
-        duration,
-        dt,
-        every=replan_every,
-        command=first,
-        actuate=policy.actuate,
-        stop=policy.stop,
-        progress=progress,
-    )
+    if duration == 0:  # the first plan only: a run of one sample, at the scene's state
+        run = ClosedLoopRun(stepper.trajectory(dt), False, 0, {"policy": 0.0, "simulation": 0.0})
+    else:
+        run = run_closed_loop(
+            stepper,
+            policy,
+            duration,
+            dt,
+            every=replan_every,
+            command=first,
+            actuate=policy.actuate,
+            stop=policy.stop,
+            progress=progress,
+        )
     last = policy.records[-1]
     if last.end is None:
         last.end = float(run.trajectory.times[-1])

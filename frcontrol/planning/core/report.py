@@ -7,12 +7,15 @@ decisions made, each with its time, mode, inputs, objective value and margin), `
 that could not be made unambiguous and why, and the closest margin found), ``tolerances`` and
 ``simulation`` (``samples`` in ``frc simulate --json``'s shape, with the per-sample ``modes``). With
 ``compliant``, ``compliant`` holds the same inputs replayed on the compliant model.
+
+A *short name* (``frc standup``) runs a scene's task exactly as ``frc plan`` does and adds the keys
+its command documented before it was one: :func:`with_legacy_keys` is the rule.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,7 +32,10 @@ from .decision import CLOSEST_MARGIN_STEPS, TRACK_REGULARIZATION, Decision
 from .loop import PhaseRecord, TaskRun, run_task
 from .task import Task, read_task
 
-__all__ = ["PlanResult", "plan_task", "schedule_of"]
+__all__ = ["FROM_THE_PLAN", "PlanResult", "plan_task", "schedule_of", "with_legacy_keys"]
+
+FROM_THE_PLAN = frozenset({"phases", "outcome"})
+"""The top-level keys of a short name's document that are always ``frc plan``'s, as it gives them."""
 
 
 @dataclass(frozen=True)
@@ -90,6 +96,26 @@ class PlanResult:
                 "samples": replay["samples"],
             }
         return add_scene_modes(to_jsonable(payload), [c.name for c in scene.contacts])
+
+
+def with_legacy_keys(document: dict[str, Any], legacy: Mapping[str, Any]) -> dict[str, Any]:
+    """A short name's document: ``frc plan``'s ``document`` with the command's documented keys merged in.
+
+    The rule: ``phases`` and ``outcome`` (:data:`FROM_THE_PLAN`) are ``frc plan``'s, untouched; every
+    other key of ``legacy`` is added, and where both documents hold a table under one key the two are
+    merged key by key; on a clash the legacy value is kept, so that a script reads what it read
+    before. Keys only ``frc plan`` has are kept. Returns a new document.
+    """
+    merged = dict(document)
+    for key, value in legacy.items():
+        if key in FROM_THE_PLAN:
+            continue
+        here = merged.get(key)
+        if isinstance(here, Mapping) and isinstance(value, Mapping):
+            merged[key] = {**here, **value}
+        else:
+            merged[key] = value
+    return merged
 
 
 def _plan_dict(t: float, decision: Decision) -> dict[str, Any]:
