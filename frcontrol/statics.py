@@ -97,9 +97,11 @@ import numpy as np
 import scipy.spatial
 
 from . import polytope as poly
+from .engine import solutions_at
 from .errors import InputError
 from .jsonable import finite_or_none, to_jsonable
-from .modes import add_scene_modes
+from .modes import ContactProblem, add_scene_modes, build_mode_system
+from .response import solve_affine
 from .scene import Scene, parse_input_assignments
 from .solvers import DEFAULT_LP_SOLVER, LPResult, SolverFailed, must_solve, solve_lp
 
@@ -969,9 +971,6 @@ class StrongStability:
 
 def _dv_range_over_ambiguity(problem: Any, mode: str, u: np.ndarray, solver: str) -> float:
     """``max_j |dv_j|`` over every ambiguity value ``w`` admissible in ``mode`` at input ``u``."""
-    from .modes import build_mode_system
-    from .response import solve_affine
-
     system = build_mode_system(problem, mode)
     response = solve_affine(system.A, system.B, system.c)
     n = problem.n
@@ -1021,9 +1020,6 @@ def strong_stability(
     Raises:
         InputError: a fixed base, bad inputs.
     """
-    from .engine import solutions_at
-    from .modes import ContactProblem
-
     _check_statics_scene(scene)
     u = _scene_inputs(scene, inputs)
     weak = weak if weak is not None else weak_stability(scene, u, solver=solver)

@@ -25,8 +25,8 @@ from frcontrol.errors import SceneError
 from frcontrol.modes import ContactProblem
 from frcontrol.scene import load_scene, scene_from_document
 from frcontrol.simulation.compliant import simulate_compliant
-from frcontrol.simulation.drives import drive_samples, stage_samples
 from frcontrol.simulation.rigid import simulate_rigid
+from frcontrol.simulation.samples import drive_samples, stage_samples
 
 runner = CliRunner()
 
@@ -328,7 +328,7 @@ def test_two_inertias_on_a_torsion_spring_oscillate_at_the_closed_form_frequency
 
 
 def _reports(scene, trajectory):
-    from frcontrol.simulation.drives import Transmissions
+    from frcontrol.simulation.transmissions import Transmissions
 
     model = Transmissions(scene)
     states = trajectory.info["transmissions"]["state"]

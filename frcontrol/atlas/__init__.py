@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import AtlasInterrupted
+from ..errors import AtlasInterrupted, InputError
 from ..jsonable import to_jsonable
 from .executors import RunReport, default_workers, run_dask, run_pool, run_serial
 from .grid import MAX_ATLAS_POINTS, WHATS, AtlasPlan, Axis, build_atlas, parse_axis
@@ -166,8 +166,6 @@ def run_atlas(
 def _open_store(plan: AtlasPlan, out: Path | None, resume: bool
                 ) -> tuple[ChunkStore | None, dict[int, Mapping[str, Any]]]:
     """The store of ``out`` (None without it) and the chunks it already holds (``resume``)."""
-    from ..errors import InputError
-
     if resume and out is None:
         raise InputError("--resume needs --out FILE: the finished chunks are kept beside FILE")
     if out is None:
@@ -194,8 +192,6 @@ def _execute(plan: AtlasPlan, todo: list[int], done: Callable[[dict[str, Any]], 
         return run_dask(plan, todo, done, where.scheduler, started, where.stop)
     count = default_workers() if where.workers is None else where.workers
     if count < 1:
-        from ..errors import InputError
-
         raise InputError(f"--workers must be >= 1, got {count}")
     if where.in_process and (count == 1 or len(todo) <= 1):
         return run_serial(plan, todo, done, started, where.stop)

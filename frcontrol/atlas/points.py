@@ -302,22 +302,6 @@ def _statics_columns(scene: Scene, inputs: Mapping[str, float]) -> dict[str, Any
             "strongly_stable": None if report.strongly_stable is None else bool(report.strongly_stable)}
 
 
-def check_scene_for(scene: Scene, what: str) -> None:
-    """Refuse, before a sweep starts, a scene that lacks what ``what`` reads (a flip's ``[task]``).
-
-    Raises:
-        SceneError: the planner's own refusal (``frc flip``/``frc climb`` on the same scene).
-    """
-    if what == "flip":
-        from ..planning.flip import flip_task
-
-        flip_task(scene)
-    elif what == "climb":
-        from ..planning.climb import load_climb_task
-
-        load_climb_task(scene)
-
-
 def _flip_columns(scene: Scene) -> dict[str, Any]:
     from ..planning.flip import plan_flip
 

@@ -65,7 +65,6 @@ from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER
 from .flip import (
     DEFAULT_MARGIN,
-    FORCED_INPUT_TOLERANCE,
     REPLAN_GAP_TOLERANCE,
     REPLAN_VELOCITY_TOLERANCE,
     SEPARATION_GAP,
@@ -77,7 +76,7 @@ from .flip import (
     mode_allowed,
     sample_modes,
 )
-from .flip_budget import FlipBudget, body_energy, energy_shortfall, flip_budget
+from .flip_budget import FlipBudget, _leg_contacts, body_energy, energy_shortfall, flip_budget
 
 __all__ = [
     "COMPLIANT_EXTRA_TIME",
@@ -217,21 +216,6 @@ def _contact_roles(scene: Scene, body: Sequence[str], legs: Mapping[int, list[in
         else:
             roles[c.name] = "rest"
     return roles
-
-
-def _leg_contacts(scene: Scene, body: Sequence[str]) -> dict[int, list[int]]:
-    """Input -> the contacts (not the body's) its coordinate moves, from the contact Jacobians."""
-    state = scene.robot.state(scene.q, scene.v)
-    jac = np.vstack([state.jacobian_normal, state.jacobian_tangent])
-    k = len(scene.contacts)
-    body_index = {i for i, c in enumerate(scene.contacts) if c.name in body}
-    legs = {}
-    for i, j in enumerate(scene.inputs.indices):
-        rows = np.nonzero(np.abs(jac[:, j]) > FORCED_INPUT_TOLERANCE)[0]
-        toes = sorted({int(r % k) for r in rows} - body_index)
-        if toes:
-            legs[i] = toes
-    return legs
 
 
 # ---------------------------------------------------------------------------------------------
@@ -723,7 +707,7 @@ def _cycle_max(times: np.ndarray, series: np.ndarray, phases: Sequence[PumpPhase
 
 def energy_drawn(scene: Scene, trajectory: Trajectory) -> float:
     """[J] ``sum_j sum_k u_j,k i_j,k (t_k - t_k-1)`` over the samples (row 0 repeats row 1: skipped)."""
-    from ..simulation.drives import drive_samples
+    from ..simulation.samples import drive_samples
 
     power = sum(table["voltage"] * table["current"] for table in drive_samples(scene, trajectory).values())
     return float(np.sum(np.asarray(power)[1:] * np.diff(trajectory.times)))

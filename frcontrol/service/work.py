@@ -334,6 +334,18 @@ def release_reserve() -> None:
     _reserve.clear()
 
 
+def address_space() -> int:
+    """[bytes] This process's address space now (Linux: ``VmSize`` of ``/proc/self/status``; else 0)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmSize:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 0
+
+
 def near_memory_limit() -> bool:
     """Whether this process's address space is within 2 :data:`MEMORY_RESERVE` of its limit.
 
@@ -341,8 +353,6 @@ def near_memory_limit() -> bool:
     type: an extension that fails to allocate may raise SystemError or a library's own error.
     """
     import resource
-
-    from .pool import address_space
 
     limit = resource.getrlimit(resource.RLIMIT_AS)[0]
     return limit != resource.RLIM_INFINITY and address_space() + 2 * MEMORY_RESERVE >= limit
@@ -395,6 +405,7 @@ def warm_up() -> None:
 
 __all__ = [
     "BLAS_WARM_UP",
+    "address_space",
     "FieldError",
     "OUT_OF_MEMORY",
     "out_of_memory",

@@ -9,15 +9,12 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+from .choices import INTEGRATORS, TRAJECTORY_FORMATS
+
 if TYPE_CHECKING:
     from ..scene import Scene
     from .trajectory import Trajectory
 
-INTEGRATORS = ("radau", "bdf", "lsoda", "rk45", "dop853", "euler", "implicit")
-"""The integrators :func:`simulate_compliant` accepts."""
-
-TRAJECTORY_FORMATS = (".npz", ".csv")
-"""The file suffixes :func:`save_trajectory` writes."""
 
 _LAZY = {
     "simulate_compliant": ".compliant",
@@ -25,7 +22,7 @@ _LAZY = {
     "ContactParameters": ".model_table",
     "ModelOptions": ".model_table",
     "model_options": ".model_table",
-    "sample_modes": ".export",
+    "sample_modes": ".samples",
     "save_trajectory": ".export",
     "ContactEvent": ".trajectory",
     "SimulationWarning": ".trajectory",

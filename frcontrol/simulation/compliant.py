@@ -42,7 +42,7 @@ Dynamics (M with the armature of massless coordinates, see :mod:`.armature`)::
 
 Forward dynamics is unique: the state is ``y = (q, v, s)`` (``2 n + c`` entries for c modelled
 contacts), followed by the elastic transmissions' ``z`` when the scene's drives have elastic
-stages (:mod:`frcontrol.simulation.drives`; a drive's rigid stages are in ``M``, ``h`` and
+stages (:mod:`frcontrol.simulation.transmissions`; a drive's rigid stages are in ``M``, ``h`` and
 ``S^T``). Stiffness ``k_N`` [N/m] and damping ``b_N`` [N s/m] come from the arguments, else the
 scene's ``[model]`` table (:mod:`.model_table`), else its default stiffness and critical damping
 ``b = 2 zeta sqrt(k m_eff)`` for each contact's effective mass at the initial state
@@ -103,13 +103,13 @@ from ..errors import InputError, LimitExceeded
 from ..kernel import compiled, kernel_choice
 from ..model import RobotState
 from ..scene import Scene
-from . import INTEGRATORS
 from .armature import Armature, mass_factor, massless_armature, solve_mass
-from .drives import Transmissions
+from .choices import INTEGRATORS
 from .inputs import STEP_COUNT_TOLERANCE, InputSchedule, check_simulation_times, input_schedule
 from .model_table import ContactParameters, model_options
 from .rigid import IMPACT_VELOCITY
 from .trajectory import ContactEvent, SimulationFailure, Trajectory
+from .transmissions import Transmissions
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
 from .zones import ContactZones, ImpactPhases, ZoneForces, contact_zones
@@ -462,7 +462,7 @@ class _Dynamics:
                        + self.contacts.tangential_damping * state.tangential_velocities)
         mass, force = self.armature.apply(state.mass_matrix), self.input_map @ u - state.bias
         coupled = None
-        if self.transmissions is not None:  # elastic drives: see frcontrol.simulation.drives
+        if self.transmissions is not None:  # elastic drives: see frcontrol.simulation.transmissions
             coupled = self.transmissions.implicit(q, v, y[end:], u, h)
             mass, force = coupled.mass(mass), force + coupled.force
         system = _ImplicitStep(self.contacts, state, mass, force, v, s, h)

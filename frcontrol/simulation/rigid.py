@@ -55,7 +55,7 @@ which is reported (``info["stabilization_work"]``).
 
 Massless links get a joint armature (see :mod:`frcontrol.simulation.armature`). DC-motor drives
 (:mod:`frcontrol.drives`): their electrical damping ``D`` is taken at the step's end, ``M`` becoming
-``M + h D``; elastic transmissions step with the robot (:mod:`frcontrol.simulation.drives`).
+``M + h D``; elastic transmissions step with the robot (:mod:`frcontrol.simulation.transmissions`).
 
 Events (``Trajectory.events``): ``close`` / ``impact`` (a contact starts carrying force, with
 approach speed above ``impact_velocity`` for an impact), ``open``, ``stick``, ``slip``, and
@@ -78,15 +78,17 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..engine import solutions_at
 from ..errors import FrcontrolError, InputError
 from ..modes import ContactProblem, contact_mode_letter
 from ..scene import Scene
 from .armature import DEFAULT_ARMATURE, Armature, mass_factor, massless_armature, solve_mass
-from .drives import ImplicitTransmissions, TransmissionRun
 from .impact import ImpulseLCPFailure, impact_law, solve_impulse_lcp
 from .inputs import InputSchedule, check_simulation_times, input_schedule, step_lengths
 from .model_table import model_options
+from .samples import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
 from .trajectory import ContactEvent, SimulationFailure, Trajectory
+from .transmissions import ImplicitTransmissions, TransmissionRun
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
 
@@ -101,12 +103,6 @@ IMPACT_VELOCITY = 0.05
 """[m/s] A contact that closes with approach speed above this is an ``impact`` event, else a
 ``close`` (a resting contact that chatters open for a step re-closes at about g h)."""
 
-SLIP_VELOCITY_TOLERANCE = 1e-6
-"""[m/s] A loaded contact with |v_T| at most this after the step sticks; above, it slips."""
-
-CONTACT_FORCE_TOLERANCE = 1e-9
-"""[-] A contact carries force when its impulse / h exceeds this times the force scale
-(the robot's weight, or 1 N without gravity)."""
 
 AMBIGUITY_VELOCITY_TOLERANCE = 1e-4
 """[m/s] The rigid solutions are listed only where every touching contact has |v_N| at most
@@ -654,8 +650,6 @@ def _ambiguity_check(scene: Scene, q: np.ndarray, v: np.ndarray, u: np.ndarray, 
                      arm: Armature, slip_tol: float, taken: str, t: float,
                      drive_torque: np.ndarray | None = None) -> dict:
     """Every rigid solution at this state (touching contacts, v_N taken as 0), and the step's mode."""
-    from ..engine import solutions_at  # the engine is heavy; import on first use
-
     at_state = ContactProblem.from_scene(scene, q, v, contacts=touching, velocity_tolerance=slip_tol,
                                          drive_torque=drive_torque)
     vt = at_state.tangential_velocities.copy()

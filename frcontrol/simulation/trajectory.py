@@ -10,6 +10,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..jsonable import to_jsonable
+from .samples import drive_samples, sample_modes, stage_samples
 
 if TYPE_CHECKING:
     from ..scene import Scene
@@ -223,9 +224,6 @@ class Trajectory:
 
     def _add_scene_parts(self, scene: Scene, summary: dict[str, Any], samples: dict[str, Any]) -> None:
         """What :meth:`to_dict` reports with the scene: input units, springs, drives, modes."""
-        from .drives import drive_samples, stage_samples
-        from .export import sample_modes
-
         summary["input_units"] = scene.inputs.unit_map()
         if scene.robot.springs:  # the joint springs: deflection [m or rad], force [N or N m]
             summary["springs"] = scene.robot.springs.to_dict()

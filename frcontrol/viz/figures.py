@@ -30,13 +30,17 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..modes import mode_heading, scene_mode
 from ..planning.climb import ClimbPlan, robust_region
 from ..planning.flip import FlipPlan, FlipResult
 from ..polytope import Polytope
 from ..scene import Scene
 from ..statics import StaticsReport
+from .geometry import pose_matrix
+from .plots import REGION_LABEL_STYLE, frame_axes, place_labels, plot_polygons, polygon_from_halfplanes
 from .plots import new_figure as _figure
 from .plots import save_figure as _save
+from .visuals import link_visuals, visual_outline
 
 __all__ = [
     "BODY_EDGE",
@@ -144,8 +148,6 @@ def plot_flip_inputs(
         VizError: matplotlib is missing.
         OutputFileError: the file cannot be written.
     """
-    from .plots import REGION_LABEL_STYLE, place_labels
-
     space = _input_space(plan, axes)
     if ax is None:
         ax = _figure(figsize=(7.0, 6.0), layout="constrained").add_subplot()
@@ -170,15 +172,11 @@ def plot_flip_inputs(
 
 def _scene_mode(plan: FlipPlan, mode: str) -> str:
     """The plan's mode over every scene contact (as every output shows it), or as it is without them."""
-    from frcontrol.modes import scene_mode
-
     return scene_mode(mode, plan.contacts, plan.scene_contacts) if plan.scene_contacts else mode
 
 
 def _mode_legend_title(plan: FlipPlan) -> str:
     """The legend's title: which contact each mode letter is."""
-    from frcontrol.modes import mode_heading
-
     return mode_heading(plan.scene_contacts or plan.contacts) + ": S separate, L/R slide, F fixed"
 
 
@@ -189,8 +187,6 @@ def _draw_input_space(ax: Any, space: _InputSpace, window: tuple[float, float, f
     Returns:
         The region labels ``(mode, centroid, area)`` to place once the figure is laid out.
     """
-    from .plots import plot_polygons
-
     analysis = space.plan.analysis
     assert analysis is not None  # checked by _input_space
     full = [mode for mode in analysis.feasible_modes if mode.inputs_full_dimensional]
@@ -227,8 +223,6 @@ def flip_zoom_window(plan: FlipPlan, *, axes: tuple[int, int] = (0, 1)
     Raises:
         InputError: see :func:`plot_flip_inputs`.
     """
-    from .plots import polygon_from_halfplanes
-
     space = _input_space(plan, axes)
     analysis = plan.analysis
     assert analysis is not None  # checked by _input_space
@@ -274,8 +268,6 @@ def _draw_flat_overlapping_and_chosen(ax: Any, plan: FlipPlan, flat: Sequence[An
     Flat T_c are thick grey, two modes' overlaps hatched, the chosen pieces outlined, the plan a
     star; the legend also explains the white.
     """
-    from .plots import plot_polygons
-
     analysis = plan.analysis
     assert analysis is not None  # checked by the caller
     if flat:
@@ -382,8 +374,6 @@ def flip_figure(result: FlipResult | FlipPlan, *, axes: tuple[int, int] = (0, 1)
     """
     from matplotlib.patches import Rectangle
 
-    from .plots import REGION_LABEL_STYLE, place_labels
-
     plan = result.plan if isinstance(result, FlipResult) else result
     simulated = isinstance(result, FlipResult) and result.trajectory is not None
     drawable = plan.analysis is not None and plan.analysis.problem.m >= 2
@@ -439,8 +429,6 @@ def plot_climb(plan: ClimbPlan, path: str | Path | None = None) -> Any:
         InputError: the plan was not found.
         VizError: matplotlib is missing. OutputFileError: the file cannot be written.
     """
-    from .plots import plot_polygons
-
     if not plan.found:
         raise InputError(f"the climb plan was not found ({plan.reason}): nothing to plot")
     items = plan.disturbances.items
@@ -517,8 +505,6 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
     Raises:
         VizError: matplotlib is missing. OutputFileError: the file cannot be written.
     """
-    from .plots import REGION_LABEL_STYLE, frame_axes, place_labels
-
     body = report.body
     figure = _figure(figsize=(7.0, 6.4), layout="constrained")
     ax = figure.add_subplot()
@@ -574,8 +560,6 @@ def _draw_body_links(ax: Any, scene: Scene) -> list[np.ndarray]:
     """The robot's links at the scene's state, from their URDF visuals; returns their outlines [m]."""
     from matplotlib.patches import Polygon
 
-    from .geometry import pose_matrix
-    from .visuals import link_visuals, visual_outline
 
     poses = scene.robot.link_poses(scene.q)
     outlines = []
@@ -630,8 +614,6 @@ def _draw_support(ax: Any, sup: Any, c: np.ndarray, lo: np.ndarray, hi: np.ndarr
     region that covers the whole view is a faint tint, not a hatch over everything.
     """
     from matplotlib.patches import Polygon
-
-    from .plots import polygon_from_halfplanes
 
     x0, x1 = max(sup.x_min, lo[0]), min(sup.x_max, hi[0])
     open_ends = [side for side, value in (("left", sup.x_min), ("right", sup.x_max))

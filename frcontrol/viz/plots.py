@@ -27,12 +27,13 @@ from typing import Any
 import numpy as np
 
 from frcontrol.errors import CoordinateNotFound, InputError, reason_from_exception
+from frcontrol.polytope import clip_polygon
 from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
 from . import colors as palette
-from .errors import OutputFileError, VizError
 from .geometry import friction_cone_directions, pose_matrix, surface_lines, surface_segments
+from .picture_errors import OutputFileError, VizError
 from .visuals import link_visuals, visual_depth, visual_outline
 
 __all__ = [
@@ -484,8 +485,6 @@ def polygon_from_halfplanes(
     Raises:
         InputError: wrong shapes, non-finite values, or an empty or inverted box.
     """
-    from frcontrol.polytope import clip_polygon
-
     return clip_polygon(A, b, box, tolerance)
 
 
