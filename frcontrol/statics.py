@@ -91,7 +91,7 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import scipy.spatial
@@ -101,7 +101,7 @@ from .engine import solutions_at
 from .errors import InputError
 from .jsonable import finite_or_none, to_jsonable
 from .modes import ContactProblem, add_scene_modes, build_mode_system
-from .response import solve_affine
+from .response import AmbiguousOutputs, solve_affine
 from .scene import Scene, parse_input_assignments
 from .solvers import DEFAULT_LP_SOLVER, LPResult, SolverFailed, must_solve, solve_lp
 
@@ -516,6 +516,10 @@ def _rank(matrix: np.ndarray, *, normalise_rows: bool = False) -> int:
 # closure
 
 
+ClosureKind = Literal["form", "force"]
+"""Form closure (frictionless normals) or force closure (friction-cone edges)."""
+
+
 @dataclass(frozen=True, eq=False)
 class Closure:
     """Form or force closure of the body by its contacts.
@@ -536,7 +540,7 @@ class Closure:
         tolerances: the tolerances used.
     """
 
-    kind: str
+    kind: ClosureKind
     closed: bool
     margin: float
     weakest_direction: np.ndarray | None
@@ -547,7 +551,7 @@ class Closure:
     tolerances: Mapping[str, float]
 
 
-def _closure(body: StaticBody, kind: str, solver: str) -> Closure:
+def _closure(body: StaticBody, kind: ClosureKind, solver: str) -> Closure:
     W = primitive_wrenches(body, friction=kind == "force")
     p = W.shape[1]
     rank = _rank(W)
@@ -753,6 +757,10 @@ def _force_ranges(G: np.ndarray, w: np.ndarray, C: np.ndarray, lam: np.ndarray, 
 # support region
 
 
+SupportMethod = Literal["interval", "fourier_motzkin"]
+"""How a support region was found: the strip of two LPs (no lateral acceleration) or by projection."""
+
+
 @dataclass(frozen=True, eq=False)
 class SupportRegion:
     """The centre-of-mass positions for which the body can be in equilibrium.
@@ -782,7 +790,7 @@ class SupportRegion:
     region_contains_com: bool
     bounded: bool
     vertices: np.ndarray | None
-    method: str
+    method: SupportMethod
 
 
 def _moved_com_system(
@@ -949,7 +957,7 @@ class RestSolution:
     mode: str
     max_abs_dv: float
     at_rest: bool
-    ambiguous_outputs: str
+    ambiguous_outputs: AmbiguousOutputs
 
 
 @dataclass(frozen=True, eq=False)

@@ -101,3 +101,79 @@ def test_a_bare_raises_is_caught(tmp_path):
                     "        int('x')\n    with pytest.raises(ValueError, match='invalid'):\n"
                     "        int('x')\n")
     assert _raises_without_match(path) == [4]
+
+
+VERDICT_FIELDS = frozenset({"verdict", "status", "pruned", "ambiguous_outputs"})
+"""Fields of a result record that hold a verdict: one of a few named values, never any string."""
+
+UNTYPED_VERDICTS_IN_REWORK = frozenset({"frcontrol/planning/climb.py::ClimbResult.status"})
+"""Verdict fields in modules being reworked now; to shrink to empty as the rework lands."""
+
+
+def bare_string_verdicts(path: Path, root: Path = ROOT) -> list[str]:
+    """``"path::Class.field"`` of every dataclass field in ``VERDICT_FIELDS`` annotated ``str``."""
+    found = []
+    relative = path.relative_to(root).as_posix()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
+        if not isinstance(node, ast.ClassDef):
+            continue
+        decorators = [d.func if isinstance(d, ast.Call) else d for d in node.decorator_list]
+        if not any(isinstance(d, ast.Name) and d.id == "dataclass" for d in decorators):
+            continue
+        for statement in node.body:
+            if (isinstance(statement, ast.AnnAssign) and isinstance(statement.target, ast.Name)
+                    and statement.target.id in VERDICT_FIELDS
+                    and ast.unparse(statement.annotation).replace(" ", "") in ("str", "str|None")):
+                found.append(f"{relative}::{node.name}.{statement.target.id}")
+    return found
+
+
+def test_verdicts_are_named_values():
+    """A verdict is a ``Literal`` (or an enum): mypy then checks every value set or compared."""
+    found = {key for path in sorted((ROOT / "frcontrol").rglob("*.py")) for key in bare_string_verdicts(path)}
+    untyped = sorted(found - UNTYPED_VERDICTS_IN_REWORK)
+    assert not untyped, f"verdict fields typed str (give them a Literal type): {untyped}"
+
+
+def test_a_bare_string_verdict_is_caught(tmp_path):
+    path = tmp_path / "x.py"
+    path.write_text("from dataclasses import dataclass\nfrom typing import Literal\n\n"
+                    "@dataclass(frozen=True)\nclass R:\n    status: str\n    verdict: Literal['a']\n"
+                    "    name: str\n\n@dataclass\nclass S:\n    pruned: str | None = None\n")
+    assert bare_string_verdicts(path, tmp_path) == ["x.py::R.status", "x.py::S.pruned"]
+
+
+def mutable_private_fields(path: Path, root: Path = ROOT) -> list[str]:
+    """``"path::Class.field"`` of every private field of a frozen dataclass with a dict, list or set
+    default: a cache that a frozen record fills after construction."""
+    found = []
+    relative = path.relative_to(root).as_posix()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
+        if not isinstance(node, ast.ClassDef) or not any(
+                isinstance(d, ast.Call) and any(k.arg == "frozen" and isinstance(k.value, ast.Constant)
+                                                and k.value.value is True for k in d.keywords)
+                for d in node.decorator_list):
+            continue
+        for statement in node.body:
+            if (isinstance(statement, ast.AnnAssign) and isinstance(statement.target, ast.Name)
+                    and statement.target.id.startswith("_") and isinstance(statement.value, ast.Call)
+                    and any(k.arg == "default_factory" and isinstance(k.value, ast.Name)
+                            and k.value.id in ("dict", "list", "set") for k in statement.value.keywords)):
+                found.append(f"{relative}::{node.name}.{statement.target.id}")
+    return found
+
+
+def test_frozen_records_hold_no_caches():
+    """A frozen result is immutable: what it derives is built with it (or is a method's answer)."""
+    found = [key for path in sorted((ROOT / "frcontrol").rglob("*.py"))
+             for key in mutable_private_fields(path)]
+    assert not found, f"frozen dataclasses with a private mutable field (a cache): {found}"
+
+
+def test_a_cache_in_a_frozen_record_is_caught(tmp_path):
+    path = tmp_path / "x.py"
+    path.write_text("from dataclasses import dataclass, field\n\n@dataclass(frozen=True)\nclass R:\n"
+                    "    data: dict = field(default_factory=dict)\n"
+                    "    _cache: dict = field(default_factory=dict, compare=False)\n\n"
+                    "@dataclass\nclass S:\n    _memo: list = field(default_factory=list)\n")
+    assert mutable_private_fields(path, tmp_path) == ["x.py::R._cache"]

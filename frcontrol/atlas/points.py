@@ -40,7 +40,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cache
 from types import ModuleType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 from ..errors import FrcontrolError
 from ..scene import Scene
@@ -76,7 +76,10 @@ and the robustness radius [N m or N])."""
 SCENE_CACHE_SIZE = 4
 """Loaded scenes a worker keeps, by their overrides (points of a chunk often share one)."""
 
-AMBIGUITY = ("none", "between", "within", "both")
+AtlasAmbiguity = Literal["none", "between", "within", "both"]
+"""A point's ambiguity: none, between modes (several solutions), within a mode (w), or both."""
+
+AMBIGUITY: tuple[AtlasAmbiguity, ...] = get_args(AtlasAmbiguity)
 """The values of the ``ambiguous`` column."""
 
 

@@ -108,7 +108,7 @@ from .choices import INTEGRATORS
 from .inputs import STEP_COUNT_TOLERANCE, InputSchedule, check_simulation_times, input_schedule
 from .model_table import ContactParameters, model_options
 from .rigid import IMPACT_VELOCITY
-from .trajectory import ContactEvent, SimulationFailure, Trajectory
+from .trajectory import ContactEvent, EventKind, SimulationFailure, Trajectory, TrajectoryStatus
 from .transmissions import Transmissions
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
@@ -768,7 +768,7 @@ class _CompliantRun:
         self.samples_y = [y0.copy()]
         self.samples_u: list[np.ndarray] = []
         self.events: list[ContactEvent] = []
-        self.status = "completed"
+        self.status: TrajectoryStatus = "completed"
         self.failure: dict[str, Any] | None = None
         self.steps_taken: list[float] = []
         self.rhs_evaluations = 0
@@ -826,7 +826,7 @@ class _CompliantRun:
             "impact_velocity": self.impact_velocity, "wall_time": time.perf_counter() - self.start_wall,
         }
 
-    def fail(self, status: str, t: float, reason: str, hint: bool = False) -> None:
+    def fail(self, status: TrajectoryStatus, t: float, reason: str, hint: bool = False) -> None:
         """End the run: ``failed`` or ``diverged`` at ``t`` (with the validity hint when diverged)."""
         self.status = status
         self.failure = {"time": t, "reason": reason}
@@ -844,6 +844,7 @@ class _CompliantRun:
         for j in np.nonzero(stat != self.contact_status)[0]:
             name, before, now = self.params.names[j], self.contact_status[j], stat[j]
             values: dict[str, Any] = {}
+            kind: EventKind
             if before == 0:
                 kind = "impact" if vn_before[j] < -self.impact_velocity else "close"
                 how = {1: "sticks", 2: "slides", 3: "no load"}[int(now)]
@@ -1011,7 +1012,8 @@ def _zone_info(dynamics: _Dynamics, samples: dict[str, list]) -> dict[str, Any]:
 
 def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, arm: Armature,
                 times: np.ndarray, samples_y: list[np.ndarray], samples_u: list[np.ndarray],
-                events: list[ContactEvent], status: str, failure: dict | None, info: dict) -> Trajectory:
+                events: list[ContactEvent], status: TrajectoryStatus, failure: dict | None,
+                info: dict) -> Trajectory:
     robot = scene.robot
     n = robot.nv
     k_all = len(scene.contacts)

@@ -75,6 +75,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import Literal
 
 import numpy as np
 
@@ -87,7 +88,7 @@ from .impact import ImpulseLCPFailure, impact_law, solve_impulse_lcp
 from .inputs import InputSchedule, check_simulation_times, input_schedule, step_lengths
 from .model_table import model_options
 from .samples import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
-from .trajectory import ContactEvent, SimulationFailure, Trajectory
+from .trajectory import ContactEvent, SimulationFailure, Trajectory, TrajectoryStatus
 from .transmissions import ImplicitTransmissions, TransmissionRun
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
@@ -121,12 +122,15 @@ IMPACT_GAP_TOLERANCE = 1e-5
 """[m] A contact within this of its surface is touching for the impact law: it takes the law when
 it approaches faster than ``impact_velocity``, and bounds the impulses of the others touching."""
 
+Sliding = Literal["stick", "slip"]
+"""A loaded, touching contact's tangential state after a step (its ``stick``/``slip`` events)."""
+
 MAX_LANDINGS_PER_STEP = 4
 """A step is split at most this many times at the instants contacts land (then the rest of the
 step lands the next contact by its LCP, as a step without impact law)."""
 
 
-def _sliding_phrase(sliding: str | None, v_t: float) -> str:
+def _sliding_phrase(sliding: Sliding | None, v_t: float) -> str:
     if sliding == "slip":
         return f"slides toward {'+t' if v_t > 0 else '-t'}"
     return "sticks" if sliding == "stick" else "no load"
@@ -276,7 +280,7 @@ class RigidStepper:
         self.armature = massless_armature(scene, self.state.mass_matrix,
                                           options.armature if armature is None else armature)
         self.force_tolerance = CONTACT_FORCE_TOLERANCE * robot.weight_scale()
-        self.status = "completed"
+        self.status: TrajectoryStatus = "completed"
         self.failure: SimulationFailure | None = None
         k = len(self.names)
         self.last_forces = np.zeros((k, 2))
@@ -296,7 +300,7 @@ class RigidStepper:
         self.lcp_stats = {"solves": 0, "max_unknowns": 0, "regularised_or_fallback": 0, "max_residual": 0.0}
         slip = self.settings.slip_velocity_tolerance
         self._closed = np.abs(self.state.gaps) <= scene.gap_tolerance
-        self._sliding: list[str | None] = [
+        self._sliding: list[Sliding | None] = [
             ("slip" if abs(self.state.tangential_velocities[i]) > slip else "stick")
             if self._closed[i] else None
             for i in range(k)]
@@ -510,7 +514,7 @@ class RigidStepper:
         vn_l, vn_n = vn.tolist(), vn_next.tolist()
         was_closed = self._closed.tolist()
         for i, name in enumerate(self.names):
-            new_sliding: str | None = None
+            new_sliding: Sliding | None = None
             if closed[i] and loaded_l[i]:
                 new_sliding = "slip" if abs(vt[i]) > cfg.slip_velocity_tolerance else "stick"
             if closed[i] and not was_closed[i]:

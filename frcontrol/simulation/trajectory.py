@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
 
@@ -14,6 +14,19 @@ from .samples import drive_samples, sample_modes, stage_samples
 
 if TYPE_CHECKING:
     from ..scene import Scene
+
+
+EventKind = Literal["open", "close", "impact", "stick", "slip", "ambiguous"]
+"""What happened at a contact (:class:`ContactEvent`)."""
+
+WarningKind = Literal["energy", "penetration", "speed"]
+"""Which validity limit a run left (:class:`SimulationWarning`)."""
+
+TrajectoryStatus = Literal["completed", "failed", "diverged"]
+"""How a run ended (:attr:`Trajectory.status`)."""
+
+ContactModel = Literal["rigid", "compliant"]
+"""The contact model that made a trajectory (:attr:`Trajectory.model`)."""
 
 
 @dataclass(frozen=True)
@@ -27,7 +40,7 @@ class ContactEvent:
 
     time: float
     contact: str
-    kind: str
+    kind: EventKind
     detail: str = ""
     values: Mapping[str, Any] = field(default_factory=dict, hash=False)
 
@@ -48,7 +61,7 @@ class SimulationWarning:
     """
 
     time: float
-    kind: str
+    kind: WarningKind
     detail: str
 
     def to_dict(self) -> dict:
@@ -78,7 +91,7 @@ class SimulationFailure:
         return out
 
 
-TRAJECTORY_STATUSES = ("completed", "failed", "diverged")
+TRAJECTORY_STATUSES: tuple[TrajectoryStatus, ...] = get_args(TrajectoryStatus)
 """The values of :attr:`Trajectory.status`."""
 
 
@@ -125,8 +138,8 @@ class Trajectory:
     events: tuple[ContactEvent, ...] = ()
     info: dict = field(default_factory=dict)
     warnings: tuple[SimulationWarning, ...] = ()
-    model: str | None = None
-    status: str = "completed"
+    model: ContactModel | None = None
+    status: TrajectoryStatus = "completed"
     failure: SimulationFailure | None = None
     modes: tuple[str, ...] | None = None
 
