@@ -37,7 +37,14 @@ from ..polytope import Polytope
 from ..scene import Scene
 from ..statics import StaticsReport
 from .geometry import pose_matrix
-from .plots import REGION_LABEL_STYLE, frame_axes, place_labels, plot_polygons, polygon_from_halfplanes
+from .plots import (
+    REGION_LABEL_STYLE,
+    PolygonPanel,
+    frame_axes,
+    place_labels,
+    plot_polygons,
+    polygon_from_halfplanes,
+)
 from .plots import new_figure as _figure
 from .plots import save_figure as _save
 from .visuals import link_visuals, visual_outline
@@ -192,9 +199,9 @@ def _draw_input_space(ax: Any, space: _InputSpace, window: tuple[float, float, f
     full = [mode for mode in analysis.feasible_modes if mode.inputs_full_dimensional]
     flat = [mode for mode in analysis.feasible_modes if not mode.inputs_full_dimensional]
     sets = [input_slice(mode.feasible_input_domain, space.axes, space.through) for mode in full]
-    plot_polygons(sets, ax=ax, labels=[_scene_mode(space.plan, mode.mode) for mode in full], box=window,
-                  alpha=0.25,
-                  axis_labels=space.axis_labels, legend=False, label_regions=False)
+    plot_polygons(sets, ax=ax, labels=[_scene_mode(space.plan, mode.mode) for mode in full],
+                  panel=PolygonPanel(box=window, alpha=0.25, axis_labels=space.axis_labels, legend=False,
+                                     label_regions=False))
     region_labels = ax._frcontrol_region_labels
     _draw_flat_overlapping_and_chosen(ax, space.plan, flat, space.axes, space.through, window,
                                       space.axis_labels)
@@ -270,9 +277,10 @@ def _draw_flat_overlapping_and_chosen(ax: Any, plan: FlipPlan, flat: Sequence[An
     """
     analysis = plan.analysis
     assert analysis is not None  # checked by the caller
+    outline = PolygonPanel(box=box, alpha=0.0, axis_labels=labels)
     if flat:
         plot_polygons([input_slice(mode.feasible_input_domain, axes, through) for mode in flat], ax=ax,
-                      colors=["0.35"] * len(flat), box=box, alpha=0.0, axis_labels=labels)
+                      colors=["0.35"] * len(flat), panel=outline)
     overlaps = []
     for overlap in analysis.overlaps:
         first, second = (analysis.mode(name).feasible_input_domain for name in overlap.modes)
@@ -281,11 +289,11 @@ def _draw_flat_overlapping_and_chosen(ax: Any, plan: FlipPlan, flat: Sequence[An
         overlaps.append((np.vstack([A1, A2]), np.concatenate([b1, b2])))
     if overlaps:
         plot_polygons(overlaps, ax=ax, hatches=["xxx"] * len(overlaps), colors=["0.1"] * len(overlaps),
-                      box=box, alpha=0.0, axis_labels=labels)
+                      panel=outline)
     chosen = [p for p in plan.pieces if p.mode == plan.mode]
     if chosen:
         plot_polygons([input_slice(p.region, axes, through) for p in chosen], ax=ax,
-                      colors=["black"] * len(chosen), box=box, alpha=0.0, axis_labels=labels)
+                      colors=["black"] * len(chosen), panel=outline)
     if plan.mode is not None:
         ax.plot([through[axes[0]]], [through[axes[1]]], linestyle="none", marker="*", markersize=16,
                 color="gold", markeredgecolor="black", zorder=7,
@@ -448,10 +456,10 @@ def plot_climb(plan: ClimbPlan, path: str | Path | None = None) -> Any:
         grow = CLIMB_WINDOW_MARGIN * (high - low)
         window = (low[0] - grow[0], high[0] + grow[0], low[1] - grow[1], high[1] + grow[1])
         sets = [robust_region(plan, i), dist.polytope(s_max), dist.polytope(plan.scale)]
-        plot_polygons(sets, ax=ax, colors=colors, hatches=hatches, box=window, points=np.zeros((1, 2)),
-                      axis_labels=(f"{dist.name}: $f_x$ [N]", f"{dist.name}: $f_y$ [N]"),
-                      title=f"{dist.name} on {dist.link} ({'robust' if plan.robust else 'NOT robust'})",
-                      legend=False)
+        robust = "robust" if plan.robust else "NOT robust"
+        panel = PolygonPanel(box=window, axis_labels=(f"{dist.name}: $f_x$ [N]", f"{dist.name}: $f_y$ [N]"),
+                             title=f"{dist.name} on {dist.link} ({robust})", legend=False)
+        plot_polygons(sets, ax=ax, colors=colors, hatches=hatches, points=np.zeros((1, 2)), panel=panel)
         ax.add_patch(Rectangle((low[0], low[1]), high[0] - low[0], high[1] - low[1], fill=False,
                                edgecolor="0.3", linestyle="--", linewidth=1.0, zorder=4))
         ax.set_aspect("equal", adjustable="box")
