@@ -106,6 +106,8 @@ from .scene import Scene, parse_input_assignments
 from .solvers import DEFAULT_LP_SOLVER, LPResult, SolverFailed, must_solve, solve_lp
 
 __all__ = [
+    "BodyLoad",
+    "BodyScale",
     "ACCELERATION_TOLERANCE",
     "CLOSURE_TOLERANCE",
     "DAQP_PRIMAL_TOLERANCE",
@@ -274,6 +276,37 @@ def _finite_scalar(name: str, value: Any, *, positive: bool = False, nonnegative
     return x
 
 
+@dataclass(frozen=True)
+class BodyLoad:
+    """What loads a body besides its contacts (checked by :func:`static_body`).
+
+    Attributes:
+        gravity: [m/s^2] along ``-y``, ``>= 0``.
+        force: [N] applied at ``point``.
+        point: [m] where ``force`` applies (default: the centre of mass).
+        torque: [N m] applied.
+    """
+
+    gravity: float = 9.81
+    force: Any = (0.0, 0.0)
+    point: Any = None
+    torque: float = 0.0
+
+
+@dataclass(frozen=True)
+class BodyScale:
+    """The length ``L`` [m] that turns torques into forces (checked by :func:`static_body`).
+
+    Attributes:
+        characteristic_length: ``L`` [m], ``> 0``; default ``sqrt(inertia / mass)``, else the
+            distance from the centre of mass to the farthest contact (1 m if that is 0).
+        inertia: planar inertia about the centre of mass [kg m^2]; gives the default ``L``.
+    """
+
+    characteristic_length: float | None = None
+    inertia: float | None = None
+
+
 def static_body(
     points: Any,
     normals: Any,
@@ -281,12 +314,8 @@ def static_body(
     mass: float,
     com: Any,
     *,
-    gravity: float = 9.81,
-    applied_force: Any = (0.0, 0.0),
-    applied_point: Any = None,
-    applied_torque: float = 0.0,
-    inertia: float | None = None,
-    characteristic_length: float | None = None,
+    load: BodyLoad = BodyLoad(),
+    scale: BodyScale = BodyScale(),
     names: Sequence[str] | None = None,
 ) -> StaticBody:
     """A validated :class:`StaticBody` from arrays.
@@ -297,13 +326,8 @@ def static_body(
         mu: friction coefficients [-], a scalar or shape ``(k,)``, ``>= 0``.
         mass: [kg], ``> 0``.
         com: centre of mass [m], shape ``(2,)``.
-        gravity: [m/s^2] along ``-y``, ``>= 0``.
-        applied_force: [N] applied at ``applied_point`` (default: the centre of mass).
-        applied_point: [m].
-        applied_torque: [N m].
-        inertia: planar inertia about the centre of mass [kg m^2]; gives the default ``L``.
-        characteristic_length: ``L`` [m], ``> 0``; default ``sqrt(inertia / mass)``, else the
-            distance from the centre of mass to the farthest contact (1 m if that is 0).
+        load: gravity and the applied force and torque (:class:`BodyLoad`).
+        scale: the characteristic length ``L``, or the inertia that gives it (:class:`BodyScale`).
         names: contact names (default ``c0, c1, ...``).
 
     Raises:
@@ -326,12 +350,13 @@ def static_body(
         raise InputError(f"friction coefficients must be >= 0, got {mu_arr.tolist()}")
     m = _finite_scalar("mass", mass, positive=True)
     c = _finite_array("com", com, (2,))
-    g = _finite_scalar("gravity", gravity, nonnegative=True)
-    force = _finite_array("applied_force", applied_force, (2,))
-    point = c.copy() if applied_point is None else _finite_array("applied_point", applied_point, (2,))
-    torque = _finite_scalar("applied_torque", applied_torque)
-    if characteristic_length is not None:
-        length = _finite_scalar("characteristic_length", characteristic_length, positive=True)
+    g = _finite_scalar("gravity", load.gravity, nonnegative=True)
+    force = _finite_array("applied_force", load.force, (2,))
+    point = c.copy() if load.point is None else _finite_array("applied_point", load.point, (2,))
+    torque = _finite_scalar("applied_torque", load.torque)
+    inertia = scale.inertia
+    if scale.characteristic_length is not None:
+        length = _finite_scalar("characteristic_length", scale.characteristic_length, positive=True)
         source = "given"
     elif inertia is not None and _finite_scalar("inertia", inertia, nonnegative=True) > 1e-12 * m:
         length, source = math.sqrt(float(inertia) / m), "radius of gyration"
@@ -415,12 +440,9 @@ def static_body_from_scene(
         np.array([c.mu for c in active]),
         mass,
         com,
-        gravity=robot.gravity,
-        applied_force=generalized[:2],
-        applied_point=origin,
-        applied_torque=float(generalized[2]),
-        inertia=max(inertia, 0.0),
-        characteristic_length=characteristic_length,
+        load=BodyLoad(gravity=robot.gravity, force=generalized[:2], point=origin,
+                      torque=float(generalized[2])),
+        scale=BodyScale(characteristic_length=characteristic_length, inertia=max(inertia, 0.0)),
         names=[c.name for c in active],
     )
 
@@ -933,7 +955,8 @@ def weak_stability(
     row_scale = np.maximum(np.max(np.abs(A), axis=1, initial=0.0), np.abs(rhs))
     row_scale[row_scale == 0.0] = 1.0
     body = static_body(state.contact_points, [c.point.normal_in_world for c in scene.active_contacts],
-                       [c.mu for c in scene.active_contacts], 1.0, np.zeros(2), characteristic_length=1.0)
+                       [c.mu for c in scene.active_contacts], 1.0, np.zeros(2),
+                       scale=BodyScale(characteristic_length=1.0))
     C, _ = cone_rows(body)
     r_star, lam = _phase_one(A / row_scale[:, None], rhs / row_scale, C, solver)
     ok = r_star <= EQUILIBRIUM_TOLERANCE
