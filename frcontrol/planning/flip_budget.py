@@ -49,7 +49,8 @@ from ..scene import Scene
 from ..simulation.trajectory import Trajectory
 from .flip import FORCED_INPUT_TOLERANCE, flip_task
 
-__all__ = ["NORMAL_TOLERANCE", "PITCH_STEP", "FlipBudget", "body_energy", "energy_shortfall", "flip_budget"]
+__all__ = ["NORMAL_TOLERANCE", "PITCH_STEP", "FlipBudget", "body_energy", "energy_shortfall", "flip_budget",
+           "leg_contacts"]
 
 PITCH_STEP = 2e-3
 """[rad] The pitch sweep's step. The barrier, a smooth maximum, is then found to about
@@ -166,7 +167,7 @@ def _leg_lengths(scene: Scene, hips: Mapping[str, str]) -> np.ndarray:
                      for i, c in enumerate(scene.contacts)])
 
 
-def _leg_contacts(scene: Scene, body: Sequence[str]) -> dict[int, list[int]]:
+def leg_contacts(scene: Scene, body: Sequence[str]) -> dict[int, list[int]]:
     """Input -> the contacts (not the body's) its coordinate moves, from the contact Jacobians."""
     state = scene.robot.state(scene.q, scene.v)
     jac = np.vstack([state.jacobian_normal, state.jacobian_tangent])
@@ -183,7 +184,7 @@ def _leg_contacts(scene: Scene, body: Sequence[str]) -> dict[int, list[int]]:
 
 def _driven_toes(scene: Scene, body: Sequence[str]) -> dict[str, list[int]]:
     """Driven joint -> its toes: the contacts (not the body's) on the link it turns."""
-    legs = _leg_contacts(scene, body)
+    legs = leg_contacts(scene, body)
     return {scene.inputs.coordinates[i]: toes for i, toes in legs.items()}
 
 

@@ -76,7 +76,7 @@ from .flip import (
     mode_allowed,
     sample_modes,
 )
-from .flip_budget import FlipBudget, _leg_contacts, body_energy, energy_shortfall, flip_budget
+from .flip_budget import FlipBudget, body_energy, energy_shortfall, flip_budget, leg_contacts
 
 __all__ = [
     "COMPLIANT_EXTRA_TIME",
@@ -400,7 +400,7 @@ class _PumpPolicy:
         self.pitch_index, self.vertical = task.pitch_index, task.vertical
         self.margin, self.solver = margin, solver
         self.force_tolerance = CONTACT_FORCE_TOLERANCE * scene.robot.weight_scale()
-        self.legs = _leg_contacts(scene, task.body_contacts)
+        self.legs = leg_contacts(scene, task.body_contacts)
         self.touchdown = np.array(scene.q)[self.index]
         self.direction = -np.ones(len(self.names))
         self.target = self.touchdown.copy()

@@ -50,7 +50,7 @@ from ..jsonable import finite_or_none, to_jsonable
 from ..modes import VELOCITY_TOLERANCE, ContactProblem, add_scene_modes
 from ..response import OUTPUT_TOLERANCE
 from ..scene import Contact, Scene
-from ..simulation.closed_loop import run_closed_loop
+from ..simulation.closed_loop import LoopOptions, run_closed_loop
 from ..simulation.rigid import RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
@@ -426,8 +426,8 @@ def simulate_standup(
                              float(duration), timings)
     policy = _Replanner(scene, task, first, margin, solver)
     stepper = RigidStepper(policy.scene, RigidSettings(max_ambiguity_checks=0))
-    run = run_closed_loop(stepper, policy, duration, dt, every=replan_every, command=policy.command,
-                          progress=progress)
+    run = run_closed_loop(stepper, policy, duration, dt,
+                          options=LoopOptions(every=replan_every, command=policy.command), progress=progress)
     timings["simulation"], timings["replanning"] = run.timings["simulation"], run.timings["policy"]
     trajectory = replace(run.trajectory, info={**run.trajectory.info, "source": "simulate_standup",
                                                "steps": len(run.trajectory.times) - 1})
