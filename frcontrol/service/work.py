@@ -130,11 +130,11 @@ def _statics(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
 
 
 def _simulate(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
-    from frcontrol.answers import simulate_answer, simulation_failure
+    from frcontrol.answers import SimulationOptions, simulate_answer, simulation_failure
 
-    answer = simulate_answer(scene, request.inputs, model=request.model, stiffness=request.stiffness,
-                             damping=request.damping, duration=request.duration, dt=request.dt,
-                             integrator=request.integrator, every=request.every)
+    answer = simulate_answer(scene, request.inputs, SimulationOptions(
+        model=request.model, stiffness=request.stiffness, damping=request.damping, duration=request.duration,
+        dt=request.dt, integrator=request.integrator), every=request.every)
     failure = simulation_failure(answer.result)
     if failure is not None:
         raise InputError(failure)
@@ -151,12 +151,13 @@ def _simulated(what: str, progress: Progress) -> Callable[[float, float], None]:
 
 
 def _flip(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
-    from frcontrol.answers import flip_answer
+    from frcontrol.answers import FlipOptions, flip_answer
 
     try:
-        return flip_answer(scene, margin=request.margin, max_time=request.max_time, dt=request.dt,
-                           replan_every=request.replan_every, pump=request.pump, compliant=request.compliant,
-                           progress=_simulated("simulating the flip [s]", progress)).document
+        options = FlipOptions(margin=request.margin, max_time=request.max_time, dt=request.dt,
+                              replan_every=request.replan_every, pump=request.pump,
+                              compliant=request.compliant)
+        return flip_answer(scene, options, progress=_simulated("simulating the flip [s]", progress)).document
     except LimitExceeded as err:  # the flip's simulated time is its max_time
         raise FieldError(["max_time"], err) from err
 
