@@ -163,7 +163,7 @@ def run_simulation(scene: Scene, inputs: Mapping[str, float],
     Raises:
         InputError: an unknown model, or stiffness or damping with the rigid model; see the simulators.
     """
-    from .simulation.compliant import simulate_compliant
+    from .simulation.compliant import CompliantSettings, simulate_compliant
     from .simulation.model_table import model_options
     from .simulation.rigid import simulate_rigid
 
@@ -175,8 +175,10 @@ def run_simulation(scene: Scene, inputs: Mapping[str, float],
         raise InputError("--stiffness and --damping belong to the compliant model: add --model compliant")
     if chosen == "rigid":
         return simulate_rigid(scene, inputs, options.duration, options.dt, progress=progress)
-    return simulate_compliant(scene, inputs, options.duration, options.dt, integrator=options.integrator,
-                              stiffness=options.stiffness, damping=options.damping, progress=progress)
+    settings = CompliantSettings(integrator=options.integrator, stiffness=options.stiffness,
+                                 damping=options.damping)
+    return simulate_compliant(scene, inputs, options.duration, options.dt, settings=settings,
+                              progress=progress)
 
 
 def simulation_failure(trajectory: Trajectory) -> str | None:

@@ -228,13 +228,13 @@ def typer_commands() -> set[str]:
     and its callback): Typer reads one parameter per command-line option, so they are exempt."""
     import inspect
 
-    from cli.app import app
+    from frcontrol.cli.app import app  # the installed name of cli/
 
     callbacks = [c.callback for c in app.registered_commands]
     if app.registered_callback is not None:
         callbacks.append(app.registered_callback.callback)
     functions = [inspect.unwrap(f) for f in callbacks if f is not None]
-    return {f"{Path(inspect.getfile(f)).resolve().relative_to(ROOT).as_posix()}::{f.__qualname__}"
+    return {f"{f.__module__.removeprefix('frcontrol.').replace('.', '/')}.py::{f.__qualname__}"
             for f in functions}
 
 

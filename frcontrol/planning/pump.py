@@ -759,7 +759,7 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
         :data:`UPRIGHT_TOLERANCE` of upright), ``status``, ``duration`` [s],
         ``torque_within_limits`` (from the compliant run's own samples) and ``wall_time`` [s].
     """
-    from ..simulation.compliant import simulate_compliant
+    from ..simulation.compliant import CompliantSettings, simulate_compliant
 
     voltages = result.trajectory.inputs
     dt = result.dt
@@ -773,8 +773,8 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
     duration = flip_time + COMPLIANT_EXTRA_TIME if flip_time is not None else result.max_time
     if to_end:
         duration = float(result.trajectory.times[-1])
-    run = simulate_compliant(scene, held, duration=max(duration, dt), dt=dt, stiffness=stiffness,
-                             contacts="all")
+    run = simulate_compliant(scene, held, settings=CompliantSettings(stiffness=stiffness, contacts="all"),
+                             duration=max(duration, dt), dt=dt)
     pitch = run.q[:, task.pitch_index]
     crossed = np.nonzero(pitch >= task.vertical)[0]
     return {

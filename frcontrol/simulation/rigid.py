@@ -85,7 +85,7 @@ from ..modes import ContactProblem, contact_mode_letter
 from ..scene import Scene
 from .armature import DEFAULT_ARMATURE, Armature, mass_factor, massless_armature, solve_mass
 from .impact import ImpulseLCPFailure, impact_law, solve_impulse_lcp
-from .inputs import InputSchedule, check_simulation_times, input_schedule, step_lengths
+from .inputs import InitialState, InputSchedule, check_simulation_times, input_schedule, step_lengths
 from .model_table import model_options
 from .samples import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
 from .trajectory import ContactEvent, SimulationFailure, Trajectory, TrajectoryStatus
@@ -147,16 +147,9 @@ def simulate_rigid(
     duration: float = 1.0,
     dt: float = 1e-3,
     *,
-    q0: Sequence[float] | np.ndarray | None = None,
-    v0: Sequence[float] | np.ndarray | None = None,
-    activation_distance: float = ACTIVATION_DISTANCE,
-    stabilization: float = DEFAULT_STABILIZATION,
-    impact_velocity: float = IMPACT_VELOCITY,
-    slip_velocity_tolerance: float = SLIP_VELOCITY_TOLERANCE,
+    settings: RigidSettings | None = None,
+    start: InitialState | None = None,
     armature: float | None = None,
-    lcp_method: str = "lemke",
-    max_ambiguity_checks: int = MAX_AMBIGUITY_CHECKS,
-    impact_law: bool = True,
     progress: Callable[[float, float], None] | None = None,
 ) -> Trajectory:
     """Simulate the scene with rigid contacts by velocity-level time stepping.
@@ -167,19 +160,11 @@ def simulate_rigid(
             called once per step (zero-order hold); None: zero inputs.
         duration: [s] simulated time, > 0.
         dt: [s] step, > 0 and <= duration (the last step is shortened to end at ``duration``).
-        q0: initial configuration (default: the scene's).
-        v0: initial velocity (default: the scene's).
-        activation_distance: [m] see :data:`ACTIVATION_DISTANCE`.
-        stabilization: beta in [0, 1], the fraction of a penetration removed per step.
-        impact_velocity: [m/s] see :data:`IMPACT_VELOCITY`.
-        slip_velocity_tolerance: [m/s] see :data:`SLIP_VELOCITY_TOLERANCE`.
+        settings: the stepper's distances, tolerances, LCP method, ambiguity checks and impact law
+            (:class:`RigidSettings`; default: its defaults).
+        start: the initial configuration and velocity (default: the scene's).
         armature: rotor inertia for massless coordinates (default: the scene's ``[model]``
             armature, else :data:`~frcontrol.simulation.armature.DEFAULT_ARMATURE`).
-        lcp_method: ``"lemke"`` or ``"enumerate"``.
-        max_ambiguity_checks: at most this many :func:`~frcontrol.engine.solutions_at` calls
-            (0: none).
-        impact_law: apply the impact law at landings (module docstring); False: the steps'
-            LCPs absorb impacts, inelastically.
         progress: called with (simulated time [s], duration [s]) after every step.
 
     Returns:
@@ -200,10 +185,10 @@ def simulate_rigid(
         IllConditioned: M is singular even with the armature.
     """
     duration, dt = check_simulation_times(duration, dt, scene=scene)
-    settings = RigidSettings(activation_distance, stabilization, impact_velocity, slip_velocity_tolerance,
-                             lcp_method, max_ambiguity_checks, impact_law)
+    start = InitialState() if start is None else start
     schedule, _ = input_schedule(scene, inputs)
-    stepper = RigidStepper(scene, settings, q0=q0, v0=v0, armature=armature)
+    stepper = RigidStepper(scene, RigidSettings() if settings is None else settings, q0=start.q, v0=start.v,
+                           armature=armature)
     for _, h in step_lengths(duration, dt):
         if not stepper.step(schedule(stepper.t, stepper.q, stepper.v), h):
             break
@@ -214,11 +199,20 @@ def simulate_rigid(
 
 @dataclass(frozen=True)
 class RigidSettings:
-    """The rigid stepper's settings (see :func:`simulate_rigid` for each), validated.
+    """The rigid stepper's settings, validated.
 
-    ``impact_law=False`` steps without the impact law: the step that lands a contact and the next
-    one absorb its impact through their LCPs (inelastic, no restitution, no split; the scheme the
-    flip planner's closed loop was verified with).
+    Attributes:
+        activation_distance: [m] see :data:`ACTIVATION_DISTANCE`.
+        stabilization: beta in [0, 1], the fraction of a penetration removed per step.
+        impact_velocity: [m/s] see :data:`IMPACT_VELOCITY`.
+        slip_velocity_tolerance: [m/s] see :data:`SLIP_VELOCITY_TOLERANCE`.
+        lcp_method: ``"lemke"`` or ``"enumerate"``.
+        max_ambiguity_checks: at most this many :func:`~frcontrol.engine.solutions_at` calls
+            (0: none).
+        impact_law: apply the impact law at landings (module docstring). False steps without it:
+            the step that lands a contact and the next one absorb its impact through their LCPs
+            (inelastic, no restitution, no split; the scheme the flip planner's closed loop was
+            verified with).
 
     Raises:
         InputError: stabilization outside [0, 1], a negative or non-finite distance or tolerance,
