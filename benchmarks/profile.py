@@ -44,6 +44,7 @@ the call counts; it is small against every stage here but lands in the stage tha
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import sys
 import time
@@ -93,7 +94,11 @@ def instrumented(timer: StageTimer) -> Iterator[None]:
     def patch(owner: Any, name: str, stage: str, kind: str = "function") -> None:
         original = owner.__dict__[name] if isinstance(owner, type) else getattr(owner, name)
         patches.append((owner, name, original))
-        if kind == "property":
+        if kind == "property" and isinstance(original, functools.cached_property):  # derived once
+            wrapped = functools.cached_property(timer.wrap(stage, original.func))
+            wrapped.__set_name__(owner, name)
+            setattr(owner, name, wrapped)
+        elif kind == "property":
             setattr(owner, name, property(timer.wrap(stage, original.fget)))
         elif kind == "classmethod":
             setattr(owner, name, classmethod(timer.wrap(stage, original.__func__)))
