@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from frcontrol.atlas import build_atlas, run_atlas
+from frcontrol.atlas import AtlasWorkers, build_atlas, run_atlas
 from frcontrol.atlas.executors import default_workers
 from frcontrol.atlas.points import evaluate_point
 
@@ -149,7 +149,7 @@ def timed_run(plan, runs: int, **where) -> dict:
     report = None
     for _ in range(runs):
         start = time.perf_counter()
-        result = run_atlas(plan, **where)
+        result = run_atlas(plan, where=AtlasWorkers(**where))
         walls.append(time.perf_counter() - start)
         inside.append(result.timings["per_point"])
         cpu.append(result.timings["cpu_per_point"])
@@ -172,7 +172,7 @@ def throughput(runs: int, n_theta: int, n_mu: int, cost: float, scheduler: str |
                **timed_run(plan, runs, workers=workers)}
         rows.append(row)
     if scheduler is not None:
-        run_atlas(plan, scheduler=scheduler)  # warm-up: the workers import frcontrol
+        run_atlas(plan, where=AtlasWorkers(scheduler=scheduler))  # warm-up: the workers import frcontrol
         rows.append({"executor": "dask", "workers": 2, **timed_run(plan, runs, scheduler=scheduler)})
     serial = rows[0]["wall_s"]
     for row in rows:

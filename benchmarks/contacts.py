@@ -162,7 +162,7 @@ def forced_reference(scene: Any) -> Any:
     done = analyze(scene, ambiguity=False)
     for mode in done.feasible_modes:
         if mode.ambiguity_dim:
-            poly.project(mode.domain, range(mode.m), solver=mode.solver, ball=mode._cache.get("raw_ball"))
+            poly.project(mode.domain, range(mode.m), solver=mode.solver, ball=mode.raw_ball)
     return done
 
 

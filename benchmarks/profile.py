@@ -10,7 +10,7 @@ Two workloads, each timed by stage:
 
 - **a forced analysis**: ``analyze(scene)`` (overlaps included) from the loaded scene, then every
   feasible mode's domain ``D_c`` in minimal form and input domain ``T_c``;
-- **an atlas chunk**: the public atlas call, ``run_atlas(build_atlas(...), workers=1)`` in this
+- **an atlas chunk**: the public atlas call, ``run_atlas(build_atlas(...), where=AtlasWorkers(1))`` in this
   process, over a grid of about :data:`ATLAS_POINTS` points (:func:`atlas_chunk`: the first
   contact's friction coefficient, and the first input), every point's rigid solutions and their
   stability.
@@ -44,6 +44,7 @@ the call counts; it is small against every stage here but lands in the stage tha
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import sys
 import time
@@ -93,7 +94,11 @@ def instrumented(timer: StageTimer) -> Iterator[None]:
     def patch(owner: Any, name: str, stage: str, kind: str = "function") -> None:
         original = owner.__dict__[name] if isinstance(owner, type) else getattr(owner, name)
         patches.append((owner, name, original))
-        if kind == "property":
+        if kind == "property" and isinstance(original, functools.cached_property):  # derived once
+            wrapped = functools.cached_property(timer.wrap(stage, original.func))
+            wrapped.__set_name__(owner, name)
+            setattr(owner, name, wrapped)
+        elif kind == "property":
             setattr(owner, name, property(timer.wrap(stage, original.fget)))
         elif kind == "classmethod":
             setattr(owner, name, classmethod(timer.wrap(stage, original.__func__)))
@@ -162,7 +167,7 @@ def atlas_chunk(name: str, points: int = ATLAS_POINTS) -> Callable[[], Any]:
     """
     import math
 
-    from frcontrol.atlas import build_atlas, run_atlas
+    from frcontrol.atlas import AtlasWorkers, build_atlas, run_atlas
     from frcontrol.scene import load_scene
 
     loaded = load_scene(name)
@@ -177,7 +182,7 @@ def atlas_chunk(name: str, points: int = ATLAS_POINTS) -> Callable[[], Any]:
     plan = build_atlas(name, axes, chunk_size=points)
 
     def run() -> Any:
-        return run_atlas(plan, workers=1)
+        return run_atlas(plan, where=AtlasWorkers(1))
 
     return run
 

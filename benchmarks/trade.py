@@ -122,7 +122,7 @@ from frcontrol.errors import FrcontrolError
 from frcontrol.modes import ContactProblem, build_mode_system
 from frcontrol.response import solve_affine
 from frcontrol.scene import Scene, load_scene, shipped_robots_dir
-from frcontrol.simulation.compliant import simulate_compliant
+from frcontrol.simulation.compliant import CompliantSettings, simulate_compliant
 from frcontrol.solvers import available_solvers
 from frcontrol.stability import stability_of
 
@@ -334,7 +334,8 @@ def euler_limit(ref: Reference, stiffness: float) -> float:
     Read from a one-step probe run (``info["explicit_stability_limit"]``), so that the fractions of
     the ``euler`` sweep follow the library's own limit.
     """
-    probe = simulate_compliant(ref.scene, ref.u, PROBE_DURATION, PROBE_DURATION, stiffness=stiffness)
+    probe = simulate_compliant(ref.scene, ref.u, PROBE_DURATION, PROBE_DURATION,
+                               settings=CompliantSettings(stiffness=stiffness))
     return float(probe.info["explicit_stability_limit"])
 
 
@@ -346,10 +347,10 @@ def compliant_run(ref: Reference, config: dict, duration: float, dt: float,
     rtol = config.get("rtol", 1e-6)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # SciPy's num_jac overflow warnings
-        return simulate_compliant(
-            ref.scene, ref.u, duration, dt, integrator=config["integrator"], stiffness=k, rtol=rtol,
-            atol=max(rtol * delta, ATOL_FLOOR), max_step=duration, max_steps=max_steps,
-            contacts=contacts)
+        settings = CompliantSettings(integrator=config["integrator"], stiffness=k, rtol=rtol,
+                                     atol=max(rtol * delta, ATOL_FLOOR), max_step=duration,
+                                     max_steps=max_steps, contacts=contacts)
+        return simulate_compliant(ref.scene, ref.u, duration, dt, settings=settings)
 
 
 def readout_forces(ref: Reference, trajectory: Any) -> np.ndarray:

@@ -46,8 +46,8 @@ import numpy as np
 
 from frcontrol.drives import joint_torque
 from frcontrol.scene import Scene, load_scene
-from frcontrol.simulation.compliant import simulate_compliant
-from frcontrol.simulation.rigid import simulate_rigid
+from frcontrol.simulation.compliant import CompliantSettings, simulate_compliant
+from frcontrol.simulation.rigid import RigidSettings, simulate_rigid
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -90,8 +90,10 @@ def elastic_overrides(stiffness: float, scene: Scene) -> dict[str, Any]:
 def run(scene: Scene, inputs: dict[str, float], model: str) -> Any:
     """One simulation of :data:`DURATION` on ``model`` (``"rigid"`` or ``"compliant"``)."""
     if model == "rigid":
-        return simulate_rigid(scene, inputs, DURATION, RIGID_DT, max_ambiguity_checks=0)
-    return simulate_compliant(scene, inputs, DURATION, COMPLIANT_DT, integrator="implicit")
+        return simulate_rigid(scene, inputs, DURATION, RIGID_DT,
+                              settings=RigidSettings(max_ambiguity_checks=0))
+    return simulate_compliant(scene, inputs, DURATION, COMPLIANT_DT,
+                              settings=CompliantSettings(integrator="implicit"))
 
 
 def measure(scene: Scene, inputs: dict[str, float], model: str, runs: int) -> dict[str, Any]:

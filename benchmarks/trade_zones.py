@@ -41,8 +41,8 @@ from typing import Any
 import numpy as np
 
 from frcontrol.scene import load_scene, shipped_robots_dir
-from frcontrol.simulation.compliant import simulate_compliant
-from frcontrol.simulation.rigid import simulate_rigid
+from frcontrol.simulation.compliant import CompliantSettings, simulate_compliant
+from frcontrol.simulation.rigid import RigidSettings, simulate_rigid
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -110,7 +110,8 @@ def zone_point(folder: Path, kind: str, k: float) -> dict[str, Any]:
     path = folder / f"{kind}_{k:g}.toml"
     path.write_text(disk_text({"contact": "compliant", **zone_table(kind, k)}))
     scene = load_scene(path)
-    seconds, traj = timed(lambda: simulate_compliant(scene, None, DURATION, 1e-3, contacts="all"))
+    seconds, traj = timed(lambda: simulate_compliant(scene, None, DURATION, 1e-3,
+                                                     settings=CompliantSettings(contacts="all")))
     impact = next(e.to_dict() for e in traj.events if e.kind == "impact")
     after = impact.get("normal_velocity_after")
     restitution = float(np.clip((after if after is not None else traj.v[-1, 1]) / SPEED, 0.0, 1.0))
@@ -127,7 +128,8 @@ def impact_law_points() -> dict[str, Any]:
     """rod_drop with and without the impact law."""
     scene = load_scene("rod_drop")
     with_law_s, with_law = timed(lambda: simulate_rigid(scene, None, ROD_DURATION, 1e-3))
-    without_s, without = timed(lambda: simulate_rigid(scene, None, ROD_DURATION, 1e-3, impact_law=False))
+    without_s, without = timed(lambda: simulate_rigid(scene, None, ROD_DURATION, 1e-3,
+                                                      settings=RigidSettings(impact_law=False)))
     return {"scene": "rod_drop", "duration_s": ROD_DURATION,
             "impact_law": {"wall_time_s": with_law_s, "impacts": len(with_law.info["impacts"])},
             "steps_absorb": {"wall_time_s": without_s,

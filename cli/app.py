@@ -8,7 +8,9 @@ from collections.abc import Sequence
 from typing import Any
 
 import typer
+from typer._click.exceptions import ClickException, NoArgsIsHelpError, UsageError
 from typer.core import TyperGroup
+from typer.exceptions import Abort
 
 from frcontrol.errors import KernelError, StaleKernelWarning
 from frcontrol.kernel import kernel_choice
@@ -48,9 +50,6 @@ class FrcGroup(TyperGroup):
     def main(self, args: Sequence[str] | None = None, prog_name: str | None = None,
              complete_var: str | None = None, standalone_mode: bool = True, **extra: Any) -> Any:
         """Parse and run; print any usage error or interruption as one line; exit with its code."""
-        from typer._click.exceptions import ClickException, NoArgsIsHelpError, UsageError
-        from typer.exceptions import Abort
-
         try:
             code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except NoArgsIsHelpError as err:  # bare `frc`: the help, as before

@@ -183,7 +183,7 @@ def atlas_command(
     """
     set_quiet(quiet)
     from frcontrol.answers import atlas_answer
-    from frcontrol.atlas import MAX_ATLAS_POINTS, build_atlas
+    from frcontrol.atlas import MAX_ATLAS_POINTS, AtlasWorkers, build_atlas
 
     if resume and out is None:
         raise usage_error("--resume", "it needs --out FILE: the finished chunks are kept beside FILE")
@@ -195,7 +195,7 @@ def atlas_command(
     previous = signal.signal(signal.SIGTERM, _raise_on_sigterm)
     try:
         with progress(f"atlas of {plan.size} points", "points") as bar:
-            answer = atlas_answer(plan, workers=workers, scheduler=scheduler, out=out, resume=resume,
+            answer = atlas_answer(plan, where=AtlasWorkers(workers, scheduler), out=out, resume=resume,
                                   progress=bar)
     except KeyboardInterrupt as err:
         name = "SIGTERM" if isinstance(err, _Signalled) else "SIGINT"

@@ -16,6 +16,7 @@ from rich.console import Console
 from frcontrol.errors import FrcontrolError
 
 from .progress import Progress
+from .text_table import table_lines
 
 if TYPE_CHECKING:  # the scene, the simulators and the viewer load when a command runs
     from frcontrol.scene import Scene
@@ -237,8 +238,6 @@ def named_modes(modes: Sequence[str], contacts: Sequence[str], payload: dict[str
 
 def print_table(title: str, columns: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
     """A text table at the console's width that never cuts a word (:func:`cli.text_table.table_lines`)."""
-    from .text_table import table_lines
-
     for line in table_lines(title, columns, rows, console.width):
         console.print(line, markup=False, highlight=False, crop=False, soft_wrap=True)
 

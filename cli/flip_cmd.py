@@ -79,7 +79,7 @@ def flip_command(
     common.check_port(view=view, port=port)
     max_time = options.duration_given(duration, max_time)
     loaded = options.load_scene_with_overrides(scene, sets)
-    from frcontrol.answers import OptionConflict, flip_answer, pumps
+    from frcontrol.answers import FlipOptions, OptionConflict, flip_answer, pumps
 
     pumping = pumps(loaded, pump)
     with common.live_viewer(view, port) as server:
@@ -87,8 +87,8 @@ def flip_command(
         with common.progress(task, "s") as shown:
             try:
                 answer = flip_answer(
-                    loaded, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every, pump=pump,
-                    compliant=compliant, progress=shown,
+                    loaded, FlipOptions(margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
+                                        pump=pump, compliant=compliant), progress=shown,
                     on_simulation=lambda: shown.stage(f"simulating the {'pumping ' if pumping else ''}flip "
                                                       f"(up to {max_time:g} s)"))
             except OptionConflict as err:  # an option that needs another: a usage error (exit 2)

@@ -131,7 +131,7 @@ def _simulate(scene: Scene, model: ContactModel | None, stiffness: float | None,
     Raises:
         typer.BadParameter: --stiffness or --damping with the rigid model (a usage error, exit 2).
     """
-    from frcontrol.answers import simulate_answer
+    from frcontrol.answers import SimulationOptions, simulate_answer
     from frcontrol.simulation.model_table import model_options
 
     chosen = model.value if model is not None else model_options(scene).contact
@@ -139,8 +139,9 @@ def _simulate(scene: Scene, model: ContactModel | None, stiffness: float | None,
         raise typer.BadParameter("--stiffness and --damping belong to the compliant model: "
                                  "add --model compliant")
     with common.progress(f"simulating on the {chosen} model", "s") as shown:
-        return simulate_answer(scene, inputs, model=chosen, stiffness=stiffness, damping=damping,
-                               duration=duration, dt=dt, integrator=integrator, every=every, progress=shown)
+        options = SimulationOptions(model=chosen, stiffness=stiffness, damping=damping, duration=duration,
+                                    dt=dt, integrator=integrator)
+        return simulate_answer(scene, inputs, options, every=every, progress=shown)
 
 
 def _report_validity(traj: Trajectory) -> None:

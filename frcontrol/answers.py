@@ -128,39 +128,57 @@ def analysis_payload(scene: Scene, result: DynamicResponse, solutions: list[Rigi
     return payload
 
 
-def run_simulation(scene: Scene, inputs: Mapping[str, float], *, model: str | None = None,
-                   stiffness: float | None = None, damping: float | None = None, duration: float = 1.0,
-                   dt: float = 1e-3, integrator: str = "radau",
-                   progress: Callable[[float, float], None] | None = None) -> Trajectory:
-    """The run ``frc simulate`` makes: on ``model`` (default: the scene's ``[model]`` contact).
+@dataclass(frozen=True)
+class SimulationOptions:
+    """The run ``frc simulate`` makes (its options; ``POST /simulate``'s request fields).
 
-    Args:
-        scene: the loaded scene.
-        inputs: constant named inputs [N or N m].
-        model: ``"rigid"`` or ``"compliant"``, or None for the scene's choice.
+    Attributes:
+        model: ``"rigid"`` or ``"compliant"``, or None for the scene's ``[model]`` contact.
         stiffness: [N/m] compliant contact stiffness (compliant model only).
         damping: [N s/m] compliant contact damping (compliant model only).
         duration: [s] simulated time.
         dt: [s] the rigid step; the compliant sample interval.
         integrator: the compliant model's integrator.
+    """
+
+    model: str | None = None
+    stiffness: float | None = None
+    damping: float | None = None
+    duration: float = 1.0
+    dt: float = 1e-3
+    integrator: str = "radau"
+
+
+def run_simulation(scene: Scene, inputs: Mapping[str, float],
+                   options: SimulationOptions = SimulationOptions(), *,
+                   progress: Callable[[float, float], None] | None = None) -> Trajectory:
+    """The run ``frc simulate`` makes: on ``options.model`` (default: the scene's ``[model]`` contact).
+
+    Args:
+        scene: the loaded scene.
+        inputs: constant named inputs [N or N m].
+        options: the model, its contact parameters, the duration, the step and the integrator.
         progress: called with (simulated time [s], duration [s]) as the run advances.
 
     Raises:
         InputError: an unknown model, or stiffness or damping with the rigid model; see the simulators.
     """
-    from .simulation.compliant import simulate_compliant
+    from .simulation.compliant import CompliantSettings, simulate_compliant
     from .simulation.model_table import model_options
     from .simulation.rigid import simulate_rigid
 
+    model = options.model
     if model is not None and model not in CONTACT_MODELS:
         raise InputError(f"unknown contact model {model!r}; expected one of {', '.join(CONTACT_MODELS)}")
     chosen = model if model is not None else model_options(scene).contact
-    if chosen == "rigid" and (stiffness is not None or damping is not None):
+    if chosen == "rigid" and (options.stiffness is not None or options.damping is not None):
         raise InputError("--stiffness and --damping belong to the compliant model: add --model compliant")
     if chosen == "rigid":
-        return simulate_rigid(scene, inputs, duration, dt, progress=progress)
-    return simulate_compliant(scene, inputs, duration, dt, integrator=integrator,
-                              stiffness=stiffness, damping=damping, progress=progress)
+        return simulate_rigid(scene, inputs, options.duration, options.dt, progress=progress)
+    settings = CompliantSettings(integrator=options.integrator, stiffness=options.stiffness,
+                                 damping=options.damping)
+    return simulate_compliant(scene, inputs, options.duration, options.dt, settings=settings,
+                              progress=progress)
 
 
 def simulation_failure(trajectory: Trajectory) -> str | None:
@@ -356,17 +374,15 @@ def statics_answer(scene: Scene, inputs: Mapping[str, float] | None = None, *,
     return Answer("statics", report.to_dict(), result=report)
 
 
-def simulate_answer(scene: Scene, inputs: Mapping[str, float], *, model: str | None = None,
-                    stiffness: float | None = None, damping: float | None = None, duration: float = 1.0,
-                    dt: float = 1e-3, integrator: str = "radau", every: int = 1,
+def simulate_answer(scene: Scene, inputs: Mapping[str, float],
+                    options: SimulationOptions = SimulationOptions(), *, every: int = 1,
                     progress: Progress | None = None) -> Answer:
     """``frc simulate --json`` (``POST /simulate``): :func:`run_simulation`'s run, every ``every``-th sample.
 
     A run that did not complete is an answer too: :func:`simulation_failure` of its trajectory says
     why (the command exits 1 with that line, the service answers 422).
     """
-    trajectory = run_simulation(scene, inputs, model=model, stiffness=stiffness, damping=damping,
-                                duration=duration, dt=dt, integrator=integrator, progress=progress)
+    trajectory = run_simulation(scene, inputs, options, progress=progress)
     return Answer("simulate", trajectory.to_dict(scene, every=every), result=trajectory,
                   trajectory=trajectory)
 
@@ -384,9 +400,29 @@ def pumps(scene: Scene, pump: bool | None) -> bool:
     return driven(scene) if pump is None else pump
 
 
-def flip_answer(scene: Scene, *, margin: float, max_time: float, dt: float = 1e-3, replan_every: int = 10,
-                pump: bool | None = None, compliant: bool = False,
-                on_simulation: Callable[[], None] | None = None, progress: Progress | None = None) -> Answer:
+@dataclass(frozen=True)
+class FlipOptions:
+    """The flip ``frc flip`` plans and runs (its options; ``POST /plan/flip``'s request fields).
+
+    Attributes:
+        margin: [N m] distance kept from every input where another mode holds.
+        max_time: [s] the longest simulated time (0: plan only).
+        dt: [s] the simulation's step.
+        replan_every: steps between two plans.
+        pump: pump over several strokes (None: when the scene is :func:`driven`).
+        compliant: with the pump, replay the run's inputs on the compliant model too.
+    """
+
+    margin: float
+    max_time: float
+    dt: float = 1e-3
+    replan_every: int = 10
+    pump: bool | None = None
+    compliant: bool = False
+
+
+def flip_answer(scene: Scene, options: FlipOptions, *, on_simulation: Callable[[], None] | None = None,
+                progress: Progress | None = None) -> Answer:
     """``frc flip --json`` (``POST /plan/flip``): the plan and, when ``max_time`` > 0, the closed loop.
 
     With the pump (:func:`pumps`), the pumping run of :func:`frcontrol.planning.pump.pump_flip`
@@ -395,19 +431,16 @@ def flip_answer(scene: Scene, *, margin: float, max_time: float, dt: float = 1e-
 
     Args:
         scene: the scene (RHex on its back).
-        margin: [N m] distance kept from every input where another mode holds.
-        max_time: [s] the longest simulated time (0: plan only).
-        dt: [s] the simulation's step.
-        replan_every: steps between two plans.
-        pump: pump over several strokes (None: when the scene is :func:`driven`).
-        compliant: with the pump, replay the run's inputs on the compliant model too.
+        options: the margin, the simulated time, the step, the re-planning period, the pump.
         on_simulation: called once when the simulation starts.
         progress: called with (simulated time, max_time) along the simulation.
 
     Raises:
         OptionConflict: ``compliant`` without the pump; see the planners.
     """
-    if not pumps(scene, pump):
+    margin, max_time, dt, replan_every = options.margin, options.max_time, options.dt, options.replan_every
+    compliant = options.compliant
+    if not pumps(scene, options.pump):
         if compliant:
             raise OptionConflict("compliant", "compliant replays the pumping run: it needs the pump (--pump, "
                                  "or a scene whose inputs all have drives)")
@@ -576,8 +609,8 @@ def atlas_answer(plan: AtlasPlan, **run: Any) -> Answer:
 
     Args:
         plan: from :func:`frcontrol.atlas.build_atlas`.
-        run: how it runs, as :func:`frcontrol.atlas.run_atlas` takes it (``workers``,
-            ``scheduler``, ``out``, ``resume``, ``progress``, ``stop``...): the document's ``run``.
+        run: how it runs, as :func:`frcontrol.atlas.run_atlas` takes it (``where``, ``out``,
+            ``resume``, ``progress``, ``stop``): the document's ``run``.
     """
     from .atlas import run_atlas
 
@@ -588,6 +621,8 @@ def atlas_answer(plan: AtlasPlan, **run: Any) -> Answer:
 __all__ = [
     "Answer",
     "CONTACT_MODELS",
+    "FlipOptions",
+    "SimulationOptions",
     "OptionConflict",
     "DESCRIPTION_CHARS",
     "Progress",

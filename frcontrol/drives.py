@@ -41,7 +41,7 @@ Each elastic stage adds one coordinate, the angle ``theta`` [rad] of its gear's 
 the spring's motor-side end. The stages between two elastic ones, and from the motor to the first
 elastic stage, turn rigidly with it (a *cluster*); the stages after the last elastic stage turn
 rigidly with the joint. :func:`clusters` lists them with their inertias reflected to their
-coordinate; :mod:`frcontrol.simulation.drives` integrates them.
+coordinate; :mod:`frcontrol.simulation.transmissions` integrates them.
 """
 
 from __future__ import annotations

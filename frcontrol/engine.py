@@ -30,7 +30,8 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, overload
+from functools import cached_property
+from typing import Any, Literal, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -55,6 +56,7 @@ from .response import (
     RANK_TOLERANCE,
     ROUND_OFF_RANK_DROP,
     AffineSolution,
+    AmbiguousOutputs,
     ambiguous_outputs,
     certified_children,
     solve_affine,
@@ -79,6 +81,14 @@ def _row_norms(H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return row_norms(H, ZERO_ROW_TOLERANCE)
 
 
+PruneReason = Literal["freedom", "infeasible"]
+"""Why a mode was pruned: its equalities admit no solution, or none moves as the mode says
+(``freedom``); or its domain is empty (``infeasible``)."""
+
+MarginVerdict = Literal["ok", "freedom", "infeasible"]
+""":func:`motion_margin`'s verdict: ``ok``, or why not (a :data:`PruneReason`)."""
+
+
 @dataclass(frozen=True)
 class ModeAnalysis:
     """Everything the engine knows about one contact mode.
@@ -101,24 +111,29 @@ class ModeAnalysis:
             empty); None if feasible.
         m: the number of inputs (the first m coordinates of D_c).
 
+        raw_ball: the Chebyshev ball of ``raw_domain`` found when the mode was evaluated (the
+            minimal form's emptiness test is this same LP), or None.
+
     ``domain`` (D_c in minimal form) and ``input_domain`` (T_c, its projection onto the inputs)
-    are computed on first use and cached: reducing and projecting are the costliest stages, and
-    feasibility, full-dimensionality, overlaps and the solutions at an input do not need them.
+    are derived from the fields on first use (``functools.cached_property``: kept in the instance,
+    never a field, so ``==``, ``repr`` and :func:`dataclasses.replace` see the fields alone):
+    reducing and projecting are the costliest stages, and feasibility, full-dimensionality,
+    overlaps and the solutions at an input do not need them.
     """
 
     mode: str
     system: ModeSystem
     response: AffineSolution
-    ambiguous_outputs: str
+    ambiguous_outputs: AmbiguousOutputs
     feasible: bool
     full_dimensional: bool
     chebyshev_radius: float
     raw_domain: poly.Polytope | None
     inputs_full_dimensional: bool
-    pruned: str | None = None
+    pruned: PruneReason | None = None
     m: int = 0
     solver: str = DEFAULT_LP_SOLVER
-    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+    raw_ball: poly.ChebyshevBall | None = field(default=None, repr=False, compare=False)
 
     @property
     def ambiguity_dim(self) -> int:
@@ -130,33 +145,22 @@ class ModeAnalysis:
         """Half-spaces of D_c's minimal representation (0 if infeasible)."""
         return 0 if self.domain is None else int(self.domain.A.shape[0])
 
-    @property
+    @cached_property
     def domain(self) -> poly.Polytope | None:
         """D_c over (u, w) in minimal form (None if infeasible)."""
         if self.raw_domain is None:
             return None
-        if "domain" not in self._cache:
-            t0 = time.perf_counter()
-            self._cache["domain"] = poly.minimal_representation(self.raw_domain, solver=self.solver,
-                                                                ball=self._cache.get("raw_ball"))
-            self._cache["reduction_time"] = time.perf_counter() - t0
-        return self._cache["domain"]
+        return poly.minimal_representation(self.raw_domain, solver=self.solver, ball=self.raw_ball)
 
-    @property
+    @cached_property
     def input_domain(self) -> poly.Polytope | None:
         """T_c: the inputs u for which some w puts (u, w) in D_c (minimal; None if infeasible)."""
         if self.domain is None:
             return None
-        if "input_domain" not in self._cache:
-            t0 = time.perf_counter()
-            if self.ambiguity_dim:
-                # self.domain is D_c in minimal form already: the projection starts from it
-                projected = poly.project(self.domain, range(self.m), solver=self.solver, minimal=True)
-            else:
-                projected = self.domain
-            self._cache["input_domain"] = projected
-            self._cache["projection_time"] = time.perf_counter() - t0
-        return self._cache["input_domain"]
+        if self.ambiguity_dim:
+            # self.domain is D_c in minimal form already: the projection starts from it
+            return poly.project(self.domain, range(self.m), solver=self.solver, minimal=True)
+        return self.domain
 
     @property
     def feasible_domain(self) -> poly.Polytope:
@@ -224,7 +228,9 @@ class Overlap:
 class DynamicResponse:
     """The dynamic response of a scene at one state: every mode, its domain and the ambiguity.
 
-    Unambiguous sets are computed on demand (:meth:`unambiguous_set`) and cached.
+    Unambiguous sets are computed on demand (:meth:`unambiguous_set`, on each call: keep the
+    result). ``query`` is the feasible modes stacked for point location
+    (:class:`~frcontrol.query.QueryTable`), built with the analysis (:func:`build_query_table`).
     """
 
     problem: ContactProblem
@@ -232,10 +238,9 @@ class DynamicResponse:
     enumeration: Enumeration
     overlaps: tuple[Overlap, ...]
     timings: Mapping[str, float]
+    query: QueryTable = field(repr=False, compare=False)
     solver: str = DEFAULT_LP_SOLVER
     tolerances: Mapping[str, float] = field(default_factory=dict)
-    _unambiguous: dict = field(default_factory=dict, repr=False, compare=False)
-    _query: dict = field(default_factory=dict, repr=False, compare=False)
 
     def to_dict(self, inactive_contacts: Sequence[str] = ()) -> dict[str, Any]:
         """The analysis as JSON values (the ``frc analyze --json`` document, without solutions).
@@ -311,15 +316,11 @@ class DynamicResponse:
         Lower-dimensional T_j remove nothing here (they have no volume): see
         :meth:`lower_dimensional_modes` for the inputs where such a mode also holds.
         """
-        if name not in self._unambiguous:
-            mode = self.mode(name)
-            if not mode.inputs_full_dimensional:
-                self._unambiguous[name] = ()
-            else:
-                others = [self.mode(other).feasible_input_domain for other in self.overlapping(name)]
-                self._unambiguous[name] = tuple(
-                    poly.set_difference(mode.feasible_input_domain, others, solver=self.solver))
-        return self._unambiguous[name]
+        mode = self.mode(name)
+        if not mode.inputs_full_dimensional:
+            return ()
+        others = [self.mode(other).feasible_input_domain for other in self.overlapping(name)]
+        return tuple(poly.set_difference(mode.feasible_input_domain, others, solver=self.solver))
 
     def lower_dimensional_modes(self) -> tuple[ModeAnalysis, ...]:
         """Feasible modes whose T_c has no interior (e.g. consistency conditions E u = e)."""
@@ -369,7 +370,7 @@ class MotionMargin:
         margin: that margin t* [units of z] (None when infeasible).
     """
 
-    verdict: str
+    verdict: MarginVerdict
     point: np.ndarray | None
     margin: float | None
 
@@ -531,10 +532,13 @@ def analyze(
         t0 = time.perf_counter()
         overlaps = _overlaps(feasible, solver)
         timings["ambiguity"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    query = build_query_table(problem, feasible)
+    timings["query_table"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - start
     return DynamicResponse(
         problem=problem, modes=tuple(analyses), enumeration=enumeration, overlaps=tuple(overlaps),
-        timings=timings, solver=solver,
+        timings=timings, query=query, solver=solver,
         tolerances={"rank": rank_tolerance, "domain": DOMAIN_TOLERANCE,
                     "velocity": problem.velocity_tolerance, "ill_conditioned_band": ILL_CONDITIONED_BAND,
                     "round_off_rank_drop": ROUND_OFF_RANK_DROP},
@@ -586,7 +590,7 @@ class _ModeEnumerator:
         self.prepared.update(zip(children, zip(systems, responses, strict=True), strict=True))
         self.timings["response"] += time.perf_counter() - t0
 
-    def test(self, mode: str) -> tuple[str, ModeSystem, AffineSolution]:
+    def test(self, mode: str) -> tuple[MarginVerdict, ModeSystem, AffineSolution]:
         """Build and solve a (partial) mode: 'ok', 'freedom' or 'infeasible'.
 
         The system and a certified response come from :meth:`prepare` when it ran for the mode.
@@ -635,16 +639,15 @@ class _ModeEnumerator:
         analysis = ModeAnalysis(
             mode=mode, system=system, response=response, ambiguous_outputs=outputs, feasible=True,
             full_dimensional=full, chebyshev_radius=float(ball.radius) if ball.found else 0.0,
-            raw_domain=domain, inputs_full_dimensional=full, m=problem.m, solver=solver,
-            _cache={"raw_ball": ball},  # the minimal form's emptiness test is this same LP
+            raw_domain=domain, inputs_full_dimensional=full, m=problem.m, solver=solver, raw_ball=ball,
         )
         if not full and domain.A_eq.shape[0] == 0 and response.ambiguity_dim:
             # D_c flat in (u, w) without input equalities: its projection may still have volume
             t1 = time.perf_counter()
             input_ball = poly.chebyshev_ball(analysis.feasible_input_domain, solver=solver)
             timings["projection"] += time.perf_counter() - t1
-            analysis = replace(analysis, inputs_full_dimensional=bool(
-                input_ball.found and input_ball.radius > DOMAIN_TOLERANCE))  # keeps the projection cached
+            if input_ball.found and input_ball.radius > DOMAIN_TOLERANCE:  # (its domains derived anew)
+                analysis = replace(analysis, inputs_full_dimensional=True)
         self.analyses.append(analysis)
 
     def grow(self, prefix: str) -> None:
@@ -666,17 +669,15 @@ class _ModeEnumerator:
             self.grow(child)
 
 
-def _input_rows(mode: ModeAnalysis) -> tuple[np.ndarray, np.ndarray, int]:
-    """Rows (H, h) over (u, w) whose projection is T_c with an interior (cached on the mode).
+InputRows = tuple[np.ndarray, np.ndarray, int]
+"""A mode's rows (H, h) over (u, w) whose projection is T_c with an interior, and the count of w."""
+
+
+def _input_rows(mode: ModeAnalysis) -> InputRows:
+    """Rows (H, h) over (u, w) whose projection is T_c with an interior.
 
     D_c itself when it is full-dimensional, else T_c (projected) with no w.
     """
-    if "input_rows" not in mode._cache:
-        mode._cache["input_rows"] = _build_input_rows(mode)
-    return mode._cache["input_rows"]
-
-
-def _build_input_rows(mode: ModeAnalysis) -> tuple[np.ndarray, np.ndarray, int]:
     if mode.full_dimensional and mode.raw_domain is not None:
         H, h, p = mode.raw_domain.A, mode.raw_domain.b, mode.ambiguity_dim
     else:
@@ -686,13 +687,13 @@ def _build_input_rows(mode: ModeAnalysis) -> tuple[np.ndarray, np.ndarray, int]:
     return H[~constant], h[~constant], p
 
 
-def _input_box(mode: ModeAnalysis, solver: str) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds of T_c per input: support LPs on D_c in the input directions (no projection)."""
-    H, h, p = _input_rows(mode)
+def _input_box(rows: InputRows, m: int, solver: str) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of T_c per input: support LPs on D_c (its :func:`_input_rows`) in the input directions."""
+    H, h, p = rows
     P = poly.Polytope(H, h)
-    eye = np.eye(mode.m + p)[: mode.m]
-    upper = np.array([poly.support(P, eye[i], solver=solver) for i in range(mode.m)])
-    lower = -np.array([poly.support(P, -eye[i], solver=solver) for i in range(mode.m)])
+    eye = np.eye(m + p)[:m]
+    upper = np.array([poly.support(P, eye[i], solver=solver) for i in range(m)])
+    lower = -np.array([poly.support(P, -eye[i], solver=solver) for i in range(m)])
     return lower, upper
 
 
@@ -710,16 +711,15 @@ def _boxes_apart(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarr
     return bool(np.any(width <= 2 * DOMAIN_TOLERANCE))
 
 
-def _interiors_meet(a: ModeAnalysis, b: ModeAnalysis, solver: str) -> tuple[float, np.ndarray | None]:
+def _interiors_meet(a: InputRows, b: InputRows, m: int, solver: str) -> tuple[float, np.ndarray | None]:
     """Whether int(T_a) and int(T_b) meet: one LP in the lifted space (u, w_a, w_b).
 
     maximise t <= 1 s.t. every row of D_a and of D_b tightened by t times its norm. For
     full-dimensional D, int(T) is the projection of int(D), so t* > 0 iff the interiors meet; t* is
     a lower bound of the radius of a ball of inputs in both. Returns (t*, a common input).
     """
-    Ha, ha, pa = _input_rows(a)
-    Hb, hb, pb = _input_rows(b)
-    m = a.m
+    Ha, ha, pa = a
+    Hb, hb, pb = b
     rows_a = np.hstack([Ha[:, :m], Ha[:, m:], np.zeros((Ha.shape[0], pb))])
     rows_b = np.hstack([Hb[:, :m], np.zeros((Hb.shape[0], pa)), Hb[:, m:]])
     H = np.vstack([rows_a, rows_b])
@@ -748,17 +748,17 @@ def _overlaps(feasible: Sequence[ModeAnalysis], solver: str) -> list[Overlap]:
     """
     candidates = [a for a in feasible if a.inputs_full_dimensional]
     m = candidates[0].m if candidates else 0
-    boxes = ([_input_box(a, solver) for a in candidates]
+    rows = [_input_rows(a) for a in candidates]
+    boxes = ([_input_box(r, m, solver) for r in rows]
              if len(candidates) - 1 > BOX_FILTER_MODES_PER_INPUT * m else None)
     overlaps: list[Overlap] = []
     for i, a in enumerate(candidates):
         for j in range(i + 1, len(candidates)):
             if boxes is not None and _boxes_apart(boxes[i], boxes[j]):
                 continue
-            b = candidates[j]
-            margin, center = _interiors_meet(a, b, solver)
+            margin, center = _interiors_meet(rows[i], rows[j], m, solver)
             if margin > DOMAIN_TOLERANCE and center is not None:
-                overlaps.append(Overlap((a.mode, b.mode), float(margin), center))
+                overlaps.append(Overlap((a.mode, candidates[j].mode), float(margin), center))
     return overlaps
 
 
@@ -786,7 +786,7 @@ class RigidSolution:
     a_n: np.ndarray
     a_t: np.ndarray
     ambiguity_dim: int
-    ambiguous_outputs: str
+    ambiguous_outputs: AmbiguousOutputs
     w: np.ndarray
     equality_residual: float
     inequality_violation: float
@@ -991,19 +991,20 @@ def solutions_at(
     return _tree_solutions(problem, u, solver, rank_tolerance, closed_form)
 
 
-def query_table(analysis: DynamicResponse) -> QueryTable:
-    """The analysis's feasible modes stacked for point location (:mod:`frcontrol.query`), built once.
+def build_query_table(problem: ContactProblem, feasible: Sequence[ModeAnalysis]) -> QueryTable:
+    """The feasible modes stacked for point location (:mod:`frcontrol.query`).
 
-    Cached on the analysis: the first query pays for it (about the cost of ten queries).
+    :func:`analyze` builds it with the analysis (about the cost of ten queries; ``timings``
+    reports it as ``query_table``).
     """
-    table = analysis._query.get("table")
-    if table is None:
-        modes = [QueryMode(m.mode, m.system, m.response, m.ambiguous_outputs)
-                 for m in analysis.feasible_modes]
-        table = QueryTable(analysis.problem, modes, zero_row_tolerance=ZERO_ROW_TOLERANCE,
-                           radius_cap=poly.CHEBYSHEV_RADIUS_CAP, tolerance=DOMAIN_TOLERANCE)
-        analysis._query["table"] = table
-    return table
+    modes = [QueryMode(m.mode, m.system, m.response, m.ambiguous_outputs) for m in feasible]
+    return QueryTable(problem, modes, zero_row_tolerance=ZERO_ROW_TOLERANCE,
+                      radius_cap=poly.CHEBYSHEV_RADIUS_CAP, tolerance=DOMAIN_TOLERANCE)
+
+
+def query_table(analysis: DynamicResponse) -> QueryTable:
+    """The analysis's feasible modes stacked for point location, built with it (:func:`build_query_table`)."""
+    return analysis.query
 
 
 def _located_solutions(analysis: DynamicResponse, u: np.ndarray, solver: str) -> list[RigidSolution]:
@@ -1113,6 +1114,7 @@ __all__ = [
     "Overlap",
     "RigidSolution",
     "SOLUTION_METHODS",
+    "build_query_table",
     "query_table",
     "solutions_at",
     "solutions_at_batch",

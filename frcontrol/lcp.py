@@ -93,7 +93,7 @@ import math
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from scipy.linalg.lapack import dgesv
@@ -179,6 +179,13 @@ reported as ``FC2DSolution.tolerance``.
 """
 
 
+LCPStatus = Literal["solved", "ray", "max_pivots", "infeasible", "singular", "inaccurate"]
+"""How an LCP solve ended (:class:`LCPSolution`)."""
+
+LCPMethod = Literal["lemke", "enumerate"]
+"""The LCP algorithms: Lemke's complementary pivoting, or enumeration of the supports."""
+
+
 @dataclass(frozen=True)
 class LCPSolution:
     """Outcome of an LCP solve.
@@ -205,8 +212,8 @@ class LCPSolution:
     found: bool
     z: np.ndarray | None
     w: np.ndarray | None
-    status: str
-    method: str
+    status: LCPStatus
+    method: LCPMethod
     pivots: int
     residual: float
     tolerance: float
@@ -267,10 +274,10 @@ class FC2DSolution:
     found: bool
     r: np.ndarray | None
     u: np.ndarray | None
-    status: str
+    status: LCPStatus
     residual: float
     tolerance: float
-    method: str
+    method: LCPMethod
     lcp: LCPSolution
 
 
@@ -413,8 +420,8 @@ def _verified(
     M: np.ndarray,
     q: np.ndarray,
     z: np.ndarray | None,
-    status: str,
-    method: str,
+    status: LCPStatus,
+    method: LCPMethod,
     pivots: int,
     tolerance: float,
     start: float,
@@ -559,12 +566,12 @@ def _basic_point(q: np.ndarray, basis: np.ndarray, matrix: np.ndarray, rhs: np.n
     return values, False
 
 
-LEMKE_STATUSES = ("solved", "ray", "max_pivots")
+LEMKE_STATUSES: tuple[LCPStatus, ...] = ("solved", "ray", "max_pivots")
 """How Lemke's pivots end, by the compiled kernel's code (``LEMKE_SOLVED``, ``LEMKE_RAY``,
 ``LEMKE_MAX_PIVOTS``): z0 left the basis, no row bounds the entering column, or the pivot limit."""
 
 
-def _lemke_pivots(M: np.ndarray, q: np.ndarray, max_pivots: int) -> tuple[str, int, _LemkeTableau]:
+def _lemke_pivots(M: np.ndarray, q: np.ndarray, max_pivots: int) -> tuple[LCPStatus, int, _LemkeTableau]:
     """Lemke's pivots in NumPy (the reference of the compiled kernel's ``lemke``).
 
     Returns:
@@ -596,7 +603,8 @@ def _lemke_pivots(M: np.ndarray, q: np.ndarray, max_pivots: int) -> tuple[str, i
     return "solved", pivots, tab
 
 
-def _lemke_pivots_compiled(M: np.ndarray, q: np.ndarray, max_pivots: int) -> tuple[str, int, _LemkeBasis]:
+def _lemke_pivots_compiled(M: np.ndarray, q: np.ndarray,
+                           max_pivots: int) -> tuple[LCPStatus, int, _LemkeBasis]:
     """:func:`_lemke_pivots` by the compiled kernel: the same pivots, basis and right side."""
     n = q.size
     basis, matrix, rhs = np.empty(n, dtype=np.int64), np.empty((n, n)), np.empty(n)
@@ -631,8 +639,8 @@ def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> L
     return result
 
 
-def _lemke_stopped(M: np.ndarray, q: np.ndarray, tab: _LemkeTableau | _LemkeBasis, status: str, pivots: int,
-                   tolerance: float, start: float) -> LCPSolution:
+def _lemke_stopped(M: np.ndarray, q: np.ndarray, tab: _LemkeTableau | _LemkeBasis, status: LCPStatus,
+                   pivots: int, tolerance: float, start: float) -> LCPSolution:
     """Lemke's method ended on a ray or the pivot limit.
 
     With z0 already at zero (within the tolerance) the almost-complementary point is itself a
@@ -818,7 +826,8 @@ def solve_lcp(
     M, q = _as_lcp(M, q)
     tolerance = _check_tolerance(tolerance)
     if method in ("lemke", "enumerate") and q.size == 0:  # size 0: z = () solves it, trivially
-        return _verified(M, q, np.zeros(0), "solved", method, 0, tolerance, time.perf_counter())
+        named: LCPMethod = "lemke" if method == "lemke" else "enumerate"
+        return _verified(M, q, np.zeros(0), "solved", named, 0, tolerance, time.perf_counter())
     if method == "lemke":
         limit = 50 * q.size + 100 if max_pivots is None else max_pivots
         if not isinstance(limit, (int, np.integer)) or limit < 1:
@@ -920,7 +929,7 @@ def solve_fc2d(problem: FrictionContact2D, method: str = "lemke") -> FC2DSolutio
             status=lcp.status,
             residual=math.inf,
             tolerance=FC2D_TOLERANCE,
-            method=method,
+            method=lcp.method,
             lcp=lcp,
         )
     nc = problem.number_of_contacts
@@ -935,6 +944,6 @@ def solve_fc2d(problem: FrictionContact2D, method: str = "lemke") -> FC2DSolutio
         status=lcp.status,
         residual=residual,
         tolerance=FC2D_TOLERANCE,
-        method=method,
+        method=lcp.method,
         lcp=lcp,
     )

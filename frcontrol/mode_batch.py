@@ -51,6 +51,7 @@ from .response import (
     CONSISTENCY_TOLERANCE,
     ILL_CONDITIONED_BAND,
     OUTPUT_TOLERANCE,
+    AmbiguousOutputs,
     equilibrate_stack,
     outputs_moved_by,
     rebalance_undecided,
@@ -80,7 +81,7 @@ class BatchSolution:
     mode: str
     x: np.ndarray
     w: np.ndarray
-    ambiguous_outputs: str
+    ambiguous_outputs: AmbiguousOutputs
     equality_residual: float
     inequality_violation: float
 
@@ -351,7 +352,7 @@ def _compiled_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letter
     return found
 
 
-_MOVES = ("none", "forces", "accelerations")
+_MOVES: tuple[AmbiguousOutputs, ...] = ("none", "forces", "accelerations")
 """The compiled kernel's ``outputs`` codes (MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS)."""
 
 

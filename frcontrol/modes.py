@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from .drives import drives_report, resting_joint_torques
 from .errors import ImpactState, InputError
 from .records import replaced
 from .response import BALANCING_FRICTION
@@ -231,8 +232,6 @@ def _drives_report(scene: Scene, v: np.ndarray) -> dict[str, Any]:
     """The scene's drives at the joint speeds ``v`` (empty without drives)."""
     if not scene.drives:
         return {}
-    from .drives import drives_report
-
     return drives_report(scene.drives, dict(zip(scene.coordinate_names, v, strict=True)))
 
 
@@ -242,8 +241,6 @@ def _drive_torque(scene: Scene, given: np.ndarray | None) -> np.ndarray | float:
         return np.asarray(given, dtype=float)
     if not any(d.elastic for d in scene.drives.values()):
         return 0.0
-    from .drives import resting_joint_torques
-
     return resting_joint_torques(scene.drives, scene.coordinate_names)
 
 

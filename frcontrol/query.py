@@ -38,7 +38,7 @@ from .errors import InputError
 from .kernel import compiled, kernel_choice
 from .mode_batch import decide_intervals
 from .modes import ContactProblem, ModeSystem
-from .response import AffineSolution
+from .response import AffineSolution, AmbiguousOutputs
 
 BOUNDARY_TOLERANCE = 1e-7
 """[units of u: N or N m] An input that lies at most this distance outside a facet of a mode's
@@ -59,7 +59,7 @@ class QueryMode:
     mode: str
     system: ModeSystem
     response: AffineSolution
-    ambiguous_outputs: str
+    ambiguous_outputs: AmbiguousOutputs
 
 
 @dataclass(frozen=True)

@@ -24,11 +24,19 @@ inputs (e.g. a massless leg in the air: its torque must vanish, "ambiguous_const
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from .errors import IllConditioned
 from .kernel import compiled, kernel_choice
+
+RankCase = Literal["unique", "ambiguous", "constrained", "ambiguous_constrained"]
+"""A mode's rank case: ambiguity variables w (``ambiguous``), consistency conditions E u = e
+(``constrained``), both, or neither (``unique``)."""
+
+AmbiguousOutputs = Literal["none", "forces", "accelerations"]
+"""Which outputs the ambiguity variables w move (:func:`ambiguous_outputs`)."""
 
 RANK_TOLERANCE = 1e-10
 """Singular values of the equilibrated A at most this times the largest are taken as zero."""
@@ -118,7 +126,7 @@ class AffineSolution:
         return self.X_w.shape[1]
 
     @property
-    def case(self) -> str:
+    def case(self) -> RankCase:
         """The rank case: unique, ambiguous, constrained or ambiguous_constrained."""
         ambiguous = self.ambiguity_dim > 0
         constrained = self.E.shape[0] > 0
@@ -548,7 +556,7 @@ def certified_children(
         certified=True) if value < limit else None for i, value in enumerate(bound.tolist())]
 
 
-def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> str:
+def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> AmbiguousOutputs:
     """Which outputs of ``x = (dv, lam)`` depend on w: ``"none"``, ``"forces"`` or ``"accelerations"``.
 
     ``"accelerations"`` means the motion itself is ambiguous (forces usually too); ``"forces"``
@@ -557,7 +565,7 @@ def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> str:
     return outputs_moved_by(solution.X_w, n_coordinates)
 
 
-def outputs_moved_by(X_w: np.ndarray, n_coordinates: int) -> str:
+def outputs_moved_by(X_w: np.ndarray, n_coordinates: int) -> AmbiguousOutputs:
     """What the ambiguity directions ``X_w`` (nx, p) move: see :func:`ambiguous_outputs`."""
     if X_w.shape[1] == 0:
         return "none"

@@ -51,7 +51,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import scipy.linalg
@@ -90,6 +90,10 @@ no scaling (it scales a matrix whose largest entry is below about 1e-138 or abov
 it, :func:`classify_solutions` reads the eigenvalue of one held row without the call."""
 
 
+SpectrumMethod = Literal["cholesky", "pencil"]
+"""How D's spectrum was found: through M's Cholesky factor, or QZ on the pencil (M singular)."""
+
+
 @dataclass(frozen=True)
 class Stability:
     """The singular-perturbation verdict on one rigid-body solution.
@@ -123,7 +127,7 @@ class Stability:
     massless_eigenvalues: np.ndarray = field(default_factory=lambda: np.zeros(0))
     critical_damping: float | None = None
     boundary_layer_roots: np.ndarray | None = None
-    method: str = "cholesky"
+    method: SpectrumMethod = "cholesky"
     tolerances: dict = field(default_factory=dict)
 
 
@@ -422,7 +426,7 @@ def _reduced_rows(M: np.ndarray, J_r: np.ndarray, J_c: np.ndarray, j_scale: floa
 
 @dataclass(frozen=True)
 class _Spectrum:
-    method: str  # "cholesky" (M positive definite) or "pencil"
+    method: SpectrumMethod
     eigenvalues: np.ndarray  # D's finite eigenvalues
     massless: np.ndarray  # leading coefficients of the infinite ones (massless directions)
     delassus: np.ndarray | None

@@ -91,19 +91,23 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import scipy.spatial
 
 from . import polytope as poly
+from .engine import solutions_at
 from .errors import InputError
 from .jsonable import finite_or_none, to_jsonable
-from .modes import add_scene_modes
+from .modes import ContactProblem, add_scene_modes, build_mode_system
+from .response import AmbiguousOutputs, solve_affine
 from .scene import Scene, parse_input_assignments
 from .solvers import DEFAULT_LP_SOLVER, LPResult, SolverFailed, must_solve, solve_lp
 
 __all__ = [
+    "BodyLoad",
+    "BodyScale",
     "ACCELERATION_TOLERANCE",
     "CLOSURE_TOLERANCE",
     "DAQP_PRIMAL_TOLERANCE",
@@ -272,6 +276,37 @@ def _finite_scalar(name: str, value: Any, *, positive: bool = False, nonnegative
     return x
 
 
+@dataclass(frozen=True)
+class BodyLoad:
+    """What loads a body besides its contacts (checked by :func:`static_body`).
+
+    Attributes:
+        gravity: [m/s^2] along ``-y``, ``>= 0``.
+        force: [N] applied at ``point``.
+        point: [m] where ``force`` applies (default: the centre of mass).
+        torque: [N m] applied.
+    """
+
+    gravity: float = 9.81
+    force: Any = (0.0, 0.0)
+    point: Any = None
+    torque: float = 0.0
+
+
+@dataclass(frozen=True)
+class BodyScale:
+    """The length ``L`` [m] that turns torques into forces (checked by :func:`static_body`).
+
+    Attributes:
+        characteristic_length: ``L`` [m], ``> 0``; default ``sqrt(inertia / mass)``, else the
+            distance from the centre of mass to the farthest contact (1 m if that is 0).
+        inertia: planar inertia about the centre of mass [kg m^2]; gives the default ``L``.
+    """
+
+    characteristic_length: float | None = None
+    inertia: float | None = None
+
+
 def static_body(
     points: Any,
     normals: Any,
@@ -279,12 +314,8 @@ def static_body(
     mass: float,
     com: Any,
     *,
-    gravity: float = 9.81,
-    applied_force: Any = (0.0, 0.0),
-    applied_point: Any = None,
-    applied_torque: float = 0.0,
-    inertia: float | None = None,
-    characteristic_length: float | None = None,
+    load: BodyLoad = BodyLoad(),
+    scale: BodyScale = BodyScale(),
     names: Sequence[str] | None = None,
 ) -> StaticBody:
     """A validated :class:`StaticBody` from arrays.
@@ -295,13 +326,8 @@ def static_body(
         mu: friction coefficients [-], a scalar or shape ``(k,)``, ``>= 0``.
         mass: [kg], ``> 0``.
         com: centre of mass [m], shape ``(2,)``.
-        gravity: [m/s^2] along ``-y``, ``>= 0``.
-        applied_force: [N] applied at ``applied_point`` (default: the centre of mass).
-        applied_point: [m].
-        applied_torque: [N m].
-        inertia: planar inertia about the centre of mass [kg m^2]; gives the default ``L``.
-        characteristic_length: ``L`` [m], ``> 0``; default ``sqrt(inertia / mass)``, else the
-            distance from the centre of mass to the farthest contact (1 m if that is 0).
+        load: gravity and the applied force and torque (:class:`BodyLoad`).
+        scale: the characteristic length ``L``, or the inertia that gives it (:class:`BodyScale`).
         names: contact names (default ``c0, c1, ...``).
 
     Raises:
@@ -324,12 +350,13 @@ def static_body(
         raise InputError(f"friction coefficients must be >= 0, got {mu_arr.tolist()}")
     m = _finite_scalar("mass", mass, positive=True)
     c = _finite_array("com", com, (2,))
-    g = _finite_scalar("gravity", gravity, nonnegative=True)
-    force = _finite_array("applied_force", applied_force, (2,))
-    point = c.copy() if applied_point is None else _finite_array("applied_point", applied_point, (2,))
-    torque = _finite_scalar("applied_torque", applied_torque)
-    if characteristic_length is not None:
-        length = _finite_scalar("characteristic_length", characteristic_length, positive=True)
+    g = _finite_scalar("gravity", load.gravity, nonnegative=True)
+    force = _finite_array("applied_force", load.force, (2,))
+    point = c.copy() if load.point is None else _finite_array("applied_point", load.point, (2,))
+    torque = _finite_scalar("applied_torque", load.torque)
+    inertia = scale.inertia
+    if scale.characteristic_length is not None:
+        length = _finite_scalar("characteristic_length", scale.characteristic_length, positive=True)
         source = "given"
     elif inertia is not None and _finite_scalar("inertia", inertia, nonnegative=True) > 1e-12 * m:
         length, source = math.sqrt(float(inertia) / m), "radius of gyration"
@@ -413,12 +440,9 @@ def static_body_from_scene(
         np.array([c.mu for c in active]),
         mass,
         com,
-        gravity=robot.gravity,
-        applied_force=generalized[:2],
-        applied_point=origin,
-        applied_torque=float(generalized[2]),
-        inertia=max(inertia, 0.0),
-        characteristic_length=characteristic_length,
+        load=BodyLoad(gravity=robot.gravity, force=generalized[:2], point=origin,
+                      torque=float(generalized[2])),
+        scale=BodyScale(characteristic_length=characteristic_length, inertia=max(inertia, 0.0)),
         names=[c.name for c in active],
     )
 
@@ -514,6 +538,10 @@ def _rank(matrix: np.ndarray, *, normalise_rows: bool = False) -> int:
 # closure
 
 
+ClosureKind = Literal["form", "force"]
+"""Form closure (frictionless normals) or force closure (friction-cone edges)."""
+
+
 @dataclass(frozen=True, eq=False)
 class Closure:
     """Form or force closure of the body by its contacts.
@@ -534,7 +562,7 @@ class Closure:
         tolerances: the tolerances used.
     """
 
-    kind: str
+    kind: ClosureKind
     closed: bool
     margin: float
     weakest_direction: np.ndarray | None
@@ -545,7 +573,7 @@ class Closure:
     tolerances: Mapping[str, float]
 
 
-def _closure(body: StaticBody, kind: str, solver: str) -> Closure:
+def _closure(body: StaticBody, kind: ClosureKind, solver: str) -> Closure:
     W = primitive_wrenches(body, friction=kind == "force")
     p = W.shape[1]
     rank = _rank(W)
@@ -751,6 +779,10 @@ def _force_ranges(G: np.ndarray, w: np.ndarray, C: np.ndarray, lam: np.ndarray, 
 # support region
 
 
+SupportMethod = Literal["interval", "fourier_motzkin"]
+"""How a support region was found: the strip of two LPs (no lateral acceleration) or by projection."""
+
+
 @dataclass(frozen=True, eq=False)
 class SupportRegion:
     """The centre-of-mass positions for which the body can be in equilibrium.
@@ -780,7 +812,7 @@ class SupportRegion:
     region_contains_com: bool
     bounded: bool
     vertices: np.ndarray | None
-    method: str
+    method: SupportMethod
 
 
 def _moved_com_system(
@@ -923,7 +955,8 @@ def weak_stability(
     row_scale = np.maximum(np.max(np.abs(A), axis=1, initial=0.0), np.abs(rhs))
     row_scale[row_scale == 0.0] = 1.0
     body = static_body(state.contact_points, [c.point.normal_in_world for c in scene.active_contacts],
-                       [c.mu for c in scene.active_contacts], 1.0, np.zeros(2), characteristic_length=1.0)
+                       [c.mu for c in scene.active_contacts], 1.0, np.zeros(2),
+                       scale=BodyScale(characteristic_length=1.0))
     C, _ = cone_rows(body)
     r_star, lam = _phase_one(A / row_scale[:, None], rhs / row_scale, C, solver)
     ok = r_star <= EQUILIBRIUM_TOLERANCE
@@ -947,7 +980,7 @@ class RestSolution:
     mode: str
     max_abs_dv: float
     at_rest: bool
-    ambiguous_outputs: str
+    ambiguous_outputs: AmbiguousOutputs
 
 
 @dataclass(frozen=True, eq=False)
@@ -969,9 +1002,6 @@ class StrongStability:
 
 def _dv_range_over_ambiguity(problem: Any, mode: str, u: np.ndarray, solver: str) -> float:
     """``max_j |dv_j|`` over every ambiguity value ``w`` admissible in ``mode`` at input ``u``."""
-    from .modes import build_mode_system
-    from .response import solve_affine
-
     system = build_mode_system(problem, mode)
     response = solve_affine(system.A, system.B, system.c)
     n = problem.n
@@ -1021,9 +1051,6 @@ def strong_stability(
     Raises:
         InputError: a fixed base, bad inputs.
     """
-    from .engine import solutions_at
-    from .modes import ContactProblem
-
     _check_statics_scene(scene)
     u = _scene_inputs(scene, inputs)
     weak = weak if weak is not None else weak_stability(scene, u, solver=solver)

@@ -33,7 +33,7 @@ from frcontrol.engine import analyze, solutions_at
 from frcontrol.errors import FrcontrolError, IllConditioned, InputError
 from frcontrol.modes import ContactProblem
 from frcontrol.scene import Scene, load_scene, shipped_robots_dir
-from frcontrol.simulation.compliant import simulate_compliant
+from frcontrol.simulation.compliant import CompliantSettings, simulate_compliant
 from frcontrol.stability import stability_of
 from frcontrol.statics import analyze_statics
 
@@ -440,7 +440,8 @@ def friction_cases() -> list[Case]:
 def _resting_box_compliant(stiffness: float, integrator: str) -> Callable[[Path], Outcome]:
     def run(folder: Path) -> Outcome:
         scene = load_scene("box_on_ground")
-        traj = simulate_compliant(scene, None, 0.05, 0.01, stiffness=stiffness, integrator=integrator)
+        traj = simulate_compliant(scene, None, 0.05, 0.01,
+                                  settings=CompliantSettings(stiffness=stiffness, integrator=integrator))
         status = traj.status
         finite("trajectory", traj.q, traj.v, traj.contact_forces)
         if status != "completed":
@@ -456,7 +457,8 @@ def _resting_box_compliant(stiffness: float, integrator: str) -> Callable[[Path]
 def _euler_refused(folder: Path) -> Outcome:
     scene = load_scene("box_on_ground")
     try:
-        simulate_compliant(scene, None, 0.01, 1e-4, stiffness=1e12, integrator="euler")
+        simulate_compliant(scene, None, 0.01, 1e-4,
+                           settings=CompliantSettings(stiffness=1e12, integrator="euler"))
     except InputError as err:
         check("stability limit" in str(err), f"the message does not name the stability limit: {err}")
         return typed(err)
@@ -465,10 +467,11 @@ def _euler_refused(folder: Path) -> Outcome:
 
 def _euler_near_limit(folder: Path) -> Outcome:
     scene = load_scene("box_on_ground")
-    probe = simulate_compliant(scene, None, 1e-3, 1e-3, stiffness=1e6)
+    probe = simulate_compliant(scene, None, 1e-3, 1e-3, settings=CompliantSettings(stiffness=1e6))
     limit = probe.info["explicit_stability_limit"]
     try:
-        traj = simulate_compliant(scene, None, 0.2, 0.9 * limit, stiffness=1e6, integrator="euler")
+        traj = simulate_compliant(scene, None, 0.2, 0.9 * limit,
+                                  settings=CompliantSettings(stiffness=1e6, integrator="euler"))
     except InputError as err:
         return typed(err)
     finite("trajectory", traj.q, traj.v, traj.contact_forces)
@@ -480,8 +483,8 @@ def _radau_tight(folder: Path) -> Outcome:
     scene = load_scene("rhex_flip")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        traj = simulate_compliant(scene, RHEX_MOVING_INPUT, 0.0034, 0.0034, stiffness=1e8, rtol=1e-7,
-                                  atol=3e-14)
+        traj = simulate_compliant(scene, RHEX_MOVING_INPUT, 0.0034, 0.0034,
+                                  settings=CompliantSettings(stiffness=1e8, rtol=1e-7, atol=3e-14))
     finite("trajectory", traj.q, traj.v)
     if not traj.completed:
         return Outcome("typed error", f"status {traj.status}: {traj.failure.reason}")
@@ -858,8 +861,8 @@ def _scaled_rod_compliant(length: float) -> Callable[[Path], Outcome]:
         # lengths x L at fixed mass and g: times scale as sqrt(L); k = 1e5 / L keeps the penetration
         # at the same fraction of the length, and atol (1e-9 m by default) scales with L
         duration = 0.1 * math.sqrt(length)
-        traj = simulate_compliant(scaled, None, duration, duration / 2, stiffness=1e5 / length,
-                                  atol=1e-9 * length)
+        traj = simulate_compliant(scaled, None, duration, duration / 2,
+                                  settings=CompliantSettings(stiffness=1e5 / length, atol=1e-9 * length))
         finite("trajectory", traj.q, traj.v, traj.contact_forces)
         check(traj.completed, f"status {traj.status}: {traj.failure}")
         close("lam_N", traj.contact_forces[-1, 0, 0], G, COMPLIANT_RTOL)

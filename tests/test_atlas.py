@@ -15,7 +15,7 @@ from frcontrol.cli.app import app
 from typer.testing import CliRunner
 
 import frcontrol
-from frcontrol.atlas import AMBIGUITY, Axis, build_atlas, parse_axis, read_table, run_atlas
+from frcontrol.atlas import AMBIGUITY, AtlasWorkers, Axis, build_atlas, parse_axis, read_table, run_atlas
 from frcontrol.atlas.store import parts_folder, read_metadata
 from frcontrol.errors import InputError, SceneError
 from frcontrol.scene import load_scene
@@ -132,7 +132,7 @@ def direct(scene_overrides, inputs):
 
 def test_every_point_is_what_the_library_says_there():
     plan = build_atlas("rod_on_table", ROD_AXES + ["input.x=-3:3:2"], overrides={"state.v.x": -1.0})
-    result = run_atlas(plan, workers=1)
+    result = run_atlas(plan, where=AtlasWorkers(1))
     rows = result.rows
     counts = set()
     for k in range(plan.size):
@@ -152,7 +152,7 @@ def test_ambiguity_between_and_within_modes():
     # the rod on the table across an overlap of its modes S, R and F (between modes); the table's
     # legs share its load (within)
     rod = run_atlas(build_atlas("rod_on_table", ["input.x=48.0:49.6:3"],
-                                inputs={"y": -49.3379, "theta": 24.0442}), workers=1)
+                                inputs={"y": -49.3379, "theta": 24.0442}), where=AtlasWorkers(1))
     scene = load_scene("rod_on_table")
     for k, amb in enumerate(rod.rows["ambiguous"]):
         u = {"x": float(np.linspace(48.0, 49.6, 3)[k]), "y": -49.3379, "theta": 24.0442}
@@ -160,12 +160,13 @@ def test_ambiguity_between_and_within_modes():
         assert rod.rows["count"][k] == len(found)
         assert amb in (("between", "both") if len(found) > 1 else ("none", "within"))
     assert any(c > 1 for c in rod.rows["count"])
-    table = run_atlas(build_atlas("table_on_ground", ["gravity=5:10:2"]), workers=1)
+    table = run_atlas(build_atlas("table_on_ground", ["gravity=5:10:2"]), where=AtlasWorkers(1))
     assert set(table.rows["ambiguous"]) <= {"within", "both"} and table.rows["count"] == [1, 1]
 
 
 def test_a_bad_point_records_its_error_and_the_sweep_goes_on():
-    result = run_atlas(build_atlas("rod_on_table", ["contacts.tip.mu=-1:1:3", "input.x=-60:0:2"]), workers=1)
+    result = run_atlas(build_atlas("rod_on_table", ["contacts.tip.mu=-1:1:3", "input.x=-60:0:2"]),
+                       where=AtlasWorkers(1))
     errors, counts = result.rows["error"], result.rows["count"]
     assert errors[0] == "rod_on_table: contacts.tip.mu: expected >= 0, got -1.0"  # the scene's name, the axis
     assert "got -1.0" in errors[1]
@@ -175,15 +176,17 @@ def test_a_bad_point_records_its_error_and_the_sweep_goes_on():
 
 def test_statics_flip_and_climb_add_their_columns():
     statics = run_atlas(build_atlas("box_on_slope", ["contacts.lower.mu=0.1:0.6:2"], what="statics"),
-                        workers=1)
+                        where=AtlasWorkers(1))
     report = frcontrol.analyze_statics(load_scene("box_on_slope", overrides={"contacts.lower.mu": 0.6}))
     assert statics.rows["static_equilibrium"][1] is True is bool(report.equilibrium.exists)
     assert statics.rows["force_closure_margin"][1] == pytest.approx(report.force_closure.margin)
-    flip = run_atlas(build_atlas("rhex_flip", ["contacts.front_corner.mu=0.2:0.8:2"], what="flip"), workers=1)
+    flip = run_atlas(build_atlas("rhex_flip", ["contacts.front_corner.mu=0.2:0.8:2"], what="flip"),
+                     where=AtlasWorkers(1))
     plan = frcontrol.plan_flip(load_scene("rhex_flip", overrides={"contacts.front_corner.mu": 0.8}))
     assert flip.rows["found"][1] is plan.found
     assert flip.rows["plan_mode"][1] == (plan.mode if plan.found else None)
-    climb = run_atlas(build_atlas("snake_climb", ["gravity=9.81:9.81:1"], what="climb"), workers=1)
+    climb = run_atlas(build_atlas("snake_climb", ["gravity=9.81:9.81:1"], what="climb"),
+                      where=AtlasWorkers(1))
     plan = frcontrol.plan_climb(load_scene("snake_climb"))
     assert climb.rows["found"] == [plan.found]
     assert climb.rows["max_disturbance_scale"][0] == pytest.approx(plan.max_disturbance_scale)
@@ -214,7 +217,7 @@ def test_npz_and_parquet_read_back_as_the_runs_rows(tmp_path):
                        overrides={"state.v.x": -1.0})
     for suffix in (".npz", ".parquet"):
         out = tmp_path / f"atlas{suffix}"
-        result = run_atlas(plan, workers=1, out=out)
+        result = run_atlas(plan, where=AtlasWorkers(1), out=out)
         assert not parts_folder(out).exists()
         table = read_table(out)
         assert list(table) == ["index", "contacts.tip.mu", "state.q.theta", "count", "modes", "stable",
@@ -233,7 +236,7 @@ def test_parquet_has_real_nulls_booleans_lists_and_units(tmp_path):
 
     plan = build_atlas("box_on_slope", ["contacts.lower.mu=-0.2:0.6:3"], what="statics",
                        overrides={"gravity": 9.0})
-    result = run_atlas(plan, workers=1, out=tmp_path / "box.parquet")
+    result = run_atlas(plan, where=AtlasWorkers(1), out=tmp_path / "box.parquet")
     table = pq.read_table(tmp_path / "box.parquet")
     schema = table.schema
     assert schema.field("count").type == pa.int64() and schema.field("modes").type == pa.list_(pa.string())
@@ -257,8 +260,8 @@ def test_parquet_has_real_nulls_booleans_lists_and_units(tmp_path):
 def test_npz_has_the_same_names_and_a_json_metadata_entry(tmp_path):
     plan = build_atlas("rod_on_table", ["input.x=-60:0:2", "gravity=5:10:2"], overrides={"state.v.x": -1.0})
     parquet, npz = tmp_path / "rod.parquet", tmp_path / "rod.npz"
-    run_atlas(plan, workers=1, out=parquet)
-    run_atlas(plan, workers=1, out=npz)
+    run_atlas(plan, where=AtlasWorkers(1), out=parquet)
+    run_atlas(plan, where=AtlasWorkers(1), out=npz)
     import pyarrow.parquet as pq
 
     with np.load(npz) as data:
@@ -273,7 +276,7 @@ def test_npz_has_the_same_names_and_a_json_metadata_entry(tmp_path):
 
 def test_an_interrupted_run_resumes_to_the_same_result(tmp_path):
     plan = build_atlas("rod_on_table", ROD_AXES, overrides={"state.v.x": -1.0}, chunk_size=2)
-    whole = run_atlas(plan, workers=1)
+    whole = run_atlas(plan, where=AtlasWorkers(1))
     out = tmp_path / "rod.npz"
     seen = []
 
@@ -283,14 +286,14 @@ def test_an_interrupted_run_resumes_to_the_same_result(tmp_path):
             raise KeyboardInterrupt("stopped after three chunks")
 
     with pytest.raises(KeyboardInterrupt, match="stopped after three chunks"):
-        run_atlas(plan, workers=1, out=out, progress=stop_after_three)
+        run_atlas(plan, where=AtlasWorkers(1), out=out, progress=stop_after_three)
     assert not out.exists() and len(list(parts_folder(out).glob("chunk-*.json"))) == 3
     with pytest.raises(InputError, match="add --resume"):
-        run_atlas(plan, workers=1, out=out)
+        run_atlas(plan, where=AtlasWorkers(1), out=out)
     other = build_atlas("rod_on_table", ROD_AXES, overrides={"state.v.x": 1.0}, chunk_size=2)
     with pytest.raises(InputError, match="other arguments"):
-        run_atlas(other, workers=1, out=out, resume=True)
-    resumed = run_atlas(plan, workers=1, out=out, resume=True)
+        run_atlas(other, where=AtlasWorkers(1), out=out, resume=True)
+    resumed = run_atlas(plan, where=AtlasWorkers(1), out=out, resume=True)
     assert resumed.run["resumed_chunks"] == 3 and resumed.run["computed_chunks"] == plan.chunk_count - 3
     assert resumed.rows == whole.rows
     assert read_table(out)["count"] == whole.rows["count"]
@@ -303,13 +306,13 @@ def test_the_map_has_one_colour_per_count_and_a_legend(tmp_path):
     from frcontrol.viz.plots import text_overlaps
 
     doc = run_atlas(build_atlas("rod_on_table", ["contacts.tip.mu=-0.5:2:6", "state.q.theta=0.3:2.8:5"],
-                                overrides={"state.v.x": -1.0}), workers=1).to_dict()
+                                overrides={"state.v.x": -1.0}), where=AtlasWorkers(1)).to_dict()
     fig = plot_atlas(doc, tmp_path / "map.png")
     labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
     assert labels == ["0 solutions", "1 solution", ERROR_LABEL]
     assert not text_overlaps(fig) and (tmp_path / "map.png").read_bytes()[:4] == b"\x89PNG"
     axes = ["gravity=5:10:2", "contacts.tip.mu=0:2:2", "input.x=0:1:2"]
-    three = run_atlas(build_atlas("rod_on_table", axes), workers=1).to_dict()
+    three = run_atlas(build_atlas("rod_on_table", axes), where=AtlasWorkers(1)).to_dict()
     for figure in ("ambiguous", "modes"):
         assert not text_overlaps(plot_atlas(three, figure=figure))
     assert "input.x = 0" in plot_atlas(three).axes[0].get_title()
@@ -378,12 +381,12 @@ def test_a_scene_given_as_content_sweeps_like_its_file_and_never_reads_a_path(tm
     toml = (shipped_robots_dir() / "scenes" / "rod_on_table.toml").read_text(encoding="utf-8")
     urdf = (shipped_robots_dir() / "rod.urdf").read_text(encoding="utf-8")
     sets = {"state.v.x": -1.0}
-    by_file = run_atlas(build_atlas("rod_on_table", ROD_AXES, overrides=sets), workers=1)
+    by_file = run_atlas(build_atlas("rod_on_table", ROD_AXES, overrides=sets), where=AtlasWorkers(1))
     mine = SceneSource.content(toml=toml.replace('robot = "rod.urdf"', 'robot = "mine.urdf"'),
                                robots={"mine.urdf": urdf})
     plan = build_atlas(mine, ROD_AXES, overrides=sets)
     assert plan.scene == "scene" and plan.fingerprint != by_file.plan.fingerprint
-    assert run_atlas(plan, workers=1).rows == by_file.rows
+    assert run_atlas(plan, where=AtlasWorkers(1)).rows == by_file.rows
     other = SceneSource.content(toml=toml, robots={"mine.urdf": urdf.replace("rod", "bar")})
     assert build_atlas(other, ROD_AXES, overrides=sets).fingerprint != plan.fingerprint  # URDF text counts
     (tmp_path / "rod.urdf").write_text(urdf, encoding="utf-8")  # a real file at the path named

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from frcontrol.atlas import build_atlas, run_atlas
+from frcontrol.atlas import AtlasWorkers, build_atlas, run_atlas
 from frcontrol.atlas.store import ChunkStore, parts_folder
 
 if os.environ.get("CI") != "true":
@@ -40,7 +40,7 @@ def plan():
 
 @pytest.fixture(scope="module")
 def serial(plan):
-    return run_atlas(plan, workers=1)
+    return run_atlas(plan, where=AtlasWorkers(1))
 
 
 @pytest.fixture(scope="module")
@@ -70,8 +70,9 @@ def scheduler_address(file: Path, scheduler: subprocess.Popen) -> str:
 
 @pytest.mark.slow
 def test_serial_pool_and_cluster_give_the_same_atlas(plan, serial, cluster):
-    pool = run_atlas(plan, workers=2)
-    dask = run_atlas(plan, scheduler=cluster.scheduler_address)
+    on_dask = AtlasWorkers(scheduler=cluster.scheduler_address)
+    pool = run_atlas(plan, where=AtlasWorkers(2))
+    dask = run_atlas(plan, where=on_dask)
     assert dask.run["executor"] == "dask" and dask.run["workers"] == 2 and pool.run["executor"] == "pool"
     assert any(serial.rows["error"]) and any(c == 0 for c in serial.rows["count"])
     assert serial.rows == pool.rows == dask.rows
@@ -79,6 +80,7 @@ def test_serial_pool_and_cluster_give_the_same_atlas(plan, serial, cluster):
 
 
 def test_a_killed_dask_worker_has_its_chunks_rerun(plan, serial, cluster, tmp_path):
+    on_dask = AtlasWorkers(scheduler=cluster.scheduler_address)
     with Client(cluster.scheduler_address, set_as_default=False) as client:
         pids = list(client.run(os.getpid).values())
     killed = []
@@ -89,14 +91,14 @@ def test_a_killed_dask_worker_has_its_chunks_rerun(plan, serial, cluster, tmp_pa
             killed.append(pids[0])
 
     out = tmp_path / "rod.npz"
-    result = run_atlas(plan, scheduler=cluster.scheduler_address, out=out, progress=kill_one)
+    result = run_atlas(plan, where=on_dask, out=out, progress=kill_one)
     assert killed and (not Path(f"/proc/{killed[0]}").exists() or _zombie(killed[0]))
     assert result.rows == serial.rows and out.exists() and not parts_folder(out).exists()
     # the run survived one death: counted, with the chunk the worker was computing handed out again
     assert result.run["worker_deaths"] == 1
     rerun = result.run["rerun_chunks"]
     assert 1 <= len(rerun) and set(rerun) <= set(range(plan.chunk_count))
-    again = run_atlas(plan, scheduler=cluster.scheduler_address)  # an earlier run's deaths are not this one's
+    again = run_atlas(plan, where=on_dask)  # an earlier run's deaths are not this one's
     assert again.run["worker_deaths"] == 0 and again.run["rerun_chunks"] == []
 
 
@@ -108,11 +110,12 @@ def _zombie(pid: int) -> bool:
 
 
 def test_a_stopped_run_cancels_its_chunks_on_the_cluster(plan, cluster):
+    on_dask = AtlasWorkers(scheduler=cluster.scheduler_address)
     from frcontrol.errors import AtlasInterrupted
 
     seen = []
     with pytest.raises(AtlasInterrupted, match="stopped on request"):
-        run_atlas(plan, scheduler=cluster.scheduler_address, progress=lambda done, total: seen.append(done),
+        run_atlas(plan, where=on_dask, progress=lambda done, total: seen.append(done),
                   stop=lambda: seen[-1] > 0 if seen else False)
     assert seen == [0, CHUNK]  # started, one chunk in, then stopped: the other chunks never came
     with Client(cluster.scheduler_address, set_as_default=False) as client:

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from frcontrol.atlas import build_atlas, run_atlas
+from frcontrol.atlas import AtlasWorkers, build_atlas, run_atlas
 from frcontrol.atlas.points import columns, evaluate_chunk, numeric_axes
 from frcontrol.errors import SceneError
 from frcontrol.scene import load_scene, shipped_scene_names
@@ -90,7 +90,7 @@ def test_a_numeric_sweep_loads_the_scene_once():
     # a fixed value no other test uses: the scene is not yet among the kept ones
     plan = build_atlas("rod_on_table", ["state.q.theta=0.3:2.8:7", "contacts.tip.mu=0:2:5"],
                        overrides={"state.v.x": -0.9871})
-    result = run_atlas(plan, workers=1)
+    result = run_atlas(plan, where=AtlasWorkers(1))
     assert result.run["scene_loads"] == 1
     slow = [evaluate_chunk(plan, c, reload=True) for c in range(plan.chunk_count)]
     assert [n for c in slow for n in c["count"]] == result.rows["count"]

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from frcontrol.atlas import build_atlas, read_table, run_atlas
+from frcontrol.atlas import AtlasWorkers, build_atlas, read_table, run_atlas
 from frcontrol.atlas.store import ChunkStore, parts_folder
 
 pytestmark = pytest.mark.slow  # real process pools stopped by signals and kills: seconds each
@@ -48,7 +48,7 @@ def atlas_args(out: Path, *extra: str) -> list[str]:
 @pytest.fixture(scope="module")
 def reference():
     plan = build_atlas("rod_on_table", AXES, overrides=SETS, chunk_size=CHUNK)
-    return plan, run_atlas(plan, workers=1)
+    return plan, run_atlas(plan, where=AtlasWorkers(1))
 
 
 def comparable(doc: dict) -> dict:

@@ -7,7 +7,7 @@ import pytest
 
 from frcontrol.errors import InputError
 from frcontrol.scene import load_scene
-from frcontrol.simulation.closed_loop import run_closed_loop
+from frcontrol.simulation.closed_loop import LoopOptions, run_closed_loop
 from frcontrol.simulation.inputs import step_lengths
 from frcontrol.simulation.rigid import RigidSettings, RigidStepper, simulate_rigid
 
@@ -54,8 +54,8 @@ def test_the_policy_is_asked_every_n_steps_and_its_command_held():
         seen.append(round(stepper.t / 1e-3))
         return np.array([0.0, 0.0, 10.0 * stepper.t])
 
-    run = run_closed_loop(RigidStepper(scene), ramp, 0.023, 1e-3, every=5,
-                          command=np.array([0.0, 0.0, -1.0]))
+    run = run_closed_loop(RigidStepper(scene), ramp, 0.023, 1e-3,
+                          options=LoopOptions(every=5, command=np.array([0.0, 0.0, -1.0])))
     assert seen == [5, 10, 15, 20]
     assert run.decisions == 4
     applied = run.trajectory.inputs[1:, 2]  # inputs[k + 1] is step k's
@@ -70,7 +70,7 @@ def test_actuation_turns_the_held_command_into_each_steps_inputs():
         return command if stepper.t < 2.5e-3 else 0.5 * command
 
     run = run_closed_loop(RigidStepper(scene), lambda stepper: np.array([4.0, 0.0, 0.0]), 0.005, 1e-3,
-                          every=100, actuate=halve_after_first_steps)
+                          options=LoopOptions(every=100, actuate=halve_after_first_steps))
     np.testing.assert_array_equal(run.trajectory.inputs[1:, 0], [4.0, 4.0, 4.0, 2.0, 2.0])
     assert run.decisions == 1
 
@@ -78,7 +78,7 @@ def test_actuation_turns_the_held_command_into_each_steps_inputs():
 def test_stop_ends_the_run_after_the_step_where_it_holds():
     scene = load_scene("rod_on_table")
     run = run_closed_loop(RigidStepper(scene), lambda stepper: np.zeros(3), 1.0, 1e-3,
-                          stop=lambda stepper: stepper.t >= 0.0125)
+                          options=LoopOptions(stop=lambda stepper: stepper.t >= 0.0125))
     assert run.stopped
     assert len(run.trajectory.times) == 14
     assert run.trajectory.times[-2] < 0.0125 <= run.trajectory.times[-1]
@@ -87,7 +87,8 @@ def test_stop_ends_the_run_after_the_step_where_it_holds():
 def test_progress_is_reported_every_n_steps():
     scene = load_scene("rod_on_table")
     reports = []
-    run_closed_loop(RigidStepper(scene), lambda stepper: np.zeros(3), 0.01, 1e-3, every=4,
+    run_closed_loop(RigidStepper(scene), lambda stepper: np.zeros(3), 0.01, 1e-3,
+                    options=LoopOptions(every=4),
                     progress=lambda t, total: reports.append((round(t / 1e-3), total)))
     assert reports == [(4, 0.01), (8, 0.01)]
 
@@ -103,7 +104,8 @@ def test_a_bad_command_is_a_typed_error_naming_the_time(command, match):
         run_closed_loop(RigidStepper(scene), lambda stepper: command, 0.01, 1e-3)
     calls = iter([np.zeros(3), command])
     with pytest.raises(InputError, match=r"t = 0\.002 s"):
-        run_closed_loop(RigidStepper(scene), lambda stepper: next(calls), 0.01, 1e-3, every=2)
+        run_closed_loop(RigidStepper(scene), lambda stepper: next(calls), 0.01, 1e-3,
+                        options=LoopOptions(every=2))
 
 
 @pytest.mark.parametrize(("options", "match"), [
@@ -117,4 +119,4 @@ def test_bad_loop_options_are_typed_errors(options, match):
     arguments = {"duration": 0.01, "dt": 1e-3, **options}
     with pytest.raises(InputError, match=match):
         run_closed_loop(RigidStepper(scene), lambda stepper: np.zeros(3), arguments.pop("duration"),
-                        arguments.pop("dt"), **arguments)
+                        arguments.pop("dt"), options=LoopOptions(**arguments))

@@ -101,3 +101,165 @@ def test_a_bare_raises_is_caught(tmp_path):
                     "        int('x')\n    with pytest.raises(ValueError, match='invalid'):\n"
                     "        int('x')\n")
     assert _raises_without_match(path) == [4]
+
+
+VERDICT_FIELDS = frozenset({"verdict", "status", "pruned", "ambiguous_outputs"})
+"""Fields of a result record that hold a verdict: one of a few named values, never any string."""
+
+UNTYPED_VERDICTS_IN_REWORK = frozenset({"frcontrol/planning/climb.py::ClimbResult.status"})
+"""Verdict fields in modules being reworked now; to shrink to empty as the rework lands."""
+
+
+def bare_string_verdicts(path: Path, root: Path = ROOT) -> list[str]:
+    """``"path::Class.field"`` of every dataclass field in ``VERDICT_FIELDS`` annotated ``str``."""
+    found = []
+    relative = path.relative_to(root).as_posix()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
+        if not isinstance(node, ast.ClassDef):
+            continue
+        decorators = [d.func if isinstance(d, ast.Call) else d for d in node.decorator_list]
+        if not any(isinstance(d, ast.Name) and d.id == "dataclass" for d in decorators):
+            continue
+        for statement in node.body:
+            if (isinstance(statement, ast.AnnAssign) and isinstance(statement.target, ast.Name)
+                    and statement.target.id in VERDICT_FIELDS
+                    and ast.unparse(statement.annotation).replace(" ", "") in ("str", "str|None")):
+                found.append(f"{relative}::{node.name}.{statement.target.id}")
+    return found
+
+
+def test_verdicts_are_named_values():
+    """A verdict is a ``Literal`` (or an enum): mypy then checks every value set or compared."""
+    found = {key for path in sorted((ROOT / "frcontrol").rglob("*.py")) for key in bare_string_verdicts(path)}
+    untyped = sorted(found - UNTYPED_VERDICTS_IN_REWORK)
+    assert not untyped, f"verdict fields typed str (give them a Literal type): {untyped}"
+
+
+def test_a_bare_string_verdict_is_caught(tmp_path):
+    path = tmp_path / "x.py"
+    path.write_text("from dataclasses import dataclass\nfrom typing import Literal\n\n"
+                    "@dataclass(frozen=True)\nclass R:\n    status: str\n    verdict: Literal['a']\n"
+                    "    name: str\n\n@dataclass\nclass S:\n    pruned: str | None = None\n")
+    assert bare_string_verdicts(path, tmp_path) == ["x.py::R.status", "x.py::S.pruned"]
+
+
+def mutable_private_fields(path: Path, root: Path = ROOT) -> list[str]:
+    """``"path::Class.field"`` of every private field of a frozen dataclass with a dict, list or set
+    default: a cache that a frozen record fills after construction."""
+    found = []
+    relative = path.relative_to(root).as_posix()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
+        if not isinstance(node, ast.ClassDef) or not any(
+                isinstance(d, ast.Call) and any(k.arg == "frozen" and isinstance(k.value, ast.Constant)
+                                                and k.value.value is True for k in d.keywords)
+                for d in node.decorator_list):
+            continue
+        for statement in node.body:
+            if (isinstance(statement, ast.AnnAssign) and isinstance(statement.target, ast.Name)
+                    and statement.target.id.startswith("_") and isinstance(statement.value, ast.Call)
+                    and any(k.arg == "default_factory" and isinstance(k.value, ast.Name)
+                            and k.value.id in ("dict", "list", "set") for k in statement.value.keywords)):
+                found.append(f"{relative}::{node.name}.{statement.target.id}")
+    return found
+
+
+def test_frozen_records_hold_no_caches():
+    """A frozen result is immutable: what it derives is built with it (or is a method's answer)."""
+    found = [key for path in sorted((ROOT / "frcontrol").rglob("*.py"))
+             for key in mutable_private_fields(path)]
+    assert not found, f"frozen dataclasses with a private mutable field (a cache): {found}"
+
+
+def test_a_cache_in_a_frozen_record_is_caught(tmp_path):
+    path = tmp_path / "x.py"
+    path.write_text("from dataclasses import dataclass, field\n\n@dataclass(frozen=True)\nclass R:\n"
+                    "    data: dict = field(default_factory=dict)\n"
+                    "    _cache: dict = field(default_factory=dict, compare=False)\n\n"
+                    "@dataclass\nclass S:\n    _memo: list = field(default_factory=list)\n")
+    assert mutable_private_fields(path, tmp_path) == ["x.py::R._cache"]
+
+
+MAX_PARAMETERS = 8
+"""The most parameters a public function of frcontrol/ or cli/ takes (positional and keyword-only,
+``self``/``cls`` aside; ``*args``/``**kwargs`` aside): group options in a frozen settings dataclass."""
+
+PARAMETERS_IN_REWORK = frozenset({
+    "frcontrol/planning/flip.py::plan_flip",
+    "frcontrol/planning/flip.py::simulate_flip",
+    "frcontrol/planning/climb.py::simulate_climb",
+    "frcontrol/planning/gait.py::tracking_step",
+    "frcontrol/solvers/__init__.py::solve_lp",
+    "frcontrol/solvers/__init__.py::solve_qp",
+})
+"""Functions under rework now (the planners, the LP door) allowed more: to shrink to empty."""
+
+
+def parameter_counts(path: Path, root: Path = ROOT) -> dict[str, int]:
+    """``"path::qualified name" -> parameters`` of every public function and method of one file.
+
+    Public: no part of its qualified name starts with ``_`` (dunder methods such as ``__init__``
+    of a public class count as public).
+    """
+    counts: dict[str, int] = {}
+    relative = path.relative_to(root).as_posix()
+
+    def private(name: str) -> bool:
+        return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+    def visit(node: ast.AST, prefix: str, in_class: bool) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                a = child.args
+                names = [x.arg for x in (*a.posonlyargs, *a.args, *a.kwonlyargs)]
+                if in_class and names and names[0] in ("self", "cls"):
+                    names = names[1:]
+                if not private(child.name) and not any(private(p) for p in prefix.split(".") if p):
+                    counts[f"{relative}::{prefix}{child.name}"] = len(names)
+                visit(child, f"{prefix}{child.name}.", False)
+            elif isinstance(child, ast.ClassDef):
+                visit(child, f"{prefix}{child.name}.", True)
+
+    visit(ast.parse(path.read_text(encoding="utf-8"), filename=str(path)), "", False)
+    return counts
+
+
+def typer_commands() -> set[str]:
+    """``"cli/x.py::name"`` of every function registered with the ``frc`` Typer app (its commands
+    and its callback): Typer reads one parameter per command-line option, so they are exempt."""
+    import inspect
+
+    from frcontrol.cli.app import app  # the installed name of cli/
+
+    callbacks = [c.callback for c in app.registered_commands]
+    if app.registered_callback is not None:
+        callbacks.append(app.registered_callback.callback)
+    functions = [inspect.unwrap(f) for f in callbacks if f is not None]
+    return {f"{f.__module__.removeprefix('frcontrol.').replace('.', '/')}.py::{f.__qualname__}"
+            for f in functions}
+
+
+def test_no_public_function_takes_too_many_parameters():
+    """Typer command functions (registered with the app, :func:`typer_commands`) are exempt: Typer
+    declares one parameter per command-line option. :data:`PARAMETERS_IN_REWORK` are allowed until
+    their rework lands."""
+    counts = {key: n for package in PACKAGES for path in sorted((ROOT / package).rglob("*.py"))
+              for key, n in parameter_counts(path).items()}
+    commands = typer_commands()
+    assert len(commands & set(counts)) >= 14, sorted(commands)  # the app's callback is private
+    too_many = {key: n for key, n in counts.items()
+                if n > MAX_PARAMETERS and key not in commands and key not in PARAMETERS_IN_REWORK}
+    assert not too_many, (f"public functions over {MAX_PARAMETERS} parameters (group options in a frozen "
+                          f"settings dataclass): {dict(sorted(too_many.items()))}")
+    stale = {key for key in PARAMETERS_IN_REWORK if counts.get(key, 0) <= MAX_PARAMETERS}
+    assert not stale, f"drop from PARAMETERS_IN_REWORK (now within the limit, or gone): {sorted(stale)}"
+
+
+def test_parameters_are_counted_as_the_rule_says(tmp_path):
+    path = tmp_path / "x.py"
+    path.write_text("def f(a, /, b, *args, c, **kw): pass\n"
+                    "def _g(a, b, c, d, e, f, g, h, i): pass\n"
+                    "class C:\n    def m(self, a, *, b): pass\n    @classmethod\n    def k(cls, a): pass\n"
+                    "    def __init__(self, a): pass\n    def _p(self, a): pass\n"
+                    "class _D:\n    def m(self, a): pass\n")
+    assert parameter_counts(path, tmp_path) == {"x.py::f": 3, "x.py::C.m": 2, "x.py::C.k": 1,
+                                                "x.py::C.__init__": 1}

@@ -24,9 +24,9 @@ from frcontrol.engine import analyze, solutions_at
 from frcontrol.errors import SceneError
 from frcontrol.modes import ContactProblem
 from frcontrol.scene import load_scene, scene_from_document
-from frcontrol.simulation.compliant import simulate_compliant
-from frcontrol.simulation.drives import drive_samples, stage_samples
+from frcontrol.simulation.compliant import CompliantSettings, simulate_compliant
 from frcontrol.simulation.rigid import simulate_rigid
+from frcontrol.simulation.samples import drive_samples, stage_samples
 
 runner = CliRunner()
 
@@ -137,7 +137,8 @@ def test_a_motor_spins_a_free_inertia_up_to_u_over_ce_n_with_the_electromechanic
     # R J_total / (C_M C_E) with J_total at the rotor: (J_arm / N^2 + J_r + I' + I'' / N^2)
     j_rotor = ARM_INERTIA / 100 + 1e-5 + 1e-6 + 1e-4 / 100
     assert tau == pytest.approx(2.0 * j_rotor / (0.05 * 0.05), rel=1e-12)
-    run = simulate_compliant(scene, {"axle": u}, 3 * tau, tau / 50, rtol=1e-9, atol=1e-12)
+    run = simulate_compliant(scene, {"axle": u}, 3 * tau, tau / 50,
+                             settings=CompliantSettings(rtol=1e-9, atol=1e-12))
     exact = steady * (1 - np.exp(-run.times / tau))
     assert np.max(np.abs(run.v[:, 0] - exact)) < 1e-8 * steady
     # the rigid stepper (implicit in the motor's damping) converges to it at first order in dt
@@ -307,7 +308,8 @@ def test_two_inertias_on_a_torsion_spring_oscillate_at_the_closed_form_frequency
     """sqrt(c (I1 + I2) / (I1 I2)), both inertias reflected to the spring's ends; no back-EMF."""
     scene = motor_scene(stages, back_emf_constant=0.0, rotor_inertia=1e-4)
     period = 2 * math.pi / math.sqrt(SPRING * (i1 + i2) / (i1 * i2))
-    run = simulate_compliant(scene, {"axle": 0.0}, 3 * period, period / 100, rtol=1e-8, atol=1e-10)
+    run = simulate_compliant(scene, {"axle": 0.0}, 3 * period, period / 100,
+                             settings=CompliantSettings(rtol=1e-8, atol=1e-10))
     stages_out = json.loads(json.dumps(run.to_dict(scene)))["samples"]["stages"]["axle"]
     deflection = np.array(stages_out["deflection"])
     assert deflection.shape == (len(run.times), len(stages))
@@ -328,7 +330,7 @@ def test_two_inertias_on_a_torsion_spring_oscillate_at_the_closed_form_frequency
 
 
 def _reports(scene, trajectory):
-    from frcontrol.simulation.drives import Transmissions
+    from frcontrol.simulation.transmissions import Transmissions
 
     model = Transmissions(scene)
     states = trajectory.info["transmissions"]["state"]
@@ -390,7 +392,8 @@ def test_electrical_input_less_losses_is_the_mechanical_energy_change(stages):
     """A motor swinging a pendulum (C_M = C_E in SI units, efficiency 1): u i - i^2 R - d delta'^2
     = d/dt (kinetic + potential + the springs'), to the integrator's tolerance."""
     scene = motor_scene(stages, gravity=9.81)
-    run = simulate_compliant(scene, {"axle": 6.0}, 0.2, 2e-4, rtol=1e-10, atol=1e-12)
+    run = simulate_compliant(scene, {"axle": 6.0}, 0.2, 2e-4,
+                             settings=CompliantSettings(rtol=1e-10, atol=1e-12))
     error, scale = energy_balance(scene, run)
     assert scale > 0.1 and error < 2e-5 * scale  # the trapezoidal rule's error on the samples
     # the rigid stepper's implicit Euler dissipates at first order in its step

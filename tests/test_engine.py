@@ -488,3 +488,27 @@ def test_lcp_cancelling_friction_split_is_one_solution(write_scene):
     np.testing.assert_allclose(lcp.unknowns_from(z), canonical.x, rtol=0, atol=1e-6)
     every = all_contact_lcp_solutions(problem, u)
     assert [s.mode for s in every] == ["F"]
+
+
+def test_an_analysis_is_immutable_and_its_query_table_built_with_it():
+    """Queries read the point-location table the analysis was built with; they change no field."""
+    import copy
+    import dataclasses
+
+    from frcontrol.query import QueryTable
+
+    analysis = analyze(load_scene(ROBOTS / "scenes" / "box_on_slope.toml"))
+    table = analysis.query
+    assert isinstance(table, QueryTable) and analysis.timings["query_table"] >= 0.0
+    before = copy.copy(vars(analysis))
+    box = analysis.mode(analysis.feasible_modes[0].mode)
+    first = solutions_at(analysis, np.zeros(analysis.problem.m))
+    pieces = analysis.unambiguous_set(box.mode)
+    again = analysis.unambiguous_set(box.mode)  # computed anew, alike
+    assert first and len(again) == len(pieces)
+    assert all(np.array_equal(a.A, b.A) for a, b in zip(again, pieces, strict=True))
+    assert vars(analysis) == before and analysis.query is table  # nothing was filled in
+    twin = dataclasses.replace(analysis)
+    assert twin.query is table and {f.name for f in dataclasses.fields(analysis)} >= {"query"}
+    assert not any(f.name.startswith("_") for f in dataclasses.fields(analysis))
+    assert not any(f.name.startswith("_") for f in dataclasses.fields(box))

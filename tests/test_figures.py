@@ -18,7 +18,7 @@ from frcontrol.polytope import contains
 from frcontrol.scene import load_scene, resolve_scene_path, shipped_robots_dir, shipped_scene_names
 from frcontrol.statics import analyze_statics
 from frcontrol.viz import figures
-from frcontrol.viz.plots import new_figure, plot_polygons, save_figure, text_overlaps
+from frcontrol.viz.plots import PolygonPanel, new_figure, plot_polygons, save_figure, text_overlaps
 
 ROBOTS = shipped_robots_dir()
 
@@ -90,7 +90,7 @@ def test_region_labels_skip_the_ones_that_would_collide(tmp_path):
         return A, np.array([x + h, -(x - h), y + h, -(y - h)])
 
     ax = plot_polygons([square(0, 0, 5), square(8, 8, 0.05), square(8.1, 8.05, 0.05)],
-                       labels=["BIG", "TINY1", "TINY2"], box=(-10, 10, -10, 10))
+                       labels=["BIG", "TINY1", "TINY2"], panel=PolygonPanel(box=(-10, 10, -10, 10)))
     written = [t.get_text() for t in ax.texts]
     assert "BIG" in written and not {"TINY1", "TINY2"} <= set(written)
     assert text_overlaps(ax.figure) == []

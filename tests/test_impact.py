@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 from frcontrol.errors import InputError, SceneError
 from frcontrol.scene import load_scene
 from frcontrol.simulation.impact import ENERGY_TOLERANCE, impact_law
+from frcontrol.simulation.inputs import InitialState
 from frcontrol.simulation.rigid import simulate_rigid
 
 G = 9.81
@@ -176,7 +177,7 @@ def test_no_impact_of_a_shipped_scene_gains_energy(name):
     scene = load_scene(name, overrides={"model.contact": "rigid", "model.restitution": 0.7})
     q0 = scene.q.copy()
     q0[1] += 0.02
-    traj = simulate_rigid(scene, None, 0.15, DT, q0=q0)
+    traj = simulate_rigid(scene, None, 0.15, DT, start=InitialState(q=q0))
     impacts = traj.info["impacts"]
     assert traj.completed and len(impacts) >= 2
     for impact in impacts:

@@ -13,9 +13,11 @@ from frcontrol.engine import solutions_at
 from frcontrol.scene import load_scene
 from frcontrol.simulation.compliant import (
     ACTIVE_SET_ITERATIONS,
+    CompliantSettings,
     explicit_stability_limit,
     simulate_compliant,
 )
+from frcontrol.simulation.inputs import InitialState
 
 
 def _omega(k: float, mass: float = 1.0) -> float:
@@ -25,8 +27,9 @@ def _omega(k: float, mass: float = 1.0) -> float:
 def test_free_fall_is_the_explicit_step_exactly(write_scene):
     # no contact closed: the step is semi-implicit Euler, sample for sample
     scene = load_scene(write_scene(box_scene([0.0, 5.0, 0.3])))
-    implicit = simulate_compliant(scene, None, 0.05, 1e-3, integrator="implicit")
-    explicit = simulate_compliant(scene, None, 0.05, 1e-3, integrator="euler")
+    implicit = simulate_compliant(scene, None, 0.05, 1e-3,
+                                  settings=CompliantSettings(integrator="implicit"))
+    explicit = simulate_compliant(scene, None, 0.05, 1e-3, settings=CompliantSettings(integrator="euler"))
     np.testing.assert_array_equal(implicit.q, explicit.q)
     np.testing.assert_array_equal(implicit.v, explicit.v)
 
@@ -35,7 +38,8 @@ def test_resting_box_settles_on_its_weight_at_steps_far_beyond_the_explicit_limi
     k = 1e8
     scene = load_scene(write_scene(box_scene([0.0, 0.25, 0.0])))
     dt = 30.0 / _omega(k)
-    traj = simulate_compliant(scene, None, 8 * dt, dt, integrator="implicit", stiffness=k)
+    traj = simulate_compliant(scene, None, 8 * dt, dt,
+                              settings=CompliantSettings(integrator="implicit", stiffness=k))
     assert dt > 10 * traj.info["explicit_stability_limit"]  # euler would refuse this step
     assert traj.status == "completed" and traj.warnings == ()
     lam = traj.contact_forces[-1]
@@ -50,7 +54,8 @@ def test_box_sticking_on_the_slope_carries_its_weight_and_does_not_creep(write_s
     k = 1e8
     scene = load_scene(write_scene(slope_scene(0.5)))  # tan 20 deg < 0.5: it sticks
     dt = 30.0 / _omega(k)
-    traj = simulate_compliant(scene, None, 20 * dt, dt, integrator="implicit", stiffness=k)
+    traj = simulate_compliant(scene, None, 20 * dt, dt,
+                              settings=CompliantSettings(integrator="implicit", stiffness=k))
     total = traj.contact_forces[-1].sum(axis=0)
     assert total[0] == pytest.approx(G * math.cos(SLOPE), rel=1e-9)
     assert total[1] == pytest.approx(G * math.sin(SLOPE), rel=1e-9)  # up the slope
@@ -63,7 +68,8 @@ def test_box_sliding_down_the_slope_has_the_coulomb_acceleration(write_scene):
     scene = load_scene(write_scene(slope_scene(mu)))
     acc = G * (math.sin(SLOPE) - mu * math.cos(SLOPE))
     dt = 1e-4
-    traj = simulate_compliant(scene, None, 0.05, dt, integrator="implicit", stiffness=k)
+    traj = simulate_compliant(scene, None, 0.05, dt,
+                              settings=CompliantSettings(integrator="implicit", stiffness=k))
     along = traj.v[:, :2] @ UP_SLOPE
     # after the first steps' transient: the rigid model's acceleration, to first order in dt
     rate = np.diff(along[40:]) / dt  # h omega = 1: the transient halves every step
@@ -77,7 +83,8 @@ def test_box_sliding_down_the_slope_has_the_coulomb_acceleration(write_scene):
 def test_dropped_box_lands_and_rests_at_a_huge_step_without_energy_from_nowhere(write_scene):
     k = 1e7
     scene = load_scene(write_scene(box_scene([0.0, 0.3, 0.0])))  # 5 cm above the ground
-    traj = simulate_compliant(scene, None, 0.4, 2e-3, integrator="implicit", stiffness=k, contacts="all")
+    traj = simulate_compliant(scene, None, 0.4, 2e-3,
+                              settings=CompliantSettings(integrator="implicit", stiffness=k, contacts="all"))
     assert traj.status == "completed"
     assert "energy" not in {w.kind for w in traj.warnings}  # the validity check's energy balance
     energy = traj.info["energy"] + traj.info["elastic_energy"]
@@ -94,7 +101,8 @@ def test_rod_force_reaches_the_rigid_answer_to_1e_minus_3_in_three_steps(write_s
     (rigid,) = solutions_at(scene, {})
     k = 1e12
     dt = 30.0 / _omega(k, 1.0)
-    traj = simulate_compliant(scene, None, 3 * dt, dt, integrator="implicit", stiffness=k)
+    traj = simulate_compliant(scene, None, 3 * dt, dt,
+                              settings=CompliantSettings(integrator="implicit", stiffness=k))
     force = traj.contact_forces[-1, 0]
     reference = np.array([rigid.lambda_n[0], rigid.lambda_t[0]])
     assert np.linalg.norm(force - reference) / np.linalg.norm(reference) < 1e-3
@@ -103,7 +111,7 @@ def test_rod_force_reaches_the_rigid_answer_to_1e_minus_3_in_three_steps(write_s
 
 def test_iteration_bound_is_named_and_explicit_limit_reported(write_scene):
     scene = load_scene(write_scene(box_scene([0.0, 0.25, 0.0])))
-    traj = simulate_compliant(scene, None, 0.01, 1e-3, integrator="implicit")
+    traj = simulate_compliant(scene, None, 0.01, 1e-3, settings=CompliantSettings(integrator="implicit"))
     assert ACTIVE_SET_ITERATIONS >= 2
     assert traj.info["integrator"] == "implicit"
     assert traj.info["explicit_stability_limit"] == pytest.approx(
@@ -114,7 +122,7 @@ def test_iteration_bound_is_named_and_explicit_limit_reported(write_scene):
 def explicit_stability_limit_of(scene):
     from frcontrol.simulation.compliant import ContactOverrides, _initial_state
 
-    _, _, params = _initial_state(scene, None, None, None, "active", ContactOverrides(), None)
+    _, _, params = _initial_state(scene, InitialState(), None, "active", ContactOverrides(), None)
     return explicit_stability_limit(params)
 
 
@@ -126,9 +134,11 @@ def test_a_box_landing_while_it_slides_follows_the_adaptive_integrator(write_sce
     box = box_scene([0.0, 0.25, 0.0])
     box["state"]["v"] = [2.0, -1.0, 0.0]
     scene = load_scene(write_scene(box))
-    reference = simulate_compliant(scene, None, 0.02, 1e-4, integrator="radau", stiffness=1e5, rtol=1e-9,
-                                   atol=1e-12)
-    implicit = simulate_compliant(scene, None, 0.02, 1e-6, integrator="implicit", stiffness=1e5)
+    reference = simulate_compliant(scene, None, 0.02, 1e-4,
+                                   settings=CompliantSettings(integrator="radau", stiffness=1e5, rtol=1e-9,
+                                                              atol=1e-12))
+    implicit = simulate_compliant(scene, None, 0.02, 1e-6,
+                                  settings=CompliantSettings(integrator="implicit", stiffness=1e5))
     np.testing.assert_allclose(implicit.v[-1], reference.v[-1], atol=2e-3)
     assert reference.v[-1, 0] < 1.9  # friction acted on the slide: the coupling mattered
     sliding = np.abs(implicit.contact_forces[1:, :, 1]) >= 0.999 * 0.5 * implicit.contact_forces[1:, :, 0]
@@ -142,7 +152,8 @@ def test_the_implicit_step_satisfies_the_law_it_was_solved_with():
     scene = load_scene("box_on_ground")
     from frcontrol.simulation.compliant import ContactOverrides, _initial_state
 
-    _, arm, params = _initial_state(scene, None, None, None, "active", ContactOverrides(stiffness=1e5), None)
+    stiff = ContactOverrides(stiffness=1e5)
+    _, arm, params = _initial_state(scene, InitialState(), None, "active", stiff, None)
     for _ in range(20):
         v = rng.normal(size=3)
         s = rng.normal(size=2) * 1e-4

@@ -14,9 +14,10 @@ from scipy.integrate import solve_ivp
 from frcontrol.errors import CoordinateNotFound, IllConditioned, InputError, LimitExceeded, SceneError
 from frcontrol.modes import ContactProblem
 from frcontrol.scene import load_scene
-from frcontrol.simulation.compliant import contact_forces, simulate_compliant
+from frcontrol.simulation.compliant import CompliantSettings, contact_forces, simulate_compliant
+from frcontrol.simulation.inputs import InitialState
 from frcontrol.simulation.model_table import model_options
-from frcontrol.simulation.rigid import simulate_rigid
+from frcontrol.simulation.rigid import RigidSettings, simulate_rigid
 
 G = 9.81
 SLOPE = math.radians(20.0)
@@ -78,7 +79,7 @@ def test_rigid_free_fall_is_semi_implicit_euler_exactly(write_scene):
 def test_compliant_free_fall_exact_to_the_integrators_order(write_scene, integrator, tol):
     # quadratic in t: exact for the order >= 3 methods (up to round-off), BDF starts at order 1
     scene = load_scene(write_scene(box_scene([0.0, 5.0, 0.0])))
-    traj = simulate_compliant(scene, None, 0.3, 0.01, integrator=integrator)
+    traj = simulate_compliant(scene, None, 0.3, 0.01, settings=CompliantSettings(integrator=integrator))
     np.testing.assert_allclose(traj.q[:, 1], 5.0 - 0.5 * G * traj.times**2, atol=tol)
     np.testing.assert_allclose(traj.v[:, 1], -G * traj.times, atol=tol * 10)
     assert traj.info["state_size"] == 6  # inactive contacts add no state
@@ -88,7 +89,7 @@ def test_compliant_free_fall_exact_to_the_integrators_order(write_scene, integra
 def test_compliant_euler_free_fall_matches_its_closed_form(write_scene):
     scene = load_scene(write_scene(box_scene([0.0, 5.0, 0.0])))
     dt, steps = 1e-3, 50
-    traj = simulate_compliant(scene, None, steps * dt, dt, integrator="euler")
+    traj = simulate_compliant(scene, None, steps * dt, dt, settings=CompliantSettings(integrator="euler"))
     assert traj.q[-1, 1] == pytest.approx(5.0 - G * dt**2 * steps * (steps + 1) / 2, abs=1e-12)
     assert traj.info["steps"] == steps
 
@@ -130,7 +131,7 @@ def test_compliant_box_on_the_slope_converges_to_the_rigid_one(write_scene):
     T = 0.3
     errors = []
     for k in (1e3, 1e4, 1e5):
-        traj = simulate_compliant(scene, None, T, 1e-3, stiffness=k)
+        traj = simulate_compliant(scene, None, T, 1e-3, settings=CompliantSettings(stiffness=k))
         assert traj.status == "completed"
         assert (traj.v[-1, :2] @ UP_SLOPE) / T == pytest.approx(-acc, rel=1e-4)
         shift = traj.q[-1, :2] - traj.q[0, :2]
@@ -145,7 +146,7 @@ def test_compliant_box_sticks_on_the_slope_with_creep_of_order_one_over_k(write_
     scene = load_scene(write_scene(slope_scene(0.5)))
     creep = []
     for k in (1e3, 1e4):
-        traj = simulate_compliant(scene, None, 0.2, 1e-3, stiffness=k)
+        traj = simulate_compliant(scene, None, 0.2, 1e-3, settings=CompliantSettings(stiffness=k))
         creep.append(np.max(np.abs((traj.q[:, :2] - traj.q[0, :2]) @ UP_SLOPE)))
         assert abs(traj.v[-1, :2] @ UP_SLOPE) < 1e-4  # settled (the springs ring down)
         assert {e.kind for e in traj.events} <= {"stick"}
@@ -212,9 +213,10 @@ def test_tipped_box_falls_back_as_a_pendulum_then_rests(write_scene):
 
 def test_compliant_tipped_box_hits_at_the_pendulum_time_when_all_contacts_are_modelled(write_scene):
     scene = load_scene(write_scene(tipped_box_scene()))
-    only_active = simulate_compliant(scene, None, 0.3, 1e-3, stiffness=1e5)
+    only_active = simulate_compliant(scene, None, 0.3, 1e-3, settings=CompliantSettings(stiffness=1e5))
     assert only_active.info["modelled_contacts"] == ["right"] and only_active.q[-1, 2] > 0.05  # falls through
-    traj = simulate_compliant(scene, None, 0.3, 1e-3, stiffness=1e5, contacts="all")
+    traj = simulate_compliant(scene, None, 0.3, 1e-3,
+                              settings=CompliantSettings(stiffness=1e5, contacts="all"))
     assert traj.info["state_size"] == 8
     impact = next(e for e in traj.events if e.kind == "impact")
     assert impact.contact == "left" and impact.time == pytest.approx(0.24591, abs=2e-4)
@@ -228,7 +230,8 @@ def test_rigid_stepper_energy_never_increases_without_input(write_scene):
     ]
     for scene in cases:
         for stabilization in (1.0, 0.0):
-            traj = simulate_rigid(scene, None, 0.4, 1e-3, stabilization=stabilization, max_ambiguity_checks=0)
+            traj = simulate_rigid(scene, None, 0.4, 1e-3,
+                                  settings=RigidSettings(stabilization=stabilization, max_ambiguity_checks=0))
             d_energy, d_work = np.diff(traj.info["energy"]), np.diff(traj.info["stabilization_work"])
             assert np.all(d_energy <= d_work + 1e-12), scene.name
             if stabilization == 0.0:
@@ -240,12 +243,12 @@ def test_rod_lying_on_the_table_does_not_drift(write_scene):
     contacts = [{"name": name, "link": "rod", "point": [x, 0.0], "normal": [0.0, 1.0], "mu": 0.5,
                  "surface_point": [0.0, 0.0]} for name, x in (("left", -0.5), ("right", 0.5))]
     scene = load_scene(write_scene(rod_scene(state={"q": [0.0, 0.0, 0.0]}, contacts=contacts)))
-    traj = simulate_rigid(scene, None, 2.0, 1e-3, max_ambiguity_checks=0)
+    traj = simulate_rigid(scene, None, 2.0, 1e-3, settings=RigidSettings(max_ambiguity_checks=0))
     assert traj.info["steps"] == 2000
     assert np.max(np.abs(traj.q - traj.q[0])) < 1e-12
     assert np.max(traj.info["max_penetration"]) < 1e-12
     np.testing.assert_allclose(traj.contact_forces[1:, :, 0], G / 2, rtol=1e-9)
-    compliant = simulate_compliant(scene, None, 0.5, 1e-2, stiffness=1e5)
+    compliant = simulate_compliant(scene, None, 0.5, 1e-2, settings=CompliantSettings(stiffness=1e5))
     # settles at the static penetration m g / (2 k), without sideways drift
     assert compliant.q[-1, 1] == pytest.approx(-G / 2e5, rel=1e-4)
     assert abs(compliant.q[-1, 0]) < 1e-12 and abs(compliant.q[-1, 2]) < 1e-12
@@ -263,12 +266,12 @@ def test_falling_rod_compliant_converges_to_the_rigid_pendulum():
     T = 0.25
     theta, omega = solve_ivp(pendulum, (0.0, T), [theta0, 0.0], rtol=1e-12, atol=1e-12).y[:, -1]
     exact = np.array([tip[0] + 0.5 * math.cos(theta), tip[1] + 0.5 * math.sin(theta), theta])
-    rigid = simulate_rigid(scene, None, T, 1e-3, max_ambiguity_checks=0)
+    rigid = simulate_rigid(scene, None, T, 1e-3, settings=RigidSettings(max_ambiguity_checks=0))
     assert rigid.events == ()  # the tip sticks throughout
     assert np.max(np.abs(rigid.q[-1] - exact)) < 2e-3  # first order in dt
     errors = []
     for k in (1e3, 1e4, 1e5):
-        traj = simulate_compliant(scene, None, T, 1e-3, stiffness=k)
+        traj = simulate_compliant(scene, None, T, 1e-3, settings=CompliantSettings(stiffness=k))
         errors.append(float(np.max(np.abs(traj.q[-1] - exact))))
     # measured: 6.9e-3, 6.1e-4, 5.2e-5
     assert errors[1] < errors[0] / 5 and errors[2] < errors[1] / 5 and errors[2] < 1e-4
@@ -291,7 +294,7 @@ def test_callable_input_is_held_per_step_push_then_coast(write_scene):
     assert traj.inputs.shape == (301, 3) and traj.inputs[k, 0] == 10.0 and traj.inputs[-1, 0] == 0.0
     assert {e.kind for e in traj.events} == {"slip", "stick"}
     # the compliant model holds the callable's value over each sample interval too
-    compliant = simulate_compliant(scene, push, 0.3, 1e-3, stiffness=1e5)
+    compliant = simulate_compliant(scene, push, 0.3, 1e-3, settings=CompliantSettings(stiffness=1e5))
     assert compliant.v[k, 0] == pytest.approx(speed, rel=1e-4)
     sticks = [e.time for e in compliant.events if e.kind == "stick"]
     assert sticks and sticks[0] == pytest.approx(stop, abs=1e-4)
@@ -309,7 +312,7 @@ def test_ambiguous_instant_is_reported_with_the_mode_the_step_took(write_scene):
     v = np.array([1.0, 0.0, 0.0])
     problem = ContactProblem.from_scene(scene, scene.q, v)
     u = problem.bias - (problem.jacobian_normal[0] - 1.4 * problem.jacobian_tangent[0]) * 10.0
-    traj = simulate_rigid(scene, u, 0.005, 1e-3, v0=v)
+    traj = simulate_rigid(scene, u, 0.005, 1e-3, start=InitialState(v=v))
     event = traj.events[0]
     assert (event.time, event.contact, event.kind) == (0.0, "tip", "ambiguous")
     assert event.detail == "modes S, R; the step took S"
@@ -330,7 +333,7 @@ def test_resting_box_is_not_called_ambiguous(write_scene):
 def test_massless_legs_get_the_reported_armature_like_pinocchio():
     scene = load_scene("rhex_flip")
     push = {"hip_middle": -3.0, "hip_rear": -3.0}
-    traj = simulate_rigid(scene, push, 0.005, 1e-3, max_ambiguity_checks=0)
+    traj = simulate_rigid(scene, push, 0.005, 1e-3, settings=RigidSettings(max_ambiguity_checks=0))
     M = scene.state().mass_matrix
     legs = [name for name in scene.coordinate_names if name.startswith("hip")]
     assert np.all(np.diag(M)[-len(legs):] == 0.0)  # the legs are massless
@@ -345,7 +348,7 @@ def test_massless_legs_get_the_reported_armature_like_pinocchio():
                                atol=1e-15)
     with pytest.raises(IllConditioned, match="armature"):
         simulate_rigid(scene, None, 0.01, 1e-3, armature=0.0)
-    compliant = simulate_compliant(scene, push, 0.005, 1e-3, armature=1e-3)
+    compliant = simulate_compliant(scene, push, 0.005, 1e-3, settings=CompliantSettings(armature=1e-3))
     assert compliant.info["armature"]["value"] == 1e-3 and compliant.status == "completed"
 
 
@@ -379,7 +382,7 @@ def test_model_table_sets_the_compliant_parameters(write_scene):
     assert left["damping"] == pytest.approx(2 * 0.5 * math.sqrt(2e4 * m_eff))
     assert left["effective_mass_normal"] == pytest.approx(m_eff)
     # the arguments override the table
-    softer = simulate_compliant(scene, None, 0.01, 1e-3, stiffness=1e3)
+    softer = simulate_compliant(scene, None, 0.01, 1e-3, settings=CompliantSettings(stiffness=1e3))
     assert softer.info["contacts"]["right"]["stiffness"] == 1e3
 
 
@@ -414,7 +417,7 @@ def test_bad_model_table_names_the_field(write_scene, table, field):
     ({"inputs": [100.0, 0.0, 0.0]}, "outside its limits"),
     ({"inputs": [float("nan"), 0.0, 0.0]}, "NaN"),
     ({"inputs": lambda t, q, v: [0.0, 0.0, 50.0] if t > 0.005 else [0.0, 0.0, 0.0]}, "at t = 0.006"),
-    ({"q0": [0.0, 1.0]}, "q has 2 entries"),
+    ({"start": InitialState(q=[0.0, 1.0])}, "q has 2 entries"),
 ])
 def test_bad_simulation_input_raises_input_error(write_scene, kwargs, match):
     scene = load_scene(write_scene(box_scene([0.0, 0.25, 0.0])))
@@ -425,14 +428,15 @@ def test_bad_simulation_input_raises_input_error(write_scene, kwargs, match):
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    ({"stiffness": 0.0}, "stiffness"),
-    ({"stiffness": -1e4}, "stiffness"),
-    ({"damping": -1.0}, "damping"),
-    ({"tangential_damping": 0.0}, "tangential damping must be > 0"),
-    ({"damping_ratio": 0.0}, "damping ratio"),
-    ({"integrator": "leapfrog"}, "unknown integrator 'leapfrog'; choose one of: radau"),
-    ({"contacts": "some"}, "'active' or 'all'"),
-    ({"rtol": 0.0}, "rtol"),
+    ({"settings": CompliantSettings(stiffness=0.0)}, "stiffness"),
+    ({"settings": CompliantSettings(stiffness=-1e4)}, "stiffness"),
+    ({"settings": CompliantSettings(damping=-1.0)}, "damping"),
+    ({"settings": CompliantSettings(tangential_damping=0.0)}, "tangential damping must be > 0"),
+    ({"settings": CompliantSettings(damping_ratio=0.0)}, "damping ratio"),
+    ({"settings": CompliantSettings(integrator="leapfrog")},
+     "unknown integrator 'leapfrog'; choose one of: radau"),
+    ({"settings": CompliantSettings(contacts="some")}, "'active' or 'all'"),
+    ({"settings": CompliantSettings(rtol=0.0)}, "rtol"),
     ({"initial_stretch": [0.0]}, "initial_stretch needs 2"),
 ])
 def test_bad_compliant_parameters(write_scene, kwargs, match):
@@ -444,19 +448,21 @@ def test_bad_compliant_parameters(write_scene, kwargs, match):
 def test_bad_rigid_parameters_and_unknown_input_name(write_scene):
     scene = load_scene(write_scene(box_scene([0.0, 0.25, 0.0])))
     with pytest.raises(InputError, match="stabilization must be in"):
-        simulate_rigid(scene, None, 0.01, 1e-3, stabilization=1.5)
+        simulate_rigid(scene, None, 0.01, 1e-3, settings=RigidSettings(stabilization=1.5))
     with pytest.raises(InputError, match="unknown LCP method"):
-        simulate_rigid(scene, None, 0.01, 1e-3, lcp_method="pgs")
+        simulate_rigid(scene, None, 0.01, 1e-3, settings=RigidSettings(lcp_method="pgs"))
     with pytest.raises(CoordinateNotFound, match="unknown coordinate 'hip'"):
         simulate_rigid(scene, {"hip": 1.0}, 0.01, 1e-3)
 
 
 def test_integrator_failure_keeps_the_trajectory_and_reports_time_and_reason(write_scene):
     scene = load_scene(write_scene(box_scene([0.0, 0.45, 0.0])))
-    traj = simulate_compliant(scene, None, 0.5, 1e-3, max_steps=50, max_step=0.01)  # 50 steps at the least
+    # 50 steps at the least
+    traj = simulate_compliant(scene, None, 0.5, 1e-3, settings=CompliantSettings(max_steps=50, max_step=0.01))
     assert traj.status == "failed"
     with pytest.raises(LimitExceeded, match=r"needs at least 500 steps .* at most max_steps = 50") as info:
-        simulate_compliant(scene, None, 0.5, 1e-3, max_steps=50)  # refused before it starts
+        # refused before it starts
+        simulate_compliant(scene, None, 0.5, 1e-3, settings=CompliantSettings(max_steps=50))
     assert (info.value.field, info.value.value, info.value.limit) == ("duration", 500, 50)
     assert traj.status == "failed"
     failure = traj.failure
@@ -467,7 +473,8 @@ def test_integrator_failure_keeps_the_trajectory_and_reports_time_and_reason(wri
     resting = load_scene(write_scene(box_scene([0.0, 0.25, 0.0])))
     limit = r"stability limit 2 \(sqrt\(1 \+ zeta\^2\) - zeta\) / omega = 0.000449"
     with pytest.raises(InputError, match=limit):
-        simulate_compliant(resting, None, 0.5, 2e-3, integrator="euler", stiffness=1e6)
+        simulate_compliant(resting, None, 0.5, 2e-3,
+                           settings=CompliantSettings(integrator="euler", stiffness=1e6))
 
 
 def test_contact_forces_law():
@@ -543,3 +550,17 @@ def test_cli_simulate_writes_the_html_replay(tmp_path):
                                             "--html", str(page)])
     assert result.exit_code == 0, result.output
     assert page.stat().st_size > 1000 and "<html" in page.read_text()[:2000].lower()
+
+
+def test_the_front_door_refuses_settings_of_the_other_model():
+    from frcontrol.simulation import simulate
+
+    rigid = load_scene("rod_on_table")
+    compliant = load_scene("rod_on_table", overrides={"model.contact": "compliant"})
+    with pytest.raises(InputError, match="is rigid: its settings are RigidSettings, got CompliantSettings"):
+        simulate(rigid, None, 0.01, 1e-3, settings=CompliantSettings())
+    with pytest.raises(InputError, match="is compliant: its settings are CompliantSettings, got Rigid"):
+        simulate(compliant, None, 0.01, 1e-3, settings=RigidSettings())
+    run = simulate(compliant, None, 0.01, 1e-3, settings=CompliantSettings(integrator="implicit"),
+                   start=InitialState(v=[0.0, 0.0, 0.0]))
+    assert run.model == "compliant" and run.info["integrator"] == "implicit"

@@ -20,7 +20,14 @@ from conftest import needs_kernel
 from frcontrol import lcp
 from frcontrol.planning import flip
 from frcontrol.scene import load_scene
-from frcontrol.simulation import compliant, impact, simulate_compliant, simulate_rigid
+from frcontrol.simulation import (
+    CompliantSettings,
+    RigidSettings,
+    compliant,
+    impact,
+    simulate_compliant,
+    simulate_rigid,
+)
 
 RIGID_RUNS = (("rhex_flip", 0.15), ("box_on_slope", 0.2), ("rod_drop", 0.4), ("snake_climb", 0.1))
 """Scenes and durations [s] of the rigid runs compared (rod_drop lands: impacts)."""
@@ -127,10 +134,10 @@ def test_compiled_coulomb_matrix_and_contact_law_equal_numpy():
 @pytest.mark.parametrize("impact_law", [True, False])
 def test_rigid_samples_equal_the_numpy_step(name, duration, impact_law, monkeypatch):
     scene = load_scene(name)
-    fast = simulate_rigid(scene, None, duration, 1e-3, impact_law=impact_law)
+    fast = simulate_rigid(scene, None, duration, 1e-3, settings=RigidSettings(impact_law=impact_law))
     with monkeypatch.context() as patch:
         numpy_simulation_pieces(patch)
-        slow = simulate_rigid(scene, None, duration, 1e-3, impact_law=impact_law)
+        slow = simulate_rigid(scene, None, duration, 1e-3, settings=RigidSettings(impact_law=impact_law))
     assert fast.info["lcp"]["solves"] > 0
     assert_same_trajectory(fast, slow)
     if name == "rod_drop" and impact_law:
@@ -175,8 +182,10 @@ def _held_inputs(scene, flicker: bool):
 
 def test_compliant_held_input_runs_one_solver_while_it_holds(write_scene):
     scene = load_scene("box_on_slope")
-    merged = simulate_compliant(scene, _held_inputs(scene, False), 0.1, 1e-3, stiffness=1e5)
-    restarted = simulate_compliant(scene, _held_inputs(scene, True), 0.1, 1e-3, stiffness=1e5)
+    merged = simulate_compliant(scene, _held_inputs(scene, False), 0.1, 1e-3,
+                                settings=CompliantSettings(stiffness=1e5))
+    restarted = simulate_compliant(scene, _held_inputs(scene, True), 0.1, 1e-3,
+                                   settings=CompliantSettings(stiffness=1e5))
     assert merged.status == restarted.status == "completed"
     scale = max(float(np.max(np.abs(restarted.q))), float(np.max(np.abs(restarted.v))))
     np.testing.assert_allclose(merged.q, restarted.q, rtol=0, atol=COMPLIANT_AGREEMENT * scale)
@@ -189,8 +198,9 @@ def test_compliant_callable_constant_input_equals_the_constant_run():
     scene = load_scene("box_on_slope")
     u = np.zeros(scene.inputs.count)
     u[0] = 3.0
-    constant = simulate_compliant(scene, u, 0.05, 1e-3, stiffness=1e5)
-    held = simulate_compliant(scene, lambda t, q, v: u, 0.05, 1e-3, stiffness=1e5)
+    constant = simulate_compliant(scene, u, 0.05, 1e-3, settings=CompliantSettings(stiffness=1e5))
+    held = simulate_compliant(scene, lambda t, q, v: u, 0.05, 1e-3,
+                              settings=CompliantSettings(stiffness=1e5))
     np.testing.assert_array_equal(held.q, constant.q)
     np.testing.assert_array_equal(held.v, constant.v)
     np.testing.assert_array_equal(held.contact_forces, constant.contact_forces)

@@ -21,7 +21,7 @@ from typer.testing import CliRunner
 from frcontrol.engine import solutions_at
 from frcontrol.errors import SceneError
 from frcontrol.scene import load_scene
-from frcontrol.simulation.compliant import simulate_compliant
+from frcontrol.simulation.compliant import CompliantSettings, simulate_compliant
 from frcontrol.simulation.export import trajectory_arrays
 from frcontrol.simulation.rigid import simulate_rigid
 from frcontrol.statics import strong_stability, weak_stability
@@ -162,7 +162,8 @@ def test_the_rigid_run_oscillates_with_the_closed_form_period_and_rests_at_m_g_o
 
 def test_the_compliant_run_conserves_energy_with_radau_and_keeps_the_period(tmp_path):
     scene = load_scene(bob_scene(tmp_path, {"stiffness": BOB_STIFFNESS}))
-    run = simulate_compliant(scene, duration=2.0, dt=1e-3, integrator="radau", rtol=1e-12, atol=1e-14)
+    run = simulate_compliant(scene, settings=CompliantSettings(integrator="radau", rtol=1e-12, atol=1e-14),
+                             duration=2.0, dt=1e-3)
     total = np.asarray(run.info["energy"]) + np.asarray(run.info["elastic_energy"])
     scale = BOB_MASS * GRAVITY * 2 * BOB_MASS * GRAVITY / BOB_STIFFNESS  # the largest part: m g x the stroke
     assert np.max(np.abs(total - total[0])) <= ENERGY_TOLERANCE * scale

@@ -13,7 +13,8 @@ from frcontrol.engine import solutions_at
 from frcontrol.errors import InputError
 from frcontrol.modes import ContactProblem
 from frcontrol.scene import load_scene, shipped_scene_names
-from frcontrol.simulation.compliant import simulate_compliant
+from frcontrol.simulation.compliant import CompliantSettings, simulate_compliant
+from frcontrol.simulation.inputs import InitialState
 from frcontrol.stability import (
     boundary_layer_roots,
     classify_solutions,
@@ -56,8 +57,10 @@ def painleve_rod(write_scene, sliding: float, lam: float = LAM):
 def deviation_run(scene, problem, v, u, sliding, stiffness, perturbation, duration, samples=50):
     """Start the compliant model at the rigid solution's penetration lam / k times (1 + perturbation)."""
     q0 = scene.q - np.array([0.0, (1.0 + perturbation) * LAM / stiffness, 0.0])
-    return simulate_compliant(scene, u, duration, duration / samples, stiffness=stiffness, q0=q0, v0=v,
-                              initial_stretch=[sliding * MU * LAM / stiffness], rtol=1e-10, atol=1e-14)
+    return simulate_compliant(scene, u, duration, duration / samples,
+                              settings=CompliantSettings(stiffness=stiffness, rtol=1e-10, atol=1e-14),
+                              start=InitialState(q=q0, v=v),
+                              initial_stretch=[sliding * MU * LAM / stiffness])
 
 
 def penetration(scene, traj) -> np.ndarray:
@@ -189,7 +192,7 @@ def test_resting_box_compliant_forces_converge_to_the_rigid_ones():
     scene = load_scene("box_on_ground")
     errors = []
     for k in (1e3, 1e4, 1e5):
-        traj = simulate_compliant(scene, None, 0.2, 0.01, stiffness=k)
+        traj = simulate_compliant(scene, None, 0.2, 0.01, settings=CompliantSettings(stiffness=k))
         errors.append(float(np.max(np.abs(traj.contact_forces[-1, :, 0] - G / 2))))
         assert np.max(np.abs(traj.v[-1])) < 1e-3  # rung down
     assert errors[2] < errors[1] < errors[0] and errors[2] < 1e-6

@@ -17,6 +17,7 @@ from frcontrol.errors import CoordinateNotFound, InputError
 from frcontrol.scene import load_scene
 from frcontrol.solvers import solve_lp
 from frcontrol.statics import (
+    BodyScale,
     analyze_statics,
     cone_rows,
     force_closure,
@@ -302,7 +303,7 @@ def slot(a=0.3, b=-0.3, c=0.3, d=-0.3, mu=0.0):
     """
     points = [[a, -0.5], [b, 0.5], [-0.5, c], [0.5, d]]
     normals = [[0.0, 1.0], [0.0, -1.0], [1.0, 0.0], [-1.0, 0.0]]
-    return static_body(points, normals, mu, 1.0, [0.0, 0.0], characteristic_length=0.3)
+    return static_body(points, normals, mu, 1.0, [0.0, 0.0], scale=BodyScale(characteristic_length=0.3))
 
 
 def test_four_well_placed_contacts_are_in_form_closure_with_the_closed_form_margin():
@@ -392,7 +393,7 @@ def test_duplicated_contacts_change_the_force_set_not_the_answers(write_scene):
     closed = slot()
     doubled = static_body(np.vstack([closed.points, closed.points[:1]]),
                           np.vstack([closed.normals, closed.normals[:1]]), 0.0, 1.0, [0.0, 0.0],
-                          characteristic_length=0.3)
+                          scale=BodyScale(characteristic_length=0.3))
     assert form_closure(doubled).margin == pytest.approx(form_closure(closed).margin)
     assert force_closure(doubled).closed
 
@@ -426,7 +427,7 @@ def test_collinear_contacts(write_scene):
         ({"mu": -0.1}, ">= 0"),
         ({"mass": 0.0}, "> 0"),
         ({"com": [0.0]}, "shape"),
-        ({"characteristic_length": -1.0}, "> 0"),
+        ({"scale": BodyScale(characteristic_length=-1.0)}, "> 0"),
         ({"names": ["a", "b"]}, "distinct"),
     ],
 )

@@ -359,7 +359,7 @@ def test_plots_are_written_and_not_blank(tmp_path):
     square = (np.vstack([np.eye(2), -np.eye(2)]), np.ones(4))
     half = (np.array([[1.0, 1.0]]), np.array([0.0]))
     ax = plots.plot_polygons([square, half], tmp_path / "poly.png", labels=["F", "S"],
-                             hatches=[None, "//"], box=(-2, 2, -2, 2))
+                             hatches=[None, "//"], panel=plots.PolygonPanel(box=(-2, 2, -2, 2)))
     assert ink_fraction(read_png(tmp_path / "poly.png")) > 0.05
     assert [t.get_text() for t in ax.texts] == ["F", "S"]
     with pytest.raises(InputError, match="unbounded"):

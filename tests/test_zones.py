@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from frcontrol.errors import InputError, SceneError
 from frcontrol.scene import load_scene
-from frcontrol.simulation.compliant import simulate_compliant
+from frcontrol.simulation.compliant import CompliantSettings, simulate_compliant
 from frcontrol.simulation.rigid import simulate_rigid
 
 G = 9.81
@@ -62,7 +62,7 @@ def test_a_one_stage_mass_landing_loses_its_kinetic_energy(write_scene):
     height, m_zone = 0.01, 0.01
     zone = {"zone": "one_stage", "mass_robot": m_zone, "stiffness_internal_robot": 1e4}
     scene = load_scene(write_scene(disk_scene(zone, y0=0.1 + height)))
-    traj = simulate_compliant(scene, None, 0.05, 1e-4, contacts="all")
+    traj = simulate_compliant(scene, None, 0.05, 1e-4, settings=CompliantSettings(contacts="all"))
     assert traj.info["zone_landing_energy"] == pytest.approx(m_zone * G * height, rel=0.01)
     assert [e.kind for e in traj.events][:1] == ["impact"]
 
@@ -83,7 +83,8 @@ def test_two_stage_impact_peak_force_and_duration_are_the_linear_springs(write_s
     k_eff = k / 3
     duration = math.pi * math.sqrt(MASS / k_eff)
     scene = load_scene(write_scene(disk_scene(two_stage(k), y0=0.101, v0=-speed, gravity=0.0)))
-    traj = simulate_compliant(scene, None, 0.001 + 1.2 * duration, duration / 50, contacts="all")
+    traj = simulate_compliant(scene, None, 0.001 + 1.2 * duration, duration / 50,
+                              settings=CompliantSettings(contacts="all"))
     impact = next(e.to_dict() for e in traj.events if e.kind == "impact")
     assert impact["normal_velocity_before"] == pytest.approx(-speed, rel=1e-9)
     assert impact["peak_force"] == pytest.approx(speed * math.sqrt(k_eff * MASS), rel=0.02)
@@ -101,7 +102,8 @@ def test_two_stage_impacts_approach_the_momentum_law_as_the_stiffnesses_grow(wri
     outcomes = []
     for k in (3e3, 3e5):
         scene = load_scene(write_scene(disk_scene(two_stage(k), y0=0.101, v0=-1.0, gravity=0.0)))
-        traj = simulate_compliant(scene, None, end, 1e-3, contacts="all", max_step=2e-4)
+        traj = simulate_compliant(scene, None, end, 1e-3,
+                                  settings=CompliantSettings(contacts="all", max_step=2e-4))
         impact = next(e.to_dict() for e in traj.events if e.kind == "impact")
         restitution = impact["normal_velocity_after"] / -impact["normal_velocity_before"]
         rigid_scene = disk_scene({"restitution": restitution}, y0=0.101, v0=-1.0, gravity=0.0)
@@ -129,7 +131,7 @@ def test_zone_tables_are_checked(write_scene):
         simulate_compliant(rigid_zone, None, 0.01, 1e-3)
     scene = load_scene(write_scene(disk_scene(two_stage(1e4))))
     with pytest.raises(InputError, match="adaptive integrator"):
-        simulate_compliant(scene, None, 0.01, 1e-3, integrator="implicit")
+        simulate_compliant(scene, None, 0.01, 1e-3, settings=CompliantSettings(integrator="implicit"))
 
 
 def test_the_peg_scene_carries_its_zones_to_the_json_and_the_out_file(tmp_path):
@@ -157,7 +159,8 @@ def test_a_one_stage_zone_lets_the_body_go(write_scene):
     zone = {"zone": "one_stage", "mass_robot": 1e-3, "stiffness_internal_robot": k}
     scene = load_scene(write_scene(disk_scene(zone, y0=0.101, v0=-1.0, gravity=0.0)))
     # the mass lands at the end of an integrator step: at most a step's travel late (max_step)
-    traj = simulate_compliant(scene, None, 0.04, 1e-3, contacts="all", max_step=5e-5)
+    traj = simulate_compliant(scene, None, 0.04, 1e-3,
+                              settings=CompliantSettings(contacts="all", max_step=5e-5))
     impacts = [e.to_dict() for e in traj.events if e.kind == "impact"]
     assert len(impacts) == 1
     assert impacts[0]["duration"] == pytest.approx(math.pi * math.sqrt(MASS / k), rel=0.01)

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import AtlasInterrupted
+from ..errors import AtlasInterrupted, InputError
 from ..jsonable import to_jsonable
 from .executors import RunReport, default_workers, run_dask, run_pool, run_serial
 from .grid import MAX_ATLAS_POINTS, WHATS, AtlasPlan, Axis, build_atlas, parse_axis
@@ -86,34 +86,46 @@ def _merge(plan: AtlasPlan, chunks: Mapping[int, Mapping[str, Any]]) -> dict[str
     return rows
 
 
+@dataclass(frozen=True)
+class AtlasWorkers:
+    """Where and under what limits an atlas's chunks run (:func:`run_atlas`).
+
+    Attributes:
+        workers: local worker processes (default: every core); 1 runs in the calling process.
+        scheduler: a Dask scheduler's address, ``tcp://HOST:PORT`` (then ``workers`` is ignored).
+        chunk_time_limit: [s] on the local pool, a chunk running longer ends the run (its worker
+            is stopped); not enforced on Dask, which cannot stop a running task.
+        in_process: with one worker or one chunk, run in the calling process (False: always in
+            worker processes, as a server does to keep its own process free).
+    """
+
+    workers: int | None = None
+    scheduler: str | None = None
+    chunk_time_limit: float | None = None
+    in_process: bool = True
+
+
 def run_atlas(
     plan: AtlasPlan,
     *,
-    workers: int | None = None,
-    scheduler: str | None = None,
+    where: AtlasWorkers = AtlasWorkers(),
     out: Path | None = None,
     resume: bool = False,
     progress: Callable[[int, int], None] | None = None,
     stop: Callable[[], bool] | None = None,
-    chunk_time_limit: float | None = None,
-    in_process: bool = True,
 ) -> AtlasResult:
     """Run a plan: serially (``workers=1``), on a local pool, or on Dask (``scheduler``).
 
     Args:
         plan: from :func:`build_atlas`.
-        workers: local worker processes (default: every core); 1 runs in this process.
-        scheduler: a Dask scheduler's address, ``tcp://HOST:PORT`` (then ``workers`` is ignored).
+        where: the workers or the Dask scheduler, the chunks' time limit, and whether a one-worker
+            run stays in this process (:class:`AtlasWorkers`).
         out: a ``.parquet`` or ``.npz`` table; its chunks are kept as they finish (``store.py``).
         resume: compute only the chunks missing from ``out``'s folder of finished chunks.
         progress: called as ``progress(points_done, points_total)`` once the workers are ready
             (with the resumed points), then after each chunk.
         stop: polled while the run waits; once true, the run ends (``AtlasInterrupted``), its
             workers stopped mid-chunk (a server cancels a job this way).
-        chunk_time_limit: [s] on the local pool, a chunk running longer ends the run (its worker
-            is stopped); not enforced on Dask, which cannot stop a running task.
-        in_process: with one worker or one chunk, run in this process (False: always in worker
-            processes, as a server does to keep its own process free).
 
     Raises:
         InputError: a bad ``out`` suffix, ``resume`` without ``out``, stored chunks of other
@@ -145,9 +157,8 @@ def run_atlas(
         if progress is not None:
             progress(done_points, plan.size)
 
-    where = _Where(workers, scheduler, stop, chunk_time_limit, in_process)
     try:
-        report = _execute(plan, todo, done, started, where)
+        report = _execute(plan, todo, done, started, where, stop)
     except AtlasInterrupted as err:
         kept = (f"{len(found)} of {plan.chunk_count} chunks are kept in {store.folder}: run the same "
                 "command with --resume to finish" if store is not None else "nothing is kept without --out")
@@ -166,8 +177,6 @@ def run_atlas(
 def _open_store(plan: AtlasPlan, out: Path | None, resume: bool
                 ) -> tuple[ChunkStore | None, dict[int, Mapping[str, Any]]]:
     """The store of ``out`` (None without it) and the chunks it already holds (``resume``)."""
-    from ..errors import InputError
-
     if resume and out is None:
         raise InputError("--resume needs --out FILE: the finished chunks are kept beside FILE")
     if out is None:
@@ -177,29 +186,16 @@ def _open_store(plan: AtlasPlan, out: Path | None, resume: bool
     return store, dict(store.open(resume))
 
 
-@dataclass(frozen=True)
-class _Where:
-    """Where and under what limits the chunks run (:func:`run_atlas`'s arguments)."""
-
-    workers: int | None
-    scheduler: str | None
-    stop: Callable[[], bool] | None
-    chunk_time_limit: float | None
-    in_process: bool
-
-
 def _execute(plan: AtlasPlan, todo: list[int], done: Callable[[dict[str, Any]], None],
-             started: Callable[[], None], where: _Where) -> RunReport:
+             started: Callable[[], None], where: AtlasWorkers, stop: Callable[[], bool] | None) -> RunReport:
     if where.scheduler is not None:
-        return run_dask(plan, todo, done, where.scheduler, started, where.stop)
+        return run_dask(plan, todo, done, where.scheduler, started, stop)
     count = default_workers() if where.workers is None else where.workers
     if count < 1:
-        from ..errors import InputError
-
         raise InputError(f"--workers must be >= 1, got {count}")
     if where.in_process and (count == 1 or len(todo) <= 1):
-        return run_serial(plan, todo, done, started, where.stop)
-    return run_pool(plan, todo, done, count, started, where.stop, where.chunk_time_limit)
+        return run_serial(plan, todo, done, started, stop)
+    return run_pool(plan, todo, done, count, started, stop, where.chunk_time_limit)
 
 
 __all__ = [
@@ -208,6 +204,7 @@ __all__ = [
     "MAX_ATLAS_POINTS",
     "WHATS",
     "AtlasPlan",
+    "AtlasWorkers",
     "AtlasResult",
     "Axis",
     "build_atlas",

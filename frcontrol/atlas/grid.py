@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import CoordinateNotFound, InputError, SceneError
-from ..scene import parse_input_assignments
+from ..scene import Scene, parse_input_assignments
 from ..scene_schema import apply_override, nearest
 from ..scene_source import SceneSource
 
@@ -315,6 +315,22 @@ def _file_digest(path: Any) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
+def check_scene_for(scene: Scene, what: str) -> None:
+    """Refuse, before a sweep starts, a scene that lacks what ``what`` reads (a flip's ``[task]``).
+
+    Raises:
+        SceneError: the planner's own refusal (``frc flip``/``frc climb`` on the same scene).
+    """
+    if what == "flip":
+        from ..planning.flip import flip_task
+
+        flip_task(scene)
+    elif what == "climb":
+        from ..planning.climb import load_climb_task
+
+        load_climb_task(scene)
+
+
 def build_atlas(
     scene: str | SceneSource,
     vary: Sequence[Axis | str],
@@ -346,7 +362,6 @@ def build_atlas(
             climb's ``[task]``).
     """
     from ..model import PlanarRobot
-    from .points import check_scene_for
 
     if what not in WHATS:
         raise InputError(f"unknown --what {what!r}; valid: {', '.join(WHATS)}")

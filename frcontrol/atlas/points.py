@@ -40,7 +40,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cache
 from types import ModuleType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 from ..errors import FrcontrolError
 from ..scene import Scene
@@ -76,7 +76,10 @@ and the robustness radius [N m or N])."""
 SCENE_CACHE_SIZE = 4
 """Loaded scenes a worker keeps, by their overrides (points of a chunk often share one)."""
 
-AMBIGUITY = ("none", "between", "within", "both")
+AtlasAmbiguity = Literal["none", "between", "within", "both"]
+"""A point's ambiguity: none, between modes (several solutions), within a mode (w), or both."""
+
+AMBIGUITY: tuple[AtlasAmbiguity, ...] = get_args(AtlasAmbiguity)
 """The values of the ``ambiguous`` column."""
 
 
@@ -300,22 +303,6 @@ def _statics_columns(scene: Scene, inputs: Mapping[str, float]) -> dict[str, Any
             "static_equilibrium": bool(report.equilibrium.exists),
             "weakly_stable": bool(report.weakly_stable),
             "strongly_stable": None if report.strongly_stable is None else bool(report.strongly_stable)}
-
-
-def check_scene_for(scene: Scene, what: str) -> None:
-    """Refuse, before a sweep starts, a scene that lacks what ``what`` reads (a flip's ``[task]``).
-
-    Raises:
-        SceneError: the planner's own refusal (``frc flip``/``frc climb`` on the same scene).
-    """
-    if what == "flip":
-        from ..planning.flip import flip_task
-
-        flip_task(scene)
-    elif what == "climb":
-        from ..planning.climb import load_climb_task
-
-        load_climb_task(scene)
 
 
 def _flip_columns(scene: Scene) -> dict[str, Any]:

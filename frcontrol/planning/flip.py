@@ -117,7 +117,7 @@ from ..jsonable import finite_or_none, to_jsonable
 from ..modes import VELOCITY_TOLERANCE, ContactProblem, add_scene_modes, scene_mode
 from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
-from ..simulation.closed_loop import ClosedLoopRun, run_closed_loop
+from ..simulation.closed_loop import ClosedLoopRun, LoopOptions, run_closed_loop
 from ..simulation.export import sample_modes
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
@@ -1318,9 +1318,10 @@ def _closed_loop(scene: Scene, policy: _Replanner, task: FlipTask, *, dt: float,
     stepper = RigidStepper(policy.scene, RigidSettings(max_ambiguity_checks=0, impact_law=False),
                            armature=armature)
     return run_closed_loop(
-        stepper, policy, max_time, dt, every=replan_every, command=policy.command,
-        actuate=lambda command, at: _free_legs_idle(scene, legs, command, at.q, at.state.contact_points),
-        stop=lambda at: bool(at.q[task.pitch_index] >= task.vertical), progress=progress)
+        stepper, policy, max_time, dt, options=LoopOptions(
+            every=replan_every, command=policy.command,
+            actuate=lambda command, at: _free_legs_idle(scene, legs, command, at.q, at.state.contact_points),
+            stop=lambda at: bool(at.q[task.pitch_index] >= task.vertical)), progress=progress)
 
 
 def _replanned(replan_scene: Scene, stepper: RigidStepper, loaded: np.ndarray, margin: float, solver: str,

@@ -65,7 +65,6 @@ from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER
 from .flip import (
     DEFAULT_MARGIN,
-    FORCED_INPUT_TOLERANCE,
     REPLAN_GAP_TOLERANCE,
     REPLAN_VELOCITY_TOLERANCE,
     SEPARATION_GAP,
@@ -77,7 +76,7 @@ from .flip import (
     mode_allowed,
     sample_modes,
 )
-from .flip_budget import FlipBudget, body_energy, energy_shortfall, flip_budget
+from .flip_budget import FlipBudget, body_energy, energy_shortfall, flip_budget, leg_contacts
 
 __all__ = [
     "COMPLIANT_EXTRA_TIME",
@@ -217,21 +216,6 @@ def _contact_roles(scene: Scene, body: Sequence[str], legs: Mapping[int, list[in
         else:
             roles[c.name] = "rest"
     return roles
-
-
-def _leg_contacts(scene: Scene, body: Sequence[str]) -> dict[int, list[int]]:
-    """Input -> the contacts (not the body's) its coordinate moves, from the contact Jacobians."""
-    state = scene.robot.state(scene.q, scene.v)
-    jac = np.vstack([state.jacobian_normal, state.jacobian_tangent])
-    k = len(scene.contacts)
-    body_index = {i for i, c in enumerate(scene.contacts) if c.name in body}
-    legs = {}
-    for i, j in enumerate(scene.inputs.indices):
-        rows = np.nonzero(np.abs(jac[:, j]) > FORCED_INPUT_TOLERANCE)[0]
-        toes = sorted({int(r % k) for r in rows} - body_index)
-        if toes:
-            legs[i] = toes
-    return legs
 
 
 # ---------------------------------------------------------------------------------------------
@@ -416,7 +400,7 @@ class _PumpPolicy:
         self.pitch_index, self.vertical = task.pitch_index, task.vertical
         self.margin, self.solver = margin, solver
         self.force_tolerance = CONTACT_FORCE_TOLERANCE * scene.robot.weight_scale()
-        self.legs = _leg_contacts(scene, task.body_contacts)
+        self.legs = leg_contacts(scene, task.body_contacts)
         self.touchdown = np.array(scene.q)[self.index]
         self.direction = -np.ones(len(self.names))
         self.target = self.touchdown.copy()
@@ -723,7 +707,7 @@ def _cycle_max(times: np.ndarray, series: np.ndarray, phases: Sequence[PumpPhase
 
 def energy_drawn(scene: Scene, trajectory: Trajectory) -> float:
     """[J] ``sum_j sum_k u_j,k i_j,k (t_k - t_k-1)`` over the samples (row 0 repeats row 1: skipped)."""
-    from ..simulation.drives import drive_samples
+    from ..simulation.samples import drive_samples
 
     power = sum(table["voltage"] * table["current"] for table in drive_samples(scene, trajectory).values())
     return float(np.sum(np.asarray(power)[1:] * np.diff(trajectory.times)))
@@ -775,7 +759,7 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
         :data:`UPRIGHT_TOLERANCE` of upright), ``status``, ``duration`` [s],
         ``torque_within_limits`` (from the compliant run's own samples) and ``wall_time`` [s].
     """
-    from ..simulation.compliant import simulate_compliant
+    from ..simulation.compliant import CompliantSettings, simulate_compliant
 
     voltages = result.trajectory.inputs
     dt = result.dt
@@ -789,8 +773,8 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
     duration = flip_time + COMPLIANT_EXTRA_TIME if flip_time is not None else result.max_time
     if to_end:
         duration = float(result.trajectory.times[-1])
-    run = simulate_compliant(scene, held, duration=max(duration, dt), dt=dt, stiffness=stiffness,
-                             contacts="all")
+    run = simulate_compliant(scene, held, settings=CompliantSettings(stiffness=stiffness, contacts="all"),
+                             duration=max(duration, dt), dt=dt)
     pitch = run.q[:, task.pitch_index]
     crossed = np.nonzero(pitch >= task.vertical)[0]
     return {

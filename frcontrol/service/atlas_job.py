@@ -47,7 +47,7 @@ def atlas_work(plan: Mapping[str, Any], source: SceneSource, *, workers: int, sc
 
     def work(job: Job, stopped: Callable[[], bool]) -> dict[str, Any]:
         from frcontrol.answers import atlas_answer
-        from frcontrol.atlas import AtlasPlan
+        from frcontrol.atlas import AtlasPlan, AtlasWorkers
 
         checked = AtlasPlan.from_dict(plan, source)
         job.points_done, job.points_total = 0, checked.size
@@ -61,8 +61,8 @@ def atlas_work(plan: Mapping[str, Any], source: SceneSource, *, workers: int, sc
             job.message = f"{done} of {total} points"
 
         try:
-            answer = atlas_answer(checked, workers=workers, scheduler=scheduler, progress=progress,
-                                  stop=stopped, chunk_time_limit=chunk_time_limit, in_process=False)
+            where = AtlasWorkers(workers, scheduler, chunk_time_limit, in_process=False)
+            answer = atlas_answer(checked, where=where, progress=progress, stop=stopped)
         except FrcontrolError as err:
             return _failure(err)
         return {"status": 200, "answer": answer.document}

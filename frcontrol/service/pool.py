@@ -32,6 +32,8 @@ from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 from typing import Any
 
+from .work import address_space, execute, keep_reserve, out_of_memory, warm_up
+
 _CONTEXT = multiprocessing.get_context("spawn")  # no fork of a threaded server
 
 log = logging.getLogger(__name__)
@@ -77,18 +79,6 @@ def limit_memory(mib: int | None) -> None:
     resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
 
 
-def address_space() -> int:
-    """[bytes] This process's address space now (Linux: ``VmSize`` of ``/proc/self/status``; else 0)."""
-    try:
-        with open("/proc/self/status", encoding="ascii") as status:
-            for line in status:
-                if line.startswith("VmSize:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return 0
-
-
 SINGLE_THREADED_BLAS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 """The environment every worker and job process starts with (unless the server's own environment
 sets these): one BLAS thread. A robot's matrices are small, so threads gain nothing; and a
@@ -110,8 +100,6 @@ def _worker_main(conn: Connection, memory: int | None) -> None:
 
     It ends after an answer that ran out of memory (:func:`.work.out_of_memory`), to be replaced.
     """
-    from .work import execute, keep_reserve, out_of_memory, warm_up
-
     warm_up()
     limit_memory(memory)
     if memory is not None:
@@ -192,8 +180,6 @@ class WorkerPool:
                 a free worker included).
             WorkerLost: the worker died during the request (it is replaced).
         """
-        from .work import out_of_memory
-
         if self._idle is None:
             raise RuntimeError("the pool is not started")
         deadline = time.monotonic() + self.time_limit
@@ -269,8 +255,6 @@ class WorkerPool:
 
 def _job_main(kind: str, text: str, conn: Connection, memory: int | None) -> None:
     """A job's process (under ``memory`` MiB): progress messages, then the answer."""
-    from .work import execute, keep_reserve, warm_up
-
     warm_up()
     limit_memory(memory)
     if memory is not None:

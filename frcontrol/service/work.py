@@ -130,11 +130,11 @@ def _statics(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
 
 
 def _simulate(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
-    from frcontrol.answers import simulate_answer, simulation_failure
+    from frcontrol.answers import SimulationOptions, simulate_answer, simulation_failure
 
-    answer = simulate_answer(scene, request.inputs, model=request.model, stiffness=request.stiffness,
-                             damping=request.damping, duration=request.duration, dt=request.dt,
-                             integrator=request.integrator, every=request.every)
+    answer = simulate_answer(scene, request.inputs, SimulationOptions(
+        model=request.model, stiffness=request.stiffness, damping=request.damping, duration=request.duration,
+        dt=request.dt, integrator=request.integrator), every=request.every)
     failure = simulation_failure(answer.result)
     if failure is not None:
         raise InputError(failure)
@@ -151,12 +151,13 @@ def _simulated(what: str, progress: Progress) -> Callable[[float, float], None]:
 
 
 def _flip(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
-    from frcontrol.answers import flip_answer
+    from frcontrol.answers import FlipOptions, flip_answer
 
     try:
-        return flip_answer(scene, margin=request.margin, max_time=request.max_time, dt=request.dt,
-                           replan_every=request.replan_every, pump=request.pump, compliant=request.compliant,
-                           progress=_simulated("simulating the flip [s]", progress)).document
+        options = FlipOptions(margin=request.margin, max_time=request.max_time, dt=request.dt,
+                              replan_every=request.replan_every, pump=request.pump,
+                              compliant=request.compliant)
+        return flip_answer(scene, options, progress=_simulated("simulating the flip [s]", progress)).document
     except LimitExceeded as err:  # the flip's simulated time is its max_time
         raise FieldError(["max_time"], err) from err
 
@@ -334,6 +335,18 @@ def release_reserve() -> None:
     _reserve.clear()
 
 
+def address_space() -> int:
+    """[bytes] This process's address space now (Linux: ``VmSize`` of ``/proc/self/status``; else 0)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmSize:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 0
+
+
 def near_memory_limit() -> bool:
     """Whether this process's address space is within 2 :data:`MEMORY_RESERVE` of its limit.
 
@@ -341,8 +354,6 @@ def near_memory_limit() -> bool:
     type: an extension that fails to allocate may raise SystemError or a library's own error.
     """
     import resource
-
-    from .pool import address_space
 
     limit = resource.getrlimit(resource.RLIMIT_AS)[0]
     return limit != resource.RLIM_INFINITY and address_space() + 2 * MEMORY_RESERVE >= limit
@@ -395,6 +406,7 @@ def warm_up() -> None:
 
 __all__ = [
     "BLAS_WARM_UP",
+    "address_space",
     "FieldError",
     "OUT_OF_MEMORY",
     "out_of_memory",

@@ -9,23 +9,24 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+from ..errors import InputError
+from .choices import INTEGRATORS, TRAJECTORY_FORMATS
+
 if TYPE_CHECKING:
     from ..scene import Scene
     from .trajectory import Trajectory
 
-INTEGRATORS = ("radau", "bdf", "lsoda", "rk45", "dop853", "euler", "implicit")
-"""The integrators :func:`simulate_compliant` accepts."""
-
-TRAJECTORY_FORMATS = (".npz", ".csv")
-"""The file suffixes :func:`save_trajectory` writes."""
 
 _LAZY = {
     "simulate_compliant": ".compliant",
     "simulate_rigid": ".rigid",
+    "CompliantSettings": ".compliant",
+    "RigidSettings": ".rigid",
+    "InitialState": ".inputs",
     "ContactParameters": ".model_table",
     "ModelOptions": ".model_table",
     "model_options": ".model_table",
-    "sample_modes": ".export",
+    "sample_modes": ".samples",
     "save_trajectory": ".export",
     "ContactEvent": ".trajectory",
     "SimulationWarning": ".trajectory",
@@ -51,16 +52,23 @@ def simulate(scene: Scene, inputs: Any = None, duration: float = 1.0, dt: float 
         inputs: constant inputs (a vector or ``{name: value}``) or a callable ``(t, q, v) -> u``.
         duration: [s] simulated time.
         dt: [s] the rigid model's time step; the compliant model's sample interval.
-        **options: passed to :func:`simulate_rigid` or :func:`simulate_compliant`.
+        **options: passed to :func:`simulate_rigid` or :func:`simulate_compliant` (``settings``: a
+            :class:`RigidSettings` or a :class:`CompliantSettings`, as the model; ``start``...).
 
     Returns:
         The trajectory (its ``model`` says which model ran).
     """
-    from .compliant import simulate_compliant
+    from .compliant import CompliantSettings, simulate_compliant
     from .model_table import model_options
     from .rigid import simulate_rigid
 
-    if model_options(scene).contact == "compliant":
+    compliant = model_options(scene).contact == "compliant"
+    settings = options.get("settings")
+    if settings is not None and isinstance(settings, CompliantSettings) != compliant:
+        raise InputError(f"the scene's [model] contact is {'compliant' if compliant else 'rigid'}: "
+                         f"its settings are {'CompliantSettings' if compliant else 'RigidSettings'}, "
+                         f"got {type(settings).__name__}")
+    if compliant:
         return simulate_compliant(scene, inputs, duration, dt, **options)
     return simulate_rigid(scene, inputs, duration, dt, **options)
 
@@ -68,9 +76,12 @@ def simulate(scene: Scene, inputs: Any = None, duration: float = 1.0, dt: float 
 __all__ = [
     "INTEGRATORS",
     "TRAJECTORY_FORMATS",
+    "CompliantSettings",
     "ContactEvent",
     "ContactParameters",
+    "InitialState",
     "ModelOptions",
+    "RigidSettings",
     "SimulationWarning",
     "Trajectory",
     "model_options",

@@ -4,7 +4,8 @@ A *policy* looks at the run so far (a :class:`~frcontrol.simulation.rigid.RigidS
 time ``t``, state ``q``, ``v`` and the last step's contact forces ``last_forces``) and returns a
 *command*, one value per scene input. :func:`run_closed_loop` asks it for a command every
 ``every`` steps and holds that command in between (zero-order hold); ``actuate`` may turn the
-held command into each step's inputs at the step's state (for example to idle a leg in the air).
+held command into each step's inputs at the step's state (for example to idle a leg in the air);
+these options travel together as one :class:`LoopOptions`.
 The run ends after ``duration`` (the steps of :func:`~frcontrol.simulation.inputs.step_lengths`,
 as in :func:`~frcontrol.simulation.rigid.simulate_rigid`), when the stepper cannot go on (it
 failed or diverged), or at the first step after which ``stop`` holds. Its trajectory passes the rigid
@@ -35,6 +36,23 @@ Policy = Callable[[RigidStepper], ArrayLike]
 Actuation = Callable[[np.ndarray, RigidStepper], np.ndarray]
 """``(held command, stepper) -> inputs``: what one step applies, at the step's start."""
 
+@dataclass(frozen=True)
+class LoopOptions:
+    """How :func:`run_closed_loop` asks, holds and applies the policy's commands, and when it stops.
+
+    Attributes:
+        every: steps between the policy's calls, >= 1.
+        command: the command of the first ``every`` steps (default: the policy's at time 0).
+        actuate: see :data:`Actuation` (default: the held command itself).
+        stop: checked after every step; True ends the run (``stopped``).
+    """
+
+    every: int = 1
+    command: ArrayLike | None = None
+    actuate: Actuation | None = None
+    stop: Callable[[RigidStepper], bool] | None = None
+
+
 @dataclass(frozen=True, eq=False)
 class ClosedLoopRun:
     """A closed-loop run.
@@ -58,13 +76,10 @@ def run_closed_loop(
     duration: float,
     dt: float,
     *,
-    every: int = 1,
-    command: ArrayLike | None = None,
-    actuate: Actuation | None = None,
-    stop: Callable[[RigidStepper], bool] | None = None,
+    options: LoopOptions = LoopOptions(),
     progress: Callable[[float, float], None] | None = None,
 ) -> ClosedLoopRun:
-    """Step ``stepper`` for ``duration``, asking ``policy`` for a command every ``every`` steps.
+    """Step ``stepper`` for ``duration``, asking ``policy`` for a command every ``options.every`` steps.
 
     Args:
         stepper: a fresh rigid stepper (at time 0) on the scene to simulate.
@@ -72,16 +87,14 @@ def run_closed_loop(
             (length, finite, within the limits).
         duration: [s] the longest simulated time.
         dt: [s] the time step.
-        every: steps between the policy's calls, >= 1.
-        command: the command of the first ``every`` steps (default: the policy's at time 0).
-        actuate: see :data:`Actuation` (default: the held command itself).
-        stop: checked after every step; True ends the run (``stopped``).
+        options: the policy's period, the first command, the actuation and the stop condition.
         progress: called with (simulated time, duration) every ``every`` steps and at a failure.
 
     Raises:
         InputError: a bad duration, step or ``every``; a command that is not a valid input.
     """
     duration, dt = check_simulation_times(duration, dt, scene=stepper.scene)
+    every, command, actuate, stop = options.every, options.command, options.actuate, options.stop
     if isinstance(every, bool) or not isinstance(every, int) or every < 1:
         raise InputError(f"every must be an integer >= 1 (steps), got {every!r}")
     scene = stepper.scene
@@ -120,4 +133,4 @@ def _decide(policy: Policy, stepper: RigidStepper, timings: dict[str, float]) ->
     return command
 
 
-__all__ = ["Actuation", "ClosedLoopRun", "Policy", "run_closed_loop"]
+__all__ = ["Actuation", "ClosedLoopRun", "LoopOptions", "Policy", "run_closed_loop"]

@@ -42,7 +42,7 @@ Dynamics (M with the armature of massless coordinates, see :mod:`.armature`)::
 
 Forward dynamics is unique: the state is ``y = (q, v, s)`` (``2 n + c`` entries for c modelled
 contacts), followed by the elastic transmissions' ``z`` when the scene's drives have elastic
-stages (:mod:`frcontrol.simulation.drives`; a drive's rigid stages are in ``M``, ``h`` and
+stages (:mod:`frcontrol.simulation.transmissions`; a drive's rigid stages are in ``M``, ``h`` and
 ``S^T``). Stiffness ``k_N`` [N/m] and damping ``b_N`` [N s/m] come from the arguments, else the
 scene's ``[model]`` table (:mod:`.model_table`), else its default stiffness and critical damping
 ``b = 2 zeta sqrt(k m_eff)`` for each contact's effective mass at the initial state
@@ -103,13 +103,19 @@ from ..errors import InputError, LimitExceeded
 from ..kernel import compiled, kernel_choice
 from ..model import RobotState
 from ..scene import Scene
-from . import INTEGRATORS
 from .armature import Armature, mass_factor, massless_armature, solve_mass
-from .drives import Transmissions
-from .inputs import STEP_COUNT_TOLERANCE, InputSchedule, check_simulation_times, input_schedule
+from .choices import INTEGRATORS
+from .inputs import (
+    STEP_COUNT_TOLERANCE,
+    InitialState,
+    InputSchedule,
+    check_simulation_times,
+    input_schedule,
+)
 from .model_table import ContactParameters, model_options
 from .rigid import IMPACT_VELOCITY
-from .trajectory import ContactEvent, SimulationFailure, Trajectory
+from .trajectory import ContactEvent, EventKind, SimulationFailure, Trajectory, TrajectoryStatus
+from .transmissions import Transmissions
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
 from .zones import ContactZones, ImpactPhases, ZoneForces, contact_zones
@@ -462,7 +468,7 @@ class _Dynamics:
                        + self.contacts.tangential_damping * state.tangential_velocities)
         mass, force = self.armature.apply(state.mass_matrix), self.input_map @ u - state.bias
         coupled = None
-        if self.transmissions is not None:  # elastic drives: see frcontrol.simulation.drives
+        if self.transmissions is not None:  # elastic drives: see frcontrol.simulation.transmissions
             coupled = self.transmissions.implicit(q, v, y[end:], u, h)
             mass, force = coupled.mass(mass), force + coupled.force
         system = _ImplicitStep(self.contacts, state, mass, force, v, s, h)
@@ -539,28 +545,56 @@ class _ImplicitStep:
         return np.where(status == 1, self.s + h * (self.state.jacobian_tangent @ v_new), relaxed)
 
 
+@dataclass(frozen=True)
+class CompliantSettings:
+    """The compliant model's options (checked by :func:`simulate_compliant`).
+
+    Attributes:
+        integrator: one of :data:`INTEGRATORS`.
+        stiffness: k_N [N/m] of every modelled contact (default: the scene's ``[model]``).
+        damping: b_N [N s/m] (default: the scene's, else critical for the effective mass).
+        damping_ratio: zeta [-] for damping that is not given.
+        tangential_stiffness: k_T [N/m] (default: k_N).
+        tangential_damping: b_T [N s/m], > 0 (default: critical).
+        contacts: ``"active"`` (the scene's active contacts only: inactive ones add no state and
+            no force) or ``"all"``.
+        rtol: relative tolerance of the adaptive integrators.
+        atol: absolute tolerance of the adaptive integrators.
+        max_step: [s] largest step of the adaptive integrators (default ``dt``).
+        max_steps: integrator steps at most.
+        armature: rotor inertia for massless coordinates (default: the scene's ``[model]``).
+        impact_velocity: [m/s] a contact closing faster than this is an ``impact`` event.
+    """
+
+    integrator: str = "radau"
+    stiffness: float | None = None
+    damping: float | None = None
+    damping_ratio: float | None = None
+    tangential_stiffness: float | None = None
+    tangential_damping: float | None = None
+    contacts: str = "active"
+    rtol: float = DEFAULT_RTOL
+    atol: float = DEFAULT_ATOL
+    max_step: float | None = None
+    max_steps: int = MAX_STEPS
+    armature: float | None = None
+    impact_velocity: float = IMPACT_VELOCITY
+
+    def contact_overrides(self) -> ContactOverrides:
+        """The contact parameters given here, for every modelled contact."""
+        return ContactOverrides(self.stiffness, self.damping, self.damping_ratio, self.tangential_stiffness,
+                                self.tangential_damping)
+
+
 def simulate_compliant(
     scene: Scene,
     inputs: Mapping[str, float] | Sequence[float] | np.ndarray | InputSchedule | None = None,
     duration: float = 1.0,
     dt: float = 1e-3,
     *,
-    integrator: str = "radau",
-    stiffness: float | None = None,
-    damping: float | None = None,
-    damping_ratio: float | None = None,
-    tangential_stiffness: float | None = None,
-    tangential_damping: float | None = None,
-    contacts: str = "active",
-    q0: Sequence[float] | np.ndarray | None = None,
-    v0: Sequence[float] | np.ndarray | None = None,
+    settings: CompliantSettings | None = None,
+    start: InitialState | None = None,
     initial_stretch: Sequence[float] | np.ndarray | None = None,
-    rtol: float = DEFAULT_RTOL,
-    atol: float = DEFAULT_ATOL,
-    max_step: float | None = None,
-    max_steps: int = MAX_STEPS,
-    armature: float | None = None,
-    impact_velocity: float = IMPACT_VELOCITY,
     progress: Callable[[float, float], None] | None = None,
 ) -> Trajectory:
     """Simulate the scene with compliant (Kelvin–Voigt + Coulomb slider) contacts.
@@ -571,23 +605,10 @@ def simulate_compliant(
             held constant over each sample interval; None: zero inputs.
         duration: [s] simulated time, > 0.
         dt: [s] sample interval (and control period, and the ``euler`` step), in (0, duration].
-        integrator: one of :data:`INTEGRATORS`.
-        stiffness: k_N [N/m] of every modelled contact (default: the scene's ``[model]``).
-        damping: b_N [N s/m] (default: the scene's, else critical for the effective mass).
-        damping_ratio: zeta [-] for damping that is not given.
-        tangential_stiffness: k_T [N/m] (default: k_N).
-        tangential_damping: b_T [N s/m], > 0 (default: critical).
-        contacts: ``"active"`` (the scene's active contacts only: inactive ones add no state and
-            no force) or ``"all"``.
-        q0: initial configuration (default: the scene's).
-        v0: initial velocity (default: the scene's).
+        settings: the integrator and its tolerances, the contact parameters, the modelled contacts,
+            the armature and the impact speed (:class:`CompliantSettings`; default: its defaults).
+        start: the initial configuration and velocity (default: the scene's).
         initial_stretch: s at t = 0 [m], one per modelled contact (default 0).
-        rtol: relative tolerance of the adaptive integrators.
-        atol: absolute tolerance of the adaptive integrators.
-        max_step: [s] largest step of the adaptive integrators (default ``dt``).
-        max_steps: integrator steps at most.
-        armature: rotor inertia for massless coordinates (default: the scene's ``[model]``).
-        impact_velocity: [m/s] a contact closing faster than this is an ``impact`` event.
         progress: called with (simulated time [s], duration [s]) after every integrator step.
 
     Returns:
@@ -605,18 +626,23 @@ def simulate_compliant(
         IllConditioned: M is singular even with the armature.
     """
     duration, dt = check_simulation_times(duration, dt, scene=scene)
-    _check_integrator_options(integrator, rtol, atol, max_step, max_steps, duration, dt)
-    overrides = ContactOverrides(stiffness, damping, damping_ratio, tangential_stiffness, tangential_damping)
+    options = CompliantSettings() if settings is None else settings
+    start = InitialState() if start is None else start
+    integrator, max_step, max_steps = options.integrator, options.max_step, options.max_steps
+    _check_integrator_options(integrator, options.rtol, options.atol, max_step, max_steps, duration, dt)
+    overrides = options.contact_overrides()
     schedule, constant = input_schedule(scene, inputs)
-    y0, arm, params = _initial_state(scene, q0, v0, armature, contacts, overrides, initial_stretch)
+    y0, arm, params = _initial_state(scene, start, options.armature, options.contacts, overrides,
+                                     initial_stretch)
     y0, zones = _with_zones(scene, params, y0, integrator)
     stability_limit = _checked_stability_limit(integrator, dt, params)
     dynamics, y0 = _dynamics(scene, params, arm, y0, zones)
-    run = _CompliantRun(scene, dynamics, params, duration, dt, max_steps, impact_velocity, y0, progress)
-    settings: dict[str, Any] = {"integrator": integrator, "rtol": rtol, "atol": atol,
-                                "max_step": dt if max_step is None else max_step}
-    run.integrate(schedule, None if constant else dt, stability_limit=stability_limit, **settings)
-    info = run.report(explicit_stability_limit=stability_limit, contacts_modelled=contacts, **settings)
+    run = _CompliantRun(scene, dynamics, params, duration, dt, max_steps, options.impact_velocity, y0,
+                        progress)
+    chosen: dict[str, Any] = {"integrator": integrator, "rtol": options.rtol, "atol": options.atol,
+                              "max_step": dt if max_step is None else max_step}
+    run.integrate(schedule, None if constant else dt, stability_limit=stability_limit, **chosen)
+    info = run.report(explicit_stability_limit=stability_limit, contacts_modelled=options.contacts, **chosen)
     return _trajectory(scene, dynamics, params, arm, run.sample_times[:len(run.samples_y)], run.samples_y,
                        run.samples_u, run.events, run.status, run.failure, info)
 
@@ -667,8 +693,7 @@ def _checked_stability_limit(integrator: str, dt: float, params: CompliantContac
     return stability_limit
 
 
-def _initial_state(scene: Scene, q0: Sequence[float] | np.ndarray | None,
-                   v0: Sequence[float] | np.ndarray | None, armature: float | None, contacts: str,
+def _initial_state(scene: Scene, start: InitialState, armature: float | None, contacts: str,
                    overrides: ContactOverrides, initial_stretch: Sequence[float] | np.ndarray | None
                    ) -> tuple[np.ndarray, Armature, CompliantContacts]:
     """``(y0 = (q, v, s), armature, contact parameters)`` at the start of a run.
@@ -677,7 +702,7 @@ def _initial_state(scene: Scene, q0: Sequence[float] | np.ndarray | None,
         InputError: a bad state or stretch. IllConditioned: M is singular even with the armature.
     """
     robot = scene.robot
-    q, v = robot.check_state(scene.q if q0 is None else q0, scene.v if v0 is None else v0)
+    q, v = robot.check_state(scene.q if start.q is None else start.q, scene.v if start.v is None else start.v)
     state0 = robot.state(q, v, list(range(len(scene.contacts))))
     default_armature = model_options(scene).armature if armature is None else armature
     arm = massless_armature(scene, state0.mass_matrix, default_armature)
@@ -768,7 +793,7 @@ class _CompliantRun:
         self.samples_y = [y0.copy()]
         self.samples_u: list[np.ndarray] = []
         self.events: list[ContactEvent] = []
-        self.status = "completed"
+        self.status: TrajectoryStatus = "completed"
         self.failure: dict[str, Any] | None = None
         self.steps_taken: list[float] = []
         self.rhs_evaluations = 0
@@ -826,7 +851,7 @@ class _CompliantRun:
             "impact_velocity": self.impact_velocity, "wall_time": time.perf_counter() - self.start_wall,
         }
 
-    def fail(self, status: str, t: float, reason: str, hint: bool = False) -> None:
+    def fail(self, status: TrajectoryStatus, t: float, reason: str, hint: bool = False) -> None:
         """End the run: ``failed`` or ``diverged`` at ``t`` (with the validity hint when diverged)."""
         self.status = status
         self.failure = {"time": t, "reason": reason}
@@ -844,6 +869,7 @@ class _CompliantRun:
         for j in np.nonzero(stat != self.contact_status)[0]:
             name, before, now = self.params.names[j], self.contact_status[j], stat[j]
             values: dict[str, Any] = {}
+            kind: EventKind
             if before == 0:
                 kind = "impact" if vn_before[j] < -self.impact_velocity else "close"
                 how = {1: "sticks", 2: "slides", 3: "no load"}[int(now)]
@@ -1011,7 +1037,8 @@ def _zone_info(dynamics: _Dynamics, samples: dict[str, list]) -> dict[str, Any]:
 
 def _trajectory(scene: Scene, dynamics: _Dynamics, params: CompliantContacts, arm: Armature,
                 times: np.ndarray, samples_y: list[np.ndarray], samples_u: list[np.ndarray],
-                events: list[ContactEvent], status: str, failure: dict | None, info: dict) -> Trajectory:
+                events: list[ContactEvent], status: TrajectoryStatus, failure: dict | None,
+                info: dict) -> Trajectory:
     robot = scene.robot
     n = robot.nv
     k_all = len(scene.contacts)
@@ -1094,6 +1121,7 @@ __all__ = [
     "INTEGRATORS",
     "IMMOBILE_ROW_TOLERANCE",
     "CompliantContacts",
+    "CompliantSettings",
     "ContactOverrides",
     "compliant_contacts",
     "contact_forces",

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..scene import Scene
 from .armature import massless_armature
-from .drives import drive_samples
+from .samples import drive_samples
 from .trajectory import Trajectory
 
 __all__ = ["AUDIT_TERMS", "AUDIT_TOLERANCE", "EnergyAudit", "energy_audit"]

@@ -1,27 +1,17 @@
-"""A trajectory's contact modes per sample, and its export to NPZ or CSV.
-
-:func:`sample_modes` names each sample's motion with one letter per scene contact (S, L, R, F),
-from the sample's normal force and the contact point's tangential velocity:
-
-- **S** when the normal force is at most ``force_tolerance`` times the robot's weight (1 N
-  without gravity);
-- else **F** when ``|v_T| <= slip_tolerance`` [m/s], **R** when ``v_T > slip_tolerance`` (along
-  +t) and **L** when ``v_T < -slip_tolerance``.
-
-The defaults are the rigid stepper's :data:`~frcontrol.simulation.rigid.CONTACT_FORCE_TOLERANCE`
-and :data:`~frcontrol.simulation.rigid.SLIP_VELOCITY_TOLERANCE`.
+"""A trajectory's export to NPZ or CSV.
 
 :func:`save_trajectory` writes ``times``, ``q``, ``v``, ``inputs``, ``forces`` (every contact's
-``(lambda_n, lambda_t)``) and ``modes`` (one letter per contact and sample): in an ``.npz`` file as
-arrays of those names (with ``coordinates``, ``contacts`` and ``input_names``), in a ``.csv`` file
-as one row per sample with a header naming every column. A run's per-sample series with dotted
-names follow, under those names, as arrays and as columns (a series with several columns, such as
-a drive's stages, as ``NAME[i]``): the drives' ``drives.JOINT.voltage``, ``.current``,
-``.motor_speed`` and ``.torque`` (:mod:`.drives`), the rigid model's impact impulses
-``impacts.NAME.impulse_normal`` and ``impacts.NAME.impulse_tangent`` [N s] and the compliant
-model's contact zones ``zones.NAME.deformation`` [m] and ``zones.NAME.force`` [N]
-(:func:`sample_series`), and the joint springs' ``springs.JOINT.deflection`` [m or rad] and
-``springs.JOINT.force`` [N or N m] (:mod:`frcontrol.springs`).
+``(lambda_n, lambda_t)``) and ``modes`` (one letter per contact and sample,
+:func:`.samples.sample_modes`): in an ``.npz`` file as arrays of those names (with ``coordinates``,
+``contacts`` and ``input_names``), in a ``.csv`` file as one row per sample with a header naming
+every column. A run's per-sample series with dotted names follow, under those names, as arrays and
+as columns (a series with several columns, such as a drive's stages, as ``NAME[i]``): the drives'
+``drives.JOINT.voltage``, ``.current``, ``.motor_speed`` and ``.torque`` (:mod:`.samples`), the
+rigid model's impact impulses ``impacts.NAME.impulse_normal`` and ``impacts.NAME.impulse_tangent``
+[N s] and the compliant model's contact zones ``zones.NAME.deformation`` [m] and
+``zones.NAME.force`` [N] (:func:`sample_series`), and the joint springs'
+``springs.JOINT.deflection`` [m or rad] and ``springs.JOINT.force`` [N or N m]
+(:mod:`frcontrol.springs`).
 """
 
 from __future__ import annotations
@@ -32,34 +22,13 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, reason_from_exception
-from ..modes import contact_mode_letter
 from ..scene import Scene
-from . import TRAJECTORY_FORMATS
-from .drives import drive_arrays
-from .rigid import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
+from .choices import TRAJECTORY_FORMATS
+from .samples import drive_arrays, sample_modes
 from .trajectory import Trajectory
 
 __all__ = ["TRAJECTORY_FORMATS", "sample_modes", "sample_series", "save_trajectory", "trajectory_arrays"]
 
-
-
-def _weight(scene: Scene) -> float:
-    """The robot's weight [N] (1 N without gravity): the scale of the contact-force threshold."""
-    return scene.robot.weight_scale()
-
-
-def sample_modes(scene: Scene, trajectory: Trajectory, *, slip_tolerance: float = SLIP_VELOCITY_TOLERANCE,
-                 force_tolerance: float = CONTACT_FORCE_TOLERANCE) -> tuple[str, ...]:
-    """Per sample, one letter per scene contact: S (no load), F, R or L (module docstring)."""
-    robot = scene.robot
-    threshold = force_tolerance * _weight(scene)
-    indices = list(range(len(scene.contacts)))
-    out = []
-    for q, v, forces in zip(trajectory.q, trajectory.v, trajectory.contact_forces, strict=True):
-        vt = robot.state(q, v, indices).tangential_velocities
-        out.append("".join(contact_mode_letter(forces[i, 0], vt[i], threshold, slip_tolerance)
-                           for i in indices))
-    return tuple(out)
 
 
 def sample_series(trajectory: Trajectory) -> dict[str, np.ndarray]:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -45,6 +46,19 @@ penetration), counted by :data:`MAX_TRAJECTORY_BYTES`."""
 
 InputSchedule = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 """``(t, q, v) -> u``: the validated input at a time and state."""
+
+
+@dataclass(frozen=True)
+class InitialState:
+    """Where a simulated run starts (each None: the scene's own).
+
+    Attributes:
+        q: the initial configuration, one value per coordinate [m or rad].
+        v: the initial velocity, one value per coordinate [m/s or rad/s].
+    """
+
+    q: Sequence[float] | np.ndarray | None = None
+    v: Sequence[float] | np.ndarray | None = None
 
 
 def check_input_vector(scene: Scene, u: Any, when: str) -> np.ndarray:
@@ -182,6 +196,7 @@ def check_trajectory_memory(scene: Scene, samples: int, dt_name: str = "dt") -> 
 
 __all__ = [
     "INPUT_LIMIT_TOLERANCE",
+    "InitialState",
     "InputSchedule",
     "MAX_SIMULATION_SAMPLES",
     "MAX_TRAJECTORY_BYTES",

@@ -55,7 +55,7 @@ which is reported (``info["stabilization_work"]``).
 
 Massless links get a joint armature (see :mod:`frcontrol.simulation.armature`). DC-motor drives
 (:mod:`frcontrol.drives`): their electrical damping ``D`` is taken at the step's end, ``M`` becoming
-``M + h D``; elastic transmissions step with the robot (:mod:`frcontrol.simulation.drives`).
+``M + h D``; elastic transmissions step with the robot (:mod:`frcontrol.simulation.transmissions`).
 
 Events (``Trajectory.events``): ``close`` / ``impact`` (a contact starts carrying force, with
 approach speed above ``impact_velocity`` for an impact), ``open``, ``stick``, ``slip``, and
@@ -75,18 +75,21 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import Literal
 
 import numpy as np
 
+from ..engine import solutions_at
 from ..errors import FrcontrolError, InputError
 from ..modes import ContactProblem, contact_mode_letter
 from ..scene import Scene
 from .armature import DEFAULT_ARMATURE, Armature, mass_factor, massless_armature, solve_mass
-from .drives import ImplicitTransmissions, TransmissionRun
 from .impact import ImpulseLCPFailure, impact_law, solve_impulse_lcp
-from .inputs import InputSchedule, check_simulation_times, input_schedule, step_lengths
+from .inputs import InitialState, InputSchedule, check_simulation_times, input_schedule, step_lengths
 from .model_table import model_options
-from .trajectory import ContactEvent, SimulationFailure, Trajectory
+from .samples import CONTACT_FORCE_TOLERANCE, SLIP_VELOCITY_TOLERANCE
+from .trajectory import ContactEvent, SimulationFailure, Trajectory, TrajectoryStatus
+from .transmissions import ImplicitTransmissions, TransmissionRun
 from .validity import HINT as VALIDITY_HINT
 from .validity import assess
 
@@ -101,12 +104,6 @@ IMPACT_VELOCITY = 0.05
 """[m/s] A contact that closes with approach speed above this is an ``impact`` event, else a
 ``close`` (a resting contact that chatters open for a step re-closes at about g h)."""
 
-SLIP_VELOCITY_TOLERANCE = 1e-6
-"""[m/s] A loaded contact with |v_T| at most this after the step sticks; above, it slips."""
-
-CONTACT_FORCE_TOLERANCE = 1e-9
-"""[-] A contact carries force when its impulse / h exceeds this times the force scale
-(the robot's weight, or 1 N without gravity)."""
 
 AMBIGUITY_VELOCITY_TOLERANCE = 1e-4
 """[m/s] The rigid solutions are listed only where every touching contact has |v_N| at most
@@ -125,12 +122,15 @@ IMPACT_GAP_TOLERANCE = 1e-5
 """[m] A contact within this of its surface is touching for the impact law: it takes the law when
 it approaches faster than ``impact_velocity``, and bounds the impulses of the others touching."""
 
+Sliding = Literal["stick", "slip"]
+"""A loaded, touching contact's tangential state after a step (its ``stick``/``slip`` events)."""
+
 MAX_LANDINGS_PER_STEP = 4
 """A step is split at most this many times at the instants contacts land (then the rest of the
 step lands the next contact by its LCP, as a step without impact law)."""
 
 
-def _sliding_phrase(sliding: str | None, v_t: float) -> str:
+def _sliding_phrase(sliding: Sliding | None, v_t: float) -> str:
     if sliding == "slip":
         return f"slides toward {'+t' if v_t > 0 else '-t'}"
     return "sticks" if sliding == "stick" else "no load"
@@ -147,16 +147,9 @@ def simulate_rigid(
     duration: float = 1.0,
     dt: float = 1e-3,
     *,
-    q0: Sequence[float] | np.ndarray | None = None,
-    v0: Sequence[float] | np.ndarray | None = None,
-    activation_distance: float = ACTIVATION_DISTANCE,
-    stabilization: float = DEFAULT_STABILIZATION,
-    impact_velocity: float = IMPACT_VELOCITY,
-    slip_velocity_tolerance: float = SLIP_VELOCITY_TOLERANCE,
+    settings: RigidSettings | None = None,
+    start: InitialState | None = None,
     armature: float | None = None,
-    lcp_method: str = "lemke",
-    max_ambiguity_checks: int = MAX_AMBIGUITY_CHECKS,
-    impact_law: bool = True,
     progress: Callable[[float, float], None] | None = None,
 ) -> Trajectory:
     """Simulate the scene with rigid contacts by velocity-level time stepping.
@@ -167,19 +160,11 @@ def simulate_rigid(
             called once per step (zero-order hold); None: zero inputs.
         duration: [s] simulated time, > 0.
         dt: [s] step, > 0 and <= duration (the last step is shortened to end at ``duration``).
-        q0: initial configuration (default: the scene's).
-        v0: initial velocity (default: the scene's).
-        activation_distance: [m] see :data:`ACTIVATION_DISTANCE`.
-        stabilization: beta in [0, 1], the fraction of a penetration removed per step.
-        impact_velocity: [m/s] see :data:`IMPACT_VELOCITY`.
-        slip_velocity_tolerance: [m/s] see :data:`SLIP_VELOCITY_TOLERANCE`.
+        settings: the stepper's distances, tolerances, LCP method, ambiguity checks and impact law
+            (:class:`RigidSettings`; default: its defaults).
+        start: the initial configuration and velocity (default: the scene's).
         armature: rotor inertia for massless coordinates (default: the scene's ``[model]``
             armature, else :data:`~frcontrol.simulation.armature.DEFAULT_ARMATURE`).
-        lcp_method: ``"lemke"`` or ``"enumerate"``.
-        max_ambiguity_checks: at most this many :func:`~frcontrol.engine.solutions_at` calls
-            (0: none).
-        impact_law: apply the impact law at landings (module docstring); False: the steps'
-            LCPs absorb impacts, inelastically.
         progress: called with (simulated time [s], duration [s]) after every step.
 
     Returns:
@@ -200,10 +185,10 @@ def simulate_rigid(
         IllConditioned: M is singular even with the armature.
     """
     duration, dt = check_simulation_times(duration, dt, scene=scene)
-    settings = RigidSettings(activation_distance, stabilization, impact_velocity, slip_velocity_tolerance,
-                             lcp_method, max_ambiguity_checks, impact_law)
+    start = InitialState() if start is None else start
     schedule, _ = input_schedule(scene, inputs)
-    stepper = RigidStepper(scene, settings, q0=q0, v0=v0, armature=armature)
+    stepper = RigidStepper(scene, RigidSettings() if settings is None else settings, q0=start.q, v0=start.v,
+                           armature=armature)
     for _, h in step_lengths(duration, dt):
         if not stepper.step(schedule(stepper.t, stepper.q, stepper.v), h):
             break
@@ -214,11 +199,20 @@ def simulate_rigid(
 
 @dataclass(frozen=True)
 class RigidSettings:
-    """The rigid stepper's settings (see :func:`simulate_rigid` for each), validated.
+    """The rigid stepper's settings, validated.
 
-    ``impact_law=False`` steps without the impact law: the step that lands a contact and the next
-    one absorb its impact through their LCPs (inelastic, no restitution, no split; the scheme the
-    flip planner's closed loop was verified with).
+    Attributes:
+        activation_distance: [m] see :data:`ACTIVATION_DISTANCE`.
+        stabilization: beta in [0, 1], the fraction of a penetration removed per step.
+        impact_velocity: [m/s] see :data:`IMPACT_VELOCITY`.
+        slip_velocity_tolerance: [m/s] see :data:`SLIP_VELOCITY_TOLERANCE`.
+        lcp_method: ``"lemke"`` or ``"enumerate"``.
+        max_ambiguity_checks: at most this many :func:`~frcontrol.engine.solutions_at` calls
+            (0: none).
+        impact_law: apply the impact law at landings (module docstring). False steps without it:
+            the step that lands a contact and the next one absorb its impact through their LCPs
+            (inelastic, no restitution, no split; the scheme the flip planner's closed loop was
+            verified with).
 
     Raises:
         InputError: stabilization outside [0, 1], a negative or non-finite distance or tolerance,
@@ -280,7 +274,7 @@ class RigidStepper:
         self.armature = massless_armature(scene, self.state.mass_matrix,
                                           options.armature if armature is None else armature)
         self.force_tolerance = CONTACT_FORCE_TOLERANCE * robot.weight_scale()
-        self.status = "completed"
+        self.status: TrajectoryStatus = "completed"
         self.failure: SimulationFailure | None = None
         k = len(self.names)
         self.last_forces = np.zeros((k, 2))
@@ -300,7 +294,7 @@ class RigidStepper:
         self.lcp_stats = {"solves": 0, "max_unknowns": 0, "regularised_or_fallback": 0, "max_residual": 0.0}
         slip = self.settings.slip_velocity_tolerance
         self._closed = np.abs(self.state.gaps) <= scene.gap_tolerance
-        self._sliding: list[str | None] = [
+        self._sliding: list[Sliding | None] = [
             ("slip" if abs(self.state.tangential_velocities[i]) > slip else "stick")
             if self._closed[i] else None
             for i in range(k)]
@@ -514,7 +508,7 @@ class RigidStepper:
         vn_l, vn_n = vn.tolist(), vn_next.tolist()
         was_closed = self._closed.tolist()
         for i, name in enumerate(self.names):
-            new_sliding: str | None = None
+            new_sliding: Sliding | None = None
             if closed[i] and loaded_l[i]:
                 new_sliding = "slip" if abs(vt[i]) > cfg.slip_velocity_tolerance else "stick"
             if closed[i] and not was_closed[i]:
@@ -654,8 +648,6 @@ def _ambiguity_check(scene: Scene, q: np.ndarray, v: np.ndarray, u: np.ndarray, 
                      arm: Armature, slip_tol: float, taken: str, t: float,
                      drive_torque: np.ndarray | None = None) -> dict:
     """Every rigid solution at this state (touching contacts, v_N taken as 0), and the step's mode."""
-    from ..engine import solutions_at  # the engine is heavy; import on first use
-
     at_state = ContactProblem.from_scene(scene, q, v, contacts=touching, velocity_tolerance=slip_tol,
                                          drive_torque=drive_torque)
     vt = at_state.tangential_velocities.copy()

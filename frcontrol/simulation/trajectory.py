@@ -4,15 +4,29 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
 
 from ..errors import InputError
 from ..jsonable import to_jsonable
+from .samples import drive_samples, sample_modes, stage_samples
 
 if TYPE_CHECKING:
     from ..scene import Scene
+
+
+EventKind = Literal["open", "close", "impact", "stick", "slip", "ambiguous"]
+"""What happened at a contact (:class:`ContactEvent`)."""
+
+WarningKind = Literal["energy", "penetration", "speed"]
+"""Which validity limit a run left (:class:`SimulationWarning`)."""
+
+TrajectoryStatus = Literal["completed", "failed", "diverged"]
+"""How a run ended (:attr:`Trajectory.status`)."""
+
+ContactModel = Literal["rigid", "compliant"]
+"""The contact model that made a trajectory (:attr:`Trajectory.model`)."""
 
 
 @dataclass(frozen=True)
@@ -26,7 +40,7 @@ class ContactEvent:
 
     time: float
     contact: str
-    kind: str
+    kind: EventKind
     detail: str = ""
     values: Mapping[str, Any] = field(default_factory=dict, hash=False)
 
@@ -47,7 +61,7 @@ class SimulationWarning:
     """
 
     time: float
-    kind: str
+    kind: WarningKind
     detail: str
 
     def to_dict(self) -> dict:
@@ -77,7 +91,7 @@ class SimulationFailure:
         return out
 
 
-TRAJECTORY_STATUSES = ("completed", "failed", "diverged")
+TRAJECTORY_STATUSES: tuple[TrajectoryStatus, ...] = get_args(TrajectoryStatus)
 """The values of :attr:`Trajectory.status`."""
 
 
@@ -124,8 +138,8 @@ class Trajectory:
     events: tuple[ContactEvent, ...] = ()
     info: dict = field(default_factory=dict)
     warnings: tuple[SimulationWarning, ...] = ()
-    model: str | None = None
-    status: str = "completed"
+    model: ContactModel | None = None
+    status: TrajectoryStatus = "completed"
     failure: SimulationFailure | None = None
     modes: tuple[str, ...] | None = None
 
@@ -223,9 +237,6 @@ class Trajectory:
 
     def _add_scene_parts(self, scene: Scene, summary: dict[str, Any], samples: dict[str, Any]) -> None:
         """What :meth:`to_dict` reports with the scene: input units, springs, drives, modes."""
-        from .drives import drive_samples, stage_samples
-        from .export import sample_modes
-
         summary["input_units"] = scene.inputs.unit_map()
         if scene.robot.springs:  # the joint springs: deflection [m or rad], force [N or N m]
             summary["springs"] = scene.robot.springs.to_dict()

@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from ..scene import Scene
-from .trajectory import SimulationFailure, SimulationWarning, Trajectory
+from .trajectory import SimulationFailure, SimulationWarning, Trajectory, WarningKind
 
 __all__ = [
     "DIVERGENCE_FACTOR",
@@ -172,7 +172,7 @@ def _warnings(trajectory: Trajectory, limits: ValidityLimits, energy: np.ndarray
     T = len(times)
     warnings: list[SimulationWarning] = []
 
-    def warn(index: int | None, kind: str, detail: str) -> None:
+    def warn(index: int | None, kind: WarningKind, detail: str) -> None:
         if index is not None and index < end:
             warnings.append(SimulationWarning(float(times[index]), kind, detail))
 

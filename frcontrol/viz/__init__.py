@@ -7,7 +7,7 @@ Modules, the heavy ones imported on demand (each imports its library inside its 
   in meshcat's 3-D viewer, as a self-contained HTML file or on a local server;
 - :mod:`frcontrol.viz.plots`: 2-D figures for reports (trajectories, scenes, input-space polygons)
   and the text-overlap check; :mod:`frcontrol.viz.figures`: the figures of results;
-- :mod:`frcontrol.viz.colors`, :mod:`frcontrol.viz.errors`, :mod:`frcontrol.viz.geometry` (plane
+- :mod:`frcontrol.viz.colors`, :mod:`frcontrol.viz.picture_errors`, :mod:`frcontrol.viz.geometry` (plane
   geometry: poses, surface lines, friction cones, hulls) and :mod:`frcontrol.viz.visuals` (link
   shapes from the URDF), with numpy only, shared by both.
 
@@ -26,7 +26,6 @@ from .colors import (
     hex_color,
     rgba_hex,
 )
-from .errors import OutputFileError, PortInUse, ViewerServerError, VizError
 from .geometry import (
     LINE_MERGE_TOLERANCE,
     SurfaceLine,
@@ -36,6 +35,7 @@ from .geometry import (
     surface_lines,
     surface_segments,
 )
+from .picture_errors import OutputFileError, PortInUse, ViewerServerError, VizError
 from .visuals import DEFAULT_VISUAL_COLOR, LinkVisual, link_visuals, visual_depth, visual_outline
 
 __all__ = [

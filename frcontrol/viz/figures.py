@@ -30,13 +30,24 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..modes import mode_heading, scene_mode
 from ..planning.climb import ClimbPlan, robust_region
 from ..planning.flip import FlipPlan, FlipResult
 from ..polytope import Polytope
 from ..scene import Scene
 from ..statics import StaticsReport
+from .geometry import pose_matrix
+from .plots import (
+    REGION_LABEL_STYLE,
+    PolygonPanel,
+    frame_axes,
+    place_labels,
+    plot_polygons,
+    polygon_from_halfplanes,
+)
 from .plots import new_figure as _figure
 from .plots import save_figure as _save
+from .visuals import link_visuals, visual_outline
 
 __all__ = [
     "BODY_EDGE",
@@ -144,8 +155,6 @@ def plot_flip_inputs(
         VizError: matplotlib is missing.
         OutputFileError: the file cannot be written.
     """
-    from .plots import REGION_LABEL_STYLE, place_labels
-
     space = _input_space(plan, axes)
     if ax is None:
         ax = _figure(figsize=(7.0, 6.0), layout="constrained").add_subplot()
@@ -170,15 +179,11 @@ def plot_flip_inputs(
 
 def _scene_mode(plan: FlipPlan, mode: str) -> str:
     """The plan's mode over every scene contact (as every output shows it), or as it is without them."""
-    from frcontrol.modes import scene_mode
-
     return scene_mode(mode, plan.contacts, plan.scene_contacts) if plan.scene_contacts else mode
 
 
 def _mode_legend_title(plan: FlipPlan) -> str:
     """The legend's title: which contact each mode letter is."""
-    from frcontrol.modes import mode_heading
-
     return mode_heading(plan.scene_contacts or plan.contacts) + ": S separate, L/R slide, F fixed"
 
 
@@ -189,16 +194,14 @@ def _draw_input_space(ax: Any, space: _InputSpace, window: tuple[float, float, f
     Returns:
         The region labels ``(mode, centroid, area)`` to place once the figure is laid out.
     """
-    from .plots import plot_polygons
-
     analysis = space.plan.analysis
     assert analysis is not None  # checked by _input_space
     full = [mode for mode in analysis.feasible_modes if mode.inputs_full_dimensional]
     flat = [mode for mode in analysis.feasible_modes if not mode.inputs_full_dimensional]
     sets = [input_slice(mode.feasible_input_domain, space.axes, space.through) for mode in full]
-    plot_polygons(sets, ax=ax, labels=[_scene_mode(space.plan, mode.mode) for mode in full], box=window,
-                  alpha=0.25,
-                  axis_labels=space.axis_labels, legend=False, label_regions=False)
+    plot_polygons(sets, ax=ax, labels=[_scene_mode(space.plan, mode.mode) for mode in full],
+                  panel=PolygonPanel(box=window, alpha=0.25, axis_labels=space.axis_labels, legend=False,
+                                     label_regions=False))
     region_labels = ax._frcontrol_region_labels
     _draw_flat_overlapping_and_chosen(ax, space.plan, flat, space.axes, space.through, window,
                                       space.axis_labels)
@@ -227,8 +230,6 @@ def flip_zoom_window(plan: FlipPlan, *, axes: tuple[int, int] = (0, 1)
     Raises:
         InputError: see :func:`plot_flip_inputs`.
     """
-    from .plots import polygon_from_halfplanes
-
     space = _input_space(plan, axes)
     analysis = plan.analysis
     assert analysis is not None  # checked by _input_space
@@ -274,13 +275,12 @@ def _draw_flat_overlapping_and_chosen(ax: Any, plan: FlipPlan, flat: Sequence[An
     Flat T_c are thick grey, two modes' overlaps hatched, the chosen pieces outlined, the plan a
     star; the legend also explains the white.
     """
-    from .plots import plot_polygons
-
     analysis = plan.analysis
     assert analysis is not None  # checked by the caller
+    outline = PolygonPanel(box=box, alpha=0.0, axis_labels=labels)
     if flat:
         plot_polygons([input_slice(mode.feasible_input_domain, axes, through) for mode in flat], ax=ax,
-                      colors=["0.35"] * len(flat), box=box, alpha=0.0, axis_labels=labels)
+                      colors=["0.35"] * len(flat), panel=outline)
     overlaps = []
     for overlap in analysis.overlaps:
         first, second = (analysis.mode(name).feasible_input_domain for name in overlap.modes)
@@ -289,11 +289,11 @@ def _draw_flat_overlapping_and_chosen(ax: Any, plan: FlipPlan, flat: Sequence[An
         overlaps.append((np.vstack([A1, A2]), np.concatenate([b1, b2])))
     if overlaps:
         plot_polygons(overlaps, ax=ax, hatches=["xxx"] * len(overlaps), colors=["0.1"] * len(overlaps),
-                      box=box, alpha=0.0, axis_labels=labels)
+                      panel=outline)
     chosen = [p for p in plan.pieces if p.mode == plan.mode]
     if chosen:
         plot_polygons([input_slice(p.region, axes, through) for p in chosen], ax=ax,
-                      colors=["black"] * len(chosen), box=box, alpha=0.0, axis_labels=labels)
+                      colors=["black"] * len(chosen), panel=outline)
     if plan.mode is not None:
         ax.plot([through[axes[0]]], [through[axes[1]]], linestyle="none", marker="*", markersize=16,
                 color="gold", markeredgecolor="black", zorder=7,
@@ -382,8 +382,6 @@ def flip_figure(result: FlipResult | FlipPlan, *, axes: tuple[int, int] = (0, 1)
     """
     from matplotlib.patches import Rectangle
 
-    from .plots import REGION_LABEL_STYLE, place_labels
-
     plan = result.plan if isinstance(result, FlipResult) else result
     simulated = isinstance(result, FlipResult) and result.trajectory is not None
     drawable = plan.analysis is not None and plan.analysis.problem.m >= 2
@@ -439,8 +437,6 @@ def plot_climb(plan: ClimbPlan, path: str | Path | None = None) -> Any:
         InputError: the plan was not found.
         VizError: matplotlib is missing. OutputFileError: the file cannot be written.
     """
-    from .plots import plot_polygons
-
     if not plan.found:
         raise InputError(f"the climb plan was not found ({plan.reason}): nothing to plot")
     items = plan.disturbances.items
@@ -460,10 +456,10 @@ def plot_climb(plan: ClimbPlan, path: str | Path | None = None) -> Any:
         grow = CLIMB_WINDOW_MARGIN * (high - low)
         window = (low[0] - grow[0], high[0] + grow[0], low[1] - grow[1], high[1] + grow[1])
         sets = [robust_region(plan, i), dist.polytope(s_max), dist.polytope(plan.scale)]
-        plot_polygons(sets, ax=ax, colors=colors, hatches=hatches, box=window, points=np.zeros((1, 2)),
-                      axis_labels=(f"{dist.name}: $f_x$ [N]", f"{dist.name}: $f_y$ [N]"),
-                      title=f"{dist.name} on {dist.link} ({'robust' if plan.robust else 'NOT robust'})",
-                      legend=False)
+        robust = "robust" if plan.robust else "NOT robust"
+        panel = PolygonPanel(box=window, axis_labels=(f"{dist.name}: $f_x$ [N]", f"{dist.name}: $f_y$ [N]"),
+                             title=f"{dist.name} on {dist.link} ({robust})", legend=False)
+        plot_polygons(sets, ax=ax, colors=colors, hatches=hatches, points=np.zeros((1, 2)), panel=panel)
         ax.add_patch(Rectangle((low[0], low[1]), high[0] - low[0], high[1] - low[1], fill=False,
                                edgecolor="0.3", linestyle="--", linewidth=1.0, zorder=4))
         ax.set_aspect("equal", adjustable="box")
@@ -517,8 +513,6 @@ def plot_statics(scene: Scene, report: StaticsReport, path: str | Path | None = 
     Raises:
         VizError: matplotlib is missing. OutputFileError: the file cannot be written.
     """
-    from .plots import REGION_LABEL_STYLE, frame_axes, place_labels
-
     body = report.body
     figure = _figure(figsize=(7.0, 6.4), layout="constrained")
     ax = figure.add_subplot()
@@ -574,8 +568,6 @@ def _draw_body_links(ax: Any, scene: Scene) -> list[np.ndarray]:
     """The robot's links at the scene's state, from their URDF visuals; returns their outlines [m]."""
     from matplotlib.patches import Polygon
 
-    from .geometry import pose_matrix
-    from .visuals import link_visuals, visual_outline
 
     poses = scene.robot.link_poses(scene.q)
     outlines = []
@@ -630,8 +622,6 @@ def _draw_support(ax: Any, sup: Any, c: np.ndarray, lo: np.ndarray, hi: np.ndarr
     region that covers the whole view is a faint tint, not a hatch over everything.
     """
     from matplotlib.patches import Polygon
-
-    from .plots import polygon_from_halfplanes
 
     x0, x1 = max(sup.x_min, lo[0]), min(sup.x_max, hi[0])
     open_ends = [side for side, value in (("left", sup.x_min), ("right", sup.x_max))

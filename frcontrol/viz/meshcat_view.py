@@ -56,8 +56,8 @@ from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
 from . import colors
-from .errors import OutputFileError, PortInUse, ViewerServerError
 from .geometry import friction_cone_directions, pose_matrix, surface_lines, surface_segments
+from .picture_errors import OutputFileError, PortInUse, ViewerServerError
 from .visuals import LinkVisual, link_visuals, visual_depth, visual_outline
 
 __all__ = [
@@ -609,7 +609,7 @@ def _drawn_modes(scene: Scene, trajectory: Trajectory, modes: list[str] | None,
     if len(samples) < 2:
         return None
     if modes is None:
-        from frcontrol.simulation.export import sample_modes
+        from frcontrol.simulation.samples import sample_modes
 
         modes = list(sample_modes(scene, trajectory))
     return tuple(modes[i] for i in samples)

@@ -21,18 +21,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from frcontrol.errors import CoordinateNotFound, InputError, reason_from_exception
+from frcontrol.polytope import clip_polygon
 from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
 from . import colors as palette
-from .errors import OutputFileError, VizError
 from .geometry import friction_cone_directions, pose_matrix, surface_lines, surface_segments
+from .picture_errors import OutputFileError, VizError
 from .visuals import link_visuals, visual_depth, visual_outline
 
 __all__ = [
@@ -44,6 +46,7 @@ __all__ = [
     "frame_axes",
     "REGION_LABEL_STYLE",
     "place_labels",
+    "PolygonPanel",
     "plot_polygons",
     "plot_scene",
     "plot_trajectory",
@@ -484,8 +487,6 @@ def polygon_from_halfplanes(
     Raises:
         InputError: wrong shapes, non-finite values, or an empty or inverted box.
     """
-    from frcontrol.polytope import clip_polygon
-
     return clip_polygon(A, b, box, tolerance)
 
 
@@ -509,6 +510,30 @@ _PolygonStyle = tuple[str, str | None, str | None]
 """How :func:`plot_polygons` draws one set: (colour, hatch or None, label or None)."""
 
 
+@dataclass(frozen=True)
+class PolygonPanel:
+    """The panel :func:`plot_polygons` draws into: its window, names and look.
+
+    Attributes:
+        box: the window (xmin, xmax, ymin, ymax); default: the sets' extent plus 10 %, in which
+            case every set must be bounded.
+        axis_labels: the axes' names (with units).
+        title: the panel's title.
+        alpha: the fills' opacity.
+        legend: add the Axes' legend (False: the caller makes its own).
+        label_regions: write the labels in the regions now (False: the caller places them with
+            :func:`place_labels` once its figure is laid out; they are kept as
+            ``(label, centroid, area)`` in the Axes' ``_frcontrol_region_labels``).
+    """
+
+    box: Sequence[float] | None = None
+    axis_labels: tuple[str, str] = ("$u_1$", "$u_2$")
+    title: str | None = None
+    alpha: float = 0.35
+    legend: bool = True
+    label_regions: bool = True
+
+
 def plot_polygons(
     polygons: Sequence[Any],
     path: str | Path | None = None,
@@ -517,13 +542,8 @@ def plot_polygons(
     labels: Sequence[str | None] | None = None,
     hatches: Sequence[str | None] | None = None,
     colors: Sequence[str | None] | None = None,
-    box: Sequence[float] | None = None,
-    axis_labels: tuple[str, str] = ("$u_1$", "$u_2$"),
-    title: str | None = None,
-    alpha: float = 0.35,
     points: Any = None,
-    legend: bool = True,
-    label_regions: bool = True,
+    panel: PolygonPanel = PolygonPanel(),
 ) -> Any:
     """Draw 2-D H-polytopes ``A x <= b`` (e.g. input-space slices of mode domains).
 
@@ -540,16 +560,8 @@ def plot_polygons(
         labels: one label per polygon (None entries: unlabelled).
         hatches: one matplotlib hatch pattern per polygon (``"//"``, ``"xx"``...; None: none).
         colors: one colour per polygon (default: matplotlib's cycle).
-        box: the window (xmin, xmax, ymin, ymax); default: the sets' extent plus 10 %, in which
-            case every set must be bounded.
-        axis_labels: the axes' names (with units).
-        title: the panel's title.
-        alpha: the fills' opacity.
         points: optional points (N, 2) to mark (e.g. an optimum).
-        legend: add the Axes' legend (False: the caller makes its own).
-        label_regions: write the labels in the regions now (False: the caller places them with
-            :func:`place_labels` once its figure is laid out; they are kept as
-            ``(label, centroid, area)`` in the Axes' ``_frcontrol_region_labels``).
+        panel: the window, the axes' names, the title, the fills' opacity and the labels' placing.
 
     Returns:
         The Axes drawn into.
@@ -559,19 +571,20 @@ def plot_polygons(
         OutputFileError: the file cannot be written.
     """
     styles = _polygon_styles(len(polygons), labels, hatches, colors)
-    vertices, window = _clipped_polygons([_halfplanes(item, i) for i, item in enumerate(polygons)], box)
+    vertices, window = _clipped_polygons([_halfplanes(item, i) for i, item in enumerate(polygons)],
+                                         panel.box)
     if ax is None:
         ax = new_figure(figsize=(6.0, 5.0), layout="constrained").add_subplot()
-    to_label = _draw_polygons(ax, vertices, styles, alpha)
+    to_label = _draw_polygons(ax, vertices, styles, panel.alpha)
     if points is not None:
         marks = np.asarray(points, dtype=float).reshape(-1, 2)
         ax.plot(marks[:, 0], marks[:, 1], linestyle="none", marker="*", markersize=10, color="black",
                 zorder=6)
-    frame_axes(ax, window, axis_labels, title)
-    if legend and any(label is not None for _, _, label in styles):
+    frame_axes(ax, window, panel.axis_labels, panel.title)
+    if panel.legend and any(label is not None for _, _, label in styles):
         ax.legend(loc="best", fontsize="small")
     ax.grid(True, alpha=0.3)
-    if to_label and label_regions:
+    if to_label and panel.label_regions:
         place_labels(ax, to_label, **REGION_LABEL_STYLE)
     ax._frcontrol_region_labels = to_label  # for a caller that places them once its figure is laid out
     if path is not None:

@@ -13,11 +13,12 @@ from typing import Any
 
 import numpy as np
 
+from frcontrol.errors import RobotModelError
 from frcontrol.model import ContactPoint, PlanarRobot
-from frcontrol.urdf import resolve_mesh
+from frcontrol.urdf import read_urdf, resolve_mesh
 
-from .errors import VizError
 from .geometry import convex_hull, pose_matrix
+from .picture_errors import VizError
 
 __all__ = ["DEFAULT_VISUAL_COLOR", "LinkVisual", "link_visuals", "visual_depth", "visual_outline"]
 
@@ -53,9 +54,6 @@ class LinkVisual:
 
 def _urdf_visuals(urdf_path: Path) -> tuple[dict, dict]:
     """(visuals by link, child joint origins by link) from :func:`frcontrol.urdf.read_urdf`."""
-    from frcontrol.errors import RobotModelError
-    from frcontrol.urdf import read_urdf
-
     try:
         document = read_urdf(urdf_path)
     except RobotModelError as err:

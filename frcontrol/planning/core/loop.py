@@ -32,7 +32,7 @@ import numpy as np
 from ...errors import FrcontrolError, ImpactState, InputError
 from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...scene import Contact, Scene
-from ...simulation.closed_loop import ClosedLoopRun, run_closed_loop
+from ...simulation.closed_loop import ClosedLoopRun, LoopOptions, run_closed_loop
 from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ...solvers import DEFAULT_LP_SOLVER
 from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
@@ -250,10 +250,7 @@ def run_task(
             policy,
             duration,
             dt,
-            every=replan_every,
-            command=first,
-            actuate=policy.actuate,
-            stop=policy.stop,
+            options=LoopOptions(every=replan_every, command=first, actuate=policy.actuate, stop=policy.stop),
             progress=progress,
         )
     last = policy.records[-1]

@@ -1,4 +1,4 @@
-r"""Drives in a simulation: elastic transmissions' state, and what each DC motor does per sample.
+r"""Drives in a simulation: the elastic transmissions' state and dynamics (their samples: :mod:`.samples`).
 
 Rigid stages
 ------------
@@ -38,18 +38,6 @@ as part of the ODE state, the compliant ``euler`` by semi-implicit Euler (explic
 for steps below ``2 / omega`` of the transmission's fastest mode). The transmission's state is
 ``(X, Omega)`` of every elastic drive, appended to the simulator's state; it starts with the
 springs at rest (twist 0, or each stage's ``deflection``) and the clusters turning with the joint.
-
-Samples
--------
-:func:`drive_samples` reads, per sample, each drive's::
-
-    voltage u [V]            the input
-    motor_speed w_m [rad/s]  the rotor's: N qdot (rigid), rho_0 theta_0' (elastic)
-    current i [A]            (u - C_E w_m) / R
-    torque tau [N m]         at the joint: eta N C_M i (rigid), eta_e rho_e S_{e-1} (elastic)
-
-and :func:`stage_samples` each stage's deflection [rad] (the spring's twist ``delta``; 0 for a
-rigid stage).
 """
 
 from __future__ import annotations
@@ -59,9 +47,8 @@ from typing import Any
 
 import numpy as np
 
-from ..drives import Drive, clusters, motor_current
+from ..drives import Drive, clusters
 from ..scene import Scene
-from .trajectory import Trajectory
 
 
 @dataclass(frozen=True)
@@ -271,72 +258,6 @@ class Transmissions:
                                   "deflection": deflection, "deflection_rate": rate}
         return out
 
-DRIVE_SAMPLE_NAMES = ("voltage", "current", "motor_speed", "torque")
-"""The per-sample series of each drive, as ``samples["drives"][JOINT]`` names them."""
-
-
-def _elastic_reports(scene: Scene, trajectory: Trajectory) -> list[dict[str, dict[str, Any]]]:
-    """Per sample, :meth:`Transmissions.report` (empty dicts without elastic drives)."""
-    record = trajectory.info.get("transmissions")
-    T = len(trajectory.times)
-    if record is None:
-        return [{} for _ in range(T)]
-    model = Transmissions(scene)
-    inputs = np.asarray(trajectory.inputs, dtype=float).reshape(T, -1)
-    states = np.asarray(record["state"], dtype=float)
-    return [model.report(trajectory.q[j], trajectory.v[j], states[j], inputs[j]) for j in range(T)]
-
-
-def drive_samples(scene: Scene, trajectory: Trajectory) -> dict[str, dict[str, np.ndarray]]:
-    """Each drive's voltage [V], current [A], motor speed [rad/s] and joint torque [N m] per sample.
-
-    Returns:
-        ``{JOINT: {"voltage": (T,), "current": (T,), "motor_speed": (T,), "torque": (T,)}}``, empty
-        for a scene without drives.
-    """
-    out: dict[str, dict[str, np.ndarray]] = {}
-    inputs = np.asarray(trajectory.inputs, dtype=float).reshape(len(trajectory.times), -1)
-    v = np.asarray(trajectory.v, dtype=float)
-    elastic = _elastic_reports(scene, trajectory) if any(d.elastic for d in scene.drives.values()) else []
-    for joint, drive in scene.drives.items():
-        voltage = inputs[:, list(trajectory.input_names).index(joint)]
-        if drive.elastic:
-            speed = np.array([r[joint]["motor_speed"] for r in elastic])
-            torque = np.array([r[joint]["torque"] for r in elastic])
-            current = motor_current(drive, voltage, speed)
-        else:
-            speed = drive.ratio * v[:, scene.coordinate_names.index(joint)]
-            current = motor_current(drive, voltage, speed)
-            torque = drive.efficiency * drive.ratio * drive.torque_constant * current
-        out[joint] = {"voltage": voltage, "current": current, "motor_speed": speed, "torque": torque}
-    return out
-
-
-def stage_samples(scene: Scene, trajectory: Trajectory) -> dict[str, dict[str, np.ndarray]]:
-    """Each elastic drive's stage deflections [rad] and their rates [rad/s] per sample.
-
-    ``{JOINT: {"deflection": (T, p), "deflection_rate": (T, p)}}``: one column per stage of the
-    drive, in the scene's order; a rigid stage's column is 0.
-    """
-    elastic = _elastic_reports(scene, trajectory)
-    names = ("deflection", "deflection_rate")
-    return {joint: {name: np.array([r[joint][name] for r in elastic]) for name in names}
-            for joint, drive in scene.drives.items() if drive.elastic}
-
-
-def drive_arrays(scene: Scene, trajectory: Trajectory) -> dict[str, Any]:
-    """The drives' and stages' samples flat, by dotted name, for ``--out``.
-
-    ``drives.JOINT.current`` (T,) and the like; ``stages.JOINT.deflection`` (T, p).
-    """
-    out = {f"drives.{joint}.{name}": series
-           for joint, table in drive_samples(scene, trajectory).items() for name, series in table.items()}
-    stages = stage_samples(scene, trajectory)
-    out.update({f"stages.{joint}.{name}": series for joint, table in stages.items()
-                for name, series in table.items()})
-    return out
-
-
 @dataclass(frozen=True)
 class ImplicitTransmissions:
     """The transmissions' part of one implicit Euler step (module docstring).
@@ -423,5 +344,4 @@ class TransmissionRun:
         return {"state": np.array(self.samples), "size": self.model.size}
 
 
-__all__ = ["DRIVE_SAMPLE_NAMES", "ImplicitTransmissions", "TransmissionRun", "Transmissions",
-           "drive_arrays", "drive_samples", "stage_samples"]
+__all__ = ["ImplicitTransmissions", "TransmissionRun", "Transmissions"]
