@@ -159,6 +159,8 @@ LAZY_IMPORTS: dict[tuple[str, str], str] = {
     # start-up: the front doors load a command's library when the command runs
     ("cli.*", "frcontrol"): "`frc --help`, completion and option errors load no Pinocchio, SciPy or "
                             "engine (cli.app imports in 0.2 s, frcontrol.engine alone in 0.8 s)",
+    ("cli", "cli.app"): "the entry point imports the command line inside its try: a Ctrl-C while it "
+                        "loads exits 130 with one line",
     ("cli.*", "numpy"): "as above: `frc --help` loads no NumPy",
     ("cli.*", "matplotlib"): "plotting is loaded by the commands that draw (0.8 s)",
     ("cli.*", "rich"): "the progress bar is loaded when a long run starts",
