@@ -39,7 +39,6 @@ from typing import Any, cast
 import numpy as np
 
 from frcontrol.errors import FrcontrolError, InputError, SolverNotFound
-from frcontrol.kernel import compiled, kernel_choice
 
 from ._common import LeanAdapter, LinearProgram, QPAdapter, QuadraticProgram, RawSolution, Status
 
@@ -62,7 +61,9 @@ __all__ = [
     "SolverFailed",
     "Status",
     "available_solvers",
+    "lp_check",
     "lp_problem",
+    "ResidualCheck",
     "must_solve",
     "primal_residual",
     "solve",
@@ -300,6 +301,11 @@ def _largest(values: np.ndarray, where: np.ndarray | bool = True) -> float:
 
 def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
     """``FEASIBILITY_TOLERANCE`` times the scale of the terms (see :data:`FEASIBILITY_TOLERANCE`)."""
+    return FEASIBILITY_TOLERANCE * _residual_scale(problem, x)
+
+
+def _residual_scale(problem: LinearProgram, x: np.ndarray | None) -> float:
+    """The scale of the terms that :data:`FEASIBILITY_TOLERANCE` multiplies."""
     # the finite right-hand sides (an unvalidated problem may hold inf), in one reduction
     parts = (problem.b_ub, problem.b_eq, problem.lb, problem.ub) if problem.has_bounds else (
         problem.b_ub, problem.b_eq)
@@ -310,25 +316,31 @@ def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
         for A in (problem.A_ub, problem.A_eq):
             if A.shape[0]:
                 scale += float(np.add.reduce(np.abs(A), axis=1).max()) * size
-    return FEASIBILITY_TOLERANCE * scale
+    return scale
+
+
+ResidualCheck = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                          np.ndarray | None, bool], tuple[float, float]]
+"""How an answer is checked: ``(A_ub, b_ub, A_eq, b_eq, lb, ub, x, has_bounds) -> (residual, scale)``
+(:func:`lp_check`, or the compiled kernel's, which its callers hand to :class:`InequalityLPs`)."""
+
+
+def lp_check(A_ub: np.ndarray, b_ub: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarray, lb: np.ndarray,
+             ub: np.ndarray, x: np.ndarray | None, has_bounds: bool) -> tuple[float, float]:
+    """:func:`primal_residual` (NaN without ``x``) and the scale of :data:`FEASIBILITY_TOLERANCE`.
+
+    The door's check of an answer, in NumPy; the compiled kernel's ``lp_check`` (the backend's,
+    :func:`frcontrol.kernel.backend`) computes the same sums in another order (equal to round-off,
+    see tests/test_kernel.py).
+    """
+    problem = LinearProgram(np.zeros(A_ub.shape[1]), A_ub, b_ub, A_eq, b_eq, lb, ub)
+    problem.__dict__["_has_bounds"] = bool(has_bounds)  # as the caller decided it (LinearProgram.has_bounds)
+    residual = float("nan") if x is None else primal_residual(problem, x)
+    return residual, _residual_scale(problem, x)
 
 
 def _check(problem: LinearProgram, x: np.ndarray | None) -> tuple[float, float]:
-    """:func:`primal_residual` (NaN without ``x``) and :func:`_residual_tolerance`.
-
-    With the compiled kernel in force (:func:`frcontrol.kernel.kernel_choice`), both in one pass of
-    ``frcontrol._kernel.lp_check`` (the same sums in another order: equal to round-off, see
-    tests/test_kernel.py); else in NumPy.
-    """
-    if kernel_choice() == "compiled" and compiled is not None:
-        residual, scale = compiled.lp_check(problem.A_ub, problem.b_ub, problem.A_eq, problem.b_eq,
-                                            problem.lb, problem.ub, x, problem.has_bounds)
-        return residual, FEASIBILITY_TOLERANCE * scale
-    return _check_numpy(problem, x)
-
-
-def _check_numpy(problem: LinearProgram, x: np.ndarray | None) -> tuple[float, float]:
-    """:func:`_check` in NumPy (the compiled check's twin)."""
+    """:func:`primal_residual` (NaN without ``x``) and :func:`_residual_tolerance`, in NumPy."""
     residual = float("nan") if x is None else primal_residual(problem, x)
     return residual, _residual_tolerance(problem, x)
 
@@ -632,8 +644,9 @@ class InequalityLPs:
 
     The LPs: :math:`\min c^\top x` s.t. :math:`A_{ub} x \le b_{ub}`, :math:`lb \le x \le ub`.
     Made once for a run of LPs (the redundancy LPs of a pruning, a Chebyshev LP, the engine's
-    motion LPs): the back-end, its options and the fallback policy are looked up and the kernel of
-    the residual check is read (:func:`~frcontrol.kernel.kernel_choice`) once, not per LP. Each
+    motion LPs): the back-end, its options and the fallback policy are looked up once, not per LP;
+    ``check`` checks each answer (:func:`lp_check`, or the compiled kernel's twin of it, which the
+    callers that use the kernel hand in: the door does not import the kernel). Each
     :meth:`solve` then returns what ``solve_lp_prepared(c, A_ub, b_ub, lb=lb, ub=ub,
     solver=solver, fallback=fallback, **options)`` returns, field for field (the time aside): the
     same back-end call on the same arrays, the same residual check of every answer (an
@@ -647,15 +660,15 @@ class InequalityLPs:
         SolverFailed: see :func:`solve` (from :meth:`solve`).
     """
 
-    __slots__ = ("solver", "fallback", "options", "_lean", "_compiled")
+    __slots__ = ("solver", "fallback", "options", "_lean", "_check")
 
     def __init__(self, *, solver: str = DEFAULT_LP_SOLVER, fallback: Fallback = NO_FALLBACK,
-                 **options: Any) -> None:
+                 check: ResidualCheck = lp_check, **options: Any) -> None:
         adapter = _adapter(_LP_SOLVERS, solver)
         lean = _LEAN_LP_SOLVERS.get(solver)
         self.solver, self.fallback, self.options = solver, fallback, options
         self._lean = lean[1] if lean is not None and lean[0] is adapter and not options else None
-        self._compiled = compiled if kernel_choice() == "compiled" else None
+        self._check = check
 
     def solve(self, c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, lb: np.ndarray | None = None,
               ub: np.ndarray | None = None) -> LPResult:
@@ -680,9 +693,7 @@ class InequalityLPs:
         elapsed = time.perf_counter() - start
 
         def check(x: np.ndarray | None) -> tuple[float, float]:
-            if self._compiled is None:
-                return _check_numpy(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), x)
-            residual, scale = self._compiled.lp_check(A_ub, b_ub, A_eq, b_eq, lb, ub, x, has_bounds)
+            residual, scale = self._check(A_ub, b_ub, A_eq, b_eq, lb, ub, x, has_bounds)
             return residual, FEASIBILITY_TOLERANCE * scale
 
         first = _result(LPResult, c, status, raw, x, self.solver, elapsed, None, check)
