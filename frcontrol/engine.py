@@ -420,7 +420,7 @@ def _margin_lp(A_ub: np.ndarray, h: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarr
         A = np.zeros((A_eq.shape[0], d + 1))
         A[:, :d] = A_eq
         result = solve_lp_prepared(bounds[0], A_ub, h, A, b_eq, bounds[1], bounds[2], solver=solver,
-                                   fallback=RETRY_ERRORS)
+                                   fallback=RETRY_ERRORS, check=backend().lp_check)
     else:  # the door's lean path (the same answer as solve_lp_prepared's)
         lps = InequalityLPs(solver=solver, fallback=RETRY_ERRORS, check=backend().lp_check)
         result = lps.solve(bounds[0], A_ub, h, bounds[1], bounds[2])

@@ -289,7 +289,8 @@ def _lp(
     Raises:
         SolverFailed: no usable answer from either back-end.
     """
-    return solve_lp_prepared(c, A_ub, b_ub, solver=solver, **kwargs, fallback=_BOUNDED_LP if bounded else _LP)
+    return solve_lp_prepared(c, A_ub, b_ub, solver=solver, **kwargs, fallback=_BOUNDED_LP if bounded else _LP,
+                             check=backend().lp_check)
 
 
 def _lps(solver: str) -> InequalityLPs:

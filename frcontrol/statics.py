@@ -99,6 +99,7 @@ import scipy.spatial
 from . import polytope as poly
 from .errors import InputError
 from .jsonable import finite_or_none, to_jsonable
+from .kernel import backend
 from .modes import add_scene_modes
 from .scene import Scene, parse_input_assignments
 from .solvers import DEFAULT_LP_SOLVER, LPResult, SolverFailed, must_solve, solve_lp
@@ -490,10 +491,11 @@ def primitive_wrenches(body: StaticBody, *, friction: bool) -> np.ndarray:
 def _lp(c: np.ndarray, solver: str, **kwargs: Any) -> LPResult:
     """One LP through the door; a back-end error is retried once with the reference back-end.
 
-    DAQP gets ``primal_tol = DAQP_PRIMAL_TOLERANCE``.
+    DAQP gets ``primal_tol = DAQP_PRIMAL_TOLERANCE``; the answer is checked by the kernel's
+    ``lp_check`` (:func:`frcontrol.kernel.backend`).
     """
     options: dict[str, Any] = {"primal_tol": DAQP_PRIMAL_TOLERANCE} if solver == "daqp" else {}
-    return solve_lp(c, solver=solver, **kwargs, **options,
+    return solve_lp(c, solver=solver, **kwargs, **options, check=backend().lp_check,
                     fallback=must_solve("a statics LP", bounded=False, retry_unbounded=False))
 
 

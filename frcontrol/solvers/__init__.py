@@ -339,10 +339,15 @@ def lp_check(A_ub: np.ndarray, b_ub: np.ndarray, A_eq: np.ndarray, b_eq: np.ndar
     return residual, _residual_scale(problem, x)
 
 
-def _check(problem: LinearProgram, x: np.ndarray | None) -> tuple[float, float]:
-    """:func:`primal_residual` (NaN without ``x``) and :func:`_residual_tolerance`, in NumPy."""
-    residual = float("nan") if x is None else primal_residual(problem, x)
-    return residual, _residual_tolerance(problem, x)
+def _check(problem: LinearProgram, x: np.ndarray | None,
+           check: ResidualCheck = lp_check) -> tuple[float, float]:
+    """:func:`primal_residual` (NaN without ``x``) and :func:`_residual_tolerance`, by ``check``."""
+    if check is lp_check:  # NumPy's, on the problem as it is
+        residual = float("nan") if x is None else primal_residual(problem, x)
+        return residual, _residual_tolerance(problem, x)
+    residual, scale = check(problem.A_ub, problem.b_ub, problem.A_eq, problem.b_eq, problem.lb, problem.ub, x,
+                            problem.has_bounds)
+    return residual, FEASIBILITY_TOLERANCE * scale
 
 
 def _adapter(registry: dict[str, QPAdapter], solver: str) -> QPAdapter:
@@ -360,10 +365,11 @@ def _finish(
     solver: str,
     solve_time: float,
     P: np.ndarray | None,
+    check: ResidualCheck = lp_check,
 ) -> LPResult:
     """The door's result of a back-end's answer ``raw`` to ``problem`` (:func:`_result`)."""
     return _result(result_type, problem.c, raw.status, raw.raw_status, raw.x, solver, solve_time, P,
-                   lambda x: _check(problem, x))
+                   lambda x: _check(problem, x, check))
 
 
 def _result(
@@ -525,10 +531,11 @@ def lp_problem(
 
 
 def solve(problem: LinearProgram, *, solver: str = DEFAULT_LP_SOLVER, fallback: Fallback = NO_FALLBACK,
-          **options: Any) -> LPResult:
+          check: ResidualCheck = lp_check, **options: Any) -> LPResult:
     """The door: solve an LP with the chosen back-end, then as ``fallback`` says.
 
-    Every answer's primal residual is checked (an "optimal" answer above
+    Every answer's primal residual is checked by ``check`` (:func:`lp_check`, or the compiled
+    kernel's, which callers that use the kernel hand in; an "optimal" answer above
     :data:`FEASIBILITY_TOLERANCE` becomes ``"error"``). ``options`` go to the chosen back-end
     only; the second one runs with its defaults.
 
@@ -536,10 +543,11 @@ def solve(problem: LinearProgram, *, solver: str = DEFAULT_LP_SOLVER, fallback: 
         SolverNotFound: ``solver`` is unknown or not installed.
         SolverFailed: no answer counts and ``fallback.failure`` names the computation.
     """
-    return _settle(problem, _solve_once(problem, solver, options), solver, fallback)
+    return _settle(problem, _solve_once(problem, solver, options, check), solver, fallback, check)
 
 
-def _settle(problem: LinearProgram, first: LPResult, solver: str, fallback: Fallback) -> LPResult:
+def _settle(problem: LinearProgram, first: LPResult, solver: str, fallback: Fallback,
+            check: ResidualCheck = lp_check) -> LPResult:
     """:func:`solve` after the first back-end's answer ``first``: the fallback policy."""
     if first.status not in fallback.retry_on:
         if first.status in fallback.accept or fallback.failure is None:
@@ -549,7 +557,7 @@ def _settle(problem: LinearProgram, first: LPResult, solver: str, fallback: Fall
     if second_name == solver or second_name not in _LP_SOLVERS:
         answers = [first]
     else:
-        answers = [_solve_once(problem, second_name, {}), first]
+        answers = [_solve_once(problem, second_name, {}, check), first]
     for answer in answers:
         if answer.status in fallback.accept:
             return answer
@@ -558,18 +566,19 @@ def _settle(problem: LinearProgram, first: LPResult, solver: str, fallback: Fall
     raise SolverFailed(fallback.failure, {a.solver: a.raw_status for a in reversed(answers)})
 
 
-def _solve_once(problem: LinearProgram, solver: str, options: dict[str, Any]) -> LPResult:
-    return _timed(_adapter(_LP_SOLVERS, solver), problem, solver, options, LPResult)
+def _solve_once(problem: LinearProgram, solver: str, options: dict[str, Any],
+                check: ResidualCheck) -> LPResult:
+    return _timed(_adapter(_LP_SOLVERS, solver), problem, solver, options, LPResult, check)
 
 
 def _timed(adapter: QPAdapter, problem: LinearProgram, solver: str, options: dict[str, Any],
-           result_type: type[LPResult]) -> LPResult:
+           result_type: type[LPResult], check: ResidualCheck = lp_check) -> LPResult:
     """One back-end's answer, timed and checked by :func:`_finish` (crossed bounds answer alone)."""
     start = time.perf_counter()
     raw = _bounds_crossed(problem) or adapter(problem, **options)
     elapsed = time.perf_counter() - start
     P = problem.P if isinstance(problem, QuadraticProgram) else None
-    return _finish(result_type, problem, raw, solver, elapsed, P)
+    return _finish(result_type, problem, raw, solver, elapsed, P, check)
 
 
 def solve_lp(
@@ -584,6 +593,7 @@ def solve_lp(
     solver: str = DEFAULT_LP_SOLVER,
     fallback: Fallback = NO_FALLBACK,
     validate: bool = True,
+    check: ResidualCheck = lp_check,
     **options: Any,
 ) -> LPResult:
     r"""Solve a linear program: :func:`solve` of :func:`lp_problem`.
@@ -602,6 +612,7 @@ def solve_lp(
         solver: back-end name (see :func:`available_solvers`).
         fallback: what to do when the answer is not usable (:class:`Fallback`).
         validate: check the arrays (False: see :func:`lp_problem`; :func:`solve_lp_prepared`).
+        check: how an answer is checked (:data:`ResidualCheck`; see :func:`solve`).
         **options: back-end settings, passed on verbatim (e.g. ``primal_tol`` for DAQP).
 
     Returns:
@@ -613,7 +624,7 @@ def solve_lp(
         SolverFailed: see :func:`solve`.
     """
     problem = lp_problem(c, A_ub, b_ub, A_eq, b_eq, lb, ub, validate=validate)
-    return solve(problem, solver=solver, fallback=fallback, **options)
+    return solve(problem, solver=solver, fallback=fallback, check=check, **options)
 
 
 def solve_lp_prepared(*args: Any, **kwargs: Any) -> LPResult:
@@ -685,7 +696,7 @@ class InequalityLPs:
             has_bounds = bool(np.count_nonzero(np.isfinite(lb)) or np.count_nonzero(np.isfinite(ub)))
         if self._lean is None or (has_bounds and np.count_nonzero(lb > ub)):
             return solve(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), solver=self.solver,
-                         fallback=self.fallback, **self.options)
+                         fallback=self.fallback, check=self._check, **self.options)
         if not A_ub.flags.writeable:  # DAQP's binding takes writable buffers (it does not write them)
             A_ub = A_ub.copy()
         start = time.perf_counter()
@@ -701,7 +712,8 @@ class InequalityLPs:
         if first.status not in fallback.retry_on and (
                 first.status in fallback.accept or fallback.failure is None):
             return first
-        return _settle(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), first, self.solver, fallback)
+        return _settle(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), first, self.solver, fallback,
+                       self._check)
 
 
 def solve_qp(
