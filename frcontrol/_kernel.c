@@ -5,9 +5,12 @@
  * contact law).
  *
  * Plain C against the CPython API and the buffer protocol (no NumPy headers): the build needs only
- * setuptools, a C compiler and Python's headers. frcontrol/kernel.py wraps it; the NumPy code in
- * frcontrol/mode_batch.py (_stack, _equilibrate, _certified_responses, _decide_full_rank) is the
- * reference it reproduces, mode by mode:
+ * setuptools, a C compiler and Python's headers. frcontrol/kernel.py puts it behind one seam (the
+ * COMPILED backend; each function's NumPy twin lives beside its caller). Every function's
+ * arguments are described by one table and read by one parser (parse, "arguments" below). The
+ * tests run against a build with AddressSanitizer and UBSan too (tests/test_sanitizer.py). The
+ * NumPy code in frcontrol/mode_batch.py (_stack, _equilibrate, _certified_responses,
+ * _decide_full_rank) is the reference certified_modes reproduces, mode by mode:
  *
  *   1. A = [dynamics; the contact row table's equalities of the mode's letters], its right side
  *      rhs = c + [S^T u; 0] with c = [-h; the equalities' right sides];
