@@ -68,8 +68,22 @@ static int format_is(const char *format, char kind) {
     }
 }
 
+/* Shape entries >= 0 must match the buffer's; -1 entries are read back. */
+static int match_shape(const Py_buffer *view, const char *name, int ndim, Py_ssize_t *shape) {
+    for (int i = 0; i < ndim; i++) {
+        if (shape[i] < 0) {
+            shape[i] = view->shape[i];
+        } else if (view->shape[i] != shape[i]) {
+            PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, i,
+                         view->shape[i], shape[i]);
+            return -1;
+        }
+    }
+    return 0;
+}
+
 /* Take a C-contiguous buffer of the given kind ('d' float64, '?' bool, 'q' int64, 'b' int8) and
- * number of dimensions; shape entries >= 0 must match, -1 is read back. */
+ * number of dimensions (match_shape). */
 static int take(PyObject *obj, Buffer *b, const char *name, char kind, int ndim, Py_ssize_t *shape,
                 int writable) {
     int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
@@ -91,16 +105,7 @@ static int take(PyObject *obj, Buffer *b, const char *name, char kind, int ndim,
                      ndim);
         return -1;
     }
-    for (int i = 0; i < ndim; i++) {
-        if (shape[i] < 0) {
-            shape[i] = b->view.shape[i];
-        } else if (b->view.shape[i] != shape[i]) {
-            PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, i,
-                         b->view.shape[i], shape[i]);
-            return -1;
-        }
-    }
-    return 0;
+    return match_shape(&b->view, name, ndim, shape);
 }
 
 /* 2^-round(log2 t), 1 where t is 0: frcontrol.response.power_of_two_scale (round half to even). */
@@ -626,7 +631,7 @@ static signed char rank_mode(const Problem *p, const Ranked *q, Py_ssize_t mode,
     return pdim ? ADMISSIBLE_W : ADMISSIBLE;
 }
 
-/* A float64 buffer of ndim dimensions with any strides; shape entries >= 0 must match. */
+/* A float64 buffer of ndim dimensions with any strides (match_shape). */
 static int take_strided(PyObject *obj, Buffer *b, const char *name, int ndim, Py_ssize_t *shape) {
     if (PyObject_GetBuffer(obj, &b->view, PyBUF_RECORDS_RO) != 0) {
         PyErr_Clear();
@@ -639,15 +644,7 @@ static int take_strided(PyObject *obj, Buffer *b, const char *name, int ndim, Py
                      b->view.ndim, b->view.format ? b->view.format : "B", ndim);
         return -1;
     }
-    for (int i = 0; i < ndim; i++) {
-        if (shape[i] >= 0 && b->view.shape[i] != shape[i]) {
-            PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, i,
-                         b->view.shape[i], shape[i]);
-            return -1;
-        }
-        shape[i] = b->view.shape[i];
-    }
-    return 0;
+    return match_shape(&b->view, name, ndim, shape);
 }
 
 /* take_strided for Pinocchio's arrays (Eigen matrices of doubles): 8-byte entries, no format string
@@ -664,14 +661,7 @@ static int take_pinocchio(PyObject *obj, Buffer *b, const char *name, int ndim, 
                      name, b->view.ndim, b->view.itemsize, ndim);
         return -1;
     }
-    for (int i = 0; i < ndim; i++) {
-        if (shape[i] >= 0 && b->view.shape[i] != shape[i]) {
-            PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, i,
-                         b->view.shape[i], shape[i]);
-            return -1;
-        }
-    }
-    return 0;
+    return match_shape(&b->view, name, ndim, shape);
 }
 
 /* ------------------------------------------------------------------ arguments
@@ -725,28 +715,21 @@ typedef struct {
 } Args;
 
 static int take_scalar(const Arg *spec, PyObject *obj, Args *a, int i) {
+    const char *expected = NULL; /* set when obj is not what the table asks for */
     if (spec->kind == 'f') {
         a->number[i] = PyFloat_AsDouble(obj);
-        if (a->number[i] == -1.0 && PyErr_Occurred()) {
-            PyErr_Clear();
-            PyErr_Format(kernel_error, "kernel argument %s: not a number", spec->name);
-            return -1;
-        }
+        expected = a->number[i] == -1.0 && PyErr_Occurred() ? "a number" : NULL;
     } else if (spec->kind == 'i') {
         a->integer[i] = PyLong_AsLongLong(obj);
-        if (a->integer[i] == -1 && PyErr_Occurred()) {
-            PyErr_Clear();
-            PyErr_Format(kernel_error, "kernel argument %s: not an integer", spec->name);
-            return -1;
-        }
+        expected = a->integer[i] == -1 && PyErr_Occurred() ? "an integer" : NULL;
     } else if (spec->kind == 't') {
-        int truth = PyObject_IsTrue(obj);
-        if (truth < 0) {
-            PyErr_Clear();
-            PyErr_Format(kernel_error, "kernel argument %s: not a truth value", spec->name);
-            return -1;
-        }
-        a->integer[i] = truth;
+        a->integer[i] = PyObject_IsTrue(obj);
+        expected = a->integer[i] < 0 ? "a truth value" : NULL;
+    }
+    if (expected != NULL) {
+        PyErr_Clear();
+        PyErr_Format(kernel_error, "kernel argument %s: not %s", spec->name, expected);
+        return -1;
     }
     return 0;
 }
