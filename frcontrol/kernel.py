@@ -130,6 +130,8 @@ class Backend:
         self.name = name
 
     def __getattr__(self, function: str) -> Any:  # only for a name never registered
+        if function.startswith("__"):  # a protocol Python probes for (copy, pickle): not a kernel function
+            raise AttributeError(function)
         raise KernelError(f"the {self.name} kernel has no function {function!r}; registered: "
                           f"{', '.join(sorted(_REGISTERED)) or 'none'}")
 

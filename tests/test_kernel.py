@@ -638,6 +638,7 @@ def test_the_backend_follows_the_switch(monkeypatch):
         assert kernel.backend() is kernel.COMPILED
     with pytest.raises(KernelError, match="the numpy kernel has no function 'fourier'; registered: "):
         kernel.NUMPY.fourier  # noqa: B018
+    assert not hasattr(kernel.NUMPY, "__deepcopy__")  # Python's protocols still see a plain object
     with pytest.raises(KernelError, match="'lp_check' is registered twice"):
         kernel.twin("lp_check", numpy=test_the_switch, compiled=test_the_switch)
 
