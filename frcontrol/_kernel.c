@@ -1042,7 +1042,7 @@ static PyObject *lp_check(PyObject *self, PyObject *const *args, Py_ssize_t narg
         goto done;
     }
     Py_ssize_t n = a.dim[DIM_N], m_ub = a.dim[DIM_M], m_eq = a.dim[DIM_K];
-    int has_x = a.data[6] != NULL, has_bounds = (int)a.integer[7];
+    int has_x = args[6] != Py_None, has_bounds = (int)a.integer[7];
     const double *A_ub = a.data[0], *b_ub = a.data[1], *A_eq = a.data[2], *b_eq = a.data[3];
     const double *lb = a.data[4], *ub = a.data[5], *x = a.data[6];
     double top = largest_finite(b_eq, m_eq, largest_finite(b_ub, m_ub, 0.0));
