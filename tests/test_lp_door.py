@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import frcontrol.polytope  # noqa: F401  (it registers the kernel's lp_check)
 import frcontrol.solvers as door
 from frcontrol.errors import SolverNotFound
-import frcontrol.polytope  # noqa: F401  (it registers the kernel's lp_check)
 from frcontrol.kernel import COMPILED, NUMPY, compiled
 from frcontrol.solvers import (
     NO_FALLBACK,
