@@ -11,7 +11,7 @@ arrays as the door received them), and times, in one process, per LP:
 - ``lean``: :meth:`frcontrol.solvers.InequalityLPs.solve` (the door's lean path) on the LPs it
   serves (inequalities and simple bounds, no equality), the door for the rest;
 - ``daqp``: ``daqp.solve`` alone on the arrays already in its layout (the floor);
-- ``check``: the residual check alone (``frcontrol._kernel.lp_check`` or its NumPy twin).
+- ``check``: the residual check alone (the kernel's ``lp_check``: compiled, or its NumPy twin).
 
 Every time is the median of ``--runs`` passes over the corpus, also as a ratio to
 ``benchmarks/ci.py``'s calibration workload measured in the same process. Writes
@@ -32,8 +32,10 @@ from typing import Any
 
 import numpy as np
 
+import frcontrol.polytope  # noqa: F401  (it registers the kernel's lp_check)
 from benchmarks.ci import calibration_workload, versions
 from frcontrol import solvers
+from frcontrol.kernel import backend
 from frcontrol.solvers import LinearProgram
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -102,13 +104,14 @@ def record(contacts: int) -> list[LinearProgram]:
 
 def lean_calls(problems: list[LinearProgram]) -> Iterator[Callable[[], Any]]:
     """One call per problem: the lean path where it serves the problem, else the door."""
-    lps = solvers.InequalityLPs()
+    lp_check = backend().lp_check
+    lps = solvers.InequalityLPs(check=lp_check)
     for p in problems:
         if p.A_eq.shape[0] == 0:
             bounds = (p.lb, p.ub) if p.has_bounds else (None, None)  # as the callers pass them
             yield lambda p=p, bounds=bounds: lps.solve(p.c, p.A_ub, p.b_ub, *bounds)
         else:
-            yield lambda p=p: solvers.solve(p)
+            yield lambda p=p: solvers.solve(p, check=lp_check)
 
 
 class GeneralDoor:
@@ -159,11 +162,12 @@ def measure(problems: list[LinearProgram], runs: int) -> dict[str, Any]:
 
     from frcontrol.solvers import daqp_
 
-    door = [lambda p=p: solvers.solve_lp_prepared(p.c, p.A_ub, p.b_ub, p.A_eq, p.b_eq, p.lb, p.ub)
-            for p in problems]
+    lp_check = backend().lp_check  # as the polytope module hands it to the door
+    door = [lambda p=p: solvers.solve_lp_prepared(p.c, p.A_ub, p.b_ub, p.A_eq, p.b_eq, p.lb, p.ub,
+                                                  check=lp_check) for p in problems]
     stacked = [(p.c, *daqp_._stack(p, equalities_as_pairs=True)) for p in problems]
     bare = [lambda s=s: daqp.solve(None, *s) for s in stacked]
-    check = [lambda p=p: solvers._check(p, p.c) for p in problems]
+    check = [lambda p=p: solvers._check(p, p.c, lp_check) for p in problems]
     lean = list(lean_calls(problems))
     figures = {name: per_lp_seconds(calls, runs) for name, calls in
                (("door", door), ("lean", lean), ("daqp", bare), ("check", check))}

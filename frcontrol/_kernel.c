@@ -5,9 +5,12 @@
  * contact law).
  *
  * Plain C against the CPython API and the buffer protocol (no NumPy headers): the build needs only
- * setuptools, a C compiler and Python's headers. frcontrol/kernel.py wraps it; the NumPy code in
- * frcontrol/mode_batch.py (_stack, _equilibrate, _certified_responses, _decide_full_rank) is the
- * reference it reproduces, mode by mode:
+ * setuptools, a C compiler and Python's headers. frcontrol/kernel.py puts it behind one seam (the
+ * COMPILED backend; each function's NumPy twin lives beside its caller). Every function's
+ * arguments are described by one table and read by one parser (parse, "arguments" below). The
+ * tests run against a build with AddressSanitizer and UBSan too (tests/test_sanitizer.py). The
+ * NumPy code in frcontrol/mode_batch.py (_stack, _equilibrate, _certified_responses,
+ * _decide_full_rank) is the reference certified_modes reproduces, mode by mode:
  *
  *   1. A = [dynamics; the contact row table's equalities of the mode's letters], its right side
  *      rhs = c + [S^T u; 0] with c = [-h; the equalities' right sides];
@@ -65,8 +68,22 @@ static int format_is(const char *format, char kind) {
     }
 }
 
+/* Shape entries >= 0 must match the buffer's; -1 entries are read back. */
+static int match_shape(const Py_buffer *view, const char *name, int ndim, Py_ssize_t *shape) {
+    for (int i = 0; i < ndim; i++) {
+        if (shape[i] < 0) {
+            shape[i] = view->shape[i];
+        } else if (view->shape[i] != shape[i]) {
+            PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, i,
+                         view->shape[i], shape[i]);
+            return -1;
+        }
+    }
+    return 0;
+}
+
 /* Take a C-contiguous buffer of the given kind ('d' float64, '?' bool, 'q' int64, 'b' int8) and
- * number of dimensions; shape entries >= 0 must match, -1 is read back. */
+ * number of dimensions (match_shape). */
 static int take(PyObject *obj, Buffer *b, const char *name, char kind, int ndim, Py_ssize_t *shape,
                 int writable) {
     int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
@@ -88,16 +105,7 @@ static int take(PyObject *obj, Buffer *b, const char *name, char kind, int ndim,
                      ndim);
         return -1;
     }
-    for (int i = 0; i < ndim; i++) {
-        if (shape[i] < 0) {
-            shape[i] = b->view.shape[i];
-        } else if (b->view.shape[i] != shape[i]) {
-            PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, i,
-                         b->view.shape[i], shape[i]);
-            return -1;
-        }
-    }
-    return 0;
+    return match_shape(&b->view, name, ndim, shape);
 }
 
 /* 2^-round(log2 t), 1 where t is 0: frcontrol.response.power_of_two_scale (round half to even). */
@@ -623,97 +631,156 @@ static signed char rank_mode(const Problem *p, const Ranked *q, Py_ssize_t mode,
     return pdim ? ADMISSIBLE_W : ADMISSIBLE;
 }
 
-/* ------------------------------------------------------------------ arguments */
-
-#define PROBLEM_BUFFERS 11
-#define MAX_BUFFERS 22
-static const char *problem_names[PROBLEM_BUFFERS] = {
-    "dynamics", "equalities", "equality_rhs", "inequalities", "inequality_rhs", "valid", "motion",
-    "letters", "input_map", "bias", "u"};
-
-/* The problem's 11 buffers, reading n, nx, k, m and the mode count from them. */
-static int take_problem(PyObject *const *args, Buffer *b, Problem *p) {
-    Py_ssize_t s_dyn[2] = {-1, -1};
-    if (take(args[0], &b[0], problem_names[0], 'd', 2, s_dyn, 0)) return -1;
-    Py_ssize_t n = s_dyn[0], nx = s_dyn[1];
-    Py_ssize_t s_eq[4] = {-1, LETTERS, EQUALITY_ROWS, nx};
-    if (take(args[1], &b[1], problem_names[1], 'd', 4, s_eq, 0)) return -1;
-    Py_ssize_t k = s_eq[0];
-    if (nx != n + 2 * k) {
-        PyErr_Format(kernel_error, "kernel buffer dynamics: %zd columns, expected n + 2k = %zd", nx,
-                     n + 2 * k);
+/* A float64 buffer of ndim dimensions with any strides (match_shape). */
+static int take_strided(PyObject *obj, Buffer *b, const char *name, int ndim, Py_ssize_t *shape) {
+    if (PyObject_GetBuffer(obj, &b->view, PyBUF_RECORDS_RO) != 0) {
+        PyErr_Clear();
+        PyErr_Format(kernel_error, "kernel buffer %s: not a strided buffer", name);
         return -1;
     }
-    Py_ssize_t s_eqr[3] = {k, LETTERS, EQUALITY_ROWS};
-    Py_ssize_t s_in[4] = {k, LETTERS, INEQUALITY_ROWS, nx};
-    Py_ssize_t s_inr[3] = {k, LETTERS, INEQUALITY_ROWS};
-    Py_ssize_t s_valid[3] = {k, LETTERS, INEQUALITY_ROWS};
-    Py_ssize_t s_motion[3] = {k, LETTERS, INEQUALITY_ROWS};
-    Py_ssize_t s_letters[2] = {-1, k};
-    Py_ssize_t s_map[2] = {n, -1};
-    if (take(args[2], &b[2], problem_names[2], 'd', 3, s_eqr, 0) ||
-        take(args[3], &b[3], problem_names[3], 'd', 4, s_in, 0) ||
-        take(args[4], &b[4], problem_names[4], 'd', 3, s_inr, 0) ||
-        take(args[5], &b[5], problem_names[5], '?', 3, s_valid, 0) ||
-        take(args[6], &b[6], problem_names[6], '?', 3, s_motion, 0) ||
-        take(args[7], &b[7], problem_names[7], 'q', 2, s_letters, 0) ||
-        take(args[8], &b[8], problem_names[8], 'd', 2, s_map, 0)) {
+    b->held = 1;
+    if (!format_is(b->view.format, 'd') || b->view.ndim != ndim) {
+        PyErr_Format(kernel_error, "kernel buffer %s: %d dimensions of format %s, expected %d of float64", name,
+                     b->view.ndim, b->view.format ? b->view.format : "B", ndim);
         return -1;
     }
-    Py_ssize_t count = s_letters[0], m = s_map[1];
-    Py_ssize_t s_bias[1] = {n}, s_u[1] = {m};
-    if (take(args[9], &b[9], problem_names[9], 'd', 1, s_bias, 0) ||
-        take(args[10], &b[10], problem_names[10], 'd', 1, s_u, 0)) {
-        return -1;
-    }
-    memset(p, 0, sizeof(*p));
-    p->n = n, p->k = k, p->m = m, p->nx = nx, p->count = count;
-    p->dynamics = b[0].view.buf, p->eq = b[1].view.buf, p->eq_rhs = b[2].view.buf;
-    p->ineq = b[3].view.buf, p->ineq_rhs = b[4].view.buf;
-    p->valid = b[5].view.buf, p->motion = b[6].view.buf, p->letters = b[7].view.buf;
-    p->input_map = b[8].view.buf, p->bias = b[9].view.buf, p->u = b[10].view.buf;
-    for (Py_ssize_t i = 0; i < count * k; i++) {
-        if (p->letters[i] < 0 || p->letters[i] >= LETTERS) {
-            PyErr_Format(kernel_error, "kernel buffer letters: entry %lld is not a letter index 0-3",
-                         p->letters[i]);
-            return -1;
-        }
-    }
-    return 0;
+    return match_shape(&b->view, name, ndim, shape);
 }
 
-/* Per-mode buffers after the problem's: names, kinds ('d' or 'b'), trailing shape (0: none,
- * 1: (nx,), 2: (nx, nx)), writable. */
+/* take_strided for Pinocchio's arrays (Eigen matrices of doubles): 8-byte entries, no format string
+ * asked (numpy builds that string anew on every request, a tenth of the buffer's cost). */
+static int take_pinocchio(PyObject *obj, Buffer *b, const char *name, int ndim, Py_ssize_t *shape) {
+    if (PyObject_GetBuffer(obj, &b->view, PyBUF_STRIDES) != 0) {
+        PyErr_Clear();
+        PyErr_Format(kernel_error, "kernel buffer %s: not a strided buffer", name);
+        return -1;
+    }
+    b->held = 1;
+    if (b->view.itemsize != (Py_ssize_t)sizeof(double) || b->view.ndim != ndim) {
+        PyErr_Format(kernel_error, "kernel buffer %s: %d dimensions of %zd-byte entries, expected %d of float64",
+                     name, b->view.ndim, b->view.itemsize, ndim);
+        return -1;
+    }
+    return match_shape(&b->view, name, ndim, shape);
+}
+
+/* ------------------------------------------------------------------ arguments
+ * Every exported function describes its arguments in one table (an Arg per argument, in order),
+ * and parse() reads and checks them all, the one place where arguments are read: their count,
+ * each buffer's format, dimensions, layout (C-contiguous, or any strides for 's'), writability and
+ * shape, each number. An axis names a shared dimension (DIM_*): the first buffer with that axis
+ * sets it and every later one must match; FIX(v) asks for v entries, ANY takes any. A dimension
+ * that follows from others (nx = n + 2k) is set by the signature's derive, called after each
+ * argument, so the first buffer that disagrees is the one named. A function then checks only what
+ * a table cannot say (the values of index buffers, a relation between two dimensions read from
+ * one buffer). A wrong argument raises frcontrol.errors.KernelError naming it. */
+
+enum { ANY = -1 };
+#define FIX(v) (-2 - (v)) /* an axis of v entries */
+enum { DIM_N, DIM_NX, DIM_K, DIM_M, DIM_COUNT, DIM_ROWS, DIM_P, DIM_S, DIM_T, DIM_A, MAX_DIMS };
+enum { WRITE = 1, OR_NONE = 2 };
+#define MAX_ARGS 32
+
 typedef struct {
     const char *name;
-    char kind;
-    int tail;
-    int writable;
-} ModeBuffer;
+    char kind;           /* 'd' float64, '?' bool, 'q' int64, 'b' int8: a C-contiguous buffer; 's': a
+                            float64 buffer of any strides; 'f' a number; 'i' an integer; 't' a truth
+                            value; 'o' any object (read by the function) */
+    signed char ndim;
+    signed char axes[4]; /* per axis: a DIM_*, FIX(v) or ANY */
+    unsigned char flags; /* WRITE (a writable buffer), OR_NONE (None allowed: no data) */
+} Arg;
 
-static int take_modes(PyObject *const *args, Buffer *b, const Problem *p, const ModeBuffer *spec, int count,
-                      void **out) {
-    for (int i = 0; i < count; i++) {
-        Py_ssize_t shape[3] = {p->count, p->nx, p->nx};
-        if (take(args[PROBLEM_BUFFERS + i], &b[PROBLEM_BUFFERS + i], spec[i].name, spec[i].kind,
-                 1 + spec[i].tail, shape, spec[i].writable)) {
-            return -1;
-        }
-        out[i] = b[PROBLEM_BUFFERS + i].view.buf;
+typedef struct {
+    const char *function;
+    int count;
+    const Arg *args;
+    void (*derive)(Py_ssize_t *dim); /* sets the dimensions that follow from others, or NULL */
+} Signature;
+
+/* dim[which] = value where it is not set yet and the dimensions it follows from are (ready). */
+static void derive_dim(Py_ssize_t *dim, int which, int ready, Py_ssize_t value) {
+    if (dim[which] < 0 && ready) {
+        dim[which] = value;
+    }
+}
+
+typedef struct {
+    int count;                   /* the buffers to release: the arguments read so far */
+    Buffer buffer[MAX_ARGS];
+    void *data[MAX_ARGS];        /* a buffer's data (NULL: None, or not a buffer) */
+    double number[MAX_ARGS];     /* 'f' */
+    long long integer[MAX_ARGS]; /* 'i', 't' */
+    Py_ssize_t dim[MAX_DIMS];    /* the shared dimensions, -1 until set */
+} Args;
+
+static int take_scalar(const Arg *spec, PyObject *obj, Args *a, int i) {
+    const char *expected = NULL; /* set when obj is not what the table asks for */
+    if (spec->kind == 'f') {
+        a->number[i] = PyFloat_AsDouble(obj);
+        expected = a->number[i] == -1.0 && PyErr_Occurred() ? "a number" : NULL;
+    } else if (spec->kind == 'i') {
+        a->integer[i] = PyLong_AsLongLong(obj);
+        expected = a->integer[i] == -1 && PyErr_Occurred() ? "an integer" : NULL;
+    } else if (spec->kind == 't') {
+        a->integer[i] = PyObject_IsTrue(obj);
+        expected = a->integer[i] < 0 ? "a truth value" : NULL;
+    }
+    if (expected != NULL) {
+        PyErr_Clear();
+        PyErr_Format(kernel_error, "kernel argument %s: not %s", spec->name, expected);
+        return -1;
     }
     return 0;
 }
 
-static int take_floats(PyObject *const *args, Py_ssize_t first, const char *const *names, double **dest,
-                       int count) {
-    for (int i = 0; i < count; i++) {
-        double v = PyFloat_AsDouble(args[first + i]);
-        if (v == -1.0 && PyErr_Occurred()) {
-            PyErr_Clear();
-            PyErr_Format(kernel_error, "kernel argument %s: not a number", names[i]);
+static int take_arg(const Arg *spec, PyObject *obj, Args *a, int i) {
+    if (spec->kind == 'f' || spec->kind == 'i' || spec->kind == 't' || spec->kind == 'o') {
+        return take_scalar(spec, obj, a, i);
+    }
+    if ((spec->flags & OR_NONE) && obj == Py_None) {
+        return 0;
+    }
+    Py_ssize_t shape[4] = {-1, -1, -1, -1};
+    for (int d = 0; d < spec->ndim; d++) {
+        int axis = spec->axes[d];
+        shape[d] = axis >= 0 ? a->dim[axis] : axis == ANY ? -1 : -2 - axis;
+    }
+    int failed = spec->kind == 's' ? take_strided(obj, &a->buffer[i], spec->name, spec->ndim, shape)
+                                   : take(obj, &a->buffer[i], spec->name, spec->kind, spec->ndim, shape,
+                                          spec->flags & WRITE);
+    if (failed) {
+        return -1;
+    }
+    for (int d = 0; d < spec->ndim; d++) {
+        if (spec->axes[d] >= 0) {
+            a->dim[spec->axes[d]] = shape[d];
+        }
+    }
+    a->data[i] = a->buffer[i].view.buf;
+    return 0;
+}
+
+/* Read and check every argument of `sig` into a (release them with release_args, also on failure). */
+static int parse(const Signature *sig, PyObject *const *args, Py_ssize_t nargs, Args *a) {
+    a->count = 0;
+    for (int d = 0; d < MAX_DIMS; d++) {
+        a->dim[d] = -1;
+    }
+    if (nargs != sig->count) {
+        PyErr_Format(kernel_error, "%s takes %d arguments, got %zd", sig->function, sig->count, nargs);
+        return -1;
+    }
+    for (int i = 0; i < sig->count; i++) {
+        a->buffer[i].held = 0;
+        a->data[i] = NULL;
+        a->count = i + 1;
+        if (take_arg(&sig->args[i], args[i], a, i)) {
             return -1;
         }
-        *dest[i] = v;
+        if (sig->derive != NULL) {
+            sig->derive(a->dim);
+        }
     }
     return 0;
 }
@@ -724,6 +791,59 @@ static void release(Buffer *b, int count) {
             PyBuffer_Release(&b[i].view);
         }
     }
+}
+
+static void release_args(Args *a) {
+    release(a->buffer, a->count);
+}
+
+/* A relation a table cannot say: axis `axis` of buffer `name` must have `expected` entries. */
+static int expect_dim(Py_ssize_t got, Py_ssize_t expected, const char *name, int axis) {
+    if (got != expected) {
+        PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, axis, got,
+                     expected);
+        return -1;
+    }
+    return 0;
+}
+
+/* The problem's 11 buffers, the first arguments of certified_modes and rank_modes. */
+#define PROBLEM_ARGS 11
+#define PROBLEM_TABLE                                                                                         \
+    {"dynamics", 'd', 2, {DIM_N, DIM_NX}, 0},                                                                 \
+    {"equalities", 'd', 4, {DIM_K, FIX(LETTERS), FIX(EQUALITY_ROWS), DIM_NX}, 0},                            \
+    {"equality_rhs", 'd', 3, {DIM_K, FIX(LETTERS), FIX(EQUALITY_ROWS)}, 0},                                   \
+    {"inequalities", 'd', 4, {DIM_K, FIX(LETTERS), FIX(INEQUALITY_ROWS), DIM_NX}, 0},                        \
+    {"inequality_rhs", 'd', 3, {DIM_K, FIX(LETTERS), FIX(INEQUALITY_ROWS)}, 0},                               \
+    {"valid", '?', 3, {DIM_K, FIX(LETTERS), FIX(INEQUALITY_ROWS)}, 0},                                        \
+    {"motion", '?', 3, {DIM_K, FIX(LETTERS), FIX(INEQUALITY_ROWS)}, 0},                                       \
+    {"letters", 'q', 2, {DIM_COUNT, DIM_K}, 0},                                                               \
+    {"input_map", 'd', 2, {DIM_N, DIM_M}, 0},                                                                 \
+    {"bias", 'd', 1, {DIM_N}, 0},                                                                             \
+    {"u", 'd', 1, {DIM_M}, 0}
+
+/* The problem from its parsed buffers: n, nx, k, m and the mode count, nx = n + 2k, the letters. */
+static int problem_from(const Args *a, Problem *p) {
+    Py_ssize_t n = a->dim[DIM_N], k = a->dim[DIM_K], count = a->dim[DIM_COUNT];
+    if (a->dim[DIM_NX] != n + 2 * k) {
+        PyErr_Format(kernel_error, "kernel buffer dynamics: %zd columns, expected n + 2k = %zd", a->dim[DIM_NX],
+                     n + 2 * k);
+        return -1;
+    }
+    memset(p, 0, sizeof(*p));
+    p->n = n, p->k = k, p->m = a->dim[DIM_M], p->nx = a->dim[DIM_NX], p->count = count;
+    p->dynamics = a->data[0], p->eq = a->data[1], p->eq_rhs = a->data[2];
+    p->ineq = a->data[3], p->ineq_rhs = a->data[4];
+    p->valid = a->data[5], p->motion = a->data[6], p->letters = a->data[7];
+    p->input_map = a->data[8], p->bias = a->data[9], p->u = a->data[10];
+    for (Py_ssize_t i = 0; i < count * k; i++) {
+        if (p->letters[i] < 0 || p->letters[i] >= LETTERS) {
+            PyErr_Format(kernel_error, "kernel buffer letters: entry %lld is not a letter index 0-3",
+                         p->letters[i]);
+            return -1;
+        }
+    }
+    return 0;
 }
 
 /* Scratch for one mode at a time, and S^T u. */
@@ -758,32 +878,30 @@ static double *scratch(const Problem *p, Scratch *s, double **Su, double **work)
     return memory;
 }
 
-static const ModeBuffer certified_buffers[7] = {
-    {"status", 'b', 0, 1}, {"x", 'd', 1, 1}, {"residual", 'd', 0, 1}, {"violation", 'd', 0, 1},
-    {"a_hat", 'd', 2, 1}, {"r_scale", 'd', 1, 1}, {"c_scale", 'd', 1, 1}};
-static const char *certified_floats[4] = {"margin", "tolerance", "domain_tolerance", "zero_row_tolerance"};
+static const Arg certified_table[] = {
+    PROBLEM_TABLE,
+    {"status", 'b', 1, {DIM_COUNT}, WRITE}, {"x", 'd', 2, {DIM_COUNT, DIM_NX}, WRITE},
+    {"residual", 'd', 1, {DIM_COUNT}, WRITE}, {"violation", 'd', 1, {DIM_COUNT}, WRITE},
+    {"a_hat", 'd', 3, {DIM_COUNT, DIM_NX, DIM_NX}, WRITE}, {"r_scale", 'd', 2, {DIM_COUNT, DIM_NX}, WRITE},
+    {"c_scale", 'd', 2, {DIM_COUNT, DIM_NX}, WRITE},
+    {"margin", 'f', 0, {0}, 0}, {"tolerance", 'f', 0, {0}, 0}, {"domain_tolerance", 'f', 0, {0}, 0},
+    {"zero_row_tolerance", 'f', 0, {0}, 0}};
+static const Signature certified_signature = {"certified_modes", 22, certified_table, NULL};
 
 static PyObject *certified_modes(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != PROBLEM_BUFFERS + 7 + 4) {
-        PyErr_Format(kernel_error, "certified_modes takes %d arguments, got %zd", PROBLEM_BUFFERS + 11, nargs);
-        return NULL;
-    }
-    Buffer b[MAX_BUFFERS];
-    memset(b, 0, sizeof(b));
+    Args a;
     Problem p;
     PyObject *result = NULL;
     double *memory = NULL, *Su, *work;
-    void *out[7];
-    if (take_problem(args, b, &p) || take_modes(args, b, &p, certified_buffers, 7, out)) {
+    if (parse(&certified_signature, args, nargs, &a) || problem_from(&a, &p)) {
         goto done;
     }
-    double *floats[4] = {&p.margin, &p.tolerance, &p.domain_tolerance, &p.zero_row_tolerance};
-    if (take_floats(args, PROBLEM_BUFFERS + 7, certified_floats, floats, 4)) {
-        goto done;
-    }
+    void *const *out = a.data + PROBLEM_ARGS;
+    const double *number = a.number + PROBLEM_ARGS + 7;
     p.status = out[0], p.x = out[1], p.residual = out[2], p.violation = out[3];
     p.a_hat_out = out[4], p.r_out = out[5], p.c_out = out[6];
+    p.margin = number[0], p.tolerance = number[1], p.domain_tolerance = number[2], p.zero_row_tolerance = number[3];
     Scratch s;
     memory = scratch(&p, &s, &Su, &work);
     if (memory == NULL) {
@@ -793,55 +911,63 @@ static PyObject *certified_modes(PyObject *self, PyObject *const *args, Py_ssize
     result = Py_NewRef(Py_None);
 done:
     PyMem_Free(memory);
-    release(b, MAX_BUFFERS);
+    release_args(&a);
     return result;
 }
 
-static const ModeBuffer rank_buffers[11] = {
-    {"U", 'd', 2, 0}, {"s", 'd', 1, 0}, {"Vt", 'd', 2, 0}, {"r_scale", 'd', 1, 0}, {"c_scale", 'd', 1, 0},
-    {"status", 'b', 0, 1}, {"x", 'd', 1, 1}, {"w", 'd', 0, 1}, {"outputs", 'b', 0, 1},
-    {"residual", 'd', 0, 1}, {"violation", 'd', 0, 1}};
-static const char *rank_floats[7] = {"rank_tolerance", "band", "domain_tolerance", "zero_row_tolerance",
-                                     "radius_cap", "consistency_tolerance", "output_tolerance"};
+static const Arg rank_table[] = {
+    PROBLEM_TABLE,
+    {"U", 'd', 3, {DIM_COUNT, DIM_NX, DIM_NX}, 0}, {"s", 'd', 2, {DIM_COUNT, DIM_NX}, 0},
+    {"Vt", 'd', 3, {DIM_COUNT, DIM_NX, DIM_NX}, 0}, {"r_scale", 'd', 2, {DIM_COUNT, DIM_NX}, 0},
+    {"c_scale", 'd', 2, {DIM_COUNT, DIM_NX}, 0},
+    {"status", 'b', 1, {DIM_COUNT}, WRITE}, {"x", 'd', 2, {DIM_COUNT, DIM_NX}, WRITE},
+    {"w", 'd', 1, {DIM_COUNT}, WRITE}, {"outputs", 'b', 1, {DIM_COUNT}, WRITE},
+    {"residual", 'd', 1, {DIM_COUNT}, WRITE}, {"violation", 'd', 1, {DIM_COUNT}, WRITE},
+    {"rank_tolerance", 'f', 0, {0}, 0}, {"band", 'f', 0, {0}, 0}, {"domain_tolerance", 'f', 0, {0}, 0},
+    {"zero_row_tolerance", 'f', 0, {0}, 0}, {"radius_cap", 'f', 0, {0}, 0},
+    {"consistency_tolerance", 'f', 0, {0}, 0}, {"output_tolerance", 'f', 0, {0}, 0}};
+static const Signature rank_signature = {"rank_modes", 29, rank_table, NULL};
+
+/* Whether a singular value of some mode lies in the ill-conditioned band (then nothing is decided). */
+static int in_band(const Problem *p, const Ranked *q) {
+    for (Py_ssize_t mode = 0; mode < p->count; mode++) {
+        const double *sv = q->s + mode * p->nx;
+        for (Py_ssize_t i = 0; i < p->nx; i++) {
+            if (sv[i] > q->rank_tolerance * sv[0] && sv[i] <= q->band * sv[0]) {
+                return 1;
+            }
+        }
+    }
+    return 0;
+}
 
 static PyObject *rank_modes(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != PROBLEM_BUFFERS + 11 + 7) {
-        PyErr_Format(kernel_error, "rank_modes takes %d arguments, got %zd", PROBLEM_BUFFERS + 18, nargs);
-        return NULL;
-    }
-    Buffer b[MAX_BUFFERS];
-    memset(b, 0, sizeof(b));
+    Args a;
     Problem p;
     Ranked q;
     PyObject *result = NULL;
     double *memory = NULL, *Su, *work;
-    void *io[11];
-    if (take_problem(args, b, &p) || take_modes(args, b, &p, rank_buffers, 11, io)) {
+    if (parse(&rank_signature, args, nargs, &a) || problem_from(&a, &p)) {
         goto done;
     }
-    double *floats[7] = {&q.rank_tolerance, &q.band, &p.domain_tolerance, &p.zero_row_tolerance,
-                         &q.radius_cap, &q.consistency_tolerance, &q.output_tolerance};
-    if (take_floats(args, PROBLEM_BUFFERS + 11, rank_floats, floats, 7)) {
-        goto done;
-    }
+    void *const *io = a.data + PROBLEM_ARGS;
+    const double *number = a.number + PROBLEM_ARGS + 11;
     q.U = io[0], q.s = io[1], q.Vt = io[2], q.r_in = io[3], q.c_in = io[4];
     p.status = io[5], p.x = io[6], q.w = io[7], q.outputs = io[8], p.residual = io[9], p.violation = io[10];
-    Py_ssize_t nx = p.nx;
-    for (Py_ssize_t mode = 0; mode < p.count; mode++) { /* the band first: then nothing is decided */
-        const double *sv = q.s + mode * nx;
-        for (Py_ssize_t i = 0; i < nx; i++) {
-            if (sv[i] > q.rank_tolerance * sv[0] && sv[i] <= q.band * sv[0]) {
-                result = Py_NewRef(Py_True);
-                goto done;
-            }
-        }
+    q.rank_tolerance = number[0], q.band = number[1], p.domain_tolerance = number[2];
+    p.zero_row_tolerance = number[3], q.radius_cap = number[4], q.consistency_tolerance = number[5];
+    q.output_tolerance = number[6];
+    if (in_band(&p, &q)) {
+        result = Py_NewRef(Py_True);
+        goto done;
     }
     Scratch s;
     memory = scratch(&p, &s, &Su, &work);
     if (memory == NULL) {
         goto done;
     }
+    Py_ssize_t nx = p.nx;
     for (Py_ssize_t mode = 0; mode < p.count; mode++) {
         memset(p.x + mode * nx, 0, (size_t)nx * sizeof(double));
         q.w[mode] = p.residual[mode] = p.violation[mode] = 0.0;
@@ -851,7 +977,7 @@ static PyObject *rank_modes(PyObject *self, PyObject *const *args, Py_ssize_t na
     result = Py_NewRef(Py_False);
 done:
     PyMem_Free(memory);
-    release(b, MAX_BUFFERS);
+    release_args(&a);
     return result;
 }
 
@@ -902,41 +1028,23 @@ static double largest_finite(const double *v, Py_ssize_t size, double best) {
     return best;
 }
 
+static const Arg lp_table[] = {
+    {"A_ub", 'd', 2, {DIM_M, DIM_N}, 0}, {"b_ub", 'd', 1, {DIM_M}, 0}, {"A_eq", 'd', 2, {DIM_K, DIM_N}, 0},
+    {"b_eq", 'd', 1, {DIM_K}, 0}, {"lb", 'd', 1, {DIM_N}, 0}, {"ub", 'd', 1, {DIM_N}, 0},
+    {"x", 'd', 1, {DIM_N}, OR_NONE}, {"has_bounds", 't', 0, {0}, 0}};
+static const Signature lp_signature = {"lp_check", 8, lp_table, NULL};
+
 static PyObject *lp_check(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != 8) {
-        PyErr_Format(kernel_error, "lp_check takes 8 arguments, got %zd", nargs);
-        return NULL;
-    }
-    Buffer b[7];
-    memset(b, 0, sizeof(b));
+    Args a;
     PyObject *result = NULL;
-    Py_ssize_t ub_shape[2] = {-1, -1}, n = 0, m_ub, m_eq;
-    if (take(args[0], &b[0], "A_ub", 'd', 2, ub_shape, 0)) {
+    if (parse(&lp_signature, args, nargs, &a)) {
         goto done;
     }
-    n = ub_shape[1], m_ub = ub_shape[0];
-    Py_ssize_t b_ub_shape[1] = {m_ub}, eq_shape[2] = {-1, n}, vector[1] = {n}, x_shape[1] = {0};
-    if (take(args[1], &b[1], "b_ub", 'd', 1, b_ub_shape, 0) || take(args[2], &b[2], "A_eq", 'd', 2, eq_shape, 0)) {
-        goto done;
-    }
-    m_eq = eq_shape[0];
-    Py_ssize_t b_eq_shape[1] = {m_eq};
-    if (take(args[3], &b[3], "b_eq", 'd', 1, b_eq_shape, 0) || take(args[4], &b[4], "lb", 'd', 1, vector, 0) ||
-        take(args[5], &b[5], "ub", 'd', 1, vector, 0)) {
-        goto done;
-    }
-    int has_x = args[6] != Py_None;
-    x_shape[0] = n;
-    if (has_x && take(args[6], &b[6], "x", 'd', 1, x_shape, 0)) {
-        goto done;
-    }
-    int has_bounds = PyObject_IsTrue(args[7]);
-    if (has_bounds < 0) {
-        goto done;
-    }
-    const double *A_ub = b[0].view.buf, *b_ub = b[1].view.buf, *A_eq = b[2].view.buf, *b_eq = b[3].view.buf;
-    const double *lb = b[4].view.buf, *ub = b[5].view.buf, *x = has_x ? b[6].view.buf : NULL;
+    Py_ssize_t n = a.dim[DIM_N], m_ub = a.dim[DIM_M], m_eq = a.dim[DIM_K];
+    int has_x = args[6] != Py_None, has_bounds = (int)a.integer[7];
+    const double *A_ub = a.data[0], *b_ub = a.data[1], *A_eq = a.data[2], *b_eq = a.data[3];
+    const double *lb = a.data[4], *ub = a.data[5], *x = a.data[6];
     double top = largest_finite(b_eq, m_eq, largest_finite(b_ub, m_ub, 0.0));
     if (has_bounds) {
         top = largest_finite(ub, n, largest_finite(lb, n, top));
@@ -963,7 +1071,7 @@ static PyObject *lp_check(PyObject *self, PyObject *const *args, Py_ssize_t narg
     }
     result = Py_BuildValue("(dd)", residual, scale);
 done:
-    release(b, 7);
+    release_args(&a);
     return result;
 }
 
@@ -999,54 +1107,6 @@ enum { F_MASS = 2, F_BIAS, F_POINTS, F_GAPS, F_VN, F_VT, F_JN, F_JT, F_DN, F_DT 
 enum { P_TYPE, P_EMPTY, P_MODEL, P_DATA, P_UPDATE, P_JACOBIAN, P_ACCELERATION, P_FRAME, P_V_INDEX, P_NV, P_MASS,
        P_NLE };
 enum { A_PLAN, A_Q, A_V, A_FRAMES, A_POSITIONS, A_LINES, A_DAMPING };
-
-/* A float64 buffer of ndim dimensions with any strides; shape entries >= 0 must match. */
-static int take_strided(PyObject *obj, Buffer *b, const char *name, int ndim, Py_ssize_t *shape) {
-    if (PyObject_GetBuffer(obj, &b->view, PyBUF_RECORDS_RO) != 0) {
-        PyErr_Clear();
-        PyErr_Format(kernel_error, "kernel buffer %s: not a strided buffer", name);
-        return -1;
-    }
-    b->held = 1;
-    if (!format_is(b->view.format, 'd') || b->view.ndim != ndim) {
-        PyErr_Format(kernel_error, "kernel buffer %s: %d dimensions of format %s, expected %d of float64", name,
-                     b->view.ndim, b->view.format ? b->view.format : "B", ndim);
-        return -1;
-    }
-    for (int i = 0; i < ndim; i++) {
-        if (shape[i] >= 0 && b->view.shape[i] != shape[i]) {
-            PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, i,
-                         b->view.shape[i], shape[i]);
-            return -1;
-        }
-        shape[i] = b->view.shape[i];
-    }
-    return 0;
-}
-
-/* take_strided for Pinocchio's arrays (Eigen matrices of doubles): 8-byte entries, no format string
- * asked (numpy builds that string anew on every request, a tenth of the buffer's cost). */
-static int take_pinocchio(PyObject *obj, Buffer *b, const char *name, int ndim, Py_ssize_t *shape) {
-    if (PyObject_GetBuffer(obj, &b->view, PyBUF_STRIDES) != 0) {
-        PyErr_Clear();
-        PyErr_Format(kernel_error, "kernel buffer %s: not a strided buffer", name);
-        return -1;
-    }
-    b->held = 1;
-    if (b->view.itemsize != (Py_ssize_t)sizeof(double) || b->view.ndim != ndim) {
-        PyErr_Format(kernel_error, "kernel buffer %s: %d dimensions of %zd-byte entries, expected %d of float64",
-                     name, b->view.ndim, b->view.itemsize, ndim);
-        return -1;
-    }
-    for (int i = 0; i < ndim; i++) {
-        if (shape[i] >= 0 && b->view.shape[i] != shape[i]) {
-            PyErr_Format(kernel_error, "kernel buffer %s: axis %d has %zd entries, expected %zd", name, i,
-                         b->view.shape[i], shape[i]);
-            return -1;
-        }
-    }
-    return 0;
-}
 
 static double at1(const Py_buffer *v, Py_ssize_t i) {
     return *(const double *)((const char *)v->buf + i * v->strides[0]);
@@ -1215,8 +1275,35 @@ static PyObject *new_state(PyObject *state_type, PyObject **values) {
     return state;
 }
 
-/* Checks the plan (with its mass and nle), v, frames, positions, lines and damping into b and job. */
-static int take_state_inputs(PyObject *const *args, Buffer *b, StateJob *job) {
+static const Arg state_table[STATE_ARGS] = {
+    {"plan", 'o', 0, {0}, 0}, {"q", 'o', 0, {0}, 0}, {"v", 's', 1, {DIM_N}, 0}, {"frames", 'o', 0, {0}, 0},
+    {"positions", 'o', 0, {0}, 0}, {"lines", 'o', 0, {0}, 0}, {"damping", 'd', 1, {DIM_N}, OR_NONE}};
+static const Signature state_signature = {"robot_state", STATE_ARGS, state_table, NULL};
+
+/* The lines' floats (k, LINE_ENTRIES) into job->lines (freed by the caller). */
+static int take_lines(PyObject *lines, StateJob *job) {
+    if (!PyTuple_Check(lines) || PyTuple_GET_SIZE(lines) != LINE_ENTRIES * job->k) {
+        PyErr_Format(kernel_error, "robot_state: lines must be a tuple of %zd floats", LINE_ENTRIES * job->k);
+        return -1;
+    }
+    job->lines = PyMem_Malloc((size_t)(LINE_ENTRIES * job->k + 1) * sizeof(double));
+    if (job->lines == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    for (Py_ssize_t i = 0; i < LINE_ENTRIES * job->k; i++) {
+        job->lines[i] = PyFloat_AsDouble(PyTuple_GET_ITEM(lines, i));
+        if (job->lines[i] == -1.0 && PyErr_Occurred()) {
+            PyErr_Clear();
+            PyErr_Format(kernel_error, "robot_state: lines[%zd] is not a number", i);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* The plan's entries (its mass, nle and v_index buffers into b) and the parsed arguments into job. */
+static int take_plan(PyObject *const *args, const Args *a, Buffer *b, StateJob *job) {
     PyObject *plan = args[A_PLAN];
     if (!PyTuple_Check(plan) || PyTuple_GET_SIZE(plan) != PLAN_ENTRIES || !PyType_Check(PyTuple_GET_ITEM(plan, P_TYPE)) ||
         !PyTuple_Check(args[A_FRAMES]) || !PyTuple_Check(args[A_POSITIONS]) ||
@@ -1233,54 +1320,31 @@ static int take_state_inputs(PyObject *const *args, Buffer *b, StateJob *job) {
         }
         return -1;
     }
-    Py_ssize_t nv = job->nv, vec[1] = {-1}, mass_shape[2] = {nv, nv}, nle_shape[1] = {nv};
+    Py_ssize_t nv = job->nv, mass_shape[2] = {nv, nv}, nle_shape[1] = {nv};
     job->k = PyTuple_GET_SIZE(args[A_FRAMES]);
-    if (!PyTuple_Check(args[A_LINES]) || PyTuple_GET_SIZE(args[A_LINES]) != LINE_ENTRIES * job->k) {
-        PyErr_Format(kernel_error, "robot_state: lines must be a tuple of %zd floats", LINE_ENTRIES * job->k);
+    job->n = a->dim[DIM_N], job->v = &a->buffer[A_V].view, job->damping = a->data[A_DAMPING];
+    if (take_lines(args[A_LINES], job) || take_pinocchio(job->plan[P_MASS], &b[0], "mass", 2, mass_shape) ||
+        take_pinocchio(job->plan[P_NLE], &b[1], "nle", 1, nle_shape)) {
         return -1;
     }
-    job->lines = PyMem_Malloc((size_t)(LINE_ENTRIES * job->k + 1) * sizeof(double));
-    if (job->lines == NULL) {
-        PyErr_NoMemory();
-        return -1;
-    }
-    for (Py_ssize_t i = 0; i < LINE_ENTRIES * job->k; i++) {
-        job->lines[i] = PyFloat_AsDouble(PyTuple_GET_ITEM(args[A_LINES], i));
-        if (job->lines[i] == -1.0 && PyErr_Occurred()) {
-            PyErr_Clear();
-            PyErr_Format(kernel_error, "robot_state: lines[%zd] is not a number", i);
-            return -1;
-        }
-    }
-    if (take_strided(args[A_V], &b[0], "v", 1, vec) || take_pinocchio(job->plan[P_MASS], &b[1], "mass", 2, mass_shape) ||
-        take_pinocchio(job->plan[P_NLE], &b[2], "nle", 1, nle_shape)) {
-        return -1;
-    }
-    job->n = vec[0], job->v = &b[0].view;
     Py_ssize_t n_shape[1] = {job->n};
     if (job->plan[P_V_INDEX] == Py_None) {
         if (job->n != nv) {
             PyErr_Format(kernel_error, "robot_state: v has %zd entries, expected %zd", job->n, nv);
             return -1;
         }
-    } else {
-        if (take(job->plan[P_V_INDEX], &b[4], "v_index", 'q', 1, n_shape, 0)) {
-            return -1;
-        }
-        job->v_index = b[4].view.buf;
-        for (Py_ssize_t a = 0; a < job->n; a++) {
-            if (job->v_index[a] < 0 || job->v_index[a] >= nv) {
-                PyErr_Format(kernel_error, "robot_state: v_index[%zd] = %lld is outside 0..%zd", a,
-                             job->v_index[a], nv - 1);
-                return -1;
-            }
-        }
+        return 0;
     }
-    if (args[A_DAMPING] != Py_None) {
-        if (take(args[A_DAMPING], &b[5], "damping", 'd', 1, n_shape, 0)) {
+    if (take(job->plan[P_V_INDEX], &b[2], "v_index", 'q', 1, n_shape, 0)) {
+        return -1;
+    }
+    job->v_index = b[2].view.buf;
+    for (Py_ssize_t i = 0; i < job->n; i++) {
+        if (job->v_index[i] < 0 || job->v_index[i] >= nv) {
+            PyErr_Format(kernel_error, "robot_state: v_index[%zd] = %lld is outside 0..%zd", i,
+                         job->v_index[i], nv - 1);
             return -1;
         }
-        job->damping = b[5].view.buf;
     }
     return 0;
 }
@@ -1336,21 +1400,19 @@ static int state_arrays(StateJob *job, PyObject *empty, PyObject **values, Buffe
 
 static PyObject *robot_state(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != STATE_ARGS) {
-        PyErr_Format(kernel_error, "robot_state takes %d arguments, got %zd", STATE_ARGS, nargs);
-        return NULL;
-    }
     if (intern_names()) {
         return NULL;
     }
-    Buffer b[6], out[3]; /* inputs: v, mass, nle, (unused), v_index, damping; the three new arrays */
+    Args a;
+    Buffer b[3], out[3]; /* the plan's mass, nle and v_index; the three new arrays */
     memset(b, 0, sizeof(b));
     memset(out, 0, sizeof(out));
     StateJob job;
     memset(&job, 0, sizeof(job));
     PyObject *values[STATE_FIELDS] = {NULL}, *result = NULL;
-    if (take_state_inputs(args, b, &job) == 0 && state_arrays(&job, job.plan[P_EMPTY], values, out) == 0) {
-        fill_dynamics(&job, &b[1].view, &b[2].view);
+    if (parse(&state_signature, args, nargs, &a) == 0 && take_plan(args, &a, b, &job) == 0 &&
+        state_arrays(&job, job.plan[P_EMPTY], values, out) == 0) {
+        fill_dynamics(&job, &b[0].view, &b[1].view);
         if (fill_contacts(&job, args[A_FRAMES], args[A_POSITIONS]) == 0) {
             values[0] = args[A_Q];
             values[1] = args[A_V];
@@ -1358,7 +1420,8 @@ static PyObject *robot_state(PyObject *self, PyObject *const *args, Py_ssize_t n
         }
     }
     PyMem_Free(job.lines);
-    release(b, 6);
+    release_args(&a);
+    release(b, 3);
     release(out, 3);
     for (int f = F_MASS; f < STATE_FIELDS; f++) {
         Py_XDECREF(values[f]);
@@ -1436,78 +1499,51 @@ static void contact_rows_of(const RowJob *r, Py_ssize_t i) {
 #undef CELL
 }
 
-#define ROW_INPUTS 8  /* mass, jn, jt, dn, dt, mu, vn, vt */
-#define ROW_OUTPUTS 7 /* dynamics, eq, eq_rhs, ineq, ineq_rhs, valid, motion */
+#define ROW_CELLS {DIM_K, FIX(ROW_LETTERS), FIX(INEQUALITY_ROWS)}
+static const Arg rows_table[] = {
+    {"mass", 's', 2, {DIM_N, DIM_S}, 0}, {"jacobian_normal", 's', 2, {DIM_K, DIM_N}, 0},
+    {"jacobian_tangent", 's', 2, {DIM_K, DIM_N}, 0}, {"drift_normal", 's', 1, {DIM_K}, 0},
+    {"drift_tangent", 's', 1, {DIM_K}, 0}, {"mu", 's', 1, {DIM_K}, 0}, {"normal_velocities", 's', 1, {DIM_K}, 0},
+    {"tangential_velocities", 's', 1, {DIM_K}, 0}, {"velocity_tolerance", 'f', 0, {0}, 0},
+    {"dynamics", 'd', 2, {DIM_N, DIM_NX}, WRITE},
+    {"equalities", 'd', 4, {DIM_K, FIX(ROW_LETTERS), FIX(EQUALITY_ROWS), DIM_NX}, WRITE},
+    {"equality_rhs", 'd', 3, {DIM_K, FIX(ROW_LETTERS), FIX(EQUALITY_ROWS)}, WRITE},
+    {"inequalities", 'd', 4, {DIM_K, FIX(ROW_LETTERS), FIX(INEQUALITY_ROWS), DIM_NX}, WRITE},
+    {"inequality_rhs", 'd', 3, ROW_CELLS, WRITE}, {"valid", '?', 3, ROW_CELLS, WRITE},
+    {"motion", '?', 3, ROW_CELLS, WRITE}};
+static void derive_rows(Py_ssize_t *dim) {
+    derive_dim(dim, DIM_NX, dim[DIM_N] >= 0 && dim[DIM_K] >= 0, dim[DIM_N] + 2 * dim[DIM_K]);
+}
+static const Signature rows_signature = {"contact_rows", 16, rows_table, derive_rows};
 
-static int take_row_buffers(PyObject *const *args, Buffer *b, RowJob *r) {
-    const char *names[ROW_INPUTS] = {"mass", "jacobian_normal", "jacobian_tangent", "drift_normal",
-                                     "drift_tangent", "mu", "normal_velocities", "tangential_velocities"};
-    Py_ssize_t mass[2] = {-1, -1};
-    if (take_strided(args[0], &b[0], names[0], 2, mass)) {
+/* The parsed arguments as a RowJob: the mass matrix square, nx = n + 2k. */
+static int row_job(const Args *a, RowJob *r) {
+    Py_ssize_t n = a->dim[DIM_N], k = a->dim[DIM_K];
+    if (a->dim[DIM_S] != n) {
+        PyErr_Format(kernel_error, "kernel buffer mass: %zd x %zd, expected a square matrix", n, a->dim[DIM_S]);
         return -1;
     }
-    Py_ssize_t n = mass[0], jn[2] = {-1, n};
-    if (mass[1] != n) {
-        PyErr_Format(kernel_error, "kernel buffer mass: %zd x %zd, expected a square matrix", n, mass[1]);
-        return -1;
-    }
-    if (take_strided(args[1], &b[1], names[1], 2, jn)) {
-        return -1;
-    }
-    Py_ssize_t k = jn[0], nx = n + 2 * k, jt[2] = {k, n};
-    if (take_strided(args[2], &b[2], names[2], 2, jt)) {
-        return -1;
-    }
-    for (int j = 3; j < ROW_INPUTS; j++) {
-        Py_ssize_t vector[1] = {k};
-        if (take_strided(args[j], &b[j], names[j], 1, vector)) {
-            return -1;
-        }
-    }
-    r->tolerance = PyFloat_AsDouble(args[ROW_INPUTS]);
-    if (r->tolerance == -1.0 && PyErr_Occurred()) {
-        PyErr_Clear();
-        PyErr_SetString(kernel_error, "contact_rows: velocity_tolerance is not a number");
-        return -1;
-    }
-    Py_ssize_t dyn[2] = {n, nx}, eq[4] = {k, ROW_LETTERS, EQUALITY_ROWS, nx}, eq_rhs[3] = {k, ROW_LETTERS, EQUALITY_ROWS};
-    Py_ssize_t in[4] = {k, ROW_LETTERS, INEQUALITY_ROWS, nx}, in_rhs[3] = {k, ROW_LETTERS, INEQUALITY_ROWS};
-    Py_ssize_t flags[3] = {k, ROW_LETTERS, INEQUALITY_ROWS}, flags2[3] = {k, ROW_LETTERS, INEQUALITY_ROWS};
-    PyObject *const *out = args + ROW_INPUTS + 1;
-    Buffer *ob = b + ROW_INPUTS;
-    if (take(out[0], &ob[0], "dynamics", 'd', 2, dyn, 1) || take(out[1], &ob[1], "equalities", 'd', 4, eq, 1) ||
-        take(out[2], &ob[2], "equality_rhs", 'd', 3, eq_rhs, 1) ||
-        take(out[3], &ob[3], "inequalities", 'd', 4, in, 1) ||
-        take(out[4], &ob[4], "inequality_rhs", 'd', 3, in_rhs, 1) ||
-        take(out[5], &ob[5], "valid", '?', 3, flags, 1) || take(out[6], &ob[6], "motion", '?', 3, flags2, 1)) {
-        return -1;
-    }
-    *r = (RowJob){n, k, nx, &b[0].view, &b[1].view, &b[2].view, &b[3].view, &b[4].view, &b[5].view,
-                  &b[6].view, &b[7].view, r->tolerance, ob[0].view.buf, ob[1].view.buf, ob[2].view.buf,
-                  ob[3].view.buf, ob[4].view.buf, ob[5].view.buf, ob[6].view.buf};
+    const Buffer *b = a->buffer;
+    void *const *o = a->data + 9;
+    *r = (RowJob){n, k, n + 2 * k, &b[0].view, &b[1].view, &b[2].view, &b[3].view, &b[4].view, &b[5].view,
+                  &b[6].view, &b[7].view, a->number[8], o[0], o[1], o[2], o[3], o[4], o[5], o[6]};
     return 0;
 }
 
 static PyObject *contact_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != ROW_INPUTS + 1 + ROW_OUTPUTS) {
-        PyErr_Format(kernel_error, "contact_rows takes %d arguments, got %zd", ROW_INPUTS + 1 + ROW_OUTPUTS, nargs);
-        return NULL;
-    }
-    Buffer b[ROW_INPUTS + ROW_OUTPUTS];
-    memset(b, 0, sizeof(b));
+    Args a;
     RowJob r;
-    memset(&r, 0, sizeof(r));
     PyObject *result = NULL;
-    if (take_row_buffers(args, b, &r) == 0) {
+    if (parse(&rows_signature, args, nargs, &a) == 0 && row_job(&a, &r) == 0) {
         Py_ssize_t n = r.n, k = r.k, nx = r.nx;
-        for (Py_ssize_t a = 0; a < n; a++) { /* [M, -J_N^T, -J_T^T] */
+        for (Py_ssize_t i = 0; i < n; i++) { /* [M, -J_N^T, -J_T^T] */
             for (Py_ssize_t c = 0; c < n; c++) {
-                r.dynamics[a * nx + c] = at2(r.mass, a, c);
+                r.dynamics[i * nx + c] = at2(r.mass, i, c);
             }
-            for (Py_ssize_t i = 0; i < k; i++) {
-                r.dynamics[a * nx + n + i] = -at2(r.jn, i, a);
-                r.dynamics[a * nx + n + k + i] = -at2(r.jt, i, a);
+            for (Py_ssize_t j = 0; j < k; j++) {
+                r.dynamics[i * nx + n + j] = -at2(r.jn, j, i);
+                r.dynamics[i * nx + n + k + j] = -at2(r.jt, j, i);
             }
         }
         memset(r.eq, 0, (size_t)(k * ROW_LETTERS * EQUALITY_ROWS * nx) * sizeof(double));
@@ -1521,7 +1557,7 @@ static PyObject *contact_rows(PyObject *self, PyObject *const *args, Py_ssize_t 
         }
         result = Py_NewRef(Py_None);
     }
-    release(b, ROW_INPUTS + ROW_OUTPUTS);
+    release_args(&a);
     return result;
 }
 
@@ -1532,90 +1568,66 @@ static PyObject *contact_rows(PyObject *self, PyObject *const *args, Py_ssize_t 
  * zero_row_tolerance * max(1, the largest norm); a motion row is moving unless constant. Returns -1
  * when a constant motion row has h_i < -domain_tolerance (the set is empty), else
  * 1 (a constant motion row has h_i <= domain_tolerance) + 2 (some row is moving). */
-static PyObject *margin_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
-    (void)self;
-    if (nargs != 12) {
-        PyErr_Format(kernel_error, "margin_rows takes 12 arguments, got %zd", nargs);
-        return NULL;
-    }
-    Buffer b[10];
-    memset(b, 0, sizeof(b));
-    PyObject *result = NULL;
-    double *norms = NULL;
-    Py_ssize_t g_shape[2] = {-1, -1}, u_shape[2] = {-1, -1}, w_shape[2] = {-1, -1};
-    if (take(args[0], &b[0], "G", 'd', 2, g_shape, 0)) goto done;
-    Py_ssize_t r = g_shape[0], nx = g_shape[1];
-    u_shape[0] = w_shape[0] = nx;
-    if (take(args[1], &b[1], "X_u", 'd', 2, u_shape, 0) || take(args[2], &b[2], "X_w", 'd', 2, w_shape, 0)) goto done;
-    Py_ssize_t m = u_shape[1], p = w_shape[1];
-    Py_ssize_t x0_shape[1] = {nx}, gv_shape[1] = {r}, c_shape[2] = {-1, m};
-    if (take(args[3], &b[3], "x_0", 'd', 1, x0_shape, 0) || take(args[4], &b[4], "g", 'd', 1, gv_shape, 0) ||
-        take(args[5], &b[5], "C", 'd', 2, c_shape, 0)) goto done;
-    Py_ssize_t rows = r + c_shape[0], d = m + p;
-    Py_ssize_t d_shape[1] = {c_shape[0]}, motion_shape[1] = {r}, out_shape[2] = {rows, d + 1}, h_shape[1] = {rows};
-    if (take(args[6], &b[6], "d", 'd', 1, d_shape, 0) || take(args[7], &b[7], "motion", '?', 1, motion_shape, 0) ||
-        take(args[8], &b[8], "out", 'd', 2, out_shape, 1) || take(args[9], &b[9], "h_out", 'd', 1, h_shape, 1)) goto done;
-    double zero_row_tolerance = 0.0, domain_tolerance = 0.0;
-    double *floats[2] = {&zero_row_tolerance, &domain_tolerance};
-    static const char *float_names[2] = {"zero_row_tolerance", "domain_tolerance"};
-    if (take_floats(args, 10, float_names, floats, 2)) goto done;
-    const double *G = b[0].view.buf, *X_u = b[1].view.buf, *X_w = b[2].view.buf, *x_0 = b[3].view.buf;
-    const double *g = b[4].view.buf, *C = b[5].view.buf, *dv = b[6].view.buf;
-    const unsigned char *motion = b[7].view.buf;
-    double *out = b[8].view.buf, *h = b[9].view.buf;
-    norms = PyMem_Malloc((size_t)(rows + 1) * sizeof(double));
-    if (norms == NULL) {
-        PyErr_NoMemory();
-        goto done;
-    }
-    double largest = 0.0;
-    for (Py_ssize_t i = 0; i < rows; i++) {
-        double *row = out + i * (d + 1);
-        if (i < r) {
-            const double *Gi = G + i * nx;
-            double v = g[i];
-            for (Py_ssize_t j = 0; j < d; j++) {
-                row[j] = 0.0;
+static const Arg margin_table[] = {
+    {"G", 'd', 2, {DIM_ROWS, DIM_NX}, 0}, {"X_u", 'd', 2, {DIM_NX, DIM_M}, 0}, {"X_w", 'd', 2, {DIM_NX, DIM_P}, 0},
+    {"x_0", 'd', 1, {DIM_NX}, 0}, {"g", 'd', 1, {DIM_ROWS}, 0}, {"C", 'd', 2, {DIM_COUNT, DIM_M}, 0},
+    {"d", 'd', 1, {DIM_COUNT}, 0}, {"motion", '?', 1, {DIM_ROWS}, 0}, {"out", 'd', 2, {DIM_T, DIM_S}, WRITE},
+    {"h_out", 'd', 1, {DIM_T}, WRITE}, {"zero_row_tolerance", 'f', 0, {0}, 0},
+    {"domain_tolerance", 'f', 0, {0}, 0}};
+static void derive_margin(Py_ssize_t *dim) { /* out: (r + rows of C, m + p + 1) */
+    derive_dim(dim, DIM_T, dim[DIM_ROWS] >= 0 && dim[DIM_COUNT] >= 0, dim[DIM_ROWS] + dim[DIM_COUNT]);
+    derive_dim(dim, DIM_S, dim[DIM_M] >= 0 && dim[DIM_P] >= 0, dim[DIM_M] + dim[DIM_P] + 1);
+}
+static const Signature margin_signature = {"margin_rows", 12, margin_table, derive_margin};
+
+typedef struct {
+    Py_ssize_t r, nx, m, p;
+    const double *G, *X_u, *X_w, *x_0, *g, *C, *d;
+} MarginJob;
+
+/* Row i of [H, .] into row (its first m + p entries) and h_i into h; returns the row's norm. */
+static double margin_row(const MarginJob *job, Py_ssize_t i, double *row, double *h) {
+    Py_ssize_t m = job->m, p = job->p, nx = job->nx, d = m + p;
+    if (i < job->r) {
+        const double *Gi = job->G + i * nx;
+        double v = job->g[i];
+        memset(row, 0, (size_t)d * sizeof(double));
+        for (Py_ssize_t k = 0; k < nx; k++) {
+            double a = Gi[k];
+            if (a == 0.0) {
+                continue;
             }
-            for (Py_ssize_t k = 0; k < nx; k++) {
-                double a = Gi[k];
-                if (a == 0.0) {
-                    continue;
-                }
-                for (Py_ssize_t j = 0; j < m; j++) {
-                    row[j] += a * X_u[k * m + j];
-                }
-                for (Py_ssize_t j = 0; j < p; j++) {
-                    row[m + j] += a * X_w[k * p + j];
-                }
-                v -= a * x_0[k];
-            }
-            h[i] = v;
-        } else {
             for (Py_ssize_t j = 0; j < m; j++) {
-                row[j] = C[(i - r) * m + j];
+                row[j] += a * job->X_u[k * m + j];
             }
-            for (Py_ssize_t j = m; j < d; j++) {
-                row[j] = 0.0;
+            for (Py_ssize_t j = 0; j < p; j++) {
+                row[m + j] += a * job->X_w[k * p + j];
             }
-            h[i] = dv[i - r];
+            v -= a * job->x_0[k];
         }
-        double sum = 0.0;
-        for (Py_ssize_t j = 0; j < d; j++) {
-            sum += row[j] * row[j];
-        }
-        norms[i] = sqrt(sum);
-        largest = norms[i] > largest ? norms[i] : largest;
+        *h = v;
+    } else {
+        memcpy(row, job->C + (i - job->r) * m, (size_t)m * sizeof(double));
+        memset(row + m, 0, (size_t)p * sizeof(double));
+        *h = job->d[i - job->r];
     }
-    double floor = zero_row_tolerance * (largest > 1.0 ? largest : 1.0);
+    double sum = 0.0;
+    for (Py_ssize_t j = 0; j < d; j++) {
+        sum += row[j] * row[j];
+    }
+    return sqrt(sum);
+}
+
+/* The flags of margin_rows (or -1) from the rows' norms, each moving row's norm written into its t. */
+static long margin_flags(const double *norms, Py_ssize_t rows, Py_ssize_t r, const unsigned char *motion,
+                         double floor, double domain_tolerance, double *out, Py_ssize_t width, const double *h) {
     long flags = 0;
     for (Py_ssize_t i = 0; i < rows; i++) {
         int constant = norms[i] <= floor, moves = i < r && motion[i];
-        out[i * (d + 1) + d] = moves && !constant ? norms[i] : 0.0;
+        out[i * width + width - 1] = moves && !constant ? norms[i] : 0.0;
         if (moves && constant) {
             if (h[i] < -domain_tolerance) {
-                result = PyLong_FromLong(-1);
-                goto done;
+                return -1;
             }
             if (h[i] <= domain_tolerance) {
                 flags |= 1;
@@ -1624,10 +1636,35 @@ static PyObject *margin_rows(PyObject *self, PyObject *const *args, Py_ssize_t n
             flags |= 2;
         }
     }
-    result = PyLong_FromLong(flags);
+    return flags;
+}
+
+static PyObject *margin_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    Args a;
+    PyObject *result = NULL;
+    double *norms = NULL;
+    if (parse(&margin_signature, args, nargs, &a)) {
+        goto done;
+    }
+    MarginJob job = {a.dim[DIM_ROWS], a.dim[DIM_NX], a.dim[DIM_M], a.dim[DIM_P], a.data[0], a.data[1],
+                     a.data[2], a.data[3], a.data[4], a.data[5], a.data[6]};
+    Py_ssize_t rows = a.dim[DIM_T], width = a.dim[DIM_S];
+    double *out = a.data[8], *h = a.data[9], largest = 0.0;
+    norms = PyMem_Malloc((size_t)(rows + 1) * sizeof(double));
+    if (norms == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        norms[i] = margin_row(&job, i, out + i * width, &h[i]);
+        largest = norms[i] > largest ? norms[i] : largest;
+    }
+    double floor = a.number[10] * (largest > 1.0 ? largest : 1.0);
+    result = PyLong_FromLong(margin_flags(norms, rows, job.r, a.data[7], floor, a.number[11], out, width, h));
 done:
     PyMem_Free(norms);
-    release(b, 10);
+    release_args(&a);
     return result;
 }
 
@@ -1698,10 +1735,10 @@ static void apply_q(const QRScratch *w, double *X, Py_ssize_t cols) {
     }
 }
 
-/* One system: the scalings, the factorisation, the bound and, when certified, the response. */
-static double certify_child(QRScratch *w, const double *A, const double *B, const double *c, double limit,
-                            double *X_u, double *x_0, double *X_w) {
-    Py_ssize_t rows = w->rows, nx = w->nx, m = w->m, width = rows + m + 1;
+/* The power-of-two scalings r, s of A (rows, nx) and A_hat^T = (diag(r) A diag(s))^T into w->M;
+ * returns ||A_hat||_F. */
+static double equilibrate_child(QRScratch *w, const double *A) {
+    Py_ssize_t rows = w->rows, nx = w->nx;
     for (Py_ssize_t i = 0; i < rows; i++) {
         double top = 0.0;
         for (Py_ssize_t j = 0; j < nx; j++) {
@@ -1725,7 +1762,14 @@ static double certify_child(QRScratch *w, const double *A, const double *B, cons
             size += v * v;
         }
     }
-    size = sqrt(size);
+    return sqrt(size);
+}
+
+/* One system: the scalings, the factorisation, the bound and, when certified, the response. */
+static double certify_child(QRScratch *w, const double *A, const double *B, const double *c, double limit,
+                            double *X_u, double *x_0, double *X_w) {
+    Py_ssize_t rows = w->rows, nx = w->nx, m = w->m, width = rows + m + 1;
+    double size = equilibrate_child(w, A);
     householder(w);
     for (Py_ssize_t j = 0; j < rows; j++) {
         if (!(size < limit * fabs(w->M[j * rows + j]))) {
@@ -1781,35 +1825,31 @@ static double certify_child(QRScratch *w, const double *A, const double *B, cons
     return bound;
 }
 
+static const Arg children_table[] = {
+    {"A", 'd', 3, {DIM_COUNT, DIM_ROWS, DIM_NX}, 0}, {"B", 'd', 2, {DIM_ROWS, DIM_M}, 0},
+    {"c", 'd', 2, {DIM_COUNT, DIM_ROWS}, 0}, {"X_u", 'd', 3, {DIM_COUNT, DIM_NX, DIM_M}, WRITE},
+    {"x_0", 'd', 2, {DIM_COUNT, DIM_NX}, WRITE}, {"X_w", 'd', 3, {DIM_COUNT, DIM_NX, DIM_P}, WRITE},
+    {"bound", 'd', 1, {DIM_COUNT}, WRITE}, {"limit", 'f', 0, {0}, 0}};
+static void derive_children(Py_ssize_t *dim) { /* X_w: (count, nx, nx - rows) */
+    derive_dim(dim, DIM_P, dim[DIM_NX] >= 0 && dim[DIM_ROWS] >= 0 && dim[DIM_ROWS] <= dim[DIM_NX],
+               dim[DIM_NX] - dim[DIM_ROWS]);
+}
+static const Signature children_signature = {"certified_children", 8, children_table, derive_children};
+
 static PyObject *certified_children(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != 8) {
-        PyErr_Format(kernel_error, "certified_children takes 8 arguments, got %zd", nargs);
-        return NULL;
-    }
-    Buffer b[7];
-    memset(b, 0, sizeof(b));
+    Args a;
     PyObject *result = NULL;
     double *memory = NULL;
-    Py_ssize_t a_shape[3] = {-1, -1, -1};
-    if (take(args[0], &b[0], "A", 'd', 3, a_shape, 0)) goto done;
-    Py_ssize_t count = a_shape[0], rows = a_shape[1], nx = a_shape[2];
+    if (parse(&children_signature, args, nargs, &a)) {
+        goto done;
+    }
+    Py_ssize_t count = a.dim[DIM_COUNT], rows = a.dim[DIM_ROWS], nx = a.dim[DIM_NX], m = a.dim[DIM_M];
     if (rows > nx || rows == 0) {
         PyErr_Format(kernel_error, "kernel buffer A: %zd rows and %zd columns, expected 0 < rows <= columns",
                      rows, nx);
         goto done;
     }
-    Py_ssize_t b_shape[2] = {rows, -1}, c_shape[2] = {count, rows};
-    if (take(args[1], &b[1], "B", 'd', 2, b_shape, 0) || take(args[2], &b[2], "c", 'd', 2, c_shape, 0)) goto done;
-    Py_ssize_t m = b_shape[1];
-    Py_ssize_t u_shape[3] = {count, nx, m}, x_shape[2] = {count, nx}, w_shape[3] = {count, nx, nx - rows};
-    Py_ssize_t bound_shape[1] = {count};
-    if (take(args[3], &b[3], "X_u", 'd', 3, u_shape, 1) || take(args[4], &b[4], "x_0", 'd', 2, x_shape, 1) ||
-        take(args[5], &b[5], "X_w", 'd', 3, w_shape, 1) || take(args[6], &b[6], "bound", 'd', 1, bound_shape, 1))
-        goto done;
-    double limit = 0.0, *floats[1] = {&limit};
-    static const char *float_names[1] = {"limit"};
-    if (take_floats(args, 7, float_names, floats, 1)) goto done;
     Py_ssize_t width = rows + m + 1;
     memory = PyMem_Malloc((size_t)(nx * rows + rows + nx * (m + 1) + rows * width + rows + nx) * sizeof(double));
     if (memory == NULL) {
@@ -1818,16 +1858,16 @@ static PyObject *certified_children(PyObject *self, PyObject *const *args, Py_ss
     }
     QRScratch w = {rows, nx, m, memory, NULL, NULL, NULL, NULL, NULL};
     w.tau = w.M + nx * rows, w.V = w.tau + rows, w.Y = w.V + nx * (m + 1), w.r = w.Y + rows * width, w.s = w.r + rows;
-    const double *A = b[0].view.buf, *B = b[1].view.buf, *c = b[2].view.buf;
-    double *X_u = b[3].view.buf, *x_0 = b[4].view.buf, *X_w = b[5].view.buf, *bound = b[6].view.buf;
+    const double *A = a.data[0], *B = a.data[1], *c = a.data[2];
+    double *X_u = a.data[3], *x_0 = a.data[4], *X_w = a.data[5], *bound = a.data[6];
     for (Py_ssize_t i = 0; i < count; i++) {
-        bound[i] = certify_child(&w, A + i * rows * nx, B, c + i * rows, limit, X_u + i * nx * m, x_0 + i * nx,
-                                 X_w + i * nx * (nx - rows));
+        bound[i] = certify_child(&w, A + i * rows * nx, B, c + i * rows, a.number[7], X_u + i * nx * m,
+                                 x_0 + i * nx, X_w + i * nx * (nx - rows));
     }
     result = Py_NewRef(Py_None);
 done:
     PyMem_Free(memory);
-    release(b, 7);
+    release_args(&a);
     return result;
 }
 
@@ -1915,33 +1955,29 @@ static void evaluate_mode(const QueryTable *t, Py_ssize_t i, const double *u, co
     *violation = worst;
 }
 
-#define QUERY_BUFFERS 15
-static const char *query_names[QUERY_BUFFERS] = {"H_u", "h_0", "norms", "motion", "H_w1", "p", "rows",
-                                                  "inequality_rows", "X_u", "X_w", "x_0", "K", "domain_tolerance",
-                                                  "zero_row_tolerance", "radius_cap"};
+/* The table's 12 buffers and 3 tolerances, the first arguments of the three query functions. */
+#define QUERY_ARGS 15
+#define QUERY_TABLE                                                                                           \
+    {"H_u", 'd', 3, {DIM_COUNT, DIM_ROWS, DIM_M}, 0}, {"h_0", 'd', 2, {DIM_COUNT, DIM_ROWS}, 0},              \
+    {"norms", 'd', 2, {DIM_COUNT, DIM_ROWS}, 0}, {"motion", '?', 2, {DIM_COUNT, DIM_ROWS}, 0},                \
+    {"H_w1", 'd', 2, {DIM_COUNT, DIM_ROWS}, 0}, {"p", 'q', 1, {DIM_COUNT}, 0}, {"rows", 'q', 1, {DIM_COUNT}, 0}, \
+    {"inequality_rows", 'q', 1, {DIM_COUNT}, 0}, {"X_u", 'd', 3, {DIM_COUNT, DIM_NX, DIM_M}, 0},              \
+    {"X_w", 'd', 3, {DIM_COUNT, DIM_NX, DIM_P}, 0}, {"x_0", 'd', 2, {DIM_COUNT, DIM_NX}, 0},                  \
+    {"K", 'd', 3, {DIM_COUNT, DIM_K, DIM_S}, 0}, {"domain_tolerance", 'f', 0, {0}, 0},                        \
+    {"zero_row_tolerance", 'f', 0, {0}, 0}, {"radius_cap", 'f', 0, {0}, 0}
 
-/* The table's 12 buffers and 3 tolerances (args[0:15]), checked against one another; acc: 2k. */
-static int take_query(PyObject *const *args, Buffer *b, QueryTable *t, Py_ssize_t acc) {
-    Py_ssize_t hu[3] = {-1, -1, -1};
-    if (take(args[0], &b[0], "H_u", 'd', 3, hu, 0)) return -1;
-    t->modes = hu[0], t->width = hu[1], t->m = hu[2];
-    Py_ssize_t fr[2] = {t->modes, t->width}, f1[1] = {t->modes}, xu[3] = {t->modes, -1, t->m};
-    if (take(args[1], &b[1], "h_0", 'd', 2, fr, 0) || take(args[2], &b[2], "norms", 'd', 2, fr, 0) ||
-        take(args[3], &b[3], "motion", '?', 2, fr, 0) || take(args[4], &b[4], "H_w1", 'd', 2, fr, 0) ||
-        take(args[5], &b[5], "p", 'q', 1, f1, 0) || take(args[6], &b[6], "rows", 'q', 1, f1, 0) ||
-        take(args[7], &b[7], "inequality_rows", 'q', 1, f1, 0) || take(args[8], &b[8], "X_u", 'd', 3, xu, 0))
-        return -1;
-    t->nx = xu[1];
-    Py_ssize_t xw[3] = {t->modes, t->nx, -1}, x0[2] = {t->modes, t->nx}, k[3] = {t->modes, -1, t->nx + t->m + 1};
-    if (take(args[9], &b[9], "X_w", 'd', 3, xw, 0) || take(args[10], &b[10], "x_0", 'd', 2, x0, 0) ||
-        take(args[11], &b[11], "K", 'd', 3, k, 0))
-        return -1;
-    t->pmax = xw[2], t->krows = k[1], t->acc = acc;
-    double *floats[3] = {&t->dt, &t->zrt, &t->cap};
-    if (take_floats(args, 12, query_names + 12, floats, 3)) return -1;
-    t->H_u = b[0].view.buf, t->h_0 = b[1].view.buf, t->norms = b[2].view.buf, t->motion = b[3].view.buf;
-    t->H_w1 = b[4].view.buf, t->p = b[5].view.buf, t->rows = b[6].view.buf, t->ineq = b[7].view.buf;
-    t->X_u = b[8].view.buf, t->X_w = b[9].view.buf, t->x_0 = b[10].view.buf, t->K = b[11].view.buf;
+static void derive_query(Py_ssize_t *dim) { /* K: (modes, rows, nx + m + 1) */
+    derive_dim(dim, DIM_S, dim[DIM_NX] >= 0 && dim[DIM_M] >= 0, dim[DIM_NX] + dim[DIM_M] + 1);
+}
+
+/* The query table from its parsed arguments, checked against one another; acc: 2k. */
+static int query_from(const Args *a, QueryTable *t, Py_ssize_t acc) {
+    t->modes = a->dim[DIM_COUNT], t->width = a->dim[DIM_ROWS], t->m = a->dim[DIM_M], t->nx = a->dim[DIM_NX];
+    t->pmax = a->dim[DIM_P], t->krows = a->dim[DIM_K], t->acc = acc;
+    t->H_u = a->data[0], t->h_0 = a->data[1], t->norms = a->data[2], t->motion = a->data[3];
+    t->H_w1 = a->data[4], t->p = a->data[5], t->rows = a->data[6], t->ineq = a->data[7];
+    t->X_u = a->data[8], t->X_w = a->data[9], t->x_0 = a->data[10], t->K = a->data[11];
+    t->dt = a->number[12], t->zrt = a->number[13], t->cap = a->number[14];
     if (acc + t->nx > t->krows) {
         PyErr_Format(kernel_error, "query: K has %zd rows, fewer than %zd + %zd", t->krows, acc, t->nx);
         return -1;
@@ -1957,74 +1993,67 @@ static int take_query(PyObject *const *args, Buffer *b, QueryTable *t, Py_ssize_
     return 0;
 }
 
+static const Arg locate_table[] = {
+    QUERY_TABLE, {"U", 'd', 2, {DIM_N, DIM_M}, 0}, {"status", 'b', 2, {DIM_N, DIM_COUNT}, WRITE},
+    {"w", 'd', 2, {DIM_N, DIM_COUNT}, WRITE}};
+static const Signature locate_signature = {"locate_points", QUERY_ARGS + 3, locate_table, derive_query};
+
 /* locate_points(table..., U, status, w): every point of U (N, m) against every mode. */
 static PyObject *locate_points(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != QUERY_BUFFERS + 3) {
-        PyErr_Format(kernel_error, "locate_points takes %d arguments, got %zd", QUERY_BUFFERS + 3, nargs);
-        return NULL;
-    }
-    Buffer b[15];
-    memset(b, 0, sizeof(b));
+    Args a;
     PyObject *result = NULL;
     double *h = NULL;
     QueryTable t;
-    if (take_query(args, b, &t, 0)) goto done;
-    Py_ssize_t u_shape[2] = {-1, t.m};
-    if (take(args[15], &b[12], "U", 'd', 2, u_shape, 0)) goto done;
-    Py_ssize_t points = u_shape[0], out[2] = {points, t.modes};
-    if (take(args[16], &b[13], "status", 'b', 2, out, 1) || take(args[17], &b[14], "w", 'd', 2, out, 1)) goto done;
-    const double *U = b[12].view.buf;
-    signed char *status = b[13].view.buf;
-    double *w = b[14].view.buf;
+    if (parse(&locate_signature, args, nargs, &a) || query_from(&a, &t, 0)) {
+        goto done;
+    }
+    const double *U = a.data[QUERY_ARGS];
+    signed char *status = a.data[QUERY_ARGS + 1];
+    double *w = a.data[QUERY_ARGS + 2];
     h = PyMem_Malloc((size_t)(t.width + 1) * sizeof(double));
     if (h == NULL) {
         PyErr_NoMemory();
         goto done;
     }
-    for (Py_ssize_t j = 0; j < points; j++) {
+    for (Py_ssize_t j = 0; j < a.dim[DIM_N]; j++) {
         for (Py_ssize_t i = 0; i < t.modes; i++) {
             status[j * t.modes + i] = locate_mode(&t, i, U + j * t.m, h, &w[j * t.modes + i]);
         }
     }
-    Py_INCREF(Py_None);
-    result = Py_None;
+    result = Py_NewRef(Py_None);
 done:
     PyMem_Free(h);
-    release(b, 15);
+    release_args(&a);
     return result;
 }
+
+static const Arg evaluate_table[] = {
+    QUERY_TABLE, {"U", 'd', 2, {DIM_N, DIM_M}, 0}, {"point", 'q', 1, {DIM_T}, 0}, {"index", 'q', 1, {DIM_T}, 0},
+    {"w", 'd', 2, {DIM_T, DIM_P}, 0}, {"x", 'd', 2, {DIM_T, DIM_NX}, WRITE}, {"acc", 'd', 2, {DIM_T, DIM_A}, WRITE},
+    {"residual", 'd', 1, {DIM_T}, WRITE}, {"violation", 'd', 1, {DIM_T}, WRITE}};
+static const Signature evaluate_signature = {"evaluate_points", QUERY_ARGS + 8, evaluate_table, derive_query};
 
 /* evaluate_points(table..., U, point, index, w, x, acc, residual, violation): per solution s, mode
  * index[s] at U[point[s]] with the ambiguity values w[s] (p_max,). */
 static PyObject *evaluate_points(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != QUERY_BUFFERS + 8) {
-        PyErr_Format(kernel_error, "evaluate_points takes %d arguments, got %zd", QUERY_BUFFERS + 8, nargs);
-        return NULL;
-    }
-    Buffer b[20];
-    memset(b, 0, sizeof(b));
+    Args a;
     PyObject *result = NULL;
     double *z = NULL;
     QueryTable t;
-    Py_ssize_t acc_shape[2] = {-1, -1};
-    if (take(args[20], &b[19], "acc", 'd', 2, acc_shape, 1) || take_query(args, b, &t, acc_shape[1])) goto done;
-    Py_ssize_t u_shape[2] = {-1, t.m}, s_shape[1] = {acc_shape[0]}, w_shape[2] = {acc_shape[0], t.pmax};
-    Py_ssize_t x_shape[2] = {acc_shape[0], t.nx};
-    if (take(args[15], &b[12], "U", 'd', 2, u_shape, 0) || take(args[16], &b[13], "point", 'q', 1, s_shape, 0) ||
-        take(args[17], &b[14], "index", 'q', 1, s_shape, 0) || take(args[18], &b[15], "w", 'd', 2, w_shape, 0) ||
-        take(args[19], &b[16], "x", 'd', 2, x_shape, 1) || take(args[21], &b[17], "residual", 'd', 1, s_shape, 1) ||
-        take(args[22], &b[18], "violation", 'd', 1, s_shape, 1))
+    if (parse(&evaluate_signature, args, nargs, &a) || query_from(&a, &t, a.dim[DIM_A])) {
         goto done;
-    const double *U = b[12].view.buf, *W = b[15].view.buf;
-    const long long *point = b[13].view.buf, *index = b[14].view.buf;
-    double *X = b[16].view.buf, *acc = b[19].view.buf, *residual = b[17].view.buf, *violation = b[18].view.buf;
-    Py_ssize_t count = s_shape[0];
+    }
+    void *const *io = a.data + QUERY_ARGS;
+    const double *U = io[0], *W = io[3];
+    const long long *point = io[1], *index = io[2];
+    double *X = io[4], *acc = io[5], *residual = io[6], *violation = io[7];
+    Py_ssize_t count = a.dim[DIM_T], points = a.dim[DIM_N];
     for (Py_ssize_t s = 0; s < count; s++) {
-        if (index[s] < 0 || index[s] >= t.modes || point[s] < 0 || point[s] >= u_shape[0]) {
+        if (index[s] < 0 || index[s] >= t.modes || point[s] < 0 || point[s] >= points) {
             PyErr_Format(kernel_error, "evaluate_points: solution %zd has mode %lld of %zd, point %lld of %zd", s,
-                         index[s], t.modes, point[s], u_shape[0]);
+                         index[s], t.modes, point[s], points);
             goto done;
         }
     }
@@ -2037,43 +2066,35 @@ static PyObject *evaluate_points(PyObject *self, PyObject *const *args, Py_ssize
         evaluate_mode(&t, (Py_ssize_t)index[s], U + point[s] * t.m, W + s * t.pmax, X + s * t.nx,
                       acc + s * t.acc, &residual[s], &violation[s], z);
     }
-    Py_INCREF(Py_None);
-    result = Py_None;
+    result = Py_NewRef(Py_None);
 done:
     PyMem_Free(z);
-    release(b, 20);
+    release_args(&a);
     return result;
 }
+
+static const Arg point_table[] = {
+    QUERY_TABLE, {"u", 'd', 1, {DIM_M}, 0}, {"status", 'b', 1, {DIM_COUNT}, WRITE}, {"w", 'd', 1, {DIM_COUNT}, WRITE},
+    {"x", 'd', 2, {DIM_COUNT, DIM_NX}, WRITE}, {"acc", 'd', 2, {DIM_COUNT, DIM_A}, WRITE},
+    {"residual", 'd', 1, {DIM_COUNT}, WRITE}, {"violation", 'd', 1, {DIM_COUNT}, WRITE}};
+static const Signature point_signature = {"query_point", QUERY_ARGS + 7, point_table, derive_query};
 
 /* query_point(table..., u, status, w, x, acc, residual, violation): one input u (m,) against every
  * mode, each mode that holds it (QUERY_INSIDE) evaluated at its w into its row of x (modes, nx),
  * acc (modes, 2k), residual and violation (modes,). */
 static PyObject *query_point(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != QUERY_BUFFERS + 7) {
-        PyErr_Format(kernel_error, "query_point takes %d arguments, got %zd", QUERY_BUFFERS + 7, nargs);
-        return NULL;
-    }
-    Buffer b[19];
-    memset(b, 0, sizeof(b));
+    Args a;
     PyObject *result = NULL;
     double *h = NULL;
     QueryTable t;
-    Py_ssize_t acc_shape[2] = {-1, -1};
-    if (take(args[19], &b[18], "acc", 'd', 2, acc_shape, 1) || take_query(args, b, &t, acc_shape[1])) goto done;
-    Py_ssize_t u_shape[1] = {t.m}, f1[1] = {t.modes}, x_shape[2] = {t.modes, t.nx};
-    if (acc_shape[0] != t.modes) {
-        PyErr_Format(kernel_error, "kernel buffer acc: axis 0 has %zd entries, expected %zd", acc_shape[0], t.modes);
+    if (parse(&point_signature, args, nargs, &a) || query_from(&a, &t, a.dim[DIM_A])) {
         goto done;
     }
-    if (take(args[15], &b[12], "u", 'd', 1, u_shape, 0) || take(args[16], &b[13], "status", 'b', 1, f1, 1) ||
-        take(args[17], &b[14], "w", 'd', 1, f1, 1) || take(args[18], &b[15], "x", 'd', 2, x_shape, 1) ||
-        take(args[20], &b[16], "residual", 'd', 1, f1, 1) || take(args[21], &b[17], "violation", 'd', 1, f1, 1))
-        goto done;
-    const double *u = b[12].view.buf;
-    signed char *status = b[13].view.buf;
-    double *w = b[14].view.buf, *X = b[15].view.buf, *acc = b[18].view.buf;
-    double *residual = b[16].view.buf, *violation = b[17].view.buf;
+    void *const *io = a.data + QUERY_ARGS;
+    const double *u = io[0];
+    signed char *status = io[1];
+    double *w = io[2], *X = io[3], *acc = io[4], *residual = io[5], *violation = io[6];
     h = PyMem_Malloc((size_t)(t.width + t.nx + t.m + t.pmax + 2) * sizeof(double));
     if (h == NULL) {
         PyErr_NoMemory();
@@ -2089,11 +2110,10 @@ static PyObject *query_point(PyObject *self, PyObject *const *args, Py_ssize_t n
             evaluate_mode(&t, i, u, wi, X + i * t.nx, acc + i * t.acc, &residual[i], &violation[i], z);
         }
     }
-    Py_INCREF(Py_None);
-    result = Py_None;
+    result = Py_NewRef(Py_None);
 done:
     PyMem_Free(h);
-    release(b, 19);
+    release_args(&a);
     return result;
 }
 
@@ -2232,31 +2252,24 @@ static int lemke_run(Lemke *L, long long max_pivots, double pivot_tolerance, lon
     return LEMKE_SOLVED;
 }
 
+static const Arg lemke_table[] = {
+    {"M", 'd', 2, {DIM_N, DIM_N}, 0}, {"q", 'd', 1, {DIM_N}, 0}, {"basis", 'q', 1, {DIM_N}, WRITE},
+    {"matrix", 'd', 2, {DIM_N, DIM_N}, WRITE}, {"rhs", 'd', 1, {DIM_N}, WRITE}, {"max_pivots", 'i', 0, {0}, 0},
+    {"pivot_tolerance", 'f', 0, {0}, 0}, {"tie", 'f', 0, {0}, 0}};
+static const Signature lemke_signature = {"lemke", 8, lemke_table, NULL};
+
 static PyObject *lemke(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != 8) {
-        PyErr_Format(kernel_error, "lemke takes 8 arguments, got %zd", nargs);
-        return NULL;
-    }
-    Buffer b[5];
-    memset(b, 0, sizeof(b));
+    Args a;
     PyObject *result = NULL;
     double *work = NULL;
     Py_ssize_t *index = NULL;
-    Py_ssize_t q_shape[1] = {-1};
-    if (take(args[1], &b[1], "q", 'd', 1, q_shape, 0)) {
+    if (parse(&lemke_signature, args, nargs, &a)) {
         goto done;
     }
-    Py_ssize_t n = q_shape[0], m_shape[2] = {n, n}, v_shape[1] = {n}, b_shape[2] = {n, n}, v2_shape[1] = {n};
-    if (take(args[0], &b[0], "M", 'd', 2, m_shape, 0) || take(args[2], &b[2], "basis", 'q', 1, v_shape, 1) ||
-        take(args[3], &b[3], "matrix", 'd', 2, b_shape, 1) || take(args[4], &b[4], "rhs", 'd', 1, v2_shape, 1)) {
-        goto done;
-    }
-    long long max_pivots = PyLong_AsLongLong(args[5]);
-    double pivot_tolerance = PyFloat_AsDouble(args[6]), tie = PyFloat_AsDouble(args[7]);
-    if (PyErr_Occurred()) {
-        goto done;
-    }
+    Py_ssize_t n = a.dim[DIM_N];
+    long long max_pivots = a.integer[5];
+    double pivot_tolerance = a.number[6], tie = a.number[7];
     Py_ssize_t cols = 2 * n + 2;
     work = PyMem_Malloc((size_t)(n * cols + 5 * n + 1) * sizeof(double));
     index = PyMem_Malloc((size_t)(2 * n + 1) * sizeof(Py_ssize_t));
@@ -2264,9 +2277,9 @@ static PyObject *lemke(PyObject *self, PyObject *const *args, Py_ssize_t nargs) 
         PyErr_NoMemory();
         goto done;
     }
-    const double *M = b[0].view.buf, *q = b[1].view.buf;
+    const double *M = a.data[0], *q = a.data[1];
     Lemke L = {n, cols, work, work + n * cols, work + n * cols + n, work + n * cols + 2 * n,
-               work + n * cols + 4 * n, index, index + n, b[2].view.buf, tie};
+               work + n * cols + 4 * n, index, index + n, a.data[2], tie};
     for (Py_ssize_t i = 0; i < n; i++) {
         double *t = L.table + i * cols;
         for (Py_ssize_t j = 0; j < n; j++) {
@@ -2280,7 +2293,7 @@ static PyObject *lemke(PyObject *self, PyObject *const *args, Py_ssize_t nargs) 
     }
     long long pivots = 0;
     int status = lemke_run(&L, max_pivots, pivot_tolerance, &pivots);
-    double *matrix = b[3].view.buf, *rhs = b[4].view.buf;
+    double *matrix = a.data[3], *rhs = a.data[4];
     for (Py_ssize_t i = 0; i < n; i++) {
         rhs[i] = L.table[i * cols + cols - 1];
         for (Py_ssize_t r = 0; r < n; r++) {
@@ -2292,36 +2305,32 @@ static PyObject *lemke(PyObject *self, PyObject *const *args, Py_ssize_t nargs) 
 done:
     PyMem_Free(work);
     PyMem_Free(index);
-    release(b, 5);
+    release_args(&a);
     return result;
 }
 
 /* coulomb_matrix: frcontrol.simulation.impact._coulomb_matrix of the Delassus matrix W (2c, 2c)
  * scaled by m_ref (each entry W_ij m_ref, negated where the block is): the LCP matrix (4c, 4c) in
  * z = (p_N, p_T+, p_T-, sigma), written into out, entry for entry as there. */
+static const Arg coulomb_table[] = {
+    {"W", 'd', 2, {DIM_S, DIM_S}, 0}, {"m_ref", 'f', 0, {0}, 0}, {"mu", 'd', 1, {DIM_K}, 0},
+    {"out", 'd', 2, {DIM_A, DIM_A}, WRITE}};
+static void derive_coulomb(Py_ssize_t *dim) { /* out: (4c, 4c) */
+    derive_dim(dim, DIM_A, dim[DIM_K] >= 0, 4 * dim[DIM_K]);
+}
+static const Signature coulomb_signature = {"coulomb_matrix", 4, coulomb_table, derive_coulomb};
+
 static PyObject *coulomb_matrix(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != 4) {
-        PyErr_Format(kernel_error, "coulomb_matrix takes 4 arguments, got %zd", nargs);
-        return NULL;
-    }
-    Buffer b[3];
-    memset(b, 0, sizeof(b));
+    Args a;
     PyObject *result = NULL;
-    Py_ssize_t mu_shape[1] = {-1};
-    if (take(args[2], &b[1], "mu", 'd', 1, mu_shape, 0)) {
+    if (parse(&coulomb_signature, args, nargs, &a) || expect_dim(a.dim[DIM_S], 2 * a.dim[DIM_K], "W", 0)) {
         goto done;
     }
-    Py_ssize_t c = mu_shape[0], w_shape[2] = {2 * c, 2 * c}, out_shape[2] = {4 * c, 4 * c};
-    if (take(args[0], &b[0], "W", 'd', 2, w_shape, 0) || take(args[3], &b[2], "out", 'd', 2, out_shape, 1)) {
-        goto done;
-    }
-    double m_ref = PyFloat_AsDouble(args[1]);
-    if (PyErr_Occurred()) {
-        goto done;
-    }
-    const double *W = b[0].view.buf, *mu = b[1].view.buf;
-    double *out = b[2].view.buf;
+    Py_ssize_t c = a.dim[DIM_K];
+    double m_ref = a.number[1];
+    const double *W = a.data[0], *mu = a.data[2];
+    double *out = a.data[3];
     Py_ssize_t n = 4 * c, w = 2 * c;
     memset(out, 0, (size_t)(n * n) * sizeof(double));
     for (Py_ssize_t i = 0; i < c; i++) {
@@ -2339,10 +2348,9 @@ static PyObject *coulomb_matrix(PyObject *self, PyObject *const *args, Py_ssize_
         out[(3 * c + i) * n + c + i] = -1.0;
         out[(3 * c + i) * n + 2 * c + i] = -1.0;
     }
-    Py_INCREF(Py_None);
-    result = Py_None;
+    result = Py_NewRef(Py_None);
 done:
-    release(b, 3);
+    release_args(&a);
     return result;
 }
 
@@ -2352,30 +2360,22 @@ done:
  * ||q||_inf) (lcp_row_tolerances), or, for an enumerated candidate, tolerance * ||q||_inf
  * (lcp_enumeration_tolerance). The residual is NumPy's exactly; the bounds' sums run in index
  * order (the same to round-off); a NaN anywhere makes the residual NaN and the check fail. */
+static const Arg lcp_table[] = {
+    {"M", 'd', 2, {DIM_N, DIM_N}, 0}, {"q", 'd', 1, {DIM_N}, 0}, {"z", 'd', 1, {DIM_N}, 0},
+    {"w", 'd', 1, {DIM_N}, 0}, {"tolerance", 'f', 0, {0}, 0}, {"enumerated", 't', 0, {0}, 0}};
+static const Signature lcp_signature = {"lcp_check", 6, lcp_table, NULL};
+
 static PyObject *lcp_check_point(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != 6) {
-        PyErr_Format(kernel_error, "lcp_check takes 6 arguments, got %zd", nargs);
-        return NULL;
-    }
-    Buffer b[4];
-    memset(b, 0, sizeof(b));
+    Args a;
     PyObject *result = NULL;
-    Py_ssize_t q_shape[1] = {-1};
-    if (take(args[1], &b[1], "q", 'd', 1, q_shape, 0)) {
+    if (parse(&lcp_signature, args, nargs, &a)) {
         goto done;
     }
-    Py_ssize_t n = q_shape[0], m_shape[2] = {n, n}, z_shape[1] = {n}, w_shape[1] = {n};
-    if (take(args[0], &b[0], "M", 'd', 2, m_shape, 0) || take(args[2], &b[2], "z", 'd', 1, z_shape, 0) ||
-        take(args[3], &b[3], "w", 'd', 1, w_shape, 0)) {
-        goto done;
-    }
-    double tolerance = PyFloat_AsDouble(args[4]);
-    int enumerated = PyObject_IsTrue(args[5]);
-    if (PyErr_Occurred() || enumerated < 0) {
-        goto done;
-    }
-    const double *M = b[0].view.buf, *q = b[1].view.buf, *z = b[2].view.buf, *w = b[3].view.buf;
+    Py_ssize_t n = a.dim[DIM_N];
+    const double *M = a.data[0], *q = a.data[1], *z = a.data[2], *w = a.data[3];
+    double tolerance = a.number[4];
+    int enumerated = (int)a.integer[5];
     double floor = 0.0, residual = 0.0, bound = 0.0;
     int found = 1, nan = 0;
     for (Py_ssize_t i = 0; i < n; i++) {
@@ -2400,7 +2400,7 @@ static PyObject *lcp_check_point(PyObject *self, PyObject *const *args, Py_ssize
     }
     result = Py_BuildValue("(ddO)", residual, bound, found ? Py_True : Py_False);
 done:
-    release(b, 4);
+    release_args(&a);
     return result;
 }
 
@@ -2413,31 +2413,27 @@ static double numpy_sign(double x) {
     return isnan(x) ? x : x > 0.0 ? 1.0 : x < 0.0 ? -1.0 : 0.0;
 }
 
+static const Arg compliant_table[] = {
+    {"gaps", 'd', 1, {DIM_K}, 0}, {"normal_velocities", 'd', 1, {DIM_K}, 0},
+    {"tangential_velocities", 'd', 1, {DIM_K}, 0}, {"stretch", 'd', 1, {DIM_K}, 0}, {"mu", 'd', 1, {DIM_K}, 0},
+    {"stiffness", 'd', 1, {DIM_K}, 0}, {"damping", 'd', 1, {DIM_K}, 0}, {"tangential_stiffness", 'd', 1, {DIM_K}, 0},
+    {"tangential_damping", 'd', 1, {DIM_K}, 0}, {"lam_n", 'd', 1, {DIM_K}, WRITE}, {"lam_t", 'd', 1, {DIM_K}, WRITE},
+    {"rate", 'd', 1, {DIM_K}, WRITE}, {"status", 'q', 1, {DIM_K}, WRITE}};
+static const Signature compliant_signature = {"compliant_law", 13, compliant_table, NULL};
+
 static PyObject *compliant_law(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    if (nargs != 13) {
-        PyErr_Format(kernel_error, "compliant_law takes 13 arguments, got %zd", nargs);
-        return NULL;
-    }
-    static const char *names[13] = {"gaps", "normal_velocities", "tangential_velocities", "stretch", "mu",
-                                    "stiffness", "damping", "tangential_stiffness", "tangential_damping",
-                                    "lam_n", "lam_t", "rate", "status"};
-    Buffer b[13];
-    memset(b, 0, sizeof(b));
+    Args a;
     PyObject *result = NULL;
-    Py_ssize_t c = -1;
-    for (int i = 0; i < 13; i++) {
-        Py_ssize_t shape[1] = {c};
-        if (take(args[i], &b[i], names[i], i == 12 ? 'q' : 'd', 1, shape, i >= 9)) {
-            goto done;
-        }
-        c = shape[0];
+    if (parse(&compliant_signature, args, nargs, &a)) {
+        goto done;
     }
-    const double *gaps = b[0].view.buf, *vn = b[1].view.buf, *vt = b[2].view.buf, *s = b[3].view.buf;
-    const double *mu = b[4].view.buf, *k_n = b[5].view.buf, *b_n = b[6].view.buf, *k_t = b[7].view.buf;
-    const double *b_t = b[8].view.buf;
-    double *lam_n = b[9].view.buf, *lam_t = b[10].view.buf, *rate = b[11].view.buf;
-    long long *status = b[12].view.buf;
+    Py_ssize_t c = a.dim[DIM_K];
+    void *const *b = a.data;
+    const double *gaps = b[0], *vn = b[1], *vt = b[2], *s = b[3], *mu = b[4], *k_n = b[5], *b_n = b[6];
+    const double *k_t = b[7], *b_t = b[8];
+    double *lam_n = b[9], *lam_t = b[10], *rate = b[11];
+    long long *status = b[12];
     for (Py_ssize_t i = 0; i < c; i++) {
         double delta = -gaps[i], push = k_n[i] * delta - b_n[i] * vn[i];
         double normal = delta > 0.0 ? (0.0 >= push ? 0.0 : push) : 0.0; /* numpy.maximum(0, push) */
@@ -2448,10 +2444,9 @@ static PyObject *compliant_law(PyObject *self, PyObject *const *args, Py_ssize_t
         rate[i] = stick ? vt[i] : (limit * sign - k_t[i] * s[i]) / b_t[i];
         status[i] = normal > 0.0 ? (stick ? 1 : 2) : 0;
     }
-    Py_INCREF(Py_None);
-    result = Py_None;
+    result = Py_NewRef(Py_None);
 done:
-    release(b, 13);
+    release_args(&a);
     return result;
 }
 

@@ -39,7 +39,7 @@ import numpy.typing as npt
 from . import polytope as poly
 from .errors import CoordinateNotFound, InputError
 from .jsonable import to_jsonable
-from .kernel import compiled, kernel_choice
+from .kernel import Backend, backend, compiled, twin
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
 from .modes import (
     ContactProblem,
@@ -421,9 +421,9 @@ def _margin_lp(A_ub: np.ndarray, h: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarr
         A = np.zeros((A_eq.shape[0], d + 1))
         A[:, :d] = A_eq
         result = solve_lp_prepared(bounds[0], A_ub, h, A, b_eq, bounds[1], bounds[2], solver=solver,
-                                   fallback=RETRY_ERRORS)
+                                   fallback=RETRY_ERRORS, check=backend().lp_check)
     else:  # the door's lean path (the same answer as solve_lp_prepared's)
-        lps = InequalityLPs(solver=solver, fallback=RETRY_ERRORS)
+        lps = InequalityLPs(solver=solver, fallback=RETRY_ERRORS, check=backend().lp_check)
         result = lps.solve(bounds[0], A_ub, h, bounds[1], bounds[2])
     if not result.found or result.x is None:
         return MotionMargin("infeasible", None, None)
@@ -434,29 +434,43 @@ def _margin_lp(A_ub: np.ndarray, h: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarr
 
 
 def mode_margin(system: ModeSystem, response: AffineSolution, bounds: tuple[np.ndarray, np.ndarray], *,
-                solver: str = DEFAULT_LP_SOLVER, kernel: str | None = None) -> MotionMargin:
+                solver: str = DEFAULT_LP_SOLVER, kernel: Backend | None = None) -> MotionMargin:
     """:func:`motion_margin` of the mode's domain (:func:`domain_rows`), its rows built in one call.
 
-    With the compiled kernel in force (:func:`frcontrol.kernel.kernel_choice`) the LP's rows come
-    from ``frcontrol._kernel.margin_rows`` (the same sums in another order: equal to round-off, see
-    tests/test_kernel.py); else from :func:`domain_rows` and :func:`motion_margin` in NumPy.
-    ``kernel``: :func:`~frcontrol.kernel.kernel_choice`'s answer when the caller has it.
+    By the kernel's ``mode_margin`` (:func:`frcontrol.kernel.backend`): with the compiled kernel
+    the LP's rows come from ``frcontrol._kernel.margin_rows`` (the same sums in another order:
+    equal to round-off, see tests/test_kernel.py); its NumPy twin builds them by
+    :func:`domain_rows` and :func:`motion_margin`. ``kernel``: the backend when the caller has it.
     """
-    if (kernel or kernel_choice()) != "compiled" or compiled is None:
-        H, h, A_eq, b_eq, motion = domain_rows(system, response, bounds)
-        return motion_margin(H, h, motion, A_eq, b_eq, solver=solver)
+    return (kernel or backend()).mode_margin(system, response, bounds, solver)
+
+
+def _mode_margin_numpy(system: ModeSystem, response: AffineSolution, bounds: tuple[np.ndarray, np.ndarray],
+                       solver: str) -> MotionMargin:
+    """:func:`mode_margin` in NumPy (the reference twin)."""
+    H, h, A_eq, b_eq, motion = domain_rows(system, response, bounds)
+    return motion_margin(H, h, motion, A_eq, b_eq, solver=solver)
+
+
+def _mode_margin_compiled(system: ModeSystem, response: AffineSolution, bounds: tuple[np.ndarray, np.ndarray],
+                          solver: str) -> MotionMargin:
+    """:func:`mode_margin` with its rows by the compiled kernel's ``margin_rows``."""
     C, d = bounds
     m, p = C.shape[1], response.ambiguity_dim
     rows = system.G.shape[0] + C.shape[0]
     A_ub, h = np.empty((rows, m + p + 1)), np.empty(rows)
     X_u, X_w = np.ascontiguousarray(response.X_u), np.ascontiguousarray(response.X_w)
-    flags = compiled.margin_rows(system.G, X_u, X_w, response.x_0, system.g, C, d, system.motion, A_ub, h,
-                                 ZERO_ROW_TOLERANCE, DOMAIN_TOLERANCE)
+    flags = compiled.margin_rows(  # type: ignore[union-attr]
+        system.G, X_u, X_w, response.x_0, system.g, C, d, system.motion, A_ub, h, ZERO_ROW_TOLERANCE,
+        DOMAIN_TOLERANCE)
     if flags < 0:
         return MotionMargin("infeasible", None, None)
     A_eq = np.zeros((response.e.size, m + p))
     A_eq[:, :m] = response.E
     return _margin_lp(A_ub, h, A_eq, response.e, bool(flags & 1), bool(flags & 2), solver)
+
+
+twin("mode_margin", numpy=_mode_margin_numpy, compiled=_mode_margin_compiled)
 
 
 _MARGIN_BOUNDS: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -554,7 +568,7 @@ class _ModeEnumerator:
         self.prune_partial, self.progress, self.timings = prune_partial, progress, timings
         self.allowed = problem.allowed_modes()
         self.bounds = problem.input_bound_rows()
-        self.kernel = kernel_choice()  # read once for the whole tree
+        self.kernel = backend()  # read once for the whole tree
         self.prepared: dict[str, tuple[ModeSystem, AffineSolution | None]] = {}
         self.deficient: set[str] = set()  # tested modes whose equalities lack full row rank
         self.counts = {"freedom": 0, "infeasible": 0, "partial": 0, "evaluated": 0}

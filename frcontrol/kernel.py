@@ -1,22 +1,32 @@
-"""Which implementation decides the certified modes of :func:`frcontrol.mode_batch.decide_modes`.
+"""The kernel behind one seam: one backend object, NumPy's or the compiled extension's.
 
-Two implementations give the same answers (to round-off, see :data:`CERTIFIED_ROUND_OFF_BAND`):
+The hot loops of the analysis, the queries, the LCP and the simulation have two implementations
+that give the same answers (to round-off, see :data:`CERTIFIED_ROUND_OFF_BAND`):
 
-- ``"compiled"``: :mod:`frcontrol._kernel`, a small C extension built by ``pip install .``; per
-  mode it assembles ``A`` from the contact row table, equilibrates it by powers of two, solves by
-  LU with partial pivoting, applies the :data:`~frcontrol.mode_batch.CERTIFIED_MARGIN` bound and
-  decides the inequality rows at ``u``, all in one call (NumPy's per-call overhead is what limits
-  the NumPy path on small problems).
-- ``"numpy"``: the reference, the NumPy code of :mod:`frcontrol.mode_batch`.
+- ``"compiled"``: :mod:`frcontrol._kernel`, a small C extension built by ``pip install .``
+  (plain C against the CPython API and the buffer protocol; NumPy's per-call overhead is what
+  limits the NumPy code on small problems);
+- ``"numpy"``: the reference, the NumPy twin of every compiled function, kept in the module that
+  uses it.
 
-The environment variable ``FRC_KERNEL`` chooses (``numpy`` or ``compiled``); unset or empty, the
-compiled kernel when it is built, else NumPy. An unknown value, or ``compiled`` where the extension
-was not built, raises :class:`~frcontrol.errors.KernelError`. An extension built from another
-``_kernel.c`` than the one beside it (an editable install not rebuilt after a change) is not used:
-a ``RuntimeWarning`` says so and NumPy runs (:func:`stale_reason`). Modes the bound does not certify go
-to the batched SVD in NumPy on either path. The same switch chooses how the LP door
-(:mod:`frcontrol.solvers`) checks an answer: ``lp_check`` of the extension, or NumPy's
-:func:`~frcontrol.solvers.primal_residual` and residual tolerance (equal to round-off).
+A module registers each of its functions once, at import, with :func:`twin` (a name, the NumPy twin
+and the compiled implementation, the same signature); it then calls ``backend().name(...)``, never
+branching on the kernel. :func:`backend` returns the backend in force, :data:`NUMPY` or
+:data:`COMPILED`, whose functions are plain attributes bound at registration (a call costs one
+attribute lookup). A new compiled function plugs in there: write it in ``_kernel.c`` (its
+arguments described by one table, parsed by ``parse``), its NumPy twin beside its caller, one
+:func:`twin` line, and a cross-check in the tests (``tests/test_kernel.py`` checks that every
+registered function is offered by both backends with one signature).
+
+How the backend is chosen, the one place that says it: the environment variable ``FRC_KERNEL``
+(``numpy`` or ``compiled``), read on every :func:`backend` call; unset or empty, the compiled
+kernel when it is built, else NumPy. An unknown value, or ``compiled`` where the extension was not
+built, raises :class:`~frcontrol.errors.KernelError`. An extension built from another ``_kernel.c``
+than the one beside it (an editable install not rebuilt after a change) is not used: a
+``RuntimeWarning`` says so once and NumPy runs (:func:`stale_reason`).
+
+The LP door (:mod:`frcontrol.solvers`) does not import the kernel: its callers hand it the
+backend's ``lp_check`` (:class:`~frcontrol.solvers.InequalityLPs`).
 """
 
 from __future__ import annotations
@@ -24,8 +34,10 @@ from __future__ import annotations
 import hashlib
 import os
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 from .errors import KernelError, StaleKernelWarning
 
@@ -107,5 +119,86 @@ def kernel_choice() -> str:
     return value
 
 
-__all__ = ["CERTIFIED_ROUND_OFF_BAND", "compiled", "kernel_choice", "KERNEL_VARIABLE", "KERNELS", "NOT_BUILT",
-           "stale_reason", "unavailable"]
+class Backend:
+    """One implementation of the kernel's functions: ``name`` is ``"numpy"`` or ``"compiled"``.
+
+    Its functions are plain instance attributes, set once by :func:`twin`: calling one costs an
+    attribute lookup and the call, no dispatch.
+    """
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __getattr__(self, function: str) -> Any:  # only for a name never registered
+        if function.startswith("__"):  # a protocol Python probes for (copy, pickle): not a kernel function
+            raise AttributeError(function)
+        raise KernelError(f"the {self.name} kernel has no function {function!r}; registered: "
+                          f"{', '.join(sorted(_REGISTERED)) or 'none'}")
+
+    def __repr__(self) -> str:
+        return f"<frcontrol kernel backend {self.name!r}>"
+
+
+NUMPY = Backend("numpy")
+"""The NumPy backend: the reference twins."""
+
+COMPILED = Backend("compiled")
+"""The compiled backend: :mod:`frcontrol._kernel` (its functions, or Python wrappers calling them)."""
+
+_BACKENDS = {"numpy": NUMPY, "compiled": COMPILED}
+
+_REGISTERED: dict[str, str] = {}
+"""The registered functions' names, and the module each was registered from."""
+
+
+def twin(name: str, numpy: Callable[..., Any], compiled: Callable[..., Any]) -> None:
+    """Register the kernel's function ``name``: its NumPy twin and its compiled implementation.
+
+    Both take the same arguments and give the same answers (to round-off); the cross-checks in the
+    tests run each on both backends. Registering a name again from the same module (a reload)
+    replaces it.
+
+    Raises:
+        KernelError: ``name`` is already registered from another module.
+    """
+    owner = getattr(numpy, "__module__", "?")
+    if _REGISTERED.setdefault(name, owner) != owner:
+        raise KernelError(f"the kernel's function {name!r} is registered twice: by {_REGISTERED[name]} "
+                          f"and by {owner}")
+    setattr(NUMPY, name, numpy)
+    setattr(COMPILED, name, compiled)
+
+
+def extension_function(name: str) -> Callable[..., Any]:
+    """The extension's function ``name``, or one that raises :class:`~frcontrol.errors.KernelError`.
+
+    Where the extension is not in use, the function says why (:func:`backend` never returns
+    :data:`COMPILED` then).
+    """
+    if compiled is not None:
+        return getattr(compiled, name)
+
+    def not_built(*args: Any) -> Any:
+        raise KernelError(f"the compiled kernel's {name} cannot run: {unavailable}")
+    return not_built
+
+
+def registered() -> dict[str, str]:
+    """The registered functions' names, and the module each was registered from."""
+    return dict(_REGISTERED)
+
+
+def backend() -> Backend:
+    """The backend in force (:func:`kernel_choice`): :data:`COMPILED` or :data:`NUMPY`.
+
+    Raises:
+        KernelError: as :func:`kernel_choice`.
+    """
+    if compiled is not None and not os.environ.get(KERNEL_VARIABLE):
+        return COMPILED
+    return _BACKENDS[kernel_choice()]
+
+
+__all__ = ["Backend", "backend", "CERTIFIED_ROUND_OFF_BAND", "COMPILED", "compiled", "extension_function",
+           "kernel_choice", "KERNEL_VARIABLE", "KERNELS", "NOT_BUILT", "NUMPY", "registered", "stale_reason",
+           "twin", "unavailable"]

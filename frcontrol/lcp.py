@@ -100,7 +100,7 @@ from scipy.linalg.lapack import dgesv
 from scipy.optimize import linprog
 
 from frcontrol.errors import InputError
-from frcontrol.kernel import compiled, kernel_choice
+from frcontrol.kernel import backend, compiled, twin
 
 __all__ = [
     "ENUMERATION_MAX_SIZE",
@@ -435,25 +435,39 @@ def _verified(
     w: np.ndarray | None = None
     if z is None:
         found, residual, bound = False, math.inf, lcp_tolerance(M, q, None, tolerance)
-    elif kernel_choice() == "compiled":  # the same residual, the bounds to round-off, in one call
-        w = M @ z + q
-        kernel: Any = compiled
-        residual, bound, found = kernel.lcp_check(np.ascontiguousarray(M), np.ascontiguousarray(q),
-                                                  np.ascontiguousarray(z, dtype=float), w, tolerance,
-                                                  method == "enumerate")
-        found = found and status == "solved"
     else:
         w = M @ z + q
-        natural = np.abs(np.minimum(z, w))
-        residual = float(natural.max()) if natural.size else 0.0
-        bounds = (np.full(q.size, lcp_enumeration_tolerance(q, tolerance)) if method == "enumerate"
-                  else lcp_row_tolerances(M, q, z, tolerance))
-        bound = float(bounds.max()) if bounds.size else 0.0
-        found = status == "solved" and bool((natural <= bounds).all())
+        residual, bound, found = backend().lcp_check(M, q, z, w, tolerance, method == "enumerate")
+        found = found and status == "solved"
     if status == "solved" and not found and z is not None:
         status = "inaccurate"
     return LCPSolution(found=found, z=z, w=w, status=status, method=method, pivots=pivots, residual=residual,
                        tolerance=bound, solve_time=time.perf_counter() - start, note=note)
+
+
+def _lcp_check_numpy(M: np.ndarray, q: np.ndarray, z: np.ndarray, w: np.ndarray, tolerance: float,
+                     enumerated: bool) -> tuple[float, float, bool]:
+    """:func:`_verified`'s check of ``z`` with its ``w = M z + q``, in NumPy.
+
+    The residual max |min(z, w)|, the largest row bound and whether every row is within its bound
+    (:func:`lcp_row_tolerances`, or :func:`lcp_enumeration_tolerance` for an ``enumerated``
+    candidate). The NumPy twin of the compiled kernel's ``lcp_check`` (the same residual, the
+    bounds to round-off).
+    """
+    natural = np.abs(np.minimum(z, w))
+    residual = float(natural.max()) if natural.size else 0.0
+    bounds = (np.full(q.size, lcp_enumeration_tolerance(q, tolerance)) if enumerated
+              else lcp_row_tolerances(M, q, z, tolerance))
+    bound = float(bounds.max()) if bounds.size else 0.0
+    return residual, bound, bool((natural <= bounds).all())
+
+
+def _lcp_check_compiled(M: np.ndarray, q: np.ndarray, z: np.ndarray, w: np.ndarray, tolerance: float,
+                        enumerated: bool) -> tuple[float, float, bool]:
+    """:func:`_lcp_check_numpy` by the compiled kernel's ``lcp_check``, in one call."""
+    kernel: Any = compiled
+    return kernel.lcp_check(np.ascontiguousarray(M), np.ascontiguousarray(q),
+                            np.ascontiguousarray(z, dtype=float), w, tolerance, enumerated)
 
 
 # --------------------------------------------------------------------------------------------
@@ -614,10 +628,14 @@ def _lemke_pivots_compiled(M: np.ndarray, q: np.ndarray,
     return LEMKE_STATUSES[code], int(pivots), _LemkeBasis(n, 2 * n, q, basis, matrix, rhs)
 
 
+twin("lemke_pivots", numpy=_lemke_pivots, compiled=_lemke_pivots_compiled)
+twin("lcp_check", numpy=_lcp_check_numpy, compiled=_lcp_check_compiled)
+
+
 def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> LCPSolution:
     """Lexicographic Lemke's method; see the module docstring.
 
-    The pivots run in the kernel that :func:`frcontrol.kernel.kernel_choice` names (compiled, or
+    The pivots run in the kernel's ``lemke_pivots`` (:func:`frcontrol.kernel.backend`: compiled, or
     the NumPy reference :func:`_lemke_pivots`); both pivot alike, and the point is recomputed from
     the final basis by the same LU solve.
     """
@@ -626,10 +644,7 @@ def _lemke(M: np.ndarray, q: np.ndarray, tolerance: float, max_pivots: int) -> L
     if (q >= 0).all():
         return _verified(M, q, np.zeros(n), "solved", "lemke", 0, tolerance, start)
     tab: _LemkeTableau | _LemkeBasis
-    if kernel_choice() == "compiled":
-        status, pivots, tab = _lemke_pivots_compiled(M, q, max_pivots)
-    else:
-        status, pivots, tab = _lemke_pivots(M, q, max_pivots)
+    status, pivots, tab = backend().lemke_pivots(M, q, max_pivots)
     if status != "solved":
         return _lemke_stopped(M, q, tab, status, pivots, tolerance, start)
     values, singular = tab.basic_point()

@@ -44,7 +44,7 @@ from functools import lru_cache
 import numpy as np
 
 from .errors import KernelError
-from .kernel import compiled, kernel_choice
+from .kernel import backend, compiled, twin
 from .modes import MODE_LETTERS, ROWS_PER_CONTACT, ContactProblem, needs_balancing
 from .response import (
     CERTIFIED_MARGIN,
@@ -192,8 +192,14 @@ def decide_modes(problem: ContactProblem, u: np.ndarray, decide_w: WDecider, *, 
     """
     modes, letters = full_modes(problem.allowed_modes() if allowed is None else allowed)
     tolerances = (domain_tolerance, zero_row_tolerance, radius_cap)
-    if kernel_choice() == "compiled":
-        return _compiled_modes(problem, modes, letters, u, decide_w, rank_tolerance, tolerances)
+    return backend().decide_modes(problem, modes, letters, u, decide_w, rank_tolerance, tolerances)
+
+
+def _numpy_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np.ndarray, u: np.ndarray,
+                 decide_w: WDecider, rank_tolerance: float, tolerances: tuple[float, float, float]
+                 ) -> ModeBatch:
+    """:func:`decide_modes` in NumPy: the reference twin of :func:`_compiled_modes`."""
+    domain_tolerance, zero_row_tolerance, _ = tolerances
     st = _stack(problem, letters, u)
     r_scale, c_scale = _equilibrate(st.A)
     A_hat = st.A * r_scale[:, :, None] * c_scale[:, None, :]
@@ -252,7 +258,7 @@ def _compiled_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np
     and :func:`_decide_full_rank` do, one mode at a time in C; the other modes get NumPy's batched
     SVD, then ``rank_modes`` (:func:`_compiled_rank_modes`).
     """
-    assert compiled is not None  # kernel_choice() said so
+    assert compiled is not None  # the compiled backend runs only where it is built
     domain_tolerance, zero_row_tolerance, _ = tolerances
     count, nx = letters.shape[0], problem.n + 2 * problem.k
     rows = _compiled_rows(problem)
@@ -609,6 +615,9 @@ def _bounds(ends: np.ndarray, a: np.ndarray, rows: np.ndarray) -> tuple[np.ndarr
     return lo, hi
 
 
+twin("decide_modes", numpy=_numpy_modes, compiled=_compiled_modes)
+
+
 __all__ = [
     "BATCH_MAX_MODES",
     "BatchSolution",
@@ -619,3 +628,4 @@ __all__ = [
     "ModeBatch",
     "WDecider",
 ]
+

@@ -34,7 +34,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from .errors import FrameNotFound, InputError, KernelError, RobotModelError
-from .kernel import compiled, kernel_choice
+from .kernel import COMPILED, backend, compiled
 from .springs import NO_SPRINGS, JointSprings
 from .urdf import read_urdf
 
@@ -207,12 +207,13 @@ def _reads_in_place(data: pin.Data, frames: Sequence[int]) -> bool:
 def _compiled_assembly() -> bool:
     """Whether :meth:`PlanarRobot.state` assembles in the compiled kernel.
 
-    ``FRC_KERNEL`` chooses, as for the mode batch (:func:`frcontrol.kernel.kernel_choice`), when the
-    robot is built. An unknown value chooses NumPy here: the analysis, which reads the variable too,
+    The kernel's backend (:func:`frcontrol.kernel.backend`) chooses when the robot is built: the
+    compiled one makes a plan for ``robot_state`` (where Pinocchio's arrays read in place), NumPy's
+    none. An unknown ``FRC_KERNEL`` chooses NumPy here: the analysis, which reads the variable too,
     reports it where it is used.
     """
     try:
-        return kernel_choice() == "compiled"
+        return backend() is COMPILED
     except KernelError:
         return False
 

@@ -42,10 +42,12 @@ import numpy as np
 import scipy.linalg
 
 from frcontrol.errors import InputError
+from frcontrol.kernel import backend, extension_function, twin
 from frcontrol.solvers import (
     DEFAULT_LP_SOLVER,
     InequalityLPs,
     LPResult,
+    lp_check,
     must_solve,
     solve_lp_prepared,
 )
@@ -287,12 +289,17 @@ def _lp(
     Raises:
         SolverFailed: no usable answer from either back-end.
     """
-    return solve_lp_prepared(c, A_ub, b_ub, solver=solver, **kwargs, fallback=_BOUNDED_LP if bounded else _LP)
+    return solve_lp_prepared(c, A_ub, b_ub, solver=solver, **kwargs, fallback=_BOUNDED_LP if bounded else _LP,
+                             check=backend().lp_check)
 
 
 def _lps(solver: str) -> InequalityLPs:
     """The door's lean path for a run of bounded LPs without equalities, with :func:`_lp`'s policy."""
-    return InequalityLPs(solver=solver, fallback=_BOUNDED_LP)
+    return InequalityLPs(solver=solver, fallback=_BOUNDED_LP, check=backend().lp_check)
+
+
+# the LP door's check of an answer (it does not import the kernel): its callers hand it the backend's
+twin("lp_check", numpy=lp_check, compiled=extension_function("lp_check"))
 
 
 @dataclass(frozen=True, eq=False)

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from .errors import InputError
-from .kernel import compiled, kernel_choice
+from .kernel import backend, compiled, twin
 from .mode_batch import decide_intervals
 from .modes import ContactProblem, ModeSystem
 from .response import AffineSolution, AmbiguousOutputs
@@ -299,12 +299,7 @@ class QueryTable:
 
     def _located(self, U: np.ndarray, decide_w: WDecider) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The (point, mode) pairs holding, in point then mode order, and their w (S, p_max)."""
-        if kernel_choice() == "compiled" and compiled is not None:
-            status = np.empty((U.shape[0], len(self.modes)), dtype=np.int8)
-            w1 = np.empty(status.shape)
-            compiled.locate_points(*self.kernel_arguments, U, status, w1)
-        else:
-            status, w1 = self.decide(U)
+        status, w1 = backend().locate_points(self, U)
         point, index = (np.ascontiguousarray(a) for a in np.nonzero(status))  # views of one (S, 2) array
         w = np.zeros((point.size, self.p_max))
         if self.one.size:
@@ -356,22 +351,7 @@ class QueryTable:
 
         The compiled kernel's ``evaluate_points``, or its NumPy twin.
         """
-        k = self.problem.k
-        if kernel_choice() == "compiled" and compiled is not None:
-            x = np.empty((point.size, self.X_u.shape[1]))
-            acc, residual, violation = (np.empty((point.size, 2 * k)), np.empty(point.size),
-                                        np.empty(point.size))
-            compiled.evaluate_points(*self.kernel_arguments, U, point, index, w, x, acc, residual, violation)
-            return Located(index, range(index.size), x, w, acc[:, :k], acc[:, k:], residual, violation)
-        u = U[point]
-        x = (np.matmul(self.X_u[index], u[:, :, None]) + np.matmul(self.X_w[index], w[:, :, None]))[:, :, 0]
-        x += self.x_0[index]
-        z = np.concatenate([x, u, np.ones((x.shape[0], 1))], axis=1)
-        y = np.matmul(self.K[index], z[:, :, None])[:, :, 0]
-        nx = x.shape[1]
-        return Located(index, range(index.size), x, w, y[:, :k], y[:, k:2 * k],
-                       np.abs(y[:, 2 * k:2 * k + nx]).max(axis=1, initial=0.0),
-                       y[:, 2 * k + nx:].max(axis=1, initial=0.0))
+        return backend().evaluate_points(self, U, point, index, w)
 
     def locate(self, u: np.ndarray, decide_w: WDecider) -> Located:
         """The modes holding the input ``u`` (m,), already checked, with their solutions.
@@ -379,24 +359,7 @@ class QueryTable:
         With the compiled kernel, one ``query_point`` call locates and evaluates (the LPs of modes
         with two or more ambiguity variables, where their consistency holds, then run in Python).
         """
-        if kernel_choice() == "compiled" and compiled is not None:
-            count, nx, k = len(self.modes), self.X_u.shape[1], self.problem.k
-            status = np.empty(count, dtype=np.int8)
-            w1, residual, violation = np.empty(count), np.empty(count), np.empty(count)
-            x, acc = np.empty((count, nx)), np.empty((count, 2 * k))
-            compiled.query_point(*self.kernel_arguments, u, status, w1, x, acc, residual, violation)
-            codes = status.tolist()
-            w = w1[:, None] if self.p_max <= 1 else np.zeros((count, self.p_max))
-            if self.many:
-                w[:, 0] = w1
-                for i in [i for i, code in enumerate(codes) if code == 2]:
-                    codes[i] = self._evaluate_many(u, i, decide_w, (x, acc, residual, violation, w))
-            rows = [i for i, code in enumerate(codes) if code == 1]
-            return Located(np.array(rows, dtype=np.int64), rows, x, w, acc[:, :k], acc[:, k:], residual,
-                           violation)
-        U = u.reshape(1, -1)
-        point, index, w = self._located(U, decide_w)
-        return self.evaluate(U, point, index, w)
+        return backend().query_point(self, u, decide_w)
 
     def locate_batch(self, U: np.ndarray, decide_w: WDecider, chunk: int | None = None) -> BatchSolutions:
         """Every solution at each input of ``U`` (N, m), already checked (:class:`BatchSolutions`).
@@ -463,6 +426,83 @@ def check_inputs(problem: ContactProblem, inputs: Any, tolerance: float = BOUNDA
         raise InputError(f"point {i} of the batch: input {problem.inputs[j]!r} = {U[i, j]:g} is outside its "
                          f"limits [{problem.lower[j]:g}, {problem.upper[j]:g}]")
     return U
+
+
+# ------------------------------------------------------------------ the kernel's functions
+# Each query step has its compiled implementation and its NumPy twin (the reference), registered
+# with the kernel (frcontrol.kernel.twin) and called through frcontrol.kernel.backend().
+
+
+def _locate_points_numpy(table: QueryTable, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every point of ``U`` (N, m) against every mode: status (N, modes) and w (N, modes), in NumPy."""
+    return table.decide(U)
+
+
+def _locate_points_compiled(table: QueryTable, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_locate_points_numpy` by the compiled kernel's ``locate_points``."""
+    status = np.empty((U.shape[0], len(table.modes)), dtype=np.int8)
+    w1 = np.empty(status.shape)
+    compiled.locate_points(*table.kernel_arguments, U, status, w1)  # type: ignore[union-attr]
+    return status, w1
+
+
+def _evaluate_points_numpy(table: QueryTable, U: np.ndarray, point: np.ndarray, index: np.ndarray,
+                           w: np.ndarray) -> Located:
+    """:meth:`QueryTable.evaluate` in NumPy (the reference twin)."""
+    k, u = table.problem.k, U[point]
+    x = (np.matmul(table.X_u[index], u[:, :, None]) + np.matmul(table.X_w[index], w[:, :, None]))[:, :, 0]
+    x += table.x_0[index]
+    z = np.concatenate([x, u, np.ones((x.shape[0], 1))], axis=1)
+    y = np.matmul(table.K[index], z[:, :, None])[:, :, 0]
+    nx = x.shape[1]
+    return Located(index, range(index.size), x, w, y[:, :k], y[:, k:2 * k],
+                   np.abs(y[:, 2 * k:2 * k + nx]).max(axis=1, initial=0.0),
+                   y[:, 2 * k + nx:].max(axis=1, initial=0.0))
+
+
+def _evaluate_points_compiled(table: QueryTable, U: np.ndarray, point: np.ndarray, index: np.ndarray,
+                              w: np.ndarray) -> Located:
+    """:meth:`QueryTable.evaluate` by the compiled kernel's ``evaluate_points``."""
+    k = table.problem.k
+    x = np.empty((point.size, table.X_u.shape[1]))
+    acc, residual, violation = np.empty((point.size, 2 * k)), np.empty(point.size), np.empty(point.size)
+    compiled.evaluate_points(  # type: ignore[union-attr]
+        *table.kernel_arguments, U, point, index, w, x, acc, residual, violation)
+    return Located(index, range(index.size), x, w, acc[:, :k], acc[:, k:], residual, violation)
+
+
+def _query_point_numpy(table: QueryTable, u: np.ndarray, decide_w: WDecider) -> Located:
+    """:meth:`QueryTable.locate` in NumPy (the reference twin)."""
+    U = u.reshape(1, -1)
+    point, index, w = table._located(U, decide_w)
+    return table.evaluate(U, point, index, w)
+
+
+def _query_point_compiled(table: QueryTable, u: np.ndarray, decide_w: WDecider) -> Located:
+    """:meth:`QueryTable.locate` by the compiled kernel's ``query_point``.
+
+    One call locates and evaluates (the LPs of modes with two or more ambiguity variables, where
+    their consistency holds, then run in Python).
+    """
+    count, nx, k = len(table.modes), table.X_u.shape[1], table.problem.k
+    status = np.empty(count, dtype=np.int8)
+    w1, residual, violation = np.empty(count), np.empty(count), np.empty(count)
+    x, acc = np.empty((count, nx)), np.empty((count, 2 * k))
+    compiled.query_point(  # type: ignore[union-attr]
+        *table.kernel_arguments, u, status, w1, x, acc, residual, violation)
+    codes = status.tolist()
+    w = w1[:, None] if table.p_max <= 1 else np.zeros((count, table.p_max))
+    if table.many:
+        w[:, 0] = w1
+        for i in [i for i, code in enumerate(codes) if code == 2]:
+            codes[i] = table._evaluate_many(u, i, decide_w, (x, acc, residual, violation, w))
+    rows = [i for i, code in enumerate(codes) if code == 1]
+    return Located(np.array(rows, dtype=np.int64), rows, x, w, acc[:, :k], acc[:, k:], residual, violation)
+
+
+twin("locate_points", numpy=_locate_points_numpy, compiled=_locate_points_compiled)
+twin("evaluate_points", numpy=_evaluate_points_numpy, compiled=_evaluate_points_compiled)
+twin("query_point", numpy=_query_point_numpy, compiled=_query_point_compiled)
 
 
 __all__ = ["BATCH_CHUNK_POINTS", "BatchSolutions", "BOUNDARY_TOLERANCE", "check_inputs", "Located",

@@ -29,7 +29,7 @@ from typing import Literal
 import numpy as np
 
 from .errors import IllConditioned
-from .kernel import compiled, kernel_choice
+from .kernel import Backend, backend, compiled, twin
 
 RankCase = Literal["unique", "ambiguous", "constrained", "ambiguous_constrained"]
 """A mode's rank case: ambiguity variables w (``ambiguous``), consistency conditions E u = e
@@ -530,30 +530,47 @@ def certified_children(
     c: np.ndarray,
     *,
     rank_tolerance: float = RANK_TOLERANCE,
-    kernel: str | None = None,
+    kernel: Backend | None = None,
 ) -> list[AffineSolution | None]:
     """:func:`certified_responses` of systems that share ``B`` (rows, m): a node's children.
 
-    With the compiled kernel in force (:func:`frcontrol.kernel.kernel_choice`), each system in C
-    (``frcontrol._kernel.certified_children``: the same scalings, the same bound, a Householder QR
-    of its own, so the responses and bounds equal NumPy's to round-off, see tests/test_kernel.py);
-    else :func:`certified_responses` in NumPy. ``kernel``: ``kernel_choice()``'s answer when the
-    caller has it.
+    By the kernel's ``certified_children`` (:func:`frcontrol.kernel.backend`): with the compiled
+    kernel, each system in C (``frcontrol._kernel.certified_children``: the same scalings, the same
+    bound, a Householder QR of its own, so the responses and bounds equal NumPy's to round-off, see
+    tests/test_kernel.py); its NumPy twin is :func:`certified_responses`. ``kernel``: the backend
+    when the caller has it.
     """
+    return (kernel or backend()).certified_children(A, B, c, rank_tolerance)
+
+
+def _certified_children_numpy(A: np.ndarray, B: np.ndarray, c: np.ndarray, rank_tolerance: float
+                              ) -> list[AffineSolution | None]:
+    """:func:`certified_children` in NumPy (the reference twin)."""
+    stacked = np.broadcast_to(B, (A.shape[0], *B.shape))
+    return certified_responses(A, stacked, c, rank_tolerance=rank_tolerance)
+
+
+def _certified_children_compiled(A: np.ndarray, B: np.ndarray, c: np.ndarray, rank_tolerance: float
+                                 ) -> list[AffineSolution | None]:
+    """:func:`certified_children` by the compiled kernel (NumPy's for shapes it does not take)."""
     count, rows, nx = A.shape
-    if (kernel or kernel_choice()) != "compiled" or compiled is None or count == 0 or rows == 0 or rows > nx:
-        return certified_responses(A, np.broadcast_to(B, (count, *B.shape)), c, rank_tolerance=rank_tolerance)
+    if count == 0 or rows == 0 or rows > nx:
+        return _certified_children_numpy(A, B, c, rank_tolerance)
     m = B.shape[1]
     limit = 1.0 / (CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND))
     X_u, x_0, X_w = np.empty((count, nx, m)), np.empty((count, nx)), np.empty((count, nx, nx - rows))
     bound = np.empty(count)
-    compiled.certified_children(np.ascontiguousarray(A), np.ascontiguousarray(B), np.ascontiguousarray(c),
-                                X_u, x_0, X_w, bound, limit)
+    compiled.certified_children(  # type: ignore[union-attr]
+        np.ascontiguousarray(A), np.ascontiguousarray(B), np.ascontiguousarray(c), X_u, x_0, X_w, bound,
+        limit)
     no_conditions, no_values = np.zeros((0, m)), np.zeros(0)  # empty: shared, nothing to write
     return [AffineSolution(
         X_u=X_u[i], X_w=X_w[i], x_0=x_0[i], E=no_conditions, e=no_values, consistent=True, rank=rows,
         shape=(rows, nx), singular_values=no_values, condition_number=value, rank_tolerance=rank_tolerance,
         certified=True) if value < limit else None for i, value in enumerate(bound.tolist())]
+
+
+twin("certified_children", numpy=_certified_children_numpy, compiled=_certified_children_compiled)
 
 
 def ambiguous_outputs(solution: AffineSolution, n_coordinates: int) -> AmbiguousOutputs:

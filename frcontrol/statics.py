@@ -100,6 +100,7 @@ from . import polytope as poly
 from .engine import solutions_at
 from .errors import InputError
 from .jsonable import finite_or_none, to_jsonable
+from .kernel import backend
 from .modes import ContactProblem, add_scene_modes, build_mode_system
 from .response import AmbiguousOutputs, solve_affine
 from .scene import Scene, parse_input_assignments
@@ -514,10 +515,11 @@ def primitive_wrenches(body: StaticBody, *, friction: bool) -> np.ndarray:
 def _lp(c: np.ndarray, solver: str, **kwargs: Any) -> LPResult:
     """One LP through the door; a back-end error is retried once with the reference back-end.
 
-    DAQP gets ``primal_tol = DAQP_PRIMAL_TOLERANCE``.
+    DAQP gets ``primal_tol = DAQP_PRIMAL_TOLERANCE``; the answer is checked by the kernel's
+    ``lp_check`` (:func:`frcontrol.kernel.backend`).
     """
     options: dict[str, Any] = {"primal_tol": DAQP_PRIMAL_TOLERANCE} if solver == "daqp" else {}
-    return solve_lp(c, solver=solver, **kwargs, **options,
+    return solve_lp(c, solver=solver, **kwargs, **options, check=backend().lp_check,
                     fallback=must_solve("a statics LP", bounded=False, retry_unbounded=False))
 
 

@@ -2,12 +2,15 @@
 
 A function's length counts from its ``def`` line to its last line, docstring and decorators'
 lines below the ``def`` included (``ast``'s ``lineno`` to ``end_lineno``). Methods and nested
-functions count on their own, and their lines count in the function around them too.
+functions count on their own, and their lines count in the function around them too. The C
+kernel's functions (frcontrol/_kernel.c) count from the line of their name to their closing brace,
+found by matching braces once comments, literals and preprocessor lines are set aside.
 """
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -75,6 +78,60 @@ def test_an_over_long_function_is_caught(tmp_path):
     path = tmp_path / "long.py"
     path.write_text("def long():\n" + body)
     assert function_lengths(path) == {"long": MAX_FUNCTION_LINES + 1}
+
+
+C_SOURCES = ("frcontrol/_kernel.c",)
+"""The C sources whose functions the limit holds for too."""
+
+_C_SET_ASIDE = re.compile(r'/\*.*?\*/|//[^\n]*|"(?:\\.|[^"\\\n])*"|'  # comments, strings
+                          r"'(?:\\.|[^'\\\n])*'|^[ \t]*#(?:[^\n]*\\\n)*[^\n]*",  # characters, preprocessor
+                          re.S | re.M)
+"""Comments, string and character literals, preprocessor lines (with their continuations)."""
+
+
+def c_function_lengths(source: str) -> dict[str, int]:
+    """``name -> lines`` of every function defined in C ``source``, by matching its braces."""
+    text = _C_SET_ASIDE.sub(lambda m: "\n" * m.group().count("\n"), source)
+    lengths: dict[str, int] = {}
+    depth, line, header, header_line, current = 0, 1, "", 1, None
+    for char in text:
+        if char == "\n":
+            line += 1
+        if depth == 0 and char == "{":
+            found = re.search(r"(\w+)\s*\([^;{}=]*\)\s*$", header)
+            current = (found.group(1), header_line + header[:found.start(1)].count("\n")) if found else None
+        if char == "{":
+            depth += 1
+        elif char == "}":
+            depth -= 1
+            if depth == 0 and current is not None:
+                lengths[current[0]] = line - current[1] + 1
+                current = None
+        if depth == 0:
+            if char in ";}":
+                header, header_line = "", line
+            elif char != "{":
+                header += char
+    return lengths
+
+
+def test_no_c_function_is_longer_than_the_limit():
+    lengths = {f"{name}::{function}": n for name in C_SOURCES
+               for function, n in c_function_lengths((ROOT / name).read_text(encoding="utf-8")).items()}
+    assert len(lengths) > 50, f"only {len(lengths)} C functions found: is the scan broken?"
+    too_long = {key: n for key, n in lengths.items() if n > MAX_FUNCTION_LINES}
+    assert not too_long, (f"C functions over {MAX_FUNCTION_LINES} lines (split them by their sub-jobs): "
+                          + ", ".join(f"{key} ({n})" for key, n in sorted(too_long.items())))
+
+
+def test_the_c_scan_counts_from_the_name_to_the_closing_brace():
+    source = ('#define TABLE \\\n    {"a", {1}}, \\\n    {"b", {2}}\n'
+              "static const Arg table[] = {TABLE, {\"}\", 0}};\n"
+              "typedef struct {\n    int x;\n} Pair;\n\n"
+              "static int\nsum(const Pair *p, /* { */ int n) {\n    if (n) {\n        return '}';\n    }\n"
+              "    return p->x;\n}\n\n"
+              "static PyObject *long_one(void) {\n" + "    x++;\n" * MAX_FUNCTION_LINES + "}\n")
+    assert c_function_lengths(source) == {"sum": 6, "long_one": MAX_FUNCTION_LINES + 2}
 
 
 def _raises_without_match(path: Path) -> list[int]:

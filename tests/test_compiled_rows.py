@@ -81,7 +81,7 @@ def test_contact_rows_refuse_malformed_buffers():
         ({2: np.zeros((k + 1, n))}, f"jacobian_tangent: axis 0 has {k + 1} entries, expected {k}"),
         ({5: np.zeros(k + 1)}, "buffer mu"),
         ({7: [0.0] * k}, "tangential_velocities: not a strided buffer"),
-        ({8: "tolerance"}, "velocity_tolerance is not a number"),
+        ({8: "tolerance"}, "kernel argument velocity_tolerance: not a number"),
         ({9: np.empty((n, nx + 1))}, "buffer dynamics"),
         ({10: np.empty((k, 4, 2, nx))[..., ::2]}, "buffer equalities: not a C-contiguous, writable buffer"),
         ({15: np.empty((k, 4, 3))}, "buffer motion: format d, expected bool"),

@@ -7,7 +7,9 @@ CERTIFIED_ROUND_OFF_BAND of the threshold. Bad buffers raise KernelError; FRC_KE
 
 from __future__ import annotations
 
+import ast
 import hashlib
+import inspect
 import os
 import types
 import warnings
@@ -432,8 +434,9 @@ def test_the_door_accepts_the_same_answers_with_either_check(name, monkeypatch):
     seen: list = []
     original, original_lean = door._finish, door.InequalityLPs.solve
 
-    def record(result_type, problem, raw, solver, solve_time, P):
-        result = original(result_type, problem, raw, solver, solve_time, P)
+    def record(result_type, problem, raw, solver, solve_time, P, check):
+        assert check is kernel.COMPILED.lp_check  # the callers hand the door the kernel's check
+        result = original(result_type, problem, raw, solver, solve_time, P, check)
         seen.append((problem, result))
         return result
 
@@ -583,3 +586,75 @@ def test_margin_rows_refuses_bad_buffers():
         compiled.margin_rows(*good[:8], readonly, *good[9:])
     with pytest.raises(KernelError, match="12 arguments"):
         compiled.margin_rows(*good[:4])
+
+
+# ------------------------------------------------------------------ the seam: one backend object
+
+CROSS_CHECKS = {
+    "decide_modes": ("kernel", "random_problems_agree_with_the_numpy_kernel"),
+    "certified_children": ("fast_paths", "compiled_certified_children_are_numpys_certified_responses"),
+    "mode_margin": ("kernel", "mode_margin_gives_motion_margins_verdicts_on_every_mode"),
+    "lp_check": ("kernel", "the_door_accepts_the_same_answers_with_either_check"),
+    "locate_points": ("query", "the_compiled_query_agrees_with_its_numpy_twin"),
+    "evaluate_points": ("query", "the_compiled_query_agrees_with_its_numpy_twin"),
+    "query_point": ("query", "the_compiled_query_agrees_with_its_numpy_twin"),
+    "lemke_pivots": ("simulation_speed", "compiled_lemke_pivots_like_the_numpy_reference"),
+    "lcp_check": ("simulation_speed", "compiled_lcp_check_agrees_with_numpy"),
+    "coulomb_matrix": ("simulation_speed", "compiled_coulomb_matrix_and_contact_law_equal_numpy"),
+    "contact_forces": ("simulation_speed", "compiled_coulomb_matrix_and_contact_law_equal_numpy"),
+}
+"""Every function registered with the kernel (frcontrol.kernel.twin), and the test that runs it on
+both backends and compares (tests/test_<module>.py::test_<test>): a new compiled function needs a
+line here."""
+
+
+def test_every_kernel_function_has_both_backends_and_a_cross_check():
+    import frcontrol.engine
+    import frcontrol.lcp
+    import frcontrol.simulation.compliant
+    import frcontrol.simulation.impact  # noqa: F401  (each module registers its functions on import)
+    registered = kernel.registered()
+    assert set(registered) == set(CROSS_CHECKS), "register a cross-check for each kernel function"
+    for name in registered:
+        numpy, fast = getattr(kernel.NUMPY, name), getattr(kernel.COMPILED, name)
+        assert numpy is not fast, name
+        if not isinstance(fast, types.BuiltinFunctionType):  # a C function has no Python signature
+            assert list(inspect.signature(numpy).parameters) == list(inspect.signature(fast).parameters), name
+        module, test = CROSS_CHECKS[name]
+        source = (Path(__file__).parent / f"test_{module}.py").read_text(encoding="utf-8")
+        assert f"def test_{test}(" in source, CROSS_CHECKS[name]
+
+
+def test_the_backend_follows_the_switch(monkeypatch):
+    monkeypatch.setenv("FRC_KERNEL", "numpy")
+    assert kernel.backend() is kernel.NUMPY
+    monkeypatch.setenv("FRC_KERNEL", "fortran")
+    with pytest.raises(KernelError, match="names no kernel"):
+        kernel.backend()
+    if compiled is not None:
+        monkeypatch.setenv("FRC_KERNEL", "compiled")
+        assert kernel.backend() is kernel.COMPILED
+        monkeypatch.delenv("FRC_KERNEL")
+        assert kernel.backend() is kernel.COMPILED
+    with pytest.raises(KernelError, match="the numpy kernel has no function 'fourier'; registered: "):
+        kernel.NUMPY.fourier  # noqa: B018
+    assert not hasattr(kernel.NUMPY, "__deepcopy__")  # Python's protocols still see a plain object
+    with pytest.raises(KernelError, match="'lp_check' is registered twice"):
+        kernel.twin("lp_check", numpy=test_the_switch, compiled=test_the_switch)
+
+
+def test_a_missing_extension_function_says_why(monkeypatch):
+    monkeypatch.setattr(kernel, "compiled", None)
+    monkeypatch.setattr(kernel, "unavailable", kernel.NOT_BUILT)
+    with pytest.raises(KernelError, match="lp_check cannot run: the extension frcontrol._kernel was not"):
+        kernel.extension_function("lp_check")()
+
+
+def test_the_lp_door_does_not_import_the_kernel():
+    root = Path(__file__).resolve().parents[1] / "frcontrol" / "solvers"
+    for path in sorted(root.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom):
+                assert "kernel" not in (node.module or ""), f"{path.name} imports {node.module}"
+            elif isinstance(node, ast.Import):
+                assert not any("kernel" in alias.name for alias in node.names), path.name

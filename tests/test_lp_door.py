@@ -15,9 +15,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import frcontrol.polytope  # noqa: F401  (it registers the kernel's lp_check)
 import frcontrol.solvers as door
 from frcontrol.errors import SolverNotFound
-from frcontrol.kernel import compiled
+from frcontrol.kernel import COMPILED, NUMPY, compiled
 from frcontrol.solvers import (
     NO_FALLBACK,
     InequalityLPs,
@@ -34,6 +35,11 @@ if str(REPO) not in sys.path:  # the benchmarks beside the package; the checkout
 from benchmarks.lp_door import CORPUS, load_corpus  # noqa: E402
 
 KERNELS = ["numpy"] + (["compiled"] if compiled is not None else [])
+
+
+def kernel_check(name: str) -> door.ResidualCheck:
+    """The residual check of kernel ``name``, as its callers hand it to the door."""
+    return {"numpy": NUMPY, "compiled": COMPILED}[name].lp_check
 FIELDS = ("found", "status", "objective", "solver", "raw_status", "primal_residual", "residual_tolerance")
 
 
@@ -75,13 +81,12 @@ def assert_same(lean: LPResult, general: LPResult, label: str) -> None:
 
 @pytest.mark.parametrize("kernel", KERNELS)
 @pytest.mark.parametrize("policy", ["none", "must_solve"])
-def test_the_lean_path_gives_the_doors_results_on_the_corpus(corpus, kernel, policy, monkeypatch):
-    monkeypatch.setenv("FRC_KERNEL", kernel)
+def test_the_lean_path_gives_the_doors_results_on_the_corpus(corpus, kernel, policy):
     fallback = NO_FALLBACK if policy == "none" else must_solve("a corpus LP", bounded=False)
-    lps = InequalityLPs(fallback=fallback)
+    lps = InequalityLPs(fallback=fallback, check=kernel_check(kernel))
     statuses = set()
     for index, p in enumerate(corpus):
-        general = door.solve(p, fallback=fallback)
+        general = door.solve(p, fallback=fallback, check=kernel_check(kernel))
         assert_same(lean_answer(lps, p), general, f"LP {index}")
         statuses.add(general.status)
     expected = {"optimal", "infeasible"} | ({"unbounded"} if policy == "none" else set())
@@ -91,7 +96,6 @@ def test_the_lean_path_gives_the_doors_results_on_the_corpus(corpus, kernel, pol
 @pytest.mark.parametrize("kernel", KERNELS)
 def test_a_wrong_answer_is_caught_by_the_residual_check(corpus, kernel, monkeypatch):
     """A lean adapter that claims optimal at a point outside the set: "error", then HiGHS's answer."""
-    monkeypatch.setenv("FRC_KERNEL", kernel)
     adapter, lean = door._LEAN_LP_SOLVERS["daqp"]
     told: list[int] = []
 
@@ -105,7 +109,7 @@ def test_a_wrong_answer_is_caught_by_the_residual_check(corpus, kernel, monkeypa
 
     monkeypatch.setitem(door._LEAN_LP_SOLVERS, "daqp", (adapter, liar))
     p = first_optimal(corpus)
-    rejected = lean_answer(InequalityLPs(), p)
+    rejected = lean_answer(InequalityLPs(check=kernel_check(kernel)), p)
     assert told and rejected.status == "error" and not rejected.found and rejected.x is None
     assert "rejected" in rejected.raw_status and rejected.primal_residual > rejected.residual_tolerance
     second = lean_answer(InequalityLPs(fallback=must_solve("a corpus LP", bounded=True)), p)

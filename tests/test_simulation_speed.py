@@ -4,7 +4,7 @@ The rigid step's compiled parts (Lemke's pivots, the check of its answer, the Co
 :mod:`frcontrol._kernel`) against their NumPy references (:func:`frcontrol.lcp._lemke_pivots`,
 the NumPy branch of ``_verified``, ``_coulomb_matrix``), piece by piece on random problems and
 through whole runs: a rigid simulation with the compiled pieces and one with the NumPy pieces
-(the per-step path as it was, switched in by the modules' ``kernel_choice``) give the same samples,
+(the per-step path as it was, switched in by the modules' ``backend``) give the same samples,
 bit for bit (q, v, inputs, forces, points, modes, events). The compliant contact law against its
 NumPy reference, and the compliant run with a held input (one solver while the input keeps its
 value) against the run restarted at every sample (the scheme it replaced, forced by an input
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from conftest import needs_kernel
 
-from frcontrol import lcp
+from frcontrol import kernel, lcp
 from frcontrol.planning import flip
 from frcontrol.scene import load_scene
 from frcontrol.simulation import (
@@ -40,7 +40,7 @@ relative to the largest |q|, |v| (both integrate to rtol 1e-6; measured 2e-7 on 
 def numpy_simulation_pieces(monkeypatch) -> None:
     """The rigid step's LCP pieces in NumPy (the per-step path before the compiled ones)."""
     for module in (lcp, impact, compliant):
-        monkeypatch.setattr(module, "kernel_choice", lambda: "numpy")
+        monkeypatch.setattr(module, "backend", lambda: kernel.NUMPY)
 
 
 def assert_same_trajectory(a, b) -> None:
@@ -118,11 +118,7 @@ def test_compiled_coulomb_matrix_and_contact_law_equal_numpy():
         gaps, vn, vt = rng.normal(scale=1e-4, size=c), rng.normal(size=c), rng.normal(size=c) * 1e-2
         stretch = rng.choice([0.0, 1e-5, -1e-5], size=c) * rng.uniform(0, 3, c)
         fast = compliant.contact_forces(contacts, gaps, vn, vt, stretch)
-        compliant.kernel_choice, saved = (lambda: "numpy"), compliant.kernel_choice
-        try:
-            slow = compliant.contact_forces(contacts, gaps, vn, vt, stretch)
-        finally:
-            compliant.kernel_choice = saved
+        slow = kernel.NUMPY.contact_forces(contacts, gaps, vn, vt, stretch, None)
         for a, b in zip(fast, slow, strict=True):
             np.testing.assert_array_equal(a, b)
         seen.update(slow[3].tolist())

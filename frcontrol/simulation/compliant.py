@@ -100,7 +100,7 @@ import scipy.integrate
 import scipy.linalg
 
 from ..errors import InputError, LimitExceeded
-from ..kernel import compiled, kernel_choice
+from ..kernel import backend, compiled, twin
 from ..model import RobotState
 from ..scene import Scene
 from .armature import Armature, mass_factor, massless_armature, solve_mass
@@ -212,18 +212,36 @@ def contact_forces(
         ``(lam_N, lam_T, ds/dt, status)`` with status per contact 0 = open (no normal force),
         1 = stick, 2 = slip.
 
-    Without zones, by the compiled kernel (``compliant_law``) where
-    :func:`frcontrol.kernel.kernel_choice` names it: the same numbers in one call.
+    By the kernel's ``contact_forces`` (:func:`frcontrol.kernel.backend`): without zones, the compiled
+    kernel's ``compliant_law`` gives the same numbers in one call; its NumPy twin is
+    :func:`_contact_forces_numpy`.
     """
-    if zones is None and kernel_choice() == "compiled":
-        c = contacts.count
-        lam_n, lam_t, rate, status = np.empty(c), np.empty(c), np.empty(c), np.empty(c, dtype=np.int64)
-        kernel: Any = compiled
-        kernel.compliant_law(*(np.ascontiguousarray(a, dtype=float) for a in (
-            gaps, normal_velocities, tangential_velocities, stretch, contacts.mu, contacts.stiffness,
-            contacts.damping, contacts.tangential_stiffness, contacts.tangential_damping)),
-            lam_n, lam_t, rate, status)
-        return lam_n, lam_t, rate, status
+    return backend().contact_forces(
+        contacts, gaps, normal_velocities, tangential_velocities, stretch, zones)
+
+
+def _contact_forces_compiled(contacts: CompliantContacts, gaps: np.ndarray, normal_velocities: np.ndarray,
+                             tangential_velocities: np.ndarray, stretch: np.ndarray,
+                             zones: tuple[Sequence[int], ZoneForces] | None
+                             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`contact_forces` by the compiled kernel's ``compliant_law`` (with zones: NumPy's)."""
+    if zones is not None:
+        return _contact_forces_numpy(contacts, gaps, normal_velocities, tangential_velocities, stretch, zones)
+    c = contacts.count
+    lam_n, lam_t, rate, status = np.empty(c), np.empty(c), np.empty(c), np.empty(c, dtype=np.int64)
+    kernel: Any = compiled
+    kernel.compliant_law(*(np.ascontiguousarray(a, dtype=float) for a in (
+        gaps, normal_velocities, tangential_velocities, stretch, contacts.mu, contacts.stiffness,
+        contacts.damping, contacts.tangential_stiffness, contacts.tangential_damping)),
+        lam_n, lam_t, rate, status)
+    return lam_n, lam_t, rate, status
+
+
+def _contact_forces_numpy(contacts: CompliantContacts, gaps: np.ndarray, normal_velocities: np.ndarray,
+                          tangential_velocities: np.ndarray, stretch: np.ndarray,
+                          zones: tuple[Sequence[int], ZoneForces] | None
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`contact_forces` in NumPy (the reference twin)."""
     delta = -gaps
     lam_n = np.where(delta > 0.0,
                      np.maximum(0.0, contacts.stiffness * delta - contacts.damping * normal_velocities), 0.0)
@@ -242,6 +260,9 @@ def contact_forces(
                     (limit * sign - contacts.tangential_stiffness * stretch) / contacts.tangential_damping)
     status = np.where(closed, np.where(stick, 1, 2), 0)
     return lam_n, lam_t, rate, status
+
+
+twin("contact_forces", numpy=_contact_forces_numpy, compiled=_contact_forces_compiled)
 
 
 def _positive(value: float | None, label: str, *, allow_zero: bool = False) -> float | None:

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FrcontrolError, InputError
-from ..kernel import compiled, kernel_choice
+from ..kernel import backend, compiled, twin
 from ..lcp import ENUMERATION_MAX_SIZE, solve_lcp
 from .armature import solve_mass
 
@@ -91,15 +91,23 @@ class ImpulseLCPFailure(FrcontrolError):
 def coulomb_matrix(W: np.ndarray, m_ref: float, mu: np.ndarray) -> np.ndarray:
     """The LCP matrix of the module docstring for the Delassus matrix ``W`` (2c, 2c) times ``m_ref``.
 
-    By the compiled kernel (``coulomb_matrix``) where :func:`frcontrol.kernel.kernel_choice`
-    names it, else by :func:`_coulomb_matrix`, its NumPy reference: the same numbers.
+    By the kernel's ``coulomb_matrix`` (:func:`frcontrol.kernel.backend`): the compiled kernel's, or
+    its NumPy twin (:func:`_coulomb_matrix` of ``W * m_ref``): the same numbers.
     """
-    if kernel_choice() == "compiled":
-        c = len(mu)
-        out = np.empty((4 * c, 4 * c))
-        kernel: Any = compiled
-        kernel.coulomb_matrix(np.ascontiguousarray(W), float(m_ref), np.ascontiguousarray(mu), out)
-        return out
+    return backend().coulomb_matrix(W, m_ref, mu)
+
+
+def _coulomb_matrix_compiled(W: np.ndarray, m_ref: float, mu: np.ndarray) -> np.ndarray:
+    """:func:`coulomb_matrix` by the compiled kernel."""
+    c = len(mu)
+    out = np.empty((4 * c, 4 * c))
+    kernel: Any = compiled
+    kernel.coulomb_matrix(np.ascontiguousarray(W), float(m_ref), np.ascontiguousarray(mu), out)
+    return out
+
+
+def _coulomb_matrix_numpy(W: np.ndarray, m_ref: float, mu: np.ndarray) -> np.ndarray:
+    """:func:`coulomb_matrix` in NumPy (the reference twin)."""
     return _coulomb_matrix(W * m_ref, mu)
 
 
@@ -117,6 +125,9 @@ def _coulomb_matrix(Ws: np.ndarray, mu: np.ndarray) -> np.ndarray:
     base[3 * c + d, d] = mu
     base[3 * c + d, c + d] = base[3 * c + d, 2 * c + d] = -1.0
     return base
+
+
+twin("coulomb_matrix", numpy=_coulomb_matrix_numpy, compiled=_coulomb_matrix_compiled)
 
 
 def solve_impulse_lcp(

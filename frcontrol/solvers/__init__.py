@@ -39,7 +39,6 @@ from typing import Any, cast
 import numpy as np
 
 from frcontrol.errors import FrcontrolError, InputError, SolverNotFound
-from frcontrol.kernel import compiled, kernel_choice
 
 from ._common import LeanAdapter, LinearProgram, QPAdapter, QuadraticProgram, RawSolution, Status
 
@@ -62,7 +61,9 @@ __all__ = [
     "SolverFailed",
     "Status",
     "available_solvers",
+    "lp_check",
     "lp_problem",
+    "ResidualCheck",
     "must_solve",
     "primal_residual",
     "solve",
@@ -300,6 +301,11 @@ def _largest(values: np.ndarray, where: np.ndarray | bool = True) -> float:
 
 def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
     """``FEASIBILITY_TOLERANCE`` times the scale of the terms (see :data:`FEASIBILITY_TOLERANCE`)."""
+    return FEASIBILITY_TOLERANCE * _residual_scale(problem, x)
+
+
+def _residual_scale(problem: LinearProgram, x: np.ndarray | None) -> float:
+    """The scale of the terms that :data:`FEASIBILITY_TOLERANCE` multiplies."""
     # the finite right-hand sides (an unvalidated problem may hold inf), in one reduction
     parts = (problem.b_ub, problem.b_eq, problem.lb, problem.ub) if problem.has_bounds else (
         problem.b_ub, problem.b_eq)
@@ -310,27 +316,38 @@ def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
         for A in (problem.A_ub, problem.A_eq):
             if A.shape[0]:
                 scale += float(np.add.reduce(np.abs(A), axis=1).max()) * size
-    return FEASIBILITY_TOLERANCE * scale
+    return scale
 
 
-def _check(problem: LinearProgram, x: np.ndarray | None) -> tuple[float, float]:
-    """:func:`primal_residual` (NaN without ``x``) and :func:`_residual_tolerance`.
+ResidualCheck = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                          np.ndarray | None, bool], tuple[float, float]]
+"""How an answer is checked: ``(A_ub, b_ub, A_eq, b_eq, lb, ub, x, has_bounds) -> (residual, scale)``
+(:func:`lp_check`, or the compiled kernel's, which its callers hand to :class:`InequalityLPs`)."""
 
-    With the compiled kernel in force (:func:`frcontrol.kernel.kernel_choice`), both in one pass of
-    ``frcontrol._kernel.lp_check`` (the same sums in another order: equal to round-off, see
-    tests/test_kernel.py); else in NumPy.
+
+def lp_check(A_ub: np.ndarray, b_ub: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarray, lb: np.ndarray,
+             ub: np.ndarray, x: np.ndarray | None, has_bounds: bool) -> tuple[float, float]:
+    """:func:`primal_residual` (NaN without ``x``) and the scale of :data:`FEASIBILITY_TOLERANCE`.
+
+    The door's check of an answer, in NumPy; the compiled kernel's ``lp_check`` (the backend's,
+    :func:`frcontrol.kernel.backend`) computes the same sums in another order (equal to round-off,
+    see tests/test_kernel.py).
     """
-    if kernel_choice() == "compiled" and compiled is not None:
-        residual, scale = compiled.lp_check(problem.A_ub, problem.b_ub, problem.A_eq, problem.b_eq,
-                                            problem.lb, problem.ub, x, problem.has_bounds)
-        return residual, FEASIBILITY_TOLERANCE * scale
-    return _check_numpy(problem, x)
-
-
-def _check_numpy(problem: LinearProgram, x: np.ndarray | None) -> tuple[float, float]:
-    """:func:`_check` in NumPy (the compiled check's twin)."""
+    problem = LinearProgram(np.zeros(A_ub.shape[1]), A_ub, b_ub, A_eq, b_eq, lb, ub)
+    problem.__dict__["_has_bounds"] = bool(has_bounds)  # as the caller decided it (LinearProgram.has_bounds)
     residual = float("nan") if x is None else primal_residual(problem, x)
-    return residual, _residual_tolerance(problem, x)
+    return residual, _residual_scale(problem, x)
+
+
+def _check(problem: LinearProgram, x: np.ndarray | None,
+           check: ResidualCheck = lp_check) -> tuple[float, float]:
+    """:func:`primal_residual` (NaN without ``x``) and :func:`_residual_tolerance`, by ``check``."""
+    if check is lp_check:  # NumPy's, on the problem as it is
+        residual = float("nan") if x is None else primal_residual(problem, x)
+        return residual, _residual_tolerance(problem, x)
+    residual, scale = check(problem.A_ub, problem.b_ub, problem.A_eq, problem.b_eq, problem.lb, problem.ub, x,
+                            problem.has_bounds)
+    return residual, FEASIBILITY_TOLERANCE * scale
 
 
 def _adapter(registry: dict[str, QPAdapter], solver: str) -> QPAdapter:
@@ -348,10 +365,11 @@ def _finish(
     solver: str,
     solve_time: float,
     P: np.ndarray | None,
+    check: ResidualCheck = lp_check,
 ) -> LPResult:
     """The door's result of a back-end's answer ``raw`` to ``problem`` (:func:`_result`)."""
     return _result(result_type, problem.c, raw.status, raw.raw_status, raw.x, solver, solve_time, P,
-                   lambda x: _check(problem, x))
+                   lambda x: _check(problem, x, check))
 
 
 def _result(
@@ -513,10 +531,11 @@ def lp_problem(
 
 
 def solve(problem: LinearProgram, *, solver: str = DEFAULT_LP_SOLVER, fallback: Fallback = NO_FALLBACK,
-          **options: Any) -> LPResult:
+          check: ResidualCheck = lp_check, **options: Any) -> LPResult:
     """The door: solve an LP with the chosen back-end, then as ``fallback`` says.
 
-    Every answer's primal residual is checked (an "optimal" answer above
+    Every answer's primal residual is checked by ``check`` (:func:`lp_check`, or the compiled
+    kernel's, which callers that use the kernel hand in; an "optimal" answer above
     :data:`FEASIBILITY_TOLERANCE` becomes ``"error"``). ``options`` go to the chosen back-end
     only; the second one runs with its defaults.
 
@@ -524,10 +543,11 @@ def solve(problem: LinearProgram, *, solver: str = DEFAULT_LP_SOLVER, fallback: 
         SolverNotFound: ``solver`` is unknown or not installed.
         SolverFailed: no answer counts and ``fallback.failure`` names the computation.
     """
-    return _settle(problem, _solve_once(problem, solver, options), solver, fallback)
+    return _settle(problem, _solve_once(problem, solver, options, check), solver, fallback, check)
 
 
-def _settle(problem: LinearProgram, first: LPResult, solver: str, fallback: Fallback) -> LPResult:
+def _settle(problem: LinearProgram, first: LPResult, solver: str, fallback: Fallback,
+            check: ResidualCheck = lp_check) -> LPResult:
     """:func:`solve` after the first back-end's answer ``first``: the fallback policy."""
     if first.status not in fallback.retry_on:
         if first.status in fallback.accept or fallback.failure is None:
@@ -537,7 +557,7 @@ def _settle(problem: LinearProgram, first: LPResult, solver: str, fallback: Fall
     if second_name == solver or second_name not in _LP_SOLVERS:
         answers = [first]
     else:
-        answers = [_solve_once(problem, second_name, {}), first]
+        answers = [_solve_once(problem, second_name, {}, check), first]
     for answer in answers:
         if answer.status in fallback.accept:
             return answer
@@ -546,18 +566,19 @@ def _settle(problem: LinearProgram, first: LPResult, solver: str, fallback: Fall
     raise SolverFailed(fallback.failure, {a.solver: a.raw_status for a in reversed(answers)})
 
 
-def _solve_once(problem: LinearProgram, solver: str, options: dict[str, Any]) -> LPResult:
-    return _timed(_adapter(_LP_SOLVERS, solver), problem, solver, options, LPResult)
+def _solve_once(problem: LinearProgram, solver: str, options: dict[str, Any],
+                check: ResidualCheck) -> LPResult:
+    return _timed(_adapter(_LP_SOLVERS, solver), problem, solver, options, LPResult, check)
 
 
 def _timed(adapter: QPAdapter, problem: LinearProgram, solver: str, options: dict[str, Any],
-           result_type: type[LPResult]) -> LPResult:
+           result_type: type[LPResult], check: ResidualCheck = lp_check) -> LPResult:
     """One back-end's answer, timed and checked by :func:`_finish` (crossed bounds answer alone)."""
     start = time.perf_counter()
     raw = _bounds_crossed(problem) or adapter(problem, **options)
     elapsed = time.perf_counter() - start
     P = problem.P if isinstance(problem, QuadraticProgram) else None
-    return _finish(result_type, problem, raw, solver, elapsed, P)
+    return _finish(result_type, problem, raw, solver, elapsed, P, check)
 
 
 def solve_lp(
@@ -572,6 +593,7 @@ def solve_lp(
     solver: str = DEFAULT_LP_SOLVER,
     fallback: Fallback = NO_FALLBACK,
     validate: bool = True,
+    check: ResidualCheck = lp_check,
     **options: Any,
 ) -> LPResult:
     r"""Solve a linear program: :func:`solve` of :func:`lp_problem`.
@@ -590,6 +612,7 @@ def solve_lp(
         solver: back-end name (see :func:`available_solvers`).
         fallback: what to do when the answer is not usable (:class:`Fallback`).
         validate: check the arrays (False: see :func:`lp_problem`; :func:`solve_lp_prepared`).
+        check: how an answer is checked (:data:`ResidualCheck`; see :func:`solve`).
         **options: back-end settings, passed on verbatim (e.g. ``primal_tol`` for DAQP).
 
     Returns:
@@ -601,7 +624,7 @@ def solve_lp(
         SolverFailed: see :func:`solve`.
     """
     problem = lp_problem(c, A_ub, b_ub, A_eq, b_eq, lb, ub, validate=validate)
-    return solve(problem, solver=solver, fallback=fallback, **options)
+    return solve(problem, solver=solver, fallback=fallback, check=check, **options)
 
 
 def solve_lp_prepared(*args: Any, **kwargs: Any) -> LPResult:
@@ -632,8 +655,9 @@ class InequalityLPs:
 
     The LPs: :math:`\min c^\top x` s.t. :math:`A_{ub} x \le b_{ub}`, :math:`lb \le x \le ub`.
     Made once for a run of LPs (the redundancy LPs of a pruning, a Chebyshev LP, the engine's
-    motion LPs): the back-end, its options and the fallback policy are looked up and the kernel of
-    the residual check is read (:func:`~frcontrol.kernel.kernel_choice`) once, not per LP. Each
+    motion LPs): the back-end, its options and the fallback policy are looked up once, not per LP;
+    ``check`` checks each answer (:func:`lp_check`, or the compiled kernel's twin of it, which the
+    callers that use the kernel hand in: the door does not import the kernel). Each
     :meth:`solve` then returns what ``solve_lp_prepared(c, A_ub, b_ub, lb=lb, ub=ub,
     solver=solver, fallback=fallback, **options)`` returns, field for field (the time aside): the
     same back-end call on the same arrays, the same residual check of every answer (an
@@ -647,15 +671,15 @@ class InequalityLPs:
         SolverFailed: see :func:`solve` (from :meth:`solve`).
     """
 
-    __slots__ = ("solver", "fallback", "options", "_lean", "_compiled")
+    __slots__ = ("solver", "fallback", "options", "_lean", "_check")
 
     def __init__(self, *, solver: str = DEFAULT_LP_SOLVER, fallback: Fallback = NO_FALLBACK,
-                 **options: Any) -> None:
+                 check: ResidualCheck = lp_check, **options: Any) -> None:
         adapter = _adapter(_LP_SOLVERS, solver)
         lean = _LEAN_LP_SOLVERS.get(solver)
         self.solver, self.fallback, self.options = solver, fallback, options
         self._lean = lean[1] if lean is not None and lean[0] is adapter and not options else None
-        self._compiled = compiled if kernel_choice() == "compiled" else None
+        self._check = check
 
     def solve(self, c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, lb: np.ndarray | None = None,
               ub: np.ndarray | None = None) -> LPResult:
@@ -672,7 +696,7 @@ class InequalityLPs:
             has_bounds = bool(np.count_nonzero(np.isfinite(lb)) or np.count_nonzero(np.isfinite(ub)))
         if self._lean is None or (has_bounds and np.count_nonzero(lb > ub)):
             return solve(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), solver=self.solver,
-                         fallback=self.fallback, **self.options)
+                         fallback=self.fallback, check=self._check, **self.options)
         if not A_ub.flags.writeable:  # DAQP's binding takes writable buffers (it does not write them)
             A_ub = A_ub.copy()
         start = time.perf_counter()
@@ -680,9 +704,7 @@ class InequalityLPs:
         elapsed = time.perf_counter() - start
 
         def check(x: np.ndarray | None) -> tuple[float, float]:
-            if self._compiled is None:
-                return _check_numpy(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), x)
-            residual, scale = self._compiled.lp_check(A_ub, b_ub, A_eq, b_eq, lb, ub, x, has_bounds)
+            residual, scale = self._check(A_ub, b_ub, A_eq, b_eq, lb, ub, x, has_bounds)
             return residual, FEASIBILITY_TOLERANCE * scale
 
         first = _result(LPResult, c, status, raw, x, self.solver, elapsed, None, check)
@@ -690,7 +712,8 @@ class InequalityLPs:
         if first.status not in fallback.retry_on and (
                 first.status in fallback.accept or fallback.failure is None):
             return first
-        return _settle(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), first, self.solver, fallback)
+        return _settle(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), first, self.solver, fallback,
+                       self._check)
 
 
 def solve_qp(
