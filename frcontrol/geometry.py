@@ -114,7 +114,7 @@ def margin_bounds(d: int, cap: float = CHEBYSHEV_RADIUS_CAP) -> tuple[np.ndarray
 def max_margin(rows: np.ndarray, rhs: np.ndarray, *, settings: SolverSettings, fallback: Fallback,
                A_eq: np.ndarray | None = None, b_eq: np.ndarray | None = None,
                cap: float = CHEBYSHEV_RADIUS_CAP) -> LPResult:
-    r"""The max-margin LP over ``(z, t)``: :math:`\max t` s.t. ``rows @ (z, t) <= rhs``, :math:`0 \le t \le` ``cap``.
+    r"""The max-margin LP: :math:`\max t` s.t. ``rows @ (z, t) <= rhs``, :math:`0 \le t \le` ``cap``.
 
     ``rows`` holds ``[H, w]``: the constraint rows and, last, each row's weight of the margin
     ``t`` (1 on unit rows: the Chebyshev LP, :func:`chebyshev_rows`; a row's norm: the margin is a
@@ -239,7 +239,8 @@ def hull_facets(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     try:
         hull = scipy.spatial.ConvexHull(points)
     except scipy.spatial.QhullError as error:
-        raise InputError(f"the convex hull of {len(points)} points is not full-dimensional: {error}") from error
+        raise InputError(f"the convex hull of {len(points)} points is not full-dimensional: {error}"
+                         ) from error
     return hull.equations[:, :-1], -hull.equations[:, -1]
 
 

@@ -614,7 +614,8 @@ class _RedundancyLPs:
     def for_rows(cls, unit: np.ndarray, settings: SolverSettings) -> _RedundancyLPs:
         """Buffers for LPs over at most every row of ``unit`` plus one."""
         m, d = unit.shape
-        return cls(InequalityLPs(settings=settings, fallback=_BOUNDED_LP), np.empty((m + 1, d)), np.empty(m + 1))
+        lps = InequalityLPs(settings=settings, fallback=_BOUNDED_LP)
+        return cls(lps, np.empty((m + 1, d)), np.empty(m + 1))
 
 
 def _is_redundant(

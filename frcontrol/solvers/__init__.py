@@ -527,7 +527,8 @@ def solve(problem: LinearProgram, *, solver: str | None = None, settings: Solver
     return _settle(problem, first, chosen, fallback)
 
 
-def _settle(problem: LinearProgram, first: LPResult, settings: SolverSettings, fallback: Fallback) -> LPResult:
+def _settle(problem: LinearProgram, first: LPResult, settings: SolverSettings,
+            fallback: Fallback) -> LPResult:
     """:func:`solve` after the first back-end's answer ``first``: the fallback policy."""
     solver = settings.lp
     if first.status not in fallback.retry_on:

@@ -110,4 +110,6 @@ def settings_from(solver: str | None = None, settings: SolverSettings | None = N
         return DEFAULT_SETTINGS
     if not isinstance(solver, str):
         raise InputError(f"solver must be a back-end name (a string), got {solver!r}")
-    return DEFAULT_SETTINGS if solver == DEFAULT_SETTINGS.lp else SolverSettings(lp=solver, qp=DEFAULT_SETTINGS.qp)
+    if solver == DEFAULT_SETTINGS.lp:
+        return DEFAULT_SETTINGS
+    return SolverSettings(lp=solver, qp=DEFAULT_SETTINGS.qp)
