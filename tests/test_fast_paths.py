@@ -17,8 +17,7 @@ import pytest
 from conftest import needs_kernel
 from test_mode_batch import random_problem
 
-from frcontrol import engine
-from frcontrol import geometry
+from frcontrol import engine, geometry
 from frcontrol import polytope as poly
 from frcontrol import response as resp
 from frcontrol.engine import analyze, domain_polytope, motion_margin
