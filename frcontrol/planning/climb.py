@@ -146,7 +146,7 @@ import numpy as np
 
 from ..engine import DOMAIN_TOLERANCE, DynamicResponse, analyze
 from ..errors import FrameNotFound, InputError, SceneError
-from ..geometry import polygon_rows
+from ..geometry import polygon_rows, row_norms
 from ..jsonable import finite_or_none, to_jsonable
 from ..modes import ContactProblem, ModeSystem, add_scene_modes, all_modes, build_mode_system
 from ..polytope import Polytope, hull_from_points
@@ -489,7 +489,7 @@ def _normalised_rows(
     G = system.G
     H = np.hstack([G @ response.X_u, G @ response.X_w])
     h = system.g - G @ response.x_0
-    norms = np.sqrt(np.sum(H * H, axis=1))
+    norms = row_norms(H)
     constant = norms <= 1e-9 * max(1.0, float(np.max(norms, initial=0.0)))
     norms[constant] = 1.0
     H = H / norms[:, None]
@@ -640,7 +640,7 @@ class ClimbProblem:
 
 
 def _unit(H: np.ndarray) -> np.ndarray:
-    norms = np.sqrt(np.sum(H * H, axis=1))
+    norms = row_norms(H)
     return np.where(norms > 0, norms, 1.0)
 
 
@@ -827,7 +827,7 @@ def _piece_rows(piece: Polytope, m_u: int) -> tuple[np.ndarray, np.ndarray, np.n
     if piece.A_eq.shape[0]:
         A = np.vstack([A, piece.A_eq, -piece.A_eq])
         b = np.concatenate([b, piece.b_eq, -piece.b_eq])
-    norms = np.sqrt(np.sum(A * A, axis=1))
+    norms = row_norms(A)
     nonzero = np.abs(A) > 1e-12 * np.maximum(norms, 1e-300)[:, None]
     box_row = (nonzero.sum(axis=1) == 1) & ~np.any(nonzero[:, :m_u], axis=1)
     shrink = np.where(box_row, 0.0, norms)

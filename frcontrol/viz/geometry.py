@@ -38,8 +38,8 @@ def pose_matrix(origin: ArrayLike, angle: float, z: float = 0.0) -> np.ndarray:
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Convex hull of 2-D points, counter-clockwise: :func:`frcontrol.polytope.hull_from_points`."""
-    from frcontrol.polytope import hull_from_points
+    """Convex hull of 2-D points, counter-clockwise: :func:`frcontrol.geometry.hull_from_points`."""
+    from frcontrol.geometry import hull_from_points
 
     return hull_from_points(points)
 

@@ -464,7 +464,7 @@ def _draw_contact_points(ax: Any, points: Sequence[Any], world: np.ndarray, touc
 def polygon_from_halfplanes(
     A: Any, b: Any, box: Sequence[float], tolerance: float = HALFPLANE_TOLERANCE
 ) -> np.ndarray:
-    """Vertices of ``{x in R^2 : A x <= b}`` inside a box: :func:`frcontrol.polytope.clip_polygon`.
+    """Vertices of ``{x in R^2 : A x <= b}`` inside a box: :func:`frcontrol.geometry.clip_polygon`.
 
     The box ``(xmin, xmax, ymin, ymax)`` is clipped by each half-plane in turn
     (Sutherland-Hodgman on a convex polygon): exact up to ``tolerance``, with no LP and no
@@ -484,7 +484,7 @@ def polygon_from_halfplanes(
     Raises:
         InputError: wrong shapes, non-finite values, or an empty or inverted box.
     """
-    from frcontrol.polytope import clip_polygon
+    from frcontrol.geometry import clip_polygon
 
     return clip_polygon(A, b, box, tolerance)
 
