@@ -9,10 +9,11 @@ A :class:`Polytope` is the set
 bounded or not (the name is kept for brevity: every function here works on polyhedra, and says so
 where boundedness matters). Every LP goes through the door (its internal path
 :func:`frcontrol.solvers.solve_lp_prepared`, which skips re-validating arrays built here but keeps
-the residual check), by default with DAQP; an LP on which the chosen back-end fails
-(``"error"``) or that it calls unbounded is solved again by a second back-end (HiGHS, or DAQP
-when HiGHS was chosen), and :class:`~frcontrol.solvers.SolverFailed` is raised only when neither
-gives a usable answer.
+the residual check; the Chebyshev LP is :func:`frcontrol.geometry.max_margin`), with the solver
+settings a function is given (``settings=``, or ``solver=`` a back-end name), by default DAQP;
+an LP on which the chosen back-end fails (``"error"``) or that it calls unbounded is solved again
+by a second back-end (HiGHS, or DAQP when HiGHS was chosen), and
+:class:`~frcontrol.solvers.SolverFailed` is raised only when neither gives a usable answer.
 
 **Scale.** The tolerances below are absolute *distances* in the units of ``x``: every row is
 normalised to unit Euclidean norm (within the affine hull of the equalities) before a tolerance

@@ -14,6 +14,11 @@ result. The door never trusts a success flag alone: it computes the primal resid
 answer (:func:`primal_residual`) and downgrades an "optimal" answer whose residual exceeds
 :data:`FEASIBILITY_TOLERANCE` (relative, see there) to ``status="error"``.
 
+The back-ends, their options and the residual tolerance travel as one frozen
+:class:`~frcontrol.solvers.settings.SolverSettings` (``settings=``); ``solver=``, a back-end name,
+is turned into settings by :func:`~frcontrol.solvers.settings.settings_from`. What happens when an
+answer is not usable is a :class:`Fallback` policy named at each call (``fallback=``).
+
 An infeasible or unbounded problem is a *result* (``found=False``), not an exception. An unknown or
 uninstalled back-end raises :class:`~frcontrol.errors.SolverNotFound`.
 
