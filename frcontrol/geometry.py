@@ -19,8 +19,11 @@ Speed on the engine's tiny cases (measured here, 2-D points, one call): the mono
 about 50 us for 4 points where ``scipy.spatial.ConvexHull`` takes about 100 us (the Qhull set-up
 dominates), and they are even near 8 points; the planners' disturbance polygons have 4 corners,
 so the chain stays. In 3-D (the closure margin's wrench hull) there is no hand-made rival: Qhull.
-:func:`vertices_from_halfspaces` tries every choice of ``d`` rows (exact on degenerate and
-unbounded sets, which ``scipy.spatial.HalfspaceIntersection`` refuses without an interior point).
+:func:`vertices_from_halfspaces` tries every choice of ``d`` rows, all at once (stacked
+determinants and solves: 50-100 us for 6 to 12 rows in 2-D, 0.6-1 ms for 8 to 12 in 3-D, where one
+choice at a time took 0.6-7 ms, with bitwise the same vertices). ``scipy.spatial.HalfspaceIntersection``
+takes 20-60 us but needs a point strictly inside (one more LP) and fails on sets without one, which
+the choices handle exactly; so the choices stay.
 """
 
 from __future__ import annotations
@@ -178,21 +181,33 @@ def vertices_from_halfspaces(A: Any, b: Any, *, tolerance: float = VERTEX_TOLERA
     if np.any(~keep & (b < -tolerance)):
         return np.zeros((0, d))
     found: list[np.ndarray] = []
-    for rows in itertools.combinations(np.nonzero(keep)[0], d):
-        sub = unit_A[list(rows)]
-        if abs(np.linalg.det(sub)) <= ZERO_TOLERANCE:
-            continue
-        point = np.linalg.solve(sub, unit_b[list(rows)])
-        if np.all(unit_A @ point <= unit_b + tolerance):
-            scale = max(1.0, float(np.max(np.abs(point))))
-            point[np.abs(point) <= ZERO_TOLERANCE * scale] = 0.0  # no 1e-16 noise around zero
-            if not any(np.max(np.abs(point - v)) <= tolerance * scale for v in found):
-                found.append(point)
+    for point in _candidate_points(unit_A, unit_b, keep, tolerance):
+        scale = max(1.0, float(np.max(np.abs(point))))
+        point[np.abs(point) <= ZERO_TOLERANCE * scale] = 0.0  # no 1e-16 noise around zero
+        if not any(np.max(np.abs(point - v)) <= tolerance * scale for v in found):
+            found.append(point)
     vertices = np.array(found).reshape(-1, d)
     if d == 2 and len(vertices) >= 3:
         centre = vertices.mean(axis=0)
         vertices = vertices[np.argsort(np.arctan2(vertices[:, 1] - centre[1], vertices[:, 0] - centre[0]))]
     return vertices
+
+
+def _candidate_points(unit_A: np.ndarray, unit_b: np.ndarray, keep: np.ndarray, tolerance: float
+                      ) -> np.ndarray:
+    """The points where d rows (of the rows ``keep``) meet, regular and feasible, in combination order.
+
+    All choices at once: the determinants and the solves are LAPACK's per matrix of a stack (each
+    the one call on one matrix would make), the feasibility test one product.
+    """
+    d = unit_A.shape[1]
+    choices = np.array(list(itertools.combinations(np.flatnonzero(keep), d)), dtype=np.intp).reshape(-1, d)
+    matrices = unit_A[choices]
+    regular = np.abs(np.linalg.det(matrices)) > ZERO_TOLERANCE
+    if not np.any(regular):
+        return np.zeros((0, d))
+    points = np.linalg.solve(matrices[regular], unit_b[choices[regular]][..., None])[..., 0]
+    return points[np.all(points @ unit_A.T <= unit_b + tolerance, axis=1)]
 
 
 def hull_from_points(points: Any) -> np.ndarray:
