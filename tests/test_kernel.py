@@ -432,8 +432,8 @@ def test_the_door_accepts_the_same_answers_with_either_check(name, monkeypatch):
     seen: list = []
     original, original_lean = door._finish, door.InequalityLPs.solve
 
-    def record(result_type, problem, raw, solver, solve_time, P):
-        result = original(result_type, problem, raw, solver, solve_time, P)
+    def record(result_type, problem, raw, solver, solve_time, P, tolerance):
+        result = original(result_type, problem, raw, solver, solve_time, P, tolerance)
         seen.append((problem, result))
         return result
 
