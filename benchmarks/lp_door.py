@@ -165,7 +165,7 @@ def measure(problems: list[LinearProgram], runs: int) -> dict[str, Any]:
             for p in problems]
     stacked = [(p.c, *daqp_._stack(p, equalities_as_pairs=True)) for p in problems]
     bare = [lambda s=s: daqp.solve(None, *s) for s in stacked]
-    check = [lambda p=p: solvers._check(p, p.c) for p in problems]
+    check = [lambda p=p: solvers._check(p, p.c, solvers.FEASIBILITY_TOLERANCE) for p in problems]
     lean = list(lean_calls(problems))
     figures = {name: per_lp_seconds(calls, runs) for name, calls in
                (("door", door), ("lean", lean), ("daqp", bare), ("check", check))}
