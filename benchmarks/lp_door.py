@@ -121,28 +121,30 @@ class GeneralDoor:
     engine called it before the lean path; :func:`general_door` puts it in the lean path's place.
     """
 
-    def __init__(self, *, solver: str = solvers.DEFAULT_LP_SOLVER,
+    def __init__(self, *, solver: str | None = None, settings: solvers.SolverSettings | None = None,
                  fallback: solvers.Fallback = solvers.NO_FALLBACK, **options: Any) -> None:
-        self.solver, self.fallback, self.options = solver, fallback, options
+        self.settings = solvers.settings_from(solver, settings)
+        self.fallback, self.options = fallback, options
 
     def solve(self, c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, lb: np.ndarray | None = None,
               ub: np.ndarray | None = None) -> solvers.LPResult:
         """:func:`frcontrol.solvers.solve_lp_prepared` of the LP."""
-        return solvers.solve_lp_prepared(c, A_ub, b_ub, lb=lb, ub=ub, solver=self.solver,
+        return solvers.solve_lp_prepared(c, A_ub, b_ub, lb=lb, ub=ub, settings=self.settings,
                                          fallback=self.fallback, **self.options)
 
 
 @contextlib.contextmanager
 def general_door() -> Iterator[None]:
-    """Within the block, the polytope module and the engine solve every LP through the general door."""
-    from frcontrol import engine, polytope
+    """Within the block, the geometry and polytope modules (the engine's LPs too) solve every LP
+    through the general door."""
+    from frcontrol import geometry, polytope
 
-    saved = polytope.InequalityLPs, engine.InequalityLPs
-    polytope.InequalityLPs = engine.InequalityLPs = GeneralDoor  # type: ignore[assignment, misc]
+    saved = polytope.InequalityLPs, geometry.InequalityLPs
+    polytope.InequalityLPs = geometry.InequalityLPs = GeneralDoor  # type: ignore[assignment, misc]
     try:
         yield
     finally:
-        polytope.InequalityLPs, engine.InequalityLPs = saved  # type: ignore[misc]
+        polytope.InequalityLPs, geometry.InequalityLPs = saved  # type: ignore[misc]
 
 
 def per_lp_seconds(calls: list[Callable[[], Any]], runs: int) -> float:
@@ -167,7 +169,7 @@ def measure(problems: list[LinearProgram], runs: int) -> dict[str, Any]:
                                                   check=lp_check) for p in problems]
     stacked = [(p.c, *daqp_._stack(p, equalities_as_pairs=True)) for p in problems]
     bare = [lambda s=s: daqp.solve(None, *s) for s in stacked]
-    check = [lambda p=p: solvers._check(p, p.c, lp_check) for p in problems]
+    check = [lambda p=p: solvers._check(p, p.c, solvers.FEASIBILITY_TOLERANCE, lp_check) for p in problems]
     lean = list(lean_calls(problems))
     figures = {name: per_lp_seconds(calls, runs) for name, calls in
                (("door", door), ("lean", lean), ("daqp", bare), ("check", check))}

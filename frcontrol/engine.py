@@ -38,6 +38,7 @@ import numpy.typing as npt
 
 from . import polytope as poly
 from .errors import CoordinateNotFound, InputError
+from .geometry import constant_rows, max_margin
 from .jsonable import to_jsonable
 from .kernel import Backend, backend, compiled, twin
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
@@ -50,7 +51,7 @@ from .modes import (
     mode_outputs,
     needs_balancing,
 )
-from .query import BatchSolutions, QueryMode, QueryTable, check_inputs, row_norms
+from .query import BatchSolutions, QueryMode, QueryTable, check_inputs
 from .response import (
     ILL_CONDITIONED_BAND,
     RANK_TOLERANCE,
@@ -63,7 +64,7 @@ from .response import (
     solve_affine_stack,
 )
 from .scene import Scene
-from .solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, InequalityLPs, solve_lp_prepared
+from .solvers import DEFAULT_SETTINGS, RETRY_ERRORS, SolverSettings, settings_from
 
 DOMAIN_TOLERANCE = 1e-7
 """Membership: an input (u, w) is in a domain if no normalised half-space of it is violated by
@@ -78,7 +79,7 @@ constant row: it is judged by its right-hand side alone (normalising it would in
 
 def _row_norms(H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Row norms, and the mask of numerically constant rows (see :data:`ZERO_ROW_TOLERANCE`)."""
-    return row_norms(H, ZERO_ROW_TOLERANCE)
+    return constant_rows(H, ZERO_ROW_TOLERANCE)
 
 
 PruneReason = Literal["freedom", "infeasible"]
@@ -132,8 +133,13 @@ class ModeAnalysis:
     inputs_full_dimensional: bool
     pruned: PruneReason | None = None
     m: int = 0
-    solver: str = DEFAULT_LP_SOLVER
+    settings: SolverSettings = DEFAULT_SETTINGS
     raw_ball: poly.ChebyshevBall | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def solver(self) -> str:
+        """The LP back-end of its domain computations (``settings.lp``)."""
+        return self.settings.lp
 
     @property
     def ambiguity_dim(self) -> int:
@@ -150,7 +156,7 @@ class ModeAnalysis:
         """D_c over (u, w) in minimal form (None if infeasible)."""
         if self.raw_domain is None:
             return None
-        return poly.minimal_representation(self.raw_domain, solver=self.solver, ball=self.raw_ball)
+        return poly.minimal_representation(self.raw_domain, settings=self.settings, ball=self.raw_ball)
 
     @cached_property
     def input_domain(self) -> poly.Polytope | None:
@@ -159,7 +165,7 @@ class ModeAnalysis:
             return None
         if self.ambiguity_dim:
             # self.domain is D_c in minimal form already: the projection starts from it
-            return poly.project(self.domain, range(self.m), solver=self.solver, minimal=True)
+            return poly.project(self.domain, range(self.m), settings=self.settings, minimal=True)
         return self.domain
 
     @property
@@ -239,8 +245,13 @@ class DynamicResponse:
     overlaps: tuple[Overlap, ...]
     timings: Mapping[str, float]
     query: QueryTable = field(repr=False, compare=False)
-    solver: str = DEFAULT_LP_SOLVER
+    settings: SolverSettings = DEFAULT_SETTINGS
     tolerances: Mapping[str, float] = field(default_factory=dict)
+
+    @property
+    def solver(self) -> str:
+        """The LP back-end of the analysis (``settings.lp``)."""
+        return self.settings.lp
 
     def to_dict(self, inactive_contacts: Sequence[str] = ()) -> dict[str, Any]:
         """The analysis as JSON values (the ``frc analyze --json`` document, without solutions).
@@ -320,7 +331,7 @@ class DynamicResponse:
         if not mode.inputs_full_dimensional:
             return ()
         others = [self.mode(other).feasible_input_domain for other in self.overlapping(name)]
-        return tuple(poly.set_difference(mode.feasible_input_domain, others, solver=self.solver))
+        return tuple(poly.set_difference(mode.feasible_input_domain, others, settings=self.settings))
 
     def lower_dimensional_modes(self) -> tuple[ModeAnalysis, ...]:
         """Feasible modes whose T_c has no interior (e.g. consistency conditions E u = e)."""
@@ -382,7 +393,8 @@ def motion_margin(
     A_eq: np.ndarray,
     b_eq: np.ndarray,
     *,
-    solver: str = DEFAULT_LP_SOLVER,
+    solver: str | None = None,
+    settings: SolverSettings | None = None,
 ) -> MotionMargin:
     """Test ``{z: H z <= h, A_eq z = b_eq}`` and the strictness of its motion rows.
 
@@ -405,26 +417,19 @@ def motion_margin(
     A_ub = np.empty((H.shape[0], d + 1))
     A_ub[:, :d] = H
     np.multiply(norms, moving, out=A_ub[:, d])  # the norm on a moving row, 0 elsewhere
-    return _margin_lp(A_ub, h, A_eq, b_eq, degenerate_constant, bool(np.count_nonzero(moving)), solver)
+    return _margin_lp(A_ub, h, A_eq, b_eq, degenerate_constant, bool(np.count_nonzero(moving)),
+                      settings_from(solver, settings))
 
 
 def _margin_lp(A_ub: np.ndarray, h: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarray, degenerate_constant: bool,
-               moving: bool, solver: str) -> MotionMargin:
+               moving: bool, settings: SolverSettings) -> MotionMargin:
     """:func:`motion_margin`'s LP over ``(z, t)`` with its rows ``A_ub`` (the last column t's) built.
 
     ``degenerate_constant``: a constant motion row is not strict; ``moving``: some motion row has
     coefficients.
     """
     d = A_ub.shape[1] - 1
-    bounds = _margin_bounds(d)
-    if A_eq.shape[0]:
-        A = np.zeros((A_eq.shape[0], d + 1))
-        A[:, :d] = A_eq
-        result = solve_lp_prepared(bounds[0], A_ub, h, A, b_eq, bounds[1], bounds[2], solver=solver,
-                                   fallback=RETRY_ERRORS, check=backend().lp_check)
-    else:  # the door's lean path (the same answer as solve_lp_prepared's)
-        lps = InequalityLPs(solver=solver, fallback=RETRY_ERRORS, check=backend().lp_check)
-        result = lps.solve(bounds[0], A_ub, h, bounds[1], bounds[2])
+    result = max_margin(A_ub, h, A_eq=A_eq, b_eq=b_eq, settings=settings, fallback=RETRY_ERRORS)
     if not result.found or result.x is None:
         return MotionMargin("infeasible", None, None)
     z, t = result.x[:d], float(result.x[-1])
@@ -434,26 +439,28 @@ def _margin_lp(A_ub: np.ndarray, h: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarr
 
 
 def mode_margin(system: ModeSystem, response: AffineSolution, bounds: tuple[np.ndarray, np.ndarray], *,
-                solver: str = DEFAULT_LP_SOLVER, kernel: Backend | None = None) -> MotionMargin:
+                solver: str | None = None, settings: SolverSettings | None = None,
+                kernel: Backend | None = None) -> MotionMargin:
     """:func:`motion_margin` of the mode's domain (:func:`domain_rows`), its rows built in one call.
 
     By the kernel's ``mode_margin`` (:func:`frcontrol.kernel.backend`): with the compiled kernel
     the LP's rows come from ``frcontrol._kernel.margin_rows`` (the same sums in another order:
     equal to round-off, see tests/test_kernel.py); its NumPy twin builds them by
-    :func:`domain_rows` and :func:`motion_margin`. ``kernel``: the backend when the caller has it.
+    :func:`domain_rows` and :func:`motion_margin`. ``kernel``: the backend when the caller has it;
+    ``solver`` or ``settings``: the LP's back-end (:func:`~frcontrol.solvers.settings_from`).
     """
-    return (kernel or backend()).mode_margin(system, response, bounds, solver)
+    return (kernel or backend()).mode_margin(system, response, bounds, settings_from(solver, settings))
 
 
 def _mode_margin_numpy(system: ModeSystem, response: AffineSolution, bounds: tuple[np.ndarray, np.ndarray],
-                       solver: str) -> MotionMargin:
+                       settings: SolverSettings) -> MotionMargin:
     """:func:`mode_margin` in NumPy (the reference twin)."""
     H, h, A_eq, b_eq, motion = domain_rows(system, response, bounds)
-    return motion_margin(H, h, motion, A_eq, b_eq, solver=solver)
+    return motion_margin(H, h, motion, A_eq, b_eq, settings=settings)
 
 
 def _mode_margin_compiled(system: ModeSystem, response: AffineSolution, bounds: tuple[np.ndarray, np.ndarray],
-                          solver: str) -> MotionMargin:
+                          settings: SolverSettings) -> MotionMargin:
     """:func:`mode_margin` with its rows by the compiled kernel's ``margin_rows``."""
     C, d = bounds
     m, p = C.shape[1], response.ambiguity_dim
@@ -467,31 +474,10 @@ def _mode_margin_compiled(system: ModeSystem, response: AffineSolution, bounds: 
         return MotionMargin("infeasible", None, None)
     A_eq = np.zeros((response.e.size, m + p))
     A_eq[:, :m] = response.E
-    return _margin_lp(A_ub, h, A_eq, response.e, bool(flags & 1), bool(flags & 2), solver)
+    return _margin_lp(A_ub, h, A_eq, response.e, bool(flags & 1), bool(flags & 2), settings)
 
 
 twin("mode_margin", numpy=_mode_margin_numpy, compiled=_mode_margin_compiled)
-
-
-_MARGIN_BOUNDS: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-""":func:`_margin_bounds` by dimension, built once (the door and DAQP only read them; they stay
-writable because DAQP's binding takes writable buffers only)."""
-
-
-def _margin_bounds(d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The motion LP's cost (maximise t) and bounds (z free, 0 <= t <= 1) over ``(z, t)``."""
-    if d in _MARGIN_BOUNDS:
-        return _MARGIN_BOUNDS[d]
-    cost = np.zeros(d + 1)
-    cost[-1] = -1.0
-    lb = np.empty(d + 1)
-    lb[:-1] = -np.inf
-    lb[-1] = 0.0
-    ub = np.empty(d + 1)
-    ub[:-1] = np.inf
-    ub[-1] = 1.0
-    _MARGIN_BOUNDS[d] = cost, lb, ub
-    return cost, lb, ub
 
 
 def _subtree_size(allowed: Sequence[str], depth: int) -> int:
@@ -505,7 +491,8 @@ def _subtree_size(allowed: Sequence[str], depth: int) -> int:
 def analyze(
     scene: Scene | ContactProblem,
     *,
-    solver: str = DEFAULT_LP_SOLVER,
+    solver: str | None = None,
+    settings: SolverSettings | None = None,
     prune_partial: bool = True,
     ambiguity: bool = True,
     rank_tolerance: float = RANK_TOLERANCE,
@@ -515,7 +502,8 @@ def analyze(
 
     Args:
         scene: a loaded scene (its active contacts at its state) or a prepared problem.
-        solver: the LP back-end for every domain computation.
+        solver: the LP back-end for every domain computation (a name; or ``settings``).
+        settings: the solver settings (:class:`~frcontrol.solvers.SolverSettings`).
         prune_partial: grow modes contact by contact and drop infeasible partial assignments
             (False: evaluate every mode velocity pruning leaves, the naive reference).
         ambiguity: also compute the overlaps and unambiguous sets.
@@ -526,12 +514,13 @@ def analyze(
         ImpactState: a contact moves into its surface.
         IllConditioned: a mode's system is too ill-conditioned to decide its rank.
     """
+    settings = settings_from(solver, settings)
     timings = {"model": 0.0, "response": 0.0, "feasibility": 0.0, "domain": 0.0, "projection": 0.0,
                "ambiguity": 0.0}
     start = time.perf_counter()
     problem = scene if isinstance(scene, ContactProblem) else ContactProblem.from_scene(scene)
     timings["model"] = time.perf_counter() - start
-    enumerator = _ModeEnumerator(problem, solver, rank_tolerance, prune_partial, progress, timings)
+    enumerator = _ModeEnumerator(problem, settings, rank_tolerance, prune_partial, progress, timings)
     enumerator.grow("")
     counts, analyses = enumerator.counts, enumerator.analyses
     feasible = [a for a in analyses if a.feasible]
@@ -544,7 +533,7 @@ def analyze(
     overlaps: list[Overlap] = []
     if ambiguity:
         t0 = time.perf_counter()
-        overlaps = _overlaps(feasible, solver)
+        overlaps = _overlaps(feasible, settings)
         timings["ambiguity"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     query = build_query_table(problem, feasible)
@@ -552,7 +541,7 @@ def analyze(
     timings["total"] = time.perf_counter() - start
     return DynamicResponse(
         problem=problem, modes=tuple(analyses), enumeration=enumeration, overlaps=tuple(overlaps),
-        timings=timings, query=query, solver=solver,
+        timings=timings, query=query, settings=settings,
         tolerances={"rank": rank_tolerance, "domain": DOMAIN_TOLERANCE,
                     "velocity": problem.velocity_tolerance, "ill_conditioned_band": ILL_CONDITIONED_BAND,
                     "round_off_rank_drop": ROUND_OFF_RANK_DROP},
@@ -562,9 +551,10 @@ def analyze(
 class _ModeEnumerator:
     """The tree of modes: letters contact by contact, partial modes pruned, full ones analysed."""
 
-    def __init__(self, problem: ContactProblem, solver: str, rank_tolerance: float, prune_partial: bool,
-                 progress: Callable[[str], None] | None, timings: dict[str, float]) -> None:
-        self.problem, self.solver, self.rank_tolerance = problem, solver, rank_tolerance
+    def __init__(self, problem: ContactProblem, settings: SolverSettings, rank_tolerance: float,
+                 prune_partial: bool, progress: Callable[[str], None] | None,
+                 timings: dict[str, float]) -> None:
+        self.problem, self.settings, self.rank_tolerance = problem, settings, rank_tolerance
         self.prune_partial, self.progress, self.timings = prune_partial, progress, timings
         self.allowed = problem.allowed_modes()
         self.bounds = problem.input_bound_rows()
@@ -621,13 +611,14 @@ class _ModeEnumerator:
         self.timings["response"] += t1 - t0
         if not response.consistent:
             return "freedom", system, response
-        verdict = mode_margin(system, response, self.bounds, solver=self.solver, kernel=self.kernel).verdict
+        verdict = mode_margin(system, response, self.bounds, settings=self.settings,
+                              kernel=self.kernel).verdict
         self.timings["feasibility"] += time.perf_counter() - t1
         return verdict, system, response
 
     def evaluate(self, mode: str) -> None:
         """Analyse a full mode: its response, domain, and whether its T_c has an interior."""
-        problem, solver, timings = self.problem, self.solver, self.timings
+        problem, settings, timings = self.problem, self.settings, self.timings
         self.counts["evaluated"] += 1
         if self.progress is not None:
             self.progress(mode)
@@ -638,7 +629,7 @@ class _ModeEnumerator:
             self.analyses.append(ModeAnalysis(
                 mode=mode, system=system, response=response, ambiguous_outputs=outputs,
                 feasible=False, full_dimensional=False, chebyshev_radius=0.0, raw_domain=None,
-                inputs_full_dimensional=False, pruned=verdict, m=problem.m, solver=solver))
+                inputs_full_dimensional=False, pruned=verdict, m=problem.m, settings=settings))
             return
         t0 = time.perf_counter()
         if response.certified:
@@ -647,18 +638,18 @@ class _ModeEnumerator:
             response = self.response(system)
         # the domain in NumPy on either kernel (the test's rows decided only the verdict)
         domain = poly.Polytope(*domain_rows(system, response, self.bounds)[:4])
-        ball = poly.chebyshev_ball(domain, solver=solver)
+        ball = poly.chebyshev_ball(domain, settings=settings)
         full = bool(ball.found and ball.radius > DOMAIN_TOLERANCE and domain.A_eq.shape[0] == 0)
         timings["domain"] += time.perf_counter() - t0
         analysis = ModeAnalysis(
             mode=mode, system=system, response=response, ambiguous_outputs=outputs, feasible=True,
             full_dimensional=full, chebyshev_radius=float(ball.radius) if ball.found else 0.0,
-            raw_domain=domain, inputs_full_dimensional=full, m=problem.m, solver=solver, raw_ball=ball,
+            raw_domain=domain, inputs_full_dimensional=full, m=problem.m, settings=settings, raw_ball=ball,
         )
         if not full and domain.A_eq.shape[0] == 0 and response.ambiguity_dim:
             # D_c flat in (u, w) without input equalities: its projection may still have volume
             t1 = time.perf_counter()
-            input_ball = poly.chebyshev_ball(analysis.feasible_input_domain, solver=solver)
+            input_ball = poly.chebyshev_ball(analysis.feasible_input_domain, settings=settings)
             timings["projection"] += time.perf_counter() - t1
             if input_ball.found and input_ball.radius > DOMAIN_TOLERANCE:  # (its domains derived anew)
                 analysis = replace(analysis, inputs_full_dimensional=True)
@@ -701,13 +692,13 @@ def _input_rows(mode: ModeAnalysis) -> InputRows:
     return H[~constant], h[~constant], p
 
 
-def _input_box(rows: InputRows, m: int, solver: str) -> tuple[np.ndarray, np.ndarray]:
+def _input_box(rows: InputRows, m: int, settings: SolverSettings) -> tuple[np.ndarray, np.ndarray]:
     """Bounds of T_c per input: support LPs on D_c (its :func:`_input_rows`) in the input directions."""
     H, h, p = rows
     P = poly.Polytope(H, h)
     eye = np.eye(m + p)[:m]
-    upper = np.array([poly.support(P, eye[i], solver=solver) for i in range(m)])
-    lower = -np.array([poly.support(P, -eye[i], solver=solver) for i in range(m)])
+    upper = np.array([poly.support(P, eye[i], settings=settings) for i in range(m)])
+    lower = -np.array([poly.support(P, -eye[i], settings=settings) for i in range(m)])
     return lower, upper
 
 
@@ -725,7 +716,8 @@ def _boxes_apart(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarr
     return bool(np.any(width <= 2 * DOMAIN_TOLERANCE))
 
 
-def _interiors_meet(a: InputRows, b: InputRows, m: int, solver: str) -> tuple[float, np.ndarray | None]:
+def _interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings
+                    ) -> tuple[float, np.ndarray | None]:
     """Whether int(T_a) and int(T_b) meet: one LP in the lifted space (u, w_a, w_b).
 
     maximise t <= 1 s.t. every row of D_a and of D_b tightened by t times its norm. For
@@ -739,7 +731,7 @@ def _interiors_meet(a: InputRows, b: InputRows, m: int, solver: str) -> tuple[fl
     H = np.vstack([rows_a, rows_b])
     h = np.concatenate([ha, hb])
     found = motion_margin(H, h, np.ones(H.shape[0], dtype=bool), np.zeros((0, H.shape[1])),
-                          np.zeros(0), solver=solver)
+                          np.zeros(0), settings=settings)
     if found.verdict == "infeasible" or found.margin is None or found.point is None:
         return 0.0, None
     return found.margin, found.point[:m]
@@ -754,7 +746,7 @@ per mode and save one LP per pair they prune, so they pay off when they prune mo
 with 6 and 8 contacts (62 and 248 modes)."""
 
 
-def _overlaps(feasible: Sequence[ModeAnalysis], solver: str) -> list[Overlap]:
+def _overlaps(feasible: Sequence[ModeAnalysis], settings: SolverSettings) -> list[Overlap]:
     """Pairs of full-dimensional T_c whose interiors intersect (one lifted LP per pair).
 
     With many modes (:data:`BOX_FILTER_MODES_PER_INPUT`), pairs whose bounding boxes do not meet
@@ -763,14 +755,14 @@ def _overlaps(feasible: Sequence[ModeAnalysis], solver: str) -> list[Overlap]:
     candidates = [a for a in feasible if a.inputs_full_dimensional]
     m = candidates[0].m if candidates else 0
     rows = [_input_rows(a) for a in candidates]
-    boxes = ([_input_box(r, m, solver) for r in rows]
+    boxes = ([_input_box(r, m, settings) for r in rows]
              if len(candidates) - 1 > BOX_FILTER_MODES_PER_INPUT * m else None)
     overlaps: list[Overlap] = []
     for i, a in enumerate(candidates):
         for j in range(i + 1, len(candidates)):
             if boxes is not None and _boxes_apart(boxes[i], boxes[j]):
                 continue
-            margin, center = _interiors_meet(rows[i], rows[j], m, solver)
+            margin, center = _interiors_meet(rows[i], rows[j], m, settings)
             if margin > DOMAIN_TOLERANCE and center is not None:
                 overlaps.append(Overlap((a.mode, candidates[j].mode), float(margin), center))
     return overlaps
@@ -865,7 +857,8 @@ def _slice_in_w(system: ModeSystem, response: AffineSolution, u: np.ndarray) -> 
 
 
 def _admissible_w(
-    system: ModeSystem, response: AffineSolution, u: np.ndarray, solver: str, closed_form: bool = True
+    system: ModeSystem, response: AffineSolution, u: np.ndarray, settings: SolverSettings,
+    closed_form: bool = True,
 ) -> np.ndarray | None:
     """A representative w with (u, w) in the mode's domain, moving as the mode says; else None.
 
@@ -876,10 +869,10 @@ def _admissible_w(
     if response.E.shape[0] and np.max(np.abs(response.E @ u - response.e)) > DOMAIN_TOLERANCE:
         return None
     H_w, h_w = _slice_in_w(system, response, u)
-    return _admissible_in_w(H_w, h_w, system.motion, solver, closed_form)
+    return _admissible_in_w(H_w, h_w, system.motion, settings, closed_form)
 
 
-def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, solver: str,
+def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, settings: SolverSettings,
                      closed_form: bool = True) -> np.ndarray | None:
     """A representative w of ``{w: H_w w <= h_w}`` (rows normalised in (u, w)) moving as the mode says.
 
@@ -898,11 +891,11 @@ def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, solve
         return interval_admissible(H_w, h_w, motion, DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE,
                                    poly.CHEBYSHEV_RADIUS_CAP)
     found = motion_margin(H_w, h_w + np.where(motion, 0.0, DOMAIN_TOLERANCE), motion,
-                          np.zeros((0, p)), np.zeros(0), solver=solver)
+                          np.zeros((0, p)), np.zeros(0), settings=settings)
     if found.verdict != "ok":
         return None
     z = found.point
-    ball = poly.chebyshev_ball(poly.Polytope(H_w, h_w + DOMAIN_TOLERANCE), solver=solver)
+    ball = poly.chebyshev_ball(poly.Polytope(H_w, h_w + DOMAIN_TOLERANCE), settings=settings)
     if ball.found and ball.radius > DOMAIN_TOLERANCE:
         return ball.center
     return z
@@ -932,13 +925,15 @@ time by the same rules, ``"reference"`` with an LP per mode."""
 
 @overload
 def solutions_at(scene: Scene | ContactProblem | DynamicResponse,
-                 inputs: Mapping[str, float] | Sequence[float], *, solver: str = ...,
+                 inputs: Mapping[str, float] | Sequence[float], *, solver: str | None = ...,
+                 settings: SolverSettings | None = ...,
                  rank_tolerance: float = ..., method: str = ...) -> list[RigidSolution]: ...
 
 
 @overload
 def solutions_at(scene: Scene | ContactProblem | DynamicResponse, inputs: np.ndarray, *,
-                 solver: str = ..., rank_tolerance: float = ...,
+                 solver: str | None = ..., settings: SolverSettings | None = ...,
+                 rank_tolerance: float = ...,
                  method: str = ...) -> Any: ...  # a list for one input, a BatchSolutions for (N, m)
 
 
@@ -946,7 +941,8 @@ def solutions_at(
     scene: Scene | ContactProblem | DynamicResponse,
     inputs: Mapping[str, float] | Sequence[float] | np.ndarray,
     *,
-    solver: str = DEFAULT_LP_SOLVER,
+    solver: str | None = None,
+    settings: SolverSettings | None = None,
     rank_tolerance: float = RANK_TOLERANCE,
     method: str = "auto",
 ) -> list[RigidSolution] | BatchSolutions:
@@ -962,6 +958,7 @@ def solutions_at(
             array of N input vectors: then the answer is one :class:`~frcontrol.query.BatchSolutions`
             (:func:`solutions_at_batch`; a scene is analysed first, without overlaps).
         solver: the LP back-end (for modes with two or more ambiguity variables).
+        settings: the solver settings (instead of ``solver``).
         rank_tolerance: relative singular-value threshold of the rank decisions.
         method: one of :data:`SOLUTION_METHODS`. Every method gives the same modes, the same
             accelerations and the same forces wherever they are unique. Where they are not (a
@@ -978,19 +975,20 @@ def solutions_at(
     """
     if method not in SOLUTION_METHODS:
         raise InputError(f"unknown solution method {method!r}; valid: {', '.join(SOLUTION_METHODS)}")
+    settings = settings_from(solver, settings)
     if not isinstance(inputs, Mapping) and np.ndim(inputs) == 2:
         analysis = scene if isinstance(scene, DynamicResponse) else analyze(
-            scene, solver=solver, ambiguity=False, rank_tolerance=rank_tolerance)
-        return solutions_at_batch(analysis, inputs, solver=solver)
+            scene, settings=settings, ambiguity=False, rank_tolerance=rank_tolerance)
+        return solutions_at_batch(analysis, inputs, settings=settings)
     closed_form = method != "reference"
     if isinstance(scene, DynamicResponse):
         problem = scene.problem
         u = _input_vector(problem, inputs)
         if method == "auto":
-            return _located_solutions(scene, u, solver)
+            return _located_solutions(scene, u, settings)
         listed = []
         for mode in scene.feasible_modes:
-            w = _admissible_w(mode.system, mode.response, u, solver, closed_form)
+            w = _admissible_w(mode.system, mode.response, u, settings, closed_form)
             if w is not None:
                 listed.append(_solution(problem, mode.system, mode.response, u, w))
         return listed
@@ -999,10 +997,10 @@ def solutions_at(
     if method != "reference":
         allowed = problem.allowed_modes()
         if math.prod(len(letters) for letters in allowed) <= BATCH_MAX_MODES:
-            found = _batch_solutions(problem, u, solver, rank_tolerance, allowed)
+            found = _batch_solutions(problem, u, settings, rank_tolerance, allowed)
             if found is not None:
                 return found
-    return _tree_solutions(problem, u, solver, rank_tolerance, closed_form)
+    return _tree_solutions(problem, u, settings, rank_tolerance, closed_form)
 
 
 def build_query_table(problem: ContactProblem, feasible: Sequence[ModeAnalysis]) -> QueryTable:
@@ -1021,10 +1019,11 @@ def query_table(analysis: DynamicResponse) -> QueryTable:
     return analysis.query
 
 
-def _located_solutions(analysis: DynamicResponse, u: np.ndarray, solver: str) -> list[RigidSolution]:
+def _located_solutions(analysis: DynamicResponse, u: np.ndarray, settings: SolverSettings
+                       ) -> list[RigidSolution]:
     """:func:`solutions_at` on an analysis: point location in its :func:`query_table`."""
     table = query_table(analysis)
-    found = table.locate(u, lambda H, h, motion: _admissible_in_w(H, h, motion, solver))
+    found = table.locate(u, lambda H, h, motion: _admissible_in_w(H, h, motion, settings))
     n, k = table.problem.n, table.problem.k
     dims, outputs, modes = table.p_list, table.ambiguous_outputs, table.modes
     residual, violation = found.equality_residual.tolist(), found.inequality_violation.tolist()
@@ -1040,7 +1039,7 @@ def _located_solutions(analysis: DynamicResponse, u: np.ndarray, solver: str) ->
 
 
 def solutions_at_batch(analysis: DynamicResponse, inputs: npt.ArrayLike, *,
-                       solver: str = DEFAULT_LP_SOLVER) -> BatchSolutions:
+                       solver: str | None = None, settings: SolverSettings | None = None) -> BatchSolutions:
     """Every rigid solution at each of N inputs on a finished analysis, as arrays.
 
     The same modes, accelerations, forces and representatives w as :func:`solutions_at` at each
@@ -1050,19 +1049,21 @@ def solutions_at_batch(analysis: DynamicResponse, inputs: npt.ArrayLike, *,
         analysis: a finished :func:`analyze`.
         inputs: an (N, m) array of full input vectors [N or N m].
         solver: the LP back-end (for modes with two or more ambiguity variables).
+        settings: the solver settings (instead of ``solver``).
 
     Raises:
         InputError: not an (N, m) array, a NaN or infinite entry, an input outside its limits.
     """
+    settings = settings_from(solver, settings)
     table = query_table(analysis)
     U = check_inputs(analysis.problem, inputs, DOMAIN_TOLERANCE)
-    return table.locate_batch(U, lambda H, h, motion: _admissible_in_w(H, h, motion, solver))
+    return table.locate_batch(U, lambda H, h, motion: _admissible_in_w(H, h, motion, settings))
 
 
-def _batch_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_tolerance: float,
+def _batch_solutions(problem: ContactProblem, u: np.ndarray, settings: SolverSettings, rank_tolerance: float,
                      allowed: tuple[str, ...] | None = None) -> list[RigidSolution] | None:
     """The batch path; None when a mode's rank is undecidable (the reference path then decides)."""
-    batch = decide_modes(problem, u, lambda H, h, motion: _admissible_in_w(H, h, motion, solver),
+    batch = decide_modes(problem, u, lambda H, h, motion: _admissible_in_w(H, h, motion, settings),
                          rank_tolerance=rank_tolerance, domain_tolerance=DOMAIN_TOLERANCE,
                          zero_row_tolerance=ZERO_ROW_TOLERANCE, radius_cap=poly.CHEBYSHEV_RADIUS_CAP,
                          allowed=allowed)
@@ -1082,7 +1083,7 @@ def _batch_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_t
     return found
 
 
-def _tree_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_tolerance: float,
+def _tree_solutions(problem: ContactProblem, u: np.ndarray, settings: SolverSettings, rank_tolerance: float,
                     closed_form: bool) -> list[RigidSolution]:
     """The reference path: modes grown contact by contact, a partial mode pruning its subtree."""
     allowed = problem.allowed_modes()
@@ -1096,7 +1097,7 @@ def _tree_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_to
             response = solve_affine(system.A, system.B, system.c, rank_tolerance=rank_tolerance,
                                     name=f"the system of mode {mode}",
                                     balance=bool(needs_balancing(problem, [mode])[0]))
-            w = _admissible_w(system, response, u, solver, closed_form)
+            w = _admissible_w(system, response, u, settings, closed_form)
             if w is None:
                 continue
             if depth + 1 < problem.k:
@@ -1107,7 +1108,7 @@ def _tree_solutions(problem: ContactProblem, u: np.ndarray, solver: str, rank_to
     if problem.k == 0:
         system = build_mode_system(problem, "")
         response = solve_affine(system.A, system.B, system.c, rank_tolerance=rank_tolerance)
-        w = _admissible_w(system, response, u, solver, closed_form)
+        w = _admissible_w(system, response, u, settings, closed_form)
         return [] if w is None else [_solution(problem, system, response, u, w)]
     grow("")
     return found

@@ -97,10 +97,10 @@ from typing import Any, Literal
 
 import numpy as np
 from scipy.linalg.lapack import dgesv
-from scipy.optimize import linprog
 
 from frcontrol.errors import InputError
 from frcontrol.kernel import backend, compiled, twin
+from frcontrol.solvers import REFERENCE_LP_SOLVER, RETRY_ERRORS, SolverSettings, solve_lp
 
 __all__ = [
     "ENUMERATION_MAX_SIZE",
@@ -108,6 +108,7 @@ __all__ = [
     "DUPLICATE_TOLERANCE",
     "LCP_TOLERANCE",
     "PIVOT_TOLERANCE",
+    "SUPPORT_LP_SETTINGS",
     "TIE_TOLERANCE",
     "FC2DSolution",
     "FrictionContact2D",
@@ -123,6 +124,12 @@ __all__ = [
     "solve_fc2d",
     "solve_lcp",
 ]
+
+SUPPORT_LP_SETTINGS = SolverSettings(lp=REFERENCE_LP_SOLVER)
+"""The solver settings of the enumeration's support LP (a singular principal block whose
+minimum-norm point fails: the point of least ``sum(z)``): HiGHS, the reference back-end, whose
+simplex answers a vertex; through the door (its residual check), an error retried on DAQP
+(:data:`frcontrol.solvers.RETRY_ERRORS`)."""
 
 LCP_TOLERANCE: float = 1e-9
 """Relative bound on the natural-map residual ``|min(z_i, w_i)|`` of an accepted LCP solution.
@@ -722,16 +729,17 @@ def _support_candidate(
     if _verifies(M, q, z, tolerance):
         return z, note + "minimum-norm representative of a non-isolated solution set"
     others = [i for i in range(n) if i not in support]
-    lp = linprog(
+    lp = solve_lp(
         np.ones(len(alpha)),  # the least sum(z): no spurious split lam_T+ + lam_T- = mu lam_N
-        A_ub=-M[np.ix_(others, alpha)] if others else None,
-        b_ub=q[others] if others else None,
-        A_eq=block,
-        b_eq=-q[alpha],
-        bounds=(0, None),
-        method="highs",
+        -M[np.ix_(others, alpha)] if others else None,
+        q[others] if others else None,
+        block,
+        -q[alpha],
+        lb=0.0,
+        settings=SUPPORT_LP_SETTINGS,
+        fallback=RETRY_ERRORS,
     )
-    if lp.status == 0:
+    if lp.found and lp.x is not None:
         z[alpha] = lp.x
         return z, note + "vertex found by linear programming (minimum-norm point infeasible)"
     return z, note + "no feasible point"

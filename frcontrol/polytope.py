@@ -9,10 +9,11 @@ A :class:`Polytope` is the set
 bounded or not (the name is kept for brevity: every function here works on polyhedra, and says so
 where boundedness matters). Every LP goes through the door (its internal path
 :func:`frcontrol.solvers.solve_lp_prepared`, which skips re-validating arrays built here but keeps
-the residual check), by default with DAQP; an LP on which the chosen back-end fails
-(``"error"``) or that it calls unbounded is solved again by a second back-end (HiGHS, or DAQP
-when HiGHS was chosen), and :class:`~frcontrol.solvers.SolverFailed` is raised only when neither
-gives a usable answer.
+the residual check; the Chebyshev LP is :func:`frcontrol.geometry.max_margin`), with the solver
+settings a function is given (``settings=``, or ``solver=`` a back-end name), by default DAQP;
+an LP on which the chosen back-end fails (``"error"``) or that it calls unbounded is solved again
+by a second back-end (HiGHS, or DAQP when HiGHS was chosen), and
+:class:`~frcontrol.solvers.SolverFailed` is raised only when neither gives a usable answer.
 
 **Scale.** The tolerances below are absolute *distances* in the units of ``x``: every row is
 normalised to unit Euclidean norm (within the affine hull of the equalities) before a tolerance
@@ -32,8 +33,6 @@ rows together are not detected: such a set keeps its inequalities and has Chebys
 
 from __future__ import annotations
 
-import itertools
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -42,13 +41,24 @@ import numpy as np
 import scipy.linalg
 
 from frcontrol.errors import InputError
-from frcontrol.kernel import backend, extension_function, twin
+from frcontrol.geometry import (
+    CHEBYSHEV_RADIUS_CAP,
+    VERTEX_TOLERANCE,
+    ZERO_TOLERANCE,
+    chebyshev_rows,
+    clip_polygon,
+    hull_from_points,
+    max_margin,
+    row_norms,
+    vertices_from_halfspaces,
+)
+from frcontrol.kernel import backend
 from frcontrol.solvers import (
-    DEFAULT_LP_SOLVER,
     InequalityLPs,
     LPResult,
-    lp_check,
+    SolverSettings,
     must_solve,
+    settings_from,
     solve_lp_prepared,
 )
 
@@ -95,10 +105,6 @@ EQUALITY_TOLERANCE = 1e-9
 """Largest residual of unit-norm equalities ``|a x0 - b|`` at their least-squares solution for
 which they are declared consistent [units of ``x``]. Default ``1e-9``."""
 
-ZERO_TOLERANCE = 1e-12
-"""A row (or a coefficient of a unit row) is zero when its norm is below ``ZERO_TOLERANCE`` times
-the norm of the row it came from [dimensionless]. Default ``1e-12``."""
-
 DUPLICATE_TOLERANCE = 1e-9
 """Two unit rows ``a, a'`` are duplicates when ``a . a' >= 1 - DUPLICATE_TOLERANCE`` (angle below
 about ``sqrt(2e-9) = 4.5e-5`` rad), opposite when ``a . a' <= -1 + DUPLICATE_TOLERANCE``
@@ -114,11 +120,6 @@ INTERIOR_TOLERANCE = 1e-8
 """A set is full-dimensional (in the affine hull of its equalities) when its Chebyshev radius
 exceeds ``INTERIOR_TOLERANCE`` [units of ``x``]. Default ``1e-8``; used by
 :func:`interiors_intersect` and :func:`set_difference` to drop pieces of zero volume."""
-
-CHEBYSHEV_RADIUS_CAP = 1.0
-"""Upper bound imposed on the Chebyshev radius [units of ``x``], so that the Chebyshev LP is never
-unbounded (a half-space has no largest ball). A set containing a ball of radius 1 reports radius
-1 (flag ``ChebyshevBall.capped``). Default ``1.0``."""
 
 CONTAINMENT_TOLERANCE = 1e-9
 """Largest violation of a unit-norm row accepted by :func:`contains` and in emptiness tests of
@@ -255,51 +256,17 @@ class ChebyshevBall:
 # helpers
 
 
-def _row_norms(X: np.ndarray) -> np.ndarray:
-    """Each row's 2-norm: ``np.linalg.norm(X, axis=1)``'s own sum, without its wrapper (bitwise equal)."""
-    return np.sqrt(np.add.reduce(X * X, axis=1))
-
-
 _BOUNDED_LP = must_solve("an LP of the polytope module", bounded=True)
-"""The fallback policy of a bounded LP of this module (see :func:`_lp`)."""
+r"""The fallback policy of this module's bounded LPs (Chebyshev, redundancy): the second back-end
+(HiGHS, or DAQP when HiGHS was chosen) solves the LP again when the first returns ``"error"`` or
+``"unbounded"`` (DAQP 0.11 reported a bounded, very degenerate LP of 951 rows as unbounded); an
+``"unbounded"`` answer counts as a failure (:class:`~frcontrol.solvers.SolverFailed`).
+``"infeasible"`` is trusted (no false verdict seen from DAQP; HiGHS's are confirmed without
+presolve by its adapter)."""
 
 _LP = must_solve("an LP of the polytope module", bounded=False)
-"""The fallback policy of an LP of this module that may be unbounded (see :func:`_lp`)."""
-
-
-def _lp(
-    solver: str,
-    c: np.ndarray,
-    A_ub: np.ndarray,
-    b_ub: np.ndarray,
-    *,
-    bounded: bool = False,
-    **kwargs: Any,
-) -> LPResult:
-    """Solve an LP through the door, with a second back-end as a second opinion.
-
-    The second back-end (HiGHS, or DAQP when ``solver`` is HiGHS) solves the LP again when
-    ``solver`` returns ``"error"`` or ``"unbounded"`` (DAQP 0.11 reported a bounded, very
-    degenerate LP of 951 rows as unbounded). ``bounded=True`` declares the LP bounded: an
-    ``"unbounded"`` answer then counts as a failure. ``"infeasible"`` is trusted (no false
-    verdict seen from DAQP; HiGHS's are confirmed without presolve by its adapter). The bounded
-    LPs without equalities (Chebyshev, redundancy) take the door's lean path,
-    :class:`~frcontrol.solvers.InequalityLPs`, with the same policy (:func:`_lps`).
-
-    Raises:
-        SolverFailed: no usable answer from either back-end.
-    """
-    return solve_lp_prepared(c, A_ub, b_ub, solver=solver, **kwargs, fallback=_BOUNDED_LP if bounded else _LP,
-                             check=backend().lp_check)
-
-
-def _lps(solver: str) -> InequalityLPs:
-    """The door's lean path for a run of bounded LPs without equalities, with :func:`_lp`'s policy."""
-    return InequalityLPs(solver=solver, fallback=_BOUNDED_LP, check=backend().lp_check)
-
-
-# the LP door's check of an answer (it does not import the kernel): its callers hand it the backend's
-twin("lp_check", numpy=lp_check, compiled=extension_function("lp_check"))
+"""The fallback policy of this module's LPs that may be unbounded (:func:`support`): as
+:data:`_BOUNDED_LP`, with ``"unbounded"`` an answer."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -314,7 +281,7 @@ def _affine_hull(A_eq: np.ndarray, b_eq: np.ndarray, d: int) -> _Hull | None:
     """Parametrise ``A_eq x = b_eq`` as ``x = x0 + N z`` by an SVD; ``None`` if inconsistent."""
     if A_eq.shape[0] == 0:
         return _Hull(np.zeros(d), np.eye(d))
-    norms = _row_norms(A_eq)
+    norms = row_norms(A_eq)
     zero = norms <= 0.0
     if np.any(np.abs(b_eq[zero]) > EQUALITY_TOLERANCE):
         return None
@@ -332,7 +299,7 @@ def _affine_hull(A_eq: np.ndarray, b_eq: np.ndarray, d: int) -> _Hull | None:
 
 def _independent_equalities(A_eq: np.ndarray, b_eq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit-norm, linearly independent equality rows (QR with column pivoting on ``A_eq^T``)."""
-    norms = _row_norms(A_eq)
+    norms = row_norms(A_eq)
     nonzero = norms > 0.0
     A_unit = A_eq[nonzero] / norms[nonzero, None]
     b_unit = b_eq[nonzero] / norms[nonzero]
@@ -368,7 +335,8 @@ def _check_same_dim(P: Polytope, Q: Polytope) -> None:
 # queries
 
 
-def chebyshev_ball(P: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> ChebyshevBall:
+def chebyshev_ball(P: Polytope, *, solver: str | None = None,
+                   settings: SolverSettings | None = None) -> ChebyshevBall:
     r"""Largest ball inside ``P`` within the affine hull of its equalities.
 
     The equalities are parametrised as :math:`x = x_0 + N z` (SVD; :math:`N` an orthonormal basis
@@ -386,7 +354,8 @@ def chebyshev_ball(P: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> Chebyshev
 
     Args:
         P: the polytope.
-        solver: LP back-end.
+        solver: LP back-end (a name: :func:`~frcontrol.solvers.settings_from`).
+        settings: the solver settings (default :data:`~frcontrol.solvers.DEFAULT_SETTINGS`).
 
     Returns:
         The ball; ``found=False`` if ``P`` is empty.
@@ -403,17 +372,17 @@ def chebyshev_ball(P: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> Chebyshev
     k = hull.N.shape[1]
     G = P.A @ hull.N
     h = P.b - P.A @ hull.x0
-    row_norms = _row_norms(P.A)
-    g_norms = _row_norms(G)
-    flat = g_norms <= ZERO_TOLERANCE * row_norms
-    if np.any(h[flat] < -CONTAINMENT_TOLERANCE * np.maximum(row_norms[flat], 1e-300)):
+    a_norms = row_norms(P.A)
+    g_norms = row_norms(G)
+    flat = g_norms <= ZERO_TOLERANCE * a_norms
+    if np.any(h[flat] < -CONTAINMENT_TOLERANCE * np.maximum(a_norms[flat], 1e-300)):
         return _no_ball(k)
     G, h, g_norms = G[~flat], h[~flat], g_norms[~flat]
     if k == 0 or G.shape[0] == 0:  # a point, or the whole hull
         radius = 0.0 if k == 0 else CHEBYSHEV_RADIUS_CAP
         return ChebyshevBall(True, hull.x0, radius, radius > INTERIOR_TOLERANCE, k, k > 0,
                              CHEBYSHEV_RADIUS_CAP, INTERIOR_TOLERANCE, "")
-    return _ball_in_hull(G / g_norms[:, None], h / g_norms, hull, solver)
+    return _ball_in_hull(G / g_norms[:, None], h / g_norms, hull, settings_from(solver, settings))
 
 
 def _no_ball(dimension: int) -> ChebyshevBall:
@@ -422,16 +391,10 @@ def _no_ball(dimension: int) -> ChebyshevBall:
                          INTERIOR_TOLERANCE, "")
 
 
-def _ball_in_hull(G: np.ndarray, h: np.ndarray, hull: _Hull, solver: str) -> ChebyshevBall:
+def _ball_in_hull(G: np.ndarray, h: np.ndarray, hull: _Hull, settings: SolverSettings) -> ChebyshevBall:
     """The Chebyshev LP of :func:`chebyshev_ball` on unit rows ``G z <= h`` in the hull's coordinates."""
     k = G.shape[1]
-    A_lp = np.hstack([G, np.ones((G.shape[0], 1))])
-    cost = np.zeros(k + 1)
-    cost[-1] = -1.0
-    lb = np.full(k + 1, -np.inf)
-    ub = np.full(k + 1, np.inf)
-    lb[-1], ub[-1] = 0.0, CHEBYSHEV_RADIUS_CAP
-    result = _lps(solver).solve(cost, A_lp, h, lb, ub)
+    result = max_margin(chebyshev_rows(G), h, settings=settings, fallback=_BOUNDED_LP)
     if result.status == "infeasible" or result.x is None:
         return _no_ball(k)
     radius = float(min(max(result.x[-1], 0.0), CHEBYSHEV_RADIUS_CAP))
@@ -448,18 +411,20 @@ def _ball_in_hull(G: np.ndarray, h: np.ndarray, hull: _Hull, solver: str) -> Che
     )
 
 
-def is_empty(P: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> bool:
+def is_empty(P: Polytope, *, solver: str | None = None, settings: SolverSettings | None = None) -> bool:
     """Whether ``P`` is empty (one Chebyshev LP; see :func:`chebyshev_ball`)."""
-    return P.empty or not chebyshev_ball(P, solver=solver).found
+    return P.empty or not chebyshev_ball(P, solver=solver, settings=settings).found
 
 
-def support(P: Polytope, direction: Any, *, solver: str = DEFAULT_LP_SOLVER) -> float:
+def support(P: Polytope, direction: Any, *, solver: str | None = None,
+            settings: SolverSettings | None = None) -> float:
     r"""Support function :math:`h_P(c) = \max_{x \in P} c^\top x`.
 
     Args:
         P: the polytope.
         direction: ``c``, shape ``(d,)``.
-        solver: LP back-end.
+        solver: LP back-end (a name).
+        settings: the solver settings (instead of ``solver``).
 
     Returns:
         The maximum; ``+inf`` if ``P`` is unbounded in ``c``, ``-inf`` if ``P`` is empty.
@@ -467,7 +432,8 @@ def support(P: Polytope, direction: Any, *, solver: str = DEFAULT_LP_SOLVER) -> 
     c = _vector("direction", direction, P.dim)
     A_eq = P.A_eq if P.A_eq.shape[0] else None
     b_eq = P.b_eq if P.A_eq.shape[0] else None
-    result = _lp(solver, -c, P.A, P.b, A_eq=A_eq, b_eq=b_eq)
+    result = solve_lp_prepared(-c, P.A, P.b, A_eq, b_eq, solver=solver, settings=settings, fallback=_LP,
+                               check=backend().lp_check)
     if result.status == "infeasible":
         return -np.inf
     if result.status == "unbounded":
@@ -489,10 +455,10 @@ def contains(P: Polytope, x: Any, tolerance: float = CONTAINMENT_TOLERANCE) -> b
         tolerance: slack [units of ``x``]; default :data:`CONTAINMENT_TOLERANCE`.
     """
     point = _vector("x", x, P.dim)
-    slack = tolerance * np.linalg.norm(P.A, axis=1)
+    slack = tolerance * row_norms(P.A)
     if np.any(P.A @ point - P.b > slack):
         return False
-    slack_eq = tolerance * np.linalg.norm(P.A_eq, axis=1)
+    slack_eq = tolerance * row_norms(P.A_eq)
     return bool(np.all(np.abs(P.A_eq @ point - P.b_eq) <= slack_eq))
 
 
@@ -507,13 +473,14 @@ def intersect(P: Polytope, Q: Polytope) -> Polytope:
     )
 
 
-def interiors_intersect(P: Polytope, Q: Polytope, *, solver: str = DEFAULT_LP_SOLVER) -> bool:
+def interiors_intersect(P: Polytope, Q: Polytope, *, solver: str | None = None,
+                        settings: SolverSettings | None = None) -> bool:
     """Whether ``P ∩ Q`` holds a ball of radius > :data:`INTERIOR_TOLERANCE` in its affine hull.
 
     The hull is the one of both sets' equalities together: two segments of the same line have
     intersecting interiors when they overlap on a length, not when they merely touch.
     """
-    return chebyshev_ball(intersect(P, Q), solver=solver).full_dimensional
+    return chebyshev_ball(intersect(P, Q), solver=solver, settings=settings).full_dimensional
 
 
 # ---------------------------------------------------------------------------------------------
@@ -574,23 +541,23 @@ def _near_pairs_sorted(unit: np.ndarray, threshold: float, sign: float) -> np.nd
 
 
 def _normalise_and_merge(
-    G: np.ndarray, h: np.ndarray, row_norms: np.ndarray, tolerance: float
+    G: np.ndarray, h: np.ndarray, a_norms: np.ndarray, tolerance: float
 ) -> tuple[np.ndarray | None, list[tuple[int, int]]]:
     """Unit rows, zero rows dropped, duplicates merged; opposite pairs that make equalities.
 
     Args:
         G: the rows in hull coordinates.
         h: their right-hand sides.
-        row_norms: norms of the original rows (the scale of "zero").
+        a_norms: norms of the original rows (the scale of "zero").
         tolerance: redundancy tolerance [units of x].
 
     Returns:
         ``(kept, pairs)``: indices of the rows kept (``None`` if a row proves the set empty),
         and the pairs ``(i, j)`` of kept opposite rows that make an equality.
     """
-    g_norms = _row_norms(G)
-    zero = g_norms <= ZERO_TOLERANCE * row_norms
-    if np.any(h[zero] < -CONTAINMENT_TOLERANCE * np.maximum(row_norms[zero], 1e-300)):
+    g_norms = row_norms(G)
+    zero = g_norms <= ZERO_TOLERANCE * a_norms
+    if np.any(h[zero] < -CONTAINMENT_TOLERANCE * np.maximum(a_norms[zero], 1e-300)):
         return None, []
     candidates = np.flatnonzero(~zero)
     if candidates.size == 0:
@@ -637,7 +604,7 @@ class _RedundancyLPs:
     """The redundancy LPs of one pruning: the door's lean path and buffers for their rows.
 
     Attributes:
-        lps: the door's lean path (:func:`_lps`).
+        lps: the door's lean path, with :data:`_BOUNDED_LP`.
         rows: ``(m + 1, d)``: the LP's rows are its leading rows (C-contiguous, as DAQP needs).
         rhs: ``(m + 1,)``: their right-hand sides.
     """
@@ -647,10 +614,11 @@ class _RedundancyLPs:
     rhs: np.ndarray
 
     @classmethod
-    def for_rows(cls, unit: np.ndarray, solver: str) -> _RedundancyLPs:
+    def for_rows(cls, unit: np.ndarray, settings: SolverSettings) -> _RedundancyLPs:
         """Buffers for LPs over at most every row of ``unit`` plus one."""
         m, d = unit.shape
-        return cls(_lps(solver), np.empty((m + 1, d)), np.empty(m + 1))
+        lps = InequalityLPs(settings=settings, fallback=_BOUNDED_LP, check=backend().lp_check)
+        return cls(lps, np.empty((m + 1, d)), np.empty(m + 1))
 
 
 def _is_redundant(
@@ -680,7 +648,7 @@ def _irredundant_rows(
     offsets: np.ndarray,
     center: np.ndarray | None,
     tolerance: float,
-    solver: str,
+    settings: SolverSettings,
 ) -> np.ndarray:
     r"""Mask of the irredundant rows of :math:`\{z : g_i z \le h_i\}` (unit rows, non-empty).
 
@@ -697,7 +665,7 @@ def _irredundant_rows(
     """
     m = unit.shape[0]
     status = np.zeros(m, dtype=np.int8)  # 0 unknown, 1 irredundant, -1 redundant
-    lps = _RedundancyLPs.for_rows(unit, solver)
+    lps = _RedundancyLPs.for_rows(unit, settings)
 
     def against_all_others(i: int) -> int:
         others = status != -1
@@ -758,7 +726,8 @@ def minimal_representation(
     P: Polytope,
     *,
     tolerance: float = REDUNDANCY_TOLERANCE,
-    solver: str = DEFAULT_LP_SOLVER,
+    solver: str | None = None,
+    settings: SolverSettings | None = None,
     use_minrep: bool = True,
     ball: ChebyshevBall | None = None,
 ) -> Polytope:
@@ -791,9 +760,10 @@ def minimal_representation(
     Args:
         P: the polytope.
         tolerance: redundancy slack [units of x]; default :data:`REDUNDANCY_TOLERANCE`.
-        solver: LP back-end.
+        solver: LP back-end (a name).
+        settings: the solver settings (instead of ``solver``).
         use_minrep: run stage 4 (when ``daqp.minrep`` is installed).
-        ball: ``chebyshev_ball(P, solver=solver)`` when the caller has it already (stage 2 then
+        ball: ``chebyshev_ball(P, settings=settings)`` when the caller has it already (stage 2 then
             reuses it instead of solving the same LP again).
 
     Returns:
@@ -804,26 +774,27 @@ def minimal_representation(
     d = P.dim
     if P.empty:
         return Polytope.empty_set(d)
+    settings = settings_from(solver, settings)
     A_eq, b_eq = _independent_equalities(P.A_eq, P.b_eq)
     hull = _affine_hull(A_eq, b_eq, d)
     if ball is None:
-        ball = chebyshev_ball(P, solver=solver)
+        ball = chebyshev_ball(P, settings=settings)
     if hull is None or not ball.found:
         return Polytope.empty_set(d)
     G = P.A @ hull.N
     h = P.b - P.A @ hull.x0
-    kept, pairs = _normalise_and_merge(G, h, _row_norms(P.A), tolerance)
+    kept, pairs = _normalise_and_merge(G, h, row_norms(P.A), tolerance)
     if kept is None:
         return Polytope.empty_set(d)
     if pairs:  # new equalities: start again with them
         return minimal_representation(_slabs_as_equalities(P, A_eq, b_eq, pairs), tolerance=tolerance,
-                                      solver=solver, use_minrep=use_minrep)
-    g_norms = _row_norms(G[kept])
+                                      settings=settings, use_minrep=use_minrep)
+    g_norms = row_norms(G[kept])
     unit = np.ascontiguousarray(G[kept] / g_norms[:, None])
     offsets = np.ascontiguousarray(h[kept] / g_norms)
     center = hull.N.T @ (ball.center - hull.x0) if ball.full_dimensional else None
     try:
-        unit, offsets = _without_redundant_rows(unit, offsets, center, tolerance, solver, use_minrep)
+        unit, offsets = _without_redundant_rows(unit, offsets, center, tolerance, settings, use_minrep)
     except _EmptySet:
         return Polytope.empty_set(d)
     A_out = unit @ hull.N.T
@@ -833,7 +804,8 @@ def minimal_representation(
 
 
 def _without_redundant_rows(unit: np.ndarray, offsets: np.ndarray, center: np.ndarray | None,
-                            tolerance: float, solver: str, use_minrep: bool) -> tuple[np.ndarray, np.ndarray]:
+                            tolerance: float, settings: SolverSettings, use_minrep: bool
+                            ) -> tuple[np.ndarray, np.ndarray]:
     """Stages 4 and 5 of :func:`minimal_representation` on unit rows ``unit z <= offsets``.
 
     ``daqp.minrep``'s drops (strictly redundant rows), then one LP per surviving row
@@ -846,7 +818,7 @@ def _without_redundant_rows(unit: np.ndarray, offsets: np.ndarray, center: np.nd
         strictly_redundant = np.asarray(_daqp_minrep(unit, offsets)) == 1
         unit, offsets = unit[~strictly_redundant], offsets[~strictly_redundant]
     if unit.shape[0] > 1:
-        keep = _irredundant_rows(unit, offsets, center, tolerance, solver)
+        keep = _irredundant_rows(unit, offsets, center, tolerance, settings)
         unit, offsets = unit[keep], offsets[keep]
     return unit, offsets
 
@@ -890,7 +862,7 @@ def _eliminate_with_equalities(
         equalities reduce to a violated ``0 = b``.
     """
     while A_eq.shape[0]:
-        norms = _row_norms(A_eq)
+        norms = row_norms(A_eq)
         zero = norms <= ZERO_TOLERANCE
         if np.any(np.abs(b_eq[zero]) > EQUALITY_TOLERANCE):
             return None
@@ -928,7 +900,7 @@ def _fourier_motzkin_step(
     Returns:
         ``(A', b', j)``: the new rows without column ``j``, and ``j``.
     """
-    norms = _row_norms(A)
+    norms = row_norms(A)
     norms[norms == 0.0] = 1.0
     A, b = A / norms[:, None], b / norms
     coefficients = A[:, n_keep:]
@@ -954,7 +926,8 @@ def project(
     *,
     method: str = "fourier_motzkin",
     tolerance: float = REDUNDANCY_TOLERANCE,
-    solver: str = DEFAULT_LP_SOLVER,
+    solver: str | None = None,
+    settings: SolverSettings | None = None,
     ball: ChebyshevBall | None = None,
     minimal: bool = False,
 ) -> Polytope:
@@ -972,7 +945,8 @@ def project(
         keep: the coordinates kept, in that order (an ``int`` ``k`` keeps the first ``k``).
         method: ``"fourier_motzkin"`` (the only one implemented).
         tolerance: redundancy slack of the pruning [units of x].
-        solver: LP back-end of the pruning.
+        solver: LP back-end of the pruning (a name).
+        settings: the solver settings (instead of ``solver``).
         ball: a Chebyshev ball of the set ``P`` (of any H-representation of it) when the caller
             has one: the first pruning reuses it instead of solving its LP again, when ``keep``
             is ``P``'s leading coordinates in order (so the coordinates are not permuted).
@@ -991,12 +965,13 @@ def project(
         raise InputError(f"unknown projection method {method!r}; known: 'fourier_motzkin'")
     kept = _keep_indices(keep, P.dim)
     n_keep = len(kept)
+    settings = settings_from(solver, settings)
     if n_keep == 0:  # onto R^0: the point if P is non-empty
-        return _r0(not chebyshev_ball(P, solver=solver).found)
+        return _r0(not chebyshev_ball(P, settings=settings).found)
     order = kept + [i for i in range(P.dim) if i not in kept]
     in_order = order == list(range(P.dim))
     current = P if minimal and in_order else minimal_representation(
-        Polytope(P.A[:, order], P.b, P.A_eq[:, order], P.b_eq), tolerance=tolerance, solver=solver,
+        Polytope(P.A[:, order], P.b, P.A_eq[:, order], P.b_eq), tolerance=tolerance, settings=settings,
         ball=ball if in_order else None)
     while True:
         if current.empty:
@@ -1009,12 +984,12 @@ def project(
         A, b, A_eq, b_eq = reduced
         if A.shape[1] == n_keep:
             return minimal_representation(
-                Polytope(A, b, A_eq, b_eq), tolerance=tolerance, solver=solver
+                Polytope(A, b, A_eq, b_eq), tolerance=tolerance, settings=settings
             )
         A, b, j = _fourier_motzkin_step(A, b, n_keep)
         A_eq = np.delete(A_eq, j, axis=1)  # zero in the eliminated columns
         current = minimal_representation(
-            Polytope(A, b, A_eq, b_eq), tolerance=tolerance, solver=solver
+            Polytope(A, b, A_eq, b_eq), tolerance=tolerance, settings=settings
         )
         if current.dim == n_keep:
             return current
@@ -1024,7 +999,7 @@ def project(
 # set difference
 
 
-def _subtract(R: Polytope, Q: Polytope, solver: str) -> list[Polytope]:
+def _subtract(R: Polytope, Q: Polytope, settings: SolverSettings) -> list[Polytope]:
     r"""``R`` minus ``Q`` (both in minimal representation, ``R`` full-dimensional in its hull).
 
     If ``R ∩ Q`` has no interior in ``R``'s affine hull, ``R`` is returned whole. Otherwise, for
@@ -1032,22 +1007,23 @@ def _subtract(R: Polytope, Q: Polytope, solver: str) -> list[Polytope]:
     :math:`R \cap \{q_k x \ge \beta_k\} \cap \{q_j x \le \beta_j,\ j < k\}`; the pieces
     cover :math:`R \setminus Q`, have disjoint interiors, and the ones with no interior are dropped.
     """
-    common = chebyshev_ball(intersect(R, Q), solver=solver)
-    own = chebyshev_ball(R, solver=solver)
+    common = chebyshev_ball(intersect(R, Q), settings=settings)
+    own = chebyshev_ball(R, settings=settings)
     if not common.full_dimensional or common.affine_dimension < own.affine_dimension:
         return [R]
     pieces: list[Polytope] = []
     A, b = R.A, R.b
     for row, rhs in zip(Q.A, Q.b, strict=True):
         piece = Polytope(np.vstack([A, -row]), np.append(b, -rhs), R.A_eq, R.b_eq)
-        if chebyshev_ball(piece, solver=solver).full_dimensional:
-            pieces.append(minimal_representation(piece, solver=solver))
+        if chebyshev_ball(piece, settings=settings).full_dimensional:
+            pieces.append(minimal_representation(piece, settings=settings))
         A, b = np.vstack([A, row]), np.append(b, rhs)
     return pieces
 
 
 def set_difference(
-    P: Polytope, others: Sequence[Polytope], *, solver: str = DEFAULT_LP_SOLVER
+    P: Polytope, others: Sequence[Polytope], *, solver: str | None = None,
+    settings: SolverSettings | None = None,
 ) -> list[Polytope]:
     r"""``P`` minus the union of ``others``, as convex pieces with non-empty interior.
 
@@ -1064,7 +1040,8 @@ def set_difference(
     Args:
         P: the polytope.
         others: the polytopes to remove (same dimension).
-        solver: LP back-end.
+        solver: LP back-end (a name).
+        settings: the solver settings (instead of ``solver``).
 
     Returns:
         The pieces, each in minimal representation; ``[]`` if nothing of positive volume is left.
@@ -1074,163 +1051,16 @@ def set_difference(
     if P.dim == 0:  # the point minus any set that holds it
         whole = _holds_in_r0(P) and not any(_holds_in_r0(Q) for Q in others)
         return [_r0(False)] if whole else []
-    start = minimal_representation(P, solver=solver)
-    if start.empty or not chebyshev_ball(start, solver=solver).full_dimensional:
+    settings = settings_from(solver, settings)
+    start = minimal_representation(P, settings=settings)
+    if start.empty or not chebyshev_ball(start, settings=settings).full_dimensional:
         return []
     pieces = [start]
     for Q in others:
-        reduced = minimal_representation(Q, solver=solver)
+        reduced = minimal_representation(Q, settings=settings)
         if reduced.empty:
             continue
-        pieces = [piece for R in pieces for piece in _subtract(R, reduced, solver)]
+        pieces = [piece for R in pieces for piece in _subtract(R, reduced, settings)]
         if not pieces:
             break
     return pieces
-
-
-# ---------------------------------------------------------------------------------------------
-# vertices and hulls: the one home of this geometry (planners, statics and figures use it)
-
-VERTEX_TOLERANCE = 1e-9
-"""A candidate vertex of ``A x <= b`` is kept when every unit row is violated by at most this
-[units of x]; vertices closer than this (relative to the set's scale) are one. Default ``1e-9``."""
-
-
-def vertices_from_halfspaces(A: Any, b: Any, *, tolerance: float = VERTEX_TOLERANCE,
-                             max_candidates: int | None = None) -> np.ndarray:
-    """The vertices of the bounded polytope ``{x in R^d : A x <= b}``.
-
-    Every choice of d rows whose matrix is regular (``|det| > ZERO_TOLERANCE`` of the unit rows)
-    gives a candidate, kept when it satisfies every row up to ``tolerance``; duplicates are merged.
-    In 2-D the vertices come counter-clockwise.
-
-    Args:
-        A: rows, shape (m, d).
-        b: right-hand sides, shape (m,).
-        tolerance: see :data:`VERTEX_TOLERANCE`.
-        max_candidates: refuse more than this many choices of d rows (None: no limit).
-
-    Returns:
-        The vertices, shape (V, d) (V = 0 for an empty set).
-
-    Raises:
-        InputError: bad shapes, or more candidates than ``max_candidates``.
-    """
-    A = np.asarray(A, dtype=float)
-    b = np.asarray(b, dtype=float).reshape(-1)
-    if A.ndim != 2 or b.shape != (A.shape[0],):
-        raise InputError(f"expected A of shape (m, d) and b of shape (m,), got {A.shape} and {b.shape}")
-    count, d = A.shape
-    if max_candidates is not None and math.comb(count, d) > max_candidates:
-        raise InputError(f"{count} rows in {d} dimensions give {math.comb(count, d)} vertex candidates, "
-                         f"more than {max_candidates}")
-    norms = np.linalg.norm(A, axis=1)
-    keep = norms > 0
-    unit_A = np.divide(A, norms[:, None], out=np.zeros_like(A), where=keep[:, None])
-    unit_b = np.divide(b, norms, out=np.zeros_like(b), where=keep)
-    if np.any(~keep & (b < -tolerance)):
-        return np.zeros((0, d))
-    found: list[np.ndarray] = []
-    for rows in itertools.combinations(np.nonzero(keep)[0], d):
-        sub = unit_A[list(rows)]
-        if abs(np.linalg.det(sub)) <= ZERO_TOLERANCE:
-            continue
-        point = np.linalg.solve(sub, unit_b[list(rows)])
-        if np.all(unit_A @ point <= unit_b + tolerance):
-            scale = max(1.0, float(np.max(np.abs(point))))
-            point[np.abs(point) <= ZERO_TOLERANCE * scale] = 0.0  # no 1e-16 noise around zero
-            if not any(np.max(np.abs(point - v)) <= tolerance * scale for v in found):
-                found.append(point)
-    vertices = np.array(found).reshape(-1, d)
-    if d == 2 and len(vertices) >= 3:
-        centre = vertices.mean(axis=0)
-        vertices = vertices[np.argsort(np.arctan2(vertices[:, 1] - centre[1], vertices[:, 0] - centre[0]))]
-    return vertices
-
-
-def hull_from_points(points: Any) -> np.ndarray:
-    """Convex hull of 2-D points, counter-clockwise, without repeated or collinear vertices.
-
-    Andrew's monotone chain, with points equal to 12 digits merged and turns smaller than
-    ``1e-12 scale^2`` (scale: the largest coordinate) counted as straight. Degenerate input gives
-    one point, or the two ends of a segment.
-    """
-    unique = np.unique(np.round(np.asarray(points, dtype=float).reshape(-1, 2), 12), axis=0)
-    if len(unique) <= 2:
-        return unique
-    scale = float(np.max(np.abs(unique))) or 1.0
-    tol = 1e-12 * scale * scale
-
-    def cross(o: np.ndarray, a: np.ndarray, c: np.ndarray) -> float:
-        return float((a[0] - o[0]) * (c[1] - o[1]) - (a[1] - o[1]) * (c[0] - o[0]))
-
-    def chain(sequence: Any) -> list[np.ndarray]:
-        out: list[np.ndarray] = []
-        for p in sequence:
-            while len(out) >= 2 and cross(out[-2], out[-1], p) <= tol:
-                out.pop()
-            out.append(p)
-        return out
-
-    lower, upper = chain(unique), chain(unique[::-1])
-    hull = lower[:-1] + upper[:-1]
-    if len(hull) < 3:  # collinear: the two ends
-        return np.array([unique[0], unique[-1]])
-    return np.array(hull)
-
-
-def clip_polygon(A: Any, b: Any, box: Any, tolerance: float = VERTEX_TOLERANCE) -> np.ndarray:
-    """Vertices of ``{x in R^2 : A x <= b}`` inside a box ``(xmin, xmax, ymin, ymax)``, counter-clockwise.
-
-    The box is clipped by each half-plane in turn (Sutherland-Hodgman on a convex polygon): exact
-    up to ``tolerance``, no LP. Rows are normalised first; a zero row ``0 . x <= b_i`` empties the
-    set if ``b_i < -tolerance`` and is ignored otherwise. Vertices closer than ``tolerance`` merge.
-
-    Returns:
-        The vertices, shape (V, 2): V = 0 for an empty set, 1 or 2 for a point or a segment
-        (a set of empty interior), 3 or more for a polygon.
-
-    Raises:
-        InputError: wrong shapes, non-finite values, or an empty or inverted box.
-    """
-    A = np.asarray(A, dtype=float)
-    b = np.asarray(b, dtype=float).reshape(-1)
-    if A.ndim != 2 or A.shape[1] != 2 or b.shape != (A.shape[0],):
-        raise InputError(f"expected A of shape (m, 2) and b of shape (m,), got {A.shape} and {b.shape}")
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
-        raise InputError("A and b must be finite")
-    xmin, xmax, ymin, ymax = (float(v) for v in box)
-    if not (xmin < xmax and ymin < ymax) or not all(map(math.isfinite, (xmin, xmax, ymin, ymax))):
-        raise InputError(f"box must be (xmin, xmax, ymin, ymax) with min < max, got {tuple(box)}")
-    polygon = [np.array(v) for v in ((xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax))]
-    norms = np.linalg.norm(A, axis=1)
-    for row, rhs, norm in zip(A, b, norms, strict=True):
-        if norm <= tolerance:
-            if rhs < -tolerance:
-                return np.zeros((0, 2))
-            continue
-        a, c = row / norm, rhs / norm
-        clipped: list[np.ndarray] = []
-        for i, current in enumerate(polygon):
-            previous = polygon[i - 1]
-            s_cur, s_prev = float(a @ current) - c, float(a @ previous) - c
-            cur_in, prev_in = s_cur <= tolerance, s_prev <= tolerance
-            if cur_in != prev_in:
-                clipped.append(previous + (s_prev / (s_prev - s_cur)) * (current - previous))
-            if cur_in:
-                clipped.append(current)
-        polygon = _merge_close(clipped, tolerance)
-        if not polygon:
-            return np.zeros((0, 2))
-    return np.array(polygon).reshape(-1, 2)
-
-
-def _merge_close(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
-    """Drop vertices within ``tolerance`` of the previous one kept (cyclically)."""
-    kept: list[np.ndarray] = []
-    for v in vertices:
-        if not kept or np.linalg.norm(v - kept[-1]) > tolerance:
-            kept.append(v)
-    while len(kept) > 1 and np.linalg.norm(kept[0] - kept[-1]) <= tolerance:
-        kept.pop()
-    return kept

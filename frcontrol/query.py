@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from .errors import InputError
+from .geometry import constant_rows
 from .kernel import backend, compiled, twin
 from .mode_batch import decide_intervals
 from .modes import ContactProblem, ModeSystem
@@ -152,13 +153,6 @@ class BatchSolutions:
             "ambiguous_outputs", "tolerance")})
 
 
-def row_norms(H: np.ndarray, zero_row_tolerance: float) -> tuple[np.ndarray, np.ndarray]:
-    """Row norms, and the mask of numerically constant rows (norm <= tolerance * max(1, largest))."""
-    norms = np.sqrt((H * H).sum(axis=1))
-    largest = float(norms.max()) if norms.shape[0] else 0.0
-    return norms, norms <= zero_row_tolerance * max(1.0, largest)
-
-
 def _mode_rows(entry: QueryMode, zero_row_tolerance: float
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One mode's rows ``(H_u, H_w, h_0, norms, motion)``: its inequalities, then ``E u = e`` twice.
@@ -168,7 +162,7 @@ def _mode_rows(entry: QueryMode, zero_row_tolerance: float
     """
     G, response = entry.system.G, entry.response
     H_u, H_w = G @ response.X_u, G @ response.X_w
-    norms, constant = row_norms(np.hstack([H_u, H_w]), zero_row_tolerance)
+    norms, constant = constant_rows(np.hstack([H_u, H_w]), zero_row_tolerance)
     norms[constant] = 1.0
     H_w = H_w / norms[:, None]
     H_w[constant] = 0.0
@@ -506,4 +500,4 @@ twin("query_point", numpy=_query_point_numpy, compiled=_query_point_compiled)
 
 
 __all__ = ["BATCH_CHUNK_POINTS", "BatchSolutions", "BOUNDARY_TOLERANCE", "check_inputs", "Located",
-           "QueryMode", "QueryTable", "row_norms", "WDecider"]
+           "QueryMode", "QueryTable", "WDecider"]

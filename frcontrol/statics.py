@@ -87,6 +87,7 @@ retried once with the reference back-end (HiGHS).
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -94,17 +95,17 @@ from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
-import scipy.spatial
 
 from . import polytope as poly
 from .engine import solutions_at
 from .errors import InputError
+from .geometry import hull_facets, row_norms, vertices_from_halfspaces
 from .jsonable import finite_or_none, to_jsonable
 from .kernel import backend
 from .modes import ContactProblem, add_scene_modes, build_mode_system
 from .response import AmbiguousOutputs, solve_affine
 from .scene import Scene, parse_input_assignments
-from .solvers import DEFAULT_LP_SOLVER, LPResult, SolverFailed, must_solve, solve_lp
+from .solvers import SolverFailed, SolverSettings, must_solve, settings_from, solve_lp
 
 __all__ = [
     "BodyLoad",
@@ -342,7 +343,7 @@ def static_body(
     if k == 0:  # no contact: the free body (no closure, no support; equilibrium only if unloaded)
         normals = np.zeros((0, 2))
     nrm = _finite_array("normals", normals, (k, 2))
-    lengths = np.linalg.norm(nrm, axis=1)
+    lengths = row_norms(nrm)
     if np.any(lengths < 1e-12):
         raise InputError(f"every normal must be non-zero; got {nrm.tolist()}")
     nrm = nrm / lengths[:, None]
@@ -362,7 +363,7 @@ def static_body(
     elif inertia is not None and _finite_scalar("inertia", inertia, nonnegative=True) > 1e-12 * m:
         length, source = math.sqrt(float(inertia) / m), "radius of gyration"
     else:
-        far = float(np.max(np.linalg.norm(pts - c, axis=1)))
+        far = float(np.max(row_norms(pts - c)))
         length, source = (far, "farthest contact") if far > 1e-9 else (1.0, "unit")
     contact_names = tuple(names) if names is not None else tuple(f"c{i}" for i in range(k))
     if len(contact_names) != k or len(set(contact_names)) != k:
@@ -512,15 +513,17 @@ def primitive_wrenches(body: StaticBody, *, friction: bool) -> np.ndarray:
 # LP helpers
 
 
-def _lp(c: np.ndarray, solver: str, **kwargs: Any) -> LPResult:
-    """One LP through the door; a back-end error is retried once with the reference back-end.
+_STATICS_LP = must_solve("a statics LP", bounded=False, retry_unbounded=False)
+"""The fallback policy of every statics LP: a back-end error is solved again by the other back-end;
+no usable answer raises :class:`~frcontrol.solvers.SolverFailed`."""
 
-    DAQP gets ``primal_tol = DAQP_PRIMAL_TOLERANCE``; the answer is checked by the kernel's
-    ``lp_check`` (:func:`frcontrol.kernel.backend`).
-    """
-    options: dict[str, Any] = {"primal_tol": DAQP_PRIMAL_TOLERANCE} if solver == "daqp" else {}
-    return solve_lp(c, solver=solver, **kwargs, **options, check=backend().lp_check,
-                    fallback=must_solve("a statics LP", bounded=False, retry_unbounded=False))
+
+@functools.lru_cache(maxsize=8)
+def _lp_settings(settings: SolverSettings) -> SolverSettings:
+    """``settings`` for a statics LP: DAQP gets ``primal_tol = DAQP_PRIMAL_TOLERANCE`` unless set."""
+    if "primal_tol" in settings.options.get("daqp", {}):
+        return settings
+    return settings.with_options("daqp", primal_tol=DAQP_PRIMAL_TOLERANCE)
 
 
 def _rank(matrix: np.ndarray, *, normalise_rows: bool = False) -> int:
@@ -528,7 +531,7 @@ def _rank(matrix: np.ndarray, *, normalise_rows: bool = False) -> int:
         return 0
     m = matrix
     if normalise_rows:
-        norms = np.linalg.norm(m, axis=1)
+        norms = row_norms(m)
         m = m[norms > 0] / norms[norms > 0, None]
         if m.shape[0] == 0:
             return 0
@@ -575,7 +578,7 @@ class Closure:
     tolerances: Mapping[str, float]
 
 
-def _closure(body: StaticBody, kind: ClosureKind, solver: str) -> Closure:
+def _closure(body: StaticBody, kind: ClosureKind, settings: SolverSettings) -> Closure:
     W = primitive_wrenches(body, friction=kind == "force")
     p = W.shape[1]
     rank = _rank(W)
@@ -587,16 +590,17 @@ def _closure(body: StaticBody, kind: ClosureKind, solver: str) -> Closure:
     b_eq = np.array([0.0, 0.0, 0.0, 1.0])
     lb = np.concatenate([np.zeros(p), [-np.inf]])
     ub = np.concatenate([np.full(p, np.inf), [1.0]])
-    result = _lp(cost, solver, A_ub=A_ub, b_ub=np.zeros(p), A_eq=A_eq, b_eq=b_eq, lb=lb, ub=ub)
+    result = solve_lp(cost, A_ub=A_ub, b_ub=np.zeros(p), A_eq=A_eq, b_eq=b_eq, lb=lb, ub=ub,
+        settings=_lp_settings(settings),
+        fallback=_STATICS_LP, check=backend().lp_check)
     s_star = float(result.x[-1]) if result.x is not None else float("nan")
     closed = bool(rank == 3 and result.found and s_star > CLOSURE_TOLERANCE)
     margin, direction = 0.0, None
     if closed:
-        hull = scipy.spatial.ConvexHull(W.T)
-        distances = -hull.equations[:, 3]
+        normals, distances = hull_facets(W.T)
         j = int(np.argmin(distances))
         margin = max(float(distances[j]), 0.0)
-        direction = hull.equations[j, :3].copy()
+        direction = normals[j].copy()
     return Closure(
         kind=kind, closed=closed, margin=margin, weakest_direction=direction, rank=rank,
         min_coefficient=s_star, wrenches=W, characteristic_length=body.characteristic_length,
@@ -604,14 +608,18 @@ def _closure(body: StaticBody, kind: ClosureKind, solver: str) -> Closure:
     )
 
 
-def form_closure(body: StaticBody, *, solver: str = DEFAULT_LP_SOLVER) -> Closure:
+def form_closure(body: StaticBody, *, solver: str | None = None,
+                 settings: SolverSettings | None = None) -> Closure:
     """First-order form closure (frictionless) and its margin; see the module docstring."""
-    return _closure(body, "form", solver)
+    settings = settings_from(solver, settings)
+    return _closure(body, "form", settings)
 
 
-def force_closure(body: StaticBody, *, solver: str = DEFAULT_LP_SOLVER) -> Closure:
+def force_closure(body: StaticBody, *, solver: str | None = None,
+                  settings: SolverSettings | None = None) -> Closure:
     """Force closure with the friction cones (two edges per contact) and its margin."""
-    return _closure(body, "force", solver)
+    settings = settings_from(solver, settings)
+    return _closure(body, "force", settings)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -661,7 +669,8 @@ class Equilibrium:
         return self.dimension > 0
 
 
-def _phase_one(A: np.ndarray, b: np.ndarray, C: np.ndarray, solver: str) -> tuple[float, np.ndarray]:
+def _phase_one(A: np.ndarray, b: np.ndarray, C: np.ndarray, settings: SolverSettings
+               ) -> tuple[float, np.ndarray]:
     """``min r s.t. |A lam - b|_inf <= r, C lam <= 0``; returns ``(r*, lam)``."""
     m, nv = A.shape
     cost = np.zeros(nv + 1)
@@ -674,22 +683,27 @@ def _phase_one(A: np.ndarray, b: np.ndarray, C: np.ndarray, solver: str) -> tupl
     ])
     b_ub = np.concatenate([b, -b, np.zeros(C.shape[0])])
     lb = np.concatenate([np.full(nv, -np.inf), [0.0]])
-    result = _lp(cost, solver, A_ub=A_ub, b_ub=b_ub, lb=lb)
+    result = solve_lp(cost, A_ub=A_ub, b_ub=b_ub, lb=lb,
+        settings=_lp_settings(settings),
+        fallback=_STATICS_LP, check=backend().lp_check)
     if result.x is None:
         raise SolverFailed("the equilibrium phase-one LP", {result.solver: result.raw_status})
     return max(float(result.x[-1]), 0.0), result.x[:-1]
 
 
 def static_equilibrium(
-    body: StaticBody, *, force_ranges: bool = True, solver: str = DEFAULT_LP_SOLVER
+    body: StaticBody, *, force_ranges: bool = True, solver: str | None = None,
+    settings: SolverSettings | None = None,
 ) -> Equilibrium:
     """Static equilibrium, an interior force set and the indeterminacy; see the module docstring.
 
     Args:
         body: the body.
         force_ranges: also compute the range of every force component (4k LPs).
-        solver: LP back-end.
+        solver: LP back-end (a name).
+        settings: the solver settings (instead of ``solver``).
     """
+    settings = settings_from(solver, settings)
     k = body.k
     nv = 2 * k
     G = wrench_matrix(body)
@@ -700,13 +714,13 @@ def static_equilibrium(
     C, labels = cone_rows(body)
     tolerances = {"equilibrium": EQUILIBRIUM_TOLERANCE, "rank": RANK_TOLERANCE,
                   "implicit_slack_threshold": IMPLICIT_SLACK_THRESHOLD, "tie_break": TIE_BREAK_WEIGHT}
-    r_star, lam0 = _phase_one(G, -w, C, solver)
+    r_star, lam0 = _phase_one(G, -w, C, settings)
     if r_star > EQUILIBRIUM_TOLERANCE * scale:
         return Equilibrium(False, r_star, load, None, None, 0.0, -1, (), None, None, float("nan"),
                            body.characteristic_length, tolerances)
 
     m = C.shape[0]
-    strict = _strict_cone_rows(G, w, C, force_scale, solver)
+    strict = _strict_cone_rows(G, w, C, force_scale, settings)
     tight = tuple(label for label, s in zip(labels, strict, strict=True) if not s)
     dimension = nv - _rank(np.vstack([G, C[~strict]]), normalise_rows=True)
 
@@ -716,8 +730,9 @@ def static_equilibrium(
     A_ub = np.hstack([C, force_scale * strict[:, None].astype(float)])
     lb = np.concatenate([np.full(nv, -np.inf), [0.0]])
     ub = np.concatenate([np.full(nv, np.inf), [1.0]])
-    interior = _lp(cost, solver, A_ub=A_ub, b_ub=np.zeros(m), A_eq=np.hstack([G, np.zeros((3, 1))]),
-                   b_eq=-w, lb=lb, ub=ub)
+    interior = solve_lp(cost, A_ub=A_ub, b_ub=np.zeros(m), A_eq=np.hstack([G, np.zeros((3, 1))]),
+                        b_eq=-w, lb=lb, ub=ub, settings=_lp_settings(settings),
+        fallback=_STATICS_LP, check=backend().lp_check)
     if interior.x is not None:
         lam = interior.x[:nv]
         slack = float(interior.x[-1]) * force_scale if np.any(strict) else 0.0
@@ -726,7 +741,7 @@ def static_equilibrium(
 
     n_range = t_range = None
     if force_ranges and interior.found:
-        bounds = _force_ranges(G, w, C, lam, solver)
+        bounds = _force_ranges(G, w, C, lam, settings)
         n_range, t_range = bounds[:k], bounds[k:]
     return Equilibrium(
         exists=True, residual=r_star, load=load, lambda_n=lam[:k].copy(), lambda_t=lam[k:].copy(),
@@ -736,8 +751,8 @@ def static_equilibrium(
     )
 
 
-def _strict_cone_rows(G: np.ndarray, w: np.ndarray, C: np.ndarray, force_scale: float, solver: str
-                      ) -> np.ndarray:
+def _strict_cone_rows(G: np.ndarray, w: np.ndarray, C: np.ndarray, force_scale: float,
+                      settings: SolverSettings) -> np.ndarray:
     """Per cone row, whether some equilibrium force set holds it strictly (Freund-Roundy-Todd).
 
     One LP: max sum s  s.t.  G lam + w tau = 0, C lam + F s <= 0, tau >= 1, 0 <= s <= 1 (F the
@@ -750,13 +765,16 @@ def _strict_cone_rows(G: np.ndarray, w: np.ndarray, C: np.ndarray, force_scale: 
     A_ub = np.hstack([C, np.zeros((m, 1)), force_scale * np.eye(m)])
     lb = np.concatenate([np.full(nv, -np.inf), [1.0], np.zeros(m)])
     ub = np.concatenate([np.full(nv + 1, np.inf), np.ones(m)])
-    frt = _lp(cost, solver, A_ub=A_ub, b_ub=np.zeros(m), A_eq=A_eq, b_eq=np.zeros(3), lb=lb, ub=ub)
+    frt = solve_lp(cost, A_ub=A_ub, b_ub=np.zeros(m), A_eq=A_eq, b_eq=np.zeros(3), lb=lb, ub=ub,
+        settings=_lp_settings(settings),
+        fallback=_STATICS_LP, check=backend().lp_check)
     if frt.x is not None:
         return frt.x[nv + 1:] > IMPLICIT_SLACK_THRESHOLD
     return np.zeros(m, dtype=bool)
 
 
-def _force_ranges(G: np.ndarray, w: np.ndarray, C: np.ndarray, lam: np.ndarray, solver: str) -> np.ndarray:
+def _force_ranges(G: np.ndarray, w: np.ndarray, C: np.ndarray, lam: np.ndarray,
+                  settings: SolverSettings) -> np.ndarray:
     """``(2k, 2)``: the least and largest value of every force component over the equilibria.
 
     Two LPs per component; an unbounded side is infinite, one without an answer keeps ``lam``'s.
@@ -767,7 +785,9 @@ def _force_ranges(G: np.ndarray, w: np.ndarray, C: np.ndarray, lam: np.ndarray, 
         for side, sign in ((0, 1.0), (1, -1.0)):
             cost = np.zeros(nv)
             cost[j] = sign
-            res = _lp(cost, solver, A_ub=C, b_ub=np.zeros(m), A_eq=G, b_eq=-w)
+            res = solve_lp(cost, A_ub=C, b_ub=np.zeros(m), A_eq=G, b_eq=-w,
+                settings=_lp_settings(settings),
+        fallback=_STATICS_LP, check=backend().lp_check)
             if res.status == "unbounded":
                 bounds[j, side] = -sign * np.inf
             elif res.found:
@@ -845,7 +865,8 @@ def _moved_com_system(
 
 
 def support_region(
-    body: StaticBody, *, lateral_acceleration: float = 0.0, solver: str = DEFAULT_LP_SOLVER
+    body: StaticBody, *, lateral_acceleration: float = 0.0, solver: str | None = None,
+    settings: SolverSettings | None = None,
 ) -> SupportRegion:
     """The support interval (two LPs) and the planar support region; see the module docstring.
 
@@ -853,11 +874,13 @@ def support_region(
         body: the body (its inputs stay applied where they are while the centre of mass moves).
         lateral_acceleration: ``a`` [m/s^2], ``>= 0``: the supports' horizontal acceleration
             (either way) under which the body must stay at rest. ``0`` gives the vertical strip.
-        solver: LP back-end.
+        solver: LP back-end (a name).
+        settings: the solver settings (instead of ``solver``).
 
     Raises:
         InputError: a negative or non-finite ``lateral_acceleration``.
     """
+    settings = settings_from(solver, settings)
     a = _finite_scalar("lateral_acceleration", lateral_acceleration, nonnegative=True)
     c0 = body.com
     A, b, C = _moved_com_system(body, 0.0, with_y=False)
@@ -867,7 +890,9 @@ def support_region(
     for sign in (1.0, -1.0):
         cost = np.zeros(nvar)
         cost[0] = sign
-        res = _lp(cost, solver, A_ub=C, b_ub=np.zeros(C.shape[0]), A_eq=A, b_eq=b)
+        res = solve_lp(cost, A_ub=C, b_ub=np.zeros(C.shape[0]), A_eq=A, b_eq=b,
+            settings=_lp_settings(settings),
+        fallback=_STATICS_LP, check=backend().lp_check)
         if res.status == "infeasible":
             feasible = False
             break
@@ -897,17 +922,17 @@ def support_region(
     for lateral in (a, -a):
         A2, b2, C2 = _moved_com_system(body, lateral, with_y=True)
         lifted = poly.Polytope(C2, np.zeros(C2.shape[0]), A2, b2)
-        pieces.append(poly.project(lifted, [0, 1], solver=solver))
-    moved = poly.minimal_representation(poly.intersect(*pieces), solver=solver)
+        pieces.append(poly.project(lifted, [0, 1], settings=settings))
+    moved = poly.minimal_representation(poly.intersect(*pieces), settings=settings)
     # back to world coordinates: d = c - c0, so A d <= b becomes A c <= b + A c0
     region = poly.Polytope(moved.A, moved.b + moved.A @ c0, moved.A_eq, moved.b_eq + moved.A_eq @ c0)
     if moved.empty:
         return SupportRegion(True, float(x_min), float(x_max), c0.copy(), contains, a, region, False,
                              True, None, "fourier_motzkin")
-    bounded = all(math.isfinite(poly.support(region, d, solver=solver))
+    bounded = all(math.isfinite(poly.support(region, d, settings=settings))
                   for d in ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)))
     planar = bounded and region.A_eq.shape[0] == 0
-    vertices = poly.vertices_from_halfspaces(region.A, region.b) if planar else None
+    vertices = vertices_from_halfspaces(region.A, region.b) if planar else None
     return SupportRegion(True, float(x_min), float(x_max), c0.copy(), contains, a, region,
                          poly.contains(region, c0, tolerance=1e-9), bounded, vertices, "fourier_motzkin")
 
@@ -938,7 +963,7 @@ def weak_stability(
     scene: Scene,
     inputs: InputValues = None,
     *,
-    solver: str = DEFAULT_LP_SOLVER,
+    solver: str | None = None, settings: SolverSettings | None = None,
 ) -> WeakStability:
     """Weak stability of the scene's robot (joints included) at rest under ``inputs``.
 
@@ -948,6 +973,7 @@ def weak_stability(
     Raises:
         InputError: a fixed base, bad inputs.
     """
+    settings = settings_from(solver, settings)
     _check_statics_scene(scene)
     u = _scene_inputs(scene, inputs)
     state = scene.state(scene.q, np.zeros(scene.robot.nv))
@@ -960,7 +986,7 @@ def weak_stability(
                        [c.mu for c in scene.active_contacts], 1.0, np.zeros(2),
                        scale=BodyScale(characteristic_length=1.0))
     C, _ = cone_rows(body)
-    r_star, lam = _phase_one(A / row_scale[:, None], rhs / row_scale, C, solver)
+    r_star, lam = _phase_one(A / row_scale[:, None], rhs / row_scale, C, settings)
     ok = r_star <= EQUILIBRIUM_TOLERANCE
     return WeakStability(bool(ok), r_star, lam[:k].copy() if ok else None, lam[k:].copy() if ok else None,
                          EQUILIBRIUM_TOLERANCE)
@@ -1002,7 +1028,7 @@ class StrongStability:
     tolerance: float
 
 
-def _dv_range_over_ambiguity(problem: Any, mode: str, u: np.ndarray, solver: str) -> float:
+def _dv_range_over_ambiguity(problem: Any, mode: str, u: np.ndarray, settings: SolverSettings) -> float:
     """``max_j |dv_j|`` over every ambiguity value ``w`` admissible in ``mode`` at input ``u``."""
     system = build_mode_system(problem, mode)
     response = solve_affine(system.A, system.B, system.c)
@@ -1010,7 +1036,7 @@ def _dv_range_over_ambiguity(problem: Any, mode: str, u: np.ndarray, solver: str
     base = response.X_u @ u + response.x_0
     H_w = system.G @ response.X_w
     h = system.g - system.G @ base
-    norms = np.linalg.norm(np.hstack([system.G @ response.X_u, H_w]), axis=1)
+    norms = row_norms(np.hstack([system.G @ response.X_u, H_w]))
     norms[norms == 0.0] = 1.0
     H_w, h = H_w / norms[:, None], h / norms
     p = H_w.shape[1]
@@ -1021,7 +1047,9 @@ def _dv_range_over_ambiguity(problem: Any, mode: str, u: np.ndarray, solver: str
         for j in range(n):
             for sign in (1.0, -1.0):
                 cost = sign * response.X_w[j]
-                res = _lp(cost, solver, A_ub=H_w, b_ub=h + relax, lb=np.full(p, -np.inf))
+                res = solve_lp(cost, A_ub=H_w, b_ub=h + relax, lb=np.full(p, -np.inf),
+                    settings=_lp_settings(settings),
+        fallback=_STATICS_LP, check=backend().lp_check)
                 if res.status == "infeasible":
                     empty = True
                     break
@@ -1040,7 +1068,7 @@ def strong_stability(
     inputs: InputValues = None,
     *,
     weak: WeakStability | None = None,
-    solver: str = DEFAULT_LP_SOLVER,
+    solver: str | None = None, settings: SolverSettings | None = None,
 ) -> StrongStability:
     """Strong stability at rest under ``inputs``, with the mode-domain engine.
 
@@ -1048,20 +1076,22 @@ def strong_stability(
         scene: the scene (its velocity is replaced by zero).
         inputs: ``{name: value}``, the input vector, or None (all 0).
         weak: the weak-stability result if already computed.
-        solver: LP back-end.
+        solver: LP back-end (a name).
+        settings: the solver settings (instead of ``solver``).
 
     Raises:
         InputError: a fixed base, bad inputs.
     """
+    settings = settings_from(solver, settings)
     _check_statics_scene(scene)
     u = _scene_inputs(scene, inputs)
-    weak = weak if weak is not None else weak_stability(scene, u, solver=solver)
+    weak = weak if weak is not None else weak_stability(scene, u, settings=settings)
     problem = ContactProblem.from_scene(scene, scene.q, np.zeros(scene.robot.nv))
     found = []
-    for sol in solutions_at(problem, u, solver=solver):
+    for sol in solutions_at(problem, u, settings=settings):
         size = float(np.max(np.abs(sol.dv), initial=0.0))
         if sol.ambiguous_outputs == "accelerations" and size <= ACCELERATION_TOLERANCE:
-            size = max(size, _dv_range_over_ambiguity(problem, sol.mode, u, solver))
+            size = max(size, _dv_range_over_ambiguity(problem, sol.mode, u, settings))
         found.append(RestSolution(sol.mode, size, size <= ACCELERATION_TOLERANCE, sol.ambiguous_outputs))
     moving = tuple(s.mode for s in found if not s.at_rest)
     return StrongStability(bool(weak.weakly_stable and found and not moving), tuple(found), moving,
@@ -1209,7 +1239,7 @@ def analyze_statics(
     characteristic_length: float | None = None,
     strong: bool = True,
     force_ranges: bool = True,
-    solver: str = DEFAULT_LP_SOLVER,
+    solver: str | None = None, settings: SolverSettings | None = None,
 ) -> StaticsReport:
     """Closure, equilibrium, support region and stability of a scene at its configuration.
 
@@ -1220,32 +1250,34 @@ def analyze_statics(
         characteristic_length: ``L`` [m] (default: the radius of gyration).
         strong: run the strong-stability test (the mode-domain engine: the slowest part).
         force_ranges: compute the range of every equilibrium force component.
-        solver: LP back-end.
+        solver: LP back-end (a name).
+        settings: the solver settings (instead of ``solver``).
 
     Raises:
         InputError: a fixed base, bad inputs or lateral acceleration.
         CoordinateNotFound: an unknown input name.
     """
+    settings = settings_from(solver, settings)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     u = _scene_inputs(scene, inputs) if scene.robot.base == "planar" else None
     body = static_body_from_scene(scene, u, characteristic_length=characteristic_length)
     t1 = time.perf_counter()
     timings["model"] = t1 - t0
-    form = form_closure(body, solver=solver)
-    force = force_closure(body, solver=solver)
+    form = form_closure(body, settings=settings)
+    force = force_closure(body, settings=settings)
     t2 = time.perf_counter()
     timings["closure"] = t2 - t1
-    equilibrium = static_equilibrium(body, force_ranges=force_ranges, solver=solver)
+    equilibrium = static_equilibrium(body, force_ranges=force_ranges, settings=settings)
     t3 = time.perf_counter()
     timings["equilibrium"] = t3 - t2
-    support = support_region(body, lateral_acceleration=lateral_acceleration, solver=solver)
+    support = support_region(body, lateral_acceleration=lateral_acceleration, settings=settings)
     t4 = time.perf_counter()
     timings["support"] = t4 - t3
-    weak = weak_stability(scene, u, solver=solver)
+    weak = weak_stability(scene, u, settings=settings)
     t5 = time.perf_counter()
     timings["weak_stability"] = t5 - t4
-    strong_result = strong_stability(scene, u, weak=weak, solver=solver) if strong else None
+    strong_result = strong_stability(scene, u, weak=weak, settings=settings) if strong else None
     t6 = time.perf_counter()
     timings["strong_stability"] = t6 - t5
     timings["total"] = t6 - t0

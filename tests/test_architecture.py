@@ -60,7 +60,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("kernel", "_kernel"),
     ("model", "urdf", "plane", "drives", "springs", "cholesky"),
     ("scene", "scene_source", "scene_tables", "scene_numbers"),
-    ("polytope", "solvers"),
+    ("geometry", "polytope", "solvers"),
     ("modes", "response", "mode_batch"),
     ("engine", "query", "lcp", "contact_lcp", "siconos"),
     ("simulation", "statics", "stability"),

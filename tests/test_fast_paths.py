@@ -17,7 +17,7 @@ import pytest
 from conftest import needs_kernel
 from test_mode_batch import random_problem
 
-from frcontrol import engine
+from frcontrol import engine, geometry
 from frcontrol import polytope as poly
 from frcontrol import response as resp
 from frcontrol.engine import analyze, domain_polytope, motion_margin
@@ -304,7 +304,7 @@ def test_polytope_row_norms_and_near_pairs_are_the_library_calls_they_replace():
     for _ in range(200):
         m, d = int(rng.integers(0, 12)), int(rng.integers(1, 6))
         X = rng.normal(size=(m, d)) * 10.0 ** rng.uniform(-8, 8, size=(m, 1))
-        assert np.array_equal(poly._row_norms(X), np.linalg.norm(X, axis=1))
+        assert np.array_equal(geometry.row_norms(X), np.linalg.norm(X, axis=1))
         unit = X / np.maximum(np.linalg.norm(X, axis=1), 1e-300)[:, None]
         if m > 2:
             unit[1], unit[2] = unit[0], -unit[0] * (1.0 + 1e-12)  # a duplicate and an opposite

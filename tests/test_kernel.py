@@ -434,9 +434,9 @@ def test_the_door_accepts_the_same_answers_with_either_check(name, monkeypatch):
     seen: list = []
     original, original_lean = door._finish, door.InequalityLPs.solve
 
-    def record(result_type, problem, raw, solver, solve_time, P, check):
+    def record(result_type, problem, raw, solver, solve_time, P, tolerance, check):
         assert check is kernel.COMPILED.lp_check  # the callers hand the door the kernel's check
-        result = original(result_type, problem, raw, solver, solve_time, P, check)
+        result = original(result_type, problem, raw, solver, solve_time, P, tolerance, check)
         seen.append((problem, result))
         return result
 

@@ -18,6 +18,7 @@ from frcontrol.errors import IllConditioned, InputError
 from frcontrol.mode_batch import full_modes, interval_admissible
 from frcontrol.modes import ContactProblem, all_modes, build_mode_system
 from frcontrol.scene import load_scene
+from frcontrol.solvers import SolverSettings
 
 SCENES = ["rod_on_table", "box_on_ground", "box_on_slope", "table_on_ground", "disk_in_wedge",
           "rhex_flip", "snake_climb"]
@@ -143,7 +144,7 @@ def test_interval_rule_matches_the_two_lps(data):
     motion = np.array([data.draw(st.booleans()) for _ in range(rows)])
     cap = poly.CHEBYSHEV_RADIUS_CAP
     closed = interval_admissible(H, h, motion, DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE, cap)
-    lps = _admissible_in_w(H, h, motion, "highs", closed_form=False)
+    lps = _admissible_in_w(H, h, motion, SolverSettings(lp="highs"), closed_form=False)
     # two interval ends within the LPs' own tolerance of each other may go either way: skipped
     live = H[:, 0] != 0
     ends = np.sort((h + np.where(motion, 0.0, DOMAIN_TOLERANCE))[live] / H[live, 0])  # one per row

@@ -146,6 +146,7 @@ import numpy as np
 
 from ..engine import DOMAIN_TOLERANCE, DynamicResponse, analyze
 from ..errors import FrameNotFound, InputError, SceneError
+from ..geometry import polygon_rows, row_norms
 from ..jsonable import finite_or_none, to_jsonable
 from ..modes import ContactProblem, ModeSystem, add_scene_modes, all_modes, build_mode_system
 from ..polytope import Polytope, hull_from_points
@@ -268,12 +269,12 @@ class Disturbance:
 
     def contains_zero(self) -> bool:
         """Whether the zero force is in the polygon (to :data:`DOMAIN_TOLERANCE` [N])."""
-        A, b, A_eq, b_eq = _polygon_rows(self.vertices)
+        A, b, A_eq, b_eq = polygon_rows(self.vertices)
         return bool(np.all(b >= -DOMAIN_TOLERANCE) and np.all(np.abs(b_eq) <= DOMAIN_TOLERANCE))
 
     def polytope(self, scale: float = 1.0) -> Polytope:
         """The polygon scaled by ``scale`` about the zero force, as a 2-D H-polytope."""
-        A, b, A_eq, b_eq = _polygon_rows(scale * self.vertices)
+        A, b, A_eq, b_eq = polygon_rows(scale * self.vertices)
         return Polytope(A, b, A_eq, b_eq)
 
 
@@ -322,31 +323,6 @@ class DisturbanceSet:
         if not self.contains_zero():
             points = np.vstack([np.zeros((1, self.dim)), points])
         return points
-
-
-def _polygon_rows(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(A, b, A_eq, b_eq)`` of the hull of ``vertices`` (k, 2), rows of unit norm.
-
-    The slack form: a point x is in the set iff ``A x <= b`` and ``A_eq x = b_eq``; with x = 0 the
-    slacks are ``b`` and ``-b_eq``.
-    """
-    k = len(vertices)
-    if k == 1:
-        return np.zeros((0, 2)), np.zeros(0), np.eye(2), vertices[0].copy()
-    if k == 2:
-        a, b = vertices
-        direction = (b - a) / np.linalg.norm(b - a)
-        normal = np.array([-direction[1], direction[0]])
-        A = np.vstack([direction, -direction])
-        return A, np.array([direction @ b, -direction @ a]), normal[None, :], np.array([normal @ a])
-    rows, rhs = [], []
-    for i in range(k):
-        p, q = vertices[i], vertices[(i + 1) % k]
-        edge = q - p
-        normal = np.array([edge[1], -edge[0]]) / np.linalg.norm(edge)  # outward for ccw order
-        rows.append(normal)
-        rhs.append(normal @ p)
-    return np.array(rows), np.array(rhs), np.zeros((0, 2)), np.zeros(0)
 
 
 def load_disturbances(scene: Scene, *, required: bool = True) -> DisturbanceSet:
@@ -485,18 +461,6 @@ def augmented_problem(
 
 
 # ============================================================================ exclusion
-def _solve(c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, A_eq: np.ndarray | None,
-           b_eq: np.ndarray | None, lb: np.ndarray, ub: np.ndarray, solver: str, confirm: bool) -> Any:
-    """:func:`~frcontrol.solvers.solve_lp`, with a second opinion from the reference back-end.
-
-    An error or an unbounded answer is always solved again by :data:`REFERENCE_LP_SOLVER`; with
-    ``confirm``, so is an infeasible one (a false "infeasible" would drop a plan, or claim that a
-    mode is excluded).
-    """
-    return solve_lp(c, A_ub, b_ub, A_eq, b_eq, lb, ub, solver=solver,
-                    fallback=CONFIRM_INFEASIBLE if confirm else RETRY_ERRORS)
-
-
 @dataclass(frozen=True)
 class ModeExclusion:
     """Whether another mode holds somewhere on ``{u} x conv(V_s)``.
@@ -525,7 +489,7 @@ def _normalised_rows(
     G = system.G
     H = np.hstack([G @ response.X_u, G @ response.X_w])
     h = system.g - G @ response.x_0
-    norms = np.sqrt(np.sum(H * H, axis=1))
+    norms = row_norms(H)
     constant = norms <= 1e-9 * max(1.0, float(np.max(norms, initial=0.0)))
     norms[constant] = 1.0
     H = H / norms[:, None]
@@ -594,8 +558,9 @@ def mode_exclusions(
         ub = np.concatenate([np.full(n_lam, np.inf), np.full(p, np.inf), [1.0]])
         c = np.zeros(n_lam + p + 1)
         c[-1] = -1.0
-        result = _solve(c, A_ub, b_ub, A_eq, np.ones(1), lb, ub, solver, confirm)
-        if not result.found:
+        result = solve_lp(c, A_ub, b_ub, A_eq, np.ones(1), lb, ub, solver=solver,
+                          fallback=CONFIRM_INFEASIBLE if confirm else RETRY_ERRORS)
+        if not result.found or result.x is None:
             out.append(ModeExclusion(system.mode, False, -math.inf))
             continue
         t = float(result.x[-1])
@@ -675,7 +640,7 @@ class ClimbProblem:
 
 
 def _unit(H: np.ndarray) -> np.ndarray:
-    norms = np.sqrt(np.sum(H * H, axis=1))
+    norms = row_norms(H)
     return np.where(norms > 0, norms, 1.0)
 
 
@@ -705,8 +670,8 @@ def _scale_bound(domain: tuple[np.ndarray, np.ndarray], head: tuple[np.ndarray, 
     ub = np.concatenate([np.full(m_u, np.inf), [SCALE_CAP]])
     A_eq = np.concatenate([sideways[0][:m_u], [0.0]])[None, :]
     b_eq = np.array([-sideways[1]])
-    result = _solve(cost, A, b, A_eq, b_eq, lb, ub, solver, True)
-    if not result.found:
+    result = solve_lp(cost, A, b, A_eq, b_eq, lb, ub, solver=solver, fallback=CONFIRM_INFEASIBLE)
+    if not result.found or result.x is None:
         return -1.0, False
     s = float(result.x[-1])
     return s, s >= SCALE_CAP * (1 - 1e-9)
@@ -862,7 +827,7 @@ def _piece_rows(piece: Polytope, m_u: int) -> tuple[np.ndarray, np.ndarray, np.n
     if piece.A_eq.shape[0]:
         A = np.vstack([A, piece.A_eq, -piece.A_eq])
         b = np.concatenate([b, piece.b_eq, -piece.b_eq])
-    norms = np.sqrt(np.sum(A * A, axis=1))
+    norms = row_norms(A)
     nonzero = np.abs(A) > 1e-12 * np.maximum(norms, 1e-300)[:, None]
     box_row = (nonzero.sum(axis=1) == 1) & ~np.any(nonzero[:, :m_u], axis=1)
     shrink = np.where(box_row, 0.0, norms)
@@ -910,8 +875,8 @@ def _plan_lp(
     cx, cx0 = cp.head_sideways_row
     A_eq = np.concatenate([cx[:m_u], np.zeros(nvar - m_u)])[None, :]
     b_eq = np.array([-cx0])
-    result = _solve(cost, A_ub, b_ub, A_eq, b_eq, lb, ub, solver, True)
-    if not result.found:
+    result = solve_lp(cost, A_ub, b_ub, A_eq, b_eq, lb, ub, solver=solver, fallback=CONFIRM_INFEASIBLE)
+    if not result.found or result.x is None:
         return -math.inf, math.inf, None
     u = result.x[:m_u]
     alpha = float(np.sum(np.abs(B[:, :m_u] @ u + b0))) if f else 0.0

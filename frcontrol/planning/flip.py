@@ -113,6 +113,7 @@ import numpy as np
 from .. import polytope as poly
 from ..engine import DynamicResponse, ModeAnalysis, analyze, solutions_at
 from ..errors import FrcontrolError, ImpactState, InputError, SceneError
+from ..geometry import chebyshev_rows, max_margin, unit_rows
 from ..jsonable import finite_or_none, to_jsonable
 from ..modes import VELOCITY_TOLERANCE, ContactProblem, add_scene_modes, scene_mode
 from ..response import OUTPUT_TOLERANCE
@@ -121,7 +122,7 @@ from ..simulation.closed_loop import ClosedLoopRun, LoopOptions, run_closed_loop
 from ..simulation.export import sample_modes
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
-from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, must_solve, solve_lp, solve_lp_prepared
+from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, must_solve, settings_from, solve_lp
 from . import DEFAULT_FLIP_MARGIN
 
 __all__ = [
@@ -469,18 +470,11 @@ class FlipResult:
 # building blocks
 
 
-def _unit_rows(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rows scaled to unit norm (zero rows kept as they are)."""
-    norms = np.linalg.norm(A, axis=1)
-    scale = np.where(norms > 0, norms, 1.0)
-    return A / scale[:, None], b / scale
-
-
 def _as_halfspaces(P: poly.Polytope) -> tuple[np.ndarray, np.ndarray]:
     """Unit rows ``a u <= b`` of P, an equality ``E u = e`` written as ``E u <= e, -E u <= -e``."""
     A = np.vstack([P.A_eq, -P.A_eq, P.A])
     b = np.concatenate([P.b_eq, -P.b_eq, P.b])
-    return _unit_rows(A, b)
+    return unit_rows(A, b)
 
 
 def _limit_rows(A: np.ndarray, b: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
@@ -499,23 +493,17 @@ def _limit_rows(A: np.ndarray, b: np.ndarray, lower: np.ndarray, upper: np.ndarr
 def _has_interior(A: np.ndarray, b: np.ndarray, solver: str) -> bool:
     """Whether ``{u : A u <= b}`` (unit rows) holds a ball of radius > ``INTERIOR_TOLERANCE``.
 
-    One Chebyshev LP, ``max r`` s.t. ``A u + r <= b``, ``0 <= r <= CHEBYSHEV_RADIUS_CAP``, built
-    here on unit rows (the hot loop of :func:`margin_pieces`; :func:`frcontrol.polytope.chebyshev_ball`
-    answers the same for general rows). Zero rows are judged by their right-hand side.
+    One Chebyshev LP, ``max r`` s.t. ``A u + r <= b``, ``0 <= r <= CHEBYSHEV_RADIUS_CAP``
+    (:func:`frcontrol.geometry.max_margin`) on unit rows (the hot loop of :func:`margin_pieces`;
+    :func:`frcontrol.polytope.chebyshev_ball` answers the same for general rows). Zero rows are
+    judged by their right-hand side.
     """
     zero = ~np.any(A, axis=1)
     if np.any(b[zero] < -poly.CONTAINMENT_TOLERANCE):
         return False
     A, b = A[~zero], b[~zero]
-    d = A.shape[1]
-    cost = np.zeros(d + 1)
-    cost[-1] = -1.0
-    A_lp = np.hstack([A, np.ones((A.shape[0], 1))])
-    lb = np.full(d + 1, -np.inf)
-    ub = np.full(d + 1, np.inf)
-    lb[-1], ub[-1] = 0.0, poly.CHEBYSHEV_RADIUS_CAP
-    result = solve_lp_prepared(cost, A_lp, b, lb=lb, ub=ub, solver=solver,
-                               fallback=must_solve("an interior test of the flip planner"))
+    result = max_margin(chebyshev_rows(A), b, settings=settings_from(solver),
+                        fallback=must_solve("an interior test of the flip planner"))
     if result.status == "infeasible" or result.x is None:
         return False
     return bool(result.x[-1] > poly.INTERIOR_TOLERANCE)
@@ -616,7 +604,7 @@ def _hull_band(mode: ModeAnalysis, margin: float) -> tuple[np.ndarray, np.ndarra
     E, e = mode.response.E, mode.response.e
     if E.shape[0] == 0:
         return None
-    A, b = _unit_rows(np.vstack([E, -E]), np.concatenate([e, -e]))
+    A, b = unit_rows(np.vstack([E, -E]), np.concatenate([e, -e]))
     return A, b + margin
 
 
@@ -635,10 +623,6 @@ def _pitch_row(mode: ModeAnalysis, pitch_index: int) -> tuple[np.ndarray, np.nda
     return c_u, c_w, c_0, depends
 
 
-def _solve_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, solver: str, **kwargs: Any):
-    return solve_lp(c, A, b, solver=solver, fallback=RETRY_ERRORS, **kwargs)
-
-
 def worst_case_pitch(
     mode: ModeAnalysis, pitch_index: int, u: np.ndarray, *, solver: str = DEFAULT_LP_SOLVER
 ) -> float:
@@ -655,7 +639,7 @@ def worst_case_pitch(
         return -math.inf
     m = mode.m
     H_u, H_w = D.A[:, :m], D.A[:, m:]
-    result = _solve_lp(c_w, H_w, D.b - H_u @ u, solver)
+    result = solve_lp(c_w, H_w, D.b - H_u @ u, solver=solver, fallback=RETRY_ERRORS)
     if not result.found:
         return -math.inf
     return base + float(result.objective)
@@ -677,8 +661,8 @@ def maximise_pitch(mode: ModeAnalysis, piece: poly.Polytope, pitch_index: int,
     """
     c_u, _, c_0, depends = _pitch_row(mode, pitch_index)
     if not depends:
-        result = _solve_lp(-c_u, piece.A, piece.b, solver)
-        if not result.found:
+        result = solve_lp(-c_u, piece.A, piece.b, solver=solver, fallback=RETRY_ERRORS)
+        if not result.found or result.x is None:
             return FlipPiece(mode.mode, piece, -math.inf, None, False)
         return FlipPiece(mode.mode, piece, float(c_u @ result.x) + c_0, result.x.copy(), False)
     reduced = poly.minimal_representation(piece, solver=solver)
@@ -1041,7 +1025,7 @@ def _candidate_bounds(analysis: DynamicResponse, candidates: Sequence[str], pitc
             bounds[name] = math.inf
             continue
         A, b = shrunk_input_domain(analysis, name, margin)
-        result = _solve_lp(-c_u, A, b, solver)
+        result = solve_lp(-c_u, A, b, solver=solver, fallback=RETRY_ERRORS)
         bounds[name] = float(c_u @ result.x) + c_0 if result.x is not None else -math.inf
     return bounds
 

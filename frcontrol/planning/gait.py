@@ -91,6 +91,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError, SceneError
+from ..geometry import row_norms
 from ..jsonable import finite_or_none, to_jsonable
 from ..modes import add_scene_modes, build_mode_system
 from ..response import solve_affine
@@ -561,7 +562,7 @@ def _mode_rows(problem: Any, mode: str) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 def _unit_rows(H: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The rows ``H z <= h`` with unit norms (rows that do not depend on z dropped)."""
-    norms = np.sqrt(np.sum(H * H, axis=1))
+    norms = row_norms(H)
     keep = norms > ROW_NORM_FLOOR
     return H[keep] / norms[keep, None], h[keep] / norms[keep]
 

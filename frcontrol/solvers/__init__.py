@@ -14,6 +14,11 @@ result. The door never trusts a success flag alone: it computes the primal resid
 answer (:func:`primal_residual`) and downgrades an "optimal" answer whose residual exceeds
 :data:`FEASIBILITY_TOLERANCE` (relative, see there) to ``status="error"``.
 
+The back-ends, their options and the residual tolerance travel as one frozen
+:class:`~frcontrol.solvers.settings.SolverSettings` (``settings=``); ``solver=``, a back-end name,
+is turned into settings by :func:`~frcontrol.solvers.settings.settings_from`. What happens when an
+answer is not usable is a :class:`Fallback` policy named at each call (``fallback=``).
+
 An infeasible or unbounded problem is a *result* (``found=False``), not an exception. An unknown or
 uninstalled back-end raises :class:`~frcontrol.errors.SolverNotFound`.
 
@@ -41,10 +46,19 @@ import numpy as np
 from frcontrol.errors import FrcontrolError, InputError, SolverNotFound
 
 from ._common import LeanAdapter, LinearProgram, QPAdapter, QuadraticProgram, RawSolution, Status
+from .settings import (
+    DEFAULT_LP_SOLVER,
+    DEFAULT_SETTINGS,
+    FEASIBILITY_TOLERANCE,
+    LP_SOLVER_ENVIRONMENT_VARIABLE,
+    SolverSettings,
+    settings_from,
+)
 
 __all__ = [
     "CONFIRM_INFEASIBLE",
     "DEFAULT_LP_SOLVER",
+    "DEFAULT_SETTINGS",
     "FEASIBILITY_TOLERANCE",
     "InequalityLPs",
     "KNOWN_SOLVERS",
@@ -59,6 +73,7 @@ __all__ = [
     "QPResult",
     "REFERENCE_LP_SOLVER",
     "SolverFailed",
+    "SolverSettings",
     "Status",
     "available_solvers",
     "lp_check",
@@ -70,33 +85,14 @@ __all__ = [
     "solve_lp",
     "solve_lp_prepared",
     "solve_qp",
+    "settings_from",
 ]
-
-LP_SOLVER_ENVIRONMENT_VARIABLE = "FRC_LP_SOLVER"
-"""Name of the environment variable that, when set, replaces :data:`DEFAULT_LP_SOLVER` for the whole
-process (read once, at import): ``FRC_LP_SOLVER=highs frc analyze rhex_flip`` runs every default
-LP on HiGHS. An unknown name raises :class:`~frcontrol.errors.SolverNotFound` at the first LP."""
-
-DEFAULT_LP_SOLVER = os.environ.get(LP_SOLVER_ENVIRONMENT_VARIABLE, "").strip().lower() or "daqp"
-"""Back-end used when none is named: DAQP, the fastest on small dense LPs, with no failure
-measured; or the value of :data:`LP_SOLVER_ENVIRONMENT_VARIABLE` when it is set."""
 
 REFERENCE_LP_SOLVER = "highs"
 """Back-end used as the reference in tests and as the fallback of the polytope module."""
 
 KNOWN_SOLVERS = ("daqp", "highs", "proxsuite")
 """Every back-end the door has an adapter for (installed or not)."""
-
-FEASIBILITY_TOLERANCE = 1e-6
-r"""Largest accepted primal residual of an "optimal" answer, relative to the size of the terms.
-
-The answer ``x`` is accepted when ``primal_residual <= FEASIBILITY_TOLERANCE * scale`` with
-:math:`\text{scale} = 1 + \max_i |r_i| + (\max_i \|a^{ub}_i\|_1 + \max_j \|a^{eq}_j\|_1)
-\|x\|_\infty` over the finite right-hand sides ``r`` (``b_ub``, ``b_eq``, ``lb``, ``ub``) and
-the constraint rows (the size of the terms of :math:`a^\top x - r`).
-Default ``1e-6``, DAQP's own primal tolerance. The value used is reported on every result
-(``residual_tolerance``).
-"""
 
 _SYMMETRY_TOLERANCE = 1e-9
 """Relative asymmetry ``max|P - P^T| / (1 + max|P|)`` above which a Hessian is rejected."""
@@ -299,13 +295,14 @@ def _largest(values: np.ndarray, where: np.ndarray | bool = True) -> float:
     return float(np.maximum.reduce(values, where=where, initial=0.0))
 
 
-def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None) -> float:
-    """``FEASIBILITY_TOLERANCE`` times the scale of the terms (see :data:`FEASIBILITY_TOLERANCE`)."""
-    return FEASIBILITY_TOLERANCE * _residual_scale(problem, x)
+def _residual_tolerance(problem: LinearProgram, x: np.ndarray | None,
+                        tolerance: float = FEASIBILITY_TOLERANCE) -> float:
+    """``tolerance`` times the scale of the terms (see :data:`FEASIBILITY_TOLERANCE`)."""
+    return tolerance * _residual_scale(problem, x)
 
 
 def _residual_scale(problem: LinearProgram, x: np.ndarray | None) -> float:
-    """The scale of the terms that :data:`FEASIBILITY_TOLERANCE` multiplies."""
+    """The scale of the terms that the feasibility tolerance multiplies."""
     # the finite right-hand sides (an unvalidated problem may hold inf), in one reduction
     parts = (problem.b_ub, problem.b_eq, problem.lb, problem.ub) if problem.has_bounds else (
         problem.b_ub, problem.b_eq)
@@ -322,12 +319,12 @@ def _residual_scale(problem: LinearProgram, x: np.ndarray | None) -> float:
 ResidualCheck = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                           np.ndarray | None, bool], tuple[float, float]]
 """How an answer is checked: ``(A_ub, b_ub, A_eq, b_eq, lb, ub, x, has_bounds) -> (residual, scale)``
-(:func:`lp_check`, or the compiled kernel's, which its callers hand to :class:`InequalityLPs`)."""
+(:func:`lp_check`, or the compiled kernel's, which its callers hand to the door)."""
 
 
 def lp_check(A_ub: np.ndarray, b_ub: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarray, lb: np.ndarray,
              ub: np.ndarray, x: np.ndarray | None, has_bounds: bool) -> tuple[float, float]:
-    """:func:`primal_residual` (NaN without ``x``) and the scale of :data:`FEASIBILITY_TOLERANCE`.
+    """:func:`primal_residual` (NaN without ``x``) and the scale the feasibility tolerance multiplies.
 
     The door's check of an answer, in NumPy; the compiled kernel's ``lp_check`` (the backend's,
     :func:`frcontrol.kernel.backend`) computes the same sums in another order (equal to round-off,
@@ -339,15 +336,15 @@ def lp_check(A_ub: np.ndarray, b_ub: np.ndarray, A_eq: np.ndarray, b_eq: np.ndar
     return residual, _residual_scale(problem, x)
 
 
-def _check(problem: LinearProgram, x: np.ndarray | None,
+def _check(problem: LinearProgram, x: np.ndarray | None, tolerance: float,
            check: ResidualCheck = lp_check) -> tuple[float, float]:
     """:func:`primal_residual` (NaN without ``x``) and :func:`_residual_tolerance`, by ``check``."""
     if check is lp_check:  # NumPy's, on the problem as it is
         residual = float("nan") if x is None else primal_residual(problem, x)
-        return residual, _residual_tolerance(problem, x)
+        return residual, _residual_tolerance(problem, x, tolerance)
     residual, scale = check(problem.A_ub, problem.b_ub, problem.A_eq, problem.b_eq, problem.lb, problem.ub, x,
                             problem.has_bounds)
-    return residual, FEASIBILITY_TOLERANCE * scale
+    return residual, tolerance * scale
 
 
 def _adapter(registry: dict[str, QPAdapter], solver: str) -> QPAdapter:
@@ -365,11 +362,12 @@ def _finish(
     solver: str,
     solve_time: float,
     P: np.ndarray | None,
+    tolerance: float,
     check: ResidualCheck = lp_check,
 ) -> LPResult:
     """The door's result of a back-end's answer ``raw`` to ``problem`` (:func:`_result`)."""
     return _result(result_type, problem.c, raw.status, raw.raw_status, raw.x, solver, solve_time, P,
-                   lambda x: _check(problem, x, check))
+                   lambda x: _check(problem, x, tolerance, check))
 
 
 def _result(
@@ -530,25 +528,34 @@ def lp_problem(
     )
 
 
-def solve(problem: LinearProgram, *, solver: str = DEFAULT_LP_SOLVER, fallback: Fallback = NO_FALLBACK,
-          check: ResidualCheck = lp_check, **options: Any) -> LPResult:
+def solve(problem: LinearProgram, *, solver: str | None = None, settings: SolverSettings | None = None,
+          fallback: Fallback = NO_FALLBACK, check: ResidualCheck = lp_check, **options: Any) -> LPResult:
     """The door: solve an LP with the chosen back-end, then as ``fallback`` says.
 
-    Every answer's primal residual is checked by ``check`` (:func:`lp_check`, or the compiled
-    kernel's, which callers that use the kernel hand in; an "optimal" answer above
-    :data:`FEASIBILITY_TOLERANCE` becomes ``"error"``). ``options`` go to the chosen back-end
-    only; the second one runs with its defaults.
+    The back-end is ``settings.lp`` (or ``solver``, a name: :func:`settings_from`). Every answer's
+    primal residual is checked (an "optimal" answer above ``settings.feasibility_tolerance``, by
+    default :data:`FEASIBILITY_TOLERANCE`, becomes ``"error"``). ``options`` go to the chosen
+    back-end, over its options in ``settings``; a second back-end runs with its own options in
+    ``settings`` (none by default). ``check`` computes the residual and its scale (:func:`lp_check`,
+    or the compiled kernel's twin, which callers that use the kernel hand in: the door does not
+    import the kernel).
 
     Raises:
-        SolverNotFound: ``solver`` is unknown or not installed.
+        SolverNotFound: the back-end is unknown or not installed.
         SolverFailed: no answer counts and ``fallback.failure`` names the computation.
+        InputError: ``solver`` contradicts ``settings``.
     """
-    return _settle(problem, _solve_once(problem, solver, options, check), solver, fallback, check)
+    chosen = settings_from(solver, settings)
+    if chosen.options:
+        options = {**chosen.options_for(chosen.lp), **options}
+    first = _solve_once(problem, chosen.lp, options, chosen.feasibility_tolerance, check)
+    return _settle(problem, first, chosen, fallback, check)
 
 
-def _settle(problem: LinearProgram, first: LPResult, solver: str, fallback: Fallback,
-            check: ResidualCheck = lp_check) -> LPResult:
+def _settle(problem: LinearProgram, first: LPResult, settings: SolverSettings,
+            fallback: Fallback, check: ResidualCheck = lp_check) -> LPResult:
     """:func:`solve` after the first back-end's answer ``first``: the fallback policy."""
+    solver = settings.lp
     if first.status not in fallback.retry_on:
         if first.status in fallback.accept or fallback.failure is None:
             return first
@@ -557,7 +564,8 @@ def _settle(problem: LinearProgram, first: LPResult, solver: str, fallback: Fall
     if second_name == solver or second_name not in _LP_SOLVERS:
         answers = [first]
     else:
-        answers = [_solve_once(problem, second_name, {}, check), first]
+        answers = [_solve_once(problem, second_name, settings.options_for(second_name),
+                               settings.feasibility_tolerance, check), first]
     for answer in answers:
         if answer.status in fallback.accept:
             return answer
@@ -566,19 +574,19 @@ def _settle(problem: LinearProgram, first: LPResult, solver: str, fallback: Fall
     raise SolverFailed(fallback.failure, {a.solver: a.raw_status for a in reversed(answers)})
 
 
-def _solve_once(problem: LinearProgram, solver: str, options: dict[str, Any],
-                check: ResidualCheck) -> LPResult:
-    return _timed(_adapter(_LP_SOLVERS, solver), problem, solver, options, LPResult, check)
+def _solve_once(problem: LinearProgram, solver: str, options: dict[str, Any], tolerance: float,
+                check: ResidualCheck = lp_check) -> LPResult:
+    return _timed(_adapter(_LP_SOLVERS, solver), problem, solver, options, LPResult, tolerance, check)
 
 
 def _timed(adapter: QPAdapter, problem: LinearProgram, solver: str, options: dict[str, Any],
-           result_type: type[LPResult], check: ResidualCheck = lp_check) -> LPResult:
+           result_type: type[LPResult], tolerance: float, check: ResidualCheck = lp_check) -> LPResult:
     """One back-end's answer, timed and checked by :func:`_finish` (crossed bounds answer alone)."""
     start = time.perf_counter()
     raw = _bounds_crossed(problem) or adapter(problem, **options)
     elapsed = time.perf_counter() - start
     P = problem.P if isinstance(problem, QuadraticProgram) else None
-    return _finish(result_type, problem, raw, solver, elapsed, P, check)
+    return _finish(result_type, problem, raw, solver, elapsed, P, tolerance, check)
 
 
 def solve_lp(
@@ -590,7 +598,8 @@ def solve_lp(
     lb: Any = None,
     ub: Any = None,
     *,
-    solver: str = DEFAULT_LP_SOLVER,
+    solver: str | None = None,
+    settings: SolverSettings | None = None,
     fallback: Fallback = NO_FALLBACK,
     validate: bool = True,
     check: ResidualCheck = lp_check,
@@ -609,8 +618,12 @@ def solve_lp(
         b_eq: equality right-hand side, shape ``(m_eq,)``, or ``None``.
         lb: lower bounds, a scalar or shape ``(n,)``, ``-inf`` allowed; ``None`` = no bound.
         ub: upper bounds, a scalar or shape ``(n,)``, ``+inf`` allowed; ``None`` = no bound.
-        solver: back-end name (see :func:`available_solvers`).
-        fallback: what to do when the answer is not usable (:class:`Fallback`).
+        solver: back-end name (see :func:`available_solvers`); default ``settings.lp``.
+        settings: the back-ends, their options and the residual tolerance
+            (:class:`SolverSettings`); default :data:`DEFAULT_SETTINGS`.
+        fallback: what to do when the answer is not usable (:class:`Fallback`), named at the call
+            (:data:`NO_FALLBACK`, :data:`RETRY_ERRORS`, :data:`CONFIRM_INFEASIBLE`,
+            :func:`must_solve`).
         validate: check the arrays (False: see :func:`lp_problem`; :func:`solve_lp_prepared`).
         check: how an answer is checked (:data:`ResidualCheck`; see :func:`solve`).
         **options: back-end settings, passed on verbatim (e.g. ``primal_tol`` for DAQP).
@@ -624,7 +637,7 @@ def solve_lp(
         SolverFailed: see :func:`solve`.
     """
     problem = lp_problem(c, A_ub, b_ub, A_eq, b_eq, lb, ub, validate=validate)
-    return solve(problem, solver=solver, fallback=fallback, check=check, **options)
+    return solve(problem, solver=solver, settings=settings, fallback=fallback, check=check, **options)
 
 
 def solve_lp_prepared(*args: Any, **kwargs: Any) -> LPResult:
@@ -671,13 +684,17 @@ class InequalityLPs:
         SolverFailed: see :func:`solve` (from :meth:`solve`).
     """
 
-    __slots__ = ("solver", "fallback", "options", "_lean", "_check")
+    __slots__ = ("solver", "settings", "fallback", "options", "_lean", "_check")
 
-    def __init__(self, *, solver: str = DEFAULT_LP_SOLVER, fallback: Fallback = NO_FALLBACK,
-                 check: ResidualCheck = lp_check, **options: Any) -> None:
+    def __init__(self, *, solver: str | None = None, settings: SolverSettings | None = None,
+                 fallback: Fallback = NO_FALLBACK, check: ResidualCheck = lp_check, **options: Any) -> None:
+        chosen = settings_from(solver, settings)
+        solver = chosen.lp
+        if chosen.options:
+            options = {**chosen.options_for(solver), **options}
         adapter = _adapter(_LP_SOLVERS, solver)
         lean = _LEAN_LP_SOLVERS.get(solver)
-        self.solver, self.fallback, self.options = solver, fallback, options
+        self.solver, self.settings, self.fallback, self.options = solver, chosen, fallback, options
         self._lean = lean[1] if lean is not None and lean[0] is adapter and not options else None
         self._check = check
 
@@ -695,7 +712,7 @@ class InequalityLPs:
         if has_bounds:
             has_bounds = bool(np.count_nonzero(np.isfinite(lb)) or np.count_nonzero(np.isfinite(ub)))
         if self._lean is None or (has_bounds and np.count_nonzero(lb > ub)):
-            return solve(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), solver=self.solver,
+            return solve(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), settings=self.settings,
                          fallback=self.fallback, check=self._check, **self.options)
         if not A_ub.flags.writeable:  # DAQP's binding takes writable buffers (it does not write them)
             A_ub = A_ub.copy()
@@ -703,16 +720,18 @@ class InequalityLPs:
         status, x, raw = self._lean(c, A_ub, b_ub, lb if has_bounds else None, ub if has_bounds else None)
         elapsed = time.perf_counter() - start
 
+        tolerance = self.settings.feasibility_tolerance
+
         def check(x: np.ndarray | None) -> tuple[float, float]:
             residual, scale = self._check(A_ub, b_ub, A_eq, b_eq, lb, ub, x, has_bounds)
-            return residual, FEASIBILITY_TOLERANCE * scale
+            return residual, tolerance * scale
 
         first = _result(LPResult, c, status, raw, x, self.solver, elapsed, None, check)
         fallback = self.fallback
         if first.status not in fallback.retry_on and (
                 first.status in fallback.accept or fallback.failure is None):
             return first
-        return _settle(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), first, self.solver, fallback,
+        return _settle(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), first, self.settings, fallback,
                        self._check)
 
 
@@ -726,7 +745,8 @@ def solve_qp(
     lb: Any = None,
     ub: Any = None,
     *,
-    solver: str = DEFAULT_LP_SOLVER,
+    solver: str | None = None,
+    settings: SolverSettings | None = None,
     **options: Any,
 ) -> QPResult:
     r"""Minimise :math:`\tfrac12 x^\top P x + q^\top x` under the constraints of :func:`solve_lp`.
@@ -740,8 +760,10 @@ def solve_qp(
         b_eq: equality right-hand side, or ``None``.
         lb: lower bounds (scalar or ``(n,)``), or ``None``.
         ub: upper bounds (scalar or ``(n,)``), or ``None``.
-        solver: back-end name (see :func:`available_solvers`).
-        **options: back-end settings, passed on verbatim.
+        solver: back-end name (see :func:`available_solvers`); default ``settings.qp``.
+        settings: the back-ends, their options and the residual tolerance
+            (:class:`SolverSettings`); default :data:`DEFAULT_SETTINGS`.
+        **options: back-end settings, passed on verbatim (over ``settings``' options).
 
     Returns:
         The result (``found=False`` with the status if infeasible or unbounded).
@@ -750,8 +772,13 @@ def solve_qp(
         InputError: malformed arrays, a non-symmetric or non-convex ``P``, bad options.
         SolverNotFound: ``solver`` is unknown or not installed.
     """
+    chosen = settings or DEFAULT_SETTINGS
+    if solver is not None and settings is not None and solver != settings.qp:
+        raise InputError(f"solver={solver!r} contradicts settings.qp={settings.qp!r}; give one of them")
+    solver = chosen.qp if solver is None else solver
+    options = {**chosen.options_for(solver), **options}
     adapter = _adapter(_QP_SOLVERS, solver)
     lp = _validate_lp(q, A_ub, b_ub, A_eq, b_eq, lb, ub)
     P = _validate_qp(P, lp)
     problem = QuadraticProgram(lp.c, lp.A_ub, lp.b_ub, lp.A_eq, lp.b_eq, lp.lb, lp.ub, P=P)
-    return cast(QPResult, _timed(adapter, problem, solver, options, QPResult))
+    return cast(QPResult, _timed(adapter, problem, solver, options, QPResult, chosen.feasibility_tolerance))

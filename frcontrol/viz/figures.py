@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..geometry import row_norms
 from ..modes import mode_heading, scene_mode
 from ..planning.climb import ClimbPlan, robust_region
 from ..planning.flip import FlipPlan, FlipResult
@@ -641,7 +642,7 @@ def _draw_support(ax: Any, sup: Any, c: np.ndarray, lo: np.ndarray, hi: np.ndarr
     if len(region) < 3:
         return
     corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
-    slack = SUPPORT_REGION_TOLERANCE * span * np.linalg.norm(sup.region.A, axis=1)
+    slack = SUPPORT_REGION_TOLERANCE * span * row_norms(sup.region.A)
     whole = bool(np.all(sup.region.A @ corners.T <= (sup.region.b + slack)[:, None]))
     on_window = np.zeros(len(region), dtype=bool)
     for axis, bound in ((0, lo[0]), (0, hi[0]), (1, lo[1]), (1, hi[1])):

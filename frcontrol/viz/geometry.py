@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from frcontrol.geometry import hull_from_points
 from frcontrol.model import ContactPoint
-from frcontrol.polytope import hull_from_points
 
 __all__ = ["LINE_MERGE_TOLERANCE", "SurfaceLine", "convex_hull", "friction_cone_directions", "pose_matrix",
            "surface_lines", "surface_segments"]
@@ -39,7 +39,7 @@ def pose_matrix(origin: ArrayLike, angle: float, z: float = 0.0) -> np.ndarray:
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Convex hull of 2-D points, counter-clockwise: :func:`frcontrol.polytope.hull_from_points`."""
+    """Convex hull of 2-D points, counter-clockwise: :func:`frcontrol.geometry.hull_from_points`."""
     return hull_from_points(points)
 
 

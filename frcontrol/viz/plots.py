@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from frcontrol.errors import CoordinateNotFound, InputError, reason_from_exception
-from frcontrol.polytope import clip_polygon
+from frcontrol.geometry import clip_polygon
 from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
@@ -467,7 +467,7 @@ def _draw_contact_points(ax: Any, points: Sequence[Any], world: np.ndarray, touc
 def polygon_from_halfplanes(
     A: Any, b: Any, box: Sequence[float], tolerance: float = HALFPLANE_TOLERANCE
 ) -> np.ndarray:
-    """Vertices of ``{x in R^2 : A x <= b}`` inside a box: :func:`frcontrol.polytope.clip_polygon`.
+    """Vertices of ``{x in R^2 : A x <= b}`` inside a box: :func:`frcontrol.geometry.clip_polygon`.
 
     The box ``(xmin, xmax, ymin, ymax)`` is clipped by each half-plane in turn
     (Sutherland-Hodgman on a convex polygon): exact up to ``tolerance``, with no LP and no
