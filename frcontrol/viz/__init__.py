@@ -7,7 +7,7 @@ Modules, the heavy ones imported on demand (each imports its library inside its 
   in meshcat's 3-D viewer, as a self-contained HTML file or on a local server;
 - :mod:`frcontrol.viz.plots`: 2-D figures for reports (trajectories, scenes, input-space polygons)
   and the text-overlap check; :mod:`frcontrol.viz.figures`: the figures of results;
-- :mod:`frcontrol.viz.colors`, :mod:`frcontrol.viz.picture_errors`, :mod:`frcontrol.viz.geometry` (plane
+- :mod:`frcontrol.viz.colors`, :mod:`frcontrol.viz.picture_errors`, :mod:`frcontrol.viz.shapes` (plane
   geometry: poses, surface lines, friction cones, hulls) and :mod:`frcontrol.viz.visuals` (link
   shapes from the URDF), with numpy only, shared by both.
 
@@ -26,7 +26,7 @@ from .colors import (
     hex_color,
     rgba_hex,
 )
-from .geometry import (
+from .shapes import (
     LINE_MERGE_TOLERANCE,
     SurfaceLine,
     convex_hull,

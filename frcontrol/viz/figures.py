@@ -37,7 +37,7 @@ from ..planning.flip import FlipPlan, FlipResult
 from ..polytope import Polytope
 from ..scene import Scene
 from ..statics import StaticsReport
-from .geometry import pose_matrix
+from .shapes import pose_matrix
 from .plots import (
     REGION_LABEL_STYLE,
     PolygonPanel,

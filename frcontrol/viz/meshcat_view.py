@@ -56,7 +56,7 @@ from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
 from . import colors
-from .geometry import friction_cone_directions, pose_matrix, surface_lines, surface_segments
+from .shapes import friction_cone_directions, pose_matrix, surface_lines, surface_segments
 from .picture_errors import OutputFileError, PortInUse, ViewerServerError
 from .visuals import LinkVisual, link_visuals, visual_depth, visual_outline
 

@@ -17,7 +17,7 @@ from frcontrol.errors import RobotModelError
 from frcontrol.model import ContactPoint, PlanarRobot
 from frcontrol.urdf import read_urdf, resolve_mesh
 
-from .geometry import convex_hull, pose_matrix
+from .shapes import convex_hull, pose_matrix
 from .picture_errors import VizError
 
 __all__ = ["DEFAULT_VISUAL_COLOR", "LinkVisual", "link_visuals", "visual_depth", "visual_outline"]
