@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
@@ -75,6 +75,56 @@ class ContactPoint:
         """Unit tangent ``t = (n_y, -n_x)`` [-]: sliding "right" (mode R) is along +t."""
         n = self.normal_in_world
         return np.array([n[1], -n[0]])
+
+
+@dataclass(frozen=True)
+class JointTerms:
+    """What a scene adds to its robot's coordinates: drives' inertia and damping, joint springs.
+
+    Attributes:
+        inertia: [kg m^2] per minimal coordinate index, added to the diagonal of M (Pinocchio's
+            ``armature`` of the robot's own model, which CRBA adds): a drive's reflected inertia.
+        damping: [N m s/rad] per minimal coordinate index: ``b v`` added to the bias h(q, v) (a DC
+            motor's electrical damping, :mod:`frcontrol.drives`).
+        springs: joint springs, whose force ``k (q - rest) + c v`` is added to h (:mod:`frcontrol.springs`).
+    """
+
+    inertia: Mapping[int, float] = field(default_factory=dict)
+    damping: Mapping[int, float] = field(default_factory=dict)
+    springs: JointSprings = NO_SPRINGS
+
+
+@dataclass(frozen=True)
+class RobotOutline:
+    """The names a URDF, a base and locked joints give a robot, read without building its model.
+
+    Attributes:
+        joint_names: the movable joints left, in URDF document order.
+        coordinate_names: the minimal coordinates: the base's (x, y, theta), then the joints.
+        link_names: the links.
+        force_units: the unit of a generalized force on each coordinate: ``"N"`` on x, y and a
+            prismatic joint, ``"N m"`` on theta and a revolute one.
+    """
+
+    joint_names: tuple[str, ...]
+    coordinate_names: tuple[str, ...]
+    link_names: tuple[str, ...]
+    force_units: tuple[str, ...]
+
+
+def robot_outline(urdf_path: str | Path, base: str = "planar", locked: Mapping[str, float] | None = None
+                  ) -> RobotOutline:
+    """The names of the robot :class:`PlanarRobot` builds with these arguments (its model cached).
+
+    Raises:
+        RobotModelError: the URDF cannot be read, is not planar, or locks an unknown joint.
+    """
+    skeleton = _skeleton(str(urdf_path), _file_content(Path(urdf_path)), base, tuple((locked or {}).items()))
+    joints = tuple(name for name, _, _ in skeleton.joints)
+    units = tuple("N" if kind == "prismatic" else "N m" for _, kind, _ in skeleton.joints)
+    if base == "planar":
+        return RobotOutline(joints, BASE_COORDINATES + joints, skeleton.link_names, ("N", "N", "N m") + units)
+    return RobotOutline(joints, joints, skeleton.link_names, units)
 
 
 @dataclass(frozen=True)
@@ -439,6 +489,12 @@ class PlanarRobot:
             object's own Pinocchio model.
         locked: joints held at the given angle [rad] (or position [m]): they are welded into their
             parent (Pinocchio's reduced model) and add no coordinate.
+        terms: drives' inertia and damping and joint springs on the coordinates (:class:`JointTerms`).
+        surfaces_through: a minimal configuration q: each contact whose surface point is not
+            finite (NaN) gets the surface line through its contact point at q (gap 0).
+
+    A robot is built once with all of these and is not changed afterwards, but for the contacts'
+    surface points and friction a sweep sets (:meth:`use_contact_points`).
 
     Raises:
         RobotModelError: the URDF cannot be read, or is not planar.
@@ -452,6 +508,8 @@ class PlanarRobot:
         gravity: float = 9.81,
         contacts: Sequence[ContactPoint] = (),
         locked: Mapping[str, float] | None = None,
+        terms: JointTerms | None = None,
+        surfaces_through: ArrayLike | None = None,
     ) -> None:
         self.urdf_path = Path(urdf_path)
         if base not in ("planar", "fixed"):
@@ -496,9 +554,18 @@ class PlanarRobot:
         self._frame_positions = [self.data.oMf[f].translation for f in frame_ids]
         self._mass_gather = skeleton.mass_gather  # M from CRBA's upper triangle (_Skeleton)
         self._layouts: dict = {}  # contact subsets -> _ContactLayout
-        self._damping = np.zeros(n)  # [N m s/rad] drives' viscous damping (set_drive_terms)
-        self._has_damping = False
-        self._springs = NO_SPRINGS  # joint springs, added to h by state() (set_springs)
+        terms = self.terms = terms or JointTerms()
+        armature = np.zeros(n)
+        self._damping = np.zeros(n)  # [N m s/rad] drives' viscous damping, in the bias
+        for i, value in terms.inertia.items():
+            armature[v_index[i]] = value
+        for i, value in terms.damping.items():
+            self._damping[i] = value
+        model.armature = armature
+        self._has_damping = bool(np.any(self._damping))
+        self._springs = terms.springs  # joint springs, added to h by state()
+        if surfaces_through is not None:
+            self._place_surfaces(surfaces_through)
         # state() assembles in frcontrol._kernel.robot_state with this plan (None: in NumPy)
         self._kernel_plan = (RobotState, np.empty, model, self.data, pin.updateFramePlacement,
                              pin.getFrameJacobian, pin.getFrameClassicalAcceleration, _WORLD_ALIGNED,
@@ -518,14 +585,16 @@ class PlanarRobot:
         )
         return int(model.addFrame(frame, False))
 
-    def set_surface_points(self, surface_points: Sequence[np.ndarray]) -> None:
-        """Set the surface point [m] of every contact line (the scene loader's gap-0 default)."""
-        self._surface_points = np.array(surface_points, dtype=float).reshape(-1, 2)
-        self._resurface_layouts()
+    def _place_surfaces(self, q: ArrayLike) -> None:
+        """Give each contact whose surface point is not finite the line through its point at ``q``."""
+        world = self.contact_points_in_world(np.asarray(q, dtype=float))
         self.contacts = tuple(
-            ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world, s.copy(), c.mu)
-            for c, s in zip(self.contacts, self._surface_points, strict=True)
+            c if np.all(np.isfinite(c.surface_point_in_world)) else
+            ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world, world[i].copy(), c.mu)
+            for i, c in enumerate(self.contacts)
         )
+        self._surface_points = np.array([c.surface_point_in_world for c in self.contacts],
+                                        dtype=float).reshape(-1, 2)
 
     def use_contact_points(self, points: Sequence[ContactPoint]) -> None:
         """Take ``points`` as the contacts, kept as given (not copied).
@@ -556,36 +625,12 @@ class PlanarRobot:
         """The contacts of a layout's key (None: all)."""
         return list(range(len(self.contacts))) if key is None else list(key)
 
-    def set_friction(self, mu: Sequence[float]) -> None:
-        """Set every contact's Coulomb coefficient [-], in ``contacts`` order (no kinematics changes)."""
-        self.contacts = tuple(ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world,
-                                           c.surface_point_in_world, float(m))
-                              for c, m in zip(self.contacts, mu, strict=True))
-
-    def set_drive_terms(self, inertia: Mapping[int, float], damping: Mapping[int, float]) -> None:
-        """Add drives' reflected inertia and viscous damping to minimal coordinates.
-
-        ``inertia`` [kg m^2] goes into the coordinate's diagonal of M (Pinocchio's ``armature`` of
-        this object's own model, which CRBA adds); ``damping`` b [N m s/rad] adds ``b v`` to the
-        bias h(q, v) (a DC motor's electrical damping, :mod:`frcontrol.drives`). Both by index
-        into the minimal coordinates; the values replace earlier ones.
-        """
-        armature = np.zeros(self.nv)
-        self._damping = np.zeros(self.nv)
-        for i, value in inertia.items():
-            armature[self._v_index[i]] = value
-        for i, value in damping.items():
-            self._damping[i] = value
-        self.model.armature = armature
-        self._has_damping = bool(np.any(self._damping))
-
-    def set_springs(self, springs: JointSprings) -> None:
-        """Put joint springs on coordinates: :meth:`state` adds their force to the bias h(q, v).
-
-        The spring on coordinate j adds ``k (q_j - rest) + c v_j`` to ``h_j``
-        (:mod:`frcontrol.springs`); the springs replace earlier ones.
-        """
-        self._springs = springs
+    @property
+    def coordinates_before_locking(self) -> tuple[str, ...]:
+        """The coordinates of the robot with no joint locked (the order of a scene's ``[state]`` lists)."""
+        if not self.locked:
+            return self.coordinate_names
+        return robot_outline(self.urdf_path, self.base).coordinate_names
 
     @property
     def springs(self) -> JointSprings:
@@ -683,7 +728,7 @@ class PlanarRobot:
         (:func:`frcontrol._kernel.robot_state`, which reads M, h and the frames' positions through
         views of the Pinocchio data's storage, made once), or in NumPy (:meth:`_state_numpy`, the
         reference) where ``FRC_KERNEL=numpy`` or the extension is not built. The joint springs'
-        force (:meth:`set_springs`) is then added to the bias, the one place for both kernels.
+        force (:class:`JointTerms`) is then added to the bias, the one place for both kernels.
 
         Args:
             q: minimal configuration, shape (n,) (not validated here: see :meth:`check_state`).

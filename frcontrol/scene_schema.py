@@ -22,10 +22,10 @@ from __future__ import annotations
 
 import difflib
 import math
-import re
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 __all__ = [
@@ -425,83 +425,123 @@ def _type_name(value: Any) -> str:
     return type(value).__name__
 
 
-def _check(doc: Any, schema: Mapping[str, Any], path: str, out: list[SchemaProblem]) -> None:
-    def fail(reason: str, where: str = path) -> None:
-        out.append(SchemaProblem(where, reason))
+def _is_finite_number(checker: Any, value: Any) -> bool:
+    """JSON Schema's ``number``, finite: TOML's ``nan`` and ``inf`` and integers beyond a float fail."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    return not beyond_float(value) and math.isfinite(value)
 
-    if "enum" in schema:
-        if doc not in schema["enum"]:
-            options = [repr(x) for x in schema["enum"]]
-            choice = " or ".join(options) if len(options) == 2 else "one of " + ", ".join(options)
-            fail(f"expected {choice}, got {doc!r}")
-        return
-    kind = schema.get("type")
-    if kind == "number":
-        if isinstance(doc, bool) or not isinstance(doc, (int, float)):
-            fail(f"expected a number, got {_type_name(doc)} ({doc!r})")
-        elif beyond_float(doc):
-            fail(beyond_float(doc))
-        elif not math.isfinite(doc):
-            fail(f"expected a finite number, got {doc!r}")
-        elif "minimum" in schema and doc < schema["minimum"]:
-            fail(f"expected >= {schema['minimum']:g}, got {doc!r}")
-        elif "exclusiveMinimum" in schema and doc <= schema["exclusiveMinimum"]:
-            fail(f"expected > {schema['exclusiveMinimum']:g}, got {doc!r}")
-        elif "maximum" in schema and doc > schema["maximum"]:
-            fail(f"expected <= {schema['maximum']:g}, got {doc!r}")
-    elif kind == "integer":
-        if isinstance(doc, bool) or not isinstance(doc, int):
-            fail(f"expected an integer, got {_type_name(doc)} ({doc!r})")
-        elif "minimum" in schema and doc < schema["minimum"]:
-            fail(f"expected >= {schema['minimum']:g}, got {doc!r}")
-    elif kind == "boolean":
-        if not isinstance(doc, bool):
-            fail(f"expected true or false, got {_type_name(doc)} ({doc!r})")
-    elif kind == "string":
-        if not isinstance(doc, str):
-            fail(f"expected a string, got {_type_name(doc)} ({doc!r})")
-        elif len(doc) < schema.get("minLength", 0):
-            fail("expected a non-empty string")
-        elif "pattern" in schema and re.fullmatch(schema["pattern"], doc) is None:
-            fail(f"expected a string matching {schema['pattern']}, got {doc!r}")
-    elif kind == "array":
-        if not isinstance(doc, list):
-            fail(f"expected a list, got {_type_name(doc)} ({doc!r})")
-            return
-        if "minItems" in schema and len(doc) < schema["minItems"]:
-            fail(f"expected at least {schema['minItems']} item(s), got {len(doc)}")
-        if "maxItems" in schema and len(doc) > schema["maxItems"]:
-            fail(f"expected at most {schema['maxItems']} items, got {len(doc)}")
-        for i, item in enumerate(doc):
-            _check(item, schema["items"], f"{path}[{i}]", out)
-    elif kind == "object":
-        if not isinstance(doc, Mapping):
-            fail(f"expected a table, got {_type_name(doc)} ({doc!r})")
-            return
+
+@lru_cache(maxsize=1)
+def _validator() -> Any:
+    """The Draft 2020-12 validator of :data:`SCENE_SCHEMA` (built once; ``number`` means finite)."""
+    import jsonschema
+
+    base = jsonschema.Draft202012Validator
+    checker = base.TYPE_CHECKER.redefine("number", _is_finite_number)
+    return jsonschema.validators.extend(base, type_checker=checker)(SCENE_SCHEMA)
+
+
+def _path_text(path: Sequence[str | int]) -> str:
+    """``contacts[0].mu`` for the path ``("contacts", 0, "mu")``."""
+    text = ""
+    for part in path:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text
+
+
+def _value_reason(keyword: str, schema: Mapping[str, Any], doc: Any) -> str:
+    """What is wrong with a value that breaks the schema's ``keyword`` (a type, an enum, a bound)."""
+    if keyword == "enum":
+        options = [repr(x) for x in schema["enum"]]
+        choice = " or ".join(options) if len(options) == 2 else "one of " + ", ".join(options)
+        return f"expected {choice}, got {doc!r}"
+    if keyword == "type":
+        kind = schema["type"]
+        if kind == "number" and isinstance(doc, (int, float)) and not isinstance(doc, bool):
+            return beyond_float(doc) or f"expected a finite number, got {doc!r}"
+        expected = {"number": "a number", "integer": "an integer", "string": "a string",
+                    "array": "a list", "object": "a table"}
+        if kind == "boolean":
+            return f"expected true or false, got {_type_name(doc)} ({doc!r})"
+        return f"expected {expected[kind]}, got {_type_name(doc)} ({doc!r})"
+    bounds = {"minimum": ">=", "exclusiveMinimum": ">", "maximum": "<="}
+    if keyword in bounds:
+        return f"expected {bounds[keyword]} {schema[keyword]:g}, got {doc!r}"
+    if keyword == "minLength":
+        return "expected a non-empty string"
+    if keyword == "pattern":
+        return f"expected a string matching {schema['pattern']}, got {doc!r}"
+    if keyword == "minItems":
+        return f"expected at least {schema['minItems']} item(s), got {len(doc)}"
+    if keyword == "maxItems":
+        return f"expected at most {schema['maxItems']} items, got {len(doc)}"
+    return f"does not hold: {keyword} {schema.get(keyword)!r}"
+
+
+def _problems_of(error: Any, root: Any) -> list[tuple[tuple[int, ...], SchemaProblem]]:
+    """The problems a ``jsonschema`` error in the document ``root`` stands for, with their places.
+
+    A place is the index of each key or item on the value's path (:func:`_document_order`). A
+    table's unknown keys are one problem each (naming the nearest valid key); its missing keys are
+    placed after its own keys.
+    """
+    path = list(error.absolute_path)
+    where, doc, schema = _path_text(path), error.instance, error.schema
+    order = _document_order(root, path)
+    keyword = error.validator
+    if keyword == "additionalProperties":
         properties = schema.get("properties", {})
-        extra = schema.get("additionalProperties", True)
-        for key, value in doc.items():
-            where = f"{path}.{key}" if path else str(key)
-            if key in properties:
-                _check(value, properties[key], where, out)
-            elif isinstance(extra, Mapping):
-                _check(value, extra, where, out)
-            elif extra is False:
-                kind_name = "field" if not path else "key"
-                fail(_unknown(kind_name, str(key), _table_label(path, doc), list(properties)), where)
-        if len(doc) < schema.get("minProperties", 0):
-            fail(f"expected at least {schema['minProperties']} key(s){_table_label(path, doc)}")
-        for key in schema.get("required", []):
-            if key not in doc:
-                where = f"{path}.{key}" if path else key
-                about = properties[key].get("description")
-                fail(f"missing{_table_label(path, doc)}" + (f": {about}" if about else ""), where)
+        kind = "field" if not path else "key"
+        return [(order + (i,), SchemaProblem(_path_text([*path, key]), _unknown(
+                    kind, str(key), _table_label(where, doc), list(properties))))
+                for i, key in enumerate(doc) if key not in properties]
+    if keyword == "required":
+        missing = [key for key in error.validator_value if key not in doc]
+        out = []
+        for j, key in enumerate(missing):
+            about = schema.get("properties", {}).get(key, {}).get("description")
+            reason = f"missing{_table_label(where, doc)}" + (f": {about}" if about else "")
+            out.append((order + (len(doc) + 1, j), SchemaProblem(_path_text([*path, key]), reason)))
+        return out
+    if keyword == "minProperties":
+        return [(order + (len(doc),), SchemaProblem(
+            where, f"expected at least {schema['minProperties']} key(s){_table_label(where, doc)}"))]
+    return [(order + (-1,), SchemaProblem(where, _value_reason(keyword, schema, doc)))]
+
+
+def _document_order(root: Any, path: Sequence[str | int]) -> tuple[int, ...]:
+    """The place of the value at ``path`` in the document ``root``: each key's or item's index."""
+    order = []
+    node = root
+    for part in path:
+        order.append(part if isinstance(part, int) else list(node).index(part))
+        node = node[part]
+    return tuple(order)
+
+
+def _schema_errors(doc: Any) -> list[SchemaProblem]:
+    """The problems the JSON Schema validator finds in ``doc``, in document order.
+
+    A value breaking several keywords (an empty string that must also match a pattern) is one
+    problem, the first keyword's.
+    """
+    placed = [item for error in _validator().iter_errors(doc) for item in _problems_of(error, doc)]
+    placed.sort(key=lambda item: item[0])
+    out: list[SchemaProblem] = []
+    seen: set[str] = set()
+    for order, problem in placed:
+        if order[-1] == -1:  # a value's own problem: the first only
+            if problem.field in seen:
+                continue
+            seen.add(problem.field)
+        out.append(problem)
+    return out
 
 
 def schema_problems(doc: Any) -> list[SchemaProblem]:
     """Every way the parsed scene ``doc`` breaks :data:`SCENE_SCHEMA`, in document order."""
-    out: list[SchemaProblem] = []
-    _check(doc, SCENE_SCHEMA, "", out)
+    out = _schema_errors(doc)
     if isinstance(doc, Mapping) and isinstance(doc.get("disturbances"), list):
         for i, table in enumerate(doc["disturbances"]):
             if isinstance(table, Mapping):

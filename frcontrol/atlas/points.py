@@ -156,15 +156,12 @@ class _Scenes:
         return self.get(source, overrides)
 
     def _load(self, source: SceneSource, overrides: Mapping[str, Any]) -> _Loaded | FrcontrolError:
-        from ..model import PlanarRobot
         from ..modes import ContactProblem
 
         self.loads += 1
         try:
             with source.loaded(overrides) as scene:
-                robot = scene.robot
-                bare = (PlanarRobot(robot.urdf_path, base=robot.base).coordinate_names if robot.locked
-                        else scene.coordinate_names)
+                bare = scene.robot.coordinates_before_locking
             return _Loaded(scene, ContactProblem.from_scene(scene), bare)
         except FrcontrolError as err:
             return err
