@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
@@ -35,12 +35,8 @@ from numpy.typing import ArrayLike
 
 from .errors import FrameNotFound, InputError, KernelError, RobotModelError
 from .kernel import compiled, kernel_choice
-from .springs import NO_SPRINGS, JointSprings
-from .urdf import read_urdf
-
-BASE_COORDINATES = ("x", "y", "theta")
-"""Names of the planar base's coordinates: position [m] of the root link's frame and its angle
-[rad], counter-clockwise from the world x axis."""
+from .springs import JointSprings, JointTerms
+from .urdf import BASE_COORDINATES, read_urdf, robot_outline
 
 SKELETON_CACHE_SIZE = 64
 """How many built Pinocchio models (by URDF content, base and locked joints) are kept for reuse."""
@@ -75,56 +71,6 @@ class ContactPoint:
         """Unit tangent ``t = (n_y, -n_x)`` [-]: sliding "right" (mode R) is along +t."""
         n = self.normal_in_world
         return np.array([n[1], -n[0]])
-
-
-@dataclass(frozen=True)
-class JointTerms:
-    """What a scene adds to its robot's coordinates: drives' inertia and damping, joint springs.
-
-    Attributes:
-        inertia: [kg m^2] per minimal coordinate index, added to the diagonal of M (Pinocchio's
-            ``armature`` of the robot's own model, which CRBA adds): a drive's reflected inertia.
-        damping: [N m s/rad] per minimal coordinate index: ``b v`` added to the bias h(q, v) (a DC
-            motor's electrical damping, :mod:`frcontrol.drives`).
-        springs: joint springs, whose force ``k (q - rest) + c v`` is added to h (:mod:`frcontrol.springs`).
-    """
-
-    inertia: Mapping[int, float] = field(default_factory=dict)
-    damping: Mapping[int, float] = field(default_factory=dict)
-    springs: JointSprings = NO_SPRINGS
-
-
-@dataclass(frozen=True)
-class RobotOutline:
-    """The names a URDF, a base and locked joints give a robot, read without building its model.
-
-    Attributes:
-        joint_names: the movable joints left, in URDF document order.
-        coordinate_names: the minimal coordinates: the base's (x, y, theta), then the joints.
-        link_names: the links.
-        force_units: the unit of a generalized force on each coordinate: ``"N"`` on x, y and a
-            prismatic joint, ``"N m"`` on theta and a revolute one.
-    """
-
-    joint_names: tuple[str, ...]
-    coordinate_names: tuple[str, ...]
-    link_names: tuple[str, ...]
-    force_units: tuple[str, ...]
-
-
-def robot_outline(urdf_path: str | Path, base: str = "planar", locked: Mapping[str, float] | None = None
-                  ) -> RobotOutline:
-    """The names of the robot :class:`PlanarRobot` builds with these arguments (its model cached).
-
-    Raises:
-        RobotModelError: the URDF cannot be read, is not planar, or locks an unknown joint.
-    """
-    skeleton = _skeleton(str(urdf_path), _file_content(Path(urdf_path)), base, tuple((locked or {}).items()))
-    joints = tuple(name for name, _, _ in skeleton.joints)
-    units = tuple("N" if kind == "prismatic" else "N m" for _, kind, _ in skeleton.joints)
-    if base == "planar":
-        return RobotOutline(joints, BASE_COORDINATES + joints, skeleton.link_names, ("N", "N", "N m") + units)
-    return RobotOutline(joints, joints, skeleton.link_names, units)
 
 
 @dataclass(frozen=True)
@@ -491,7 +437,8 @@ class PlanarRobot:
             parent (Pinocchio's reduced model) and add no coordinate.
         terms: drives' inertia and damping and joint springs on the coordinates (:class:`JointTerms`).
         surfaces_through: a minimal configuration q: each contact whose surface point is not
-            finite (NaN) gets the surface line through its contact point at q (gap 0).
+            finite (NaN) gets the surface line through its contact point at q (gap 0); the contact
+            points at q are kept (``placed_points_in_world``, else None).
 
     A robot is built once with all of these and is not changed afterwards, but for the contacts'
     surface points and friction a sweep sets (:meth:`use_contact_points`).
@@ -564,6 +511,7 @@ class PlanarRobot:
         model.armature = armature
         self._has_damping = bool(np.any(self._damping))
         self._springs = terms.springs  # joint springs, added to h by state()
+        self.placed_points_in_world: np.ndarray | None = None
         if surfaces_through is not None:
             self._place_surfaces(surfaces_through)
         # state() assembles in frcontrol._kernel.robot_state with this plan (None: in NumPy)
@@ -587,7 +535,8 @@ class PlanarRobot:
 
     def _place_surfaces(self, q: ArrayLike) -> None:
         """Give each contact whose surface point is not finite the line through its point at ``q``."""
-        world = self.contact_points_in_world(np.asarray(q, dtype=float))
+        world = self.placed_points_in_world = self.contact_points_in_world(np.asarray(q, dtype=float))
+        world.setflags(write=False)
         self.contacts = tuple(
             c if np.all(np.isfinite(c.surface_point_in_world)) else
             ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world, world[i].copy(), c.mu)

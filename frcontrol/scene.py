@@ -19,11 +19,11 @@ from dataclasses import dataclass, field, replace
 from functools import cached_property, lru_cache
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
-from .drives import Drive, read_drives
+from .drives import Drive, DrivenJoints, read_drives
 from .errors import (
     CoordinateNotFound,
     FrameNotFound,
@@ -33,25 +33,21 @@ from .errors import (
     SceneError,
     reason_from_exception,
 )
-from .model import ContactPoint, JointTerms, PlanarRobot, RobotOutline, RobotState, robot_outline
-from .plane import EXAMPLE_ROBOT_DATA_PREFIX, PLANES, example_robot_data_urdf, planar_urdf
+from .model import ContactPoint, PlanarRobot, RobotState
+from .plane import EXAMPLE_ROBOT_DATA_PREFIX, PLANES, planar_urdf
 from .scene_schema import (
+    MAX_NUMBER,
+    SCENE_SCHEMA,
     SchemaProblem,
-    apply_override,
     beyond_float,
+    document_problems,
     nearest,
-    reference_problems,
     schema_problems,
+    unknown_message,
 )
-from .scene_tables import (
-    DisturbanceTable,
-    ModelOptions,
-    TaskTable,
-    read_disturbances,
-    read_model,
-    read_task,
-)
-from .springs import read_springs
+from .scene_tables import DisturbanceTable, ModelOptions, TaskTable, read_tables
+from .springs import read_joint_terms
+from .urdf import RobotOutline, robot_outline
 
 GAP_TOLERANCE = 1e-6
 """[m] A contact with gap <= this is active (touching); a gap < -this is a penetration error."""
@@ -260,7 +256,7 @@ class _Reader:
     def number(self, value: Any, field_name: str) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.fail(field_name, f"expected a number, got {value!r}")
-        if beyond_float(value):
+        if isinstance(value, int) and not -MAX_NUMBER <= value <= MAX_NUMBER:
             raise self.fail(field_name, beyond_float(value))
         x = float(value)
         if not math.isfinite(x):
@@ -283,7 +279,7 @@ class _Reader:
 
 def _resolve_robot(reader: _Reader, scene_path: Path, robot: str) -> Path:
     if robot.startswith(EXAMPLE_ROBOT_DATA_PREFIX):
-        return _example_robot(reader, robot)
+        return Path(robot)  # found in mapping it onto its plane (_mapped_robot)
     candidate = (scene_path.parent / robot).resolve()
     if candidate.is_file():
         return candidate
@@ -296,20 +292,14 @@ def _resolve_robot(reader: _Reader, scene_path: Path, robot: str) -> Path:
     )
 
 
-def _example_robot(reader: _Reader, robot: str) -> Path:
-    """The URDF of ``robot = "example-robot-data:NAME"`` (see :mod:`frcontrol.plane`)."""
-    try:
-        return example_robot_data_urdf(robot)
-    except RobotModelError as err:
-        raise reader.fail("robot", err.reason) from err
-
-
 def _mapped_robot(reader: _Reader, raw: Mapping[str, Any], robot_file: Path) -> Path:
     """``robot_file``, or its planar URDF in the scene's ``plane`` (:func:`frcontrol.plane.planar_urdf`).
 
+    ``robot_file`` may be the reference ``example-robot-data:NAME``, found as it is mapped.
+
     Raises:
         SceneError: ``plane_locked`` without ``plane``, a 3-D robot of example-robot-data without
-            ``plane``, or a plane the robot does not move in (the joint is named).
+            ``plane`` or unknown to it, or a plane the robot does not move in (the joint is named).
     """
     plane = raw.get("plane")
     if plane is None:
@@ -323,6 +313,8 @@ def _mapped_robot(reader: _Reader, raw: Mapping[str, Any], robot_file: Path) -> 
     try:
         return planar_urdf(robot_file, str(plane), raw.get("plane_locked", {}))
     except RobotModelError as err:
+        if err.path == str(robot_file) and str(robot_file).startswith(EXAMPLE_ROBOT_DATA_PREFIX):
+            raise reader.fail("robot", err.reason) from err  # no such robot in example-robot-data
         where = "plane_locked" if "cannot lock" in err.reason else "plane"
         raise reader.fail(where, f"{robot_file.name}: {err.reason}") from err
 
@@ -429,14 +421,10 @@ def _checked_document(reader: _Reader, raw: dict[str, Any], overrides: Mapping[s
     Raises:
         SceneError: an override or a field is wrong (see :func:`load_scene`).
     """
-    coordinate_overrides: dict[str, Any] = {}
-    for key, value in (overrides or {}).items():
-        if _coordinate_path(key) is not None:
-            coordinate_overrides[key] = value  # state.q.NAME: the names are known with the robot
-            continue
-        for problem in apply_override(raw, key, value):
-            raise reader.fail(problem.field, problem.reason)
-    problems = schema_problems(raw)
+    coordinate_overrides = {k: v for k, v in (overrides or {}).items() if _coordinate_path(k) is not None}
+    # state.q.NAME: set once the robot's coordinates are known; the others before the schema check
+    others = {k: v for k, v in (overrides or {}).items() if k not in coordinate_overrides}
+    problems = document_problems(raw, others)
     if problems:
         raise reader.fail(_set_path(problems[0].field, raw, overrides or {}), problems[0].reason)
     return reader.string(raw["robot"], "robot"), coordinate_overrides
@@ -494,8 +482,7 @@ def scene_from_document(
     files = dict(robot_files or {})
     shipped = sorted(p.name for p in shipped_robots_dir().glob("*.urdf"))
     if robot.startswith(EXAMPLE_ROBOT_DATA_PREFIX):
-        return _scene_from_checked(reader, scene_path, raw, _example_robot(reader, robot), gap_tolerance,
-                                   coordinates)
+        return _scene_from_checked(reader, scene_path, raw, Path(robot), gap_tolerance, coordinates)
     if robot != Path(robot).name or robot in ("", ".", ".."):
         raise reader.fail("robot", f"{robot!r} is a path: a scene loaded from a document names its robot "
                           f"by the file name of a shipped URDF ({', '.join(shipped)}) or of a URDF sent "
@@ -524,40 +511,84 @@ def _scene_from_checked(reader: _Reader, scene_path: Path, raw: dict[str, Any], 
         bare = robot_outline(robot_file, base)
     except RobotModelError as err:
         raise SceneError(str(scene_path), "robot", f"{robot_file.name}: {err.reason}") from err
+    # The second step: what the schema cannot say, against the robot's names (here, in this order).
     _apply_coordinate_overrides(reader, raw, bare, coordinates)
     q, v = _read_state(reader, raw, bare)
     locked, q, v = _read_locked_joints(reader, raw, bare, q, v)
-    outline = robot_outline(robot_file, base, locked) if locked else bare
+    outline = _without(bare, locked)
     coords = outline.coordinate_names
     points = _read_contact_points(reader, raw, outline)
+    names = {"link": outline.link_names, "contact": [p.name for p in points], "coordinate": coords}
     inputs = _read_inputs(reader, raw.get("inputs"), coords, locked)
     model_table: Mapping[str, Any] = raw["model"] if isinstance(raw.get("model"), dict) else {}
-    drives = read_drives(str(scene_path), model_table.get("drives"), outline.joint_names, tuple(locked))
-    inputs = _driven_inputs(reader, outline, inputs, drives)
-    springs = read_springs(str(scene_path), model_table.get("springs"), coords, outline.joint_names,
-                           inputs.coordinates, tuple(locked))
-    index = {name: i for i, name in enumerate(coords)}
-    terms = JointTerms({index[j]: d.reflected_inertia for j, d in drives.items()},
-                       {index[j]: d.joint_damping for j, d in drives.items()}, springs)
+    driven = read_drives(str(scene_path), model_table.get("drives"), outline.joint_names, tuple(locked))
+    inputs = _driven_inputs(reader, outline, inputs, driven)
+    terms = read_joint_terms(str(scene_path), model_table.get("springs"), coords, outline.joint_names,
+                             inputs.coordinates, tuple(locked), driven)
+    references = reference_problems(raw, names)
+    if references:
+        raise reader.fail(references[0].field, references[0].reason)
+    model, task, disturbances = read_tables(str(scene_path), raw, names["contact"], outline.link_names)
     # The robot, built once; surfaces not given pass through the contact point at the state (gap 0).
     robot = PlanarRobot(robot_file, base=base, gravity=gravity, contacts=points, locked=locked, terms=terms,
                         surfaces_through=q)
-    contacts = _contacts_at_state(reader, list(robot.contacts), robot.contact_points_in_world(q), tol)
-    references = reference_problems(raw, {
-        "link": robot.link_names, "contact": [p.name for p in points], "coordinate": coords,
-    })
-    if references:
-        raise reader.fail(references[0].field, references[0].reason)
-    path_text = str(scene_path)
-    return Scene(scene_path, name, robot, q, v, tuple(contacts), inputs, tol, raw,
-                 model=read_model(path_text, raw.get("model"), [p.name for p in points]),
-                 task=read_task(path_text, raw.get("task")),
-                 disturbances=read_disturbances(path_text, raw.get("disturbances"), robot.link_names),
-                 drives=drives)
+    world = cast(np.ndarray, robot.placed_points_in_world)  # set: the robot was placed at q
+    contacts = _contacts_at_state(reader, list(robot.contacts), world, tol)
+    return Scene(scene_path, name, robot, q, v, tuple(contacts), inputs, tol, raw, model=model, task=task,
+                 disturbances=disturbances, drives=driven.drives)
 
 
-def _driven_inputs(reader: _Reader, outline: RobotOutline, inputs: Inputs, drives: Mapping[str, Drive]
-                   ) -> Inputs:
+def _without(outline: RobotOutline, locked: Mapping[str, float]) -> RobotOutline:
+    """``outline`` with the ``locked`` joints welded (no coordinate)."""
+    if not locked:
+        return outline
+    keep = [i for i, name in enumerate(outline.coordinate_names) if name not in locked]
+    return replace(outline, joint_names=tuple(j for j in outline.joint_names if j not in locked),
+                   coordinate_names=tuple(outline.coordinate_names[i] for i in keep),
+                   force_units=tuple(outline.force_units[i] for i in keep))
+
+
+def _references(doc: Any, schema: Mapping[str, Any], path: str, names: Mapping[str, Sequence[str]],
+                out: list[SchemaProblem]) -> None:
+    refers = schema.get("x-refers")
+    if isinstance(refers, str) and refers in names:
+        values = doc if isinstance(doc, list) else [doc]
+        for i, value in enumerate(values):
+            if isinstance(value, str) and value not in names[refers]:
+                where = f"{path}[{i}]" if isinstance(doc, list) else path
+                out.append(SchemaProblem(where, unknown_message(refers, value, "", list(names[refers]))))
+        return
+    if schema.get("type") == "array" and isinstance(doc, list) and "items" in schema:
+        for i, item in enumerate(doc):
+            _references(item, schema["items"], f"{path}[{i}]", names, out)
+    elif schema.get("type") == "object" and isinstance(doc, Mapping):
+        keys_refer = schema.get("x-refers-keys")
+        properties = schema.get("properties", {})
+        extra = schema.get("additionalProperties")
+        for key, value in doc.items():
+            where = f"{path}.{key}" if path else str(key)
+            if isinstance(keys_refer, str) and keys_refer in names and key not in names[keys_refer]:
+                valid = list(names[keys_refer])
+                out.append(SchemaProblem(where, unknown_message(keys_refer, str(key), "", valid)))
+                continue
+            sub = properties.get(key, extra if isinstance(extra, Mapping) else None)
+            if sub is not None:
+                _references(value, sub, where, names, out)
+
+
+def reference_problems(doc: Any, names: Mapping[str, Sequence[str]]) -> list[SchemaProblem]:
+    """Names in ``doc`` that refer to no ``link``, ``joint``, ``coordinate`` or ``contact``.
+
+    Args:
+        doc: a parsed scene that passed :func:`~frcontrol.scene_schema.schema_problems`.
+        names: the valid names of each kind (kinds absent from it are not checked).
+    """
+    out: list[SchemaProblem] = []
+    _references(doc, SCENE_SCHEMA, "", names, out)
+    return out
+
+
+def _driven_inputs(reader: _Reader, outline: RobotOutline, inputs: Inputs, driven: DrivenJoints) -> Inputs:
     """The inputs with their units and gains.
 
     A driven joint's input is a voltage: its limits (default: the drive's ``voltage_limit``) must
@@ -567,11 +598,11 @@ def _driven_inputs(reader: _Reader, outline: RobotOutline, inputs: Inputs, drive
         SceneError: a driven joint that is not an input, or a voltage limit beyond the drive's.
     """
     units = tuple(outline.force_units[i] for i in inputs.indices)
-    if not drives:
+    if not driven.drives:
         return replace(inputs, units=units)
     lower, upper = inputs.lower.copy(), inputs.upper.copy()
     gains, unit_list = [1.0] * inputs.count, list(units)
-    for joint, drive in drives.items():
+    for joint, drive in driven.drives.items():
         if joint not in inputs.coordinates:
             raise reader.fail(f"model.drives.{joint}", f"the driven joint {joint!r} is not an input: add "
                               "it to [inputs] coordinates (its input is the motor's voltage [V])")
@@ -583,7 +614,7 @@ def _driven_inputs(reader: _Reader, outline: RobotOutline, inputs: Inputs, drive
             if abs(value) > limit:
                 raise reader.fail(f"inputs.{label}[{j}]", f"{value:g} V for the driven joint {joint!r} is "
                                   f"beyond its drive's voltage_limit {limit:g} V")
-        gains[j], unit_list[j] = drive.input_gain, "V"
+        gains[j], unit_list[j] = driven.gains[joint], "V"
     return replace(inputs, lower=lower, upper=upper, gains=tuple(gains), units=tuple(unit_list))
 
 
@@ -860,6 +891,7 @@ __all__ = [
     "load_scene",
     "parse_input_assignments",
     "read_scene_document",
+    "reference_problems",
     "resolve_scene_path",
     "scene_toml",
     "scene_from_document",

@@ -12,10 +12,12 @@ the key says otherwise). It returns every problem, in document order, so ``frc v
 them all; :func:`~frcontrol.scene.load_scene` raises the first as a
 :class:`~frcontrol.errors.SceneError`.
 
-Checks that need the robot (a link's name, the number of coordinates, a contact named in
-``[task]``) are done by :func:`~frcontrol.scene.load_scene` after the robot is built. Keys marked
-``"x-refers"`` in the schema name a ``link``, ``joint``, ``coordinate`` or ``contact``;
-:func:`reference_problems` checks them once the names are known.
+The check is made by ``jsonschema`` (Draft 2020-12, with "number" meaning a finite number); its
+errors are worded here as the scene's fields. Checks that need the robot (a link's name, the number
+of coordinates, a contact named in ``[task]``) are :func:`~frcontrol.scene.load_scene`'s second step,
+in one place, once the robot's names are read from its URDF. Keys marked ``"x-refers"`` in the
+schema name a ``link``, ``joint``, ``coordinate`` or ``contact``;
+:func:`~frcontrol.scene.reference_problems` checks them there.
 """
 
 from __future__ import annotations
@@ -33,11 +35,12 @@ __all__ = [
     "NEAREST_KEY_CUTOFF",
     "apply_override",
     "beyond_float",
+    "document_problems",
     "parse_override",
     "SCENE_SCHEMA",
     "SchemaProblem",
     "nearest",
-    "reference_problems",
+    "unknown_message",
     "schema_problems",
 ]
 
@@ -394,7 +397,8 @@ def nearest(name: str, valid: Sequence[str]) -> str | None:
     return match[0] if match else None
 
 
-def _unknown(kind: str, name: str, where: str, valid: Sequence[str]) -> str:
+def unknown_message(kind: str, name: str, where: str, valid: Sequence[str]) -> str:
+    """``unknown KIND 'NAME'WHERE; did you mean 'NEAREST'? valid: ...`` (the nearest by :func:`nearest`)."""
     guess = nearest(name, valid)
     hint = f"did you mean {guess!r}? " if guess else ""
     return f"unknown {kind} {name!r}{where}; {hint}valid: {', '.join(valid) or '(none)'}"
@@ -493,7 +497,7 @@ def _problems_of(error: Any, root: Any) -> list[tuple[tuple[int, ...], SchemaPro
     if keyword == "additionalProperties":
         properties = schema.get("properties", {})
         kind = "field" if not path else "key"
-        return [(order + (i,), SchemaProblem(_path_text([*path, key]), _unknown(
+        return [(order + (i,), SchemaProblem(_path_text([*path, key]), unknown_message(
                     kind, str(key), _table_label(where, doc), list(properties))))
                 for i, key in enumerate(doc) if key not in properties]
     if keyword == "required":
@@ -537,6 +541,19 @@ def _schema_errors(doc: Any) -> list[SchemaProblem]:
             seen.add(problem.field)
         out.append(problem)
     return out
+
+
+def document_problems(doc: dict[str, Any], overrides: Mapping[str, Any]) -> list[SchemaProblem]:
+    """Set ``overrides`` on the parsed scene ``doc`` (:func:`apply_override`), then check it.
+
+    Returns:
+        The first override's problems if one cannot be set, else :func:`schema_problems`.
+    """
+    for key, value in overrides.items():
+        problems = apply_override(doc, key, value)
+        if problems:
+            return problems
+    return schema_problems(doc)
 
 
 def schema_problems(doc: Any) -> list[SchemaProblem]:
@@ -622,45 +639,6 @@ def _disturbance_shape(table: Mapping[str, Any], where: str) -> list[SchemaProbl
     return []
 
 
-def _references(doc: Any, schema: Mapping[str, Any], path: str, names: Mapping[str, Sequence[str]],
-                out: list[SchemaProblem]) -> None:
-    refers = schema.get("x-refers")
-    if isinstance(refers, str) and refers in names:
-        values = doc if isinstance(doc, list) else [doc]
-        for i, value in enumerate(values):
-            if isinstance(value, str) and value not in names[refers]:
-                where = f"{path}[{i}]" if isinstance(doc, list) else path
-                out.append(SchemaProblem(where, _unknown(refers, value, "", list(names[refers]))))
-        return
-    if schema.get("type") == "array" and isinstance(doc, list) and "items" in schema:
-        for i, item in enumerate(doc):
-            _references(item, schema["items"], f"{path}[{i}]", names, out)
-    elif schema.get("type") == "object" and isinstance(doc, Mapping):
-        keys_refer = schema.get("x-refers-keys")
-        properties = schema.get("properties", {})
-        extra = schema.get("additionalProperties")
-        for key, value in doc.items():
-            where = f"{path}.{key}" if path else str(key)
-            if isinstance(keys_refer, str) and keys_refer in names and key not in names[keys_refer]:
-                out.append(SchemaProblem(where, _unknown(keys_refer, str(key), "", list(names[keys_refer]))))
-                continue
-            sub = properties.get(key, extra if isinstance(extra, Mapping) else None)
-            if sub is not None:
-                _references(value, sub, where, names, out)
-
-
-def reference_problems(doc: Any, names: Mapping[str, Sequence[str]]) -> list[SchemaProblem]:
-    """Names in ``doc`` that refer to no ``link``, ``joint``, ``coordinate`` or ``contact``.
-
-    Args:
-        doc: a parsed scene that passed :func:`schema_problems`.
-        names: the valid names of each kind (kinds absent from it are not checked).
-    """
-    out: list[SchemaProblem] = []
-    _references(doc, SCENE_SCHEMA, "", names, out)
-    return out
-
-
 # ---------------------------------------------------------------------------------------- overrides
 def parse_override(assignment: str) -> tuple[str, Any]:
     """Split ``PATH=VALUE`` (the ``--set`` grammar): VALUE is read as TOML, else as a bare string.
@@ -717,7 +695,7 @@ def apply_override(doc: dict[str, Any], path: str, value: Any) -> list[SchemaPro
             elif isinstance(extra, Mapping):
                 sub = extra
             else:
-                return [SchemaProblem(path, _unknown("field" if not walked else "key", part,
+                return [SchemaProblem(path, unknown_message("field" if not walked else "key", part,
                                                      f" in {where}", list(properties)))]
             if last:
                 node[part] = value
@@ -735,7 +713,7 @@ def apply_override(doc: dict[str, Any], path: str, value: Any) -> list[SchemaPro
             else:
                 names = [e.get("name") for e in node if isinstance(e, Mapping)]
                 if part not in names:
-                    return [SchemaProblem(path, _unknown("entry", part, f" in {where}",
+                    return [SchemaProblem(path, unknown_message("entry", part, f" in {where}",
                                                          [str(n) for n in names if n is not None]))]
                 index = names.index(part)
             if index >= len(node):
