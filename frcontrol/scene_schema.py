@@ -12,18 +12,19 @@ the key says otherwise). It returns every problem, in document order, so ``frc v
 them all; :func:`~frcontrol.scene.load_scene` raises the first as a
 :class:`~frcontrol.errors.SceneError`.
 
-The check is made by ``jsonschema`` (Draft 2020-12, with "number" meaning a finite number); its
-errors are worded here as the scene's fields. Checks that need the robot (a link's name, the number
-of coordinates, a contact named in ``[task]``) are :func:`~frcontrol.scene.load_scene`'s second step,
-in one place, once the robot's names are read from its URDF. Keys marked ``"x-refers"`` in the
-schema name a ``link``, ``joint``, ``coordinate`` or ``contact``;
-:func:`~frcontrol.scene.reference_problems` checks them there.
+The check is made by pydantic's validator (pydantic-core), compiled once per process from
+:data:`SCENE_SCHEMA` (:func:`_core_schema`: strict types, finite numbers, no unknown keys); its
+errors are worded here as the scene's fields. The tests read the same schema with ``jsonschema``
+and agree. Checks that need the robot (a link's name, the number of coordinates, a contact named
+in ``[task]``) are :func:`~frcontrol.scene.load_scene`'s second step, in one place, once the
+robot's names are read from its URDF. Keys marked ``"x-refers"`` in the schema name a ``link``,
+``joint``, ``coordinate`` or ``contact``; :func:`~frcontrol.scene.reference_problems` checks them
+there.
 """
 
 from __future__ import annotations
 
 import difflib
-import math
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -429,21 +430,52 @@ def _type_name(value: Any) -> str:
     return type(value).__name__
 
 
-def _is_finite_number(checker: Any, value: Any) -> bool:
-    """JSON Schema's ``number``, finite: TOML's ``nan`` and ``inf`` and integers beyond a float fail."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return False
-    return not beyond_float(value) and math.isfinite(value)
+def _core_schema(schema: Mapping[str, Any]) -> Any:
+    """The pydantic-core schema that checks what the JSON Schema ``schema`` says, strictly.
+
+    Strict: no value is converted (``"0.5"`` is not a number, ``1`` is not ``true``); a number
+    must be finite (TOML has ``nan`` and ``inf``); a table with ``additionalProperties = false``
+    forbids other keys.
+    """
+    from pydantic_core import core_schema as cs
+
+    if "enum" in schema:
+        return cs.literal_schema(list(schema["enum"]))
+    kind = schema.get("type")
+    if kind == "number":
+        bounds = {name: schema[key] for key, name in _BOUNDS.items() if key in schema}
+        return cs.float_schema(allow_inf_nan=False, strict=True, **bounds)
+    if kind == "integer":
+        return cs.int_schema(strict=True, ge=schema.get("minimum"))
+    if kind == "boolean":
+        return cs.bool_schema(strict=True)
+    if kind == "string":
+        return cs.str_schema(strict=True, min_length=schema.get("minLength"), pattern=schema.get("pattern"))
+    if kind == "array":
+        return cs.list_schema(_core_schema(schema["items"]), min_length=schema.get("minItems"),
+                              max_length=schema.get("maxItems"), strict=True)
+    if kind != "object":
+        raise ValueError(f"the scene schema uses a type the check does not know: {schema!r}")
+    extra = schema.get("additionalProperties", True)
+    if "properties" not in schema:
+        values = _core_schema(extra) if isinstance(extra, Mapping) else cs.any_schema()
+        return cs.dict_schema(cs.str_schema(), values, min_length=schema.get("minProperties"), strict=True)
+    required = set(schema.get("required", ()))
+    fields = {key: cs.typed_dict_field(_core_schema(sub), required=key in required)
+              for key, sub in schema["properties"].items()}
+    return cs.typed_dict_schema(fields, extra_behavior="forbid" if extra is False else "allow", strict=True)
+
+
+_BOUNDS = {"minimum": "ge", "exclusiveMinimum": "gt", "maximum": "le"}
+"""JSON Schema's bounds of a number and pydantic-core's names for them."""
 
 
 @lru_cache(maxsize=1)
 def _validator() -> Any:
-    """The Draft 2020-12 validator of :data:`SCENE_SCHEMA` (built once; ``number`` means finite)."""
-    import jsonschema
+    """The validator of :data:`SCENE_SCHEMA` (pydantic-core, built once per process)."""
+    from pydantic_core import SchemaValidator
 
-    base = jsonschema.Draft202012Validator
-    checker = base.TYPE_CHECKER.redefine("number", _is_finite_number)
-    return jsonschema.validators.extend(base, type_checker=checker)(SCENE_SCHEMA)
+    return SchemaValidator(_core_schema(SCENE_SCHEMA))
 
 
 def _path_text(path: Sequence[str | int]) -> str:
@@ -454,64 +486,84 @@ def _path_text(path: Sequence[str | int]) -> str:
     return text
 
 
-def _value_reason(keyword: str, schema: Mapping[str, Any], doc: Any) -> str:
-    """What is wrong with a value that breaks the schema's ``keyword`` (a type, an enum, a bound)."""
-    if keyword == "enum":
+def _schema_at(path: Sequence[str | int]) -> Mapping[str, Any]:
+    """The part of :data:`SCENE_SCHEMA` that describes the value at ``path``."""
+    schema: Mapping[str, Any] = SCENE_SCHEMA
+    for part in path:
+        if isinstance(part, int):
+            schema = schema["items"]
+        else:
+            extra = schema.get("additionalProperties")
+            schema = schema.get("properties", {}).get(part, extra if isinstance(extra, Mapping) else {})
+    return schema
+
+
+def _value_at(root: Any, path: Sequence[str | int]) -> Any:
+    """The value at ``path`` in the document ``root``."""
+    for part in path:
+        root = root[part]
+    return root
+
+
+_EXPECTED = {"float_type": "a number", "int_type": "an integer", "string_type": "a string",
+             "list_type": "a list", "dict_type": "a table"}
+"""pydantic-core's error types for a value of the wrong type, and what the value should be."""
+
+_BOUND_ERRORS = {"greater_than_equal": (">=", "ge"), "greater_than": (">", "gt"),
+                 "less_than_equal": ("<=", "le")}
+"""pydantic-core's error types for a number out of bounds: the sign and the bound's name."""
+
+
+def _value_reason(kind: str, context: Mapping[str, Any], schema: Mapping[str, Any], value: Any) -> str:
+    """What is wrong with a value that fails the check ``kind`` (a type, an enum, a bound, a length)."""
+    if kind == "literal_error":
         options = [repr(x) for x in schema["enum"]]
         choice = " or ".join(options) if len(options) == 2 else "one of " + ", ".join(options)
-        return f"expected {choice}, got {doc!r}"
-    if keyword == "type":
-        kind = schema["type"]
-        if kind == "number" and isinstance(doc, (int, float)) and not isinstance(doc, bool):
-            return beyond_float(doc) or f"expected a finite number, got {doc!r}"
-        expected = {"number": "a number", "integer": "an integer", "string": "a string",
-                    "array": "a list", "object": "a table"}
-        if kind == "boolean":
-            return f"expected true or false, got {_type_name(doc)} ({doc!r})"
-        return f"expected {expected[kind]}, got {_type_name(doc)} ({doc!r})"
-    bounds = {"minimum": ">=", "exclusiveMinimum": ">", "maximum": "<="}
-    if keyword in bounds:
-        return f"expected {bounds[keyword]} {schema[keyword]:g}, got {doc!r}"
-    if keyword == "minLength":
+        return f"expected {choice}, got {value!r}"
+    if kind == "finite_number" or (kind == "float_type" and isinstance(value, int) and beyond_float(value)):
+        return beyond_float(value) or f"expected a finite number, got {value!r}"
+    if kind in _EXPECTED:
+        return f"expected {_EXPECTED[kind]}, got {_type_name(value)} ({value!r})"
+    if kind == "bool_type":
+        return f"expected true or false, got {_type_name(value)} ({value!r})"
+    if kind in _BOUND_ERRORS:
+        sign, name = _BOUND_ERRORS[kind]
+        return f"expected {sign} {context[name]:g}, got {value!r}"
+    if kind == "string_too_short":
         return "expected a non-empty string"
-    if keyword == "pattern":
-        return f"expected a string matching {schema['pattern']}, got {doc!r}"
-    if keyword == "minItems":
-        return f"expected at least {schema['minItems']} item(s), got {len(doc)}"
-    if keyword == "maxItems":
-        return f"expected at most {schema['maxItems']} items, got {len(doc)}"
-    return f"does not hold: {keyword} {schema.get(keyword)!r}"
+    if kind == "string_pattern_mismatch":
+        return f"expected a string matching {schema['pattern']}, got {value!r}"
+    if kind == "too_short":
+        return f"expected at least {context['min_length']} item(s), got {len(value)}"
+    if kind == "too_long":
+        return f"expected at most {context['max_length']} items, got {len(value)}"
+    return f"does not hold: {kind}"
 
 
-def _problems_of(error: Any, root: Any) -> list[tuple[tuple[int, ...], SchemaProblem]]:
-    """The problems a ``jsonschema`` error in the document ``root`` stands for, with their places.
+def _problem_of(error: Mapping[str, Any], root: Any) -> tuple[tuple[int, ...], SchemaProblem]:
+    """The problem a pydantic-core error in the document ``root`` stands for, with its place.
 
-    A place is the index of each key or item on the value's path (:func:`_document_order`). A
-    table's unknown keys are one problem each (naming the nearest valid key); its missing keys are
-    placed after its own keys.
+    A place is the index of each key or item on the value's path (:func:`_document_order`); a
+    table's missing keys are placed after its own keys, its own problems before them.
     """
-    path = list(error.absolute_path)
-    where, doc, schema = _path_text(path), error.instance, error.schema
-    order = _document_order(root, path)
-    keyword = error.validator
-    if keyword == "additionalProperties":
-        properties = schema.get("properties", {})
-        kind = "field" if not path else "key"
-        return [(order + (i,), SchemaProblem(_path_text([*path, key]), unknown_message(
-                    kind, str(key), _table_label(where, doc), list(properties))))
-                for i, key in enumerate(doc) if key not in properties]
-    if keyword == "required":
-        missing = [key for key in error.validator_value if key not in doc]
-        out = []
-        for j, key in enumerate(missing):
-            about = schema.get("properties", {}).get(key, {}).get("description")
-            reason = f"missing{_table_label(where, doc)}" + (f": {about}" if about else "")
-            out.append((order + (len(doc) + 1, j), SchemaProblem(_path_text([*path, key]), reason)))
-        return out
-    if keyword == "minProperties":
-        return [(order + (len(doc),), SchemaProblem(
-            where, f"expected at least {schema['minProperties']} key(s){_table_label(where, doc)}"))]
-    return [(order + (-1,), SchemaProblem(where, _value_reason(keyword, schema, doc)))]
+    path = list(error["loc"])
+    kind, value = error["type"], error["input"]
+    if kind in ("extra_forbidden", "missing"):
+        table_path, key = path[:-1], path[-1]
+        table, schema = _value_at(root, table_path), _schema_at(table_path)
+        label, properties = _table_label(_path_text(table_path), table), schema.get("properties", {})
+        if kind == "extra_forbidden":
+            reason = unknown_message("field" if not table_path else "key", str(key), label, list(properties))
+            return _document_order(root, path), SchemaProblem(_path_text(path), reason)
+        about = properties.get(key, {}).get("description")
+        order = _document_order(root, table_path) + (len(table) + 1, list(schema["required"]).index(key))
+        return order, SchemaProblem(_path_text(path), f"missing{label}" + (f": {about}" if about else ""))
+    where = _path_text(path)
+    if kind == "too_short" and isinstance(value, Mapping):
+        reason = f"expected at least {error['ctx']['min_length']} key(s){_table_label(where, value)}"
+        return _document_order(root, path) + (len(value),), SchemaProblem(where, reason)
+    reason = _value_reason(kind, error.get("ctx") or {}, _schema_at(path), value)
+    return _document_order(root, path) + (-1,), SchemaProblem(where, reason)
 
 
 def _document_order(root: Any, path: Sequence[str | int]) -> tuple[int, ...]:
@@ -525,22 +577,15 @@ def _document_order(root: Any, path: Sequence[str | int]) -> tuple[int, ...]:
 
 
 def _schema_errors(doc: Any) -> list[SchemaProblem]:
-    """The problems the JSON Schema validator finds in ``doc``, in document order.
+    """The problems the validator of :data:`SCENE_SCHEMA` finds in ``doc``, in document order."""
+    from pydantic_core import ValidationError
 
-    A value breaking several keywords (an empty string that must also match a pattern) is one
-    problem, the first keyword's.
-    """
-    placed = [item for error in _validator().iter_errors(doc) for item in _problems_of(error, doc)]
-    placed.sort(key=lambda item: item[0])
-    out: list[SchemaProblem] = []
-    seen: set[str] = set()
-    for order, problem in placed:
-        if order[-1] == -1:  # a value's own problem: the first only
-            if problem.field in seen:
-                continue
-            seen.add(problem.field)
-        out.append(problem)
-    return out
+    try:
+        _validator().validate_python(doc)
+    except ValidationError as err:
+        placed = sorted((_problem_of(e, doc) for e in err.errors()), key=lambda item: item[0])
+        return [problem for _, problem in placed]
+    return []
 
 
 def document_problems(doc: dict[str, Any], overrides: Mapping[str, Any]) -> list[SchemaProblem]:
