@@ -310,8 +310,7 @@ def _skeleton(urdf: str, content: bytes, base: str, locked: tuple[tuple[str, flo
     """The Pinocchio model of the URDF at ``urdf`` (whose bytes are ``content``) and its layout.
 
     Cached by the file's path and content, the base and the locked joints with their values: a
-    scene load builds its robot two or three times (before and after its contacts and locked
-    joints are known), and a sweep reloads the same scene at every point.
+    sweep reloads the same scene at every point, and each robot works on its own copy.
 
     Raises:
         RobotModelError: the URDF cannot be read, is not planar, or locks an unknown joint.
@@ -435,7 +434,8 @@ class PlanarRobot:
             object's own Pinocchio model.
         locked: joints held at the given angle [rad] (or position [m]): they are welded into their
             parent (Pinocchio's reduced model) and add no coordinate.
-        terms: drives' inertia and damping and joint springs on the coordinates (:class:`JointTerms`).
+        terms: drives' inertia and damping and joint springs on the coordinates
+            (:class:`~frcontrol.springs.JointTerms`; kept as ``terms``).
         surfaces_through: a minimal configuration q: each contact whose surface point is not
             finite (NaN) gets the surface line through its contact point at q (gap 0); the contact
             points at q are kept (``placed_points_in_world``, else None).

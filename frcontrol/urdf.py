@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -133,7 +132,7 @@ class RobotOutline:
     in the same order; reading them here builds no model.
 
     Attributes:
-        joint_names: the movable joints not locked, in document order.
+        joint_names: the movable joints, in document order.
         coordinate_names: the minimal coordinates: the base's (x, y, theta), then the joints.
         link_names: the links, in document order.
         force_units: the unit of a generalized force on each coordinate: ``"N"`` on x, y and a
@@ -146,19 +145,20 @@ class RobotOutline:
     force_units: tuple[str, ...]
 
 
-def robot_outline(path: str | Path, base: str = "planar", locked: Sequence[str] = ()) -> RobotOutline:
+def robot_outline(path: str | Path, base: str = "planar") -> RobotOutline:
     """The :class:`RobotOutline` of the URDF at ``path`` on a ``"planar"`` or ``"fixed"`` base.
+
+    No joint is locked (a scene's loader leaves out the joints it locks).
 
     Args:
         path: the URDF.
         base: ``"planar"`` (the coordinates x, y, theta first) or ``"fixed"``.
-        locked: joints welded (they have no coordinate); names the URDF does not have are ignored.
 
     Raises:
         RobotModelError: the file cannot be read or parsed (:func:`read_urdf`).
     """
     document = read_urdf(path)
-    joints = [j for j in document.joints if j.kind != "fixed" and j.name not in locked]
+    joints = [j for j in document.joints if j.kind != "fixed"]
     names = tuple(j.name for j in joints)
     units = tuple("N" if j.kind == "prismatic" else "N m" for j in joints)
     if base == "planar":

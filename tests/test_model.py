@@ -11,8 +11,9 @@ import pytest
 from conftest import needs_kernel
 
 from frcontrol.errors import FrameNotFound, RobotModelError
-from frcontrol.model import ContactPoint, JointTerms, PlanarRobot
+from frcontrol.model import ContactPoint, PlanarRobot
 from frcontrol.scene import load_scene, shipped_robots_dir, shipped_scene_names
+from frcontrol.springs import JointTerms
 
 ROBOTS = shipped_robots_dir()
 EPS = 1e-6  # finite-difference step [m or rad]
