@@ -23,6 +23,7 @@ joints of the angle (same kinematics): Pinocchio's q is then the minimal q, in P
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -440,8 +441,9 @@ class PlanarRobot:
             finite (NaN) gets the surface line through its contact point at q (gap 0); the contact
             points at q are kept (``placed_points_in_world``, else None).
 
-    A robot is built once with all of these and is not changed afterwards, but for the contacts'
-    surface points and friction a sweep sets (:meth:`use_contact_points`).
+    A robot is built once with all of these and is not changed afterwards: a sweep that moves a
+    contact's surface or changes its friction makes another robot on the same Pinocchio model
+    (:meth:`with_contact_points`).
 
     Raises:
         RobotModelError: the URDF cannot be read, or is not planar.
@@ -545,30 +547,26 @@ class PlanarRobot:
         self._surface_points = np.array([c.surface_point_in_world for c in self.contacts],
                                         dtype=float).reshape(-1, 2)
 
-    def use_contact_points(self, points: Sequence[ContactPoint]) -> None:
-        """Take ``points`` as the contacts, kept as given (not copied).
+    def with_contact_points(self, points: Sequence[ContactPoint]) -> PlanarRobot:
+        """The same robot with ``points`` as its contacts, kept as given (not copied); this one unchanged.
 
         They are the same contacts (names, links, points, normals, in order) with their own surface
-        points [m] and Coulomb coefficients [-].
-
-        Where a surface point changed, the contact layouts kept get its new gap constant (one that
-        is the same array as the contact's in use is unchanged).
+        points [m] and Coulomb coefficients [-]. The new robot shares this one's Pinocchio model
+        and data (a workspace that every call overwrites: use one robot at a time) and its contact
+        layouts, but where a surface point changed: those get its new gap constant
+        (:func:`_resurfaced`; a surface point that is the same array as this robot's is unchanged).
         """
+        robot = copy.copy(self)
+        robot.contacts = tuple(points)
         if any(p.surface_point_in_world is not c.surface_point_in_world
                and p.surface_point_in_world.tolist() != c.surface_point_in_world.tolist()
                for p, c in zip(points, self.contacts, strict=True)):
-            self._surface_points = np.array([p.surface_point_in_world for p in points],
-                                            dtype=float).reshape(-1, 2)
-            self._resurface_layouts()
-        self.contacts = tuple(points)
-
-    def _resurface_layouts(self) -> None:
-        """The kept contact layouts at the surface points now set (:func:`_resurfaced`)."""
-        layouts = {}
-        for key, layout in self._layouts.items():
-            indices = self._layout_indices(key)
-            layouts[key] = _resurfaced(layout, self._normals[indices], self._surface_points[indices])
-        self._layouts = layouts
+            robot._surface_points = np.array([p.surface_point_in_world for p in points],
+                                             dtype=float).reshape(-1, 2)
+            robot._layouts = {key: _resurfaced(layout, robot._normals[robot._layout_indices(key)],
+                                               robot._surface_points[robot._layout_indices(key)])
+                              for key, layout in self._layouts.items()}
+        return robot
 
     def _layout_indices(self, key: tuple[int, ...] | None) -> list[int]:
         """The contacts of a layout's key (None: all)."""

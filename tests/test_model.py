@@ -544,14 +544,15 @@ def test_new_surface_points_give_the_state_of_a_robot_set_before_any_state(name)
     rng = np.random.default_rng(sum(map(ord, name)))
     kept = load_scene(name)
     subsets = [None, kept.active_indices]
-    for subset in subsets:
-        kept.robot.state(kept.q, kept.v, subset)
+    before = [_state_bytes(kept.robot.state(kept.q, kept.v, subset)) for subset in subsets]
     for _ in range(2):  # as an atlas sets them: the scene's own contact points, kept as given
         robot = kept.robot
         points = [dataclasses.replace(c, surface_point_in_world=c.surface_point_in_world
                                       + rng.normal(scale=0.05, size=2)) for c in robot.contacts]
-        robot.use_contact_points(points)
+        moved = robot.with_contact_points(points)
         fresh = PlanarRobot(robot.urdf_path, robot.base, robot.gravity, points, robot.locked, robot.terms)
         for subset in subsets:
-            assert _state_bytes(kept.robot.state(kept.q, kept.v, subset)) == \
+            assert _state_bytes(moved.state(kept.q, kept.v, subset)) == \
                 _state_bytes(fresh.state(kept.q, kept.v, subset))
+    # the robot they were set on is unchanged
+    assert [_state_bytes(kept.robot.state(kept.q, kept.v, subset)) for subset in subsets] == before
