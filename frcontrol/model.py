@@ -23,7 +23,6 @@ joints of the angle (same kinematics): Pinocchio's q is then the minimal q, in P
 
 from __future__ import annotations
 
-import copy
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -556,7 +555,8 @@ class PlanarRobot:
         layouts, but where a surface point changed: those get its new gap constant
         (:func:`_resurfaced`; a surface point that is the same array as this robot's is unchanged).
         """
-        robot = copy.copy(self)
+        robot = object.__new__(PlanarRobot)  # a shallow copy, without copy.copy's generic path
+        robot.__dict__.update(self.__dict__)
         robot.contacts = tuple(points)
         if any(p.surface_point_in_world is not c.surface_point_in_world
                and p.surface_point_in_world.tolist() != c.surface_point_in_world.tolist()
