@@ -322,9 +322,27 @@ def resting_joint_torques(drives: Mapping[str, Drive], coordinate_names: Sequenc
 
 
 # ------------------------------------------------------------------------------------ scene table
+@dataclass(frozen=True)
+class DrivenJoints:
+    """A scene's drives and what each adds to its joint, found once when the scene is read.
+
+    Attributes:
+        drives: the drives, by joint.
+        inertia: [kg m^2] each drive's reflected inertia (:attr:`Drive.reflected_inertia`), by joint.
+        damping: [N m s/rad] each drive's electrical damping at the joint (:attr:`Drive.joint_damping`).
+        gains: [N m/V] each drive's input gain (:attr:`Drive.input_gain`).
+    """
+
+    drives: Mapping[str, Drive]
+    inertia: Mapping[str, float]
+    damping: Mapping[str, float]
+    gains: Mapping[str, float]
+
+
+# ------------------------------------------------------------------------------------ scene table
 def read_drives(path: str, raw: Any, joint_names: Sequence[str], locked: Sequence[str] = ()
-                ) -> dict[str, Drive]:
-    """The ``[model.drives]`` table as drives by joint (None: none).
+                ) -> DrivenJoints:
+    """The ``[model.drives]`` table as drives by joint (None: none), with their terms.
 
     The schema has checked the keys and types; this checks what it cannot: the joint exists and
     is not locked, and the physical ranges.
@@ -337,7 +355,7 @@ def read_drives(path: str, raw: Any, joint_names: Sequence[str], locked: Sequenc
     from .scene_schema import nearest
 
     if raw is None:
-        return {}
+        return DrivenJoints({}, {}, {}, {})
     if not isinstance(raw, Mapping):
         raise SceneError(path, "model.drives", "expected tables [model.drives.JOINT]")
     out: dict[str, Drive] = {}
@@ -353,7 +371,9 @@ def read_drives(path: str, raw: Any, joint_names: Sequence[str], locked: Sequenc
         if not isinstance(table, Mapping):
             raise SceneError(path, where, f"expected a table, got {table!r}")
         out[str(joint)] = _read_drive(path, str(joint), table, where)
-    return out
+    return DrivenJoints(out, {j: d.reflected_inertia for j, d in out.items()},
+                        {j: d.joint_damping for j, d in out.items()},
+                        {j: d.input_gain for j, d in out.items()})
 
 
 def _value(path: str, table: Mapping[str, Any], key: str, where: str, *, default: float | None = None,
@@ -435,6 +455,7 @@ __all__ = [
     "DRIVE_KEYS",
     "DRIVE_KINDS",
     "Drive",
+    "DrivenJoints",
     "STAGE_KEYS",
     "Stage",
     "clusters",

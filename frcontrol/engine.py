@@ -37,7 +37,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import polytope as poly
-from .errors import CoordinateNotFound, InputError
+from .errors import InputError
 from .geometry import constant_rows, max_margin
 from .jsonable import to_jsonable
 from .kernel import Backend, backend, compiled, twin
@@ -63,7 +63,7 @@ from .response import (
     solve_affine,
     solve_affine_stack,
 )
-from .scene import Scene
+from .scene import INPUT_LIMIT_SLACK, InputValues, Scene, input_vector
 from .solvers import DEFAULT_SETTINGS, RETRY_ERRORS, SolverSettings, settings_from
 
 DOMAIN_TOLERANCE = 1e-7
@@ -542,7 +542,7 @@ def analyze(
     return DynamicResponse(
         problem=problem, modes=tuple(analyses), enumeration=enumeration, overlaps=tuple(overlaps),
         timings=timings, query=query, settings=settings,
-        tolerances={"rank": rank_tolerance, "domain": DOMAIN_TOLERANCE,
+        tolerances={"rank": rank_tolerance, "domain": DOMAIN_TOLERANCE, "input_limit": INPUT_LIMIT_SLACK,
                     "velocity": problem.velocity_tolerance, "ill_conditioned_band": ILL_CONDITIONED_BAND,
                     "round_off_rank_drop": ROUND_OFF_RANK_DROP},
     )
@@ -818,29 +818,9 @@ class RigidSolution:
         })
 
 
-def _input_vector(problem: ContactProblem, inputs: Mapping[str, float] | Sequence[float] | np.ndarray
-                  ) -> np.ndarray:
-    """The input vector from ``{name: value}`` (others 0) or a full vector, checked against limits."""
-    if isinstance(inputs, Mapping):
-        u = np.zeros(problem.m)
-        for name, value in inputs.items():
-            if name not in problem.inputs:
-                raise CoordinateNotFound(name, problem.inputs)
-            u[problem.inputs.index(name)] = float(value)
-    else:
-        u = np.asarray(inputs, dtype=float).reshape(-1)
-        if u.shape != (problem.m,):
-            raise InputError(f"the input vector has {u.size} entries; the scene has {problem.m} inputs "
-                             f"({', '.join(problem.inputs)})")
-    values = u.tolist()  # a few entries: Python floats are quicker than NumPy's per-call overhead
-    if not all(map(math.isfinite, values)):
-        raise InputError(f"the input has a NaN or infinite entry: {values}")
-    lower, upper = problem.lower.tolist(), problem.upper.tolist()
-    for j, value in enumerate(values):
-        if value < lower[j] - DOMAIN_TOLERANCE or value > upper[j] + DOMAIN_TOLERANCE:
-            raise InputError(f"input {problem.inputs[j]!r} = {value:g} is outside its limits "
-                             f"[{lower[j]:g}, {upper[j]:g}]")
-    return u
+def _input_vector(problem: ContactProblem, inputs: InputValues) -> np.ndarray:
+    """The input vector of ``{name: value}`` (others 0) or a full vector, checked (:func:`input_vector`)."""
+    return input_vector(problem.inputs, problem.lower, problem.upper, inputs)
 
 
 def _slice_in_w(system: ModeSystem, response: AffineSolution, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1056,7 +1036,7 @@ def solutions_at_batch(analysis: DynamicResponse, inputs: npt.ArrayLike, *,
     """
     settings = settings_from(solver, settings)
     table = query_table(analysis)
-    U = check_inputs(analysis.problem, inputs, DOMAIN_TOLERANCE)
+    U = check_inputs(analysis.problem, inputs, INPUT_LIMIT_SLACK)
     return table.locate_batch(U, lambda H, h, motion: _admissible_in_w(H, h, motion, settings))
 
 

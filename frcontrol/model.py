@@ -35,12 +35,8 @@ from numpy.typing import ArrayLike
 
 from .errors import FrameNotFound, InputError, KernelError, RobotModelError
 from .kernel import COMPILED, backend, compiled
-from .springs import NO_SPRINGS, JointSprings
-from .urdf import read_urdf
-
-BASE_COORDINATES = ("x", "y", "theta")
-"""Names of the planar base's coordinates: position [m] of the root link's frame and its angle
-[rad], counter-clockwise from the world x axis."""
+from .springs import JointSprings, JointTerms
+from .urdf import BASE_COORDINATES, read_urdf, robot_outline
 
 SKELETON_CACHE_SIZE = 64
 """How many built Pinocchio models (by URDF content, base and locked joints) are kept for reuse."""
@@ -315,8 +311,7 @@ def _skeleton(urdf: str, content: bytes, base: str, locked: tuple[tuple[str, flo
     """The Pinocchio model of the URDF at ``urdf`` (whose bytes are ``content``) and its layout.
 
     Cached by the file's path and content, the base and the locked joints with their values: a
-    scene load builds its robot two or three times (before and after its contacts and locked
-    joints are known), and a sweep reloads the same scene at every point.
+    sweep reloads the same scene at every point, and each robot works on its own copy.
 
     Raises:
         RobotModelError: the URDF cannot be read, is not planar, or locks an unknown joint.
@@ -440,6 +435,15 @@ class PlanarRobot:
             object's own Pinocchio model.
         locked: joints held at the given angle [rad] (or position [m]): they are welded into their
             parent (Pinocchio's reduced model) and add no coordinate.
+        terms: drives' inertia and damping and joint springs on the coordinates
+            (:class:`~frcontrol.springs.JointTerms`; kept as ``terms``).
+        surfaces_through: a minimal configuration q: each contact whose surface point is not
+            finite (NaN) gets the surface line through its contact point at q (gap 0); the contact
+            points at q are kept (``placed_points_in_world``, else None).
+
+    A robot is built once with all of these and is not changed afterwards: a sweep that moves a
+    contact's surface or changes its friction makes another robot on the same Pinocchio model
+    (:meth:`with_contact_points`).
 
     Raises:
         RobotModelError: the URDF cannot be read, or is not planar.
@@ -453,6 +457,8 @@ class PlanarRobot:
         gravity: float = 9.81,
         contacts: Sequence[ContactPoint] = (),
         locked: Mapping[str, float] | None = None,
+        terms: JointTerms | None = None,
+        surfaces_through: ArrayLike | None = None,
     ) -> None:
         self.urdf_path = Path(urdf_path)
         if base not in ("planar", "fixed"):
@@ -497,9 +503,19 @@ class PlanarRobot:
         self._frame_positions = [self.data.oMf[f].translation for f in frame_ids]
         self._mass_gather = skeleton.mass_gather  # M from CRBA's upper triangle (_Skeleton)
         self._layouts: dict = {}  # contact subsets -> _ContactLayout
-        self._damping = np.zeros(n)  # [N m s/rad] drives' viscous damping (set_drive_terms)
-        self._has_damping = False
-        self._springs = NO_SPRINGS  # joint springs, added to h by state() (set_springs)
+        terms = self.terms = terms or JointTerms()
+        armature = np.zeros(n)
+        self._damping = np.zeros(n)  # [N m s/rad] drives' viscous damping, in the bias
+        for i, value in terms.inertia.items():
+            armature[v_index[i]] = value
+        for i, value in terms.damping.items():
+            self._damping[i] = value
+        model.armature = armature
+        self._has_damping = bool(np.any(self._damping))
+        self._springs = terms.springs  # joint springs, added to h by state()
+        self.placed_points_in_world: np.ndarray | None = None
+        if surfaces_through is not None:
+            self._place_surfaces(surfaces_through)
         # state() assembles in frcontrol._kernel.robot_state with this plan (None: in NumPy)
         self._kernel_plan = (RobotState, np.empty, model, self.data, pin.updateFramePlacement,
                              pin.getFrameJacobian, pin.getFrameClassicalAcceleration, _WORLD_ALIGNED,
@@ -519,74 +535,50 @@ class PlanarRobot:
         )
         return int(model.addFrame(frame, False))
 
-    def set_surface_points(self, surface_points: Sequence[np.ndarray]) -> None:
-        """Set the surface point [m] of every contact line (the scene loader's gap-0 default)."""
-        self._surface_points = np.array(surface_points, dtype=float).reshape(-1, 2)
-        self._resurface_layouts()
+    def _place_surfaces(self, q: ArrayLike) -> None:
+        """Give each contact whose surface point is not finite the line through its point at ``q``."""
+        world = self.placed_points_in_world = self.contact_points_in_world(np.asarray(q, dtype=float))
+        world.setflags(write=False)
         self.contacts = tuple(
-            ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world, s.copy(), c.mu)
-            for c, s in zip(self.contacts, self._surface_points, strict=True)
+            c if np.all(np.isfinite(c.surface_point_in_world)) else
+            ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world, world[i].copy(), c.mu)
+            for i, c in enumerate(self.contacts)
         )
+        self._surface_points = np.array([c.surface_point_in_world for c in self.contacts],
+                                        dtype=float).reshape(-1, 2)
 
-    def use_contact_points(self, points: Sequence[ContactPoint]) -> None:
-        """Take ``points`` as the contacts, kept as given (not copied).
+    def with_contact_points(self, points: Sequence[ContactPoint]) -> PlanarRobot:
+        """The same robot with ``points`` as its contacts, kept as given (not copied); this one unchanged.
 
         They are the same contacts (names, links, points, normals, in order) with their own surface
-        points [m] and Coulomb coefficients [-].
-
-        Where a surface point changed, the contact layouts kept get its new gap constant (one that
-        is the same array as the contact's in use is unchanged).
+        points [m] and Coulomb coefficients [-]. The new robot shares this one's Pinocchio model
+        and data (a workspace that every call overwrites: use one robot at a time) and its contact
+        layouts, but where a surface point changed: those get its new gap constant
+        (:func:`_resurfaced`; a surface point that is the same array as this robot's is unchanged).
         """
+        robot = object.__new__(PlanarRobot)  # a shallow copy, without copy.copy's generic path
+        robot.__dict__.update(self.__dict__)
+        robot.contacts = tuple(points)
         if any(p.surface_point_in_world is not c.surface_point_in_world
                and p.surface_point_in_world.tolist() != c.surface_point_in_world.tolist()
                for p, c in zip(points, self.contacts, strict=True)):
-            self._surface_points = np.array([p.surface_point_in_world for p in points],
-                                            dtype=float).reshape(-1, 2)
-            self._resurface_layouts()
-        self.contacts = tuple(points)
-
-    def _resurface_layouts(self) -> None:
-        """The kept contact layouts at the surface points now set (:func:`_resurfaced`)."""
-        layouts = {}
-        for key, layout in self._layouts.items():
-            indices = self._layout_indices(key)
-            layouts[key] = _resurfaced(layout, self._normals[indices], self._surface_points[indices])
-        self._layouts = layouts
+            robot._surface_points = np.array([p.surface_point_in_world for p in points],
+                                             dtype=float).reshape(-1, 2)
+            robot._layouts = {key: _resurfaced(layout, robot._normals[robot._layout_indices(key)],
+                                               robot._surface_points[robot._layout_indices(key)])
+                              for key, layout in self._layouts.items()}
+        return robot
 
     def _layout_indices(self, key: tuple[int, ...] | None) -> list[int]:
         """The contacts of a layout's key (None: all)."""
         return list(range(len(self.contacts))) if key is None else list(key)
 
-    def set_friction(self, mu: Sequence[float]) -> None:
-        """Set every contact's Coulomb coefficient [-], in ``contacts`` order (no kinematics changes)."""
-        self.contacts = tuple(ContactPoint(c.name, c.link, c.point_in_link, c.normal_in_world,
-                                           c.surface_point_in_world, float(m))
-                              for c, m in zip(self.contacts, mu, strict=True))
-
-    def set_drive_terms(self, inertia: Mapping[int, float], damping: Mapping[int, float]) -> None:
-        """Add drives' reflected inertia and viscous damping to minimal coordinates.
-
-        ``inertia`` [kg m^2] goes into the coordinate's diagonal of M (Pinocchio's ``armature`` of
-        this object's own model, which CRBA adds); ``damping`` b [N m s/rad] adds ``b v`` to the
-        bias h(q, v) (a DC motor's electrical damping, :mod:`frcontrol.drives`). Both by index
-        into the minimal coordinates; the values replace earlier ones.
-        """
-        armature = np.zeros(self.nv)
-        self._damping = np.zeros(self.nv)
-        for i, value in inertia.items():
-            armature[self._v_index[i]] = value
-        for i, value in damping.items():
-            self._damping[i] = value
-        self.model.armature = armature
-        self._has_damping = bool(np.any(self._damping))
-
-    def set_springs(self, springs: JointSprings) -> None:
-        """Put joint springs on coordinates: :meth:`state` adds their force to the bias h(q, v).
-
-        The spring on coordinate j adds ``k (q_j - rest) + c v_j`` to ``h_j``
-        (:mod:`frcontrol.springs`); the springs replace earlier ones.
-        """
-        self._springs = springs
+    @property
+    def coordinates_before_locking(self) -> tuple[str, ...]:
+        """The coordinates of the robot with no joint locked (the order of a scene's ``[state]`` lists)."""
+        if not self.locked:
+            return self.coordinate_names
+        return robot_outline(self.urdf_path, self.base).coordinate_names
 
     @property
     def springs(self) -> JointSprings:
@@ -684,7 +676,7 @@ class PlanarRobot:
         (:func:`frcontrol._kernel.robot_state`, which reads M, h and the frames' positions through
         views of the Pinocchio data's storage, made once), or in NumPy (:meth:`_state_numpy`, the
         reference) where ``FRC_KERNEL=numpy`` or the extension is not built. The joint springs'
-        force (:meth:`set_springs`) is then added to the bias, the one place for both kernels.
+        force (:class:`JointTerms`) is then added to the bias, the one place for both kernels.
 
         Args:
             q: minimal configuration, shape (n,) (not validated here: see :meth:`check_state`).

@@ -359,9 +359,14 @@ def planar_urdf(source: str | Path, plane: str, locked: Mapping[str, float] | No
     The file lies in the system's temporary folder, named by a digest of the source's text, the
     plane and the locked joints; it is written atomically (several processes may ask at once).
 
+    ``source`` may be a reference ``example-robot-data:NAME`` (:func:`example_robot_data_urdf`).
+
     Raises:
-        RobotModelError: see :func:`planar_urdf_text`, or the file cannot be written.
+        RobotModelError: see :func:`planar_urdf_text` and :func:`example_robot_data_urdf`, or the
+            file cannot be written.
     """
+    if str(source).startswith(EXAMPLE_ROBOT_DATA_PREFIX):
+        source = example_robot_data_urdf(str(source))
     resolved = Path(source).resolve()
     try:
         info = resolved.stat()

@@ -19,12 +19,13 @@ from dataclasses import dataclass, field, replace
 from functools import cached_property, lru_cache
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
-from .drives import Drive, read_drives
+from .drives import Drive, DrivenJoints, read_drives
 from .errors import (
+    CoordinateNotFound,
     FrameNotFound,
     FrcontrolError,
     InputError,
@@ -32,28 +33,29 @@ from .errors import (
     SceneError,
     reason_from_exception,
 )
-from .model import BASE_COORDINATES, ContactPoint, PlanarRobot, RobotState
-from .plane import EXAMPLE_ROBOT_DATA_PREFIX, PLANES, example_robot_data_urdf, planar_urdf
+from .model import ContactPoint, PlanarRobot, RobotState
+from .plane import EXAMPLE_ROBOT_DATA_PREFIX, PLANES, planar_urdf
 from .scene_schema import (
+    MAX_NUMBER,
+    SCENE_SCHEMA,
     SchemaProblem,
-    apply_override,
     beyond_float,
+    document_problems,
     nearest,
-    reference_problems,
     schema_problems,
+    unknown_message,
 )
-from .scene_tables import (
-    DisturbanceTable,
-    ModelOptions,
-    TaskTable,
-    read_disturbances,
-    read_model,
-    read_task,
-)
-from .springs import read_springs
+from .scene_tables import DisturbanceTable, ModelOptions, TaskTable, read_tables
+from .springs import read_joint_terms
+from .urdf import RobotOutline, robot_outline
 
 GAP_TOLERANCE = 1e-6
 """[m] A contact with gap <= this is active (touching); a gap < -this is a penetration error."""
+
+INPUT_LIMIT_SLACK = 1e-7
+"""[N, N m or V] How far an input may lie outside its limits and still be taken as given: the
+round-off of a value computed from the limits (a vertex of a domain, a planner's rounded torque).
+The one slack of :func:`input_vector`, the check of every input vector against its limits."""
 
 DEFAULT_GRAVITY = 9.81
 """[m/s^2] Gravity along -y when the scene does not say."""
@@ -254,7 +256,7 @@ class _Reader:
     def number(self, value: Any, field_name: str) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.fail(field_name, f"expected a number, got {value!r}")
-        if beyond_float(value):
+        if isinstance(value, int) and not -MAX_NUMBER <= value <= MAX_NUMBER:
             raise self.fail(field_name, beyond_float(value))
         x = float(value)
         if not math.isfinite(x):
@@ -277,7 +279,7 @@ class _Reader:
 
 def _resolve_robot(reader: _Reader, scene_path: Path, robot: str) -> Path:
     if robot.startswith(EXAMPLE_ROBOT_DATA_PREFIX):
-        return _example_robot(reader, robot)
+        return Path(robot)  # found in mapping it onto its plane (_mapped_robot)
     candidate = (scene_path.parent / robot).resolve()
     if candidate.is_file():
         return candidate
@@ -290,20 +292,14 @@ def _resolve_robot(reader: _Reader, scene_path: Path, robot: str) -> Path:
     )
 
 
-def _example_robot(reader: _Reader, robot: str) -> Path:
-    """The URDF of ``robot = "example-robot-data:NAME"`` (see :mod:`frcontrol.plane`)."""
-    try:
-        return example_robot_data_urdf(robot)
-    except RobotModelError as err:
-        raise reader.fail("robot", err.reason) from err
-
-
 def _mapped_robot(reader: _Reader, raw: Mapping[str, Any], robot_file: Path) -> Path:
     """``robot_file``, or its planar URDF in the scene's ``plane`` (:func:`frcontrol.plane.planar_urdf`).
 
+    ``robot_file`` may be the reference ``example-robot-data:NAME``, found as it is mapped.
+
     Raises:
         SceneError: ``plane_locked`` without ``plane``, a 3-D robot of example-robot-data without
-            ``plane``, or a plane the robot does not move in (the joint is named).
+            ``plane`` or unknown to it, or a plane the robot does not move in (the joint is named).
     """
     plane = raw.get("plane")
     if plane is None:
@@ -317,6 +313,8 @@ def _mapped_robot(reader: _Reader, raw: Mapping[str, Any], robot_file: Path) -> 
     try:
         return planar_urdf(robot_file, str(plane), raw.get("plane_locked", {}))
     except RobotModelError as err:
+        if err.path == str(robot_file) and str(robot_file).startswith(EXAMPLE_ROBOT_DATA_PREFIX):
+            raise reader.fail("robot", err.reason) from err  # no such robot in example-robot-data
         where = "plane_locked" if "cannot lock" in err.reason else "plane"
         raise reader.fail(where, f"{robot_file.name}: {err.reason}") from err
 
@@ -423,14 +421,10 @@ def _checked_document(reader: _Reader, raw: dict[str, Any], overrides: Mapping[s
     Raises:
         SceneError: an override or a field is wrong (see :func:`load_scene`).
     """
-    coordinate_overrides: dict[str, Any] = {}
-    for key, value in (overrides or {}).items():
-        if _coordinate_path(key) is not None:
-            coordinate_overrides[key] = value  # state.q.NAME: the names are known with the robot
-            continue
-        for problem in apply_override(raw, key, value):
-            raise reader.fail(problem.field, problem.reason)
-    problems = schema_problems(raw)
+    coordinate_overrides = {k: v for k, v in (overrides or {}).items() if _coordinate_path(k) is not None}
+    # state.q.NAME: set once the robot's coordinates are known; the others before the schema check
+    others = {k: v for k, v in (overrides or {}).items() if k not in coordinate_overrides}
+    problems = document_problems(raw, others)
     if problems:
         raise reader.fail(_set_path(problems[0].field, raw, overrides or {}), problems[0].reason)
     return reader.string(raw["robot"], "robot"), coordinate_overrides
@@ -488,8 +482,7 @@ def scene_from_document(
     files = dict(robot_files or {})
     shipped = sorted(p.name for p in shipped_robots_dir().glob("*.urdf"))
     if robot.startswith(EXAMPLE_ROBOT_DATA_PREFIX):
-        return _scene_from_checked(reader, scene_path, raw, _example_robot(reader, robot), gap_tolerance,
-                                   coordinates)
+        return _scene_from_checked(reader, scene_path, raw, Path(robot), gap_tolerance, coordinates)
     if robot != Path(robot).name or robot in ("", ".", ".."):
         raise reader.fail("robot", f"{robot!r} is a path: a scene loaded from a document names its robot "
                           f"by the file name of a shipped URDF ({', '.join(shipped)}) or of a URDF sent "
@@ -515,58 +508,88 @@ def _scene_from_checked(reader: _Reader, scene_path: Path, raw: dict[str, Any], 
     base, gravity, tol = _read_model_settings(reader, raw, gap_tolerance)
     robot_file = _mapped_robot(reader, raw, robot_file)
     try:
-        bare = PlanarRobot(robot_file, base=base, gravity=gravity)
+        bare = robot_outline(robot_file, base)
     except RobotModelError as err:
         raise SceneError(str(scene_path), "robot", f"{robot_file.name}: {err.reason}") from err
+    # The second step: what the schema cannot say, against the robot's names (here, in this order).
     _apply_coordinate_overrides(reader, raw, bare, coordinates)
     q, v = _read_state(reader, raw, bare)
     locked, q, v = _read_locked_joints(reader, raw, bare, q, v)
-    if locked:
-        bare = PlanarRobot(robot_file, base=base, gravity=gravity, locked=locked)
-    coords = bare.coordinate_names
-    points, pending_surface = _read_contact_points(reader, raw, bare)
-    # Surfaces not given pass through the contact point at the scene's state (gap 0).
-    robot = PlanarRobot(robot_file, base=base, gravity=gravity, contacts=points, locked=locked)
-    world = robot.contact_points_in_world(q)
-    points = [
-        ContactPoint(p.name, p.link, p.point_in_link, p.normal_in_world, world[i].copy(), p.mu)
-        if pending_surface[i] else p
-        for i, p in enumerate(points)
-    ]
-    robot.set_surface_points([p.surface_point_in_world for p in points])
-    contacts = _contacts_at_state(reader, points, world, tol)
+    outline = _without(bare, locked)
+    coords = outline.coordinate_names
+    points = _read_contact_points(reader, raw, outline)
+    names = {"link": outline.link_names, "contact": [p.name for p in points], "coordinate": coords}
     inputs = _read_inputs(reader, raw.get("inputs"), coords, locked)
-    model_table = raw.get("model")
-    drives_table = model_table.get("drives") if isinstance(model_table, dict) else None
-    drives = read_drives(str(scene_path), drives_table, robot.joint_names, tuple(locked))
-    inputs = _driven_inputs(reader, robot, inputs, drives)
-    springs_table = model_table.get("springs") if isinstance(model_table, dict) else None
-    robot.set_springs(read_springs(str(scene_path), springs_table, coords, robot.joint_names,
-                                   inputs.coordinates, tuple(locked)))
-    references = reference_problems(raw, {
-        "link": robot.link_names, "contact": [p.name for p in points], "coordinate": coords,
-    })
+    model_table: Mapping[str, Any] = raw["model"] if isinstance(raw.get("model"), dict) else {}
+    driven = read_drives(str(scene_path), model_table.get("drives"), outline.joint_names, tuple(locked))
+    inputs = _driven_inputs(reader, outline, inputs, driven)
+    terms = read_joint_terms(str(scene_path), model_table.get("springs"), coords, outline.joint_names,
+                             inputs.coordinates, tuple(locked), driven)
+    references = reference_problems(raw, names)
     if references:
         raise reader.fail(references[0].field, references[0].reason)
-    path_text = str(scene_path)
-    return Scene(scene_path, name, robot, q, v, tuple(contacts), inputs, tol, raw,
-                 model=read_model(path_text, raw.get("model"), [p.name for p in points]),
-                 task=read_task(path_text, raw.get("task")),
-                 disturbances=read_disturbances(path_text, raw.get("disturbances"), robot.link_names),
-                 drives=drives)
+    model, task, disturbances = read_tables(str(scene_path), raw, names["contact"], outline.link_names)
+    # The robot, built once; surfaces not given pass through the contact point at the state (gap 0).
+    robot = PlanarRobot(robot_file, base=base, gravity=gravity, contacts=points, locked=locked, terms=terms,
+                        surfaces_through=q)
+    world = cast(np.ndarray, robot.placed_points_in_world)  # set: the robot was placed at q
+    contacts = _contacts_at_state(reader, list(robot.contacts), world, tol)
+    return Scene(scene_path, name, robot, q, v, tuple(contacts), inputs, tol, raw, model=model, task=task,
+                 disturbances=disturbances, drives=driven.drives)
 
 
-def _force_unit(robot: PlanarRobot, coordinate: str) -> str:
-    """The unit of a generalized force on ``coordinate``: "N" (x, y, a prismatic joint) or "N m"."""
-    if coordinate in BASE_COORDINATES and robot.base == "planar":
-        return "N m" if coordinate == "theta" else "N"
-    joint = robot.model.joints[robot.model.getJointId(coordinate)]
-    return "N" if "Prismatic" in joint.shortname() or joint.shortname().startswith("JointModelP") else "N m"
+def _without(outline: RobotOutline, locked: Mapping[str, float]) -> RobotOutline:
+    """``outline`` with the ``locked`` joints welded (no coordinate)."""
+    if not locked:
+        return outline
+    keep = [i for i, name in enumerate(outline.coordinate_names) if name not in locked]
+    return replace(outline, joint_names=tuple(j for j in outline.joint_names if j not in locked),
+                   coordinate_names=tuple(outline.coordinate_names[i] for i in keep),
+                   force_units=tuple(outline.force_units[i] for i in keep))
 
 
-def _driven_inputs(reader: _Reader, robot: PlanarRobot, inputs: Inputs, drives: Mapping[str, Drive]
-                   ) -> Inputs:
-    """The inputs with their units and gains, and the drives' inertia and damping in ``robot``.
+def _references(doc: Any, schema: Mapping[str, Any], path: str, names: Mapping[str, Sequence[str]],
+                out: list[SchemaProblem]) -> None:
+    refers = schema.get("x-refers")
+    if isinstance(refers, str) and refers in names:
+        values = doc if isinstance(doc, list) else [doc]
+        for i, value in enumerate(values):
+            if isinstance(value, str) and value not in names[refers]:
+                where = f"{path}[{i}]" if isinstance(doc, list) else path
+                out.append(SchemaProblem(where, unknown_message(refers, value, "", list(names[refers]))))
+        return
+    if schema.get("type") == "array" and isinstance(doc, list) and "items" in schema:
+        for i, item in enumerate(doc):
+            _references(item, schema["items"], f"{path}[{i}]", names, out)
+    elif schema.get("type") == "object" and isinstance(doc, Mapping):
+        keys_refer = schema.get("x-refers-keys")
+        properties = schema.get("properties", {})
+        extra = schema.get("additionalProperties")
+        for key, value in doc.items():
+            where = f"{path}.{key}" if path else str(key)
+            if isinstance(keys_refer, str) and keys_refer in names and key not in names[keys_refer]:
+                valid = list(names[keys_refer])
+                out.append(SchemaProblem(where, unknown_message(keys_refer, str(key), "", valid)))
+                continue
+            sub = properties.get(key, extra if isinstance(extra, Mapping) else None)
+            if sub is not None:
+                _references(value, sub, where, names, out)
+
+
+def reference_problems(doc: Any, names: Mapping[str, Sequence[str]]) -> list[SchemaProblem]:
+    """Names in ``doc`` that refer to no ``link``, ``joint``, ``coordinate`` or ``contact``.
+
+    Args:
+        doc: a parsed scene that passed :func:`~frcontrol.scene_schema.schema_problems`.
+        names: the valid names of each kind (kinds absent from it are not checked).
+    """
+    out: list[SchemaProblem] = []
+    _references(doc, SCENE_SCHEMA, "", names, out)
+    return out
+
+
+def _driven_inputs(reader: _Reader, outline: RobotOutline, inputs: Inputs, driven: DrivenJoints) -> Inputs:
+    """The inputs with their units and gains.
 
     A driven joint's input is a voltage: its limits (default: the drive's ``voltage_limit``) must
     lie within ``[-voltage_limit, voltage_limit]``.
@@ -574,16 +597,12 @@ def _driven_inputs(reader: _Reader, robot: PlanarRobot, inputs: Inputs, drives: 
     Raises:
         SceneError: a driven joint that is not an input, or a voltage limit beyond the drive's.
     """
-    coords = robot.coordinate_names
-    units = tuple(_force_unit(robot, coords[i]) for i in inputs.indices)
-    if not drives:
+    units = tuple(outline.force_units[i] for i in inputs.indices)
+    if not driven.drives:
         return replace(inputs, units=units)
-    index = {name: i for i, name in enumerate(coords)}
-    robot.set_drive_terms({index[j]: d.reflected_inertia for j, d in drives.items()},
-                          {index[j]: d.joint_damping for j, d in drives.items()})
     lower, upper = inputs.lower.copy(), inputs.upper.copy()
     gains, unit_list = [1.0] * inputs.count, list(units)
-    for joint, drive in drives.items():
+    for joint, drive in driven.drives.items():
         if joint not in inputs.coordinates:
             raise reader.fail(f"model.drives.{joint}", f"the driven joint {joint!r} is not an input: add "
                               "it to [inputs] coordinates (its input is the motor's voltage [V])")
@@ -595,7 +614,7 @@ def _driven_inputs(reader: _Reader, robot: PlanarRobot, inputs: Inputs, drives: 
             if abs(value) > limit:
                 raise reader.fail(f"inputs.{label}[{j}]", f"{value:g} V for the driven joint {joint!r} is "
                                   f"beyond its drive's voltage_limit {limit:g} V")
-        gains[j], unit_list[j] = drive.input_gain, "V"
+        gains[j], unit_list[j] = driven.gains[joint], "V"
     return replace(inputs, lower=lower, upper=upper, gains=tuple(gains), units=tuple(unit_list))
 
 
@@ -624,7 +643,7 @@ def _coordinate_path(path: str) -> tuple[str, str] | None:
     return None
 
 
-def _apply_coordinate_overrides(reader: _Reader, raw: dict[str, Any], bare: PlanarRobot,
+def _apply_coordinate_overrides(reader: _Reader, raw: dict[str, Any], bare: RobotOutline,
                                 overrides: Mapping[str, Any]) -> None:
     """Set single coordinates of ``[state]`` by name (``state.q.theta``, ``state.v.x``), in place.
 
@@ -653,9 +672,10 @@ def _apply_coordinate_overrides(reader: _Reader, raw: dict[str, Any], bare: Plan
         state[vector] = values
 
 
-def _read_state(reader: _Reader, raw: Mapping[str, Any], bare: PlanarRobot) -> tuple[np.ndarray, np.ndarray]:
+def _read_state(reader: _Reader, raw: Mapping[str, Any], bare: RobotOutline) -> tuple[np.ndarray, np.ndarray]:
     """The ``[state]``'s q and v (v defaults to zeros), one entry per coordinate of ``bare``."""
-    n, coords = bare.nv, bare.coordinate_names
+    coords = bare.coordinate_names
+    n = len(coords)
     state = raw.get("state")
     if not isinstance(state, dict) or "q" not in state:
         raise reader.fail("state.q", f"missing: {n} numbers ({', '.join(coords)})")
@@ -668,7 +688,7 @@ def _read_state(reader: _Reader, raw: Mapping[str, Any], bare: PlanarRobot) -> t
     return q, v
 
 
-def _read_locked_joints(reader: _Reader, raw: Mapping[str, Any], bare: PlanarRobot, q: np.ndarray,
+def _read_locked_joints(reader: _Reader, raw: Mapping[str, Any], bare: RobotOutline, q: np.ndarray,
                         v: np.ndarray) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
     """Locked joints, held at their state value (welded into the model: no coordinate).
 
@@ -694,17 +714,16 @@ def _read_locked_joints(reader: _Reader, raw: Mapping[str, Any], bare: PlanarRob
     return locked, q[keep], v[keep]
 
 
-def _read_contact_points(reader: _Reader, raw: Mapping[str, Any], bare: PlanarRobot
-                         ) -> tuple[list[ContactPoint], list[bool]]:
-    """The ``[[contacts]]`` as contact points, and for each whether its surface is still to place.
+def _read_contact_points(reader: _Reader, raw: Mapping[str, Any], bare: RobotOutline) -> list[ContactPoint]:
+    """The ``[[contacts]]`` as contact points.
 
-    A contact without ``surface_point`` gets its surface through the contact point at the state.
+    A contact without ``surface_point`` has NaN for it: the robot places its surface through the
+    contact point at the state (``surfaces_through``).
     """
     contact_tables = raw.get("contacts", [])
     if not isinstance(contact_tables, list):
         raise reader.fail("contacts", "expected an array of tables [[contacts]]")
     points: list[ContactPoint] = []
-    pending_surface: list[bool] = []
     seen: set[str] = set()
     for i, table in enumerate(contact_tables):
         where = f"contacts[{i}]"
@@ -728,14 +747,12 @@ def _read_contact_points(reader: _Reader, raw: Mapping[str, Any], bare: PlanarRo
         mu = reader.number(table["mu"], f"{where}.mu")
         if mu < 0:
             raise reader.fail(f"{where}.mu", f"friction coefficient must be >= 0, got {mu}")
-        has_surface = "surface_point" in table
         surface = (
             reader.vector(table["surface_point"], f"{where}.surface_point", 2)
-            if has_surface else np.zeros(2)
+            if "surface_point" in table else np.full(2, np.nan)
         )
         points.append(ContactPoint(cname, link, point, normal / norm, surface, mu))
-        pending_surface.append(not has_surface)
-    return points, pending_surface
+    return points
 
 
 def _contacts_at_state(reader: _Reader, points: list[ContactPoint], world: np.ndarray, tol: float
@@ -806,43 +823,75 @@ def _read_inputs(reader: _Reader, table: Any, coords: Sequence[str], locked: Map
     return Inputs(tuple(names), tuple(indices), lower, upper)
 
 
+InputValues = Mapping[str, float] | Sequence[float] | np.ndarray | None
+"""Inputs as ``{name: value}`` (others 0), the full input vector, or None (all 0)."""
+
+
+def input_vector(names: Sequence[str], lower: np.ndarray, upper: np.ndarray, values: InputValues
+                 ) -> np.ndarray:
+    """The input vector u of ``values``, checked: every input known, finite and within its limits.
+
+    The one check of inputs against their limits: an input may lie :data:`INPUT_LIMIT_SLACK`
+    outside ``[lower, upper]`` and is taken as given.
+
+    Args:
+        names: the inputs, in order (a scene's ``inputs.coordinates``).
+        lower: [N, N m or V] their lower limits.
+        upper: [N, N m or V] their upper limits.
+        values: ``{name: value}`` (names not given are 0), the full vector, or None (all 0).
+
+    Raises:
+        CoordinateNotFound: a name is not one of the inputs (the nearest is named).
+        InputError: a vector of the wrong length, a NaN or infinite entry, or a value outside its
+            limits by more than :data:`INPUT_LIMIT_SLACK`.
+    """
+    if values is None or isinstance(values, Mapping):
+        u = np.zeros(len(names))
+        for name, value in (values or {}).items():
+            if name not in names:
+                raise CoordinateNotFound(name, tuple(names))
+            u[list(names).index(name)] = float(value)
+    else:
+        u = np.asarray(values, dtype=float).reshape(-1)
+        if u.shape != (len(names),):
+            raise InputError(f"the input vector has {u.size} entries; the scene has {len(names)} inputs "
+                             f"({', '.join(names)})")
+    entries = u.tolist()  # a few entries: Python floats are quicker than NumPy's per-call overhead
+    for j, value in enumerate(entries):
+        if not math.isfinite(value):
+            raise InputError(f"input {names[j]!r} must be finite, got {value!r}")
+    low, high = lower.tolist(), upper.tolist()
+    for j, value in enumerate(entries):
+        if value < low[j] - INPUT_LIMIT_SLACK or value > high[j] + INPUT_LIMIT_SLACK:
+            raise InputError(f"input {names[j]!r} = {value:g} is outside its limits "
+                             f"[{low[j]:g}, {high[j]:g}]")
+    return u
+
+
 def parse_input_assignments(scene: Scene, assignments: Mapping[str, float]) -> np.ndarray:
-    """The input vector u for named values; inputs not named are 0.
+    """The input vector u for named values of the scene's inputs; inputs not named are 0.
 
     Raises:
         CoordinateNotFound: a name is not one of the scene's inputs.
-        InputError: a value is NaN or infinite, or outside the input's limits.
+        InputError: a value is NaN or infinite, or outside the input's limits (:func:`input_vector`).
     """
-    from .errors import CoordinateNotFound
-
-    u = np.zeros(scene.inputs.count)
-    for key, value in assignments.items():
-        if key not in scene.inputs.coordinates:
-            raise CoordinateNotFound(key, scene.inputs.coordinates)
-        x = float(value)
-        if not math.isfinite(x):
-            raise InputError(f"input {key!r} must be finite, got {value!r}")
-        u[scene.inputs.coordinates.index(key)] = x
-    lo, hi = scene.inputs.lower, scene.inputs.upper
-    bad = np.nonzero((u < lo) | (u > hi))[0]
-    if bad.size:
-        j = int(bad[0])
-        raise InputError(
-            f"input {scene.inputs.coordinates[j]!r} = {u[j]:g} is outside its limits "
-            f"[{lo[j]:g}, {hi[j]:g}]"
-        )
-    return u
+    inputs = scene.inputs
+    return input_vector(inputs.coordinates, inputs.lower, inputs.upper, assignments)
 
 
 __all__ = [
     "GAP_TOLERANCE",
+    "INPUT_LIMIT_SLACK",
     "Contact",
     "FrcontrolError",
+    "InputValues",
     "Inputs",
     "Scene",
+    "input_vector",
     "load_scene",
     "parse_input_assignments",
     "read_scene_document",
+    "reference_problems",
     "resolve_scene_path",
     "scene_toml",
     "scene_from_document",

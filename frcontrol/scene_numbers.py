@@ -16,9 +16,10 @@ already loaded without them, for the *numeric* overrides (:func:`is_numeric_path
 
 Anything else (a locked joint's coordinate, a mass, gravity, a contact's geometry, a list by
 index) changes the model or its structure: it is not numeric here, and a caller loads the scene
-with it. The arrays the override touches are the only ones made again; the robot (its Pinocchio
-model) is shared with the scene given, whose contacts' surface points and friction it is set to
-(one robot holds one set: a scene made here is used before the next one is made).
+with it. The arrays the override touches are the only ones made again; the robot is the scene
+given's, or where a contact's surface point or friction changed, the same robot with the new
+contacts (:meth:`~frcontrol.model.PlanarRobot.with_contact_points`: the Pinocchio model and data
+are shared, a workspace each call overwrites).
 """
 
 from __future__ import annotations
@@ -114,9 +115,10 @@ def scene_with_numbers(scene: Scene, overrides: Mapping[str, Any], bare_coordina
     else:
         contacts = [c if c.point is p else Contact(p, c.gap, c.active)
                     for c, p in zip(scene.contacts, points, strict=True)]
-    moved = replaced(scene, q=q, v=v, contacts=tuple(contacts), raw=raw)
-    use_contacts_of(moved)
-    return moved
+    robot = scene.robot
+    if any(p is not c for p, c in zip(points, robot.contacts, strict=True)):
+        robot = robot.with_contact_points(points)
+    return replaced(scene, q=q, v=v, contacts=tuple(contacts), raw=raw, robot=robot)
 
 
 def friction_with_numbers(scene: Scene, overrides: Mapping[str, Any]) -> np.ndarray:
@@ -173,18 +175,6 @@ def _pending_surfaces(scene: Scene) -> list[bool]:
     return [isinstance(t, Mapping) and "surface_point" not in t for t in tables]
 
 
-def use_contacts_of(scene: Scene) -> None:
-    """Set the scene's robot to the scene's contacts' surface points and friction, where they differ.
-
-    Scenes made by :func:`scene_with_numbers` share one robot; the one in use sets it (the robot
-    then holds the scene's own contact points: the next call sees at once that they are in use).
-    """
-    robot = scene.robot
-    points = [c.point for c in scene.contacts]
-    if any(p is not c for p, c in zip(points, robot.contacts, strict=True)):
-        robot.use_contact_points(points)
-
-
 def _set_raw_state(raw: dict[str, Any], vector: str, bare_coordinates: tuple[str, ...], name: str,
                    number: float) -> None:
     """``raw["state"][vector]`` with the coordinate ``name`` set (new tables: ``raw`` is a copy)."""
@@ -207,5 +197,4 @@ __all__ = [
     "is_numeric_path",
     "numeric_syntax",
     "scene_with_numbers",
-    "use_contacts_of",
 ]

@@ -12,20 +12,23 @@ the key says otherwise). It returns every problem, in document order, so ``frc v
 them all; :func:`~frcontrol.scene.load_scene` raises the first as a
 :class:`~frcontrol.errors.SceneError`.
 
-Checks that need the robot (a link's name, the number of coordinates, a contact named in
-``[task]``) are done by :func:`~frcontrol.scene.load_scene` after the robot is built. Keys marked
-``"x-refers"`` in the schema name a ``link``, ``joint``, ``coordinate`` or ``contact``;
-:func:`reference_problems` checks them once the names are known.
+The check is made by pydantic's validator (pydantic-core), compiled once per process from
+:data:`SCENE_SCHEMA` (:func:`_core_schema`: strict types, finite numbers, no unknown keys); its
+errors are worded here as the scene's fields. The tests read the same schema with ``jsonschema``
+and agree. Checks that need the robot (a link's name, the number of coordinates, a contact named
+in ``[task]``) are :func:`~frcontrol.scene.load_scene`'s second step, in one place, once the
+robot's names are read from its URDF. Keys marked ``"x-refers"`` in the schema name a ``link``,
+``joint``, ``coordinate`` or ``contact``; :func:`~frcontrol.scene.reference_problems` checks them
+there.
 """
 
 from __future__ import annotations
 
 import difflib
-import math
-import re
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 __all__ = [
@@ -33,11 +36,12 @@ __all__ = [
     "NEAREST_KEY_CUTOFF",
     "apply_override",
     "beyond_float",
+    "document_problems",
     "parse_override",
     "SCENE_SCHEMA",
     "SchemaProblem",
     "nearest",
-    "reference_problems",
+    "unknown_message",
     "schema_problems",
 ]
 
@@ -394,7 +398,8 @@ def nearest(name: str, valid: Sequence[str]) -> str | None:
     return match[0] if match else None
 
 
-def _unknown(kind: str, name: str, where: str, valid: Sequence[str]) -> str:
+def unknown_message(kind: str, name: str, where: str, valid: Sequence[str]) -> str:
+    """``unknown KIND 'NAME'WHERE; did you mean 'NEAREST'? valid: ...`` (the nearest by :func:`nearest`)."""
     guess = nearest(name, valid)
     hint = f"did you mean {guess!r}? " if guess else ""
     return f"unknown {kind} {name!r}{where}; {hint}valid: {', '.join(valid) or '(none)'}"
@@ -425,83 +430,180 @@ def _type_name(value: Any) -> str:
     return type(value).__name__
 
 
-def _check(doc: Any, schema: Mapping[str, Any], path: str, out: list[SchemaProblem]) -> None:
-    def fail(reason: str, where: str = path) -> None:
-        out.append(SchemaProblem(where, reason))
+def _core_schema(schema: Mapping[str, Any]) -> Any:
+    """The pydantic-core schema that checks what the JSON Schema ``schema`` says, strictly.
+
+    Strict: no value is converted (``"0.5"`` is not a number, ``1`` is not ``true``); a number
+    must be finite (TOML has ``nan`` and ``inf``); a table with ``additionalProperties = false``
+    forbids other keys.
+    """
+    from pydantic_core import core_schema as cs
 
     if "enum" in schema:
-        if doc not in schema["enum"]:
-            options = [repr(x) for x in schema["enum"]]
-            choice = " or ".join(options) if len(options) == 2 else "one of " + ", ".join(options)
-            fail(f"expected {choice}, got {doc!r}")
-        return
+        return cs.literal_schema(list(schema["enum"]))
     kind = schema.get("type")
     if kind == "number":
-        if isinstance(doc, bool) or not isinstance(doc, (int, float)):
-            fail(f"expected a number, got {_type_name(doc)} ({doc!r})")
-        elif beyond_float(doc):
-            fail(beyond_float(doc))
-        elif not math.isfinite(doc):
-            fail(f"expected a finite number, got {doc!r}")
-        elif "minimum" in schema and doc < schema["minimum"]:
-            fail(f"expected >= {schema['minimum']:g}, got {doc!r}")
-        elif "exclusiveMinimum" in schema and doc <= schema["exclusiveMinimum"]:
-            fail(f"expected > {schema['exclusiveMinimum']:g}, got {doc!r}")
-        elif "maximum" in schema and doc > schema["maximum"]:
-            fail(f"expected <= {schema['maximum']:g}, got {doc!r}")
-    elif kind == "integer":
-        if isinstance(doc, bool) or not isinstance(doc, int):
-            fail(f"expected an integer, got {_type_name(doc)} ({doc!r})")
-        elif "minimum" in schema and doc < schema["minimum"]:
-            fail(f"expected >= {schema['minimum']:g}, got {doc!r}")
-    elif kind == "boolean":
-        if not isinstance(doc, bool):
-            fail(f"expected true or false, got {_type_name(doc)} ({doc!r})")
-    elif kind == "string":
-        if not isinstance(doc, str):
-            fail(f"expected a string, got {_type_name(doc)} ({doc!r})")
-        elif len(doc) < schema.get("minLength", 0):
-            fail("expected a non-empty string")
-        elif "pattern" in schema and re.fullmatch(schema["pattern"], doc) is None:
-            fail(f"expected a string matching {schema['pattern']}, got {doc!r}")
-    elif kind == "array":
-        if not isinstance(doc, list):
-            fail(f"expected a list, got {_type_name(doc)} ({doc!r})")
-            return
-        if "minItems" in schema and len(doc) < schema["minItems"]:
-            fail(f"expected at least {schema['minItems']} item(s), got {len(doc)}")
-        if "maxItems" in schema and len(doc) > schema["maxItems"]:
-            fail(f"expected at most {schema['maxItems']} items, got {len(doc)}")
-        for i, item in enumerate(doc):
-            _check(item, schema["items"], f"{path}[{i}]", out)
-    elif kind == "object":
-        if not isinstance(doc, Mapping):
-            fail(f"expected a table, got {_type_name(doc)} ({doc!r})")
-            return
-        properties = schema.get("properties", {})
-        extra = schema.get("additionalProperties", True)
-        for key, value in doc.items():
-            where = f"{path}.{key}" if path else str(key)
-            if key in properties:
-                _check(value, properties[key], where, out)
-            elif isinstance(extra, Mapping):
-                _check(value, extra, where, out)
-            elif extra is False:
-                kind_name = "field" if not path else "key"
-                fail(_unknown(kind_name, str(key), _table_label(path, doc), list(properties)), where)
-        if len(doc) < schema.get("minProperties", 0):
-            fail(f"expected at least {schema['minProperties']} key(s){_table_label(path, doc)}")
-        for key in schema.get("required", []):
-            if key not in doc:
-                where = f"{path}.{key}" if path else key
-                about = properties[key].get("description")
-                fail(f"missing{_table_label(path, doc)}" + (f": {about}" if about else ""), where)
+        bounds = {name: schema[key] for key, name in _BOUNDS.items() if key in schema}
+        return cs.float_schema(allow_inf_nan=False, strict=True, **bounds)
+    if kind == "integer":
+        return cs.int_schema(strict=True, ge=schema.get("minimum"))
+    if kind == "boolean":
+        return cs.bool_schema(strict=True)
+    if kind == "string":
+        return cs.str_schema(strict=True, min_length=schema.get("minLength"), pattern=schema.get("pattern"))
+    if kind == "array":
+        return cs.list_schema(_core_schema(schema["items"]), min_length=schema.get("minItems"),
+                              max_length=schema.get("maxItems"), strict=True)
+    if kind != "object":
+        raise ValueError(f"the scene schema uses a type the check does not know: {schema!r}")
+    extra = schema.get("additionalProperties", True)
+    if "properties" not in schema:
+        values = _core_schema(extra) if isinstance(extra, Mapping) else cs.any_schema()
+        return cs.dict_schema(cs.str_schema(), values, min_length=schema.get("minProperties"), strict=True)
+    required = set(schema.get("required", ()))
+    fields = {key: cs.typed_dict_field(_core_schema(sub), required=key in required)
+              for key, sub in schema["properties"].items()}
+    return cs.typed_dict_schema(fields, extra_behavior="forbid" if extra is False else "allow", strict=True)
+
+
+_BOUNDS = {"minimum": "ge", "exclusiveMinimum": "gt", "maximum": "le"}
+"""JSON Schema's bounds of a number and pydantic-core's names for them."""
+
+
+@lru_cache(maxsize=1)
+def _validator() -> Any:
+    """The validator of :data:`SCENE_SCHEMA` (pydantic-core, built once per process)."""
+    from pydantic_core import SchemaValidator
+
+    return SchemaValidator(_core_schema(SCENE_SCHEMA))
+
+
+def _path_text(path: Sequence[str | int]) -> str:
+    """``contacts[0].mu`` for the path ``("contacts", 0, "mu")``."""
+    text = ""
+    for part in path:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text
+
+
+def _schema_at(path: Sequence[str | int]) -> Mapping[str, Any]:
+    """The part of :data:`SCENE_SCHEMA` that describes the value at ``path``."""
+    schema: Mapping[str, Any] = SCENE_SCHEMA
+    for part in path:
+        if isinstance(part, int):
+            schema = schema["items"]
+        else:
+            extra = schema.get("additionalProperties")
+            schema = schema.get("properties", {}).get(part, extra if isinstance(extra, Mapping) else {})
+    return schema
+
+
+def _value_at(root: Any, path: Sequence[str | int]) -> Any:
+    """The value at ``path`` in the document ``root``."""
+    for part in path:
+        root = root[part]
+    return root
+
+
+_EXPECTED = {"float_type": "a number", "int_type": "an integer", "string_type": "a string",
+             "list_type": "a list", "dict_type": "a table"}
+"""pydantic-core's error types for a value of the wrong type, and what the value should be."""
+
+_BOUND_ERRORS = {"greater_than_equal": (">=", "ge"), "greater_than": (">", "gt"),
+                 "less_than_equal": ("<=", "le")}
+"""pydantic-core's error types for a number out of bounds: the sign and the bound's name."""
+
+
+def _value_reason(kind: str, context: Mapping[str, Any], schema: Mapping[str, Any], value: Any) -> str:
+    """What is wrong with a value that fails the check ``kind`` (a type, an enum, a bound, a length)."""
+    if kind == "literal_error":
+        options = [repr(x) for x in schema["enum"]]
+        choice = " or ".join(options) if len(options) == 2 else "one of " + ", ".join(options)
+        return f"expected {choice}, got {value!r}"
+    if kind == "finite_number" or (kind == "float_type" and isinstance(value, int) and beyond_float(value)):
+        return beyond_float(value) or f"expected a finite number, got {value!r}"
+    if kind in _EXPECTED:
+        return f"expected {_EXPECTED[kind]}, got {_type_name(value)} ({value!r})"
+    if kind == "bool_type":
+        return f"expected true or false, got {_type_name(value)} ({value!r})"
+    if kind in _BOUND_ERRORS:
+        sign, name = _BOUND_ERRORS[kind]
+        return f"expected {sign} {context[name]:g}, got {value!r}"
+    if kind == "string_too_short":
+        return "expected a non-empty string"
+    if kind == "string_pattern_mismatch":
+        return f"expected a string matching {schema['pattern']}, got {value!r}"
+    if kind == "too_short":
+        return f"expected at least {context['min_length']} item(s), got {len(value)}"
+    if kind == "too_long":
+        return f"expected at most {context['max_length']} items, got {len(value)}"
+    return f"does not hold: {kind}"
+
+
+def _problem_of(error: Mapping[str, Any], root: Any) -> tuple[tuple[int, ...], SchemaProblem]:
+    """The problem a pydantic-core error in the document ``root`` stands for, with its place.
+
+    A place is the index of each key or item on the value's path (:func:`_document_order`); a
+    table's missing keys are placed after its own keys, its own problems before them.
+    """
+    path = list(error["loc"])
+    kind, value = error["type"], error["input"]
+    if kind in ("extra_forbidden", "missing"):
+        table_path, key = path[:-1], path[-1]
+        table, schema = _value_at(root, table_path), _schema_at(table_path)
+        label, properties = _table_label(_path_text(table_path), table), schema.get("properties", {})
+        if kind == "extra_forbidden":
+            reason = unknown_message("field" if not table_path else "key", str(key), label, list(properties))
+            return _document_order(root, path), SchemaProblem(_path_text(path), reason)
+        about = properties.get(key, {}).get("description")
+        order = _document_order(root, table_path) + (len(table) + 1, list(schema["required"]).index(key))
+        return order, SchemaProblem(_path_text(path), f"missing{label}" + (f": {about}" if about else ""))
+    where = _path_text(path)
+    if kind == "too_short" and isinstance(value, Mapping):
+        reason = f"expected at least {error['ctx']['min_length']} key(s){_table_label(where, value)}"
+        return _document_order(root, path) + (len(value),), SchemaProblem(where, reason)
+    reason = _value_reason(kind, error.get("ctx") or {}, _schema_at(path), value)
+    return _document_order(root, path) + (-1,), SchemaProblem(where, reason)
+
+
+def _document_order(root: Any, path: Sequence[str | int]) -> tuple[int, ...]:
+    """The place of the value at ``path`` in the document ``root``: each key's or item's index."""
+    order = []
+    node = root
+    for part in path:
+        order.append(part if isinstance(part, int) else list(node).index(part))
+        node = node[part]
+    return tuple(order)
+
+
+def _schema_errors(doc: Any) -> list[SchemaProblem]:
+    """The problems the validator of :data:`SCENE_SCHEMA` finds in ``doc``, in document order."""
+    from pydantic_core import ValidationError
+
+    try:
+        _validator().validate_python(doc)
+    except ValidationError as err:
+        placed = sorted((_problem_of(e, doc) for e in err.errors()), key=lambda item: item[0])
+        return [problem for _, problem in placed]
+    return []
+
+
+def document_problems(doc: dict[str, Any], overrides: Mapping[str, Any]) -> list[SchemaProblem]:
+    """Set ``overrides`` on the parsed scene ``doc`` (:func:`apply_override`), then check it.
+
+    Returns:
+        The first override's problems if one cannot be set, else :func:`schema_problems`.
+    """
+    for key, value in overrides.items():
+        problems = apply_override(doc, key, value)
+        if problems:
+            return problems
+    return schema_problems(doc)
 
 
 def schema_problems(doc: Any) -> list[SchemaProblem]:
     """Every way the parsed scene ``doc`` breaks :data:`SCENE_SCHEMA`, in document order."""
-    out: list[SchemaProblem] = []
-    _check(doc, SCENE_SCHEMA, "", out)
+    out = _schema_errors(doc)
     if isinstance(doc, Mapping) and isinstance(doc.get("disturbances"), list):
         for i, table in enumerate(doc["disturbances"]):
             if isinstance(table, Mapping):
@@ -582,45 +684,6 @@ def _disturbance_shape(table: Mapping[str, Any], where: str) -> list[SchemaProbl
     return []
 
 
-def _references(doc: Any, schema: Mapping[str, Any], path: str, names: Mapping[str, Sequence[str]],
-                out: list[SchemaProblem]) -> None:
-    refers = schema.get("x-refers")
-    if isinstance(refers, str) and refers in names:
-        values = doc if isinstance(doc, list) else [doc]
-        for i, value in enumerate(values):
-            if isinstance(value, str) and value not in names[refers]:
-                where = f"{path}[{i}]" if isinstance(doc, list) else path
-                out.append(SchemaProblem(where, _unknown(refers, value, "", list(names[refers]))))
-        return
-    if schema.get("type") == "array" and isinstance(doc, list) and "items" in schema:
-        for i, item in enumerate(doc):
-            _references(item, schema["items"], f"{path}[{i}]", names, out)
-    elif schema.get("type") == "object" and isinstance(doc, Mapping):
-        keys_refer = schema.get("x-refers-keys")
-        properties = schema.get("properties", {})
-        extra = schema.get("additionalProperties")
-        for key, value in doc.items():
-            where = f"{path}.{key}" if path else str(key)
-            if isinstance(keys_refer, str) and keys_refer in names and key not in names[keys_refer]:
-                out.append(SchemaProblem(where, _unknown(keys_refer, str(key), "", list(names[keys_refer]))))
-                continue
-            sub = properties.get(key, extra if isinstance(extra, Mapping) else None)
-            if sub is not None:
-                _references(value, sub, where, names, out)
-
-
-def reference_problems(doc: Any, names: Mapping[str, Sequence[str]]) -> list[SchemaProblem]:
-    """Names in ``doc`` that refer to no ``link``, ``joint``, ``coordinate`` or ``contact``.
-
-    Args:
-        doc: a parsed scene that passed :func:`schema_problems`.
-        names: the valid names of each kind (kinds absent from it are not checked).
-    """
-    out: list[SchemaProblem] = []
-    _references(doc, SCENE_SCHEMA, "", names, out)
-    return out
-
-
 # ---------------------------------------------------------------------------------------- overrides
 def parse_override(assignment: str) -> tuple[str, Any]:
     """Split ``PATH=VALUE`` (the ``--set`` grammar): VALUE is read as TOML, else as a bare string.
@@ -677,7 +740,7 @@ def apply_override(doc: dict[str, Any], path: str, value: Any) -> list[SchemaPro
             elif isinstance(extra, Mapping):
                 sub = extra
             else:
-                return [SchemaProblem(path, _unknown("field" if not walked else "key", part,
+                return [SchemaProblem(path, unknown_message("field" if not walked else "key", part,
                                                      f" in {where}", list(properties)))]
             if last:
                 node[part] = value
@@ -695,7 +758,7 @@ def apply_override(doc: dict[str, Any], path: str, value: Any) -> list[SchemaPro
             else:
                 names = [e.get("name") for e in node if isinstance(e, Mapping)]
                 if part not in names:
-                    return [SchemaProblem(path, _unknown("entry", part, f" in {where}",
+                    return [SchemaProblem(path, unknown_message("entry", part, f" in {where}",
                                                          [str(n) for n in names if n is not None]))]
                 index = names.index(part)
             if index >= len(node):

@@ -408,6 +408,17 @@ def _corners(path: str, table: Mapping[str, Any], where: str) -> np.ndarray:
                      "[fx, fy] (a box, [N]) or vertices = [[fx, fy], ...] (a polygon, [N])")
 
 
+def read_tables(path: str, raw: Mapping[str, Any], contact_names: Sequence[str], link_names: Sequence[str]
+                ) -> tuple[ModelOptions, TaskTable, tuple[DisturbanceTable, ...]]:
+    """A scene document's ``[model]``, ``[task]`` and ``[[disturbances]]`` as records, at once.
+
+    Raises:
+        SceneError: as :func:`read_model`, :func:`read_task` and :func:`read_disturbances`.
+    """
+    return (read_model(path, raw.get("model"), contact_names), read_task(path, raw.get("task")),
+            read_disturbances(path, raw.get("disturbances"), link_names))
+
+
 __all__ = [
     "CONTACT_MODELS",
     "ContactParameters",
@@ -424,5 +435,6 @@ __all__ = [
     "finite_pair",
     "read_disturbances",
     "read_model",
+    "read_tables",
     "read_task",
 ]

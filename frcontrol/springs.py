@@ -20,13 +20,16 @@ from __future__ import annotations
 import difflib
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .errors import SceneError
 from .scene_schema import nearest
+
+if TYPE_CHECKING:
+    from .drives import DrivenJoints
 
 SPRING_KEYS = ("stiffness", "damping", "rest")
 """The keys of a ``[model.springs.JOINT]`` table (``stiffness`` required)."""
@@ -112,6 +115,8 @@ def _value(path: str, table: Mapping[str, Any], key: str, where: str, default: f
 def _check_joint(path: str, joint: str, where: str, coordinates: Sequence[str], joints: Sequence[str],
                  inputs: Sequence[str], locked: Sequence[str]) -> None:
     """The joint exists, is not locked and is not an input; else a message naming the nearest valid one."""
+    if joint in joints and joint not in inputs and joint not in locked:
+        return
     valid = [j for j in joints if j not in inputs]
     guess = nearest(joint, valid)
     if guess is None and joint in (*inputs, *locked) and valid:  # a real joint: offer the closest anyway
@@ -175,4 +180,37 @@ def read_springs(path: str, raw: Any, coordinates: Sequence[str], joints: Sequen
     return JointSprings(tuple(names), *arrays)
 
 
-__all__ = ["JointSprings", "NO_SPRINGS", "SPRING_KEYS", "read_springs"]
+@dataclass(frozen=True)
+class JointTerms:
+    """What a scene adds to its robot's coordinates: drives' inertia and damping, joint springs.
+
+    Attributes:
+        inertia: [kg m^2] per minimal coordinate index, added to the diagonal of M (Pinocchio's
+            ``armature`` of the robot's own model, which CRBA adds): a drive's reflected inertia.
+        damping: [N m s/rad] per minimal coordinate index: ``b v`` added to the bias h(q, v) (a DC
+            motor's electrical damping, :mod:`frcontrol.drives`).
+        springs: the joint springs, whose force ``k (q - rest) + c v`` is added to h.
+    """
+
+    inertia: Mapping[int, float] = field(default_factory=dict)
+    damping: Mapping[int, float] = field(default_factory=dict)
+    springs: JointSprings = NO_SPRINGS
+
+
+def read_joint_terms(path: str, raw: Any, coordinates: Sequence[str], joints: Sequence[str],
+                     inputs: Sequence[str], locked: Sequence[str], driven: DrivenJoints) -> JointTerms:
+    """The :class:`JointTerms` of a scene, by coordinate.
+
+    Its ``[model.springs]`` table (:func:`read_springs`, same arguments) and its drives' terms
+    (``driven``, :func:`~frcontrol.drives.read_drives`).
+
+    Raises:
+        SceneError: as :func:`read_springs`.
+    """
+    springs = read_springs(path, raw, coordinates, joints, inputs, locked)
+    index = {name: i for i, name in enumerate(coordinates)}
+    return JointTerms({index[j]: value for j, value in driven.inertia.items()},
+                      {index[j]: value for j, value in driven.damping.items()}, springs)
+
+
+__all__ = ["JointSprings", "JointTerms", "NO_SPRINGS", "SPRING_KEYS", "read_joint_terms", "read_springs"]

@@ -104,7 +104,7 @@ from .jsonable import finite_or_none, to_jsonable
 from .kernel import backend
 from .modes import ContactProblem, add_scene_modes, build_mode_system
 from .response import AmbiguousOutputs, solve_affine
-from .scene import Scene, parse_input_assignments
+from .scene import INPUT_LIMIT_SLACK, InputValues, Scene, input_vector
 from .solvers import SolverFailed, SolverSettings, must_solve, settings_from, solve_lp
 
 __all__ = [
@@ -371,26 +371,9 @@ def static_body(
     return StaticBody(contact_names, pts, nrm, mu_arr, m, c, g, force, point, torque, length, source)
 
 
-InputValues = Mapping[str, float] | Sequence[float] | np.ndarray | None
-"""Inputs as ``{name: value}`` (others 0), the full input vector, or None (all 0)."""
-
-
 def _scene_inputs(scene: Scene, inputs: InputValues) -> np.ndarray:
     """The input vector u (zeros by default), validated against the scene's inputs and limits."""
-    if inputs is None:
-        inputs = {}
-    if isinstance(inputs, Mapping):
-        return parse_input_assignments(scene, inputs)
-    u = np.asarray(inputs, dtype=float).reshape(-1)
-    if u.shape != (scene.inputs.count,):
-        raise InputError(f"the input vector has {u.size} entries; the scene has {scene.inputs.count} "
-                         f"inputs ({', '.join(scene.inputs.coordinates)})")
-    if not np.all(np.isfinite(u)):
-        raise InputError(f"the input vector has a NaN or infinite entry: {u.tolist()}")
-    if np.any(u < scene.inputs.lower) or np.any(u > scene.inputs.upper):
-        raise InputError(f"the input {u.tolist()} is outside the limits [{scene.inputs.lower.tolist()}, "
-                         f"{scene.inputs.upper.tolist()}]")
-    return u
+    return input_vector(scene.inputs.coordinates, scene.inputs.lower, scene.inputs.upper, inputs)
 
 
 def _check_statics_scene(scene: Scene) -> None:
@@ -1290,7 +1273,8 @@ def analyze_statics(
         weak=weak, strong=strong_result, timings=timings,
         tolerances={
             "rank": RANK_TOLERANCE, "closure": CLOSURE_TOLERANCE, "equilibrium": EQUILIBRIUM_TOLERANCE,
-            "implicit_slack_threshold": IMPLICIT_SLACK_THRESHOLD, "tie_break": TIE_BREAK_WEIGHT,
+            "input_limit": INPUT_LIMIT_SLACK, "implicit_slack_threshold": IMPLICIT_SLACK_THRESHOLD,
+            "tie_break": TIE_BREAK_WEIGHT,
             "acceleration": ACCELERATION_TOLERANCE, "daqp_primal": DAQP_PRIMAL_TOLERANCE,
         },
     )

@@ -22,8 +22,12 @@ import numpy as np
 
 from .errors import RobotModelError
 
-__all__ = ["INERTIA_TOLERANCE", "UrdfDocument", "UrdfInertial", "UrdfJoint", "UrdfVisual", "read_urdf",
-           "resolve_mesh"]
+__all__ = ["BASE_COORDINATES", "INERTIA_TOLERANCE", "RobotOutline", "UrdfDocument", "UrdfInertial",
+           "UrdfJoint", "UrdfVisual", "read_urdf", "resolve_mesh", "robot_outline"]
+
+BASE_COORDINATES = ("x", "y", "theta")
+"""Names of the planar base's coordinates: position [m] of the root link's frame and its angle
+[rad], counter-clockwise from the world x axis."""
 
 INERTIA_TOLERANCE = 1e-9
 """How far [-, relative to the largest eigenvalue's magnitude] the smallest eigenvalue of a link's
@@ -118,6 +122,48 @@ class UrdfDocument:
     def movable_joints(self) -> tuple[UrdfJoint, ...]:
         """The joints that are not fixed, in document order."""
         return tuple(j for j in self.joints if j.kind != "fixed")
+
+
+@dataclass(frozen=True)
+class RobotOutline:
+    """The names a URDF, a base and locked joints give a robot: what a scene is checked against.
+
+    The robot's model (:class:`~frcontrol.model.PlanarRobot`) has the same coordinates and joints
+    in the same order; reading them here builds no model.
+
+    Attributes:
+        joint_names: the movable joints, in document order.
+        coordinate_names: the minimal coordinates: the base's (x, y, theta), then the joints.
+        link_names: the links, in document order.
+        force_units: the unit of a generalized force on each coordinate: ``"N"`` on x, y and a
+            prismatic joint, ``"N m"`` on theta and a revolute one.
+    """
+
+    joint_names: tuple[str, ...]
+    coordinate_names: tuple[str, ...]
+    link_names: tuple[str, ...]
+    force_units: tuple[str, ...]
+
+
+def robot_outline(path: str | Path, base: str = "planar") -> RobotOutline:
+    """The :class:`RobotOutline` of the URDF at ``path`` on a ``"planar"`` or ``"fixed"`` base.
+
+    No joint is locked (a scene's loader leaves out the joints it locks).
+
+    Args:
+        path: the URDF.
+        base: ``"planar"`` (the coordinates x, y, theta first) or ``"fixed"``.
+
+    Raises:
+        RobotModelError: the file cannot be read or parsed (:func:`read_urdf`).
+    """
+    document = read_urdf(path)
+    joints = [j for j in document.joints if j.kind != "fixed"]
+    names = tuple(j.name for j in joints)
+    units = tuple("N" if j.kind == "prismatic" else "N m" for j in joints)
+    if base == "planar":
+        return RobotOutline(names, BASE_COORDINATES + names, document.links, ("N", "N", "N m") + units)
+    return RobotOutline(names, names, document.links, units)
 
 
 def read_urdf(path: str | Path) -> UrdfDocument:

@@ -13,6 +13,7 @@ from conftest import needs_kernel
 from frcontrol.errors import FrameNotFound, RobotModelError
 from frcontrol.model import ContactPoint, PlanarRobot
 from frcontrol.scene import load_scene, shipped_robots_dir, shipped_scene_names
+from frcontrol.springs import JointTerms
 
 ROBOTS = shipped_robots_dir()
 EPS = 1e-6  # finite-difference step [m or rad]
@@ -418,9 +419,8 @@ def test_compiled_assembly_reorders_coordinates_and_adds_drive_damping(tmp_path,
                 point("head", "link8", (0.2, 0.0), n=(0.6, 0.8))]
 
     def build() -> PlanarRobot:
-        robot = PlanarRobot(urdf, "planar", 9.81, contacts)
-        robot.set_drive_terms({3: 0.01, 10: 0.02}, {4: 0.5, 10: 1.5})
-        return robot
+        return PlanarRobot(urdf, "planar", 9.81, contacts,
+                           terms=JointTerms({3: 0.01, 10: 0.02}, {4: 0.5, 10: 1.5}))
 
     compiled, reference = numpy_twin(monkeypatch, build)
     assert compiled._kernel_plan[8] is not None  # the coordinates are reordered
@@ -542,19 +542,17 @@ def test_new_surface_points_give_the_state_of_a_robot_set_before_any_state(name)
     # the layouts kept get only their gap constants again; a robot that never made a layout makes
     # them from the new surface points: the states agree to the bit
     rng = np.random.default_rng(sum(map(ord, name)))
-    kept, fresh = load_scene(name), load_scene(name)
+    kept = load_scene(name)
     subsets = [None, kept.active_indices]
-    for subset in subsets:
-        kept.robot.state(kept.q, kept.v, subset)
-    for step in range(2):
-        surfaces = [c.surface_point_in_world + rng.normal(scale=0.05, size=2) for c in kept.robot.contacts]
-        if step == 0:
-            kept.robot.set_surface_points(surfaces)
-        else:  # as an atlas sets them: the scene's own contact points, kept as given
-            kept.robot.use_contact_points([dataclasses.replace(c, surface_point_in_world=s)
-                                           for c, s in zip(kept.robot.contacts, surfaces, strict=True)])
-        fresh = load_scene(name)
-        fresh.robot.set_surface_points(surfaces)
+    before = [_state_bytes(kept.robot.state(kept.q, kept.v, subset)) for subset in subsets]
+    for _ in range(2):  # as an atlas sets them: the scene's own contact points, kept as given
+        robot = kept.robot
+        points = [dataclasses.replace(c, surface_point_in_world=c.surface_point_in_world
+                                      + rng.normal(scale=0.05, size=2)) for c in robot.contacts]
+        moved = robot.with_contact_points(points)
+        fresh = PlanarRobot(robot.urdf_path, robot.base, robot.gravity, points, robot.locked, robot.terms)
         for subset in subsets:
-            assert _state_bytes(kept.robot.state(kept.q, kept.v, subset)) == \
-                _state_bytes(fresh.robot.state(kept.q, kept.v, subset))
+            assert _state_bytes(moved.state(kept.q, kept.v, subset)) == \
+                _state_bytes(fresh.state(kept.q, kept.v, subset))
+    # the robot they were set on is unchanged
+    assert [_state_bytes(kept.robot.state(kept.q, kept.v, subset)) for subset in subsets] == before

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import re
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import ROBOTS, rod_scene
 
+import frcontrol
 from frcontrol.errors import CoordinateNotFound, InputError, SceneError
 from frcontrol.model import _skeleton
 from frcontrol.scene import _parsed_toml, load_scene, parse_input_assignments, shipped_scene_names
@@ -240,7 +243,9 @@ def test_a_scene_loads_the_same_from_the_caches(name):
 def test_a_loaded_scene_changed_in_place_leaves_the_next_load_alone():
     scene = load_scene("rhex_flip")
     scene.raw["contacts"][0]["mu"] = 123.0  # the raw document is the caller's
-    scene.robot.set_drive_terms({3: 0.5}, {3: 2.0})  # armature of its own Pinocchio model
+    armature = scene.robot.model.armature.copy()
+    armature[3] = 0.5
+    scene.robot.model.armature = armature  # of its own Pinocchio model
     again = load_scene("rhex_flip")
     assert again.raw["contacts"][0]["mu"] != 123.0
     np.testing.assert_array_equal(again.robot.model.armature, 0.0)
@@ -262,3 +267,68 @@ def test_files_rewritten_with_other_content_are_read_again(write_scene, tmp_path
     assert (before.robot.total_mass, after.robot.total_mass) == (1.0, 2.0)
     assert (before.contacts[0].mu, after.contacts[0].mu) == (1.4, 0.7)
     assert after.state().mass_matrix[0, 0] == pytest.approx(2.0 * before.state().mass_matrix[0, 0], rel=1e-15)
+
+
+PACKAGE_DIR = str(Path(frcontrol.__file__).parent)
+
+
+def _modules_entered(call) -> list[tuple[str, str]]:
+    """(module file, function) each time ``call()`` enters code written in a frcontrol module's file.
+
+    Entering: a call from a frame of another module's file (or from outside frcontrol). Returns
+    to a caller are not entries; code generated at run time (a dataclass's ``__init__``, whose
+    file is ``<string>``) belongs to no module.
+    """
+    events: list[tuple[str, str, str]] = []
+
+    def profile(frame, event, _arg):
+        filename = frame.f_code.co_filename
+        if event in ("call", "return") and filename.startswith(PACKAGE_DIR):
+            events.append((event, filename[len(PACKAGE_DIR) + 1:], frame.f_code.co_name))
+
+    sys.setprofile(profile)
+    try:
+        call()
+    finally:
+        sys.setprofile(None)
+    stack: list[str] = []
+    entered = []
+    for event, module, function in events:
+        if event == "call":
+            if not stack or stack[-1] != module:
+                entered.append((module, function))
+            stack.append(module)
+        elif stack:
+            stack.pop()
+    return entered
+
+
+@pytest.mark.parametrize("name", shipped_scene_names())
+def test_loading_a_scene_enters_each_module_once(name):
+    # schema -> names from the URDF -> records -> the robot built once -> the scene: each module
+    # is entered once and left for good (a load after the first: the URDF's parse and the
+    # Pinocchio model are cached per process, as for every load of a sweep or of frc serve)
+    load_scene(name)
+    entered = _modules_entered(lambda: load_scene(name))
+    modules = [module for module, _ in entered]
+    assert modules[0] == "scene.py" and len(modules) == len(set(modules)), entered
+    assert {"scene_schema.py", "urdf.py", "model.py", "scene_tables.py"} <= set(modules)
+    assert [f for m, f in entered if m == "model.py"] == ["__init__"]  # PlanarRobot, once
+
+
+def test_every_input_vector_is_checked_with_the_one_slack():
+    # by name, as a vector, in the engine and in statics: INPUT_LIMIT_SLACK past a limit is taken
+    # as given, twice that is refused, with the same message everywhere
+    from frcontrol.engine import solutions_at
+    from frcontrol.scene import INPUT_LIMIT_SLACK
+    from frcontrol.statics import static_body_from_scene
+
+    scene = load_scene("box_on_ground")
+    upper = float(scene.inputs.upper[0])
+    calls = [lambda x: parse_input_assignments(scene, {"x": x}),  # by name
+             lambda x: solutions_at(scene, {"x": x}),  # the engine
+             lambda x: static_body_from_scene(scene, [x, 0.0, 0.0])]  # statics, a vector
+    for call in calls:
+        call(upper + 0.5 * INPUT_LIMIT_SLACK)
+        with pytest.raises(InputError, match=r"input 'x' = 20 is outside its limits \[-20, 20\]"):
+            call(upper + 2 * INPUT_LIMIT_SLACK)

@@ -8,6 +8,7 @@ with one line on stderr.
 
 from __future__ import annotations
 
+import copy
 import json
 import re
 import subprocess
@@ -22,7 +23,7 @@ from typer.testing import CliRunner
 
 from frcontrol.errors import SceneError
 from frcontrol.scene import load_scene, scene_problems, shipped_scene_names
-from frcontrol.scene_schema import SCENE_SCHEMA, schema_problems
+from frcontrol.scene_schema import SCENE_SCHEMA, _schema_errors, schema_problems
 
 SHIPPED = shipped_scene_names()
 runner = CliRunner()
@@ -266,3 +267,50 @@ def test_version_and_short_help():
     assert result.exit_code == 0 and result.stdout.strip() == f"frcontrol {version('frcontrol')}"
     assert runner.invoke(app, ["-h"]).stdout == runner.invoke(app, ["--help"]).stdout
     assert runner.invoke(app, ["analyze", "-h"]).exit_code == 0
+
+
+def _leaf_paths(node, path=()):
+    """Every path to a value of ``node`` that is not a table or a list, and to every table."""
+    if isinstance(node, dict):
+        yield path
+        for key, value in node.items():
+            yield from _leaf_paths(value, (*path, key))
+    elif isinstance(node, list):
+        for i, value in enumerate(node):
+            yield from _leaf_paths(value, (*path, i))
+    else:
+        yield path
+
+
+def _changed(doc: dict, path: tuple, value) -> dict:
+    out = copy.deepcopy(doc)
+    parent = out
+    for key in path[:-1]:
+        parent = parent[key]
+    parent[path[-1]] = value
+    return out
+
+
+WRONG_VALUES = ("text", "", -1.0, 0, 2, True, 1e400, [], [0.0], {}, {"typo": 1.0})
+"""Values put in place of each field of a shipped scene: wrong types, lengths, ranges, an unknown key."""
+
+
+@pytest.mark.parametrize("name", ["rod_on_table", "rhex_flip_drives", "snake_climb", "box_slide"])
+def test_the_check_and_jsonschema_agree_on_every_field(name):
+    # the check compiled from the published schema accepts exactly what jsonschema accepts, but
+    # for non-finite numbers (JSON Schema cannot say "finite": the check refuses them)
+    validator = jsonschema.Draft202012Validator(SCENE_SCHEMA)
+    doc = shipped(name)
+    checked = 0
+    for path in _leaf_paths(doc):
+        for value in WRONG_VALUES:
+            if not path:
+                continue
+            changed = _changed(doc, path, value)
+            ours = _schema_errors(changed)
+            if value == 1e400:  # refused; where jsonschema takes it as a number, as not finite
+                assert ours and ("finite" in ours[0].reason or not validator.is_valid(changed)), (path, ours)
+            else:
+                assert (not ours) == validator.is_valid(changed), (path, value, ours)
+            checked += 1
+    assert checked > 100

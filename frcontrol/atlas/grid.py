@@ -361,8 +361,6 @@ def build_atlas(
             (with the nearest valid one), or the scene lacks what ``what`` needs (a flip's or a
             climb's ``[task]``).
     """
-    from ..model import PlanarRobot
-
     if what not in WHATS:
         raise InputError(f"unknown --what {what!r}; valid: {', '.join(WHATS)}")
     axes = tuple(parse_axis(a) if isinstance(a, str) else a for a in vary)
@@ -377,7 +375,7 @@ def build_atlas(
         parse_input_assignments(base, fixed_inputs)
         check_scene_for(base, what)  # a flip sweep of a scene with no [task] is refused at once
         raw = dict(base.raw)
-        full = PlanarRobot(base.robot.urdf_path, base=base.robot.base).coordinate_names  # with locked joints
+        full = base.robot.coordinates_before_locking
         robot_digest = _file_digest(base.robot.urdf_path)
     for axis in axes:
         _check_path(str(base.path), axis, raw, full, base.inputs.coordinates)

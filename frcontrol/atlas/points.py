@@ -50,7 +50,6 @@ from ..scene_numbers import (
     is_numeric_path,
     numeric_syntax,
     scene_with_numbers,
-    use_contacts_of,
 )
 from ..scene_source import SceneSource
 from .grid import AtlasPlan
@@ -159,15 +158,12 @@ class _Scenes:
         return self.get(source, overrides)
 
     def _load(self, source: SceneSource, overrides: Mapping[str, Any]) -> _Loaded | FrcontrolError:
-        from ..model import PlanarRobot
         from ..modes import ContactProblem
 
         self.loads += 1
         try:
             with source.loaded(overrides) as scene:
-                robot = scene.robot
-                bare = (PlanarRobot(robot.urdf_path, base=robot.base).coordinate_names if robot.locked
-                        else scene.coordinate_names)
+                bare = scene.robot.coordinates_before_locking
             return _Loaded(scene, ContactProblem.from_scene(scene), bare)
         except FrcontrolError as err:
             return err
@@ -202,7 +198,6 @@ def scene_at(plan: AtlasPlan, overrides: Mapping[str, Any], numeric_paths: froze
         except FrcontrolError:
             pass  # loaded with every override below: the point's own error, as the loader words it
     loaded = _SCENES.get(plan.source, overrides)
-    use_contacts_of(loaded.scene)  # a scene made from it may have set the shared robot
     return loaded.scene, loaded.problem
 
 
@@ -239,8 +234,6 @@ def _made_at(source: SceneSource, template: _Loaded, structural: dict[str, Any],
         stale = _changed(scene_numbers, numbers)
         if stale:
             scene, scene_numbers = scene_with_numbers(scene, stale, template.bare_coordinates), numbers
-        else:
-            use_contacts_of(scene)  # the shared robot may have been set to another scene's since
         if problem is None:
             problem = problem_from_scene(scene)
     _SCENES.last = _Made(source, template, structural, numbers, scene, scene_numbers, problem)

@@ -26,6 +26,7 @@ from .colors import (
     hex_color,
     rgba_hex,
 )
+from .picture_errors import OutputFileError, PortInUse, ViewerServerError, VizError
 from .shapes import (
     LINE_MERGE_TOLERANCE,
     SurfaceLine,
@@ -35,7 +36,6 @@ from .shapes import (
     surface_lines,
     surface_segments,
 )
-from .picture_errors import OutputFileError, PortInUse, ViewerServerError, VizError
 from .visuals import DEFAULT_VISUAL_COLOR, LinkVisual, link_visuals, visual_depth, visual_outline
 
 __all__ = [

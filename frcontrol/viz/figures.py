@@ -37,7 +37,6 @@ from ..planning.flip import FlipPlan, FlipResult
 from ..polytope import Polytope
 from ..scene import Scene
 from ..statics import StaticsReport
-from .shapes import pose_matrix
 from .plots import (
     REGION_LABEL_STYLE,
     PolygonPanel,
@@ -48,6 +47,7 @@ from .plots import (
 )
 from .plots import new_figure as _figure
 from .plots import save_figure as _save
+from .shapes import pose_matrix
 from .visuals import link_visuals, visual_outline
 
 __all__ = [

@@ -56,8 +56,8 @@ from frcontrol.scene import Scene
 from frcontrol.simulation.trajectory import Trajectory
 
 from . import colors
-from .shapes import friction_cone_directions, pose_matrix, surface_lines, surface_segments
 from .picture_errors import OutputFileError, PortInUse, ViewerServerError
+from .shapes import friction_cone_directions, pose_matrix, surface_lines, surface_segments
 from .visuals import LinkVisual, link_visuals, visual_depth, visual_outline
 
 __all__ = [

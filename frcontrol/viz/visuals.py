@@ -17,8 +17,8 @@ from frcontrol.errors import RobotModelError
 from frcontrol.model import ContactPoint, PlanarRobot
 from frcontrol.urdf import read_urdf, resolve_mesh
 
-from .shapes import convex_hull, pose_matrix
 from .picture_errors import VizError
+from .shapes import convex_hull, pose_matrix
 
 __all__ = ["DEFAULT_VISUAL_COLOR", "LinkVisual", "link_visuals", "visual_depth", "visual_outline"]
 
