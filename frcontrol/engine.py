@@ -36,6 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import polytope as poly
+from .ambiguity_polygon import PolygonRule
 from .errors import CoordinateNotFound, InputError
 from .jsonable import to_jsonable
 from .kernel import compiled, kernel_choice
@@ -873,7 +874,8 @@ def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, solve
     The representative is the Chebyshev centre of the admissible w (the most central internal
     forces), or the motion LP's point when the admissible set has no interior. With one ambiguity
     variable and ``closed_form``, both are decided on the interval of admissible w without an LP
-    (:func:`frcontrol.mode_batch.interval_admissible`); the reference path sets it False.
+    (:func:`frcontrol.mode_batch.interval_admissible`); with two, by the LPs' vertices
+    (:mod:`frcontrol.ambiguity_polygon`, where they span the plane); the reference path sets it False.
     """
     p = H_w.shape[1]
     if p == 0:
@@ -883,6 +885,9 @@ def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, solve
     if p == 1 and closed_form:
         return interval_admissible(H_w, h_w, motion, DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE,
                                    poly.CHEBYSHEV_RADIUS_CAP)
+    rule = polygon_rule(H_w, motion) if p == 2 and closed_form else None
+    if rule is not None:
+        return rule.decide(h_w)
     found = motion_margin(H_w, h_w + np.where(motion, 0.0, DOMAIN_TOLERANCE), motion,
                           np.zeros((0, p)), np.zeros(0), solver=solver)
     if found.verdict != "ok":
@@ -892,6 +897,13 @@ def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, solve
     if ball.found and ball.radius > DOMAIN_TOLERANCE:
         return ball.center
     return z
+
+
+def polygon_rule(H_w: np.ndarray, motion: np.ndarray) -> PolygonRule | None:
+    """The closed-form rule of :func:`_admissible_in_w` for two ambiguity variables, with the engine's
+    tolerances (:meth:`frcontrol.ambiguity_polygon.PolygonRule.build`; None: the LPs decide)."""
+    return PolygonRule.build(H_w, motion, domain_tolerance=DOMAIN_TOLERANCE, zero_row_tolerance=ZERO_ROW_TOLERANCE,
+                             radius_cap=poly.CHEBYSHEV_RADIUS_CAP)
 
 
 def _solution(problem: ContactProblem, system: ModeSystem, response: AffineSolution, u: np.ndarray,

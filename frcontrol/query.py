@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from .ambiguity_polygon import PolygonRule
 from .errors import InputError
 from .kernel import compiled, kernel_choice
 from .mode_batch import decide_intervals
@@ -250,6 +251,11 @@ class QueryTable:
         self.valid = _padded([np.ones(r[2].size, bool) for r in rows], width, (), False, bool)
         self.one = np.flatnonzero(self.p == 1)
         self.many = np.flatnonzero(self.p >= 2).tolist()
+        self.polygons = {i: rule for i in self.many if self.p[i] == 2 and (rule := PolygonRule.build(
+            rows[i][1][:self.inequality_rows[i]], rows[i][4][:self.inequality_rows[i]],
+            domain_tolerance=tolerance, zero_row_tolerance=zero_row_tolerance, radius_cap=radius_cap)) is not None}
+        """The closed-form rule of each mode with two ambiguity variables where it applies (the
+        engine's, :func:`frcontrol.engine.polygon_rule`, built once: it does not depend on u)."""
         self.H_w1 = _padded([r[1][:, 0] if r[1].shape[1] == 1 else np.zeros(0) for r in rows], width, (), 0.0)
         self.X_u = _padded([x.response.X_u for x in modes], nx, (m,), 0.0)
         self.x_0 = _padded([x.response.x_0 for x in modes], nx, (), 0.0)
@@ -326,7 +332,9 @@ class QueryTable:
             H_u, H_w, h_0, norms, motion = (a[:self.inequality_rows[i]] for a in self.mode_rows[i])
             # the slice as the engine computes it, to the last bit: the LP's representative is one
             # vertex of the Chebyshev centres, which round-off may move to another
-            found = decide_w(H_w, (h_0 - H_u @ U[point[s]]) / norms, motion)
+            h = (h_0 - H_u @ U[point[s]]) / norms
+            rule = self.polygons.get(i)
+            found = rule.decide(h) if rule is not None else decide_w(H_w, h, motion)
             if found is None:
                 keep[s] = False
             else:
