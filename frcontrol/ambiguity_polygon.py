@@ -57,61 +57,33 @@ def _triples(count: int) -> np.ndarray:
     return triples
 
 
-@dataclass(frozen=True, eq=False)
-class _VertexLPs:
-    """LPs ``max s`` over ``rows[j] @ (w, s) <= b[j]``, all decided at once by their vertices.
+def _vertex_maps(a: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Per LP ``j``, every candidate vertex and its slacks as a linear map of the LP's ``b[j]``.
 
-    With ``R_j`` the LP's rows (its live rows ``(a_i, c_i)``, then the bounds ``s <= s_max`` and
-    ``-s <= 0``), the vertex of three rows ``T`` is ``inv(R_j[T]) b[j][T]`` and every row's slack
-    there is ``b[j] - R_j vertex``: both are linear in ``b[j]``. ``maps[j]`` is that linear map, for
-    every three rows at once, so that one product gives every candidate and its slacks.
+    The LP's rows ``R_j`` are its live rows ``(a_i, c[j, i])`` (``a``: (L, 2), ``c``: (J, L)), then
+    the bounds ``s <= s_max`` and ``-s <= 0``. Three rows ``T`` meet at ``inv(R_j[T]) b[j][T]``, where
+    every row's slack is ``b[j] - R_j vertex``: both are linear in ``b[j]``.
 
-    Attributes:
-        maps: (J, K (3 + L + 2), L + 2): per LP and triple of rows, the vertex ``(w, s)`` then the
-            slack of every row, as a function of ``b[j]`` (NaN where the three rows meet at no point:
-            never a candidate).
-        candidates: K, the number of triples.
+    Returns:
+        (J, K, 3 + L + 2, L + 2): per LP and triple of rows (K of them), the vertex ``(w, s)`` then
+        every row's slack there, as a map of ``b[j]`` (NaN where the three rows meet at no point:
+        never feasible).
     """
-
-    maps: np.ndarray
-    candidates: int
-
-    @classmethod
-    def build(cls, a: np.ndarray, c: np.ndarray) -> _VertexLPs:
-        """The LPs of the rows ``a_i w + c[j, i] s`` (``a``: (L, 2), ``c``: (J, L)) and the bounds on s."""
-        count, size = c.shape[0], a.shape[0] + 2
-        rows = np.zeros((count, size, 3))
-        rows[:, :-2, :2], rows[:, :-2, 2] = a, c
-        rows[:, -2, 2], rows[:, -1, 2] = 1.0, -1.0
-        triples = _triples(size)
-        systems = rows[:, triples]
-        meeting = np.abs(np.linalg.det(systems)) > SINGULAR_DETERMINANT
-        inverse = np.full(systems.shape, np.nan)
-        inverse[meeting] = np.linalg.inv(systems[meeting])
-        weights = np.zeros((count, triples.shape[0], size, 3))  # the vertex as a map of b, transposed
-        for column in range(3):  # the three rows of a triple are distinct
-            weights[:, np.arange(triples.shape[0]), triples[:, column], :] = inverse[:, :, :, column]
-        vertex = weights.transpose(0, 1, 3, 2)
-        slack = np.eye(size) - np.einsum("jid,jkdl->jkil", rows, vertex)  # b - R vertex
-        maps = np.concatenate([vertex, slack], axis=2).reshape(count, -1, size)
-        return cls(np.ascontiguousarray(maps), triples.shape[0])
-
-    def optimum(self, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Per LP (``b``: (J, L + 2)), the largest ``s`` (-inf: infeasible) and the optimal vertex
-        nearest to ``w = 0`` (its ``w``; (J, 2))."""
-        count = b.shape[0]
-        found = np.matmul(self.maps, b[:, :, None]).reshape(count, self.candidates, -1)
-        bound = np.abs(b)
-        np.maximum(bound, 1.0, out=bound)
-        bound *= -VERTEX_TOLERANCE
-        with np.errstate(invalid="ignore"):  # NaN: no vertex, never feasible
-            feasible = (found[:, :, 3:] >= bound[:, None, :]).all(axis=2)
-            s = np.where(feasible, found[:, :, 2], -np.inf)
-            best = s.max(axis=1)
-            distance = np.where(s >= best[:, None] - VERTEX_TOLERANCE,
-                                (found[:, :, :2] ** 2).sum(axis=2), np.inf)
-        nearest = np.argmin(distance, axis=1)
-        return best, found[np.arange(count), nearest, :2]
+    count, size = c.shape[0], a.shape[0] + 2
+    rows = np.zeros((count, size, 3))
+    rows[:, :-2, :2], rows[:, :-2, 2] = a, c
+    rows[:, -2, 2], rows[:, -1, 2] = 1.0, -1.0
+    triples = _triples(size)
+    systems = rows[:, triples]
+    meeting = np.abs(np.linalg.det(systems)) > SINGULAR_DETERMINANT
+    inverse = np.full(systems.shape, np.nan)
+    inverse[meeting] = np.linalg.inv(systems[meeting])
+    weights = np.zeros((count, triples.shape[0], size, 3))  # the vertex as a map of b, transposed
+    for column in range(3):  # the three rows of a triple are distinct
+        weights[:, np.arange(triples.shape[0]), triples[:, column], :] = inverse[:, :, :, column]
+    vertex = weights.transpose(0, 1, 3, 2)
+    slack = np.eye(size) - np.einsum("jid,jkdl->jkil", rows, vertex)  # b - R vertex
+    return np.concatenate([vertex, slack], axis=2)
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,23 +91,27 @@ class PolygonRule:
     """The engine's rule for the ``w`` of one mode with two ambiguity variables (module docstring).
 
     Build it once per mode (:meth:`build`, from the rows in ``w``); :meth:`decide` answers one input.
+    Everything :meth:`decide` needs is affine in the rows' right-hand sides ``h``: ``map @ [h, 1]``
+    stacks the checks of the constant rows, then per LP (the motion LP, the Chebyshev LP) its
+    right-hand sides ``b`` and, for every triple of its rows, the vertex and the slacks there.
 
     Attributes:
-        zero: (rows,) the rows with coefficients below the zero-row threshold (judged by ``h``).
-        motion: (rows,) the motion rows.
-        live: (L,) the other rows; norms: (L,) their norms in ``w``.
-        lps: the motion LP and the Chebyshev LP over the live rows (in that order).
+        map: (checks + 2 (L + 2) + 2 K (5 + L), rows + 1) that affine map.
+        checks: the constant rows' checks first (each must be >= 0; ``strict`` of them > 0).
+        strict: the constant motion rows among the checks (the last ones).
+        size: L + 2, the rows of each LP (its L live rows and the two bounds).
+        candidates: K, the triples of rows per LP.
+        moving: some live row is a motion row (the motion LP's margin must then exceed the tolerance).
         domain_tolerance: [units of u] the engine's membership distance.
-        radius_cap: the Chebyshev radius cap.
     """
 
-    zero: np.ndarray
-    motion: np.ndarray
-    live: np.ndarray
-    norms: np.ndarray
-    lps: _VertexLPs
+    map: np.ndarray
+    checks: int
+    strict: int
+    size: int
+    candidates: int
+    moving: bool
     domain_tolerance: float
-    radius_cap: float
 
     @classmethod
     def build(cls, H_w: np.ndarray, motion: np.ndarray, *, domain_tolerance: float, zero_row_tolerance: float,
@@ -147,6 +123,7 @@ class PolygonRule:
         """
         if H_w.ndim != 2 or H_w.shape[1] != 2 or H_w.shape[0] > POLYGON_MAX_ROWS:
             return None
+        rows, tol = H_w.shape[0], domain_tolerance
         norms = np.sqrt((H_w * H_w).sum(axis=1))
         zero = norms <= zero_row_tolerance * max(1.0, float(norms.max(initial=0.0)))
         live = np.flatnonzero(~zero)
@@ -155,9 +132,24 @@ class PolygonRule:
                                                     - np.outer(unit[:, 1], unit[:, 0])).max()) > SINGULAR_DETERMINANT
         if not spans:
             return None
-        c = np.stack([motion[live].astype(float), np.ones(live.size)])
-        return cls(zero, motion.astype(bool), live, norms[live], _VertexLPs.build(unit, c), domain_tolerance,
-                   radius_cap)
+        motion = motion.astype(bool)
+        # a constant row holds by its right-hand side: h + tol >= 0, or h - tol > 0 for a motion row
+        constant = [np.flatnonzero(zero & ~motion), np.flatnonzero(zero & motion)]
+        checks = np.zeros((constant[0].size + constant[1].size, rows + 1))
+        checks[np.arange(constant[0].size), constant[0]] = 1.0
+        checks[np.arange(constant[0].size, checks.shape[0]), constant[1]] = 1.0
+        checks[:, -1] = np.concatenate([np.full(constant[0].size, tol), np.full(constant[1].size, -tol)])
+        size = live.size + 2
+        b = np.zeros((2, size, rows + 1))  # the motion LP's b, then the Chebyshev LP's: (h + offset) / norm
+        b[:, np.arange(live.size), live] = 1.0 / norms[live]
+        b[0, :-2, -1] = np.where(motion[live], 0.0, tol) / norms[live]
+        b[1, :-2, -1] = tol / norms[live]
+        b[:, -2, -1] = (1.0, radius_cap)
+        maps = _vertex_maps(unit, np.stack([motion[live].astype(float), np.ones(live.size)]))
+        found = np.einsum("jkrl,jlc->jkrc", maps, b)
+        full = np.concatenate([checks, b.reshape(-1, rows + 1), found.reshape(-1, rows + 1)])
+        return cls(np.ascontiguousarray(full), checks.shape[0], constant[1].size, size, maps.shape[1],
+                   bool(np.count_nonzero(motion[live])), domain_tolerance)
 
     def decide(self, h: np.ndarray) -> np.ndarray | None:
         """The representative ``w`` at the rows' right-hand sides ``h`` (the input's), or None.
@@ -166,19 +158,25 @@ class PolygonRule:
         Chebyshev centre of the relaxed set, or the motion LP's vertex when that set is thinner than
         ``2 domain_tolerance``.
         """
-        tol, motion, zero = self.domain_tolerance, self.motion, self.zero
-        relaxed = h + np.where(motion, 0.0, tol)
-        if np.count_nonzero(zero & ((~motion & (relaxed < 0.0)) | (motion & (h <= tol)))):
+        h_ext = np.empty(h.size + 1)
+        h_ext[:-1], h_ext[-1] = h, 1.0
+        out = self.map @ h_ext
+        checks, strict, size = self.checks, self.strict, self.size
+        if checks and (np.count_nonzero(out[:checks] < 0.0) or np.count_nonzero(out[checks - strict:checks] <= 0.0)):
             return None
-        live, norms = self.live, self.norms
-        b = np.empty((2, live.size + 2))
-        np.divide(relaxed[live], norms, out=b[0, :-2])
-        np.divide(h[live] + tol, norms, out=b[1, :-2])
-        b[:, -2], b[:, -1] = (1.0, self.radius_cap), 0.0
-        best, vertex = self.lps.optimum(b)
-        if best[0] == -np.inf or (best[0] <= tol and np.count_nonzero(motion[live])):
+        b = out[checks:checks + 2 * size].reshape(2, 1, size)
+        found = out[checks + 2 * size:].reshape(2, self.candidates, size + 3)
+        with np.errstate(invalid="ignore"):  # NaN: no vertex, never feasible
+            feasible = (found[:, :, 3:] >= np.maximum(np.abs(b), 1.0) * -VERTEX_TOLERANCE).all(axis=2)
+        s = np.where(feasible, found[:, :, 2], -np.inf)
+        best = s.max(axis=1)
+        tol = self.domain_tolerance
+        if best[0] == -np.inf or (best[0] <= tol and self.moving):
             return None  # the motion LP: infeasible, or no w moving as the mode says
-        return vertex[1] if best[1] > tol else vertex[0]
-
+        j = 1 if best[1] > tol else 0  # the Chebyshev centre, or the motion LP's vertex in a thin set
+        optimal = np.flatnonzero(s[j] >= best[j] - VERTEX_TOLERANCE)
+        if optimal.size > 1:  # an optimal face: its vertex nearest to w = 0
+            optimal = optimal[np.argmin((found[j, optimal, :2] ** 2).sum(axis=1)):]
+        return found[j, optimal[0], :2].copy()
 
 __all__ = ["POLYGON_MAX_ROWS", "PolygonRule", "SINGULAR_DETERMINANT", "VERTEX_TOLERANCE"]

@@ -251,8 +251,11 @@ class QueryTable:
         self.valid = _padded([np.ones(r[2].size, bool) for r in rows], width, (), False, bool)
         self.one = np.flatnonzero(self.p == 1)
         self.many = np.flatnonzero(self.p >= 2).tolist()
+        self.many_rows = {i: tuple(a[:self.inequality_rows[i]] for a in rows[i]) for i in self.many}
+        """Per mode with two or more ambiguity variables, its inequality rows ``(H_u, H_w, h_0,
+        norms, motion)`` (without the consistency rows, decided before)."""
         self.polygons = {i: rule for i in self.many if self.p[i] == 2 and (rule := PolygonRule.build(
-            rows[i][1][:self.inequality_rows[i]], rows[i][4][:self.inequality_rows[i]],
+            self.many_rows[i][1], self.many_rows[i][4],
             domain_tolerance=tolerance, zero_row_tolerance=zero_row_tolerance, radius_cap=radius_cap)) is not None}
         """The closed-form rule of each mode with two ambiguity variables where it applies (the
         engine's, :func:`frcontrol.engine.polygon_rule`, built once: it does not depend on u)."""
@@ -328,35 +331,39 @@ class QueryTable:
         """
         keep = np.ones(point.size, dtype=bool)
         for s in np.flatnonzero(self.p[index] >= 2).tolist():
-            i = int(index[s])
-            H_u, H_w, h_0, norms, motion = (a[:self.inequality_rows[i]] for a in self.mode_rows[i])
-            # the slice as the engine computes it, to the last bit: the LP's representative is one
-            # vertex of the Chebyshev centres, which round-off may move to another
-            h = (h_0 - H_u @ U[point[s]]) / norms
-            rule = self.polygons.get(i)
-            found = rule.decide(h) if rule is not None else decide_w(H_w, h, motion)
+            found = self._admissible_w(int(index[s]), U[point[s]], decide_w)
             if found is None:
                 keep[s] = False
             else:
                 w[s, :found.size] = found
         return keep
 
+    def _admissible_w(self, i: int, u: np.ndarray, decide_w: WDecider) -> np.ndarray | None:
+        """The engine's w of mode ``i`` (two or more ambiguity variables, consistent) at ``u``, or None.
+
+        By the mode's closed-form rule where it has one (:attr:`polygons`), else by ``decide_w``.
+        """
+        H_u, H_w, h_0, norms, motion = self.many_rows[i]
+        # the slice as the engine computes it, to the last bit: the representative is one vertex of
+        # the Chebyshev centres, which round-off may move to another
+        h = (h_0 - H_u @ u) / norms
+        rule = self.polygons.get(i)
+        return rule.decide(h) if rule is not None else decide_w(H_w, h, motion)
+
     def _evaluate_many(self, u: np.ndarray, i: int, decide_w: WDecider,
-                       rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> int:
-        """Mode ``i`` (two or more ambiguity variables, consistent at ``u``) by the engine's LPs.
+                       rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], kernel: Any) -> int:
+        """Mode ``i`` (two or more ambiguity variables, consistent at ``u``) by the engine's rule for w.
 
         When it holds, its solution is written into row ``i`` of ``rows`` (x, acc, residual,
-        violation, w); returns 1 if it holds, else 0.
+        violation, w) by ``kernel.evaluate_points`` (the compiled kernel); returns 1 if it holds, else 0.
         """
-        U, point, index = u.reshape(1, -1), np.zeros(1, dtype=np.int64), np.array([i])
-        w = np.zeros((1, self.p_max))
-        if not self._decide_many(U, point, index, w, decide_w)[0]:
+        found = self._admissible_w(i, u, decide_w)
+        if found is None:
             return 0
-        found = self.evaluate(U, point, index, w)
-        x, acc, residual, violation, w_rows = rows
-        x[i], residual[i], violation[i], w_rows[i] = found.x[0], found.equality_residual[0], \
-            found.inequality_violation[0], w[0]
-        acc[i] = np.concatenate([found.a_n[0], found.a_t[0]])
+        x, acc, residual, violation, w = rows
+        w[i, :found.size] = found
+        kernel.evaluate_points(*self.kernel_arguments, u.reshape(1, -1), _ZERO_INDEX, np.array([i]), w[i:i + 1],
+                                 x[i:i + 1], acc[i:i + 1], residual[i:i + 1], violation[i:i + 1])
         return 1
 
     def evaluate(self, U: np.ndarray, point: np.ndarray, index: np.ndarray, w: np.ndarray) -> Located:
@@ -398,7 +405,7 @@ class QueryTable:
             if self.many:
                 w[:, 0] = w1
                 for i in [i for i, code in enumerate(codes) if code == 2]:
-                    codes[i] = self._evaluate_many(u, i, decide_w, (x, acc, residual, violation, w))
+                    codes[i] = self._evaluate_many(u, i, decide_w, (x, acc, residual, violation, w), compiled)
             rows = [i for i, code in enumerate(codes) if code == 1]
             return Located(np.array(rows, dtype=np.int64), rows, x, w, acc[:, :k], acc[:, k:], residual,
                            violation)
@@ -441,6 +448,9 @@ class QueryTable:
             inequality_violation=joined(lambda f: f.inequality_violation, 0).reshape(-1),
             ambiguous_outputs=self.ambiguous_outputs, tolerance=self.tolerance)
 
+
+_ZERO_INDEX = np.zeros(1, dtype=np.int64)
+"""Point 0: the one input of a single query (read only by the kernel)."""
 
 BATCH_CHUNK_POINTS = 2048
 """Inputs decided together by :meth:`QueryTable.locate_batch`: its temporary arrays hold this many
