@@ -1020,11 +1020,21 @@ def query_table(analysis: DynamicResponse) -> QueryTable:
 
 def _located_solutions(analysis: DynamicResponse, u: np.ndarray, solver: str) -> list[RigidSolution]:
     """:func:`solutions_at` on an analysis: point location in its :func:`query_table`."""
-    table = query_table(analysis)
-    found = table.locate(u, lambda H, h, motion: _admissible_in_w(H, h, motion, solver))
-    n, k = table.problem.n, table.problem.k
+    table = analysis._query.get("table") or query_table(analysis)
+    n, k = table.n, table.k
     dims, outputs, modes = table.p_list, table.ambiguous_outputs, table.modes
-    residual, violation = found.equality_residual.tolist(), found.inequality_violation.tolist()
+
+    def decide_w(H: np.ndarray, h: np.ndarray, motion: np.ndarray) -> np.ndarray | None:
+        return _admissible_in_w(H, h, motion, solver)
+
+    if kernel_choice() == "compiled" and compiled is not None:  # the lean path: bare arrays, row i is mode i
+        rows, x, w, acc, residual, violation = table.point(u, decide_w, compiled)
+        return [RigidSolution(
+            mode=modes[i], dv=x[i, :n], lambda_n=x[i, n:n + k], lambda_t=x[i, n + k:], a_n=acc[i, :k],
+            a_t=acc[i, k:], ambiguity_dim=dims[i], ambiguous_outputs=outputs[i], w=w[i, :dims[i]],
+            equality_residual=float(residual[i]), inequality_violation=float(violation[i])) for i in rows]
+    found = table.locate(u, decide_w)
+    residuals, violations = found.equality_residual.tolist(), found.inequality_violation.tolist()
     listed = []
     for i, r in zip(found.index.tolist(), found.rows, strict=True):
         x = found.x[r]
@@ -1032,7 +1042,7 @@ def _located_solutions(analysis: DynamicResponse, u: np.ndarray, solver: str) ->
             mode=modes[i], dv=x[:n], lambda_n=x[n:n + k], lambda_t=x[n + k:], a_n=found.a_n[r],
             a_t=found.a_t[r],
             ambiguity_dim=dims[i], ambiguous_outputs=outputs[i], w=found.w[r, :dims[i]],
-            equality_residual=residual[r], inequality_violation=violation[r]))
+            equality_residual=residuals[r], inequality_violation=violations[r]))
     return listed
 
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -82,6 +82,24 @@ class Located:
     w: np.ndarray
     a_n: np.ndarray
     a_t: np.ndarray
+    equality_residual: np.ndarray
+    inequality_violation: np.ndarray
+
+
+class PointSolutions(NamedTuple):
+    """The solutions at one input as :meth:`QueryTable.point` finds them: row ``i`` is mode ``i``.
+
+    Attributes:
+        modes: the modes holding the input (indices into the table's modes, in its order).
+        x: (modes, nx) ``(dv, lambda_n, lambda_t)``; w: (modes, p_max) the ambiguity values;
+        acc: (modes, 2 k) ``(a_n, a_t)`` [m/s^2]; equality_residual, inequality_violation: (modes,).
+        Only the rows of ``modes`` hold solutions.
+    """
+
+    modes: list[int]
+    x: np.ndarray
+    w: np.ndarray
+    acc: np.ndarray
     equality_residual: np.ndarray
     inequality_violation: np.ndarray
 
@@ -233,6 +251,7 @@ class QueryTable:
                  radius_cap: float, tolerance: float = BOUNDARY_TOLERANCE) -> None:
         modes = [m for m in modes if m.response.consistent]
         self.problem, self.tolerance = problem, tolerance
+        self.n, self.k = problem.n, problem.k
         self.zero_row_tolerance, self.radius_cap = zero_row_tolerance, radius_cap
         self.modes = tuple(m.mode for m in modes)
         self.ambiguous_outputs = tuple(m.ambiguous_outputs for m in modes)
@@ -395,23 +414,32 @@ class QueryTable:
         with two or more ambiguity variables, where their consistency holds, then run in Python).
         """
         if kernel_choice() == "compiled" and compiled is not None:
-            count, nx, k = len(self.modes), self.X_u.shape[1], self.problem.k
-            status = np.empty(count, dtype=np.int8)
-            w1, residual, violation = np.empty(count), np.empty(count), np.empty(count)
-            x, acc = np.empty((count, nx)), np.empty((count, 2 * k))
-            compiled.query_point(*self.kernel_arguments, u, status, w1, x, acc, residual, violation)
-            codes = status.tolist()
-            w = w1[:, None] if self.p_max <= 1 else np.zeros((count, self.p_max))
-            if self.many:
-                w[:, 0] = w1
-                for i in [i for i, code in enumerate(codes) if code == 2]:
-                    codes[i] = self._evaluate_many(u, i, decide_w, (x, acc, residual, violation, w), compiled)
-            rows = [i for i, code in enumerate(codes) if code == 1]
+            rows, x, w, acc, residual, violation = self.point(u, decide_w, compiled)
+            k = self.problem.k
             return Located(np.array(rows, dtype=np.int64), rows, x, w, acc[:, :k], acc[:, k:], residual,
                            violation)
         U = u.reshape(1, -1)
         point, index, w = self._located(U, decide_w)
         return self.evaluate(U, point, index, w)
+
+    def point(self, u: np.ndarray, decide_w: WDecider, kernel: Any) -> PointSolutions:
+        """:meth:`locate` with the compiled kernel ``kernel`` in force, as bare arrays (its lean path).
+
+        One ``query_point`` call locates and evaluates every mode; the modes with two or more
+        ambiguity variables whose consistency holds are then decided here (:meth:`_evaluate_many`).
+        """
+        count, nx, k = len(self.modes), self.X_u.shape[1], self.k
+        status = np.empty(count, dtype=np.int8)
+        w1, residual, violation = np.empty(count), np.empty(count), np.empty(count)
+        x, acc = np.empty((count, nx)), np.empty((count, 2 * k))
+        kernel.query_point(*self.kernel_arguments, u, status, w1, x, acc, residual, violation)
+        codes = status.tolist()
+        w = w1[:, None] if self.p_max <= 1 else np.zeros((count, self.p_max))
+        if self.many:
+            w[:, 0] = w1
+            for i in [i for i, code in enumerate(codes) if code == 2]:
+                codes[i] = self._evaluate_many(u, i, decide_w, (x, acc, residual, violation, w), kernel)
+        return PointSolutions([i for i, code in enumerate(codes) if code == 1], x, w, acc, residual, violation)
 
     def locate_batch(self, U: np.ndarray, decide_w: WDecider, chunk: int | None = None) -> BatchSolutions:
         """Every solution at each input of ``U`` (N, m), already checked (:class:`BatchSolutions`).
@@ -484,4 +512,4 @@ def check_inputs(problem: ContactProblem, inputs: Any, tolerance: float = BOUNDA
 
 
 __all__ = ["BATCH_CHUNK_POINTS", "BatchSolutions", "BOUNDARY_TOLERANCE", "check_inputs", "Located",
-           "QueryMode", "QueryTable", "row_norms", "WDecider"]
+           "PointSolutions", "QueryMode", "QueryTable", "row_norms", "WDecider"]
