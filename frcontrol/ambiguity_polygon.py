@@ -128,9 +128,8 @@ class PolygonRule:
         zero = norms <= zero_row_tolerance * max(1.0, float(norms.max(initial=0.0)))
         live = np.flatnonzero(~zero)
         unit = H_w[live] / norms[live, None]
-        spans = unit.shape[0] >= 2 and float(np.abs(np.outer(unit[:, 0], unit[:, 1])
-                                                    - np.outer(unit[:, 1], unit[:, 0])).max()) > SINGULAR_DETERMINANT
-        if not spans:
+        crossings = np.outer(unit[:, 0], unit[:, 1]) - np.outer(unit[:, 1], unit[:, 0])  # 2x2 determinants
+        if unit.shape[0] < 2 or float(np.abs(crossings).max()) <= SINGULAR_DETERMINANT:
             return None
         motion = motion.astype(bool)
         # a constant row holds by its right-hand side: h + tol >= 0, or h - tol > 0 for a motion row
@@ -162,7 +161,8 @@ class PolygonRule:
         h_ext[:-1], h_ext[-1] = h, 1.0
         out = self.map @ h_ext
         checks, strict, size = self.checks, self.strict, self.size
-        if checks and (np.count_nonzero(out[:checks] < 0.0) or np.count_nonzero(out[checks - strict:checks] <= 0.0)):
+        if checks and (np.count_nonzero(out[:checks] < 0.0)
+                       or np.count_nonzero(out[checks - strict:checks] <= 0.0)):
             return None
         b = out[checks:checks + 2 * size].reshape(2, 1, size)
         found = out[checks + 2 * size:].reshape(2, self.candidates, size + 3)

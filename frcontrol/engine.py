@@ -900,10 +900,13 @@ def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, solve
 
 
 def polygon_rule(H_w: np.ndarray, motion: np.ndarray) -> PolygonRule | None:
-    """The closed-form rule of :func:`_admissible_in_w` for two ambiguity variables, with the engine's
-    tolerances (:meth:`frcontrol.ambiguity_polygon.PolygonRule.build`; None: the LPs decide)."""
-    return PolygonRule.build(H_w, motion, domain_tolerance=DOMAIN_TOLERANCE, zero_row_tolerance=ZERO_ROW_TOLERANCE,
-                             radius_cap=poly.CHEBYSHEV_RADIUS_CAP)
+    """The closed-form rule of :func:`_admissible_in_w` for two ambiguity variables, or None.
+
+    :meth:`frcontrol.ambiguity_polygon.PolygonRule.build` with the engine's tolerances (None: the
+    LPs decide).
+    """
+    return PolygonRule.build(H_w, motion, domain_tolerance=DOMAIN_TOLERANCE,
+                             zero_row_tolerance=ZERO_ROW_TOLERANCE, radius_cap=poly.CHEBYSHEV_RADIUS_CAP)
 
 
 def _solution(problem: ContactProblem, system: ModeSystem, response: AffineSolution, u: np.ndarray,

@@ -273,9 +273,10 @@ class QueryTable:
         self.many_rows = {i: tuple(a[:self.inequality_rows[i]] for a in rows[i]) for i in self.many}
         """Per mode with two or more ambiguity variables, its inequality rows ``(H_u, H_w, h_0,
         norms, motion)`` (without the consistency rows, decided before)."""
-        self.polygons = {i: rule for i in self.many if self.p[i] == 2 and (rule := PolygonRule.build(
-            self.many_rows[i][1], self.many_rows[i][4],
-            domain_tolerance=tolerance, zero_row_tolerance=zero_row_tolerance, radius_cap=radius_cap)) is not None}
+        rules = {i: PolygonRule.build(self.many_rows[i][1], self.many_rows[i][4], domain_tolerance=tolerance,
+                                      zero_row_tolerance=zero_row_tolerance, radius_cap=radius_cap)
+                 for i in self.many if self.p[i] == 2}
+        self.polygons = {i: rule for i, rule in rules.items() if rule is not None}
         """The closed-form rule of each mode with two ambiguity variables where it applies (the
         engine's, :func:`frcontrol.engine.polygon_rule`, built once: it does not depend on u)."""
         self.H_w1 = _padded([r[1][:, 0] if r[1].shape[1] == 1 else np.zeros(0) for r in rows], width, (), 0.0)
@@ -370,7 +371,8 @@ class QueryTable:
         return rule.decide(h) if rule is not None else decide_w(H_w, h, motion)
 
     def _evaluate_many(self, u: np.ndarray, i: int, decide_w: WDecider,
-                       rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], kernel: Any) -> int:
+                       rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+                       kernel: Any) -> int:
         """Mode ``i`` (two or more ambiguity variables, consistent at ``u``) by the engine's rule for w.
 
         When it holds, its solution is written into row ``i`` of ``rows`` (x, acc, residual,
@@ -381,8 +383,8 @@ class QueryTable:
             return 0
         x, acc, residual, violation, w = rows
         w[i, :found.size] = found
-        kernel.evaluate_points(*self.kernel_arguments, u.reshape(1, -1), _ZERO_INDEX, np.array([i]), w[i:i + 1],
-                                 x[i:i + 1], acc[i:i + 1], residual[i:i + 1], violation[i:i + 1])
+        kernel.evaluate_points(*self.kernel_arguments, u.reshape(1, -1), _ZERO_INDEX, np.array([i]),
+                               w[i:i + 1], x[i:i + 1], acc[i:i + 1], residual[i:i + 1], violation[i:i + 1])
         return 1
 
     def evaluate(self, U: np.ndarray, point: np.ndarray, index: np.ndarray, w: np.ndarray) -> Located:
@@ -439,7 +441,8 @@ class QueryTable:
             w[:, 0] = w1
             for i in [i for i, code in enumerate(codes) if code == 2]:
                 codes[i] = self._evaluate_many(u, i, decide_w, (x, acc, residual, violation, w), kernel)
-        return PointSolutions([i for i, code in enumerate(codes) if code == 1], x, w, acc, residual, violation)
+        holding = [i for i, code in enumerate(codes) if code == 1]
+        return PointSolutions(holding, x, w, acc, residual, violation)
 
     def locate_batch(self, U: np.ndarray, decide_w: WDecider, chunk: int | None = None) -> BatchSolutions:
         """Every solution at each input of ``U`` (N, m), already checked (:class:`BatchSolutions`).
