@@ -784,7 +784,7 @@ def _irredundant_rows(
     implied = implied or {}
 
     def by_a_pair(i: int) -> bool:
-        return any(status[j] != -1 and status[k] != -1 for j, k in implied.get(i, ()))
+        return i in implied and any(status[j] != -1 and status[k] != -1 for j, k in implied[i])
 
     def against_all_others(i: int) -> int:
         if by_a_pair(i):
@@ -800,7 +800,7 @@ def _irredundant_rows(
     slack = offsets - unit @ center
     status[_facets_hit_along_normals(unit, slack, tolerance)] = 1
     for i in range(m):
-        if status[i] == 0 and by_a_pair(i):
+        if status[i] == 0 and i in implied and by_a_pair(i):
             status[i] = -1
         while status[i] == 0:
             redundant, result = _is_redundant(unit, offsets, i, status == 1, tolerance, lps)
