@@ -34,9 +34,10 @@ from itertools import combinations
 
 import numpy as np
 
-POLYGON_MAX_ROWS = 24
+POLYGON_MAX_ROWS = 8
 """[-] A mode with two ambiguity variables is decided in closed form when it has at most this many
-rows in ``w`` (its ``C(rows + 2, 3)`` candidate vertices, 2,600 at 24 rows); beyond, by the LPs."""
+rows in ``w`` (its ``C(rows + 2, 3)`` candidate vertices, 120 at 8 rows; building the rule then costs
+about ten of the LPs it replaces, deciding by it a third of one); beyond, by the LPs."""
 
 VERTEX_TOLERANCE = 1e-9
 """[units of w, rows of unit norm in w] A candidate vertex is feasible when it violates no row by more

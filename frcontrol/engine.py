@@ -874,8 +874,10 @@ def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, solve
     The representative is the Chebyshev centre of the admissible w (the most central internal
     forces), or the motion LP's point when the admissible set has no interior. With one ambiguity
     variable and ``closed_form``, both are decided on the interval of admissible w without an LP
-    (:func:`frcontrol.mode_batch.interval_admissible`); with two, by the LPs' vertices
-    (:mod:`frcontrol.ambiguity_polygon`, where they span the plane); the reference path sets it False.
+    (:func:`frcontrol.mode_batch.interval_admissible`); with two, by the rule of
+    :mod:`frcontrol.ambiguity_polygon` (the LPs' vertices): where the LPs' point is one of several
+    (a capped radius, a thin set), the rule's nearest vertex to w = 0 is reported and the rule kept
+    for the mode's rows, which then decide by it alone; the reference path sets it False.
     """
     p = H_w.shape[1]
     if p == 0:
@@ -885,7 +887,9 @@ def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, solve
     if p == 1 and closed_form:
         return interval_admissible(H_w, h_w, motion, DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE,
                                    poly.CHEBYSHEV_RADIUS_CAP)
-    rule = polygon_rule(H_w, motion) if p == 2 and closed_form else None
+    two = p == 2 and closed_form
+    key = H_w.tobytes() + motion.tobytes() if two else b""
+    rule = _POLYGON_RULES.get(key) if two else None
     if rule is not None:
         return rule.decide(h_w)
     found = motion_margin(H_w, h_w + np.where(motion, 0.0, DOMAIN_TOLERANCE), motion,
@@ -894,9 +898,25 @@ def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, solve
         return None
     z = found.point
     ball = poly.chebyshev_ball(poly.Polytope(H_w, h_w + DOMAIN_TOLERANCE), solver=solver)
+    unique = ball.found and DOMAIN_TOLERANCE < ball.radius and not ball.capped
+    if two and not unique and (rule := polygon_rule(H_w, motion)) is not None:
+        # the LPs' point is one of several: the rule's (built once per mode's rows, then reused)
+        if len(_POLYGON_RULES) >= POLYGON_RULES_KEPT:
+            _POLYGON_RULES.clear()
+        _POLYGON_RULES[key] = rule
+        return rule.decide(h_w)
     if ball.found and ball.radius > DOMAIN_TOLERANCE:
         return ball.center
     return z
+
+
+POLYGON_RULES_KEPT = 256
+"""[-] :func:`_admissible_in_w` keeps the closed-form rules of up to this many two-variable modes
+(by their rows in w), built where the LPs' answer is one of several (a capped Chebyshev radius, a
+thin set); past this many it starts afresh. A mode's rule is a few kB."""
+
+_POLYGON_RULES: dict[bytes, PolygonRule] = {}
+"""The rules kept (see :data:`POLYGON_RULES_KEPT`): a rule depends only on the rows, not on u."""
 
 
 def polygon_rule(H_w: np.ndarray, motion: np.ndarray) -> PolygonRule | None:

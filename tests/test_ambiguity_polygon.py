@@ -61,7 +61,7 @@ def compare(H_w: np.ndarray, h: np.ndarray, motion: np.ndarray, rule: PolygonRul
 
 def random_polygon(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rows over (u, w) normalised in (u, w), sliced at u: ``H_w`` (rows, 2), ``h``, ``motion``."""
-    rows = int(rng.integers(3, 10))
+    rows = int(rng.integers(3, POLYGON_MAX_ROWS + 1))
     H = rng.normal(size=(rows, 4))
     if rng.random() < 0.3:  # a row with no w: judged by its right-hand side
         H[0, 2:] = 0.0
