@@ -228,7 +228,7 @@ FIGURES = (
     Figure("query_box_on_slope", "every rigid solution at one input on an analysis made: box on a slope "
            "(u = 0)", 15e-6, calls=200),
     Figure("query_rhex_flip", "every rigid solution at one input on an analysis made: RHex flip scene "
-           "(u = 0, where its two-variable mode LSS needs its LPs)", 50e-6, calls=20),
+           "(u = 0, where its two-variable mode LSS holds)", 50e-6, calls=20),
     Figure("query_rhex_flip_generic", "every rigid solution at one input on an analysis made: RHex flip "
            f"scene (u = {QUERY_GENERIC_INPUT})", 50e-6, calls=200),
     Figure("batch_rod_on_table", f"every rigid solution at {BATCH_POINTS:,} random inputs on an analysis "

@@ -37,6 +37,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import polytope as poly
+from .ambiguity_polygon import PolygonRule
 from .errors import InputError
 from .geometry import constant_rows, max_margin
 from .jsonable import to_jsonable
@@ -860,7 +861,10 @@ def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, setti
     The representative is the Chebyshev centre of the admissible w (the most central internal
     forces), or the motion LP's point when the admissible set has no interior. With one ambiguity
     variable and ``closed_form``, both are decided on the interval of admissible w without an LP
-    (:func:`frcontrol.mode_batch.interval_admissible`); the reference path sets it False.
+    (:func:`frcontrol.mode_batch.interval_admissible`); with two, by the rule of
+    :mod:`frcontrol.ambiguity_polygon` (the LPs' vertices): where the LPs' point is one of several
+    (a capped radius, a thin set), the rule's nearest vertex to w = 0 is reported and the rule kept
+    for the mode's rows, which then decide by it alone; the reference path sets it False.
     """
     p = H_w.shape[1]
     if p == 0:
@@ -870,15 +874,46 @@ def _admissible_in_w(H_w: np.ndarray, h_w: np.ndarray, motion: np.ndarray, setti
     if p == 1 and closed_form:
         return interval_admissible(H_w, h_w, motion, DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE,
                                    poly.CHEBYSHEV_RADIUS_CAP)
+    two = p == 2 and closed_form
+    key = H_w.tobytes() + motion.tobytes() if two else b""
+    rule = _POLYGON_RULES.get(key) if two else None
+    if rule is not None:
+        return rule.decide(h_w)
     found = motion_margin(H_w, h_w + np.where(motion, 0.0, DOMAIN_TOLERANCE), motion,
                           np.zeros((0, p)), np.zeros(0), settings=settings)
     if found.verdict != "ok":
         return None
     z = found.point
     ball = poly.chebyshev_ball(poly.Polytope(H_w, h_w + DOMAIN_TOLERANCE), settings=settings)
+    unique = ball.found and DOMAIN_TOLERANCE < ball.radius and not ball.capped
+    if two and not unique and (rule := polygon_rule(H_w, motion)) is not None:
+        # the LPs' point is one of several: the rule's (built once per mode's rows, then reused)
+        if len(_POLYGON_RULES) >= POLYGON_RULES_KEPT:
+            _POLYGON_RULES.clear()
+        _POLYGON_RULES[key] = rule
+        return rule.decide(h_w)
     if ball.found and ball.radius > DOMAIN_TOLERANCE:
         return ball.center
     return z
+
+
+POLYGON_RULES_KEPT = 256
+"""[-] :func:`_admissible_in_w` keeps the closed-form rules of up to this many two-variable modes
+(by their rows in w), built where the LPs' answer is one of several (a capped Chebyshev radius, a
+thin set); past this many it starts afresh. A mode's rule is a few kB."""
+
+_POLYGON_RULES: dict[bytes, PolygonRule] = {}
+"""The rules kept (see :data:`POLYGON_RULES_KEPT`): a rule depends only on the rows, not on u."""
+
+
+def polygon_rule(H_w: np.ndarray, motion: np.ndarray) -> PolygonRule | None:
+    """The closed-form rule of :func:`_admissible_in_w` for two ambiguity variables, or None.
+
+    :meth:`frcontrol.ambiguity_polygon.PolygonRule.build` with the engine's tolerances (None: the
+    LPs decide).
+    """
+    return PolygonRule.build(H_w, motion, domain_tolerance=DOMAIN_TOLERANCE,
+                             zero_row_tolerance=ZERO_ROW_TOLERANCE, radius_cap=poly.CHEBYSHEV_RADIUS_CAP)
 
 
 def _solution(problem: ContactProblem, system: ModeSystem, response: AffineSolution, u: np.ndarray,
@@ -1003,19 +1038,17 @@ def _located_solutions(analysis: DynamicResponse, u: np.ndarray, settings: Solve
                        ) -> list[RigidSolution]:
     """:func:`solutions_at` on an analysis: point location in its :func:`query_table`."""
     table = query_table(analysis)
-    found = table.locate(u, lambda H, h, motion: _admissible_in_w(H, h, motion, settings))
-    n, k = table.problem.n, table.problem.k
+    n, k = table.n, table.k
     dims, outputs, modes = table.p_list, table.ambiguous_outputs, table.modes
-    residual, violation = found.equality_residual.tolist(), found.inequality_violation.tolist()
-    listed = []
-    for i, r in zip(found.index.tolist(), found.rows, strict=True):
-        x = found.x[r]
-        listed.append(RigidSolution(
-            mode=modes[i], dv=x[:n], lambda_n=x[n:n + k], lambda_t=x[n + k:], a_n=found.a_n[r],
-            a_t=found.a_t[r],
-            ambiguity_dim=dims[i], ambiguous_outputs=outputs[i], w=found.w[r, :dims[i]],
-            equality_residual=residual[r], inequality_violation=violation[r]))
-    return listed
+
+    def decide_w(H: np.ndarray, h: np.ndarray, motion: np.ndarray) -> np.ndarray | None:
+        return _admissible_in_w(H, h, motion, settings)
+
+    rows, x, w, acc, residual, violation = table.point(u, decide_w)  # bare arrays: row i is mode i
+    return [RigidSolution(
+        mode=modes[i], dv=x[i, :n], lambda_n=x[i, n:n + k], lambda_t=x[i, n + k:], a_n=acc[i, :k],
+        a_t=acc[i, k:], ambiguity_dim=dims[i], ambiguous_outputs=outputs[i], w=w[i, :dims[i]],
+        equality_residual=float(residual[i]), inequality_violation=float(violation[i])) for i in rows]
 
 
 def solutions_at_batch(analysis: DynamicResponse, inputs: npt.ArrayLike, *,

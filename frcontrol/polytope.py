@@ -35,6 +35,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -496,6 +497,25 @@ _DENSE_PAIRS_MAX_ROWS = 512
 beyond it, by sorting rows rounded to :data:`_DUPLICATE_GRID`."""
 
 
+GRAM_BLOCK_PRODUCTS = 131072
+"""[multiply-adds] :func:`_gram` computes ``X @ X.T`` in blocks of rows of at most about this many
+multiply-adds each: below OpenBLAS's threshold for threads (4 x 65536), so each block runs on the
+calling thread. On a machine whose cores are busy, threads woken for a product of a few hundred
+rows cost milliseconds instead of tens of microseconds."""
+
+
+def _gram(X: np.ndarray) -> np.ndarray:
+    """``X @ X.T``, in blocks of rows small enough for BLAS to stay on the calling thread."""
+    rows, columns = X.shape
+    block = max(1, GRAM_BLOCK_PRODUCTS // max(1, rows * columns))
+    if block >= rows:
+        return X @ X.T
+    out = np.empty((rows, rows))
+    for start in range(0, rows, block):
+        np.matmul(X[start:start + block], X.T, out=out[start:start + block])
+    return out
+
+
 def _near_pairs(unit: np.ndarray, threshold: float, sign: float,
                 gram: np.ndarray | None = None) -> np.ndarray:
     """Pairs ``(p, q)``, ``p < q``, of unit rows with ``sign * (u_p . u_q) >= threshold``.
@@ -511,7 +531,7 @@ def _near_pairs(unit: np.ndarray, threshold: float, sign: float,
     m = unit.shape[0]
     if m <= _DENSE_PAIRS_MAX_ROWS:
         if gram is None:
-            gram = unit @ unit.T
+            gram = _gram(unit)
         # sign * g >= threshold, exactly (negation is exact), without the product; row-major order
         found = np.argwhere(gram >= threshold if sign > 0 else gram <= -threshold)
         return found[found[:, 0] < found[:, 1]]
@@ -565,7 +585,7 @@ def _normalise_and_merge(
     unit = G[candidates] / g_norms[candidates, None]
     offsets = h[candidates] / g_norms[candidates]
     keep = np.ones(candidates.size, dtype=bool)
-    gram = unit @ unit.T if unit.shape[0] <= _DENSE_PAIRS_MAX_ROWS else None  # for both searches
+    gram = _gram(unit) if unit.shape[0] <= _DENSE_PAIRS_MAX_ROWS else None  # for both searches
     duplicates = _near_pairs(unit, 1.0 - DUPLICATE_TOLERANCE, 1.0, gram)
     if duplicates.shape[0]:
         neighbours: dict[int, list[int]] = {}
@@ -643,12 +663,80 @@ def _is_redundant(
     return bool(-result.objective <= offsets[i] + tolerance), result
 
 
+IMPLIED_RESIDUAL = 1e-13
+"""[-] A unit row ``g_i`` is a combination ``alpha g_j + beta g_k`` of two others (:func:`_implied_by_pairs`)
+when no coefficient of the difference exceeds this: round-off of the Fourier-Motzkin sums, far below
+what would move a bound by :data:`REDUNDANCY_TOLERANCE` on the sets met here."""
+
+
+def _implied_by_pairs(unit: np.ndarray, offsets: np.ndarray, ancestors: np.ndarray,
+                      tolerance: float) -> dict[int, list[tuple[int, int]]]:
+    r"""Rows implied by two other rows, certified without an LP: ``{i: [(j, k), ...]}``.
+
+    Row :math:`i` is implied by rows :math:`j, k` when :math:`g_i = \alpha g_j + \beta g_k` with
+    :math:`\alpha, \beta \ge 0` (to :data:`IMPLIED_RESIDUAL`) and :math:`\alpha h_j + \beta h_k \le
+    h_i +` ``tolerance``: then :math:`g_i z \le h_i + \text{tolerance}` wherever rows j and k hold,
+    which is the redundancy LP's verdict. The pairs tried are the rows whose ancestors (the rows of an
+    earlier system they combine, :class:`_Ancestry`) are among row i's, for the rows i of three
+    ancestors or more: Fourier-Motzkin's redundant rows are mostly such sums.
+    """
+    counts = np.count_nonzero(ancestors, axis=1)
+    if unit.shape[0] < 3 or int(counts.max(initial=0)) < 3:  # two starting rows or fewer: no such sums
+        return {}
+    weights = ancestors.astype(np.float64)
+    within = _gram(weights) >= counts[None, :] - 0.5  # [i, j]: row j's ancestors among row i's
+    np.fill_diagonal(within, False)
+    within[counts < 3] = False
+    rows, first, second = _pairs_within(within)
+    if rows.size == 0:
+        return {}
+    gram = _gram(unit)
+    g_j, g_k, g_jk = gram[rows, first], gram[rows, second], gram[first, second]
+    det = 1.0 - g_jk * g_jk
+    np.maximum(det, 1e-300, out=det)
+    alpha, beta = (g_j - g_jk * g_k) / det, (g_k - g_jk * g_j) / det
+    near = np.flatnonzero((det > 1e-12) & (alpha >= 0.0) & (beta >= 0.0)
+                          & (alpha * offsets[first] + beta * offsets[second] <= offsets[rows] + tolerance))
+    rows, first, second, alpha, beta = rows[near], first[near], second[near], alpha[near], beta[near]
+    residual = np.abs(unit[rows] - alpha[:, None] * unit[first] - beta[:, None] * unit[second]).max(
+        axis=1, initial=0.0)
+    holds = residual <= IMPLIED_RESIDUAL
+    implied: dict[int, list[tuple[int, int]]] = {}
+    for i, j, k in zip(rows[holds].tolist(), first[holds].tolist(), second[holds].tolist(), strict=True):
+        implied.setdefault(i, []).append((j, k))
+    return implied
+
+
+@lru_cache(maxsize=256)
+def _pair_indices(count: int) -> np.ndarray:
+    """Every pair ``a < b`` of ``range(count)``: a (2, count (count - 1) / 2) array (shared: read only)."""
+    pairs = np.array(np.triu_indices(count, 1))
+    pairs.setflags(write=False)
+    return pairs
+
+
+def _pairs_within(within: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The triples ``(i, j, k)``, ``j < k``, with ``within[i, j]`` and ``within[i, k]``, as three arrays."""
+    rows, columns = np.nonzero(within)  # by row, then column
+    if rows.size < 2:
+        return rows[:0], rows[:0], rows[:0]
+    starts = np.flatnonzero(np.concatenate([[True], rows[1:] != rows[:-1]]))
+    sizes = np.diff(np.append(starts, rows.size))
+    parts = [start + _pair_indices(size) for start, size in zip(starts.tolist(), sizes.tolist(), strict=True)
+             if size >= 2]
+    if not parts:
+        return rows[:0], rows[:0], rows[:0]
+    first, second = np.concatenate(parts, axis=1)
+    return rows[first], columns[first], columns[second]
+
+
 def _irredundant_rows(
     unit: np.ndarray,
     offsets: np.ndarray,
     center: np.ndarray | None,
     tolerance: float,
     settings: SolverSettings,
+    implied: dict[int, list[tuple[int, int]]] | None = None,
 ) -> np.ndarray:
     r"""Mask of the irredundant rows of :math:`\{z : g_i z \le h_i\}` (unit rows, non-empty).
 
@@ -661,13 +749,21 @@ def _irredundant_rows(
     once (a lower-dimensional face) or without an interior point, row :math:`i` is tested
     against all the rows not yet found redundant (sequential removal: of two weakly redundant
     rows one stays). Each LP depends on the verdicts before it, so they run one by one, on the
-    door's lean path with reused buffers (:class:`_RedundancyLPs`).
+    door's lean path with reused buffers (:class:`_RedundancyLPs`). ``implied``: pairs of rows that
+    imply a row (:func:`_implied_by_pairs`); a row with such a pair, both not removed, is removed
+    without an LP (sequential removal still: each row removed is implied by rows present then).
     """
     m = unit.shape[0]
     status = np.zeros(m, dtype=np.int8)  # 0 unknown, 1 irredundant, -1 redundant
     lps = _RedundancyLPs.for_rows(unit, settings)
+    implied = implied or {}
+
+    def by_a_pair(i: int) -> bool:
+        return i in implied and any(status[j] != -1 and status[k] != -1 for j, k in implied[i])
 
     def against_all_others(i: int) -> int:
+        if by_a_pair(i):
+            return -1
         others = status != -1
         others[i] = False
         return -1 if _is_redundant(unit, offsets, i, others, tolerance, lps)[0] else 1
@@ -679,6 +775,8 @@ def _irredundant_rows(
     slack = offsets - unit @ center
     status[_facets_hit_along_normals(unit, slack, tolerance)] = 1
     for i in range(m):
+        if status[i] == 0 and i in implied and by_a_pair(i):
+            status[i] = -1
         while status[i] == 0:
             redundant, result = _is_redundant(unit, offsets, i, status == 1, tolerance, lps)
             if redundant:
@@ -709,7 +807,7 @@ def _facets_hit_along_normals(unit: np.ndarray, slack: np.ndarray, tolerance: fl
     """
     if unit.shape[0] < 2:  # one row alone bounds a non-empty set: a facet
         return np.ones(unit.shape[0], dtype=bool)
-    speeds = unit @ unit.T  # [ray i, row j]: how fast the ray along normal i approaches row j
+    speeds = _gram(unit)  # [ray i, row j]: how fast the ray along normal i approaches row j
     with np.errstate(divide="ignore", invalid="ignore"):
         exits = np.where(speeds > 0, slack[None, :] / speeds, np.inf)
     rays = np.arange(unit.shape[0])
@@ -769,58 +867,73 @@ def minimal_representation(
     Returns:
         The irredundant representation.
     """
+    return _minimal(P, tolerance, settings_from(solver, settings), use_minrep, ball)[0]
+
+
+def _minimal(P: Polytope, tolerance: float, settings: SolverSettings, use_minrep: bool = True,
+             ball: ChebyshevBall | None = None, ancestors: np.ndarray | None = None
+             ) -> tuple[Polytope, np.ndarray | None]:
+    """:func:`minimal_representation`, and which rows of ``P`` its inequality rows are (in order).
+
+    The second item is None where the rows were not kept one for one: ``P`` empty or in ``R^0``, or
+    opposite rows turned into equalities. ``ancestors``: per row of ``P``, the rows of an earlier
+    system it combines (:class:`_Ancestry`), which proposes the pairs of rows that may imply a row
+    (:func:`_implied_by_pairs`).
+    """
     if P.dim == 0:
-        return _r0(not _holds_in_r0(P))
+        return _r0(not _holds_in_r0(P)), None
     d = P.dim
     if P.empty:
-        return Polytope.empty_set(d)
-    settings = settings_from(solver, settings)
+        return Polytope.empty_set(d), None
     A_eq, b_eq = _independent_equalities(P.A_eq, P.b_eq)
     hull = _affine_hull(A_eq, b_eq, d)
     if ball is None:
         ball = chebyshev_ball(P, settings=settings)
     if hull is None or not ball.found:
-        return Polytope.empty_set(d)
+        return Polytope.empty_set(d), None
     G = P.A @ hull.N
     h = P.b - P.A @ hull.x0
     kept, pairs = _normalise_and_merge(G, h, row_norms(P.A), tolerance)
     if kept is None:
-        return Polytope.empty_set(d)
+        return Polytope.empty_set(d), None
     if pairs:  # new equalities: start again with them
         return minimal_representation(_slabs_as_equalities(P, A_eq, b_eq, pairs), tolerance=tolerance,
-                                      settings=settings, use_minrep=use_minrep)
+                                      settings=settings, use_minrep=use_minrep), None
     g_norms = row_norms(G[kept])
     unit = np.ascontiguousarray(G[kept] / g_norms[:, None])
     offsets = np.ascontiguousarray(h[kept] / g_norms)
     center = hull.N.T @ (ball.center - hull.x0) if ball.full_dimensional else None
     try:
-        unit, offsets = _without_redundant_rows(unit, offsets, center, tolerance, settings, use_minrep)
+        survivors = _without_redundant_rows(unit, offsets, center, tolerance, settings, use_minrep,
+                                            None if ancestors is None else ancestors[kept])
     except _EmptySet:
-        return Polytope.empty_set(d)
-    A_out = unit @ hull.N.T
+        return Polytope.empty_set(d), None
+    A_out = unit[survivors] @ hull.N.T
     A_out[np.abs(A_out) < ZERO_TOLERANCE] = 0.0  # round-off of the change of coordinates
-    b_out = offsets + A_out @ hull.x0
-    return Polytope(A_out, b_out, A_eq, b_eq)
+    b_out = offsets[survivors] + A_out @ hull.x0
+    return Polytope(A_out, b_out, A_eq, b_eq), kept[survivors]
 
 
 def _without_redundant_rows(unit: np.ndarray, offsets: np.ndarray, center: np.ndarray | None,
-                            tolerance: float, settings: SolverSettings, use_minrep: bool
-                            ) -> tuple[np.ndarray, np.ndarray]:
-    """Stages 4 and 5 of :func:`minimal_representation` on unit rows ``unit z <= offsets``.
+                            tolerance: float, settings: SolverSettings, use_minrep: bool,
+                            ancestors: np.ndarray | None = None) -> np.ndarray:
+    """Stages 4 and 5 of :func:`minimal_representation` on unit rows ``unit z <= offsets``: the rows kept.
 
     ``daqp.minrep``'s drops (strictly redundant rows), then one LP per surviving row
-    (:func:`_irredundant_rows`, from the interior point ``center`` when there is one).
+    (:func:`_irredundant_rows`, from the interior point ``center`` when there is one), except the
+    rows two others imply (:func:`_implied_by_pairs`, with the rows' ``ancestors`` when known).
 
     Raises:
         _EmptySet: an LP found the set empty.
     """
+    rows = np.arange(unit.shape[0])
     if use_minrep and _daqp_minrep is not None and unit.shape[0] > 1 and unit.shape[1] > 0:
-        strictly_redundant = np.asarray(_daqp_minrep(unit, offsets)) == 1
-        unit, offsets = unit[~strictly_redundant], offsets[~strictly_redundant]
+        rows = np.flatnonzero(np.asarray(_daqp_minrep(unit, offsets)) != 1)
+        unit, offsets = unit[rows], offsets[rows]
     if unit.shape[0] > 1:
-        keep = _irredundant_rows(unit, offsets, center, tolerance, settings)
-        unit, offsets = unit[keep], offsets[keep]
-    return unit, offsets
+        implied = None if ancestors is None else _implied_by_pairs(unit, offsets, ancestors[rows], tolerance)
+        rows = rows[_irredundant_rows(unit, offsets, center, tolerance, settings, implied)]
+    return rows
 
 
 def _slabs_as_equalities(P: Polytope, A_eq: np.ndarray, b_eq: np.ndarray,
@@ -887,7 +1000,7 @@ def _eliminate_with_equalities(
 
 def _fourier_motzkin_step(
     A: np.ndarray, b: np.ndarray, n_keep: int
-) -> tuple[np.ndarray, np.ndarray, int]:
+) -> tuple[np.ndarray, np.ndarray, int, np.ndarray]:
     r"""Eliminate one of the columns ``n_keep:`` of ``A x <= b``.
 
     Rows are first scaled to unit norm. The column eliminated is the one giving the fewest new
@@ -898,7 +1011,8 @@ def _fourier_motzkin_step(
     :data:`ZERO_TOLERANCE` count as zero.
 
     Returns:
-        ``(A', b', j)``: the new rows without column ``j``, and ``j``.
+        ``(A', b', j, parents)``: the new rows without column ``j``, ``j``, and each new row's rows of
+        ``A`` (a (rows, 2) array: a kept row is its own two parents).
     """
     norms = row_norms(A)
     norms[norms == 0.0] = 1.0
@@ -917,7 +1031,42 @@ def _fourier_motzkin_step(
     combined = (rows_p[:, None, :] + rows_n[None, :, :]).reshape(-1, A.shape[1])
     combined_rhs = (rhs_p[:, None] + rhs_n[None, :]).reshape(-1)
     new_A = np.vstack([A[zero], combined])
-    return np.delete(new_A, j, axis=1), np.concatenate([b[zero], combined_rhs]), j
+    kept, p_rows, n_rows = np.flatnonzero(zero), np.flatnonzero(pos), np.flatnonzero(neg)
+    parents = np.vstack([np.column_stack([kept, kept]),
+                         np.column_stack([np.repeat(p_rows, n_rows.size), np.tile(n_rows, p_rows.size)])])
+    return np.delete(new_A, j, axis=1), np.concatenate([b[zero], combined_rhs]), j, parents
+
+
+@dataclass(frozen=True)
+class _Ancestry:
+    """Which rows of the start of a run of Fourier-Motzkin steps each current row combines.
+
+    A row that combines a superset of another's starting rows is often implied by two such rows
+    (Chernikov's rule), which makes them the candidates :func:`_implied_by_pairs` checks. The run
+    restarts whenever equalities take part (they mix every row).
+
+    Attributes:
+        ancestors: (rows, starting rows) whether a row combines a starting row.
+    """
+
+    ancestors: np.ndarray
+
+    @classmethod
+    def start(cls, parents: np.ndarray) -> _Ancestry:
+        """After the first step, whose rows combine the starting rows ``parents`` (rows, 2)."""
+        ancestors = np.zeros((parents.shape[0], int(parents.max(initial=-1)) + 1), dtype=bool)
+        rows = np.arange(parents.shape[0])
+        ancestors[rows, parents[:, 0]] = True
+        ancestors[rows, parents[:, 1]] = True
+        return cls(ancestors)
+
+    def step(self, parents: np.ndarray) -> _Ancestry:
+        """After one more step, whose rows combine the current rows ``parents`` (rows, 2)."""
+        return _Ancestry(self.ancestors[parents[:, 0]] | self.ancestors[parents[:, 1]])
+
+    def keep(self, rows: np.ndarray) -> _Ancestry:
+        """Only the rows ``rows``, in that order (those the pruning kept)."""
+        return _Ancestry(self.ancestors[rows])
 
 
 def project(
@@ -973,6 +1122,7 @@ def project(
     current = P if minimal and in_order else minimal_representation(
         Polytope(P.A[:, order], P.b, P.A_eq[:, order], P.b_eq), tolerance=tolerance, settings=settings,
         ball=ball if in_order else None)
+    history: _Ancestry | None = None
     while True:
         if current.empty:
             return Polytope.empty_set(n_keep)
@@ -986,11 +1136,15 @@ def project(
             return minimal_representation(
                 Polytope(A, b, A_eq, b_eq), tolerance=tolerance, settings=settings
             )
-        A, b, j = _fourier_motzkin_step(A, b, n_keep)
+        if A_eq.shape[0] or A.shape[1] != current.dim:  # equalities mix the rows: count afresh after them
+            history = None
+        A, b, j, parents = _fourier_motzkin_step(A, b, n_keep)
         A_eq = np.delete(A_eq, j, axis=1)  # zero in the eliminated columns
-        current = minimal_representation(
-            Polytope(A, b, A_eq, b_eq), tolerance=tolerance, settings=settings
-        )
+        if not A_eq.shape[0]:
+            history = _Ancestry.start(parents) if history is None else history.step(parents)
+        current, survivors = _minimal(Polytope(A, b, A_eq, b_eq), tolerance, settings,
+                                      ancestors=None if history is None else history.ancestors)
+        history = None if history is None or survivors is None else history.keep(survivors)
         if current.dim == n_keep:
             return current
 

@@ -30,10 +30,11 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from .ambiguity_polygon import PolygonRule
 from .errors import InputError
 from .geometry import constant_rows
 from .kernel import backend, compiled, twin
@@ -82,6 +83,24 @@ class Located:
     w: np.ndarray
     a_n: np.ndarray
     a_t: np.ndarray
+    equality_residual: np.ndarray
+    inequality_violation: np.ndarray
+
+
+class PointSolutions(NamedTuple):
+    """The solutions at one input as :meth:`QueryTable.point` finds them: row ``i`` is mode ``i``.
+
+    Attributes:
+        modes: the modes holding the input (indices into the table's modes, in its order).
+        x: (modes, nx) ``(dv, lambda_n, lambda_t)``; w: (modes, p_max) the ambiguity values;
+        acc: (modes, 2 k) ``(a_n, a_t)`` [m/s^2]; equality_residual, inequality_violation: (modes,).
+        Only the rows of ``modes`` hold solutions.
+    """
+
+    modes: list[int]
+    x: np.ndarray
+    w: np.ndarray
+    acc: np.ndarray
     equality_residual: np.ndarray
     inequality_violation: np.ndarray
 
@@ -226,6 +245,7 @@ class QueryTable:
                  radius_cap: float, tolerance: float = BOUNDARY_TOLERANCE) -> None:
         modes = [m for m in modes if m.response.consistent]
         self.problem, self.tolerance = problem, tolerance
+        self.n, self.k = problem.n, problem.k
         self.zero_row_tolerance, self.radius_cap = zero_row_tolerance, radius_cap
         self.modes = tuple(m.mode for m in modes)
         self.ambiguous_outputs = tuple(m.ambiguous_outputs for m in modes)
@@ -244,6 +264,15 @@ class QueryTable:
         self.valid = _padded([np.ones(r[2].size, bool) for r in rows], width, (), False, bool)
         self.one = np.flatnonzero(self.p == 1)
         self.many = np.flatnonzero(self.p >= 2).tolist()
+        self.many_rows = {i: tuple(a[:self.inequality_rows[i]] for a in rows[i]) for i in self.many}
+        """Per mode with two or more ambiguity variables, its inequality rows ``(H_u, H_w, h_0,
+        norms, motion)`` (without the consistency rows, decided before)."""
+        rules = {i: PolygonRule.build(self.many_rows[i][1], self.many_rows[i][4], domain_tolerance=tolerance,
+                                      zero_row_tolerance=zero_row_tolerance, radius_cap=radius_cap)
+                 for i in self.many if self.p[i] == 2}
+        self.polygons = {i: rule for i, rule in rules.items() if rule is not None}
+        """The closed-form rule of each mode with two ambiguity variables where it applies (the
+        engine's, :func:`frcontrol.engine.polygon_rule`, built once: it does not depend on u)."""
         self.H_w1 = _padded([r[1][:, 0] if r[1].shape[1] == 1 else np.zeros(0) for r in rows], width, (), 0.0)
         self.X_u = _padded([x.response.X_u for x in modes], nx, (m,), 0.0)
         self.x_0 = _padded([x.response.x_0 for x in modes], nx, (), 0.0)
@@ -311,33 +340,40 @@ class QueryTable:
         """
         keep = np.ones(point.size, dtype=bool)
         for s in np.flatnonzero(self.p[index] >= 2).tolist():
-            i = int(index[s])
-            H_u, H_w, h_0, norms, motion = (a[:self.inequality_rows[i]] for a in self.mode_rows[i])
-            # the slice as the engine computes it, to the last bit: the LP's representative is one
-            # vertex of the Chebyshev centres, which round-off may move to another
-            found = decide_w(H_w, (h_0 - H_u @ U[point[s]]) / norms, motion)
+            found = self._admissible_w(int(index[s]), U[point[s]], decide_w)
             if found is None:
                 keep[s] = False
             else:
                 w[s, :found.size] = found
         return keep
 
+    def _admissible_w(self, i: int, u: np.ndarray, decide_w: WDecider) -> np.ndarray | None:
+        """The engine's w of mode ``i`` (two or more ambiguity variables, consistent) at ``u``, or None.
+
+        By the mode's closed-form rule where it has one (:attr:`polygons`), else by ``decide_w``.
+        """
+        H_u, H_w, h_0, norms, motion = self.many_rows[i]
+        # the slice as the engine computes it, to the last bit: the representative is one vertex of
+        # the Chebyshev centres, which round-off may move to another
+        h = (h_0 - H_u @ u) / norms
+        rule = self.polygons.get(i)
+        return rule.decide(h) if rule is not None else decide_w(H_w, h, motion)
+
     def _evaluate_many(self, u: np.ndarray, i: int, decide_w: WDecider,
-                       rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> int:
-        """Mode ``i`` (two or more ambiguity variables, consistent at ``u``) by the engine's LPs.
+                       rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+                       kernel: Any) -> int:
+        """Mode ``i`` (two or more ambiguity variables, consistent at ``u``) by the engine's rule for w.
 
         When it holds, its solution is written into row ``i`` of ``rows`` (x, acc, residual,
-        violation, w); returns 1 if it holds, else 0.
+        violation, w) by ``kernel.evaluate_points`` (the compiled kernel); returns 1 if it holds, else 0.
         """
-        U, point, index = u.reshape(1, -1), np.zeros(1, dtype=np.int64), np.array([i])
-        w = np.zeros((1, self.p_max))
-        if not self._decide_many(U, point, index, w, decide_w)[0]:
+        found = self._admissible_w(i, u, decide_w)
+        if found is None:
             return 0
-        found = self.evaluate(U, point, index, w)
-        x, acc, residual, violation, w_rows = rows
-        x[i], residual[i], violation[i], w_rows[i] = found.x[0], found.equality_residual[0], \
-            found.inequality_violation[0], w[0]
-        acc[i] = np.concatenate([found.a_n[0], found.a_t[0]])
+        x, acc, residual, violation, w = rows
+        w[i, :found.size] = found
+        kernel.evaluate_points(*self.kernel_arguments, u.reshape(1, -1), _ZERO_INDEX, np.array([i]),
+                               w[i:i + 1], x[i:i + 1], acc[i:i + 1], residual[i:i + 1], violation[i:i + 1])
         return 1
 
     def evaluate(self, U: np.ndarray, point: np.ndarray, index: np.ndarray, w: np.ndarray) -> Located:
@@ -352,6 +388,19 @@ class QueryTable:
 
         With the compiled kernel, one ``query_point`` call locates and evaluates (the LPs of modes
         with two or more ambiguity variables, where their consistency holds, then run in Python).
+        """
+        holding, x, w, acc, residual, violation = self.point(u, decide_w)
+        k = self.k
+        return Located(np.array(holding, dtype=np.int64), holding, x, w, acc[:, :k], acc[:, k:], residual,
+                       violation)
+
+    def point(self, u: np.ndarray, decide_w: WDecider) -> PointSolutions:
+        """:meth:`locate` as bare arrays, row ``i`` mode ``i`` (the single query's lean path).
+
+        The kernel's ``query_point`` (:func:`frcontrol.kernel.backend`): compiled, one call locates
+        and evaluates every mode, and the modes with two or more ambiguity variables whose
+        consistency holds are then decided here (:meth:`_evaluate_many`); its NumPy twin locates and
+        evaluates by :meth:`_located` and :meth:`evaluate`.
         """
         return backend().query_point(self, u, decide_w)
 
@@ -390,6 +439,9 @@ class QueryTable:
             inequality_violation=joined(lambda f: f.inequality_violation, 0).reshape(-1),
             ambiguous_outputs=self.ambiguous_outputs, tolerance=self.tolerance)
 
+
+_ZERO_INDEX = np.zeros(1, dtype=np.int64)
+"""Point 0: the one input of a single query (read only by the kernel)."""
 
 BATCH_CHUNK_POINTS = 2048
 """Inputs decided together by :meth:`QueryTable.locate_batch`: its temporary arrays hold this many
@@ -465,20 +517,26 @@ def _evaluate_points_compiled(table: QueryTable, U: np.ndarray, point: np.ndarra
     return Located(index, range(index.size), x, w, acc[:, :k], acc[:, k:], residual, violation)
 
 
-def _query_point_numpy(table: QueryTable, u: np.ndarray, decide_w: WDecider) -> Located:
-    """:meth:`QueryTable.locate` in NumPy (the reference twin)."""
+def _query_point_numpy(table: QueryTable, u: np.ndarray, decide_w: WDecider) -> PointSolutions:
+    """:meth:`QueryTable.point` in NumPy (the reference twin), each solution in its mode's row."""
     U = u.reshape(1, -1)
     point, index, w = table._located(U, decide_w)
-    return table.evaluate(U, point, index, w)
+    found = table.evaluate(U, point, index, w)
+    count, k = len(table.modes), table.k
+    holding = found.index.tolist()
+    rows = list(found.rows)
+    x, every_w = np.zeros((count, found.x.shape[1])), np.zeros((count, max(found.w.shape[1], 1)))
+    acc, residual, violation = np.zeros((count, 2 * k)), np.zeros(count), np.zeros(count)
+    x[holding] = found.x[rows]
+    every_w[holding, :found.w.shape[1]] = found.w[rows]
+    acc[holding, :k], acc[holding, k:] = found.a_n[rows], found.a_t[rows]
+    residual[holding], violation[holding] = found.equality_residual[rows], found.inequality_violation[rows]
+    return PointSolutions(holding, x, every_w, acc, residual, violation)
 
 
-def _query_point_compiled(table: QueryTable, u: np.ndarray, decide_w: WDecider) -> Located:
-    """:meth:`QueryTable.locate` by the compiled kernel's ``query_point``.
-
-    One call locates and evaluates (the LPs of modes with two or more ambiguity variables, where
-    their consistency holds, then run in Python).
-    """
-    count, nx, k = len(table.modes), table.X_u.shape[1], table.problem.k
+def _query_point_compiled(table: QueryTable, u: np.ndarray, decide_w: WDecider) -> PointSolutions:
+    """:meth:`QueryTable.point` by the compiled kernel's ``query_point``."""
+    count, nx, k = len(table.modes), table.X_u.shape[1], table.k
     status = np.empty(count, dtype=np.int8)
     w1, residual, violation = np.empty(count), np.empty(count), np.empty(count)
     x, acc = np.empty((count, nx)), np.empty((count, 2 * k))
@@ -489,9 +547,9 @@ def _query_point_compiled(table: QueryTable, u: np.ndarray, decide_w: WDecider) 
     if table.many:
         w[:, 0] = w1
         for i in [i for i, code in enumerate(codes) if code == 2]:
-            codes[i] = table._evaluate_many(u, i, decide_w, (x, acc, residual, violation, w))
-    rows = [i for i, code in enumerate(codes) if code == 1]
-    return Located(np.array(rows, dtype=np.int64), rows, x, w, acc[:, :k], acc[:, k:], residual, violation)
+            codes[i] = table._evaluate_many(u, i, decide_w, (x, acc, residual, violation, w), compiled)
+    holding = [i for i, code in enumerate(codes) if code == 1]
+    return PointSolutions(holding, x, w, acc, residual, violation)
 
 
 twin("locate_points", numpy=_locate_points_numpy, compiled=_locate_points_compiled)
@@ -500,4 +558,4 @@ twin("query_point", numpy=_query_point_numpy, compiled=_query_point_compiled)
 
 
 __all__ = ["BATCH_CHUNK_POINTS", "BatchSolutions", "BOUNDARY_TOLERANCE", "check_inputs", "Located",
-           "QueryMode", "QueryTable", "WDecider"]
+           "PointSolutions", "QueryMode", "QueryTable", "WDecider"]

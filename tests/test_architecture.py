@@ -61,7 +61,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("model", "urdf", "plane", "drives", "springs", "cholesky"),
     ("scene", "scene_source", "scene_tables", "scene_numbers"),
     ("geometry", "polytope", "solvers"),
-    ("modes", "response", "mode_batch"),
+    ("modes", "response", "mode_batch", "ambiguity_polygon"),
     ("engine", "query", "lcp", "contact_lcp", "siconos"),
     ("simulation", "statics", "stability"),
     ("atlas", "planning"),
