@@ -26,6 +26,7 @@ from frcontrol.engine import (
     solutions_at,
 )
 from frcontrol.scene import load_scene
+from frcontrol.solvers import SolverSettings
 
 AGREEMENT = 1e-8
 """[units of w] The rule's w and the LP's agree to this (relative to max(1, |w|)): the LP back-ends
@@ -34,7 +35,7 @@ solve to about 1e-9."""
 
 def lp_rule(H_w: np.ndarray, h: np.ndarray, motion: np.ndarray) -> np.ndarray | None:
     """The engine's two LPs (the reference path's rule)."""
-    return _admissible_in_w(H_w, h, motion, "daqp", closed_form=False)
+    return _admissible_in_w(H_w, h, motion, SolverSettings(lp="daqp"), closed_form=False)
 
 
 def chebyshev(H_w: np.ndarray, h: np.ndarray) -> poly.ChebyshevBall:
