@@ -121,8 +121,18 @@ from ..simulation.closed_loop import ClosedLoopRun, run_closed_loop
 from ..simulation.export import sample_modes
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
-from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, must_solve, solve_lp, solve_lp_prepared
+from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
 from . import DEFAULT_FLIP_MARGIN
+from .core.forced import fix_inputs, forced_by_every_mode, massless_inputs, structurally_forced
+from .core.pieces import margin_pieces, mode_allowed, shrunk_input_domain
+from .core.tolerances import (
+    FORCED_INPUT_TOLERANCE,
+    INPUT_LIMIT_TOLERANCE,
+    REPLAN_GAP_TOLERANCE,
+    REPLAN_VELOCITY_TOLERANCE,
+    SEPARATION_GAP,
+    TORQUE_ROUNDING,
+)
 
 __all__ = [
     "DEFAULT_MARGIN",
@@ -163,33 +173,17 @@ DEFAULT_MARGIN = DEFAULT_FLIP_MARGIN
 """[N m] Default distance (in input space) between the plan and every input where another mode
 also holds: 500 times :data:`TORQUE_ROUNDING`, and small against RHex's 10 N m hip limits."""
 
-TORQUE_ROUNDING = 1e-4
-"""[N m] The plan's torques are rounded to multiples of this (as printed) before verification."""
 
 PITCH_TOLERANCE = 1e-9
 """[rad/s^2] Relative agreement (times ``1 + |pitch|``) required between the planned pitch
 acceleration and the one :func:`~frcontrol.engine.solutions_at` reports at the rounded torques."""
 
-INPUT_LIMIT_TOLERANCE = 1e-9
-"""[-] A unit row of T_c is an input-limit row (not shrunk by the margin) when it equals
-``±e_i`` and its right-hand side equals the limit to this (relative to ``1 + |limit|``)."""
 
 MAX_VERTEX_CANDIDATES = 200_000
 """Most row subsets tried to enumerate a piece's vertices in the worst-case (w-dependent) plan."""
 
-REPLAN_VELOCITY_TOLERANCE = 1e-3
-"""[m/s] In the closed loop, a contact velocity (normal or tangential) of at most this counts as
-zero when re-planning (the normal velocity of a contact the last step loaded is taken as 0 in any
-case, see :func:`simulate_flip`)."""
 
-REPLAN_GAP_TOLERANCE = 1e-5
-"""[m] In the closed loop, a contact with gap at most this is active when re-planning (the time
-stepper keeps closed contacts within about ``g dt^2`` = 1e-5 m of their surface)."""
 
-SEPARATION_GAP = 1e-4
-"""[m] A body contact *touches* at a sample when its gap is at most this; once touching, a gap
-above it is a separation. One step of chatter (a resting contact opening for one step, about
-``g dt^2`` = 1e-5 m at 1 ms) stays below it."""
 
 FLIP_ARMATURE = 2e-3
 r"""[kg m^2] Default rotor inertia of each massless hip coordinate in the flip's simulation (when
@@ -237,6 +231,10 @@ def flip_task(scene: Scene) -> FlipTask:
     task = scene.task
     path = str(scene.path)
     names = [c.name for c in scene.contacts]
+    phased = _phased_flip(scene)
+    if phased is not None:
+        body_contacts, pitch_name = phased
+        task = replace(task, body_contacts=body_contacts, pitch=pitch_name)
     if task.body_contacts is None:
         raise SceneError(path, "task.body_contacts", "missing: the flip needs [task] body_contacts, "
                          f"the body's contacts (from {', '.join(names) or 'no contact'}), and "
@@ -258,6 +256,32 @@ def flip_task(scene: Scene) -> FlipTask:
     initial = float(scene.q[index])
     vertical = math.pi / 2 + math.pi * (math.floor((initial - math.pi / 2) / math.pi) + 1)
     return FlipTask(tuple(n for n in names if n in chosen), pitch, index, initial, vertical)
+
+
+def _phased_flip(scene: Scene) -> tuple[tuple[str, ...], str] | None:
+    """``(body_contacts, pitch)`` of a flip given as a task (``[[task.phases]]``), or None.
+
+    The first phase is the push: its body contacts are the contacts it keeps loaded (their
+    allowed letters lack S), its pitch the coordinate it maximises.
+
+    Raises:
+        SceneError: the first phase does not maximise a coordinate or keeps no contact loaded.
+    """
+    raw = scene.raw.get("task")
+    if not isinstance(raw, Mapping) or "phases" not in raw:
+        return None
+    first = raw["phases"][0]
+    objective = first.get("maximize")
+    if not isinstance(objective, Mapping) or "coordinate" not in objective:
+        raise SceneError(str(scene.path), "task.phases[0].maximize",
+                         "a flip's first phase maximises its pitch coordinate's acceleration "
+                         "(maximize = { coordinate = \"theta\" }); frc plan runs any other task")
+    body = tuple(str(name) for name, letters in first.get("modes", {}).items() if "S" not in letters)
+    if not body:
+        raise SceneError(str(scene.path), "task.phases[0].modes",
+                         "a flip's first phase keeps its body contacts loaded: give them letters "
+                         "without S (modes = { front_corner = \"FLR\" })")
+    return body, str(objective["coordinate"])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -469,157 +493,6 @@ class FlipResult:
 # building blocks
 
 
-def _unit_rows(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rows scaled to unit norm (zero rows kept as they are)."""
-    norms = np.linalg.norm(A, axis=1)
-    scale = np.where(norms > 0, norms, 1.0)
-    return A / scale[:, None], b / scale
-
-
-def _as_halfspaces(P: poly.Polytope) -> tuple[np.ndarray, np.ndarray]:
-    """Unit rows ``a u <= b`` of P, an equality ``E u = e`` written as ``E u <= e, -E u <= -e``."""
-    A = np.vstack([P.A_eq, -P.A_eq, P.A])
-    b = np.concatenate([P.b_eq, -P.b_eq, P.b])
-    return _unit_rows(A, b)
-
-
-def _limit_rows(A: np.ndarray, b: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """Mask of the unit rows that are input limits ``u_i <= upper_i`` or ``-u_i <= -lower_i``."""
-    mask = np.zeros(A.shape[0], dtype=bool)
-    for r, (row, rhs) in enumerate(zip(A, b, strict=True)):
-        i = int(np.argmax(np.abs(row)))
-        if abs(abs(row[i]) - 1.0) > INPUT_LIMIT_TOLERANCE:
-            continue
-        limit = upper[i] if row[i] > 0 else -lower[i]
-        if math.isfinite(limit) and abs(rhs - limit) <= INPUT_LIMIT_TOLERANCE * (1.0 + abs(limit)):
-            mask[r] = True
-    return mask
-
-
-def _has_interior(A: np.ndarray, b: np.ndarray, solver: str) -> bool:
-    """Whether ``{u : A u <= b}`` (unit rows) holds a ball of radius > ``INTERIOR_TOLERANCE``.
-
-    One Chebyshev LP, ``max r`` s.t. ``A u + r <= b``, ``0 <= r <= CHEBYSHEV_RADIUS_CAP``, built
-    here on unit rows (the hot loop of :func:`margin_pieces`; :func:`frcontrol.polytope.chebyshev_ball`
-    answers the same for general rows). Zero rows are judged by their right-hand side.
-    """
-    zero = ~np.any(A, axis=1)
-    if np.any(b[zero] < -poly.CONTAINMENT_TOLERANCE):
-        return False
-    A, b = A[~zero], b[~zero]
-    d = A.shape[1]
-    cost = np.zeros(d + 1)
-    cost[-1] = -1.0
-    A_lp = np.hstack([A, np.ones((A.shape[0], 1))])
-    lb = np.full(d + 1, -np.inf)
-    ub = np.full(d + 1, np.inf)
-    lb[-1], ub[-1] = 0.0, poly.CHEBYSHEV_RADIUS_CAP
-    result = solve_lp_prepared(cost, A_lp, b, lb=lb, ub=ub, solver=solver,
-                               fallback=must_solve("an interior test of the flip planner"))
-    if result.status == "infeasible" or result.x is None:
-        return False
-    return bool(result.x[-1] > poly.INTERIOR_TOLERANCE)
-
-
-def shrunk_input_domain(
-    analysis: DynamicResponse, mode: str, margin: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """T_c of ``mode`` with every row but the input limits pulled in by ``margin``: ``(A, b)``, unit rows.
-
-    ``{u : a_i^T u <= b_i - margin}`` for the mode boundaries, ``a_i^T u <= b_i`` for the limits:
-    the inputs whose ball of radius ``margin`` lies in T_c (within the limits).
-    """
-    problem = analysis.problem
-    A, b = _as_halfspaces(analysis.mode(mode).feasible_input_domain)
-    limits = _limit_rows(A, b, problem.lower, problem.upper)
-    return A, b - margin * (~limits)
-
-
-def margin_pieces(
-    analysis: DynamicResponse,
-    mode: str,
-    margin: float,
-    *,
-    solver: str = DEFAULT_LP_SOLVER,
-    free: Mapping[str, str] | None = None,
-) -> list[poly.Polytope]:
-    """The unambiguous inputs of ``mode`` kept ``margin`` away from every other mode, as pieces.
-
-    See the module's docstring: ``U_c(margin)`` from T_c shrunk (input limits excepted,
-    :func:`shrunk_input_domain`) by the region difference against the overlapping and the
-    lower-dimensional modes, each grown by ``margin`` row by row. A lower-dimensional T_j lies in
-    its affine hull ``E_j u = e_j``; when the band ``|E_j u - e_j| <= margin`` misses a piece's
-    interior, T_j is not needed there (and its projection is not computed).
-
-    Args:
-        analysis: the engine's analysis (with its overlaps).
-        mode: a feasible mode whose T_c has an interior.
-        margin: [units of u] the distance to keep, >= 0.
-        solver: LP back-end.
-        free: per contact name, the letters a plan in ``mode`` also allows that contact
-            (:func:`mode_allowed`): the modes so allowed are not kept away from (default: none).
-
-    Returns:
-        Convex pieces with disjoint interiors, each with an interior (unit rows, not minimal).
-    """
-    if not analysis.mode(mode).inputs_full_dimensional:
-        return []
-    A, start_b = shrunk_input_domain(analysis, mode, margin)
-    if not _has_interior(A, start_b, solver):
-        return []
-    others = [analysis.mode(name) for name in analysis.overlapping(mode)]
-    others += [m for m in analysis.lower_dimensional_modes() if m.mode != mode]
-    contacts = analysis.problem.contacts
-    others = [m for m in others if not mode_allowed(m.mode, mode, contacts, free)]
-    pieces: list[tuple[np.ndarray, np.ndarray]] = [(A, start_b)]
-    for other in others:
-        hull = _hull_band(other, margin)
-        rows: tuple[np.ndarray, np.ndarray] | None = None
-        next_pieces: list[tuple[np.ndarray, np.ndarray]] = []
-        for R_A, R_b in pieces:
-            if hull is not None and not _has_interior(np.vstack([R_A, hull[0]]),
-                                                      np.concatenate([R_b, hull[1]]), solver):
-                next_pieces.append((R_A, R_b))  # T_j's hull is margin away from this piece
-                continue
-            if rows is None:
-                A_j, b_j = _as_halfspaces(other.feasible_input_domain)
-                rows = (A_j, b_j + margin)
-            A_j, grown = rows
-            if not _has_interior(np.vstack([R_A, A_j]), np.concatenate([R_b, grown]), solver):
-                next_pieces.append((R_A, R_b))  # already margin away from T_j
-                continue
-            kept_A, kept_b = R_A, R_b
-            for row, rhs in zip(A_j, grown, strict=True):
-                child_A = np.vstack([kept_A, -row])
-                child_b = np.append(kept_b, -rhs)
-                if _has_interior(child_A, child_b, solver):
-                    next_pieces.append((child_A, child_b))
-                kept_A, kept_b = np.vstack([kept_A, row]), np.append(kept_b, rhs)
-        pieces = next_pieces
-        if not pieces:
-            break
-    return [poly.Polytope(P_A, P_b) for P_A, P_b in pieces]
-
-
-def mode_allowed(mode: str, planned: str, contacts: Sequence[str], free: Mapping[str, str] | None) -> bool:
-    """Whether a plan in mode ``planned`` allows ``mode`` (both one letter per contact of ``contacts``).
-
-    It does when every contact has the planned letter or one of the letters ``free`` gives it
-    (``{"rear_toe": "S"}``: the rear toe may also separate). Without ``free``, only ``planned``.
-    """
-    free = free or {}
-    return all(a == b or a in free.get(name, "") for a, b, name in zip(mode, planned, contacts, strict=True))
-
-
-def _hull_band(mode: ModeAnalysis, margin: float) -> tuple[np.ndarray, np.ndarray] | None:
-    """``|E u - e| <= margin`` (unit rows) around a mode's consistency hull, or None if it has none."""
-    E, e = mode.response.E, mode.response.e
-    if E.shape[0] == 0:
-        return None
-    A, b = _unit_rows(np.vstack([E, -E]), np.concatenate([e, -e]))
-    return A, b + margin
-
-
 def _pitch_row(mode: ModeAnalysis, pitch_index: int) -> tuple[np.ndarray, np.ndarray, float, bool]:
     """``(c_u, c_w, c_0, depends_on_w)``: the pitch row of the mode's response."""
     r = mode.response
@@ -708,66 +581,6 @@ def _round_inputs(u: np.ndarray, lower: np.ndarray, upper: np.ndarray, quantum: 
     return rounded + 0.0  # no negative zeros
 
 
-FORCED_INPUT_TOLERANCE = 1e-9
-"""[-] Relative tolerance of the forced-input tests: a zero row or column of the dynamics, and an
-input direction ``e_i`` lying in the row space of a mode's consistency rows ``E`` (``1 - |E e_i|^2``
-at most this), with the same value in every feasible mode (to this times ``1 + |value|``)."""
-
-
-def structurally_forced(problem: ContactProblem) -> dict[int, float]:
-    """Inputs whose coordinate has no inertia, no bias and no active contact: forced to 0.
-
-    Row j of the dynamics reads ``M_j dv + h_j = u_j + J_N,j^T lam_N + J_T,j^T lam_T``; with
-    ``M_j = 0``, ``h_j = 0`` and zero contact columns, every solution has ``u_j = 0``.
-    """
-    M = problem.mass_matrix
-    tol = FORCED_INPUT_TOLERANCE
-    scale = max(1.0, float(np.max(np.abs(M), initial=0.0)))
-    jac = np.vstack([problem.jacobian_normal, problem.jacobian_tangent]).reshape(-1, problem.n)
-    forced = {}
-    for i in range(problem.m):
-        j = int(np.argmax(np.abs(problem.input_map[:, i])))
-        if (np.max(np.abs(M[j]), initial=0.0) <= tol * scale and abs(problem.bias[j]) <= tol * scale
-                and np.max(np.abs(jac[:, j]), initial=0.0) <= tol):
-            forced[i] = 0.0
-    return forced
-
-
-def _forced_by_every_mode(analysis: DynamicResponse) -> dict[int, float]:
-    """Inputs that every feasible mode's consistency rows ``E u = e`` fix, at one common value.
-
-    E.g. a massless leg whose toe is lifting off (``v_N > 0``: S only): its hip torque is 0 in
-    every mode. ``E`` has orthonormal rows, so ``e_i`` lies in its row space when
-    ``|E e_i| = 1``, and then ``u_i = (E e_i)^T e``.
-    """
-    modes = analysis.feasible_modes
-    if not modes or any(m.response.E.shape[0] == 0 for m in modes):
-        return {}
-    tol = FORCED_INPUT_TOLERANCE
-    forced = {}
-    for i in range(analysis.problem.m):
-        values = []
-        for mode in modes:
-            column = mode.response.E[:, i]
-            if 1.0 - float(column @ column) > tol:
-                break
-            values.append(float(column @ mode.response.e))
-        else:
-            if max(values) - min(values) <= tol * (1.0 + max(abs(v) for v in values)):
-                forced[i] = float(np.mean(values)) if abs(np.mean(values)) > tol else 0.0
-    return forced
-
-
-def _fix_inputs(problem: ContactProblem, fixed: Mapping[int, float]) -> ContactProblem:
-    """The problem with the inputs ``fixed`` (index -> value) moved into the bias: ``h - S_i^T u_i``."""
-    keep = [i for i in range(problem.m) if i not in fixed]
-    idx = list(fixed)
-    bias = problem.bias - problem.input_map[:, idx] @ np.array([fixed[i] for i in idx])
-    return replace(problem, inputs=tuple(problem.inputs[i] for i in keep), bias=bias,
-                   input_map=problem.input_map[:, keep], lower=problem.lower[keep],
-                   upper=problem.upper[keep])
-
-
 def _check_inputs(scene: Scene) -> None:
     inputs = scene.inputs
     if inputs.count == 0:
@@ -832,7 +645,7 @@ def build_flip(scene: Scene, *, velocity_tolerance: float = VELOCITY_TOLERANCE,
     full = problem if problem is not None else ContactProblem.from_scene(
         scene, velocity_tolerance=velocity_tolerance)
     forced = structurally_forced(full)
-    planned = _fix_inputs(full, forced) if forced else full
+    planned = fix_inputs(full, forced) if forced else full
     return FlipProblem(task, full, planned, forced,
                        tuple(c for c in planned.contacts if c in task.body_contacts))
 
@@ -1019,11 +832,11 @@ def _planning_analysis(built: FlipProblem, analysis: DynamicResponse | None, sol
     if planned.m and analysis is None:
         analysis = analyze(planned, solver=solver)
     if analysis is not None and not any(m.inputs_full_dimensional for m in analysis.feasible_modes):
-        more = _forced_by_every_mode(analysis)
+        more = forced_by_every_mode(analysis)
         if more:
             names_left = planned.inputs
             forced.update({full.inputs.index(names_left[i]): value for i, value in more.items()})
-            planned = _fix_inputs(full, forced)
+            planned = fix_inputs(full, forced)
             analysis = analyze(planned, solver=solver) if planned.m else None
     return full, planned, forced, analysis
 
@@ -1358,24 +1171,6 @@ def _free_legs_idle(scene: Scene, legs: dict[int, list[int]], command: np.ndarra
     out = command.copy()
     out[free] = 0.0
     return out
-
-
-def massless_inputs(scene: Scene) -> dict[int, list[int]]:
-    """Inputs on massless coordinates (zero row of M at the scene's state) -> the contacts they move.
-
-    Such an input is free (its torque cannot act on the body) whenever none of its contacts touches.
-    """
-    state = scene.robot.state(scene.q, scene.v)
-    M = state.mass_matrix
-    scale = max(1.0, float(np.max(np.abs(M))))
-    jac = np.vstack([state.jacobian_normal, state.jacobian_tangent])
-    k = len(scene.contacts)
-    legs = {}
-    for i, j in enumerate(scene.inputs.indices):
-        if np.max(np.abs(M[j])) <= FORCED_INPUT_TOLERANCE * scale:
-            rows = np.nonzero(np.abs(jac[:, j]) > FORCED_INPUT_TOLERANCE)[0]
-            legs[i] = sorted({int(r % k) for r in rows})
-    return legs
 
 
 def _gaps(scene: Scene, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:

@@ -2,7 +2,7 @@ r"""One decision: the inputs, in an allowed mode's unambiguous set, that best se
 
 At a state the engine gives every contact mode c its affine response ``dv = X_u u + x_0`` and its
 input domain T_c (METHOD §3). A phase allows some letters per contact; the candidate modes are the
-feasible modes made of allowed letters only. For each, :func:`frcontrol.planning.flip.margin_pieces`
+feasible modes made of allowed letters only. For each, :func:`~.pieces.margin_pieces`
 builds the inputs at least ``margin`` from every input where another mode also holds (a union of
 convex pieces), and one LP (maximize, minimize) or QP (track) per piece optimises the objective
 (:mod:`~frcontrol.planning.core.objective`)::
@@ -25,7 +25,7 @@ by convexity puts ``{u} x conv(V)`` in it, and the objective is the worst case o
 QP minimises the mean squared error over V, and the decision reports the worst).
 
 **Rounding and verification.** The optima, best first, are rounded to
-:data:`~frcontrol.planning.flip.TORQUE_ROUNDING` (within the limits) and checked with
+:data:`~.tolerances.TORQUE_ROUNDING` (within the limits) and checked with
 :func:`frcontrol.engine.solutions_at` at the rounded inputs (at every v of V when robust): exactly
 one rigid solution, in the planned mode. The first that passes is the plan. A mode whose objective
 quantities depend on its ambiguity variables w is no candidate (the motion is not determined).
@@ -50,10 +50,11 @@ from ...response import OUTPUT_TOLERANCE
 from ...scene import Scene
 from ...solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, RETRY_ERRORS, solve_lp, solve_qp
 from ..climb import load_disturbances
-from ..flip import TORQUE_ROUNDING, margin_pieces
 from .forced import planning_problem
 from .objective import ObjectiveRows, objective_rows
+from .pieces import margin_pieces
 from .task import Phase
+from .tolerances import TORQUE_ROUNDING
 
 __all__ = [
     "CLOSEST_MARGIN_STEPS",

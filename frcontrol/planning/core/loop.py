@@ -9,16 +9,16 @@ ends there and the next one is planned before the next step. The run ends when t
 ``until`` holds (the task is *achieved*), at ``max_time``, or when the simulation cannot go on.
 
 *Re-planning model* (the flip's and the stand-up's): the scene at the state reached, with the
-contacts within :data:`~frcontrol.planning.flip.REPLAN_GAP_TOLERANCE` of their surface or loaded by
+contacts within :data:`~.tolerances.REPLAN_GAP_TOLERANCE` of their surface or loaded by
 the last step active, a loaded contact's normal velocity taken as 0, and velocities of at most
-:data:`~frcontrol.planning.flip.REPLAN_VELOCITY_TOLERANCE` taken as zero. When no plan is made (no
+:data:`~.tolerances.REPLAN_VELOCITY_TOLERANCE` taken as zero. When no plan is made (no
 allowed mode can be made unambiguous, or an impact) the inputs are held (the inputs the rigid model
 forces at the state set to their forced value) and the decision, with its reason, is kept in the
 phase's record. Between plans, every input on a massless coordinate whose contacts are all off
 their surface gets 0 (:func:`~.forced.idle_in_the_air`).
 
 *Contacts in ``until``*: a contact is *closed* at a sample when its gap is at most
-:data:`~frcontrol.planning.flip.SEPARATION_GAP`, else *open*.
+:data:`~.tolerances.SEPARATION_GAP`, else *open*.
 """
 
 from __future__ import annotations
@@ -34,11 +34,11 @@ from ...scene import Contact, Scene
 from ...simulation.closed_loop import run_closed_loop
 from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ...solvers import DEFAULT_LP_SOLVER
-from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
 from .decision import Decision, decide
 from .forced import idle_in_the_air, massless_inputs
 from .scale import ScaleResult, largest_scale
 from .task import Phase, Task, Until
+from .tolerances import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
 
 __all__ = ["PhaseRecord", "TaskRun", "contact_gaps", "run_task", "until_met"]
 

@@ -24,10 +24,10 @@ from ...scene import Scene
 from ...simulation.export import sample_modes
 from ...simulation.trajectory import Trajectory
 from ...solvers import DEFAULT_LP_SOLVER
-from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP, TORQUE_ROUNDING
 from .decision import CLOSEST_MARGIN_STEPS, TRACK_REGULARIZATION, Decision
 from .loop import PhaseRecord, TaskRun, run_task
 from .task import Task, read_task
+from .tolerances import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP, TORQUE_ROUNDING
 
 __all__ = ["PlanResult", "plan_task", "schedule_of"]
 
