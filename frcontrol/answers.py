@@ -428,7 +428,8 @@ def flip_answer(scene: Scene, *, margin: float, max_time: float, dt: float = 1e-
 def _plain_flip(scene: Scene, *, margin: float, max_time: float, dt: float, replan_every: int,
                 on_simulation: Callable[[], None] | None, progress: Progress | None) -> Answer:
     """The flip without the pump: one plan, then the closed loop when one is found."""
-    from .planning.flip import plan_flip, simulate_flip
+    from .planning.flip import plan_flip
+    from .planning.flip_loop import simulate_flip
 
     plan = plan_flip(scene, margin=margin)
     result = None
@@ -439,7 +440,8 @@ def _plain_flip(scene: Scene, *, margin: float, max_time: float, dt: float, repl
                                plan=plan, progress=progress)
     trajectory = None if result is None else result.trajectory
     modes = None if result is None else tuple(result.modes)
-    return Answer("flip", plan.to_dict(result), result=result if result is not None else plan,
+    document = plan.to_dict() if result is None else result.to_dict()
+    return Answer("flip", document, result=result if result is not None else plan,
                   trajectory=trajectory, modes=modes)
 
 

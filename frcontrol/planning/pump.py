@@ -60,24 +60,21 @@ from ..jsonable import finite_or_none, to_jsonable
 from ..modes import scene_mode
 from ..scene import Scene
 from ..simulation.energy_audit import EnergyAudit, energy_audit
+from ..simulation.export import sample_modes
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER
-from .flip import (
-    DEFAULT_MARGIN,
+from .core.loop import contact_gaps
+from .core.pieces import mode_allowed
+from .core.tolerances import (
     FORCED_INPUT_TOLERANCE,
     REPLAN_GAP_TOLERANCE,
     REPLAN_VELOCITY_TOLERANCE,
     SEPARATION_GAP,
-    FlipPlan,
-    _body_contacts,
-    _gaps,
-    _replan,
-    flip_task,
-    mode_allowed,
-    sample_modes,
 )
+from .flip import DEFAULT_MARGIN, FlipPlan, flip_task
 from .flip_budget import FlipBudget, body_energy, energy_shortfall, flip_budget
+from .flip_loop import body_contact_events, loop_options, replan_at
 
 __all__ = [
     "COMPLIANT_EXTRA_TIME",
@@ -445,7 +442,7 @@ class _PumpPolicy:
 
     def toes_down(self, q: np.ndarray) -> bool:
         """Whether a leg has a contact on its surface."""
-        gaps = _gaps(self.scene, q)
+        gaps = contact_gaps(self.scene, q)
         return any(bool(np.any(gaps[toes] <= SEPARATION_GAP)) for toes in self.legs.values())
 
     def __call__(self, stepper: RigidStepper) -> np.ndarray:
@@ -481,7 +478,7 @@ class _PumpPolicy:
         """The push plan at the stepper's state, or why there is none."""
         loaded = stepper.last_forces[:, 0] > self.force_tolerance
         start = time.perf_counter()
-        result = _replan(self.scene, stepper.q, stepper.v, loaded, self.margin, self.solver,
+        result = replan_at(self.scene, stepper.q, stepper.v, loaded, self.margin, self.solver,
                          self.freedom("push"))
         self.planning_time += time.perf_counter() - start
         if isinstance(result, str):
@@ -604,10 +601,8 @@ def simulate_pump(
         InputError: a bad step, time or count.
         SceneError: an input without a drive, a malformed ``[task]`` table.
     """
-    from .flip import _loop_options
-
     start = time.perf_counter()
-    max_time, dt, _ = _loop_options(scene, dt, max_time, replan_every, None)
+    max_time, dt, _ = loop_options(scene, dt, max_time, replan_every, None)
     task = flip_task(scene)
     drives = check_pump_scene(scene)
     policy = _PumpPolicy(scene, drives, margin, solver)
@@ -622,7 +617,7 @@ def simulate_pump(
         else failure.reason if failure is not None else "the end of the run"
     phases = policy.close(float(trajectory.times[-1]), end_reason)
     last = len(trajectory.times) - 1 if crossed is None else crossed
-    separation, _ = _body_contacts(scene, trajectory, task.body_contacts, last)
+    separation, _ = body_contact_events(scene, trajectory, task.body_contacts, last)
     pitch = trajectory.q[:, task.pitch_index]
     budget, energy = _budget(scene, trajectory)
     total = time.perf_counter() - start
@@ -838,7 +833,7 @@ def pump_payload(scene: Scene, plan: FlipPlan, result: PumpResult | None) -> dic
     driven joints, ``input_units`` says), ``simulation`` from the pumping run with ``samples``
     (:func:`pump_samples`), and ``pump`` (:meth:`PumpResult.to_dict`).
     """
-    payload = plan.to_dict(None)
+    payload = plan.to_dict()
     payload["input_units"] = scene.inputs.unit_map()
     if result is None:
         return payload

@@ -59,9 +59,9 @@ from .flip import (
     REPLAN_VELOCITY_TOLERANCE,
     SEPARATION_GAP,
     TORQUE_ROUNDING,
-    ReplanningPolicy,
     margin_pieces,
 )
+from .flip_loop import ReplanningPolicy
 
 __all__ = [
     "DEFAULT_MARGIN",

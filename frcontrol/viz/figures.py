@@ -31,7 +31,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..planning.climb import ClimbPlan, robust_region
-from ..planning.flip import FlipPlan, FlipResult
+from ..planning.flip import FlipPlan
+from ..planning.flip_loop import FlipResult
 from ..polytope import Polytope
 from ..scene import Scene
 from ..statics import StaticsReport
