@@ -61,12 +61,13 @@ def flip_command(
     quiet: options.QuietOpt = False,
     max_time: options.MaxTimeAliasOpt = None,
 ) -> None:
-    """Plan the flip: hip torques maximising the body's pitch acceleration, unambiguously.
+    """Run the scene's flip task (a short name for frc plan): the pitch acceleration maximised, unambiguously.
 
-    The torques keep every body contact loaded (F, L or R) and lie at least --margin from every
-    input where another contact mode also holds; they are checked at their printed values. Then a
-    rigid simulation re-plans along the motion until the body pitches past vertical. No feasible
-    flip is a result (exit 0, "flipped": false and the reason), not an error.
+    The scene's task runs as frc plan runs it: the first phase's torques keep its body contacts
+    loaded (F, L or R), lie at least --margin from every input where another contact mode also
+    holds, and are checked at their printed values; a rigid simulation re-plans along the motion
+    until the body pitches past vertical. The JSON has the flip's keys and frc plan's 'outcome' and
+    'phases'. No feasible flip is a result (exit 0, "flipped": false and the reason), not an error.
 
     \b
     Examples:
@@ -193,9 +194,10 @@ def render(payload: dict[str, Any]) -> None:
     console.print(f"pitch acceleration ({payload['pitch']}): {payload['pitch_acceleration']:.6g} "
                   f"rad/s^2{worst}")
     explored = common.named_modes(payload["explored"], payload["contacts"], payload)
+    took = payload["timings"].get("total")
     console.print(f"candidates {common.named_modes(payload['candidates'], payload['contacts'], payload)}; "
-                  f"explored {explored}; {payload['pieces']} piece(s); plan in "
-                  f"{1e3 * payload['timings']['total']:.1f} ms")
+                  f"explored {explored}" + (f"; {payload['pieces']} piece(s)" if payload["pieces"] else "")
+                  + ("" if took is None else f"; plan in {1e3 * took:.1f} ms"))
     if payload["forced_inputs"]:
         console.print("forced by the model: " + ", ".join(f"{k} = {v:g}" for k, v in
                                                          payload["forced_inputs"].items()))

@@ -419,7 +419,10 @@ def test_cli_no_flip_exits_0_with_the_reason(rhex, write_scene):
     assert result.exit_code == 0, result.stderr
     doc = json.loads(result.stdout)
     assert doc["found"] is False and doc["mode"] is None and doc["torques"] is None
-    assert doc["simulation"]["flipped"] is False and doc["simulation"]["reason"] == doc["reason"]
+    # the task runs as frc plan runs it, the torques held: the outcome names the phase without a plan
+    assert doc["simulation"]["flipped"] is False and "short of vertical" in doc["simulation"]["reason"]
+    assert doc["outcome"]["achieved"] is False and doc["outcome"]["infeasible"]["reason"] == doc["reason"]
+    assert doc["outcome"]["infeasible"]["phase"] == "flip" and doc["phases"][0]["plans"][0]["found"] is False
     human = runner.invoke(app(), ["flip", str(path)])
     assert human.exit_code == 0 and "no flip plan" in human.stdout
 

@@ -63,7 +63,7 @@ import numpy as np
 
 from .. import polytope as poly
 from ..engine import DynamicResponse, analyze
-from ..errors import InputError, SceneError
+from ..errors import InputError
 from ..jsonable import finite_or_none, to_jsonable
 from ..modes import VELOCITY_TOLERANCE, ContactProblem, add_scene_modes, scene_mode
 from ..scene import Scene
@@ -91,6 +91,7 @@ from .flip_pitch import (
     torque_text,
     worst_case_pitch,
 )
+from .flip_scene import VERTICAL_TOLERANCE, FlipTask, flip_task
 
 __all__ = [
     "DEFAULT_MARGIN",
@@ -99,6 +100,7 @@ __all__ = [
     "INPUT_LIMIT_TOLERANCE",
     "MAX_VERTEX_CANDIDATES",
     "PITCH_TOLERANCE",
+    "VERTICAL_TOLERANCE",
     "REPLAN_GAP_TOLERANCE",
     "REPLAN_VELOCITY_TOLERANCE",
     "SEPARATION_GAP",
@@ -109,6 +111,7 @@ __all__ = [
     "FlipProblem",
     "FlipTask",
     "build_flip",
+    "check_flip_inputs",
     "flip_task",
     "margin_pieces",
     "massless_inputs",
@@ -136,96 +139,6 @@ with a Maxon 20 W motor (rotor inertia of the order of 1e-6 kg m^2) through a 33
 reflected, 33^2 x 1e-6 = 1.1e-3 kg m^2 per motor, and each planar hip stands for a pair of legs
 (two motors). The simulator's default (1e-4 kg m^2) would let a torque spin a free leg up twenty
 times faster."""
-
-
-# ---------------------------------------------------------------------------------------------
-# the task
-
-
-@dataclass(frozen=True)
-class FlipTask:
-    """What the flip planner reads from the scene's ``[task]`` table.
-
-    Attributes:
-        body_contacts: names of the body's contacts (none may separate), in scene order.
-        pitch: the pitch coordinate's name.
-        pitch_index: its index in the minimal coordinates.
-        initial_pitch: [rad] its value at the scene's state.
-        vertical: [rad] the first pitch above ``initial_pitch`` at which the body stands vertical
-            (``pi/2 + k pi``): the flip is done when the pitch passes it.
-    """
-
-    body_contacts: tuple[str, ...]
-    pitch: str
-    pitch_index: int
-    initial_pitch: float
-    vertical: float
-
-
-def flip_task(scene: Scene) -> FlipTask:
-    """The flip task of a scene: its ``[task]`` table, validated.
-
-    ``body_contacts`` is required: a scene without it is not a flip scene (the planner would
-    otherwise "flip" whatever touches the ground). ``pitch`` defaults to ``theta``.
-
-    Raises:
-        SceneError: ``[task]`` or ``task.body_contacts`` is missing, or ``[task]`` is malformed,
-            names an unknown contact or coordinate.
-    """
-    task = scene.task
-    path = str(scene.path)
-    names = [c.name for c in scene.contacts]
-    phased = _phased_flip(scene)
-    if phased is not None:
-        body_contacts, pitch_name = phased
-        task = replace(task, body_contacts=body_contacts, pitch=pitch_name)
-    if task.body_contacts is None:
-        raise SceneError(path, "task.body_contacts", "missing: the flip needs [task] body_contacts, "
-                         f"the body's contacts (from {', '.join(names) or 'no contact'}), and "
-                         "optionally pitch, the body's pitch coordinate")
-    body = list(task.body_contacts)
-    if not body:
-        raise SceneError(path, "task.body_contacts", f"expected a non-empty list of contact names "
-                         f"from {names}, got {body!r}")
-    for i, name in enumerate(body):
-        if name not in names:
-            raise SceneError(path, f"task.body_contacts[{i}]",
-                             f"unknown contact {name!r}; the contacts are: {', '.join(names)}")
-    chosen = set(body)
-    pitch = task.pitch if task.pitch is not None else "theta"
-    coords = scene.coordinate_names
-    if not isinstance(pitch, str) or pitch not in coords:
-        raise SceneError(path, "task.pitch", f"expected a coordinate name from {list(coords)}, got {pitch!r}")
-    index = coords.index(pitch)
-    initial = float(scene.q[index])
-    vertical = math.pi / 2 + math.pi * (math.floor((initial - math.pi / 2) / math.pi) + 1)
-    return FlipTask(tuple(n for n in names if n in chosen), pitch, index, initial, vertical)
-
-
-def _phased_flip(scene: Scene) -> tuple[tuple[str, ...], str] | None:
-    """``(body_contacts, pitch)`` of a flip given as a task (``[[task.phases]]``), or None.
-
-    The first phase is the push: its body contacts are the contacts it keeps loaded (their
-    allowed letters lack S), its pitch the coordinate it maximises.
-
-    Raises:
-        SceneError: the first phase does not maximise a coordinate or keeps no contact loaded.
-    """
-    raw = scene.raw.get("task")
-    if not isinstance(raw, Mapping) or "phases" not in raw:
-        return None
-    first = raw["phases"][0]
-    objective = first.get("maximize")
-    if not isinstance(objective, Mapping) or "coordinate" not in objective:
-        raise SceneError(str(scene.path), "task.phases[0].maximize",
-                         "a flip's first phase maximises its pitch coordinate's acceleration "
-                         "(maximize = { coordinate = \"theta\" }); frc plan runs any other task")
-    body = tuple(str(name) for name, letters in first.get("modes", {}).items() if "S" not in letters)
-    if not body:
-        raise SceneError(str(scene.path), "task.phases[0].modes",
-                         "a flip's first phase keeps its body contacts loaded: give them letters "
-                         "without S (modes = { front_corner = \"FLR\" })")
-    return body, str(objective["coordinate"])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -341,7 +254,8 @@ class FlipPlan:
 # ---------------------------------------------------------------------------------------------
 # building blocks
 
-def _check_inputs(scene: Scene) -> None:
+def check_flip_inputs(scene: Scene) -> None:
+    """Raises InputError when the scene has no inputs, or an input's limits are infinite or empty."""
     inputs = scene.inputs
     if inputs.count == 0:
         raise InputError(f"scene {scene.name!r} ({scene.path}) has no inputs: the flip needs hip torques "
@@ -400,7 +314,7 @@ def build_flip(scene: Scene, *, velocity_tolerance: float = VELOCITY_TOLERANCE,
     Raises:
         SceneError: a bad ``[task]`` table. InputError: no inputs, or limits without interior.
     """
-    _check_inputs(scene)
+    check_flip_inputs(scene)
     task = flip_task(scene)
     full = problem if problem is not None else ContactProblem.from_scene(
         scene, velocity_tolerance=velocity_tolerance)
