@@ -48,6 +48,7 @@ from ..model import ContactPoint
 from ..scene import Scene
 from ..simulation.trajectory import Trajectory
 from .flip import flip_task
+from .pump_timing import leg_contacts
 
 __all__ = ["NORMAL_TOLERANCE", "PITCH_STEP", "FlipBudget", "body_energy", "energy_shortfall", "flip_budget"]
 
@@ -168,9 +169,7 @@ def _leg_lengths(scene: Scene, hips: Mapping[str, str]) -> np.ndarray:
 
 def _driven_toes(scene: Scene, body: Sequence[str]) -> dict[str, list[int]]:
     """Driven joint -> its toes: the contacts (not the body's) on the link it turns."""
-    from .pump import _leg_contacts
-
-    legs = _leg_contacts(scene, body)
+    legs = leg_contacts(scene, body)
     return {scene.inputs.coordinates[i]: toes for i, toes in legs.items()}
 
 

@@ -2,7 +2,7 @@ r"""What the flip reads from a scene: its body contacts, its pitch and the verti
 
 A flip's ``[task]`` is either a task given as phases (``frc plan``'s format: the first phase keeps
 its body contacts loaded, their letters without S, and maximises the pitch coordinate's
-acceleration; the last phase ends when the pitch passes vertical) or the dedicated keys
+acceleration; a phase ends when the pitch passes vertical) or the dedicated keys
 ``body_contacts`` and ``pitch`` (default ``theta``). :func:`flip_task` reads either.
 """
 
@@ -81,19 +81,22 @@ def flip_task(scene: Scene) -> FlipTask:
 
 
 VERTICAL_TOLERANCE = 1e-6
-"""[rad] A task is a flip when its last phase ends as its pitch passes vertical: the ``until``
-threshold equals the vertical pitch to this."""
+"""[rad] A task is a flip when a phase ends as its pitch passes vertical: the ``until`` threshold
+equals the vertical pitch to this."""
 
 
 def _check_ends_at_vertical(scene: Scene, pitch: str, vertical: float) -> None:
-    """Raises SceneError unless the task's last phase ends when ``pitch`` passes ``vertical``."""
-    until = scene.raw["task"]["phases"][-1].get("until", {})
-    last = len(scene.raw["task"]["phases"]) - 1
-    above = until.get("above")
-    if until.get("coordinate") != pitch or above is None or abs(float(above) - vertical) > VERTICAL_TOLERANCE:
-        raise SceneError(str(scene.path), f"task.phases[{last}].until",
-                         f"a flip ends when its pitch passes vertical: until = {{ coordinate = \"{pitch}\", "
-                         f"above = {vertical!r} }}; frc plan runs any other task")
+    """Raises SceneError unless a phase of the task ends when ``pitch`` passes ``vertical``."""
+    phases = scene.raw["task"]["phases"]
+    for phase in phases:
+        until = phase.get("until", {})
+        above = until.get("above")
+        at_vertical = above is not None and abs(float(above) - vertical) <= VERTICAL_TOLERANCE
+        if until.get("coordinate") == pitch and at_vertical:
+            return
+    raise SceneError(str(scene.path), f"task.phases[{len(phases) - 1}].until",
+                     f"a flip ends when its pitch passes vertical: until = {{ coordinate = \"{pitch}\", "
+                     f"above = {vertical!r} }} in a phase; frc plan runs any other task")
 
 
 def _phased_flip(scene: Scene) -> tuple[tuple[str, ...], str] | None:

@@ -17,14 +17,22 @@ forces at the state set to their forced value) and the decision, with its reason
 phase's record. Between plans, every input on a massless coordinate whose contacts are all off
 their surface gets 0 (:func:`~.forced.idle_in_the_air`).
 
+*A phase timing* (:class:`PhaseTiming`, named by ``[task] timing``, :mod:`.timing`) plugs into the
+loop where a task needs more than ``until`` in order: it ends phases (a :class:`Switch` to a phase
+by name, or the end of the run), drives the phases it owns (their inputs, instead of a plan), may
+overrule a plan, and gives the letters a plan's other rigid solutions may have (``free``) and the
+stepper's settings. With a timing, the timing alone ends phases; the phases' ``until`` are data it
+reads.
+
 *Contacts in ``until``*: a contact is *closed* at a sample when its gap is at most
 :data:`~.tolerances.SEPARATION_GAP`, else *open*.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -33,6 +41,7 @@ from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...scene import Contact, Scene
 from ...simulation.closed_loop import run_closed_loop
 from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
+from ...simulation.trajectory import Trajectory
 from ...solvers import DEFAULT_LP_SOLVER
 from .decision import Decision, decide
 from .forced import idle_in_the_air, massless_inputs
@@ -40,7 +49,7 @@ from .scale import ScaleResult, largest_scale
 from .task import Phase, Task, Until
 from .tolerances import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
 
-__all__ = ["PhaseRecord", "TaskRun", "contact_gaps", "run_task", "until_met"]
+__all__ = ["PhaseRecord", "PhaseTiming", "Switch", "TaskRun", "contact_gaps", "run_task", "until_met"]
 
 
 @dataclass
@@ -64,6 +73,52 @@ class PhaseRecord:
     decisions: list[tuple[float, Decision]] = field(default_factory=list)
     met: bool = False
     largest_scale: ScaleResult | None = None
+
+
+@dataclass(frozen=True)
+class Switch:
+    """A phase timing's verdict: the current phase ends.
+
+    Attributes:
+        why: why it ends (the record's ``why``).
+        to: the next phase's name; None: the run ends.
+        met: the phase's ``until`` held (a run that ends with ``met`` is achieved).
+    """
+
+    why: str
+    to: str | None
+    met: bool = False
+
+
+class PhaseTiming(Protocol):
+    """A task's phase timing: when its phases end, and the inputs of the phases it drives.
+
+    ``stepper`` is None at the run's first decision (the scene's state); ``since`` [s] is the time
+    since the phase started.
+    """
+
+    settings: RigidSettings
+    """The rigid stepper's settings for the run."""
+
+    def free(self, phase: Phase) -> Mapping[str, str] | None:
+        """Per contact, the letters a plan's other rigid solutions may have (None: none)."""
+
+    def drive(self, phase: Phase, stepper: RigidStepper | None) -> np.ndarray | None:
+        """The inputs of a phase the timing drives (None: the phase is planned)."""
+
+    def before_decision(self, phase: Phase, stepper: RigidStepper) -> Switch | None:
+        """At a decision, before the phase is planned or driven: end it, or not (None)."""
+
+    def decided(
+        self, phase: Phase, decision: Decision, stepper: RigidStepper | None
+    ) -> tuple[np.ndarray | None, Switch | None]:
+        """After a plan: other inputs to apply instead (or None), and whether the phase ends."""
+
+    def after_step(self, phase: Phase, stepper: RigidStepper, since: float) -> Switch | None:
+        """After every step: end the phase (or the run), or not (None)."""
+
+    def report(self, scene: Scene, trajectory: Trajectory) -> dict[str, Any]:
+        """What the timing reports of the run (the plan document's ``timing``)."""
 
 
 def contact_gaps(scene: Scene, q: np.ndarray) -> np.ndarray:
@@ -96,9 +151,12 @@ def until_met(scene: Scene, until: Until, q: np.ndarray, elapsed: float) -> bool
 class _TaskPolicy:
     """The closed loop's policy: the phase's plan at the state reached; phases advance on ``until``."""
 
-    def __init__(self, scene: Scene, task: Task, solver: str, margin: float | None) -> None:
+    def __init__(
+        self, scene: Scene, task: Task, solver: str, margin: float | None, timing: PhaseTiming | None = None
+    ) -> None:
         self.scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
-        self.phases = task.sequence()
+        self.timing = timing
+        self.phases = task.sequence() if timing is None else list(task.phases)
         if margin is not None:
             self.phases = [replace(p, margin=margin) for p in self.phases]
         self.solver = solver
@@ -109,18 +167,44 @@ class _TaskPolicy:
         self.legs = massless_inputs(scene)
         self.pending = False
         self.done = False
+        self.named = {p.name: p for p in self.phases}
 
     @property
     def phase(self) -> Phase:
         """The phase running."""
+        if self.timing is not None:
+            return self.named[self.records[-1].name]
         return self.phases[len(self.records) - 1]
+
+    def _switch(self, t: float, switch: Switch) -> None:
+        """End the running phase at ``t`` (a timing's switch); start the next one, if any."""
+        record = self.records[-1]
+        record.end, record.why, record.met = t, switch.why, switch.met
+        if switch.to is not None:
+            self.records.append(PhaseRecord(switch.to, t))
+
+    def _timed(self, stepper: RigidStepper | None) -> np.ndarray | None:
+        """A timing's inputs at a decision (its switches made first); None: plan the phase."""
+        if self.timing is None:
+            return None
+        if stepper is not None:
+            switch = self.timing.before_decision(self.phase, stepper)
+            if switch is not None:
+                self._switch(stepper.t, switch)
+        driven = self.timing.drive(self.phase, stepper)
+        return None if driven is None else np.asarray(driven, dtype=float)
 
     def plan(self, stepper: RigidStepper | None) -> np.ndarray:
         """Plan the current phase at the stepper's state (the scene's at the start); hold when no plan."""
         t = 0.0 if stepper is None else stepper.t
+        driven = self._timed(stepper)
+        if driven is not None:
+            self.command = driven
+            return self.command
+        free = None if self.timing is None else self.timing.free(self.phase)
         try:
             here, problem = self._model(stepper)
-            decision = decide(here, self.phase, problem=problem, solver=self.solver)
+            decision = decide(here, self.phase, problem=problem, solver=self.solver, free=free)
             if self.phase.largest_scale is not None and not self.records[-1].decisions:
                 full = problem or ContactProblem.from_scene(here, velocity_tolerance=VELOCITY_TOLERANCE)
                 self.records[-1].largest_scale = largest_scale(here, self.phase, full, solver=self.solver)
@@ -128,9 +212,17 @@ class _TaskPolicy:
             decision = _held(self.phase, f"impact at {err.contact} (v_N = {err.normal_velocity:.3g} m/s)")
         except FrcontrolError as err:
             decision = _held(self.phase, str(err))
+        self.records[-1].decisions.append((t, decision))
+        if self.timing is not None:
+            other, switch = self.timing.decided(self.phase, decision, stepper)
+            if switch is not None:
+                self._switch(t, switch)
+                other = self.timing.drive(self.phase, stepper)
+            if other is not None:
+                self.command = np.asarray(other, dtype=float)
+                return self.command
         values = decision.inputs if decision.found else decision.forced
         self.command = np.array([values.get(n, c) for n, c in zip(self.names, self.command, strict=True)])
-        self.records[-1].decisions.append((t, decision))
         return self.command
 
     def _model(self, stepper: RigidStepper | None) -> tuple[Scene, ContactProblem | None]:
@@ -165,6 +257,14 @@ class _TaskPolicy:
     def stop(self, stepper: RigidStepper) -> bool:
         """After each step: end the phase when its ``until`` holds; stop after the last phase."""
         record = self.records[-1]
+        if self.timing is not None:
+            switch = self.timing.after_step(self.phase, stepper, stepper.t - record.start)
+            if switch is None:
+                return False
+            self._switch(stepper.t, switch)
+            self.pending = switch.to is not None
+            self.done = switch.to is None and switch.met
+            return switch.to is None
         if not until_met(self.scene, self.phase.until, stepper.q, stepper.t - record.start):
             return False
         record.end, record.why, record.met = stepper.t, f"until {self.phase.until.describe()}", True
@@ -213,6 +313,7 @@ def run_task(
     margin: float | None = None,
     solver: str = DEFAULT_LP_SOLVER,
     progress: Callable[[float, float], None] | None = None,
+    timing: PhaseTiming | None = None,
 ) -> TaskRun:
     """Plan and re-plan ``task`` along one rigid run (see the module's docstring).
 
@@ -225,6 +326,7 @@ def run_task(
         margin: [input units] every phase's margin (default: each phase's own).
         solver: LP back-end.
         progress: called with (simulated time, max_time) every ``replan_every`` steps.
+        timing: the task's phase timing (see the module's docstring), or None.
 
     Raises:
         InputError: a bad step, time, count or margin.
@@ -234,11 +336,10 @@ def run_task(
     if margin is not None and not (np.isfinite(margin) and margin >= 0):
         raise InputError(f"the margin must be a finite number >= 0 [input units], got {margin!r}")
     duration = task.max_time if max_time is None else max_time
-    policy = _TaskPolicy(scene, task, solver, margin)
+    policy = _TaskPolicy(scene, task, solver, margin, timing)
     armature = scene.model.armature if scene.model.armature_given else None
-    stepper = RigidStepper(
-        policy.scene, RigidSettings(max_ambiguity_checks=0, impact_law=False), armature=armature
-    )
+    settings = RigidSettings(max_ambiguity_checks=0, impact_law=False) if timing is None else timing.settings
+    stepper = RigidStepper(policy.scene, settings, armature=armature)
     first = policy.plan(None)
     run = run_closed_loop(
         stepper,

@@ -25,8 +25,9 @@ from ...simulation.export import sample_modes
 from ...simulation.trajectory import Trajectory
 from ...solvers import DEFAULT_LP_SOLVER
 from .decision import CLOSEST_MARGIN_STEPS, TRACK_REGULARIZATION, Decision
-from .loop import PhaseRecord, TaskRun, run_task
+from .loop import PhaseRecord, PhaseTiming, TaskRun, run_task
 from .task import Task, read_task
+from .timing import load_timing
 from .tolerances import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP, TORQUE_ROUNDING
 
 __all__ = ["PlanResult", "plan_task", "schedule_of"]
@@ -42,6 +43,7 @@ class PlanResult:
         trajectory: its trajectory, with the per-sample modes.
         compliant: the compliant replay, or None.
         timings: [s] ``planning``, ``simulation``, ``compliant``, ``total``.
+        timing: the task's phase timing (:mod:`.timing`), or None.
     """
 
     task: Task
@@ -49,6 +51,7 @@ class PlanResult:
     trajectory: Trajectory
     compliant: Trajectory | None
     timings: dict[str, float]
+    timing: PhaseTiming | None = None
 
     @property
     def achieved(self) -> bool:
@@ -82,6 +85,8 @@ class PlanResult:
             },
             "timings": dict(self.timings),
         }
+        if self.timing is not None:
+            payload["timing"] = {"name": self.task.timing, **self.timing.report(scene, self.trajectory)}
         if self.compliant is not None:
             replay = self.compliant.to_dict(scene)
             payload["compliant"] = {
@@ -158,6 +163,7 @@ def plan_task(
     compliant: bool = False,
     solver: str = DEFAULT_LP_SOLVER,
     progress: Callable[[float, float], None] | None = None,
+    timing: PhaseTiming | None = None,
 ) -> PlanResult:
     """Read the scene's task, run it (:func:`~.loop.run_task`) and, with ``compliant``, replay its inputs.
 
@@ -167,6 +173,7 @@ def plan_task(
     """
     start = time.perf_counter()
     task = read_task(scene)
+    timing = timing if timing is not None else load_timing(scene, task)
     run = run_task(
         scene,
         task,
@@ -176,6 +183,7 @@ def plan_task(
         margin=margin,
         solver=solver,
         progress=progress,
+        timing=timing,
     )
     trajectory = run.trajectory
     assert isinstance(trajectory, Trajectory)
@@ -196,4 +204,4 @@ def plan_task(
             simulate_compliant(scene, schedule_of(run, trajectory), duration, dt) if duration > 0 else None
         )
     timings = {**run.timings, "compliant": time.perf_counter() - t0, "total": time.perf_counter() - start}
-    return PlanResult(task, run, trajectory, replay, timings)
+    return PlanResult(task, run, trajectory, replay, timings, timing)
