@@ -421,18 +421,16 @@ def flip_answer(scene: Scene, *, margin: float | None, max_time: float | None, d
         trajectory = None if run.plan is None else run.plan.trajectory
         modes = None if trajectory is None or trajectory.modes is None else tuple(trajectory.modes)
         return Answer("flip", flip_document(run), result=run.flip, trajectory=trajectory, modes=modes)
-    from .planning.pump import pump_flip, pump_payload
+    from .planning.pump import PumpResult, pump_flip, pump_payload
 
     if on_simulation is not None and (max_time is None or max_time > 0):
         on_simulation()
-    from .planning import DEFAULT_FLIP_MARGIN
-
-    margin = DEFAULT_FLIP_MARGIN if margin is None else margin
-    plan, result = pump_flip(scene, margin=margin, max_time=4.0 if max_time is None else max_time, dt=dt,
-                             replan_every=replan_every, compliant=compliant, progress=progress)
-    trajectory = None if result is None else result.trajectory
+    plan, result = pump_flip(scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
+                             compliant=compliant, progress=progress)
+    trajectory = result.trajectory if isinstance(result, PumpResult) else None
     modes = None if trajectory is None or trajectory.modes is None else tuple(trajectory.modes)
-    return Answer("pump", pump_payload(scene, plan, result), result=result, trajectory=trajectory,
+    document = pump_payload(scene, plan, result)
+    return Answer("pump", document, result=result if trajectory is not None else None, trajectory=trajectory,
                   modes=modes)
 
 

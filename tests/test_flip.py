@@ -116,8 +116,8 @@ def admissible(analysis, u, radius, candidates):
 
 
 def test_task_of_the_rhex_scene(rhex):
-    task = flip_task(rhex)  # as phases: the contacts the first phase keeps loaded, the pitch it maximises
-    assert task.body_contacts == ("front_corner",) and task.pitch == "theta"
+    task = flip_task(rhex)  # as phases: the first phase's contacts on its pivot's link, its maximised pitch
+    assert task.body_contacts == ("front_corner", "rear_corner") and task.pitch == "theta"
     assert task.pitch_index == PITCH and task.vertical == pytest.approx(1.5 * math.pi)
 
 
@@ -349,7 +349,7 @@ def test_bad_input_raises(rhex, write_scene):
     no_pitch = rhex_text().replace("maximize = { coordinate", "minimize = { coordinate")
     with pytest.raises(SceneError, match=r"task.phases\[0\].maximize"):
         plan_flip(load_scene(write_scene(no_pitch)))
-    no_body = rhex_text().replace('modes = { front_corner = "FLR" }', 'modes = { front_corner = "SFLR" }')
+    no_body = rhex_text().replace('modes = { front_corner = "FLR",', 'modes = { front_corner = "SFLR",')
     with pytest.raises(SceneError, match=r"task.phases\[0\].modes"):
         plan_flip(load_scene(write_scene(no_body)))
     text = rhex_text()

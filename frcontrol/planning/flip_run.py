@@ -36,12 +36,12 @@ from ..solvers import DEFAULT_LP_SOLVER
 from .core.decision import Decision, decide
 from .core.forced import planning_problem
 from .core.report import PlanResult, plan_task
-from .core.task import read_task
+from .core.task import Phase, read_task
 from .core.tolerances import INPUT_LIMIT_TOLERANCE, REPLAN_GAP_TOLERANCE, TORQUE_ROUNDING
 from .flip import FlipPlan, FlipTask, check_flip_inputs, flip_task
 from .flip_loop import FlipResult, body_contact_events
 
-__all__ = ["FlipRun", "flip_document", "run_flip"]
+__all__ = ["FlipRun", "first_plan", "flip_document", "flip_result", "plan_only_document", "run_flip"]
 
 
 @dataclass(frozen=True)
@@ -98,12 +98,17 @@ def _plan_only(scene: Scene, task: FlipTask, margin: float | None) -> FlipRun:
     phase = read_task(scene).sequence()[0]
     phase = phase if margin is None else replace(phase, margin=margin)
     decision = decide(replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE), phase)
-    document = {
-        "outcome": {"achieved": False, "reason": "not simulated (--max-time 0)"},
-        "phases": [{"name": phase.name, "start": 0.0, "end": 0.0, "why": "not simulated (--max-time 0)",
-                    "met": False, "plans": [{"time": 0.0, **decision.to_dict()}]}],
+    return FlipRun(None, first_plan(scene, task, decision), plan_only_document(phase, decision))
+
+
+def plan_only_document(phase: Phase, decision: Decision) -> dict[str, Any]:
+    """``outcome`` and ``phases`` when only the first decision is made (``max_time`` 0)."""
+    why = "not simulated (--max-time 0)"
+    return {
+        "outcome": {"achieved": False, "reason": why},
+        "phases": [{"name": phase.name, "start": 0.0, "end": 0.0, "why": why, "met": False,
+                    "plans": [{"time": 0.0, **decision.to_dict()}]}],
     }
-    return FlipRun(None, first_plan(scene, task, decision), document)
 
 
 def first_plan(scene: Scene, task: FlipTask, decision: Decision) -> FlipPlan:

@@ -1,8 +1,8 @@
 r"""What the flip reads from a scene: its body contacts, its pitch and the vertical pitch to pass.
 
 A flip's ``[task]`` is either a task given as phases (``frc plan``'s format: the first phase keeps
-its body contacts loaded, their letters without S, and maximises the pitch coordinate's
-acceleration; a phase ends when the pitch passes vertical) or the dedicated keys
+its pivot loaded, its letters without S, names the body's other contacts, and maximises the pitch
+coordinate's acceleration; a phase ends when the pitch passes vertical) or the dedicated keys
 ``body_contacts`` and ``pitch`` (default ``theta``). :func:`flip_task` reads either.
 """
 
@@ -102,8 +102,9 @@ def _check_ends_at_vertical(scene: Scene, pitch: str, vertical: float) -> None:
 def _phased_flip(scene: Scene) -> tuple[tuple[str, ...], str] | None:
     """``(body_contacts, pitch)`` of a flip given as a task (``[[task.phases]]``), or None.
 
-    The first phase is the push: its body contacts are the contacts it keeps loaded (their
-    allowed letters lack S), its pitch the coordinate it maximises.
+    The first phase is the push: its pivots are the contacts it keeps loaded (their allowed letters
+    lack S); its body contacts are the contacts it names on a pivot's link, but those it keeps apart
+    (S alone); its pitch is the coordinate it maximises.
 
     Raises:
         SceneError: the first phase does not maximise a coordinate or keeps no contact loaded.
@@ -117,7 +118,11 @@ def _phased_flip(scene: Scene) -> tuple[tuple[str, ...], str] | None:
         raise SceneError(str(scene.path), "task.phases[0].maximize",
                          "a flip's first phase maximises its pitch coordinate's acceleration "
                          "(maximize = { coordinate = \"theta\" }); frc plan runs any other task")
-    body = tuple(str(name) for name, letters in first.get("modes", {}).items() if "S" not in letters)
+    modes = first.get("modes", {})
+    links = {c.name: c.point.link for c in scene.contacts}
+    pivots = {links[str(name)] for name, letters in modes.items() if "S" not in letters}
+    body = tuple(str(name) for name, letters in modes.items()
+                 if letters != "S" and links[str(name)] in pivots)
     if not body:
         raise SceneError(str(scene.path), "task.phases[0].modes",
                          "a flip's first phase keeps its body contacts loaded: give them letters "

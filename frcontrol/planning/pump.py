@@ -63,7 +63,7 @@ from .core.tolerances import REPLAN_GAP_TOLERANCE
 from .flip import FlipPlan, flip_task
 from .flip_budget import FlipBudget, body_energy, energy_shortfall, flip_budget
 from .flip_loop import body_contact_events
-from .flip_run import first_plan
+from .flip_run import first_plan, plan_only_document
 from .pump_timing import (
     FALL_PITCH_RATE,
     RECIRCULATION_DAMPING,
@@ -153,6 +153,7 @@ class PumpResult:
         contacts: the scene's contact names, in order (the modes' letters).
         settle_time: [s] the land phase's ``until`` time: the longest the run goes on past vertical.
         plan: the first push's plan (the core's first decision).
+        run: the core's run (its ``outcome`` and ``phases`` are the document's).
     """
 
     trajectory: Trajectory
@@ -179,6 +180,7 @@ class PumpResult:
     contacts: tuple[str, ...] = ()
     settle_time: float | None = None
     plan: FlipPlan | None = None
+    run: PlanResult | None = None
 
     @property
     def upright_pitch(self) -> float:
@@ -312,7 +314,7 @@ def pump_result(scene: Scene, run: PlanResult, timing: PumpTiming) -> PumpResult
         budget=budget, cycle_max_energy=_cycle_max(trajectory.times, energy, phases) if energy.size else (),
         energy_audit=energy_audit(scene, trajectory), final_pitch=float(pitch[-1]), contacts=names,
         settle_time=timing.phases["land"].until.time,
-        plan=first_plan(scene, task, run.run.records[0].decisions[0][1]),
+        plan=first_plan(scene, task, run.run.records[0].decisions[0][1]), run=run,
     )
 
 
@@ -442,12 +444,13 @@ def verify_compliant(scene: Scene, result: PumpResult, *, stiffness: float = COM
 
 def pump_flip(scene: Scene, *, margin: float | None = None, max_time: float | None = None, dt: float = 1e-3,
               replan_every: int = 10, compliant: bool = False,
-              progress: Callable[[float, float], None] | None = None) -> tuple[FlipPlan, PumpResult | None]:
+              progress: Callable[[float, float], None] | None = None
+              ) -> tuple[FlipPlan, PumpResult | dict[str, Any]]:
     """The first push's plan at the scene's state and, unless ``max_time`` is 0, the pumping run.
 
     The first plan is the core's first decision of the push (the run's own, or made alone when
-    nothing is simulated). ``compliant`` adds :func:`verify_compliant` to the result, replayed to
-    the rigid run's end.
+    nothing is simulated: then the second item is the ``outcome`` and ``phases`` of that decision).
+    ``compliant`` adds :func:`verify_compliant` to the result, replayed to the rigid run's end.
 
     Raises:
         InputError, SceneError: see :func:`simulate_pump`.
@@ -459,7 +462,7 @@ def pump_flip(scene: Scene, *, margin: float | None = None, max_time: float | No
         push = timing.phases["push"]
         push = push if margin is None else replace(push, margin=margin)
         decision = decide(replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE), push, free=timing.free(push))
-        return first_plan(scene, task, decision), None
+        return first_plan(scene, task, decision), plan_only_document(push, decision)
     result = simulate_pump(scene, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin,
                            progress=progress)
     if compliant:
@@ -468,17 +471,23 @@ def pump_flip(scene: Scene, *, margin: float | None = None, max_time: float | No
     return result.plan, result
 
 
-def pump_payload(scene: Scene, plan: FlipPlan, result: PumpResult | None) -> dict[str, Any]:
+def pump_payload(scene: Scene, plan: FlipPlan, result: PumpResult | Mapping[str, Any]) -> dict[str, Any]:
     """The ``frc flip --json`` document of the pumping flip.
 
     The flip's keys (its first push's plan: ``torques`` are then the inputs' values, voltages for
-    driven joints, ``input_units`` says), ``simulation`` from the pumping run with ``samples``
-    (:func:`pump_samples`), and ``pump`` (:meth:`PumpResult.to_dict`).
+    driven joints, ``input_units`` says), ``outcome`` and ``phases`` as ``frc plan`` has them,
+    ``simulation`` from the pumping run with ``samples`` (:func:`pump_samples`), and ``pump``
+    (:meth:`PumpResult.to_dict`). ``result``: the run, or (nothing simulated) the document of the
+    first decision alone.
     """
     payload = plan.to_dict()
     payload["input_units"] = scene.inputs.unit_map()
-    if result is None:
+    if not isinstance(result, PumpResult):
+        payload.update(outcome=result["outcome"], phases=result["phases"])
         return payload
+    if result.run is not None:
+        document = result.run.to_dict(scene)
+        payload.update(outcome=document["outcome"], phases=document["phases"])
     traj = result.trajectory
     samples = pump_samples(scene, traj)
     payload["simulation"] = to_jsonable({

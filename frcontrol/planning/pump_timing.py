@@ -8,8 +8,9 @@ decides the rest (:class:`~frcontrol.planning.core.loop.PhaseTiming`):
   more (the toes lift off), or no plan is made (a plan refused at an impact, a landing, is not an
   end: the legs' loop holds until the next decision). A push's plan may have other rigid
   solutions at its voltages when they differ from the planned mode only on the contacts the
-  push's ``modes`` do not name (:data:`ANY_LETTER`: the toes may separate, stick or slide; a body
-  contact apart at the start may touch): those are its ``free`` letters. The named contacts keep
+  push allows every letter (:data:`ANY_LETTER`: the toes may separate, stick or slide; a body
+  contact apart at the start may touch): those are its ``free`` letters, on the contacts it allows
+  every letter (named ``"SFLR"``, or not named). The named contacts keep
   their planned letter (the pivot) or their allowed one (the belly apart: S).
 - **recirculate**: the legs are in the air and the body moves on its own. Each leg is driven round
   (one turn on in its pushing direction, :data:`RECIRCULATION_GAIN`) to its touch-down angle, the
@@ -191,7 +192,7 @@ class PumpPhase:
             contact a decision did not hold): a push's planned modes, a recirculation's or
             landing's predicted ones.
         free: per scene contact, the letters the phase allows it besides those of ``allowed``
-            (the contacts its ``modes`` do not name): a sample's mode is allowed when it matches a
+            (the contacts it allows every letter): a sample's mode is allowed when it matches a
             mode of ``allowed`` on every contact but free ones
             (:func:`~frcontrol.planning.core.pieces.mode_allowed`).
     """
@@ -239,8 +240,10 @@ class PumpTiming:
     # -- the hooks the core's loop calls
 
     def free(self, phase: Phase) -> dict[str, str]:
-        """The contacts the phase's ``modes`` do not name: any letter."""
-        return {name: ANY_LETTER for name in self.contact_names if name not in phase.modes}
+        """The contacts the phase allows every letter (named so, or not named): any letter."""
+        every = set(ANY_LETTER)
+        return {name: ANY_LETTER for name in self.contact_names
+                if set(phase.modes.get(name, ANY_LETTER)) == every}
 
     def drive(self, phase: Phase, stepper: RigidStepper | None) -> np.ndarray | None:
         """The legs' loop in a recirculation or landing (its predicted modes recorded); None: a push."""
