@@ -24,16 +24,17 @@ ViewOpt = options.view_option("the simulated flip")
 
 PlotOpt = options.plot_option("the input space (every mode's domain, the ambiguous overlaps "
                               "hatched, the plan) and the pitch and contact forces over the simulated time")
-MarginOpt = options.margin_option("the plan")
-DurationOpt = options.duration_option("Longest simulated time [s] of the closed loop (0: plan only, no "
-                                      "simulation).")
+MarginOpt = options.margin_option("every phase's plans (the task's phases' margin)")
+DurationOpt = options.duration_option("Longest simulated time [s] of the task's run, its max_time (0: the "
+                                      "first plan only, no simulation).")
 PumpOpt = Annotated[
     bool | None,
-    typer.Option("--pump/--no-pump", help="Pump the body up over several leg strokes (push, fall back "
-                 "onto the legs, recirculate, push again) within the hips' DC-motor limits; the JSON's "
-                 "simulation then carries every sample's drives and limits, and 'pump' the cycles, "
-                 "phases and energy drawn. Default: on for a scene whose inputs all have drives (as "
-                 "POST /plan/flip)."),
+    typer.Option("--pump/--no-pump", help="Report the run as the pumping flip (the scene's task with "
+                 "the pump's timing: push, fall back onto the legs, recirculate, push again, within the "
+                 "hips' DC-motor limits): the JSON's simulation then carries every sample's drives and "
+                 "limits, and 'pump' the cycles, phases and energy drawn. Default: on for a scene whose "
+                 "inputs all have drives (as POST /plan/flip); --no-pump reports the same run with the "
+                 "flip's keys only."),
 ]
 CompliantOpt = Annotated[
     bool,

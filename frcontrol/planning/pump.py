@@ -274,10 +274,13 @@ def simulate_pump(
         SceneError: an input without a drive, a ``[task]`` that is not the pump's.
     """
     check_pump_scene(scene)
-    timing = PumpTiming(scene, read_task(scene))
+    if read_task(scene).timing != "pump":
+        raise SceneError(str(scene.path), "task.timing", 'the pumping flip is a task with timing = "pump" '
+                         "(as rhex_flip_drives's)")
     run = plan_task(scene, dt=dt, replan_every=replan_every, max_time=max_time, margin=margin,
-                    progress=progress, timing=timing)
-    return pump_result(scene, run, timing)
+                    progress=progress)
+    assert isinstance(run.timing, PumpTiming)
+    return pump_result(scene, run, run.timing)
 
 
 def pump_result(scene: Scene, run: PlanResult, timing: PumpTiming) -> PumpResult:

@@ -2,7 +2,7 @@ r"""The pumping flip's phase timing: a plug-in of the planning core (``[task] ti
 
 The task (``rhex_flip_drives``) has three phases, named ``push``, ``recirculate`` and ``land``; the
 core plans the push (its ``modes``, ``margin``, ``maximize``) at every decision, and this module
-decides the rest (:class:`~frcontrol.planning.core.loop.PhaseTiming`):
+decides the rest (:class:`~frcontrol.planning.core.timing.PhaseTiming`):
 
 - **push** ends on a mode change the analysis predicts: the best unambiguous plan loads no toe any
   more (the toes lift off), or no plan is made (a plan refused at an impact, a landing, is not an
@@ -43,9 +43,10 @@ from ..scene import Contact, Scene
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
 from .core.decision import Decision
-from .core.loop import Switch, contact_gaps, until_met
+from .core.loop import contact_gaps, until_met
 from .core.pieces import mode_allowed
 from .core.task import Phase, Task
+from .core.timing import Switch
 from .core.tolerances import (
     FORCED_INPUT_TOLERANCE,
     REPLAN_GAP_TOLERANCE,
@@ -214,7 +215,7 @@ class PumpPhase:
 
 
 class PumpTiming:
-    """The pump's :class:`~frcontrol.planning.core.loop.PhaseTiming` (see the module's docstring)."""
+    """The pump's :class:`~frcontrol.planning.core.timing.PhaseTiming` (see the module's docstring)."""
 
     settings = RigidSettings(max_ambiguity_checks=0)
     """Rigid steps with the impact law at landings (the pump's legs land on their toes each cycle)."""

@@ -30,9 +30,8 @@ reads.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any, Protocol
 
 import numpy as np
 
@@ -41,15 +40,15 @@ from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...scene import Contact, Scene
 from ...simulation.closed_loop import run_closed_loop
 from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
-from ...simulation.trajectory import Trajectory
 from ...solvers import DEFAULT_LP_SOLVER
 from .decision import Decision, decide
 from .forced import idle_in_the_air, massless_inputs
 from .scale import ScaleResult, largest_scale
 from .task import Phase, Task, Until
+from .timing import PhaseTiming, Switch, load_timing
 from .tolerances import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
 
-__all__ = ["PhaseRecord", "PhaseTiming", "Switch", "TaskRun", "contact_gaps", "run_task", "until_met"]
+__all__ = ["PhaseRecord", "TaskRun", "contact_gaps", "run_task", "until_met"]
 
 
 @dataclass
@@ -73,52 +72,6 @@ class PhaseRecord:
     decisions: list[tuple[float, Decision]] = field(default_factory=list)
     met: bool = False
     largest_scale: ScaleResult | None = None
-
-
-@dataclass(frozen=True)
-class Switch:
-    """A phase timing's verdict: the current phase ends.
-
-    Attributes:
-        why: why it ends (the record's ``why``).
-        to: the next phase's name; None: the run ends.
-        met: the phase's ``until`` held (a run that ends with ``met`` is achieved).
-    """
-
-    why: str
-    to: str | None
-    met: bool = False
-
-
-class PhaseTiming(Protocol):
-    """A task's phase timing: when its phases end, and the inputs of the phases it drives.
-
-    ``stepper`` is None at the run's first decision (the scene's state); ``since`` [s] is the time
-    since the phase started.
-    """
-
-    settings: RigidSettings
-    """The rigid stepper's settings for the run."""
-
-    def free(self, phase: Phase) -> Mapping[str, str] | None:
-        """Per contact, the letters a plan's other rigid solutions may have (None: none)."""
-
-    def drive(self, phase: Phase, stepper: RigidStepper | None) -> np.ndarray | None:
-        """The inputs of a phase the timing drives (None: the phase is planned)."""
-
-    def before_decision(self, phase: Phase, stepper: RigidStepper) -> Switch | None:
-        """At a decision, before the phase is planned or driven: end it, or not (None)."""
-
-    def decided(
-        self, phase: Phase, decision: Decision, stepper: RigidStepper | None
-    ) -> tuple[np.ndarray | None, Switch | None]:
-        """After a plan: other inputs to apply instead (or None), and whether the phase ends."""
-
-    def after_step(self, phase: Phase, stepper: RigidStepper, since: float) -> Switch | None:
-        """After every step: end the phase (or the run), or not (None)."""
-
-    def report(self, scene: Scene, trajectory: Trajectory) -> dict[str, Any]:
-        """What the timing reports of the run (the plan document's ``timing``)."""
 
 
 def contact_gaps(scene: Scene, q: np.ndarray) -> np.ndarray:
@@ -291,6 +244,7 @@ class TaskRun:
         decisions: the plans made (the first included).
         dt: [s] the step; max_time: [s] the longest simulated time; replan_every: steps between plans.
         timings: [s] ``planning``, ``simulation``.
+        timing: the task's phase timing (:mod:`.timing`), or None.
     """
 
     records: tuple[PhaseRecord, ...]
@@ -301,6 +255,7 @@ class TaskRun:
     max_time: float
     replan_every: int
     timings: dict[str, float]
+    timing: PhaseTiming | None = None
 
 
 def run_task(
@@ -313,7 +268,6 @@ def run_task(
     margin: float | None = None,
     solver: str = DEFAULT_LP_SOLVER,
     progress: Callable[[float, float], None] | None = None,
-    timing: PhaseTiming | None = None,
 ) -> TaskRun:
     """Plan and re-plan ``task`` along one rigid run (see the module's docstring).
 
@@ -326,16 +280,17 @@ def run_task(
         margin: [input units] every phase's margin (default: each phase's own).
         solver: LP back-end.
         progress: called with (simulated time, max_time) every ``replan_every`` steps.
-        timing: the task's phase timing (see the module's docstring), or None.
 
     Raises:
         InputError: a bad step, time, count or margin.
+        SceneError: the phase timing's checks of the scene (:func:`~.timing.load_timing`).
     """
     if isinstance(replan_every, bool) or not isinstance(replan_every, int) or replan_every < 1:
         raise InputError(f"replan_every must be an integer >= 1 (steps), got {replan_every!r}")
     if margin is not None and not (np.isfinite(margin) and margin >= 0):
         raise InputError(f"the margin must be a finite number >= 0 [input units], got {margin!r}")
     duration = task.max_time if max_time is None else max_time
+    timing = load_timing(scene, task)
     policy = _TaskPolicy(scene, task, solver, margin, timing)
     armature = scene.model.armature if scene.model.armature_given else None
     settings = RigidSettings(max_ambiguity_checks=0, impact_law=False) if timing is None else timing.settings
@@ -370,4 +325,5 @@ def run_task(
         duration,
         replan_every,
         {"planning": run.timings["policy"], "simulation": run.timings["simulation"]},
+        timing,
     )

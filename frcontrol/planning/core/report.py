@@ -25,9 +25,9 @@ from ...simulation.export import sample_modes
 from ...simulation.trajectory import Trajectory
 from ...solvers import DEFAULT_LP_SOLVER
 from .decision import CLOSEST_MARGIN_STEPS, TRACK_REGULARIZATION, Decision
-from .loop import PhaseRecord, PhaseTiming, TaskRun, run_task
+from .loop import PhaseRecord, TaskRun, run_task
 from .task import Task, read_task
-from .timing import load_timing
+from .timing import PhaseTiming
 from .tolerances import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP, TORQUE_ROUNDING
 
 __all__ = ["PlanResult", "plan_task", "schedule_of"]
@@ -163,9 +163,11 @@ def plan_task(
     compliant: bool = False,
     solver: str = DEFAULT_LP_SOLVER,
     progress: Callable[[float, float], None] | None = None,
-    timing: PhaseTiming | None = None,
 ) -> PlanResult:
     """Read the scene's task, run it (:func:`~.loop.run_task`) and, with ``compliant``, replay its inputs.
+
+    A task that names a phase timing (``[task] timing``, :mod:`.timing`) runs with it; the result
+    keeps it (``timing``).
 
     Raises:
         SceneError: no task given as phases (:func:`~.task.read_task`).
@@ -173,7 +175,6 @@ def plan_task(
     """
     start = time.perf_counter()
     task = read_task(scene)
-    timing = timing if timing is not None else load_timing(scene, task)
     run = run_task(
         scene,
         task,
@@ -183,7 +184,6 @@ def plan_task(
         margin=margin,
         solver=solver,
         progress=progress,
-        timing=timing,
     )
     trajectory = run.trajectory
     assert isinstance(trajectory, Trajectory)
@@ -204,4 +204,4 @@ def plan_task(
             simulate_compliant(scene, schedule_of(run, trajectory), duration, dt) if duration > 0 else None
         )
     timings = {**run.timings, "compliant": time.perf_counter() - t0, "total": time.perf_counter() - start}
-    return PlanResult(task, run, trajectory, replay, timings, timing)
+    return PlanResult(task, run, trajectory, replay, timings, run.timing)

@@ -10,16 +10,69 @@ it runs (it imports no planner of its own).
 from __future__ import annotations
 
 import importlib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
 
 from ...errors import SceneError
 from ...scene import Scene
-from .loop import PhaseTiming
-from .task import Task
+from ...simulation.rigid import RigidSettings, RigidStepper
+from ...simulation.trajectory import Trajectory
+from .decision import Decision
+from .task import Phase, Task
 
-__all__ = ["TIMINGS", "load_timing"]
+__all__ = ["TIMINGS", "PhaseTiming", "Switch", "load_timing"]
 
 TIMINGS = {"pump": "frcontrol.planning.pump_timing"}
 """``[task] timing`` name -> the module that holds its ``timing(scene, task)``."""
+
+
+@dataclass(frozen=True)
+class Switch:
+    """A phase timing's verdict: the current phase ends.
+
+    Attributes:
+        why: why it ends (the record's ``why``).
+        to: the next phase's name; None: the run ends.
+        met: the phase's ``until`` held (a run that ends with ``met`` is achieved).
+    """
+
+    why: str
+    to: str | None
+    met: bool = False
+
+
+class PhaseTiming(Protocol):
+    """A task's phase timing: when its phases end, and the inputs of the phases it drives.
+
+    ``stepper`` is None at the run's first decision (the scene's state); ``since`` [s] is the time
+    since the phase started.
+    """
+
+    settings: RigidSettings
+    """The rigid stepper's settings for the run."""
+
+    def free(self, phase: Phase) -> Mapping[str, str] | None:
+        """Per contact, the letters a plan's other rigid solutions may have (None: none)."""
+
+    def drive(self, phase: Phase, stepper: RigidStepper | None) -> np.ndarray | None:
+        """The inputs of a phase the timing drives (None: the phase is planned)."""
+
+    def before_decision(self, phase: Phase, stepper: RigidStepper) -> Switch | None:
+        """At a decision, before the phase is planned or driven: end it, or not (None)."""
+
+    def decided(
+        self, phase: Phase, decision: Decision, stepper: RigidStepper | None
+    ) -> tuple[np.ndarray | None, Switch | None]:
+        """After a plan: other inputs to apply instead (or None), and whether the phase ends."""
+
+    def after_step(self, phase: Phase, stepper: RigidStepper, since: float) -> Switch | None:
+        """After every step: end the phase (or the run), or not (None)."""
+
+    def report(self, scene: Scene, trajectory: Trajectory) -> dict[str, Any]:
+        """What the timing reports of the run (the plan document's ``timing``)."""
 
 
 def load_timing(scene: Scene, task: Task) -> PhaseTiming | None:
