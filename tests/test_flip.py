@@ -412,6 +412,24 @@ def test_cli_json_contract():
     assert isinstance(sim["body_contact_kept"], bool)
 
 
+@pytest.mark.parametrize("name", ["rhex_flip", "rhex_flip_drives"])
+def test_frc_flip_is_frc_plan_with_the_flips_keys(name):
+    """frc flip runs the scene's task on frc plan's path: its outcome and phases are frc plan's."""
+    from frcontrol.answers import without_run_dependent
+
+    args = [name, "--max-time", "0.3", "--json"]
+    flipped = runner.invoke(app(), ["flip", *args])
+    planned = runner.invoke(app(), ["plan", *args])
+    assert flipped.exit_code == 0 and planned.exit_code == 0, flipped.stderr + planned.stderr
+    flip, plan = json.loads(flipped.stdout), json.loads(planned.stdout)
+    for key in ("outcome", "phases"):
+        assert without_run_dependent(flip[key]) == without_run_dependent(plan[key])
+    first = plan["phases"][0]["plans"][0]
+    assert flip["mode"] == first["mode"] and flip["torques"] == first["inputs"]
+    assert flip["simulation"]["steps"] == len(plan["simulation"]["samples"]["times"]) - 1
+    assert plan["phases"][0]["name"] == ("flip" if name == "rhex_flip" else "push")
+
+
 def test_cli_no_flip_exits_0_with_the_reason(rhex, write_scene):
     text = rhex_text().replace("lower = [-10.0, -10.0]", "lower = [-0.01, -0.01]")
     path = write_scene(text.replace("upper = [10.0, 10.0]", "upper = [0.01, 0.01]"))

@@ -19,7 +19,7 @@ decides the rest (:class:`~frcontrol.planning.core.timing.PhaseTiming`):
 - **land**: whenever the push's ``until`` holds (the pitch passes vertical) the legs are driven to
   :data:`STAND_ANGLE` and the body falls right side up; the run ends at rest right side up
   (:data:`REST_SPEED`, :data:`UPRIGHT_TOLERANCE`) or when the land phase's ``until`` (a time:
-  :data:`SETTLE_TIME`) holds. A body that falls back below vertical recirculates and is pumped
+  1.5 s in the shipped scene) holds. A body that falls back below vertical recirculates and is pumped
   again.
 
 Each phase's record (:class:`PumpPhase`) keeps the modes its decisions planned or predicted
