@@ -67,7 +67,8 @@ def edit(name: str | dict, path: str, value=None, *, rename: str | None = None,
 
 def flip_keys(**task) -> dict:
     """rhex_flip with the flip's dedicated [task] keys (its own task is given as phases)."""
-    return edit("rhex_flip", "task", {"body_contacts": ["front_corner", "rear_corner"], "pitch": "theta", **task})
+    keys = {"body_contacts": ["front_corner", "rear_corner"], "pitch": "theta", **task}
+    return edit("rhex_flip", "task", keys)
 
 
 # name -> (scene document, the field named, text the reason must hold, jsonschema also rejects it)
@@ -111,7 +112,8 @@ BROKEN = {
     "unknown pitch coordinate": (edit(flip_keys(), "task.pitch", "thetaa"), "task.pitch",
                                  "did you mean 'theta'?", False),
     "unknown contact in a phase": (edit("rhex_flip", "task.phases[0].modes", {"front_croner": "FLR"}),
-                                   "task.phases[0].modes.front_croner", "did you mean 'front_corner'?", False),
+                                   "task.phases[0].modes.front_croner", "did you mean 'front_corner'?",
+                                   False),
     "unknown coordinate in a phase": (edit("rhex_flip", "task.phases[0].maximize.coordinate", "thetaa"),
                                       "task.phases[0].maximize.coordinate", "did you mean 'theta'?", False),
     "unknown head link": (edit("snake_climb", "task.head_link", "link9"), "task.head_link",
