@@ -48,7 +48,6 @@ import numpy as np
 
 from ..errors import FrcontrolError, ImpactState, InputError
 from ..jsonable import finite_or_none
-from ..modes import ContactProblem
 from ..scene import Scene
 from ..simulation.closed_loop import ClosedLoopRun, run_closed_loop
 from ..simulation.export import sample_modes
@@ -56,7 +55,8 @@ from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStep
 from ..simulation.trajectory import Trajectory
 from ..solvers import DEFAULT_LP_SOLVER
 from .core.forced import massless_inputs
-from .core.tolerances import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
+from .core.loop import replanning_model
+from .core.tolerances import REPLAN_GAP_TOLERANCE, SEPARATION_GAP
 from .flip import DEFAULT_MARGIN, FLIP_ARMATURE, FlipPlan, FlipTask, flip_task, plan_flip
 from .flip_pitch import FlipSettings
 
@@ -415,25 +415,12 @@ def replan_at(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarray, ma
             solver: str, free: Mapping[str, str] | None = None) -> FlipPlan | str:
     """The plan at the simulated state, or why none could be made (an impact, an error).
 
-    The contacts planned with are those within :data:`REPLAN_GAP_TOLERANCE` of their surface and
-    those the last step loaded (``loaded``, one flag per scene contact). A loaded contact's normal
-    velocity is taken as 0, as the simulator's own ambiguity check does: the velocity-level
-    stepper holds ``J_N v+ = -phi / dt`` with the Jacobian of the step's start, so a loaded
-    contact on a turning leg ends a step with a normal velocity of order ``dt`` times its
-    centripetal acceleration (mm/s here), and a penetration is removed with ``-phi / dt``: both
-    would make a pushing toe look separating to the acceleration-level model.
+    The re-planning model is the core's (:func:`~frcontrol.planning.core.loop.replanning_model`:
+    the contacts within :data:`REPLAN_GAP_TOLERANCE` of their surface or loaded by the last step,
+    ``loaded``, a loaded contact's normal velocity taken as 0).
     """
-    from ..scene import Contact
-
-    here = scene.at(q, v)
-    contacts = tuple(Contact(c.point, c.gap, bool(c.active or loaded[i]))
-                     for i, c in enumerate(here.contacts))
-    here = replace(here, contacts=contacts)
     try:
-        problem = ContactProblem.from_scene(here, velocity_tolerance=REPLAN_VELOCITY_TOLERANCE)
-        held_down = np.array([bool(loaded[i]) for i, c in enumerate(contacts) if c.active], dtype=bool)
-        if held_down.size:
-            problem = replace(problem, normal_velocities=np.where(held_down, 0.0, problem.normal_velocities))
+        here, problem = replanning_model(scene, q, v, loaded)
         return plan_flip(here, margin=margin, solver=solver, problem=problem,
                          settings=FlipSettings(min_pitch_acceleration=None, free=free))
     except ImpactState as err:

@@ -38,19 +38,18 @@ import numpy as np
 
 from ..drives import Drive
 from ..errors import FrcontrolError, SceneError
-from ..modes import ContactProblem, scene_mode
-from ..scene import Contact, Scene
+from ..modes import scene_mode
+from ..scene import Scene
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
 from .core.decision import Decision
-from .core.loop import contact_gaps, until_met
+from .core.loop import contact_gaps, replanning_model, until_met
 from .core.pieces import mode_allowed
 from .core.task import Phase, Task
 from .core.timing import Switch
 from .core.tolerances import (
     FORCED_INPUT_TOLERANCE,
     REPLAN_GAP_TOLERANCE,
-    REPLAN_VELOCITY_TOLERANCE,
     SEPARATION_GAP,
 )
 from .flip import flip_task
@@ -160,14 +159,8 @@ def predicted_modes(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarr
     """
     from ..engine import solutions_at
 
-    here = scene.at(q, v)
-    here = replace(here, contacts=tuple(Contact(c.point, c.gap, bool(c.active or loaded[i]))
-                                        for i, c in enumerate(here.contacts)))
     try:
-        problem = ContactProblem.from_scene(here, velocity_tolerance=REPLAN_VELOCITY_TOLERANCE)
-        held = np.array([bool(loaded[i]) for i, c in enumerate(here.contacts) if c.active], dtype=bool)
-        if held.size:
-            problem = replace(problem, normal_velocities=np.where(held, 0.0, problem.normal_velocities))
+        _, problem = replanning_model(scene, q, v, loaded)
         names = [c.name for c in scene.contacts]
         return [scene_mode(s.mode, problem.contacts, names) for s in solutions_at(problem, inputs)]
     except FrcontrolError:  # ImpactState included: no prediction at this state

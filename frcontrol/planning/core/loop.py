@@ -48,7 +48,7 @@ from .task import Phase, Task, Until
 from .timing import PhaseTiming, Switch, load_timing
 from .tolerances import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
 
-__all__ = ["PhaseRecord", "TaskRun", "contact_gaps", "run_task", "until_met"]
+__all__ = ["PhaseRecord", "TaskRun", "contact_gaps", "replanning_model", "run_task", "until_met"]
 
 
 @dataclass
@@ -72,6 +72,32 @@ class PhaseRecord:
     decisions: list[tuple[float, Decision]] = field(default_factory=list)
     met: bool = False
     largest_scale: ScaleResult | None = None
+
+
+def replanning_model(
+    scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarray
+) -> tuple[Scene, ContactProblem]:
+    """The scene at ``(q, v)`` and its contact problem as a closed loop re-plans on it.
+
+    The contacts within the scene's gap tolerance or loaded by the last step (``loaded``, one flag
+    per scene contact) are active; a loaded contact's normal velocity is taken as 0 (the
+    velocity-level stepper leaves a loaded contact on a turning leg with a normal velocity of order
+    ``dt`` times its centripetal acceleration, and removes a penetration with ``-phi / dt``: both
+    would make it look separating); velocities up to :data:`REPLAN_VELOCITY_TOLERANCE` are 0.
+
+    Raises:
+        ImpactState: a contact moves into its surface.
+    """
+    here = scene.at(q, v)
+    contacts = tuple(
+        Contact(c.point, c.gap, bool(c.active or loaded[i])) for i, c in enumerate(here.contacts)
+    )
+    here = replace(here, contacts=contacts)
+    problem = ContactProblem.from_scene(here, velocity_tolerance=REPLAN_VELOCITY_TOLERANCE)
+    down = np.array([bool(loaded[i]) for i, c in enumerate(contacts) if c.active], dtype=bool)
+    if down.size:
+        problem = replace(problem, normal_velocities=np.where(down, 0.0, problem.normal_velocities))
+    return here, problem
 
 
 def contact_gaps(scene: Scene, q: np.ndarray) -> np.ndarray:
@@ -183,16 +209,7 @@ class _TaskPolicy:
         if stepper is None:
             return self.scene, None
         loaded = stepper.last_forces[:, 0] > self.force_tolerance
-        here = self.scene.at(stepper.q, stepper.v)
-        contacts = tuple(
-            Contact(c.point, c.gap, bool(c.active or loaded[i])) for i, c in enumerate(here.contacts)
-        )
-        here = replace(here, contacts=contacts)
-        problem = ContactProblem.from_scene(here, velocity_tolerance=REPLAN_VELOCITY_TOLERANCE)
-        down = np.array([bool(loaded[i]) for i, c in enumerate(contacts) if c.active], dtype=bool)
-        if down.size:
-            problem = replace(problem, normal_velocities=np.where(down, 0.0, problem.normal_velocities))
-        return here, problem
+        return replanning_model(self.scene, stepper.q, stepper.v, loaded)
 
     def __call__(self, stepper: RigidStepper) -> np.ndarray:
         """The run's periodic re-plan."""
