@@ -1,9 +1,8 @@
 r"""The pumping flip: RHex righted over several leg strokes, within its motors' limits.
 
 Saranli, Rizzi and Koditschek (IJRR 23(9), 2004) right the real RHex, whose hips cannot push the
-body past vertical in one stroke, by chaining strokes. The plan here chains *phases*:
-
-The task is data (``rhex_flip_drives``'s ``[task]``: phases ``push``, ``recirculate`` and ``land``,
+body past vertical in one stroke, by chaining strokes. The plan here chains *phases*. The task is
+data (``rhex_flip_drives``'s ``[task]``: phases ``push``, ``recirculate`` and ``land``,
 ``timing = "pump"``) and runs on the planning core (:func:`frcontrol.planning.core.plan_task`, the
 path of ``frc plan`` and ``frc flip``): the core plans every push (the hip voltages that maximise
 the pitch acceleration in the unambiguous set of the push's allowed modes) and
@@ -34,8 +33,8 @@ massless legs nothing stores energy between pushes: a push after the first start
 landing on its toes, and the inelastic landing and the back-driven motors take what a push adds,
 so the cycles' peaks stop growing below the barrier (docs/rhex-flip.md, "The pumping flip").
 
-**Verification.** The run is one rigid simulation (velocity-level time stepping with inelastic
-impacts). The same voltages, replayed against time, drive the compliant model (Kelvin–Voigt
+**Verification.** The run is one rigid simulation (velocity-level time stepping, the impact law at
+landings). The same voltages, replayed against time, drive the compliant model (Kelvin–Voigt
 contacts at the stiffness the speed-accuracy benchmark recommends for trajectories,
 :data:`COMPLIANT_STIFFNESS`): the flip must survive both.
 """
