@@ -33,11 +33,12 @@ massless legs nothing stores energy between pushes: a push after the first start
 landing on its toes, and the inelastic landing and the back-driven motors take what a push adds,
 so the cycles' peaks stop growing below the barrier (docs/rhex-flip.md, "The pumping flip").
 
-**Verification.** The run is one rigid simulation (velocity-level time stepping, the impact law at
-landings). The same voltages, replayed against time, drive the compliant model (Kelvin–Voigt
-contacts at the stiffness the speed-accuracy benchmark recommends for trajectories,
+**Verification.** The run is one rigid simulation (velocity-level time stepping, inelastic impacts
+by the impact law at landings). The same voltages, replayed against time, drive the compliant model
+(Kelvin–Voigt contacts at the stiffness the speed-accuracy benchmark recommends for trajectories,
 :data:`COMPLIANT_STIFFNESS`): the flip must survive both.
 """
+
 from __future__ import annotations
 
 import math
