@@ -213,6 +213,15 @@ def render(payload: dict[str, Any]) -> None:
         f"no ({sim['separation']['contact']} separates at {sim['separation']['time']:.4f} s)")
     console.print(f"body contact kept: {kept}; {sim['steps']} steps, {sim['replans']} re-plans "
                   f"({sim['held']} held), {sim['timings']['total']:.2f} s")
+    _render_phases(payload)
+
+
+def _render_phases(payload: dict[str, Any]) -> None:
+    """The task's phases as frc plan ran them, one line."""
+    phases = payload.get("phases") or []
+    if phases:
+        console.print("phases: " + "; ".join(f"{p['name']} {p['start']:.3f}-{p['end']:.3f} s ({p['why']})"
+                                             for p in phases), highlight=False)
 
 
 __all__ = [
