@@ -30,7 +30,8 @@ import numpy as np
 
 from .. import polytope as poly
 from ..errors import FrcontrolError
-from ..modes import VELOCITY_TOLERANCE, ContactProblem
+from ..jsonable import to_jsonable
+from ..modes import VELOCITY_TOLERANCE, ContactProblem, add_scene_modes
 from ..scene import Scene
 from ..solvers import DEFAULT_LP_SOLVER
 from .core.decision import Decision, decide
@@ -98,17 +99,22 @@ def _plan_only(scene: Scene, task: FlipTask, margin: float | None) -> FlipRun:
     phase = read_task(scene).sequence()[0]
     phase = phase if margin is None else replace(phase, margin=margin)
     decision = decide(replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE), phase)
-    return FlipRun(None, first_plan(scene, task, decision), plan_only_document(phase, decision))
+    return FlipRun(None, first_plan(scene, task, decision), plan_only_document(scene, phase, decision))
 
 
-def plan_only_document(phase: Phase, decision: Decision) -> dict[str, Any]:
-    """``outcome`` and ``phases`` when only the first decision is made (``max_time`` 0)."""
+def plan_only_document(scene: Scene, phase: Phase, decision: Decision) -> dict[str, Any]:
+    """``outcome`` and ``phases`` when only the first decision is made (``max_time`` 0).
+
+    As :meth:`~frcontrol.planning.core.report.PlanResult.to_dict` has them (modes over every scene
+    contact beside the planned ones).
+    """
     why = "not simulated (--max-time 0)"
-    return {
+    document = {
         "outcome": {"achieved": False, "reason": why},
         "phases": [{"name": phase.name, "start": 0.0, "end": 0.0, "why": why, "met": False,
                     "plans": [{"time": 0.0, **decision.to_dict()}]}],
     }
+    return add_scene_modes(to_jsonable(document), [c.name for c in scene.contacts])
 
 
 def first_plan(scene: Scene, task: FlipTask, decision: Decision) -> FlipPlan:

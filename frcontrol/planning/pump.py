@@ -465,7 +465,7 @@ def pump_flip(scene: Scene, *, margin: float | None = None, max_time: float | No
         push = timing.phases["push"]
         push = push if margin is None else replace(push, margin=margin)
         decision = decide(replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE), push, free=timing.free(push))
-        return first_plan(scene, task, decision), plan_only_document(push, decision)
+        return first_plan(scene, task, decision), plan_only_document(scene, push, decision)
     result = simulate_pump(scene, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin,
                            progress=progress)
     if compliant:
