@@ -39,7 +39,7 @@ from .core.forced import planning_problem
 from .core.report import PlanResult, plan_task
 from .core.task import Phase, read_task
 from .core.tolerances import INPUT_LIMIT_TOLERANCE, REPLAN_GAP_TOLERANCE, TORQUE_ROUNDING
-from .flip import FlipPlan, FlipTask, check_flip_inputs, flip_task
+from .flip import VERTICAL_TOLERANCE, FlipPlan, FlipTask, check_flip_inputs, flip_task
 from .flip_loop import FlipResult, body_contact_events
 
 __all__ = ["FlipRun", "first_plan", "flip_document", "flip_result", "plan_only_document", "run_flip"]
@@ -132,7 +132,8 @@ def first_plan(scene: Scene, task: FlipTask, decision: Decision) -> FlipPlan:
         body_contacts=tuple(c for c in decision.contacts if c in task.body_contacts),
         pitch=task.pitch, reason=decision.reason, timings={},
         tolerances={"rounding": TORQUE_ROUNDING, "velocity": VELOCITY_TOLERANCE,
-                    "interior": poly.INTERIOR_TOLERANCE, "input_limit": INPUT_LIMIT_TOLERANCE},
+                    "interior": poly.INTERIOR_TOLERANCE, "input_limit": INPUT_LIMIT_TOLERANCE,
+                    "vertical": VERTICAL_TOLERANCE},
         analysis=_analysis(scene), scene_contacts=tuple(c.name for c in scene.contacts),
     )
 
