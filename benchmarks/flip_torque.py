@@ -2,7 +2,7 @@
 
 Each trial sets both driven hips' torque limits of the scene (``rhex_flip`` unless ``--scene``) to
 ``+-T`` [N m at the hip, after the gearhead: the manual's torque convention, docs/models.md] and runs the real
-closed loop, :func:`frcontrol.planning.flip.simulate_flip` (plan, rigid simulation, re-plan every
+closed loop, :func:`frcontrol.planning.flip_loop.simulate_flip` (plan, rigid simulation, re-plan every
 10 steps, ``--max-time`` seconds). A trial flips when the body pitches past vertical within that
 time. The bisection keeps ``lo`` (does not flip) and ``hi`` (flips) and halves the bracket down to
 ``--tolerance``; it assumes one threshold, so the script then checks it: it runs ``--check``
@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from frcontrol.planning.flip import simulate_flip
+from frcontrol.planning.flip_loop import simulate_flip
 from frcontrol.scene import Scene, load_scene
 
 

@@ -12,7 +12,7 @@ Named problems:
 * ``flip_plan_from_analysis``: the same plan from a precomputed analysis (the projections of the
   lower-dimensional modes it needs are cached in the analysis after the first run: the median is
   the warm figure, the first run is reported apart);
-* ``flip_simulated``: :func:`~frcontrol.planning.flip.simulate_flip` on ``rhex_flip`` (at most 2 s
+* ``flip_simulated``: :func:`~frcontrol.planning.flip_loop.simulate_flip` on ``rhex_flip`` (at most 2 s
   at 1 ms, a plan every 10 steps; the shipped 13.4 N m hips flip it, at 0.41 s) and on the same
   scene with realistic 10 N m hips (``flip_simulated_10Nm``: it does not flip, so this runs the
   whole 2 s);
@@ -42,7 +42,8 @@ from typing import Any
 import numpy as np
 
 from frcontrol.engine import analyze
-from frcontrol.planning.flip import plan_flip, simulate_flip
+from frcontrol.planning.flip import plan_flip
+from frcontrol.planning.flip_loop import simulate_flip
 from frcontrol.scene import load_scene
 
 RESULTS = Path(__file__).resolve().parent / "results"

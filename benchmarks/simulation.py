@@ -104,7 +104,8 @@ def pump_replay(duration: float = PUMP_DURATION) -> Replay:
 
 def flip_replay() -> Replay:
     """The seed's flip's rigid simulation (``simulate_flip``'s stepper and applied torques)."""
-    from frcontrol.planning.flip import REPLAN_GAP_TOLERANCE, simulate_flip
+    from frcontrol.planning.flip import REPLAN_GAP_TOLERANCE
+    from frcontrol.planning.flip_loop import simulate_flip
     from frcontrol.scene import load_scene
     from frcontrol.simulation.rigid import RigidSettings
 

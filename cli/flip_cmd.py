@@ -24,16 +24,17 @@ ViewOpt = options.view_option("the simulated flip")
 
 PlotOpt = options.plot_option("the input space (every mode's domain, the ambiguous overlaps "
                               "hatched, the plan) and the pitch and contact forces over the simulated time")
-MarginOpt = options.margin_option("the plan")
-DurationOpt = options.duration_option("Longest simulated time [s] of the closed loop (0: plan only, no "
-                                      "simulation).")
+MarginOpt = options.margin_option("every phase's plans (the task's phases' margin)")
+DurationOpt = options.duration_option("Longest simulated time [s] of the task's run, its max_time (0: the "
+                                      "first plan only, no simulation).")
 PumpOpt = Annotated[
     bool | None,
-    typer.Option("--pump/--no-pump", help="Pump the body up over several leg strokes (push, fall back "
-                 "onto the legs, recirculate, push again) within the hips' DC-motor limits; the JSON's "
-                 "simulation then carries every sample's drives and limits, and 'pump' the cycles, "
-                 "phases and energy drawn. Default: on for a scene whose inputs all have drives (as "
-                 "POST /plan/flip)."),
+    typer.Option("--pump/--no-pump", help="Report the run as the pumping flip (the scene's task with "
+                 "the pump's timing: push, fall back onto the legs, recirculate, push again, within the "
+                 "hips' DC-motor limits): the JSON's simulation then carries every sample's drives and "
+                 "limits, and 'pump' the cycles, phases and energy drawn. Default: on for a scene whose "
+                 "inputs all have drives (as POST /plan/flip); --no-pump reports the same run with the "
+                 "flip's keys only."),
 ]
 CompliantOpt = Annotated[
     bool,
@@ -61,12 +62,13 @@ def flip_command(
     quiet: options.QuietOpt = False,
     max_time: options.MaxTimeAliasOpt = None,
 ) -> None:
-    """Plan the flip: hip torques maximising the body's pitch acceleration, unambiguously.
+    """Run the scene's flip task (a short name for frc plan): the pitch acceleration maximised, unambiguously.
 
-    The torques keep every body contact loaded (F, L or R) and lie at least --margin from every
-    input where another contact mode also holds; they are checked at their printed values. Then a
-    rigid simulation re-plans along the motion until the body pitches past vertical. No feasible
-    flip is a result (exit 0, "flipped": false and the reason), not an error.
+    The scene's task runs as frc plan runs it: the first phase's torques keep its body contacts
+    loaded (F, L or R), lie at least --margin from every input where another contact mode also
+    holds, and are checked at their printed values; a rigid simulation re-plans along the motion
+    until the body pitches past vertical. The JSON has the flip's keys and frc plan's 'outcome' and
+    'phases'. No feasible flip is a result (exit 0, "flipped": false and the reason), not an error.
 
     \b
     Examples:
@@ -193,9 +195,10 @@ def render(payload: dict[str, Any]) -> None:
     console.print(f"pitch acceleration ({payload['pitch']}): {payload['pitch_acceleration']:.6g} "
                   f"rad/s^2{worst}")
     explored = common.named_modes(payload["explored"], payload["contacts"], payload)
+    took = payload["timings"].get("total")
     console.print(f"candidates {common.named_modes(payload['candidates'], payload['contacts'], payload)}; "
-                  f"explored {explored}; {payload['pieces']} piece(s); plan in "
-                  f"{1e3 * payload['timings']['total']:.1f} ms")
+                  f"explored {explored}" + (f"; {payload['pieces']} piece(s)" if payload["pieces"] else "")
+                  + ("" if took is None else f"; plan in {1e3 * took:.1f} ms"))
     if payload["forced_inputs"]:
         console.print("forced by the model: " + ", ".join(f"{k} = {v:g}" for k, v in
                                                          payload["forced_inputs"].items()))
@@ -210,6 +213,15 @@ def render(payload: dict[str, Any]) -> None:
         f"no ({sim['separation']['contact']} separates at {sim['separation']['time']:.4f} s)")
     console.print(f"body contact kept: {kept}; {sim['steps']} steps, {sim['replans']} re-plans "
                   f"({sim['held']} held), {sim['timings']['total']:.2f} s")
+    _render_phases(payload)
+
+
+def _render_phases(payload: dict[str, Any]) -> None:
+    """The task's phases as frc plan ran them, one line."""
+    phases = payload.get("phases") or []
+    if phases:
+        console.print("phases: " + "; ".join(f"{p['name']} {p['start']:.3f}-{p['end']:.3f} s ({p['why']})"
+                                             for p in phases), highlight=False)
 
 
 __all__ = [

@@ -405,16 +405,16 @@ class FlipOptions:
     """The flip ``frc flip`` plans and runs (its options; ``POST /plan/flip``'s request fields).
 
     Attributes:
-        margin: [N m] distance kept from every input where another mode holds.
-        max_time: [s] the longest simulated time (0: plan only).
+        margin: [N m] every phase's margin (None: each phase's own).
+        max_time: [s] the longest simulated time (0: plan only; None: the task's ``max_time``).
         dt: [s] the simulation's step.
         replan_every: steps between two plans.
         pump: pump over several strokes (None: when the scene is :func:`driven`).
         compliant: with the pump, replay the run's inputs on the compliant model too.
     """
 
-    margin: float
-    max_time: float
+    margin: float | None = None
+    max_time: float | None = None
     dt: float = 1e-3
     replan_every: int = 10
     pump: bool | None = None
@@ -423,11 +423,12 @@ class FlipOptions:
 
 def flip_answer(scene: Scene, options: FlipOptions, *, on_simulation: Callable[[], None] | None = None,
                 progress: Progress | None = None) -> Answer:
-    """``frc flip --json`` (``POST /plan/flip``): the plan and, when ``max_time`` > 0, the closed loop.
+    """``frc flip --json`` (``POST /plan/flip``): the flip task run by the planning core.
 
     With the pump (:func:`pumps`), the pumping run of :func:`frcontrol.planning.pump.pump_flip`
-    (kind ``"pump"``); else :func:`frcontrol.planning.flip.plan_flip` and, when a plan is found,
-    :func:`~frcontrol.planning.flip.simulate_flip` (kind ``"flip"``).
+    (kind ``"pump"``); else the scene's task through :func:`frcontrol.planning.core.plan_task`
+    (``frc plan``'s path, :func:`frcontrol.planning.flip_run.run_flip`), reported with the flip's
+    keys and ``outcome`` and ``phases`` as ``frc plan`` has them (kind ``"flip"``).
 
     Args:
         scene: the scene (RHex on its back).
@@ -444,36 +445,26 @@ def flip_answer(scene: Scene, options: FlipOptions, *, on_simulation: Callable[[
         if compliant:
             raise OptionConflict("compliant", "compliant replays the pumping run: it needs the pump (--pump, "
                                  "or a scene whose inputs all have drives)")
-        return _plain_flip(scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
-                           on_simulation=on_simulation, progress=progress)
-    from .planning.pump import pump_flip, pump_payload
+        from .planning.flip_run import flip_document, run_flip
 
-    if on_simulation is not None and max_time > 0:
+        if on_simulation is not None and (max_time is None or max_time > 0):
+            on_simulation()
+        run = run_flip(scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
+                       progress=progress)
+        trajectory = None if run.plan is None else run.plan.trajectory
+        modes = None if trajectory is None or trajectory.modes is None else tuple(trajectory.modes)
+        return Answer("flip", flip_document(run), result=run.flip, trajectory=trajectory, modes=modes)
+    from .planning.pump import PumpResult, pump_flip, pump_payload
+
+    if on_simulation is not None and (max_time is None or max_time > 0):
         on_simulation()
     plan, result = pump_flip(scene, margin=margin, max_time=max_time, dt=dt, replan_every=replan_every,
                              compliant=compliant, progress=progress)
-    trajectory = None if result is None else result.trajectory
+    trajectory = result.trajectory if isinstance(result, PumpResult) else None
     modes = None if trajectory is None or trajectory.modes is None else tuple(trajectory.modes)
-    return Answer("pump", pump_payload(scene, plan, result), result=result, trajectory=trajectory,
+    document = pump_payload(scene, plan, result)
+    return Answer("pump", document, result=result if trajectory is not None else None, trajectory=trajectory,
                   modes=modes)
-
-
-def _plain_flip(scene: Scene, *, margin: float, max_time: float, dt: float, replan_every: int,
-                on_simulation: Callable[[], None] | None, progress: Progress | None) -> Answer:
-    """The flip without the pump: one plan, then the closed loop when one is found."""
-    from .planning.flip import plan_flip, simulate_flip
-
-    plan = plan_flip(scene, margin=margin)
-    result = None
-    if plan.found and max_time > 0:
-        if on_simulation is not None:
-            on_simulation()
-        result = simulate_flip(scene, dt=dt, max_time=max_time, replan_every=replan_every, margin=margin,
-                               plan=plan, progress=progress)
-    trajectory = None if result is None else result.trajectory
-    modes = None if result is None else tuple(result.modes)
-    return Answer("flip", plan.to_dict(result), result=result if result is not None else plan,
-                  trajectory=trajectory, modes=modes)
 
 
 def climb_answer(scene: Scene, *, margin: float, duration: float, seed: int = 0, cycles: int | None = None,

@@ -338,6 +338,10 @@ SCENE_SCHEMA: dict[str, Any] = {
                            "description": "plan: how many times the phases run, in order"},
                 "phases": {"type": "array", "minItems": 1, "items": _PHASE,
                            "description": "plan: the task's phases, run in order"},
+                "timing": {"type": "string", "enum": ["pump"],
+                           "description": "plan: the phase timing that ends the phases and drives those "
+                                          "without an objective (pump: frcontrol.planning.pump_timing; "
+                                          "repeat is then the most cycles)"},
                 "body_contacts": {**_NAMES, "minItems": 1, "x-refers": "contact",
                                   "description": "flip: the body's contacts"},
                 "pitch": {"type": "string", "x-refers": "coordinate",
@@ -613,7 +617,7 @@ def schema_problems(doc: Any) -> list[SchemaProblem]:
     return out
 
 
-PHASED_TASK_KEYS = ("max_time", "repeat", "phases")
+PHASED_TASK_KEYS = ("max_time", "repeat", "phases", "timing")
 """The keys of a task given as phases (``frc plan``); the other ``[task]`` keys are the dedicated
 planners' (``frc flip``, ``frc climb``, ``frc standup``)."""
 
@@ -632,19 +636,19 @@ def _task_shape(task: Mapping[str, Any]) -> list[SchemaProblem]:
     phases = task.get("phases")
     for i, phase in enumerate(phases if isinstance(phases, list) else []):
         if isinstance(phase, Mapping):
-            out.extend(_phase_shape(phase, f"task.phases[{i}]"))
+            out.extend(_phase_shape(phase, f"task.phases[{i}]", timed="timing" in task))
     return out
 
 
-def _phase_shape(phase: Mapping[str, Any], where: str) -> list[SchemaProblem]:
-    """One of maximize, minimize, track; ``until`` one condition, a coordinate with above or below."""
+def _phase_shape(phase: Mapping[str, Any], where: str, *, timed: bool = False) -> list[SchemaProblem]:
+    """One of maximize, minimize, track (or none, under a timing); ``until`` one condition."""
     objectives = [k for k in ("maximize", "minimize", "track") if k in phase]
-    if len(objectives) != 1:
+    if len(objectives) != 1 and not (timed and not objectives):
         got = ", ".join(objectives) or "none"
         return [SchemaProblem(where, f"a phase needs exactly one of maximize, minimize, track (got {got})")]
     out = []
-    objective = phase[objectives[0]]
-    if objectives[0] != "track" and isinstance(objective, Mapping):
+    objective = phase[objectives[0]] if objectives else None
+    if objectives and objectives[0] != "track" and isinstance(objective, Mapping):
         point = [k for k in ("link", "point", "direction") if k in objective]
         if ("coordinate" in objective) == bool(point) or (point and len(point) != 3):
             out.append(SchemaProblem(f"{where}.{objectives[0]}", "expected either coordinate = NAME, or "

@@ -144,7 +144,7 @@ def _scene_cases(name: str) -> Iterator[tuple[str, list[str], dict[str, Any]]]:
     yield "statics", ["statics", name], {"scene": name}
     yield "simulate", ["simulate", name, "-T", "0.01", "--every", "3"], {"scene": name, "duration": 0.01,
                                                                         "every": 3}
-    if "body_contacts" in task:
+    if "body_contacts" in task or name in ("rhex_flip", "rhex_flip_drives"):  # their tasks are flips
         yield "flip", ["flip", name, "-T", "0.02"], {"scene": name, "max_time": 0.02}
     if "disturbances" in document and "head_link" in task:  # the climb's own task (not a phases task)
         yield "climb", ["climb", name, "--duration", "0.01"], {"scene": name, "duration": 0.01}

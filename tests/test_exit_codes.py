@@ -84,4 +84,6 @@ def test_a_negative_answer_is_an_answer_exit_0():
     assert result.exit_code == 0, result.stderr
     doc = json.loads(result.stdout)
     assert doc["found"] is False and doc["simulation"]["flipped"] is False
-    assert "100 N m" in doc["simulation"]["reason"]
+    assert "unambiguous inputs 100 away" in doc["reason"]
+    assert "short of vertical" in doc["simulation"]["reason"]
+    assert doc["outcome"]["achieved"] is False and doc["outcome"]["infeasible"]["margin"] == 100

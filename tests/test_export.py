@@ -90,7 +90,7 @@ def test_every_trajectory_converts_to_json():
     """A motion no simulator produced (no energy reported) converts too; a simulator's has every
     field; the flip's closed loop runs on the rigid stepper, so it reports its energy as well."""
     scene = load_scene("rhex_flip")
-    from frcontrol.planning.flip import simulate_flip
+    from frcontrol.planning.flip_loop import simulate_flip
     from frcontrol.viz.meshcat_view import trajectory_from_scene
 
     still = trajectory_from_scene(scene).to_dict(scene)

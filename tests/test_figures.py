@@ -13,7 +13,8 @@ import pytest
 from frcontrol.engine import solutions_at
 from frcontrol.modes import scene_mode
 from frcontrol.planning.climb import plan_climb
-from frcontrol.planning.flip import plan_flip, simulate_flip
+from frcontrol.planning.flip import plan_flip
+from frcontrol.planning.flip_loop import simulate_flip
 from frcontrol.polytope import contains
 from frcontrol.scene import load_scene, resolve_scene_path, shipped_robots_dir, shipped_scene_names
 from frcontrol.statics import analyze_statics

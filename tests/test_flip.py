@@ -19,13 +19,14 @@ from frcontrol.planning.flip import (
     DEFAULT_MARGIN,
     TORQUE_ROUNDING,
     FlipPlan,
+    FlipSettings,
     flip_task,
     margin_pieces,
     maximise_pitch,
     plan_flip,
-    simulate_flip,
     worst_case_pitch,
 )
+from frcontrol.planning.flip_loop import simulate_flip
 from frcontrol.polytope import Polytope, chebyshev_ball
 from frcontrol.scene import load_scene, resolve_scene_path
 from frcontrol.solvers import solve_qp
@@ -115,7 +116,7 @@ def admissible(analysis, u, radius, candidates):
 
 
 def test_task_of_the_rhex_scene(rhex):
-    task = flip_task(rhex)
+    task = flip_task(rhex)  # as phases: the first phase's contacts on its pivot's link, its maximised pitch
     assert task.body_contacts == ("front_corner", "rear_corner") and task.pitch == "theta"
     assert task.pitch_index == PITCH and task.vertical == pytest.approx(1.5 * math.pi)
 
@@ -154,7 +155,7 @@ def test_frc_analyze_at_the_plan_gives_that_one_solution(plan):
 
 
 def test_branch_and_bound_gives_the_exhaustive_plan(rhex, plan):
-    full = plan_flip(rhex, exhaustive=True)
+    full = plan_flip(rhex, settings=FlipSettings(exhaustive=True))
     assert (full.mode, dict(full.torques), full.pitch_acceleration) == (
         plan.mode, dict(plan.torques), plan.pitch_acceleration)
     # exhaustive: every candidate whose shrunk T_c is not empty (bound > -inf) is explored
@@ -167,7 +168,7 @@ def test_branch_and_bound_gives_the_exhaustive_plan(rhex, plan):
 
 def test_every_piece_keeps_the_margin(rhex):
     """Vertices and centres of every piece: one solution, in the piece's mode, on the whole ball."""
-    full = plan_flip(rhex, exhaustive=True)
+    full = plan_flip(rhex, settings=FlipSettings(exhaustive=True))
     analysis = full.analysis
     assert len(full.pieces) >= 3
     for piece in full.pieces:
@@ -194,7 +195,7 @@ def _vertices_2d(P):
 
 def test_lower_dimensional_modes_are_kept_at_a_distance(rhex):
     """The toe-S modes of the massless legs hold on hip torque = 0 (a line): no piece comes nearer."""
-    full = plan_flip(rhex, exhaustive=True)
+    full = plan_flip(rhex, settings=FlipSettings(exhaustive=True))
     flat = full.analysis.lower_dimensional_modes()
     assert flat and all(m.response.E.shape[0] >= 1 for m in flat)
     hulls = {tuple(np.round(np.abs(m.response.E[0]), 9)) for m in flat}
@@ -345,9 +346,17 @@ def test_bad_input_raises(rhex, write_scene):
         plan_flip(with_limits(rhex, [-1.0, 2.0], [1.0, 2.0]))
     with pytest.raises(InputError, match="margin"):
         plan_flip(rhex, margin=-1.0)
-    bad_task = rhex_text().replace('pitch = "theta"', 'pitch = "phi"')
+    no_pitch = rhex_text().replace("maximize = { coordinate", "minimize = { coordinate")
+    with pytest.raises(SceneError, match=r"task.phases\[0\].maximize"):
+        plan_flip(load_scene(write_scene(no_pitch)))
+    no_body = rhex_text().replace('modes = { front_corner = "FLR",', 'modes = { front_corner = "SFLR",')
+    with pytest.raises(SceneError, match=r"task.phases\[0\].modes"):
+        plan_flip(load_scene(write_scene(no_body)))
+    text = rhex_text()
+    task = text[text.index("[task]"): text.index("[inputs]")]
+    dedicated = text.replace(task, '[task]\nbody_contacts = ["front_corner"]\npitch = "phi"\n\n')
     with pytest.raises(SceneError, match="task.pitch"):
-        plan_flip(load_scene(write_scene(bad_task)))
+        plan_flip(load_scene(write_scene(dedicated)))
     with pytest.raises(InputError, match="replan_every"):
         simulate_flip(rhex, replan_every=0)
 
@@ -403,6 +412,24 @@ def test_cli_json_contract():
     assert isinstance(sim["body_contact_kept"], bool)
 
 
+@pytest.mark.parametrize("name", ["rhex_flip", "rhex_flip_drives"])
+def test_frc_flip_is_frc_plan_with_the_flips_keys(name):
+    """frc flip runs the scene's task on frc plan's path: its outcome and phases are frc plan's."""
+    from frcontrol.answers import without_run_dependent
+
+    args = [name, "--max-time", "0.3", "--json"]
+    flipped = runner.invoke(app(), ["flip", *args])
+    planned = runner.invoke(app(), ["plan", *args])
+    assert flipped.exit_code == 0 and planned.exit_code == 0, flipped.stderr + planned.stderr
+    flip, plan = json.loads(flipped.stdout), json.loads(planned.stdout)
+    for key in ("outcome", "phases"):
+        assert without_run_dependent(flip[key]) == without_run_dependent(plan[key])
+    first = plan["phases"][0]["plans"][0]
+    assert flip["mode"] == first["mode"] and flip["torques"] == first["inputs"]
+    assert flip["simulation"]["steps"] == len(plan["simulation"]["samples"]["times"]) - 1
+    assert plan["phases"][0]["name"] == ("flip" if name == "rhex_flip" else "push")
+
+
 def test_cli_no_flip_exits_0_with_the_reason(rhex, write_scene):
     text = rhex_text().replace("lower = [-10.0, -10.0]", "lower = [-0.01, -0.01]")
     path = write_scene(text.replace("upper = [10.0, 10.0]", "upper = [0.01, 0.01]"))
@@ -410,7 +437,10 @@ def test_cli_no_flip_exits_0_with_the_reason(rhex, write_scene):
     assert result.exit_code == 0, result.stderr
     doc = json.loads(result.stdout)
     assert doc["found"] is False and doc["mode"] is None and doc["torques"] is None
-    assert doc["simulation"]["flipped"] is False and doc["simulation"]["reason"] == doc["reason"]
+    # the task runs as frc plan runs it, the torques held: the outcome names the phase without a plan
+    assert doc["simulation"]["flipped"] is False and "short of vertical" in doc["simulation"]["reason"]
+    assert doc["outcome"]["achieved"] is False and doc["outcome"]["infeasible"]["reason"] == doc["reason"]
+    assert doc["outcome"]["infeasible"]["phase"] == "flip" and doc["phases"][0]["plans"][0]["found"] is False
     human = runner.invoke(app(), ["flip", str(path)])
     assert human.exit_code == 0 and "no flip plan" in human.stdout
 

@@ -189,7 +189,8 @@ def test_the_statics_figure_explains_its_cones_arrows_and_points(statics_report)
 
 @pytest.mark.slow
 def test_the_flip_figure_has_its_star_in_the_legend_and_modes_over_every_contact():
-    from frcontrol.planning.flip import plan_flip, simulate_flip
+    from frcontrol.planning.flip import plan_flip
+    from frcontrol.planning.flip_loop import simulate_flip
     from frcontrol.viz import figures
 
     scene = load_scene("rhex_flip")

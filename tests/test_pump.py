@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 from frcontrol.drives import joint_torque, no_load_speed, stall_torque, torque_limits
 from frcontrol.engine import solutions_at
 from frcontrol.errors import SceneError
-from frcontrol.planning.flip import flip_task, mode_allowed, plan_flip
+from frcontrol.planning.flip import FlipSettings, flip_task, mode_allowed, plan_flip
 from frcontrol.planning.flip_budget import flip_budget
 from frcontrol.planning.pump import (
     REST_SPEED,
@@ -414,7 +414,8 @@ def test_mode_allowed_compares_letter_by_letter():
 
 def test_the_push_plan_accepts_the_allowed_modes_in_its_unambiguity_constraint(shipped):
     scene, _ = shipped
-    strict, free = plan_flip(scene), plan_flip(scene, free={"middle_toe": "SFLR", "rear_toe": "SFLR"})
+    toes_free = FlipSettings(free={"middle_toe": "SFLR", "rear_toe": "SFLR"})
+    strict, free = plan_flip(scene), plan_flip(scene, settings=toes_free)
     assert strict.found and free.found
     # more modes allowed: the unambiguous set can only grow, so the best pitch cannot fall
     assert free.pitch_acceleration >= strict.pitch_acceleration - 1e-9

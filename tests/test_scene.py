@@ -13,7 +13,14 @@ from conftest import ROBOTS, rod_scene
 import frcontrol
 from frcontrol.errors import CoordinateNotFound, InputError, SceneError
 from frcontrol.model import _skeleton
-from frcontrol.scene import _parsed_toml, load_scene, parse_input_assignments, shipped_scene_names
+from frcontrol.scene import (
+    _parsed_toml,
+    load_scene,
+    parse_input_assignments,
+    resolve_scene_path,
+    shipped_robots_dir,
+    shipped_scene_names,
+)
 
 
 def test_readme_scene_loads_with_defaults(write_scene):
@@ -195,9 +202,16 @@ def test_model_task_and_disturbances_are_typed_when_the_scene_is_loaded(write_sc
     assert climb.task.head_point is not None and climb.task.head_point.shape == (2,)
     assert all(isinstance(d, DisturbanceTable) and d.corners.shape[1] == 2 for d in climb.disturbances)
     assert [d.name for d in climb.disturbances] == [t["name"] for t in climb.raw["disturbances"]]
-    flip = load_scene("rhex_flip")
-    assert flip.task.body_contacts == tuple(flip.raw["task"]["body_contacts"])
+    flip = load_scene("rhex_flip")  # its task is given as phases: no dedicated keys
+    assert flip.task == TaskTable() and flip.model.armature_given and flip.model.armature == 2e-3
     assert flip.disturbances == () and isinstance(flip.model, ModelOptions)
+    text = resolve_scene_path("rhex_flip").read_text()
+    urdf = shipped_robots_dir() / "rhex_planar.urdf"
+    text = text.replace('robot = "rhex_planar.urdf"', f'robot = "{urdf}"')
+    dedicated = text.replace(text[text.index("[task]"): text.index("[inputs]")],
+                             '[task]\nbody_contacts = ["front_corner", "rear_corner"]\npitch = "theta"\n\n')
+    keys = load_scene(write_scene(dedicated))
+    assert keys.task.body_contacts == ("front_corner", "rear_corner") and keys.task.pitch == "theta"
     plain = load_scene("rod_on_table")
     assert plain.task == TaskTable() and plain.model.contact == "rigid" and not plain.model.armature_given
     with pytest.raises(SceneError, match=re.escape("disturbances[0].lower[0]")) as bad_box:

@@ -48,9 +48,10 @@ def test_every_shipped_scene_is_valid(name):
     assert scene_problems(name) == []
 
 
-def edit(name: str, path: str, value=None, *, rename: str | None = None, delete: bool = False) -> dict:
-    """A shipped scene with one change at a dotted path (``contacts[0].mu``, ``task.pitch``)."""
-    doc = shipped(name)
+def edit(name: str | dict, path: str, value=None, *, rename: str | None = None,
+         delete: bool = False) -> dict:
+    """A shipped scene (or a document) with one change at a dotted path (``contacts[0].mu``)."""
+    doc = shipped(name) if isinstance(name, str) else name
     keys = [int(k) if k.isdigit() else k for k in re.findall(r"[^.\[\]]+", path)]
     parent = doc
     for key in keys[:-1]:
@@ -65,6 +66,12 @@ def edit(name: str, path: str, value=None, *, rename: str | None = None, delete:
     return doc
 
 
+def flip_keys(**task) -> dict:
+    """rhex_flip with the flip's dedicated [task] keys (its own task is given as phases)."""
+    keys = {"body_contacts": ["front_corner", "rear_corner"], "pitch": "theta", **task}
+    return edit("rhex_flip", "task", keys)
+
+
 # name -> (scene document, the field named, text the reason must hold, jsonschema also rejects it)
 BROKEN = {
     "typo in [inputs]": (edit("rod_on_table", "inputs.upper", rename="uper"), "inputs.uper",
@@ -76,8 +83,10 @@ BROKEN = {
         "contacts[1].surface_piont", "in [[contacts]] 'right'; did you mean 'surface_point'?", True),
     "typo in [state]": (edit("rod_on_table", "state.v", rename="vel"), "state.vel",
                         "did you mean 'v'?", True),
-    "typo in [task]": (edit("rhex_flip", "task.pitch", rename="pitchh"), "task.pitchh",
+    "typo in [task]": (edit(flip_keys(), "task.pitch", rename="pitchh"), "task.pitchh",
                        "did you mean 'pitch'?", True),
+    "typo in [[task.phases]]": (edit("rhex_flip", "task.phases[0].margin", rename="margn"),
+                                "task.phases[0].margn", "did you mean 'margin'?", True),
     "typo in [model]": (edit("rod_on_table", "model.stifness", 1e5), "model.stifness",
                         "did you mean 'stiffness'?", True),
     "typo in [model.contacts.NAME]": (edit("rod_on_table", "model.contacts.tip.dampnig", 3.0),
@@ -99,10 +108,15 @@ BROKEN = {
     "task is not a table": (edit("rhex_flip", "task", "flip"), "task", "expected a table", True),
     "override of an unknown contact": (edit("rod_on_table", "model.contacts.tipp.stiffness", 1e5),
                                        "model.contacts.tipp", "did you mean 'tip'?", False),
-    "unknown body contact": (edit("rhex_flip", "task.body_contacts[0]", "front_croner"),
+    "unknown body contact": (edit(flip_keys(), "task.body_contacts[0]", "front_croner"),
                              "task.body_contacts[0]", "did you mean 'front_corner'?", False),
-    "unknown pitch coordinate": (edit("rhex_flip", "task.pitch", "thetaa"), "task.pitch",
+    "unknown pitch coordinate": (edit(flip_keys(), "task.pitch", "thetaa"), "task.pitch",
                                  "did you mean 'theta'?", False),
+    "unknown contact in a phase": (edit("rhex_flip", "task.phases[0].modes", {"front_croner": "FLR"}),
+                                   "task.phases[0].modes.front_croner", "did you mean 'front_corner'?",
+                                   False),
+    "unknown coordinate in a phase": (edit("rhex_flip", "task.phases[0].maximize.coordinate", "thetaa"),
+                                      "task.phases[0].maximize.coordinate", "did you mean 'theta'?", False),
     "unknown head link": (edit("snake_climb", "task.head_link", "link9"), "task.head_link",
                           "unknown link 'link9'", False),
     "unknown disturbance link": (edit("snake_climb", "disturbances[0].link", "lnk8"), "disturbances[0].link",

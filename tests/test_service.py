@@ -768,7 +768,7 @@ def test_post_plan_answers_frc_plan_json(client):
     served_doc.pop("timings"), cli_doc.pop("timings")
     assert served_doc == cli_doc
     assert served_doc["outcome"]["achieved"] is True
-    refused = client.post("/plan", json={"scene": "rhex_flip"})
+    refused = client.post("/plan", json={"scene": "rod_on_table"})  # no [task]
     assert refused.status_code == 422 and "task.phases" in refused.text
 
 

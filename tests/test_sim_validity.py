@@ -129,6 +129,7 @@ def test_the_cli_exits_1_on_divergence_with_one_line(write_scene):
 def test_the_cli_reports_warnings_in_the_json_and_on_stderr():
     result = runner.invoke(app, ["simulate", "rhex_flip", "--model", "compliant", "--duration", "0.1",
                                  "--input", "hip_middle=10", "--input", "hip_rear=10", "--json",
+                                 "--set", "model.armature=1e-4",  # the simulator's default: fast legs
                                  "--quiet"])  # no progress lines on a loaded machine: warnings only
     assert result.exit_code == 0, result.stderr
     doc = json.loads(result.stdout)

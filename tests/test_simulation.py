@@ -338,13 +338,14 @@ def test_massless_legs_get_the_reported_armature_like_pinocchio():
     legs = [name for name in scene.coordinate_names if name.startswith("hip")]
     assert np.all(np.diag(M)[-len(legs):] == 0.0)  # the legs are massless
     assert traj.info["armature"]["coordinates"] == legs
-    assert traj.info["armature"]["value"] == 1e-4
+    armature = scene.model.armature  # the scene's [model] armature (2e-3 kg m^2), the flip's
+    assert scene.model.armature_given and traj.info["armature"]["value"] == armature
     # the regularisation is Pinocchio's own joint armature: CRBA adds it to M's diagonal
     model = pin.Model(scene.robot.model)
-    model.armature[3:] = 1e-4
+    model.armature[3:] = armature
     data = model.createData()
     pin.crba(model, data, scene.robot.pinocchio_q_from_minimal(scene.q))
-    np.testing.assert_allclose(np.diag(data.M), np.diag(M) + np.array([0.0] * 3 + [1e-4] * len(legs)),
+    np.testing.assert_allclose(np.diag(data.M), np.diag(M) + np.array([0.0] * 3 + [armature] * len(legs)),
                                atol=1e-15)
     with pytest.raises(IllConditioned, match="armature"):
         simulate_rigid(scene, None, 0.01, 1e-3, armature=0.0)

@@ -18,7 +18,7 @@ import pytest
 from conftest import needs_kernel
 
 from frcontrol import kernel, lcp
-from frcontrol.planning import flip
+from frcontrol.planning import flip_loop as flip
 from frcontrol.scene import load_scene
 from frcontrol.simulation import (
     CompliantSettings,

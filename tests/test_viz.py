@@ -886,7 +886,8 @@ def test_served_viewer_draws_in_chromium(chromium):
 @pytest.fixture(scope="module")
 def flip_page(tmp_path_factory):
     """The page of the real flip (planned and simulated): the body ends upright, right of its start."""
-    from frcontrol.planning.flip import plan_flip, simulate_flip
+    from frcontrol.planning.flip import plan_flip
+    from frcontrol.planning.flip_loop import simulate_flip
 
     scene = load_scene("rhex_flip")
     result = simulate_flip(scene, plan=plan_flip(scene))

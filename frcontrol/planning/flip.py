@@ -18,34 +18,10 @@ are not S (a mode whose T_c is flat needs its inputs on a hyperplane: rounding b
 **The unambiguous set, shrunk by a margin.** An LP optimum sits on the boundary of its region,
 where the mode meets another: there the model predicts both, and rounding the printed torques may
 land in the other. The plan therefore keeps a distance ``margin`` [N m] (a Euclidean distance in
-input space) from every set of inputs where another mode also holds::
-
-    U_c(margin) = { u : B(u, margin) ⊂ T_c  and  B(u, margin) ∩ T_j = ∅ for every j in O_c },
-
-with B(u, r) the ball of radius r and O_c the modes whose T_j meets T_c in more than a boundary:
-the modes that *overlap* T_c (interiors meet, :attr:`DynamicResponse.overlaps`) and the
-*lower-dimensional* modes (T_j flat, e.g. a massless leg whose toe separates forces its hip torque
-to 0: ``E u = e``). A full-dimensional mode that does not overlap T_c is separated from it by a
-hyperplane, so the first condition already keeps B(u, margin) out of it. Polyhedrally:
-
-- ``B(u, m) ⊂ T_c``: every row ``a^T u <= b`` of T_c tightened to ``a^T u <= b - m |a|``, except
-  the rows that are input limits (no mode lies beyond a limit: a torque at its limit stays there
-  when rounded, so the limits are not shrunk);
-- ``B(u, m) ∩ T_j = ∅``: u violates some row of T_j by at least m, ``a^T u >= b + m |a|`` (an
-  equality row ``E_r u = e_r`` counts as the two rows ``±(E_r u - e_r) <= 0``: one side or the
-  other). This union of half-spaces is the complement of T_j grown by m row by row; it is exact
-  away from T_j's corners and conservative near them (where the grown polytope has corners and
-  the ball's sum is round).
-
-U_c(m) is built as a union of convex pieces by the region difference (METHOD §5; the same
-recursion as :func:`frcontrol.polytope.set_difference`): starting from the shrunk T_c, each piece
-R that meets the grown T_j with an interior is replaced by the pieces
-``R ∩ {row k of T_j violated by >= m} ∩ {rows i < k violated by <= m}`` (disjoint interiors,
-same union); pieces without an interior (Chebyshev radius <= ``INTERIOR_TOLERANCE``) are dropped.
-At ``margin = 0`` the pieces cover the engine's unambiguous set (:meth:`unambiguous_set`) with the
-lower-dimensional sets cut out; a piece boundary *inside* U_c never shrinks anything (the pieces are
-not shrunk one by one), which is why the pieces are built here rather than by shrinking the
-engine's pieces (shrinking those would also pull in from their shared facets).
+input space) from every set of inputs where another mode also holds: the convex pieces of
+:func:`~frcontrol.planning.core.pieces.margin_pieces` (T_c shrunk by the margin except at the
+input limits, the overlapping and lower-dimensional modes grown by it and cut out; that module's
+docstring gives the polyhedral construction).
 
 **The maximisation.** Per piece P: if the pitch does not depend on w, one LP
 ``max c_u^T u + c_0 over P``. If it does (``c_w != 0``: the motion itself is ambiguous within the
@@ -70,60 +46,52 @@ consistency rows ``E u = e`` fix it). Every T_c is then flat and nothing is a ca
 planner fixes such inputs at their forced value (moved into the bias, ``h - S_j^T u_j``), analyses
 and plans over the others, and reports them (``forced_inputs``).
 
-**Closed loop.** :func:`simulate_flip` re-plans every ``replan_every`` steps at the simulated state
-(:meth:`Scene.at`) and applies the plan's rounded torques to one rigid time stepper
-(:class:`frcontrol.simulation.rigid.RigidStepper`: velocity-level time stepping, contacts open and
-close, inelastic impacts absorbed by the steps' LCPs: ``impact_law=False``, without the split at
-landings and the restitution of :func:`~frcontrol.simulation.rigid.simulate_rigid`, whose
-instantaneous impacts can end a flip short of vertical: a toe's impact lifts the front corner)
-until the pitch passes vertical or ``max_time``: the re-planning is the
-policy of :func:`frcontrol.simulation.closed_loop.run_closed_loop`, which holds the torques between
-plans. The run is one trajectory, checked for validity like any rigid simulation.
-
-*Re-planning model:* the scene at the simulated state (:meth:`Scene.at`) with the contacts
-within :data:`REPLAN_GAP_TOLERANCE` of their surface or loaded by the last step (a loaded
-contact's normal velocity taken as 0, see :func:`_replan`), velocities of at most
-:data:`REPLAN_VELOCITY_TOLERANCE` taken as zero, and any sign of pitch acceleration accepted.
-When no plan is made the torques are *held* (the reason is recorded in ``held``): at an impact
-(a contact moving into its surface: the acceleration-level model does not apply), or when no
-candidate or piece exists; inputs the model forces are set to their forced value.
-
-*Legs in the air:* the rigid model forces the torque of a massless leg without ground contact
-(or lifting off) to 0, and between plans the loop applies that at every step: an input on a
-massless coordinate whose contacts are all more than :data:`SEPARATION_GAP` off their surface
-gets 0. With its rotor inertia the leg then coasts at the speed it left the ground with, swings
-round and may touch down again (no swing controller is modelled).
-
-*Body contact kept:* every body contact that touches at the start (gap <= :data:`SEPARATION_GAP`)
-touches at every sample up to the first sample at or past vertical (or the end). A body contact
-that touches down later (the rear corner when the body falls back) does not count, but its
-touch-downs and separations are listed in ``body_events``.
+**Closed loop.** :func:`frcontrol.planning.flip_loop.simulate_flip` re-plans along a rigid
+simulation until the body pitches past vertical (that module's docstring); ``frc flip`` runs the
+scene's task through the planning core (:func:`frcontrol.planning.core.plan_task`).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
 from .. import polytope as poly
-from ..engine import DynamicResponse, ModeAnalysis, analyze, solutions_at
-from ..errors import FrcontrolError, ImpactState, InputError, SceneError
-from ..geometry import chebyshev_rows, max_margin, unit_rows
+from ..engine import DynamicResponse, analyze
+from ..errors import InputError
 from ..jsonable import finite_or_none, to_jsonable
 from ..modes import VELOCITY_TOLERANCE, ContactProblem, add_scene_modes, scene_mode
-from ..response import OUTPUT_TOLERANCE
 from ..scene import Scene
-from ..simulation.closed_loop import ClosedLoopRun, LoopOptions, run_closed_loop
-from ..simulation.export import sample_modes
-from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
-from ..simulation.trajectory import Trajectory
-from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, must_solve, settings_from, solve_lp
+from ..solvers import DEFAULT_LP_SOLVER
 from . import DEFAULT_FLIP_MARGIN
+from .core.forced import fix_inputs, forced_by_every_mode, massless_inputs, structurally_forced
+from .core.pieces import margin_pieces, mode_allowed, shrunk_input_domain
+from .core.tolerances import (
+    FORCED_INPUT_TOLERANCE,
+    INPUT_LIMIT_TOLERANCE,
+    REPLAN_GAP_TOLERANCE,
+    REPLAN_VELOCITY_TOLERANCE,
+    SEPARATION_GAP,
+    TORQUE_ROUNDING,
+)
+from .flip_pitch import (
+    MAX_VERTEX_CANDIDATES,
+    PITCH_TOLERANCE,
+    FlipPiece,
+    FlipSettings,
+    PieceSearch,
+    branch_and_bound,
+    candidate_bounds,
+    maximise_pitch,
+    torque_text,
+    worst_case_pitch,
+)
+from .flip_scene import VERTICAL_TOLERANCE, FlipTask, flip_task
 
 __all__ = [
     "DEFAULT_MARGIN",
@@ -132,18 +100,18 @@ __all__ = [
     "INPUT_LIMIT_TOLERANCE",
     "MAX_VERTEX_CANDIDATES",
     "PITCH_TOLERANCE",
+    "VERTICAL_TOLERANCE",
     "REPLAN_GAP_TOLERANCE",
     "REPLAN_VELOCITY_TOLERANCE",
     "SEPARATION_GAP",
     "TORQUE_ROUNDING",
-    "AppliedPlan",
     "FlipPiece",
     "FlipPlan",
-    "FlipResult",
+    "FlipSettings",
     "FlipProblem",
     "FlipTask",
-    "ReplanningPolicy",
     "build_flip",
+    "check_flip_inputs",
     "flip_task",
     "margin_pieces",
     "massless_inputs",
@@ -151,9 +119,7 @@ __all__ = [
     "mode_allowed",
     "maximise_pitch",
     "plan_flip",
-    "sample_modes",
     "shrunk_input_domain",
-    "simulate_flip",
     "worst_case_pitch",
 ]
 
@@ -164,33 +130,7 @@ DEFAULT_MARGIN = DEFAULT_FLIP_MARGIN
 """[N m] Default distance (in input space) between the plan and every input where another mode
 also holds: 500 times :data:`TORQUE_ROUNDING`, and small against RHex's 10 N m hip limits."""
 
-TORQUE_ROUNDING = 1e-4
-"""[N m] The plan's torques are rounded to multiples of this (as printed) before verification."""
 
-PITCH_TOLERANCE = 1e-9
-"""[rad/s^2] Relative agreement (times ``1 + |pitch|``) required between the planned pitch
-acceleration and the one :func:`~frcontrol.engine.solutions_at` reports at the rounded torques."""
-
-INPUT_LIMIT_TOLERANCE = 1e-9
-"""[-] A unit row of T_c is an input-limit row (not shrunk by the margin) when it equals
-``±e_i`` and its right-hand side equals the limit to this (relative to ``1 + |limit|``)."""
-
-MAX_VERTEX_CANDIDATES = 200_000
-"""Most row subsets tried to enumerate a piece's vertices in the worst-case (w-dependent) plan."""
-
-REPLAN_VELOCITY_TOLERANCE = 1e-3
-"""[m/s] In the closed loop, a contact velocity (normal or tangential) of at most this counts as
-zero when re-planning (the normal velocity of a contact the last step loaded is taken as 0 in any
-case, see :func:`simulate_flip`)."""
-
-REPLAN_GAP_TOLERANCE = 1e-5
-"""[m] In the closed loop, a contact with gap at most this is active when re-planning (the time
-stepper keeps closed contacts within about ``g dt^2`` = 1e-5 m of their surface)."""
-
-SEPARATION_GAP = 1e-4
-"""[m] A body contact *touches* at a sample when its gap is at most this; once touching, a gap
-above it is a separation. One step of chatter (a resting contact opening for one step, about
-``g dt^2`` = 1e-5 m at 1 ms) stays below it."""
 
 FLIP_ARMATURE = 2e-3
 r"""[kg m^2] Default rotor inertia of each massless hip coordinate in the flip's simulation (when
@@ -202,88 +142,7 @@ times faster."""
 
 
 # ---------------------------------------------------------------------------------------------
-# the task
-
-
-@dataclass(frozen=True)
-class FlipTask:
-    """What the flip planner reads from the scene's ``[task]`` table.
-
-    Attributes:
-        body_contacts: names of the body's contacts (none may separate), in scene order.
-        pitch: the pitch coordinate's name.
-        pitch_index: its index in the minimal coordinates.
-        initial_pitch: [rad] its value at the scene's state.
-        vertical: [rad] the first pitch above ``initial_pitch`` at which the body stands vertical
-            (``pi/2 + k pi``): the flip is done when the pitch passes it.
-    """
-
-    body_contacts: tuple[str, ...]
-    pitch: str
-    pitch_index: int
-    initial_pitch: float
-    vertical: float
-
-
-def flip_task(scene: Scene) -> FlipTask:
-    """The flip task of a scene: its ``[task]`` table, validated.
-
-    ``body_contacts`` is required: a scene without it is not a flip scene (the planner would
-    otherwise "flip" whatever touches the ground). ``pitch`` defaults to ``theta``.
-
-    Raises:
-        SceneError: ``[task]`` or ``task.body_contacts`` is missing, or ``[task]`` is malformed,
-            names an unknown contact or coordinate.
-    """
-    task = scene.task
-    path = str(scene.path)
-    names = [c.name for c in scene.contacts]
-    if task.body_contacts is None:
-        raise SceneError(path, "task.body_contacts", "missing: the flip needs [task] body_contacts, "
-                         f"the body's contacts (from {', '.join(names) or 'no contact'}), and "
-                         "optionally pitch, the body's pitch coordinate")
-    body = list(task.body_contacts)
-    if not body:
-        raise SceneError(path, "task.body_contacts", f"expected a non-empty list of contact names "
-                         f"from {names}, got {body!r}")
-    for i, name in enumerate(body):
-        if name not in names:
-            raise SceneError(path, f"task.body_contacts[{i}]",
-                             f"unknown contact {name!r}; the contacts are: {', '.join(names)}")
-    chosen = set(body)
-    pitch = task.pitch if task.pitch is not None else "theta"
-    coords = scene.coordinate_names
-    if not isinstance(pitch, str) or pitch not in coords:
-        raise SceneError(path, "task.pitch", f"expected a coordinate name from {list(coords)}, got {pitch!r}")
-    index = coords.index(pitch)
-    initial = float(scene.q[index])
-    vertical = math.pi / 2 + math.pi * (math.floor((initial - math.pi / 2) / math.pi) + 1)
-    return FlipTask(tuple(n for n in names if n in chosen), pitch, index, initial, vertical)
-
-
-# ---------------------------------------------------------------------------------------------
 # results
-
-
-@dataclass(frozen=True)
-class FlipPiece:
-    """One convex piece of a candidate's unambiguous set shrunk by the margin, and its optimum.
-
-    Attributes:
-        mode: the candidate mode.
-        region: the piece, over the planned inputs (``FlipPlan.planned_inputs``).
-        pitch_acceleration: [rad/s^2] the best (worst-case, if ``worst_case``) pitch acceleration
-            on the piece, at the unrounded optimum; ``-inf`` if the LP failed.
-        optimum: the unrounded optimum (None if the LP failed).
-        worst_case: the pitch depends on the mode's ambiguity variables w.
-    """
-
-    mode: str
-    region: poly.Polytope
-    pitch_acceleration: float
-    optimum: np.ndarray | None
-    worst_case: bool
-
 
 @dataclass(frozen=True)
 class FlipPlan:
@@ -350,8 +209,8 @@ class FlipPlan:
         """The torques as a vector in the order of ``inputs`` (the scene's input names)."""
         return np.array([float(self.torques.get(name, 0.0)) for name in inputs])
 
-    def to_dict(self, result: FlipResult | None = None) -> dict[str, Any]:
-        """The ``frc flip --json`` document.
+    def to_dict(self, simulation: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """The ``frc flip --json`` document of the plan (``simulation``: the closed loop's, when run).
 
         ``mode``, ``torques``, ``pitch_acceleration``, ``unambiguous``, ``margin`` and ``simulation``
         (``flipped``, ``time_to_vertical``, ``body_contact_kept``, ``steps``) are the contract; the rest
@@ -385,374 +244,18 @@ class FlipPlan:
         if not plan.found and plan.mode is not None:
             payload["best"] = {"mode": plan.mode, "torques": dict(plan.torques),
                                "pitch_acceleration": finite_or_none(plan.pitch_acceleration)}
-        if result is None or result.trajectory is None:
-            payload["simulation"] = {
-                "flipped": False, "time_to_vertical": None, "body_contact_kept": None, "steps": 0,
-                "replans": 0, "simulated": False,
-                "reason": plan.reason if not plan.found else "not simulated (--max-time 0)",
-            }
-            return add_scene_modes(to_jsonable(payload), plan.scene_contacts or plan.contacts)
-        traj = result.trajectory
-        payload["simulation"] = {
-            "flipped": result.flipped,
-            "time_to_vertical": finite_or_none(result.time_to_vertical),
-            "body_contact_kept": result.body_contact_kept,
-            "steps": result.steps,
-            "replans": result.replans,
-            "simulated": True,
-            "reason": result.reason,
-            "separation": (None if result.separation is None
-                           else {"time": result.separation[0], "contact": result.separation[1]}),
-            "body_events": [{"time": t, "contact": c, "kind": k} for t, c, k in result.body_events],
-            "held": len(result.held),
-            "max_pitch": float(traj.coordinate(plan.pitch).max()),
-            "vertical": result.vertical,
-            "dt": result.dt,
-            "max_time": result.max_time,
-            "armature": result.armature,
-            "duration": traj.duration,
-            "status": traj.status,
-            "events": [e.to_dict() for e in traj.events],
-            "timings": dict(result.timings),
+        payload["simulation"] = dict(simulation) if simulation is not None else {
+            "flipped": False, "time_to_vertical": None, "body_contact_kept": None, "steps": 0,
+            "replans": 0, "simulated": False,
+            "reason": plan.reason if not plan.found else "not simulated (--max-time 0)",
         }
         return add_scene_modes(to_jsonable(payload), plan.scene_contacts or plan.contacts)
-
-
-@dataclass(frozen=True)
-class FlipResult:
-    """The closed-loop flip: the first plan, the simulated motion and the verdict.
-
-    Attributes:
-        plan: the plan at the scene's state (the torques of the first step).
-        trajectory: the simulated motion, up to the first sample at or past vertical (None when no
-            first plan was found).
-        flipped: the pitch passed ``vertical`` within ``max_time``.
-        time_to_vertical: [s] when it did (linear interpolation between samples), else None.
-        body_contact_kept: no body contact separated up to the flip (or the end): see
-            :func:`simulate_flip`.
-        separation: the first separation of a body contact touching at the start
-            ``(time [s], contact)``, or None.
-        body_events: every touch-down and separation of a body contact up to the flip (or the
-            end): ``(time [s], contact, "touchdown" | "separation")``.
-        steps: time steps simulated.
-        replans: plans made after the first one.
-        held: re-planning points at which no plan was made and the torques were held, with why.
-        plans: ``(time [s], mode or None, torques)`` of every plan applied, in time order.
-        modes: per sample, one letter per scene contact (S when not loaded), for the viewers.
-        reason: why the robot did not flip (None if it did).
-        vertical: [rad] the pitch to pass.
-        dt: [s] the time step; max_time: [s] the simulated time limit.
-        armature: [kg m^2] the rotor inertia given to the massless hips.
-        timings: [s] ``first_plan``, ``simulation``, ``replanning``, ``total``.
-    """
-
-    plan: FlipPlan
-    trajectory: Any
-    flipped: bool
-    time_to_vertical: float | None
-    body_contact_kept: bool | None
-    separation: tuple[float, str] | None
-    body_events: tuple[tuple[float, str, str], ...]
-    steps: int
-    replans: int
-    held: tuple[tuple[float, str], ...]
-    plans: tuple[tuple[float, str | None, Mapping[str, float]], ...]
-    modes: tuple[str, ...]
-    reason: str | None
-    vertical: float
-    dt: float
-    max_time: float
-    armature: float
-    timings: Mapping[str, float]
-
 
 # ---------------------------------------------------------------------------------------------
 # building blocks
 
-
-def _as_halfspaces(P: poly.Polytope) -> tuple[np.ndarray, np.ndarray]:
-    """Unit rows ``a u <= b`` of P, an equality ``E u = e`` written as ``E u <= e, -E u <= -e``."""
-    A = np.vstack([P.A_eq, -P.A_eq, P.A])
-    b = np.concatenate([P.b_eq, -P.b_eq, P.b])
-    return unit_rows(A, b)
-
-
-def _limit_rows(A: np.ndarray, b: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """Mask of the unit rows that are input limits ``u_i <= upper_i`` or ``-u_i <= -lower_i``."""
-    mask = np.zeros(A.shape[0], dtype=bool)
-    for r, (row, rhs) in enumerate(zip(A, b, strict=True)):
-        i = int(np.argmax(np.abs(row)))
-        if abs(abs(row[i]) - 1.0) > INPUT_LIMIT_TOLERANCE:
-            continue
-        limit = upper[i] if row[i] > 0 else -lower[i]
-        if math.isfinite(limit) and abs(rhs - limit) <= INPUT_LIMIT_TOLERANCE * (1.0 + abs(limit)):
-            mask[r] = True
-    return mask
-
-
-def _has_interior(A: np.ndarray, b: np.ndarray, solver: str) -> bool:
-    """Whether ``{u : A u <= b}`` (unit rows) holds a ball of radius > ``INTERIOR_TOLERANCE``.
-
-    One Chebyshev LP, ``max r`` s.t. ``A u + r <= b``, ``0 <= r <= CHEBYSHEV_RADIUS_CAP``
-    (:func:`frcontrol.geometry.max_margin`) on unit rows (the hot loop of :func:`margin_pieces`;
-    :func:`frcontrol.polytope.chebyshev_ball` answers the same for general rows). Zero rows are
-    judged by their right-hand side.
-    """
-    zero = ~np.any(A, axis=1)
-    if np.any(b[zero] < -poly.CONTAINMENT_TOLERANCE):
-        return False
-    A, b = A[~zero], b[~zero]
-    result = max_margin(chebyshev_rows(A), b, settings=settings_from(solver),
-                        fallback=must_solve("an interior test of the flip planner"))
-    if result.status == "infeasible" or result.x is None:
-        return False
-    return bool(result.x[-1] > poly.INTERIOR_TOLERANCE)
-
-
-def shrunk_input_domain(
-    analysis: DynamicResponse, mode: str, margin: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """T_c of ``mode`` with every row but the input limits pulled in by ``margin``: ``(A, b)``, unit rows.
-
-    ``{u : a_i^T u <= b_i - margin}`` for the mode boundaries, ``a_i^T u <= b_i`` for the limits:
-    the inputs whose ball of radius ``margin`` lies in T_c (within the limits).
-    """
-    problem = analysis.problem
-    A, b = _as_halfspaces(analysis.mode(mode).feasible_input_domain)
-    limits = _limit_rows(A, b, problem.lower, problem.upper)
-    return A, b - margin * (~limits)
-
-
-def margin_pieces(
-    analysis: DynamicResponse,
-    mode: str,
-    margin: float,
-    *,
-    solver: str = DEFAULT_LP_SOLVER,
-    free: Mapping[str, str] | None = None,
-) -> list[poly.Polytope]:
-    """The unambiguous inputs of ``mode`` kept ``margin`` away from every other mode, as pieces.
-
-    See the module's docstring: ``U_c(margin)`` from T_c shrunk (input limits excepted,
-    :func:`shrunk_input_domain`) by the region difference against the overlapping and the
-    lower-dimensional modes, each grown by ``margin`` row by row. A lower-dimensional T_j lies in
-    its affine hull ``E_j u = e_j``; when the band ``|E_j u - e_j| <= margin`` misses a piece's
-    interior, T_j is not needed there (and its projection is not computed).
-
-    Args:
-        analysis: the engine's analysis (with its overlaps).
-        mode: a feasible mode whose T_c has an interior.
-        margin: [units of u] the distance to keep, >= 0.
-        solver: LP back-end.
-        free: per contact name, the letters a plan in ``mode`` also allows that contact
-            (:func:`mode_allowed`): the modes so allowed are not kept away from (default: none).
-
-    Returns:
-        Convex pieces with disjoint interiors, each with an interior (unit rows, not minimal).
-    """
-    if not analysis.mode(mode).inputs_full_dimensional:
-        return []
-    A, start_b = shrunk_input_domain(analysis, mode, margin)
-    if not _has_interior(A, start_b, solver):
-        return []
-    others = [analysis.mode(name) for name in analysis.overlapping(mode)]
-    others += [m for m in analysis.lower_dimensional_modes() if m.mode != mode]
-    contacts = analysis.problem.contacts
-    others = [m for m in others if not mode_allowed(m.mode, mode, contacts, free)]
-    pieces: list[tuple[np.ndarray, np.ndarray]] = [(A, start_b)]
-    for other in others:
-        hull = _hull_band(other, margin)
-        rows: tuple[np.ndarray, np.ndarray] | None = None
-        next_pieces: list[tuple[np.ndarray, np.ndarray]] = []
-        for R_A, R_b in pieces:
-            if hull is not None and not _has_interior(np.vstack([R_A, hull[0]]),
-                                                      np.concatenate([R_b, hull[1]]), solver):
-                next_pieces.append((R_A, R_b))  # T_j's hull is margin away from this piece
-                continue
-            if rows is None:
-                A_j, b_j = _as_halfspaces(other.feasible_input_domain)
-                rows = (A_j, b_j + margin)
-            A_j, grown = rows
-            if not _has_interior(np.vstack([R_A, A_j]), np.concatenate([R_b, grown]), solver):
-                next_pieces.append((R_A, R_b))  # already margin away from T_j
-                continue
-            kept_A, kept_b = R_A, R_b
-            for row, rhs in zip(A_j, grown, strict=True):
-                child_A = np.vstack([kept_A, -row])
-                child_b = np.append(kept_b, -rhs)
-                if _has_interior(child_A, child_b, solver):
-                    next_pieces.append((child_A, child_b))
-                kept_A, kept_b = np.vstack([kept_A, row]), np.append(kept_b, rhs)
-        pieces = next_pieces
-        if not pieces:
-            break
-    return [poly.Polytope(P_A, P_b) for P_A, P_b in pieces]
-
-
-def mode_allowed(mode: str, planned: str, contacts: Sequence[str], free: Mapping[str, str] | None) -> bool:
-    """Whether a plan in mode ``planned`` allows ``mode`` (both one letter per contact of ``contacts``).
-
-    It does when every contact has the planned letter or one of the letters ``free`` gives it
-    (``{"rear_toe": "S"}``: the rear toe may also separate). Without ``free``, only ``planned``.
-    """
-    free = free or {}
-    return all(a == b or a in free.get(name, "") for a, b, name in zip(mode, planned, contacts, strict=True))
-
-
-def _hull_band(mode: ModeAnalysis, margin: float) -> tuple[np.ndarray, np.ndarray] | None:
-    """``|E u - e| <= margin`` (unit rows) around a mode's consistency hull, or None if it has none."""
-    E, e = mode.response.E, mode.response.e
-    if E.shape[0] == 0:
-        return None
-    A, b = unit_rows(np.vstack([E, -E]), np.concatenate([e, -e]))
-    return A, b + margin
-
-
-def _pitch_row(mode: ModeAnalysis, pitch_index: int) -> tuple[np.ndarray, np.ndarray, float, bool]:
-    """``(c_u, c_w, c_0, depends_on_w)``: the pitch row of the mode's response."""
-    r = mode.response
-    c_u = r.X_u[pitch_index].copy()
-    c_w = r.X_w[pitch_index].copy()
-    c_0 = float(r.x_0[pitch_index])
-    depends = False
-    if r.X_w.size:
-        scale = float(np.max(np.abs(r.X_w)))
-        depends = bool(np.max(np.abs(c_w)) > OUTPUT_TOLERANCE * max(scale, 1e-300))
-    if not depends:
-        c_w = np.zeros_like(c_w)
-    return c_u, c_w, c_0, depends
-
-
-def worst_case_pitch(
-    mode: ModeAnalysis, pitch_index: int, u: np.ndarray, *, solver: str = DEFAULT_LP_SOLVER
-) -> float:
-    """``c_u^T u + c_0 + min { c_w^T w : (u, w) in D_c }``: the least pitch acceleration at u.
-
-    One LP over w on the slice of the mode's domain D_c at u; ``-inf`` if u is outside T_c.
-    """
-    c_u, c_w, c_0, depends = _pitch_row(mode, pitch_index)
-    base = float(c_u @ u) + c_0
-    if not depends:
-        return base
-    D = mode.domain
-    if D is None:  # an infeasible mode: no u is in T_c
-        return -math.inf
-    m = mode.m
-    H_u, H_w = D.A[:, :m], D.A[:, m:]
-    result = solve_lp(c_w, H_w, D.b - H_u @ u, solver=solver, fallback=RETRY_ERRORS)
-    if not result.found:
-        return -math.inf
-    return base + float(result.objective)
-
-
-def maximise_pitch(mode: ModeAnalysis, piece: poly.Polytope, pitch_index: int,
-                   solver: str = DEFAULT_LP_SOLVER) -> FlipPiece:
-    """The best pitch acceleration of ``mode`` on one piece of inputs.
-
-    ``max c_u^T u + c_0`` over the piece by one LP when the pitch row does not depend on w; else the
-    worst case ``c_u^T u + c_0 + g(u)``, ``g(u) = min {c_w^T w : (u, w) in D_c}`` (convex in u), at
-    the best vertex of the piece (see the module's docstring).
-
-    Args:
-        mode: the mode's analysis (its response ``X_u, X_w, x_0``, its domain D_c over (u, w)).
-        piece: a bounded polytope of inputs inside T_c.
-        pitch_index: the pitch coordinate's index in ``dv``.
-        solver: LP back-end.
-    """
-    c_u, _, c_0, depends = _pitch_row(mode, pitch_index)
-    if not depends:
-        result = solve_lp(-c_u, piece.A, piece.b, solver=solver, fallback=RETRY_ERRORS)
-        if not result.found or result.x is None:
-            return FlipPiece(mode.mode, piece, -math.inf, None, False)
-        return FlipPiece(mode.mode, piece, float(c_u @ result.x) + c_0, result.x.copy(), False)
-    reduced = poly.minimal_representation(piece, solver=solver)
-    best, best_u = -math.inf, None
-    for vertex in poly.vertices_from_halfspaces(reduced.A, reduced.b, max_candidates=MAX_VERTEX_CANDIDATES):
-        value = worst_case_pitch(mode, pitch_index, vertex, solver=solver)
-        if value > best:
-            best, best_u = value, vertex
-    return FlipPiece(mode.mode, piece, best, best_u, True)
-
-
-def _round_inputs(u: np.ndarray, lower: np.ndarray, upper: np.ndarray, quantum: float) -> np.ndarray:
-    """Round to multiples of ``quantum`` and keep within the limits.
-
-    A quantum of ``10^-k`` rounds to ``k`` decimals, giving the double nearest to the printed
-    decimal (``-1.3072``, not ``-1.3072000000000001``): what a user types back is what was checked.
-    """
-    if quantum <= 0:
-        rounded = u.copy()
-    else:
-        digits = -math.log10(quantum)
-        if abs(digits - round(digits)) < 1e-12 and digits >= 0:
-            rounded = np.array([round(float(x), int(round(digits))) for x in u])
-        else:
-            rounded = np.round(u / quantum) * quantum
-    rounded = np.minimum(np.maximum(rounded, lower), upper)
-    return rounded + 0.0  # no negative zeros
-
-
-FORCED_INPUT_TOLERANCE = 1e-9
-"""[-] Relative tolerance of the forced-input tests: a zero row or column of the dynamics, and an
-input direction ``e_i`` lying in the row space of a mode's consistency rows ``E`` (``1 - |E e_i|^2``
-at most this), with the same value in every feasible mode (to this times ``1 + |value|``)."""
-
-
-def structurally_forced(problem: ContactProblem) -> dict[int, float]:
-    """Inputs whose coordinate has no inertia, no bias and no active contact: forced to 0.
-
-    Row j of the dynamics reads ``M_j dv + h_j = u_j + J_N,j^T lam_N + J_T,j^T lam_T``; with
-    ``M_j = 0``, ``h_j = 0`` and zero contact columns, every solution has ``u_j = 0``.
-    """
-    M = problem.mass_matrix
-    tol = FORCED_INPUT_TOLERANCE
-    scale = max(1.0, float(np.max(np.abs(M), initial=0.0)))
-    jac = np.vstack([problem.jacobian_normal, problem.jacobian_tangent]).reshape(-1, problem.n)
-    forced = {}
-    for i in range(problem.m):
-        j = int(np.argmax(np.abs(problem.input_map[:, i])))
-        if (np.max(np.abs(M[j]), initial=0.0) <= tol * scale and abs(problem.bias[j]) <= tol * scale
-                and np.max(np.abs(jac[:, j]), initial=0.0) <= tol):
-            forced[i] = 0.0
-    return forced
-
-
-def _forced_by_every_mode(analysis: DynamicResponse) -> dict[int, float]:
-    """Inputs that every feasible mode's consistency rows ``E u = e`` fix, at one common value.
-
-    E.g. a massless leg whose toe is lifting off (``v_N > 0``: S only): its hip torque is 0 in
-    every mode. ``E`` has orthonormal rows, so ``e_i`` lies in its row space when
-    ``|E e_i| = 1``, and then ``u_i = (E e_i)^T e``.
-    """
-    modes = analysis.feasible_modes
-    if not modes or any(m.response.E.shape[0] == 0 for m in modes):
-        return {}
-    tol = FORCED_INPUT_TOLERANCE
-    forced = {}
-    for i in range(analysis.problem.m):
-        values = []
-        for mode in modes:
-            column = mode.response.E[:, i]
-            if 1.0 - float(column @ column) > tol:
-                break
-            values.append(float(column @ mode.response.e))
-        else:
-            if max(values) - min(values) <= tol * (1.0 + max(abs(v) for v in values)):
-                forced[i] = float(np.mean(values)) if abs(np.mean(values)) > tol else 0.0
-    return forced
-
-
-def _fix_inputs(problem: ContactProblem, fixed: Mapping[int, float]) -> ContactProblem:
-    """The problem with the inputs ``fixed`` (index -> value) moved into the bias: ``h - S_i^T u_i``."""
-    keep = [i for i in range(problem.m) if i not in fixed]
-    idx = list(fixed)
-    bias = problem.bias - problem.input_map[:, idx] @ np.array([fixed[i] for i in idx])
-    return replace(problem, inputs=tuple(problem.inputs[i] for i in keep), bias=bias,
-                   input_map=problem.input_map[:, keep], lower=problem.lower[keep],
-                   upper=problem.upper[keep])
-
-
-def _check_inputs(scene: Scene) -> None:
+def check_flip_inputs(scene: Scene) -> None:
+    """Raises InputError when the scene has no inputs, or an input's limits are infinite or empty."""
     inputs = scene.inputs
     if inputs.count == 0:
         raise InputError(f"scene {scene.name!r} ({scene.path}) has no inputs: the flip needs hip torques "
@@ -811,12 +314,12 @@ def build_flip(scene: Scene, *, velocity_tolerance: float = VELOCITY_TOLERANCE,
     Raises:
         SceneError: a bad ``[task]`` table. InputError: no inputs, or limits without interior.
     """
-    _check_inputs(scene)
+    check_flip_inputs(scene)
     task = flip_task(scene)
     full = problem if problem is not None else ContactProblem.from_scene(
         scene, velocity_tolerance=velocity_tolerance)
     forced = structurally_forced(full)
-    planned = _fix_inputs(full, forced) if forced else full
+    planned = fix_inputs(full, forced) if forced else full
     return FlipProblem(task, full, planned, forced,
                        tuple(c for c in planned.contacts if c in task.body_contacts))
 
@@ -827,12 +330,8 @@ def plan_flip(
     margin: float = DEFAULT_MARGIN,
     analysis: DynamicResponse | None = None,
     solver: str = DEFAULT_LP_SOLVER,
-    rounding: float = TORQUE_ROUNDING,
-    min_pitch_acceleration: float | None = 0.0,
-    velocity_tolerance: float = VELOCITY_TOLERANCE,
-    exhaustive: bool = False,
     problem: ContactProblem | None = None,
-    free: Mapping[str, str] | None = None,
+    settings: FlipSettings | None = None,
 ) -> FlipPlan:
     """The hip torques that maximise the body's pitch acceleration, unambiguously, at the state.
 
@@ -843,20 +342,11 @@ def plan_flip(
         margin: [N m] the distance kept from every input where another mode also holds, >= 0.
         analysis: the engine's analysis of this scene at this state (computed if None).
         solver: LP back-end.
-        rounding: [N m] the torques are rounded to multiples of this, >= 0.
-        min_pitch_acceleration: [rad/s^2] a plan must exceed this by more than
-            :data:`PITCH_TOLERANCE` (default 0: it must pitch the body up; a mode that holds the
-            body still, with a pitch acceleration of round-off size, does not); None accepts the
-            best plan whatever its sign (re-planning mid-flip).
-        velocity_tolerance: [m/s] contact velocities at most this count as zero (velocity pruning).
-        exhaustive: build the pieces of every candidate (default: only of the candidates whose
-            bound, the LP over their shrunk T_c, exceeds the best verified plan so far: the same
-            plan, found faster).
         problem: the contact problem to plan on (default: the scene's at its state, with
             ``velocity_tolerance``); ignored when ``analysis`` is given.
-        free: per contact name, the letters the plan also allows it (:func:`mode_allowed`,
-            ``"S"``: a toe may separate); the unambiguity constraint and the verification accept
-            those modes beside the planned one. Default: none (one rigid solution, planned).
+        settings: rounding, the least pitch acceleration, velocity pruning, exhaustive search and
+            free letters (:class:`~frcontrol.planning.flip_pitch.FlipSettings`; default: its
+            defaults).
 
     Returns:
         The plan; ``found=False`` with a ``reason`` when no candidate, piece or verified optimum
@@ -869,6 +359,8 @@ def plan_flip(
         ImpactState: a contact moves into its surface.
     """
     start = time.perf_counter()
+    settings = settings if settings is not None else FlipSettings()
+    rounding, velocity_tolerance = settings.rounding, settings.velocity_tolerance
     _check_plan_options(margin, rounding)
     timings = {"analysis": 0.0, "unambiguous_sets": 0.0, "lps": 0.0, "verification": 0.0}
     t0 = time.perf_counter()
@@ -890,16 +382,17 @@ def plan_flip(
 
     # Branch and bound over the candidates: the LP over the shrunk T_c bounds every piece of it.
     t0 = time.perf_counter()
-    bounds = _candidate_bounds(analysis, candidates, task.pitch_index, margin, solver)
+    bounds = candidate_bounds(analysis, candidates, task.pitch_index, margin, solver)
     timings["lps"] += time.perf_counter() - t0
     common["bounds"] = bounds
-    pieces, explored, rejected, chosen = _branch_and_bound(
-        analysis, problem, candidates, bounds, task.pitch_index, margin, rounding, exhaustive, solver,
-        timings, free)
+    search = PieceSearch(margin, rounding, settings.exhaustive, solver, settings.free)
+    pieces, explored, rejected, chosen = branch_and_bound(
+        analysis, problem, candidates, bounds, task.pitch_index, search, timings)
     pieces.sort(key=lambda p: -p.pitch_acceleration)
     common.update({"pieces": tuple(pieces), "explored": tuple(explored), "rejected": tuple(rejected)})
     timings["total"] = time.perf_counter() - start
-    return _chosen_plan(scene, chosen, problem.inputs, forced_values, min_pitch_acceleration, timings, common)
+    floor = settings.min_pitch_acceleration
+    return _chosen_plan(scene, chosen, problem.inputs, forced_values, floor, timings, common)
 
 
 def _plan_fields(task: FlipTask, problem: ContactProblem, forced_values: Mapping[str, float],
@@ -937,9 +430,9 @@ def _candidates(scene: Scene, task: FlipTask, full: ContactProblem, problem: Con
            if not full.lower[full.inputs.index(name)] <= value <= full.upper[full.inputs.index(name)]]
     if bad:
         return (f"the rigid model forces {', '.join(bad)} to a value outside its limits "
-                f"({_torque_text({n: forced_values[n] for n in bad})})")
+                f"({torque_text({n: forced_values[n] for n in bad})})")
     if problem.m == 0 or analysis is None:  # the analysis exists whenever an input is planned
-        return (f"every input is forced at this state ({_torque_text(dict(forced_values))}: e.g. "
+        return (f"every input is forced at this state ({torque_text(dict(forced_values))}: e.g. "
                 "massless legs without ground contact)")
     if not analysis.feasible_modes:
         raise InputError(f"no input within the torque limits gives a rigid-body solution of scene "
@@ -982,7 +475,7 @@ def _chosen_plan(scene: Scene, chosen: tuple[FlipPiece, np.ndarray, float] | Non
     if min_pitch_acceleration is not None and not (
             pitch > min_pitch_acceleration + PITCH_TOLERANCE * (1.0 + abs(pitch))):
         return replace(plan, found=False, reason=(
-            f"the best unambiguous torques ({_torque_text(torques)}, mode "
+            f"the best unambiguous torques ({torque_text(torques)}, mode "
             f"{scene_mode(piece.mode, common['contacts'], common['scene_contacts'])}) give a pitch "
             f"acceleration of {pitch:.6g} rad/s^2, not above {min_pitch_acceleration:g}: no torque "
             "within the limits starts the flip"))
@@ -1003,428 +496,11 @@ def _planning_analysis(built: FlipProblem, analysis: DynamicResponse | None, sol
     if planned.m and analysis is None:
         analysis = analyze(planned, solver=solver)
     if analysis is not None and not any(m.inputs_full_dimensional for m in analysis.feasible_modes):
-        more = _forced_by_every_mode(analysis)
+        more = forced_by_every_mode(analysis)
         if more:
             names_left = planned.inputs
             forced.update({full.inputs.index(names_left[i]): value for i, value in more.items()})
-            planned = _fix_inputs(full, forced)
+            planned = fix_inputs(full, forced)
             analysis = analyze(planned, solver=solver) if planned.m else None
     return full, planned, forced, analysis
 
-
-def _candidate_bounds(analysis: DynamicResponse, candidates: Sequence[str], pitch_index: int, margin: float,
-                      solver: str) -> dict[str, float]:
-    """Per candidate mode, an upper bound of its pitch acceleration over its shrunk T_c (one LP).
-
-    ``inf`` when the pitch row depends on w (no cheap bound), ``-inf`` when the shrunk T_c is empty.
-    """
-    bounds: dict[str, float] = {}
-    for name in candidates:
-        c_u, _, c_0, depends = _pitch_row(analysis.mode(name), pitch_index)
-        if depends:
-            bounds[name] = math.inf
-            continue
-        A, b = shrunk_input_domain(analysis, name, margin)
-        result = solve_lp(-c_u, A, b, solver=solver, fallback=RETRY_ERRORS)
-        bounds[name] = float(c_u @ result.x) + c_0 if result.x is not None else -math.inf
-    return bounds
-
-
-def _branch_and_bound(analysis: DynamicResponse, problem: ContactProblem, candidates: Sequence[str],
-                      bounds: Mapping[str, float], pitch_index: int, margin: float, rounding: float,
-                      exhaustive: bool, solver: str, timings: dict[str, float],
-                      free: Mapping[str, str] | None = None
-                      ) -> tuple[list[FlipPiece], list[str], list[tuple[str, str]],
-                                 tuple[FlipPiece, np.ndarray, float] | None]:
-    """The best verified piece, exploring candidates by decreasing bound.
-
-    Returns:
-        (every piece found, the modes explored, the rejected optima with why, the chosen
-        (piece, rounded inputs, pitch acceleration) or None).
-    """
-    pieces: list[FlipPiece] = []
-    explored: list[str] = []
-    rejected: list[tuple[str, str]] = []
-    chosen: tuple[FlipPiece, np.ndarray, float] | None = None
-    for name in sorted(candidates, key=lambda c: -bounds[c]):
-        if bounds[name] == -math.inf:
-            break
-        if chosen is not None and not exhaustive and bounds[name] <= chosen[0].pitch_acceleration:
-            break
-        explored.append(name)
-        t0 = time.perf_counter()
-        regions = margin_pieces(analysis, name, margin, solver=solver, free=free)
-        t1 = time.perf_counter()
-        found = sorted((maximise_pitch(analysis.mode(name), piece, pitch_index, solver)
-                        for piece in regions), key=lambda p: -p.pitch_acceleration)
-        t2 = time.perf_counter()
-        timings["unambiguous_sets"] += t1 - t0
-        timings["lps"] += t2 - t1
-        pieces += found
-        for piece in found:
-            if chosen is not None and piece.pitch_acceleration <= chosen[0].pitch_acceleration:
-                break
-            if piece.optimum is None:
-                rejected.append((piece.mode, "the LP found no optimum"))
-                continue
-            u = _round_inputs(piece.optimum, problem.lower, problem.upper, rounding)
-            verdict, pitch = _verify(analysis, piece, u, pitch_index, solver, free)
-            if verdict is None:
-                chosen = (piece, u, pitch)
-                break
-            rejected.append((piece.mode, verdict))
-        timings["verification"] += time.perf_counter() - t2
-    return pieces, explored, rejected, chosen
-
-
-def _torque_text(torques: Mapping[str, float]) -> str:
-    return ", ".join(f"{name} = {value:.4f} N m" for name, value in torques.items())
-
-
-def _verify(analysis: DynamicResponse, piece: FlipPiece, u: np.ndarray, pitch_index: int,
-            solver: str, free: Mapping[str, str] | None = None) -> tuple[str | None, float]:
-    """``(None, pitch)`` if the rigid solutions at u are as the plan allows, else why.
-
-    That is: one solution in the piece's mode and the others only in modes ``free`` allows
-    (:func:`mode_allowed`; without ``free``: exactly one solution).
-    """
-    mode = analysis.mode(piece.mode)
-    pitch = worst_case_pitch(mode, pitch_index, u, solver=solver)
-    solutions = solutions_at(analysis, u, solver=solver)
-    modes = [s.mode for s in solutions]
-    contacts = analysis.problem.contacts
-    if modes.count(piece.mode) != 1 or not all(mode_allowed(m, piece.mode, contacts, free) for m in modes):
-        return f"solutions at the rounded torques: {', '.join(modes) or 'none'}", pitch
-    found = float(solutions[modes.index(piece.mode)].dv[pitch_index])
-    if piece.worst_case:
-        if found < pitch - PITCH_TOLERANCE * (1.0 + abs(pitch)):
-            return f"the solution's pitch {found:.9g} is below the worst case {pitch:.9g}", pitch
-    elif abs(found - pitch) > PITCH_TOLERANCE * (1.0 + abs(pitch)):
-        return f"the solution's pitch {found:.12g} differs from the plan's {pitch:.12g}", pitch
-    return None, pitch
-
-
-# ---------------------------------------------------------------------------------------------
-# the closed loop
-
-
-def _weight(scene: Scene) -> float:
-    """The robot's weight [N] (1 N without gravity): the scale of contact-force thresholds."""
-    return scene.robot.weight_scale()
-
-
-def _armature(scene: Scene, armature: float | None) -> float:
-    if armature is not None:
-        return float(armature)
-    if scene.model.armature_given:
-        return scene.model.armature
-    return FLIP_ARMATURE
-
-
-def simulate_flip(
-    scene: Scene,
-    *,
-    dt: float = 1e-3,
-    max_time: float = 2.0,
-    replan_every: int = 10,
-    margin: float = DEFAULT_MARGIN,
-    armature: float | None = None,
-    solver: str = DEFAULT_LP_SOLVER,
-    plan: FlipPlan | None = None,
-    progress: Callable[[float, float], None] | None = None,
-) -> FlipResult:
-    """Plan, then re-plan along a rigid simulation until the body pitches past vertical.
-
-    The loop, the re-planning model, the legs in the air and "body contact kept" are defined in
-    the module's docstring (**Closed loop**); it runs on
-    :func:`~frcontrol.simulation.closed_loop.run_closed_loop` (the massless hips get the rotor
-    inertia ``armature``) until the pitch passes ``FlipTask.vertical`` or ``max_time``.
-
-    Args:
-        scene: the scene (RHex on its back).
-        dt: [s] the time step.
-        max_time: [s] the longest simulated time.
-        replan_every: steps between plans, >= 1.
-        margin: [N m] the plans' margin.
-        armature: [kg m^2] rotor inertia of the massless hips (default: the scene's ``[model]``
-            armature, else :data:`FLIP_ARMATURE`).
-        solver: LP back-end of the plans.
-        plan: the first plan, if already made at the scene's state.
-        progress: called with (simulated time, max_time) every ``replan_every`` steps.
-
-    Returns:
-        The result; with no first plan, ``trajectory=None`` and ``flipped=False`` with the reason.
-
-    Raises:
-        InputError: a bad step, time, count or armature; see :func:`plan_flip`.
-    """
-    start = time.perf_counter()
-    max_time, dt, arm = _loop_options(scene, dt, max_time, replan_every, armature)
-    task = flip_task(scene)
-    t0 = time.perf_counter()
-    first = plan if plan is not None else plan_flip(scene, margin=margin, solver=solver)
-    timings = {"first_plan": time.perf_counter() - t0, "simulation": 0.0, "replanning": 0.0}
-    common = {"vertical": task.vertical, "dt": dt, "max_time": max_time, "armature": arm}
-    if not first.found:
-        timings["total"] = time.perf_counter() - start
-        return FlipResult(plan=first, trajectory=None, flipped=False, time_to_vertical=None,
-                          body_contact_kept=None, separation=None, body_events=(), steps=0, replans=0,
-                          held=(), plans=(), modes=(), reason=first.reason, timings=timings, **common)
-
-    policy = _Replanner(scene, first, margin, solver)
-    run = _closed_loop(scene, policy, task, dt=dt, max_time=max_time, replan_every=replan_every,
-                       armature=arm, progress=progress)
-    timings["simulation"] += run.timings["simulation"]
-    timings["replanning"] += run.timings["policy"]
-    trajectory = replace(run.trajectory, info={**run.trajectory.info, "source": "simulate_flip",
-                                               "steps": len(run.trajectory.times) - 1})
-    separation, body_events = _body_contacts(scene, trajectory, task.body_contacts, len(trajectory.times) - 1)
-    modes = sample_modes(scene, trajectory)
-    trajectory = replace(trajectory, modes=tuple(modes))
-    timings["total"] = time.perf_counter() - start
-    return FlipResult(
-        plan=first, trajectory=trajectory, flipped=run.stopped,
-        time_to_vertical=_time_to_vertical(trajectory, task) if run.stopped else None,
-        body_contact_kept=separation is None, separation=separation, body_events=body_events,
-        steps=len(trajectory.times) - 1, replans=run.decisions, held=tuple(policy.held),
-        plans=tuple(policy.plans), modes=modes,
-        reason=_not_flipped_reason(trajectory, task, run.stopped, max_time), timings=timings, **common,
-    )
-
-
-def _loop_options(scene: Scene, dt: float, max_time: float, replan_every: int, armature: float | None
-                  ) -> tuple[float, float, float]:
-    """``(max_time, dt, armature)`` of the closed loop, checked before any plan is made.
-
-    Raises:
-        InputError: a bad step, time, count or armature.
-    """
-    from ..simulation.inputs import check_simulation_times
-
-    max_time, dt = check_simulation_times(max_time, dt)
-    if isinstance(replan_every, bool) or not isinstance(replan_every, int) or replan_every < 1:
-        raise InputError(f"replan_every must be an integer >= 1 (steps), got {replan_every!r}")
-    arm = _armature(scene, armature)
-    if not (math.isfinite(arm) and arm > 0):
-        raise InputError(f"the armature must be a positive rotor inertia [kg m^2], got {arm!r}")
-    return max_time, dt, arm
-
-
-def _not_flipped_reason(trajectory: Trajectory, task: FlipTask, crossed: bool, max_time: float) -> str | None:
-    """Why the run did not pass vertical (None when it did)."""
-    failure = trajectory.failure
-    if crossed:
-        return None
-    if failure is not None:
-        return f"the simulation {trajectory.status} at t = {failure.time:.4g} s: {failure.reason}"
-    return (f"the pitch reached {float(np.max(trajectory.q[:, task.pitch_index])):.4f} rad within "
-            f"{max_time:g} s, short of vertical ({task.vertical:.4f} rad)")
-
-
-def _time_to_vertical(trajectory: Trajectory, task: FlipTask) -> float:
-    """[s] When the pitch crossed vertical, linear between the last two samples.
-
-    The run stops at the first sample at or past vertical.
-    """
-    pitch = trajectory.q[:, task.pitch_index]
-    end = len(pitch) - 1
-    if end == 0:
-        return 0.0
-    t_a, t_b = trajectory.times[end - 1], trajectory.times[end]
-    p_a, p_b = pitch[end - 1], pitch[end]
-    return float(t_a + (task.vertical - p_a) / (p_b - p_a) * (t_b - t_a))
-
-
-class AppliedPlan(Protocol):
-    """What a closed loop reads of a plan: its mode, torques and input vector."""
-
-    @property
-    def mode(self) -> str | None:
-        """The plan's contact mode, or None."""
-
-    @property
-    def torques(self) -> Mapping[str, float]:
-        """The plan's input per input coordinate."""
-
-    def input_vector(self, inputs: Sequence[str]) -> np.ndarray:
-        """The plan's inputs in the order of ``inputs``."""
-
-
-class ReplanningPolicy:
-    """A closed loop's plan record: the last command, every plan applied and every hold.
-
-    Subclasses make a plan at the stepper's state in ``__call__`` and :meth:`record` it. It keeps
-    every plan applied ``(time, mode or None, torques)`` and every hold ``(time, why)``; the
-    stepper runs on ``self.scene``, the scene at :data:`REPLAN_GAP_TOLERANCE`.
-    """
-
-    def __init__(self, scene: Scene, first: AppliedPlan, margin: float, solver: str) -> None:
-        self.names = scene.inputs.coordinates
-        self.scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
-        self.force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
-        self.margin, self.solver = margin, solver
-        self.command = first.input_vector(self.names)
-        self.plans: list[tuple[float, str | None, Mapping[str, float]]] = [
-            (0.0, first.mode, dict(first.torques))]
-        self.held: list[tuple[float, str]] = []
-
-    def loaded(self, stepper: RigidStepper) -> np.ndarray:
-        """Which contacts the stepper's last step loaded (normal force above the tolerance)."""
-        return stepper.last_forces[:, 0] > self.force_tolerance
-
-    def record(self, t: float, mode: str | None, why: str | None) -> np.ndarray:
-        """Note the command applied from ``t`` (a hold when ``why`` says why); return it."""
-        if why is not None:
-            self.held.append((t, why))
-        self.plans.append((t, mode, dict(zip(self.names, self.command.tolist(), strict=True))))
-        return self.command
-
-
-class _Replanner(ReplanningPolicy):
-    """The flip's policy: a plan at the state reached; the torques held when none can be made."""
-
-    def __call__(self, stepper: RigidStepper) -> np.ndarray:
-        """The command from the stepper's state on (a contact the last step loaded is planned with)."""
-        self.command, mode, why = _replanned(self.scene, stepper, self.loaded(stepper), self.margin,
-                                             self.solver, self.command, self.names)
-        return self.record(stepper.t, mode, why)
-
-
-def _closed_loop(scene: Scene, policy: _Replanner, task: FlipTask, *, dt: float, max_time: float,
-                 replan_every: int, armature: float, progress: Callable[[float, float], None] | None
-                 ) -> ClosedLoopRun:
-    """One rigid stepper re-planned every ``replan_every`` steps, until vertical or ``max_time``.
-
-    The stepper runs on the re-planning model's scene (its gap tolerance); a massless leg in the
-    air gets no torque (:func:`_free_legs_idle`).
-    """
-    legs = massless_inputs(scene)
-    stepper = RigidStepper(policy.scene, RigidSettings(max_ambiguity_checks=0, impact_law=False),
-                           armature=armature)
-    return run_closed_loop(
-        stepper, policy, max_time, dt, options=LoopOptions(
-            every=replan_every, command=policy.command,
-            actuate=lambda command, at: _free_legs_idle(scene, legs, command, at.q, at.state.contact_points),
-            stop=lambda at: bool(at.q[task.pitch_index] >= task.vertical)), progress=progress)
-
-
-def _replanned(replan_scene: Scene, stepper: RigidStepper, loaded: np.ndarray, margin: float, solver: str,
-               command: np.ndarray, names: Sequence[str]) -> tuple[np.ndarray, str | None, str | None]:
-    """A re-plan at the stepper's state.
-
-    Returns:
-        (the command to apply, the plan's mode or None, why the torques are held or None).
-    """
-    result = _replan(replan_scene, stepper.q, stepper.v, loaded, margin, solver)
-    if isinstance(result, str):
-        return command, None, f"{result}: torques held"
-    if result.found:
-        return result.input_vector(names), result.mode, None
-    held = command.copy()
-    for name, value in result.forced_inputs.items():
-        held[list(names).index(name)] = value
-    return held, None, f"no plan ({result.reason}): torques held"
-
-
-def _free_legs_idle(scene: Scene, legs: dict[int, list[int]], command: np.ndarray,
-                    q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
-    """The command with 0 on every massless leg in the air.
-
-    A leg is in the air when none of its contacts is within :data:`SEPARATION_GAP` of its
-    surface: the rigid model forces its torque to 0. ``points``: the contact points at ``q``
-    when known (a stepper's state holds them), else computed.
-    """
-    if not legs:
-        return command
-    gaps = _gaps(scene, q, points).tolist()  # Python numbers: a few tests per leg, every step
-    free = [i for i, toes in legs.items() if not any(gaps[j] <= SEPARATION_GAP for j in toes)]
-    if not free:
-        return command
-    out = command.copy()
-    out[free] = 0.0
-    return out
-
-
-def massless_inputs(scene: Scene) -> dict[int, list[int]]:
-    """Inputs on massless coordinates (zero row of M at the scene's state) -> the contacts they move.
-
-    Such an input is free (its torque cannot act on the body) whenever none of its contacts touches.
-    """
-    state = scene.robot.state(scene.q, scene.v)
-    M = state.mass_matrix
-    scale = max(1.0, float(np.max(np.abs(M))))
-    jac = np.vstack([state.jacobian_normal, state.jacobian_tangent])
-    k = len(scene.contacts)
-    legs = {}
-    for i, j in enumerate(scene.inputs.indices):
-        if np.max(np.abs(M[j])) <= FORCED_INPUT_TOLERANCE * scale:
-            rows = np.nonzero(np.abs(jac[:, j]) > FORCED_INPUT_TOLERANCE)[0]
-            legs[i] = sorted({int(r % k) for r in rows})
-    return legs
-
-
-def _gaps(scene: Scene, q: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
-    """Every contact's gap [m] at q (``points``: the contact points at q, when already known)."""
-    if points is None:
-        points = scene.robot.contact_points_in_world(q)
-    normals = np.array([c.point.normal_in_world for c in scene.contacts]).reshape(-1, 2)
-    offset = points - np.array([c.point.surface_point_in_world for c in scene.contacts]).reshape(-1, 2)
-    return normals[:, 0] * offset[:, 0] + normals[:, 1] * offset[:, 1]  # n . (p - s), as n @ (p - s) sums it
-
-
-def _replan(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarray, margin: float,
-            solver: str, free: Mapping[str, str] | None = None) -> FlipPlan | str:
-    """The plan at the simulated state, or why none could be made (an impact, an error).
-
-    The contacts planned with are those within :data:`REPLAN_GAP_TOLERANCE` of their surface and
-    those the last step loaded (``loaded``, one flag per scene contact). A loaded contact's normal
-    velocity is taken as 0, as the simulator's own ambiguity check does: the velocity-level
-    stepper holds ``J_N v+ = -phi / dt`` with the Jacobian of the step's start, so a loaded
-    contact on a turning leg ends a step with a normal velocity of order ``dt`` times its
-    centripetal acceleration (mm/s here), and a penetration is removed with ``-phi / dt``: both
-    would make a pushing toe look separating to the acceleration-level model.
-    """
-    from ..scene import Contact
-
-    here = scene.at(q, v)
-    contacts = tuple(Contact(c.point, c.gap, bool(c.active or loaded[i]))
-                     for i, c in enumerate(here.contacts))
-    here = replace(here, contacts=contacts)
-    try:
-        problem = ContactProblem.from_scene(here, velocity_tolerance=REPLAN_VELOCITY_TOLERANCE)
-        held_down = np.array([bool(loaded[i]) for i, c in enumerate(contacts) if c.active], dtype=bool)
-        if held_down.size:
-            problem = replace(problem, normal_velocities=np.where(held_down, 0.0, problem.normal_velocities))
-        return plan_flip(here, margin=margin, solver=solver, min_pitch_acceleration=None, problem=problem,
-                         free=free)
-    except ImpactState as err:
-        return f"impact at {err.contact} (v_N = {err.normal_velocity:.3g} m/s)"
-    except FrcontrolError as err:
-        return f"no plan ({err})"
-
-
-def _body_contacts(
-    scene: Scene, trajectory: Any, body: Sequence[str], end: int
-) -> tuple[tuple[float, str] | None, tuple[tuple[float, str, str], ...]]:
-    """The first separation of a body contact touching at the start, and every body contact event.
-
-    Up to sample ``end``; the events are ``(time, contact, "touchdown" | "separation")``.
-    """
-    contacts = [c.name for c in scene.contacts]
-    idx = [contacts.index(name) for name in body]
-    points = trajectory.contact_points[: end + 1, idx]
-    normals = np.array([scene.contacts[i].point.normal_in_world for i in idx]).reshape(-1, 2)
-    surfaces = np.array([scene.contacts[i].point.surface_point_in_world for i in idx]).reshape(-1, 2)
-    touching = np.einsum("kj,tkj->tk", normals, points - surfaces[None]) <= SEPARATION_GAP
-    events = []
-    for s in range(1, touching.shape[0]):
-        for j in np.nonzero(touching[s] != touching[s - 1])[0]:
-            kind = "touchdown" if touching[s, j] else "separation"
-            events.append((float(trajectory.times[s]), body[int(j)], kind))
-    first = None
-    lost = np.nonzero(touching[0] & ~np.all(touching, axis=0))[0]
-    if lost.size:
-        when = [int(np.argmax(~touching[:, j])) for j in lost]
-        earliest = int(np.argmin(when))
-        first = (float(trajectory.times[when[earliest]]), body[int(lost[earliest])])
-    return first, tuple(events)

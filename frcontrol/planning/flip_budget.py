@@ -47,10 +47,10 @@ from ..jsonable import to_jsonable
 from ..model import ContactPoint
 from ..scene import Scene
 from ..simulation.trajectory import Trajectory
-from .flip import FORCED_INPUT_TOLERANCE, flip_task
+from .flip import flip_task
+from .pump_timing import leg_contacts
 
-__all__ = ["NORMAL_TOLERANCE", "PITCH_STEP", "FlipBudget", "body_energy", "energy_shortfall", "flip_budget",
-           "leg_contacts"]
+__all__ = ["NORMAL_TOLERANCE", "PITCH_STEP", "FlipBudget", "body_energy", "energy_shortfall", "flip_budget"]
 
 PITCH_STEP = 2e-3
 """[rad] The pitch sweep's step. The barrier, a smooth maximum, is then found to about
@@ -165,21 +165,6 @@ def _leg_lengths(scene: Scene, hips: Mapping[str, str]) -> np.ndarray:
     poses, points = scene.robot.link_poses(q), scene.robot.contact_points_in_world(q)
     return np.array([float(np.linalg.norm(points[i] - poses[hips[c.point.link]][0]))
                      for i, c in enumerate(scene.contacts)])
-
-
-def leg_contacts(scene: Scene, body: Sequence[str]) -> dict[int, list[int]]:
-    """Input -> the contacts (not the body's) its coordinate moves, from the contact Jacobians."""
-    state = scene.robot.state(scene.q, scene.v)
-    jac = np.vstack([state.jacobian_normal, state.jacobian_tangent])
-    k = len(scene.contacts)
-    body_index = {i for i, c in enumerate(scene.contacts) if c.name in body}
-    legs = {}
-    for i, j in enumerate(scene.inputs.indices):
-        rows = np.nonzero(np.abs(jac[:, j]) > FORCED_INPUT_TOLERANCE)[0]
-        toes = sorted({int(r % k) for r in rows} - body_index)
-        if toes:
-            legs[i] = toes
-    return legs
 
 
 def _driven_toes(scene: Scene, body: Sequence[str]) -> dict[str, list[int]]:

@@ -33,7 +33,8 @@ from ..errors import InputError
 from ..geometry import row_norms
 from ..modes import mode_heading, scene_mode
 from ..planning.climb import ClimbPlan, robust_region
-from ..planning.flip import FlipPlan, FlipResult
+from ..planning.flip import FlipPlan
+from ..planning.flip_loop import FlipResult
 from ..polytope import Polytope
 from ..scene import Scene
 from ..statics import StaticsReport

@@ -2,7 +2,7 @@ r"""One decision: the inputs, in an allowed mode's unambiguous set, that best se
 
 At a state the engine gives every contact mode c its affine response ``dv = X_u u + x_0`` and its
 input domain T_c (METHOD §3). A phase allows some letters per contact; the candidate modes are the
-feasible modes made of allowed letters only. For each, :func:`frcontrol.planning.flip.margin_pieces`
+feasible modes made of allowed letters only. For each, :func:`~.pieces.margin_pieces`
 builds the inputs at least ``margin`` from every input where another mode also holds (a union of
 convex pieces), and one LP (maximize, minimize) or QP (track) per piece optimises the objective
 (:mod:`~frcontrol.planning.core.objective`)::
@@ -25,7 +25,7 @@ by convexity puts ``{u} x conv(V)`` in it, and the objective is the worst case o
 QP minimises the mean squared error over V, and the decision reports the worst).
 
 **Rounding and verification.** The optima, best first, are rounded to
-:data:`~frcontrol.planning.flip.TORQUE_ROUNDING` (within the limits) and checked with
+:data:`~.tolerances.TORQUE_ROUNDING` (within the limits) and checked with
 :func:`frcontrol.engine.solutions_at` at the rounded inputs (at every v of V when robust): exactly
 one rigid solution, in the planned mode. The first that passes is the plan. A mode whose objective
 quantities depend on its ambiguity variables w is no candidate (the motion is not determined).
@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -54,10 +55,11 @@ from ...response import OUTPUT_TOLERANCE
 from ...scene import Scene
 from ...solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, RETRY_ERRORS, solve_lp, solve_qp
 from ..climb import load_disturbances
-from ..flip import TORQUE_ROUNDING, margin_pieces
 from .forced import planning_problem
 from .objective import ObjectiveRows, objective_rows
+from .pieces import margin_pieces, mode_allowed
 from .task import LETTERS, Phase
+from .tolerances import TORQUE_ROUNDING
 
 __all__ = [
     "CLOSEST_MARGIN_HALVINGS",
@@ -202,7 +204,12 @@ def lifted_problem(
 
 
 def decide(
-    scene: Scene, phase: Phase, *, problem: ContactProblem | None = None, solver: str = DEFAULT_LP_SOLVER
+    scene: Scene,
+    phase: Phase,
+    *,
+    problem: ContactProblem | None = None,
+    solver: str = DEFAULT_LP_SOLVER,
+    free: Mapping[str, str] | None = None,
 ) -> Decision:
     """The phase's plan at the scene's state (see the module's docstring).
 
@@ -211,6 +218,9 @@ def decide(
         phase: the phase (its allowed modes, margin, robustness and objective).
         problem: the contact problem to plan on (default: the scene's at its state).
         solver: LP back-end.
+        free: per contact, letters another rigid solution at the plan's inputs may have beside the
+            planned mode's (:func:`~.pieces.mode_allowed`; a phase timing's, such as the pump's push:
+            the toes may separate or slip). Default: none, exactly one rigid solution.
 
     Raises:
         ImpactState: a contact moves into its surface (the acceleration-level model does not apply).
@@ -242,14 +252,14 @@ def decide(
     tried: list[tuple[str, str]] = []
     optima: list[tuple[float, str, np.ndarray]] = []
     for mode in allowed:
-        found = _mode_optima(analysis, mode, phase.margin, rows, points, m_u, solver)
+        found = _mode_optima(analysis, mode, phase.margin, rows, points, m_u, solver, free)
         if isinstance(found, str):
             tried.append((mode, found))
         else:
             optima += [(cost, mode, u) for cost, u in found]
     optima.sort(key=lambda item: item[0])
     for _, mode, u in optima:
-        checked = verify_plan(analysis, mode, u, points, rows, problem)
+        checked = verify_plan(analysis, mode, u, points, rows, problem, free)
         if isinstance(checked, str):
             tried.append((mode, checked))
             continue
@@ -367,6 +377,7 @@ def _mode_optima(
     points: np.ndarray,
     m_u: int,
     solver: str,
+    free: Mapping[str, str] | None = None,
 ) -> list[tuple[float, np.ndarray]] | str:
     """``(cost, u)`` of every piece's optimum of ``mode`` (cost: lower is better), or why none."""
     chosen = analysis.mode(mode)
@@ -377,7 +388,7 @@ def _mode_optima(
         coupling = rows.rows @ response.X_w[:n]
         if np.max(np.abs(coupling)) > OUTPUT_TOLERANCE * max(float(np.max(np.abs(response.X_w))), 1e-300):
             return "the objective depends on the mode's ambiguity variables w"
-    pieces = margin_pieces(analysis, mode, margin, solver=solver)
+    pieces = margin_pieces(analysis, mode, margin, solver=solver, free=free)
     if not pieces:
         return f"no unambiguous input {margin:g} away from every other mode"
     gain = rows.rows @ response.X_u[:n]
@@ -454,17 +465,26 @@ def verify_plan(
     points: np.ndarray,
     rows: ObjectiveRows,
     problem: ContactProblem,
+    free: Mapping[str, str] | None = None,
 ) -> tuple[np.ndarray, float] | str:
-    """``(rounded u, objective)`` when ``solutions_at`` gives only ``mode`` at every point, else why not."""
+    """``(rounded u, objective)`` when ``solutions_at`` gives only ``mode`` at every point, else why not.
+
+    With ``free``, other solutions are accepted when :func:`~.pieces.mode_allowed` allows them
+    (``mode`` must be among them; the objective is its solution's).
+    """
     m_u = len(u)
     rounded = _round(u, problem.lower[:m_u], problem.upper[:m_u])
     values = []
     for v in points:
         solutions = solutions_at(analysis, np.concatenate([rounded, v]))
-        if [s.mode for s in solutions] != [mode]:
-            found = ", ".join(s.mode for s in solutions) or "none"
+        modes = [s.mode for s in solutions]
+        allowed = free is not None and mode in modes and all(
+            mode_allowed(m, mode, problem.contacts, free) for m in modes
+        )
+        if modes != [mode] and not allowed:
+            found = ", ".join(modes) or "none"
             return f"at the rounded inputs the rigid solutions are {found}, not only {mode}"
-        values.append(rows.value(solutions[0].dv))
+        values.append(rows.value(solutions[modes.index(mode)].dv))
     worst = max(values) if rows.kind in ("track", "minimize") else min(values)
     if rows.at_least is not None and not worst >= rows.at_least:
         return f"at the rounded inputs the objective {worst:.6g} is below at_least = {rows.at_least:g}"

@@ -8,11 +8,11 @@ that value (:func:`forced_by_every_mode`). Every mode's input domain is then fla
 be planned, so such inputs are fixed at their forced value (moved into the bias, ``h - S_j^T u_j``,
 :func:`fix_inputs`) and the decision plans the others (:func:`planning_problem`). The rule is the
 flip's (:mod:`frcontrol.planning.flip`), with the same tolerance
-(:data:`~frcontrol.planning.flip.FORCED_INPUT_TOLERANCE`).
+(:data:`~.tolerances.FORCED_INPUT_TOLERANCE`).
 
 **Massless inputs in the air.** Between plans the loop gives 0 to every input on a massless
 coordinate (a zero row of the mass matrix at the start) none of whose contacts is within
-:data:`~frcontrol.planning.flip.SEPARATION_GAP` of its surface (:func:`idle_in_the_air`): the rigid
+:data:`~.tolerances.SEPARATION_GAP` of its surface (:func:`idle_in_the_air`): the rigid
 model forces its torque to 0, and a held torque would spin the leg on its rotor inertia alone.
 """
 
@@ -25,7 +25,8 @@ import numpy as np
 
 from ...engine import DynamicResponse, analyze
 from ...modes import ContactProblem
-from ..flip import FORCED_INPUT_TOLERANCE, SEPARATION_GAP, massless_inputs, structurally_forced
+from ...scene import Scene
+from .tolerances import FORCED_INPUT_TOLERANCE, SEPARATION_GAP
 
 __all__ = [
     "fix_inputs",
@@ -35,6 +36,43 @@ __all__ = [
     "planning_problem",
     "structurally_forced",
 ]
+
+
+def structurally_forced(problem: ContactProblem) -> dict[int, float]:
+    """Inputs whose coordinate has no inertia, no bias and no active contact: forced to 0.
+
+    Row j of the dynamics reads ``M_j dv + h_j = u_j + J_N,j^T lam_N + J_T,j^T lam_T``; with
+    ``M_j = 0``, ``h_j = 0`` and zero contact columns, every solution has ``u_j = 0``.
+    """
+    M = problem.mass_matrix
+    tol = FORCED_INPUT_TOLERANCE
+    scale = max(1.0, float(np.max(np.abs(M), initial=0.0)))
+    jac = np.vstack([problem.jacobian_normal, problem.jacobian_tangent]).reshape(-1, problem.n)
+    forced = {}
+    for i in range(problem.m):
+        j = int(np.argmax(np.abs(problem.input_map[:, i])))
+        if (np.max(np.abs(M[j]), initial=0.0) <= tol * scale and abs(problem.bias[j]) <= tol * scale
+                and np.max(np.abs(jac[:, j]), initial=0.0) <= tol):
+            forced[i] = 0.0
+    return forced
+
+
+def massless_inputs(scene: Scene) -> dict[int, list[int]]:
+    """Inputs on massless coordinates (zero row of M at the scene's state) -> the contacts they move.
+
+    Such an input is free (its torque cannot act on the body) whenever none of its contacts touches.
+    """
+    state = scene.robot.state(scene.q, scene.v)
+    M = state.mass_matrix
+    scale = max(1.0, float(np.max(np.abs(M))))
+    jac = np.vstack([state.jacobian_normal, state.jacobian_tangent])
+    k = len(scene.contacts)
+    legs = {}
+    for i, j in enumerate(scene.inputs.indices):
+        if np.max(np.abs(M[j])) <= FORCED_INPUT_TOLERANCE * scale:
+            rows = np.nonzero(np.abs(jac[:, j]) > FORCED_INPUT_TOLERANCE)[0]
+            legs[i] = sorted({int(r % k) for r in rows})
+    return legs
 
 
 def forced_by_every_mode(analysis: DynamicResponse) -> dict[int, float]:

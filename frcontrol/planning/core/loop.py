@@ -10,16 +10,23 @@ ends there and the next one is planned before the next step. The run ends when t
 (``max_time`` 0: the first plan only, and a run of one sample).
 
 *Re-planning model* (the flip's and the stand-up's): the scene at the state reached, with the
-contacts within :data:`~frcontrol.planning.flip.REPLAN_GAP_TOLERANCE` of their surface or loaded by
+contacts within :data:`~.tolerances.REPLAN_GAP_TOLERANCE` of their surface or loaded by
 the last step active, a loaded contact's normal velocity taken as 0, and velocities of at most
-:data:`~frcontrol.planning.flip.REPLAN_VELOCITY_TOLERANCE` taken as zero. When no plan is made (no
+:data:`~.tolerances.REPLAN_VELOCITY_TOLERANCE` taken as zero. When no plan is made (no
 allowed mode can be made unambiguous, or an impact) the inputs are held (the inputs the rigid model
 forces at the state set to their forced value) and the decision, with its reason, is kept in the
 phase's record. Between plans, every input on a massless coordinate whose contacts are all off
 their surface gets 0 (:func:`~.forced.idle_in_the_air`).
 
+*A phase timing* (:class:`PhaseTiming`, named by ``[task] timing``, :mod:`.timing`) plugs into the
+loop where a task needs more than ``until`` in order: it ends phases (a :class:`Switch` to a phase
+by name, or the end of the run), drives the phases it owns (their inputs, instead of a plan), may
+overrule a plan, and gives the letters a plan's other rigid solutions may have (``free``) and the
+stepper's settings. With a timing, the timing alone ends phases; the phases' ``until`` are data it
+reads.
+
 *Contacts in ``until``*: a contact is *closed* at a sample when its gap is at most
-:data:`~frcontrol.planning.flip.SEPARATION_GAP`, else *open*.
+:data:`~.tolerances.SEPARATION_GAP`, else *open*.
 """
 
 from __future__ import annotations
@@ -35,13 +42,14 @@ from ...scene import Contact, Scene
 from ...simulation.closed_loop import ClosedLoopRun, LoopOptions, run_closed_loop
 from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ...solvers import DEFAULT_LP_SOLVER
-from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
 from .decision import Decision, decide
 from .forced import idle_in_the_air, massless_inputs
 from .scale import ScaleResult, largest_scale
 from .task import Phase, Task, Until
+from .timing import PhaseTiming, Switch, load_timing
+from .tolerances import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
 
-__all__ = ["PhaseRecord", "TaskRun", "contact_gaps", "run_task", "until_met"]
+__all__ = ["PhaseRecord", "TaskRun", "contact_gaps", "replanning_model", "run_task", "until_met"]
 
 
 @dataclass
@@ -65,6 +73,32 @@ class PhaseRecord:
     decisions: list[tuple[float, Decision]] = field(default_factory=list)
     met: bool = False
     largest_scale: ScaleResult | None = None
+
+
+def replanning_model(
+    scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarray
+) -> tuple[Scene, ContactProblem]:
+    """The scene at ``(q, v)`` and its contact problem as a closed loop re-plans on it.
+
+    The contacts within the scene's gap tolerance or loaded by the last step (``loaded``, one flag
+    per scene contact) are active; a loaded contact's normal velocity is taken as 0 (the
+    velocity-level stepper leaves a loaded contact on a turning leg with a normal velocity of order
+    ``dt`` times its centripetal acceleration, and removes a penetration with ``-phi / dt``: both
+    would make it look separating); velocities up to :data:`REPLAN_VELOCITY_TOLERANCE` are 0.
+
+    Raises:
+        ImpactState: a contact moves into its surface.
+    """
+    here = scene.at(q, v)
+    contacts = tuple(
+        Contact(c.point, c.gap, bool(c.active or loaded[i])) for i, c in enumerate(here.contacts)
+    )
+    here = replace(here, contacts=contacts)
+    problem = ContactProblem.from_scene(here, velocity_tolerance=REPLAN_VELOCITY_TOLERANCE)
+    down = np.array([bool(loaded[i]) for i, c in enumerate(contacts) if c.active], dtype=bool)
+    if down.size:
+        problem = replace(problem, normal_velocities=np.where(down, 0.0, problem.normal_velocities))
+    return here, problem
 
 
 def contact_gaps(scene: Scene, q: np.ndarray) -> np.ndarray:
@@ -97,9 +131,12 @@ def until_met(scene: Scene, until: Until, q: np.ndarray, elapsed: float) -> bool
 class _TaskPolicy:
     """The closed loop's policy: the phase's plan at the state reached; phases advance on ``until``."""
 
-    def __init__(self, scene: Scene, task: Task, solver: str, margin: float | None) -> None:
+    def __init__(
+        self, scene: Scene, task: Task, solver: str, margin: float | None, timing: PhaseTiming | None = None
+    ) -> None:
         self.scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
-        self.phases = task.sequence()
+        self.timing = timing
+        self.phases = task.sequence() if timing is None else list(task.phases)
         if margin is not None:
             self.phases = [replace(p, margin=margin) for p in self.phases]
         self.solver = solver
@@ -110,18 +147,44 @@ class _TaskPolicy:
         self.legs = massless_inputs(scene)
         self.pending = False
         self.done = False
+        self.named = {p.name: p for p in self.phases}
 
     @property
     def phase(self) -> Phase:
         """The phase running."""
+        if self.timing is not None:
+            return self.named[self.records[-1].name]
         return self.phases[len(self.records) - 1]
+
+    def _switch(self, t: float, switch: Switch) -> None:
+        """End the running phase at ``t`` (a timing's switch); start the next one, if any."""
+        record = self.records[-1]
+        record.end, record.why, record.met = t, switch.why, switch.met
+        if switch.to is not None:
+            self.records.append(PhaseRecord(switch.to, t))
+
+    def _timed(self, stepper: RigidStepper | None) -> np.ndarray | None:
+        """A timing's inputs at a decision (its switches made first); None: plan the phase."""
+        if self.timing is None:
+            return None
+        if stepper is not None:
+            switch = self.timing.before_decision(self.phase, stepper)
+            if switch is not None:
+                self._switch(stepper.t, switch)
+        driven = self.timing.drive(self.phase, stepper)
+        return None if driven is None else np.asarray(driven, dtype=float)
 
     def plan(self, stepper: RigidStepper | None) -> np.ndarray:
         """Plan the current phase at the stepper's state (the scene's at the start); hold when no plan."""
         t = 0.0 if stepper is None else stepper.t
+        driven = self._timed(stepper)
+        if driven is not None:
+            self.command = driven
+            return self.command
+        free = None if self.timing is None else self.timing.free(self.phase)
         try:
             here, problem = self._model(stepper)
-            decision = decide(here, self.phase, problem=problem, solver=self.solver)
+            decision = decide(here, self.phase, problem=problem, solver=self.solver, free=free)
             if self.phase.largest_scale is not None and not self.records[-1].decisions:
                 full = problem or ContactProblem.from_scene(here, velocity_tolerance=VELOCITY_TOLERANCE)
                 self.records[-1].largest_scale = largest_scale(here, self.phase, full, solver=self.solver)
@@ -129,9 +192,17 @@ class _TaskPolicy:
             decision = _held(self.phase, f"impact at {err.contact} (v_N = {err.normal_velocity:.3g} m/s)")
         except FrcontrolError as err:
             decision = _held(self.phase, str(err))
+        self.records[-1].decisions.append((t, decision))
+        if self.timing is not None:
+            other, switch = self.timing.decided(self.phase, decision, stepper)
+            if switch is not None:
+                self._switch(t, switch)
+                other = self.timing.drive(self.phase, stepper)
+            if other is not None:
+                self.command = np.asarray(other, dtype=float)
+                return self.command
         values = decision.inputs if decision.found else decision.forced
         self.command = np.array([values.get(n, c) for n, c in zip(self.names, self.command, strict=True)])
-        self.records[-1].decisions.append((t, decision))
         return self.command
 
     def _model(self, stepper: RigidStepper | None) -> tuple[Scene, ContactProblem | None]:
@@ -139,16 +210,7 @@ class _TaskPolicy:
         if stepper is None:
             return self.scene, None
         loaded = stepper.last_forces[:, 0] > self.force_tolerance
-        here = self.scene.at(stepper.q, stepper.v)
-        contacts = tuple(
-            Contact(c.point, c.gap, bool(c.active or loaded[i])) for i, c in enumerate(here.contacts)
-        )
-        here = replace(here, contacts=contacts)
-        problem = ContactProblem.from_scene(here, velocity_tolerance=REPLAN_VELOCITY_TOLERANCE)
-        down = np.array([bool(loaded[i]) for i, c in enumerate(contacts) if c.active], dtype=bool)
-        if down.size:
-            problem = replace(problem, normal_velocities=np.where(down, 0.0, problem.normal_velocities))
-        return here, problem
+        return replanning_model(self.scene, stepper.q, stepper.v, loaded)
 
     def __call__(self, stepper: RigidStepper) -> np.ndarray:
         """The run's periodic re-plan."""
@@ -166,6 +228,14 @@ class _TaskPolicy:
     def stop(self, stepper: RigidStepper) -> bool:
         """After each step: end the phase when its ``until`` holds; stop after the last phase."""
         record = self.records[-1]
+        if self.timing is not None:
+            switch = self.timing.after_step(self.phase, stepper, stepper.t - record.start)
+            if switch is None:
+                return False
+            self._switch(stepper.t, switch)
+            self.pending = switch.to is not None
+            self.done = switch.to is None and switch.met
+            return switch.to is None
         if not until_met(self.scene, self.phase.until, stepper.q, stepper.t - record.start):
             return False
         record.end, record.why, record.met = stepper.t, f"until {self.phase.until.describe()}", True
@@ -192,6 +262,7 @@ class TaskRun:
         decisions: the plans made (the first included).
         dt: [s] the step; max_time: [s] the longest simulated time; replan_every: steps between plans.
         timings: [s] ``planning``, ``simulation``.
+        timing: the task's phase timing (:mod:`.timing`), or None.
     """
 
     records: tuple[PhaseRecord, ...]
@@ -202,6 +273,7 @@ class TaskRun:
     max_time: float
     replan_every: int
     timings: dict[str, float]
+    timing: PhaseTiming | None = None
 
 
 def run_task(
@@ -230,17 +302,18 @@ def run_task(
 
     Raises:
         InputError: a bad step, time, count or margin.
+        SceneError: the phase timing's checks of the scene (:func:`~.timing.load_timing`).
     """
     if isinstance(replan_every, bool) or not isinstance(replan_every, int) or replan_every < 1:
         raise InputError(f"replan_every must be an integer >= 1 (steps), got {replan_every!r}")
     if margin is not None and not (np.isfinite(margin) and margin >= 0):
         raise InputError(f"the margin must be a finite number >= 0 [input units], got {margin!r}")
     duration = task.max_time if max_time is None else max_time
-    policy = _TaskPolicy(scene, task, solver, margin)
+    timing = load_timing(scene, task)
+    policy = _TaskPolicy(scene, task, solver, margin, timing)
     armature = scene.model.armature if scene.model.armature_given else None
-    stepper = RigidStepper(
-        policy.scene, RigidSettings(max_ambiguity_checks=0, impact_law=False), armature=armature
-    )
+    settings = RigidSettings(max_ambiguity_checks=0, impact_law=False) if timing is None else timing.settings
+    stepper = RigidStepper(policy.scene, settings, armature=armature)
     first = policy.plan(None)
     if duration == 0:  # the first plan only: a run of one sample, at the scene's state
         run = ClosedLoopRun(stepper.trajectory(dt), False, 0, {"policy": 0.0, "simulation": 0.0})
@@ -271,4 +344,5 @@ def run_task(
         duration,
         replan_every,
         {"planning": run.timings["policy"], "simulation": run.timings["simulation"]},
+        timing,
     )

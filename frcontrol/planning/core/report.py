@@ -27,10 +27,11 @@ from ...scene import Scene
 from ...simulation.export import sample_modes
 from ...simulation.trajectory import Trajectory
 from ...solvers import DEFAULT_LP_SOLVER
-from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP, TORQUE_ROUNDING
 from .decision import CLOSEST_MARGIN_STEPS, TRACK_REGULARIZATION, Decision
 from .loop import PhaseRecord, TaskRun, run_task
 from .task import Task, read_task
+from .timing import PhaseTiming
+from .tolerances import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP, TORQUE_ROUNDING
 
 __all__ = ["FROM_THE_PLAN", "PlanResult", "plan_task", "schedule_of", "with_legacy_keys"]
 
@@ -48,6 +49,7 @@ class PlanResult:
         trajectory: its trajectory, with the per-sample modes.
         compliant: the compliant replay, or None.
         timings: [s] ``planning``, ``simulation``, ``compliant``, ``total``.
+        timing: the task's phase timing (:mod:`.timing`), or None.
     """
 
     task: Task
@@ -55,6 +57,7 @@ class PlanResult:
     trajectory: Trajectory
     compliant: Trajectory | None
     timings: dict[str, float]
+    timing: PhaseTiming | None = None
 
     @property
     def achieved(self) -> bool:
@@ -88,6 +91,8 @@ class PlanResult:
             },
             "timings": dict(self.timings),
         }
+        if self.timing is not None:
+            payload["timing"] = {"name": self.task.timing, **self.timing.report(scene, self.trajectory)}
         if self.compliant is not None:
             replay = self.compliant.to_dict(scene)
             payload["compliant"] = {
@@ -187,6 +192,9 @@ def plan_task(
 ) -> PlanResult:
     """Read the scene's task, run it (:func:`~.loop.run_task`) and, with ``compliant``, replay its inputs.
 
+    A task that names a phase timing (``[task] timing``, :mod:`.timing`) runs with it; the result
+    keeps it (``timing``).
+
     Raises:
         SceneError: no task given as phases (:func:`~.task.read_task`).
         InputError: a bad step, time, count or margin.
@@ -222,4 +230,4 @@ def plan_task(
             simulate_compliant(scene, schedule_of(run, trajectory), duration, dt) if duration > 0 else None
         )
     timings = {**run.timings, "compliant": time.perf_counter() - t0, "total": time.perf_counter() - start}
-    return PlanResult(task, run, trajectory, replay, timings)
+    return PlanResult(task, run, trajectory, replay, timings, run.timing)

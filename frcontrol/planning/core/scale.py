@@ -33,10 +33,10 @@ from ...modes import ContactProblem
 from ...scene import Scene
 from ...solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
 from ..climb import load_disturbances
-from ..flip import margin_pieces
 from .decision import PieceLP, lifted_problem, verify_plan
 from .forced import planning_problem
 from .objective import objective_rows
+from .pieces import margin_pieces
 from .task import Phase
 
 __all__ = ["SCALE_BACKOFF", "SCALE_BACKOFF_STEPS", "ScaleResult", "largest_scale"]

@@ -15,6 +15,10 @@ The format (``robots/scene.schema.json`` holds every key; ``docs/tasks.md`` expl
     # maximize = { ..., at_least = 1.0 } # a plan's objective must reach this
     until = { coordinate = "theta", above = 4.712 }   # or below, time, contact = { NAME = "closed" }
 
+A task may name a *phase timing* (``timing = "pump"``, :mod:`.timing`): a small module that ends
+the phases (the phases' ``until`` are then data it reads) and drives the phases that give no
+objective (their inputs are its own, not a plan); ``repeat`` is then the most cycles it runs.
+
 The scene loader has already checked the keys, the types and the names (unknown contacts, links and
 coordinates name the nearest valid one); :func:`read_task` turns the table into records and
 refuses what the schema cannot say (a scene without phases, robustness without disturbances).
@@ -50,7 +54,8 @@ class Objective:
     """What a phase optimises.
 
     Attributes:
-        kind: ``"maximize"``, ``"minimize"`` or ``"track"``.
+        kind: ``"maximize"``, ``"minimize"``, ``"track"``, or ``"driven"`` (no objective: the task's
+            phase timing gives the inputs).
         coordinate: the coordinate whose acceleration is optimised (maximize/minimize), or None.
         link, point, direction: the point (link frame [m]) whose world acceleration along
             ``direction`` is optimised, when no coordinate is given.
@@ -142,12 +147,14 @@ class Task:
         repeat: how many times the phases run.
         phases: the phases, in order.
         raw: the ``[task]`` table as read (the report's ``task``).
+        timing: the phase timing's name (``[task] timing``), or None.
     """
 
     max_time: float
     repeat: int
     phases: tuple[Phase, ...]
     raw: Mapping[str, Any]
+    timing: str | None = None
 
     def sequence(self) -> list[Phase]:
         """Every phase the task runs, in order (``repeat`` times the phases)."""
@@ -172,8 +179,11 @@ def read_task(scene: Scene) -> Task:
             "missing: frc plan runs a task given as [[task.phases]] "
             f"(name, modes, margin, maximize/minimize/track, until){hint}",
         )
-    phases = tuple(_phase(scene, p, f"task.phases[{i}]") for i, p in enumerate(raw["phases"]))
-    return Task(float(raw.get("max_time", DEFAULT_MAX_TIME)), int(raw.get("repeat", 1)), phases, dict(raw))
+    timing = None if raw.get("timing") is None else str(raw["timing"])
+    phases = tuple(_phase(scene, p, f"task.phases[{i}]", timing) for i, p in enumerate(raw["phases"]))
+    return Task(
+        float(raw.get("max_time", DEFAULT_MAX_TIME)), int(raw.get("repeat", 1)), phases, dict(raw), timing
+    )
 
 
 def _dedicated_hint(raw: Any) -> str:
@@ -190,8 +200,15 @@ def _dedicated_hint(raw: Any) -> str:
     return ""
 
 
-def _phase(scene: Scene, raw: Mapping[str, Any], where: str) -> Phase:
-    kind = next(k for k in ("maximize", "minimize", "track") if k in raw)
+def _phase(scene: Scene, raw: Mapping[str, Any], where: str, timing: str | None = None) -> Phase:
+    kind = next((k for k in ("maximize", "minimize", "track") if k in raw), "driven")
+    if kind == "driven" and timing is None:
+        raise SceneError(
+            str(scene.path),
+            where,
+            "a phase needs one of maximize, minimize, track (a phase without one is driven by the "
+            "task's phase timing: [task] timing)",
+        )
     if raw.get("robust", False) and not scene.disturbances:
         raise SceneError(
             str(scene.path),
@@ -211,7 +228,7 @@ def _phase(scene: Scene, raw: Mapping[str, Any], where: str) -> Phase:
         modes,
         float(raw.get("margin", DEFAULT_PHASE_MARGIN)),
         bool(raw.get("robust", False)),
-        _objective(kind, raw[kind]),
+        Objective("driven") if kind == "driven" else _objective(kind, raw[kind]),
         _until(raw["until"]),
         None if "largest_scale" not in raw else float(raw["largest_scale"]["upper"]),
     )
