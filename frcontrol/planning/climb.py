@@ -25,7 +25,10 @@ with ``J_i`` the point's linear Jacobian (2 x n, world x-y). Bad tables raise
 :class:`~frcontrol.errors.SceneError` naming the field: missing, empty (``lower > upper``, no
 vertex), unbounded (an infinite bound), NaN, unknown link or key, a duplicate name.
 
-The ``[task]`` table (``head_link`` and ``head_point`` required)::
+The ``[task]`` table: a task given as phases (``docs/tasks.md``; the shipped ``snake_climb``), whose
+first phase names the brace (its contacts allowed only ``F``) and requires the head's upward
+acceleration (``require = [{ link, point, direction = [0.0, 1.0], at_least = a_min }]``), or the
+dedicated keys (``head_link`` and ``head_point`` required)::
 
     [task]
     brace_contacts = ["tail", "tip", "top"]   # must be exactly the active contacts (default)
@@ -151,6 +154,7 @@ from ..modes import ContactProblem, ModeSystem, add_scene_modes, all_modes, buil
 from ..polytope import Polytope, hull_from_points
 from ..response import AffineSolution, solve_affine
 from ..scene import Inputs, Scene
+from ..scene_tables import TaskTable
 from ..simulation.closed_loop import Policy, run_closed_loop
 from ..simulation.inputs import check_seed, check_simulation_times
 from ..simulation.rigid import RigidSettings, RigidStepper
@@ -401,6 +405,9 @@ def load_climb_task(scene: Scene) -> ClimbTask:
     """
     path = str(scene.path)
     task = scene.task
+    phases = scene.raw.get("task", {}).get("phases") if task.head_link is None else None
+    if phases:
+        task = _task_from_phases(path, phases)
     active = tuple(c.name for c in scene.active_contacts)
     names = tuple(c.name for c in scene.contacts)
     brace = list(task.brace_contacts) if task.brace_contacts is not None else list(active)
@@ -428,6 +435,21 @@ def load_climb_task(scene: Scene) -> ClimbTask:
              else DEFAULT_MIN_HEAD_ACCELERATION)
     ordered = tuple(c for c in active if c in brace)
     return ClimbTask(ordered, head_link, head_point, float(a_min))
+
+
+def _task_from_phases(path: str, phases: Sequence[Mapping[str, Any]]) -> TaskTable:
+    """The climb's brace and head read from a task given as phases: its first phase's contacts
+    allowed only F, and the point whose upward acceleration it requires (``require``)."""
+    phase = phases[0]
+    brace = tuple(name for name, letters in phase.get("modes", {}).items() if set(letters) == {"F"})
+    for item in phase.get("require", ()):
+        if "link" in item and "at_least" in item and tuple(item["direction"]) == (0.0, 1.0):
+            return TaskTable(brace_contacts=brace or None, head_link=str(item["link"]),
+                             head_point=np.asarray(item["point"], dtype=float),
+                             min_head_acceleration=float(item["at_least"]))
+    raise SceneError(path, "task.phases[0].require", "missing: the climb needs its first phase to require "
+                     "a point's upward acceleration: require = [{ link = NAME, point = [x, y], "
+                     "direction = [0.0, 1.0], at_least = A }]")
 
 
 # ============================================================================ kinematics

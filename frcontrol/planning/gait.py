@@ -736,7 +736,8 @@ def gait_braces(scene: Scene) -> tuple[tuple[str, ...], tuple[str, ...]]:
 
     path = str(scene.path)
     lower = load_climb_task(scene).brace_contacts
-    upper = scene.task.upper_brace_contacts
+    gait = scene.raw.get("task", {}).get("gait")
+    upper = scene.task.upper_brace_contacts if gait is None else tuple(gait["upper_brace"])
     if upper is None:
         raise SceneError(path, "task.upper_brace_contacts", "missing: the gait (--cycles) needs the upper "
                          "brace's contacts, separated at the scene's state")
