@@ -80,7 +80,10 @@ _REQUIREMENT = {
     "description": "a coordinate's acceleration, or a point's along a direction, kept within bounds "
                    "by every plan (at every disturbance vertex when robust)",
     "properties": {
-        **{k: v for k, v in _OBJECTIVE["properties"].items() if k != "at_least"},
+        "coordinate": {"type": "string", "x-refers": "coordinate", "description": "the coordinate"},
+        "link": {"type": "string", "x-refers": "link", "description": "the link of the point"},
+        "point": {**_PAIR, "description": "[m] the point, in the link's frame"},
+        "direction": {**_PAIR, "description": "[-] the world direction of its acceleration"},
         "at_least": {"type": "number", "description": "[m/s^2 or rad/s^2] the quantity's floor"},
         "at_most": {"type": "number", "description": "[m/s^2 or rad/s^2] the quantity's ceiling"},
     },

@@ -438,8 +438,11 @@ def load_climb_task(scene: Scene) -> ClimbTask:
 
 
 def _task_from_phases(path: str, phases: Sequence[Mapping[str, Any]]) -> TaskTable:
-    """The climb's brace and head read from a task given as phases: its first phase's contacts
-    allowed only F, and the point whose upward acceleration it requires (``require``)."""
+    """The climb's brace and head read from a task given as phases.
+
+    The brace: the first phase's contacts allowed only F; the head: the point whose upward
+    acceleration it requires (``require``).
+    """
     phase = phases[0]
     brace = tuple(name for name, letters in phase.get("modes", {}).items() if set(letters) == {"F"})
     for item in phase.get("require", ()):

@@ -141,8 +141,10 @@ class PieceLP:
 def piece_lp(
     A: np.ndarray, b: np.ndarray, response: Any, rows: ObjectiveRows, points: np.ndarray, m_u: int
 ) -> PieceLP:
-    """The piece ``A z <= b`` of a mode whose response ``dv = X_u z + x_0`` is ``response``, with the
-    objective's (and the ``require`` conditions') gains on z in that mode."""
+    """The piece ``A z <= b`` of a mode with its objective's gains on z.
+
+    ``response`` is the mode's (``dv = X_u z + x_0``); the ``require`` conditions' gains come too.
+    """
     n = rows.rows.shape[1]  # the response's first n outputs are dv
     gain = rows.rows @ response.X_u[:n]
     bias = rows.rows @ response.x_0[:n] + rows.offset
@@ -440,7 +442,9 @@ def _piece_qp(lp: PieceLP, solver: str) -> tuple[float, np.ndarray] | None:
     linear = 2.0 * weighted.T @ np.mean(residuals, axis=0)
     limits = [lp.limit_rows(v) for v in lp.points]
     A_ub = np.vstack([A_u] * len(lp.points) + [rows_u for rows_u, _, _ in limits])
-    b_ub = np.concatenate([lp.b - A_d @ v for v in lp.points] + [bound - moving for _, moving, bound in limits])
+    b_ub = np.concatenate(
+        [lp.b - A_d @ v for v in lp.points] + [bound - moving for _, moving, bound in limits]
+    )
     result = solve_qp(hessian, linear, A_ub, b_ub, solver=solver)
     if result.status == "error" and solver != REFERENCE_LP_SOLVER:
         result = solve_qp(hessian, linear, A_ub, b_ub, solver=REFERENCE_LP_SOLVER)
