@@ -12,7 +12,8 @@ from typer.testing import CliRunner
 
 import frcontrol
 from frcontrol.errors import InputError, SceneError
-from frcontrol.planning.climb import BRACE_SLIP_TOLERANCE, DEFAULT_HOLD, _PointKinematics, load_disturbances
+from frcontrol.planning.climb_check import BRACE_SLIP_TOLERANCE
+from frcontrol.planning.disturbances import DEFAULT_HOLD, PointKinematics, load_disturbances
 from frcontrol.planning.gait import (
     STROKE,
     configuration_from_points,
@@ -61,7 +62,7 @@ def test_shapes_match_the_model(scene: frcontrol.Scene) -> None:
     assert (geo.link_length, geo.left_wall, geo.right_wall) == pytest.approx((0.2, -0.15, 0.15))
     links = [f"link{i}" for i in range(9)]
     head = [("head", "link8", np.array([0.2, 0.0]))]
-    kin = _PointKinematics(scene, [(n, n, np.zeros(2)) for n in links] + head)
+    kin = PointKinematics(scene, [(n, n, np.zeros(2)) for n in links] + head)
     for d in (STROKE[0], STROKE[1]):
         for s_lower, s_upper in ((0.0, 0.0), (0.01, 0.0), (0.0, 0.01)):
             shape = geo.nominal(0.3, d, s_lower, s_upper)
@@ -119,7 +120,7 @@ def _held_slip(payload: dict, scene: frcontrol.Scene) -> tuple[float, float]:
     q, v, times = np.array(samples["q"]), np.array(samples["v"]), np.array(samples["times"])
     names = [c.name for c in scene.contacts]
     tangents = {c.name: c.point.tangent_in_world for c in scene.contacts}
-    kin = _PointKinematics(scene, [(c.name, c.point.link, c.point.point_in_link) for c in scene.contacts])
+    kin = PointKinematics(scene, [(c.name, c.point.link, c.point.point_in_link) for c in scene.contacts])
     slides: dict[tuple[int, str], float] = {}
     drift = 0.0
     first: dict[tuple[int, str], np.ndarray] = {}
@@ -167,7 +168,7 @@ def test_gait_climbs_and_holds(gait_run: tuple[dict, Path], scene: frcontrol.Sce
     # time stepper's inputs: row k + 1 is the step from sample k, row 0 repeats the first)
     inputs = np.array(samples["inputs"])[1:]
     dist = load_disturbances(scene)
-    kin = _PointKinematics(scene, [(d.name, d.link, d.point_in_link) for d in dist.items])
+    kin = PointKinematics(scene, [(d.name, d.link, d.point_in_link) for d in dist.items])
     drawn = np.array(sim["disturbance_samples"])
     for k in range(0, len(torques), 97):
         jac, _, _ = kin.evaluate(q[k], v[k])

@@ -37,7 +37,7 @@ Control (the robust LP along the motion)
 ----------------------------------------
 Every control step, at the simulated state ``(q, v)``, the phase's mode (``F`` for every held
 contact that touches, ``S`` for every releasing one that still touches) has the affine response
-``x = X z + x_0`` over ``z = (u, d)`` (:func:`~frcontrol.planning.climb.augmented_problem`, the
+``x = X z + x_0`` over ``z = (u, d)`` (:func:`~frcontrol.planning.disturbances.augmented_problem`, the
 disturbances as inputs) and the domain rows ``H z <= h`` (normalised). The torques solve::
 
     minimise   sum_i |ddq_i(u, 0) - ddq_ref,i|  +  W sigma
@@ -67,15 +67,15 @@ Certificates (planning, before the run)
 - *Each hand-over* (both braces touching, at rest, at the planned shape) is checked for ambiguity:
   the next phase's torques (the tracking LP above at that state) are fixed, and for every other mode
   of all five contacts one LP decides whether it holds for some disturbance of ``conv(V_s)``
-  (:func:`~frcontrol.planning.climb.mode_exclusions`). A mode that holds and lets a brace contact
+  (:func:`~frcontrol.planning.exclusions.mode_exclusions`). A mode that holds and lets a brace contact
   slide (L or R) is a *slip mode*; the check passes when none holds.
 
 The simulation (:func:`simulate_gait`) runs the rigid time stepper with the tracking LP's torques
 plus disturbances ``J_d(q)^T d(t)``, ``d`` sampled in ``conv(V_s)`` (``s``: :data:`SIMULATION_SCALE`
-unless given) and held for :data:`~frcontrol.planning.climb.DEFAULT_HOLD`. The reference of each
+unless given) and held for :data:`~frcontrol.planning.disturbances.DEFAULT_HOLD`. The reference of each
 phase starts from the braces where they closed (:meth:`GaitGeometry.measure`). A brace *slips*
 when a contact the controller holds (F) slides, over a phase, by more than
-:data:`~frcontrol.planning.climb.BRACE_SLIP_TOLERANCE`: the slide sums ``|v_T+| h``, the sliding
+:data:`~frcontrol.planning.climb_check.BRACE_SLIP_TOLERANCE`: the slide sums ``|v_T+| h``, the sliding
 velocity each step's friction law gave the contact (``v_T+ = J_T(q) v+``). Its displacement along
 the wall (``max_drift``) is reported apart: it adds the time stepping's drift, first order in h.
 """
@@ -99,20 +99,18 @@ from ..scene_tables import TaskTable
 from ..simulation.rigid import RigidSettings, RigidStepper
 from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
 from . import DEFAULT_CLIMB_MARGIN
-from .climb import (
-    BRACE_SLIP_TOLERANCE,
+from .climb import ClimbPlan, plan_climb
+from .climb_check import BRACE_SLIP_TOLERANCE
+from .disturbances import (
     DEFAULT_HOLD,
     HOLD_INDEX_ROUNDOFF,
-    ClimbPlan,
     DisturbanceSet,
-    _mode_systems,
-    _PointKinematics,
-    _sample_disturbances,
+    PointKinematics,
     augmented_problem,
     load_disturbances,
-    mode_exclusions,
-    plan_climb,
+    sample_disturbances,
 )
+from .exclusions import mode_exclusions, mode_systems
 
 __all__ = [
     "APPROACH_TIME",
@@ -349,7 +347,7 @@ def gait_geometry(scene: Scene, lower: Sequence[str]) -> GaitGeometry:
     if scene.robot.nv != 11 or len(links) != 9:
         raise SceneError(path, "robot", "the gait is built for a planar snake of 9 links (11 coordinates), "
                          f"got {scene.robot.nv} coordinates")
-    kin = _PointKinematics(scene, [(name, name, np.zeros(2)) for name in links])
+    kin = PointKinematics(scene, [(name, name, np.zeros(2)) for name in links])
     lengths = np.hypot(*np.diff(kin.positions(q), axis=0).T)
     L = float(lengths[0])
     if not np.allclose(lengths, L, rtol=1e-6):
@@ -732,7 +730,7 @@ def gait_braces(scene: Scene) -> tuple[tuple[str, ...], tuple[str, ...]]:
         SceneError: no ``[task] upper_brace_contacts``, an unknown one, one that touches at the
             scene's state, or not two of them (right wall, then left wall).
     """
-    from .climb import load_climb_task
+    from .climb_problem import load_climb_task
 
     path = str(scene.path)
     lower = load_climb_task(scene).brace_contacts
@@ -864,7 +862,7 @@ def _check_hand_over(scene: Scene, dist: DisturbanceSet, q: np.ndarray, held: Se
     touching = tuple(replace(c, active=c.name in step.contacts) for c in at.contacts)
     problem = augmented_problem(replace(at, contacts=touching), dist, np.minimum(0.0, points.min(axis=0)),
                                 np.maximum(0.0, points.max(axis=0)))
-    systems = _mode_systems(problem)
+    systems = mode_systems(problem)
     exclusions = mode_exclusions(problem, step.mode, step.torques, points, systems=systems, solver=solver,
                                  confirm=True)
     brace = set(held) | set(released)
@@ -972,7 +970,7 @@ class _Run:
         self.plan, self.dt, self.scene = plan, dt, scene
         self.stepper = RigidStepper(replace(scene, inputs=every), RigidSettings(max_ambiguity_checks=0))
         self.points = plan.disturbances.robust_points(scale)
-        self.kin = _PointKinematics(scene, [(d.name, d.link, d.point_in_link)
+        self.kin = PointKinematics(scene, [(d.name, d.link, d.point_in_link)
                                             for d in plan.disturbances.items])
         self.rng = np.random.default_rng(seed)
         self.samples: list[np.ndarray] = []
@@ -987,7 +985,7 @@ class _Run:
         """The held sample at the stepper's time (drawn as the holds start)."""
         k = int(self.stepper.t / DEFAULT_HOLD + HOLD_INDEX_ROUNDOFF)
         while len(self.samples) <= k:
-            self.samples.append(_sample_disturbances(self.points, 1, self.rng)[0])
+            self.samples.append(sample_disturbances(self.points, 1, self.rng)[0])
         return self.samples[k]
 
     def phase(self, index: int, name: str, cycle: int, reference: Reference, roles: tuple) -> PhaseRun | None:
@@ -1066,7 +1064,7 @@ def simulate_gait(
         dt: [s] the time step (the tracking LP is solved every step).
         seed: the disturbance sampler's seed.
         scale: the disturbance scale (default: :data:`SIMULATION_SCALE`, at most the plan's).
-        slip_tolerance: [m] see :data:`~frcontrol.planning.climb.BRACE_SLIP_TOLERANCE`.
+        slip_tolerance: [m] see :data:`~frcontrol.planning.climb_check.BRACE_SLIP_TOLERANCE`.
         progress: called with (phases done, phases) after each phase.
 
     Raises:

@@ -17,7 +17,7 @@ quantities are tracked than there are inputs, so ``eps`` = :data:`TRACK_REGULARI
 largest diagonal entry makes it definite and picks, among equally good inputs, the smallest.
 
 **Robust phases.** With ``robust = true`` the disturbances of ``[[disturbances]]`` are extra inputs
-``d`` (the lifted problem of :func:`frcontrol.planning.climb.augmented_problem`: input map
+``d`` (the lifted problem of :func:`frcontrol.planning.disturbances.augmented_problem`: input map
 ``[S^T, J_d^T]``), the analysis and the pieces are over ``z = (u, d)``, and every constraint of the
 LP above is written once per point ``v`` of ``V`` (the vertices of the disturbance polytope, and the
 zero disturbance when the polytope does not hold it): ``(u, v)`` in the same piece for every v, which
@@ -49,7 +49,7 @@ from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...response import OUTPUT_TOLERANCE
 from ...scene import Scene
 from ...solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, RETRY_ERRORS, solve_lp, solve_qp
-from ..climb import load_disturbances
+from ..disturbances import load_disturbances
 from ..flip import TORQUE_ROUNDING, margin_pieces
 from .forced import planning_problem
 from .objective import ObjectiveRows, limit_rows, objective_rows

@@ -33,7 +33,7 @@ from ...engine import DynamicResponse
 from ...modes import ContactProblem
 from ...scene import Scene
 from ...solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
-from ..climb import load_disturbances
+from ..disturbances import load_disturbances
 from ..flip import margin_pieces
 from .decision import PieceLP, lifted_problem, piece_lp, verify_plan, with_limits
 from .forced import planning_problem
