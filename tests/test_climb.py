@@ -210,7 +210,8 @@ def test_json_contract(scene, plan):
     result = runner.invoke(climb_app(), ["climb", "--json"])
     assert result.exit_code == 0, result.stderr
     doc = json.loads(result.stdout)
-    assert {"mode", "torques", "max_disturbance_scale", "robust", "simulation", "outcome", "phases"} <= set(doc)
+    contract = {"mode", "torques", "max_disturbance_scale", "robust", "simulation", "outcome", "phases"}
+    assert contract <= set(doc)
     assert doc["mode"] == "FFF" and doc["robust"] is True and doc["outcome"]["achieved"] is True
     assert doc["torques"] == doc["phases"][0]["plans"][0]["inputs"]  # the run's first plan
     assert doc["max_disturbance_scale"] >= plan.max_disturbance_scale  # the dedicated planner's 9.78
