@@ -488,7 +488,8 @@ def climb_answer(scene: Scene, *, margin: float | None = None, duration: float |
         return Answer("climb", climb_document(scene, result), result=result, trajectory=trajectory,
                       modes=None if trajectory.modes is None else tuple(trajectory.modes))
     from .planning import DEFAULT_CLIMB_MARGIN
-    from .planning.gait import gait_payload, plan_gait, simulate_gait
+    from .planning.gait import plan_gait
+    from .planning.gait_run import gait_payload, simulate_gait
 
     seed = check_seed(0 if seed is None else seed)
     gait = plan_gait(scene, cycles, margin=DEFAULT_CLIMB_MARGIN if margin is None else margin)

@@ -14,12 +14,12 @@ import frcontrol
 from frcontrol.errors import InputError, SceneError
 from frcontrol.planning.climb_check import BRACE_SLIP_TOLERANCE
 from frcontrol.planning.disturbances import DEFAULT_HOLD, PointKinematics, load_disturbances
-from frcontrol.planning.gait import (
+from frcontrol.planning.gait import plan_gait
+from frcontrol.planning.gait_geometry import (
     STROKE,
     configuration_from_points,
     gait_geometry,
     knee,
-    plan_gait,
     points_from_configuration,
 )
 
