@@ -27,7 +27,7 @@ MarginOpt = Annotated[
 ]
 DurationOpt = Annotated[
     float | None,
-    typer.Option("--duration", callback=in_range(low=0.0, unit="[s]"),
+    typer.Option("--duration", "-T", callback=in_range(low=0.0, unit="[s]"),
                  help="Longest simulated time [s] of the climb's run (default: [task] max_time)."),
 ]
 SeedOpt = Annotated[int | None, typer.Option("--seed", callback=in_range(low=0),

@@ -93,10 +93,13 @@ def test_scene_without_upper_brace(tmp_path: Path) -> None:
     source = resolve_scene_path("snake_climb")
     urdf = source.parent.parent / "snake_planar.urdf"
     path = tmp_path / "no_upper.toml"
-    path.write_text(source.read_text().replace('upper_brace_contacts = ["upper_right", "upper_left"]', "")
+    text = source.read_text()
+    assert 'gait = { upper_brace = ["upper_right", "upper_left"] }' in text
+    path.write_text(text.replace('gait = { upper_brace = ["upper_right", "upper_left"] }', "")
                     .replace('robot = "snake_planar.urdf"', f'robot = "{urdf}"'))
-    with pytest.raises(SceneError, match="upper_brace_contacts"):
+    with pytest.raises(SceneError, match=r"upper brace's contacts \(\[task\] gait") as info:
         plan_gait(frcontrol.load_scene(path), 1)
+    assert info.value.field == "task.gait.upper_brace"
 
 
 def test_cli_bad_cycles_and_plot() -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ast
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -412,3 +413,44 @@ def test_no_import_cycle_within_planning():
     cycles = _cycles(_graph())
     assert all(any(c <= known for known in KNOWN_CYCLES) for c in cycles), cycles
     assert _cycles({"a": {"b"}, "b": {"a"}, "c": {"a"}}) == [{"a", "b"}]  # the check can fail
+
+
+def test_require_caps_an_acceleration_judged_by_the_engine_and_the_samples(write_scene):
+    """The rod pivots with its angular acceleration maximised but required at most half the free best.
+
+    The engine's solution at the planned inputs, and the run's own velocity samples, show the cap
+    held (within the rounding's effect), the pivot kept (tip F, loaded, no slip).
+    """
+    import tomllib
+
+    from frcontrol.engine import analyze
+    from frcontrol.planning.core.task import Requirement
+
+    rod = scene("rod_pivot")
+    free = decide(rod, read_task(rod).phases[0])
+    cap = 0.5 * float(free.objective)
+    theta = Objective("require", coordinate="theta")
+    capped = decide(rod, replace(read_task(rod).phases[0], requires=(Requirement(theta, at_most=cap),)))
+    u = np.array([capped.inputs[n] for n in rod.inputs.coordinates])
+    (solution,) = solutions_at(analyze(rod), u)
+    assert solution.mode == "F" and 0.9 * cap <= solution.dv[2] <= cap  # maximised up to the cap
+    raw = tomllib.loads((shipped_robots_dir() / "scenes" / "rod_pivot.toml").read_text())
+    raw["robot"] = str(shipped_robots_dir() / raw["robot"])
+    raw["task"]["max_time"] = 0.1
+    raw["task"]["phases"][0]["require"] = [{"coordinate": "theta", "at_most": cap}]
+    run = load_scene(write_scene(raw))
+    traj = plan_task(run, replan_every=1).trajectory  # a plan at every step: the cap at every step
+    alpha = np.diff(traj.v[:, 2]) / np.diff(traj.times)
+    assert np.all(alpha > 0.5 * cap) and np.max(alpha) <= cap * (1 + 1e-3)
+    assert np.all(loaded(traj, run, "tip")) and np.max(np.abs(travel(traj, run, "tip"))) <= SLIP_DISTANCE
+
+
+def test_a_requirement_needs_a_bound(write_scene):
+    import tomllib
+
+    raw = tomllib.loads((shipped_robots_dir() / "scenes" / "rod_pivot.toml").read_text())
+    raw["robot"] = str(shipped_robots_dir() / raw["robot"])
+    raw["task"]["phases"][0]["require"] = [{"coordinate": "theta"}]
+    with pytest.raises(SceneError, match="at_least = X or at_most = X") as info:
+        load_scene(write_scene(raw))
+    assert info.value.field == "task.phases[0].require[0]"

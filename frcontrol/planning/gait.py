@@ -169,31 +169,37 @@ def _check_cycles(cycles: int) -> int:
 
 
 def gait_braces(scene: Scene) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """The lower brace (``[task] brace_contacts``, the active contacts) and the upper one.
+    """The lower brace (the climb's, :func:`~.climb_problem.load_climb_task`) and the upper one.
+
+    The upper brace is ``[task] gait = { upper_brace = [...] }`` beside a task given as phases, or
+    ``[task] upper_brace_contacts`` beside the climb's older keys.
 
     Raises:
-        SceneError: no ``[task] upper_brace_contacts``, an unknown one, one that touches at the
-            scene's state, or not two of them (right wall, then left wall).
+        SceneError: no upper brace, an unknown contact in it, one that touches at the scene's
+            state, or not two of them (right wall, then left wall).
     """
     from .climb_problem import load_climb_task
 
     path = str(scene.path)
     lower = load_climb_task(scene).brace_contacts
-    gait = scene.raw.get("task", {}).get("gait")
-    upper = scene.task.upper_brace_contacts if gait is None else tuple(gait["upper_brace"])
+    raw = scene.raw.get("task", {})
+    phased = "phases" in raw
+    key = "task.gait.upper_brace" if phased else "task.upper_brace_contacts"
+    upper = tuple(raw["gait"]["upper_brace"]) if "gait" in raw else scene.task.upper_brace_contacts
     if upper is None:
-        raise SceneError(path, "task.upper_brace_contacts", "missing: the gait (--cycles) needs the upper "
-                         "brace's contacts, separated at the scene's state")
+        hint = "[task] gait = { upper_brace = [...] }" if phased else "[task] upper_brace_contacts"
+        raise SceneError(path, key, "missing: the gait (--cycles) needs the upper brace's contacts "
+                         f"({hint}), separated at the scene's state")
     by_name = {c.name: c for c in scene.contacts}
     for i, name in enumerate(upper):
         if name not in by_name:
-            raise SceneError(path, f"task.upper_brace_contacts[{i}]", f"unknown contact {name!r}; the "
+            raise SceneError(path, f"{key}[{i}]", f"unknown contact {name!r}; the "
                              f"contacts are: {', '.join(by_name)}")
         if by_name[name].active:
-            raise SceneError(path, f"task.upper_brace_contacts[{i}]", f"contact {name!r} touches at the "
+            raise SceneError(path, f"{key}[{i}]", f"contact {name!r} touches at the "
                              "scene's state: the upper brace must be separated at the start")
     if len(upper) != 2:
-        raise SceneError(path, "task.upper_brace_contacts", f"expected two contacts (j6 on the right wall, "
+        raise SceneError(path, key, f"expected two contacts (j6 on the right wall, "
                          f"j8 on the left wall), got {list(upper)}")
     return lower, tuple(upper)
 
