@@ -13,6 +13,7 @@ from . import common, options
 from .common import console
 from .options import in_range
 from .plan_cmd import render as render_plan
+from .plan_cmd import write_run
 
 ClimbSceneArg = options.scene_argument("with [[disturbances]] and the climb as [task] phases")
 HtmlOpt = options.html_option("the simulated climb")
@@ -98,16 +99,7 @@ def climb_command(
                                   scale=scale, on_simulation=lambda: shown.stage(f"simulating {what}"),
                                   progress=shown)
         common.answer(answer.document, render_gait if answer.kind == "gait" else render, json=json)
-        trajectory = answer.trajectory
-        if plot is not None:
-            from frcontrol.viz.plots import plot_trajectory
-
-            common.note(f"wrote {plot_trajectory(trajectory, plot, coordinates=trajectory.coordinates)}",
-                        to_stderr=json)
-        modes = None if answer.modes is None else list(answer.modes)
-        common.write_motion(loaded, trajectory, html=html, out=out, json=json, modes=modes)
-        if server is not None:
-            common.show_live(server, loaded, trajectory, json=json, modes=modes)
+        write_run(loaded, answer, plot=plot, html=html, out=out, json=json, server=server)
 
 
 def render_gait(payload: dict[str, Any]) -> None:

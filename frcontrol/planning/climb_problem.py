@@ -239,7 +239,7 @@ def _scale_bound(domain: tuple[np.ndarray, np.ndarray], head: tuple[np.ndarray, 
     ub = np.concatenate([np.full(m_u, np.inf), [SCALE_CAP]])
     A_eq = np.concatenate([sideways[0][:m_u], [0.0]])[None, :]
     b_eq = np.array([-sideways[1]])
-    result = solve_confirmed(cost, A, b, A_eq, b_eq, lb, ub, solver, True)
+    result = solve_confirmed(cost, A, b, (A_eq, b_eq), (lb, ub), solver)
     if not result.found:
         return -1.0, False
     s = float(result.x[-1])
@@ -444,7 +444,7 @@ def _plan_lp(
     cx, cx0 = cp.head_sideways_row
     A_eq = np.concatenate([cx[:m_u], np.zeros(nvar - m_u)])[None, :]
     b_eq = np.array([-cx0])
-    result = solve_confirmed(cost, A_ub, b_ub, A_eq, b_eq, lb, ub, solver, True)
+    result = solve_confirmed(cost, A_ub, b_ub, (A_eq, b_eq), (lb, ub), solver)
     if not result.found:
         return -math.inf, math.inf, None
     u = result.x[:m_u]

@@ -23,15 +23,17 @@ ROBUSTNESS_CAP = 1e3
 """[N m or N] Upper bound on the robustness variable t (keeps the LP bounded)."""
 
 # ============================================================================ exclusion
-def solve_confirmed(c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, A_eq: np.ndarray | None,
-           b_eq: np.ndarray | None, lb: np.ndarray, ub: np.ndarray, solver: str, confirm: bool) -> Any:
+def solve_confirmed(c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray,
+                    equality: tuple[np.ndarray, np.ndarray] | None, bounds: tuple[np.ndarray, np.ndarray],
+                    solver: str, confirm: bool = True) -> Any:
     """:func:`~frcontrol.solvers.solve_lp`, with a second opinion from the reference back-end.
 
-    An error or an unbounded answer is always solved again by :data:`REFERENCE_LP_SOLVER`; with
-    ``confirm``, so is an infeasible one (a false "infeasible" would drop a plan, or claim that a
-    mode is excluded).
+    ``equality`` is ``(A_eq, b_eq)`` or None; ``bounds`` is ``(lb, ub)``. An error or an unbounded
+    answer is always solved again by :data:`REFERENCE_LP_SOLVER`; with ``confirm``, so is an
+    infeasible one (a false "infeasible" would drop a plan, or claim that a mode is excluded).
     """
-    return solve_lp(c, A_ub, b_ub, A_eq, b_eq, lb, ub, solver=solver,
+    A_eq, b_eq = (None, None) if equality is None else equality
+    return solve_lp(c, A_ub, b_ub, A_eq, b_eq, bounds[0], bounds[1], solver=solver,
                     fallback=CONFIRM_INFEASIBLE if confirm else RETRY_ERRORS)
 
 
@@ -132,7 +134,7 @@ def mode_exclusions(
         ub = np.concatenate([np.full(n_lam, np.inf), np.full(p, np.inf), [1.0]])
         c = np.zeros(n_lam + p + 1)
         c[-1] = -1.0
-        result = solve_confirmed(c, A_ub, b_ub, A_eq, np.ones(1), lb, ub, solver, confirm)
+        result = solve_confirmed(c, A_ub, b_ub, (A_eq, np.ones(1)), (lb, ub), solver, confirm)
         if not result.found:
             out.append(ModeExclusion(system.mode, False, -math.inf))
             continue
