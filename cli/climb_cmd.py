@@ -152,10 +152,11 @@ def render(payload: dict[str, Any]) -> None:
         console.print(f"no climb plan: {payload['reason']}")  # an answer, not an error (exit 0)
     console.print(f"largest disturbance scale: {payload['max_disturbance_scale']:.4g}")
     sim = payload["simulation"]
-    console.print(f"run ({sim['duration']:.3g} s, rigid, re-planned every {sim['replan_every']} steps): "
-                  f"brace "
-                  f"{'held' if sim['brace_held'] else 'NOT held'}; max slip {sim['max_slip']:.3g} m "
-                  f"(tolerance {sim['slip_tolerance']:g}); head rise {sim['upper_rise']:.4g} m")
+    if sim["brace_held"] is not None:
+        console.print(f"run ({sim['duration']:.3g} s, rigid, re-planned every {sim['replan_every']} steps): "
+                      f"brace {'held' if sim['brace_held'] else 'NOT held'}; "
+                      f"max slip {sim['max_slip']:.3g} m (tolerance {sim['slip_tolerance']:g}); "
+                      f"head rise {sim['upper_rise']:.4g} m")
     render_plan(payload)
 
 

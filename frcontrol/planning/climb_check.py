@@ -202,7 +202,8 @@ def climb_document(scene: Scene, result: PlanResult) -> dict[str, Any]:
     every disturbance vertex) from the first phase's first decision, ``max_disturbance_scale``
     from its ``largest_scale`` search (0 when the phase has none), and in ``simulation`` the
     brace's verdict read from the samples (:func:`brace_verdict`: ``brace_held``, ``max_slip``,
-    ``upper_rise``...). The brace and the head are the task's (:func:`load_climb_task`).
+    ``upper_rise``...; ``brace_held`` is None when nothing ran, ``max_time`` 0). The brace and the
+    head are the task's (:func:`load_climb_task`).
     """
     task = load_climb_task(scene)
     payload = result.to_dict(scene)
@@ -212,8 +213,9 @@ def climb_document(scene: Scene, result: PlanResult) -> dict[str, Any]:
     largest = record.largest_scale
     verdict = brace_verdict(scene, result.trajectory, task.brace_contacts, (task.head_link, task.head_point))
     if found:
-        reason = (f"the brace held over the {result.run.max_time:g} s run"
-                  if verdict.held else "the brace did not hold over the run (see simulation)")
+        reason = ("the first plan only (max_time 0)" if len(result.trajectory.times) < 2
+                  else f"the brace held over the {result.run.max_time:g} s run" if verdict.held
+                  else "the brace did not hold over the run (see simulation)")
     else:
         reason = "no plan at the start: " + str(None if first is None else first.reason)
     payload.update({
@@ -228,11 +230,12 @@ def climb_document(scene: Scene, result: PlanResult) -> dict[str, Any]:
         "brace_contacts": list(task.brace_contacts),
         "reason": reason,
     })
+    ran = len(result.trajectory.times) > 1  # max_time 0: the first plan only, no verdict
     payload["simulation"].update({
-        "brace_held": verdict.held, "max_slip": verdict.max_slip, "max_opening": verdict.max_opening,
-        "upper_rise": verdict.upper_rise, "max_upper_rise": verdict.max_upper_rise,
-        "duration": float(result.trajectory.times[-1]), "slip_tolerance": BRACE_SLIP_TOLERANCE,
-        "brace_events": [e.to_dict() for e in verdict.events],
+        "brace_held": verdict.held if ran else None, "max_slip": verdict.max_slip,
+        "max_opening": verdict.max_opening, "upper_rise": verdict.upper_rise,
+        "max_upper_rise": verdict.max_upper_rise, "duration": float(result.trajectory.times[-1]),
+        "slip_tolerance": BRACE_SLIP_TOLERANCE, "brace_events": [e.to_dict() for e in verdict.events],
     })
     return add_scene_modes(to_jsonable(payload), [c.name for c in scene.contacts])
 

@@ -32,6 +32,7 @@ from ...errors import FrcontrolError, ImpactState, InputError
 from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...scene import Contact, Scene
 from ...simulation.closed_loop import run_closed_loop
+from ...simulation.inputs import check_simulation_times
 from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ...solvers import DEFAULT_LP_SOLVER
 from ..flip import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
@@ -203,6 +204,15 @@ class TaskRun:
     timings: dict[str, float]
 
 
+def _first_plan_only(policy: _TaskPolicy, stepper: RigidStepper, dt: float, replan_every: int) -> TaskRun:
+    """``max_time = 0``: the first plan at the scene's state, and a run of one sample (no step)."""
+    check_simulation_times(dt, dt, scene=policy.scene)  # the step's own checks
+    last = policy.records[-1]
+    last.end, last.why = 0.0, "max_time 0 s: the first plan only"
+    return TaskRun(tuple(policy.records), stepper.trajectory(dt), False, 1, dt, 0.0, replan_every,
+                   {"planning": 0.0, "simulation": 0.0})
+
+
 def run_task(
     scene: Scene,
     task: Task,
@@ -221,7 +231,7 @@ def run_task(
         task: its task (:func:`~.task.read_task`).
         dt: [s] the step.
         replan_every: steps between plans, >= 1.
-        max_time: [s] the longest simulated time (default: the task's).
+        max_time: [s] the longest simulated time (default: the task's); 0: the first plan only.
         margin: [input units] every phase's margin (default: each phase's own).
         solver: LP back-end.
         progress: called with (simulated time, max_time) every ``replan_every`` steps.
@@ -240,6 +250,8 @@ def run_task(
         policy.scene, RigidSettings(max_ambiguity_checks=0, impact_law=False), armature=armature
     )
     first = policy.plan(None)
+    if duration == 0:
+        return _first_plan_only(policy, stepper, dt, replan_every)
     run = run_closed_loop(
         stepper,
         policy,
