@@ -16,6 +16,11 @@ residual like an LP's); its Hessian ``2 G^T W^2 G`` (``G = C X_u``) is singular 
 quantities are tracked than there are inputs, so ``eps`` = :data:`TRACK_REGULARIZATION` times its
 largest diagonal entry makes it definite and picks, among equally good inputs, the smallest.
 
+**Conditions.** A phase's ``require`` conditions (:class:`~.objective.LimitRows`: an acceleration
+between bounds) are rows of every LP and QP above, once per point of V, each bound tightened by the
+most the rounding can move its quantity (:meth:`PieceLP.limit_rows`); the check at the rounded
+inputs refuses a plan that breaks one.
+
 **Robust phases.** With ``robust = true`` the disturbances of ``[[disturbances]]`` are extra inputs
 ``d`` (the lifted problem of :func:`frcontrol.planning.disturbances.augmented_problem`: input map
 ``[S^T, J_d^T]``), the analysis and the pieces are over ``z = (u, d)``, and every constraint of the
