@@ -143,11 +143,8 @@ def render(payload: dict[str, Any]) -> None:
     if payload["found"]:
         console.print(f"mode {common.named_mode(payload, payload)} at the start; robust: "
                       f"{'yes' if payload['robust'] else 'NO'} ({payload['reason']})")
-        table = Table(title="joint torques [N m] of the first plan")
-        for name in payload["torques"]:
-            table.add_column(name, overflow="fold")
-        table.add_row(*[f"{x:.4f}" for x in payload["torques"].values()])
-        console.print(table)
+        common.print_table("joint torques [N m] of the first plan", list(payload["torques"]),
+                           [[f"{x:.4f}" for x in payload["torques"].values()]])
     else:
         console.print(f"no climb plan: {payload['reason']}")  # an answer, not an error (exit 0)
     console.print(f"largest disturbance scale: {payload['max_disturbance_scale']:.4g}")
