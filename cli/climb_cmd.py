@@ -1,4 +1,4 @@
-"""``frc climb``: torques that hold a snake's brace in mode F for every disturbance of a polytope."""
+"""``frc climb``: a short name for ``frc plan`` on the snake's climb, and the climbing gait (``--cycles``)."""
 
 from __future__ import annotations
 
@@ -7,27 +7,33 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from frcontrol.planning import DEFAULT_CLIMB_DURATION as DEFAULT_DURATION
-from frcontrol.planning import DEFAULT_CLIMB_MARGIN as DEFAULT_MARGIN
+from frcontrol.planning import DEFAULT_CLIMB_MARGIN
 
 from . import common, options
 from .common import console
 from .options import in_range
+from .plan_cmd import render as render_plan
+from .plan_cmd import write_run
 
-ClimbSceneArg = options.scene_argument("with [[disturbances]]")
+ClimbSceneArg = options.scene_argument("with [[disturbances]] and the climb as [task] phases")
 HtmlOpt = options.html_option("the simulated climb")
 ViewOpt = options.view_option("the simulated climb")
 
-PlotOpt = options.plot_option("per disturbance, its polytope, the largest scale found and the "
-                              "robust region at the planned torques")
+PlotOpt = options.plot_option("every coordinate and the contact forces over the climb's run")
 MarginOpt = Annotated[
-    float,
+    float | None,
     typer.Option("--margin", callback=in_range(low=0.0),
-                 help="Required robustness radius [N m or N] in the lifted (u, d) space."),
+                 help="Robustness radius [N m or N] in the lifted (u, d) space: every phase's margin "
+                      f"(default: the task's; with --cycles {DEFAULT_CLIMB_MARGIN:g})."),
 ]
-DurationOpt = options.duration_option("Simulated time [s] of the check under sampled disturbances.")
-SeedOpt = Annotated[int, typer.Option("--seed", callback=in_range(low=0),
-                                      help="Seed of the sampled disturbances (>= 0).")]
+DurationOpt = Annotated[
+    float | None,
+    typer.Option("--duration", "-T", callback=in_range(low=0.0, unit="[s]"),
+                 help="Longest simulated time [s] of the climb's run (default: [task] max_time)."),
+]
+SeedOpt = Annotated[int | None, typer.Option("--seed", callback=in_range(low=0),
+                                             help="With --cycles: seed of the gait's sampled disturbances "
+                                                  "(>= 0; default 0).")]
 ScaleOpt = Annotated[
     float | None,
     typer.Option("--scale", callback=in_range(low=0.0),
@@ -52,19 +58,21 @@ def climb_command(
     view: ViewOpt = False,
     port: options.PortOpt = None,
     plot: PlotOpt = None,
-    margin: MarginOpt = DEFAULT_MARGIN,
-    duration: DurationOpt = DEFAULT_DURATION,
-    seed: SeedOpt = 0,
+    margin: MarginOpt = None,
+    duration: DurationOpt = None,
+    seed: SeedOpt = None,
     cycles: CyclesOpt = None,
     scale: ScaleOpt = None,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
 ) -> None:
-    """Plan the snake climb: torques holding the brace in mode F for every disturbance.
+    """Run the snake climb, the scene's task (frc plan's run), or climb by the gait (--cycles).
 
-    One set of joint torques keeps the brace contacts sticking, unambiguously, for every
-    disturbance of the scene's polytope while the head accelerates upward; also the largest
-    disturbance scale for which such torques exist, and a simulation under sampled disturbances.
+    Without --cycles this is frc plan on the scene's task: the brace held in mode F, unambiguously,
+    for every disturbance of the scene's polytope while the head rises, re-planned along a rigid
+    run; also the largest disturbance scale with such torques, and the brace's verdict from the
+    samples. Its JSON is frc plan's (task, phases, outcome, simulation.samples) with the climb's
+    keys (mode, torques, max_disturbance_scale, robust, simulation.brace_held...).
 
     \b
     Examples:
@@ -74,32 +82,24 @@ def climb_command(
     """
     common.set_quiet(quiet)
     common.check_port(view=view, port=port)
-    if cycles is None and scale is not None:
-        raise options.usage_error("--scale", "it sets the gait's simulated disturbances: add --cycles N")
+    for name, value in (("--scale", scale), ("--seed", seed)):
+        if cycles is None and value is not None:
+            raise options.usage_error(name, "it sets the gait's simulated disturbances: add --cycles N "
+                                      "(the climb's run is its task's rigid run)")
     if cycles is not None and plot is not None:
-        raise options.usage_error("--plot", "it draws the single brace's figure; with --cycles use --html "
+        raise options.usage_error("--plot", "it draws the climb's run; with --cycles use --html "
                                   "(an animation) or --json (the samples)")
     loaded = options.load_scene_with_overrides(scene, sets)
     from frcontrol.answers import climb_answer
 
-    what = "the climb" if cycles is None else "the gait"
+    what = "the climb (planned and simulated)" if cycles is None else "the gait"
     with common.live_viewer(view, port) as server:
         with common.progress(f"planning {what}", "s" if cycles is None else "phases") as shown:
             answer = climb_answer(loaded, margin=margin, duration=duration, seed=seed, cycles=cycles,
                                   scale=scale, on_simulation=lambda: shown.stage(f"simulating {what}"),
                                   progress=shown)
-        if answer.kind == "climb" and not answer.document["found"] and not json:
-            console.print(f"no climb plan: {answer.document['reason']}")  # an answer, not an error (exit 0)
-            return
         common.answer(answer.document, render_gait if answer.kind == "gait" else render, json=json)
-        if plot is not None and answer.document["found"]:
-            from frcontrol.viz.figures import plot_climb
-
-            plot_climb(answer.result, plot)
-            common.note(f"wrote {plot}", to_stderr=json)
-        common.write_motion(loaded, answer.trajectory, html=html, out=out, json=json)
-        if server is not None:
-            common.show_live(server, loaded, answer.trajectory, json=json)
+        write_run(loaded, answer, plot=plot, html=html, out=out, json=json, server=server)
 
 
 def render_gait(payload: dict[str, Any]) -> None:
@@ -139,31 +139,22 @@ def render_gait(payload: dict[str, Any]) -> None:
 
 
 def render(payload: dict[str, Any]) -> None:
-    """The plan as rich text and a table."""
-    console.print(f"mode {common.named_mode(payload, payload)} at the zero disturbance; robust: "
-                  f"{'yes' if payload['robust'] else 'NO'} ({payload['reason']})")
-    table = Table(title=f"joint torques [N m] (scale {payload['scale']:.4g})")
-    for name in payload["torques"]:
-        table.add_column(name, overflow="fold")
-    table.add_row(*[f"{x:.{3}f}" for x in payload["torques"].values()])
-    console.print(table)
-    console.print(f"largest disturbance scale: {payload['max_disturbance_scale']:.4g} "
-                  f"(bracket {payload['scale_bracket'][0]:.4g} .. {payload['scale_bracket'][1]:.4g}, "
-                  f"{len(payload['bisection'])} LP step(s))")
-    closest = payload["closest_mode"]
-    console.print(f"robustness radius {payload['robustness_radius']:.4g} (margin {payload['margin']:g}); "
-                  f"other modes excluded: {payload['modes_excluded']}"
-                  + (f", closest {common.named_mode(closest, payload)} at {closest['margin']:.4g}"
-                     if closest and closest["margin"] is not None else ""))
-    console.print(f"head acceleration {payload['head_acceleration']:.4g} m/s^2 up at the zero disturbance, "
-                  f">= {payload['worst_head_acceleration']:.4g} over the polytope "
-                  f"(required {payload['min_head_acceleration']:g})")
+    """The climb: its plan at the start, the largest scale, the brace's verdict, then frc plan's table."""
+    if payload["found"]:
+        console.print(f"mode {common.named_mode(payload, payload)} at the start; robust: "
+                      f"{'yes' if payload['robust'] else 'NO'} ({payload['reason']})")
+        common.print_table("joint torques [N m] of the first plan", list(payload["torques"]),
+                           [[f"{x:.4f}" for x in payload["torques"].values()]])
+    else:
+        console.print(f"no climb plan: {payload['reason']}")  # an answer, not an error (exit 0)
+    console.print(f"largest disturbance scale: {payload['max_disturbance_scale']:.4g}")
     sim = payload["simulation"]
-    if sim is not None:
-        console.print(f"simulation ({sim['duration']:g} s, rigid, sampled disturbances): brace "
-                      f"{'held' if sim['brace_held'] else 'NOT held'}; max slip {sim['max_slip']:.3g} m; "
-                      f"head rise {sim['upper_rise']:.4g} m (max {sim['max_upper_rise']:.4g} m)")
-    console.print(f"time: {1e3 * payload['timings']['total']:.1f} ms")
+    if sim["brace_held"] is not None:
+        console.print(f"run ({sim['duration']:.3g} s, rigid, re-planned every {sim['replan_every']} steps): "
+                      f"brace {'held' if sim['brace_held'] else 'NOT held'}; "
+                      f"max slip {sim['max_slip']:.3g} m (tolerance {sim['slip_tolerance']:g}); "
+                      f"head rise {sim['upper_rise']:.4g} m")
+    render_plan(payload)
 
 
 __all__ = [

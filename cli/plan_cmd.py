@@ -81,16 +81,21 @@ def plan_command(
                                  max_time=duration if max_time is None else max_time, margin=margin,
                                  compliant=compliant, progress=shown)
         common.answer(answer.document, render, json=json)
-        trajectory = answer.trajectory
-        if plot is not None:
-            from frcontrol.viz.plots import plot_trajectory
+        write_run(loaded, answer, plot=plot, html=html, out=out, json=json, server=server)
 
-            common.note(f"wrote {plot_trajectory(trajectory, plot, coordinates=trajectory.coordinates)}",
-                        to_stderr=json)
-        modes = None if answer.modes is None else list(answer.modes)
-        common.write_motion(loaded, trajectory, html=html, out=out, json=json, modes=modes)
-        if server is not None:
-            common.show_live(server, loaded, trajectory, json=json, modes=modes)
+
+def write_run(loaded: Any, answer: Any, *, plot: Any, html: Any, out: Any, json: bool, server: Any) -> None:
+    """A task run's figure (``--plot``: every coordinate and the contact forces), page, export and view."""
+    trajectory = answer.trajectory
+    if plot is not None:
+        from frcontrol.viz.plots import plot_trajectory
+
+        common.note(f"wrote {plot_trajectory(trajectory, plot, coordinates=trajectory.coordinates)}",
+                    to_stderr=json)
+    modes = None if answer.modes is None else list(answer.modes)
+    common.write_motion(loaded, trajectory, html=html, out=out, json=json, modes=modes)
+    if server is not None:
+        common.show_live(server, loaded, trajectory, json=json, modes=modes)
 
 
 def render(payload: dict[str, Any]) -> None:
@@ -137,4 +142,4 @@ def render(payload: dict[str, Any]) -> None:
         )
 
 
-__all__ = ["plan_command", "render"]
+__all__ = ["plan_command", "render", "write_run"]

@@ -467,54 +467,60 @@ def flip_answer(scene: Scene, options: FlipOptions, *, on_simulation: Callable[[
                   modes=modes)
 
 
-def climb_answer(scene: Scene, *, margin: float, duration: float, seed: int = 0, cycles: int | None = None,
-                 scale: float | None = None, on_simulation: Callable[[], None] | None = None,
-                 progress: Progress | None = None) -> Answer:
-    """``frc climb [--cycles N] --json`` (``POST /plan/climb``): the brace, or the gait.
+def climb_answer(scene: Scene, *, margin: float | None = None, duration: float | None = None,
+                 seed: int | None = None, cycles: int | None = None, scale: float | None = None,
+                 on_simulation: Callable[[], None] | None = None, progress: Progress | None = None) -> Answer:
+    """``frc climb [--cycles N] --json`` (``POST /plan/climb``): the climb as the scene's task, or the gait.
 
-    Without ``cycles``: :func:`frcontrol.planning.climb.plan_climb` and, when a plan is found and
-    ``duration`` > 0, its simulated check (kind ``"climb"``). With ``cycles``: the gait's plan
-    (:func:`frcontrol.planning.gait.plan_gait`) and its rigid simulation (kind ``"gait"``).
+    Without ``cycles``: the scene's task run as ``frc plan`` runs it
+    (:func:`frcontrol.planning.core.plan_task`), its document with the climb's keys
+    (:func:`frcontrol.planning.climb_check.climb_document`; kind ``"climb"``). With ``cycles``: the
+    gait's plan (:func:`frcontrol.planning.gait.plan_gait`) and its rigid simulation under
+    sampled disturbances (kind ``"gait"``).
 
     Args:
-        scene: the scene with ``[[disturbances]]`` (and ``[task] upper_brace_contacts`` for the gait).
-        margin: [N m or N] the robustness radius in the lifted (u, d) space.
-        duration: [s] the brace's simulated check (0: plan only); not used by the gait.
-        seed: seed of the sampled disturbances (an integer >= 0).
-        cycles: the gait's number of cycles (>= 1), or None for one brace.
+        scene: the scene with ``[[disturbances]]`` and a task given as phases whose first phase is
+            the brace (and ``[task] gait`` or ``upper_brace_contacts`` for the gait).
+        margin: [N m or N] every phase's margin (the gait's robustness radius); None: the task's
+            (the gait's default).
+        duration: [s] the climb's longest simulated time (None: the task's ``max_time``); not used
+            by the gait.
+        seed: seed of the gait's sampled disturbances (an integer >= 0; None: 0); the climb's run
+            samples none.
+        cycles: the gait's number of cycles (>= 1), or None for the climb.
         scale: the disturbance scale of the gait's simulation (None: the gait's default).
-        on_simulation: called once when the simulation starts.
-        progress: called with (simulated time, duration) along the brace's check, (phases done,
+        on_simulation: called once when the gait's simulation starts.
+        progress: called with (simulated time, duration) along the climb's run, (phases done,
             phases) along the gait's.
 
     Raises:
-        InputError: a seed that is not an integer >= 0; OptionConflict: ``scale`` without
-            ``cycles`` (both before any planning); see the planners.
+        InputError: a seed that is not an integer >= 0; OptionConflict: ``scale`` or ``seed``
+            without ``cycles`` (both before any planning); see the planners.
     """
     from .simulation.inputs import check_seed
 
-    check_seed(seed)
-    if cycles is None and scale is not None:
-        raise OptionConflict("scale", "scale sets the gait's simulated disturbances: it needs cycles "
-                             "(--cycles N)")
-    if cycles is not None:
-        from .planning.gait import gait_payload, plan_gait, simulate_gait
+    if cycles is None:
+        for name, value in (("scale", scale), ("seed", seed)):
+            if value is not None:
+                raise OptionConflict(name, f"{name} sets the gait's simulated disturbances: it needs cycles "
+                                     "(--cycles N); the climb's run is its task's rigid run")
+        from .planning.climb_check import climb_document
+        from .planning.core import plan_task
 
-        gait = plan_gait(scene, cycles, margin=margin)
-        if on_simulation is not None:
-            on_simulation()
-        run = simulate_gait(gait, seed=seed, scale=scale, progress=progress)
-        return Answer("gait", gait_payload(gait, run), result=run, trajectory=run.trajectory)
-    from .planning.climb import plan_climb, simulate_climb
+        result = plan_task(scene, max_time=duration, margin=margin, progress=progress)
+        trajectory = result.trajectory
+        return Answer("climb", climb_document(scene, result), result=result, trajectory=trajectory,
+                      modes=None if trajectory.modes is None else tuple(trajectory.modes))
+    from .planning import DEFAULT_CLIMB_MARGIN
+    from .planning.gait import plan_gait
+    from .planning.gait_run import gait_payload, simulate_gait
 
-    plan = plan_climb(scene, margin=margin)
-    result = None
-    if plan.found and duration > 0:
-        if on_simulation is not None:
-            on_simulation()
-        result = simulate_climb(scene, plan, duration=duration, seed=seed, progress=progress)
-    return Answer("climb", plan.to_dict(result), result=plan,
-                  trajectory=None if result is None else result.trajectory)
+    seed = check_seed(0 if seed is None else seed)
+    gait = plan_gait(scene, cycles, margin=DEFAULT_CLIMB_MARGIN if margin is None else margin)
+    if on_simulation is not None:
+        on_simulation()
+    run = simulate_gait(gait, seed=seed, scale=scale, progress=progress)
+    return Answer("gait", gait_payload(gait, run), result=run, trajectory=run.trajectory)
 
 
 def standup_answer(scene: Scene, *, duration: float | None = None, dt: float = 2e-3, replan_every: int = 10,

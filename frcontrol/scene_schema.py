@@ -78,6 +78,20 @@ _OBJECTIVE = {
                      "description": "a plan's objective must be at least this (worst case when robust)"},
     },
 }
+_REQUIREMENT = {
+    "type": "object",
+    "additionalProperties": False,
+    "description": "a coordinate's acceleration, or a point's along a direction, kept within bounds "
+                   "by every plan (at every disturbance vertex when robust)",
+    "properties": {
+        "coordinate": {"type": "string", "x-refers": "coordinate", "description": "the coordinate"},
+        "link": {"type": "string", "x-refers": "link", "description": "the link of the point"},
+        "point": {**_PAIR, "description": "[m] the point, in the link's frame"},
+        "direction": {**_PAIR, "description": "[-] the world direction of its acceleration"},
+        "at_least": {"type": "number", "description": "[m/s^2 or rad/s^2] the quantity's floor"},
+        "at_most": {"type": "number", "description": "[m/s^2 or rad/s^2] the quantity's ceiling"},
+    },
+}
 _PHASE = {
     "type": "object",
     "additionalProperties": False,
@@ -102,6 +116,8 @@ _PHASE = {
                           "description": "[-] the largest scale searched"},
             },
         },
+        "require": {"type": "array", "items": _REQUIREMENT,
+                    "description": "conditions on the accelerations every plan of the phase meets"},
         "maximize": {**_OBJECTIVE, "description": "maximise an acceleration"},
         "minimize": {**_OBJECTIVE, "description": "minimise an acceleration"},
         "track": {
@@ -342,6 +358,14 @@ SCENE_SCHEMA: dict[str, Any] = {
                            "description": "plan: the phase timing that ends the phases and drives those "
                                           "without an objective (pump: frcontrol.planning.pump_timing; "
                                           "repeat is then the most cycles)"},
+                "gait": {"type": "object", "additionalProperties": False, "required": ["upper_brace"],
+                         "description": "plan: the snake's climbing gait (frc climb --cycles) beside "
+                                        "the phases: its lower brace is the first phase's F contacts",
+                         "properties": {
+                             "upper_brace": {**_NAMES, "minItems": 1, "x-refers": "contact",
+                                             "description": "the gait's upper brace, separated at the "
+                                                            "scene's state"},
+                         }},
                 "body_contacts": {**_NAMES, "minItems": 1, "x-refers": "contact",
                                   "description": "flip: the body's contacts"},
                 "pitch": {"type": "string", "x-refers": "coordinate",
@@ -617,9 +641,10 @@ def schema_problems(doc: Any) -> list[SchemaProblem]:
     return out
 
 
-PHASED_TASK_KEYS = ("max_time", "repeat", "phases", "timing")
-"""The keys of a task given as phases (``frc plan``); the other ``[task]`` keys are the dedicated
-planners' (``frc flip``, ``frc climb``, ``frc standup``)."""
+PHASED_TASK_KEYS = ("max_time", "repeat", "phases", "timing", "gait")
+"""The keys of a task given as phases (``frc plan``; ``timing``: the phase timing, ``gait``: the
+snake's climbing gait beside the phases); the other ``[task]`` keys are the dedicated planners'
+(``frc flip``, ``frc climb``, ``frc standup``)."""
 
 
 def _task_shape(task: Mapping[str, Any]) -> list[SchemaProblem]:
@@ -648,11 +673,13 @@ def _phase_shape(phase: Mapping[str, Any], where: str, *, timed: bool = False) -
         return [SchemaProblem(where, f"a phase needs exactly one of maximize, minimize, track (got {got})")]
     out = []
     objective = phase[objectives[0]] if objectives else None
-    if objectives and objectives[0] != "track" and isinstance(objective, Mapping):
-        point = [k for k in ("link", "point", "direction") if k in objective]
-        if ("coordinate" in objective) == bool(point) or (point and len(point) != 3):
-            out.append(SchemaProblem(f"{where}.{objectives[0]}", "expected either coordinate = NAME, or "
-                                     "link, point = [x, y] and direction = [dx, dy]"))
+    if objectives and objectives[0] != "track":
+        out.extend(_quantity_shape(objective, f"{where}.{objectives[0]}"))
+    requires = phase.get("require")
+    for i, requirement in enumerate(requires if isinstance(requires, list) else []):
+        out.extend(_quantity_shape(requirement, f"{where}.require[{i}]"))
+        if isinstance(requirement, Mapping) and not {"at_least", "at_most"} & set(requirement):
+            out.append(SchemaProblem(f"{where}.require[{i}]", "missing: at_least = X or at_most = X"))
     until = phase.get("until")
     if isinstance(until, Mapping):
         kinds = [k for k in ("coordinate", "time", "contact") if k in until]
@@ -662,6 +689,17 @@ def _phase_shape(phase: Mapping[str, Any], where: str, *, timed: bool = False) -
                                      "above = X or below = X, or time = T [s], or contact = { NAME = "
                                      "'closed' | 'open' }"))
     return out
+
+
+def _quantity_shape(quantity: Any, where: str) -> list[SchemaProblem]:
+    """An acceleration is a coordinate's, or a point's (link, point, direction): one of them."""
+    if not isinstance(quantity, Mapping):
+        return []
+    point = [k for k in ("link", "point", "direction") if k in quantity]
+    if ("coordinate" in quantity) == bool(point) or (point and len(point) != 3):
+        return [SchemaProblem(where, "expected either coordinate = NAME, or link, point = [x, y] and "
+                              "direction = [dx, dy]")]
+    return []
 
 
 def _disturbance_shape(table: Mapping[str, Any], where: str) -> list[SchemaProblem]:

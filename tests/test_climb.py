@@ -22,15 +22,11 @@ from frcontrol.engine import solutions_at
 from frcontrol.errors import InputError, SceneError
 from frcontrol.model import ContactPoint, PlanarRobot
 from frcontrol.modes import ContactProblem
-from frcontrol.planning.climb import (
-    BRACE_SLIP_TOLERANCE,
-    build_climb,
-    check_scale,
-    load_disturbances,
-    mode_exclusions,
-    plan_climb,
-    simulate_climb,
-)
+from frcontrol.planning.climb import plan_climb
+from frcontrol.planning.climb_check import BRACE_SLIP_TOLERANCE, ClimbCheckSettings, simulate_climb
+from frcontrol.planning.climb_problem import build_climb, check_scale
+from frcontrol.planning.disturbances import load_disturbances
+from frcontrol.planning.exclusions import mode_exclusions
 from frcontrol.scene import load_scene
 
 runner = CliRunner()
@@ -192,7 +188,7 @@ def test_simulation_holds_the_brace(scene, plan):
     assert short.status == "completed" and short.brace_held
     assert short.upper_rise > 0.0 and short.max_upper_rise >= short.upper_rise
     for seed in (1, 2):
-        result = simulate_climb(scene, plan, duration=0.3, seed=seed)
+        result = simulate_climb(scene, plan, ClimbCheckSettings(duration=0.3, seed=seed))
         assert result.brace_held and result.max_slip <= BRACE_SLIP_TOLERANCE
         assert not [e for e in result.brace_events if e.kind in ("open", "slip")]
         assert len(result.disturbance_samples) == 6 and np.any(result.disturbance_samples != 0)
@@ -201,22 +197,36 @@ def test_simulation_holds_the_brace(scene, plan):
 def test_simulation_detects_a_brace_that_slips(scene, plan):
     """The check can fail: limp torques let the brace go."""
     limp = replace(plan, torques=dict.fromkeys(plan.torques, 0.0))
-    result = simulate_climb(scene, limp, duration=0.1, scale=0.0)
+    result = simulate_climb(scene, limp, ClimbCheckSettings(duration=0.1, scale=0.0))
     assert not result.brace_held and result.max_slip > BRACE_SLIP_TOLERANCE
 
 
 # ----------------------------------------------------------------------------------- the CLI
-def test_json_contract(plan):
+def test_json_contract(scene, plan):
+    """frc climb is frc plan on the climb's task: its keys, plus the climb's, judged by the engine."""
+    from frcontrol.engine import analyze
+    from frcontrol.planning.disturbances import augmented_problem
+
     result = runner.invoke(climb_app(), ["climb", "--json"])
     assert result.exit_code == 0, result.stderr
     doc = json.loads(result.stdout)
-    assert {"mode", "torques", "max_disturbance_scale", "robust", "simulation"} <= set(doc)
-    assert doc["mode"] == "FFF" and doc["robust"] is True
-    assert doc["torques"] == dict(plan.torques)
-    assert doc["max_disturbance_scale"] == pytest.approx(plan.max_disturbance_scale)
+    contract = {"mode", "torques", "max_disturbance_scale", "robust", "simulation", "outcome", "phases"}
+    assert contract <= set(doc)
+    assert doc["mode"] == "FFF" and doc["robust"] is True and doc["outcome"]["achieved"] is True
+    assert doc["torques"] == doc["phases"][0]["plans"][0]["inputs"]  # the run's first plan
+    assert doc["max_disturbance_scale"] >= plan.max_disturbance_scale  # the dedicated planner's 9.78
+    dist = load_disturbances(scene)
+    points = dist.robust_points()
+    analysis = analyze(augmented_problem(scene, dist, points.min(axis=0) - 1.0, points.max(axis=0) + 1.0))
+    u = np.array([doc["torques"][n] for n in scene.inputs.coordinates])
+    for v in points:  # robust: exactly FFF at every disturbance vertex, at the printed torques
+        assert [s.mode for s in solutions_at(analysis, np.concatenate([u, v]))] == ["FFF"]
     sim = doc["simulation"]
-    assert {"brace_held", "max_slip", "upper_rise"} <= set(sim)
+    assert {"brace_held", "max_slip", "upper_rise", "samples"} <= set(sim)
     assert sim["brace_held"] is True and isinstance(sim["max_slip"], float) and sim["upper_rise"] > 0
+    assert sim["duration"] == pytest.approx(0.1) and sim["max_slip"] <= BRACE_SLIP_TOLERANCE
+    forces = np.array(sim["samples"]["forces"])[1:, :3, 0]
+    assert np.all(forces > 0)  # the samples: every brace contact loaded at every step
 
 
 def test_table_and_files(tmp_path):
@@ -299,9 +309,10 @@ def test_torque_limits_that_leave_nothing_feasible(write_scene):
     assert not plan.found and not plan.robust and not plan.torques
     assert "torque limits" in plan.reason
     result = runner.invoke(climb_app(), ["climb", str(path)])  # no plan is an answer: exit 0
-    assert result.exit_code == 0 and "no climb plan" in result.stdout and "torque limits" in result.stdout
+    assert result.exit_code == 0 and "no climb plan" in result.stdout
     result = runner.invoke(climb_app(), ["climb", str(path), "--json"])
-    assert result.exit_code == 0 and "torque limits" in json.loads(result.stdout)["reason"]
+    doc = json.loads(result.stdout)
+    assert result.exit_code == 0 and not doc["found"] and doc["outcome"]["infeasible"]["phase"] == "brace"
 
 
 def test_a_brace_with_an_indeterminate_squeeze_is_refused(write_scene):

@@ -146,9 +146,9 @@ def _scene_cases(name: str) -> Iterator[tuple[str, list[str], dict[str, Any]]]:
                                                                         "every": 3}
     if "body_contacts" in task or name in ("rhex_flip", "rhex_flip_drives"):  # their tasks are flips
         yield "flip", ["flip", name, "-T", "0.02"], {"scene": name, "max_time": 0.02}
-    if "disturbances" in document and "head_link" in task:  # the climb's own task (not a phases task)
+    if "disturbances" in document and ("head_link" in task or "gait" in task):  # the climb's task
         yield "climb", ["climb", name, "--duration", "0.01"], {"scene": name, "duration": 0.01}
-    if "upper_brace_contacts" in task:
+    if "upper_brace_contacts" in task or "gait" in task:
         yield "gait", ["climb", name, "--cycles", "1"], {"scene": name, "cycles": 1}
     phases = task.get("phases", [{}])
     if "y" in phases[0].get("track", {}).get("coordinates", {}):  # a stand-up: frc plan's short name

@@ -35,14 +35,12 @@ ILL_CONDITIONED = {
     ("disk_in_wedge", 1e8): "SL",
     ("peg_on_surface", 1e7): "LL", ("peg_on_surface", 1e8): "LL",
     ("snake_climb", 1e6): "FLF", ("snake_climb", 1e7): "FLF",
-    ("snake_climb_task", 1e6): "FLF", ("snake_climb_task", 1e7): "FLF",  # snake_climb's snake and contacts
     ("table_on_ground", 1e8): "LL",
 }
 """(scene, mu) -> the mode whose balanced system is in the ill-conditioned band there."""
 
 NOT_ROUND_OFF = {
     ("box_on_slope", 1e6): "LL", ("box_on_slope", 1e7): "LL", ("snake_climb", 1e8): "FLF",
-    ("snake_climb_task", 1e8): "FLF",
 }
 """(scene, mu) -> the mode whose balanced system has a singular value below ``RANK_TOLERANCE`` of
 the largest that round-off does not explain (:data:`~frcontrol.response.ROUND_OFF_RANK_DROP`): a

@@ -12,13 +12,14 @@ from typer.testing import CliRunner
 
 import frcontrol
 from frcontrol.errors import InputError, SceneError
-from frcontrol.planning.climb import BRACE_SLIP_TOLERANCE, DEFAULT_HOLD, _PointKinematics, load_disturbances
-from frcontrol.planning.gait import (
+from frcontrol.planning.climb_check import BRACE_SLIP_TOLERANCE
+from frcontrol.planning.disturbances import DEFAULT_HOLD, PointKinematics, load_disturbances
+from frcontrol.planning.gait import plan_gait
+from frcontrol.planning.gait_geometry import (
     STROKE,
     configuration_from_points,
     gait_geometry,
     knee,
-    plan_gait,
     points_from_configuration,
 )
 
@@ -61,7 +62,7 @@ def test_shapes_match_the_model(scene: frcontrol.Scene) -> None:
     assert (geo.link_length, geo.left_wall, geo.right_wall) == pytest.approx((0.2, -0.15, 0.15))
     links = [f"link{i}" for i in range(9)]
     head = [("head", "link8", np.array([0.2, 0.0]))]
-    kin = _PointKinematics(scene, [(n, n, np.zeros(2)) for n in links] + head)
+    kin = PointKinematics(scene, [(n, n, np.zeros(2)) for n in links] + head)
     for d in (STROKE[0], STROKE[1]):
         for s_lower, s_upper in ((0.0, 0.0), (0.01, 0.0), (0.0, 0.01)):
             shape = geo.nominal(0.3, d, s_lower, s_upper)
@@ -92,10 +93,13 @@ def test_scene_without_upper_brace(tmp_path: Path) -> None:
     source = resolve_scene_path("snake_climb")
     urdf = source.parent.parent / "snake_planar.urdf"
     path = tmp_path / "no_upper.toml"
-    path.write_text(source.read_text().replace('upper_brace_contacts = ["upper_right", "upper_left"]', "")
+    text = source.read_text()
+    assert 'gait = { upper_brace = ["upper_right", "upper_left"] }' in text
+    path.write_text(text.replace('gait = { upper_brace = ["upper_right", "upper_left"] }', "")
                     .replace('robot = "snake_planar.urdf"', f'robot = "{urdf}"'))
-    with pytest.raises(SceneError, match="upper_brace_contacts"):
+    with pytest.raises(SceneError, match=r"upper brace's contacts \(\[task\] gait") as info:
         plan_gait(frcontrol.load_scene(path), 1)
+    assert info.value.field == "task.gait.upper_brace"
 
 
 def test_cli_bad_cycles_and_plot() -> None:
@@ -119,7 +123,7 @@ def _held_slip(payload: dict, scene: frcontrol.Scene) -> tuple[float, float]:
     q, v, times = np.array(samples["q"]), np.array(samples["v"]), np.array(samples["times"])
     names = [c.name for c in scene.contacts]
     tangents = {c.name: c.point.tangent_in_world for c in scene.contacts}
-    kin = _PointKinematics(scene, [(c.name, c.point.link, c.point.point_in_link) for c in scene.contacts])
+    kin = PointKinematics(scene, [(c.name, c.point.link, c.point.point_in_link) for c in scene.contacts])
     slides: dict[tuple[int, str], float] = {}
     drift = 0.0
     first: dict[tuple[int, str], np.ndarray] = {}
@@ -167,7 +171,7 @@ def test_gait_climbs_and_holds(gait_run: tuple[dict, Path], scene: frcontrol.Sce
     # time stepper's inputs: row k + 1 is the step from sample k, row 0 repeats the first)
     inputs = np.array(samples["inputs"])[1:]
     dist = load_disturbances(scene)
-    kin = _PointKinematics(scene, [(d.name, d.link, d.point_in_link) for d in dist.items])
+    kin = PointKinematics(scene, [(d.name, d.link, d.point_in_link) for d in dist.items])
     drawn = np.array(sim["disturbance_samples"])
     for k in range(0, len(torques), 97):
         jac, _, _ = kin.evaluate(q[k], v[k])

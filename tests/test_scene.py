@@ -194,10 +194,16 @@ def test_scene_at_another_state_recomputes_activity():
 def test_model_task_and_disturbances_are_typed_when_the_scene_is_loaded(write_scene):
     """[model], [task] and [[disturbances]] are records on the scene, checked at load: a planner or
     a simulator reads them, never the raw TOML."""
+    import tomllib
+
     from frcontrol.errors import SceneError
+    from frcontrol.scene import shipped_robots_dir
     from frcontrol.scene_tables import DisturbanceTable, ModelOptions, TaskTable
 
-    climb = load_scene("snake_climb")
+    raw = tomllib.loads((shipped_robots_dir() / "scenes" / "snake_climb.toml").read_text())
+    raw["robot"] = str(shipped_robots_dir() / raw["robot"])
+    raw["task"] = {"head_link": "link8", "head_point": [0.2, 0.0]}  # the climb's dedicated keys
+    climb = load_scene(write_scene(raw))
     assert isinstance(climb.task, TaskTable) and climb.task.head_link == "link8"
     assert climb.task.head_point is not None and climb.task.head_point.shape == (2,)
     assert all(isinstance(d, DisturbanceTable) and d.corners.shape[1] == 2 for d in climb.disturbances)

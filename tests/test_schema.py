@@ -117,8 +117,8 @@ BROKEN = {
                                    False),
     "unknown coordinate in a phase": (edit("rhex_flip", "task.phases[0].maximize.coordinate", "thetaa"),
                                       "task.phases[0].maximize.coordinate", "did you mean 'theta'?", False),
-    "unknown head link": (edit("snake_climb", "task.head_link", "link9"), "task.head_link",
-                          "unknown link 'link9'", False),
+    "unknown head link": (edit("snake_climb", "task.phases[0].require[0].link", "link9"),
+                          "task.phases[0].require[0].link", "unknown link 'link9'", False),
     "unknown disturbance link": (edit("snake_climb", "disturbances[0].link", "lnk8"), "disturbances[0].link",
                                  "did you mean 'link8'?", False),
     "empty disturbance box": (edit("snake_climb", "disturbances[0].lower", [4.0, -3.0]),
@@ -180,7 +180,7 @@ def test_missing_scene_lists_the_shipped_ones_with_the_nearest(tmp_path):
 @pytest.mark.parametrize("args, field", [
     (["flip", "rod_on_table"], "task.body_contacts"),
     (["flip", "snake_climb"], "task.body_contacts"),
-    (["climb", "rhex_flip"], "task.head_link"),
+    (["climb", "rhex_flip"], "task.phases"),  # frc climb is frc plan on the scene's task
 ])
 def test_planners_refuse_a_scene_without_their_task(args, field):
     result = runner.invoke(app, args + ["--json"])

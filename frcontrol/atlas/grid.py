@@ -326,7 +326,7 @@ def check_scene_for(scene: Scene, what: str) -> None:
 
         flip_task(scene)
     elif what == "climb":
-        from ..planning.climb import load_climb_task
+        from ..planning.climb_problem import load_climb_task
 
         load_climb_task(scene)
 

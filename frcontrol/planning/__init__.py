@@ -14,6 +14,7 @@ DEFAULT_CLIMB_MARGIN = 0.05
 """[N m or N] Default robustness radius of the climb (:data:`frcontrol.planning.climb.DEFAULT_MARGIN`)."""
 
 DEFAULT_CLIMB_DURATION = 0.1
-"""[s] Default simulated time of the climb's check (:data:`frcontrol.planning.climb.DEFAULT_DURATION`)."""
+"""[s] Default simulated time of the climb: its task's ``max_time`` on the shipped scene, and
+that of :func:`frcontrol.planning.climb_check.simulate_climb`."""
 
 __all__ = ["DEFAULT_CLIMB_DURATION", "DEFAULT_CLIMB_MARGIN", "DEFAULT_FLIP_MARGIN"]

@@ -203,9 +203,12 @@ class ClimbRequest(SceneRequest):
     """`POST /plan/climb`: `frc climb SCENE --json`."""
 
     scene: SceneField = Field("snake_climb", description="As for every scene endpoint.")
-    margin: float = Field(DEFAULT_CLIMB_MARGIN, ge=0.0, description="[N m or N] as `--margin`.")
-    duration: float = Field(DEFAULT_CLIMB_DURATION, ge=0.0, description="[s] as `--duration`.")
-    seed: int = Field(0, ge=0, description="Seed of the sampled disturbances, as `--seed` (>= 0).")
+    margin: float | None = Field(None, ge=0.0, description="[N m or N] as `--margin` (null: the task's, "
+                                 f"the gait's {DEFAULT_CLIMB_MARGIN:g}).")
+    duration: float | None = Field(None, ge=0.0, description="[s] as `--duration` (null: the task's "
+                                   f"max_time, {DEFAULT_CLIMB_DURATION:g} s on snake_climb).")
+    seed: int | None = Field(None, ge=0, description="With `cycles`: seed of the gait's sampled "
+                             "disturbances, as `--seed` (>= 0; null: 0).")
     cycles: int | None = Field(None, ge=1, description="Climb by this many cycles of the gait, as "
                                "`--cycles` (then `duration` is not used).")
     scale: float | None = Field(None, ge=0.0, description="With `cycles`: the gait's simulated disturbance "

@@ -32,7 +32,8 @@ import numpy as np
 from ..errors import InputError
 from ..geometry import row_norms
 from ..modes import mode_heading, scene_mode
-from ..planning.climb import ClimbPlan, robust_region
+from ..planning.climb import ClimbPlan
+from ..planning.climb_check import robust_region
 from ..planning.flip import FlipPlan
 from ..planning.flip_loop import FlipResult
 from ..polytope import Polytope
@@ -429,7 +430,7 @@ CLIMB_WINDOW_MARGIN = 0.06
 def plot_climb(plan: ClimbPlan, path: str | Path | None = None) -> Any:
     """One panel per disturbance: P, the largest scale's ``s P`` and the plan's robust region.
 
-    The robust region (:func:`~frcontrol.planning.climb.robust_region`) is the set of forces of
+    The robust region (:func:`~frcontrol.planning.climb_check.robust_region`) is the set of forces of
     that disturbance that keep the planned torques in the brace mode's unambiguous piece with the
     head rising, whatever the other disturbances do in their polygons; it contains ``P`` when the
     plan is robust. It is computed inside the analysis box, drawn dashed: where it meets the box,

@@ -16,8 +16,13 @@ residual like an LP's); its Hessian ``2 G^T W^2 G`` (``G = C X_u``) is singular 
 quantities are tracked than there are inputs, so ``eps`` = :data:`TRACK_REGULARIZATION` times its
 largest diagonal entry makes it definite and picks, among equally good inputs, the smallest.
 
+**Conditions.** A phase's ``require`` conditions (:class:`~.objective.LimitRows`: an acceleration
+between bounds) are rows of every LP and QP above, once per point of V, each bound tightened by the
+most the rounding can move its quantity (:meth:`PieceLP.limit_rows`); the check at the rounded
+inputs refuses a plan that breaks one.
+
 **Robust phases.** With ``robust = true`` the disturbances of ``[[disturbances]]`` are extra inputs
-``d`` (the lifted problem of :func:`frcontrol.planning.climb.augmented_problem`: input map
+``d`` (the lifted problem of :func:`frcontrol.planning.disturbances.augmented_problem`: input map
 ``[S^T, J_d^T]``), the analysis and the pieces are over ``z = (u, d)``, and every constraint of the
 LP above is written once per point ``v`` of ``V`` (the vertices of the disturbance polytope, and the
 zero disturbance when the polytope does not hold it): ``(u, v)`` in the same piece for every v, which
@@ -54,9 +59,9 @@ from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...response import OUTPUT_TOLERANCE
 from ...scene import Scene
 from ...solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, RETRY_ERRORS, solve_lp, solve_qp
-from ..climb import load_disturbances
+from ..disturbances import load_disturbances
 from .forced import planning_problem
-from .objective import ObjectiveRows, objective_rows
+from .objective import ObjectiveRows, limit_rows, objective_rows
 from .pieces import margin_pieces, mode_allowed
 from .task import LETTERS, Phase
 from .tolerances import TORQUE_ROUNDING
@@ -71,7 +76,9 @@ __all__ = [
     "PieceLP",
     "decide",
     "lifted_problem",
+    "piece_lp",
     "verify_plan",
+    "with_limits",
 ]
 
 CLOSEST_MARGIN_STEPS = 8
@@ -108,6 +115,8 @@ class PieceLP:
         rows: the objective.
         points: the disturbance points V (rows; one empty row when not robust).
         m_u: how many of z's entries are inputs (the rest are disturbances).
+        limit_gain, limit_bias: the ``require`` quantities' (``rows.limits``) gain on z in the mode
+            and value at z = 0 (None without conditions).
     """
 
     A: np.ndarray
@@ -117,6 +126,8 @@ class PieceLP:
     rows: ObjectiveRows
     points: np.ndarray
     m_u: int
+    limit_gain: np.ndarray | None = None
+    limit_bias: np.ndarray | None = None
 
     def split(self) -> tuple[np.ndarray, np.ndarray]:
         """``(A_u, A_d)``: the piece's columns on the inputs and on the disturbances."""
@@ -125,6 +136,45 @@ class PieceLP:
     def gains(self) -> tuple[np.ndarray, np.ndarray]:
         """``(G_u, G_d)``: the gain's columns on the inputs and on the disturbances."""
         return self.gain[:, : self.m_u], self.gain[:, self.m_u :]
+
+    def limit_rows(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(L_u, l_v, l)``: the ``require`` conditions at the disturbance ``v`` as ``L_u u + l_v <= l``.
+
+        Each bound is tightened by the most the rounding of the inputs can move its quantity
+        (``|row|_1`` times half of :data:`~frcontrol.planning.flip.TORQUE_ROUNDING`), so that the
+        rounded plan meets it too; ``l_v`` is the part that scales with the disturbance.
+        """
+        limits = self.rows.limits
+        if limits is None or self.limit_gain is None or self.limit_bias is None:
+            return np.zeros((0, self.m_u)), np.zeros(0), np.zeros(0)
+        g_u, g_d = self.limit_gain[:, : self.m_u], self.limit_gain[:, self.m_u :]
+        slack = 0.5 * TORQUE_ROUNDING * np.sum(np.abs(g_u), axis=1)
+        low, high = np.isfinite(limits.lower), np.isfinite(limits.upper)
+        rows = np.vstack([-g_u[low], g_u[high]])
+        moving = np.concatenate([-(g_d @ v)[low], (g_d @ v)[high]])
+        bound = np.concatenate([
+            self.limit_bias[low] - limits.lower[low] - slack[low],
+            limits.upper[high] - self.limit_bias[high] - slack[high],
+        ])
+        return rows, moving, bound
+
+
+def piece_lp(
+    A: np.ndarray, b: np.ndarray, response: Any, rows: ObjectiveRows, points: np.ndarray, m_u: int
+) -> PieceLP:
+    """The piece ``A z <= b`` of a mode with its objective's gains on z.
+
+    ``response`` is the mode's (``dv = X_u z + x_0``); the ``require`` conditions' gains come too.
+    """
+    n = rows.rows.shape[1]  # the response's first n outputs are dv
+    gain = rows.rows @ response.X_u[:n]
+    bias = rows.rows @ response.x_0[:n] + rows.offset
+    limits = rows.limits
+    if limits is None or not len(limits.names):
+        return PieceLP(A, b, gain, bias, rows, points, m_u)
+    limit_gain = limits.rows @ response.X_u[:n]
+    limit_bias = limits.rows @ response.x_0[:n] + limits.offset
+    return PieceLP(A, b, gain, bias, rows, points, m_u, limit_gain, limit_bias)
 
 
 @dataclass(frozen=True)
@@ -247,7 +297,7 @@ def decide(
     if why is not None or ready is None:
         return Decision(False, None, inputs={}, objective=None, tried=(), reason=why, **common)
     analysis = ready
-    rows = objective_rows(scene, phase.objective, scene.q, scene.v)
+    rows = with_limits(objective_rows(scene, phase.objective, scene.q, scene.v), scene, phase)
     allowed = [m.mode for m in analysis.feasible_modes if phase.allows(problem.contacts, m.mode)]
     tried: list[tuple[str, str]] = []
     optima: list[tuple[float, str, np.ndarray]] = []
@@ -276,6 +326,13 @@ def decide(
     return _no_plan(
         analysis, phase, problem.contacts, allowed, bool(optima), tuple(tried), rows, solver, common
     )
+
+
+def with_limits(rows: ObjectiveRows, scene: Scene, phase: Phase) -> ObjectiveRows:
+    """The objective's rows with the phase's ``require`` conditions at the scene's state."""
+    if not phase.requires:
+        return rows
+    return replace(rows, limits=limit_rows(scene, phase.requires, scene.q, scene.v))
 
 
 def _no_plan(
@@ -391,11 +448,9 @@ def _mode_optima(
     pieces = margin_pieces(analysis, mode, margin, solver=solver, free=free)
     if not pieces:
         return f"no unambiguous input {margin:g} away from every other mode"
-    gain = rows.rows @ response.X_u[:n]
-    bias = rows.rows @ response.x_0[:n] + rows.offset
     out = []
     for piece in pieces:
-        found = _piece_optimum(PieceLP(piece.A, piece.b, gain, bias, rows, points, m_u), solver)
+        found = _piece_optimum(piece_lp(piece.A, piece.b, response, rows, points, m_u), solver)
         if found is not None:
             out.append(found)
     if not out and rows.at_least is not None:
@@ -420,6 +475,9 @@ def _piece_optimum(lp: PieceLP, solver: str) -> tuple[float, np.ndarray] | None:
         if rows.at_least is not None:
             blocks.append(np.hstack([-g_u, np.zeros((1, 1))]))
             rhs.append(bias + g_d @ v - rows.at_least)
+        limit_u, limit_v, limit = lp.limit_rows(v)
+        blocks.append(np.hstack([limit_u, np.zeros((len(limit), 1))]))
+        rhs.append(limit - limit_v)
     cost = np.concatenate([np.zeros(m_u), [-1.0]])
     result = solve_lp(cost, np.vstack(blocks), np.concatenate(rhs), solver=solver, fallback=RETRY_ERRORS)
     if not result.found or result.x is None:
@@ -439,8 +497,11 @@ def _piece_qp(lp: PieceLP, solver: str) -> tuple[float, np.ndarray] | None:
     hessian = 2.0 * weighted.T @ weighted
     hessian += 2.0 * TRACK_REGULARIZATION * max(float(np.max(np.diag(hessian))), 1.0) * np.eye(m_u)
     linear = 2.0 * weighted.T @ np.mean(residuals, axis=0)
-    A_ub = np.vstack([A_u] * len(lp.points))
-    b_ub = np.concatenate([lp.b - A_d @ v for v in lp.points])
+    limits = [lp.limit_rows(v) for v in lp.points]
+    A_ub = np.vstack([A_u] * len(lp.points) + [rows_u for rows_u, _, _ in limits])
+    b_ub = np.concatenate(
+        [lp.b - A_d @ v for v in lp.points] + [bound - moving for _, moving, bound in limits]
+    )
     result = solve_qp(hessian, linear, A_ub, b_ub, solver=solver)
     if result.status == "error" and solver != REFERENCE_LP_SOLVER:
         result = solve_qp(hessian, linear, A_ub, b_ub, solver=REFERENCE_LP_SOLVER)
@@ -484,7 +545,11 @@ def verify_plan(
         if modes != [mode] and not allowed:
             found = ", ".join(modes) or "none"
             return f"at the rounded inputs the rigid solutions are {found}, not only {mode}"
-        values.append(rows.value(solutions[modes.index(mode)].dv))
+        solution = solutions[modes.index(mode)]
+        broken = None if rows.limits is None else rows.limits.violation(solution.dv[: rows.rows.shape[1]])
+        if broken is not None:
+            return f"at the rounded inputs {broken} (require)"
+        values.append(rows.value(solution.dv))
     worst = max(values) if rows.kind in ("track", "minimize") else min(values)
     if rows.at_least is not None and not worst >= rows.at_least:
         return f"at the rounded inputs the objective {worst:.6g} is below at_least = {rows.at_least:g}"

@@ -39,7 +39,8 @@ import numpy as np
 from ...errors import FrcontrolError, ImpactState, InputError
 from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...scene import Contact, Scene
-from ...simulation.closed_loop import ClosedLoopRun, LoopOptions, run_closed_loop
+from ...simulation.closed_loop import LoopOptions, run_closed_loop
+from ...simulation.inputs import check_simulation_times
 from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ...solvers import DEFAULT_LP_SOLVER
 from .decision import Decision, decide
@@ -276,6 +277,15 @@ class TaskRun:
     timing: PhaseTiming | None = None
 
 
+def _first_plan_only(policy: _TaskPolicy, stepper: RigidStepper, dt: float, replan_every: int) -> TaskRun:
+    """``max_time = 0``: the first plan at the scene's state, and a run of one sample (no step)."""
+    check_simulation_times(dt, dt, scene=policy.scene)  # the step's own checks
+    last = policy.records[-1]
+    last.end, last.why = 0.0, "max_time 0 s: the first plan only"
+    return TaskRun(tuple(policy.records), stepper.trajectory(dt), False, 1, dt, 0.0, replan_every,
+                   {"planning": 0.0, "simulation": 0.0})
+
+
 def run_task(
     scene: Scene,
     task: Task,
@@ -316,16 +326,15 @@ def run_task(
     stepper = RigidStepper(policy.scene, settings, armature=armature)
     first = policy.plan(None)
     if duration == 0:  # the first plan only: a run of one sample, at the scene's state
-        run = ClosedLoopRun(stepper.trajectory(dt), False, 0, {"policy": 0.0, "simulation": 0.0})
-    else:
-        run = run_closed_loop(
-            stepper,
-            policy,
-            duration,
-            dt,
-            options=LoopOptions(every=replan_every, command=first, actuate=policy.actuate, stop=policy.stop),
-            progress=progress,
-        )
+        return _first_plan_only(policy, stepper, dt, replan_every)
+    run = run_closed_loop(
+        stepper,
+        policy,
+        duration,
+        dt,
+        options=LoopOptions(every=replan_every, command=first, actuate=policy.actuate, stop=policy.stop),
+        progress=progress,
+    )
     last = policy.records[-1]
     if last.end is None:
         last.end = float(run.trajectory.times[-1])

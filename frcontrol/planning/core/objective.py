@@ -10,6 +10,9 @@ Every objective is affine in ``dv``, and in a mode ``dv = X_u u + x_0`` is affin
   coordinates and their PD targets ``a*_i = k (target_i - q_i) - d v_i``; the plan minimises the
   weighted least-squares error ``sum_i (w_i (dv_i - a*_i))^2`` (one QP).
 
+A phase's ``require`` list (conditions every plan meets) is built the same way, one row per
+condition, into :class:`LimitRows` (``lower <= rows dv + offset <= upper``).
+
 An :class:`ObjectiveRows` holds ``(rows, offset, targets, weights, sign)``: for maximise/minimise
 one row with ``sign`` +1 / -1 (the plan maximises ``sign (rows dv + offset)``); for track the rows and
 their targets.
@@ -22,9 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...scene import Scene
-from .task import Objective
+from .task import Objective, Requirement
 
-__all__ = ["ObjectiveRows", "objective_rows"]
+__all__ = ["LimitRows", "ObjectiveRows", "limit_rows", "objective_rows"]
 
 
 @dataclass(frozen=True)
@@ -39,6 +42,7 @@ class ObjectiveRows:
         weights: (k,) track: each error's scale before it is squared; else empty.
         names: the quantities' names (coordinates, or ``link@point``).
         at_least: maximize/minimize: the floor of the quantity (worst case when robust), or None.
+        limits: the phase's ``require`` conditions at the state, or None.
     """
 
     kind: str
@@ -48,6 +52,7 @@ class ObjectiveRows:
     weights: np.ndarray
     names: tuple[str, ...]
     at_least: float | None = None
+    limits: LimitRows | None = None
 
     @property
     def sign(self) -> float:
@@ -93,3 +98,43 @@ def objective_rows(scene: Scene, objective: Objective, q: np.ndarray, v: np.ndar
     offset = np.array([float(direction @ kin.drifts[0])])
     name = f"{objective.link}@({objective.point[0]:g}, {objective.point[1]:g})"
     return ObjectiveRows(objective.kind, row, offset, np.zeros(0), np.zeros(0), (name,), objective.at_least)
+
+
+@dataclass(frozen=True)
+class LimitRows:
+    """A phase's ``require`` at one state: ``lower <= rows dv + offset <= upper``.
+
+    Attributes:
+        rows: (k, n) one row per condition, over ``dv``.
+        offset: (k,) [m/s^2 or rad/s^2] (a point's drift along the direction; 0 otherwise).
+        lower: (k,) the floors (-inf where none).
+        upper: (k,) the ceilings (+inf where none).
+        names: the quantities' names.
+    """
+
+    rows: np.ndarray
+    offset: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    names: tuple[str, ...]
+
+    def violation(self, dv: np.ndarray) -> str | None:
+        """The first condition ``dv`` breaks, in words, or None."""
+        values = self.rows @ dv + self.offset
+        for name, value, low, high in zip(self.names, values, self.lower, self.upper, strict=True):
+            if not low <= value <= high:
+                return f"{name}'s acceleration {value:.6g} is outside [{low:g}, {high:g}]"
+        return None
+
+
+def limit_rows(scene: Scene, requires: tuple[Requirement, ...], q: np.ndarray, v: np.ndarray) -> LimitRows:
+    """The ``require`` conditions' rows over ``dv`` at the state ``(q, v)``."""
+    built = [objective_rows(scene, r.quantity, q, v) for r in requires]
+    n = scene.robot.nv
+    return LimitRows(
+        np.vstack([b.rows for b in built]) if built else np.zeros((0, n)),
+        np.concatenate([b.offset for b in built]) if built else np.zeros(0),
+        np.array([-np.inf if r.at_least is None else r.at_least for r in requires], dtype=float),
+        np.array([np.inf if r.at_most is None else r.at_most for r in requires], dtype=float),
+        tuple(b.names[0] for b in built),
+    )

@@ -11,6 +11,7 @@ gives it exactly::
     maximise  s   over (u, s)
     s.t.      A_u u + s A_d v <= b                        for every v in V,
               C (X_u u + s X_d v + x_0) + o >= at_least   for every v in V (when the objective has one),
+              the phase's ``require`` conditions likewise  for every v in V,
               0 <= s <= S.
 
 The pieces are built once, in a disturbance box that holds ``S P`` (:func:`~.decision.lifted_problem`
@@ -32,8 +33,9 @@ from ...engine import DynamicResponse
 from ...modes import ContactProblem
 from ...scene import Scene
 from ...solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
-from ..climb import load_disturbances
-from .decision import PieceLP, lifted_problem, verify_plan
+from ..disturbances import load_disturbances
+from .decision import PieceLP, lifted_problem, piece_lp, verify_plan, with_limits
+from .pieces import margin_pieces
 from .forced import planning_problem
 from .objective import objective_rows
 from .pieces import margin_pieces
@@ -104,16 +106,14 @@ def largest_scale(
         return ScaleResult(False, 0.0, upper, reason="every input is forced at this state")
     m_u = len(full.inputs) - len(forced)
     points = load_disturbances(scene).robust_points()
-    rows = objective_rows(scene, phase.objective, scene.q, scene.v)
+    rows = with_limits(objective_rows(scene, phase.objective, scene.q, scene.v), scene, phase)
     best: tuple[float, str, np.ndarray, float] | None = None
     for mode in (m.mode for m in analysis.feasible_modes if phase.allows(planned.contacts, m.mode)):
         chosen = analysis.mode(mode)
         if not chosen.inputs_full_dimensional:
             continue
-        n = rows.rows.shape[1]
-        gain, bias = rows.rows @ chosen.response.X_u[:n], rows.rows @ chosen.response.x_0[:n] + rows.offset
         for piece in margin_pieces(analysis, mode, phase.margin, solver=solver):
-            lp = PieceLP(piece.A, piece.b, gain, bias, rows, points, m_u)
+            lp = piece_lp(piece.A, piece.b, chosen.response, rows, points, m_u)
             found = _piece_scale(lp, upper, solver)
             if found is None or (best is not None and found[0] <= best[0]):
                 continue
@@ -159,6 +159,9 @@ def _piece_scale(lp: PieceLP, upper: float, solver: str) -> tuple[float, np.ndar
         if at_least is not None:
             blocks.append(np.hstack([-g_u, -(g_d @ v)[:, None]]))
             rhs.append(lp.bias - at_least)
+        limit_u, limit_v, limit = lp.limit_rows(v)
+        blocks.append(np.hstack([limit_u, limit_v[:, None]]))
+        rhs.append(limit)
     cost = np.concatenate([np.zeros(m_u), [-1.0]])
     lb = np.concatenate([np.full(m_u, -np.inf), [0.0]])
     ub = np.concatenate([np.full(m_u, np.inf), [upper]])

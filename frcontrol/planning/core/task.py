@@ -13,6 +13,8 @@ The format (``robots/scene.schema.json`` holds every key; ``docs/tasks.md`` expl
     # largest_scale = { upper = 20.0 }  # robust: also the largest disturbance scale with a plan
     maximize = { coordinate = "theta" } # or minimize = ..., or track = { coordinates = {...}, ... }
     # maximize = { ..., at_least = 1.0 } # a plan's objective must reach this
+    # require = [{ link = "link8", point = [0.2, 0.0], direction = [0.0, 1.0], at_least = 1.0 }]
+    #                                   # conditions on accelerations every plan must meet
     until = { coordinate = "theta", above = 4.712 }   # or below, time, contact = { NAME = "closed" }
 
 A task may name a *phase timing* (``timing = "pump"``, :mod:`.timing`): a small module that ends
@@ -36,7 +38,16 @@ from ...errors import SceneError
 from ...scene import Scene
 from .. import DEFAULT_FLIP_MARGIN
 
-__all__ = ["DEFAULT_MAX_TIME", "DEFAULT_PHASE_MARGIN", "Objective", "Phase", "Task", "Until", "read_task"]
+__all__ = [
+    "DEFAULT_MAX_TIME",
+    "DEFAULT_PHASE_MARGIN",
+    "Objective",
+    "Phase",
+    "Requirement",
+    "Task",
+    "Until",
+    "read_task",
+]
 
 DEFAULT_MAX_TIME = 2.0
 """[s] Simulated time of a task whose ``[task]`` gives no ``max_time``."""
@@ -81,6 +92,24 @@ class Objective:
 
 
 @dataclass(frozen=True)
+class Requirement:
+    """A condition every plan of a phase meets: an acceleration within bounds (``require``).
+
+    The quantity is a coordinate's acceleration, or a point's world acceleration along a
+    direction (as for ``maximize``); a robust phase meets it at every disturbance vertex.
+
+    Attributes:
+        quantity: the quantity (an :class:`Objective` of kind ``"require"``).
+        at_least: [m/s^2 or rad/s^2] its floor, or None.
+        at_most: [m/s^2 or rad/s^2] its ceiling, or None.
+    """
+
+    quantity: Objective
+    at_least: float | None = None
+    at_most: float | None = None
+
+
+@dataclass(frozen=True)
 class Until:
     """When a phase ends: the first sample at which the condition holds.
 
@@ -121,6 +150,7 @@ class Phase:
         until: when the phase ends.
         largest_scale: robust phases: the largest disturbance scale searched for at the phase's
             first decision (:mod:`~frcontrol.planning.core.scale`), or None.
+        requires: conditions on the accelerations every plan meets (``require``).
     """
 
     name: str
@@ -130,6 +160,7 @@ class Phase:
     objective: Objective
     until: Until
     largest_scale: float | None = None
+    requires: tuple[Requirement, ...] = ()
 
     def allows(self, contacts: tuple[str, ...], mode: str) -> bool:
         """Whether ``mode`` (one letter per contact of ``contacts``) has only allowed letters."""
@@ -231,6 +262,16 @@ def _phase(scene: Scene, raw: Mapping[str, Any], where: str, timing: str | None 
         Objective("driven") if kind == "driven" else _objective(kind, raw[kind]),
         _until(raw["until"]),
         None if "largest_scale" not in raw else float(raw["largest_scale"]["upper"]),
+        tuple(_requirement(r) for r in raw.get("require", ())),
+    )
+
+
+def _requirement(raw: Mapping[str, Any]) -> Requirement:
+    quantity = _objective("require", {k: v for k, v in raw.items() if k not in ("at_least", "at_most")})
+    return Requirement(
+        quantity,
+        None if "at_least" not in raw else float(raw["at_least"]),
+        None if "at_most" not in raw else float(raw["at_most"]),
     )
 
 
