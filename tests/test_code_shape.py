@@ -241,14 +241,10 @@ MAX_PARAMETERS = 8
 ``self``/``cls`` aside; ``*args``/``**kwargs`` aside): group options in a frozen settings dataclass."""
 
 PARAMETERS_IN_REWORK = frozenset({
-    "frcontrol/planning/flip.py::plan_flip",
-    "frcontrol/planning/flip.py::simulate_flip",
-    "frcontrol/planning/climb.py::simulate_climb",
-    "frcontrol/planning/gait.py::tracking_step",
     "frcontrol/solvers/__init__.py::solve_lp",
     "frcontrol/solvers/__init__.py::solve_qp",
 })
-"""Functions under rework now (the planners, the LP door) allowed more: to shrink to empty."""
+"""Functions under rework now (the LP door) allowed more: to shrink to empty."""
 
 
 def parameter_counts(path: Path, root: Path = ROOT) -> dict[str, int]:

@@ -197,7 +197,6 @@ def test_model_task_and_disturbances_are_typed_when_the_scene_is_loaded(write_sc
     import tomllib
 
     from frcontrol.errors import SceneError
-    from frcontrol.scene import shipped_robots_dir
     from frcontrol.scene_tables import DisturbanceTable, ModelOptions, TaskTable
 
     raw = tomllib.loads((shipped_robots_dir() / "scenes" / "snake_climb.toml").read_text())

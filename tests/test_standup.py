@@ -151,7 +151,8 @@ def test_a_bad_former_task_names_its_field(tmp_path, overrides, field):
 
 
 @pytest.mark.parametrize(("args", "message"), [
-    (["standup", "rhex_flip"], "task.phases: missing"),
+    (["standup", "rod_on_table"], "task.phases: missing"),
+    (["standup", "rhex_flip"], "task.phases[0].track.coordinates.y: missing"),
     (["standup", "box_slide"], "task.phases[0].track.coordinates.y: missing"),
     (["standup", "--set", "task.phases[0].track.coordinates.y=0.01"], "expected a height above"),
 ])

@@ -35,7 +35,6 @@ from ...scene import Scene
 from ...solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
 from ..disturbances import load_disturbances
 from .decision import PieceLP, lifted_problem, piece_lp, verify_plan, with_limits
-from .pieces import margin_pieces
 from .forced import planning_problem
 from .objective import objective_rows
 from .pieces import margin_pieces
