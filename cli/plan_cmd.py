@@ -124,7 +124,7 @@ def render(payload: dict[str, Any]) -> None:
         if scale is not None:
             console.print(
                 f"phase {phase['name']!r}: largest disturbance scale {scale['scale']:.4g} "
-                + (f"(mode {scale['mode']})" if scale["found"] else f"({scale['reason']})")
+                + (f"(mode {scale['scene_mode']})" if scale["found"] else f"({scale['reason']})")
             )
     outcome = payload["outcome"]
     console.print("achieved: yes" if outcome["achieved"] else f"achieved: no ({outcome['reason']})")

@@ -62,6 +62,8 @@ class ScaleResult:
         inputs: its rounded inputs by name (forced inputs included).
         objective: its objective, worst case over the scaled disturbances, or None.
         reason: why none was found (None when found).
+        scene_mode: ``mode`` over every scene contact (:func:`~frcontrol.modes.scene_mode`), as
+            every output prints a mode, or None.
     """
 
     found: bool
@@ -71,6 +73,7 @@ class ScaleResult:
     inputs: dict[str, float] = field(default_factory=dict)
     objective: float | None = None
     reason: str | None = None
+    scene_mode: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The result as JSON-ready values."""
@@ -79,6 +82,7 @@ class ScaleResult:
             "scale": self.scale,
             "upper": self.upper,
             "mode": self.mode,
+            "scene_mode": self.scene_mode,
             "inputs": dict(self.inputs),
             "objective": self.objective,
             "reason": self.reason,
@@ -124,7 +128,7 @@ def largest_scale(
     scale, mode, u, value = best
     planned_inputs = dict(zip(planned.inputs[:m_u], u.tolist(), strict=True))
     inputs = {name: forced.get(name, planned_inputs.get(name, 0.0)) for name in full.inputs}
-    return ScaleResult(True, scale, upper, mode, inputs, value)
+    return ScaleResult(True, scale, upper, mode, inputs, value, scene_mode=full.scene_mode(mode))
 
 
 def _verified(
