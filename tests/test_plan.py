@@ -402,8 +402,8 @@ def _solutions(scene_, decision, robust: bool) -> list[list[str]]:
     """The engine's rigid solutions' modes at the decision's inputs: per disturbance vertex when robust."""
     from frcontrol.engine import analyze
     from frcontrol.modes import ContactProblem
-    from frcontrol.planning.disturbances import load_disturbances
     from frcontrol.planning.core.decision import lifted_problem
+    from frcontrol.planning.disturbances import load_disturbances
 
     u = np.array([decision.inputs[n] for n in scene_.inputs.coordinates])
     if not robust:

@@ -11,7 +11,11 @@ import pytest
 import frcontrol.solvers as solvers
 from frcontrol.engine import analyze
 from frcontrol.errors import InputError
+from frcontrol.kernel import backend
 from frcontrol.lcp import enumerate_lcp_solutions
+from frcontrol.planning.core.decision import decide
+from frcontrol.planning.core.task import read_task
+from frcontrol.planning.core.tolerances import TORQUE_ROUNDING
 from frcontrol.polytope import Polytope, minimal_representation
 from frcontrol.scene import load_scene
 from frcontrol.solvers import (
@@ -114,3 +118,27 @@ def test_the_lcp_support_lp_goes_through_the_door(monkeypatch):
     (solution,) = enumerate_lcp_solutions(M, q)
     assert "linear programming" in solution.note and len(seen) >= 1
     np.testing.assert_allclose(solution.z, [0.0, 0.0, 1.0], atol=1e-9)
+
+
+def test_a_plan_runs_every_lp_on_its_settings_and_checks_it_with_the_kernel(monkeypatch):
+    """The planners take the settings object: a decision's LPs (the engine's and the planner's own:
+    interior tests, piece optima) go to its back-end, and each answer is checked by the kernel's
+    ``lp_check`` (handed to the door), none by the door's default."""
+    scene = load_scene("rhex_flip")
+    phase = read_task(scene).sequence()[0]
+    reference = decide(scene, phase)
+    on_highs = SolverSettings(lp="highs", qp="highs")
+    highs, daqp = _spy(monkeypatch, "highs"), _spy(monkeypatch, "daqp")
+    checks: list[int] = []
+    kernel_check = backend().lp_check
+
+    def counted(*args):
+        checks.append(1)
+        return kernel_check(*args)
+
+    monkeypatch.setattr(backend(), "lp_check", counted)
+    decision = decide(scene, phase, settings=on_highs)
+    assert decision.found and reference.found and decision.mode == reference.mode
+    assert decision.inputs == pytest.approx(reference.inputs, abs=2 * TORQUE_ROUNDING)
+    assert len(highs) > 10 and not daqp
+    assert len(checks) >= len(highs), f"{len(highs) - len(checks)} LPs not checked by the kernel"

@@ -67,7 +67,7 @@ from ..errors import InputError
 from ..jsonable import finite_or_none, to_jsonable
 from ..modes import VELOCITY_TOLERANCE, ContactProblem, add_scene_modes, scene_mode
 from ..scene import Scene
-from ..solvers import DEFAULT_LP_SOLVER
+from ..solvers import SolverSettings
 from . import DEFAULT_FLIP_MARGIN
 from .core.forced import fix_inputs, forced_by_every_mode, massless_inputs, structurally_forced
 from .core.pieces import margin_pieces, mode_allowed, shrunk_input_domain
@@ -329,7 +329,6 @@ def plan_flip(
     *,
     margin: float = DEFAULT_MARGIN,
     analysis: DynamicResponse | None = None,
-    solver: str = DEFAULT_LP_SOLVER,
     problem: ContactProblem | None = None,
     settings: FlipSettings | None = None,
 ) -> FlipPlan:
@@ -341,12 +340,11 @@ def plan_flip(
         scene: the scene at the state to plan at (``scene.at(q, v)`` along a motion).
         margin: [N m] the distance kept from every input where another mode also holds, >= 0.
         analysis: the engine's analysis of this scene at this state (computed if None).
-        solver: LP back-end.
         problem: the contact problem to plan on (default: the scene's at its state, with
             ``velocity_tolerance``); ignored when ``analysis`` is given.
-        settings: rounding, the least pitch acceleration, velocity pruning, exhaustive search and
-            free letters (:class:`~frcontrol.planning.flip_pitch.FlipSettings`; default: its
-            defaults).
+        settings: rounding, the least pitch acceleration, velocity pruning, exhaustive search,
+            free letters and the solver settings
+            (:class:`~frcontrol.planning.flip_pitch.FlipSettings`; default: its defaults).
 
     Returns:
         The plan; ``found=False`` with a ``reason`` when no candidate, piece or verified optimum
@@ -367,7 +365,7 @@ def plan_flip(
     built = build_flip(scene, velocity_tolerance=velocity_tolerance,
                        problem=analysis.problem if analysis is not None else problem)
     task = built.task
-    full, problem, forced, analysis = _planning_analysis(built, analysis, solver)
+    full, problem, forced, analysis = _planning_analysis(built, analysis, settings.solvers)
     timings["analysis"] = time.perf_counter() - t0
     forced_values = {full.inputs[i]: forced[i] for i in sorted(forced)}
     common = _plan_fields(task, problem, forced_values, analysis, margin=margin, rounding=rounding,
@@ -382,10 +380,11 @@ def plan_flip(
 
     # Branch and bound over the candidates: the LP over the shrunk T_c bounds every piece of it.
     t0 = time.perf_counter()
-    bounds = candidate_bounds(analysis, candidates, task.pitch_index, margin, solver)
+    bounds = candidate_bounds(analysis, candidates, task.pitch_index, margin,
+                              settings.solvers)
     timings["lps"] += time.perf_counter() - t0
     common["bounds"] = bounds
-    search = PieceSearch(margin, rounding, settings.exhaustive, solver, settings.free)
+    search = PieceSearch(margin, rounding, settings.exhaustive, settings.solvers, settings.free)
     pieces, explored, rejected, chosen = branch_and_bound(
         analysis, problem, candidates, bounds, task.pitch_index, search, timings)
     pieces.sort(key=lambda p: -p.pitch_acceleration)
@@ -482,7 +481,7 @@ def _chosen_plan(scene: Scene, chosen: tuple[FlipPiece, np.ndarray, float] | Non
     return plan
 
 
-def _planning_analysis(built: FlipProblem, analysis: DynamicResponse | None, solver: str
+def _planning_analysis(built: FlipProblem, analysis: DynamicResponse | None, solvers: SolverSettings
                        ) -> tuple[ContactProblem, ContactProblem, dict[int, float], DynamicResponse | None]:
     """The problem to plan on and its analysis, with every input the rigid model forces fixed.
 
@@ -494,13 +493,13 @@ def _planning_analysis(built: FlipProblem, analysis: DynamicResponse | None, sol
     if forced:
         analysis = None
     if planned.m and analysis is None:
-        analysis = analyze(planned, solver=solver)
+        analysis = analyze(planned, settings=solvers)
     if analysis is not None and not any(m.inputs_full_dimensional for m in analysis.feasible_modes):
         more = forced_by_every_mode(analysis)
         if more:
             names_left = planned.inputs
             forced.update({full.inputs.index(names_left[i]): value for i, value in more.items()})
             planned = fix_inputs(full, forced)
-            analysis = analyze(planned, solver=solver) if planned.m else None
+            analysis = analyze(planned, settings=solvers) if planned.m else None
     return full, planned, forced, analysis
 

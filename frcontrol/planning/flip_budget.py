@@ -47,6 +47,7 @@ from ..jsonable import to_jsonable
 from ..model import ContactPoint
 from ..scene import Scene
 from ..simulation.trajectory import Trajectory
+from ..urdf import read_urdf
 from .flip import flip_task
 from .pump_timing import leg_contacts
 
@@ -143,8 +144,6 @@ def _hip_links(scene: Scene) -> dict[str, str]:
     The link itself or, through prismatic joints (a compliant leg's spring, a toe link sliding
     along the leg), the link the first one hangs from.
     """
-    from ..urdf import read_urdf
-
     parent = {j.child: (j.parent, j.kind) for j in read_urdf(scene.robot.urdf_path).joints}
     hips = {}
     for link in {c.point.link for c in scene.contacts}:

@@ -51,9 +51,10 @@ from ..jsonable import finite_or_none
 from ..scene import Scene
 from ..simulation.closed_loop import ClosedLoopRun, LoopOptions, run_closed_loop
 from ..simulation.export import sample_modes
+from ..simulation.inputs import check_simulation_times
 from ..simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
 from ..simulation.trajectory import Trajectory
-from ..solvers import DEFAULT_LP_SOLVER
+from ..solvers import DEFAULT_SETTINGS, SolverSettings
 from .core.forced import massless_inputs
 from .core.loop import replanning_model
 from .core.tolerances import REPLAN_GAP_TOLERANCE, SEPARATION_GAP
@@ -80,11 +81,11 @@ class FlipLoopOptions:
     Attributes:
         armature: [kg m^2] rotor inertia of the massless hips (None: the scene's ``[model]``
             armature, else :data:`~frcontrol.planning.flip.FLIP_ARMATURE`).
-        solver: LP back-end of the plans.
+        solvers: the solver settings of the plans.
     """
 
     armature: float | None = None
-    solver: str = DEFAULT_LP_SOLVER
+    solvers: SolverSettings = DEFAULT_SETTINGS
 
 
 @dataclass(frozen=True)
@@ -205,7 +206,7 @@ def simulate_flip(
         margin: [N m] the plans' margin.
         plan: the first plan, if already made at the scene's state.
         progress: called with (simulated time, max_time) every ``replan_every`` steps.
-        options: the hips' rotor inertia and the LP back-end (:class:`FlipLoopOptions`).
+        options: the hips' rotor inertia and the solver settings (:class:`FlipLoopOptions`).
 
     Returns:
         The result; with no first plan, ``trajectory=None`` and ``flipped=False`` with the reason.
@@ -215,11 +216,12 @@ def simulate_flip(
     """
     start = time.perf_counter()
     options = options if options is not None else FlipLoopOptions()
-    solver = options.solver
+    solvers = options.solvers
     max_time, dt, arm = loop_options(scene, dt, max_time, replan_every, options.armature)
     task = flip_task(scene)
     t0 = time.perf_counter()
-    first = plan if plan is not None else plan_flip(scene, margin=margin, solver=solver)
+    first = plan if plan is not None else plan_flip(
+        scene, margin=margin, settings=FlipSettings(solvers=solvers))
     timings = {"first_plan": time.perf_counter() - t0, "simulation": 0.0, "replanning": 0.0}
     common = {"vertical": task.vertical, "dt": dt, "max_time": max_time, "armature": arm}
     if not first.found:
@@ -228,7 +230,7 @@ def simulate_flip(
                           body_contact_kept=None, separation=None, body_events=(), steps=0, replans=0,
                           held=(), plans=(), modes=(), reason=first.reason, timings=timings, **common)
 
-    policy = _Replanner(scene, first, margin, solver)
+    policy = _Replanner(scene, first, margin, solvers)
     run = _closed_loop(scene, policy, task, dt=dt, max_time=max_time, replan_every=replan_every,
                        armature=arm, progress=progress)
     timings["simulation"] += run.timings["simulation"]
@@ -257,8 +259,6 @@ def loop_options(scene: Scene, dt: float, max_time: float, replan_every: int, ar
     Raises:
         InputError: a bad step, time, count or armature.
     """
-    from ..simulation.inputs import check_simulation_times
-
     max_time, dt = check_simulation_times(max_time, dt)
     if isinstance(replan_every, bool) or not isinstance(replan_every, int) or replan_every < 1:
         raise InputError(f"replan_every must be an integer >= 1 (steps), got {replan_every!r}")
@@ -316,11 +316,11 @@ class ReplanningPolicy:
     stepper runs on ``self.scene``, the scene at :data:`REPLAN_GAP_TOLERANCE`.
     """
 
-    def __init__(self, scene: Scene, first: AppliedPlan, margin: float, solver: str) -> None:
+    def __init__(self, scene: Scene, first: AppliedPlan, margin: float, settings: SolverSettings) -> None:
         self.names = scene.inputs.coordinates
         self.scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
         self.force_tolerance = CONTACT_FORCE_TOLERANCE * _weight(scene)
-        self.margin, self.solver = margin, solver
+        self.margin, self.settings = margin, settings
         self.command = first.input_vector(self.names)
         self.plans: list[tuple[float, str | None, Mapping[str, float]]] = [
             (0.0, first.mode, dict(first.torques))]
@@ -344,7 +344,7 @@ class _Replanner(ReplanningPolicy):
     def __call__(self, stepper: RigidStepper) -> np.ndarray:
         """The command from the stepper's state on (a contact the last step loaded is planned with)."""
         self.command, mode, why = _replanned(self.scene, stepper, self.loaded(stepper), self.margin,
-                                             self.solver, self.command, self.names)
+                                             self.settings, self.command, self.names)
         return self.record(stepper.t, mode, why)
 
 
@@ -366,14 +366,15 @@ def _closed_loop(scene: Scene, policy: _Replanner, task: FlipTask, *, dt: float,
             stop=lambda at: bool(at.q[task.pitch_index] >= task.vertical)), progress=progress)
 
 
-def _replanned(replan_scene: Scene, stepper: RigidStepper, loaded: np.ndarray, margin: float, solver: str,
+def _replanned(replan_scene: Scene, stepper: RigidStepper, loaded: np.ndarray, margin: float,
+               settings: SolverSettings,
                command: np.ndarray, names: Sequence[str]) -> tuple[np.ndarray, str | None, str | None]:
     """A re-plan at the stepper's state.
 
     Returns:
         (the command to apply, the plan's mode or None, why the torques are held or None).
     """
-    result = replan_at(replan_scene, stepper.q, stepper.v, loaded, margin, solver)
+    result = replan_at(replan_scene, stepper.q, stepper.v, loaded, margin, settings)
     if isinstance(result, str):
         return command, None, f"{result}: torques held"
     if result.found:
@@ -413,7 +414,7 @@ def _gaps(scene: Scene, q: np.ndarray, points: np.ndarray | None = None) -> np.n
 
 
 def replan_at(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarray, margin: float,
-            solver: str, free: Mapping[str, str] | None = None) -> FlipPlan | str:
+            settings: SolverSettings, free: Mapping[str, str] | None = None) -> FlipPlan | str:
     """The plan at the simulated state, or why none could be made (an impact, an error).
 
     The re-planning model is the core's (:func:`~frcontrol.planning.core.loop.replanning_model`:
@@ -422,8 +423,8 @@ def replan_at(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarray, ma
     """
     try:
         here, problem = replanning_model(scene, q, v, loaded)
-        return plan_flip(here, margin=margin, solver=solver, problem=problem,
-                         settings=FlipSettings(min_pitch_acceleration=None, free=free))
+        return plan_flip(here, margin=margin, problem=problem,
+                         settings=FlipSettings(min_pitch_acceleration=None, free=free, solvers=settings))
     except ImpactState as err:
         return f"impact at {err.contact} (v_N = {err.normal_velocity:.3g} m/s)"
     except FrcontrolError as err:

@@ -14,15 +14,16 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from .. import polytope as poly
 from ..engine import DynamicResponse, ModeAnalysis, solutions_at
+from ..geometry import vertices_from_halfspaces
+from ..kernel import backend
 from ..modes import VELOCITY_TOLERANCE, ContactProblem
 from ..response import OUTPUT_TOLERANCE
-from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
+from ..solvers import DEFAULT_SETTINGS, RETRY_ERRORS, SolverSettings, solve_lp
 from .core.pieces import margin_pieces, mode_allowed, shrunk_input_domain
 from .core.tolerances import TORQUE_ROUNDING
 
@@ -45,7 +46,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class FlipSettings:
-    """How :func:`~frcontrol.planning.flip.plan_flip` searches, beyond its margin and back-end.
+    """How :func:`~frcontrol.planning.flip.plan_flip` searches, beyond its margin.
 
     Attributes:
         rounding: [N m] the torques are rounded to multiples of this, >= 0.
@@ -59,6 +60,7 @@ class FlipSettings:
             (:func:`~frcontrol.planning.core.pieces.mode_allowed`, ``"S"``: a toe may separate);
             the unambiguity constraint and the verification accept those modes beside the planned
             one. Default: none (one rigid solution, planned).
+        solvers: the solver settings of every LP (the analysis' when it is computed here).
     """
 
     rounding: float = TORQUE_ROUNDING
@@ -66,6 +68,7 @@ class FlipSettings:
     velocity_tolerance: float = VELOCITY_TOLERANCE
     exhaustive: bool = False
     free: Mapping[str, str] | None = None
+    solvers: SolverSettings = DEFAULT_SETTINGS
 
 
 @dataclass(frozen=True)
@@ -74,13 +77,13 @@ class PieceSearch:
 
     Attributes:
         margin: [N m] the distance kept; rounding: [N m] the torques' quantum; exhaustive, free: as
-        in :class:`FlipSettings`; solver: LP back-end.
+        in :class:`FlipSettings`; settings: the solver settings.
     """
 
     margin: float
     rounding: float
     exhaustive: bool
-    solver: str
+    settings: SolverSettings
     free: Mapping[str, str] | None = None
 
 
@@ -130,12 +133,8 @@ def pitch_row(mode: ModeAnalysis, pitch_index: int) -> tuple[np.ndarray, np.ndar
     return c_u, c_w, c_0, depends
 
 
-def _solve_lp(c: np.ndarray, A: np.ndarray, b: np.ndarray, solver: str, **kwargs: Any):
-    return solve_lp(c, A, b, solver=solver, fallback=RETRY_ERRORS, **kwargs)
-
-
 def worst_case_pitch(
-    mode: ModeAnalysis, pitch_index: int, u: np.ndarray, *, solver: str = DEFAULT_LP_SOLVER
+    mode: ModeAnalysis, pitch_index: int, u: np.ndarray, *, settings: SolverSettings = DEFAULT_SETTINGS
 ) -> float:
     """``c_u^T u + c_0 + min { c_w^T w : (u, w) in D_c }``: the least pitch acceleration at u.
 
@@ -150,14 +149,15 @@ def worst_case_pitch(
         return -math.inf
     m = mode.m
     H_u, H_w = D.A[:, :m], D.A[:, m:]
-    result = _solve_lp(c_w, H_w, D.b - H_u @ u, solver)
+    result = solve_lp(c_w, H_w, D.b - H_u @ u, settings=settings, fallback=RETRY_ERRORS,
+                      check=backend().lp_check)
     if not result.found:
         return -math.inf
     return base + float(result.objective)
 
 
 def maximise_pitch(mode: ModeAnalysis, piece: poly.Polytope, pitch_index: int,
-                   solver: str = DEFAULT_LP_SOLVER) -> FlipPiece:
+                   settings: SolverSettings = DEFAULT_SETTINGS) -> FlipPiece:
     """The best pitch acceleration of ``mode`` on one piece of inputs.
 
     ``max c_u^T u + c_0`` over the piece by one LP when the pitch row does not depend on w; else the
@@ -168,18 +168,19 @@ def maximise_pitch(mode: ModeAnalysis, piece: poly.Polytope, pitch_index: int,
         mode: the mode's analysis (its response ``X_u, X_w, x_0``, its domain D_c over (u, w)).
         piece: a bounded polytope of inputs inside T_c.
         pitch_index: the pitch coordinate's index in ``dv``.
-        solver: LP back-end.
+        settings: the solver settings.
     """
     c_u, _, c_0, depends = pitch_row(mode, pitch_index)
     if not depends:
-        result = _solve_lp(-c_u, piece.A, piece.b, solver)
-        if not result.found:
+        result = solve_lp(-c_u, piece.A, piece.b, settings=settings, fallback=RETRY_ERRORS,
+                          check=backend().lp_check)
+        if not result.found or result.x is None:
             return FlipPiece(mode.mode, piece, -math.inf, None, False)
         return FlipPiece(mode.mode, piece, float(c_u @ result.x) + c_0, result.x.copy(), False)
-    reduced = poly.minimal_representation(piece, solver=solver)
+    reduced = poly.minimal_representation(piece, settings=settings)
     best, best_u = -math.inf, None
-    for vertex in poly.vertices_from_halfspaces(reduced.A, reduced.b, max_candidates=MAX_VERTEX_CANDIDATES):
-        value = worst_case_pitch(mode, pitch_index, vertex, solver=solver)
+    for vertex in vertices_from_halfspaces(reduced.A, reduced.b, max_candidates=MAX_VERTEX_CANDIDATES):
+        value = worst_case_pitch(mode, pitch_index, vertex, settings=settings)
         if value > best:
             best, best_u = value, vertex
     return FlipPiece(mode.mode, piece, best, best_u, True)
@@ -204,7 +205,7 @@ def round_inputs(u: np.ndarray, lower: np.ndarray, upper: np.ndarray, quantum: f
 
 
 def candidate_bounds(analysis: DynamicResponse, candidates: Sequence[str], pitch_index: int, margin: float,
-                      solver: str) -> dict[str, float]:
+                      settings: SolverSettings) -> dict[str, float]:
     """Per candidate mode, an upper bound of its pitch acceleration over its shrunk T_c (one LP).
 
     ``inf`` when the pitch row depends on w (no cheap bound), ``-inf`` when the shrunk T_c is empty.
@@ -216,7 +217,7 @@ def candidate_bounds(analysis: DynamicResponse, candidates: Sequence[str], pitch
             bounds[name] = math.inf
             continue
         A, b = shrunk_input_domain(analysis, name, margin)
-        result = _solve_lp(-c_u, A, b, solver)
+        result = solve_lp(-c_u, A, b, settings=settings, fallback=RETRY_ERRORS, check=backend().lp_check)
         bounds[name] = float(c_u @ result.x) + c_0 if result.x is not None else -math.inf
     return bounds
 
@@ -235,8 +236,8 @@ def branch_and_bound(analysis: DynamicResponse, problem: ContactProblem, candida
     explored: list[str] = []
     rejected: list[tuple[str, str]] = []
     chosen: tuple[FlipPiece, np.ndarray, float] | None = None
-    margin, rounding, exhaustive, solver, free = (search.margin, search.rounding, search.exhaustive,
-                                                  search.solver, search.free)
+    margin, rounding, exhaustive, settings, free = (search.margin, search.rounding, search.exhaustive,
+                                                    search.settings, search.free)
     for name in sorted(candidates, key=lambda c: -bounds[c]):
         if bounds[name] == -math.inf:
             break
@@ -244,9 +245,9 @@ def branch_and_bound(analysis: DynamicResponse, problem: ContactProblem, candida
             break
         explored.append(name)
         t0 = time.perf_counter()
-        regions = margin_pieces(analysis, name, margin, solver=solver, free=free)
+        regions = margin_pieces(analysis, name, margin, settings=settings, free=free)
         t1 = time.perf_counter()
-        found = sorted((maximise_pitch(analysis.mode(name), piece, pitch_index, solver)
+        found = sorted((maximise_pitch(analysis.mode(name), piece, pitch_index, settings)
                         for piece in regions), key=lambda p: -p.pitch_acceleration)
         t2 = time.perf_counter()
         timings["unambiguous_sets"] += t1 - t0
@@ -259,7 +260,7 @@ def branch_and_bound(analysis: DynamicResponse, problem: ContactProblem, candida
                 rejected.append((piece.mode, "the LP found no optimum"))
                 continue
             u = round_inputs(piece.optimum, problem.lower, problem.upper, rounding)
-            verdict, pitch = verify_piece(analysis, piece, u, pitch_index, solver, free)
+            verdict, pitch = verify_piece(analysis, piece, u, pitch_index, settings, free)
             if verdict is None:
                 chosen = (piece, u, pitch)
                 break
@@ -274,15 +275,15 @@ def torque_text(torques: Mapping[str, float]) -> str:
 
 
 def verify_piece(analysis: DynamicResponse, piece: FlipPiece, u: np.ndarray, pitch_index: int,
-            solver: str, free: Mapping[str, str] | None = None) -> tuple[str | None, float]:
+            settings: SolverSettings, free: Mapping[str, str] | None = None) -> tuple[str | None, float]:
     """``(None, pitch)`` if the rigid solutions at u are as the plan allows, else why.
 
     That is: one solution in the piece's mode and the others only in modes ``free`` allows
     (:func:`mode_allowed`; without ``free``: exactly one solution).
     """
     mode = analysis.mode(piece.mode)
-    pitch = worst_case_pitch(mode, pitch_index, u, solver=solver)
-    solutions = solutions_at(analysis, u, solver=solver)
+    pitch = worst_case_pitch(mode, pitch_index, u, settings=settings)
+    solutions = solutions_at(analysis, u, settings=settings)
     modes = [s.mode for s in solutions]
     contacts = analysis.problem.contacts
     if modes.count(piece.mode) != 1 or not all(mode_allowed(m, piece.mode, contacts, free) for m in modes):

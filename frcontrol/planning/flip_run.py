@@ -33,10 +33,10 @@ from ..errors import FrcontrolError
 from ..jsonable import to_jsonable
 from ..modes import VELOCITY_TOLERANCE, ContactProblem, add_scene_modes
 from ..scene import Scene
-from ..solvers import DEFAULT_LP_SOLVER
+from ..solvers import DEFAULT_SETTINGS
 from .core.decision import Decision, decide
 from .core.forced import planning_problem
-from .core.report import PlanResult, plan_task
+from .core.report import PlanResult, plan_task, with_legacy_keys
 from .core.task import Phase, read_task
 from .core.tolerances import INPUT_LIMIT_TOLERANCE, REPLAN_GAP_TOLERANCE, TORQUE_ROUNDING
 from .flip import VERTICAL_TOLERANCE, FlipPlan, FlipTask, check_flip_inputs, flip_task
@@ -143,7 +143,7 @@ def _analysis(scene: Scene) -> Any:
     here = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
     try:
         full = ContactProblem.from_scene(here, velocity_tolerance=VELOCITY_TOLERANCE)
-        return planning_problem(full, DEFAULT_LP_SOLVER)[1]
+        return planning_problem(full, DEFAULT_SETTINGS)[1]
     except FrcontrolError:  # no input space to draw: the figure says so
         return None
 
@@ -189,8 +189,9 @@ def _why_not(result: PlanResult, pitch: np.ndarray, task: FlipTask) -> str:
 
 
 def flip_document(run: FlipRun) -> dict[str, Any]:
-    """The ``frc flip --json`` document: the flip's keys, and ``outcome`` and ``phases`` as ``frc plan``'s."""
-    document = run.flip.to_dict()
-    document["outcome"] = run.document["outcome"]
-    document["phases"] = run.document["phases"]
-    return document
+    """The ``frc flip --json`` document: the flip's keys, and ``outcome`` and ``phases`` as ``frc plan``'s.
+
+    The short names' one rule (:func:`~frcontrol.planning.core.report.with_legacy_keys`): ``frc plan``'s
+    document of the run with the flip's documented keys merged in.
+    """
+    return with_legacy_keys(run.document, run.flip.to_dict())

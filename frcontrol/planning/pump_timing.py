@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from ..drives import Drive
+from ..engine import solutions_at
 from ..errors import FrcontrolError, SceneError
 from ..modes import scene_mode
 from ..scene import Scene
@@ -157,8 +158,6 @@ def predicted_modes(scene: Scene, q: np.ndarray, v: np.ndarray, loaded: np.ndarr
     velocities up to ``REPLAN_VELOCITY_TOLERANCE`` are 0. None where the model does not apply (a
     contact moving into its surface: an impact).
     """
-    from ..engine import solutions_at
-
     try:
         _, problem = replanning_model(scene, q, v, loaded)
         names = [c.name for c in scene.contacts]

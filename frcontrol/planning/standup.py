@@ -41,9 +41,10 @@ from ..jsonable import finite_or_none, to_jsonable
 from ..modes import ContactProblem, add_scene_modes
 from ..scene import Scene
 from ..simulation.trajectory import Trajectory
-from ..solvers import DEFAULT_LP_SOLVER
+from ..solvers import DEFAULT_SETTINGS, SolverSettings
 from .core import PlanResult, Task, plan_task, read_task
 from .core.objective import objective_rows
+from .core.report import with_legacy_keys
 from .core.task import DEFAULT_PHASE_MARGIN
 from .flip import SEPARATION_GAP, TORQUE_ROUNDING
 
@@ -234,8 +235,6 @@ class StandUpResult:
 
     def to_dict(self, scene: Scene) -> dict[str, Any]:
         """The ``frc standup --json`` document: ``frc plan``'s with :meth:`legacy_keys` merged in."""
-        from .core.report import with_legacy_keys
-
         return with_legacy_keys(self.run.to_dict(scene), self.legacy_keys(scene))
 
 
@@ -304,7 +303,7 @@ def simulate_standup(
     dt: float = 2e-3,
     replan_every: int = 10,
     margin: float | None = None,
-    solver: str = DEFAULT_LP_SOLVER,
+    settings: SolverSettings = DEFAULT_SETTINGS,
     progress: Callable[[float, float], None] | None = None,
 ) -> StandUpResult:
     """Run the scene's stand-up task (:func:`~frcontrol.planning.core.plan_task`) and judge it.
@@ -315,7 +314,7 @@ def simulate_standup(
         dt: [s] the time step.
         replan_every: steps between plans, >= 1.
         margin: [N m] every plan's margin (default: the phase's).
-        solver: LP back-end.
+        settings: the solver settings of every plan's LPs.
         progress: called with (simulated time, duration) every ``replan_every`` steps.
 
     Raises:
@@ -324,6 +323,6 @@ def simulate_standup(
     """
     scene = stand_up_as_phases(scene)
     task = standup_task(scene)
-    run = plan_task(scene, dt=dt, replan_every=replan_every, max_time=duration, margin=margin, solver=solver,
-                    progress=progress)
+    run = plan_task(scene, dt=dt, replan_every=replan_every, max_time=duration, margin=margin,
+                    settings=settings, progress=progress)
     return judge_standup(scene, run, task)

@@ -55,10 +55,11 @@ from typing import Any
 import numpy as np
 
 from ...engine import DynamicResponse, solutions_at
+from ...kernel import backend
 from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...response import OUTPUT_TOLERANCE
 from ...scene import Scene
-from ...solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, RETRY_ERRORS, solve_lp, solve_qp
+from ...solvers import DEFAULT_SETTINGS, REFERENCE_LP_SOLVER, RETRY_ERRORS, SolverSettings, solve_lp, solve_qp
 from ..disturbances import load_disturbances
 from .forced import planning_problem
 from .objective import ObjectiveRows, limit_rows, objective_rows
@@ -258,7 +259,7 @@ def decide(
     phase: Phase,
     *,
     problem: ContactProblem | None = None,
-    solver: str = DEFAULT_LP_SOLVER,
+    settings: SolverSettings = DEFAULT_SETTINGS,
     free: Mapping[str, str] | None = None,
 ) -> Decision:
     """The phase's plan at the scene's state (see the module's docstring).
@@ -267,7 +268,7 @@ def decide(
         scene: the scene at the state to plan at.
         phase: the phase (its allowed modes, margin, robustness and objective).
         problem: the contact problem to plan on (default: the scene's at its state).
-        solver: LP back-end.
+        settings: the solver settings of its LPs and QPs.
         free: per contact, letters another rigid solution at the plan's inputs may have beside the
             planned mode's (:func:`~.pieces.mode_allowed`; a phase timing's, such as the pump's push:
             the toes may separate or slip). Default: none, exactly one rigid solution.
@@ -281,7 +282,7 @@ def decide(
         else ContactProblem.from_scene(scene, velocity_tolerance=VELOCITY_TOLERANCE)
     )
     lift = None if not phase.robust else (lambda p: lifted_problem(scene, p, phase.margin)[0])
-    problem, ready, forced = planning_problem(full, solver, lift)
+    problem, ready, forced = planning_problem(full, settings, lift)
     m_u = len(full.inputs) - len(forced)
     points = load_disturbances(scene).robust_points() if phase.robust else np.zeros((1, 0))
     common: dict[str, Any] = {
@@ -302,7 +303,7 @@ def decide(
     tried: list[tuple[str, str]] = []
     optima: list[tuple[float, str, np.ndarray]] = []
     for mode in allowed:
-        found = _mode_optima(analysis, mode, phase.margin, rows, points, m_u, solver, free)
+        found = _mode_optima(analysis, mode, phase.margin, rows, points, m_u, settings, free)
         if isinstance(found, str):
             tried.append((mode, found))
         else:
@@ -324,7 +325,7 @@ def decide(
             **common,
         )
     return _no_plan(
-        analysis, phase, problem.contacts, allowed, bool(optima), tuple(tried), rows, solver, common
+        analysis, phase, problem.contacts, allowed, bool(optima), tuple(tried), rows, settings, common
     )
 
 
@@ -343,7 +344,7 @@ def _no_plan(
     optimised: bool,
     tried: tuple[tuple[str, str], ...],
     rows: ObjectiveRows,
-    solver: str,
+    settings: SolverSettings,
     common: dict[str, Any],
 ) -> Decision:
     """The decision without a plan: why, and the closest margin when no allowed mode had a piece."""
@@ -356,7 +357,9 @@ def _no_plan(
         reason = f"no allowed mode's unambiguous inputs reach at_least = {rows.at_least:g}"
     else:
         reason = f"no allowed mode has unambiguous inputs {phase.margin:g} away from every other mode"
-    closest = _closest_margin(analysis, allowed, phase.margin, solver) if allowed and not optimised else None
+    closest = None
+    if allowed and not optimised:
+        closest = _closest_margin(analysis, allowed, phase.margin, settings)
     return Decision(
         False,
         None,
@@ -433,7 +436,7 @@ def _mode_optima(
     rows: ObjectiveRows,
     points: np.ndarray,
     m_u: int,
-    solver: str,
+    settings: SolverSettings,
     free: Mapping[str, str] | None = None,
 ) -> list[tuple[float, np.ndarray]] | str:
     """``(cost, u)`` of every piece's optimum of ``mode`` (cost: lower is better), or why none."""
@@ -445,12 +448,12 @@ def _mode_optima(
         coupling = rows.rows @ response.X_w[:n]
         if np.max(np.abs(coupling)) > OUTPUT_TOLERANCE * max(float(np.max(np.abs(response.X_w))), 1e-300):
             return "the objective depends on the mode's ambiguity variables w"
-    pieces = margin_pieces(analysis, mode, margin, solver=solver, free=free)
+    pieces = margin_pieces(analysis, mode, margin, settings=settings, free=free)
     if not pieces:
         return f"no unambiguous input {margin:g} away from every other mode"
     out = []
     for piece in pieces:
-        found = _piece_optimum(piece_lp(piece.A, piece.b, response, rows, points, m_u), solver)
+        found = _piece_optimum(piece_lp(piece.A, piece.b, response, rows, points, m_u), settings)
         if found is not None:
             out.append(found)
     if not out and rows.at_least is not None:
@@ -458,13 +461,13 @@ def _mode_optima(
     return out if out else "no piece's LP has a solution"
 
 
-def _piece_optimum(lp: PieceLP, solver: str) -> tuple[float, np.ndarray] | None:
+def _piece_optimum(lp: PieceLP, settings: SolverSettings) -> tuple[float, np.ndarray] | None:
     """The piece's optimum ``(cost, u)`` (cost: lower is better), every constraint once per point of V.
 
     maximize/minimize: one LP over ``(u, t)``; track: the least-squares QP over u (:func:`_piece_qp`).
     """
     if lp.rows.kind == "track":
-        return _piece_qp(lp, solver)
+        return _piece_qp(lp, settings)
     (A_u, A_d), (g_u, g_d), bias, rows, m_u = lp.split(), lp.gains(), lp.bias, lp.rows, lp.m_u
     blocks, rhs = [], []
     for v in lp.points:
@@ -479,13 +482,14 @@ def _piece_optimum(lp: PieceLP, solver: str) -> tuple[float, np.ndarray] | None:
         blocks.append(np.hstack([limit_u, np.zeros((len(limit), 1))]))
         rhs.append(limit - limit_v)
     cost = np.concatenate([np.zeros(m_u), [-1.0]])
-    result = solve_lp(cost, np.vstack(blocks), np.concatenate(rhs), solver=solver, fallback=RETRY_ERRORS)
+    result = solve_lp(cost, np.vstack(blocks), np.concatenate(rhs), settings=settings, fallback=RETRY_ERRORS,
+                      check=backend().lp_check)
     if not result.found or result.x is None:
         return None
     return float(result.objective), result.x[:m_u].copy()
 
 
-def _piece_qp(lp: PieceLP, solver: str) -> tuple[float, np.ndarray] | None:
+def _piece_qp(lp: PieceLP, settings: SolverSettings) -> tuple[float, np.ndarray] | None:
     """The track's least squares on a piece: mean over V of ``|W (G u + r_v)|^2`` plus the regularization.
 
     ``G`` is the gain on u, ``r_v = bias + G_d v - a*``; the cost returned is the mean squared error
@@ -502,9 +506,9 @@ def _piece_qp(lp: PieceLP, solver: str) -> tuple[float, np.ndarray] | None:
     b_ub = np.concatenate(
         [lp.b - A_d @ v for v in lp.points] + [bound - moving for _, moving, bound in limits]
     )
-    result = solve_qp(hessian, linear, A_ub, b_ub, solver=solver)
-    if result.status == "error" and solver != REFERENCE_LP_SOLVER:
-        result = solve_qp(hessian, linear, A_ub, b_ub, solver=REFERENCE_LP_SOLVER)
+    result = solve_qp(hessian, linear, A_ub, b_ub, settings=settings)
+    if result.status == "error" and settings.qp != REFERENCE_LP_SOLVER:
+        result = solve_qp(hessian, linear, A_ub, b_ub, settings=replace(settings, qp=REFERENCE_LP_SOLVER))
     if not result.found or result.x is None:
         return None
     u = result.x.copy()
@@ -557,18 +561,18 @@ def verify_plan(
 
 
 def _closest_margin(
-    analysis: DynamicResponse, modes: list[str], margin: float, solver: str
+    analysis: DynamicResponse, modes: list[str], margin: float, settings: SolverSettings
 ) -> tuple[float, str] | None:
     """The largest margin in [0, margin] at which one of ``modes`` has unambiguous inputs, and the mode."""
     best: tuple[float, str] | None = None
     for mode in modes:
         if not analysis.mode(mode).inputs_full_dimensional or not margin_pieces(
-            analysis, mode, 0.0, solver=solver
+            analysis, mode, 0.0, settings=settings
         ):
             continue
         low, high = 0.5 * margin, margin
         for _ in range(CLOSEST_MARGIN_HALVINGS):
-            if margin_pieces(analysis, mode, low, solver=solver):
+            if margin_pieces(analysis, mode, low, settings=settings):
                 break
             low, high = 0.5 * low, low
         else:
@@ -576,7 +580,7 @@ def _closest_margin(
         for _ in range(CLOSEST_MARGIN_STEPS if high > 0 else 0):
             middle = 0.5 * (low + high)
             low, high = (
-                (middle, high) if margin_pieces(analysis, mode, middle, solver=solver) else (low, middle)
+                (middle, high) if margin_pieces(analysis, mode, middle, settings=settings) else (low, middle)
             )
         if best is None or low > best[0]:
             best = (low, mode)

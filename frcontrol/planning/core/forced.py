@@ -26,6 +26,7 @@ import numpy as np
 from ...engine import DynamicResponse, analyze
 from ...modes import ContactProblem
 from ...scene import Scene
+from ...solvers import SolverSettings
 from .tolerances import FORCED_INPUT_TOLERANCE, SEPARATION_GAP
 
 __all__ = [
@@ -113,7 +114,9 @@ def fix_inputs(problem: ContactProblem, fixed: Mapping[int, float]) -> ContactPr
 
 
 def planning_problem(
-    full: ContactProblem, solver: str, lift: Callable[[ContactProblem], ContactProblem] | None = None
+    full: ContactProblem,
+    settings: SolverSettings,
+    lift: Callable[[ContactProblem], ContactProblem] | None = None,
 ) -> tuple[ContactProblem, DynamicResponse | None, dict[str, float]]:
     """The problem to plan on, its analysis (None when every input is forced) and the forced inputs.
 
@@ -124,7 +127,7 @@ def planning_problem(
     lift = lift if lift is not None else (lambda problem: problem)
     forced = structurally_forced(full)
     planned = lift(fix_inputs(full, forced) if forced else full)
-    analysis = analyze(planned, solver=solver) if planned.m else None
+    analysis = analyze(planned, settings=settings) if planned.m else None
     if analysis is not None and not any(m.inputs_full_dimensional for m in analysis.feasible_modes):
         more = {
             full.inputs.index(planned.inputs[i]): value
@@ -134,7 +137,7 @@ def planning_problem(
         if more:
             forced.update(more)
             planned = lift(fix_inputs(full, forced))
-            analysis = analyze(planned, solver=solver) if planned.m else None
+            analysis = analyze(planned, settings=settings) if planned.m else None
     return planned, analysis, {full.inputs[i]: forced[i] for i in sorted(forced)}
 
 

@@ -42,7 +42,7 @@ from ...scene import Contact, Scene
 from ...simulation.closed_loop import LoopOptions, run_closed_loop
 from ...simulation.inputs import check_simulation_times
 from ...simulation.rigid import CONTACT_FORCE_TOLERANCE, RigidSettings, RigidStepper
-from ...solvers import DEFAULT_LP_SOLVER
+from ...solvers import DEFAULT_SETTINGS, SolverSettings
 from .decision import Decision, decide
 from .forced import idle_in_the_air, massless_inputs
 from .scale import ScaleResult, largest_scale
@@ -133,14 +133,15 @@ class _TaskPolicy:
     """The closed loop's policy: the phase's plan at the state reached; phases advance on ``until``."""
 
     def __init__(
-        self, scene: Scene, task: Task, solver: str, margin: float | None, timing: PhaseTiming | None = None
+        self, scene: Scene, task: Task, settings: SolverSettings, margin: float | None,
+        timing: PhaseTiming | None = None,
     ) -> None:
         self.scene = replace(scene, gap_tolerance=REPLAN_GAP_TOLERANCE)
         self.timing = timing
         self.phases = task.sequence() if timing is None else list(task.phases)
         if margin is not None:
             self.phases = [replace(p, margin=margin) for p in self.phases]
-        self.solver = solver
+        self.settings = settings
         self.names = scene.inputs.coordinates
         self.force_tolerance = CONTACT_FORCE_TOLERANCE * scene.robot.weight_scale()
         self.command = np.clip(np.zeros(len(self.names)), scene.inputs.lower, scene.inputs.upper)
@@ -185,10 +186,10 @@ class _TaskPolicy:
         free = None if self.timing is None else self.timing.free(self.phase)
         try:
             here, problem = self._model(stepper)
-            decision = decide(here, self.phase, problem=problem, solver=self.solver, free=free)
+            decision = decide(here, self.phase, problem=problem, settings=self.settings, free=free)
             if self.phase.largest_scale is not None and not self.records[-1].decisions:
                 full = problem or ContactProblem.from_scene(here, velocity_tolerance=VELOCITY_TOLERANCE)
-                self.records[-1].largest_scale = largest_scale(here, self.phase, full, solver=self.solver)
+                self.records[-1].largest_scale = largest_scale(here, self.phase, full, settings=self.settings)
         except ImpactState as err:
             decision = _held(self.phase, f"impact at {err.contact} (v_N = {err.normal_velocity:.3g} m/s)")
         except FrcontrolError as err:
@@ -294,7 +295,7 @@ def run_task(
     replan_every: int = 10,
     max_time: float | None = None,
     margin: float | None = None,
-    solver: str = DEFAULT_LP_SOLVER,
+    settings: SolverSettings = DEFAULT_SETTINGS,
     progress: Callable[[float, float], None] | None = None,
 ) -> TaskRun:
     """Plan and re-plan ``task`` along one rigid run (see the module's docstring).
@@ -307,7 +308,7 @@ def run_task(
         max_time: [s] the longest simulated time (default: the task's; 0: the first plan only, a
             run of one sample).
         margin: [input units] every phase's margin (default: each phase's own).
-        solver: LP back-end.
+        settings: the solver settings of every plan's LPs.
         progress: called with (simulated time, max_time) every ``replan_every`` steps.
 
     Raises:
@@ -320,10 +321,10 @@ def run_task(
         raise InputError(f"the margin must be a finite number >= 0 [input units], got {margin!r}")
     duration = task.max_time if max_time is None else max_time
     timing = load_timing(scene, task)
-    policy = _TaskPolicy(scene, task, solver, margin, timing)
+    policy = _TaskPolicy(scene, task, settings, margin, timing)
     armature = scene.model.armature if scene.model.armature_given else None
-    settings = RigidSettings(max_ambiguity_checks=0, impact_law=False) if timing is None else timing.settings
-    stepper = RigidStepper(policy.scene, settings, armature=armature)
+    rigid = RigidSettings(max_ambiguity_checks=0, impact_law=False) if timing is None else timing.settings
+    stepper = RigidStepper(policy.scene, rigid, armature=armature)
     first = policy.plan(None)
     if duration == 0:  # the first plan only: a run of one sample, at the scene's state
         return _first_plan_only(policy, stepper, dt, replan_every)

@@ -18,24 +18,18 @@ import numpy as np
 
 from ... import polytope as poly
 from ...engine import DynamicResponse, ModeAnalysis
-from ...solvers import DEFAULT_LP_SOLVER, must_solve, solve_lp_prepared
+from ...geometry import chebyshev_rows, max_margin, unit_rows
+from ...solvers import DEFAULT_SETTINGS, SolverSettings, must_solve
 from .tolerances import INPUT_LIMIT_TOLERANCE
 
 __all__ = ["margin_pieces", "mode_allowed", "shrunk_input_domain", "unit_halfspaces"]
-
-
-def _unit_rows(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rows scaled to unit norm (zero rows kept as they are)."""
-    norms = np.linalg.norm(A, axis=1)
-    scale = np.where(norms > 0, norms, 1.0)
-    return A / scale[:, None], b / scale
 
 
 def unit_halfspaces(P: poly.Polytope) -> tuple[np.ndarray, np.ndarray]:
     """Unit rows ``a u <= b`` of P, an equality ``E u = e`` written as ``E u <= e, -E u <= -e``."""
     A = np.vstack([P.A_eq, -P.A_eq, P.A])
     b = np.concatenate([P.b_eq, -P.b_eq, P.b])
-    return _unit_rows(A, b)
+    return unit_rows(A, b)
 
 
 def _limit_rows(A: np.ndarray, b: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
@@ -51,26 +45,18 @@ def _limit_rows(A: np.ndarray, b: np.ndarray, lower: np.ndarray, upper: np.ndarr
     return mask
 
 
-def _has_interior(A: np.ndarray, b: np.ndarray, solver: str) -> bool:
+def _has_interior(A: np.ndarray, b: np.ndarray, settings: SolverSettings) -> bool:
     """Whether ``{u : A u <= b}`` (unit rows) holds a ball of radius > ``INTERIOR_TOLERANCE``.
 
-    One Chebyshev LP, ``max r`` s.t. ``A u + r <= b``, ``0 <= r <= CHEBYSHEV_RADIUS_CAP``, built
-    here on unit rows (the hot loop of :func:`margin_pieces`; :func:`frcontrol.polytope.chebyshev_ball`
-    answers the same for general rows). Zero rows are judged by their right-hand side.
+    One Chebyshev LP (:func:`frcontrol.geometry.max_margin` of :func:`~frcontrol.geometry.chebyshev_rows`,
+    the radius capped at :data:`~frcontrol.geometry.CHEBYSHEV_RADIUS_CAP`). Zero rows are judged by
+    their right-hand side.
     """
     zero = ~np.any(A, axis=1)
     if np.any(b[zero] < -poly.CONTAINMENT_TOLERANCE):
         return False
-    A, b = A[~zero], b[~zero]
-    d = A.shape[1]
-    cost = np.zeros(d + 1)
-    cost[-1] = -1.0
-    A_lp = np.hstack([A, np.ones((A.shape[0], 1))])
-    lb = np.full(d + 1, -np.inf)
-    ub = np.full(d + 1, np.inf)
-    lb[-1], ub[-1] = 0.0, poly.CHEBYSHEV_RADIUS_CAP
-    result = solve_lp_prepared(cost, A_lp, b, lb=lb, ub=ub, solver=solver,
-                               fallback=must_solve("an interior test of the flip planner"))
+    result = max_margin(chebyshev_rows(A[~zero]), b[~zero], settings=settings,
+                        fallback=must_solve("an interior test of the planner"))
     if result.status == "infeasible" or result.x is None:
         return False
     return bool(result.x[-1] > poly.INTERIOR_TOLERANCE)
@@ -95,7 +81,7 @@ def margin_pieces(
     mode: str,
     margin: float,
     *,
-    solver: str = DEFAULT_LP_SOLVER,
+    settings: SolverSettings = DEFAULT_SETTINGS,
     free: Mapping[str, str] | None = None,
 ) -> list[poly.Polytope]:
     """The unambiguous inputs of ``mode`` kept ``margin`` away from every other mode, as pieces.
@@ -110,7 +96,7 @@ def margin_pieces(
         analysis: the engine's analysis (with its overlaps).
         mode: a feasible mode whose T_c has an interior.
         margin: [units of u] the distance to keep, >= 0.
-        solver: LP back-end.
+        settings: the solver settings of its LPs.
         free: per contact name, the letters a plan in ``mode`` also allows that contact
             (:func:`mode_allowed`): the modes so allowed are not kept away from (default: none).
 
@@ -120,7 +106,7 @@ def margin_pieces(
     if not analysis.mode(mode).inputs_full_dimensional:
         return []
     A, start_b = shrunk_input_domain(analysis, mode, margin)
-    if not _has_interior(A, start_b, solver):
+    if not _has_interior(A, start_b, settings):
         return []
     others = [analysis.mode(name) for name in analysis.overlapping(mode)]
     others += [m for m in analysis.lower_dimensional_modes() if m.mode != mode]
@@ -133,21 +119,21 @@ def margin_pieces(
         next_pieces: list[tuple[np.ndarray, np.ndarray]] = []
         for R_A, R_b in pieces:
             if hull is not None and not _has_interior(np.vstack([R_A, hull[0]]),
-                                                      np.concatenate([R_b, hull[1]]), solver):
+                                                      np.concatenate([R_b, hull[1]]), settings):
                 next_pieces.append((R_A, R_b))  # T_j's hull is margin away from this piece
                 continue
             if rows is None:
                 A_j, b_j = unit_halfspaces(other.feasible_input_domain)
                 rows = (A_j, b_j + margin)
             A_j, grown = rows
-            if not _has_interior(np.vstack([R_A, A_j]), np.concatenate([R_b, grown]), solver):
+            if not _has_interior(np.vstack([R_A, A_j]), np.concatenate([R_b, grown]), settings):
                 next_pieces.append((R_A, R_b))  # already margin away from T_j
                 continue
             kept_A, kept_b = R_A, R_b
             for row, rhs in zip(A_j, grown, strict=True):
                 child_A = np.vstack([kept_A, -row])
                 child_b = np.append(kept_b, -rhs)
-                if _has_interior(child_A, child_b, solver):
+                if _has_interior(child_A, child_b, settings):
                     next_pieces.append((child_A, child_b))
                 kept_A, kept_b = np.vstack([kept_A, row]), np.append(kept_b, rhs)
         pieces = next_pieces
@@ -171,5 +157,5 @@ def _hull_band(mode: ModeAnalysis, margin: float) -> tuple[np.ndarray, np.ndarra
     E, e = mode.response.E, mode.response.e
     if E.shape[0] == 0:
         return None
-    A, b = _unit_rows(np.vstack([E, -E]), np.concatenate([e, -e]))
+    A, b = unit_rows(np.vstack([E, -E]), np.concatenate([e, -e]))
     return A, b + margin

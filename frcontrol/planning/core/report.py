@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -24,9 +24,10 @@ import numpy as np
 from ...jsonable import to_jsonable
 from ...modes import add_scene_modes
 from ...scene import Scene
+from ...simulation.compliant import simulate_compliant
 from ...simulation.export import sample_modes
 from ...simulation.trajectory import Trajectory
-from ...solvers import DEFAULT_LP_SOLVER
+from ...solvers import DEFAULT_SETTINGS, SolverSettings
 from .decision import CLOSEST_MARGIN_STEPS, TRACK_REGULARIZATION, Decision
 from .loop import PhaseRecord, TaskRun, run_task
 from .task import Task, read_task
@@ -187,7 +188,7 @@ def plan_task(
     max_time: float | None = None,
     margin: float | None = None,
     compliant: bool = False,
-    solver: str = DEFAULT_LP_SOLVER,
+    settings: SolverSettings = DEFAULT_SETTINGS,
     progress: Callable[[float, float], None] | None = None,
 ) -> PlanResult:
     """Read the scene's task, run it (:func:`~.loop.run_task`) and, with ``compliant``, replay its inputs.
@@ -208,13 +209,11 @@ def plan_task(
         replan_every=replan_every,
         max_time=max_time,
         margin=margin,
-        solver=solver,
+        settings=settings,
         progress=progress,
     )
     trajectory = run.trajectory
     assert isinstance(trajectory, Trajectory)
-    from dataclasses import replace
-
     trajectory = replace(
         trajectory,
         modes=tuple(sample_modes(scene, trajectory)),
@@ -223,8 +222,6 @@ def plan_task(
     t0 = time.perf_counter()
     replay = None
     if compliant:
-        from ...simulation.compliant import simulate_compliant
-
         duration = float(trajectory.times[-1])
         replay = (
             simulate_compliant(scene, schedule_of(run, trajectory), duration, dt) if duration > 0 else None

@@ -30,9 +30,10 @@ from typing import Any
 import numpy as np
 
 from ...engine import DynamicResponse
+from ...kernel import backend
 from ...modes import ContactProblem
 from ...scene import Scene
-from ...solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
+from ...solvers import DEFAULT_SETTINGS, RETRY_ERRORS, SolverSettings, solve_lp
 from ..disturbances import load_disturbances
 from .decision import PieceLP, lifted_problem, piece_lp, verify_plan, with_limits
 from .forced import planning_problem
@@ -91,7 +92,7 @@ class ScaleResult:
 
 
 def largest_scale(
-    scene: Scene, phase: Phase, full: ContactProblem, *, solver: str = DEFAULT_LP_SOLVER
+    scene: Scene, phase: Phase, full: ContactProblem, *, settings: SolverSettings = DEFAULT_SETTINGS
 ) -> ScaleResult:
     """The largest scale in ``[0, phase.largest_scale]`` of the disturbances with a verified plan.
 
@@ -99,11 +100,11 @@ def largest_scale(
         scene: the scene at the state.
         phase: a robust phase with ``largest_scale``.
         full: the contact problem at the state (every input).
-        solver: LP back-end.
+        settings: the solver settings of its LPs.
     """
     upper = float(phase.largest_scale or 0.0)
     planned, analysis, forced = planning_problem(
-        full, solver, lambda p: lifted_problem(scene, p, phase.margin, upper)[0]
+        full, settings, lambda p: lifted_problem(scene, p, phase.margin, upper)[0]
     )
     if analysis is None:
         return ScaleResult(False, 0.0, upper, reason="every input is forced at this state")
@@ -115,12 +116,12 @@ def largest_scale(
         chosen = analysis.mode(mode)
         if not chosen.inputs_full_dimensional:
             continue
-        for piece in margin_pieces(analysis, mode, phase.margin, solver=solver):
+        for piece in margin_pieces(analysis, mode, phase.margin, settings=settings):
             lp = piece_lp(piece.A, piece.b, chosen.response, rows, points, m_u)
-            found = _piece_scale(lp, upper, solver)
+            found = _piece_scale(lp, upper, settings)
             if found is None or (best is not None and found[0] <= best[0]):
                 continue
-            checked = _verified(analysis, mode, found, lp, planned, solver)
+            checked = _verified(analysis, mode, found, lp, planned, settings)
             if checked is not None and (best is None or checked[0] > best[0]):
                 best = (checked[0], mode, checked[1], checked[2])
     if best is None:
@@ -137,7 +138,7 @@ def _verified(
     found: tuple[float, np.ndarray],
     lp: PieceLP,
     problem: ContactProblem,
-    solver: str,
+    settings: SolverSettings,
 ) -> tuple[float, np.ndarray, float] | None:
     """``(scale, rounded u, objective)`` verified at ``scale V``, lowering the scale when the check fails."""
     scale, u = found
@@ -145,14 +146,14 @@ def _verified(
         checked = verify_plan(analysis, mode, u, scale * lp.points, lp.rows, problem)
         if not isinstance(checked, str):
             return scale, checked[0], checked[1]
-        again = _piece_scale(lp, scale * (1.0 - SCALE_BACKOFF), solver)
+        again = _piece_scale(lp, scale * (1.0 - SCALE_BACKOFF), settings)
         if again is None:
             return None
         scale, u = again
     return None
 
 
-def _piece_scale(lp: PieceLP, upper: float, solver: str) -> tuple[float, np.ndarray] | None:
+def _piece_scale(lp: PieceLP, upper: float, settings: SolverSettings) -> tuple[float, np.ndarray] | None:
     """``(s, u)``: the LP of the module's docstring on one piece, or None when it has no solution."""
     (A_u, A_d), (g_u, g_d), at_least, m_u = lp.split(), lp.gains(), lp.rows.at_least, lp.m_u
     blocks, rhs = [], []
@@ -169,7 +170,8 @@ def _piece_scale(lp: PieceLP, upper: float, solver: str) -> tuple[float, np.ndar
     lb = np.concatenate([np.full(m_u, -np.inf), [0.0]])
     ub = np.concatenate([np.full(m_u, np.inf), [upper]])
     result = solve_lp(
-        cost, np.vstack(blocks), np.concatenate(rhs), lb=lb, ub=ub, solver=solver, fallback=RETRY_ERRORS
+        cost, np.vstack(blocks), np.concatenate(rhs), lb=lb, ub=ub, settings=settings, fallback=RETRY_ERRORS,
+        check=backend().lp_check,
     )
     if not result.found or result.x is None:
         return None
