@@ -237,12 +237,13 @@ def plan_gait(
     *,
     margin: float = DEFAULT_CLIMB_MARGIN,
     solver: str = DEFAULT_LP_SOLVER,
+    braces: tuple[tuple[str, ...], tuple[str, ...]] | None = None,
 ) -> GaitPlan:
     """Plan the gait: each phase's certificate, each hand-over's check, the run's scale.
 
     The channel is the same at every height, so the phases of cycles 2.. are cycle 2's problems
     shifted up: each distinct problem is planned once (the first extension starts from the scene's
-    state and is its own).
+    state and is its own). ``braces`` is ``(lower, upper)``; default: :func:`gait_braces`.
 
     Raises:
         InputError: a bad number of cycles or margin.
@@ -251,17 +252,17 @@ def plan_gait(
     """
     start = time.perf_counter()
     _check_cycles(cycles)
-    lower, upper = gait_braces(scene)
+    lower, upper = gait_braces(scene) if braces is None else braces
     geometry = gait_geometry(scene, lower)
     dist = load_disturbances(scene)
     by_name = {c.name: c.point for c in scene.contacts}
     movers = {"lower": (by_name[lower[0]].link, by_name[lower[0]].point_in_link),
               "upper": (by_name[upper[0]].link, by_name[upper[0]].point_in_link)}
-    braces = {"lower": lower, "upper": upper, "": ()}
+    roles = {"lower": lower, "upper": upper, "": ()}
     done: dict[tuple[str, bool], ClimbPlan] = {}
     phases = []
     for name, cycle, q in _phase_starts(geometry, scene, cycles):
-        held, released, closing = (braces[r] for r in PHASE_ROLES[name])
+        held, released, closing = (roles[r] for r in PHASE_ROLES[name])
         mover = movers["upper" if name in ("extend", "upper_brace") else "lower"]
         key = (name, name == "extend" and cycle == 1)
         if key not in done:
