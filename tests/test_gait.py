@@ -221,7 +221,8 @@ def test_gait_climbs_and_holds(gait_run: tuple[dict, Path], scene: frcontrol.Sce
     # frc plan's outcome and phases: every phase ended by its time, the run achieved
     assert payload["outcome"]["achieved"] and [p["name"] for p in payload["phases"]] == [
         "extend", "upper_brace", "pull", "lower_brace"] * CYCLES
-    assert all(p["met"] for p in payload["phases"]) and payload["phases"][-1]["end"] == pytest.approx(times[-1])
+    assert all(p["met"] for p in payload["phases"])
+    assert payload["phases"][-1]["end"] == pytest.approx(times[-1])
     assert page.exists() and page.stat().st_size > 10_000
 
 
@@ -242,7 +243,7 @@ def test_gait_plan_report(gait_run: tuple[dict, Path]) -> None:
 
 @pytest.mark.slow
 def test_plan_runs_the_gait_as_climb_does(gait_run: tuple[dict, Path]) -> None:
-    """``frc plan snake_climb --cycles 1`` is the gait's task run by the core: the 5-cycle run's first cycle."""
+    """``frc plan snake_climb --cycles 1``: the gait's task run by the core, the 5-cycle run's first cycle."""
     from frcontrol.cli.app import app
 
     result = CliRunner().invoke(app, ["plan", "snake_climb", "--cycles", "1", "--json", "--quiet"])
