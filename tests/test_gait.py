@@ -251,6 +251,7 @@ def test_plan_runs_the_gait_as_climb_does(gait_run: tuple[dict, Path]) -> None:
     plan = json.loads(result.stdout)
     assert plan["task"]["timing"] == "gait" and plan["task"]["repeat"] == 1 and plan["outcome"]["achieved"]
     assert [p["name"] for p in plan["phases"]] == ["extend", "upper_brace", "pull", "lower_brace"]
+    assert "hand-over upper_brace->pull: unambiguous" in plan["phases"][1]["why"]  # checked at its end
     five = gait_run[0]["simulation"]["samples"]
     q = np.array(plan["simulation"]["samples"]["q"])
     assert np.allclose(q, np.array(five["q"])[:len(q)], atol=1e-9)

@@ -19,7 +19,8 @@ The core's loop (:func:`~frcontrol.planning.core.loop.run_task`) runs it; this m
   coordinate (``stepper_scene``);
 - *after every step* (``after_step``): the slide of every held contact (``sum |v_T+| h``) and its
   drift along the wall; the phase ends when its ``until`` time has run, and the hand-over check of
-  its end (``upper_brace -> pull``, ``lower_brace -> extend``) is attached to it. The run ends,
+  its end (``upper_brace -> pull``, ``lower_brace -> extend``) is given with why it ended (its
+  record's ``why``). The run ends,
   achieved, after the last cycle.
 
 A brace *slips* when a contact the controller holds slides, over a phase, by more than
@@ -241,12 +242,22 @@ class GaitTiming:
         last = self.index == len(PHASES) * self.task.repeat
         why = f"until {phase.until.describe()}" + (f" (cycle {self.records[-1].cycle} of {self.task.repeat})"
                                                    if phase.name == "lower_brace" else "")
-        return Switch(why, None if last else PHASES[self.index % len(PHASES)], met=True)
+        return Switch(why + self._hand_over(phase.name, self.records[-1].cycle),
+                      None if last else PHASES[self.index % len(PHASES)], met=True)
+
+    def _hand_over(self, name: str, cycle: int) -> str:
+        """The hand-over check at the end of phase ``name`` of ``cycle``, in words ("" when none)."""
+        for check in self.plan.hand_overs:
+            if check.cycle == cycle and check.name.startswith(f"{name}->"):
+                verdict = "unambiguous" if check.unambiguous else f"slip modes {', '.join(check.slip_modes)}"
+                return f"; hand-over {check.name}: {verdict} ({check.modes_checked} other modes checked)"
+        return ""
 
     def report(self, scene: Scene, trajectory: Trajectory) -> dict[str, Any]:
         """The plan document's ``timing``: the run's scale, seed, cycles and phases completed."""
         return {"cycles": self.task.repeat, "scale": self.scale, "seed": self.seed,
-                "phases_completed": len(self.records), "phase_end_tolerance": PHASE_END_TOLERANCE}
+                "phases_completed": len(self.records), "phase_end_tolerance": PHASE_END_TOLERANCE,
+                "unambiguous_hand_overs": self.plan.unambiguous}
 
     # ---------------------------------------------------------------- the run's records
     def disturbance_times(self) -> np.ndarray:
