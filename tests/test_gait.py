@@ -229,6 +229,12 @@ def test_gait_climbs_and_holds(gait_run: tuple[dict, Path], scene: frcontrol.Sce
 @pytest.mark.slow
 def test_gait_plan_report(gait_run: tuple[dict, Path]) -> None:
     payload, _ = gait_run
+    from frcontrol.cli.climb_cmd import render_gait
+    from frcontrol.cli.common import console
+
+    with console.capture() as text:  # the text answer reads the same document
+        render_gait(payload)
+    assert "hand-over upper_brace->pull" in text.get() and "base rise" in text.get()
     phases = payload["certificates"]
     assert [p["name"] for p in phases[:4]] == ["extend", "upper_brace", "pull", "lower_brace"]
     assert len(phases) == 4 * CYCLES and all(p["found"] and p["robust"] for p in phases)

@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import FrcontrolError
+from ..jsonable import to_jsonable
+from ..modes import add_scene_modes
 from ..scene import Scene
 from . import DEFAULT_CLIMB_MARGIN
 from .climb_check import BRACE_SLIP_TOLERANCE
@@ -131,7 +133,7 @@ def gait_keys(scene: Scene, result: PlanResult) -> dict[str, Any]:
         raise FrcontrolError("the gait's keys need a run of the gait's task ([task] timing = \"gait\")")
     plan = timing.plan
     weakest = plan.weakest
-    return {
+    keys = {
         "found": True, "cycles": plan.cycles, "lower_brace": list(plan.lower),
         "upper_brace": list(plan.upper), "scale": plan.scale, "margin": plan.margin,
         "weakest_phase": {"name": weakest.name, "cycle": weakest.cycle,
@@ -150,6 +152,7 @@ def gait_keys(scene: Scene, result: PlanResult) -> dict[str, Any]:
                        "robustness_penalty": ROBUSTNESS_PENALTY},
         "solver": plan.solver, "timings": dict(plan.timings), **_run_keys(scene, result, timing),
     }
+    return add_scene_modes(to_jsonable(keys), [c.name for c in scene.contacts])
 
 
 def _run_keys(scene: Scene, result: PlanResult, timing: GaitTiming) -> dict[str, Any]:
