@@ -212,7 +212,7 @@ class GaitTiming:
         loaded = [n for n, f in zip(stepper.names, stepper.last_forces[:, 0], strict=True) if f > 0]
         held, released, closing = current.roles
         request = TrackingRequest(stepper.q, stepper.v, held + closing, released, desired, self.points,
-                                  self.task.phases[current.index % len(PHASES)].margin, self.plan.solver,
+                                  phase.margin, self.plan.solver,
                                   loaded)
         step = tracking_step(self.scene, self.plan.disturbances, request)
         jac, _, _ = self.kin.evaluate(stepper.q, stepper.v)
@@ -272,8 +272,9 @@ class GaitTiming:
             geometry = self.plan.geometry
             reference = phase_reference(name, geometry, geometry.measure(stepper.q),
                                         self.scene.q if first else None)
-            roles = tuple(tuple(self.braces[r]) for r in PHASE_ROLES[name])
-            self.current = _Current(self.index, stepper.t, len(self.torques), reference, roles)  # type: ignore[arg-type]
+            held, released, closing = (tuple(self.braces[r]) for r in PHASE_ROLES[name])
+            roles = (held, released, closing)
+            self.current = _Current(self.index, stepper.t, len(self.torques), reference, roles)
         return self.current
 
     def _disturbance(self, t: float) -> np.ndarray:
