@@ -94,7 +94,7 @@ def climb_command(
 
     what = "the climb (planned and simulated)" if cycles is None else "the gait"
     with common.live_viewer(view, port) as server:
-        with common.progress(f"planning {what}", "s" if cycles is None else "phases") as shown:
+        with common.progress(f"planning {what}", "s") as shown:
             answer = climb_answer(loaded, margin=margin, duration=duration, seed=seed, cycles=cycles,
                                   scale=scale, on_simulation=lambda: shown.stage(f"simulating {what}"),
                                   progress=shown)
@@ -119,7 +119,7 @@ def render_gait(payload: dict[str, Any]) -> None:
     console.print(mode_key(payload["scene_contacts"]))
     rows = [(str(plan["cycle"]), plan["name"], plan.get("scene_mode", "-"),
              f"{plan['max_disturbance_scale']:.4g}", f"{run['max_deficit']:.3g}", f"{run['max_slip']:.3g}")
-            for plan, run in zip(payload["phases"], payload["phase_runs"], strict=False)]
+            for plan, run in zip(payload["certificates"], payload["phase_runs"], strict=False)]
     common.print_table("phases: planned largest disturbance scale, and in the simulation",
                        ("cycle", "phase", mode_heading(payload["scene_contacts"]), "max scale", "max deficit",
                         "max slip [m]"), rows)
@@ -132,7 +132,7 @@ def render_gait(payload: dict[str, Any]) -> None:
                       f"modes: {common.named_modes(check['slip_modes'], check['contacts'], payload)}",
                       highlight=False)
     console.print(f"simulation ({sim['samples']['times'][-1]:.3g} s, rigid, {sim['phases_completed']} of "
-                  f"{len(payload['phases'])} phases): base rise {sim['rise']:.4f} m; brace "
+                  f"{len(payload['certificates'])} phases): base rise {sim['rise']:.4f} m; brace "
                   f"{'held' if sim['brace_held'] else 'SLIPPED'} (max slip {sim['max_slip']:.3g} m, "
                   f"tolerance {sim['slip_tolerance']:g}); largest robustness deficit "
                   f"{sim['max_deficit']:.3g}")

@@ -37,6 +37,13 @@ CompliantOpt = Annotated[
     ),
 ]
 
+CyclesOpt = Annotated[
+    int | None,
+    typer.Option("--cycles", callback=options.in_range(low=1),
+                 help="Run the scene's gait ([task.gait], e.g. snake_climb's) this many cycles, or its "
+                      "task's phases this many times (repeat); default: the task as given."),
+]
+
 
 @common.handle_errors
 def plan_command(
@@ -52,6 +59,7 @@ def plan_command(
     dt: options.StepOpt = 1e-3,
     replan_every: options.ReplanOpt = 10,
     compliant: CompliantOpt = False,
+    cycles: CyclesOpt = None,
     sets: options.SetOpt = None,
     quiet: options.QuietOpt = False,
     max_time: options.MaxTimeAliasOpt = None,
@@ -69,6 +77,7 @@ def plan_command(
       frc plan box_slide
       frc plan rod_pivot --json
       frc plan solo_shift --plot shift.png --html shift.html
+      frc plan snake_climb --cycles 5 --html gait.html
     """
     common.set_quiet(quiet)
     common.check_port(view=view, port=port)
@@ -79,7 +88,7 @@ def plan_command(
         with common.progress("the task (planned and simulated)", "s") as shown:
             answer = plan_answer(loaded, dt=dt, replan_every=replan_every,
                                  max_time=duration if max_time is None else max_time, margin=margin,
-                                 compliant=compliant, progress=shown)
+                                 compliant=compliant, cycles=cycles, progress=shown)
         common.answer(answer.document, render, json=json)
         write_run(loaded, answer, plot=plot, html=html, out=out, json=json, server=server)
 

@@ -475,8 +475,9 @@ def climb_answer(scene: Scene, *, margin: float | None = None, duration: float |
     Without ``cycles``: the scene's task run as ``frc plan`` runs it
     (:func:`frcontrol.planning.core.plan_task`), its document with the climb's keys
     (:func:`frcontrol.planning.climb_check.climb_document`; kind ``"climb"``). With ``cycles``: the
-    gait's plan (:func:`frcontrol.planning.gait.plan_gait`) and its rigid simulation under
-    sampled disturbances (kind ``"gait"``).
+    scene's gait task (:func:`frcontrol.planning.gait_run.gait_scene`, ``repeat = cycles``) run as
+    ``frc plan`` runs it, its document with the gait's keys (:func:`~frcontrol.planning.gait_run.gait_keys`;
+    kind ``"gait"``).
 
     Args:
         scene: the scene with ``[[disturbances]]`` and a task given as phases whose first phase is
@@ -489,9 +490,8 @@ def climb_answer(scene: Scene, *, margin: float | None = None, duration: float |
             samples none.
         cycles: the gait's number of cycles (>= 1), or None for the climb.
         scale: the disturbance scale of the gait's simulation (None: the gait's default).
-        on_simulation: called once when the gait's simulation starts.
-        progress: called with (simulated time, duration) along the climb's run, (phases done,
-            phases) along the gait's.
+        on_simulation: called once when the gait's run (its planning first) starts.
+        progress: called with (simulated time, max_time) along the run.
 
     Raises:
         InputError: a seed that is not an integer >= 0; OptionConflict: ``scale`` or ``seed``
@@ -511,16 +511,13 @@ def climb_answer(scene: Scene, *, margin: float | None = None, duration: float |
         trajectory = result.trajectory
         return Answer("climb", climb_document(scene, result), result=result, trajectory=trajectory,
                       modes=None if trajectory.modes is None else tuple(trajectory.modes))
-    from .planning import DEFAULT_CLIMB_MARGIN
-    from .planning.gait import plan_gait
-    from .planning.gait_run import gait_payload, simulate_gait
+    from .planning.gait_run import gait_keys, gait_scene
 
-    seed = check_seed(0 if seed is None else seed)
-    gait = plan_gait(scene, cycles, margin=DEFAULT_CLIMB_MARGIN if margin is None else margin)
+    gait = gait_scene(scene, cycles=cycles, seed=check_seed(0 if seed is None else seed), scale=scale,
+                      margin=margin)
     if on_simulation is not None:
         on_simulation()
-    run = simulate_gait(gait, seed=seed, scale=scale, progress=progress)
-    return Answer("gait", gait_payload(gait, run), result=run, trajectory=run.trajectory)
+    return short_name_answer("gait", gait, lambda run: gait_keys(gait, run), progress=progress)
 
 
 def standup_answer(scene: Scene, *, duration: float | None = None, dt: float = 2e-3, replan_every: int = 10,
@@ -576,7 +573,7 @@ def short_name_answer(kind: str, scene: Scene, legacy: Callable[[Any], Mapping[s
 
 
 def plan_answer(scene: Scene, *, dt: float = 1e-3, replan_every: int = 10, max_time: float | None = None,
-                margin: float | None = None, compliant: bool = False,
+                margin: float | None = None, compliant: bool = False, cycles: int | None = None,
                 progress: Progress | None = None) -> Answer:
     """``frc plan --json`` (``POST /plan``): the scene's task run.
 
@@ -587,6 +584,9 @@ def plan_answer(scene: Scene, *, dt: float = 1e-3, replan_every: int = 10, max_t
         max_time: [s] the longest simulated time (default: the task's ``max_time``).
         margin: [input units] every phase's margin (default: each phase's own).
         compliant: replay the applied inputs on the compliant model too.
+        cycles: run the scene's gait this many times (``[task.gait]``), or its task's phases
+            (``repeat``); None: the task as given
+            (:func:`frcontrol.planning.gait_run.cycled_scene`).
         progress: called with (simulated time, max_time) along the run.
 
     Raises:
@@ -594,6 +594,10 @@ def plan_answer(scene: Scene, *, dt: float = 1e-3, replan_every: int = 10, max_t
     """
     from .planning.core import plan_task
 
+    if cycles is not None:
+        from .planning.gait_run import cycled_scene
+
+        scene = cycled_scene(scene, cycles)
     result = plan_task(scene, dt=dt, replan_every=replan_every, max_time=max_time, margin=margin,
                        compliant=compliant, progress=progress)
     trajectory = result.trajectory

@@ -359,12 +359,29 @@ SCENE_SCHEMA: dict[str, Any] = {
                                           "without an objective (pump: frcontrol.planning.pump_timing; "
                                           "repeat is then the most cycles)"},
                 "gait": {"type": "object", "additionalProperties": False, "required": ["upper_brace"],
-                         "description": "plan: the snake's climbing gait (frc climb --cycles) beside "
-                                        "the phases: its lower brace is the first phase's F contacts",
+                         "description": "plan: the snake's climbing gait beside the phases, a second task "
+                                        "(frc plan --cycles N, frc climb --cycles N: repeat = N); without "
+                                        "phases: the shipped four, its lower brace the first phase's F "
+                                        "contacts",
                          "properties": {
                              "upper_brace": {**_NAMES, "minItems": 1, "x-refers": "contact",
                                              "description": "the gait's upper brace, separated at the "
                                                             "scene's state"},
+                             "timing": {"type": "string", "enum": ["gait"],
+                                        "description": "the gait's phase timing "
+                                                       "(frcontrol.planning.gait_timing; the default)"},
+                             "repeat": {"type": "integer", "minimum": 1,
+                                        "description": "the gait's cycles (--cycles overrides it)"},
+                             "max_time": _number("[s] the longest simulated time (default: the cycles' "
+                                                 "time plus 1 s)", exclusiveMinimum=0),
+                             "seed": {"type": "integer", "minimum": 0,
+                                      "description": "seed of the run's sampled disturbances (--seed)"},
+                             "scale": _number("[-] the run's disturbance scale (--scale; default 0.02, "
+                                              "at most the weakest phase's planned scale)", minimum=0),
+                             "phases": {"type": "array", "minItems": 4, "maxItems": 4, "items": _PHASE,
+                                        "description": "extend, upper_brace, pull, lower_brace: each "
+                                                       "one's modes (held and closing brace F, opened "
+                                                       "brace S), margin, robust and until = { time }"},
                          }},
                 "body_contacts": {**_NAMES, "minItems": 1, "x-refers": "contact",
                                   "description": "flip: the body's contacts"},
@@ -662,6 +679,11 @@ def _task_shape(task: Mapping[str, Any]) -> list[SchemaProblem]:
     for i, phase in enumerate(phases if isinstance(phases, list) else []):
         if isinstance(phase, Mapping):
             out.extend(_phase_shape(phase, f"task.phases[{i}]", timed="timing" in task))
+    gait = task.get("gait")
+    phases = gait.get("phases") if isinstance(gait, Mapping) else None
+    for i, phase in enumerate(phases if isinstance(phases, list) else []):
+        if isinstance(phase, Mapping):
+            out.extend(_phase_shape(phase, f"task.gait.phases[{i}]", timed=True))
     return out
 
 

@@ -94,12 +94,39 @@ def test_scene_without_upper_brace(tmp_path: Path) -> None:
     urdf = source.parent.parent / "snake_planar.urdf"
     path = tmp_path / "no_upper.toml"
     text = source.read_text()
-    assert 'gait = { upper_brace = ["upper_right", "upper_left"] }' in text
-    path.write_text(text.replace('gait = { upper_brace = ["upper_right", "upper_left"] }', "")
-                    .replace('robot = "snake_planar.urdf"', f'robot = "{urdf}"'))
+    start = text.index("[task.gait]")
+    gait = text[start:text.index("[[disturbances]]", start)]
+    path.write_text(text.replace(gait, "").replace('robot = "snake_planar.urdf"', f'robot = "{urdf}"'))
     with pytest.raises(SceneError, match=r"upper brace's contacts \(\[task\] gait") as info:
         plan_gait(frcontrol.load_scene(path), 1)
     assert info.value.field == "task.gait.upper_brace"
+
+
+@pytest.mark.parametrize(("change", "field", "message"), [
+    (lambda t: {**t, "phases": t["phases"][1:] + t["phases"][:1]}, "task.gait.phases",
+     "extend, upper_brace, pull, lower_brace in this order"),
+    (lambda t: {**t, "phases": [{**t["phases"][0], "modes": {**t["phases"][0]["modes"], "tip": "S"}},
+                                *t["phases"][1:]]}, "task.gait.phases[2].modes", "the pull phase holds"),
+    (lambda t: {**t, "phases": [*t["phases"][:3], {**t["phases"][3], "until": {"coordinate": "y",
+                                                                              "above": 0.2}}]},
+     "task.gait.phases[3].until", "until = { time = T }"),
+])
+def test_gait_task_refuses_phases_it_cannot_run(scene: frcontrol.Scene, change: object, field: str,
+                                                message: str) -> None:
+    """The gait as task data: its phases' names, modes (the braces' roles) and ``until`` are checked."""
+    from dataclasses import replace
+
+    from frcontrol.planning.core.task import read_task
+    from frcontrol.planning.gait_run import gait_scene
+    from frcontrol.planning.gait_timing import gait_braces_of
+
+    gait = gait_scene(scene, cycles=1)
+    task = replace(gait, raw={**gait.raw, "task": change(dict(gait.raw["task"]))})  # type: ignore[operator]
+    with pytest.raises(SceneError, match=message) as info:
+        gait_braces_of(task, read_task(task))
+    assert info.value.field == field
+    # the shipped table passes, and its braces are the climb's brace and the upper one
+    assert gait_braces_of(gait, read_task(gait)) == (("tail", "tip", "top"), ("upper_right", "upper_left"))
 
 
 def test_cli_bad_cycles_and_plot() -> None:
@@ -181,13 +208,34 @@ def test_gait_climbs_and_holds(gait_run: tuple[dict, Path], scene: frcontrol.Sce
     assert np.all(np.abs(drawn) <= sim["scale"] * np.abs(dist.vertices()).max(axis=0) + 1e-12)
     # the sampled disturbances lie within the planned scale
     assert sim["scale"] <= payload["weakest_phase"]["max_disturbance_scale"] + 1e-12
+    # every contact the controller held is closed at the sample its step reached
+    from frcontrol.planning.core.loop import contact_gaps
+    from frcontrol.planning.core.tolerances import SEPARATION_GAP
+
+    names = [c.name for c in scene.contacts]
+    steps = zip(samples["controller_mode"], samples["mode_contacts"], strict=True)
+    for k, (mode, contacts) in enumerate(steps):
+        gaps = contact_gaps(scene, q[k + 1])
+        assert all(gaps[names.index(c)] <= SEPARATION_GAP for m, c in zip(mode, contacts, strict=True)
+                   if m == "F"), k
+    # frc plan's outcome and phases: every phase ended by its time, the run achieved
+    assert payload["outcome"]["achieved"] and [p["name"] for p in payload["phases"]] == [
+        "extend", "upper_brace", "pull", "lower_brace"] * CYCLES
+    assert all(p["met"] for p in payload["phases"])
+    assert payload["phases"][-1]["end"] == pytest.approx(times[-1])
     assert page.exists() and page.stat().st_size > 10_000
 
 
 @pytest.mark.slow
 def test_gait_plan_report(gait_run: tuple[dict, Path]) -> None:
     payload, _ = gait_run
-    phases = payload["phases"]
+    from frcontrol.cli.climb_cmd import render_gait
+    from frcontrol.cli.common import console
+
+    with console.capture() as text:  # the text answer reads the same document
+        render_gait(payload)
+    assert "hand-over upper_brace->pull" in text.get() and "base rise" in text.get()
+    phases = payload["certificates"]
     assert [p["name"] for p in phases[:4]] == ["extend", "upper_brace", "pull", "lower_brace"]
     assert len(phases) == 4 * CYCLES and all(p["found"] and p["robust"] for p in phases)
     weakest = min(phases, key=lambda p: p["max_disturbance_scale"])
@@ -197,3 +245,22 @@ def test_gait_plan_report(gait_run: tuple[dict, Path]) -> None:
     assert len(payload["hand_overs"]) == 2 * CYCLES - 1
     for check in payload["hand_overs"]:
         assert check["unambiguous"] and not check["slip_modes"] and check["modes_checked"] == 4 ** 5 - 1
+
+
+@pytest.mark.slow
+def test_plan_runs_the_gait_as_climb_does(gait_run: tuple[dict, Path]) -> None:
+    """``frc plan snake_climb --cycles 1``: the gait's task run by the core, the 5-cycle run's first cycle."""
+    from frcontrol.cli.app import app
+
+    result = CliRunner().invoke(app, ["plan", "snake_climb", "--cycles", "1", "--json", "--quiet"])
+    assert result.exit_code == 0, result.output
+    plan = json.loads(result.stdout)
+    assert plan["task"]["timing"] == "gait" and plan["task"]["repeat"] == 1 and plan["outcome"]["achieved"]
+    assert [p["name"] for p in plan["phases"]] == ["extend", "upper_brace", "pull", "lower_brace"]
+    assert "hand-over upper_brace->pull: unambiguous" in plan["phases"][1]["why"]  # checked at its end
+    five = gait_run[0]["simulation"]["samples"]
+    q = np.array(plan["simulation"]["samples"]["q"])
+    assert np.allclose(q, np.array(five["q"])[:len(q)], atol=1e-9)
+    assert np.allclose(plan["simulation"]["samples"]["inputs"], np.array(five["inputs"])[:len(q)], atol=1e-9)
+    rise = q[-1, 1] - q[0, 1]
+    assert rise == pytest.approx(gait_run[0]["heights"][0]) and rise > 0.5 * (STROKE[1] - STROKE[0])

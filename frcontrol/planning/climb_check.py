@@ -30,7 +30,7 @@ from ..simulation.trajectory import Trajectory
 from . import DEFAULT_CLIMB_DURATION
 from .climb import ClimbPlan, ClimbResult
 from .climb_problem import load_climb_task, piece_rows
-from .core.report import PlanResult
+from .core.report import PlanResult, with_legacy_keys
 from .disturbances import DEFAULT_HOLD, HOLD_INDEX_ROUNDOFF, PointKinematics, sample_disturbances
 
 __all__ = [
@@ -203,7 +203,8 @@ def climb_document(scene: Scene, result: PlanResult) -> dict[str, Any]:
     from its ``largest_scale`` search (0 when the phase has none), and in ``simulation`` the
     brace's verdict read from the samples (:func:`brace_verdict`: ``brace_held``, ``max_slip``,
     ``upper_rise``...; ``brace_held`` is None when nothing ran, ``max_time`` 0). The brace and the
-    head are the task's (:func:`load_climb_task`).
+    head are the task's (:func:`load_climb_task`). They are merged into ``frc plan``'s document by
+    the short names' rule (:func:`~.core.report.with_legacy_keys`).
     """
     task = load_climb_task(scene)
     payload = result.to_dict(scene)
@@ -218,7 +219,7 @@ def climb_document(scene: Scene, result: PlanResult) -> dict[str, Any]:
                   else "the brace did not hold over the run (see simulation)")
     else:
         reason = "no plan at the start: " + str(None if first is None else first.reason)
-    payload.update({
+    legacy: dict[str, Any] = {
         "found": found,
         "mode": first.mode if found and first is not None else None,
         "contacts": list(first.contacts) if first is not None else [],
@@ -229,14 +230,15 @@ def climb_document(scene: Scene, result: PlanResult) -> dict[str, Any]:
         "min_head_acceleration": task.min_head_acceleration,
         "brace_contacts": list(task.brace_contacts),
         "reason": reason,
-    })
+    }
     ran = len(result.trajectory.times) > 1  # max_time 0: the first plan only, no verdict
-    payload["simulation"].update({
+    legacy["simulation"] = {
         "brace_held": verdict.held if ran else None, "max_slip": verdict.max_slip,
         "max_opening": verdict.max_opening, "upper_rise": verdict.upper_rise,
         "max_upper_rise": verdict.max_upper_rise, "duration": float(result.trajectory.times[-1]),
         "slip_tolerance": BRACE_SLIP_TOLERANCE, "brace_events": [e.to_dict() for e in verdict.events],
-    })
+    }
+    payload = with_legacy_keys(payload, legacy)
     return add_scene_modes(to_jsonable(payload), [c.name for c in scene.contacts])
 
 

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..engine import DOMAIN_TOLERANCE
 from ..errors import FrameNotFound, SceneError
+from ..geometry import polygon_rows
 from ..modes import ContactProblem
 from ..polytope import Polytope, hull_from_points
 from ..scene import Scene
@@ -84,12 +85,12 @@ class Disturbance:
 
     def contains_zero(self) -> bool:
         """Whether the zero force is in the polygon (to :data:`DOMAIN_TOLERANCE` [N])."""
-        A, b, A_eq, b_eq = _polygon_rows(self.vertices)
+        A, b, A_eq, b_eq = polygon_rows(self.vertices)
         return bool(np.all(b >= -DOMAIN_TOLERANCE) and np.all(np.abs(b_eq) <= DOMAIN_TOLERANCE))
 
     def polytope(self, scale: float = 1.0) -> Polytope:
         """The polygon scaled by ``scale`` about the zero force, as a 2-D H-polytope."""
-        A, b, A_eq, b_eq = _polygon_rows(scale * self.vertices)
+        A, b, A_eq, b_eq = polygon_rows(scale * self.vertices)
         return Polytope(A, b, A_eq, b_eq)
 
 
@@ -138,31 +139,6 @@ class DisturbanceSet:
         if not self.contains_zero():
             points = np.vstack([np.zeros((1, self.dim)), points])
         return points
-
-
-def _polygon_rows(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(A, b, A_eq, b_eq)`` of the hull of ``vertices`` (k, 2), rows of unit norm.
-
-    The slack form: a point x is in the set iff ``A x <= b`` and ``A_eq x = b_eq``; with x = 0 the
-    slacks are ``b`` and ``-b_eq``.
-    """
-    k = len(vertices)
-    if k == 1:
-        return np.zeros((0, 2)), np.zeros(0), np.eye(2), vertices[0].copy()
-    if k == 2:
-        a, b = vertices
-        direction = (b - a) / np.linalg.norm(b - a)
-        normal = np.array([-direction[1], direction[0]])
-        A = np.vstack([direction, -direction])
-        return A, np.array([direction @ b, -direction @ a]), normal[None, :], np.array([normal @ a])
-    rows, rhs = [], []
-    for i in range(k):
-        p, q = vertices[i], vertices[(i + 1) % k]
-        edge = q - p
-        normal = np.array([edge[1], -edge[0]]) / np.linalg.norm(edge)  # outward for ccw order
-        rows.append(normal)
-        rhs.append(normal @ p)
-    return np.array(rows), np.array(rhs), np.zeros((0, 2)), np.zeros(0)
 
 
 def load_disturbances(scene: Scene, *, required: bool = True) -> DisturbanceSet:

@@ -13,14 +13,20 @@ from typing import Any
 import numpy as np
 
 from ..engine import DOMAIN_TOLERANCE
+from ..geometry import constant_rows
 from ..modes import ContactProblem, ModeSystem, all_modes, build_mode_system
 from ..response import AffineSolution, solve_affine
 from ..solvers import CONFIRM_INFEASIBLE, DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
 
-__all__ = ["ROBUSTNESS_CAP", "ModeExclusion", "mode_exclusions", "mode_systems", "solve_confirmed"]
+__all__ = ["CONSTANT_ROW_TOLERANCE", "ROBUSTNESS_CAP", "ModeExclusion", "mode_exclusions", "mode_systems",
+           "solve_confirmed"]
 
 ROBUSTNESS_CAP = 1e3
 """[N m or N] Upper bound on the robustness variable t (keeps the LP bounded)."""
+
+CONSTANT_ROW_TOLERANCE = 1e-9
+"""[-] A mode's row over ``(z, w)`` whose norm is at most this times ``max(1, the largest row's)``
+is constant (it does not depend on the inputs, disturbances or ambiguity): it is set to 0."""
 
 # ============================================================================ exclusion
 def solve_confirmed(c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray,
@@ -65,8 +71,8 @@ def _normalised_rows(
     G = system.G
     H = np.hstack([G @ response.X_u, G @ response.X_w])
     h = system.g - G @ response.x_0
-    norms = np.sqrt(np.sum(H * H, axis=1))
-    constant = norms <= 1e-9 * max(1.0, float(np.max(norms, initial=0.0)))
+    # not geometry.unit_rows: a numerically constant row (CONSTANT_ROW_TOLERANCE) is set to 0, not scaled
+    norms, constant = constant_rows(H, CONSTANT_ROW_TOLERANCE)
     norms[constant] = 1.0
     H = H / norms[:, None]
     H[constant] = 0.0

@@ -13,8 +13,9 @@ instant. The gait repeats four phases per cycle, each with its own contact mode:
    pulled up by the stroke;
 4. ``lower_brace``: the lower contacts close again, higher up, and are held in F.
 The reference's geometry is :mod:`frcontrol.planning.gait_geometry`'s, the control step
-:mod:`frcontrol.planning.gait_control`'s, the hand-overs' checks :mod:`frcontrol.planning.gait_handover`'s
-and the run :mod:`frcontrol.planning.gait_run`'s.
+:mod:`frcontrol.planning.gait_control`'s, the hand-overs' checks :mod:`frcontrol.planning.gait_handover`'s,
+the run, a phase timing of the planning core, :mod:`frcontrol.planning.gait_timing`'s, and the
+gait as the scene's task ``[task.gait]`` :mod:`frcontrol.planning.gait_run`'s.
 
 Certificates (planning, before the run)
 ---------------------------------------
@@ -32,11 +33,11 @@ Certificates (planning, before the run)
   (:func:`~frcontrol.planning.exclusions.mode_exclusions`). A mode that holds and lets a brace contact
   slide (L or R) is a *slip mode*; the check passes when none holds.
 
-The simulation (:func:`~frcontrol.planning.gait_run.simulate_gait`) runs the rigid time stepper
-with the tracking LP's torques plus disturbances ``J_d(q)^T d(t)``, ``d`` sampled in ``conv(V_s)``
-(``s``: :data:`~frcontrol.planning.gait_run.SIMULATION_SCALE` unless given) and held for
-:data:`~frcontrol.planning.disturbances.DEFAULT_HOLD`. The reference of each phase starts from the
-braces where they closed (:meth:`~frcontrol.planning.gait_geometry.GaitGeometry.measure`). A brace
+The simulation (the core's loop with :class:`~frcontrol.planning.gait_timing.GaitTiming`) runs
+the rigid time stepper with the tracking LP's torques plus disturbances ``J_d(q)^T d(t)``, ``d``
+sampled in ``conv(V_s)`` (``s``: :data:`~frcontrol.planning.gait_timing.SIMULATION_SCALE` unless given)
+and held for :data:`~frcontrol.planning.disturbances.DEFAULT_HOLD`. The reference of each phase starts
+from the braces where they closed (:meth:`~frcontrol.planning.gait_geometry.GaitGeometry.measure`). A brace
 *slips* when a contact the controller holds (F) slides, over a phase, by more than
 :data:`~frcontrol.planning.climb_check.BRACE_SLIP_TOLERANCE`: the slide sums ``|v_T+| h``, the
 sliding velocity each step's friction law gave the contact (``v_T+ = J_T(q) v+``). Its
@@ -237,12 +238,13 @@ def plan_gait(
     *,
     margin: float = DEFAULT_CLIMB_MARGIN,
     solver: str = DEFAULT_LP_SOLVER,
+    braces: tuple[tuple[str, ...], tuple[str, ...]] | None = None,
 ) -> GaitPlan:
     """Plan the gait: each phase's certificate, each hand-over's check, the run's scale.
 
     The channel is the same at every height, so the phases of cycles 2.. are cycle 2's problems
     shifted up: each distinct problem is planned once (the first extension starts from the scene's
-    state and is its own).
+    state and is its own). ``braces`` is ``(lower, upper)``; default: :func:`gait_braces`.
 
     Raises:
         InputError: a bad number of cycles or margin.
@@ -251,17 +253,17 @@ def plan_gait(
     """
     start = time.perf_counter()
     _check_cycles(cycles)
-    lower, upper = gait_braces(scene)
+    lower, upper = gait_braces(scene) if braces is None else braces
     geometry = gait_geometry(scene, lower)
     dist = load_disturbances(scene)
     by_name = {c.name: c.point for c in scene.contacts}
     movers = {"lower": (by_name[lower[0]].link, by_name[lower[0]].point_in_link),
               "upper": (by_name[upper[0]].link, by_name[upper[0]].point_in_link)}
-    braces = {"lower": lower, "upper": upper, "": ()}
+    roles = {"lower": lower, "upper": upper, "": ()}
     done: dict[tuple[str, bool], ClimbPlan] = {}
     phases = []
     for name, cycle, q in _phase_starts(geometry, scene, cycles):
-        held, released, closing = (braces[r] for r in PHASE_ROLES[name])
+        held, released, closing = (roles[r] for r in PHASE_ROLES[name])
         mover = movers["upper" if name in ("extend", "upper_brace") else "lower"]
         key = (name, name == "extend" and cycle == 1)
         if key not in done:

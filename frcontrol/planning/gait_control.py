@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..geometry import row_norms
 from ..modes import build_mode_system
 from ..response import solve_affine
 from ..scene import Scene
@@ -202,8 +203,13 @@ def _mode_rows(problem: Any, mode: str) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 
 def _unit_rows(H: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The rows ``H z <= h`` with unit norms (rows that do not depend on z dropped)."""
-    norms = np.sqrt(np.sum(H * H, axis=1))
+    """The rows ``H z <= h`` with unit norms (rows that do not depend on z dropped).
+
+    Not :func:`~frcontrol.geometry.unit_rows`, which keeps zero rows: a row whose norm is at most
+    :data:`ROW_NORM_FLOOR` is dropped here (its constraint ``0 <= h`` does not involve the LP's
+    variables).
+    """
+    norms = row_norms(H)
     keep = norms > ROW_NORM_FLOOR
     return H[keep] / norms[keep, None], h[keep] / norms[keep]
 

@@ -239,6 +239,8 @@ class PlanRequest(SceneRequest):
     dt: float = Field(1e-3, ge=1e-6, description="[s] as `--dt`.")
     replan_every: int = Field(10, ge=1, description="Steps between two plans, as `--replan-every`.")
     compliant: bool = Field(False, description="Replay the inputs on the compliant model, as `--compliant`.")
+    cycles: int | None = Field(None, ge=1, description="As `--cycles`: the scene's gait (`[task.gait]`) run "
+                               "this many times, or its task's phases (`repeat`); null: the task as given.")
 
 
 class AtlasRequest(InputsRequest):

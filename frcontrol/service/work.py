@@ -165,7 +165,7 @@ def _flip(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
 def _climb(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
     from frcontrol.answers import climb_answer
 
-    what = "the climb [s]" if request.cycles is None else "the gait [phases]"
+    what = "the climb [s]" if request.cycles is None else "the gait [s]"
     return climb_answer(scene, margin=request.margin, duration=request.duration, seed=request.seed,
                         cycles=request.cycles, scale=request.scale,
                         on_simulation=lambda: progress(None, f"simulating {what}"),
@@ -188,7 +188,7 @@ def _plan(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
 
     try:
         return plan_answer(scene, dt=request.dt, replan_every=request.replan_every, max_time=request.max_time,
-                           margin=request.margin, compliant=request.compliant,
+                           margin=request.margin, compliant=request.compliant, cycles=request.cycles,
                            progress=_simulated("running the task [s]", progress)).document
     except LimitExceeded as err:  # the task's simulated time is its max_time
         raise FieldError(["max_time"], err) from err
@@ -388,6 +388,7 @@ def warm_up() -> None:
     import frcontrol.planning.core  # noqa: F401
     import frcontrol.planning.flip  # noqa: F401
     import frcontrol.planning.gait  # noqa: F401
+    import frcontrol.planning.gait_timing  # noqa: F401
     import frcontrol.planning.pump  # noqa: F401
     import frcontrol.planning.standup  # noqa: F401
     import frcontrol.scene  # noqa: F401

@@ -23,7 +23,8 @@ loop where a task needs more than ``until`` in order: it ends phases (a :class:`
 by name, or the end of the run), drives the phases it owns (their inputs, instead of a plan), may
 overrule a plan, and gives the letters a plan's other rigid solutions may have (``free``) and the
 stepper's settings. With a timing, the timing alone ends phases; the phases' ``until`` are data it
-reads.
+reads. A timing with step hooks (:class:`~.timing.StepHooks`) also gives the scene the stepper runs
+on and the inputs of every step.
 
 *Contacts in ``until``*: a contact is *closed* at a sample when its gap is at most
 :data:`~.tolerances.SEPARATION_GAP`, else *open*.
@@ -47,7 +48,7 @@ from .decision import Decision, decide
 from .forced import idle_in_the_air, massless_inputs
 from .scale import ScaleResult, largest_scale
 from .task import Phase, Task, Until
-from .timing import PhaseTiming, Switch, load_timing
+from .timing import PhaseTiming, Switch, load_timing, step_hooks
 from .tolerances import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP
 
 __all__ = ["PhaseRecord", "TaskRun", "contact_gaps", "replanning_model", "run_task", "until_met"]
@@ -150,6 +151,7 @@ class _TaskPolicy:
         self.pending = False
         self.done = False
         self.named = {p.name: p for p in self.phases}
+        self.hooks = step_hooks(timing)
 
     @property
     def phase(self) -> Phase:
@@ -223,6 +225,8 @@ class _TaskPolicy:
         if self.pending:
             self.pending = False
             self.plan(stepper)
+        if self.hooks is not None:
+            return self.hooks.actuate(self.phase, self.command, stepper)
         if not self.legs:
             return self.command
         return idle_in_the_air(self.legs, contact_gaps(self.scene, stepper.q), self.command)
@@ -320,11 +324,15 @@ def run_task(
     if margin is not None and not (np.isfinite(margin) and margin >= 0):
         raise InputError(f"the margin must be a finite number >= 0 [input units], got {margin!r}")
     duration = task.max_time if max_time is None else max_time
+    if margin is not None:  # the timing reads the phases the policy plans
+        task = replace(task, phases=tuple(replace(p, margin=margin) for p in task.phases))
     timing = load_timing(scene, task)
     policy = _TaskPolicy(scene, task, settings, margin, timing)
     armature = scene.model.armature if scene.model.armature_given else None
     rigid = RigidSettings(max_ambiguity_checks=0, impact_law=False) if timing is None else timing.settings
-    stepper = RigidStepper(policy.scene, rigid, armature=armature)
+    hooks = step_hooks(timing)
+    stepped = policy.scene if hooks is None else hooks.stepper_scene(scene)
+    stepper = RigidStepper(stepped, rigid, armature=armature)
     first = policy.plan(None)
     if duration == 0:  # the first plan only: a run of one sample, at the scene's state
         return _first_plan_only(policy, stepper, dt, replan_every)

@@ -31,7 +31,7 @@ from ...solvers import DEFAULT_SETTINGS, SolverSettings
 from .decision import CLOSEST_MARGIN_STEPS, TRACK_REGULARIZATION, Decision
 from .loop import PhaseRecord, TaskRun, run_task
 from .task import Task, read_task
-from .timing import PhaseTiming
+from .timing import PhaseTiming, step_hooks
 from .tolerances import REPLAN_GAP_TOLERANCE, REPLAN_VELOCITY_TOLERANCE, SEPARATION_GAP, TORQUE_ROUNDING
 
 __all__ = ["FROM_THE_PLAN", "PlanResult", "plan_task", "schedule_of", "with_legacy_keys"]
@@ -223,8 +223,10 @@ def plan_task(
     replay = None
     if compliant:
         duration = float(trajectory.times[-1])
+        hooks = step_hooks(run.timing)  # a timing's stepper scene: the inputs the run applied
+        replayed = scene if hooks is None else hooks.stepper_scene(scene)
         replay = (
-            simulate_compliant(scene, schedule_of(run, trajectory), duration, dt) if duration > 0 else None
+            simulate_compliant(replayed, schedule_of(run, trajectory), duration, dt) if duration > 0 else None
         )
     timings = {**run.timings, "compliant": time.perf_counter() - t0, "total": time.perf_counter() - start}
     return PlanResult(task, run, trajectory, replay, timings, run.timing)

@@ -5,6 +5,12 @@ push ends (the toes lift off), when the legs recirculate and push again, the lan
 vertical, and the energy per cycle. A timing module has ``timing(scene, task)``, which returns a
 :class:`~.loop.PhaseTiming`. The core names the modules here and loads the one a task asks for when
 it runs (it imports no planner of its own).
+
+``[task] timing = "gait"`` names :mod:`frcontrol.planning.gait_timing`, the snake's climbing gait:
+it drives every phase itself, every step (a robust tracking LP at the state reached, plus sampled
+disturbance forces), and so also uses the two optional step hooks of :class:`StepHooks`: the scene
+its rigid stepper runs on (inputs on every coordinate, for the disturbances' generalized forces)
+and each step's inputs.
 """
 
 from __future__ import annotations
@@ -23,9 +29,9 @@ from ...simulation.trajectory import Trajectory
 from .decision import Decision
 from .task import Phase, Task
 
-__all__ = ["TIMINGS", "PhaseTiming", "Switch", "load_timing"]
+__all__ = ["TIMINGS", "PhaseTiming", "StepHooks", "Switch", "load_timing", "step_hooks"]
 
-TIMINGS = {"pump": "frcontrol.planning.pump_timing"}
+TIMINGS = {"gait": "frcontrol.planning.gait_timing", "pump": "frcontrol.planning.pump_timing"}
 """``[task] timing`` name -> the module that holds its ``timing(scene, task)``."""
 
 
@@ -73,6 +79,30 @@ class PhaseTiming(Protocol):
 
     def report(self, scene: Scene, trajectory: Trajectory) -> dict[str, Any]:
         """What the timing reports of the run (the plan document's ``timing``)."""
+
+
+class StepHooks(Protocol):
+    """Optional hooks of a phase timing that acts at every step (a timing without them: the defaults).
+
+    ``stepper_scene`` gives the scene the run's rigid stepper steps (default: the task's scene);
+    its inputs are the ones ``actuate`` returns. ``actuate`` gives each step's inputs from the
+    command held since the last decision (default: the command, with the massless inputs in the
+    air at 0, :func:`~.forced.idle_in_the_air`).
+    """
+
+    def stepper_scene(self, scene: Scene) -> Scene:
+        """The scene the rigid stepper runs on."""
+
+    def actuate(self, phase: Phase, command: np.ndarray, stepper: RigidStepper) -> np.ndarray:
+        """The inputs of the next step (in the stepper scene's input order)."""
+
+
+def step_hooks(timing: PhaseTiming | None) -> StepHooks | None:
+    """The timing as :class:`StepHooks` when it has both hooks, else None (the defaults apply)."""
+    if timing is None or not (hasattr(timing, "stepper_scene") and hasattr(timing, "actuate")):
+        return None
+    hooks: StepHooks = timing  # type: ignore[assignment]
+    return hooks
 
 
 def load_timing(scene: Scene, task: Task) -> PhaseTiming | None:
