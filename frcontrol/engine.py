@@ -1,4 +1,5 @@
-"""The mode-domain engine: every contact mode's response, domain and ambiguity (METHOD §2-5).
+"""The mode-domain engine: every contact mode's response, domain and ambiguity (docs/maths.md,
+*Mode domains and ambiguity*).
 
 :func:`analyze` takes a scene at its state and returns a :class:`DynamicResponse`:
 

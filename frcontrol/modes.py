@@ -1,4 +1,5 @@
-"""Contact modes and the linear system each one imposes (METHOD §2).
+"""Contact modes and the linear system each one imposes (docs/maths.md,
+*Mode letters in every output*).
 
 Every active contact is in one of four modes, always spelled S, L, R, F:
 

@@ -1,6 +1,6 @@
 r"""Statics of a body in frictional contact: closure, equilibrium, support region, stability.
 
-The analyses of Hauser's lecture (METHOD §8) on one rigid body in the plane. A robot with joints is
+Hauser's analyses of contact statics (docs/maths.md, *Statics of one body*) on one rigid body in the plane. A robot with joints is
 treated as **locked**: one rigid body with the robot's total mass ``m`` and centre of mass ``c``
 (Pinocchio's ``computeTotalMass`` and ``centerOfMass``) at its configuration. Statics needs a
 floating (planar) base; a fixed-base scene raises :class:`~frcontrol.errors.InputError`, because

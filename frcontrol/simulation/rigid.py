@@ -1,4 +1,4 @@
-r"""Rigid-body simulation: velocity-level time stepping with an impact law (METHOD §7).
+r"""Rigid-body simulation: velocity-level time stepping with an impact law (docs/maths.md, *Simulation*).
 
 The scheme (Stewart and Trinkle 1996; Anitescu and Potra 1997), one step of length ``h`` from
 ``(q, v)`` at time ``t`` with input ``u``::
