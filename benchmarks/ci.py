@@ -263,8 +263,8 @@ FIGURES = (
            f"friction; target {ATLAS_TARGET_VS_QUERY:g}x `analyze_statics`", None, calls=ATLAS_FIGURE_POINTS),
     Figure("simulation_rigid_pump", "rigid simulation of the pumping flip (`rhex_flip_drives`, 3 s: the "
            "closed loop's voltages replayed through its stepper); target 10x real time", None),
-    Figure("simulation_rigid_flip", "rigid simulation of `rhex_flip`'s flip (`frc flip rhex_flip`'s closed loop "
-           "to vertical, replayed); target 10x real time", None),
+    Figure("simulation_rigid_flip", "rigid simulation of `rhex_flip`'s flip (`frc flip rhex_flip`'s "
+           "closed loop to vertical, replayed); target 10x real time", None),
     Figure("startup_frc_help", "start-up of `frc --help` (a process)", 0.3),
     Figure("startup_frc_show_rod_on_table", "start-up of `frc show rod_on_table` (a process)", 0.6),
 )

@@ -1,5 +1,6 @@
-"""The mode-domain engine: every contact mode's response, domain and ambiguity (docs/maths.md,
-*Mode domains and ambiguity*).
+"""The mode-domain engine: every contact mode's response, domain and ambiguity.
+
+The maths: docs/maths.md, *Mode domains and ambiguity*.
 
 :func:`analyze` takes a scene at its state and returns a :class:`DynamicResponse`:
 

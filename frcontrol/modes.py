@@ -1,5 +1,4 @@
-"""Contact modes and the linear system each one imposes (docs/maths.md,
-*Mode letters in every output*).
+"""Contact modes and the linear system each one imposes (docs/maths.md, *Mode letters in every output*).
 
 Every active contact is in one of four modes, always spelled S, L, R, F:
 

@@ -98,16 +98,20 @@ def test_the_codes_pointers_into_the_manual_name_its_sections():
     for path in sorted([*(ROOT / "frcontrol").rglob("*.py"), *(ROOT / "cli").rglob("*.py")]):
         text = path.read_text(encoding="utf-8")
         for page, section in MANUAL_CITATION.findall(text):
-            headings = {h.strip() for h in re.findall(r"^#+ (.+)$", (ROOT / page).read_text(encoding="utf-8"), flags=re.M)}
-            assert " ".join(section.split()) in headings, f"{path.relative_to(ROOT)} cites {page}, *{section}*: no such section"
+            page_text = (ROOT / page).read_text(encoding="utf-8")
+            headings = {h.strip() for h in re.findall(r"^#+ (.+)$", page_text, flags=re.M)}
+            assert " ".join(section.split()) in headings, \
+                f"{path.relative_to(ROOT)} cites {page}, *{section}*: no such section"
             cited += 1
     assert cited >= 9
 
 
 def test_the_code_and_manual_cite_no_document_outside_the_repository():
-    paths = [*(ROOT / "frcontrol").rglob("*.py"), *(ROOT / "cli").rglob("*.py"), *(ROOT / "docs").glob("*.md")]
+    paths = [*(ROOT / "frcontrol").rglob("*.py"), *(ROOT / "cli").rglob("*.py"),
+             *(ROOT / "docs").glob("*.md")]
     offenders = [str(path.relative_to(ROOT)) for path in sorted(paths)
-                 if "planning" not in path.relative_to(ROOT).parts and OUTSIDE_DOCUMENTS.search(path.read_text(encoding="utf-8"))]
+                 if "planning" not in path.relative_to(ROOT).parts
+                 and OUTSIDE_DOCUMENTS.search(path.read_text(encoding="utf-8"))]
     assert offenders == []
 
 @pytest.mark.slow

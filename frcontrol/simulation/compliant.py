@@ -1,5 +1,4 @@
-r"""Compliant-contact simulation: Kelvin–Voigt contacts with a Coulomb slider (docs/maths.md,
-*Simulation*).
+r"""Compliant-contact simulation: Kelvin–Voigt contacts with a Coulomb slider (docs/maths.md, *Simulation*).
 
 The model
 ---------
