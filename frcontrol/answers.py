@@ -315,6 +315,20 @@ def validation_answer(scenes: Sequence[str | Path | SceneSource]) -> Answer:
     return Answer("validate", {"valid": all(r["valid"] for r in reports), "files": reports})
 
 
+def validation_problems(document: Mapping[str, Any]) -> list[tuple[str | None, str]]:
+    """Every problem of a :func:`validation_answer` document: ``(field, "FILE: FIELD: REASON")``.
+
+    The line is what ``frc validate`` prints after ``frc: error:`` and what ``POST /validate``'s 422
+    gives as a problem's ``msg``; ``field`` is None for a problem of the whole file.
+    """
+    lines: list[tuple[str | None, str]] = []
+    for report in document["files"]:
+        for problem in report["problems"]:
+            where = f"{report['file']}: {problem['field']}: " if problem["field"] else f"{report['file']}: "
+            lines.append((problem["field"] or None, where + problem["reason"]))
+    return lines
+
+
 # --- the model, the modes, statics, simulation --------------------------------------------------
 
 
@@ -646,5 +660,6 @@ __all__ = [
     "standup_answer",
     "statics_answer",
     "validation_answer",
+    "validation_problems",
     "without_run_dependent",
 ]
