@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 
 from .errors import SceneError
+from .scene_schema import nearest
 
 DRIVE_KINDS = ("dc_motor",)
 """The kinds of drive a scene's ``[model.drives.JOINT]`` may name."""
@@ -352,8 +353,6 @@ def read_drives(path: str, raw: Any, joint_names: Sequence[str], locked: Sequenc
             non-positive resistance, torque constant, voltage limit, ratio or stiffness, a negative
             back-EMF constant, inertia or damping, an efficiency outside (0, 1].
     """
-    from .scene_schema import nearest
-
     if raw is None:
         return DrivenJoints({}, {}, {}, {})
     if not isinstance(raw, Mapping):
