@@ -170,10 +170,14 @@ class ContactProblem:
 
         ``"LL"`` of a problem touching ``left`` and ``right`` in a scene that also lists ``top`` is
         ``"LLS (left L, right L, top S)"`` (:func:`mode_label` of :meth:`scene_mode`): the letters
-        every output prints. Without the scene's contacts, the problem's own contacts are named.
+        every output prints. Without the scene's contacts, the problem's own contacts are named; a
+        partial mode (fewer letters than contacts, as the enumeration grows them) names the contacts
+        it assigns.
         """
-        names = self.scene_contacts or self.contacts
-        return mode_label(self.scene_mode(mode), names)
+        if len(mode) < self.k:
+            assigned = zip(self.contacts[:len(mode)], mode, strict=True)
+            return f"{mode} ({', '.join(f'{contact} {letter}' for contact, letter in assigned)})"
+        return mode_label(self.scene_mode(mode), self.scene_contacts or self.contacts)
 
     def with_friction(self, mu: np.ndarray) -> ContactProblem:
         """The same problem with other Coulomb coefficients [-] (k,) of its contacts.

@@ -52,6 +52,7 @@ def test_errors_name_a_mode_by_the_scenes_letters_and_its_contacts():
     result = analyze(load_scene("rhex_flip"))  # touching: front_corner, middle_toe, rear_toe
     named = "FSSLR (front_corner F, rear_corner S, front_toe S, middle_toe L, rear_toe R)"
     assert result.mode("FLR").named == named
+    assert result.problem.named_mode("FL") == "FL (front_corner F, middle_toe L)"  # a partial mode, as grown
     with pytest.raises(InputError, match=r"'FSSLR' has one letter per scene contact .*touching contact "
                                          r"\(front_corner, middle_toe, rear_toe\): 'FLR'"):
         result.mode("FSSLR")
