@@ -96,7 +96,7 @@ def analysis_and_solutions(
     Args:
         scene: the loaded scene.
         inputs: named input values [N or N m] (inputs not named are 0), or None for no solutions.
-        progress: called with each mode's name as its evaluation starts.
+        progress: called with each mode's name (the scene's letters) as its evaluation starts.
 
     Raises:
         InputError, CoordinateNotFound: see :func:`frcontrol.scene.parse_input_assignments`.
@@ -357,7 +357,7 @@ def analyze_answer(scene: Scene, inputs: Mapping[str, float] | None = None,
     Args:
         scene: the loaded scene.
         inputs: named input values [N or N m], or None for no solutions.
-        progress: called with each mode's name as its evaluation starts.
+        progress: called with each mode's name (the scene's letters) as its evaluation starts.
     """
     result, solutions = analysis_and_solutions(scene, inputs, progress=progress)
     return Answer("analyze", analysis_payload(scene, result, solutions), result=result)

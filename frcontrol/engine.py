@@ -552,7 +552,8 @@ def analyze(
             (False: evaluate every mode velocity pruning leaves, the naive reference).
         ambiguity: also compute the overlaps and unambiguous sets.
         rank_tolerance: relative singular-value threshold of the rank decisions.
-        progress: called with each mode's name as its evaluation starts (for progress displays).
+        progress: called with each mode's name as its evaluation starts (for progress displays), in
+            the scene's letters (:meth:`~frcontrol.modes.ContactProblem.scene_mode`), as outputs print it.
 
     Raises:
         ImpactState: a contact moves into its surface.
@@ -663,7 +664,7 @@ class _ModeEnumerator:
         problem, settings, timings = self.problem, self.settings, self.timings
         self.counts["evaluated"] += 1
         if self.progress is not None:
-            self.progress(mode)
+            self.progress(self.problem.scene_mode(mode))
         verdict, system, response = self.test(mode)
         outputs = ambiguous_outputs(response, problem.n)
         if verdict != "ok":
