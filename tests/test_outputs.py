@@ -49,7 +49,7 @@ def test_a_mode_of_the_touching_contacts_becomes_one_of_every_scene_contact():
 def test_errors_name_a_mode_by_the_scenes_letters_and_its_contacts():
     from frcontrol import analyze
 
-    # progress names the modes by the scene's letters, five here (touching: front_corner, middle_toe, rear_toe)
+    # progress names the modes by the scene's letters: five (three touch: front_corner, middle_toe, rear_toe)
     seen: list[str] = []
     result = analyze(load_scene("rhex_flip"), progress=seen.append)
     assert len(seen) == len(result.modes) and {len(mode) for mode in seen} == {5}
