@@ -38,7 +38,7 @@ figure of the speed targets (:data:`FIGURES`):
   too; a point's stability verdicts are not part of the query, they are of the point): the target is
   :data:`ATLAS_TARGET_VS_QUERY` times the query's median of the same run; every timed point is
   checked against the scene loaded at that point;
-- the rigid simulation of the pumping flip (``rhex_flip_drives``, 3 s) and of the seed's flip
+- the rigid simulation of the pumping flip (``rhex_flip_drives``, 3 s) and of `rhex_flip`'s flip
   (``rhex_flip``'s closed loop to vertical): each closed loop is run once when the figures are
   built, and its applied inputs are replayed through its stepper (``benchmarks/simulation.py``),
   the replay checked equal to the closed loop's samples bit for bit; the target is
@@ -263,8 +263,8 @@ FIGURES = (
            f"friction; target {ATLAS_TARGET_VS_QUERY:g}x `analyze_statics`", None, calls=ATLAS_FIGURE_POINTS),
     Figure("simulation_rigid_pump", "rigid simulation of the pumping flip (`rhex_flip_drives`, 3 s: the "
            "closed loop's voltages replayed through its stepper); target 10x real time", None),
-    Figure("simulation_rigid_flip", "rigid simulation of the seed's flip (`frc flip rhex_flip`'s closed loop "
-           "to vertical, replayed); target 10x real time", None),
+    Figure("simulation_rigid_flip", "rigid simulation of `rhex_flip`'s flip (`frc flip rhex_flip`'s "
+           "closed loop to vertical, replayed); target 10x real time", None),
     Figure("startup_frc_help", "start-up of `frc --help` (a process)", 0.3),
     Figure("startup_frc_show_rod_on_table", "start-up of `frc show rod_on_table` (a process)", 0.6),
 )

@@ -7,7 +7,7 @@ The real-time factor (simulated time over compute time) of:
   simulation alone: the voltages the run applied, replayed step by step through a
   :class:`~frcontrol.simulation.rigid.RigidStepper` with the run's settings (the replay's samples
   are checked equal to the closed loop's, bit for bit: it is the same simulation);
-- **the seed's flip** (``rhex_flip``, ``simulate_flip``: ``frc flip rhex_flip``'s closed loop), the
+- **the rigid flip** (``rhex_flip``, ``simulate_flip``: ``frc flip rhex_flip``'s closed loop), the
   same way (the stepper of the flip's loop: no impact law, the flip's armature);
 - ``simulate_rigid`` of ``box_on_slope``, ``rod_drop`` (it lands: impacts) and ``snake_climb`` at
   zero input;
@@ -103,7 +103,7 @@ def pump_replay(duration: float = PUMP_DURATION) -> Replay:
 
 
 def flip_replay() -> Replay:
-    """The seed's flip's rigid simulation (``simulate_flip``'s stepper and applied torques)."""
+    """``rhex_flip``'s flip's rigid simulation (``simulate_flip``'s stepper and applied torques)."""
     from frcontrol.planning.flip import REPLAN_GAP_TOLERANCE
     from frcontrol.planning.flip_loop import simulate_flip
     from frcontrol.scene import load_scene

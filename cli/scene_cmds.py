@@ -45,13 +45,11 @@ def validate_command(
       frc validate snake_climb --json
     """
     set_quiet(quiet)
-    from frcontrol.answers import validation_answer
+    from frcontrol.answers import validation_answer, validation_problems
 
     document = validation_answer(files).document
-    for r in document["files"]:
-        for p in r["problems"]:
-            where = f"{r['file']}: {p['field']}: " if p["field"] else f"{r['file']}: "
-            sys.stderr.write(f"frc: error: {where}{p['reason']}\n")
+    for _, line in validation_problems(document):
+        sys.stderr.write(f"frc: error: {line}\n")
     if json_output:
         print_json(document)
     else:

@@ -96,7 +96,7 @@ def analysis_and_solutions(
     Args:
         scene: the loaded scene.
         inputs: named input values [N or N m] (inputs not named are 0), or None for no solutions.
-        progress: called with each mode's name as its evaluation starts.
+        progress: called with each mode's name (the scene's letters) as its evaluation starts.
 
     Raises:
         InputError, CoordinateNotFound: see :func:`frcontrol.scene.parse_input_assignments`.
@@ -315,6 +315,20 @@ def validation_answer(scenes: Sequence[str | Path | SceneSource]) -> Answer:
     return Answer("validate", {"valid": all(r["valid"] for r in reports), "files": reports})
 
 
+def validation_problems(document: Mapping[str, Any]) -> list[tuple[str | None, str]]:
+    """Every problem of a :func:`validation_answer` document: ``(field, "FILE: FIELD: REASON")``.
+
+    The line is what ``frc validate`` prints after ``frc: error:`` and what ``POST /validate``'s 422
+    gives as a problem's ``msg``; ``field`` is None for a problem of the whole file.
+    """
+    lines: list[tuple[str | None, str]] = []
+    for report in document["files"]:
+        for problem in report["problems"]:
+            where = f"{report['file']}: {problem['field']}: " if problem["field"] else f"{report['file']}: "
+            lines.append((problem["field"] or None, where + problem["reason"]))
+    return lines
+
+
 # --- the model, the modes, statics, simulation --------------------------------------------------
 
 
@@ -343,7 +357,7 @@ def analyze_answer(scene: Scene, inputs: Mapping[str, float] | None = None,
     Args:
         scene: the loaded scene.
         inputs: named input values [N or N m], or None for no solutions.
-        progress: called with each mode's name as its evaluation starts.
+        progress: called with each mode's name (the scene's letters) as its evaluation starts.
     """
     result, solutions = analysis_and_solutions(scene, inputs, progress=progress)
     return Answer("analyze", analysis_payload(scene, result, solutions), result=result)
@@ -650,5 +664,6 @@ __all__ = [
     "standup_answer",
     "statics_answer",
     "validation_answer",
+    "validation_problems",
     "without_run_dependent",
 ]

@@ -1,4 +1,6 @@
-"""The acceleration-level contact problem as a linear complementarity problem (METHOD §7).
+"""The acceleration-level contact problem as a linear complementarity problem.
+
+The maths: docs/maths.md, *The contact problem as an LCP*.
 
 Independent of the mode enumeration, this formulates the same rigid-body problem at one input as
 ``w = W z + b >= 0, z >= 0, z^T w = 0`` and solves it with :mod:`frcontrol.lcp` (Lemke's method, or

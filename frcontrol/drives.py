@@ -3,7 +3,7 @@ r"""Drives: DC motors behind gear stages, as a scene's ``[model.drives.JOINT]`` 
 The model is Vukobratović and Potkonjak's (Mechanism and Machine Theory 34, 1999, §6, eqs. 39-44).
 A joint ``j`` is driven by a DC motor with voltage input ``u`` [V], resistance ``R`` [ohm], torque
 constant ``C_M`` [N m/A], back-EMF constant ``C_E`` [V s/rad] and rotor inertia ``J_r`` [kg m^2].
-Its electrical time constant is neglected (the seed's eq. 42), so the current is
+Its electrical time constant is neglected (their eq. 42), so the current is
 ``i = (u - C_E w_m) / R`` [A] and the motor's torque, the first stage's input, is::
 
     M_1 = C_M i = (C_M / R) u - (C_M C_E / R) w_m                                     (42)
@@ -29,7 +29,7 @@ dynamics carry in the bias ``h(q, v)``. The torque-speed line of the drive is
 ``tau in [tau(-u_max, qdot), tau(u_max, qdot)]``, from the stall torque ``eta N C_M u_max / R``
 at rest to zero at the no-load speed ``u_max / (C_E N)``.
 
-The efficiency is the seed's constant factor on the torque passed through the gears (its eq.
+The efficiency is V-P's constant factor on the torque passed through the gears (their eq.
 40): it scales the *driving* torque (the motor's, or an upstream spring's) and not the inertial
 or spring reactions, so that ``M`` stays symmetric. It is exact for power flowing from the motor
 to the joint; a back-driven gear gains ``(1 - eta)`` of the power in this model rather than
@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 
 from .errors import SceneError
+from .scene_schema import nearest
 
 DRIVE_KINDS = ("dc_motor",)
 """The kinds of drive a scene's ``[model.drives.JOINT]`` may name."""
@@ -97,7 +98,7 @@ class Stage:
 
 @dataclass(frozen=True)
 class Drive:
-    """A DC motor and its transmission, driving one joint (the seed's §6).
+    """A DC motor and its transmission, driving one joint (Vukobratović and Potkonjak 1999, §6).
 
     Attributes:
         joint: the driven joint's name.
@@ -352,8 +353,6 @@ def read_drives(path: str, raw: Any, joint_names: Sequence[str], locked: Sequenc
             non-positive resistance, torque constant, voltage limit, ratio or stiffness, a negative
             back-EMF constant, inertia or damping, an efficiency outside (0, 1].
     """
-    from .scene_schema import nearest
-
     if raw is None:
         return DrivenJoints({}, {}, {}, {})
     if not isinstance(raw, Mapping):

@@ -1,4 +1,6 @@
-"""The mode-domain engine: every contact mode's response, domain and ambiguity (METHOD §2-5).
+"""The mode-domain engine: every contact mode's response, domain and ambiguity.
+
+The maths: docs/maths.md, *Mode domains and ambiguity*.
 
 :func:`analyze` takes a scene at its state and returns a :class:`DynamicResponse`:
 
@@ -38,7 +40,7 @@ import numpy.typing as npt
 
 from . import polytope as poly
 from .ambiguity_polygon import PolygonRule
-from .errors import InputError
+from .errors import IllConditioned, InputError
 from .geometry import constant_rows, max_margin
 from .jsonable import to_jsonable
 from .kernel import Backend, backend, compiled, twin
@@ -76,6 +78,25 @@ counts as empty interior."""
 ZERO_ROW_TOLERANCE = 1e-9
 """A row of a domain whose coefficients' norm is at most this times the largest row norm is a
 constant row: it is judged by its right-hand side alone (normalising it would inflate round-off)."""
+
+MODES_LISTED = 8
+"""[modes] How many feasible modes the error of :meth:`DynamicResponse.mode` lists by name."""
+
+
+def mode_response(problem: ContactProblem, system: ModeSystem, rank_tolerance: float) -> AffineSolution:
+    """The mode's response by :func:`solve_affine` (the SVD and its rank rule, balanced where needed).
+
+    Raises:
+        IllConditioned: the mode's system, named as messages name a mode (the scene's letters and
+            the contacts' names: :meth:`~frcontrol.modes.ContactProblem.named_mode`).
+    """
+    try:
+        return solve_affine(system.A, system.B, system.c, rank_tolerance=rank_tolerance,
+                            name=f"the system of mode {system.mode}",
+                            balance=bool(needs_balancing(problem, [system.mode])[0]))
+    except IllConditioned as err:
+        raise IllConditioned(f"the system of mode {problem.named_mode(system.mode)}", err.condition_number,
+                             err.tolerance) from None
 
 
 def _row_norms(H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -115,6 +136,8 @@ class ModeAnalysis:
 
         raw_ball: the Chebyshev ball of ``raw_domain`` found when the mode was evaluated (the
             minimal form's emptiness test is this same LP), or None.
+        named: the mode as messages name it, over every scene contact with the contacts' names
+            (:meth:`~frcontrol.modes.ContactProblem.named_mode`); empty: :attr:`mode`.
 
     ``domain`` (D_c in minimal form) and ``input_domain`` (T_c, its projection onto the inputs)
     are derived from the fields on first use (``functools.cached_property``: kept in the instance,
@@ -136,6 +159,7 @@ class ModeAnalysis:
     m: int = 0
     settings: SolverSettings = DEFAULT_SETTINGS
     raw_ball: poly.ChebyshevBall | None = field(default=None, repr=False, compare=False)
+    named: str = field(default="", repr=False, compare=False)
 
     @property
     def solver(self) -> str:
@@ -177,7 +201,7 @@ class ModeAnalysis:
             InputError: the mode is infeasible.
         """
         if self.domain is None:
-            raise InputError(f"mode {self.mode} is infeasible: it has no domain")
+            raise InputError(f"mode {self.named or self.mode} is infeasible: it has no domain")
         return self.domain
 
     @property
@@ -189,7 +213,7 @@ class ModeAnalysis:
         """
         domain = self.input_domain
         if domain is None:
-            raise InputError(f"mode {self.mode} is infeasible: it has no input domain")
+            raise InputError(f"mode {self.named or self.mode} is infeasible: it has no input domain")
         return domain
 
 
@@ -312,7 +336,26 @@ class DynamicResponse:
         for m in self.modes:
             if m.mode == name:
                 return m
-        raise InputError(f"mode {name!r} is not among the evaluated modes of this scene")
+        raise InputError(self._unevaluated(name))
+
+    def _unevaluated(self, name: str) -> str:
+        """The message for a mode :meth:`mode` does not hold: the letters it takes, the modes it has."""
+        problem = self.problem
+        touching = ", ".join(problem.contacts) or "none"
+        scene = problem.scene_contacts
+        if (isinstance(name, str) and scene and len(name) == len(scene) != problem.k
+                and all(letter == "S" for contact, letter in zip(scene, name, strict=True)
+                        if contact not in problem.contacts)):
+            own = "".join(name[scene.index(contact)] for contact in problem.contacts)
+            return (f"mode {name!r} has one letter per scene contact ({', '.join(scene)}); mode() takes "
+                    f"one per touching contact ({touching}): {own!r}")
+        feasible = self.feasible_modes
+        shown = [m.named if m.named.startswith(f"{m.mode} ") else f"{m.mode!r} = {m.named}"
+                 for m in feasible[:MODES_LISTED]]
+        more = f"; and {len(feasible) - MODES_LISTED} more" if len(feasible) > MODES_LISTED else ""
+        return (f"mode {name!r} was not evaluated (mode() takes one letter S, L, R, F per touching contact: "
+                f"{touching}; the contacts' velocities or a partial mode's test pruned the others); "
+                f"{len(self.modes)} evaluated, {len(feasible)} feasible: {'; '.join(shown) or 'none'}{more}")
 
     def overlapping(self, name: str) -> tuple[str, ...]:
         """The modes whose T_c interior meets that of ``name``."""
@@ -509,7 +552,8 @@ def analyze(
             (False: evaluate every mode velocity pruning leaves, the naive reference).
         ambiguity: also compute the overlaps and unambiguous sets.
         rank_tolerance: relative singular-value threshold of the rank decisions.
-        progress: called with each mode's name as its evaluation starts (for progress displays).
+        progress: called with each mode's name as its evaluation starts (for progress displays), in
+            the scene's letters (:meth:`~frcontrol.modes.ContactProblem.scene_mode`), as outputs print it.
 
     Raises:
         ImpactState: a contact moves into its surface.
@@ -567,9 +611,7 @@ class _ModeEnumerator:
 
     def response(self, system: ModeSystem) -> AffineSolution:
         """The mode's response by :func:`solve_affine` (the SVD and its rank rule)."""
-        return solve_affine(system.A, system.B, system.c, rank_tolerance=self.rank_tolerance,
-                            name=f"the system of mode {system.mode}",
-                            balance=bool(needs_balancing(self.problem, [system.mode])[0]))
+        return mode_response(self.problem, system, self.rank_tolerance)
 
     def prepare(self, prefix: str, letters: str) -> None:
         """Build the systems of ``prefix``'s children and certify their responses together.
@@ -622,7 +664,7 @@ class _ModeEnumerator:
         problem, settings, timings = self.problem, self.settings, self.timings
         self.counts["evaluated"] += 1
         if self.progress is not None:
-            self.progress(mode)
+            self.progress(self.problem.scene_mode(mode))
         verdict, system, response = self.test(mode)
         outputs = ambiguous_outputs(response, problem.n)
         if verdict != "ok":
@@ -630,7 +672,8 @@ class _ModeEnumerator:
             self.analyses.append(ModeAnalysis(
                 mode=mode, system=system, response=response, ambiguous_outputs=outputs,
                 feasible=False, full_dimensional=False, chebyshev_radius=0.0, raw_domain=None,
-                inputs_full_dimensional=False, pruned=verdict, m=problem.m, settings=settings))
+                inputs_full_dimensional=False, pruned=verdict, m=problem.m, settings=settings,
+                named=problem.named_mode(mode)))
             return
         t0 = time.perf_counter()
         if response.certified:
@@ -646,6 +689,7 @@ class _ModeEnumerator:
             mode=mode, system=system, response=response, ambiguous_outputs=outputs, feasible=True,
             full_dimensional=full, chebyshev_radius=float(ball.radius) if ball.found else 0.0,
             raw_domain=domain, inputs_full_dimensional=full, m=problem.m, settings=settings, raw_ball=ball,
+            named=problem.named_mode(mode),
         )
         if not full and domain.A_eq.shape[0] == 0 and response.ambiguity_dim:
             # D_c flat in (u, w) without input equalities: its projection may still have volume
@@ -1107,9 +1151,7 @@ def _tree_solutions(problem: ContactProblem, u: np.ndarray, settings: SolverSett
         for letter in allowed[depth]:
             mode = prefix + letter
             system = build_mode_system(problem, mode)
-            response = solve_affine(system.A, system.B, system.c, rank_tolerance=rank_tolerance,
-                                    name=f"the system of mode {mode}",
-                                    balance=bool(needs_balancing(problem, [mode])[0]))
+            response = mode_response(problem, system, rank_tolerance)
             w = _admissible_w(system, response, u, settings, closed_form)
             if w is None:
                 continue
@@ -1141,6 +1183,7 @@ __all__ = [
     "motion_margin",
     "Overlap",
     "RigidSolution",
+    "MODES_LISTED",
     "SOLUTION_METHODS",
     "build_query_table",
     "query_table",

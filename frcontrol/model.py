@@ -4,7 +4,7 @@ One :class:`PlanarRobot` owns a Pinocchio model and its data, built from a URDF 
 the world's x-y plane (y up, revolute axes along z) on either a floating planar base or a fixed
 base. Its coordinates are *minimal*: ``q = [x, y, theta, joints...]`` for a planar base (theta
 counter-clockwise), ``q = [joints...]`` for a fixed one, and ``v = dq/dt``. The equations of motion
-(METHOD §1) are::
+(docs/maths.md, *Equations of motion*) are::
 
     M(q) dv + h(q, v) = S^T u + J_N^T lam_N + J_T^T lam_T
 

@@ -1,4 +1,4 @@
-"""Contact modes and the linear system each one imposes (METHOD §2).
+"""Contact modes and the linear system each one imposes (docs/maths.md, *Mode letters in every output*).
 
 Every active contact is in one of four modes, always spelled S, L, R, F:
 
@@ -165,6 +165,20 @@ class ContactProblem:
         """
         return scene_mode(mode, self.contacts, self.scene_contacts) if self.scene_contacts else mode
 
+    def named_mode(self, mode: str) -> str:
+        """``mode`` as messages name it: the scene's letters with each contact's name beside its own.
+
+        ``"LL"`` of a problem touching ``left`` and ``right`` in a scene that also lists ``top`` is
+        ``"LLS (left L, right L, top S)"`` (:func:`mode_label` of :meth:`scene_mode`): the letters
+        every output prints. Without the scene's contacts, the problem's own contacts are named; a
+        partial mode (fewer letters than contacts, as the enumeration grows them) names the contacts
+        it assigns.
+        """
+        if len(mode) < self.k:
+            assigned = zip(self.contacts[:len(mode)], mode, strict=True)
+            return f"{mode} ({', '.join(f'{contact} {letter}' for contact, letter in assigned)})"
+        return mode_label(self.scene_mode(mode), self.scene_contacts or self.contacts)
+
     def with_friction(self, mu: np.ndarray) -> ContactProblem:
         """The same problem with other Coulomb coefficients [-] (k,) of its contacts.
 
@@ -273,8 +287,11 @@ def check_mode(problem: ContactProblem, mode: str, *, partial: bool = False) -> 
     if not isinstance(mode, str) or any(ch not in MODE_LETTERS for ch in mode):
         raise InputError(f"a mode is a string of the letters S, L, R, F; got {mode!r}")
     if len(mode) > problem.k or (not partial and len(mode) != problem.k):
-        raise InputError(f"mode {mode!r} has {len(mode)} letters; the scene has {problem.k} active "
-                         f"contacts ({', '.join(problem.contacts)})")
+        scene = problem.scene_contacts
+        hint = (f": {mode!r} has one per scene contact ({', '.join(scene)})"
+                if scene and len(mode) == len(scene) != problem.k else "")
+        raise InputError(f"mode {mode!r} has {len(mode)} letters; a mode here has one per touching contact, "
+                         f"{problem.k} ({', '.join(problem.contacts)}){hint}")
     return mode
 
 

@@ -37,6 +37,7 @@ import numpy as np
 from .ambiguity_polygon import PolygonRule
 from .errors import InputError
 from .geometry import constant_rows
+from .jsonable import to_jsonable
 from .kernel import backend, compiled, twin
 from .mode_batch import decide_intervals
 from .modes import ContactProblem, ModeSystem
@@ -164,8 +165,6 @@ class BatchSolutions:
 
     def to_dict(self) -> dict[str, Any]:
         """The arrays as nested lists (JSON values), with the field names above."""
-        from .jsonable import to_jsonable
-
         return to_jsonable({name: getattr(self, name) for name in (
             "inputs", "modes", "count", "offsets", "point", "mode_index", "dv", "lambda_n", "lambda_t",
             "a_n", "a_t", "ambiguity_dim", "w", "equality_residual", "inequality_violation",

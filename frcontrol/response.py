@@ -1,4 +1,4 @@
-"""The affine response of one contact mode: the four rank cases (METHOD §3).
+"""The affine response of one contact mode: the four rank cases (docs/maths.md, *The four rank cases*).
 
 A mode's equalities ``A x = B u + c`` are solved with a rank-revealing factorisation (an SVD of
 the row- and column-equilibrated ``A``; nothing is ever inverted, so a singular mass matrix from

@@ -27,12 +27,20 @@ from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from .errors import SceneError
-
-if TYPE_CHECKING:
-    from .scene import Scene
+from .scene import (
+    Scene,
+    load_scene,
+    read_scene_document,
+    resolve_scene_path,
+    scene_from_document,
+    scene_toml,
+    shipped_robots_dir,
+    shipped_scene_names,
+)
+from .scene_schema import nearest
 
 CONTENT_SOURCE = "scene"
 """What a scene sent as content is called in messages and results (it has no file name)."""
@@ -64,8 +72,6 @@ class SceneSource:
         Raises:
             SceneError: no such file and no shipped scene of that name (the nearest is named).
         """
-        from .scene import resolve_scene_path
-
         return cls("file", str(resolve_scene_path(name_or_path)), str(name_or_path))
 
     @classmethod
@@ -75,9 +81,6 @@ class SceneSource:
         Raises:
             SceneError: no shipped scene of that name (the nearest and the list in the message).
         """
-        from .scene import shipped_scene_names
-        from .scene_schema import nearest
-
         stem = name.removesuffix(".toml")
         names = shipped_scene_names()
         if stem not in names:  # checked against the list: a name is never used as a path
@@ -123,7 +126,6 @@ class SceneSource:
     def _path(self) -> Path:
         if self.kind == "file":
             return Path(self.text)
-        from .scene import shipped_robots_dir
 
         return shipped_robots_dir() / "scenes" / f"{self.text}.toml"
 
@@ -135,8 +137,6 @@ class SceneSource:
             SceneError: everything :func:`~frcontrol.scene.load_scene` (a file) or
                 :func:`~frcontrol.scene.scene_from_document` (a shipped name, content) refuses.
         """
-        from .scene import load_scene, read_scene_document, scene_from_document
-
         if self.kind == "file":
             yield load_scene(self.text, overrides=overrides)
             return
@@ -162,7 +162,6 @@ class SceneSource:
 
 
 def _parse_toml(text: str) -> dict[str, Any]:
-    from .scene import scene_toml
 
     return scene_toml(text, CONTENT_SOURCE)
 

@@ -76,8 +76,8 @@ ZONE_PARAMETERS = ("mass_robot", "stiffness_internal_robot", "damping_internal_r
                    "stiffness_external_robot", "damping_external_robot", "mass_environment",
                    "stiffness_internal_environment", "damping_internal_environment",
                    "stiffness_external_environment", "damping_external_environment")
-"""A zone's masses [kg], stiffnesses [N/m] and dampers [N s/m] (the seed's m', k'', b'', k', b' on
-the robot side r and the environment side e); dampers default to 0."""
+"""A zone's masses [kg], stiffnesses [N/m] and dampers [N s/m] (Vukobratović and Potkonjak's m', k'',
+b'', k', b' on the robot side r and the environment side e); dampers default to 0."""
 
 ZONE_REQUIRED = {
     "one_stage": ("mass_robot", "stiffness_internal_robot"),

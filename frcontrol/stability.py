@@ -1,4 +1,6 @@
-r"""The stability of a rigid-body solution under contact compliance (METHOD §7; Kraus, Kumar, Dupont).
+r"""The stability of a rigid-body solution under contact compliance (Kraus, Kumar, Dupont).
+
+The maths in short: docs/maths.md, *Stability under compliance*.
 
 Make every contact a stiff Kelvin–Voigt element (stiffness ``k/eps``, damping ``b/sqrt(eps)``).
 As ``eps -> 0`` the motion splits into the rigid (slow) dynamics and a fast *boundary layer* of the

@@ -1,11 +1,11 @@
 r"""Statics of a body in frictional contact: closure, equilibrium, support region, stability.
 
-The analyses of Hauser's lecture (METHOD §8) on one rigid body in the plane. A robot with joints is
-treated as **locked**: one rigid body with the robot's total mass ``m`` and centre of mass ``c``
-(Pinocchio's ``computeTotalMass`` and ``centerOfMass``) at its configuration. Statics needs a
-floating (planar) base; a fixed-base scene raises :class:`~frcontrol.errors.InputError`, because
-its base link is bolted to the world and every wrench on it is resisted. Only the scene's *active*
-(touching) contacts take part.
+Hauser's analyses of contact statics (docs/maths.md, *Statics of one body*) on one rigid body in the
+plane. A robot with joints is treated as **locked**: one rigid body with the robot's total mass
+``m`` and centre of mass ``c`` (Pinocchio's ``computeTotalMass`` and ``centerOfMass``) at its
+configuration. Statics needs a floating (planar) base; a fixed-base scene raises
+:class:`~frcontrol.errors.InputError`, because its base link is bolted to the world and every wrench
+on it is resisted. Only the scene's *active* (touching) contacts take part.
 
 **Wrenches.** A force ``f`` at the point ``p`` exerts on the body the planar wrench
 ``(f_x, f_y, (p - c) x f)`` about the centre of mass, with ``a x b = a_x b_y - a_y b_x``. Contact

@@ -185,15 +185,8 @@ LAZY_IMPORTS: dict[tuple[str, str], str] = {
     ("frcontrol.viz.*", "trimesh"): "mesh files are read only for links drawn from meshes",
     ("frcontrol.viz.meshcat_view", "frcontrol.simulation.samples"):
         "the viewer draws scenes without loading the simulators",
-    # not for start-up: in modules under rework now (scene loading, the gait, the query);
-    # move each to the top of its module when that rework lands, and drop its row
-    ("frcontrol.planning.gait", "frcontrol.planning.climb_problem"):
-        "under rework (the gait): no start-up reason",
     ("frcontrol.scene_schema", "pydantic_core"): "the scene validator is compiled at the first scene "
                                                  "load: `frc --help` loads no pydantic-core",
-    ("frcontrol.scene_source", "frcontrol"): "under rework (scene loading): no start-up reason",
-    ("frcontrol.drives", "frcontrol.scene_schema"): "under rework (scene loading): no start-up reason",
-    ("frcontrol.query", "frcontrol.jsonable"): "under rework (the query): no start-up reason",
 }
 """Every import inside a function, as ``(importer, imported) -> the reason it is not at the top``.
 

@@ -195,11 +195,26 @@ def test_an_option_without_the_one_it_needs_is_refused_alike(args, kind, body, f
     assert field in result.stderr
 
 
-def test_validate_answers_a_scene_with_problems_with_its_problems():
-    reply = json.loads(execute("validate", json.dumps({"scene": {"toml": 'robot = "rod.urdf"'}})))
-    assert reply["status"] == 200, reply
-    assert reply["answer"]["valid"] is False
-    assert {"field": "state", "reason": "missing"} in reply["answer"]["files"][0]["problems"]
+def test_a_scene_with_problems_is_refused_alike_by_the_command_and_the_endpoint(tmp_path):
+    """``frc validate`` exits 1 with a line per problem; ``POST /validate`` answers 422 with an item per
+    problem (the line without ``frc: error:``), and both carry the same document."""
+    toml = 'robot = "rod.urdf"\n[contacts.tip]\nlink = "rod"\npoint = [0.0, 0.0]\nmuu = 0.5\n'
+    (tmp_path / "rod.urdf").write_text((shipped_robots_dir() / "rod.urdf").read_text(encoding="utf-8"))
+    (tmp_path / "broken.toml").write_text(toml)
+    reply = json.loads(execute("validate", json.dumps({"scene": {"toml": toml}})))
+    result = runner.invoke(cli_app, ["validate", str(tmp_path / "broken.toml"), "--json"])
+    assert reply["status"] == 422 and result.exit_code == 1, (reply, result.stderr)
+    served = {key: value for key, value in reply.items() if key not in ("status", "detail")}
+    assert without_run_dependent(served) == without_run_dependent(json.loads(result.stdout))
+    assert served["valid"] is False
+    assert {"field": "state", "reason": "missing"} in served["files"][0]["problems"]
+    shown = f"frc: error: {tmp_path / 'broken.toml'}: "
+    lines = [line.removeprefix(shown) for line in result.stderr.splitlines()]
+    assert [item["msg"].removeprefix("scene: ") for item in reply["detail"]] == lines and len(lines) >= 2
+    assert ["body", "scene", "state"] in [item["loc"] for item in reply["detail"]]
+    assert {item["type"] for item in reply["detail"]} == {"SceneError"}
+    valid = json.loads(execute("validate", json.dumps({"scene": "rod_on_table"})))
+    assert valid["status"] == 200 and valid["answer"]["valid"] is True
 
 
 def test_every_planner_and_driven_scenes_are_compared():

@@ -85,6 +85,35 @@ def test_the_readmes_links_lead_somewhere():
             assert anchor in anchors, f"README.md links to {target}#{anchor}: no such heading"
 
 
+
+MANUAL_CITATION = re.compile(r"(docs/[\w-]+\.md),\s+\*([^*]+)\*")
+"""A docstring's pointer into the manual: ``docs/PAGE.md, *Section title*``."""
+
+OUTSIDE_DOCUMENTS = re.compile(r"METHOD §|the seed's|\bthe seed\b")
+"""Names of documents the repository does not ship."""
+
+
+def test_the_codes_pointers_into_the_manual_name_its_sections():
+    cited = 0
+    for path in sorted([*(ROOT / "frcontrol").rglob("*.py"), *(ROOT / "cli").rglob("*.py")]):
+        text = path.read_text(encoding="utf-8")
+        for page, section in MANUAL_CITATION.findall(text):
+            page_text = (ROOT / page).read_text(encoding="utf-8")
+            headings = {h.strip() for h in re.findall(r"^#+ (.+)$", page_text, flags=re.M)}
+            assert " ".join(section.split()) in headings, \
+                f"{path.relative_to(ROOT)} cites {page}, *{section}*: no such section"
+            cited += 1
+    assert cited >= 9
+
+
+def test_the_code_and_manual_cite_no_document_outside_the_repository():
+    paths = [*(ROOT / "frcontrol").rglob("*.py"), *(ROOT / "cli").rglob("*.py"),
+             *(ROOT / "docs").glob("*.md")]
+    offenders = [str(path.relative_to(ROOT)) for path in sorted(paths)
+                 if "planning" not in path.relative_to(ROOT).parts
+                 and OUTSIDE_DOCUMENTS.search(path.read_text(encoding="utf-8"))]
+    assert offenders == []
+
 @pytest.mark.slow
 def test_the_manual_builds_strictly(tmp_path):
     if importlib.util.find_spec("mkdocs") is None or importlib.util.find_spec("mkdocstrings") is None:

@@ -211,7 +211,7 @@ def test_row_labels_and_domain_rows_are_the_formulas_they_replace():
 
 
 def engine_labels(letter: int) -> tuple[str, ...]:
-    """The labels of one letter's rows, as METHOD §2 writes them."""
+    """The labels of one letter's rows, as the contact-mode table of docs/maths.md writes them."""
     return (("a_N >= 0", "", ""), ("lam_N >= 0", "a_T <= 0", ""), ("lam_N >= 0", "a_T >= 0", ""),
             ("lam_N >= 0", "lam_T <= mu lam_N", "-lam_T <= mu lam_N"))[letter]
 

@@ -200,6 +200,6 @@ def test_contacts_apart_beyond_round_off_stop_both_paths_alike(write_scene):
         with pytest.raises(IllConditioned, match="ill-conditioned") as raised:
             solutions_at(problem, np.zeros(problem.m), method=method)
         errors.append(raised.value)
-    assert errors[0].matrix_name == errors[1].matrix_name == "the system of mode LR"
+    assert errors[0].matrix_name == errors[1].matrix_name == "the system of mode LR (a L, b R)"
     assert errors[0].condition_number == errors[1].condition_number
     assert 1e11 < errors[0].condition_number < 1e13, errors[0]

@@ -23,7 +23,7 @@ from test_json_output import frc_executable
 from typer.testing import CliRunner
 
 from frcontrol.errors import InputError
-from frcontrol.modes import mode_heading, mode_key, mode_label, scene_mode
+from frcontrol.modes import check_mode, mode_heading, mode_key, mode_label, scene_mode
 from frcontrol.scene import load_scene
 
 runner = CliRunner()
@@ -44,6 +44,30 @@ def test_a_mode_of_the_touching_contacts_becomes_one_of_every_scene_contact():
         scene_mode("RL", ("a", "b", "c"), ("a", "b", "c"))
     with pytest.raises(InputError, match="'z' is not among"):
         scene_mode("R", ("z",), ("a", "b"))
+
+
+def test_errors_name_a_mode_by_the_scenes_letters_and_its_contacts():
+    from frcontrol import analyze
+
+    # progress names the modes by the scene's letters: five (three touch: front_corner, middle_toe, rear_toe)
+    seen: list[str] = []
+    result = analyze(load_scene("rhex_flip"), progress=seen.append)
+    assert len(seen) == len(result.modes) and {len(mode) for mode in seen} == {5}
+    named = "FSSLR (front_corner F, rear_corner S, front_toe S, middle_toe L, rear_toe R)"
+    assert result.mode("FLR").named == named
+    assert result.problem.named_mode("FL") == "FL (front_corner F, middle_toe L)"  # a partial mode, as grown
+    with pytest.raises(InputError, match=r"'FSSLR' has one letter per scene contact .*touching contact "
+                                         r"\(front_corner, middle_toe, rear_toe\): 'FLR'"):
+        result.mode("FSSLR")
+    with pytest.raises(InputError,
+                       match=r"'QQQ' was not evaluated .* feasible: 'LSS' = LSSSS \(front_corner L, "):
+        result.mode("QQQ")
+    infeasible = next(m for m in result.modes if not m.feasible)
+    with pytest.raises(InputError, match=re.escape(f"mode {infeasible.named} is infeasible")):
+        _ = infeasible.feasible_domain
+    assert infeasible.named.startswith(result.problem.scene_mode(infeasible.mode) + " (front_corner ")
+    with pytest.raises(InputError, match="one per touching contact, 3 .*'FSSLR' has one per scene contact"):
+        check_mode(result.problem, "FSSLR")
 
 
 def _text_and_json(args: list[str]) -> tuple[str, dict]:

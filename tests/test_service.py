@@ -174,6 +174,11 @@ def test_bad_input_is_a_422_with_the_clis_message_and_field_path(client):
                                                             "--stiffness", "1e6")
     malformed = client.post("/analyze", json={"scene": {"toml": "robot = ["}})
     assert malformed.status_code == 422 and "malformed TOML" in malformed.json()["detail"][0]["msg"]
+    invalid = client.post("/validate", json={"scene": {"toml": 'robot = "rod.urdf"'}})  # its document beside
+    assert invalid.status_code == 422 and invalid.json()["valid"] is False, invalid.text
+    assert {"loc": ["body", "scene", "state"], "msg": "scene: state: missing", "type": "SceneError"} in \
+        invalid.json()["detail"]
+    assert invalid.json()["files"][0]["problems"] == [{"field": "state", "reason": "missing"}]
 
 
 @pytest.mark.parametrize(("body", "loc"), [

@@ -61,6 +61,7 @@ from ..scene_tables import TaskTable
 from ..solvers import DEFAULT_LP_SOLVER
 from . import DEFAULT_CLIMB_MARGIN
 from .climb import ClimbPlan, plan_climb
+from .climb_problem import load_climb_task
 from .disturbances import (
     DisturbanceSet,
     load_disturbances,
@@ -179,8 +180,6 @@ def gait_braces(scene: Scene) -> tuple[tuple[str, ...], tuple[str, ...]]:
         SceneError: no upper brace, an unknown contact in it, one that touches at the scene's
             state, or not two of them (right wall, then left wall).
     """
-    from .climb_problem import load_climb_task
-
     path = str(scene.path)
     lower = load_climb_task(scene).brace_contacts
     raw = scene.raw.get("task", {})

@@ -43,8 +43,9 @@ ANSWERS: dict[str, Any] = {"solutions": models.SolutionsAnswer}
 ENDPOINTS: dict[str, tuple[str, type[models.Strict], str]] = {
     "show": ("/show", models.ShowRequest, "`frc show SCENE --json`: the coordinates, M(q), h(q, v) and every "
              "contact's gap, velocities and rows at the scene's state."),
-    "validate": ("/validate", models.ValidateRequest, "`frc validate SCENE --json`: the scene's problems "
-                 "(none: valid); a scene with problems is an answer, not a 422."),
+    "validate": ("/validate", models.ValidateRequest, "`frc validate SCENE --json`: a valid "
+                 "scene's document; a scene with problems is a 422 (as `frc validate` exits 1), one `detail` "
+                 "item per problem, with the same document beside `detail`."),
     "analyze": ("/analyze", models.AnalyzeRequest, "`frc analyze SCENE [--input ...] --json`: every "
                 "contact mode at the scene's state; with `inputs`, every rigid-body solution too."),
     "solutions": ("/solutions", models.SolutionsRequest, "Every rigid-body solution at the inputs: "
@@ -135,6 +136,11 @@ class ServiceConfig:
     scheduler: str | None = None
     worker_memory: int | None = DEFAULT_WORKER_MEMORY
     max_result_bytes: int = DEFAULT_MAX_RESULT_BYTES
+
+
+def _refusal_body(reply: dict[str, Any]) -> dict[str, Any]:
+    """A worker's refusal as the response's body: ``detail``, and any document beside it (``/validate``'s)."""
+    return {key: value for key, value in reply.items() if key != "status"}
 
 
 def _error(status: int, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
@@ -365,7 +371,7 @@ def _add_work_routes(app: FastAPI, pool: WorkerPool, jobs: JobRunner, kind: str,
             return _error(500, str(err))
         if reply["status"] == 200:
             return JSONResponse(reply["answer"])
-        return JSONResponse({"detail": reply["detail"]}, status_code=reply["status"])
+        return JSONResponse(_refusal_body(reply), status_code=reply["status"])
 
     async def start_job(request: models.Strict) -> Any:
         job = jobs.start(kind, request.model_dump_json(by_alias=True))
@@ -428,7 +434,7 @@ def _add_atlas_route(app: FastAPI, config: ServiceConfig, pool: WorkerPool, jobs
         except WorkerLost as err:
             return _error(500, str(err))
         if reply["status"] != 200:
-            return JSONResponse({"detail": reply["detail"]}, status_code=reply["status"])
+            return JSONResponse(_refusal_body(reply), status_code=reply["status"])
         job = await asyncio.to_thread(_start_atlas, jobs, config, reply["answer"], request)
         if job is None:
             return _too_many_jobs(jobs)

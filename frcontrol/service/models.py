@@ -148,7 +148,7 @@ class ShowRequest(SceneRequest):
 
 
 class ValidateRequest(Strict):
-    """`POST /validate`: `frc validate SCENE --json`, for one scene (a problem is an answer, not a 422)."""
+    """`POST /validate`: `frc validate SCENE --json`, for one scene (one with problems: a 422)."""
 
     scene: SceneField = Field(
         description="A shipped scene's name or the scene's content, as for every scene endpoint.",

@@ -296,7 +296,7 @@ class Job:
             if self.reply["status"] == 200:
                 out["result"] = self.reply["answer"]
             else:
-                out["error"] = {"detail": self.reply["detail"]}
+                out["error"] = {key: value for key, value in self.reply.items() if key != "status"}
         return out
 
 

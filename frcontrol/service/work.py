@@ -195,16 +195,24 @@ def _plan(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
 
 
 def validate_scene(request: models.ValidateRequest) -> dict[str, Any]:
-    """``POST /validate``: the scene's problems, as ``frc validate --json`` lists them (none: valid).
+    """``POST /validate``: ``frc validate --json``'s document, a 200 when valid, else a 422.
 
-    The scene is checked, not loaded first: its problems are the answer, not a 422.
+    The scene is checked, not loaded first. A scene with problems is refused as every endpoint
+    refuses a bad scene (as ``frc validate`` exits 1): ``{"status": 422, "detail": [...]}`` with one
+    item per problem (``loc`` ``["body", "scene", FIELD]``, ``msg`` the command's line without
+    ``frc: error:``), and beside ``detail`` the document itself (``valid``, ``files``).
 
     Raises:
         SceneError: an unknown shipped name (the nearest named), malformed TOML.
     """
-    from frcontrol.answers import validation_answer
+    from frcontrol.answers import validation_answer, validation_problems
 
-    return validation_answer([scene_source(request.scene)]).document
+    document = validation_answer([scene_source(request.scene)]).document
+    if document["valid"]:
+        return {"status": 200, "answer": document}
+    detail = [{"loc": ["body", "scene", field] if field else ["body", "scene"], "msg": line,
+               "type": "SceneError"} for field, line in validation_problems(document)]
+    return {"status": 422, "detail": detail, **document}
 
 
 def plan_atlas(request: models.AtlasRequest) -> AtlasPlan:
@@ -292,7 +300,7 @@ def execute(kind: str, text: str, progress: Progress | None = None) -> str:
         if isinstance(request, models.AtlasRequest):
             answer = plan_atlas(request).to_dict()
         elif isinstance(request, models.ValidateRequest):
-            answer = validate_scene(request)
+            return json.dumps(to_jsonable(validate_scene(request)))
         else:  # every other request names a scene and its overrides
             with request_scene(cast(models.SceneRequest, request)) as scene:
                 answer = WORK[kind](request, scene, report)

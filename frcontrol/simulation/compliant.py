@@ -1,4 +1,4 @@
-r"""Compliant-contact simulation: Kelvin–Voigt contacts with a Coulomb slider (METHOD §7).
+r"""Compliant-contact simulation: Kelvin–Voigt contacts with a Coulomb slider (docs/maths.md, *Simulation*).
 
 The model
 ---------

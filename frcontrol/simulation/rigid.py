@@ -1,4 +1,4 @@
-r"""Rigid-body simulation: velocity-level time stepping with an impact law (METHOD §7).
+r"""Rigid-body simulation: velocity-level time stepping with an impact law (docs/maths.md, *Simulation*).
 
 The scheme (Stewart and Trinkle 1996; Anitescu and Potra 1997), one step of length ``h`` from
 ``(q, v)`` at time ``t`` with input ``u``::
@@ -556,8 +556,8 @@ class RigidStepper:
                                  cfg.slip_velocity_tolerance, taken, self.t, drive_torque)
         self.checks.append(entry)
         if entry["distinct_motions"] > 1:
-            self.events.append(ContactEvent(self.t, ",".join(entry["contacts"]), "ambiguous",
-                                            f"modes {entry['summary']}; the step took {taken}"))
+            detail = f"modes {entry['summary']}; the step took {entry['scene_taken']}"
+            self.events.append(ContactEvent(self.t, ",".join(entry["contacts"]), "ambiguous", detail))
 
     def _advance(self, u: np.ndarray, h: float, v_next: np.ndarray, p_n: np.ndarray, p_t: np.ndarray,
                  rest: float | None = None) -> None:
@@ -654,11 +654,13 @@ def _ambiguity_check(scene: Scene, q: np.ndarray, v: np.ndarray, u: np.ndarray, 
     vt[np.abs(vt) <= slip_tol] = 0.0
     problem = replace(at_state, mass_matrix=arm.apply(at_state.mass_matrix),
                       normal_velocities=np.zeros(len(touching)), tangential_velocities=vt)
-    entry: dict = {"time": t, "contacts": list(problem.contacts), "taken": taken}
+    entry: dict = {"time": t, "contacts": list(problem.contacts), "taken": taken,
+                   "scene_taken": problem.scene_mode(taken)}
     try:
         solutions = solutions_at(problem, u)
     except FrcontrolError as err:  # reported, never fatal: the check is a diagnosis
-        entry.update({"modes": [], "distinct_motions": 0, "summary": "", "error": str(err)})
+        entry.update({"modes": [], "scene_modes": [], "distinct_motions": 0, "summary": "",
+                      "error": str(err)})
         return entry
     # Modes with the same accelerations are one motion (they differ in indeterminate forces only).
     groups: list[tuple[np.ndarray, list[str]]] = []
@@ -671,8 +673,9 @@ def _ambiguity_check(scene: Scene, q: np.ndarray, v: np.ndarray, u: np.ndarray, 
         else:
             groups.append((sol.dv, [sol.mode]))
     entry["modes"] = [s.mode for s in solutions]
+    entry["scene_modes"] = [problem.scene_mode(s.mode) for s in solutions]
     entry["distinct_motions"] = len(groups)
-    entry["summary"] = ", ".join("=".join(modes) for _, modes in groups)
+    entry["summary"] = ", ".join("=".join(problem.scene_mode(mode) for mode in modes) for _, modes in groups)
     entry["taken_among_them"] = taken in entry["modes"]
     return entry
 

@@ -6,8 +6,8 @@ A drive with rigid stages adds no state: its reflected inertia is in ``M``, its 
 in the bias and its voltage gain in ``S^T`` (:mod:`frcontrol.drives`), so both simulators run it
 unchanged.
 
-Elastic stages (the seed's eqs. 41-44)
---------------------------------------
+Elastic stages (Vukobratović and Potkonjak 1999, eqs. 41-44)
+------------------------------------------------------------
 A drive with e elastic stages has e + 1 rigid clusters (:func:`frcontrol.drives.clusters`); the
 first e have a coordinate each, ``theta_c`` [rad] (the output gear of the elastic stage that
 ends the cluster, i.e. the spring's motor-side end), the last turns with the joint ``q``. With

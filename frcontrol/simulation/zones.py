@@ -3,7 +3,7 @@ r"""Contact zones of the compliant model: lumped contact elastodynamics (V-P 199
 Vukobratović and Potkonjak (1999), section 5.
 
 A contact's ``[model.contacts.NAME] zone`` chooses how the compliant model deforms it along its
-normal (the seed neglects the coupling between directions; the tangential direction keeps the
+normal (V-P neglect the coupling between directions; the tangential direction keeps the
 spring-damper and Coulomb slider of :mod:`.compliant`):
 
 - ``"compliant"`` (Fig. 6c, the massless simplification): the Kelvin–Voigt law of :mod:`.compliant`.
@@ -28,15 +28,15 @@ gravity along the normal [m/s^2]::
 
 with ``k' = k'_r k'_e / (k'_r + k'_e)`` and ``b' = b'_r b'_e / (b'_r + b'_e)`` (0 if either is 0):
 two Kelvin–Voigt elements in series with no mass between them act as one, exactly when their time
-constants ``b/k`` agree (the seed counts the external deformation as one degree of freedom). The
-robot-side mass feels gravity (it moves with the robot: with the seed's relative accelerations it
+constants ``b/k`` agree (V-P count the external deformation as one degree of freedom). The
+robot-side mass feels gravity (it moves with the robot: with V-P's relative accelerations it
 would need the point's acceleration); the environment-side one rests on a surface in equilibrium
-with its weight at zero deformation, as the seed assumes.
+with its weight at zero deformation, as V-P assume.
 
 One stage: the mass touches the rigid surface at ``y_r = 0``. It is *pinned* while
 ``y_r <= 0``, ``w_r <= 0`` and its load pushes it down (``F_r - m'_r g_n >= 0``): then
 ``dy_r/dt = dw_r/dt = 0`` and the surface carries ``R = F_r - m'_r g_n``; else it moves freely,
-``m'_r dw_r/dt = -F_r + m'_r g_n``. When it lands the surface stops it at once (the seed's infinite
+``m'_r dw_r/dt = -F_r + m'_r g_n``. When it lands the surface stops it at once (V-P's infinite
 impact force of the one-stage model): between the integrator's steps :meth:`ContactZones.switch`
 sets ``y_r = 0`` and ``w_r = 0`` and pins it, or releases a pinned one whose load turned negative,
 and the integrator restarts from there (the right-hand side stays smooth within a step); the

@@ -193,14 +193,17 @@ def available_solvers() -> list[str]:
 # validation
 
 
-def _array(name: str, value: Any, ndim: int, finite: bool) -> np.ndarray:
-    """``value`` as a C-contiguous float64 array of ``ndim`` dimensions, without NaN."""
+def _array(name: str, value: Any, ndim: int, shape: str, finite: bool) -> np.ndarray:
+    """``value`` as a C-contiguous float64 array of ``ndim`` dimensions, without NaN.
+
+    ``shape`` is the expected shape as messages show it, e.g. ``"(m_ub, 3)"``.
+    """
     try:
         array = np.ascontiguousarray(value, dtype=np.float64)
     except (TypeError, ValueError) as error:
-        raise InputError(f"{name} is not an array of numbers: {error}") from error
+        raise InputError(f"{name} is not an array of numbers (expected shape {shape}): {error}") from error
     if array.ndim != ndim:
-        raise InputError(f"{name} must be {ndim}-D, got shape {array.shape}")
+        raise InputError(f"{name} must have shape {shape}, got shape {array.shape}")
     if finite and not np.isfinite(array).all():
         raise InputError(f"{name} must be finite (no NaN or inf)")
     if not finite and np.isnan(array).any():
@@ -209,46 +212,53 @@ def _array(name: str, value: Any, ndim: int, finite: bool) -> np.ndarray:
 
 
 def _block(name: str, A: Any, b: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``A_name x (<= or =) b_name``: both or neither, ``A`` of shape ``(m, n)``, ``b`` of shape ``(m,)``."""
     if A is None and b is None:
         return np.zeros((0, n)), np.zeros(0)
     if A is None or b is None:
-        raise InputError(f"A_{name} and b_{name} must be given together")
-    A = _array(f"A_{name}", A, 2, finite=True)
-    b = _array(f"b_{name}", b, 1, finite=True)
-    if A.shape[1] != n or A.shape[0] != b.shape[0]:
-        raise InputError(
-            f"A_{name} has shape {A.shape} and b_{name} shape {b.shape}; expected ({b.shape[0]}, "
-            f"{n}) and ({A.shape[0]},) for {n} variables"
-        )
+        given, missing = (f"A_{name}", f"b_{name}") if b is None else (f"b_{name}", f"A_{name}")
+        raise InputError(f"{given} is given without {missing}: give both (A_{name} of shape (m_{name}, {n}), "
+                         f"b_{name} of shape (m_{name},)) or neither")
+    A = _array(f"A_{name}", A, 2, f"(m_{name}, {n})", finite=True)
+    if A.shape[1] != n:
+        raise InputError(f"A_{name} must have shape (m_{name}, {n}), one column per entry of c, got shape "
+                         f"{A.shape}")
+    b = _array(f"b_{name}", b, 1, f"({A.shape[0]},)", finite=True)
+    if b.shape[0] != A.shape[0]:
+        raise InputError(f"b_{name} must have shape ({A.shape[0]},), one entry per row of A_{name}, got "
+                         f"shape {b.shape}")
     return A, b
 
 
 def _bound(name: str, value: Any, n: int, default: float) -> np.ndarray:
+    """A lower (``default`` -inf) or upper (+inf) bound: a scalar or shape ``(n,)``; None: no bound."""
     if value is None:
         return np.full(n, default)
     if np.ndim(value) == 0:
         try:
             scalar = float(value)
         except (TypeError, ValueError) as error:
-            raise InputError(f"{name} is not a number: {error}") from error
+            raise InputError(f"{name} is not a number (expected a scalar or shape ({n},)): {error}") \
+                from error
         if scalar != scalar or scalar == -default:
-            raise InputError(f"{name} is {scalar}")
+            raise InputError(f"{name} must be finite or {default:+} (no bound), got {scalar}")
         return np.full(n, scalar)
-    bound = _array(name, value, 1, finite=False)
+    bound = _array(name, value, 1, f"({n},)", finite=False)
     if bound.shape != (n,):
-        raise InputError(f"{name} must be a scalar or have shape ({n},), got {bound.shape}")
+        raise InputError(f"{name} must be a scalar or have shape ({n},), one entry per entry of c, got shape "
+                         f"{bound.shape}")
     if (bound == -default).any():
-        raise InputError(f"{name} contains {-default}")
+        raise InputError(f"{name} must not contain {-default:+} (entry {int(np.argmax(bound == -default))})")
     return bound
 
 
 def _validate_lp(
     c: Any, A_ub: Any, b_ub: Any, A_eq: Any, b_eq: Any, lb: Any, ub: Any
 ) -> LinearProgram:
-    c = _array("c", c, 1, finite=True)
+    c = _array("c", c, 1, "(n,)", finite=True)
     n = c.shape[0]
     if n == 0:
-        raise InputError("c must not be empty")
+        raise InputError("c must have shape (n,) with n >= 1 (one cost per variable), got shape (0,)")
     A_ub, b_ub = _block("ub", A_ub, b_ub, n)
     A_eq, b_eq = _block("eq", A_eq, b_eq, n)
     lb = _bound("lb", lb, n, -np.inf)
@@ -258,7 +268,7 @@ def _validate_lp(
 
 def _validate_qp(P: Any, problem: LinearProgram) -> np.ndarray:
     n = problem.n
-    P = _array("P", P, 2, finite=True)
+    P = _array("P", P, 2, f"({n}, {n})", finite=True)
     if P.shape != (n, n):
         raise InputError(f"P must be a finite ({n}, {n}) matrix, got shape {P.shape}")
     size = 1.0 + np.max(np.abs(P))
