@@ -156,5 +156,5 @@ def test_the_contacts_benchmark_turns_running_out_of_memory_into_a_memory_error(
     with Path("/proc/self/status").open() as status:
         size = next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmSize:"))
     with memory_limit(size + 2**30), pytest.raises(MemoryError, match="allocate"):
-        np.ones(2**32, dtype=np.uint8)
+        np.empty(2**32, dtype=np.uint8)  # (untouched: without the limit it would not use the memory)
     assert resource.getrlimit(resource.RLIMIT_AS) == before
