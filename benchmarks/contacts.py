@@ -12,7 +12,8 @@ midpoints from the head down. Per contact count it measures, in this process:
   computed (``ModeAnalysis.domain``, ``input_domain``), with the time per feasible mode; skipped
   for a count whose analysis predicts more than ``--forced-budget`` seconds (the analysis's
   per-feasible-mode cost at the previous count, times the feasible modes, the cost growing with
-  the count); up to :data:`REFERENCE_MAX_CONTACTS` contacts, also by the former rule (T_c
+  the count), and reported as out of memory past :data:`FORCED_MEMORY` of address space; up to
+  :data:`REFERENCE_MAX_CONTACTS` contacts, also by the former rule (T_c
   projected from D_c pruned once more, :func:`forced_reference`), and the analysis and the forced
   analysis with every LP through the general door instead of its lean path
   (``benchmarks.lp_door.general_door``: ``analysis_general_door_s``, ``forced_general_door_s``),
@@ -35,7 +36,8 @@ import statistics
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +63,11 @@ REFERENCE_MAX_CONTACTS = 8
 
 FORCED_BUDGET = 120.0
 """[s] Default largest predicted time of a forced analysis that is run."""
+
+FORCED_MEMORY = 8 * 2**30
+"""[bytes] The address space a forced analysis may use (``RLIMIT_AS`` while it runs): past it the
+count is reported as out of memory instead of the machine's OOM killer ending the run (the
+12-contact snake's projections grew past 20 GB)."""
 
 LINK_LENGTH = 0.2
 """[m] The snake's link length (robots/snake_planar.urdf)."""
@@ -143,7 +150,13 @@ def measure(k: int, runs: int, forced_budget: float, previous: dict[str, Any] | 
             progress(mode.mode)  # the domains' stage counts on: evaluated, then forced
         return done
 
-    seconds, times, _ = timed(forced, runs)
+    try:
+        with memory_limit(FORCED_MEMORY):
+            seconds, times, _ = timed(forced, runs)
+    except MemoryError:
+        entry["forced_s"] = None
+        entry["forced_skipped"] = f"out of memory (over {FORCED_MEMORY / 2**30:g} GiB of address space)"
+        return entry
     entry.update(forced_s=seconds, forced_runs=len(times),
                  forced_per_feasible_mode_s=seconds / max(1, e.feasible))
     if k <= REFERENCE_MAX_CONTACTS:
@@ -155,6 +168,23 @@ def measure(k: int, runs: int, forced_budget: float, previous: dict[str, Any] | 
             seconds, times, _ = timed(lambda: analyze(scene, ambiguity=False), runs)
             entry.update(analysis_general_door_s=seconds, analysis_general_door_runs=len(times))
     return entry
+
+
+@contextmanager
+def memory_limit(size: int) -> Iterator[None]:
+    """``RLIMIT_AS`` lowered to ``size`` bytes for the block (where the platform has it), then restored."""
+    try:
+        import resource
+    except ImportError:  # not on this platform: no limit
+        yield
+        return
+    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+    limited = size if hard == resource.RLIM_INFINITY else min(size, hard)
+    resource.setrlimit(resource.RLIMIT_AS, (limited, hard))
+    try:
+        yield
+    finally:
+        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
 
 def forced_reference(scene: Any) -> Any:

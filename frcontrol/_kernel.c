@@ -2,7 +2,8 @@
  * frcontrol.query (locate_points, evaluate_points: queries on an analysis) and of frcontrol.lcp
  * and frcontrol.simulation (lemke: the pivots of Lemke's method; lcp_check: the check of its
  * answer; coulomb_matrix: the LCP of the rigid simulation's step; compliant_law: the compliant
- * contact law).
+ * contact law) and of frcontrol.polytope (redundancy_rows, ray_exit: the steps of Clarkson's
+ * redundancy loop around its LP).
  *
  * Plain C against the CPython API and the buffer protocol (no NumPy headers): the build needs only
  * setuptools, a C compiler and Python's headers. frcontrol/kernel.py puts it behind one seam (the
@@ -2450,6 +2451,107 @@ done:
     return result;
 }
 
+/* ------------------------------------------------------------------------------------------------
+ * redundancy_rows and ray_exit: the steps of Clarkson's redundancy loop around its LP
+ * (frcontrol.polytope._irredundant_rows, whose NumPy twins _redundancy_rows_numpy and
+ * _ray_exit_numpy are the reference), on unit rows unit z <= offsets (m, d) and the rows' status
+ * (int8: 0 unknown, 1 irredundant, -1 redundant).
+ *
+ * redundancy_rows: the LP of row i's test gathered into rows (at least m + 1, d) and rhs: the rows
+ * j in order with status[j] == 1 (against_all false: the rows known irredundant) or with
+ * status[j] != -1 and j != i (against_all true: every row not removed), then row i with right side
+ * offsets[i] + 1 (the LP's bound). Returns the count of rows before row i: a copy, bit for bit.
+ *
+ * ray_exit: the ray from the interior point center through the LP's optimum x, with slack =
+ * offsets - unit center: per row with speed unit_j (x - center) > 0 and status != -1 its exit
+ * slack_j / speed_j; j the first row of the least exit. Returns j, or -1 when row j is known
+ * irredundant already or a second exit lies within tie_relative * exit_j + tie_absolute of it (the
+ * ray meets a lower-dimensional face; no row ahead at all counts so too). The speeds are summed
+ * in index order (NumPy's matrix product may sum in another: round-off).
+ */
+static const Arg gather_table[] = {
+    {"unit", 'd', 2, {DIM_ROWS, DIM_N}, 0}, {"offsets", 'd', 1, {DIM_ROWS}, 0},
+    {"status", 'b', 1, {DIM_ROWS}, 0},      {"i", 'i', 0, {0}, 0},
+    {"against_all", 't', 0, {0}, 0},        {"rows", 'd', 2, {DIM_S, DIM_N}, WRITE},
+    {"rhs", 'd', 1, {DIM_S}, WRITE}};
+static const Signature gather_signature = {"redundancy_rows", 7, gather_table, NULL};
+
+static PyObject *redundancy_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    Args a;
+    PyObject *result = NULL;
+    if (parse(&gather_signature, args, nargs, &a)) {
+        goto done;
+    }
+    Py_ssize_t m = a.dim[DIM_ROWS], d = a.dim[DIM_N], i = (Py_ssize_t)a.integer[3];
+    if (i < 0 || i >= m) {
+        PyErr_Format(kernel_error, "kernel argument i: %zd is not a row of %zd", i, m);
+        goto done;
+    }
+    if (a.dim[DIM_S] < m + 1) {
+        PyErr_Format(kernel_error, "kernel buffer rows: %zd rows, expected at least m + 1 = %zd", a.dim[DIM_S],
+                     m + 1);
+        goto done;
+    }
+    const double *unit = a.data[0], *offsets = a.data[1];
+    const signed char *status = a.data[2];
+    int against_all = (int)a.integer[4];
+    double *rows = a.data[5], *rhs = a.data[6];
+    Py_ssize_t k = 0;
+    for (Py_ssize_t j = 0; j < m; j++) {
+        int taken = against_all ? (status[j] != -1 && j != i) : status[j] == 1;
+        if (taken) {
+            memcpy(rows + k * d, unit + j * d, (size_t)d * sizeof(double));
+            rhs[k++] = offsets[j];
+        }
+    }
+    memcpy(rows + k * d, unit + i * d, (size_t)d * sizeof(double));
+    rhs[k] = offsets[i] + 1.0;
+    result = PyLong_FromSsize_t(k);
+done:
+    release_args(&a);
+    return result;
+}
+
+static const Arg ray_table[] = {
+    {"unit", 'd', 2, {DIM_ROWS, DIM_N}, 0}, {"slack", 'd', 1, {DIM_ROWS}, 0},
+    {"status", 'b', 1, {DIM_ROWS}, 0},      {"x", 'd', 1, {DIM_N}, 0},
+    {"center", 'd', 1, {DIM_N}, 0},         {"tie_relative", 'f', 0, {0}, 0},
+    {"tie_absolute", 'f', 0, {0}, 0}};
+static const Signature ray_signature = {"ray_exit", 7, ray_table, NULL};
+
+static PyObject *ray_exit(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    Args a;
+    PyObject *result = NULL;
+    if (parse(&ray_signature, args, nargs, &a)) {
+        goto done;
+    }
+    Py_ssize_t m = a.dim[DIM_ROWS], d = a.dim[DIM_N], j = 0;
+    const double *unit = a.data[0], *slack = a.data[1], *x = a.data[3], *center = a.data[4];
+    const signed char *status = a.data[2];
+    double best = HUGE_VAL, second = HUGE_VAL;
+    for (Py_ssize_t r = 0; r < m; r++) {
+        double speed = 0.0;
+        for (Py_ssize_t c = 0; c < d; c++) {
+            speed += unit[r * d + c] * (x[c] - center[c]);
+        }
+        double exit = speed > 0.0 && status[r] != -1 ? slack[r] / speed : HUGE_VAL;
+        if (exit < best) {
+            second = best;
+            best = exit;
+            j = r;
+        } else if (exit < second) {
+            second = exit;
+        }
+    }
+    int face = m == 0 || status[j] == 1 || second <= best * (1.0 + a.number[5]) + a.number[6];
+    result = PyLong_FromSsize_t(face ? -1 : j);
+done:
+    release_args(&a);
+    return result;
+}
+
 #ifndef FRC_KERNEL_SOURCE_SHA256
 #define FRC_KERNEL_SOURCE_SHA256 "" /* built without setup.py: the source it came from is not known */
 #endif
@@ -2536,6 +2638,15 @@ static PyMethodDef methods[] = {
      "compliant_law(gaps, v_N, v_T, stretch, mu, k_N, b_N, k_T, b_T, lam_n, lam_t, rate, status) -> None\n\n"
      "frcontrol.simulation.compliant.contact_forces without contact zones: lam_N, lam_T, the stretch\n"
      "rates and the status (int64: 0 open, 1 stick, 2 slip) written into the last four arrays (c,)."},
+    {"redundancy_rows", (PyCFunction)(void (*)(void))redundancy_rows, METH_FASTCALL,
+     "redundancy_rows(unit, offsets, status, i, against_all, rows, rhs) -> k\n\n"
+     "frcontrol.polytope's redundancy LP of row i gathered into rows and rhs: the rows with status 1\n"
+     "(against_all: every row not removed, status != -1, but i), then row i with offsets[i] + 1;\n"
+     "returns the count before row i."},
+    {"ray_exit", (PyCFunction)(void (*)(void))ray_exit, METH_FASTCALL,
+     "ray_exit(unit, slack, status, x, center, tie_relative, tie_absolute) -> j\n\n"
+     "The first row the ray from center through x crosses (least slack / speed over the rows ahead not\n"
+     "removed), or -1 when it is known irredundant or a second row is met there (to the tie tolerances)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "frcontrol._kernel",
@@ -2568,10 +2679,10 @@ PyMODINIT_FUNC PyInit__kernel(void) {
                       NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS,
                       QUERY_OUTSIDE, QUERY_INSIDE, QUERY_NEEDS_PYTHON, LEMKE_SOLVED, LEMKE_RAY,
                       LEMKE_MAX_PIVOTS};
-    PyObject *all = Py_BuildValue("[ssssssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
+    PyObject *all = Py_BuildValue("[ssssssssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
                                   "contact_rows", "margin_rows", "certified_children", "locate_points",
                                   "evaluate_points", "query_point", "lemke", "coulomb_matrix", "lcp_check",
-                                  "compliant_law");
+                                  "compliant_law", "redundancy_rows", "ray_exit");
     if (all == NULL) {
         Py_DECREF(mod);
         return NULL;

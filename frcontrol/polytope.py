@@ -53,7 +53,7 @@ from frcontrol.geometry import (
     row_norms,
     vertices_from_halfspaces,
 )
-from frcontrol.kernel import backend
+from frcontrol.kernel import Backend, backend, extension_function, twin
 from frcontrol.solvers import (
     InequalityLPs,
     LPResult,
@@ -75,6 +75,8 @@ __all__ = [
     "EQUALITY_TOLERANCE",
     "INTERIOR_TOLERANCE",
     "RANK_TOLERANCE",
+    "RAY_TIE_ABSOLUTE",
+    "RAY_TIE_RELATIVE",
     "REDUNDANCY_TOLERANCE",
     "ZERO_TOLERANCE",
     "ChebyshevBall",
@@ -642,25 +644,76 @@ class _RedundancyLPs:
 
 
 def _is_redundant(
-    unit: np.ndarray, offsets: np.ndarray, i: int, others: np.ndarray, tolerance: float,
-    lps: _RedundancyLPs,
+    unit: np.ndarray, offsets: np.ndarray, i: int, status: np.ndarray, against_all: bool, tolerance: float,
+    lps: _RedundancyLPs, kernel: Backend,
 ) -> tuple[bool, LPResult]:
-    r"""Whether row ``i`` is implied by the rows ``others`` (a mask), by one LP.
+    r"""Whether row ``i`` is implied by the other rows, by one LP.
 
-    :math:`\max g_i z` s.t. :math:`g_j z \le h_j` (``j`` in ``others``) and
+    The others: the rows known irredundant (``status == 1``), or with ``against_all`` every row not
+    removed (``status != -1``) but row ``i`` (gathered by the kernel's ``redundancy_rows``).
+    :math:`\max g_i z` s.t. :math:`g_j z \le h_j` (``j`` among the others) and
     :math:`g_i z \le h_i + 1` (so that the LP is bounded); redundant iff the maximum is at most
     :math:`h_i + \text{tolerance}`.
     """
-    k = int(np.count_nonzero(others))
-    A_ub, b_ub = lps.rows[:k + 1], lps.rhs[:k + 1]
-    unit.compress(others, axis=0, out=A_ub[:k])  # the method: np.compress's own, without its wrapper
-    A_ub[k] = unit[i]
-    offsets.compress(others, out=b_ub[:k])
-    b_ub[k] = offsets[i] + 1.0
-    result = lps.lps.solve(-unit[i], A_ub, b_ub)
+    k = kernel.redundancy_rows(unit, offsets, status, i, against_all, lps.rows, lps.rhs)
+    result = lps.lps.solve(-unit[i], lps.rows[:k + 1], lps.rhs[:k + 1])
     if not result.found:  # only "infeasible" is left: the set is empty after all
         raise _EmptySet
     return bool(-result.objective <= offsets[i] + tolerance), result
+
+
+def _redundancy_rows_numpy(unit: np.ndarray, offsets: np.ndarray, status: np.ndarray, i: int,
+                           against_all: bool, rows: np.ndarray, rhs: np.ndarray) -> int:
+    """The redundancy LP of row ``i`` gathered into ``rows`` and ``rhs`` (:func:`_is_redundant`).
+
+    The other rows in order, then row ``i`` with right side ``offsets[i] + 1``; returns their count
+    before row ``i``. The NumPy twin of the compiled kernel's ``redundancy_rows``.
+    """
+    if against_all:
+        others = status != -1
+        others[i] = False
+    else:
+        others = status == 1
+    k = int(np.count_nonzero(others))
+    unit.compress(others, axis=0, out=rows[:k])  # the method: np.compress's own, without its wrapper
+    rows[k] = unit[i]
+    offsets.compress(others, out=rhs[:k])
+    rhs[k] = offsets[i] + 1.0
+    return k
+
+
+RAY_TIE_RELATIVE = 1e-9
+"""[-] Clarkson's ray meets two rows at once (a lower-dimensional face, :func:`_irredundant_rows`) when
+the second exit along it is within this fraction of the first (plus :data:`RAY_TIE_ABSOLUTE`)."""
+
+RAY_TIE_ABSOLUTE = 1e-15
+"""[units of the ray's parameter, 1 from the interior point to the LP's optimum] The absolute part of
+the tie between two exits of Clarkson's ray (:data:`RAY_TIE_RELATIVE`)."""
+
+
+def _ray_exit_numpy(unit: np.ndarray, slack: np.ndarray, status: np.ndarray, x: np.ndarray,
+                    center: np.ndarray, tie_relative: float, tie_absolute: float) -> int:
+    """The first row the ray from ``center`` through ``x`` crosses, or -1 (see :func:`_irredundant_rows`).
+
+    Over the rows ahead (speed ``unit_j (x - center) > 0``) not removed (``status != -1``): the row
+    of the least exit ``slack_j / speed_j``; -1 when it is known irredundant or a second exit ties
+    with it (``<= exit (1 + tie_relative) + tie_absolute``). The NumPy twin of the compiled kernel's
+    ``ray_exit``.
+    """
+    m = unit.shape[0]
+    speeds = unit @ (x - center)
+    exits = np.full(m, np.inf)
+    ahead = (speeds > 0) & (status != -1)
+    exits[ahead] = slack[ahead] / speeds[ahead]
+    j = int(np.argmin(exits)) if m else 0
+    second = np.partition(exits, 1)[1] if m > 1 else np.inf
+    if m == 0 or status[j] == 1 or second <= exits[j] * (1.0 + tie_relative) + tie_absolute:
+        return -1
+    return j
+
+
+twin("redundancy_rows", numpy=_redundancy_rows_numpy, compiled=extension_function("redundancy_rows"))
+twin("ray_exit", numpy=_ray_exit_numpy, compiled=extension_function("ray_exit"))
 
 
 IMPLIED_RESIDUAL = 1e-13
@@ -756,6 +809,7 @@ def _irredundant_rows(
     m = unit.shape[0]
     status = np.zeros(m, dtype=np.int8)  # 0 unknown, 1 irredundant, -1 redundant
     lps = _RedundancyLPs.for_rows(unit, settings)
+    kernel = backend()
     implied = implied or {}
 
     def by_a_pair(i: int) -> bool:
@@ -764,9 +818,7 @@ def _irredundant_rows(
     def against_all_others(i: int) -> int:
         if by_a_pair(i):
             return -1
-        others = status != -1
-        others[i] = False
-        return -1 if _is_redundant(unit, offsets, i, others, tolerance, lps)[0] else 1
+        return -1 if _is_redundant(unit, offsets, i, status, True, tolerance, lps, kernel)[0] else 1
 
     if center is None:
         for i in range(m):
@@ -778,17 +830,12 @@ def _irredundant_rows(
         if status[i] == 0 and i in implied and by_a_pair(i):
             status[i] = -1
         while status[i] == 0:
-            redundant, result = _is_redundant(unit, offsets, i, status == 1, tolerance, lps)
+            redundant, result = _is_redundant(unit, offsets, i, status, False, tolerance, lps, kernel)
             if redundant:
                 status[i] = -1
                 break
-            speeds = unit @ (result.x - center)
-            exits = np.full(m, np.inf)
-            ahead = (speeds > 0) & (status != -1)
-            exits[ahead] = slack[ahead] / speeds[ahead]
-            j = int(np.argmin(exits))
-            second = np.partition(exits, 1)[1] if m > 1 else np.inf
-            if status[j] == 1 or second <= exits[j] * (1.0 + 1e-9) + 1e-15:
+            j = kernel.ray_exit(unit, slack, status, result.x, center, RAY_TIE_RELATIVE, RAY_TIE_ABSOLUTE)
+            if j < 0:
                 status[i] = against_all_others(i)  # the ray meets a lower-dimensional face
             else:
                 status[j] = 1

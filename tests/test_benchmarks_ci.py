@@ -139,3 +139,22 @@ def test_a_figure_with_a_same_run_reference_is_gated_on_that_ratio():
     slower["figures"]["a"]["ratio_to_bare_pinocchio"] = 2.0 * 1.6
     lines = ci.regressions(slower, baseline)
     assert len(lines) == 1 and "ratio to bare pinocchio" in lines[0] and "1.60x" in lines[0]
+
+
+def test_the_contacts_benchmark_turns_running_out_of_memory_into_a_memory_error():
+    """benchmarks.contacts.memory_limit: an allocation past the limit raises MemoryError inside the
+    block (the forced analysis is then reported out of memory, not killed), and the limit is
+    restored after it."""
+    resource = pytest.importorskip("resource", reason="RLIMIT_AS needs the resource module (POSIX)")
+    if str(ROOT) not in sys.path:  # the benchmarks beside the package; the checkout LAST
+        sys.path.append(str(ROOT))
+    import numpy as np
+
+    from benchmarks.contacts import memory_limit
+
+    before = resource.getrlimit(resource.RLIMIT_AS)
+    with Path("/proc/self/status").open() as status:
+        size = next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmSize:"))
+    with memory_limit(size + 2**30), pytest.raises(MemoryError, match="allocate"):
+        np.empty(2**32, dtype=np.uint8)  # (untouched: without the limit it would not use the memory)
+    assert resource.getrlimit(resource.RLIMIT_AS) == before

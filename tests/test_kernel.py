@@ -463,6 +463,85 @@ def test_the_door_accepts_the_same_answers_with_either_check(name, monkeypatch):
 
 
 @needs_kernel
+@pytest.mark.parametrize("name", ["rhex_flip", "snake_climb"])
+def test_clarkson_steps_agree_with_their_numpy_twins(name, monkeypatch):
+    """Every step of Clarkson's redundancy loop in a shipped scene's projections, run on both
+    backends: redundancy_rows gathers the same rows bit for bit (and writes nothing past them),
+    ray_exit picks the same row; then the projections are the same polytopes bit for bit with the
+    twins as with the compiled functions."""
+    from frcontrol import polytope
+    from frcontrol.engine import analyze
+
+    calls = {"redundancy_rows": 0, "ray_exit": 0}
+    fast_rows, fast_exit = kernel.COMPILED.redundancy_rows, kernel.COMPILED.ray_exit
+
+    def both_rows(unit, offsets, status, i, against_all, rows, rhs):
+        twin_rows, twin_rhs = np.full_like(rows, np.nan), np.full_like(rhs, np.nan)
+        k = polytope._redundancy_rows_numpy(unit, offsets, status, i, against_all, twin_rows, twin_rhs)
+        rows[:] = np.nan
+        rhs[:] = np.nan
+        assert fast_rows(unit, offsets, status, i, against_all, rows, rhs) == k
+        np.testing.assert_array_equal(rows, twin_rows)  # (NaN where neither wrote)
+        np.testing.assert_array_equal(rhs, twin_rhs)
+        calls["redundancy_rows"] += 1
+        return k
+
+    def both_exits(unit, slack, status, x, center, tie_relative, tie_absolute):
+        j = fast_exit(unit, slack, status, x, center, tie_relative, tie_absolute)
+        assert j == polytope._ray_exit_numpy(unit, slack, status, x, center, tie_relative, tie_absolute)
+        calls["ray_exit"] += 1
+        return j
+
+    def projections(functions):
+        rows_function, exit_function = functions
+        monkeypatch.setattr(kernel.COMPILED, "redundancy_rows", rows_function)
+        monkeypatch.setattr(kernel.COMPILED, "ray_exit", exit_function)
+        result = analyze(load_scene(name), ambiguity=False)
+        return [(m.domain, m.input_domain) for m in result.feasible_modes]
+
+    monkeypatch.setenv("FRC_KERNEL", "compiled")
+    checked = projections((both_rows, both_exits))
+    assert calls["redundancy_rows"] > 10 and calls["ray_exit"] > 2, calls
+    reference = projections((polytope._redundancy_rows_numpy, polytope._ray_exit_numpy))
+    for pair, twin_pair in zip(checked, reference, strict=True):
+        for P, Q in zip(pair, twin_pair, strict=True):
+            assert (P is None) == (Q is None)
+            if P is not None:
+                for a, b in zip((P.A, P.b, P.A_eq, P.b_eq), (Q.A, Q.b, Q.A_eq, Q.b_eq), strict=True):
+                    np.testing.assert_array_equal(a, b)
+
+
+@needs_kernel
+def test_clarkson_steps_on_edge_cases_and_bad_buffers():
+    """Ties, no row ahead and rows already known give -1 on both backends; a row index outside the
+    rows, a buffer too small or of the wrong type raise KernelError."""
+    from frcontrol import polytope
+
+    unit = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+    slack = np.ones(4)
+    status = np.zeros(4, dtype=np.int8)
+    center = np.zeros(2)
+    cases = [(np.array([2.0, 0.5]), status, 0),           # leaves through x = 1 first
+             (np.array([2.0, 2.0]), status, -1),          # through the corner: a tie
+             (np.array([0.0, 0.0]), status, -1),          # no row ahead
+             (np.array([2.0, 0.5]), np.array([1, 0, 0, 0], dtype=np.int8), -1),  # known irredundant
+             (np.array([2.0, 0.5]), np.array([-1, 0, 0, 0], dtype=np.int8), 1)]  # removed: the next
+    for x, state, expected in cases:
+        for function in (kernel.COMPILED.ray_exit, polytope._ray_exit_numpy):
+            assert function(unit, slack, state, x, center, polytope.RAY_TIE_RELATIVE,
+                            polytope.RAY_TIE_ABSOLUTE) == expected, (x, state, function)
+    rows, rhs = np.empty((5, 2)), np.empty(5)
+    with pytest.raises(KernelError, match="argument i: 4 is not a row of 4"):
+        compiled.redundancy_rows(unit, slack, status, 4, False, rows, rhs)
+    with pytest.raises(KernelError, match="rows: 4 rows, expected at least m \\+ 1 = 5"):
+        compiled.redundancy_rows(unit, slack, status, 0, False, rows[:4], rhs[:4])
+    with pytest.raises(KernelError, match="status"):
+        compiled.redundancy_rows(unit, slack, status.astype(np.int64), 0, False, rows, rhs)
+    with pytest.raises(KernelError, match="7 arguments"):
+        compiled.ray_exit(unit, slack)
+
+
+@needs_kernel
 def test_the_lp_check_refuses_bad_buffers():
     from frcontrol.solvers import lp_problem
 
@@ -595,6 +674,8 @@ CROSS_CHECKS = {
     "certified_children": ("fast_paths", "compiled_certified_children_are_numpys_certified_responses"),
     "mode_margin": ("kernel", "mode_margin_gives_motion_margins_verdicts_on_every_mode"),
     "lp_check": ("kernel", "the_door_accepts_the_same_answers_with_either_check"),
+    "redundancy_rows": ("kernel", "clarkson_steps_agree_with_their_numpy_twins"),
+    "ray_exit": ("kernel", "clarkson_steps_agree_with_their_numpy_twins"),
     "locate_points": ("query", "the_compiled_query_agrees_with_its_numpy_twin"),
     "evaluate_points": ("query", "the_compiled_query_agrees_with_its_numpy_twin"),
     "query_point": ("query", "the_compiled_query_agrees_with_its_numpy_twin"),
