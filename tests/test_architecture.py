@@ -170,8 +170,8 @@ LAZY_IMPORTS: dict[tuple[str, str], str] = {
     ("frcontrol.service.*", "frcontrol"): "the server's process loads no engine, planner or simulator: "
                                           "its workers do, in warm_up, before their memory limit",
     ("frcontrol.service.work", "scipy"): "warm_up loads SciPy's LAPACK before the memory limit",
-    ("frcontrol.service.app", "fastapi"): "the offline API docs' parts load when the docs routes are added",
-    ("frcontrol.service.app", "fastapi_offline"): "as above; an optional package",
+    ("frcontrol.service.api", "fastapi"): "the offline API docs' parts load when the docs routes are added",
+    ("frcontrol.service.api", "fastapi_offline"): "as above; an optional package",
     ("frcontrol.simulation", "frcontrol.simulation"): "the package and its INTEGRATORS import without "
                                                       "SciPy; simulate() loads its simulator",
     ("frcontrol.kernel", "frcontrol._kernel"): "the compiled kernel is optional (FRC_KERNEL)",
@@ -356,9 +356,10 @@ def test_an_unlisted_import_inside_a_function_is_caught():
 
 
 def test_no_two_modules_share_a_file_name():
-    """Within the library (``cli/`` is its own package: its ``app.py`` is the command line's app)."""
+    """Within the installed package: the library and the command line (``cli/``, installed as
+    ``frcontrol.cli``)."""
     names: dict[str, list[str]] = {}
-    for package in ("frcontrol",):
+    for package in ("frcontrol", "cli"):
         for path in (ROOT / package).rglob("*.py"):
             if path.name not in ("__init__.py", "__main__.py"):
                 names.setdefault(path.name, []).append(path.relative_to(ROOT).as_posix())

@@ -27,7 +27,7 @@ from typer.testing import CliRunner
 from frcontrol.answers import RUN_DEPENDENT_KEYS, without_run_dependent
 from frcontrol.scene import read_scene_document, shipped_robots_dir, shipped_scene_names
 from frcontrol.service import ServiceConfig, create_app
-from frcontrol.service.app import (
+from frcontrol.service.api import (
     COMMAND_ENDPOINTS,
     COMMANDS_WITHOUT_ENDPOINT,
     ENDPOINTS,

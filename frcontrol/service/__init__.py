@@ -10,7 +10,7 @@ local pool or a Dask cluster (:mod:`.atlas_job`). FastAPI loads only when this p
 
 from __future__ import annotations
 
-from .app import API_VERSION, ENDPOINTS, ServiceConfig, create_app
+from .api import API_VERSION, ENDPOINTS, ServiceConfig, create_app
 
 __all__ = [
     "API_VERSION",
