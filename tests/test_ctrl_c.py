@@ -181,8 +181,10 @@ interruption lands deterministically while the entry point is still loading, not
 
 
 @pytest.mark.parametrize("args", [["--help"], ["analyze", "rod_on_table"]])
-def test_ctrl_c_while_the_command_line_loads_is_one_line_and_exit_130(args):
+def test_ctrl_c_while_the_command_line_loads_is_one_line_and_exit_130(args, tmp_path):
+    # run from an empty folder: `python -c` puts the working folder first on sys.path, and the
+    # checkout's source tree is not the installed package (it has no frcontrol.cli)
     done = subprocess.run([sys.executable, "-c", INTERRUPT_AT_IMPORT, *args], capture_output=True, text=True,
-                          timeout=WAIT, preexec_fn=as_from_a_terminal)
+                          timeout=WAIT, preexec_fn=as_from_a_terminal, cwd=tmp_path)
     assert (done.returncode, done.stdout) == (130, "")
     assert done.stderr == "frc: error: interrupted by SIGINT\n", done.stderr
