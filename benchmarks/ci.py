@@ -124,7 +124,7 @@ RUNS = 7
 
 REGRESSION_FACTOR = 1.5
 """[-] The gate fails when a figure's ratio to the calibration (CPU time) exceeds this many times
-the baseline's: the issue's limit. Between runs on the loaded 2-core development machine the ratios
+the baseline's: the gate's limit. Between runs on the loaded 2-core development machine the ratios
 moved by at most 1.24x (module docstring), so 1.5x flags a regression of half again the time and not
 the noise."""
 
@@ -268,7 +268,7 @@ FIGURES = (
     Figure("startup_frc_help", "start-up of `frc --help` (a process)", 0.3),
     Figure("startup_frc_show_rod_on_table", "start-up of `frc show rod_on_table` (a process)", 0.6),
 )
-"""Every figure, in the order of the issue's table."""
+"""Every figure, in the order of the benchmark table (docs/benchmarks.md)."""
 
 COMPLIANT_CONFIGS: dict[str, dict[str, Any]] = {
     "rod_on_table": {"stiffness": 1e12, "integrator": "implicit", "step_omega": 100.0, "steps": 2},

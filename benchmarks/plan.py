@@ -48,7 +48,7 @@ from frcontrol.scene import load_scene
 
 RESULTS = Path(__file__).resolve().parent / "results"
 TARGETS_S = {"flip_plan": 0.100, "flip_simulated": 10.0, "flip_simulated_10Nm": 10.0, "climb_plan": 5.0}
-"""The targets [s] of the issue."""
+"""The speed targets [s] of the planning benchmarks."""
 
 
 def _median_stages(runs: list[dict[str, float]], keys: list[str]) -> dict[str, float]:

@@ -1,6 +1,6 @@
 """Simulations say when they leave the model's validity (frcontrol.simulation.validity).
 
-Real scenes and real simulators. A calm run has no warning; the run of the issue (constant hip
+Real scenes and real simulators. A calm run has no warning; a violent run (constant hip
 torques on RHex's nearly massless legs) warns of its speeds and its penetration; NaN and energy
 from nowhere end a run as "diverged"; the CLI reports each on stderr, in the JSON, and by its exit
 code.
