@@ -38,7 +38,7 @@ LOOP_POINTS = 2000
 
 REFERENCE_CALIBRATION = 2.4e-3
 """[s] CPU time of one calibration workload at machine factor 1.0 (the idle development machine,
-where ``solutions_at`` from scratch took before the table: rod 40 us)."""
+where ``solutions_at`` from scratch on the rod took 40 us)."""
 
 
 def per_call(call: Callable[[], Any], calls: int) -> float:
