@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import math
 import os
+import re
 from pathlib import Path
 
 import pytest
@@ -68,6 +69,22 @@ def counted(test):
 def tally() -> PropertyTally:
     """The tally of the counted property test running now."""
     return _TALLIES[-1]
+
+
+PROGRESS_LINE = re.compile(r"frc: (?!error: |warning: ).*: "
+                           r"(.*(left|time left unknown|total unknown)|\d+ s so far)$")
+"""A plain progress line (cli.progress): on a loaded machine a refusal may come after one: a
+command's work shows its progress once it has run ``SHOW_AFTER`` seconds, loading included."""
+
+
+def is_progress(line: str) -> bool:
+    """Whether a stderr line is a progress line, not an error or a warning."""
+    return PROGRESS_LINE.match(line) is not None
+
+
+def error_lines(stderr: str) -> list[str]:
+    """A command's stderr without its progress lines: what it said about the outcome."""
+    return [line for line in stderr.strip().splitlines() if not is_progress(line)]
 
 
 def toml_value(value) -> str:

@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
+from conftest import is_progress
 
 from frcontrol.scene import shipped_scene_names
 
@@ -76,16 +76,6 @@ RUNS: list[tuple[str | None, tuple[str, ...]]] = (
     + [(backend, tuple(args)) for backend in BACKENDS for scene in SCENES for args in lp_commands(scene)]
     + [(None, tuple(args)) for args in FALLBACKS + WHOLE]
 )
-
-
-PROGRESS_LINE = re.compile(r"frc: (?!error: |warning: ).*: "
-                           r"(.*(left|time left unknown|total unknown)|\d+ s so far)$")
-"""A plain progress line (cli.progress): on a loaded machine a refusal may come after one."""
-
-
-def is_progress(line: str) -> bool:
-    """Whether a stderr line is a progress line, not an error or a warning."""
-    return PROGRESS_LINE.match(line) is not None
 
 
 def frc_executable() -> list[str]:

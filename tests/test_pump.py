@@ -11,7 +11,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from test_json_output import is_progress
+from conftest import is_progress
 from typer.testing import CliRunner
 
 from frcontrol.drives import joint_torque, no_load_speed, stall_torque, torque_limits
