@@ -87,6 +87,15 @@ def error_lines(stderr: str) -> list[str]:
     return [line for line in stderr.strip().splitlines() if not is_progress(line)]
 
 
+def one_error_line(stderr: str) -> str:
+    """The one error line a refused command wrote: its last line, the only one but progress lines
+    (a loaded machine may reach the progress display before the refusal), no traceback."""
+    lines = error_lines(stderr)
+    assert len(lines) == 1 and lines[0].startswith("frc: error: "), stderr
+    assert stderr.strip().splitlines()[-1] == lines[0] and "Traceback" not in stderr, stderr
+    return lines[0]
+
+
 def toml_value(value) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
