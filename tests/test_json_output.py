@@ -20,7 +20,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
-from conftest import is_progress
+from conftest import one_error_line
 
 from frcontrol.scene import shipped_scene_names
 
@@ -115,8 +115,7 @@ def test_stdout_is_one_json_document_or_nothing(outcomes, item):
         json.loads(done.stdout)  # exactly one document: trailing text would raise
     else:
         assert done.stdout == "", done.stdout[:500]
-        lines = [line for line in done.stderr.strip().splitlines() if not is_progress(line)]
-        assert len(lines) == 1 and lines[0].startswith("frc: error: "), done.stderr
+        one_error_line(done.stderr)
 
 
 def test_the_planners_run_on_their_scenes_and_refuse_the_others(outcomes):
