@@ -13,7 +13,7 @@ The conventions (docs/contributing.md, "Examples in the documentation"):
   to the digits printed (``3.116`` matches 3.1158 and 3.1163, not 3.12), and ``...`` matches anything;
 - a command exits 0, unless its shown output begins with ``frc: error:`` (then it must exit 1, or
   the code of an ``<!-- example: exit N -->`` marker, such as 2 for a usage error, and that output
-  is its stderr);
+  is its stderr, without progress lines);
 - ``<!-- example: slow -->`` on the line before a block marks its examples slow;
   ``<!-- example: skip REASON -->`` leaves them out, saying why;
   ``<!-- example: file NAME -->`` before any fenced block writes it as NAME into the folder every
