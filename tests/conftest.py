@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import math
 import os
+import re
 from pathlib import Path
 
 import pytest
@@ -68,6 +69,31 @@ def counted(test):
 def tally() -> PropertyTally:
     """The tally of the counted property test running now."""
     return _TALLIES[-1]
+
+
+PROGRESS_LINE = re.compile(r"frc: (?!error: |warning: ).*: "
+                           r"(.*(left|time left unknown|total unknown)|\d+ s so far)$")
+"""A plain progress line (cli.progress): on a loaded machine a refusal may come after one: a
+command's work shows its progress once it has run ``SHOW_AFTER`` seconds, loading included."""
+
+
+def is_progress(line: str) -> bool:
+    """Whether a stderr line is a progress line, not an error or a warning."""
+    return PROGRESS_LINE.match(line) is not None
+
+
+def error_lines(stderr: str) -> list[str]:
+    """A command's stderr without its progress lines: what it said about the outcome."""
+    return [line for line in stderr.strip().splitlines() if not is_progress(line)]
+
+
+def one_error_line(stderr: str) -> str:
+    """The one error line a refused command wrote: its last line, the only one but progress lines
+    (a loaded machine may reach the progress display before the refusal), no traceback."""
+    lines = error_lines(stderr)
+    assert len(lines) == 1 and lines[0].startswith("frc: error: "), stderr
+    assert stderr.strip().splitlines()[-1] == lines[0] and "Traceback" not in stderr, stderr
+    return lines[0]
 
 
 def toml_value(value) -> str:

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import rod_scene
+from conftest import one_error_line, rod_scene
 from frcontrol.cli.app import app
 from typer.testing import CliRunner
 
@@ -102,4 +102,4 @@ def test_analyze_table_and_bad_inputs():
                                 (["--input", "x=1e9"], 1, "outside")):
         result = runner.invoke(app, ["analyze", "table_on_ground", *args])
         assert result.exit_code == code, args
-        assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1
+        assert message in one_error_line(result.stderr)

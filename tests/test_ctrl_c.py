@@ -30,9 +30,12 @@ ESCAPES = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]|\r")
 """The terminal's cursor and colour codes, removed before stderr is read as text."""
 
 
-FRC = [sys.executable, "-m", "frcontrol"]
-"""How the runs start frc: ``python -m`` ends by the code of the module it ran (the ``frc`` script
-by the code it was given), where an interruption's code must survive what the signal hit."""
+FRC = [sys.executable, "-c", "from frcontrol.cli import main, progress; progress.SHOW_AFTER = 0.0; main()"]
+"""How the runs start frc: as ``python -m frcontrol`` does (the interpreter ends by the code the
+command line raised, which must survive what the signal hit; the ``frc`` script ends by the code it
+was given), with the progress display due at once: what the tests wait for shows as soon
+as the work reaches it, however fast the work (the display otherwise waits ``SHOW_AFTER`` seconds,
+which work that got faster may never reach)."""
 
 
 def as_from_a_terminal() -> None:
@@ -71,7 +74,11 @@ class Run:
         """Until ``working(stderr so far)`` holds; fails if the process ends first or takes too long."""
         deadline = time.monotonic() + WAIT
         while not working(self.stderr):
-            assert self.process.poll() is None, f"ended before working: {self.stderr[-500:]}"
+            if self.process.poll() is not None:
+                while self.read(0.2):  # what it wrote before it ended, for the message
+                    pass
+                pytest.fail(f"ended (exit {self.process.returncode}) before the test saw it working: "
+                            f"{self.stderr[-500:]}")
             assert time.monotonic() < deadline, f"not working within {WAIT} s: {self.stderr[-500:]}"
             self.read(0.2)
 
@@ -127,9 +134,10 @@ def _gait_past_its_first_phase(text: str) -> bool:
 
 
 def test_ctrl_c_stops_a_planner_in_its_work(tmp_path):
-    # the climbing gait (seconds of planning and simulation, phase by phase; its text answer is
-    # short, so stdout never fills while the test waits): interrupted once a phase is done
-    out, err = interrupted(["climb", "snake_climb", "--cycles", "5", "--html", "gait.html"],
+    # the climbing gait (seconds of planning, then a simulation phase by phase; its text answer is
+    # short, so stdout never fills while the test waits): interrupted once its first phase of 40 is
+    # done, with 39 phases (tens of seconds) still to simulate, so it cannot finish first
+    out, err = interrupted(["climb", "snake_climb", "--cycles", "10", "--html", "gait.html"],
                            _gait_past_its_first_phase, tmp_path)
     assert err.splitlines()[-1] == "frc: error: interrupted by SIGINT" and out == ""
     assert list(tmp_path.iterdir()) == []  # nothing half-written

@@ -6,17 +6,11 @@ from __future__ import annotations
 import json
 
 import pytest
+from conftest import one_error_line
 from frcontrol.cli.app import app
 from typer.testing import CliRunner
 
 runner = CliRunner()
-
-
-def one_error_line(result) -> str:
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("frc: error: "), result.stderr
-    assert "Traceback" not in result.stderr
-    return lines[0]
 
 
 @pytest.mark.parametrize("args", [
@@ -29,7 +23,7 @@ def one_error_line(result) -> str:
 def test_usage_errors_exit_2(args):
     result = runner.invoke(app, args)
     assert result.exit_code == 2 and result.stdout == ""
-    one_error_line(result)
+    one_error_line(result.stderr)
 
 
 @pytest.mark.parametrize("args, text", [
@@ -43,7 +37,7 @@ def test_usage_errors_exit_2(args):
 def test_bad_input_exits_1_with_one_line_and_nothing_on_stdout(args, text):
     result = runner.invoke(app, args)
     assert result.exit_code == 1 and result.stdout == ""
-    assert text in one_error_line(result)
+    assert text in one_error_line(result.stderr)
 
 
 @pytest.mark.parametrize("args, text", [
@@ -59,13 +53,13 @@ def test_an_output_path_that_cannot_be_written_is_a_usage_error(args, text):
     """Checked while the command line is read (a probe file created and removed): exit 2 at once."""
     result = runner.invoke(app, args)
     assert result.exit_code == 2 and result.stdout == ""
-    line = one_error_line(result)
+    line = one_error_line(result.stderr)
     assert text in line and any(f"'{option}'" in line for option in ("--plot", "--html", "--out"))
 
 
 def test_an_output_path_that_is_a_folder_is_refused(tmp_path):
     result = runner.invoke(app, ["view", "rod_on_table", "--html", str(tmp_path)])
-    assert result.exit_code == 2 and "is a directory" in one_error_line(result)
+    assert result.exit_code == 2 and "is a directory" in one_error_line(result.stderr)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -74,7 +68,7 @@ def test_the_probe_leaves_an_existing_file_as_it_was_and_no_file_behind(tmp_path
     kept = tmp_path / "kept.png"
     kept.write_bytes(b"old")
     result = runner.invoke(app, ["simulate", "no_such_scene", "--plot", "kept.png", "--html", "new.html"])
-    assert result.exit_code == 1 and "no_such_scene" in one_error_line(result)  # the scene: bad input
+    assert result.exit_code == 1 and "no_such_scene" in one_error_line(result.stderr)  # the scene: bad input
     assert kept.read_bytes() == b"old" and sorted(p.name for p in tmp_path.iterdir()) == ["kept.png"]
 
 

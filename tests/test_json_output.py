@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
+from conftest import one_error_line
 
 from frcontrol.scene import shipped_scene_names
 
@@ -79,16 +79,6 @@ RUNS: list[tuple[str | None, tuple[str, ...]]] = (
 )
 
 
-PROGRESS_LINE = re.compile(r"frc: (?!error: |warning: ).*: "
-                           r"(.*(left|time left unknown|total unknown)|\d+ s so far)$")
-"""A plain progress line (cli.progress): on a loaded machine a refusal may come after one."""
-
-
-def is_progress(line: str) -> bool:
-    """Whether a stderr line is a progress line, not an error or a warning."""
-    return PROGRESS_LINE.match(line) is not None
-
-
 def frc_executable() -> list[str]:
     script = Path(sys.executable).with_name("frc")
     return [str(script)] if script.exists() else [sys.executable, "-m", "frcontrol"]
@@ -126,8 +116,7 @@ def test_stdout_is_one_json_document_or_nothing(outcomes, item):
         json.loads(done.stdout)  # exactly one document: trailing text would raise
     else:
         assert done.stdout == "", done.stdout[:500]
-        lines = [line for line in done.stderr.strip().splitlines() if not is_progress(line)]
-        assert len(lines) == 1 and lines[0].startswith("frc: error: "), done.stderr
+        one_error_line(done.stderr)
 
 
 def test_the_planners_run_on_their_scenes_and_refuse_the_others(outcomes):

@@ -457,22 +457,35 @@ entries = st.floats(min_value=-10, max_value=10, allow_nan=False).map(lambda x: 
 
 
 @st.composite
-def lcps(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray]:
+def lcps(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, bool]:
+    """An LCP (M, q) and whether a solution was planted in it.
+
+    Half of the draws (hypothesis's coin) plant one: a z >= 0 and a w >= 0 with complementary
+    supports, and q = w - M z, so (z, w) solves it. The other half draw q freely, and about half of
+    those have a solution: about three quarters in all, well above the test's floor of checked
+    examples (MIN_CHECKED_FRACTION) for any seed, while the free half keeps the no-solution branch.
+    """
     n = draw(st.integers(min_value=1, max_value=4))
     M = np.array(draw(st.lists(entries, min_size=n * n, max_size=n * n))).reshape(n, n)
-    q = np.array(draw(st.lists(entries, min_size=n, max_size=n)))
-    return M, q
+    if not draw(st.booleans()):
+        return M, np.array(draw(st.lists(entries, min_size=n, max_size=n))), False
+    sizes = st.lists(st.floats(min_value=0, max_value=10).map(lambda x: round(x, 3)), min_size=n, max_size=n)
+    support = np.array(draw(st.lists(st.booleans(), min_size=n, max_size=n)))
+    z = np.where(support, draw(sizes), 0.0)
+    w = np.where(support, 0.0, draw(sizes))
+    return M, w - M @ z, True
 
 
 @counted
 @settings(max_examples=300, deadline=None)
 @given(lcps())
-def test_every_found_solution_is_a_solution(problem: tuple[np.ndarray, np.ndarray]) -> None:
+def test_every_found_solution_is_a_solution(problem: tuple[np.ndarray, np.ndarray, bool]) -> None:
     tally().example()
-    M, q = problem
+    M, q, planted = problem
     every = enumerate_lcp_solutions(M, q)
     results = [solve_lcp(M, q, "lemke"), solve_lcp(M, q, "enumerate"), *every]
     if not every:  # the enumeration is exhaustive: no solution there means none anywhere
+        assert not planted, "the enumeration missed the planted solution"
         assert not any(r.found for r in results[:2])
     else:
         tally().check()  # a solution exists: every one found is checked below

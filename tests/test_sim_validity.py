@@ -13,6 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import one_error_line
 from frcontrol.cli.app import app
 from typer.testing import CliRunner
 
@@ -123,8 +124,8 @@ def test_the_cli_exits_1_on_divergence_with_one_line(write_scene):
         result = runner.invoke(app, ["simulate", str(path), "--model", model, "--input", f"x={push}",
                                      "--duration", "0.05", "--json"])
         assert result.exit_code == 1 and result.stdout == ""
-        lines = result.stderr.strip().splitlines()
-        assert len(lines) == 1 and "diverged at t = " in lines[0] and "try a smaller --dt" in lines[0]
+        line = one_error_line(result.stderr)
+        assert "diverged at t = " in line and "try a smaller --dt" in line
 
 
 def test_the_cli_reports_warnings_in_the_json_and_on_stderr():
