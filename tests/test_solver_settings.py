@@ -21,6 +21,7 @@ from frcontrol.scene import load_scene
 from frcontrol.solvers import (
     DEFAULT_SETTINGS,
     FEASIBILITY_TOLERANCE,
+    DoorOptions,
     InequalityLPs,
     SolverSettings,
     settings_from,
@@ -58,7 +59,7 @@ def test_the_residual_tolerance_and_the_options_reach_the_back_end():
     tight = SolverSettings(feasibility_tolerance=1e-9)
 
     def general(settings: SolverSettings) -> solvers.LPResult:
-        return solve_lp(c, A, b, settings=settings)
+        return solve_lp(c, A, b, door=DoorOptions(settings))
 
     def lean(settings: SolverSettings) -> solvers.LPResult:
         return InequalityLPs(settings=settings).solve(c, A, b)
@@ -69,7 +70,7 @@ def test_the_residual_tolerance_and_the_options_reach_the_back_end():
         scale = default.residual_tolerance / FEASIBILITY_TOLERANCE
         assert strict.residual_tolerance == pytest.approx(1e-9 * scale, rel=1e-12)
     with pytest.raises(InputError, match="unknown DAQP option"):
-        solve_lp(c, A, b, settings=SolverSettings().with_options("daqp", no_such_option=1.0))
+        solve_lp(c, A, b, door=DoorOptions(SolverSettings().with_options("daqp", no_such_option=1.0)))
 
 
 def test_analyze_and_polytopes_answer_alike_with_a_name_or_settings():
