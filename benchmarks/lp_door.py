@@ -122,11 +122,12 @@ class GeneralDoor:
     """
 
     def __init__(self, *, solver: str | None = None, settings: solvers.SolverSettings | None = None,
-                 fallback: solvers.Fallback = solvers.NO_FALLBACK, **options: Any) -> None:
+                 fallback: solvers.Fallback = solvers.NO_FALLBACK,
+                 check: solvers.ResidualCheck = solvers.lp_check, **options: Any) -> None:
         chosen = solvers.settings_from(solver, settings)
         if options:
             chosen = chosen.with_options(chosen.lp, **options)
-        self.door = solvers.DoorOptions(chosen, fallback=fallback)
+        self.door = solvers.DoorOptions(chosen, fallback=fallback, check=check)
 
     def solve(self, c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, lb: np.ndarray | None = None,
               ub: np.ndarray | None = None) -> solvers.LPResult:
