@@ -122,15 +122,17 @@ class GeneralDoor:
     """
 
     def __init__(self, *, solver: str | None = None, settings: solvers.SolverSettings | None = None,
-                 fallback: solvers.Fallback = solvers.NO_FALLBACK, **options: Any) -> None:
-        self.settings = solvers.settings_from(solver, settings)
-        self.fallback, self.options = fallback, options
+                 fallback: solvers.Fallback = solvers.NO_FALLBACK,
+                 check: solvers.ResidualCheck = solvers.lp_check, **options: Any) -> None:
+        chosen = solvers.settings_from(solver, settings)
+        if options:
+            chosen = chosen.with_options(chosen.lp, **options)
+        self.door = solvers.DoorOptions(chosen, fallback=fallback, check=check)
 
     def solve(self, c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, lb: np.ndarray | None = None,
               ub: np.ndarray | None = None) -> solvers.LPResult:
         """:func:`frcontrol.solvers.solve_lp_prepared` of the LP."""
-        return solvers.solve_lp_prepared(c, A_ub, b_ub, lb=lb, ub=ub, settings=self.settings,
-                                         fallback=self.fallback, **self.options)
+        return solvers.solve_lp_prepared(c, A_ub, b_ub, lb=lb, ub=ub, door=self.door)
 
 
 @contextlib.contextmanager
@@ -165,8 +167,9 @@ def measure(problems: list[LinearProgram], runs: int) -> dict[str, Any]:
     from frcontrol.solvers import daqp_
 
     lp_check = backend().lp_check  # as the polytope module hands it to the door
+    options = solvers.DoorOptions(check=lp_check)
     door = [lambda p=p: solvers.solve_lp_prepared(p.c, p.A_ub, p.b_ub, p.A_eq, p.b_eq, p.lb, p.ub,
-                                                  check=lp_check) for p in problems]
+                                                  door=options) for p in problems]
     stacked = [(p.c, *daqp_._stack(p, equalities_as_pairs=True)) for p in problems]
     bare = [lambda s=s: daqp.solve(None, *s) for s in stacked]
     check = [lambda p=p: solvers._check(p, p.c, solvers.FEASIBILITY_TOLERANCE, lp_check) for p in problems]

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from frcontrol.polytope import Polytope, minimal_representation, project
-from frcontrol.solvers import REFERENCE_LP_SOLVER, available_solvers, solve_lp
+from frcontrol.solvers import REFERENCE_LP_SOLVER, DoorOptions, available_solvers, settings_from, solve_lp
 
 RESULTS = Path(__file__).parent / "results"
 DIMENSIONS = (6, 8, 12)
@@ -84,8 +84,9 @@ def bench_lps(n_lps: int, repeats: int, family=random_lp) -> list[dict]:
         for m in ROW_COUNTS:
             rng = np.random.default_rng(1000 * d + m)
             lps = [family(rng, d, m) for _ in range(n_lps)]
-            references = [solve_lp(**lp, solver=REFERENCE_LP_SOLVER) for lp in lps]
+            references = [solve_lp(**lp, door=DoorOptions(settings_from(REFERENCE_LP_SOLVER))) for lp in lps]
             for label, (solver, options) in backends().items():
+                how = DoorOptions(settings_from(solver).with_options(solver, **options))
                 adapter_times, door_times = [], []
                 outcomes = dict.fromkeys(
                     ("ok", "wrong", "grossly_wrong", "false_infeasible", "other"), 0
@@ -94,7 +95,7 @@ def bench_lps(n_lps: int, repeats: int, family=random_lp) -> list[dict]:
                     adapter, door = [], []
                     for _ in range(repeats):
                         start = time.perf_counter()
-                        result = solve_lp(**lp, solver=solver, **options)
+                        result = solve_lp(**lp, door=how)
                         door.append(time.perf_counter() - start)
                         adapter.append(result.solve_time)
                     adapter_times.append(np.median(adapter))
@@ -153,7 +154,7 @@ def bench_qpsolvers(n_lps: int, repeats: int) -> list[dict]:
     d, m = 8, 50
     rng = np.random.default_rng(8050)
     lps = [random_lp(rng, d, m) for _ in range(n_lps)]
-    references = [solve_lp(**lp, solver=REFERENCE_LP_SOLVER) for lp in lps]
+    references = [solve_lp(**lp, door=DoorOptions(settings_from(REFERENCE_LP_SOLVER))) for lp in lps]
     infeasible = dict(c=np.ones(2), A_ub=np.array([[1.0, 0.0], [-1.0, 0.0]]), b_ub=np.array([-1.0, 0.0]))
     unbounded = dict(c=np.ones(2), A_ub=np.array([[0.0, 1.0]]), b_ub=np.array([1.0]))
     for theirs, ours in names.items():
@@ -187,8 +188,8 @@ def bench_qpsolvers(n_lps: int, repeats: int) -> list[dict]:
                 wrong += 1
         _, on_infeasible = _stdout_bytes(lambda: through_qpsolvers(infeasible))
         _, on_unbounded = _stdout_bytes(lambda: through_qpsolvers(unbounded))
-        door_infeasible = solve_lp(**infeasible, solver=ours).status
-        door_unbounded = solve_lp(**unbounded, solver=ours).status
+        door_infeasible = solve_lp(**infeasible, door=DoorOptions(settings_from(ours))).status
+        door_unbounded = solve_lp(**unbounded, door=DoorOptions(settings_from(ours))).status
         rows.append(dict(
             backend=ours, d=d, m=m, lps=n_lps,
             qpsolvers_us=float(np.median(theirs_times) * 1e6),

@@ -37,7 +37,15 @@ import scipy.spatial
 
 from frcontrol.errors import InputError
 from frcontrol.kernel import backend, extension_function, twin
-from frcontrol.solvers import Fallback, InequalityLPs, LPResult, SolverSettings, lp_check, solve_lp_prepared
+from frcontrol.solvers import (
+    DoorOptions,
+    Fallback,
+    InequalityLPs,
+    LPResult,
+    SolverSettings,
+    lp_check,
+    solve_lp_prepared,
+)
 
 __all__ = [
     "CHEBYSHEV_RADIUS_CAP",
@@ -134,8 +142,8 @@ def max_margin(rows: np.ndarray, rhs: np.ndarray, *, settings: SolverSettings, f
     if A_eq is not None and A_eq.shape[0]:
         A = np.zeros((A_eq.shape[0], d + 1))
         A[:, :d] = A_eq
-        return solve_lp_prepared(cost, rows, rhs, A, b_eq, lb, ub, settings=settings, fallback=fallback,
-                                 check=backend().lp_check)
+        return solve_lp_prepared(cost, rows, rhs, A, b_eq, lb, ub,
+                                 door=DoorOptions(settings, fallback=fallback, check=backend().lp_check))
     lps = InequalityLPs(settings=settings, fallback=fallback, check=backend().lp_check)
     return lps.solve(cost, rows, rhs, lb, ub)
 

@@ -100,7 +100,7 @@ from scipy.linalg.lapack import dgesv
 
 from frcontrol.errors import InputError
 from frcontrol.kernel import backend, compiled, twin
-from frcontrol.solvers import REFERENCE_LP_SOLVER, RETRY_ERRORS, SolverSettings, solve_lp
+from frcontrol.solvers import REFERENCE_LP_SOLVER, RETRY_ERRORS, DoorOptions, SolverSettings, solve_lp
 
 __all__ = [
     "ENUMERATION_MAX_SIZE",
@@ -130,6 +130,9 @@ SUPPORT_LP_SETTINGS = SolverSettings(lp=REFERENCE_LP_SOLVER)
 minimum-norm point fails: the point of least ``sum(z)``): HiGHS, the reference back-end, whose
 simplex answers a vertex; through the door (its residual check), an error retried on DAQP
 (:data:`frcontrol.solvers.RETRY_ERRORS`)."""
+
+_SUPPORT_LP_DOOR = DoorOptions(SUPPORT_LP_SETTINGS, fallback=RETRY_ERRORS)
+"""How the support LP is solved: :data:`SUPPORT_LP_SETTINGS`, an error retried."""
 
 LCP_TOLERANCE: float = 1e-9
 """Relative bound on the natural-map residual ``|min(z_i, w_i)|`` of an accepted LCP solution.
@@ -736,8 +739,7 @@ def _support_candidate(
         block,
         -q[alpha],
         lb=0.0,
-        settings=SUPPORT_LP_SETTINGS,
-        fallback=RETRY_ERRORS,
+        door=_SUPPORT_LP_DOOR,
     )
     if lp.found and lp.x is not None:
         z[alpha] = lp.x

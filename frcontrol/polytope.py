@@ -55,6 +55,7 @@ from frcontrol.geometry import (
 )
 from frcontrol.kernel import Backend, backend, extension_function, twin
 from frcontrol.solvers import (
+    DoorOptions,
     InequalityLPs,
     LPResult,
     SolverSettings,
@@ -435,8 +436,8 @@ def support(P: Polytope, direction: Any, *, solver: str | None = None,
     c = _vector("direction", direction, P.dim)
     A_eq = P.A_eq if P.A_eq.shape[0] else None
     b_eq = P.b_eq if P.A_eq.shape[0] else None
-    result = solve_lp_prepared(-c, P.A, P.b, A_eq, b_eq, solver=solver, settings=settings, fallback=_LP,
-                               check=backend().lp_check)
+    door = DoorOptions(settings_from(solver, settings), fallback=_LP, check=backend().lp_check)
+    result = solve_lp_prepared(-c, P.A, P.b, A_eq, b_eq, door=door)
     if result.status == "infeasible":
         return -np.inf
     if result.status == "unbounded":

@@ -105,7 +105,7 @@ from .kernel import backend
 from .modes import ContactProblem, add_scene_modes, build_mode_system
 from .response import AmbiguousOutputs, solve_affine
 from .scene import INPUT_LIMIT_SLACK, InputValues, Scene, input_vector
-from .solvers import SolverFailed, SolverSettings, must_solve, settings_from, solve_lp
+from .solvers import DoorOptions, SolverFailed, SolverSettings, must_solve, settings_from, solve_lp
 
 __all__ = [
     "BodyLoad",
@@ -509,6 +509,11 @@ def _lp_settings(settings: SolverSettings) -> SolverSettings:
     return settings.with_options("daqp", primal_tol=DAQP_PRIMAL_TOLERANCE)
 
 
+def _lp_door(settings: SolverSettings) -> DoorOptions:
+    """How a statics LP is solved: :func:`_lp_settings`, :data:`_STATICS_LP`, the kernel's check."""
+    return DoorOptions(_lp_settings(settings), fallback=_STATICS_LP, check=backend().lp_check)
+
+
 def _rank(matrix: np.ndarray, *, normalise_rows: bool = False) -> int:
     if matrix.size == 0:
         return 0
@@ -574,8 +579,7 @@ def _closure(body: StaticBody, kind: ClosureKind, settings: SolverSettings) -> C
     lb = np.concatenate([np.zeros(p), [-np.inf]])
     ub = np.concatenate([np.full(p, np.inf), [1.0]])
     result = solve_lp(cost, A_ub=A_ub, b_ub=np.zeros(p), A_eq=A_eq, b_eq=b_eq, lb=lb, ub=ub,
-        settings=_lp_settings(settings),
-        fallback=_STATICS_LP, check=backend().lp_check)
+                      door=_lp_door(settings))
     s_star = float(result.x[-1]) if result.x is not None else float("nan")
     closed = bool(rank == 3 and result.found and s_star > CLOSURE_TOLERANCE)
     margin, direction = 0.0, None
@@ -666,9 +670,7 @@ def _phase_one(A: np.ndarray, b: np.ndarray, C: np.ndarray, settings: SolverSett
     ])
     b_ub = np.concatenate([b, -b, np.zeros(C.shape[0])])
     lb = np.concatenate([np.full(nv, -np.inf), [0.0]])
-    result = solve_lp(cost, A_ub=A_ub, b_ub=b_ub, lb=lb,
-        settings=_lp_settings(settings),
-        fallback=_STATICS_LP, check=backend().lp_check)
+    result = solve_lp(cost, A_ub=A_ub, b_ub=b_ub, lb=lb, door=_lp_door(settings))
     if result.x is None:
         raise SolverFailed("the equilibrium phase-one LP", {result.solver: result.raw_status})
     return max(float(result.x[-1]), 0.0), result.x[:-1]
@@ -713,9 +715,8 @@ def static_equilibrium(
     A_ub = np.hstack([C, force_scale * strict[:, None].astype(float)])
     lb = np.concatenate([np.full(nv, -np.inf), [0.0]])
     ub = np.concatenate([np.full(nv, np.inf), [1.0]])
-    interior = solve_lp(cost, A_ub=A_ub, b_ub=np.zeros(m), A_eq=np.hstack([G, np.zeros((3, 1))]),
-                        b_eq=-w, lb=lb, ub=ub, settings=_lp_settings(settings),
-        fallback=_STATICS_LP, check=backend().lp_check)
+    interior = solve_lp(cost, A_ub=A_ub, b_ub=np.zeros(m), A_eq=np.hstack([G, np.zeros((3, 1))]), b_eq=-w,
+                        lb=lb, ub=ub, door=_lp_door(settings))
     if interior.x is not None:
         lam = interior.x[:nv]
         slack = float(interior.x[-1]) * force_scale if np.any(strict) else 0.0
@@ -749,8 +750,7 @@ def _strict_cone_rows(G: np.ndarray, w: np.ndarray, C: np.ndarray, force_scale: 
     lb = np.concatenate([np.full(nv, -np.inf), [1.0], np.zeros(m)])
     ub = np.concatenate([np.full(nv + 1, np.inf), np.ones(m)])
     frt = solve_lp(cost, A_ub=A_ub, b_ub=np.zeros(m), A_eq=A_eq, b_eq=np.zeros(3), lb=lb, ub=ub,
-        settings=_lp_settings(settings),
-        fallback=_STATICS_LP, check=backend().lp_check)
+                   door=_lp_door(settings))
     if frt.x is not None:
         return frt.x[nv + 1:] > IMPLICIT_SLACK_THRESHOLD
     return np.zeros(m, dtype=bool)
@@ -768,9 +768,7 @@ def _force_ranges(G: np.ndarray, w: np.ndarray, C: np.ndarray, lam: np.ndarray,
         for side, sign in ((0, 1.0), (1, -1.0)):
             cost = np.zeros(nv)
             cost[j] = sign
-            res = solve_lp(cost, A_ub=C, b_ub=np.zeros(m), A_eq=G, b_eq=-w,
-                settings=_lp_settings(settings),
-        fallback=_STATICS_LP, check=backend().lp_check)
+            res = solve_lp(cost, A_ub=C, b_ub=np.zeros(m), A_eq=G, b_eq=-w, door=_lp_door(settings))
             if res.status == "unbounded":
                 bounds[j, side] = -sign * np.inf
             elif res.found:
@@ -873,9 +871,7 @@ def support_region(
     for sign in (1.0, -1.0):
         cost = np.zeros(nvar)
         cost[0] = sign
-        res = solve_lp(cost, A_ub=C, b_ub=np.zeros(C.shape[0]), A_eq=A, b_eq=b,
-            settings=_lp_settings(settings),
-        fallback=_STATICS_LP, check=backend().lp_check)
+        res = solve_lp(cost, A_ub=C, b_ub=np.zeros(C.shape[0]), A_eq=A, b_eq=b, door=_lp_door(settings))
         if res.status == "infeasible":
             feasible = False
             break
@@ -1031,8 +1027,7 @@ def _dv_range_over_ambiguity(problem: Any, mode: str, u: np.ndarray, settings: S
             for sign in (1.0, -1.0):
                 cost = sign * response.X_w[j]
                 res = solve_lp(cost, A_ub=H_w, b_ub=h + relax, lb=np.full(p, -np.inf),
-                    settings=_lp_settings(settings),
-        fallback=_STATICS_LP, check=backend().lp_check)
+                               door=_lp_door(settings))
                 if res.status == "infeasible":
                     empty = True
                     break

@@ -12,6 +12,7 @@ import pytest
 
 from frcontrol.kernel import compiled
 from frcontrol.scene import shipped_robots_dir
+from frcontrol.solvers import NO_FALLBACK, DoorOptions, Fallback, settings_from
 
 ROBOTS = shipped_robots_dir()
 
@@ -21,6 +22,11 @@ needs_kernel = pytest.mark.skipif(
            "runs, and every other test checks it")
 """For tests of the compiled kernel: they skip outside CI where it is not built; in CI they run (and
 fail without it, as tests/test_kernel.py::test_the_extension_is_built_in_ci does)."""
+
+
+def on(solver: str, fallback: Fallback = NO_FALLBACK, **options: object) -> DoorOptions:
+    """The LP door's options for back-end ``solver`` with its ``options`` and ``fallback``."""
+    return DoorOptions(settings_from(solver).with_options(solver, **options), fallback=fallback)
 
 
 MIN_CHECKED_FRACTION = 0.5

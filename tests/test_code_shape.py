@@ -240,13 +240,6 @@ MAX_PARAMETERS = 8
 """The most parameters a public function of frcontrol/ or cli/ takes (positional and keyword-only,
 ``self``/``cls`` aside; ``*args``/``**kwargs`` aside): group options in a frozen settings dataclass."""
 
-PARAMETERS_IN_REWORK = frozenset({
-    "frcontrol/solvers/__init__.py::solve_lp",
-    "frcontrol/solvers/__init__.py::solve_qp",
-})
-"""Functions under rework now (the LP door) allowed more: to shrink to empty."""
-
-
 def parameter_counts(path: Path, root: Path = ROOT) -> dict[str, int]:
     """``"path::qualified name" -> parameters`` of every public function and method of one file.
 
@@ -293,18 +286,15 @@ def typer_commands() -> set[str]:
 
 def test_no_public_function_takes_too_many_parameters():
     """Typer command functions (registered with the app, :func:`typer_commands`) are exempt: Typer
-    declares one parameter per command-line option. :data:`PARAMETERS_IN_REWORK` are allowed until
-    their rework lands."""
+    declares one parameter per command-line option. No other exception."""
     counts = {key: n for package in PACKAGES for path in sorted((ROOT / package).rglob("*.py"))
               for key, n in parameter_counts(path).items()}
     commands = typer_commands()
     assert len(commands & set(counts)) >= 14, sorted(commands)  # the app's callback is private
     too_many = {key: n for key, n in counts.items()
-                if n > MAX_PARAMETERS and key not in commands and key not in PARAMETERS_IN_REWORK}
+                if n > MAX_PARAMETERS and key not in commands}
     assert not too_many, (f"public functions over {MAX_PARAMETERS} parameters (group options in a frozen "
                           f"settings dataclass): {dict(sorted(too_many.items()))}")
-    stale = {key for key in PARAMETERS_IN_REWORK if counts.get(key, 0) <= MAX_PARAMETERS}
-    assert not stale, f"drop from PARAMETERS_IN_REWORK (now within the limit, or gone): {sorted(stale)}"
 
 
 def test_parameters_are_counted_as_the_rule_says(tmp_path):

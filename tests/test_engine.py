@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import ROBOTS, counted, rod_scene, tally
+from conftest import ROBOTS, counted, on, rod_scene, tally
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -416,7 +416,7 @@ def test_projection_membership_matches_an_lp_on_the_domain(name, data):
     m = problem.m
     H_w, h_w = D.A[:, m:], D.b - D.A[:, :m] @ u
     eq_ok = D.A_eq.shape[0] == 0 or np.abs(D.A_eq[:, :m] @ u - D.b_eq).max() <= 1e-7
-    lp = solve_lp(np.zeros(H_w.shape[1]), H_w, h_w + 1e-9, solver="highs")
+    lp = solve_lp(np.zeros(H_w.shape[1]), H_w, h_w + 1e-9, door=on("highs"))
     has_w = bool(eq_ok and lp.found)
     # points within 1e-6 of the boundary may go either way
     margin = _distance_to_boundary(mode.input_domain, u)

@@ -30,7 +30,7 @@ from frcontrol.planning.flip import (
 from frcontrol.planning.flip_loop import simulate_flip
 from frcontrol.polytope import Polytope, chebyshev_ball
 from frcontrol.scene import load_scene, resolve_scene_path
-from frcontrol.solvers import solve_qp
+from frcontrol.solvers import qp_problem, solve_qp
 
 runner = CliRunner()
 PITCH = 2  # theta's index in RHex's coordinates (x, y, theta, hip_middle, hip_rear)
@@ -83,7 +83,7 @@ def distance_to(T, p):
     """Euclidean distance from p to the polytope T (a QP with HiGHS: independent of the planner)."""
     A_eq = T.A_eq if T.A_eq.shape[0] else None
     b_eq = T.b_eq if T.A_eq.shape[0] else None
-    result = solve_qp(np.eye(2), -p, T.A, T.b, A_eq, b_eq, solver="highs")
+    result = solve_qp(qp_problem(np.eye(2), -p, T.A, T.b, A_eq, b_eq), solver="highs")
     assert result.found, result.status
     return float(np.linalg.norm(result.x - p))
 

@@ -7,7 +7,7 @@ import re
 
 import numpy as np
 import pytest
-from conftest import counted, tally
+from conftest import counted, on, tally
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -66,7 +66,7 @@ def random_polytope(rng, d, m, *, offset=0.0, extra=""):
         rhs.append(far @ x0 + 50.0 * np.linalg.norm(far, axis=1))
     P = Polytope(np.vstack(rows), np.concatenate(rhs))
     if "weak" in extra:  # rows through a vertex: weakly redundant
-        res = solve_lp(rng.standard_normal(d), P.A, P.b, solver=REF)
+        res = solve_lp(rng.standard_normal(d), P.A, P.b, door=on(REF))
         if res.found:
             vertex = res.x
             weak = rng.standard_normal((2, d))
@@ -265,7 +265,7 @@ def test_minimal_representation_with_equalities_brute_force():
     for trial in range(6):
         d = 3 + trial % 4
         P = random_polytope(rng, d, 3 * d, extra="dup")
-        x0 = solve_lp(np.zeros(d), P.A, P.b, solver=REF).x
+        x0 = solve_lp(np.zeros(d), P.A, P.b, door=on(REF)).x
         A_eq = rng.standard_normal((1 + trial % 2, d))
         P = Polytope(P.A, P.b, A_eq, A_eq @ x0)
         minimal = minimal_representation(P)
@@ -308,7 +308,7 @@ def test_projection_support_functions():
         with_equality = (d + eliminated) % 3 == 0
         P = random_polytope(rng, d, 2 * d + 2, offset=1.0)
         if with_equality:
-            x0 = solve_lp(np.zeros(d), P.A, P.b, solver=REF).x
+            x0 = solve_lp(np.zeros(d), P.A, P.b, door=on(REF)).x
             a = rng.standard_normal((1, d))
             P = Polytope(P.A, P.b, a, a @ x0)
         keep = sorted(rng.choice(d, d - eliminated, replace=False).tolist())
@@ -438,11 +438,11 @@ def test_projection_agrees_with_lp_feasibility(P, coords, keep_first):
     y = x[keep]
     if strictly_inside(shadow, y, margin=1e-6):  # a point of the shadow lifts into P
         tally().check()
-        lift = solve_lp(np.zeros(d), P.A, P.b, np.eye(d)[keep], y, solver=REF)
+        lift = solve_lp(np.zeros(d), P.A, P.b, np.eye(d)[keep], y, door=on(REF))
         assert lift.found
     elif not contains(shadow, y, tolerance=1e-6):
         tally().check()
-        lift = solve_lp(np.zeros(d), P.A, P.b, np.eye(d)[keep], y, solver=REF)
+        lift = solve_lp(np.zeros(d), P.A, P.b, np.eye(d)[keep], y, door=on(REF))
         assert not lift.found
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import on
 
 from frcontrol import polytope as poly
 from frcontrol.engine import analyze
@@ -66,7 +67,7 @@ def test_every_certificate_is_an_implication(certificates):
     for unit, offsets, implied in certificates:
         for i, pairs in implied.items():
             j, k = pairs[0]
-            bound = solve_lp(-unit[i], unit[[j, k]], offsets[[j, k]], solver="highs")
+            bound = solve_lp(-unit[i], unit[[j, k]], offsets[[j, k]], door=on("highs"))
             assert bound.status in ("optimal", "unbounded")
             if bound.status == "optimal":  # two rows bound a direction only when it is their cone's
                 assert -bound.objective <= offsets[i] + poly.REDUNDANCY_TOLERANCE + 1e-9

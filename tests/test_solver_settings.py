@@ -21,6 +21,7 @@ from frcontrol.scene import load_scene
 from frcontrol.solvers import (
     DEFAULT_SETTINGS,
     FEASIBILITY_TOLERANCE,
+    DoorOptions,
     InequalityLPs,
     SolverSettings,
     settings_from,
@@ -58,7 +59,7 @@ def test_the_residual_tolerance_and_the_options_reach_the_back_end():
     tight = SolverSettings(feasibility_tolerance=1e-9)
 
     def general(settings: SolverSettings) -> solvers.LPResult:
-        return solve_lp(c, A, b, settings=settings)
+        return solve_lp(c, A, b, door=DoorOptions(settings))
 
     def lean(settings: SolverSettings) -> solvers.LPResult:
         return InequalityLPs(settings=settings).solve(c, A, b)
@@ -69,7 +70,27 @@ def test_the_residual_tolerance_and_the_options_reach_the_back_end():
         scale = default.residual_tolerance / FEASIBILITY_TOLERANCE
         assert strict.residual_tolerance == pytest.approx(1e-9 * scale, rel=1e-12)
     with pytest.raises(InputError, match="unknown DAQP option"):
-        solve_lp(c, A, b, settings=SolverSettings().with_options("daqp", no_such_option=1.0))
+        solve_lp(c, A, b, door=DoorOptions(SolverSettings().with_options("daqp", no_such_option=1.0)))
+
+
+def test_the_door_takes_its_keywords_as_one_checked_record():
+    """``door=`` is a DoorOptions whose fields have their types; the QP door takes a built QP."""
+    A, b, c = np.vstack([np.eye(2), -np.eye(2)]), np.ones(4), np.array([-1.0, -1.0])
+    with pytest.raises(InputError, match="door must be a DoorOptions"):
+        solve_lp(c, A, b, door=SolverSettings())  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="DoorOptions.settings must be a SolverSettings"):
+        DoorOptions("highs")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="DoorOptions.fallback must be a Fallback"):
+        DoorOptions(fallback="retry")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="DoorOptions.check must be a residual check"):
+        DoorOptions(check=None)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="solve_qp takes the problem that qp_problem"):
+        solvers.solve_qp(solvers.lp_problem(c, A, b))  # type: ignore[arg-type]
+    with pytest.raises(dataclasses.FrozenInstanceError, match="fallback"):
+        solvers.DEFAULT_DOOR.fallback = solvers.RETRY_ERRORS  # type: ignore[misc]
+    highs = DoorOptions(SolverSettings(lp="highs"), check=backend().lp_check)
+    assert solve_lp(c, A, b, door=highs).solver == "highs"
+    assert solvers.solve_lp_prepared(c, A, b, door=highs).solver == "highs"
 
 
 def test_analyze_and_polytopes_answer_alike_with_a_name_or_settings():

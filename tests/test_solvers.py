@@ -8,6 +8,7 @@ import re
 import daqp
 import numpy as np
 import pytest
+from conftest import on
 
 import frcontrol.solvers as solvers
 from frcontrol.errors import InputError, SolverNotFound
@@ -16,6 +17,7 @@ from frcontrol.solvers import (
     LPResult,
     RawSolution,
     available_solvers,
+    qp_problem,
     solve_lp,
     solve_qp,
 )
@@ -55,7 +57,7 @@ def test_backend_matches_highs_on_random_feasible_lps(solver, d, m):
     rng = np.random.default_rng(1000 * d + m)
     for _ in range(10):
         lp = random_feasible_lp(rng, d, m)
-        check_against_reference(solve_lp(**lp, solver=solver), solve_lp(**lp, solver="highs"))
+        check_against_reference(solve_lp(**lp, door=on(solver)), solve_lp(**lp, door=on("highs")))
 
 
 @pytest.mark.parametrize("solver", OTHERS)
@@ -63,13 +65,13 @@ def test_backend_matches_highs_with_equalities(solver):
     rng = np.random.default_rng(7)
     for trial in range(30):
         lp = random_feasible_lp(rng, 6 + trial % 5, 20, m_eq=1 + trial % 3)
-        check_against_reference(solve_lp(**lp, solver=solver), solve_lp(**lp, solver="highs"))
+        check_against_reference(solve_lp(**lp, door=on(solver)), solve_lp(**lp, door=on("highs")))
 
 
 @pytest.mark.parametrize("solver", BACKENDS)
 def test_simplex_with_equality_regression(solver):
     """daqp 0.11 with sense=5 equalities in LP mode says 'unbounded' here (optimum (0, 1))."""
-    result = solve_lp([-1.0, -2.0], A_eq=[[1.0, 1.0]], b_eq=[1.0], lb=0.0, solver=solver)
+    result = solve_lp([-1.0, -2.0], A_eq=[[1.0, 1.0]], b_eq=[1.0], lb=0.0, door=on(solver))
     assert result.found
     np.testing.assert_allclose(result.x, [0.0, 1.0], atol=1e-6)
     assert abs(result.objective + 2.0) <= 1e-6
@@ -80,7 +82,7 @@ def test_box_lp_closed_form(solver):
     """min c.x over a box: x_i = lb_i where c_i > 0, ub_i where c_i < 0."""
     c = np.array([1.0, -2.0, 0.5, -0.1])
     lb, ub = np.array([-1.0, -2.0, 0.0, 3.0]), np.array([1.0, 2.0, 5.0, 4.0])
-    result = solve_lp(c, lb=lb, ub=ub, solver=solver)
+    result = solve_lp(c, lb=lb, ub=ub, door=on(solver))
     np.testing.assert_allclose(result.x, np.where(c > 0, lb, ub), atol=1e-7)
     assert result.objective == pytest.approx(c @ np.where(c > 0, lb, ub), abs=1e-7)
 
@@ -106,7 +108,7 @@ def unbounded_lp(rng, d, m):
 def test_infeasible_lps(solver):
     rng = np.random.default_rng(3)
     for _ in range(4):
-        result = solve_lp(**infeasible_lp(rng, 6, 20), solver=solver)
+        result = solve_lp(**infeasible_lp(rng, 6, 20), door=on(solver))
         assert not result.found
         assert result.x is None and result.objective == np.inf
         assert result.status == "infeasible", result.raw_status
@@ -117,8 +119,8 @@ def test_unbounded_lps(solver):
     rng = np.random.default_rng(4)
     for _ in range(3):
         lp = unbounded_lp(rng, 6, 20)
-        assert solve_lp(**lp, solver="highs").status == "unbounded"
-        result = solve_lp(**lp, solver=solver)
+        assert solve_lp(**lp, door=on("highs")).status == "unbounded"
+        result = solve_lp(**lp, door=on(solver))
         assert not result.found and result.x is None
         if solver == "proxsuite":
             # ProxQP does not detect unboundedness on these: it stops on its iteration limit
@@ -152,10 +154,10 @@ def test_non_contiguous_input_through_the_door_matches_highs():
     assert flag_strided == 1
     assert abs(f_strided - f_copied) > 1e-3  # a wrong optimum with a success flag
 
-    reference = solve_lp(c, A, b, lb=-1.0, ub=1.0, solver="highs")
+    reference = solve_lp(c, A, b, lb=-1.0, ub=1.0, door=on("highs"))
     for solver in BACKENDS:
-        check_against_reference(solve_lp(c, A, b, lb=-1.0, ub=1.0, solver=solver), reference)
-        assert abs(solve_lp(c, A, b, lb=-1, ub=1, solver=solver).objective - f_copied) < 1e-6
+        check_against_reference(solve_lp(c, A, b, lb=-1.0, ub=1.0, door=on(solver)), reference)
+        assert abs(solve_lp(c, A, b, lb=-1, ub=1, door=on(solver)).objective - f_copied) < 1e-6
 
 
 def badly_scaled_lp(rng, d=8, m=20):
@@ -187,9 +189,9 @@ def test_proxsuite_lp_failures_are_never_wrong_answers(settings, record_property
     failures = checked = 0
     for _ in range(30):
         lp = badly_scaled_lp(rng)
-        reference = solve_lp(**lp, solver="highs")
+        reference = solve_lp(**lp, door=on("highs"))
         assert reference.found, reference.raw_status
-        result = solve_lp(**lp, solver="proxsuite", **settings)
+        result = solve_lp(**lp, door=on("proxsuite", **settings))
         if result.found:
             check_against_reference(result, reference)
             checked += 1
@@ -208,9 +210,9 @@ def test_proxsuite_lp_failures_are_never_wrong_answers(settings, record_property
 def test_proxsuite_duality_gap_is_checked():
     """ProxQP's default termination stops at x1 + x2 = 0.9 here (objective wrong by 10 %)."""
     lp = dict(c=[-1.0, -1.0], A_ub=[[1.0, 1.0]], b_ub=[1.0])
-    loose = solve_lp(**lp, solver="proxsuite", **PROXQP_OWN_DEFAULTS)
+    loose = solve_lp(**lp, door=on("proxsuite", **PROXQP_OWN_DEFAULTS))
     assert loose.found and loose.objective > -0.95  # the wrong answer, with a success flag
-    tight = solve_lp(**lp, solver="proxsuite")
+    tight = solve_lp(**lp, door=on("proxsuite"))
     assert tight.found and tight.objective == pytest.approx(-1.0, abs=1e-7)
 
 
@@ -219,7 +221,7 @@ def test_door_rejects_an_optimum_it_cannot_verify(monkeypatch):
         return RawSolution("optimal", np.full(problem.n, 10.0), "liar says optimal")
 
     monkeypatch.setitem(solvers._LP_SOLVERS, "liar", liar)
-    result = solve_lp([1.0, 1.0], [[1.0, 0.0]], [1.0], solver="liar")
+    result = solve_lp([1.0, 1.0], [[1.0, 0.0]], [1.0], door=on("liar"))
     assert result.status == "error" and not result.found
     assert result.primal_residual == pytest.approx(9.0)
     assert "rejected" in result.raw_status
@@ -240,7 +242,7 @@ def test_qp_backends_against_closed_form():
     x_star, multiplier = kkt[:3], kkt[4]
     assert multiplier > 0  # the inequality really is active
     for solver in BACKENDS:
-        result = solve_qp(P, q, a[None], [0.2], A_eq, b_eq, solver=solver)
+        result = solve_qp(qp_problem(P, q, a[None], [0.2], A_eq, b_eq), solver=solver)
         assert result.found, (solver, result.raw_status)
         np.testing.assert_allclose(result.x, x_star, atol=1e-6, err_msg=solver)
         expected = 0.5 * x_star @ P @ x_star + q @ x_star
@@ -255,11 +257,11 @@ def test_qp_projection_onto_halfspace_and_box():
         b = 0.1
         x_star = y - max(0.0, a @ y - b) / (a @ a) * a  # projection onto a.x <= b
         for solver in BACKENDS:
-            result = solve_qp(np.eye(4), -y, a[None], [b], solver=solver)
+            result = solve_qp(qp_problem(np.eye(4), -y, a[None], [b]), solver=solver)
             np.testing.assert_allclose(result.x, x_star, atol=1e-5, err_msg=solver)
         boxed = np.clip(y, -1, 1)
         for solver in BACKENDS:
-            result = solve_qp(np.eye(4), -y, lb=-1, ub=1, solver=solver)
+            result = solve_qp(qp_problem(np.eye(4), -y, lb=-1, ub=1), solver=solver)
             np.testing.assert_allclose(result.x, boxed, atol=1e-5, err_msg=solver)
 
 
@@ -297,20 +299,20 @@ def test_malformed_lp_input_raises(kwargs, message):
 
 def test_malformed_qp_input_raises():
     with pytest.raises(InputError, match="symmetric"):
-        solve_qp([[1.0, 1.0], [0.0, 1.0]], [0.0, 0.0])
+        qp_problem([[1.0, 1.0], [0.0, 1.0]], [0.0, 0.0])
     with pytest.raises(InputError, match="semi-definite"):
-        solve_qp([[1.0, 0.0], [0.0, -1.0]], [0.0, 0.0])
+        qp_problem([[1.0, 0.0], [0.0, -1.0]], [0.0, 0.0])
     with pytest.raises(InputError, match=re.escape("P must be a finite (2, 2) matrix")):
-        solve_qp(np.eye(3), [0.0, 0.0])
+        qp_problem(np.eye(3), [0.0, 0.0])
 
 
 def test_unknown_solver_and_option():
     with pytest.raises(SolverNotFound, match="solver 'gurobi' is not available") as caught:
-        solve_lp([1.0], solver="gurobi")
+        solve_lp([1.0], door=on("gurobi"))
     assert caught.value.available == BACKENDS
     for solver in BACKENDS:
         with pytest.raises(InputError, match="no_such_option_xyz"):
-            solve_lp([1.0], lb=0.0, solver=solver, no_such_option_xyz=1)
+            solve_lp([1.0], lb=0.0, door=on(solver, no_such_option_xyz=1))
 
 
 def test_results_are_frozen_and_timed():
@@ -359,11 +361,11 @@ HIGHS_UNKNOWN_C = np.array(
 @pytest.mark.skipif("highs" not in BACKENDS, reason="highspy not installed")
 def test_highs_unknown_status_is_retried():
     """HiGHS's dual simplex ends on 'Unknown' here; the adapter retries with another algorithm."""
-    reference = solve_lp(HIGHS_UNKNOWN_C, HIGHS_UNKNOWN_A, HIGHS_UNKNOWN_B, solver="highs")
+    reference = solve_lp(HIGHS_UNKNOWN_C, HIGHS_UNKNOWN_A, HIGHS_UNKNOWN_B, door=on("highs"))
     assert reference.found, reference.raw_status
     for solver in OTHERS:
         check_against_reference(
-            solve_lp(HIGHS_UNKNOWN_C, HIGHS_UNKNOWN_A, HIGHS_UNKNOWN_B, solver=solver), reference
+            solve_lp(HIGHS_UNKNOWN_C, HIGHS_UNKNOWN_A, HIGHS_UNKNOWN_B, door=on(solver)), reference
         )
 
 
@@ -384,12 +386,12 @@ PRESOLVE_C = np.array([0.5188, -0.6042, 0.6048])
 
 @pytest.mark.skipif("highs" not in BACKENDS, reason="highspy not installed")
 def test_highs_infeasible_verdict_is_confirmed_without_presolve():
-    feasible = solve_lp(np.zeros(3), PRESOLVE_A, PRESOLVE_B, solver="highs")
+    feasible = solve_lp(np.zeros(3), PRESOLVE_A, PRESOLVE_B, door=on("highs"))
     assert feasible.found  # the rows are consistent
-    result = solve_lp(PRESOLVE_C, PRESOLVE_A, PRESOLVE_B, solver="highs")
+    result = solve_lp(PRESOLVE_C, PRESOLVE_A, PRESOLVE_B, door=on("highs"))
     assert result.status == "unbounded", result.raw_status
     for solver in OTHERS:
-        assert solve_lp(PRESOLVE_C, PRESOLVE_A, PRESOLVE_B, solver=solver).status == "unbounded"
+        assert solve_lp(PRESOLVE_C, PRESOLVE_A, PRESOLVE_B, door=on(solver)).status == "unbounded"
 
 
 @pytest.mark.slow
@@ -426,11 +428,11 @@ def test_fallback_asks_the_other_back_end_after_a_real_failure():
     from frcontrol.solvers import NO_FALLBACK, RETRY_ERRORS
 
     c, A, b = _lp()
-    failed = solve_lp(c, A, b, solver="daqp", iter_limit=1, fallback=NO_FALLBACK)
+    failed = solve_lp(c, A, b, door=on("daqp", NO_FALLBACK, iter_limit=1))
     assert failed.status == "error" and failed.solver == "daqp"
-    rescued = solve_lp(c, A, b, solver="daqp", iter_limit=1, fallback=RETRY_ERRORS)
+    rescued = solve_lp(c, A, b, door=on("daqp", RETRY_ERRORS, iter_limit=1))
     assert rescued.status == "optimal" and rescued.solver == "highs"
-    reference = solve_lp(c, A, b, solver="daqp")
+    reference = solve_lp(c, A, b, door=on("daqp"))
     np.testing.assert_allclose(rescued.x, reference.x, atol=1e-7)
     assert rescued.primal_residual <= rescued.residual_tolerance
 
@@ -445,9 +447,9 @@ def test_must_solve_raises_naming_the_computation_and_every_status():
     only_optima = Fallback(retry_on=frozenset({"infeasible"}), accept=frozenset({"optimal"}),
                            failure="the test LP")
     with pytest.raises(SolverFailed, match=r"the test LP failed with every back-end tried") as info:
-        solve_lp(c, *x_le_minus_1_and_x_ge_0, solver="daqp", fallback=only_optima)
+        solve_lp(c, *x_le_minus_1_and_x_ge_0, door=on("daqp", only_optima))
     assert set(info.value.statuses) == {"daqp", "highs"}
-    answer = solve_lp(c, A, b, solver="daqp", iter_limit=1, fallback=must_solve("the test LP"))
+    answer = solve_lp(c, A, b, door=on("daqp", must_solve("the test LP"), iter_limit=1))
     assert answer.found and answer.solver == "highs"
 
 
@@ -455,9 +457,9 @@ def test_the_reference_back_end_falls_back_to_the_default():
     from frcontrol.solvers import DEFAULT_LP_SOLVER, REFERENCE_LP_SOLVER, RETRY_ERRORS
 
     c, A, b = _lp(2)
-    failed = solve_lp(c, A, b, solver=REFERENCE_LP_SOLVER, time_limit=0.0)
+    failed = solve_lp(c, A, b, door=on(REFERENCE_LP_SOLVER, time_limit=0.0))
     assert failed.status == "error"
-    rescued = solve_lp(c, A, b, solver=REFERENCE_LP_SOLVER, time_limit=0.0, fallback=RETRY_ERRORS)
+    rescued = solve_lp(c, A, b, door=on(REFERENCE_LP_SOLVER, RETRY_ERRORS, time_limit=0.0))
     assert rescued.found and rescued.solver == DEFAULT_LP_SOLVER
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import typer
-from conftest import ROBOTS
+from conftest import ROBOTS, on
 from typer.testing import CliRunner
 
 from frcontrol import polytope as poly
@@ -326,7 +326,7 @@ def test_four_well_placed_contacts_are_in_form_closure_with_the_closed_form_marg
         result = solve_lp(np.concatenate([np.zeros(p), [-1.0]]),
                           A_eq=np.vstack([np.hstack([W, -d[:, None]]), np.concatenate([np.ones(p), [0.0]])]),
                           b_eq=np.array([0.0, 0.0, 0.0, 1.0]), lb=np.concatenate([np.zeros(p), [0.0]]),
-                          solver="highs")
+                          door=on("highs"))
         assert result.x[-1] >= closure.margin - 1e-9
     # with mu = 0 force closure is form closure
     frictionless = force_closure(body)
@@ -509,7 +509,7 @@ def lifted_support_lp(body, a, direction):
     A_ub[C.shape[0]:, 2 + k2:] = C
     cost = np.concatenate([-np.asarray(direction), np.zeros(2 * k2)])
     result = solve_lp(cost, A_ub, np.zeros(A_ub.shape[0]), np.vstack(A_eq), np.concatenate(b_eq),
-                      solver="highs")
+                      door=on("highs"))
     return -result.objective
 
 

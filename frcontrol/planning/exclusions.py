@@ -16,7 +16,14 @@ from ..engine import DOMAIN_TOLERANCE
 from ..geometry import constant_rows
 from ..modes import ContactProblem, ModeSystem, all_modes, build_mode_system
 from ..response import AffineSolution, solve_affine
-from ..solvers import CONFIRM_INFEASIBLE, DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
+from ..solvers import (
+    CONFIRM_INFEASIBLE,
+    DEFAULT_LP_SOLVER,
+    RETRY_ERRORS,
+    DoorOptions,
+    settings_from,
+    solve_lp,
+)
 
 __all__ = ["CONSTANT_ROW_TOLERANCE", "ROBUSTNESS_CAP", "ModeExclusion", "mode_exclusions", "mode_systems",
            "solve_confirmed"]
@@ -39,8 +46,8 @@ def solve_confirmed(c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray,
     infeasible one (a false "infeasible" would drop a plan, or claim that a mode is excluded).
     """
     A_eq, b_eq = (None, None) if equality is None else equality
-    return solve_lp(c, A_ub, b_ub, A_eq, b_eq, bounds[0], bounds[1], solver=solver,
-                    fallback=CONFIRM_INFEASIBLE if confirm else RETRY_ERRORS)
+    door = DoorOptions(settings_from(solver), fallback=CONFIRM_INFEASIBLE if confirm else RETRY_ERRORS)
+    return solve_lp(c, A_ub, b_ub, A_eq, b_eq, bounds[0], bounds[1], door=door)
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ from ..geometry import vertices_from_halfspaces
 from ..kernel import backend
 from ..modes import VELOCITY_TOLERANCE, ContactProblem
 from ..response import OUTPUT_TOLERANCE
-from ..solvers import DEFAULT_SETTINGS, RETRY_ERRORS, SolverSettings, solve_lp
+from ..solvers import DEFAULT_SETTINGS, RETRY_ERRORS, DoorOptions, SolverSettings, solve_lp
 from .core.pieces import margin_pieces, mode_allowed, shrunk_input_domain
 from .core.tolerances import TORQUE_ROUNDING
 
@@ -149,8 +149,8 @@ def worst_case_pitch(
         return -math.inf
     m = mode.m
     H_u, H_w = D.A[:, :m], D.A[:, m:]
-    result = solve_lp(c_w, H_w, D.b - H_u @ u, settings=settings, fallback=RETRY_ERRORS,
-                      check=backend().lp_check)
+    result = solve_lp(c_w, H_w, D.b - H_u @ u,
+                      door=DoorOptions(settings, fallback=RETRY_ERRORS, check=backend().lp_check))
     if not result.found:
         return -math.inf
     return base + float(result.objective)
@@ -172,8 +172,8 @@ def maximise_pitch(mode: ModeAnalysis, piece: poly.Polytope, pitch_index: int,
     """
     c_u, _, c_0, depends = pitch_row(mode, pitch_index)
     if not depends:
-        result = solve_lp(-c_u, piece.A, piece.b, settings=settings, fallback=RETRY_ERRORS,
-                          check=backend().lp_check)
+        result = solve_lp(-c_u, piece.A, piece.b,
+                          door=DoorOptions(settings, fallback=RETRY_ERRORS, check=backend().lp_check))
         if not result.found or result.x is None:
             return FlipPiece(mode.mode, piece, -math.inf, None, False)
         return FlipPiece(mode.mode, piece, float(c_u @ result.x) + c_0, result.x.copy(), False)
@@ -217,7 +217,8 @@ def candidate_bounds(analysis: DynamicResponse, candidates: Sequence[str], pitch
             bounds[name] = math.inf
             continue
         A, b = shrunk_input_domain(analysis, name, margin)
-        result = solve_lp(-c_u, A, b, settings=settings, fallback=RETRY_ERRORS, check=backend().lp_check)
+        result = solve_lp(-c_u, A, b,
+                          door=DoorOptions(settings, fallback=RETRY_ERRORS, check=backend().lp_check))
         bounds[name] = float(c_u @ result.x) + c_0 if result.x is not None else -math.inf
     return bounds
 

@@ -35,7 +35,7 @@ from ..geometry import row_norms
 from ..modes import build_mode_system
 from ..response import solve_affine
 from ..scene import Scene
-from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, solve_lp
+from ..solvers import DEFAULT_LP_SOLVER, RETRY_ERRORS, DoorOptions, settings_from, solve_lp
 from . import DEFAULT_CLIMB_MARGIN
 from .disturbances import (
     DisturbanceSet,
@@ -182,8 +182,8 @@ def tracking_step(scene: Scene, disturbances: DisturbanceSet, request: TrackingR
     cost = np.concatenate([np.zeros(m_u), np.ones(n), [ROBUSTNESS_PENALTY]])
     lb = np.concatenate([scene.inputs.lower, np.zeros(n + 1)])
     ub = np.concatenate([scene.inputs.upper, np.full(n + 1, np.inf)])
-    result = solve_lp(cost, np.vstack(rows), np.concatenate(rhs), None, None, lb, ub, solver=solver,
-                      fallback=RETRY_ERRORS)
+    result = solve_lp(cost, np.vstack(rows), np.concatenate(rhs), None, None, lb, ub,
+                      door=DoorOptions(settings_from(solver), fallback=RETRY_ERRORS))
     if not result.found or result.x is None:
         raise InputError(f"the gait's tracking LP found no torques in mode {mode}: {result.status}")
     u = result.x[:m_u]

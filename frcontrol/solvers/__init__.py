@@ -6,18 +6,20 @@ r"""One door for linear programs and small quadratic programs, several back-ends
     \text{QP:}\quad \min_x \tfrac12 x^\top P x + q^\top x \qquad
     \text{s.t.}\quad A_{ub} x \le b_{ub},\; A_{eq} x = b_{eq},\; lb \le x \le ub.
 
-:func:`solve_lp` and :func:`solve_qp` validate the arrays once (shapes, NaN, infinities; a
-malformed input raises :class:`~frcontrol.errors.InputError`), convert every one of them to a
-C-contiguous ``float64`` array (DAQP silently solves another problem when handed a strided
-vector, see :mod:`frcontrol.solvers.daqp_`), call the back-end's adapter, and build a frozen
-result. The door never trusts a success flag alone: it computes the primal residual of every
-answer (:func:`primal_residual`) and downgrades an "optimal" answer whose residual exceeds
-:data:`FEASIBILITY_TOLERANCE` (relative, see there) to ``status="error"``.
+:func:`solve_lp` and :func:`qp_problem` (whose QP :func:`solve_qp` solves) validate the arrays
+once (shapes, NaN, infinities; a malformed input raises :class:`~frcontrol.errors.InputError`),
+convert every one of them to a C-contiguous ``float64`` array (DAQP silently solves another
+problem when handed a strided vector, see :mod:`frcontrol.solvers.daqp_`), call the back-end's
+adapter, and build a frozen result. The door never trusts a success flag alone: it computes the
+primal residual of every answer (:func:`primal_residual`) and downgrades an "optimal" answer whose
+residual exceeds :data:`FEASIBILITY_TOLERANCE` (relative, see there) to ``status="error"``.
 
 The back-ends, their options and the residual tolerance travel as one frozen
-:class:`~frcontrol.solvers.settings.SolverSettings` (``settings=``); ``solver=``, a back-end name,
-is turned into settings by :func:`~frcontrol.solvers.settings.settings_from`. What happens when an
-answer is not usable is a :class:`Fallback` policy named at each call (``fallback=``).
+:class:`~frcontrol.solvers.settings.SolverSettings`; a back-end name is turned into settings by
+:func:`~frcontrol.solvers.settings.settings_from`. What happens when an answer is not usable is a
+:class:`Fallback` policy named at each call. :func:`solve_lp` takes both, with the residual check,
+as one frozen :class:`DoorOptions` (``door=``): ``solve_lp(c, A_ub, b_ub, door=DoorOptions(
+settings_from("highs"), RETRY_ERRORS))``.
 
 An infeasible or unbounded problem is a *result* (``found=False``), not an exception. An unknown or
 uninstalled back-end raises :class:`~frcontrol.errors.SolverNotFound`.
@@ -57,9 +59,11 @@ from .settings import (
 
 __all__ = [
     "CONFIRM_INFEASIBLE",
+    "DEFAULT_DOOR",
     "DEFAULT_LP_SOLVER",
     "DEFAULT_SETTINGS",
     "FEASIBILITY_TOLERANCE",
+    "DoorOptions",
     "InequalityLPs",
     "KNOWN_SOLVERS",
     "LP_SOLVER_ENVIRONMENT_VARIABLE",
@@ -81,6 +85,7 @@ __all__ = [
     "ResidualCheck",
     "must_solve",
     "primal_residual",
+    "qp_problem",
     "solve",
     "solve_lp",
     "solve_lp_prepared",
@@ -599,6 +604,39 @@ def _timed(adapter: QPAdapter, problem: LinearProgram, solver: str, options: dic
     return _finish(result_type, problem, raw, solver, elapsed, P, tolerance, check)
 
 
+@dataclass(frozen=True)
+class DoorOptions:
+    """How :func:`solve_lp` and :func:`solve_lp_prepared` solve: the door's keywords as one record.
+
+    Attributes:
+        settings: the back-ends, their options (``settings.options``, e.g. DAQP's ``primal_tol``:
+            :meth:`SolverSettings.with_options`) and the residual tolerance
+            (:class:`SolverSettings`). A back-end name becomes settings by :func:`settings_from`.
+        fallback: what to do when the answer is not usable (:class:`Fallback`), named at the call
+            (:data:`NO_FALLBACK`, :data:`RETRY_ERRORS`, :data:`CONFIRM_INFEASIBLE`,
+            :func:`must_solve`).
+        check: how an answer is checked (:data:`ResidualCheck`; :func:`lp_check`, or the compiled
+            kernel's twin, which callers that use the kernel hand in: the door does not import it).
+    """
+
+    settings: SolverSettings = DEFAULT_SETTINGS
+    fallback: Fallback = NO_FALLBACK
+    check: ResidualCheck = lp_check
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.settings, SolverSettings):
+            raise InputError(f"DoorOptions.settings must be a SolverSettings (a back-end name becomes one by "
+                             f"settings_from), got {self.settings!r}")
+        if not isinstance(self.fallback, Fallback):
+            raise InputError(f"DoorOptions.fallback must be a Fallback, got {self.fallback!r}")
+        if not callable(self.check):
+            raise InputError(f"DoorOptions.check must be a residual check (lp_check), got {self.check!r}")
+
+
+DEFAULT_DOOR = DoorOptions()
+"""The door's defaults: :data:`DEFAULT_SETTINGS`, :data:`NO_FALLBACK`, :func:`lp_check`."""
+
+
 def solve_lp(
     c: Any,
     A_ub: Any = None,
@@ -608,14 +646,9 @@ def solve_lp(
     lb: Any = None,
     ub: Any = None,
     *,
-    solver: str | None = None,
-    settings: SolverSettings | None = None,
-    fallback: Fallback = NO_FALLBACK,
-    validate: bool = True,
-    check: ResidualCheck = lp_check,
-    **options: Any,
+    door: DoorOptions = DEFAULT_DOOR,
 ) -> LPResult:
-    r"""Solve a linear program: :func:`solve` of :func:`lp_problem`.
+    r"""Solve a linear program: :func:`solve` of :func:`lp_problem`, the arrays validated.
 
     minimise :math:`c^\top x` s.t. :math:`A_{ub}x \le b_{ub}`, :math:`A_{eq}x = b_{eq}`,
     :math:`lb \le x \le ub`.
@@ -628,35 +661,43 @@ def solve_lp(
         b_eq: equality right-hand side, shape ``(m_eq,)``, or ``None``.
         lb: lower bounds, a scalar or shape ``(n,)``, ``-inf`` allowed; ``None`` = no bound.
         ub: upper bounds, a scalar or shape ``(n,)``, ``+inf`` allowed; ``None`` = no bound.
-        solver: back-end name (see :func:`available_solvers`); default ``settings.lp``.
-        settings: the back-ends, their options and the residual tolerance
-            (:class:`SolverSettings`); default :data:`DEFAULT_SETTINGS`.
-        fallback: what to do when the answer is not usable (:class:`Fallback`), named at the call
-            (:data:`NO_FALLBACK`, :data:`RETRY_ERRORS`, :data:`CONFIRM_INFEASIBLE`,
-            :func:`must_solve`).
-        validate: check the arrays (False: see :func:`lp_problem`; :func:`solve_lp_prepared`).
-        check: how an answer is checked (:data:`ResidualCheck`; see :func:`solve`).
-        **options: back-end settings, passed on verbatim (e.g. ``primal_tol`` for DAQP).
+        door: the back-ends with their options and tolerance, the fallback policy and the
+            residual check (:class:`DoorOptions`); default :data:`DEFAULT_DOOR`.
 
     Returns:
         The result; an infeasible or unbounded LP gives ``found=False`` and the status.
 
     Raises:
         InputError: malformed arrays (shapes, NaN, infinite entries in matrices) or options.
-        SolverNotFound: ``solver`` is unknown or not installed.
+        SolverNotFound: ``door.settings.lp`` is unknown or not installed.
         SolverFailed: see :func:`solve`.
     """
-    problem = lp_problem(c, A_ub, b_ub, A_eq, b_eq, lb, ub, validate=validate)
-    return solve(problem, solver=solver, settings=settings, fallback=fallback, check=check, **options)
+    return _solve_with(lp_problem(c, A_ub, b_ub, A_eq, b_eq, lb, ub), door)
 
 
-def solve_lp_prepared(*args: Any, **kwargs: Any) -> LPResult:
-    """:func:`solve_lp` with ``validate=False``: for arrays frcontrol built itself.
+def solve_lp_prepared(
+    c: np.ndarray,
+    A_ub: np.ndarray | None = None,
+    b_ub: np.ndarray | None = None,
+    A_eq: np.ndarray | None = None,
+    b_eq: np.ndarray | None = None,
+    lb: np.ndarray | None = None,
+    ub: np.ndarray | None = None,
+    *,
+    door: DoorOptions = DEFAULT_DOOR,
+) -> LPResult:
+    """:func:`solve_lp` without validation: for arrays frcontrol built itself (see :func:`lp_problem`).
 
     Internal hot paths (domains, projections, overlaps) use this; user-facing calls go through
     :func:`solve_lp`. The residual check is the door's usual one.
     """
-    return solve_lp(*args, validate=False, **kwargs)
+    return _solve_with(lp_problem(c, A_ub, b_ub, A_eq, b_eq, lb, ub, validate=False), door)
+
+
+def _solve_with(problem: LinearProgram, door: DoorOptions) -> LPResult:
+    if not isinstance(door, DoorOptions):
+        raise InputError(f"door must be a DoorOptions (settings, fallback, check), got {door!r}")
+    return solve(problem, settings=door.settings, fallback=door.fallback, check=door.check)
 
 
 _NO_CONSTRAINTS: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -682,7 +723,7 @@ class InequalityLPs:
     ``check`` checks each answer (:func:`lp_check`, or the compiled kernel's twin of it, which the
     callers that use the kernel hand in: the door does not import the kernel). Each
     :meth:`solve` then returns what ``solve_lp_prepared(c, A_ub, b_ub, lb=lb, ub=ub,
-    solver=solver, fallback=fallback, **options)`` returns, field for field (the time aside): the
+    door=DoorOptions(settings, fallback, check))`` returns, field for field (the time aside): the
     same back-end call on the same arrays, the same residual check of every answer (an
     "optimal" answer above :data:`FEASIBILITY_TOLERANCE` becomes ``"error"``), the same fallback.
     It skips the general door's per-call work: no problem object, no option handling, DAQP's
@@ -745,7 +786,7 @@ class InequalityLPs:
                        self._check)
 
 
-def solve_qp(
+def qp_problem(
     P: Any,
     q: Any,
     A_ub: Any = None,
@@ -754,12 +795,10 @@ def solve_qp(
     b_eq: Any = None,
     lb: Any = None,
     ub: Any = None,
-    *,
-    solver: str | None = None,
-    settings: SolverSettings | None = None,
-    **options: Any,
-) -> QPResult:
-    r"""Minimise :math:`\tfrac12 x^\top P x + q^\top x` under the constraints of :func:`solve_lp`.
+) -> QuadraticProgram:
+    r"""The door's problem object for a QP, validated.
+
+    Minimise :math:`\tfrac12 x^\top P x + q^\top x` under the constraints of :func:`solve_lp`.
 
     Args:
         P: symmetric positive semi-definite Hessian, shape ``(n, n)``.
@@ -770,25 +809,40 @@ def solve_qp(
         b_eq: equality right-hand side, or ``None``.
         lb: lower bounds (scalar or ``(n,)``), or ``None``.
         ub: upper bounds (scalar or ``(n,)``), or ``None``.
+
+    Raises:
+        InputError: malformed arrays, a non-symmetric or non-convex ``P``.
+    """
+    lp = _validate_lp(q, A_ub, b_ub, A_eq, b_eq, lb, ub)
+    P = _validate_qp(P, lp)
+    return QuadraticProgram(lp.c, lp.A_ub, lp.b_ub, lp.A_eq, lp.b_eq, lp.lb, lp.ub, P=P)
+
+
+def solve_qp(problem: QuadraticProgram, *, solver: str | None = None,
+             settings: SolverSettings | None = None) -> QPResult:
+    r"""Solve a QP built by :func:`qp_problem` (build, then solve).
+
+    Args:
+        problem: the QP (:func:`qp_problem`).
         solver: back-end name (see :func:`available_solvers`); default ``settings.qp``.
-        settings: the back-ends, their options and the residual tolerance
-            (:class:`SolverSettings`); default :data:`DEFAULT_SETTINGS`.
-        **options: back-end settings, passed on verbatim (over ``settings``' options).
+        settings: the back-ends, their options (``settings.options``, passed on verbatim) and the
+            residual tolerance (:class:`SolverSettings`); default :data:`DEFAULT_SETTINGS`.
 
     Returns:
         The result (``found=False`` with the status if infeasible or unbounded).
 
     Raises:
-        InputError: malformed arrays, a non-symmetric or non-convex ``P``, bad options.
+        InputError: ``problem`` is not a :class:`QuadraticProgram`, ``solver`` contradicts
+            ``settings``, bad options.
         SolverNotFound: ``solver`` is unknown or not installed.
     """
+    if not isinstance(problem, QuadraticProgram):
+        raise InputError(f"solve_qp takes the problem that qp_problem(P, q, ...) builds, got "
+                         f"{type(problem).__name__}")
     chosen = settings or DEFAULT_SETTINGS
     if solver is not None and settings is not None and solver != settings.qp:
         raise InputError(f"solver={solver!r} contradicts settings.qp={settings.qp!r}; give one of them")
     solver = chosen.qp if solver is None else solver
-    options = {**chosen.options_for(solver), **options}
     adapter = _adapter(_QP_SOLVERS, solver)
-    lp = _validate_lp(q, A_ub, b_ub, A_eq, b_eq, lb, ub)
-    P = _validate_qp(P, lp)
-    problem = QuadraticProgram(lp.c, lp.A_ub, lp.b_ub, lp.A_eq, lp.b_eq, lp.lb, lp.ub, P=P)
-    return cast(QPResult, _timed(adapter, problem, solver, options, QPResult, chosen.feasibility_tolerance))
+    return cast(QPResult, _timed(adapter, problem, solver, chosen.options_for(solver), QPResult,
+                                 chosen.feasibility_tolerance))

@@ -59,7 +59,16 @@ from ...kernel import backend
 from ...modes import VELOCITY_TOLERANCE, ContactProblem
 from ...response import OUTPUT_TOLERANCE
 from ...scene import Scene
-from ...solvers import DEFAULT_SETTINGS, REFERENCE_LP_SOLVER, RETRY_ERRORS, SolverSettings, solve_lp, solve_qp
+from ...solvers import (
+    DEFAULT_SETTINGS,
+    REFERENCE_LP_SOLVER,
+    RETRY_ERRORS,
+    DoorOptions,
+    SolverSettings,
+    qp_problem,
+    solve_lp,
+    solve_qp,
+)
 from ..disturbances import load_disturbances
 from .forced import planning_problem
 from .objective import ObjectiveRows, limit_rows, objective_rows
@@ -482,8 +491,8 @@ def _piece_optimum(lp: PieceLP, settings: SolverSettings) -> tuple[float, np.nda
         blocks.append(np.hstack([limit_u, np.zeros((len(limit), 1))]))
         rhs.append(limit - limit_v)
     cost = np.concatenate([np.zeros(m_u), [-1.0]])
-    result = solve_lp(cost, np.vstack(blocks), np.concatenate(rhs), settings=settings, fallback=RETRY_ERRORS,
-                      check=backend().lp_check)
+    result = solve_lp(cost, np.vstack(blocks), np.concatenate(rhs),
+                      door=DoorOptions(settings, fallback=RETRY_ERRORS, check=backend().lp_check))
     if not result.found or result.x is None:
         return None
     return float(result.objective), result.x[:m_u].copy()
@@ -506,9 +515,10 @@ def _piece_qp(lp: PieceLP, settings: SolverSettings) -> tuple[float, np.ndarray]
     b_ub = np.concatenate(
         [lp.b - A_d @ v for v in lp.points] + [bound - moving for _, moving, bound in limits]
     )
-    result = solve_qp(hessian, linear, A_ub, b_ub, settings=settings)
+    problem = qp_problem(hessian, linear, A_ub, b_ub)
+    result = solve_qp(problem, settings=settings)
     if result.status == "error" and settings.qp != REFERENCE_LP_SOLVER:
-        result = solve_qp(hessian, linear, A_ub, b_ub, settings=replace(settings, qp=REFERENCE_LP_SOLVER))
+        result = solve_qp(problem, settings=replace(settings, qp=REFERENCE_LP_SOLVER))
     if not result.found or result.x is None:
         return None
     u = result.x.copy()

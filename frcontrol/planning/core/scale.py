@@ -33,7 +33,7 @@ from ...engine import DynamicResponse
 from ...kernel import backend
 from ...modes import ContactProblem
 from ...scene import Scene
-from ...solvers import DEFAULT_SETTINGS, RETRY_ERRORS, SolverSettings, solve_lp
+from ...solvers import DEFAULT_SETTINGS, RETRY_ERRORS, DoorOptions, SolverSettings, solve_lp
 from ..disturbances import load_disturbances
 from .decision import PieceLP, lifted_problem, piece_lp, verify_plan, with_limits
 from .forced import planning_problem
@@ -169,10 +169,8 @@ def _piece_scale(lp: PieceLP, upper: float, settings: SolverSettings) -> tuple[f
     cost = np.concatenate([np.zeros(m_u), [-1.0]])
     lb = np.concatenate([np.full(m_u, -np.inf), [0.0]])
     ub = np.concatenate([np.full(m_u, np.inf), [upper]])
-    result = solve_lp(
-        cost, np.vstack(blocks), np.concatenate(rhs), lb=lb, ub=ub, settings=settings, fallback=RETRY_ERRORS,
-        check=backend().lp_check,
-    )
+    result = solve_lp(cost, np.vstack(blocks), np.concatenate(rhs), lb=lb, ub=ub,
+                      door=DoorOptions(settings, fallback=RETRY_ERRORS, check=backend().lp_check))
     if not result.found or result.x is None:
         return None
     return float(result.x[m_u]), result.x[:m_u].copy()
