@@ -794,7 +794,8 @@ def apply_override(doc: dict[str, Any], path: str, value: Any) -> list[SchemaPro
     walked: list[str] = []
     for depth, part in enumerate(parts):
         last = depth == len(parts) - 1
-        where = ".".join(walked) or "the scene"
+        where = _path_text([int(p) if p.isdigit() else p for p in walked]) or "the scene"
+        table = f"[{where}]" if walked else where  # as a scene file's message names it
         kind = schema.get("type")
         if kind == "object":
             properties = schema.get("properties", {})
@@ -805,7 +806,7 @@ def apply_override(doc: dict[str, Any], path: str, value: Any) -> list[SchemaPro
                 sub = extra
             else:
                 return [SchemaProblem(path, unknown_message("field" if not walked else "key", part,
-                                                     f" in {where}", list(properties)))]
+                                                     f" in {table}", list(properties)))]
             if last:
                 node[part] = value
                 return []
@@ -822,7 +823,7 @@ def apply_override(doc: dict[str, Any], path: str, value: Any) -> list[SchemaPro
             else:
                 names = [e.get("name") for e in node if isinstance(e, Mapping)]
                 if part not in names:
-                    return [SchemaProblem(path, unknown_message("entry", part, f" in {where}",
+                    return [SchemaProblem(path, unknown_message("entry", part, f" in {table}",
                                                          [str(n) for n in names if n is not None]))]
                 index = names.index(part)
             if index >= len(node):
