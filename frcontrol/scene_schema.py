@@ -795,7 +795,6 @@ def apply_override(doc: dict[str, Any], path: str, value: Any) -> list[SchemaPro
     for depth, part in enumerate(parts):
         last = depth == len(parts) - 1
         where = _path_text([int(p) if p.isdigit() else p for p in walked]) or "the scene"
-        table = f"[{where}]" if walked else where  # as a scene file's message names it
         kind = schema.get("type")
         if kind == "object":
             properties = schema.get("properties", {})
@@ -806,7 +805,7 @@ def apply_override(doc: dict[str, Any], path: str, value: Any) -> list[SchemaPro
                 sub = extra
             else:
                 return [SchemaProblem(path, unknown_message("field" if not walked else "key", part,
-                                                     f" in {table}", list(properties)))]
+                                                     f" in {where}", list(properties)))]
             if last:
                 node[part] = value
                 return []
@@ -823,7 +822,7 @@ def apply_override(doc: dict[str, Any], path: str, value: Any) -> list[SchemaPro
             else:
                 names = [e.get("name") for e in node if isinstance(e, Mapping)]
                 if part not in names:
-                    return [SchemaProblem(path, unknown_message("entry", part, f" in {table}",
+                    return [SchemaProblem(path, unknown_message("entry", part, f" in {where}",
                                                          [str(n) for n in names if n is not None]))]
                 index = names.index(part)
             if index >= len(node):
