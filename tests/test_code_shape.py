@@ -163,10 +163,6 @@ def test_a_bare_raises_is_caught(tmp_path):
 VERDICT_FIELDS = frozenset({"verdict", "status", "pruned", "ambiguous_outputs"})
 """Fields of a result record that hold a verdict: one of a few named values, never any string."""
 
-UNTYPED_VERDICTS_IN_REWORK = frozenset({"frcontrol/planning/climb.py::ClimbResult.status"})
-"""Verdict fields in modules being reworked now; to shrink to empty as the rework lands."""
-
-
 def bare_string_verdicts(path: Path, root: Path = ROOT) -> list[str]:
     """``"path::Class.field"`` of every dataclass field in ``VERDICT_FIELDS`` annotated ``str``."""
     found = []
@@ -188,8 +184,7 @@ def bare_string_verdicts(path: Path, root: Path = ROOT) -> list[str]:
 def test_verdicts_are_named_values():
     """A verdict is a ``Literal`` (or an enum): mypy then checks every value set or compared."""
     found = {key for path in sorted((ROOT / "frcontrol").rglob("*.py")) for key in bare_string_verdicts(path)}
-    untyped = sorted(found - UNTYPED_VERDICTS_IN_REWORK)
-    assert not untyped, f"verdict fields typed str (give them a Literal type): {untyped}"
+    assert not found, f"verdict fields typed str (give them a Literal type): {sorted(found)}"
 
 
 def test_a_bare_string_verdict_is_caught(tmp_path):

@@ -134,6 +134,7 @@ from ..errors import InputError
 from ..jsonable import finite_or_none, to_jsonable
 from ..modes import add_scene_modes
 from ..scene import Scene
+from ..simulation.trajectory import TrajectoryStatus
 from ..solvers import DEFAULT_LP_SOLVER
 from . import DEFAULT_CLIMB_MARGIN
 from .climb_problem import (
@@ -188,7 +189,7 @@ class ClimbResult:
         brace_events: the contact events of the brace contacts (open, slip...).
         disturbance_times: [s] the start of each held disturbance; disturbance_samples: [N] the
             values, shape (K, dim).
-        status: the simulator's status (``"completed"`` or ``"failed"``).
+        status: the simulator's status (:data:`~frcontrol.simulation.trajectory.TrajectoryStatus`).
         slip_tolerance: [m] the threshold used.
         seed: the random seed of the samples.
     """
@@ -203,7 +204,7 @@ class ClimbResult:
     brace_events: tuple
     disturbance_times: np.ndarray
     disturbance_samples: np.ndarray
-    status: str
+    status: TrajectoryStatus
     slip_tolerance: float
     seed: int
 
