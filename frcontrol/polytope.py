@@ -74,7 +74,9 @@ __all__ = [
     "CONTAINMENT_TOLERANCE",
     "DUPLICATE_TOLERANCE",
     "EQUALITY_TOLERANCE",
+    "EXTREME_RAY_MAX_ROWS",
     "INTERIOR_TOLERANCE",
+    "PROJECTION_METHODS",
     "RANK_TOLERANCE",
     "RAY_TIE_ABSOLUTE",
     "RAY_TIE_RELATIVE",
@@ -1085,6 +1087,96 @@ def _fourier_motzkin_step(
     return np.delete(new_A, j, axis=1), np.concatenate([b[zero], combined_rhs]), j, parents
 
 
+EXTREME_RAY_MAX_ROWS = 2048
+"""[rows] :func:`project`'s default method runs Fourier-Motzkin steps without LPs while the
+system has at most this many rows; past it, the rows are pruned by LP
+(:func:`minimal_representation`) and the elimination goes on from the pruned system. Bounds the
+memory of a projection whose intermediate systems grow (the pairs of a step are at most the
+square of this)."""
+
+PROJECTION_METHODS = ("extreme_rays", "fourier_motzkin")
+""":func:`project`'s methods: ``"extreme_rays"`` (the default) keeps, at every Fourier-Motzkin step,
+only the rows that are extreme rays of the projection cone and prunes by LP once, at the end;
+``"fourier_motzkin"`` prunes by LP after every step (the former rule, kept as the reference)."""
+
+
+def _rows_within(support: np.ndarray, unions: np.ndarray) -> np.ndarray:
+    """Per union of starting rows (``unions``, (pairs, start) bool): how many current rows' supports
+    (``support``, (rows, start) bool) lie within it. Matrix products in blocks small enough for BLAS
+    to stay on the calling thread (see :func:`_gram`)."""
+    S = support.astype(np.float64)
+    sizes = S.sum(axis=1) - 0.5  # a row lies within a union when all of its support is in it
+    U = unions.astype(np.float64)
+    block = max(1, GRAM_BLOCK_PRODUCTS // max(1, S.size))
+    counts = np.empty(U.shape[0], dtype=np.int64)
+    for start in range(0, U.shape[0], block):
+        counts[start:start + block] = np.count_nonzero(U[start:start + block] @ S.T > sizes, axis=1)
+    return counts
+
+
+def _extreme_ray_step(
+    A: np.ndarray, b: np.ndarray, support: np.ndarray, n_keep: int, steps: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""One Fourier-Motzkin step of :func:`_fourier_motzkin_step` that keeps only extreme rays.
+
+    A row of the system after ``steps`` eliminations (this one included) is a non-negative
+    combination :math:`\lambda^\top [A\ b]` of the starting rows, with :math:`\lambda` in the cone
+    :math:`C = \{\lambda \ge 0 : \lambda^\top A_{\text{eliminated}} = 0\}`; ``support`` says which
+    starting rows each current row combines. The rows that are extreme rays of :math:`C` imply all
+    the others, and each extreme ray of the next cone is either a current one with a zero coefficient
+    in the eliminated column or the combination of an *adjacent* pair, one with a positive and one
+    with a negative coefficient (the double description method). A pair is adjacent when no other
+    current row's support lies within the union of theirs (the combinatorial test, exact when the
+    current rows are the extreme rays of :math:`C`, which holds from the start, where they are the
+    starting rows themselves). Chernikov's rule, a union of more than ``steps + 1`` rows, discards most
+    pairs before that test. Every pair kept gives one new row, with no LP and no duplicate.
+
+    Returns:
+        ``(A', b', support')``, without the eliminated column.
+    """
+    norms = row_norms(A)
+    norms[norms == 0.0] = 1.0
+    A, b = A / norms[:, None], b / norms
+    coefficients = A[:, n_keep:]
+    positive = coefficients > ZERO_TOLERANCE
+    negative = coefficients < -ZERO_TOLERANCE
+    j = n_keep + int(np.argmin(positive.sum(axis=0) * negative.sum(axis=0)))
+    pos, neg = np.flatnonzero(positive[:, j - n_keep]), np.flatnonzero(negative[:, j - n_keep])
+    zero = ~(positive[:, j - n_keep] | negative[:, j - n_keep])
+    p_rows, n_rows = np.repeat(pos, neg.size), np.tile(neg, pos.size)
+    unions = support[p_rows] | support[n_rows]
+    short = np.count_nonzero(unions, axis=1) <= steps + 1
+    p_rows, n_rows, unions = p_rows[short], n_rows[short], unions[short]
+    adjacent = _rows_within(support, unions) == 2
+    p_rows, n_rows, unions = p_rows[adjacent], n_rows[adjacent], unions[adjacent]
+    scale_p, scale_n = 1.0 / A[p_rows, j], -1.0 / A[n_rows, j]
+    combined = A[p_rows] * scale_p[:, None] + A[n_rows] * scale_n[:, None]
+    combined_rhs = b[p_rows] * scale_p + b[n_rows] * scale_n
+    new_A = np.delete(np.vstack([A[zero], combined]), j, axis=1)
+    return new_A, np.concatenate([b[zero], combined_rhs]), np.vstack([support[zero], unions])
+
+
+def _eliminate_by_extreme_rays(
+    A: np.ndarray, b: np.ndarray, n_keep: int, max_rows: int = EXTREME_RAY_MAX_ROWS
+) -> tuple[np.ndarray, np.ndarray]:
+    """Fourier-Motzkin steps of :func:`_extreme_ray_step` from ``A x <= b`` (its rows the starting
+    rows) until the columns ``n_keep:`` are gone or the system has more than ``max_rows`` rows.
+
+    Returns:
+        ``(A', b')``: rows implying every combination of the starting rows that cancels the
+        eliminated columns (the rows of the projection, redundant ones among them), with the columns
+        not yet eliminated still last.
+    """
+    support = np.eye(A.shape[0], dtype=bool)
+    steps = 0
+    while A.shape[1] > n_keep:  # at least one step per call: the caller's pruning cannot stall it
+        steps += 1
+        A, b, support = _extreme_ray_step(A, b, support, n_keep, steps)
+        if A.shape[0] > max_rows:
+            break
+    return A, b
+
+
 @dataclass(frozen=True)
 class _Ancestry:
     """Which rows of the start of a run of Fourier-Motzkin steps each current row combines.
@@ -1121,7 +1213,7 @@ def project(
     P: Polytope,
     keep: int | Sequence[int],
     *,
-    method: str = "fourier_motzkin",
+    method: str = "extreme_rays",
     tolerance: float = REDUNDANCY_TOLERANCE,
     solver: str | None = None,
     settings: SolverSettings | None = None,
@@ -1132,15 +1224,23 @@ def project(
 
     The other coordinates are eliminated, equalities first: Gaussian elimination pivoting on the
     largest coefficient (:func:`_eliminate_with_equalities`), then Fourier-Motzkin one variable
-    at a time (the one with the smallest product of positive and negative counts). After every
-    step the rows are pruned by :func:`minimal_representation` (unit rows, duplicates merged,
-    redundant rows dropped by LP, opposite pairs turned into equalities, which are eliminated in
-    turn). Works for unbounded polyhedra too.
+    at a time (the one with the smallest product of positive and negative counts). By the default
+    method, ``"extreme_rays"``, each step keeps only the new rows that are extreme rays of the
+    projection cone (:func:`_extreme_ray_step`: Chernikov's rule and the combinatorial adjacency
+    test, no LP), and the rows are pruned by :func:`minimal_representation` once, at the end (or
+    whenever the system passes :data:`EXTREME_RAY_MAX_ROWS` rows, after which the elimination goes
+    on from the pruned system). By ``"fourier_motzkin"`` the rows are pruned after every step
+    (unit rows, duplicates merged, redundant rows dropped by LP, opposite pairs turned into
+    equalities, which are eliminated in turn). Both give the same set in minimal form; the first
+    needs far fewer LPs and bounded memory where intermediate systems grow (the snake on the
+    ground with 12 contacts: a mode with 9 variables to eliminate). Works for unbounded polyhedra
+    too.
 
     Args:
         P: the polytope.
         keep: the coordinates kept, in that order (an ``int`` ``k`` keeps the first ``k``).
-        method: ``"fourier_motzkin"`` (the only one implemented).
+        method: one of :data:`PROJECTION_METHODS`: ``"extreme_rays"`` (the default) or
+            ``"fourier_motzkin"`` (pruned by LP after every step).
         tolerance: redundancy slack of the pruning [units of x].
         solver: LP back-end of the pruning (a name).
         settings: the solver settings (instead of ``solver``).
@@ -1158,8 +1258,9 @@ def project(
     Raises:
         InputError: bad ``keep`` or an unknown ``method``.
     """
-    if method != "fourier_motzkin":
-        raise InputError(f"unknown projection method {method!r}; known: 'fourier_motzkin'")
+    if method not in PROJECTION_METHODS:
+        known = ", ".join(repr(name) for name in PROJECTION_METHODS)
+        raise InputError(f"unknown projection method {method!r}; known: {known}")
     kept = _keep_indices(keep, P.dim)
     n_keep = len(kept)
     settings = settings_from(solver, settings)
@@ -1184,6 +1285,11 @@ def project(
             return minimal_representation(
                 Polytope(A, b, A_eq, b_eq), tolerance=tolerance, settings=settings
             )
+        if method == "extreme_rays":
+            current = _extreme_rays_then_pruned(A, b, A_eq, b_eq, n_keep, tolerance, settings)
+            if current.dim == n_keep:
+                return current
+            continue
         if A_eq.shape[0] or A.shape[1] != current.dim:  # equalities mix the rows: count afresh after them
             history = None
         A, b, j, parents = _fourier_motzkin_step(A, b, n_keep)
@@ -1195,6 +1301,16 @@ def project(
         history = None if history is None or survivors is None else history.keep(survivors)
         if current.dim == n_keep:
             return current
+
+
+def _extreme_rays_then_pruned(A: np.ndarray, b: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarray,
+                              n_keep: int, tolerance: float, settings: SolverSettings) -> Polytope:
+    """:func:`_eliminate_by_extreme_rays` on ``A x <= b`` (the equalities, zero in the eliminated
+    columns, carried along), then the result pruned by LP: the projection when every column went,
+    else the pruned system to go on from."""
+    A, b = _eliminate_by_extreme_rays(A, b, n_keep)
+    A_eq = np.hstack([A_eq[:, :n_keep], np.zeros((A_eq.shape[0], A.shape[1] - n_keep))])
+    return _minimal(Polytope(A, b, A_eq, b_eq), tolerance, settings)[0]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -51,7 +51,8 @@ def assert_same_minimal_form(new: poly.Polytope, old: poly.Polytope, label: str)
 
 def former_input_domain(mode) -> poly.Polytope:  # type: ignore[no-untyped-def]
     """T_c as the engine computed it before: D_c pruned again, then projected."""
-    return poly.project(mode.domain, range(mode.m), solver=mode.solver, ball=mode.raw_ball)
+    return poly.project(mode.domain, range(mode.m), method="fourier_motzkin", solver=mode.solver,
+                        ball=mode.raw_ball)
 
 
 def checked_modes(scene) -> int:  # type: ignore[no-untyped-def]
