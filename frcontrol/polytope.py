@@ -56,6 +56,7 @@ from frcontrol.geometry import (
 from frcontrol.kernel import Backend, backend, extension_function, twin
 from frcontrol.solvers import (
     DoorOptions,
+    Fallback,
     InequalityLPs,
     LPResult,
     SolverSettings,
@@ -267,8 +268,18 @@ r"""The fallback policy of this module's bounded LPs (Chebyshev, redundancy): th
 (HiGHS, or DAQP when HiGHS was chosen) solves the LP again when the first returns ``"error"`` or
 ``"unbounded"`` (DAQP 0.11 reported a bounded, very degenerate LP of 951 rows as unbounded); an
 ``"unbounded"`` answer counts as a failure (:class:`~frcontrol.solvers.SolverFailed`).
-``"infeasible"`` is trusted (no false verdict seen from DAQP; HiGHS's are confirmed without
-presolve by its adapter)."""
+``"infeasible"`` is trusted here (HiGHS's are confirmed without presolve by its adapter); the
+redundancy LPs confirm it (:data:`_REDUNDANCY_LP`)."""
+
+_REDUNDANCY_LP = Fallback(retry_on=frozenset({"error", "unbounded", "infeasible"}),
+                          accept=frozenset({"optimal", "infeasible"}),
+                          failure="a redundancy LP of the polytope module")
+"""The fallback policy of the redundancy LPs (:func:`_is_redundant`): as :data:`_BOUNDED_LP`, and an
+``"infeasible"`` verdict is confirmed by the second back-end too. A redundancy LP runs over rows of a
+set the Chebyshev LP found non-empty, so "infeasible" contradicts it: DAQP 0.11 called such an LP of
+28 rows in 10 variables infeasible (HiGHS: optimal), and the projection of a mode of the 12-contact
+snake with a Chebyshev radius of 1 came out empty. Costs a second LP only where the first said
+infeasible; both saying it means the set is numerically empty."""
 
 _LP = must_solve("an LP of the polytope module", bounded=False)
 """The fallback policy of this module's LPs that may be unbounded (:func:`support`): as
@@ -629,7 +640,7 @@ class _RedundancyLPs:
     """The redundancy LPs of one pruning: the door's lean path and buffers for their rows.
 
     Attributes:
-        lps: the door's lean path, with :data:`_BOUNDED_LP`.
+        lps: the door's lean path, with :data:`_REDUNDANCY_LP`.
         rows: ``(m + 1, d)``: the LP's rows are its leading rows (C-contiguous, as DAQP needs).
         rhs: ``(m + 1,)``: their right-hand sides.
     """
@@ -642,7 +653,7 @@ class _RedundancyLPs:
     def for_rows(cls, unit: np.ndarray, settings: SolverSettings) -> _RedundancyLPs:
         """Buffers for LPs over at most every row of ``unit`` plus one."""
         m, d = unit.shape
-        lps = InequalityLPs(settings=settings, fallback=_BOUNDED_LP, check=backend().lp_check)
+        lps = InequalityLPs(settings=settings, fallback=_REDUNDANCY_LP, check=backend().lp_check)
         return cls(lps, np.empty((m + 1, d)), np.empty(m + 1))
 
 
