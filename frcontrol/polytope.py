@@ -76,6 +76,7 @@ __all__ = [
     "DUPLICATE_TOLERANCE",
     "EQUALITY_TOLERANCE",
     "EXTREME_RAY_MAX_ROWS",
+    "EXTREME_RAY_PAIR_CHUNK",
     "INTERIOR_TOLERANCE",
     "PROJECTION_METHODS",
     "RANK_TOLERANCE",
@@ -1117,12 +1118,37 @@ def _rows_within(support: np.ndarray, unions: np.ndarray) -> np.ndarray:
     to stay on the calling thread (see :func:`_gram`)."""
     S = support.astype(np.float64)
     sizes = S.sum(axis=1) - 0.5  # a row lies within a union when all of its support is in it
-    U = unions.astype(np.float64)
     block = max(1, GRAM_BLOCK_PRODUCTS // max(1, S.size))
-    counts = np.empty(U.shape[0], dtype=np.int64)
-    for start in range(0, U.shape[0], block):
-        counts[start:start + block] = np.count_nonzero(U[start:start + block] @ S.T > sizes, axis=1)
+    counts = np.empty(unions.shape[0], dtype=np.int64)
+    for start in range(0, unions.shape[0], block):
+        U = unions[start:start + block].astype(np.float64)
+        counts[start:start + block] = np.count_nonzero(U @ S.T > sizes, axis=1)
     return counts
+
+
+EXTREME_RAY_PAIR_CHUNK = 65536
+"""[pairs] :func:`_extreme_ray_step` forms and tests the pairs of a step in chunks of about this many,
+so that its memory stays bounded (a step of 2,000 rows has up to a million pairs)."""
+
+
+def _adjacent_pairs(support: np.ndarray, pos: np.ndarray, neg: np.ndarray, steps: int
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The adjacent pairs ``(p, n)`` of rows ``pos`` x ``neg`` that pass Chernikov's rule, with the
+    unions of their supports (see :func:`_extreme_ray_step`), in chunks of pairs."""
+    chunk = max(1, EXTREME_RAY_PAIR_CHUNK // max(1, neg.size))
+    found_p, found_n, found_unions = [], [], []
+    for start in range(0, pos.size, chunk):
+        p_rows, n_rows = np.repeat(pos[start:start + chunk], neg.size), np.tile(neg, min(chunk, pos.size - start))
+        unions = support[p_rows] | support[n_rows]
+        short = np.count_nonzero(unions, axis=1) <= steps + 1
+        p_rows, n_rows, unions = p_rows[short], n_rows[short], unions[short]
+        adjacent = _rows_within(support, unions) == 2
+        found_p.append(p_rows[adjacent])
+        found_n.append(n_rows[adjacent])
+        found_unions.append(unions[adjacent])
+    if not found_p:
+        return pos[:0], neg[:0], np.zeros((0, support.shape[1]), dtype=bool)
+    return np.concatenate(found_p), np.concatenate(found_n), np.vstack(found_unions)
 
 
 def _extreme_ray_step(
@@ -1154,12 +1180,7 @@ def _extreme_ray_step(
     j = n_keep + int(np.argmin(positive.sum(axis=0) * negative.sum(axis=0)))
     pos, neg = np.flatnonzero(positive[:, j - n_keep]), np.flatnonzero(negative[:, j - n_keep])
     zero = ~(positive[:, j - n_keep] | negative[:, j - n_keep])
-    p_rows, n_rows = np.repeat(pos, neg.size), np.tile(neg, pos.size)
-    unions = support[p_rows] | support[n_rows]
-    short = np.count_nonzero(unions, axis=1) <= steps + 1
-    p_rows, n_rows, unions = p_rows[short], n_rows[short], unions[short]
-    adjacent = _rows_within(support, unions) == 2
-    p_rows, n_rows, unions = p_rows[adjacent], n_rows[adjacent], unions[adjacent]
+    p_rows, n_rows, unions = _adjacent_pairs(support, pos, neg, steps)
     scale_p, scale_n = 1.0 / A[p_rows, j], -1.0 / A[n_rows, j]
     combined = A[p_rows] * scale_p[:, None] + A[n_rows] * scale_n[:, None]
     combined_rhs = b[p_rows] * scale_p + b[n_rows] * scale_n
@@ -1168,16 +1189,18 @@ def _extreme_ray_step(
 
 
 def _eliminate_by_extreme_rays(
-    A: np.ndarray, b: np.ndarray, n_keep: int, max_rows: int = EXTREME_RAY_MAX_ROWS
+    A: np.ndarray, b: np.ndarray, n_keep: int, max_rows: int | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Fourier-Motzkin steps of :func:`_extreme_ray_step` from ``A x <= b`` (its rows the starting
-    rows) until the columns ``n_keep:`` are gone or the system has more than ``max_rows`` rows.
+    rows) until the columns ``n_keep:`` are gone or the system has more than ``max_rows`` rows
+    (default :data:`EXTREME_RAY_MAX_ROWS`).
 
     Returns:
         ``(A', b')``: rows implying every combination of the starting rows that cancels the
         eliminated columns (the rows of the projection, redundant ones among them), with the columns
         not yet eliminated still last.
     """
+    max_rows = EXTREME_RAY_MAX_ROWS if max_rows is None else max_rows
     support = np.eye(A.shape[0], dtype=bool)
     steps = 0
     while A.shape[1] > n_keep:  # at least one step per call: the caller's pruning cannot stall it

@@ -1,4 +1,5 @@
-"""The projection's cheaper redundancy stage (frcontrol/polytope.py): the same polytopes, fewer LPs.
+"""The former projection rule's cheaper redundancy stage (``project(..., method="fourier_motzkin")``,
+which prunes after every step; frcontrol/polytope.py): the same polytopes, fewer LPs.
 
 Rows two other rows imply are removed without their LP (``_implied_by_pairs``, proposed by the
 rows' Fourier-Motzkin ancestry), and the Gram products run in blocks (``_gram``). Both are held to
@@ -62,7 +63,7 @@ def test_every_certificate_is_an_implication(certificates):
     """Row i certified by rows j, k: max g_i z over {g_j z <= h_j, g_k z <= h_k} (HiGHS) <= h_i + tol."""
     rng = np.random.default_rng(29)
     for _ in range(12):
-        poly.project(random_polytope(rng, 6, 14), 3)
+        poly.project(random_polytope(rng, 6, 14), 3, method="fourier_motzkin")
     checked = 0
     for unit, offsets, implied in certificates:
         for i, pairs in implied.items():
@@ -78,10 +79,10 @@ def test_every_certificate_is_an_implication(certificates):
 def test_random_projections_are_the_same_with_and_without_the_certificates(monkeypatch, certificates):
     rng = np.random.default_rng(7)
     polytopes = [random_polytope(rng, int(rng.integers(5, 8)), int(rng.integers(8, 18))) for _ in range(10)]
-    fast = [poly.project(P, 3) for P in polytopes]
+    fast = [poly.project(P, 3, method="fourier_motzkin") for P in polytopes]
     used = sum(len(implied) for _, _, implied in certificates)
     without_certificates(monkeypatch)
-    plain = [poly.project(P, 3) for P in polytopes]
+    plain = [poly.project(P, 3, method="fourier_motzkin") for P in polytopes]
     assert all(same(P, Q) for P, Q in zip(fast, plain, strict=True))
     assert used >= 20  # rows were removed without their LP
 
@@ -89,10 +90,15 @@ def test_random_projections_are_the_same_with_and_without_the_certificates(monke
 @pytest.mark.slow
 def test_the_snake_on_the_ground_projects_the_same_without_the_certificates(monkeypatch, certificates):
     scene = load_scene(snake_scene(6))
-    fast = [(m.mode, m.input_domain) for m in analyze(scene, ambiguity=False).feasible_modes]
+
+    def projections():  # type: ignore[no-untyped-def]
+        return [(m.mode, poly.project(m.domain, range(m.m), method="fourier_motzkin", minimal=True))
+                for m in analyze(scene, ambiguity=False).feasible_modes]
+
+    fast = projections()
     used = sum(len(implied) for _, _, implied in certificates)
     without_certificates(monkeypatch)
-    plain = [(m.mode, m.input_domain) for m in analyze(scene, ambiguity=False).feasible_modes]
+    plain = projections()
     assert [mode for mode, _ in fast] == [mode for mode, _ in plain] and len(fast) > 40
     assert all(same(P, Q) for (_, P), (_, Q) in zip(fast, plain, strict=True))
     assert used >= 50
