@@ -1113,9 +1113,11 @@ only the rows that are extreme rays of the projection cone and prunes by LP once
 
 
 def _rows_within(support: np.ndarray, unions: np.ndarray) -> np.ndarray:
-    """Per union of starting rows (``unions``, (pairs, start) bool): how many current rows' supports
-    (``support``, (rows, start) bool) lie within it. Matrix products in blocks small enough for BLAS
-    to stay on the calling thread (see :func:`_gram`)."""
+    """How many current rows' supports lie within each union of starting rows.
+
+    ``support``: (rows, start) bool; ``unions``: (pairs, start) bool. Matrix products in blocks small
+    enough for BLAS to stay on the calling thread (see :func:`_gram`).
+    """
     S = support.astype(np.float64)
     sizes = S.sum(axis=1) - 0.5  # a row lies within a union when all of its support is in it
     block = max(1, GRAM_BLOCK_PRODUCTS // max(1, S.size))
@@ -1133,12 +1135,15 @@ so that its memory stays bounded (a step of 2,000 rows has up to a million pairs
 
 def _adjacent_pairs(support: np.ndarray, pos: np.ndarray, neg: np.ndarray, steps: int
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The adjacent pairs ``(p, n)`` of rows ``pos`` x ``neg`` that pass Chernikov's rule, with the
-    unions of their supports (see :func:`_extreme_ray_step`), in chunks of pairs."""
+    """The adjacent pairs ``(p, n)`` of rows ``pos`` x ``neg`` that pass Chernikov's rule.
+
+    With the unions of their supports (see :func:`_extreme_ray_step`); formed in chunks of pairs.
+    """
     chunk = max(1, EXTREME_RAY_PAIR_CHUNK // max(1, neg.size))
     found_p, found_n, found_unions = [], [], []
     for start in range(0, pos.size, chunk):
-        p_rows, n_rows = np.repeat(pos[start:start + chunk], neg.size), np.tile(neg, min(chunk, pos.size - start))
+        these = pos[start:start + chunk]
+        p_rows, n_rows = np.repeat(these, neg.size), np.tile(neg, these.size)
         unions = support[p_rows] | support[n_rows]
         short = np.count_nonzero(unions, axis=1) <= steps + 1
         p_rows, n_rows, unions = p_rows[short], n_rows[short], unions[short]
@@ -1191,9 +1196,10 @@ def _extreme_ray_step(
 def _eliminate_by_extreme_rays(
     A: np.ndarray, b: np.ndarray, n_keep: int, max_rows: int | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Fourier-Motzkin steps of :func:`_extreme_ray_step` from ``A x <= b`` (its rows the starting
-    rows) until the columns ``n_keep:`` are gone or the system has more than ``max_rows`` rows
-    (default :data:`EXTREME_RAY_MAX_ROWS`).
+    """Fourier-Motzkin steps of :func:`_extreme_ray_step` from ``A x <= b``, its rows the starting rows.
+
+    Until the columns ``n_keep:`` are gone or the system has more than ``max_rows`` rows (default
+    :data:`EXTREME_RAY_MAX_ROWS`).
 
     Returns:
         ``(A', b')``: rows implying every combination of the starting rows that cancels the
@@ -1339,9 +1345,11 @@ def project(
 
 def _extreme_rays_then_pruned(A: np.ndarray, b: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarray,
                               n_keep: int, tolerance: float, settings: SolverSettings) -> Polytope:
-    """:func:`_eliminate_by_extreme_rays` on ``A x <= b`` (the equalities, zero in the eliminated
-    columns, carried along), then the result pruned by LP: the projection when every column went,
-    else the pruned system to go on from."""
+    """:func:`_eliminate_by_extreme_rays` on ``A x <= b``, then the result pruned by LP.
+
+    The equalities (zero in the eliminated columns) are carried along. Returns the projection when
+    every column went, else the pruned system to go on from.
+    """
     A, b = _eliminate_by_extreme_rays(A, b, n_keep)
     A_eq = np.hstack([A_eq[:, :n_keep], np.zeros((A_eq.shape[0], A.shape[1] - n_keep))])
     return _minimal(Polytope(A, b, A_eq, b_eq), tolerance, settings)[0]
