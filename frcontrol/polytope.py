@@ -1311,6 +1311,12 @@ def project(
     current = P if minimal and in_order else minimal_representation(
         Polytope(P.A[:, order], P.b, P.A_eq[:, order], P.b_eq), tolerance=tolerance, settings=settings,
         ball=ball if in_order else None)
+    return _eliminate(current, n_keep, method, tolerance, settings)
+
+
+def _eliminate(current: Polytope, n_keep: int, method: str, tolerance: float,
+               settings: SolverSettings) -> Polytope:
+    """:func:`project`'s elimination of the coordinates ``n_keep:`` of the minimal ``current``."""
     history: _Ancestry | None = None
     while True:
         if current.empty:
