@@ -247,6 +247,10 @@ FIGURES = (
            "domains on demand)", 0.5),
     Figure("analysis_snake_ground_8_forced", "snake on the ground with 8 contacts, every feasible mode's "
            "domain and input domain computed (without overlaps); target 4 ms per feasible mode", 1.0),
+    Figure("analysis_snake_ground_10", "snake on the ground with 10 contacts (`analyze` without overlaps, "
+           "domains on demand); target 0.1 ms per evaluated mode", 0.6),
+    Figure("analysis_snake_ground_10_forced", "snake on the ground with 10 contacts, every feasible mode's "
+           "domain and input domain computed (without overlaps); target 4 ms per feasible mode", 4.0),
     Figure("model_assembly_rhex_flip", "model assembly (`Scene.state`), RHex flip scene; target "
            f"{ASSEMBLY_TARGET_VS_BARE:g}x the bare Pinocchio calls", None, calls=300),
     Figure("bare_pinocchio_rhex_flip", "the bare Pinocchio calls of that assembly (reference, "
@@ -542,11 +546,12 @@ def _statics_figure(name: str) -> tuple[Call, Check]:
 
 def build_figures() -> dict[str, tuple[Call, Check]]:
     """The call and the check of every figure of :data:`FIGURES`, set up (scenes loaded)."""
+    from benchmarks.contacts import snake_scene
     from benchmarks.engine import snake_on_ground
     from frcontrol.scene import load_scene
 
     rhex, snake = load_scene("rhex_flip"), load_scene("snake_climb")
-    ground_8 = load_scene(snake_on_ground(8))
+    ground_8, ground_10 = load_scene(snake_on_ground(8)), load_scene(snake_scene(10))
     state, bare = _assembly_figures()
     built = {
         "solutions_at_rod_on_table": _solutions_figure("rod_on_table"),
@@ -565,6 +570,8 @@ def build_figures() -> dict[str, tuple[Call, Check]]:
         "analysis_snake_climb_lazy": _analysis_figure(snake, forced=False),
         "analysis_snake_ground_8": _analysis_figure(ground_8, forced=False, ambiguity=False),
         "analysis_snake_ground_8_forced": _analysis_figure(ground_8, forced=True, ambiguity=False),
+        "analysis_snake_ground_10": _analysis_figure(ground_10, forced=False, ambiguity=False),
+        "analysis_snake_ground_10_forced": _analysis_figure(ground_10, forced=True, ambiguity=False),
         "model_assembly_rhex_flip": state,
         "bare_pinocchio_rhex_flip": bare,
         "compliant_rod_on_table": _compliant_figure("rod_on_table"),
@@ -677,7 +684,8 @@ def measure(runs: int = RUNS, progress: Callable[[str], None] | None = None) -> 
                       "within the limits",
             "analysis": "forced: analyze() with its defaults (overlaps included), then every feasible "
                         "mode's domain and input_domain; lazy: analyze() alone",
-            "snake_ground_8": "as benchmarks/engine.py measures it: analyze(ambiguity=False), lazy; _forced: "
+            "snake_ground_8": "(and snake_ground_10) as benchmarks/engine.py measures it: "
+                              "analyze(ambiguity=False), lazy; _forced: "
                               "the same with every feasible mode's domain and input_domain (as "
                               "benchmarks/contacts.py's forced figure)",
             "compliant": COMPLIANT_CONFIGS,
