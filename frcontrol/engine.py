@@ -1035,7 +1035,7 @@ def solutions_at(
     if method not in SOLUTION_METHODS:
         raise InputError(f"unknown solution method {method!r}; valid: {', '.join(SOLUTION_METHODS)}")
     settings = settings_from(solver, settings)
-    if not isinstance(inputs, Mapping) and np.ndim(inputs) == 2:
+    if _is_batch(inputs):
         analysis = scene if isinstance(scene, DynamicResponse) else analyze(
             scene, settings=settings, ambiguity=False, rank_tolerance=rank_tolerance)
         return solutions_at_batch(analysis, inputs, settings=settings)
@@ -1076,6 +1076,21 @@ def build_query_table(problem: ContactProblem, feasible: Sequence[ModeAnalysis])
 def query_table(analysis: DynamicResponse) -> QueryTable:
     """The analysis's feasible modes stacked for point location, built with it (:func:`build_query_table`)."""
     return analysis.query
+
+
+def _is_batch(inputs: Mapping[str, float] | Sequence[float] | np.ndarray) -> bool:
+    """Whether :func:`solutions_at`'s ``inputs`` are an (N, m) batch (``np.ndim(inputs) == 2``).
+
+    Without NumPy's conversion of a list to an array where the first entry decides (0.8 us, a
+    tenth of a query on an analysis).
+    """
+    if isinstance(inputs, Mapping):
+        return False
+    if isinstance(inputs, np.ndarray):
+        return inputs.ndim == 2
+    if isinstance(inputs, (list, tuple)) and inputs and not isinstance(inputs[0], (list, tuple, np.ndarray)):
+        return False  # a vector of numbers
+    return bool(np.ndim(inputs) == 2)
 
 
 def _located_solutions(analysis: DynamicResponse, u: np.ndarray, settings: SolverSettings

@@ -286,3 +286,16 @@ def test_the_query_kernel_refuses_bad_buffers():
 def test_the_docs_page_names_the_tolerance():
     text = (Path(__file__).resolve().parent.parent / "docs" / "speed.md").read_text()
     assert "BOUNDARY_TOLERANCE" in text and f"{BOUNDARY_TOLERANCE:g}" in text
+
+
+@pytest.mark.parametrize("inputs", [
+    [0.0, 1.0, 2.0], (0.0, 1.0, 2.0), np.zeros(3), np.zeros((4, 3)), [[0.0, 1.0, 2.0]], ((0.0, 1.0, 2.0),),
+    [np.zeros(3), np.zeros(3)], [np.array(0.0), np.array(1.0), np.array(2.0)], [np.float64(1.0)] * 3, [],
+    np.zeros((2, 2, 3)), [[[0.0]]],
+])
+def test_a_batch_is_told_apart_as_numpy_would(inputs):
+    """``solutions_at``'s cheap test of a batch answers as ``np.ndim(inputs) == 2`` does."""
+    from frcontrol.engine import _is_batch
+
+    assert _is_batch(inputs) == (np.ndim(inputs) == 2)
+    assert not _is_batch({"x": 1.0})
