@@ -248,8 +248,10 @@ def main(argv: list[str] | None = None) -> int:
         forced = (f"{r['forced_s']:.2f} s, {1e3 * r['forced_per_feasible_mode_s']:.2f} ms per feasible mode"
                   if r.get("forced_s") is not None else r.get("forced_skipped", "-"))
         if r.get("forced_reference_s") is not None:
-            forced += (f" (former rule {r['forced_reference_s']:.2f} s; general LP door: analysis "
-                       f"{r['analysis_general_door_s']:.3f} s, forced {r['forced_general_door_s']:.2f} s)")
+            forced += f" (former rule {r['forced_reference_s']:.2f} s)"
+        if r.get("forced_general_door_s") is not None:
+            forced += (f" (general LP door: analysis {r['analysis_general_door_s']:.3f} s, forced "
+                       f"{r['forced_general_door_s']:.2f} s)")
         print(f"{k:2d} contacts: {r['modes_evaluated']:6d} modes evaluated, {r['modes_feasible']:5d} "
               f"feasible; analysis {r['analysis_s']:.3f} s "
               f"({1e3 * r['analysis_per_evaluated_mode_s']:.3f} ms per evaluated mode); forced {forced}",
