@@ -121,7 +121,7 @@ from benchmarks.trade import (
 from frcontrol.engine import analyze, solutions_at
 from frcontrol.errors import FrcontrolError
 from frcontrol.scene import Scene, load_scene
-from frcontrol.simulation import simulate, simulate_rigid
+from frcontrol.simulation import CompliantSettings, simulate, simulate_rigid
 
 RESULTS = Path(__file__).resolve().parent / "results"
 README = Path(__file__).resolve().parents[1] / "docs" / "benchmarks.md"
@@ -681,7 +681,7 @@ def compliant_call(ref: Reference, setting: CompliantSetting, scene: Scene, dura
     def call() -> Any:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # SciPy's num_jac overflow warnings
-            return simulate(scene, {}, duration, dt, **options)
+            return simulate(scene, {}, duration, dt, settings=CompliantSettings(**options))
 
     return call, None
 
