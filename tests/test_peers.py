@@ -155,3 +155,17 @@ def test_mujoco_model_text_holds_the_body_and_its_contacts():
 def test_readme_table_is_generated_from_the_committed_results():
     payload = json.loads((REPO / "benchmarks" / "results" / "peers.json").read_text())
     assert peers.readme_tables(payload) in (REPO / "docs" / "benchmarks.md").read_text()
+
+
+@pytest.mark.parametrize("setting", [
+    peers.COMPLIANT_DEFAULTS,
+    peers.CompliantSetting("windowed", stiffness=1e5, rtol=1e-3, window=12.0),
+    peers.CompliantSetting("euler", stiffness=1e5, integrator="euler", euler_fraction=0.5, window=2.0),
+])
+def test_frcontrols_compliant_points_run(setting):
+    """The benchmark's own calls into frcontrol (not the peers'): each compliant setting simulates and
+    reads finite forces at the active contacts, the tip's normal force pushing up."""
+    found = peers.compliant_point(reference("rod_on_table"), setting, 1)
+    assert found["valid"], found
+    assert math.isfinite(found["error"]) and found["time"] > 0.0, found
+    assert found["forces"][0] > 0.0, found
