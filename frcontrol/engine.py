@@ -1035,7 +1035,7 @@ def solutions_at(
     if method not in SOLUTION_METHODS:
         raise InputError(f"unknown solution method {method!r}; valid: {', '.join(SOLUTION_METHODS)}")
     settings = settings_from(solver, settings)
-    if _is_batch(inputs):
+    if not isinstance(inputs, Mapping) and _is_batch(inputs):
         analysis = scene if isinstance(scene, DynamicResponse) else analyze(
             scene, settings=settings, ambiguity=False, rank_tolerance=rank_tolerance)
         return solutions_at_batch(analysis, inputs, settings=settings)
@@ -1088,7 +1088,7 @@ def _is_batch(inputs: Mapping[str, float] | Sequence[float] | np.ndarray) -> boo
         return False
     if isinstance(inputs, np.ndarray):
         return inputs.ndim == 2
-    if isinstance(inputs, (list, tuple)) and inputs and not isinstance(inputs[0], (list, tuple, np.ndarray)):
+    if isinstance(inputs, (list, tuple)) and inputs and isinstance(inputs[0], (int, float, np.number)):
         return False  # a vector of numbers
     return bool(np.ndim(inputs) == 2)
 

@@ -13,7 +13,9 @@ the residual check; the Chebyshev LP is :func:`frcontrol.geometry.max_margin`), 
 settings a function is given (``settings=``, or ``solver=`` a back-end name), by default DAQP;
 an LP on which the chosen back-end fails (``"error"``) or that it calls unbounded is solved again
 by a second back-end (HiGHS, or DAQP when HiGHS was chosen), and
-:class:`~frcontrol.solvers.SolverFailed` is raised only when neither gives a usable answer.
+:class:`~frcontrol.solvers.SolverFailed` is raised only when neither gives a usable answer. A
+redundancy LP's "infeasible" is confirmed by the second back-end too (it runs over rows of a set
+already found non-empty).
 
 **Scale.** The tolerances below are absolute *distances* in the units of ``x``: every row is
 normalised to unit Euclidean norm (within the affine hull of the equalities) before a tolerance
@@ -75,6 +77,7 @@ __all__ = [
     "CONTAINMENT_TOLERANCE",
     "DUPLICATE_TOLERANCE",
     "EQUALITY_TOLERANCE",
+    "CANCELLATION_TOLERANCE",
     "EXTREME_RAY_MAX_ROWS",
     "EXTREME_RAY_PAIR_CHUNK",
     "INTERIOR_TOLERANCE",
@@ -265,7 +268,7 @@ class ChebyshevBall:
 
 
 _BOUNDED_LP = must_solve("an LP of the polytope module", bounded=True)
-r"""The fallback policy of this module's bounded LPs (Chebyshev, redundancy): the second back-end
+r"""The fallback policy of this module's bounded LPs (the Chebyshev LP): the second back-end
 (HiGHS, or DAQP when HiGHS was chosen) solves the LP again when the first returns ``"error"`` or
 ``"unbounded"`` (DAQP 0.11 reported a bounded, very degenerate LP of 951 rows as unbounded); an
 ``"unbounded"`` answer counts as a failure (:class:`~frcontrol.solvers.SolverFailed`).
@@ -1101,15 +1104,20 @@ def _fourier_motzkin_step(
 
 EXTREME_RAY_MAX_ROWS = 2048
 """[rows] :func:`project`'s default method runs Fourier-Motzkin steps without LPs while the
-system has at most this many rows; past it, the rows are pruned by LP
+system has at most this many rows after a step; past it, the rows are pruned by LP
 (:func:`minimal_representation`) and the elimination goes on from the pruned system. Bounds the
-memory of a projection whose intermediate systems grow (the pairs of a step are at most the
-square of this)."""
+memory of a projection whose intermediate systems grow: the pairs a step tests are at most the
+square of this (in chunks, :data:`EXTREME_RAY_PAIR_CHUNK`), the rows it makes at most as many."""
 
 PROJECTION_METHODS = ("extreme_rays", "fourier_motzkin")
 """:func:`project`'s methods: ``"extreme_rays"`` (the default) keeps, at every Fourier-Motzkin step,
 only the rows that are extreme rays of the projection cone and prunes by LP once, at the end;
 ``"fourier_motzkin"`` prunes by LP after every step (the former rule, kept as the reference)."""
+
+
+_ROWS_WITHIN_MIN_BLOCK = 64
+"""[unions] :func:`_rows_within`'s smallest block: with many current rows a block of one union per
+product would cost a Python call per pair."""
 
 
 def _rows_within(support: np.ndarray, unions: np.ndarray) -> np.ndarray:
@@ -1120,7 +1128,7 @@ def _rows_within(support: np.ndarray, unions: np.ndarray) -> np.ndarray:
     """
     S = support.astype(np.float64)
     sizes = S.sum(axis=1) - 0.5  # a row lies within a union when all of its support is in it
-    block = max(1, GRAM_BLOCK_PRODUCTS // max(1, S.size))
+    block = max(_ROWS_WITHIN_MIN_BLOCK, GRAM_BLOCK_PRODUCTS // max(1, S.size))
     counts = np.empty(unions.shape[0], dtype=np.int64)
     for start in range(0, unions.shape[0], block):
         U = unions[start:start + block].astype(np.float64)
@@ -1171,7 +1179,16 @@ def _extreme_ray_step(
     current row's support lies within the union of theirs (the combinatorial test, exact when the
     current rows are the extreme rays of :math:`C`, which holds from the start, where they are the
     starting rows themselves). Chernikov's rule, a union of more than ``steps + 1`` rows, discards most
-    pairs before that test. Every pair kept gives one new row, with no LP and no duplicate.
+    pairs before that test. Every pair kept gives one new row, with no LP (and, in the cone, no
+    duplicate).
+
+    The test needs every zero coefficient to be one in the cone's arithmetic, not a small number
+    taken for zero: the starting rows' small coefficients are set to zero once
+    (:func:`_eliminate_by_extreme_rays`), a coefficient here is zero only when it is exactly 0, and
+    a new row's coefficients that cancel to round-off (within :data:`CANCELLATION_TOLERANCE` of the
+    two terms summed) are set to exactly 0. A new row that cancels altogether, ``0 <= b'``, is
+    dropped when ``b' >= 0`` (it never combines again, so the other rows stay exact) and kept as
+    ``0 <= -1`` when ``b' < 0`` (the set is empty).
 
     Returns:
         ``(A', b', support')``, without the eliminated column.
@@ -1180,8 +1197,7 @@ def _extreme_ray_step(
     norms[norms == 0.0] = 1.0
     A, b = A / norms[:, None], b / norms
     coefficients = A[:, n_keep:]
-    positive = coefficients > ZERO_TOLERANCE
-    negative = coefficients < -ZERO_TOLERANCE
+    positive, negative = coefficients > 0.0, coefficients < 0.0
     j = n_keep + int(np.argmin(positive.sum(axis=0) * negative.sum(axis=0)))
     pos, neg = np.flatnonzero(positive[:, j - n_keep]), np.flatnonzero(negative[:, j - n_keep])
     zero = ~(positive[:, j - n_keep] | negative[:, j - n_keep])
@@ -1189,8 +1205,33 @@ def _extreme_ray_step(
     scale_p, scale_n = 1.0 / A[p_rows, j], -1.0 / A[n_rows, j]
     combined = A[p_rows] * scale_p[:, None] + A[n_rows] * scale_n[:, None]
     combined_rhs = b[p_rows] * scale_p + b[n_rows] * scale_n
+    combined, combined_rhs, kept = _without_cancelled(
+        combined, combined_rhs, np.abs(A[p_rows]) * scale_p[:, None] + np.abs(A[n_rows]) * scale_n[:, None],
+        np.abs(b[p_rows]) * scale_p + np.abs(b[n_rows]) * scale_n)
     new_A = np.delete(np.vstack([A[zero], combined]), j, axis=1)
-    return new_A, np.concatenate([b[zero], combined_rhs]), np.vstack([support[zero], unions])
+    return new_A, np.concatenate([b[zero], combined_rhs]), np.vstack([support[zero], unions[kept]])
+
+
+CANCELLATION_TOLERANCE = 1e-13
+"""[-] A coefficient (or right side) of a row :func:`_extreme_ray_step` combines is round-off, and set
+to exactly 0, when it is at most this fraction of the sum of its two terms' magnitudes: about 500
+times the double precision's unit round-off, the error of a few steps' sums."""
+
+
+def _without_cancelled(rows: np.ndarray, rhs: np.ndarray, magnitude: np.ndarray, rhs_magnitude: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """New rows with their round-off set to 0 and the rows ``0 <= b`` (b >= 0) dropped.
+
+    ``magnitude``: per entry, the sum of the two terms' magnitudes (:data:`CANCELLATION_TOLERANCE`).
+    A row ``0 <= b`` with ``b < 0`` is kept as ``0 <= -1``. Returns the rows, their right sides and
+    which new rows were kept.
+    """
+    rows = np.where(np.abs(rows) <= CANCELLATION_TOLERANCE * magnitude, 0.0, rows)
+    rhs = np.where(np.abs(rhs) <= CANCELLATION_TOLERANCE * rhs_magnitude, 0.0, rhs)
+    cancelled = ~np.any(rows != 0.0, axis=1)
+    rhs[cancelled & (rhs < 0.0)] = -1.0
+    kept = ~cancelled | (rhs < 0.0)
+    return rows[kept], rhs[kept], kept
 
 
 def _eliminate_by_extreme_rays(
@@ -1199,7 +1240,9 @@ def _eliminate_by_extreme_rays(
     """Fourier-Motzkin steps of :func:`_extreme_ray_step` from ``A x <= b``, its rows the starting rows.
 
     Until the columns ``n_keep:`` are gone or the system has more than ``max_rows`` rows (default
-    :data:`EXTREME_RAY_MAX_ROWS`).
+    :data:`EXTREME_RAY_MAX_ROWS`). The starting rows are scaled to unit norm and their coefficients
+    of at most :data:`ZERO_TOLERANCE` in the columns eliminated set to 0: the elimination is then
+    exact for that system (see :func:`_extreme_ray_step`).
 
     Returns:
         ``(A', b')``: rows implying every combination of the starting rows that cancels the
@@ -1207,6 +1250,10 @@ def _eliminate_by_extreme_rays(
         not yet eliminated still last.
     """
     max_rows = EXTREME_RAY_MAX_ROWS if max_rows is None else max_rows
+    norms = row_norms(A)
+    norms[norms == 0.0] = 1.0
+    A, b = A / norms[:, None], b / norms
+    A[:, n_keep:][np.abs(A[:, n_keep:]) <= ZERO_TOLERANCE] = 0.0  # small coefficients: zero, once
     support = np.eye(A.shape[0], dtype=bool)
     steps = 0
     while A.shape[1] > n_keep:  # at least one step per call: the caller's pruning cannot stall it
@@ -1271,7 +1318,8 @@ def project(
     whenever the system passes :data:`EXTREME_RAY_MAX_ROWS` rows, after which the elimination goes
     on from the pruned system). By ``"fourier_motzkin"`` the rows are pruned after every step
     (unit rows, duplicates merged, redundant rows dropped by LP, opposite pairs turned into
-    equalities, which are eliminated in turn). Both give the same set in minimal form; the first
+    equalities, which are eliminated in turn). Both give the same set in minimal form, to the
+    tolerances (:data:`ZERO_TOLERANCE`, :data:`CANCELLATION_TOLERANCE`); the first
     needs far fewer LPs and bounded memory where intermediate systems grow (the snake on the
     ground with 12 contacts: a mode with 9 variables to eliminate). Works for unbounded polyhedra
     too.

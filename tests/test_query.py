@@ -291,7 +291,7 @@ def test_the_docs_page_names_the_tolerance():
 @pytest.mark.parametrize("inputs", [
     [0.0, 1.0, 2.0], (0.0, 1.0, 2.0), np.zeros(3), np.zeros((4, 3)), [[0.0, 1.0, 2.0]], ((0.0, 1.0, 2.0),),
     [np.zeros(3), np.zeros(3)], [np.array(0.0), np.array(1.0), np.array(2.0)], [np.float64(1.0)] * 3, [],
-    np.zeros((2, 2, 3)), [[[0.0]]],
+    np.zeros((2, 2, 3)), [[[0.0]]], [range(3), range(3)],
 ])
 def test_a_batch_is_told_apart_as_numpy_would(inputs):
     """``solutions_at``'s cheap test of a batch answers as ``np.ndim(inputs) == 2`` does."""
