@@ -1241,8 +1241,10 @@ def _eliminate_by_extreme_rays(
 
     Until the columns ``n_keep:`` are gone or the system has more than ``max_rows`` rows (default
     :data:`EXTREME_RAY_MAX_ROWS`). The starting rows are scaled to unit norm and their coefficients
-    of at most :data:`ZERO_TOLERANCE` in the columns eliminated set to 0: the elimination is then
-    exact for that system (see :func:`_extreme_ray_step`).
+    of at most :data:`ZERO_TOLERANCE` set to 0: the elimination is then exact for that system (see
+    :func:`_extreme_ray_step`). A starting row of norm at most :data:`ZERO_TOLERANCE` (relative to
+    the largest; the remains of a row the equalities eliminated) is ``0 <= b``: dropped, or, with
+    ``b`` below ``-CONTAINMENT_TOLERANCE``, the set is empty (one row ``0 <= -1``).
 
     Returns:
         ``(A', b')``: rows implying every combination of the starting rows that cancels the
@@ -1251,9 +1253,11 @@ def _eliminate_by_extreme_rays(
     """
     max_rows = EXTREME_RAY_MAX_ROWS if max_rows is None else max_rows
     norms = row_norms(A)
-    norms[norms == 0.0] = 1.0
-    A, b = A / norms[:, None], b / norms
-    A[:, n_keep:][np.abs(A[:, n_keep:]) <= ZERO_TOLERANCE] = 0.0  # small coefficients: zero, once
+    zero = norms <= ZERO_TOLERANCE * max(1.0, float(norms.max(initial=0.0)))
+    if np.any(b[zero] < -CONTAINMENT_TOLERANCE):  # 0 <= b < 0: the set is empty
+        return np.zeros((1, n_keep)), np.array([-1.0])
+    A, b = A[~zero] / norms[~zero, None], b[~zero] / norms[~zero]  # the rows 0 <= b, b >= 0: nothing
+    A[np.abs(A) <= ZERO_TOLERANCE] = 0.0  # small coefficients: zero, once
     support = np.eye(A.shape[0], dtype=bool)
     steps = 0
     while A.shape[1] > n_keep:  # at least one step per call: the caller's pruning cannot stall it

@@ -221,3 +221,21 @@ def test_small_coefficients_do_not_lose_a_facet():
         shadow = poly.project(P, 2, method=method)
         got = -solve_lp(-c, shadow.A, shadow.b, door=on(REFERENCE_LP_SOLVER)).objective
         assert got == pytest.approx(expected, abs=1e-7), method
+
+
+def test_a_row_the_equalities_eliminated_is_not_a_facet():
+    """A slab (two opposite rows) becomes an equality; the rows that were its multiples are left as
+    round-off, which scaled to unit norm made a false facet: the projection, a segment, lost its far
+    part. The projection's support function is the set's (HiGHS) in random directions."""
+    data = np.load(DATA / "implicit_slab.npz")
+    P, keep = poly.Polytope(data["A"], data["b"]), data["keep"].tolist()
+    rng = np.random.default_rng(70)
+    for method in poly.PROJECTION_METHODS:
+        shadow = poly.project(P, keep, method=method)
+        for c in rng.normal(size=(8, len(keep))):
+            lifted = np.zeros(P.dim)
+            lifted[keep] = c
+            expected = -solve_lp(-lifted, P.A, P.b, door=on(REFERENCE_LP_SOLVER)).objective
+            got = -solve_lp(-c, shadow.A, shadow.b, shadow.A_eq, shadow.b_eq,
+                            door=on(REFERENCE_LP_SOLVER)).objective
+            assert got == pytest.approx(expected, abs=1e-7), method
