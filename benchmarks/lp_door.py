@@ -79,26 +79,44 @@ def load_corpus(path: Path = CORPUS) -> list[LinearProgram]:
 
 
 def record(contacts: int) -> list[LinearProgram]:
-    """Every LP the door receives during the forced analysis of the snake with ``contacts`` contacts."""
+    """Every LP the door receives during the forced analysis of the snake with ``contacts`` contacts.
+
+    Both ways in: the general door (:func:`frcontrol.solvers.solve`) and its lean path
+    (:meth:`frcontrol.solvers.InequalityLPs.solve`, which the polytope module and the engine take);
+    an LP the lean path hands on to the general door is recorded once.
+    """
     from benchmarks.contacts import snake_scene
     from frcontrol.engine import analyze
     from frcontrol.scene import load_scene
 
     problems: list[LinearProgram] = []
-    door = solvers.solve
+    door, lean = solvers.solve, solvers.InequalityLPs.solve
+    inside_lean = [False]
 
     def recording(problem: LinearProgram, **kwargs: Any) -> Any:
-        problems.append(problem)
+        if not inside_lean[0]:
+            problems.append(problem)
         return door(problem, **kwargs)
 
+    def recording_lean(self: solvers.InequalityLPs, c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray,
+                       lb: np.ndarray | None = None, ub: np.ndarray | None = None) -> Any:
+        problems.append(solvers.lp_problem(c, A_ub, b_ub, lb=lb, ub=ub, validate=False))
+        inside_lean[0] = True
+        try:
+            return lean(self, c, A_ub, b_ub, lb, ub)
+        finally:
+            inside_lean[0] = False
+
     scene = load_scene(snake_scene(contacts))
-    solvers.solve = recording  # type: ignore[assignment]
+    solvers.solve = recording
+    solvers.InequalityLPs.solve = recording_lean  # type: ignore[method-assign]
     try:
         done = analyze(scene, ambiguity=False)
         for mode in done.feasible_modes:
             _ = mode.domain, mode.input_domain
     finally:
-        solvers.solve = door  # type: ignore[assignment]
+        solvers.solve = door
+        solvers.InequalityLPs.solve = lean  # type: ignore[method-assign]
     return problems
 
 

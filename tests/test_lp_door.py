@@ -139,3 +139,17 @@ def test_options_and_other_back_ends_take_the_general_door(corpus):
 def test_an_unknown_back_end_is_refused_when_the_lps_are_made():
     with pytest.raises(SolverNotFound, match="nosuch"):
         InequalityLPs(solver="nosuch")
+
+
+def test_the_benchmarks_record_catches_the_lean_paths_lps(tmp_path):
+    """``python -m benchmarks.lp_door --record``'s recording: the forced analysis's LPs take the lean
+    path, so a recording of the general door alone found none (and the corpus could not be saved)."""
+    from benchmarks.lp_door import record, save_corpus
+
+    recorded = record(3)
+    assert recorded and all(p.A_eq.shape[0] == 0 for p in recorded)
+    save_corpus(recorded, tmp_path / "corpus.npz")
+    again = load_corpus(tmp_path / "corpus.npz")
+    assert len(again) == len(recorded)
+    for a, b in zip(again, recorded, strict=True):
+        assert np.array_equal(a.A_ub, b.A_ub) and np.array_equal(a.lb, b.lb)
