@@ -1063,6 +1063,13 @@ def _eliminate_with_equalities(
     return A, b, A_eq, b_eq
 
 
+def _scaled_to_unit(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``A x <= b`` with every non-zero row scaled to unit norm (zero rows as they are)."""
+    norms = row_norms(A)
+    norms[norms == 0.0] = 1.0
+    return A / norms[:, None], b / norms
+
+
 def _fourier_motzkin_step(
     A: np.ndarray, b: np.ndarray, n_keep: int
 ) -> tuple[np.ndarray, np.ndarray, int, np.ndarray]:
@@ -1079,9 +1086,7 @@ def _fourier_motzkin_step(
         ``(A', b', j, parents)``: the new rows without column ``j``, ``j``, and each new row's rows of
         ``A`` (a (rows, 2) array: a kept row is its own two parents).
     """
-    norms = row_norms(A)
-    norms[norms == 0.0] = 1.0
-    A, b = A / norms[:, None], b / norms
+    A, b = _scaled_to_unit(A, b)
     coefficients = A[:, n_keep:]
     positive = coefficients > ZERO_TOLERANCE
     negative = coefficients < -ZERO_TOLERANCE
@@ -1193,9 +1198,7 @@ def _extreme_ray_step(
     Returns:
         ``(A', b', support')``, without the eliminated column.
     """
-    norms = row_norms(A)
-    norms[norms == 0.0] = 1.0
-    A, b = A / norms[:, None], b / norms
+    A, b = _scaled_to_unit(A, b)
     coefficients = A[:, n_keep:]
     positive, negative = coefficients > 0.0, coefficients < 0.0
     j = n_keep + int(np.argmin(positive.sum(axis=0) * negative.sum(axis=0)))
