@@ -37,7 +37,7 @@ def analyze_command(
     assignments = options.parse_inputs(inputs)
     with common.progress("analysing contact modes (at most)", "modes") as shown:
         answer = analyze_answer(loaded, assignments if inputs else None,
-                                progress=_mode_counter(loaded, shown))
+                                progress=_mode_counter(loaded, shown), stage=shown.stage)
     common.answer(answer.document, render, json=json)
 
 

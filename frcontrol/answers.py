@@ -89,7 +89,8 @@ def without_run_dependent(document: Any) -> Any:
 
 
 def analysis_and_solutions(
-    scene: Scene, inputs: Mapping[str, float] | None, progress: Callable[[str], None] | None = None
+    scene: Scene, inputs: Mapping[str, float] | None, progress: Callable[[str], None] | None = None,
+    stage: Callable[[str], None] | None = None,
 ) -> tuple[DynamicResponse, list[RigidSolution] | None]:
     """Every contact mode at the scene's state and, when ``inputs`` is given, every rigid solution there.
 
@@ -97,6 +98,7 @@ def analysis_and_solutions(
         scene: the loaded scene.
         inputs: named input values [N or N m] (inputs not named are 0), or None for no solutions.
         progress: called with each mode's name (the scene's letters) as its evaluation starts.
+        stage: called with each later stage's description as it starts (:func:`~frcontrol.engine.analyze`).
 
     Raises:
         InputError, CoordinateNotFound: see :func:`frcontrol.scene.parse_input_assignments`.
@@ -104,7 +106,7 @@ def analysis_and_solutions(
     from .engine import analyze, solutions_at
     from .scene import parse_input_assignments
 
-    result = analyze(scene, progress=progress)
+    result = analyze(scene, progress=progress, stage=stage)
     solutions = None if inputs is None else solutions_at(result, parse_input_assignments(scene, inputs))
     return result, solutions
 
@@ -351,15 +353,17 @@ def show_answer(scene: Scene) -> Answer:
 
 
 def analyze_answer(scene: Scene, inputs: Mapping[str, float] | None = None,
-                   progress: Callable[[str], None] | None = None) -> Answer:
+                   progress: Callable[[str], None] | None = None,
+                   stage: Callable[[str], None] | None = None) -> Answer:
     """``frc analyze [--input ...] --json`` (``POST /analyze``): every mode; with ``inputs``, the solutions.
 
     Args:
         scene: the loaded scene.
         inputs: named input values [N or N m], or None for no solutions.
         progress: called with each mode's name (the scene's letters) as its evaluation starts.
+        stage: called with each later stage's description as it starts (the overlaps).
     """
-    result, solutions = analysis_and_solutions(scene, inputs, progress=progress)
+    result, solutions = analysis_and_solutions(scene, inputs, progress=progress, stage=stage)
     return Answer("analyze", analysis_payload(scene, result, solutions), result=result)
 
 

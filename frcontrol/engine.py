@@ -541,6 +541,7 @@ def analyze(
     ambiguity: bool = True,
     rank_tolerance: float = RANK_TOLERANCE,
     progress: Callable[[str], None] | None = None,
+    stage: Callable[[str], None] | None = None,
 ) -> DynamicResponse:
     """The dynamic response of a scene at its state.
 
@@ -554,6 +555,8 @@ def analyze(
         rank_tolerance: relative singular-value threshold of the rank decisions.
         progress: called with each mode's name as its evaluation starts (for progress displays), in
             the scene's letters (:meth:`~frcontrol.modes.ContactProblem.scene_mode`), as outputs print it.
+        stage: called with a description of each stage after the modes' as it starts (the
+            overlaps: ``"finding the overlaps of N modes"``), for progress displays.
 
     Raises:
         ImpactState: a contact moves into its surface.
@@ -578,6 +581,8 @@ def analyze(
     overlaps: list[Overlap] = []
     if ambiguity:
         t0 = time.perf_counter()
+        if stage is not None:
+            stage(f"finding the overlaps of {sum(a.inputs_full_dimensional for a in feasible)} modes")
         overlaps = _overlaps(feasible, settings)
         timings["ambiguity"] = time.perf_counter() - t0
     t0 = time.perf_counter()
@@ -754,11 +759,17 @@ def _boxes_apart(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarr
     and the opposite way infeasible, which happens at large friction) tells nothing: that input
     does not set the boxes apart.
     """
-    lo = np.maximum(a[0], b[0])
-    hi = np.minimum(a[1], b[1])
+    return bool(_boxes_apart_from(a[0], a[1], b[0][None, :], b[1][None, :])[0])
+
+
+def _boxes_apart_from(lower: np.ndarray, upper: np.ndarray, lowers: np.ndarray, uppers: np.ndarray
+                      ) -> np.ndarray:
+    """:func:`_boxes_apart` of the box ``(lower, upper)`` and each of ``(lowers[j], uppers[j])``, at once."""
+    lo = np.maximum(lower, lowers)
+    hi = np.minimum(upper, uppers)
     width = np.full(lo.shape, np.inf)
     np.subtract(hi, lo, out=width, where=~(np.isinf(hi) & (hi == lo)))
-    return bool(np.any(width <= 2 * DOMAIN_TOLERANCE))
+    return np.any(width <= 2 * DOMAIN_TOLERANCE, axis=1)
 
 
 def _interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings
@@ -802,11 +813,15 @@ def _overlaps(feasible: Sequence[ModeAnalysis], settings: SolverSettings) -> lis
     rows = [_input_rows(a) for a in candidates]
     boxes = ([_input_box(r, m, settings) for r in rows]
              if len(candidates) - 1 > BOX_FILTER_MODES_PER_INPUT * m else None)
+    lower = None if boxes is None else np.array([box[0] for box in boxes]).reshape(len(candidates), m)
+    upper = None if boxes is None else np.array([box[1] for box in boxes]).reshape(len(candidates), m)
     overlaps: list[Overlap] = []
     for i, a in enumerate(candidates):
-        for j in range(i + 1, len(candidates)):
-            if boxes is not None and _boxes_apart(boxes[i], boxes[j]):
-                continue
+        later: Sequence[int] = range(i + 1, len(candidates))
+        if lower is not None and upper is not None:  # the pairs whose boxes meet, all at once
+            later = (np.flatnonzero(~_boxes_apart_from(lower[i], upper[i], lower[i + 1:], upper[i + 1:]))
+                     + i + 1).tolist()
+        for j in later:
             margin, center = _interiors_meet(rows[i], rows[j], m, settings)
             if margin > DOMAIN_TOLERANCE and center is not None:
                 overlaps.append(Overlap((a.mode, candidates[j].mode), float(margin), center))

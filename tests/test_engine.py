@@ -512,3 +512,29 @@ def test_an_analysis_is_immutable_and_its_query_table_built_with_it():
     assert twin.query is table and {f.name for f in dataclasses.fields(analysis)} >= {"query"}
     assert not any(f.name.startswith("_") for f in dataclasses.fields(analysis))
     assert not any(f.name.startswith("_") for f in dataclasses.fields(box))
+
+
+def test_the_overlap_stage_is_announced():
+    """``analyze(stage=...)`` names the stage after the modes' as it starts (progress displays show it)."""
+    calls: list[str] = []
+    result = analyze(load_scene("snake_climb"), stage=calls.append)
+    full = sum(m.inputs_full_dimensional for m in result.feasible_modes)
+    assert calls == [f"finding the overlaps of {full} modes"] and full > 2
+    calls.clear()
+    analyze(load_scene("snake_climb"), ambiguity=False, stage=calls.append)
+    assert calls == []
+
+
+@pytest.mark.parametrize("name", ["rod_on_table", "rod_pivot", "snake_climb", "solo_standup"])
+def test_the_box_filter_keeps_every_overlap(monkeypatch, name):
+    """The bounding boxes drop pairs only where the lifted LP finds no overlap: each scene with the
+    filter forced on and off gives the same overlaps (the rods have 3 each)."""
+    import frcontrol.engine as engine
+
+    analysis = analyze(load_scene(name), ambiguity=False)
+    monkeypatch.setattr(engine, "BOX_FILTER_MODES_PER_INPUT", -1)  # on for any count
+    filtered = engine._overlaps(analysis.feasible_modes, analysis.settings)
+    monkeypatch.setattr(engine, "BOX_FILTER_MODES_PER_INPUT", 10**9)  # off
+    every_pair = engine._overlaps(analysis.feasible_modes, analysis.settings)
+    assert [o.modes for o in filtered] == [o.modes for o in every_pair]
+    assert len(every_pair) == len(analyze(load_scene(name)).overlaps)

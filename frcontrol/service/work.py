@@ -113,7 +113,8 @@ def _analyze(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
     from frcontrol.answers import analyze_answer
 
     return analyze_answer(scene, request.inputs,
-                          progress=lambda mode: progress(None, f"analysing mode {mode}")).document
+                          progress=lambda mode: progress(None, f"analysing mode {mode}"),
+                          stage=lambda text: progress(None, text)).document
 
 
 def _solutions(request: Any, scene: Scene, progress: Progress) -> dict[str, Any]:
