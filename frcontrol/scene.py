@@ -857,11 +857,10 @@ def input_vector(names: Sequence[str], lower: np.ndarray, upper: np.ndarray, val
             raise InputError(f"the input vector has {u.size} entries; the scene has {len(names)} inputs "
                              f"({', '.join(names)})")
     entries = u.tolist()  # a few entries: Python floats are quicker than NumPy's per-call overhead
+    low, high = lower.tolist(), upper.tolist()
     for j, value in enumerate(entries):
         if not math.isfinite(value):
             raise InputError(f"input {names[j]!r} must be finite, got {value!r}")
-    low, high = lower.tolist(), upper.tolist()
-    for j, value in enumerate(entries):
         if value < low[j] - INPUT_LIMIT_SLACK or value > high[j] + INPUT_LIMIT_SLACK:
             raise InputError(f"input {names[j]!r} = {value:g} is outside its limits "
                              f"[{low[j]:g}, {high[j]:g}]")

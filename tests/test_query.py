@@ -299,3 +299,23 @@ def test_a_batch_is_told_apart_as_numpy_would(inputs):
 
     assert _is_batch(inputs) == (np.ndim(inputs) == 2)
     assert not _is_batch({"x": 1.0})
+
+
+@pytest.mark.parametrize("name", ["rod_on_table", "box_on_slope", "rhex_flip"])
+def test_the_querys_solutions_are_ordinary_frozen_solutions(name):
+    """The query fills each RigidSolution's fields at once (``_made_solution``): the same object as the
+    dataclass's own ``__init__`` makes, equal, with the same repr, and frozen."""
+    import dataclasses
+
+    from frcontrol.engine import RigidSolution
+
+    analysis = analyze(load_scene(name))
+    found = solutions_at(analysis, np.zeros(analysis.problem.m))
+    assert found
+    for solution in found:
+        fields = {f.name: getattr(solution, f.name) for f in dataclasses.fields(RigidSolution)}
+        made = RigidSolution(**fields)
+        assert type(solution) is RigidSolution and repr(solution) == repr(made)
+        assert vars(solution).keys() == vars(made).keys()
+        with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign"):
+            solution.mode = "S"  # type: ignore[misc]
