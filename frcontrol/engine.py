@@ -782,12 +782,19 @@ def _interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings
     """
     Ha, ha, pa = a
     Hb, hb, pb = b
-    rows_a = np.hstack([Ha[:, :m], Ha[:, m:], np.zeros((Ha.shape[0], pb))])
-    rows_b = np.hstack([Hb[:, :m], np.zeros((Hb.shape[0], pa)), Hb[:, m:]])
-    H = np.vstack([rows_a, rows_b])
+    ra, d = Ha.shape[0], m + pa + pb
+    H = np.zeros((ra + Hb.shape[0], d + 1))  # the LP's rows, with t's column last
+    H[:ra, :m + pa] = Ha
+    H[ra:, :m] = Hb[:, :m]
+    H[ra:, m + pa:d] = Hb[:, m:]
     h = np.concatenate([ha, hb])
-    found = motion_margin(H, h, np.ones(H.shape[0], dtype=bool), np.zeros((0, H.shape[1])),
-                          np.zeros(0), settings=settings)
+    norms, constant = _row_norms(H[:, :d])
+    if np.count_nonzero(constant):  # (rows the pair's scale makes constant: motion_margin's own rules)
+        found = motion_margin(H[:, :d], h, np.ones(H.shape[0], dtype=bool), np.zeros((0, d)), np.zeros(0),
+                              settings=settings)
+    else:  # motion_margin's LP, every row a moving motion row: its rows built in place
+        H[:, d] = norms
+        found = _margin_lp(H, h, np.zeros((0, d)), np.zeros(0), False, H.shape[0] > 0, settings)
     if found.verdict == "infeasible" or found.margin is None or found.point is None:
         return 0.0, None
     return found.margin, found.point[:m]

@@ -538,3 +538,27 @@ def test_the_box_filter_keeps_every_overlap(monkeypatch, name):
     every_pair = engine._overlaps(analysis.feasible_modes, analysis.settings)
     assert [o.modes for o in filtered] == [o.modes for o in every_pair]
     assert len(every_pair) == len(analyze(load_scene(name)).overlaps)
+
+
+@pytest.mark.parametrize("name", ["rod_on_table", "snake_climb"])
+def test_the_lifted_overlap_lp_is_motion_margins(name):
+    """``_interiors_meet`` builds its LP in place: the same LP, bit for bit, as ``motion_margin`` of the
+    two modes' rows stacked in (u, w_a, w_b) with every row a motion row."""
+    import frcontrol.engine as engine
+
+    analysis = analyze(load_scene(name), ambiguity=False)
+    modes = [mode for mode in analysis.feasible_modes if mode.inputs_full_dimensional][:24]
+    m = modes[0].m
+    rows = [engine._input_rows(mode) for mode in modes]
+    for i in range(len(rows)):
+        for j in range(i + 1, len(rows)):
+            (Ha, ha, pa), (Hb, hb, pb) = rows[i], rows[j]
+            H = np.vstack([np.hstack([Ha, np.zeros((Ha.shape[0], pb))]),
+                           np.hstack([Hb[:, :m], np.zeros((Hb.shape[0], pa)), Hb[:, m:]])])
+            stacked = engine.motion_margin(H, np.concatenate([ha, hb]), np.ones(H.shape[0], dtype=bool),
+                                           np.zeros((0, H.shape[1])), np.zeros(0), settings=analysis.settings)
+            margin, point = engine._interiors_meet(rows[i], rows[j], m, analysis.settings)
+            if stacked.verdict == "infeasible":
+                assert (margin, point) == (0.0, None)
+            else:
+                assert margin == stacked.margin and np.array_equal(point, stacked.point[:m])
