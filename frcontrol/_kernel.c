@@ -1872,6 +1872,196 @@ done:
     return result;
 }
 
+/* frcontrol.response.certified_by_rows (its NumPy twin is _certified_by_rows_numpy): per system A
+ * (rows, nx) and its kept rows (q <= nx of them), the power-of-two scalings r, s of the whole A (as
+ * equilibrate_stack), S^T = Q R for S the kept rows of A_hat = diag(r) A diag(s) (Householder
+ * reflections), R_1^T Y = [I, (diag(r) B)_S, (diag(r) c)_S] by forward substitution, the
+ * minimum-norm solutions V = Q [Y_[B c]; 0] and the null space Q_2 = Q [0; I]. info (6 per system):
+ * the bound ||A_hat||_F ||Y_I||_F, dropped = ||A_hat Q_2||_F, the residuals
+ * ||diag(r) B - A_hat V_B||_F and ||diag(r) c - A_hat V_c||, ||A_hat||_F and
+ * max(1, max |diag(r) B|, max |diag(r) c|). A pivot |R_jj| at most ||A_hat||_F / limit leaves the
+ * bound +inf and the next three NaN. The certificate's decision is the caller's. */
+enum { BY_ROWS_INFO = 6 };
+
+/* The scalings of the whole A into r (rows) and w->s (nx), S^T into w->M; returns ||A_hat||_F. */
+static double equilibrate_kept(QRScratch *w, Py_ssize_t rows, const double *A, const long long *kept,
+                               double *r) {
+    Py_ssize_t q = w->rows, nx = w->nx;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        double top = 0.0;
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            top = fabs(A[i * nx + j]) > top ? fabs(A[i * nx + j]) : top;
+        }
+        r[i] = power_of_two_scale(top);
+    }
+    for (Py_ssize_t j = 0; j < nx; j++) {
+        double top = 0.0;
+        for (Py_ssize_t i = 0; i < rows; i++) {
+            double v = fabs(A[i * nx + j]) * r[i];
+            top = v > top ? v : top;
+        }
+        w->s[j] = power_of_two_scale(top);
+    }
+    double size = 0.0;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            double v = A[i * nx + j] * r[i] * w->s[j];
+            size += v * v;
+        }
+    }
+    for (Py_ssize_t t = 0; t < q; t++) {
+        Py_ssize_t i = (Py_ssize_t)kept[t];
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            w->M[j * q + t] = A[i * nx + j] * r[i] * w->s[j];
+        }
+    }
+    return sqrt(size);
+}
+
+/* info[1..3] of one system: ||A_hat Q_2||_F and the residuals of V on every row; info[5] the scale. */
+static void by_rows_checks(const QRScratch *w, Py_ssize_t rows, const double *A, const double *B, const double *c,
+                           const double *r, const double *X_w, double *info) {
+    Py_ssize_t nx = w->nx, m = w->m, p = nx - w->rows;
+    double dropped = 0.0, res_B = 0.0, res_c = 0.0, scale = 1.0;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        const double *a = A + i * nx;
+        for (Py_ssize_t k = 0; k < p; k++) {
+            double sum = 0.0;
+            for (Py_ssize_t j = 0; j < nx; j++) {
+                sum += a[j] * r[i] * w->s[j] * X_w[j * p + k];
+            }
+            dropped += sum * sum;
+        }
+        for (Py_ssize_t k = 0; k <= m; k++) {
+            double right = k < m ? B[i * m + k] * r[i] : c[i] * r[i], sum = 0.0;
+            scale = fabs(right) > scale ? fabs(right) : scale;
+            for (Py_ssize_t j = 0; j < nx; j++) {
+                sum += a[j] * r[i] * w->s[j] * w->V[j * (m + 1) + k];
+            }
+            double d = right - sum;
+            if (k < m) {
+                res_B += d * d;
+            } else {
+                res_c += d * d;
+            }
+        }
+    }
+    info[1] = sqrt(dropped), info[2] = sqrt(res_B), info[3] = sqrt(res_c), info[5] = scale;
+}
+
+static void by_rows_system(QRScratch *w, Py_ssize_t rows, const double *A, const double *B, const double *c,
+                           const long long *kept, double limit, double *r, double *X_u, double *x_0, double *X_w,
+                           double *info) {
+    Py_ssize_t q = w->rows, nx = w->nx, m = w->m, width = q + m + 1, p = nx - q;
+    double size = equilibrate_kept(w, rows, A, kept, r);
+    info[0] = HUGE_VAL, info[1] = info[2] = info[3] = NAN, info[4] = size, info[5] = NAN;
+    householder(w);
+    for (Py_ssize_t j = 0; j < q; j++) {
+        if (!(size < limit * fabs(w->M[j * q + j]))) {
+            return; /* ||R_1^-1||_F >= 1 / |R_jj|: not certified */
+        }
+    }
+    double *Y = w->Y, sum = 0.0;
+    for (Py_ssize_t t = 0; t < q; t++) { /* R_1^T Y = [I, (diag(r) B)_S, (diag(r) c)_S], R_1^T lower */
+        double *y = Y + t * width;
+        Py_ssize_t i = (Py_ssize_t)kept[t];
+        for (Py_ssize_t k = 0; k < width; k++) {
+            y[k] = k < q ? (k == t) : k < q + m ? B[i * m + k - q] * r[i] : c[i] * r[i];
+        }
+        for (Py_ssize_t l = 0; l < t; l++) {
+            double a = w->M[l * q + t];
+            for (Py_ssize_t k = 0; k < width; k++) {
+                y[k] -= a * Y[l * width + k];
+            }
+        }
+        double d = w->M[t * q + t];
+        for (Py_ssize_t k = 0; k < width; k++) {
+            y[k] /= d;
+        }
+        for (Py_ssize_t k = 0; k < q; k++) {
+            sum += y[k] * y[k];
+        }
+    }
+    info[0] = size * sqrt(sum);
+    double *V = w->V; /* Q [Y_[B c]; 0]: the minimum-norm solutions of the kept rows */
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        for (Py_ssize_t k = 0; k <= m; k++) {
+            V[i * (m + 1) + k] = i < q ? Y[i * width + q + k] : 0.0;
+        }
+    }
+    apply_q(w, V, m + 1);
+    memset(X_w, 0, (size_t)(nx * p) * sizeof(double)); /* Q [0; I]: their null space */
+    for (Py_ssize_t k = 0; k < p; k++) {
+        X_w[(q + k) * p + k] = 1.0;
+    }
+    apply_q(w, X_w, p);
+    by_rows_checks(w, rows, A, B, c, r, X_w, info);
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        for (Py_ssize_t k = 0; k < m; k++) {
+            X_u[i * m + k] = V[i * (m + 1) + k] * w->s[i];
+        }
+        x_0[i] = V[i * (m + 1) + m] * w->s[i];
+        for (Py_ssize_t k = 0; k < p; k++) {
+            X_w[i * p + k] *= w->s[i];
+        }
+    }
+}
+
+static const Arg by_rows_table[] = {
+    {"A", 'd', 3, {DIM_COUNT, DIM_ROWS, DIM_NX}, 0}, {"B", 'd', 2, {DIM_ROWS, DIM_M}, 0},
+    {"c", 'd', 2, {DIM_COUNT, DIM_ROWS}, 0}, {"kept", 'q', 2, {DIM_COUNT, DIM_S}, 0},
+    {"X_u", 'd', 3, {DIM_COUNT, DIM_NX, DIM_M}, WRITE}, {"x_0", 'd', 2, {DIM_COUNT, DIM_NX}, WRITE},
+    {"X_w", 'd', 3, {DIM_COUNT, DIM_NX, DIM_P}, WRITE}, {"info", 'd', 2, {DIM_COUNT, FIX(BY_ROWS_INFO)}, WRITE},
+    {"limit", 'f', 0, {0}, 0}};
+static void derive_by_rows(Py_ssize_t *dim) { /* X_w: (count, nx, nx - q) */
+    derive_dim(dim, DIM_P, dim[DIM_NX] >= 0 && dim[DIM_S] >= 0 && dim[DIM_S] <= dim[DIM_NX],
+               dim[DIM_NX] - dim[DIM_S]);
+}
+static const Signature by_rows_signature = {"certified_by_rows", 9, by_rows_table, derive_by_rows};
+
+static PyObject *certified_by_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    Args a;
+    PyObject *result = NULL;
+    double *memory = NULL;
+    if (parse(&by_rows_signature, args, nargs, &a)) {
+        goto done;
+    }
+    Py_ssize_t count = a.dim[DIM_COUNT], rows = a.dim[DIM_ROWS], nx = a.dim[DIM_NX], m = a.dim[DIM_M];
+    Py_ssize_t q = a.dim[DIM_S];
+    if (q > nx || q == 0) {
+        PyErr_Format(kernel_error, "kernel buffer kept: %zd rows kept of %zd columns, expected 0 < kept <= columns",
+                     q, nx);
+        goto done;
+    }
+    const long long *kept = a.data[3];
+    for (Py_ssize_t t = 0; t < count * q; t++) {
+        if (kept[t] < 0 || kept[t] >= rows) {
+            PyErr_Format(kernel_error, "kernel buffer kept: row %lld of a system of %zd rows", kept[t], rows);
+            goto done;
+        }
+    }
+    Py_ssize_t width = q + m + 1;
+    memory = PyMem_Malloc((size_t)(nx * q + q + nx * (m + 1) + q * width + rows + nx) * sizeof(double));
+    if (memory == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    QRScratch w = {q, nx, m, memory, NULL, NULL, NULL, NULL, NULL};
+    w.tau = w.M + nx * q, w.V = w.tau + q, w.Y = w.V + nx * (m + 1), w.r = w.Y + q * width, w.s = w.r + rows;
+    const double *A = a.data[0], *B = a.data[1], *c = a.data[2];
+    double *X_u = a.data[4], *x_0 = a.data[5], *X_w = a.data[6], *info = a.data[7];
+    for (Py_ssize_t i = 0; i < count; i++) {
+        by_rows_system(&w, rows, A + i * rows * nx, B, c + i * rows, kept + i * q, a.number[8], w.r,
+                       X_u + i * nx * m, x_0 + i * nx, X_w + i * nx * (nx - q), info + i * BY_ROWS_INFO);
+    }
+    result = Py_NewRef(Py_None);
+done:
+    PyMem_Free(memory);
+    release_args(&a);
+    return result;
+}
+
 /* ------------------------------------------------------------------ queries on an analysis */
 /* frcontrol.query.QueryTable.decide and evaluate (the NumPy twins), point by point and mode by mode.
  *
@@ -2599,6 +2789,13 @@ static PyMethodDef methods[] = {
      "frcontrol.response.certified_responses of systems A (count, rows, nx) sharing B (rows, m), with\n"
      "c (count, rows): each one's condition bound into bound (count,) (+inf when a pivot rules it\n"
      "out), and where bound < limit its X_u (count, nx, m), x_0 (count, nx), X_w (count, nx, nx - rows)."},
+    {"certified_by_rows", (PyCFunction)(void (*)(void))certified_by_rows, METH_FASTCALL,
+     "certified_by_rows(A, B, c, kept, X_u, x_0, X_w, info, limit) -> None\n\n"
+     "frcontrol.response.certified_by_rows's factorisation: per system of A (count, rows, nx), with B\n"
+     "(rows, m) shared and c (count, rows), its kept rows (int64, count x q) factorised under the\n"
+     "whole system's scalings; the kept rows' minimum-norm X_u (count, nx, m), x_0 (count, nx), their\n"
+     "null space X_w (count, nx, nx - q) and info (count, 6): bound, ||A_hat Q_2||_F, the residuals\n"
+     "of B and c on every row, ||A_hat||_F and the consistency scale."},
     {"margin_rows", (PyCFunction)(void (*)(void))margin_rows, METH_FASTCALL,
      "margin_rows(G, X_u, X_w, x_0, g, C, d, motion, out, h_out, zero_row_tolerance, domain_tolerance)\n"
      "-> int\n\n"
@@ -2679,8 +2876,9 @@ PyMODINIT_FUNC PyInit__kernel(void) {
                       NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS,
                       QUERY_OUTSIDE, QUERY_INSIDE, QUERY_NEEDS_PYTHON, LEMKE_SOLVED, LEMKE_RAY,
                       LEMKE_MAX_PIVOTS};
-    PyObject *all = Py_BuildValue("[ssssssssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
-                                  "contact_rows", "margin_rows", "certified_children", "locate_points",
+    PyObject *all = Py_BuildValue("[sssssssssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
+                                  "contact_rows", "margin_rows", "certified_children", "certified_by_rows",
+                                  "locate_points",
                                   "evaluate_points", "query_point", "lemke", "coulomb_matrix", "lcp_check",
                                   "compliant_law", "redundancy_rows", "ray_exit");
     if (all == NULL) {

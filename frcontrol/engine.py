@@ -62,12 +62,13 @@ from .response import (
     AffineSolution,
     AmbiguousOutputs,
     ambiguous_outputs,
+    certified_by_rows,
     certified_children,
     solve_affine,
     solve_affine_stack,
 )
 from .scene import INPUT_LIMIT_SLACK, InputValues, Scene, input_vector
-from .solvers import DEFAULT_SETTINGS, RETRY_ERRORS, SolverSettings, settings_from
+from .solvers import DEFAULT_SETTINGS, RETRY_ERRORS, InequalityLPs, SolverSettings, settings_from
 
 DOMAIN_TOLERANCE = 1e-7
 """Membership: an input (u, w) is in a domain if no normalised half-space of it is violated by
@@ -465,15 +466,16 @@ def motion_margin(
                       settings_from(solver, settings))
 
 
-def _margin_lp(A_ub: np.ndarray, h: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarray, degenerate_constant: bool,
-               moving: bool, settings: SolverSettings) -> MotionMargin:
+def _margin_lp(A_ub: np.ndarray, h: np.ndarray, A_eq: np.ndarray | None, b_eq: np.ndarray | None,
+               degenerate_constant: bool, moving: bool, settings: SolverSettings,
+               lps: InequalityLPs | None = None) -> MotionMargin:
     """:func:`motion_margin`'s LP over ``(z, t)`` with its rows ``A_ub`` (the last column t's) built.
 
     ``degenerate_constant``: a constant motion row is not strict; ``moving``: some motion row has
-    coefficients.
+    coefficients; ``lps``: the lean path of a run of such LPs (:func:`~frcontrol.geometry.max_margin`).
     """
     d = A_ub.shape[1] - 1
-    result = max_margin(A_ub, h, A_eq=A_eq, b_eq=b_eq, settings=settings, fallback=RETRY_ERRORS)
+    result = max_margin(A_ub, h, A_eq=A_eq, b_eq=b_eq, settings=settings, fallback=RETRY_ERRORS, lps=lps)
     if not result.found or result.x is None:
         return MotionMargin("infeasible", None, None)
     z, t = result.x[:d], float(result.x[-1])
@@ -484,44 +486,91 @@ def _margin_lp(A_ub: np.ndarray, h: np.ndarray, A_eq: np.ndarray, b_eq: np.ndarr
 
 def mode_margin(system: ModeSystem, response: AffineSolution, bounds: tuple[np.ndarray, np.ndarray], *,
                 solver: str | None = None, settings: SolverSettings | None = None,
-                kernel: Backend | None = None) -> MotionMargin:
+                kernel: Backend | None = None, lps: InequalityLPs | None = None) -> MotionMargin:
     """:func:`motion_margin` of the mode's domain (:func:`domain_rows`), its rows built in one call.
 
     By the kernel's ``mode_margin`` (:func:`frcontrol.kernel.backend`): with the compiled kernel
     the LP's rows come from ``frcontrol._kernel.margin_rows`` (the same sums in another order:
     equal to round-off, see tests/test_kernel.py); its NumPy twin builds them by
     :func:`domain_rows` and :func:`motion_margin`. ``kernel``: the backend when the caller has it;
-    ``solver`` or ``settings``: the LP's back-end (:func:`~frcontrol.solvers.settings_from`).
+    ``solver`` or ``settings``: the LP's back-end (:func:`~frcontrol.solvers.settings_from`);
+    ``lps``: the lean LP path of a caller testing many modes (:func:`margin_lps`: made once, the
+    same answers).
     """
-    return (kernel or backend()).mode_margin(system, response, bounds, settings_from(solver, settings))
+    return (kernel or backend()).mode_margin(system, response, bounds, settings_from(solver, settings), lps)
+
+
+def margin_lps(settings: SolverSettings, kernel: Backend | None = None) -> InequalityLPs:
+    """The lean LP path of :func:`mode_margin` for a run of modes with these ``settings``, made once."""
+    return InequalityLPs(settings=settings, fallback=RETRY_ERRORS, check=(kernel or backend()).lp_check)
 
 
 def _mode_margin_numpy(system: ModeSystem, response: AffineSolution, bounds: tuple[np.ndarray, np.ndarray],
-                       settings: SolverSettings) -> MotionMargin:
+                       settings: SolverSettings, lps: InequalityLPs | None = None) -> MotionMargin:
     """:func:`mode_margin` in NumPy (the reference twin)."""
     H, h, A_eq, b_eq, motion = domain_rows(system, response, bounds)
     return motion_margin(H, h, motion, A_eq, b_eq, settings=settings)
 
 
 def _mode_margin_compiled(system: ModeSystem, response: AffineSolution, bounds: tuple[np.ndarray, np.ndarray],
-                          settings: SolverSettings) -> MotionMargin:
+                          settings: SolverSettings, lps: InequalityLPs | None = None) -> MotionMargin:
     """:func:`mode_margin` with its rows by the compiled kernel's ``margin_rows``."""
     C, d = bounds
-    m, p = C.shape[1], response.ambiguity_dim
+    X_u, X_w, e = response.X_u, response.X_w, response.e
+    m, p = X_u.shape[1], X_w.shape[1]
     rows = system.G.shape[0] + C.shape[0]
     A_ub, h = np.empty((rows, m + p + 1)), np.empty(rows)
-    X_u, X_w = np.ascontiguousarray(response.X_u), np.ascontiguousarray(response.X_w)
     flags = compiled.margin_rows(  # type: ignore[union-attr]
-        system.G, X_u, X_w, response.x_0, system.g, C, d, system.motion, A_ub, h, ZERO_ROW_TOLERANCE,
-        DOMAIN_TOLERANCE)
+        system.G, X_u if X_u.flags.c_contiguous else np.ascontiguousarray(X_u),
+        X_w if X_w.flags.c_contiguous else np.ascontiguousarray(X_w), response.x_0, system.g, C, d,
+        system.motion, A_ub, h, ZERO_ROW_TOLERANCE, DOMAIN_TOLERANCE)
     if flags < 0:
         return MotionMargin("infeasible", None, None)
-    A_eq = np.zeros((response.e.size, m + p))
-    A_eq[:, :m] = response.E
-    return _margin_lp(A_ub, h, A_eq, response.e, bool(flags & 1), bool(flags & 2), settings)
+    A_eq = None
+    if e.shape[0]:
+        A_eq = np.zeros((e.shape[0], m + p))
+        A_eq[:, :m] = response.E
+    return _margin_lp(A_ub, h, A_eq, e, bool(flags & 1), bool(flags & 2), settings, lps)
 
 
 twin("mode_margin", numpy=_mode_margin_numpy, compiled=_mode_margin_compiled)
+
+
+LETTER_ROW_GUESS = 1.5e-8
+"""[-] :func:`letter_rows_kept` guesses a letter row independent of the rows kept above it when its
+part outside their row space (its product with their null space, unit columns) exceeds this times
+its norm (about the square root of the machine epsilon). Only a guess: :func:`certified_by_rows`
+checks the rows it picks, and a wrong guess costs the SVD, never a wrong answer."""
+
+
+def letter_rows_kept(rows: np.ndarray, null: np.ndarray) -> np.ndarray:
+    """Which of each child's two letter rows ``rows`` (count, 2, nx) a certificate should keep.
+
+    ``null`` (nx, p) spans the null space of the rows kept above (the prefix's). A row is kept when
+    it moves that null space (:data:`LETTER_ROW_GUESS`); the second only beyond what the first
+    already takes. Returns a (count, 2) mask.
+    """
+    norms = np.sqrt((null * null).sum(axis=0))
+    T = np.matmul(rows, null / np.where(norms > 0.0, norms, 1.0))  # (count, 2, p)
+    size = np.sqrt((rows * rows).sum(axis=2))
+    first, second = T[:, 0], T[:, 1]
+    first_norm2 = (first * first).sum(axis=1)
+    kept = np.empty((rows.shape[0], 2), dtype=bool)
+    kept[:, 0] = np.sqrt(first_norm2) > LETTER_ROW_GUESS * size[:, 0]
+    along = np.where(kept[:, 0], (first * second).sum(axis=1) / np.where(kept[:, 0], first_norm2, 1.0), 0.0)
+    rest = second - along[:, None] * first
+    kept[:, 1] = np.sqrt((rest * rest).sum(axis=1)) > LETTER_ROW_GUESS * size[:, 1]
+    return kept
+
+
+def _root_null_space(problem: ContactProblem) -> np.ndarray:
+    """A basis of the null space of the dynamics' rows (every mode's first ``n`` rows): the tree's root."""
+    D = problem.dynamics
+    if D.shape[0] == 0:
+        return np.eye(D.shape[1])
+    _, s, Vt = np.linalg.svd(D)
+    rank = int(np.count_nonzero(s > RANK_TOLERANCE * s[0])) if s.size and s[0] > 0.0 else 0
+    return np.ascontiguousarray(Vt[rank:].T)
 
 
 def _subtree_size(allowed: Sequence[str], depth: int) -> int:
@@ -609,8 +658,12 @@ class _ModeEnumerator:
         self.allowed = problem.allowed_modes()
         self.bounds = problem.input_bound_rows()
         self.kernel = backend()  # read once for the whole tree
+        self.lps = margin_lps(settings, self.kernel)  # the motion LPs' lean path, made once
         self.prepared: dict[str, tuple[ModeSystem, AffineSolution | None]] = {}
         self.deficient: set[str] = set()  # tested modes whose equalities lack full row rank
+        self.kept: dict[str, np.ndarray] = {}  # a certified mode's independent rows (certified_by_rows)
+        self.null_spaces: dict[str, np.ndarray] = {}  # a tested partial mode's X_w, while it has kept rows
+        self.root_null = _root_null_space(problem)
         self.counts = {"freedom": 0, "infeasible": 0, "partial": 0, "evaluated": 0}
         self.analyses: list[ModeAnalysis] = []
 
@@ -621,26 +674,73 @@ class _ModeEnumerator:
     def prepare(self, prefix: str, letters: str) -> None:
         """Build the systems of ``prefix``'s children and certify their responses together.
 
-        :func:`certified_children` factorises the children at once; a child it does not certify
-        gets the SVD when it is tested. Below a mode without full row rank (its rows dependent,
-        so every child's too) the certificate is not tried: the children get their SVDs at once
+        :func:`certified_children` factorises the children at once. A child it does not certify
+        (its rows dependent) is tried by :func:`certified_by_rows` on the rows the prefix's own
+        certificate kept and its letter's rows (:meth:`_by_rows`). Below a mode without full row
+        rank (so every child's rows are dependent too) only the second is tried. A child neither
+        certifies gets the SVD: when it is tested, or, below such a mode, at once for all of them
         (:func:`solve_affine_stack`, the same answers as one by one).
         """
         t0 = time.perf_counter()
         children = [prefix + letter for letter in letters]
         systems = build_child_systems(self.problem, prefix, letters)
+        A, B, c = np.stack([s.A for s in systems]), systems[0].B, np.stack([s.c for s in systems])
+        deficient = prefix in self.deficient
         responses: list[AffineSolution | None]
-        if prefix in self.deficient:  # every child is deficient too: their SVDs, batched
-            responses = solve_affine_stack(np.stack([s.A for s in systems]), systems[0].B,
-                                           np.stack([s.c for s in systems]),
-                                           rank_tolerance=self.rank_tolerance,
-                                           balance=needs_balancing(self.problem, children))
+        partial = len(prefix) + 1 < self.problem.k  # the children's responses decide only their verdicts
+        if deficient:  # every child's rows are dependent too
+            responses = [None] * len(children)
         else:
-            responses = certified_children(  # the children share B
-                np.stack([s.A for s in systems]), systems[0].B, np.stack([s.c for s in systems]),
-                rank_tolerance=self.rank_tolerance, kernel=self.kernel)
+            responses = certified_children(A, B, c, rank_tolerance=self.rank_tolerance, kernel=self.kernel)
+            if partial:
+                for child, response in zip(children, responses, strict=True):
+                    if response is not None:
+                        self.kept[child] = np.arange(A.shape[1])
+        open_ = [i for i, response in enumerate(responses) if response is None]
+        if open_:
+            balance = needs_balancing(self.problem, children)
+            if partial:
+                self._by_rows(prefix, children, (A, B, c), balance, responses)
+                open_ = [i for i in open_ if responses[i] is None]
+            if deficient and open_:
+                stacked = solve_affine_stack(A[open_], B, c[open_], rank_tolerance=self.rank_tolerance,
+                                             balance=balance[open_])
+                for i, response in zip(open_, stacked, strict=True):
+                    responses[i] = response
         self.prepared.update(zip(children, zip(systems, responses, strict=True), strict=True))
+        self.kept.pop(prefix, None)  # read by the children's certificates only
+        self.null_spaces.pop(prefix, None)
         self.timings["response"] += time.perf_counter() - t0
+
+    def _by_rows(self, prefix: str, children: list[str], stack: tuple[np.ndarray, np.ndarray, np.ndarray],
+                 balance: np.ndarray, responses: list[AffineSolution | None]) -> None:
+        """Certify, in place, children without a response by the rows they keep (:func:`certified_by_rows`).
+
+        The rows guessed: those the prefix's certificate kept, and each of the child's two letter
+        rows that moves the prefix's null space (:func:`letter_rows_kept`); children with the
+        same guess are certified together. A child that :func:`rebalance_undecided` might balance
+        is left to the SVD.
+        """
+        open_ = [i for i, response in enumerate(responses) if response is None and not balance[i]]
+        base, null = self.kept.get(prefix), self.null_spaces.get(prefix)
+        if not prefix:  # the root: its rows are the dynamics', its null space the forces'
+            base, null = np.arange(self.problem.n), self.root_null
+        if base is None or null is None or not open_:
+            return
+        A, B, c = stack
+        own = base.size if not prefix else self.problem.n + 2 * len(prefix)
+        letters = letter_rows_kept(A[open_, own:own + 2], null)
+        groups: dict[int, list[int]] = {}
+        for i, (first, second) in zip(open_, letters.tolist(), strict=True):
+            groups.setdefault(first + 2 * second, []).append(i)
+        for pattern, group in groups.items():
+            rows = np.concatenate([base, [own + j for j in (0, 1) if pattern >> j & 1]]).astype(np.int64)
+            found = certified_by_rows(A[group], B, c[group], np.tile(rows, (len(group), 1)),
+                                      rank_tolerance=self.rank_tolerance, kernel=self.kernel)
+            for i, response in zip(group, found, strict=True):
+                if response is not None:
+                    responses[i] = response
+                    self.kept[children[i]] = rows
 
     def test(self, mode: str) -> tuple[MarginVerdict, ModeSystem, AffineSolution]:
         """Build and solve a (partial) mode: 'ok', 'freedom' or 'infeasible'.
@@ -655,22 +755,59 @@ class _ModeEnumerator:
             response = self.response(system)
         if response.rank < system.A.shape[0]:
             self.deficient.add(mode)
+        if mode in self.kept and len(mode) < self.problem.k:  # its children's certificates start from it
+            self.null_spaces[mode] = response.X_w
         t1 = time.perf_counter()
         self.timings["response"] += t1 - t0
         if not response.consistent:
             return "freedom", system, response
         verdict = mode_margin(system, response, self.bounds, settings=self.settings,
-                              kernel=self.kernel).verdict
+                              kernel=self.kernel, lps=self.lps).verdict
         self.timings["feasibility"] += time.perf_counter() - t1
         return verdict, system, response
 
-    def evaluate(self, mode: str) -> None:
-        """Analyse a full mode: its response, domain, and whether its T_c has an interior."""
+    def evaluate(self, modes: list[str]) -> None:
+        """Analyse full modes (siblings): responses, domains, and whether each T_c has an interior.
+
+        Each is tested in turn; then the feasible ones whose response was certified get the SVD's
+        (the reported response), all at once (:meth:`svd_responses`); then each is finished in order.
+        """
+        tested = []
+        for mode in modes:
+            self.counts["evaluated"] += 1
+            if self.progress is not None:
+                self.progress(self.problem.scene_mode(mode))
+            tested.append((mode, *self.test(mode)))
+        t0 = time.perf_counter()
+        # the reported response and domain are the SVD's, as without the certificate (the same map
+        # up to round-off, its w in the SVD's basis)
+        redo = [j for j, (_, verdict, _, response) in enumerate(tested)
+                if verdict == "ok" and response.certified]
+        if redo:
+            for j, response in zip(redo, self.svd_responses([tested[j][2] for j in redo]), strict=True):
+                tested[j] = (*tested[j][:3], response)
+        self.timings["domain"] += time.perf_counter() - t0
+        for mode, verdict, system, response in tested:
+            self.finish(mode, verdict, system, response)
+
+    def svd_responses(self, systems: list[ModeSystem]) -> list[AffineSolution]:
+        """:meth:`response` of each system (same shape, one ``B``), by one :func:`solve_affine_stack`.
+
+        Its answers are :func:`solve_affine`'s bit for bit; a system it leaves undecided gets
+        :meth:`response`, which raises the error naming the mode.
+        """
+        if len(systems) == 1:
+            return [self.response(systems[0])]
+        stacked = solve_affine_stack(
+            np.stack([s.A for s in systems]), systems[0].B, np.stack([s.c for s in systems]),
+            rank_tolerance=self.rank_tolerance,
+            balance=needs_balancing(self.problem, [s.mode for s in systems]))
+        return [self.response(system) if response is None else response
+                for system, response in zip(systems, stacked, strict=True)]
+
+    def finish(self, mode: str, verdict: MarginVerdict, system: ModeSystem, response: AffineSolution) -> None:
+        """Record a tested full mode: pruned, or feasible with its domain and whether T_c has an interior."""
         problem, settings, timings = self.problem, self.settings, self.timings
-        self.counts["evaluated"] += 1
-        if self.progress is not None:
-            self.progress(self.problem.scene_mode(mode))
-        verdict, system, response = self.test(mode)
         outputs = ambiguous_outputs(response, problem.n)
         if verdict != "ok":
             self.counts[verdict] += 1
@@ -681,10 +818,6 @@ class _ModeEnumerator:
                 named=problem.named_mode(mode)))
             return
         t0 = time.perf_counter()
-        if response.certified:
-            # the reported response and domain are the SVD's, as without the certificate (the
-            # same map up to round-off, its w in the SVD's basis)
-            response = self.response(system)
         # the domain in NumPy on either kernel (the test's rows decided only the verdict)
         domain = poly.Polytope(*domain_rows(system, response, self.bounds)[:4])
         ball = poly.chebyshev_ball(domain, settings=settings)
@@ -709,13 +842,16 @@ class _ModeEnumerator:
         """Every mode below ``prefix``, depth first; a partial mode that fails prunes its subtree."""
         depth = len(prefix)
         if depth == self.problem.k:
-            self.evaluate(prefix)
+            self.evaluate([prefix])
             return
         if self.prune_partial or depth + 1 == self.problem.k:  # the children are tested
             self.prepare(prefix, self.allowed[depth])
+        if depth + 1 == self.problem.k:  # the children are full modes: evaluated together
+            self.evaluate([prefix + letter for letter in self.allowed[depth]])
+            return
         for letter in self.allowed[depth]:
             child = prefix + letter
-            if self.prune_partial and depth + 1 < self.problem.k:
+            if self.prune_partial:
                 self.counts["partial"] += 1
                 verdict = self.test(child)[0]
                 if verdict != "ok":

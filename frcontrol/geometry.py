@@ -106,8 +106,9 @@ def constant_rows(H: np.ndarray, zero_row_tolerance: float) -> tuple[np.ndarray,
 
 
 _MARGIN_BOUNDS: dict[tuple[int, float], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-""":func:`margin_bounds` by dimension and cap, built once (the door and DAQP only read them; they
-stay writable because DAQP's binding takes writable buffers only)."""
+""":func:`margin_bounds` by dimension and cap, built once. The bounds are read-only (the door's lean
+path reads a read-only pair once per run of LPs); the cost stays writable, because DAQP's binding
+takes writable buffers only (it does not write them)."""
 
 
 def margin_bounds(d: int, cap: float = CHEBYSHEV_RADIUS_CAP) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -119,20 +120,23 @@ def margin_bounds(d: int, cap: float = CHEBYSHEV_RADIUS_CAP) -> tuple[np.ndarray
         lb = np.full(d + 1, -np.inf)
         ub = np.full(d + 1, np.inf)
         lb[-1], ub[-1] = 0.0, cap
+        lb.flags.writeable = ub.flags.writeable = False
         _MARGIN_BOUNDS[key] = (cost, lb, ub)
     return _MARGIN_BOUNDS[key]
 
 
 def max_margin(rows: np.ndarray, rhs: np.ndarray, *, settings: SolverSettings, fallback: Fallback,
                A_eq: np.ndarray | None = None, b_eq: np.ndarray | None = None,
-               cap: float = CHEBYSHEV_RADIUS_CAP) -> LPResult:
+               cap: float = CHEBYSHEV_RADIUS_CAP, lps: InequalityLPs | None = None) -> LPResult:
     r"""The max-margin LP: :math:`\max t` s.t. ``rows @ (z, t) <= rhs``, :math:`0 \le t \le` ``cap``.
 
     ``rows`` holds ``[H, w]``: the constraint rows and, last, each row's weight of the margin
     ``t`` (1 on unit rows: the Chebyshev LP, :func:`chebyshev_rows`; a row's norm: the margin is a
     distance; 0: the row is not tightened). Equalities ``A_eq z = b_eq`` go on the door's general
     path; without them the LP takes its lean path (:class:`~frcontrol.solvers.InequalityLPs`, the
-    same answer). Arrays built by frcontrol (not re-validated; the residual check runs).
+    same answer). Arrays built by frcontrol (not re-validated; the residual check runs). ``lps``:
+    the lean path made once by a caller solving many such LPs with these ``settings`` and
+    ``fallback`` (the engine's motion LPs), instead of one per LP.
 
     Returns:
         The door's result; ``x[-1]`` is the margin t*.
@@ -144,7 +148,8 @@ def max_margin(rows: np.ndarray, rhs: np.ndarray, *, settings: SolverSettings, f
         A[:, :d] = A_eq
         return solve_lp_prepared(cost, rows, rhs, A, b_eq, lb, ub,
                                  door=DoorOptions(settings, fallback=fallback, check=backend().lp_check))
-    lps = InequalityLPs(settings=settings, fallback=fallback, check=backend().lp_check)
+    if lps is None:
+        lps = InequalityLPs(settings=settings, fallback=fallback, check=backend().lp_check)
     return lps.solve(cost, rows, rhs, lb, ub)
 
 

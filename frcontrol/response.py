@@ -23,6 +23,7 @@ inputs (e.g. a massless leg in the air: its torque must vanish, "ambiguous_const
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -524,6 +525,150 @@ def certified_responses(
     return out
 
 
+def certified_by_rows(
+    A: np.ndarray,
+    B: np.ndarray,
+    c: np.ndarray,
+    kept: np.ndarray,
+    *,
+    rank_tolerance: float = RANK_TOLERANCE,
+    kernel: Backend | None = None,
+) -> list[AffineSolution | None]:
+    """:func:`solve_affine`'s answers for a stack of rank-deficient systems, without an SVD.
+
+    ``A`` (count, rows, nx), ``B`` (rows, m) shared, ``c`` (count, rows); ``kept`` (count, q), the
+    rows of each system guessed to be independent and to imply the others (e.g. a node's own
+    independent rows and those of its letter that add to them). Each A is equilibrated as in
+    :func:`solve_affine` (``A_hat``, the whole system's scalings) and its kept rows ``S`` factorised
+    as ``S^T = Q R`` (:func:`by_rows_factors`). The guess is then checked, not trusted: a system is
+    certified (:func:`by_rows_certified`) when
+
+    - ``||A_hat||_F ||R_1^-1||_F < 1 / (CERTIFIED_MARGIN max(rank_tolerance, ILL_CONDITIONED_BAND))``:
+      ``sigma_q(A_hat) >= sigma_q(S) >= 1 / ||R_1^-1||_F`` (a row submatrix's singular values are at
+      most the matrix's), so the SVD keeps q values, none in the ill-conditioned band;
+    - ``CERTIFIED_MARGIN ||A_hat Q_2||_F`` is below ``rank_tolerance ||A_hat||_F / sqrt(min(rows,
+      nx))`` (at most ``rank_tolerance sigma_1``) and at most :func:`round_off_bound`: every other
+      singular value is at most ``||A_hat Q_2||_2`` (``A_hat Q_1 Q_1^T`` has rank q), so the SVD drops
+      it, and the drop is round-off's (the rule of :func:`_unexplained_exact_drops` cannot apply);
+    - the residual of the kept rows' minimum-norm solutions ``y`` on every row,
+      ``||[diag(r) B, diag(r) c] - A_hat y||``, is at most ``VOID_CONDITIONS_SAFETY / CERTIFIED_MARGIN``
+      times the consistency threshold of :func:`solve_affine`: the SVD's consistency rows
+      ``U_2^T [diag(r) B, diag(r) c]`` are no larger (``U_2 U_2^T`` leaves the least residual), so
+      they are void.
+
+    Then the kept rows have the system's solutions: ``X_u`` and ``x_0`` are the SVD's minimum-norm
+    ones (to round-off) and ``X_w = diag(c) Q_2`` spans its null space in an orthonormal basis of
+    the scaled coordinates, as :func:`certified_responses`' (every distance in (u, w) the same).
+    A system that :func:`rebalance_undecided` might balance is the caller's to leave out.
+
+    By the kernel's ``certified_by_rows`` (:func:`frcontrol.kernel.backend`): with the compiled
+    kernel, each system in C (``frcontrol._kernel.certified_by_rows``: the same scalings and checks,
+    a Householder QR of its own: equal to round-off, see tests/test_kernel.py); its NumPy twin
+    is :func:`by_rows_factors`. ``kernel``: the backend when the caller has it.
+
+    Returns:
+        Per system its response (``certified`` True, ``rank`` q), or None when a check fails (the
+        caller then takes the SVD).
+    """
+    count, rows, nx = A.shape
+    q = kept.shape[1]
+    if count == 0 or q == 0 or q > nx:
+        return [None] * count
+    X_u, x_0, X_w, info = (kernel or backend()).certified_by_rows(A, B, c, kept)
+    certified = by_rows_certified(info, rows, nx, rank_tolerance)
+    m = B.shape[1]
+    no_conditions, no_values = np.zeros((0, m)), np.zeros(0)  # empty: shared, nothing to write
+    return [AffineSolution(
+        X_u=X_u[i], X_w=X_w[i], x_0=x_0[i], E=no_conditions, e=no_values, consistent=True, rank=q,
+        shape=(rows, nx), singular_values=no_values, condition_number=float(info[i, 0]),
+        rank_tolerance=rank_tolerance, certified=True) if ok else None for i, ok in enumerate(certified)]
+
+
+BY_ROWS_INFO = ("bound", "dropped", "residual_B", "residual_c", "size", "scale")
+"""The six numbers :func:`by_rows_factors` reports per system, in order: ``||A_hat||_F ||R_1^-1||_F``
+(+inf when a pivot rules it out, the next three then NaN), ``||A_hat Q_2||_F``, the residuals of
+the kept rows' solutions on every row (of ``diag(r) B``, Frobenius, and of ``diag(r) c``),
+``||A_hat||_F`` and ``max(1, max|diag(r) B|, max|diag(r) c|)``."""
+
+
+def by_rows_certified(info: np.ndarray, rows: int, nx: int, rank_tolerance: float) -> list[bool]:
+    """Per system, whether :func:`by_rows_factors`' ``info`` (count, 6) certifies it.
+
+    The checks of :func:`certified_by_rows`, on a few systems at a time, read as Python floats (a
+    NaN fails every test).
+    """
+    limit = 1.0 / (CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND))
+    small = min(rows, nx)
+    rank_factor, round_off = rank_tolerance / math.sqrt(small), small * ROUND_OFF_RANK_DROP
+    void_factor = VOID_CONDITIONS_SAFETY * CONSISTENCY_TOLERANCE / CERTIFIED_MARGIN
+    return [bound < limit and CERTIFIED_MARGIN * dropped < rank_factor * size
+            and CERTIFIED_MARGIN * dropped <= round_off * size
+            and residual_B <= void_factor * scale and residual_c <= void_factor * scale
+            for bound, dropped, residual_B, residual_c, size, scale in info.tolist()]
+
+
+def by_rows_factors(A: np.ndarray, B: np.ndarray, c: np.ndarray, kept: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`certified_by_rows`' factorisation in NumPy (the reference twin): ``X_u, x_0, X_w, info``.
+
+    Per system the kept rows' minimum-norm ``X_u`` (nx, m) and ``x_0`` (nx,), their null space
+    ``X_w`` (nx, nx - q), and :data:`BY_ROWS_INFO`; where a pivot rules the certificate out, the
+    responses are left unset.
+    """
+    count, rows, nx = A.shape
+    q, m = kept.shape[1], B.shape[1]
+    X_u, x_0, X_w = np.empty((count, nx, m)), np.empty((count, nx)), np.empty((count, nx, nx - q))
+    info = np.full((count, len(BY_ROWS_INFO)), np.nan)
+    info[:, 0] = np.inf
+    r_scale, c_scale = equilibrate_stack(A)
+    A_hat = A * r_scale[:, :, None] * c_scale[:, None, :]
+    limit = 1.0 / (CERTIFIED_MARGIN * ILL_CONDITIONED_BAND)  # the loosest: by_rows_certified decides
+    size = np.sqrt((A_hat * A_hat).sum(axis=(1, 2)))
+    info[:, 4] = size
+    Q, R = np.linalg.qr(np.swapaxes(A_hat[np.arange(count)[:, None], kept], 1, 2), mode="complete")  # S^T
+    pivots = np.abs(np.diagonal(R[:, :q], axis1=1, axis2=2)).min(axis=1)
+    hopeful = np.nonzero(size < limit * pivots)[0]
+    if hopeful.size == 0:
+        return X_u, x_0, X_w, info
+    right = np.empty((hopeful.size, rows, m + 1))  # [diag(r) B, diag(r) c]
+    right[:, :, :m] = B * r_scale[hopeful, :, None]
+    right[:, :, m] = c[hopeful] * r_scale[hopeful]
+    rhs = np.empty((hopeful.size, q, q + m + 1))
+    rhs[:, :, :q] = np.eye(q)
+    rhs[:, :, q:] = right[np.arange(hopeful.size)[:, None], kept[hopeful]]
+    with np.errstate(over="ignore", invalid="ignore"):  # a nearly singular R_1: not certified
+        solved = np.linalg.solve(np.swapaxes(R[hopeful, :q], 1, 2), rhs)  # R_1^-T [I, B_S, c_S]
+        y = np.matmul(Q[hopeful, :, :q], solved[:, :, q:])
+        Q_2 = Q[hopeful, :, q:]
+        residual = right - np.matmul(A_hat[hopeful], y)
+        info[hopeful, 0] = size[hopeful] * np.sqrt((solved[:, :, :q] ** 2).sum(axis=(1, 2)))
+        info[hopeful, 1] = np.sqrt((np.matmul(A_hat[hopeful], Q_2) ** 2).sum(axis=(1, 2)))
+    info[hopeful, 2] = np.sqrt((residual[:, :, :m] ** 2).sum(axis=(1, 2)))
+    info[hopeful, 3] = np.sqrt((residual[:, :, m] ** 2).sum(axis=1))
+    info[hopeful, 5] = np.maximum(1.0, np.abs(right).max(axis=(1, 2)))
+    X_u[hopeful] = y[:, :, :m] * c_scale[hopeful, :, None]
+    x_0[hopeful] = y[:, :, m] * c_scale[hopeful]
+    X_w[hopeful] = Q_2 * c_scale[hopeful, :, None]
+    return X_u, x_0, X_w, info
+
+
+def _by_rows_compiled(A: np.ndarray, B: np.ndarray, c: np.ndarray, kept: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`by_rows_factors` by the compiled kernel's ``certified_by_rows``."""
+    count, rows, nx = A.shape
+    q, m = kept.shape[1], B.shape[1]
+    X_u, x_0, X_w = np.empty((count, nx, m)), np.empty((count, nx)), np.empty((count, nx, nx - q))
+    info = np.empty((count, len(BY_ROWS_INFO)))
+    compiled.certified_by_rows(  # type: ignore[union-attr]
+        np.ascontiguousarray(A), np.ascontiguousarray(B), np.ascontiguousarray(c),
+        np.ascontiguousarray(kept, dtype=np.int64), X_u, x_0, X_w, info,
+        1.0 / (CERTIFIED_MARGIN * ILL_CONDITIONED_BAND))
+    return X_u, x_0, X_w, info
+
+
+twin("certified_by_rows", numpy=by_rows_factors, compiled=_by_rows_compiled)
+
+
 def certified_children(
     A: np.ndarray,
     B: np.ndarray,
@@ -598,6 +743,10 @@ def outputs_moved_by(X_w: np.ndarray, n_coordinates: int) -> AmbiguousOutputs:
 __all__ = [
     "AffineSolution",
     "ambiguous_outputs",
+    "BY_ROWS_INFO",
+    "by_rows_certified",
+    "by_rows_factors",
+    "certified_by_rows",
     "balanced_scaling",
     "BALANCING_SWEEPS",
     "CERTIFIED_MARGIN",

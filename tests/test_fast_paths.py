@@ -370,3 +370,157 @@ def test_batched_svds_are_solve_affines_bit_for_bit():
                 np.testing.assert_array_equal(getattr(fast, name), getattr(alone, name))
             compared += 1
     assert compared > 150 and banded > 0
+
+
+# ------------------------------------------------------------------ certified by the rows kept
+
+
+def _dependent_stack(rng: np.random.Generator, count: int, q: int, nx: int, m: int, extra: int
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Systems of ``q`` independent rows and ``extra`` combinations of them (consistent right sides),
+    shuffled: A (count, q + extra, nx), a shared B, c, and each system's independent rows."""
+    rows = q + extra
+    A, c = np.empty((count, rows, nx)), np.empty((count, rows))
+    kept = np.empty((count, q), dtype=np.int64)
+    S_B = rng.normal(size=(q, m))
+    B = np.empty((rows, m))
+    order = rng.permutation(rows)  # the same for every system: B is shared
+    K = rng.normal(size=(extra, q)) * (rng.random((extra, q)) < 0.6)
+    B[order[:q]], B[order[q:]] = S_B, K @ S_B
+    for i in range(count):
+        S = rng.normal(size=(q, nx)) * np.exp2(rng.integers(-6, 7, size=(q, 1)))
+        s_c = rng.normal(size=q)
+        A[i, order[:q]], A[i, order[q:]] = S, K @ S
+        c[i, order[:q]], c[i, order[q:]] = s_c, K @ s_c
+        kept[i] = np.sort(order[:q])
+    return A, B, c, kept
+
+
+@pytest.mark.parametrize("kernel_name", ["numpy", "compiled"])
+def test_certified_by_rows_are_the_svds(monkeypatch, kernel_name):
+    """Rank-deficient systems (independent rows and combinations of them): with the independent
+    rows kept, a certified answer has the SVD's rank, case, void conditions, X_u and x_0 (to
+    round-off) and null space; a wrong guess (an independent row left out, or swapped for a
+    dependent one) or inconsistent right sides are never certified wrongly.
+
+    The certificate is conservative: it also refuses where the dropped directions' residual
+    ``||A_hat Q_2||`` exceeds a tenth of the round-off bound (dense random rows reach a few
+    times it; a contact mode's structural zeros keep it below, see the analysis test below)."""
+    if kernel_name == "compiled" and resp.compiled is None:
+        pytest.skip("the compiled kernel is not built here (CI builds it)")
+    monkeypatch.setenv("FRC_KERNEL", kernel_name)
+    rng = np.random.default_rng(20261128)
+    certified = refused = 0
+    for trial in range(80):
+        nx = int(rng.integers(3, 28))
+        q = int(rng.integers(1, nx))
+        extra, m, count = int(rng.integers(1, 5)), int(rng.integers(0, 9)), int(rng.integers(1, 5))
+        A, B, c, kept = _dependent_stack(rng, count, q, nx, m, extra)
+        for i, fast in enumerate(resp.certified_by_rows(A, B, c, kept)):
+            svd = resp.solve_affine(A[i], B, c[i])
+            if fast is None:
+                refused += 1
+                continue
+            certified += 1
+            assert (fast.rank, fast.case, fast.consistent, fast.E.shape, fast.certified) == (
+                svd.rank, svd.case, True, svd.E.shape, True) == (q, "ambiguous", True, (0, m), True)
+            scale = 1.0 + np.abs(svd.X_u).max(initial=0.0) + np.abs(svd.x_0).max()
+            np.testing.assert_allclose(fast.X_u, svd.X_u, rtol=0, atol=1e-13 * svd.condition_number * scale)
+            np.testing.assert_allclose(fast.x_0, svd.x_0, rtol=0, atol=1e-13 * svd.condition_number * scale)
+            _, c_scale = resp._equilibrate(A[i])
+            np.testing.assert_allclose(_null_projector(fast.X_w, c_scale), _null_projector(svd.X_w, c_scale),
+                                       atol=1e-13 * svd.condition_number)
+        if trial % 4 == 0 and q > 1:  # wrong guesses: one independent row left out, or swapped
+            dropped_row = kept[:, 1:]
+            assert all(r is None for r in resp.certified_by_rows(A, B, c, dropped_row))
+            swapped = kept.copy()
+            swapped[:, 0] = [np.setdiff1d(np.arange(q + extra), k)[0] for k in kept]
+            for i, fast in enumerate(resp.certified_by_rows(A, B, c, swapped)):
+                assert fast is None or fast.rank == resp.solve_affine(A[i], B, c[i]).rank
+        if trial % 4 == 1:  # an inconsistent right side: the SVD's conditions are not void
+            bad = c.copy()
+            dependent = np.setdiff1d(np.arange(q + extra), kept[0])[0]
+            bad[:, dependent] += 1e-3 * (1.0 + np.abs(bad[:, dependent]))
+            assert all(r is None for r in resp.certified_by_rows(A, B, bad, kept))
+            assert all(not resp.solve_affine(A[i], B, bad[i]).consistent for i in range(count))
+    assert certified > 60 and refused > 0
+
+
+@needs_kernel
+def test_compiled_certified_by_rows_are_numpys(monkeypatch):
+    """The kernel's certified_by_rows against its NumPy twin on random guesses, right and wrong:
+    the same bound, norm and scale (to round-off), the same residuals where they are not round-off
+    themselves, and, certified by both, the same responses. The two decide alike except where the
+    dropped directions' residual is round-off on both sides (each sums its own round-off)."""
+    rng = np.random.default_rng(20261129)
+    compared = 0
+    for _ in range(60):
+        nx = int(rng.integers(3, 28))
+        q = int(rng.integers(1, nx))
+        A, B, c, kept = _dependent_stack(rng, int(rng.integers(1, 5)), q, nx, int(rng.integers(0, 9)),
+                                         int(rng.integers(1, 5)))
+        if rng.random() < 0.3:  # some wrong guesses too
+            kept = np.sort(rng.permutation(A.shape[1])[:q])[None].repeat(A.shape[0], axis=0)
+        numpy_factors = resp.by_rows_factors(A, B, c, kept)
+        compiled_factors = kernel_compiled_by_rows(A, B, c, kept)
+        info_np, info_c = numpy_factors[3], compiled_factors[3]
+        finite = np.isfinite(info_np[:, 0]) & np.isfinite(info_c[:, 0])
+        assert np.array_equal(finite, np.isfinite(info_np[:, 0]))  # the same pivots rule out the same
+        size = info_np[:, 4]
+        np.testing.assert_allclose(info_c[:, [4]], info_np[:, [4]], rtol=1e-12)
+        np.testing.assert_allclose(info_c[finite][:, [0, 5]], info_np[finite][:, [0, 5]], rtol=1e-9)
+        round_off = 1e3 * np.finfo(float).eps * (size * info_np[:, 0] * (1.0 + info_np[:, 5]))[:, None]
+        both_small = (info_c[:, 1:4] <= round_off) & (info_np[:, 1:4] <= round_off)
+        close = np.isclose(info_c[:, 1:4], info_np[:, 1:4], rtol=1e-6)
+        assert (both_small | close)[finite].all()
+        for i in np.nonzero(finite)[0]:
+            tolerance = 1e-14 * info_np[i, 0] * (1.0 + np.abs(numpy_factors[0][i]).max(initial=0.0))
+            np.testing.assert_allclose(compiled_factors[0][i], numpy_factors[0][i], rtol=0, atol=tolerance)
+            compared += 1
+        rows = A.shape[1]
+        decided = [resp.by_rows_certified(info, rows, nx, resp.RANK_TOLERANCE) for info in (info_np, info_c)]
+        for i, (a, b) in enumerate(zip(*decided, strict=True)):
+            if a != b:  # only at the round-off check: dropped is round-off on both sides
+                bound = min(rows, nx) * resp.ROUND_OFF_RANK_DROP * size[i]
+                assert max(info_np[i, 1], info_c[i, 1]) <= 100.0 * bound
+    assert compared > 50
+
+
+def kernel_compiled_by_rows(A: np.ndarray, B: np.ndarray, c: np.ndarray, kept: np.ndarray) -> tuple:
+    from frcontrol.kernel import COMPILED
+    return COMPILED.certified_by_rows(A, B, c, kept)
+
+
+def test_analyze_with_rows_certified_is_the_analyze_with_their_svds(monkeypatch):
+    """The tree's partial modes certified by the rows they keep (no SVD) against the same tree with
+    every such certificate refused (the SVD for each): the same modes, verdicts and counts, and
+    bitwise the same responses and domains of the feasible modes, on shipped scenes, snakes on the
+    ground and random problems; and the certificate did answer for most of the snakes' modes."""
+    from benchmarks.contacts import snake_scene
+
+    calls = {"asked": 0, "answered": 0}
+    original = engine.certified_by_rows
+
+    def counted(*args, **kwargs):
+        found = original(*args, **kwargs)
+        calls["asked"] += len(found)
+        calls["answered"] += sum(r is not None for r in found)
+        return found
+
+    rng = np.random.default_rng(7)
+    problems = [load_scene(name) for name in ("snake_climb", "solo_standup", "rhex_flip", "table_on_ground")]
+    problems += [load_scene(snake_scene(k)) for k in (4, 6, 8)] + [random_problem(rng) for _ in range(25)]
+    for problem in problems:
+        monkeypatch.setattr(engine, "certified_by_rows", counted)
+        fast = analyze(problem, ambiguity=False)
+        monkeypatch.setattr(engine, "certified_by_rows", lambda A, *args, **kwargs: [None] * A.shape[0])
+        slow = analyze(problem, ambiguity=False)
+        assert fast.enumeration == slow.enumeration
+        for a, b in zip(fast.modes, slow.modes, strict=True):
+            assert (a.mode, a.pruned, a.feasible) == (b.mode, b.pruned, b.feasible)
+            assert a.response.case == b.response.case
+            if a.feasible:
+                for name in ("X_u", "X_w", "x_0", "E", "e"):
+                    assert np.array_equal(getattr(a.response, name), getattr(b.response, name))
+                assert np.array_equal(a.domain.A, b.domain.A) and np.array_equal(a.domain.b, b.domain.b)
+    assert calls["asked"] > 200 and calls["answered"] > 0.9 * calls["asked"]

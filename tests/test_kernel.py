@@ -672,6 +672,7 @@ def test_margin_rows_refuses_bad_buffers():
 CROSS_CHECKS = {
     "decide_modes": ("kernel", "random_problems_agree_with_the_numpy_kernel"),
     "certified_children": ("fast_paths", "compiled_certified_children_are_numpys_certified_responses"),
+    "certified_by_rows": ("fast_paths", "compiled_certified_by_rows_are_numpys"),
     "mode_margin": ("kernel", "mode_margin_gives_motion_margins_verdicts_on_every_mode"),
     "lp_check": ("kernel", "the_door_accepts_the_same_answers_with_either_check"),
     "redundancy_rows": ("kernel", "clarkson_steps_agree_with_their_numpy_twins"),

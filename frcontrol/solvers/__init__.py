@@ -735,7 +735,7 @@ class InequalityLPs:
         SolverFailed: see :func:`solve` (from :meth:`solve`).
     """
 
-    __slots__ = ("solver", "settings", "fallback", "options", "_lean", "_check")
+    __slots__ = ("solver", "settings", "fallback", "options", "_lean", "_check", "_fixed_bounds")
 
     def __init__(self, *, solver: str | None = None, settings: SolverSettings | None = None,
                  fallback: Fallback = NO_FALLBACK, check: ResidualCheck = lp_check, **options: Any) -> None:
@@ -748,6 +748,26 @@ class InequalityLPs:
         self.solver, self.settings, self.fallback, self.options = solver, chosen, fallback, options
         self._lean = lean[1] if lean is not None and lean[0] is adapter and not options else None
         self._check = check
+        # the last read-only (lb, ub) pair and whether it has a finite entry and crosses: a run of
+        # LPs over the same fixed bounds (e.g. geometry.margin_bounds') reads them once
+        self._fixed_bounds: tuple[np.ndarray, np.ndarray, bool, bool] | None = None
+
+    def _bounds_read(self, lb: np.ndarray, ub: np.ndarray, no_lb: np.ndarray, no_ub: np.ndarray
+                     ) -> tuple[bool, bool]:
+        """Whether ``lb``/``ub`` have a finite entry, and whether they cross (``lb > ub`` somewhere).
+
+        Read-only bounds are taken as constant: the same pair as the last call's is not read again.
+        """
+        fixed = self._fixed_bounds
+        if fixed is not None and lb is fixed[0] and ub is fixed[1]:
+            return fixed[2], fixed[3]
+        has_bounds = lb is not no_lb or ub is not no_ub
+        if has_bounds:
+            has_bounds = bool(np.count_nonzero(np.isfinite(lb)) or np.count_nonzero(np.isfinite(ub)))
+        crossed = has_bounds and bool(np.count_nonzero(lb > ub))
+        if not lb.flags.writeable and not ub.flags.writeable:
+            self._fixed_bounds = (lb, ub, has_bounds, crossed)
+        return has_bounds, crossed
 
     def solve(self, c: np.ndarray, A_ub: np.ndarray, b_ub: np.ndarray, lb: np.ndarray | None = None,
               ub: np.ndarray | None = None) -> LPResult:
@@ -759,10 +779,8 @@ class InequalityLPs:
         A_eq, b_eq, no_lb, no_ub = _no_constraints(n)
         lb = no_lb if lb is None else np.ascontiguousarray(lb, dtype=np.float64)
         ub = no_ub if ub is None else np.ascontiguousarray(ub, dtype=np.float64)
-        has_bounds = lb is not no_lb or ub is not no_ub
-        if has_bounds:
-            has_bounds = bool(np.count_nonzero(np.isfinite(lb)) or np.count_nonzero(np.isfinite(ub)))
-        if self._lean is None or (has_bounds and np.count_nonzero(lb > ub)):
+        has_bounds, crossed = self._bounds_read(lb, ub, no_lb, no_ub)
+        if self._lean is None or crossed:
             return solve(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), settings=self.settings,
                          fallback=self.fallback, check=self._check, **self.options)
         if not A_ub.flags.writeable:  # DAQP's binding takes writable buffers (it does not write them)
