@@ -163,7 +163,23 @@ class ContactProblem:
 
         Without the scene's contacts (a problem not built from a scene) the mode is returned as is.
         """
-        return scene_mode(mode, self.contacts, self.scene_contacts) if self.scene_contacts else mode
+        if not self.scene_contacts:
+            return mode
+        places = self._scene_places
+        if places is None or len(mode) != self.k:  # the checks and errors of scene_mode
+            return scene_mode(mode, self.contacts, self.scene_contacts)
+        return "".join([mode[i] if i >= 0 else "S" for i in places])
+
+    @cached_property
+    def _scene_places(self) -> tuple[int, ...] | None:
+        """Per scene contact, its index among this problem's contacts (-1: apart).
+
+        None when a contact of this problem is not a scene contact (:func:`scene_mode` then says so).
+        """
+        contacts = self.contacts
+        if any(name not in self.scene_contacts for name in contacts):
+            return None
+        return tuple(contacts.index(name) if name in contacts else -1 for name in self.scene_contacts)
 
     def named_mode(self, mode: str) -> str:
         """``mode`` as messages name it: the scene's letters with each contact's name beside its own.

@@ -46,6 +46,23 @@ def test_a_mode_of_the_touching_contacts_becomes_one_of_every_scene_contact():
         scene_mode("R", ("z",), ("a", "b"))
 
 
+def test_a_problems_scene_mode_is_the_functions():
+    """ContactProblem.scene_mode (the contacts' places read once) against scene_mode, on every mode
+    of rhex_flip's three touching contacts (two apart) and of table_on_ground, and its errors."""
+    import itertools
+
+    from frcontrol.modes import ContactProblem
+
+    for name in ("rhex_flip", "table_on_ground"):
+        problem = ContactProblem.from_scene(load_scene(name))
+        for letters in itertools.product("SLRF", repeat=problem.k):
+            mode = "".join(letters)
+            assert problem.scene_mode(mode) == scene_mode(mode, problem.contacts, problem.scene_contacts)
+        with pytest.raises(InputError, match="letters for"):
+            problem.scene_mode("F" * (problem.k + 1))
+    assert ContactProblem.from_scene(load_scene("rhex_flip")).scene_mode("RLL") == "RSSLL"
+
+
 def test_errors_name_a_mode_by_the_scenes_letters_and_its_contacts():
     from frcontrol import analyze
 
