@@ -40,6 +40,8 @@ SANITIZED_TESTS = (
     "tests/test_kernel.py",
     "tests/test_compiled_rows.py",
     "tests/test_fast_paths.py::test_compiled_certified_children_are_numpys_certified_responses",
+    "tests/test_fast_paths.py::test_compiled_certified_by_rows_are_numpys",
+    "tests/test_fast_paths.py::test_certified_by_rows_are_the_svds",
     "tests/test_query.py::test_the_compiled_query_agrees_with_its_numpy_twin",
     "tests/test_query.py::test_the_query_kernel_refuses_bad_buffers",
     "tests/test_simulation_speed.py::test_compiled_lemke_pivots_like_the_numpy_reference",
