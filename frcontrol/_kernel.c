@@ -1736,21 +1736,22 @@ static void apply_q(const QRScratch *w, double *X, Py_ssize_t cols) {
     }
 }
 
-/* The power-of-two scalings r, s of A (rows, nx) and A_hat^T = (diag(r) A diag(s))^T into w->M;
- * returns ||A_hat||_F. */
-static double equilibrate_child(QRScratch *w, const double *A) {
-    Py_ssize_t rows = w->rows, nx = w->nx;
+/* The power-of-two scalings r (rows) and w->s (nx) of the whole A (rows, nx), as equilibrate_stack, and
+ * S^T into w->M for S the kept rows of A_hat = diag(r) A diag(s) (kept NULL: every row, w->rows of
+ * them); returns ||A_hat||_F over every row. */
+static double equilibrate_kept(QRScratch *w, Py_ssize_t rows, const double *A, const long long *kept, double *r) {
+    Py_ssize_t q = w->rows, nx = w->nx;
     for (Py_ssize_t i = 0; i < rows; i++) {
         double top = 0.0;
         for (Py_ssize_t j = 0; j < nx; j++) {
             top = fabs(A[i * nx + j]) > top ? fabs(A[i * nx + j]) : top;
         }
-        w->r[i] = power_of_two_scale(top);
+        r[i] = power_of_two_scale(top);
     }
     for (Py_ssize_t j = 0; j < nx; j++) {
         double top = 0.0;
         for (Py_ssize_t i = 0; i < rows; i++) {
-            double v = fabs(A[i * nx + j]) * w->r[i];
+            double v = fabs(A[i * nx + j]) * r[i];
             top = v > top ? v : top;
         }
         w->s[j] = power_of_two_scale(top);
@@ -1758,42 +1759,49 @@ static double equilibrate_child(QRScratch *w, const double *A) {
     double size = 0.0;
     for (Py_ssize_t i = 0; i < rows; i++) {
         for (Py_ssize_t j = 0; j < nx; j++) {
-            double v = A[i * nx + j] * w->r[i] * w->s[j];
-            w->M[j * rows + i] = v;
+            double v = A[i * nx + j] * r[i] * w->s[j];
             size += v * v;
+        }
+    }
+    for (Py_ssize_t t = 0; t < q; t++) {
+        Py_ssize_t i = kept == NULL ? t : (Py_ssize_t)kept[t];
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            w->M[j * q + t] = A[i * nx + j] * r[i] * w->s[j];
         }
     }
     return sqrt(size);
 }
 
-/* One system: the scalings, the factorisation, the bound and, when certified, the response. */
-static double certify_child(QRScratch *w, const double *A, const double *B, const double *c, double limit,
-                            double *X_u, double *x_0, double *X_w) {
-    Py_ssize_t rows = w->rows, nx = w->nx, m = w->m, width = rows + m + 1;
-    double size = equilibrate_child(w, A);
+/* The factorisation of the kept rows S (w->M from equilibrate_kept): S^T = Q R, R_1^T Y = [I, (diag(r) B)_S,
+ * (diag(r) c)_S], and the bound ||A_hat||_F ||Y_I||_F (+inf when a pivot |R_jj| is at most size / limit);
+ * when bound < limit, w->V = Q [Y_[B c]; 0] and X_w = Q [0; I], unscaled. */
+static double solve_kept(QRScratch *w, const double *B, const double *c, const long long *kept, const double *r,
+                         double size, double limit, double *X_w) {
+    Py_ssize_t q = w->rows, nx = w->nx, m = w->m, width = q + m + 1, p = nx - q;
     householder(w);
-    for (Py_ssize_t j = 0; j < rows; j++) {
-        if (!(size < limit * fabs(w->M[j * rows + j]))) {
+    for (Py_ssize_t j = 0; j < q; j++) {
+        if (!(size < limit * fabs(w->M[j * q + j]))) {
             return HUGE_VAL; /* ||R_1^-1||_F >= 1 / |R_jj|: not certified */
         }
     }
     double *Y = w->Y, sum = 0.0;
-    for (Py_ssize_t i = 0; i < rows; i++) { /* R_1^T Y = [I, diag(r) B, diag(r) c], R_1^T lower */
-        double *y = Y + i * width;
+    for (Py_ssize_t t = 0; t < q; t++) { /* R_1^T Y = [I, (diag(r) B)_S, (diag(r) c)_S], R_1^T lower */
+        double *y = Y + t * width;
+        Py_ssize_t i = kept == NULL ? t : (Py_ssize_t)kept[t];
         for (Py_ssize_t k = 0; k < width; k++) {
-            y[k] = k < rows ? (k == i) : k < rows + m ? B[i * m + k - rows] * w->r[i] : c[i] * w->r[i];
+            y[k] = k < q ? (k == t) : k < q + m ? B[i * m + k - q] * r[i] : c[i] * r[i];
         }
-        for (Py_ssize_t l = 0; l < i; l++) {
-            double a = w->M[l * rows + i];
+        for (Py_ssize_t l = 0; l < t; l++) {
+            double a = w->M[l * q + t];
             for (Py_ssize_t k = 0; k < width; k++) {
                 y[k] -= a * Y[l * width + k];
             }
         }
-        double d = w->M[i * rows + i];
+        double d = w->M[t * q + t];
         for (Py_ssize_t k = 0; k < width; k++) {
             y[k] /= d;
         }
-        for (Py_ssize_t k = 0; k < rows; k++) {
+        for (Py_ssize_t k = 0; k < q; k++) {
             sum += y[k] * y[k];
         }
     }
@@ -1804,24 +1812,39 @@ static double certify_child(QRScratch *w, const double *A, const double *B, cons
     double *V = w->V; /* Q [Y_[B c]; 0]: the minimum-norm solutions */
     for (Py_ssize_t i = 0; i < nx; i++) {
         for (Py_ssize_t k = 0; k <= m; k++) {
-            V[i * (m + 1) + k] = i < rows ? Y[i * width + rows + k] : 0.0;
+            V[i * (m + 1) + k] = i < q ? Y[i * width + q + k] : 0.0;
         }
     }
     apply_q(w, V, m + 1);
-    Py_ssize_t p = nx - rows; /* Q [0; I]: the null space */
-    memset(X_w, 0, (size_t)(nx * p) * sizeof(double));
+    memset(X_w, 0, (size_t)(nx * p) * sizeof(double)); /* Q [0; I]: the null space */
     for (Py_ssize_t k = 0; k < p; k++) {
-        X_w[(rows + k) * p + k] = 1.0;
+        X_w[(q + k) * p + k] = 1.0;
     }
     apply_q(w, X_w, p);
+    return bound;
+}
+
+/* X_u, x_0 = diag(s) V and X_w = diag(s) X_w: the solutions in the unscaled unknowns. */
+static void unscale(const QRScratch *w, double *X_u, double *x_0, double *X_w) {
+    Py_ssize_t nx = w->nx, m = w->m, p = nx - w->rows;
     for (Py_ssize_t i = 0; i < nx; i++) {
         for (Py_ssize_t k = 0; k < m; k++) {
-            X_u[i * m + k] = V[i * (m + 1) + k] * w->s[i];
+            X_u[i * m + k] = w->V[i * (m + 1) + k] * w->s[i];
         }
-        x_0[i] = V[i * (m + 1) + m] * w->s[i];
+        x_0[i] = w->V[i * (m + 1) + m] * w->s[i];
         for (Py_ssize_t k = 0; k < p; k++) {
             X_w[i * p + k] *= w->s[i];
         }
+    }
+}
+
+/* One system of certified_children: every row kept; the response where the bound certifies it. */
+static double certify_child(QRScratch *w, const double *A, const double *B, const double *c, double limit,
+                            double *X_u, double *x_0, double *X_w) {
+    double size = equilibrate_kept(w, w->rows, A, NULL, w->r);
+    double bound = solve_kept(w, B, c, NULL, w->r, size, limit, X_w);
+    if (bound < limit) {
+        unscale(w, X_u, x_0, X_w);
     }
     return bound;
 }
@@ -1879,44 +1902,11 @@ done:
  * minimum-norm solutions V = Q [Y_[B c]; 0] and the null space Q_2 = Q [0; I]. info (6 per system):
  * the bound ||A_hat||_F ||Y_I||_F, dropped = ||A_hat Q_2||_F, the residuals
  * ||diag(r) B - A_hat V_B||_F and ||diag(r) c - A_hat V_c||, ||A_hat||_F and
- * max(1, max |diag(r) B|, max |diag(r) c|). A pivot |R_jj| at most ||A_hat||_F / limit leaves the
- * bound +inf and the next three NaN. The certificate's decision is the caller's. */
+ * max(1, max |diag(r) B|, max |diag(r) c|). A pivot |R_jj| at most ||A_hat||_F / limit makes the
+ * bound +inf; a bound at or above limit leaves the others (but ||A_hat||_F) NaN and the responses
+ * unwritten. The certificate's decision is the caller's. The factorisation is certified_children's
+ * (equilibrate_kept, solve_kept, unscale), with the kept rows for every row. */
 enum { BY_ROWS_INFO = 6 };
-
-/* The scalings of the whole A into r (rows) and w->s (nx), S^T into w->M; returns ||A_hat||_F. */
-static double equilibrate_kept(QRScratch *w, Py_ssize_t rows, const double *A, const long long *kept,
-                               double *r) {
-    Py_ssize_t q = w->rows, nx = w->nx;
-    for (Py_ssize_t i = 0; i < rows; i++) {
-        double top = 0.0;
-        for (Py_ssize_t j = 0; j < nx; j++) {
-            top = fabs(A[i * nx + j]) > top ? fabs(A[i * nx + j]) : top;
-        }
-        r[i] = power_of_two_scale(top);
-    }
-    for (Py_ssize_t j = 0; j < nx; j++) {
-        double top = 0.0;
-        for (Py_ssize_t i = 0; i < rows; i++) {
-            double v = fabs(A[i * nx + j]) * r[i];
-            top = v > top ? v : top;
-        }
-        w->s[j] = power_of_two_scale(top);
-    }
-    double size = 0.0;
-    for (Py_ssize_t i = 0; i < rows; i++) {
-        for (Py_ssize_t j = 0; j < nx; j++) {
-            double v = A[i * nx + j] * r[i] * w->s[j];
-            size += v * v;
-        }
-    }
-    for (Py_ssize_t t = 0; t < q; t++) {
-        Py_ssize_t i = (Py_ssize_t)kept[t];
-        for (Py_ssize_t j = 0; j < nx; j++) {
-            w->M[j * q + t] = A[i * nx + j] * r[i] * w->s[j];
-        }
-    }
-    return sqrt(size);
-}
 
 /* info[1..3] of one system: ||A_hat Q_2||_F and the residuals of V on every row; info[5] the scale. */
 static void by_rows_checks(const QRScratch *w, Py_ssize_t rows, const double *A, const double *B, const double *c,
@@ -1952,58 +1942,12 @@ static void by_rows_checks(const QRScratch *w, Py_ssize_t rows, const double *A,
 static void by_rows_system(QRScratch *w, Py_ssize_t rows, const double *A, const double *B, const double *c,
                            const long long *kept, double limit, double *r, double *X_u, double *x_0, double *X_w,
                            double *info) {
-    Py_ssize_t q = w->rows, nx = w->nx, m = w->m, width = q + m + 1, p = nx - q;
     double size = equilibrate_kept(w, rows, A, kept, r);
-    info[0] = HUGE_VAL, info[1] = info[2] = info[3] = NAN, info[4] = size, info[5] = NAN;
-    householder(w);
-    for (Py_ssize_t j = 0; j < q; j++) {
-        if (!(size < limit * fabs(w->M[j * q + j]))) {
-            return; /* ||R_1^-1||_F >= 1 / |R_jj|: not certified */
-        }
-    }
-    double *Y = w->Y, sum = 0.0;
-    for (Py_ssize_t t = 0; t < q; t++) { /* R_1^T Y = [I, (diag(r) B)_S, (diag(r) c)_S], R_1^T lower */
-        double *y = Y + t * width;
-        Py_ssize_t i = (Py_ssize_t)kept[t];
-        for (Py_ssize_t k = 0; k < width; k++) {
-            y[k] = k < q ? (k == t) : k < q + m ? B[i * m + k - q] * r[i] : c[i] * r[i];
-        }
-        for (Py_ssize_t l = 0; l < t; l++) {
-            double a = w->M[l * q + t];
-            for (Py_ssize_t k = 0; k < width; k++) {
-                y[k] -= a * Y[l * width + k];
-            }
-        }
-        double d = w->M[t * q + t];
-        for (Py_ssize_t k = 0; k < width; k++) {
-            y[k] /= d;
-        }
-        for (Py_ssize_t k = 0; k < q; k++) {
-            sum += y[k] * y[k];
-        }
-    }
-    info[0] = size * sqrt(sum);
-    double *V = w->V; /* Q [Y_[B c]; 0]: the minimum-norm solutions of the kept rows */
-    for (Py_ssize_t i = 0; i < nx; i++) {
-        for (Py_ssize_t k = 0; k <= m; k++) {
-            V[i * (m + 1) + k] = i < q ? Y[i * width + q + k] : 0.0;
-        }
-    }
-    apply_q(w, V, m + 1);
-    memset(X_w, 0, (size_t)(nx * p) * sizeof(double)); /* Q [0; I]: their null space */
-    for (Py_ssize_t k = 0; k < p; k++) {
-        X_w[(q + k) * p + k] = 1.0;
-    }
-    apply_q(w, X_w, p);
-    by_rows_checks(w, rows, A, B, c, r, X_w, info);
-    for (Py_ssize_t i = 0; i < nx; i++) {
-        for (Py_ssize_t k = 0; k < m; k++) {
-            X_u[i * m + k] = V[i * (m + 1) + k] * w->s[i];
-        }
-        x_0[i] = V[i * (m + 1) + m] * w->s[i];
-        for (Py_ssize_t k = 0; k < p; k++) {
-            X_w[i * p + k] *= w->s[i];
-        }
+    info[0] = solve_kept(w, B, c, kept, r, size, limit, X_w);
+    info[1] = info[2] = info[3] = info[5] = NAN, info[4] = size;
+    if (info[0] < limit) {
+        by_rows_checks(w, rows, A, B, c, r, X_w, info);
+        unscale(w, X_u, x_0, X_w);
     }
 }
 

@@ -586,9 +586,11 @@ def certified_by_rows(
 
 BY_ROWS_INFO = ("bound", "dropped", "residual_B", "residual_c", "size", "scale")
 """The six numbers :func:`by_rows_factors` reports per system, in order: ``||A_hat||_F ||R_1^-1||_F``
-(+inf when a pivot rules it out, the next three then NaN), ``||A_hat Q_2||_F``, the residuals of
-the kept rows' solutions on every row (of ``diag(r) B``, Frobenius, and of ``diag(r) c``),
-``||A_hat||_F`` and ``max(1, max|diag(r) B|, max|diag(r) c|)``."""
+(+inf when a pivot rules it out), ``||A_hat Q_2||_F``, the residuals of the kept rows' solutions
+on every row (of ``diag(r) B``, Frobenius, and of ``diag(r) c``), ``||A_hat||_F`` and
+``max(1, max|diag(r) B|, max|diag(r) c|)``. Where the bound is at least ``1 / (CERTIFIED_MARGIN
+ILL_CONDITIONED_BAND)`` (no rank tolerance certifies it) the second to fourth and the sixth are
+NaN, and the responses are not computed."""
 
 
 def by_rows_certified(info: np.ndarray, rows: int, nx: int, rank_tolerance: float) -> list[bool]:
@@ -612,8 +614,8 @@ def by_rows_factors(A: np.ndarray, B: np.ndarray, c: np.ndarray, kept: np.ndarra
     """:func:`certified_by_rows`' factorisation in NumPy (the reference twin): ``X_u, x_0, X_w, info``.
 
     Per system the kept rows' minimum-norm ``X_u`` (nx, m) and ``x_0`` (nx,), their null space
-    ``X_w`` (nx, nx - q), and :data:`BY_ROWS_INFO`; where a pivot rules the certificate out, the
-    responses are left unset.
+    ``X_w`` (nx, nx - q), and :data:`BY_ROWS_INFO`; a system whose bound certifies nothing has
+    responses not to be read.
     """
     count, rows, nx = A.shape
     q, m = kept.shape[1], B.shape[1]
@@ -649,6 +651,9 @@ def by_rows_factors(A: np.ndarray, B: np.ndarray, c: np.ndarray, kept: np.ndarra
     X_u[hopeful] = y[:, :, :m] * c_scale[hopeful, :, None]
     x_0[hopeful] = y[:, :, m] * c_scale[hopeful]
     X_w[hopeful] = Q_2 * c_scale[hopeful, :, None]
+    with np.errstate(invalid="ignore"):
+        info[~(info[:, 0] < limit), 1:4] = np.nan  # as the kernel: past the bound, nothing more is read
+    info[~(info[:, 0] < limit), 5] = np.nan
     return X_u, x_0, X_w, info
 
 
