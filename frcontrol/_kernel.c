@@ -1895,24 +1895,25 @@ done:
     return result;
 }
 
-/* frcontrol.response.certified_by_rows (its NumPy twin is _certified_by_rows_numpy): per system A
+/* frcontrol.response.certified_by_rows (its NumPy twin is by_rows_factors): per system A
  * (rows, nx) and its kept rows (q <= nx of them), the power-of-two scalings r, s of the whole A (as
  * equilibrate_stack), S^T = Q R for S the kept rows of A_hat = diag(r) A diag(s) (Householder
  * reflections), R_1^T Y = [I, (diag(r) B)_S, (diag(r) c)_S] by forward substitution, the
- * minimum-norm solutions V = Q [Y_[B c]; 0] and the null space Q_2 = Q [0; I]. info (6 per system):
+ * minimum-norm solutions V = Q [Y_[B c]; 0] and the null space Q_2 = Q [0; I]. info (7 per system):
  * the bound ||A_hat||_F ||Y_I||_F, dropped = ||A_hat Q_2||_F, the residuals
- * ||diag(r) B - A_hat V_B||_F and ||diag(r) c - A_hat V_c||, ||A_hat||_F and
- * max(1, max |diag(r) B|, max |diag(r) c|). A pivot |R_jj| at most ||A_hat||_F / limit makes the
+ * ||diag(r) B - A_hat V_B||_F and ||diag(r) c - A_hat V_c||, ||A_hat||_F,
+ * max(1, max |diag(r) B|, max |diag(r) c|) and ||[diag(r) B, diag(r) c]||_F. A pivot |R_jj| at most ||A_hat||_F / limit makes the
  * bound +inf; a bound at or above limit leaves the others (but ||A_hat||_F) NaN and the responses
  * unwritten. The certificate's decision is the caller's. The factorisation is certified_children's
  * (equilibrate_kept, solve_kept, unscale), with the kept rows for every row. */
-enum { BY_ROWS_INFO = 6 };
+enum { BY_ROWS_INFO = 7 };
 
-/* info[1..3] of one system: ||A_hat Q_2||_F and the residuals of V on every row; info[5] the scale. */
+/* info[1..3] of one system: ||A_hat Q_2||_F and the residuals of V on every row; info[5] the scale and
+ * info[6] ||[diag(r) B, diag(r) c]||_F. */
 static void by_rows_checks(const QRScratch *w, Py_ssize_t rows, const double *A, const double *B, const double *c,
                            const double *r, const double *X_w, double *info) {
     Py_ssize_t nx = w->nx, m = w->m, p = nx - w->rows;
-    double dropped = 0.0, res_B = 0.0, res_c = 0.0, scale = 1.0;
+    double dropped = 0.0, res_B = 0.0, res_c = 0.0, scale = 1.0, right2 = 0.0;
     for (Py_ssize_t i = 0; i < rows; i++) {
         const double *a = A + i * nx;
         for (Py_ssize_t k = 0; k < p; k++) {
@@ -1925,6 +1926,7 @@ static void by_rows_checks(const QRScratch *w, Py_ssize_t rows, const double *A,
         for (Py_ssize_t k = 0; k <= m; k++) {
             double right = k < m ? B[i * m + k] * r[i] : c[i] * r[i], sum = 0.0;
             scale = fabs(right) > scale ? fabs(right) : scale;
+            right2 += right * right;
             for (Py_ssize_t j = 0; j < nx; j++) {
                 sum += a[j] * r[i] * w->s[j] * w->V[j * (m + 1) + k];
             }
@@ -1936,7 +1938,7 @@ static void by_rows_checks(const QRScratch *w, Py_ssize_t rows, const double *A,
             }
         }
     }
-    info[1] = sqrt(dropped), info[2] = sqrt(res_B), info[3] = sqrt(res_c), info[5] = scale;
+    info[1] = sqrt(dropped), info[2] = sqrt(res_B), info[3] = sqrt(res_c), info[5] = scale, info[6] = sqrt(right2);
 }
 
 static void by_rows_system(QRScratch *w, Py_ssize_t rows, const double *A, const double *B, const double *c,
@@ -1944,7 +1946,7 @@ static void by_rows_system(QRScratch *w, Py_ssize_t rows, const double *A, const
                            double *info) {
     double size = equilibrate_kept(w, rows, A, kept, r);
     info[0] = solve_kept(w, B, c, kept, r, size, limit, X_w);
-    info[1] = info[2] = info[3] = info[5] = NAN, info[4] = size;
+    info[1] = info[2] = info[3] = info[5] = info[6] = NAN, info[4] = size;
     if (info[0] < limit) {
         by_rows_checks(w, rows, A, B, c, r, X_w, info);
         unscale(w, X_u, x_0, X_w);
@@ -2738,8 +2740,8 @@ static PyMethodDef methods[] = {
      "frcontrol.response.certified_by_rows's factorisation: per system of A (count, rows, nx), with B\n"
      "(rows, m) shared and c (count, rows), its kept rows (int64, count x q) factorised under the\n"
      "whole system's scalings; the kept rows' minimum-norm X_u (count, nx, m), x_0 (count, nx), their\n"
-     "null space X_w (count, nx, nx - q) and info (count, 6): bound, ||A_hat Q_2||_F, the residuals\n"
-     "of B and c on every row, ||A_hat||_F and the consistency scale."},
+     "null space X_w (count, nx, nx - q) and info (count, 7): bound, ||A_hat Q_2||_F, the residuals\n"
+     "of B and c on every row, ||A_hat||_F, the consistency scale and the right side's norm."},
     {"margin_rows", (PyCFunction)(void (*)(void))margin_rows, METH_FASTCALL,
      "margin_rows(G, X_u, X_w, x_0, g, C, d, motion, out, h_out, zero_row_tolerance, domain_tolerance)\n"
      "-> int\n\n"

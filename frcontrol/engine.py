@@ -856,6 +856,8 @@ class _ModeEnumerator:
                 verdict = self.test(child)[0]
                 if verdict != "ok":
                     self.counts[verdict] += _subtree_size(self.allowed, depth + 1)
+                    self.kept.pop(child, None)  # no children to certify
+                    self.null_spaces.pop(child, None)
                     continue
             self.grow(child)
 

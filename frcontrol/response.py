@@ -29,7 +29,7 @@ from typing import Literal
 
 import numpy as np
 
-from .errors import IllConditioned
+from .errors import IllConditioned, KernelError
 from .kernel import Backend, backend, compiled, twin
 
 RankCase = Literal["unique", "ambiguous", "constrained", "ambiguous_constrained"]
@@ -551,15 +551,20 @@ def certified_by_rows(
       singular value is at most ``||A_hat Q_2||_2`` (``A_hat Q_1 Q_1^T`` has rank q), so the SVD drops
       it, and the drop is round-off's (the rule of :func:`_unexplained_exact_drops` cannot apply);
     - the residual of the kept rows' minimum-norm solutions ``y`` on every row,
-      ``||[diag(r) B, diag(r) c] - A_hat y||``, is at most ``VOID_CONDITIONS_SAFETY / CERTIFIED_MARGIN``
-      times the consistency threshold of :func:`solve_affine`: the SVD's consistency rows
-      ``U_2^T [diag(r) B, diag(r) c]`` are no larger (``U_2 U_2^T`` leaves the least residual), so
-      they are void.
+      ``||[diag(r) B, diag(r) c] - A_hat y||`` (for B's columns and for c), is round-off's: at most
+      :data:`ROWS_RESIDUAL_ROUND_OFF` machine epsilons times the bound times
+      ``||[diag(r) B, diag(r) c]||_F`` (what exactly dependent rows leave), and at most
+      ``VOID_CONDITIONS_SAFETY / CERTIFIED_MARGIN`` times the consistency threshold of
+      :func:`solve_affine`. The SVD's consistency rows ``U_2^T [diag(r) B, diag(r) c]`` are then
+      void: they are ``U_2^T`` of that residual plus ``Sigma_2 V_2^T y``, and ``y`` lies in the kept
+      rows' row space, to which ``V_2`` is orthogonal but for round-off (second order).
 
     Then the kept rows have the system's solutions: ``X_u`` and ``x_0`` are the SVD's minimum-norm
-    ones (to round-off) and ``X_w = diag(c) Q_2`` spans its null space in an orthonormal basis of
-    the scaled coordinates, as :func:`certified_responses`' (every distance in (u, w) the same).
-    A system that :func:`rebalance_undecided` might balance is the caller's to leave out.
+    ones to round-off (the SVD's least squares over every row moves them by at most the residual
+    times ``||R_1^-1||``), and ``X_w = diag(c) Q_2`` spans its null space in an orthonormal basis
+    of the scaled coordinates, as :func:`certified_responses`' (every distance in (u, w) the same).
+    The SVD this stands for is the first scaling's: a system that :func:`rebalance_undecided` might
+    balance (``balance`` of :func:`solve_affine`) is the caller's to leave out.
 
     By the kernel's ``certified_by_rows`` (:func:`frcontrol.kernel.backend`): with the compiled
     kernel, each system in C (``frcontrol._kernel.certified_by_rows``: the same scalings and checks,
@@ -584,17 +589,26 @@ def certified_by_rows(
         rank_tolerance=rank_tolerance, certified=True) if ok else None for i, ok in enumerate(certified)]
 
 
-BY_ROWS_INFO = ("bound", "dropped", "residual_B", "residual_c", "size", "scale")
-"""The six numbers :func:`by_rows_factors` reports per system, in order: ``||A_hat||_F ||R_1^-1||_F``
+BY_ROWS_INFO = ("bound", "dropped", "residual_B", "residual_c", "size", "scale", "right")
+"""The seven numbers :func:`by_rows_factors` reports per system, in order: ``||A_hat||_F ||R_1^-1||_F``
 (+inf when a pivot rules it out), ``||A_hat Q_2||_F``, the residuals of the kept rows' solutions
-on every row (of ``diag(r) B``, Frobenius, and of ``diag(r) c``), ``||A_hat||_F`` and
-``max(1, max|diag(r) B|, max|diag(r) c|)``. Where the bound is at least ``1 / (CERTIFIED_MARGIN
-ILL_CONDITIONED_BAND)`` (no rank tolerance certifies it) the second to fourth and the sixth are
+on every row (of ``diag(r) B``, Frobenius, and of ``diag(r) c``), ``||A_hat||_F``,
+``max(1, max|diag(r) B|, max|diag(r) c|)`` (the consistency threshold's scale) and
+``||[diag(r) B, diag(r) c]||_F``. Where the bound is at least ``1 / (CERTIFIED_MARGIN
+ILL_CONDITIONED_BAND)`` (no rank tolerance certifies it) all but the bound and ``||A_hat||_F`` are
 NaN, and the responses are not computed."""
+
+ROWS_RESIDUAL_ROUND_OFF = 10.0
+"""[-] :func:`certified_by_rows` takes the kept rows' solutions as the whole system's only when their
+residual on every row is at most this many machine epsilons times the bound ``||A_hat||_F
+||R_1^-1||_F`` times ``||[diag(r) B, diag(r) c]||_F``: what round-off leaves where the other rows
+are exact combinations of the kept ones (the snakes on the ground stay below 0.06 of it). A larger
+residual is a real, if tiny, inconsistency, which the SVD's least squares would spread over every
+row and so move the solutions by more than round-off: such a system takes the SVD."""
 
 
 def by_rows_certified(info: np.ndarray, rows: int, nx: int, rank_tolerance: float) -> list[bool]:
-    """Per system, whether :func:`by_rows_factors`' ``info`` (count, 6) certifies it.
+    """Per system, whether :func:`by_rows_factors`' ``info`` (count, 7) certifies it.
 
     The checks of :func:`certified_by_rows`, on a few systems at a time, read as Python floats (a
     NaN fails every test).
@@ -603,10 +617,11 @@ def by_rows_certified(info: np.ndarray, rows: int, nx: int, rank_tolerance: floa
     small = min(rows, nx)
     rank_factor, round_off = rank_tolerance / math.sqrt(small), small * ROUND_OFF_RANK_DROP
     void_factor = VOID_CONDITIONS_SAFETY * CONSISTENCY_TOLERANCE / CERTIFIED_MARGIN
+    exact_factor = ROWS_RESIDUAL_ROUND_OFF * np.finfo(float).eps
     return [bound < limit and CERTIFIED_MARGIN * dropped < rank_factor * size
             and CERTIFIED_MARGIN * dropped <= round_off * size
-            and residual_B <= void_factor * scale and residual_c <= void_factor * scale
-            for bound, dropped, residual_B, residual_c, size, scale in info.tolist()]
+            and max(residual_B, residual_c) <= min(void_factor * scale, exact_factor * bound * right)
+            for bound, dropped, residual_B, residual_c, size, scale, right in info.tolist()]
 
 
 def by_rows_factors(A: np.ndarray, B: np.ndarray, c: np.ndarray, kept: np.ndarray
@@ -619,6 +634,9 @@ def by_rows_factors(A: np.ndarray, B: np.ndarray, c: np.ndarray, kept: np.ndarra
     """
     count, rows, nx = A.shape
     q, m = kept.shape[1], B.shape[1]
+    if kept.size and (kept.min() < 0 or kept.max() >= rows):  # as the kernel's check
+        bad = int(kept.min()) if kept.min() < 0 else int(kept.max())
+        raise KernelError(f"kernel buffer kept: row {bad} of a system of {rows} rows")
     X_u, x_0, X_w = np.empty((count, nx, m)), np.empty((count, nx)), np.empty((count, nx, nx - q))
     info = np.full((count, len(BY_ROWS_INFO)), np.nan)
     info[:, 0] = np.inf
@@ -648,12 +666,13 @@ def by_rows_factors(A: np.ndarray, B: np.ndarray, c: np.ndarray, kept: np.ndarra
     info[hopeful, 2] = np.sqrt((residual[:, :, :m] ** 2).sum(axis=(1, 2)))
     info[hopeful, 3] = np.sqrt((residual[:, :, m] ** 2).sum(axis=1))
     info[hopeful, 5] = np.maximum(1.0, np.abs(right).max(axis=(1, 2)))
+    info[hopeful, 6] = np.sqrt((right * right).sum(axis=(1, 2)))
     X_u[hopeful] = y[:, :, :m] * c_scale[hopeful, :, None]
     x_0[hopeful] = y[:, :, m] * c_scale[hopeful]
     X_w[hopeful] = Q_2 * c_scale[hopeful, :, None]
     with np.errstate(invalid="ignore"):
         info[~(info[:, 0] < limit), 1:4] = np.nan  # as the kernel: past the bound, nothing more is read
-    info[~(info[:, 0] < limit), 5] = np.nan
+    info[~(info[:, 0] < limit), 5:] = np.nan
     return X_u, x_0, X_w, info
 
 
@@ -749,6 +768,7 @@ __all__ = [
     "AffineSolution",
     "ambiguous_outputs",
     "BY_ROWS_INFO",
+    "ROWS_RESIDUAL_ROUND_OFF",
     "by_rows_certified",
     "by_rows_factors",
     "certified_by_rows",

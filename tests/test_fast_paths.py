@@ -399,9 +399,11 @@ def _dependent_stack(rng: np.random.Generator, count: int, q: int, nx: int, m: i
 @pytest.mark.parametrize("kernel_name", ["numpy", "compiled"])
 def test_certified_by_rows_are_the_svds(monkeypatch, kernel_name):
     """Rank-deficient systems (independent rows and combinations of them): with the independent
-    rows kept, a certified answer has the SVD's rank, case, void conditions, X_u and x_0 (to
-    round-off) and null space; a wrong guess (an independent row left out, or swapped for a
-    dependent one) or inconsistent right sides are never certified wrongly.
+    rows kept, a certified answer has the first scaling's SVD's rank, case, void conditions, X_u and
+    x_0 (to round-off) and null space; a wrong guess (an independent row left out, or swapped for a
+    dependent one) is never certified wrongly, and right sides inconsistent in B or in c, even by
+    1e-7 of themselves, are refused (the SVD then finds conditions, or an inconsistency, or moves
+    the solutions by more than round-off).
 
     The certificate is conservative: it also refuses where the dropped directions' residual
     ``||A_hat Q_2||`` exceeds a tenth of the round-off bound (dense random rows reach a few
@@ -410,14 +412,14 @@ def test_certified_by_rows_are_the_svds(monkeypatch, kernel_name):
         pytest.skip("the compiled kernel is not built here (CI builds it)")
     monkeypatch.setenv("FRC_KERNEL", kernel_name)
     rng = np.random.default_rng(20261128)
-    certified = refused = 0
+    certified = refused = inconsistent = 0
     for trial in range(80):
         nx = int(rng.integers(3, 28))
         q = int(rng.integers(1, nx))
-        extra, m, count = int(rng.integers(1, 5)), int(rng.integers(0, 9)), int(rng.integers(1, 5))
+        extra, m, count = int(rng.integers(1, 5)), int(rng.integers(1, 9)), int(rng.integers(1, 5))
         A, B, c, kept = _dependent_stack(rng, count, q, nx, m, extra)
         for i, fast in enumerate(resp.certified_by_rows(A, B, c, kept)):
-            svd = resp.solve_affine(A[i], B, c[i])
+            svd = resp.solve_affine(A[i], B, c[i], balance=False)  # the first scaling's: the one certified
             if fast is None:
                 refused += 1
                 continue
@@ -436,14 +438,20 @@ def test_certified_by_rows_are_the_svds(monkeypatch, kernel_name):
             swapped = kept.copy()
             swapped[:, 0] = [np.setdiff1d(np.arange(q + extra), k)[0] for k in kept]
             for i, fast in enumerate(resp.certified_by_rows(A, B, c, swapped)):
-                assert fast is None or fast.rank == resp.solve_affine(A[i], B, c[i]).rank
-        if trial % 4 == 1:  # an inconsistent right side: the SVD's conditions are not void
-            bad = c.copy()
-            dependent = np.setdiff1d(np.arange(q + extra), kept[0])[0]
-            bad[:, dependent] += 1e-3 * (1.0 + np.abs(bad[:, dependent]))
-            assert all(r is None for r in resp.certified_by_rows(A, B, bad, kept))
-            assert all(not resp.solve_affine(A[i], B, bad[i]).consistent for i in range(count))
-    assert certified > 60 and refused > 0
+                assert fast is None or fast.rank == resp.solve_affine(A[i], B, c[i], balance=False).rank
+        # inconsistent right sides: a dependent row's B (a condition on u) or c moved
+        dependent = np.setdiff1d(np.arange(q + extra), kept[0])[0]
+        size = 10.0 ** rng.choice([-3.0, -7.0])
+        bad_B, bad_c = B.copy(), c.copy()
+        if trial % 2:
+            bad_B[dependent] += size * (1.0 + np.abs(bad_B[dependent]))
+        else:
+            bad_c[:, dependent] += size * (1.0 + np.abs(bad_c[:, dependent]))
+        assert all(r is None for r in resp.certified_by_rows(A, bad_B, bad_c, kept))
+        for i in range(count):
+            svd = resp.solve_affine(A[i], bad_B, bad_c[i], balance=False)
+            inconsistent += svd.E.shape[0] > 0 or not svd.consistent
+    assert certified > 60 and refused > 0 and inconsistent > 20
 
 
 @needs_kernel
@@ -468,7 +476,7 @@ def test_compiled_certified_by_rows_are_numpys(monkeypatch):
         assert np.array_equal(finite, np.isfinite(info_np[:, 0]))  # the same pivots rule out the same
         size = info_np[:, 4]
         np.testing.assert_allclose(info_c[:, [4]], info_np[:, [4]], rtol=1e-12)
-        np.testing.assert_allclose(info_c[finite][:, [0, 5]], info_np[finite][:, [0, 5]], rtol=1e-9)
+        np.testing.assert_allclose(info_c[finite][:, [0, 5, 6]], info_np[finite][:, [0, 5, 6]], rtol=1e-9)
         round_off = 1e3 * np.finfo(float).eps * (size * info_np[:, 0] * (1.0 + info_np[:, 5]))[:, None]
         both_small = (info_c[:, 1:4] <= round_off) & (info_np[:, 1:4] <= round_off)
         close = np.isclose(info_c[:, 1:4], info_np[:, 1:4], rtol=1e-6)

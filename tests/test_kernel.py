@@ -673,20 +673,20 @@ def test_certified_by_rows_refuses_bad_buffers():
     read-only output: a KernelError naming the buffer, never a crash (the sanitizer build runs it)."""
     A, B, c = np.ones((2, 3, 4)), np.ones((3, 2)), np.ones((2, 3))
     kept = np.array([[0, 2], [1, 2]], dtype=np.int64)
-    outputs = [np.empty((2, 4, 2)), np.empty((2, 4)), np.empty((2, 4, 2)), np.empty((2, 6))]
+    outputs = [np.empty((2, 4, 2)), np.empty((2, 4)), np.empty((2, 4, 2)), np.empty((2, 7))]
     compiled.certified_by_rows(A, B, c, kept, *outputs, 1e6)
     none, five = np.zeros((2, 0), dtype=np.int64), np.zeros((2, 5), dtype=np.int64)
     for position, bad, text in [(3, np.array([[0, 3], [1, 2]], dtype=np.int64), "row 3 of a system of 3"),
                                 (3, np.array([[0, -1], [1, 2]], dtype=np.int64), "row -1"),
                                 (3, kept.astype(np.int32), "kept"), (3, none, "X_w"),
                                 (3, five, "5 rows kept of 4"), (1, np.ones((2, 2)), "B"),
-                                (6, np.empty((2, 4, 3)), "X_w"), (7, np.empty((2, 5)), "info"),
+                                (6, np.empty((2, 4, 3)), "X_w"), (7, np.empty((2, 6)), "info"),
                                 (8, "x", "limit")]:
         args = [A, B, c, kept, *outputs, 1e6]
         args[position] = bad
         with pytest.raises(KernelError, match=text):
             compiled.certified_by_rows(*args)
-    readonly = np.empty((2, 6))
+    readonly = np.empty((2, 7))
     readonly.setflags(write=False)
     with pytest.raises(KernelError, match="info"):
         compiled.certified_by_rows(A, B, c, kept, *outputs[:3], readonly, 1e6)

@@ -756,7 +756,8 @@ class InequalityLPs:
                      ) -> tuple[bool, bool]:
         """Whether ``lb``/``ub`` have a finite entry, and whether they cross (``lb > ub`` somewhere).
 
-        Read-only bounds are taken as constant: the same pair as the last call's is not read again.
+        Read-only bounds that own their data are taken as constant: the same pair as the last
+        call's is not read again (a read-only view of data written elsewhere is read every time).
         """
         fixed = self._fixed_bounds
         if fixed is not None and lb is fixed[0] and ub is fixed[1]:
@@ -765,7 +766,7 @@ class InequalityLPs:
         if has_bounds:
             has_bounds = bool(np.count_nonzero(np.isfinite(lb)) or np.count_nonzero(np.isfinite(ub)))
         crossed = has_bounds and bool(np.count_nonzero(lb > ub))
-        if not lb.flags.writeable and not ub.flags.writeable:
+        if not (lb.flags.writeable or ub.flags.writeable) and lb.base is None and ub.base is None:
             self._fixed_bounds = (lb, ub, has_bounds, crossed)
         return has_bounds, crossed
 
