@@ -375,10 +375,11 @@ def test_batched_svds_are_solve_affines_bit_for_bit():
 # ------------------------------------------------------------------ certified by the rows kept
 
 
-def _dependent_stack(rng: np.random.Generator, count: int, q: int, nx: int, m: int, extra: int
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _dependent_stack(rng: np.random.Generator, count: int, q: int, nx: int, m: int, extra: int,
+                     near: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Systems of ``q`` independent rows and ``extra`` combinations of them (consistent right sides),
-    shuffled: A (count, q + extra, nx), a shared B, c, and each system's independent rows."""
+    shuffled: A (count, q + extra, nx), a shared B, c, and each system's independent rows. With
+    ``near``, the second independent row is the first moved by ``near`` of itself."""
     rows = q + extra
     A, c = np.empty((count, rows, nx)), np.empty((count, rows))
     kept = np.empty((count, q), dtype=np.int64)
@@ -389,6 +390,8 @@ def _dependent_stack(rng: np.random.Generator, count: int, q: int, nx: int, m: i
     B[order[:q]], B[order[q:]] = S_B, K @ S_B
     for i in range(count):
         S = rng.normal(size=(q, nx)) * np.exp2(rng.integers(-6, 7, size=(q, 1)))
+        if near:
+            S[1] = S[0] * (1.0 + near * rng.normal(size=nx))
         s_c = rng.normal(size=q)
         A[i, order[:q]], A[i, order[q:]] = S, K @ S
         c[i, order[:q]], c[i, order[q:]] = s_c, K @ s_c
@@ -452,6 +455,34 @@ def test_certified_by_rows_are_the_svds(monkeypatch, kernel_name):
             svd = resp.solve_affine(A[i], bad_B, bad_c[i], balance=False)
             inconsistent += svd.E.shape[0] > 0 or not svd.consistent
     assert certified > 60 and refused > 0 and inconsistent > 20
+
+
+@pytest.mark.parametrize("kernel_name", ["numpy", "compiled"])
+def test_certified_by_rows_follows_the_rank_tolerance(monkeypatch, kernel_name):
+    """With another rank tolerance the certificate answers for that tolerance's SVD: kept rows
+    dependent at 1e-6 of themselves are refused at rank_tolerance 1e-5 (its SVD drops that value),
+    and at 1e-16 (no value is round-off's: its SVD keeps them all) nothing is certified."""
+    if kernel_name == "compiled" and resp.compiled is None:
+        pytest.skip("the compiled kernel is not built here (CI builds it)")
+    monkeypatch.setenv("FRC_KERNEL", kernel_name)
+    rng = np.random.default_rng(3)
+    systems = []  # systems the certificate answers at the default tolerance (dense rows: not all)
+    while len(systems) < 3:
+        A, B, c, kept = _dependent_stack(rng, 1, 5, 9, 2, 2)
+        if resp.certified_by_rows(A, B, c, kept)[0] is not None:
+            systems.append((A, B, c, kept))
+    for A, B, c, kept in systems:
+        assert resp.certified_by_rows(A, B, c, kept, rank_tolerance=1e-16) == [None]
+    answered = 0
+    for _ in range(20):  # two kept rows 1e-6 apart: sigma_q about 1e-6 of sigma_1
+        A, B, c, kept = _dependent_stack(rng, 1, 5, 9, 2, 2, near=1e-6)
+        assert resp.certified_by_rows(A, B, c, kept, rank_tolerance=1e-5) == [None]
+        assert resp.solve_affine(A[0], B, c[0], rank_tolerance=1e-5, balance=False).rank < 5
+        found = resp.certified_by_rows(A, B, c, kept)[0]
+        if found is not None:
+            answered += 1
+            assert found.rank == resp.solve_affine(A[0], B, c[0], balance=False).rank == 5
+    assert answered > 0
 
 
 @needs_kernel
