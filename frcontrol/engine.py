@@ -910,13 +910,14 @@ def _boxes_apart_from(lower: np.ndarray, upper: np.ndarray, lowers: np.ndarray, 
     return np.any(width <= 2 * DOMAIN_TOLERANCE, axis=1)
 
 
-def _interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings
-                    ) -> tuple[float, np.ndarray | None]:
+def _interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings,
+                    lps: InequalityLPs | None = None) -> tuple[float, np.ndarray | None]:
     """Whether int(T_a) and int(T_b) meet: one LP in the lifted space (u, w_a, w_b).
 
     maximise t <= 1 s.t. every row of D_a and of D_b tightened by t times its norm. For
     full-dimensional D, int(T) is the projection of int(D), so t* > 0 iff the interiors meet; t* is
     a lower bound of the radius of a ball of inputs in both. Returns (t*, a common input).
+    ``lps``: the lean LP path of a run of pairs (:func:`margin_lps`, the same answers).
     """
     Ha, ha, pa = a
     Hb, hb, pb = b
@@ -932,7 +933,7 @@ def _interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings
                               settings=settings)
     else:  # motion_margin's LP, every row a moving motion row: its rows built in place
         H[:, d] = norms
-        found = _margin_lp(H, h, np.zeros((0, d)), np.zeros(0), False, H.shape[0] > 0, settings)
+        found = _margin_lp(H, h, None, None, False, H.shape[0] > 0, settings, lps)
     if found.verdict == "infeasible" or found.margin is None or found.point is None:
         return 0.0, None
     return found.margin, found.point[:m]
@@ -961,13 +962,14 @@ def _overlaps(feasible: Sequence[ModeAnalysis], settings: SolverSettings) -> lis
     lower = None if boxes is None else np.array([box[0] for box in boxes]).reshape(len(candidates), m)
     upper = None if boxes is None else np.array([box[1] for box in boxes]).reshape(len(candidates), m)
     overlaps: list[Overlap] = []
+    lps = margin_lps(settings)  # one lean LP path for every pair
     for i, a in enumerate(candidates):
         later: Sequence[int] = range(i + 1, len(candidates))
         if lower is not None and upper is not None:  # the pairs whose boxes meet, all at once
             later = (np.flatnonzero(~_boxes_apart_from(lower[i], upper[i], lower[i + 1:], upper[i + 1:]))
                      + i + 1).tolist()
         for j in later:
-            margin, center = _interiors_meet(rows[i], rows[j], m, settings)
+            margin, center = _interiors_meet(rows[i], rows[j], m, settings, lps)
             if margin > DOMAIN_TOLERANCE and center is not None:
                 overlaps.append(Overlap((a.mode, candidates[j].mode), float(margin), center))
     return overlaps

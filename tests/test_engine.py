@@ -543,10 +543,12 @@ def test_the_box_filter_keeps_every_overlap(monkeypatch, name):
 @pytest.mark.parametrize("name", ["rod_on_table", "snake_climb"])
 def test_the_lifted_overlap_lp_is_motion_margins(name):
     """``_interiors_meet`` builds its LP in place: the same LP, bit for bit, as ``motion_margin`` of the
-    two modes' rows stacked in (u, w_a, w_b) with every row a motion row."""
+    two modes' rows stacked in (u, w_a, w_b) with every row a motion row; and the same answer through
+    the lean LP path the overlap stage makes once for every pair."""
     import frcontrol.engine as engine
 
     analysis = analyze(load_scene(name), ambiguity=False)
+    shared = engine.margin_lps(analysis.settings)
     modes = [mode for mode in analysis.feasible_modes if mode.inputs_full_dimensional][:24]
     m = modes[0].m
     rows = [engine._input_rows(mode) for mode in modes]
@@ -558,6 +560,9 @@ def test_the_lifted_overlap_lp_is_motion_margins(name):
             stacked = engine.motion_margin(H, np.concatenate([ha, hb]), np.ones(H.shape[0], dtype=bool),
                                            np.zeros((0, H.shape[1])), np.zeros(0), settings=analysis.settings)
             margin, point = engine._interiors_meet(rows[i], rows[j], m, analysis.settings)
+            again = engine._interiors_meet(rows[i], rows[j], m, analysis.settings, shared)
+            assert again[0] == margin and (again[1] is None) == (point is None)
+            assert point is None or np.array_equal(again[1], point)
             if stacked.verdict == "infeasible":
                 assert (margin, point) == (0.0, None)
             else:
