@@ -728,7 +728,7 @@ class _ModeEnumerator:
         if base is None or null is None or not open_:
             return
         A, B, c = stack
-        own = base.size if not prefix else self.problem.n + 2 * len(prefix)
+        own = self.problem.n + 2 * len(prefix)  # the prefix's rows; the letter's follow
         letters = letter_rows_kept(A[open_, own:own + 2], null)
         groups: dict[int, list[int]] = {}
         for i, (first, second) in zip(open_, letters.tolist(), strict=True):

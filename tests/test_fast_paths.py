@@ -399,7 +399,7 @@ def _dependent_stack(rng: np.random.Generator, count: int, q: int, nx: int, m: i
     return A, B, c, kept
 
 
-@pytest.mark.parametrize("kernel_name", ["numpy", "compiled"])
+@pytest.mark.parametrize("kernel_name", ["numpy", pytest.param("compiled", marks=needs_kernel)])
 def test_certified_by_rows_are_the_svds(monkeypatch, kernel_name):
     """Rank-deficient systems (independent rows and combinations of them): with the independent
     rows kept, a certified answer has the first scaling's SVD's rank, case, void conditions, X_u and
@@ -411,8 +411,6 @@ def test_certified_by_rows_are_the_svds(monkeypatch, kernel_name):
     The certificate is conservative: it also refuses where the dropped directions' residual
     ``||A_hat Q_2||`` exceeds a tenth of the round-off bound (dense random rows reach a few
     times it; a contact mode's structural zeros keep it below, see the analysis test below)."""
-    if kernel_name == "compiled" and resp.compiled is None:
-        pytest.skip("the compiled kernel is not built here (CI builds it)")
     monkeypatch.setenv("FRC_KERNEL", kernel_name)
     rng = np.random.default_rng(20261128)
     certified = refused = inconsistent = 0
@@ -457,13 +455,11 @@ def test_certified_by_rows_are_the_svds(monkeypatch, kernel_name):
     assert certified > 60 and refused > 0 and inconsistent > 20
 
 
-@pytest.mark.parametrize("kernel_name", ["numpy", "compiled"])
+@pytest.mark.parametrize("kernel_name", ["numpy", pytest.param("compiled", marks=needs_kernel)])
 def test_certified_by_rows_follows_the_rank_tolerance(monkeypatch, kernel_name):
     """With another rank tolerance the certificate answers for that tolerance's SVD: kept rows
     dependent at 1e-6 of themselves are refused at rank_tolerance 1e-5 (its SVD drops that value),
     and at 1e-16 (no value is round-off's: its SVD keeps them all) nothing is certified."""
-    if kernel_name == "compiled" and resp.compiled is None:
-        pytest.skip("the compiled kernel is not built here (CI builds it)")
     monkeypatch.setenv("FRC_KERNEL", kernel_name)
     rng = np.random.default_rng(3)
     systems = []  # systems the certificate answers at the default tolerance (dense rows: not all)
