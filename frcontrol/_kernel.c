@@ -2255,6 +2255,260 @@ done:
 }
 
 /* ------------------------------------------------------------------------------------------------
+ * query_plan, query_solutions: the single query on an analysis in one call (frcontrol.query's
+ * query_solutions, whose NumPy twin is the reference). query_plan holds the table's buffers once, with
+ * what the answer is made of (the solution type, the modes' names and ambiguous outputs, numpy.empty,
+ * the input limits); query_solutions(plan, inputs) then checks the input, locates it in every mode
+ * and evaluates each that holds it (locate_mode, evaluate_mode: query_point's arithmetic, to the
+ * bit), and returns the list of solutions, made as the engine makes them (object.__new__ and the
+ * fields in the instance's __dict__). It returns None where the general path must answer: inputs that
+ * are not a plain vector of m numbers (a mapping, a batch, other types), a NaN or infinite entry, or
+ * an input outside its limits (that path raises the typed error). A plan takes no mode with two or
+ * more ambiguity variables (their w is decided by an LP, in Python). */
+#define PLAN_CAPSULE "frcontrol._kernel.query_plan"
+#define SOLUTION_FIELDS 11
+#define PLAN_ARGS (QUERY_ARGS + 9)
+
+static const char *solution_field_names[SOLUTION_FIELDS] = {
+    "mode", "dv", "lambda_n", "lambda_t", "a_n", "a_t", "ambiguity_dim", "ambiguous_outputs", "w",
+    "equality_residual", "inequality_violation"};
+static PyObject *solution_fields[SOLUTION_FIELDS]; /* interned on the first plan */
+
+typedef struct {
+    Args a; /* the table's and the limits' buffers, held for the plan's life */
+    QueryTable t;
+    Py_ssize_t n, k;
+    const double *lower, *upper;
+    double slack;
+    PyObject *type, *modes, *outputs, *empty; /* strong references */
+} QueryPlan;
+
+static const Arg plan_table[PLAN_ARGS] = {
+    QUERY_TABLE, {"solution_type", 'o', 0, {0}, 0}, {"modes", 'o', 0, {0}, 0}, {"outputs", 'o', 0, {0}, 0},
+    {"empty", 'o', 0, {0}, 0}, {"lower", 'd', 1, {DIM_M}, 0}, {"upper", 'd', 1, {DIM_M}, 0},
+    {"slack", 'f', 0, {0}, 0}, {"n", 'i', 0, {0}, 0}, {"k", 'i', 0, {0}, 0}};
+static const Signature plan_signature = {"query_plan", PLAN_ARGS, plan_table, derive_query};
+
+static void free_plan(QueryPlan *plan) {
+    release_args(&plan->a);
+    Py_XDECREF(plan->type);
+    Py_XDECREF(plan->modes);
+    Py_XDECREF(plan->outputs);
+    Py_XDECREF(plan->empty);
+    PyMem_Free(plan);
+}
+
+static void plan_capsule_free(PyObject *capsule) {
+    free_plan(PyCapsule_GetPointer(capsule, PLAN_CAPSULE));
+}
+
+/* The plan's own checks: names and outputs one per mode, a type, n + 2k = nx, no mode with p > 1. */
+static int check_plan(const QueryPlan *plan, PyObject *const *args) {
+    const QueryTable *t = &plan->t;
+    PyObject *modes = args[QUERY_ARGS + 1], *outputs = args[QUERY_ARGS + 2];
+    if (!PyType_Check(args[QUERY_ARGS]) || !PyTuple_Check(modes) || !PyTuple_Check(outputs) ||
+        PyTuple_GET_SIZE(modes) != t->modes || PyTuple_GET_SIZE(outputs) != t->modes) {
+        PyErr_Format(kernel_error, "query_plan: solution_type must be a type, modes and outputs tuples of %zd",
+                     t->modes);
+        return -1;
+    }
+    if (plan->n < 0 || plan->k < 0 || plan->n + 2 * plan->k != t->nx) {
+        PyErr_Format(kernel_error, "query_plan: n + 2k = %zd + 2 * %zd is not nx = %zd", plan->n, plan->k, t->nx);
+        return -1;
+    }
+    for (Py_ssize_t i = 0; i < t->modes; i++) {
+        if (t->p[i] > 1 || !PyUnicode_Check(PyTuple_GET_ITEM(modes, i))) {
+            PyErr_Format(kernel_error, "query_plan: mode %zd has %lld ambiguity variables or no name (a plan "
+                         "takes modes with at most one)", i, t->p[i]);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* query_plan(table..., solution_type, modes, outputs, empty, lower, upper, slack, n, k) -> capsule. */
+static PyObject *query_plan(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    for (int f = 0; f < SOLUTION_FIELDS; f++) {
+        if (solution_fields[f] == NULL &&
+            (solution_fields[f] = PyUnicode_InternFromString(solution_field_names[f])) == NULL) {
+            return NULL;
+        }
+    }
+    QueryPlan *plan = PyMem_Calloc(1, sizeof(QueryPlan));
+    if (plan == NULL) {
+        return PyErr_NoMemory();
+    }
+    if (parse(&plan_signature, args, nargs, &plan->a) == 0) {
+        plan->n = (Py_ssize_t)plan->a.integer[QUERY_ARGS + 7];
+        plan->k = (Py_ssize_t)plan->a.integer[QUERY_ARGS + 8];
+        if (query_from(&plan->a, &plan->t, 2 * plan->k) == 0 && check_plan(plan, args) == 0) {
+            plan->lower = plan->a.data[QUERY_ARGS + 4], plan->upper = plan->a.data[QUERY_ARGS + 5];
+            plan->slack = plan->a.number[QUERY_ARGS + 6];
+            plan->type = Py_NewRef(args[QUERY_ARGS]);
+            plan->modes = Py_NewRef(args[QUERY_ARGS + 1]);
+            plan->outputs = Py_NewRef(args[QUERY_ARGS + 2]);
+            plan->empty = Py_NewRef(args[QUERY_ARGS + 3]);
+            PyObject *capsule = PyCapsule_New(plan, PLAN_CAPSULE, plan_capsule_free);
+            if (capsule != NULL) {
+                return capsule;
+            }
+        }
+    }
+    free_plan(plan);
+    return NULL;
+}
+
+/* The input u (m,) of `inputs` when it is a plain vector: a list or tuple of m ints or floats, or a
+ * 1-D float64 buffer of m entries; finite and within the limits (to the slack). 1: read; 0: not (the
+ * general path answers); -1: an error. */
+static int plain_input(const QueryPlan *plan, PyObject *inputs, double *u) {
+    Py_ssize_t m = plan->t.m;
+    if (PyList_Check(inputs) || PyTuple_Check(inputs)) {
+        if (PySequence_Fast_GET_SIZE(inputs) != m) {
+            return 0;
+        }
+        for (Py_ssize_t j = 0; j < m; j++) {
+            PyObject *item = PySequence_Fast_GET_ITEM(inputs, j);
+            if (!PyFloat_Check(item) && !PyLong_Check(item)) {
+                return 0;
+            }
+            u[j] = PyFloat_AsDouble(item);
+            if (u[j] == -1.0 && PyErr_Occurred()) { /* an int too large for a float */
+                PyErr_Clear();
+                return 0;
+            }
+        }
+    } else if (PyObject_CheckBuffer(inputs)) {
+        Py_buffer view;
+        if (PyObject_GetBuffer(inputs, &view, PyBUF_STRIDES | PyBUF_FORMAT) != 0) {
+            PyErr_Clear();
+            return 0;
+        }
+        int plain = view.ndim == 1 && view.shape[0] == m && format_is(view.format, 'd');
+        for (Py_ssize_t j = 0; plain && j < m; j++) {
+            u[j] = at1(&view, j);
+        }
+        PyBuffer_Release(&view);
+        if (!plain) {
+            return 0;
+        }
+    } else {
+        return 0;
+    }
+    for (Py_ssize_t j = 0; j < m; j++) {
+        if (!isfinite(u[j]) || u[j] < plan->lower[j] - plan->slack || u[j] > plan->upper[j] + plan->slack) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* A new float64 array (count,) holding values. */
+static PyObject *vector_of(PyObject *empty, const double *values, Py_ssize_t count) {
+    Buffer b = {0};
+    double *data = NULL;
+    PyObject *array = new_array(empty, count, -1, &b, &data);
+    if (array != NULL) {
+        memcpy(data, values, (size_t)count * sizeof(double));
+    }
+    release(&b, 1);
+    return array;
+}
+
+/* Mode i's solution: x (nx,) = [dv, lambda_n, lambda_t], acc (2k,) = [a_n, a_t], its w (p <= 1). */
+static PyObject *new_solution(const QueryPlan *plan, Py_ssize_t i, const double *x, const double *acc, double w,
+                              double residual, double violation) {
+    Py_ssize_t n = plan->n, k = plan->k;
+    PyObject *v[SOLUTION_FIELDS] = {
+        Py_NewRef(PyTuple_GET_ITEM(plan->modes, i)), vector_of(plan->empty, x, n),
+        vector_of(plan->empty, x + n, k), vector_of(plan->empty, x + n + k, k), vector_of(plan->empty, acc, k),
+        vector_of(plan->empty, acc + k, k), PyLong_FromLongLong(plan->t.p[i]),
+        Py_NewRef(PyTuple_GET_ITEM(plan->outputs, i)), vector_of(plan->empty, &w, (Py_ssize_t)plan->t.p[i]),
+        PyFloat_FromDouble(residual), PyFloat_FromDouble(violation)};
+    PyObject *fields = PyDict_New(), *solution = NULL;
+    int failed = fields == NULL;
+    for (int f = 0; f < SOLUTION_FIELDS; f++) {
+        failed = failed || v[f] == NULL || PyDict_SetItem(fields, solution_fields[f], v[f]) != 0;
+        Py_XDECREF(v[f]);
+    }
+    if (!failed) {
+        PyObject *no_args = PyTuple_New(0);
+        solution = no_args ? PyBaseObject_Type.tp_new((PyTypeObject *)plan->type, no_args, NULL) : NULL;
+        Py_XDECREF(no_args);
+        if (solution != NULL && PyObject_GenericSetDict(solution, fields, NULL) != 0) {
+            Py_CLEAR(solution);
+        }
+    }
+    Py_XDECREF(fields);
+    return solution;
+}
+
+/* query_solutions(plan, inputs) -> [solution, ...] or None (see above). */
+static PyObject *query_solutions(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 2) {
+        PyErr_Format(kernel_error, "query_solutions takes 2 arguments, got %zd", nargs);
+        return NULL;
+    }
+    QueryPlan *plan = PyCapsule_IsValid(args[0], PLAN_CAPSULE) ? PyCapsule_GetPointer(args[0], PLAN_CAPSULE) : NULL;
+    if (plan == NULL) {
+        PyErr_SetString(kernel_error, "query_solutions: the first argument is not a query_plan");
+        return NULL;
+    }
+    const QueryTable *t = &plan->t;
+    double *u = PyMem_Malloc((size_t)(t->m + t->width + 2 * (t->nx + t->m + 1) + t->acc + t->pmax + 1) *
+                             sizeof(double));
+    if (u == NULL) {
+        return PyErr_NoMemory();
+    }
+    double *h = u + t->m, *z = h + t->width, *x = z + t->nx + t->m + 1, *acc = x + t->nx + t->m + 1;
+    double *wi = acc + t->acc;
+    PyObject *found = NULL;
+    int plain = plain_input(plan, args[1], u);
+    if (plain <= 0) {
+        found = plain < 0 ? NULL : Py_NewRef(Py_None);
+        goto done;
+    }
+    if ((found = PyList_New(0)) == NULL) {
+        goto done;
+    }
+    for (Py_ssize_t i = 0; i < t->modes; i++) {
+        double centre = 0.0, residual = 0.0, violation = 0.0;
+        if (locate_mode(t, i, u, h, &centre) != QUERY_INSIDE) {
+            continue; /* QUERY_NEEDS_PYTHON cannot be: a plan has no mode with p > 1 */
+        }
+        for (Py_ssize_t c = 0; c < t->pmax; c++) {
+            wi[c] = c == 0 ? centre : 0.0;
+        }
+        evaluate_mode(t, i, u, wi, x, acc, &residual, &violation, z);
+        PyObject *solution = new_solution(plan, i, x, acc, centre, residual, violation);
+        if (solution == NULL || PyList_Append(found, solution) != 0) {
+            Py_XDECREF(solution);
+            Py_CLEAR(found);
+            goto done;
+        }
+        Py_DECREF(solution);
+    }
+done:
+    PyMem_Free(u);
+    return found;
+}
+
+/* environment_set(name) -> bool: whether the process environment has `name` set and not empty (C's
+ * getenv, which os.environ's putenv and unsetenv keep current): kernel.backend's check, without the
+ * cost of os.environ's lookup. */
+static PyObject *environment_set(PyObject *self, PyObject *name) {
+    (void)self;
+    if (!PyBytes_Check(name)) {
+        PyErr_SetString(kernel_error, "environment_set: the name must be bytes");
+        return NULL;
+    }
+    const char *value = getenv(PyBytes_AS_STRING(name));
+    return PyBool_FromLong(value != NULL && value[0] != '\0');
+}
+
+/* ------------------------------------------------------------------------------------------------
  * lemke: the pivots of frcontrol.lcp's lexicographic Lemke method (_LemkeTableau, _lemke_pivots),
  * the reference it reproduces pivot for pivot. The tableau [I, -M, -1 | q] (n rows, 2n + 2
  * columns: w, z, z0, the right side) is pivoted as there: the row divided by its pivot, then
@@ -2763,6 +3017,17 @@ static PyMethodDef methods[] = {
      "query_point(<the table's 15 arguments>, u, status, w, x, acc, residual, violation) -> None\n\n"
      "locate_points for one input u (m,), and evaluate_points for every mode found inside, into its row\n"
      "of x (modes, nx), acc (modes, 2k), residual and violation (modes,)."},
+    {"query_plan", (PyCFunction)(void (*)(void))query_plan, METH_FASTCALL,
+     "query_plan(H_u, h_0, norms, motion, H_w1, p, rows, inequality_rows, X_u, X_w, x_0, K,\n"
+     "           domain_tolerance, zero_row_tolerance, radius_cap, solution_type, modes, outputs, empty,\n"
+     "           lower, upper, slack, n, k) -> capsule\n\n"
+     "The query table held for query_solutions (every mode with at most one ambiguity variable)."},
+    {"query_solutions", (PyCFunction)(void (*)(void))query_solutions, METH_FASTCALL,
+     "query_solutions(plan, inputs) -> list or None\n\n"
+     "The single query on an analysis in one call: every solution at a plain input vector, or None\n"
+     "where the general path answers (not a plain vector of m numbers, not finite, outside the limits)."},
+    {"environment_set", (PyCFunction)environment_set, METH_O,
+     "environment_set(name: bytes) -> bool\n\nWhether the environment has name set and not empty (getenv)."},
     {"lemke", (PyCFunction)(void (*)(void))lemke, METH_FASTCALL,
      "lemke(M, q, basis, matrix, rhs, max_pivots, pivot_tolerance, tie_tolerance) -> (status, pivots)\n\n"
      "frcontrol.lcp's lexicographic Lemke pivots on M (n, n) and q (n,): the final basis (int64, the\n"
@@ -2822,10 +3087,10 @@ PyMODINIT_FUNC PyInit__kernel(void) {
                       NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS,
                       QUERY_OUTSIDE, QUERY_INSIDE, QUERY_NEEDS_PYTHON, LEMKE_SOLVED, LEMKE_RAY,
                       LEMKE_MAX_PIVOTS};
-    PyObject *all = Py_BuildValue("[sssssssssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
+    PyObject *all = Py_BuildValue("[ssssssssssssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
                                   "contact_rows", "margin_rows", "certified_children", "certified_by_rows",
                                   "locate_points",
-                                  "evaluate_points", "query_point", "lemke", "coulomb_matrix", "lcp_check",
+                                  "evaluate_points", "query_point", "query_plan", "query_solutions", "environment_set", "lemke", "coulomb_matrix", "lcp_check",
                                   "compliant_law", "redundancy_rows", "ray_exit");
     if (all == NULL) {
         Py_DECREF(mod);

@@ -1194,6 +1194,10 @@ def solutions_at(
         ImpactState: a contact moves into its surface.
         IllConditioned: a mode's rank cannot be decided.
     """
+    if isinstance(scene, DynamicResponse) and method == "auto" and solver is None and settings is None:
+        found = backend().query_solutions(scene.query, inputs)  # one call; None: the general path answers
+        if found is not None:
+            return found
     if method not in SOLUTION_METHODS:
         raise InputError(f"unknown solution method {method!r}; valid: {', '.join(SOLUTION_METHODS)}")
     settings = settings_from(solver, settings)
@@ -1232,7 +1236,8 @@ def build_query_table(problem: ContactProblem, feasible: Sequence[ModeAnalysis])
     """
     modes = [QueryMode(m.mode, m.system, m.response, m.ambiguous_outputs) for m in feasible]
     return QueryTable(problem, modes, zero_row_tolerance=ZERO_ROW_TOLERANCE,
-                      radius_cap=poly.CHEBYSHEV_RADIUS_CAP, tolerance=DOMAIN_TOLERANCE)
+                      radius_cap=poly.CHEBYSHEV_RADIUS_CAP, solution_type=RigidSolution,
+                      input_slack=INPUT_LIMIT_SLACK, tolerance=DOMAIN_TOLERANCE)
 
 
 def query_table(analysis: DynamicResponse) -> QueryTable:
@@ -1259,30 +1264,11 @@ def _located_solutions(analysis: DynamicResponse, u: np.ndarray, settings: Solve
                        ) -> list[RigidSolution]:
     """:func:`solutions_at` on an analysis: point location in its :func:`query_table`."""
     table = query_table(analysis)
-    n, k = table.n, table.k
-    dims, outputs, modes = table.p_list, table.ambiguous_outputs, table.modes
 
     def decide_w(H: np.ndarray, h: np.ndarray, motion: np.ndarray) -> np.ndarray | None:
         return _admissible_in_w(H, h, motion, settings)
 
-    rows, x, w, acc, residual, violation = table.point(u, decide_w)  # bare arrays: row i is mode i
-    return [_made_solution({
-        "mode": modes[i], "dv": x[i, :n], "lambda_n": x[i, n:n + k], "lambda_t": x[i, n + k:],
-        "a_n": acc[i, :k], "a_t": acc[i, k:], "ambiguity_dim": dims[i], "ambiguous_outputs": outputs[i],
-        "w": w[i, :dims[i]], "equality_residual": float(residual[i]),
-        "inequality_violation": float(violation[i])}) for i in rows]
-
-
-def _made_solution(fields: dict[str, Any]) -> RigidSolution:
-    """``RigidSolution(**fields)`` for every field, without the frozen dataclass's ``__init__``.
-
-    That ``__init__`` sets each of the eleven fields through ``object.__setattr__`` (1.1 us, an
-    eighth of a query on an analysis); the instance's ``__dict__`` filled at once is the same object
-    (equal, the same repr, still frozen: tests/test_query.py). Only for the query's own arrays.
-    """
-    solution = object.__new__(RigidSolution)
-    solution.__dict__.update(fields)
-    return solution
+    return table.solutions(table.point(u, decide_w))
 
 
 def solutions_at_batch(analysis: DynamicResponse, inputs: npt.ArrayLike, *,

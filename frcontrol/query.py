@@ -241,9 +241,11 @@ class QueryTable:
     """
 
     def __init__(self, problem: ContactProblem, modes: Sequence[QueryMode], *, zero_row_tolerance: float,
-                 radius_cap: float, tolerance: float = BOUNDARY_TOLERANCE) -> None:
+                 radius_cap: float, solution_type: type, input_slack: float,
+                 tolerance: float = BOUNDARY_TOLERANCE) -> None:
         modes = [m for m in modes if m.response.consistent]
         self.problem, self.tolerance = problem, tolerance
+        self.solution_type, self.input_slack = solution_type, input_slack
         self.n, self.k = problem.n, problem.k
         self.zero_row_tolerance, self.radius_cap = zero_row_tolerance, radius_cap
         self.modes = tuple(m.mode for m in modes)
@@ -285,6 +287,39 @@ class QueryTable:
                                  tolerance, zero_row_tolerance, radius_cap)
         """The table as the compiled kernel's ``locate_points``, ``evaluate_points`` and
         ``query_point`` take it (their first 15 arguments)."""
+        self.plan = self._plan()
+        """The compiled kernel's hold on the table for the single query in one call
+        (``query_solutions``), or None: no compiled kernel, or a mode with two or more ambiguity
+        variables (their w needs the engine's LPs)."""
+
+    def _plan(self) -> Any:
+        """:attr:`plan`: the compiled kernel's ``query_plan`` of this table."""
+        if compiled is None or self.many:
+            return None
+        limits = (np.ascontiguousarray(self.problem.lower, dtype=float),
+                  np.ascontiguousarray(self.problem.upper, dtype=float))
+        return compiled.query_plan(*self.kernel_arguments, self.solution_type, self.modes,
+                                   self.ambiguous_outputs, np.empty, *limits, self.input_slack, self.n, self.k)
+
+    def solutions(self, found: PointSolutions) -> list[Any]:
+        """:meth:`point`'s answer as solutions, one ``solution_type`` per mode holding, in mode order.
+
+        Each is made by ``object.__new__`` with its fields set at once in its ``__dict__`` (what the
+        frozen dataclass's ``__init__`` makes, equal and still frozen, without its eleven
+        ``object.__setattr__`` calls: tests/test_query.py); its arrays are views of ``found``'s.
+        """
+        rows, x, w, acc, residual, violation = found
+        n, k, dims, outputs, modes = self.n, self.k, self.p_list, self.ambiguous_outputs, self.modes
+        made = []
+        for i in rows:
+            solution = object.__new__(self.solution_type)
+            solution.__dict__.update({
+                "mode": modes[i], "dv": x[i, :n], "lambda_n": x[i, n:n + k], "lambda_t": x[i, n + k:],
+                "a_n": acc[i, :k], "a_t": acc[i, k:], "ambiguity_dim": dims[i],
+                "ambiguous_outputs": outputs[i], "w": w[i, :dims[i]], "equality_residual": float(residual[i]),
+                "inequality_violation": float(violation[i])})
+            made.append(solution)
+        return made
 
     def slacks(self, U: np.ndarray) -> np.ndarray:
         """Every row's slack ``(h_0 - H_u u) / norm`` at the inputs ``U`` (C, m): (C, modes, rows)."""
@@ -551,10 +586,63 @@ def _query_point_compiled(table: QueryTable, u: np.ndarray, decide_w: WDecider) 
     return PointSolutions(holding, x, w, acc, residual, violation)
 
 
+def plain_input(table: QueryTable, inputs: Any) -> np.ndarray | None:
+    """The input vector of ``inputs`` when the single query's one call takes it, else None.
+
+    Plain: a list or tuple of m ints or floats, or a one-dimensional float64 buffer (a NumPy array)
+    of m entries; every entry finite and within its limits to the table's ``input_slack``. Anything
+    else (a mapping, a batch, another type, a bad value) goes the general way, which raises the
+    typed error of a bad one. The compiled kernel's ``query_solutions`` applies the same rule.
+    """
+    m = table.problem.m
+    if isinstance(inputs, (list, tuple)):
+        if len(inputs) != m or not all(isinstance(value, (float, int)) for value in inputs):
+            return None
+        try:
+            u = np.array(inputs, dtype=float)
+        except OverflowError:  # an int too large for a float
+            return None
+    else:
+        try:
+            view = memoryview(inputs)
+        except TypeError:
+            return None
+        code = view.format[1:] if view.format[:1] in ("@", "=", "<") else view.format
+        if view.ndim != 1 or view.shape[0] != m or code != "d":
+            return None
+        u = np.array(view, dtype=float)
+    slack = table.input_slack
+    if not np.isfinite(u).all() or (u < table.problem.lower - slack).any() or (u > table.problem.upper + slack).any():
+        return None
+    return u
+
+
+def _no_lp(H_w: np.ndarray, h: np.ndarray, motion: np.ndarray) -> np.ndarray | None:
+    """The w decider of a table without modes of two or more ambiguity variables: never called."""
+    raise AssertionError("a mode with two or more ambiguity variables in the single query's one call")
+
+
+def _query_solutions_numpy(table: QueryTable, inputs: Any) -> list[Any] | None:
+    """The single query on an analysis in one call, in NumPy: the reference of the kernel's ``query_solutions``.
+
+    Every solution at ``inputs`` (:meth:`QueryTable.solutions`), or None where the general path
+    answers: ``inputs`` not plain (:func:`plain_input`), or the table has a mode with two or more
+    ambiguity variables.
+    """
+    u = None if table.many else plain_input(table, inputs)
+    return None if u is None else table.solutions(_query_point_numpy(table, u, _no_lp))
+
+
+def _query_solutions_compiled(table: QueryTable, inputs: Any) -> list[Any] | None:
+    """:func:`_query_solutions_numpy` by the compiled kernel's ``query_solutions`` on the table's plan."""
+    return None if table.plan is None else compiled.query_solutions(table.plan, inputs)  # type: ignore[union-attr]
+
+
 twin("locate_points", numpy=_locate_points_numpy, compiled=_locate_points_compiled)
 twin("evaluate_points", numpy=_evaluate_points_numpy, compiled=_evaluate_points_compiled)
 twin("query_point", numpy=_query_point_numpy, compiled=_query_point_compiled)
+twin("query_solutions", numpy=_query_solutions_numpy, compiled=_query_solutions_compiled)
 
 
 __all__ = ["BATCH_CHUNK_POINTS", "BatchSolutions", "BOUNDARY_TOLERANCE", "check_inputs", "Located",
-           "PointSolutions", "QueryMode", "QueryTable", "WDecider"]
+           "plain_input", "PointSolutions", "QueryMode", "QueryTable", "WDecider"]

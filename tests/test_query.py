@@ -214,6 +214,91 @@ def test_the_compiled_query_agrees_with_its_numpy_twin(name, monkeypatch):
     assert_batch_matches(answers["compiled"][1], U, answers["numpy"][0])
 
 
+def by_name(analysis, u: np.ndarray) -> dict[str, float]:
+    """``u`` as ``{name: value}``: the general path of a single query (not the one call)."""
+    return dict(zip(analysis.problem.inputs, u.tolist(), strict=True))
+
+
+def assert_bitwise(found: list, expected: list, where: str) -> None:
+    """The same solutions to the last bit: modes, arrays and numbers."""
+    assert [s.mode for s in found] == [s.mode for s in expected], where
+    for s, r in zip(found, expected, strict=True):
+        assert type(s) is type(r) and vars(s).keys() == vars(r).keys(), where
+        for field, value in vars(r).items():
+            got = getattr(s, field)
+            if isinstance(value, np.ndarray):
+                assert got.dtype == value.dtype and np.array_equal(got, value), f"{where} {s.mode} {field}"
+            else:
+                assert got == value and type(got) is type(value), f"{where} {s.mode} {field}"
+
+
+@needs_kernel
+@pytest.mark.parametrize("name", SCENES)
+def test_the_one_call_query_agrees_with_its_numpy_twin(name, monkeypatch):
+    """``query_solutions``, the single query in one call: the compiled kernel's answer is its NumPy
+    twin's to round-off, and to the last bit the general path's on the same kernel (the same
+    locate_mode and evaluate_mode arithmetic). A table with a mode of two or more ambiguity
+    variables takes the general path on both kernels (None)."""
+    from frcontrol.kernel import COMPILED, NUMPY
+
+    _, analysis = analysed(name)
+    table = query_table(analysis)
+    U = np.vstack([random_inputs(name, 30, seed=13), facet_points(name, 20, seed=17)])
+    for i, u in enumerate(U):
+        numpy, fast = NUMPY.query_solutions(table, u), COMPILED.query_solutions(table, u)
+        assert (numpy is None) == (fast is None) == bool(table.many), f"{name} point {i}"
+        if fast is None:
+            continue
+        assert_same(fast, numpy, where=f"{name} point {i}")
+        monkeypatch.setenv("FRC_KERNEL", "compiled")
+        general = solutions_at(analysis, by_name(analysis, u))
+        monkeypatch.delenv("FRC_KERNEL")
+        assert_bitwise(fast, general, f"{name} point {i}")
+        assert_bitwise(solutions_at(analysis, u.tolist()), fast, f"{name} point {i} as a list")
+
+
+PLAIN = [
+    ("a list", [0.5, -1.0, 0.25], True), ("a tuple of ints", (0, 1, -2), True), ("bools", [True, False, 0], True),
+    ("NumPy floats", [np.float64(0.5)] * 3, True), ("an array", np.array([0.5, -1.0, 0.25]), True),
+    ("a strided array", np.arange(6.0)[::2] / 10, True), ("a big-endian array", np.zeros(3, dtype=">f8"), False),
+    ("float32 entries", [np.float32(0.5)] * 3, False), ("a float32 array", np.zeros(3, dtype=np.float32), False),
+    ("a mapping", {"tau": 1.0}, False), ("None", None, False), ("a batch", np.zeros((1, 3)), False),
+    ("a short list", [0.0, 0.0], False), ("a NaN", [0.0, float("nan"), 0.0], False),
+    ("an infinity", np.array([0.0, 0.0, -np.inf]), False), ("an int too large", [10**400, 0, 0], False),
+    ("a string", "abc", False), ("bytes", b"\x00" * 24, False), ("a list of strings", ["0", "0", "0"], False),
+]
+
+
+@pytest.mark.parametrize("what, inputs, plain", PLAIN, ids=[p[0] for p in PLAIN])
+def test_the_one_call_takes_plain_vectors_only(what, inputs, plain, monkeypatch):
+    """Both kernels' ``query_solutions`` answer the same inputs (plain vectors of m numbers within the
+    limits) and leave the rest to the general path (None), which answers them or raises the typed
+    error; solutions_at gives the same answer either way."""
+    from frcontrol.kernel import COMPILED, NUMPY
+
+    _, analysis = analysed("rod_on_table")
+    table = query_table(analysis)
+    answers = [NUMPY.query_solutions(table, inputs)] + (
+        [COMPILED.query_solutions(table, inputs)] if compiled is not None else [])
+    assert all((a is not None) == plain for a in answers), what
+    if plain:
+        monkeypatch.setenv("FRC_KERNEL", "numpy")
+        vector = np.asarray(inputs, dtype=float)
+        assert_same(answers[-1], solutions_at(analysis, by_name(analysis, vector)), where=what)
+
+
+@pytest.mark.parametrize("inputs, error", [
+    ([0.0, float("nan"), 0.0], "must be finite"), ([1e9, 0.0, 0.0], "outside its limits"),
+    ([0.0, 0.0], "the input vector has 2 entries"), ({"tau_x": 1.0}, "unknown coordinate 'tau_x'"),
+])
+def test_a_bad_input_on_an_analysis_still_raises_its_typed_error(inputs, error):
+    from frcontrol.errors import FrcontrolError
+
+    _, analysis = analysed("rod_on_table")
+    with pytest.raises(FrcontrolError, match=error):
+        solutions_at(analysis, inputs)
+
+
 def test_a_batch_in_chunks_is_the_same_batch():
     _, analysis = analysed("box_on_slope")
     U = random_inputs("box_on_slope", 50, seed=11)
@@ -281,6 +366,29 @@ def test_the_query_kernel_refuses_bad_buffers():
         compiled.evaluate_points(*args, np.zeros((1, 3)), np.zeros(1, dtype=np.int64), np.array([99]),
                                  np.zeros((1, table.p_max)), np.empty((1, table.X_u.shape[1])),
                                  np.empty((1, 2 * analysis.problem.k)), one, one.copy())
+    problem = analysis.problem
+    plan = [*args, tuple, table.modes, table.ambiguous_outputs, np.empty, problem.lower, problem.upper, 0.0,
+            problem.n, problem.k]
+    with pytest.raises(KernelError, match="query_plan takes 24 arguments"):
+        compiled.query_plan(*plan[:-1])
+    with pytest.raises(KernelError, match="kernel buffer upper"):
+        compiled.query_plan(*plan[:20], np.zeros(2), *plan[21:])
+    with pytest.raises(KernelError, match="solution_type must be a type"):
+        compiled.query_plan(*plan[:16], table.modes[:-1], *plan[17:])
+    with pytest.raises(KernelError, match="n \\+ 2k"):
+        compiled.query_plan(*plan[:-1], problem.k + 1)
+    rhex = query_table(analysed("rhex_flip")[1])  # modes with two ambiguity variables: not a plan's
+    first = rhex.many[0]
+    with pytest.raises(KernelError, match=f"mode {first} has 2 ambiguity variables"):
+        compiled.query_plan(*rhex.kernel_arguments, tuple, rhex.modes, rhex.ambiguous_outputs, np.empty,
+                            rhex.problem.lower, rhex.problem.upper, 0.0, rhex.n, rhex.k)
+    assert rhex.plan is None
+    with pytest.raises(KernelError, match="query_solutions takes 2 arguments"):
+        compiled.query_solutions(table.plan)
+    with pytest.raises(KernelError, match="not a query_plan"):
+        compiled.query_solutions(object(), np.zeros(3))
+    with pytest.raises(KernelError, match="must be bytes"):
+        compiled.environment_set("FRC_KERNEL")
 
 
 def test_the_docs_page_names_the_tolerance():
@@ -303,7 +411,8 @@ def test_a_batch_is_told_apart_as_numpy_would(inputs):
 
 @pytest.mark.parametrize("name", ["rod_on_table", "box_on_slope", "rhex_flip"])
 def test_the_querys_solutions_are_ordinary_frozen_solutions(name):
-    """The query fills each RigidSolution's fields at once (``_made_solution``): the same object as the
+    """The query fills each RigidSolution's fields at once (QueryTable.solutions, and the kernel's
+    query_solutions on the compiled kernel): the same object as the
     dataclass's own ``__init__`` makes, equal, with the same repr, and frozen."""
     import dataclasses
 
