@@ -2263,8 +2263,8 @@ done:
  * bit), and returns the list of solutions, made as the engine makes them (object.__new__ and the
  * fields in the instance's __dict__). It returns None where the general path must answer: inputs that
  * are not a plain vector of m numbers (a mapping, a batch, other types), a NaN or infinite entry, or
- * an input outside its limits (that path raises the typed error). A plan takes no mode with two or
- * more ambiguity variables (their w is decided by an LP, in Python). */
+ * an input outside its limits (that path raises the typed error), or a mode with two or more ambiguity
+ * variables whose consistency holds there (QUERY_NEEDS_PYTHON: its w is the engine's LP, in Python). */
 #define PLAN_CAPSULE "frcontrol._kernel.query_plan"
 #define SOLUTION_FIELDS 11
 #define PLAN_ARGS (QUERY_ARGS + 9)
@@ -2302,7 +2302,7 @@ static void plan_capsule_free(PyObject *capsule) {
     free_plan(PyCapsule_GetPointer(capsule, PLAN_CAPSULE));
 }
 
-/* The plan's own checks: names and outputs one per mode, a type, n + 2k = nx, no mode with p > 1. */
+/* The plan's own checks: names and outputs one per mode, a type, n + 2k = nx. */
 static int check_plan(const QueryPlan *plan, PyObject *const *args) {
     const QueryTable *t = &plan->t;
     PyObject *modes = args[QUERY_ARGS + 1], *outputs = args[QUERY_ARGS + 2];
@@ -2317,9 +2317,8 @@ static int check_plan(const QueryPlan *plan, PyObject *const *args) {
         return -1;
     }
     for (Py_ssize_t i = 0; i < t->modes; i++) {
-        if (t->p[i] > 1 || !PyUnicode_Check(PyTuple_GET_ITEM(modes, i))) {
-            PyErr_Format(kernel_error, "query_plan: mode %zd has %lld ambiguity variables or no name (a plan "
-                         "takes modes with at most one)", i, t->p[i]);
+        if (!PyUnicode_Check(PyTuple_GET_ITEM(modes, i))) {
+            PyErr_Format(kernel_error, "query_plan: mode %zd has no name (a str)", i);
             return -1;
         }
     }
@@ -2475,8 +2474,13 @@ static PyObject *query_solutions(PyObject *self, PyObject *const *args, Py_ssize
     }
     for (Py_ssize_t i = 0; i < t->modes; i++) {
         double centre = 0.0, residual = 0.0, violation = 0.0;
-        if (locate_mode(t, i, u, h, &centre) != QUERY_INSIDE) {
-            continue; /* QUERY_NEEDS_PYTHON cannot be: a plan has no mode with p > 1 */
+        signed char status = locate_mode(t, i, u, h, &centre);
+        if (status == QUERY_NEEDS_PYTHON) { /* the general path decides its w */
+            Py_SETREF(found, Py_NewRef(Py_None));
+            goto done;
+        }
+        if (status != QUERY_INSIDE) {
+            continue;
         }
         for (Py_ssize_t c = 0; c < t->pmax; c++) {
             wi[c] = c == 0 ? centre : 0.0;
@@ -3021,11 +3025,12 @@ static PyMethodDef methods[] = {
      "query_plan(H_u, h_0, norms, motion, H_w1, p, rows, inequality_rows, X_u, X_w, x_0, K,\n"
      "           domain_tolerance, zero_row_tolerance, radius_cap, solution_type, modes, outputs, empty,\n"
      "           lower, upper, slack, n, k) -> capsule\n\n"
-     "The query table held for query_solutions (every mode with at most one ambiguity variable)."},
+     "The query table held for query_solutions."},
     {"query_solutions", (PyCFunction)(void (*)(void))query_solutions, METH_FASTCALL,
      "query_solutions(plan, inputs) -> list or None\n\n"
      "The single query on an analysis in one call: every solution at a plain input vector, or None\n"
-     "where the general path answers (not a plain vector of m numbers, not finite, outside the limits)."},
+     "where the general path answers (not a plain vector of m numbers, not finite, outside the limits,\n"
+     "or a mode with two or more ambiguity variables to decide)."},
     {"environment_set", (PyCFunction)environment_set, METH_O,
      "environment_set(name: bytes) -> bool\n\nWhether the environment has name set and not empty (getenv)."},
     {"lemke", (PyCFunction)(void (*)(void))lemke, METH_FASTCALL,

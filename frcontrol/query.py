@@ -289,17 +289,16 @@ class QueryTable:
         ``query_point`` take it (their first 15 arguments)."""
         self.plan = self._plan()
         """The compiled kernel's hold on the table for the single query in one call
-        (``query_solutions``), or None: no compiled kernel, or a mode with two or more ambiguity
-        variables (their w needs the engine's LPs)."""
+        (``query_solutions``), or None without a compiled kernel."""
 
     def _plan(self) -> Any:
         """:attr:`plan`: the compiled kernel's ``query_plan`` of this table."""
-        if compiled is None or self.many:
+        if compiled is None:
             return None
         limits = (np.ascontiguousarray(self.problem.lower, dtype=float),
                   np.ascontiguousarray(self.problem.upper, dtype=float))
-        return compiled.query_plan(*self.kernel_arguments, self.solution_type, self.modes,
-                                   self.ambiguous_outputs, np.empty, *limits, self.input_slack, self.n, self.k)
+        made_of = (self.solution_type, self.modes, self.ambiguous_outputs, np.empty)
+        return compiled.query_plan(*self.kernel_arguments, *made_of, *limits, self.input_slack, self.n, self.k)
 
     def solutions(self, found: PointSolutions) -> list[Any]:
         """:meth:`point`'s answer as solutions, one ``solution_type`` per mode holding, in mode order.
@@ -312,7 +311,7 @@ class QueryTable:
         n, k, dims, outputs, modes = self.n, self.k, self.p_list, self.ambiguous_outputs, self.modes
         made = []
         for i in rows:
-            solution = object.__new__(self.solution_type)
+            solution: Any = object.__new__(self.solution_type)
             solution.__dict__.update({
                 "mode": modes[i], "dv": x[i, :n], "lambda_n": x[i, n:n + k], "lambda_t": x[i, n + k:],
                 "a_n": acc[i, :k], "a_t": acc[i, k:], "ambiguity_dim": dims[i],
@@ -608,11 +607,11 @@ def plain_input(table: QueryTable, inputs: Any) -> np.ndarray | None:
         except TypeError:
             return None
         code = view.format[1:] if view.format[:1] in ("@", "=", "<") else view.format
-        if view.ndim != 1 or view.shape[0] != m or code != "d":
+        if view.ndim != 1 or view.shape is None or view.shape[0] != m or code != "d":
             return None
         u = np.array(view, dtype=float)
-    slack = table.input_slack
-    if not np.isfinite(u).all() or (u < table.problem.lower - slack).any() or (u > table.problem.upper + slack).any():
+    slack, problem = table.input_slack, table.problem
+    if not np.isfinite(u).all() or (u < problem.lower - slack).any() or (u > problem.upper + slack).any():
         return None
     return u
 
@@ -623,14 +622,16 @@ def _no_lp(H_w: np.ndarray, h: np.ndarray, motion: np.ndarray) -> np.ndarray | N
 
 
 def _query_solutions_numpy(table: QueryTable, inputs: Any) -> list[Any] | None:
-    """The single query on an analysis in one call, in NumPy: the reference of the kernel's ``query_solutions``.
+    """The single query on an analysis in one call, in NumPy (the reference of ``query_solutions``).
 
     Every solution at ``inputs`` (:meth:`QueryTable.solutions`), or None where the general path
-    answers: ``inputs`` not plain (:func:`plain_input`), or the table has a mode with two or more
-    ambiguity variables.
+    answers: ``inputs`` not plain (:func:`plain_input`), or a mode with two or more ambiguity
+    variables whose consistency rows hold there (its w is the engine's LP).
     """
-    u = None if table.many else plain_input(table, inputs)
-    return None if u is None else table.solutions(_query_point_numpy(table, u, _no_lp))
+    u = plain_input(table, inputs)
+    if u is None or (table.many and (table.decide(u[None])[0] == 2).any()):
+        return None
+    return table.solutions(_query_point_numpy(table, u, _no_lp))
 
 
 def _query_solutions_compiled(table: QueryTable, inputs: Any) -> list[Any] | None:
