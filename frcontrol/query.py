@@ -298,7 +298,8 @@ class QueryTable:
         limits = (np.ascontiguousarray(self.problem.lower, dtype=float),
                   np.ascontiguousarray(self.problem.upper, dtype=float))
         made_of = (self.solution_type, self.modes, self.ambiguous_outputs, np.empty)
-        return compiled.query_plan(*self.kernel_arguments, *made_of, *limits, self.input_slack, self.n, self.k)
+        sizes = (self.input_slack, self.n, self.k)
+        return compiled.query_plan(*self.kernel_arguments, *made_of, *limits, *sizes)
 
     def solutions(self, found: PointSolutions) -> list[Any]:
         """:meth:`point`'s answer as solutions, one ``solution_type`` per mode holding, in mode order.
