@@ -962,6 +962,8 @@ def fmt_time(seconds: float | None) -> str:
     """A time [s] in us or ms."""
     if seconds is None:
         return "-"
+    if seconds < 1e-5:
+        return f"{1e6 * seconds:.1f} us"
     return f"{1e6 * seconds:.0f} us" if seconds < 1e-3 else f"{1e3 * seconds:.1f} ms"
 
 
@@ -1024,6 +1026,13 @@ def readme_tables(payload: dict) -> str:
     return "\n".join(lines)
 
 
+def _against(ours: float, theirs: float) -> str:
+    """frcontrol's time on an analysis against a peer's, in words: which is faster, by how much."""
+    if ours <= theirs:
+        return f"on an analysis frcontrol's answer is {theirs / ours:.1f}x faster than it"
+    return f"it is {ours / theirs:.1f}x faster than frcontrol's answer on an analysis"
+
+
 def conclusions(payload: dict) -> list[str]:
     """The comparison in words: how much slower frcontrol is than the fastest peers, and the creep."""
     lines = []
@@ -1045,8 +1054,7 @@ def conclusions(payload: dict) -> list[str]:
                 t = e["time_to_target"]
                 text += (f" The fastest {family} answer within {payload['target_force_error']:g} "
                          f"({name}: {e['setting']}, {fmt_time(t)}) is {scratch / t:.0f}x faster than it "
-                         f"from scratch, "
-                         f"{on_analysis / t:.1f}x faster than it on an analysis.")
+                         f"from scratch; {_against(on_analysis, t)}.")
         compliant = r["summary"].get("frcontrol compliant", {}).get("time_to_target")
         if compliant is not None:
             fastest = min(e["time_to_target"] for e in reached.values())

@@ -2262,12 +2262,15 @@ done:
  * and evaluates each that holds it (locate_mode, evaluate_mode: query_point's arithmetic, to the
  * bit), and returns the list of solutions, made as the engine makes them (object.__new__ and the
  * fields in the instance's __dict__). It returns None where the general path must answer: inputs that
- * are not a plain vector of m numbers (a mapping, a batch, other types), a NaN or infinite entry, or
+ * are not plain (plain_input: a vector of m numbers or a dict of them by input name; not a batch, other
+ * types, an unknown name), a NaN or infinite entry, or
  * an input outside its limits (that path raises the typed error), or a mode with two or more ambiguity
  * variables whose consistency holds there (QUERY_NEEDS_PYTHON: its w is the engine's LP, in Python). */
 #define PLAN_CAPSULE "frcontrol._kernel.query_plan"
 #define SOLUTION_FIELDS 11
-#define PLAN_ARGS (QUERY_ARGS + 9)
+#define PLAN_ARGS (QUERY_ARGS + 10)
+enum { PLAN_TYPE = QUERY_ARGS, PLAN_MODES, PLAN_OUTPUTS, PLAN_EMPTY, PLAN_NAMES, PLAN_LOWER, PLAN_UPPER, PLAN_SLACK,
+       PLAN_N, PLAN_K };
 
 static const char *solution_field_names[SOLUTION_FIELDS] = {
     "mode", "dv", "lambda_n", "lambda_t", "a_n", "a_t", "ambiguity_dim", "ambiguous_outputs", "w",
@@ -2280,12 +2283,12 @@ typedef struct {
     Py_ssize_t n, k;
     const double *lower, *upper;
     double slack;
-    PyObject *type, *modes, *outputs, *empty; /* strong references */
+    PyObject *type, *modes, *outputs, *empty, *names; /* strong references */
 } QueryPlan;
 
 static const Arg plan_table[PLAN_ARGS] = {
     QUERY_TABLE, {"solution_type", 'o', 0, {0}, 0}, {"modes", 'o', 0, {0}, 0}, {"outputs", 'o', 0, {0}, 0},
-    {"empty", 'o', 0, {0}, 0}, {"lower", 'd', 1, {DIM_M}, 0}, {"upper", 'd', 1, {DIM_M}, 0},
+    {"empty", 'o', 0, {0}, 0}, {"names", 'o', 0, {0}, 0}, {"lower", 'd', 1, {DIM_M}, 0}, {"upper", 'd', 1, {DIM_M}, 0},
     {"slack", 'f', 0, {0}, 0}, {"n", 'i', 0, {0}, 0}, {"k", 'i', 0, {0}, 0}};
 static const Signature plan_signature = {"query_plan", PLAN_ARGS, plan_table, derive_query};
 
@@ -2295,6 +2298,7 @@ static void free_plan(QueryPlan *plan) {
     Py_XDECREF(plan->modes);
     Py_XDECREF(plan->outputs);
     Py_XDECREF(plan->empty);
+    Py_XDECREF(plan->names);
     PyMem_Free(plan);
 }
 
@@ -2302,15 +2306,25 @@ static void plan_capsule_free(PyObject *capsule) {
     free_plan(PyCapsule_GetPointer(capsule, PLAN_CAPSULE));
 }
 
-/* The plan's own checks: names and outputs one per mode, a type, n + 2k = nx. */
+/* The plan's own checks: names and outputs one per mode, a type, a name per input, n + 2k = nx. */
 static int check_plan(const QueryPlan *plan, PyObject *const *args) {
     const QueryTable *t = &plan->t;
-    PyObject *modes = args[QUERY_ARGS + 1], *outputs = args[QUERY_ARGS + 2];
-    if (!PyType_Check(args[QUERY_ARGS]) || !PyTuple_Check(modes) || !PyTuple_Check(outputs) ||
+    PyObject *modes = args[PLAN_MODES], *outputs = args[PLAN_OUTPUTS], *names = args[PLAN_NAMES];
+    if (!PyType_Check(args[PLAN_TYPE]) || !PyTuple_Check(modes) || !PyTuple_Check(outputs) ||
         PyTuple_GET_SIZE(modes) != t->modes || PyTuple_GET_SIZE(outputs) != t->modes) {
         PyErr_Format(kernel_error, "query_plan: solution_type must be a type, modes and outputs tuples of %zd",
                      t->modes);
         return -1;
+    }
+    if (!PyTuple_Check(names) || PyTuple_GET_SIZE(names) != t->m) {
+        PyErr_Format(kernel_error, "query_plan: names must be a tuple of %zd input names", t->m);
+        return -1;
+    }
+    for (Py_ssize_t j = 0; j < t->m; j++) {
+        if (!PyUnicode_Check(PyTuple_GET_ITEM(names, j))) {
+            PyErr_Format(kernel_error, "query_plan: input name %zd is not a str", j);
+            return -1;
+        }
     }
     if (plan->n < 0 || plan->k < 0 || plan->n + 2 * plan->k != t->nx) {
         PyErr_Format(kernel_error, "query_plan: n + 2k = %zd + 2 * %zd is not nx = %zd", plan->n, plan->k, t->nx);
@@ -2325,7 +2339,7 @@ static int check_plan(const QueryPlan *plan, PyObject *const *args) {
     return 0;
 }
 
-/* query_plan(table..., solution_type, modes, outputs, empty, lower, upper, slack, n, k) -> capsule. */
+/* query_plan(table..., solution_type, modes, outputs, empty, names, lower, upper, slack, n, k) -> capsule. */
 static PyObject *query_plan(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
     for (int f = 0; f < SOLUTION_FIELDS; f++) {
@@ -2339,15 +2353,16 @@ static PyObject *query_plan(PyObject *self, PyObject *const *args, Py_ssize_t na
         return PyErr_NoMemory();
     }
     if (parse(&plan_signature, args, nargs, &plan->a) == 0) {
-        plan->n = (Py_ssize_t)plan->a.integer[QUERY_ARGS + 7];
-        plan->k = (Py_ssize_t)plan->a.integer[QUERY_ARGS + 8];
+        plan->n = (Py_ssize_t)plan->a.integer[PLAN_N];
+        plan->k = (Py_ssize_t)plan->a.integer[PLAN_K];
         if (query_from(&plan->a, &plan->t, 2 * plan->k) == 0 && check_plan(plan, args) == 0) {
-            plan->lower = plan->a.data[QUERY_ARGS + 4], plan->upper = plan->a.data[QUERY_ARGS + 5];
-            plan->slack = plan->a.number[QUERY_ARGS + 6];
-            plan->type = Py_NewRef(args[QUERY_ARGS]);
-            plan->modes = Py_NewRef(args[QUERY_ARGS + 1]);
-            plan->outputs = Py_NewRef(args[QUERY_ARGS + 2]);
-            plan->empty = Py_NewRef(args[QUERY_ARGS + 3]);
+            plan->lower = plan->a.data[PLAN_LOWER], plan->upper = plan->a.data[PLAN_UPPER];
+            plan->slack = plan->a.number[PLAN_SLACK];
+            plan->type = Py_NewRef(args[PLAN_TYPE]);
+            plan->modes = Py_NewRef(args[PLAN_MODES]);
+            plan->outputs = Py_NewRef(args[PLAN_OUTPUTS]);
+            plan->empty = Py_NewRef(args[PLAN_EMPTY]);
+            plan->names = Py_NewRef(args[PLAN_NAMES]);
             PyObject *capsule = PyCapsule_New(plan, PLAN_CAPSULE, plan_capsule_free);
             if (capsule != NULL) {
                 return capsule;
@@ -2358,23 +2373,52 @@ static PyObject *query_plan(PyObject *self, PyObject *const *args, Py_ssize_t na
     return NULL;
 }
 
-/* The input u (m,) of `inputs` when it is a plain vector: a list or tuple of m ints or floats, or a
- * 1-D float64 buffer of m entries; finite and within the limits (to the slack). 1: read; 0: not (the
- * general path answers); -1: an error. */
+/* One number of a plain input: an int or a float (1), else 0 (an int too large for a float too). */
+static int plain_number(PyObject *item, double *value) {
+    if (!PyFloat_Check(item) && !PyLong_Check(item)) {
+        return 0;
+    }
+    *value = PyFloat_AsDouble(item);
+    if (*value == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();
+        return 0;
+    }
+    return 1;
+}
+
+/* u of a dict {input name: number} (the others 0): 1, or 0 when a key is not an input's name or a
+ * value not an int or a float. */
+static int plain_mapping(const QueryPlan *plan, PyObject *inputs, double *u) {
+    Py_ssize_t m = plan->t.m, at = 0;
+    PyObject *key, *item;
+    memset(u, 0, (size_t)m * sizeof(double));
+    while (PyDict_Next(inputs, &at, &key, &item)) {
+        Py_ssize_t j = 0;
+        while (j < m && !(PyUnicode_Check(key) && PyUnicode_Compare(key, PyTuple_GET_ITEM(plan->names, j)) == 0)) {
+            j++;
+        }
+        if (j == m || !plain_number(item, &u[j])) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* The input u (m,) of `inputs` when it is plain: a list or tuple of m ints or floats, a 1-D float64
+ * buffer of m entries, or a dict {input name: int or float} (the others 0); finite and within the
+ * limits (to the slack). 1: read; 0: not (the general path answers). */
 static int plain_input(const QueryPlan *plan, PyObject *inputs, double *u) {
     Py_ssize_t m = plan->t.m;
-    if (PyList_Check(inputs) || PyTuple_Check(inputs)) {
+    if (PyDict_Check(inputs)) {
+        if (!plain_mapping(plan, inputs, u)) {
+            return 0;
+        }
+    } else if (PyList_Check(inputs) || PyTuple_Check(inputs)) {
         if (PySequence_Fast_GET_SIZE(inputs) != m) {
             return 0;
         }
         for (Py_ssize_t j = 0; j < m; j++) {
-            PyObject *item = PySequence_Fast_GET_ITEM(inputs, j);
-            if (!PyFloat_Check(item) && !PyLong_Check(item)) {
-                return 0;
-            }
-            u[j] = PyFloat_AsDouble(item);
-            if (u[j] == -1.0 && PyErr_Occurred()) { /* an int too large for a float */
-                PyErr_Clear();
+            if (!plain_number(PySequence_Fast_GET_ITEM(inputs, j), &u[j])) {
                 return 0;
             }
         }
@@ -2464,9 +2508,8 @@ static PyObject *query_solutions(PyObject *self, PyObject *const *args, Py_ssize
     double *h = u + t->m, *z = h + t->width, *x = z + t->nx + t->m + 1, *acc = x + t->nx + t->m + 1;
     double *wi = acc + t->acc;
     PyObject *found = NULL;
-    int plain = plain_input(plan, args[1], u);
-    if (plain <= 0) {
-        found = plain < 0 ? NULL : Py_NewRef(Py_None);
+    if (!plain_input(plan, args[1], u)) {
+        found = Py_NewRef(Py_None);
         goto done;
     }
     if ((found = PyList_New(0)) == NULL) {
@@ -3024,12 +3067,13 @@ static PyMethodDef methods[] = {
     {"query_plan", (PyCFunction)(void (*)(void))query_plan, METH_FASTCALL,
      "query_plan(H_u, h_0, norms, motion, H_w1, p, rows, inequality_rows, X_u, X_w, x_0, K,\n"
      "           domain_tolerance, zero_row_tolerance, radius_cap, solution_type, modes, outputs, empty,\n"
-     "           lower, upper, slack, n, k) -> capsule\n\n"
+     "           names, lower, upper, slack, n, k) -> capsule\n\n"
      "The query table held for query_solutions."},
     {"query_solutions", (PyCFunction)(void (*)(void))query_solutions, METH_FASTCALL,
      "query_solutions(plan, inputs) -> list or None\n\n"
-     "The single query on an analysis in one call: every solution at a plain input vector, or None\n"
-     "where the general path answers (not a plain vector of m numbers, not finite, outside the limits,\n"
+     "The single query on an analysis in one call: every solution at a plain input (m numbers, or a\n"
+     "dict of numbers by input name), or None where the general path answers (not plain, not finite,\n"
+     "outside the limits,\n"
      "or a mode with two or more ambiguity variables to decide)."},
     {"environment_set", (PyCFunction)environment_set, METH_O,
      "environment_set(name: bytes) -> bool\n\nWhether the environment has name set and not empty (getenv)."},

@@ -297,7 +297,8 @@ class QueryTable:
             return None
         limits = (np.ascontiguousarray(self.problem.lower, dtype=float),
                   np.ascontiguousarray(self.problem.upper, dtype=float))
-        made_of = (self.solution_type, self.modes, self.ambiguous_outputs, np.empty)
+        names = tuple(self.problem.inputs)
+        made_of = (self.solution_type, self.modes, self.ambiguous_outputs, np.empty, names)
         sizes = (self.input_slack, self.n, self.k)
         return compiled.query_plan(*self.kernel_arguments, *made_of, *limits, *sizes)
 
@@ -589,13 +590,23 @@ def _query_point_compiled(table: QueryTable, u: np.ndarray, decide_w: WDecider) 
 def plain_input(table: QueryTable, inputs: Any) -> np.ndarray | None:
     """The input vector of ``inputs`` when the single query's one call takes it, else None.
 
-    Plain: a list or tuple of m ints or floats, or a one-dimensional float64 buffer (a NumPy array)
-    of m entries; every entry finite and within its limits to the table's ``input_slack``. Anything
-    else (a mapping, a batch, another type, a bad value) goes the general way, which raises the
-    typed error of a bad one. The compiled kernel's ``query_solutions`` applies the same rule.
+    Plain: a list or tuple of m ints or floats, a one-dimensional float64 buffer (a NumPy array) of
+    m entries, or a dict ``{input name: int or float}`` (the others 0); every entry finite and within
+    its limits to the table's ``input_slack``. Anything else (a batch, another type, an unknown
+    name, a bad value) goes the general way, which raises the typed error of a bad one. The compiled
+    kernel's ``query_solutions`` applies the same rule.
     """
-    m = table.problem.m
-    if isinstance(inputs, (list, tuple)):
+    m, names = table.problem.m, list(table.problem.inputs)
+    if isinstance(inputs, dict):
+        u = np.zeros(m)
+        for name, value in inputs.items():
+            if not isinstance(name, str) or name not in names or not isinstance(value, (float, int)):
+                return None
+            try:
+                u[names.index(name)] = float(value)
+            except OverflowError:  # an int too large for a float
+                return None
+    elif isinstance(inputs, (list, tuple)):
         if len(inputs) != m or not all(isinstance(value, (float, int)) for value in inputs):
             return None
         try:

@@ -25,6 +25,7 @@ from frcontrol.errors import InputError, KernelError
 from frcontrol.kernel import compiled
 from frcontrol.query import BOUNDARY_TOLERANCE, BatchSolutions
 from frcontrol.scene import load_scene, shipped_robots_dir
+from frcontrol.solvers import DEFAULT_SETTINGS
 
 SCENES = sorted(p.stem for p in (shipped_robots_dir() / "scenes").glob("*.toml"))
 
@@ -215,7 +216,7 @@ def test_the_compiled_query_agrees_with_its_numpy_twin(name, monkeypatch):
 
 
 def by_name(analysis, u: np.ndarray) -> dict[str, float]:
-    """``u`` as ``{name: value}``: the general path of a single query (not the one call)."""
+    """``u`` as ``{name: value}``."""
     return dict(zip(analysis.problem.inputs, u.tolist(), strict=True))
 
 
@@ -254,10 +255,11 @@ def test_the_one_call_query_agrees_with_its_numpy_twin(name, monkeypatch):
         answered += 1
         assert_same(fast, numpy, where=f"{name} point {i}")
         monkeypatch.setenv("FRC_KERNEL", "compiled")
-        general = solutions_at(analysis, by_name(analysis, u))
+        general = solutions_at(analysis, u, settings=DEFAULT_SETTINGS)  # settings given: the general path
         monkeypatch.delenv("FRC_KERNEL")
         assert_bitwise(fast, general, f"{name} point {i}")
         assert_bitwise(solutions_at(analysis, u.tolist()), fast, f"{name} point {i} as a list")
+        assert_bitwise(solutions_at(analysis, by_name(analysis, u)), fast, f"{name} point {i} by name")
     assert answered > len(U) // 2, name
 
 
@@ -282,11 +284,14 @@ PLAIN = [
     ("bools", [True, False, 0], True), ("NumPy floats", [np.float64(0.5)] * 3, True),
     ("an array", np.array([0.5, -1.0, 0.25]), True), ("a strided array", np.arange(6.0)[::2] / 10, True),
     ("a big-endian array", np.zeros(3, dtype=">f8"), False), ("float32s", [np.float32(0.5)] * 3, False),
-    ("a float32 array", np.zeros(3, dtype=np.float32), False), ("a mapping", {"tau": 1.0}, False),
+    ("a float32 array", np.zeros(3, dtype=np.float32), False), ("an unknown name", {"tau": 1.0}, False),
     ("None", None, False), ("a batch", np.zeros((1, 3)), False), ("a short list", [0.0, 0.0], False),
     ("a NaN", [0.0, float("nan"), 0.0], False), ("an infinity", np.array([0.0, 0.0, -np.inf]), False),
     ("an int too large", [10**400, 0, 0], False), ("a string", "abc", False), ("bytes", b"\x00" * 24, False),
-    ("a list of strings", ["0", "0", "0"], False),
+    ("a list of strings", ["0", "0", "0"], False), ("a mapping", {"theta": 0.5, "x": -1}, True),
+    ("an empty mapping", {}, True), ("a mapping to a string", {"x": "1"}, False),
+    ("a mapping to a NaN", {"x": float("nan")}, False), ("a mapping outside", {"y": 1e9}, False),
+    ("a non-str key", {0: 1.0}, False),
 ]
 
 
@@ -304,8 +309,12 @@ def test_the_one_call_takes_plain_vectors_only(what, inputs, plain, monkeypatch)
     assert all((a is not None) == plain for a in answers), what
     if plain:
         monkeypatch.setenv("FRC_KERNEL", "numpy")
-        vector = np.asarray(inputs, dtype=float)
-        assert_same(answers[-1], solutions_at(analysis, by_name(analysis, vector)), where=what)
+        if isinstance(inputs, dict):
+            vector = np.array([float(inputs.get(name, 0.0)) for name in analysis.problem.inputs])
+        else:
+            vector = np.asarray(inputs, dtype=float)
+        general = table.solutions(table.point(vector, lambda H, h, motion: None))
+        assert_same(answers[-1], general, where=what)
 
 
 @pytest.mark.parametrize("inputs, error", [
@@ -388,12 +397,16 @@ def test_the_query_kernel_refuses_bad_buffers():
                                  np.zeros((1, table.p_max)), np.empty((1, table.X_u.shape[1])),
                                  np.empty((1, 2 * analysis.problem.k)), one, one.copy())
     problem = analysis.problem
-    plan = [*args, tuple, table.modes, table.ambiguous_outputs, np.empty, problem.lower, problem.upper, 0.0,
-            problem.n, problem.k]
-    with pytest.raises(KernelError, match="query_plan takes 24 arguments"):
+    plan = [*args, tuple, table.modes, table.ambiguous_outputs, np.empty, problem.inputs, problem.lower,
+            problem.upper, 0.0, problem.n, problem.k]
+    with pytest.raises(KernelError, match="query_plan takes 25 arguments"):
         compiled.query_plan(*plan[:-1])
     with pytest.raises(KernelError, match="kernel buffer upper"):
-        compiled.query_plan(*plan[:20], np.zeros(2), *plan[21:])
+        compiled.query_plan(*plan[:21], np.zeros(2), *plan[22:])
+    with pytest.raises(KernelError, match="names must be a tuple of 3 input names"):
+        compiled.query_plan(*plan[:19], problem.inputs[:2], *plan[20:])
+    with pytest.raises(KernelError, match="input name 1 is not a str"):
+        compiled.query_plan(*plan[:19], ("x", 1, "theta"), *plan[20:])
     with pytest.raises(KernelError, match="solution_type must be a type"):
         compiled.query_plan(*plan[:16], table.modes[:-1], *plan[17:])
     with pytest.raises(KernelError, match="n \\+ 2k"):
