@@ -2268,9 +2268,9 @@ done:
  * variables whose consistency holds there (QUERY_NEEDS_PYTHON: its w is the engine's LP, in Python). */
 #define PLAN_CAPSULE "frcontrol._kernel.query_plan"
 #define SOLUTION_FIELDS 11
-#define PLAN_ARGS (QUERY_ARGS + 10)
-enum { PLAN_TYPE = QUERY_ARGS, PLAN_MODES, PLAN_OUTPUTS, PLAN_EMPTY, PLAN_NAMES, PLAN_LOWER, PLAN_UPPER, PLAN_SLACK,
-       PLAN_N, PLAN_K };
+#define PLAN_ARGS (QUERY_ARGS + 11)
+enum { PLAN_TYPE = QUERY_ARGS, PLAN_MODES, PLAN_OUTPUTS, PLAN_EMPTY, PLAN_NAMES, PLAN_FLOAT64, PLAN_LOWER, PLAN_UPPER,
+       PLAN_SLACK, PLAN_N, PLAN_K };
 
 static const char *solution_field_names[SOLUTION_FIELDS] = {
     "mode", "dv", "lambda_n", "lambda_t", "a_n", "a_t", "ambiguity_dim", "ambiguous_outputs", "w",
@@ -2283,12 +2283,12 @@ typedef struct {
     Py_ssize_t n, k;
     const double *lower, *upper;
     double slack;
-    PyObject *type, *modes, *outputs, *empty, *names; /* strong references */
+    PyObject *type, *modes, *outputs, *empty, *names, *float64; /* strong references */
 } QueryPlan;
 
 static const Arg plan_table[PLAN_ARGS] = {
     QUERY_TABLE, {"solution_type", 'o', 0, {0}, 0}, {"modes", 'o', 0, {0}, 0}, {"outputs", 'o', 0, {0}, 0},
-    {"empty", 'o', 0, {0}, 0}, {"names", 'o', 0, {0}, 0}, {"lower", 'd', 1, {DIM_M}, 0}, {"upper", 'd', 1, {DIM_M}, 0},
+    {"empty", 'o', 0, {0}, 0}, {"names", 'o', 0, {0}, 0}, {"float64", 'o', 0, {0}, 0}, {"lower", 'd', 1, {DIM_M}, 0}, {"upper", 'd', 1, {DIM_M}, 0},
     {"slack", 'f', 0, {0}, 0}, {"n", 'i', 0, {0}, 0}, {"k", 'i', 0, {0}, 0}};
 static const Signature plan_signature = {"query_plan", PLAN_ARGS, plan_table, derive_query};
 
@@ -2299,6 +2299,7 @@ static void free_plan(QueryPlan *plan) {
     Py_XDECREF(plan->outputs);
     Py_XDECREF(plan->empty);
     Py_XDECREF(plan->names);
+    Py_XDECREF(plan->float64);
     PyMem_Free(plan);
 }
 
@@ -2306,7 +2307,18 @@ static void plan_capsule_free(PyObject *capsule) {
     free_plan(PyCapsule_GetPointer(capsule, PLAN_CAPSULE));
 }
 
-/* The plan's own checks: names and outputs one per mode, a type, a name per input, n + 2k = nx. */
+/* Whether instances of `type` have a __dict__ (PyObject_GenericSetDict sets it). */
+static int instance_dict(PyTypeObject *type) {
+#ifdef Py_TPFLAGS_MANAGED_DICT
+    if (type->tp_flags & Py_TPFLAGS_MANAGED_DICT) {
+        return 1;
+    }
+#endif
+    return type->tp_dictoffset != 0;
+}
+
+/* The plan's own checks: names and outputs one per mode, a class whose instances object.__new__ makes
+ * with a __dict__, a float subclass for numpy.float64, a name per input, n + 2k = nx. */
 static int check_plan(const QueryPlan *plan, PyObject *const *args) {
     const QueryTable *t = &plan->t;
     PyObject *modes = args[PLAN_MODES], *outputs = args[PLAN_OUTPUTS], *names = args[PLAN_NAMES];
@@ -2314,6 +2326,16 @@ static int check_plan(const QueryPlan *plan, PyObject *const *args) {
         PyTuple_GET_SIZE(modes) != t->modes || PyTuple_GET_SIZE(outputs) != t->modes) {
         PyErr_Format(kernel_error, "query_plan: solution_type must be a type, modes and outputs tuples of %zd",
                      t->modes);
+        return -1;
+    }
+    PyTypeObject *type = (PyTypeObject *)args[PLAN_TYPE];
+    if (type->tp_new != PyBaseObject_Type.tp_new || !instance_dict(type)) {
+        PyErr_SetString(kernel_error, "query_plan: solution_type must be a class made by object.__new__ whose "
+                                      "instances have a __dict__");
+        return -1;
+    }
+    if (!PyType_Check(args[PLAN_FLOAT64]) || !PyType_IsSubtype((PyTypeObject *)args[PLAN_FLOAT64], &PyFloat_Type)) {
+        PyErr_SetString(kernel_error, "query_plan: float64 must be a subclass of float (numpy.float64)");
         return -1;
     }
     if (!PyTuple_Check(names) || PyTuple_GET_SIZE(names) != t->m) {
@@ -2339,7 +2361,8 @@ static int check_plan(const QueryPlan *plan, PyObject *const *args) {
     return 0;
 }
 
-/* query_plan(table..., solution_type, modes, outputs, empty, names, lower, upper, slack, n, k) -> capsule. */
+/* query_plan(table..., solution_type, modes, outputs, empty, names, float64, lower, upper, slack, n, k)
+ * -> capsule. */
 static PyObject *query_plan(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
     for (int f = 0; f < SOLUTION_FIELDS; f++) {
@@ -2363,6 +2386,7 @@ static PyObject *query_plan(PyObject *self, PyObject *const *args, Py_ssize_t na
             plan->outputs = Py_NewRef(args[PLAN_OUTPUTS]);
             plan->empty = Py_NewRef(args[PLAN_EMPTY]);
             plan->names = Py_NewRef(args[PLAN_NAMES]);
+            plan->float64 = Py_NewRef(args[PLAN_FLOAT64]);
             PyObject *capsule = PyCapsule_New(plan, PLAN_CAPSULE, plan_capsule_free);
             if (capsule != NULL) {
                 return capsule;
@@ -2373,12 +2397,17 @@ static PyObject *query_plan(PyObject *self, PyObject *const *args, Py_ssize_t na
     return NULL;
 }
 
-/* One number of a plain input: an int or a float (1), else 0 (an int too large for a float too). */
-static int plain_number(PyObject *item, double *value) {
-    if (!PyFloat_Check(item) && !PyLong_Check(item)) {
+/* One number of a plain input: an int, a float or a numpy.float64, exactly those types (reading them
+ * runs no Python code), as 1; else 0 (an int too large for a float too). */
+static int plain_number(const QueryPlan *plan, PyObject *item, double *value) {
+    if (PyFloat_CheckExact(item) || Py_IS_TYPE(item, (PyTypeObject *)plan->float64)) {
+        *value = PyFloat_AS_DOUBLE(item); /* numpy.float64 is a float: the same layout */
+        return 1;
+    }
+    if (!PyLong_CheckExact(item)) {
         return 0;
     }
-    *value = PyFloat_AsDouble(item);
+    *value = PyLong_AsDouble(item);
     if (*value == -1.0 && PyErr_Occurred()) {
         PyErr_Clear();
         return 0;
@@ -2386,39 +2415,40 @@ static int plain_number(PyObject *item, double *value) {
     return 1;
 }
 
-/* u of a dict {input name: number} (the others 0): 1, or 0 when a key is not an input's name or a
- * value not an int or a float. */
+/* u of a dict {input name: number} (the others 0): 1, or 0 when a key is not an input's name (a str,
+ * exactly) or a value not a plain number. */
 static int plain_mapping(const QueryPlan *plan, PyObject *inputs, double *u) {
     Py_ssize_t m = plan->t.m, at = 0;
     PyObject *key, *item;
     memset(u, 0, (size_t)m * sizeof(double));
     while (PyDict_Next(inputs, &at, &key, &item)) {
         Py_ssize_t j = 0;
-        while (j < m && !(PyUnicode_Check(key) && PyUnicode_Compare(key, PyTuple_GET_ITEM(plan->names, j)) == 0)) {
+        while (j < m && !(PyUnicode_CheckExact(key) && PyUnicode_Compare(key, PyTuple_GET_ITEM(plan->names, j)) == 0)) {
             j++;
         }
-        if (j == m || !plain_number(item, &u[j])) {
+        if (j == m || !plain_number(plan, item, &u[j])) {
             return 0;
         }
     }
     return 1;
 }
 
-/* The input u (m,) of `inputs` when it is plain: a list or tuple of m ints or floats, a 1-D float64
- * buffer of m entries, or a dict {input name: int or float} (the others 0); finite and within the
- * limits (to the slack). 1: read; 0: not (the general path answers). */
+/* The input u (m,) of `inputs` when it is plain: a list or tuple (exactly) of m plain numbers, a 1-D
+ * float64 buffer of m entries, or a dict (exactly) {input name: plain number} (the others 0); finite
+ * and within the limits (to the slack). 1: read; 0: not (the general path answers). Nothing read
+ * here runs Python code, so nothing can change the input while it is read. */
 static int plain_input(const QueryPlan *plan, PyObject *inputs, double *u) {
     Py_ssize_t m = plan->t.m;
-    if (PyDict_Check(inputs)) {
+    if (PyDict_CheckExact(inputs)) {
         if (!plain_mapping(plan, inputs, u)) {
             return 0;
         }
-    } else if (PyList_Check(inputs) || PyTuple_Check(inputs)) {
+    } else if (PyList_CheckExact(inputs) || PyTuple_CheckExact(inputs)) {
         if (PySequence_Fast_GET_SIZE(inputs) != m) {
             return 0;
         }
         for (Py_ssize_t j = 0; j < m; j++) {
-            if (!plain_number(PySequence_Fast_GET_ITEM(inputs, j), &u[j])) {
+            if (!plain_number(plan, PySequence_Fast_GET_ITEM(inputs, j), &u[j])) {
                 return 0;
             }
         }
@@ -2428,9 +2458,11 @@ static int plain_input(const QueryPlan *plan, PyObject *inputs, double *u) {
             PyErr_Clear();
             return 0;
         }
-        int plain = view.ndim == 1 && view.shape[0] == m && format_is(view.format, 'd');
+        int plain = view.ndim == 1 && view.shape != NULL && view.shape[0] == m && view.itemsize == 8 &&
+                    format_is(view.format, 'd');
+        Py_ssize_t step = view.strides != NULL ? view.strides[0] : view.itemsize; /* NULL: contiguous */
         for (Py_ssize_t j = 0; plain && j < m; j++) {
-            u[j] = at1(&view, j);
+            u[j] = *(const double *)((const char *)view.buf + j * step);
         }
         PyBuffer_Release(&view);
         if (!plain) {
@@ -2452,7 +2484,7 @@ static PyObject *vector_of(PyObject *empty, const double *values, Py_ssize_t cou
     Buffer b = {0};
     double *data = NULL;
     PyObject *array = new_array(empty, count, -1, &b, &data);
-    if (array != NULL) {
+    if (array != NULL && count > 0) {
         memcpy(data, values, (size_t)count * sizeof(double));
     }
     release(&b, 1);
@@ -2463,19 +2495,27 @@ static PyObject *vector_of(PyObject *empty, const double *values, Py_ssize_t cou
 static PyObject *new_solution(const QueryPlan *plan, Py_ssize_t i, const double *x, const double *acc, double w,
                               double residual, double violation) {
     Py_ssize_t n = plan->n, k = plan->k;
-    PyObject *v[SOLUTION_FIELDS] = {
-        Py_NewRef(PyTuple_GET_ITEM(plan->modes, i)), vector_of(plan->empty, x, n),
-        vector_of(plan->empty, x + n, k), vector_of(plan->empty, x + n + k, k), vector_of(plan->empty, acc, k),
-        vector_of(plan->empty, acc + k, k), PyLong_FromLongLong(plan->t.p[i]),
-        Py_NewRef(PyTuple_GET_ITEM(plan->outputs, i)), vector_of(plan->empty, &w, (Py_ssize_t)plan->t.p[i]),
-        PyFloat_FromDouble(residual), PyFloat_FromDouble(violation)};
-    PyObject *fields = PyDict_New(), *solution = NULL;
-    int failed = fields == NULL;
-    for (int f = 0; f < SOLUTION_FIELDS; f++) {
-        failed = failed || v[f] == NULL || PyDict_SetItem(fields, solution_fields[f], v[f]) != 0;
-        Py_XDECREF(v[f]);
+    PyObject *fields = PyDict_New(), *value = NULL, *solution = NULL;
+    for (int f = 0; f < SOLUTION_FIELDS && fields != NULL; f++) { /* one at a time: stop at a failure */
+        switch (f) {
+        case 0: value = Py_NewRef(PyTuple_GET_ITEM(plan->modes, i)); break;
+        case 1: value = vector_of(plan->empty, x, n); break;
+        case 2: value = vector_of(plan->empty, x + n, k); break;
+        case 3: value = vector_of(plan->empty, x + n + k, k); break;
+        case 4: value = vector_of(plan->empty, acc, k); break;
+        case 5: value = vector_of(plan->empty, acc + k, k); break;
+        case 6: value = PyLong_FromLongLong(plan->t.p[i]); break;
+        case 7: value = Py_NewRef(PyTuple_GET_ITEM(plan->outputs, i)); break;
+        case 8: value = vector_of(plan->empty, &w, (Py_ssize_t)plan->t.p[i]); break; /* p <= 1 here */
+        case 9: value = PyFloat_FromDouble(residual); break;
+        default: value = PyFloat_FromDouble(violation); break;
+        }
+        if (value == NULL || PyDict_SetItem(fields, solution_fields[f], value) != 0) {
+            Py_CLEAR(fields);
+        }
+        Py_XDECREF(value);
     }
-    if (!failed) {
+    if (fields != NULL) {
         PyObject *no_args = PyTuple_New(0);
         solution = no_args ? PyBaseObject_Type.tp_new((PyTypeObject *)plan->type, no_args, NULL) : NULL;
         Py_XDECREF(no_args);
@@ -2542,17 +2582,17 @@ done:
     return found;
 }
 
-/* environment_set(name) -> bool: whether the process environment has `name` set and not empty (C's
- * getenv, which os.environ's putenv and unsetenv keep current): kernel.backend's check, without the
- * cost of os.environ's lookup. */
-static PyObject *environment_set(PyObject *self, PyObject *name) {
+/* environment_value(name) -> str: the process environment's value of `name`, "" when unset (C's
+ * getenv, which os.environ's changes keep current): frcontrol.kernel's one read of FRC_KERNEL,
+ * without the cost of os.environ's lookup. */
+static PyObject *environment_value(PyObject *self, PyObject *name) {
     (void)self;
     if (!PyBytes_Check(name)) {
-        PyErr_SetString(kernel_error, "environment_set: the name must be bytes");
+        PyErr_SetString(kernel_error, "environment_value: the name must be bytes");
         return NULL;
     }
     const char *value = getenv(PyBytes_AS_STRING(name));
-    return PyBool_FromLong(value != NULL && value[0] != '\0');
+    return PyUnicode_DecodeFSDefault(value != NULL ? value : "");
 }
 
 /* ------------------------------------------------------------------------------------------------
@@ -3067,7 +3107,7 @@ static PyMethodDef methods[] = {
     {"query_plan", (PyCFunction)(void (*)(void))query_plan, METH_FASTCALL,
      "query_plan(H_u, h_0, norms, motion, H_w1, p, rows, inequality_rows, X_u, X_w, x_0, K,\n"
      "           domain_tolerance, zero_row_tolerance, radius_cap, solution_type, modes, outputs, empty,\n"
-     "           names, lower, upper, slack, n, k) -> capsule\n\n"
+     "           names, float64, lower, upper, slack, n, k) -> capsule\n\n"
      "The query table held for query_solutions."},
     {"query_solutions", (PyCFunction)(void (*)(void))query_solutions, METH_FASTCALL,
      "query_solutions(plan, inputs) -> list or None\n\n"
@@ -3075,8 +3115,8 @@ static PyMethodDef methods[] = {
      "dict of numbers by input name), or None where the general path answers (not plain, not finite,\n"
      "outside the limits,\n"
      "or a mode with two or more ambiguity variables to decide)."},
-    {"environment_set", (PyCFunction)environment_set, METH_O,
-     "environment_set(name: bytes) -> bool\n\nWhether the environment has name set and not empty (getenv)."},
+    {"environment_value", (PyCFunction)environment_value, METH_O,
+     "environment_value(name: bytes) -> str\n\nThe environment's value of name, \"\" when unset (getenv)."},
     {"lemke", (PyCFunction)(void (*)(void))lemke, METH_FASTCALL,
      "lemke(M, q, basis, matrix, rhs, max_pivots, pivot_tolerance, tie_tolerance) -> (status, pivots)\n\n"
      "frcontrol.lcp's lexicographic Lemke pivots on M (n, n) and q (n,): the final basis (int64, the\n"
@@ -3139,7 +3179,7 @@ PyMODINIT_FUNC PyInit__kernel(void) {
     PyObject *all = Py_BuildValue("[ssssssssssssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
                                   "contact_rows", "margin_rows", "certified_children", "certified_by_rows",
                                   "locate_points",
-                                  "evaluate_points", "query_point", "query_plan", "query_solutions", "environment_set", "lemke", "coulomb_matrix", "lcp_check",
+                                  "evaluate_points", "query_point", "query_plan", "query_solutions", "environment_value", "lemke", "coulomb_matrix", "lcp_check",
                                   "compliant_law", "redundancy_rows", "ray_exit");
     if (all == NULL) {
         Py_DECREF(mod);

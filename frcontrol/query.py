@@ -237,6 +237,9 @@ class QueryTable:
         modes: its feasible modes, in its order (inconsistent ones are left out).
         zero_row_tolerance: the engine's constant-row threshold.
         radius_cap: the Chebyshev LP's radius cap (the interval rule's unbounded side).
+        solution_type: the class of a solution (the engine's ``RigidSolution``: :meth:`solutions`).
+        input_slack: [units of u] how far outside its limits an input is still taken as given
+            (the scene's ``INPUT_LIMIT_SLACK``: :func:`plain_input`).
         tolerance: the membership distance (:data:`BOUNDARY_TOLERANCE`).
     """
 
@@ -298,7 +301,7 @@ class QueryTable:
         limits = (np.ascontiguousarray(self.problem.lower, dtype=float),
                   np.ascontiguousarray(self.problem.upper, dtype=float))
         names = tuple(self.problem.inputs)
-        made_of = (self.solution_type, self.modes, self.ambiguous_outputs, np.empty, names)
+        made_of = (self.solution_type, self.modes, self.ambiguous_outputs, np.empty, names, np.float64)
         sizes = (self.input_slack, self.n, self.k)
         return compiled.query_plan(*self.kernel_arguments, *made_of, *limits, *sizes)
 
@@ -506,7 +509,7 @@ def check_inputs(problem: ContactProblem, inputs: Any, tolerance: float = BOUNDA
         i, j = np.argwhere(outside)[0].tolist()
         raise InputError(f"point {i} of the batch: input {problem.inputs[j]!r} = {U[i, j]:g} is outside its "
                          f"limits [{problem.lower[j]:g}, {problem.upper[j]:g}]")
-    return U
+    return np.ascontiguousarray(U)  # the kernel reads it row by row
 
 
 # ------------------------------------------------------------------ the kernel's functions
@@ -590,33 +593,35 @@ def _query_point_compiled(table: QueryTable, u: np.ndarray, decide_w: WDecider) 
 def plain_input(table: QueryTable, inputs: Any) -> np.ndarray | None:
     """The input vector of ``inputs`` when the single query's one call takes it, else None.
 
-    Plain: a list or tuple of m ints or floats, a one-dimensional float64 buffer (a NumPy array) of
-    m entries, or a dict ``{input name: int or float}`` (the others 0); every entry finite and within
-    its limits to the table's ``input_slack``. Anything else (a batch, another type, an unknown
-    name, a bad value) goes the general way, which raises the typed error of a bad one. The compiled
-    kernel's ``query_solutions`` applies the same rule.
+    Plain: a list or tuple of m plain numbers, a one-dimensional float64 buffer (a NumPy array) of
+    m entries, or a dict ``{input name: plain number}`` (the others 0), where a plain number is an
+    ``int``, a ``float`` or a ``numpy.float64`` and a name a ``str``, each of exactly that type (not
+    a subclass, whose methods could differ); every entry finite and within its limits to the
+    table's ``input_slack``. Anything else (a batch, another type, an unknown name, a bad value) goes
+    the general way, which raises the typed error of a bad one. The compiled kernel's
+    ``query_solutions`` applies the same rule.
     """
     m, names = table.problem.m, list(table.problem.inputs)
-    if isinstance(inputs, dict):
+    if type(inputs) is dict:
         u = np.zeros(m)
         for name, value in inputs.items():
-            if not isinstance(name, str) or name not in names or not isinstance(value, (float, int)):
+            if type(name) is not str or name not in names or type(value) not in _PLAIN_NUMBERS:
                 return None
             try:
                 u[names.index(name)] = float(value)
             except OverflowError:  # an int too large for a float
                 return None
-    elif isinstance(inputs, (list, tuple)):
-        if len(inputs) != m or not all(isinstance(value, (float, int)) for value in inputs):
+    elif type(inputs) in (list, tuple):
+        if len(inputs) != m or any(type(value) not in _PLAIN_NUMBERS for value in inputs):
             return None
         try:
-            u = np.array(inputs, dtype=float)
+            u = np.array([float(value) for value in inputs])
         except OverflowError:  # an int too large for a float
             return None
     else:
         try:
             view = memoryview(inputs)
-        except TypeError:
+        except (TypeError, ValueError, BufferError):  # not a buffer, or a dtype no buffer can hold
             return None
         code = view.format[1:] if view.format[:1] in ("@", "=", "<") else view.format
         if view.ndim != 1 or view.shape is None or view.shape[0] != m or code != "d":
@@ -626,6 +631,10 @@ def plain_input(table: QueryTable, inputs: Any) -> np.ndarray | None:
     if not np.isfinite(u).all() or (u < problem.lower - slack).any() or (u > problem.upper + slack).any():
         return None
     return u
+
+
+_PLAIN_NUMBERS = (float, int, np.float64)
+"""The types of a plain input's numbers (:func:`plain_input`)."""
 
 
 def _no_lp(H_w: np.ndarray, h: np.ndarray, motion: np.ndarray) -> np.ndarray | None:

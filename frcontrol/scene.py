@@ -852,7 +852,7 @@ def input_vector(names: Sequence[str], lower: np.ndarray, upper: np.ndarray, val
                 raise CoordinateNotFound(name, tuple(names))
             u[list(names).index(name)] = float(value)
     else:
-        u = np.asarray(values, dtype=float).reshape(-1)
+        u = np.ascontiguousarray(np.asarray(values, dtype=float).reshape(-1))  # the kernel reads it whole
         if u.shape != (len(names),):
             raise InputError(f"the input vector has {u.size} entries; the scene has {len(names)} inputs "
                              f"({', '.join(names)})")

@@ -10,6 +10,7 @@ shipped scene; and the compiled kernel to its NumPy twin.
 
 from __future__ import annotations
 
+import ctypes
 import json
 from functools import cache
 from pathlib import Path
@@ -247,7 +248,10 @@ def test_the_one_call_query_agrees_with_its_numpy_twin(name, monkeypatch):
     U = np.vstack([random_inputs(name, 30, seed=13), facet_points(name, 20, seed=17)])
     answered = 0
     for i, u in enumerate(U):
-        numpy, fast = NUMPY.query_solutions(table, u), COMPILED.query_solutions(table, u)
+        monkeypatch.setenv("FRC_KERNEL", "numpy")  # the twin's inner steps on NumPy too
+        numpy = NUMPY.query_solutions(table, u)
+        monkeypatch.delenv("FRC_KERNEL")
+        fast = COMPILED.query_solutions(table, u)
         assert (numpy is None) == (fast is None), f"{name} point {i}"
         if fast is None:
             assert table.many, f"{name} point {i}"
@@ -279,42 +283,84 @@ def test_a_consistent_two_variable_mode_takes_the_general_path(kernel):
     assert found is not None and [s.mode for s in found] == [s.mode for s in general]
 
 
+class _Float(float):
+    def __float__(self) -> float:  # a subclass may answer otherwise than its stored value
+        return 2.0 * float.__float__(self)
+
+
+class _Int(int):
+    pass
+
+
+class _Dict(dict):
+    pass
+
+
 PLAIN = [
     ("a list", [0.5, -1.0, 0.25], True), ("a tuple of ints", (0, 1, -2), True),
-    ("bools", [True, False, 0], True), ("NumPy floats", [np.float64(0.5)] * 3, True),
-    ("an array", np.array([0.5, -1.0, 0.25]), True), ("a strided array", np.arange(6.0)[::2] / 10, True),
+    ("NumPy floats", [np.float64(0.5)] * 3, True), ("an array", np.array([0.5, -1.0, 0.25]), True),
+    ("a reversed array", np.array([0.25, -1.0, 0.5])[::-1], True),
+    ("every second entry", (np.arange(6.0) / 10)[::2], True),
+    ("a ctypes array", (ctypes.c_double * 3)(0.5, 0.0, 0.25), True),
     ("a big-endian array", np.zeros(3, dtype=">f8"), False), ("float32s", [np.float32(0.5)] * 3, False),
-    ("a float32 array", np.zeros(3, dtype=np.float32), False), ("an unknown name", {"tau": 1.0}, False),
+    ("a float32 array", np.zeros(3, dtype=np.float32), False),
+    ("a datetime array", np.zeros(3, "M8[s]"), False),
+    ("bools", [True, False, 0], False), ("a float subclass", [_Float(0.5)] * 3, False),
+    ("an int subclass", [_Int(1), 0, 0], False),
+    ("a list subclass", type("L", (list,), {})([0.0] * 3), False),
     ("None", None, False), ("a batch", np.zeros((1, 3)), False), ("a short list", [0.0, 0.0], False),
     ("a NaN", [0.0, float("nan"), 0.0], False), ("an infinity", np.array([0.0, 0.0, -np.inf]), False),
     ("an int too large", [10**400, 0, 0], False), ("a string", "abc", False), ("bytes", b"\x00" * 24, False),
     ("a list of strings", ["0", "0", "0"], False), ("a mapping", {"theta": 0.5, "x": -1}, True),
-    ("an empty mapping", {}, True), ("a mapping to a string", {"x": "1"}, False),
+    ("a mapping to NumPy", {"y": np.float64(0.1)}, True), ("an empty mapping", {}, True),
+    ("an unknown name", {"tau": 1.0}, False), ("a mapping to a string", {"x": "1"}, False),
     ("a mapping to a NaN", {"x": float("nan")}, False), ("a mapping outside", {"y": 1e9}, False),
-    ("a non-str key", {0: 1.0}, False),
+    ("a non-str key", {0: 1.0}, False), ("a dict subclass", _Dict(x=0.5), False),
+    ("a mapping to a float subclass", {"x": _Float(0.5)}, False),
 ]
 
 
 @pytest.mark.parametrize("what, inputs, plain", PLAIN, ids=[p[0] for p in PLAIN])
-def test_the_one_call_takes_plain_vectors_only(what, inputs, plain, monkeypatch):
-    """Both kernels' ``query_solutions`` answer the same inputs (plain vectors of m numbers within the
-    limits) and leave the rest to the general path (None), which answers them or raises the typed
-    error; solutions_at gives the same answer either way."""
+def test_the_one_call_takes_plain_inputs_only(what, inputs, plain, monkeypatch):
+    """Both kernels' ``query_solutions`` answer the same inputs (plain vectors of m numbers, or dicts of
+    them, within the limits; each of exactly its type, so that no Python code runs while they are
+    read) and leave the rest to the general path (None); where they answer, it is the general
+    path's answer on the NumPy kernel, to round-off."""
     from frcontrol.kernel import COMPILED, NUMPY
 
     _, analysis = analysed("rod_on_table")
     table = query_table(analysis)
-    answers = [NUMPY.query_solutions(table, inputs)] + (
-        [COMPILED.query_solutions(table, inputs)] if compiled is not None else [])
-    assert all((a is not None) == plain for a in answers), what
+    monkeypatch.setenv("FRC_KERNEL", "numpy")  # the twin's inner steps on NumPy too
+    answers = [NUMPY.query_solutions(table, inputs)]
     if plain:
-        monkeypatch.setenv("FRC_KERNEL", "numpy")
         if isinstance(inputs, dict):
             vector = np.array([float(inputs.get(name, 0.0)) for name in analysis.problem.inputs])
         else:
-            vector = np.asarray(inputs, dtype=float)
-        general = table.solutions(table.point(vector, lambda H, h, motion: None))
-        assert_same(answers[-1], general, where=what)
+            vector = np.array(list(inputs), dtype=float)
+        general = solutions_at(analysis, vector, settings=DEFAULT_SETTINGS)  # settings: the general path
+    monkeypatch.delenv("FRC_KERNEL")
+    if compiled is not None:
+        answers.append(COMPILED.query_solutions(table, inputs))
+    assert all((a is not None) == plain for a in answers), what
+    for answer in answers if plain else []:
+        assert_same(answer, general, where=what)
+
+
+def test_a_strided_or_fortran_input_on_every_path():
+    """A vector that is not contiguous, and a batch that is not C-ordered, on the one call, the general
+    path on an analysis (RHex at u = 0, where a two-variable mode holds; a solver given), from
+    scratch and as a batch: the answers of their contiguous copies."""
+    for name in ("rod_on_table", "rhex_flip"):
+        scene, analysis = analysed(name)
+        m = analysis.problem.m
+        u = np.zeros(2 * m)[::2]
+        for where in (analysis, scene):
+            expected = solutions_at(where, np.zeros(m))
+            assert_same(solutions_at(where, u), expected, w=where is analysis, where=name)
+        assert_same(solutions_at(analysis, u, solver="daqp"), solutions_at(analysis, np.zeros(m)), where=name)
+        U = random_inputs(name, 8, seed=31)
+        for odd in (np.repeat(U, 2, axis=0)[::2], np.asfortranarray(U)):
+            assert_batch_matches(solutions_at(analysis, odd), U, [solutions_at(analysis, x) for x in U])
 
 
 @pytest.mark.parametrize("inputs, error", [
@@ -397,12 +443,15 @@ def test_the_query_kernel_refuses_bad_buffers():
                                  np.zeros((1, table.p_max)), np.empty((1, table.X_u.shape[1])),
                                  np.empty((1, 2 * analysis.problem.k)), one, one.copy())
     problem = analysis.problem
-    plan = [*args, tuple, table.modes, table.ambiguous_outputs, np.empty, problem.inputs, problem.lower,
-            problem.upper, 0.0, problem.n, problem.k]
-    with pytest.raises(KernelError, match="query_plan takes 25 arguments"):
+    from frcontrol.engine import INPUT_LIMIT_SLACK, RigidSolution
+
+    plan = [*args, RigidSolution, table.modes, table.ambiguous_outputs, np.empty, problem.inputs,
+            np.float64, problem.lower, problem.upper, INPUT_LIMIT_SLACK, problem.n, problem.k]
+    assert compiled.query_solutions(compiled.query_plan(*plan), [0.0, 0.0, 0.0])  # as the table makes it
+    with pytest.raises(KernelError, match="query_plan takes 26 arguments"):
         compiled.query_plan(*plan[:-1])
     with pytest.raises(KernelError, match="kernel buffer upper"):
-        compiled.query_plan(*plan[:21], np.zeros(2), *plan[22:])
+        compiled.query_plan(*plan[:22], np.zeros(2), *plan[23:])
     with pytest.raises(KernelError, match="names must be a tuple of 3 input names"):
         compiled.query_plan(*plan[:19], problem.inputs[:2], *plan[20:])
     with pytest.raises(KernelError, match="input name 1 is not a str"):
@@ -418,7 +467,19 @@ def test_the_query_kernel_refuses_bad_buffers():
     with pytest.raises(KernelError, match="not a query_plan"):
         compiled.query_solutions(object(), np.zeros(3))
     with pytest.raises(KernelError, match="must be bytes"):
-        compiled.environment_set("FRC_KERNEL")
+        compiled.environment_value("FRC_KERNEL")
+    for solution_type in (type, int, tuple):  # not made by object.__new__: refused, never half made
+        with pytest.raises(KernelError, match="solution_type must be a class made by object.__new__"):
+            compiled.query_plan(*plan[:15], solution_type, *plan[16:])
+    with pytest.raises(KernelError, match="float64 must be a subclass of float"):
+        compiled.query_plan(*plan[:20], int, *plan[21:])
+
+    def no_memory(shape):
+        raise MemoryError("no room")
+
+    failing = compiled.query_plan(*plan[:18], no_memory, *plan[19:])
+    with pytest.raises(MemoryError, match="no room"):  # the error itself, not a SystemError
+        compiled.query_solutions(failing, [0.0, 0.0, 0.0])
 
 
 def test_the_docs_page_names_the_tolerance():
