@@ -638,8 +638,11 @@ _PLAIN_NUMBERS = (float, int, np.float64)
 
 
 def _no_lp(H_w: np.ndarray, h: np.ndarray, motion: np.ndarray) -> np.ndarray | None:
-    """The one call's w decider: never called (the call declines where a mode of two or more ambiguity
-    variables is consistent, the only mode that asks for w)."""
+    """The one call's w decider, never called.
+
+    The call declines where a mode of two or more ambiguity variables is consistent, the only mode
+    that asks for w.
+    """
     raise AssertionError("a mode with two or more ambiguity variables in the single query's one call")
 
 
