@@ -41,7 +41,7 @@ import numpy.typing as npt
 from . import polytope as poly
 from .ambiguity_polygon import PolygonRule
 from .errors import IllConditioned, InputError
-from .geometry import constant_rows, max_margin
+from .geometry import CHEBYSHEV_RADIUS_CAP, constant_rows, max_margin
 from .jsonable import to_jsonable
 from .kernel import Backend, backend, compiled, twin
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
@@ -79,6 +79,26 @@ counts as empty interior."""
 ZERO_ROW_TOLERANCE = 1e-9
 """A row of a domain whose coefficients' norm is at most this times the largest row norm is a
 constant row: it is judged by its right-hand side alone (normalising it would inflate round-off)."""
+
+MARGIN_LP_BAND = 0.01
+"""[-] The compiled kernel's motion LP (``frcontrol._kernel.margin_lp``) gives a verdict only when
+its optimal margin lies outside ``DOMAIN_TOLERANCE (1 -+ MARGIN_LP_BAND)``; within that band (where
+two solvers' round-off could decide differently) the door's LP decides."""
+
+MARGIN_LP_RESIDUAL = 1e-9
+"""[units of u] The kernel's motion LP accepts its optimum only when the point violates no unit row
+(nor ``0 <= t <= 1``) by more than this, and its dual certificate's residual is at most this; a
+row whose norm is constant (:data:`ZERO_ROW_TOLERANCE`) may read down to ``-MARGIN_LP_RESIDUAL``.
+Otherwise the door's LP decides."""
+
+MARGIN_LP_EMPTY = 1e-6
+"""[units of u] The kernel's motion LP calls a set empty only when its Farkas ray shows that every
+point violates some unit row by at least about this (the door's feasibility tolerance); a set
+closer to feasible goes to the door's LP."""
+
+MARGIN_LP_PIVOT = 1e-9
+"""[-] The kernel's motion LP pivots on no tableau entry smaller than this (its columns are unit
+rows)."""
 
 MODES_LISTED = 8
 """[modes] How many feasible modes the error of :meth:`DynamicResponse.mode` lists by name."""
@@ -530,7 +550,22 @@ def _mode_margin_compiled(system: ModeSystem, response: AffineSolution, bounds: 
     if e.shape[0]:
         A_eq = np.zeros((e.shape[0], m + p))
         A_eq[:, :m] = response.E
+    elif settings is DEFAULT_SETTINGS or settings == DEFAULT_SETTINGS:  # a solver named is used
+        x = np.empty(m + p + 1)
+        code = compiled.margin_lp(  # type: ignore[union-attr]
+            A_ub, h, x, CHEBYSHEV_RADIUS_CAP, DOMAIN_TOLERANCE, MARGIN_LP_BAND, MARGIN_LP_RESIDUAL,
+            MARGIN_LP_EMPTY, MARGIN_LP_PIVOT, ZERO_ROW_TOLERANCE)
+        if code == _LP_EMPTY:
+            return MotionMargin("infeasible", None, None)
+        if code:
+            t = float(x[-1])
+            verdict: MarginVerdict = "freedom" if flags & 1 or (code == _LP_BELOW and flags & 2) else "ok"
+            return MotionMargin(verdict, x[:-1], t)
     return _margin_lp(A_ub, h, A_eq, e, bool(flags & 1), bool(flags & 2), settings, lps)
+
+
+_LP_BELOW, _LP_EMPTY = 2, 3
+"""``margin_lp``'s codes: the margin is below the band, the set is empty (0: undecided, 1: above)."""
 
 
 twin("mode_margin", numpy=_mode_margin_numpy, compiled=_mode_margin_compiled)

@@ -24,7 +24,7 @@ from hypothesis import strategies as st
 from test_mode_batch import SCENES, random_problem
 from typer.testing import CliRunner
 
-from frcontrol import kernel, mode_batch
+from frcontrol import engine, kernel, mode_batch
 from frcontrol.engine import DOMAIN_TOLERANCE, RANK_TOLERANCE, ZERO_ROW_TOLERANCE, solutions_at
 from frcontrol.errors import KernelError, StaleKernelWarning
 from frcontrol.modes import ContactProblem
@@ -665,6 +665,135 @@ def test_margin_rows_refuses_bad_buffers():
         compiled.margin_rows(*good[:8], readonly, *good[9:])
     with pytest.raises(KernelError, match="12 arguments"):
         compiled.margin_rows(*good[:4])
+
+
+MARGIN_LP_ARGS = (CHEBYSHEV_RADIUS_CAP, DOMAIN_TOLERANCE, engine.MARGIN_LP_BAND, engine.MARGIN_LP_RESIDUAL,
+                  engine.MARGIN_LP_EMPTY, engine.MARGIN_LP_PIVOT, ZERO_ROW_TOLERANCE)
+"""margin_lp's numbers after its buffers, as the engine passes them."""
+
+MARGIN_LP_CODES = {1: "above", 2: "below", 3: "empty"}
+"""margin_lp's answers (0: undecided, the door decides)."""
+
+
+def _random_margin_lp(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """A motion LP's rows [H, t] and h: some rows through one point (a margin of 0 where they
+    surround it), some moving (t's weight the row's norm), duplicates, zero rows, and right sides
+    shifted so that some sets are empty."""
+    d, rows = int(rng.integers(1, 11)), int(rng.integers(0, 31))
+    H = rng.standard_normal((rows, d)) * 10.0 ** rng.uniform(-2, 2, (rows, 1))
+    if rows > 2 and rng.random() < 0.3:  # duplicated rows
+        H[rows // 2:] = H[:rows - rows // 2] * rng.uniform(0.5, 2.0, (rows - rows // 2, 1))
+    z = rng.standard_normal(d)
+    slack = np.where(rng.random(rows) < 0.5, 0.0, rng.exponential(1.0, rows))  # many rows through z
+    h = H @ z + slack * np.sqrt((H * H).sum(axis=1))
+    if rng.random() < 0.3:
+        h -= rng.exponential(1.0, rows) * np.sqrt((H * H).sum(axis=1))  # often empty
+    moving = rng.random(rows) < 0.7
+    zero = rng.random(rows) < 0.05
+    H[zero], h[zero], moving[zero] = 0.0, rng.choice([0.0, 1.0], int(zero.sum())), False
+    rows_t = np.empty((rows, d + 1))
+    rows_t[:, :d] = H
+    rows_t[:, d] = np.where(moving, np.sqrt((H * H).sum(axis=1)), 0.0)
+    return rows_t, h
+
+
+@needs_kernel
+def test_the_kernels_motion_lp_agrees_with_the_doors():
+    """Random motion LPs (degenerate, duplicated, empty, with zero rows): where the kernel's simplex
+    decides, DAQP (the door) gives the same verdict and the same margin to round-off, and its point
+    holds every row; it leaves few to the door, and every answer is seen."""
+    from frcontrol.geometry import max_margin
+    from frcontrol.solvers import DEFAULT_SETTINGS, RETRY_ERRORS
+
+    rng = np.random.default_rng(29)
+    seen, undecided, total = set(), 0, 600
+    for _ in range(total):
+        rows, h = _random_margin_lp(rng)
+        x = np.full(rows.shape[1], np.nan)
+        code = compiled.margin_lp(rows, h, x, *MARGIN_LP_ARGS)
+        reference = max_margin(rows, h, settings=DEFAULT_SETTINGS, fallback=RETRY_ERRORS)
+        if code == 0:
+            undecided += 1
+            continue
+        answer = MARGIN_LP_CODES[code]
+        seen.add(answer)
+        if answer == "empty":
+            assert not reference.found, reference.status
+            continue
+        assert reference.found and reference.x is not None, reference.status
+        t = float(reference.x[-1])
+        assert (t > DOMAIN_TOLERANCE) == (answer == "above"), (answer, t)
+        norms = np.sqrt((rows * rows).sum(axis=1))
+        assert np.all(rows @ x - h <= engine.MARGIN_LP_RESIDUAL * np.maximum(norms, 1.0 + np.abs(h)))
+        if answer == "above":
+            assert x[-1] == pytest.approx(t, abs=MARGIN_ROWS_AGREEMENT * 1e4)
+    assert seen == {"above", "below", "empty"}
+    assert undecided <= 0.02 * total, undecided
+
+
+@needs_kernel
+def test_the_kernels_motion_lp_leaves_the_doubtful_to_the_door():
+    """A margin within the band around the domain tolerance, a set empty by less than
+    MARGIN_LP_EMPTY, a constant row violated by more than round-off, a NaN: undecided (0)."""
+    x = np.empty(2)
+    band = DOMAIN_TOLERANCE * (1.0 + engine.MARGIN_LP_BAND / 2)
+    # z <= band - t and -z <= band - t: the margin is band
+    assert compiled.margin_lp(np.array([[1.0, 1.0], [-1.0, 1.0]]), np.array([band, band]), x, *MARGIN_LP_ARGS) == 0
+    wide = 1.0e-3
+    assert compiled.margin_lp(np.array([[1.0, 1.0], [-1.0, 1.0]]), np.array([wide, wide]), x, *MARGIN_LP_ARGS) == 1
+    assert x == pytest.approx([0.0, wide])
+    # z <= -gap and -z <= -gap: empty by 2 gap
+    for gap, code in [(engine.MARGIN_LP_EMPTY / 10, 0), (engine.MARGIN_LP_EMPTY * 10, 3)]:
+        assert compiled.margin_lp(np.array([[1.0, 0.0], [-1.0, 0.0]]), np.array([-gap, -gap]), x,
+                                  *MARGIN_LP_ARGS) == code
+    assert compiled.margin_lp(np.array([[0.0, 0.0]]), np.array([-1e-6]), x, *MARGIN_LP_ARGS) == 0
+    assert compiled.margin_lp(np.array([[0.0, 0.0]]), np.array([-1e-14]), x, *MARGIN_LP_ARGS) == 1
+    assert compiled.margin_lp(np.array([[np.nan, 1.0]]), np.array([1.0]), x, *MARGIN_LP_ARGS) == 0
+    assert compiled.margin_lp(np.zeros((0, 2)), np.zeros(0), x, *MARGIN_LP_ARGS) == 1  # t = cap
+    assert x[-1] == CHEBYSHEV_RADIUS_CAP
+
+
+@needs_kernel
+def test_the_kernels_motion_lp_refuses_bad_buffers():
+    rows, h, x = np.ones((2, 3)), np.ones(2), np.empty(3)
+    assert compiled.margin_lp(rows, h, x, *MARGIN_LP_ARGS) in (0, 1, 2, 3)
+    readonly = np.empty(3)
+    readonly.setflags(write=False)
+    for args, text in [((rows.astype(np.float32), h, x), "rows"), ((rows, np.ones(3), x), "h"),
+                       ((rows, h, np.empty(4)), "x"), ((rows, h, readonly), "x"),
+                       ((rows[:, ::2], h, np.empty(2)), "rows"), ((np.ones((2, 0)), h, np.empty(0)), "no column")]:
+        with pytest.raises(KernelError, match=text):
+            compiled.margin_lp(*args, *MARGIN_LP_ARGS)
+    with pytest.raises(KernelError, match="cap must be positive"):
+        compiled.margin_lp(rows, h, x, 0.0, *MARGIN_LP_ARGS[1:])
+    with pytest.raises(KernelError, match="10 arguments"):
+        compiled.margin_lp(rows, h, x)
+
+
+@needs_kernel
+def test_a_named_solver_decides_the_motion_lps(monkeypatch):
+    """The kernel's motion LP stands in for the default LP only: with a solver named, every motion LP
+    is that solver's, and the analysis is the same."""
+    import types as _types
+
+    calls = []
+
+    def counted(*args):
+        calls.append(1)
+        return compiled.margin_lp(*args)
+
+    spy = _types.SimpleNamespace(**{name: getattr(compiled, name) for name in dir(compiled)
+                                    if not name.startswith("__")})
+    spy.margin_lp = counted
+    monkeypatch.setattr(engine, "compiled", spy)
+    monkeypatch.setenv("FRC_KERNEL", "compiled")
+    scene = load_scene("box_on_slope")
+    default = engine.analyze(scene, ambiguity=False)
+    assert calls
+    calls.clear()
+    named = engine.analyze(scene, ambiguity=False, solver="highs")
+    assert not calls
+    assert [(a.mode, a.pruned) for a in named.modes] == [(a.mode, a.pruned) for a in default.modes]
 
 
 @needs_kernel
