@@ -738,9 +738,10 @@ def test_the_kernels_motion_lp_leaves_the_doubtful_to_the_door():
     x = np.empty(2)
     band = DOMAIN_TOLERANCE * (1.0 + engine.MARGIN_LP_BAND / 2)
     # z <= band - t and -z <= band - t: the margin is band
-    assert compiled.margin_lp(np.array([[1.0, 1.0], [-1.0, 1.0]]), np.array([band, band]), x, *MARGIN_LP_ARGS) == 0
+    both = np.array([[1.0, 1.0], [-1.0, 1.0]])
+    assert compiled.margin_lp(both, np.array([band, band]), x, *MARGIN_LP_ARGS) == 0
     wide = 1.0e-3
-    assert compiled.margin_lp(np.array([[1.0, 1.0], [-1.0, 1.0]]), np.array([wide, wide]), x, *MARGIN_LP_ARGS) == 1
+    assert compiled.margin_lp(both, np.array([wide, wide]), x, *MARGIN_LP_ARGS) == 1
     assert x == pytest.approx([0.0, wide])
     # z <= -gap and -z <= -gap: empty by 2 gap
     for gap, code in [(engine.MARGIN_LP_EMPTY / 10, 0), (engine.MARGIN_LP_EMPTY * 10, 3)]:
@@ -761,7 +762,8 @@ def test_the_kernels_motion_lp_refuses_bad_buffers():
     readonly.setflags(write=False)
     for args, text in [((rows.astype(np.float32), h, x), "rows"), ((rows, np.ones(3), x), "h"),
                        ((rows, h, np.empty(4)), "x"), ((rows, h, readonly), "x"),
-                       ((rows[:, ::2], h, np.empty(2)), "rows"), ((np.ones((2, 0)), h, np.empty(0)), "no column")]:
+                       ((rows[:, ::2], h, np.empty(2)), "rows"),
+                       ((np.ones((2, 0)), h, np.empty(0)), "no column")]:
         with pytest.raises(KernelError, match=text):
             compiled.margin_lp(*args, *MARGIN_LP_ARGS)
     with pytest.raises(KernelError, match="cap must be positive"):
