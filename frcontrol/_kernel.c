@@ -1672,40 +1672,50 @@ done:
 /* ------------------------------------------------------------------------------------------------
  * margin_lp: the motion LP without equalities (frcontrol.engine._margin_lp), solved in the kernel.
  * Maximise t over x = (z, t), the rows A x <= h (R rows, n = d + 1 columns, t's last) and
- * 0 <= t <= cap. Each row is divided by its norm; a zero row is left out (0 <= h_i: margin_rows
- * judged it). Solved through the dual, min h'y + cap y_c s.t. A'y + (y_c - y_0) e_t = e_t and
- * y, y_c, y_0 >= 0, by a dense primal simplex (Dantzig's rule; Bland's once a run of n degenerate
- * pivots is seen) from the basis {artificial e_j (j < n - 1), y_c}: feasible at once (y_c = 1),
- * the artificials held at 0 (a pivot on any usable entry of an artificial's row takes it out, and
- * an artificial never enters). At the optimum x is the basis' multipliers (minus the artificials'
- * reduced costs), so every row holds (its reduced cost is its slack); an unbounded dual is a
- * Farkas ray: the rows have no common point.
+ * 0 <= t <= cap. Each row is divided by its norm; a constant row (norm at most zero_row_tolerance
+ * times max(1, the largest norm), as margin_rows) is left out when h_i >= -residual, and makes the
+ * LP undecided otherwise. Solved through the dual, min h'y + cap y_c s.t. A'y + (y_c - y_0) e_t = e_t
+ * and y, y_c, y_0 >= 0, by a dense primal simplex: Dantzig's rule, Bland's for good once more than n
+ * pivots in a row were degenerate (no cycling), at most SIMPLEX_PIVOTS_PER_COLUMN pivots per
+ * column. It starts from the basis {artificial e_j (j < n - 1), y_c}: feasible at once (y_c = 1);
+ * the artificials are held at 0 (a pivot on any usable entry of an artificial's row takes it out,
+ * and an artificial never enters). A reduced cost above -optimality counts as optimal. At the
+ * optimum x is the basis' multipliers (minus the artificials' reduced costs), so every row holds
+ * to `optimality` (its reduced cost is its slack); an unbounded dual is a Farkas ray.
  *
  * An answer is given only when checked, every test on the unit rows:
- *   ABOVE: x violates no row (nor 0 <= t <= cap) by more than `residual`, and t > domain_tolerance
- *          (1 + band);
+ *   ABOVE: x violates no row (nor 0 <= t <= cap) by more than `residual`, every row (constant ones
+ *          too, unscaled) by more than residual (1 + |h_i|), and t > domain_tolerance band;
  *   BELOW: the same x (the set is not empty), and a dual y >= 0 whose residual is at most
- *          `residual` and whose bound h'y + cap y_c < domain_tolerance (1 - band): no point has a
- *          larger t;
- *   EMPTY: a ray y >= 0 whose residual is at most `residual` sum(y) and whose h'y + cap y_c is
- *          below -infeasible sum(y): every z violates some row by about `infeasible` or more.
- * Anything else (a margin in the band, a failed check, the pivot limit) is UNDECIDED: the caller
- * solves the LP by the door (DAQP). Returns the code; x (n) holds the point of ABOVE and BELOW. */
+ *          `residual` and whose bound h'y + cap y_c < domain_tolerance / band (weak duality: no
+ *          point z has a larger t than that bound plus residual |z|_1);
+ *   EMPTY: a ray y >= 0 whose residual is at most `residual` sum(y) and whose h'y + cap y_c is below
+ *          -empty sum(y): every z violates some unit row by about `empty` or more (less residual |z|).
+ * Anything else (a margin within the band, a failed check, the pivot limit, a NaN) is UNDECIDED:
+ * the caller solves the LP by the door (DAQP). Returns the code; x (n) holds the point of ABOVE
+ * and BELOW. */
 enum { LP_UNDECIDED = 0, LP_ABOVE = 1, LP_BELOW = 2, LP_EMPTY = 3 };
+#define SIMPLEX_PIVOTS_PER_COLUMN 20 /* the pivot limit: this many per column of the dual's tableau */
 
 static const Arg margin_lp_table[] = {
     {"rows", 'd', 2, {DIM_T, DIM_S}, 0}, {"h", 'd', 1, {DIM_T}, 0}, {"x", 'd', 1, {DIM_S}, WRITE},
     {"cap", 'f', 0, {0}, 0}, {"domain_tolerance", 'f', 0, {0}, 0}, {"band", 'f', 0, {0}, 0},
-    {"residual", 'f', 0, {0}, 0}, {"infeasible", 'f', 0, {0}, 0}, {"pivot", 'f', 0, {0}, 0},
-    {"zero_row_tolerance", 'f', 0, {0}, 0}};
-static const Signature margin_lp_signature = {"margin_lp", 10, margin_lp_table, NULL};
+    {"residual", 'f', 0, {0}, 0}, {"empty", 'f', 0, {0}, 0}, {"pivot", 'f', 0, {0}, 0},
+    {"optimality", 'f', 0, {0}, 0}, {"zero_row_tolerance", 'f', 0, {0}, 0}};
+static const Signature margin_lp_signature = {"margin_lp", 11, margin_lp_table, NULL};
+
+typedef struct {
+    double cap, domain, band, residual, empty, pivot, optimality, zero_row;
+} LPTolerances;
 
 typedef struct {
     Py_ssize_t n, rows, cols; /* the tableau: n rows; cols = rows + 2 + n (rows' y, y_c, y_0, artificials) */
     double *T, *b, *rc, *cost; /* T (n, cols), b (n), the reduced costs and costs (cols) */
-    double *unit;              /* the kept rows, divided by their norms (rows, n) */
+    double *unit, *h_unit;     /* the kept rows divided by their norms (rows, n), and their h */
+    double *y;                 /* a dual point or ray over the real columns (rows + 2) */
     Py_ssize_t *basis;         /* per tableau row, its basic column */
-    double pivot;              /* the smallest usable pivot entry */
+    Py_ssize_t capacity_rows;  /* R: the rows h_unit has room for (the tableau follows it) */
+    const LPTolerances *tol;
 } Simplex;
 
 static int is_artificial(const Simplex *s, Py_ssize_t column) {
@@ -1746,14 +1756,14 @@ static void simplex_pivot(Simplex *s, Py_ssize_t r, Py_ssize_t e) {
 }
 
 /* The leaving row for entering column e, or -1 (the dual is unbounded along e). An artificial's
- * row with a usable entry leaves first (ratio 0, its largest entry); else the least ratio b_k / a_k
- * over positive entries, ties to the largest entry (Bland: to the smallest basic column). */
+ * row with a usable entry leaves first (its largest entry); else the least ratio b_k / a_k over
+ * usable positive entries, ties to the largest entry (Bland: to the smallest basic column). */
 static Py_ssize_t simplex_ratio(const Simplex *s, Py_ssize_t e, int bland) {
     Py_ssize_t best = -1, cols = s->cols;
-    double best_ratio = HUGE_VAL, best_entry = 0.0;
+    double best_ratio = HUGE_VAL, best_entry = 0.0, pivot = s->tol->pivot;
     for (Py_ssize_t k = 0; k < s->n; k++) { /* an artificial's row first */
         double a = s->T[k * cols + e];
-        if (is_artificial(s, s->basis[k]) && fabs(a) > s->pivot && fabs(a) > best_entry) {
+        if (is_artificial(s, s->basis[k]) && fabs(a) > pivot && fabs(a) > best_entry) {
             best = k, best_entry = fabs(a);
         }
     }
@@ -1763,7 +1773,7 @@ static Py_ssize_t simplex_ratio(const Simplex *s, Py_ssize_t e, int bland) {
     best_entry = 0.0;
     for (Py_ssize_t k = 0; k < s->n; k++) {
         double a = s->T[k * cols + e];
-        if (is_artificial(s, s->basis[k]) || a <= s->pivot) {
+        if (is_artificial(s, s->basis[k]) || a <= pivot) {
             continue;
         }
         double ratio = s->b[k] / a;
@@ -1778,10 +1788,10 @@ static Py_ssize_t simplex_ratio(const Simplex *s, Py_ssize_t e, int bland) {
     return best;
 }
 
-/* The entering column (a real one with a negative reduced cost), or -1: optimal. */
-static Py_ssize_t simplex_entering(const Simplex *s, int bland, double tolerance) {
+/* The entering column (a real one with a reduced cost below -optimality), or -1: optimal. */
+static Py_ssize_t simplex_entering(const Simplex *s, int bland) {
     Py_ssize_t best = -1;
-    double most = -tolerance;
+    double most = -s->tol->optimality;
     for (Py_ssize_t j = 0; j < s->rows + 2; j++) {
         if (s->rc[j] < most) {
             best = j, most = s->rc[j];
@@ -1801,14 +1811,18 @@ static double dual_entry(const Simplex *s, Py_ssize_t j, Py_ssize_t k) {
     return k != s->n - 1 ? 0.0 : j == s->rows ? 1.0 : -1.0;
 }
 
-/* max_k |sum_j y_j column_j[k] - target_k| for y over the real columns (target e_t, or 0 for a ray). */
-static double dual_residual(const Simplex *s, const double *y, double target) {
+/* max_k |sum_j y_j column_j[k] - target e_t[k]| over the real columns, and y's cost h'y + cap y_c. */
+static double dual_residual(const Simplex *s, double target, double *cost) {
     double worst = 0.0;
+    *cost = 0.0;
+    for (Py_ssize_t j = 0; j < s->rows + 2; j++) {
+        *cost += s->y[j] * s->cost[j];
+    }
     for (Py_ssize_t k = 0; k < s->n; k++) {
         double sum = k == s->n - 1 ? -target : 0.0;
         for (Py_ssize_t j = 0; j < s->rows + 2; j++) {
-            if (y[j] != 0.0) {
-                sum += y[j] * dual_entry(s, j, k);
+            if (s->y[j] != 0.0) {
+                sum += s->y[j] * dual_entry(s, j, k);
             }
         }
         worst = fabs(sum) > worst ? fabs(sum) : worst;
@@ -1817,73 +1831,144 @@ static double dual_residual(const Simplex *s, const double *y, double target) {
 }
 
 /* EMPTY when entering column e's ray is a checked Farkas certificate, else UNDECIDED. */
-static int simplex_ray(const Simplex *s, Py_ssize_t e, double *y, double residual, double infeasible) {
-    memset(y, 0, (size_t)(s->rows + 2) * sizeof(double));
-    y[e] = 1.0;
+static int simplex_ray(const Simplex *s, Py_ssize_t e) {
+    memset(s->y, 0, (size_t)(s->rows + 2) * sizeof(double));
+    s->y[e] = 1.0;
     for (Py_ssize_t k = 0; k < s->n; k++) {
         double a = -s->T[k * s->cols + e];
         if (!is_artificial(s, s->basis[k]) && a > 0.0) {
-            y[s->basis[k]] = a;
+            s->y[s->basis[k]] = a;
         }
     }
-    double total = 0.0, bound = 0.0;
+    double total = 0.0, cost;
     for (Py_ssize_t j = 0; j < s->rows + 2; j++) {
-        total += y[j];
-        bound += y[j] * s->cost[j];
+        total += s->y[j];
     }
-    return dual_residual(s, y, 0.0) <= residual * total && bound < -infeasible * total ? LP_EMPTY : LP_UNDECIDED;
+    double residual = dual_residual(s, 0.0, &cost);
+    return residual <= s->tol->residual * total && cost < -s->tol->empty * total ? LP_EMPTY : LP_UNDECIDED;
 }
 
 /* ABOVE, BELOW or UNDECIDED at the simplex's optimum (x written). */
-static int simplex_optimum(const Simplex *s, const double *h_unit, double *x, double *y, const double *tol) {
-    double cap = tol[0], domain = tol[1], band = tol[2], residual = tol[3];
+static int simplex_optimum(const Simplex *s, double *x) {
+    const LPTolerances *tol = s->tol;
     Py_ssize_t n = s->n, t = n - 1;
     for (Py_ssize_t k = 0; k < n; k++) {
         x[k] = -s->rc[s->rows + 2 + k];
     }
-    double violation = x[t] - cap > -x[t] ? x[t] - cap : -x[t];
+    double violation = x[t] - tol->cap > -x[t] ? x[t] - tol->cap : -x[t];
     for (Py_ssize_t i = 0; i < s->rows; i++) {
-        double sum = -h_unit[i];
+        double sum = -s->h_unit[i];
         for (Py_ssize_t k = 0; k < n; k++) {
             sum += s->unit[i * n + k] * x[k];
         }
         violation = sum > violation ? sum : violation;
     }
-    if (!(violation <= residual)) {
+    if (!(violation <= tol->residual)) {
         return LP_UNDECIDED;
     }
-    if (x[t] > domain * (1.0 + band)) {
+    if (x[t] > tol->domain * tol->band) {
         return LP_ABOVE;
     }
-    memset(y, 0, (size_t)(s->rows + 2) * sizeof(double));
-    double bound = 0.0;
+    memset(s->y, 0, (size_t)(s->rows + 2) * sizeof(double));
     for (Py_ssize_t k = 0; k < n; k++) {
         if (!is_artificial(s, s->basis[k])) {
-            y[s->basis[k]] = s->b[k];
-            bound += s->b[k] * s->cost[s->basis[k]];
+            s->y[s->basis[k]] = s->b[k];
         }
     }
-    return dual_residual(s, y, 1.0) <= residual && bound < domain * (1.0 - band) ? LP_BELOW : LP_UNDECIDED;
+    double bound, residual = dual_residual(s, 1.0, &bound);
+    return residual <= tol->residual && bound < tol->domain / tol->band ? LP_BELOW : LP_UNDECIDED;
 }
 
-/* The simplex on the tableau set up by margin_lp: returns the code, x written for ABOVE and BELOW. */
-static int simplex_run(Simplex *s, const double *h_unit, double *x, double *y, const double *tol) {
-    Py_ssize_t limit = 20 * (s->rows + 2 + s->n), degenerate = 0;
+/* The simplex on the tableau set up by simplex_start: the code, x written for ABOVE and BELOW. */
+static int simplex_run(Simplex *s, double *x) {
+    Py_ssize_t limit = SIMPLEX_PIVOTS_PER_COLUMN * (s->rows + 2 + s->n), degenerate = 0;
     int bland = 0;
     for (Py_ssize_t iteration = 0; iteration < limit; iteration++) {
-        Py_ssize_t e = simplex_entering(s, bland, tol[3] * 1e-3);
+        Py_ssize_t e = simplex_entering(s, bland);
         if (e < 0) {
-            return simplex_optimum(s, h_unit, x, y, tol);
+            return simplex_optimum(s, x);
         }
         Py_ssize_t r = simplex_ratio(s, e, bland);
         if (r < 0) {
-            return simplex_ray(s, e, y, tol[3], tol[4]);
+            return simplex_ray(s, e);
         }
         degenerate = s->b[r] == 0.0 ? degenerate + 1 : 0;
         bland = bland || degenerate > s->n;
         simplex_pivot(s, r, e);
     }
     return LP_UNDECIDED;
+}
+
+/* The unit rows of A (R, n) into s->unit and s->h_unit (their count in s->rows); 0, or UNDECIDED
+ * for a NaN, an infinity or a constant row with h_i < -residual. */
+static int simplex_rows(Simplex *s, const double *A, const double *h, Py_ssize_t R) {
+    Py_ssize_t n = s->n, kept = 0;
+    double largest = 1.0;
+    for (Py_ssize_t i = 0; i < R; i++) { /* each row's norm, in h_unit for now */
+        double norm = 0.0;
+        for (Py_ssize_t k = 0; k < n; k++) {
+            norm += A[i * n + k] * A[i * n + k];
+        }
+        if (!isfinite(norm) || !isfinite(h[i])) {
+            return LP_UNDECIDED;
+        }
+        s->h_unit[i] = sqrt(norm);
+        largest = s->h_unit[i] > largest ? s->h_unit[i] : largest;
+    }
+    double floor = s->tol->zero_row * largest;
+    for (Py_ssize_t i = 0; i < R; i++) {
+        double norm = s->h_unit[i];
+        if (norm <= floor) { /* a constant row: it holds to round-off (checked at the end), or undecided */
+            if (h[i] < -s->tol->residual) {
+                return LP_UNDECIDED;
+            }
+            continue;
+        }
+        for (Py_ssize_t k = 0; k < n; k++) {
+            s->unit[kept * n + k] = A[i * n + k] / norm;
+        }
+        s->h_unit[kept++] = h[i] / norm;
+    }
+    s->rows = kept;
+    return 0;
+}
+
+/* The dual's tableau for the basis {artificials, y_c}: its pointers in the block after h_unit. */
+static void simplex_start(Simplex *s) {
+    Py_ssize_t n = s->n, kept = s->rows, cols = kept + 2 + n;
+    s->cols = cols;
+    s->T = s->h_unit + s->capacity_rows;
+    s->b = s->T + n * cols, s->rc = s->b + n, s->cost = s->rc + cols, s->y = s->cost + cols;
+    s->basis = (Py_ssize_t *)(s->y + cols);
+    memset(s->T, 0, (size_t)(n * cols + n) * sizeof(double));
+    for (Py_ssize_t k = 0; k < n; k++) {
+        for (Py_ssize_t j = 0; j < kept; j++) {
+            s->T[k * cols + j] = s->unit[j * n + k];
+        }
+        s->T[k * cols + kept + 2 + k] = 1.0;
+        s->basis[k] = kept + 2 + k;
+    }
+    s->T[(n - 1) * cols + kept] = 1.0;
+    s->T[(n - 1) * cols + kept + 1] = -1.0;
+    s->basis[n - 1] = kept; /* y_c = 1 */
+    s->b[n - 1] = 1.0;
+    for (Py_ssize_t j = 0; j < cols; j++) {
+        s->cost[j] = j < kept ? s->h_unit[j] : j == kept ? s->tol->cap : 0.0;
+        s->rc[j] = s->cost[j] - s->tol->cap * s->T[(n - 1) * cols + j];
+    }
+}
+
+/* The code after the checks of every row of A, unscaled (constant rows too): within residual (1 + |h_i|). */
+static int simplex_unscaled(int code, const double *A, const double *h, const double *x, Py_ssize_t R,
+                            Py_ssize_t n, double residual) {
+    for (Py_ssize_t i = 0; i < R && (code == LP_ABOVE || code == LP_BELOW); i++) {
+        double sum = -h[i];
+        for (Py_ssize_t k = 0; k < n; k++) {
+            sum += A[i * n + k] * x[k];
+        }
+        code = sum <= residual * (1.0 + fabs(h[i])) ? code : LP_UNDECIDED;
+    }
+    return code;
 }
 
 static PyObject *margin_lp(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
@@ -1894,92 +1979,29 @@ static PyObject *margin_lp(PyObject *self, PyObject *const *args, Py_ssize_t nar
     if (parse(&margin_lp_signature, args, nargs, &a)) {
         goto done;
     }
-    Py_ssize_t R = a.dim[DIM_T], n = a.dim[DIM_S];
-    const double *A = a.data[0], *h = a.data[1];
-    double *x = a.data[2];
-    double tol[5] = {a.number[3], a.number[4], a.number[5], a.number[6], a.number[7]};
+    Py_ssize_t R = a.dim[DIM_T], n = a.dim[DIM_S], cols = R + 2 + n;
+    LPTolerances tol = {a.number[3], a.number[4], a.number[5], a.number[6], a.number[7], a.number[8],
+                        a.number[9], a.number[10]};
     if (n < 1) {
-        PyErr_Format(kernel_error, "kernel buffer rows: no column for t");
+        PyErr_Format(kernel_error, "margin_lp: kernel buffer rows has no column for t");
         goto done;
     }
-    if (!isfinite(tol[0]) || tol[0] <= 0.0) {
-        PyErr_Format(kernel_error, "margin_lp: cap must be positive and finite, got %g", tol[0]);
+    if (!isfinite(tol.cap) || tol.cap <= 0.0 || !(tol.band >= 1.0)) {
+        PyErr_Format(kernel_error, "margin_lp: cap must be positive and finite and band at least 1, got %g and %g",
+                     tol.cap, tol.band);
         goto done;
     }
-    for (Py_ssize_t i = 0; i < R * n; i++) {
-        if (!isfinite(A[i])) {
-            result = PyLong_FromLong(LP_UNDECIDED);
-            goto done;
-        }
-    }
-    for (Py_ssize_t i = 0; i < R; i++) {
-        if (!isfinite(h[i])) {
-            result = PyLong_FromLong(LP_UNDECIDED);
-            goto done;
-        }
-    }
-    Py_ssize_t cols = R + 2 + n;
-    /* unit (R n), h_unit (R), T (n cols), b (n), rc and cost (cols each), y (cols), basis (n) */
-    size_t size = (size_t)(R * n + R + n * cols + n + 3 * cols + n);
-    memory = PyMem_Malloc((size > 0 ? size : 1) * sizeof(double));
+    /* unit (R n), h_unit (R), T (n cols), b (n), rc, cost and y (cols each), basis (n) */
+    memory = PyMem_Malloc((size_t)(R * n + R + n * cols + n + 3 * cols + n) * sizeof(double));
     if (memory == NULL) {
         PyErr_NoMemory();
         goto done;
     }
-    Simplex s = {n, 0, 0, NULL, NULL, NULL, NULL, memory, NULL, a.number[8]};
-    double *h_unit = memory + R * n;
-    Py_ssize_t kept = 0;
-    double largest = 1.0;
-    for (Py_ssize_t i = 0; i < R; i++) { /* each row's norm, in h_unit for now */
-        double norm = 0.0;
-        for (Py_ssize_t k = 0; k < n; k++) {
-            norm += A[i * n + k] * A[i * n + k];
-        }
-        h_unit[i] = sqrt(norm);
-        largest = h_unit[i] > largest ? h_unit[i] : largest;
-    }
-    double floor = a.number[9] * largest;
-    for (Py_ssize_t i = 0; i < R; i++) {
-        double norm = h_unit[i];
-        if (norm <= floor) { /* a constant row: it holds to round-off (checked at the end), or undecided */
-            if (h[i] < -tol[3]) {
-                result = PyLong_FromLong(LP_UNDECIDED);
-                goto done;
-            }
-            continue;
-        }
-        for (Py_ssize_t k = 0; k < n; k++) {
-            s.unit[kept * n + k] = A[i * n + k] / norm;
-        }
-        h_unit[kept++] = h[i] / norm;
-    }
-    s.rows = kept, s.cols = kept + 2 + n;
-    s.T = h_unit + R, s.b = s.T + n * s.cols, s.rc = s.b + n, s.cost = s.rc + s.cols;
-    double *y = s.cost + s.cols;
-    s.basis = (Py_ssize_t *)(y + s.cols);
-    memset(s.T, 0, (size_t)(n * s.cols + n) * sizeof(double));
-    for (Py_ssize_t k = 0; k < n; k++) {
-        for (Py_ssize_t j = 0; j < kept; j++) {
-            s.T[k * s.cols + j] = s.unit[j * n + k];
-        }
-        s.T[k * s.cols + kept + 2 + k] = 1.0;
-        s.basis[k] = kept + 2 + k;
-    }
-    s.T[(n - 1) * s.cols + kept] = 1.0;
-    s.T[(n - 1) * s.cols + kept + 1] = -1.0;
-    s.basis[n - 1] = kept; /* y_c = 1 */
-    s.b[n - 1] = 1.0;
-    for (Py_ssize_t j = 0; j < s.cols; j++) {
-        s.cost[j] = j < kept ? h_unit[j] : j == kept ? tol[0] : 0.0;
-        s.rc[j] = s.cost[j] - tol[0] * s.T[(n - 1) * s.cols + j];
-    }
-    long code = simplex_run(&s, h_unit, x, y, tol);
-    for (Py_ssize_t i = 0; i < R && (code == LP_ABOVE || code == LP_BELOW); i++) {
-        double sum = -h[i]; /* every row, constant ones included, unscaled: within residual (1 + |h_i|) */
-        for (Py_ssize_t k = 0; k < n; k++) {
-            sum += A[i * n + k] * x[k];
-        }
-        code = sum <= tol[3] * (1.0 + fabs(h[i])) ? code : LP_UNDECIDED;
+    Simplex s = {.n = n, .unit = memory, .h_unit = memory + R * n, .capacity_rows = R, .tol = &tol};
+    int code = simplex_rows(&s, a.data[0], a.data[1], R);
+    if (code == 0) {
+        simplex_start(&s);
+        code = simplex_unscaled(simplex_run(&s, a.data[2]), a.data[0], a.data[1], a.data[2], R, n, tol.residual);
     }
     result = PyLong_FromLong(code);
 done:
@@ -3409,11 +3431,12 @@ static PyMethodDef methods[] = {
      "into out (rows, m + p + 1) and h_out (rows,): -1 when a constant motion row is violated, else\n"
      "1 (a constant motion row is not strict) + 2 (some motion row is moving)."},
     {"margin_lp", (PyCFunction)(void (*)(void))margin_lp, METH_FASTCALL,
-     "margin_lp(rows, h, x, cap, domain_tolerance, band, residual, infeasible, pivot,\n"
+     "margin_lp(rows, h, x, cap, domain_tolerance, band, residual, empty, pivot, optimality,\n"
      "          zero_row_tolerance) -> int\n\n"
      "The motion LP without equalities (max t over rows (R, d + 1) [z, t] <= h, 0 <= t <= cap) by a\n"
-     "dense simplex on its dual, every answer checked: 1 (t* above domain_tolerance, x written), 2\n"
-     "(t* below it, x a point of the set), 3 (the set is empty), 0 (undecided: solve it elsewhere)."},
+     "dense simplex on its dual, every answer checked: 1 (t* above domain_tolerance band, x written), 2\n"
+     "(t* below domain_tolerance / band, x a point of the set), 3 (the set is empty), 0 (undecided:\n"
+     "solve it elsewhere)."},
     {"locate_points", (PyCFunction)(void (*)(void))locate_points, METH_FASTCALL,
      "locate_points(H_u, h_0, norms, motion, H_w1, p, rows, inequality_rows, X_u, X_w, x_0, K,\n"
      "              domain_tolerance, zero_row_tolerance, radius_cap, U, status, w) -> None\n\n"

@@ -10,6 +10,7 @@ from __future__ import annotations
 import ast
 import hashlib
 import inspect
+import math
 import os
 import types
 import warnings
@@ -668,7 +669,8 @@ def test_margin_rows_refuses_bad_buffers():
 
 
 MARGIN_LP_ARGS = (CHEBYSHEV_RADIUS_CAP, DOMAIN_TOLERANCE, engine.MARGIN_LP_BAND, engine.MARGIN_LP_RESIDUAL,
-                  engine.MARGIN_LP_EMPTY, engine.MARGIN_LP_PIVOT, ZERO_ROW_TOLERANCE)
+                  engine.MARGIN_LP_EMPTY, engine.MARGIN_LP_PIVOT, engine.MARGIN_LP_OPTIMALITY,
+                  ZERO_ROW_TOLERANCE)
 """margin_lp's numbers after its buffers, as the engine passes them."""
 
 MARGIN_LP_CODES = {1: "above", 2: "below", 3: "empty"}
@@ -731,18 +733,92 @@ def test_the_kernels_motion_lp_agrees_with_the_doors():
     assert undecided <= 0.02 * total, undecided
 
 
+def _hard_margin_lp(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """A hard motion LP: rows nearly parallel, or through one point with slacks near the domain
+    tolerance, or empty by gaps from 1e-9 to 1e2, with rows scaled from 1e-3 to 1e3 and t weights
+    from 1e-3 to 1e3 times the row's norm."""
+    d, count = int(rng.integers(1, 16)), int(rng.integers(1, 61))
+    kind = rng.choice(["parallel", "through", "empty"])
+    H = rng.standard_normal((count, d))
+    slack = np.where(rng.random(count) < 0.8, 0.0, rng.exponential(1.0, count))
+    if kind == "parallel":
+        H = rng.standard_normal(d) + 10.0 ** rng.uniform(-12, -4) * rng.standard_normal((count, d))
+        H[count // 2:] *= -1.0
+        slack = rng.choice([0.0, 1e-8, 1e-7, 1.2e-7, 1e-6, -1e-6], count)
+    elif kind == "through":
+        slack += rng.choice([0.0, 1e-12, -1e-12, 1e-7, -1e-7, 2e-7, 5e-8], count)
+    else:
+        slack[:] = -(10.0 ** rng.uniform(-9, 2))
+        if count > 2:
+            H[1] = -H[0] * rng.uniform(0.5, 2.0)
+    norms = np.sqrt((H * H).sum(axis=1))
+    h = H @ (rng.standard_normal(d) * 10.0 ** rng.uniform(-3, 3)) + slack * norms
+    rows = np.empty((count, d + 1))
+    rows[:, :d] = H
+    rows[:, d] = np.where(rng.random(count) < 0.7, norms * 10.0 ** rng.uniform(-3, 3, count), 0.0)
+    scale = 10.0 ** rng.uniform(-3, 3, count)
+    return rows * scale[:, None], h * scale
+
+
+def _reference_margin(rows: np.ndarray, h: np.ndarray) -> float | None:
+    """The motion LP's margin by HiGHS at tight tolerances on the unit rows (None: the set is empty;
+    NaN: HiGHS failed)."""
+    from scipy.optimize import linprog
+
+    norms = np.sqrt((rows * rows).sum(axis=1))
+    unit, unit_h = rows / norms[:, None], h / norms
+    cost = np.zeros(rows.shape[1])
+    cost[-1] = -1.0
+    found = linprog(cost, A_ub=unit, b_ub=unit_h, bounds=[(None, None)] * (rows.shape[1] - 1) + [(0.0, 1.0)],
+                    method="highs", options={"primal_feasibility_tolerance": 1e-10,
+                                             "dual_feasibility_tolerance": 1e-10})
+    if found.status not in (0, 2):  # HiGHS's own numerical trouble: no reference
+        return math.nan
+    return None if found.status == 2 else -float(found.fun)
+
+
+@needs_kernel
+def test_the_kernels_motion_lp_is_right_on_hard_lps():
+    """Hard motion LPs (ill-conditioned, degenerate, nearly empty, rows scaled over 6 decades):
+    where the kernel decides, HiGHS at tight tolerances agrees (a margin on the same side of the
+    band, a set empty by more than MARGIN_LP_EMPTY), and the doubtful are left to the door."""
+    rng = np.random.default_rng(2911)
+    answers: dict[int | str, int] = {0: 0, 1: 0, 2: 0, 3: 0, "within the residual": 0, "no reference": 0}
+    for _ in range(400):
+        rows, h = _hard_margin_lp(rng)
+        x = np.empty(rows.shape[1])
+        code = compiled.margin_lp(rows, h, x, *MARGIN_LP_ARGS)
+        answers[code] += 1
+        if code == 0:
+            continue
+        margin = _reference_margin(rows, h)
+        if margin is not None and math.isnan(margin):
+            answers["no reference"] += 1
+        elif code == 3:
+            assert margin is None
+        elif margin is None:  # empty at HiGHS's 1e-10, not at the kernel's residual: its point shows it
+            norms = np.sqrt((rows * rows).sum(axis=1))
+            assert code == 2 and np.max((rows @ x - h) / norms) <= engine.MARGIN_LP_RESIDUAL
+            answers["within the residual"] += 1
+        else:
+            assert (margin > DOMAIN_TOLERANCE) == (code == 1), (code, margin)
+    assert min(answers[code] for code in range(4)) > 0 and answers[0] < 0.8 * 400, answers
+    assert answers["no reference"] < 0.05 * 400, answers
+
+
 @needs_kernel
 def test_the_kernels_motion_lp_leaves_the_doubtful_to_the_door():
     """A margin within the band around the domain tolerance, a set empty by less than
     MARGIN_LP_EMPTY, a constant row violated by more than round-off, a NaN: undecided (0)."""
     x = np.empty(2)
-    band = DOMAIN_TOLERANCE * (1.0 + engine.MARGIN_LP_BAND / 2)
-    # z <= band - t and -z <= band - t: the margin is band
-    both = np.array([[1.0, 1.0], [-1.0, 1.0]])
-    assert compiled.margin_lp(both, np.array([band, band]), x, *MARGIN_LP_ARGS) == 0
-    wide = 1.0e-3
-    assert compiled.margin_lp(both, np.array([wide, wide]), x, *MARGIN_LP_ARGS) == 1
-    assert x == pytest.approx([0.0, wide])
+    both = np.array([[1.0, 1.0], [-1.0, 1.0]])  # z <= margin - t and -z <= margin - t: t* = margin
+    band = engine.MARGIN_LP_BAND
+    tol = DOMAIN_TOLERANCE
+    for margin, code in [(tol * band * 2, 1), (tol * band / 2, 0), (tol, 0), (tol / band * 2, 0),
+                         (tol / band / 2, 2), (0.0, 2)]:
+        assert compiled.margin_lp(both, np.array([margin, margin]), x, *MARGIN_LP_ARGS) == code, margin
+        if code:
+            assert x == pytest.approx([0.0, margin], abs=1e-15)
     # z <= -gap and -z <= -gap: empty by 2 gap
     for gap, code in [(engine.MARGIN_LP_EMPTY / 10, 0), (engine.MARGIN_LP_EMPTY * 10, 3)]:
         assert compiled.margin_lp(np.array([[1.0, 0.0], [-1.0, 0.0]]), np.array([-gap, -gap]), x,
@@ -768,7 +844,9 @@ def test_the_kernels_motion_lp_refuses_bad_buffers():
             compiled.margin_lp(*args, *MARGIN_LP_ARGS)
     with pytest.raises(KernelError, match="cap must be positive"):
         compiled.margin_lp(rows, h, x, 0.0, *MARGIN_LP_ARGS[1:])
-    with pytest.raises(KernelError, match="10 arguments"):
+    with pytest.raises(KernelError, match="band at least 1"):
+        compiled.margin_lp(rows, h, x, *MARGIN_LP_ARGS[:2], 0.5, *MARGIN_LP_ARGS[3:])
+    with pytest.raises(KernelError, match="11 arguments"):
         compiled.margin_lp(rows, h, x)
 
 
