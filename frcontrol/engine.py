@@ -51,6 +51,7 @@ from .modes import (
     add_scene_modes,
     build_child_systems,
     build_mode_system,
+    extend_child_systems,
     mode_outputs,
     needs_balancing,
 )
@@ -708,6 +709,8 @@ class _ModeEnumerator:
         self.kept: dict[str, np.ndarray] = {}  # a certified mode's independent rows (certified_by_rows)
         self.null_spaces: dict[str, np.ndarray] = {}  # a tested partial mode's X_w, while it has kept rows
         self.root_null = _root_null_space(problem)
+        # a partial mode's system, from its test until its children's are built from it
+        self.parents: dict[str, ModeSystem] = {"": build_mode_system(problem, "")}
         self.counts = {"freedom": 0, "infeasible": 0, "partial": 0, "evaluated": 0}
         self.analyses: list[ModeAnalysis] = []
 
@@ -727,7 +730,9 @@ class _ModeEnumerator:
         """
         t0 = time.perf_counter()
         children = [prefix + letter for letter in letters]
-        systems = build_child_systems(self.problem, prefix, letters)
+        parent = self.parents.pop(prefix, None)
+        systems = (build_child_systems(self.problem, prefix, letters) if parent is None
+                   else extend_child_systems(self.problem, parent, letters))
         A, B, c = np.stack([s.A for s in systems]), systems[0].B, np.stack([s.c for s in systems])
         deficient = prefix in self.deficient
         responses: list[AffineSolution | None]
@@ -897,12 +902,13 @@ class _ModeEnumerator:
             child = prefix + letter
             if self.prune_partial:
                 self.counts["partial"] += 1
-                verdict = self.test(child)[0]
+                verdict, system, _ = self.test(child)
                 if verdict != "ok":
                     self.counts[verdict] += _subtree_size(self.allowed, depth + 1)
                     self.kept.pop(child, None)  # no children to certify
                     self.null_spaces.pop(child, None)
                     continue
+                self.parents[child] = system
             self.grow(child)
 
 

@@ -219,6 +219,16 @@ class ContactProblem:
         return labels
 
     @cached_property
+    def letter_row_counts(self) -> np.ndarray | None:
+        """Per contact and letter (k, 4), how many inequality rows it has, when its valid rows lead
+        (:func:`extend_child_systems` reads a child's rows as a leading slice); else None.
+        """
+        valid = self.row_table.valid
+        counts = valid.sum(axis=2)
+        leading = np.arange(ROWS_PER_CONTACT) < counts[:, :, None]
+        return counts if np.array_equal(valid, leading) else None
+
+    @cached_property
     def dynamics(self) -> np.ndarray:
         """The dynamics' rows of every mode's ``A`` (:func:`dynamics_rows`), built once."""
         return dynamics_rows(self)
@@ -386,6 +396,44 @@ def build_child_systems(problem: ContactProblem, prefix: str, letters: str) -> l
     return [ModeSystem(mode=prefix + letter, A=A[i], B=B, c=c[i], G=G[start:end], g=g[start:end],
                        labels=tuple(labels[start:end]), motion=motion[start:end])
             for i, (letter, start, end) in enumerate(zip(letters, starts, ends, strict=True))]
+
+
+def extend_child_systems(problem: ContactProblem, parent: ModeSystem, letters: str) -> list[ModeSystem]:
+    """:func:`build_child_systems` of ``parent.mode``, from the parent's own system: the same rows.
+
+    A child's rows are its parent's followed by its letter's (contacts in order), so only the
+    letter's rows are gathered; the parent's are copied once into a block shared by the children,
+    and a child's inequality rows are a leading slice of it (a letter's valid rows lead,
+    :attr:`ContactProblem.letter_row_counts`; where they do not, :func:`build_child_systems` runs).
+    """
+    counts = problem.letter_row_counts
+    prefix, j = parent.mode, len(parent.mode)
+    if counts is None or j >= problem.k or any(ch not in MODE_LETTERS for ch in letters):
+        return build_child_systems(problem, prefix, letters)
+    table, count, nx = problem.row_table, len(letters), parent.A.shape[1]
+    chosen = [MODE_LETTERS.index(ch) for ch in letters]
+    rows, kept, width = parent.A.shape[0], parent.G.shape[0], parent.G.shape[0] + ROWS_PER_CONTACT
+    A = np.empty((count, rows + 2, nx))
+    A[:, :rows] = parent.A
+    A[:, rows:] = table.equalities[j, chosen]
+    c = np.empty((count, rows + 2))
+    c[:, :rows] = parent.c
+    c[:, rows:] = table.equality_rhs[j, chosen]
+    B = np.zeros((rows + 2, problem.m))
+    B[:problem.n] = problem.input_map
+    B.setflags(write=False)
+    G, g, motion = np.empty((count, width, nx)), np.empty((count, width)), np.empty((count, width), dtype=bool)
+    G[:, :kept], G[:, kept:] = parent.G, table.inequalities[j, chosen]
+    g[:, :kept], g[:, kept:] = parent.g, table.inequality_rhs[j, chosen]
+    motion[:, :kept], motion[:, kept:] = parent.motion, table.motion[j, chosen]
+    labels = problem.row_labels[j]
+    children = []
+    for i, (letter, index) in enumerate(zip(letters, chosen, strict=True)):
+        own = int(counts[j, index])
+        children.append(ModeSystem(mode=prefix + letter, A=A[i], B=B, c=c[i], G=G[i, :kept + own],
+                                   g=g[i, :kept + own], labels=parent.labels + tuple(labels[index, :own]),
+                                   motion=motion[i, :kept + own]))
+    return children
 
 
 ROWS_PER_CONTACT = 3
@@ -656,6 +704,7 @@ __all__ = [
     "MODE_MEANINGS",
     "scene_mode",
     "build_child_systems",
+    "extend_child_systems",
     "contact_mode_letter",
     "needs_balancing",
     "build_mode_system",

@@ -15,13 +15,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import needs_kernel
-from test_mode_batch import random_problem
+from test_mode_batch import SCENES, random_problem
 
 from frcontrol import engine, geometry
 from frcontrol import polytope as poly
 from frcontrol import response as resp
 from frcontrol.engine import analyze, domain_polytope, motion_margin
-from frcontrol.modes import ROWS_PER_CONTACT, all_modes, build_child_systems, build_mode_system
+from frcontrol.modes import (
+    ROWS_PER_CONTACT,
+    ContactProblem,
+    all_modes,
+    build_child_systems,
+    build_mode_system,
+    extend_child_systems,
+)
 from frcontrol.scene import load_scene
 
 RTOL = 1e-8
@@ -217,19 +224,29 @@ def engine_labels(letter: int) -> tuple[str, ...]:
 
 
 def test_children_built_together_are_the_modes_built_alone():
+    """Children built in one gather (build_child_systems) and from their parent's system
+    (extend_child_systems, as the enumeration builds them): each the mode built alone, bit for bit."""
     rng = np.random.default_rng(13)
-    for _ in range(15):
-        problem = random_problem(rng)
+    built = 0
+    for trial in range(30):
+        problem = (random_problem(rng) if trial % 2 else
+                   ContactProblem.from_scene(load_scene(SCENES[trial // 2 % len(SCENES)])))
         allowed = problem.allowed_modes()
+        assert problem.letter_row_counts is not None  # every letter's valid rows lead
         for depth in range(problem.k):
-            prefix = "".join(letters[0] for letters in allowed[:depth])
-            together = build_child_systems(problem, prefix, allowed[depth])
-            for letter, system in zip(allowed[depth], together, strict=True):
-                alone = build_mode_system(problem, prefix + letter)
-                assert (system.mode, system.labels) == (alone.mode, alone.labels)
-                assert system.G.flags.c_contiguous and system.g.flags.c_contiguous  # the kernel reads them
-                for name in ("A", "B", "c", "G", "g", "motion"):
-                    np.testing.assert_array_equal(getattr(system, name), getattr(alone, name))
+            prefix = "".join(str(rng.choice(list(letters))) for letters in allowed[:depth])
+            parent = build_mode_system(problem, prefix)
+            for together in (build_child_systems(problem, prefix, allowed[depth]),
+                             extend_child_systems(problem, parent, allowed[depth])):
+                for letter, system in zip(allowed[depth], together, strict=True):
+                    alone = build_mode_system(problem, prefix + letter)
+                    assert (system.mode, system.labels) == (alone.mode, alone.labels)
+                    assert system.G.flags.c_contiguous and system.g.flags.c_contiguous  # the kernel reads them
+                    for name in ("A", "B", "c", "G", "g", "motion"):
+                        np.testing.assert_array_equal(getattr(system, name), getattr(alone, name))
+                        assert getattr(system, name).dtype == getattr(alone, name).dtype
+                    built += 1
+    assert built > 200
 
 
 @needs_kernel
