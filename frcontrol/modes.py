@@ -220,8 +220,10 @@ class ContactProblem:
 
     @cached_property
     def letter_row_counts(self) -> np.ndarray | None:
-        """Per contact and letter (k, 4), how many inequality rows it has, when its valid rows lead
-        (:func:`extend_child_systems` reads a child's rows as a leading slice); else None.
+        """Per contact and letter (k, 4), how many inequality rows it has, when its valid rows lead.
+
+        :func:`extend_child_systems` reads a child's rows as a leading slice; None where a letter's
+        valid rows are not its first ones.
         """
         valid = self.row_table.valid
         counts = valid.sum(axis=2)
@@ -422,7 +424,8 @@ def extend_child_systems(problem: ContactProblem, parent: ModeSystem, letters: s
     B = np.zeros((rows + 2, problem.m))
     B[:problem.n] = problem.input_map
     B.setflags(write=False)
-    G, g, motion = np.empty((count, width, nx)), np.empty((count, width)), np.empty((count, width), dtype=bool)
+    G, g = np.empty((count, width, nx)), np.empty((count, width))
+    motion = np.empty((count, width), dtype=bool)
     G[:, :kept], G[:, kept:] = parent.G, table.inequalities[j, chosen]
     g[:, :kept], g[:, kept:] = parent.g, table.inequality_rhs[j, chosen]
     motion[:, :kept], motion[:, kept:] = parent.motion, table.motion[j, chosen]

@@ -241,7 +241,7 @@ def test_children_built_together_are_the_modes_built_alone():
                 for letter, system in zip(allowed[depth], together, strict=True):
                     alone = build_mode_system(problem, prefix + letter)
                     assert (system.mode, system.labels) == (alone.mode, alone.labels)
-                    assert system.G.flags.c_contiguous and system.g.flags.c_contiguous  # the kernel reads them
+                    assert system.G.flags.c_contiguous and system.g.flags.c_contiguous  # the kernel reads
                     for name in ("A", "B", "c", "G", "g", "motion"):
                         np.testing.assert_array_equal(getattr(system, name), getattr(alone, name))
                         assert getattr(system, name).dtype == getattr(alone, name).dtype
