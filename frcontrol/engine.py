@@ -41,7 +41,7 @@ import numpy.typing as npt
 from . import polytope as poly
 from .ambiguity_polygon import PolygonRule
 from .errors import IllConditioned, InputError
-from .geometry import CHEBYSHEV_RADIUS_CAP, constant_rows, max_margin
+from .geometry import CHEBYSHEV_RADIUS_CAP, constant_rows, max_margin, row_norms
 from .jsonable import to_jsonable
 from .kernel import Backend, backend, compiled, twin
 from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
@@ -554,29 +554,44 @@ def _mode_margin_compiled(system: ModeSystem, response: AffineSolution, bounds: 
         system.motion, A_ub, h, ZERO_ROW_TOLERANCE, DOMAIN_TOLERANCE)
     if flags < 0:
         return MotionMargin("infeasible", None, None)
-    A_eq = None
     if e.shape[0]:
         A_eq = np.zeros((e.shape[0], m + p))
         A_eq[:, :m] = response.E
-    elif settings is DEFAULT_SETTINGS or settings == DEFAULT_SETTINGS:  # a solver named is used
-        x = np.empty(m + p + 1)
-        code = compiled.margin_lp(  # type: ignore[union-attr]
-            A_ub, h, x, CHEBYSHEV_RADIUS_CAP, DOMAIN_TOLERANCE, MARGIN_LP_BAND, MARGIN_LP_RESIDUAL,
-            MARGIN_LP_EMPTY, MARGIN_LP_PIVOT, MARGIN_LP_OPTIMALITY, ZERO_ROW_TOLERANCE)
+        return _margin_lp(A_ub, h, A_eq, e, bool(flags & 1), bool(flags & 2), settings, lps)
+    return _motion_lp_compiled(A_ub, h, bool(flags & 1), bool(flags & 2), settings, lps)
+
+
+twin("mode_margin", numpy=_mode_margin_numpy, compiled=_mode_margin_compiled)
+
+
+def _kernel_margin(A_ub: np.ndarray, h: np.ndarray) -> tuple[int, np.ndarray]:
+    """The kernel's checked motion LP (``frcontrol._kernel.margin_lp``) on built rows: its code and point."""
+    x = np.empty(A_ub.shape[1])
+    code = compiled.margin_lp(  # type: ignore[union-attr]
+        A_ub, h, x, CHEBYSHEV_RADIUS_CAP, DOMAIN_TOLERANCE, MARGIN_LP_BAND, MARGIN_LP_RESIDUAL,
+        MARGIN_LP_EMPTY, MARGIN_LP_PIVOT, MARGIN_LP_OPTIMALITY, ZERO_ROW_TOLERANCE)
+    return code, x
+
+
+def _motion_lp_compiled(A_ub: np.ndarray, h: np.ndarray, degenerate_constant: bool, moving: bool,
+                        settings: SolverSettings, lps: InequalityLPs | None) -> MotionMargin:
+    """:func:`_margin_lp` without equalities by the kernel's motion LP, the door's where it leaves it open.
+
+    With a solver named (settings other than the default ones) the door decides every LP.
+    """
+    if settings is DEFAULT_SETTINGS or settings == DEFAULT_SETTINGS:
+        code, x = _kernel_margin(A_ub, h)
         if code == _LP_EMPTY:
             return MotionMargin("infeasible", None, None)
         if code:
-            t = float(x[-1])
-            verdict: MarginVerdict = "freedom" if flags & 1 or (code == _LP_BELOW and flags & 2) else "ok"
-            return MotionMargin(verdict, x[:-1], t)
-    return _margin_lp(A_ub, h, A_eq, e, bool(flags & 1), bool(flags & 2), settings, lps)
+            verdict: MarginVerdict = ("freedom" if degenerate_constant or (code == _LP_BELOW and moving)
+                                      else "ok")
+            return MotionMargin(verdict, x[:-1], float(x[-1]))
+    return _margin_lp(A_ub, h, None, None, degenerate_constant, moving, settings, lps)
 
 
 _LP_BELOW, _LP_EMPTY = 2, 3
 """``margin_lp``'s codes: the margin is below the band, the set is empty (0: undecided, 1: above)."""
-
-
-twin("mode_margin", numpy=_mode_margin_numpy, compiled=_mode_margin_compiled)
 
 
 LETTER_ROW_GUESS = 1.5e-8
@@ -935,8 +950,9 @@ def _input_box(rows: InputRows, m: int, settings: SolverSettings) -> tuple[np.nd
     H, h, p = rows
     P = poly.Polytope(H, h)
     eye = np.eye(m + p)[:m]
-    upper = np.array([poly.support(P, eye[i], settings=settings) for i in range(m)])
-    lower = -np.array([poly.support(P, -eye[i], settings=settings) for i in range(m)])
+    lps = poly.support_lps(settings)  # the lean path: the same answers
+    upper = np.array([poly.support(P, eye[i], settings=settings, lps=lps) for i in range(m)])
+    lower = -np.array([poly.support(P, -eye[i], settings=settings, lps=lps) for i in range(m)])
     return lower, upper
 
 
@@ -960,15 +976,47 @@ def _boxes_apart_from(lower: np.ndarray, upper: np.ndarray, lowers: np.ndarray, 
     return np.any(width <= 2 * DOMAIN_TOLERANCE, axis=1)
 
 
-def _interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings,
-                    lps: InequalityLPs | None = None) -> tuple[float, np.ndarray | None]:
+def interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings,
+                   lps: InequalityLPs | None = None, norms: tuple[np.ndarray, np.ndarray] | None = None
+                   ) -> tuple[float, np.ndarray | None]:
     """Whether int(T_a) and int(T_b) meet: one LP in the lifted space (u, w_a, w_b).
 
     maximise t <= 1 s.t. every row of D_a and of D_b tightened by t times its norm. For
     full-dimensional D, int(T) is the projection of int(D), so t* > 0 iff the interiors meet; t* is
-    a lower bound of the radius of a ball of inputs in both. Returns (t*, a common input).
-    ``lps``: the lean LP path of a run of pairs (:func:`margin_lps`, the same answers).
+    a lower bound of the radius of a ball of inputs in both. Returns (t*, a common input) where
+    t* > :data:`DOMAIN_TOLERANCE`, else ``(0.0, None)``. ``lps``: the lean LP path of a run of
+    pairs (:func:`margin_lps`, the same answers); ``norms``: each mode's row norms, when the caller
+    has them.
+
+    By the kernel's ``interiors_meet`` (:func:`frcontrol.kernel.backend`): the compiled kernel first
+    asks its motion LP (``frcontrol._kernel.margin_lp``, default settings only) and answers
+    ``(0.0, None)`` where that LP shows the interiors apart; every other pair, and every pair on
+    NumPy, is the door's LP: the same overlaps, margins and common inputs on either kernel.
     """
+    return backend().interiors_meet(a, b, m, settings, lps, norms)
+
+
+def _interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings,
+                    lps: InequalityLPs | None = None, norms: tuple[np.ndarray, np.ndarray] | None = None
+                    ) -> tuple[float, np.ndarray | None]:
+    """:func:`interiors_meet` by the door's LP (the reference twin; ``norms`` is not read)."""
+    H, h, d = _pair_rows(a, b, m)
+    lifted, constant = _row_norms(H[:, :d])
+    if np.count_nonzero(constant):  # (rows the pair's scale makes constant: motion_margin's own rules)
+        found = motion_margin(H[:, :d], h, np.ones(H.shape[0], dtype=bool), np.zeros((0, d)), np.zeros(0),
+                              settings=settings)
+    else:  # motion_margin's LP, every row a moving motion row: its rows built in place
+        H[:, d] = lifted
+        found = _margin_lp(H, h, None, None, False, H.shape[0] > 0, settings, lps)
+    if found.verdict == "infeasible" or found.margin is None or found.point is None:
+        return 0.0, None
+    if not found.margin > DOMAIN_TOLERANCE:
+        return 0.0, None
+    return found.margin, found.point[:m]
+
+
+def _pair_rows(a: InputRows, b: InputRows, m: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """The lifted LP's rows over (u, w_a, w_b, t) (t's column zero), their right sides, d = m + pa + pb."""
     Ha, ha, pa = a
     Hb, hb, pb = b
     ra, d = Ha.shape[0], m + pa + pb
@@ -976,17 +1024,28 @@ def _interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings
     H[:ra, :m + pa] = Ha
     H[ra:, :m] = Hb[:, :m]
     H[ra:, m + pa:d] = Hb[:, m:]
-    h = np.concatenate([ha, hb])
-    norms, constant = _row_norms(H[:, :d])
-    if np.count_nonzero(constant):  # (rows the pair's scale makes constant: motion_margin's own rules)
-        found = motion_margin(H[:, :d], h, np.ones(H.shape[0], dtype=bool), np.zeros((0, d)), np.zeros(0),
-                              settings=settings)
-    else:  # motion_margin's LP, every row a moving motion row: its rows built in place
-        H[:, d] = norms
-        found = _margin_lp(H, h, None, None, False, H.shape[0] > 0, settings, lps)
-    if found.verdict == "infeasible" or found.margin is None or found.point is None:
-        return 0.0, None
-    return found.margin, found.point[:m]
+    return H, np.concatenate([ha, hb]), d
+
+
+def _interiors_meet_compiled(a: InputRows, b: InputRows, m: int, settings: SolverSettings,
+                             lps: InequalityLPs | None = None,
+                             norms: tuple[np.ndarray, np.ndarray] | None = None
+                             ) -> tuple[float, np.ndarray | None]:
+    """:func:`interiors_meet`: the kernel's motion LP first, on the rows with each mode's norms.
+
+    Its rows drop no constant row (the LP leaves it to the door unless it holds), so "below" or
+    "empty" there means no common interior for the door's LP either.
+    """
+    if norms is not None and (settings is DEFAULT_SETTINGS or settings == DEFAULT_SETTINGS):
+        H, h, d = _pair_rows(a, b, m)
+        ra = a[0].shape[0]
+        H[:ra, d], H[ra:, d] = norms
+        if _kernel_margin(H, h)[0] in (_LP_BELOW, _LP_EMPTY):
+            return 0.0, None
+    return _interiors_meet(a, b, m, settings, lps, norms)
+
+
+twin("interiors_meet", numpy=_interiors_meet, compiled=_interiors_meet_compiled)
 
 
 BOX_FILTER_MODES_PER_INPUT = 16
@@ -1013,13 +1072,14 @@ def _overlaps(feasible: Sequence[ModeAnalysis], settings: SolverSettings) -> lis
     upper = None if boxes is None else np.array([box[1] for box in boxes]).reshape(len(candidates), m)
     overlaps: list[Overlap] = []
     lps = margin_lps(settings)  # one lean LP path for every pair
+    norms = [row_norms(r[0]) for r in rows]
     for i, a in enumerate(candidates):
         later: Sequence[int] = range(i + 1, len(candidates))
         if lower is not None and upper is not None:  # the pairs whose boxes meet, all at once
             later = (np.flatnonzero(~_boxes_apart_from(lower[i], upper[i], lower[i + 1:], upper[i + 1:]))
                      + i + 1).tolist()
         for j in later:
-            margin, center = _interiors_meet(rows[i], rows[j], m, settings, lps)
+            margin, center = interiors_meet(rows[i], rows[j], m, settings, lps, (norms[i], norms[j]))
             if margin > DOMAIN_TOLERANCE and center is not None:
                 overlaps.append(Overlap((a.mode, candidates[j].mode), float(margin), center))
     return overlaps
@@ -1407,6 +1467,7 @@ __all__ = [
     "DynamicResponse",
     "Enumeration",
     "ModeAnalysis",
+    "interiors_meet",
     "mode_margin",
     "motion_margin",
     "Overlap",

@@ -101,6 +101,7 @@ __all__ = [
     "project",
     "set_difference",
     "support",
+    "support_lps",
     "vertices_from_halfspaces",
 ]
 
@@ -438,7 +439,7 @@ def is_empty(P: Polytope, *, solver: str | None = None, settings: SolverSettings
 
 
 def support(P: Polytope, direction: Any, *, solver: str | None = None,
-            settings: SolverSettings | None = None) -> float:
+            settings: SolverSettings | None = None, lps: InequalityLPs | None = None) -> float:
     r"""Support function :math:`h_P(c) = \max_{x \in P} c^\top x`.
 
     Args:
@@ -446,20 +447,30 @@ def support(P: Polytope, direction: Any, *, solver: str | None = None,
         direction: ``c``, shape ``(d,)``.
         solver: LP back-end (a name).
         settings: the solver settings (instead of ``solver``).
+        lps: the lean LP path of a caller taking many support functions (:func:`support_lps`
+            with the same settings: the same answers), used when ``P`` has no equalities.
 
     Returns:
         The maximum; ``+inf`` if ``P`` is unbounded in ``c``, ``-inf`` if ``P`` is empty.
     """
     c = _vector("direction", direction, P.dim)
-    A_eq = P.A_eq if P.A_eq.shape[0] else None
-    b_eq = P.b_eq if P.A_eq.shape[0] else None
-    door = DoorOptions(settings_from(solver, settings), fallback=_LP, check=backend().lp_check)
-    result = solve_lp_prepared(-c, P.A, P.b, A_eq, b_eq, door=door)
+    if lps is not None and not P.A_eq.shape[0]:
+        result = lps.solve(-c, P.A, P.b)
+    else:
+        A_eq = P.A_eq if P.A_eq.shape[0] else None
+        b_eq = P.b_eq if P.A_eq.shape[0] else None
+        door = DoorOptions(settings_from(solver, settings), fallback=_LP, check=backend().lp_check)
+        result = solve_lp_prepared(-c, P.A, P.b, A_eq, b_eq, door=door)
     if result.status == "infeasible":
         return -np.inf
     if result.status == "unbounded":
         return np.inf
     return -result.objective
+
+
+def support_lps(settings: SolverSettings) -> InequalityLPs:
+    """The lean LP path of many :func:`support` calls with these ``settings``, made once."""
+    return InequalityLPs(settings=settings, fallback=_LP, check=backend().lp_check)
 
 
 def contains(P: Polytope, x: Any, tolerance: float = CONTAINMENT_TOLERANCE) -> bool:

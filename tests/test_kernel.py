@@ -851,6 +851,45 @@ def test_the_kernels_motion_lp_refuses_bad_buffers():
 
 
 @needs_kernel
+@pytest.mark.parametrize("name", ["rod_on_table", "rod_pivot", "rhex_flip", "snake_climb", "box_on_slope",
+                                  "snake6"])
+def test_interiors_meet_is_the_doors_on_every_pair(name, monkeypatch):
+    """Every pair of full-dimensional modes (the overlaps' LPs): the compiled kernel's answer is the
+    door's, bit for bit (the same overlaps, margins and common inputs), and its motion LP settles
+    most pairs apart without the door."""
+    from benchmarks.contacts import snake_scene
+
+    monkeypatch.setenv("FRC_KERNEL", "compiled")
+    scene = load_scene(snake_scene(6) if name == "snake6" else name)
+    modes = [a for a in engine.analyze(scene, ambiguity=False).modes
+             if a.feasible and a.inputs_full_dimensional]
+    rows = [engine._input_rows(a) for a in modes]
+    norms = [engine.row_norms(r[0]) for r in rows]
+    settings_, m = engine.DEFAULT_SETTINGS, modes[0].m
+    settled = []
+    original = engine._kernel_margin
+
+    def counted(A_ub, h):
+        code, x = original(A_ub, h)
+        settled.append(code in (2, 3))
+        return code, x
+
+    monkeypatch.setattr(engine, "_kernel_margin", counted)
+    met = 0
+    for i in range(len(rows)):
+        for j in range(i + 1, len(rows)):
+            pair = (rows[i], rows[j], m, settings_, None, (norms[i], norms[j]))
+            fast, door = kernel.COMPILED.interiors_meet(*pair), kernel.NUMPY.interiors_meet(*pair)
+            assert fast[0] == door[0] and (fast[1] is None) == (door[1] is None), (i, j)
+            if door[1] is not None:
+                met += 1
+                np.testing.assert_array_equal(fast[1], door[1])
+    assert settled and (met or sum(settled) >= 0.5 * len(settled)), (sum(settled), len(settled))
+    if name.startswith("rod"):
+        assert met == 3  # S, R and F overlap there: the door's margins and inputs, on either kernel
+
+
+@needs_kernel
 def test_a_named_solver_decides_the_motion_lps(monkeypatch):
     """The kernel's motion LP stands in for the default LP only: with a solver named, every motion LP
     is that solver's, and the analysis is the same."""
@@ -912,6 +951,7 @@ CROSS_CHECKS = {
     "certified_children": ("fast_paths", "compiled_certified_children_are_numpys_certified_responses"),
     "certified_by_rows": ("fast_paths", "compiled_certified_by_rows_are_numpys"),
     "mode_margin": ("kernel", "mode_margin_gives_motion_margins_verdicts_on_every_mode"),
+    "interiors_meet": ("kernel", "interiors_meet_is_the_doors_on_every_pair"),
     "lp_check": ("kernel", "the_door_accepts_the_same_answers_with_either_check"),
     "redundancy_rows": ("kernel", "clarkson_steps_agree_with_their_numpy_twins"),
     "ray_exit": ("kernel", "clarkson_steps_agree_with_their_numpy_twins"),

@@ -325,6 +325,28 @@ def test_projection_support_functions():
             assert got == pytest.approx(expected, rel=1e-6, abs=1e-6), (d, keep, c)
 
 
+def test_support_on_the_lean_path_is_the_doors():
+    """support with a lean LP path (support_lps) on a polytope's read-only arrays: the door's answer
+    field for field, bounded, unbounded (+inf) and empty (-inf) alike."""
+    from frcontrol.polytope import support, support_lps
+    from frcontrol.solvers import DEFAULT_SETTINGS
+
+    rng = np.random.default_rng(7)
+    lps = support_lps(DEFAULT_SETTINGS)
+    half = Polytope(np.array([[1.0, 0.0]]), np.array([1.0]))  # x <= 1: unbounded below and in y
+    empty = Polytope(np.array([[1.0, 0.0], [-1.0, 0.0]]), np.array([-1.0, -1.0]))
+    shapes = [random_polytope(rng, d, 2 * d + 2, offset=1.0) for d in (2, 3, 5, 8)] + [half, empty]
+    answers = set()
+    for P in shapes:
+        assert not P.A.flags.writeable and not P.b.flags.writeable
+        for _ in range(6):
+            c = rng.standard_normal(P.dim)
+            lean, door = support(P, c, lps=lps), support(P, c)
+            assert lean == door, (P.dim, c)
+            answers.add("inf" if lean == np.inf else "-inf" if lean == -np.inf else "finite")
+    assert answers == {"finite", "inf", "-inf"}
+
+
 def test_projection_of_empty_and_of_a_point():
     point = Polytope(np.zeros((0, 3)), np.zeros(0), np.eye(3), np.array([1.0, 2.0, 3.0]))
     shadow = project(point, [1])

@@ -784,8 +784,8 @@ class InequalityLPs:
         if self._lean is None or crossed:
             return solve(LinearProgram(c, A_ub, b_ub, A_eq, b_eq, lb, ub), settings=self.settings,
                          fallback=self.fallback, check=self._check, **self.options)
-        if not A_ub.flags.writeable:  # DAQP's binding takes writable buffers (it does not write them)
-            A_ub = A_ub.copy()
+        # DAQP's binding takes writable buffers (it does not write them)
+        c, A_ub, b_ub = (a if a.flags.writeable else a.copy() for a in (c, A_ub, b_ub))
         start = time.perf_counter()
         status, x, raw = self._lean(c, A_ub, b_ub, lb if has_bounds else None, ub if has_bounds else None)
         elapsed = time.perf_counter() - start
