@@ -91,7 +91,9 @@ MARGIN_LP_RESIDUAL = 1e-9
 """[units of u] The kernel's motion LP accepts its optimum only when the point violates no unit row
 (nor ``0 <= t <= 1``) by more than this, every row unscaled by more than this times ``1 + |h_i|``,
 and its dual certificate's residual is at most this; a constant row (:data:`ZERO_ROW_TOLERANCE`)
-may read down to ``-MARGIN_LP_RESIDUAL``. Otherwise the door's LP decides."""
+may read down to ``-MARGIN_LP_RESIDUAL``. Otherwise the door's LP decides. The dual residual bounds
+the margin of a point z only up to this times ``|z|_1``: with inputs near 1e9 (no physical
+scene's) a margin just above the band could read as below it."""
 
 MARGIN_LP_EMPTY = 1e-4
 """[units of u] The kernel's motion LP calls a set empty only when its Farkas ray shows that every
@@ -564,6 +566,15 @@ def _mode_margin_compiled(system: ModeSystem, response: AffineSolution, bounds: 
 twin("mode_margin", numpy=_mode_margin_numpy, compiled=_mode_margin_compiled)
 
 
+_LP_BELOW, _LP_EMPTY = 2, 3
+"""``margin_lp``'s codes: the margin is below the band, the set is empty (0: undecided, 1: above)."""
+
+
+def _default_settings(settings: SolverSettings) -> bool:
+    """Whether ``settings`` are the default ones: the kernel's motion LP may stand in for the door's."""
+    return settings is DEFAULT_SETTINGS or settings == DEFAULT_SETTINGS
+
+
 def _kernel_margin(A_ub: np.ndarray, h: np.ndarray) -> tuple[int, np.ndarray]:
     """The kernel's checked motion LP (``frcontrol._kernel.margin_lp``) on built rows: its code and point."""
     x = np.empty(A_ub.shape[1])
@@ -579,7 +590,7 @@ def _motion_lp_compiled(A_ub: np.ndarray, h: np.ndarray, degenerate_constant: bo
 
     With a solver named (settings other than the default ones) the door decides every LP.
     """
-    if settings is DEFAULT_SETTINGS or settings == DEFAULT_SETTINGS:
+    if _default_settings(settings):
         code, x = _kernel_margin(A_ub, h)
         if code == _LP_EMPTY:
             return MotionMargin("infeasible", None, None)
@@ -589,9 +600,6 @@ def _motion_lp_compiled(A_ub: np.ndarray, h: np.ndarray, degenerate_constant: bo
             return MotionMargin(verdict, x[:-1], float(x[-1]))
     return _margin_lp(A_ub, h, None, None, degenerate_constant, moving, settings, lps)
 
-
-_LP_BELOW, _LP_EMPTY = 2, 3
-"""``margin_lp``'s codes: the margin is below the band, the set is empty (0: undecided, 1: above)."""
 
 
 LETTER_ROW_GUESS = 1.5e-8
@@ -977,7 +985,7 @@ def _boxes_apart_from(lower: np.ndarray, upper: np.ndarray, lowers: np.ndarray, 
 
 
 def interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings,
-                   lps: InequalityLPs | None = None, norms: tuple[np.ndarray, np.ndarray] | None = None
+                   lps: InequalityLPs | None = None, norms: tuple[RowNorms, RowNorms] | None = None
                    ) -> tuple[float, np.ndarray | None]:
     """Whether int(T_a) and int(T_b) meet: one LP in the lifted space (u, w_a, w_b).
 
@@ -985,19 +993,22 @@ def interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings,
     full-dimensional D, int(T) is the projection of int(D), so t* > 0 iff the interiors meet; t* is
     a lower bound of the radius of a ball of inputs in both. Returns (t*, a common input) where
     t* > :data:`DOMAIN_TOLERANCE`, else ``(0.0, None)``. ``lps``: the lean LP path of a run of
-    pairs (:func:`margin_lps`, the same answers); ``norms``: each mode's row norms, when the caller
-    has them.
+    pairs (:func:`margin_lps`, the same answers); ``norms``: each mode's :data:`RowNorms`, when the
+    caller has them.
 
     By the kernel's ``interiors_meet`` (:func:`frcontrol.kernel.backend`): the compiled kernel first
     asks its motion LP (``frcontrol._kernel.margin_lp``, default settings only) and answers
     ``(0.0, None)`` where that LP shows the interiors apart; every other pair, and every pair on
-    NumPy, is the door's LP: the same overlaps, margins and common inputs on either kernel.
+    NumPy, is the door's LP: the same overlaps, margins and common inputs on either kernel (on every
+    shipped scene). Where the door's own answer is off (an ill-conditioned pair whose point misses
+    a unit row by more than :data:`DOMAIN_TOLERANCE`: its residual test is relative), the two may
+    differ, and the compiled kernel's "apart" is the one HiGHS finds.
     """
     return backend().interiors_meet(a, b, m, settings, lps, norms)
 
 
 def _interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings,
-                    lps: InequalityLPs | None = None, norms: tuple[np.ndarray, np.ndarray] | None = None
+                    lps: InequalityLPs | None = None, norms: tuple[RowNorms, RowNorms] | None = None
                     ) -> tuple[float, np.ndarray | None]:
     """:func:`interiors_meet` by the door's LP (the reference twin; ``norms`` is not read)."""
     H, h, d = _pair_rows(a, b, m)
@@ -1029,20 +1040,39 @@ def _pair_rows(a: InputRows, b: InputRows, m: int) -> tuple[np.ndarray, np.ndarr
 
 def _interiors_meet_compiled(a: InputRows, b: InputRows, m: int, settings: SolverSettings,
                              lps: InequalityLPs | None = None,
-                             norms: tuple[np.ndarray, np.ndarray] | None = None
+                             norms: tuple[RowNorms, RowNorms] | None = None
                              ) -> tuple[float, np.ndarray | None]:
     """:func:`interiors_meet`: the kernel's motion LP first, on the rows with each mode's norms.
 
-    Its rows drop no constant row (the LP leaves it to the door unless it holds), so "below" or
-    "empty" there means no common interior for the door's LP either.
+    Only for pairs without a constant row (a norm at most :data:`ZERO_ROW_TOLERANCE` times the
+    larger of 1 and the largest: the door judges those rows by :func:`motion_margin`'s rules), so
+    "below" or "empty" there is the door's "no common interior" too.
     """
-    if norms is not None and (settings is DEFAULT_SETTINGS or settings == DEFAULT_SETTINGS):
+    if norms is not None and _default_settings(settings) and not _any_constant(*norms):
         H, h, d = _pair_rows(a, b, m)
         ra = a[0].shape[0]
-        H[:ra, d], H[ra:, d] = norms
+        H[:ra, d], H[ra:, d] = norms[0][0], norms[1][0]
         if _kernel_margin(H, h)[0] in (_LP_BELOW, _LP_EMPTY):
             return 0.0, None
     return _interiors_meet(a, b, m, settings, lps, norms)
+
+
+RowNorms = tuple[np.ndarray, float, float]
+"""A mode's row norms for :func:`interiors_meet`: the norms, the smallest and the largest (inf and 0
+without rows)."""
+
+
+def row_norms_of(H: np.ndarray) -> RowNorms:
+    """:data:`RowNorms` of the rows ``H``."""
+    norms = row_norms(H)
+    if not norms.shape[0]:
+        return norms, math.inf, 0.0
+    return norms, float(np.minimum.reduce(norms)), float(np.maximum.reduce(norms))
+
+
+def _any_constant(first: RowNorms, second: RowNorms) -> bool:
+    """Whether two modes' rows, stacked, have a constant row (:func:`_row_norms`' rule)."""
+    return min(first[1], second[1]) <= ZERO_ROW_TOLERANCE * max(1.0, first[2], second[2])
 
 
 twin("interiors_meet", numpy=_interiors_meet, compiled=_interiors_meet_compiled)
@@ -1072,7 +1102,7 @@ def _overlaps(feasible: Sequence[ModeAnalysis], settings: SolverSettings) -> lis
     upper = None if boxes is None else np.array([box[1] for box in boxes]).reshape(len(candidates), m)
     overlaps: list[Overlap] = []
     lps = margin_lps(settings)  # one lean LP path for every pair
-    norms = [row_norms(r[0]) for r in rows]
+    norms = [row_norms_of(r[0]) for r in rows]
     for i, a in enumerate(candidates):
         later: Sequence[int] = range(i + 1, len(candidates))
         if lower is not None and upper is not None:  # the pairs whose boxes meet, all at once

@@ -447,8 +447,9 @@ def support(P: Polytope, direction: Any, *, solver: str | None = None,
         direction: ``c``, shape ``(d,)``.
         solver: LP back-end (a name).
         settings: the solver settings (instead of ``solver``).
-        lps: the lean LP path of a caller taking many support functions (:func:`support_lps`
-            with the same settings: the same answers), used when ``P`` has no equalities.
+        lps: the lean LP path of a caller taking many support functions (:func:`support_lps`),
+            used when ``P`` has no equalities; its settings are the ones that count (the same
+            answers as ``settings``' door when made from them).
 
     Returns:
         The maximum; ``+inf`` if ``P`` is unbounded in ``c``, ``-inf`` if ``P`` is empty.

@@ -852,19 +852,17 @@ def test_the_kernels_motion_lp_refuses_bad_buffers():
 
 @needs_kernel
 @pytest.mark.parametrize("name", ["rod_on_table", "rod_pivot", "rhex_flip", "snake_climb", "box_on_slope",
-                                  "snake6"])
+                                  "solo_standup"])
 def test_interiors_meet_is_the_doors_on_every_pair(name, monkeypatch):
     """Every pair of full-dimensional modes (the overlaps' LPs): the compiled kernel's answer is the
     door's, bit for bit (the same overlaps, margins and common inputs), and its motion LP settles
     most pairs apart without the door."""
-    from benchmarks.contacts import snake_scene
-
     monkeypatch.setenv("FRC_KERNEL", "compiled")
-    scene = load_scene(snake_scene(6) if name == "snake6" else name)
+    scene = load_scene(name)
     modes = [a for a in engine.analyze(scene, ambiguity=False).modes
              if a.feasible and a.inputs_full_dimensional]
     rows = [engine._input_rows(a) for a in modes]
-    norms = [engine.row_norms(r[0]) for r in rows]
+    norms = [engine.row_norms_of(r[0]) for r in rows]
     settings_, m = engine.DEFAULT_SETTINGS, modes[0].m
     settled = []
     original = engine._kernel_margin
@@ -887,6 +885,9 @@ def test_interiors_meet_is_the_doors_on_every_pair(name, monkeypatch):
     assert settled and (met or sum(settled) >= 0.5 * len(settled)), (sum(settled), len(settled))
     if name.startswith("rod"):
         assert met == 3  # S, R and F overlap there: the door's margins and inputs, on either kernel
+    tiny = engine.row_norms_of(np.array([[1e-12, 0.0], [1.0, 0.0]]))  # a constant row: to the door
+    none, unit = engine.row_norms_of(np.zeros((0, 2))), engine.row_norms_of(np.eye(2))
+    assert engine._any_constant(tiny, unit) and not engine._any_constant(unit, none)
 
 
 @needs_kernel
