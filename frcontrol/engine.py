@@ -601,7 +601,6 @@ def _motion_lp_compiled(A_ub: np.ndarray, h: np.ndarray, degenerate_constant: bo
     return _margin_lp(A_ub, h, None, None, degenerate_constant, moving, settings, lps)
 
 
-
 LETTER_ROW_GUESS = 1.5e-8
 """[-] :func:`letter_rows_kept` guesses a letter row independent of the rows kept above it when its
 part outside their row space (its product with their null space, unit columns) exceeds this times
@@ -733,7 +732,7 @@ class _ModeEnumerator:
         self.null_spaces: dict[str, np.ndarray] = {}  # a tested partial mode's X_w, while it has kept rows
         self.root_null = _root_null_space(problem)
         # a partial mode's system, from its test until its children's are built from it
-        self.parents: dict[str, ModeSystem] = {"": build_mode_system(problem, "")}
+        self.parents: dict[str, ModeSystem] = {"": build_mode_system(problem, "")} if prune_partial else {}
         self.counts = {"freedom": 0, "infeasible": 0, "partial": 0, "evaluated": 0}
         self.analyses: list[ModeAnalysis] = []
 
@@ -984,6 +983,24 @@ def _boxes_apart_from(lower: np.ndarray, upper: np.ndarray, lowers: np.ndarray, 
     return np.any(width <= 2 * DOMAIN_TOLERANCE, axis=1)
 
 
+RowNorms = tuple[np.ndarray, float, float]
+"""A mode's row norms for :func:`interiors_meet`: the norms, the smallest and the largest (inf and 0
+without rows)."""
+
+
+def row_norms_of(H: np.ndarray) -> RowNorms:
+    """:data:`RowNorms` of the rows ``H``."""
+    norms = row_norms(H)
+    if not norms.shape[0]:
+        return norms, math.inf, 0.0
+    return norms, float(np.minimum.reduce(norms)), float(np.maximum.reduce(norms))
+
+
+def _any_constant(first: RowNorms, second: RowNorms) -> bool:
+    """Whether two modes' rows, stacked, have a constant row (:func:`_row_norms`' rule)."""
+    return min(first[1], second[1]) <= ZERO_ROW_TOLERANCE * max(1.0, first[2], second[2])
+
+
 def interiors_meet(a: InputRows, b: InputRows, m: int, settings: SolverSettings,
                    lps: InequalityLPs | None = None, norms: tuple[RowNorms, RowNorms] | None = None
                    ) -> tuple[float, np.ndarray | None]:
@@ -1055,24 +1072,6 @@ def _interiors_meet_compiled(a: InputRows, b: InputRows, m: int, settings: Solve
         if _kernel_margin(H, h)[0] in (_LP_BELOW, _LP_EMPTY):
             return 0.0, None
     return _interiors_meet(a, b, m, settings, lps, norms)
-
-
-RowNorms = tuple[np.ndarray, float, float]
-"""A mode's row norms for :func:`interiors_meet`: the norms, the smallest and the largest (inf and 0
-without rows)."""
-
-
-def row_norms_of(H: np.ndarray) -> RowNorms:
-    """:data:`RowNorms` of the rows ``H``."""
-    norms = row_norms(H)
-    if not norms.shape[0]:
-        return norms, math.inf, 0.0
-    return norms, float(np.minimum.reduce(norms)), float(np.maximum.reduce(norms))
-
-
-def _any_constant(first: RowNorms, second: RowNorms) -> bool:
-    """Whether two modes' rows, stacked, have a constant row (:func:`_row_norms`' rule)."""
-    return min(first[1], second[1]) <= ZERO_ROW_TOLERANCE * max(1.0, first[2], second[2])
 
 
 twin("interiors_meet", numpy=_interiors_meet, compiled=_interiors_meet_compiled)
