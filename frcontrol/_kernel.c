@@ -125,7 +125,7 @@ typedef struct {
     double margin, tolerance, domain_tolerance, zero_row_tolerance;
     signed char *status;
     double *x, *residual, *violation;
-    double *a_hat_out, *r_out, *c_out; /* certified_modes: every mode's A_hat and scalings */
+    double *a_hat_out, *r_out, *c_out; /* certified_modes: every mode's A_hat and scalings (NULL: none) */
 } Problem;
 
 typedef struct {
@@ -332,9 +332,11 @@ static void run_modes(const Problem *p, const double *Su, Scratch *s) {
         p->violation[mode] = 0.0;
         p->status[mode] = NOT_CERTIFIED;
         assemble(p, letters, Su, s);
-        memcpy(p->a_hat_out + mode * nx * nx, s->A_hat, (size_t)(nx * nx) * sizeof(double));
-        memcpy(p->r_out + mode * nx, s->r_scale, (size_t)nx * sizeof(double));
-        memcpy(p->c_out + mode * nx, s->c_scale, (size_t)nx * sizeof(double));
+        if (p->a_hat_out != NULL) {
+            memcpy(p->a_hat_out + mode * nx * nx, s->A_hat, (size_t)(nx * nx) * sizeof(double));
+            memcpy(p->r_out + mode * nx, s->r_scale, (size_t)nx * sizeof(double));
+            memcpy(p->c_out + mode * nx, s->c_scale, (size_t)nx * sizeof(double));
+        }
         double sum_a2 = 0.0;
         for (Py_ssize_t i = 0; i < nx * nx; i++) {
             sum_a2 += s->A_hat[i] * s->A_hat[i];
@@ -1303,12 +1305,12 @@ static int take_lines(PyObject *lines, StateJob *job) {
     return 0;
 }
 
-/* The plan's entries (its mass, nle and v_index buffers into b) and the parsed arguments into job. */
-static int take_plan(PyObject *const *args, const Args *a, Buffer *b, StateJob *job) {
-    PyObject *plan = args[A_PLAN];
+/* The robot's plan (its mass, nle and v_index buffers into b), the frames' count k and n into job. */
+static int take_robot(PyObject *plan, PyObject *frames, PyObject *positions, Py_ssize_t n, Buffer *b,
+                      StateJob *job) {
     if (!PyTuple_Check(plan) || PyTuple_GET_SIZE(plan) != PLAN_ENTRIES || !PyType_Check(PyTuple_GET_ITEM(plan, P_TYPE)) ||
-        !PyTuple_Check(args[A_FRAMES]) || !PyTuple_Check(args[A_POSITIONS]) ||
-        PyTuple_GET_SIZE(args[A_POSITIONS]) != PyTuple_GET_SIZE(args[A_FRAMES])) {
+        !PyTuple_Check(frames) || !PyTuple_Check(positions) ||
+        PyTuple_GET_SIZE(positions) != PyTuple_GET_SIZE(frames)) {
         PyErr_Format(kernel_error, "robot_state: plan must be a tuple of %d entries, the first a class, and "
                      "frames and positions tuples of one length", PLAN_ENTRIES);
         return -1;
@@ -1322,9 +1324,9 @@ static int take_plan(PyObject *const *args, const Args *a, Buffer *b, StateJob *
         return -1;
     }
     Py_ssize_t nv = job->nv, mass_shape[2] = {nv, nv}, nle_shape[1] = {nv};
-    job->k = PyTuple_GET_SIZE(args[A_FRAMES]);
-    job->n = a->dim[DIM_N], job->v = &a->buffer[A_V].view, job->damping = a->data[A_DAMPING];
-    if (take_lines(args[A_LINES], job) || take_pinocchio(job->plan[P_MASS], &b[0], "mass", 2, mass_shape) ||
+    job->k = PyTuple_GET_SIZE(frames);
+    job->n = n;
+    if (take_pinocchio(job->plan[P_MASS], &b[0], "mass", 2, mass_shape) ||
         take_pinocchio(job->plan[P_NLE], &b[1], "nle", 1, nle_shape)) {
         return -1;
     }
@@ -1348,6 +1350,15 @@ static int take_plan(PyObject *const *args, const Args *a, Buffer *b, StateJob *
         }
     }
     return 0;
+}
+
+/* The plan's entries and the parsed arguments into job (take_robot, then v, the damping, the lines). */
+static int take_plan(PyObject *const *args, const Args *a, Buffer *b, StateJob *job) {
+    if (take_robot(args[A_PLAN], args[A_FRAMES], args[A_POSITIONS], a->dim[DIM_N], b, job)) {
+        return -1;
+    }
+    job->v = &a->buffer[A_V].view, job->damping = a->data[A_DAMPING];
+    return take_lines(args[A_LINES], job);
 }
 
 #define STATE_VIEWS 9
@@ -1531,31 +1542,36 @@ static int row_job(const Args *a, RowJob *r) {
     return 0;
 }
 
+/* The dynamics rows [M, -J_N^T, -J_T^T] and every contact's rows of the job. */
+static void fill_rows(const RowJob *r) {
+    Py_ssize_t n = r->n, k = r->k, nx = r->nx;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        for (Py_ssize_t c = 0; c < n; c++) {
+            r->dynamics[i * nx + c] = at2(r->mass, i, c);
+        }
+        for (Py_ssize_t j = 0; j < k; j++) {
+            r->dynamics[i * nx + n + j] = -at2(r->jn, j, i);
+            r->dynamics[i * nx + n + k + j] = -at2(r->jt, j, i);
+        }
+    }
+    memset(r->eq, 0, (size_t)(k * ROW_LETTERS * EQUALITY_ROWS * nx) * sizeof(double));
+    memset(r->eq_rhs, 0, (size_t)(k * ROW_LETTERS * EQUALITY_ROWS) * sizeof(double));
+    memset(r->ineq, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS * nx) * sizeof(double));
+    memset(r->ineq_rhs, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS) * sizeof(double));
+    memset(r->valid, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS));
+    memset(r->motion, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS));
+    for (Py_ssize_t i = 0; i < k; i++) {
+        contact_rows_of(r, i);
+    }
+}
+
 static PyObject *contact_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
     Args a;
     RowJob r;
     PyObject *result = NULL;
     if (parse(&rows_signature, args, nargs, &a) == 0 && row_job(&a, &r) == 0) {
-        Py_ssize_t n = r.n, k = r.k, nx = r.nx;
-        for (Py_ssize_t i = 0; i < n; i++) { /* [M, -J_N^T, -J_T^T] */
-            for (Py_ssize_t c = 0; c < n; c++) {
-                r.dynamics[i * nx + c] = at2(r.mass, i, c);
-            }
-            for (Py_ssize_t j = 0; j < k; j++) {
-                r.dynamics[i * nx + n + j] = -at2(r.jn, j, i);
-                r.dynamics[i * nx + n + k + j] = -at2(r.jt, j, i);
-            }
-        }
-        memset(r.eq, 0, (size_t)(k * ROW_LETTERS * EQUALITY_ROWS * nx) * sizeof(double));
-        memset(r.eq_rhs, 0, (size_t)(k * ROW_LETTERS * EQUALITY_ROWS) * sizeof(double));
-        memset(r.ineq, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS * nx) * sizeof(double));
-        memset(r.ineq_rhs, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS) * sizeof(double));
-        memset(r.valid, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS));
-        memset(r.motion, 0, (size_t)(k * ROW_LETTERS * INEQUALITY_ROWS));
-        for (Py_ssize_t i = 0; i < k; i++) {
-            contact_rows_of(&r, i);
-        }
+        fill_rows(&r);
         result = Py_NewRef(Py_None);
     }
     release_args(&a);
@@ -2627,6 +2643,20 @@ typedef struct {
     PyObject *type, *modes, *outputs, *empty, *names, *float64; /* strong references */
 } QueryPlan;
 
+/* What a plain input is checked against (plain_input): m names, numpy.float64, the limits. */
+typedef struct {
+    Py_ssize_t m;
+    PyObject *names, *float64;
+    const double *lower, *upper;
+    double slack;
+} InputSpec;
+
+/* What a solution is made of (make_solution): its class, numpy.empty, n and k. */
+typedef struct {
+    PyObject *type, *empty;
+    Py_ssize_t n, k;
+} Maker;
+
 static const Arg plan_table[PLAN_ARGS] = {
     QUERY_TABLE, {"solution_type", 'o', 0, {0}, 0}, {"modes", 'o', 0, {0}, 0}, {"outputs", 'o', 0, {0}, 0},
     {"empty", 'o', 0, {0}, 0}, {"names", 'o', 0, {0}, 0}, {"float64", 'o', 0, {0}, 0}, {"lower", 'd', 1, {DIM_M}, 0}, {"upper", 'd', 1, {DIM_M}, 0},
@@ -2740,8 +2770,8 @@ static PyObject *query_plan(PyObject *self, PyObject *const *args, Py_ssize_t na
 
 /* One number of a plain input: an int, a float or a numpy.float64, exactly those types (reading them
  * runs no Python code), as 1; else 0 (an int too large for a float too). */
-static int plain_number(const QueryPlan *plan, PyObject *item, double *value) {
-    if (PyFloat_CheckExact(item) || Py_IS_TYPE(item, (PyTypeObject *)plan->float64)) {
+static int plain_number(const InputSpec *in, PyObject *item, double *value) {
+    if (PyFloat_CheckExact(item) || Py_IS_TYPE(item, (PyTypeObject *)in->float64)) {
         *value = PyFloat_AS_DOUBLE(item); /* numpy.float64 is a float: the same layout */
         return 1;
     }
@@ -2758,16 +2788,16 @@ static int plain_number(const QueryPlan *plan, PyObject *item, double *value) {
 
 /* u of a dict {input name: number} (the others 0): 1, or 0 when a key is not an input's name (a str,
  * exactly) or a value not a plain number. */
-static int plain_mapping(const QueryPlan *plan, PyObject *inputs, double *u) {
-    Py_ssize_t m = plan->t.m, at = 0;
+static int plain_mapping(const InputSpec *in, PyObject *inputs, double *u) {
+    Py_ssize_t m = in->m, at = 0;
     PyObject *key, *item;
     memset(u, 0, (size_t)m * sizeof(double));
     while (PyDict_Next(inputs, &at, &key, &item)) {
         Py_ssize_t j = 0;
-        while (j < m && !(PyUnicode_CheckExact(key) && PyUnicode_Compare(key, PyTuple_GET_ITEM(plan->names, j)) == 0)) {
+        while (j < m && !(PyUnicode_CheckExact(key) && PyUnicode_Compare(key, PyTuple_GET_ITEM(in->names, j)) == 0)) {
             j++;
         }
-        if (j == m || !plain_number(plan, item, &u[j])) {
+        if (j == m || !plain_number(in, item, &u[j])) {
             return 0;
         }
     }
@@ -2778,10 +2808,10 @@ static int plain_mapping(const QueryPlan *plan, PyObject *inputs, double *u) {
  * float64 buffer of m entries, or a dict (exactly) {input name: plain number} (the others 0); finite
  * and within the limits (to the slack). 1: read; 0: not (the general path answers). Nothing read
  * here runs Python code, so nothing can change the input while it is read. */
-static int plain_input(const QueryPlan *plan, PyObject *inputs, double *u) {
-    Py_ssize_t m = plan->t.m;
+static int plain_input(const InputSpec *in, PyObject *inputs, double *u) {
+    Py_ssize_t m = in->m;
     if (PyDict_CheckExact(inputs)) {
-        if (!plain_mapping(plan, inputs, u)) {
+        if (!plain_mapping(in, inputs, u)) {
             return 0;
         }
     } else if (PyList_CheckExact(inputs) || PyTuple_CheckExact(inputs)) {
@@ -2789,7 +2819,7 @@ static int plain_input(const QueryPlan *plan, PyObject *inputs, double *u) {
             return 0;
         }
         for (Py_ssize_t j = 0; j < m; j++) {
-            if (!plain_number(plan, PySequence_Fast_GET_ITEM(inputs, j), &u[j])) {
+            if (!plain_number(in, PySequence_Fast_GET_ITEM(inputs, j), &u[j])) {
                 return 0;
             }
         }
@@ -2813,7 +2843,7 @@ static int plain_input(const QueryPlan *plan, PyObject *inputs, double *u) {
         return 0;
     }
     for (Py_ssize_t j = 0; j < m; j++) {
-        if (!isfinite(u[j]) || u[j] < plan->lower[j] - plan->slack || u[j] > plan->upper[j] + plan->slack) {
+        if (!isfinite(u[j]) || u[j] < in->lower[j] - in->slack || u[j] > in->upper[j] + in->slack) {
             return 0;
         }
     }
@@ -2832,22 +2862,23 @@ static PyObject *vector_of(PyObject *empty, const double *values, Py_ssize_t cou
     return array;
 }
 
-/* Mode i's solution: x (nx,) = [dv, lambda_n, lambda_t], acc (2k,) = [a_n, a_t], its w (p <= 1). */
-static PyObject *new_solution(const QueryPlan *plan, Py_ssize_t i, const double *x, const double *acc, double w,
-                              double residual, double violation) {
-    Py_ssize_t n = plan->n, k = plan->k;
+/* A solution of mode `mode` (a str) with p <= 1 ambiguity variables (w: its value) moving `outputs`
+ * (a str): x (nx,) = [dv, lambda_n, lambda_t], acc (2k,) = [a_n, a_t]. */
+static PyObject *make_solution(const Maker *mk, PyObject *mode, PyObject *outputs, Py_ssize_t p, const double *x,
+                               const double *acc, double w, double residual, double violation) {
+    Py_ssize_t n = mk->n, k = mk->k;
     PyObject *fields = PyDict_New(), *value = NULL, *solution = NULL;
     for (int f = 0; f < SOLUTION_FIELDS && fields != NULL; f++) { /* one at a time: stop at a failure */
         switch (f) {
-        case 0: value = Py_NewRef(PyTuple_GET_ITEM(plan->modes, i)); break;
-        case 1: value = vector_of(plan->empty, x, n); break;
-        case 2: value = vector_of(plan->empty, x + n, k); break;
-        case 3: value = vector_of(plan->empty, x + n + k, k); break;
-        case 4: value = vector_of(plan->empty, acc, k); break;
-        case 5: value = vector_of(plan->empty, acc + k, k); break;
-        case 6: value = PyLong_FromLongLong(plan->t.p[i]); break;
-        case 7: value = Py_NewRef(PyTuple_GET_ITEM(plan->outputs, i)); break;
-        case 8: value = vector_of(plan->empty, &w, (Py_ssize_t)plan->t.p[i]); break; /* p <= 1 here */
+        case 0: value = Py_NewRef(mode); break;
+        case 1: value = vector_of(mk->empty, x, n); break;
+        case 2: value = vector_of(mk->empty, x + n, k); break;
+        case 3: value = vector_of(mk->empty, x + n + k, k); break;
+        case 4: value = vector_of(mk->empty, acc, k); break;
+        case 5: value = vector_of(mk->empty, acc + k, k); break;
+        case 6: value = PyLong_FromSsize_t(p); break;
+        case 7: value = Py_NewRef(outputs); break;
+        case 8: value = vector_of(mk->empty, &w, p); break;
         case 9: value = PyFloat_FromDouble(residual); break;
         default: value = PyFloat_FromDouble(violation); break;
         }
@@ -2858,7 +2889,7 @@ static PyObject *new_solution(const QueryPlan *plan, Py_ssize_t i, const double 
     }
     if (fields != NULL) {
         PyObject *no_args = PyTuple_New(0);
-        solution = no_args ? PyBaseObject_Type.tp_new((PyTypeObject *)plan->type, no_args, NULL) : NULL;
+        solution = no_args ? PyBaseObject_Type.tp_new((PyTypeObject *)mk->type, no_args, NULL) : NULL;
         Py_XDECREF(no_args);
         if (solution != NULL && PyObject_GenericSetDict(solution, fields, NULL) != 0) {
             Py_CLEAR(solution);
@@ -2889,7 +2920,9 @@ static PyObject *query_solutions(PyObject *self, PyObject *const *args, Py_ssize
     double *h = u + t->m, *z = h + t->width, *x = z + t->nx + t->m + 1, *acc = x + t->nx + t->m + 1;
     double *wi = acc + t->acc;
     PyObject *found = NULL;
-    if (!plain_input(plan, args[1], u)) {
+    InputSpec in = {t->m, plan->names, plan->float64, plan->lower, plan->upper, plan->slack};
+    Maker mk = {plan->type, plan->empty, plan->n, plan->k};
+    if (!plain_input(&in, args[1], u)) {
         found = Py_NewRef(Py_None);
         goto done;
     }
@@ -2910,7 +2943,8 @@ static PyObject *query_solutions(PyObject *self, PyObject *const *args, Py_ssize
             wi[c] = c == 0 ? centre : 0.0;
         }
         evaluate_mode(t, i, u, wi, x, acc, &residual, &violation, z);
-        PyObject *solution = new_solution(plan, i, x, acc, centre, residual, violation);
+        PyObject *solution = make_solution(&mk, PyTuple_GET_ITEM(plan->modes, i), PyTuple_GET_ITEM(plan->outputs, i),
+                                           (Py_ssize_t)t->p[i], x, acc, centre, residual, violation);
         if (solution == NULL || PyList_Append(found, solution) != 0) {
             Py_XDECREF(solution);
             Py_CLEAR(found);
@@ -2921,6 +2955,387 @@ static PyObject *query_solutions(PyObject *self, PyObject *const *args, Py_ssize
 done:
     PyMem_Free(u);
     return found;
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * scratch_plan, scratch_solutions: the single query from scratch in one call (frcontrol.engine's
+ * scratch_solutions; the general path of solutions_at is the reference). scratch_plan holds what does
+ * not change with the state: the robot's plan and its contacts' frames, positions and lines (as
+ * robot_state takes them), the drives' damping, S^T, the friction coefficients, the input limits and
+ * what a solution is made of. scratch_solutions(plan, v, inputs), after Pinocchio's pass at the state
+ * (computeAllTerms, in Python), does in one call what the batch path does in several: the state
+ * (fill_dynamics, fill_contacts, as robot_state), each contact's letters by its velocities
+ * (ContactProblem.allowed_modes), every full mode in full_modes' order, the contact rows
+ * (fill_rows, as contact_rows), every mode's certificate and decision (run_modes, as certified_modes)
+ * and the admissible modes' solutions, their contact accelerations J dv + drift summed in index order.
+ * It returns None where the general path must answer: an input that is not plain (plain_input), a
+ * contact moving into its surface or more than max_modes modes; False where a mode's certificate
+ * leaves it to the SVD (NOT_CERTIFIED), which the state decides whatever the input. */
+#define SCRATCH_CAPSULE "frcontrol._kernel.scratch_plan"
+#define SCRATCH_ARGS 21
+#define MAX_SCRATCH_CONTACTS 64 /* more never fit max_modes: the general path answers */
+enum { S_ROBOT, S_FRAMES, S_POSITIONS, S_LINES, S_DAMPING, S_INPUT_MAP, S_MU, S_LOWER, S_UPPER, S_TYPE, S_EMPTY,
+       S_NAMES, S_FLOAT64, S_OUTPUTS, S_SLACK, S_VELOCITY, S_MARGIN, S_TOLERANCE, S_DOMAIN, S_ZERO_ROW, S_MAX_MODES };
+
+static const Arg scratch_table[SCRATCH_ARGS] = {
+    {"robot", 'o', 0, {0}, 0}, {"frames", 'o', 0, {0}, 0}, {"positions", 'o', 0, {0}, 0}, {"lines", 'o', 0, {0}, 0},
+    {"damping", 'd', 1, {DIM_N}, OR_NONE}, {"input_map", 'd', 2, {DIM_N, DIM_M}, 0}, {"mu", 'd', 1, {DIM_K}, 0},
+    {"lower", 'd', 1, {DIM_M}, 0}, {"upper", 'd', 1, {DIM_M}, 0}, {"solution_type", 'o', 0, {0}, 0},
+    {"empty", 'o', 0, {0}, 0}, {"names", 'o', 0, {0}, 0}, {"float64", 'o', 0, {0}, 0}, {"outputs", 'o', 0, {0}, 0},
+    {"slack", 'f', 0, {0}, 0}, {"velocity_tolerance", 'f', 0, {0}, 0}, {"margin", 'f', 0, {0}, 0},
+    {"tolerance", 'f', 0, {0}, 0}, {"domain_tolerance", 'f', 0, {0}, 0}, {"zero_row_tolerance", 'f', 0, {0}, 0},
+    {"max_modes", 'i', 0, {0}, 0}};
+static const Signature scratch_signature = {"scratch_plan", SCRATCH_ARGS, scratch_table, NULL};
+
+typedef struct {
+    Args a;         /* the damping's, S^T's, mu's and the limits' buffers, held for the plan's life */
+    InputSpec in;
+    Maker mk;
+    PyObject *robot, *frames, *positions, *outputs; /* strong references (in's and mk's too) */
+    double *lines;  /* (k, LINE_ENTRIES) */
+    Py_ssize_t max_modes;
+} ScratchPlan;
+
+static void free_scratch(ScratchPlan *plan) {
+    release_args(&plan->a);
+    Py_XDECREF(plan->robot);
+    Py_XDECREF(plan->frames);
+    Py_XDECREF(plan->positions);
+    Py_XDECREF(plan->outputs);
+    Py_XDECREF(plan->in.names);
+    Py_XDECREF(plan->in.float64);
+    Py_XDECREF(plan->mk.type);
+    Py_XDECREF(plan->mk.empty);
+    PyMem_Free(plan->lines);
+    PyMem_Free(plan);
+}
+
+static void scratch_capsule_free(PyObject *capsule) {
+    free_scratch(PyCapsule_GetPointer(capsule, SCRATCH_CAPSULE));
+}
+
+/* The plan's own checks: the frames one per mu, the lines' floats (into plan->lines), a solution class
+ * made by object.__new__ with a __dict__, a float subclass, a name per input, a str of outputs. */
+static int check_scratch(ScratchPlan *plan, PyObject *const *args) {
+    const Args *a = &plan->a;
+    Py_ssize_t k = a->dim[DIM_K] < 0 ? 0 : a->dim[DIM_K], m = a->dim[DIM_M];
+    PyObject *type = args[S_TYPE], *names = args[S_NAMES], *float64 = args[S_FLOAT64];
+    if (!PyTuple_Check(args[S_FRAMES]) || PyTuple_GET_SIZE(args[S_FRAMES]) != k) {
+        PyErr_Format(kernel_error, "scratch_plan: frames must be a tuple of %zd frames, one per mu", k);
+        return -1;
+    }
+    StateJob lines = {.k = k};
+    if (take_lines(args[S_LINES], &lines)) {
+        PyMem_Free(lines.lines);
+        return -1;
+    }
+    plan->lines = lines.lines;
+    if (!PyType_Check(type) || ((PyTypeObject *)type)->tp_new != PyBaseObject_Type.tp_new ||
+        !instance_dict((PyTypeObject *)type) || !PyType_Check(float64) ||
+        !PyType_IsSubtype((PyTypeObject *)float64, &PyFloat_Type) || !PyUnicode_Check(args[S_OUTPUTS])) {
+        PyErr_SetString(kernel_error, "scratch_plan: solution_type must be a class made by object.__new__ whose "
+                                      "instances have a __dict__, float64 a subclass of float, outputs a str");
+        return -1;
+    }
+    if (!PyTuple_Check(names) || PyTuple_GET_SIZE(names) != m) {
+        PyErr_Format(kernel_error, "scratch_plan: names must be a tuple of %zd input names", m);
+        return -1;
+    }
+    for (Py_ssize_t j = 0; j < m; j++) {
+        if (!PyUnicode_Check(PyTuple_GET_ITEM(names, j))) {
+            PyErr_Format(kernel_error, "scratch_plan: input name %zd is not a str", j);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* scratch_plan(robot, frames, positions, lines, damping, input_map, mu, lower, upper, solution_type,
+ * empty, names, float64, outputs, slack, velocity_tolerance, margin, tolerance, domain_tolerance,
+ * zero_row_tolerance, max_modes) -> capsule. */
+static PyObject *scratch_plan(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    for (int f = 0; f < SOLUTION_FIELDS; f++) {
+        if (solution_fields[f] == NULL &&
+            (solution_fields[f] = PyUnicode_InternFromString(solution_field_names[f])) == NULL) {
+            return NULL;
+        }
+    }
+    if (intern_names()) {
+        return NULL;
+    }
+    ScratchPlan *plan = PyMem_Calloc(1, sizeof(ScratchPlan));
+    if (plan == NULL) {
+        return PyErr_NoMemory();
+    }
+    if (parse(&scratch_signature, args, nargs, &plan->a) == 0 && check_scratch(plan, args) == 0) {
+        const Args *a = &plan->a;
+        plan->in = (InputSpec){a->dim[DIM_M], Py_NewRef(args[S_NAMES]), Py_NewRef(args[S_FLOAT64]),
+                               a->data[S_LOWER], a->data[S_UPPER], a->number[S_SLACK]};
+        plan->mk = (Maker){Py_NewRef(args[S_TYPE]), Py_NewRef(args[S_EMPTY]), a->dim[DIM_N],
+                           a->dim[DIM_K] < 0 ? 0 : a->dim[DIM_K]};
+        plan->robot = Py_NewRef(args[S_ROBOT]);
+        plan->frames = Py_NewRef(args[S_FRAMES]);
+        plan->positions = Py_NewRef(args[S_POSITIONS]);
+        plan->outputs = Py_NewRef(args[S_OUTPUTS]);
+        plan->max_modes = (Py_ssize_t)a->integer[S_MAX_MODES];
+        PyObject *capsule = PyCapsule_New(plan, SCRATCH_CAPSULE, scratch_capsule_free);
+        if (capsule != NULL) {
+            return capsule;
+        }
+    }
+    free_scratch(plan);
+    return NULL;
+}
+
+/* Each contact's letters by its velocities (ContactProblem.allowed_modes: S only when v_N > tol, S R
+ * when v_T > tol, S L when v_T < -tol, all four else), as bit masks over S L R F; the number of full
+ * modes, or -1 when a contact moves into its surface (v_N < -tol) or there are more than `most`. */
+static Py_ssize_t allowed_letters(const double *vn, const double *vt, Py_ssize_t k, double tol, Py_ssize_t most,
+                                  int *mask) {
+    Py_ssize_t count = 1;
+    for (Py_ssize_t i = 0; i < k; i++) {
+        if (vn[i] < -tol) {
+            return -1;
+        }
+        mask[i] = vn[i] > tol ? 1 : vt[i] > tol ? 1 | 4 : vt[i] < -tol ? 1 | 2 : 15;
+        count *= (mask[i] == 15 ? 4 : mask[i] == 1 ? 1 : 2);
+        if (count > most) {
+            return -1;
+        }
+    }
+    return count;
+}
+
+/* Every full mode's letter indices (count, k) in full_modes' order: the last contact's letter varies
+ * fastest, each contact's letters in S L R F order. */
+static void full_letters(const int *mask, Py_ssize_t k, Py_ssize_t count, long long *letters) {
+    long long *at = letters;
+    for (Py_ssize_t mode = 0; mode < count; mode++) {
+        Py_ssize_t rest = mode;
+        for (Py_ssize_t i = k - 1; i >= 0; i--) {
+            int choices[LETTERS], c = 0;
+            for (int letter = 0; letter < LETTERS; letter++) {
+                if (mask[i] >> letter & 1) {
+                    choices[c++] = letter;
+                }
+            }
+            at[i] = choices[rest % c];
+            rest /= c;
+        }
+        at += k;
+    }
+}
+
+/* A float64 view (rows, cols) of data as at2 reads it (strides in bytes). */
+static void raw_view(Py_buffer *view, Py_ssize_t *strides, double *data, Py_ssize_t cols) {
+    memset(view, 0, sizeof(*view));
+    strides[0] = cols * (Py_ssize_t)sizeof(double);
+    strides[1] = (Py_ssize_t)sizeof(double);
+    view->buf = data;
+    view->strides = strides;
+}
+
+typedef struct {
+    double *state;          /* the state's arrays (w->job's) */
+    double *memory;         /* the rows' arrays, then x, residual and violation per mode */
+    unsigned char *flags;   /* valid, motion, then status per mode */
+    long long *letters;     /* (count, k) */
+    double *work;           /* run_modes' scratch (scratch()) */
+    StateJob job;
+    Py_ssize_t count;
+} ScratchWork;
+
+static void free_work(ScratchWork *w) {
+    PyMem_Free(w->state);
+    PyMem_Free(w->memory);
+    PyMem_Free(w->flags);
+    PyMem_Free(w->letters);
+    PyMem_Free(w->work);
+}
+
+/* The state at v (fill_dynamics, fill_contacts), into w->job's arrays; -1 with an error set. */
+static int scratch_state(const ScratchPlan *plan, const Py_buffer *v, ScratchWork *w, Buffer *b) {
+    StateJob *job = &w->job;
+    Py_ssize_t n = plan->mk.n, k = plan->mk.k;
+    if (take_robot(plan->robot, plan->frames, plan->positions, n, b, job)) {
+        return -1;
+    }
+    job->v = v, job->lines = plan->lines, job->damping = plan->a.data[S_DAMPING];
+    w->state = PyMem_Malloc((size_t)(n * n + n + 2 * k + 2 * k * n + 5 * k + 1) * sizeof(double));
+    if (w->state == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    job->mass = w->state, job->bias = job->mass + n * n, job->points = job->bias + n;
+    job->rows = job->points + 2 * k, job->values = job->rows + 2 * k * n;
+    fill_dynamics(job, &b[0].view, &b[1].view);
+    return fill_contacts(job, plan->frames, plan->positions);
+}
+
+/* The contact rows of the state (fill_rows) into p's arrays, the modes' outputs after them; -1 with
+ * an error set. */
+static int scratch_rows(const ScratchPlan *plan, ScratchWork *w, Problem *p) {
+    const StateJob *job = &w->job;
+    Py_ssize_t n = p->n, k = p->k, nx = p->nx, count = w->count;
+    Py_ssize_t pairs = k * ROW_LETTERS * EQUALITY_ROWS, cells = k * ROW_LETTERS * INEQUALITY_ROWS;
+    w->memory = PyMem_Malloc((size_t)(n * nx + pairs * (nx + 1) + cells * (nx + 1) + count * (nx + 2) + 1) *
+                             sizeof(double));
+    w->flags = PyMem_Malloc((size_t)(2 * cells + count + 1));
+    if (w->memory == NULL || w->flags == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    double *at = w->memory;
+    RowJob r = {.n = n, .k = k, .nx = nx, .tolerance = plan->a.number[S_VELOCITY]};
+    r.dynamics = at, at += n * nx;
+    r.eq = at, at += pairs * nx;
+    r.eq_rhs = at, at += pairs;
+    r.ineq = at, at += cells * nx;
+    r.ineq_rhs = at, at += cells;
+    p->x = at, at += count * nx;
+    p->residual = at, at += count;
+    p->violation = at;
+    r.valid = w->flags, r.motion = w->flags + cells;
+    p->status = (signed char *)(w->flags + 2 * cells);
+    Py_buffer views[8];
+    Py_ssize_t strides[8][2];
+    double *vectors[6] = {job->values + 3 * k, job->values + 4 * k, (double *)plan->a.data[S_MU],
+                          job->values + k, job->values + 2 * k, NULL}; /* drift_N, drift_T, mu, v_N, v_T */
+    raw_view(&views[0], strides[0], job->mass, n);
+    raw_view(&views[1], strides[1], job->rows, n);
+    raw_view(&views[2], strides[2], job->rows + k * n, n);
+    for (int j = 0; j < 5; j++) {
+        raw_view(&views[3 + j], strides[3 + j], vectors[j], 1);
+    }
+    r.mass = &views[0], r.jn = &views[1], r.jt = &views[2], r.dn = &views[3], r.dt = &views[4];
+    r.mu = &views[5], r.vn = &views[6], r.vt = &views[7];
+    fill_rows(&r);
+    p->dynamics = r.dynamics, p->eq = r.eq, p->eq_rhs = r.eq_rhs, p->ineq = r.ineq, p->ineq_rhs = r.ineq_rhs;
+    p->valid = r.valid, p->motion = r.motion;
+    return 0;
+}
+
+/* Every full mode decided at u (run_modes) into p; -1 with an error set. */
+static int scratch_modes(const ScratchPlan *plan, const double *u, const int *mask, ScratchWork *w, Problem *p) {
+    const Args *a = &plan->a;
+    Py_ssize_t k = plan->mk.k;
+    *p = (Problem){.n = plan->mk.n, .k = k, .m = plan->in.m, .nx = plan->mk.n + 2 * k, .count = w->count};
+    p->input_map = a->data[S_INPUT_MAP], p->bias = w->job.bias, p->u = u;
+    p->margin = a->number[S_MARGIN], p->tolerance = a->number[S_TOLERANCE];
+    p->domain_tolerance = a->number[S_DOMAIN], p->zero_row_tolerance = a->number[S_ZERO_ROW];
+    w->letters = PyMem_Malloc((size_t)(w->count * k + 1) * sizeof(long long));
+    if (w->letters == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    full_letters(mask, k, w->count, w->letters);
+    p->letters = w->letters;
+    if (scratch_rows(plan, w, p)) {
+        return -1;
+    }
+    Scratch s;
+    double *Su, *work;
+    if ((w->work = scratch(p, &s, &Su, &work)) == NULL) {
+        return -1;
+    }
+    run_modes(p, Su, &s);
+    return 0;
+}
+
+/* The admissible modes' solutions, in mode order, appended to `found`; -1 with an error set. */
+static int scratch_found(const ScratchPlan *plan, const ScratchWork *w, const Problem *p, PyObject *found) {
+    Py_ssize_t n = p->n, k = p->k, nx = p->nx;
+    const double *JN = w->job.rows, *JT = w->job.rows + k * n, *values = w->job.values;
+    double acc[2 * MAX_SCRATCH_CONTACTS];
+    char name[MAX_SCRATCH_CONTACTS + 1];
+    for (Py_ssize_t mode = 0; mode < p->count; mode++) {
+        if (p->status[mode] != CERTIFIED_ADMISSIBLE) {
+            continue;
+        }
+        const double *x = p->x + mode * nx;
+        for (Py_ssize_t i = 0; i < k; i++) {
+            double an = 0.0, at = 0.0;
+            for (Py_ssize_t c = 0; c < n; c++) {
+                an += JN[i * n + c] * x[c];
+                at += JT[i * n + c] * x[c];
+            }
+            acc[i] = an + values[3 * k + i];
+            acc[k + i] = at + values[4 * k + i];
+            name[i] = "SLRF"[p->letters[mode * k + i]];
+        }
+        PyObject *mode_name = PyUnicode_FromStringAndSize(name, k);
+        PyObject *solution = mode_name ? make_solution(&plan->mk, mode_name, plan->outputs, 0, x, acc, 0.0,
+                                                       p->residual[mode], p->violation[mode]) : NULL;
+        Py_XDECREF(mode_name);
+        if (solution == NULL || PyList_Append(found, solution) != 0) {
+            Py_XDECREF(solution);
+            return -1;
+        }
+        Py_DECREF(solution);
+    }
+    return 0;
+}
+
+/* The answer from the state in w: the list of solutions, None (the general path answers) or False (it
+ * does, and a mode is left to the SVD: the state's A decides that, not the input). */
+static PyObject *scratch_answer(const ScratchPlan *plan, const double *u, ScratchWork *w) {
+    Py_ssize_t k = plan->mk.k;
+    int mask[MAX_SCRATCH_CONTACTS];
+    const double *values = w->job.values;
+    w->count = k > MAX_SCRATCH_CONTACTS ? -1 : allowed_letters(values + k, values + 2 * k, k,
+                                                              plan->a.number[S_VELOCITY], plan->max_modes, mask);
+    if (w->count < 0) {
+        return Py_NewRef(Py_None);
+    }
+    Problem p;
+    if (scratch_modes(plan, u, mask, w, &p)) {
+        return NULL;
+    }
+    for (Py_ssize_t mode = 0; mode < p.count; mode++) {
+        if (p.status[mode] == NOT_CERTIFIED) { /* the state's, whatever the input */
+            return Py_NewRef(Py_False);
+        }
+    }
+    PyObject *found = PyList_New(0);
+    if (found != NULL && scratch_found(plan, w, &p, found)) {
+        Py_CLEAR(found);
+    }
+    return found;
+}
+
+/* scratch_solutions(plan, v, inputs) -> [solution, ...], None or False (see above). */
+static PyObject *scratch_solutions(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    if (nargs != 3) {
+        PyErr_Format(kernel_error, "scratch_solutions takes 3 arguments, got %zd", nargs);
+        return NULL;
+    }
+    ScratchPlan *plan = PyCapsule_IsValid(args[0], SCRATCH_CAPSULE) ? PyCapsule_GetPointer(args[0], SCRATCH_CAPSULE)
+                                                                     : NULL;
+    if (plan == NULL) {
+        PyErr_SetString(kernel_error, "scratch_solutions: the first argument is not a scratch_plan");
+        return NULL;
+    }
+    Buffer v = {0}, b[3];
+    memset(b, 0, sizeof(b));
+    Py_ssize_t v_shape[1] = {plan->mk.n};
+    ScratchWork w;
+    memset(&w, 0, sizeof(w));
+    PyObject *result = NULL;
+    double *u = PyMem_Malloc((size_t)(plan->in.m + 1) * sizeof(double));
+    if (u == NULL) {
+        PyErr_NoMemory();
+    } else if (!plain_input(&plan->in, args[2], u)) {
+        result = Py_NewRef(Py_None);
+    } else if (take_strided(args[1], &v, "v", 1, v_shape) == 0 && scratch_state(plan, &v.view, &w, b) == 0) {
+        result = scratch_answer(plan, u, &w);
+    }
+    PyMem_Free(u);
+    free_work(&w);
+    release(&v, 1);
+    release(b, 3);
+    return result;
 }
 
 /* environment_value(name) -> str: the process environment's value of `name`, "" when unset (C's
@@ -3406,6 +3821,21 @@ static PyMethodDef methods[] = {
      "None) the drives' b. plan: (state type, numpy.empty, model, data, updateFramePlacement,\n"
      "getFrameJacobian, getFrameClassicalAcceleration, LOCAL_WORLD_ALIGNED, v_index (int64, or None:\n"
      "the identity), nv, data.M, data.nle), the last two views of the data's storage."},
+    {"scratch_plan", (PyCFunction)(void (*)(void))scratch_plan, METH_FASTCALL,
+     "scratch_plan(robot, frames, positions, lines, damping, input_map, mu, lower, upper, solution_type,\n"
+     "             empty, names, float64, outputs, slack, velocity_tolerance, margin, tolerance,\n"
+     "             domain_tolerance, zero_row_tolerance, max_modes) -> plan\n\n"
+     "What scratch_solutions reads of a scene that does not change with its state: the robot_state plan\n"
+     "and the contacts' frames, positions and lines, the damping (or None), S^T (n, m), mu (k,), the\n"
+     "input limits, the solution class, numpy.empty, the input names, numpy.float64, the outputs' str\n"
+     "and the engine's tolerances."},
+    {"scratch_solutions", (PyCFunction)(void (*)(void))scratch_solutions, METH_FASTCALL,
+     "scratch_solutions(plan, v, inputs) -> [solution, ...], None or False\n\n"
+     "Every rigid solution at the plain input `inputs` from the state whose Pinocchio pass (computeAllTerms\n"
+     "at q and v) has just run: the state, the letters by velocity, every full mode's certificate and\n"
+     "decision, as robot_state, contact_rows and certified_modes do; None where the general path must\n"
+     "answer (an input not plain, an impact, too many modes), False where it must because a mode is\n"
+     "left to the SVD (the state decides that, not the input)."},
     {"contact_rows", (PyCFunction)(void (*)(void))contact_rows, METH_FASTCALL,
      "contact_rows(mass, jacobian_normal, jacobian_tangent, drift_normal, drift_tangent, mu,\n"
      "             normal_velocities, tangential_velocities, velocity_tolerance, dynamics, equalities,\n"

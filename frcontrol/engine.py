@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -44,8 +45,9 @@ from .errors import IllConditioned, InputError
 from .geometry import CHEBYSHEV_RADIUS_CAP, constant_rows, max_margin, row_norms
 from .jsonable import to_jsonable
 from .kernel import Backend, backend, compiled, twin
-from .mode_batch import BATCH_MAX_MODES, decide_modes, interval_admissible
+from .mode_batch import BATCH_MAX_MODES, CERTIFIED_MARGIN, decide_modes, interval_admissible
 from .modes import (
+    VELOCITY_TOLERANCE,
     ContactProblem,
     ModeSystem,
     add_scene_modes,
@@ -1335,10 +1337,15 @@ def solutions_at(
         ImpactState: a contact moves into its surface.
         IllConditioned: a mode's rank cannot be decided.
     """
-    if isinstance(scene, DynamicResponse) and method == "auto" and solver is None and settings is None:
-        found = backend().query_solutions(scene.query, inputs)  # one call; None: the general path answers
-        if found is not None:
-            return found
+    if method == "auto" and solver is None and settings is None:  # one call; None: the general path answers
+        if isinstance(scene, DynamicResponse):
+            found = backend().query_solutions(scene.query, inputs)
+            if found is not None:
+                return found
+        elif isinstance(scene, Scene) and rank_tolerance == RANK_TOLERANCE:
+            found = backend().scratch_solutions(scene, inputs)
+            if found is not None:
+                return found
     if method not in SOLUTION_METHODS:
         raise InputError(f"unknown solution method {method!r}; valid: {', '.join(SOLUTION_METHODS)}")
     settings = settings_from(solver, settings)
@@ -1410,6 +1417,64 @@ def _located_solutions(analysis: DynamicResponse, u: np.ndarray, settings: Solve
         return _admissible_in_w(H, h, motion, settings)
 
     return table.solutions(table.point(u, decide_w))
+
+
+_SCRATCH_PLANS: weakref.WeakKeyDictionary[Scene, Any] = weakref.WeakKeyDictionary()
+"""Each scene's compiled ``scratch_plan`` (None: the general path answers), made on its first query."""
+
+
+def _scratch_plan(scene: Scene) -> Any:
+    """The compiled kernel's ``scratch_plan`` of ``scene``: what its one-call query reads that does not
+    change with the state; None for a scene the general path answers (joint springs, elastic drives,
+    the state assembled in NumPy)."""
+    robot, indices, inputs = scene.robot, scene.active_indices, scene.inputs
+    held = robot.kernel_state_plan(indices)
+    if held is None or any(drive.elastic for drive in scene.drives.values()):
+        return None
+    return compiled.scratch_plan(  # type: ignore[union-attr]  # only on the compiled path
+        *held, np.ascontiguousarray(inputs.selection_transpose(robot.nv)),
+        np.array([scene.contacts[i].mu for i in indices], dtype=float),
+        np.ascontiguousarray(inputs.lower, dtype=float), np.ascontiguousarray(inputs.upper, dtype=float),
+        RigidSolution, np.empty, tuple(inputs.coordinates), np.float64, "none", INPUT_LIMIT_SLACK,
+        VELOCITY_TOLERANCE, CERTIFIED_MARGIN, max(RANK_TOLERANCE, ILL_CONDITIONED_BAND), DOMAIN_TOLERANCE,
+        ZERO_ROW_TOLERANCE, BATCH_MAX_MODES)
+
+
+def _scratch_solutions_compiled(scene: Scene, inputs: Any) -> list[RigidSolution] | None:
+    """:func:`solutions_at` on a scene in one call of the compiled kernel (``scratch_solutions``).
+
+    After Pinocchio's pass at the scene's state, the kernel assembles the state, prunes the letters
+    by velocity and decides every full mode as the batch path's certified modes do
+    (:mod:`frcontrol.mode_batch`): the same modes, forces and accelerations (the contact
+    accelerations ``J dv + drift`` summed in index order: to round-off). None where the general path
+    answers: an input that is not plain (:func:`frcontrol.query.plain_input`'s rule), an impact,
+    more than ``BATCH_MAX_MODES`` modes, a scene :func:`_scratch_plan` declines, or a mode the
+    certificate leaves to the SVD. The last depends on the state alone (the modes' ``A``), not on
+    the input: the kernel says so (False) and the scene's later queries go the general way at once.
+    """
+    plan = _SCRATCH_PLANS.get(scene, _NO_PLAN)
+    if plan is _NO_PLAN:
+        plan = _SCRATCH_PLANS[scene] = _scratch_plan(scene)
+    if plan is None:
+        return None
+    found = compiled.scratch_solutions(  # type: ignore[union-attr]
+        plan, scene.robot.pinocchio_pass(scene.q, scene.v), inputs)
+    if found is False:
+        _SCRATCH_PLANS[scene] = None
+        return None
+    return found
+
+
+def _scratch_solutions_numpy(scene: Scene, inputs: Any) -> list[RigidSolution] | None:
+    """The NumPy twin of ``scratch_solutions``: it declines (None), and the general path, the
+    reference the compiled call reproduces, answers."""
+    return None
+
+
+_NO_PLAN = object()
+"""A scene without a plan yet in :data:`_SCRATCH_PLANS`."""
+
+twin("scratch_solutions", numpy=_scratch_solutions_numpy, compiled=_scratch_solutions_compiled)
 
 
 def solutions_at_batch(analysis: DynamicResponse, inputs: npt.ArrayLike, *,

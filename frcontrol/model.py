@@ -28,6 +28,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -683,13 +684,7 @@ class PlanarRobot:
             v: minimal velocity, shape (n,) (float64 goes through as it is).
             contacts: indices into ``self.contacts`` to evaluate (default: all), in that order.
         """
-        if type(v) is not np.ndarray or v.dtype != _FLOAT64:  # the kernel reads float64 only
-            v = np.asarray(v, dtype=float)
-        # (an array q goes to Pinocchio as it is where no gather is needed: Pinocchio converts
-        # other number types itself; a sequence goes through _pinocchio_q)
-        pin.computeAllTerms(self.model, self.data,
-                            q if self._q_gather is None and type(q) is np.ndarray else self._pinocchio_q(q),
-                            v if self._identity_order else self.pinocchio_v_from_minimal(v))
+        v = self.pinocchio_pass(q, v)
         layout = self._layouts.get(contacts) if contacts is None or type(contacts) is tuple else None
         if layout is None:
             layout = self._layout(None if contacts is None else tuple(contacts))
@@ -703,6 +698,33 @@ class PlanarRobot:
         if self._springs:  # the joint springs' known force, on either kernel's new bias array
             self._springs.add_to_bias(state.bias, q, v)
         return state
+
+    def pinocchio_pass(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Pinocchio's one pass at ``(q, v)`` (``computeAllTerms``) that :meth:`state` reads; ``v`` as float64.
+
+        Args:
+            q: minimal configuration, shape (n,) (not validated here: see :meth:`check_state`).
+            v: minimal velocity, shape (n,) (float64 goes through as it is).
+        """
+        if type(v) is not np.ndarray or v.dtype != _FLOAT64:  # the kernel reads float64 only
+            v = np.asarray(v, dtype=float)
+        # (an array q goes to Pinocchio as it is where no gather is needed: Pinocchio converts
+        # other number types itself; a sequence goes through _pinocchio_q)
+        pin.computeAllTerms(self.model, self.data,
+                            q if self._q_gather is None and type(q) is np.ndarray else self._pinocchio_q(q),
+                            v if self._identity_order else self.pinocchio_v_from_minimal(v))
+        return v
+
+    def kernel_state_plan(self, contacts: tuple[int, ...]) -> tuple[Any, ...] | None:
+        """What the compiled kernel reads to assemble the state at the contacts ``contacts`` after
+        :meth:`pinocchio_pass`: ``(plan, frames, positions, lines, damping)`` as ``robot_state`` takes
+        them; None where :meth:`state` does more than the kernel (joint springs) or assembles in NumPy.
+        """
+        if self._kernel_plan is None or self._springs:
+            return None
+        layout = self._layout(contacts)
+        return (self._kernel_plan, layout.frames, layout.positions, layout.lines,
+                self._damping if self._has_damping else None)
 
     def _state_numpy(self, q: np.ndarray, v: np.ndarray, layout: _ContactLayout) -> RobotState:
         """:meth:`state`'s assembly in NumPy, after Pinocchio's pass: the reference of the compiled one."""

@@ -519,3 +519,169 @@ def test_the_querys_solutions_are_ordinary_frozen_solutions(name):
         assert vars(solution).keys() == vars(made).keys()
         with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign"):
             solution.mode = "S"  # type: ignore[misc]
+
+
+# ------------------------------------------------------------------ the single query from scratch
+def scratch_states(name: str, count: int, seed: int) -> list:
+    """The scene at its state, then at ``count`` states near it: the velocities perturbed (a moving
+    contact keeps fewer letters), a contact lifted or sliding now and then."""
+    scene = load_scene(name)
+    rng = np.random.default_rng(seed)
+    states = [scene]
+    for _ in range(count):
+        v = scene.v + rng.normal(0.0, 0.05, scene.v.size) * rng.integers(0, 2, scene.v.size)
+        states.append(scene.at(scene.q, v))
+    return states
+
+
+def assert_scratch_is_general(fast: list, general: list, where: str) -> None:
+    """The one call's solutions are the general path's on the same kernel: to the last bit but the
+    contact accelerations, which it sums in index order (to round-off)."""
+    assert [s.mode for s in fast] == [s.mode for s in general], where
+    for s, r in zip(fast, general, strict=True):
+        assert type(s) is type(r) and vars(s).keys() == vars(r).keys(), where
+        for field, value in vars(r).items():
+            got = getattr(s, field)
+            if field in ("a_n", "a_t"):
+                assert got.dtype == value.dtype and close(got, value), f"{where} {s.mode} {field}"
+            elif isinstance(value, np.ndarray):
+                assert got.dtype == value.dtype and np.array_equal(got, value), f"{where} {s.mode} {field}"
+            else:
+                assert got == value and type(got) is type(value), f"{where} {s.mode} {field}"
+
+
+def left_to_the_svd(problem, u: np.ndarray) -> bool:
+    """Whether the batch path's certificate leaves a full mode of ``problem`` to the SVD at ``u``."""
+    from frcontrol.mode_batch import CERTIFIED_MARGIN, _compiled_rows, full_modes
+    from frcontrol.response import ILL_CONDITIONED_BAND, RANK_TOLERANCE
+
+    _, letters = full_modes(problem.allowed_modes())
+    count, nx = letters.shape[0], problem.n + 2 * problem.k
+    status = np.empty(count, dtype=np.int8)
+    out = [np.empty((count, nx)), np.empty(count), np.empty(count), np.empty((count, nx, nx)),
+           np.empty((count, nx)), np.empty((count, nx))]
+    compiled.certified_modes(*_compiled_rows(problem), letters, np.ascontiguousarray(problem.input_map),
+                             problem.bias, u, status, *out, CERTIFIED_MARGIN,
+                             max(RANK_TOLERANCE, ILL_CONDITIONED_BAND), DOMAIN_TOLERANCE, 1e-12)
+    return bool((status == compiled.NOT_CERTIFIED).any())
+
+
+@needs_kernel
+@pytest.mark.parametrize("name", SCENES)
+def test_the_scratch_query_is_the_general_paths(name, monkeypatch):
+    """``scratch_solutions``, the single query from scratch in one call, against the general path
+    (``solutions_at`` on the scene's ``ContactProblem``, the reference its NumPy twin declines to):
+    it answers exactly where the certificate decides every full mode (False where one is left to the
+    SVD, None at an impact or beyond ``BATCH_MAX_MODES``), and then with the general path's
+    solutions (its bits on the compiled kernel, to round-off on NumPy's); ``solutions_at(scene, u)``
+    is the general path's answer either way."""
+    from frcontrol.engine import _scratch_plan
+    from frcontrol.errors import ImpactState
+    from frcontrol.kernel import NUMPY
+    from frcontrol.mode_batch import BATCH_MAX_MODES
+    from frcontrol.modes import ContactProblem
+
+    answered = expected = svd = 0
+    for j, scene in enumerate(scratch_states(name, 4, seed=sum(name.encode()))):
+        problem, plan = ContactProblem.from_scene(scene), _scratch_plan(scene)
+        U = np.random.default_rng(j).uniform(problem.lower, problem.upper, (6, problem.m))
+        U[:2] *= np.random.default_rng(j).integers(0, 2, (2, problem.m))
+        for i, u in enumerate(U):
+            where = f"{name} state {j} input {i}"
+            assert NUMPY.scratch_solutions(scene, u) is None, where
+            fast = None if plan is None else compiled.scratch_solutions(
+                plan, scene.robot.pinocchio_pass(scene.q, scene.v), u)
+            try:
+                general = solutions_at(problem, u)
+            except ImpactState:
+                assert fast is None, where
+                continue
+            if plan is not None and np.prod([len(a) for a in problem.allowed_modes()]) <= BATCH_MAX_MODES:
+                expected += 1
+                svd += fast is False
+                assert (fast is False) == left_to_the_svd(problem, u), where
+            if isinstance(fast, list):
+                answered += 1
+                assert_scratch_is_general(fast, general, where)
+                monkeypatch.setenv("FRC_KERNEL", "numpy")
+                assert_same(fast, solutions_at(problem, u), where=where)
+                monkeypatch.delenv("FRC_KERNEL")
+            assert_scratch_is_general(solutions_at(scene, u), general, where)
+    assert answered + svd == expected, name  # None only at an impact or beyond the batch's modes
+
+
+@needs_kernel
+@pytest.mark.parametrize("what, inputs, plain", PLAIN, ids=[p[0] for p in PLAIN])
+def test_the_scratch_query_takes_plain_inputs_only(what, inputs, plain):
+    """The one call from scratch takes the inputs the one call on an analysis takes (the same
+    ``plain_input``) and leaves the rest to the general path (None), which raises a bad one's typed
+    error; where it answers, it is the general path's answer."""
+    from frcontrol.engine import _scratch_plan
+    from frcontrol.modes import ContactProblem
+
+    scene = load_scene("rod_on_table")
+    problem = ContactProblem.from_scene(scene)
+    fast = compiled.scratch_solutions(_scratch_plan(scene), scene.robot.pinocchio_pass(scene.q, scene.v), inputs)
+    assert (fast is not None) == plain, what
+    if plain:
+        if isinstance(inputs, dict):
+            vector = np.array([float(inputs.get(name, 0.0)) for name in problem.inputs])
+        else:
+            vector = np.array(list(inputs), dtype=float)
+        assert_scratch_is_general(fast, solutions_at(problem, vector), what)
+
+
+def test_the_scratch_query_leaves_impacts_springs_and_the_svd_to_the_general_path():
+    """An impact raises the general path's ImpactState; a scene with elastic drives gets no plan (its
+    bias has their torques); a state whose certificate leaves a mode to the SVD (the box's FF: four
+    contact rows on three coordinates) is remembered, and the scene's later queries go the general
+    way at once, with its answers."""
+    from frcontrol.engine import _SCRATCH_PLANS, _scratch_plan
+    from frcontrol.errors import ImpactState
+    from frcontrol.modes import ContactProblem
+
+    rod = load_scene("rod_on_table")
+    falling = rod.at(rod.q, np.array([0.0, -1.0, 0.0]))
+    with pytest.raises(ImpactState, match="moves into its surface|impact"):
+        solutions_at(falling, {})
+    assert _scratch_plan(load_scene("rhex_flip_drives")) is None
+    box = load_scene("box_on_slope")
+    first = solutions_at(box, {})
+    assert [s.mode for s in first] == ["FF"] and s_ambiguous(first)
+    if compiled is not None:
+        assert box in _SCRATCH_PLANS and _SCRATCH_PLANS[box] is None
+    assert_scratch_is_general(solutions_at(box, [0.0, 0.0, 0.0]), solutions_at(ContactProblem.from_scene(box), {}),
+                              "box again")
+
+
+def s_ambiguous(solutions: list) -> bool:
+    return all(s.ambiguity_dim == 1 for s in solutions)
+
+
+@needs_kernel
+def test_the_scratch_kernel_refuses_bad_arguments():
+    """A wrong plan, velocity or plan argument raises KernelError naming it."""
+    from frcontrol.engine import _scratch_plan
+
+    scene = load_scene("rod_on_table")
+    plan = _scratch_plan(scene)
+    with pytest.raises(KernelError, match="not a scratch_plan"):
+        compiled.scratch_solutions(object(), scene.v, {})
+    with pytest.raises(KernelError, match="kernel buffer v: axis 0 has 2 entries, expected 3"):
+        compiled.scratch_solutions(plan, np.zeros(2), {})
+    with pytest.raises(KernelError, match="takes 3 arguments"):
+        compiled.scratch_solutions(plan, scene.v)
+    held = scene.robot.kernel_state_plan(scene.active_indices)
+    inputs = scene.inputs
+    good = [*held, np.ascontiguousarray(inputs.selection_transpose(3)), np.array([0.5]), inputs.lower,
+            inputs.upper, type("S", (), {}), np.empty, tuple(inputs.coordinates), np.float64, "none", 1e-9,
+            1e-9, 10.0, 1e-9, 1e-9, 1e-12, 1024]
+    assert compiled.scratch_plan(*good) is not None
+    for index, bad, message in [(1, (), "frames must be a tuple of 1 frames"), (6, np.array([0.5, 0.5]),
+                                "kernel buffer mu: axis 0 has 2 entries, expected 1|frames must be a tuple"),
+                                (3, (1.0,), "lines must be a tuple of 5 floats"),
+                                (9, int, "solution_type must be a class"), (11, ("x",), "names must be a tuple")]:
+        args = list(good)
+        args[index] = bad
+        with pytest.raises(KernelError, match=message):
+            compiled.scratch_plan(*args)
