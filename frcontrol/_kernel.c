@@ -3020,16 +3020,23 @@ static int check_scratch(ScratchPlan *plan, PyObject *const *args) {
     const Args *a = &plan->a;
     Py_ssize_t k = a->dim[DIM_K] < 0 ? 0 : a->dim[DIM_K], m = a->dim[DIM_M];
     PyObject *type = args[S_TYPE], *names = args[S_NAMES], *float64 = args[S_FLOAT64];
-    if (!PyTuple_Check(args[S_FRAMES]) || PyTuple_GET_SIZE(args[S_FRAMES]) != k) {
-        PyErr_Format(kernel_error, "scratch_plan: frames must be a tuple of %zd frames, one per mu", k);
-        return -1;
+    if (args[S_ROBOT] == Py_None) { /* a problem's plan: problem_solutions gives the state */
+        if (args[S_FRAMES] != Py_None || args[S_POSITIONS] != Py_None || args[S_LINES] != Py_None) {
+            PyErr_SetString(kernel_error, "scratch_plan: without a robot, frames, positions and lines must be None");
+            return -1;
+        }
+    } else {
+        if (!PyTuple_Check(args[S_FRAMES]) || PyTuple_GET_SIZE(args[S_FRAMES]) != k) {
+            PyErr_Format(kernel_error, "scratch_plan: frames must be a tuple of %zd frames, one per mu", k);
+            return -1;
+        }
+        StateJob lines = {.k = k};
+        if (take_lines(args[S_LINES], &lines)) {
+            PyMem_Free(lines.lines);
+            return -1;
+        }
+        plan->lines = lines.lines;
     }
-    StateJob lines = {.k = k};
-    if (take_lines(args[S_LINES], &lines)) {
-        PyMem_Free(lines.lines);
-        return -1;
-    }
-    plan->lines = lines.lines;
     if (!PyType_Check(type) || ((PyTypeObject *)type)->tp_new != PyBaseObject_Type.tp_new ||
         !instance_dict((PyTypeObject *)type) || !PyType_Check(float64) ||
         !PyType_IsSubtype((PyTypeObject *)float64, &PyFloat_Type) || !PyUnicode_Check(args[S_OUTPUTS])) {
@@ -3154,21 +3161,33 @@ static void free_work(ScratchWork *w) {
     PyMem_Free(w->work);
 }
 
-/* The state at v (fill_dynamics, fill_contacts), into w->job's arrays; -1 with an error set. */
-static int scratch_state(const ScratchPlan *plan, const Py_buffer *v, ScratchWork *w, Buffer *b) {
+/* The state's arrays in w->job (robot_state's: M, h, the points, [J_N; J_T], then gaps, v_N, v_T,
+ * drift_N, drift_T), in one new block; -1 with an error set. */
+static int state_block(const ScratchPlan *plan, ScratchWork *w) {
     StateJob *job = &w->job;
     Py_ssize_t n = plan->mk.n, k = plan->mk.k;
-    if (take_robot(plan->robot, plan->frames, plan->positions, n, b, job)) {
-        return -1;
-    }
-    job->v = v, job->lines = plan->lines, job->damping = plan->a.data[S_DAMPING];
-    w->state = PyMem_Malloc((size_t)(n * n + n + 2 * k + 2 * k * n + 5 * k + 1) * sizeof(double));
+    w->state = PyMem_Calloc((size_t)(n * n + n + 2 * k + 2 * k * n + 5 * k + 1), sizeof(double));
     if (w->state == NULL) {
         PyErr_NoMemory();
         return -1;
     }
+    job->n = n, job->k = k;
     job->mass = w->state, job->bias = job->mass + n * n, job->points = job->bias + n;
     job->rows = job->points + 2 * k, job->values = job->rows + 2 * k * n;
+    return 0;
+}
+
+/* The state at v (fill_dynamics, fill_contacts), into w->job's arrays; -1 with an error set. */
+static int scratch_state(const ScratchPlan *plan, const Py_buffer *v, ScratchWork *w, Buffer *b) {
+    StateJob *job = &w->job;
+    if (plan->robot == Py_None) {
+        PyErr_SetString(kernel_error, "scratch_solutions: the plan is a problem's (problem_solutions takes it)");
+        return -1;
+    }
+    if (take_robot(plan->robot, plan->frames, plan->positions, plan->mk.n, b, job) || state_block(plan, w)) {
+        return -1;
+    }
+    job->v = v, job->lines = plan->lines, job->damping = plan->a.data[S_DAMPING];
     fill_dynamics(job, &b[0].view, &b[1].view);
     return fill_contacts(job, plan->frames, plan->positions);
 }
@@ -3335,6 +3354,76 @@ static PyObject *scratch_solutions(PyObject *self, PyObject *const *args, Py_ssi
     free_work(&w);
     release(&v, 1);
     release(b, 3);
+    return result;
+}
+
+/* problem_solutions(plan, mass, jacobian_normal, jacobian_tangent, drift_normal, drift_tangent,
+ * normal_velocities, tangential_velocities, bias, inputs) -> [solution, ...], None or False: as
+ * scratch_solutions, from a contact problem's arrays (any strides) on a plan made without a robot. */
+#define PROBLEM_SOLUTION_ARGS 10
+static const Arg problem_solutions_table[PROBLEM_SOLUTION_ARGS] = {
+    {"plan", 'o', 0, {0}, 0}, {"mass", 's', 2, {DIM_N, DIM_S}, 0}, {"jacobian_normal", 's', 2, {DIM_K, DIM_N}, 0},
+    {"jacobian_tangent", 's', 2, {DIM_K, DIM_N}, 0}, {"drift_normal", 's', 1, {DIM_K}, 0},
+    {"drift_tangent", 's', 1, {DIM_K}, 0}, {"normal_velocities", 's', 1, {DIM_K}, 0},
+    {"tangential_velocities", 's', 1, {DIM_K}, 0}, {"bias", 's', 1, {DIM_N}, 0}, {"inputs", 'o', 0, {0}, 0}};
+static const Signature problem_solutions_signature = {"problem_solutions", PROBLEM_SOLUTION_ARGS,
+                                                      problem_solutions_table, NULL};
+
+/* The problem's arrays (parsed in a) into w->job's; -1 with an error set. */
+static int problem_state(const ScratchPlan *plan, const Args *a, ScratchWork *w) {
+    Py_ssize_t n = plan->mk.n, k = plan->mk.k;
+    if (a->dim[DIM_N] != n || a->dim[DIM_S] != n || a->dim[DIM_K] != k) {
+        PyErr_Format(kernel_error, "problem_solutions: the arrays are of n = %zd, k = %zd; the plan's of n = %zd, "
+                     "k = %zd", a->dim[DIM_N], a->dim[DIM_K], n, k);
+        return -1;
+    }
+    if (state_block(plan, w)) {
+        return -1;
+    }
+    const StateJob *job = &w->job;
+    const Buffer *b = a->buffer;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        for (Py_ssize_t c = 0; c < n; c++) {
+            job->mass[i * n + c] = at2(&b[1].view, i, c);
+        }
+        job->bias[i] = at1(&b[8].view, i);
+    }
+    for (Py_ssize_t i = 0; i < k; i++) {
+        for (Py_ssize_t c = 0; c < n; c++) {
+            job->rows[i * n + c] = at2(&b[2].view, i, c);
+            job->rows[(k + i) * n + c] = at2(&b[3].view, i, c);
+        }
+        job->values[k + i] = at1(&b[6].view, i);
+        job->values[2 * k + i] = at1(&b[7].view, i);
+        job->values[3 * k + i] = at1(&b[4].view, i);
+        job->values[4 * k + i] = at1(&b[5].view, i);
+    }
+    return 0;
+}
+
+static PyObject *problem_solutions(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    Args a;
+    ScratchWork w;
+    memset(&w, 0, sizeof(w));
+    PyObject *result = NULL;
+    double *u = NULL;
+    if (parse(&problem_solutions_signature, args, nargs, &a) == 0) {
+        ScratchPlan *plan = PyCapsule_IsValid(args[0], SCRATCH_CAPSULE) ? PyCapsule_GetPointer(args[0], SCRATCH_CAPSULE)
+                                                                         : NULL;
+        if (plan == NULL || plan->robot != Py_None) {
+            PyErr_SetString(kernel_error, "problem_solutions: the first argument is not a problem's scratch_plan");
+        } else if ((u = PyMem_Malloc((size_t)(plan->in.m + 1) * sizeof(double))) == NULL) {
+            PyErr_NoMemory();
+        } else if (!plain_input(&plan->in, args[PROBLEM_SOLUTION_ARGS - 1], u)) {
+            result = Py_NewRef(Py_None);
+        } else if (problem_state(plan, &a, &w) == 0) {
+            result = scratch_answer(plan, u, &w);
+        }
+    }
+    PyMem_Free(u);
+    free_work(&w);
+    release_args(&a);
     return result;
 }
 
@@ -3836,6 +3925,12 @@ static PyMethodDef methods[] = {
      "decision, as robot_state, contact_rows and certified_modes do; None where the general path must\n"
      "answer (an input not plain, an impact, too many modes), False where it must because a mode is\n"
      "left to the SVD (the state decides that, not the input)."},
+    {"problem_solutions", (PyCFunction)(void (*)(void))problem_solutions, METH_FASTCALL,
+     "problem_solutions(plan, mass, jacobian_normal, jacobian_tangent, drift_normal, drift_tangent,\n"
+     "                  normal_velocities, tangential_velocities, bias, inputs) -> [solution, ...], None\n"
+     "                  or False\n\n"
+     "scratch_solutions from a contact problem's arrays, on a scratch_plan made without a robot (robot,\n"
+     "frames, positions and lines None)."},
     {"contact_rows", (PyCFunction)(void (*)(void))contact_rows, METH_FASTCALL,
      "contact_rows(mass, jacobian_normal, jacobian_tangent, drift_normal, drift_tangent, mu,\n"
      "             normal_velocities, tangential_velocities, velocity_tolerance, dynamics, equalities,\n"

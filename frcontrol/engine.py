@@ -41,7 +41,7 @@ import numpy.typing as npt
 
 from . import polytope as poly
 from .ambiguity_polygon import PolygonRule
-from .errors import IllConditioned, InputError
+from .errors import IllConditioned, InputError, KernelError
 from .geometry import CHEBYSHEV_RADIUS_CAP, constant_rows, max_margin, row_norms
 from .jsonable import to_jsonable
 from .kernel import Backend, backend, compiled, twin
@@ -1342,8 +1342,9 @@ def solutions_at(
             found = backend().query_solutions(scene.query, inputs)
             if found is not None:
                 return found
-        elif isinstance(scene, Scene) and rank_tolerance == RANK_TOLERANCE:
-            found = backend().scratch_solutions(scene, inputs)
+        elif rank_tolerance == RANK_TOLERANCE:
+            found = (backend().scratch_solutions(scene, inputs) if isinstance(scene, Scene)
+                     else backend().problem_solutions(scene, inputs))
             if found is not None:
                 return found
     if method not in SOLUTION_METHODS:
@@ -1465,6 +1466,43 @@ def _scratch_solutions_compiled(scene: Scene, inputs: Any) -> list[RigidSolution
     return found
 
 
+def _problem_solutions_compiled(problem: ContactProblem, inputs: Any) -> list[RigidSolution] | None:
+    """:func:`solutions_at` on a contact problem in one call of the compiled kernel
+    (``problem_solutions``): :func:`_scratch_solutions_compiled` from the problem's arrays, its plan
+    kept in :attr:`~frcontrol.modes.ContactProblem.kernel_cache`. None where the general path answers,
+    also for arrays the kernel does not take (not float64)."""
+    cache = problem.kernel_cache
+    plan = cache.get("one_call", _NO_PLAN)
+    if plan is _NO_PLAN:
+        plan = cache["one_call"] = _problem_plan(problem)
+    if plan is None:
+        return None
+    try:
+        found = compiled.problem_solutions(  # type: ignore[union-attr]  # only on the compiled path
+            plan, problem.mass_matrix, problem.jacobian_normal, problem.jacobian_tangent, problem.drift_normal,
+            problem.drift_tangent, problem.normal_velocities, problem.tangential_velocities, problem.bias, inputs)
+    except KernelError:  # arrays of another type or shape: the general path reads (or refuses) them
+        found = False
+    if found is False:
+        cache["one_call"] = None
+        return None
+    return found
+
+
+def _problem_plan(problem: ContactProblem) -> Any:
+    """The compiled kernel's ``scratch_plan`` of a contact problem (without a robot: the problem has the
+    state); None where its numbers are not float64 arrays the kernel takes."""
+    try:
+        return compiled.scratch_plan(  # type: ignore[union-attr]
+            None, None, None, None, None, np.ascontiguousarray(problem.input_map, dtype=float),
+            np.ascontiguousarray(problem.mu, dtype=float), np.ascontiguousarray(problem.lower, dtype=float),
+            np.ascontiguousarray(problem.upper, dtype=float), RigidSolution, np.empty, tuple(problem.inputs),
+            np.float64, "none", INPUT_LIMIT_SLACK, problem.velocity_tolerance, CERTIFIED_MARGIN,
+            max(RANK_TOLERANCE, ILL_CONDITIONED_BAND), DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE, BATCH_MAX_MODES)
+    except (KernelError, ValueError, TypeError):  # shapes the kernel refuses: the general path says why
+        return None
+
+
 def _scratch_solutions_numpy(scene: Scene, inputs: Any) -> list[RigidSolution] | None:
     """The NumPy twin of ``scratch_solutions``: it declines (None), and the general path, the
     reference the compiled call reproduces, answers."""
@@ -1474,7 +1512,13 @@ def _scratch_solutions_numpy(scene: Scene, inputs: Any) -> list[RigidSolution] |
 _NO_PLAN = object()
 """A scene without a plan yet in :data:`_SCRATCH_PLANS`."""
 
+def _problem_solutions_numpy(problem: ContactProblem, inputs: Any) -> list[RigidSolution] | None:
+    """The NumPy twin of ``problem_solutions``: it declines (None), as :func:`_scratch_solutions_numpy`."""
+    return None
+
+
 twin("scratch_solutions", numpy=_scratch_solutions_numpy, compiled=_scratch_solutions_compiled)
+twin("problem_solutions", numpy=_problem_solutions_numpy, compiled=_problem_solutions_compiled)
 
 
 def solutions_at_batch(analysis: DynamicResponse, inputs: npt.ArrayLike, *,

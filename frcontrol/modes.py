@@ -205,6 +205,12 @@ class ContactProblem:
         return replaced(self, mu=mu)
 
     @cached_property
+    def kernel_cache(self) -> dict[str, Any]:
+        """What a kernel made once for this problem (a compiled plan), by name; a problem made from
+        this one (:meth:`with_friction`, ``dataclasses.replace``) starts empty."""
+        return {}
+
+    @cached_property
     def row_table(self) -> ContactRowTable:
         """Every contact's rows in every mode letter (:func:`contact_row_table`), built once."""
         return contact_row_table(self)

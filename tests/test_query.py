@@ -550,6 +550,12 @@ def assert_scratch_is_general(fast: list, general: list, where: str) -> None:
                 assert got == value and type(got) is type(value), f"{where} {s.mode} {field}"
 
 
+def problem_arrays(problem) -> tuple:
+    """``problem_solutions``'s arrays of a contact problem."""
+    return (problem.mass_matrix, problem.jacobian_normal, problem.jacobian_tangent, problem.drift_normal,
+            problem.drift_tangent, problem.normal_velocities, problem.tangential_velocities, problem.bias)
+
+
 def left_to_the_svd(problem, u: np.ndarray) -> bool:
     """Whether the batch path's certificate leaves a full mode of ``problem`` to the SVD at ``u``."""
     from frcontrol.mode_batch import CERTIFIED_MARGIN, _compiled_rows, full_modes
@@ -569,13 +575,14 @@ def left_to_the_svd(problem, u: np.ndarray) -> bool:
 @needs_kernel
 @pytest.mark.parametrize("name", SCENES)
 def test_the_scratch_query_is_the_general_paths(name, monkeypatch):
-    """``scratch_solutions``, the single query from scratch in one call, against the general path
-    (``solutions_at`` on the scene's ``ContactProblem``, the reference its NumPy twin declines to):
-    it answers exactly where the certificate decides every full mode (False where one is left to the
-    SVD, None at an impact or beyond ``BATCH_MAX_MODES``), and then with the general path's
-    solutions (its bits on the compiled kernel, to round-off on NumPy's); ``solutions_at(scene, u)``
-    is the general path's answer either way."""
-    from frcontrol.engine import _scratch_plan
+    """``scratch_solutions`` and ``problem_solutions``, the single query from scratch in one call (from
+    a scene, from its contact problem), against the general path (the batch path on the scene's
+    ``ContactProblem``, the reference their NumPy twins decline to): they answer exactly where the
+    certificate decides every full mode (False where one is left to the SVD, None at an impact or
+    beyond ``BATCH_MAX_MODES``), and then with the general path's solutions (its bits on the
+    compiled kernel, to round-off on NumPy's); ``solutions_at`` on the scene and on the problem is
+    the general path's answer either way."""
+    from frcontrol.engine import _problem_plan, _scratch_plan
     from frcontrol.errors import ImpactState
     from frcontrol.kernel import NUMPY
     from frcontrol.mode_batch import BATCH_MAX_MODES
@@ -589,13 +596,18 @@ def test_the_scratch_query_is_the_general_paths(name, monkeypatch):
         for i, u in enumerate(U):
             where = f"{name} state {j} input {i}"
             assert NUMPY.scratch_solutions(scene, u) is None, where
+            assert NUMPY.problem_solutions(problem, u) is None, where
             fast = None if plan is None else compiled.scratch_solutions(
                 plan, scene.robot.pinocchio_pass(scene.q, scene.v), u)
+            from_problem = compiled.problem_solutions(_problem_plan(problem), *problem_arrays(problem), u)
             try:
-                general = solutions_at(problem, u)
+                general = solutions_at(problem, u, method="batch")
             except ImpactState:
-                assert fast is None, where
+                assert fast is None and from_problem is None, where
                 continue
+            assert (from_problem is False) == left_to_the_svd(problem, u), where
+            if isinstance(from_problem, list):
+                assert_scratch_is_general(from_problem, general, f"{where} (problem)")
             if plan is not None and np.prod([len(a) for a in problem.allowed_modes()]) <= BATCH_MAX_MODES:
                 expected += 1
                 svd += fast is False
@@ -607,6 +619,7 @@ def test_the_scratch_query_is_the_general_paths(name, monkeypatch):
                 assert_same(fast, solutions_at(problem, u), where=where)
                 monkeypatch.delenv("FRC_KERNEL")
             assert_scratch_is_general(solutions_at(scene, u), general, where)
+            assert_scratch_is_general(solutions_at(problem, u), general, f"{where} (problem)")
     assert answered + svd == expected, name  # None only at an impact or beyond the batch's modes
 
 
@@ -661,7 +674,8 @@ def s_ambiguous(solutions: list) -> bool:
 @needs_kernel
 def test_the_scratch_kernel_refuses_bad_arguments():
     """A wrong plan, velocity or plan argument raises KernelError naming it."""
-    from frcontrol.engine import _scratch_plan
+    from frcontrol.engine import _problem_plan, _scratch_plan
+    from frcontrol.modes import ContactProblem
 
     scene = load_scene("rod_on_table")
     plan = _scratch_plan(scene)
@@ -671,11 +685,20 @@ def test_the_scratch_kernel_refuses_bad_arguments():
         compiled.scratch_solutions(plan, np.zeros(2), {})
     with pytest.raises(KernelError, match="takes 3 arguments"):
         compiled.scratch_solutions(plan, scene.v)
-    held = scene.robot.kernel_state_plan(scene.active_indices)
-    inputs = scene.inputs
-    good = [*held, np.ascontiguousarray(inputs.selection_transpose(3)), np.array([0.5]), inputs.lower,
-            inputs.upper, type("S", (), {}), np.empty, tuple(inputs.coordinates), np.float64, "none", 1e-9,
-            1e-9, 10.0, 1e-9, 1e-9, 1e-12, 1024]
+    problem = ContactProblem.from_scene(scene)
+    with pytest.raises(KernelError, match="not a problem's scratch_plan"):
+        compiled.problem_solutions(plan, *problem_arrays(problem), {})
+    problem_plan = _problem_plan(problem)
+    with pytest.raises(KernelError, match="the plan is a problem's"):
+        compiled.scratch_solutions(problem_plan, scene.v, {})
+    with pytest.raises(KernelError, match="kernel buffer bias: axis 0 has 2 entries, expected 3"):
+        compiled.problem_solutions(problem_plan, *problem_arrays(problem)[:-1], np.zeros(2), {})
+    with pytest.raises(KernelError, match="the arrays are of n = 2, k = 1; the plan's of n = 3"):
+        compiled.problem_solutions(problem_plan, np.eye(2), np.ones((1, 2)), np.ones((1, 2)), *problem_arrays(
+            problem)[3:7], np.zeros(2), {})
+    with pytest.raises(KernelError, match="without a robot, frames, positions and lines must be None"):
+        compiled.scratch_plan(None, (), None, None, *_plan_tail(scene))
+    good = [*scene.robot.kernel_state_plan(scene.active_indices)[:4], *_plan_tail(scene)]
     assert compiled.scratch_plan(*good) is not None
     for index, bad, message in [(1, (), "frames must be a tuple of 1 frames"), (6, np.array([0.5, 0.5]),
                                 "kernel buffer mu: axis 0 has 2 entries, expected 1|frames must be a tuple"),
@@ -685,3 +708,11 @@ def test_the_scratch_kernel_refuses_bad_arguments():
         args[index] = bad
         with pytest.raises(KernelError, match=message):
             compiled.scratch_plan(*args)
+
+
+def _plan_tail(scene) -> list:
+    """``scratch_plan``'s arguments after the robot, frames, positions and lines, for the rod."""
+    inputs = scene.inputs
+    return [None, np.ascontiguousarray(inputs.selection_transpose(3)), np.array([0.5]), inputs.lower,
+            inputs.upper, type("S", (), {}), np.empty, tuple(inputs.coordinates), np.float64, "none", 1e-9,
+            1e-9, 10.0, 1e-9, 1e-9, 1e-12, 1024]
