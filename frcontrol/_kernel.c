@@ -2972,10 +2972,11 @@ done:
  * contact moving into its surface or more than max_modes modes; False where a mode's certificate
  * leaves it to the SVD (NOT_CERTIFIED), which the state decides whatever the input. */
 #define SCRATCH_CAPSULE "frcontrol._kernel.scratch_plan"
-#define SCRATCH_ARGS 21
+#define SCRATCH_ARGS 28
 #define MAX_SCRATCH_CONTACTS 64 /* more never fit max_modes: the general path answers */
 enum { S_ROBOT, S_FRAMES, S_POSITIONS, S_LINES, S_DAMPING, S_INPUT_MAP, S_MU, S_LOWER, S_UPPER, S_TYPE, S_EMPTY,
-       S_NAMES, S_FLOAT64, S_OUTPUTS, S_SLACK, S_VELOCITY, S_MARGIN, S_TOLERANCE, S_DOMAIN, S_ZERO_ROW, S_MAX_MODES };
+       S_NAMES, S_FLOAT64, S_OUTPUTS, S_SLACK, S_VELOCITY, S_MARGIN, S_TOLERANCE, S_DOMAIN, S_ZERO_ROW, S_MAX_MODES,
+       S_RANK, S_ROUND_OFF, S_VOID, S_EXACT, S_BALANCING, S_OUTPUT, S_CAP };
 
 static const Arg scratch_table[SCRATCH_ARGS] = {
     {"robot", 'o', 0, {0}, 0}, {"frames", 'o', 0, {0}, 0}, {"positions", 'o', 0, {0}, 0}, {"lines", 'o', 0, {0}, 0},
@@ -2984,7 +2985,9 @@ static const Arg scratch_table[SCRATCH_ARGS] = {
     {"empty", 'o', 0, {0}, 0}, {"names", 'o', 0, {0}, 0}, {"float64", 'o', 0, {0}, 0}, {"outputs", 'o', 0, {0}, 0},
     {"slack", 'f', 0, {0}, 0}, {"velocity_tolerance", 'f', 0, {0}, 0}, {"margin", 'f', 0, {0}, 0},
     {"tolerance", 'f', 0, {0}, 0}, {"domain_tolerance", 'f', 0, {0}, 0}, {"zero_row_tolerance", 'f', 0, {0}, 0},
-    {"max_modes", 'i', 0, {0}, 0}};
+    {"max_modes", 'i', 0, {0}, 0}, {"rank_tolerance", 'f', 0, {0}, 0}, {"round_off_rank_drop", 'f', 0, {0}, 0},
+    {"void_factor", 'f', 0, {0}, 0}, {"exact_factor", 'f', 0, {0}, 0}, {"balancing_friction", 'f', 0, {0}, 0},
+    {"output_tolerance", 'f', 0, {0}, 0}, {"radius_cap", 'f', 0, {0}, 0}};
 static const Signature scratch_signature = {"scratch_plan", SCRATCH_ARGS, scratch_table, NULL};
 
 typedef struct {
@@ -3039,9 +3042,12 @@ static int check_scratch(ScratchPlan *plan, PyObject *const *args) {
     }
     if (!PyType_Check(type) || ((PyTypeObject *)type)->tp_new != PyBaseObject_Type.tp_new ||
         !instance_dict((PyTypeObject *)type) || !PyType_Check(float64) ||
-        !PyType_IsSubtype((PyTypeObject *)float64, &PyFloat_Type) || !PyUnicode_Check(args[S_OUTPUTS])) {
+        !PyType_IsSubtype((PyTypeObject *)float64, &PyFloat_Type) || !PyTuple_Check(args[S_OUTPUTS]) ||
+        PyTuple_GET_SIZE(args[S_OUTPUTS]) != 3 || !PyUnicode_Check(PyTuple_GET_ITEM(args[S_OUTPUTS], 0)) ||
+        !PyUnicode_Check(PyTuple_GET_ITEM(args[S_OUTPUTS], 1)) || !PyUnicode_Check(PyTuple_GET_ITEM(args[S_OUTPUTS], 2))) {
         PyErr_SetString(kernel_error, "scratch_plan: solution_type must be a class made by object.__new__ whose "
-                                      "instances have a __dict__, float64 a subclass of float, outputs a str");
+                                      "instances have a __dict__, float64 a subclass of float, outputs a tuple of "
+                                      "3 str");
         return -1;
     }
     if (!PyTuple_Check(names) || PyTuple_GET_SIZE(names) != m) {
@@ -3148,7 +3154,12 @@ typedef struct {
     double *memory;         /* the rows' arrays, then x, residual and violation per mode */
     unsigned char *flags;   /* valid, motion, then status per mode */
     long long *letters;     /* (count, k) */
-    double *work;           /* run_modes' scratch (scratch()) */
+    double *work;           /* run_modes' scratch (scratch()): s and Su */
+    double *deficient;      /* deficient_modes' scratch */
+    Scratch s;
+    double *Su;
+    double *w;              /* per mode: its w (one ambiguity variable) */
+    signed char *moves;     /* per mode: -1 (no ambiguity variable) or moved_by's code */
     StateJob job;
     Py_ssize_t count;
 } ScratchWork;
@@ -3159,6 +3170,7 @@ static void free_work(ScratchWork *w) {
     PyMem_Free(w->flags);
     PyMem_Free(w->letters);
     PyMem_Free(w->work);
+    PyMem_Free(w->deficient);
 }
 
 /* The state's arrays in w->job (robot_state's: M, h, the points, [J_N; J_T], then gaps, v_N, v_T,
@@ -3198,9 +3210,9 @@ static int scratch_rows(const ScratchPlan *plan, ScratchWork *w, Problem *p) {
     const StateJob *job = &w->job;
     Py_ssize_t n = p->n, k = p->k, nx = p->nx, count = w->count;
     Py_ssize_t pairs = k * ROW_LETTERS * EQUALITY_ROWS, cells = k * ROW_LETTERS * INEQUALITY_ROWS;
-    w->memory = PyMem_Malloc((size_t)(n * nx + pairs * (nx + 1) + cells * (nx + 1) + count * (nx + 2) + 1) *
+    w->memory = PyMem_Malloc((size_t)(n * nx + pairs * (nx + 1) + cells * (nx + 1) + count * (nx + 3) + 1) *
                              sizeof(double));
-    w->flags = PyMem_Malloc((size_t)(2 * cells + count + 1));
+    w->flags = PyMem_Malloc((size_t)(2 * cells + 2 * count + 1));
     if (w->memory == NULL || w->flags == NULL) {
         PyErr_NoMemory();
         return -1;
@@ -3214,9 +3226,11 @@ static int scratch_rows(const ScratchPlan *plan, ScratchWork *w, Problem *p) {
     r.ineq_rhs = at, at += cells;
     p->x = at, at += count * nx;
     p->residual = at, at += count;
-    p->violation = at;
+    p->violation = at, at += count;
+    w->w = at;
     r.valid = w->flags, r.motion = w->flags + cells;
     p->status = (signed char *)(w->flags + 2 * cells);
+    w->moves = p->status + count;
     Py_buffer views[8];
     Py_ssize_t strides[8][2];
     double *vectors[6] = {job->values + 3 * k, job->values + 4 * k, (double *)plan->a.data[S_MU],
@@ -3253,13 +3267,161 @@ static int scratch_modes(const ScratchPlan *plan, const double *u, const int *ma
     if (scratch_rows(plan, w, p)) {
         return -1;
     }
-    Scratch s;
-    double *Su, *work;
-    if ((w->work = scratch(p, &s, &Su, &work)) == NULL) {
+    double *work;
+    if ((w->work = scratch(p, &w->s, &w->Su, &work)) == NULL) {
         return -1;
     }
-    run_modes(p, Su, &s);
+    run_modes(p, w->Su, &w->s);
     return 0;
+}
+
+/* ------------------------------------------------------------------ the one call's deficient modes
+ * A mode run_modes leaves to the SVD (NOT_CERTIFIED) is certified as frcontrol.response's
+ * certified_by_rows certifies one, on rows guessed here: every row of its A_hat independent of the
+ * rows kept before it (independent_rows, to KEPT_GUESS; a guess, checked by the certificate). With one
+ * row left out (p = 1 ambiguity variable), a certificate that holds (by_rows_ok: by_rows_certified's
+ * checks) says the SVD would find rank nx - 1 outside the ill-conditioned band, its drop round-off's
+ * and no consistency condition, and that X_u, x_0 are the SVD's to round-off and X_w its null
+ * direction up to sign; the mode is then decided as rank_mode decides one (sliced_rows, interval,
+ * moved_by, finish): the same x at the same interval's centre, w up to its sign. Any other mode (two or
+ * more left out, a certificate that fails, a sliding contact rougher than balancing_friction, which
+ * rebalance_undecided may balance) leaves the answer to the general path. */
+#define KEPT_GUESS 1e-8 /* a row whose part outside the kept rows' span is below this of its norm is left out */
+
+/* The rows of A_hat (nx, nx) independent of those before them (Gram-Schmidt, twice), into kept; their count. */
+static Py_ssize_t independent_rows(const double *A_hat, Py_ssize_t nx, double *basis, long long *kept) {
+    Py_ssize_t q = 0;
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        double *v = basis + q * nx, start = 0.0, left = 0.0;
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            v[j] = A_hat[i * nx + j];
+            start += v[j] * v[j];
+        }
+        for (int pass = 0; pass < 2; pass++) {
+            for (Py_ssize_t t = 0; t < q; t++) {
+                double dot = 0.0;
+                for (Py_ssize_t j = 0; j < nx; j++) {
+                    dot += basis[t * nx + j] * v[j];
+                }
+                for (Py_ssize_t j = 0; j < nx; j++) {
+                    v[j] -= dot * basis[t * nx + j];
+                }
+            }
+        }
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            left += v[j] * v[j];
+        }
+        if (start > 0.0 && left > KEPT_GUESS * KEPT_GUESS * start) {
+            double scale = 1.0 / sqrt(left);
+            for (Py_ssize_t j = 0; j < nx; j++) {
+                v[j] *= scale;
+            }
+            kept[q++] = i;
+        }
+    }
+    return q;
+}
+
+/* frcontrol.response.by_rows_certified for one system of `rows` rows and nx unknowns (a NaN fails). */
+static int by_rows_ok(const ScratchPlan *plan, const double *info, Py_ssize_t rows, Py_ssize_t nx) {
+    const double *number = plan->a.number;
+    double small = (double)(rows < nx ? rows : nx), margin = number[S_MARGIN];
+    double limit = 1.0 / (margin * number[S_TOLERANCE]);
+    double rank_factor = number[S_RANK] / sqrt(small), round_off = small * number[S_ROUND_OFF];
+    double residual = info[2] > info[3] ? info[2] : info[3];
+    double void_bound = number[S_VOID] * info[5], exact_bound = number[S_EXACT] * info[0] * info[6];
+    return info[0] < limit && margin * info[1] < rank_factor * info[4] && margin * info[1] <= round_off * info[4] &&
+           residual <= (void_bound < exact_bound ? void_bound : exact_bound);
+}
+
+/* Whether rebalance_undecided may balance the mode (needs_balancing: a sliding contact, L or R, whose mu
+ * is above balancing_friction). */
+static int balanced(const ScratchPlan *plan, const long long *letters, Py_ssize_t k) {
+    const double *mu = plan->a.data[S_MU];
+    for (Py_ssize_t i = 0; i < k; i++) {
+        if ((letters[i] == LETTER_L || letters[i] == LETTER_R) && mu[i] > plan->a.number[S_BALANCING]) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* Scratch for deficient_mode: B = [S^T; 0] (nx, m), the guess's basis (nx, nx), kept (nx), the
+ * certificate's QR and responses, the sliced rows; NULL with an error set. */
+static double *deficient_scratch(const Problem *p, double **B) {
+    Py_ssize_t nx = p->nx, m = p->m, rows = INEQUALITY_ROWS * p->k;
+    Py_ssize_t size = nx * m + nx * nx + nx + (nx * nx + nx + nx * (m + 1) + nx * (nx + m + 1) + 2 * nx) +
+                      (nx * m + 2 * nx + BY_ROWS_INFO) + 3 * rows + 1;
+    double *memory = PyMem_Malloc((size_t)size * sizeof(double));
+    if (memory == NULL) {
+        PyErr_NoMemory();
+        return NULL;
+    }
+    *B = memory;
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        for (Py_ssize_t j = 0; j < m; j++) {
+            (*B)[i * m + j] = i < p->n ? p->input_map[i * m + j] : 0.0;
+        }
+    }
+    return memory;
+}
+
+/* Mode `mode` (NOT_CERTIFIED) certified by its rows and decided: 1, or 0 when the general path must. */
+static int deficient_mode(const ScratchPlan *plan, ScratchWork *w, const Problem *p, Py_ssize_t mode, const double *B) {
+    Py_ssize_t nx = p->nx, m = p->m, k = p->k;
+    const long long *letters = p->letters + mode * k;
+    if (balanced(plan, letters, k)) {
+        return 0;
+    }
+    Scratch *s = &w->s;
+    assemble(p, letters, w->Su, s);
+    double *basis = w->deficient + nx * m, *kept_rows = basis + nx * nx, *qr = kept_rows + nx;
+    long long *kept = (long long *)kept_rows;
+    Py_ssize_t q = independent_rows(s->A_hat, nx, basis, kept);
+    if (q != nx - 1) {
+        return 0;
+    }
+    QRScratch r = {q, nx, m, qr, NULL, NULL, NULL, NULL, NULL};
+    r.tau = r.M + nx * q, r.V = r.tau + q, r.Y = r.V + nx * (m + 1), r.r = r.Y + q * (q + m + 1), r.s = r.r + nx;
+    double *X_u = r.s + nx, *x0 = X_u + nx * m, *X_w = x0 + nx, *info = X_w + nx, *a = info + BY_ROWS_INFO;
+    double *h = a + INEQUALITY_ROWS * k;
+    unsigned char *mo = (unsigned char *)(h + INEQUALITY_ROWS * k);
+    by_rows_system(&r, nx, s->A, B, s->c, kept, 1.0 / (p->margin * p->tolerance), r.r, X_u, x0, X_w, info);
+    if (!by_rows_ok(plan, info, nx, nx)) {
+        return 0;
+    }
+    Ranked ranked = {.radius_cap = plan->a.number[S_CAP], .output_tolerance = plan->a.number[S_OUTPUT]};
+    Py_ssize_t rows = sliced_rows(p, letters, 1, X_u, x0, X_w, a, h, mo);
+    double centre = 0.0;
+    p->status[mode] = CERTIFIED_INADMISSIBLE;
+    if (rows >= 0 && interval(p, &ranked, rows, a, h, mo, &centre)) {
+        p->status[mode] = CERTIFIED_ADMISSIBLE;
+        w->w[mode] = centre;
+        w->moves[mode] = moved_by(p, &ranked, X_w);
+        finish(p, letters, s, X_u, x0, X_w, centre, p->x + mode * nx, &p->residual[mode], &p->violation[mode]);
+    }
+    return 1;
+}
+
+/* Every NOT_CERTIFIED mode by deficient_mode: 1 when all are decided, 0 when one is left to the general
+ * path, -1 with an error set. */
+static int deficient_modes(const ScratchPlan *plan, ScratchWork *w, Problem *p) {
+    double *B = NULL;
+    for (Py_ssize_t mode = 0; mode < p->count; mode++) {
+        w->moves[mode] = -1;
+    }
+    for (Py_ssize_t mode = 0; mode < p->count; mode++) {
+        if (p->status[mode] != NOT_CERTIFIED) {
+            continue;
+        }
+        if (w->deficient == NULL && (w->deficient = deficient_scratch(p, &B)) == NULL) {
+            return -1;
+        }
+        if (!deficient_mode(plan, w, p, mode, B)) {
+            return 0;
+        }
+    }
+    return 1;
 }
 
 /* The admissible modes' solutions, in mode order, appended to `found`; -1 with an error set. */
@@ -3283,8 +3445,10 @@ static int scratch_found(const ScratchPlan *plan, const ScratchWork *w, const Pr
             acc[k + i] = at + values[4 * k + i];
             name[i] = "SLRF"[p->letters[mode * k + i]];
         }
+        int moves = w->moves[mode], pdim = moves >= 0;
         PyObject *mode_name = PyUnicode_FromStringAndSize(name, k);
-        PyObject *solution = mode_name ? make_solution(&plan->mk, mode_name, plan->outputs, 0, x, acc, 0.0,
+        PyObject *solution = mode_name ? make_solution(&plan->mk, mode_name, PyTuple_GET_ITEM(plan->outputs,
+                                                       pdim ? moves : MOVES_NONE), pdim, x, acc, pdim ? w->w[mode] : 0.0,
                                                        p->residual[mode], p->violation[mode]) : NULL;
         Py_XDECREF(mode_name);
         if (solution == NULL || PyList_Append(found, solution) != 0) {
@@ -3311,10 +3475,12 @@ static PyObject *scratch_answer(const ScratchPlan *plan, const double *u, Scratc
     if (scratch_modes(plan, u, mask, w, &p)) {
         return NULL;
     }
-    for (Py_ssize_t mode = 0; mode < p.count; mode++) {
-        if (p.status[mode] == NOT_CERTIFIED) { /* the state's, whatever the input */
-            return Py_NewRef(Py_False);
-        }
+    int decided = deficient_modes(plan, w, &p);
+    if (decided < 0) {
+        return NULL;
+    }
+    if (!decided) { /* the state's, whatever the input */
+        return Py_NewRef(Py_False);
     }
     PyObject *found = PyList_New(0);
     if (found != NULL && scratch_found(plan, w, &p, found)) {

@@ -45,7 +45,13 @@ from .errors import IllConditioned, InputError, KernelError
 from .geometry import CHEBYSHEV_RADIUS_CAP, constant_rows, max_margin, row_norms
 from .jsonable import to_jsonable
 from .kernel import Backend, backend, compiled, twin
-from .mode_batch import BATCH_MAX_MODES, CERTIFIED_MARGIN, decide_modes, interval_admissible
+from .mode_batch import (
+    AMBIGUOUS_OUTPUT_CODES,
+    BATCH_MAX_MODES,
+    CERTIFIED_MARGIN,
+    decide_modes,
+    interval_admissible,
+)
 from .modes import (
     VELOCITY_TOLERANCE,
     ContactProblem,
@@ -59,7 +65,11 @@ from .modes import (
 )
 from .query import BatchSolutions, QueryMode, QueryTable, check_inputs
 from .response import (
+    BALANCING_FRICTION,
+    BY_ROWS_EXACT_FACTOR,
+    BY_ROWS_VOID_FACTOR,
     ILL_CONDITIONED_BAND,
+    OUTPUT_TOLERANCE,
     RANK_TOLERANCE,
     ROUND_OFF_RANK_DROP,
     AffineSolution,
@@ -1423,11 +1433,16 @@ def _located_solutions(analysis: DynamicResponse, u: np.ndarray, settings: Solve
 _SCRATCH_PLANS: weakref.WeakKeyDictionary[Scene, Any] = weakref.WeakKeyDictionary()
 """Each scene's compiled ``scratch_plan`` (None: the general path answers), made on its first query."""
 
+_NO_PLAN = object()
+"""A scene or problem without a plan yet (:data:`_SCRATCH_PLANS`, ``ContactProblem.kernel_cache``)."""
+
 
 def _scratch_plan(scene: Scene) -> Any:
-    """The compiled kernel's ``scratch_plan`` of ``scene``: what its one-call query reads that does not
-    change with the state; None for a scene the general path answers (joint springs, elastic drives,
-    the state assembled in NumPy)."""
+    """The compiled kernel's ``scratch_plan`` of ``scene``, or None for a scene the general path answers.
+
+    The plan holds what the one-call query reads that does not change with the state. None: joint
+    springs, elastic drives, or the state assembled in NumPy.
+    """
     robot, indices, inputs = scene.robot, scene.active_indices, scene.inputs
     held = robot.kernel_state_plan(indices)
     if held is None or any(drive.elastic for drive in scene.drives.values()):
@@ -1436,22 +1451,35 @@ def _scratch_plan(scene: Scene) -> Any:
         *held, np.ascontiguousarray(inputs.selection_transpose(robot.nv)),
         np.array([scene.contacts[i].mu for i in indices], dtype=float),
         np.ascontiguousarray(inputs.lower, dtype=float), np.ascontiguousarray(inputs.upper, dtype=float),
-        RigidSolution, np.empty, tuple(inputs.coordinates), np.float64, "none", INPUT_LIMIT_SLACK,
-        VELOCITY_TOLERANCE, CERTIFIED_MARGIN, max(RANK_TOLERANCE, ILL_CONDITIONED_BAND), DOMAIN_TOLERANCE,
-        ZERO_ROW_TOLERANCE, BATCH_MAX_MODES)
+        RigidSolution, np.empty, tuple(inputs.coordinates), *_plan_numbers(VELOCITY_TOLERANCE))
+
+
+def _plan_numbers(velocity_tolerance: float) -> tuple[Any, ...]:
+    """The last arguments of the compiled ``scratch_plan``.
+
+    numpy.float64, the ambiguous outputs' names (as ``rank_modes`` codes them), and the tolerances
+    and constants of the batch path it reproduces (:mod:`frcontrol.mode_batch`,
+    :func:`frcontrol.response.certified_by_rows`).
+    """
+    return (np.float64, AMBIGUOUS_OUTPUT_CODES, INPUT_LIMIT_SLACK, velocity_tolerance, CERTIFIED_MARGIN,
+            max(RANK_TOLERANCE, ILL_CONDITIONED_BAND), DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE, BATCH_MAX_MODES,
+            RANK_TOLERANCE, ROUND_OFF_RANK_DROP, BY_ROWS_VOID_FACTOR, BY_ROWS_EXACT_FACTOR,
+            BALANCING_FRICTION, OUTPUT_TOLERANCE, CHEBYSHEV_RADIUS_CAP)
 
 
 def _scratch_solutions_compiled(scene: Scene, inputs: Any) -> list[RigidSolution] | None:
     """:func:`solutions_at` on a scene in one call of the compiled kernel (``scratch_solutions``).
 
     After Pinocchio's pass at the scene's state, the kernel assembles the state, prunes the letters
-    by velocity and decides every full mode as the batch path's certified modes do
-    (:mod:`frcontrol.mode_batch`): the same modes, forces and accelerations (the contact
-    accelerations ``J dv + drift`` summed in index order: to round-off). None where the general path
-    answers: an input that is not plain (:func:`frcontrol.query.plain_input`'s rule), an impact,
-    more than ``BATCH_MAX_MODES`` modes, a scene :func:`_scratch_plan` declines, or a mode the
-    certificate leaves to the SVD. The last depends on the state alone (the modes' ``A``), not on
-    the input: the kernel says so (False) and the scene's later queries go the general way at once.
+    by velocity and decides every full mode as the batch path does (:mod:`frcontrol.mode_batch`):
+    a mode its LU certifies, to the bit (the contact accelerations ``J dv + drift`` summed in index
+    order: to round-off); a rank-deficient mode with one ambiguity variable certified by its rows
+    (:func:`frcontrol.response.certified_by_rows`, on rows the kernel picks), to round-off, its w up
+    to sign. None where the general path answers: an input that is not plain
+    (:func:`frcontrol.query.plain_input`'s rule), an impact, more than ``BATCH_MAX_MODES`` modes, a
+    scene :func:`_scratch_plan` declines, or a mode neither certifies. The last depends on the state
+    alone (the modes' ``A``), not on the input: the kernel says so (False) and the scene's later
+    queries go the general way at once.
     """
     plan = _SCRATCH_PLANS.get(scene, _NO_PLAN)
     if plan is _NO_PLAN:
@@ -1467,10 +1495,12 @@ def _scratch_solutions_compiled(scene: Scene, inputs: Any) -> list[RigidSolution
 
 
 def _problem_solutions_compiled(problem: ContactProblem, inputs: Any) -> list[RigidSolution] | None:
-    """:func:`solutions_at` on a contact problem in one call of the compiled kernel
-    (``problem_solutions``): :func:`_scratch_solutions_compiled` from the problem's arrays, its plan
-    kept in :attr:`~frcontrol.modes.ContactProblem.kernel_cache`. None where the general path answers,
-    also for arrays the kernel does not take (not float64)."""
+    """:func:`solutions_at` on a contact problem in one call of the compiled kernel (``problem_solutions``).
+
+    :func:`_scratch_solutions_compiled` from the problem's arrays, its plan kept in
+    :attr:`~frcontrol.modes.ContactProblem.kernel_cache`. None where the general path answers, also
+    for arrays the kernel does not take (not float64, or of other shapes: that path says why).
+    """
     cache = problem.kernel_cache
     plan = cache.get("one_call", _NO_PLAN)
     if plan is _NO_PLAN:
@@ -1479,8 +1509,9 @@ def _problem_solutions_compiled(problem: ContactProblem, inputs: Any) -> list[Ri
         return None
     try:
         found = compiled.problem_solutions(  # type: ignore[union-attr]  # only on the compiled path
-            plan, problem.mass_matrix, problem.jacobian_normal, problem.jacobian_tangent, problem.drift_normal,
-            problem.drift_tangent, problem.normal_velocities, problem.tangential_velocities, problem.bias, inputs)
+            plan, problem.mass_matrix, problem.jacobian_normal, problem.jacobian_tangent,
+            problem.drift_normal, problem.drift_tangent, problem.normal_velocities,
+            problem.tangential_velocities, problem.bias, inputs)
     except KernelError:  # arrays of another type or shape: the general path reads (or refuses) them
         found = False
     if found is False:
@@ -1490,27 +1521,27 @@ def _problem_solutions_compiled(problem: ContactProblem, inputs: Any) -> list[Ri
 
 
 def _problem_plan(problem: ContactProblem) -> Any:
-    """The compiled kernel's ``scratch_plan`` of a contact problem (without a robot: the problem has the
-    state); None where its numbers are not float64 arrays the kernel takes."""
+    """The compiled kernel's ``scratch_plan`` of a contact problem: without a robot (it has the state).
+
+    None where its numbers are not arrays the kernel takes.
+    """
     try:
         return compiled.scratch_plan(  # type: ignore[union-attr]
             None, None, None, None, None, np.ascontiguousarray(problem.input_map, dtype=float),
             np.ascontiguousarray(problem.mu, dtype=float), np.ascontiguousarray(problem.lower, dtype=float),
             np.ascontiguousarray(problem.upper, dtype=float), RigidSolution, np.empty, tuple(problem.inputs),
-            np.float64, "none", INPUT_LIMIT_SLACK, problem.velocity_tolerance, CERTIFIED_MARGIN,
-            max(RANK_TOLERANCE, ILL_CONDITIONED_BAND), DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE, BATCH_MAX_MODES)
+            *_plan_numbers(problem.velocity_tolerance))
     except (KernelError, ValueError, TypeError):  # shapes the kernel refuses: the general path says why
         return None
 
 
 def _scratch_solutions_numpy(scene: Scene, inputs: Any) -> list[RigidSolution] | None:
-    """The NumPy twin of ``scratch_solutions``: it declines (None), and the general path, the
-    reference the compiled call reproduces, answers."""
+    """The NumPy twin of ``scratch_solutions``: it declines (None).
+
+    The general path, the reference the compiled call reproduces, then answers.
+    """
     return None
 
-
-_NO_PLAN = object()
-"""A scene without a plan yet in :data:`_SCRATCH_PLANS`."""
 
 def _problem_solutions_numpy(problem: ContactProblem, inputs: Any) -> list[RigidSolution] | None:
     """The NumPy twin of ``problem_solutions``: it declines (None), as :func:`_scratch_solutions_numpy`."""

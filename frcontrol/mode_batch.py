@@ -349,7 +349,8 @@ def _compiled_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letter
         if code == compiled.ADMISSIBLE or code == compiled.ADMISSIBLE_W:
             i = int(rest[j])
             found[i] = BatchSolution(modes[i], x[j], w[j:j + 1] if code == compiled.ADMISSIBLE_W else empty,
-                                     _MOVES[outputs[j]], float(residual[j]), float(violation[j]))
+                                     AMBIGUOUS_OUTPUT_CODES[outputs[j]], float(residual[j]),
+                                     float(violation[j]))
     if compiled.NEEDS_PYTHON in codes:
         more = np.array([j for j, code in enumerate(codes) if code == compiled.NEEDS_PYTHON])
         found.update(_python_rank_modes(problem, modes, letters, rest[more], (U[more], s[more], Vt[more]),
@@ -358,8 +359,9 @@ def _compiled_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letter
     return found
 
 
-_MOVES: tuple[AmbiguousOutputs, ...] = ("none", "forces", "accelerations")
-"""The compiled kernel's ``outputs`` codes (MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS)."""
+AMBIGUOUS_OUTPUT_CODES: tuple[AmbiguousOutputs, ...] = ("none", "forces", "accelerations")
+"""The compiled kernel's ``outputs`` codes (MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS): the names
+``rank_modes`` and the one-call query's ``scratch_plan`` read."""
 
 
 def _python_rank_modes(problem: ContactProblem, modes: tuple[str, ...], letters: np.ndarray,
@@ -619,6 +621,7 @@ twin("decide_modes", numpy=_numpy_modes, compiled=_compiled_modes)
 
 
 __all__ = [
+    "AMBIGUOUS_OUTPUT_CODES",
     "BATCH_MAX_MODES",
     "BatchSolution",
     "decide_intervals",

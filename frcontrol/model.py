@@ -700,7 +700,9 @@ class PlanarRobot:
         return state
 
     def pinocchio_pass(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Pinocchio's one pass at ``(q, v)`` (``computeAllTerms``) that :meth:`state` reads; ``v`` as float64.
+        """Pinocchio's one pass at ``(q, v)`` (``computeAllTerms``), which :meth:`state` reads.
+
+        Returns ``v`` as float64.
 
         Args:
             q: minimal configuration, shape (n,) (not validated here: see :meth:`check_state`).
@@ -716,9 +718,10 @@ class PlanarRobot:
         return v
 
     def kernel_state_plan(self, contacts: tuple[int, ...]) -> tuple[Any, ...] | None:
-        """What the compiled kernel reads to assemble the state at the contacts ``contacts`` after
-        :meth:`pinocchio_pass`: ``(plan, frames, positions, lines, damping)`` as ``robot_state`` takes
-        them; None where :meth:`state` does more than the kernel (joint springs) or assembles in NumPy.
+        """What the compiled kernel reads to assemble the state at ``contacts`` after :meth:`pinocchio_pass`.
+
+        ``(plan, frames, positions, lines, damping)`` as ``robot_state`` takes them; None where
+        :meth:`state` does more than the kernel (joint springs) or assembles in NumPy.
         """
         if self._kernel_plan is None or self._springs:
             return None

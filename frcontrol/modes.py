@@ -206,8 +206,10 @@ class ContactProblem:
 
     @cached_property
     def kernel_cache(self) -> dict[str, Any]:
-        """What a kernel made once for this problem (a compiled plan), by name; a problem made from
-        this one (:meth:`with_friction`, ``dataclasses.replace``) starts empty."""
+        """What a kernel made once for this problem (a compiled plan), by name.
+
+        A problem made from this one (:meth:`with_friction`, ``dataclasses.replace``) starts empty.
+        """
         return {}
 
     @cached_property

@@ -607,17 +607,26 @@ residual is a real, if tiny, inconsistency, which the SVD's least squares would 
 row and so move the solutions by more than round-off: such a system takes the SVD."""
 
 
+BY_ROWS_VOID_FACTOR = VOID_CONDITIONS_SAFETY * CONSISTENCY_TOLERANCE / CERTIFIED_MARGIN
+"""[-] :func:`certified_by_rows`' residual must be at most this times the consistency threshold's scale
+(``VOID_CONDITIONS_SAFETY / CERTIFIED_MARGIN`` of ``CONSISTENCY_TOLERANCE``)."""
+
+BY_ROWS_EXACT_FACTOR = ROWS_RESIDUAL_ROUND_OFF * float(np.finfo(float).eps)
+"""[-] ... and at most this times the bound times ``||[diag(r) B, diag(r) c]||_F``
+(:data:`ROWS_RESIDUAL_ROUND_OFF` machine epsilons)."""
+
+
 def by_rows_certified(info: np.ndarray, rows: int, nx: int, rank_tolerance: float) -> list[bool]:
     """Per system, whether :func:`by_rows_factors`' ``info`` (count, 7) certifies it.
 
     The checks of :func:`certified_by_rows`, on a few systems at a time, read as Python floats (a
-    NaN fails every test).
+    NaN fails every test). The compiled kernel's one-call query applies the same checks in C
+    (``by_rows_ok``, with these constants).
     """
     limit = 1.0 / (CERTIFIED_MARGIN * max(rank_tolerance, ILL_CONDITIONED_BAND))
     small = min(rows, nx)
     rank_factor, round_off = rank_tolerance / math.sqrt(small), small * ROUND_OFF_RANK_DROP
-    void_factor = VOID_CONDITIONS_SAFETY * CONSISTENCY_TOLERANCE / CERTIFIED_MARGIN
-    exact_factor = ROWS_RESIDUAL_ROUND_OFF * np.finfo(float).eps
+    void_factor, exact_factor = BY_ROWS_VOID_FACTOR, BY_ROWS_EXACT_FACTOR
     return [bound < limit and CERTIFIED_MARGIN * dropped < rank_factor * size
             and CERTIFIED_MARGIN * dropped <= round_off * size
             and max(residual_B, residual_c) <= min(void_factor * scale, exact_factor * bound * right)

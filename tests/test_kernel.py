@@ -187,7 +187,7 @@ def test_the_rank_kernel_decides_every_mode_as_the_svd_path(tolerance):
             scale = 1.0 + np.abs(reference[i].x).max()
             np.testing.assert_allclose(x[i], reference[i].x, rtol=0, atol=1e-9 * scale)
             assert (status[i] == compiled.ADMISSIBLE_W) == (reference[i].w.size == 1)
-            assert mode_batch._MOVES[outputs[i]] == reference[i].ambiguous_outputs
+            assert mode_batch.AMBIGUOUS_OUTPUT_CODES[outputs[i]] == reference[i].ambiguous_outputs
             np.testing.assert_allclose(residual[i], reference[i].equality_residual, rtol=0, atol=1e-9 * scale)
         decided += len(admitted)
         ambiguous += int((status == compiled.ADMISSIBLE_W).sum())
