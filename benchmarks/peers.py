@@ -68,8 +68,9 @@ What each point is
   ``k``, the integrator, its accuracy and the window. Defaults: the scene's ``[model]`` defaults
   (k = 1e5 N/m, Radau, rtol 1e-6) read after one default sample interval (1 ms).
 
-**Time to 1e-3**: per simulator, the median compute time (``--runs`` runs, each from a fresh state:
-MuJoCo's data reset, so no warm start, Drake's state set) of the cheapest setting whose force error
+**Time to 1e-3**: per simulator, the median compute time (``--runs`` runs after
+:data:`WARM_UP_CALLS` untimed ones, each from a fresh state: MuJoCo's data reset, so no warm start,
+Drake's state set; frcontrol's rigid queries as many after as many) of the cheapest setting whose force error
 is at most :data:`TARGET_FORCE_ERROR`. frcontrol's compliant settings run once each (after one
 warm-up run), as in :mod:`benchmarks.trade`, and the cheapest one reaching the target, and the
 defaults, are re-timed as medians. The runs after :data:`CREEP_DURATION` are timed once.
@@ -409,8 +410,25 @@ def tangential_speed(body: PeerBody, velocity: np.ndarray) -> float:
 
 
 # ------------------------------------------------------------------------------------ timing
+WARM_UP_CALLS = 10
+"""Untimed calls before a simulator's step or frcontrol's query is timed: a process's first calls of
+a function run on cold caches (frcontrol's rod from scratch: 7.6 us over its first ten calls, 5.6 us
+after), and every simulator is timed warm, as a loop that steps or queries runs."""
+
+
+def warmed(call: Callable[[], Any], prepare: Callable[[], Any] | None = None) -> Callable[[], Any]:
+    """``call`` after :data:`WARM_UP_CALLS` untimed calls (each after ``prepare``)."""
+    for _ in range(WARM_UP_CALLS):
+        if prepare is not None:
+            prepare()
+        call()
+    return call
+
+
 def median_prepared(prepare: Callable[[], Any], call: Callable[[], Any], runs: int) -> tuple[float, int]:
-    """Median wall time [s] of ``call`` over ``runs`` runs, each after an untimed ``prepare``."""
+    """Median wall time [s] of ``call`` over ``runs`` runs, each after an untimed ``prepare``, once warm
+    (:func:`warmed`)."""
+    warmed(call, prepare)
     times = []
     for _ in range(max(1, runs)):
         prepare()
@@ -727,11 +745,11 @@ def frcontrol_points(ref: Reference, grid: Grid, rest: bool) -> list[dict]:
             return np.full(ref.forces.shape, np.nan)
         return np.concatenate([chosen[0].lambda_n, chosen[0].lambda_t])
 
-    seconds, times, solutions = median_time(lambda: solutions_at(scene, {}), max(grid.runs, 9))
+    seconds, times, solutions = median_time(warmed(lambda: solutions_at(scene, {})), max(grid.runs, 9))
     points = [point("frcontrol rigid", "solutions_at from scratch", {}, "exact", seconds, len(times), ref,
                     rigid_forces(solutions))]
     analysis = analyze(scene)
-    seconds, times, solutions = median_time(lambda: solutions_at(analysis, {}), max(grid.runs, 9))
+    seconds, times, solutions = median_time(warmed(lambda: solutions_at(analysis, {})), max(grid.runs, 9))
     points.append(point("frcontrol rigid", "solutions_at on an analysis", {}, "exact", seconds, len(times),
                         ref, rigid_forces(solutions)))
     U = np.zeros((BATCH_POINTS, analysis.problem.m))  # the problem's input, N times over
@@ -1026,11 +1044,11 @@ def readme_tables(payload: dict) -> str:
     return "\n".join(lines)
 
 
-def _against(ours: float, theirs: float) -> str:
-    """frcontrol's time on an analysis against a peer's, in words: which is faster, by how much."""
+def _against(ours: float, theirs: float, where: str = "on an analysis") -> str:
+    """frcontrol's time (``where``) against a peer's, in words: which is faster, by how much."""
     if ours <= theirs:
-        return f"on an analysis frcontrol's answer is {theirs / ours:.1f}x faster than it"
-    return f"it is {ours / theirs:.1f}x faster than frcontrol's answer on an analysis"
+        return f"{where} frcontrol's answer is {theirs / ours:.1f}x faster than it"
+    return f"it is {ours / theirs:.1f}x faster than frcontrol's answer {where}"
 
 
 def conclusions(payload: dict) -> list[str]:
@@ -1053,8 +1071,8 @@ def conclusions(payload: dict) -> list[str]:
                 name, e = min(found.items(), key=lambda item: item[1]["time_to_target"])
                 t = e["time_to_target"]
                 text += (f" The fastest {family} answer within {payload['target_force_error']:g} "
-                         f"({name}: {e['setting']}, {fmt_time(t)}) is {scratch / t:.0f}x faster than it "
-                         f"from scratch; {_against(on_analysis, t)}.")
+                         f"({name}: {e['setting']}, {fmt_time(t)}): {_against(scratch, t, 'from scratch')}; "
+                         f"{_against(on_analysis, t)}.")
         compliant = r["summary"].get("frcontrol compliant", {}).get("time_to_target")
         if compliant is not None:
             fastest = min(e["time_to_target"] for e in reached.values())

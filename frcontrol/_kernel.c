@@ -1,5 +1,6 @@
 /* The compiled kernel of frcontrol.mode_batch (the certified-modes path of decide_modes), of
- * frcontrol.query (locate_points, evaluate_points: queries on an analysis) and of frcontrol.lcp
+ * frcontrol.query (locate_points, evaluate_points: queries on an analysis), of frcontrol.engine
+ * (scratch_plan, scratch_solutions, problem_solutions: the single query from scratch in one call) and of frcontrol.lcp
  * and frcontrol.simulation (lemke: the pivots of Lemke's method; lcp_check: the check of its
  * answer; coulomb_matrix: the LCP of the rigid simulation's step; compliant_law: the compliant
  * contact law) and of frcontrol.polytope (redundancy_rows, ray_exit: the steps of Clarkson's
