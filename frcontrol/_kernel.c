@@ -2689,6 +2689,32 @@ static int instance_dict(PyTypeObject *type) {
     return type->tp_dictoffset != 0;
 }
 
+/* The solution fields' names, interned once (make_solution sets them). */
+static int intern_solution_fields(void) {
+    for (int f = 0; f < SOLUTION_FIELDS; f++) {
+        if (solution_fields[f] == NULL &&
+            (solution_fields[f] = PyUnicode_InternFromString(solution_field_names[f])) == NULL) {
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* names: a tuple of m str (the inputs' names), else KernelError naming `function`. */
+static int check_names(PyObject *names, Py_ssize_t m, const char *function) {
+    if (!PyTuple_Check(names) || PyTuple_GET_SIZE(names) != m) {
+        PyErr_Format(kernel_error, "%s: names must be a tuple of %zd input names", function, m);
+        return -1;
+    }
+    for (Py_ssize_t j = 0; j < m; j++) {
+        if (!PyUnicode_Check(PyTuple_GET_ITEM(names, j))) {
+            PyErr_Format(kernel_error, "%s: input name %zd is not a str", function, j);
+            return -1;
+        }
+    }
+    return 0;
+}
+
 /* The plan's own checks: names and outputs one per mode, a class whose instances object.__new__ makes
  * with a __dict__, a float subclass for numpy.float64, a name per input, n + 2k = nx. */
 static int check_plan(const QueryPlan *plan, PyObject *const *args) {
@@ -2710,15 +2736,8 @@ static int check_plan(const QueryPlan *plan, PyObject *const *args) {
         PyErr_SetString(kernel_error, "query_plan: float64 must be a subclass of float (numpy.float64)");
         return -1;
     }
-    if (!PyTuple_Check(names) || PyTuple_GET_SIZE(names) != t->m) {
-        PyErr_Format(kernel_error, "query_plan: names must be a tuple of %zd input names", t->m);
+    if (check_names(names, t->m, "query_plan")) {
         return -1;
-    }
-    for (Py_ssize_t j = 0; j < t->m; j++) {
-        if (!PyUnicode_Check(PyTuple_GET_ITEM(names, j))) {
-            PyErr_Format(kernel_error, "query_plan: input name %zd is not a str", j);
-            return -1;
-        }
     }
     if (plan->n < 0 || plan->k < 0 || plan->n + 2 * plan->k != t->nx) {
         PyErr_Format(kernel_error, "query_plan: n + 2k = %zd + 2 * %zd is not nx = %zd", plan->n, plan->k, t->nx);
@@ -2737,11 +2756,8 @@ static int check_plan(const QueryPlan *plan, PyObject *const *args) {
  * -> capsule. */
 static PyObject *query_plan(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    for (int f = 0; f < SOLUTION_FIELDS; f++) {
-        if (solution_fields[f] == NULL &&
-            (solution_fields[f] = PyUnicode_InternFromString(solution_field_names[f])) == NULL) {
-            return NULL;
-        }
+    if (intern_solution_fields()) {
+        return NULL;
     }
     QueryPlan *plan = PyMem_Calloc(1, sizeof(QueryPlan));
     if (plan == NULL) {
@@ -2970,17 +2986,19 @@ done:
  * (fill_rows, as contact_rows), every mode's certificate and decision (run_modes, as certified_modes)
  * and the admissible modes' solutions, their contact accelerations J dv + drift summed in index order.
  * It returns None where the general path must answer: an input that is not plain (plain_input), a
- * contact moving into its surface or more than max_modes modes; False where a mode's certificate
- * leaves it to the SVD (NOT_CERTIFIED), which the state decides whatever the input. */
+ * contact moving into its surface or more than max_modes modes or MAX_SCRATCH_CONTACTS contacts; False
+ * where a mode neither certificate takes (deficient_modes, below), which the state decides whatever
+ * the input. */
 #define SCRATCH_CAPSULE "frcontrol._kernel.scratch_plan"
 #define SCRATCH_ARGS 28
-#define MAX_SCRATCH_CONTACTS 64 /* more never fit max_modes: the general path answers */
+#define MAX_SCRATCH_CONTACTS 64 /* more contacts: the general path answers (the call's arrays are fixed) */
 enum { S_ROBOT, S_FRAMES, S_POSITIONS, S_LINES, S_DAMPING, S_INPUT_MAP, S_MU, S_LOWER, S_UPPER, S_TYPE, S_EMPTY,
-       S_NAMES, S_FLOAT64, S_OUTPUTS, S_SLACK, S_VELOCITY, S_MARGIN, S_TOLERANCE, S_DOMAIN, S_ZERO_ROW, S_MAX_MODES,
-       S_RANK, S_ROUND_OFF, S_VOID, S_EXACT, S_BALANCING, S_OUTPUT, S_CAP };
+       S_NAMES, S_FLOAT64, S_OUTPUTS, S_SLACK, S_VELOCITY, S_MARGIN, S_TOLERANCE, S_DOMAIN, S_ZERO_ROW,
+       S_MAX_MODES, S_RANK, S_ROUND_OFF, S_VOID, S_EXACT, S_BALANCING, S_OUTPUT, S_CAP };
 
 static const Arg scratch_table[SCRATCH_ARGS] = {
-    {"robot", 'o', 0, {0}, 0}, {"frames", 'o', 0, {0}, 0}, {"positions", 'o', 0, {0}, 0}, {"lines", 'o', 0, {0}, 0},
+    {"robot", 'o', 0, {0}, 0}, {"frames", 'o', 0, {0}, 0}, {"positions", 'o', 0, {0}, 0},
+    {"lines", 'o', 0, {0}, 0},
     {"damping", 'd', 1, {DIM_N}, OR_NONE}, {"input_map", 'd', 2, {DIM_N, DIM_M}, 0}, {"mu", 'd', 1, {DIM_K}, 0},
     {"lower", 'd', 1, {DIM_M}, 0}, {"upper", 'd', 1, {DIM_M}, 0}, {"solution_type", 'o', 0, {0}, 0},
     {"empty", 'o', 0, {0}, 0}, {"names", 'o', 0, {0}, 0}, {"float64", 'o', 0, {0}, 0}, {"outputs", 'o', 0, {0}, 0},
@@ -3018,6 +3036,24 @@ static void scratch_capsule_free(PyObject *capsule) {
     free_scratch(PyCapsule_GetPointer(capsule, SCRATCH_CAPSULE));
 }
 
+/* The plan of a scratch_plan capsule, or NULL (no error set). */
+static ScratchPlan *scratch_plan_of(PyObject *capsule) {
+    return PyCapsule_IsValid(capsule, SCRATCH_CAPSULE) ? PyCapsule_GetPointer(capsule, SCRATCH_CAPSULE) : NULL;
+}
+
+/* Whether `outputs` is a tuple of three str (the ambiguous outputs' names, in MOVES_* order). */
+static int str_triple(PyObject *outputs) {
+    if (!PyTuple_Check(outputs) || PyTuple_GET_SIZE(outputs) != 3) {
+        return 0;
+    }
+    for (Py_ssize_t i = 0; i < 3; i++) {
+        if (!PyUnicode_Check(PyTuple_GET_ITEM(outputs, i))) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 /* The plan's own checks: the frames one per mu, the lines' floats (into plan->lines), a solution class
  * made by object.__new__ with a __dict__, a float subclass, a name per input, a str of outputs. */
 static int check_scratch(ScratchPlan *plan, PyObject *const *args) {
@@ -3026,12 +3062,14 @@ static int check_scratch(ScratchPlan *plan, PyObject *const *args) {
     PyObject *type = args[S_TYPE], *names = args[S_NAMES], *float64 = args[S_FLOAT64];
     if (args[S_ROBOT] == Py_None) { /* a problem's plan: problem_solutions gives the state */
         if (args[S_FRAMES] != Py_None || args[S_POSITIONS] != Py_None || args[S_LINES] != Py_None) {
-            PyErr_SetString(kernel_error, "scratch_plan: without a robot, frames, positions and lines must be None");
+            PyErr_SetString(kernel_error,
+                            "scratch_plan: without a robot, frames, positions and lines must be None");
             return -1;
         }
     } else {
-        if (!PyTuple_Check(args[S_FRAMES]) || PyTuple_GET_SIZE(args[S_FRAMES]) != k) {
-            PyErr_Format(kernel_error, "scratch_plan: frames must be a tuple of %zd frames, one per mu", k);
+        if (!PyTuple_Check(args[S_FRAMES]) || PyTuple_GET_SIZE(args[S_FRAMES]) != k || !PyTuple_Check(args[S_POSITIONS]) ||
+            PyTuple_GET_SIZE(args[S_POSITIONS]) != k) {
+            PyErr_Format(kernel_error, "scratch_plan: frames and positions must be tuples of %zd, one per mu", k);
             return -1;
         }
         StateJob lines = {.k = k};
@@ -3043,39 +3081,22 @@ static int check_scratch(ScratchPlan *plan, PyObject *const *args) {
     }
     if (!PyType_Check(type) || ((PyTypeObject *)type)->tp_new != PyBaseObject_Type.tp_new ||
         !instance_dict((PyTypeObject *)type) || !PyType_Check(float64) ||
-        !PyType_IsSubtype((PyTypeObject *)float64, &PyFloat_Type) || !PyTuple_Check(args[S_OUTPUTS]) ||
-        PyTuple_GET_SIZE(args[S_OUTPUTS]) != 3 || !PyUnicode_Check(PyTuple_GET_ITEM(args[S_OUTPUTS], 0)) ||
-        !PyUnicode_Check(PyTuple_GET_ITEM(args[S_OUTPUTS], 1)) || !PyUnicode_Check(PyTuple_GET_ITEM(args[S_OUTPUTS], 2))) {
+        !PyType_IsSubtype((PyTypeObject *)float64, &PyFloat_Type) || !str_triple(args[S_OUTPUTS])) {
         PyErr_SetString(kernel_error, "scratch_plan: solution_type must be a class made by object.__new__ whose "
                                       "instances have a __dict__, float64 a subclass of float, outputs a tuple of "
                                       "3 str");
         return -1;
     }
-    if (!PyTuple_Check(names) || PyTuple_GET_SIZE(names) != m) {
-        PyErr_Format(kernel_error, "scratch_plan: names must be a tuple of %zd input names", m);
-        return -1;
-    }
-    for (Py_ssize_t j = 0; j < m; j++) {
-        if (!PyUnicode_Check(PyTuple_GET_ITEM(names, j))) {
-            PyErr_Format(kernel_error, "scratch_plan: input name %zd is not a str", j);
-            return -1;
-        }
-    }
-    return 0;
+    return check_names(names, m, "scratch_plan");
 }
 
 /* scratch_plan(robot, frames, positions, lines, damping, input_map, mu, lower, upper, solution_type,
  * empty, names, float64, outputs, slack, velocity_tolerance, margin, tolerance, domain_tolerance,
- * zero_row_tolerance, max_modes) -> capsule. */
+ * zero_row_tolerance, max_modes, rank_tolerance, round_off_rank_drop, void_factor, exact_factor,
+ * balancing_friction, output_tolerance, radius_cap) -> capsule (scratch_table). */
 static PyObject *scratch_plan(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
-    for (int f = 0; f < SOLUTION_FIELDS; f++) {
-        if (solution_fields[f] == NULL &&
-            (solution_fields[f] = PyUnicode_InternFromString(solution_field_names[f])) == NULL) {
-            return NULL;
-        }
-    }
-    if (intern_names()) {
+    if (intern_solution_fields() || intern_names()) {
         return NULL;
     }
     ScratchPlan *plan = PyMem_Calloc(1, sizeof(ScratchPlan));
@@ -3331,8 +3352,8 @@ static int by_rows_ok(const ScratchPlan *plan, const double *info, Py_ssize_t ro
     double rank_factor = number[S_RANK] / sqrt(small), round_off = small * number[S_ROUND_OFF];
     double residual = info[2] > info[3] ? info[2] : info[3];
     double void_bound = number[S_VOID] * info[5], exact_bound = number[S_EXACT] * info[0] * info[6];
-    return info[0] < limit && margin * info[1] < rank_factor * info[4] && margin * info[1] <= round_off * info[4] &&
-           residual <= (void_bound < exact_bound ? void_bound : exact_bound);
+    return info[0] < limit && margin * info[1] < rank_factor * info[4] &&
+           margin * info[1] <= round_off * info[4] && residual <= (void_bound < exact_bound ? void_bound : exact_bound);
 }
 
 /* Whether rebalance_undecided may balance the mode (needs_balancing: a sliding contact, L or R, whose mu
@@ -3368,7 +3389,8 @@ static double *deficient_scratch(const Problem *p, double **B) {
 }
 
 /* Mode `mode` (NOT_CERTIFIED) certified by its rows and decided: 1, or 0 when the general path must. */
-static int deficient_mode(const ScratchPlan *plan, ScratchWork *w, const Problem *p, Py_ssize_t mode, const double *B) {
+static int deficient_mode(const ScratchPlan *plan, ScratchWork *w, const Problem *p, Py_ssize_t mode,
+                          const double *B) {
     Py_ssize_t nx = p->nx, m = p->m, k = p->k;
     const long long *letters = p->letters + mode * k;
     if (balanced(plan, letters, k)) {
@@ -3447,10 +3469,11 @@ static int scratch_found(const ScratchPlan *plan, const ScratchWork *w, const Pr
             name[i] = "SLRF"[p->letters[mode * k + i]];
         }
         int moves = w->moves[mode], pdim = moves >= 0;
+        PyObject *outputs = PyTuple_GET_ITEM(plan->outputs, pdim ? moves : MOVES_NONE);
         PyObject *mode_name = PyUnicode_FromStringAndSize(name, k);
-        PyObject *solution = mode_name ? make_solution(&plan->mk, mode_name, PyTuple_GET_ITEM(plan->outputs,
-                                                       pdim ? moves : MOVES_NONE), pdim, x, acc, pdim ? w->w[mode] : 0.0,
-                                                       p->residual[mode], p->violation[mode]) : NULL;
+        PyObject *solution = mode_name ? make_solution(&plan->mk, mode_name, outputs, pdim, x, acc,
+                                                       pdim ? w->w[mode] : 0.0, p->residual[mode],
+                                                       p->violation[mode]) : NULL;
         Py_XDECREF(mode_name);
         if (solution == NULL || PyList_Append(found, solution) != 0) {
             Py_XDECREF(solution);
@@ -3497,8 +3520,7 @@ static PyObject *scratch_solutions(PyObject *self, PyObject *const *args, Py_ssi
         PyErr_Format(kernel_error, "scratch_solutions takes 3 arguments, got %zd", nargs);
         return NULL;
     }
-    ScratchPlan *plan = PyCapsule_IsValid(args[0], SCRATCH_CAPSULE) ? PyCapsule_GetPointer(args[0], SCRATCH_CAPSULE)
-                                                                     : NULL;
+    ScratchPlan *plan = scratch_plan_of(args[0]);
     if (plan == NULL) {
         PyErr_SetString(kernel_error, "scratch_solutions: the first argument is not a scratch_plan");
         return NULL;
@@ -3576,8 +3598,7 @@ static PyObject *problem_solutions(PyObject *self, PyObject *const *args, Py_ssi
     PyObject *result = NULL;
     double *u = NULL;
     if (parse(&problem_solutions_signature, args, nargs, &a) == 0) {
-        ScratchPlan *plan = PyCapsule_IsValid(args[0], SCRATCH_CAPSULE) ? PyCapsule_GetPointer(args[0], SCRATCH_CAPSULE)
-                                                                         : NULL;
+        ScratchPlan *plan = scratch_plan_of(args[0]);
         if (plan == NULL || plan->robot != Py_None) {
             PyErr_SetString(kernel_error, "problem_solutions: the first argument is not a problem's scratch_plan");
         } else if ((u = PyMem_Malloc((size_t)(plan->in.m + 1) * sizeof(double))) == NULL) {
@@ -4080,18 +4101,21 @@ static PyMethodDef methods[] = {
     {"scratch_plan", (PyCFunction)(void (*)(void))scratch_plan, METH_FASTCALL,
      "scratch_plan(robot, frames, positions, lines, damping, input_map, mu, lower, upper, solution_type,\n"
      "             empty, names, float64, outputs, slack, velocity_tolerance, margin, tolerance,\n"
-     "             domain_tolerance, zero_row_tolerance, max_modes) -> plan\n\n"
+     "             domain_tolerance, zero_row_tolerance, max_modes, rank_tolerance, round_off_rank_drop,\n"
+     "             void_factor, exact_factor, balancing_friction, output_tolerance, radius_cap) -> plan\n\n"
      "What scratch_solutions reads of a scene that does not change with its state: the robot_state plan\n"
-     "and the contacts' frames, positions and lines, the damping (or None), S^T (n, m), mu (k,), the\n"
-     "input limits, the solution class, numpy.empty, the input names, numpy.float64, the outputs' str\n"
-     "and the engine's tolerances."},
+     "and the contacts' frames, positions and lines (all four None: a problem's plan, for\n"
+     "problem_solutions), the damping (or None), S^T (n, m), mu (k,), the input limits, the solution\n"
+     "class, numpy.empty, the input names, numpy.float64, the ambiguous outputs' three names and the\n"
+     "batch path's tolerances and constants (frcontrol.engine._plan_numbers)."},
     {"scratch_solutions", (PyCFunction)(void (*)(void))scratch_solutions, METH_FASTCALL,
      "scratch_solutions(plan, v, inputs) -> [solution, ...], None or False\n\n"
      "Every rigid solution at the plain input `inputs` from the state whose Pinocchio pass (computeAllTerms\n"
      "at q and v) has just run: the state, the letters by velocity, every full mode's certificate and\n"
-     "decision, as robot_state, contact_rows and certified_modes do; None where the general path must\n"
-     "answer (an input not plain, an impact, too many modes), False where it must because a mode is\n"
-     "left to the SVD (the state decides that, not the input)."},
+     "decision, as robot_state, contact_rows and certified_modes do, and a rank-deficient mode with one\n"
+     "ambiguity variable by its rows; None where the general path must answer (an input not plain, an\n"
+     "impact, too many modes or contacts), False where it must because neither certificate takes a\n"
+     "mode (the state decides that, not the input)."},
     {"problem_solutions", (PyCFunction)(void (*)(void))problem_solutions, METH_FASTCALL,
      "problem_solutions(plan, mass, jacobian_normal, jacobian_tangent, drift_normal, drift_tangent,\n"
      "                  normal_velocities, tangential_velocities, bias, inputs) -> [solution, ...], None\n"

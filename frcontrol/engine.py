@@ -1475,7 +1475,8 @@ def _scratch_solutions_compiled(scene: Scene, inputs: Any) -> list[RigidSolution
     a mode its LU certifies, to the bit (the contact accelerations ``J dv + drift`` summed in index
     order: to round-off); a rank-deficient mode with one ambiguity variable certified by its rows
     (:func:`frcontrol.response.certified_by_rows`, on rows the kernel picks), to round-off, its w up
-    to sign. None where the general path answers: an input that is not plain
+    to sign (so, within round-off of a domain's facet, a mode may be decided otherwise, as between
+    the batch and reference paths). None where the general path answers: an input that is not plain
     (:func:`frcontrol.query.plain_input`'s rule), an impact, more than ``BATCH_MAX_MODES`` modes, a
     scene :func:`_scratch_plan` declines, or a mode neither certifies. The last depends on the state
     alone (the modes' ``A``), not on the input: the kernel says so (False) and the scene's later

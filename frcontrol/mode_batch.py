@@ -37,6 +37,7 @@ mode) and the same tolerances. The tests cross-check both paths on random scenes
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
@@ -113,9 +114,10 @@ def full_modes(allowed: tuple[str, ...]) -> tuple[tuple[str, ...], np.ndarray]:
     k = len(allowed)
     if k == 0:
         return ("",), np.zeros((1, 0), dtype=int)
-    grids = np.meshgrid(*[np.array([MODE_LETTERS.index(ch) for ch in letters]) for letters in allowed],
-                        indexing="ij")
-    letters = np.stack([g.reshape(-1) for g in grids], axis=1)
+    # the first contact's letter varies slowest (numpy.meshgrid's "ij" order, without its limit of
+    # 32 arrays: a robot may touch with more contacts than that)
+    choices = [[MODE_LETTERS.index(ch) for ch in letters] for letters in allowed]
+    letters = np.array(list(itertools.product(*choices)), dtype=int).reshape(-1, k)
     letters.setflags(write=False)
     modes = tuple("".join(MODE_LETTERS[j] for j in row) for row in letters.tolist())
     return modes, letters

@@ -203,3 +203,22 @@ def test_contacts_apart_beyond_round_off_stop_both_paths_alike(write_scene):
     assert errors[0].matrix_name == errors[1].matrix_name == "the system of mode LR (a L, b R)"
     assert errors[0].condition_number == errors[1].condition_number
     assert 1e11 < errors[0].condition_number < 1e13, errors[0]
+
+
+def test_more_contacts_than_numpy_has_dimensions():
+    """40 and 70 separating contacts (one mode, every contact S): the batch path lists the modes without
+    numpy.meshgrid's limit of 32 arrays, and the one call (up to 64 contacts) gives its answer."""
+    rng = np.random.default_rng(3)
+    for k in (40, 70):
+        problem = ContactProblem(
+            coordinates=("x", "y", "t"), contacts=tuple(f"c{i}" for i in range(k)), inputs=("x",),
+            mass_matrix=np.eye(3), bias=np.array([0.0, 9.81, 0.0]), input_map=np.eye(3)[:, :1],
+            jacobian_normal=rng.normal(size=(k, 3)), jacobian_tangent=rng.normal(size=(k, 3)),
+            drift_normal=np.zeros(k), drift_tangent=np.zeros(k), normal_velocities=np.ones(k),
+            tangential_velocities=np.zeros(k), mu=np.full(k, 0.5), lower=np.array([-np.inf]),
+            upper=np.array([np.inf]))
+        batch = solutions_at(problem, np.zeros(1), method="batch")
+        assert [s.mode for s in batch] == ["S" * k]
+        np.testing.assert_allclose(batch[0].dv, [0.0, -9.81, 0.0], atol=1e-12)
+        auto = solutions_at(problem, np.zeros(1))
+        assert [s.mode for s in auto] == ["S" * k] and np.allclose(auto[0].dv, batch[0].dv, atol=1e-12)

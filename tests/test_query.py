@@ -727,11 +727,14 @@ def test_the_scratch_kernel_refuses_bad_arguments():
         compiled.scratch_plan(None, (), None, None, *_plan_tail(scene))
     good = [*scene.robot.kernel_state_plan(scene.active_indices)[:4], *_plan_tail(scene)]
     assert compiled.scratch_plan(*good) is not None
-    for index, bad, message in [(1, (), "frames must be a tuple of 1 frames"), (6, np.array([0.5, 0.5]),
-                                "kernel buffer mu: axis 0 has 2 entries, expected 1|frames must be a tuple"),
+    mu_error = "kernel buffer mu: axis 0 has 2 entries, expected 1|frames and positions must be"
+    for index, bad, message in [(1, (), "frames and positions must be tuples of 1"),
+                                (6, np.array([0.5, 0.5]), mu_error),
                                 (3, (1.0,), "lines must be a tuple of 5 floats"),
                                 (9, int, "solution_type must be a class"),
-                                (11, ("x",), "names must be a tuple")]:
+                                (11, ("x",), "names must be a tuple"),
+                                (2, (), "frames and positions must be tuples of 1"),
+                                (13, ("none", "forces"), "outputs a tuple of 3 str")]:
         args = list(good)
         args[index] = bad
         with pytest.raises(KernelError, match=message):
