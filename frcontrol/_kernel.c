@@ -3016,6 +3016,7 @@ typedef struct {
     PyObject *robot, *frames, *positions, *outputs; /* strong references (in's and mk's too) */
     double *lines;  /* (k, LINE_ENTRIES) */
     Py_ssize_t max_modes;
+    int declines;   /* a number the general path refuses (not_plain_numbers): every call answers None */
 } ScratchPlan;
 
 static void free_scratch(ScratchPlan *plan) {
@@ -3039,6 +3040,31 @@ static void scratch_capsule_free(PyObject *capsule) {
 /* The plan of a scratch_plan capsule, or NULL (no error set). */
 static ScratchPlan *scratch_plan_of(PyObject *capsule) {
     return PyCapsule_IsValid(capsule, SCRATCH_CAPSULE) ? PyCapsule_GetPointer(capsule, SCRATCH_CAPSULE) : NULL;
+}
+
+/* Whether the n values at v are all finite. */
+static int all_finite(const double *v, Py_ssize_t n) {
+    for (Py_ssize_t i = 0; i < n; i++) {
+        if (!isfinite(v[i])) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* Whether the plan holds a number ContactProblem.check_numbers refuses: S^T or mu not finite, a negative
+ * mu, a NaN input limit. */
+static int not_plain_numbers(const Args *a) {
+    Py_ssize_t n = a->dim[DIM_N], m = a->dim[DIM_M], k = a->dim[DIM_K] < 0 ? 0 : a->dim[DIM_K];
+    const double *mu = a->data[S_MU], *lower = a->data[S_LOWER], *upper = a->data[S_UPPER];
+    int bad = !all_finite(a->data[S_INPUT_MAP], n * m) || !all_finite(mu, k);
+    for (Py_ssize_t i = 0; i < k; i++) {
+        bad |= mu[i] < 0.0;
+    }
+    for (Py_ssize_t j = 0; j < m; j++) {
+        bad |= isnan(lower[j]) || isnan(upper[j]);
+    }
+    return bad;
 }
 
 /* Whether `outputs` is a tuple of three str (the ambiguous outputs' names, in MOVES_* order). */
@@ -3114,6 +3140,7 @@ static PyObject *scratch_plan(PyObject *self, PyObject *const *args, Py_ssize_t 
         plan->positions = Py_NewRef(args[S_POSITIONS]);
         plan->outputs = Py_NewRef(args[S_OUTPUTS]);
         plan->max_modes = (Py_ssize_t)a->integer[S_MAX_MODES];
+        plan->declines = not_plain_numbers(a);
         PyObject *capsule = PyCapsule_New(plan, SCRATCH_CAPSULE, scratch_capsule_free);
         if (capsule != NULL) {
             return capsule;
@@ -3487,9 +3514,13 @@ static int scratch_found(const ScratchPlan *plan, const ScratchWork *w, const Pr
 /* The answer from the state in w: the list of solutions, None (the general path answers) or False (it
  * does, and a mode is left to the SVD: the state's A decides that, not the input). */
 static PyObject *scratch_answer(const ScratchPlan *plan, const double *u, ScratchWork *w) {
-    Py_ssize_t k = plan->mk.k;
+    Py_ssize_t n = plan->mk.n, k = plan->mk.k;
     int mask[MAX_SCRATCH_CONTACTS];
     const double *values = w->job.values;
+    if (plan->declines || !all_finite(w->job.mass, n * n + n) || !all_finite(w->job.rows, 2 * k * n) ||
+        !all_finite(values + k, 4 * k)) { /* the general path says which number is bad */
+        return Py_NewRef(Py_None);
+    }
     w->count = k > MAX_SCRATCH_CONTACTS ? -1 : allowed_letters(values + k, values + 2 * k, k,
                                                               plan->a.number[S_VELOCITY], plan->max_modes, mask);
     if (w->count < 0) {

@@ -693,6 +693,7 @@ def analyze(
                "ambiguity": 0.0}
     start = time.perf_counter()
     problem = scene if isinstance(scene, ContactProblem) else ContactProblem.from_scene(scene)
+    problem.check_numbers()
     timings["model"] = time.perf_counter() - start
     enumerator = _ModeEnumerator(problem, settings, rank_tolerance, prune_partial, progress, timings)
     enumerator.grow("")
@@ -1377,6 +1378,7 @@ def solutions_at(
                 listed.append(_solution(problem, mode.system, mode.response, u, w))
         return listed
     problem = scene if isinstance(scene, ContactProblem) else ContactProblem.from_scene(scene)
+    problem.check_numbers()
     u = _input_vector(problem, inputs)
     if method != "reference":
         allowed = problem.allowed_modes()

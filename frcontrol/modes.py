@@ -265,6 +265,35 @@ class ContactProblem:
                 allowed.append(MODE_LETTERS)
         return tuple(allowed)
 
+    def check_numbers(self) -> None:
+        """Check the problem's arrays: their shapes agree with n, k and m, their numbers are finite.
+
+        The input limits may be infinite (no limit) but not NaN; the friction coefficients are at
+        least 0. A problem made from a scene passes (the scene is checked when loaded); one made by
+        hand is checked by :func:`~frcontrol.engine.analyze` and
+        :func:`~frcontrol.engine.solutions_at` before they read it.
+
+        Raises:
+            InputError: the first array of another shape, or with a NaN or infinite entry (a NaN
+                limit, a negative friction coefficient), named.
+        """
+        n, k, m = self.n, self.k, self.m
+        shapes = {"mass_matrix": (n, n), "bias": (n,), "input_map": (n, m), "jacobian_normal": (k, n),
+                  "jacobian_tangent": (k, n), "drift_normal": (k,), "drift_tangent": (k,),
+                  "normal_velocities": (k,), "tangential_velocities": (k,), "mu": (k,), "lower": (m,),
+                  "upper": (m,)}
+        for name, shape in shapes.items():
+            values = np.asarray(getattr(self, name), dtype=float)
+            if values.shape != shape:
+                raise InputError(f"ContactProblem.{name} has shape {values.shape}; its n = {n} coordinates, "
+                                 f"k = {k} contacts and m = {m} inputs make it {shape}")
+            limit = name in ("lower", "upper")  # (an infinite limit: none)
+            if (np.isnan(values) if limit else ~np.isfinite(values)).any():
+                what = "a NaN" if limit else "a NaN or infinite"
+                raise InputError(f"ContactProblem.{name} has {what} entry: {values.tolist()}")
+        if (np.asarray(self.mu) < 0.0).any():
+            raise InputError(f"ContactProblem.mu has a negative friction coefficient: {list(self.mu)}")
+
     def input_bound_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """The finite input limits as rows ``C u <= d``."""
         m = self.m

@@ -776,3 +776,49 @@ def test_the_one_call_agrees_with_the_batch_path_on_random_problems():
         by_rows += left_to_the_svd(problem, u)
         assert_scratch_is_general(fast, general, f"problem {i}")
     assert answered > 120 and by_rows > 10 and declined > 5, (answered, by_rows, declined)  # 162, 17, 238
+
+
+BAD_NUMBERS = [(field, bad) for field in ("mass_matrix", "bias", "input_map", "jacobian_normal",
+                                          "jacobian_tangent", "drift_normal", "drift_tangent",
+                                          "normal_velocities", "tangential_velocities", "mu")
+               for bad in (np.nan, np.inf)] + [("lower", np.nan), ("upper", np.nan), ("mu", -0.5)]
+
+
+@pytest.mark.parametrize("field, bad", BAD_NUMBERS, ids=[f"{f}={b}" for f, b in BAD_NUMBERS])
+def test_a_hand_made_problem_with_a_bad_number_is_an_input_error(field, bad):
+    """A ContactProblem made by hand with a NaN or infinite number (a NaN limit, a negative friction
+    coefficient): ``solutions_at`` and ``analyze`` raise InputError naming the array, whichever path
+    would have answered (the one call declines such a problem; before, the batch path listed no
+    mode, or modes, or raised NumPy's LinAlgError)."""
+    import dataclasses
+
+    from frcontrol.engine import _problem_plan
+
+    problem = problem_of("rod_on_table")
+    values = np.array(getattr(problem, field), dtype=float)
+    values.flat[0] = bad
+    broken = dataclasses.replace(problem, **{field: values})
+    message = rf"ContactProblem\.{field} has (a NaN|a negative)"
+    with pytest.raises(InputError, match=message):
+        solutions_at(broken, np.zeros(broken.m))
+    with pytest.raises(InputError, match=message):
+        analyze(broken)
+    if compiled is not None:
+        plan = _problem_plan(broken)
+        assert plan is None or compiled.problem_solutions(plan, *problem_arrays(broken), np.zeros(3)) is None
+
+
+def test_a_hand_made_problem_of_wrong_shapes_is_an_input_error():
+    import dataclasses
+
+    problem = problem_of("rod_on_table")
+    with pytest.raises(InputError, match=r"ContactProblem\.bias has shape \(2,\); .* make it \(3,\)"):
+        solutions_at(dataclasses.replace(problem, bias=np.zeros(2)), {})
+    with pytest.raises(InputError, match=r"ContactProblem\.jacobian_tangent has shape \(1, 2\)"):
+        analyze(dataclasses.replace(problem, jacobian_tangent=np.zeros((1, 2))))
+
+
+def problem_of(name: str):
+    from frcontrol.modes import ContactProblem
+
+    return ContactProblem.from_scene(load_scene(name))
