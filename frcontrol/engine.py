@@ -783,9 +783,8 @@ class _ModeEnumerator:
         open_ = [i for i, response in enumerate(responses) if response is None]
         if open_:
             balance = needs_balancing(self.problem, children)
-            if partial:
-                self._by_rows(prefix, children, (A, B, c), balance, responses)
-                open_ = [i for i in open_ if responses[i] is None]
+            self._by_rows(prefix, children, (A, B, c), balance, responses, keep=partial)
+            open_ = [i for i in open_ if responses[i] is None]
             if deficient and open_:
                 stacked = solve_affine_stack(A[open_], B, c[open_], rank_tolerance=self.rank_tolerance,
                                              balance=balance[open_])
@@ -797,13 +796,15 @@ class _ModeEnumerator:
         self.timings["response"] += time.perf_counter() - t0
 
     def _by_rows(self, prefix: str, children: list[str], stack: tuple[np.ndarray, np.ndarray, np.ndarray],
-                 balance: np.ndarray, responses: list[AffineSolution | None]) -> None:
+                 balance: np.ndarray, responses: list[AffineSolution | None], *, keep: bool) -> None:
         """Certify, in place, children without a response by the rows they keep (:func:`certified_by_rows`).
 
         The rows guessed: those the prefix's certificate kept, and each of the child's two letter
         rows that moves the prefix's null space (:func:`letter_rows_kept`); children with the
         same guess are certified together. A child that :func:`rebalance_undecided` might balance
-        is left to the SVD.
+        is left to the SVD. ``keep``: record the rows kept (for a partial child, whose own children's
+        certificates start from them). A full mode certified here and found feasible still reports
+        the SVD's response (:meth:`evaluate`); an infeasible one is spared its SVD.
         """
         open_ = [i for i, response in enumerate(responses) if response is None and not balance[i]]
         base, null = self.kept.get(prefix), self.null_spaces.get(prefix)
@@ -824,7 +825,8 @@ class _ModeEnumerator:
             for i, response in zip(group, found, strict=True):
                 if response is not None:
                     responses[i] = response
-                    self.kept[children[i]] = rows
+                    if keep:  # a partial child: its own children's certificates start from these rows
+                        self.kept[children[i]] = rows
 
     def test(self, mode: str) -> tuple[MarginVerdict, ModeSystem, AffineSolution]:
         """Build and solve a (partial) mode: 'ok', 'freedom' or 'infeasible'.
