@@ -32,6 +32,7 @@
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -501,24 +502,34 @@ static int interval(const Problem *p, const Ranked *q, Py_ssize_t rows, const do
     return interval_rows(rows, a, h, motion, p->domain_tolerance, p->zero_row_tolerance, q->radius_cap, centre);
 }
 
-/* outputs_moved_by for one direction X_w (nx,). */
-static signed char moved_by(const Problem *p, const Ranked *q, const double *X_w) {
+/* The largest |X_w[i, t]| of row i of X_w (nx, pdim). */
+static double row_top(const double *X_w, Py_ssize_t i, Py_ssize_t pdim) {
+    double top = 0.0;
+    for (Py_ssize_t t = 0; t < pdim; t++) {
+        top = fabs(X_w[i * pdim + t]) > top ? fabs(X_w[i * pdim + t]) : top;
+    }
+    return top;
+}
+
+/* outputs_moved_by for the directions X_w (nx, pdim). */
+static signed char moved_by(const Problem *p, const Ranked *q, const double *X_w, Py_ssize_t pdim) {
     double top = 0.0;
     for (Py_ssize_t i = 0; i < p->nx; i++) {
-        top = fabs(X_w[i]) > top ? fabs(X_w[i]) : top;
+        top = row_top(X_w, i, pdim) > top ? row_top(X_w, i, pdim) : top;
     }
     double threshold = q->output_tolerance * (top > 1e-300 ? top : 1e-300);
     int moves_dv = 0, moves_forces = 0;
     for (Py_ssize_t i = 0; i < p->nx; i++) {
-        if (fabs(X_w[i]) > threshold) {
+        if (row_top(X_w, i, pdim) > threshold) {
             *(i < p->n ? &moves_dv : &moves_forces) = 1;
         }
     }
     return moves_dv ? MOVES_ACCELERATIONS : moves_forces ? MOVES_FORCES : MOVES_NONE;
 }
 
-/* The inequality rows at u as a_i w <= h_i (rows normalised in (u, w)); p = 0 decides them here.
- * Writes the valid rows' a, h, motion; returns their count, or -1 when p = 0 and a row fails. */
+/* The inequality rows at u as a_i w <= h_i (rows normalised in (u, w)), for X_w (nx, pdim), pdim <= 2;
+ * p = 0 decides them here. Writes the valid rows' a (rows, pdim), h, motion; returns their count, or -1
+ * when p = 0 and a row fails. */
 static Py_ssize_t sliced_rows(const Problem *p, const long long *letters, Py_ssize_t pdim, const double *X_u,
                               const double *x0, const double *X_w, double *a, double *h, unsigned char *mo) {
     Py_ssize_t nx = p->nx, m = p->m, rows = 0;
@@ -534,7 +545,7 @@ static Py_ssize_t sliced_rows(const Problem *p, const long long *letters, Py_ssi
                     continue;
                 }
                 const double *g = p->ineq + row * nx;
-                double sq = 0.0, hu = 0.0, gx0 = 0.0, hw = 0.0;
+                double sq = 0.0, hu = 0.0, gx0 = 0.0, hw[2] = {0.0, 0.0};
                 for (Py_ssize_t c = 0; c < m; c++) {
                     double v = 0.0;
                     for (Py_ssize_t i = 0; i < nx; i++) {
@@ -545,16 +556,20 @@ static Py_ssize_t sliced_rows(const Problem *p, const long long *letters, Py_ssi
                 }
                 for (Py_ssize_t i = 0; i < nx; i++) {
                     gx0 += g[i] * x0[i];
-                    hw += g[i] * X_w[i];
+                    for (Py_ssize_t t = 0; t < pdim; t++) {
+                        hw[t] += g[i] * X_w[i * pdim + t];
+                    }
                 }
-                double norm = sqrt(sq + (pdim ? hw * hw : 0.0));
+                double norm = sqrt(sq + hw[0] * hw[0] + hw[1] * hw[1]);
                 if (pass == 0) {
                     largest = norm > largest ? norm : largest;
                     continue;
                 }
                 int constant = norm <= floor;
                 norm = constant ? 1.0 : norm;
-                a[rows] = constant ? 0.0 : hw / norm;
+                for (Py_ssize_t t = 0; t < pdim; t++) {
+                    a[rows * pdim + t] = constant ? 0.0 : hw[t] / norm;
+                }
                 h[rows] = (p->ineq_rhs[row] - gx0 - hu) / norm;
                 mo[rows] = p->motion[row];
                 if (pdim == 0 && !(mo[rows] ? h[rows] > p->domain_tolerance : h[rows] >= -p->domain_tolerance)) {
@@ -567,17 +582,21 @@ static Py_ssize_t sliced_rows(const Problem *p, const long long *letters, Py_ssi
     return rows;
 }
 
-/* x = X_u u + X_w w + x_0, its equality residual and inequality violation. */
+/* x = X_u u + X_w w + x_0 (X_w (nx, pdim)), its equality residual and inequality violation. */
 static void finish(const Problem *p, const long long *letters, const Scratch *s, const double *X_u,
-                   const double *x0, const double *X_w, double w, double *x, double *residual,
-                   double *violation) {
+                   const double *x0, const double *X_w, Py_ssize_t pdim, const double *w, double *x,
+                   double *residual, double *violation) {
     Py_ssize_t nx = p->nx, m = p->m;
     for (Py_ssize_t i = 0; i < nx; i++) {
         double v = 0.0;
         for (Py_ssize_t c = 0; c < m; c++) {
             v += X_u[i * m + c] * p->u[c];
         }
-        x[i] = v + X_w[i] * w + x0[i];
+        double xw = 0.0;
+        for (Py_ssize_t t = 0; t < pdim; t++) {
+            xw += X_w[i * pdim + t] * w[t];
+        }
+        x[i] = v + xw + x0[i];
     }
     double res = 0.0, worst = 0.0;
     for (Py_ssize_t i = 0; i < nx; i++) {
@@ -630,8 +649,8 @@ static signed char rank_mode(const Problem *p, const Ranked *q, Py_ssize_t mode,
         return INADMISSIBLE;
     }
     q->w[mode] = w;
-    q->outputs[mode] = pdim ? moved_by(p, q, X_w) : MOVES_NONE;
-    finish(p, letters, s, X_u, x0, X_w, w, p->x + mode * nx, &p->residual[mode], &p->violation[mode]);
+    q->outputs[mode] = pdim ? moved_by(p, q, X_w, 1) : MOVES_NONE;
+    finish(p, letters, s, X_u, x0, X_w, 1, &w, p->x + mode * nx, &p->residual[mode], &p->violation[mode]);
     return pdim ? ADMISSIBLE_W : ADMISSIBLE;
 }
 
@@ -683,7 +702,7 @@ enum { ANY = -1 };
 #define FIX(v) (-2 - (v)) /* an axis of v entries */
 enum { DIM_N, DIM_NX, DIM_K, DIM_M, DIM_COUNT, DIM_ROWS, DIM_P, DIM_S, DIM_T, DIM_A, MAX_DIMS };
 enum { WRITE = 1, OR_NONE = 2 };
-#define MAX_ARGS 32
+#define MAX_ARGS 40
 
 typedef struct {
     const char *name;
@@ -2879,10 +2898,10 @@ static PyObject *vector_of(PyObject *empty, const double *values, Py_ssize_t cou
     return array;
 }
 
-/* A solution of mode `mode` (a str) with p <= 1 ambiguity variables (w: its value) moving `outputs`
+/* A solution of mode `mode` (a str) with p ambiguity variables (w: their values) moving `outputs`
  * (a str): x (nx,) = [dv, lambda_n, lambda_t], acc (2k,) = [a_n, a_t]. */
 static PyObject *make_solution(const Maker *mk, PyObject *mode, PyObject *outputs, Py_ssize_t p, const double *x,
-                               const double *acc, double w, double residual, double violation) {
+                               const double *acc, const double *w, double residual, double violation) {
     Py_ssize_t n = mk->n, k = mk->k;
     PyObject *fields = PyDict_New(), *value = NULL, *solution = NULL;
     for (int f = 0; f < SOLUTION_FIELDS && fields != NULL; f++) { /* one at a time: stop at a failure */
@@ -2895,7 +2914,7 @@ static PyObject *make_solution(const Maker *mk, PyObject *mode, PyObject *output
         case 5: value = vector_of(mk->empty, acc + k, k); break;
         case 6: value = PyLong_FromSsize_t(p); break;
         case 7: value = Py_NewRef(outputs); break;
-        case 8: value = vector_of(mk->empty, &w, p); break;
+        case 8: value = vector_of(mk->empty, w, p); break;
         case 9: value = PyFloat_FromDouble(residual); break;
         default: value = PyFloat_FromDouble(violation); break;
         }
@@ -2961,7 +2980,7 @@ static PyObject *query_solutions(PyObject *self, PyObject *const *args, Py_ssize
         }
         evaluate_mode(t, i, u, wi, x, acc, &residual, &violation, z);
         PyObject *solution = make_solution(&mk, PyTuple_GET_ITEM(plan->modes, i), PyTuple_GET_ITEM(plan->outputs, i),
-                                           (Py_ssize_t)t->p[i], x, acc, centre, residual, violation);
+                                           (Py_ssize_t)t->p[i], x, acc, &centre, residual, violation);
         if (solution == NULL || PyList_Append(found, solution) != 0) {
             Py_XDECREF(solution);
             Py_CLEAR(found);
@@ -2990,11 +3009,17 @@ done:
  * where a mode neither certificate takes (deficient_modes, below), which the state decides whatever
  * the input. */
 #define SCRATCH_CAPSULE "frcontrol._kernel.scratch_plan"
-#define SCRATCH_ARGS 28
+#define SCRATCH_ARGS 33
 #define MAX_SCRATCH_CONTACTS 64 /* more contacts: the general path answers (the call's arrays are fixed) */
+/* the one call's deficient modes (see that section) */
+#define KEPT_GUESS 1e-8 /* a row whose part outside the kept rows' span is below this of its norm is left out */
+#define MAX_DEFICIENT_P 2 /* ambiguity variables the one call decides; more: the general path */
+#define POLYGON_ROWS_CAP 12 /* the largest polygon_max_rows a plan may hold (the rule's arrays are fixed) */
+#define POLYGON_CANDIDATES 455 /* C(POLYGON_ROWS_CAP + 2, 3) triples of an LP's rows */
 enum { S_ROBOT, S_FRAMES, S_POSITIONS, S_LINES, S_DAMPING, S_INPUT_MAP, S_MU, S_LOWER, S_UPPER, S_TYPE, S_EMPTY,
        S_NAMES, S_FLOAT64, S_OUTPUTS, S_SLACK, S_VELOCITY, S_MARGIN, S_TOLERANCE, S_DOMAIN, S_ZERO_ROW,
-       S_MAX_MODES, S_RANK, S_ROUND_OFF, S_VOID, S_EXACT, S_BALANCING, S_OUTPUT, S_CAP };
+       S_MAX_MODES, S_RANK, S_ROUND_OFF, S_VOID, S_EXACT, S_BALANCING, S_OUTPUT, S_CAP, S_CONSISTENCY,
+       S_VERTEX, S_SINGULAR, S_POLYGON_ROWS, S_CAPPED };
 
 static const Arg scratch_table[SCRATCH_ARGS] = {
     {"robot", 'o', 0, {0}, 0}, {"frames", 'o', 0, {0}, 0}, {"positions", 'o', 0, {0}, 0},
@@ -3006,7 +3031,10 @@ static const Arg scratch_table[SCRATCH_ARGS] = {
     {"tolerance", 'f', 0, {0}, 0}, {"domain_tolerance", 'f', 0, {0}, 0}, {"zero_row_tolerance", 'f', 0, {0}, 0},
     {"max_modes", 'i', 0, {0}, 0}, {"rank_tolerance", 'f', 0, {0}, 0}, {"round_off_rank_drop", 'f', 0, {0}, 0},
     {"void_factor", 'f', 0, {0}, 0}, {"exact_factor", 'f', 0, {0}, 0}, {"balancing_friction", 'f', 0, {0}, 0},
-    {"output_tolerance", 'f', 0, {0}, 0}, {"radius_cap", 'f', 0, {0}, 0}};
+    {"output_tolerance", 'f', 0, {0}, 0}, {"radius_cap", 'f', 0, {0}, 0},
+    {"consistency_tolerance", 'f', 0, {0}, 0}, {"vertex_tolerance", 'f', 0, {0}, 0},
+    {"singular_determinant", 'f', 0, {0}, 0}, {"polygon_max_rows", 'i', 0, {0}, 0},
+    {"capped_fraction", 'f', 0, {0}, 0}};
 static const Signature scratch_signature = {"scratch_plan", SCRATCH_ARGS, scratch_table, NULL};
 
 typedef struct {
@@ -3016,6 +3044,7 @@ typedef struct {
     PyObject *robot, *frames, *positions, *outputs; /* strong references (in's and mk's too) */
     double *lines;  /* (k, LINE_ENTRIES) */
     Py_ssize_t max_modes;
+    Py_ssize_t polygon_rows; /* PolygonRule's most rows (at most POLYGON_ROWS_CAP) */
     int declines;   /* a number the general path refuses (not_plain_numbers): every call answers None */
 } ScratchPlan;
 
@@ -3113,13 +3142,20 @@ static int check_scratch(ScratchPlan *plan, PyObject *const *args) {
                                       "3 str");
         return -1;
     }
+    long long most = a->integer[S_POLYGON_ROWS];
+    if (most < 0 || most > POLYGON_ROWS_CAP) {
+        PyErr_Format(kernel_error, "scratch_plan: polygon_max_rows must be in [0, %d], got %lld", POLYGON_ROWS_CAP,
+                     most);
+        return -1;
+    }
     return check_names(names, m, "scratch_plan");
 }
 
 /* scratch_plan(robot, frames, positions, lines, damping, input_map, mu, lower, upper, solution_type,
  * empty, names, float64, outputs, slack, velocity_tolerance, margin, tolerance, domain_tolerance,
  * zero_row_tolerance, max_modes, rank_tolerance, round_off_rank_drop, void_factor, exact_factor,
- * balancing_friction, output_tolerance, radius_cap) -> capsule (scratch_table). */
+ * balancing_friction, output_tolerance, radius_cap, consistency_tolerance, vertex_tolerance,
+ * singular_determinant, polygon_max_rows, capped_fraction) -> capsule (scratch_table). */
 static PyObject *scratch_plan(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
     if (intern_solution_fields() || intern_names()) {
@@ -3140,6 +3176,7 @@ static PyObject *scratch_plan(PyObject *self, PyObject *const *args, Py_ssize_t 
         plan->positions = Py_NewRef(args[S_POSITIONS]);
         plan->outputs = Py_NewRef(args[S_OUTPUTS]);
         plan->max_modes = (Py_ssize_t)a->integer[S_MAX_MODES];
+        plan->polygon_rows = (Py_ssize_t)a->integer[S_POLYGON_ROWS];
         plan->declines = not_plain_numbers(a);
         PyObject *capsule = PyCapsule_New(plan, SCRATCH_CAPSULE, scratch_capsule_free);
         if (capsule != NULL) {
@@ -3204,11 +3241,11 @@ typedef struct {
     unsigned char *flags;   /* valid, motion, then status per mode */
     long long *letters;     /* (count, k) */
     double *work;           /* run_modes' scratch (scratch()): s and Su */
-    double *deficient;      /* deficient_modes' scratch */
     Scratch s;
     double *Su;
-    double *w;              /* per mode: its w (one ambiguity variable) */
+    double *w;              /* per mode: its w (MAX_DEFICIENT_P entries, the first pdims[mode] read) */
     signed char *moves;     /* per mode: -1 (no ambiguity variable) or moved_by's code */
+    signed char *pdims;     /* per mode: its ambiguity variables */
     StateJob job;
     Py_ssize_t count;
 } ScratchWork;
@@ -3219,7 +3256,6 @@ static void free_work(ScratchWork *w) {
     PyMem_Free(w->flags);
     PyMem_Free(w->letters);
     PyMem_Free(w->work);
-    PyMem_Free(w->deficient);
 }
 
 /* The state's arrays in w->job (robot_state's: M, h, the points, [J_N; J_T], then gaps, v_N, v_T,
@@ -3259,9 +3295,9 @@ static int scratch_rows(const ScratchPlan *plan, ScratchWork *w, Problem *p) {
     const StateJob *job = &w->job;
     Py_ssize_t n = p->n, k = p->k, nx = p->nx, count = w->count;
     Py_ssize_t pairs = k * ROW_LETTERS * EQUALITY_ROWS, cells = k * ROW_LETTERS * INEQUALITY_ROWS;
-    w->memory = PyMem_Malloc((size_t)(n * nx + pairs * (nx + 1) + cells * (nx + 1) + count * (nx + 3) + 1) *
-                             sizeof(double));
-    w->flags = PyMem_Malloc((size_t)(2 * cells + 2 * count + 1));
+    w->memory = PyMem_Malloc((size_t)(n * nx + pairs * (nx + 1) + cells * (nx + 1) +
+                                      count * (nx + 2 + MAX_DEFICIENT_P) + 1) * sizeof(double));
+    w->flags = PyMem_Malloc((size_t)(2 * cells + 3 * count + 1));
     if (w->memory == NULL || w->flags == NULL) {
         PyErr_NoMemory();
         return -1;
@@ -3280,6 +3316,7 @@ static int scratch_rows(const ScratchPlan *plan, ScratchWork *w, Problem *p) {
     r.valid = w->flags, r.motion = w->flags + cells;
     p->status = (signed char *)(w->flags + 2 * cells);
     w->moves = p->status + count;
+    w->pdims = w->moves + count;
     Py_buffer views[8];
     Py_ssize_t strides[8][2];
     double *vectors[6] = {job->values + 3 * k, job->values + 4 * k, (double *)plan->a.data[S_MU],
@@ -3327,39 +3364,53 @@ static int scratch_modes(const ScratchPlan *plan, const double *u, const int *ma
 /* ------------------------------------------------------------------ the one call's deficient modes
  * A mode run_modes leaves to the SVD (NOT_CERTIFIED) is certified as frcontrol.response's
  * certified_by_rows certifies one, on rows guessed here: every row of its A_hat independent of the
- * rows kept before it (independent_rows, to KEPT_GUESS; a guess, checked by the certificate). With one
- * row left out (p = 1 ambiguity variable), a certificate that holds (by_rows_ok: by_rows_certified's
- * checks) says the SVD would find rank nx - 1 outside the ill-conditioned band, its drop round-off's
- * and no consistency condition, and that X_u, x_0 are the SVD's to round-off and X_w its null
- * direction up to sign; the mode is then decided as rank_mode decides one (sliced_rows, interval,
- * moved_by, finish): the same x at the same interval's centre, w up to its sign. Any other mode (two or
- * more left out, a certificate that fails, a sliding contact rougher than balancing_friction, which
- * rebalance_undecided may balance) leaves the answer to the general path. */
-#define KEPT_GUESS 1e-8 /* a row whose part outside the kept rows' span is below this of its norm is left out */
+ * rows kept before it (independent_rows, to KEPT_GUESS; a guess, checked by the certificate). With
+ * p = nx - q rows left out (p <= MAX_DEFICIENT_P ambiguity variables), the left null space L (p, nx) of
+ * A_hat is found from its columns the same way (left_null) and checked: ||A_hat^T L||_F passes the
+ * test the certificate puts to ||A_hat Q_2||_F, so L spans the SVD's U_2 to round-off. The right side
+ * [diag(r) B, diag(r) c] is projected off L (the part in A_hat's range, which the SVD's least squares
+ * solves) and certified_by_rows' checks (by_rows_ok: by_rows_certified's) run on it: the SVD would
+ * find rank q outside the ill-conditioned band, its drop round-off's; X_u, x_0 are its minimum-norm
+ * least-squares maps to round-off and X_w its null space in another orthonormal basis of the scaled
+ * coordinates (w up to an orthogonal map: up to sign for p = 1). The consistency rows
+ * E_raw = L^T diag(r) B, e_raw = -L^T diag(r) c are the SVD's up to the same kind of map, which
+ * _consistent_at's rule does not see (consistent_rows). The mode is then decided as the batch path
+ * decides one: sliced_rows, then one variable on its interval (interval, as rank_mode), two by
+ * frcontrol.ambiguity_polygon's rule (polygon_rule). Any other mode (more variables, a certificate
+ * that fails, two variables whose rule cannot be built, a sliding contact rougher than
+ * balancing_friction, which rebalance_undecided may balance) leaves the answer to the general path. */
 
-/* The rows of A_hat (nx, nx) independent of those before them (Gram-Schmidt, twice), into kept; their count. */
+/* v minus its part in the span of the orthonormal rows basis (count, nx), twice; returns |v|^2 after. */
+static double orthogonalize(const double *basis, Py_ssize_t count, Py_ssize_t nx, double *v) {
+    for (int pass = 0; pass < 2; pass++) {
+        for (Py_ssize_t t = 0; t < count; t++) {
+            double dot = 0.0;
+            for (Py_ssize_t j = 0; j < nx; j++) {
+                dot += basis[t * nx + j] * v[j];
+            }
+            for (Py_ssize_t j = 0; j < nx; j++) {
+                v[j] -= dot * basis[t * nx + j];
+            }
+        }
+    }
+    double left = 0.0;
+    for (Py_ssize_t j = 0; j < nx; j++) {
+        left += v[j] * v[j];
+    }
+    return left;
+}
+
+/* The rows of A_hat (nx, nx) independent of those before them (Gram-Schmidt, twice), into kept; their
+ * count, their orthonormal basis in basis. */
 static Py_ssize_t independent_rows(const double *A_hat, Py_ssize_t nx, double *basis, long long *kept) {
     Py_ssize_t q = 0;
     for (Py_ssize_t i = 0; i < nx; i++) {
-        double *v = basis + q * nx, start = 0.0, left = 0.0;
+        double *v = basis + q * nx, start = 0.0;
         for (Py_ssize_t j = 0; j < nx; j++) {
             v[j] = A_hat[i * nx + j];
             start += v[j] * v[j];
         }
-        for (int pass = 0; pass < 2; pass++) {
-            for (Py_ssize_t t = 0; t < q; t++) {
-                double dot = 0.0;
-                for (Py_ssize_t j = 0; j < nx; j++) {
-                    dot += basis[t * nx + j] * v[j];
-                }
-                for (Py_ssize_t j = 0; j < nx; j++) {
-                    v[j] -= dot * basis[t * nx + j];
-                }
-            }
-        }
-        for (Py_ssize_t j = 0; j < nx; j++) {
-            left += v[j] * v[j];
-        }
+        double left = orthogonalize(basis, q, nx, v);
         if (start > 0.0 && left > KEPT_GUESS * KEPT_GUESS * start) {
             double scale = 1.0 / sqrt(left);
             for (Py_ssize_t j = 0; j < nx; j++) {
@@ -3371,16 +3422,261 @@ static Py_ssize_t independent_rows(const double *A_hat, Py_ssize_t nx, double *b
     return q;
 }
 
-/* frcontrol.response.by_rows_certified for one system of `rows` rows and nx unknowns (a NaN fails). */
-static int by_rows_ok(const ScratchPlan *plan, const double *info, Py_ssize_t rows, Py_ssize_t nx) {
+/* The left null space of A_hat (nx, nx) when its columns have rank q, as independent_rows finds it
+ * for its rows: A_hat's column space (basis, its first q rows), completed p = nx - q times by the unit
+ * vector with the largest part outside what is found so far (1 - sum_t basis[t][j]^2, the basis being
+ * orthonormal), orthogonalised; L = basis rows q..nx-1. 0, or -1 when the columns' rank is not q.
+ * T (nx, nx) and cols (nx) are scratch. */
+static int left_null(const double *A_hat, Py_ssize_t nx, Py_ssize_t q, double *T, double *basis, long long *cols) {
+    for (Py_ssize_t i = 0; i < nx; i++) {
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            T[j * nx + i] = A_hat[i * nx + j];
+        }
+    }
+    if (independent_rows(T, nx, basis, cols) != q) {
+        return -1;
+    }
+    for (Py_ssize_t found = q; found < nx; found++) {
+        double *v = basis + found * nx, best = INFINITY;
+        Py_ssize_t pick = 0;
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            double inside = 0.0;
+            for (Py_ssize_t t = 0; t < found; t++) {
+                inside += basis[t * nx + j] * basis[t * nx + j];
+            }
+            if (inside < best) {
+                best = inside, pick = j;
+            }
+        }
+        memset(v, 0, (size_t)nx * sizeof(double));
+        v[pick] = 1.0;
+        double scale = 1.0 / sqrt(orthogonalize(basis, found, nx, v));
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            v[j] *= scale;
+        }
+    }
+    return 0;
+}
+
+/* frcontrol.response.by_rows_certified for one system of `rows` rows and nx unknowns (a NaN fails),
+ * and, with p > 0 rows of L (p, nx), the same test of ||A_hat^T L||_F as of ||A_hat Q_2||_F. */
+static int by_rows_ok(const ScratchPlan *plan, const double *info, Py_ssize_t rows, Py_ssize_t nx,
+                      const double *A_hat, const double *L, Py_ssize_t p) {
     const double *number = plan->a.number;
     double small = (double)(rows < nx ? rows : nx), margin = number[S_MARGIN];
     double limit = 1.0 / (margin * number[S_TOLERANCE]);
     double rank_factor = number[S_RANK] / sqrt(small), round_off = small * number[S_ROUND_OFF];
     double residual = info[2] > info[3] ? info[2] : info[3];
     double void_bound = number[S_VOID] * info[5], exact_bound = number[S_EXACT] * info[0] * info[6];
+    double left = 0.0;
+    for (Py_ssize_t t = 0; t < p; t++) {
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            double sum = 0.0;
+            for (Py_ssize_t i = 0; i < rows; i++) {
+                sum += A_hat[i * nx + j] * L[t * nx + i];
+            }
+            left += sum * sum;
+        }
+    }
+    left = sqrt(left);
     return info[0] < limit && margin * info[1] < rank_factor * info[4] &&
-           margin * info[1] <= round_off * info[4] && residual <= (void_bound < exact_bound ? void_bound : exact_bound);
+           margin * info[1] <= round_off * info[4] && margin * left < rank_factor * info[4] &&
+           margin * left <= round_off * info[4] && residual <= (void_bound < exact_bound ? void_bound : exact_bound);
+}
+
+/* The right side [diag(r) B, diag(r) c] off the span of L (p, nx): B' (nx, m) and c' (nx) divided by r
+ * again (exact: r is powers of two), for by_rows_system; E_raw = L diag(r) B (p, m) and
+ * e_raw = -L diag(r) c (p). Returns _scale_of's max(1, max |diag(r) B|, max |diag(r) c|). */
+static double projected(const Scratch *s, const double *B, Py_ssize_t nx, Py_ssize_t m, const double *L,
+                        Py_ssize_t p, double *Bp, double *cp, double *E, double *e) {
+    double scale = 1.0;
+    for (Py_ssize_t j = 0; j <= m; j++) { /* column j of [diag(r) B, diag(r) c] */
+        double dots[MAX_DEFICIENT_P];
+        for (Py_ssize_t t = 0; t < p; t++) {
+            dots[t] = 0.0;
+            for (Py_ssize_t i = 0; i < nx; i++) {
+                double right = (j < m ? B[i * m + j] : s->c[i]) * s->r_scale[i];
+                dots[t] += L[t * nx + i] * right;
+            }
+            *(j < m ? &E[t * m + j] : &e[t]) = j < m ? dots[t] : -dots[t];
+        }
+        for (Py_ssize_t i = 0; i < nx; i++) {
+            double right = (j < m ? B[i * m + j] : s->c[i]) * s->r_scale[i], off = right;
+            scale = fabs(right) > scale ? fabs(right) : scale;
+            for (Py_ssize_t t = 0; t < p; t++) {
+                off -= L[t * nx + i] * dots[t];
+            }
+            *(j < m ? &Bp[i * m + j] : &cp[i]) = off / s->r_scale[i];
+        }
+    }
+    return scale;
+}
+
+/* _consistent_at for p <= 2 rows E u = e (E (p, m)): by E's SVD, whose right vectors and singular
+ * values one-sided Jacobi rotations of its two rows give (rotated alike, e becomes Ue^T e); a
+ * singular value above ct times scale is kept and its row must hold to dt, a row not kept must have
+ * |e| at most ct times scale. E and e are overwritten. */
+static int consistent_rows(double *E, double *e, Py_ssize_t p, Py_ssize_t m, double scale, const double *u,
+                           double ct, double dt) {
+    for (int sweep = 0; p == 2 && sweep < 8; sweep++) {
+        double a = 0.0, b = 0.0, g = 0.0;
+        for (Py_ssize_t j = 0; j < m; j++) {
+            a += E[j] * E[j], b += E[m + j] * E[m + j], g += E[j] * E[m + j];
+        }
+        if (!(fabs(g) > DBL_EPSILON * sqrt(a * b))) {
+            break;
+        }
+        double zeta = (b - a) / (2.0 * g);
+        double t = (zeta >= 0.0 ? 1.0 : -1.0) / (fabs(zeta) + sqrt(1.0 + zeta * zeta));
+        double cs = 1.0 / sqrt(1.0 + t * t), sn = cs * t;
+        for (Py_ssize_t j = 0; j <= m; j++) {
+            double *x = j < m ? &E[j] : &e[0], *y = j < m ? &E[m + j] : &e[1];
+            double first = *x, second = *y;
+            *x = cs * first - sn * second, *y = sn * first + cs * second;
+        }
+    }
+    for (Py_ssize_t t = 0; t < p; t++) {
+        double sq = 0.0, eu = 0.0;
+        for (Py_ssize_t j = 0; j < m; j++) {
+            sq += E[t * m + j] * E[t * m + j], eu += E[t * m + j] * u[j];
+        }
+        double value = sqrt(sq), limit = ct * scale;
+        if (value > limit ? !(fabs(eu - e[t]) / value <= dt) : fabs(e[t]) > limit) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* The three rows (a_x, a_y, c) of R meeting at a vertex v = R_T^-1 b_T (Cramer's rule): 1, or 0 when
+ * |det R_T| is at most singular (they meet at no point: no candidate). */
+static int vertex_of(const double (*R)[3], const double *b, const int *T, double singular, double *v) {
+    const double *r0 = R[T[0]], *r1 = R[T[1]], *r2 = R[T[2]];
+    double c0[3] = {r1[1] * r2[2] - r1[2] * r2[1], r1[2] * r2[0] - r1[0] * r2[2], r1[0] * r2[1] - r1[1] * r2[0]};
+    double c1[3] = {r2[1] * r0[2] - r2[2] * r0[1], r2[2] * r0[0] - r2[0] * r0[2], r2[0] * r0[1] - r2[1] * r0[0]};
+    double c2[3] = {r0[1] * r1[2] - r0[2] * r1[1], r0[2] * r1[0] - r0[0] * r1[2], r0[0] * r1[1] - r0[1] * r1[0]};
+    double det = r0[0] * c0[0] + r0[1] * c0[1] + r0[2] * c0[2];
+    if (!(fabs(det) > singular)) {
+        return 0;
+    }
+    for (int d = 0; d < 3; d++) { /* R_T^-1 = [c0 c1 c2] / det */
+        v[d] = (c0[d] * b[T[0]] + c1[d] * b[T[1]] + c2[d] * b[T[2]]) / det;
+    }
+    return 1;
+}
+
+/* One of PolygonRule's two LPs at its right sides b (size rows: the live rows, then s <= s_max and
+ * -s <= 0): every triple's vertex, in combinations' order, and the best feasible s (-inf: none). */
+static double polygon_lp(const double (*R)[3], const double *b, Py_ssize_t size, const ScratchPlan *plan,
+                         double (*vertex)[3], unsigned char *feasible, Py_ssize_t *count) {
+    double best = -INFINITY, vt = plan->a.number[S_VERTEX], singular = plan->a.number[S_SINGULAR];
+    Py_ssize_t at = 0;
+    for (int i = 0; i < size; i++) {
+        for (int j = i + 1; j < size; j++) {
+            for (int l = j + 1; l < size; l++, at++) {
+                int T[3] = {i, j, l};
+                feasible[at] = (unsigned char)vertex_of(R, b, T, singular, vertex[at]);
+                for (Py_ssize_t r = 0; r < size && feasible[at]; r++) {
+                    double slack = b[r] - (R[r][0] * vertex[at][0] + R[r][1] * vertex[at][1] + R[r][2] * vertex[at][2]);
+                    double floor = fabs(b[r]) > 1.0 ? fabs(b[r]) : 1.0;
+                    feasible[at] = slack >= -vt * floor;
+                }
+                if (feasible[at] && vertex[at][2] > best) {
+                    best = vertex[at][2];
+                }
+            }
+        }
+    }
+    *count = at;
+    return best;
+}
+
+/* The live rows of a (rows, 2) (norm above zrt max(1, the largest)) as unit rows into unit, their norms
+ * into norms and indices into live; the constant rows judged by h alone (0: one fails); -1 when the
+ * live rows do not span the plane (PolygonRule.build: None), else their count via *count. */
+static int polygon_rows(const ScratchPlan *plan, const double *a, const double *h, const unsigned char *mo,
+                        Py_ssize_t rows, double (*unit)[2], double *norms, Py_ssize_t *live, Py_ssize_t *count) {
+    double top = 0.0, tol = plan->a.number[S_DOMAIN], cross = 0.0, all[POLYGON_ROWS_CAP];
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        all[i] = sqrt(a[2 * i] * a[2 * i] + a[2 * i + 1] * a[2 * i + 1]);
+        top = all[i] > top ? all[i] : top;
+    }
+    double floor = plan->a.number[S_ZERO_ROW] * (top > 1.0 ? top : 1.0);
+    int ok = 1;
+    *count = 0;
+    for (Py_ssize_t i = 0; i < rows; i++) {
+        if (!(all[i] > floor)) { /* the rule's checks: h + tol >= 0, or h - tol > 0 for a motion row */
+            ok &= mo[i] ? h[i] - tol > 0.0 : !(h[i] + tol < 0.0);
+            continue;
+        }
+        norms[*count] = all[i], live[*count] = i;
+        unit[*count][0] = a[2 * i] / all[i], unit[*count][1] = a[2 * i + 1] / all[i];
+        for (Py_ssize_t j = 0; j < *count; j++) {
+            double d = fabs(unit[j][0] * unit[*count][1] - unit[j][1] * unit[*count][0]);
+            cross = d > cross ? d : cross;
+        }
+        (*count)++;
+    }
+    if (*count < 2 || !(cross > plan->a.number[S_SINGULAR])) {
+        return -1;
+    }
+    return ok;
+}
+
+/* frcontrol.ambiguity_polygon's PolygonRule, built and decided at once for rows a_i w <= h_i (a (rows,
+ * 2), normalised in (u, w)): 1 with w (the Chebyshev centre, or the motion LP's vertex in a thin set;
+ * on an optimal face its vertex nearest to w = 0), 0 when no w moves as the mode says, -1 when the rule
+ * cannot be built (more than polygon_max_rows rows, live rows not spanning the plane): the LPs decide.
+ * 2 where the engine takes the Chebyshev LP's own point and it is one of several (an optimal face of a
+ * ball neither thin nor capped: _admissible_in_w's `unique`), which only the general path gives. */
+static int polygon_rule(const ScratchPlan *plan, const double *a, const double *h, const unsigned char *mo,
+                        Py_ssize_t rows, double *w) {
+    double unit[POLYGON_ROWS_CAP][2], norms[POLYGON_ROWS_CAP], R[POLYGON_ROWS_CAP + 2][3], b[POLYGON_ROWS_CAP + 2];
+    double vertex[2][POLYGON_CANDIDATES][3], best[2], tol = plan->a.number[S_DOMAIN];
+    unsigned char feasible[2][POLYGON_CANDIDATES];
+    Py_ssize_t live[POLYGON_ROWS_CAP], count = 0, candidates = 0;
+    if (rows > plan->polygon_rows) {
+        return -1;
+    }
+    int ok = polygon_rows(plan, a, h, mo, rows, unit, norms, live, &count);
+    if (ok <= 0) {
+        return ok;
+    }
+    int moving = 0;
+    for (int lp = 0; lp < 2; lp++) { /* the motion LP (t in [0, 1]), then the Chebyshev LP (r in [0, cap]) */
+        for (Py_ssize_t i = 0; i < count; i++) {
+            int motion = mo[live[i]] != 0;
+            moving |= motion;
+            R[i][0] = unit[i][0], R[i][1] = unit[i][1], R[i][2] = lp == 0 ? (double)motion : 1.0;
+            b[i] = (h[live[i]] + (lp == 0 && motion ? 0.0 : tol)) / norms[i];
+        }
+        R[count][0] = R[count][1] = R[count + 1][0] = R[count + 1][1] = 0.0;
+        R[count][2] = 1.0, R[count + 1][2] = -1.0;
+        b[count] = lp == 0 ? 1.0 : plan->a.number[S_CAP], b[count + 1] = 0.0;
+        best[lp] = polygon_lp((const double (*)[3])R, b, count + 2, plan, vertex[lp], feasible[lp], &candidates);
+    }
+    if (best[0] == -INFINITY || (best[0] <= tol && moving)) {
+        return 0; /* the motion LP: infeasible, or no w moving as the mode says */
+    }
+    int lp = best[1] > tol ? 1 : 0;
+    double nearest = INFINITY, vt = plan->a.number[S_VERTEX];
+    for (Py_ssize_t t = 0; t < candidates; t++) {
+        double *v = vertex[lp][t], sq = v[0] * v[0] + v[1] * v[1];
+        if (feasible[lp][t] && v[2] >= best[lp] - vt && sq < nearest) {
+            nearest = sq, w[0] = v[0], w[1] = v[1];
+        }
+    }
+    double cap = plan->a.number[S_CAP];
+    if (lp == 1 && best[1] < cap * (1.0 - plan->a.number[S_CAPPED])) { /* the LP's point: is it the only one? */
+        double far = vt * (sqrt(nearest) > 1.0 ? sqrt(nearest) : 1.0);
+        for (Py_ssize_t t = 0; t < candidates; t++) {
+            double *v = vertex[1][t];
+            if (feasible[1][t] && v[2] >= best[1] - vt && (fabs(v[0] - w[0]) > far || fabs(v[1] - w[1]) > far)) {
+                return 2;
+            }
+        }
+    }
+    return 1;
 }
 
 /* Whether rebalance_undecided may balance the mode (needs_balancing: a sliding contact, L or R, whose mu
@@ -3395,83 +3691,180 @@ static int balanced(const ScratchPlan *plan, const long long *letters, Py_ssize_
     return 0;
 }
 
-/* Scratch for deficient_mode: B = [S^T; 0] (nx, m), the guess's basis (nx, nx), kept (nx), the
- * certificate's QR and responses, the sliced rows; NULL with an error set. */
-static double *deficient_scratch(const Problem *p, double **B) {
-    Py_ssize_t nx = p->nx, m = p->m, rows = INEQUALITY_ROWS * p->k;
-    Py_ssize_t size = nx * m + nx * nx + nx + (nx * nx + nx + nx * (m + 1) + nx * (nx + m + 1) + 2 * nx) +
-                      (nx * m + 2 * nx + BY_ROWS_INFO) + 3 * rows + 1;
-    double *memory = PyMem_Malloc((size_t)size * sizeof(double));
-    if (memory == NULL) {
+/* deficient_mode's arrays, in one block (deficient_scratch). */
+typedef struct {
+    double *memory;                 /* the block (w->deficient) */
+    double *B;                      /* [S^T; 0] (nx, m) */
+    double *basis, *T, *Bp, *cp, *E, *e, *X_u, *x0, *X_w, *info, *a, *h;
+    double *Xc_u, *xc0, *Xc_w;      /* the responses over the nonzero columns (compact_certified) */
+    long long *kept, *cols, *live;  /* live: the nonzero columns of the mode's A */
+    unsigned char *mo;
+    QRScratch r;
+} Deficient;
+
+/* The block of deficient_mode's arrays; -1 with an error set. */
+static int deficient_scratch(const Problem *p, Deficient *d) {
+    Py_ssize_t nx = p->nx, m = p->m, rows = INEQUALITY_ROWS * p->k, P = MAX_DEFICIENT_P;
+    Py_ssize_t qr = nx * nx + nx + nx * (m + 1) + nx * (nx + m + 1) + 2 * nx;
+    Py_ssize_t size = nx * m + 2 * nx * nx + 3 * nx + nx * m + nx + P * m + P + qr + 2 * (nx * m + nx + nx * P) +
+                      BY_ROWS_INFO + (P + 1) * rows + rows + 1;
+    double *at = d->memory = PyMem_Malloc((size_t)size * sizeof(double));
+    if (at == NULL) {
         PyErr_NoMemory();
-        return NULL;
+        return -1;
     }
-    *B = memory;
+    d->B = at, at += nx * m;
+    d->basis = at, at += nx * nx;
+    d->T = at, at += nx * nx;
+    d->kept = (long long *)at, at += nx;
+    d->cols = (long long *)at, at += nx;
+    d->live = (long long *)at, at += nx;
+    d->Bp = at, at += nx * m;
+    d->cp = at, at += nx;
+    d->E = at, at += P * m;
+    d->e = at, at += P;
+    d->r = (QRScratch){0, nx, m, at, NULL, NULL, NULL, NULL, NULL}, at += qr;
+    d->X_u = at, at += nx * m;
+    d->x0 = at, at += nx;
+    d->X_w = at, at += nx * P;
+    d->Xc_u = at, at += nx * m;
+    d->xc0 = at, at += nx;
+    d->Xc_w = at, at += nx * P;
+    d->info = at, at += BY_ROWS_INFO;
+    d->a = at, at += P * rows;
+    d->h = at, at += rows;
+    d->mo = (unsigned char *)at;
     for (Py_ssize_t i = 0; i < nx; i++) {
         for (Py_ssize_t j = 0; j < m; j++) {
-            (*B)[i * m + j] = i < p->n ? p->input_map[i * m + j] : 0.0;
+            d->B[i * m + j] = i < p->n ? p->input_map[i * m + j] : 0.0;
         }
     }
-    return memory;
+    return 0;
 }
 
-/* Mode `mode` (NOT_CERTIFIED) certified by its rows and decided: 1, or 0 when the general path must. */
+/* by_rows_system on the mode's A without its exactly zero columns (their unknowns are free: exact null
+ * directions, which the SVD's null space holds, as unit vectors, the scaling of a zero column being 1)
+ * and B', c': X_u, x_0 (0 at a zero column, as the minimum-norm solution) and X_w (nx, p), the
+ * reduced system's null space first, then a unit vector per zero column. */
+static void compact_certified(const Scratch *s, const Problem *p, Deficient *d, Py_ssize_t q) {
+    Py_ssize_t nx = p->nx, m = p->m, pdim = nx - q, cols = 0;
+    for (Py_ssize_t j = 0; j < nx; j++) {
+        int zero = 1;
+        for (Py_ssize_t i = 0; i < nx && zero; i++) {
+            zero = s->A[i * nx + j] == 0.0;
+        }
+        if (!zero) {
+            d->live[cols++] = j;
+        }
+    }
+    for (Py_ssize_t i = 0; i < nx; i++) { /* the reduced A (nx, cols), in T */
+        for (Py_ssize_t c = 0; c < cols; c++) {
+            d->T[i * cols + c] = s->A[i * nx + d->live[c]];
+        }
+    }
+    QRScratch *r = &d->r;
+    r->rows = q, r->nx = cols, r->tau = r->M + cols * q, r->V = r->tau + q, r->Y = r->V + cols * (m + 1);
+    r->r = r->Y + q * (q + m + 1), r->s = r->r + nx;
+    by_rows_system(r, nx, d->T, d->Bp, d->cp, d->kept, 1.0 / (p->margin * p->tolerance), r->r, d->Xc_u, d->xc0,
+                   d->Xc_w, d->info);
+    Py_ssize_t own = cols - q; /* the reduced system's null directions (its X_w: (cols, own)) */
+    memset(d->X_u, 0, (size_t)(nx * m) * sizeof(double));
+    memset(d->x0, 0, (size_t)nx * sizeof(double));
+    memset(d->X_w, 0, (size_t)(nx * pdim) * sizeof(double));
+    for (Py_ssize_t c = 0; c < cols; c++) {
+        Py_ssize_t i = d->live[c];
+        memcpy(d->X_u + i * m, d->Xc_u + c * m, (size_t)m * sizeof(double));
+        d->x0[i] = d->xc0[c];
+        for (Py_ssize_t t = 0; t < own; t++) {
+            d->X_w[i * pdim + t] = d->Xc_w[c * own + t];
+        }
+    }
+    for (Py_ssize_t j = 0, t = own, c = 0; j < nx && t < pdim; j++) {
+        if (c < cols && d->live[c] == j) {
+            c++;
+        } else {
+            d->X_w[j * pdim + t++] = 1.0;
+        }
+    }
+}
+
+/* The mode in s with q of its nx rows kept, certified by them (p = nx - q): 1 with its X_u, x_0 and
+ * X_w (nx, p) in d and whether its consistency rows hold at u in *consistent; -1 when a check fails or
+ * the columns' rank is not q (the general path). */
+static int deficient_certified(const ScratchPlan *plan, const Scratch *s, const Problem *p, Deficient *d,
+                               Py_ssize_t q, int *consistent) {
+    Py_ssize_t nx = p->nx, m = p->m, pdim = nx - q;
+    if (left_null(s->A_hat, nx, q, d->T, d->basis, d->cols) != 0) {
+        return -1;
+    }
+    const double *L = d->basis + q * nx;
+    double scale = projected(s, d->B, nx, m, L, pdim, d->Bp, d->cp, d->E, d->e);
+    compact_certified(s, p, d, q);
+    if (!by_rows_ok(plan, d->info, nx, nx, s->A_hat, L, pdim)) {
+        return -1;
+    }
+    *consistent = consistent_rows(d->E, d->e, pdim, m, scale, p->u, plan->a.number[S_CONSISTENCY],
+                                  p->domain_tolerance);
+    return 1;
+}
+
+/* Mode `mode` (NOT_CERTIFIED) certified by its rows and decided: 1, or 0 when the general path must at
+ * this state, 2 at this input (polygon_rule). */
 static int deficient_mode(const ScratchPlan *plan, ScratchWork *w, const Problem *p, Py_ssize_t mode,
-                          const double *B) {
-    Py_ssize_t nx = p->nx, m = p->m, k = p->k;
+                          Deficient *d) {
+    Py_ssize_t nx = p->nx, k = p->k;
     const long long *letters = p->letters + mode * k;
     if (balanced(plan, letters, k)) {
         return 0;
     }
     Scratch *s = &w->s;
     assemble(p, letters, w->Su, s);
-    double *basis = w->deficient + nx * m, *kept_rows = basis + nx * nx, *qr = kept_rows + nx;
-    long long *kept = (long long *)kept_rows;
-    Py_ssize_t q = independent_rows(s->A_hat, nx, basis, kept);
-    if (q != nx - 1) {
-        return 0;
-    }
-    QRScratch r = {q, nx, m, qr, NULL, NULL, NULL, NULL, NULL};
-    r.tau = r.M + nx * q, r.V = r.tau + q, r.Y = r.V + nx * (m + 1), r.r = r.Y + q * (q + m + 1), r.s = r.r + nx;
-    double *X_u = r.s + nx, *x0 = X_u + nx * m, *X_w = x0 + nx, *info = X_w + nx, *a = info + BY_ROWS_INFO;
-    double *h = a + INEQUALITY_ROWS * k;
-    unsigned char *mo = (unsigned char *)(h + INEQUALITY_ROWS * k);
-    by_rows_system(&r, nx, s->A, B, s->c, kept, 1.0 / (p->margin * p->tolerance), r.r, X_u, x0, X_w, info);
-    if (!by_rows_ok(plan, info, nx, nx)) {
+    Py_ssize_t q = independent_rows(s->A_hat, nx, d->basis, d->kept), pdim = nx - q;
+    int consistent = 0;
+    if (pdim < 1 || pdim > MAX_DEFICIENT_P || deficient_certified(plan, s, p, d, q, &consistent) < 0) {
         return 0;
     }
     Ranked ranked = {.radius_cap = plan->a.number[S_CAP], .output_tolerance = plan->a.number[S_OUTPUT]};
-    Py_ssize_t rows = sliced_rows(p, letters, 1, X_u, x0, X_w, a, h, mo);
-    double centre = 0.0;
+    Py_ssize_t rows = sliced_rows(p, letters, pdim, d->X_u, d->x0, d->X_w, d->a, d->h, d->mo);
+    double *wm = w->w + MAX_DEFICIENT_P * mode;
+    int found = pdim == 1 ? interval(p, &ranked, rows, d->a, d->h, d->mo, wm)
+                          : polygon_rule(plan, d->a, d->h, d->mo, rows, wm);
+    if (found < 0) { /* the rule cannot be built (the state's rows, whatever the input): the general path */
+        return 0;
+    }
+    if (found == 2 && consistent) { /* the LP's point is one of several (this input's): the general path */
+        return 2;
+    }
     p->status[mode] = CERTIFIED_INADMISSIBLE;
-    if (rows >= 0 && interval(p, &ranked, rows, a, h, mo, &centre)) {
+    if (consistent && found) {
         p->status[mode] = CERTIFIED_ADMISSIBLE;
-        w->w[mode] = centre;
-        w->moves[mode] = moved_by(p, &ranked, X_w);
-        finish(p, letters, s, X_u, x0, X_w, centre, p->x + mode * nx, &p->residual[mode], &p->violation[mode]);
+        w->pdims[mode] = (signed char)pdim;
+        w->moves[mode] = moved_by(p, &ranked, d->X_w, pdim);
+        finish(p, letters, s, d->X_u, d->x0, d->X_w, pdim, wm, p->x + mode * nx, &p->residual[mode],
+               &p->violation[mode]);
     }
     return 1;
 }
 
-/* Every NOT_CERTIFIED mode by deficient_mode: 1 when all are decided, 0 when one is left to the general
- * path, -1 with an error set. */
+/* Every NOT_CERTIFIED mode by deficient_mode: 1 when all are decided, 0 or 2 when one is left to the
+ * general path (at this state, at this input), -1 with an error set. */
 static int deficient_modes(const ScratchPlan *plan, ScratchWork *w, Problem *p) {
-    double *B = NULL;
+    Deficient d = {0};
+    int decided = 1;
     for (Py_ssize_t mode = 0; mode < p->count; mode++) {
-        w->moves[mode] = -1;
+        w->moves[mode] = -1, w->pdims[mode] = 0;
     }
-    for (Py_ssize_t mode = 0; mode < p->count; mode++) {
+    for (Py_ssize_t mode = 0; mode < p->count && decided == 1; mode++) {
         if (p->status[mode] != NOT_CERTIFIED) {
             continue;
         }
-        if (w->deficient == NULL && (w->deficient = deficient_scratch(p, &B)) == NULL) {
+        if (d.memory == NULL && deficient_scratch(p, &d)) {
             return -1;
         }
-        if (!deficient_mode(plan, w, p, mode, B)) {
-            return 0;
-        }
+        decided = deficient_mode(plan, w, p, mode, &d);
     }
-    return 1;
+    PyMem_Free(d.memory);
+    return decided;
 }
 
 /* The admissible modes' solutions, in mode order, appended to `found`; -1 with an error set. */
@@ -3495,11 +3888,11 @@ static int scratch_found(const ScratchPlan *plan, const ScratchWork *w, const Pr
             acc[k + i] = at + values[4 * k + i];
             name[i] = "SLRF"[p->letters[mode * k + i]];
         }
-        int moves = w->moves[mode], pdim = moves >= 0;
+        int moves = w->moves[mode], pdim = w->pdims[mode];
         PyObject *outputs = PyTuple_GET_ITEM(plan->outputs, pdim ? moves : MOVES_NONE);
         PyObject *mode_name = PyUnicode_FromStringAndSize(name, k);
         PyObject *solution = mode_name ? make_solution(&plan->mk, mode_name, outputs, pdim, x, acc,
-                                                       pdim ? w->w[mode] : 0.0, p->residual[mode],
+                                                       w->w + MAX_DEFICIENT_P * mode, p->residual[mode],
                                                        p->violation[mode]) : NULL;
         Py_XDECREF(mode_name);
         if (solution == NULL || PyList_Append(found, solution) != 0) {
@@ -3533,6 +3926,9 @@ static PyObject *scratch_answer(const ScratchPlan *plan, const double *u, Scratc
     int decided = deficient_modes(plan, w, &p);
     if (decided < 0) {
         return NULL;
+    }
+    if (decided == 2) { /* this input's */
+        return Py_NewRef(Py_None);
     }
     if (!decided) { /* the state's, whatever the input */
         return Py_NewRef(Py_False);

@@ -40,9 +40,9 @@ import numpy as np
 import numpy.typing as npt
 
 from . import polytope as poly
-from .ambiguity_polygon import PolygonRule
+from .ambiguity_polygon import POLYGON_MAX_ROWS, SINGULAR_DETERMINANT, VERTEX_TOLERANCE, PolygonRule
 from .errors import IllConditioned, InputError, KernelError
-from .geometry import CHEBYSHEV_RADIUS_CAP, constant_rows, max_margin, row_norms
+from .geometry import CAPPED_FRACTION, CHEBYSHEV_RADIUS_CAP, constant_rows, max_margin, row_norms
 from .jsonable import to_jsonable
 from .kernel import Backend, backend, compiled, twin
 from .mode_batch import (
@@ -68,6 +68,7 @@ from .response import (
     BALANCING_FRICTION,
     BY_ROWS_EXACT_FACTOR,
     BY_ROWS_VOID_FACTOR,
+    CONSISTENCY_TOLERANCE,
     ILL_CONDITIONED_BAND,
     OUTPUT_TOLERANCE,
     RANK_TOLERANCE,
@@ -1468,7 +1469,8 @@ def _plan_numbers(velocity_tolerance: float) -> tuple[Any, ...]:
     return (np.float64, AMBIGUOUS_OUTPUT_CODES, INPUT_LIMIT_SLACK, velocity_tolerance, CERTIFIED_MARGIN,
             max(RANK_TOLERANCE, ILL_CONDITIONED_BAND), DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE, BATCH_MAX_MODES,
             RANK_TOLERANCE, ROUND_OFF_RANK_DROP, BY_ROWS_VOID_FACTOR, BY_ROWS_EXACT_FACTOR,
-            BALANCING_FRICTION, OUTPUT_TOLERANCE, CHEBYSHEV_RADIUS_CAP)
+            BALANCING_FRICTION, OUTPUT_TOLERANCE, CHEBYSHEV_RADIUS_CAP, CONSISTENCY_TOLERANCE,
+            VERTEX_TOLERANCE, SINGULAR_DETERMINANT, POLYGON_MAX_ROWS, CAPPED_FRACTION)
 
 
 def _scratch_solutions_compiled(scene: Scene, inputs: Any) -> list[RigidSolution] | None:

@@ -48,6 +48,7 @@ from frcontrol.solvers import (
 )
 
 __all__ = [
+    "CAPPED_FRACTION",
     "CHEBYSHEV_RADIUS_CAP",
     "VERTEX_TOLERANCE",
     "ZERO_TOLERANCE",
@@ -76,6 +77,10 @@ CHEBYSHEV_RADIUS_CAP = 1.0
 """Upper bound imposed on the Chebyshev radius and on the motion margin [units of ``x``], so that
 the max-margin LP is never unbounded (a half-space has no largest ball). A set containing a ball
 of radius 1 reports radius 1 (flag ``ChebyshevBall.capped``). Default ``1.0``."""
+
+CAPPED_FRACTION = 1e-12
+"""[-] A Chebyshev radius within this fraction of :data:`CHEBYSHEV_RADIUS_CAP` is capped (the set may
+hold a larger ball: its centre is one of many)."""
 
 
 # ---------------------------------------------------------------------------------------------

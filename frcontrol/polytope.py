@@ -45,6 +45,7 @@ import scipy.linalg
 
 from frcontrol.errors import InputError
 from frcontrol.geometry import (
+    CAPPED_FRACTION,
     CHEBYSHEV_RADIUS_CAP,
     VERTEX_TOLERANCE,
     ZERO_TOLERANCE,
@@ -426,7 +427,7 @@ def _ball_in_hull(G: np.ndarray, h: np.ndarray, hull: _Hull, settings: SolverSet
         radius=radius,
         full_dimensional=radius > INTERIOR_TOLERANCE,
         affine_dimension=k,
-        capped=radius >= CHEBYSHEV_RADIUS_CAP * (1.0 - 1e-12),
+        capped=radius >= CHEBYSHEV_RADIUS_CAP * (1.0 - CAPPED_FRACTION),
         radius_cap=CHEBYSHEV_RADIUS_CAP,
         tolerance=INTERIOR_TOLERANCE,
         solver=result.solver,
