@@ -222,7 +222,7 @@ FIGURES = (
     Figure("solutions_at_box_on_slope", "every rigid solution at one input, from scratch: box on a slope "
            "(u = 0)", 200e-6, calls=4),
     Figure("solutions_at_rhex_flip", "every rigid solution at one input, from scratch: RHex flip scene "
-           "(u = 0)", 2e-3, calls=2),
+           "(u = 0)", 300e-6, calls=2),
     Figure("query_rod_on_table", "every rigid solution at one input on an analysis made: rod on a table "
            "(u = 0)", 10e-6, calls=200),
     Figure("query_box_on_slope", "every rigid solution at one input on an analysis made: box on a slope "

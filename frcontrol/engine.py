@@ -1479,14 +1479,17 @@ def _scratch_solutions_compiled(scene: Scene, inputs: Any) -> list[RigidSolution
     After Pinocchio's pass at the scene's state, the kernel assembles the state, prunes the letters
     by velocity and decides every full mode as the batch path does (:mod:`frcontrol.mode_batch`):
     a mode its LU certifies, to the bit (the contact accelerations ``J dv + drift`` summed in index
-    order: to round-off); a rank-deficient mode with one ambiguity variable certified by its rows
-    (:func:`frcontrol.response.certified_by_rows`, on rows the kernel picks), to round-off, its w up
-    to sign (so, within round-off of a domain's facet, a mode may be decided otherwise, as between
-    the batch and reference paths). None where the general path answers: an input that is not plain
-    (:func:`frcontrol.query.plain_input`'s rule), an impact, more than ``BATCH_MAX_MODES`` modes, a
-    scene :func:`_scratch_plan` declines, or a mode neither certifies. The last depends on the state
-    alone (the modes' ``A``), not on the input: the kernel says so (False) and the scene's later
-    queries go the general way at once.
+    order: to round-off); a rank-deficient mode with up to two ambiguity variables certified by its
+    rows and its left null space (:func:`frcontrol.response.certified_by_rows`, on rows the kernel
+    picks, its consistency conditions included), two variables decided by
+    :class:`frcontrol.ambiguity_polygon.PolygonRule`'s vertices: x to round-off, w up to an
+    orthogonal map (so, within round-off of a domain's facet, a mode may be decided otherwise, as
+    between the batch and reference paths). None where the general path answers: an input that is
+    not plain (:func:`frcontrol.query.plain_input`'s rule), an impact, more than ``BATCH_MAX_MODES``
+    modes, a scene :func:`_scratch_plan` declines, a two-variable mode whose engine answer is an
+    LP's point among several (at this input), or a mode neither certifies. The last depends on the
+    state alone (the modes' ``A``), not on the input: the kernel says so (False) and the scene's
+    later queries go the general way at once.
     """
     plan = _SCRATCH_PLANS.get(scene, _NO_PLAN)
     if plan is _NO_PLAN:
