@@ -515,7 +515,8 @@ static double row_top(const double *X_w, Py_ssize_t i, Py_ssize_t pdim) {
 static signed char moved_by(const Problem *p, const Ranked *q, const double *X_w, Py_ssize_t pdim) {
     double top = 0.0;
     for (Py_ssize_t i = 0; i < p->nx; i++) {
-        top = row_top(X_w, i, pdim) > top ? row_top(X_w, i, pdim) : top;
+        double row = row_top(X_w, i, pdim);
+        top = row > top ? row : top;
     }
     double threshold = q->output_tolerance * (top > 1e-300 ? top : 1e-300);
     int moves_dv = 0, moves_forces = 0;
@@ -3009,17 +3010,22 @@ done:
  * where a mode neither certificate takes (deficient_modes, below), which the state decides whatever
  * the input. */
 #define SCRATCH_CAPSULE "frcontrol._kernel.scratch_plan"
-#define SCRATCH_ARGS 33
+#define SCRATCH_ARGS 34
 #define MAX_SCRATCH_CONTACTS 64 /* more contacts: the general path answers (the call's arrays are fixed) */
 /* the one call's deficient modes (see that section) */
 #define KEPT_GUESS 1e-8 /* a row whose part outside the kept rows' span is below this of its norm is left out */
 #define MAX_DEFICIENT_P 2 /* ambiguity variables the one call decides; more: the general path */
 #define POLYGON_ROWS_CAP 12 /* the largest polygon_max_rows a plan may hold (the rule's arrays are fixed) */
-#define POLYGON_CANDIDATES 455 /* C(POLYGON_ROWS_CAP + 2, 3) triples of an LP's rows */
+#define POLYGON_CANDIDATES 455 /* C(POLYGON_ROWS_CAP + 3, 3): at least C(POLYGON_ROWS_CAP + 2, 3) triples of rows */
+/* polygon_rule's answers: no rule (the LPs decide), no w, a w, or the engine's w one of several */
+enum { POLYGON_NO_RULE = -1, POLYGON_OUTSIDE = 0, POLYGON_INSIDE = 1, POLYGON_AMBIGUOUS = 2 };
+/* deficient_mode's (and deficient_modes'): the general path answers at this state, decided, the general
+ * path answers at this input */
+enum { DEFICIENT_STATE = 0, DEFICIENT_DECIDED = 1, DEFICIENT_INPUT = 2 };
 enum { S_ROBOT, S_FRAMES, S_POSITIONS, S_LINES, S_DAMPING, S_INPUT_MAP, S_MU, S_LOWER, S_UPPER, S_TYPE, S_EMPTY,
        S_NAMES, S_FLOAT64, S_OUTPUTS, S_SLACK, S_VELOCITY, S_MARGIN, S_TOLERANCE, S_DOMAIN, S_ZERO_ROW,
        S_MAX_MODES, S_RANK, S_ROUND_OFF, S_VOID, S_EXACT, S_BALANCING, S_OUTPUT, S_CAP, S_CONSISTENCY,
-       S_VERTEX, S_SINGULAR, S_POLYGON_ROWS, S_CAPPED };
+       S_VERTEX, S_SINGULAR, S_POLYGON_ROWS, S_CAPPED, S_NEAR };
 
 static const Arg scratch_table[SCRATCH_ARGS] = {
     {"robot", 'o', 0, {0}, 0}, {"frames", 'o', 0, {0}, 0}, {"positions", 'o', 0, {0}, 0},
@@ -3034,7 +3040,7 @@ static const Arg scratch_table[SCRATCH_ARGS] = {
     {"output_tolerance", 'f', 0, {0}, 0}, {"radius_cap", 'f', 0, {0}, 0},
     {"consistency_tolerance", 'f', 0, {0}, 0}, {"vertex_tolerance", 'f', 0, {0}, 0},
     {"singular_determinant", 'f', 0, {0}, 0}, {"polygon_max_rows", 'i', 0, {0}, 0},
-    {"capped_fraction", 'f', 0, {0}, 0}};
+    {"capped_fraction", 'f', 0, {0}, 0}, {"lp_near_optimal", 'f', 0, {0}, 0}};
 static const Signature scratch_signature = {"scratch_plan", SCRATCH_ARGS, scratch_table, NULL};
 
 typedef struct {
@@ -3155,7 +3161,7 @@ static int check_scratch(ScratchPlan *plan, PyObject *const *args) {
  * empty, names, float64, outputs, slack, velocity_tolerance, margin, tolerance, domain_tolerance,
  * zero_row_tolerance, max_modes, rank_tolerance, round_off_rank_drop, void_factor, exact_factor,
  * balancing_friction, output_tolerance, radius_cap, consistency_tolerance, vertex_tolerance,
- * singular_determinant, polygon_max_rows, capped_fraction) -> capsule (scratch_table). */
+ * singular_determinant, polygon_max_rows, capped_fraction, lp_near_optimal) -> capsule (scratch_table). */
 static PyObject *scratch_plan(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
     if (intern_solution_fields() || intern_names()) {
@@ -3592,8 +3598,9 @@ static double polygon_lp(const double (*R)[3], const double *b, Py_ssize_t size,
 }
 
 /* The live rows of a (rows, 2) (norm above zrt max(1, the largest)) as unit rows into unit, their norms
- * into norms and indices into live; the constant rows judged by h alone (0: one fails); -1 when the
- * live rows do not span the plane (PolygonRule.build: None), else their count via *count. */
+ * into norms and indices into live, their count via *count; the constant rows judged by h alone
+ * (POLYGON_OUTSIDE: one fails); POLYGON_NO_RULE when the live rows do not span the plane
+ * (PolygonRule.build: None). */
 static int polygon_rows(const ScratchPlan *plan, const double *a, const double *h, const unsigned char *mo,
                         Py_ssize_t rows, double (*unit)[2], double *norms, Py_ssize_t *live, Py_ssize_t *count) {
     double top = 0.0, tol = plan->a.number[S_DOMAIN], cross = 0.0, all[POLYGON_ROWS_CAP];
@@ -3618,17 +3625,56 @@ static int polygon_rows(const ScratchPlan *plan, const double *a, const double *
         (*count)++;
     }
     if (*count < 2 || !(cross > plan->a.number[S_SINGULAR])) {
-        return -1;
+        return POLYGON_NO_RULE;
     }
-    return ok;
+    return ok ? POLYGON_INSIDE : POLYGON_OUTSIDE;
+}
+
+/* Whether a feasible vertex of an LP (vertex, feasible: candidates of them) with s at least `floor`,
+ * and, with tie > 0, |w|^2 within tie of `nearest`, lies farther than VERTEX_TOLERANCE max(1, |w|) from w. */
+static int other_vertex(const ScratchPlan *plan, const double (*vertex)[3], const unsigned char *feasible,
+                        Py_ssize_t candidates, double floor, double nearest, double tie, const double *w) {
+    double far = plan->a.number[S_VERTEX] * (sqrt(nearest) > 1.0 ? sqrt(nearest) : 1.0);
+    for (Py_ssize_t t = 0; t < candidates; t++) {
+        const double *v = vertex[t];
+        double sq = v[0] * v[0] + v[1] * v[1];
+        if (feasible[t] && v[2] >= floor && (tie <= 0.0 || fabs(sq - nearest) <= tie) &&
+            (fabs(v[0] - w[0]) > far || fabs(v[1] - w[1]) > far)) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* The engine's w among an LP's vertices (lp 1: the Chebyshev LP, 0: the motion LP; best its optimum):
+ * the optimal vertex nearest to w = 0 (PolygonRule.decide). POLYGON_AMBIGUOUS where the engine's own
+ * answer may be another point: where it takes the Chebyshev LP's point (a ball neither thin nor
+ * capped: _admissible_in_w's `unique`), another vertex within lp_near_optimal of the optimum (the LP
+ * back-ends reach it to about a tenth of that, and may stop there); where it takes the rule's, another
+ * optimal vertex as near to w = 0 to VERTEX_TOLERANCE (a tie round-off in the w basis breaks). */
+static int polygon_choice(const ScratchPlan *plan, int lp, const double *best, const double (*vertex)[3],
+                          const unsigned char *feasible, Py_ssize_t candidates, double *w) {
+    double nearest = INFINITY, vt = plan->a.number[S_VERTEX];
+    for (Py_ssize_t t = 0; t < candidates; t++) {
+        const double *v = vertex[t];
+        double sq = v[0] * v[0] + v[1] * v[1];
+        if (feasible[t] && v[2] >= best[lp] - vt && sq < nearest) {
+            nearest = sq, w[0] = v[0], w[1] = v[1];
+        }
+    }
+    int own = lp == 1 && best[1] < plan->a.number[S_CAP] * (1.0 - plan->a.number[S_CAPPED]);
+    double floor = own ? best[lp] - plan->a.number[S_NEAR] : best[lp] - vt;
+    double tie = own ? 0.0 : vt * (nearest > 1.0 ? nearest : 1.0);
+    return other_vertex(plan, vertex, feasible, candidates, floor, nearest, tie, w) ? POLYGON_AMBIGUOUS
+                                                                                  : POLYGON_INSIDE;
 }
 
 /* frcontrol.ambiguity_polygon's PolygonRule, built and decided at once for rows a_i w <= h_i (a (rows,
- * 2), normalised in (u, w)): 1 with w (the Chebyshev centre, or the motion LP's vertex in a thin set;
- * on an optimal face its vertex nearest to w = 0), 0 when no w moves as the mode says, -1 when the rule
- * cannot be built (more than polygon_max_rows rows, live rows not spanning the plane): the LPs decide.
- * 2 where the engine takes the Chebyshev LP's own point and it is one of several (an optimal face of a
- * ball neither thin nor capped: _admissible_in_w's `unique`), which only the general path gives. */
+ * 2), normalised in (u, w)): POLYGON_INSIDE with w (the Chebyshev centre, or the motion LP's vertex in
+ * a thin set; on an optimal face its vertex nearest to w = 0), POLYGON_OUTSIDE when no w moves as the
+ * mode says, POLYGON_NO_RULE when the rule cannot be built (more than polygon_max_rows rows, live rows
+ * not spanning the plane: the LPs decide), POLYGON_AMBIGUOUS when the engine's w may be another point
+ * (polygon_choice), which only the general path gives. */
 static int polygon_rule(const ScratchPlan *plan, const double *a, const double *h, const unsigned char *mo,
                         Py_ssize_t rows, double *w) {
     double unit[POLYGON_ROWS_CAP][2], norms[POLYGON_ROWS_CAP], R[POLYGON_ROWS_CAP + 2][3], b[POLYGON_ROWS_CAP + 2];
@@ -3636,10 +3682,10 @@ static int polygon_rule(const ScratchPlan *plan, const double *a, const double *
     unsigned char feasible[2][POLYGON_CANDIDATES];
     Py_ssize_t live[POLYGON_ROWS_CAP], count = 0, candidates = 0;
     if (rows > plan->polygon_rows) {
-        return -1;
+        return POLYGON_NO_RULE;
     }
     int ok = polygon_rows(plan, a, h, mo, rows, unit, norms, live, &count);
-    if (ok <= 0) {
+    if (ok != POLYGON_INSIDE) {
         return ok;
     }
     int moving = 0;
@@ -3656,27 +3702,10 @@ static int polygon_rule(const ScratchPlan *plan, const double *a, const double *
         best[lp] = polygon_lp((const double (*)[3])R, b, count + 2, plan, vertex[lp], feasible[lp], &candidates);
     }
     if (best[0] == -INFINITY || (best[0] <= tol && moving)) {
-        return 0; /* the motion LP: infeasible, or no w moving as the mode says */
+        return POLYGON_OUTSIDE; /* the motion LP: infeasible, or no w moving as the mode says */
     }
     int lp = best[1] > tol ? 1 : 0;
-    double nearest = INFINITY, vt = plan->a.number[S_VERTEX];
-    for (Py_ssize_t t = 0; t < candidates; t++) {
-        double *v = vertex[lp][t], sq = v[0] * v[0] + v[1] * v[1];
-        if (feasible[lp][t] && v[2] >= best[lp] - vt && sq < nearest) {
-            nearest = sq, w[0] = v[0], w[1] = v[1];
-        }
-    }
-    double cap = plan->a.number[S_CAP];
-    if (lp == 1 && best[1] < cap * (1.0 - plan->a.number[S_CAPPED])) { /* the LP's point: is it the only one? */
-        double far = vt * (sqrt(nearest) > 1.0 ? sqrt(nearest) : 1.0);
-        for (Py_ssize_t t = 0; t < candidates; t++) {
-            double *v = vertex[1][t];
-            if (feasible[1][t] && v[2] >= best[1] - vt && (fabs(v[0] - w[0]) > far || fabs(v[1] - w[1]) > far)) {
-                return 2;
-            }
-        }
-    }
-    return 1;
+    return polygon_choice(plan, lp, best, (const double (*)[3])vertex[lp], feasible[lp], candidates, w);
 }
 
 /* Whether rebalance_undecided may balance the mode (needs_balancing: a sliding contact, L or R, whose mu
@@ -3745,7 +3774,9 @@ static int deficient_scratch(const Problem *p, Deficient *d) {
 /* by_rows_system on the mode's A without its exactly zero columns (their unknowns are free: exact null
  * directions, which the SVD's null space holds, as unit vectors, the scaling of a zero column being 1)
  * and B', c': X_u, x_0 (0 at a zero column, as the minimum-norm solution) and X_w (nx, p), the
- * reduced system's null space first, then a unit vector per zero column. */
+ * reduced system's null space first, then a unit vector per zero column. A zero column changes no
+ * row's or other column's largest entry, so the reduced system's scalings are assemble's, and its
+ * ||A_hat||_F (info[4]) is the whole A_hat's. */
 static void compact_certified(const Scratch *s, const Problem *p, Deficient *d, Py_ssize_t q) {
     Py_ssize_t nx = p->nx, m = p->m, pdim = nx - q, cols = 0;
     for (Py_ssize_t j = 0; j < nx; j++) {
@@ -3808,60 +3839,62 @@ static int deficient_certified(const ScratchPlan *plan, const Scratch *s, const 
     return 1;
 }
 
-/* Mode `mode` (NOT_CERTIFIED) certified by its rows and decided: 1, or 0 when the general path must at
- * this state, 2 at this input (polygon_rule). */
+/* Mode `mode` (NOT_CERTIFIED) certified by its rows and decided (DEFICIENT_DECIDED), or left to the
+ * general path at this state (DEFICIENT_STATE) or at this input (DEFICIENT_INPUT: polygon_rule). */
 static int deficient_mode(const ScratchPlan *plan, ScratchWork *w, const Problem *p, Py_ssize_t mode,
                           Deficient *d) {
     Py_ssize_t nx = p->nx, k = p->k;
     const long long *letters = p->letters + mode * k;
     if (balanced(plan, letters, k)) {
-        return 0;
+        return DEFICIENT_STATE;
     }
     Scratch *s = &w->s;
     assemble(p, letters, w->Su, s);
     Py_ssize_t q = independent_rows(s->A_hat, nx, d->basis, d->kept), pdim = nx - q;
     int consistent = 0;
     if (pdim < 1 || pdim > MAX_DEFICIENT_P || deficient_certified(plan, s, p, d, q, &consistent) < 0) {
-        return 0;
+        return DEFICIENT_STATE;
     }
     Ranked ranked = {.radius_cap = plan->a.number[S_CAP], .output_tolerance = plan->a.number[S_OUTPUT]};
     Py_ssize_t rows = sliced_rows(p, letters, pdim, d->X_u, d->x0, d->X_w, d->a, d->h, d->mo);
     double *wm = w->w + MAX_DEFICIENT_P * mode;
-    int found = pdim == 1 ? interval(p, &ranked, rows, d->a, d->h, d->mo, wm)
+    int found = pdim == 1 ? interval(p, &ranked, rows, d->a, d->h, d->mo, wm) ? POLYGON_INSIDE : POLYGON_OUTSIDE
                           : polygon_rule(plan, d->a, d->h, d->mo, rows, wm);
-    if (found < 0) { /* the rule cannot be built (the state's rows, whatever the input): the general path */
-        return 0;
+    if (found == POLYGON_NO_RULE) { /* (the state's rows, whatever the input) */
+        return DEFICIENT_STATE;
     }
-    if (found == 2 && consistent) { /* the LP's point is one of several (this input's): the general path */
-        return 2;
+    if (found == POLYGON_AMBIGUOUS && consistent) {
+        return DEFICIENT_INPUT;
     }
     p->status[mode] = CERTIFIED_INADMISSIBLE;
-    if (consistent && found) {
+    if (consistent && found == POLYGON_INSIDE) {
         p->status[mode] = CERTIFIED_ADMISSIBLE;
         w->pdims[mode] = (signed char)pdim;
         w->moves[mode] = moved_by(p, &ranked, d->X_w, pdim);
         finish(p, letters, s, d->X_u, d->x0, d->X_w, pdim, wm, p->x + mode * nx, &p->residual[mode],
                &p->violation[mode]);
     }
-    return 1;
+    return DEFICIENT_DECIDED;
 }
 
-/* Every NOT_CERTIFIED mode by deficient_mode: 1 when all are decided, 0 or 2 when one is left to the
- * general path (at this state, at this input), -1 with an error set. */
+/* Every NOT_CERTIFIED mode by deficient_mode: DEFICIENT_DECIDED when all are decided, DEFICIENT_STATE
+ * when one is left to the general path at this state (whatever the others), else DEFICIENT_INPUT when one
+ * is at this input; -1 with an error set. */
 static int deficient_modes(const ScratchPlan *plan, ScratchWork *w, Problem *p) {
     Deficient d = {0};
-    int decided = 1;
+    int decided = DEFICIENT_DECIDED;
     for (Py_ssize_t mode = 0; mode < p->count; mode++) {
         w->moves[mode] = -1, w->pdims[mode] = 0;
     }
-    for (Py_ssize_t mode = 0; mode < p->count && decided == 1; mode++) {
+    for (Py_ssize_t mode = 0; mode < p->count && decided != DEFICIENT_STATE; mode++) {
         if (p->status[mode] != NOT_CERTIFIED) {
             continue;
         }
         if (d.memory == NULL && deficient_scratch(p, &d)) {
             return -1;
         }
-        decided = deficient_mode(plan, w, p, mode, &d);
+        int one = deficient_mode(plan, w, p, mode, &d);
+        decided = one == DEFICIENT_DECIDED ? decided : one;
     }
     PyMem_Free(d.memory);
     return decided;
@@ -3927,10 +3960,10 @@ static PyObject *scratch_answer(const ScratchPlan *plan, const double *u, Scratc
     if (decided < 0) {
         return NULL;
     }
-    if (decided == 2) { /* this input's */
+    if (decided == DEFICIENT_INPUT) { /* this input's */
         return Py_NewRef(Py_None);
     }
-    if (!decided) { /* the state's, whatever the input */
+    if (decided == DEFICIENT_STATE) { /* the state's, whatever the input */
         return Py_NewRef(Py_False);
     }
     PyObject *found = PyList_New(0);

@@ -44,6 +44,13 @@ VERTEX_TOLERANCE = 1e-9
 than this times ``max(1, |b_i|)`` (the LP back-ends' feasibility tolerance); it is optimal when its
 margin is within this of the best one's."""
 
+LP_NEAR_OPTIMAL = 1e-6
+"""[units of w: rows of unit norm] The LP back-ends reach the Chebyshev LP's optimum radius to about a
+tenth of this (DAQP, the default, to about 1e-7), and stop at whichever vertex they reach there. The
+compiled one-call query takes that LP's point (a ball neither thin nor capped) as the engine's only
+where no other vertex lies within this of the optimum radius away from it; else it leaves the input
+to the general path, whose LP answers."""
+
 SINGULAR_DETERMINANT = 1e-12
 """[-] Three rows (unit norm in w) whose 3x3 determinant is at most this in magnitude meet at no
 vertex (parallel rows): they are not a candidate. Two rows spanning the plane have a 2x2
@@ -180,4 +187,4 @@ class PolygonRule:
             optimal = optimal[np.argmin((found[j, optimal, :2] ** 2).sum(axis=1)):]
         return found[j, optimal[0], :2].copy()
 
-__all__ = ["POLYGON_MAX_ROWS", "PolygonRule", "SINGULAR_DETERMINANT", "VERTEX_TOLERANCE"]
+__all__ = ["LP_NEAR_OPTIMAL", "POLYGON_MAX_ROWS", "PolygonRule", "SINGULAR_DETERMINANT", "VERTEX_TOLERANCE"]

@@ -40,7 +40,13 @@ import numpy as np
 import numpy.typing as npt
 
 from . import polytope as poly
-from .ambiguity_polygon import POLYGON_MAX_ROWS, SINGULAR_DETERMINANT, VERTEX_TOLERANCE, PolygonRule
+from .ambiguity_polygon import (
+    LP_NEAR_OPTIMAL,
+    POLYGON_MAX_ROWS,
+    SINGULAR_DETERMINANT,
+    VERTEX_TOLERANCE,
+    PolygonRule,
+)
 from .errors import IllConditioned, InputError, KernelError
 from .geometry import CAPPED_FRACTION, CHEBYSHEV_RADIUS_CAP, constant_rows, max_margin, row_norms
 from .jsonable import to_jsonable
@@ -1470,7 +1476,7 @@ def _plan_numbers(velocity_tolerance: float) -> tuple[Any, ...]:
             max(RANK_TOLERANCE, ILL_CONDITIONED_BAND), DOMAIN_TOLERANCE, ZERO_ROW_TOLERANCE, BATCH_MAX_MODES,
             RANK_TOLERANCE, ROUND_OFF_RANK_DROP, BY_ROWS_VOID_FACTOR, BY_ROWS_EXACT_FACTOR,
             BALANCING_FRICTION, OUTPUT_TOLERANCE, CHEBYSHEV_RADIUS_CAP, CONSISTENCY_TOLERANCE,
-            VERTEX_TOLERANCE, SINGULAR_DETERMINANT, POLYGON_MAX_ROWS, CAPPED_FRACTION)
+            VERTEX_TOLERANCE, SINGULAR_DETERMINANT, POLYGON_MAX_ROWS, CAPPED_FRACTION, LP_NEAR_OPTIMAL)
 
 
 def _scratch_solutions_compiled(scene: Scene, inputs: Any) -> list[RigidSolution] | None:
