@@ -3674,7 +3674,9 @@ static int polygon_choice(const ScratchPlan *plan, int lp, const double *best, c
  * a thin set; on an optimal face its vertex nearest to w = 0), POLYGON_OUTSIDE when no w moves as the
  * mode says, POLYGON_NO_RULE when the rule cannot be built (more than polygon_max_rows rows, live rows
  * not spanning the plane: the LPs decide), POLYGON_AMBIGUOUS when the engine's w may be another point
- * (polygon_choice), which only the general path gives. */
+ * (polygon_choice), which only the general path gives. Without any row (every contact of the mode
+ * separating with no row on its acceleration, or none in contact: RHex in the air), every w is
+ * admissible and the engine's LPs, which nothing moves from their start, report w = 0. */
 static int polygon_rule(const ScratchPlan *plan, const double *a, const double *h, const unsigned char *mo,
                         Py_ssize_t rows, double *w) {
     double unit[POLYGON_ROWS_CAP][2], norms[POLYGON_ROWS_CAP], R[POLYGON_ROWS_CAP + 2][3], b[POLYGON_ROWS_CAP + 2];
@@ -3683,6 +3685,10 @@ static int polygon_rule(const ScratchPlan *plan, const double *a, const double *
     Py_ssize_t live[POLYGON_ROWS_CAP], count = 0, candidates = 0;
     if (rows > plan->polygon_rows) {
         return POLYGON_NO_RULE;
+    }
+    if (rows == 0) { /* nothing bounds w: the engine's LPs answer their start, the centre nearest to w = 0 */
+        w[0] = w[1] = 0.0;
+        return POLYGON_INSIDE;
     }
     int ok = polygon_rows(plan, a, h, mo, rows, unit, norms, live, &count);
     if (ok != POLYGON_INSIDE) {

@@ -57,7 +57,8 @@ def close(a: np.ndarray, b: np.ndarray) -> bool:
 
 def assert_same(found: list, expected: list, *, w: bool = True, where: str = "", w_sign: bool = True) -> None:
     """Same modes in the same order, the same outputs (and w, in the same basis; ``w_sign`` False:
-    in bases whose one direction may differ in sign)."""
+    in orthonormal bases of the same null space, which may differ by an orthogonal map: the same
+    norm, for one direction up to its sign)."""
     assert [s.mode for s in found] == [s.mode for s in expected], where
     for s, r in zip(found, expected, strict=True):
         fields = ["dv", "a_n", "a_t"]
@@ -68,7 +69,7 @@ def assert_same(found: list, expected: list, *, w: bool = True, where: str = "",
             assert s.ambiguity_dim == r.ambiguity_dim and s.ambiguous_outputs == r.ambiguous_outputs, where
         for name in fields:
             if name == "w" and not w_sign:
-                assert s.ambiguity_dim <= 1 and close(np.abs(s.w), np.abs(r.w)), f"{where} mode {s.mode}: w"
+                assert close(np.linalg.norm(s.w), np.linalg.norm(r.w)), f"{where} mode {s.mode}: w"
                 continue
             assert close(getattr(s, name), getattr(r, name)), f"{where} mode {s.mode}: {name}"
         if w:  # the same x: the same residuals (of a point on E u = e within the tolerance, not 0)
@@ -669,7 +670,8 @@ def test_the_scratch_query_leaves_impacts_springs_and_the_svd_to_the_general_pat
     bias has their torques); the box's FF (four contact rows on three coordinates: one force
     undetermined) is certified by its rows, and so is RHex with a massless leg in the air (its hip
     torque must be 0: a consistency condition; two legs in the air: two ambiguity variables, decided
-    by the polygon rule); a state where the rows certify nothing (RHex with rough toes: a sliding toe
+    by the polygon rule; RHex in the air, where no row bounds them: w = 0, as the engine's LPs
+    report); a state where the rows certify nothing (RHex with rough toes: a sliding toe
     rougher than BALANCING_FRICTION beside a leg in the air, a system the SVD may balance) is
     remembered, and the scene's later queries go the general way at once, with its answers."""
     from frcontrol.engine import _SCRATCH_PLANS, _scratch_plan
@@ -695,6 +697,14 @@ def test_the_scratch_query_leaves_impacts_springs_and_the_svd_to_the_general_pat
         general = solutions_at(ContactProblem.from_scene(rhex), u, method="batch")
         assert_scratch_is_general(first, general, "rhex")
     assert max(s.ambiguity_dim for s in solutions_at(rhex, {})) == 2  # LSS: two legs in the air
+    air = rhex.at(rhex.q + np.array([0.0, 0.3, 0.0, 0.0, 0.0]), rhex.v)  # no row bounds w: the LPs give 0
+    for u in ([0.0, 0.0], [1.0, -2.0]):  # the legs' torques must be 0: falling, or no mode
+        first = solutions_at(air, u)
+        if compiled is not None:
+            assert _SCRATCH_PLANS[air] is not None, u
+        general = solutions_at(ContactProblem.from_scene(air), u, method="batch")
+        assert_scratch_is_general(first, general, "air")
+    assert [(s.mode, s.w.tolist()) for s in solutions_at(air, [0.0, 0.0])] == [("", [0.0, 0.0])]
     rough = load_scene("rhex_flip", overrides={"contacts.middle_toe.mu": 1.5, "contacts.rear_toe.mu": 1.5})
     first = solutions_at(rough, [2.0, -3.0])
     if compiled is not None:
