@@ -3490,6 +3490,11 @@ static int by_rows_ok(const ScratchPlan *plan, const double *info, Py_ssize_t ro
            margin * left <= round_off * info[4] && residual <= (void_bound < exact_bound ? void_bound : exact_bound);
 }
 
+/* Entry (i, j) of [diag(r) B, diag(r) c] (B (nx, m); j = m: c). */
+static double scaled_right(const Scratch *s, const double *B, Py_ssize_t m, Py_ssize_t i, Py_ssize_t j) {
+    return (j < m ? B[i * m + j] : s->c[i]) * s->r_scale[i];
+}
+
 /* The right side [diag(r) B, diag(r) c] off the span of L (p, nx): B' (nx, m) and c' (nx) divided by r
  * again (exact: r is powers of two), for by_rows_system; E_raw = L diag(r) B (p, m) and
  * e_raw = -L diag(r) c (p). Returns _scale_of's max(1, max |diag(r) B|, max |diag(r) c|). */
@@ -3501,18 +3506,25 @@ static double projected(const Scratch *s, const double *B, Py_ssize_t nx, Py_ssi
         for (Py_ssize_t t = 0; t < p; t++) {
             dots[t] = 0.0;
             for (Py_ssize_t i = 0; i < nx; i++) {
-                double right = (j < m ? B[i * m + j] : s->c[i]) * s->r_scale[i];
-                dots[t] += L[t * nx + i] * right;
+                dots[t] += L[t * nx + i] * scaled_right(s, B, m, i, j);
             }
-            *(j < m ? &E[t * m + j] : &e[t]) = j < m ? dots[t] : -dots[t];
+            if (j < m) {
+                E[t * m + j] = dots[t];
+            } else {
+                e[t] = -dots[t];
+            }
         }
         for (Py_ssize_t i = 0; i < nx; i++) {
-            double right = (j < m ? B[i * m + j] : s->c[i]) * s->r_scale[i], off = right;
+            double right = scaled_right(s, B, m, i, j), off = right;
             scale = fabs(right) > scale ? fabs(right) : scale;
             for (Py_ssize_t t = 0; t < p; t++) {
                 off -= L[t * nx + i] * dots[t];
             }
-            *(j < m ? &Bp[i * m + j] : &cp[i]) = off / s->r_scale[i];
+            if (j < m) {
+                Bp[i * m + j] = off / s->r_scale[i];
+            } else {
+                cp[i] = off / s->r_scale[i];
+            }
         }
     }
     return scale;
