@@ -4440,6 +4440,273 @@ done:
 }
 
 /* ------------------------------------------------------------------------------------------------
+ * held_verdict: frcontrol.stability.stable_verdicts' verdict on one rigid solution, where M has a
+ * Cholesky factor (the reference: stability._held_spectrum and _signs, on _state_terms). The
+ * solution's scales and tolerances, the impending checks and the held rows J_r and columns J_c
+ * are the reference's, operation for operation; D = J_r M^-1 J_c^T by the factor's two triangular
+ * solves. One held row: D's one eigenvalue is D (the reference's closed form). Two held rows of
+ * rank 2 (their Gram matrix's eigenvalues apart by VERDICT_RANK_SEPARATION, far from the rank
+ * tolerance): D's eigenvalues, which the reference's row-space restriction U^T D U shares, by the
+ * 2 x 2 closed form. Returns VERDICT_STABLE, VERDICT_UNSTABLE or VERDICT_NONE (not analysable),
+ * or VERDICT_DECLINED where the reference decides: more rows, a rank the Gram matrix cannot tell,
+ * a number that is not finite, a mode that does not fit (the reference words the error), more
+ * than VERDICT_MAX_N coordinates, or an eigenvalue's real part within `band` times D's terms'
+ * magnitude of the tolerance (the two computations sum in other orders).
+ * ------------------------------------------------------------------------------------------------ */
+enum { VERDICT_UNSTABLE = 0, VERDICT_STABLE = 1, VERDICT_NONE = -1, VERDICT_DECLINED = 2 };
+enum { VERDICT_MAX_N = 32, VERDICT_MAX_ROWS = 2 };
+#define VERDICT_RANK_SEPARATION 1e-6 /* the Gram test's least ratio: far above its round-off (eps) */
+
+typedef struct {
+    const Py_buffer *factor, *jn, *jt, *mu, *vn, *vt, *lam_n, *lam_t, *a_n, *a_t, *dv;
+    Py_ssize_t n, k;
+    double vtol, mass_scale, bias_scale, force_rel, accel_rel, eig_rel, rank_rel, range_lo, range_hi, band;
+} VerdictInput;
+
+/* max(1, max |x|) over the entries of the given vectors (stability._scale_of); NaN when one is not finite. */
+static double verdict_scale(const Py_buffer *const *vectors, const Py_ssize_t *counts, int how_many) {
+    double scale = 1.0;
+    for (int v = 0; v < how_many; v++) {
+        for (Py_ssize_t i = 0; i < counts[v]; i++) {
+            double x = fabs(at1(vectors[v], i));
+            if (!isfinite(x)) {
+                return NAN;
+            }
+            scale = x > scale ? x : scale;
+        }
+    }
+    return scale;
+}
+
+enum { ROWS_IMPENDING = -1, ROWS_DECLINED = -2 };
+
+/* The held rows (rows, n) and columns of the mode, as _constraint_rows: their count, ROWS_IMPENDING
+ * at an impending change, or ROWS_DECLINED (a letter not S, L, R, F; more than two rows). */
+static int verdict_rows(const VerdictInput *in, const char *mode, double force_tol, double accel_tol,
+                        double *rows, double *cols) {
+    int r = 0, over = 0;
+    Py_ssize_t n = in->n;
+    for (Py_ssize_t i = 0; i < in->k; i++) {
+        char letter = mode[i];
+        double lam_n = at1(in->lam_n, i), mu = at1(in->mu, i);
+        if (letter == 'S') {
+            if (fabs(at1(in->vn, i)) <= in->vtol && fabs(at1(in->a_n, i)) <= accel_tol) {
+                return ROWS_IMPENDING;
+            }
+            continue;
+        }
+        if (letter != 'F' && letter != 'L' && letter != 'R') {
+            return ROWS_DECLINED;
+        }
+        if (lam_n <= force_tol || (letter == 'F' && fabs(at1(in->lam_t, i)) >= mu * lam_n - force_tol) ||
+            (letter != 'F' && fabs(at1(in->vt, i)) <= in->vtol && fabs(at1(in->a_t, i)) <= accel_tol)) {
+            return ROWS_IMPENDING;
+        }
+        int take = letter == 'F' ? 2 : 1;
+        if (r + take > VERDICT_MAX_ROWS) {
+            over = 1; /* the reference decides, after the contacts left to check */
+            continue;
+        }
+        double slide = letter == 'R' ? 1.0 * mu : -1.0 * mu; /* sign * mu[i], as the reference */
+        for (Py_ssize_t j = 0; j < n; j++) {
+            double normal = at2(in->jn, i, j), tangent = at2(in->jt, i, j);
+            rows[r * n + j] = normal;
+            cols[r * n + j] = letter == 'F' ? normal : normal - slide * tangent;
+            if (letter == 'F') {
+                rows[(r + 1) * n + j] = cols[(r + 1) * n + j] = tangent;
+            }
+        }
+        r += take;
+    }
+    return over ? ROWS_DECLINED : r;
+}
+
+/* x = M^-1 b with M = U^T U, U the upper factor (LAPACK's potrs: U^T y = b, then U x = y). */
+static void verdict_solve(const Py_buffer *factor, Py_ssize_t n, const double *b, double *x) {
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double sum = b[i];
+        for (Py_ssize_t j = 0; j < i; j++) {
+            sum -= at2(factor, j, i) * x[j];
+        }
+        x[i] = sum / at2(factor, i, i);
+    }
+    for (Py_ssize_t i = n - 1; i >= 0; i--) {
+        double sum = x[i];
+        for (Py_ssize_t j = i + 1; j < n; j++) {
+            sum -= at2(factor, i, j) * x[j];
+        }
+        x[i] = sum / at2(factor, i, i);
+    }
+}
+
+/* The real parts of D's eigenvalues (r = 1 or 2; D row-major r x r) into re; 0, or ROWS_DECLINED
+ * when they are not the reference's to round-off (its closed form's range; the Gram test of rank
+ * 2). `slack` gets how far round-off may move them (a double root's real parts move by the
+ * square root of the discriminant's round-off). */
+static int verdict_real_parts(const VerdictInput *in, int r, const double *rows, const double *D, double size,
+                              double j_scale, double *re, double *slack) {
+    Py_ssize_t n = in->n;
+    *slack = in->band * size;
+    if (r == 1) {
+        double d = fabs(D[0]);
+        re[0] = D[0];
+        return d > in->range_lo && d < in->range_hi ? 0 : ROWS_DECLINED;
+    }
+    double g00 = 0.0, g01 = 0.0, g11 = 0.0;
+    for (Py_ssize_t j = 0; j < n; j++) {
+        double x = rows[j] / j_scale, y = rows[n + j] / j_scale;
+        g00 += x * x;
+        g01 += x * y;
+        g11 += y * y;
+    }
+    double half = 0.5 * (g00 + g11), gap = sqrt(0.25 * (g00 - g11) * (g00 - g11) + g01 * g01);
+    double low = g00 * g11 - g01 * g01; /* the product of the Gram matrix's eigenvalues */
+    if (!(half > 0.0) || low <= VERDICT_RANK_SEPARATION * (half + gap) * (half + gap)) {
+        return ROWS_DECLINED;
+    }
+    double p = 0.5 * (D[0] - D[3]), mid = 0.5 * (D[0] + D[3]), disc = p * p + D[1] * D[2];
+    if (disc >= 0.0) {
+        double root = sqrt(disc), big = mid + copysign(root, mid);
+        re[0] = big;
+        re[1] = big != 0.0 ? (D[0] * D[3] - D[1] * D[2]) / big : mid - root;
+    } else {
+        re[0] = re[1] = mid;
+    }
+    if (fabs(disc) <= in->band * size * size) {
+        *slack += sqrt(in->band) * size;
+    }
+    return 0;
+}
+
+/* D's componentwise round-off scale max_ab |J_r[a]| |U^-1| |U^-T| |J_c[b]|^T (U the upper factor):
+ * both the reference's solve and verdict_solve err by a small multiple of eps times it. */
+static void verdict_size(const Py_buffer *factor, Py_ssize_t n, int r, const double *rows, const double *cols,
+                         double *size) {
+    double inverse[VERDICT_MAX_N * VERDICT_MAX_N], t[VERDICT_MAX_N], s[VERDICT_MAX_N];
+    for (Py_ssize_t j = 0; j < n; j++) { /* column j of U^-1: U y = e_j, upper triangular */
+        for (Py_ssize_t i = n - 1; i >= 0; i--) {
+            double sum = i == j ? 1.0 : 0.0;
+            for (Py_ssize_t l = i + 1; l <= j; l++) {
+                sum -= at2(factor, i, l) * inverse[l * n + j];
+            }
+            inverse[i * n + j] = i > j ? 0.0 : sum / at2(factor, i, i);
+        }
+    }
+    *size = 0.0;
+    for (int b = 0; b < r; b++) {
+        for (Py_ssize_t i = 0; i < n; i++) { /* t = |U^-T| |J_c[b]|, then s = |U^-1| t */
+            t[i] = 0.0;
+            for (Py_ssize_t j = 0; j <= i; j++) {
+                t[i] += fabs(inverse[j * n + i]) * fabs(cols[b * n + j]);
+            }
+        }
+        for (Py_ssize_t i = 0; i < n; i++) {
+            s[i] = 0.0;
+            for (Py_ssize_t j = i; j < n; j++) {
+                s[i] += fabs(inverse[i * n + j]) * t[j];
+            }
+        }
+        for (int a = 0; a < r; a++) {
+            double term = 0.0;
+            for (Py_ssize_t i = 0; i < n; i++) {
+                term += fabs(rows[a * n + i]) * s[i];
+            }
+            *size = term > *size ? term : *size;
+        }
+    }
+}
+
+/* The verdict of solution `mode` (module comment above held_verdict's table). */
+static int verdict_of(const VerdictInput *in, const char *mode) {
+    const Py_buffer *forces[2] = {in->lam_n, in->lam_t}, *motion[3] = {in->dv, in->a_n, in->a_t};
+    Py_ssize_t force_counts[2] = {in->k, in->k}, motion_counts[3] = {in->n, in->k, in->k};
+    double force_scale = verdict_scale(forces, force_counts, 2), accel_scale = verdict_scale(motion, motion_counts, 3);
+    if (isnan(force_scale) || isnan(accel_scale) || !isfinite(in->bias_scale) || in->n > VERDICT_MAX_N) {
+        return VERDICT_DECLINED;
+    }
+    force_scale = in->bias_scale > force_scale ? in->bias_scale : force_scale; /* max(scale, bias_scale) */
+    double rows[VERDICT_MAX_ROWS * VERDICT_MAX_N], cols[VERDICT_MAX_ROWS * VERDICT_MAX_N];
+    int r = verdict_rows(in, mode, in->force_rel * force_scale, in->accel_rel * accel_scale, rows, cols);
+    if (r < 0 || r == 0) {
+        return r == ROWS_IMPENDING ? VERDICT_NONE : r == 0 ? VERDICT_STABLE : VERDICT_DECLINED;
+    }
+    Py_ssize_t n = in->n;
+    double j_r_size = 0.0, j_c_size = 0.0;
+    for (Py_ssize_t e = 0; e < r * n; e++) {
+        j_r_size = fabs(rows[e]) > j_r_size ? fabs(rows[e]) : j_r_size;
+        j_c_size = fabs(cols[e]) > j_c_size ? fabs(cols[e]) : j_c_size;
+    }
+    double j_scale = j_r_size > j_c_size ? j_r_size : j_c_size;
+    j_scale = j_scale > 1e-300 ? j_scale : 1e-300;
+    if (!isfinite(j_scale) || (r == 1 && !(j_r_size > in->rank_rel * j_scale))) {
+        return VERDICT_DECLINED; /* one row of rank 0: the reference's SVD decides */
+    }
+    double eig_tol = in->eig_rel * (pow(j_scale, 2.0) / in->mass_scale);
+    double x[VERDICT_MAX_N], D[VERDICT_MAX_ROWS * VERDICT_MAX_ROWS], size = 0.0;
+    for (int b = 0; b < r; b++) {
+        verdict_solve(in->factor, n, cols + b * n, x);
+        for (int a = 0; a < r; a++) {
+            double sum = 0.0;
+            for (Py_ssize_t j = 0; j < n; j++) {
+                sum += rows[a * n + j] * x[j];
+            }
+            D[a * r + b] = sum;
+        }
+    }
+    verdict_size(in->factor, n, r, rows, cols, &size);
+    double re[VERDICT_MAX_ROWS], slack;
+    if (!isfinite(size) || verdict_real_parts(in, r, rows, D, size, j_scale, re, &slack) != 0) {
+        return VERDICT_DECLINED;
+    }
+    int negative = 0, zero = 0;
+    for (int a = 0; a < r; a++) {
+        if (fabs(fabs(re[a]) - eig_tol) <= slack) {
+            return VERDICT_DECLINED; /* on the tolerance's edge, to round-off */
+        }
+        negative |= re[a] < -eig_tol;
+        zero |= fabs(re[a]) <= eig_tol;
+    }
+    return negative ? VERDICT_UNSTABLE : zero ? VERDICT_NONE : VERDICT_STABLE;
+}
+
+static const Arg verdict_table[] = {
+    {"factor", 's', 2, {DIM_N, DIM_N}, 0},     {"jacobian_normal", 's', 2, {DIM_K, DIM_N}, 0},
+    {"jacobian_tangent", 's', 2, {DIM_K, DIM_N}, 0}, {"mu", 's', 1, {DIM_K}, 0},
+    {"normal_velocities", 's', 1, {DIM_K}, 0}, {"tangential_velocities", 's', 1, {DIM_K}, 0},
+    {"mode", 'o', 0, {0}, 0},                  {"lambda_n", 's', 1, {DIM_K}, 0},
+    {"lambda_t", 's', 1, {DIM_K}, 0},          {"a_n", 's', 1, {DIM_K}, 0},
+    {"a_t", 's', 1, {DIM_K}, 0},               {"dv", 's', 1, {DIM_N}, 0},
+    {"velocity_tolerance", 'f', 0, {0}, 0},    {"mass_scale", 'f', 0, {0}, 0},
+    {"bias_scale", 'f', 0, {0}, 0},            {"force_tolerance", 'f', 0, {0}, 0},
+    {"acceleration_tolerance", 'f', 0, {0}, 0}, {"eigenvalue_tolerance", 'f', 0, {0}, 0},
+    {"rank_tolerance", 'f', 0, {0}, 0},        {"range_low", 'f', 0, {0}, 0},
+    {"range_high", 'f', 0, {0}, 0},            {"band", 'f', 0, {0}, 0}};
+static const Signature verdict_signature = {"held_verdict", 22, verdict_table, NULL};
+
+static PyObject *held_verdict(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    (void)self;
+    Args a;
+    PyObject *result = NULL;
+    if (parse(&verdict_signature, args, nargs, &a)) {
+        goto done;
+    }
+    const double *f = a.number;
+    VerdictInput in = {&a.buffer[0].view, &a.buffer[1].view, &a.buffer[2].view, &a.buffer[3].view,
+                       &a.buffer[4].view, &a.buffer[5].view, &a.buffer[7].view, &a.buffer[8].view,
+                       &a.buffer[9].view, &a.buffer[10].view, &a.buffer[11].view, a.dim[DIM_N], a.dim[DIM_K],
+                       f[12], f[13], f[14], f[15], f[16], f[17], f[18], f[19], f[20], f[21]};
+    PyObject *mode = args[6];
+    Py_ssize_t length = 0;
+    const char *letters = PyUnicode_Check(mode) ? PyUnicode_AsUTF8AndSize(mode, &length) : NULL;
+    PyErr_Clear();
+    int verdict = letters == NULL || length != in.k ? VERDICT_DECLINED : verdict_of(&in, letters);
+    result = PyLong_FromLong(verdict);
+done:
+    release_args(&a);
+    return result;
+}
+
+/* ------------------------------------------------------------------------------------------------
  * redundancy_rows and ray_exit: the steps of Clarkson's redundancy loop around its LP
  * (frcontrol.polytope._irredundant_rows, whose NumPy twins _redundancy_rows_numpy and
  * _ray_exit_numpy are the reference), on unit rows unit z <= offsets (m, d) and the rows' status
@@ -4673,6 +4940,15 @@ static PyMethodDef methods[] = {
      "lcp_check(M, q, z, w, tolerance, enumerated) -> (residual, bound, found)\n\n"
      "frcontrol.lcp._verified's check of a candidate z with w = M z + q: the natural-map residual,\n"
      "the largest row bound and whether every row is within its bound."},
+    {"held_verdict", (PyCFunction)(void (*)(void))held_verdict, METH_FASTCALL,
+     "held_verdict(factor, jacobian_normal, jacobian_tangent, mu, normal_velocities, tangential_velocities,\n"
+     "             mode, lambda_n, lambda_t, a_n, a_t, dv, velocity_tolerance, mass_scale, bias_scale,\n"
+     "             force_tolerance, acceleration_tolerance, eigenvalue_tolerance, rank_tolerance,\n"
+     "             range_low, range_high, band) -> int\n\n"
+     "frcontrol.stability.stable_verdicts' verdict on one solution where M has the Cholesky factor `factor`\n"
+     "(upper): VERDICT_STABLE, VERDICT_UNSTABLE, VERDICT_NONE (not analysable) or VERDICT_DECLINED (the\n"
+     "reference decides: more than two held rows, a rank or an eigenvalue's sign within round-off of\n"
+     "its tolerance, a number not finite)."},
     {"compliant_law", (PyCFunction)(void (*)(void))compliant_law, METH_FASTCALL,
      "compliant_law(gaps, v_N, v_T, stretch, mu, k_N, b_N, k_T, b_T, lam_n, lam_t, rate, status) -> None\n\n"
      "frcontrol.simulation.compliant.contact_forces without contact zones: lam_N, lam_T, the stretch\n"
@@ -4710,27 +4986,27 @@ PyMODINIT_FUNC PyInit__kernel(void) {
         Py_DECREF(mod);
         return NULL;
     }
-    const char *names[16] = {"NOT_CERTIFIED", "CERTIFIED_INADMISSIBLE", "CERTIFIED_ADMISSIBLE", "INADMISSIBLE",
-                             "ADMISSIBLE", "NEEDS_PYTHON", "ADMISSIBLE_W", "MOVES_NONE", "MOVES_FORCES",
-                             "MOVES_ACCELERATIONS", "QUERY_OUTSIDE", "QUERY_INSIDE", "QUERY_NEEDS_PYTHON", "LEMKE_SOLVED", "LEMKE_RAY",
-                             "LEMKE_MAX_PIVOTS"};
-    int values[16] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
-                      NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS,
-                      QUERY_OUTSIDE, QUERY_INSIDE, QUERY_NEEDS_PYTHON, LEMKE_SOLVED, LEMKE_RAY,
-                      LEMKE_MAX_PIVOTS};
-    PyObject *all = Py_BuildValue("[ssssssssssssssssssss]", "certified_modes", "rank_modes", "lp_check", "robot_state",
-                                  "contact_rows", "margin_rows", "margin_lp", "certified_children", "certified_by_rows",
-                                  "locate_points",
-                                  "evaluate_points", "query_point", "query_plan", "query_solutions", "environment_value", "lemke", "coulomb_matrix", "lcp_check",
-                                  "compliant_law", "redundancy_rows", "ray_exit");
+    enum { CONSTANTS = 20 };
+    const char *names[CONSTANTS] = {
+        "NOT_CERTIFIED", "CERTIFIED_INADMISSIBLE", "CERTIFIED_ADMISSIBLE", "INADMISSIBLE", "ADMISSIBLE",
+        "NEEDS_PYTHON", "ADMISSIBLE_W", "MOVES_NONE", "MOVES_FORCES", "MOVES_ACCELERATIONS", "QUERY_OUTSIDE",
+        "QUERY_INSIDE", "QUERY_NEEDS_PYTHON", "LEMKE_SOLVED", "LEMKE_RAY", "LEMKE_MAX_PIVOTS", "VERDICT_UNSTABLE",
+        "VERDICT_STABLE", "VERDICT_NONE", "VERDICT_DECLINED"};
+    int values[CONSTANTS] = {NOT_CERTIFIED, CERTIFIED_INADMISSIBLE, CERTIFIED_ADMISSIBLE, INADMISSIBLE, ADMISSIBLE,
+                             NEEDS_PYTHON, ADMISSIBLE_W, MOVES_NONE, MOVES_FORCES, MOVES_ACCELERATIONS,
+                             QUERY_OUTSIDE, QUERY_INSIDE, QUERY_NEEDS_PYTHON, LEMKE_SOLVED, LEMKE_RAY,
+                             LEMKE_MAX_PIVOTS, VERDICT_UNSTABLE, VERDICT_STABLE, VERDICT_NONE, VERDICT_DECLINED};
+    PyObject *all = PyList_New(0); /* every function of the method table, then every constant */
     if (all == NULL) {
         Py_DECREF(mod);
         return NULL;
     }
-    for (int i = 0; i < 16; i++) {
-        PyObject *name = PyUnicode_FromString(names[i]);
+    Py_ssize_t functions = (Py_ssize_t)(sizeof(methods) / sizeof(methods[0])) - 1;
+    for (Py_ssize_t i = 0; i < functions + CONSTANTS; i++) {
+        const char *entry = i < functions ? methods[i].ml_name : names[i - functions];
+        PyObject *name = PyUnicode_FromString(entry);
         int failed = name == NULL || PyList_Append(all, name) != 0 ||
-                     PyModule_AddIntConstant(mod, names[i], values[i]) != 0;
+                     (i >= functions && PyModule_AddIntConstant(mod, entry, values[i - functions]) != 0);
         Py_XDECREF(name);
         if (failed) {
             Py_DECREF(all);

@@ -199,10 +199,22 @@ class ContactProblem:
         """The same problem with other Coulomb coefficients [-] (k,) of its contacts.
 
         Nothing else depends on friction: the state's arrays are shared with this problem (a
-        problem is not changed in place), and what is found once per problem (the row table) is
-        found again for the new one.
+        problem is not changed in place), and so is :attr:`state_cache`; what is found once per
+        problem (the row table, the kernel's plan) is found again for the new one.
         """
-        return replaced(self, mu=mu)
+        problem = replaced(self, mu=mu)
+        problem.__dict__["state_cache"] = self.state_cache
+        return problem
+
+    @cached_property
+    def state_cache(self) -> dict[str, Any]:
+        """What is found once per state (from M, h, the Jacobians, the velocities alone), by name.
+
+        Shared with the problems :meth:`with_friction` makes; one made by ``dataclasses.replace``
+        starts empty. (:func:`frcontrol.stability.stable_verdicts` keeps M's factor and the bias's
+        scale here.)
+        """
+        return {}
 
     @cached_property
     def kernel_cache(self) -> dict[str, Any]:

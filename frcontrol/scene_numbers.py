@@ -24,7 +24,10 @@ are shared, a workspace each call overwrites).
 
 from __future__ import annotations
 
+import math
+import weakref
 from collections.abc import Mapping
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -37,8 +40,10 @@ MU_PATH_FIELD = "mu"
 """The contact field :func:`is_numeric_path` takes as a number (``contacts.NAME.mu``)."""
 
 
+@lru_cache(maxsize=1024)
 def _contact_mu_name(path: str) -> str | None:
-    """``"tip"`` for ``contacts.tip.mu`` (a contact by name), else None."""
+    """``"tip"`` for ``contacts.tip.mu`` (a contact by name), else None (kept per path: an atlas asks
+    for the same few at every point)."""
     parts = path.split(".")
     if len(parts) == 3 and parts[0] == "contacts" and parts[2] == MU_PATH_FIELD and "[" not in path \
             and not parts[1].isdigit():
@@ -126,7 +131,9 @@ def friction_with_numbers(scene: Scene, overrides: Mapping[str, Any]) -> np.ndar
 
     ``np.array([c.mu for c in active], dtype=float)`` of :func:`scene_with_numbers`'s scene, without
     making it: friction changes no other number of the scene's problem (its state, its contacts'
-    places and activity stay).
+    places and activity stay). Values that are plain finite floats >= 0 on the scene's contacts are
+    set at once (an atlas's points); any other goes through the loader's checks, which say what is
+    wrong.
 
     Args:
         scene: a scene (its own overrides applied).
@@ -136,6 +143,35 @@ def friction_with_numbers(scene: Scene, overrides: Mapping[str, Any]) -> np.ndar
         SceneError: as :func:`scene_with_numbers`: a value that is not a finite number, a negative
             ``mu``, a path that is not a friction override of this scene.
     """
+    places = _FRICTION_PLACES.get(scene)
+    if places is None:
+        places = _FRICTION_PLACES[scene] = _friction_places(scene)
+    by_name, active_mu = places
+    mu = active_mu.copy()
+    for path, value in overrides.items():
+        place = by_name.get(_contact_mu_name(path), None)  # type: ignore[arg-type]  # None: no contact
+        if place is None or type(value) is not float or not 0.0 <= value < math.inf:
+            return _checked_friction(scene, overrides)
+        if place >= 0:
+            mu[place] = value
+    return mu
+
+
+def _friction_places(scene: Scene) -> tuple[dict[str, int], np.ndarray]:
+    """Per contact name its place among the active contacts (-1: inactive), and their coefficients."""
+    active = [c for c in scene.contacts if c.active]
+    places = {c.name: -1 for c in scene.contacts}
+    places.update({c.name: i for i, c in enumerate(active)})
+    return places, np.array([c.mu for c in active], dtype=float)
+
+
+_FRICTION_PLACES: weakref.WeakKeyDictionary[Scene, tuple[dict[str, int], np.ndarray]] = \
+    weakref.WeakKeyDictionary()
+""":func:`_friction_places` of the scenes friction was last set on (a scene is hashed by identity)."""
+
+
+def _checked_friction(scene: Scene, overrides: Mapping[str, Any]) -> np.ndarray:
+    """:func:`friction_with_numbers` with every value read by the loader's rules (and its errors)."""
     reader = _Reader(scene.path)
     mu = {c.name: c.mu for c in scene.contacts}
     for path, value in overrides.items():

@@ -59,7 +59,8 @@ import numpy as np
 import scipy.linalg
 
 from .cholesky import cholesky_solve, cholesky_upper
-from .errors import InputError
+from .errors import InputError, KernelError
+from .kernel import backend, extension_function, twin
 from .modes import ContactProblem, check_mode
 
 if TYPE_CHECKING:
@@ -90,6 +91,14 @@ UNSCALED_EIGENVALUE_RANGE = (1e-130, 1e130)
 """[1/kg] The magnitudes of a 1 x 1 D whose eigenvalue LAPACK's ``geev`` returns as D itself, with
 no scaling (it scales a matrix whose largest entry is below about 1e-138 or above 1e138): inside
 it, :func:`classify_solutions` reads the eigenvalue of one held row without the call."""
+
+VERDICT_ROUND_OFF_BAND = 1e-8
+"""[-] The compiled verdict (``held_verdict``, one or two held rows) leaves a solution to the
+reference path when one of D's eigenvalues has a real part within this times D's componentwise
+round-off scale (``max_ab |J_r[a]| |U^-1| |U^-T| |J_c[b]|^T``, U M's Cholesky factor) of
+:data:`EIGENVALUE_TOLERANCE`'s bound: the two sum in other orders, so there they could disagree.
+(Within round-off of a double root it widens by the square root of this: the real parts of a
+double root move by the square root of the discriminant's round-off.)"""
 
 
 SpectrumMethod = Literal["cholesky", "pencil"]
@@ -553,14 +562,22 @@ def stable_verdicts(problem: ContactProblem, solutions: Sequence[RigidSolution])
 
     :func:`classify_solutions`'s path up to D's spectrum, then only the signs of its eigenvalues:
     true (stable), false (unstable) or None (not analysable), as :class:`Stability` has them (with no
-    stiffness and damping given).
+    stiffness and damping given). Where M has a Cholesky factor and a solution holds at most two
+    rows, the kernel's ``held_verdict`` decides it in one call (the same checks and tolerances, D's
+    eigenvalues in closed form; it leaves the solutions within :data:`VERDICT_ROUND_OFF_BAND` of a
+    tolerance to this path).
 
     Raises:
         InputError: as :func:`stability_of`.
     """
     state = _state_terms(problem)
+    decide = backend().held_verdict
     verdicts: list[bool | None] = []
     for solution in solutions:
+        verdict = decide(problem, solution, state)
+        if verdict is not _DECLINED:
+            verdicts.append(verdict)
+            continue
         check_mode(problem, solution.mode)
         held = _held_spectrum(problem, solution, state)
         if isinstance(held, Stability):
@@ -572,7 +589,56 @@ def stable_verdicts(problem: ContactProblem, solutions: Sequence[RigidSolution])
     return verdicts
 
 
+_DECLINED = object()
+"""``held_verdict``'s answer where it leaves the solution to :func:`stable_verdicts`' own path."""
+
+_held_verdict_extension = extension_function("held_verdict")
+
+_VERDICTS: dict[int, bool | None | object] = {0: False, 1: True, -1: None, 2: _DECLINED}
+"""The compiled kernel's verdict codes (``VERDICT_UNSTABLE``, ``_STABLE``, ``_NONE``, ``_DECLINED``)."""
+
+
+def _held_verdict_numpy(problem: ContactProblem, solution: RigidSolution, state: _StateTerms) -> Any:
+    """The NumPy twin of ``held_verdict``: it declines.
+
+    :func:`stable_verdicts`' own path, the reference the compiled call reproduces, then decides.
+    """
+    return _DECLINED
+
+
+def _held_verdict_compiled(problem: ContactProblem, solution: RigidSolution, state: _StateTerms) -> Any:
+    """One solution's verdict by the compiled kernel: True, False, None, or :data:`_DECLINED`.
+
+    Declined without M's Cholesky factor, and for arrays the kernel does not take (not float64).
+    """
+    factor = state.mass.factor
+    if factor is None:
+        return _DECLINED
+    try:
+        code = _held_verdict_extension(
+            factor, problem.jacobian_normal, problem.jacobian_tangent, problem.mu, problem.normal_velocities,
+            problem.tangential_velocities, solution.mode, solution.lambda_n, solution.lambda_t, solution.a_n,
+            solution.a_t, solution.dv, problem.velocity_tolerance, state.mass.scale, state.bias_scale,
+            FORCE_TOLERANCE, ACCELERATION_TOLERANCE, EIGENVALUE_TOLERANCE, RANK_TOLERANCE,
+            *UNSCALED_EIGENVALUE_RANGE, VERDICT_ROUND_OFF_BAND)
+    except KernelError:  # arrays of another type or shape: the reference path reads (or refuses) them
+        return _DECLINED
+    return _VERDICTS[code]
+
+
+twin("held_verdict", numpy=_held_verdict_numpy, compiled=_held_verdict_compiled)
+
+
 def _state_terms(problem: ContactProblem) -> _StateTerms:
+    """M's terms and the bias's scale, kept in the problem's state cache (found once per state)."""
+    cache = problem.state_cache
+    terms = cache.get("stability")
+    if terms is None:
+        terms = cache["stability"] = _found_state_terms(problem)
+    return terms
+
+
+def _found_state_terms(problem: ContactProblem) -> _StateTerms:
     M = np.asarray(problem.mass_matrix, dtype=float)
     key = (M.shape, M.tobytes())
     mass = _MASS_TERMS.get(key)
@@ -644,6 +710,7 @@ __all__ = [
     "MASS_FACTORS_KEPT",
     "RANK_TOLERANCE",
     "UNSCALED_EIGENVALUE_RANGE",
+    "VERDICT_ROUND_OFF_BAND",
     "Stability",
     "boundary_layer_roots",
     "classify_solutions",

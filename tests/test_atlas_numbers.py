@@ -190,3 +190,39 @@ def test_a_record_replaced_is_the_dataclass_replaced():
     assert moved.q.tobytes() == (scene.q + 0.1).tobytes() and moved.robot is scene.robot
     with pytest.raises(InputError, match="has no field 'mus'; its fields: coordinates"):
         replaced(problem, mus=mu)
+
+
+def test_friction_set_at_once_is_the_loaders_friction():
+    # plain floats are set without the loader's reader; every other value takes its checks and errors
+    from frcontrol.modes import ContactProblem
+    from frcontrol.scene_numbers import _checked_friction, friction_with_numbers
+
+    scene = load_scene("box_on_ground")
+    for values in ({"contacts.left.mu": 0.7}, {"contacts.right.mu": 0.0, "contacts.left.mu": 2.5},
+                   {"contacts.left.mu": -0.0}, {"contacts.left.mu": 3}):
+        fast, checked = friction_with_numbers(scene, values), _checked_friction(scene, values)
+        assert fast.tobytes() == checked.tobytes(), values
+        loaded = load_scene("box_on_ground", overrides=values)
+        assert fast.tobytes() == ContactProblem.from_scene(loaded).mu.tobytes()
+    for value, message in ((-0.1, "must be >= 0"), (math.nan, "expected a finite number"),
+                           (math.inf, "expected a finite number"), (True, "expected a number")):
+        with pytest.raises(SceneError, match=message):
+            friction_with_numbers(scene, {"contacts.left.mu": value})
+    with pytest.raises(SceneError, match="not a friction override of this scene"):
+        friction_with_numbers(scene, {"contacts.lefty.mu": 0.5})
+
+
+def test_a_problem_with_other_friction_shares_its_states_cache():
+    from dataclasses import replace
+
+    from frcontrol.modes import ContactProblem
+    from frcontrol.stability import stable_verdicts
+
+    problem = ContactProblem.from_scene(load_scene("rod_on_table", overrides={"state.v.x": -1.0}))
+    rough = problem.with_friction(np.array([0.9]))
+    assert rough.state_cache is problem.state_cache and rough.kernel_cache is not problem.kernel_cache
+    assert replace(problem, mu=np.array([0.9])).state_cache is not problem.state_cache
+    from frcontrol.engine import solutions_at
+
+    found = solutions_at(rough, {})
+    assert stable_verdicts(rough, found) == stable_verdicts(replace(problem, mu=np.array([0.9])), found)

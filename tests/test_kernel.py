@@ -962,6 +962,7 @@ CROSS_CHECKS = {
     "query_solutions": ("query", "the_one_call_query_agrees_with_its_numpy_twin"),
     "scratch_solutions": ("query", "the_scratch_query_is_the_general_paths"),
     "problem_solutions": ("query", "the_scratch_query_is_the_general_paths"),
+    "held_verdict": ("stability", "compiled_verdicts_are_the_reference_paths"),
     "lemke_pivots": ("simulation_speed", "compiled_lemke_pivots_like_the_numpy_reference"),
     "lcp_check": ("simulation_speed", "compiled_lcp_check_agrees_with_numpy"),
     "coulomb_matrix": ("simulation_speed", "compiled_coulomb_matrix_and_contact_law_equal_numpy"),

@@ -58,6 +58,9 @@ SANITIZED_TESTS = (
     "tests/test_simulation_speed.py::test_compiled_lcp_check_agrees_with_numpy",
     "tests/test_simulation_speed.py::test_compiled_coulomb_matrix_and_contact_law_equal_numpy",
     "tests/test_model.py::test_compiled_assembly_refuses_malformed_arguments",
+    "tests/test_stability.py::test_compiled_verdicts_are_the_reference_paths",
+    "tests/test_stability.py::test_the_compiled_verdict_leaves_an_eigenvalue_on_its_tolerance_to_the_reference",
+    "tests/test_stability.py::test_classify_solutions_is_stability_of_on_every_shipped_scene",
 )
 """The tests run against the sanitized build: every function of the extension, on good and bad
 arguments."""

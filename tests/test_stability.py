@@ -7,15 +7,19 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from conftest import rod_scene
+from conftest import needs_kernel, rod_scene
 
-from frcontrol.engine import solutions_at
-from frcontrol.errors import InputError
+from frcontrol import kernel
+from frcontrol.engine import RigidSolution, solutions_at
+from frcontrol.errors import InputError, KernelError
 from frcontrol.modes import ContactProblem
 from frcontrol.scene import load_scene, shipped_scene_names
 from frcontrol.simulation.compliant import CompliantSettings, simulate_compliant
 from frcontrol.simulation.inputs import InitialState
 from frcontrol.stability import (
+    _DECLINED,
+    EIGENVALUE_TOLERANCE,
+    _state_terms,
     boundary_layer_roots,
     classify_solutions,
     critical_damping,
@@ -362,3 +366,129 @@ def test_the_scales_of_the_tolerances_are_numpys_and_pythons_max():
         assert repr(_largest_magnitude(values)) == repr(float(np.abs(values).max(initial=0.0)))
     for combo in itertools.product(arrays, repeat=3):
         assert repr(_scale_of(combo)) == repr(max(1.0, *(_largest_magnitude(a) for a in combo)))
+
+
+# ------------------------------------------------------------------- the compiled verdict
+def _reference_verdicts(problem, solutions, monkeypatch):
+    """:func:`stable_verdicts` on the NumPy kernel: its own path decides every solution."""
+    with monkeypatch.context() as patch:
+        patch.setenv("FRC_KERNEL", "numpy")
+        return stable_verdicts(problem, solutions)
+
+
+def _random_held_case(rng: np.random.Generator):
+    """A random problem with M positive definite and a random solution of a random mode.
+
+    Forces, velocities and accelerations are drawn to land on each of the reference's branches:
+    impending separation, slip and contact, sticking, sliding, separating, up to four held rows.
+    """
+    n, k = int(rng.integers(1, 7)), int(rng.integers(1, 4))
+    L = rng.normal(size=(n, n))
+    M = L @ L.T + rng.choice([0.05, 1.0]) * np.eye(n)
+    jn, jt = rng.normal(size=(k, n)), rng.normal(size=(k, n))
+    if k > 1 and rng.random() < 0.2:  # two contacts on one point: dependent rows
+        jn[1], jt[1] = jn[0], jt[0]
+    mode = "".join(rng.choice(list("SLRF"), size=k))
+    mu = rng.choice([0.0, 0.3, 1.0, 2.5], size=k)
+    pick = lambda *values: np.array([float(rng.choice(values)) for _ in range(k)])  # noqa: E731
+    lam_n = pick(0.0, 1e-12, 2.0, 7.0) * (np.array(list(mode)) != "S")
+    lam_t = np.where(np.array(list(mode)) == "F", rng.uniform(-1.2, 1.2, size=k) * mu * lam_n, 0.0)
+    lam_t = np.where((np.array(list(mode)) == "F") & (rng.random(k) < 0.2), mu * lam_n, lam_t)
+    problem = ContactProblem(
+        coordinates=tuple(f"q{i}" for i in range(n)), contacts=tuple(f"c{i}" for i in range(k)), inputs=(),
+        mass_matrix=M, bias=rng.normal(size=n) * 5.0, input_map=np.zeros((n, 0)), jacobian_normal=jn,
+        jacobian_tangent=jt, drift_normal=np.zeros(k), drift_tangent=np.zeros(k),
+        normal_velocities=pick(0.0, 0.0, 0.5), tangential_velocities=pick(0.0, 0.5, -0.5), mu=mu,
+        lower=np.zeros(0), upper=np.zeros(0))
+    a_n, a_t = pick(0.0, 1.0, -2.0), pick(0.0, 3.0, -1.0)
+    solution = RigidSolution(mode, rng.normal(size=n), lam_n, lam_t, a_n, a_t, 0, "none", np.zeros(0), 0.0,
+                             0.0)
+    return problem, solution
+
+
+@needs_kernel
+def test_compiled_verdicts_are_the_reference_paths(monkeypatch):
+    # the compiled held_verdict against stable_verdicts' own path (the NumPy kernel) on 3000 random
+    # solutions: every verdict it gives is the reference's; it declines more than two held rows and
+    # decides most of the rest
+    rng = np.random.default_rng(20261128)
+    decided, declined, seen = 0, 0, set()
+    for _ in range(3000):
+        problem, solution = _random_held_case(rng)
+        reference = _reference_verdicts(problem, [solution], monkeypatch)[0]
+        verdict = kernel.COMPILED.held_verdict(problem, solution, _state_terms(problem))
+        assert kernel.NUMPY.held_verdict(problem, solution, _state_terms(problem)) is _DECLINED
+        if verdict is _DECLINED:
+            declined += 1
+            continue
+        assert verdict == reference, (solution.mode, verdict, reference)
+        decided += 1
+        seen.add(verdict)
+        assert stable_verdicts(problem, [solution]) == [reference]
+    assert seen == {True, False, None}
+    assert decided > 4 * declined, (decided, declined)
+
+
+@needs_kernel
+def test_the_compiled_verdict_leaves_an_eigenvalue_on_its_tolerance_to_the_reference(monkeypatch):
+    # one sliding contact whose D = (1 + c mu) / (1 - c^2) is steered to chosen values around its
+    # zero tolerance eig_tol = EIGENVALUE_TOLERANCE * mu^2 (about 4e-9 here): far from it the
+    # compiled call gives the reference's verdict, within its round-off band (some 1e-8 here) of
+    # +-eig_tol it declines
+    c = -0.5
+    M = np.array([[1.0, c], [c, 1.0]])
+    eig_tol = EIGENVALUE_TOLERANCE * 4.0
+    expected = {1e-3: True, 1e-6: True, eig_tol * 1.001: _DECLINED, 0.0: _DECLINED, -eig_tol: _DECLINED,
+                -1e-6: False, -1e-3: False}
+    for d, outcome in expected.items():
+        mu = ((1.0 - c * c) * d - 1.0) / c
+        problem = ContactProblem(
+            coordinates=("x", "y"), contacts=("tip",), inputs=(), mass_matrix=M, bias=np.zeros(2),
+            input_map=np.zeros((2, 0)), jacobian_normal=np.array([[1.0, 0.0]]),
+            jacobian_tangent=np.array([[0.0, 1.0]]), drift_normal=np.zeros(1), drift_tangent=np.zeros(1),
+            normal_velocities=np.zeros(1), tangential_velocities=np.array([1.0]), mu=np.array([mu]),
+            lower=np.zeros(0), upper=np.zeros(0))
+        solution = RigidSolution("R", np.zeros(2), np.array([1.0]), np.array([-mu]), np.zeros(1), np.zeros(1),
+                                 0, "none", np.zeros(0), 0.0, 0.0)
+        verdict = kernel.COMPILED.held_verdict(problem, solution, _state_terms(problem))
+        assert verdict is outcome, (d, verdict)
+        if outcome is not _DECLINED:
+            assert _reference_verdicts(problem, [solution], monkeypatch) == [outcome]
+        assert stable_verdicts(problem, [solution]) == _reference_verdicts(problem, [solution], monkeypatch)
+
+
+@needs_kernel
+def test_the_compiled_verdict_refuses_bad_arguments(monkeypatch):
+    # a buffer of the wrong shape or type raises KernelError from the extension, which the wrapper
+    # turns into a decline (the reference path then reads, or refuses, the arrays); a mode that is
+    # not a string of one letter per contact is declined, and the reference words its error
+    problem, solution = _random_held_case(np.random.default_rng(7))
+    state = _state_terms(problem)
+    assert state.mass.factor is not None
+    n, k = problem.n, problem.k
+    extension = kernel.extension_function("held_verdict")
+    numbers = (problem.velocity_tolerance, state.mass.scale, state.bias_scale, 1e-9, 1e-9, 1e-9, 1e-10,
+               1e-130, 1e130, 1e-8)
+    arrays = [state.mass.factor, problem.jacobian_normal, problem.jacobian_tangent, problem.mu,
+              problem.normal_velocities, problem.tangential_velocities, solution.mode, solution.lambda_n,
+              solution.lambda_t, solution.a_n, solution.a_t, solution.dv]
+    assert extension(*arrays, *numbers) in (-1, 0, 1, 2)
+    with pytest.raises(KernelError, match="held_verdict takes 22 arguments, got 21"):
+        extension(*arrays, *numbers[:-1])
+    bad = list(arrays)
+    bad[7] = np.zeros(k + 1)
+    with pytest.raises(KernelError, match="kernel buffer lambda_n"):
+        extension(*bad, *numbers)
+    bad[7] = np.zeros(k, dtype=np.int64)
+    with pytest.raises(KernelError, match="kernel buffer lambda_n"):
+        extension(*bad, *numbers)
+    for mode in ("S" * (k + 1), 3, "X" * k):
+        bad = list(arrays)
+        bad[6] = mode
+        assert extension(*bad, *numbers) == 2, mode
+    wrong = replace(solution, lambda_n=solution.lambda_n.astype(np.int64))
+    assert kernel.COMPILED.held_verdict(problem, wrong, state) is _DECLINED
+    assert stable_verdicts(problem, [wrong]) == _reference_verdicts(problem, [wrong], monkeypatch)
+    with pytest.raises(InputError, match="a mode is a string of the letters S, L, R, F"):
+        stable_verdicts(problem, [replace(solution, mode="X" * k)])
+    assert n == state.mass.factor.shape[0]
