@@ -42,8 +42,10 @@ MU_PATH_FIELD = "mu"
 
 @lru_cache(maxsize=1024)
 def _contact_mu_name(path: str) -> str | None:
-    """``"tip"`` for ``contacts.tip.mu`` (a contact by name), else None (kept per path: an atlas asks
-    for the same few at every point)."""
+    """``"tip"`` for ``contacts.tip.mu`` (a contact by name), else None.
+
+    Kept per path: an atlas asks for the same few at every point.
+    """
     parts = path.split(".")
     if len(parts) == 3 and parts[0] == "contacts" and parts[2] == MU_PATH_FIELD and "[" not in path \
             and not parts[1].isdigit():
