@@ -2060,11 +2060,11 @@ typedef struct {
 
 static void householder(QRScratch *w) {
     Py_ssize_t rows = w->rows, nx = w->nx;
-    double *M = w->M; /* M[i * rows + j] = A_hat[j][i] */
+    double *M = w->M; /* M[j * nx + i] = A_hat[j][i]: column j of S^T contiguous */
     for (Py_ssize_t j = 0; j < rows; j++) {
-        double alpha = M[j * rows + j], xnorm = 0.0;
+        double *v = M + j * nx, alpha = v[j], xnorm = 0.0;
         for (Py_ssize_t i = j + 1; i < nx; i++) {
-            xnorm += M[i * rows + j] * M[i * rows + j];
+            xnorm += v[i] * v[i];
         }
         double norm = sqrt(alpha * alpha + xnorm);
         if (xnorm == 0.0 || norm == 0.0) {
@@ -2073,42 +2073,59 @@ static void householder(QRScratch *w) {
         }
         double beta = alpha > 0.0 ? -norm : norm, scale = 1.0 / (alpha - beta);
         for (Py_ssize_t i = j + 1; i < nx; i++) {
-            M[i * rows + j] *= scale;
+            v[i] *= scale;
         }
         w->tau[j] = (beta - alpha) / beta;
-        M[j * rows + j] = beta;
+        v[j] = beta;
         for (Py_ssize_t k = j + 1; k < rows; k++) {
-            double dot = M[j * rows + k];
+            double *column = M + k * nx, dot = column[j];
             for (Py_ssize_t i = j + 1; i < nx; i++) {
-                dot += M[i * rows + j] * M[i * rows + k];
+                dot += v[i] * column[i];
             }
             dot *= w->tau[j];
-            M[j * rows + k] -= dot;
-            for (Py_ssize_t i = j + 1; i < nx; i++) {
-                M[i * rows + k] -= dot * M[i * rows + j];
+            column[j] -= dot;
+            for (Py_ssize_t i = j + 1; i < nx; i++) { /* no sum: the compiler may vectorise it */
+                column[i] -= dot * v[i];
             }
         }
     }
 }
 
-/* X (nx, cols) <- Q X = H_0 ... H_{rows-1} X, the reflections applied from the last one back. */
+enum { APPLY_BLOCK = 64 };
+
+/* X (nx, cols) <- Q X = H_0 ... H_{rows-1} X, the reflections applied from the last one back. Each
+ * column's dot product sums over i in order, as one column at a time would; the rows are walked
+ * with the columns inside (a block of them at once), so the updates run along X's rows. */
 static void apply_q(const QRScratch *w, double *X, Py_ssize_t cols) {
     Py_ssize_t rows = w->rows, nx = w->nx;
-    const double *M = w->M;
+    double dots[APPLY_BLOCK];
     for (Py_ssize_t j = rows - 1; j >= 0; j--) {
         double tau = w->tau[j];
+        const double *v = w->M + j * nx;
         if (tau == 0.0) {
             continue;
         }
-        for (Py_ssize_t k = 0; k < cols; k++) {
-            double dot = X[j * cols + k];
-            for (Py_ssize_t i = j + 1; i < nx; i++) {
-                dot += M[i * rows + j] * X[i * cols + k];
+        for (Py_ssize_t k0 = 0; k0 < cols; k0 += APPLY_BLOCK) {
+            Py_ssize_t width = cols - k0 < APPLY_BLOCK ? cols - k0 : APPLY_BLOCK;
+            double *head = X + j * cols + k0;
+            for (Py_ssize_t k = 0; k < width; k++) {
+                dots[k] = head[k];
             }
-            dot *= tau;
-            X[j * cols + k] -= dot;
             for (Py_ssize_t i = j + 1; i < nx; i++) {
-                X[i * cols + k] -= dot * M[i * rows + j];
+                const double *x = X + i * cols + k0;
+                for (Py_ssize_t k = 0; k < width; k++) {
+                    dots[k] += v[i] * x[k];
+                }
+            }
+            for (Py_ssize_t k = 0; k < width; k++) {
+                dots[k] *= tau;
+                head[k] -= dots[k];
+            }
+            for (Py_ssize_t i = j + 1; i < nx; i++) {
+                double *x = X + i * cols + k0;
+                for (Py_ssize_t k = 0; k < width; k++) {
+                    x[k] -= dots[k] * v[i];
+                }
             }
         }
     }
@@ -2144,7 +2161,7 @@ static double equilibrate_kept(QRScratch *w, Py_ssize_t rows, const double *A, c
     for (Py_ssize_t t = 0; t < q; t++) {
         Py_ssize_t i = kept == NULL ? t : (Py_ssize_t)kept[t];
         for (Py_ssize_t j = 0; j < nx; j++) {
-            w->M[j * q + t] = A[i * nx + j] * r[i] * w->s[j];
+            w->M[t * nx + j] = A[i * nx + j] * r[i] * w->s[j];
         }
     }
     return sqrt(size);
@@ -2158,7 +2175,7 @@ static double solve_kept(QRScratch *w, const double *B, const double *c, const l
     Py_ssize_t q = w->rows, nx = w->nx, m = w->m, width = q + m + 1, p = nx - q;
     householder(w);
     for (Py_ssize_t j = 0; j < q; j++) {
-        if (!(size < limit * fabs(w->M[j * q + j]))) {
+        if (!(size < limit * fabs(w->M[j * nx + j]))) {
             return HUGE_VAL; /* ||R_1^-1||_F >= 1 / |R_jj|: not certified */
         }
     }
@@ -2170,12 +2187,12 @@ static double solve_kept(QRScratch *w, const double *B, const double *c, const l
             y[k] = k < q ? (k == t) : k < q + m ? B[i * m + k - q] * r[i] : c[i] * r[i];
         }
         for (Py_ssize_t l = 0; l < t; l++) {
-            double a = w->M[l * q + t];
+            double a = w->M[t * nx + l]; /* R[l][t] */
             for (Py_ssize_t k = 0; k < width; k++) {
                 y[k] -= a * Y[l * width + k];
             }
         }
-        double d = w->M[t * q + t];
+        double d = w->M[t * nx + t];
         for (Py_ssize_t k = 0; k < width; k++) {
             y[k] /= d;
         }

@@ -977,7 +977,8 @@ def test_every_kernel_function_has_both_backends_and_a_cross_check():
     import frcontrol.engine
     import frcontrol.lcp
     import frcontrol.simulation.compliant
-    import frcontrol.simulation.impact  # noqa: F401  (each module registers its functions on import)
+    import frcontrol.simulation.impact
+    import frcontrol.stability  # noqa: F401  (each module registers its functions on import)
     registered = kernel.registered()
     assert set(registered) == set(CROSS_CHECKS), "register a cross-check for each kernel function"
     for name in registered:
