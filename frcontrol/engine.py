@@ -785,7 +785,7 @@ class _ModeEnumerator:
         parent = self.parents.pop(prefix, None)
         systems = (build_child_systems(self.problem, prefix, letters) if parent is None
                    else extend_child_systems(self.problem, parent, letters))
-        A, B, c = np.stack([s.A for s in systems]), systems[0].B, np.stack([s.c for s in systems])
+        A, B, c = systems.A, systems[0].B, systems.c  # the children's stacks, as built
         deficient = prefix in self.deficient
         responses: list[AffineSolution | None]
         partial = len(prefix) + 1 < self.problem.k  # the children's responses decide only their verdicts

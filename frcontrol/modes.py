@@ -413,7 +413,25 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
     )
 
 
-def build_child_systems(problem: ContactProblem, prefix: str, letters: str) -> list[ModeSystem]:
+class ChildSystems(list):  # type: ignore[type-arg]  # a list of ModeSystem
+    """Children's systems (a list of :class:`ModeSystem`), with their ``A`` and ``c`` stacked as built.
+
+    ``A`` (count, rows, nx) and ``c`` (count, rows): each child's ``A`` and ``c`` is a slice of
+    them, so the stack its certificates read needs no copy.
+    """
+
+    A: np.ndarray
+    c: np.ndarray
+
+    @classmethod
+    def of(cls, systems: list[ModeSystem], A: np.ndarray, c: np.ndarray) -> ChildSystems:
+        """``systems`` with their stacks ``A`` and ``c``."""
+        children = cls(systems)
+        children.A, children.c = A, c
+        return children
+
+
+def build_child_systems(problem: ContactProblem, prefix: str, letters: str) -> ChildSystems:
     """:func:`build_mode_system` of ``prefix + letter`` for each letter, in one gather.
 
     The same rows as one call per child (the children share ``B``, which is read-only).
@@ -444,12 +462,13 @@ def build_child_systems(problem: ContactProblem, prefix: str, letters: str) -> l
     labels = problem.row_labels[contacts, chosen].reshape(-1)[valid].tolist()
     ends = np.cumsum(valid.reshape(count, -1).sum(axis=1)).tolist()
     starts = [0, *ends[:-1]]
-    return [ModeSystem(mode=prefix + letter, A=A[i], B=B, c=c[i], G=G[start:end], g=g[start:end],
-                       labels=tuple(labels[start:end]), motion=motion[start:end])
-            for i, (letter, start, end) in enumerate(zip(letters, starts, ends, strict=True))]
+    children = [ModeSystem(mode=prefix + letter, A=A[i], B=B, c=c[i], G=G[start:end], g=g[start:end],
+                           labels=tuple(labels[start:end]), motion=motion[start:end])
+                for i, (letter, start, end) in enumerate(zip(letters, starts, ends, strict=True))]
+    return ChildSystems.of(children, A, c)
 
 
-def extend_child_systems(problem: ContactProblem, parent: ModeSystem, letters: str) -> list[ModeSystem]:
+def extend_child_systems(problem: ContactProblem, parent: ModeSystem, letters: str) -> ChildSystems:
     """:func:`build_child_systems` of ``parent.mode``, from the parent's own system: the same rows.
 
     A child's rows are its parent's followed by its letter's (contacts in order), so only the
@@ -485,7 +504,7 @@ def extend_child_systems(problem: ContactProblem, parent: ModeSystem, letters: s
         children.append(ModeSystem(mode=prefix + letter, A=A[i], B=B, c=c[i], G=G[i, :kept + own],
                                    g=g[i, :kept + own], labels=parent.labels + tuple(labels[index, :own]),
                                    motion=motion[i, :kept + own]))
-    return children
+    return ChildSystems.of(children, A, c)
 
 
 ROWS_PER_CONTACT = 3
@@ -755,6 +774,7 @@ __all__ = [
     "mode_label",
     "MODE_MEANINGS",
     "scene_mode",
+    "ChildSystems",
     "build_child_systems",
     "extend_child_systems",
     "contact_mode_letter",

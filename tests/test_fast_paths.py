@@ -238,7 +238,11 @@ def test_children_built_together_are_the_modes_built_alone():
             parent = build_mode_system(problem, prefix)
             for together in (build_child_systems(problem, prefix, allowed[depth]),
                              extend_child_systems(problem, parent, allowed[depth])):
-                for letter, system in zip(allowed[depth], together, strict=True):
+                assert together.A.flags.c_contiguous and together.A.shape[0] == len(together)
+                for i, (letter, system) in enumerate(zip(allowed[depth], together, strict=True)):
+                    assert np.shares_memory(system.A, together.A[i])
+                    assert np.shares_memory(system.c, together.c[i])
+                    np.testing.assert_array_equal(together.A[i], system.A)
                     alone = build_mode_system(problem, prefix + letter)
                     assert (system.mode, system.labels) == (alone.mode, alone.labels)
                     assert system.G.flags.c_contiguous and system.g.flags.c_contiguous  # the kernel reads

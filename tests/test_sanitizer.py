@@ -61,6 +61,7 @@ SANITIZED_TESTS = (
     "tests/test_stability.py::test_compiled_verdicts_are_the_reference_paths",
     "tests/test_stability.py::test_the_compiled_verdict_leaves_an_eigenvalue_on_its_tolerance_to_the_reference",
     "tests/test_stability.py::test_classify_solutions_is_stability_of_on_every_shipped_scene",
+    "tests/test_stability.py::test_the_compiled_verdict_refuses_bad_arguments",
 )
 """The tests run against the sanitized build: every function of the extension, on good and bad
 arguments."""
