@@ -4462,7 +4462,7 @@ done:
  * solution's scales and tolerances, the impending checks and the held rows J_r and columns J_c
  * are the reference's, operation for operation; D = J_r M^-1 J_c^T by the factor's two triangular
  * solves. One held row: D's one eigenvalue is D (the reference's closed form). Two held rows of
- * rank 2 (their Gram matrix's eigenvalues apart by VERDICT_RANK_SEPARATION, far from the rank
+ * rank 2 (their Gram matrix's smaller eigenvalue above `separation` times its larger, far from the rank
  * tolerance): D's eigenvalues, which the reference's row-space restriction U^T D U shares, by the
  * 2 x 2 closed form. Returns VERDICT_STABLE, VERDICT_UNSTABLE or VERDICT_NONE (not analysable),
  * or VERDICT_DECLINED where the reference decides: more rows, a rank the Gram matrix cannot tell,
@@ -4472,12 +4472,12 @@ done:
  * ------------------------------------------------------------------------------------------------ */
 enum { VERDICT_UNSTABLE = 0, VERDICT_STABLE = 1, VERDICT_NONE = -1, VERDICT_DECLINED = 2 };
 enum { VERDICT_MAX_N = 32, VERDICT_MAX_ROWS = 2 };
-#define VERDICT_RANK_SEPARATION 1e-6 /* the Gram test's least ratio: far above its round-off (eps) */
 
 typedef struct {
     const Py_buffer *factor, *jn, *jt, *mu, *vn, *vt, *lam_n, *lam_t, *a_n, *a_t, *dv;
     Py_ssize_t n, k;
     double vtol, mass_scale, bias_scale, force_rel, accel_rel, eig_rel, rank_rel, range_lo, range_hi, band;
+    double separation; /* the Gram test's least ratio of eigenvalues (two rows of rank 2) */
 } VerdictInput;
 
 /* max(1, max |x|) over the entries of the given vectors (stability._scale_of); NaN when one is not finite. */
@@ -4578,7 +4578,7 @@ static int verdict_real_parts(const VerdictInput *in, int r, const double *rows,
     }
     double half = 0.5 * (g00 + g11), gap = sqrt(0.25 * (g00 - g11) * (g00 - g11) + g01 * g01);
     double low = g00 * g11 - g01 * g01; /* the product of the Gram matrix's eigenvalues */
-    if (!(half > 0.0) || low <= VERDICT_RANK_SEPARATION * (half + gap) * (half + gap)) {
+    if (!(half > 0.0) || low <= in->separation * (half + gap) * (half + gap)) {
         return ROWS_DECLINED;
     }
     double p = 0.5 * (D[0] - D[3]), mid = 0.5 * (D[0] + D[3]), disc = p * p + D[1] * D[2];
@@ -4697,8 +4697,9 @@ static const Arg verdict_table[] = {
     {"bias_scale", 'f', 0, {0}, 0},            {"force_tolerance", 'f', 0, {0}, 0},
     {"acceleration_tolerance", 'f', 0, {0}, 0}, {"eigenvalue_tolerance", 'f', 0, {0}, 0},
     {"rank_tolerance", 'f', 0, {0}, 0},        {"range_low", 'f', 0, {0}, 0},
-    {"range_high", 'f', 0, {0}, 0},            {"band", 'f', 0, {0}, 0}};
-static const Signature verdict_signature = {"held_verdict", 22, verdict_table, NULL};
+    {"range_high", 'f', 0, {0}, 0},            {"band", 'f', 0, {0}, 0},
+    {"rank_separation", 'f', 0, {0}, 0}};
+static const Signature verdict_signature = {"held_verdict", 23, verdict_table, NULL};
 
 static PyObject *held_verdict(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     (void)self;
@@ -4711,7 +4712,7 @@ static PyObject *held_verdict(PyObject *self, PyObject *const *args, Py_ssize_t 
     VerdictInput in = {&a.buffer[0].view, &a.buffer[1].view, &a.buffer[2].view, &a.buffer[3].view,
                        &a.buffer[4].view, &a.buffer[5].view, &a.buffer[7].view, &a.buffer[8].view,
                        &a.buffer[9].view, &a.buffer[10].view, &a.buffer[11].view, a.dim[DIM_N], a.dim[DIM_K],
-                       f[12], f[13], f[14], f[15], f[16], f[17], f[18], f[19], f[20], f[21]};
+                       f[12], f[13], f[14], f[15], f[16], f[17], f[18], f[19], f[20], f[21], f[22]};
     PyObject *mode = args[6];
     Py_ssize_t length = 0;
     const char *letters = PyUnicode_Check(mode) ? PyUnicode_AsUTF8AndSize(mode, &length) : NULL;
@@ -4961,7 +4962,7 @@ static PyMethodDef methods[] = {
      "held_verdict(factor, jacobian_normal, jacobian_tangent, mu, normal_velocities, tangential_velocities,\n"
      "             mode, lambda_n, lambda_t, a_n, a_t, dv, velocity_tolerance, mass_scale, bias_scale,\n"
      "             force_tolerance, acceleration_tolerance, eigenvalue_tolerance, rank_tolerance,\n"
-     "             range_low, range_high, band) -> int\n\n"
+     "             range_low, range_high, band, rank_separation) -> int\n\n"
      "frcontrol.stability.stable_verdicts' verdict on one solution where M has the Cholesky factor `factor`\n"
      "(upper): VERDICT_STABLE, VERDICT_UNSTABLE, VERDICT_NONE (not analysable) or VERDICT_DECLINED (the\n"
      "reference decides: more than two held rows, a rank or an eigenvalue's sign within round-off of\n"

@@ -100,6 +100,12 @@ round-off scale (``max_ab |J_r[a]| |U^-1| |U^-T| |J_c[b]|^T``, U M's Cholesky fa
 (Within round-off of a double root it widens by the square root of this: the real parts of a
 double root move by the square root of the discriminant's round-off.)"""
 
+VERDICT_RANK_SEPARATION = 1e-6
+"""[-] The compiled verdict takes two held rows as of rank 2 when their Gram matrix's smaller
+eigenvalue exceeds this times its larger (a singular-value ratio above 1e-3, far from
+:data:`RANK_TOLERANCE`'s 1e-10 and from the Gram matrix's round-off); other pairs go to the
+reference path, whose SVD decides their rank."""
+
 
 SpectrumMethod = Literal["cholesky", "pencil"]
 """How D's spectrum was found: through M's Cholesky factor, or QZ on the pencil (M singular)."""
@@ -620,7 +626,7 @@ def _held_verdict_compiled(problem: ContactProblem, solution: RigidSolution, sta
             problem.tangential_velocities, solution.mode, solution.lambda_n, solution.lambda_t, solution.a_n,
             solution.a_t, solution.dv, problem.velocity_tolerance, state.mass.scale, state.bias_scale,
             FORCE_TOLERANCE, ACCELERATION_TOLERANCE, EIGENVALUE_TOLERANCE, RANK_TOLERANCE,
-            *UNSCALED_EIGENVALUE_RANGE, VERDICT_ROUND_OFF_BAND)
+            *UNSCALED_EIGENVALUE_RANGE, VERDICT_ROUND_OFF_BAND, VERDICT_RANK_SEPARATION)
     except KernelError:  # arrays of another type or shape: the reference path reads (or refuses) them
         return _DECLINED
     return _VERDICTS[code]
@@ -710,6 +716,7 @@ __all__ = [
     "MASS_FACTORS_KEPT",
     "RANK_TOLERANCE",
     "UNSCALED_EIGENVALUE_RANGE",
+    "VERDICT_RANK_SEPARATION",
     "VERDICT_ROUND_OFF_BAND",
     "Stability",
     "boundary_layer_roots",

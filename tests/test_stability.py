@@ -468,12 +468,12 @@ def test_the_compiled_verdict_refuses_bad_arguments(monkeypatch):
     n, k = problem.n, problem.k
     extension = kernel.extension_function("held_verdict")
     numbers = (problem.velocity_tolerance, state.mass.scale, state.bias_scale, 1e-9, 1e-9, 1e-9, 1e-10,
-               1e-130, 1e130, 1e-8)
+               1e-130, 1e130, 1e-8, 1e-6)
     arrays = [state.mass.factor, problem.jacobian_normal, problem.jacobian_tangent, problem.mu,
               problem.normal_velocities, problem.tangential_velocities, solution.mode, solution.lambda_n,
               solution.lambda_t, solution.a_n, solution.a_t, solution.dv]
     assert extension(*arrays, *numbers) in (-1, 0, 1, 2)
-    with pytest.raises(KernelError, match="held_verdict takes 22 arguments, got 21"):
+    with pytest.raises(KernelError, match="held_verdict takes 23 arguments, got 22"):
         extension(*arrays, *numbers[:-1])
     bad = list(arrays)
     bad[7] = np.zeros(k + 1)
