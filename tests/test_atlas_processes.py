@@ -28,6 +28,10 @@ pytestmark = pytest.mark.slow  # real process pools stopped by signals and kills
 AXES = ["state.q.theta=0.2:2.9:40", "contacts.tip.mu=0:2:25"]
 SETS = {"state.v.x": -1.0}
 CHUNK = 25
+WHAT = "statics"
+"""A statics atlas: most of a millisecond per point, so a worker spends its time in its chunk (a
+solutions point takes some 15 us: a chunk's work would be shorter than its handing over, and a
+signal or a kill would land between chunks, or after the run)."""
 WAIT = 120.0
 """[s] The longest any run may take here (a hung run fails instead of blocking the suite)."""
 
@@ -38,8 +42,8 @@ def frc() -> list[str]:
 
 
 def atlas_args(out: Path, *extra: str) -> list[str]:
-    args = [*frc(), "atlas", "rod_on_table", "--set", "state.v.x=-1", "--chunk-size", str(CHUNK),
-            "--workers", "2", "--out", str(out), "--json"]
+    args = [*frc(), "atlas", "rod_on_table", "--set", "state.v.x=-1", "--what", WHAT, "--chunk-size",
+            str(CHUNK), "--workers", "2", "--out", str(out), "--json"]
     for axis in AXES:
         args += ["--vary", axis]
     return args + list(extra)
@@ -47,7 +51,7 @@ def atlas_args(out: Path, *extra: str) -> list[str]:
 
 @pytest.fixture(scope="module")
 def reference():
-    plan = build_atlas("rod_on_table", AXES, overrides=SETS, chunk_size=CHUNK)
+    plan = build_atlas("rod_on_table", AXES, overrides=SETS, chunk_size=CHUNK, what=WHAT)
     return plan, run_atlas(plan, where=AtlasWorkers(1))
 
 

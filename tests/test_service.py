@@ -391,7 +391,9 @@ def atlas_workers() -> list:
 
 @pytest.mark.slow
 def test_an_atlas_job_reports_progress_and_stops_when_cancelled(client):
-    body = {"scene": "rod_on_table", "set": {"state.v.x": -1},  # 90,000 points: seconds at any pace here
+    # 90,000 statics points (most of a millisecond each): a minute of work, where a solutions atlas
+    # of them takes about a second and could finish before its progress is seen three times
+    body = {"scene": "rod_on_table", "set": {"state.v.x": -1}, "what": "statics",
             "vary": ["state.q.theta=0.3:2.8:300", "contacts.tip.mu=0:2:300"], "chunk_size": 16}
     job = client.post("/atlas", json=body).json()
     seen = []
@@ -420,9 +422,10 @@ def test_an_atlas_job_reports_progress_and_stops_when_cancelled(client):
 
 @pytest.mark.slow
 def test_an_atlas_chunk_past_the_time_limit_fails_its_job(strict_client):
-    body = {"scene": "rod_on_table", "set": {"state.v.x": -1},
+    body = {"scene": "rod_on_table", "set": {"state.v.x": -1}, "what": "statics",
             "vary": ["state.q.theta=0.3:2.8:300", "contacts.tip.mu=0:2:300"], "chunk_size": 90000}
-    # 90,000 points in one chunk: several seconds of a worker's time at any atlas speed here
+    # 90,000 statics points in one chunk: a minute of a worker's time (a solutions atlas of them
+    # takes about a second, within the limit)
     job = strict_client.post("/atlas", json=body).json()
     assert strict_client.post("/atlas", json=body).status_code == 429  # one job at a time here
     job = finished(strict_client, job)
