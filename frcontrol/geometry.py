@@ -33,7 +33,6 @@ import math
 from typing import Any
 
 import numpy as np
-import scipy.spatial
 
 from frcontrol.errors import InputError
 from frcontrol.kernel import backend, extension_function, twin
@@ -276,6 +275,8 @@ def hull_facets(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Raises:
         InputError: the points span less than ``d`` dimensions (Qhull's error, wrapped).
     """
+    import scipy.spatial  # here: its import (some 50 ms) is paid only where a hull is asked for
+
     try:
         hull = scipy.spatial.ConvexHull(points)
     except scipy.spatial.QhullError as error:

@@ -389,6 +389,7 @@ def warm_up() -> None:
     Also before a worker's memory limit is set: the libraries' address space is then its own.
     """
     import scipy.linalg
+    import scipy.spatial  # noqa: F401  (the statics' hulls import it on first use)
 
     import frcontrol.answers  # noqa: F401
     import frcontrol.atlas  # noqa: F401
