@@ -413,7 +413,7 @@ def build_mode_system(problem: ContactProblem, mode: str) -> ModeSystem:
     )
 
 
-class ChildSystems(list):  # type: ignore[type-arg]  # a list of ModeSystem
+class ChildSystems(list[ModeSystem]):
     """Children's systems (a list of :class:`ModeSystem`), with their ``A`` and ``c`` stacked as built.
 
     ``A`` (count, rows, nx) and ``c`` (count, rows): each child's ``A`` and ``c`` is a slice of
