@@ -4460,7 +4460,7 @@ done:
  * held_verdict: frcontrol.stability.stable_verdicts' verdict on one rigid solution, where M has a
  * Cholesky factor (the reference: stability._held_spectrum and _signs, on _state_terms). The
  * solution's scales and tolerances, the impending checks and the held rows J_r and columns J_c
- * are the reference's, operation for operation; D = J_r M^-1 J_c^T by the factor's two triangular
+ * are the reference's (eig_tol to an ulp: Python's ** calls pow); D = J_r M^-1 J_c^T by the factor's two triangular
  * solves. One held row: D's one eigenvalue is D (the reference's closed form). Two held rows of
  * rank 2 (their Gram matrix's smaller eigenvalue above `separation` times its larger, far from the rank
  * tolerance): D's eigenvalues, which the reference's row-space restriction U^T D U shares, by the
@@ -4658,7 +4658,7 @@ static int verdict_of(const VerdictInput *in, const char *mode) {
     if (!isfinite(j_scale) || (r == 1 && !(j_r_size > in->rank_rel * j_scale))) {
         return VERDICT_DECLINED; /* one row of rank 0: the reference's SVD decides */
     }
-    double eig_tol = in->eig_rel * (pow(j_scale, 2.0) / in->mass_scale);
+    double eig_tol = in->eig_rel * (j_scale * j_scale / in->mass_scale); /* Python's ** may differ by an ulp */
     double x[VERDICT_MAX_N], D[VERDICT_MAX_ROWS * VERDICT_MAX_ROWS], size = 0.0;
     for (int b = 0; b < r; b++) {
         verdict_solve(in->factor, n, cols + b * n, x);
@@ -4672,7 +4672,11 @@ static int verdict_of(const VerdictInput *in, const char *mode) {
     }
     verdict_size(in->factor, n, r, rows, cols, &size);
     double re[VERDICT_MAX_ROWS], slack;
-    if (!isfinite(size) || verdict_real_parts(in, r, rows, D, size, j_scale, re, &slack) != 0) {
+    int finite = isfinite(size) && isfinite(eig_tol);
+    for (int e = 0; e < r * r; e++) {
+        finite &= isfinite(D[e]); /* a NaN coefficient (mu) would fail every comparison below */
+    }
+    if (!finite || verdict_real_parts(in, r, rows, D, size, j_scale, re, &slack) != 0) {
         return VERDICT_DECLINED;
     }
     int negative = 0, zero = 0;
@@ -4717,7 +4721,11 @@ static PyObject *held_verdict(PyObject *self, PyObject *const *args, Py_ssize_t 
     Py_ssize_t length = 0;
     const char *letters = PyUnicode_Check(mode) ? PyUnicode_AsUTF8AndSize(mode, &length) : NULL;
     PyErr_Clear();
-    int verdict = letters == NULL || length != in.k ? VERDICT_DECLINED : verdict_of(&in, letters);
+    int fits = letters != NULL && length == in.k; /* k bytes, each a mode letter: k letters */
+    for (Py_ssize_t i = 0; fits && i < length; i++) {
+        fits = strchr("SLRF", letters[i]) != NULL && letters[i] != '\0';
+    }
+    int verdict = fits ? verdict_of(&in, letters) : VERDICT_DECLINED;
     result = PyLong_FromLong(verdict);
 done:
     release_args(&a);

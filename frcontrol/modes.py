@@ -212,7 +212,8 @@ class ContactProblem:
 
         Shared with the problems :meth:`with_friction` makes; one made by ``dataclasses.replace``
         starts empty. (:func:`frcontrol.stability.stable_verdicts` keeps M's factor and the bias's
-        scale here.)
+        scale here.) As :attr:`kernel_cache`, it holds for a problem not changed in place: make a
+        new problem for another state, never write into one's arrays.
         """
         return {}
 

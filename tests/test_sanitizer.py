@@ -62,6 +62,8 @@ SANITIZED_TESTS = (
     "tests/test_stability.py::test_the_compiled_verdict_leaves_an_eigenvalue_on_its_tolerance_to_the_reference",
     "tests/test_stability.py::test_classify_solutions_is_stability_of_on_every_shipped_scene",
     "tests/test_stability.py::test_the_compiled_verdict_refuses_bad_arguments",
+    "tests/test_stability.py::test_a_wrong_mode_is_refused_even_after_an_impending_contact",
+    "tests/test_stability.py::test_a_nan_friction_on_two_sliding_contacts_is_not_given_a_verdict",
 )
 """The tests run against the sanitized build: every function of the extension, on good and bad
 arguments."""

@@ -492,3 +492,48 @@ def test_the_compiled_verdict_refuses_bad_arguments(monkeypatch):
     with pytest.raises(InputError, match="a mode is a string of the letters S, L, R, F"):
         stable_verdicts(problem, [replace(solution, mode="X" * k)])
     assert n == state.mass.factor.shape[0]
+
+
+def _sliding_contacts(mu: list[float]) -> ContactProblem:
+    """k unit contacts on a unit mass, each normal along a coordinate, sliding toward +t."""
+    k = len(mu)
+    eye = np.eye(k)
+    return ContactProblem(
+        coordinates=tuple(f"q{i}" for i in range(k)), contacts=tuple(f"c{i}" for i in range(k)), inputs=(),
+        mass_matrix=eye, bias=np.zeros(k), input_map=np.zeros((k, 0)), jacobian_normal=eye,
+        jacobian_tangent=np.roll(eye, 1, axis=0), drift_normal=np.zeros(k), drift_tangent=np.zeros(k),
+        normal_velocities=np.zeros(k), tangential_velocities=np.ones(k), mu=np.array(mu), lower=np.zeros(0),
+        upper=np.zeros(0))
+
+
+@pytest.mark.parametrize(("mode", "k"), [("Rx", 2), ("F?", 2), ("R\u00e9", 3)])
+def test_a_wrong_mode_is_refused_even_after_an_impending_contact(mode, k):
+    # the first contact is held with lam_N = 0 (impending separation, which ends the reference's
+    # walk over the contacts); the mode is still not one of this problem's: a wrong letter, or two
+    # letters (one of them two bytes long in UTF-8) for three contacts
+    problem = _sliding_contacts([0.3] * k)
+    solution = RigidSolution(mode, np.zeros(k), np.array([0.0] + [1.0] * (k - 1)), np.zeros(k), np.ones(k),
+                             np.ones(k), 0, "none", np.zeros(0), 0.0, 0.0)
+    with pytest.raises(InputError, match="mode"):
+        stability_of(problem, solution)
+    with pytest.raises(InputError, match="mode"):
+        stable_verdicts(problem, [solution])
+
+
+def test_a_nan_friction_on_two_sliding_contacts_is_not_given_a_verdict(monkeypatch):
+    # D's columns are NaN: the compiled call declines (a NaN fails every comparison, which would
+    # read as stable), and the reference path answers as it does on the NumPy kernel
+    problem = _sliding_contacts([float("nan"), 0.3])
+    solution = RigidSolution("RR", np.zeros(2), np.ones(2), np.zeros(2), np.ones(2), np.ones(2), 0, "none",
+                             np.zeros(0), 0.0, 0.0)
+    if kernel.compiled is not None:
+        assert kernel.COMPILED.held_verdict(problem, solution, _state_terms(problem)) is _DECLINED
+
+    def outcome(run):
+        try:
+            return run()
+        except Exception as err:  # noqa: BLE001 - whatever the reference does, both paths must do
+            return type(err).__name__
+
+    reference = outcome(lambda: _reference_verdicts(problem, [solution], monkeypatch))
+    assert outcome(lambda: stable_verdicts(problem, [solution])) == reference
