@@ -327,7 +327,9 @@ class DynamicResponse:
         """The feasible modes stacked for point location (:func:`build_query_table`), built once.
 
         Built on the first query, not with the analysis (about ten queries' cost, that an analysis
-        never queried does not pay); ``timings["query_table"]`` then holds its time [s] (0 before).
+        never queried does not pay); ``timings["query_table"]`` then holds its time [s] (0 before;
+        not part of ``timings["total"]``, the analysis's own time; a copy made by
+        ``dataclasses.replace`` shares the timings and builds its own table).
         """
         t0 = time.perf_counter()
         table = build_query_table(self.problem, self.feasible_modes)
