@@ -4498,7 +4498,7 @@ static double verdict_scale(const Py_buffer *const *vectors, const Py_ssize_t *c
 enum { ROWS_IMPENDING = -1, ROWS_DECLINED = -2 };
 
 /* The held rows (rows, n) and columns of the mode, as _constraint_rows: their count, ROWS_IMPENDING
- * at an impending change, or ROWS_DECLINED (a letter not S, L, R, F; more than two rows). */
+ * at an impending change, or ROWS_DECLINED (more than two rows; held_verdict checked the letters). */
 static int verdict_rows(const VerdictInput *in, const char *mode, double force_tol, double accel_tol,
                         double *rows, double *cols) {
     int r = 0, over = 0;
@@ -4511,9 +4511,6 @@ static int verdict_rows(const VerdictInput *in, const char *mode, double force_t
                 return ROWS_IMPENDING;
             }
             continue;
-        }
-        if (letter != 'F' && letter != 'L' && letter != 'R') {
-            return ROWS_DECLINED;
         }
         if (lam_n <= force_tol || (letter == 'F' && fabs(at1(in->lam_t, i)) >= mu * lam_n - force_tol) ||
             (letter != 'F' && fabs(at1(in->vt, i)) <= in->vtol && fabs(at1(in->a_t, i)) <= accel_tol)) {
@@ -4674,7 +4671,7 @@ static int verdict_of(const VerdictInput *in, const char *mode) {
     double re[VERDICT_MAX_ROWS], slack;
     int finite = isfinite(size) && isfinite(eig_tol);
     for (int e = 0; e < r * r; e++) {
-        finite &= isfinite(D[e]); /* a NaN coefficient (mu) would fail every comparison below */
+        finite = finite && isfinite(D[e]); /* a NaN coefficient (mu) fails every comparison below */
     }
     if (!finite || verdict_real_parts(in, r, rows, D, size, j_scale, re, &slack) != 0) {
         return VERDICT_DECLINED;

@@ -326,8 +326,8 @@ class DynamicResponse:
     def query(self) -> QueryTable:
         """The feasible modes stacked for point location (:func:`build_query_table`), built once.
 
-        Built on the first query, not with the analysis (about ten queries' cost, that an analysis
-        never queried does not pay); ``timings["query_table"]`` then holds its time [s] (0 before;
+        Built on the first query, not with the analysis (from ten queries' cost to hundreds, that an
+        analysis never queried does not pay); ``timings["query_table"]`` then holds its time [s] (0 before;
         not part of ``timings["total"]``, the analysis's own time; a copy made by
         ``dataclasses.replace`` shares the timings and builds its own table).
         """

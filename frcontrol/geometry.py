@@ -275,7 +275,7 @@ def hull_facets(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Raises:
         InputError: the points span less than ``d`` dimensions (Qhull's error, wrapped).
     """
-    import scipy.spatial  # here: its import (some 50 ms) is paid only where a hull is asked for
+    import scipy.spatial  # here: its import (some 60 ms) is paid only where a hull is asked for
 
     try:
         hull = scipy.spatial.ConvexHull(points)

@@ -188,8 +188,8 @@ LAZY_IMPORTS: dict[tuple[str, str], str] = {
     ("frcontrol.scene_schema", "pydantic_core"): "the scene validator is compiled at the first scene "
                                                  "load: `frc --help` loads no pydantic-core",
     ("frcontrol.geometry", "scipy.spatial"): "Qhull serves the statics' wrench hulls alone: the engine "
-                                             "imports without it (60 ms of CPU for every command and "
-                                             "atlas worker)",
+                                             "imports without it (60 ms of CPU for the commands and "
+                                             "atlas workers that need no hull nor scipy.integrate)",
 }
 """Every import inside a function, as ``(importer, imported) -> the reason it is not at the top``.
 

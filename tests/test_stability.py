@@ -506,11 +506,12 @@ def _sliding_contacts(mu: list[float]) -> ContactProblem:
         upper=np.zeros(0))
 
 
-@pytest.mark.parametrize(("mode", "k"), [("Rx", 2), ("F?", 2), ("R\u00e9", 3)])
+@pytest.mark.parametrize(("mode", "k"), [("Rx", 2), ("F?", 2), ("R\u00e9", 3), ("R\x00", 2)])
 def test_a_wrong_mode_is_refused_even_after_an_impending_contact(mode, k):
     # the first contact is held with lam_N = 0 (impending separation, which ends the reference's
-    # walk over the contacts); the mode is still not one of this problem's: a wrong letter, or two
-    # letters (one of them two bytes long in UTF-8) for three contacts
+    # walk over the contacts); the mode is still not one of this problem's: a wrong letter (a NUL
+    # too, which C's string functions read as an end), or two letters (one of them two bytes long
+    # in UTF-8) for three contacts
     problem = _sliding_contacts([0.3] * k)
     solution = RigidSolution(mode, np.zeros(k), np.array([0.0] + [1.0] * (k - 1)), np.zeros(k), np.ones(k),
                              np.ones(k), 0, "none", np.zeros(0), 0.0, 0.0)
