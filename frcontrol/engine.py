@@ -1413,8 +1413,8 @@ def solutions_at(
 def build_query_table(problem: ContactProblem, feasible: Sequence[ModeAnalysis]) -> QueryTable:
     """The feasible modes stacked for point location (:mod:`frcontrol.query`).
 
-    :attr:`DynamicResponse.query` builds it on an analysis's first query (about the cost of ten
-    queries; ``timings`` then reports it as ``query_table``).
+    :attr:`DynamicResponse.query` builds it on an analysis's first query (ten to hundreds of
+    queries' cost; ``timings`` then reports it as ``query_table``).
     """
     modes = [QueryMode(m.mode, m.system, m.response, m.ambiguous_outputs) for m in feasible]
     return QueryTable(problem, modes, zero_row_tolerance=ZERO_ROW_TOLERANCE,
