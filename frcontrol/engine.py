@@ -822,8 +822,8 @@ class _ModeEnumerator:
         rows that moves the prefix's null space (:func:`letter_rows_kept`); children with the
         same guess are certified together. A child that :func:`rebalance_undecided` might balance
         is left to the SVD. ``keep``: record the rows kept (for a partial child, whose own children's
-        certificates start from them). A full mode certified here and found feasible still reports
-        the SVD's response (:meth:`evaluate`); an infeasible one is spared its SVD.
+        certificates start from them). A full mode certified here reports its certificate's response
+        (:meth:`evaluate`).
         """
         open_ = [i for i, response in enumerate(responses) if response is None and not balance[i]]
         base, null = self.kept.get(prefix), self.null_spaces.get(prefix)
@@ -874,41 +874,15 @@ class _ModeEnumerator:
     def evaluate(self, modes: list[str]) -> None:
         """Analyse full modes (siblings): responses, domains, and whether each T_c has an interior.
 
-        Each is tested in turn; then the feasible ones whose response was certified get the SVD's
-        (the reported response), all at once (:meth:`svd_responses`); then each is finished in order.
+        Each is tested, then finished, in order. A mode certified by :meth:`prepare` reports its
+        certificate's response (no SVD): its solutions are the SVD's to round-off and its ``w`` an
+        orthonormal basis of the same null space (scaled coordinates), the QR's instead of the SVD's.
         """
-        tested = []
         for mode in modes:
             self.counts["evaluated"] += 1
             if self.progress is not None:
                 self.progress(self.problem.scene_mode(mode))
-            tested.append((mode, *self.test(mode)))
-        t0 = time.perf_counter()
-        # the reported response and domain are the SVD's, as without the certificate (the same map
-        # up to round-off, its w in the SVD's basis)
-        redo = [j for j, (_, verdict, _, response) in enumerate(tested)
-                if verdict == "ok" and response.certified]
-        if redo:
-            for j, response in zip(redo, self.svd_responses([tested[j][2] for j in redo]), strict=True):
-                tested[j] = (*tested[j][:3], response)
-        self.timings["domain"] += time.perf_counter() - t0
-        for mode, verdict, system, response in tested:
-            self.finish(mode, verdict, system, response)
-
-    def svd_responses(self, systems: list[ModeSystem]) -> list[AffineSolution]:
-        """:meth:`response` of each system (same shape, one ``B``), by one :func:`solve_affine_stack`.
-
-        Its answers are :func:`solve_affine`'s bit for bit; a system it leaves undecided gets
-        :meth:`response`, which raises the error naming the mode.
-        """
-        if len(systems) == 1:
-            return [self.response(systems[0])]
-        stacked = solve_affine_stack(
-            np.stack([s.A for s in systems]), systems[0].B, np.stack([s.c for s in systems]),
-            rank_tolerance=self.rank_tolerance,
-            balance=needs_balancing(self.problem, [s.mode for s in systems]))
-        return [self.response(system) if response is None else response
-                for system, response in zip(systems, stacked, strict=True)]
+            self.finish(mode, *self.test(mode))
 
     def finish(self, mode: str, verdict: MarginVerdict, system: ModeSystem, response: AffineSolution) -> None:
         """Record a tested full mode: pruned, or feasible with its domain and whether T_c has an interior."""
