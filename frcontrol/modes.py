@@ -252,6 +252,51 @@ class ContactProblem:
         return counts if np.array_equal(valid, leading) else None
 
     @cached_property
+    def _letter_blocks(self) -> dict[tuple[int, str], LetterBlock]:
+        return {}
+
+    def letter_block(self, contact: int, letters: str) -> LetterBlock:
+        """The rows ``letters`` (S, L, R, F only) give contact ``contact``, one block per letter, found once.
+
+        Needs :attr:`letter_row_counts` (a letter's valid rows lead).
+        """
+        key = (contact, letters)
+        block = self._letter_blocks.get(key)
+        if block is None:
+            table, counts = self.row_table, self.letter_row_counts
+            if counts is None:
+                raise InputError("the problem's rows do not lead with each letter's valid ones")
+            chosen = [MODE_LETTERS.index(ch) for ch in letters]
+            own = [int(counts[contact, i]) for i in chosen]
+            labels = self.row_labels[contact]
+            block = self._letter_blocks[key] = LetterBlock(
+                equalities=table.equalities[contact, chosen],
+                equality_rhs=table.equality_rhs[contact, chosen],
+                inequalities=table.inequalities[contact, chosen],
+                inequality_rhs=table.inequality_rhs[contact, chosen],
+                motion=table.motion[contact, chosen],
+                counts=tuple(own),
+                labels=tuple(tuple(labels[i, :n]) for i, n in zip(chosen, own, strict=True)))
+        return block
+
+    @cached_property
+    def _padded_input_maps(self) -> dict[int, np.ndarray]:
+        return {}
+
+    def padded_input_map(self, rows: int) -> np.ndarray:
+        """``B`` of a mode with ``rows`` equations: the input map over the dynamics' rows, zeros below.
+
+        Read-only, shared by every mode of that size.
+        """
+        B = self._padded_input_maps.get(rows)
+        if B is None:
+            B = np.zeros((rows, self.m))
+            B[:self.n] = self.input_map
+            B.setflags(write=False)
+            self._padded_input_maps[rows] = B
+        return B
+
+    @cached_property
     def dynamics(self) -> np.ndarray:
         """The dynamics' rows of every mode's ``A`` (:func:`dynamics_rows`), built once."""
         return dynamics_rows(self)
@@ -481,31 +526,44 @@ def extend_child_systems(problem: ContactProblem, parent: ModeSystem, letters: s
     prefix, j = parent.mode, len(parent.mode)
     if counts is None or j >= problem.k or any(ch not in MODE_LETTERS for ch in letters):
         return build_child_systems(problem, prefix, letters)
-    table, count, nx = problem.row_table, len(letters), parent.A.shape[1]
-    chosen = [MODE_LETTERS.index(ch) for ch in letters]
+    block = problem.letter_block(j, letters)
+    count, nx = len(letters), parent.A.shape[1]
     rows, kept, width = parent.A.shape[0], parent.G.shape[0], parent.G.shape[0] + ROWS_PER_CONTACT
     A = np.empty((count, rows + 2, nx))
     A[:, :rows] = parent.A
-    A[:, rows:] = table.equalities[j, chosen]
+    A[:, rows:] = block.equalities
     c = np.empty((count, rows + 2))
     c[:, :rows] = parent.c
-    c[:, rows:] = table.equality_rhs[j, chosen]
-    B = np.zeros((rows + 2, problem.m))
-    B[:problem.n] = problem.input_map
-    B.setflags(write=False)
+    c[:, rows:] = block.equality_rhs
+    B = problem.padded_input_map(rows + 2)
     G, g = np.empty((count, width, nx)), np.empty((count, width))
     motion = np.empty((count, width), dtype=bool)
-    G[:, :kept], G[:, kept:] = parent.G, table.inequalities[j, chosen]
-    g[:, :kept], g[:, kept:] = parent.g, table.inequality_rhs[j, chosen]
-    motion[:, :kept], motion[:, kept:] = parent.motion, table.motion[j, chosen]
-    labels = problem.row_labels[j]
-    children = []
-    for i, (letter, index) in enumerate(zip(letters, chosen, strict=True)):
-        own = int(counts[j, index])
-        children.append(ModeSystem(mode=prefix + letter, A=A[i], B=B, c=c[i], G=G[i, :kept + own],
-                                   g=g[i, :kept + own], labels=parent.labels + tuple(labels[index, :own]),
-                                   motion=motion[i, :kept + own]))
+    G[:, :kept], G[:, kept:] = parent.G, block.inequalities
+    g[:, :kept], g[:, kept:] = parent.g, block.inequality_rhs
+    motion[:, :kept], motion[:, kept:] = parent.motion, block.motion
+    labels, own_rows = parent.labels, zip(letters, block.counts, block.labels, strict=True)
+    children = [ModeSystem(mode=prefix + letter, A=A[i], B=B, c=c[i], G=G[i, :kept + own],
+                           g=g[i, :kept + own], labels=labels + own_labels, motion=motion[i, :kept + own])
+                for i, (letter, own, own_labels) in enumerate(own_rows)]
     return ChildSystems.of(children, A, c)
+
+
+@dataclass(frozen=True)
+class LetterBlock:
+    """One contact's rows in each of some letters (:meth:`ContactProblem.letter_block`).
+
+    ``equalities`` (count, 2, nx), ``equality_rhs`` (count, 2), ``inequalities`` (count, 3, nx),
+    ``inequality_rhs`` and ``motion`` (count, 3) as the row table's; ``counts``: each letter's
+    valid (leading) inequality rows; ``labels``: theirs.
+    """
+
+    equalities: np.ndarray
+    equality_rhs: np.ndarray
+    inequalities: np.ndarray
+    inequality_rhs: np.ndarray
+    motion: np.ndarray
+    counts: tuple[int, ...]
+    labels: tuple[tuple[str, ...], ...]
 
 
 ROWS_PER_CONTACT = 3
