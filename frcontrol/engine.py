@@ -897,8 +897,12 @@ class _ModeEnumerator:
                 named=problem.named_mode(mode)))
             return
         t0 = time.perf_counter()
-        # the domain in NumPy on either kernel (the test's rows decided only the verdict)
-        domain = poly.Polytope(*domain_rows(system, response, self.bounds)[:4])
+        # the domain in NumPy on either kernel (the test's rows decided only the verdict); a numerically
+        # constant row (ZERO_ROW_TOLERANCE) is judged by its right side alone, as the test judged it: its
+        # coefficients, round-off of one factorisation or another, are zero
+        H, h, A_eq, b_eq, _ = domain_rows(system, response, self.bounds)
+        H[_row_norms(H)[1]] = 0.0
+        domain = poly.Polytope(H, h, A_eq, b_eq)
         ball = poly.chebyshev_ball(domain, settings=settings)
         full = bool(ball.found and ball.radius > DOMAIN_TOLERANCE and domain.A_eq.shape[0] == 0)
         timings["domain"] += time.perf_counter() - t0

@@ -255,10 +255,11 @@ class ContactProblem:
     def _letter_blocks(self) -> dict[tuple[int, str], LetterBlock]:
         return {}
 
-    def letter_block(self, contact: int, letters: str) -> LetterBlock:
-        """The rows ``letters`` (S, L, R, F only) give contact ``contact``, one block per letter, found once.
+    def _letter_block(self, contact: int, letters: str) -> LetterBlock:
+        """The rows ``letters`` give contact ``contact``, one block per letter, found once (read-only).
 
-        Needs :attr:`letter_row_counts` (a letter's valid rows lead).
+        For :func:`extend_child_systems`, which checks its arguments: ``0 <= contact < k``, letters
+        of S, L, R, F, and :attr:`letter_row_counts` not None (a letter's valid rows lead).
         """
         key = (contact, letters)
         block = self._letter_blocks.get(key)
@@ -277,6 +278,9 @@ class ContactProblem:
                 motion=table.motion[contact, chosen],
                 counts=tuple(own),
                 labels=tuple(tuple(labels[i, :n]) for i, n in zip(chosen, own, strict=True)))
+            for array in (block.equalities, block.equality_rhs, block.inequalities, block.inequality_rhs,
+                          block.motion):
+                array.setflags(write=False)
         return block
 
     @cached_property
@@ -526,7 +530,7 @@ def extend_child_systems(problem: ContactProblem, parent: ModeSystem, letters: s
     prefix, j = parent.mode, len(parent.mode)
     if counts is None or j >= problem.k or any(ch not in MODE_LETTERS for ch in letters):
         return build_child_systems(problem, prefix, letters)
-    block = problem.letter_block(j, letters)
+    block = problem._letter_block(j, letters)
     count, nx = len(letters), parent.A.shape[1]
     rows, kept, width = parent.A.shape[0], parent.G.shape[0], parent.G.shape[0] + ROWS_PER_CONTACT
     A = np.empty((count, rows + 2, nx))
@@ -550,7 +554,7 @@ def extend_child_systems(problem: ContactProblem, parent: ModeSystem, letters: s
 
 @dataclass(frozen=True)
 class LetterBlock:
-    """One contact's rows in each of some letters (:meth:`ContactProblem.letter_block`).
+    """One contact's rows in each of some letters (``ContactProblem._letter_block``).
 
     ``equalities`` (count, 2, nx), ``equality_rhs`` (count, 2), ``inequalities`` (count, 3, nx),
     ``inequality_rhs`` and ``motion`` (count, 3) as the row table's; ``counts``: each letter's

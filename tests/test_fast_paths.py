@@ -13,6 +13,9 @@
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from conftest import needs_kernel
@@ -32,8 +35,17 @@ from frcontrol.modes import (
 )
 from frcontrol.scene import load_scene
 
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:  # the benchmarks beside the package; the checkout LAST (see test_peers)
+    sys.path.append(str(REPO))
+from benchmarks.contacts import snake_scene  # noqa: E402
+
 RTOL = 1e-8
 """Relative agreement of two factorisations' responses (round-off of a 30 x 30 solve)."""
+
+ROUND_OFF = 1e-12
+"""Agreement of two factorisations' responses, relative to their size and per unit of the condition
+number: about 4,500 machine epsilons (the largest seen on the suite's analyses: 1.1e-15)."""
 
 
 def _random_stack(rng: np.random.Generator, count: int, rows: int, nx: int, m: int, deficient: bool
@@ -161,7 +173,7 @@ def _w_map(a: resp.AffineSolution, b: resp.AffineSolution, A: np.ndarray) -> np.
     _, c_scale = resp._equilibrate(A)
     basis_a, basis_b = a.X_w / c_scale[:, None], b.X_w / c_scale[:, None]
     Q = basis_b.T @ basis_a
-    tolerance = RTOL * max(1.0, b.condition_number)
+    tolerance = ROUND_OFF * max(1.0, b.condition_number)
     np.testing.assert_allclose(Q.T @ Q, np.eye(Q.shape[1]), rtol=0, atol=tolerance)
     np.testing.assert_allclose(basis_b @ Q, basis_a, rtol=0, atol=tolerance)
     return Q
@@ -172,7 +184,7 @@ def _assert_same_response(a: resp.AffineSolution, b: resp.AffineSolution, A: np.
     assert (a.rank, a.case, a.consistent, a.E.shape, a.X_w.shape) == (b.rank, b.case, b.consistent, b.E.shape,
                                                                        b.X_w.shape)
     scale = 1.0 + np.abs(b.X_u).max(initial=0.0) + np.abs(b.x_0).max(initial=0.0)
-    tolerance = RTOL * max(1.0, b.condition_number) * scale
+    tolerance = ROUND_OFF * max(1.0, b.condition_number) * scale
     np.testing.assert_allclose(a.X_u, b.X_u, rtol=0, atol=tolerance)
     np.testing.assert_allclose(a.x_0, b.x_0, rtol=0, atol=tolerance)
     if a.E.shape[0]:
@@ -180,22 +192,48 @@ def _assert_same_response(a: resp.AffineSolution, b: resp.AffineSolution, A: np.
     return _w_map(a, b, A)
 
 
+def _unit_rows(P: poly.Polytope, Q: np.ndarray | None = None, m: int = 0) -> np.ndarray:
+    """``P``'s rows ``[A | b]`` divided by their norms; with ``Q``, its w columns (after ``m``
+    inputs) mapped by ``Q`` first."""
+    A = P.A.copy()
+    if Q is not None:
+        A[:, m:] = A[:, m:] @ Q
+    return np.hstack([A, P.b[:, None]]) / np.linalg.norm(A, axis=1)[:, None]
+
+
+def _assert_same_set(P: poly.Polytope, R: poly.Polytope, tolerance: float, Q: np.ndarray | None = None,
+                     m: int = 0) -> None:
+    """Two minimal forms of one polytope: the same unit rows, one for one, in any order (``R``'s w
+    mapped by ``Q``)."""
+    assert P.A.shape == R.A.shape and P.A_eq.shape == R.A_eq.shape
+    if not P.A.shape[0]:
+        return
+    ours, theirs = _unit_rows(P), _unit_rows(R, Q, m)
+    distance = np.abs(ours[:, None, :] - theirs[None, :, :]).max(axis=2)
+    nearest = distance.argmin(axis=1)
+    assert sorted(nearest.tolist()) == list(range(len(theirs)))  # one for one
+    assert distance.min(axis=1).max(initial=0.0) <= tolerance
+
+
 def _assert_same_mode(a: engine.ModeAnalysis, b: engine.ModeAnalysis) -> None:
     """Two analyses of one feasible mode: the same response and domain up to an orthogonal map of w.
 
-    D_c's rows over (u, w) are ``a``'s with their w columns mapped, to round-off; its Chebyshev
-    radius and whether it (and T_c) has an interior are the same.
+    D_c's rows over (u, w) are ``b``'s with their w columns mapped, to round-off, in its raw and
+    its minimal form; its Chebyshev radius, whether it (and T_c) has an interior, and T_c are the same.
     """
     Q = _assert_same_response(a.response, b.response, a.system.A)
     m = a.m
-    for P, R in ((a.raw_domain, b.raw_domain),):
-        scale = 1.0 + np.abs(R.A).max(initial=0.0) + np.abs(R.b).max(initial=0.0)
-        tolerance = RTOL * max(1.0, b.response.condition_number) * scale
-        np.testing.assert_allclose(P.A[:, :m], R.A[:, :m], rtol=0, atol=tolerance)
-        np.testing.assert_allclose(P.A[:, m:], R.A[:, m:] @ Q, rtol=0, atol=tolerance)
-        np.testing.assert_allclose(P.b, R.b, rtol=0, atol=tolerance)
+    P, R = a.raw_domain, b.raw_domain
+    scale = 1.0 + np.abs(R.A).max(initial=0.0) + np.abs(R.b).max(initial=0.0)
+    tolerance = ROUND_OFF * max(1.0, b.response.condition_number) * scale
+    np.testing.assert_allclose(P.A[:, :m], R.A[:, :m], rtol=0, atol=tolerance)
+    np.testing.assert_allclose(P.A[:, m:], R.A[:, m:] @ Q, rtol=0, atol=tolerance)
+    np.testing.assert_allclose(P.b, R.b, rtol=0, atol=tolerance)
     assert (a.full_dimensional, a.inputs_full_dimensional) == (b.full_dimensional, b.inputs_full_dimensional)
     assert a.chebyshev_radius == pytest.approx(b.chebyshev_radius, rel=RTOL, abs=RTOL)
+    _assert_same_set(a.domain, b.domain, RTOL, Q, m)
+    if a.inputs_full_dimensional:
+        _assert_same_set(a.input_domain, b.input_domain, RTOL)
 
 
 def _assert_same_analysis(fast, slow) -> None:
@@ -346,8 +384,6 @@ def test_analyze_is_the_same_on_both_kernels(monkeypatch):
     """The tree's compiled fast paths (certified children and rows, the motion LP's rows) against
     NumPy on scenes: the same modes, verdicts and counts, and the same responses and domains to
     round-off, w up to an orthogonal map (the two QRs sum in other orders)."""
-    from benchmarks.contacts import snake_scene
-
     for scene in (load_scene("rhex_flip"), load_scene("snake_climb"), load_scene("table_on_ground"),
                   load_scene(snake_scene(6))):
         answers = []
@@ -594,8 +630,6 @@ def test_analyze_with_rows_certified_is_the_analyze_with_their_svds(monkeypatch)
     same responses and domains of the feasible modes to round-off (w up to an orthogonal map, as a
     certified mode reports its certificate's basis), on shipped scenes, snakes on the
     ground and random problems; and the certificate did answer for most of the snakes' modes."""
-    from benchmarks.contacts import snake_scene
-
     calls = {"asked": 0, "answered": 0}
     original = engine.certified_by_rows
 
