@@ -2188,8 +2188,11 @@ static double solve_kept(QRScratch *w, const double *B, const double *c, const l
             return HUGE_VAL; /* ||R_1^-1||_F >= 1 / |R_jj|: not certified */
         }
     }
+    /* R_1^T Y = [I, (diag(r) B)_S, (diag(r) c)_S] with R_1^T lower triangular: Y_I = R_1^-T is lower
+     * triangular too, so row t's entries past t in Y_I stay 0 and are not touched (only their squares,
+     * 0, would enter the sum) */
     double *Y = w->Y, sum = 0.0;
-    for (Py_ssize_t t = 0; t < q; t++) { /* R_1^T Y = [I, (diag(r) B)_S, (diag(r) c)_S], R_1^T lower */
+    for (Py_ssize_t t = 0; t < q; t++) {
         double *y = Y + t * width;
         Py_ssize_t i = kept == NULL ? t : (Py_ssize_t)kept[t];
         for (Py_ssize_t k = 0; k < width; k++) {
@@ -2197,15 +2200,22 @@ static double solve_kept(QRScratch *w, const double *B, const double *c, const l
         }
         for (Py_ssize_t l = 0; l < t; l++) {
             double a = w->M[t * nx + l]; /* R[l][t] */
-            for (Py_ssize_t k = 0; k < width; k++) {
-                y[k] -= a * Y[l * width + k];
+            const double *row = Y + l * width;
+            for (Py_ssize_t k = 0; k <= l; k++) {
+                y[k] -= a * row[k];
+            }
+            for (Py_ssize_t k = q; k < width; k++) {
+                y[k] -= a * row[k];
             }
         }
         double d = w->M[t * nx + t];
-        for (Py_ssize_t k = 0; k < width; k++) {
+        for (Py_ssize_t k = 0; k <= t; k++) {
             y[k] /= d;
         }
-        for (Py_ssize_t k = 0; k < q; k++) {
+        for (Py_ssize_t k = q; k < width; k++) {
+            y[k] /= d;
+        }
+        for (Py_ssize_t k = 0; k <= t; k++) {
             sum += y[k] * y[k];
         }
     }
