@@ -2056,6 +2056,7 @@ done:
 typedef struct {
     Py_ssize_t rows, nx, m;
     double *M, *tau, *V, *Y, *r, *s;
+    double *work; /* certified_by_rows' checks: a scaled row (nx) and its products (nx + m + 1) */
 } QRScratch;
 
 /* sum_i a[i] b[i] over n entries, in four interleaved partial sums (i mod 4) added pairwise at the end:
@@ -2294,7 +2295,7 @@ static PyObject *certified_children(PyObject *self, PyObject *const *args, Py_ss
         PyErr_NoMemory();
         goto done;
     }
-    QRScratch w = {rows, nx, m, memory, NULL, NULL, NULL, NULL, NULL};
+    QRScratch w = {rows, nx, m, memory, NULL, NULL, NULL, NULL, NULL, NULL};
     w.tau = w.M + nx * rows, w.V = w.tau + rows, w.Y = w.V + nx * (m + 1), w.r = w.Y + rows * width, w.s = w.r + rows;
     const double *A = a.data[0], *B = a.data[1], *c = a.data[2];
     double *X_u = a.data[3], *x_0 = a.data[4], *X_w = a.data[5], *bound = a.data[6];
@@ -2323,28 +2324,36 @@ done:
 enum { BY_ROWS_INFO = 7 };
 
 /* info[1..3] of one system: ||A_hat Q_2||_F and the residuals of V on every row; info[5] the scale and
- * info[6] ||[diag(r) B, diag(r) c]||_F. */
+ * info[6] ||[diag(r) B, diag(r) c]||_F. Per row, its products with the p columns of X_w and the m + 1 of
+ * V are summed together (over j in order: each product's sum is the one a column at a time gives). */
 static void by_rows_checks(const QRScratch *w, Py_ssize_t rows, const double *A, const double *B, const double *c,
                            const double *r, const double *X_w, double *info) {
     Py_ssize_t nx = w->nx, m = w->m, p = nx - w->rows;
     double dropped = 0.0, res_B = 0.0, res_c = 0.0, scale = 1.0, right2 = 0.0;
+    double *row = w->work, *sums = w->work + nx; /* sums: p for X_w, then m + 1 for V */
     for (Py_ssize_t i = 0; i < rows; i++) {
         const double *a = A + i * nx;
-        for (Py_ssize_t k = 0; k < p; k++) {
-            double sum = 0.0;
-            for (Py_ssize_t j = 0; j < nx; j++) {
-                sum += a[j] * r[i] * w->s[j] * X_w[j * p + k];
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            row[j] = a[j] * r[i] * w->s[j];
+        }
+        memset(sums, 0, (size_t)(p + m + 1) * sizeof(double));
+        for (Py_ssize_t j = 0; j < nx; j++) {
+            const double *x = X_w + j * p, *v = w->V + j * (m + 1);
+            for (Py_ssize_t k = 0; k < p; k++) {
+                sums[k] += row[j] * x[k];
             }
-            dropped += sum * sum;
+            for (Py_ssize_t k = 0; k <= m; k++) {
+                sums[p + k] += row[j] * v[k];
+            }
+        }
+        for (Py_ssize_t k = 0; k < p; k++) {
+            dropped += sums[k] * sums[k];
         }
         for (Py_ssize_t k = 0; k <= m; k++) {
-            double right = k < m ? B[i * m + k] * r[i] : c[i] * r[i], sum = 0.0;
+            double right = k < m ? B[i * m + k] * r[i] : c[i] * r[i];
             scale = fabs(right) > scale ? fabs(right) : scale;
             right2 += right * right;
-            for (Py_ssize_t j = 0; j < nx; j++) {
-                sum += a[j] * r[i] * w->s[j] * w->V[j * (m + 1) + k];
-            }
-            double d = right - sum;
+            double d = right - sums[p + k];
             if (k < m) {
                 res_B += d * d;
             } else {
@@ -2402,13 +2411,15 @@ static PyObject *certified_by_rows(PyObject *self, PyObject *const *args, Py_ssi
         }
     }
     Py_ssize_t width = q + m + 1;
-    memory = PyMem_Malloc((size_t)(nx * q + q + nx * (m + 1) + q * width + rows + nx) * sizeof(double));
+    memory = PyMem_Malloc((size_t)(nx * q + q + nx * (m + 1) + q * width + rows + nx + 2 * nx + m + 1) *
+                          sizeof(double));
     if (memory == NULL) {
         PyErr_NoMemory();
         goto done;
     }
-    QRScratch w = {q, nx, m, memory, NULL, NULL, NULL, NULL, NULL};
+    QRScratch w = {q, nx, m, memory, NULL, NULL, NULL, NULL, NULL, NULL};
     w.tau = w.M + nx * q, w.V = w.tau + q, w.Y = w.V + nx * (m + 1), w.r = w.Y + q * width, w.s = w.r + rows;
+    w.work = w.s + nx;
     const double *A = a.data[0], *B = a.data[1], *c = a.data[2];
     double *X_u = a.data[4], *x_0 = a.data[5], *X_w = a.data[6], *info = a.data[7];
     for (Py_ssize_t i = 0; i < count; i++) {
@@ -3788,7 +3799,7 @@ typedef struct {
 /* The block of deficient_mode's arrays; -1 with an error set. */
 static int deficient_scratch(const Problem *p, Deficient *d) {
     Py_ssize_t nx = p->nx, m = p->m, rows = INEQUALITY_ROWS * p->k, P = MAX_DEFICIENT_P;
-    Py_ssize_t qr = nx * nx + nx + nx * (m + 1) + nx * (nx + m + 1) + 2 * nx;
+    Py_ssize_t qr = nx * nx + nx + nx * (m + 1) + nx * (nx + m + 1) + 2 * nx + 2 * nx + m + 1;
     Py_ssize_t size = nx * m + 2 * nx * nx + 3 * nx + nx * m + nx + P * m + P + qr + 2 * (nx * m + nx + nx * P) +
                       BY_ROWS_INFO + (P + 1) * rows + rows + 1;
     double *at = d->memory = PyMem_Malloc((size_t)size * sizeof(double));
@@ -3806,7 +3817,7 @@ static int deficient_scratch(const Problem *p, Deficient *d) {
     d->cp = at, at += nx;
     d->E = at, at += P * m;
     d->e = at, at += P;
-    d->r = (QRScratch){0, nx, m, at, NULL, NULL, NULL, NULL, NULL}, at += qr;
+    d->r = (QRScratch){0, nx, m, at, NULL, NULL, NULL, NULL, NULL, NULL}, at += qr;
     d->X_u = at, at += nx * m;
     d->x0 = at, at += nx;
     d->X_w = at, at += nx * P;
@@ -3849,7 +3860,7 @@ static void compact_certified(const Scratch *s, const Problem *p, Deficient *d, 
     }
     QRScratch *r = &d->r;
     r->rows = q, r->nx = cols, r->tau = r->M + cols * q, r->V = r->tau + q, r->Y = r->V + cols * (m + 1);
-    r->r = r->Y + q * (q + m + 1), r->s = r->r + nx;
+    r->r = r->Y + q * (q + m + 1), r->s = r->r + nx, r->work = r->s + cols;
     by_rows_system(r, nx, d->T, d->Bp, d->cp, d->kept, 1.0 / (p->margin * p->tolerance), r->r, d->Xc_u, d->xc0,
                    d->Xc_w, d->info);
     Py_ssize_t own = cols - q; /* the reduced system's null directions (its X_w: (cols, own)) */

@@ -159,6 +159,46 @@ def friction_with_numbers(scene: Scene, overrides: Mapping[str, Any]) -> np.ndar
     return mu
 
 
+def state_with_numbers(scene: Scene, overrides: Mapping[str, Any]
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | None:
+    """The state ``(q, v)`` and the active contacts' coefficients with ``overrides`` set, or None.
+
+    The coefficients are None where no friction is set (the scene's).
+
+    A contact whose table gives no ``surface_point`` touches a surface through its own point at any
+    state (the loader places it there): when every contact is such, a state moves no contact into
+    or out of touch, so the problem at another state needs the state alone, not the scene made
+    with it (:func:`scene_with_numbers`). None for a scene with a contact on a fixed surface, a
+    value that is not a plain finite float, or a path that is not a coordinate's or a contact's
+    friction: :func:`scene_with_numbers` then makes the scene, with the loader's checks and errors.
+    """
+    follows = _FOLLOWS_STATE.get(scene)
+    if follows is None:
+        follows = _FOLLOWS_STATE[scene] = all(_pending_surfaces(scene))
+    if not follows:
+        return None
+    q, v = scene.q, scene.v
+    friction: dict[str, Any] = {}
+    for path, value in overrides.items():
+        if type(value) is not float or not math.isfinite(value):
+            return None
+        coordinate = _coordinate_path(path)
+        if coordinate is not None and coordinate[1] in scene.coordinate_names:
+            vector, name = coordinate
+            target = q.copy() if vector == "q" else v.copy()
+            target[scene.coordinate_names.index(name)] = value
+            q, v = (target, v) if vector == "q" else (q, target)
+        elif is_friction_path(path):
+            friction[path] = value
+        else:
+            return None
+    return q, v, (friction_with_numbers(scene, friction) if friction else None)
+
+
+_FOLLOWS_STATE: weakref.WeakKeyDictionary[Scene, bool] = weakref.WeakKeyDictionary()
+"""Per scene: whether every contact's surface follows the state (:func:`state_with_numbers`)."""
+
+
 def _friction_places(scene: Scene) -> tuple[dict[str, int], np.ndarray]:
     """Per contact name its place among the active contacts (-1: inactive), and their coefficients."""
     active = [c for c in scene.contacts if c.active]
@@ -235,4 +275,5 @@ __all__ = [
     "is_numeric_path",
     "numeric_syntax",
     "scene_with_numbers",
+    "state_with_numbers",
 ]

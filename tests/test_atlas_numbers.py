@@ -96,6 +96,35 @@ def test_a_numeric_sweep_loads_the_scene_once():
     assert [n for c in slow for n in c["count"]] == result.rows["count"]
 
 
+def test_a_state_moves_a_problem_without_a_scene_where_the_contacts_follow_it(monkeypatch):
+    # rod_on_table's tip touches a table through its own point at any pitch: a solutions atlas
+    # makes each pitch's problem from the state alone (no scene), the loaded scene's to the bit; a
+    # scene whose contact sits on a fixed surface (box_on_ground) makes the scene at each state
+    import frcontrol.atlas.points as points
+    from frcontrol.modes import ContactProblem
+    from frcontrol.scene_numbers import state_with_numbers
+
+    made = []
+    original = points.scene_with_numbers
+    monkeypatch.setattr(points, "scene_with_numbers", lambda *args: made.append(1) or original(*args))
+    plan = build_atlas("rod_on_table", ["state.q.theta=0.3:2.8:6", "state.v.theta=-0.5:0.5:2"],
+                       overrides={"state.v.x": -0.7})
+    paths = numeric_axes(plan)
+    for k in range(plan.size):
+        overrides, _ = plan.point(k)
+        _, problem = points.scene_at(plan, overrides, paths, scene_needed=False)
+        loaded = load_scene("rod_on_table", overrides={"state.v.x": -0.7, **overrides})
+        _same_problem(problem, ContactProblem.from_scene(loaded))
+    assert len(made) <= 1  # at most the first point's, made before any point to move from
+    box = load_scene("box_on_ground")
+    assert state_with_numbers(box, {"state.q.theta": 0.01}) is None
+    rod = load_scene("rod_on_table")
+    assert state_with_numbers(rod, {"state.q.theta": math.nan}) is None  # the loader's error, then
+    assert state_with_numbers(rod, {"gravity": 9.0}) is None
+    q, v, mu = state_with_numbers(rod, {"state.q.theta": 1.0, "contacts.tip.mu": 0.25})
+    assert q[rod.coordinate_names.index("theta")] == 1.0 and mu.tolist() == [0.25] and v is rod.v
+
+
 def test_a_locked_joint_or_a_mass_is_not_numeric_and_loads_the_scene():
     scene = load_scene("rhex_flip")
     assert not is_numeric_path(scene, "state.q.hip_front")  # locked: welded into the model
