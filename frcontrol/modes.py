@@ -133,30 +133,30 @@ class ContactProblem:
                 :func:`frcontrol.drives.resting_joint_torques`; zero without elastic drives).
         """
         indices = list(scene.active_indices if contacts is None else contacts)
-        state = scene.robot.state(scene.q if q is None else q, scene.v if v is None else v, indices)
         active = [scene.contacts[i] for i in indices]
         return cls(
             coordinates=scene.coordinate_names,
             contacts=tuple(c.name for c in active),
             inputs=scene.inputs.coordinates,
-            mass_matrix=state.mass_matrix,
-            bias=state.bias - _drive_torque(scene, drive_torque),
             input_map=scene.inputs.selection_transpose(scene.robot.nv),
-            jacobian_normal=state.jacobian_normal,
-            jacobian_tangent=state.jacobian_tangent,
-            drift_normal=state.drift_normal,
-            drift_tangent=state.drift_tangent,
-            normal_velocities=state.normal_velocities,
-            tangential_velocities=state.tangential_velocities,
             mu=np.array([c.mu for c in active], dtype=float),
             lower=scene.inputs.lower,
             upper=scene.inputs.upper,
             velocity_tolerance=velocity_tolerance,
             input_units=scene.inputs.units,
-            drives=_drives_report(scene, scene.v if v is None else v),
-            springs=scene.robot.springs.report(state.q, state.v),
             scene_contacts=tuple(c.name for c in scene.contacts),
+            **_state_fields(scene, scene.q if q is None else q, scene.v if v is None else v, indices,
+                            drive_torque),
         )
+
+    def at_state(self, scene: Scene, q: np.ndarray, v: np.ndarray) -> ContactProblem:
+        """``from_scene(scene, q, v)`` for this problem, made by ``from_scene(scene)``.
+
+        The state's arrays are found anew, every other field is shared. For a scene whose touching
+        contacts are the same at ``(q, v)`` as at its own state (the caller's to know:
+        :func:`frcontrol.scene_numbers.state_with_numbers` says where they are).
+        """
+        return replaced(self, **_state_fields(scene, q, v, scene.active_indices, None))
 
     def scene_mode(self, mode: str) -> str:
         """``mode`` (a letter per contact of this problem) over every scene contact, as outputs print it.
@@ -367,6 +367,18 @@ class ContactProblem:
         rows = np.vstack([eye[up], -eye[lo]])
         rhs = np.concatenate([self.upper[up], -self.lower[lo]])
         return rows.reshape(-1, m), rhs
+
+
+def _state_fields(scene: Scene, q: np.ndarray, v: np.ndarray, indices: Sequence[int],
+                  drive_torque: np.ndarray | None) -> dict[str, Any]:
+    """The fields of :class:`ContactProblem` that depend on the state ``(q, v)`` (and ``drive_torque``)."""
+    state = scene.robot.state(q, v, indices)
+    return {"mass_matrix": state.mass_matrix, "bias": state.bias - _drive_torque(scene, drive_torque),
+            "jacobian_normal": state.jacobian_normal, "jacobian_tangent": state.jacobian_tangent,
+            "drift_normal": state.drift_normal, "drift_tangent": state.drift_tangent,
+            "normal_velocities": state.normal_velocities,
+            "tangential_velocities": state.tangential_velocities,
+            "drives": _drives_report(scene, v), "springs": scene.robot.springs.report(state.q, state.v)}
 
 
 def _drives_report(scene: Scene, v: np.ndarray) -> dict[str, Any]:

@@ -168,6 +168,21 @@ def _same_problem(a, b):
             assert x == y, name
 
 
+@pytest.mark.parametrize("name", shipped_scene_names())
+def test_a_problem_at_another_state_is_the_scenes_problem_there(name):
+    # at_state: the state's arrays anew, the rest shared; from_scene's problem to the bit (drives,
+    # springs and elastic transmissions included), at states near the scene's
+    from frcontrol.modes import ContactProblem
+
+    scene = load_scene(name)
+    problem = ContactProblem.from_scene(scene)
+    rng = np.random.default_rng(sum(map(ord, name)))
+    for _ in range(3):
+        q = scene.q + rng.normal(scale=0.02, size=scene.q.shape)
+        v = scene.v + rng.normal(scale=0.3, size=scene.v.shape)
+        _same_problem(problem.at_state(scene, q, v), ContactProblem.from_scene(scene, q, v))
+
+
 @pytest.mark.parametrize("name, axes", [
     ("rod_on_table", ["state.q.theta=0.3:2.8:4", "contacts.tip.mu=0:2:3", "input.x=-1:1:2"]),
     ("box_on_ground", ["contacts.left.mu=0.2:0.9:3", "state.v.x=-0.5:0.5:3", "contacts.right.mu=0.1:0.4:2"]),

@@ -229,7 +229,7 @@ def _made_at(source: SceneSource, template: _Loaded, structural: dict[str, Any],
         problem = last.problem.with_friction(friction_with_numbers(
             last.scene, {k: v for k, v in numbers.items() if is_friction_path(k)}))
     elif changed:
-        problem = None if scene_needed else _problem_at_state(template.scene, numbers)
+        problem = None if scene_needed else _problem_at_state(template, numbers)
     scene, scene_numbers = last.scene, last.scene_numbers
     if problem is None or scene_needed:
         stale = _changed(scene_numbers, numbers)
@@ -241,17 +241,17 @@ def _made_at(source: SceneSource, template: _Loaded, structural: dict[str, Any],
     return (scene if scene_needed else None), problem
 
 
-def _problem_at_state(scene: Scene, numbers: dict[str, Any]) -> ContactProblem | None:
-    """The problem of ``scene`` with ``numbers`` set, from the state alone, or None.
+def _problem_at_state(template: _Loaded, numbers: dict[str, Any]) -> ContactProblem | None:
+    """The problem of ``template``'s scene with ``numbers`` set, from the state alone, or None.
 
     From the state where no contact moves into or out of touch
     (:func:`~frcontrol.scene_numbers.state_with_numbers`).
     """
-    state = state_with_numbers(scene, numbers)
+    state = state_with_numbers(template.scene, numbers)
     if state is None:
         return None
     q, v, mu = state
-    problem = _query().problem.from_scene(scene, q, v)
+    problem = template.problem.at_state(template.scene, q, v)
     return problem if mu is None else problem.with_friction(mu)
 
 
