@@ -10,8 +10,10 @@ not copied: the new record finds it again from its own fields.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import fields
 from functools import cache
+from operator import itemgetter
 from typing import Any, TypeVar
 
 from .errors import InputError
@@ -19,9 +21,13 @@ from .errors import InputError
 Record = TypeVar("Record")
 
 
+FieldReader = Callable[[dict[str, Any]], tuple[Any, ...]]
+"""Reads a record's field values, in field order, from its ``__dict__``."""
+
+
 @cache
-def _field_names(cls: type) -> tuple[str, ...]:
-    """The names of ``cls``'s fields, found once per class.
+def _field_names(cls: type) -> tuple[tuple[str, ...], frozenset[str], FieldReader]:
+    """The names of ``cls``'s fields (as a tuple and a set) and a reader of their values, found once.
 
     Raises:
         InputError: ``cls`` has a ``__post_init__`` or init-only fields (use ``dataclasses.replace``).
@@ -31,7 +37,8 @@ def _field_names(cls: type) -> tuple[str, ...]:
     names = tuple(f.name for f in fields(cls))
     if any(not f.init for f in fields(cls)):
         raise InputError(f"{cls.__name__} has fields outside __init__: use dataclasses.replace")
-    return names
+    read = itemgetter(*names) if len(names) > 1 else (lambda state: tuple(state[name] for name in names))
+    return names, frozenset(names), read
 
 
 def replaced(record: Record, **changes: Any) -> Record:
@@ -42,16 +49,15 @@ def replaced(record: Record, **changes: Any) -> Record:
             :func:`replaced` serves (module docstring).
     """
     cls = type(record)
-    names = _field_names(cls)  # type: ignore[arg-type]  # a class is hashable
-    unknown = set(changes).difference(names)
-    if unknown:
+    names, known, read = _field_names(cls)  # type: ignore[arg-type]  # a class is hashable
+    if not known.issuperset(changes):
+        unknown = set(changes).difference(known)
         raise InputError(f"{cls.__name__} has no field {sorted(unknown)[0]!r}; "
                          f"its fields: {', '.join(names)}")
-    state = record.__dict__
-    values = {name: state[name] for name in names}
-    values.update(changes)
     new = object.__new__(cls)
-    new.__dict__.update(values)
+    state = new.__dict__
+    state.update(zip(names, read(record.__dict__), strict=True))
+    state.update(changes)
     return new
 
 

@@ -182,17 +182,26 @@ def state_with_numbers(scene: Scene, overrides: Mapping[str, Any]
     for path, value in overrides.items():
         if type(value) is not float or not math.isfinite(value):
             return None
-        coordinate = _coordinate_path(path)
-        if coordinate is not None and coordinate[1] in scene.coordinate_names:
-            vector, name = coordinate
+        place = _state_place(path, scene.coordinate_names)
+        if place is not None:
+            vector, index = place
             target = q.copy() if vector == "q" else v.copy()
-            target[scene.coordinate_names.index(name)] = value
+            target[index] = value
             q, v = (target, v) if vector == "q" else (q, target)
         elif is_friction_path(path):
             friction[path] = value
         else:
             return None
     return q, v, (friction_with_numbers(scene, friction) if friction else None)
+
+
+@lru_cache(maxsize=1024)
+def _state_place(path: str, coordinates: tuple[str, ...]) -> tuple[str, int] | None:
+    """``("q", 2)`` for ``state.q.theta`` where ``theta`` is ``coordinates[2]``, else None (kept per path)."""
+    coordinate = _coordinate_path(path)
+    if coordinate is None or coordinate[1] not in coordinates:
+        return None
+    return coordinate[0], coordinates.index(coordinate[1])
 
 
 _FOLLOWS_STATE: weakref.WeakKeyDictionary[Scene, bool] = weakref.WeakKeyDictionary()

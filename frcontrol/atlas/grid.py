@@ -30,6 +30,7 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -193,14 +194,14 @@ class AtlasPlan:
     fingerprint: str = ""
     max_points: int = MAX_ATLAS_POINTS
 
-    @property
+    @cached_property
     def shape(self) -> tuple[int, ...]:
-        """The grid's shape, one entry per axis."""
+        """The grid's shape, one entry per axis (found once: a plan is not changed)."""
         return tuple(a.count for a in self.axes)
 
-    @property
+    @cached_property
     def size(self) -> int:
-        """The number of grid points."""
+        """The number of grid points (found once)."""
         return math.prod(self.shape)
 
     @property
