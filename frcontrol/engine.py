@@ -59,6 +59,7 @@ from .mode_batch import (
     interval_admissible,
 )
 from .modes import (
+    FRICTION_PLANS,
     VELOCITY_TOLERANCE,
     ContactProblem,
     ModeSystem,
@@ -1509,8 +1510,14 @@ def _problem_solutions_compiled(problem: ContactProblem, inputs: Any) -> list[Ri
     """
     cache = problem.kernel_cache
     plan = cache.get("one_call", _NO_PLAN)
-    if plan is _NO_PLAN:
-        plan = cache["one_call"] = _problem_plan(problem)
+    if plan is _NO_PLAN:  # the family's plan for these coefficients (ContactProblem.plans_by_friction)
+        plans, key = problem.plans_by_friction, problem.mu.tobytes()
+        plan = plans.get(key, _NO_PLAN)
+        if plan is _NO_PLAN:
+            if len(plans) >= FRICTION_PLANS:
+                plans.clear()
+            plan = plans[key] = _problem_plan(problem)
+        cache["one_call"] = plan
     if plan is None:
         return None
     try:

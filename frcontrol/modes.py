@@ -45,6 +45,10 @@ VELOCITY_TOLERANCE = 1e-9
 """[m/s] A contact velocity (normal or tangential) with magnitude <= this counts as zero."""
 
 
+FRICTION_PLANS = 1024
+"""The most compiled plans a problem's family keeps (:attr:`ContactProblem.plans_by_friction`)."""
+
+
 @dataclass(frozen=True)
 class ContactProblem:
     """The rigid-body contact problem of a scene's active contacts at one state.
@@ -149,14 +153,21 @@ class ContactProblem:
                             drive_torque),
         )
 
-    def at_state(self, scene: Scene, q: np.ndarray, v: np.ndarray) -> ContactProblem:
+    def at_state(self, scene: Scene, q: np.ndarray, v: np.ndarray, mu: np.ndarray | None = None
+                 ) -> ContactProblem:
         """``from_scene(scene, q, v)`` for this problem, made by ``from_scene(scene)``.
 
-        The state's arrays are found anew, every other field is shared. For a scene whose touching
+        The state's arrays are found anew, every other field is shared; ``mu``: other coefficients
+        [-] of its contacts (as :meth:`with_friction` of the result). For a scene whose touching
         contacts are the same at ``(q, v)`` as at its own state (the caller's to know:
         :func:`frcontrol.scene_numbers.state_with_numbers` says where they are).
         """
-        return replaced(self, **_state_fields(scene, q, v, scene.active_indices, None))
+        fields = _state_fields(scene, q, v, scene.active_indices, None)
+        if mu is not None:  # as with_friction(mu) of the result, at once
+            fields["mu"] = mu
+        problem = replaced(self, **fields)
+        problem.__dict__["plans_by_friction"] = self.plans_by_friction
+        return problem
 
     def scene_mode(self, mode: str) -> str:
         """``mode`` (a letter per contact of this problem) over every scene contact, as outputs print it.
@@ -204,6 +215,7 @@ class ContactProblem:
         """
         problem = replaced(self, mu=mu)
         problem.__dict__["state_cache"] = self.state_cache
+        problem.__dict__["plans_by_friction"] = self.plans_by_friction
         return problem
 
     @cached_property
@@ -214,6 +226,17 @@ class ContactProblem:
         starts empty. (:func:`frcontrol.stability.stable_verdicts` keeps M's factor and the bias's
         scale here.) As :attr:`kernel_cache`, it holds for a problem not changed in place: make a
         new problem for another state, never write into one's arrays.
+        """
+        return {}
+
+    @cached_property
+    def plans_by_friction(self) -> dict[bytes, Any]:
+        """The compiled kernel's plans of this problem's family, by their coefficients' bytes.
+
+        The family: this problem and those :meth:`with_friction` and :meth:`at_state` make from it,
+        which differ from it in friction and state only, as a plan does not (it holds the input
+        map, the limits and the coefficients): an atlas's points share their plans. At most
+        :data:`FRICTION_PLANS` are kept (then they are found again).
         """
         return {}
 

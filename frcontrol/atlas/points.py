@@ -40,7 +40,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cache
 from types import ModuleType
-from typing import TYPE_CHECKING, Any, Literal, get_args
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
 
 from ..errors import FrcontrolError
 from ..scene import Scene
@@ -105,9 +105,8 @@ class _Loaded:
         return known
 
 
-@dataclass(frozen=True)
-class _Made:
-    """A point made on the numeric path.
+class _Made(NamedTuple):
+    """A point made on the numeric path (a named tuple: one is made per point).
 
     The source and loaded scene it was made from (with the overrides that were not numbers), its
     numbers (``{path: value}``), its problem, and the last scene made with the numbers it was made
@@ -251,8 +250,7 @@ def _problem_at_state(template: _Loaded, numbers: dict[str, Any]) -> ContactProb
     if state is None:
         return None
     q, v, mu = state
-    problem = template.problem.at_state(template.scene, q, v)
-    return problem if mu is None else problem.with_friction(mu)
+    return template.problem.at_state(template.scene, q, v, mu)
 
 
 def _changed(before: dict[str, Any], after: dict[str, Any]) -> dict[str, Any]:
