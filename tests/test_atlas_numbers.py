@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import needs_kernel
 
 from frcontrol.atlas import AtlasWorkers, build_atlas, run_atlas
 from frcontrol.atlas.points import columns, evaluate_chunk, numeric_axes
@@ -270,3 +271,30 @@ def test_a_problem_with_other_friction_shares_its_states_cache():
 
     found = solutions_at(rough, {})
     assert stable_verdicts(rough, found) == stable_verdicts(replace(problem, mu=np.array([0.9])), found)
+
+
+@needs_kernel
+def test_a_problems_family_shares_its_plans_by_friction():
+    # with_friction and at_state make problems that share their compiled plans, one per coefficients;
+    # a plan found again gives the answers a new plan gives (the same solutions, to the bit)
+    from dataclasses import replace
+
+    from frcontrol.engine import solutions_at
+    from frcontrol.modes import ContactProblem
+
+    scene = load_scene("rod_on_table", overrides={"state.v.x": -1.0})
+    problem = ContactProblem.from_scene(scene)
+    q = scene.q.copy()
+    q[scene.coordinate_names.index("theta")] = 1.3
+    family = [problem.with_friction(np.array([0.4])), problem.at_state(scene, q, scene.v, np.array([0.4])),
+              problem.with_friction(np.array([0.7]))]
+    assert all(member.plans_by_friction is problem.plans_by_friction for member in family)
+    assert replace(problem, mu=np.array([0.4])).plans_by_friction is not problem.plans_by_friction
+    for member in family:
+        fresh = replace(member)  # its own, empty caches: a new plan
+        for a, b in zip(solutions_at(member, {}), solutions_at(fresh, {}), strict=True):
+            assert a.mode == b.mode and a.dv.tobytes() == b.dv.tobytes()
+            assert a.lambda_n.tobytes() == b.lambda_n.tobytes()
+    plans = problem.plans_by_friction
+    assert set(plans) == {np.array([0.4]).tobytes(), np.array([0.7]).tobytes()}
+    assert family[0].kernel_cache["one_call"] is family[1].kernel_cache["one_call"]

@@ -105,9 +105,9 @@ class Axis:
             return float(float(i) / div * delta + self.start)
         return float(float(i) * step + self.start)
 
-    @property
+    @cached_property
     def input_name(self) -> str | None:
-        """The input this axis varies, or None for a scene path."""
+        """The input this axis varies, or None for a scene path (found once)."""
         return self.path[len(INPUT_PREFIX):] if self.path.startswith(INPUT_PREFIX) else None
 
     def to_dict(self) -> dict[str, Any]:

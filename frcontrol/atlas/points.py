@@ -152,7 +152,8 @@ class _Scenes:
     def template(self, source: SceneSource, overrides: dict[str, Any]) -> _Loaded:
         """:meth:`get`, or at once the last point's loaded scene when it has these overrides."""
         last = self.last
-        if last is not None and last.source == source and last.structural.keys() == overrides.keys() \
+        if last is not None and (last.source is source or last.source == source) \
+                and last.structural.keys() == overrides.keys() \
                 and not _changed(last.structural, overrides):
             return last.template
         return self.get(source, overrides)
@@ -290,7 +291,9 @@ def solutions_columns(scene: Scene | None, problem: ContactProblem, inputs: Mapp
     ``scene`` is not read (``problem`` holds the state); it may be None.
     """
     query = _query()
-    found = sorted(query.engine.solutions_at(problem, inputs), key=lambda s: s.mode)
+    found = query.engine.solutions_at(problem, inputs)
+    if len(found) > 1:
+        found = sorted(found, key=lambda s: s.mode)
     stable = [None if v is None else bool(v) for v in query.stability.stable_verdicts(problem, found)]
     between = len(found) > 1
     within = any(s.ambiguity_dim > 0 for s in found)
