@@ -396,7 +396,9 @@ def _state_fields(scene: Scene, q: np.ndarray, v: np.ndarray, indices: Sequence[
                   drive_torque: np.ndarray | None) -> dict[str, Any]:
     """The fields of :class:`ContactProblem` that depend on the state ``(q, v)`` (and ``drive_torque``)."""
     state = scene.robot.state(q, v, indices)
-    return {"mass_matrix": state.mass_matrix, "bias": state.bias - _drive_torque(scene, drive_torque),
+    torque = _drive_torque(scene, drive_torque)
+    bias = state.bias if torque is _NO_TORQUE else state.bias - torque  # (x - 0.0 is x, to the bit)
+    return {"mass_matrix": state.mass_matrix, "bias": bias,
             "jacobian_normal": state.jacobian_normal, "jacobian_tangent": state.jacobian_tangent,
             "drift_normal": state.drift_normal, "drift_tangent": state.drift_tangent,
             "normal_velocities": state.normal_velocities,
@@ -411,12 +413,16 @@ def _drives_report(scene: Scene, v: np.ndarray) -> dict[str, Any]:
     return drives_report(scene.drives, dict(zip(scene.coordinate_names, v, strict=True)))
 
 
+_NO_TORQUE = 0.0
+""":func:`_drive_torque` of a scene without elastic transmissions (this very float)."""
+
+
 def _drive_torque(scene: Scene, given: np.ndarray | None) -> np.ndarray | float:
-    """The elastic transmissions' known joint torques (0 when the scene has none)."""
+    """The elastic transmissions' known joint torques (:data:`_NO_TORQUE` when the scene has none)."""
     if given is not None:
         return np.asarray(given, dtype=float)
     if not any(d.elastic for d in scene.drives.values()):
-        return 0.0
+        return _NO_TORQUE
     return resting_joint_torques(scene.drives, scene.coordinate_names)
 
 
