@@ -759,6 +759,7 @@ class _ModeEnumerator:
         self.bounds = problem.input_bound_rows()
         self.kernel = backend()  # read once for the whole tree
         self.lps = margin_lps(settings, self.kernel)  # the motion LPs' lean path, made once
+        self.margin = self.kernel.mode_margin  # mode_margin on this kernel (settings given)
         self.prepared: dict[str, tuple[ModeSystem, AffineSolution | None]] = {}
         self.deficient: set[str] = set()  # tested modes whose equalities lack full row rank
         self.kept: dict[str, np.ndarray] = {}  # a certified mode's independent rows (certified_by_rows)
@@ -867,8 +868,7 @@ class _ModeEnumerator:
         self.timings["response"] += t1 - t0
         if not response.consistent:
             return "freedom", system, response
-        verdict = mode_margin(system, response, self.bounds, settings=self.settings,
-                              kernel=self.kernel, lps=self.lps).verdict
+        verdict = self.margin(system, response, self.bounds, self.settings, self.lps).verdict
         self.timings["feasibility"] += time.perf_counter() - t1
         return verdict, system, response
 

@@ -204,7 +204,15 @@ class ContactProblem:
         if len(mode) < self.k:
             assigned = zip(self.contacts[:len(mode)], mode, strict=True)
             return f"{mode} ({', '.join(f'{contact} {letter}' for contact, letter in assigned)})"
-        return mode_label(self.scene_mode(mode), self.scene_contacts or self.contacts)
+        scene, names = self.scene_mode(mode), self._label_names
+        if len(scene) != len(names):  # mode_label's error
+            return mode_label(scene, self.scene_contacts or self.contacts)
+        return f"{scene} ({', '.join(map(str.__add__, names, scene))})"  # mode_label's words
+
+    @cached_property
+    def _label_names(self) -> tuple[str, ...]:
+        """Each contact's name and a space, as :func:`mode_label` puts it before the contact's letter."""
+        return tuple(f"{name} " for name in self.scene_contacts or self.contacts)
 
     def with_friction(self, mu: np.ndarray) -> ContactProblem:
         """The same problem with other Coulomb coefficients [-] (k,) of its contacts.
