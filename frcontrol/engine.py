@@ -1511,7 +1511,7 @@ def _problem_solutions_compiled(problem: ContactProblem, inputs: Any) -> list[Ri
     cache = problem.kernel_cache
     plan = cache.get("one_call", _NO_PLAN)
     if plan is _NO_PLAN:  # the family's plan for these coefficients (ContactProblem.plans_by_friction)
-        plans, key = problem.plans_by_friction, problem.mu.tobytes()
+        plans, key = problem.plans_by_friction, np.asarray(problem.mu, dtype=float).tobytes()
         plan = plans.get(key, _NO_PLAN)
         if plan is _NO_PLAN:
             if len(plans) >= FRICTION_PLANS:

@@ -218,8 +218,9 @@ class ContactProblem:
         """The same problem with other Coulomb coefficients [-] (k,) of its contacts.
 
         Nothing else depends on friction: the state's arrays are shared with this problem (a
-        problem is not changed in place), and so is :attr:`state_cache`; what is found once per
-        problem (the row table, the kernel's plan) is found again for the new one.
+        problem is not changed in place), and so are :attr:`state_cache` and
+        :attr:`plans_by_friction` (the kernel's plans, by coefficients); what is found once per
+        problem (the row table) is found again for the new one.
         """
         problem = replaced(self, mu=mu)
         problem.__dict__["state_cache"] = self.state_cache

@@ -298,3 +298,10 @@ def test_a_problems_family_shares_its_plans_by_friction():
     plans = problem.plans_by_friction
     assert set(plans) == {np.array([0.4]).tobytes(), np.array([0.7]).tobytes()}
     assert family[0].kernel_cache["one_call"] is family[1].kernel_cache["one_call"]
+    # coefficients as a list, or as integers whose bytes are another float's: their own plans
+    rough = ContactProblem.from_scene(load_scene("rod_on_table", overrides={"state.v.x": -1.0,
+                                                                            "contacts.tip.mu": 1.0}))
+    expected = [s.dv.tobytes() for s in solutions_at(rough, {})]
+    solutions_at(problem.with_friction(np.array([5e-324])), {})  # the bytes of the integer 1
+    for mu in (np.array([1]), [1.0]):
+        assert [s.dv.tobytes() for s in solutions_at(problem.with_friction(mu), {})] == expected

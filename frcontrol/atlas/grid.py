@@ -29,7 +29,7 @@ import hashlib
 import json
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
 
@@ -396,7 +396,7 @@ def build_atlas(
               "set": sorted((k, repr(_numbers_as_floats(v))) for k, v in fixed.items()),
               "chunk_size": plan.chunk_size}
     digest = hashlib.sha256(json.dumps(recipe, sort_keys=True).encode()).hexdigest()
-    return AtlasPlan(**{**plan.__dict__, "fingerprint": digest})
+    return replace(plan, fingerprint=digest)
 
 
 __all__ = [
