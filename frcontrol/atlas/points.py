@@ -23,7 +23,9 @@ keeps the last few), and applies the ones that change only numbers to that loade
 ``contacts.NAME.mu`` moves the state (the contacts placed again as the loader places them) or sets
 a friction coefficient, and ``input.NAME`` changes only the input. Each point is made from the
 last one where it can: only the numbers that changed are set, and a change of friction alone sets
-the problem's coefficients (a solutions atlas then makes no scene for the point). Every other axis (gravity, a
+the problem's coefficients (a solutions atlas then makes no scene for the point); where no contact
+can move into or out of touch (none has a ``surface_point``), a solutions atlas makes a new state's
+problem from the state alone too. Every other axis (gravity, a
 mass, a locked joint's angle, a contact's geometry) loads the scene at each of its values, and so
 does a point the numeric path refuses (a penetrating contact, a scene that does not load without
 the point's values): that point is loaded with all its overrides, exactly as before, so its error
@@ -211,8 +213,9 @@ def _made_at(source: SceneSource, template: _Loaded, structural: dict[str, Any],
     From the last point made, when it was made from the same scene with the same paths: only the
     numbers that differ are set. None differ: the last point's. Friction alone: the last problem
     with the new coefficients (the state's arrays unchanged), and no scene unless one is needed
-    (the last scene is kept with its own numbers, and brought up to date when one is). Else the
-    scene from the template's.
+    (the last scene is kept with its own numbers, and brought up to date when one is). A new state
+    where no scene is needed: the template's problem at that state (:func:`_problem_at_state`),
+    where it can. Else the scene from the template's.
 
     Raises:
         FrcontrolError: as :func:`~frcontrol.scene_numbers.scene_with_numbers`.
