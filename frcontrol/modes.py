@@ -319,7 +319,7 @@ class ContactProblem:
     def _padded_input_maps(self) -> dict[int, np.ndarray]:
         return {}
 
-    def padded_input_map(self, rows: int) -> np.ndarray:
+    def _padded_input_map(self, rows: int) -> np.ndarray:
         """``B`` of a mode with ``rows`` equations: the input map over the dynamics' rows, zeros below.
 
         Read-only, shared by every mode of that size.
@@ -548,9 +548,7 @@ def build_child_systems(problem: ContactProblem, prefix: str, letters: str) -> C
     A = np.empty((count, n + 2 * j, nx))
     A[:, :n] = problem.dynamics
     A[:, n:] = table.equalities[contacts, chosen].reshape(count, 2 * j, nx)
-    B = np.zeros((n + 2 * j, problem.m))
-    B[:n] = problem.input_map
-    B.setflags(write=False)
+    B = problem._padded_input_map(n + 2 * j)
     c = np.empty((count, n + 2 * j))
     c[:, :n] = -problem.bias
     c[:, n:] = table.equality_rhs[contacts, chosen].reshape(count, 2 * j)
@@ -589,7 +587,7 @@ def extend_child_systems(problem: ContactProblem, parent: ModeSystem, letters: s
     c = np.empty((count, rows + 2))
     c[:, :rows] = parent.c
     c[:, rows:] = block.equality_rhs
-    B = problem.padded_input_map(rows + 2)
+    B = problem._padded_input_map(rows + 2)
     G, g = np.empty((count, width, nx)), np.empty((count, width))
     motion = np.empty((count, width), dtype=bool)
     G[:, :kept], G[:, kept:] = parent.G, block.inequalities

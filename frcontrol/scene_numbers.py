@@ -101,14 +101,11 @@ def scene_with_numbers(scene: Scene, overrides: Mapping[str, Any], bare_coordina
     mu = [c.mu for c in scene.contacts]
     for path, value in overrides.items():
         number = reader.number(value, path)
-        coordinate = _coordinate_path(path)
+        place = _state_place(path, scene.coordinate_names)
         name = _contact_mu_name(path)
-        if coordinate is not None and coordinate[1] in scene.coordinate_names:
-            vector, coordinate_name = coordinate
-            target = q.copy() if vector == "q" else v.copy()
-            target[scene.coordinate_names.index(coordinate_name)] = number
-            q, v = (target, v) if vector == "q" else (q, target)
-            _set_raw_state(raw, vector, bare_coordinates, coordinate_name, number)
+        if place is not None:
+            q, v = _with_coordinate(q, v, place, number)
+            _set_raw_state(raw, place[0], bare_coordinates, scene.coordinate_names[place[1]], number)
         elif name is not None and name in index:
             _check_friction(reader, path, number)
             mu[index[name]] = number
@@ -184,10 +181,7 @@ def state_with_numbers(scene: Scene, overrides: Mapping[str, Any]
             return None
         place = _state_place(path, scene.coordinate_names)
         if place is not None:
-            vector, index = place
-            target = q.copy() if vector == "q" else v.copy()
-            target[index] = value
-            q, v = (target, v) if vector == "q" else (q, target)
+            q, v = _with_coordinate(q, v, place, value)
         elif is_friction_path(path):
             friction[path] = value
         else:
@@ -202,6 +196,15 @@ def _state_place(path: str, coordinates: tuple[str, ...]) -> tuple[str, int] | N
     if coordinate is None or coordinate[1] not in coordinates:
         return None
     return coordinate[0], coordinates.index(coordinate[1])
+
+
+def _with_coordinate(q: np.ndarray, v: np.ndarray, place: tuple[str, int], number: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """``(q, v)`` with the coordinate at ``place`` (:func:`_state_place`) set to ``number`` (in a copy)."""
+    vector, index = place
+    target = q.copy() if vector == "q" else v.copy()
+    target[index] = number
+    return (target, v) if vector == "q" else (q, target)
 
 
 _FOLLOWS_STATE: weakref.WeakKeyDictionary[Scene, bool] = weakref.WeakKeyDictionary()
